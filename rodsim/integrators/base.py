@@ -1,0 +1,204 @@
+"""The integrator contract, its registry, and the template solve loop.
+
+Every integrator is one file in :mod:`rodsim.integrators` defining one :class:`Integrator`
+subclass with a unique ``name``; defining the class registers it. A subclass implements
+:meth:`Integrator.advance`, which drives its method from the model's rest state toward
+equilibrium and returns an :class:`Outcome`. The base class owns everything the integrators
+share: counting force/Jacobian evaluations, the equilibrium test, the wall-time budget,
+progress reporting, catching non-finite states, and turning the outcome into a
+:class:`~rodsim.result.Result`. A failure is never raised past :meth:`Integrator.solve`:
+it comes back as ``Result.success = False`` with a message saying which integrator, where,
+the residual reached, and what to try.
+"""
+
+from __future__ import annotations
+
+import time
+from abc import ABC, abstractmethod
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import Any, ClassVar
+
+import numpy as np
+import scipy.sparse as sp
+
+from rodsim.model import Model
+from rodsim.result import Result
+from rodsim.schema import Parameter
+
+__all__ = ["Integrator", "Outcome", "Progress", "SolverFailure", "INTEGRATORS",
+           "registered_integrators"]
+
+#: Every defined integrator class, by name. Filled by ``Integrator.__init_subclass__``.
+INTEGRATORS: dict[str, type[Integrator]] = {}
+
+#: Progress callback: (fraction done in [0, 1] or None, one-line status).
+Progress = Callable[[float | None, str], None]
+
+
+class SolverFailure(RuntimeError):
+    """Raised inside :meth:`Integrator.advance` to stop with a diagnostic message."""
+
+
+@dataclass
+class Outcome:
+    """What :meth:`Integrator.advance` returns.
+
+    ``x`` is the final state (free coordinates); ``where`` says where the method stopped
+    (``"t = 1.3 s"``, ``"step 41"``); ``history`` holds per-step series (``time``/``step``,
+    ``residual``); ``stats`` the method's own counters (steps, Newton iterations …).
+    """
+
+    x: np.ndarray
+    success: bool
+    message: str
+    where: str
+    stats: dict[str, float] = field(default_factory=dict)
+    history: dict[str, list[float]] = field(default_factory=dict)
+
+
+class Integrator(ABC):
+    """Base class of the four integrators; see the module docstring.
+
+    Parameters
+    ----------
+    model
+        The assembled rod system.
+    options
+        Validated options of this integrator (``scene.data["solver"][name]``).
+    tolerance
+        Equilibrium residual tolerance (``solver.tolerance``), see :meth:`Model.residual`.
+        A tolerance below the model's round-off floor (:attr:`Model.residual_floor`) is
+        raised to it; the result records the tolerance actually used.
+    max_wall_time
+        Wall-time budget [s]; exceeding it is a failure.
+    progress
+        Optional callback for progress on long runs.
+    """
+
+    name: ClassVar[str]
+    #: One line for ``--help``: the method and the paper's equation it implements.
+    summary: ClassVar[str]
+    #: How the integrator keeps the quaternions at unit norm.
+    quaternion_norm: ClassVar[str]
+    parameters: ClassVar[tuple[Parameter, ...]] = ()
+
+    def __init_subclass__(cls, **kwargs: Any) -> None:
+        super().__init_subclass__(**kwargs)
+        if "name" in cls.__dict__:
+            if cls.name in INTEGRATORS:
+                raise TypeError(f"integrator name {cls.name!r} registered twice")
+            INTEGRATORS[cls.name] = cls
+
+    def __init__(self, model: Model, options: dict[str, Any], tolerance: float,
+                 max_wall_time: float = 600.0, progress: Progress | None = None) -> None:
+        self.model = model
+        self.options = options
+        #: The requested tolerance, raised to the model's round-off floor if below it.
+        self.tolerance = max(tolerance, model.residual_floor)
+        self.requested_tolerance = tolerance
+        self.max_wall_time = max_wall_time
+        self._progress = progress
+        self.counts = {"force_evals": 0, "jacobian_evals": 0}
+        self._start = 0.0
+
+    # ----------------------------------------------------- shared services
+    def force(self, x: np.ndarray, load: float = 1.0) -> np.ndarray:
+        """F(x), counted; raises SolverFailure on a non-finite value."""
+        self.counts["force_evals"] += 1
+        f = self.model.force(x, load)
+        if not np.all(np.isfinite(f)):
+            raise SolverFailure("the force became non-finite (NaN or inf)")
+        return f
+
+    def jacobian_data(self, x: np.ndarray, load: float = 1.0) -> np.ndarray:
+        """∂F/∂x in the model's CSC pattern order, counted."""
+        self.counts["jacobian_evals"] += 1
+        data = self.model.jacobian_data(x, load)
+        if not np.all(np.isfinite(data)):
+            raise SolverFailure("the Jacobian became non-finite (NaN or inf)")
+        return data
+
+    def jacobian(self, x: np.ndarray, load: float = 1.0) -> sp.csc_matrix:
+        return self.model.pattern_matrix(self.jacobian_data(x, load))
+
+    def residual(self, x: np.ndarray) -> float:
+        """Scaled equilibrium residual of state ``x`` (uncounted evaluation)."""
+        return self.model.residual(self.model.force(x))
+
+    def at_equilibrium(self, residual: float) -> bool:
+        return residual < self.tolerance
+
+    def elapsed(self) -> float:
+        return time.perf_counter() - self._start
+
+    def check_budget(self, where: str) -> None:
+        """Raise SolverFailure once the wall-time budget is spent."""
+        if self.elapsed() > self.max_wall_time:
+            raise SolverFailure(f"wall-time budget of {self.max_wall_time:g} s spent at {where}")
+
+    def report(self, fraction: float | None, status: str) -> None:
+        if self._progress is not None:
+            self._progress(fraction, status)
+
+    # ------------------------------------------------------------ template
+    @abstractmethod
+    def advance(self) -> Outcome:
+        """Run the method from ``model.x0`` toward equilibrium (see the module docstring)."""
+
+    def advice(self) -> str:
+        """What to try when this integrator fails (shown in the failure message)."""
+        return "try another integrator (--integrator static|cvode|ida|paper) or a looser tolerance"
+
+    def solve(self) -> Result:
+        """Run the integrator to equilibrium and return a Result (never raises on failure)."""
+        self._start = time.perf_counter()
+        try:
+            with np.errstate(all="ignore"):
+                outcome = self.advance()
+        except SolverFailure as exc:
+            outcome = Outcome(self.model.x0, False, str(exc), "start")
+        wall = self.elapsed()
+        x = outcome.x
+        finite = bool(np.all(np.isfinite(x)))
+        residual = self.residual(x) if finite else float("nan")
+        success = outcome.success and finite and self.at_equilibrium(residual)
+        message = outcome.message
+        if not success:
+            if outcome.success and not finite:
+                message = "final state is not finite"
+            elif outcome.success:
+                message = (f"stopped with residual {residual:.3g} above the tolerance "
+                           f"{self.tolerance:.3g}")
+            message = (f"{self.name} integrator failed at {outcome.where}: {message} "
+                       f"(residual {residual:.3g}, tolerance {self.tolerance:.3g}); "
+                       f"{self.advice()}")
+        stats = {**self.counts, **outcome.stats, "wall_time": wall,
+                 "effective_tolerance": self.tolerance}
+        return Result.from_model(
+            self.model, x if finite else self.model.x0, integrator=self.name,
+            options=self.options, success=success, message=message, residual=residual,
+            stats=stats, history=outcome.history)
+
+
+def registered_integrators() -> dict[str, type[Integrator]]:
+    """Every registered integrator class (imports :mod:`rodsim.integrators`)."""
+    import rodsim.integrators  # noqa: F401  (importing the package registers every file)
+
+    return dict(INTEGRATORS)
+
+
+class History:
+    """Per-step record of pseudo-time, residual and the first rod's tip (for Fig. 8)."""
+
+    def __init__(self, model: Model) -> None:
+        first = next(iter(model.rods.values()))
+        self._tip = first.layout.position_index[-1]
+        self._free_of = {int(i): k for k, i in enumerate(model.free)}
+        self._model = model
+        self.data: dict[str, list] = {"time": [], "residual": [], "tip": []}
+
+    def record(self, time: float, x: np.ndarray, residual: float) -> None:
+        self.data["time"].append(float(time))
+        self.data["residual"].append(float(residual))
+        self.data["tip"].append([float(x[self._free_of[int(i)]]) for i in self._tip])

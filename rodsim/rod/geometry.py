@@ -1,0 +1,57 @@
+"""Rest geometry of one discretised rod (paper §2.2, Fig. 3).
+
+``N`` control points ``r_0 … r_{N-1}`` split the rod into ``N−1`` equal segments; each
+segment carries one quaternion at its midpoint. Arc length ``s`` is the rest arc length in
+metres (DESIGN erratum 3: the paper's σ ∈ [0, 1] is replaced by s ∈ [0, L]).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+__all__ = ["RodGeometry"]
+
+
+@dataclass(frozen=True)
+class RodGeometry:
+    """Rest lengths and arc-length coordinates of a straight rod with ``nodes`` points.
+
+    Parameters
+    ----------
+    nodes
+        Number of control points N (≥ 3).
+    length
+        Rest length L [m].
+    """
+
+    nodes: int
+    length: float
+
+    @property
+    def segments(self) -> int:
+        """Number of segments (and of quaternions), N − 1."""
+        return self.nodes - 1
+
+    @property
+    def segment_length(self) -> float:
+        """Rest length of one segment, l = L / (N − 1) [m]."""
+        return self.length / self.segments
+
+    @property
+    def node_s(self) -> np.ndarray:
+        """Arc length of every control point [m], shape (N,)."""
+        return np.linspace(0.0, self.length, self.nodes)
+
+    @property
+    def segment_s(self) -> np.ndarray:
+        """Arc length of every segment midpoint, where the quaternions sit [m], shape (N−1,)."""
+        return (np.arange(self.segments) + 0.5) * self.segment_length
+
+    @property
+    def node_mass_fraction(self) -> np.ndarray:
+        """Length of rod lumped on each control point [m] (half segments at both ends)."""
+        share = np.full(self.nodes, self.segment_length)
+        share[[0, -1]] *= 0.5
+        return share

@@ -1,0 +1,268 @@
+"""Scenes: TOML files describing rods, their terms, couplings and the solver settings.
+
+A scene is validated once, completely, into a *resolved* dict in which every default is
+filled in; that dict (as JSON) is what archives store and what ``rodsim rerun`` reads back.
+Any problem raises :class:`~rodsim.schema.SceneError` with a one-line message naming the key
+and the allowed values. Layout of a scene file (docs/scenes.md has the full reference)::
+
+    name = "hanging-mass-50g"
+    [rods.catheter]            # one table per rod
+    length = 0.12              # m
+    ...
+    terms = ["stretch", "bend_twist", "centerline", "tip_load"]
+    [rods.catheter.tip_load]   # parameters of one of the rod's terms
+    mass = 0.05                # kg
+    [[couplings]]              # terms between rods (tendon scenes)
+    term = "lumen"
+    ...
+    [solver]                   # integrator and stopping rule
+    integrator = "cvode"
+    [solver.paper]             # options of one integrator
+    h = 0.3
+"""
+
+from __future__ import annotations
+
+import copy
+import json
+import tomllib
+from collections.abc import Iterable, Mapping
+from dataclasses import dataclass
+from importlib import resources
+from pathlib import Path
+from typing import Any
+
+from rodsim.rod.rod import ROD_PARAMETERS
+from rodsim.schema import Parameter, SceneError, validate_table
+
+__all__ = ["Scene", "SceneError", "SOLVER_PARAMETERS", "default_scene_path", "scene_paths"]
+
+SOLVER_PARAMETERS: tuple[Parameter, ...] = (
+    Parameter("integrator", "str", "cvode", "-", "integrator used by `rodsim run`",
+              choices=("paper", "cvode", "ida", "static")),
+    Parameter("tolerance", "float", 1e-9, "-",
+              "equilibrium reached when the scaled force residual is below this "
+              "(forces / load scale F_ref, quaternion forces / (F_ref L))",
+              0.0, 1.0, exclusive_minimum=True),
+    Parameter("max_wall_time", "float", 600.0, "s", "give up after this much wall time",
+              0.0, 1e6, exclusive_minimum=True),
+)
+
+_TOP_KEYS = ("name", "description", "rods", "couplings", "solver")
+
+
+
+def scene_paths() -> dict[str, Path]:
+    """Shipped scene files by name (file stem): the repository's ``data/`` folder, installed
+    as the package ``rodsim.data``."""
+    folder = Path(str(resources.files("rodsim.data")))
+    return {p.stem: p for p in sorted(folder.glob("*.toml"))}
+
+
+def default_scene_path() -> Path:
+    """The scene ``rodsim run`` uses without argument: Table 1 with the 50 g mass."""
+    return scene_paths()[DEFAULT_SCENE]
+
+
+#: Name of the scene ``rodsim run`` uses without argument.
+DEFAULT_SCENE = "table1-50g"
+
+
+@dataclass(frozen=True)
+class Scene:
+    """A validated scene.
+
+    Attributes
+    ----------
+    data
+        The resolved scene: every table validated and every default filled in.
+    source
+        The scene file's text, verbatim (empty when built from a dict).
+    """
+
+    data: dict[str, Any]
+    source: str = ""
+
+    @classmethod
+    def load(cls, path: str | Path) -> Scene:
+        """Read and validate a TOML scene file, or a shipped scene by name."""
+        path = Path(path)
+        if not path.exists() and path.suffix == "" and str(path) in scene_paths():
+            path = scene_paths()[str(path)]
+        try:
+            text = path.read_text(encoding="utf-8")
+        except OSError as exc:
+            raise SceneError(f"cannot read scene {str(path)!r}: {exc.strerror}") from None
+        try:
+            raw = tomllib.loads(text)
+        except tomllib.TOMLDecodeError as exc:
+            raise SceneError(f"{path}: not valid TOML: {exc}") from None
+        return cls(resolve(raw), text)
+
+    @classmethod
+    def from_dict(cls, raw: Mapping[str, Any]) -> Scene:
+        """Validate a scene given as a (possibly partial) dict."""
+        return cls(resolve(copy.deepcopy(dict(raw))))
+
+    @classmethod
+    def from_json(cls, text: str, source: str = "") -> Scene:
+        """Rebuild a scene from :meth:`to_json` (as stored in archives)."""
+        return cls(resolve(json.loads(text)), source)
+
+    def to_json(self) -> str:
+        """The resolved scene as canonical JSON (sorted keys)."""
+        return json.dumps(self.data, sort_keys=True)
+
+    @property
+    def name(self) -> str:
+        return str(self.data["name"])
+
+    @property
+    def rod_names(self) -> list[str]:
+        return list(self.data["rods"])
+
+    def get(self, key: str) -> Any:
+        """Value at a dotted key, with the same short forms as :meth:`with_overrides`."""
+        node: Any = self.data
+        for part in _resolve_key(self.data, key).split("."):
+            node = node[int(part)] if isinstance(node, list) else node[part]
+        return node
+
+    def with_overrides(self, assignments: Iterable[str]) -> Scene:
+        """A new scene with ``key=value`` assignments applied (the CLI's ``--set``).
+
+        ``key`` is a dotted path (``rods.catheter.nodes``) or any unambiguous suffix of one
+        (``nodes``, ``tip_load.mass``); ``value`` is parsed as a TOML value (``80``,
+        ``1e4``, ``"corde"``, ``[0, 1, 0]``) and falls back to a plain string.
+        """
+        data = copy.deepcopy(self.data)
+        for assignment in assignments:
+            key, sep, text = assignment.partition("=")
+            key = key.strip()
+            if not sep or not key:
+                raise SceneError(f"--set {assignment!r}: expected key=value")
+            data = _assign(data, _resolve_key(data, key), _parse_value(text.strip()))
+        return Scene(resolve(data), self.source)
+
+    def with_values(self, values: Mapping[str, Any]) -> Scene:
+        """A new scene with already-typed values at dotted keys (used by studies)."""
+        data = copy.deepcopy(self.data)
+        for key, value in values.items():
+            data = _assign(data, _resolve_key(data, key), value)
+        return Scene(resolve(data), self.source)
+
+
+def resolve(raw: Mapping[str, Any]) -> dict[str, Any]:
+    """Validate a raw scene dict and fill every default (raises :class:`SceneError`)."""
+    from rodsim.integrators import registered_integrators
+    from rodsim.terms import registered_terms
+
+    terms = registered_terms()
+    for key in raw:
+        if key not in _TOP_KEYS:
+            raise SceneError(f"{key}: unknown top-level key; known keys: {', '.join(_TOP_KEYS)}")
+    name = raw.get("name", "unnamed")
+    if not isinstance(name, str) or not name:
+        raise SceneError(f"name = {name!r}: must be a non-empty string")
+    description = raw.get("description", "")
+    if not isinstance(description, str):
+        raise SceneError(f"description = {description!r}: must be a string")
+    rods_raw = raw.get("rods")
+    if not isinstance(rods_raw, Mapping) or not rods_raw:
+        raise SceneError("rods: a scene needs at least one [rods.<name>] table")
+    rod_terms = sorted(n for n, t in terms.items() if t.scope == "rod")
+    coupling_terms = sorted(n for n, t in terms.items() if t.scope == "coupling")
+    rods: dict[str, Any] = {}
+    for rod_name, table in rods_raw.items():
+        prefix = f"rods.{rod_name}"
+        listed = table.get("terms", ROD_PARAMETERS[-1].default) if isinstance(table, Mapping) \
+            else None
+        rod_params = tuple(
+            p if p.name != "terms" else Parameter(
+                p.name, p.kind, p.default, p.unit, p.doc, choices=tuple(rod_terms))
+            for p in ROD_PARAMETERS
+        )
+        resolved = validate_table(table, rod_params, prefix, allow_extra=tuple(rod_terms))
+        for term_name in resolved["terms"]:
+            resolved[term_name] = validate_table(
+                resolved.get(term_name, {}), terms[term_name].parameters,
+                f"{prefix}.{term_name}")
+        for term_name in rod_terms:
+            if term_name in resolved and term_name not in (listed or ()):
+                raise SceneError(f"{prefix}.{term_name}: parameters given for a term the rod "
+                                 f"does not list in {prefix}.terms")
+        rods[rod_name] = resolved
+    couplings_raw = raw.get("couplings", [])
+    if not isinstance(couplings_raw, list):
+        raise SceneError("couplings: expected an array of tables ([[couplings]])")
+    couplings = []
+    for i, table in enumerate(couplings_raw):
+        prefix = f"couplings.{i}"
+        if not isinstance(table, Mapping) or table.get("term") not in coupling_terms:
+            got = table.get("term") if isinstance(table, Mapping) else table
+            raise SceneError(f"{prefix}.term = {got!r}: allowed: one of "
+                             + ", ".join(repr(t) for t in coupling_terms))
+        term_cls = terms[table["term"]]
+        body = {k: v for k, v in table.items() if k != "term"}
+        resolved = {"term": table["term"], **validate_table(body, term_cls.parameters, prefix)}
+        for key in term_cls.rod_keys:
+            if resolved[key] not in rods:
+                raise SceneError(f"{prefix}.{key} = {resolved[key]!r}: no such rod; rods: "
+                                 + ", ".join(rods))
+        term_cls.check_scene(resolved, rods, prefix)
+        couplings.append(resolved)
+    integrators = registered_integrators()
+    solver_raw = raw.get("solver", {})
+    solver = validate_table(solver_raw, SOLVER_PARAMETERS, "solver",
+                            allow_extra=tuple(integrators))
+    for integrator_name, cls in integrators.items():
+        solver[integrator_name] = validate_table(
+            solver_raw.get(integrator_name, {}), cls.parameters, f"solver.{integrator_name}")
+    return {"name": name, "description": description, "rods": rods, "couplings": couplings,
+            "solver": solver}
+
+
+def _leaf_keys(node: Any, prefix: str = "") -> list[str]:
+    if isinstance(node, Mapping):
+        out = []
+        for key, value in node.items():
+            out += _leaf_keys(value, f"{prefix}.{key}" if prefix else str(key))
+        return out
+    if isinstance(node, list) and node and all(isinstance(v, Mapping) for v in node):
+        out = []
+        for i, value in enumerate(node):
+            out += _leaf_keys(value, f"{prefix}.{i}")
+        return out
+    return [prefix]
+
+
+def _resolve_key(data: Mapping[str, Any], key: str) -> str:
+    leaves = _leaf_keys(data)
+    if key in leaves:
+        return key
+    matches = [leaf for leaf in leaves if leaf.endswith("." + key)]
+    if len(matches) == 1:
+        return matches[0]
+    if not matches:
+        raise SceneError(f"--set {key}: unknown key (see `rodsim run --help` for the keys)")
+    raise SceneError(f"--set {key}: ambiguous, could be " + ", ".join(matches))
+
+
+def _assign(data: dict[str, Any], key: str, value: Any) -> dict[str, Any]:
+    node: Any = data
+    parts = key.split(".")
+    for part in parts[:-1]:
+        node = node[int(part)] if isinstance(node, list) else node[part]
+    last = parts[-1]
+    if isinstance(node, list):
+        node[int(last)] = value
+    else:
+        node[last] = value
+    return data
+
+
+def _parse_value(text: str) -> Any:
+    try:
+        return tomllib.loads(f"v = {text}")["v"]
+    except tomllib.TOMLDecodeError:
+        return text

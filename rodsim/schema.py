@@ -1,0 +1,183 @@
+"""Declarative parameter schemas: one :class:`Parameter` per scene value.
+
+Scene tables (rods, terms, couplings, integrators) each declare their parameters once, with
+unit, default and allowed range; validation, ``--help`` texts and the docs all read the same
+declaration. Every violation raises :class:`SceneError` with a one-line message naming the
+full key and what is allowed.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterable, Mapping, Sequence
+from dataclasses import dataclass
+from typing import Any
+
+__all__ = ["Parameter", "SceneError", "validate_table"]
+
+
+class SceneError(ValueError):
+    """A scene value is missing, unknown, of the wrong type or outside its allowed range."""
+
+
+_KIND_NAMES = {
+    "float": "a number",
+    "int": "an integer",
+    "str": "a string",
+    "bool": "true or false",
+    "vector": "a list of numbers",
+    "list": "a list of strings",
+}
+
+
+@dataclass(frozen=True)
+class Parameter:
+    """One scene value.
+
+    Parameters
+    ----------
+    name
+        Key in its TOML table.
+    kind
+        ``float``, ``int``, ``str``, ``bool``, ``vector`` (list of floats) or ``list`` (of str).
+    default
+        Value used when the scene omits the key; ``None`` makes the key required.
+    unit
+        SI unit, shown in errors and help (``"-"`` for dimensionless).
+    doc
+        One-line description.
+    minimum, maximum
+        Allowed range (numbers); ``exclusive_minimum`` makes the lower bound strict.
+    choices
+        Allowed values for ``str`` parameters (or for the items of a ``list``).
+    length
+        Required length of a ``vector``.
+    """
+
+    name: str
+    kind: str
+    default: Any
+    unit: str = "-"
+    doc: str = ""
+    minimum: float | None = None
+    maximum: float | None = None
+    exclusive_minimum: bool = False
+    choices: tuple[str, ...] | None = None
+    length: int | None = None
+
+    @property
+    def allowed(self) -> str:
+        """Human-readable description of the allowed values."""
+        if self.choices is not None:
+            return "one of " + ", ".join(repr(c) for c in self.choices)
+        parts = [_KIND_NAMES[self.kind]]
+        if self.length is not None:
+            parts.append(f"of length {self.length}")
+        low = None
+        if self.minimum is not None:
+            low = f"{'>' if self.exclusive_minimum else '>='} {self.minimum:g}"
+        high = f"<= {self.maximum:g}" if self.maximum is not None else None
+        bounds = " and ".join(b for b in (low, high) if b)
+        if bounds:
+            parts.append(bounds)
+        if self.unit not in ("-", ""):
+            parts.append(f"[{self.unit}]")
+        return " ".join(parts)
+
+    def help(self) -> str:
+        """``name = default [unit]: doc`` for CLI help and docs."""
+        unit = f" [{self.unit}]" if self.unit not in ("-", "") else ""
+        default = "required" if self.default is None else repr(self.default)
+        return f"{self.name} = {default}{unit}: {self.doc}"
+
+    def check(self, value: Any, key: str) -> Any:
+        """Return ``value`` converted to this parameter's kind, or raise :class:`SceneError`."""
+
+        def fail(reason: str) -> SceneError:
+            return SceneError(f"{key} = {value!r}: {reason}; allowed: {self.allowed}")
+
+        if self.kind == "bool":
+            if not isinstance(value, bool):
+                raise fail("wrong type")
+            return value
+        if self.kind == "str":
+            if not isinstance(value, str):
+                raise fail("wrong type")
+            if self.choices is not None and value not in self.choices:
+                raise fail("unknown choice")
+            return value
+        if self.kind == "list":
+            if not isinstance(value, list) or not all(isinstance(v, str) for v in value):
+                raise fail("wrong type")
+            if self.choices is not None:
+                for item in value:
+                    if item not in self.choices:
+                        raise fail(f"unknown item {item!r}")
+            if len(set(value)) != len(value):
+                raise fail("repeated item")
+            return list(value)
+        if self.kind == "vector":
+            if not isinstance(value, (list, tuple)) or not all(_is_number(v) for v in value):
+                raise fail("wrong type")
+            if self.length is not None and len(value) != self.length:
+                raise fail(f"needs {self.length} values")
+            if not all(math.isfinite(v) for v in value):
+                raise fail("not finite")
+            return [float(v) for v in value]
+        if self.kind == "int":
+            if isinstance(value, bool) or not isinstance(value, int):
+                if isinstance(value, float) and value.is_integer():
+                    value = int(value)
+                else:
+                    raise fail("wrong type")
+        elif self.kind == "float":
+            if not _is_number(value):
+                raise fail("wrong type")
+            value = float(value)
+            if not math.isfinite(value):
+                raise fail("not finite")
+        else:  # pragma: no cover - programming error in a declaration
+            raise ValueError(f"unknown parameter kind {self.kind!r}")
+        if self.minimum is not None:
+            if value < self.minimum or (self.exclusive_minimum and value == self.minimum):
+                raise fail("out of range")
+        if self.maximum is not None and value > self.maximum:
+            raise fail("out of range")
+        return value
+
+
+def _is_number(value: Any) -> bool:
+    return isinstance(value, (int, float)) and not isinstance(value, bool)
+
+
+def validate_table(
+    table: Mapping[str, Any],
+    parameters: Iterable[Parameter],
+    prefix: str,
+    allow_extra: Sequence[str] = (),
+) -> dict[str, Any]:
+    """Check ``table`` against ``parameters`` and fill defaults.
+
+    Unknown keys (not in ``parameters`` nor ``allow_extra``) are errors; the message lists the
+    known keys. Returns a new dict with every declared parameter present.
+    """
+    if not isinstance(table, Mapping):
+        raise SceneError(f"{prefix}: expected a table, got {type(table).__name__}")
+    params = {p.name: p for p in parameters}
+    out: dict[str, Any] = {}
+    for key in table:
+        if key not in params and key not in allow_extra:
+            known = ", ".join(sorted([*params, *allow_extra]))
+            raise SceneError(f"{prefix}.{key}: unknown key; known keys: {known}")
+    for name, param in params.items():
+        key = f"{prefix}.{name}"
+        if name in table:
+            out[name] = param.check(table[name], key)
+        elif param.default is None:
+            raise SceneError(f"{key}: required value missing; allowed: {param.allowed}")
+        else:
+            out[name] = param.default
+    for name in allow_extra:
+        if name in table:
+            out[name] = table[name]
+    return out

@@ -1,0 +1,119 @@
+"""The Term contract and the registry that collects every term.
+
+An energy term is one file in :mod:`rodsim.terms` defining one :class:`Term` subclass with a
+unique ``name``. Defining the class registers it; a scene names the terms it uses and only
+those are built, so a term a scene does not list costs nothing.
+
+A term is a sum over *elements* (segments, interior nodes, tendon points …). Each element
+touches a fixed, small set of global coordinates, ``dofs[e]``; the term returns, per
+element, the generalised force on those coordinates and its derivative:
+
+- ``element_forces(x)``    -> (n_elem, k):     F_e = −∂E_e/∂x_e
+- ``element_jacobians(x)`` -> (n_elem, k, k):  ∂F_e/∂x_e (analytic, never finite differences)
+- ``energy(x)``            -> float:           Σ E_e (``None`` for non-conservative terms)
+
+The model scatters these into the global force vector and sparse Jacobian; the sparsity
+pattern is the union of the element blocks, declared once by ``dofs``. The contract test
+(tests/test_term_contract.py) checks every registered term against finite differences with
+no per-term test code: force = −∂E/∂x, Jacobian = ∂F/∂x, symmetry when conservative.
+"""
+
+from __future__ import annotations
+
+from abc import ABC, abstractmethod
+from typing import TYPE_CHECKING, Any, ClassVar
+
+import numpy as np
+
+from rodsim.schema import Parameter
+
+if TYPE_CHECKING:
+    from rodsim.rod.rod import Rod
+
+__all__ = ["Term", "RodTerm", "CouplingTerm", "REGISTRY", "registered_terms"]
+
+#: Every defined term class, by name. Filled by ``Term.__init_subclass__``.
+REGISTRY: dict[str, type[Term]] = {}
+
+
+class Term(ABC):
+    """Contract of an energy (or penalty-force) term; see the module docstring.
+
+    Class attributes every subclass sets
+    ------------------------------------
+    name
+        Registry key, used in scenes.
+    equation
+        The paper's equation(s) the term implements, e.g. ``"Eq. (9)"``.
+    parameters
+        The term's own scene values (validated, with units and defaults).
+    conservative
+        ``True`` when the force is −∇ of ``energy``; the Jacobian is then symmetric.
+    is_load
+        ``True`` for external loads; the static solver scales them during load continuation.
+    has_jacobian
+        ``False`` for state-independent forces (no Jacobian entries, no pattern).
+    """
+
+    name: ClassVar[str]
+    equation: ClassVar[str]
+    scope: ClassVar[str]
+    parameters: ClassVar[tuple[Parameter, ...]] = ()
+    conservative: ClassVar[bool] = True
+    is_load: ClassVar[bool] = False
+    has_jacobian: ClassVar[bool] = True
+
+    #: Global coordinate indices of each element, shape (n_elem, k).
+    dofs: np.ndarray
+
+    def __init_subclass__(cls, **kwargs: Any) -> None:
+        super().__init_subclass__(**kwargs)
+        if "name" in cls.__dict__:
+            if cls.name in REGISTRY:
+                raise TypeError(f"term name {cls.name!r} registered twice")
+            REGISTRY[cls.name] = cls
+
+    @abstractmethod
+    def element_forces(self, x: np.ndarray) -> np.ndarray:
+        """Generalised force on each element's coordinates, shape (n_elem, k)."""
+
+    def element_jacobians(self, x: np.ndarray) -> np.ndarray:
+        """∂(element force)/∂(element coordinates), shape (n_elem, k, k)."""
+        raise NotImplementedError(f"term {self.name!r} declares no Jacobian")
+
+    def energy(self, x: np.ndarray) -> float | None:
+        """Potential energy [J]; ``None`` when the term is not conservative."""
+        return None
+
+
+class RodTerm(Term):
+    """A term acting on one rod, configured by ``[rods.<rod>.<term name>]``."""
+
+    scope: ClassVar[str] = "rod"
+
+    def __init__(self, rod: Rod, params: dict[str, Any]) -> None:
+        self.rod = rod
+        self.params = params
+
+
+class CouplingTerm(Term):
+    """A term coupling several rods, configured by one ``[[couplings]]`` table."""
+
+    scope: ClassVar[str] = "coupling"
+    #: Names of the parameters that refer to rods (validated against the scene's rods).
+    rod_keys: ClassVar[tuple[str, ...]] = ()
+
+    @classmethod
+    def check_scene(cls, params: dict[str, Any], rods: dict[str, Any], prefix: str) -> None:
+        """Cross-check the coupling against the rods it joins; raise SceneError if invalid."""
+
+    def __init__(self, rods: dict[str, Rod], params: dict[str, Any]) -> None:
+        self.rods = rods
+        self.params = params
+
+
+def registered_terms() -> dict[str, type[Term]]:
+    """Every registered term class (imports :mod:`rodsim.terms` so all files are loaded)."""
+    import rodsim.terms  # noqa: F401  (importing the package registers every term file)
+
+    return dict(REGISTRY)
