@@ -14,11 +14,13 @@ from dataclasses import dataclass
 
 import numpy as np
 import scipy.sparse as sp
+from scipy.sparse.csgraph import reverse_cuthill_mckee
 
 from rodsim.rod.layout import RodLayout
 from rodsim.rod.rod import Rod
 from rodsim.scene import Scene
-from rodsim.terms import CouplingTerm, RodTerm, Term, registered_terms
+from rodsim.tendon import Tendon, tendon_origin
+from rodsim.terms import Term, registered_terms
 
 __all__ = ["Model", "Band"]
 
@@ -42,25 +44,30 @@ class Model:
 
     def __init__(self, scene: Scene) -> None:
         self.scene = scene
+        tendons = scene.data["tendons"]
         self.rods: dict[str, Rod] = {}
         offset = 0
-        for name, params in scene.data["rods"].items():
+        # Catheters first, so a tendon's base can be placed in its catheter's lumen.
+        for name in sorted(scene.data["rods"], key=lambda n: n in tendons):
+            params = scene.data["rods"][name]
             layout = RodLayout(params["nodes"], offset)
-            self.rods[name] = Rod(name, params, layout)
+            origin = (tendon_origin(self.rods[tendons[name]["catheter"]], tendons[name])
+                      if name in tendons else np.asarray(params["origin"], dtype=float))
+            self.rods[name] = Rod(name, params, layout, origin)
             offset += layout.size
+        self.rods = {name: self.rods[name] for name in scene.data["rods"]}
         self.full_size = offset
         catalogue = registered_terms()
         self.terms: list[Term] = []
         for rod in self.rods.values():
             for term_name in rod.params["terms"]:
-                cls = catalogue[term_name]
-                assert issubclass(cls, RodTerm)
-                self.terms.append(cls(rod, rod.params[term_name]))
-        for table in scene.data["couplings"]:
-            cls = catalogue[table["term"]]
-            assert issubclass(cls, CouplingTerm)
-            params = {k: v for k, v in table.items() if k != "term"}
-            self.terms.append(cls(self.rods, params))
+                self.terms.append(catalogue[term_name](rod, rod.params[term_name]))
+        #: The scene's tendons (lumen geometry shared by their coupling terms).
+        self.tendons = {name: Tendon.of(name, self.rods, table)
+                        for name, table in tendons.items()}
+        for name, table in tendons.items():
+            for term_name in table["terms"]:
+                self.terms.append(catalogue[term_name](self.tendons[name], table[term_name]))
 
         self.rest_full = np.zeros(self.full_size)
         fixed = []
@@ -73,13 +80,54 @@ class Model:
         #: Full-state index of every free coordinate, in the integrators' order.
         self.free = np.flatnonzero(is_free)
         self.n = len(self.free)
+        #: Incremented whenever the Jacobian pattern is rebuilt (see :meth:`recentre`).
+        self.pattern_version = 0
+        self._build_maps()
+        if len(self.rods) > 1:
+            self._order_for_band()
+        self._build_scales()
+
+    # ------------------------------------------------------------------ setup
+    def _build_maps(self) -> None:
         self._free_of = np.full(self.full_size, self.n)  # fixed -> dump slot n
         self._free_of[self.free] = np.arange(self.n)
         self._build_force_scatter()
         self._build_pattern()
-        self._build_scales()
 
-    # ------------------------------------------------------------------ setup
+    def _order_for_band(self) -> None:
+        """Reorder the free coordinates (reverse Cuthill–McKee) when that narrows the band.
+
+        Coupled rods concatenated as in Eq. (30) give a wide band (a tendon point couples to
+        catheter coordinates far away in the vector); interleaving them keeps the system
+        banded. The order is fixed once, from the pattern at rest.
+        """
+        order = reverse_cuthill_mckee(self.pattern, symmetric_mode=True)
+        offsets = self.pattern_rows - self.pattern_cols
+        current = max(offsets.max(), -offsets.min())
+        inverse = np.empty_like(order)
+        inverse[order] = np.arange(self.n)
+        new_offsets = inverse[self.pattern_rows] - inverse[self.pattern_cols]
+        if max(new_offsets.max(), -new_offsets.min()) < current:
+            self.free = self.free[order]
+            self._build_maps()
+
+    def update_registration(self, x: np.ndarray) -> bool:
+        """Let dynamic terms (tendon registration, §4.1) update their state from ``x``.
+
+        Returns True when the Jacobian pattern changed; the maps are then rebuilt and
+        :attr:`pattern_version` incremented so integrators can rebuild what they derived
+        from the pattern. The order of the free coordinates never changes.
+        """
+        full = self.full(x)
+        changed = False
+        for term in self.terms:
+            if term.dynamic:
+                changed |= term.update_registration(full)
+        if changed:
+            self._build_maps()
+            self.pattern_version += 1
+        return changed
+
     def _build_force_scatter(self) -> None:
         self._loads = [t for t in self.terms if t.is_load]
         self._internal = [t for t in self.terms if not t.is_load]
@@ -104,7 +152,7 @@ class Model:
         self.pattern = sp.csc_matrix((np.ones(len(keys)), pattern_rows, indptr), shape=(n, n))
         self.pattern_rows, self.pattern_cols = pattern_rows, pattern_cols
         self.nnz = len(keys)
-        self._jac_target = {}
+        self._jac_target: dict[int, np.ndarray] = {}
         for term, r, c in zip(self._jac_terms, rows[1:], cols[1:], strict=True):
             inside = (r < n) & (c < n)
             target = np.full(len(r), self.nnz)
@@ -118,8 +166,7 @@ class Model:
         full = self.full(x0)
         load = 0.0
         for term in self._loads:
-            load += float(np.sum(np.linalg.norm(term.element_forces(full).reshape(-1, 3),
-                                                axis=1)))
+            load += float(np.sum(np.linalg.norm(term.element_forces(full), axis=1)))
         rods = list(self.rods.values())
         fallback = max(r.bending_stiffness / r.length**2 for r in rods)
         #: Force scale F_ref [N]: total external load, or max EI/L² for an unloaded scene.

@@ -3,7 +3,8 @@
 Dataset layout (docs/archive.md): all rods' control points are concatenated along one
 ``node`` dimension, with the coordinate ``rod`` naming the rod of each node (a CF
 "contiguous ragged array"); likewise ``segment`` for quaternions. Select one rod with
-``ds.where(ds.rod == "tendon", drop=True)`` or :meth:`Result.positions`.
+``ds.sel(node=ds.rod == "tendon", segment=ds.segment_rod == "tendon")`` or
+:meth:`Result.positions`.
 """
 
 from __future__ import annotations
@@ -132,8 +133,11 @@ class Result:
             },
         )
         if self.history.get("time"):
+            time_attrs = ({"units": "1", "long_name": "load fraction after each load step"}
+                          if self.integrator == "static" else
+                          {"units": "s", "long_name": "pseudo-time after each step"})
             ds["history_time"] = ("step", np.asarray(self.history["time"], dtype=float),
-                                  {"units": "s", "long_name": "pseudo-time after each step"})
+                                  time_attrs)
             ds["history_residual"] = ("step", np.asarray(self.history["residual"], dtype=float),
                                       {"units": "1", "long_name": "scaled force residual "
                                        "after each step"})

@@ -1,4 +1,4 @@
-"""Scenes: TOML files describing rods, their terms, couplings and the solver settings.
+"""Scenes: TOML files describing rods, their terms, tendons and the solver settings.
 
 A scene is validated once, completely, into a *resolved* dict in which every default is
 filled in; that dict (as JSON) is what archives store and what ``rodsim rerun`` reads back.
@@ -12,9 +12,10 @@ and the allowed values. Layout of a scene file (docs/scenes.md has the full refe
     terms = ["stretch", "bend_twist", "centerline", "tip_load"]
     [rods.catheter.tip_load]   # parameters of one of the rod's terms
     mass = 0.05                # kg
-    [[couplings]]              # terms between rods (tendon scenes)
-    term = "lumen"
-    ...
+    [tendons.tendon]           # a rod routed through a lumen of another (tendon scenes)
+    catheter = "catheter"
+    [tendons.tendon.lumen]     # parameters of one of the tendon's coupling terms
+    K_L = 1000.0               # N/m
     [solver]                   # integrator and stopping rule
     integrator = "cvode"
     [solver.paper]             # options of one integrator
@@ -34,6 +35,7 @@ from typing import Any
 
 from rodsim.rod.rod import ROD_PARAMETERS
 from rodsim.schema import Parameter, SceneError, validate_table
+from rodsim.tendon import TENDON_PARAMETERS, check_tendon
 
 __all__ = ["Scene", "SceneError", "SOLVER_PARAMETERS", "default_scene_path", "scene_paths"]
 
@@ -48,7 +50,7 @@ SOLVER_PARAMETERS: tuple[Parameter, ...] = (
               0.0, 1e6, exclusive_minimum=True),
 )
 
-_TOP_KEYS = ("name", "description", "rods", "couplings", "solver")
+_TOP_KEYS = ("name", "description", "rods", "tendons", "solver")
 
 
 
@@ -128,12 +130,15 @@ class Scene:
             node = node[int(part)] if isinstance(node, list) else node[part]
         return node
 
-    def with_overrides(self, assignments: Iterable[str]) -> Scene:
-        """A new scene with ``key=value`` assignments applied (the CLI's ``--set``).
+    def with_overrides(self, assignments: Iterable[str], prefer: str = "") -> Scene:
+        """A new scene with ``key=value`` assignments applied in order (the CLI's ``--set``).
 
         ``key`` is a dotted path (``rods.catheter.nodes``) or any unambiguous suffix of one
-        (``nodes``, ``tip_load.mass``); ``value`` is parsed as a TOML value (``80``,
-        ``1e4``, ``"corde"``, ``[0, 1, 0]``) and falls back to a plain string.
+        (``nodes``, ``tip_load.mass``); a suffix that matches several keys resolves to the one
+        under ``prefer`` if exactly one is (the CLI prefers ``solver.<chosen integrator>``).
+        ``value`` is parsed as a TOML value (``80``, ``1e4``, ``"corde"``, ``[0, 1, 0]``) and
+        falls back to a plain string. Each assignment is validated before the next is
+        resolved, so a later key may refer to a term an earlier one added.
         """
         data = copy.deepcopy(self.data)
         for assignment in assignments:
@@ -141,8 +146,9 @@ class Scene:
             key = key.strip()
             if not sep or not key:
                 raise SceneError(f"--set {assignment!r}: expected key=value")
-            data = _assign(data, _resolve_key(data, key), _parse_value(text.strip()))
-        return Scene(resolve(data), self.source)
+            data = resolve(_assign(data, _resolve_key(data, key, prefer),
+                                   _parse_value(text.strip())))
+        return Scene(data, self.source)
 
     def with_values(self, values: Mapping[str, Any]) -> Scene:
         """A new scene with already-typed values at dotted keys (used by studies)."""
@@ -171,46 +177,18 @@ def resolve(raw: Mapping[str, Any]) -> dict[str, Any]:
     if not isinstance(rods_raw, Mapping) or not rods_raw:
         raise SceneError("rods: a scene needs at least one [rods.<name>] table")
     rod_terms = sorted(n for n, t in terms.items() if t.scope == "rod")
-    coupling_terms = sorted(n for n, t in terms.items() if t.scope == "coupling")
-    rods: dict[str, Any] = {}
-    for rod_name, table in rods_raw.items():
-        prefix = f"rods.{rod_name}"
-        listed = table.get("terms", ROD_PARAMETERS[-1].default) if isinstance(table, Mapping) \
-            else None
-        rod_params = tuple(
-            p if p.name != "terms" else Parameter(
-                p.name, p.kind, p.default, p.unit, p.doc, choices=tuple(rod_terms))
-            for p in ROD_PARAMETERS
-        )
-        resolved = validate_table(table, rod_params, prefix, allow_extra=tuple(rod_terms))
-        for term_name in resolved["terms"]:
-            resolved[term_name] = validate_table(
-                resolved.get(term_name, {}), terms[term_name].parameters,
-                f"{prefix}.{term_name}")
-        for term_name in rod_terms:
-            if term_name in resolved and term_name not in (listed or ()):
-                raise SceneError(f"{prefix}.{term_name}: parameters given for a term the rod "
-                                 f"does not list in {prefix}.terms")
-        rods[rod_name] = resolved
-    couplings_raw = raw.get("couplings", [])
-    if not isinstance(couplings_raw, list):
-        raise SceneError("couplings: expected an array of tables ([[couplings]])")
-    couplings = []
-    for i, table in enumerate(couplings_raw):
-        prefix = f"couplings.{i}"
-        if not isinstance(table, Mapping) or table.get("term") not in coupling_terms:
-            got = table.get("term") if isinstance(table, Mapping) else table
-            raise SceneError(f"{prefix}.term = {got!r}: allowed: one of "
-                             + ", ".join(repr(t) for t in coupling_terms))
-        term_cls = terms[table["term"]]
-        body = {k: v for k, v in table.items() if k != "term"}
-        resolved = {"term": table["term"], **validate_table(body, term_cls.parameters, prefix)}
-        for key in term_cls.rod_keys:
-            if resolved[key] not in rods:
-                raise SceneError(f"{prefix}.{key} = {resolved[key]!r}: no such rod; rods: "
-                                 + ", ".join(rods))
-        term_cls.check_scene(resolved, rods, prefix)
-        couplings.append(resolved)
+    tendon_terms = sorted(n for n, t in terms.items() if t.scope == "tendon")
+    rods = {name: _resolve_with_terms(table, ROD_PARAMETERS, rod_terms, terms, f"rods.{name}")
+            for name, table in rods_raw.items()}
+    tendons_raw = raw.get("tendons", {})
+    if not isinstance(tendons_raw, Mapping):
+        raise SceneError("tendons: expected tables [tendons.<tendon rod name>]")
+    tendons = {}
+    for name, table in tendons_raw.items():
+        prefix = f"tendons.{name}"
+        tendons[name] = _resolve_with_terms(table, TENDON_PARAMETERS, tendon_terms, terms,
+                                            prefix)
+        check_tendon(name, tendons[name], rods, prefix)
     integrators = registered_integrators()
     solver_raw = raw.get("solver", {})
     solver = validate_table(solver_raw, SOLVER_PARAMETERS, "solver",
@@ -218,8 +196,27 @@ def resolve(raw: Mapping[str, Any]) -> dict[str, Any]:
     for integrator_name, cls in integrators.items():
         solver[integrator_name] = validate_table(
             solver_raw.get(integrator_name, {}), cls.parameters, f"solver.{integrator_name}")
-    return {"name": name, "description": description, "rods": rods, "couplings": couplings,
+    return {"name": name, "description": description, "rods": rods, "tendons": tendons,
             "solver": solver}
+
+
+def _resolve_with_terms(table: Any, parameters: tuple[Parameter, ...], term_names: list[str],
+                        terms: Mapping[str, Any], prefix: str) -> dict[str, Any]:
+    """Validate a table that lists terms (a rod or a tendon) and its per-term sub-tables."""
+    declared = tuple(
+        p if p.name != "terms" else Parameter(p.name, p.kind, p.default, p.unit, p.doc,
+                                              choices=tuple(term_names))
+        for p in parameters)
+    resolved = validate_table(table, declared, prefix, allow_extra=tuple(term_names))
+    for term_name in term_names:
+        if term_name in resolved and term_name not in resolved["terms"]:
+            raise SceneError(f"{prefix}.{term_name}: parameters given for a term that "
+                             f"{prefix}.terms does not list")
+    for term_name in resolved["terms"]:
+        resolved[term_name] = validate_table(resolved.get(term_name, {}),
+                                             terms[term_name].parameters,
+                                             f"{prefix}.{term_name}")
+    return resolved
 
 
 def _leaf_keys(node: Any, prefix: str = "") -> list[str]:
@@ -236,13 +233,16 @@ def _leaf_keys(node: Any, prefix: str = "") -> list[str]:
     return [prefix]
 
 
-def _resolve_key(data: Mapping[str, Any], key: str) -> str:
+def _resolve_key(data: Mapping[str, Any], key: str, prefer: str = "") -> str:
     leaves = _leaf_keys(data)
     if key in leaves:
         return key
     matches = [leaf for leaf in leaves if leaf.endswith("." + key)]
+    preferred = [leaf for leaf in matches if prefer and leaf.startswith(prefer + ".")]
     if len(matches) == 1:
         return matches[0]
+    if len(preferred) == 1:
+        return preferred[0]
     if not matches:
         raise SceneError(f"--set {key}: unknown key (see `rodsim run --help` for the keys)")
     raise SceneError(f"--set {key}: ambiguous, could be " + ", ".join(matches))

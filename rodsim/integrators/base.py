@@ -16,7 +16,7 @@ from __future__ import annotations
 import time
 from abc import ABC, abstractmethod
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import Any, ClassVar
 
 import numpy as np
@@ -42,19 +42,30 @@ class SolverFailure(RuntimeError):
 
 @dataclass
 class Outcome:
-    """What :meth:`Integrator.advance` returns.
-
-    ``x`` is the final state (free coordinates); ``where`` says where the method stopped
-    (``"t = 1.3 s"``, ``"step 41"``); ``history`` holds per-step series (``time``/``step``,
-    ``residual``); ``stats`` the method's own counters (steps, Newton iterations …).
-    """
+    """What :meth:`Integrator.advance` returns: the final state (free coordinates), whether
+    it is an equilibrium by the method's own test, and a short message. Where the method
+    stopped, its counters and its history live on the integrator (:meth:`checkpoint`,
+    ``counts``, ``history``), so they survive a :class:`SolverFailure` raised mid-run."""
 
     x: np.ndarray
     success: bool
     message: str
-    where: str
-    stats: dict[str, float] = field(default_factory=dict)
-    history: dict[str, list[float]] = field(default_factory=dict)
+
+
+class History:
+    """Per-step record of pseudo-time, residual and the first rod's tip (for Fig. 8)."""
+
+    def __init__(self, model: Model) -> None:
+        first = next(iter(model.rods.values()))
+        self._tip = first.layout.position_index[-1]
+        self._free_of = {int(i): k for k, i in enumerate(model.free)}
+        self._model = model
+        self.data: dict[str, list] = {"time": [], "residual": [], "tip": []}
+
+    def record(self, time: float, x: np.ndarray, residual: float) -> None:
+        self.data["time"].append(float(time))
+        self.data["residual"].append(float(residual))
+        self.data["tip"].append([float(x[self._free_of[int(i)]]) for i in self._tip])
 
 
 class Integrator(ABC):
@@ -99,8 +110,19 @@ class Integrator(ABC):
         self.requested_tolerance = tolerance
         self.max_wall_time = max_wall_time
         self._progress = progress
-        self.counts = {"force_evals": 0, "jacobian_evals": 0}
+        #: Counters reported in the result's statistics (see rodsim.result.STAT_DOCS).
+        self.counts: dict[str, float] = {"steps": 0, "newton_iters": 0, "force_evals": 0,
+                                         "jacobian_evals": 0, "linear_solves": 0}
+        #: Per-step record (pseudo-time, residual, first rod's tip).
+        self.history = History(model)
+        self.state = model.x0
+        self.where = "start"
         self._start = 0.0
+
+    def checkpoint(self, x: np.ndarray, where: str) -> None:
+        """Remember the last accepted state and where it was reached (for failure reports)."""
+        self.state = x
+        self.where = where
 
     # ----------------------------------------------------- shared services
     def force(self, x: np.ndarray, load: float = 1.0) -> np.ndarray:
@@ -157,7 +179,7 @@ class Integrator(ABC):
             with np.errstate(all="ignore"):
                 outcome = self.advance()
         except SolverFailure as exc:
-            outcome = Outcome(self.model.x0, False, str(exc), "start")
+            outcome = Outcome(self.state, False, str(exc))
         wall = self.elapsed()
         x = outcome.x
         finite = bool(np.all(np.isfinite(x)))
@@ -170,15 +192,14 @@ class Integrator(ABC):
             elif outcome.success:
                 message = (f"stopped with residual {residual:.3g} above the tolerance "
                            f"{self.tolerance:.3g}")
-            message = (f"{self.name} integrator failed at {outcome.where}: {message} "
+            message = (f"{self.name} integrator failed at {self.where}: {message} "
                        f"(residual {residual:.3g}, tolerance {self.tolerance:.3g}); "
                        f"{self.advice()}")
-        stats = {**self.counts, **outcome.stats, "wall_time": wall,
-                 "effective_tolerance": self.tolerance}
+        stats = {**self.counts, "wall_time": wall, "effective_tolerance": self.tolerance}
         return Result.from_model(
-            self.model, x if finite else self.model.x0, integrator=self.name,
+            self.model, x if finite else self.state, integrator=self.name,
             options=self.options, success=success, message=message, residual=residual,
-            stats=stats, history=outcome.history)
+            stats=stats, history=self.history.data)
 
 
 def registered_integrators() -> dict[str, type[Integrator]]:
@@ -186,19 +207,3 @@ def registered_integrators() -> dict[str, type[Integrator]]:
     import rodsim.integrators  # noqa: F401  (importing the package registers every file)
 
     return dict(INTEGRATORS)
-
-
-class History:
-    """Per-step record of pseudo-time, residual and the first rod's tip (for Fig. 8)."""
-
-    def __init__(self, model: Model) -> None:
-        first = next(iter(model.rods.values()))
-        self._tip = first.layout.position_index[-1]
-        self._free_of = {int(i): k for k, i in enumerate(model.free)}
-        self._model = model
-        self.data: dict[str, list] = {"time": [], "residual": [], "tip": []}
-
-    def record(self, time: float, x: np.ndarray, residual: float) -> None:
-        self.data["time"].append(float(time))
-        self.data["residual"].append(float(residual))
-        self.data["tip"].append([float(x[self._free_of[int(i)]]) for i in self._tip])

@@ -19,15 +19,14 @@ penalty's tiny norm defect (measured ~1e-12 L on Table 1, docs/model.md).
 
 from __future__ import annotations
 
-import math
+import warnings
 
 import numpy as np
 import scipy.sparse as sp
 from sksundae.ida import IDA
 
-from rodsim.integrators.base import History, Integrator, Outcome, SolverFailure
-from rodsim.integrators.cvode import BAND_LIMIT, PSEUDO_DYNAMICS_PARAMETERS
-from rodsim.integrators.pseudo_dynamics import LoadRamp, damping_rate, first_mode_frequency
+from rodsim.integrators.pseudo_dynamics import damping_rate
+from rodsim.integrators.sundials import SundialsIntegrator
 from rodsim.model import Model
 
 
@@ -156,33 +155,34 @@ class ConstrainedSystem:
         return data
 
 
-class Ida(Integrator):
+class Ida(SundialsIntegrator):
     """IDA BDF on the constrained residual form, stopped at equilibrium."""
 
     name = "ida"
     summary = "SUNDIALS IDA on the residual form with quaternion norms as algebraic equations"
     quaternion_norm = ("algebraic constraint |q|² = 1 per quaternion with a multiplier, "
                        "Baumgarte-stabilised to index 1")
-    parameters = PSEUDO_DYNAMICS_PARAMETERS
-
-    def __init__(self, model: Model, *args, **kwargs) -> None:
-        super().__init__(model, *args, **kwargs)
-        opts = self.options
-        omega = first_mode_frequency(model)
-        self.rate = damping_rate(model, opts["damping_ratio"])
-        self.ramp = LoadRamp(opts["load_ramp"] * 2.0 * math.pi / omega)
-        self.system = ConstrainedSystem(model, opts["formulation"], self.rate, 2.0 * omega)
-        #: Pseudo-time at which the run gives up (10⁹ first-mode periods).
-        self.horizon = 1e9 * 2.0 * math.pi / omega
-        self._last_y: np.ndarray | None = None
-        solver = opts["linear_solver"]
-        if solver == "auto":
-            solver = "band" if self.system.size <= BAND_LIMIT else "sparse"
-        self.linear_solver = solver
 
     def advice(self) -> str:
         return ("try --set solver.ida.formulation=overdamped, a longer load_ramp, or "
                 "--integrator static")
+
+    def build_system(self) -> None:
+        self.rate = damping_rate(self.model, self.options["damping_ratio"])
+        self.system = ConstrainedSystem(self.model, self.options["formulation"], self.rate,
+                                        2.0 * self.omega)
+        self._last_y: np.ndarray | None = None
+
+    def initial_state(self) -> np.ndarray:
+        return self.system.initial_state()
+
+    def positions_of(self, y: np.ndarray) -> np.ndarray:
+        return self.system.positions_of(y)
+
+    def equilibrium_force(self, y: np.ndarray, force: np.ndarray) -> np.ndarray:
+        """F + Gᵀμ: IDA's equilibrium is the constrained one."""
+        self._last_y = y
+        return self.system.constrained_force(y, force)
 
     def residual(self, x: np.ndarray) -> float:
         """Residual of the constrained equilibrium F + Gᵀμ = 0 at the last IDA state."""
@@ -202,9 +202,9 @@ class Ida(Integrator):
         atol[system.mu_slot] = 1e6 * model.force_scale * model.length_scale
         return self.options["atol"] * atol
 
-    def advance(self) -> Outcome:
-        opts, system, model, ramp = self.options, self.system, self.model, self.ramp
-        counts = self.counts
+    def start(self, t: float, y: np.ndarray, yp: np.ndarray | None) -> IDA:
+        system, model, ramp, counts = self.system, self.model, self.ramp, self.counts
+        solver_kind = self.linear_solver(system.size)
 
         def resfn(t: float, y: np.ndarray, yp: np.ndarray, res: np.ndarray) -> None:
             counts["force_evals"] += 1
@@ -215,51 +215,30 @@ class Ida(Integrator):
             return system.jacobian_data(
                 y, yp, cj, model.jacobian_data(system.positions_of(y), ramp(t)))
 
-        kwargs = {"linsolver": self.linear_solver, "rtol": opts["rtol"],
-                  "atol": self._tolerances(), "algebraic_idx": system.algebraic,
-                  "max_order": 2 if system.inertial else 5,
-                  "first_step": 1e-4 / first_mode_frequency(model)}
-        if ramp.duration == 0.0:
-            # A step load: the multipliers and rates at t = 0 follow from the residual.
-            kwargs.update(calc_initcond="yp0", calc_init_dt=1e-3 / first_mode_frequency(model))
-        if self.linear_solver == "band":
+        options = {"linsolver": solver_kind, "rtol": self.options["rtol"],
+                   "atol": self._tolerances(), "algebraic_idx": system.algebraic,
+                   "max_order": 2 if system.inertial else 5,
+                   "first_step": 1e-4 / self.omega}
+        if yp is None and ramp(t) > 0.0 or yp is not None and len(yp) != system.size:
+            # A load already on (step load, or a re-initialisation with a new system):
+            # the rates and multipliers follow from the residual.
+            yp = None
+            options.update(calc_initcond="yp0", calc_init_dt=1e-3 / self.omega)
+        if solver_kind == "band":
             rows, cols = system.rows, system.cols
 
             def jacfn(t, y, yp, res, cj, jj):
                 jj[rows, cols] = jacobian(t, y, yp, cj)
 
-            kwargs.update(lband=system.band[0], uband=system.band[1], jacfn=jacfn)
+            options.update(lband=system.band[0], uband=system.band[1])
         else:
             def jacfn(t, y, yp, res, cj, jj):
                 jj[:] = jacobian(t, y, yp, cj)
 
-            kwargs.update(sparsity=system.pattern, jacfn=jacfn)
-        solver = IDA(resfn, **kwargs)
-        y = system.initial_state()
-        solver.init_step(0.0, y, np.zeros(system.size))
-        history = History(model)
-        t = 0.0
-        for step in range(1, opts["max_steps"] + 1):
-            where = f"step {step} (t = {t:.4g} s)"
-            self.check_budget(where)
-            out = solver.step(self.horizon, method="onestep")
-            if not out.success:
-                return Outcome(system.positions_of(y), False, f"IDA error: {out.message}",
-                               where, {"steps": step}, history.data)
-            y, t = out.y, float(out.t)
-            self._last_y = y.copy()
-            x = system.positions_of(y)
-            if t < ramp.duration:
-                continue
-            try:
-                residual = model.residual(system.constrained_force(y, self.force(x)))
-            except SolverFailure as exc:
-                return Outcome(x, False, str(exc), where, {"steps": step}, history.data)
-            history.record(t, x, residual)
-            self.report(None, f"ida: t = {t:.3g} s, residual {residual:.2e}")
-            if self.at_equilibrium(residual):
-                return Outcome(x.copy(), True, "at equilibrium", f"t = {t:.4g} s",
-                               {"steps": step}, history.data)
-        return Outcome(system.positions_of(y).copy(), False,
-                       f"not at equilibrium after max_steps = {opts['max_steps']}",
-                       f"t = {t:.4g} s", {"steps": opts["max_steps"]}, history.data)
+            options.update(sparsity=system.pattern)
+        with warnings.catch_warnings():
+            # scikit-sundae warns that its own sparse FD Jacobian is unused: ours is given.
+            warnings.filterwarnings("ignore", "Custom sparse Jacobian", UserWarning)
+            solver = IDA(resfn, jacfn=jacfn, **options)
+        solver.init_step(t, y, np.zeros(system.size) if yp is None else yp)
+        return solver

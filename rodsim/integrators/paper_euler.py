@@ -21,7 +21,7 @@ from __future__ import annotations
 import numpy as np
 import scipy.sparse as sp
 
-from rodsim.integrators.base import History, Integrator, Outcome
+from rodsim.integrators.base import Integrator, Outcome
 from rodsim.integrators.newton import NewtonProblem, newton
 from rodsim.model import Model
 from rodsim.schema import Parameter
@@ -71,12 +71,20 @@ class PaperEuler(Integrator):
     def __init__(self, model: Model, *args, **kwargs) -> None:
         super().__init__(model, *args, **kwargs)
         self._mass = model.masses()
+        self._conservative = all(term.conservative for term in model.terms)
+        self._pattern_version = -1
+        self._refresh_pattern()
+
+    def _refresh_pattern(self) -> None:
+        """Diagonal positions and FD column groups of the model's current pattern."""
+        model = self.model
+        if self._pattern_version == model.pattern_version:
+            return
         diag = np.flatnonzero(model.pattern_rows == model.pattern_cols)
         self._diag = diag[np.argsort(model.pattern_cols[diag])]
-        self._conservative = all(term.conservative for term in model.terms)
-        self.counts["linear_solves"] = 0
         self._groups = (column_groups(model.pattern)
                         if self.options["jacobian"] == "finite_difference" else [])
+        self._pattern_version = model.pattern_version
 
     def advice(self) -> str:
         return ("try a smaller step (--set solver.paper.h=...), more damping (smaller "
@@ -84,20 +92,25 @@ class PaperEuler(Integrator):
 
     def _stiffness(self, y: np.ndarray, force: np.ndarray) -> np.ndarray:
         """∂F/∂x at y in pattern order: analytic, or grouped forward differences."""
-        if not self._groups:
+        if self.options["jacobian"] == "analytic":
             return self.jacobian_data(y)
         model = self.model
-        data = np.zeros(model.nnz)
-        rows, cols = model.pattern_rows, model.pattern_cols
-        for group in self._groups:
-            delta = np.sqrt(np.finfo(float).eps) * np.maximum(np.abs(y[group]), 1e-3)
-            shifted = y.copy()
-            shifted[group] += delta
-            diff = self.force(shifted) - force
-            step = np.zeros(model.n)
-            step[group] = delta
-            in_group = step[cols] != 0.0
-            data[in_group] = diff[rows[in_group]] / step[cols[in_group]]
+        while True:  # a shifted state may re-centre the pattern: redo the columns if so
+            self._refresh_pattern()
+            version = model.pattern_version
+            data = np.zeros(model.nnz)
+            rows, cols = model.pattern_rows, model.pattern_cols
+            for group in self._groups:
+                delta = np.sqrt(np.finfo(float).eps) * np.maximum(np.abs(y[group]), 1e-3)
+                shifted = y.copy()
+                shifted[group] += delta
+                diff = self.force(shifted) - force
+                step = np.zeros(model.n)
+                step[group] = delta
+                in_group = step[cols] != 0.0
+                data[in_group] = diff[rows[in_group]] / step[cols[in_group]]
+            if model.pattern_version == version:
+                break
         return data
 
     def _step_problem(self, predictor: np.ndarray, h: float) -> NewtonProblem:
@@ -111,7 +124,9 @@ class PaperEuler(Integrator):
 
         def jacobian(y: np.ndarray) -> sp.csc_matrix:
             f = cache["F"] if cache.get("y") is y else self.force(y)
-            data = h * h * self._stiffness(y, f)
+            stiffness = self._stiffness(y, f)
+            self._refresh_pattern()  # the evaluation may have re-centred the pattern
+            data = h * h * stiffness
             data[self._diag] -= mass
             self.counts["linear_solves"] += 1
             return model.pattern_matrix(data)
@@ -126,27 +141,30 @@ class PaperEuler(Integrator):
 
     def advance(self) -> Outcome:
         h, xi = self.options["h"], self.options["xi"]
-        x = self.model.x0
+        model, counts = self.model, self.counts
+        x = model.x0
         v = np.zeros_like(x)
-        history = History(self.model)
-        newton_total = 0
+        # Each step's Newton solve goes 10× below the tolerance, but not below round-off.
+        inner = max(0.1 * self.tolerance, model.residual_floor)
         for step in range(1, self.options["max_steps"] + 1):
             where = f"step {step} (t = {step * h:.4g} s)"
             self.check_budget(where)
             predictor = x + xi * h * v
-            solved = newton(self._step_problem(predictor, h), predictor, 0.1 * self.tolerance,
+            solved = newton(self._step_problem(predictor, h), predictor, inner,
                             self.options["max_newton"], polish=False)
-            newton_total += solved.iterations
-            stats = {"steps": step, "newton_iters": newton_total}
+            counts["newton_iters"] += solved.iterations
+            counts["steps"] = step
             if not solved.converged:
-                return Outcome(solved.x, False, f"Newton failed: {solved.message}", where,
-                               stats, history.data)
+                self.where = where
+                return Outcome(x, False, f"Newton failed: {solved.message}")
             v = (solved.x - x) / h
             x = solved.x
+            self.checkpoint(x, where)
+            # Tendon registration is recomputed after every step (§4.1).
+            moved = model.update_registration(x)
             residual = self.residual(x)
-            history.record(step * h, x, residual)
+            self.history.record(step * h, x, residual)
             self.report(None, f"paper: {where}, residual {residual:.2e}")
-            if self.at_equilibrium(residual):
-                return Outcome(x, True, "at rest", where, stats, history.data)
-        return Outcome(x, False, f"not at rest after max_steps = {self.options['max_steps']}",
-                       where, stats, history.data)
+            if not moved and self.at_equilibrium(residual):
+                return Outcome(x, True, "at rest")
+        return Outcome(x, False, f"not at rest after max_steps = {self.options['max_steps']}")

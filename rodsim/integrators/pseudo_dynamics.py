@@ -16,7 +16,7 @@ The external loads are ramped in smoothly over ``load_ramp`` periods 2π/ω₁ (
 C¹). A load switched on at once excites the stiff stretch and penalty modes, and the
 adaptive steps then stay tiny for hundreds of steps while those transients decay; with the
 ramp the stiff components stay near their quasi-static values and the steps are limited by
-the slow bending dynamics only (measured in docs/benchmarks.md).
+the slow bending dynamics only (measured in docs/model.md, "Pseudo-dynamics").
 """
 
 from __future__ import annotations

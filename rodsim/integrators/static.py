@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from rodsim.integrators.base import History, Integrator, Outcome
+from rodsim.integrators.base import Integrator, Outcome
 from rodsim.integrators.newton import NewtonProblem, newton
 from rodsim.model import Model
 from rodsim.schema import Parameter
@@ -44,35 +44,32 @@ class Static(Integrator):
                 "pseudo-dynamic integrator (--integrator cvode)")
 
     def advance(self) -> Outcome:
-        x = self.model.x0
+        model, counts = self.model, self.counts
+        x = model.x0
         load, step = 0.0, self.options["first_load_step"]
-        history = History(self.model)
-        load_steps = newton_total = 0
         while load < 1.0:
             target = min(1.0, load + step)
-            converged, x_new, iterations = self._newton(x, target)
-            newton_total += iterations
             self.check_budget(f"load fraction {target:.4g}")
-            if converged:
-                x, load = x_new, target
-                load_steps += 1
-                history.record(load, x, self.residual(x) if load < 1.0 else 0.0)
-                self.report(load, f"static: load {load:.3f}, {newton_total} Newton iterations")
-                if iterations <= 6:
-                    step = min(1.0, 2.0 * step)
-            else:
+            converged, x_new, iterations = self._newton(x, target)
+            counts["newton_iters"] += iterations
+            if not converged:
                 step *= 0.25
                 if step < self.options["min_load_step"]:
-                    res = self.residual(x_new) if np.all(np.isfinite(x_new)) else float("nan")
-                    return Outcome(x, False, f"Newton did not converge (residual {res:.3g}) "
-                                   f"and the load step fell below min_load_step",
-                                   f"load fraction {target:.4g}",
-                                   {"steps": load_steps, "newton_iters": newton_total},
-                                   history.data)
-        history.data["residual"][-1] = self.residual(x)
-        return Outcome(x, True, "converged", f"load fraction {load:.4g}",
-                       {"steps": load_steps, "newton_iters": newton_total,
-                        "linear_solves": newton_total}, history.data)
+                    return Outcome(x, False, "Newton did not converge and the load step fell "
+                                   "below min_load_step")
+                continue
+            if model.update_registration(x_new):
+                x = x_new  # a tendon point changed parent: solve again at this load
+                continue
+            x, load = x_new, target
+            counts["steps"] += 1
+            self.checkpoint(x, f"load fraction {load:.4g}")
+            self.history.record(load, x, self.residual(x))
+            self.report(load, f"static: load {load:.3f}, {counts['newton_iters']} Newton "
+                        "iterations")
+            if iterations <= 6:
+                step = min(1.0, 2.0 * step)
+        return Outcome(x, True, "converged")
 
     def _newton(self, x: np.ndarray, load: float) -> tuple[bool, np.ndarray, int]:
         """Newton iterations at a fixed load; returns (converged, x, iterations)."""
@@ -85,4 +82,5 @@ class Static(Integrator):
             potential=(lambda y: model.energy(y, load)) if self._conservative else None,
         )
         outcome = newton(problem, x, self.tolerance, self.options["max_newton"])
+        self.counts["linear_solves"] += outcome.iterations
         return outcome.converged, outcome.x, outcome.iterations

@@ -16,7 +16,7 @@ from rodsim.schema import Parameter
 __all__ = ["Rod", "ROD_PARAMETERS", "CLAMPS"]
 
 #: How the rod's base (s = 0) is held; see docs/model.md, "Clamp".
-CLAMPS = ("frame", "first_segment")
+CLAMPS = ("frame", "first_segment", "orientation")
 
 ROD_PARAMETERS: tuple[Parameter, ...] = (
     Parameter("length", "float", None, "m", "rest length L", 0.0, 100.0, exclusive_minimum=True),
@@ -33,12 +33,13 @@ ROD_PARAMETERS: tuple[Parameter, ...] = (
               exclusive_minimum=True),
     Parameter("nodes", "int", None, "-", "number of control points N", 3, 200_000),
     Parameter("clamp", "str", "frame", "-",
-              "base support: 'frame' (position and a frame at s = 0) or 'first_segment' "
-              "(position and first quaternion fixed, as PyElastica)",
+              "base support: 'frame' (position and a frame at s = 0), 'first_segment' "
+              "(position and first quaternion fixed, as PyElastica) or 'orientation' (a frame "
+              "at s = 0 but the position free: a tendon pulled at its proximal end)",
               choices=CLAMPS),
     Parameter("origin", "vector", [0.0, 0.0, 0.0], "m", "position of the base r_0", length=3),
     Parameter("terms", "list", ["stretch", "bend_twist", "centerline"], "-",
-              "energy terms acting on this rod (see `rodsim terms`)"),
+              "energy terms acting on this rod (`rodsim terms` lists them)"),
 )
 
 
@@ -59,6 +60,8 @@ class Rod:
     name: str
     params: dict[str, Any]
     layout: RodLayout = field(repr=False)
+    #: Position of the base r_0 [m]: the rod's ``origin``, or a tendon's lumen entrance.
+    origin: np.ndarray = field(default_factory=lambda: np.zeros(3), repr=False)
 
     @property
     def geometry(self) -> RodGeometry:
@@ -128,7 +131,7 @@ class Rod:
         """Straight rod along +x from ``origin``, shape (N, 3)."""
         x = np.zeros((self.nodes, 3))
         x[:, 0] = self.geometry.node_s
-        return x + np.asarray(self.params["origin"])
+        return x + self.origin
 
     def rest_quaternions(self) -> np.ndarray:
         """Every segment in the clamp orientation, shape (N − 1, 4)."""
@@ -136,10 +139,19 @@ class Rod:
 
     def fixed_index(self) -> np.ndarray:
         """Global indices of the coordinates the clamp removes (see docs/model.md)."""
-        fixed = [self.layout.position_index[0]]
-        if self.params["clamp"] == "first_segment":
-            fixed.append(self.layout.quaternion_index[0])
-        return np.concatenate(fixed)
+        clamp = self.params["clamp"]
+        if clamp == "orientation":
+            return np.zeros(0, dtype=int)
+        if clamp == "first_segment":
+            return np.concatenate([self.layout.position_index[0],
+                                   self.layout.quaternion_index[0]])
+        return self.layout.position_index[0]
+
+    @property
+    def has_base_frame(self) -> bool:
+        """Whether a fixed frame at s = 0 anchors the bending term (clamps 'frame' and
+        'orientation')."""
+        return self.params["clamp"] in ("frame", "orientation")
 
     def node_masses(self) -> np.ndarray:
         """Lumped mass of each control point, ρ A × (half of each adjacent segment) [kg]."""

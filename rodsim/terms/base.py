@@ -29,8 +29,9 @@ from rodsim.schema import Parameter
 
 if TYPE_CHECKING:
     from rodsim.rod.rod import Rod
+    from rodsim.tendon import Tendon
 
-__all__ = ["Term", "RodTerm", "CouplingTerm", "REGISTRY", "registered_terms"]
+__all__ = ["Term", "RodTerm", "TendonTerm", "REGISTRY", "registered_terms"]
 
 #: Every defined term class, by name. Filled by ``Term.__init_subclass__``.
 REGISTRY: dict[str, type[Term]] = {}
@@ -53,6 +54,13 @@ class Term(ABC):
         ``True`` for external loads; the static solver scales them during load continuation.
     has_jacobian
         ``False`` for state-independent forces (no Jacobian entries, no pattern).
+    dynamic
+        ``True`` when an element's coordinates depend on a discrete state of the term (a
+        tendon point's parent catheter node), which :meth:`update_registration` updates
+        between solver steps; ``dofs`` changes with it.
+
+    ``conservative``, ``is_load`` and ``has_jacobian`` may be overridden per instance
+    (a term whose behaviour depends on its parameters).
     """
 
     name: ClassVar[str]
@@ -62,6 +70,7 @@ class Term(ABC):
     conservative: ClassVar[bool] = True
     is_load: ClassVar[bool] = False
     has_jacobian: ClassVar[bool] = True
+    dynamic: ClassVar[bool] = False
 
     #: Global coordinate indices of each element, shape (n_elem, k).
     dofs: np.ndarray
@@ -85,6 +94,10 @@ class Term(ABC):
         """Potential energy [J]; ``None`` when the term is not conservative."""
         return None
 
+    def update_registration(self, x: np.ndarray) -> bool:
+        """Update a dynamic term's discrete state from ``x``; True if ``dofs`` changed."""
+        return False
+
 
 class RodTerm(Term):
     """A term acting on one rod, configured by ``[rods.<rod>.<term name>]``."""
@@ -96,19 +109,14 @@ class RodTerm(Term):
         self.params = params
 
 
-class CouplingTerm(Term):
-    """A term coupling several rods, configured by one ``[[couplings]]`` table."""
+class TendonTerm(Term):
+    """A term coupling a tendon rod to its catheter, configured by ``[tendons.<rod>]`` and
+    ``[tendons.<rod>.<term name>]`` (see :mod:`rodsim.tendon`)."""
 
-    scope: ClassVar[str] = "coupling"
-    #: Names of the parameters that refer to rods (validated against the scene's rods).
-    rod_keys: ClassVar[tuple[str, ...]] = ()
+    scope: ClassVar[str] = "tendon"
 
-    @classmethod
-    def check_scene(cls, params: dict[str, Any], rods: dict[str, Any], prefix: str) -> None:
-        """Cross-check the coupling against the rods it joins; raise SceneError if invalid."""
-
-    def __init__(self, rods: dict[str, Rod], params: dict[str, Any]) -> None:
-        self.rods = rods
+    def __init__(self, tendon: Tendon, params: dict[str, Any]) -> None:
+        self.tendon = tendon
         self.params = params
 
 

@@ -14,8 +14,9 @@ O(EI κ² / K_P) and so softens the rod: on Table 1 (100 g, K_P = 1e4) that move
 4.7e-5 L and made the penalty model differ from IDA's exactly-unit quaternions by as much
 (docs/model.md). The rest curvature û is zero (straight rods).
 
-With the ``frame`` clamp a fixed frame q_c sits at s = 0, half a segment before q_0, and adds
-one element (q_c, q_0) with l̄ = l / 2; this keeps the discretisation second order in N
+With the ``frame`` (or ``orientation``) clamp a fixed frame q_c sits at s = 0, half a
+segment before q_0, and adds one element (q_c, q_0) with l̄ = l / 2; this keeps the
+discretisation second order in N
 (docs/model.md, "Clamp"). The ``first_segment`` clamp fixes q_0 instead and adds no element.
 
 Stiffness (Eq. 8, the paper's corrected tensor, default):
@@ -65,7 +66,7 @@ class BendTwist(RodTerm):
         self._stiffness = stiffness_tensor(rod, params["stiffness"])
         self.dofs = np.concatenate([quat[:-1], quat[1:]], axis=1)  # (q_{i-1}, q_i)
 
-        self._clamped = rod.params["clamp"] == "frame"
+        self._clamped = rod.has_base_frame
         if self._clamped:
             self._frame = rod.base_quaternion
             # The clamp element (q_c, q_0) has only q_0 free: pad it to 8 coordinates by

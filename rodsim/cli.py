@@ -1,0 +1,209 @@
+"""Command line: ``rodsim run | rerun | scenes`` (and ``study``, ``plot``, ``bench``).
+
+Human-readable summaries go to stdout, errors to stderr. Exit codes: 0 success, 1 solver
+failure, 2 bad input (scene, option, path or archive). User errors never show a traceback.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+from collections.abc import Callable, Sequence
+from pathlib import Path
+
+from rodsim import __version__
+
+EXIT_OK, EXIT_SOLVER_FAILURE, EXIT_BAD_INPUT = 0, 1, 2
+
+
+class UserError(Exception):
+    """A problem with what the user asked for (exit code 2, one-line message)."""
+
+
+def _scene_keys_help() -> str:
+    """Every scene key with unit and default, for ``--help`` epilogs."""
+    from rodsim.integrators import registered_integrators
+    from rodsim.rod.rod import ROD_PARAMETERS
+    from rodsim.scene import SOLVER_PARAMETERS
+    from rodsim.terms import registered_terms
+
+    lines = ["scene keys for --set (any unambiguous suffix works, e.g. nodes=80, mass=0.1):",
+             "  rods.<rod>:"]
+    lines += [f"    {p.help()}" for p in ROD_PARAMETERS]
+    for name, term in registered_terms().items():
+        where = "rods.<rod>" if term.scope == "rod" else "tendons.<tendon rod>"
+        prefix = f"{where}.{name}"
+        if term.parameters:
+            lines.append(f"  {prefix}:  [{term.equation}]")
+            lines += [f"    {p.help()}" for p in term.parameters]
+    lines.append("  solver:")
+    lines += [f"    {p.help()}" for p in SOLVER_PARAMETERS]
+    for name, integrator in registered_integrators().items():
+        lines.append(f"  solver.{name}:  [{integrator.summary}]")
+        lines += [f"    {p.help()}" for p in integrator.parameters]
+    return "\n".join(lines)
+
+
+def _print_run_summary(result, archive: Path | None) -> None:
+    from rodsim.analytic.reference import cantilever_reference
+
+    scene = result.scene
+    print(f"scene       {scene.name}: {scene.data['description']}".rstrip(": "))
+    print(f"integrator  {result.integrator}  ({result.message})")
+    for name, shape in result.rods.items():
+        tip = shape.tip
+        print(f"tip of {name:<12s} x = {tip[0]: .6f} m  y = {tip[1]: .6f} m  z = {tip[2]: .3g} m")
+    reference = cantilever_reference(scene)
+    if reference is not None:
+        positions = result.positions()
+        print(f"load        α = F L²/(2EI) = {reference.alpha:.4g}  (F = {reference.force:.4g} N)")
+        print(f"tip error   vs analytical model (Eqs. 21–23, corrected): "
+              f"{100 * reference.tip_error(positions, 'paper'):.4f} % of L")
+        print(f"            vs exact elastica: "
+              f"{100 * reference.tip_error(positions, 'exact'):.4f} % of L;  "
+              f"vs extensible elastica (E_s A): "
+              f"{100 * reference.tip_error(positions, 'extensible'):.4f} % of L")
+    stats = result.stats
+    print(f"residual    {result.residual:.3g} (tolerance {stats['effective_tolerance']:.3g})")
+    print("statistics  " + ", ".join(
+        f"{key} {int(stats[key])}" for key in
+        ("steps", "newton_iters", "force_evals", "jacobian_evals", "linear_solves")))
+    print(f"wall time   {stats['wall_time']:.4f} s")
+    if archive is not None:
+        print(f"archive     {archive}")
+
+
+def _load_scene_or_fail(scene: str | None, overrides: Sequence[str], integrator: str | None):
+    from rodsim.api import load_scene
+    from rodsim.scene import SceneError
+
+    try:
+        return load_scene(scene, overrides, f"solver.{integrator}" if integrator else "")
+    except SceneError as exc:
+        raise UserError(str(exc)) from None
+
+
+def cmd_run(args: argparse.Namespace) -> int:
+    from rodsim.api import solve
+    from rodsim.archive import ArchiveError, write_dataset
+    from rodsim.progress import ProgressPrinter
+
+    scene = _load_scene_or_fail(args.scene, args.set, args.integrator)
+    integrator = args.integrator or scene.data["solver"]["integrator"]
+    output = Path(args.output or f"{scene.name}-{integrator}.nc")
+    if not (output.parent if str(output.parent) else Path(".")).is_dir():
+        raise UserError(f"-o {output}: folder {str(output.parent)!r} does not exist")
+    progress = ProgressPrinter()
+    result = solve(scene, integrator, progress=progress)
+    progress.close()
+    if not result.success:
+        print(f"rodsim: solver failure: {result.message}", file=sys.stderr)
+        return EXIT_SOLVER_FAILURE
+    try:
+        write_dataset(result.to_xarray(), output)
+    except ArchiveError as exc:
+        raise UserError(str(exc)) from None
+    _print_run_summary(result, output)
+    return EXIT_OK
+
+
+def cmd_rerun(args: argparse.Namespace) -> int:
+    from rodsim.archive import ArchiveError, read_dataset, rerun
+    from rodsim.scene import SceneError
+
+    try:
+        result, difference = rerun(read_dataset(args.archive))
+    except (ArchiveError, SceneError) as exc:
+        raise UserError(f"{args.archive}: {exc}") from None
+    if not result.success:
+        print(f"rodsim: solver failure on rerun: {result.message}", file=sys.stderr)
+        return EXIT_SOLVER_FAILURE
+    _print_run_summary(result, None)
+    length = max(shape.s[-1] for shape in result.rods.values())
+    print(f"rerun       largest difference from the stored positions: {difference:.3g} m "
+          f"({difference / length:.3g} L)")
+    if difference > args.tolerance * length:
+        print(f"rodsim: rerun differs from the archive by more than {args.tolerance:g} L",
+              file=sys.stderr)
+        return EXIT_SOLVER_FAILURE
+    return EXIT_OK
+
+
+def cmd_scenes(args: argparse.Namespace) -> int:
+    from rodsim.scene import Scene, scene_paths
+
+    for name, path in scene_paths().items():
+        print(f"{name:<24s} {Scene.load(path).data['description']}")
+    return EXIT_OK
+
+
+def cmd_terms(args: argparse.Namespace) -> int:
+    from rodsim.terms import registered_terms
+
+    for name, term in registered_terms().items():
+        where = "rods.<rod>" if term.scope == "rod" else "tendons.<tendon rod>"
+        print(f"{name:<20s} {term.equation}  [{where}.terms]")
+        for parameter in term.parameters:
+            print(f"    {parameter.help()}")
+    return EXIT_OK
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog="rodsim", description="Tendon-driven catheters as Cosserat rods, to equilibrium.")
+    parser.add_argument("--version", action="version", version=f"rodsim {__version__}")
+    sub = parser.add_subparsers(dest="command", required=True)
+    formatter = argparse.RawDescriptionHelpFormatter
+
+    run = sub.add_parser("run", help="simulate one scene to equilibrium and archive it",
+                         formatter_class=formatter, epilog=_scene_keys_help(),
+                         description="Simulate a scene to equilibrium, print a summary and "
+                         "write a netCDF archive. SCENE is a TOML file or a shipped scene "
+                         "name (`rodsim scenes`); default: table1-50g (paper Table 1, 50 g).")
+    run.add_argument("scene", nargs="?", help="scene file or shipped scene name")
+    run.add_argument("--integrator", choices=("paper", "cvode", "ida", "static"),
+                     help="integrator (default: the scene's solver.integrator, cvode)")
+    run.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
+                     help="override a scene value (repeatable), e.g. --set nodes=80")
+    run.add_argument("-o", "--output", help="archive path (default: <scene>-<integrator>.nc)")
+    run.set_defaults(func=cmd_run)
+
+    again = sub.add_parser("rerun", help="re-run an archive and compare with what it stores",
+                           description="Re-run the scene and integrator stored in ARCHIVE "
+                           "and report the largest difference from the stored positions.")
+    again.add_argument("archive", help="netCDF archive written by `rodsim run`")
+    again.add_argument("--tolerance", type=float, default=1e-9, metavar="FRACTION_OF_L",
+                       help="exit 1 if the positions differ by more than this × L "
+                       "(default 1e-9)")
+    again.set_defaults(func=cmd_rerun)
+
+    scenes = sub.add_parser("scenes", help="list the shipped scenes (paper Tables 1 and 3)")
+    scenes.set_defaults(func=cmd_scenes)
+
+    terms = sub.add_parser("terms", help="list the energy and coupling terms a scene can use")
+    terms.set_defaults(func=cmd_terms)
+    return parser
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    os.environ.setdefault("OMP_NUM_THREADS", "1")
+    os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    command: Callable[[argparse.Namespace], int] = args.func
+    try:
+        return command(args)
+    except UserError as exc:
+        print(f"rodsim: error: {exc}", file=sys.stderr)
+        return EXIT_BAD_INPUT
+    except BrokenPipeError:  # output piped into a closed reader (e.g. `| head`)
+        sys.stderr.close()
+        return EXIT_OK
+    except KeyboardInterrupt:
+        print("rodsim: interrupted", file=sys.stderr)
+        return 130
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,124 @@
+"""The run loop CVODE and IDA share: one internal step at a time, to equilibrium.
+
+After each step (once the load ramp is complete) the scaled equilibrium residual is checked
+and the run stops as soon as it is below the tolerance — at equilibrium, not at an arbitrary
+final time. Tendon registration (§4.1) is updated after every accepted step; SUNDIALS holds
+a fixed Jacobian pattern, so when a tendon point changes parent the solver is rebuilt on
+the new pattern and re-initialised from that state (counted as ``reinits``). Non-finite
+states, solver errors, the step budget and the wall-time budget end the run with a
+diagnostic.
+"""
+
+from __future__ import annotations
+
+import math
+from abc import abstractmethod
+from typing import Any
+
+import numpy as np
+
+from rodsim.integrators.base import Integrator, Outcome
+from rodsim.integrators.pseudo_dynamics import FORMULATIONS, LoadRamp, first_mode_frequency
+from rodsim.model import Model
+from rodsim.schema import Parameter
+
+#: Above this many unknowns the band solver's dense (n × n) Jacobian template costs too much
+#: memory (scikit-sundae hands band Jacobians to Python as a full array); ``linear_solver =
+#: "auto"`` then switches to the sparse solver.
+BAND_LIMIT = 4000
+
+#: Options CVODE and IDA share (pseudo-dynamics and tolerances).
+PSEUDO_DYNAMICS_PARAMETERS = (
+    Parameter("formulation", "str", "inertial", "-",
+              "'inertial' (damped second order, Eqs. 10–11) or 'overdamped' (gradient flow)",
+              choices=FORMULATIONS),
+    Parameter("damping_ratio", "float", 1.0, "-",
+              "ζ: damping rate c = 2 ζ ω₁ of the first bending mode", 0.0, 1e6,
+              exclusive_minimum=True),
+    Parameter("load_ramp", "float", 1.0, "-",
+              "ramp the loads in over this many first-mode periods 2π/ω₁ (0: step load)",
+              0.0, 1e6),
+    Parameter("rtol", "float", 1e-4, "-", "relative tolerance of the time stepping",
+              1e-15, 1e-1),
+    Parameter("atol", "float", 1e-7, "-",
+              "absolute tolerance, relative to each variable's scale (L for positions, 1 for "
+              "quaternions, L ω₁ for velocities)", 1e-20, 1e-1),
+    Parameter("linear_solver", "str", "auto", "-",
+              f"'band', 'sparse' (SuperLU_MT) or 'auto' (band up to {BAND_LIMIT} unknowns)",
+              choices=("auto", "band", "sparse")),
+    Parameter("max_steps", "int", 200_000, "-", "give up after this many steps", 1,
+              100_000_000),
+)
+
+
+class SundialsIntegrator(Integrator):
+    """Shared loop of :class:`~rodsim.integrators.cvode.Cvode` and
+    :class:`~rodsim.integrators.ida.Ida`; subclasses build the system and the solver."""
+
+    parameters = PSEUDO_DYNAMICS_PARAMETERS
+
+    def __init__(self, model: Model, *args: Any, **kwargs: Any) -> None:
+        super().__init__(model, *args, **kwargs)
+        omega = first_mode_frequency(model)
+        self.omega = omega
+        self.ramp = LoadRamp(self.options["load_ramp"] * 2.0 * math.pi / omega)
+        #: Pseudo-time at which the run gives up (10⁹ first-mode periods).
+        self.horizon = 1e9 * 2.0 * math.pi / omega
+        self.counts["reinits"] = 0
+        self.build_system()
+
+    def linear_solver(self, size: int) -> str:
+        choice = self.options["linear_solver"]
+        if choice == "auto":
+            return "band" if size <= BAND_LIMIT else "sparse"
+        return choice
+
+    @abstractmethod
+    def build_system(self) -> None:
+        """(Re)build the first-order system from the model's current pattern."""
+
+    @abstractmethod
+    def start(self, t: float, y: np.ndarray, yp: np.ndarray | None) -> Any:
+        """A new SUNDIALS solver initialised at (t, y[, y′])."""
+
+    @abstractmethod
+    def initial_state(self) -> np.ndarray:
+        """y at t = 0 (the rest state, at rest)."""
+
+    @abstractmethod
+    def positions_of(self, y: np.ndarray) -> np.ndarray:
+        """The model coordinates x inside y."""
+
+    def equilibrium_force(self, y: np.ndarray, force: np.ndarray) -> np.ndarray:
+        """The force whose vanishing is this integrator's equilibrium (default: F itself)."""
+        return force
+
+    def advance(self) -> Outcome:
+        model, opts, counts = self.model, self.options, self.counts
+        t, y, yp = 0.0, self.initial_state(), None
+        solver = self.start(t, y, yp)
+        for step in range(1, opts["max_steps"] + 1):
+            self.check_budget(f"step {step} (t = {t:.4g} s)")
+            out = solver.step(self.horizon, method="onestep")
+            counts["steps"] = step
+            if not out.success:
+                return Outcome(self.positions_of(y), False,
+                               f"{self.name.upper()} error: {out.message}")
+            t, y, yp = float(out.t), out.y.copy(), getattr(out, "yp", None)
+            x = self.positions_of(y)
+            self.checkpoint(x, f"step {step} (t = {t:.4g} s)")
+            if model.update_registration(x):
+                # A tendon point changed parent (§4.1): new pattern, new solver, same state.
+                counts["reinits"] += 1
+                self.build_system()
+                solver = self.start(t, y, None)
+                continue
+            if t < self.ramp.duration:
+                continue
+            residual = model.residual(self.equilibrium_force(y, self.force(x)))
+            self.history.record(t, x, residual)
+            self.report(None, f"{self.name}: t = {t:.3g} s, residual {residual:.2e}")
+            if self.at_equilibrium(residual):
+                return Outcome(x.copy(), True, "at equilibrium")
+        return Outcome(self.positions_of(y).copy(), False,
+                       f"not at equilibrium after max_steps = {opts['max_steps']}")

@@ -1,0 +1,192 @@
+"""Lumen constraint, paper Eqs. (24)–(27) and (32)–(35): tendon points held on the lumen.
+
+Each tendon point p_i is registered to exactly one parent catheter node j — the nearest
+lumen point L_j = r_j + r_L d_t(q_j) — recomputed from the state at every evaluation (§4.1).
+Its offset Δ = L_j − p_i is penalised across the lumen:
+
+    C_t = Δ · d_t  (Eqs. 26, 34),   C_n = Δ · d_n  (d_n = d3 × d_t),
+    F_i = K_L (C_t d_t + C_n d_n)   (Eqs. 25, 33, 35 — the paper has only the d_t part)
+
+``constrain = "d_t"`` keeps the paper's one-directional form; the default ``"both"`` also
+holds the tendon in the other transverse direction, without which a tendon point is free
+to drift out of the d_t–d3 plane (the paper assumes it stays close to it). Sliding along
+the lumen is free. K_L is a force per unit offset per tendon point [N/m].
+
+Reactions (``[tendons.<rod>] coupling``):
+- ``paper``: each catheter node receives the *average* of the lumen forces of the tendon
+  points registered to it, applied at the node (§4.1). Not momentum-conserving.
+- ``conserving``: the gradient of E = Σ_i ½ K_L (C_t² + C_n²): reaction −F_i acting at the
+  lumen point, i.e. on r_j and, through the offset r_L d_t(q_j), on q_j.
+
+Registration (§4.1) is state of the term, updated by :meth:`Lumen.update_registration`
+between solver steps (after every time step, Newton solve or CVODE/IDA step), not inside a
+force evaluation: the nearest-lumen-point rule switches the lumen line a point is held to
+and so makes the force discontinuous, which stalls Newton and the BDF error control (measured:
+IDA needed 2e5 steps and 415 s on Table 3 with registration inside the force, docs/tendon.md).
+Between updates each element couples exactly (p_i, r_j, q_j), so the Jacobian pattern is
+exact; an update that changes a parent rebuilds the pattern (§4.2's "redefined on every
+iteration") and the SUNDIALS integrators re-initialise. A point switches parent only when
+another lumen point is closer by ``hysteresis`` × the catheter's segment length, so an
+equilibrium on a switching boundary cannot flip-flop.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from rodsim.schema import Parameter
+from rodsim.tendon import Tendon
+from rodsim.terms.base import TendonTerm
+
+
+class PointOnLumen:
+    """Kinematics of a penalty tying points p to lumen points L = r + r_L d_t(q).
+
+    For the offset Δ = L − p, the compliances C_t = Δ·d_t (Eqs. 26, 34) and C_n = Δ·d_n,
+    with their gradients and Hessians with respect to the local coordinates (p, r, q) (10
+    per point). Shared by the lumen and endpoint-compliance terms.
+    """
+
+    def __init__(self, tendon: Tendon, p: np.ndarray, r: np.ndarray, q: np.ndarray) -> None:
+        self.frame = f = tendon.lumen_frame(q)
+        rl = tendon.offset
+        self.delta = r + rl * f["dt"] - p
+        self.offset = rl
+        self.c_t = np.sum(self.delta * f["dt"], axis=1)
+        self.c_n = np.sum(self.delta * f["dn"], axis=1)
+        self.grad_t = np.concatenate(
+            [-f["dt"], f["dt"], np.einsum("nma,nm->na", f["Dt"], self.delta + rl * f["dt"])],
+            axis=1)
+        self.grad_n = np.concatenate(
+            [-f["dn"], f["dn"], np.einsum("nma,nm->na", f["Dn"], self.delta)
+             + rl * np.einsum("nma,nm->na", f["Dt"], f["dn"])], axis=1)
+
+    def hessians(self) -> tuple[np.ndarray, np.ndarray]:
+        """∇²C_t and ∇²C_n, shape (n, 10, 10) each."""
+        f, rl, delta = self.frame, self.offset, self.delta
+        n = len(delta)
+        h_t = np.zeros((n, 10, 10))
+        h_n = np.zeros((n, 10, 10))
+        for h, d_mat in ((h_t, f["Dt"]), (h_n, f["Dn"])):
+            h[:, 0:3, 6:10] = -d_mat
+            h[:, 3:6, 6:10] = d_mat
+            h[:, 6:10, 0:3] = -d_mat.transpose(0, 2, 1)
+            h[:, 6:10, 3:6] = d_mat.transpose(0, 2, 1)
+        dt_t = np.einsum("nma,nmb->nab", f["Dt"], f["Dt"])
+        h_t[:, 6:, 6:] = 2.0 * rl * dt_t + np.einsum("nm,mab->nab", delta + rl * f["dt"],
+                                                     f["Ht"])
+        cross = np.einsum("nma,nmb->nab", f["Dn"], f["Dt"])
+        h_n[:, 6:, 6:] = (rl * (cross + cross.transpose(0, 2, 1))
+                          + np.einsum("nm,mab->nab", delta, f["Hn"])
+                          + rl * np.einsum("nm,mab->nab", f["dn"], f["Ht"]))
+        return h_t, h_n
+
+
+class Lumen(TendonTerm):
+    """Penalty keeping the tendon's points on the catheter's lumen, Eqs. (24)–(27), (32)–(35)."""
+
+    name = "lumen"
+    equation = "Eqs. (24)–(27), (32)–(35)"
+    dynamic = True
+    parameters = (
+        Parameter("K_L", "float", 1000.0, "N/m", "lumen penalty constant (per tendon point)",
+                  0.0, 1e15, exclusive_minimum=True),
+        Parameter("constrain", "str", "both", "-",
+                  "'both' transverse directions, or 'd_t' only as Eq. (34)",
+                  choices=("both", "d_t")),
+        Parameter("hysteresis", "float", 0.1, "-",
+                  "a point changes parent when another lumen point is closer by this "
+                  "fraction of the catheter's segment length", 0.0, 1.0),
+    )
+
+    def __init__(self, tendon: Tendon, params: dict[str, Any]) -> None:
+        super().__init__(tendon, params)
+        self.conservative = tendon.conserving
+        self._stiffness = params["K_L"]
+        self._both = params["constrain"] == "both"
+        catheter = tendon.catheter
+        self._margin = params["hysteresis"] * catheter.geometry.segment_length
+        self._points = tendon.rod.layout.position_index
+        rest = np.zeros(max(catheter.layout.offset + catheter.layout.size,
+                            tendon.rod.layout.offset + tendon.rod.layout.size))
+        rest[catheter.layout.position_index] = catheter.rest_positions()
+        rest[catheter.layout.quaternion_index] = catheter.rest_quaternions()
+        rest[self._points] = tendon.rod.rest_positions()
+        self.parent = self._nearest(rest)
+        self._set_dofs()
+
+    # --------------------------------------------------------- registration
+    def _distances(self, x: np.ndarray) -> np.ndarray:
+        lumen = self.tendon.lumen_points(x)
+        p = x[self._points]
+        return np.sqrt(np.sum((lumen[None, :, :] - p[:, None, :]) ** 2, axis=2))
+
+    def _nearest(self, x: np.ndarray) -> np.ndarray:
+        return np.argmin(self._distances(x), axis=1)
+
+    def update_registration(self, x: np.ndarray) -> bool:
+        """Re-register every tendon point to its nearest lumen point (with hysteresis).
+
+        Returns True when a parent changed (the element coordinates, and so the Jacobian
+        pattern, changed).
+        """
+        distance = self._distances(x)
+        rows = np.arange(len(self.parent))
+        nearest = np.argmin(distance, axis=1)
+        switch = distance[rows, nearest] < distance[rows, self.parent] - self._margin
+        if not np.any(switch):
+            return False
+        self.parent = np.where(switch, nearest, self.parent)
+        self._set_dofs()
+        return True
+
+    def _set_dofs(self) -> None:
+        layout = self.tendon.catheter.layout
+        r = layout.position_index[self.parent]
+        q = layout.quaternion_index[self.tendon.lumen_segment(self.parent)]
+        self.dofs = np.concatenate([self._points, r, q], axis=1)
+
+    # ----------------------------------------------------------- evaluation
+    def _kinematics(self, x: np.ndarray) -> PointOnLumen:
+        local = x[self.dofs]
+        return PointOnLumen(self.tendon, local[:, 0:3], local[:, 3:6], local[:, 6:10])
+
+    def energy(self, x: np.ndarray) -> float | None:
+        if not self.conservative:
+            return None
+        kin = self._kinematics(x)
+        total = np.sum(kin.c_t**2) + (np.sum(kin.c_n**2) if self._both else 0.0)
+        return float(0.5 * self._stiffness * total)
+
+    def _reaction_share(self) -> np.ndarray:
+        """The paper's averaging: 1 / (number of tendon points sharing each point's parent)."""
+        counts = np.bincount(self.parent, minlength=self.tendon.catheter.nodes)
+        return 1.0 / counts[self.parent]
+
+    def element_forces(self, x: np.ndarray) -> np.ndarray:
+        kin = self._kinematics(x)
+        k = self._stiffness
+        force = -k * kin.c_t[:, None] * kin.grad_t
+        if self._both:
+            force -= k * kin.c_n[:, None] * kin.grad_n
+        if not self.conservative:
+            # Eq. (35) on the tendon point; the averaged reaction on the parent node only.
+            force[:, 3:6] = -self._reaction_share()[:, None] * force[:, 0:3]
+            force[:, 6:] = 0.0
+        return force
+
+    def element_jacobians(self, x: np.ndarray) -> np.ndarray:
+        kin = self._kinematics(x)
+        k = self._stiffness
+        h_t, h_n = kin.hessians()
+        jac = -k * (kin.grad_t[:, :, None] * kin.grad_t[:, None, :]
+                    + kin.c_t[:, None, None] * h_t)
+        if self._both:
+            jac -= k * (kin.grad_n[:, :, None] * kin.grad_n[:, None, :]
+                        + kin.c_n[:, None, None] * h_n)
+        if not self.conservative:
+            jac[:, 3:6, :] = -self._reaction_share()[:, None, None] * jac[:, 0:3, :]
+            jac[:, 6:, :] = 0.0
+        return jac

@@ -1,0 +1,134 @@
+"""Shared fixtures: scene loading with overrides, random non-trivial states, finite differences.
+
+BLAS/OpenMP threads are pinned to one (DESIGN §8): the solvers' callbacks hold the GIL and
+the linear algebra is small, so extra threads only add contention on the test machine.
+"""
+
+from __future__ import annotations
+
+import os
+import sys
+
+os.environ.setdefault("OMP_NUM_THREADS", "1")
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+
+from collections.abc import Callable  # noqa: E402
+
+import numpy as np  # noqa: E402
+import pytest  # noqa: E402
+
+import rodsim  # noqa: E402
+from rodsim.model import Model  # noqa: E402
+from rodsim.scene import Scene  # noqa: E402
+
+#: The shipped Table 1 scenes (N = 40, hanging masses 20, 50 and 100 g).
+TABLE1 = ("table1-20g", "table1-50g", "table1-100g")
+
+
+@pytest.fixture
+def load() -> Callable[..., Scene]:
+    """``load(name_or_path, *overrides)``: a validated scene with ``--set``-style overrides."""
+
+    def _load(scene, *overrides: str) -> Scene:
+        return rodsim.load_scene(scene, list(overrides))
+
+    return _load
+
+
+def _quaternion_product(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Hamilton product in the paper's order (q1, q2, q3 imaginary, q4 real)."""
+    av, aw = a[..., :3], a[..., 3:]
+    bv, bw = b[..., :3], b[..., 3:]
+    vector = aw * bv + bw * av + np.cross(av, bv)
+    scalar = aw * bw - np.sum(av * bv, axis=-1, keepdims=True)
+    return np.concatenate([vector, scalar], axis=-1)
+
+
+def perturbed_state(model: Model, rng: np.random.Generator) -> np.ndarray:
+    """A random, non-trivial state of the free coordinates of ``model``.
+
+    Positions: a smooth random 3-D deflection of 1–5 % of L per mode (so the rod bends and
+    twists out of plane without folding a segment onto itself), plus node noise of 5 % of a
+    segment so every element is strained differently. Quaternions: each rest quaternion is
+    turned by a random rotation of 0.05–0.3 rad about a random axis and its norm changed by
+    up to ±3 %, so the terms that hold |q| = 1 (the centerline penalty) are exercised.
+    """
+    full = model.rest_full.copy()
+    for rod in model.rods.values():
+        s = rod.geometry.node_s / rod.length
+        positions = full[rod.layout.position_index]
+        for mode in (1, 2, 3):
+            amplitude = rng.uniform(0.01, 0.05, 3) * rng.choice([-1.0, 1.0], 3) * rod.length
+            positions += np.sin(0.5 * np.pi * mode * s)[:, None] * amplitude
+        positions += 0.05 * rod.geometry.segment_length * rng.standard_normal(positions.shape)
+        full[rod.layout.position_index] = positions
+
+        quats = full[rod.layout.quaternion_index]
+        axis = rng.standard_normal((len(quats), 3))
+        axis /= np.linalg.norm(axis, axis=1, keepdims=True)
+        angle = rng.uniform(0.05, 0.3, len(quats))
+        turn = np.concatenate([np.sin(angle / 2)[:, None] * axis, np.cos(angle / 2)[:, None]],
+                              axis=1)
+        quats = _quaternion_product(turn, quats)
+        quats *= rng.uniform(0.97, 1.03, len(quats))[:, None]
+        full[rod.layout.quaternion_index] = quats
+    # The clamped coordinates are dropped here; model.full() puts back their fixed values.
+    return full[model.free]
+
+
+@pytest.fixture
+def random_state() -> Callable[[Model, np.random.Generator], np.ndarray]:
+    """``random_state(model, rng)``: see :func:`perturbed_state`."""
+    return perturbed_state
+
+
+def fd_steps(model: Model, relative: float = 1e-6) -> np.ndarray:
+    """Finite-difference step per free coordinate: ``relative`` × (L, or 1 for quaternions)."""
+    return relative * np.where(model.is_quaternion, 1.0, model.length_scale)
+
+
+def central_jacobian(function: Callable[[np.ndarray], np.ndarray], x: np.ndarray,
+                     steps: np.ndarray) -> np.ndarray:
+    """Dense ∂f/∂x by central differences, column by column."""
+    columns = []
+    for i, h in enumerate(steps):
+        plus, minus = x.copy(), x.copy()
+        plus[i] += h
+        minus[i] -= h
+        columns.append((np.asarray(function(plus)) - np.asarray(function(minus))) / (2 * h))
+    return np.array(columns).T
+
+
+def central_gradient(function: Callable[[np.ndarray], float], x: np.ndarray,
+                     steps: np.ndarray) -> np.ndarray:
+    """∂f/∂x of a scalar function by central differences."""
+    return central_jacobian(lambda y: np.array([function(y)]), x, steps)[0]
+
+
+@pytest.fixture
+def cli(monkeypatch) -> Callable[[list[str]], int]:
+    """``cli(argv)``: ``rodsim.cli.main(argv)`` with progress going to the current stderr.
+
+    Works around a rodsim bug (tests/test_cli.py::test_progress_goes_to_the_current_stderr):
+    ``ProgressPrinter(stream=sys.stderr)`` binds the stderr of import time, which pytest's
+    capture has closed by the next test, so a second in-process ``rodsim run`` would crash
+    with "I/O operation on closed file" before doing what the test checks.
+    """
+    from rodsim.cli import main
+    from rodsim.progress import ProgressPrinter
+
+    defaults = ProgressPrinter.__init__.__defaults__ or ()
+
+    def run(argv: list[str]) -> int:
+        if defaults:
+            monkeypatch.setattr(ProgressPrinter.__init__, "__defaults__",
+                                (sys.stderr, *defaults[1:]))
+        return main(argv)
+
+    return run
+
+
+@pytest.fixture
+def fd() -> dict[str, Callable]:
+    """Finite-difference helpers: ``steps(model)``, ``jacobian(f, x, h)``, ``gradient(f, x, h)``."""
+    return {"steps": fd_steps, "jacobian": central_jacobian, "gradient": central_gradient}

@@ -1,0 +1,139 @@
+"""The command line: run, rerun, scenes, --help."""
+
+from __future__ import annotations
+
+import json
+import math
+import re
+import sys
+
+import numpy as np
+import pytest
+
+import rodsim.progress  # imported at collection time, as a user's session imports it early
+from rodsim.analytic import exact_elastica
+from rodsim.archive import read_dataset, write_dataset
+from rodsim.cli import main
+from rodsim.scene import scene_paths
+
+NUMBER = r"[-+]?\d+\.?\d*(?:[eE][-+]?\d+)?"
+
+
+def test_run_default_scene_writes_archive_and_summary(tmp_path, capsys, cli):
+    output = tmp_path / "default.nc"
+    assert cli(["run", "-o", str(output)]) == 0
+    out = capsys.readouterr().out
+    assert output.exists()
+    dataset = read_dataset(output)
+    assert dataset.attrs["integrator"] == "cvode"  # the scene's solver.integrator
+    scene = json.loads(dataset.attrs["scene_json"])
+    assert scene["name"] == "table1-50g"
+
+    # The printed tip is the archived tip.
+    match = re.search(rf"tip of catheter\s+x =\s*({NUMBER}) m\s+y =\s*({NUMBER}) m", out)
+    assert match, out
+    tip = dataset["position"].values[-1]
+    assert float(match[1]) == pytest.approx(tip[0], abs=1e-6)
+    assert float(match[2]) == pytest.approx(tip[1], abs=1e-6)
+
+    # The printed tip error against the exact elastica is right.
+    match = re.search(rf"vs exact elastica: ({NUMBER}) % of L", out)
+    assert match, out
+    rod = scene["rods"]["catheter"]
+    force = rod["tip_load"]["mass"] * rod["tip_load"]["gravity"]
+    ei = rod["youngs_modulus"] * math.pi * rod["radius"] ** 4 / 4
+    exact = exact_elastica(force, ei, rod["length"])
+    error = math.hypot(tip[0] - exact.x[-1], tip[1] - exact.y[-1]) / rod["length"]
+    assert float(match[1]) == pytest.approx(100 * error, abs=1e-4)
+
+    assert "statistics" in out
+    match = re.search(r"jacobian_evals (\d+)", out)
+    assert match and int(match[1]) == dataset.attrs["stats_jacobian_evals"] > 0
+    match = re.search(rf"wall time\s+({NUMBER}) s", out)
+    assert match and float(match[1]) > 0
+    assert str(output) in out
+
+
+def test_run_with_overrides_changes_archive(tmp_path, capsys, cli):
+    output = tmp_path / "small.nc"
+    code = cli(["run", "--integrator", "static", "--set", "nodes=12", "--set", "mass=0.02",
+                 "-o", str(output)])
+    assert code == 0, capsys.readouterr().err
+    dataset = read_dataset(output)
+    assert dataset.sizes["node"] == 12
+    assert dataset.sizes["segment"] == 11
+    assert dataset.attrs["integrator"] == "static"
+    assert dataset.attrs["scene.rods.catheter.nodes"] == 12
+    assert dataset.attrs["scene.rods.catheter.tip_load.mass"] == 0.02
+    scene = json.loads(dataset.attrs["scene_json"])
+    assert scene["rods"]["catheter"]["nodes"] == 12
+    assert scene["rods"]["catheter"]["tip_load"]["mass"] == 0.02
+    # A lighter mass bends the rod less than the default 50 g does.
+    assert -dataset["position"].values[-1, 1] < 0.2 * 0.12
+
+
+def test_rerun_reproduces_and_detects_tampering(tmp_path, capsys, cli):
+    output = tmp_path / "run.nc"
+    assert cli(["run", "--integrator", "static", "--set", "nodes=12", "-o", str(output)]) == 0
+    capsys.readouterr()
+    assert cli(["rerun", str(output)]) == 0
+    out = capsys.readouterr().out
+    match = re.search(rf"largest difference from the stored positions: ({NUMBER}) m", out)
+    assert match and float(match[1]) < 1e-12
+
+    tampered = read_dataset(output)
+    tampered["position"].values[-1, 1] += 1e-6
+    write_dataset(tampered, tmp_path / "tampered.nc")
+    assert cli(["rerun", str(tmp_path / "tampered.nc")]) == 1
+    assert "differs" in capsys.readouterr().err
+
+
+def test_rerun_of_a_missing_archive_exits_2(tmp_path, capsys, cli):
+    assert cli(["rerun", str(tmp_path / "missing.nc")]) == 2
+    err = capsys.readouterr().err
+    assert "missing.nc" in err and "Traceback" not in err
+
+
+def test_run_into_a_missing_folder_exits_2(tmp_path, capsys, cli):
+    code = cli(["run", "--integrator", "static", "--set", "nodes=12", "-o",
+                 str(tmp_path / "nowhere" / "run.nc")])
+    assert code == 2
+    assert "nowhere" in capsys.readouterr().err
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_run_help_shows_units_and_defaults(capsys, cli):
+    with pytest.raises(SystemExit) as exit_info:
+        cli(["run", "--help"])
+    assert exit_info.value.code == 0
+    out = capsys.readouterr().out
+    for unit in ("[m]", "[Pa]", "[N]", "[kg]", "[s]"):
+        assert unit in out, unit
+    assert re.search(r"length = required \[m\]", out)
+    assert re.search(r"youngs_modulus = required \[Pa\]", out)
+    assert re.search(r"K_P = 10000(\.0)? \[N\]", out)
+    assert re.search(r"tolerance = 1e-09", out)
+    assert re.search(r"h = 0\.3 \[s\]", out)
+    assert "--integrator" in out and "--set" in out
+
+
+def test_scenes_lists_the_shipped_scenes(capsys, cli):
+    assert cli(["scenes"]) == 0
+    out = capsys.readouterr().out
+    names = [line.split()[0] for line in out.splitlines() if line.strip()]
+    assert "table1-50g" in names
+    assert sorted(names) == sorted(scene_paths())
+    assert np.all([len(line.split(maxsplit=1)) == 2 for line in out.splitlines()])
+
+
+def test_progress_goes_to_the_current_stderr(tmp_path, capsys):
+    """rodsim bug: ``ProgressPrinter.__init__(self, stream=sys.stderr, ...)`` binds the
+    stderr of import time. Once that stream is replaced and closed (pytest's capture,
+    ``contextlib.redirect_stderr``, a notebook), every in-process ``rodsim run`` crashes in
+    ``ProgressPrinter.__init__`` (``stream.isatty()``) with "ValueError: I/O operation on
+    closed file" and a traceback, before solving anything."""
+    printer = rodsim.progress.ProgressPrinter()
+    assert printer.stream is sys.stderr, (
+        "ProgressPrinter() writes to the stderr of import time, not the current sys.stderr")
+    assert main(["run", "--integrator", "static", "--set", "nodes=12", "-o",
+                 str(tmp_path / "run.nc")]) == 0

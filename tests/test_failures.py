@@ -1,0 +1,126 @@
+"""A NaN or a solver failure never hangs and never reports success, for every integrator."""
+
+from __future__ import annotations
+
+import re
+import threading
+import time
+
+import numpy as np
+import pytest
+
+import rodsim
+
+GUARD = 30.0  # s: a run that takes longer than this is taken to hang
+SCENE = "table1-50g"
+BASE = ("nodes=10", "max_wall_time=20")
+
+INTEGRATORS = {
+    "static": ("static", ["solver.static.first_load_step=0.25"]),
+    "paper": ("paper", []),
+    "cvode-inertial": ("cvode", ["solver.cvode.formulation='inertial'"]),
+    "cvode-overdamped": ("cvode", ["solver.cvode.formulation='overdamped'"]),
+    "ida-inertial": ("ida", ["solver.ida.formulation='inertial'"]),
+    "ida-overdamped": ("ida", ["solver.ida.formulation='overdamped'"]),
+}
+
+#: Where a failure happened, as each integrator reports it.
+WHERE = re.compile(r"failed at (step \d+|load fraction [0-9.]+|t = [0-9.e+-]+ s)")
+
+
+def guarded(function):
+    """Run ``function`` in a thread; fail the test if it is not done within GUARD seconds."""
+    box: dict = {}
+
+    def target():
+        try:
+            box["value"] = function()
+        except BaseException as exc:  # reported in the test thread
+            box["error"] = exc
+
+    thread = threading.Thread(target=target, daemon=True)
+    start = time.perf_counter()
+    thread.start()
+    thread.join(GUARD)
+    assert not thread.is_alive(), f"run still going after {GUARD} s: it hangs"
+    if "error" in box:
+        raise box["error"]
+    return box["value"], time.perf_counter() - start
+
+
+def nan_after(model, calls: int, counter: list[int]) -> None:
+    """Make ``model.force`` return NaN from call ``calls + 1`` on (count in ``counter``)."""
+    original = model.force
+
+    def force(x, load=1.0):
+        counter[0] += 1
+        value = original(x, load)
+        return np.full_like(value, np.nan) if counter[0] > calls else value
+
+    model.force = force
+
+
+@pytest.mark.parametrize("fraction", [0.3, 0.6])
+@pytest.mark.parametrize("run", list(INTEGRATORS))
+def test_nan_force_mid_run_is_a_located_failure(run, fraction, load):
+    integrator, overrides = INTEGRATORS[run]
+    scene = load(SCENE, *BASE, *overrides)
+
+    clean_model = rodsim.build_model(scene)
+    clean_calls = [0]
+    nan_after(clean_model, 10**9, clean_calls)  # counts only
+    clean, _ = guarded(lambda: rodsim.solve(scene, integrator, model=clean_model))
+    assert clean.success, clean.message
+
+    calls = max(1, int(fraction * clean_calls[0]))
+    model = rodsim.build_model(scene)
+    counter = [0]
+    nan_after(model, calls, counter)
+    result, wall = guarded(lambda: rodsim.solve(scene, integrator, model=model))
+    assert counter[0] > calls, "the NaN was never produced"
+    assert wall < GUARD
+    assert result.success is False
+    message = result.message
+    assert message.startswith(f"{integrator} integrator failed at "), message
+    assert "nan" in message.lower() or "non-finite" in message, message
+    # The NaN appears after `calls` good evaluations, part-way through the run, so the
+    # message must say where the run was (step, load fraction or pseudo-time), not "start".
+    # Fails for static, and for cvode/ida when the NaN first reaches the residual check
+    # (rodsim bug, see the test report): Integrator.solve (integrators/base.py) turns any
+    # SolverFailure escaping advance() into "failed at start" and returns the rest state.
+    assert WHERE.search(message), f"message does not say where the run failed: {message}"
+    assert np.all(np.isfinite(result.positions()))
+
+
+BUDGETS = {
+    "paper-max-steps": ("paper", ["solver.paper.max_steps=2"], "max_steps"),
+    "cvode-max-steps": ("cvode", ["solver.cvode.max_steps=5"], "max_steps"),
+    "ida-max-steps": ("ida", ["solver.ida.max_steps=5"], "max_steps"),
+    "static-newton": ("static", ["solver.static.max_newton=1", "solver.static.min_load_step=0.5"],
+                      "min_load_step"),
+}
+
+
+@pytest.mark.parametrize("case", list(BUDGETS))
+def test_impossible_budget_fails_with_advice(case, load):
+    integrator, overrides, knob = BUDGETS[case]
+    scene = load(SCENE, *BASE, *overrides)
+    result, wall = guarded(lambda: rodsim.solve(scene, integrator))
+    assert result.success is False
+    assert wall < GUARD
+    message = result.message
+    assert message.startswith(f"{integrator} integrator failed at "), message
+    assert knob in message, message
+    assert "try" in message, message
+    assert result.residual > result.stats["effective_tolerance"]
+
+
+def test_cli_exits_1_on_solver_failure_and_writes_nothing(tmp_path, capsys, cli):
+    output = tmp_path / "run.nc"
+    code = cli(["run", "table1-20g", "--integrator", "paper", "--set",
+                 "solver.paper.max_steps=2", "-o", str(output)])
+    captured = capsys.readouterr()
+    assert code == 1
+    assert "solver failure" in captured.err and "max_steps" in captured.err
+    assert "Traceback" not in captured.err
+    assert list(tmp_path.iterdir()) == []

@@ -1,0 +1,94 @@
+"""Every integrator reaches the exact discrete equilibrium of the shipped Table 1 scenes.
+
+The reference is the direct Newton solve (``static``) with a tight tolerance. The other
+integrators follow pseudo-dynamics and stop when the scaled force residual
+max_i |F_i| / F_ref is below ``solver.tolerance`` (1e-9, or the model's round-off floor if
+higher). The distance left to the equilibrium is δx ≈ K⁻¹ δF, the compliance times the
+residual force; the softest direction is the cantilever's tip bending, compliance
+L³/(3EI), so |δx| ≲ L³/(3EI) · F_ref · tol = (2α/3) · L · tol with α = F L²/(2EI) of order 1
+(0.24, 0.59 and 1.18 for 20, 50 and 100 g). That is ~1e-9 L; the bound used below,
+1e-6 L, leaves three orders of magnitude for the other components and for IDA's exactly
+unit quaternions versus the penalty's (a ~1e-12 L difference, rodsim/integrators/ida.py).
+"""
+
+from __future__ import annotations
+
+import functools
+
+import numpy as np
+import pytest
+
+import rodsim
+from rodsim.scene import Scene
+
+TABLE1 = ("table1-20g", "table1-50g", "table1-100g")
+
+RUNS = {
+    "paper": ("paper", []),
+    "paper-finite-difference": ("paper", ["solver.paper.jacobian='finite_difference'"]),
+    "cvode-inertial": ("cvode", ["solver.cvode.formulation='inertial'"]),
+    "cvode-overdamped": ("cvode", ["solver.cvode.formulation='overdamped'"]),
+    "ida-overdamped": ("ida", ["solver.ida.formulation='overdamped'"]),
+    "ida-inertial": ("ida", ["solver.ida.formulation='inertial'"]),
+}
+
+
+@functools.cache
+def reference(scene_name: str) -> rodsim.result.Result:
+    result = rodsim.solve(scene_name, "static", overrides=["tolerance=1e-12"])
+    assert result.success, result.message
+    return result
+
+
+def rod_length(scene: Scene) -> float:
+    return float(next(iter(scene.data["rods"].values()))["length"])
+
+
+def node_distance(a, b) -> float:
+    return float(np.max(np.linalg.norm(a.positions() - b.positions(), axis=1)))
+
+
+@pytest.mark.parametrize("run", list(RUNS))
+@pytest.mark.parametrize("scene_name", TABLE1)
+def test_integrator_reaches_the_static_equilibrium(scene_name, run):
+    integrator, overrides = RUNS[run]
+    result = rodsim.solve(scene_name, integrator, overrides=overrides)
+    # Fails for paper-finite-difference on table1-100g (rodsim bug, see the test report):
+    # paper_euler.py asks each step's Newton solve for 0.1 × tolerance = 1e-10, below the
+    # model's round-off floor (Model.residual_floor = 7.1e-10 there); with the finite-
+    # difference Jacobian the residual wanders at 1.4–2.2e-10 for 50 iterations.
+    assert result.success, f"{run} on {scene_name}: {result.message}"
+    assert result.integrator == integrator
+    assert result.residual < result.stats["effective_tolerance"]
+    ref = reference(scene_name)
+    length = rod_length(ref.scene)
+    # The load really bent the rod (the comparison is not between two straight rods).
+    assert -ref.tip()[1] > 0.1 * length
+    distance = node_distance(result, ref)
+    assert distance < 1e-6 * length, (
+        f"{run} on {scene_name}: max node distance to static {distance / length:.3g} L")
+    if run == "paper-finite-difference":
+        # The finite-difference mode really does without the analytic Jacobian.
+        assert result.stats["jacobian_evals"] == 0
+        assert result.stats["force_evals"] > result.stats["newton_iters"]
+
+
+@pytest.mark.parametrize("scene_name", TABLE1)
+def test_paper_integrator_keeps_quaternions_unit_by_the_penalty_alone(scene_name):
+    result = rodsim.solve(scene_name, "paper")
+    assert result.success, result.message
+    norms = np.linalg.norm(result.rods["catheter"].quaternions, axis=1)
+    assert np.max(np.abs(norms - 1.0)) < 1e-6
+    # Not trivially unit: the quaternions did rotate with the bending rod.
+    rest = np.full(4, 0.5)
+    assert np.max(np.abs(result.rods["catheter"].quaternions - rest)) > 0.01
+
+
+def test_ida_holds_the_norm_exactly():
+    """IDA carries |q| = 1 as algebraic equations: met to the solver's tolerance, far below
+    the penalty's defect."""
+    result = rodsim.solve("table1-100g", "ida")
+    assert result.success, result.message
+    assert result.quaternion_norm_error < 1e-9
+    penalty = rodsim.solve("table1-100g", "paper")
+    assert penalty.quaternion_norm_error > result.quaternion_norm_error

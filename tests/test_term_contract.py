@@ -1,0 +1,266 @@
+"""The Term contract (rodsim/terms/base.py), checked generically for every registered term.
+
+There is no per-term code here: every term the registry knows is looked up in the *contract
+scenes* — the shipped scenes in data/, SMALL_SCENE (every rod term, both clamp kinds) and
+SMALL_TENDON_SCENE (the momentum-conserving tendon coupling, which the shipped scenes do not
+use) — and checked by central finite differences at random non-trivial states:
+
+(a) element forces scattered to the free coordinates equal −∂E/∂x (conservative terms);
+(b) element Jacobians scattered to the free coordinates equal ∂F/∂x;
+(c) every entry of ∂F/∂x that finite differences find non-zero lies in ``model.pattern``;
+(d) the Jacobian is symmetric when the term is conservative.
+
+A term with ``has_jacobian = False`` must have a state-independent force and contribute no
+pattern entries. A new term file is covered as soon as a contract scene lists it; a term
+that no contract scene lists makes the test fail with instructions.
+"""
+
+from __future__ import annotations
+
+import copy
+import functools
+
+import numpy as np
+import pytest
+
+import rodsim
+from rodsim.model import Model
+from rodsim.scene import Scene, scene_paths
+from rodsim.terms import registered_terms
+from rodsim.terms.base import Term
+
+#: Two small rods listing every rod term, one per clamp kind, loaded out of plane.
+SMALL_SCENE = {
+    "name": "contract-every-rod-term",
+    "rods": {
+        "framed": {
+            "length": 0.1, "radius": 0.004, "youngs_modulus": 2e6, "stretch_modulus": 5e6,
+            "poisson_ratio": 0.3, "density": 1200.0, "nodes": 7, "clamp": "frame",
+            "terms": ["stretch", "bend_twist", "centerline", "tip_load", "gravity"],
+            "centerline": {"K_P": 3e3},
+            "tip_load": {"mass": 0.01, "force": [0.05, 0.0, -0.02]},
+        },
+        "first_segment": {
+            "length": 0.08, "radius": 0.003, "youngs_modulus": 4e6, "stretch_modulus": 3e6,
+            "density": 900.0, "nodes": 6, "clamp": "first_segment", "origin": [0.0, 0.05, 0.02],
+            "terms": ["stretch", "bend_twist", "centerline", "tip_load", "gravity"],
+            "bend_twist": {"stiffness": "corde"},
+            "centerline": {"K_P": 5e2},
+            "tip_load": {"mass": 0.02},
+            "gravity": {"gravity": 3.7},
+        },
+    },
+}
+
+#: The shipped scenes use the paper's (non-conservative) tendon coupling; this one has the
+#: momentum-conserving coupling, whose coupling terms must be gradients of an energy, the
+#: proximal actuation (a dead load) and a tendon base held by the 'orientation' clamp.
+SMALL_TENDON_SCENE = {
+    "name": "contract-conserving-tendon",
+    "rods": {
+        "catheter": {
+            "length": 0.1, "radius": 0.005, "youngs_modulus": 3e6, "stretch_modulus": 3e6,
+            "density": 1100.0, "nodes": 8, "clamp": "frame",
+            "terms": ["stretch", "bend_twist", "centerline"],
+        },
+        "tendon": {
+            "length": 0.1, "radius": 0.0005, "youngs_modulus": 1e8, "stretch_modulus": 1e8,
+            "density": 5000.0, "nodes": 6, "clamp": "orientation",
+            "terms": ["stretch", "bend_twist", "centerline"],
+        },
+    },
+    "tendons": {
+        "tendon": {
+            "catheter": "catheter", "offset": 0.002, "direction": [0.6, 0.8],
+            "coupling": "conserving",
+            "terms": ["lumen", "endpoint_compliance", "endpoint_coupling", "tendon_actuation"],
+            "lumen": {"K_L": 500.0},
+            "endpoint_compliance": {"K_E": 800.0},
+            "endpoint_coupling": {"K_C": 1e4},
+            "tendon_actuation": {"force": 1.5, "point": "proximal"},
+        },
+    },
+}
+
+#: Random states per (scene, term).
+STATES = 2
+FD_RELATIVE_STEP = 1e-6
+TOLERANCE = 1e-6
+
+
+SMALL_SCENES = {scene["name"]: scene for scene in (SMALL_SCENE, SMALL_TENDON_SCENE)}
+#: Every contract scene by name: the shipped scenes, then the small ones above.
+CONTRACT_SCENES = [*scene_paths(), *SMALL_SCENES]
+
+
+@functools.cache
+def contract_model(name: str) -> Model:
+    """One contract scene, assembled once."""
+    if name in SMALL_SCENES:
+        return rodsim.build_model(copy.deepcopy(SMALL_SCENES[name]))
+    return Model(Scene.load(scene_paths()[name]))
+
+
+def contract_models() -> dict[str, Model]:
+    return {name: contract_model(name) for name in CONTRACT_SCENES}
+
+
+def free_index(model: Model) -> np.ndarray:
+    """Free-coordinate index of every full-state coordinate (−1 where clamped)."""
+    index = np.full(model.full_size, -1)
+    index[model.free] = np.arange(model.n)
+    return index
+
+
+def term_force(model: Model, term: Term, x: np.ndarray) -> np.ndarray:
+    """One term's element forces scattered (with accumulation) onto the free coordinates."""
+    target = free_index(model)[term.dofs]
+    values = np.asarray(term.element_forces(model.full(x)), dtype=float)
+    assert values.shape == term.dofs.shape, f"{term.name}: element_forces shape"
+    keep = target >= 0
+    return np.bincount(target[keep], weights=values[keep], minlength=model.n)
+
+
+def term_jacobian(model: Model, term: Term, x: np.ndarray) -> np.ndarray:
+    """One term's element Jacobians scattered (with accumulation) into a dense n × n array."""
+    out = np.zeros((model.n, model.n))
+    if not term.has_jacobian:
+        return out
+    target = free_index(model)[term.dofs]
+    values = np.asarray(term.element_jacobians(model.full(x)), dtype=float)
+    k = term.dofs.shape[1]
+    assert values.shape == (len(term.dofs), k, k), f"{term.name}: element_jacobians shape"
+    rows = np.broadcast_to(target[:, :, None], values.shape)
+    cols = np.broadcast_to(target[:, None, :], values.shape)
+    keep = (rows >= 0) & (cols >= 0)
+    np.add.at(out, (rows[keep], cols[keep]), values[keep])
+    return out
+
+
+def term_energy(model: Model, term: Term, x: np.ndarray) -> float:
+    return float(term.energy(model.full(x)))
+
+
+def pattern_set(model: Model) -> set[tuple[int, int]]:
+    coo = model.pattern.tocoo()
+    return set(zip(coo.row.tolist(), coo.col.tolist(), strict=True))
+
+
+def registered_pattern(model: Model, x: np.ndarray) -> set[tuple[int, int]]:
+    """The model's pattern at state ``x``: dynamic terms (a tendon point's parent catheter
+    node) first update their registration from ``x``; it then stays frozen while finite
+    differences perturb the state, as it does inside every solver evaluation."""
+    model.update_registration(x)
+    return pattern_set(model)
+
+
+def cases_for(term_name: str) -> list[tuple[str, Model, Term]]:
+    return [(scene, model, term) for scene, model in contract_models().items()
+            for term in model.terms if term.name == term_name]
+
+
+@pytest.mark.parametrize("term_name", sorted(registered_terms()))
+def test_term_contract(term_name, random_state, fd):
+    cases = cases_for(term_name)
+    if not cases:
+        pytest.fail(f"registered term {term_name!r} appears in no contract scene: add it to a "
+                    "shipped scene in data/ or to SMALL_SCENE / SMALL_TENDON_SCENE in "
+                    "tests/test_term_contract.py (no new test code is needed)")
+    for scene, model, term in cases:
+        label = f"term {term_name!r} in scene {scene!r}"
+        steps = fd["steps"](model, FD_RELATIVE_STEP)
+        rng = np.random.default_rng(list(map(ord, scene + term_name)))
+        for _ in range(STATES):
+            x = random_state(model, rng)
+            pattern = registered_pattern(model, x)
+            force = term_force(model, term, x)
+            force_scale = np.max(np.abs(force))
+            assert force_scale > 0.0, (f"{label}: zero force at a random state; give the term "
+                                       "non-trivial parameters in its contract scene")
+
+            if not term.has_jacobian:
+                other = random_state(model, rng)
+                assert np.array_equal(force, term_force(model, term, other)), (
+                    f"{label}: has_jacobian = False but the force depends on the state")
+
+            if term.conservative:
+                assert term.energy(model.full(x)) is not None, (
+                    f"{label}: conservative but energy() returns None")
+                grad = fd["gradient"](lambda y, t=term, m=model: term_energy(m, t, y), x, steps)
+                error = np.max(np.abs(force + grad))
+                assert error < TOLERANCE * force_scale, (
+                    f"{label}: force != -dE/dx, max error {error:.3g} "
+                    f"(force scale {force_scale:.3g})")
+
+            jac = term_jacobian(model, term, x)
+            jac_fd = fd["jacobian"](lambda y, t=term, m=model: term_force(m, t, y), x, steps)
+            jac_scale = max(np.max(np.abs(jac)), np.max(np.abs(jac_fd)))
+            error = np.max(np.abs(jac - jac_fd))
+            assert error <= TOLERANCE * jac_scale, (
+                f"{label}: Jacobian != dF/dx, max error {error:.3g} (scale {jac_scale:.3g})")
+
+            if jac_scale > 0.0:
+                rows, cols = np.nonzero(np.abs(jac_fd) > 1e-9 * jac_scale)
+                outside = [(r, c) for r, c in zip(rows.tolist(), cols.tolist(), strict=True)
+                           if (r, c) not in pattern]
+                assert not outside, (
+                    f"{label}: {len(outside)} non-zero dF/dx entries outside model.pattern, "
+                    f"e.g. {outside[:5]}")
+                rows, cols = np.nonzero(jac)
+                outside = [(r, c) for r, c in zip(rows.tolist(), cols.tolist(), strict=True)
+                           if (r, c) not in pattern]
+                assert not outside, f"{label}: analytic entries outside model.pattern"
+
+            if term.conservative:
+                asymmetry = np.max(np.abs(jac - jac.T))
+                assert asymmetry <= 1e-10 * max(jac_scale, 1e-300), (
+                    f"{label}: conservative but the Jacobian is not symmetric "
+                    f"(max |J - J^T| = {asymmetry:.3g})")
+
+
+@pytest.mark.parametrize("scene", CONTRACT_SCENES)
+def test_pattern_is_exactly_the_union_of_jacobian_blocks(scene):
+    """model.pattern = diagonal ∪ element blocks of the terms with a Jacobian; terms without
+    one (dead loads) add nothing."""
+    model = contract_model(scene)
+    index = free_index(model)
+    expected = {(i, i) for i in range(model.n)}
+    for term in model.terms:
+        if term.has_jacobian:
+            for element in index[term.dofs]:
+                free = element[element >= 0].tolist()
+                expected.update((r, c) for r in free for c in free)
+    assert pattern_set(model) == expected
+    assert model.nnz == len(expected)
+
+
+@pytest.mark.parametrize("scene", CONTRACT_SCENES)
+def test_assembled_model_matches_finite_differences(scene, random_state, fd):
+    model = contract_model(scene)
+    steps = fd["steps"](model, FD_RELATIVE_STEP)
+    rng = np.random.default_rng(7)
+    x = random_state(model, rng)
+    registered_pattern(model, x)
+    conservative = all(term.conservative for term in model.terms)
+    force = model.force(x)
+    force_scale = np.max(np.abs(force))
+    if conservative:
+        force_fd = -fd["gradient"](model.energy, x, steps)
+        assert np.max(np.abs(force - force_fd)) < TOLERANCE * force_scale
+
+    jac = model.jacobian(x).toarray()
+    jac_fd = fd["jacobian"](model.force, x, steps)
+    jac_scale = np.max(np.abs(jac_fd))
+    assert np.max(np.abs(jac - jac_fd)) < TOLERANCE * jac_scale
+    if conservative:
+        assert np.max(np.abs(jac - jac.T)) <= 1e-10 * jac_scale
+    # Nothing the finite differences see is missing from the declared pattern.
+    pattern = model.pattern.toarray() != 0
+    assert not np.any((np.abs(jac_fd) > 1e-9 * jac_scale) & ~pattern)
+    # jacobian_data is in the pattern's CSC order.
+    np.testing.assert_array_equal(model.pattern_matrix(model.jacobian_data(x)).toarray(), jac)
+    # Loads are scaled by the load factor, internal forces are not.
+    loads = sum((term_force(model, t, x) for t in model.terms if t.is_load),
+                np.zeros(model.n))
+    np.testing.assert_allclose(model.force(x, 0.25), force - 0.75 * loads,
+                               rtol=0, atol=1e-12 * force_scale)
