@@ -78,6 +78,18 @@ def check_tendon(name: str, table: dict[str, Any], rods: dict[str, Any], prefix:
     if math.hypot(*table["direction"]) < 1e-12:
         raise SceneError(f"{prefix}.direction = {table['direction']!r}: d_t has zero length; "
                          "allowed: any non-zero (α, β)")
+    actuation = table.get("tendon_actuation") if "tendon_actuation" in table["terms"] else None
+    proximal = actuation is not None and actuation["point"] == "proximal"
+    if proximal and tendon["clamp"] != "orientation":
+        raise SceneError(f"rods.{name}.clamp = {tendon['clamp']!r}: a tendon pulled at its "
+                         "proximal end needs its base free to slide; allowed: 'orientation'")
+    if tendon["clamp"] == "orientation" and not proximal:
+        raise SceneError(f"rods.{name}.clamp = 'orientation': nothing holds the tendon's base "
+                         f"unless it is pulled there; allowed: 'frame', or "
+                         f"{prefix}.tendon_actuation.point = 'proximal'")
+    if tendon["clamp"] == "first_segment":
+        raise SceneError(f"rods.{name}.clamp = 'first_segment': a tendon's base is held by "
+                         "'frame' (distal actuation) or 'orientation' (proximal actuation)")
     if tendon["origin"] != [0.0, 0.0, 0.0]:
         raise SceneError(f"rods.{name}.origin = {tendon['origin']!r}: a tendon is placed in its "
                          "lumen automatically; allowed: leave origin unset")

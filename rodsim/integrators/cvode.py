@@ -35,7 +35,8 @@ class Cvode(SundialsIntegrator):
 
     def build_system(self) -> None:
         self.rate = damping_rate(self.model, self.options["damping_ratio"])
-        self.system = FirstOrderSystem(self.model, self.options["formulation"], self.rate)
+        self.system = FirstOrderSystem(self.model, self.options["formulation"], self.rate,
+                                       self.masses)
 
     def initial_state(self) -> np.ndarray:
         return self.system.initial_state()

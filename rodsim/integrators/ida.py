@@ -33,11 +33,12 @@ from rodsim.model import Model
 class ConstrainedSystem:
     """Index maps, residual and analytic Jacobian of IDA's constrained residual form."""
 
-    def __init__(self, model: Model, formulation: str, damping: float, baumgarte: float):
+    def __init__(self, model: Model, formulation: str, damping: float, baumgarte: float,
+                 masses: np.ndarray) -> None:
         self.model = model
         self.inertial = formulation == "inertial"
         self.c, self.beta = damping, baumgarte
-        self.mass = model.masses()
+        self.mass = masses
         n = model.n
         free_of = np.full(model.full_size, -1)
         free_of[model.free] = np.arange(n)
@@ -170,7 +171,7 @@ class Ida(SundialsIntegrator):
     def build_system(self) -> None:
         self.rate = damping_rate(self.model, self.options["damping_ratio"])
         self.system = ConstrainedSystem(self.model, self.options["formulation"], self.rate,
-                                        2.0 * self.omega)
+                                        2.0 * self.omega, self.masses)
         self._last_y: np.ndarray | None = None
 
     def initial_state(self) -> np.ndarray:

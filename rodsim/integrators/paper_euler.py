@@ -66,6 +66,9 @@ class PaperEuler(Integrator):
         Parameter("max_steps", "int", 100_000, "-", "give up after this many steps", 1,
                   100_000_000),
         Parameter("max_newton", "int", 50, "-", "Newton iterations per step", 1, 10_000),
+        Parameter("ramp_steps", "int", 0, "-",
+                  "apply the loads in equal increments over this many steps (0: all at once, "
+                  "as the paper)", 0, 1_000_000),
     )
 
     def __init__(self, model: Model, *args, **kwargs) -> None:
@@ -90,10 +93,10 @@ class PaperEuler(Integrator):
         return ("try a smaller step (--set solver.paper.h=...), more damping (smaller "
                 "solver.paper.xi), or --integrator cvode")
 
-    def _stiffness(self, y: np.ndarray, force: np.ndarray) -> np.ndarray:
+    def _stiffness(self, y: np.ndarray, force: np.ndarray, load: float) -> np.ndarray:
         """∂F/∂x at y in pattern order: analytic, or grouped forward differences."""
         if self.options["jacobian"] == "analytic":
-            return self.jacobian_data(y)
+            return self.jacobian_data(y, load)
         model = self.model
         while True:  # a shifted state may re-centre the pattern: redo the columns if so
             self._refresh_pattern()
@@ -104,7 +107,7 @@ class PaperEuler(Integrator):
                 delta = np.sqrt(np.finfo(float).eps) * np.maximum(np.abs(y[group]), 1e-3)
                 shifted = y.copy()
                 shifted[group] += delta
-                diff = self.force(shifted) - force
+                diff = self.force(shifted, load) - force
                 step = np.zeros(model.n)
                 step[group] = delta
                 in_group = step[cols] != 0.0
@@ -113,18 +116,18 @@ class PaperEuler(Integrator):
                 break
         return data
 
-    def _step_problem(self, predictor: np.ndarray, h: float) -> NewtonProblem:
+    def _step_problem(self, predictor: np.ndarray, h: float, load: float) -> NewtonProblem:
         """Eq. (19) times M: g(y) = M(p − y) + h² F(y) = −∇Φ(y), p = x^t + ξ h ẋ^t."""
         model, mass = self.model, self._mass
         cache: dict[str, np.ndarray] = {}
 
         def force(y: np.ndarray) -> np.ndarray:
-            cache["y"], cache["F"] = y, self.force(y)
+            cache["y"], cache["F"] = y, self.force(y, load)
             return mass * (predictor - y) + h * h * cache["F"]
 
         def jacobian(y: np.ndarray) -> sp.csc_matrix:
-            f = cache["F"] if cache.get("y") is y else self.force(y)
-            stiffness = self._stiffness(y, f)
+            f = cache["F"] if cache.get("y") is y else self.force(y, load)
+            stiffness = self._stiffness(y, f, load)
             self._refresh_pattern()  # the evaluation may have re-centred the pattern
             data = h * h * stiffness
             data[self._diag] -= mass
@@ -133,7 +136,7 @@ class PaperEuler(Integrator):
 
         def potential(y: np.ndarray) -> float:
             d = y - predictor
-            return 0.5 * float(d @ (mass * d)) + h * h * model.energy(y)
+            return 0.5 * float(d @ (mass * d)) + h * h * model.energy(y, load)
 
         return NewtonProblem(force, jacobian, lambda g: model.residual(g / (h * h)),
                              model.residual_weight / (h * h),
@@ -150,7 +153,9 @@ class PaperEuler(Integrator):
             where = f"step {step} (t = {step * h:.4g} s)"
             self.check_budget(where)
             predictor = x + xi * h * v
-            solved = newton(self._step_problem(predictor, h), predictor, inner,
+            ramp = self.options["ramp_steps"]
+            load = min(1.0, step / ramp) if ramp else 1.0
+            solved = newton(self._step_problem(predictor, h, load), predictor, inner,
                             self.options["max_newton"], polish=False)
             counts["newton_iters"] += solved.iterations
             counts["steps"] = step
@@ -162,9 +167,9 @@ class PaperEuler(Integrator):
             self.checkpoint(x, where)
             # Tendon registration is recomputed after every step (§4.1).
             moved = model.update_registration(x)
-            residual = self.residual(x)
+            residual = self.model.residual(self.model.force(x, load))
             self.history.record(step * h, x, residual)
             self.report(None, f"paper: {where}, residual {residual:.2e}")
-            if not moved and self.at_equilibrium(residual):
+            if not moved and load == 1.0 and self.at_equilibrium(residual):
                 return Outcome(x, True, "at rest")
         return Outcome(x, False, f"not at rest after max_steps = {self.options['max_steps']}")

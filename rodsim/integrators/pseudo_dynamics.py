@@ -26,8 +26,8 @@ import scipy.sparse as sp
 
 from rodsim.model import Model
 
-__all__ = ["FORMULATIONS", "first_mode_frequency", "damping_rate", "LoadRamp",
-           "FirstOrderSystem"]
+__all__ = ["FORMULATIONS", "first_mode_frequency", "damping_rate", "pseudo_masses",
+           "LoadRamp", "FirstOrderSystem"]
 
 FORMULATIONS = ("inertial", "overdamped")
 
@@ -42,6 +42,22 @@ def first_mode_frequency(model: Model) -> float:
 def damping_rate(model: Model, ratio: float) -> float:
     """c = 2 ζ ω₁ [1/s] (see the module docstring)."""
     return 2.0 * ratio * first_mode_frequency(model)
+
+
+def pseudo_masses(model: Model, cap: float) -> np.ndarray:
+    """Masses of the pseudo-dynamics: the physical ones, raised where needed so that no
+    coordinate's own frequency √(K_ii / m_i) exceeds ``cap`` × ω₁ (mass scaling).
+
+    Only the equilibrium matters, so the masses are free to choose. A tendon's points weigh
+    ~1e-3 of the catheter's yet hang on the stiffest springs (K_C, K_L): with physical masses
+    the coupled system spans 12 decades of frequency and BDF's Newton matrices lose every
+    digit (docs/tendon.md). ``cap = 0`` keeps the physical masses.
+    """
+    masses = model.masses()
+    if cap <= 0.0:
+        return masses
+    stiffness = np.abs(model.jacobian(model.x0).diagonal())
+    return np.maximum(masses, stiffness / (cap * first_mode_frequency(model)) ** 2)
 
 
 class LoadRamp:
@@ -70,13 +86,14 @@ class FirstOrderSystem:
         (lower, upper) bandwidth of ``pattern``.
     """
 
-    def __init__(self, model: Model, formulation: str, damping: float) -> None:
+    def __init__(self, model: Model, formulation: str, damping: float,
+                 masses: np.ndarray) -> None:
         if formulation not in FORMULATIONS:
             raise ValueError(f"unknown formulation {formulation!r}")
         self.model = model
         self.formulation = formulation
         self.damping = damping
-        self.inverse_mass = 1.0 / model.masses()
+        self.inverse_mass = 1.0 / masses
         n = model.n
         rows, cols = model.pattern_rows, model.pattern_cols
         if formulation == "overdamped":

@@ -18,7 +18,12 @@ from typing import Any
 import numpy as np
 
 from rodsim.integrators.base import Integrator, Outcome
-from rodsim.integrators.pseudo_dynamics import FORMULATIONS, LoadRamp, first_mode_frequency
+from rodsim.integrators.pseudo_dynamics import (
+    FORMULATIONS,
+    LoadRamp,
+    first_mode_frequency,
+    pseudo_masses,
+)
 from rodsim.model import Model
 from rodsim.schema import Parameter
 
@@ -29,12 +34,15 @@ BAND_LIMIT = 4000
 
 #: Options CVODE and IDA share (pseudo-dynamics and tolerances).
 PSEUDO_DYNAMICS_PARAMETERS = (
-    Parameter("formulation", "str", "inertial", "-",
+    Parameter("formulation", "str", "overdamped", "-",
               "'inertial' (damped second order, Eqs. 10–11) or 'overdamped' (gradient flow)",
               choices=FORMULATIONS),
     Parameter("damping_ratio", "float", 1.0, "-",
               "ζ: damping rate c = 2 ζ ω₁ of the first bending mode", 0.0, 1e6,
               exclusive_minimum=True),
+    Parameter("mass_scaling", "float", 1e3, "-",
+              "raise masses so no coordinate's own frequency exceeds this × ω₁ (0: physical "
+              "masses)", 0.0, 1e12),
     Parameter("load_ramp", "float", 1.0, "-",
               "ramp the loads in over this many first-mode periods 2π/ω₁ (0: step load)",
               0.0, 1e6),
@@ -65,6 +73,7 @@ class SundialsIntegrator(Integrator):
         #: Pseudo-time at which the run gives up (10⁹ first-mode periods).
         self.horizon = 1e9 * 2.0 * math.pi / omega
         self.counts["reinits"] = 0
+        self.masses = pseudo_masses(model, self.options["mass_scaling"])
         self.build_system()
 
     def linear_solver(self, size: int) -> str:

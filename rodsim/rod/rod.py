@@ -29,7 +29,7 @@ ROD_PARAMETERS: tuple[Parameter, ...] = (
     Parameter("poisson_ratio", "float", 0.5, "-",
               "Poisson ratio ν; shear modulus G = E_b / (2(1 + ν)) sets the twist stiffness",
               -0.99, 0.5),
-    Parameter("density", "float", None, "kg/m^3", "mass density ρ", 0.0, 1e5,
+    Parameter("density", "float", None, "kg/m^3", "mass density ρ", 0.0, 1e9,
               exclusive_minimum=True),
     Parameter("nodes", "int", None, "-", "number of control points N", 3, 200_000),
     Parameter("clamp", "str", "frame", "-",

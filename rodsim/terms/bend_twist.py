@@ -39,13 +39,14 @@ from rodsim.schema import Parameter
 from rodsim.terms.base import RodTerm
 
 
-def stiffness_tensor(rod: Rod, model: str) -> np.ndarray:
-    """Diagonal (K_11, K_22, K_33) of Eq. (8) [N·m²], or of CORDE's tensor for Fig. 9."""
+def stiffness_tensor(rod: Rod, model: str, twist_override: float = 0.0) -> np.ndarray:
+    """Diagonal (K_11, K_22, K_33) of Eq. (8) [N·m²], or of CORDE's tensor for Fig. 9;
+    ``twist_override`` > 0 replaces K_33."""
     r = rod.radius
     power = 4 if model == "corrected" else 2
     bend = rod.youngs_modulus * math.pi * r**power / 4.0
     twist = rod.shear_modulus * math.pi * r**power / 2.0
-    return np.array([bend, bend, twist])
+    return np.array([bend, bend, twist_override if twist_override > 0.0 else twist])
 
 
 class BendTwist(RodTerm):
@@ -57,13 +58,16 @@ class BendTwist(RodTerm):
         Parameter("stiffness", "str", "corrected", "-",
                   "stiffness tensor: 'corrected' (Eq. 8) or 'corde' (Fig. 9 only)",
                   choices=("corrected", "corde")),
+        Parameter("twist_stiffness", "float", 0.0, "N*m^2",
+                  "K_33 override; 0 keeps G J of Eq. (8). For a round tendon, whose twist "
+                  "couples to nothing, a larger value removes a near-null mode", 0.0, 1e6),
     )
 
     def __init__(self, rod: Rod, params: dict[str, Any]) -> None:
         super().__init__(rod, params)
         quat = rod.layout.quaternion_index
         seg = rod.geometry.segment_length
-        self._stiffness = stiffness_tensor(rod, params["stiffness"])
+        self._stiffness = stiffness_tensor(rod, params["stiffness"], params["twist_stiffness"])
         self.dofs = np.concatenate([quat[:-1], quat[1:]], axis=1)  # (q_{i-1}, q_i)
 
         self._clamped = rod.has_base_frame
