@@ -1,4 +1,4 @@
-"""Command line: ``rodsim run | rerun | scenes`` (and ``study``, ``plot``, ``bench``).
+"""Command line: ``rodsim run | rerun | study | plot | scenes | terms`` (and ``bench``).
 
 Human-readable summaries go to stdout, errors to stderr. Exit codes: 0 success, 1 solver
 failure, 2 bad input (scene, option, path or archive). User errors never show a traceback.
@@ -7,6 +7,7 @@ failure, 2 bad input (scene, option, path or archive). User errors never show a 
 from __future__ import annotations
 
 import argparse
+import json
 import os
 import sys
 from collections.abc import Callable, Sequence
@@ -111,10 +112,16 @@ def cmd_run(args: argparse.Namespace) -> int:
 def cmd_rerun(args: argparse.Namespace) -> int:
     from rodsim.archive import ArchiveError, read_dataset, rerun
     from rodsim.scene import SceneError
+    from rodsim.study import StudyError
 
     try:
-        result, difference = rerun(read_dataset(args.archive))
-    except (ArchiveError, SceneError) as exc:
+        dataset = read_dataset(args.archive)
+        if "study" in dataset.attrs:
+            return _rerun_study(dataset, args)
+        if args.point:
+            raise UserError("--point applies to study archives only")
+        result, difference = rerun(dataset)
+    except (ArchiveError, SceneError, StudyError) as exc:
         raise UserError(f"{args.archive}: {exc}") from None
     if not result.success:
         print(f"rodsim: solver failure on rerun: {result.message}", file=sys.stderr)
@@ -127,6 +134,78 @@ def cmd_rerun(args: argparse.Namespace) -> int:
         print(f"rodsim: rerun differs from the archive by more than {args.tolerance:g} L",
               file=sys.stderr)
         return EXIT_SOLVER_FAILURE
+    return EXIT_OK
+
+
+def _rerun_study(dataset, args: argparse.Namespace) -> int:
+    from rodsim.study import STATUS, rerun_study
+
+    select = {}
+    for item in args.point:
+        key, sep, value = item.partition("=")
+        if not sep:
+            raise UserError(f"--point {item!r}: expected DIM=VALUE")
+        select[key.strip()] = value.strip()
+    records, difference = rerun_study(dataset, select)
+    failed = sum(r["status"] != STATUS["ok"] for r in records)
+    length = float(json.loads(dataset.attrs["scene_json"])["rods"][
+        str(dataset["rod"].values[0])]["length"])
+    print(f"study       {dataset.attrs['study']} ({dataset.attrs['size']}): re-ran "
+          f"{len(records)} point(s), {failed} failed")
+    print(f"rerun       largest difference from the stored centerlines: {difference:.3g} m "
+          f"({difference / length:.3g} L)")
+    if difference > args.tolerance * length:
+        print(f"rodsim: rerun differs from the archive by more than {args.tolerance:g} L",
+              file=sys.stderr)
+        return EXIT_SOLVER_FAILURE
+    return EXIT_OK
+
+
+def cmd_study(args: argparse.Namespace) -> int:
+    from rodsim.archive import ArchiveError
+    from rodsim.progress import ProgressPrinter
+    from rodsim.study import StudyError, available_studies, load_study
+    from rodsim.study_runner import run_study
+
+    if args.name is None:
+        for name, study in available_studies().items():
+            print(f"{name:<12s} {study.title}")
+        return EXIT_OK
+    printer = ProgressPrinter(delay=0.0)
+
+    def progress(done: int, failed: int, total: int, elapsed: float) -> None:
+        remaining = total - done
+        eta = f", ETA {elapsed / done * remaining:.0f} s" if done and remaining else ""
+        printer(done / total if total else 1.0,
+                f"{args.name}: {done}/{total} done, {failed} failed, {remaining} remaining{eta}")
+
+    try:
+        study = load_study(args.name)
+        output = args.output or f"{study.name}-{args.size}.nc"
+        dataset = run_study(study, args.size, output, workers=args.workers,
+                            scheduler=args.scheduler, progress=progress)
+    except (StudyError, ArchiveError) as exc:
+        raise UserError(str(exc)) from None
+    finally:
+        printer.close()
+    failed = int(dataset.attrs["failed_points"])
+    print(f"study       {study.name} ({args.size}): {dataset.attrs['points']} points, "
+          f"{failed} failed")
+    print(f"archive     {output}")
+    return EXIT_SOLVER_FAILURE if failed else EXIT_OK
+
+
+def cmd_plot(args: argparse.Namespace) -> int:
+    from rodsim.archive import ArchiveError, read_dataset
+    from rodsim.plotting import plot_dataset
+
+    try:
+        dataset = read_dataset(args.archive)
+    except ArchiveError as exc:
+        raise UserError(str(exc)) from None
+    stem = args.output or str(Path(args.archive).with_suffix(""))
+    for path in plot_dataset(dataset, stem, args.format.split(",")):
+        print(f"figure      {path}")
     return EXIT_OK
 
 
@@ -172,11 +251,36 @@ def build_parser() -> argparse.ArgumentParser:
     again = sub.add_parser("rerun", help="re-run an archive and compare with what it stores",
                            description="Re-run the scene and integrator stored in ARCHIVE "
                            "and report the largest difference from the stored positions.")
-    again.add_argument("archive", help="netCDF archive written by `rodsim run`")
+    again.add_argument("archive", help="netCDF archive written by `rodsim run` or `study`")
+    again.add_argument("--point", action="append", default=[], metavar="DIM=VALUE",
+                       help="study archives: re-run only the points with this swept value "
+                       "(repeatable); default: every point")
     again.add_argument("--tolerance", type=float, default=1e-9, metavar="FRACTION_OF_L",
                        help="exit 1 if the positions differ by more than this × L "
                        "(default 1e-9)")
     again.set_defaults(func=cmd_rerun)
+
+    study = sub.add_parser("study", help="run a study (the paper's figures) into one archive",
+                           description="Run a shipped study (studies/*.py) over its grid on "
+                           "local processes or a dask cluster; finished points are kept in "
+                           "OUT.parts/ so a killed study resumes. Without NAME: list them.")
+    study.add_argument("name", nargs="?", help="study name (fig6, fig7a, …, convergence)")
+    study.add_argument("-o", "--output", help="archive path (default: <name>-<size>.nc)")
+    study.add_argument("--size", choices=("small", "full"), default="full",
+                       help="grid size: small (smoke test) or full (default)")
+    study.add_argument("--workers", type=int, default=None,
+                       help="local worker processes (default: all cores; 1 = in-process)")
+    study.add_argument("--scheduler", metavar="ADDRESS",
+                       help="run on a dask.distributed scheduler (tcp://host:port), or "
+                       "'local' for a LocalCluster")
+    study.set_defaults(func=cmd_study)
+
+    plot = sub.add_parser("plot", help="draw an archive's figure (PNG and PDF)")
+    plot.add_argument("archive", help="archive written by `rodsim run` or `rodsim study`")
+    plot.add_argument("-o", "--output", metavar="STEM",
+                      help="output path without extension (default: the archive's)")
+    plot.add_argument("--format", default="png,pdf", help="comma-separated formats")
+    plot.set_defaults(func=cmd_plot)
 
     scenes = sub.add_parser("scenes", help="list the shipped scenes (paper Tables 1 and 3)")
     scenes.set_defaults(func=cmd_scenes)

@@ -13,6 +13,9 @@ positive downward):
   any constant tip force (Fx, Fy), solved by shooting to ~1e-12. The reference for rods whose
   stretch matters (Table 1's E_s) and for inclined loads; EA = inf is the exact elastica.
 
+:func:`tendon_arc` is the constant-curvature limit of a catheter bent by a tendon under
+tension (the physical check of the momentum-conserving tendon coupling).
+
 :func:`load_parameter` is the paper's alpha = F L^2 / (2 EI) (printed with 2 E L).
 See docs/analytic.md.
 """
@@ -20,6 +23,7 @@ See docs/analytic.md.
 from rodsim.analytic.elastica import ElasticaShape, exact_elastica, load_parameter
 from rodsim.analytic.extensible import ExtensibleShape, extensible_elastica
 from rodsim.analytic.paper_model import paper_model, paper_model_as_printed, tip_angle_from_load
+from rodsim.analytic.tendon_arc import tendon_arc
 
 __all__ = [
     "ElasticaShape",
@@ -30,4 +34,5 @@ __all__ = [
     "paper_model",
     "paper_model_as_printed",
     "tip_angle_from_load",
+    "tendon_arc",
 ]

@@ -1,8 +1,9 @@
 """Continuum references for a scene: which analytic solution a run can be scored against.
 
-A scene qualifies when its first rod is a cantilever (``frame`` or ``first_segment``
-clamp, rest along +x) loaded only by a dead tip force along −y (``tip_load`` without
-``force``, no ``gravity``) — the paper's hanging-mass experiment (Figs. 5–9).
+A hanging-mass scene qualifies when its first rod is a cantilever (rest along +x) loaded
+only by a dead tip force along −y (``tip_load`` without ``force``, no ``gravity``) — the
+paper's experiment of Figs. 5–9. A tendon scene qualifies for the constant-curvature arc
+when it has one tendon pulled at its base (the physical check of the conserving coupling).
 """
 
 from __future__ import annotations
@@ -14,10 +15,12 @@ import numpy as np
 from rodsim.analytic.elastica import ElasticaShape, exact_elastica, load_parameter
 from rodsim.analytic.extensible import extensible_elastica
 from rodsim.analytic.paper_model import paper_model
+from rodsim.analytic.tendon_arc import tendon_arc
 from rodsim.model import Model
 from rodsim.scene import Scene
 
-__all__ = ["CantileverReference", "cantilever_reference"]
+__all__ = ["CantileverReference", "cantilever_reference", "REFERENCE_KINDS",
+           "reference_centerline"]
 
 
 @dataclass(frozen=True)
@@ -62,3 +65,55 @@ def cantilever_reference(scene: Scene, samples: int = 201) -> CantileverReferenc
         force, ei, length, paper_model(force, ei, length, samples),
         exact_elastica(force, ei, length, s),
         extensible_elastica((0.0, -force), ei, model_rod.stretch_stiffness, length, s))
+
+
+#: Continuum references a study can score its first rod against.
+REFERENCE_KINDS = ("exact", "paper", "extensible", "arc")
+
+
+def reference_centerline(scene: Scene, kind: str, s: np.ndarray) -> np.ndarray | None:
+    """Reference positions (len(s), 3) [m] of the scene's first rod at rest arc lengths ``s``.
+
+    ``exact``, ``paper`` and ``extensible`` need a hanging-mass cantilever (see
+    :func:`cantilever_reference`); ``arc`` needs a single tendon pulled at its base
+    (:func:`~rodsim.analytic.tendon_arc.tendon_arc`). Returns ``None`` when the scene does
+    not qualify.
+    """
+    if kind not in REFERENCE_KINDS:
+        raise ValueError(f"unknown reference {kind!r}; known: {', '.join(REFERENCE_KINDS)}")
+    out = np.zeros((len(s), 3))
+    if kind == "arc":
+        tendons = scene.data["tendons"]
+        if len(tendons) != 1:
+            return None
+        (name, table), = tendons.items()
+        actuation = table.get("tendon_actuation")
+        if actuation is None or actuation["point"] != "proximal":
+            return None
+        model = Model(scene)
+        catheter = model.rods[table["catheter"]]
+        if catheter.name != next(iter(model.rods)):
+            return None
+        shape = tendon_arc(actuation["force"], table["offset"], catheter.bending_stiffness,
+                           catheter.stretch_stiffness, catheter.length, s)
+        alpha, beta = model.tendons[name].alpha, model.tendons[name].beta
+        out[:, 0] = shape.x
+        out[:, 1] = alpha * shape.y
+        out[:, 2] = beta * shape.y
+        return out + catheter.origin
+    reference = cantilever_reference(scene)
+    if reference is None:
+        return None
+    length = reference.length
+    force, ei = reference.force, reference.bending_stiffness
+    if kind == "exact":
+        shape = exact_elastica(force, ei, length, s)
+    elif kind == "extensible":
+        model_rod = next(iter(Model(scene).rods.values()))
+        shape = extensible_elastica((0.0, -force), ei, model_rod.stretch_stiffness, length, s)
+    else:  # the paper's model is sampled in φ: interpolate it at s
+        fine = paper_model(force, ei, length, 2001)
+        shape = ElasticaShape(s, np.interp(s, fine.s, fine.x), np.interp(s, fine.s, fine.y),
+                              fine.tip_angle)
+    out[:, 0], out[:, 1] = shape.x, shape.y
+    return out
