@@ -130,8 +130,8 @@ class Model:
 
     def _build_force_scatter(self) -> None:
         self._loads = [t for t in self.terms if t.is_load]
-        self._internal = [t for t in self.terms if not t.is_load]
-        self._force_target = {id(t): self._free_of[t.dofs.ravel()] for t in self.terms}
+        self._force_targets = np.concatenate([self._free_of[t.dofs.ravel()]
+                                              for t in self.terms])
 
     def _build_pattern(self) -> None:
         n = self.n
@@ -152,12 +152,13 @@ class Model:
         self.pattern = sp.csc_matrix((np.ones(len(keys)), pattern_rows, indptr), shape=(n, n))
         self.pattern_rows, self.pattern_cols = pattern_rows, pattern_cols
         self.nnz = len(keys)
-        self._jac_target: dict[int, np.ndarray] = {}
-        for term, r, c in zip(self._jac_terms, rows[1:], cols[1:], strict=True):
+        targets = [np.zeros(0, dtype=np.int64)]
+        for r, c in zip(rows[1:], cols[1:], strict=True):
             inside = (r < n) & (c < n)
             target = np.full(len(r), self.nnz)
             target[inside] = np.searchsorted(keys, c[inside] * n + r[inside])
-            self._jac_target[id(term)] = target
+            targets.append(target)
+        self._jac_targets = np.concatenate(targets)
         offsets = pattern_rows - pattern_cols
         self.band = Band(int(max(offsets.max(), 0)), int(max(-offsets.min(), 0)))
 
@@ -234,27 +235,24 @@ class Model:
     def force(self, x: np.ndarray, load: float = 1.0) -> np.ndarray:
         """Generalised force F(x) on the free coordinates; loads are scaled by ``load``."""
         full = self.full(x)
-        out = np.zeros(self.n + 1)
-        for term in self._internal:
-            out += np.bincount(self._force_target[id(term)],
-                               weights=term.element_forces(full).ravel(), minlength=self.n + 1)
-        for term in self._loads:
-            out += load * np.bincount(self._force_target[id(term)],
-                                      weights=term.element_forces(full).ravel(),
-                                      minlength=self.n + 1)
-        return out[:-1]
+        weights = []
+        for term in self.terms:
+            values = term.element_forces(full).ravel()
+            weights.append(load * values if term.is_load and load != 1.0 else values)
+        return np.bincount(self._force_targets, weights=np.concatenate(weights),
+                           minlength=self.n + 1)[:-1]
 
     def jacobian_data(self, x: np.ndarray, load: float = 1.0) -> np.ndarray:
         """∂F/∂x as the data array of a CSC matrix with the pattern :attr:`pattern`."""
         full = self.full(x)
-        out = np.zeros(self.nnz + 1)
+        values = []
         for term in self._jac_terms:
-            values = term.element_jacobians(full).ravel()
-            if term.is_load:
-                values = load * values
-            out += np.bincount(self._jac_target[id(term)], weights=values,
-                               minlength=self.nnz + 1)
-        return out[:-1]
+            block = term.element_jacobians(full).ravel()
+            values.append(load * block if term.is_load and load != 1.0 else block)
+        if not values:
+            return np.zeros(self.nnz)
+        return np.bincount(self._jac_targets, weights=np.concatenate(values),
+                           minlength=self.nnz + 1)[:-1]
 
     def jacobian(self, x: np.ndarray, load: float = 1.0) -> sp.csc_matrix:
         """∂F/∂x as a sparse CSC matrix (n × n)."""

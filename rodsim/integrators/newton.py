@@ -69,14 +69,21 @@ def newton(problem: NewtonProblem, x: np.ndarray, tolerance: float,
     for iteration in range(max_iterations):
         if residual < stop:
             return NewtonResult(x, True, iteration, residual, "converged")
+        jacobian = problem.jacobian(x)
         try:
-            dx = spla.spsolve(problem.jacobian(x), -g)
+            dx = spla.spsolve(jacobian, -g)
         except RuntimeError as exc:
             return NewtonResult(x, False, iteration + 1, residual, f"singular Jacobian ({exc})")
         if not np.all(np.isfinite(dx)):
             return NewtonResult(x, False, iteration + 1, residual, "singular Jacobian")
         # Directional derivative of the merit along dx.
         slope = -float(g @ dx) if problem.potential is not None else -2.0 * value
+        if slope >= 0.0 and problem.potential is not None:
+            # Not a descent direction (an inexact — finite-difference — Jacobian, or a state
+            # off a stable branch): fall back to a diagonally scaled gradient step on Φ.
+            diagonal = np.abs(jacobian.diagonal())
+            dx = g / np.where(diagonal > 0.0, diagonal, 1.0)
+            slope = -float(g @ dx)
         if slope >= 0.0:
             if residual < tolerance:
                 return NewtonResult(x, True, iteration + 1, residual, "converged")

@@ -10,6 +10,7 @@ system banded when rods are coupled.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 
@@ -39,13 +40,13 @@ class RodLayout:
         """Number of coordinates of the rod, 3N + 4(N − 1)."""
         return COORDS_PER_NODE * self.nodes - 4
 
-    @property
+    @cached_property
     def position_index(self) -> np.ndarray:
         """Indices of the positions, shape (N, 3)."""
         base = self.offset + COORDS_PER_NODE * np.arange(self.nodes)
         return base[:, None] + np.arange(3)
 
-    @property
+    @cached_property
     def quaternion_index(self) -> np.ndarray:
         """Indices of the segment quaternions, shape (N − 1, 4)."""
         base = self.offset + COORDS_PER_NODE * np.arange(self.nodes - 1) + 3

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from functools import cached_property
 from typing import Any
 
 import numpy as np
@@ -63,7 +64,7 @@ class Rod:
     #: Position of the base r_0 [m]: the rod's ``origin``, or a tendon's lumen entrance.
     origin: np.ndarray = field(default_factory=lambda: np.zeros(3), repr=False)
 
-    @property
+    @cached_property
     def geometry(self) -> RodGeometry:
         return RodGeometry(self.params["nodes"], self.params["length"])
 
