@@ -209,6 +209,25 @@ def cmd_plot(args: argparse.Namespace) -> int:
     return EXIT_OK
 
 
+def cmd_bench(args: argparse.Namespace) -> int:
+    import importlib
+
+    from rodsim.progress import ProgressPrinter
+
+    module = importlib.import_module(f"rodsim.bench.{args.benchmark.replace('-', '_')}")
+    output = Path(args.output_dir)
+    if not output.is_dir():
+        raise UserError(f"-o {output}: folder does not exist")
+    printer = ProgressPrinter(delay=0.0)
+    try:
+        paths = module.run(args.size, output, printer)
+    finally:
+        printer.close()
+    for path in paths:
+        print(f"wrote       {path}")
+    return EXIT_OK
+
+
 def cmd_scenes(args: argparse.Namespace) -> int:
     from rodsim.scene import Scene, scene_paths
 
@@ -281,6 +300,19 @@ def build_parser() -> argparse.ArgumentParser:
                       help="output path without extension (default: the archive's)")
     plot.add_argument("--format", default="png,pdf", help="comma-separated formats")
     plot.set_defaults(func=cmd_plot)
+
+    from rodsim.bench import BENCHMARKS
+
+    bench = sub.add_parser("bench", help="run a benchmark (work-precision, scaling, stress)",
+                           description="Time the integrators against their error, their cost "
+                           "in N, or their stability over a parameter map; writes netCDF, "
+                           "figures and a markdown table with the machine description.")
+    bench.add_argument("benchmark", choices=BENCHMARKS)
+    bench.add_argument("--size", choices=("small", "full"), default="full",
+                       help="small: a smoke version in seconds; full: the real benchmark")
+    bench.add_argument("-o", "--output-dir", default="benchmarks/results",
+                       help="folder for the results (default: benchmarks/results)")
+    bench.set_defaults(func=cmd_bench)
 
     scenes = sub.add_parser("scenes", help="list the shipped scenes (paper Tables 1 and 3)")
     scenes.set_defaults(func=cmd_scenes)
