@@ -79,7 +79,8 @@ class Study:
     scene
         Base scene: a shipped scene name or a path.
     integrator
-        Integrator used at every point.
+        Integrator used at every point; ``None`` uses each point's ``solver.integrator``
+        (so a sweep over that key compares integrators).
     sweeps
         ``{"small": [...], "full": [...]}``: the grid for each size.
     overrides
@@ -99,7 +100,7 @@ class Study:
     title: str
     paper: str
     scene: str
-    integrator: str
+    integrator: str | None
     sweeps: dict[str, list[Sweep]]
     overrides: tuple[str, ...] = ()
     reference: str | None = None
@@ -165,19 +166,23 @@ def evaluate_point(spec: dict[str, Any], index: tuple[int, ...]) -> dict[str, An
     record: dict[str, Any] = {"index": list(index)}
     try:
         scene = point_scene(spec, index)
-        result = solve(scene, spec["integrator"])
+        result = solve(scene, spec["integrator"] or scene.data["solver"]["integrator"])
     except SceneError as exc:
         return record | {"status": STATUS["error"], "message": f"bad scene value: {exc}"}
     except Exception as exc:  # a bug must not stop the study: record it
         detail = traceback.format_exception_only(type(exc), exc)[-1].strip()
         return record | {"status": STATUS["error"], "message": f"internal error: {detail}"}
-    sigma = np.linspace(0.0, 1.0, spec["sigma_points"])
     record |= {
         "status": STATUS["ok"] if result.success else STATUS["solver_failure"],
         "message": result.message,
         "residual": result.residual,
-        "quaternion_norm_error": result.quaternion_norm_error,
         "stats": {k: result.stats.get(k, 0.0) for k in POINT_STATS},
+    }
+    if not result.success:  # the state a failed solver stopped in is no result: store none
+        return record
+    sigma = np.linspace(0.0, 1.0, spec["sigma_points"])
+    record |= {
+        "quaternion_norm_error": result.quaternion_norm_error,
         "tip": {name: shape.tip.tolist() for name, shape in result.rods.items()},
         "centerline": {name: _resample(shape.s, shape.positions, sigma).tolist()
                        for name, shape in result.rods.items()},
@@ -246,13 +251,14 @@ def assemble(spec: dict[str, Any], records: list[dict[str, Any]]) -> xr.Dataset:
                "history_tip": grid(np.nan, (steps, 3))}
     for index, r in by_index.items():
         status[index], message[index] = r["status"], r["message"]
-        if "tip" not in r:
-            continue
         for key in ("residual", "quaternion_norm_error", "tip_error", "area_error"):
             if key in r:
                 scalars[key][index] = r[key]
         for key in POINT_STATS:
-            scalars[key][index] = r["stats"][key]
+            if "stats" in r:
+                scalars[key][index] = r["stats"][key]
+        if "tip" not in r:
+            continue
         for k, rod in enumerate(rods):
             tip[index + (k,)] = r["tip"][rod]
             centerline[index + (k,)] = r["centerline"][rod]
@@ -307,7 +313,8 @@ def assemble(spec: dict[str, Any], records: list[dict[str, Any]]) -> xr.Dataset:
     ds.attrs.update({
         "title": f"rodsim study {spec['name']}: {spec['title']}",
         "study": spec["name"], "size": spec["size"], "paper": spec["paper"],
-        "integrator": spec["integrator"], "reference": str(spec["reference"]),
+        "integrator": str(spec["integrator"] or "per point (solver.integrator)"),
+        "reference": str(spec["reference"]),
         "plot": spec["plot"], "spec_json": json.dumps(spec, sort_keys=True),
         "scene_json": spec["base_scene_json"], "scene_toml": spec.get("base_scene_toml", ""),
         "rodsim_version": __version__, "schema_version": SCHEMA_VERSION,
@@ -375,7 +382,7 @@ def rerun_study(dataset: xr.Dataset, select: dict[str, Any] | None = None
     """Re-run a stored study (every point, or those matching ``select`` = {dim: label}).
 
     Returns the new records and the largest distance [m] between stored and recomputed
-    centerlines over the re-run points that succeeded both times.
+    centerlines (infinite when a point's success differs from the stored one).
     """
     spec = json.loads(dataset.attrs["spec_json"])
     dims = [s["name"] for s in spec["sweeps"]]
@@ -395,8 +402,11 @@ def rerun_study(dataset: xr.Dataset, select: dict[str, Any] | None = None
     for index in points:
         record = evaluate_point(spec, index)
         records.append(record)
-        stored = dataset["centerline"].values[index]
-        if record["status"] == STATUS["ok"] and int(dataset["status"].values[index]) == 0:
+        stored_ok = int(dataset["status"].values[index]) == STATUS["ok"]
+        if stored_ok != (record["status"] == STATUS["ok"]):
+            largest = np.inf  # a point that succeeded once and failed now (or the reverse)
+        elif stored_ok:
+            stored = dataset["centerline"].values[index]
             new = np.stack([np.asarray(record["centerline"][rod]) for rod in rods])
             largest = max(largest, float(np.max(np.linalg.norm(new - stored, axis=-1))))
     return records, largest

@@ -58,9 +58,10 @@ def _open_parts(folder: Path, spec: dict[str, Any]) -> dict[tuple[int, ...], dic
         if json.loads(marker.read_text(encoding="utf-8")) != spec:
             raise StudyError(f"{folder} holds points of a different study or size; remove it "
                              "or write the study elsewhere (-o)")
-    else:
-        folder.mkdir(parents=True)
-        _write_atomic(marker, json.dumps(spec, sort_keys=True))
+    else:  # create it complete, then rename: a kill never leaves a folder without its spec
+        staging = Path(tempfile.mkdtemp(prefix=f".{folder.name}.", dir=folder.parent))
+        _write_atomic(staging / "spec.json", json.dumps(spec, sort_keys=True))
+        os.replace(staging, folder)
     records = {}
     for path in folder.glob("point-*.json"):
         record = json.loads(path.read_text(encoding="utf-8"))
@@ -121,7 +122,12 @@ def run_spec(spec: dict[str, Any], output: str | Path, *, workers: int | None = 
     failed = sum(r["status"] != STATUS["ok"] for r in records.values())
     if progress is not None:
         progress(len(records), failed, len(points), 0.0)
-    stream = _dask(spec, todo, scheduler) if scheduler else _local(spec, todo, workers)
+    if not todo:
+        stream: Iterator[dict[str, Any]] = iter(())
+    elif scheduler:
+        stream = _dask(spec, todo, scheduler)
+    else:
+        stream = _local(spec, todo, workers)
     for record in stream:
         _write_atomic(_point_file(folder, tuple(record["index"])), json.dumps(record))
         records[tuple(record["index"])] = record
