@@ -36,6 +36,10 @@ class NewtonProblem:
     potential: Callable[[np.ndarray], float] | None = None
 
 
+#: Extra iterations a converged, polishing Newton solve may take (each must halve the residual).
+POLISH_ITERATIONS = 2
+
+
 @dataclass(frozen=True)
 class NewtonResult:
     x: np.ndarray
@@ -49,11 +53,11 @@ def newton(problem: NewtonProblem, x: np.ndarray, tolerance: float,
            max_iterations: int, polish: bool = True) -> NewtonResult:
     """Newton iterations from ``x`` until ``residual(g) < tolerance``.
 
-    With ``polish``, keeps iterating until the residual is 1000× below the tolerance or
-    stops improving once below it, so a converged result is the root to round-off. Returns
-    (never raises)
-    with ``converged = False`` and a reason when the iteration stalls or the linear system
-    is singular.
+    With ``polish``, takes up to :data:`POLISH_ITERATIONS` more iterations once below the
+    tolerance, while each still halves the residual, so a converged result is the root to
+    round-off (quadratic convergence gets there in one or two). Returns (never raises) with
+    ``converged = False`` and a reason when the iteration stalls or the linear system is
+    singular.
     """
 
     def merit(y: np.ndarray, g: np.ndarray) -> float:
@@ -65,10 +69,12 @@ def newton(problem: NewtonProblem, x: np.ndarray, tolerance: float,
     g = problem.force(x)
     residual = problem.residual(g)
     value = merit(x, g)
-    stop = 1e-3 * tolerance if polish else tolerance
+    polishing = POLISH_ITERATIONS if polish else 0
     for iteration in range(max_iterations):
-        if residual < stop:
-            return NewtonResult(x, True, iteration, residual, "converged")
+        if residual < tolerance:
+            if polishing == 0:
+                return NewtonResult(x, True, iteration, residual, "converged")
+            polishing -= 1
         jacobian = problem.jacobian(x)
         try:
             dx = spla.spsolve(jacobian, -g)

@@ -71,6 +71,9 @@ class Term(ABC):
     is_load: ClassVar[bool] = False
     has_jacobian: ClassVar[bool] = True
     dynamic: ClassVar[bool] = False
+    #: True for a constraint penalty whose constant a solver may raise gradually
+    #: (:meth:`set_penalty_scale`); the scaled term must be the same term with K × scale.
+    penalty: ClassVar[bool] = False
 
     #: Global coordinate indices of each element, shape (n_elem, k).
     dofs: np.ndarray
@@ -93,6 +96,10 @@ class Term(ABC):
     def energy(self, x: np.ndarray) -> float | None:
         """Potential energy [J]; ``None`` when the term is not conservative."""
         return None
+
+    def set_penalty_scale(self, scale: float) -> None:
+        """Multiply the penalty constant by ``scale`` (penalty terms only)."""
+        raise NotImplementedError(f"term {self.name!r} is not a penalty")
 
     def update_registration(self, x: np.ndarray) -> bool:
         """Update a dynamic term's discrete state from ``x``; True if ``dofs`` changed."""

@@ -25,6 +25,7 @@ class Centerline(RodTerm):
 
     name = "centerline"
     equation = "Eq. (9)"
+    penalty = True
     parameters = (
         Parameter("K_P", "float", 1e4, "N", "centerline penalty constant (energy per length)",
                   0.0, 1e15, exclusive_minimum=True),
@@ -34,7 +35,14 @@ class Centerline(RodTerm):
         super().__init__(rod, params)
         pos = rod.layout.position_index
         self.dofs = np.concatenate([pos[:-1], pos[1:], rod.layout.quaternion_index], axis=1)
-        self._weight = params["K_P"] * rod.geometry.segment_length  # K_P l
+        self._full_weight = params["K_P"] * rod.geometry.segment_length  # K_P l
+        self._weight = self._full_weight
+        #: Penalty stiffness relative to bending at the scale of one segment, K_P l² / (E I).
+        self.penalty_ratio = (params["K_P"] * rod.geometry.segment_length**2
+                              / rod.bending_stiffness)
+
+    def set_penalty_scale(self, scale: float) -> None:
+        self._weight = self._full_weight * scale
 
     def _mismatch(self, x: np.ndarray) -> tuple[Segments, np.ndarray, np.ndarray]:
         seg = Segments.of(x[self.rod.layout.position_index])
