@@ -124,3 +124,17 @@ def test_cli_exits_1_on_solver_failure_and_writes_nothing(tmp_path, capsys, cli)
     assert "solver failure" in captured.err and "max_steps" in captured.err
     assert "Traceback" not in captured.err
     assert list(tmp_path.iterdir()) == []
+
+
+@pytest.mark.parametrize("integrator", ["static", "paper", "cvode", "ida"])
+def test_loads_below_round_off_are_refused_not_reported_at_rest(integrator):
+    """A thin rod (r = 50 µm) under a nN load with K_P = 8e4: the internal forces' round-off
+    exceeds the load, so the rest state would pass any residual test. Every integrator must
+    refuse it with a diagnostic instead of reporting the straight rod as the equilibrium."""
+    radius, alpha, length = 5e-5, 0.58, 0.12
+    force = 2.0 * 5.9e6 * np.pi * radius**4 / 4.0 * alpha / length**2
+    result = rodsim.solve("table1-50g", integrator,
+                          overrides=["K_P=7.9e4", "nodes=21", f"radius={radius}",
+                                     f"mass={force / 9.81}"])
+    assert not result.success
+    assert "round-off" in result.message and "raise the load" in result.message

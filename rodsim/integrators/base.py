@@ -32,12 +32,22 @@ __all__ = ["Integrator", "Outcome", "Progress", "SolverFailure", "INTEGRATORS",
 #: Every defined integrator class, by name. Filled by ``Integrator.__init_subclass__``.
 INTEGRATORS: dict[str, type[Integrator]] = {}
 
+#: A model whose residual floor (round-off of the internal forces relative to the loads)
+#: exceeds this cannot resolve its equilibrium: every integrator refuses it with a diagnostic
+#: rather than accept the rest state as "converged".
+MAX_RESIDUAL_FLOOR = 1e-3
+
 #: Progress callback: (fraction done in [0, 1] or None, one-line status).
 Progress = Callable[[float | None, str], None]
 
 
 class SolverFailure(RuntimeError):
-    """Raised inside :meth:`Integrator.advance` to stop with a diagnostic message."""
+    """Raised inside :meth:`Integrator.advance` to stop with a diagnostic message; ``advice``
+    replaces the integrator's generic advice when the failure has a specific remedy."""
+
+    def __init__(self, message: str, advice: str | None = None) -> None:
+        super().__init__(message)
+        self.advice = advice
 
 
 @dataclass
@@ -175,11 +185,20 @@ class Integrator(ABC):
     def solve(self) -> Result:
         """Run the integrator to equilibrium and return a Result (never raises on failure)."""
         self._start = time.perf_counter()
+        floor = self.model.residual_floor
+        advice = None
         try:
+            if floor > MAX_RESIDUAL_FLOOR:
+                raise SolverFailure(
+                    f"the loads are below the round-off of the internal forces (residual "
+                    f"floor {floor:.3g} > {MAX_RESIDUAL_FLOOR:g}): no equilibrium can be told "
+                    "apart from the rest state in double precision",
+                    "lower K_P, N or the stretch stiffness, or raise the load")
             with np.errstate(all="ignore"):
                 outcome = self.advance()
         except SolverFailure as exc:
             outcome = Outcome(self.state, False, str(exc))
+            advice = exc.advice
         wall = self.elapsed()
         x = outcome.x
         finite = bool(np.all(np.isfinite(x)))
@@ -194,7 +213,7 @@ class Integrator(ABC):
                            f"{self.tolerance:.3g}")
             message = (f"{self.name} integrator failed at {self.where}: {message} "
                        f"(residual {residual:.3g}, tolerance {self.tolerance:.3g}); "
-                       f"{self.advice()}")
+                       f"{advice or self.advice()}")
         stats = {**self.counts, "wall_time": wall, "effective_tolerance": self.tolerance}
         return Result.from_model(
             self.model, x if finite else self.state, integrator=self.name,

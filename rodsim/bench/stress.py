@@ -1,0 +1,186 @@
+"""Stability stress map (``rodsim bench stress``): every integrator over a wide parameter box.
+
+Configurations are a Latin hypercube (fixed seed) over the hanging-mass cantilever of
+Table 1: penalty K_P ∈ [1e2, 1e9] N, control points N ∈ [5, 2000], radius r ∈ [1e-5, 1e-2] m,
+load parameter α = F L²/(2EI) ∈ [0.01, 20] (the hanging mass follows from α, E and r), and
+the paper integrator's step h ∈ [0.01, 1] s. Each configuration runs with every integrator
+(defaults otherwise) under a wall-time budget, through the study runner (parallel,
+resumable). Each run ends as
+
+- ``converged``: at equilibrium (status ok);
+- ``diverged``: the state or the force became non-finite, reported as a failure;
+- ``failed``: a solver failure with its diagnostic (budget, Newton, SUNDIALS error …);
+- ``crash``: an exception escaped the integrator — must never happen;
+
+and a success with a non-finite result would be a ``nan_success`` — must never happen.
+Outputs: ``stress.nc`` (the study Dataset plus ``outcome``), ``stress.png`` (outcome maps)
+and ``stress.md`` (counts, where the paper integrator fails and the adaptive ones do not,
+and the reverse).
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+import xarray as xr
+from scipy.stats import qmc
+
+from rodsim.bench.machine import machine
+from rodsim.study import STATUS, Study, Sweep
+from rodsim.study_runner import run_study
+
+__all__ = ["run", "configurations", "OUTCOMES"]
+
+OUTCOMES = ("converged", "diverged", "failed", "crash", "nan_success")
+INTEGRATORS = ("static", "paper", "cvode", "ida")
+#: log10 bounds of (K_P [N], N, r [m], α, h [s]).
+BOUNDS = np.array([[2.0, 9.0], [math.log10(5), math.log10(2000)], [-5.0, -2.0],
+                   [-2.0, math.log10(20)], [-2.0, 0.0]])
+SIZES = {"small": {"count": 8, "max_nodes": 60, "budget": 10.0},
+         "full": {"count": 500, "max_nodes": 2000, "budget": 20.0}}
+#: Table 1 material and length (the base scene), standard gravity.
+E, LENGTH, GRAVITY = 5.9e6, 0.12, 9.81
+
+
+def configurations(count: int, max_nodes: int, seed: int = 0) -> list[dict[str, float]]:
+    """``count`` Latin-hypercube configurations (the box of the module docstring)."""
+    bounds = BOUNDS.copy()
+    bounds[1, 1] = math.log10(max_nodes)
+    sample = qmc.LatinHypercube(d=len(bounds), seed=seed).random(count)
+    logs = bounds[:, 0] + sample * (bounds[:, 1] - bounds[:, 0])
+    out = []
+    for k_p, nodes, radius, alpha, step in 10.0**logs:
+        inertia = math.pi * radius**4 / 4.0
+        force = 2.0 * E * inertia * alpha / LENGTH**2
+        out.append({"K_P": float(f"{k_p:.4g}"), "nodes": int(round(nodes)),
+                    "radius": float(f"{radius:.4g}"), "alpha": float(f"{alpha:.4g}"),
+                    "mass": force / GRAVITY, "h": float(f"{step:.4g}")})
+    return out
+
+
+def stress_study(size: str) -> Study:
+    setting = SIZES[size]
+    configs = configurations(setting["count"], setting["max_nodes"])
+    keys = ("rods.catheter.centerline.K_P", "rods.catheter.nodes", "rods.catheter.radius",
+            "rods.catheter.tip_load.mass", "solver.paper.h")
+    values = tuple((c["K_P"], c["nodes"], c["radius"], c["mass"], c["h"]) for c in configs)
+    sweeps = [Sweep("config", keys, values, "1", "configuration index",
+                    labels=tuple(range(len(configs)))),
+              Sweep("integrator", "solver.integrator", INTEGRATORS, "1", "integrator")]
+    return Study(
+        name="stress", title="stability stress map", paper="(rodsim benchmark)",
+        scene="table1-50g", integrator=None, reference="exact", plot="centerlines",
+        overrides=(f"solver.max_wall_time={setting['budget']}",),
+        sweeps={size: sweeps})
+
+
+def classify(ds: xr.Dataset) -> xr.DataArray:
+    """The outcome of each run (index into :data:`OUTCOMES`)."""
+    status = ds["status"].values
+    message = ds["message"].values.astype(str)
+    finite = np.all(np.isfinite(ds["tip"].values), axis=(-2, -1))
+    outcome = np.full(status.shape, OUTCOMES.index("failed"), dtype=np.int8)
+    outcome[status == STATUS["ok"]] = OUTCOMES.index("converged")
+    outcome[(status == STATUS["ok"]) & ~finite] = OUTCOMES.index("nan_success")
+    diverged = np.char.find(np.char.lower(message), "non-finite") >= 0
+    outcome[(status == STATUS["solver_failure"]) & diverged] = OUTCOMES.index("diverged")
+    outcome[status == STATUS["error"]] = OUTCOMES.index("crash")
+    return xr.DataArray(outcome, dims=ds["status"].dims,
+                        attrs={"long_name": "outcome of the run",
+                               "flag_values": list(range(len(OUTCOMES))),
+                               "flag_meanings": " ".join(OUTCOMES)})
+
+
+def _figure(ds: xr.Dataset, path: Path) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    colours = {"converged": "tab:green", "diverged": "tab:red", "failed": "tab:orange",
+               "crash": "black", "nan_success": "magenta"}
+    axes_pairs = (("K_P", "nodes"), ("alpha", "radius"))
+    figure, axes = plt.subplots(len(axes_pairs), len(INTEGRATORS), figsize=(14, 6.5),
+                                constrained_layout=True, squeeze=False)
+    for column, integrator in enumerate(INTEGRATORS):
+        outcome = ds["outcome"].sel(integrator=integrator).values
+        for row, (xname, yname) in enumerate(axes_pairs):
+            ax = axes[row, column]
+            for k, name in enumerate(OUTCOMES):
+                pick = outcome == k
+                if np.any(pick):
+                    ax.scatter(ds[xname].values[pick], ds[yname].values[pick], s=9,
+                               c=colours[name], label=f"{name} ({int(pick.sum())})")
+            ax.set_xscale("log")
+            ax.set_yscale("log")
+            ax.set_xlabel(xname)
+            ax.set_ylabel(yname)
+            if row == 0:
+                ax.set_title(integrator)
+                ax.legend(fontsize=7)
+    figure.savefig(path, dpi=100)
+    plt.close(figure)
+
+
+def _markdown(ds: xr.Dataset) -> str:
+    lines = [f"# Stress map ({ds.attrs['size']}, {ds.sizes['config']} configurations × "
+             f"{ds.sizes['integrator']} integrators)", "",
+             "| integrator | " + " | ".join(OUTCOMES) + " | median time [s] | max time [s] |",
+             "|---|" + "--:|" * (len(OUTCOMES) + 2)]
+    for integrator in INTEGRATORS:
+        outcome = ds["outcome"].sel(integrator=integrator).values
+        times = ds["wall_time"].sel(integrator=integrator).values
+        counts = [int(np.sum(outcome == k)) for k in range(len(OUTCOMES))]
+        lines.append(f"| {integrator} | " + " | ".join(map(str, counts))
+                     + f" | {np.nanmedian(times):.3g} | {np.nanmax(times):.3g} |")
+    converged = ds["outcome"] == OUTCOMES.index("converged")
+    paper = converged.sel(integrator="paper")
+    adaptive = converged.sel(integrator="cvode") & converged.sel(integrator="ida")
+    lines += ["", f"- paper fails where CVODE and IDA converge: {int((~paper & adaptive).sum())}"
+              " configurations",
+              f"- paper converges where CVODE or IDA fails: "
+              f"{int((paper & ~adaptive).sum())} configurations", ""]
+    for integrator in INTEGRATORS:
+        failed = ds["outcome"].sel(integrator=integrator) != OUTCOMES.index("converged")
+        messages = ds["message"].sel(integrator=integrator).values[failed.values]
+        kinds: dict[str, int] = {}
+        for message in messages:
+            reason = str(message).split(": ", 1)[-1].split(" (residual")[0][:90]
+            kinds[reason] = kinds.get(reason, 0) + 1
+        if kinds:
+            lines.append(f"Failures of `{integrator}`:")
+            lines += [f"- {n} × {reason}" for reason, n in
+                      sorted(kinds.items(), key=lambda item: -item[1])[:6]]
+            lines.append("")
+    lines.append("Machine: " + ", ".join(f"{k.removeprefix('machine_')} {v}"
+                                         for k, v in ds.attrs.items()
+                                         if k.startswith("machine_")))
+    return "\n".join(lines) + "\n"
+
+
+def run(size: str, output_dir: Path, progress=None) -> list[Path]:
+    """Run (or resume) the stress map and write stress.nc, stress.png and stress.md."""
+    study = stress_study(size)
+    configs = configurations(SIZES[size]["count"], SIZES[size]["max_nodes"])
+    output = Path(output_dir) / (f"stress-{size}.nc")
+
+    def report(done: int, failed: int, total: int, elapsed: float) -> None:
+        if progress is not None:
+            eta = f", ETA {elapsed / done * (total - done):.0f} s" if done and done < total else ""
+            progress(done / total, f"stress: {done}/{total} runs, {failed} not converged{eta}")
+
+    ds = run_study(study, size, output, progress=report)
+    for key in ("K_P", "nodes", "radius", "alpha", "h"):
+        ds = ds.assign_coords({key: ("config", [c[key] for c in configs])})
+    ds["outcome"] = classify(ds)
+    ds.attrs.update({f"machine_{k}": v for k, v in machine().items()})
+    from rodsim.archive import write_dataset
+
+    write_dataset(ds, output)
+    figure = output.with_suffix(".png")
+    _figure(ds, figure)
+    table = output.with_suffix(".md")
+    table.write_text(_markdown(ds), encoding="utf-8")
+    return [output, figure, table]
