@@ -146,9 +146,15 @@ class Scene:
             key = key.strip()
             if not sep or not key:
                 raise SceneError(f"--set {assignment!r}: expected key=value")
-            data = resolve(_assign(data, _resolve_key(data, key, prefer),
-                                   _parse_value(text.strip())))
-        return Scene(data, self.source)
+            data = _assign(data, _resolve_key(data, key, prefer), _parse_value(text.strip()))
+            # Validate as we go so a later key can name a term an earlier one added; a scene
+            # that is only invalid half-way (e.g. switching two linked values) is checked
+            # again once every assignment is applied.
+            try:
+                data = resolve(data)
+            except SceneError:
+                pass
+        return Scene(resolve(data), self.source)
 
     def with_values(self, values: Mapping[str, Any]) -> Scene:
         """A new scene with already-typed values at dotted keys (used by studies)."""
@@ -188,7 +194,7 @@ def resolve(raw: Mapping[str, Any]) -> dict[str, Any]:
         prefix = f"tendons.{name}"
         tendons[name] = _resolve_with_terms(table, TENDON_PARAMETERS, tendon_terms, terms,
                                             prefix)
-        check_tendon(name, tendons[name], rods, prefix)
+        check_tendon(name, tendons[name], rods, prefix, tendons_raw.keys())
     integrators = registered_integrators()
     solver_raw = raw.get("solver", {})
     solver = validate_table(solver_raw, SOLVER_PARAMETERS, "solver",

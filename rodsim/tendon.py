@@ -19,6 +19,7 @@ Coupling variants (docs/tendon.md):
 from __future__ import annotations
 
 import math
+from collections.abc import Collection
 from dataclasses import dataclass
 from typing import Any
 
@@ -53,8 +54,10 @@ def _unit_direction(direction: list[float]) -> tuple[float, float]:
     return direction[0] / norm, direction[1] / norm
 
 
-def check_tendon(name: str, table: dict[str, Any], rods: dict[str, Any], prefix: str) -> None:
-    """Cross-check a resolved tendon table against the scene's rods (raises SceneError)."""
+def check_tendon(name: str, table: dict[str, Any], rods: dict[str, Any], prefix: str,
+                 tendons: Collection[str] = ()) -> None:
+    """Cross-check a resolved tendon table against the scene's rods and the other tendons
+    (raises SceneError)."""
     if name not in rods:
         raise SceneError(f"{prefix}: no rod named {name!r} (a tendon table is keyed by its "
                          f"rod's name); rods: {', '.join(rods)}")
@@ -64,6 +67,9 @@ def check_tendon(name: str, table: dict[str, Any], rods: dict[str, Any], prefix:
                          + ", ".join(rods))
     if catheter == name:
         raise SceneError(f"{prefix}.catheter = {catheter!r}: a rod cannot be its own catheter")
+    if catheter in tendons:
+        raise SceneError(f"{prefix}.catheter = {catheter!r}: that rod is itself a tendon; "
+                         "allowed: a rod with no [tendons.<rod>] table")
     tendon, host = rods[name], rods[catheter]
     if tendon["length"] > host["length"] * (1 + 1e-9):
         raise SceneError(f"rods.{name}.length = {tendon['length']!r}: the tendon is longer than "

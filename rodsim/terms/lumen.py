@@ -1,6 +1,7 @@
 """Lumen constraint, paper Eqs. (24)–(27) and (32)–(35): tendon points held on the lumen.
 
-Each tendon point p_i is registered to exactly one parent catheter node j — the nearest
+Each tendon point p_i but the endpoint (held by Eqs. 28–29 instead) is registered to
+exactly one parent catheter node j — the nearest
 lumen point L_j = r_j + r_L d_t(q_j) — recomputed from the state at every evaluation (§4.1).
 Its offset Δ = L_j − p_i is penalised across the lumen:
 
@@ -108,12 +109,14 @@ class Lumen(TendonTerm):
         self._both = params["constrain"] == "both"
         catheter = tendon.catheter
         self._margin = params["hysteresis"] * catheter.geometry.segment_length
-        self._points = tendon.rod.layout.position_index
+        # Every tendon point but the endpoint, which Eqs. (28)–(29) hold instead (§4.1:
+        # "we will define a distinct penalty force on the tendon endpoint").
+        self._points = tendon.rod.layout.position_index[:-1]
         rest = np.zeros(max(catheter.layout.offset + catheter.layout.size,
                             tendon.rod.layout.offset + tendon.rod.layout.size))
         rest[catheter.layout.position_index] = catheter.rest_positions()
         rest[catheter.layout.quaternion_index] = catheter.rest_quaternions()
-        rest[self._points] = tendon.rod.rest_positions()
+        rest[self._points] = tendon.rod.rest_positions()[:-1]
         self.parent = self._nearest(rest)
         self._set_dofs()
 

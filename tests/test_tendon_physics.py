@@ -1,0 +1,369 @@
+"""Physics of the tendon–catheter system (paper §4, DESIGN §2 items 6–8), on computed numbers.
+
+(a) The momentum-conserving coupling: a stiff tendon with tension T in a lumen at offset r_L
+    bends the catheter toward the constant-curvature arc κ = T r_L / (E I) as the penalty
+    constants grow, and every coupling force has its reaction (net force and net moment of
+    the coupling terms vanish, the clamp carries exactly the actuation load).
+(b) The paper's coupling (table3-catheter1, distal actuation): the trends of Figs. 15–18.
+(c) Several tendons: opposing tendons cancel, unequal ones bend toward the stronger, two
+    adjacent tendons of four bend the catheter out of the x–y plane, symmetrically.
+
+Run with ``pytest -s`` to see the tables (docs/tendon.md quotes them).
+"""
+
+from __future__ import annotations
+
+import copy
+import functools
+import math
+from typing import Any
+
+import numpy as np
+
+import rodsim
+from rodsim.model import Model
+from rodsim.rod.quaternion import director, director_gradient
+from rodsim.terms.base import TendonTerm
+
+CONSERVING = "tendon-conserving"
+PAPER = "table3-catheter1"
+TENDON = "tendons.tendon"
+
+
+# ----------------------------------------------------------------------------- helpers
+def catheter_constants(data: dict[str, Any]) -> tuple[float, float, float]:
+    """(L, E I, E_s A) of the scene's catheter."""
+    rod = data["rods"]["catheter"]
+    radius = rod["radius"]
+    return (rod["length"], rod["youngs_modulus"] * math.pi * radius**4 / 4,
+            rod["stretch_modulus"] * math.pi * radius**2)
+
+
+def arc_points(s: np.ndarray, curvature: np.ndarray, shortening: float) -> np.ndarray:
+    """Constant-curvature arc of an axially compressed rod clamped along +x at the origin.
+
+    ``curvature`` is the curvature vector in the (y, z) plane; the arc lies in the plane of
+    x and that vector. s' = s (1 − shortening) is the compressed arc length.
+    """
+    curvature = np.asarray(curvature, dtype=float)
+    kappa = float(np.linalg.norm(curvature))
+    s_compressed = s * (1.0 - shortening)
+    if kappa == 0.0:
+        return np.stack([s_compressed, 0 * s, 0 * s], axis=1)
+    theta = kappa * s_compressed
+    lateral = (1.0 - np.cos(theta)) / kappa
+    direction = curvature / kappa
+    return np.stack([np.sin(theta) / kappa, lateral * direction[0], lateral * direction[1]],
+                    axis=1)
+
+
+def distance_to_arc(result, curvature, shortening: float) -> float:
+    """Largest distance [m] between the catheter's control points and the arc."""
+    positions = result.positions("catheter")
+    s = result.rods["catheter"].s
+    return float(np.max(np.linalg.norm(positions - arc_points(s, curvature, shortening),
+                                       axis=1)))
+
+
+def tip_distance(a: np.ndarray, b: np.ndarray) -> float:
+    return float(np.linalg.norm(np.asarray(a) - np.asarray(b)))
+
+
+# ------------------------------------------------------- (a) the conserving variant
+#: Penalty constants of data/tendon-conserving.toml, scaled together by these factors.
+PENALTY_SCALES = (1e-3, 1e-2, 1e-1, 1.0)
+BASE_PENALTIES = {"lumen.K_L": 1e4, "endpoint_compliance.K_E": 1e5,
+                  "endpoint_coupling.K_C": 1e5}
+
+
+def test_conserving_coupling_converges_to_the_constant_curvature_arc():
+    base = rodsim.load_scene(CONSERVING)
+    data = base.data
+    length, bending, stretching = catheter_constants(data)
+    table = data["tendons"]["tendon"]
+    tension = table["tendon_actuation"]["force"]
+    assert table["coupling"] == "conserving" and table["tendon_actuation"]["point"] == "proximal"
+    kappa = tension * table["offset"] / bending  # curvature toward d1 = +y
+    shortening = tension / stretching
+
+    rows = []
+    for scale in PENALTY_SCALES:
+        values = {f"{TENDON}.{key}": value * scale for key, value in BASE_PENALTIES.items()}
+        result = rodsim.solve(base.with_values(values), "static")
+        assert result.success, f"scale {scale}: {result.message}"
+        error = distance_to_arc(result, [kappa, 0.0], shortening) / length
+        rows.append((scale, values, error, result.tip("catheter")))
+
+    print(f"\nconserving tendon vs constant-curvature arc (κ = T r_L/(E I) = {kappa:.5g} 1/m, "
+          f"T/(E_s A) = {shortening:.4g}, N_C = N_T = {data['rods']['catheter']['nodes']})")
+    print(f"{'K_L [N/m]':>10s} {'K_E [N/m]':>10s} {'K_C [N/m]':>10s} {'max error / L':>14s} "
+          f"{'tip x [m]':>10s} {'tip y [m]':>10s}")
+    for _, values, error, tip in rows:
+        k_l, k_e, k_c = values.values()
+        print(f"{k_l:10.3g} {k_e:10.3g} {k_c:10.3g} {error:14.3e} {tip[0]:10.6f} {tip[1]:10.6f}")
+    analytic_tip = arc_points(np.array([length]), [kappa, 0.0], shortening)[0]
+    print(f"{'arc':>32s} {'':>14s} {analytic_tip[0]:10.6f} {analytic_tip[1]:10.6f}")
+
+    errors = [row[2] for row in rows]
+    assert errors[-1] < 0.01, f"error {errors[-1]:.3g} L at the largest penalties"
+    # A real convergence: the error falls at every level, by more than 10× overall.
+    assert all(b < a for a, b in zip(errors, errors[1:], strict=False)), errors
+    assert errors[0] > 10 * errors[-1], errors
+    # The arc is planar: nothing bends the catheter out of the x–y plane.
+    assert abs(rows[-1][3][2]) < 1e-9 * length
+
+
+def coupling_terms(model: Model) -> list[TendonTerm]:
+    """The coupling terms (lumen, endpoint compliance, endpoint coupling): every tendon
+    term except the external actuation load."""
+    terms = [t for t in model.terms if isinstance(t, TendonTerm) and not t.is_load]
+    assert {t.name for t in terms} == {"lumen", "endpoint_compliance", "endpoint_coupling"}
+    return terms
+
+
+def scattered(model: Model, terms, full: np.ndarray) -> np.ndarray:
+    """The terms' element forces scattered onto the *full* state (clamped coordinates too)."""
+    out = np.zeros(model.full_size)
+    for term in terms:
+        np.add.at(out, term.dofs.ravel(), np.asarray(term.element_forces(full)).ravel())
+    return out
+
+
+def rotation_of_quaternion(q: np.ndarray) -> np.ndarray:
+    """4 × 3 map δθ ↦ δq: the change of q that turns its directors by δθ (world frame).
+
+    Found from the directors themselves (δd_m = δθ × d_m, least squares on ∂d_m/∂q), so it
+    does not depend on the quaternion convention.
+    """
+    gradient = np.concatenate([director_gradient(q, m) for m in range(3)])  # 9 × 4
+    out = np.zeros((4, 3))
+    for k in range(3):
+        turn = np.concatenate([np.cross(np.eye(3)[k], director(q, m)) for m in range(3)])
+        out[:, k] = np.linalg.lstsq(gradient, turn, rcond=None)[0]
+        assert np.allclose(gradient @ out[:, k], turn, atol=1e-12)
+    return out
+
+
+def net_force_and_moment(model: Model, force: np.ndarray,
+                         full: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Net force and net moment about the origin of a generalised force on the full state:
+    Σ F_i and Σ r_i × F_i + Σ (∂q/∂θ)ᵀ Q_j (the moment a quaternion force exerts)."""
+    net_force, net_moment = np.zeros(3), np.zeros(3)
+    for rod in model.rods.values():
+        positions = full[rod.layout.position_index]
+        forces = force[rod.layout.position_index]
+        net_force += forces.sum(axis=0)
+        net_moment += np.cross(positions, forces).sum(axis=0)
+        for index in rod.layout.quaternion_index:
+            net_moment += rotation_of_quaternion(full[index]).T @ force[index]
+    return net_force, net_moment
+
+
+@functools.cache
+def conserving_equilibrium() -> tuple[Model, np.ndarray]:
+    model = rodsim.build_model(CONSERVING)
+    result = rodsim.solve(model.scene, "static", model=model)
+    assert result.success, result.message
+    return model, model.full(result.state)
+
+
+def test_conserving_coupling_balances_forces_and_moments():
+    model, full = conserving_equilibrium()
+    table = model.scene.data["tendons"]["tendon"]
+    load = table["tendon_actuation"]["force"]
+    length = model.length_scale
+    coupling = scattered(model, coupling_terms(model), full)
+    force, moment = net_force_and_moment(model, coupling, full)
+    # Scale: the largest coupling force on any one coordinate block (~ the tension).
+    scale = np.max(np.linalg.norm(coupling[np.concatenate(
+        [r.layout.position_index for r in model.rods.values()])], axis=1))
+    print(f"\nconserving coupling at equilibrium: largest nodal coupling force {scale:.4g} N, "
+          f"net force {np.linalg.norm(force):.3g} N, net moment {np.linalg.norm(moment):.3g} N m")
+    assert scale > 0.1 * load  # the coupling really carries the tension
+    assert np.linalg.norm(force) < 1e-9 * scale
+    assert np.linalg.norm(moment) < 1e-9 * scale * length
+
+    # The catheter's clamp carries exactly the actuation load: the force every term exerts
+    # on the catheter's clamped base node is the external load F_A (−x), the clamp's reaction
+    # its opposite; the tendon's base (free to slide) is in equilibrium.
+    every = scattered(model, model.terms, full)
+    catheter, tendon = model.rods["catheter"], model.rods["tendon"]
+    on_clamp = every[catheter.layout.position_index[0]]
+    actuation = np.array([-load, 0.0, 0.0])
+    print(f"force on the catheter's clamped base node {on_clamp} N (F_A = {actuation} N)")
+    assert np.linalg.norm(on_clamp - actuation) < 1e-6 * load
+    assert np.linalg.norm(every[tendon.layout.position_index[0]]) < 1e-6 * load
+
+    # Control: the paper's coupling, evaluated at the same state, is not balanced (Eq. 28
+    # has no reaction; averaged lumen reactions act at the node, not at the lumen point).
+    paper = rodsim.build_model(model.scene.with_values({f"{TENDON}.coupling": "paper"}))
+    paper.update_registration(full[paper.free])
+    unbalanced = scattered(paper, coupling_terms(paper), full)
+    paper_force, paper_moment = net_force_and_moment(paper, unbalanced, full)
+    print(f"paper coupling at the same state: net force {np.linalg.norm(paper_force):.3g} N, "
+          f"net moment {np.linalg.norm(paper_moment):.3g} N m")
+    assert np.linalg.norm(paper_force) > 1e-3 * scale
+    assert np.linalg.norm(paper_moment) > 1e-3 * scale * length
+
+
+# ------------------------------------------------------ (b) the paper variant: Figs. 15–18
+KEYS = {"N_T": "rods.tendon.nodes", "K_L": f"{TENDON}.lumen.K_L",
+        "K_E": f"{TENDON}.endpoint_compliance.K_E", "K_C": f"{TENDON}.endpoint_coupling.K_C"}
+
+
+@functools.cache
+def _paper_tip(values: tuple[tuple[str, Any], ...]) -> np.ndarray:
+    scene = rodsim.load_scene(PAPER).with_values({KEYS[k]: v for k, v in values})
+    result = rodsim.solve(scene, "static")
+    assert result.success, f"{dict(values)}: {result.message}"
+    return result.tip("catheter").copy()
+
+
+def paper_tip(**values: Any) -> np.ndarray:
+    """Catheter tip of table3-catheter1 (static) with some values changed (cached)."""
+    return _paper_tip(tuple(sorted((k, float(v) if k != "N_T" else int(v))
+                                   for k, v in values.items())))
+
+
+def print_sweep(title: str, name: str, values, tips) -> None:
+    print(f"\n{title}")
+    print(f"{name:>10s} {'tip x [m]':>10s} {'tip y [m]':>10s}")
+    for value, tip in zip(values, tips, strict=True):
+        print(f"{value:10.4g} {tip[0]:10.6f} {tip[1]:10.6f}")
+
+
+def test_fig15_tendon_density_changes_practically_nothing():
+    counts = (5, 10, 20)
+    tips = [paper_tip(N_T=n) for n in counts]
+    deflection = paper_tip(N_T=10)[1]
+    spread = max(tip_distance(a, b) for a in tips for b in tips)
+    print_sweep("Fig. 15: N_T at N_C = 30 (table3-catheter1, static)", "N_T", counts, tips)
+    print(f"spread of the tip {spread:.3g} m = {spread / deflection:.3%} of the deflection "
+          f"{deflection:.4g} m")
+    assert deflection > 0.01
+    assert spread < 0.1 * deflection
+
+
+def test_fig16_lumen_penalty_above_1000_changes_little():
+    values = (100.0, 1000.0, 1300.0)
+    tips = [paper_tip(K_L=k) for k in values]
+    # Wider sweep, printed only (what happens beyond the paper's range).
+    extra = (3000.0, 1e4, 1e5)
+    print_sweep("Fig. 16: K_L (table3-catheter1, static)", "K_L [N/m]", values + extra,
+                tips + [paper_tip(K_L=k) for k in extra])
+    low, high = tip_distance(tips[1], tips[0]), tip_distance(tips[2], tips[1])
+    print(f"tip moves {low:.4g} m for K_L 100 -> 1000, {high:.4g} m for 1000 -> 1300 "
+          f"(ratio {low / high:.3g}; 'much less' asserted as >= 10)")
+    assert high < 0.1 * low, (
+        f"K_L 1000 -> 1300 moves the tip {high:.3g} m, only {low / high:.2g}x less than "
+        f"100 -> 1000 ({low:.3g} m): the deflection does not saturate in K_L")
+
+
+def test_fig17_deflection_grows_with_k_c_and_saturates():
+    values = (1e2, 1e3, 1e4, 1e5, 1e6)
+    tips = [paper_tip(K_E=1500.0, K_C=k) for k in values]
+    print_sweep("Fig. 17: K_C at K_E = 1500 (table3-catheter1, static)", "K_C [N/m]", values,
+                tips)
+    deflection = np.array([tip[1] for tip in tips])
+    steps = np.diff(deflection)
+    print("increments of tip y per decade [m]: " + ", ".join(f"{d:.4g}" for d in steps))
+    assert np.all(steps > 0), deflection
+    assert steps[-1] < steps[0], steps
+    assert steps[-1] < 0.2 * steps[0], steps  # saturates
+
+
+def test_fig18_deflection_falls_almost_linearly_with_k_e():
+    """Over the paper's fitting range and above (Table 3 uses K_E = 950–1200). Below about
+    K_E = 950 the tendon tip, pulled further back, swings round the catheter tip on the
+    coupling sphere and the trend reverses (docs/tendon.md)."""
+    values = np.array([1000.0, 1250.0, 1500.0, 1750.0, 2000.0])
+    tips = [paper_tip(K_C=1e5, K_E=k) for k in values]
+    print_sweep("Fig. 18: K_E at K_C = 1e5 (table3-catheter1, static)", "K_E [N/m]", values,
+                tips)
+    deflection = np.array([tip[1] for tip in tips])
+    slope, intercept = np.polyfit(values, deflection, 1)
+    fitted = slope * values + intercept
+    r2 = 1.0 - np.sum((deflection - fitted) ** 2) / np.sum((deflection - deflection.mean()) ** 2)
+    print(f"linear fit: tip y = {intercept:.4g} m + {slope:.4g} m/(N/m) K_E, R² = {r2:.4f}")
+    assert np.all(np.diff(deflection) < 0), (
+        f"tip y {np.round(deflection, 5).tolist()} is not decreasing in K_E "
+        f"{values.tolist()}")
+    assert r2 > 0.98
+
+
+# ---------------------------------------------------------------- (c) several tendons
+def tendon_scene(spec: dict[str, tuple[list[float], float]]) -> dict[str, Any]:
+    """tendon-conserving with its tendon copied once per entry: name -> (direction, force)."""
+    data = copy.deepcopy(rodsim.load_scene(CONSERVING).data)
+    rod = data["rods"].pop("tendon")
+    table = data["tendons"].pop("tendon")
+    for name, (direction, force) in spec.items():
+        data["rods"][name] = copy.deepcopy(rod)
+        data["tendons"][name] = copy.deepcopy(table)
+        data["tendons"][name]["direction"] = direction
+        data["tendons"][name]["tendon_actuation"]["force"] = force
+    data["name"] = "tendons-" + "-".join(spec)
+    return data
+
+
+def solve_tendons(spec) -> tuple[Any, dict[str, Any]]:
+    data = tendon_scene(spec)
+    result = rodsim.solve(data, "static")
+    assert result.success, result.message
+    assert set(result.rods) == {"catheter", *spec}
+    return result, data
+
+
+def test_two_opposing_equal_tendons_only_compress_the_catheter():
+    force = 2.0
+    result, data = solve_tendons({"up": ([1.0, 0.0], force), "down": ([-1.0, 0.0], force)})
+    length, _, stretching = catheter_constants(data)
+    tip = result.tip("catheter")
+    shortening = length - tip[0]
+    expected = length * 2 * force / stretching
+    print(f"\ntwo opposing tendons of {force} N: catheter tip {tip} m, shortening "
+          f"{shortening:.5g} m (2T L/(E_s A) = {expected:.5g} m)")
+    assert abs(tip[1]) < 1e-6 * length and abs(tip[2]) < 1e-6 * length
+    assert shortening > 0
+    assert abs(shortening - expected) < 0.01 * expected
+
+
+def test_unequal_opposing_tendons_bend_toward_the_stronger():
+    strong, weak = 2.0, 1.0
+    spec = {"up": ([1.0, 0.0], strong), "down": ([-1.0, 0.0], weak)}
+    result, data = solve_tendons(spec)
+    length, bending, stretching = catheter_constants(data)
+    offset = data["tendons"]["up"]["offset"]
+    tip = result.tip("catheter")
+    arc = arc_points(np.array([length]), [(strong - weak) * offset / bending, 0.0],
+                     (strong + weak) / stretching)[0]
+    print(f"\ntendons of {strong} N (+y lumen) and {weak} N (−y lumen): catheter tip {tip} m, "
+          f"net-moment arc {arc} m")
+    assert tip[1] > 0.01 * length  # toward the stronger tendon's lumen (+y)
+    assert abs(tip[2]) < 1e-6 * length
+    assert abs(tip[1] - arc[1]) < 0.02 * arc[1]
+    # Swapping the forces mirrors the shape.
+    mirrored, _ = solve_tendons({"up": ([1.0, 0.0], weak), "down": ([-1.0, 0.0], strong)})
+    assert np.allclose(mirrored.tip("catheter"), tip * [1.0, -1.0, 1.0], atol=1e-6 * length)
+
+
+def test_four_tendons_two_adjacent_pulled_bend_out_of_plane_symmetrically():
+    force = 2.0
+    spec = {"t_y": ([1.0, 0.0], force), "t_z": ([0.0, 1.0], force),
+            "t_my": ([-1.0, 0.0], 0.0), "t_mz": ([0.0, -1.0], 0.0)}
+    result, data = solve_tendons(spec)
+    length, bending, stretching = catheter_constants(data)
+    offset = data["tendons"]["t_y"]["offset"]
+    tip = result.tip("catheter")
+    kappa = force * offset / bending
+    arc = arc_points(np.array([length]), [kappa, kappa], 2 * force / stretching)[0]
+    print(f"\nfour tendons at 90°, +y and +z lumens pulled with {force} N: catheter tip {tip} m,"
+          f" arc {arc} m")
+    assert tip[1] > 0.01 * length and tip[2] > 0.01 * length  # out of the x–y plane
+    assert abs(tip[1] - tip[2]) < 1e-6 * length  # symmetric about the diagonal
+    # Within 2 % of the lateral deflection (the tendons' own E I, 4 × 0.26 % of the
+    # catheter's, is left out of the arc).
+    assert np.linalg.norm(tip - arc) < 0.02 * np.linalg.norm(arc[1:])
+    # Every point of the catheter lies in the diagonal plane y = z.
+    positions = result.positions("catheter")
+    assert np.max(np.abs(positions[:, 1] - positions[:, 2])) < 1e-6 * length
