@@ -4,17 +4,28 @@
 or draws the centerlines of a single run, and writes ``stem.png`` and ``stem.pdf``.
 Kinds:
 
-- ``centerlines``: the first rod's centerline at every point, one line per point (Figs. 6,
-  9, 14–18, 22); the analytic reference when the study has one.
+- ``centerlines``: the first rod's centerline at every point (Figs. 6, 9, 14–18, 22), with
+  the study's analytic reference for each point when it has one — recomputed from the
+  archive's ``spec_json`` (:func:`reference_centerlines`), the exact elastica drawn with the
+  paper's analytical model (AM) on it for the hanging-mass scenes. With two or more swept
+  parameters the colour follows the last one and the line style the others (Fig. 9: one
+  colour per mass, one style per stiffness tensor). A second panel gives the tip's y against
+  the first numeric swept parameter.
 - ``error_vs_parameter``: tip and area errors against the first swept parameter, log–log
-  (Fig. 7, convergence studies), one line per value of the other swept parameters.
-- ``error_vs_iteration``: tip error against the reference per step (Fig. 8).
+  (Fig. 7, convergence studies), one line per value of the second swept parameter and, with
+  three or more, one panel per value of the last.
+- ``error_vs_iteration``: tip error against the reference per step (Fig. 8), one line per
+  value of the first swept parameter, one panel per value of the others.
 """
 
 from __future__ import annotations
 
-from collections.abc import Iterable
+import io
+import json
+import textwrap
+from collections.abc import Iterable, Sequence
 from pathlib import Path
+from typing import Any
 
 import matplotlib
 
@@ -22,10 +33,49 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 import xarray as xr  # noqa: E402
+from matplotlib.figure import Figure  # noqa: E402
+from matplotlib.lines import Line2D  # noqa: E402
+from matplotlib.ticker import NullFormatter  # noqa: E402
 
-__all__ = ["plot_dataset", "PLOT_KINDS"]
+__all__ = ["plot_dataset", "PLOT_KINDS", "reference_centerlines"]
 
 PLOT_KINDS = ("centerlines", "error_vs_parameter", "error_vs_iteration")
+
+#: Analytic curves drawn for a study's reference kind: (kind, label, style) — the first is
+#: the reference the errors are measured against.
+OVERLAYS = {
+    "exact": (("exact", "exact elastica", {"color": "k", "lw": 0.9, "ls": "-"}),
+              ("paper", "analytical model (AM), Eqs. (21)–(23) corrected",
+               {"color": "k", "ls": "none", "marker": "o", "mfc": "none", "ms": 4})),
+    "paper": (("paper", "analytical model (AM), Eqs. (21)–(23) corrected",
+               {"color": "k", "lw": 0.9, "ls": "-"}),),
+    "extensible": (("extensible", "extensible elastica", {"color": "k", "lw": 0.9, "ls": "-"}),),
+    "arc": (("arc", "constant-curvature arc", {"color": "k", "lw": 0.9, "ls": "-"}),),
+}
+LINE_STYLES = ("-", "--", ":", "-.")
+MARKERS = ("o", "s", "^", "v", "D", "P")
+#: Every how many σ samples the AM markers are drawn (101 samples: 11 markers).
+MARKER_EVERY = 10
+DPI = 100
+
+
+# Points, labels and colours -----------------------------------------------------------------
+
+
+def _sweep_dims(ds: xr.Dataset) -> list[str]:
+    return list(ds["status"].dims)
+
+
+def _value(ds: xr.Dataset, dim: str, i: int) -> Any:
+    return ds[dim].values[i].item()
+
+
+def _is_numeric(ds: xr.Dataset, dim: str) -> bool:
+    return np.issubdtype(ds[dim].dtype, np.number)
+
+
+def _text(value: Any) -> str:
+    return f"{value:g}" if isinstance(value, (int, float, np.number)) else str(value)
 
 
 def _label(ds: xr.Dataset, point: dict[str, object]) -> str:
@@ -33,70 +83,371 @@ def _label(ds: xr.Dataset, point: dict[str, object]) -> str:
     for dim, value in point.items():
         units = ds[dim].attrs.get("units", "1")
         unit = "" if units in ("1", "-") else f" {units}"
-        text = f"{value:g}" if isinstance(value, (int, float, np.number)) else str(value)
-        parts.append(f"{dim} = {text}{unit}")
+        parts.append(f"{dim} = {_text(value)}{unit}")
     return ", ".join(parts)
 
 
-def _sweep_dims(ds: xr.Dataset) -> list[str]:
-    return [d for d in ds["status"].dims]
+def _axis_label(ds: xr.Dataset, dim: str) -> str:
+    units = ds[dim].attrs.get("units", "1")
+    return ds[dim].attrs.get("long_name", dim) + ("" if units in ("1", "-") else f" [{units}]")
 
 
-def _points(ds: xr.Dataset) -> Iterable[dict[str, object]]:
+def _indices(ds: xr.Dataset, dims: Sequence[str]) -> list[tuple[int, ...]]:
+    return list(np.ndindex(*(ds.sizes[d] for d in dims))) if dims else [()]
+
+
+def _colours(count: int, numeric: bool) -> list[Any]:
+    """Sequential colours for five or more ordered values (the trend reads as a gradient),
+    the categorical cycle otherwise."""
+    if numeric and count >= 5:
+        cmap = plt.get_cmap("viridis")
+        return [cmap(0.85 * i / (count - 1)) for i in range(count)]
+    cycle = plt.rcParams["axes.prop_cycle"].by_key()["color"]
+    return [cycle[i % len(cycle)] for i in range(count)]
+
+
+def _log_axis(values: np.ndarray, ratio: float = 20.0) -> bool:
+    """Log scale for a positive numeric axis spanning at least a factor ``ratio``."""
+    values = np.asarray(values, dtype=float)
+    return bool(np.all(values > 0.0) and values.max() >= ratio * values.min())
+
+
+def _positions(ds: xr.Dataset, dim: str) -> tuple[np.ndarray, list[str] | None]:
+    """x positions of ``dim``'s values, and tick labels when they are not numbers."""
+    if _is_numeric(ds, dim):
+        return ds[dim].values.astype(float), None
+    return np.arange(ds.sizes[dim], dtype=float), [str(v) for v in ds[dim].values]
+
+
+def _finish_x(axes: plt.Axes, ds: xr.Dataset, dim: str, log_ratio: float = 20.0) -> None:
+    x, ticks = _positions(ds, dim)
+    if ticks is not None:
+        axes.set_xticks(x, ticks)
+        axes.set_xlim(x[0] - 0.5, x[-1] + 0.5)
+    elif _log_axis(x, log_ratio):
+        axes.set_xscale("log")
+        if len(x) <= 12 and x.max() < 100.0 * x.min():  # few decades: label the values
+            axes.set_xticks(x, [_text(v) for v in ds[dim].values])
+            axes.xaxis.set_minor_formatter(NullFormatter())
+    axes.set_xlabel(_axis_label(ds, dim))
+
+
+def _title(figure: Figure, ds: xr.Dataset) -> None:
+    text = f"{ds.attrs['study']} ({ds.attrs.get('size', '')}): {ds.attrs.get('paper', '')}"
+    width = max(40, int(14 * figure.get_figwidth()))  # characters of 8-pt text per line
+    figure.suptitle("\n".join(textwrap.wrap(text, width)), fontsize=8)
+
+
+# Analytic references ------------------------------------------------------------------------
+
+
+def reference_centerlines(ds: xr.Dataset, kinds: Sequence[str] | None = None
+                          ) -> dict[str, dict[tuple[int, ...], np.ndarray]]:
+    """Analytic references (σ, 3) [m] of the first rod at every grid point that has one.
+
+    Returns ``{kind: {grid index: curve}}`` for each of ``kinds`` (default: the study's
+    reference). Recomputed from the archive's ``spec_json`` (the base scene and the sweeps,
+    :func:`rodsim.study.point_scene`), so it needs nothing but the Dataset. The hanging-mass
+    kinds (``exact``, ``paper``, ``extensible``) come from one
+    :func:`~rodsim.analytic.reference.cantilever_reference` per point, sampled at σ L (the
+    paper's model, sampled in φ, is interpolated); ``arc`` from
+    :func:`~rodsim.analytic.reference.reference_centerline`. Points whose scene does not
+    qualify, or is invalid, are left out.
+    """
+    from rodsim.analytic.reference import (
+        REFERENCE_KINDS,
+        cantilever_reference,
+        reference_centerline,
+    )
+    from rodsim.study import point_scene
+
+    spec_json = ds.attrs.get("spec_json")
+    spec = json.loads(spec_json) if spec_json else {}
+    kinds = [k for k in (kinds or [spec.get("reference")]) if k in REFERENCE_KINDS]
+    out: dict[str, dict[tuple[int, ...], np.ndarray]] = {k: {} for k in kinds}
+    if not spec or not kinds:
+        return out
+    sigma = ds["sigma"].values
+    for index in _indices(ds, _sweep_dims(ds)):
+        try:
+            scene = point_scene(spec, index)
+            s = sigma * float(next(iter(scene.data["rods"].values()))["length"])
+            cantilever = (cantilever_reference(scene) if set(kinds) - {"arc"} else None)
+            for kind in kinds:
+                if kind == "arc":
+                    curve = reference_centerline(scene, kind, s)
+                elif cantilever is None:
+                    curve = None
+                else:
+                    shape = getattr(cantilever, kind)
+                    curve = np.zeros((len(s), 3))
+                    curve[:, 0] = np.interp(s, shape.s, shape.x)
+                    curve[:, 1] = np.interp(s, shape.s, shape.y)
+                if curve is not None:
+                    out[kind][index] = curve
+        except Exception:  # an invalid point (recorded as such): nothing to draw
+            continue
+    return out
+
+
+def _draw_references(ds: xr.Dataset, axes: plt.Axes) -> dict[tuple[int, ...], np.ndarray]:
+    """Draw each distinct analytic reference curve once; returns the study's reference."""
+    overlays = OVERLAYS.get(ds.attrs.get("reference", ""), ())
+    if not overlays:
+        return {}
+    curves = reference_centerlines(ds, [kind for kind, _, _ in overlays])
+    for kind, label, style in overlays:
+        drawn: list[np.ndarray] = []
+        for curve in curves[kind].values():
+            if any(np.allclose(curve, other, rtol=0.0, atol=1e-12) for other in drawn):
+                continue
+            every = MARKER_EVERY if style.get("marker") else None
+            axes.plot(curve[:, 0], curve[:, 1], markevery=every, zorder=3,
+                      label=None if drawn else label, **style)
+            drawn.append(curve)
+    return curves[overlays[0][0]]
+
+
+# Centerlines --------------------------------------------------------------------------------
+
+
+def _tip_error_text(sel: xr.Dataset) -> str:
+    error = float(sel["tip_error"]) if "tip_error" in sel else float("nan")
+    return f" (tip error {100 * error:.2g} % L)" if np.isfinite(error) and error > 0 else ""
+
+
+def _point_styles(ds: xr.Dataset) -> dict[tuple[int, ...], dict[str, Any]]:
+    """Colour, line style and marker of every grid point: the colour follows the last swept
+    parameter with more than one value, the style the others (Fig. 9: colour = mass)."""
     dims = _sweep_dims(ds)
-    for index in np.ndindex(*(ds.sizes[d] for d in dims)):
-        yield {d: ds[d].values[i].item() for d, i in zip(dims, index, strict=True)}
+    varying = [d for d in dims if ds.sizes[d] > 1] or dims
+    colour_dim = varying[-1] if varying else None
+    style_dims = [d for d in dims if d != colour_dim]
+    colours = (_colours(ds.sizes[colour_dim], _is_numeric(ds, colour_dim))
+               if colour_dim else ["C0"])
+    styles = {index: n for n, index in enumerate(_indices(ds, style_dims))}
+    out = {}
+    for index in _indices(ds, dims):
+        point = dict(zip(dims, index, strict=True))
+        n = styles[tuple(point[d] for d in style_dims)]
+        out[index] = {"color": colours[point[colour_dim]] if colour_dim else colours[0],
+                      "ls": LINE_STYLES[n % len(LINE_STYLES)],
+                      "marker": MARKERS[n % len(MARKERS)]}
+    return out
 
 
-def _centerlines(ds: xr.Dataset, axes: plt.Axes) -> None:
+#: Above this many points a centerline legend lists colours and styles, not every point.
+LEGEND_POINTS = 12
+
+
+def _compact_legend(ds: xr.Dataset, axes: plt.Axes) -> None:
+    """Legend for many points: one entry per colour value (last varying sweep) and, when
+    they are few, one per line style (the other sweeps), plus the reference curves."""
+    dims = _sweep_dims(ds)
+    styles = _point_styles(ds)
+    varying = [d for d in dims if ds.sizes[d] > 1] or dims
+    colour_dim = varying[-1]
+    style_dims = [d for d in dims if d != colour_dim]
+    handles, labels = [h for h in axes.get_legend_handles_labels()[0]], \
+        list(axes.get_legend_handles_labels()[1])
+    for i in range(ds.sizes[colour_dim]):
+        index = tuple(i if d == colour_dim else 0 for d in dims)
+        handles.append(Line2D([], [], color=styles[index]["color"], lw=2))
+        labels.append(_label(ds, {colour_dim: _value(ds, colour_dim, i)}))
+    groups = _indices(ds, style_dims)
+    if style_dims and len(groups) <= LEGEND_POINTS:
+        for group in groups:
+            select = dict(zip(style_dims, group, strict=True))
+            index = tuple(select.get(d, 0) for d in dims)
+            handles.append(Line2D([], [], color="0.4", ls=styles[index]["ls"],
+                                  marker=styles[index]["marker"], ms=3))
+            labels.append(_label(ds, {d: _value(ds, d, i) for d, i in select.items()}))
+    axes.legend(handles, labels, fontsize=6, loc="best")
+
+
+def _centerlines(ds: xr.Dataset) -> Figure:
+    dims = _sweep_dims(ds)
+    numeric = [d for d in dims if _is_numeric(ds, d) and ds.sizes[d] > 1]
+    tip_dim = numeric[0] if numeric else (dims[0] if dims else None)
+    figure, (axes, tips) = plt.subplots(1, 2, figsize=(11.0, 5.0), width_ratios=(1.6, 1.0),
+                                        constrained_layout=True)
+    references = _draw_references(ds, axes)
+    styles = _point_styles(ds)
     rod = ds["rod"].values[0]
-    for point in _points(ds):
-        sel = ds.sel(point)
+    last_is_reference = ds.attrs.get("reference") == "last" and bool(dims)
+    for index, style in styles.items():
+        point = dict(zip(dims, index, strict=True))
+        sel = ds.isel(point)
         if int(sel["status"]) != 0:
             continue
         line = sel["centerline"].sel(rod=rod).values
-        axes.plot(line[:, 0], line[:, 1], marker=".", markersize=3, label=_label(ds, point))
+        label = _label(ds, {d: _value(ds, d, i) for d, i in point.items()})
+        if last_is_reference and point[dims[0]] == ds.sizes[dims[0]] - 1:
+            label += " (reference)"
+        many = len(styles) > LEGEND_POINTS
+        axes.plot(line[:, 0], line[:, 1], markersize=3, lw=1.2, markevery=5,
+                  label=None if many else label + _tip_error_text(sel), **style)
     axes.set_xlabel("x [m]")
     axes.set_ylabel("y [m]")
     axes.set_aspect("equal", adjustable="datalim")
-    axes.legend(fontsize=7)
+    axes.grid(True, alpha=0.3)
+    axes.set_title(f"{rod} centerline at equilibrium ({ds.attrs.get('integrator', '')})",
+                   fontsize=8)
+    if len(styles) > LEGEND_POINTS:
+        _compact_legend(ds, axes)
+    else:
+        axes.legend(fontsize=6, loc="best")
+    if tip_dim is None:
+        tips.set_visible(False)
+    else:
+        _tips(ds, tips, tip_dim, references, styles)
+    return figure
 
 
-def _error_vs_parameter(ds: xr.Dataset, axes: plt.Axes) -> None:
+def _tips(ds: xr.Dataset, axes: plt.Axes, dim: str,
+          references: dict[tuple[int, ...], np.ndarray],
+          styles: dict[tuple[int, ...], dict[str, Any]]) -> None:
+    """Tip y of the first rod against ``dim``: one grey line per value of the other sweeps,
+    each point in its centerline's colour and marker; the reference's tip as black crosses."""
     dims = _sweep_dims(ds)
-    first, others = dims[0], dims[1:]
-    x = ds[first].values
-    groups = list(np.ndindex(*(ds.sizes[d] for d in others))) if others else [()]
-    for group in groups:
-        select = {d: i for d, i in zip(others, group, strict=True)}
-        sub = ds.isel(select)
-        suffix = _label(ds, {d: ds[d].values[i].item() for d, i in select.items()})
-        for name, style in (("tip_error", "o-"), ("area_error", "s--")):
-            y = sub[name].values
-            if np.all(np.isnan(y)):
-                continue
-            axes.loglog(x, y, style, label=f"{name.replace('_', ' ')} {suffix}".strip())
-    units = ds[first].attrs.get("units", "1")
-    axes.set_xlabel(f"{ds[first].attrs.get('long_name', first)}"
-                    + ("" if units in ("1", "-") else f" [{units}]"))
-    axes.set_ylabel("error / L")
+    others = [d for d in dims if d != dim]
+    x, _ = _positions(ds, dim)
+    tip_y = ds["tip"].isel(rod=0).sel(axis="y").where(ds["status"] == 0)
+    for n, group in enumerate(_indices(ds, others)):
+        select = dict(zip(others, group, strict=True))
+        y = tip_y.isel(select).values
+        indices = [tuple(i if d == dim else select[d] for d in dims)
+                   for i in range(ds.sizes[dim])]
+        label = _label(ds, {d: _value(ds, d, i) for d, i in select.items()}) or "model"
+        first = styles[indices[0]]
+        axes.plot(x, y, color="0.5", lw=1.0, ls=first["ls"], marker=first["marker"], ms=0,
+                  label=label)
+        for xi, yi, index in zip(x, y, indices, strict=True):
+            axes.plot([xi], [yi], ls="none", marker=styles[index]["marker"], ms=5,
+                      color=styles[index]["color"])
+        ref = [references[i][-1, 1] if i in references else np.nan for i in indices]
+        if np.any(np.isfinite(ref)):
+            axes.plot(x, ref, "x", color="k", ms=7,
+                      label="reference tip" if n == 0 else None)
+    _finish_x(axes, ds, dim)
+    axes.set_ylabel("tip y [m]")
+    axes.set_title("tip deflection", fontsize=8)
     axes.grid(True, which="both", alpha=0.3)
-    axes.legend(fontsize=7)
+    if len(_indices(ds, others)) <= LEGEND_POINTS:
+        axes.legend(fontsize=6)
 
 
-def _error_vs_iteration(ds: xr.Dataset, axes: plt.Axes) -> None:
-    for point in _points(ds):
-        error = ds["history_error"].sel(point).values
-        steps = np.arange(1, len(error) + 1)
-        keep = ~np.isnan(error)
-        axes.semilogy(steps[keep], error[keep], label=_label(ds, point))
-    axes.set_xlabel("iteration (time step)")
-    axes.set_ylabel(f"tip error against the {ds.attrs.get('reference')} reference / L")
-    axes.grid(True, which="both", alpha=0.3)
-    axes.legend(fontsize=7)
+# Errors against a parameter -----------------------------------------------------------------
 
 
-def _run_centerlines(ds: xr.Dataset, axes: plt.Axes) -> None:
+def _positive(values: np.ndarray) -> np.ndarray:
+    values = np.asarray(values, dtype=float)
+    return np.where(values > 0.0, values, np.nan)
+
+
+def _panel_grid(count: int, width: float = 4.6, height: float = 4.0
+                ) -> tuple[Figure, list[plt.Axes]]:
+    columns = count if count <= 3 else int(np.ceil(np.sqrt(count)))
+    rows = -(-count // columns)
+    figure, grid = plt.subplots(rows, columns, figsize=(width * columns + 0.8, height * rows),
+                                squeeze=False, sharey=True, constrained_layout=True)
+    panels = list(grid.ravel())
+    for extra in panels[count:]:
+        extra.set_visible(False)
+    return figure, panels[:count]
+
+
+def _error_vs_parameter(ds: xr.Dataset) -> Figure:
+    dims = _sweep_dims(ds)
+    if not dims:  # nothing swept: no parameter to plot against
+        return _centerlines(ds)
+    first = dims[0]
+    panel_dims = [dims[-1]] if len(dims) >= 3 else []
+    line_dims = [d for d in dims[1:] if d not in panel_dims]
+    panel_groups = _indices(ds, panel_dims)
+    line_groups = _indices(ds, line_dims)
+    figure, panels = _panel_grid(len(panel_groups))
+    x, _ = _positions(ds, first)
+    colours = _colours(len(line_groups), len(line_dims) == 1 and _is_numeric(ds, line_dims[0]))
+    anything = False
+    for axes, panel in zip(panels, panel_groups, strict=True):
+        panel_select = dict(zip(panel_dims, panel, strict=True))
+        for n, group in enumerate(line_groups):
+            select = panel_select | dict(zip(line_dims, group, strict=True))
+            sub = ds.isel(select)
+            label = _label(ds, {d: _value(ds, d, i) for d, i in zip(line_dims, group,
+                                                                    strict=True)})
+            for name, style in (("tip_error", "o-"), ("area_error", "s--")):
+                y = _positive(sub[name].where(sub["status"] == 0).values)
+                if np.all(np.isnan(y)):
+                    continue
+                anything = True
+                # Successive lines thinner, so coinciding ones stay visible.
+                axes.plot(x, y, style, color=colours[n], ms=max(2.5, 5.5 - n),
+                          lw=max(0.8, 2.4 - 0.5 * n),
+                          label=(label or "model") if name == "tip_error" else None)
+        _finish_x(axes, ds, first, log_ratio=2.0)  # log–log: orders of convergence
+        axes.set_yscale("log")
+        axes.grid(True, which="both", alpha=0.3)
+        if panel_dims:
+            axes.set_title(_label(ds, {d: _value(ds, d, i) for d, i in panel_select.items()}),
+                           fontsize=8)
+    panels[0].set_ylabel(f"error / L against the {ds.attrs.get('reference')} reference")
+    if not anything:
+        panels[0].text(0.5, 0.5, "no errors: the study has no reference, or no point has one",
+                       ha="center", va="center", transform=panels[0].transAxes, fontsize=8)
+        return figure
+    handles, labels = panels[0].get_legend_handles_labels()
+    handles += [Line2D([], [], color="0.3", marker="o", ls="-", ms=4),
+                Line2D([], [], color="0.3", marker="s", ls="--", ms=4)]
+    labels += ["tip error / L", "area error / L (Fig. 21) [m]"]
+    panels[-1].legend(handles, labels, fontsize=6, loc="best")
+    return figure
+
+
+# Errors against the iteration ---------------------------------------------------------------
+
+
+def _error_vs_iteration(ds: xr.Dataset) -> Figure:
+    dims = _sweep_dims(ds)
+    if "history_error" not in ds:  # the study kept no per-step history (history=False)
+        figure = _centerlines(ds)
+        figure.axes[0].text(0.02, 0.02, "no per-step history in this archive: centerlines "
+                            "drawn instead", transform=figure.axes[0].transAxes, fontsize=7)
+        return figure
+    line_dims, panel_dims = dims[:1], dims[1:]
+    panel_groups = _indices(ds, panel_dims)
+    line_groups = _indices(ds, line_dims)
+    figure, panels = _panel_grid(len(panel_groups))
+    colours = _colours(len(line_groups), bool(line_dims) and _is_numeric(ds, line_dims[0]))
+    for axes, panel in zip(panels, panel_groups, strict=True):
+        panel_select = dict(zip(panel_dims, panel, strict=True))
+        for n, group in enumerate(line_groups):
+            select = panel_select | dict(zip(line_dims, group, strict=True))
+            sub = ds.isel(select)
+            error = sub["history_error"].values
+            keep = ~np.isnan(error)
+            steps = np.arange(1, len(error) + 1)
+            label = _label(ds, {d: _value(ds, d, i) for d, i in zip(line_dims, group,
+                                                                    strict=True)})
+            if int(sub["status"]) != 0:
+                label += " (failed)"
+            axes.semilogy(steps[keep], error[keep], "o-", ms=3, color=colours[n], label=label)
+        axes.set_xlabel("iteration (time step)")
+        axes.grid(True, which="both", alpha=0.3)
+        if panel_dims:
+            axes.set_title(_label(ds, {d: _value(ds, d, i) for d, i in panel_select.items()}),
+                           fontsize=8)
+    panels[0].set_ylabel(f"tip error against the {ds.attrs.get('reference')} reference / L")
+    panels[-1].legend(fontsize=6)
+    return figure
+
+
+# Single runs --------------------------------------------------------------------------------
+
+
+def _run_centerlines(ds: xr.Dataset) -> Figure:
+    figure, axes = plt.subplots(figsize=(6.4, 4.8), constrained_layout=True)
     for rod in np.unique(ds["rod"].values):
         nodes = ds["position"].sel(node=ds["rod"] == rod).values
         axes.plot(nodes[:, 0], nodes[:, 1], marker=".", label=str(rod))
@@ -104,27 +455,51 @@ def _run_centerlines(ds: xr.Dataset, axes: plt.Axes) -> None:
     axes.set_ylabel("y [m]")
     axes.set_aspect("equal", adjustable="datalim")
     axes.legend(fontsize=7)
+    axes.set_title(ds.attrs.get("title", ""), fontsize=8)
+    return figure
+
+
+DRAWERS = {"centerlines": _centerlines, "error_vs_parameter": _error_vs_parameter,
+           "error_vs_iteration": _error_vs_iteration}
 
 
 def plot_dataset(ds: xr.Dataset, stem: str | Path, formats: Iterable[str] = ("png", "pdf")
                  ) -> list[Path]:
     """Draw the archive's figure and write ``stem.<format>`` for each format."""
-    figure, axes = plt.subplots(figsize=(6.4, 4.8), constrained_layout=True)
     if "study" in ds.attrs:
         kind = ds.attrs.get("plot", "centerlines")
-        drawers = {"centerlines": _centerlines, "error_vs_parameter": _error_vs_parameter,
-                   "error_vs_iteration": _error_vs_iteration}
-        if kind not in drawers:
-            raise ValueError(f"unknown plot kind {kind!r}; known: {', '.join(drawers)}")
-        drawers[kind](ds, axes)
-        axes.set_title(f"{ds.attrs['study']}: {ds.attrs['paper']}", fontsize=8)
+        if kind not in DRAWERS:
+            raise ValueError(f"unknown plot kind {kind!r}; known: {', '.join(DRAWERS)}")
+        figure = DRAWERS[kind](ds)
+        _title(figure, ds)
     else:
-        _run_centerlines(ds, axes)
-        axes.set_title(ds.attrs.get("title", ""), fontsize=8)
+        figure = _run_centerlines(ds)
     paths = []
-    for fmt in formats:
-        path = Path(f"{stem}.{fmt}")
-        figure.savefig(path, dpi=120)
-        paths.append(path)
-    plt.close(figure)
+    try:
+        for fmt in formats:
+            path = Path(f"{stem}.{fmt}")
+            if fmt == "png":
+                _save_png(figure, path)
+            else:
+                figure.savefig(path, dpi=DPI)
+            paths.append(path)
+    finally:
+        plt.close(figure)
     return paths
+
+
+def _save_png(figure: Figure, path: Path) -> None:
+    """PNG with an adaptive 256-colour palette: a third of the size of the RGBA image, so
+    the figures committed to docs/ stay small; plain savefig if Pillow is missing."""
+    try:
+        from PIL import Image
+    except ImportError:
+        figure.savefig(path, dpi=DPI)
+        return
+    buffer = io.BytesIO()
+    figure.savefig(buffer, dpi=DPI, format="png")
+    buffer.seek(0)
+    with Image.open(buffer) as image:
+        palette = image.convert("RGB").quantize(colors=256, method=Image.Quantize.MEDIANCUT)
+        palette.save(path, format="PNG", optimize=True)
+

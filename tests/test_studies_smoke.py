@@ -1,0 +1,187 @@
+"""Smoke tests of every shipped study (studies/*.py) at its "small" size.
+
+Parametrised over :func:`rodsim.study.available_studies`, so a new study file is covered
+without new test code: each runs in this process (``workers=1``), and its Dataset must be
+well-formed (one dimension per sweep with the declared coordinates, units and long names, no
+failed point, errors exactly where a reference exists), re-open with plain
+``xr.open_dataset`` and plot to PNG and PDF. A few cheap physics checks follow, on the same
+runs (each study runs once per session). The whole file takes about 20–40 s on two cores.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+import xarray as xr
+
+from rodsim.analytic.reference import REFERENCE_KINDS, reference_centerline
+from rodsim.plotting import plot_dataset
+from rodsim.study import STATUS, available_studies, grid_points, point_scene
+from rodsim.study_runner import run_study
+
+STUDIES = available_studies()
+
+
+@pytest.fixture(scope="session")
+def small(tmp_path_factory):
+    """``small(name)``: (archive path, Dataset) of the study's small run, run once."""
+    cache: dict[str, tuple[Path, xr.Dataset]] = {}
+    folder = tmp_path_factory.mktemp("studies")
+
+    def run(name: str) -> tuple[Path, xr.Dataset]:
+        if name not in cache:
+            path = folder / f"{name}.nc"
+            dataset = run_study(STUDIES[name], "small", path, workers=1)
+            cache[name] = (path, dataset)
+        return cache[name]
+
+    return run
+
+
+def _has_reference(spec: dict, index: tuple[int, ...], sigma: np.ndarray) -> bool:
+    scene = point_scene(spec, index)
+    length = float(next(iter(scene.data["rods"].values()))["length"])
+    return reference_centerline(scene, spec["reference"], sigma * length) is not None
+
+
+def test_the_paper_figures_are_all_declared():
+    expected = {"fig6", "fig7a", "fig7b", "fig8", "fig9", "fig14", "fig15", "fig16", "fig17",
+                "fig18", "fig22", "convergence", "gravity"}
+    assert expected <= set(STUDIES), sorted(expected - set(STUDIES))
+    for study in STUDIES.values():
+        assert {"small", "full"} <= set(study.sweeps), study.name
+
+
+@pytest.mark.parametrize("name", sorted(STUDIES))
+def test_small_study_runs_and_plots(name, small, tmp_path):
+    study = STUDIES[name]
+    path, ds = small(name)
+    spec = json.loads(ds.attrs["spec_json"])
+
+    # One dimension per sweep, in order, with the declared coordinates.
+    sweeps = study.sweeps["small"]
+    assert ds["status"].dims == tuple(s.name for s in sweeps)
+    for sweep in sweeps:
+        coordinate = ds[sweep.name]
+        assert coordinate.size == len(sweep.values), sweep.name
+        expected = list(sweep.coordinate)
+        if all(isinstance(v, (int, float)) for v in expected):
+            np.testing.assert_allclose(coordinate.values.astype(float), expected, rtol=1e-12)
+        else:
+            assert [str(v) for v in coordinate.values] == [str(v) for v in expected]
+        assert coordinate.attrs["units"] and coordinate.attrs["long_name"]
+
+    # Units and long names: every data variable has a long name, every numeric one units.
+    for key, variable in ds.variables.items():
+        if "units" in variable.attrs:
+            assert variable.attrs.get("long_name"), f"{name}: {key} has units, no long_name"
+    for key, variable in ds.data_vars.items():
+        assert variable.attrs.get("long_name"), f"{name}: {key} has no long_name"
+        if np.issubdtype(variable.dtype, np.floating):
+            assert variable.attrs.get("units"), f"{name}: {key} has no units"
+
+    # No failed point.
+    assert ds.attrs["failed_points"] == 0, ds["message"].values
+    assert np.all(ds["status"].values == STATUS["ok"])
+    assert ds.attrs["points"] == len(grid_points(spec))
+
+    # Errors: finite exactly where the point has a reference.
+    tip_error, area_error = ds["tip_error"].values, ds["area_error"].values
+    if study.reference is None:
+        assert np.all(np.isnan(tip_error)) and np.all(np.isnan(area_error))
+    elif study.reference == "last":
+        assert np.all(np.isfinite(tip_error)) and np.all(np.isfinite(area_error))
+        assert np.all(ds["tip_error"].isel({sweeps[0].name: -1}).values == 0.0)
+    else:
+        assert study.reference in REFERENCE_KINDS
+        sigma = ds["sigma"].values
+        has = np.zeros(ds["status"].shape, dtype=bool)
+        for index in grid_points(spec):
+            has[index] = _has_reference(spec, index, sigma)
+        assert has.any(), f"{name}: no point has a {study.reference} reference"
+        assert np.all(np.isfinite(tip_error[has])) and np.all(np.isfinite(area_error[has]))
+        assert np.all(np.isnan(tip_error[~has])) and np.all(np.isnan(area_error[~has]))
+    if study.history:
+        first = ds["history_error"].isel(step=0).values
+        assert np.all(np.isfinite(first))
+
+    # The archive re-opens with plain xarray and is drawn from the Dataset alone.
+    with xr.open_dataset(path) as reopened:
+        reopened.load()
+    assert set(reopened.data_vars) == set(ds.data_vars)
+    np.testing.assert_allclose(reopened["tip"].values, ds["tip"].values, rtol=0.0, atol=0.0)
+    assert reopened.attrs["study"] == name
+    png, pdf = plot_dataset(reopened, tmp_path / name)
+    assert png.read_bytes().startswith(b"\x89PNG\r\n\x1a\n") and png.stat().st_size > 5000
+    assert pdf.read_bytes().startswith(b"%PDF") and pdf.stat().st_size > 1000
+
+
+# Physics on the small runs -------------------------------------------------------------------
+
+
+def tip_y(ds: xr.Dataset) -> xr.DataArray:
+    return ds["tip"].isel(rod=0).sel(axis="y")
+
+
+def test_fig6_cosserat_model_matches_the_elastica(small):
+    ds = small("fig6")[1]
+    assert float(ds["tip_error"].max()) < 2e-3  # paper: < 1 % of L for 20 and 50 g
+    assert np.all(np.diff(tip_y(ds).values) < 0.0)  # a heavier mass deflects more
+
+
+def test_fig7_errors_fall_with_n_and_k_p(small):
+    assert np.all(np.diff(small("fig7b")[1]["tip_error"].values) < 0.0)
+    errors = small("fig7a")[1]["tip_error"].values
+    assert np.all(np.diff(errors) < 0.0) and errors[-1] < 1e-3
+
+
+def test_fig8_every_damping_reaches_the_same_equilibrium(small):
+    ds = small("fig8")[1]
+    tips = ds["tip"].isel(rod=0).values.reshape(-1, 3)
+    assert np.ptp(tips, axis=0).max() < 1e-8
+    history = ds["history_error"].values.reshape(-1, ds.sizes["step"])
+    final = np.array([row[np.isfinite(row)][-1] for row in history])  # padded with NaN
+    np.testing.assert_allclose(final, ds["tip_error"].values.ravel(), rtol=1e-6)
+    assert np.all(history[:, 0] > final)
+
+
+def test_fig9_corde_deflects_far_less_than_corrected(small):
+    ds = small("fig9")[1]
+    corrected = np.abs(tip_y(ds).sel(stiffness="corrected").values)
+    corde = np.abs(tip_y(ds).sel(stiffness="corde").values)
+    assert np.all(corde < 1e-2 * corrected)
+    assert float(ds["tip_error"].sel(stiffness="corrected").max()) < 3e-2  # paper: < 3 % L
+    assert float(ds["tip_error"].sel(stiffness="corde").max()) > 0.1
+
+
+def test_fig14_15_control_points(small):
+    errors = small("fig14")[1]["tip_error"].values
+    assert np.all(np.diff(errors) < 0.0)  # converges as N_C = N_T grows
+    assert float(small("fig15")[1]["tip_error"].max()) < 1e-3  # N_T barely matters
+
+
+def test_fig17_18_endpoint_constants(small):
+    # More K_C -> more deflection (Fig. 17); more K_E -> less, in K_E >= 1100 (Fig. 18).
+    assert np.all(np.diff(tip_y(small("fig17")[1]).values) > 0.0)
+    assert np.all(np.diff(tip_y(small("fig18")[1]).values) < 0.0)
+
+
+def test_fig22_fits_bend_towards_the_lumen(small):
+    ds = small("fig22")[1]
+    assert np.all(tip_y(ds).values > 0.0)  # the lumen is on +y
+
+
+def test_gravity_on_deflects_more_than_off(small):
+    ds = small("gravity")[1]
+    off, on = tip_y(ds).sel(gravity="off").values, tip_y(ds).sel(gravity="on").values
+    assert np.all(on < off)
+    assert np.all(np.isfinite(ds["tip_error"].sel(gravity="off").values))
+
+
+def test_convergence_error_falls_with_n_and_k_l(small):
+    errors = small("convergence")[1]["tip_error"].isel(K_P=0)  # dims (nodes, K_L)
+    assert np.all(errors.diff("nodes").values < 0.0)
+    assert np.all(errors.diff("K_L").values < 0.0)
