@@ -128,10 +128,15 @@ def cmd_rerun(args: argparse.Namespace) -> int:
         return EXIT_SOLVER_FAILURE
     _print_run_summary(result, None)
     length = max(shape.s[-1] for shape in result.rods.values())
-    print(f"rerun       largest difference from the stored positions: {difference:.3g} m "
+    return _rerun_verdict("positions", difference, length, args.tolerance)
+
+
+def _rerun_verdict(what: str, difference: float, length: float, tolerance: float) -> int:
+    """Print the largest difference from the archive; exit 1 above ``tolerance`` × L."""
+    print(f"rerun       largest difference from the stored {what}: {difference:.3g} m "
           f"({difference / length:.3g} L)")
-    if difference > args.tolerance * length:
-        print(f"rodsim: rerun differs from the archive by more than {args.tolerance:g} L",
+    if difference > tolerance * length:
+        print(f"rodsim: rerun differs from the archive by more than {tolerance:g} L",
               file=sys.stderr)
         return EXIT_SOLVER_FAILURE
     return EXIT_OK
@@ -152,13 +157,7 @@ def _rerun_study(dataset, args: argparse.Namespace) -> int:
         str(dataset["rod"].values[0])]["length"])
     print(f"study       {dataset.attrs['study']} ({dataset.attrs['size']}): re-ran "
           f"{len(records)} point(s), {failed} failed")
-    print(f"rerun       largest difference from the stored centerlines: {difference:.3g} m "
-          f"({difference / length:.3g} L)")
-    if difference > args.tolerance * length:
-        print(f"rodsim: rerun differs from the archive by more than {args.tolerance:g} L",
-              file=sys.stderr)
-        return EXIT_SOLVER_FAILURE
-    return EXIT_OK
+    return _rerun_verdict("centerlines", difference, length, args.tolerance)
 
 
 def cmd_study(args: argparse.Namespace) -> int:
