@@ -1,4 +1,5 @@
-"""Benchmarks (``rodsim bench``): work-precision, scaling in N, and the stability stress map.
+"""Benchmarks (``rodsim bench``): work-precision, scaling in N, the stability stress map, and
+what skipping unneeded work buys.
 
 Each benchmark is one module with ``run(size, output_dir, progress) -> list[Path]`` that
 writes its numbers (a netCDF archive with the machine description in its attributes), its
@@ -6,4 +7,4 @@ figures and a markdown table under ``output_dir`` (default ``benchmarks/results`
 Timings on shared machines are noisy: compare the ratios measured within one run.
 """
 
-BENCHMARKS = ("work-precision", "scaling", "stress")
+BENCHMARKS = ("work-precision", "scaling", "stress", "skip-work")
