@@ -128,6 +128,17 @@ class Model:
             self.pattern_version += 1
         return changed
 
+    def reset_registration(self) -> None:
+        """Return dynamic terms to the rest state's registration (every solve starts here, so
+        reusing a model does not carry the last run's registration into the next)."""
+        changed = False
+        for term in self.terms:
+            if term.dynamic:
+                changed |= term.reset_registration()
+        if changed:
+            self._build_maps()
+            self.pattern_version += 1
+
     def _build_force_scatter(self) -> None:
         self._loads = [t for t in self.terms if t.is_load]
         self._force_targets = np.concatenate([self._free_of[t.dofs.ravel()]

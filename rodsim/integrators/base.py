@@ -113,6 +113,7 @@ class Integrator(ABC):
 
     def __init__(self, model: Model, options: dict[str, Any], tolerance: float,
                  max_wall_time: float = 600.0, progress: Progress | None = None) -> None:
+        model.reset_registration()  # every run starts from the rest state, registration too
         self.model = model
         self.options = options
         #: The requested tolerance, raised to the model's round-off floor if below it.

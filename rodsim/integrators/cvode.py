@@ -30,7 +30,8 @@ class Cvode(SundialsIntegrator):
     quaternion_norm = "penalty Eq. (9) only (|d3| = |q|² is pulled to 1)"
 
     def advice(self) -> str:
-        return ("try --set solver.cvode.formulation=overdamped, a longer load_ramp, or "
+        other = "inertial" if self.options["formulation"] == "overdamped" else "overdamped"
+        return (f"try --set solver.cvode.formulation={other}, a longer load_ramp, or "
                 "--integrator static")
 
     def build_system(self) -> None:

@@ -165,7 +165,8 @@ class Ida(SundialsIntegrator):
                        "Baumgarte-stabilised to index 1")
 
     def advice(self) -> str:
-        return ("try --set solver.ida.formulation=overdamped, a longer load_ramp, or "
+        other = "inertial" if self.options["formulation"] == "overdamped" else "overdamped"
+        return (f"try --set solver.ida.formulation={other}, a longer load_ramp, or "
                 "--integrator static")
 
     def build_system(self) -> None:

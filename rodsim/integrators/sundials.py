@@ -48,7 +48,7 @@ PSEUDO_DYNAMICS_PARAMETERS = (
               0.0, 1e6),
     Parameter("rtol", "float", 1e-4, "-", "relative tolerance of the time stepping",
               1e-15, 1e-1),
-    Parameter("atol", "float", 1e-7, "-",
+    Parameter("atol", "float", 1e-4, "-",
               "absolute tolerance, relative to each variable's scale (L for positions, 1 for "
               "quaternions, L ω₁ for velocities)", 1e-20, 1e-1),
     Parameter("linear_solver", "str", "auto", "-",

@@ -105,6 +105,10 @@ class Term(ABC):
         """Update a dynamic term's discrete state from ``x``; True if ``dofs`` changed."""
         return False
 
+    def reset_registration(self) -> bool:
+        """Return a dynamic term's discrete state to the rest state's; True if it changed."""
+        return False
+
 
 class RodTerm(Term):
     """A term acting on one rod, configured by ``[rods.<rod>.<term name>]``."""

@@ -117,8 +117,16 @@ class Lumen(TendonTerm):
         rest[catheter.layout.position_index] = catheter.rest_positions()
         rest[catheter.layout.quaternion_index] = catheter.rest_quaternions()
         rest[self._points] = tendon.rod.rest_positions()[:-1]
-        self.parent = self._nearest(rest)
+        self._rest_parent = self._nearest(rest)
+        self.parent = self._rest_parent.copy()
         self._set_dofs()
+
+    def reset_registration(self) -> bool:
+        changed = bool(np.any(self.parent != self._rest_parent))
+        if changed:
+            self.parent = self._rest_parent.copy()
+            self._set_dofs()
+        return changed
 
     # --------------------------------------------------------- registration
     def _distances(self, x: np.ndarray) -> np.ndarray:

@@ -1,0 +1,136 @@
+"""Smoke tests of the benchmarks (``rodsim bench … --size small``): well-formed outputs.
+
+Timings are never asserted (shared machine); only that the archives re-open with the machine
+description, that every successful run has a measured (finite) error and time, and that the
+figure and the markdown table exist.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import xarray as xr
+
+import rodsim
+from rodsim.bench import scaling, work_precision
+
+MACHINE_KEYS = ("machine_cpu", "machine_cores", "machine_platform", "machine_python",
+                "machine_numpy", "machine_scipy", "machine_scikit_sundae", "machine_date",
+                "machine_git_commit", "machine_OMP_NUM_THREADS")
+
+
+def _open(path) -> xr.Dataset:
+    with xr.open_dataset(path, engine="netcdf4") as ds:
+        return ds.load()
+
+
+def _check_common(paths, stem: str) -> xr.Dataset:
+    names = {p.name for p in paths}
+    assert {f"{stem}.nc", f"{stem}.png", f"{stem}.md"} <= names
+    for path in paths:
+        assert path.exists() and path.stat().st_size > 0
+    png = next(p for p in paths if p.suffix == ".png")
+    assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    ds = _open(next(p for p in paths if p.suffix == ".nc"))
+    for key in MACHINE_KEYS:
+        assert key in ds.attrs and str(ds.attrs[key]), key
+    for name, variable in ds.data_vars.items():
+        assert "long_name" in variable.attrs, name
+        if variable.dtype.kind == "f":
+            assert "units" in variable.attrs, name
+    return ds
+
+
+@pytest.fixture(scope="module")
+def work_precision_small(tmp_path_factory):
+    output = tmp_path_factory.mktemp("work_precision")
+    calls: list[tuple[float | None, str]] = []
+    paths = work_precision.run("small", output, lambda f, s: calls.append((f, s)))
+    return paths, calls
+
+
+def test_work_precision_small_outputs(work_precision_small):
+    paths, calls = work_precision_small
+    ds = _check_common(paths, "work_precision-small")
+    assert ds.attrs["benchmark"] == "work-precision" and ds.attrs["size"] == "small"
+    assert set(ds["scene"].values) == set(work_precision.SCENES)
+    ok = ds["success"].values == 1
+    assert ok.sum() >= 0.8 * ds.sizes["point"]
+    for scene in work_precision.SCENES:
+        assert (ok & (ds["scene"].values == scene)).any(), scene
+    # Every successful run has a measured error and time; failures keep their message.
+    assert np.all(np.isfinite(ds["error"].values[ok]))
+    assert np.all(ds["error"].values[ok] >= 0)
+    assert np.all(np.isfinite(ds["wall_time"].values[ok]) & (ds["wall_time"].values[ok] > 0))
+    assert all(str(m) for m in ds["message"].values[~ok])
+    # The errors are solver errors: at most a few τ (the scaled residual) over L here.
+    tolerance = np.maximum(ds["tolerance"].values, ds["effective_tolerance"].values)
+    assert np.all(ds["error"].values[ok] < 1e3 * tolerance[ok] + 1e-12)
+    families = set(ds["family"].values[ok])
+    assert {"static", "paper", "cvode", "ida", "scipy"} <= families
+    # The static solve is the reference itself: error at round-off.
+    static = ok & (ds["family"].values == "static")
+    assert np.all(ds["error"].values[static] < 1e-12)
+    # Progress: fractions in [0, 1] ending at 1, with a status line each time.
+    fractions = [f for f, _ in calls if f is not None]
+    assert fractions and all(0.0 <= f <= 1.0 for f in fractions) and fractions[-1] == 1.0
+    assert all(isinstance(s, str) and s for _, s in calls)
+    text = next(p for p in paths if p.suffix == ".md").read_text()
+    assert "| scene |" in text and "Machine:" in text
+
+
+def test_scaling_small_outputs_via_cli(tmp_path, cli, capsys):
+    assert cli(["bench", "scaling", "--size", "small", "-o", str(tmp_path)]) == 0
+    out = capsys.readouterr().out
+    paths = sorted(tmp_path.glob("scaling-small.*"))
+    assert all(str(p) in out for p in paths)
+    ds = _check_common(paths, "scaling-small")
+    assert ds.attrs["benchmark"] == "scaling" and ds.attrs["band_limit"] == 4000
+    assert int(ds["nodes"].max()) >= 200
+    success = ds["success"].values
+    ran = np.isfinite(success)
+    ok = success == 1
+    assert ok[ran].mean() >= 0.8
+    for config in ("static", "paper", "cvode", "ida"):  # every integrator at every N
+        assert np.all(ds["success"].sel(config=config).values == 1), config
+    assert np.all(np.isfinite(ds["wall_time"].values[ok]) & (ds["wall_time"].values[ok] > 0))
+    assert np.all(np.isfinite(ds["peak_memory"].values[ok]))
+    assert np.all(np.isfinite(ds["error"].values[ok]))
+    assert np.all(ds["error"].values[ok] < 1e-3)  # same equilibrium as static
+    assert np.all(ds["unknowns"].values > 0)
+    # cvode/ida in "auto" mode report the linear solver they picked.
+    assert set(ds["linear_solver"].sel(config="cvode").values) <= {"band", "sparse"}
+    # The band solver's dense template shows in its memory at N = 200 (n ≈ 1400).
+    # (In-process measure: a baseline process's resident size varies by a few MiB.)
+    band = float(ds["solve_memory"].sel(config="cvode overdamped band", nodes=200))
+    sparse = float(ds["solve_memory"].sel(config="cvode overdamped sparse", nodes=200))
+    assert band > sparse + 5.0  # the template is n² × 8 B = 15 MiB here
+
+
+def test_scipy_baseline_reaches_the_static_equilibrium():
+    scene = rodsim.load_scene("table1-50g", ["nodes=10"])
+    reference = rodsim.solve(scene, "static")
+    # (scipy's BDF with a looser rtol can stall above τ: its Newton iteration stops on the
+    # size of the update, not on the force; the benchmark records that as a failure.)
+    for method, rtol in (("BDF", 1e-6), ("LSODA", 1e-4)):
+        model = rodsim.build_model(scene)
+        outcome = work_precision.solve_scipy(model, method, 1e-8, rtol, rtol, 60.0)
+        assert outcome.success, outcome.message
+        assert outcome.residual <= 1.01 * outcome.tolerance
+        positions = work_precision.all_positions(model, outcome.x)
+        error = work_precision.error_over_length(positions, reference.positions(),
+                                                 model.length_scale)
+        assert error < 1e-6
+        assert outcome.stats["jacobian_evals"] > 0 and outcome.stats["steps"] > 0
+
+
+def test_scipy_baseline_budget_is_a_failure_not_a_hang():
+    model = rodsim.build_model(rodsim.load_scene("table1-50g", ["nodes=10"]))
+    outcome = work_precision.solve_scipy(model, "BDF", 1e-8, 1e-4, 1e-4, max_wall_time=1e-3)
+    assert not outcome.success and "wall-time budget" in outcome.message
+
+
+def test_failed_jobs_are_recorded_with_their_message():
+    jobs = [scaling.Job("time", 10, "no-such-integrator", max_wall_time=10.0, max_repeats=0)]
+    results = scaling.run_jobs(jobs, 1, lambda job: 120.0, lambda f, s: None, lambda j: "x")
+    assert not results[0]["ok"] and "no-such-integrator" in results[0]["error"]
