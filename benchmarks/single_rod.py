@@ -16,7 +16,7 @@ hits every configuration alike rather than one of them.
 Reference: ``static`` with ``solver.tolerance = 1e-12`` (raised by rodsim to the model's
 round-off floor, then polished by Newton). Error = largest distance of a control point from
 the reference / L. Ratios are solve-only times divided by the static and by the paper
-(analytic Jacobian) solve-only times. A cProfile of the default CVODE run (inertial, band)
+(analytic Jacobian) solve-only times. A cProfile of the default CVODE run (overdamped, band)
 shows where the time goes.
 
 Writes ``single_rod.json`` and ``single_rod.md`` to the output directory (default:
@@ -33,20 +33,17 @@ os.environ["OPENBLAS_NUM_THREADS"] = "1"
 
 import argparse  # noqa: E402
 import cProfile  # noqa: E402
-import datetime  # noqa: E402
 import json  # noqa: E402
-import platform  # noqa: E402
 import pstats  # noqa: E402
-import subprocess  # noqa: E402
 import sys  # noqa: E402
 import time  # noqa: E402
 import timeit  # noqa: E402
-from importlib import metadata  # noqa: E402
 from pathlib import Path  # noqa: E402
 
 import numpy as np  # noqa: E402
 
 import rodsim  # noqa: E402
+from rodsim.bench.machine import machine  # noqa: E402
 
 SCENE = "table1-50g"
 NODES = 40
@@ -72,45 +69,6 @@ CONFIGURATIONS: tuple[tuple[str, str, tuple[str, ...]], ...] = (
     ("ida inertial band", "ida",
      ("solver.ida.formulation=inertial", "solver.ida.linear_solver=band")),
 )
-
-
-def machine() -> dict[str, object]:
-    """Where and with what the numbers were measured."""
-    cpu = platform.processor() or "unknown"
-    try:
-        for line in Path("/proc/cpuinfo").read_text().splitlines():
-            if line.startswith("model name"):
-                cpu = line.split(":", 1)[1].strip()
-                break
-    except OSError:
-        pass
-    root = Path(__file__).resolve().parent.parent
-    commit = None
-    try:
-        commit = subprocess.run(["git", "-C", str(root), "rev-parse", "HEAD"],
-                                capture_output=True, text=True, check=True).stdout.strip()
-        dirty = subprocess.run(["git", "-C", str(root), "status", "--porcelain"],
-                               capture_output=True, text=True, check=True).stdout.strip()
-        if dirty:
-            commit += " (with uncommitted changes)"
-    except (OSError, subprocess.CalledProcessError):
-        pass
-    affinity = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else None
-    return {
-        "platform": platform.platform(),
-        "cpu": cpu,
-        "cores": os.cpu_count(),
-        "cores_available": affinity,
-        "python": platform.python_version(),
-        "numpy": np.__version__,
-        "scipy": metadata.version("scipy"),
-        "scikit-sundae": metadata.version("scikit-sundae"),
-        "rodsim": rodsim.__version__,
-        "date": datetime.datetime.now(datetime.UTC).isoformat(timespec="seconds"),
-        "git_commit": commit,
-        "OMP_NUM_THREADS": os.environ["OMP_NUM_THREADS"],
-        "OPENBLAS_NUM_THREADS": os.environ["OPENBLAS_NUM_THREADS"],
-    }
 
 
 def all_positions(result) -> np.ndarray:
@@ -185,7 +143,7 @@ def evaluation_costs(repeats: int) -> dict[str, float]:
 
 
 def profile_default_cvode(repeats: int) -> dict[str, object]:
-    """cProfile of the default CVODE run (scene defaults: inertial, band), per run."""
+    """cProfile of the default CVODE run (scene defaults: overdamped, band), per run."""
     scene = rodsim.load_scene(SCENE, [f"nodes={NODES}"])
     rodsim.solve(scene, "cvode")  # warm-up
     profiler = cProfile.Profile()
@@ -248,7 +206,7 @@ def markdown(report: dict[str, object]) -> str:
     p = report["profile"]
     lines += [
         "",
-        "## Profile of the default CVODE run (inertial, band)",
+        "## Profile of the default CVODE run (overdamped, band)",
         "",
         f"cProfile over {p['runs']} runs of `rodsim.solve(scene, \"cvode\")` (model build "
         f"included), per run; {1e3 * p['total_s_per_run']:.1f} ms per run under the "
