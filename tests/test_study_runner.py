@@ -390,8 +390,8 @@ def test_two_local_processes_match_in_process_run(study_run, spec, tmp_path):
 
 
 def test_dask_local_cluster_matches_local_run(study_run, spec, tmp_path):
-    pytest.importorskip("distributed")
-    import dask
+    import dask  # a test dependency (pyproject's "test" extra): missing it must fail, not skip
+    import distributed  # noqa: F401
 
     dataset, _, _ = study_run
     output = tmp_path / "dask.nc"
