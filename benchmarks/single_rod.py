@@ -181,7 +181,7 @@ def markdown(report: dict[str, object]) -> str:
         "",
         f"Machine: {m['cpu']}, {m['cores']} cores ({m['cores_available']} available), "
         f"{m['platform']}; Python {m['python']}, numpy {m['numpy']}, scipy {m['scipy']}, "
-        f"scikit-sundae {m['scikit-sundae']}, rodsim {m['rodsim']}; "
+        f"scikit-sundae {m['scikit_sundae']}, rodsim {m['rodsim']}; "
         f"OMP_NUM_THREADS = OPENBLAS_NUM_THREADS = 1; {m['date']}; "
         f"commit {m['git_commit']}.",
         "",

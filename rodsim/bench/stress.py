@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import json
 import math
+import re
 from pathlib import Path
 
 import numpy as np
@@ -134,14 +135,17 @@ def _figure(ds: xr.Dataset, path: Path) -> None:
 def _markdown(ds: xr.Dataset) -> str:
     lines = [f"# Stress map ({ds.attrs['size']}, {ds.sizes['config']} configurations × "
              f"{ds.sizes['integrator']} integrators)", "",
-             "| integrator | " + " | ".join(OUTCOMES) + " | median time [s] | max time [s] |",
+             "| integrator | " + " | ".join(OUTCOMES)
+             + " | median time, converged [s] | max time [s] |",
              "|---|" + "--:|" * (len(OUTCOMES) + 2)]
     for integrator in INTEGRATORS:
         outcome = ds["outcome"].sel(integrator=integrator).values
         times = ds["wall_time"].sel(integrator=integrator).values
         counts = [int(np.sum(outcome == k)) for k in range(len(OUTCOMES))]
+        converged_times = times[outcome == OUTCOMES.index("converged")]
+        median = np.median(converged_times) if converged_times.size else np.nan
         lines.append(f"| {integrator} | " + " | ".join(map(str, counts))
-                     + f" | {np.nanmedian(times):.3g} | {np.nanmax(times):.3g} |")
+                     + f" | {median:.3g} | {np.nanmax(times):.3g} |")
     converged = ds["outcome"] == OUTCOMES.index("converged")
     paper = converged.sel(integrator="paper")
     adaptive = converged.sel(integrator="cvode") & converged.sel(integrator="ida")
@@ -162,7 +166,8 @@ def _markdown(ds: xr.Dataset) -> str:
         messages = ds["message"].sel(integrator=integrator).values[failed.values]
         kinds: dict[str, int] = {}
         for message in messages:
-            reason = str(message).split(": ", 1)[-1].split(" (residual")[0][:90]
+            reason = str(message).split(": ", 1)[-1].split(" (residual")[0]
+            reason = re.sub(r"\d[\d.e+-]*", "#", reason.split(" at ")[0])[:90]
             kinds[reason] = kinds.get(reason, 0) + 1
         if kinds:
             lines.append(f"Failures of `{integrator}`:")
