@@ -19,7 +19,7 @@ import numpy as np
 from sksundae.cvode import CVODE
 
 from rodsim.integrators.pseudo_dynamics import FirstOrderSystem, damping_rate
-from rodsim.integrators.sundials import SundialsIntegrator
+from rodsim.integrators.sundials import TIGHTEST_RTOL, SundialsIntegrator
 
 
 class Cvode(SundialsIntegrator):
@@ -54,7 +54,7 @@ class Cvode(SundialsIntegrator):
             scale = np.empty(system.size)
             scale[0::2] = scale_x
             scale[1::2] = scale_x * self.rate
-        return self.options["atol"] * scale
+        return self.options["atol"] * self.tightening * scale
 
     def start(self, t: float, y: np.ndarray, yp: np.ndarray | None) -> CVODE:
         system, model, ramp, counts = self.system, self.model, self.ramp, self.counts
@@ -68,7 +68,7 @@ class Cvode(SundialsIntegrator):
             counts["jacobian_evals"] += 1
             return system.jacobian_data(model.jacobian_data(system.positions_of(y), ramp(t)))
 
-        options = {"linsolver": solver_kind, "rtol": self.options["rtol"],
+        options = {"linsolver": solver_kind, "rtol": max(self.rtol, TIGHTEST_RTOL),
                    "atol": self._tolerances(),
                    "max_order": 2 if system.formulation == "inertial" else 5,
                    # While the load ramp starts the RHS vanishes, and CVODE's own first-step

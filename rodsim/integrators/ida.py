@@ -27,7 +27,7 @@ import scipy.sparse as sp
 from sksundae.ida import IDA
 
 from rodsim.integrators.pseudo_dynamics import damping_rate
-from rodsim.integrators.sundials import SundialsIntegrator
+from rodsim.integrators.sundials import TIGHTEST_RTOL, SundialsIntegrator
 from rodsim.model import Model
 
 
@@ -203,7 +203,7 @@ class Ida(SundialsIntegrator):
             atol[system.v_slot] = scale_x * self.rate
         # Multipliers are forces of size F_ref L; keep them out of the step-size control.
         atol[system.mu_slot] = 1e6 * model.force_scale * model.length_scale
-        return self.options["atol"] * atol
+        return self.options["atol"] * self.tightening * atol
 
     def start(self, t: float, y: np.ndarray, yp: np.ndarray | None) -> IDA:
         system, model, ramp, counts = self.system, self.model, self.ramp, self.counts
@@ -218,7 +218,7 @@ class Ida(SundialsIntegrator):
             return system.jacobian_data(
                 y, yp, cj, model.jacobian_data(system.positions_of(y), ramp(t)))
 
-        options = {"linsolver": solver_kind, "rtol": self.options["rtol"],
+        options = {"linsolver": solver_kind, "rtol": max(self.rtol, TIGHTEST_RTOL),
                    "atol": self._tolerances(), "algebraic_idx": system.algebraic,
                    "max_order": 2 if system.inertial else 5,
                    "first_step": 1e-4 / self.omega}
