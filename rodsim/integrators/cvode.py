@@ -18,6 +18,7 @@ import warnings
 import numpy as np
 from sksundae.cvode import CVODE
 
+from rodsim.integrators.base import SolverFailure
 from rodsim.integrators.pseudo_dynamics import FirstOrderSystem, damping_rate
 from rodsim.integrators.sundials import TIGHTEST_RTOL, SundialsIntegrator
 
@@ -90,5 +91,7 @@ class Cvode(SundialsIntegrator):
             # scikit-sundae warns that its own sparse FD Jacobian is unused: ours is given.
             warnings.filterwarnings("ignore", "Custom sparse Jacobian", UserWarning)
             solver = CVODE(rhs, jacfn=jacfn, **options)
-        solver.init_step(t, y)
+        started = solver.init_step(t, y)
+        if not started.success:
+            raise SolverFailure(f"CVODE could not start at t = {t:.4g} s: {started.message}")
         return solver

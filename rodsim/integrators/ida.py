@@ -26,6 +26,7 @@ import numpy as np
 import scipy.sparse as sp
 from sksundae.ida import IDA
 
+from rodsim.integrators.base import SolverFailure
 from rodsim.integrators.pseudo_dynamics import damping_rate
 from rodsim.integrators.sundials import TIGHTEST_RTOL, SundialsIntegrator
 from rodsim.model import Model
@@ -243,5 +244,7 @@ class Ida(SundialsIntegrator):
             # scikit-sundae warns that its own sparse FD Jacobian is unused: ours is given.
             warnings.filterwarnings("ignore", "Custom sparse Jacobian", UserWarning)
             solver = IDA(resfn, jacfn=jacfn, **options)
-        solver.init_step(t, y, np.zeros(system.size) if yp is None else yp)
+        started = solver.init_step(t, y, np.zeros(system.size) if yp is None else yp)
+        if not started.success:
+            raise SolverFailure(f"IDA could not start at t = {t:.4g} s: {started.message}")
         return solver
