@@ -12,7 +12,7 @@ import pytest
 import xarray as xr
 
 import rodsim
-from rodsim.bench import scaling, work_precision
+from rodsim.bench import scaling, skip_work, stress, work_precision
 
 MACHINE_KEYS = ("machine_cpu", "machine_cores", "machine_platform", "machine_python",
                 "machine_numpy", "machine_scipy", "machine_scikit_sundae", "machine_date",
@@ -134,3 +134,30 @@ def test_failed_jobs_are_recorded_with_their_message():
     jobs = [scaling.Job("time", 10, "no-such-integrator", max_wall_time=10.0, max_repeats=0)]
     results = scaling.run_jobs(jobs, 1, lambda job: 120.0, lambda f, s: None, lambda j: "x")
     assert not results[0]["ok"] and "no-such-integrator" in results[0]["error"]
+
+
+def test_stress_small_outputs(tmp_path):
+    """The stress map's smoke version: every run is classified, none crashed, and none
+    reported success with a non-finite result; every failure carries a diagnostic."""
+    paths = stress.run("small", tmp_path)
+    ds = _check_common(paths, "stress-small")
+    outcome = ds["outcome"].values
+    assert outcome.shape == (ds.sizes["config"], len(stress.INTEGRATORS))
+    assert not np.any(outcome == stress.OUTCOMES.index("crash"))
+    assert not np.any(outcome == stress.OUTCOMES.index("nan_success"))
+    failed = outcome != stress.OUTCOMES.index("converged")
+    assert all(str(m).strip() for m in ds["message"].values[failed])
+    converged = ~failed
+    assert np.all(np.isfinite(ds["tip_error"].values[converged]))
+
+
+def test_skip_work_small_outputs(tmp_path):
+    paths = skip_work.run("small", tmp_path)
+    assert {p.suffix for p in paths} == {".nc", ".md"}
+    ds = _open(next(p for p in paths if p.suffix == ".nc"))
+    for key in MACHINE_KEYS:
+        assert key in ds.attrs, key
+    rows = set(ds["row"].values)
+    assert {"formulation", "Jacobian reuse", "planar reduction", "unlisted terms"} <= rows
+    timed = ds["time_a"].values
+    assert np.all(np.isfinite(timed) & (timed > 0))

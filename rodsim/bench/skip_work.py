@@ -37,7 +37,9 @@ from rodsim.rod.quaternion import rest_quaternion
 
 __all__ = ["run"]
 
-SIZES = {"small": {"repeats": 1, "nodes": (20,)}, "full": {"repeats": 5, "nodes": (40, 1000)}}
+SIZES = {"small": {"repeats": 1, "nodes": (20,), "scenes": ("table1-50g",)},
+         "full": {"repeats": 5, "nodes": (40, 1000),
+                  "scenes": ("table1-50g", "table3-catheter1")}}
 
 
 def _best(function: Callable[[], object], repeats: int) -> tuple[float, object]:
@@ -126,7 +128,7 @@ def run(size: str, output_dir: Path, progress=None) -> list[Path]:
         t, result = _best(lambda: rodsim.solve(loaded, integrator, model=model), repeats)
         return t if result.success else np.nan
 
-    for scene in ("table1-50g", "table3-catheter1"):
+    for scene in setting["scenes"]:
         for integrator in ("cvode", "ida"):
             times = {form: timed(scene, integrator,
                                  [f"solver.{integrator}.formulation='{form}'"])
