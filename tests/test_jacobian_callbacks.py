@@ -129,19 +129,26 @@ def fd_columns(function, y: np.ndarray, steps: np.ndarray) -> np.ndarray:
     return np.array(columns).T
 
 
+def solve_counting_jacfn_calls(scene, name: str, recorder, solver: str, label: str):
+    """Solve with the recording solver class; SUNDIALS called our analytic jacfn, as often
+    as rodsim counted."""
+    result = rodsim.solve(scene, name)
+    assert result.success, result.message
+    assert recorder.options["linsolver"] == solver
+    assert result.stats["jacobian_evals"] > 0
+    assert recorder.jac_calls > 0, f"{label}: SUNDIALS never called the analytic jacfn"
+    assert recorder.jac_calls == result.stats["jacobian_evals"]
+    return result
+
+
 @pytest.mark.parametrize(("solver", "formulation"), CONFIGS)
 def test_cvode_jacfn_is_called_and_right(solver, formulation, monkeypatch, load,
                                          random_state):
     recorder = Recorder(CVODE, 4)
     monkeypatch.setattr(cvode_module, "CVODE", recorder)
     scene = load(SCENE, *overrides("cvode", solver, formulation))
-    result = rodsim.solve(scene, "cvode")
     label = f"cvode {solver} {formulation}"
-    assert result.success, result.message
-    assert recorder.options["linsolver"] == solver
-    assert result.stats["jacobian_evals"] > 0
-    assert recorder.jac_calls > 0, f"{label}: SUNDIALS never called the analytic jacfn"
-    assert recorder.jac_calls == result.stats["jacobian_evals"]
+    result = solve_counting_jacfn_calls(scene, "cvode", recorder, solver, label)
 
     # The same equilibrium as the direct solve (the Jacobian is only used for the steps).
     reference = rodsim.solve(scene, "static")
@@ -199,13 +206,8 @@ def test_ida_jacfn_is_called_and_right(solver, formulation, monkeypatch, load, r
     recorder = Recorder(IDA, 6)
     monkeypatch.setattr(ida_module, "IDA", recorder)
     scene = load(SCENE, *overrides("ida", solver, formulation))
-    result = rodsim.solve(scene, "ida")
     label = f"ida {solver} {formulation}"
-    assert result.success, result.message
-    assert recorder.options["linsolver"] == solver
-    assert result.stats["jacobian_evals"] > 0
-    assert recorder.jac_calls > 0, f"{label}: SUNDIALS never called the analytic jacfn"
-    assert recorder.jac_calls == result.stats["jacobian_evals"]
+    solve_counting_jacfn_calls(scene, "ida", recorder, solver, label)
 
     model = rodsim.build_model(scene)
     integrator = Ida(model, scene.data["solver"]["ida"], 1e-9)
