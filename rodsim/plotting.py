@@ -389,9 +389,7 @@ def _error_vs_parameter(ds: xr.Dataset) -> Figure:
         _finish_x(axes, ds, first, log_ratio=2.0)  # log–log: orders of convergence
         axes.set_yscale("log")
         axes.grid(True, which="both", alpha=0.3)
-        if panel_dims:
-            axes.set_title(_label(ds, {d: _value(ds, d, i) for d, i in panel_select.items()}),
-                           fontsize=8)
+        _panel_title(axes, ds, panel_select)
     panels[0].set_ylabel(f"error / L against the {ds.attrs.get('reference')} reference")
     if not anything:
         panels[0].text(0.5, 0.5, "no errors: the study has no reference, or no point has one",
@@ -403,6 +401,13 @@ def _error_vs_parameter(ds: xr.Dataset) -> Figure:
     labels += ["tip error / L", "area error / L (Fig. 21) [m]"]
     panels[-1].legend(handles, labels, fontsize=6, loc="best")
     return figure
+
+
+def _panel_title(axes: plt.Axes, ds: xr.Dataset, panel_select: dict[str, int]) -> None:
+    """Title a panel with the swept values it holds (nothing when there is one panel)."""
+    if panel_select:
+        axes.set_title(_label(ds, {d: _value(ds, d, i) for d, i in panel_select.items()}),
+                       fontsize=8)
 
 
 # Errors against the iteration ---------------------------------------------------------------
@@ -435,9 +440,7 @@ def _error_vs_iteration(ds: xr.Dataset) -> Figure:
             axes.semilogy(steps[keep], error[keep], "o-", ms=3, color=colours[n], label=label)
         axes.set_xlabel("iteration (time step)")
         axes.grid(True, which="both", alpha=0.3)
-        if panel_dims:
-            axes.set_title(_label(ds, {d: _value(ds, d, i) for d, i in panel_select.items()}),
-                           fontsize=8)
+        _panel_title(axes, ds, panel_select)
     panels[0].set_ylabel(f"tip error against the {ds.attrs.get('reference')} reference / L")
     panels[-1].legend(fontsize=6)
     return figure
