@@ -67,6 +67,11 @@ def _print_run_summary(result, archive: Path | None) -> None:
               f"{100 * reference.tip_error(positions, 'extensible'):.4f} % of L")
     stats = result.stats
     print(f"residual    {result.residual:.3g} (tolerance {stats['effective_tolerance']:.3g})")
+    requested = result.scene.data["solver"]["tolerance"]
+    if stats["effective_tolerance"] > 1e3 * requested:
+        print(f"note        the tolerance {requested:.3g} is below this scene's round-off floor "
+              f"and was raised to {stats['effective_tolerance']:.3g}: the equilibrium is "
+              "defined only that loosely (lower K_P or N for a tighter one)")
     print("statistics  " + ", ".join(
         f"{key} {int(stats[key])}" for key in
         ("steps", "newton_iters", "force_evals", "jacobian_evals", "linear_solves")))

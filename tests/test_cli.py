@@ -137,3 +137,15 @@ def test_progress_goes_to_the_current_stderr(tmp_path, capsys):
         "ProgressPrinter() writes to the stderr of import time, not the current sys.stderr")
     assert main(["run", "--integrator", "static", "--set", "nodes=12", "-o",
                  str(tmp_path / "run.nc")]) == 0
+
+
+def test_run_says_when_the_tolerance_was_raised_to_the_round_off_floor(tmp_path, capsys, cli):
+    """K_P = 1e8 lifts the round-off floor of Table 1 to ~1e-4: the summary must say that the
+    requested 1e-9 was not what the run used; the default scene (floor 1.1e-8) says nothing."""
+    code = cli(["run", "--integrator", "static", "--set", "centerline.K_P=1e8",
+                "-o", str(tmp_path / "stiff.nc")])
+    out = capsys.readouterr().out
+    assert code == 0
+    assert "below this scene's round-off floor and was raised to" in out
+    code = cli(["run", "--integrator", "static", "-o", str(tmp_path / "default.nc")])
+    assert code == 0 and "round-off floor" not in capsys.readouterr().out
