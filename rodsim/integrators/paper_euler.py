@@ -90,8 +90,9 @@ class PaperEuler(Integrator):
         self._pattern_version = model.pattern_version
 
     def advice(self) -> str:
-        return ("try a smaller step (--set solver.paper.h=...), more damping (smaller "
-                "solver.paper.xi), or --integrator cvode")
+        return ("try applying the load in increments (--set solver.paper.ramp_steps=20), a "
+                "smaller step (solver.paper.h=...), more Newton iterations per step "
+                "(solver.paper.max_newton=200), or --integrator cvode")
 
     def _stiffness(self, y: np.ndarray, force: np.ndarray, load: float) -> np.ndarray:
         """∂F/∂x at y in pattern order: analytic, or grouped forward differences."""
