@@ -184,17 +184,22 @@ def resolve(raw: Mapping[str, Any]) -> dict[str, Any]:
         raise SceneError("rods: a scene needs at least one [rods.<name>] table")
     rod_terms = sorted(n for n, t in terms.items() if t.scope == "rod")
     tendon_terms = sorted(n for n, t in terms.items() if t.scope == "tendon")
-    rods = {name: _resolve_with_terms(table, ROD_PARAMETERS, rod_terms, terms, f"rods.{name}")
-            for name, table in rods_raw.items()}
+    rods = {rod: _resolve_with_terms(table, ROD_PARAMETERS, rod_terms, terms, f"rods.{rod}")
+            for rod, table in rods_raw.items()}
     tendons_raw = raw.get("tendons", {})
     if not isinstance(tendons_raw, Mapping):
         raise SceneError("tendons: expected tables [tendons.<tendon rod name>]")
     tendons = {}
-    for name, table in tendons_raw.items():
-        prefix = f"tendons.{name}"
-        tendons[name] = _resolve_with_terms(table, TENDON_PARAMETERS, tendon_terms, terms,
-                                            prefix)
-        check_tendon(name, tendons[name], rods, prefix, tendons_raw.keys())
+    for rod, table in tendons_raw.items():
+        prefix = f"tendons.{rod}"
+        tendons[rod] = _resolve_with_terms(table, TENDON_PARAMETERS, tendon_terms, terms,
+                                           prefix)
+        check_tendon(rod, tendons[rod], rods, prefix, tendons_raw.keys())
+    for rod, table in rods.items():
+        if table["clamp"] == "orientation" and rod not in tendons:
+            raise SceneError(f"rods.{rod}.clamp = 'orientation': it leaves the base position "
+                             "free, which only a tendon pulled at its base can have; allowed: "
+                             "'frame' or 'first_segment'")
     integrators = registered_integrators()
     solver_raw = raw.get("solver", {})
     solver = validate_table(solver_raw, SOLVER_PARAMETERS, "solver",

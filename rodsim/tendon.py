@@ -81,6 +81,11 @@ def check_tendon(name: str, table: dict[str, Any], rods: dict[str, Any], prefix:
     if table["offset"] >= host["radius"]:
         raise SceneError(f"{prefix}.offset = {table['offset']!r}: the lumen lies outside the "
                          f"catheter; allowed: 0 < r_L < radius = {host['radius']!r} [m]")
+    if table["offset"] + tendon["radius"] >= host["radius"]:
+        raise SceneError(f"{prefix}.offset = {table['offset']!r} with rods.{name}.radius = "
+                         f"{tendon['radius']!r}: the tendon breaks through the catheter's wall; "
+                         f"allowed: r_L + tendon radius < catheter radius = {host['radius']!r} "
+                         "[m]")
     if math.hypot(*table["direction"]) < 1e-12:
         raise SceneError(f"{prefix}.direction = {table['direction']!r}: d_t has zero length; "
                          "allowed: any non-zero (α, β)")

@@ -207,9 +207,8 @@ def renamed_tendon_table(name: str) -> str:
     return BASE.replace("[tendons.tendon", f"[tendons.{name}")
 
 
-# A tendon in the lumen of a rod that is itself a tendon in the lumen of the first: a cycle.
-# Fails (rodsim bug): rodsim/tendon.py check_tendon accepts it and Model.__init__
-# (rodsim/model.py:51-55) raises a bare KeyError('wire') — a traceback, not exit code 2.
+# A tendon in the lumen of a rod that is itself a tendon in the lumen of the first: a cycle
+# (once built a bare KeyError in Model.__init__; now rejected by check_tendon).
 CYCLE = (edit("offset = 0.003", "offset = 0.00005",
               edit('catheter = "catheter"', 'catheter = "wire"'))
          + '\n[rods.wire]\nlength = 0.16\nradius = 0.0001\nyoungs_modulus = 5.9e6\n'
@@ -230,6 +229,10 @@ CASES = [
     ("offset-negative", edit("offset = 0.003", "offset = -0.003"), [],
      "tendons.tendon.offset"),
     ("set-offset-beyond-radius", BASE, ["--set", "offset=0.007"], "tendons.tendon.offset"),
+    ("tendon-through-the-catheter-wall", in_tendon_rod("radius = 0.0001", "radius = 0.004"),
+     [], "tendons.tendon.offset"),
+    ("catheter-with-orientation-clamp", edit('clamp = "frame"', 'clamp = "orientation"'), [],
+     "rods.catheter.clamp"),
     ("tendon-nodes-zero", edit("nodes = 10 ", "nodes = 0 "), [], "rods.tendon.nodes"),
     ("tendon-nodes-two", edit("nodes = 10 ", "nodes = 2 "), [], "rods.tendon.nodes"),
     ("direction-zero", edit("direction = [1.0, 0.0]", "direction = [0.0, 0.0]"), [],
@@ -329,13 +332,8 @@ def chained_scene(wire_first: bool) -> dict:
 
 def test_a_tendon_in_a_tendons_lumen_does_not_depend_on_the_declaration_order():
     """A rod whose 'catheter' is itself a tendon must either work in any declaration order
-    or be rejected with a SceneError naming tendons.wire.catheter — not crash.
-
-    Fails (rodsim bug): rodsim/model.py:51–55 builds the rods sorted only by "is a tendon",
-    so when the wire is declared before its host tendon, ``self.rods["tendon"]`` does not
-    exist yet and Model raises a bare KeyError('tendon') (a traceback from ``rodsim run``);
-    declared after it, the same scene builds. rodsim/tendon.py check_tendon accepts it.
-    """
+    or be rejected with a SceneError naming tendons.wire.catheter — not crash (a regression
+    test: the model once built the rods in declaration order and raised a bare KeyError)."""
     outcomes = []
     for wire_first in (False, True):
         try:
@@ -352,14 +350,8 @@ def test_a_tendon_in_a_tendons_lumen_does_not_depend_on_the_declaration_order():
 def test_the_actuation_point_can_be_switched_with_overrides():
     """`--set` must be able to switch table3-catheter1 to proximal actuation, which needs
     the point and the tendon's clamp changed together (DESIGN §2 item 7: the choice is a
-    scene value).
-
-    Fails (rodsim bug): rodsim/scene.py Scene.with_overrides validates after *each*
-    assignment (``data = resolve(_assign(...))`` inside the loop), and rodsim/tendon.py
-    check_tendon rejects both intermediate scenes — point 'proximal' with clamp 'frame', and
-    clamp 'orientation' with point 'distal' — so neither order of the two `--set`s works
-    (exit 2). ``Scene.with_values`` (one validation at the end) accepts the same change.
-    """
+    scene value). Each intermediate scene is invalid on its own, so the overrides must be
+    validated together, after all are applied."""
     changes = {"rods.tendon.clamp": "orientation",
                "tendons.tendon.tendon_actuation.point": "proximal"}
     scene = rodsim.load_scene("table3-catheter1").with_values(changes)
@@ -371,3 +363,11 @@ def test_the_actuation_point_can_be_switched_with_overrides():
         except SceneError as exc:
             errors.append(str(exc))
     assert len(errors) < 2, f"no order of the --set assignments is accepted: {errors}"
+
+
+@pytest.mark.parametrize("name", sorted(scene_paths()))
+def test_a_shipped_scene_keeps_its_name(name):
+    """The scene's name (archive attribute, default output file) is its own, not that of a
+    rod or tendon table declared in it: two tendon scenes once both became 'tendon' and
+    overwrote each other's default archive tendon-<integrator>.nc."""
+    assert rodsim.load_scene(name).name == name
