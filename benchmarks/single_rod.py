@@ -44,6 +44,7 @@ import numpy as np  # noqa: E402
 
 import rodsim  # noqa: E402
 from rodsim.bench.machine import machine  # noqa: E402
+from rodsim.result import count_text  # noqa: E402
 
 SCENE = "table1-50g"
 NODES = 40
@@ -123,7 +124,7 @@ def measure(repeats: int, reference: np.ndarray, length: float) -> list[dict[str
             "residual": result.residual,
             "effective_tolerance": result.stats["effective_tolerance"],
         }
-        row |= {key: int(result.stats[key]) for key in STATS}
+        row |= {key: count_text(result.stats[key]) for key in STATS}
         rows.append(row)
         print(f"{c.label:<36s} {1e3 * row['solve_only_s']:9.2f} ms  "
               f"{1e3 * row['build_and_solve_s']:9.2f} ms  error {error:.2e} L  "

@@ -32,18 +32,23 @@ def write_dataset(dataset: xr.Dataset, path: str | Path) -> Path:
     folder = path.parent if str(path.parent) else Path(".")
     if not folder.is_dir():
         raise ArchiveError(f"cannot write {str(path)!r}: folder {str(folder)!r} does not exist")
-    handle, temporary = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=folder)
-    os.close(handle)
-    umask = os.umask(0)
-    os.umask(umask)
-    os.chmod(temporary, 0o666 & ~umask)  # mkstemp creates 0600; archives follow the umask
     try:
+        handle, temporary = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=folder)
+    except OSError as exc:
+        raise ArchiveError(f"cannot write {str(path)!r}: {exc}") from exc
+    try:
+        os.close(handle)
+        umask = os.umask(0)
+        os.umask(umask)
+        os.chmod(temporary, 0o666 & ~umask)  # mkstemp creates 0600; archives follow the umask
         dataset.to_netcdf(temporary, engine="netcdf4")
         os.replace(temporary, path)
-    except Exception as exc:
+    except BaseException as exc:  # an interrupt too: never leave a half-written temporary
         with contextlib.suppress(OSError):
             os.unlink(temporary)
-        raise ArchiveError(f"cannot write {str(path)!r}: {exc}") from exc
+        if isinstance(exc, Exception):
+            raise ArchiveError(f"cannot write {str(path)!r}: {exc}") from exc
+        raise
     return path
 
 

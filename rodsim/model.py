@@ -19,6 +19,7 @@ from scipy.sparse.csgraph import reverse_cuthill_mckee
 from rodsim.rod.layout import RodLayout
 from rodsim.rod.rod import Rod
 from rodsim.scene import Scene
+from rodsim.sparsity import csc_pattern
 from rodsim.tendon import Tendon, tendon_origin
 from rodsim.terms import Term, registered_terms
 
@@ -80,7 +81,8 @@ class Model:
         #: Full-state index of every free coordinate, in the integrators' order.
         self.free = np.flatnonzero(is_free)
         self.n = len(self.free)
-        #: Incremented whenever the Jacobian pattern is rebuilt (see :meth:`recentre`).
+        #: Incremented whenever the Jacobian pattern is rebuilt (see
+        #: :meth:`update_registration`).
         self.pattern_version = 0
         self._build_maps()
         if len(self.rods) > 1:
@@ -155,23 +157,18 @@ class Model:
             rows.append(r)
             cols.append(c)
         all_rows, all_cols = np.concatenate(rows), np.concatenate(cols)
-        keep = (all_rows < n) & (all_cols < n)
-        keys = np.unique(all_cols[keep] * n + all_rows[keep])  # column-major = CSC order
-        pattern_rows, pattern_cols = keys % n, keys // n
-        indptr = np.searchsorted(pattern_cols, np.arange(n + 1))
+        keep = (all_rows < n) & (all_cols < n)  # entries on fixed coordinates are dropped
+        pattern = csc_pattern(all_rows[keep], all_cols[keep], n)
         #: Jacobian sparsity pattern of the free coordinates (CSC, ones where J may be ≠ 0).
-        self.pattern = sp.csc_matrix((np.ones(len(keys)), pattern_rows, indptr), shape=(n, n))
-        self.pattern_rows, self.pattern_cols = pattern_rows, pattern_cols
-        self.nnz = len(keys)
-        targets = [np.zeros(0, dtype=np.int64)]
-        for r, c in zip(rows[1:], cols[1:], strict=True):
-            inside = (r < n) & (c < n)
-            target = np.full(len(r), self.nnz)
-            target[inside] = np.searchsorted(keys, c[inside] * n + r[inside])
-            targets.append(target)
-        self._jac_targets = np.concatenate(targets)
-        offsets = pattern_rows - pattern_cols
-        self.band = Band(int(max(offsets.max(), 0)), int(max(-offsets.min(), 0)))
+        self.pattern = pattern.matrix
+        self.pattern_rows, self.pattern_cols = pattern.rows, pattern.cols
+        self.nnz = pattern.nnz
+        # Where each term's element entry lands in the CSC data (nnz: a dump slot for
+        # entries on fixed coordinates); the first n entries are the diagonal, no term's.
+        target = np.full(len(all_rows), self.nnz)
+        target[keep] = pattern.target
+        self._jac_targets = target[n:]
+        self.band = Band(*pattern.band)
 
     def _build_scales(self) -> None:
         x0 = self.x0

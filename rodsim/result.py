@@ -22,12 +22,14 @@ from rodsim.scene import Scene
 if TYPE_CHECKING:
     from rodsim.model import Model
 
-__all__ = ["Result", "RodShape", "SCHEMA_VERSION"]
+__all__ = ["Result", "RodShape", "SCHEMA_VERSION", "count_text"]
 
 #: Version of the archive layout; bump when variables or attributes change meaning.
 SCHEMA_VERSION = "1"
 
-#: Statistics every run reports (missing ones are 0), with their meaning.
+#: Statistics every run reports (missing ones are 0; NaN where an integrator cannot count
+#: them: CVODE's and IDA's own Newton iterations and linear solves happen inside SUNDIALS,
+#: and scikit-sundae does not report them), with their meaning.
 STAT_DOCS = {
     "steps": "integrator steps (time steps or load steps)",
     "newton_iters": "Newton iterations (nonlinear solver iterations)",
@@ -38,6 +40,11 @@ STAT_DOCS = {
     "effective_tolerance": "residual tolerance used: the requested one, or the model's "
                            "round-off floor if higher",
 }
+
+
+def count_text(value: float) -> str:
+    """A statistic for display: the integer, or ``n/a`` when it was not counted (NaN)."""
+    return "n/a" if np.isnan(value) else str(int(value))
 
 
 @dataclass(frozen=True)

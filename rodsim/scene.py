@@ -135,7 +135,8 @@ class Scene:
 
         ``key`` is a dotted path (``rods.catheter.nodes``) or any unambiguous suffix of one
         (``nodes``, ``tip_load.mass``); a suffix that matches several keys resolves to the one
-        under ``prefer`` if exactly one is (the CLI prefers ``solver.<chosen integrator>``).
+        under ``prefer`` if exactly one is (the CLI prefers ``solver.<chosen integrator>``;
+        by default, the scene's own ``solver.<solver.integrator>``).
         ``value`` is parsed as a TOML value (``80``, ``1e4``, ``"corde"``, ``[0, 1, 0]``) and
         falls back to a plain string. Each assignment is validated before the next is
         resolved, so a later key may refer to a term an earlier one added.
@@ -146,7 +147,8 @@ class Scene:
             key = key.strip()
             if not sep or not key:
                 raise SceneError(f"--set {assignment!r}: expected key=value")
-            data = _assign(data, _resolve_key(data, key, prefer), _parse_value(text.strip()))
+            preferred = prefer or f"solver.{data['solver']['integrator']}"
+            data = _assign(data, _resolve_key(data, key, preferred), _parse_value(text.strip()))
             # Validate as we go so a later key can name a term an earlier one added; a scene
             # that is only invalid half-way (e.g. switching two linked values) is checked
             # again once every assignment is applied.
@@ -196,6 +198,9 @@ def resolve(raw: Mapping[str, Any]) -> dict[str, Any]:
                                            prefix)
         check_tendon(rod, tendons[rod], rods, prefix, tendons_raw.keys())
     for rod, table in rods.items():
+        if table["radius"] >= table["length"]:
+            raise SceneError(f"rods.{rod}.radius = {table['radius']!r}: not below the length "
+                             f"{table['length']!r} m; allowed: radius < length (a slender rod)")
         if table["clamp"] == "orientation" and rod not in tendons:
             raise SceneError(f"rods.{rod}.clamp = 'orientation': it leaves the base position "
                              "free, which only a tendon pulled at its base can have; allowed: "

@@ -73,6 +73,8 @@ class Parameter:
         parts = [_KIND_NAMES[self.kind]]
         if self.length is not None:
             parts.append(f"of length {self.length}")
+        if self.kind == "vector" and (self.minimum is not None or self.maximum is not None):
+            parts.append("with each component")
         low = None
         if self.minimum is not None:
             low = f"{'>' if self.exclusive_minimum else '>='} {self.minimum:g}"
@@ -123,6 +125,8 @@ class Parameter:
                 raise fail(f"needs {self.length} values")
             if not all(math.isfinite(v) for v in value):
                 raise fail("not finite")
+            if not all(self._in_range(v) for v in value):
+                raise fail("component out of range")
             return [float(v) for v in value]
         if self.kind == "int":
             if isinstance(value, bool) or not isinstance(value, int):
@@ -138,12 +142,15 @@ class Parameter:
                 raise fail("not finite")
         else:  # pragma: no cover - programming error in a declaration
             raise ValueError(f"unknown parameter kind {self.kind!r}")
-        if self.minimum is not None:
-            if value < self.minimum or (self.exclusive_minimum and value == self.minimum):
-                raise fail("out of range")
-        if self.maximum is not None and value > self.maximum:
+        if not self._in_range(value):
             raise fail("out of range")
         return value
+
+    def _in_range(self, value: float) -> bool:
+        if self.minimum is not None and (
+                value < self.minimum or (self.exclusive_minimum and value == self.minimum)):
+            return False
+        return self.maximum is None or value <= self.maximum
 
 
 def _is_number(value: Any) -> bool:

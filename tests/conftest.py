@@ -7,7 +7,6 @@ the linear algebra is small, so extra threads only add contention on the test ma
 from __future__ import annotations
 
 import os
-import sys
 
 os.environ.setdefault("OMP_NUM_THREADS", "1")
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
@@ -106,26 +105,11 @@ def central_gradient(function: Callable[[np.ndarray], float], x: np.ndarray,
 
 
 @pytest.fixture
-def cli(monkeypatch) -> Callable[[list[str]], int]:
-    """``cli(argv)``: ``rodsim.cli.main(argv)`` with progress going to the current stderr.
-
-    Works around a rodsim bug (tests/test_cli.py::test_progress_goes_to_the_current_stderr):
-    ``ProgressPrinter(stream=sys.stderr)`` binds the stderr of import time, which pytest's
-    capture has closed by the next test, so a second in-process ``rodsim run`` would crash
-    with "I/O operation on closed file" before doing what the test checks.
-    """
+def cli() -> Callable[[list[str]], int]:
+    """``cli(argv)``: ``rodsim.cli.main(argv)``, in process (its exit code)."""
     from rodsim.cli import main
-    from rodsim.progress import ProgressPrinter
 
-    defaults = ProgressPrinter.__init__.__defaults__ or ()
-
-    def run(argv: list[str]) -> int:
-        if defaults:
-            monkeypatch.setattr(ProgressPrinter.__init__, "__defaults__",
-                                (sys.stderr, *defaults[1:]))
-        return main(argv)
-
-    return run
+    return main
 
 
 @pytest.fixture

@@ -64,7 +64,7 @@ def test_archive_is_self_describing(integrator):
     assert attrs["residual"] == result.residual
     assert attrs["residual"] < attrs["stats_effective_tolerance"]
     for key in ("steps", "force_evals", "jacobian_evals", "newton_iters", "wall_time"):
-        assert attrs[f"stats_{key}"] == result.stats[key]
+        np.testing.assert_equal(attrs[f"stats_{key}"], result.stats[key])  # NaN: not counted
     assert attrs["stats_force_evals"] > 0 and attrs["stats_wall_time"] > 0
     assert attrs["stats_steps"] > 0
     # The stored shape is the result's.

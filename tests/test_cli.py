@@ -94,6 +94,14 @@ def test_rerun_of_a_missing_archive_exits_2(tmp_path, capsys, cli):
     assert "missing.nc" in err and "Traceback" not in err
 
 
+def test_run_into_an_unwritable_place_exits_2_without_a_traceback(tmp_path, capsys, cli):
+    """/proc accepts no new files: the archive's temporary file cannot be created."""
+    code = cli(["run", "--integrator", "static", "--set", "nodes=12", "-o", "/proc/run.nc"])
+    err = capsys.readouterr().err
+    assert code == 2, err
+    assert "/proc/run.nc" in err and "Traceback" not in err
+
+
 def test_run_into_a_missing_folder_exits_2(tmp_path, capsys, cli):
     code = cli(["run", "--integrator", "static", "--set", "nodes=12", "-o",
                  str(tmp_path / "nowhere" / "run.nc")])
@@ -127,11 +135,10 @@ def test_scenes_lists_the_shipped_scenes(capsys, cli):
 
 
 def test_progress_goes_to_the_current_stderr(tmp_path, capsys):
-    """rodsim bug: ``ProgressPrinter.__init__(self, stream=sys.stderr, ...)`` binds the
-    stderr of import time. Once that stream is replaced and closed (pytest's capture,
-    ``contextlib.redirect_stderr``, a notebook), every in-process ``rodsim run`` crashes in
-    ``ProgressPrinter.__init__`` (``stream.isatty()``) with "ValueError: I/O operation on
-    closed file" and a traceback, before solving anything."""
+    """Progress goes to the stderr of the moment, not of import time: once the stderr of
+    import time is replaced and closed (pytest's capture, ``contextlib.redirect_stderr``, a
+    notebook), an in-process ``rodsim run`` must still work (a regression test: it once
+    crashed with "I/O operation on closed file")."""
     printer = rodsim.progress.ProgressPrinter()
     assert printer.stream is sys.stderr, (
         "ProgressPrinter() writes to the stderr of import time, not the current sys.stderr")

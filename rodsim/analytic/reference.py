@@ -26,14 +26,15 @@ __all__ = ["CantileverReference", "cantilever_reference", "REFERENCE_KINDS",
 @dataclass(frozen=True)
 class CantileverReference:
     """Analytic shapes of the scene's first rod: corrected paper model, exact elastica, and
-    the extensible elastica with the rod's own E_s A."""
+    the extensible elastica with the rod's own E_s A (``None`` when the tip force reaches
+    E_s A, where :func:`extensible_elastica` has no solution)."""
 
     force: float
     bending_stiffness: float
     length: float
     paper: ElasticaShape
     exact: ElasticaShape
-    extensible: ElasticaShape
+    extensible: ElasticaShape | None
 
     @property
     def alpha(self) -> float:
@@ -41,8 +42,11 @@ class CantileverReference:
         return load_parameter(self.force, self.bending_stiffness, self.length)
 
     def tip_error(self, positions: np.ndarray, shape: str = "exact") -> float:
-        """|tip − reference tip| / L, the paper's accuracy metric (Figs. 6–7)."""
+        """|tip − reference tip| / L, the paper's accuracy metric (Figs. 6–7); NaN when the
+        reference does not exist."""
         ref = getattr(self, shape)
+        if ref is None:
+            return float("nan")
         return float(np.hypot(positions[-1, 0] - ref.x[-1], positions[-1, 1] - ref.y[-1])
                      / self.length)
 
@@ -61,10 +65,11 @@ def cantilever_reference(scene: Scene, samples: int = 201) -> CantileverReferenc
     if force <= 0.0:
         return None
     s = np.linspace(0.0, length, samples)
+    stretch = model_rod.stretch_stiffness
     return CantileverReference(
         force, ei, length, paper_model(force, ei, length, samples),
         exact_elastica(force, ei, length, s),
-        extensible_elastica((0.0, -force), ei, model_rod.stretch_stiffness, length, s))
+        extensible_elastica((0.0, -force), ei, stretch, length, s) if force < stretch else None)
 
 
 #: Continuum references a study can score its first rod against.
@@ -109,8 +114,10 @@ def reference_centerline(scene: Scene, kind: str, s: np.ndarray) -> np.ndarray |
     if kind == "exact":
         shape = exact_elastica(force, ei, length, s)
     elif kind == "extensible":
-        model_rod = next(iter(Model(scene).rods.values()))
-        shape = extensible_elastica((0.0, -force), ei, model_rod.stretch_stiffness, length, s)
+        stretch = next(iter(Model(scene).rods.values())).stretch_stiffness
+        if force >= stretch:
+            return None
+        shape = extensible_elastica((0.0, -force), ei, stretch, length, s)
     else:  # the paper's model is sampled in φ: interpolate it at s
         fine = paper_model(force, ei, length, 2001)
         shape = ElasticaShape(s, np.interp(s, fine.s, fine.x), np.interp(s, fine.s, fine.y),

@@ -43,6 +43,8 @@ from typing import Any
 
 import numpy as np
 
+from rodsim.result import count_text
+
 __all__ = ["run", "report", "Method", "methods_for", "machine_attributes", "markdown_table",
            "error_over_length", "solve_scipy", "SCENES"]
 
@@ -159,7 +161,7 @@ def markdown_profile(title: str, profile: dict[str, Any]) -> list[str]:
     counts = profile.get("stats", {})
     lines = [f"### {title}", "",
              f"{profile['total_s']:.3f} s under the profiler; "
-             + ", ".join(f"{k} {int(counts[k])}" for k in ("steps", "force_evals",
+             + ", ".join(f"{k} {count_text(counts[k])}" for k in ("steps", "force_evals",
                                                           "jacobian_evals", "newton_iters")
                          if k in counts) + ". Top functions by own time:", ""]
     lines += markdown_table(["function", "calls", "own [s]", "cumulative [s]"],

@@ -166,9 +166,11 @@ class Integrator(ABC):
         return time.perf_counter() - self._start
 
     def check_budget(self, where: str) -> None:
-        """Raise SolverFailure once the wall-time budget is spent."""
+        """Raise SolverFailure once the wall-time budget is spent, before ``where``."""
         if self.elapsed() > self.max_wall_time:
-            raise SolverFailure(f"wall-time budget of {self.max_wall_time:g} s spent at {where}")
+            raise SolverFailure(
+                f"wall-time budget of {self.max_wall_time:g} s spent before {where}",
+                f"try raising solver.max_wall_time, or {self.advice().removeprefix('try ')}")
 
     def report(self, fraction: float | None, status: str) -> None:
         if self._progress is not None:

@@ -23,13 +23,13 @@ from __future__ import annotations
 import warnings
 
 import numpy as np
-import scipy.sparse as sp
 from sksundae.ida import IDA
 
 from rodsim.integrators.base import SolverFailure
 from rodsim.integrators.pseudo_dynamics import damping_rate
 from rodsim.integrators.sundials import TIGHTEST_RTOL, SundialsIntegrator
 from rodsim.model import Model
+from rodsim.sparsity import csc_pattern
 
 
 class ConstrainedSystem:
@@ -76,23 +76,17 @@ class ConstrainedSystem:
         if self.inertial:
             blocks["mu_row_v"] = (mu, self.v_slot[q])
             blocks["xv"] = (self.x_slot, self.v_slot)
-        rows = np.concatenate([r for r, _ in blocks.values()])
-        cols = np.concatenate([c for _, c in blocks.values()])
-        size = self.size
-        keys, inverse = np.unique(cols * size + rows, return_inverse=True)
-        indptr = np.searchsorted(keys // size, np.arange(size + 1))
-        self.pattern = sp.csc_matrix((np.ones(len(keys)), keys % size, indptr),
-                                     shape=(size, size))
-        self.rows, self.cols = keys % size, keys // size
+        pattern = csc_pattern(np.concatenate([r for r, _ in blocks.values()]),
+                              np.concatenate([c for _, c in blocks.values()]), self.size)
+        self.pattern, self.rows, self.cols = pattern.matrix, pattern.rows, pattern.cols
         bounds = np.cumsum([0, *(len(r) for r, _ in blocks.values())])
         #: For each block, where its entries land in the CSC data (unique within a block).
-        self._target = {name: inverse[bounds[k]:bounds[k + 1]]
+        self._target = {name: pattern.target[bounds[k]:bounds[k + 1]]
                         for k, name in enumerate(blocks)}
         diagonal = np.flatnonzero(model.pattern_rows == model.pattern_cols)
         self._quat_diagonal = diagonal[np.isin(model.pattern_rows[diagonal], q)]
         self._quat_order = np.argsort(q)  # _quat_diagonal runs over ascending coordinates
-        offsets = self.rows - self.cols
-        self.band = (int(offsets.max()), int(-offsets.min()))
+        self.band = pattern.band
 
     def constrained_force(self, y: np.ndarray, force: np.ndarray) -> np.ndarray:
         """F(x) + Gᵀμ: the force whose vanishing is IDA's (constrained) equilibrium."""

@@ -21,7 +21,7 @@ from __future__ import annotations
 import numpy as np
 import scipy.sparse as sp
 
-from rodsim.integrators.base import Integrator, Outcome
+from rodsim.integrators.base import Integrator, Outcome, SolverFailure
 from rodsim.integrators.newton import NewtonProblem, newton
 from rodsim.model import Model
 from rodsim.schema import Parameter
@@ -173,4 +173,6 @@ class PaperEuler(Integrator):
             self.report(None, f"paper: {where}, residual {residual:.2e}")
             if not moved and load == 1.0 and self.at_equilibrium(residual):
                 return Outcome(x, True, "at rest")
-        return Outcome(x, False, f"not at rest after max_steps = {self.options['max_steps']}")
+        raise SolverFailure(f"not at rest after max_steps = {self.options['max_steps']}",
+                            "try raising solver.paper.max_steps, or "
+                            f"{self.advice().removeprefix('try ')}")

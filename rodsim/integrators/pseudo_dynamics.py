@@ -22,9 +22,9 @@ the slow bending dynamics only (measured in docs/model.md, "Pseudo-dynamics").
 from __future__ import annotations
 
 import numpy as np
-import scipy.sparse as sp
 
 from rodsim.model import Model
+from rodsim.sparsity import csc_pattern
 
 __all__ = ["FORMULATIONS", "first_mode_frequency", "damping_rate", "pseudo_masses",
            "LoadRamp", "FirstOrderSystem"]
@@ -111,12 +111,9 @@ class FirstOrderSystem:
             i = np.arange(n)
             all_rows = np.concatenate([2 * rows + 1, 2 * i, 2 * i + 1, 2 * i])
             all_cols = np.concatenate([2 * cols, 2 * i + 1, 2 * i + 1, 2 * i])
-            keys = all_cols * self.size + all_rows
-            unique, inverse = np.unique(keys, return_inverse=True)
-            size = self.size
-            indptr = np.searchsorted(unique // size, np.arange(size + 1))
-            self.pattern = sp.csc_matrix((np.ones(len(unique)), unique % size, indptr),
-                                         shape=(size, size))
+            pattern = csc_pattern(all_rows, all_cols, self.size)
+            self.pattern = pattern.matrix
+            inverse = pattern.target
             nnz = model.nnz
             self._data_from_model = inverse[:nnz]
             self._row_of_model = rows

@@ -26,7 +26,7 @@ from typing import Any
 
 import numpy as np
 
-from rodsim.integrators.base import Integrator, Outcome
+from rodsim.integrators.base import Integrator, Outcome, SolverFailure
 from rodsim.integrators.pseudo_dynamics import (
     FORMULATIONS,
     LoadRamp,
@@ -93,6 +93,8 @@ class SundialsIntegrator(Integrator):
         self.horizon = 1e9 * self.period
         self.counts["reinits"] = 0
         self.counts["tightenings"] = 0
+        # SUNDIALS' own Newton iterations and linear solves are not reported by scikit-sundae.
+        self.counts["newton_iters"] = self.counts["linear_solves"] = float("nan")
         #: Factor applied to rtol and atol (divided by 100 at each tightening).
         self.tightening = 1.0
         self.masses = pseudo_masses(model, self.options["mass_scaling"])
@@ -184,5 +186,6 @@ class SundialsIntegrator(Integrator):
                 counts["tightenings"] += 1
                 best, best_step, best_time = residual, step, t + elapsed
                 solver, t = restart(t, y)
-        return Outcome(self.positions_of(y).copy(), False,
-                       f"not at equilibrium after max_steps = {opts['max_steps']}")
+        raise SolverFailure(f"not at equilibrium after max_steps = {opts['max_steps']}",
+                            f"try raising solver.{self.name}.max_steps, or "
+                            f"{self.advice().removeprefix('try ')}")

@@ -20,25 +20,25 @@ __all__ = ["Rod", "ROD_PARAMETERS", "CLAMPS"]
 CLAMPS = ("frame", "first_segment", "orientation")
 
 ROD_PARAMETERS: tuple[Parameter, ...] = (
-    Parameter("length", "float", None, "m", "rest length L", 0.0, 100.0, exclusive_minimum=True),
-    Parameter("radius", "float", None, "m", "cross-section radius r", 0.0, 1.0,
-              exclusive_minimum=True),
-    Parameter("youngs_modulus", "float", None, "Pa", "Young's modulus of bending E_b", 0.0,
-              1e13, exclusive_minimum=True),
-    Parameter("stretch_modulus", "float", None, "Pa", "Young's modulus of stretching E_s", 0.0,
-              1e13, exclusive_minimum=True),
+    Parameter("length", "float", None, "m", "rest length L", 1e-6, 100.0),
+    Parameter("radius", "float", None, "m", "cross-section radius r (below L: a rod is slender)",
+              1e-9, 1.0),
+    Parameter("youngs_modulus", "float", None, "Pa", "Young's modulus of bending E_b", 1e-3,
+              1e13),
+    Parameter("stretch_modulus", "float", None, "Pa", "Young's modulus of stretching E_s",
+              1e-3, 1e13),
     Parameter("poisson_ratio", "float", 0.5, "-",
               "Poisson ratio ν; shear modulus G = E_b / (2(1 + ν)) sets the twist stiffness",
               -0.99, 0.5),
-    Parameter("density", "float", None, "kg/m^3", "mass density ρ", 0.0, 1e9,
-              exclusive_minimum=True),
+    Parameter("density", "float", None, "kg/m^3", "mass density ρ", 1e-3, 1e9),
     Parameter("nodes", "int", None, "-", "number of control points N", 3, 200_000),
     Parameter("clamp", "str", "frame", "-",
               "base support: 'frame' (position and a frame at s = 0), 'first_segment' "
               "(position and first quaternion fixed, as PyElastica) or 'orientation' (a frame "
               "at s = 0 but the position free: a tendon pulled at its proximal end)",
               choices=CLAMPS),
-    Parameter("origin", "vector", [0.0, 0.0, 0.0], "m", "position of the base r_0", length=3),
+    Parameter("origin", "vector", [0.0, 0.0, 0.0], "m", "position of the base r_0", -1e3, 1e3,
+              length=3),
     Parameter("terms", "list", ["stretch", "bend_twist", "centerline"], "-",
               "energy terms acting on this rod (`rodsim terms` lists them)"),
 )

@@ -30,7 +30,7 @@ class TipLoad(RodTerm):
         Parameter("mass", "float", 0.0, "kg", "hanging mass at the tip, pulling along −y",
                   0.0, 1e6),
         Parameter("force", "vector", [0.0, 0.0, 0.0], "N", "extra constant force at the tip",
-                  length=3),
+                  -1e7, 1e7, length=3),
         Parameter("gravity", "float", STANDARD_GRAVITY, "m/s^2", "gravitational acceleration",
                   0.0, 1e3),
     )
