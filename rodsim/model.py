@@ -113,8 +113,9 @@ class Model:
             self.free = self.free[order]
             self._build_maps()
 
-    def update_registration(self, x: np.ndarray) -> bool:
-        """Let dynamic terms (tendon registration, §4.1) update their state from ``x``.
+    def update_registration(self, x: np.ndarray, exact: bool = False) -> bool:
+        """Let dynamic terms (tendon registration, §4.1) update their state from ``x``
+        (``exact``: without hysteresis, as at equilibrium; see :meth:`settle_registration`).
 
         Returns True when the Jacobian pattern changed; the maps are then rebuilt and
         :attr:`pattern_version` incremented so integrators can rebuild what they derived
@@ -124,11 +125,28 @@ class Model:
         changed = False
         for term in self.terms:
             if term.dynamic:
-                changed |= term.update_registration(full)
+                changed |= term.update_registration(full, exact)
         if changed:
             self._build_maps()
             self.pattern_version += 1
         return changed
+
+    @property
+    def conservative(self) -> bool:
+        """True when every term is −∇ of its energy (F = −∇E: the Jacobian is symmetric and
+        Newton may line-search on the energy)."""
+        return all(term.conservative for term in self.terms)
+
+    @property
+    def has_registration(self) -> bool:
+        """True when some term registers its elements to the state (a tendon's lumen)."""
+        return any(term.dynamic for term in self.terms)
+
+    def settle_registration(self, x: np.ndarray) -> bool:
+        """At an equilibrium ``x``: re-register without hysteresis; True if a parent changed,
+        in which case ``x`` is no equilibrium of the model's own registration rule and the
+        integrator must go on from it."""
+        return self.update_registration(x, exact=True)
 
     def reset_registration(self) -> None:
         """Return dynamic terms to the rest state's registration (every solve starts here, so

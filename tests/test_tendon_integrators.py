@@ -11,6 +11,7 @@ at its base. All must agree to 1e-6 L on the catheter's and the tendon's control
 
 from __future__ import annotations
 
+import copy
 import functools
 
 import numpy as np
@@ -61,3 +62,59 @@ def test_integrator_reaches_the_static_equilibrium_of_every_rod(scene_name, run)
           f", {result.stats['wall_time']:.2f} s")
     assert max(distances.values()) < 1e-6, distances
     assert result.quaternion_norm_error < 1e-3
+
+
+def four_paper_tendons() -> dict:
+    """table3-catheter1 with four tendons at 90° (paper coupling), two adjacent ones pulled:
+    each tendon point's parent depends on the path a solver takes unless the registration is
+    settled at equilibrium (rodsim/terms/lumen.py, Model.settle_registration)."""
+    data = copy.deepcopy(rodsim.load_scene("table3-catheter1").data)
+    rod, table = data["rods"].pop("tendon"), data["tendons"].pop("tendon")
+    for name, direction, force in (("t_y", [1, 0], 2.0), ("t_z", [0, 1], 2.0),
+                                   ("t_my", [-1, 0], 0.0), ("t_mz", [0, -1], 0.0)):
+        data["rods"][name] = copy.deepcopy(rod)
+        data["tendons"][name] = copy.deepcopy(table) | {"direction": direction}
+        data["tendons"][name]["tendon_actuation"]["force"] = force
+    data["name"] = "four-paper-tendons"
+    return data
+
+
+@functools.cache
+def four_paper_tendons_static() -> rodsim.result.Result:
+    static = rodsim.solve(four_paper_tendons(), "static", overrides=["tolerance=1e-12"])
+    assert static.success, static.message
+    return static
+
+
+@pytest.mark.parametrize(("integrator", "overrides"), [
+    ("cvode", []), ("ida", []), ("paper", ["solver.paper.max_newton=200"])])
+def test_four_paper_tendons_reach_the_same_equilibrium(integrator, overrides):
+    """Before the registration was settled at equilibrium, CVODE and IDA ended with other
+    parents than static here, 3.7e-4 L apart."""
+    scene = rodsim.load_scene(four_paper_tendons())
+    static = four_paper_tendons_static()
+    result = rodsim.solve(scene, integrator, overrides=overrides)
+    assert result.success, result.message
+    length = scene.data["rods"]["catheter"]["length"]
+    distance = max(float(np.max(np.linalg.norm(result.positions(rod) - static.positions(rod),
+                                               axis=1))) for rod in result.rods) / length
+    print(f"\nfour paper tendons, {integrator}: {distance:.2e} L from static, settles "
+          f"{result.stats['settles']:.0f} (static {static.stats['settles']:.0f})")
+    assert static.tip("catheter")[2] > 0.05 * length  # bent out of plane
+    assert distance < 1e-6
+
+
+def test_a_reused_model_gives_the_fresh_model_result():
+    """A model carries tendon registration from one solve into the next unless every run
+    starts from the rest registration (rodsim/integrators/base.py): reusing a model must not
+    change steps or the equilibrium."""
+    scene = rodsim.load_scene("table3-catheter1")
+    model = rodsim.build_model(scene)
+    first = rodsim.solve(scene, "cvode", model=model)
+    second = rodsim.solve(scene, "cvode", model=model)
+    fresh = rodsim.solve(scene, "cvode")
+    for result in (first, second, fresh):
+        assert result.success, result.message
+    assert second.stats["steps"] == first.stats["steps"] == fresh.stats["steps"]
+    for rod in fresh.rods:
+        np.testing.assert_array_equal(second.positions(rod), fresh.positions(rod))

@@ -99,7 +99,8 @@ def reference_centerline(scene: Scene, kind: str, s: np.ndarray) -> np.ndarray |
         catheter = model.rods[table["catheter"]]
         if catheter.name != next(iter(model.rods)):
             return None
-        shape = tendon_arc(actuation["force"], table["offset"], catheter.bending_stiffness,
+        shape = tendon_arc(actuation["force"], table["offset"],
+                           catheter.bending_stiffness + model.rods[name].bending_stiffness,
                            catheter.stretch_stiffness, catheter.length, s)
         alpha, beta = model.tendons[name].alpha, model.tendons[name].beta
         out[:, 0] = shape.x

@@ -3,13 +3,16 @@
 A straight-routed tendon with tension T at offset r_L from the centerline loads the catheter,
 through its distributed lumen contact and its tip attachment, with a constant bending
 moment T r_L and an axial compression T. With the penalties of the momentum-conserving
-coupling growing, the catheter therefore tends to an arc of curvature
+coupling growing, catheter and tendon bend together, the moment carried by both bending
+stiffnesses, into an arc of curvature
 
-    κ = T r_L / (E I),
+    κ = T r_L / (E I_catheter + E I_tendon)
 
-of rest length L shortened by the axial strain T / (E_s A): at rest arc length s the point
-is at θ = κ s (1 − T/(E_s A)), x = sin θ / κ, and a distance (1 − cos θ)/κ towards the
-tendon's side.
+per unit *rest* arc length (the strains of Eqs. 3–7 are measured along the rest length),
+with the centerline shortened by the axial strain ε = T / (E_s A): at rest arc length s,
+θ = κ s, x = (1 − ε) sin θ / κ, and (1 − ε)(1 − cos θ)/κ towards the tendon's side. (An
+earlier form, θ = κ s (1 − ε) with E I of the catheter alone, differs by two ~0.3 % effects
+that cancel at N = 30 but not at N = 120: measured 2.8e-5 L against 3.2e-6 L for this one.)
 """
 
 from __future__ import annotations
@@ -26,7 +29,9 @@ def tendon_arc(tension: float, offset: float, bending_stiffness: float,
                s: np.ndarray | None = None) -> ElasticaShape:
     """The arc as an :class:`ElasticaShape` (x along the clamp axis, y towards the tendon).
 
-    ``tip_angle`` is the arc's total turning κ L (1 − T/(E_s A)) [rad].
+    ``bending_stiffness`` is the sum of the catheter's and the tendon's E I [N m²];
+    ``stretch_stiffness`` the catheter's E_s A [N]. ``tip_angle`` is the arc's total turning
+    κ L [rad].
     """
     for name, value in (("tension", tension), ("offset", offset),
                         ("bending_stiffness", bending_stiffness),
@@ -36,8 +41,8 @@ def tendon_arc(tension: float, offset: float, bending_stiffness: float,
     s = np.linspace(0.0, length, 201) if s is None else np.asarray(s, dtype=float)
     stretch = 1.0 - tension / stretch_stiffness
     kappa = tension * offset / bending_stiffness
-    angle = kappa * s * stretch
+    angle = kappa * s
     if kappa == 0.0:
         return ElasticaShape(s, s * stretch, np.zeros_like(s), 0.0)
-    return ElasticaShape(s, np.sin(angle) / kappa, (1.0 - np.cos(angle)) / kappa,
-                         float(kappa * length * stretch))
+    return ElasticaShape(s, stretch * np.sin(angle) / kappa,
+                         stretch * (1.0 - np.cos(angle)) / kappa, float(kappa * length))

@@ -37,6 +37,11 @@ INTEGRATORS: dict[str, type[Integrator]] = {}
 #: rather than accept the rest state as "converged".
 MAX_RESIDUAL_FLOOR = 1e-3
 
+#: Re-registrations at equilibrium (Model.settle_registration) before a run accepts the
+#: registration it reached with hysteresis: an equilibrium on the boundary between two
+#: parents would otherwise flip between them forever.
+MAX_SETTLES = 10
+
 #: Progress callback: (fraction done in [0, 1] or None, one-line status).
 Progress = Callable[[float | None, str], None]
 
@@ -126,6 +131,10 @@ class Integrator(ABC):
                                          "jacobian_evals": 0, "linear_solves": 0}
         #: Per-step record (pseudo-time, residual, first rod's tip).
         self.history = History(model)
+        if model.has_registration:
+            self.counts["settles"] = 0
+        #: Appended to the message of a successful run (a registration that did not settle).
+        self.note = ""
         self.state = model.x0
         self.where = "start"
         self._start = 0.0
@@ -161,6 +170,22 @@ class Integrator(ABC):
 
     def at_equilibrium(self, residual: float) -> bool:
         return residual < self.tolerance
+
+    def settled(self, x: np.ndarray) -> bool:
+        """Whether an equilibrium ``x`` may end the run: its registration needs no change
+        without hysteresis (see :meth:`Model.settle_registration`). False means a parent
+        changed and the integrator must go on from ``x`` (the pattern changed too)."""
+        if not self.model.has_registration:
+            return True
+        if self.counts["settles"] >= MAX_SETTLES:
+            self.note = (f"the tendon registration did not settle in {MAX_SETTLES} "
+                         "re-registrations (a point's equilibrium is on the boundary between "
+                         "two parents); the registration reached with hysteresis is kept")
+            return True
+        if not self.model.settle_registration(x):
+            return True
+        self.counts["settles"] += 1
+        return False
 
     def elapsed(self) -> float:
         return time.perf_counter() - self._start
@@ -208,6 +233,8 @@ class Integrator(ABC):
         residual = self.residual(x) if finite else float("nan")
         success = outcome.success and finite and self.at_equilibrium(residual)
         message = outcome.message
+        if success and self.note:
+            message = f"{message}; {self.note}"
         if not success:
             if outcome.success and not finite:
                 message = "final state is not finite"

@@ -74,7 +74,6 @@ class PaperEuler(Integrator):
     def __init__(self, model: Model, *args, **kwargs) -> None:
         super().__init__(model, *args, **kwargs)
         self._mass = model.masses()
-        self._conservative = all(term.conservative for term in model.terms)
         self._pattern_version = -1
         self._refresh_pattern()
 
@@ -99,22 +98,17 @@ class PaperEuler(Integrator):
         if self.options["jacobian"] == "analytic":
             return self.jacobian_data(y, load)
         model = self.model
-        while True:  # a shifted state may re-centre the pattern: redo the columns if so
-            self._refresh_pattern()
-            version = model.pattern_version
-            data = np.zeros(model.nnz)
-            rows, cols = model.pattern_rows, model.pattern_cols
-            for group in self._groups:
-                delta = np.sqrt(np.finfo(float).eps) * np.maximum(np.abs(y[group]), 1e-3)
-                shifted = y.copy()
-                shifted[group] += delta
-                diff = self.force(shifted, load) - force
-                step = np.zeros(model.n)
-                step[group] = delta
-                in_group = step[cols] != 0.0
-                data[in_group] = diff[rows[in_group]] / step[cols[in_group]]
-            if model.pattern_version == version:
-                break
+        data = np.zeros(model.nnz)
+        rows, cols = model.pattern_rows, model.pattern_cols
+        for group in self._groups:
+            delta = np.sqrt(np.finfo(float).eps) * np.maximum(np.abs(y[group]), 1e-3)
+            shifted = y.copy()
+            shifted[group] += delta
+            diff = self.force(shifted, load) - force
+            step = np.zeros(model.n)
+            step[group] = delta
+            in_group = step[cols] != 0.0
+            data[in_group] = diff[rows[in_group]] / step[cols[in_group]]
         return data
 
     def _step_problem(self, predictor: np.ndarray, h: float, load: float) -> NewtonProblem:
@@ -128,9 +122,7 @@ class PaperEuler(Integrator):
 
         def jacobian(y: np.ndarray) -> sp.csc_matrix:
             f = cache["F"] if cache.get("y") is y else self.force(y, load)
-            stiffness = self._stiffness(y, f, load)
-            self._refresh_pattern()  # the evaluation may have re-centred the pattern
-            data = h * h * stiffness
+            data = h * h * self._stiffness(y, f, load)
             data[self._diag] -= mass
             self.counts["linear_solves"] += 1
             return model.pattern_matrix(data)
@@ -141,7 +133,7 @@ class PaperEuler(Integrator):
 
         return NewtonProblem(force, jacobian, lambda g: model.residual(g / (h * h)),
                              model.residual_weight / (h * h),
-                             potential if self._conservative else None)
+                             potential if model.conservative else None)
 
     def advance(self) -> Outcome:
         h, xi = self.options["h"], self.options["xi"]
@@ -154,6 +146,7 @@ class PaperEuler(Integrator):
             where = f"step {step} (t = {step * h:.4g} s)"
             self.check_budget(where)
             predictor = x + xi * h * v
+            self._refresh_pattern()  # registration changes the pattern between steps only
             ramp = self.options["ramp_steps"]
             load = min(1.0, step / ramp) if ramp else 1.0
             solved = newton(self._step_problem(predictor, h, load), predictor, inner,
@@ -171,7 +164,8 @@ class PaperEuler(Integrator):
             residual = self.model.residual(self.model.force(x, load))
             self.history.record(step * h, x, residual)
             self.report(None, f"paper: {where}, residual {residual:.2e}")
-            if not moved and load == 1.0 and self.at_equilibrium(residual):
+            if (not moved and load == 1.0 and self.at_equilibrium(residual)
+                    and self.settled(x)):
                 return Outcome(x, True, "at rest")
         raise SolverFailure(f"not at rest after max_steps = {self.options['max_steps']}",
                             "try raising solver.paper.max_steps, or "

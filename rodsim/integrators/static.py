@@ -25,7 +25,6 @@ import numpy as np
 
 from rodsim.integrators.base import Integrator, Outcome
 from rodsim.integrators.newton import NewtonProblem, newton
-from rodsim.model import Model
 from rodsim.schema import Parameter
 
 
@@ -46,10 +45,6 @@ class Static(Integrator):
                   "above this K_P l²/(E I), load with K_P lowered to it, then raise K_P "
                   "tenfold per step (penalty continuation)", 1.0, 1e300),
     )
-
-    def __init__(self, model: Model, *args, **kwargs) -> None:
-        super().__init__(model, *args, **kwargs)
-        self._conservative = all(term.conservative for term in model.terms)
 
     def advice(self) -> str:
         return ("try a smaller solver.static.first_load_step or min_load_step, or a "
@@ -74,8 +69,7 @@ class Static(Integrator):
                     term.set_penalty_scale(scale)
                 where = f"penalty scale {min(scales):.3g}"
                 self.check_budget(where)
-                converged, x, iterations = self._newton(outcome.x, 1.0)
-                self.counts["newton_iters"] += iterations
+                converged, x = self._newton_registered(outcome.x, min(scales) >= 1.0)
                 self.counts["steps"] += 1
                 self.checkpoint(x, where)
                 if not converged:
@@ -90,10 +84,13 @@ class Static(Integrator):
     def _load_continuation(self, budget: int | None) -> Outcome:
         """Apply the loads in increments; give up after ``budget`` Newton iterations."""
         model, counts = self.model, self.counts
+        model.reset_registration()  # a retry starts from the rest registration too
         x = model.x0
         load, step = 0.0, self.options["first_load_step"]
         spent = 0
-        while load < 1.0:
+        # At full load the run ends once the registration settles (Model.settle_registration);
+        # if a parent changes there, Newton goes on at full load from the same state.
+        while load < 1.0 or not self.settled(x):
             if budget is not None and spent > budget:
                 return Outcome(x, False, f"no equilibrium within {budget} Newton iterations")
             target = min(1.0, load + step)
@@ -104,8 +101,8 @@ class Static(Integrator):
             if not converged:
                 step *= 0.25
                 if step < self.options["min_load_step"]:
-                    return Outcome(x, False, "Newton did not converge and the load step fell "
-                                   "below min_load_step")
+                    return Outcome(x, False, f"Newton did not converge at load fraction "
+                                   f"{target:.4g} and the load step fell below min_load_step")
                 continue
             if model.update_registration(x_new):
                 x = x_new  # a tendon point changed parent: solve again at this load
@@ -120,6 +117,20 @@ class Static(Integrator):
                 step = min(1.0, 2.0 * step)
         return Outcome(x, True, "converged")
 
+    def _newton_registered(self, x: np.ndarray, final: bool) -> tuple[bool, np.ndarray]:
+        """Newton at full load, repeated from its result while the tendon registration
+        changes (and, when ``final``, until it settles without hysteresis)."""
+        while True:
+            self.check_budget("full load")
+            converged, x, iterations = self._newton(x, 1.0)
+            self.counts["newton_iters"] += iterations
+            if not converged:
+                return False, x
+            if self.model.update_registration(x):
+                continue
+            if not final or self.settled(x):
+                return True, x
+
     def _newton(self, x: np.ndarray, load: float) -> tuple[bool, np.ndarray, int]:
         """Newton iterations at a fixed load; returns (converged, x, iterations)."""
         model = self.model
@@ -128,7 +139,7 @@ class Static(Integrator):
             jacobian=lambda y: self.jacobian(y, load),
             residual=model.residual,
             weight=model.residual_weight,
-            potential=(lambda y: model.energy(y, load)) if self._conservative else None,
+            potential=(lambda y: model.energy(y, load)) if model.conservative else None,
         )
         outcome = newton(problem, x, self.tolerance, self.options["max_newton"])
         self.counts["linear_solves"] += outcome.iterations

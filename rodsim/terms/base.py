@@ -101,8 +101,12 @@ class Term(ABC):
         """Multiply the penalty constant by ``scale`` (penalty terms only)."""
         raise NotImplementedError(f"term {self.name!r} is not a penalty")
 
-    def update_registration(self, x: np.ndarray) -> bool:
-        """Update a dynamic term's discrete state from ``x``; True if ``dofs`` changed."""
+    def update_registration(self, x: np.ndarray, exact: bool = False) -> bool:
+        """Update a dynamic term's discrete state from ``x``; True if ``dofs`` changed.
+
+        ``exact`` drops any hysteresis the term uses between solver steps: at equilibrium
+        the state must be the one its own registration rule gives, so that the equilibrium
+        does not depend on the path a solver took to it."""
         return False
 
     def reset_registration(self) -> bool:

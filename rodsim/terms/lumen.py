@@ -22,13 +22,16 @@ Reactions (``[tendons.<rod>] coupling``):
 Registration (§4.1) is state of the term, updated by :meth:`Lumen.update_registration`
 between solver steps (after every time step, Newton solve or CVODE/IDA step), not inside a
 force evaluation: the nearest-lumen-point rule switches the lumen line a point is held to
-and so makes the force discontinuous, which stalls Newton and the BDF error control (measured:
-IDA needed 2e5 steps and 415 s on Table 3 with registration inside the force, docs/tendon.md).
+and so makes the force discontinuous, which stalls Newton and the BDF error control.
 Between updates each element couples exactly (p_i, r_j, q_j), so the Jacobian pattern is
 exact; an update that changes a parent rebuilds the pattern (§4.2's "redefined on every
-iteration") and the SUNDIALS integrators re-initialise. A point switches parent only when
-another lumen point is closer by ``hysteresis`` × the catheter's segment length, so an
-equilibrium on a switching boundary cannot flip-flop.
+iteration") and the SUNDIALS integrators re-initialise. During a run a point switches parent
+only when another lumen point is closer by ``hysteresis`` × the catheter's segment length,
+so a transient on a switching boundary cannot flip-flop; once a run is at equilibrium, every
+point is re-registered to its nearest lumen point without hysteresis and the run goes on if
+a parent changed (``Model.settle_registration``), so the equilibrium does not depend on the
+path a solver took (before this, CVODE and static ended with different parents on a
+four-tendon scene, 3.7e-4 L apart).
 """
 
 from __future__ import annotations
@@ -137,8 +140,9 @@ class Lumen(TendonTerm):
     def _nearest(self, x: np.ndarray) -> np.ndarray:
         return np.argmin(self._distances(x), axis=1)
 
-    def update_registration(self, x: np.ndarray) -> bool:
-        """Re-register every tendon point to its nearest lumen point (with hysteresis).
+    def update_registration(self, x: np.ndarray, exact: bool = False) -> bool:
+        """Re-register every tendon point to its nearest lumen point (with hysteresis, or
+        without it when ``exact``).
 
         Returns True when a parent changed (the element coordinates, and so the Jacobian
         pattern, changed).
@@ -146,7 +150,8 @@ class Lumen(TendonTerm):
         distance = self._distances(x)
         rows = np.arange(len(self.parent))
         nearest = np.argmin(distance, axis=1)
-        switch = distance[rows, nearest] < distance[rows, self.parent] - self._margin
+        margin = 0.0 if exact else self._margin
+        switch = distance[rows, nearest] < distance[rows, self.parent] - margin
         if not np.any(switch):
             return False
         self.parent = np.where(switch, nearest, self.parent)
