@@ -81,9 +81,12 @@ class Model:
         #: Full-state index of every free coordinate, in the integrators' order.
         self.free = np.flatnonzero(is_free)
         self.n = len(self.free)
-        #: Incremented whenever the Jacobian pattern is rebuilt (see
-        #: :meth:`update_registration`).
+        #: Incremented whenever the Jacobian pattern changes (see :meth:`update_registration`).
         self.pattern_version = 0
+        #: The pattern covers every registration at once (``solver.registration_pattern``), so
+        #: it never changes; otherwise it is exactly the current registration's.
+        self.superset_pattern = (scene.data["solver"]["registration_pattern"] == "superset"
+                                 and any(term.dynamic for term in self.terms))
         self._build_maps()
         if len(self.rods) > 1:
             self._order_for_band()
@@ -117,9 +120,10 @@ class Model:
         """Let dynamic terms (tendon registration, §4.1) update their state from ``x``
         (``exact``: without hysteresis, as at equilibrium; see :meth:`settle_registration`).
 
-        Returns True when the Jacobian pattern changed; the maps are then rebuilt and
-        :attr:`pattern_version` incremented so integrators can rebuild what they derived
-        from the pattern. The order of the free coordinates never changes.
+        Returns True when a registration changed; the maps are then rebuilt and, unless the
+        pattern is the fixed superset, :attr:`pattern_version` incremented so integrators can
+        rebuild what they derived from the pattern. The order of the free coordinates never
+        changes.
         """
         full = self.full(x)
         changed = False
@@ -127,9 +131,13 @@ class Model:
             if term.dynamic:
                 changed |= term.update_registration(full, exact)
         if changed:
-            self._build_maps()
-            self.pattern_version += 1
+            self._registration_changed()
         return changed
+
+    def _registration_changed(self) -> None:
+        self._build_maps()
+        if not self.superset_pattern:
+            self.pattern_version += 1
 
     @property
     def conservative(self) -> bool:
@@ -156,8 +164,7 @@ class Model:
             if term.dynamic:
                 changed |= term.reset_registration()
         if changed:
-            self._build_maps()
-            self.pattern_version += 1
+            self._registration_changed()
 
     def _build_force_scatter(self) -> None:
         self._loads = [t for t in self.terms if t.is_load]
@@ -166,27 +173,41 @@ class Model:
 
     def _build_pattern(self) -> None:
         n = self.n
-        rows, cols = [np.arange(n)], [np.arange(n)]  # the diagonal is always in the pattern
         self._jac_terms = [t for t in self.terms if t.has_jacobian]
-        for term in self._jac_terms:
-            k = term.dofs.shape[1]
-            r = np.repeat(self._free_of[term.dofs], k, axis=1).ravel()
-            c = np.tile(self._free_of[term.dofs], (1, k)).ravel()
-            rows.append(r)
-            cols.append(c)
-        all_rows, all_cols = np.concatenate(rows), np.concatenate(cols)
-        keep = (all_rows < n) & (all_cols < n)  # entries on fixed coordinates are dropped
-        pattern = csc_pattern(all_rows[keep], all_cols[keep], n)
+        # The diagonal is always in the pattern; entries on fixed coordinates are dropped.
+        diagonal = np.arange(n)
+        rows, cols = self._element_entries(term.dofs for term in self._jac_terms)
+        keep = (rows < n) & (cols < n)
+        if self.superset_pattern:
+            covered = self._element_entries(term.pattern_dofs() for term in self._jac_terms)
+            inside = (covered[0] < n) & (covered[1] < n)
+            pattern = csc_pattern(np.concatenate([diagonal, covered[0][inside]]),
+                                  np.concatenate([diagonal, covered[1][inside]]), n)
+            located = pattern.locate(rows[keep], cols[keep])
+        else:
+            pattern = csc_pattern(np.concatenate([diagonal, rows[keep]]),
+                                  np.concatenate([diagonal, cols[keep]]), n)
+            located = pattern.target[n:]
         #: Jacobian sparsity pattern of the free coordinates (CSC, ones where J may be ≠ 0).
         self.pattern = pattern.matrix
         self.pattern_rows, self.pattern_cols = pattern.rows, pattern.cols
         self.nnz = pattern.nnz
         # Where each term's element entry lands in the CSC data (nnz: a dump slot for
-        # entries on fixed coordinates); the first n entries are the diagonal, no term's.
-        target = np.full(len(all_rows), self.nnz)
-        target[keep] = pattern.target
-        self._jac_targets = target[n:]
+        # entries on fixed coordinates).
+        self._jac_targets = np.full(len(rows), self.nnz)
+        self._jac_targets[keep] = located
         self.band = Band(*pattern.band)
+
+    def _element_entries(self, dof_sets) -> tuple[np.ndarray, np.ndarray]:
+        """(row, column) free indices of every entry of the element blocks ``dof_sets``
+        (fixed coordinates map to n)."""
+        rows, cols = [np.zeros(0, dtype=int)], [np.zeros(0, dtype=int)]
+        for dofs in dof_sets:
+            k = dofs.shape[1]
+            free = self._free_of[dofs]
+            rows.append(np.repeat(free, k, axis=1).ravel())
+            cols.append(np.tile(free, (1, k)).ravel())
+        return np.concatenate(rows), np.concatenate(cols)
 
     def _build_scales(self) -> None:
         x0 = self.x0
