@@ -16,8 +16,9 @@ rtol 1e-12 four times over and crawled at t ≈ 0.8 s until the budget). Tendon 
 tendon point changes parent the solver is rebuilt on the new pattern and re-initialised
 from that state (counted as ``reinits``) — unless the scene asks for the fixed superset
 pattern (``solver.registration_pattern = "superset"``), with which the run goes on through a
-parent change on the same solver (measured against re-initialising in docs/tendon.md). Non-finite states, solver errors, the step budget
-and the wall-time budget end the run with a diagnostic.
+parent change on the same solver (measured against re-initialising in docs/tendon.md).
+Non-finite states, solver errors, the step budget and the wall-time budget end the run with
+a diagnostic.
 """
 
 from __future__ import annotations
