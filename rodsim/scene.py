@@ -124,10 +124,6 @@ class Scene:
     def name(self) -> str:
         return str(self.data["name"])
 
-    @property
-    def rod_names(self) -> list[str]:
-        return list(self.data["rods"])
-
     def get(self, key: str) -> Any:
         """Value at a dotted key, with the same short forms as :meth:`with_overrides`."""
         node: Any = self.data

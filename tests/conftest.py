@@ -20,9 +20,6 @@ import rodsim  # noqa: E402
 from rodsim.model import Model  # noqa: E402
 from rodsim.scene import Scene  # noqa: E402
 
-#: The shipped Table 1 scenes (N = 40, hanging masses 20, 50 and 100 g).
-TABLE1 = ("table1-20g", "table1-50g", "table1-100g")
-
 
 @pytest.fixture
 def load() -> Callable[..., Scene]:

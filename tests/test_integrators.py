@@ -1,14 +1,15 @@
 """Every integrator reaches the exact discrete equilibrium of the shipped Table 1 scenes.
 
-The reference is the direct Newton solve (``static``) with a tight tolerance. The other
-integrators follow pseudo-dynamics and stop when the scaled force residual
-max_i |F_i| / F_ref is below ``solver.tolerance`` (1e-9, or the model's round-off floor if
-higher). The distance left to the equilibrium is δx ≈ K⁻¹ δF, the compliance times the
-residual force; the softest direction is the cantilever's tip bending, compliance
-L³/(3EI), so |δx| ≲ L³/(3EI) · F_ref · tol = (2α/3) · L · tol with α = F L²/(2EI) of order 1
-(0.24, 0.59 and 1.18 for 20, 50 and 100 g). That is ~1e-9 L; the bound used below,
-1e-6 L, leaves three orders of magnitude for the other components and for IDA's exactly
-unit quaternions versus the penalty's (a ~1e-12 L difference, rodsim/integrators/ida.py).
+The reference is the direct Newton solve (``static``) with a tight tolerance, polished to
+round-off. The other integrators stop when the scaled force residual max_i |F_i| / F_ref is
+below their effective tolerance τ (``solver.tolerance`` = 1e-9, raised to the model's
+round-off floor, 1.1e-8 here). The distance left to the equilibrium is δx ≈ K⁻¹ δF, the
+compliance times the residual force; the softest direction is the cantilever's tip bending,
+compliance L³/(3EI), so one node's residual moves the tip by at most
+L³/(3EI) · F_ref · τ = (2α/3) · L · τ, with α = F L²/(2EI) (0.24, 0.59 and 1.18 for 20, 50
+and 100 g). Residuals at all nodes add up to a few times that: each run is asserted within
+its declared bound 10 · max(α, 1) · τ · L (measured: up to 0.5 of the bound, the paper
+integrator on 100 g, whose last step stops just below τ; every other run ≤ 0.25).
 """
 
 from __future__ import annotations
@@ -44,6 +45,14 @@ def rod_length(scene: Scene) -> float:
     return float(next(iter(scene.data["rods"].values()))["length"])
 
 
+def load_parameter(scene: Scene) -> float:
+    """α = F L² / (2 E I) of a Table 1 scene, from its values (E I = E π r⁴ / 4)."""
+    rod = next(iter(scene.data["rods"].values()))
+    force = rod["tip_load"]["mass"] * rod["tip_load"]["gravity"]
+    bending = rod["youngs_modulus"] * np.pi * rod["radius"] ** 4 / 4
+    return force * rod["length"] ** 2 / (2 * bending)
+
+
 def node_distance(a, b) -> float:
     return float(np.max(np.linalg.norm(a.positions() - b.positions(), axis=1)))
 
@@ -53,10 +62,6 @@ def node_distance(a, b) -> float:
 def test_integrator_reaches_the_static_equilibrium(scene_name, run):
     integrator, overrides = RUNS[run]
     result = rodsim.solve(scene_name, integrator, overrides=overrides)
-    # Fails for paper-finite-difference on table1-100g (rodsim bug, see the test report):
-    # paper_euler.py asks each step's Newton solve for 0.1 × tolerance = 1e-10, below the
-    # model's round-off floor (Model.residual_floor = 7.1e-10 there); with the finite-
-    # difference Jacobian the residual wanders at 1.4–2.2e-10 for 50 iterations.
     assert result.success, f"{run} on {scene_name}: {result.message}"
     assert result.integrator == integrator
     assert result.residual < result.stats["effective_tolerance"]
@@ -65,8 +70,12 @@ def test_integrator_reaches_the_static_equilibrium(scene_name, run):
     # The load really bent the rod (the comparison is not between two straight rods).
     assert -ref.tip()[1] > 0.1 * length
     distance = node_distance(result, ref)
-    assert distance < 1e-6 * length, (
-        f"{run} on {scene_name}: max node distance to static {distance / length:.3g} L")
+    bound = 10.0 * max(load_parameter(ref.scene), 1.0) * result.stats["effective_tolerance"]
+    print(f"\n{run} on {scene_name}: {distance / length:.2e} L from static "
+          f"({distance / length / bound:.2f} of the declared bound)")
+    assert distance < bound * length, (
+        f"{run} on {scene_name}: max node distance to static {distance / length:.3g} L, "
+        f"declared bound {bound:.3g} L")
     if run == "paper-finite-difference":
         # The finite-difference mode really does without the analytic Jacobian.
         assert result.stats["jacobian_evals"] == 0

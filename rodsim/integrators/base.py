@@ -74,7 +74,6 @@ class History:
         first = next(iter(model.rods.values()))
         self._tip = first.layout.position_index[-1]
         self._free_of = {int(i): k for k, i in enumerate(model.free)}
-        self._model = model
         self.data: dict[str, list] = {"time": [], "residual": [], "tip": []}
 
     def record(self, time: float, x: np.ndarray, residual: float) -> None:

@@ -13,14 +13,12 @@ Quaternion norm: held by the centerline penalty Eq. (9) only (same model as ``st
 
 from __future__ import annotations
 
-import warnings
-
 import numpy as np
 from sksundae.cvode import CVODE
 
 from rodsim.integrators.base import SolverFailure
 from rodsim.integrators.pseudo_dynamics import FirstOrderSystem, damping_rate
-from rodsim.integrators.sundials import TIGHTEST_RTOL, SundialsIntegrator
+from rodsim.integrators.sundials import SundialsIntegrator, construct, jacobian_writer
 
 
 class Cvode(SundialsIntegrator):
@@ -29,11 +27,6 @@ class Cvode(SundialsIntegrator):
     name = "cvode"
     summary = "SUNDIALS CVODE (adaptive BDF) on damped pseudo-dynamics, stopped at equilibrium"
     quaternion_norm = "penalty Eq. (9) only (|d3| = |q|² is pulled to 1)"
-
-    def advice(self) -> str:
-        other = "inertial" if self.options["formulation"] == "overdamped" else "overdamped"
-        return (f"try --set solver.cvode.formulation={other}, a longer load_ramp, or "
-                "--integrator static")
 
     def build_system(self) -> None:
         self.rate = damping_rate(self.model, self.options["damping_ratio"])
@@ -47,8 +40,8 @@ class Cvode(SundialsIntegrator):
         return self.system.positions_of(y)
 
     def _tolerances(self) -> np.ndarray:
-        model, system = self.model, self.system
-        scale_x = np.where(model.is_quaternion, 1.0, model.length_scale)
+        system = self.system
+        scale_x = self.coordinate_scale()
         if system.formulation == "overdamped":
             scale = scale_x
         else:
@@ -60,37 +53,20 @@ class Cvode(SundialsIntegrator):
     def start(self, t: float, y: np.ndarray, yp: np.ndarray | None) -> CVODE:
         system, model, ramp, counts = self.system, self.model, self.ramp, self.counts
         solver_kind = self.linear_solver(system.size)
+        write = jacobian_writer(solver_kind, system.pattern_rows, system.pattern_cols)
 
         def rhs(t: float, y: np.ndarray, yp: np.ndarray) -> None:
             counts["force_evals"] += 1
             system.rhs(y, model.force(system.positions_of(y), ramp(t)), yp)
 
-        def jacobian(t: float, y: np.ndarray) -> np.ndarray:
+        def jacfn(t: float, y: np.ndarray, yp: np.ndarray, jj: np.ndarray) -> None:
             counts["jacobian_evals"] += 1
-            return system.jacobian_data(model.jacobian_data(system.positions_of(y), ramp(t)))
+            write(jj, system.jacobian_data(model.jacobian_data(system.positions_of(y),
+                                                               ramp(t))))
 
-        options = {"linsolver": solver_kind, "rtol": max(self.rtol, TIGHTEST_RTOL),
-                   "atol": self._tolerances(),
-                   "max_order": 2 if system.formulation == "inertial" else 5,
-                   # While the load ramp starts the RHS vanishes, and CVODE's own first-step
-                   # estimate would be unbounded.
-                   "first_step": 1e-4 / self.omega}
-        if solver_kind == "band":
-            rows, cols = system.pattern_rows, system.pattern_cols
-
-            def jacfn(t: float, y: np.ndarray, yp: np.ndarray, jj: np.ndarray) -> None:
-                jj[rows, cols] = jacobian(t, y)
-
-            options.update(lband=system.band[0], uband=system.band[1])
-        else:
-            def jacfn(t: float, y: np.ndarray, yp: np.ndarray, jj: np.ndarray) -> None:
-                jj[:] = jacobian(t, y)
-
-            options.update(sparsity=system.pattern)
-        with warnings.catch_warnings():
-            # scikit-sundae warns that its own sparse FD Jacobian is unused: ours is given.
-            warnings.filterwarnings("ignore", "Custom sparse Jacobian", UserWarning)
-            solver = CVODE(rhs, jacfn=jacfn, **options)
+        options = self.common_options(solver_kind, system.band, system.pattern,
+                                      system.formulation == "inertial")
+        solver = construct(CVODE, rhs, jacfn, atol=self._tolerances(), **options)
         started = solver.init_step(t, y)
         if not started.success:
             raise SolverFailure(f"CVODE could not start at t = {t:.4g} s: {started.message}")

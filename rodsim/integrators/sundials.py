@@ -24,7 +24,9 @@ a diagnostic.
 from __future__ import annotations
 
 import math
+import warnings
 from abc import abstractmethod
+from collections.abc import Callable
 from typing import Any
 
 import numpy as np
@@ -112,6 +114,34 @@ class SundialsIntegrator(Integrator):
         if choice == "auto":
             return "band" if size <= BAND_LIMIT else "sparse"
         return choice
+
+    def advice(self) -> str:
+        other = "inertial" if self.options["formulation"] == "overdamped" else "overdamped"
+        return (f"try --set solver.{self.name}.formulation={other}, a longer load_ramp, or "
+                "--integrator static")
+
+    def coordinate_scale(self) -> np.ndarray:
+        """Size of each model coordinate, for absolute tolerances: L_ref for positions, 1 for
+        quaternion coordinates."""
+        model = self.model
+        return np.where(model.is_quaternion, 1.0, model.length_scale)
+
+    def common_options(self, solver_kind: str, band: tuple[int, int], pattern: Any,
+                       inertial: bool) -> dict[str, Any]:
+        """Options CVODE and IDA share: linear solver (band widths or sparsity), tolerances,
+        BDF order (≤ 2 for the inertial form, see rodsim/integrators/cvode.py) and first step
+        (while the load ramp starts the right-hand side vanishes, and SUNDIALS' own estimate
+        of the first step would be unbounded)."""
+        options: dict[str, Any] = {"linsolver": solver_kind,
+                                   "rtol": max(self.rtol, TIGHTEST_RTOL),
+                                   "max_order": 2 if inertial else 5,
+                                   "first_step": 1e-4 / self.omega}
+        if solver_kind == "band":
+            options.update(lband=band[0], uband=band[1])
+        else:
+            options.update(sparsity=pattern)
+        return options
+
 
     @abstractmethod
     def build_system(self) -> None:
@@ -202,3 +232,25 @@ class SundialsIntegrator(Integrator):
         raise SolverFailure(f"not at equilibrium after max_steps = {opts['max_steps']}",
                             f"try raising solver.{self.name}.max_steps, or "
                             f"{self.advice().removeprefix('try ')}")
+
+
+def jacobian_writer(solver_kind: str, rows: np.ndarray,
+                    cols: np.ndarray) -> Callable[[np.ndarray, np.ndarray], None]:
+    """``write(jj, data)``: put Jacobian values given in CSC pattern order into the array
+    SUNDIALS hands a ``jacfn`` — for the band solver a full (n, n) array (only the band is
+    read), for the sparse solver the CSC data itself."""
+    if solver_kind == "band":
+        def write(jj: np.ndarray, data: np.ndarray) -> None:
+            jj[rows, cols] = data
+    else:
+        def write(jj: np.ndarray, data: np.ndarray) -> None:
+            jj[:] = data
+    return write
+
+
+def construct(solver_class: type, function: Callable, jacfn: Callable, **options: Any) -> Any:
+    """A scikit-sundae solver with our analytic ``jacfn`` (its warning that its own sparse
+    finite-difference Jacobian goes unused is expected and silenced)."""
+    with warnings.catch_warnings():
+        warnings.filterwarnings("ignore", "Custom sparse Jacobian", UserWarning)
+        return solver_class(function, jacfn=jacfn, **options)

@@ -119,11 +119,6 @@ class Rod:
         return float(self.params["density"])
 
     @property
-    def weight(self) -> float:
-        """Total self-weight per unit gravity, ρ A L [kg]."""
-        return self.density * self.area * self.length
-
-    @property
     def base_quaternion(self) -> np.ndarray:
         """Orientation of the clamp frame at s = 0 (the undeformed rod's orientation)."""
         return rest_quaternion()

@@ -29,7 +29,7 @@ r⁴ belongs; dimensionally wrong, kept only to reproduce Fig. 9).
 from __future__ import annotations
 
 import math
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 
@@ -42,11 +42,34 @@ from rodsim.terms.base import RodTerm
 def stiffness_tensor(rod: Rod, model: str, twist_override: float = 0.0) -> np.ndarray:
     """Diagonal (K_11, K_22, K_33) of Eq. (8) [N·m²], or of CORDE's tensor for Fig. 9;
     ``twist_override`` > 0 replaces K_33."""
-    r = rod.radius
-    power = 4 if model == "corrected" else 2
-    bend = rod.youngs_modulus * math.pi * r**power / 4.0
-    twist = rod.shear_modulus * math.pi * r**power / 2.0
+    if model == "corrected":  # E I and G J, Eq. (8)
+        bend, twist = rod.bending_stiffness, rod.shear_modulus * rod.polar_moment
+    else:  # CORDE's printed tensor: r² where r⁴ belongs
+        area = math.pi * rod.radius**2
+        bend, twist = rod.youngs_modulus * area / 4.0, rod.shear_modulus * area / 2.0
     return np.array([bend, bend, twist_override if twist_override > 0.0 else twist])
+
+
+class BendKinematics(NamedTuple):
+    """Strains of the bending elements and the pieces of their derivatives.
+
+    ``a``, ``b``: the element's two quaternions (n, 4); ``na2``, ``nb2``: |a|², |b|²;
+    ``scale``: c s = (2/l̄) / (|a||b|); ``ga``, ``gb``: ∂f_k/∂a = B_kᵀ b and ∂f_k/∂b = B_k a
+    (n, 3, 4); ``f``: f_k = (B_k a)·b (n, 3); ``u``: strains u_k = c s f_k (n, 3) [1/m];
+    ``ha``, ``hb``: ∇u_k / (c s) with respect to a and b (n, 3, 4).
+    """
+
+    a: np.ndarray
+    b: np.ndarray
+    na2: np.ndarray
+    nb2: np.ndarray
+    scale: np.ndarray
+    ga: np.ndarray
+    gb: np.ndarray
+    f: np.ndarray
+    u: np.ndarray
+    ha: np.ndarray
+    hb: np.ndarray
 
 
 class BendTwist(RodTerm):
@@ -86,8 +109,8 @@ class BendTwist(RodTerm):
             return np.concatenate([self._frame[None, :], q[:-1]]), q
         return q[:-1], q[1:]
 
-    def _kinematics(self, x: np.ndarray):
-        """Strains u (n, 3) and the pieces of their derivatives (see element_jacobians)."""
+    def _kinematics(self, x: np.ndarray) -> BendKinematics:
+        """Strains and the pieces of their derivatives (see :class:`BendKinematics`)."""
         a, b = self._pairs(x)
         na2, nb2 = np.sum(a * a, axis=1), np.sum(b * b, axis=1)
         scale = 2.0 / (self._dual_lengths * np.sqrt(na2 * nb2))  # c s = (2/l̄) / (|a||b|)
@@ -98,18 +121,19 @@ class BendTwist(RodTerm):
         # ∇u_k = c s (g − f q / |q|²) for each of a and b
         ha = ga - (f / na2[:, None])[:, :, None] * a[:, None, :]
         hb = gb - (f / nb2[:, None])[:, :, None] * b[:, None, :]
-        return a, b, na2, nb2, scale, ga, gb, f, u, ha, hb
+        return BendKinematics(a, b, na2, nb2, scale, ga, gb, f, u, ha, hb)
 
     def strains(self, x: np.ndarray) -> np.ndarray:
         """Material strains u_k at every element, shape (n_elem, 3) [1/m] (Eq. 3)."""
-        return self._kinematics(x)[8]
+        return self._kinematics(x).u
 
     def energy(self, x: np.ndarray) -> float:
         u = self.strains(x)
         return float(0.5 * np.sum(self._dual_lengths[:, None] * self._stiffness * u**2))
 
     def element_forces(self, x: np.ndarray) -> np.ndarray:
-        *_, scale, _, _, _, u, ha, hb = self._kinematics(x)
+        kin = self._kinematics(x)
+        scale, u, ha, hb = kin.scale, kin.u, kin.ha, kin.hb
         # ∂E/∂q = l̄ Σ_k K_k u_k ∇u_k,  ∇u_k = c s h_k
         weight = (self._dual_lengths * scale)[:, None] * self._stiffness * u
         grad_a = np.einsum("nk,nka->na", weight, ha)
