@@ -242,8 +242,10 @@ def assemble(spec: dict[str, Any], records: list[dict[str, Any]]) -> xr.Dataset:
 
     status = grid(STATUS["error"], dtype=np.int8)
     message = grid("", dtype=object)
-    scalars = {k: grid(np.nan) for k in ("residual", "quaternion_norm_error", "tip_error",
-                                         "area_error", *POINT_STATS)}
+    # Errors only against a reference: a study without one stores no error variables.
+    errors = ("tip_error", "area_error") if spec["reference"] in REFERENCE_KINDS else ()
+    scalars = {k: grid(np.nan) for k in ("residual", "quaternion_norm_error", *errors,
+                                         *POINT_STATS)}
     tip = grid(np.nan, (len(rods), 3))
     centerline = grid(np.nan, (len(rods), len(sigma), 3))
     steps = max((len(r.get("history_time", [])) for r in records), default=0)
@@ -251,7 +253,7 @@ def assemble(spec: dict[str, Any], records: list[dict[str, Any]]) -> xr.Dataset:
                "history_tip": grid(np.nan, (steps, 3))}
     for index, r in by_index.items():
         status[index], message[index] = r["status"], r["message"]
-        for key in ("residual", "quaternion_norm_error", "tip_error", "area_error"):
+        for key in ("residual", "quaternion_norm_error", *errors):
             if key in r:
                 scalars[key][index] = r[key]
         for key in POINT_STATS:
@@ -267,9 +269,12 @@ def assemble(spec: dict[str, Any], records: list[dict[str, Any]]) -> xr.Dataset:
             if len(values):
                 array[index + (slice(0, len(values)),)] = values
     data_vars: dict[str, Any] = {
-        "status": (dims, status, {"long_name": "point status", "flag_values": list(STATUS.values()),
+        "status": (dims, status, {"units": "1", "long_name": "point status",
+                                  "flag_values": np.array(list(STATUS.values()), dtype=np.int8),
                                   "flag_meanings": " ".join(STATUS)}),
-        "message": (dims, message.astype(str), {"long_name": "solver message of the point"}),
+        # Text has no units (CF): string variables and coordinates carry long_name only.
+        "message": (dims, message.astype(str),
+                    {"long_name": "solver message of the point, or why it failed"}),
         "tip": (dims + ("rod", "axis"), tip, {"units": "m", "long_name": "tip position"}),
         "centerline": (dims + ("rod", "sigma", "axis"), centerline,
                        {"units": "m", "long_name": "centerline at normalised arc length"}),
@@ -292,20 +297,23 @@ def assemble(spec: dict[str, Any], records: list[dict[str, Any]]) -> xr.Dataset:
                                      {"units": "s", "long_name": "pseudo-time after each step"})
         data_vars["history_tip"] = (dims + ("step", "axis"), history["history_tip"],
                                     {"units": "m", "long_name": "tip after each step"})
-        data_vars["history_error"] = (dims + ("step",), history["history_error"],
-                                      {"units": "1", "long_name": "tip distance to the reference"
-                                       " / L after each step"})
+        if errors:
+            data_vars["history_error"] = (
+                dims + ("step",), history["history_error"],
+                {"units": "1", "long_name": f"tip distance to the {spec['reference']} "
+                 "reference / L after each step"})
     coords: dict[str, Any] = {
         "rod": ("rod", rods, {"long_name": "rod"}),
         "sigma": ("sigma", sigma, {"units": "1", "long_name": "normalised rest arc length s/L"}),
         "axis": ("axis", ["x", "y", "z"], {"long_name": "world axis"}),
     }
     for s in spec["sweeps"]:
-        labels = s["labels"] if s["labels"] is not None else s["values"]
+        labels = np.asarray(s["labels"] if s["labels"] is not None else s["values"])
         key = s["key"] if isinstance(s["key"], str) else ", ".join(s["key"])
-        coords[s["name"]] = (s["name"], np.asarray(labels),
-                             {"units": s["units"], "long_name": s["long_name"] or key,
-                              "scene_key": key})
+        attrs = {"units": s["units"], "long_name": s["long_name"] or key, "scene_key": key}
+        if not np.issubdtype(labels.dtype, np.number):  # names ("corde", "on"): no units
+            del attrs["units"]
+        coords[s["name"]] = (s["name"], labels, attrs)
     ds = xr.Dataset(data_vars, coords)
     if spec["reference"] == "last":
         base = json.loads(spec["base_scene_json"])
@@ -323,6 +331,9 @@ def assemble(spec: dict[str, Any], records: list[dict[str, Any]]) -> xr.Dataset:
     commit = git_commit()
     if commit:
         ds.attrs["git_commit"] = commit
+        dirty = git_dirty()
+        if dirty is not None:
+            ds.attrs["git_dirty"] = int(dirty)
     return ds
 
 
@@ -353,6 +364,25 @@ def git_commit() -> str | None:
     except (OSError, subprocess.SubprocessError):
         return None
     return out.stdout.strip() or None
+
+
+#: The paths whose uncommitted changes can change a study's results (git_dirty).
+SOURCE_PATHS = ("rodsim", "studies", "data", "pyproject.toml")
+
+
+def git_dirty() -> bool | None:
+    """Whether the rodsim source (package, studies, scenes) has uncommitted changes —
+    modified, staged or untracked files — when it runs from a git checkout."""
+    root = Path(__file__).resolve().parent.parent
+    if not (root / ".git").exists():
+        return None
+    try:
+        out = subprocess.run(["git", "-C", str(root), "status", "--porcelain", "--",
+                              *SOURCE_PATHS], capture_output=True, text=True, timeout=10,
+                             check=True)
+    except (OSError, subprocess.SubprocessError):
+        return None
+    return bool(out.stdout.strip())
 
 
 def available_studies() -> dict[str, Study]:

@@ -19,7 +19,7 @@ import xarray as xr
 
 from rodsim.analytic.reference import REFERENCE_KINDS, reference_centerline
 from rodsim.plotting import plot_dataset
-from rodsim.study import STATUS, available_studies, grid_points, point_scene
+from rodsim.study import STATUS, available_studies, grid_points, point_scene, rerun_study
 from rodsim.study_runner import run_study
 
 STUDIES = available_studies()
@@ -70,33 +70,38 @@ def test_small_study_runs_and_plots(name, small, tmp_path):
         expected = list(sweep.coordinate)
         if all(isinstance(v, (int, float)) for v in expected):
             np.testing.assert_allclose(coordinate.values.astype(float), expected, rtol=1e-12)
-        else:
+            assert coordinate.attrs["units"] == sweep.units
+        else:  # named values ("corde", "on", "catheter 2"): text has no units
             assert [str(v) for v in coordinate.values] == [str(v) for v in expected]
-        assert coordinate.attrs["units"] and coordinate.attrs["long_name"]
+        assert coordinate.attrs["long_name"] == sweep.long_name
 
-    # Units and long names: every data variable has a long name, every numeric one units.
+    # Units and long names (docs/archive.md, "Study archives"): every variable and
+    # coordinate has a long name; every numeric one units, the status flags included; text
+    # (message, rod and axis names, named sweep values) none.
     for key, variable in ds.variables.items():
-        if "units" in variable.attrs:
-            assert variable.attrs.get("long_name"), f"{name}: {key} has units, no long_name"
-    for key, variable in ds.data_vars.items():
         assert variable.attrs.get("long_name"), f"{name}: {key} has no long_name"
-        if np.issubdtype(variable.dtype, np.floating):
+        if np.issubdtype(variable.dtype, np.number):
             assert variable.attrs.get("units"), f"{name}: {key} has no units"
+        else:
+            assert variable.dtype.kind in "UO", f"{name}: {key} is {variable.dtype}"
+            assert "units" not in variable.attrs, f"{name}: {key} is text and has units"
 
     # No failed point.
     assert ds.attrs["failed_points"] == 0, ds["message"].values
     assert np.all(ds["status"].values == STATUS["ok"])
     assert ds.attrs["points"] == len(grid_points(spec))
 
-    # Errors: finite exactly where the point has a reference.
-    tip_error, area_error = ds["tip_error"].values, ds["area_error"].values
+    # Errors: none without a reference, else finite exactly where the point has one.
     if study.reference is None:
-        assert np.all(np.isnan(tip_error)) and np.all(np.isnan(area_error))
+        for key in ("tip_error", "area_error", "history_error"):
+            assert key not in ds, f"{name} has no reference but stores {key}"
     elif study.reference == "last":
+        tip_error, area_error = ds["tip_error"].values, ds["area_error"].values
         assert np.all(np.isfinite(tip_error)) and np.all(np.isfinite(area_error))
         assert np.all(ds["tip_error"].isel({sweeps[0].name: -1}).values == 0.0)
     else:
         assert study.reference in REFERENCE_KINDS
+        tip_error, area_error = ds["tip_error"].values, ds["area_error"].values
         sigma = ds["sigma"].values
         has = np.zeros(ds["status"].shape, dtype=bool)
         for index in grid_points(spec):
@@ -104,9 +109,9 @@ def test_small_study_runs_and_plots(name, small, tmp_path):
         assert has.any(), f"{name}: no point has a {study.reference} reference"
         assert np.all(np.isfinite(tip_error[has])) and np.all(np.isfinite(area_error[has]))
         assert np.all(np.isnan(tip_error[~has])) and np.all(np.isnan(area_error[~has]))
-    if study.history:
-        first = ds["history_error"].isel(step=0).values
-        assert np.all(np.isfinite(first))
+        if study.history:
+            first = ds["history_error"].isel(step=0).values
+            assert np.all(np.isfinite(first))
 
     # The archive re-opens with plain xarray and is drawn from the Dataset alone.
     with xr.open_dataset(path) as reopened:
@@ -185,3 +190,13 @@ def test_convergence_error_falls_with_n_and_k_l(small):
     errors = small("convergence")[1]["tip_error"].isel(K_P=0)  # dims (nodes, K_L)
     assert np.all(errors.diff("nodes").values < 0.0)
     assert np.all(errors.diff("K_L").values < 0.0)
+
+
+def test_a_study_without_reference_reruns(small):
+    """fig16 stores no errors (no reference): `rerun` of one of its points still works."""
+    ds = small("fig16")[1]
+    assert "tip_error" not in ds
+    first = float(ds["K_L"].values[0])
+    records, largest = rerun_study(ds, {"K_L": first})
+    assert [r["status"] for r in records] == [STATUS["ok"]]
+    assert largest < 1e-9 * 0.16  # L = 0.16 m: the CLI's default tolerance
