@@ -152,12 +152,16 @@ def _rerun_verdict(what: str, difference: float, length: float, tolerance: float
 def _rerun_study(dataset, args: argparse.Namespace) -> int:
     from rodsim.study import STATUS, rerun_study
 
-    select = {}
+    select: dict[str, str] = {}
     for item in args.point:
         key, sep, value = item.partition("=")
         if not sep:
             raise UserError(f"--point {item!r}: expected DIM=VALUE")
-        select[key.strip()] = value.strip()
+        key, value = key.strip(), value.strip()
+        if key in select:
+            raise UserError(f"--point {key}=… given twice ({select[key]} and {value}): a "
+                            "point has one value per swept parameter")
+        select[key] = value
     records, difference = rerun_study(dataset, select)
     failed = sum(r["status"] != STATUS["ok"] for r in records)
     length = float(json.loads(dataset.attrs["scene_json"])["rods"][
@@ -167,33 +171,81 @@ def _rerun_study(dataset, args: argparse.Namespace) -> int:
     return _rerun_verdict("centerlines", difference, length, args.tolerance)
 
 
+def _positive_int(text: str) -> int:
+    """argparse type of ``--workers``: a whole number of at least 1."""
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a whole number, got {text!r}") from None
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"must be at least 1, got {value}")
+    return value
+
+
+def _study_status(name: str, done: int, failed: int, total: int, elapsed: float,
+                  resumed: int) -> str:
+    """A study's progress line. The ETA comes from the points run in this session only
+    (``done - resumed``): points kept from an interrupted run took no time here."""
+    remaining = total - done
+    ran = done - resumed
+    eta = f", ETA {elapsed / ran * remaining:.0f} s" if ran > 0 and remaining else ""
+    kept = f" ({resumed} kept from an earlier run)" if resumed else ""
+    return f"{name}: {done}/{total} done{kept}, {failed} failed, {remaining} remaining{eta}"
+
+
+def _interrupt(signum: int, frame: object) -> None:
+    """SIGTERM handler of ``rodsim study``: stop as Ctrl-C does."""
+    raise KeyboardInterrupt
+
+
 def cmd_study(args: argparse.Namespace) -> int:
+    import signal
+    import threading
+
     from rodsim.archive import ArchiveError
     from rodsim.progress import ProgressPrinter
     from rodsim.study import StudyError, available_studies, load_study
-    from rodsim.study_runner import run_study
+    from rodsim.study_runner import parts_folder, run_study
 
     if args.name is None:
         for name, study in available_studies().items():
             print(f"{name:<12s} {study.title}")
         return EXIT_OK
     printer = ProgressPrinter(delay=0.0)
+    resumed: list[int] = []  # points recorded before this session (the first call's count)
 
     def progress(done: int, failed: int, total: int, elapsed: float) -> None:
-        remaining = total - done
-        eta = f", ETA {elapsed / done * remaining:.0f} s" if done and remaining else ""
+        if not resumed:
+            resumed.append(done)
         printer(done / total if total else 1.0,
-                f"{args.name}: {done}/{total} done, {failed} failed, {remaining} remaining{eta}")
+                _study_status(args.name, done, failed, total, elapsed, resumed[0]))
 
+    def log(message: str) -> None:
+        printer.close()  # end an in-place progress line first
+        print(f"rodsim: {message}", file=sys.stderr, flush=True)
+
+    output = args.output or f"{args.name}-{args.size}.nc"
+    # SIGTERM stops a study as Ctrl-C does: workers ended, finished points kept.
+    previous = (signal.signal(signal.SIGTERM, _interrupt)
+                if threading.current_thread() is threading.main_thread() else None)
+    interrupted = False
     try:
         study = load_study(args.name)
-        output = args.output or f"{study.name}-{args.size}.nc"
         dataset = run_study(study, args.size, output, workers=args.workers,
-                            scheduler=args.scheduler, progress=progress)
+                            scheduler=args.scheduler, progress=progress, log=log)
     except (StudyError, ArchiveError) as exc:
         raise UserError(str(exc)) from None
+    except KeyboardInterrupt:
+        interrupted = True
+        raise
     finally:
         printer.close()
+        if previous is not None:
+            signal.signal(signal.SIGTERM, previous)
+        if interrupted and parts_folder(output).is_dir():
+            print(f"rodsim: study stopped; its finished points are kept in "
+                  f"{parts_folder(output)}: run the same command again to resume",
+                  file=sys.stderr)
     failed = int(dataset.attrs["failed_points"])
     print(f"study       {study.name} ({args.size}): {dataset.attrs['points']} points, "
           f"{failed} failed")
@@ -203,14 +255,16 @@ def cmd_study(args: argparse.Namespace) -> int:
 
 def cmd_plot(args: argparse.Namespace) -> int:
     from rodsim.archive import ArchiveError, read_dataset
-    from rodsim.plotting import plot_dataset
+    from rodsim.plotting import PlotError, check_output, plot_dataset
 
-    try:
-        dataset = read_dataset(args.archive)
-    except ArchiveError as exc:
-        raise UserError(str(exc)) from None
     stem = args.output or str(Path(args.archive).with_suffix(""))
-    for path in plot_dataset(dataset, stem, args.format.split(",")):
+    try:
+        formats = check_output(stem, args.format.split(",")) if args.output else None
+        dataset = read_dataset(args.archive)
+        paths = plot_dataset(dataset, stem, formats or args.format.split(","))
+    except (ArchiveError, PlotError) as exc:
+        raise UserError(str(exc)) from None
+    for path in paths:
         print(f"figure      {path}")
     return EXIT_OK
 
@@ -288,12 +342,13 @@ def build_parser() -> argparse.ArgumentParser:
     study = sub.add_parser("study", help="run a study (the paper's figures) into one archive",
                            description="Run a shipped study (studies/*.py) over its grid on "
                            "local processes or a dask cluster; finished points are kept in "
-                           "OUT.parts/ so a killed study resumes. Without NAME: list them.")
+                           "OUT.parts/ so a killed or interrupted (Ctrl-C, SIGTERM) study "
+                           "resumes. Without NAME: list them.")
     study.add_argument("name", nargs="?", help="study name (fig6, fig7a, …, convergence)")
     study.add_argument("-o", "--output", help="archive path (default: <name>-<size>.nc)")
     study.add_argument("--size", choices=("small", "full"), default="full",
                        help="grid size: small (smoke test) or full (default)")
-    study.add_argument("--workers", type=int, default=None,
+    study.add_argument("--workers", type=_positive_int, default=None,
                        help="local worker processes (default: all cores; 1 = in-process)")
     study.add_argument("--scheduler", metavar="ADDRESS",
                        help="run on a dask.distributed scheduler (tcp://host:port), or "
@@ -304,7 +359,9 @@ def build_parser() -> argparse.ArgumentParser:
     plot.add_argument("archive", help="archive written by `rodsim run` or `rodsim study`")
     plot.add_argument("-o", "--output", metavar="STEM",
                       help="output path without extension (default: the archive's)")
-    plot.add_argument("--format", default="png,pdf", help="comma-separated formats")
+    plot.add_argument("--format", default="png,pdf",
+                      help="comma-separated formats matplotlib writes: png, pdf, svg, … "
+                      "(default png,pdf)")
     plot.set_defaults(func=cmd_plot)
 
     from rodsim.bench import BENCHMARKS

@@ -20,8 +20,11 @@ Kinds:
 
 from __future__ import annotations
 
+import contextlib
 import io
 import json
+import os
+import tempfile
 import textwrap
 from collections.abc import Iterable, Sequence
 from pathlib import Path
@@ -37,7 +40,8 @@ from matplotlib.figure import Figure  # noqa: E402
 from matplotlib.lines import Line2D  # noqa: E402
 from matplotlib.ticker import NullFormatter  # noqa: E402
 
-__all__ = ["plot_dataset", "PLOT_KINDS", "reference_centerlines"]
+__all__ = ["plot_dataset", "PLOT_KINDS", "reference_centerlines", "PlotError",
+           "supported_formats", "check_output"]
 
 PLOT_KINDS = ("centerlines", "error_vs_parameter", "error_vs_iteration")
 
@@ -57,6 +61,60 @@ MARKERS = ("o", "s", "^", "v", "D", "P")
 #: Every how many σ samples the AM markers are drawn (101 samples: 11 markers).
 MARKER_EVERY = 10
 DPI = 100
+
+
+class PlotError(ValueError):
+    """A figure cannot be drawn or written: unknown format, unwritable folder, bad archive."""
+
+
+# Output formats and paths -------------------------------------------------------------------
+
+
+def supported_formats() -> list[str]:
+    """The file formats matplotlib can write (``png``, ``pdf``, ``svg``, …)."""
+    from matplotlib.backend_bases import FigureCanvasBase
+
+    return sorted(FigureCanvasBase.get_supported_filetypes())
+
+
+def check_output(stem: str | Path, formats: Iterable[str]) -> list[str]:
+    """Validate the formats and the output folder before drawing anything.
+
+    Returns the formats, lower-cased, without duplicates; raises :class:`PlotError` for an
+    unknown format, a stem that names a folder, or a folder that is missing or where no file
+    can be created.
+    """
+    wanted: list[str] = []
+    for fmt in formats:
+        fmt = fmt.strip().lower().lstrip(".")
+        if fmt and fmt not in wanted:
+            wanted.append(fmt)
+    if not wanted:
+        raise PlotError("no figure format given (e.g. --format png,pdf)")
+    known = supported_formats()
+    unknown = [fmt for fmt in wanted if fmt not in known]
+    if unknown:
+        raise PlotError(f"unknown figure format {unknown[0]!r}; matplotlib writes: "
+                        + ", ".join(known))
+    text = str(stem)
+    if not text or text.endswith(("/", os.sep)):
+        raise PlotError(f"output {text!r} must name a file stem (e.g. figures/fig6), "
+                        "not a folder")
+    folder = Path(text).parent
+    if not folder.is_dir():
+        raise PlotError(f"cannot write {text}.{wanted[0]}: folder {str(folder)!r} does not "
+                        "exist")
+    for fmt in wanted:
+        if Path(f"{text}.{fmt}").is_dir():
+            raise PlotError(f"cannot write {text}.{fmt}: it is a folder")
+    try:  # permissions, read-only or pseudo file systems (/proc)
+        handle, probe = tempfile.mkstemp(prefix=".rodsim-plot-", suffix=".probe", dir=folder)
+        os.close(handle)
+        os.unlink(probe)
+    except OSError as exc:
+        raise PlotError(f"cannot write {text}.{wanted[0]}: cannot create files in folder "
+                        f"{str(folder)!r} ({exc.strerror or exc})") from None
+    return wanted
 
 
 # Points, labels and colours -----------------------------------------------------------------
@@ -378,6 +436,8 @@ def _error_vs_parameter(ds: xr.Dataset) -> Figure:
             label = _label(ds, {d: _value(ds, d, i) for d, i in zip(line_dims, group,
                                                                     strict=True)})
             for name, style in (("tip_error", "o-"), ("area_error", "s--")):
+                if name not in sub:  # a study without a reference stores no errors
+                    continue
                 y = _positive(sub[name].where(sub["status"] == 0).values)
                 if np.all(np.isnan(y)):
                     continue
@@ -390,7 +450,9 @@ def _error_vs_parameter(ds: xr.Dataset) -> Figure:
         axes.set_yscale("log")
         axes.grid(True, which="both", alpha=0.3)
         _panel_title(axes, ds, panel_select)
-    panels[0].set_ylabel(f"error / L against the {ds.attrs.get('reference')} reference")
+    reference = ds.attrs.get("reference", "None")
+    panels[0].set_ylabel(f"error / L against the {reference} reference"
+                         if reference != "None" else "error / L")
     if not anything:
         panels[0].text(0.5, 0.5, "no errors: the study has no reference, or no point has one",
                        ha="center", va="center", transform=panels[0].transAxes, fontsize=8)
@@ -468,11 +530,17 @@ DRAWERS = {"centerlines": _centerlines, "error_vs_parameter": _error_vs_paramete
 
 def plot_dataset(ds: xr.Dataset, stem: str | Path, formats: Iterable[str] = ("png", "pdf")
                  ) -> list[Path]:
-    """Draw the archive's figure and write ``stem.<format>`` for each format."""
+    """Draw the archive's figure and write ``stem.<format>`` for each format.
+
+    The formats and the folder are checked first (:func:`check_output`); a format that
+    fails to write (e.g. ``pgf`` without LaTeX) leaves no partial file. Raises
+    :class:`PlotError`.
+    """
+    formats = check_output(stem, formats)
     if "study" in ds.attrs:
         kind = ds.attrs.get("plot", "centerlines")
         if kind not in DRAWERS:
-            raise ValueError(f"unknown plot kind {kind!r}; known: {', '.join(DRAWERS)}")
+            raise PlotError(f"unknown plot kind {kind!r}; known: {', '.join(DRAWERS)}")
         figure = DRAWERS[kind](ds)
         _title(figure, ds)
     else:
@@ -481,10 +549,20 @@ def plot_dataset(ds: xr.Dataset, stem: str | Path, formats: Iterable[str] = ("pn
     try:
         for fmt in formats:
             path = Path(f"{stem}.{fmt}")
-            if fmt == "png":
-                _save_png(figure, path)
-            else:
-                figure.savefig(path, dpi=DPI)
+            temporary = path.with_name(f".{path.name}.{os.getpid()}.tmp")
+            try:  # through a temporary: a failed write keeps any older figure intact
+                if fmt == "png":
+                    _save_png(figure, temporary)
+                else:
+                    figure.savefig(temporary, dpi=DPI, format=fmt)
+                os.replace(temporary, path)
+            except BaseException as exc:
+                with contextlib.suppress(OSError):
+                    temporary.unlink()
+                if not isinstance(exc, Exception):
+                    raise
+                reason = exc.strerror if isinstance(exc, OSError) and exc.strerror else exc
+                raise PlotError(f"cannot write {path}: {reason}") from None
             paths.append(path)
     finally:
         plt.close(figure)
