@@ -421,17 +421,23 @@ def _run_dask(client: Any, spec: dict[str, Any], todo: list[tuple[int, ...]],
     from distributed import KilledWorker
     from distributed import as_completed as dask_completed
 
-    futures = {client.submit(_run_point, spec, index, pure=False): index for index in todo}
+    futures: dict[Any, tuple[int, ...]] = {}
     finished = False
-    try:
+
+    def results(batch: list[tuple[int, ...]]) -> list[tuple[int, ...]]:
+        """Run ``batch`` on the cluster and persist each point's record; returns the points
+        dask gave up on because their worker died (KilledWorker), unrecorded."""
+        futures.clear()
+        futures.update({client.submit(_run_point, spec, index, pure=False): index
+                        for index in batch})
+        killed = []
         for future in dask_completed(futures):
             index = futures[future]
             try:
                 record = future.result()
             except KilledWorker:
-                record = _died(index, "dask gave up on it after its worker(s) died: "
-                                      "KilledWorker")
-                log(f"point {list(index)}: {record['message']}")
+                killed.append(index)
+                continue
             except (CancelledError, OSError) as exc:  # the cluster is gone, not the point
                 raise StudyError(f"lost the dask cluster ({_reason(exc)}); the finished points "
                                  "are kept: run the study again to resume") from None
@@ -439,6 +445,18 @@ def _run_dask(client: Any, spec: dict[str, Any], todo: list[tuple[int, ...]],
                 detail = traceback.format_exception_only(type(exc), exc)[-1].strip()
                 record = {"index": list(index), "status": STATUS["error"],
                           "message": f"worker error: {detail}"}
+            persist(record)
+        return killed
+
+    try:
+        suspects = results(list(todo))
+        if len(suspects) > 1:  # a dying worker takes the points beside it along: find which
+            log(f"dask workers died while {len(suspects)} points ran; running them one at a "
+                "time to find which")
+            suspects = [index for index in suspects if results([index])]
+        for index in suspects:
+            record = _died(index, "dask gave up on it after its worker(s) died: KilledWorker")
+            log(f"point {list(index)}: {record['message']}")
             persist(record)
         finished = True
     finally:
