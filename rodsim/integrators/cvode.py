@@ -18,7 +18,12 @@ from sksundae.cvode import CVODE
 
 from rodsim.integrators.base import SolverFailure
 from rodsim.integrators.pseudo_dynamics import FirstOrderSystem, damping_rate
-from rodsim.integrators.sundials import SundialsIntegrator, construct, jacobian_writer
+from rodsim.integrators.sundials import (
+    SundialsIntegrator,
+    captured_sundials_messages,
+    construct,
+    jacobian_writer,
+)
 
 
 class Cvode(SundialsIntegrator):
@@ -67,7 +72,9 @@ class Cvode(SundialsIntegrator):
         options = self.common_options(solver_kind, system.band, system.pattern,
                                       system.formulation == "inertial")
         solver = construct(CVODE, rhs, jacfn, atol=self._tolerances(), **options)
-        started = solver.init_step(t, y)
+        with captured_sundials_messages() as printed:
+            started = solver.init_step(t, y)
         if not started.success:
-            raise SolverFailure(f"CVODE could not start at t = {t:.4g} s: {started.message}")
+            raise SolverFailure(f"CVODE could not start at t = {t:.4g} s: {started.message} "
+                                + " ".join(printed.getvalue().split()))
         return solver

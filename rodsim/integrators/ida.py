@@ -26,7 +26,12 @@ from sksundae.ida import IDA
 
 from rodsim.integrators.base import SolverFailure
 from rodsim.integrators.pseudo_dynamics import damping_rate
-from rodsim.integrators.sundials import SundialsIntegrator, construct, jacobian_writer
+from rodsim.integrators.sundials import (
+    SundialsIntegrator,
+    captured_sundials_messages,
+    construct,
+    jacobian_writer,
+)
 from rodsim.model import Model
 from rodsim.sparsity import csc_pattern
 
@@ -221,7 +226,9 @@ class Ida(SundialsIntegrator):
 
         solver = construct(IDA, resfn, jacfn, atol=self._tolerances(),
                            algebraic_idx=system.algebraic, **options)
-        started = solver.init_step(t, y, np.zeros(system.size) if yp is None else yp)
+        with captured_sundials_messages() as printed:
+            started = solver.init_step(t, y, np.zeros(system.size) if yp is None else yp)
         if not started.success:
-            raise SolverFailure(f"IDA could not start at t = {t:.4g} s: {started.message}")
+            raise SolverFailure(f"IDA could not start at t = {t:.4g} s: {started.message} "
+                                + " ".join(printed.getvalue().split()))
         return solver

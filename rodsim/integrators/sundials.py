@@ -23,10 +23,12 @@ a diagnostic.
 
 from __future__ import annotations
 
+import contextlib
+import io
 import math
 import warnings
 from abc import abstractmethod
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from typing import Any
 
 import numpy as np
@@ -191,11 +193,14 @@ class SundialsIntegrator(Integrator):
                 self.tightening /= 100.0
                 counts["tightenings"] += 1
                 solver, t = restart(t, y)
-            out = solver.step(self.horizon, method="onestep")
+            with captured_sundials_messages() as printed:
+                out = solver.step(self.horizon, method="onestep")
             counts["steps"] = step
             if not out.success:
+                detail = " ".join(printed.getvalue().split())
                 return Outcome(self.positions_of(y), False,
-                               f"{self.name.upper()} error: {out.message}")
+                               f"{self.name.upper()} error: {out.message}"
+                               + (f" SUNDIALS: {detail}" if detail else ""))
             t, y, yp = float(out.t), out.y.copy(), getattr(out, "yp", None)
             x = self.positions_of(y)
             self.checkpoint(x, f"step {step} (t = {t + elapsed:.4g} s)")
@@ -254,3 +259,13 @@ def construct(solver_class: type, function: Callable, jacfn: Callable, **options
     with warnings.catch_warnings():
         warnings.filterwarnings("ignore", "Custom sparse Jacobian", UserWarning)
         return solver_class(function, jacfn=jacfn, **options)
+
+
+@contextlib.contextmanager
+def captured_sundials_messages() -> Iterator[io.StringIO]:
+    """Capture what SUNDIALS reports on a failure: scikit-sundae's error handler prints it
+    to stdout, where it would land in the middle of ``rodsim run``'s summary; rodsim puts it
+    in its own diagnostic instead."""
+    buffer = io.StringIO()
+    with contextlib.redirect_stdout(buffer):
+        yield buffer
