@@ -76,22 +76,39 @@ B0: np.ndarray = np.array(
 )
 
 
+# The contractions below are written as matrix products against flattened constant forms:
+# numpy's einsum does not call BLAS for them and was 15-60x slower at N = 4000
+# (docs/benchmarks.md, "Speed work").
+_FORM_COLUMNS = [np.ascontiguousarray(forms.reshape(12, 4).T) for forms in DIRECTOR_FORMS]
+
+
+def _form_products(q: np.ndarray, k: int) -> np.ndarray:
+    """A[k, m] q for m = 0, 1, 2: shape (..., 3, 4)."""
+    return (q @ _FORM_COLUMNS[k]).reshape(q.shape[:-1] + (3, 4))
+
+
 def directors(q: np.ndarray) -> np.ndarray:
     """Directors of Eq. (2) for quaternions ``q`` of shape (..., 4).
 
     Returns an array of shape (..., 3, 3) whose ``[..., k, :]`` is ``d_{k+1}``.
     """
-    return np.einsum("...a,kmab,...b->...km", q, DIRECTOR_FORMS, q)
+    return np.stack([director(q, k) for k in range(3)], axis=-2)
 
 
 def director(q: np.ndarray, k: int) -> np.ndarray:
-    """Director ``d_{k+1}`` (``k`` = 0, 1, 2) of quaternions ``q`` (..., 4) -> (..., 3)."""
-    return np.einsum("...a,mab,...b->...m", q, DIRECTOR_FORMS[k], q)
+    """Director ``d_{k+1}`` (``k`` = 0, 1, 2) of quaternions ``q`` (..., 4) -> (..., 3):
+    component m is qᵀ A[k, m] q."""
+    return np.matmul(_form_products(q, k), q[..., :, None])[..., 0]
 
 
 def director_gradient(q: np.ndarray, k: int) -> np.ndarray:
     """Jacobian ``∂d_{k+1}/∂q`` of shape (..., 3, 4): row ``m`` is ``2 A[k, m] q``."""
-    return 2.0 * np.einsum("mab,...b->...ma", DIRECTOR_FORMS[k], q)
+    return 2.0 * _form_products(q, k)
+
+
+def form_combination(weights: np.ndarray, forms: np.ndarray) -> np.ndarray:
+    """Σ_m weights[..., m] forms[m] for constant (3, 4, 4) forms: shape (..., 4, 4)."""
+    return (weights @ forms.reshape(3, 16)).reshape(weights.shape[:-1] + (4, 4))
 
 
 def from_rotation_matrix(rotation: np.ndarray) -> np.ndarray:

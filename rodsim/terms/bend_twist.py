@@ -33,10 +33,15 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
-from rodsim.rod.quaternion import B
+from rodsim.rod.quaternion import B, form_combination
 from rodsim.rod.rod import Rod
 from rodsim.schema import Parameter
 from rodsim.terms.base import RodTerm
+
+#: B as flattened matrices: (b @ _B_ROWS)[n, 4k + a] = Σ_c B[k, c, a] b[n, c] (B_kᵀ b) and
+#: (a @ _B_COLUMNS)[n, 4k + c] = Σ_d B[k, c, d] a[n, d] (B_k a).
+_B_ROWS = np.ascontiguousarray(B.transpose(1, 0, 2).reshape(4, 12))
+_B_COLUMNS = np.ascontiguousarray(B.reshape(12, 4).T)
 
 
 def stiffness_tensor(rod: Rod, model: str, twist_override: float = 0.0) -> np.ndarray:
@@ -114,8 +119,8 @@ class BendTwist(RodTerm):
         a, b = self._pairs(x)
         na2, nb2 = np.sum(a * a, axis=1), np.sum(b * b, axis=1)
         scale = 2.0 / (self._dual_lengths * np.sqrt(na2 * nb2))  # c s = (2/l̄) / (|a||b|)
-        ga = np.einsum("kba,nb->nka", B, b)  # ∂f_k/∂a = B_kᵀ b
-        gb = np.einsum("kab,nb->nka", B, a)  # ∂f_k/∂b = B_k a
+        ga = (b @ _B_ROWS).reshape(-1, 3, 4)  # ∂f_k/∂a = B_kᵀ b
+        gb = (a @ _B_COLUMNS).reshape(-1, 3, 4)  # ∂f_k/∂b = B_k a
         f = np.einsum("nka,na->nk", ga, a)  # f_k = (B_k a) · b
         u = scale[:, None] * f
         # ∇u_k = c s (g − f q / |q|²) for each of a and b
@@ -148,7 +153,7 @@ class BendTwist(RodTerm):
         # Gauss–Newton part: l̄ Σ_k K_k ∇u_k ∇u_kᵀ
         gn = (lbar * scale**2)[:, None] * self._stiffness
         grad = np.concatenate([ha, hb], axis=2)  # (n, 3, 8), ∇u_k / (c s)
-        hess = np.einsum("nk,nki,nkj->nij", gn, grad, grad)
+        hess = np.matmul((grad * gn[:, :, None]).transpose(0, 2, 1), grad)
         # Curvature part: l̄ Σ_k K_k u_k ∇²u_k, with (per k, in units of c s)
         #   ∇²_aa u = −[g_a aᵀ + a g_aᵀ + f I − 3 f a aᵀ/|a|²] / |a|²
         #   ∇²_ab u = B_kᵀ − g_a bᵀ/|b|² − a g_bᵀ/|a|² + f a bᵀ/(|a|²|b|²)
@@ -156,7 +161,7 @@ class BendTwist(RodTerm):
         eye = np.eye(4)
 
         def same(q: np.ndarray, g: np.ndarray, n2: np.ndarray) -> np.ndarray:
-            sym = np.einsum("nk,nki,nj->nij", w, g, q)
+            sym = np.matmul(w[:, None, :], g)[:, 0, :, None] * q[:, None, :]
             fw = np.sum(w * f, axis=1)
             qq = q[:, :, None] * q[:, None, :]
             return -(sym + sym.transpose(0, 2, 1) + fw[:, None, None] * eye
@@ -165,9 +170,11 @@ class BendTwist(RodTerm):
         h_aa = same(a, ga, na2)
         h_bb = same(b, gb, nb2)
         fw = np.sum(w * f, axis=1)
-        h_ab = (np.einsum("nk,kba->nab", w, B)
-                - np.einsum("nk,nka,nb->nab", w, ga, b) / nb2[:, None, None]
-                - np.einsum("nk,na,nkb->nab", w, a, gb) / na2[:, None, None]
+        wga = np.matmul(w[:, None, :], ga)[:, 0, :]  # Σ_k w_k ∂f_k/∂a
+        wgb = np.matmul(w[:, None, :], gb)[:, 0, :]
+        h_ab = (form_combination(w, B).transpose(0, 2, 1)
+                - wga[:, :, None] * b[:, None, :] / nb2[:, None, None]
+                - a[:, :, None] * wgb[:, None, :] / na2[:, None, None]
                 + (fw / (na2 * nb2))[:, None, None] * a[:, :, None] * b[:, None, :])
         hess[:, :4, :4] += h_aa
         hess[:, 4:, 4:] += h_bb

@@ -13,7 +13,12 @@ from typing import Any
 
 import numpy as np
 
-from rodsim.rod.quaternion import DIRECTOR_FORMS, director, director_gradient
+from rodsim.rod.quaternion import (
+    DIRECTOR_FORMS,
+    director,
+    director_gradient,
+    form_combination,
+)
 from rodsim.rod.rod import Rod
 from rodsim.schema import Parameter
 from rodsim.terms._segment import Segments
@@ -73,8 +78,8 @@ class Centerline(RodTerm):
         grad = director_gradient(q, 2)
         h_eq = -self._weight * np.einsum("nab,nbc->nac", proj, grad) / n[:, None, None]
         h_qq = self._weight * (
-            np.einsum("nma,nmb->nab", grad, grad)
-            - 2.0 * np.einsum("nm,mab->nab", w, DIRECTOR_FORMS[2])
+            np.matmul(grad.transpose(0, 2, 1), grad)
+            - 2.0 * form_combination(w, DIRECTOR_FORMS[2])
         )
         hess = np.empty((len(n), 10, 10))
         hess[:, :3, :3] = h_ee

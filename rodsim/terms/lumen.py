@@ -40,6 +40,7 @@ from typing import Any
 
 import numpy as np
 
+from rodsim.rod.quaternion import form_combination
 from rodsim.schema import Parameter
 from rodsim.tendon import Tendon
 from rodsim.terms.base import TendonTerm
@@ -78,13 +79,12 @@ class PointOnLumen:
             h[:, 3:6, 6:10] = d_mat
             h[:, 6:10, 0:3] = -d_mat.transpose(0, 2, 1)
             h[:, 6:10, 3:6] = d_mat.transpose(0, 2, 1)
-        dt_t = np.einsum("nma,nmb->nab", f["Dt"], f["Dt"])
-        h_t[:, 6:, 6:] = 2.0 * rl * dt_t + np.einsum("nm,mab->nab", delta + rl * f["dt"],
-                                                     f["Ht"])
-        cross = np.einsum("nma,nmb->nab", f["Dn"], f["Dt"])
+        dt_t = np.matmul(f["Dt"].transpose(0, 2, 1), f["Dt"])
+        h_t[:, 6:, 6:] = 2.0 * rl * dt_t + form_combination(delta + rl * f["dt"], f["Ht"])
+        cross = np.matmul(f["Dn"].transpose(0, 2, 1), f["Dt"])
         h_n[:, 6:, 6:] = (rl * (cross + cross.transpose(0, 2, 1))
-                          + np.einsum("nm,mab->nab", delta, f["Hn"])
-                          + rl * np.einsum("nm,mab->nab", f["dn"], f["Ht"]))
+                          + form_combination(delta, f["Hn"])
+                          + rl * form_combination(f["dn"], f["Ht"]))
         return h_t, h_n
 
 
