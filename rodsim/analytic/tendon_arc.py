@@ -10,9 +10,9 @@ stiffnesses, into an arc of curvature
 
 per unit *rest* arc length (the strains of Eqs. 3–7 are measured along the rest length),
 with the centerline shortened by the axial strain ε = T / (E_s A): at rest arc length s,
-θ = κ s, x = (1 − ε) sin θ / κ, and (1 − ε)(1 − cos θ)/κ towards the tendon's side. (An
-earlier form, θ = κ s (1 − ε) with E I of the catheter alone, differs by two ~0.3 % effects
-that cancel at N = 30 but not at N = 120: measured 2.8e-5 L against 3.2e-6 L for this one.)
+θ = κ s, x = (1 − ε) sin θ / κ, and (1 − ε)(1 − cos θ)/κ towards the tendon's side. This is
+the continuum limit of rodsim's own equations; an earlier form, θ = κ s (1 − ε) with the
+catheter's E I alone, differs from it by two ~0.3 % effects (docs/tendon.md).
 """
 
 from __future__ import annotations
