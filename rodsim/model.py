@@ -83,10 +83,6 @@ class Model:
         self.n = len(self.free)
         #: Incremented whenever the Jacobian pattern changes (see :meth:`update_registration`).
         self.pattern_version = 0
-        #: The pattern covers every registration at once (``solver.registration_pattern``), so
-        #: it never changes; otherwise it is exactly the current registration's.
-        self.superset_pattern = (scene.data["solver"]["registration_pattern"] == "superset"
-                                 and any(term.dynamic for term in self.terms))
         self._build_maps()
         if len(self.rods) > 1:
             self._order_for_band()
@@ -120,10 +116,10 @@ class Model:
         """Let dynamic terms (tendon registration, §4.1) update their state from ``x``
         (``exact``: without hysteresis, as at equilibrium; see :meth:`settle_registration`).
 
-        Returns True when a registration changed; the maps are then rebuilt and, unless the
-        pattern is the fixed superset, :attr:`pattern_version` incremented so integrators can
-        rebuild what they derived from the pattern. The order of the free coordinates never
-        changes.
+        Returns True when a registration changed: the element coordinates, and so the
+        Jacobian pattern, changed; the maps are then rebuilt and :attr:`pattern_version`
+        incremented so integrators can rebuild what they derived from the pattern. The order
+        of the free coordinates never changes.
         """
         full = self.full(x)
         changed = False
@@ -136,8 +132,7 @@ class Model:
 
     def _registration_changed(self) -> None:
         self._build_maps()
-        if not self.superset_pattern:
-            self.pattern_version += 1
+        self.pattern_version += 1
 
     @property
     def conservative(self) -> bool:
@@ -178,16 +173,8 @@ class Model:
         diagonal = np.arange(n)
         rows, cols = self._element_entries(term.dofs for term in self._jac_terms)
         keep = (rows < n) & (cols < n)
-        if self.superset_pattern:
-            covered = self._element_entries(term.pattern_dofs() for term in self._jac_terms)
-            inside = (covered[0] < n) & (covered[1] < n)
-            pattern = csc_pattern(np.concatenate([diagonal, covered[0][inside]]),
-                                  np.concatenate([diagonal, covered[1][inside]]), n)
-            located = pattern.locate(rows[keep], cols[keep])
-        else:
-            pattern = csc_pattern(np.concatenate([diagonal, rows[keep]]),
-                                  np.concatenate([diagonal, cols[keep]]), n)
-            located = pattern.target[n:]
+        pattern = csc_pattern(np.concatenate([diagonal, rows[keep]]),
+                              np.concatenate([diagonal, cols[keep]]), n)
         #: Jacobian sparsity pattern of the free coordinates (CSC, ones where J may be ≠ 0).
         self.pattern = pattern.matrix
         self.pattern_rows, self.pattern_cols = pattern.rows, pattern.cols
@@ -195,7 +182,7 @@ class Model:
         # Where each term's element entry lands in the CSC data (nnz: a dump slot for
         # entries on fixed coordinates).
         self._jac_targets = np.full(len(rows), self.nnz)
-        self._jac_targets[keep] = located
+        self._jac_targets[keep] = pattern.target[n:]
         self.band = Band(*pattern.band)
 
     def _element_entries(self, dof_sets) -> tuple[np.ndarray, np.ndarray]:

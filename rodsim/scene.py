@@ -48,11 +48,6 @@ SOLVER_PARAMETERS: tuple[Parameter, ...] = (
               0.0, 1.0, exclusive_minimum=True),
     Parameter("max_wall_time", "float", 600.0, "s", "give up after this much wall time",
               0.0, 1e6, exclusive_minimum=True),
-    Parameter("registration_pattern", "str", "exact", "-",
-              "Jacobian pattern of tendon coupling: 'exact' (rebuilt when a tendon point "
-              "changes parent; CVODE and IDA then re-initialise) or 'superset' (every tendon "
-              "point coupled to every catheter node: fixed, denser)",
-              choices=("exact", "superset")),
 )
 
 _TOP_KEYS = ("name", "description", "rods", "tendons", "solver")

@@ -41,18 +41,6 @@ class Pattern:
     def nnz(self) -> int:
         return len(self.rows)
 
-    def locate(self, rows: np.ndarray, cols: np.ndarray) -> np.ndarray:
-        """The CSC data slot of each entry (rows[k], cols[k]); every entry must be in the
-        pattern."""
-        size = self.matrix.shape[0]
-        keys = self.cols * size + self.rows
-        wanted = np.asarray(cols) * size + np.asarray(rows)
-        slots = np.searchsorted(keys, wanted)
-        if np.any(slots >= len(keys)) or np.any(keys[np.minimum(slots, len(keys) - 1)]
-                                                != wanted):
-            raise ValueError("an entry lies outside the pattern")
-        return slots
-
 
 def csc_pattern(rows: np.ndarray, cols: np.ndarray, size: int) -> Pattern:
     """The pattern of the entries (rows[k], cols[k]) of a ``size`` × ``size`` matrix."""

@@ -118,20 +118,3 @@ def test_a_reused_model_gives_the_fresh_model_result():
     assert second.stats["steps"] == first.stats["steps"] == fresh.stats["steps"]
     for rod in fresh.rods:
         np.testing.assert_array_equal(second.positions(rod), fresh.positions(rod))
-
-
-@pytest.mark.parametrize("integrator", ["cvode", "ida"])
-def test_the_superset_pattern_needs_no_reinitialisation(integrator):
-    """registration_pattern = "superset" covers every parent at once: parents change during
-    the run (they do with the exact pattern), the solver goes on without re-initialising,
-    and the equilibrium is the same."""
-    exact = rodsim.solve("table3-catheter1", integrator)
-    superset = rodsim.solve("table3-catheter1", integrator,
-                            overrides=["solver.registration_pattern='superset'"])
-    assert exact.success and superset.success, (exact.message, superset.message)
-    assert exact.stats["reinits"] > 0 and superset.stats["reinits"] == 0
-    static = reference("table3-catheter1")
-    for rod in static.rods:
-        distance = np.max(np.linalg.norm(superset.positions(rod) - static.positions(rod),
-                                         axis=1))
-        assert distance < 1e-6 * 0.16, (rod, distance)

@@ -14,9 +14,8 @@ there only makes the steps shorter (measured: CVODE inertial on ``table3-cathete
 rtol 1e-12 four times over and crawled at t ≈ 0.8 s until the budget). Tendon registration
 (§4.1) is updated after every accepted step; SUNDIALS holds a fixed Jacobian pattern, so when a
 tendon point changes parent the solver is rebuilt on the new pattern and re-initialised
-from that state (counted as ``reinits``) — unless the scene asks for the fixed superset
-pattern (``solver.registration_pattern = "superset"``), with which the run goes on through a
-parent change on the same solver (measured against re-initialising in docs/tendon.md).
+from that state (counted as ``reinits``); a fixed superset pattern without re-initialisation
+was measured slower and less robust (docs/tendon.md, "Sparsity pattern").
 Non-finite states, solver errors, the step budget and the wall-time budget end the run with
 a diagnostic.
 """
@@ -174,7 +173,6 @@ class SundialsIntegrator(Integrator):
         # autonomous, so its first step is not lost against a huge t.
         elapsed = 0.0
         best, best_step, best_time = np.inf, 0, 0.0
-        pattern = model.pattern_version
 
         def restart(t: float, y: np.ndarray) -> tuple[Any, float]:
             nonlocal elapsed
@@ -204,9 +202,8 @@ class SundialsIntegrator(Integrator):
             t, y, yp = float(out.t), out.y.copy(), getattr(out, "yp", None)
             x = self.positions_of(y)
             self.checkpoint(x, f"step {step} (t = {t + elapsed:.4g} s)")
-            if model.update_registration(x) and model.pattern_version != pattern:
+            if model.update_registration(x):
                 # A tendon point changed parent (§4.1): new pattern, new solver, same state.
-                pattern = model.pattern_version
                 counts["reinits"] += 1
                 self.build_system()
                 solver, t = restart(t, y)
@@ -219,12 +216,10 @@ class SundialsIntegrator(Integrator):
             if self.at_equilibrium(residual):
                 if self.settled(x):
                     return Outcome(x.copy(), True, "at equilibrium")
-                # A parent changed without hysteresis: go on (on the new pattern, if any).
-                if model.pattern_version != pattern:
-                    pattern = model.pattern_version
-                    counts["reinits"] += 1
-                    self.build_system()
-                    solver, t = restart(t, y)
+                # A parent changed without hysteresis: go on, on the new pattern.
+                counts["reinits"] += 1
+                self.build_system()
+                solver, t = restart(t, y)
                 continue
             if residual < 0.5 * best:
                 best, best_step, best_time = residual, step, t + elapsed

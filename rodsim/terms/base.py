@@ -109,12 +109,6 @@ class Term(ABC):
         does not depend on the path a solver took to it."""
         return False
 
-    def pattern_dofs(self) -> np.ndarray:
-        """Element coordinates covering every registration a dynamic term can take: their
-        union is a Jacobian pattern that no registration change alters (``[solver]
-        registration_pattern = "superset"``). Default: the current ``dofs``."""
-        return self.dofs
-
     def reset_registration(self) -> bool:
         """Return a dynamic term's discrete state to the rest state's; True if it changed."""
         return False

@@ -158,16 +158,6 @@ class Lumen(TendonTerm):
         self._set_dofs()
         return True
 
-    def pattern_dofs(self) -> np.ndarray:
-        """Every tendon point with every catheter node (p_i, r_j, q_j) for all i, j."""
-        nodes = np.arange(self.tendon.catheter.nodes)
-        layout = self.tendon.catheter.layout
-        host = np.concatenate([layout.position_index[nodes],
-                               layout.quaternion_index[self.tendon.lumen_segment(nodes)]],
-                              axis=1)
-        points = np.repeat(self._points, len(nodes), axis=0)
-        return np.concatenate([points, np.tile(host, (len(self._points), 1))], axis=1)
-
     def _set_dofs(self) -> None:
         layout = self.tendon.catheter.layout
         r = layout.position_index[self.parent]
