@@ -138,3 +138,25 @@ def test_loads_below_round_off_are_refused_not_reported_at_rest(integrator):
                                      f"mass={force / 9.81}"])
     assert not result.success
     assert "round-off" in result.message and "raise the load" in result.message
+
+
+@pytest.mark.parametrize(("integrator", "module", "solver_class"),
+                         [("cvode", "rodsim.integrators.cvode", "CVODE"),
+                          ("ida", "rodsim.integrators.ida", "IDA")])
+def test_a_sundials_set_up_error_is_a_diagnosed_failure(integrator, module, solver_class,
+                                                       monkeypatch):
+    """scikit-sundae raises RuntimeError when SUNDIALS fails during set-up — for IDA, a
+    failed consistent-initial-condition solve ("IDACalcIC - Convergence tests failed"), seen
+    once on the stress map as an exception escaping the integrator. It must come back as a
+    failed Result with that message, not as an exception."""
+    import importlib
+
+    target = getattr(importlib.import_module(module), solver_class)
+
+    def failing_init_step(self, *args, **kwargs):
+        raise RuntimeError(f"{solver_class}CalcIC - Convergence tests failed too many times")
+
+    monkeypatch.setattr(target, "init_step", failing_init_step)
+    result = rodsim.solve(SCENE, integrator, overrides=list(BASE))
+    assert not result.success
+    assert "could not start" in result.message and "CalcIC" in result.message, result.message

@@ -71,9 +71,12 @@ class Cvode(SundialsIntegrator):
 
         options = self.common_options(solver_kind, system.band, system.pattern,
                                       system.formulation == "inertial")
-        solver = construct(CVODE, rhs, jacfn, atol=self._tolerances(), **options)
         with captured_sundials_messages() as printed:
-            started = solver.init_step(t, y)
+            try:  # scikit-sundae raises RuntimeError for SUNDIALS' set-up failures
+                solver = construct(CVODE, rhs, jacfn, atol=self._tolerances(), **options)
+                started = solver.init_step(t, y)
+            except RuntimeError as exc:
+                raise SolverFailure(f"CVODE could not start at t = {t:.4g} s: {exc}") from None
         if not started.success:
             raise SolverFailure(f"CVODE could not start at t = {t:.4g} s: {started.message} "
                                 + " ".join(printed.getvalue().split()))

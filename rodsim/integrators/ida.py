@@ -224,10 +224,14 @@ class Ida(SundialsIntegrator):
                   jj: np.ndarray) -> None:
             write(jj, jacobian(t, y, yp, cj))
 
-        solver = construct(IDA, resfn, jacfn, atol=self._tolerances(),
-                           algebraic_idx=system.algebraic, **options)
         with captured_sundials_messages() as printed:
-            started = solver.init_step(t, y, np.zeros(system.size) if yp is None else yp)
+            try:  # scikit-sundae raises RuntimeError for SUNDIALS' set-up failures, among
+                # them a failed consistent-initial-condition solve (IDACalcIC)
+                solver = construct(IDA, resfn, jacfn, atol=self._tolerances(),
+                                   algebraic_idx=system.algebraic, **options)
+                started = solver.init_step(t, y, np.zeros(system.size) if yp is None else yp)
+            except RuntimeError as exc:
+                raise SolverFailure(f"IDA could not start at t = {t:.4g} s: {exc}") from None
         if not started.success:
             raise SolverFailure(f"IDA could not start at t = {t:.4g} s: {started.message} "
                                 + " ".join(printed.getvalue().split()))
