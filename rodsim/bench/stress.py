@@ -21,9 +21,9 @@ wall-time budget, through the study runner (parallel, resumable). Each run ends 
 - ``crash``: an exception escaped the integrator — must never happen;
 
 and a success with a non-finite result would be a ``nan_success`` — must never happen.
-Outputs: ``stress.nc`` (the study Dataset plus ``outcome``), ``stress.png`` (outcome maps)
-and ``stress.md`` (counts, where the paper integrator fails and the adaptive ones do not,
-and the reverse).
+Outputs: ``stress.nc`` (the study Dataset plus ``outcome``), ``stress.png`` (heat maps of
+the fraction converged) and ``stress.md`` (counts, where the paper integrator fails and the
+adaptive ones do not, and the reverse).
 """
 
 from __future__ import annotations
@@ -143,33 +143,53 @@ def classify(ds: xr.Dataset) -> xr.DataArray:
                                "flag_meanings": " ".join(OUTCOMES)})
 
 
+#: The heat maps: (x, y) configuration coordinates and their log10 bin edges.
+HEAT_MAPS = (("K_P", "nodes", np.linspace(*BOUNDS[0], 8), np.linspace(*BOUNDS[1], 7)),
+             ("alpha", "radius", np.linspace(*BOUNDS[3], 7), np.linspace(*BOUNDS[2], 7)),
+             ("h", "alpha", np.linspace(*BOUNDS[4], 5), np.linspace(*BOUNDS[3], 7)))
+
+
 def _figure(ds: xr.Dataset, path: Path) -> None:
+    """Heat maps of the fraction of configurations that converged, per integrator (columns)
+    and pair of configuration coordinates (rows, log-spaced bins; the other coordinates vary
+    within a bin). Each cell is labelled converged/configurations; empty bins stay blank.
+    Only the paper integrator uses h: its row is a control for the other three."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    colours = {"converged": "tab:green", "refused": "tab:grey", "diverged": "tab:red",
-               "failed": "tab:orange", "crash": "black", "nan_success": "magenta"}
-    axes_pairs = (("K_P", "nodes"), ("alpha", "radius"))
-    figure, axes = plt.subplots(len(axes_pairs), len(INTEGRATORS), figsize=(14, 6.5),
+    refused = (ds["outcome"] == OUTCOMES.index("refused")).any("integrator").values
+    figure, axes = plt.subplots(len(HEAT_MAPS), len(INTEGRATORS), figsize=(15, 10),
                                 constrained_layout=True, squeeze=False)
+    image = None
     for column, integrator in enumerate(INTEGRATORS):
-        outcome = ds["outcome"].sel(integrator=integrator).values
-        for row, (xname, yname) in enumerate(axes_pairs):
+        converged = (ds["outcome"].sel(integrator=integrator) == OUTCOMES.index("converged")).values
+        for row, (xname, yname, xedges, yedges) in enumerate(HEAT_MAPS):
+            x = np.log10(ds[xname].values[~refused])
+            y = np.log10(ds[yname].values[~refused])
+            total, _, _ = np.histogram2d(x, y, bins=(xedges, yedges))
+            good, _, _ = np.histogram2d(x, y, bins=(xedges, yedges),
+                                        weights=converged[~refused].astype(float))
+            with np.errstate(invalid="ignore", divide="ignore"):
+                fraction = np.where(total > 0, good / total, np.nan)
             ax = axes[row, column]
-            for k, name in enumerate(OUTCOMES):
-                pick = outcome == k
-                if np.any(pick):
-                    ax.scatter(ds[xname].values[pick], ds[yname].values[pick], s=9,
-                               c=colours[name], label=f"{name} ({int(pick.sum())})")
+            image = ax.pcolormesh(10.0 ** xedges, 10.0 ** yedges, fraction.T, cmap="RdYlGn",
+                                  vmin=0.0, vmax=1.0)
+            for i, j in zip(*np.nonzero(total), strict=True):
+                ax.text(10 ** (0.5 * (xedges[i] + xedges[i + 1])),
+                        10 ** (0.5 * (yedges[j] + yedges[j + 1])),
+                        f"{int(good[i, j])}/{int(total[i, j])}", ha="center", va="center",
+                        fontsize=6)
             ax.set_xscale("log")
             ax.set_yscale("log")
             ax.set_xlabel(xname)
             ax.set_ylabel(yname)
             if row == 0:
-                ax.set_title(integrator)
-                ax.legend(fontsize=7)
+                ax.set_title(f"{integrator}: {int(converged[~refused].sum())}/"
+                             f"{int((~refused).sum())} converged")
+    if image is not None:
+        figure.colorbar(image, ax=axes, shrink=0.6, label="fraction converged")
     figure.savefig(path, dpi=100)
     plt.close(figure)
 
@@ -271,9 +291,14 @@ def run(size: str, output_dir: Path, progress=None) -> list[Path]:
     configs, box_refused = sample(SIZES[size]["count"], SIZES[size]["max_nodes"])
     output = Path(output_dir) / (f"stress-{size}.nc")
 
+    resumed: list[int] = []  # runs recorded before this session (the first call's count)
+
     def report(done: int, failed: int, total: int, elapsed: float) -> None:
+        if not resumed:
+            resumed.append(done)
+        ran = done - resumed[0]
         if progress is not None:
-            eta = f", ETA {elapsed / done * (total - done):.0f} s" if done and done < total else ""
+            eta = f", ETA {elapsed / ran * (total - done):.0f} s" if ran and done < total else ""
             progress(done / total, f"stress: {done}/{total} runs, {failed} not converged{eta}")
 
     from rodsim.archive import read_dataset
