@@ -153,7 +153,8 @@ def _figure(ds: xr.Dataset, path: Path) -> None:
     """Heat maps of the fraction of configurations that converged, per integrator (columns)
     and pair of configuration coordinates (rows, log-spaced bins; the other coordinates vary
     within a bin). Each cell is labelled converged/configurations; empty bins stay blank.
-    Only the paper integrator uses h: its row is a control for the other three."""
+    Only the paper integrator uses h: its row is a control for the other three. A title
+    names any crash or NaN reported as success (which must never happen)."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -164,7 +165,8 @@ def _figure(ds: xr.Dataset, path: Path) -> None:
                                 constrained_layout=True, squeeze=False)
     image = None
     for column, integrator in enumerate(INTEGRATORS):
-        converged = (ds["outcome"].sel(integrator=integrator) == OUTCOMES.index("converged")).values
+        outcome = ds["outcome"].sel(integrator=integrator).values
+        converged = outcome == OUTCOMES.index("converged")
         for row, (xname, yname, xedges, yedges) in enumerate(HEAT_MAPS):
             x = np.log10(ds[xname].values[~refused])
             y = np.log10(ds[yname].values[~refused])
@@ -186,8 +188,11 @@ def _figure(ds: xr.Dataset, path: Path) -> None:
             ax.set_xlabel(xname)
             ax.set_ylabel(yname)
             if row == 0:
+                never = ", ".join(f"{int(count)} {name}" for name in ("crash", "nan_success")
+                                  if (count := (outcome == OUTCOMES.index(name)).sum()))
                 ax.set_title(f"{integrator}: {int(converged[~refused].sum())}/"
-                             f"{int((~refused).sum())} converged")
+                             f"{int((~refused).sum())} converged" + (f" ({never}!)" if never
+                                                                      else ""))
     if image is not None:
         figure.colorbar(image, ax=axes, shrink=0.6, label="fraction converged")
     figure.savefig(path, dpi=100)
