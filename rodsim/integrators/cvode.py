@@ -16,13 +16,11 @@ from __future__ import annotations
 import numpy as np
 from sksundae.cvode import CVODE
 
-from rodsim.integrators.base import SolverFailure
 from rodsim.integrators.pseudo_dynamics import FirstOrderSystem, damping_rate
 from rodsim.integrators.sundials import (
     SundialsIntegrator,
-    captured_sundials_messages,
-    construct,
     jacobian_writer,
+    started,
 )
 
 
@@ -71,13 +69,5 @@ class Cvode(SundialsIntegrator):
 
         options = self.common_options(solver_kind, system.band, system.pattern,
                                       system.formulation == "inertial")
-        with captured_sundials_messages() as printed:
-            try:  # scikit-sundae raises RuntimeError for SUNDIALS' set-up failures
-                solver = construct(CVODE, rhs, jacfn, atol=self._tolerances(), **options)
-                started = solver.init_step(t, y)
-            except RuntimeError as exc:
-                raise SolverFailure(f"CVODE could not start at t = {t:.4g} s: {exc}") from None
-        if not started.success:
-            raise SolverFailure(f"CVODE could not start at t = {t:.4g} s: {started.message} "
-                                + " ".join(printed.getvalue().split()))
-        return solver
+        return started("CVODE", CVODE, rhs, jacfn, t, y, atol=self._tolerances(),
+                       **options)

@@ -24,13 +24,11 @@ from __future__ import annotations
 import numpy as np
 from sksundae.ida import IDA
 
-from rodsim.integrators.base import SolverFailure
 from rodsim.integrators.pseudo_dynamics import damping_rate
 from rodsim.integrators.sundials import (
     SundialsIntegrator,
-    captured_sundials_messages,
-    construct,
     jacobian_writer,
+    started,
 )
 from rodsim.model import Model
 from rodsim.sparsity import csc_pattern
@@ -224,15 +222,6 @@ class Ida(SundialsIntegrator):
                   jj: np.ndarray) -> None:
             write(jj, jacobian(t, y, yp, cj))
 
-        with captured_sundials_messages() as printed:
-            try:  # scikit-sundae raises RuntimeError for SUNDIALS' set-up failures, among
-                # them a failed consistent-initial-condition solve (IDACalcIC)
-                solver = construct(IDA, resfn, jacfn, atol=self._tolerances(),
-                                   algebraic_idx=system.algebraic, **options)
-                started = solver.init_step(t, y, np.zeros(system.size) if yp is None else yp)
-            except RuntimeError as exc:
-                raise SolverFailure(f"IDA could not start at t = {t:.4g} s: {exc}") from None
-        if not started.success:
-            raise SolverFailure(f"IDA could not start at t = {t:.4g} s: {started.message} "
-                                + " ".join(printed.getvalue().split()))
-        return solver
+        initial_rates = np.zeros(system.size) if yp is None else yp
+        return started("IDA", IDA, resfn, jacfn, t, y, initial_rates, atol=self._tolerances(),
+                       algebraic_idx=system.algebraic, **options)

@@ -263,12 +263,28 @@ def jacobian_writer(solver_kind: str, rows: np.ndarray,
     return write
 
 
-def construct(solver_class: type, function: Callable, jacfn: Callable, **options: Any) -> Any:
-    """A scikit-sundae solver with our analytic ``jacfn`` (its warning that its own sparse
-    finite-difference Jacobian goes unused is expected and silenced)."""
-    with warnings.catch_warnings():
-        warnings.filterwarnings("ignore", "Custom sparse Jacobian", UserWarning)
-        return solver_class(function, jacfn=jacfn, **options)
+def started(name: str, solver_class: type, function: Callable, jacfn: Callable, t: float,
+            *initial: np.ndarray, **options: Any) -> Any:
+    """A scikit-sundae solver (``CVODE`` or ``IDA``, called ``name`` in diagnostics) with our
+    analytic ``jacfn``, initialised at ``t`` from ``initial`` (y, or y and y′). Its warning
+    that its own sparse finite-difference Jacobian goes unused is expected and silenced.
+    A set-up failure —
+    scikit-sundae raises RuntimeError for some (e.g. a failed consistent-initial-condition
+    solve, IDACalcIC) and reports others as an unsuccessful ``init_step`` — is a
+    :class:`SolverFailure` carrying SUNDIALS' own text."""
+    where = f"{name} could not start at t = {t:.4g} s"
+    with captured_sundials_messages() as printed:
+        try:
+            with warnings.catch_warnings():
+                warnings.filterwarnings("ignore", "Custom sparse Jacobian", UserWarning)
+                solver = solver_class(function, jacfn=jacfn, **options)
+            initialised = solver.init_step(t, *initial)
+        except RuntimeError as exc:
+            raise SolverFailure(f"{where}: {exc}") from None
+    if not initialised.success:
+        raise SolverFailure(f"{where}: {initialised.message} "
+                            + " ".join(printed.getvalue().split()))
+    return solver
 
 
 @contextlib.contextmanager
