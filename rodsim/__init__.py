@@ -7,6 +7,8 @@ Importing rodsim pins OpenMP and OpenBLAS to one thread unless ``OMP_NUM_THREADS
 ``OPENBLAS_NUM_THREADS`` are already set: the solvers' callbacks hold the GIL and the linear
 algebra is small, and threaded BLAS on a shared 2-core machine gave intermittent 10×
 slow-downs (DESIGN §8). This takes effect only if numpy is not imported before rodsim.
+
+``rodsim.load_scene``, ``rodsim.solve`` and ``rodsim.build_model`` are imported on first use.
 """
 
 import os
@@ -16,6 +18,14 @@ os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 __version__ = "0.1.0"
 
-from rodsim.api import build_model, load_scene, solve  # noqa: E402
-
 __all__ = ["__version__", "build_model", "load_scene", "solve"]
+
+
+def __getattr__(name: str):
+    """The Python entry points of :mod:`rodsim.api`, imported on first use: ``import rodsim``
+    stays light (SUNDIALS, xarray and numba are loaded only when a solve needs them)."""
+    if name in ("build_model", "load_scene", "solve"):
+        from rodsim import api
+
+        return getattr(api, name)
+    raise AttributeError(f"module 'rodsim' has no attribute {name!r}")

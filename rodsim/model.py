@@ -5,11 +5,23 @@ of them. Integrators only see the *free* coordinates ``x``: ``Model.force(x)`` a
 ``Model.jacobian(x)`` return the generalised force F(x) = −∂E/∂x (plus non-conservative
 penalty forces) and ∂F/∂x on those. The sparsity pattern is the union of the terms'
 element blocks, fixed when the model is built; the Jacobian values are scattered into it
-with precomputed index maps, so one evaluation is a handful of vectorised numpy calls.
+with precomputed index maps.
+
+Two evaluation paths compute the same numbers (``solver.kernels``): ``compiled`` (default)
+calls each term's numba kernel (:mod:`rodsim.kernels`), which accumulates straight into the
+force vector and the CSC data; ``numpy`` calls the terms' vectorised numpy methods and
+scatters their element blocks — the readable reference.
+
+A model never changes once built. What a solver varies is passed in or returned as a new
+model: the load fraction is an argument of every evaluation; a penalty continuation scale is
+a model built by :meth:`Model.with_term_scales`; a tendon registration that changes gives a
+new model from :meth:`Model.reregistered` (new element coordinates, so a new pattern).
 """
 
 from __future__ import annotations
 
+import copy
+from collections.abc import Mapping
 from dataclasses import dataclass
 
 import numpy as np
@@ -23,7 +35,10 @@ from rodsim.sparsity import csc_pattern
 from rodsim.tendon import Tendon, tendon_origin
 from rodsim.terms import Term, registered_terms
 
-__all__ = ["Model", "Band"]
+__all__ = ["Model", "Band", "KERNELS"]
+
+#: The evaluation paths (``solver.kernels``).
+KERNELS = ("compiled", "numpy")
 
 
 @dataclass(frozen=True)
@@ -41,10 +56,15 @@ class Model:
     ----------
     scene
         A validated scene; only the terms it lists are built.
+    kernels
+        ``"compiled"`` or ``"numpy"`` (default: the scene's ``solver.kernels``).
     """
 
-    def __init__(self, scene: Scene) -> None:
+    def __init__(self, scene: Scene, kernels: str | None = None) -> None:
         self.scene = scene
+        self.kernels = kernels or scene.data["solver"]["kernels"]
+        if self.kernels not in KERNELS:
+            raise ValueError(f"kernels {self.kernels!r}: allowed {', '.join(KERNELS)}")
         tendons = scene.data["tendons"]
         self.rods: dict[str, Rod] = {}
         offset = 0
@@ -69,6 +89,8 @@ class Model:
         for name, table in tendons.items():
             for term_name in table["terms"]:
                 self.terms.append(catalogue[term_name](self.tendons[name], table[term_name]))
+        #: Factor on each term's output: 1, or a penalty continuation scale.
+        self.term_scales = np.ones(len(self.terms))
 
         self.rest_full = np.zeros(self.full_size)
         fixed = []
@@ -81,8 +103,6 @@ class Model:
         #: Full-state index of every free coordinate, in the integrators' order.
         self.free = np.flatnonzero(is_free)
         self.n = len(self.free)
-        #: Incremented whenever the Jacobian pattern changes (see :meth:`update_registration`).
-        self.pattern_version = 0
         self._build_maps()
         if len(self.rods) > 1:
             self._order_for_band()
@@ -94,6 +114,7 @@ class Model:
         self._free_of[self.free] = np.arange(self.n)
         self._build_force_scatter()
         self._build_pattern()
+        self._kernel_calls: list[tuple] | None = None  # built at the first compiled call
 
     def _order_for_band(self) -> None:
         """Reorder the free coordinates (reverse Cuthill–McKee) when that narrows the band.
@@ -112,27 +133,46 @@ class Model:
             self.free = self.free[order]
             self._build_maps()
 
-    def update_registration(self, x: np.ndarray, exact: bool = False) -> bool:
-        """Let dynamic terms (tendon registration, §4.1) update their state from ``x``
-        (``exact``: without hysteresis, as at equilibrium; see :meth:`settle_registration`).
+    def reregistered(self, x: np.ndarray, exact: bool = False) -> Model | None:
+        """The model with every dynamic term (tendon registration, §4.1) re-registered from
+        the state ``x`` (``exact``: without hysteresis, as at equilibrium), or None when no
+        registration changes.
 
-        Returns True when a registration changed: the element coordinates, and so the
-        Jacobian pattern, changed; the maps are then rebuilt and :attr:`pattern_version`
-        incremented so integrators can rebuild what they derived from the pattern. The order
-        of the free coordinates never changes.
+        The new model has new element coordinates and so a new Jacobian pattern; the order
+        of the free coordinates, the scales and everything else are shared.
         """
         full = self.full(x)
+        terms = list(self.terms)
         changed = False
-        for term in self.terms:
+        for k, term in enumerate(terms):
             if term.dynamic:
-                changed |= term.update_registration(full, exact)
-        if changed:
-            self._registration_changed()
-        return changed
+                state = term.registration(full, exact)
+                if state is not None:
+                    terms[k] = term.registered(state)
+                    changed = True
+        return self.with_terms(terms) if changed else None
 
-    def _registration_changed(self) -> None:
-        self._build_maps()
-        self.pattern_version += 1
+    def with_terms(self, terms: list[Term]) -> Model:
+        """The model with ``terms`` (same names and order; a dynamic term may carry another
+        registration) in place of :attr:`terms`."""
+        other = copy.copy(self)
+        other.terms = list(terms)
+        other._build_maps()
+        return other
+
+    def with_term_scales(self, scales: Mapping[int, float]) -> Model:
+        """The model with the output of the terms ``scales`` names (by index in
+        :attr:`terms`) multiplied by the given factors — a penalty continuation step.
+
+        Only penalty terms may be scaled: they are linear in their constant."""
+        factors = self.term_scales.copy()
+        for index, scale in scales.items():
+            if not self.terms[index].penalty:
+                raise ValueError(f"term {self.terms[index].name!r} is not a penalty")
+            factors[index] = scale
+        other = copy.copy(self)
+        other.term_scales = factors
+        return other
 
     @property
     def conservative(self) -> bool:
@@ -144,22 +184,6 @@ class Model:
     def has_registration(self) -> bool:
         """True when some term registers its elements to the state (a tendon's lumen)."""
         return any(term.dynamic for term in self.terms)
-
-    def settle_registration(self, x: np.ndarray) -> bool:
-        """At an equilibrium ``x``: re-register without hysteresis; True if a parent changed,
-        in which case ``x`` is no equilibrium of the model's own registration rule and the
-        integrator must go on from it."""
-        return self.update_registration(x, exact=True)
-
-    def reset_registration(self) -> None:
-        """Return dynamic terms to the rest state's registration (every solve starts here, so
-        reusing a model does not carry the last run's registration into the next)."""
-        changed = False
-        for term in self.terms:
-            if term.dynamic:
-                changed |= term.reset_registration()
-        if changed:
-            self._registration_changed()
 
     def _build_force_scatter(self) -> None:
         self._loads = [t for t in self.terms if t.is_load]
@@ -256,38 +280,82 @@ class Model:
         return full[self.free]
 
     # ------------------------------------------------------------ evaluation
+    def _scale(self, index: int, term: Term, load: float) -> float:
+        """Factor on one term's output: its continuation scale, times ``load`` for loads."""
+        scale = float(self.term_scales[index])
+        return scale * load if term.is_load else scale
+
     def energy(self, x: np.ndarray, load: float = 1.0) -> float:
         """Total potential energy [J] (raises if a term is not conservative)."""
         full = self.full(x)
         total = 0.0
-        for term in self.terms:
+        for index, term in enumerate(self.terms):
             value = term.energy(full)
             if value is None:
                 raise ValueError(f"term {term.name!r} is not conservative: no energy")
-            total += load * value if term.is_load else value
+            total += self._scale(index, term, load) * value
         return total
 
     def force(self, x: np.ndarray, load: float = 1.0) -> np.ndarray:
         """Generalised force F(x) on the free coordinates; loads are scaled by ``load``."""
-        full = self.full(x)
-        weights = []
-        for term in self.terms:
-            values = term.element_forces(full).ravel()
-            weights.append(load * values if term.is_load and load != 1.0 else values)
-        return np.bincount(self._force_targets, weights=np.concatenate(weights),
-                           minlength=self.n + 1)[:-1]
+        return self.evaluate(x, load, jacobian=False)[0]
 
     def jacobian_data(self, x: np.ndarray, load: float = 1.0) -> np.ndarray:
         """∂F/∂x as the data array of a CSC matrix with the pattern :attr:`pattern`."""
+        return self.evaluate(x, load, force=False)[1]
+
+    def evaluate(self, x: np.ndarray, load: float = 1.0, *, force: bool = True,
+                 jacobian: bool = True) -> tuple[np.ndarray, np.ndarray]:
+        """F(x) and ∂F/∂x (CSC data in :attr:`pattern` order) in one pass; the one not asked
+        for comes back empty."""
         full = self.full(x)
-        values = []
-        for term in self._jac_terms:
-            block = term.element_jacobians(full).ravel()
-            values.append(load * block if term.is_load and load != 1.0 else block)
-        if not values:
-            return np.zeros(self.nnz)
-        return np.bincount(self._jac_targets, weights=np.concatenate(values),
-                           minlength=self.nnz + 1)[:-1]
+        if self.kernels == "compiled":
+            return self._evaluate_compiled(full, load, force, jacobian)
+        f = np.zeros(0)
+        j = np.zeros(0)
+        if force:
+            values = [self._scale(k, term, load) * term.element_forces(full).ravel()
+                      for k, term in enumerate(self.terms)]
+            f = np.bincount(self._force_targets, weights=np.concatenate(values),
+                            minlength=self.n + 1)[:-1]
+        if jacobian:
+            blocks = [self._scale(k, term, load) * term.element_jacobians(full).ravel()
+                      for k, term in enumerate(self.terms) if term.has_jacobian]
+            j = (np.bincount(self._jac_targets, weights=np.concatenate(blocks),
+                             minlength=self.nnz + 1)[:-1] if blocks else np.zeros(self.nnz))
+        return f, j
+
+    def _evaluate_compiled(self, full: np.ndarray, load: float, force: bool,
+                           jacobian: bool) -> tuple[np.ndarray, np.ndarray]:
+        if self._kernel_calls is None:
+            self._kernel_calls = self._build_kernel_calls()
+        f = np.zeros(self.n + 1 if force else 1)
+        j = np.zeros(self.nnz + 1 if jacobian else 1)
+        for index, term, kernel, arguments, force_target, jacobian_target in self._kernel_calls:
+            kernel(full, *arguments, self._scale(index, term, load), force, f, force_target,
+                   jacobian, j, jacobian_target)
+        return (f[:-1] if force else np.zeros(0)), (j[:-1] if jacobian else np.zeros(0))
+
+    def _build_kernel_calls(self) -> list[tuple]:
+        """(index, term, kernel, constants, force targets, Jacobian targets) of every term:
+        where each element's force and Jacobian entries land (slot n and nnz are dumps for
+        clamped coordinates)."""
+        from rodsim.kernels import load_kernel
+
+        calls = []
+        start = 0
+        for index, term in enumerate(self.terms):
+            elements, k = term.dofs.shape
+            force_target = np.ascontiguousarray(self._free_of[term.dofs])
+            if term.has_jacobian:
+                size = elements * k * k
+                jacobian_target = self._jac_targets[start:start + size].reshape(elements, k, k)
+                start += size
+            else:
+                jacobian_target = np.zeros((0, 0, 0), dtype=np.int64)
+            calls.append((index, term, load_kernel(term), term.kernel_arguments(),
+                          force_target, np.ascontiguousarray(jacobian_target)))
+        return calls
 
     def jacobian(self, x: np.ndarray, load: float = 1.0) -> sp.csc_matrix:
         """∂F/∂x as a sparse CSC matrix (n × n)."""

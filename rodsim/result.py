@@ -14,12 +14,13 @@ from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
-import xarray as xr
 
 from rodsim import __version__
 from rodsim.scene import Scene
 
 if TYPE_CHECKING:
+    import xarray as xr
+
     from rodsim.model import Model
 
 __all__ = ["Result", "RodShape", "SCHEMA_VERSION", "count_text"]
@@ -111,6 +112,8 @@ class Result:
 
     def to_xarray(self) -> xr.Dataset:
         """The archive Dataset of this run (see the module docstring and docs/archive.md)."""
+        import xarray as xr  # imported here: a solve alone does not need it
+
         names = list(self.rods)
         shapes = list(self.rods.values())
         node_rod = np.concatenate([[n] * len(r.s) for n, r in zip(names, shapes, strict=True)])

@@ -48,6 +48,10 @@ SOLVER_PARAMETERS: tuple[Parameter, ...] = (
               0.0, 1.0, exclusive_minimum=True),
     Parameter("max_wall_time", "float", 600.0, "s", "give up after this much wall time",
               0.0, 1e6, exclusive_minimum=True),
+    Parameter("kernels", "str", "compiled", "-",
+              "force and Jacobian evaluation: 'compiled' (numba kernels, cached on disk) or "
+              "'numpy' (the readable reference; same numbers)",
+              choices=("compiled", "numpy")),
 )
 
 _TOP_KEYS = ("name", "description", "rods", "tendons", "solver")

@@ -7,14 +7,18 @@ import numpy as np
 import scipy.sparse as sp
 
 import rodsim
+from rodsim.integrators.linear import LinearSolver
 from rodsim.integrators.newton import NewtonProblem, newton
 
 
 def arctan_problem() -> NewtonProblem:
     """g(y) = −arctan(y): Newton's full steps diverge from |y| > 1.39, so a watched full
     step never recovers and the iteration must return and backtrack."""
+    one = np.zeros(1, dtype=int)
+    linear = LinearSolver(sp.csc_matrix(np.ones((1, 1))), one, one, (0, 0), symmetric=False)
     return NewtonProblem(force=lambda y: -np.arctan(y),
-                         jacobian=lambda y: sp.csc_matrix(np.diag(-1.0 / (1.0 + y ** 2))),
+                         jacobian=lambda y: -1.0 / (1.0 + y ** 2),
+                         linear=linear,
                          residual=lambda g: float(np.max(np.abs(g))),
                          weight=np.ones(1))
 

@@ -210,7 +210,7 @@ def test_conserving_coupling_balances_forces_and_moments():
     # Control: the paper's coupling, evaluated at the same state, is not balanced (Eq. 28
     # has no reaction; averaged lumen reactions act at the node, not at the lumen point).
     paper = rodsim.build_model(model.scene.with_values({f"{TENDON}.coupling": "paper"}))
-    paper.update_registration(full[paper.free])
+    paper = paper.reregistered(full[paper.free]) or paper
     unbalanced = scattered(paper, coupling_terms(paper), full)
     paper_force, paper_moment = net_force_and_moment(paper, unbalanced, full)
     print(f"paper coupling at the same state: net force {np.linalg.norm(paper_force):.3g} N, "
@@ -405,7 +405,7 @@ def test_paper_lumen_reaction_on_a_node_is_the_average_of_its_points_forces(rand
     N_T = 45 > N_C = 30, so most nodes host several points."""
     model = rodsim.build_model(rodsim.load_scene(PAPER, ["rods.tendon.nodes=45"]))
     x = random_state(model, np.random.default_rng(3))
-    model.update_registration(x)
+    model = model.reregistered(x) or model
     lumen = next(term for term in model.terms if term.name == "lumen")
     forces = lumen.element_forces(model.full(x))
     shared = 0

@@ -92,10 +92,11 @@ def instrument_tendon_code(monkeypatch) -> tuple[Counter, list[str]]:
     return counts, labels
 
 
+@pytest.mark.parametrize("kernels", ["numpy", "compiled"])
 @pytest.mark.parametrize("integrator", ["static", "cvode"])
-def test_single_rod_scene_runs_no_tendon_code(integrator, monkeypatch):
+def test_single_rod_scene_runs_no_tendon_code(integrator, kernels, monkeypatch):
     counts, labels = instrument_tendon_code(monkeypatch)
-    result = rodsim.solve("table1-50g", integrator)
+    result = rodsim.solve("table1-50g", integrator, overrides=[f"kernels={kernels}"])
     assert result.success, result.message
     assert "reinits" not in result.stats or result.stats["reinits"] == 0
     called = {k: v for k, v in counts.items() if v}
@@ -103,18 +104,23 @@ def test_single_rod_scene_runs_no_tendon_code(integrator, monkeypatch):
     assert sorted(labels)  # the instrumentation covered these (for the failure message)
 
 
-def test_instrumentation_counts_tendon_code_in_a_tendon_scene(monkeypatch):
-    """Control: the same counters see the tendon code of a tendon scene."""
+@pytest.mark.parametrize("kernels", ["numpy", "compiled"])
+def test_instrumentation_counts_tendon_code_in_a_tendon_scene(kernels, monkeypatch):
+    """Control: the same counters see the tendon code of a tendon scene (the compiled path
+    calls each term's ``kernel_arguments`` instead of its numpy methods)."""
     counts, _ = instrument_tendon_code(monkeypatch)
-    result = rodsim.solve("tendon-conserving", "static")
+    result = rodsim.solve("tendon-conserving", "static", overrides=[f"kernels={kernels}"])
     assert result.success, result.message
     for label in ("rodsim.tendon.check_tendon", "rodsim.tendon.tendon_origin", "Tendon.of",
-                  "Tendon.lumen_frame", "Tendon.lumen_points", "PointOnLumen.__init__",
-                  "Lumen.update_registration"):
+                  "Tendon.lumen_points", "Lumen.registration"):
         assert counts[label] > 0, f"{label} not counted: {dict(counts)}"
+    methods = (("__init__", "kernel_arguments") if kernels == "compiled" else
+               ("__init__", "element_forces", "element_jacobians"))
+    if kernels == "numpy":
+        assert counts["Tendon.lumen_frame"] > 0 and counts["PointOnLumen.__init__"] > 0
     for cls in registered_terms().values():
         if issubclass(cls, TendonTerm):
-            for method in ("__init__", "element_forces", "element_jacobians"):
+            for method in methods:
                 if method == "element_jacobians" and cls.name == "tendon_actuation":
                     continue  # the proximal pull is a dead load: no Jacobian
                 assert counts[f"{cls.__name__}.{method}"] > 0, f"{cls.__name__}.{method}"

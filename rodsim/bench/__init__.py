@@ -1,5 +1,6 @@
 """Benchmarks (``rodsim bench``): work-precision, scaling in N, the stability stress map, and
-what skipping unneeded work buys.
+what skipping unneeded work buys, and the fast core (compiled kernels against the numpy
+reference).
 
 Each benchmark is one module with ``run(size, output_dir, progress) -> list[Path]`` that
 writes its numbers (a netCDF archive with the machine description in its attributes), its
@@ -7,4 +8,4 @@ figures and a markdown table under ``output_dir`` (default ``benchmarks/results`
 Timings on shared machines are noisy: compare the ratios measured within one run.
 """
 
-BENCHMARKS = ("work-precision", "scaling", "stress", "skip-work")
+BENCHMARKS = ("work-precision", "scaling", "stress", "skip-work", "kernels")

@@ -223,21 +223,18 @@ def solve_scipy(model, method: str, tolerance: float, rtol: float, atol: float,
     tol = max(tolerance, model.residual_floor)
     counts = {"steps": 0, "force_evals": 0, "jacobian_evals": 0, "reinits": 0,
               "newton_iters": 0, "linear_solves": 0}
-    holder = {"system": FirstOrderSystem(model, "overdamped", rate, masses),
-              "version": model.pattern_version}
+    # The model in use and its system: a tendon re-registration replaces both.
+    holder = {"model": model, "system": FirstOrderSystem(model, "overdamped", rate, masses)}
     last = {"t": 0.0, "x": model.x0}
 
     def system() -> FirstOrderSystem:
-        if holder["version"] != model.pattern_version:
-            holder["system"] = FirstOrderSystem(model, "overdamped", rate, masses)
-            holder["version"] = model.pattern_version
         return holder["system"]
 
     def rhs(t: float, x: np.ndarray) -> np.ndarray:
         if time.perf_counter() - start > max_wall_time:
             raise _Stop(f"wall-time budget of {max_wall_time:g} s spent at t = {t:.4g} s")
         counts["force_evals"] += 1
-        force = model.force(x, ramp(t))
+        force = holder["model"].force(x, ramp(t))
         if not np.all(np.isfinite(force)):
             raise _Stop(f"the force became non-finite at t = {t:.4g} s")
         out = np.empty_like(x)
@@ -247,7 +244,7 @@ def solve_scipy(model, method: str, tolerance: float, rtol: float, atol: float,
     def jacobian(t: float, x: np.ndarray):
         counts["jacobian_evals"] += 1
         sys_ = system()
-        data = sys_.jacobian_data(model.jacobian_data(x, ramp(t)))
+        data = sys_.jacobian_data(holder["model"].jacobian_data(x, ramp(t)))
         matrix = sp.csc_matrix((data, sys_.pattern.indices, sys_.pattern.indptr),
                                shape=(sys_.size, sys_.size))
         return matrix if method == "BDF" else matrix.toarray()
@@ -256,9 +253,12 @@ def solve_scipy(model, method: str, tolerance: float, rtol: float, atol: float,
         if t > last["t"]:  # the end of an accepted step (root finding looks back in time)
             last["t"], last["x"] = t, x.copy()
             counts["steps"] += 1
-            if model.update_registration(x):
+            moved = holder["model"].reregistered(x)
+            if moved is not None:
+                holder["model"] = moved
+                holder["system"] = FirstOrderSystem(moved, "overdamped", rate, masses)
                 counts["reinits"] += 1
-        return model.residual(model.force(x)) - tol
+        return holder["model"].residual(holder["model"].force(x)) - tol
 
     at_rest.terminal = True
     at_rest.direction = -1
@@ -283,7 +283,8 @@ def solve_scipy(model, method: str, tolerance: float, rtol: float, atol: float,
     except (ValueError, RuntimeError, ArithmeticError, np.linalg.LinAlgError) as exc:
         x, message = last["x"], f"scipy {method} raised {type(exc).__name__}: {exc}"
     counts["wall_time"] = time.perf_counter() - start
-    residual = (model.residual(model.force(x)) if np.all(np.isfinite(x)) else float("nan"))
+    final = holder["model"]
+    residual = (final.residual(final.force(x)) if np.all(np.isfinite(x)) else float("nan"))
     # The event state is found by root finding on the dense output: accept a residual
     # within 1 % above τ (the root's own tolerance), nothing more.
     success = message.startswith("at equilibrium") and residual <= 1.01 * tol

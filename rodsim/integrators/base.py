@@ -20,8 +20,8 @@ from dataclasses import dataclass
 from typing import Any, ClassVar
 
 import numpy as np
-import scipy.sparse as sp
 
+from rodsim.integrators.linear import LinearSolver
 from rodsim.model import Model
 from rodsim.result import Result
 from rodsim.schema import Parameter
@@ -37,7 +37,7 @@ INTEGRATORS: dict[str, type[Integrator]] = {}
 #: rather than accept the rest state as "converged".
 MAX_RESIDUAL_FLOOR = 1e-3
 
-#: Re-registrations at equilibrium (Model.settle_registration) before a run accepts the
+#: Re-registrations at equilibrium (Model.reregistered(x, exact=True)) before a run accepts the
 #: registration it reached with hysteresis: an equilibrium on the boundary between two
 #: parents would otherwise flip between them forever.
 MAX_SETTLES = 10
@@ -72,14 +72,15 @@ class History:
 
     def __init__(self, model: Model) -> None:
         first = next(iter(model.rods.values()))
-        self._tip = first.layout.position_index[-1]
-        self._free_of = {int(i): k for k, i in enumerate(model.free)}
+        free_of = np.full(model.full_size, -1)
+        free_of[model.free] = np.arange(model.n)
+        self._tip_free = free_of[first.layout.position_index[-1]]
         self.data: dict[str, list] = {"time": [], "residual": [], "tip": []}
 
     def record(self, time: float, x: np.ndarray, residual: float) -> None:
         self.data["time"].append(float(time))
         self.data["residual"].append(float(residual))
-        self.data["tip"].append([float(x[self._free_of[int(i)]]) for i in self._tip])
+        self.data["tip"].append(x[self._tip_free].tolist())
 
 
 class Integrator(ABC):
@@ -117,7 +118,9 @@ class Integrator(ABC):
 
     def __init__(self, model: Model, options: dict[str, Any], tolerance: float,
                  max_wall_time: float = 600.0, progress: Progress | None = None) -> None:
-        model.reset_registration()  # every run starts from the rest state, registration too
+        #: The model as built, at rest (its registration is the rest state's).
+        self.base_model = model
+        #: The model in use: a new one replaces it when the tendon registration changes.
         self.model = model
         self.options = options
         #: The requested tolerance, raised to the model's round-off floor if below it.
@@ -137,11 +140,18 @@ class Integrator(ABC):
         self.state = model.x0
         self.where = "start"
         self._start = 0.0
+        self._linear: tuple[Model, LinearSolver] | None = None
 
-    def checkpoint(self, x: np.ndarray, where: str) -> None:
-        """Remember the last accepted state and where it was reached (for failure reports)."""
+    def checkpoint(self, x: np.ndarray, where: str | Callable[[], str]) -> None:
+        """Remember the last accepted state and where it was reached (for failure reports;
+        a callable is formatted only if a report needs it)."""
         self.state = x
         self.where = where
+
+    @property
+    def reporting(self) -> bool:
+        """Whether a progress callback listens (status lines are formatted only then)."""
+        return self._progress is not None
 
     # ----------------------------------------------------- shared services
     def force(self, x: np.ndarray, load: float = 1.0) -> np.ndarray:
@@ -160,8 +170,35 @@ class Integrator(ABC):
             raise SolverFailure("the Jacobian became non-finite (NaN or inf)")
         return data
 
-    def jacobian(self, x: np.ndarray, load: float = 1.0) -> sp.csc_matrix:
-        return self.model.pattern_matrix(self.jacobian_data(x, load))
+    def newton_linear_solver(self) -> LinearSolver:
+        """The Newton linear solver of :attr:`model`'s pattern (rebuilt when the model is
+        replaced by a re-registration)."""
+        if self._linear is None or self._linear[0] is not self.model:
+            model = self.model
+            self._linear = model, LinearSolver(model.pattern, model.pattern_rows,
+                                               model.pattern_cols,
+                                               (model.band.lower, model.band.upper),
+                                               model.conservative)
+        return self._linear[1]
+
+    def newton_equilibrium(self, x: np.ndarray, load: float,
+                           max_iterations: int) -> tuple[bool, np.ndarray, int]:
+        """Newton on F(x) = 0 at a fixed load fraction from ``x`` (analytic Jacobian, energy
+        line search when the model is conservative); returns (converged, x, iterations), which
+        the caller counts."""
+        from rodsim.integrators.newton import NewtonProblem, newton
+
+        model = self.model
+        problem = NewtonProblem(
+            force=lambda y: self.force(y, load),
+            jacobian=lambda y: self.jacobian_data(y, load),
+            linear=self.newton_linear_solver(),
+            residual=model.residual,
+            weight=model.residual_weight,
+            potential=(lambda y: model.energy(y, load)) if model.conservative else None,
+        )
+        outcome = newton(problem, x, self.tolerance, max_iterations)
+        return outcome.converged, outcome.x, outcome.iterations
 
     def residual(self, x: np.ndarray) -> float:
         """Scaled equilibrium residual of state ``x`` (uncounted evaluation)."""
@@ -170,9 +207,20 @@ class Integrator(ABC):
     def at_equilibrium(self, residual: float) -> bool:
         return residual < self.tolerance
 
+    def reregister(self, x: np.ndarray, exact: bool = False) -> bool:
+        """Apply the tendon registration rule at ``x`` (``exact``: without hysteresis);
+        True when a parent changed and :attr:`model` was replaced (new pattern)."""
+        if not self.model.has_registration:
+            return False
+        moved = self.model.reregistered(x, exact)
+        if moved is None:
+            return False
+        self.model = moved
+        return True
+
     def settled(self, x: np.ndarray) -> bool:
         """Whether an equilibrium ``x`` may end the run: its registration needs no change
-        without hysteresis (see :meth:`Model.settle_registration`). False means a parent
+        without hysteresis (:meth:`Model.reregistered` with ``exact``). False means a parent
         changed and the integrator must go on from ``x`` (the pattern changed too)."""
         if not self.model.has_registration:
             return True
@@ -181,7 +229,7 @@ class Integrator(ABC):
                          "re-registrations (a point's equilibrium is on the boundary between "
                          "two parents); the registration reached with hysteresis is kept")
             return True
-        if not self.model.settle_registration(x):
+        if not self.reregister(x, exact=True):
             return True
         self.counts["settles"] += 1
         return False
@@ -240,7 +288,8 @@ class Integrator(ABC):
             elif outcome.success:
                 message = (f"stopped with residual {residual:.3g} above the tolerance "
                            f"{self.tolerance:.3g}")
-            message = (f"{self.name} integrator failed at {self.where}: {message} "
+            where = self.where() if callable(self.where) else self.where
+            message = (f"{self.name} integrator failed at {where}: {message} "
                        f"(residual {residual:.3g}, tolerance {self.tolerance:.3g}); "
                        f"{advice or self.advice()}")
         stats = {**self.counts, "wall_time": wall, "effective_tolerance": self.tolerance}

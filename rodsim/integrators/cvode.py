@@ -60,7 +60,9 @@ class Cvode(SundialsIntegrator):
 
         def rhs(t: float, y: np.ndarray, yp: np.ndarray) -> None:
             counts["force_evals"] += 1
-            system.rhs(y, model.force(system.positions_of(y), ramp(t)), yp)
+            force = model.force(system.positions_of(y), ramp(t))
+            self._last_force = force
+            system.rhs(y, force, yp)
 
         def jacfn(t: float, y: np.ndarray, yp: np.ndarray, jj: np.ndarray) -> None:
             counts["jacobian_evals"] += 1

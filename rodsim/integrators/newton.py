@@ -1,7 +1,8 @@
 """Globalised Newton iteration shared by the ``static`` and ``paper`` integrators.
 
 Both solve a nonlinear system g(y) = 0 whose Jacobian is the model's analytic sparse one:
-``static`` solves F(x) = 0; ``paper`` solves Eq. (19), g(y) = M(p − y) + h² F(y), which is
+``static`` solves F(x) = 0 (and so does the Newton finish of CVODE/IDA); ``paper`` solves
+Eq. (19), g(y) = M(p − y) + h² F(y), which is
 −∇ of the incremental potential Φ(y) = ½ (y − p)ᵀ M (y − p) + h² E(y). When the model is
 conservative, Φ (or E) is the line-search merit — Newton on a potential with an Armijo
 backtracking line search is robust even for the stiff penalty terms, where the raw Newton
@@ -20,23 +21,24 @@ from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
-import scipy.sparse as sp
-import scipy.sparse.linalg as spla
 
 from rodsim.integrators.base import SolverFailure
+from rodsim.integrators.linear import LinearSolver
 
 __all__ = ["NewtonProblem", "NewtonResult", "newton"]
 
 
 @dataclass(frozen=True)
 class NewtonProblem:
-    """g(y) (a generalised force), its Jacobian ∂g/∂y, and optionally Φ with g = −∇Φ.
+    """g(y) (a generalised force), its Jacobian ∂g/∂y (CSC data of ``linear``'s pattern),
+    the solver of the linear systems, and optionally Φ with g = −∇Φ.
 
     ``residual(g)`` is the scaled residual that decides convergence.
     """
 
     force: Callable[[np.ndarray], np.ndarray]
-    jacobian: Callable[[np.ndarray], sp.csc_matrix]
+    jacobian: Callable[[np.ndarray], np.ndarray]
+    linear: LinearSolver
     residual: Callable[[np.ndarray], float]
     weight: np.ndarray
     potential: Callable[[np.ndarray], float] | None = None
@@ -96,10 +98,7 @@ def newton(problem: NewtonProblem, x: np.ndarray, tolerance: float,
                 return NewtonResult(x, True, iteration, residual, "converged")
             polishing -= 1
         jacobian = problem.jacobian(x)
-        try:
-            dx = spla.spsolve(jacobian, -g)
-        except RuntimeError as exc:
-            return NewtonResult(x, False, iteration + 1, residual, f"singular Jacobian ({exc})")
+        dx = problem.linear.solve(jacobian, -g)
         if not np.all(np.isfinite(dx)):
             return NewtonResult(x, False, iteration + 1, residual, "singular Jacobian")
         # Directional derivative of the merit along dx.
@@ -107,7 +106,7 @@ def newton(problem: NewtonProblem, x: np.ndarray, tolerance: float,
         if slope >= 0.0 and problem.potential is not None:
             # Not a descent direction (an inexact — finite-difference — Jacobian, or a state
             # off a stable branch): fall back to a diagonally scaled gradient step on Φ.
-            diagonal = np.abs(jacobian.diagonal())
+            diagonal = np.abs(problem.linear.diagonal(jacobian))
             dx = g / np.where(diagonal > 0.0, diagonal, 1.0)
             slope = -float(g @ dx)
         if slope >= 0.0:

@@ -5,11 +5,11 @@ Each step solves the nonlinear system of Eq. (19) for the next state y = x^{t+h}
     f(y) = x^t + ξ h ẋ^t + h² M⁻¹ F(y) − y = 0,
 
 multiplied through by M so the Jacobian −M + h² ∂F/∂x stays symmetric, by Newton's method
-with a sparse LU solve per iteration; then ẋ^{t+h} = (y − x^t)/h. ξ ∈ [0, 1] scales the
-carried-over velocity (ξ = 1: plain backward Euler; smaller ξ damps more). The Jacobian is
-the model's analytic one, or — ``jacobian = "finite_difference"``, the paper's MATLAB cost
-model (fsolve with JacobPattern) — forward differences over the sparsity pattern with
-columns grouped so that each group costs one force evaluation.
+with a band (Cholesky or LU) or sparse LU solve per iteration; then ẋ^{t+h} = (y − x^t)/h.
+ξ ∈ [0, 1] scales the carried-over velocity (ξ = 1: plain backward Euler; smaller ξ damps
+more). The Jacobian is the model's analytic one, or — ``jacobian = "finite_difference"``,
+the paper's MATLAB cost model (fsolve with JacobPattern) — forward differences over the
+sparsity pattern with columns grouped so that each group costs one force evaluation.
 
 At rest when the scaled force residual is below ``solver.tolerance`` (same criterion as
 every integrator). Quaternion norm: held by the centerline penalty Eq. (9) only, as in the
@@ -74,19 +74,19 @@ class PaperEuler(Integrator):
     def __init__(self, model: Model, *args, **kwargs) -> None:
         super().__init__(model, *args, **kwargs)
         self._mass = model.masses()
-        self._pattern_version = -1
+        self._pattern_of: Model | None = None
         self._refresh_pattern()
 
     def _refresh_pattern(self) -> None:
         """Diagonal positions and FD column groups of the model's current pattern."""
         model = self.model
-        if self._pattern_version == model.pattern_version:
+        if self._pattern_of is model:
             return
         diag = np.flatnonzero(model.pattern_rows == model.pattern_cols)
         self._diag = diag[np.argsort(model.pattern_cols[diag])]
         self._groups = (column_groups(model.pattern)
                         if self.options["jacobian"] == "finite_difference" else [])
-        self._pattern_version = model.pattern_version
+        self._pattern_of = model
 
     def advice(self) -> str:
         return ("try applying the load in increments (--set solver.paper.ramp_steps=20), a "
@@ -120,18 +120,19 @@ class PaperEuler(Integrator):
             cache["y"], cache["F"] = y, self.force(y, load)
             return mass * (predictor - y) + h * h * cache["F"]
 
-        def jacobian(y: np.ndarray) -> sp.csc_matrix:
+        def jacobian(y: np.ndarray) -> np.ndarray:
             f = cache["F"] if cache.get("y") is y else self.force(y, load)
             data = h * h * self._stiffness(y, f, load)
             data[self._diag] -= mass
             self.counts["linear_solves"] += 1
-            return model.pattern_matrix(data)
+            return data
 
         def potential(y: np.ndarray) -> float:
             d = y - predictor
             return 0.5 * float(d @ (mass * d)) + h * h * model.energy(y, load)
 
-        return NewtonProblem(force, jacobian, lambda g: model.residual(g / (h * h)),
+        return NewtonProblem(force, jacobian, self.newton_linear_solver(),
+                             lambda g: model.residual(g / (h * h)),
                              model.residual_weight / (h * h),
                              potential if model.conservative else None)
 
@@ -160,7 +161,7 @@ class PaperEuler(Integrator):
             x = solved.x
             self.checkpoint(x, where)
             # Tendon registration is recomputed after every step (§4.1).
-            moved = model.update_registration(x)
+            moved = self.reregister(x)
             residual = self.model.residual(self.model.force(x, load))
             self.history.record(step * h, x, residual)
             self.report(None, f"paper: {where}, residual {residual:.2e}")

@@ -2,7 +2,8 @@
 
 No pseudo-dynamics at all: this is the exact discrete equilibrium of the model, against
 which the other integrators are scored (DESIGN §3–4). Each Newton step solves
-J(x) Δx = −F(x) with the analytic sparse Jacobian (SuperLU) and a backtracking line search
+J(x) Δx = −F(x) with the analytic Jacobian (band Cholesky, band LU or SuperLU:
+rodsim/integrators/linear.py) and a backtracking line search
 (rodsim/integrators/newton.py). If Newton does not converge at full load, the external
 loads are applied in increments λ ∈ (0, 1] (load continuation), cutting the increment on
 failure and growing it after easy steps.
@@ -24,7 +25,7 @@ from __future__ import annotations
 import numpy as np
 
 from rodsim.integrators.base import Integrator, Outcome
-from rodsim.integrators.newton import NewtonProblem, newton
+from rodsim.model import Model
 from rodsim.schema import Parameter
 
 
@@ -51,44 +52,50 @@ class Static(Integrator):
                 "pseudo-dynamic integrator (--integrator cvode)")
 
     def advance(self) -> Outcome:
-        penalties = [t for t in self.model.terms if t.penalty
-                     and t.penalty_ratio > self.options["penalty_ratio"]]
+        base = self.base_model
+        penalties = {k: self.options["penalty_ratio"] / term.penalty_ratio
+                     for k, term in enumerate(base.terms)
+                     if term.penalty and term.penalty_ratio > self.options["penalty_ratio"]}
         budget = 20 * self.options["max_newton"] if penalties else None
-        outcome = self._load_continuation(budget)
+        outcome = self._load_continuation(base, budget)
         if outcome.success or not penalties:
             return outcome
         # Stiff penalties: load with them lowered, then raise them tenfold per step.
-        scales = [self.options["penalty_ratio"] / t.penalty_ratio for t in penalties]
-        try:
-            for term, scale in zip(penalties, scales, strict=True):
-                term.set_penalty_scale(scale)
-            outcome = self._load_continuation(None)
-            while outcome.success and min(scales) < 1.0:
-                scales = [min(1.0, 10.0 * scale) for scale in scales]
-                for term, scale in zip(penalties, scales, strict=True):
-                    term.set_penalty_scale(scale)
-                where = f"penalty scale {min(scales):.3g}"
-                self.check_budget(where)
-                converged, x = self._newton_registered(outcome.x, min(scales) >= 1.0)
-                self.counts["steps"] += 1
-                self.checkpoint(x, where)
-                if not converged:
-                    return Outcome(outcome.x, False, "Newton did not converge while raising the "
-                                   "penalty constants")
-                outcome = Outcome(x, True, "converged")
-            return outcome
-        finally:
-            for term in penalties:
-                term.set_penalty_scale(1.0)
+        scales = dict(penalties)
+        outcome = self._load_continuation(base.with_term_scales(scales), None)
+        while outcome.success and min(scales.values()) < 1.0:
+            scales = {k: min(1.0, 10.0 * scale) for k, scale in scales.items()}
+            smallest = min(scales.values())
+            # Same registration as reached, new penalty scales.
+            self.model = self._with_registration_of(base.with_term_scales(scales))
+            where = f"penalty scale {smallest:.3g}"
+            self.check_budget(where)
+            converged, x = self._newton_registered(outcome.x, smallest >= 1.0)
+            self.counts["steps"] += 1
+            self.checkpoint(x, where)
+            if not converged:
+                return Outcome(outcome.x, False, "Newton did not converge while raising the "
+                               "penalty constants")
+            outcome = Outcome(x, True, "converged")
+        return outcome
 
-    def _load_continuation(self, budget: int | None) -> Outcome:
-        """Apply the loads in increments; give up after ``budget`` Newton iterations."""
-        model, counts = self.model, self.counts
-        model.reset_registration()  # a retry starts from the rest registration too
+    def _with_registration_of(self, model: Model) -> Model:
+        """``model`` (same terms, other scales) with the registration of :attr:`model`."""
+        terms = [current if current.dynamic else term
+                 for current, term in zip(self.model.terms, model.terms, strict=True)]
+        if all(a is b for a, b in zip(terms, model.terms, strict=True)):
+            return model
+        return model.with_terms(terms)
+
+    def _load_continuation(self, model: Model, budget: int | None) -> Outcome:
+        """Apply the loads to ``model`` in increments from its rest state and registration;
+        give up after ``budget`` Newton iterations."""
+        self.model = model
+        counts = self.counts
         x = model.x0
         load, step = 0.0, self.options["first_load_step"]
         spent = 0
-        # At full load the run ends once the registration settles (Model.settle_registration);
+        # At full load the run ends once the registration settles (exact re-registration);
         # if a parent changes there, Newton goes on at full load from the same state.
         while load < 1.0 or not self.settled(x):
             if budget is not None and spent > budget:
@@ -96,7 +103,6 @@ class Static(Integrator):
             target = min(1.0, load + step)
             self.check_budget(f"load fraction {target:.4g}")
             converged, x_new, iterations = self._newton(x, target)
-            counts["newton_iters"] += iterations
             spent += iterations
             if not converged:
                 step *= 0.25
@@ -104,7 +110,7 @@ class Static(Integrator):
                     return Outcome(x, False, f"Newton did not converge at load fraction "
                                    f"{target:.4g} and the load step fell below min_load_step")
                 continue
-            if model.update_registration(x_new):
+            if self.reregister(x_new):
                 x = x_new  # a tendon point changed parent: solve again at this load
                 continue
             x, load = x_new, target
@@ -122,25 +128,17 @@ class Static(Integrator):
         changes (and, when ``final``, until it settles without hysteresis)."""
         while True:
             self.check_budget("full load")
-            converged, x, iterations = self._newton(x, 1.0)
-            self.counts["newton_iters"] += iterations
+            converged, x, _ = self._newton(x, 1.0)
             if not converged:
                 return False, x
-            if self.model.update_registration(x):
+            if self.reregister(x):
                 continue
             if not final or self.settled(x):
                 return True, x
 
     def _newton(self, x: np.ndarray, load: float) -> tuple[bool, np.ndarray, int]:
-        """Newton iterations at a fixed load; returns (converged, x, iterations)."""
-        model = self.model
-        problem = NewtonProblem(
-            force=lambda y: self.force(y, load),
-            jacobian=lambda y: self.jacobian(y, load),
-            residual=model.residual,
-            weight=model.residual_weight,
-            potential=(lambda y: model.energy(y, load)) if model.conservative else None,
-        )
-        outcome = newton(problem, x, self.tolerance, self.options["max_newton"])
-        self.counts["linear_solves"] += outcome.iterations
-        return outcome.converged, outcome.x, outcome.iterations
+        """Newton iterations at a fixed load, counted; returns (converged, x, iterations)."""
+        converged, x, iterations = self.newton_equilibrium(x, load, self.options["max_newton"])
+        self.counts["newton_iters"] += iterations
+        self.counts["linear_solves"] += iterations
+        return converged, x, iterations

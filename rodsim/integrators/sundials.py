@@ -32,7 +32,7 @@ from typing import Any
 
 import numpy as np
 
-from rodsim.integrators.base import Integrator, Outcome, SolverFailure
+from rodsim.integrators.base import MAX_SETTLES, Integrator, Outcome, SolverFailure
 from rodsim.integrators.pseudo_dynamics import (
     FORMULATIONS,
     LoadRamp,
@@ -63,6 +63,9 @@ TIGHTEST_RTOL = 1e-12
 FROZEN_CHANGE = 1e-3
 FROZEN_STEPS = 10
 
+#: The wall-time budget is checked every this many steps (a step costs ~0.1 ms).
+BUDGET_STRIDE = 16
+
 #: Options CVODE and IDA share (pseudo-dynamics and tolerances).
 PSEUDO_DYNAMICS_PARAMETERS = (
     Parameter("formulation", "str", "overdamped", "-",
@@ -87,6 +90,12 @@ PSEUDO_DYNAMICS_PARAMETERS = (
               choices=("auto", "band", "sparse")),
     Parameter("max_steps", "int", 200_000, "-", "give up after this many steps", 1,
               100_000_000),
+    Parameter("newton_switch", "float", 0.0, "-",
+              "finish with Newton on F(x) = 0 once the scaled residual is below this (0: "
+              "integrate all the way to the tolerance)", 0.0, 1.0),
+    Parameter("newton_iterations", "int", 20, "-",
+              "Newton iterations of one finishing attempt (a failed attempt goes back to "
+              "integrating)", 1, 10_000),
 )
 
 
@@ -172,8 +181,44 @@ class SundialsIntegrator(Integrator):
         """The force whose vanishing is this integrator's equilibrium (default: F itself)."""
         return force
 
+    def screened_residual(self, y: np.ndarray) -> float:
+        """The scaled residual of the last F the right-hand side computed (``_last_force``,
+        which the right-hand side keeps: at the corrector's last iterate, so close to, not
+        exactly at, the accepted y). It screens the equilibrium test, so an accepted step
+        costs no extra evaluation of F."""
+        return self.model.residual(self.equilibrium_force(y, self._last_force))
+
+    def finish_with_newton(self, x: np.ndarray) -> np.ndarray | None:
+        """Newton on F(x) = 0 at full load from ``x``, repeated while the tendon
+        registration changes; the equilibrium, or None (the model as it was) if it fails.
+
+        Its evaluations are counted apart from the integration's (``finish_*`` statistics)."""
+        model, counts = self.model, self.counts
+        before = counts["force_evals"], counts["jacobian_evals"]
+        try:
+            for _ in range(MAX_SETTLES + 1):
+                converged, x, iterations = self.newton_equilibrium(
+                    x, 1.0, self.options["newton_iterations"])
+                counts["finish_newton_iters"] += iterations
+                if not converged:
+                    break
+                if self.reregister(x):
+                    continue
+                if self.settled(x):
+                    return x
+            self.model = model
+            return None
+        finally:
+            counts["finish_force_evals"] += counts["force_evals"] - before[0]
+            counts["finish_jacobian_evals"] += counts["jacobian_evals"] - before[1]
+            counts["force_evals"], counts["jacobian_evals"] = before
+
     def advance(self) -> Outcome:
-        model, opts, counts = self.model, self.options, self.counts
+        opts, counts = self.options, self.counts
+        switch = opts["newton_switch"]
+        for key in ("finish_attempts", "finish_newton_iters", "finish_force_evals",
+                    "finish_jacobian_evals"):
+            counts[key] = 0
         t, y, yp = 0.0, self.initial_state(), None
         solver = self.start(t, y, yp)
         # Pseudo-time already elapsed in solvers that were replaced (reinits, tightenings):
@@ -190,60 +235,71 @@ class SundialsIntegrator(Integrator):
                 t = self.ramp.duration
             return self.start(t, y, None), t
 
-        for step in range(1, opts["max_steps"] + 1):
-            where = f"step {step} (t = {t + elapsed:.4g} s)"
-            self.check_budget(where)
-            if t >= self.horizon:  # steps that large mean a stalled corrector: tighten
-                if self.rtol <= TIGHTEST_RTOL:
-                    return Outcome(self.positions_of(y), False,
-                                   f"not at equilibrium by t = {t + elapsed:.3g} s")
-                self.tightening /= 100.0
-                counts["tightenings"] += 1
-                solver, t = restart(t, y)
-            with captured_sundials_messages() as printed:
+        # SUNDIALS prints its failure text to stdout: capture it once for the whole run.
+        with captured_sundials_messages() as printed:
+            for step in range(1, opts["max_steps"] + 1):
+                if t >= self.horizon:  # steps that large mean a stalled corrector: tighten
+                    if self.rtol <= TIGHTEST_RTOL:
+                        return Outcome(self.positions_of(y), False,
+                                       f"not at equilibrium by t = {t + elapsed:.3g} s")
+                    self.tightening /= 100.0
+                    counts["tightenings"] += 1
+                    solver, t = restart(t, y)
                 out = solver.step(self.horizon, method="onestep")
-            counts["steps"] = step
-            if not out.success:
-                detail = " ".join(printed.getvalue().split())
-                return Outcome(self.positions_of(y), False,
-                               f"{self.name.upper()} error: {out.message}"
-                               + (f" SUNDIALS: {detail}" if detail else ""))
-            t, y, yp = float(out.t), out.y.copy(), getattr(out, "yp", None)
-            x = self.positions_of(y)
-            self.checkpoint(x, f"step {step} (t = {t + elapsed:.4g} s)")
-            if model.update_registration(x):
-                # A tendon point changed parent (§4.1): new pattern, new solver, same state.
-                counts["reinits"] += 1
-                self.build_system()
-                solver, t = restart(t, y)
-                continue
-            if t < self.ramp.duration:
-                continue
-            residual = model.residual(self.equilibrium_force(y, self.force(x)))
-            self.history.record(t + elapsed, x, residual)
-            self.report(None, f"{self.name}: t = {t + elapsed:.3g} s, residual {residual:.2e}")
-            if self.at_equilibrium(residual):
-                if self.settled(x):
-                    return Outcome(x.copy(), True, "at equilibrium")
-                # A parent changed without hysteresis: go on, on the new pattern.
-                counts["reinits"] += 1
-                self.build_system()
-                solver, t = restart(t, y)
-                continue
-            repeats = min(abs(residual - r) for r in previous) < FROZEN_CHANGE * residual
-            frozen = frozen + 1 if repeats else 0
-            previous = [residual, previous[0]]
-            if residual < 0.5 * best:
-                best, best_step, best_time = residual, step, t + elapsed
-            elif self.rtol > TIGHTEST_RTOL and (
-                    frozen >= FROZEN_STEPS or (step - best_step > STALL_STEPS and
-                                               t + elapsed - best_time
-                                               > STALL_PERIODS * self.period)):
-                self.tightening /= 100.0
-                counts["tightenings"] += 1
-                best, best_step, best_time = residual, step, t + elapsed
-                frozen = 0
-                solver, t = restart(t, y)
+                counts["steps"] = step
+                if not out.success:
+                    detail = " ".join(printed.getvalue().split())
+                    return Outcome(self.positions_of(y), False,
+                                   f"{self.name.upper()} error: {out.message}"
+                                   + (f" SUNDIALS: {detail}" if detail else ""))
+                t, y, yp = float(out.t), out.y.copy(), getattr(out, "yp", None)
+                x = self.positions_of(y)
+                self.checkpoint(x, lambda step=step, t=t + elapsed: f"step {step} (t = {t:.4g} s)")
+                if step % BUDGET_STRIDE == 0:
+                    self.check_budget(f"step {step} (t = {t + elapsed:.4g} s)")
+                if self.reregister(x):
+                    # A tendon point changed parent (§4.1): new pattern, new solver, same state.
+                    counts["reinits"] += 1
+                    self.build_system()
+                    solver, t = restart(t, y)
+                    continue
+                if t < self.ramp.duration:
+                    continue
+                residual = self.screened_residual(y)
+                self.history.record(t + elapsed, x, residual)
+                if self.reporting:
+                    self.report(None, f"{self.name}: t = {t + elapsed:.3g} s, residual "
+                                f"{residual:.2e}")
+                if residual < switch:
+                    counts["finish_attempts"] += 1
+                    finished = self.finish_with_newton(x.copy())
+                    if finished is not None:
+                        return Outcome(finished, True, "at equilibrium (Newton finish)")
+                    switch = 0.1 * residual  # try again once 10× closer
+                if residual < 10.0 * self.tolerance:
+                    residual = self.model.residual(self.equilibrium_force(y, self.force(x)))
+                    if self.at_equilibrium(residual):
+                        if self.settled(x):
+                            return Outcome(x.copy(), True, "at equilibrium")
+                        # A parent changed without hysteresis: go on, on the new pattern.
+                        counts["reinits"] += 1
+                        self.build_system()
+                        solver, t = restart(t, y)
+                        continue
+                repeats = min(abs(residual - r) for r in previous) < FROZEN_CHANGE * residual
+                frozen = frozen + 1 if repeats else 0
+                previous = [residual, previous[0]]
+                if residual < 0.5 * best:
+                    best, best_step, best_time = residual, step, t + elapsed
+                elif self.rtol > TIGHTEST_RTOL and (
+                        frozen >= FROZEN_STEPS or (step - best_step > STALL_STEPS and
+                                                   t + elapsed - best_time
+                                                   > STALL_PERIODS * self.period)):
+                    self.tightening /= 100.0
+                    counts["tightenings"] += 1
+                    best, best_step, best_time = residual, step, t + elapsed
+                    frozen = 0
+                    solver, t = restart(t, y)
         raise SolverFailure(f"not at equilibrium after max_steps = {opts['max_steps']}",
                             f"try raising solver.{self.name}.max_steps, or "
                             f"{self.advice().removeprefix('try ')}")

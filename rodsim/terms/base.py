@@ -12,6 +12,17 @@ element, the generalised force on those coordinates and its derivative:
 - ``element_jacobians(x)`` -> (n_elem, k, k):  ∂F_e/∂x_e (analytic, never finite differences)
 - ``energy(x)``            -> float:           Σ E_e (``None`` for non-conservative terms)
 
+These numpy methods are the readable reference. Each term also has a compiled kernel, one
+file in :mod:`rodsim.kernels` named after the term (or ``kernel``), which computes the same
+element forces and Jacobians with numba and accumulates them straight into the model's force
+vector and CSC Jacobian data; ``kernel_arguments`` hands it the term's constants. The model
+picks the path (``solver.kernels``); the contract test checks both against each other and
+against finite differences.
+
+A term is immutable once built: a dynamic term's registration (a tendon point's parent) is
+changed by building a new term (:meth:`Term.registered`), and a penalty's continuation scale
+and a load's fraction are applied by the model as a factor on the term's whole output.
+
 The model scatters these into the global force vector and sparse Jacobian; the sparsity
 pattern is the union of the element blocks, declared once by ``dofs``. The contract test
 (tests/test_term_contract.py) checks every registered term against finite differences with
@@ -71,9 +82,11 @@ class Term(ABC):
     is_load: ClassVar[bool] = False
     has_jacobian: ClassVar[bool] = True
     dynamic: ClassVar[bool] = False
-    #: True for a constraint penalty whose constant a solver may raise gradually
-    #: (:meth:`set_penalty_scale`); the scaled term must be the same term with K × scale.
+    #: True for a constraint penalty whose constant a solver may raise gradually; the term
+    #: must be linear in its constant, so that scaling its output scales the constant.
     penalty: ClassVar[bool] = False
+    #: Module of :mod:`rodsim.kernels` holding the compiled kernel (default: ``name``).
+    kernel: ClassVar[str] = ""
 
     #: Global coordinate indices of each element, shape (n_elem, k).
     dofs: np.ndarray
@@ -97,21 +110,22 @@ class Term(ABC):
         """Potential energy [J]; ``None`` when the term is not conservative."""
         return None
 
-    def set_penalty_scale(self, scale: float) -> None:
-        """Multiply the penalty constant by ``scale`` (penalty terms only)."""
-        raise NotImplementedError(f"term {self.name!r} is not a penalty")
+    def kernel_arguments(self) -> tuple:
+        """The constants the compiled kernel takes after the state (arrays and floats)."""
+        raise NotImplementedError(f"term {self.name!r} has no compiled kernel")
 
-    def update_registration(self, x: np.ndarray, exact: bool = False) -> bool:
-        """Update a dynamic term's discrete state from ``x``; True if ``dofs`` changed.
+    def registration(self, x: np.ndarray, exact: bool = False) -> np.ndarray | None:
+        """A dynamic term's registration rule applied to the full state ``x``: the new
+        discrete state if it differs from this term's, else ``None``.
 
         ``exact`` drops any hysteresis the term uses between solver steps: at equilibrium
         the state must be the one its own registration rule gives, so that the equilibrium
         does not depend on the path a solver took to it."""
-        return False
+        return None
 
-    def reset_registration(self) -> bool:
-        """Return a dynamic term's discrete state to the rest state's; True if it changed."""
-        return False
+    def registered(self, state: np.ndarray) -> Term:
+        """A copy of this dynamic term with the discrete state ``state`` (and its ``dofs``)."""
+        raise NotImplementedError(f"term {self.name!r} has no registration")
 
 
 class RodTerm(Term):

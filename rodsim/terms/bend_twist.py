@@ -108,6 +108,10 @@ class BendTwist(RodTerm):
         else:
             self._dual_lengths = np.full(len(quat) - 1, seg)
 
+    def kernel_arguments(self) -> tuple:
+        frame = self._frame if self._clamped else np.zeros(4)  # unused when not clamped
+        return (self.dofs, self._dual_lengths, self._stiffness, bool(self._clamped), frame)
+
     def _pairs(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         q = x[self.rod.layout.quaternion_index]
         if self._clamped:

@@ -40,14 +40,13 @@ class Centerline(RodTerm):
         super().__init__(rod, params)
         pos = rod.layout.position_index
         self.dofs = np.concatenate([pos[:-1], pos[1:], rod.layout.quaternion_index], axis=1)
-        self._full_weight = params["K_P"] * rod.geometry.segment_length  # K_P l
-        self._weight = self._full_weight
+        self._weight = params["K_P"] * rod.geometry.segment_length  # K_P l
         #: Penalty stiffness relative to bending at the scale of one segment, K_P l² / (E I).
         self.penalty_ratio = (params["K_P"] * rod.geometry.segment_length**2
                               / rod.bending_stiffness)
 
-    def set_penalty_scale(self, scale: float) -> None:
-        self._weight = self._full_weight * scale
+    def kernel_arguments(self) -> tuple:
+        return (self.dofs, float(self._weight))
 
     def _mismatch(self, x: np.ndarray) -> tuple[Segments, np.ndarray, np.ndarray]:
         seg = Segments.of(x[self.rod.layout.position_index])

@@ -40,6 +40,11 @@ class EndpointCompliance(TendonTerm):
         self._quaternion = catheter.quaternion_index[-1]
         self.dofs = np.concatenate([self._tip, self._end, self._quaternion])[None, :]
 
+    def kernel_arguments(self) -> tuple:
+        tendon = self.tendon
+        return (self.dofs, float(tendon.alpha), float(tendon.beta), float(tendon.offset),
+                float(self._stiffness), self.conservative)
+
     def _offset(self, x: np.ndarray) -> tuple[np.ndarray, dict[str, np.ndarray]]:
         frame = self.tendon.lumen_frame(x[self._quaternion][None, :])
         lumen_end = x[self._end] + self.tendon.offset * frame["dt"][0]

@@ -35,6 +35,9 @@ class EndpointCoupling(TendonTerm):
         ends = [tendon.catheter.layout.position_index[-1], tendon.rod.layout.position_index[-1]]
         self.dofs = np.concatenate(ends)[None, :]  # (r_N, t): edge e = t − r_N
 
+    def kernel_arguments(self) -> tuple:
+        return (self.dofs, float(self._stiffness), float(self.tendon.offset))
+
     def _edge(self, x: np.ndarray) -> Segments:
         return Segments.of(x[self.dofs[0]].reshape(2, 3))
 

@@ -25,6 +25,7 @@ class Gravity(RodTerm):
     equation = "self-weight (not in the paper); enters F_net of Eq. (17)"
     is_load = True
     has_jacobian = False
+    kernel = "constant_force"
     parameters = (
         Parameter("gravity", "float", STANDARD_GRAVITY, "m/s^2", "gravitational acceleration",
                   0.0, 1e3),
@@ -36,6 +37,9 @@ class Gravity(RodTerm):
         weights = rod.node_masses() * params["gravity"]
         self._forces = np.zeros((rod.nodes, 3))
         self._forces[:, 1] = -weights
+
+    def kernel_arguments(self) -> tuple:
+        return (self._forces,)
 
     def energy(self, x: np.ndarray) -> float:
         return float(-np.sum(self._forces * x[self.dofs]))

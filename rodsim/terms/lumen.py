@@ -19,23 +19,26 @@ Reactions (``[tendons.<rod>] coupling``):
 - ``conserving``: the gradient of E = Σ_i ½ K_L (C_t² + C_n²): reaction −F_i acting at the
   lumen point, i.e. on r_j and, through the offset r_L d_t(q_j), on q_j.
 
-Registration (§4.1) is state of the term, updated by :meth:`Lumen.update_registration`
-between solver steps (after every time step, Newton solve or CVODE/IDA step), not inside a
-force evaluation: the nearest-lumen-point rule switches the lumen line a point is held to
-and so makes the force discontinuous, which stalls Newton and the BDF error control.
-Between updates each element couples exactly (p_i, r_j, q_j), so the Jacobian pattern is
-exact; an update that changes a parent rebuilds the pattern (§4.2's "redefined on every
-iteration") and the SUNDIALS integrators re-initialise. During a run a point switches parent
-only when another lumen point is closer by ``hysteresis`` × the catheter's segment length,
-so a transient on a switching boundary cannot flip-flop; once a run is at equilibrium, every
-point is re-registered to its nearest lumen point without hysteresis and the run goes on if
-a parent changed (``Model.settle_registration``), so the equilibrium does not depend on the
-path a solver took (before this, CVODE and static ended with different parents on a
-four-tendon scene, 3.7e-4 L apart).
+Registration (§4.1) is state of the term: :meth:`Lumen.registration` applies the rule to a
+state and :meth:`Lumen.registered` builds the term with the new parents (the model builds a
+new model around it, ``Model.reregistered``). It is updated between solver steps (after
+every time step, Newton solve or CVODE/IDA step), not inside a force evaluation: the
+nearest-lumen-point rule switches the lumen line a point is held to and so makes the force
+discontinuous, which stalls Newton and the BDF error control. Between updates each element
+couples exactly (p_i, r_j, q_j), so the Jacobian pattern is exact; an update that changes a
+parent rebuilds the pattern (§4.2's "redefined on every iteration") and the SUNDIALS
+integrators re-initialise. During a run a point switches parent only when another lumen
+point is closer by ``hysteresis`` × the catheter's segment length, so a transient on a
+switching boundary cannot flip-flop; once a run is at equilibrium, every point is re-
+registered to its nearest lumen point without hysteresis and the run goes on if a parent
+changed (``Model.reregistered(x, exact=True)``), so the equilibrium does not depend on the
+path a solver took (before this, CVODE and static ended with different parents on a four-
+tendon scene, 3.7e-4 L apart).
 """
 
 from __future__ import annotations
 
+import copy
 from typing import Any
 
 import numpy as np
@@ -120,16 +123,8 @@ class Lumen(TendonTerm):
         rest[catheter.layout.position_index] = catheter.rest_positions()
         rest[catheter.layout.quaternion_index] = catheter.rest_quaternions()
         rest[self._points] = tendon.rod.rest_positions()[:-1]
-        self._rest_parent = self._nearest(rest)
-        self.parent = self._rest_parent.copy()
+        self.parent = self._nearest(rest)
         self._set_dofs()
-
-    def reset_registration(self) -> bool:
-        changed = bool(np.any(self.parent != self._rest_parent))
-        if changed:
-            self.parent = self._rest_parent.copy()
-            self._set_dofs()
-        return changed
 
     # --------------------------------------------------------- registration
     def _distances(self, x: np.ndarray) -> np.ndarray:
@@ -140,23 +135,23 @@ class Lumen(TendonTerm):
     def _nearest(self, x: np.ndarray) -> np.ndarray:
         return np.argmin(self._distances(x), axis=1)
 
-    def update_registration(self, x: np.ndarray, exact: bool = False) -> bool:
-        """Re-register every tendon point to its nearest lumen point (with hysteresis, or
-        without it when ``exact``).
-
-        Returns True when a parent changed (the element coordinates, and so the Jacobian
-        pattern, changed).
-        """
+    def registration(self, x: np.ndarray, exact: bool = False) -> np.ndarray | None:
+        """Every tendon point's nearest lumen point (with hysteresis, or without it when
+        ``exact``) as new parents, or None when no parent changes."""
         distance = self._distances(x)
         rows = np.arange(len(self.parent))
         nearest = np.argmin(distance, axis=1)
         margin = 0.0 if exact else self._margin
         switch = distance[rows, nearest] < distance[rows, self.parent] - margin
         if not np.any(switch):
-            return False
-        self.parent = np.where(switch, nearest, self.parent)
-        self._set_dofs()
-        return True
+            return None
+        return np.where(switch, nearest, self.parent)
+
+    def registered(self, state: np.ndarray) -> Lumen:
+        other = copy.copy(self)
+        other.parent = np.asarray(state).copy()
+        other._set_dofs()
+        return other
 
     def _set_dofs(self) -> None:
         layout = self.tendon.catheter.layout
@@ -165,6 +160,11 @@ class Lumen(TendonTerm):
         self.dofs = np.concatenate([self._points, r, q], axis=1)
 
     # ----------------------------------------------------------- evaluation
+    def kernel_arguments(self) -> tuple:
+        tendon = self.tendon
+        return (self.dofs, float(tendon.alpha), float(tendon.beta), float(tendon.offset),
+                float(self._stiffness), self._both, self.conservative, self._reaction_share())
+
     def _kinematics(self, x: np.ndarray) -> PointOnLumen:
         local = x[self.dofs]
         return PointOnLumen(self.tendon, local[:, 0:3], local[:, 3:6], local[:, 6:10])

@@ -29,6 +29,9 @@ class Stretch(RodTerm):
         self._stiffness = rod.stretch_stiffness
         self._rest = rod.geometry.segment_length
 
+    def kernel_arguments(self) -> tuple:
+        return (self.dofs, float(self._stiffness), float(self._rest))
+
     def _strain(self, x: np.ndarray) -> tuple[Segments, np.ndarray]:
         seg = Segments.of(x[self.rod.layout.position_index])
         return seg, seg.norm / self._rest - 1.0

@@ -51,8 +51,14 @@ class TendonActuation(TendonTerm):
         else:
             self.has_jacobian = False
             self.conservative = True
+            self.kernel = "constant_force"
             self.dofs = tendon.rod.layout.position_index[:1]
             self._pull = -self._force * director(catheter.base_quaternion, 2)
+
+    def kernel_arguments(self) -> tuple:
+        if not self._distal:
+            return (self._pull[None, :].copy(),)
+        return (self.dofs, float(self._force))
 
     def energy(self, x: np.ndarray) -> float | None:
         if self._distal:

@@ -26,6 +26,7 @@ class TipLoad(RodTerm):
     equation = "§3 (hanging mass); enters F_net of Eq. (17)"
     is_load = True
     has_jacobian = False
+    kernel = "constant_force"
     parameters = (
         Parameter("mass", "float", 0.0, "kg", "hanging mass at the tip, pulling along −y",
                   0.0, 1e6),
@@ -41,6 +42,9 @@ class TipLoad(RodTerm):
         self.force = np.asarray(params["force"], dtype=float) + np.array(
             [0.0, -params["mass"] * params["gravity"], 0.0]
         )
+
+    def kernel_arguments(self) -> tuple:
+        return (self.force[None, :].copy(),)
 
     def energy(self, x: np.ndarray) -> float:
         return float(-self.force @ x[self.dofs[0]])
