@@ -49,6 +49,12 @@ def column_groups(pattern: sp.csc_matrix) -> list[np.ndarray]:
     return [np.flatnonzero(color == c) for c in range(color.max() + 1)]
 
 
+#: Consecutive steps with the residual below the tolerance before the rod is at rest. With
+#: one, a run kept up to 1.3× the declared distance to ``static`` at N = 320–1000 (the
+#: residuals of all nodes add up; tests/test_integrators.py); with two, 0.97× at N = 320.
+RESTING_STEPS = 3
+
+
 class PaperEuler(Integrator):
     """Eq. (17)/(19): fixed step h, damping ξ, one Newton root solve per step."""
 
@@ -143,6 +149,7 @@ class PaperEuler(Integrator):
         v = np.zeros_like(x)
         # Each step's Newton solve goes 10× below the tolerance, but not below round-off.
         inner = max(0.1 * self.tolerance, model.residual_floor)
+        resting = 0
         for step in range(1, self.options["max_steps"] + 1):
             where = f"step {step} (t = {step * h:.4g} s)"
             self.check_budget(where)
@@ -165,8 +172,10 @@ class PaperEuler(Integrator):
             residual = self.model.residual(self.model.force(x, load))
             self.history.record(step * h, x, residual)
             self.report(None, f"paper: {where}, residual {residual:.2e}")
-            if (not moved and load == 1.0 and self.at_equilibrium(residual)
-                    and self.settled(x)):
+            # At rest: below the tolerance on RESTING_STEPS consecutive steps (see there).
+            below = not moved and load == 1.0 and self.at_equilibrium(residual)
+            resting = resting + 1 if below else 0
+            if resting >= RESTING_STEPS and self.settled(x):
                 return Outcome(x, True, "at rest")
         raise SolverFailure(f"not at rest after max_steps = {self.options['max_steps']}",
                             "try raising solver.paper.max_steps, or "
