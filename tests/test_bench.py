@@ -161,3 +161,22 @@ def test_skip_work_small_outputs(tmp_path):
     assert {"formulation", "Jacobian reuse", "planar reduction", "unlisted terms"} <= rows
     timed = ds["time_a"].values
     assert np.all(np.isfinite(timed) & (timed > 0))
+
+
+def test_kernels_small_outputs(tmp_path):
+    """``rodsim bench kernels --size small``: both evaluation paths timed, every solve
+    converged on the same equilibrium, compile and cache-load times measured."""
+    from rodsim.bench import kernels
+
+    paths = kernels.run("small", tmp_path, lambda fraction, status: None)
+    assert {p.name for p in paths} == {"kernels-small.json", "kernels-small.md"}
+    import json
+
+    report = json.loads((tmp_path / "kernels-small.json").read_text())
+    assert report["compile"]["first_compile_s"] > 0 and report["compile"]["cache_load_s"] > 0
+    assert {row["kernels"] for row in report["evaluation_cost"]} == {"numpy", "compiled"}
+    for row in report["solves"]:
+        assert row["success"], row["message"]
+        assert np.isfinite(row["best_s"]) and row["best_s"] > 0
+        assert row["error_over_L"] < 1e-6
+    assert report["cvode_profile"]
