@@ -16,6 +16,7 @@ load step with full steps against 14–30 with backtracking).
 
 from __future__ import annotations
 
+import warnings
 from collections.abc import Callable
 from dataclasses import dataclass
 
@@ -59,14 +60,16 @@ class NewtonResult:
 
 
 def newton(problem: NewtonProblem, x: np.ndarray, tolerance: float,
-           max_iterations: int, polish: bool = True) -> NewtonResult:
+           max_iterations: int, polish: bool = True,
+           check: Callable[[], None] | None = None) -> NewtonResult:
     """Newton iterations from ``x`` until ``residual(g) < tolerance``.
 
     With ``polish``, takes up to :data:`POLISH_ITERATIONS` more iterations once below the
     tolerance, while each still halves the residual, so a converged result is the root to
     round-off (quadratic convergence gets there in one or two). Returns (never raises) with
     ``converged = False`` and a reason when the iteration stalls or the linear system is
-    singular.
+    singular. ``check`` is called once per iteration (the caller's wall-time budget and
+    progress); whatever it raises ends the iteration.
     """
 
     def merit(y: np.ndarray, g: np.ndarray) -> float:
@@ -91,14 +94,18 @@ def newton(problem: NewtonProblem, x: np.ndarray, tolerance: float,
     may_watch = problem.potential is None
     backtrack = False  # set after a failed watch: the next step must backtrack
     for iteration in range(max_iterations):
+        if check is not None:
+            check()
         if residual < tolerance:
             if polishing == 0:
                 return NewtonResult(x, True, iteration, residual, "converged")
             polishing -= 1
         jacobian = problem.jacobian(x)
         try:
-            dx = spla.spsolve(jacobian, -g)
-        except RuntimeError as exc:
+            with warnings.catch_warnings():  # SuperLU's singular warning: a failure here
+                warnings.simplefilter("error", spla.MatrixRankWarning)
+                dx = spla.spsolve(jacobian, -g)
+        except (RuntimeError, spla.MatrixRankWarning) as exc:
             return NewtonResult(x, False, iteration + 1, residual, f"singular Jacobian ({exc})")
         if not np.all(np.isfinite(dx)):
             return NewtonResult(x, False, iteration + 1, residual, "singular Jacobian")

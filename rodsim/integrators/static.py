@@ -141,6 +141,7 @@ class Static(Integrator):
             weight=model.residual_weight,
             potential=(lambda y: model.energy(y, load)) if model.conservative else None,
         )
-        outcome = newton(problem, x, self.tolerance, self.options["max_newton"])
+        outcome = newton(problem, x, self.tolerance, self.options["max_newton"],
+                         check=self.iteration_check(f"load fraction {load:.4g}"))
         self.counts["linear_solves"] += outcome.iterations
         return outcome.converged, outcome.x, outcome.iterations
