@@ -51,7 +51,12 @@ def temporary_prefix(path: Path) -> str:
 def probe_folder(folder: Path, prefix: str = ".rodsim-probe.", what: str = "") -> None:
     """Raise :class:`OutputError` unless a file can be created (and removed) in ``folder``."""
     what = what or str(folder)
-    if not folder.is_dir():
+    try:
+        is_folder = folder.is_dir()
+    except (OSError, ValueError) as exc:  # a name too long, a NUL
+        raise OutputError(f"cannot write {what}: {getattr(exc, 'strerror', None) or exc}") \
+            from None
+    if not is_folder:
         raise OutputError(f"cannot write {what}: folder {str(folder)!r} does not exist")
     try:
         handle, probe = tempfile.mkstemp(prefix=prefix, suffix=".tmp", dir=folder)
@@ -70,13 +75,15 @@ def check_target(path: str | Path) -> Path:
     :class:`OutputError` for a non-regular existing target or an unwritable folder.
     """
     path = Path(path)
-    target = Path(os.path.realpath(path)) if path.is_symlink() else path
     try:
+        target = Path(os.path.realpath(path)) if path.is_symlink() else path
         mode = os.stat(target).st_mode
     except FileNotFoundError:
         mode = None
-    except OSError as exc:
+    except OSError as exc:  # a name too long, a path through a file, a loop of links
         raise OutputError(f"cannot write {str(path)!r}: {_reason(exc)}") from None
+    except ValueError as exc:  # a NUL in the path
+        raise OutputError(f"cannot write {str(path)!r}: {exc}") from None
     if mode is not None and not stat.S_ISREG(mode):
         kind = "a folder" if stat.S_ISDIR(mode) else "not a regular file (a device, " \
                                                       "socket or FIFO)"
