@@ -10,12 +10,14 @@ Everything the CLI does goes through these functions (README, "Python").
 
 from __future__ import annotations
 
+import time
 from collections.abc import Iterable, Mapping
 from pathlib import Path
 from typing import Any
 
 from rodsim.integrators import registered_integrators
 from rodsim.integrators.base import Progress
+from rodsim.memory import check_memory
 from rodsim.model import Model
 from rodsim.result import Result
 from rodsim.scene import Scene, SceneError, default_scene_path
@@ -69,8 +71,11 @@ def solve(scene: SceneLike | None = None, integrator: str | None = None, *,
         A model already built for this scene, to skip the assembly.
 
     A solver failure does not raise: check ``result.success`` and ``result.message``.
-    Invalid scenes raise :class:`~rodsim.schema.SceneError`.
+    Invalid scenes raise :class:`~rodsim.schema.SceneError`, and so does a scene too large
+    for this machine's memory (:mod:`rodsim.memory`). The wall-time budget
+    (``solver.max_wall_time``) starts here: it covers the model's assembly.
     """
+    started = time.perf_counter()
     loaded = load_scene(scene, overrides, f"solver.{integrator}" if integrator else "")
     solver = loaded.data["solver"]
     name = integrator or solver["integrator"]
@@ -78,7 +83,8 @@ def solve(scene: SceneLike | None = None, integrator: str | None = None, *,
     if name not in integrators:
         raise SceneError(f"integrator {name!r}: unknown; allowed: " + ", ".join(integrators))
     if model is None or model.scene is not loaded:
+        check_memory(loaded)
         model = Model(loaded)
     runner = integrators[name](model, solver[name], solver["tolerance"],
-                               solver["max_wall_time"], progress)
+                               solver["max_wall_time"], progress, budget_start=started)
     return runner.solve()

@@ -2,20 +2,24 @@
 
 A write goes to a temporary file in the target's folder and is renamed over the target
 only when complete (``os.replace`` is atomic on POSIX), so a failed or interrupted write
-never leaves a corrupt archive nor clobbers an existing one.
+never leaves a corrupt archive nor clobbers an existing one. The target rules (a regular
+file or nothing; symbolic links followed; stale temporaries removed) are
+:mod:`rodsim.output`'s. A read checks the archive against its contract
+(:mod:`rodsim.archive_schema`) before returning it.
 """
 
 from __future__ import annotations
 
 import contextlib
-import json
 import os
 import tempfile
 from pathlib import Path
 
-import numpy as np
 import xarray as xr
 
+from rodsim.archive_schema import ArchiveSchemaError, check_archive, parse_json_object
+from rodsim.compare import largest_distance
+from rodsim.output import OutputError, check_target, remove_stale_temporaries, temporary_prefix
 from rodsim.result import SCHEMA_VERSION, Result
 from rodsim.scene import Scene
 
@@ -27,13 +31,17 @@ class ArchiveError(OSError):
 
 
 def write_dataset(dataset: xr.Dataset, path: str | Path) -> Path:
-    """Write ``dataset`` to ``path`` (netCDF4) atomically; returns the path."""
-    path = Path(path)
-    folder = path.parent if str(path.parent) else Path(".")
-    if not folder.is_dir():
-        raise ArchiveError(f"cannot write {str(path)!r}: folder {str(folder)!r} does not exist")
+    """Write ``dataset`` to ``path`` (netCDF4) atomically; returns the path written (a
+    symbolic link's target)."""
     try:
-        handle, temporary = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=folder)
+        path = check_target(path)
+    except OutputError as exc:
+        raise ArchiveError(str(exc)) from None
+    folder = path.parent if str(path.parent) else Path(".")
+    remove_stale_temporaries(path)
+    try:
+        handle, temporary = tempfile.mkstemp(prefix=temporary_prefix(path), suffix=".tmp",
+                                             dir=folder)
     except OSError as exc:
         raise ArchiveError(f"cannot write {str(path)!r}: {exc}") from exc
     try:
@@ -53,17 +61,23 @@ def write_dataset(dataset: xr.Dataset, path: str | Path) -> Path:
 
 
 def read_dataset(path: str | Path) -> xr.Dataset:
-    """Read an archive fully into memory (the file is closed on return)."""
+    """Read an archive fully into memory (the file is closed on return) and check it against
+    the archive contract (ArchiveError naming the first mismatch)."""
     try:
         with xr.open_dataset(path, engine="netcdf4") as ds:
             loaded = ds.load()
-    except (OSError, ValueError) as exc:
-        raise ArchiveError(f"cannot read {str(path)!r}: {exc}") from None
+    except (OSError, ValueError, RuntimeError) as exc:
+        reason = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
+        raise ArchiveError(f"cannot read {str(path)!r}: {reason[:200]}") from None
     if "schema_version" not in loaded.attrs or "scene_json" not in loaded.attrs:
         raise ArchiveError(f"{str(path)!r} is not a rodsim archive (no scene_json attribute)")
     if str(loaded.attrs["schema_version"]) != SCHEMA_VERSION:
         raise ArchiveError(f"{str(path)!r} has archive schema {loaded.attrs['schema_version']}, "
                            f"this rodsim reads schema {SCHEMA_VERSION}")
+    try:
+        check_archive(loaded)
+    except ArchiveSchemaError as exc:
+        raise ArchiveError(f"{str(path)!r} is not a valid rodsim archive: {exc}") from None
     return loaded
 
 
@@ -76,12 +90,13 @@ def rerun(dataset: xr.Dataset) -> tuple[Result, float]:
     """Re-run a stored run from the archive alone.
 
     Returns the new result and the largest distance [m] between stored and recomputed
-    control points.
+    control points (infinite when either holds a NaN: see :func:`largest_distance`).
     """
     from rodsim.api import solve
 
     scene = scene_of(dataset)
-    stored_options = json.loads(dataset.attrs["integrator_options"])
+    stored_options = parse_json_object(dataset.attrs["integrator_options"],
+                                       "attribute 'integrator_options'")
     integrator = str(dataset.attrs["integrator"])
     if stored_options != scene.data["solver"][integrator]:
         raise ArchiveError("archive is inconsistent: integrator_options differ from the "
@@ -89,5 +104,4 @@ def rerun(dataset: xr.Dataset) -> tuple[Result, float]:
     result = solve(scene, integrator)
     stored = dataset["position"].values
     new = result.to_xarray()["position"].values
-    difference = float(np.max(np.linalg.norm(stored - new, axis=1)))
-    return result, difference
+    return result, largest_distance(stored, new)

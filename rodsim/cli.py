@@ -8,9 +8,11 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import sys
 from collections.abc import Callable, Sequence
 from pathlib import Path
+from typing import NoReturn
 
 from rodsim import __version__
 
@@ -19,6 +21,14 @@ EXIT_OK, EXIT_SOLVER_FAILURE, EXIT_BAD_INPUT = 0, 1, 2
 
 class UserError(Exception):
     """A problem with what the user asked for (exit code 2, one-line message)."""
+
+
+class OneLineParser(argparse.ArgumentParser):
+    """An ArgumentParser whose usage errors are one line on stderr (exit 2), like every
+    other bad input; ``--help`` shows the usage."""
+
+    def error(self, message: str) -> NoReturn:
+        self.exit(EXIT_BAD_INPUT, f"{self.prog}: error: {message} (see {self.prog} --help)\n")
 
 
 def _scene_keys_help() -> str:
@@ -55,7 +65,11 @@ def _print_run_summary(result, archive: Path | None) -> None:
     for name, shape in result.rods.items():
         tip = shape.tip
         print(f"tip of {name:<12s} x = {tip[0]: .6f} m  y = {tip[1]: .6f} m  z = {tip[2]: .3g} m")
-    reference = cantilever_reference(scene)
+    try:
+        reference = cantilever_reference(scene)
+    except (ValueError, ArithmeticError) as exc:  # beyond the analytic models' reach
+        print(f"load        analytic references n/a ({exc})")
+        reference = None
     if reference is not None:
         positions = result.positions()
         print(f"load        α = F L²/(2EI) = {reference.alpha:.4g}  (F = {reference.force:.4g} N)")
@@ -78,6 +92,8 @@ def _print_run_summary(result, archive: Path | None) -> None:
         ("steps", "newton_iters", "force_evals", "jacobian_evals", "linear_solves", "reinits",
          "tightenings") if key in stats))
     print(f"wall time   {stats['wall_time']:.4f} s")
+    if result.stability is not None:
+        print(stability_text(result.stability))
     if archive is not None:
         print(f"archive     {archive}")
 
@@ -95,16 +111,24 @@ def _load_scene_or_fail(scene: str | None, overrides: Sequence[str], integrator:
 def cmd_run(args: argparse.Namespace) -> int:
     from rodsim.api import solve
     from rodsim.archive import ArchiveError, write_dataset
+    from rodsim.output import OutputError, check_target
     from rodsim.progress import ProgressPrinter
+    from rodsim.scene import SceneError
 
     scene = _load_scene_or_fail(args.scene, args.set, args.integrator)
     integrator = args.integrator or scene.data["solver"]["integrator"]
     output = Path(args.output or f"{scene.name}-{integrator}.nc")
-    if not (output.parent if str(output.parent) else Path(".")).is_dir():
-        raise UserError(f"-o {output}: folder {str(output.parent)!r} does not exist")
+    try:  # before the solve: an unwritable output fails in a second, not after an hour
+        check_target(output)
+    except OutputError as exc:
+        raise UserError(f"-o {exc}") from None
     progress = ProgressPrinter()
-    result = solve(scene, integrator, progress=progress)
-    progress.close()
+    try:
+        result = solve(scene, integrator, progress=progress)
+    except SceneError as exc:  # too large for this machine (rodsim.memory)
+        raise UserError(str(exc)) from None
+    finally:
+        progress.close()
     if not result.success:
         print(f"rodsim: solver failure: {result.message}", file=sys.stderr)
         return EXIT_SOLVER_FAILURE
@@ -113,7 +137,19 @@ def cmd_run(args: argparse.Namespace) -> int:
     except ArchiveError as exc:
         raise UserError(str(exc)) from None
     _print_run_summary(result, output)
+    if args.require_stable and not result.stability.stable:
+        print("rodsim: the equilibrium is unstable (--require-stable)", file=sys.stderr)
+        return EXIT_SOLVER_FAILURE
     return EXIT_OK
+
+
+def stability_text(stability) -> str:
+    """The summary line of a :class:`~rodsim.stability.Stability` verdict."""
+    if stability.stable:
+        return "stability   stable (the stiffness K = -dF/dx is positive definite)"
+    return (f"warning     UNSTABLE equilibrium: the stiffness K = -dF/dx is not positive "
+            f"definite (smallest eigenvalue {stability.min_eigenvalue:.3g}); a small "
+            "perturbation leaves it (e.g. a compressed rod past its buckling load)")
 
 
 def cmd_rerun(args: argparse.Namespace) -> int:
@@ -169,6 +205,17 @@ def _rerun_study(dataset, args: argparse.Namespace) -> int:
     print(f"study       {dataset.attrs['study']} ({dataset.attrs['size']}): re-ran "
           f"{len(records)} point(s), {failed} failed")
     return _rerun_verdict("centerlines", difference, length, args.tolerance)
+
+
+def _tolerance(text: str) -> float:
+    """argparse type of ``rerun --tolerance``: a finite number of at least 0."""
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a number, got {text[:40]!r}") from None
+    if not math.isfinite(value) or value < 0.0:
+        raise argparse.ArgumentTypeError(f"must be a finite number >= 0, got {text[:40]!r}")
+    return value
 
 
 def _positive_int(text: str) -> int:
@@ -272,12 +319,15 @@ def cmd_plot(args: argparse.Namespace) -> int:
 def cmd_bench(args: argparse.Namespace) -> int:
     import importlib
 
+    from rodsim.output import OutputError, probe_folder
     from rodsim.progress import ProgressPrinter
 
     module = importlib.import_module(f"rodsim.bench.{args.benchmark.replace('-', '_')}")
     output = Path(args.output_dir)
-    if not output.is_dir():
-        raise UserError(f"-o {output}: folder does not exist")
+    try:  # before the benchmark runs, not after
+        probe_folder(output, what=f"-o {output}")
+    except OutputError as exc:
+        raise UserError(str(exc)) from None
     printer = ProgressPrinter(delay=0.0)
     try:
         paths = module.run(args.size, output, printer)
@@ -308,7 +358,7 @@ def cmd_terms(args: argparse.Namespace) -> int:
 
 
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(
+    parser = OneLineParser(
         prog="rodsim", description="Tendon-driven catheters as Cosserat rods, to equilibrium.")
     parser.add_argument("--version", action="version", version=f"rodsim {__version__}")
     sub = parser.add_subparsers(dest="command", required=True)
@@ -325,6 +375,9 @@ def build_parser() -> argparse.ArgumentParser:
     run.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
                      help="override a scene value (repeatable), e.g. --set nodes=80")
     run.add_argument("-o", "--output", help="archive path (default: <scene>-<integrator>.nc)")
+    run.add_argument("--require-stable", action="store_true",
+                     help="exit 1 when the equilibrium found is unstable (its stiffness is "
+                     "not positive definite; the archive is still written)")
     run.set_defaults(func=cmd_run)
 
     again = sub.add_parser("rerun", help="re-run an archive and compare with what it stores",
@@ -334,7 +387,7 @@ def build_parser() -> argparse.ArgumentParser:
     again.add_argument("--point", action="append", default=[], metavar="DIM=VALUE",
                        help="study archives: re-run only the points with this swept value "
                        "(repeatable); default: every point")
-    again.add_argument("--tolerance", type=float, default=1e-9, metavar="FRACTION_OF_L",
+    again.add_argument("--tolerance", type=_tolerance, default=1e-9, metavar="FRACTION_OF_L",
                        help="exit 1 if the positions differ by more than this × L "
                        "(default 1e-9)")
     again.set_defaults(func=cmd_rerun)

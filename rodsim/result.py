@@ -22,6 +22,7 @@ if TYPE_CHECKING:
     import xarray as xr
 
     from rodsim.model import Model
+    from rodsim.stability import Stability
 
 __all__ = ["Result", "RodShape", "SCHEMA_VERSION", "count_text"]
 
@@ -80,11 +81,15 @@ class Result:
     state: np.ndarray
     history: dict[str, list[float]] = field(default_factory=dict)
     version: str = __version__
+    #: Stability verdict of a successful run's equilibrium (rodsim/stability.py); None for
+    #: a failed run.
+    stability: Stability | None = None
 
     @classmethod
     def from_model(cls, model: Model, x: np.ndarray, *, integrator: str,
                    options: dict[str, Any], success: bool, message: str, residual: float,
-                   stats: dict[str, float], history: dict[str, list[float]]) -> Result:
+                   stats: dict[str, float], history: dict[str, list[float]],
+                   stability: Stability | None = None) -> Result:
         full = model.full(x)
         rods = {
             name: RodShape(full[rod.layout.position_index], full[rod.layout.quaternion_index],
@@ -94,7 +99,7 @@ class Result:
         stats = {key: float(stats.get(key, 0.0)) for key in STAT_DOCS} | {
             k: float(v) for k, v in stats.items() if k not in STAT_DOCS}
         return cls(model.scene, integrator, dict(options), success, message, residual, stats,
-                   rods, np.array(x, dtype=float), history)
+                   rods, np.array(x, dtype=float), history, stability=stability)
 
     def positions(self, rod: str | None = None) -> np.ndarray:
         """Control points of ``rod`` (default: the first rod), shape (N, 3) [m]."""
@@ -173,6 +178,9 @@ class Result:
             "scene_json": self.scene.to_json(),
             "scene_toml": self.scene.source,
         }
+        if self.stability is not None:
+            attrs["stable"] = int(self.stability.stable)
+            attrs["stiffness_min_eigenvalue"] = float(self.stability.min_eigenvalue)
         for key, value in self.stats.items():
             attrs[f"stats_{key}"] = float(value)
         attrs.update(flatten_scene(self.scene.data))

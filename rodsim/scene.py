@@ -33,8 +33,10 @@ from importlib import resources
 from pathlib import Path
 from typing import Any
 
+from rodsim.names import check_rod_name, check_scene_name
 from rodsim.rod.rod import ROD_PARAMETERS
-from rodsim.schema import Parameter, SceneError, validate_table
+from rodsim.scene_file import parse_toml, read_scene_text
+from rodsim.schema import Parameter, SceneError, shown, validate_table
 from rodsim.tendon import TENDON_PARAMETERS, check_tendon
 
 __all__ = ["Scene", "SceneError", "SOLVER_PARAMETERS", "default_scene_path", "scene_paths"]
@@ -93,27 +95,35 @@ class Scene:
     def load(cls, path: str | Path) -> Scene:
         """Read and validate a TOML scene file, or a shipped scene by name."""
         path = Path(path)
+        if "\0" in str(path):
+            raise SceneError(f"cannot read scene {shown(str(path))}: a NUL in the path")
         if not path.exists() and path.suffix == "" and str(path) in scene_paths():
             path = scene_paths()[str(path)]
-        try:
-            text = path.read_text(encoding="utf-8")
-        except OSError as exc:
-            raise SceneError(f"cannot read scene {str(path)!r}: {exc.strerror}") from None
-        try:
-            raw = tomllib.loads(text)
-        except tomllib.TOMLDecodeError as exc:
-            raise SceneError(f"{path}: not valid TOML: {exc}") from None
-        return cls(resolve(raw), text)
+        text = read_scene_text(path)
+        return cls(resolve(parse_toml(text, str(path))), text)
 
     @classmethod
     def from_dict(cls, raw: Mapping[str, Any]) -> Scene:
         """Validate a scene given as a (possibly partial) dict."""
-        return cls(resolve(copy.deepcopy(dict(raw))))
+        try:
+            return cls(resolve(copy.deepcopy(dict(raw))))
+        except RecursionError:
+            raise SceneError("scene: nested too deeply") from None
 
     @classmethod
     def from_json(cls, text: str, source: str = "") -> Scene:
         """Rebuild a scene from :meth:`to_json` (as stored in archives)."""
-        return cls(resolve(json.loads(text)), source)
+        try:
+            raw = json.loads(text)
+        except (ValueError, RecursionError):
+            raise SceneError("stored scene: not valid JSON, or nested too deeply") from None
+        if not isinstance(raw, dict):
+            raise SceneError(f"stored scene: not a JSON object (got {type(raw).__name__})")
+        return cls.from_dict(raw).with_source(source)
+
+    def with_source(self, source: str) -> Scene:
+        """The same scene, with ``source`` as its file text."""
+        return Scene(self.data, source)
 
     def to_json(self) -> str:
         """The resolved scene as canonical JSON (sorted keys)."""
@@ -146,9 +156,12 @@ class Scene:
             key, sep, text = assignment.partition("=")
             key = key.strip()
             if not sep or not key:
-                raise SceneError(f"--set {assignment!r}: expected key=value")
+                raise SceneError(f"--set {shown(assignment)}: expected key=value")
             preferred = prefer or f"solver.{data['solver']['integrator']}"
-            data = _assign(data, _resolve_key(data, key, preferred), _parse_value(text.strip()))
+            full_key = _resolve_key(data, key, preferred)
+            data = _assign(data, full_key, _parse_value(text.strip()))
+            if full_key.endswith(".terms"):
+                _drop_unlisted_term_tables(data, full_key)
             # Validate as we go so a later key can name a term an earlier one added; a scene
             # that is only invalid half-way (e.g. switching two linked values) is checked
             # again once every assignment is applied.
@@ -175,15 +188,15 @@ def resolve(raw: Mapping[str, Any]) -> dict[str, Any]:
     for key in raw:
         if key not in _TOP_KEYS:
             raise SceneError(f"{key}: unknown top-level key; known keys: {', '.join(_TOP_KEYS)}")
-    name = raw.get("name", "unnamed")
-    if not isinstance(name, str) or not name:
-        raise SceneError(f"name = {name!r}: must be a non-empty string")
+    name = check_scene_name(raw.get("name", "unnamed"))
     description = raw.get("description", "")
     if not isinstance(description, str):
-        raise SceneError(f"description = {description!r}: must be a string")
+        raise SceneError(f"description = {shown(description)}: must be a string")
     rods_raw = raw.get("rods")
     if not isinstance(rods_raw, Mapping) or not rods_raw:
         raise SceneError("rods: a scene needs at least one [rods.<name>] table")
+    for rod in rods_raw:
+        check_rod_name(rod, "rods")
     rod_terms = sorted(n for n, t in terms.items() if t.scope == "rod")
     tendon_terms = sorted(n for n, t in terms.items() if t.scope == "tendon")
     rods = {rod: _resolve_with_terms(table, ROD_PARAMETERS, rod_terms, terms, f"rods.{rod}")
@@ -193,11 +206,14 @@ def resolve(raw: Mapping[str, Any]) -> dict[str, Any]:
         raise SceneError("tendons: expected tables [tendons.<tendon rod name>]")
     tendons = {}
     for rod, table in tendons_raw.items():
-        prefix = f"tendons.{rod}"
+        prefix = f"tendons.{check_rod_name(rod, 'tendons')}"
         tendons[rod] = _resolve_with_terms(table, TENDON_PARAMETERS, tendon_terms, terms,
                                            prefix)
         check_tendon(rod, tendons[rod], rods, prefix, tendons_raw.keys())
     for rod, table in rods.items():
+        if not table["terms"]:
+            raise SceneError(f"rods.{rod}.terms = []: a rod needs at least one term; allowed: "
+                             "a list of distinct names from: " + ", ".join(rod_terms))
         if table["radius"] >= table["length"]:
             raise SceneError(f"rods.{rod}.radius = {table['radius']!r}: not below the length "
                              f"{table['length']!r} m; allowed: radius < length (a slender rod)")
@@ -260,7 +276,8 @@ def _resolve_key(data: Mapping[str, Any], key: str, prefer: str = "") -> str:
     if len(preferred) == 1:
         return preferred[0]
     if not matches:
-        raise SceneError(f"--set {key}: unknown key (see `rodsim run --help` for the keys)")
+        raise SceneError(f"--set {shown(key, bare=True)}: unknown key (see `rodsim run "
+                         "--help` for the keys)")
     raise SceneError(f"--set {key}: ambiguous, could be " + ", ".join(matches))
 
 
@@ -277,8 +294,26 @@ def _assign(data: dict[str, Any], key: str, value: Any) -> dict[str, Any]:
     return data
 
 
+def _drop_unlisted_term_tables(data: dict[str, Any], terms_key: str) -> None:
+    """After ``--set <rod>.terms=[…]``: drop the parameter tables of the terms the new list
+    leaves out (they came from the scene or its defaults; keeping them would refuse the
+    removal as "parameters given for a term that terms does not list")."""
+    from rodsim.terms import registered_terms
+
+    node: Any = data
+    for part in terms_key.split(".")[:-1]:
+        node = node[part]
+    listed = node["terms"] if isinstance(node["terms"], list) else []
+    for term in registered_terms():
+        if term in node and term not in listed:
+            del node[term]
+
+
 def _parse_value(text: str) -> Any:
+    """A ``--set`` value: TOML if it parses as one, else the plain string."""
     try:
         return tomllib.loads(f"v = {text}")["v"]
     except tomllib.TOMLDecodeError:
         return text
+    except RecursionError:
+        raise SceneError(f"--set value {shown(text)}: nested too deeply") from None

@@ -13,11 +13,27 @@ from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
-__all__ = ["Parameter", "SceneError", "validate_table"]
+__all__ = ["Parameter", "SceneError", "validate_table", "shown"]
+
+#: Longest echo of a user's value in a message (longer ones are cut with "…").
+SHOWN_WIDTH = 60
 
 
 class SceneError(ValueError):
     """A scene value is missing, unknown, of the wrong type or outside its allowed range."""
+
+
+def shown(value: Any, width: int = SHOWN_WIDTH, bare: bool = False) -> str:
+    """``repr(value)`` for a one-line message, cut to ``width`` characters; with ``bare``, a
+    printable string is shown as it is (a key in a dotted path), others escaped."""
+    try:
+        if bare and isinstance(value, str):
+            text = value if value.isprintable() else repr(value)[1:-1]
+        else:
+            text = repr(value)
+    except RecursionError:
+        text = f"<deeply nested {type(value).__name__}>"
+    return text if len(text) <= width else text[:width - 1] + "…"
 
 
 _KIND_NAMES = {
@@ -96,7 +112,7 @@ class Parameter:
         """Return ``value`` converted to this parameter's kind, or raise :class:`SceneError`."""
 
         def fail(reason: str) -> SceneError:
-            return SceneError(f"{key} = {value!r}: {reason}; allowed: {self.allowed}")
+            return SceneError(f"{key} = {shown(value)}: {reason}; allowed: {self.allowed}")
 
         if self.kind == "bool":
             if not isinstance(value, bool):
@@ -175,7 +191,7 @@ def validate_table(
     for key in table:
         if key not in params and key not in allow_extra:
             known = ", ".join(sorted([*params, *allow_extra]))
-            raise SceneError(f"{prefix}.{key}: unknown key; known keys: {known}")
+            raise SceneError(f"{prefix}.{shown(key, bare=True)}: unknown key; known keys: {known}")
     for name, param in params.items():
         key = f"{prefix}.{name}"
         if name in table:

@@ -26,6 +26,7 @@ import xarray as xr
 
 from rodsim import __version__
 from rodsim.analytic.reference import REFERENCE_KINDS, reference_centerline
+from rodsim.compare import largest_distance
 from rodsim.result import SCHEMA_VERSION
 from rodsim.scene import Scene, SceneError
 
@@ -412,7 +413,8 @@ def rerun_study(dataset: xr.Dataset, select: dict[str, Any] | None = None
     """Re-run a stored study (every point, or those matching ``select`` = {dim: label}).
 
     Returns the new records and the largest distance [m] between stored and recomputed
-    centerlines (infinite when a point's success differs from the stored one).
+    centerlines (infinite when a point's success differs from the stored one, or either
+    centerline holds a NaN).
     """
     spec = json.loads(dataset.attrs["spec_json"])
     dims = [s["name"] for s in spec["sweeps"]]
@@ -438,7 +440,7 @@ def rerun_study(dataset: xr.Dataset, select: dict[str, Any] | None = None
         elif stored_ok:
             stored = dataset["centerline"].values[index]
             new = np.stack([np.asarray(record["centerline"][rod]) for rod in rods])
-            largest = max(largest, float(np.max(np.linalg.norm(new - stored, axis=-1))))
+            largest = max(largest, largest_distance(stored, new))
     return records, largest
 
 

@@ -40,7 +40,10 @@ import xarray as xr
 
 from rodsim import __version__
 from rodsim.archive import write_dataset
+from rodsim.archive_schema import ArchiveSchemaError, check_point_record
+from rodsim.output import OutputError, check_target
 from rodsim.study import (
+    POINT_STATS,
     STATUS,
     Study,
     StudyError,
@@ -136,14 +139,10 @@ def _check_output(output: Path) -> None:
     if parts.exists() and not parts.is_dir():
         raise StudyError(f"cannot keep the study's points in {parts}: a file of that name "
                          "exists")
-    try:  # permissions, read-only or pseudo file systems (/proc): try, as the run will
-        handle, probe = tempfile.mkstemp(prefix=f".{output.name}.", suffix=".probe",
-                                         dir=folder)
-        os.close(handle)
-        os.unlink(probe)
-    except OSError as exc:
-        raise StudyError(f"cannot write {output}: cannot create files in folder "
-                         f"{str(folder)!r} ({_reason(exc)})") from None
+    try:  # permissions, read-only or pseudo file systems (/proc), devices: try, as the run will
+        check_target(output)
+    except OutputError as exc:
+        raise StudyError(str(exc)) from None
 
 
 def _short(value: Any, width: int = 60) -> str:
@@ -212,7 +211,10 @@ def _open_parts(folder: Path, spec: dict[str, Any],
         except (OSError, ValueError) as exc:
             raise StudyError(f"{folder}: unreadable {MARKER} ({_reason(exc)}); remove the "
                              "folder or write the study elsewhere (-o)") from None
-        if not isinstance(stored, dict) or "rodsim_version" not in stored:
+        if not isinstance(stored, dict) or not isinstance(stored.get("spec", {}), dict):
+            raise StudyError(f"{folder}: {MARKER} does not hold a study spec; remove the "
+                             "folder or write the study elsewhere (-o)")
+        if "rodsim_version" not in stored:
             raise StudyError(f"{folder} was written by an older rodsim that did not record its "
                              f"version (rodsim_version differs: this is rodsim {__version__}); "
                              "remove it or write the study elsewhere (-o)")
@@ -245,18 +247,19 @@ def _open_parts(folder: Path, spec: dict[str, Any],
                 raise StudyError(f"cannot create {folder}: {_reason(exc)}") from None
             raise
     grid = set(grid_points(spec))
+    rods = list(json.loads(spec["base_scene_json"])["rods"])
     records = {}
     for path in sorted(folder.glob("point-*.json")):
         try:
             record = json.loads(path.read_text(encoding="utf-8"))
-            index = tuple(record["index"])
+            check_point_record(record, spec, rods, POINT_STATS)
+            index = tuple(record["index"]) if isinstance(record["index"], list) else None
             if index not in grid or _point_file(folder, index).name != path.name:
-                raise ValueError(f"index {list(index)} does not belong in this file")
-            if record["status"] not in STATUS.values() or not isinstance(record["message"],
-                                                                         str):
-                raise ValueError("no valid status and message")
-        except (OSError, ValueError, KeyError, TypeError) as exc:
-            log(f"warning: {path} is unreadable or incomplete ({_reason(exc)}); its point "
+                raise ValueError(f"index {str(record['index'])[:40]} does not belong in "
+                                 "this file")
+        except (OSError, ValueError, RecursionError, ArchiveSchemaError) as exc:
+            reason = "nested too deeply" if isinstance(exc, RecursionError) else _reason(exc)
+            log(f"warning: {path} is unreadable, incomplete or invalid ({reason}); its point "
                 "runs again")
             continue
         records[index] = record
@@ -285,9 +288,14 @@ def _run_point(spec: dict[str, Any], index: tuple[int, ...]) -> dict[str, Any]:
 
 
 def _worker_init(parent: int) -> None:
-    """Initializer of local workers: leave Ctrl-C to the parent (which ends the workers), and
-    exit when the parent dies (no idle workers left behind by a SIGKILL)."""
+    """Initializer of local workers: leave Ctrl-C to the parent (which ends the workers),
+    end quietly on SIGTERM (the default action, not the handler ``rodsim study`` installs in
+    the parent and a forked worker inherits, which would print a KeyboardInterrupt traceback
+    when the parent ends its workers), and exit when the parent dies (no idle workers left
+    behind by a SIGKILL)."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)
+    signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGTERM})
     started_by = os.getppid()
 
     def watch() -> None:
@@ -335,6 +343,12 @@ def _pool_pass(spec: dict[str, Any], queue: deque[tuple[int, ...]], workers: int
     """
     pool = ProcessPoolExecutor(max_workers=max(1, min(workers, len(queue))),
                                initializer=_worker_init, initargs=(os.getpid(),))
+    # Workers fork on the first submit and inherit the parent's SIGTERM handler until their
+    # initializer resets it: SIGTERM stays blocked across the forks, so a worker receives it
+    # only once it would end quietly (the parent's is delivered when unblocked below).
+    blocked = threading.current_thread() is threading.main_thread()
+    if blocked:
+        signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGTERM})
     running: dict[Future[dict[str, Any]], tuple[int, ...]] = {}
     suspects: list[tuple[int, ...]] = []
     broken = abandon = False
@@ -347,6 +361,9 @@ def _pool_pass(spec: dict[str, Any], queue: deque[tuple[int, ...]], workers: int
                 except BrokenProcessPool:  # an idle worker died: start a fresh pool
                     queue.appendleft(index)
                     broken = True
+            if blocked:  # the workers are forked: a pending SIGTERM is delivered here
+                blocked = False
+                signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGTERM})
             if not running:
                 break
             done, _ = wait(running, return_when=FIRST_COMPLETED)
@@ -370,7 +387,11 @@ def _pool_pass(spec: dict[str, Any], queue: deque[tuple[int, ...]], workers: int
         abandon = True
         raise
     finally:
-        _end_pool(pool, abandon)
+        try:
+            _end_pool(pool, abandon)
+        finally:
+            if blocked:  # only after an error before the first wait: the workers are ended
+                signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGTERM})
     return suspects
 
 

@@ -27,7 +27,7 @@ import numpy as np
 
 from rodsim.rod.quaternion import DIRECTOR_FORMS, director, director_gradient
 from rodsim.rod.rod import Rod
-from rodsim.schema import Parameter, SceneError
+from rodsim.schema import Parameter, SceneError, shown
 
 __all__ = ["TENDON_PARAMETERS", "TENDON_TERMS", "Tendon", "check_tendon", "tendon_origin"]
 
@@ -59,11 +59,11 @@ def check_tendon(name: str, table: dict[str, Any], rods: dict[str, Any], prefix:
     """Cross-check a resolved tendon table against the scene's rods and the other tendons
     (raises SceneError)."""
     if name not in rods:
-        raise SceneError(f"{prefix}: no rod named {name!r} (a tendon table is keyed by its "
+        raise SceneError(f"{prefix}: no rod named {shown(name)} (a tendon table is keyed by its "
                          f"rod's name); rods: {', '.join(rods)}")
     catheter = table["catheter"]
     if catheter not in rods:
-        raise SceneError(f"{prefix}.catheter = {catheter!r}: no such rod; rods: "
+        raise SceneError(f"{prefix}.catheter = {shown(catheter)}: no such rod; rods: "
                          + ", ".join(rods))
     if catheter == name:
         raise SceneError(f"{prefix}.catheter = {catheter!r}: a rod cannot be its own catheter")

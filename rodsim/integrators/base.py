@@ -13,6 +13,7 @@ the residual reached, and what to try.
 
 from __future__ import annotations
 
+import itertools
 import time
 from abc import ABC, abstractmethod
 from collections.abc import Callable
@@ -25,6 +26,7 @@ from rodsim.integrators.linear import LinearSolver
 from rodsim.model import Model
 from rodsim.result import Result
 from rodsim.schema import Parameter
+from rodsim.stability import assess
 
 __all__ = ["Integrator", "Outcome", "Progress", "SolverFailure", "INTEGRATORS",
            "registered_integrators"]
@@ -100,6 +102,10 @@ class Integrator(ABC):
         Wall-time budget [s]; exceeding it is a failure.
     progress
         Optional callback for progress on long runs.
+    budget_start
+        ``time.perf_counter()`` at which the wall-time budget started (default: when
+        :meth:`solve` starts); :func:`rodsim.api.solve` passes the time before the model
+        was assembled, so the budget covers the assembly too.
     """
 
     name: ClassVar[str]
@@ -117,7 +123,8 @@ class Integrator(ABC):
             INTEGRATORS[cls.name] = cls
 
     def __init__(self, model: Model, options: dict[str, Any], tolerance: float,
-                 max_wall_time: float = 600.0, progress: Progress | None = None) -> None:
+                 max_wall_time: float = 600.0, progress: Progress | None = None,
+                 budget_start: float | None = None) -> None:
         #: The model as built, at rest (its registration is the rest state's).
         self.base_model = model
         #: The model in use: a new one replaces it when the tendon registration changes.
@@ -141,6 +148,7 @@ class Integrator(ABC):
         self.where = "start"
         self._start = 0.0
         self._linear: tuple[Model, LinearSolver] | None = None
+        self._budget_start = budget_start
 
     def checkpoint(self, x: np.ndarray, where: str | Callable[[], str]) -> None:
         """Remember the last accepted state and where it was reached (for failure reports;
@@ -181,8 +189,8 @@ class Integrator(ABC):
                                                model.conservative)
         return self._linear[1]
 
-    def newton_equilibrium(self, x: np.ndarray, load: float,
-                           max_iterations: int) -> tuple[bool, np.ndarray, int]:
+    def newton_equilibrium(self, x: np.ndarray, load: float, max_iterations: int,
+                           where: str) -> tuple[bool, np.ndarray, int]:
         """Newton on F(x) = 0 at a fixed load fraction from ``x`` (analytic Jacobian, energy
         line search when the model is conservative); returns (converged, x, iterations), which
         the caller counts."""
@@ -197,7 +205,8 @@ class Integrator(ABC):
             weight=model.residual_weight,
             potential=(lambda y: model.energy(y, load)) if model.conservative else None,
         )
-        outcome = newton(problem, x, self.tolerance, max_iterations)
+        outcome = newton(problem, x, self.tolerance, max_iterations,
+                         check=self.iteration_check(where))
         return outcome.converged, outcome.x, outcome.iterations
 
     def residual(self, x: np.ndarray) -> float:
@@ -239,10 +248,23 @@ class Integrator(ABC):
 
     def check_budget(self, where: str) -> None:
         """Raise SolverFailure once the wall-time budget is spent, before ``where``."""
-        if self.elapsed() > self.max_wall_time:
+        if time.perf_counter() - self._budget_start > self.max_wall_time:
             raise SolverFailure(
                 f"wall-time budget of {self.max_wall_time:g} s spent before {where}",
                 f"try raising solver.max_wall_time, or {self.advice().removeprefix('try ')}")
+
+    def iteration_check(self, where: str) -> Callable[[], None]:
+        """A callback for long inner loops (each Newton iteration): checks the wall-time
+        budget and reports progress, naming ``where`` and the iteration."""
+        count = itertools.count(1)
+
+        def check() -> None:
+            iteration = next(count)
+            self.check_budget(f"Newton iteration {iteration} at {where}")
+            if self.reporting:
+                self.report(None, f"{self.name}: {where}, Newton iteration {iteration}")
+
+        return check
 
     def report(self, fraction: float | None, status: str) -> None:
         if self._progress is not None:
@@ -260,9 +282,12 @@ class Integrator(ABC):
     def solve(self) -> Result:
         """Run the integrator to equilibrium and return a Result (never raises on failure)."""
         self._start = time.perf_counter()
+        if self._budget_start is None:
+            self._budget_start = self._start
         floor = self.model.residual_floor
         advice = None
         try:
+            self.check_budget("the first step (model assembly took it)")
             if floor > MAX_RESIDUAL_FLOOR:
                 raise SolverFailure(
                     f"the loads are below the round-off of the internal forces (residual "
@@ -296,7 +321,8 @@ class Integrator(ABC):
         return Result.from_model(
             self.model, x if finite else self.state, integrator=self.name,
             options=self.options, success=success, message=message, residual=residual,
-            stats=stats, history=self.history.data)
+            stats=stats, history=self.history.data,
+            stability=assess(self.model, x) if success else None)
 
 
 def registered_integrators() -> dict[str, type[Integrator]]:

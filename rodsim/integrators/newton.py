@@ -61,14 +61,16 @@ class NewtonResult:
 
 
 def newton(problem: NewtonProblem, x: np.ndarray, tolerance: float,
-           max_iterations: int, polish: bool = True) -> NewtonResult:
+           max_iterations: int, polish: bool = True,
+           check: Callable[[], None] | None = None) -> NewtonResult:
     """Newton iterations from ``x`` until ``residual(g) < tolerance``.
 
     With ``polish``, takes up to :data:`POLISH_ITERATIONS` more iterations once below the
     tolerance, while each still halves the residual, so a converged result is the root to
     round-off (quadratic convergence gets there in one or two). Returns (never raises) with
     ``converged = False`` and a reason when the iteration stalls or the linear system is
-    singular.
+    singular. ``check`` is called once per iteration (the caller's wall-time budget and
+    progress); whatever it raises ends the iteration.
     """
 
     def merit(y: np.ndarray, g: np.ndarray) -> float:
@@ -93,6 +95,8 @@ def newton(problem: NewtonProblem, x: np.ndarray, tolerance: float,
     may_watch = problem.potential is None
     backtrack = False  # set after a failed watch: the next step must backtrack
     for iteration in range(max_iterations):
+        if check is not None:
+            check()
         if residual < tolerance:
             if polishing == 0:
                 return NewtonResult(x, True, iteration, residual, "converged")
@@ -135,6 +139,8 @@ def newton(problem: NewtonProblem, x: np.ndarray, tolerance: float,
                         return NewtonResult(x, True, iteration + 1, residual, "converged")
                     return NewtonResult(x, False, iteration + 1, residual,
                                         "line search failed")
+                if check is not None:  # a long backtracking costs force evaluations too
+                    check()
                 trial = x + alpha * dx
                 trial_g, trial_value = evaluate(trial)
         elif watched is None and trial_value > value + 1e-4 * slope:

@@ -158,7 +158,8 @@ class PaperEuler(Integrator):
             ramp = self.options["ramp_steps"]
             load = min(1.0, step / ramp) if ramp else 1.0
             solved = newton(self._step_problem(predictor, h, load), predictor, inner,
-                            self.options["max_newton"], polish=False)
+                            self.options["max_newton"], polish=False,
+                            check=self.iteration_check(where))
             counts["newton_iters"] += solved.iterations
             counts["steps"] = step
             if not solved.converged:

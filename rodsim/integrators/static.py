@@ -155,7 +155,8 @@ class Static(Integrator):
 
     def _newton(self, x: np.ndarray, load: float) -> tuple[bool, np.ndarray, int]:
         """Newton iterations at a fixed load, counted; returns (converged, x, iterations)."""
-        converged, x, iterations = self.newton_equilibrium(x, load, self.options["max_newton"])
+        converged, x, iterations = self.newton_equilibrium(
+            x, load, self.options["max_newton"], f"load fraction {load:.4g}")
         self.counts["newton_iters"] += iterations
         self.counts["linear_solves"] += iterations
         return converged, x, iterations

@@ -198,7 +198,7 @@ class SundialsIntegrator(Integrator):
         try:
             for _ in range(MAX_SETTLES + 1):
                 converged, x, iterations = self.newton_equilibrium(
-                    x, 1.0, self.options["newton_iterations"])
+                    x, 1.0, self.options["newton_iterations"], "the Newton finish")
                 counts["finish_newton_iters"] += iterations
                 if not converged:
                     break
