@@ -1,0 +1,205 @@
+"""Study runs that stop or resume from bad files (issue 15, items 7 and 8): worker processes
+end without tracebacks when a parallel study stops, and point files that are valid JSON
+but wrong (a missing statistic, a residual that is text, a tip of length 2, an unknown rod,
+a NaN in a centerline) are re-run with a warning rather than trusted or crashing the
+resume; a parts folder whose spec.json holds no spec is refused in one line."""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import rodsim.studies
+import rodsim.study_runner
+from rodsim.archive import read_dataset
+from rodsim.study import STATUS, Study, Sweep, evaluate_point
+from rodsim.study_runner import TEST_FAULTS, parts_folder, run_spec, run_study
+
+#: Three quick points (static, N = 6–8).
+TRIO = Study(name="zz_hardening_trio", title="three points", paper="tests only",
+             scene="table1-50g", integrator="static", reference="exact",
+             sweeps={"small": [Sweep("nodes", "rods.catheter.nodes", (6, 7, 8), "1", "N")]})
+
+CHILD = """\
+import sys
+import rodsim.studies
+rodsim.studies.__path__.append(sys.argv[1])
+from rodsim.cli import main
+sys.exit(main(["study", sys.argv[2], "--size", "small", "--workers", "2", "-o", sys.argv[3]]))
+"""
+
+
+def register(folder: Path, study: Study) -> None:
+    folder.mkdir(exist_ok=True)
+    (folder / f"{study.name}.py").write_text(
+        f"from rodsim.study import Study, Sweep\n\nSTUDY = {study!r}\n", encoding="utf-8")
+
+
+def test_stopping_a_parallel_study_prints_no_worker_traceback(tmp_path):
+    """Item 7: SIGTERM when the last point runs on one worker and the other is idle: the
+    idle worker inherited the study's SIGTERM → KeyboardInterrupt handler and printed
+    "Process ForkProcess-2: Traceback … KeyboardInterrupt"."""
+    folder = tmp_path / "studies"
+    register(folder, TRIO)
+    output = tmp_path / "trio.nc"
+    env = os.environ | {TEST_FAULTS: f"hang:{TRIO.name}:2"}
+    child = subprocess.Popen([sys.executable, "-c", CHILD, str(folder), TRIO.name,
+                              str(output)], env=env, cwd=tmp_path, stdout=subprocess.PIPE,
+                             stderr=subprocess.PIPE, text=True)
+    try:
+        deadline = time.monotonic() + 60
+        parts = parts_folder(output)
+        while len(list(parts.glob("point-*.json"))) < 2:
+            assert child.poll() is None, child.communicate()
+            assert time.monotonic() < deadline, "the two quick points did not finish"
+            time.sleep(0.01)
+        time.sleep(0.3)  # the idle worker is back waiting for work
+        child.send_signal(signal.SIGTERM)
+        _, err = child.communicate(timeout=30)
+    finally:
+        if child.poll() is None:
+            child.kill()
+            child.wait()
+    assert child.returncode == 130, err
+    assert "Traceback" not in err and "KeyboardInterrupt" not in err, err
+    assert "rodsim: interrupted" in err
+
+
+@pytest.mark.skipif(not hasattr(__import__("resource"), "RLIMIT_FSIZE"),
+                    reason="needs RLIMIT_FSIZE")
+def test_a_file_size_limit_stops_the_study_in_one_line(tmp_path):
+    """Item 7: `(ulimit -f 4; rodsim study …)`: a point cannot be saved, the study stops
+    with one error line and its workers end without tracebacks."""
+    import resource
+
+    folder = tmp_path / "studies"
+    register(folder, TRIO)
+    output = tmp_path / "limited.nc"
+
+    def limit() -> None:
+        resource.setrlimit(resource.RLIMIT_FSIZE, (4096, 4096))
+        signal.signal(signal.SIGXFSZ, signal.SIG_IGN)
+
+    child = subprocess.run([sys.executable, "-c", CHILD, str(folder), TRIO.name,
+                            str(output)], preexec_fn=limit, cwd=tmp_path,
+                           capture_output=True, text=True, timeout=120)
+    lines = [line for line in child.stderr.splitlines() if not line.startswith("[")]
+    assert child.returncode == 2, child.stderr
+    assert len(lines) == 1 and "File too large" in lines[0], child.stderr
+    assert "Traceback" not in child.stderr
+
+
+@pytest.fixture(scope="module")
+def trio_parts(tmp_path_factory):
+    """TRIO run in-process with its parts kept: (spec, output, the clean Dataset)."""
+    output = tmp_path_factory.mktemp("trio") / "trio.nc"
+    spec = TRIO.spec("small")
+    dataset = run_spec(spec, output, workers=1, keep_parts=True)
+    return spec, output, dataset
+
+
+def edit_point(path: Path, edit) -> None:
+    record = json.loads(path.read_text(encoding="utf-8"))
+    edit(record)
+    path.write_text(json.dumps(record), encoding="utf-8")
+
+
+BAD_POINTS = {
+    "missing stats key": lambda r: r["stats"].pop("newton_iters"),
+    "residual is text": lambda r: r.__setitem__("residual", "abc"),
+    "tip of length 2": lambda r: r["tip"].__setitem__("catheter", r["tip"]["catheter"][:2]),
+    "unknown rod": lambda r: r["tip"].__setitem__("ghost", r["tip"].pop("catheter")),
+    "NaN in the centerline": lambda r: r["centerline"]["catheter"][3].__setitem__(
+        1, float("nan")),
+    "not an object": lambda r: r.clear(),
+}
+
+
+@pytest.mark.parametrize("case", BAD_POINTS)
+def test_a_valid_json_point_with_wrong_contents_runs_again(case, trio_parts, tmp_path,
+                                                           monkeypatch):
+    """Item 8: each edit made the resume crash (or, for the NaN, assembled it as "ok")."""
+    spec, source, clean = trio_parts
+    output = tmp_path / "resumed.nc"
+    parts = parts_folder(output)
+    parts.mkdir()
+    for path in parts_folder(source).iterdir():
+        (parts / path.name).write_bytes(path.read_bytes())
+    if case == "not an object":
+        (parts / "point-1.json").write_text("[]", encoding="utf-8")
+    else:
+        edit_point(parts / "point-1.json", BAD_POINTS[case])
+    calls, logged = [], []
+
+    def recording(spec_, index):
+        calls.append(tuple(index))
+        return evaluate_point(spec_, index)
+
+    monkeypatch.setattr(rodsim.study_runner, "evaluate_point", recording)
+    resumed = run_spec(spec, output, workers=1, log=logged.append)
+    assert calls == [(1,)]
+    assert len(logged) == 1 and "point-1.json" in logged[0] and "runs again" in logged[0]
+    assert int(resumed["status"].values[1]) == STATUS["ok"]
+    np.testing.assert_array_equal(resumed["centerline"].values, clean["centerline"].values)
+
+
+def test_a_parts_folder_whose_marker_holds_no_spec_is_refused(trio_parts, tmp_path, cli,
+                                                              capsys, monkeypatch):
+    """Item 8's fifth edit: `"spec": []` in spec.json made the resume crash."""
+    folder = tmp_path / "studies"
+    register(folder, TRIO)
+    monkeypatch.setattr(rodsim.studies, "__path__", [*rodsim.studies.__path__, str(folder)])
+    output = tmp_path / "marker.nc"
+    parts = parts_folder(output)
+    parts.mkdir()
+    marker = json.loads((parts_folder(trio_parts[1]) / "spec.json").read_text("utf-8"))
+    marker["spec"] = []
+    (parts / "spec.json").write_text(json.dumps(marker), encoding="utf-8")
+    assert cli(["study", TRIO.name, "--size", "small", "--workers", "1", "-o",
+                str(output)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "spec.json" in err[0] and "Traceback" not in err[0], err
+    assert not output.exists()
+
+
+def test_cli_resume_warns_and_completes(trio_parts, tmp_path, cli, capsys, monkeypatch):
+    """Through the CLI: the warning on stderr, and the archive equals the clean run's."""
+    folder = tmp_path / "studies"
+    register(folder, TRIO)
+    monkeypatch.setattr(rodsim.studies, "__path__", [*rodsim.studies.__path__, str(folder)])
+    output = tmp_path / "cli.nc"
+    parts = parts_folder(output)
+    parts.mkdir()
+    for path in parts_folder(trio_parts[1]).iterdir():
+        (parts / path.name).write_bytes(path.read_bytes())
+    edit_point(parts / "point-0.json", BAD_POINTS["NaN in the centerline"])
+    assert cli(["study", TRIO.name, "--size", "small", "--workers", "1", "-o",
+                str(output)]) == 0
+    err = capsys.readouterr().err
+    assert "rodsim: warning:" in err and "point-0.json" in err and "Traceback" not in err
+    np.testing.assert_array_equal(read_dataset(output)["centerline"].values,
+                                  trio_parts[2]["centerline"].values)
+
+
+def test_run_study_in_process_still_matches(trio_parts, tmp_path):
+    """The validation accepts every record rodsim writes: a resume from an intact parts
+    folder runs nothing and assembles the same archive."""
+    spec, source, clean = trio_parts
+    output = tmp_path / "intact.nc"
+    parts = parts_folder(output)
+    parts.mkdir()
+    for path in parts_folder(source).iterdir():
+        (parts / path.name).write_bytes(path.read_bytes())
+    calls = []
+    resumed = run_study(TRIO, "small", output, workers=1,
+                        progress=lambda *args: calls.append(args))
+    assert [c[0] for c in calls] == [3]
+    np.testing.assert_array_equal(resumed["centerline"].values, clean["centerline"].values)
