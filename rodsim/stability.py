@@ -27,8 +27,9 @@ real part); but the paper's coupling gives table3-catheter1 an indefinite symmet
 at an equilibrium where every eigenvalue of K has a positive real part. So for a
 non-symmetric K whose symmetric part is not positive definite, the verdict comes from the
 eigenvalues of K itself: stable when each has a positive real part (no divergence: no
-static perturbation grows), and ``min_eigenvalue`` is then the smallest real part. Flutter
-(growing oscillations of the pseudo-dynamics) is not assessed.
+static perturbation grows), and ``min_eigenvalue`` is then the smallest real part — of all
+eigenvalues up to 200 coordinates, of the six nearest zero above. Flutter (growing
+oscillations of the pseudo-dynamics) is not assessed.
 """
 
 from __future__ import annotations
@@ -44,6 +45,10 @@ __all__ = ["Stability", "stiffness_stability", "assess", "DENSE_LIMIT"]
 
 #: Largest system whose smallest eigenvalue is computed densely.
 DENSE_LIMIT = 2000
+#: Largest non-symmetric K whose eigenvalues are all computed (dense ``eigvals`` is O(n³):
+#: 12 ms at 266 coordinates, 0.7 s at 1477); above, the NEAREST ones to zero.
+DENSE_NONSYMMETRIC_LIMIT = 200
+NEAREST = 6
 
 
 @dataclass(frozen=True)
@@ -111,13 +116,18 @@ def _smallest_eigenvalue(symmetric: sp.coo_matrix) -> float:
 
 
 def _smallest_real_part(stiffness: sp.csc_matrix) -> float:
-    """The smallest real part of an eigenvalue of a general matrix (NaN if not computed)."""
+    """The smallest real part of an eigenvalue of a general matrix (NaN if not computed):
+    of all eigenvalues up to :data:`DENSE_NONSYMMETRIC_LIMIT` coordinates, else of the
+    :data:`NEAREST` eigenvalues nearest zero (shift-invert at 0, one sparse LU) — a
+    divergence instability is an eigenvalue crossing zero. Measured on table3-catheter1
+    refined to N_C = 160 (1477 coordinates): the same smallest real part, 1.16e-3, in
+    36 ms against 0.70 s for all eigenvalues."""
     n = stiffness.shape[0]
     try:
-        if n <= DENSE_LIMIT:
+        if n <= DENSE_NONSYMMETRIC_LIMIT:
             return float(np.min(la.eigvals(stiffness.toarray()).real))
-        values = spla.eigs(stiffness, k=1, which="SR", return_eigenvectors=False,
-                           maxiter=20 * n, tol=1e-8)
+        values = spla.eigs(stiffness, k=min(NEAREST, n - 2), sigma=0.0, which="LM",
+                           return_eigenvectors=False, maxiter=20 * n, tol=1e-10)
         return float(np.min(values.real))
     except (la.LinAlgError, spla.ArpackError, ValueError):
         return float("nan")
