@@ -23,6 +23,7 @@ from __future__ import annotations
 import copy
 from collections.abc import Mapping
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 import scipy.sparse as sp
@@ -174,13 +175,13 @@ class Model:
         other.term_scales = factors
         return other
 
-    @property
+    @cached_property
     def conservative(self) -> bool:
         """True when every term is −∇ of its energy (F = −∇E: the Jacobian is symmetric and
         Newton may line-search on the energy)."""
         return all(term.conservative for term in self.terms)
 
-    @property
+    @cached_property
     def has_registration(self) -> bool:
         """True when some term registers its elements to the state (a tendon's lumen)."""
         return any(term.dynamic for term in self.terms)

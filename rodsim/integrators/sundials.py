@@ -90,7 +90,7 @@ PSEUDO_DYNAMICS_PARAMETERS = (
               choices=("auto", "band", "sparse")),
     Parameter("max_steps", "int", 200_000, "-", "give up after this many steps", 1,
               100_000_000),
-    Parameter("newton_switch", "float", 1e-2, "-",
+    Parameter("newton_switch", "float", 0.1, "-",
               "finish with Newton on F(x) = 0 once the scaled residual is below this (0: "
               "integrate all the way to the tolerance)", 0.0, 1.0),
     Parameter("newton_iterations", "int", 20, "-",
