@@ -41,6 +41,7 @@ from rodsim.integrators.pseudo_dynamics import (
 )
 from rodsim.model import Model
 from rodsim.schema import Parameter
+from rodsim.stability import assess
 
 #: Above this many unknowns the band solver's dense (n × n) Jacobian template costs too much
 #: memory (scikit-sundae hands band Jacobians to Python as a full array); ``linear_solver =
@@ -188,36 +189,55 @@ class SundialsIntegrator(Integrator):
         costs no extra evaluation of F."""
         return self.model.residual(self.equilibrium_force(y, self._last_force))
 
-    def finish_with_newton(self, x: np.ndarray) -> np.ndarray | None:
-        """Newton on F(x) = 0 at full load from ``x``, repeated while the tendon
-        registration changes; the equilibrium, or None (the model as it was) if it fails.
+    def finish_newton(self, y: np.ndarray) -> tuple[bool, np.ndarray, int]:
+        """One Newton solve of the finish from the solver state ``y`` on the current model:
+        (converged, the state it reached, iterations). Here Newton on F(x) = 0 (the state is
+        x); IDA solves its constrained equilibrium instead."""
+        return self.newton_equilibrium(self.positions_of(y).copy(), 1.0,
+                                       self.options["newton_iterations"], "the Newton finish")
+
+    def finish_with_newton(self, y: np.ndarray) -> np.ndarray | None:
+        """:meth:`finish_newton` at full load from ``y``, repeated while the tendon
+        registration changes; the equilibrium x, or None (model and system as they were) if
+        it fails or lands on an unstable equilibrium (rodsim/stability.py: the integration
+        then goes on, and may leave it).
 
         Its evaluations are counted apart from the integration's (``finish_*`` statistics)."""
-        model, counts = self.model, self.counts
+        model, system, counts = self.model, self.system, self.counts
         before = counts["force_evals"], counts["jacobian_evals"]
         try:
+            state = y
             for _ in range(MAX_SETTLES + 1):
-                converged, x, iterations = self.newton_equilibrium(
-                    x, 1.0, self.options["newton_iterations"], "the Newton finish")
+                converged, state, iterations = self.finish_newton(state)
                 counts["finish_newton_iters"] += iterations
                 if not converged:
                     break
-                if self.reregister(x):
+                x = self.finish_positions(state)
+                if self.reregister(x) or not self.settled(x):
+                    self.build_system()
                     continue
-                if self.settled(x):
-                    return x
-            self.model = model
+                if not assess(self.model, x).stable:
+                    # Newton converges to the nearest equilibrium, stable or not (a compressed
+                    # column's straight branch); the pseudo-dynamics leave an unstable one.
+                    counts["finish_unstable"] += 1
+                    break
+                return x
+            self.model, self.system = model, system
             return None
         finally:
             counts["finish_force_evals"] += counts["force_evals"] - before[0]
             counts["finish_jacobian_evals"] += counts["jacobian_evals"] - before[1]
             counts["force_evals"], counts["jacobian_evals"] = before
 
+    def finish_positions(self, state: np.ndarray) -> np.ndarray:
+        """The model coordinates in a state reached by :meth:`finish_newton`."""
+        return state
+
     def advance(self) -> Outcome:
         opts, counts = self.options, self.counts
         switch = opts["newton_switch"]
         for key in ("finish_attempts", "finish_newton_iters", "finish_force_evals",
-                    "finish_jacobian_evals"):
+                    "finish_jacobian_evals", "finish_unstable"):
             counts[key] = 0
         t, y, yp = 0.0, self.initial_state(), None
         solver = self.start(t, y, yp)
@@ -272,7 +292,7 @@ class SundialsIntegrator(Integrator):
                                 f"{residual:.2e}")
                 if residual < switch:
                     counts["finish_attempts"] += 1
-                    finished = self.finish_with_newton(x.copy())
+                    finished = self.finish_with_newton(y)
                     if finished is not None:
                         return Outcome(finished, True, "at equilibrium (Newton finish)")
                     switch = 0.1 * residual  # try again once 10× closer
