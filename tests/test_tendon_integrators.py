@@ -120,13 +120,13 @@ def test_a_reused_model_gives_the_fresh_model_result():
         np.testing.assert_array_equal(second.positions(rod), fresh.positions(rod))
 
 
-@pytest.mark.parametrize("integrator", ["paper", "cvode"])
+@pytest.mark.parametrize("integrator", ["paper", "cvode", "ida"])
 @pytest.mark.parametrize("nodes", [320, 1000])
 def test_conserving_tendon_scene_at_large_n(nodes, integrator):
-    """Refined to N_C = N_T = 320 and 1000, the paper integrator and CVODE still land within
-    1e-6 L of static on every rod (measured 1.7e-7 / 2.0e-7 L for paper, 1e-15 L for CVODE,
-    which finishes with Newton). IDA is left out: at N = 320 it took 33 593 steps (341 s)
-    and stopped 9.4e-6 L away (its exact unit quaternions against the penalty model)."""
+    """Refined to N_C = N_T = 320 and 1000, every integrator still lands within 1e-6 L of
+    static on every rod (measured 1.7e-7 / 2.0e-7 L for paper, 1e-15 L for CVODE, 7.6e-8 L
+    for IDA at N = 320). Before IDA finished with Newton, it took 33 593 steps (341 s) at
+    N = 320 and stopped 9.4e-6 L away."""
     overrides = [f"rods.catheter.nodes={nodes}", f"rods.tendon.nodes={nodes}"]
     static = rodsim.solve("tendon-conserving", "static", overrides=[*overrides,
                                                                      "tolerance=1e-12"])
