@@ -15,6 +15,7 @@ from numba import njit
 
 from rodsim.kernels._quaternion import director_and_gradient, form_combination
 from rodsim.kernels._scatter import add_force, add_jacobian
+from rodsim.kernels._spring import edge_tangent
 
 
 @njit(cache=True)
@@ -31,13 +32,7 @@ def evaluate(x: np.ndarray, dofs: np.ndarray, weight: float, scale: float,
     projector = np.empty((3, 3))
     curvature = np.empty((4, 4))
     for e in range(dofs.shape[0]):
-        norm2 = 0.0
-        for a in range(3):
-            t[a] = x[dofs[e, 3 + a]] - x[dofs[e, a]]
-            norm2 += t[a] * t[a]
-        norm = np.sqrt(norm2)
-        for a in range(3):
-            t[a] /= norm
+        norm = edge_tangent(x, dofs, e, t)
         for i in range(4):
             q[i] = x[dofs[e, 6 + i]]
         director_and_gradient(q, 2, d3, gradient)
@@ -63,7 +58,7 @@ def evaluate(x: np.ndarray, dofs: np.ndarray, weight: float, scale: float,
                     tt = t[a] * t[b]
                     projector[a, b] = eye - tt
                     h = weight * (projector[a, b] - (t[a] * w[b] + w[a] * t[b])
-                                  - wt * (eye - 3.0 * tt)) / norm2
+                                  - wt * (eye - 3.0 * tt)) / (norm * norm)
                     local_jacobian[a, b] = -h
                     local_jacobian[3 + a, 3 + b] = -h
                     local_jacobian[a, 3 + b] = h
