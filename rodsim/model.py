@@ -289,9 +289,18 @@ class Model:
     def energy(self, x: np.ndarray, load: float = 1.0) -> float:
         """Total potential energy [J] (raises if a term is not conservative)."""
         full = self.full(x)
+        compiled = {}
+        if self.kernels == "compiled":
+            if self._kernel_calls is None:
+                self._kernel_calls = self._build_kernel_calls()
+            compiled = {call[0]: call for call in self._kernel_calls if call[6] is not None}
         total = 0.0
         for index, term in enumerate(self.terms):
-            value = term.energy(full)
+            if index in compiled:
+                call = compiled[index]
+                value = call[6](full, *call[3])
+            else:
+                value = term.energy(full)
             if value is None:
                 raise ValueError(f"term {term.name!r} is not conservative: no energy")
             total += self._scale(index, term, load) * value
@@ -332,13 +341,15 @@ class Model:
             self._kernel_calls = self._build_kernel_calls()
         f = np.zeros(self.n + 1 if force else 1)
         j = np.zeros(self.nnz + 1 if jacobian else 1)
-        for index, term, kernel, arguments, force_target, jacobian_target in self._kernel_calls:
+        for index, term, kernel, arguments, force_target, jacobian_target, _ in (
+                self._kernel_calls):
             kernel(full, *arguments, self._scale(index, term, load), force, f, force_target,
                    jacobian, j, jacobian_target)
         return (f[:-1] if force else np.zeros(0)), (j[:-1] if jacobian else np.zeros(0))
 
     def _build_kernel_calls(self) -> list[tuple]:
-        """(index, term, kernel, constants, force targets, Jacobian targets) of every term:
+        """(index, term, kernel, constants, force targets, Jacobian targets, energy kernel or
+        None) of every term:
         where each element's force and Jacobian entries land (slot n and nnz are dumps for
         clamped coordinates)."""
         from rodsim.kernels import load_kernel
@@ -354,8 +365,9 @@ class Model:
                 start += size
             else:
                 jacobian_target = np.zeros((0, 0, 0), dtype=np.int64)
-            calls.append((index, term, load_kernel(term), term.kernel_arguments(),
-                          force_target, np.ascontiguousarray(jacobian_target)))
+            evaluate, energy = load_kernel(term)
+            calls.append((index, term, evaluate, term.kernel_arguments(), force_target,
+                          np.ascontiguousarray(jacobian_target), energy))
         return calls
 
     def jacobian(self, x: np.ndarray, load: float = 1.0) -> sp.csc_matrix:

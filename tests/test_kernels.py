@@ -48,7 +48,7 @@ def test_every_kernel_matches_its_numpy_reference(scene, random_state):
         moved = compiled.reregistered(x)
         model = moved or compiled
         full = model.full(x)
-        for index, term, kernel, arguments, force_target, jacobian_target in (
+        for index, term, kernel, arguments, force_target, jacobian_target, energy in (
                 model._build_kernel_calls()):
             force = np.zeros(model.n + 1)
             data = np.zeros(model.nnz + 1)
@@ -63,6 +63,11 @@ def test_every_kernel_matches_its_numpy_reference(scene, random_state):
             data_scale = max(np.max(np.abs(expected_data), initial=0.0), 1e-300)
             np.testing.assert_allclose(data[:-1], expected_data, rtol=0,
                                        atol=ROUND_OFF * data_scale, err_msg=label)
+            if energy is not None:
+                expected_energy = term.energy(full)
+                assert expected_energy is not None, f"{label}: compiled energy, no reference"
+                assert abs(energy(full, *arguments) - expected_energy) <= (
+                    ROUND_OFF * max(abs(expected_energy), 1e-300)), label
 
 
 @pytest.mark.parametrize("scene", CONTRACT_SCENES)
@@ -83,3 +88,6 @@ def test_assembled_paths_agree_with_load_and_penalty_scales(scene, random_state)
             np.testing.assert_allclose(j, j_ref, rtol=0, atol=ROUND_OFF * np.max(np.abs(j_ref)))
             np.testing.assert_array_equal(model.force(x, load), f)
             np.testing.assert_array_equal(model.jacobian_data(x, load), j)
+            if model.conservative:
+                expected = reference_model.energy(x, load)
+                assert abs(model.energy(x, load) - expected) <= ROUND_OFF * abs(expected)

@@ -12,8 +12,11 @@ second process loads it instead of compiling. Every kernel has the same signatur
 ``e`` the kernel adds ``scale`` × its force on local coordinate ``a`` to
 ``force[force_target[e, a]]`` and ``scale`` × ∂F_a/∂x_b to
 ``jacobian[jacobian_target[e, a, b]]`` — the model's free-coordinate index and CSC data slot,
-with one dump slot past the end for clamped coordinates. The numpy methods of the term are
-the reference the kernel must reproduce (tests/test_term_contract.py).
+with one dump slot past the end for clamped coordinates. A module may also define
+``energy(x, *constants) -> float`` (the term's energy, unscaled), which the line searches of
+``static`` and ``paper`` evaluate; without it the model calls the term's numpy ``energy``.
+The numpy methods of the term are the reference the kernel must reproduce
+(tests/test_kernels.py).
 
 Nothing here is imported until a model evaluates with ``solver.kernels = "compiled"``, so
 ``import rodsim`` does not pay for numba.
@@ -31,9 +34,9 @@ if TYPE_CHECKING:
 __all__ = ["load_kernel"]
 
 
-def load_kernel(term: Term) -> Callable[..., None]:
-    """The compiled ``evaluate`` of a term (compiled, or loaded from the disk cache, on the
-    first call with each argument type)."""
+def load_kernel(term: Term) -> tuple[Callable[..., None], Callable[..., float] | None]:
+    """The compiled ``evaluate`` and ``energy`` (None where the module has none) of a term
+    (compiled, or loaded from the disk cache, on the first call with each argument type)."""
     name = term.kernel or term.name
     try:
         module = importlib.import_module(f"{__name__}.{name}")
@@ -42,4 +45,4 @@ def load_kernel(term: Term) -> Callable[..., None]:
             raise RuntimeError("solver.kernels = 'compiled' needs numba (pip install numba); "
                                "solver.kernels = 'numpy' runs without it") from None
         raise
-    return module.evaluate
+    return module.evaluate, getattr(module, "energy", None)

@@ -56,3 +56,14 @@ def spring(x: np.ndarray, dofs: np.ndarray, stiffness: float, rest: float, scale
                     local_jacobian[a, 3 + b] = h
                     local_jacobian[3 + a, b] = h
             add_jacobian(jacobian, jacobian_target, e, local_jacobian, scale)
+
+
+@njit(cache=True)
+def spring_energy(x: np.ndarray, dofs: np.ndarray, stiffness: float, rest: float) -> float:
+    """Σ ½ k (|e| − ℓ)² over the elements."""
+    t = np.empty(3)
+    total = 0.0
+    for e in range(dofs.shape[0]):
+        stretch = edge_tangent(x, dofs, e, t) - rest
+        total += 0.5 * stiffness * stretch * stretch
+    return total

@@ -105,3 +105,31 @@ def evaluate(x: np.ndarray, dofs: np.ndarray, dual_lengths: np.ndarray,
                 local_jacobian[:4, :] = 0.0
                 local_jacobian[:, :4] = 0.0
             add_jacobian(jacobian, jacobian_target, e, local_jacobian, scale)
+
+
+@njit(cache=True)
+def energy(x: np.ndarray, dofs: np.ndarray, dual_lengths: np.ndarray, stiffness: np.ndarray,
+           clamped: bool, frame: np.ndarray) -> float:
+    """Σ_elements ½ l̄ Σ_k K_k u_k², u_k = (2/l̄)(B_k a)·b / (|a||b|)."""
+    a = np.empty(4)
+    b = np.empty(4)
+    total = 0.0
+    for e in range(dofs.shape[0]):
+        fixed = clamped and e == 0
+        na2 = 0.0
+        nb2 = 0.0
+        for i in range(4):
+            a[i] = frame[i] if fixed else x[dofs[e, i]]
+            b[i] = x[dofs[e, 4 + i]]
+            na2 += a[i] * a[i]
+            nb2 += b[i] * b[i]
+        lbar = dual_lengths[e]
+        c = 2.0 / (lbar * np.sqrt(na2 * nb2))
+        for k in range(3):
+            fk = 0.0
+            for i in range(4):
+                for j in range(4):
+                    fk += _B[k, i, j] * a[j] * b[i]
+            u = c * fk
+            total += 0.5 * lbar * stiffness[k] * u * u
+    return total

@@ -81,3 +81,21 @@ def evaluate(x: np.ndarray, dofs: np.ndarray, weight: float, scale: float,
                         gg += gradient[m, i] * gradient[m, j]
                     local_jacobian[6 + i, 6 + j] = -weight * (gg - 2.0 * curvature[i, j])
             add_jacobian(jacobian, jacobian_target, e, local_jacobian, scale)
+
+
+@njit(cache=True)
+def energy(x: np.ndarray, dofs: np.ndarray, weight: float) -> float:
+    """Σ ½ K_P l |t − d3(q)|²."""
+    t = np.empty(3)
+    q = np.empty(4)
+    d3 = np.empty(3)
+    gradient = np.empty((3, 4))
+    total = 0.0
+    for e in range(dofs.shape[0]):
+        edge_tangent(x, dofs, e, t)
+        for i in range(4):
+            q[i] = x[dofs[e, 6 + i]]
+        director_and_gradient(q, 2, d3, gradient)
+        for a in range(3):
+            total += 0.5 * weight * (t[a] - d3[a]) ** 2
+    return total

@@ -8,7 +8,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from rodsim.kernels._spring import spring
+from rodsim.kernels._spring import spring, spring_energy
 
 
 @njit(cache=True)
@@ -17,3 +17,9 @@ def evaluate(x: np.ndarray, dofs: np.ndarray, stiffness: float, offset: float, s
              want_jacobian: bool, jacobian: np.ndarray, jacobian_target: np.ndarray) -> None:
     spring(x, dofs, stiffness, offset, scale, want_force, force, force_target,
            want_jacobian, jacobian, jacobian_target)
+
+
+@njit(cache=True)
+def energy(x: np.ndarray, dofs: np.ndarray, stiffness: float, offset: float) -> float:
+    """½ K_C (|e| − r_L)²."""
+    return spring_energy(x, dofs, stiffness, offset)

@@ -9,7 +9,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from rodsim.kernels._spring import spring
+from rodsim.kernels._spring import spring, spring_energy
 
 
 @njit(cache=True)
@@ -18,3 +18,9 @@ def evaluate(x: np.ndarray, dofs: np.ndarray, stiffness: float, rest: float, sca
              want_jacobian: bool, jacobian: np.ndarray, jacobian_target: np.ndarray) -> None:
     spring(x, dofs, stiffness / rest, rest, scale, want_force, force, force_target,
            want_jacobian, jacobian, jacobian_target)
+
+
+@njit(cache=True)
+def energy(x: np.ndarray, dofs: np.ndarray, stiffness: float, rest: float) -> float:
+    """Σ ½ K_s l ε² = Σ ½ (K_s / l)(|e| − l)²."""
+    return spring_energy(x, dofs, stiffness / rest, rest)
