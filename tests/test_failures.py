@@ -160,3 +160,27 @@ def test_a_sundials_set_up_error_is_a_diagnosed_failure(integrator, module, solv
     result = rodsim.solve(SCENE, integrator, overrides=list(BASE))
     assert not result.success
     assert "could not start" in result.message and "CalcIC" in result.message, result.message
+
+
+def test_sundials_failure_text_goes_into_the_diagnostic_not_to_stdout(capsys):
+    """SUNDIALS prints its failure text to stdout during a step (scikit-sundae's error
+    handler); rodsim puts it into the failure message and nothing reaches stdout, while a
+    progress callback that prints still does."""
+    scene = rodsim.load_scene("table1-50g", ["solver.cvode.newton_switch=0"])
+    model = rodsim.build_model(scene)
+    calls = [0]
+    force = model.force
+
+    def failing_after_a_while(x, load=1.0):
+        calls[0] += 1
+        value = force(x, load)
+        return value * np.nan if calls[0] > 150 else value
+
+    model.force = failing_after_a_while
+    result = rodsim.solve(scene, "cvode", model=model,
+                          progress=lambda fraction, line: print("progress:", line))
+    assert not result.success
+    assert "CVODE error" in result.message and "SUNDIALS: [" in result.message, result.message
+    out = capsys.readouterr().out
+    assert "progress:" in out
+    assert "cvHandleFailure" not in out and "Error" not in out, out

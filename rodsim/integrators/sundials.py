@@ -25,6 +25,7 @@ from __future__ import annotations
 import contextlib
 import io
 import math
+import sys
 import warnings
 from abc import abstractmethod
 from collections.abc import Callable, Iterator
@@ -255,71 +256,81 @@ class SundialsIntegrator(Integrator):
                 t = self.ramp.duration
             return self.start(t, y, None), t
 
-        # SUNDIALS prints its failure text to stdout: capture it once for the whole run.
-        with captured_sundials_messages() as printed:
-            for step in range(1, opts["max_steps"] + 1):
-                if t >= self.horizon:  # steps that large mean a stalled corrector: tighten
-                    if self.rtol <= TIGHTEST_RTOL:
-                        return Outcome(self.positions_of(y), False,
-                                       f"not at equilibrium by t = {t + elapsed:.3g} s")
-                    self.tightening /= 100.0
-                    counts["tightenings"] += 1
-                    solver, t = restart(t, y)
-                out = solver.step(self.horizon, method="onestep")
-                counts["steps"] = step
-                if not out.success:
-                    detail = " ".join(printed.getvalue().split())
+        # SUNDIALS prints its failure text to stdout (scikit-sundae's error handler): each step
+        # writes there into one buffer, so it lands in rodsim's diagnostic, not in the middle
+        # of rodsim run's summary, while progress callbacks print as usual.
+        printed = io.StringIO()
+
+        def step_quietly(solver: Any) -> Any:
+            saved, sys.stdout = sys.stdout, printed
+            try:
+                return solver.step(self.horizon, method="onestep")
+            finally:
+                sys.stdout = saved
+
+        for step in range(1, opts["max_steps"] + 1):
+            if t >= self.horizon:  # steps that large mean a stalled corrector: tighten
+                if self.rtol <= TIGHTEST_RTOL:
                     return Outcome(self.positions_of(y), False,
-                                   f"{self.name.upper()} error: {out.message}"
-                                   + (f" SUNDIALS: {detail}" if detail else ""))
-                t, y, yp = float(out.t), out.y.copy(), getattr(out, "yp", None)
-                x = self.positions_of(y)
-                self.checkpoint(x, lambda step=step, t=t + elapsed: f"step {step} (t = {t:.4g} s)")
-                if step % BUDGET_STRIDE == 0:
-                    self.check_budget(f"step {step} (t = {t + elapsed:.4g} s)")
-                if self.reregister(x):
-                    # A tendon point changed parent (§4.1): new pattern, new solver, same state.
+                                   f"not at equilibrium by t = {t + elapsed:.3g} s")
+                self.tightening /= 100.0
+                counts["tightenings"] += 1
+                solver, t = restart(t, y)
+            out = step_quietly(solver)
+            counts["steps"] = step
+            if not out.success:
+                detail = " ".join(printed.getvalue().split())
+                return Outcome(self.positions_of(y), False,
+                               f"{self.name.upper()} error: {out.message}"
+                               + (f" SUNDIALS: {detail}" if detail else ""))
+            t, y, yp = float(out.t), out.y.copy(), getattr(out, "yp", None)
+            x = self.positions_of(y)
+            self.checkpoint(x, lambda step=step, t=t + elapsed: f"step {step} (t = {t:.4g} s)")
+            if step % BUDGET_STRIDE == 0:
+                self.check_budget(f"step {step} (t = {t + elapsed:.4g} s)")
+            if self.reregister(x):
+                # A tendon point changed parent (§4.1): new pattern, new solver, same state.
+                counts["reinits"] += 1
+                self.build_system()
+                solver, t = restart(t, y)
+                continue
+            if t < self.ramp.duration:
+                continue
+            residual = self.screened_residual(y)
+            self.history.record(t + elapsed, x, residual)
+            if self.reporting:
+                self.report(None, f"{self.name}: t = {t + elapsed:.3g} s, residual "
+                            f"{residual:.2e}")
+            if residual < switch:
+                counts["finish_attempts"] += 1
+                finished = self.finish_with_newton(y)
+                if finished is not None:
+                    return Outcome(finished, True, "at equilibrium (Newton finish)")
+                switch = 0.1 * residual  # try again once 10× closer
+            if residual < 10.0 * self.tolerance:
+                residual = self.model.residual(self.equilibrium_force(y, self.force(x)))
+                if self.at_equilibrium(residual):
+                    if self.settled(x):
+                        return Outcome(x.copy(), True, "at equilibrium")
+                    # A parent changed without hysteresis: go on, on the new pattern.
                     counts["reinits"] += 1
                     self.build_system()
                     solver, t = restart(t, y)
                     continue
-                if t < self.ramp.duration:
-                    continue
-                residual = self.screened_residual(y)
-                self.history.record(t + elapsed, x, residual)
-                if self.reporting:
-                    self.report(None, f"{self.name}: t = {t + elapsed:.3g} s, residual "
-                                f"{residual:.2e}")
-                if residual < switch:
-                    counts["finish_attempts"] += 1
-                    finished = self.finish_with_newton(y)
-                    if finished is not None:
-                        return Outcome(finished, True, "at equilibrium (Newton finish)")
-                    switch = 0.1 * residual  # try again once 10× closer
-                if residual < 10.0 * self.tolerance:
-                    residual = self.model.residual(self.equilibrium_force(y, self.force(x)))
-                    if self.at_equilibrium(residual):
-                        if self.settled(x):
-                            return Outcome(x.copy(), True, "at equilibrium")
-                        # A parent changed without hysteresis: go on, on the new pattern.
-                        counts["reinits"] += 1
-                        self.build_system()
-                        solver, t = restart(t, y)
-                        continue
-                repeats = min(abs(residual - r) for r in previous) < FROZEN_CHANGE * residual
-                frozen = frozen + 1 if repeats else 0
-                previous = [residual, previous[0]]
-                if residual < 0.5 * best:
-                    best, best_step, best_time = residual, step, t + elapsed
-                elif self.rtol > TIGHTEST_RTOL and (
-                        frozen >= FROZEN_STEPS or (step - best_step > STALL_STEPS and
-                                                   t + elapsed - best_time
-                                                   > STALL_PERIODS * self.period)):
-                    self.tightening /= 100.0
-                    counts["tightenings"] += 1
-                    best, best_step, best_time = residual, step, t + elapsed
-                    frozen = 0
-                    solver, t = restart(t, y)
+            repeats = min(abs(residual - r) for r in previous) < FROZEN_CHANGE * residual
+            frozen = frozen + 1 if repeats else 0
+            previous = [residual, previous[0]]
+            if residual < 0.5 * best:
+                best, best_step, best_time = residual, step, t + elapsed
+            elif self.rtol > TIGHTEST_RTOL and (
+                    frozen >= FROZEN_STEPS or (step - best_step > STALL_STEPS and
+                                               t + elapsed - best_time
+                                               > STALL_PERIODS * self.period)):
+                self.tightening /= 100.0
+                counts["tightenings"] += 1
+                best, best_step, best_time = residual, step, t + elapsed
+                frozen = 0
+                solver, t = restart(t, y)
         raise SolverFailure(f"not at equilibrium after max_steps = {opts['max_steps']}",
                             f"try raising solver.{self.name}.max_steps, or "
                             f"{self.advice().removeprefix('try ')}")
