@@ -92,6 +92,7 @@ class Model:
                 self.terms.append(catalogue[term_name](self.tendons[name], table[term_name]))
         #: Factor on each term's output: 1, or a penalty continuation scale.
         self.term_scales = np.ones(len(self.terms))
+        self._scale_list = self.term_scales.tolist()  # as floats, for the evaluation loops
 
         self.rest_full = np.zeros(self.full_size)
         fixed = []
@@ -173,6 +174,7 @@ class Model:
             factors[index] = scale
         other = copy.copy(self)
         other.term_scales = factors
+        other._scale_list = factors.tolist()
         return other
 
     @cached_property
@@ -248,6 +250,8 @@ class Model:
         # converged states is 5–20× below it; Newton iterations asked to go lower only stall.
         magnitude = np.where(self.is_quaternion, 1.0, self.length_scale)
         stiffness = np.abs(self.jacobian(x0).diagonal())
+        #: |∂F_i/∂x_i| at rest, the stiffness of each coordinate on its own.
+        self.rest_stiffness = stiffness
         #: Smallest scaled residual the model reliably reaches in double precision.
         self.residual_floor = float(32.0 * np.finfo(float).eps
                                     * np.max(stiffness * magnitude * self.residual_weight))
@@ -283,7 +287,7 @@ class Model:
     # ------------------------------------------------------------ evaluation
     def _scale(self, index: int, term: Term, load: float) -> float:
         """Factor on one term's output: its continuation scale, times ``load`` for loads."""
-        scale = float(self.term_scales[index])
+        scale = self._scale_list[index]
         return scale * load if term.is_load else scale
 
     def energy(self, x: np.ndarray, load: float = 1.0) -> float:

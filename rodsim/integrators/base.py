@@ -26,7 +26,7 @@ from rodsim.integrators.linear import LinearSolver
 from rodsim.model import Model
 from rodsim.result import Result
 from rodsim.schema import Parameter
-from rodsim.stability import assess
+from rodsim.stability import Stability, assess
 
 __all__ = ["Integrator", "Outcome", "Progress", "SolverFailure", "INTEGRATORS",
            "registered_integrators"]
@@ -148,6 +148,7 @@ class Integrator(ABC):
         self.where = "start"
         self._start = 0.0
         self._linear: tuple[Model, LinearSolver] | None = None
+        self._stability: tuple[Model, np.ndarray, Stability] | None = None
         self._budget_start = budget_start
 
     def checkpoint(self, x: np.ndarray, where: str | Callable[[], str]) -> None:
@@ -243,6 +244,16 @@ class Integrator(ABC):
         self.counts["settles"] += 1
         return False
 
+    def stability(self, x: np.ndarray) -> Stability:
+        """The stability verdict at the equilibrium ``x`` of :attr:`model` (rodsim/stability.py),
+        computed once per (model, state): the Newton finish asks before the result does."""
+        cached = self._stability
+        if cached is not None and cached[0] is self.model and cached[1] is x:
+            return cached[2]
+        verdict = assess(self.model, x)
+        self._stability = (self.model, x, verdict)
+        return verdict
+
     def elapsed(self) -> float:
         return time.perf_counter() - self._start
 
@@ -322,7 +333,7 @@ class Integrator(ABC):
             self.model, x if finite else self.state, integrator=self.name,
             options=self.options, success=success, message=message, residual=residual,
             stats=stats, history=self.history.data,
-            stability=assess(self.model, x) if success else None)
+            stability=self.stability(x) if success else None)
 
 
 def registered_integrators() -> dict[str, type[Integrator]]:

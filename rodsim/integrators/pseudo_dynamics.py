@@ -56,8 +56,7 @@ def pseudo_masses(model: Model, cap: float) -> np.ndarray:
     masses = model.masses()
     if cap <= 0.0:
         return masses
-    stiffness = np.abs(model.jacobian(model.x0).diagonal())
-    return np.maximum(masses, stiffness / (cap * first_mode_frequency(model)) ** 2)
+    return np.maximum(masses, model.rest_stiffness / (cap * first_mode_frequency(model)) ** 2)
 
 
 class LoadRamp:

@@ -42,7 +42,6 @@ from rodsim.integrators.pseudo_dynamics import (
 )
 from rodsim.model import Model
 from rodsim.schema import Parameter
-from rodsim.stability import assess
 
 #: Above this many unknowns the band solver's dense (n × n) Jacobian template costs too much
 #: memory (scikit-sundae hands band Jacobians to Python as a full array); ``linear_solver =
@@ -217,7 +216,7 @@ class SundialsIntegrator(Integrator):
                 if self.reregister(x) or not self.settled(x):
                     self.build_system()
                     continue
-                if not assess(self.model, x).stable:
+                if not self.stability(x).stable:
                     # Newton converges to the nearest equilibrium, stable or not (a compressed
                     # column's straight branch); the pseudo-dynamics leave an unstable one.
                     counts["finish_unstable"] += 1
