@@ -26,6 +26,7 @@ import json
 import os
 import tempfile
 import textwrap
+import warnings
 from collections.abc import Iterable, Sequence
 from pathlib import Path
 from typing import Any
@@ -537,6 +538,14 @@ def plot_dataset(ds: xr.Dataset, stem: str | Path, formats: Iterable[str] = ("pn
     :class:`PlotError`.
     """
     formats = check_output(stem, formats)
+    with warnings.catch_warnings():  # a character the font lacks is drawn as a box
+        warnings.filterwarnings("ignore", message="Glyph .* missing from font",
+                                category=UserWarning)
+        return _draw_and_write(ds, stem, formats)
+
+
+def _draw_and_write(ds: xr.Dataset, stem: str | Path, formats: list[str]) -> list[Path]:
+    """Draw the archive's figure and write it in each format (see :func:`plot_dataset`)."""
     if "study" in ds.attrs:
         kind = ds.attrs.get("plot", "centerlines")
         if kind not in DRAWERS:
