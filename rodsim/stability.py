@@ -34,11 +34,15 @@ static perturbation grows), and ``min_eigenvalue`` is then the smallest real par
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 import scipy.linalg as la
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
+
+if TYPE_CHECKING:
+    from rodsim.model import Model
 
 __all__ = ["Stability", "stiffness_stability", "assess", "DENSE_LIMIT"]
 
@@ -123,7 +127,7 @@ def _smallest_real_part(stiffness: sp.csc_matrix) -> float:
         return float("nan")
 
 
-def assess(model, x: np.ndarray) -> Stability:
+def assess(model: Model, x: np.ndarray) -> Stability:
     """The verdict at the free state ``x`` of ``model`` (a :class:`rodsim.model.Model`),
     from its analytic Jacobian ∂F/∂x at full load."""
     band = model.band

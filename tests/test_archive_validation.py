@@ -229,3 +229,9 @@ def test_a_load_beyond_the_analytic_references_still_succeeds(tmp_path, cli, cap
     captured = capsys.readouterr()
     assert "analytic references n/a" in captured.out and captured.err == ""
     assert read_dataset(output).attrs["success"] == 1
+
+
+def test_a_point_selection_with_a_newline_is_one_line(archives, tmp_path, cli, capsys):
+    path = tampered(archives, "study", tmp_path / "study.nc", lambda ds: None)
+    assert cli(["rerun", path, "--point", "no\nsuch=1"]) == 2
+    assert "not a swept parameter" in one_line(capsys)
