@@ -47,8 +47,11 @@ def load_scene(scene: SceneLike | None = None, overrides: Iterable[str] = (),
 
 
 def build_model(scene: SceneLike | None = None) -> Model:
-    """The assembled model (force, Jacobian, pattern) of a scene."""
-    return Model(load_scene(scene))
+    """The assembled model (force, Jacobian, pattern) of a scene (SceneError when the scene
+    is too large for this machine's memory, :mod:`rodsim.memory`)."""
+    loaded = load_scene(scene)
+    check_memory(loaded)
+    return Model(loaded)
 
 
 def solve(scene: SceneLike | None = None, integrator: str | None = None, *,

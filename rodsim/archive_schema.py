@@ -89,6 +89,13 @@ def _size(ds: xr.Dataset, dim: str, expected: int, why: str) -> None:
                                  f"{expected} ({why})")
 
 
+def _labels(ds: xr.Dataset, dim: str, labels: list[str]) -> None:
+    """The coordinate of ``dim`` holds exactly ``labels`` (what selections by label use)."""
+    stored = _variable(ds, dim, (dim,), numeric=False).values
+    if [str(v) for v in stored] != labels:
+        raise ArchiveSchemaError(f"coordinate {dim!r} is not {', '.join(labels)}")
+
+
 def check_archive(ds: xr.Dataset) -> None:
     """Check a run archive, or a study archive (``study`` attribute), against its contract."""
     if "study" in ds.attrs:
@@ -109,8 +116,8 @@ def _check_run(ds: xr.Dataset) -> None:
     scene = stored_scene(_attribute(ds, "scene_json"), "attribute 'scene_json'")
     _variable(ds, "position", ("node", "axis"))
     _variable(ds, "quaternion", ("segment", "component"))
-    _size(ds, "axis", 3, "x, y, z")
-    _size(ds, "component", 4, "q1 … q4")
+    _labels(ds, "axis", ["x", "y", "z"])
+    _labels(ds, "component", ["q1", "q2", "q3", "q4"])
     rods = _variable(ds, "rod", ("node",), numeric=False).values.astype(str)
     segment_rods = _variable(ds, "segment_rod", ("segment",), numeric=False).values.astype(str)
     for name, table in scene.data["rods"].items():
@@ -132,8 +139,13 @@ def _check_study(ds: xr.Dataset) -> None:
     for key in SPEC_KEYS:
         if key not in spec:
             raise ArchiveSchemaError(f"spec_json has no {key!r}")
+    for key, spec_key in (("study", "name"), ("size", "size")):
+        if ds.attrs.get(key) != spec[spec_key]:
+            raise ArchiveSchemaError(f"attribute {key!r} does not match spec_json's "
+                                     f"{spec_key!r}")
     integrator = spec["integrator"]
-    if integrator is not None and integrator not in registered_integrators():
+    if integrator is not None and (not isinstance(integrator, str)
+                                   or integrator not in registered_integrators()):
         raise ArchiveSchemaError(f"spec_json integrator {str(integrator)[:40]!r} is unknown")
     points = spec["sigma_points"]
     if isinstance(points, bool) or not isinstance(points, int) or not (
@@ -155,7 +167,7 @@ def _check_study(ds: xr.Dataset) -> None:
         raise ArchiveSchemaError("spec_json sweeps repeat a name")
     shape = tuple(dims)
     _size(ds, "sigma", points, "spec_json sigma_points")
-    _size(ds, "axis", 3, "x, y, z")
+    _labels(ds, "axis", ["x", "y", "z"])
     rods = _variable(ds, "rod", ("rod",), numeric=False).values.astype(str)
     if set(rods) != set(scene.data["rods"]) or len(rods) != len(scene.data["rods"]):
         raise ArchiveSchemaError(f"coordinate 'rod' ({', '.join(rods)[:60]}) does not name "
@@ -215,6 +227,10 @@ def check_point_record(record: Any, spec: Mapping[str, Any], rods: list[str],
     for key in ("index", "status", "message"):
         if key not in record:
             raise ArchiveSchemaError(f"no {key!r}")
+    index = record["index"]
+    if not isinstance(index, list) or not all(
+            isinstance(i, int) and not isinstance(i, bool) for i in index):
+        raise ArchiveSchemaError("index is not a list of whole numbers")
     if record["status"] not in STATUS.values() or isinstance(record["status"], bool):
         raise ArchiveSchemaError(f"status {str(record['status'])[:20]!r} is not one of "
                                  + ", ".join(map(str, STATUS.values())))

@@ -12,9 +12,12 @@ import math
 import sys
 from collections.abc import Callable, Sequence
 from pathlib import Path
-from typing import NoReturn
+from typing import TYPE_CHECKING, NoReturn
 
 from rodsim import __version__
+
+if TYPE_CHECKING:
+    from rodsim.stability import Stability
 
 EXIT_OK, EXIT_SOLVER_FAILURE, EXIT_BAD_INPUT = 0, 1, 2
 
@@ -143,7 +146,7 @@ def cmd_run(args: argparse.Namespace) -> int:
     return EXIT_OK
 
 
-def stability_text(stability) -> str:
+def stability_text(stability: Stability) -> str:
     """The summary line of a :class:`~rodsim.stability.Stability` verdict."""
     if stability.stable:
         return "stability   stable (the stiffness K = -dF/dx is positive definite)"

@@ -20,4 +20,5 @@ def largest_distance(stored: np.ndarray, new: np.ndarray) -> float:
         return float("inf")
     if stored.size == 0:
         return 0.0
-    return float(np.max(np.linalg.norm(stored - new, axis=-1)))
+    with np.errstate(over="ignore"):  # 1e300 apart: an infinite distance, no warning
+        return float(np.max(np.linalg.norm(stored - new, axis=-1)))

@@ -24,8 +24,8 @@ import contextlib
 import io
 import json
 import os
-import tempfile
 import textwrap
+import warnings
 from collections.abc import Iterable, Sequence
 from pathlib import Path
 from typing import Any
@@ -39,6 +39,8 @@ import xarray as xr  # noqa: E402
 from matplotlib.figure import Figure  # noqa: E402
 from matplotlib.lines import Line2D  # noqa: E402
 from matplotlib.ticker import NullFormatter  # noqa: E402
+
+from rodsim.output import OutputError, check_target  # noqa: E402
 
 __all__ = ["plot_dataset", "PLOT_KINDS", "reference_centerlines", "PlotError",
            "supported_formats", "check_output"]
@@ -100,20 +102,11 @@ def check_output(stem: str | Path, formats: Iterable[str]) -> list[str]:
     if not text or text.endswith(("/", os.sep)):
         raise PlotError(f"output {text!r} must name a file stem (e.g. figures/fig6), "
                         "not a folder")
-    folder = Path(text).parent
-    if not folder.is_dir():
-        raise PlotError(f"cannot write {text}.{wanted[0]}: folder {str(folder)!r} does not "
-                        "exist")
-    for fmt in wanted:
-        if Path(f"{text}.{fmt}").is_dir():
-            raise PlotError(f"cannot write {text}.{fmt}: it is a folder")
-    try:  # permissions, read-only or pseudo file systems (/proc)
-        handle, probe = tempfile.mkstemp(prefix=".rodsim-plot-", suffix=".probe", dir=folder)
-        os.close(handle)
-        os.unlink(probe)
-    except OSError as exc:
-        raise PlotError(f"cannot write {text}.{wanted[0]}: cannot create files in folder "
-                        f"{str(folder)!r} ({exc.strerror or exc})") from None
+    for fmt in wanted:  # the target rules of rodsim/output.py: folders, devices refused
+        try:
+            check_target(Path(f"{text}.{fmt}"))
+        except OutputError as exc:
+            raise PlotError(str(exc)) from None
     return wanted
 
 
@@ -537,6 +530,14 @@ def plot_dataset(ds: xr.Dataset, stem: str | Path, formats: Iterable[str] = ("pn
     :class:`PlotError`.
     """
     formats = check_output(stem, formats)
+    with warnings.catch_warnings():  # a character the font lacks is drawn as a box
+        warnings.filterwarnings("ignore", message="Glyph .* missing from font",
+                                category=UserWarning)
+        return _draw_and_write(ds, stem, formats)
+
+
+def _draw_and_write(ds: xr.Dataset, stem: str | Path, formats: list[str]) -> list[Path]:
+    """Draw the archive's figure and write it in each format (see :func:`plot_dataset`)."""
     if "study" in ds.attrs:
         kind = ds.attrs.get("plot", "centerlines")
         if kind not in DRAWERS:
@@ -549,13 +550,17 @@ def plot_dataset(ds: xr.Dataset, stem: str | Path, formats: Iterable[str] = ("pn
     try:
         for fmt in formats:
             path = Path(f"{stem}.{fmt}")
-            temporary = path.with_name(f".{path.name}.{os.getpid()}.tmp")
+            try:
+                target = check_target(path)  # a symbolic link's target
+            except OutputError as exc:
+                raise PlotError(str(exc)) from None
+            temporary = target.with_name(f".{target.name}.{os.getpid()}.tmp")
             try:  # through a temporary: a failed write keeps any older figure intact
                 if fmt == "png":
                     _save_png(figure, temporary)
                 else:
                     figure.savefig(temporary, dpi=DPI, format=fmt)
-                os.replace(temporary, path)
+                os.replace(temporary, target)
             except BaseException as exc:
                 with contextlib.suppress(OSError):
                     temporary.unlink()

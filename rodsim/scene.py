@@ -100,7 +100,7 @@ class Scene:
         if not path.exists() and path.suffix == "" and str(path) in scene_paths():
             path = scene_paths()[str(path)]
         text = read_scene_text(path)
-        return cls(resolve(parse_toml(text, str(path))), text)
+        return cls(resolve(parse_toml(text, shown(str(path), width=500, bare=True))), text)
 
     @classmethod
     def from_dict(cls, raw: Mapping[str, Any]) -> Scene:
@@ -187,7 +187,8 @@ def resolve(raw: Mapping[str, Any]) -> dict[str, Any]:
     terms = registered_terms()
     for key in raw:
         if key not in _TOP_KEYS:
-            raise SceneError(f"{key}: unknown top-level key; known keys: {', '.join(_TOP_KEYS)}")
+            raise SceneError(f"{shown(key, bare=True)}: unknown top-level key; known keys: "
+                             f"{', '.join(_TOP_KEYS)}")
     name = check_scene_name(raw.get("name", "unnamed"))
     description = raw.get("description", "")
     if not isinstance(description, str):

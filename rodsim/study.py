@@ -421,7 +421,8 @@ def rerun_study(dataset: xr.Dataset, select: dict[str, Any] | None = None
     select = dict(select or {})
     for dim in select:
         if dim not in dims:
-            raise StudyError(f"--point {dim}=…: not a swept parameter; swept: {', '.join(dims)}")
+            raise StudyError(f"--point {dim!r}=…: not a swept parameter; swept: "
+                             f"{', '.join(dims)}")
     points = []
     for index in grid_points(spec):
         labels = {d: dataset[d].values[i].item() for d, i in zip(dims, index, strict=True)}

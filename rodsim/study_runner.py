@@ -208,6 +208,9 @@ def _open_parts(folder: Path, spec: dict[str, Any],
                              f"(no {MARKER}); remove it or write the study elsewhere (-o)")
         try:
             stored = json.loads(marker.read_text(encoding="utf-8"))
+        except RecursionError:
+            raise StudyError(f"{folder}: unreadable {MARKER} (nested too deeply); remove the "
+                             "folder or write the study elsewhere (-o)") from None
         except (OSError, ValueError) as exc:
             raise StudyError(f"{folder}: unreadable {MARKER} ({_reason(exc)}); remove the "
                              "folder or write the study elsewhere (-o)") from None
@@ -230,7 +233,8 @@ def _open_parts(folder: Path, spec: dict[str, Any],
                              + "; ".join(differences[:3]) + more
                              + "; remove it or write the study elsewhere (-o)")
         commit = git_commit()
-        if stored.get("git_commit") and commit and stored["git_commit"] != commit:
+        if isinstance(stored.get("git_commit"), str) and commit and (
+                stored["git_commit"] != commit):
             log(f"note: the points in {folder} were computed at git commit "
                 f"{stored['git_commit'][:12]}, this rodsim is at {commit[:12]}; resuming")
     else:  # create it complete, then rename: a kill never leaves a folder without its marker

@@ -172,6 +172,11 @@ STUDY_TAMPERS = {
     "sweep values longer than the dimension": edit_json("spec_json", long_sweep),
     "sigma_points 1e11": edit_json("spec_json", huge_sigma),
     "no centerline": lambda ds: ds.drop_vars("centerline"),
+    # Found by the fuzz suite at 300-400 examples per test:
+    "spec_json integrator is a list": edit_json("spec_json",
+                                                lambda d: d.__setitem__("integrator", [])),
+    "no axis coordinate": lambda ds: ds.drop_vars("axis"),
+    "study attribute is not the spec's name": set_attribute("study", "\x1f"),
     **{f"spec_json {label}": set_attribute("spec_json", text) for label, text in
        (("not JSON", "nope"), ("null", "null"), ("42", "42"), ("[]", "[]"), ("deep", DEEP))},
 }
@@ -198,6 +203,20 @@ def test_intact_archives_plot(archives, tmp_path, cli, capsys):
         assert (tmp_path / f"{kind}.png").exists()
 
 
+def test_positions_far_apart_differ_without_a_warning(archives, tmp_path, cli, capsys,
+                                                       recwarn):
+    """Found by the fuzz suite: a stored position of 1e300 overflowed the distance with a
+    RuntimeWarning; the distance is infinite, and nothing but the verdict is printed."""
+
+    def far(ds):
+        ds["position"].values[-1, 0] = 1e300
+
+    path = tampered(archives, "run", tmp_path / "far.nc", far)
+    assert cli(["rerun", path]) == 1
+    assert math.isinf(difference(capsys.readouterr().out))
+    assert not [w for w in recwarn if issubclass(w.category, RuntimeWarning)]
+
+
 # Item 3: the analytic reference fails soft ----------------------------------------------
 
 
@@ -210,3 +229,9 @@ def test_a_load_beyond_the_analytic_references_still_succeeds(tmp_path, cli, cap
     captured = capsys.readouterr()
     assert "analytic references n/a" in captured.out and captured.err == ""
     assert read_dataset(output).attrs["success"] == 1
+
+
+def test_a_point_selection_with_a_newline_is_one_line(archives, tmp_path, cli, capsys):
+    path = tampered(archives, "study", tmp_path / "study.nc", lambda ds: None)
+    assert cli(["rerun", path, "--point", "no\nsuch=1"]) == 2
+    assert "not a swept parameter" in one_line(capsys)

@@ -214,3 +214,18 @@ def test_a_singular_jacobian_is_a_diagnosed_failure_without_scipy_warning(tmp_pa
     assert len(err) == 1 and err[0].startswith("rodsim: solver failure:"), err
     assert not [w for w in caught if issubclass(w.category, spla.MatrixRankWarning)]
     assert not (tmp_path / "x.nc").exists()
+
+
+def test_control_characters_in_keys_stay_on_one_line(tmp_path, cli, capsys):
+    """Found by the fuzz suite: a top-level key "\\r" printed a carriage return, which
+    splits the message; keys and paths are shown escaped."""
+    scene = tmp_path / "cr.toml"
+    scene.write_text('"\\r" = 1\n' + scene_text(), encoding="utf-8")
+    assert cli(["run", str(scene), "--integrator", "static", "-o",
+                str(tmp_path / "x.nc")]) == 2
+    assert "\\r: unknown top-level key" in one_line(capsys)
+    odd = tmp_path / "two\nlines.toml"
+    odd.write_text("not = = toml", encoding="utf-8")
+    assert cli(["run", str(odd), "--integrator", "static", "-o",
+                str(tmp_path / "x.nc")]) == 2
+    assert "not valid TOML" in one_line(capsys)

@@ -18,7 +18,7 @@ import scipy.sparse as sp
 import rodsim
 from rodsim.archive import read_dataset
 from rodsim.model import Model
-from rodsim.stability import stiffness_stability
+from rodsim.stability import DENSE_LIMIT, stiffness_stability
 
 COMPRESSED = ["mass=0", "tip_load.force=[-5, 0, 0]"]  # about 5× the Euler load
 
@@ -113,6 +113,27 @@ def test_stiffness_stability_on_small_matrices():
     # [[1, 4], [-1, 1]]: eigenvalues 1 ± 2i, symmetric part [[1, 1.5], [1.5, 1]] indefinite.
     rotating = stiffness_stability(sp.csc_matrix(np.array([[1.0, 4.0], [-1.0, 1.0]])))
     assert rotating.stable and rotating.min_eigenvalue == pytest.approx(1.0)
+
+
+def test_large_systems_use_bisection_and_shift_invert():
+    """Above DENSE_LIMIT coordinates: the smallest eigenvalue of a symmetric matrix comes
+    from bisection on Cholesky factorisations — checked on a tridiagonal Toeplitz matrix,
+    whose eigenvalues are a + 2 b cos(k π / (n + 1)) — and a non-symmetric one's smallest
+    real part from the eigenvalues nearest zero — checked on 2 × 2 blocks with eigenvalues
+    1 ± 2i, one block replaced by diag(-1, 1)."""
+    n = DENSE_LIMIT + 1001
+    a, b = 1.0, -0.6
+    toeplitz = sp.diags([b * np.ones(n - 1), a * np.ones(n), b * np.ones(n - 1)], [-1, 0, 1])
+    verdict = stiffness_stability(toeplitz, 1)
+    assert not verdict.stable
+    assert verdict.min_eigenvalue == pytest.approx(a + 2 * b * math.cos(math.pi / (n + 1)),
+                                                   rel=1e-5)
+    blocks = [np.array([[1.0, 4.0], [-1.0, 1.0]])] * (n // 2)
+    rotating = stiffness_stability(sp.block_diag(blocks, format="csc"))
+    assert rotating.stable and rotating.min_eigenvalue == pytest.approx(1.0)
+    blocks[7] = np.diag([-1.0, 1.0])
+    diverging = stiffness_stability(sp.block_diag(blocks, format="csc"))
+    assert not diverging.stable and diverging.min_eigenvalue == pytest.approx(-1.0)
 
 
 def test_cli_warns_stores_and_can_require_stability(tmp_path, cli, capsys):

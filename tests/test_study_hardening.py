@@ -120,6 +120,7 @@ BAD_POINTS = {
     "NaN in the centerline": lambda r: r["centerline"]["catheter"][3].__setitem__(
         1, float("nan")),
     "not an object": lambda r: r.clear(),
+    "index holds a list (found by the fuzz suite)": lambda r: r["index"].__setitem__(0, []),
 }
 
 
@@ -151,8 +152,16 @@ def test_a_valid_json_point_with_wrong_contents_runs_again(case, trio_parts, tmp
     np.testing.assert_array_equal(resumed["centerline"].values, clean["centerline"].values)
 
 
-def test_a_parts_folder_whose_marker_holds_no_spec_is_refused(trio_parts, tmp_path, cli,
-                                                              capsys, monkeypatch):
+MARKER_EDITS = {
+    "spec is a list": lambda marker: json.dumps(marker | {"spec": []}),
+    # Found by the fuzz suite:
+    "nested too deeply": lambda marker: "[" * 100_000 + "]" * 100_000,
+}
+
+
+@pytest.mark.parametrize("case", MARKER_EDITS)
+def test_a_parts_folder_whose_marker_holds_no_spec_is_refused(case, trio_parts, tmp_path,
+                                                              cli, capsys, monkeypatch):
     """Item 8's fifth edit: `"spec": []` in spec.json made the resume crash."""
     folder = tmp_path / "studies"
     register(folder, TRIO)
@@ -161,13 +170,31 @@ def test_a_parts_folder_whose_marker_holds_no_spec_is_refused(trio_parts, tmp_pa
     parts = parts_folder(output)
     parts.mkdir()
     marker = json.loads((parts_folder(trio_parts[1]) / "spec.json").read_text("utf-8"))
-    marker["spec"] = []
-    (parts / "spec.json").write_text(json.dumps(marker), encoding="utf-8")
+    (parts / "spec.json").write_text(MARKER_EDITS[case](marker), encoding="utf-8")
     assert cli(["study", TRIO.name, "--size", "small", "--workers", "1", "-o",
                 str(output)]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "spec.json" in err[0] and "Traceback" not in err[0], err
     assert not output.exists()
+
+
+def test_a_marker_with_a_git_commit_that_is_not_text_resumes(trio_parts, tmp_path):
+    """Found by the fuzz suite: `"git_commit": {"": null}` in spec.json crashed the resume
+    (it slices the commit for a note); it is not a commit, so no note, and the points are
+    kept."""
+    spec, source, clean = trio_parts
+    output = tmp_path / "commit.nc"
+    parts = parts_folder(output)
+    parts.mkdir()
+    for path in parts_folder(source).iterdir():
+        (parts / path.name).write_bytes(path.read_bytes())
+    marker = json.loads((parts / "spec.json").read_text("utf-8"))
+    (parts / "spec.json").write_text(json.dumps(marker | {"git_commit": {"": None}}),
+                                     encoding="utf-8")
+    logged: list[str] = []
+    resumed = run_spec(spec, output, workers=1, log=logged.append)
+    assert logged == []
+    np.testing.assert_array_equal(resumed["centerline"].values, clean["centerline"].values)
 
 
 def test_cli_resume_warns_and_completes(trio_parts, tmp_path, cli, capsys, monkeypatch):
