@@ -1,4 +1,5 @@
-"""Command line: ``rodsim run | rerun | study | plot | scenes | terms`` (and ``bench``).
+"""Command line: ``rodsim run | rerun | track | fit | reach | study | plot | scenes | terms``
+(and ``bench``).
 
 Human-readable summaries go to stdout, errors to stderr. Exit codes: 0 success, 1 solver
 failure, 2 bad input (scene, option, path or archive). User errors never show a traceback.
@@ -163,6 +164,8 @@ def cmd_rerun(args: argparse.Namespace) -> int:
             return _rerun_study(dataset, args)
         if args.point:
             raise UserError("--point applies to study archives only")
+        if dataset.attrs.get("kind") == "track":
+            return _rerun_track(dataset, args)
         result, difference = rerun(dataset)
     except (ArchiveError, SceneError, StudyError) as exc:
         raise UserError(f"{args.archive}: {exc}") from None
@@ -182,6 +185,85 @@ def _rerun_verdict(what: str, difference: float, length: float, tolerance: float
         print(f"rodsim: rerun differs from the archive by more than {tolerance:g} L",
               file=sys.stderr)
         return EXIT_SOLVER_FAILURE
+    return EXIT_OK
+
+
+def _rerun_track(dataset, args: argparse.Namespace) -> int:
+    from rodsim.inverse.track import rerun_track
+
+    again, difference = rerun_track(dataset)
+    if not again.success:
+        print(f"rodsim: solver failure on rerun: {again.message}", file=sys.stderr)
+        return EXIT_SOLVER_FAILURE
+    print(f"track       {again.scene.name}: re-ran {again.steps} steps")
+    length = max(rod.length for rod in again.model.rods.values())
+    return _rerun_verdict("centerlines", difference, length, args.tolerance)
+
+
+def _check_outputs(output: Path) -> str:
+    """Check an inverse command's archive target and its figure's folder before any work;
+    returns the figure's stem (the archive's path without ``.nc``)."""
+    from rodsim.output import OutputError, check_target
+    from rodsim.plotting import PlotError, check_output
+
+    stem = str(output.with_suffix("")) if output.suffix == ".nc" else str(output)
+    try:
+        check_target(output)
+        check_output(stem, ["png"])
+    except (OutputError, PlotError) as exc:
+        raise UserError(f"-o {exc}") from None
+    return stem
+
+
+def _write_with_figure(dataset, output: Path, stem: str) -> None:
+    """Write an inverse command's archive (atomically) and its PNG figure."""
+    from rodsim.archive import ArchiveError, write_dataset
+    from rodsim.plotting import PlotError, plot_dataset
+
+    try:
+        write_dataset(dataset, output)
+        figures = plot_dataset(dataset, stem, ["png"])
+    except (ArchiveError, PlotError) as exc:
+        raise UserError(str(exc)) from None
+    print(f"archive     {output}")
+    for figure in figures:
+        print(f"figure      {figure}")
+
+
+def cmd_track(args: argparse.Namespace) -> int:
+    from rodsim.inverse.track import parse_ramp, track
+    from rodsim.progress import ProgressPrinter
+    from rodsim.scene import SceneError
+
+    scene = _load_scene_or_fail(args.scene, args.set, args.integrator)
+    integrator = args.integrator or scene.data["solver"]["integrator"]
+    output = Path(args.output or f"{scene.name}-track.nc")
+    stem = _check_outputs(output)
+    progress = ProgressPrinter()
+    try:
+        ramps = dict(parse_ramp(text) for text in args.ramp)
+        if len(ramps) != len(args.ramp):
+            raise SceneError("--ramp names the same key twice")
+        result = track(scene, ramps, integrator, progress=progress)
+    except SceneError as exc:
+        raise UserError(str(exc)) from None
+    finally:
+        progress.close()
+    if not result.success:
+        print(f"rodsim: solver failure: {result.message}", file=sys.stderr)
+        return EXIT_SOLVER_FAILURE
+    times = result.times
+    warm = sum(times[1:]) / max(len(times) - 1, 1)
+    print(f"scene       {scene.name}: {result.steps} steps of "
+          + ", ".join(f"{k.name} {result.values[0, i]:g} → {result.values[-1, i]:g} {k.unit}"
+                      for i, k in enumerate(result.keys)))
+    print(f"integrator  {integrator}")
+    tip = result.tips()[-1]
+    print(f"last tip    x = {tip[0]: .6f} m  y = {tip[1]: .6f} m  z = {tip[2]: .3g} m")
+    print(f"wall time   {sum(times):.4f} s: first step (cold) {times[0]:.4f} s, warm steps "
+          f"{1e3 * warm:.3f} ms each ({1.0 / warm:.0f} steps/s), "
+          f"{int(sum(result.halvings))} halvings")
+    _write_with_figure(result.to_xarray(), output, stem)
     return EXIT_OK
 
 
@@ -407,6 +489,26 @@ def build_parser() -> argparse.ArgumentParser:
                        help="run on a dask.distributed scheduler (tcp://host:port), or "
                        "'local' for a LocalCluster")
     study.set_defaults(func=cmd_study)
+
+    integrators = ("paper", "cvode", "ida", "static")
+    follow = sub.add_parser(
+        "track", help="equilibria along an actuation path, each warm-started from the last",
+        description="Solve a sequence of equilibria while scene values ramp together "
+        "(--ramp, repeatable: every ramp needs the same COUNT); each step starts from the "
+        "previous equilibrium, a failing step is retried with halved increments. Writes "
+        "one archive with a `step` dimension and a figure (docs/inverse.md).")
+    follow.add_argument("scene", help="scene file or shipped scene name")
+    follow.add_argument("--ramp", action="append", required=True,
+                        metavar="KEY=START:STOP:COUNT",
+                        help="ramp a numeric scene value (KEY as for --set; KEY[i] for a "
+                        "vector component), e.g. --ramp tendon_actuation.force=0:4:101")
+    follow.add_argument("--integrator", choices=integrators, default="static",
+                        help="integrator (default: static)")
+    follow.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
+                        help="override a scene value first (repeatable)")
+    follow.add_argument("-o", "--output", help="archive path (default: <scene>-track.nc); "
+                        "the figure goes beside it (.png)")
+    follow.set_defaults(func=cmd_track)
 
     plot = sub.add_parser("plot", help="draw an archive's figure (PNG and PDF)")
     plot.add_argument("archive", help="archive written by `rodsim run` or `rodsim study`")

@@ -1,0 +1,130 @@
+"""Equilibria of nearby parameter values, each solved from the previous one (a warm start).
+
+Tracking (rodsim/inverse/track.py), fitting (fit.py) and inverse kinematics (reach.py) solve many
+equilibria whose parameters differ a little. :class:`Continuation` keeps the last
+equilibrium — its state x and its model, which carries its tendon registration — and solves
+the next scene from it:
+
+- ``static``: the next model is :meth:`Model.with_scene` of the last (same free-coordinate
+  order, same registration, the Jacobian pattern reused when the elements keep their
+  coordinates), and Newton at full load (the analytic Jacobian, band solves and line search
+  of rodsim/integrators/newton.py) runs from the last state or a given predictor, repeated
+  while the registration changes and until it settles without hysteresis. No load or
+  penalty continuation, no Result: a warm step costs a few Newton iterations.
+- ``cvode``, ``ida``, ``paper``: the integrator itself, started from the last state
+  (``initial_state``) on the next model, the loads in full from the start.
+
+A step that fails leaves the continuation where it was (the caller may try a smaller step).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from rodsim.integrators.base import MAX_SETTLES, SolverFailure
+from rodsim.integrators.linear import LinearSolver
+from rodsim.integrators.newton import NewtonProblem, newton
+from rodsim.inverse.sensitivity import registered_model
+from rodsim.model import Model
+from rodsim.result import Result
+from rodsim.scene import Scene
+
+__all__ = ["Continuation", "StepOutcome", "MAX_NEWTON"]
+
+#: Newton iterations a warm static step may take (per registration).
+MAX_NEWTON = 30
+
+
+@dataclass(frozen=True)
+class StepOutcome:
+    """One warm solve: success, the equilibrium (free coordinates), the scaled residual,
+    Newton iterations (static) or integrator steps, and a message on failure."""
+
+    success: bool
+    x: np.ndarray
+    residual: float
+    iterations: int
+    message: str
+
+
+class Continuation:
+    """Solves equilibria one after another, each warm-started from the last.
+
+    Parameters
+    ----------
+    model
+        The model of the first equilibrium's scene.
+    x
+        That equilibrium (free coordinates); its registration is applied to ``model``.
+    integrator
+        ``static`` (Newton, default) or ``cvode``, ``ida``, ``paper``.
+    """
+
+    def __init__(self, model: Model, x: np.ndarray, integrator: str = "static") -> None:
+        self.model = registered_model(model, x)
+        self.x = np.array(x, dtype=float)
+        self.integrator = integrator
+        self._linear: tuple[object, LinearSolver] | None = None
+
+    def _linear_solver(self, model: Model) -> LinearSolver:
+        if self._linear is None or self._linear[0] is not model.pattern:
+            self._linear = model.pattern, LinearSolver(
+                model.pattern, model.pattern_rows, model.pattern_cols,
+                (model.band.lower, model.band.upper), model.conservative)
+        return self._linear[1]
+
+    def solve(self, scene: Scene, start: np.ndarray | None = None) -> StepOutcome:
+        """The equilibrium of ``scene`` (same discretisation) from ``start`` (default: the
+        last equilibrium); on success it becomes the last equilibrium."""
+        model = self.model.with_scene(scene)
+        x = self.x if start is None else start
+        if self.integrator == "static":
+            outcome, model = self._newton(model, x)
+        else:
+            outcome, model = self._integrate(model, x)
+        if outcome.success:
+            self.model, self.x = model, outcome.x
+        return outcome
+
+    def _newton(self, model: Model, x: np.ndarray) -> tuple[StepOutcome, Model]:
+        tolerance = max(model.scene.data["solver"]["tolerance"], model.residual_floor)
+        total = 0
+        for _ in range(MAX_SETTLES + 1):
+            def force(y: np.ndarray, model: Model = model) -> np.ndarray:
+                f = model.force(y)
+                if not np.all(np.isfinite(f)):
+                    raise SolverFailure("the force became non-finite (NaN or inf)")
+                return f
+
+            problem = NewtonProblem(
+                force=force, jacobian=model.jacobian_data,
+                linear=self._linear_solver(model), residual=model.residual,
+                weight=model.residual_weight,
+                potential=model.energy if model.conservative else None)
+            try:
+                solved = newton(problem, x, tolerance, MAX_NEWTON, polish=False)
+            except SolverFailure as exc:
+                return StepOutcome(False, x, np.nan, total, str(exc)), model
+            total += solved.iterations
+            if not solved.converged:
+                return StepOutcome(False, x, solved.residual, total,
+                                   f"Newton did not converge: {solved.message}"), model
+            x = solved.x
+            moved = model.reregistered(x, exact=True)
+            if moved is None:
+                return StepOutcome(True, x, solved.residual, total, "converged"), model
+            model = moved
+        return StepOutcome(False, x, np.nan, total, "the tendon registration did not settle"
+                           ), model
+
+    def _integrate(self, model: Model, x: np.ndarray) -> tuple[StepOutcome, Model]:
+        from rodsim.api import solve
+
+        result: Result = solve(model.scene, self.integrator, model=model, initial_state=x)
+        steps = int(result.stats["steps"])
+        if not result.success:
+            return StepOutcome(False, x, result.residual, steps, result.message), model
+        return (StepOutcome(True, result.state, result.residual, steps, "converged"),
+                registered_model(model, result.state))
