@@ -14,11 +14,15 @@ the next scene from it:
 - ``cvode``, ``ida``, ``paper``: the integrator itself, started from the last state
   (``initial_state``) on the next model, the loads in full from the start.
 
-A step that fails leaves the continuation where it was (the caller may try a smaller step).
+A solve that fails leaves the continuation where it was. :meth:`Continuation.walk` moves
+between two sets of parameter values and retries a failed solve with half the increment,
+halved again on each failure and doubled after an easy sub-step, up to
+:data:`MAX_HALVINGS` failed attempts.
 """
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -26,15 +30,20 @@ import numpy as np
 from rodsim.integrators.base import MAX_SETTLES, SolverFailure
 from rodsim.integrators.linear import LinearSolver
 from rodsim.integrators.newton import NewtonProblem, newton
+from rodsim.inverse.parameter_keys import NumericKey, scene_with
 from rodsim.inverse.sensitivity import registered_model
 from rodsim.model import Model
 from rodsim.result import Result
 from rodsim.scene import Scene
 
-__all__ = ["Continuation", "StepOutcome", "MAX_NEWTON"]
+__all__ = ["Continuation", "StepOutcome", "MAX_NEWTON", "MAX_HALVINGS", "EASY_ITERATIONS"]
 
 #: Newton iterations a warm static step may take (per registration).
 MAX_NEWTON = 30
+#: Failed attempts (each halving the increment) after which :meth:`Continuation.walk` fails.
+MAX_HALVINGS = 10
+#: A sub-step that converged within this many Newton iterations doubles the increment again.
+EASY_ITERATIONS = 6
 
 
 @dataclass(frozen=True)
@@ -87,6 +96,37 @@ class Continuation:
         if outcome.success:
             self.model, self.x = model, outcome.x
         return outcome
+
+    def walk(self, scene: Scene, keys: Sequence[NumericKey], start: np.ndarray,
+             stop: np.ndarray, predictor: np.ndarray | None = None
+             ) -> tuple[bool, int, int, str]:
+        """Move from the equilibrium at the values ``start`` of ``keys`` (in ``scene``) to
+        the one at ``stop``, from ``predictor`` if given (for the whole step only), halving
+        the increment on each failure and doubling it again (up to the rest of the step)
+        after a sub-step that took at most :data:`EASY_ITERATIONS` iterations; fails at the
+        :data:`MAX_HALVINGS`-th failed attempt. Returns (success, iterations, failed
+        attempts, last failure message)."""
+        start, stop = np.asarray(start, dtype=float), np.asarray(stop, dtype=float)
+        done, fraction, failures, iterations = 0.0, 1.0, 0, 0
+        message = ""
+        while done < 1.0:
+            fraction = min(fraction, 1.0 - done)
+            whole = done == 0.0 and fraction == 1.0
+            final = done + fraction >= 1.0
+            there = stop if final else start + (done + fraction) * (stop - start)
+            outcome = self.solve(scene_with(scene, keys, there), predictor if whole else None)
+            iterations += outcome.iterations
+            if outcome.success:
+                done = 1.0 if final else done + fraction
+                if outcome.iterations <= EASY_ITERATIONS:
+                    fraction *= 2.0
+                continue
+            message = outcome.message
+            failures += 1
+            fraction *= 0.5
+            if failures >= MAX_HALVINGS:
+                return False, iterations, failures, message
+        return True, iterations, failures, message
 
     def _newton(self, model: Model, x: np.ndarray) -> tuple[StepOutcome, Model]:
         tolerance = max(model.scene.data["solver"]["tolerance"], model.residual_floor)

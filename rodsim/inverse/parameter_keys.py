@@ -119,8 +119,40 @@ def numeric_keys(scene: Scene, keys: Sequence[str]) -> list[NumericKey]:
     return resolved
 
 
+#: Rod values that no rule across tables (rodsim.scene.resolve, rodsim.tendon.check_tendon)
+#: involves, like every term parameter: checking the value against its declaration is the
+#: whole validation.
+_LOCAL_ROD_VALUES = ("youngs_modulus", "stretch_modulus", "poisson_ratio", "density")
+
+
+def _local(key: NumericKey) -> bool:
+    """Whether the value of ``key`` is validated by its declaration alone (no cross-check)."""
+    parts = key.path.split(".")
+    return len(parts) == 4 or (parts[0] == "rods" and parts[-1] in _LOCAL_ROD_VALUES)
+
+
 def scene_with(scene: Scene, keys: Sequence[NumericKey], values: Sequence[float]) -> Scene:
-    """``scene`` with the given values at ``keys`` (validated: SceneError out of range)."""
+    """``scene`` with the given values at ``keys`` (validated: SceneError out of range).
+
+    Tracking and fitting build one scene per step, so values that take part in no rule
+    across tables (term parameters, moduli, density) are checked against their declaration
+    and set on a copy of the tables along their path only (0.02 ms instead of 0.4 ms for a
+    validation of the whole scene, which every other value gets)."""
+    if all(_local(key) for key in keys):
+        data = dict(scene.data)
+        for key, value in zip(keys, values, strict=True):
+            *parents, last = key.path.split(".")
+            node = data
+            for part in parents:
+                node[part] = dict(node[part])
+                node = node[part]
+            if key.index is None:
+                node[last] = key.parameter.check(float(value), key.path)
+            else:
+                vector = list(node[last])
+                vector[key.index] = float(value)
+                node[last] = key.parameter.check(vector, key.path)
+        return Scene(data, scene.source)
     assignments: dict[str, object] = {}
     for key, value in zip(keys, values, strict=True):
         if key.index is None:

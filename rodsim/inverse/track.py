@@ -30,7 +30,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from rodsim import __version__
-from rodsim.inverse.continuation import Continuation
+from rodsim.inverse.continuation import MAX_HALVINGS, Continuation
 from rodsim.inverse.parameter_keys import NumericKey, numeric_keys, scene_with
 from rodsim.model import Model
 from rodsim.result import SCHEMA_VERSION, flatten_scene
@@ -42,10 +42,6 @@ if TYPE_CHECKING:
 
 __all__ = ["Track", "track", "parse_ramp", "rerun_track", "MAX_HALVINGS"]
 
-#: Failed attempts (each halving the increment) after which a step is reported as failed.
-MAX_HALVINGS = 10
-#: A sub-step that converged within this many Newton iterations doubles the increment again.
-EASY_ITERATIONS = 6
 
 
 def parse_ramp(text: str) -> tuple[str, np.ndarray]:
@@ -236,9 +232,8 @@ def track(scene: Scene, ramps: Mapping[str, Sequence[float]], integrator: str = 
                      / np.linalg.norm(values[step - 1] - values[step - 2]))
             predictor = continuation.x + ratio * (continuation.x - previous)
         last = continuation.x
-        ok, iterations, halvings, message = _advance(
-            continuation, scene, scene_with(scene, keys, values[step]), keys,
-            values[step - 1], values[step], predictor)
+        ok, iterations, halvings, message = continuation.walk(
+            scene, keys, values[step - 1], values[step], predictor)
         if not ok:
             out.success, out.failed_step = False, step
             out.message = (f"step {step} ({_values_text(keys, values[step])}) failed: "
@@ -259,38 +254,6 @@ def track(scene: Scene, ramps: Mapping[str, Sequence[float]], integrator: str = 
 
 def _values_text(keys: Sequence[NumericKey], row: np.ndarray) -> str:
     return ", ".join(f"{k.name} = {v:.6g}" for k, v in zip(keys, row, strict=True))
-
-
-def _advance(continuation: Continuation, scene: Scene, target: Scene,
-             keys: Sequence[NumericKey], start: np.ndarray, stop: np.ndarray,
-             predictor: np.ndarray | None) -> tuple[bool, int, int, str]:
-    """Move the continuation from the values ``start`` to ``stop`` (whose scene is
-    ``target``), from ``predictor`` if given, halving the increment on each failure and
-    doubling it again (up to the whole rest of the step) after a sub-step that took at
-    most :data:`EASY_ITERATIONS` iterations; fails at the :data:`MAX_HALVINGS`-th failed
-    attempt (the increment is then down to 2^-MAX_HALVINGS of the step at most). Returns
-    (success, iterations, failed attempts, last failure message)."""
-    done, fraction, failures, iterations = 0.0, 1.0, 0, 0
-    message = ""
-    while done < 1.0:
-        fraction = min(fraction, 1.0 - done)
-        whole = done == 0.0 and fraction == 1.0
-        final = done + fraction >= 1.0
-        there = start + (done + fraction) * (stop - start)
-        outcome = continuation.solve(target if final else scene_with(scene, keys, there),
-                                     predictor if whole else None)
-        iterations += outcome.iterations
-        if outcome.success:
-            done = 1.0 if final else done + fraction
-            if outcome.iterations <= EASY_ITERATIONS:
-                fraction *= 2.0
-            continue
-        message = outcome.message
-        failures += 1
-        fraction *= 0.5
-        if failures >= MAX_HALVINGS:
-            return False, iterations, failures, message
-    return True, iterations, failures, message
 
 
 def rerun_track(dataset: xr.Dataset) -> tuple[Track, float]:
