@@ -267,6 +267,35 @@ def cmd_track(args: argparse.Namespace) -> int:
     return EXIT_OK
 
 
+def cmd_fit(args: argparse.Namespace) -> int:
+    from rodsim.inverse.fit import EquilibriumFailure, FitError, fit, read_points
+    from rodsim.scene import SceneError
+
+    scene = _load_scene_or_fail(args.scene, args.set, "static")
+    output = Path(args.output or f"{scene.name}-fit.nc")
+    stem = _check_outputs(output)
+    try:
+        points = read_points(args.data)
+        result = fit(scene, points, args.param, rod=args.rod)
+    except (FitError, SceneError) as exc:
+        raise UserError(str(exc)) from None
+    except EquilibriumFailure as exc:
+        print(f"rodsim: solver failure: {exc}", file=sys.stderr)
+        return EXIT_SOLVER_FAILURE
+    print(f"scene       {scene.name}: {len(points.xyz)} points of rod {result.rod} "
+          f"({'matched by s' if points.s is not None else 'matched to the nearest point'})")
+    for key, initial, value, error in zip(result.keys, result.initial, result.values,
+                                          result.errors, strict=True):
+        print(f"fitted      {key.name} = {value:.6g} ± {error:.2g} {key.unit} "
+              f"(from {initial:.6g})")
+    print(f"residual    RMS {result.residual_rms:.3g} m over {result.degrees_of_freedom} "
+          "degrees of freedom")
+    print(f"cost        {result.evaluations} equilibria, {result.jacobians} Jacobians, "
+          f"{result.wall_time:.3f} s ({result.message})")
+    _write_with_figure(result.to_xarray(), output, stem)
+    return EXIT_OK
+
+
 def _rerun_study(dataset, args: argparse.Namespace) -> int:
     from rodsim.study import STATUS, rerun_study
 
@@ -509,6 +538,26 @@ def build_parser() -> argparse.ArgumentParser:
     follow.add_argument("-o", "--output", help="archive path (default: <scene>-track.nc); "
                         "the figure goes beside it (.png)")
     follow.set_defaults(func=cmd_track)
+
+    calibrate = sub.add_parser(
+        "fit", help="fit scene values to a measured centerline (least squares)",
+        description="Fit numeric scene values (--param, repeatable) to measured points of "
+        "a rod's centerline by least squares on the analytic sensitivities; reports the "
+        "fitted values with standard errors, writes the archive of the fitted scene (`rodsim "
+        "rerun` re-solves it) and a figure of data and fit (docs/inverse.md).")
+    calibrate.add_argument("scene", help="scene file or shipped scene name (its values are "
+                           "the starting point)")
+    calibrate.add_argument("--data", required=True, metavar="POINTS.csv",
+                           help="CSV with header x,y,z [m] and optionally s (rest arc "
+                           "length [m]); any number and spacing of points")
+    calibrate.add_argument("--param", action="append", required=True, metavar="KEY",
+                           help="numeric scene value to fit (KEY as for --set), e.g. K_E")
+    calibrate.add_argument("--rod", help="rod the points belong to (default: the first)")
+    calibrate.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
+                           help="override a scene value first (repeatable)")
+    calibrate.add_argument("-o", "--output", help="archive path (default: <scene>-fit.nc); "
+                           "the figure goes beside it (.png)")
+    calibrate.set_defaults(func=cmd_fit)
 
     plot = sub.add_parser("plot", help="draw an archive's figure (PNG and PDF)")
     plot.add_argument("archive", help="archive written by `rodsim run` or `rodsim study`")

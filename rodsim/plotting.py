@@ -595,9 +595,8 @@ def _fit_figure(ds: xr.Dataset) -> Figure:
         panel.plot(data[:, h], data[:, v], ls="none", marker="x", color="k", ms=5,
                    label="measured points")
         panel.legend(fontsize=7)
-    fitted = ", ".join(f"{key} = {value:.5g} ± {error:.2g}" for key, value, error in zip(
-        ds["parameter"].values, ds["fitted_value"].values, ds["standard_error"].values,
-        strict=True))
+    fitted = ", ".join(f"{key} = {float(ds[key]):.5g} ± {float(ds[key + '.standard_error']):.2g}"
+                       for key in json.loads(ds.attrs["fit_parameters"]))
     views[0][0].set_title(f"fit: {fitted}; residual RMS {ds.attrs['residual_rms']:.3g} m",
                           fontsize=8)
     return figure
@@ -614,8 +613,8 @@ def _reach_figure(ds: xr.Dataset) -> Figure:
         panel.plot(tip[h], tip[v], marker="o", mfc="none", ms=9, color="k", ls="none",
                    label="tip reached")
         panel.legend(fontsize=7)
-    values = ", ".join(f"{key} = {value:.5g}" for key, value in zip(
-        ds["parameter"].values, ds["actuation"].values, strict=True))
+    values = ", ".join(f"{key} = {float(ds[key]):.5g}"
+                       for key in json.loads(ds.attrs["reach_parameters"]))
     views[0][0].set_title(f"reach: {values}; distance {ds.attrs['distance']:.3g} m",
                           fontsize=8)
     return figure

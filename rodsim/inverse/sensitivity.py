@@ -107,10 +107,10 @@ def equilibrium_sensitivity(model: Model, x: np.ndarray, keys: Sequence[NumericK
     rest = np.zeros((model.full_size, len(keys)))
     for column, key in enumerate(keys):
         value = base_values[column]
+        # Σ weight = 0: summing weight × (F(p_i) − F(p)) keeps a parameter F does not depend
+        # on at an exact zero (no round-off of F's own size divided by h).
         for point, weight in _stencil(key, value):
             if point == value:
-                rhs[:, column] -= weight * force_at_x
-                rest[:, column] += weight * model.rest_full
                 continue
             values = list(base_values)
             values[column] = point
@@ -120,8 +120,8 @@ def equilibrium_sensitivity(model: Model, x: np.ndarray, keys: Sequence[NumericK
                 raise
             except ValueError as exc:
                 raise SceneError(f"{key.name}: {exc}; it has no derivative") from None
-            rhs[:, column] -= weight * perturbed.force(x)
-            rest[:, column] += weight * perturbed.rest_full
+            rhs[:, column] -= weight * (perturbed.force(x) - force_at_x)
+            rest[:, column] += weight * (perturbed.rest_full - model.rest_full)
     solver = LinearSolver(model.pattern, model.pattern_rows, model.pattern_cols,
                           (model.band.lower, model.band.upper), model.conservative)
     solve = solver.factorized(model.jacobian_data(x))
