@@ -296,6 +296,51 @@ def cmd_fit(args: argparse.Namespace) -> int:
     return EXIT_OK
 
 
+def _target(text: str) -> list[float]:
+    """argparse type of ``reach --tip``: three finite numbers X,Y,Z [m]."""
+    parts = text.split(",")
+    try:
+        values = [float(part) for part in parts]
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected X,Y,Z in metres, got {text[:40]!r}"
+                                         ) from None
+    if len(values) != 3 or not all(math.isfinite(v) for v in values):
+        raise argparse.ArgumentTypeError(f"expected three finite numbers X,Y,Z, got "
+                                         f"{text[:40]!r}")
+    return values
+
+
+def cmd_reach(args: argparse.Namespace) -> int:
+    from rodsim.inverse.continuation import EquilibriumFailure
+    from rodsim.inverse.reach import reach
+    from rodsim.scene import SceneError
+
+    scene = _load_scene_or_fail(args.scene, args.set, "static")
+    output = Path(args.output or f"{scene.name}-reach.nc")
+    stem = _check_outputs(output)
+    try:
+        result = reach(scene, args.tip, args.actuate, rod=args.rod, tolerance=args.tolerance)
+    except SceneError as exc:
+        raise UserError(str(exc)) from None
+    except EquilibriumFailure as exc:
+        print(f"rodsim: solver failure: {exc}", file=sys.stderr)
+        return EXIT_SOLVER_FAILURE
+    if not result.success:
+        print(f"rodsim: {result.message}", file=sys.stderr)
+        return EXIT_SOLVER_FAILURE
+    print(f"scene       {scene.name}: tip of {result.rod} to "
+          f"({', '.join(f'{c:.6g}' for c in result.target)}) m")
+    for key, initial, value in zip(result.keys, result.initial, result.values, strict=True):
+        print(f"actuation   {key.name} = {value:.6g} {key.unit} (from {initial:.6g})")
+    tip = result.tip
+    print(f"tip         x = {tip[0]: .6f} m  y = {tip[1]: .6f} m  z = {tip[2]: .6f} m, "
+          f"{result.distance:.3g} m from the target")
+    print(f"cost        {result.evaluations} equilibria, {result.jacobians} Jacobians, "
+          f"{result.wall_time:.3f} s")
+    _write_with_figure(result.to_xarray(), output, stem)
+    return EXIT_OK
+
+
 def _rerun_study(dataset, args: argparse.Namespace) -> int:
     from rodsim.study import STATUS, rerun_study
 
@@ -558,6 +603,28 @@ def build_parser() -> argparse.ArgumentParser:
     calibrate.add_argument("-o", "--output", help="archive path (default: <scene>-fit.nc); "
                            "the figure goes beside it (.png)")
     calibrate.set_defaults(func=cmd_fit)
+
+    aim = sub.add_parser(
+        "reach", help="actuation values that put the tip at a target (inverse kinematics)",
+        description="Find values of the --actuate keys (e.g. the tensions of several "
+        "tendons) that put a rod's tip at --tip, by least squares on the analytic "
+        "sensitivities within each value's allowed range (tensions >= 0). Exit 1 when the "
+        "target is out of reach, with the closest tip found (docs/inverse.md).")
+    aim.add_argument("scene", help="scene file or shipped scene name (its values are the "
+                     "starting point)")
+    aim.add_argument("--tip", required=True, type=_target, metavar="X,Y,Z",
+                     help="target of the tip [m]")
+    aim.add_argument("--actuate", action="append", required=True, metavar="KEY",
+                     help="numeric scene value to vary (repeatable), e.g. "
+                     "tendon_py.tendon_actuation.force")
+    aim.add_argument("--rod", help="rod whose tip is placed (default: the first)")
+    aim.add_argument("--tolerance", type=_tolerance, default=1e-6, metavar="METRES",
+                     help="distance at which the target counts as reached (default 1e-6 m)")
+    aim.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
+                     help="override a scene value first (repeatable)")
+    aim.add_argument("-o", "--output", help="archive path (default: <scene>-reach.nc); the "
+                     "figure goes beside it (.png)")
+    aim.set_defaults(func=cmd_reach)
 
     plot = sub.add_parser("plot", help="draw an archive's figure (PNG and PDF)")
     plot.add_argument("archive", help="archive written by `rodsim run` or `rodsim study`")

@@ -17,7 +17,8 @@ the next scene from it:
 A solve that fails leaves the continuation where it was. :meth:`Continuation.walk` moves
 between two sets of parameter values and retries a failed solve with half the increment,
 halved again on each failure and doubled after an easy sub-step, up to
-:data:`MAX_HALVINGS` failed attempts.
+:data:`MAX_HALVINGS` failed attempts. :class:`ScaledEquilibria` wraps a continuation as the
+function of (scaled) parameter values that a fit or a reach minimises over.
 """
 
 from __future__ import annotations
@@ -27,16 +28,17 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from rodsim.integrators.base import MAX_SETTLES, SolverFailure
+from rodsim.integrators.base import MAX_RESIDUAL_FLOOR, MAX_SETTLES, SolverFailure
 from rodsim.integrators.linear import LinearSolver
 from rodsim.integrators.newton import NewtonProblem, newton
 from rodsim.inverse.parameter_keys import NumericKey, scene_with
-from rodsim.inverse.sensitivity import registered_model
+from rodsim.inverse.sensitivity import equilibrium_sensitivity, registered_model
 from rodsim.model import Model
 from rodsim.result import Result
 from rodsim.scene import Scene
 
-__all__ = ["Continuation", "StepOutcome", "MAX_NEWTON", "MAX_HALVINGS", "EASY_ITERATIONS"]
+__all__ = ["Continuation", "StepOutcome", "ScaledEquilibria", "EquilibriumFailure",
+           "MAX_NEWTON", "MAX_HALVINGS", "EASY_ITERATIONS"]
 
 #: Newton iterations a warm static step may take (per registration).
 MAX_NEWTON = 30
@@ -44,6 +46,12 @@ MAX_NEWTON = 30
 MAX_HALVINGS = 10
 #: A sub-step that converged within this many Newton iterations doubles the increment again.
 EASY_ITERATIONS = 6
+#: Scaled distance from a bound within which a fit's or a reach's value is set to the bound.
+BOUND_SNAP = 1e-5
+
+
+class EquilibriumFailure(RuntimeError):
+    """An equilibrium needed by a fit or a reach could not be solved."""
 
 
 @dataclass(frozen=True)
@@ -129,6 +137,10 @@ class Continuation:
         return True, iterations, failures, message
 
     def _newton(self, model: Model, x: np.ndarray) -> tuple[StepOutcome, Model]:
+        if model.residual_floor > MAX_RESIDUAL_FLOOR:  # as every integrator refuses it
+            return StepOutcome(False, x, np.nan, 0, "the loads are below the round-off of "
+                               f"the internal forces (residual floor {model.residual_floor:.3g}"
+                               f" > {MAX_RESIDUAL_FLOOR:g})"), model
         tolerance = max(model.scene.data["solver"]["tolerance"], model.residual_floor)
         total = 0
         for _ in range(MAX_SETTLES + 1):
@@ -168,3 +180,72 @@ class Continuation:
             return StepOutcome(False, x, result.residual, steps, result.message), model
         return (StepOutcome(True, result.state, result.residual, steps, "converged"),
                 registered_model(model, result.state))
+
+
+class ScaledEquilibria:
+    """Equilibria as a function of scaled parameter values u = p / ``scale`` (the
+    unknowns of a fit or a reach), each warm-started from the last (:meth:`Continuation.walk`
+    from the last values), with the nodes of ``rod`` and their sensitivities; counts the
+    equilibria and sensitivities computed."""
+
+    def __init__(self, scene: Scene, keys: Sequence[NumericKey], scale: np.ndarray,
+                 result: Result, rod: str) -> None:
+        self.scene, self.keys, self.scale, self.rod = scene, list(keys), scale, rod
+        self.continuation = Continuation(Model(result.scene), result.state)
+        self.values = np.array([k.value(scene) for k in keys])
+        self.evaluations = 0
+        self.jacobians = 0
+        #: Evaluations whose equilibrium could not be solved (see :meth:`residual_or_none`).
+        self.failures = 0
+        self.last_failure = ""
+
+    def values_of(self, u: np.ndarray) -> np.ndarray:
+        """The parameter values of u, those within :data:`BOUND_SNAP` × scale of a bound
+        set to the bound: least_squares' trust-region reflective iterates stay strictly
+        inside the bounds, and a tendon tension of a few µN (the bound is 0) puts the loads
+        below the round-off of the internal forces, which no solver accepts."""
+        values = np.asarray(u, dtype=float) * self.scale
+        for column, key in enumerate(self.keys):
+            for bound in key.bounds():
+                if abs(values[column] - bound) < BOUND_SNAP * self.scale[column]:
+                    values[column] = bound
+        return values
+
+    def at(self, u: np.ndarray) -> None:
+        """Move the equilibrium to the parameters u (EquilibriumFailure if it cannot)."""
+        values = self.values_of(u)
+        if np.array_equal(values, self.values):
+            return
+        ok, _, _, message = self.continuation.walk(self.scene, self.keys, self.values, values)
+        if not ok:
+            raise EquilibriumFailure(
+                "no equilibrium at " + ", ".join(f"{k.name} = {v:.6g}" for k, v in
+                                                 zip(self.keys, values, strict=True))
+                + f": {message}")
+        self.values = values
+        self.evaluations += 1
+
+    def reached(self, u: np.ndarray) -> bool:
+        """Move to u like :meth:`at`, but report an equilibrium that cannot be solved by
+        returning False (and staying at the last equilibrium) instead of raising: a
+        least-squares step into parameters without a solvable equilibrium is then given a
+        large residual and rejected, and the trust region shrinks."""
+        try:
+            self.at(u)
+        except EquilibriumFailure as exc:
+            self.failures += 1
+            self.last_failure = str(exc)
+            return False
+        return True
+
+    def nodes(self) -> np.ndarray:
+        model = self.continuation.model
+        return model.positions(self.continuation.x, self.rod)
+
+    def node_sensitivity(self) -> np.ndarray:
+        """d(nodes of the rod)/du at the current equilibrium, (P, N, 3)."""
+        self.jacobians += 1
+        model = self.continuation.model
+        _, full = equilibrium_sensitivity(model, self.continuation.x, self.keys)
+        index = model.rods[self.rod].layout.position_index
+        return np.moveaxis(full[index], -1, 0) * self.scale[:, None, None]

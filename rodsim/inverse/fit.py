@@ -15,7 +15,9 @@ The matches are renewed at every evaluation. The parameters p minimise Σ |P_i(p
 range); each evaluation is an equilibrium warm-started from the previous one
 (rodsim/inverse/continuation.py), and the Jacobian comes from the sensitivities
 (rodsim/inverse/sensitivity.py), ∂P(j, t)/∂p = (1 − t) ∂r_j/∂p + t ∂r_{j+1}/∂p. The
-parameters are scaled by their initial values.
+parameters are scaled by their initial values. A trial step to values whose equilibrium
+cannot be solved gets a residual of ten rod lengths per component, so the trust region
+rejects it and shrinks.
 
 Standard errors: the Gauss–Newton covariance σ² (JᵀJ)⁻¹ at the solution, σ² = RSS/(m − p),
 where m counts the residual components that carry information: with nearest-point
@@ -41,18 +43,15 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from rodsim.inverse.continuation import Continuation
+from rodsim.inverse.continuation import EquilibriumFailure, ScaledEquilibria
 from rodsim.inverse.parameter_keys import NumericKey, numeric_keys, scene_with
-from rodsim.inverse.sensitivity import equilibrium_sensitivity
-from rodsim.model import Model
 from rodsim.result import Result
 from rodsim.scene import Scene
 
 if TYPE_CHECKING:
     import xarray as xr
 
-__all__ = ["Points", "Fit", "FitError", "EquilibriumFailure", "read_points", "fit",
-           "match", "MAX_CONDITION"]
+__all__ = ["Points", "Fit", "FitError", "read_points", "fit", "match", "MAX_CONDITION"]
 
 #: Largest condition number of the scaled Jacobian before the parameters are declared not
 #: identifiable from the data.
@@ -67,10 +66,6 @@ MAX_POINTS = 1_000_000
 class FitError(ValueError):
     """Bad data or parameters: unreadable file, wrong columns, too few points, parameters
     the shape does not determine."""
-
-
-class EquilibriumFailure(RuntimeError):
-    """An equilibrium needed by a fit or a reach could not be solved."""
 
 
 @dataclass(frozen=True)
@@ -196,45 +191,6 @@ class Fit:
         return ds
 
 
-class _Problem:
-    """The residuals and Jacobian of a fit or a reach as functions of the scaled parameters
-    u = p / scale, each evaluation an equilibrium warm-started from the last."""
-
-    def __init__(self, scene: Scene, keys: Sequence[NumericKey], scale: np.ndarray,
-                 result: Result, rod: str) -> None:
-        self.scene, self.keys, self.scale, self.rod = scene, list(keys), scale, rod
-        self.continuation = Continuation(Model(result.scene), result.state)
-        self.values = np.array([k.value(scene) for k in keys])
-        self.evaluations = 0
-        self.jacobians = 0
-
-    def at(self, u: np.ndarray) -> None:
-        """Move the equilibrium to the parameters u (EquilibriumFailure if it cannot)."""
-        values = np.asarray(u) * self.scale
-        if np.array_equal(values, self.values):
-            return
-        ok, _, _, message = self.continuation.walk(self.scene, self.keys, self.values, values)
-        if not ok:
-            raise EquilibriumFailure(
-                "no equilibrium at " + ", ".join(f"{k.name} = {v:.6g}" for k, v in
-                                                 zip(self.keys, values, strict=True))
-                + f": {message}")
-        self.values = values
-        self.evaluations += 1
-
-    def nodes(self) -> np.ndarray:
-        model = self.continuation.model
-        return model.positions(self.continuation.x, self.rod)
-
-    def node_sensitivity(self) -> np.ndarray:
-        """d(nodes of the rod)/du at the current equilibrium, (P, N, 3)."""
-        self.jacobians += 1
-        model = self.continuation.model
-        _, full = equilibrium_sensitivity(model, self.continuation.x, self.keys)
-        index = model.rods[self.rod].layout.position_index
-        return np.moveaxis(full[index], -1, 0) * self.scale[:, None, None]
-
-
 def _span_dimension(points: np.ndarray) -> int:
     """Dimension (1–3) of the affine span of ``points``."""
     centred = points - points.mean(axis=0)
@@ -286,15 +242,20 @@ def fit(scene: Scene, points: Points, params: Sequence[str], *, rod: str | None 
     first = solve(scene, "static")
     if not first.success:
         raise EquilibriumFailure(f"the initial scene has no equilibrium: {first.message}")
-    problem = _Problem(scene, keys, scale, first, rod)
+    problem = ScaledEquilibria(scene, keys, scale, first, rod)
     s_nodes = problem.continuation.model.rods[rod].geometry.node_s
 
     def matched(nodes: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         j, t, interior = match(nodes, s_nodes, points)
         return (1 - t)[:, None] * nodes[j] + t[:, None] * nodes[j + 1], j, t, interior
 
+    far = np.full(points.xyz.size, 10.0 * float(scene.data["rods"][rod]["length"]))
+
     def residuals(u: np.ndarray) -> np.ndarray:
-        problem.at(u)
+        # A step to values without a solvable equilibrium gets a residual far beyond any
+        # shape's, so that the trust region rejects it and shrinks.
+        if not problem.reached(u):
+            return far
         return (matched(problem.nodes())[0] - points.xyz).ravel()
 
     def jacobian(u: np.ndarray) -> np.ndarray:
@@ -315,7 +276,7 @@ def fit(scene: Scene, points: Points, params: Sequence[str], *, rod: str | None 
                              bounds=(lower, upper), x_scale=1.0, xtol=1e-12, ftol=1e-15,
                              gtol=1e-15, max_nfev=max_evaluations, method="trf")
     problem.at(solution.x)
-    values = solution.x * scale
+    values = problem.values_of(solution.x)
     final = solve(scene_with(scene, keys, values), "static")
     if not final.success:
         raise EquilibriumFailure(f"the fitted scene has no equilibrium: {final.message}")

@@ -261,11 +261,12 @@ def rerun_track(dataset: xr.Dataset) -> tuple[Track, float]:
     returns the new track and the largest distance [m] between the stored and the
     recomputed control points over every step (infinite if the step counts differ)."""
     from rodsim.archive import scene_of
-    from rodsim.compare import largest_distance
+    from rodsim.compare import largest_rod_distance
 
     ramps = json.loads(dataset.attrs["ramp_json"])
     again = track(scene_of(dataset), ramps, str(dataset.attrs["integrator"]))
     stored = dataset["position"].values
     if again.steps != stored.shape[0]:
         return again, float("inf")
-    return again, largest_distance(stored, again.positions)
+    rods = np.concatenate([[name] * rod.nodes for name, rod in again.model.rods.items()])
+    return again, largest_rod_distance(stored, dataset["rod"].values, again.positions, rods)
