@@ -597,8 +597,8 @@ def _fit_figure(ds: xr.Dataset) -> Figure:
         panel.legend(fontsize=7)
     fitted = ", ".join(f"{key} = {float(ds[key]):.5g} ± {float(ds[key + '.standard_error']):.2g}"
                        for key in json.loads(ds.attrs["fit_parameters"]))
-    views[0][0].set_title(f"fit: {fitted}; residual RMS {ds.attrs['residual_rms']:.3g} m",
-                          fontsize=8)
+    views[0][0].set_title(textwrap.fill(f"fit: {fitted}; residual RMS "
+                                        f"{ds.attrs['residual_rms']:.3g} m", 80), fontsize=7)
     return figure
 
 
@@ -615,8 +615,8 @@ def _reach_figure(ds: xr.Dataset) -> Figure:
         panel.legend(fontsize=7)
     values = ", ".join(f"{key} = {float(ds[key]):.5g}"
                        for key in json.loads(ds.attrs["reach_parameters"]))
-    views[0][0].set_title(f"reach: {values}; distance {ds.attrs['distance']:.3g} m",
-                          fontsize=8)
+    views[0][0].set_title(textwrap.fill(f"reach: {values}; distance "
+                                        f"{ds.attrs['distance']:.3g} m", 80), fontsize=7)
     return figure
 
 

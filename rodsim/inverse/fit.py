@@ -176,8 +176,8 @@ class Fit:
                 "units": key.unit, "long_name": f"standard error of the fitted {key.name} "
                 "(Gauss-Newton covariance)"})
         ds.attrs.update({
-            "title": f"rodsim fit of {', '.join(k.name for k in self.keys)} on scene "
-                     f"{self.result.scene.name!r}",
+            "title": f"rodsim fit of {len(self.keys)} value(s) of scene "
+                     f"{self.result.scene.name!r} to {len(self.points.xyz)} points",
             "kind": "fit",
             "fit_parameters": json.dumps([k.name for k in self.keys]),
             "fit_rod": self.rod,

@@ -75,8 +75,8 @@ class Reach:
             ds[f"{key.name}.initial"] = ((), initial, {"units": key.unit, "long_name":
                                                        f"starting value of {key.name}"})
         ds.attrs.update({
-            "title": f"rodsim reach of scene {self.result.scene.name!r}: "
-                     + ", ".join(k.name for k in self.keys),
+            "title": f"rodsim reach of scene {self.result.scene.name!r} (tip of "
+                     f"{self.rod!r})",
             "kind": "reach",
             "reach_parameters": json.dumps([k.name for k in self.keys]),
             "reach_rod": self.rod,
