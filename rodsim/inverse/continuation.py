@@ -7,10 +7,13 @@ the next scene from it:
 
 - ``static``: the next model is :meth:`Model.with_scene` of the last (same free-coordinate
   order, same registration, the Jacobian pattern reused when the elements keep their
-  coordinates), and Newton at full load (the analytic Jacobian, band solves and line search
-  of rodsim/integrators/newton.py) runs from the last state or a given predictor, repeated
-  while the registration changes and until it settles without hysteresis. No load or
-  penalty continuation, no Result: a warm step costs a few Newton iterations.
+  coordinates), and from the last state or a given predictor it first tries chord
+  iterations — Newton steps with a Jacobian factorised at an earlier equilibrium and kept
+  while it works (each iteration halving the residual), so a step costs evaluations of F
+  and band back-substitutions only — then, if they stall, Newton at full load (the analytic
+  Jacobian, band solves and line search of rodsim/integrators/newton.py); either is
+  repeated while the registration changes and until it settles without hysteresis. No load
+  or penalty continuation, no Result: a warm step costs a few iterations.
 - ``cvode``, ``ida``, ``paper``: the integrator itself, started from the last state
   (``initial_state``) on the next model, the loads in full from the start.
 
@@ -23,7 +26,7 @@ function of (scaled) parameter values that a fit or a reach minimises over.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -42,6 +45,8 @@ __all__ = ["Continuation", "StepOutcome", "ScaledEquilibria", "EquilibriumFailur
 
 #: Newton iterations a warm static step may take (per registration).
 MAX_NEWTON = 30
+#: Chord iterations (kept factorisation) a warm static step tries before Newton.
+MAX_CHORD = 10
 #: Failed attempts (each halving the increment) after which :meth:`Continuation.walk` fails.
 MAX_HALVINGS = 10
 #: A sub-step that converged within this many Newton iterations doubles the increment again.
@@ -84,6 +89,8 @@ class Continuation:
         self.x = np.array(x, dtype=float)
         self.integrator = integrator
         self._linear: tuple[object, LinearSolver] | None = None
+        #: (pattern, solve) of a Jacobian factorised at an earlier state, for chord steps.
+        self._factor: tuple[object, Callable[[np.ndarray], np.ndarray]] | None = None
 
     def _linear_solver(self, model: Model) -> LinearSolver:
         if self._linear is None or self._linear[0] is not model.pattern:
@@ -144,6 +151,16 @@ class Continuation:
         tolerance = max(model.scene.data["solver"]["tolerance"], model.residual_floor)
         total = 0
         for _ in range(MAX_SETTLES + 1):
+            chord = self._chord(model, x, tolerance)
+            if chord is not None:
+                x, iterations, residual = chord
+                total += iterations
+                moved = model.reregistered(x, exact=True)
+                if moved is None:
+                    return StepOutcome(True, x, residual, total, "converged"), model
+                model = moved
+                continue
+
             def force(y: np.ndarray, model: Model = model) -> np.ndarray:
                 f = model.force(y)
                 if not np.all(np.isfinite(f)):
@@ -170,6 +187,33 @@ class Continuation:
             model = moved
         return StepOutcome(False, x, np.nan, total, "the tendon registration did not settle"
                            ), model
+
+    def _chord(self, model: Model, x: np.ndarray, tolerance: float
+               ) -> tuple[np.ndarray, int, float] | None:
+        """Chord iterations x ← x − J₀⁻¹F(x) with a factorisation J₀ kept from an earlier
+        equilibrium of the same Jacobian pattern (factored here if there is none): each
+        costs an evaluation of F and a band back-substitution instead of F, J and a band
+        factorisation. Returns (x, iterations, residual) once the residual is below
+        ``tolerance``, or None — and drops J₀ — as soon as an iteration fails to halve it
+        (J₀ too far from the current Jacobian): Newton then takes over."""
+        if self._factor is None or self._factor[0] is not model.pattern:
+            solve = self._linear_solver(model).factorized(model.jacobian_data(x))
+            if solve is None:
+                return None
+            self._factor = model.pattern, solve
+        solve = self._factor[1]
+        previous = np.inf
+        for iteration in range(MAX_CHORD):
+            f = model.force(x)
+            residual = model.residual(f) if np.all(np.isfinite(f)) else np.inf
+            if residual < tolerance:
+                return x, iteration, residual
+            if not residual < 0.5 * previous:
+                break
+            previous = residual
+            x = x - solve(f)
+        self._factor = None
+        return None
 
     def _integrate(self, model: Model, x: np.ndarray) -> tuple[StepOutcome, Model]:
         from rodsim.api import solve

@@ -5,18 +5,18 @@ has the values ``ramps[key][k]``. Step 0 is solved cold with the chosen integrat
 rest); every later step is warm-started from the previous equilibrium and its registration
 (rodsim/inverse/continuation.py). With ``static``, step k + 1 starts from the first-order
 predictor x_k + (x_k − x_{k−1}) |p_{k+1} − p_k| / |p_k − p_{k−1}| (the path's last chord,
-from step 2 on) and runs Newton without polishing past the tolerance. The chord predictor
-is free. The tangent predictor x_k + (dx/dp)(p_{k+1} − p_k) from the sensitivities
+from step 2 on) and solves from there (chord iterations with a kept factorisation, then
+Newton if they stall; no polishing past the tolerance). The path's chord is free. The
+tangent predictor x_k + (dx/dp)(p_{k+1} − p_k) from the sensitivities
 (rodsim/inverse/sensitivity.py) was measured on table3-catheter1 (201 steps of the tendon
-force, 0 → 2 N): it saved about one Newton iteration per step but cost model builds and a
-factorisation per ramped key, 9.7 ms per step against 5.3 ms with no predictor and 2.2 ms
-with the chord (docs/inverse.md).
+force, 0 → 2 N, before the chord iterations): it saved about one Newton iteration per step
+but cost model builds and a factorisation per ramped key, 9.7 ms per step against 5.3 ms
+with no predictor and 2.2 ms with the path's chord (docs/inverse.md).
 
 A step that fails is retried with half the increment, halved again on each failure and
 doubled after an easy sub-step; at the :data:`MAX_HALVINGS`-th failed attempt the track
-stops and reports the failure at that step (never skipped). The archive holds
-every step's shape along a ``step`` dimension with the ramped values as coordinates
-(docs/inverse.md).
+stops and reports the failure at that step (never skipped). The archive holds every step's
+shape along a ``step`` dimension with the ramped values as coordinates (docs/inverse.md).
 """
 
 from __future__ import annotations
