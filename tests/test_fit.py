@@ -109,6 +109,13 @@ def test_bad_data_files_are_refused(tmp_path, text, message):
         read_points(_write(tmp_path / "bad.csv", text))
 
 
+def test_arc_lengths_outside_the_rod_are_refused(cantilever):
+    points = synthetic(cantilever, {}, with_s=True)
+    shifted = Points(points.xyz, points.s + 0.05)  # past the 0.12 m rod for some points
+    with pytest.raises(FitError, match="outside the rest arc length"):
+        fit(cantilever, shifted, ["youngs_modulus"])
+
+
 def test_a_data_file_with_s_in_any_column_order_is_read(tmp_path):
     points = read_points(_write(tmp_path / "p.csv", "s,z,x,y\n0.01,0,0.01,0.002\n"))
     np.testing.assert_array_equal(points.xyz, [[0.01, 0.002, 0.0]])

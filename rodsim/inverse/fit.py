@@ -233,6 +233,10 @@ def fit(scene: Scene, points: Points, params: Sequence[str], *, rod: str | None 
     if rod not in scene.data["rods"]:
         raise FitError(f"rod {rod!r}: no such rod; rods: {', '.join(scene.data['rods'])}")
     count = len(points.xyz)
+    length = float(scene.data["rods"][rod]["length"])
+    if points.s is not None and (points.s.min() < 0.0 or points.s.max() > length):
+        raise FitError(f"data column s spans {points.s.min():.6g} to {points.s.max():.6g} m, "
+                       f"outside the rest arc length of rod {rod!r}, 0 to {length:g} m")
     if count < len(keys):
         raise FitError(f"{count} data points for {len(keys)} parameters: need at least as "
                        "many points as parameters")
@@ -270,7 +274,6 @@ def fit(scene: Scene, points: Points, params: Sequence[str], *, rod: str | None 
         rows = rows - along[:, :, None] * tangent[None]
         return rows.transpose(1, 2, 0).reshape(-1, len(keys))
 
-    length = float(scene.data["rods"][rod]["length"])
     _check_identifiable(jacobian(np.ones(len(keys))), keys, length)
     solution = least_squares(residuals, np.ones(len(keys)), jac=jacobian,
                              bounds=(lower, upper), x_scale=1.0, xtol=1e-12, ftol=1e-15,

@@ -30,6 +30,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from rodsim import __version__
+from rodsim.integrators.base import Progress
 from rodsim.inverse.continuation import MAX_HALVINGS, Continuation
 from rodsim.inverse.parameter_keys import NumericKey, numeric_keys, scene_with
 from rodsim.model import Model
@@ -184,9 +185,10 @@ class Track:
 
 
 def track(scene: Scene, ramps: Mapping[str, Sequence[float]], integrator: str = "static",
-          *, progress=None) -> Track:
+          *, progress: Progress | None = None) -> Track:
     """Equilibria along the path ``ramps`` (key → values, all of one length ≥ 2), step 0
-    from rest and every later step warm-started from the previous one (module docstring).
+    from rest and every later step warm-started from the previous one (module docstring);
+    ``progress`` is called after each step with the fraction done and a status line.
 
     Raises SceneError for bad keys or values; a solver failure comes back as
     ``Track.success = False`` with the failing step in the message.
