@@ -8,7 +8,9 @@ Importing rodsim pins OpenMP and OpenBLAS to one thread unless ``OMP_NUM_THREADS
 algebra is small, and threaded BLAS on a shared 2-core machine gave intermittent 10×
 slow-downs (DESIGN §8). This takes effect only if numpy is not imported before rodsim.
 
-``rodsim.load_scene``, ``rodsim.solve`` and ``rodsim.build_model`` are imported on first use.
+``rodsim.load_scene``, ``rodsim.solve``, ``rodsim.build_model`` and the inverse tools
+``rodsim.sensitivity``, ``rodsim.track``, ``rodsim.fit`` and ``rodsim.reach``
+(docs/inverse.md) are imported on first use.
 """
 
 import os
@@ -18,14 +20,24 @@ os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 __version__ = "0.1.0"
 
-__all__ = ["__version__", "build_model", "load_scene", "solve"]
+__all__ = ["__version__", "build_model", "fit", "load_scene", "reach", "sensitivity", "solve",
+           "track"]
+
+#: The inverse tools: name -> module (each module defines a function of the same name).
+_INVERSE = {"sensitivity": "rodsim.inverse.sensitivity", "track": "rodsim.inverse.track",
+            "fit": "rodsim.inverse.fit", "reach": "rodsim.inverse.reach"}
 
 
 def __getattr__(name: str):
-    """The Python entry points of :mod:`rodsim.api`, imported on first use: ``import rodsim``
-    stays light (SUNDIALS, xarray and numba are loaded only when a solve needs them)."""
+    """The Python entry points of :mod:`rodsim.api` and the inverse tools, imported on first
+    use: ``import rodsim`` stays light (SUNDIALS, xarray and numba are loaded only when a
+    solve needs them)."""
     if name in ("build_model", "load_scene", "solve"):
         from rodsim import api
 
         return getattr(api, name)
+    if name in _INVERSE:
+        import importlib
+
+        return getattr(importlib.import_module(_INVERSE[name]), name)
     raise AttributeError(f"module 'rodsim' has no attribute {name!r}")

@@ -15,6 +15,8 @@ from collections.abc import Iterable, Mapping
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
 from rodsim.integrators import registered_integrators
 from rodsim.integrators.base import Progress
 from rodsim.memory import check_memory
@@ -56,7 +58,7 @@ def build_model(scene: SceneLike | None = None) -> Model:
 
 def solve(scene: SceneLike | None = None, integrator: str | None = None, *,
           overrides: Iterable[str] = (), progress: Progress | None = None,
-          model: Model | None = None) -> Result:
+          model: Model | None = None, initial_state: np.ndarray | None = None) -> Result:
     """Run one integrator to equilibrium and return its :class:`~rodsim.result.Result`.
 
     Parameters
@@ -72,6 +74,10 @@ def solve(scene: SceneLike | None = None, integrator: str | None = None, *,
         Optional callback ``(fraction or None, status line)`` for long runs.
     model
         A model already built for this scene, to skip the assembly.
+    initial_state
+        Free coordinates to start from (a warm start from a nearby equilibrium, whose
+        registration ``model`` should carry) instead of the rest state; the loads then act
+        in full from the start.
 
     A solver failure does not raise: check ``result.success`` and ``result.message``.
     Invalid scenes raise :class:`~rodsim.schema.SceneError`, and so does a scene too large
@@ -89,5 +95,6 @@ def solve(scene: SceneLike | None = None, integrator: str | None = None, *,
         check_memory(loaded)
         model = Model(loaded)
     runner = integrators[name](model, solver[name], solver["tolerance"],
-                               solver["max_wall_time"], progress, budget_start=started)
+                               solver["max_wall_time"], progress, budget_start=started,
+                               initial_state=initial_state)
     return runner.solve()

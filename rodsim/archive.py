@@ -18,7 +18,7 @@ from pathlib import Path
 import xarray as xr
 
 from rodsim.archive_schema import ArchiveSchemaError, check_archive, parse_json_object
-from rodsim.compare import largest_distance
+from rodsim.compare import largest_rod_distance
 from rodsim.output import OutputError, check_target, remove_stale_temporaries, temporary_prefix
 from rodsim.result import SCHEMA_VERSION, Result
 from rodsim.scene import Scene
@@ -102,6 +102,6 @@ def rerun(dataset: xr.Dataset) -> tuple[Result, float]:
         raise ArchiveError("archive is inconsistent: integrator_options differ from the "
                            "scene's solver options")
     result = solve(scene, integrator)
-    stored = dataset["position"].values
-    new = result.to_xarray()["position"].values
-    return result, largest_distance(stored, new)
+    new = result.to_xarray()
+    return result, largest_rod_distance(dataset["position"].values, dataset["rod"].values,
+                                        new["position"].values, new["rod"].values)

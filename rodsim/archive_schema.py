@@ -23,7 +23,7 @@ import xarray as xr
 from rodsim.scene import Scene, SceneError
 
 __all__ = ["ArchiveSchemaError", "check_archive", "check_point_record", "parse_json_object",
-           "MAX_SIGMA_POINTS"]
+           "MAX_SIGMA_POINTS", "KINDS"]
 
 #: Largest σ grid a study archive may declare (the shipped studies use 101).
 MAX_SIGMA_POINTS = 100_001
@@ -96,15 +96,40 @@ def _labels(ds: xr.Dataset, dim: str, labels: list[str]) -> None:
         raise ArchiveSchemaError(f"coordinate {dim!r} is not {', '.join(labels)}")
 
 
+#: Archive kinds (attribute ``kind``; a run archive without it is a ``run``): a fit or a
+#: reach archive is a run archive of the fitted or reached scene with extra variables.
+KINDS = ("run", "track", "fit", "reach")
+
+
 def check_archive(ds: xr.Dataset) -> None:
-    """Check a run archive, or a study archive (``study`` attribute), against its contract."""
+    """Check a run archive (also a fit or reach archive), a track archive (``kind`` =
+    ``track``) or a study archive (``study`` attribute) against its contract."""
+    kind = ds.attrs.get("kind", "run")
     if "study" in ds.attrs:
         _check_study(ds)
+    elif kind not in KINDS:
+        raise ArchiveSchemaError(f"attribute 'kind' = {str(kind)[:40]!r} is not one of "
+                                 + ", ".join(KINDS))
+    elif kind == "track":
+        _check_run(ds, ("step",))
+        _check_track(ds)
     else:
         _check_run(ds)
 
 
-def _check_run(ds: xr.Dataset) -> None:
+def _check_track(ds: xr.Dataset) -> None:
+    ramps = parse_json_object(_attribute(ds, "ramp_json"), "attribute 'ramp_json'")
+    if not ramps:
+        raise ArchiveSchemaError("attribute 'ramp_json' names no ramped key")
+    for key, values in ramps.items():
+        if not isinstance(values, list) or not all(_finite_number(v) for v in values):
+            raise ArchiveSchemaError(f"ramp_json {key[:40]!r} is not a list of numbers")
+        if len(values) < ds.sizes.get("step", 0):
+            raise ArchiveSchemaError(f"ramp_json {key[:40]!r} has fewer values than steps")
+        _variable(ds, key, ("step",))
+
+
+def _check_run(ds: xr.Dataset, leading: tuple[str, ...] = ()) -> None:
     from rodsim.integrators import registered_integrators
 
     integrator = _attribute(ds, "integrator")
@@ -114,8 +139,8 @@ def _check_run(ds: xr.Dataset) -> None:
                                  "one of " + ", ".join(integrators))
     parse_json_object(_attribute(ds, "integrator_options"), "attribute 'integrator_options'")
     scene = stored_scene(_attribute(ds, "scene_json"), "attribute 'scene_json'")
-    _variable(ds, "position", ("node", "axis"))
-    _variable(ds, "quaternion", ("segment", "component"))
+    _variable(ds, "position", (*leading, "node", "axis"))
+    _variable(ds, "quaternion", (*leading, "segment", "component"))
     _labels(ds, "axis", ["x", "y", "z"])
     _labels(ds, "component", ["q1", "q2", "q3", "q4"])
     rods = _variable(ds, "rod", ("node",), numeric=False).values.astype(str)

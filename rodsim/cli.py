@@ -1,4 +1,5 @@
-"""Command line: ``rodsim run | rerun | study | plot | scenes | terms`` (and ``bench``).
+"""Command line: ``rodsim run | rerun | track | fit | reach | study | plot | scenes | terms``
+(and ``bench``).
 
 Human-readable summaries go to stdout, errors to stderr. Exit codes: 0 success, 1 solver
 failure, 2 bad input (scene, option, path or archive). User errors never show a traceback.
@@ -166,6 +167,8 @@ def cmd_rerun(args: argparse.Namespace) -> int:
             return _rerun_study(dataset, args)
         if args.point:
             raise UserError("--point applies to study archives only")
+        if dataset.attrs.get("kind") == "track":
+            return _rerun_track(dataset, args)
         result, difference = rerun(dataset)
     except (ArchiveError, SceneError, StudyError) as exc:
         raise UserError(f"{args.archive}: {exc}") from None
@@ -185,6 +188,159 @@ def _rerun_verdict(what: str, difference: float, length: float, tolerance: float
         print(f"rodsim: rerun differs from the archive by more than {tolerance:g} L",
               file=sys.stderr)
         return EXIT_SOLVER_FAILURE
+    return EXIT_OK
+
+
+def _rerun_track(dataset, args: argparse.Namespace) -> int:
+    from rodsim.inverse.track import rerun_track
+
+    again, difference = rerun_track(dataset)
+    if not again.success:
+        print(f"rodsim: solver failure on rerun: {again.message}", file=sys.stderr)
+        return EXIT_SOLVER_FAILURE
+    print(f"track       {again.scene.name}: re-ran {again.steps} steps")
+    length = max(rod.length for rod in again.model.rods.values())
+    return _rerun_verdict("centerlines", difference, length, args.tolerance)
+
+
+def _check_outputs(output: Path) -> str:
+    """Check an inverse command's archive target and its figure's folder before any work;
+    returns the figure's stem (the archive's path without ``.nc``)."""
+    from rodsim.output import OutputError, check_target
+    from rodsim.plotting import PlotError, check_output
+
+    stem = str(output.with_suffix("")) if output.suffix == ".nc" else str(output)
+    try:
+        check_target(output)
+        check_output(stem, ["png"])
+    except (OutputError, PlotError) as exc:
+        raise UserError(f"-o {exc}") from None
+    return stem
+
+
+def _write_with_figure(dataset, output: Path, stem: str) -> None:
+    """Write an inverse command's archive (atomically) and its PNG figure."""
+    from rodsim.archive import ArchiveError, write_dataset
+    from rodsim.plotting import PlotError, plot_dataset
+
+    try:
+        write_dataset(dataset, output)
+        figures = plot_dataset(dataset, stem, ["png"])
+    except (ArchiveError, PlotError) as exc:
+        raise UserError(str(exc)) from None
+    print(f"archive     {output}")
+    for figure in figures:
+        print(f"figure      {figure}")
+
+
+def cmd_track(args: argparse.Namespace) -> int:
+    from rodsim.inverse.track import parse_ramp, track
+    from rodsim.progress import ProgressPrinter
+    from rodsim.scene import SceneError
+
+    scene = _load_scene_or_fail(args.scene, args.set, args.integrator)
+    integrator = args.integrator or scene.data["solver"]["integrator"]
+    output = Path(args.output or f"{scene.name}-track.nc")
+    stem = _check_outputs(output)
+    progress = ProgressPrinter()
+    try:
+        ramps = dict(parse_ramp(text) for text in args.ramp)
+        if len(ramps) != len(args.ramp):
+            raise SceneError("--ramp names the same key twice")
+        result = track(scene, ramps, integrator, progress=progress)
+    except SceneError as exc:
+        raise UserError(str(exc)) from None
+    finally:
+        progress.close()
+    if not result.success:
+        print(f"rodsim: solver failure: {result.message}", file=sys.stderr)
+        return EXIT_SOLVER_FAILURE
+    times = result.times
+    warm = sum(times[1:]) / max(len(times) - 1, 1)
+    print(f"scene       {scene.name}: {result.steps} steps of "
+          + ", ".join(f"{k.name} {result.values[0, i]:g} → {result.values[-1, i]:g} {k.unit}"
+                      for i, k in enumerate(result.keys)))
+    print(f"integrator  {integrator}")
+    tip = result.tips()[-1]
+    print(f"last tip    x = {tip[0]: .6f} m  y = {tip[1]: .6f} m  z = {tip[2]: .3g} m")
+    print(f"wall time   {sum(times):.4f} s: first step (cold) {times[0]:.4f} s, warm steps "
+          f"{1e3 * warm:.3f} ms each ({1.0 / warm:.0f} steps/s), "
+          f"{int(sum(result.halvings))} halvings")
+    _write_with_figure(result.to_xarray(), output, stem)
+    return EXIT_OK
+
+
+def cmd_fit(args: argparse.Namespace) -> int:
+    from rodsim.inverse.fit import EquilibriumFailure, FitError, fit, read_points
+    from rodsim.scene import SceneError
+
+    scene = _load_scene_or_fail(args.scene, args.set, "static")
+    output = Path(args.output or f"{scene.name}-fit.nc")
+    stem = _check_outputs(output)
+    try:
+        points = read_points(args.data)
+        result = fit(scene, points, args.param, rod=args.rod)
+    except (FitError, SceneError) as exc:
+        raise UserError(str(exc)) from None
+    except EquilibriumFailure as exc:
+        print(f"rodsim: solver failure: {exc}", file=sys.stderr)
+        return EXIT_SOLVER_FAILURE
+    print(f"scene       {scene.name}: {len(points.xyz)} points of rod {result.rod} "
+          f"({'matched by s' if points.s is not None else 'matched to the nearest point'})")
+    for key, initial, value, error in zip(result.keys, result.initial, result.values,
+                                          result.errors, strict=True):
+        print(f"fitted      {key.name} = {value:.6g} ± {error:.2g} {key.unit} "
+              f"(from {initial:.6g})")
+    print(f"residual    RMS {result.residual_rms:.3g} m over {result.degrees_of_freedom} "
+          "degrees of freedom")
+    print(f"cost        {result.evaluations} equilibria, {result.jacobians} Jacobians, "
+          f"{result.wall_time:.3f} s ({result.message})")
+    _write_with_figure(result.to_xarray(), output, stem)
+    return EXIT_OK
+
+
+def _target(text: str) -> list[float]:
+    """argparse type of ``reach --tip``: three finite numbers X,Y,Z [m]."""
+    parts = text.split(",")
+    try:
+        values = [float(part) for part in parts]
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected X,Y,Z in metres, got {text[:40]!r}"
+                                         ) from None
+    if len(values) != 3 or not all(math.isfinite(v) for v in values):
+        raise argparse.ArgumentTypeError(f"expected three finite numbers X,Y,Z, got "
+                                         f"{text[:40]!r}")
+    return values
+
+
+def cmd_reach(args: argparse.Namespace) -> int:
+    from rodsim.inverse.continuation import EquilibriumFailure
+    from rodsim.inverse.reach import reach
+    from rodsim.scene import SceneError
+
+    scene = _load_scene_or_fail(args.scene, args.set, "static")
+    output = Path(args.output or f"{scene.name}-reach.nc")
+    stem = _check_outputs(output)
+    try:
+        result = reach(scene, args.tip, args.actuate, rod=args.rod, tolerance=args.tolerance)
+    except SceneError as exc:
+        raise UserError(str(exc)) from None
+    except EquilibriumFailure as exc:
+        print(f"rodsim: solver failure: {exc}", file=sys.stderr)
+        return EXIT_SOLVER_FAILURE
+    if not result.success:
+        print(f"rodsim: {result.message}", file=sys.stderr)
+        return EXIT_SOLVER_FAILURE
+    print(f"scene       {scene.name}: tip of {result.rod} to "
+          f"({', '.join(f'{c:.6g}' for c in result.target)}) m")
+    for key, initial, value in zip(result.keys, result.initial, result.values, strict=True):
+        print(f"actuation   {key.name} = {value:.6g} {key.unit} (from {initial:.6g})")
+    tip = result.tip
+    print(f"tip         x = {tip[0]: .6f} m  y = {tip[1]: .6f} m  z = {tip[2]: .6f} m, "
+          f"{result.distance:.3g} m from the target")
+    print(f"cost        {result.evaluations} equilibria, {result.jacobians} Jacobians, "
+          f"{result.wall_time:.3f} s")
+    _write_with_figure(result.to_xarray(), output, stem)
     return EXIT_OK
 
 
@@ -410,6 +566,68 @@ def build_parser() -> argparse.ArgumentParser:
                        help="run on a dask.distributed scheduler (tcp://host:port), or "
                        "'local' for a LocalCluster")
     study.set_defaults(func=cmd_study)
+
+    integrators = ("paper", "cvode", "ida", "static")
+    follow = sub.add_parser(
+        "track", help="equilibria along an actuation path, each warm-started from the last",
+        description="Solve a sequence of equilibria while scene values ramp together "
+        "(--ramp, repeatable: every ramp needs the same COUNT); each step starts from the "
+        "previous equilibrium, a failing step is retried with halved increments. Writes "
+        "one archive with a `step` dimension and a figure (docs/inverse.md).")
+    follow.add_argument("scene", help="scene file or shipped scene name")
+    follow.add_argument("--ramp", action="append", required=True,
+                        metavar="KEY=START:STOP:COUNT",
+                        help="ramp a numeric scene value (KEY as for --set; KEY[i] for a "
+                        "vector component), e.g. --ramp tendon_actuation.force=0:4:101")
+    follow.add_argument("--integrator", choices=integrators, default="static",
+                        help="integrator (default: static)")
+    follow.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
+                        help="override a scene value first (repeatable)")
+    follow.add_argument("-o", "--output", help="archive path (default: <scene>-track.nc); "
+                        "the figure goes beside it (.png)")
+    follow.set_defaults(func=cmd_track)
+
+    calibrate = sub.add_parser(
+        "fit", help="fit scene values to a measured centerline (least squares)",
+        description="Fit numeric scene values (--param, repeatable) to measured points of "
+        "a rod's centerline by least squares on the analytic sensitivities; reports the "
+        "fitted values with standard errors, writes the archive of the fitted scene (`rodsim "
+        "rerun` re-solves it) and a figure of data and fit (docs/inverse.md).")
+    calibrate.add_argument("scene", help="scene file or shipped scene name (its values are "
+                           "the starting point)")
+    calibrate.add_argument("--data", required=True, metavar="POINTS.csv",
+                           help="CSV with header x,y,z [m] and optionally s (rest arc "
+                           "length [m]); any number and spacing of points")
+    calibrate.add_argument("--param", action="append", required=True, metavar="KEY",
+                           help="numeric scene value to fit (KEY as for --set), e.g. K_E")
+    calibrate.add_argument("--rod", help="rod the points belong to (default: the first)")
+    calibrate.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
+                           help="override a scene value first (repeatable)")
+    calibrate.add_argument("-o", "--output", help="archive path (default: <scene>-fit.nc); "
+                           "the figure goes beside it (.png)")
+    calibrate.set_defaults(func=cmd_fit)
+
+    aim = sub.add_parser(
+        "reach", help="actuation values that put the tip at a target (inverse kinematics)",
+        description="Find values of the --actuate keys (e.g. the tensions of several "
+        "tendons) that put a rod's tip at --tip, by least squares on the analytic "
+        "sensitivities within each value's allowed range (tensions >= 0). Exit 1 when the "
+        "target is out of reach, with the closest tip found (docs/inverse.md).")
+    aim.add_argument("scene", help="scene file or shipped scene name (its values are the "
+                     "starting point)")
+    aim.add_argument("--tip", required=True, type=_target, metavar="X,Y,Z",
+                     help="target of the tip [m]")
+    aim.add_argument("--actuate", action="append", required=True, metavar="KEY",
+                     help="numeric scene value to vary (repeatable), e.g. "
+                     "tendon_py.tendon_actuation.force")
+    aim.add_argument("--rod", help="rod whose tip is placed (default: the first)")
+    aim.add_argument("--tolerance", type=_tolerance, default=1e-6, metavar="METRES",
+                     help="distance at which the target counts as reached (default 1e-6 m)")
+    aim.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
+                     help="override a scene value first (repeatable)")
+    aim.add_argument("-o", "--output", help="archive path (default: <scene>-reach.nc); the "
+                     "figure goes beside it (.png)")
+    aim.set_defaults(func=cmd_reach)
 
     plot = sub.add_parser("plot", help="draw an archive's figure (PNG and PDF)")
     plot.add_argument("archive", help="archive written by `rodsim run` or `rodsim study`")

@@ -62,10 +62,19 @@ class Model:
     """
 
     def __init__(self, scene: Scene, kernels: str | None = None) -> None:
-        self.scene = scene
         self.kernels = kernels or scene.data["solver"]["kernels"]
         if self.kernels not in KERNELS:
             raise ValueError(f"kernels {self.kernels!r}: allowed {', '.join(KERNELS)}")
+        self._assemble(scene)
+        self._build_maps()
+        if len(self.rods) > 1:
+            self._order_for_band()
+        self._build_scales()
+
+    def _assemble(self, scene: Scene) -> None:
+        """Rods, terms, tendons, the rest state and the free coordinates (in full-state order)
+        of ``scene``."""
+        self.scene = scene
         tendons = scene.data["tendons"]
         self.rods: dict[str, Rod] = {}
         offset = 0
@@ -105,10 +114,37 @@ class Model:
         #: Full-state index of every free coordinate, in the integrators' order.
         self.free = np.flatnonzero(is_free)
         self.n = len(self.free)
-        self._build_maps()
-        if len(self.rods) > 1:
-            self._order_for_band()
-        self._build_scales()
+
+    def with_scene(self, scene: Scene) -> Model:
+        """The model of ``scene`` — other parameter values on this model's discretisation —
+        with this model's order of the free coordinates and the registration of its dynamic
+        terms (tendon points keep their parents).
+
+        Cheaper than ``Model(scene)`` followed by a re-registration: the band ordering is
+        not recomputed, and the Jacobian pattern is reused when every term keeps its element
+        coordinates (a changed load, modulus, penalty or tendon force). A tracking step's
+        model (rodsim/inverse/track.py). Raises ValueError when ``scene`` changes the free
+        coordinates (node counts, clamps, rods or terms).
+        """
+        other = copy.copy(self)
+        other._assemble(scene)
+        names = [term.name for term in self.terms]
+        if (other.full_size != self.full_size or other.n != self.n
+                or not np.array_equal(other.free, np.sort(self.free))
+                or [term.name for term in other.terms] != names):
+            raise ValueError("the scene changes the model's layout (nodes, clamps, rods or "
+                             "terms): build a new Model")
+        other.free = self.free
+        other.terms = [term.registered(mine.registration_state()) if term.dynamic else term
+                       for term, mine in zip(other.terms, self.terms, strict=True)]
+        if all(np.array_equal(a.dofs, b.dofs)
+               for a, b in zip(other.terms, self.terms, strict=True)):
+            other._kernel_calls = None  # same pattern and index maps, new term constants
+            other._build_force_scatter()
+        else:
+            other._build_maps()
+        other._build_scales()
+        return other
 
     # ------------------------------------------------------------------ setup
     def _build_maps(self) -> None:

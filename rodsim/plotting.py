@@ -1,7 +1,8 @@
 """Figures from archives: every plot is drawn from a Dataset alone (run or study).
 
-``plot_dataset(ds, stem)`` picks the figure from the archive's ``plot`` attribute (studies)
-or draws the centerlines of a single run, and writes ``stem.png`` and ``stem.pdf``.
+``plot_dataset(ds, stem)`` picks the figure from the archive's ``plot`` attribute (studies),
+its ``kind`` (``track``, ``fit``, ``reach``: docs/inverse.md), or draws the centerlines of a
+single run, and writes ``stem.png`` and ``stem.pdf``.
 Kinds:
 
 - ``centerlines``: the first rod's centerline at every point (Figs. 6, 9, 14–18, 22), with
@@ -517,8 +518,105 @@ def _run_centerlines(ds: xr.Dataset) -> Figure:
     return figure
 
 
+# Inverse tools (docs/inverse.md) --------------------------------------------------------
+
+
+def _first_rod_nodes(ds: xr.Dataset) -> xr.DataArray:
+    first = ds["rod"].values[0]
+    return ds["position"].sel(node=ds["rod"] == first)
+
+
+def _out_of_plane(positions: np.ndarray) -> bool:
+    """Whether a shape leaves the x–y plane (then an x–z view is drawn too)."""
+    return bool(np.ptp(positions[..., 2]) > 1e-6 * max(np.ptp(positions[..., 0]), 1e-12))
+
+
+def _track_figure(ds: xr.Dataset) -> Figure:
+    """A track: the first rod's centerline at every step, coloured by step, and the tip
+    against the first ramped value."""
+    figure, (shapes, tips) = plt.subplots(1, 2, figsize=(10.0, 4.4), constrained_layout=True)
+    nodes = _first_rod_nodes(ds).values
+    ramp = list(json.loads(ds.attrs["ramp_json"]))[0]
+    values = ds[ramp].values
+    colours = plt.get_cmap("viridis")(np.linspace(0.0, 1.0, max(len(values), 1)))
+    for step, colour in enumerate(colours):
+        shapes.plot(nodes[step, :, 0], nodes[step, :, 1], color=colour, lw=0.9)
+    mappable = plt.cm.ScalarMappable(cmap="viridis", norm=plt.Normalize(values.min(),
+                                                                        values.max()))
+    figure.colorbar(mappable, ax=shapes, label=_ramp_label(ds, ramp))
+    shapes.set_xlabel("x [m]")
+    shapes.set_ylabel("y [m]")
+    shapes.set_aspect("equal", adjustable="datalim")
+    shapes.set_title(f"centerline of {ds['rod'].values[0]} at each of {len(values)} steps",
+                     fontsize=8)
+    for axis, name in enumerate("xyz"):
+        tips.plot(values, nodes[:, -1, axis], label=f"tip {name}")
+    tips.set_xlabel(_ramp_label(ds, ramp))
+    tips.set_ylabel("tip position [m]")
+    tips.legend(fontsize=7)
+    figure.suptitle(ds.attrs.get("title", ""), fontsize=9)
+    return figure
+
+
+def _ramp_label(ds: xr.Dataset, key: str) -> str:
+    unit = ds[key].attrs.get("units", "")
+    return f"{key} [{unit}]" if unit not in ("", "1") else key
+
+
+def _views(ds: xr.Dataset, extra: np.ndarray) -> tuple[Figure, list[plt.Axes]]:
+    """The run's rods in x–y (and x–z when the shape or ``extra`` points leave the plane)."""
+    three_d = _out_of_plane(np.concatenate([ds["position"].values, extra]))
+    figure, axes = plt.subplots(1, 2 if three_d else 1, figsize=(10.0 if three_d else 6.4, 4.8),
+                                constrained_layout=True, squeeze=False)
+    views = [(0, 1), (0, 2)][:axes.shape[1]]
+    for panel, (h, v) in zip(axes[0], views, strict=True):
+        for rod in np.unique(ds["rod"].values):
+            nodes = ds["position"].sel(node=ds["rod"] == rod).values
+            panel.plot(nodes[:, h], nodes[:, v], marker=".", ms=3, lw=0.9, label=str(rod))
+        panel.set_xlabel(f"{'xyz'[h]} [m]")
+        panel.set_ylabel(f"{'xyz'[v]} [m]")
+        panel.set_aspect("equal", adjustable="datalim")
+    figure.suptitle(ds.attrs.get("title", ""), fontsize=9)
+    return figure, list(zip(axes[0], views, strict=True))
+
+
+def _fit_figure(ds: xr.Dataset) -> Figure:
+    """A fit: the measured points on the fitted shape, with the fitted values."""
+    data = ds["data_position"].values
+    figure, views = _views(ds, data)
+    for panel, (h, v) in views:
+        panel.plot(data[:, h], data[:, v], ls="none", marker="x", color="k", ms=5,
+                   label="measured points")
+        panel.legend(fontsize=7)
+    fitted = ", ".join(f"{key} = {float(ds[key]):.5g} ± {float(ds[key + '.standard_error']):.2g}"
+                       for key in json.loads(ds.attrs["fit_parameters"]))
+    views[0][0].set_title(textwrap.fill(f"fit: {fitted}; residual RMS "
+                                        f"{ds.attrs['residual_rms']:.3g} m", 80), fontsize=7)
+    return figure
+
+
+def _reach_figure(ds: xr.Dataset) -> Figure:
+    """A reach: the shape that puts the tip nearest the target, the target and the tip."""
+    target = ds["target"].values
+    figure, views = _views(ds, target[None, :])
+    tip = _first_rod_nodes(ds).values[-1]
+    for panel, (h, v) in views:
+        panel.plot(target[h], target[v], marker="*", ms=12, color="r", ls="none",
+                   label="target")
+        panel.plot(tip[h], tip[v], marker="o", mfc="none", ms=9, color="k", ls="none",
+                   label="tip reached")
+        panel.legend(fontsize=7)
+    values = ", ".join(f"{key} = {float(ds[key]):.5g}"
+                       for key in json.loads(ds.attrs["reach_parameters"]))
+    views[0][0].set_title(textwrap.fill(f"reach: {values}; distance "
+                                        f"{ds.attrs['distance']:.3g} m", 80), fontsize=7)
+    return figure
+
+
 DRAWERS = {"centerlines": _centerlines, "error_vs_parameter": _error_vs_parameter,
            "error_vs_iteration": _error_vs_iteration}
+#: Figures of the inverse tools' archives, by their ``kind`` attribute.
+KIND_DRAWERS = {"track": _track_figure, "fit": _fit_figure, "reach": _reach_figure}
 
 
 def plot_dataset(ds: xr.Dataset, stem: str | Path, formats: Iterable[str] = ("png", "pdf")
@@ -544,6 +642,8 @@ def _draw_and_write(ds: xr.Dataset, stem: str | Path, formats: list[str]) -> lis
             raise PlotError(f"unknown plot kind {kind!r}; known: {', '.join(DRAWERS)}")
         figure = DRAWERS[kind](ds)
         _title(figure, ds)
+    elif ds.attrs.get("kind") in KIND_DRAWERS:
+        figure = KIND_DRAWERS[ds.attrs["kind"]](ds)
     else:
         figure = _run_centerlines(ds)
     paths = []

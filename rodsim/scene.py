@@ -133,6 +133,11 @@ class Scene:
     def name(self) -> str:
         return str(self.data["name"])
 
+    def full_key(self, key: str, prefer: str = "") -> str:
+        """The full dotted key that ``key`` names (the short forms of :meth:`with_overrides`;
+        SceneError for an unknown or ambiguous key)."""
+        return _resolve_key(self.data, key, prefer)
+
     def get(self, key: str) -> Any:
         """Value at a dotted key, with the same short forms as :meth:`with_overrides`."""
         node: Any = self.data

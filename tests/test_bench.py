@@ -180,3 +180,6 @@ def test_kernels_small_outputs(tmp_path):
         assert np.isfinite(row["best_s"]) and row["best_s"] > 0
         assert row["error_over_L"] < 1e-6
     assert report["cvode_profile"]
+    (track,) = report["tracking"]
+    assert track["success"] and track["steps"] == 21
+    assert 0 < track["warm_step_mean_s"] < track["cold_solve_s"]

@@ -12,7 +12,11 @@ and each evaluation path (``solver.kernels`` = ``numpy``, the reference, and ``c
   empty numba cache folder);
 - a profile (cProfile, top functions by own time) of the default CVODE run;
 - the ratio to the previous single-rod results file (``single_rod.json``, solve-only times
-  of the same scene before the fast core) when it is in the output folder.
+  of the same scene before the fast core) when it is in the output folder;
+- tracking (rodsim/inverse/track.py, static): a ramp of the tip load (table1-50g) or the
+  tendon force (table3-catheter1) in equal steps; per step of the best of the repeats, the
+  warm step's wall time and Newton iterations against a cold static solve of the same
+  equilibrium (model assembly included in both), and the tracking rate.
 
 Writes ``kernels-<size>.json`` and ``kernels-<size>.md``. Nothing is asserted.
 """
@@ -38,9 +42,13 @@ from rodsim.integrators.base import Progress
 from rodsim.model import KERNELS, Model
 
 INTEGRATORS = ("static", "paper", "cvode", "ida")
-SIZES = {"small": {"scenes": ("table1-50g",), "repeats": 2, "calls": 50, "large": False},
+SIZES = {"small": {"scenes": ("table1-50g",), "repeats": 2, "calls": 50, "large": False,
+                   "track_steps": 21},
          "full": {"scenes": ("table1-50g", "table3-catheter1"), "repeats": 7, "calls": 400,
-                  "large": True}}
+                  "large": True, "track_steps": 201}}
+#: The ramp each scene is tracked along: (key, start, stop).
+TRACKS = {"table1-50g": ("rods.catheter.tip_load.mass", 0.0, 0.1),
+          "table3-catheter1": ("tendons.tendon.tendon_actuation.force", 0.0, 4.0)}
 LARGE_NODES = 4000
 
 _COMPILE_SCRIPT = """
@@ -144,6 +152,42 @@ def previous_single_rod(output_dir: Path) -> dict[str, float]:
             if r["label"] in wanted} | {"commit": data["machine"].get("git_commit", "?")}
 
 
+def tracking_costs(scene_name: str, steps: int, repeats: int, progress: Progress) -> dict:
+    """Best-of-``repeats`` tracking run along TRACKS[scene_name] in ``steps`` steps, and cold
+    static solves of the last three steps' scenes (from rest, model assembly included)."""
+    key, start, stop = TRACKS[scene_name]
+    scene = rodsim.load_scene(scene_name)
+    values = np.linspace(start, stop, steps)
+    rodsim.track(scene, {key: values[:3]})  # warm-up (kernels loaded)
+    best = None
+    for repeat in range(repeats):
+        progress((repeat + 1) / repeats, f"kernels: tracking {scene_name}")
+        started = time.perf_counter()
+        path = rodsim.track(scene, {key: values})
+        total = time.perf_counter() - started
+        if best is None or total < best[0]:
+            best = total, path
+    total, path = best
+    cold_times, cold_iterations = [], []
+    for value in values[-3:]:
+        times = []
+        for _ in range(repeats):
+            started = time.perf_counter()
+            result = rodsim.solve(scene.with_values({key: float(value)}), "static")
+            times.append(time.perf_counter() - started)
+        cold_times.append(min(times))
+        cold_iterations.append(result.stats["newton_iters"])
+    warm = np.asarray(path.times[1:])
+    return {"scene": scene_name, "key": key, "start": start, "stop": stop, "steps": steps,
+            "success": path.success, "total_s": total, "first_step_s": path.times[0],
+            "warm_step_mean_s": float(warm.mean()), "warm_step_max_s": float(warm.max()),
+            "warm_iterations_mean": float(np.mean(path.iterations[1:])),
+            "halvings": float(np.sum(path.halvings)),
+            "steps_per_s": float((steps - 1) / warm.sum()),
+            "cold_solve_s": float(np.mean(cold_times)),
+            "cold_newton_iterations": float(np.mean(cold_iterations))}
+
+
 def run(size: str, output_dir: Path, progress: Progress) -> list[Path]:
     config = SIZES[size]
     report: dict = {"benchmark": "kernels", "size": size, "machine": machine(),
@@ -165,6 +209,8 @@ def run(size: str, output_dir: Path, progress: Progress) -> list[Path]:
                         for row in solve_times(name, config["repeats"], progress)]
     report["previous"] = previous_single_rod(output_dir)
     report["cvode_profile"] = cvode_profile("table1-50g")
+    report["tracking"] = [tracking_costs(name, config["track_steps"], config["repeats"],
+                                         progress) for name in config["scenes"]]
     stem = output_dir / f"kernels-{size}"
     json_path = stem.with_suffix(".json")
     json_path.write_text(json.dumps(report, indent=1))
@@ -229,4 +275,15 @@ def markdown(report: dict) -> str:
     for row in report["cvode_profile"]:
         lines.append(f"| `{row['function']}` | {row['calls']:.0f} | {row['own_share']:.1%} | "
                      f"{row['cumulative_share']:.1%} |")
+    lines += ["", "## Tracking (static, warm-started steps; best of the repeats)", "",
+              "| scene | ramp | steps | warm step [ms] | Newton / step | cold solve [ms] | "
+              "cold Newton | warm / cold | steps/s |", "|---|---|---|---|---|---|---|---|---|"]
+    for row in report["tracking"]:
+        status = "" if row["success"] else " (failed)"
+        lines.append(
+            f"| {row['scene']}{status} | {row['key']} {row['start']:g} → {row['stop']:g} | "
+            f"{row['steps']} | {row['warm_step_mean_s'] * 1e3:.2f} | "
+            f"{row['warm_iterations_mean']:.2f} | {row['cold_solve_s'] * 1e3:.1f} | "
+            f"{row['cold_newton_iterations']:.0f} | "
+            f"{row['warm_step_mean_s'] / row['cold_solve_s']:.3f} | {row['steps_per_s']:.0f} |")
     return "\n".join(lines) + "\n"

@@ -106,6 +106,11 @@ class Integrator(ABC):
         ``time.perf_counter()`` at which the wall-time budget started (default: when
         :meth:`solve` starts); :func:`rodsim.api.solve` passes the time before the model
         was assembled, so the budget covers the assembly too.
+    initial_state
+        Free coordinates to start from instead of the rest state ``model.x0`` — a warm
+        start from a nearby equilibrium (rodsim/inverse/track.py). The loads then act in full from
+        the start (no load ramp or continuation), and ``model`` should carry the
+        registration of that state.
     """
 
     name: ClassVar[str]
@@ -124,7 +129,8 @@ class Integrator(ABC):
 
     def __init__(self, model: Model, options: dict[str, Any], tolerance: float,
                  max_wall_time: float = 600.0, progress: Progress | None = None,
-                 budget_start: float | None = None) -> None:
+                 budget_start: float | None = None,
+                 initial_state: np.ndarray | None = None) -> None:
         #: The model as built, at rest (its registration is the rest state's).
         self.base_model = model
         #: The model in use: a new one replaces it when the tendon registration changes.
@@ -144,7 +150,12 @@ class Integrator(ABC):
             self.counts["settles"] = 0
         #: Appended to the message of a successful run (a registration that did not settle).
         self.note = ""
-        self.state = model.x0
+        #: True when the run starts from ``initial_state`` rather than the rest state.
+        self.warm = initial_state is not None
+        #: The state the run starts from.
+        self.start_state = (model.x0 if initial_state is None
+                            else np.array(initial_state, dtype=float))
+        self.state = self.start_state
         self.where = "start"
         self._start = 0.0
         self._linear: tuple[Model, LinearSolver] | None = None
@@ -284,7 +295,8 @@ class Integrator(ABC):
     # ------------------------------------------------------------ template
     @abstractmethod
     def advance(self) -> Outcome:
-        """Run the method from ``model.x0`` toward equilibrium (see the module docstring)."""
+        """Run the method from :attr:`start_state` (the rest state ``model.x0`` unless a warm
+        start was given) toward equilibrium (see the module docstring)."""
 
     def advice(self) -> str:
         """What to try when this integrator fails (shown in the failure message)."""

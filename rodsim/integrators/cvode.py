@@ -37,7 +37,7 @@ class Cvode(SundialsIntegrator):
                                        self.masses)
 
     def initial_state(self) -> np.ndarray:
-        return self.system.initial_state()
+        return self.system.initial_state(self.start_state)
 
     def positions_of(self, y: np.ndarray) -> np.ndarray:
         return self.system.positions_of(y)

@@ -101,9 +101,10 @@ class ConstrainedSystem:
         total[self.quat] += 2.0 * y[self.mu_slot][:, None] * y[self.x_slot][self.quat]
         return total
 
-    def initial_state(self) -> np.ndarray:
+    def initial_state(self, x0: np.ndarray | None = None) -> np.ndarray:
+        """The state ``x0`` (default: the rest state; or a warm start), at rest, μ = 0."""
         y = np.zeros(self.size)
-        y[self.x_slot] = self.model.x0
+        y[self.x_slot] = self.model.x0 if x0 is None else x0
         return y
 
     def positions_of(self, y: np.ndarray) -> np.ndarray:
@@ -180,7 +181,7 @@ class Ida(SundialsIntegrator):
         self._last_y: np.ndarray | None = None
 
     def initial_state(self) -> np.ndarray:
-        return self.system.initial_state()
+        return self.system.initial_state(self.start_state)
 
     def positions_of(self, y: np.ndarray) -> np.ndarray:
         return self.system.positions_of(y)

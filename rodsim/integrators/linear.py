@@ -14,11 +14,17 @@ rods so that the tendon system stays banded too (``Model._order_for_band``). So:
 Measured at N = 40 (273 unknowns) before this module: SuperLU 490–540 µs per solve against
 50 µs (dpbsv) and 68 µs (dgbsv); at N = 4000, 43–53 ms against 4.5 ms (docs/benchmarks.md).
 The values are copied into band storage through index maps built once per pattern.
+
+:meth:`LinearSolver.factorized` factors J once and solves for many right-hand sides (the
+sensitivities of rodsim/sensitivity.py: one column per parameter): band Cholesky
+(dpbtrf/dpbtrs) of −J when symmetric and positive definite, else band LU (dgbtrf/dgbtrs), or
+SuperLU for wide bands.
 """
 
 from __future__ import annotations
 
 import warnings
+from collections.abc import Callable
 
 import numpy as np
 import scipy.sparse as sp
@@ -93,6 +99,37 @@ class LinearSolver:
         if info != 0:
             return np.full(n, np.nan)
         return x
+
+    def factorized(self, data: np.ndarray) -> Callable[[np.ndarray], np.ndarray] | None:
+        """J factored once: a function solving J X = B for a vector or an (n, k) matrix B,
+        or None when J is singular."""
+        if not self.banded:
+            matrix = sp.csc_matrix((data, self._pattern.indices, self._pattern.indptr),
+                                   shape=(self.n, self.n))
+            try:
+                return spla.splu(matrix).solve
+            except RuntimeError:
+                return None
+        n = self.n
+        if self.symmetric:
+            ab = np.zeros((self.lower + 1, n))
+            ab.flat[self._cholesky_index] = -data[self._below]
+            factor, info = lapack.dpbtrf(ab, lower=1)
+            if info == 0:
+                def cholesky_solve(rhs: np.ndarray) -> np.ndarray:
+                    x, _ = lapack.dpbtrs(factor, -rhs, lower=1)
+                    return x
+                return cholesky_solve
+        ab = np.zeros((self._lu_rows, n))
+        ab.flat[self._lu_index] = data
+        lu, pivots, info = lapack.dgbtrf(ab, self.lower, self.upper)
+        if info != 0:
+            return None
+
+        def lu_solve(rhs: np.ndarray) -> np.ndarray:
+            x, _ = lapack.dgbtrs(lu, self.lower, self.upper, rhs, pivots)
+            return x
+        return lu_solve
 
     def _sparse(self, data: np.ndarray, rhs: np.ndarray) -> np.ndarray:
         self.counts["sparse_lu"] += 1

@@ -145,7 +145,7 @@ class PaperEuler(Integrator):
     def advance(self) -> Outcome:
         h, xi = self.options["h"], self.options["xi"]
         model, counts = self.model, self.counts
-        x = model.x0
+        x = self.start_state
         v = np.zeros_like(x)
         # Each step's Newton solve goes 10× below the tolerance, but not below round-off.
         inner = max(0.1 * self.tolerance, model.residual_floor)
@@ -155,7 +155,7 @@ class PaperEuler(Integrator):
             self.check_budget(where)
             predictor = x + xi * h * v
             self._refresh_pattern()  # registration changes the pattern between steps only
-            ramp = self.options["ramp_steps"]
+            ramp = 0 if self.warm else self.options["ramp_steps"]
             load = min(1.0, step / ramp) if ramp else 1.0
             solved = newton(self._step_problem(predictor, h, load), predictor, inner,
                             self.options["max_newton"], polish=False,

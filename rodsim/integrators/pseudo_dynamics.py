@@ -125,9 +125,9 @@ class FirstOrderSystem:
         self.band = (int(max(offsets.max(), 0)), int(max(-offsets.min(), 0)))
         self.pattern_rows, self.pattern_cols = coo.row, coo.col  # CSC order (canonical)
 
-    def initial_state(self) -> np.ndarray:
-        """The rest state, at rest."""
-        x0 = self.model.x0
+    def initial_state(self, x0: np.ndarray | None = None) -> np.ndarray:
+        """The state ``x0`` (default: the rest state; or a warm start), at rest."""
+        x0 = self.model.x0 if x0 is None else x0
         if self.formulation == "overdamped":
             return x0
         y = np.zeros(self.size)

@@ -32,6 +32,10 @@ retracting the linear update onto the quaternion norm or the coupling's length (
 the iterations below ~80 at full K_P).
 
 Quaternion norm: held by the centerline penalty Eq. (9) (|d3| = |q|²), as in the model.
+
+Warm start (``initial_state``, rodsim/track.py): Newton at full load from the given state,
+repeated while the registration changes; if that fails, the run starts over from rest with
+the continuations above.
 """
 
 from __future__ import annotations
@@ -66,6 +70,11 @@ class Static(Integrator):
                 "pseudo-dynamic integrator (--integrator cvode)")
 
     def advance(self) -> Outcome:
+        if self.warm:
+            converged, x = self._newton_registered(self.start_state, True)
+            if converged:
+                return Outcome(x, True, "converged (warm start)")
+            self.model = self.base_model
         base = self.base_model
         penalties = {k: self.options["penalty_ratio"] / term.penalty_ratio
                      for k, term in enumerate(base.terms)

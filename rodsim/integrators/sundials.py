@@ -112,7 +112,8 @@ class SundialsIntegrator(Integrator):
         self.omega = omega
         #: First-mode period 2π/ω₁ [s], the pseudo-time unit of the ramp and the run's tests.
         self.period = 2.0 * math.pi / omega
-        self.ramp = LoadRamp(self.options["load_ramp"] * self.period)
+        # A warm start (from a nearby equilibrium) takes the loads in full at once.
+        self.ramp = LoadRamp(0.0 if self.warm else self.options["load_ramp"] * self.period)
         #: Pseudo-time at which the run gives up (10⁹ first-mode periods).
         self.horizon = 1e9 * self.period
         self.counts["reinits"] = 0
@@ -172,7 +173,7 @@ class SundialsIntegrator(Integrator):
 
     @abstractmethod
     def initial_state(self) -> np.ndarray:
-        """y at t = 0 (the rest state, at rest)."""
+        """y at t = 0 (:attr:`start_state`, at rest)."""
 
     @abstractmethod
     def positions_of(self, y: np.ndarray) -> np.ndarray:

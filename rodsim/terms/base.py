@@ -127,6 +127,11 @@ class Term(ABC):
         """A copy of this dynamic term with the discrete state ``state`` (and its ``dofs``)."""
         raise NotImplementedError(f"term {self.name!r} has no registration")
 
+    def registration_state(self) -> np.ndarray | None:
+        """A dynamic term's current discrete state (what :meth:`registered` takes), or
+        ``None`` for a term without registration."""
+        return None
+
 
 class RodTerm(Term):
     """A term acting on one rod, configured by ``[rods.<rod>.<term name>]``."""

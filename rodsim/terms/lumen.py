@@ -153,6 +153,9 @@ class Lumen(TendonTerm):
         other._set_dofs()
         return other
 
+    def registration_state(self) -> np.ndarray:
+        return self.parent.copy()
+
     def _set_dofs(self) -> None:
         layout = self.tendon.catheter.layout
         r = layout.position_index[self.parent]

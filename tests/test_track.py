@@ -1,0 +1,126 @@
+"""Tracking (rodsim/inverse/track.py, ``rodsim track``): warm-started equilibria along a
+path agree with cold solves, cost a fraction of them, halve failing steps and report the
+failures they cannot pass."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import xarray as xr
+
+import rodsim
+from rodsim.archive import read_dataset
+
+
+def _cold(scene, values: dict, integrator: str = "static"):
+    result = rodsim.solve(scene.with_values(values), integrator)
+    assert result.success, result.message
+    return np.concatenate([shape.positions for shape in result.rods.values()]), result
+
+
+def test_every_step_is_the_equilibrium_a_cold_solve_finds():
+    scene = rodsim.load_scene("table1-50g", ["nodes=20"])
+    masses = [0.0, 0.03, 0.06, 0.09]
+    path = rodsim.track(scene, {"tip_load.mass": masses}, "static")
+    assert path.success and path.steps == 4
+    for step, mass in enumerate(masses):
+        cold, _ = _cold(scene, {"rods.catheter.tip_load.mass": mass})
+        assert np.abs(path.positions[step] - cold).max() < 1e-8 * 0.12
+
+
+def test_several_keys_ramp_together():
+    scene = rodsim.load_scene("table1-50g", ["nodes=20"])
+    path = rodsim.track(scene, {"tip_load.mass": [0.05, 0.08],
+                                "youngs_modulus": [5.9e6, 4e6]}, "static")
+    assert path.success
+    cold, _ = _cold(scene, {"rods.catheter.tip_load.mass": 0.08,
+                            "rods.catheter.youngs_modulus": 4e6})
+    assert np.abs(path.positions[-1] - cold).max() < 1e-8 * 0.12
+
+
+def test_a_tendon_track_keeps_the_registration_and_costs_a_few_newton_iterations():
+    scene = rodsim.load_scene("table3-catheter1")
+    path = rodsim.track(scene, {"tendon_actuation.force": np.linspace(1.0, 2.0, 11)})
+    assert path.success
+    cold, result = _cold(scene, {"tendons.tendon.tendon_actuation.force": 2.0})
+    assert np.abs(path.positions[-1] - cold).max() < 1e-8 * 0.16
+    # A cold static solve takes tens of Newton iterations (load and penalty continuation);
+    # a warm step a handful.
+    assert max(path.iterations[1:]) <= result.stats["newton_iters"] / 5
+
+
+@pytest.mark.parametrize("integrator", ["cvode", "paper"])
+def test_pseudo_dynamic_integrators_start_from_the_previous_equilibrium(integrator):
+    scene = rodsim.load_scene("table1-50g", ["nodes=20"])
+    path = rodsim.track(scene, {"tip_load.mass": [0.04, 0.05]}, integrator)
+    assert path.success
+    cold, result = _cold(scene, {"rods.catheter.tip_load.mass": 0.05}, integrator)
+    assert np.abs(path.positions[-1] - cold).max() < 1e-6 * 0.12
+    assert path.iterations[1] < result.stats["steps"]  # fewer steps than from rest
+
+
+def test_a_step_too_large_for_newton_is_passed_in_halved_increments():
+    scene = rodsim.load_scene("table3-catheter1")
+    path = rodsim.track(scene, {"tendon_actuation.force": [0.5, 3.0]})
+    assert path.success
+    assert path.halvings[1] > 0
+    cold, _ = _cold(scene, {"tendons.tendon.tendon_actuation.force": 3.0})
+    assert np.abs(path.positions[-1] - cold).max() < 1e-8 * 0.16
+
+
+def test_a_step_that_cannot_be_passed_is_reported_not_skipped():
+    scene = rodsim.load_scene("table3-catheter1")
+    path = rodsim.track(scene, {"tendon_actuation.force": [0.5, 1.0, 5000.0, 1.0]})
+    assert not path.success
+    assert path.failed_step == 2 and path.steps == 2
+    assert "step 2" in path.message and "5000" in path.message
+
+
+def test_track_command_writes_a_self_describing_archive_and_a_figure(tmp_path, capsys, cli):
+    output = tmp_path / "path.nc"
+    code = cli(["track", "table1-50g", "--set", "nodes=12", "--ramp", "tip_load.mass=0:0.1:5",
+                "--ramp", "tip_load.force[0]=0:0.2:5", "-o", str(output)])
+    assert code == 0, capsys.readouterr().err
+    assert (tmp_path / "path.png").exists()
+    with xr.open_dataset(output) as ds:
+        assert ds.sizes["step"] == 5
+        mass = ds["rods.catheter.tip_load.mass"]
+        np.testing.assert_allclose(mass.values, np.linspace(0, 0.1, 5))
+        assert mass.attrs["units"] == "kg"
+        assert ds["rods.catheter.tip_load.force[0]"].attrs["units"] == "N"
+        for name in list(ds.data_vars) + list(ds.coords):
+            assert "long_name" in ds[name].attrs, name
+        for name in ("position", "wall_time", "residual"):
+            assert "units" in ds[name].attrs, name
+        assert ds.attrs["kind"] == "track" and ds.attrs["scene_json"]
+    read_dataset(output)  # the archive contract holds
+    assert cli(["plot", str(output), "-o", str(tmp_path / "drawn")]) == 0
+    assert (tmp_path / "drawn.png").exists()
+    assert cli(["rerun", str(output)]) == 0
+    assert "re-ran 5 steps" in capsys.readouterr().out
+
+
+@pytest.mark.parametrize(("ramp", "message"), [
+    (["tip_load.mass=0:0.1"], "KEY=START:STOP:COUNT"),
+    (["tip_load.mass=0:x:3"], "must be numbers"),
+    (["tip_load.mass=0:0.1:3", "K_P=1e4:1e5:4"], "same number of values"),
+    (["tip_load.mass=-1:0.1:3"], "out of range"),
+    (["nodes=10:20:3"], "discretisation"),
+])
+def test_bad_ramps_exit_2_with_one_line_and_write_nothing(tmp_path, capsys, cli, ramp,
+                                                          message):
+    output = tmp_path / "bad.nc"
+    argv = ["track", "table1-50g"] + [arg for r in ramp for arg in ("--ramp", r)]
+    assert cli([*argv, "-o", str(output)]) == 2
+    err = capsys.readouterr().err
+    assert message in err and err.count("\n") == 1
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_a_failed_track_exits_1_and_writes_nothing(tmp_path, capsys, cli):
+    output = tmp_path / "fail.nc"
+    code = cli(["track", "table3-catheter1", "--ramp", "tendon_actuation.force=0.5:5000:2",
+                "-o", str(output)])
+    assert code == 1
+    assert "step 1" in capsys.readouterr().err
+    assert list(tmp_path.iterdir()) == []
