@@ -187,8 +187,11 @@ def test_gravity_on_deflects_more_than_off(small):
 
 
 def test_convergence_error_falls_with_n_and_k_l(small):
+    """K_L is per unit tendon length, so the lumen's compliance error does not fall with N:
+    at the small K_L it is a floor above the discretisation error, which falls with N at
+    the large one."""
     errors = small("convergence")[1]["tip_error"].isel(K_P=0)  # dims (nodes, K_L)
-    assert np.all(errors.diff("nodes").values < 0.0)
+    assert np.all(errors.isel(K_L=-1).diff("nodes").values < 0.0)
     assert np.all(errors.diff("K_L").values < 0.0)
 
 
