@@ -285,6 +285,9 @@ CASES = [
      "tendons.tendon.tendon_actuation.point"),
     ("hysteresis-above-one", edit("K_L = 1000.0", "K_L = 1000.0\nhysteresis = 2.0"), [],
      "tendons.tendon.lumen.hysteresis"),
+    ("conserving-lumen-on-d_t-only",
+     edit("K_L = 1000.0", 'K_L = 1000.0\nconstrain = "d_t"'), ["--set", "coupling=conserving"],
+     "tendons.tendon.lumen.constrain"),
     ("tendons-not-a-table", "tendons = 3\n" + BASE.split("[tendons.tendon]")[0], [],
      "tendons"),
 ]

@@ -2,7 +2,7 @@
 (32)–(35) with DESIGN erratum 13 (:mod:`rodsim.terms._lumen_segment`): per tendon point p on
 lumen segment j, local coordinates (p, r_j, r_{j+1}, q_{j−1}, q_j, q_{j+1}),
 
-    L_j = r_j + r_L u(q_{j−1} + q_j),  τ_j = t(q_{j−1} + q_j)  (and j + 1 with q_j + q_{j+1}),
+    L_j = r_j + r_L u(s_j),  τ_j = t(s_j),  s_j = Σ_k weights[e, 0, k] q_slot k  (j + 1 likewise),
     L(σ) = Σ_b w_b(σ) y_b over y = (L_j, L_{j+1}, τ_j, τ_{j+1}), w = (h00, h01, l̄ h10, l̄ h11),
     σ: (L(σ) − p)·L′(σ) = 0 (Newton),   Δ = L(σ) − p,   E = ½ k |Δ|²,
     f_y = k w ⊗ Δ (w_p = −1),   f_yy = k w wᵀ ⊗ I,   f_yσ = k (w′ ⊗ Δ + w ⊗ L′),
@@ -13,7 +13,8 @@ F = −Gᵀ f_y,  ∂F/∂x = −(Gᵀ ∇²_y E G + Σ over both nodes of r_L �
 + Σ_m f_{τ,m} ∂²t_m/∂s² on the node's two quaternions), u, t and their derivatives from
 :mod:`rodsim.kernels._node_frame`. k = K_L × the point's share of the tendon's length, one
 value per element; ``ends`` marks elements on the catheter's first and last segment, where
-the lumen goes on straight beyond the catheter (:func:`rodsim.terms._lumen_segment.hermite`).
+the lumen goes on straight beyond the catheter (:func:`rodsim.terms._lumen_segment.hermite`);
+``weights`` (n, 2, 3) are :func:`rodsim.terms._lumen_segment.node_weights`.
 """
 
 from __future__ import annotations
@@ -24,7 +25,7 @@ from numba import njit
 from rodsim.kernels._node_frame import node_director, node_director_hessian, raw_directors
 from rodsim.kernels._scatter import add_force, add_jacobian
 
-SIGMA_TOLERANCE = 1e-14
+SIGMA_TOLERANCE = 1e-12
 SIGMA_ITERATIONS = 50
 
 
@@ -79,7 +80,8 @@ def _curve(y: np.ndarray, w: np.ndarray, w1: np.ndarray, w2: np.ndarray, delta: 
 
 @njit(cache=True)
 def evaluate(x: np.ndarray, dofs: np.ndarray, alpha: float, beta: float, offset: float,
-             stiffness: np.ndarray, length: float, ends: np.ndarray, scale: float,
+             stiffness: np.ndarray, length: float, ends: np.ndarray, weights: np.ndarray,
+             scale: float,
              want_force: bool, force: np.ndarray, force_target: np.ndarray,
              want_jacobian: bool, jacobian: np.ndarray, jacobian_target: np.ndarray) -> None:
     lumen_c = np.array([alpha, beta, 0.0])
@@ -116,7 +118,10 @@ def evaluate(x: np.ndarray, dofs: np.ndarray, alpha: float, beta: float, offset:
     for e in range(dofs.shape[0]):
         for node in range(2):
             for a in range(4):
-                s[node, a] = x[dofs[e, 9 + 4 * node + a]] + x[dofs[e, 13 + 4 * node + a]]
+                value = 0.0
+                for slot in range(3):
+                    value += weights[e, node, slot] * x[dofs[e, 9 + 4 * slot + a]]
+                s[node, a] = value
             norm2[node] = raw_directors(s[node], directors[node], gradients[node])
             node_director(s[node], norm2[node], directors[node], gradients[node], lumen_c,
                           u[node], u_grad[node])
@@ -156,16 +161,14 @@ def evaluate(x: np.ndarray, dofs: np.ndarray, alpha: float, beta: float, offset:
         for b in range(5):
             for m in range(3):
                 g[3 * b + m] = k * w[b] * delta[m]
-        for m in range(3):
-            for a in range(4):
-                chain[3 + m, 9 + a] = offset * u_grad[0, m, a]
-                chain[3 + m, 13 + a] = offset * u_grad[0, m, a]
-                chain[6 + m, 13 + a] = offset * u_grad[1, m, a]
-                chain[6 + m, 17 + a] = offset * u_grad[1, m, a]
-                chain[9 + m, 9 + a] = t_grad[0, m, a]
-                chain[9 + m, 13 + a] = t_grad[0, m, a]
-                chain[12 + m, 13 + a] = t_grad[1, m, a]
-                chain[12 + m, 17 + a] = t_grad[1, m, a]
+        for slot in range(3):
+            first = 9 + 4 * slot
+            for m in range(3):
+                for a in range(4):
+                    chain[3 + m, first + a] = weights[e, 0, slot] * offset * u_grad[0, m, a]
+                    chain[6 + m, first + a] = weights[e, 1, slot] * offset * u_grad[1, m, a]
+                    chain[9 + m, first + a] = weights[e, 0, slot] * t_grad[0, m, a]
+                    chain[12 + m, first + a] = weights[e, 1, slot] * t_grad[1, m, a]
         if want_force:
             for a in range(21):
                 value = 0.0
@@ -206,11 +209,12 @@ def evaluate(x: np.ndarray, dofs: np.ndarray, alpha: float, beta: float, offset:
                                       g[3 + 3 * node:6 + 3 * node], block_h, scratch, scaled)
                 node_director_hessian(s[node], norm2[node], tangent_c, t[node], t_grad[node],
                                       g[9 + 3 * node:12 + 3 * node], block_t, scratch, scaled)
-                first = 9 + 4 * node
-                for i in (first, first + 4):
-                    for j in (first, first + 4):
-                        for a in range(4):
-                            for b in range(4):
-                                local_jacobian[i + a, j + b] -= (offset * block_h[a, b]
-                                                                 + block_t[a, b])
+                for i in range(3):
+                    for j in range(3):
+                        both = weights[e, node, i] * weights[e, node, j]
+                        if both != 0.0:
+                            for a in range(4):
+                                for b in range(4):
+                                    local_jacobian[9 + 4 * i + a, 9 + 4 * j + b] -= both * (
+                                        offset * block_h[a, b] + block_t[a, b])
             add_jacobian(jacobian, jacobian_target, e, local_jacobian, scale)

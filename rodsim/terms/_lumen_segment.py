@@ -4,12 +4,18 @@ lumen penalty (paper Eqs. 24–27, 32–35, with DESIGN erratum 13).
 **Node frames.** The catheter's quaternions live on its segments (segment j, between nodes j
 and j + 1, has q_j). Node j takes the *bisector* frame of the two segments that meet there,
 
-    Q_j = normalise(q_{j−1} + q_j)   (q_{−1} = q_0 and q_{N−1} = q_{N−2} at the two ends),
+    Q_j = normalise(q_{j−1} + q_j),   Q_0 = normalise(3 q_0 − q_1),
+    Q_{N−1} = normalise(3 q_{N−2} − q_{N−3})   (extrapolated to the end nodes),
     L_j = r_j + r_L d_t(Q_j),   τ_j = d3(Q_j),   d_t = α d1 + β d2   (Eqs. 24, 32),
 
 the frame at s_j to second order; q_j alone (the paper's "parent element") is half a segment
-off. Each director is a quadratic form of the quaternion, so d(Q) = d(s)/|s|² for
-s = q_{j−1} + q_j; for any director combination v(s) = d(s)/|s|² with forms B_m (d_m = qᵀB_m q):
+off. At the end nodes q_0 and q_{N−2} alone are half a segment off too: the lumen would
+leave the catheter's base tilted by half the first segment's turning, and a tendon pulled
+out of it would load the base with an O(l) moment error; the linear extrapolation of the
+quaternions to s = 0 and s = L is second order and, unlike the clamp's fixed frame, turns
+with the state, so the coupling stays free of net moment. Each director is a quadratic form
+of the quaternion, so d(Q) = d(s)/|s|² for the weighted sum s of the node's quaternions; for
+any director combination v(s) = d(s)/|s|² with forms B_m (d_m = qᵀB_m q):
 
     ∂v_m/∂s = (2/|s|²)(B_m s − v_m s) =: V_m,
     ∂²v_m/∂s² = (2/|s|²)(B_m − v_m I − s V_mᵀ − V_m sᵀ).
@@ -40,8 +46,9 @@ lumen acts where the tendon touches it) and the Hessian ∇²E = f_xx − f_xσ 
 In y = (p, L_j, L_{j+1}, τ_j, τ_{j+1}) with weights w = (−1, h00, h01, l̄ h10, l̄ h11):
 f_y = k w ⊗ Δ, f_yy = k w wᵀ ⊗ I, f_yσ = k (w′ ⊗ Δ + w ⊗ L′), f_σσ = k (L′·L′ + Δ·L″).
 
-Each element couples (p, r_j, r_{j+1}, q_{j−1}, q_j, q_{j+1}), 21 coordinates; at the ends
-q_{j−1} or q_{j+1} is the same segment as q_j again (the slots' contributions add up).
+Each element couples (p, r_j, r_{j+1}, q_{j−1}, q_j, q_{j+1}), 21 coordinates; s_j and s_{j+1}
+are weighted sums of these three quaternion slots (:func:`node_weights`); at the ends a slot
+repeats a segment (the slots' contributions add up).
 """
 
 from __future__ import annotations
@@ -51,12 +58,14 @@ import numpy as np
 from rodsim.rod.quaternion import DIRECTOR_FORMS
 from rodsim.tendon import Tendon
 
-__all__ = ["PointOnLumenCurve", "lumen_nodes", "segment_of", "segment_quaternions"]
+__all__ = ["PointOnLumenCurve", "lumen_nodes", "node_weights", "segment_of",
+           "segment_quaternions"]
 
 #: Local coordinates of one element: p, r_j, r_{j+1}, q_{j−1}, q_j, q_{j+1}.
 WIDTH = 21
-#: Newton iterations on σ stop below this step (σ is O(1)).
-SIGMA_TOLERANCE = 1e-14
+#: Newton iterations on σ stop below this step (σ is O(1); quadratic convergence puts σ at
+#: round-off then, and a smaller bound would stall on round-off).
+SIGMA_TOLERANCE = 1e-12
 SIGMA_ITERATIONS = 50
 
 
@@ -66,6 +75,20 @@ def segment_quaternions(segment: np.ndarray, segments: int) -> np.ndarray:
     segment = np.asarray(segment)
     return np.stack([np.maximum(segment - 1, 0), segment,
                      np.minimum(segment + 1, segments - 1)], axis=1)
+
+
+def node_weights(segment: np.ndarray, segments: int) -> np.ndarray:
+    """Weights of the quaternion slots (q_{j−1}, q_j, q_{j+1}) in the sums s_j and s_{j+1} of
+    each element's two nodes, shape (n, 2, 3): (1, 1, 0) and (0, 1, 1) inside; at the base
+    node s_0 = 3 q_0 − q_1 (slots q_0, q_0, q_1), at the tip node 3 q_{N−2} − q_{N−3}."""
+    segment = np.asarray(segment)
+    weights = np.zeros((len(segment), 2, 3))
+    weights[:, 0] = (1.0, 1.0, 0.0)
+    weights[:, 1] = (0.0, 1.0, 1.0)
+    if segments > 1:
+        weights[segment == 0, 0] = (0.0, 3.0, -1.0)
+        weights[segment == segments - 1, 1] = (-1.0, 3.0, 0.0)
+    return weights
 
 
 class NodeDirector:
@@ -102,6 +125,9 @@ def lumen_nodes(tendon: Tendon, full: np.ndarray) -> tuple[np.ndarray, np.ndarra
     q = full[catheter.layout.quaternion_index]
     nodes = np.arange(catheter.nodes)
     s = q[np.maximum(nodes - 1, 0)] + q[np.minimum(nodes, catheter.nodes - 2)]
+    if len(q) > 1:
+        s[0] = 3.0 * q[0] - q[1]
+        s[-1] = 3.0 * q[-1] - q[-2]
     lumen, tangent = lumen_forms(tendon)
     points = full[catheter.layout.position_index] + tendon.offset * NodeDirector(lumen, s).value
     return points, NodeDirector(tangent, s).value
@@ -155,14 +181,16 @@ class PointOnLumenCurve:
     (p, r_j, r_{j+1}, q_{j−1}, q_j, q_{j+1}) (module docstring)."""
 
     def __init__(self, tendon: Tendon, local: np.ndarray, stiffness: np.ndarray,
-                 segment_length: float, ends: np.ndarray) -> None:
+                 segment_length: float, ends: np.ndarray, weights: np.ndarray) -> None:
         self.offset = rl = tendon.offset
         self.ends = ends
+        self.node_weights = weights
         self.stiffness = stiffness
         self.length = segment_length
         q = local[:, 9:21].reshape(-1, 3, 4)
+        sums = np.einsum("nik,nka->nia", weights, q)
         lumen, tangent = lumen_forms(tendon)
-        self.directors = [NodeDirector(forms, s) for s in (q[:, 0] + q[:, 1], q[:, 1] + q[:, 2])
+        self.directors = [NodeDirector(forms, sums[:, i]) for i in (0, 1)
                           for forms in (lumen, tangent)]  # u_j, τ_j, u_{j+1}, τ_{j+1}
         start = local[:, 3:6] + rl * self.directors[0].value
         end = local[:, 6:9] + rl * self.directors[2].value
@@ -210,12 +238,13 @@ class PointOnLumenCurve:
         for block in range(3):
             chain[:, 3 * block:3 * block + 3, 3 * block:3 * block + 3] = eye
         u_start, t_start, u_end, t_end = self.directors
-        for rows, director, factor, first in ((slice(3, 6), u_start, rl, 9),
-                                              (slice(6, 9), u_end, rl, 13),
-                                              (slice(9, 12), t_start, 1.0, 9),
-                                              (slice(12, 15), t_end, 1.0, 13)):
-            chain[:, rows, first:first + 4] = factor * director.grad
-            chain[:, rows, first + 4:first + 8] = factor * director.grad
+        for rows, director, factor, node in ((slice(3, 6), u_start, rl, 0),
+                                             (slice(6, 9), u_end, rl, 1),
+                                             (slice(9, 12), t_start, 1.0, 0),
+                                             (slice(12, 15), t_end, 1.0, 1)):
+            for k in range(3):
+                chain[:, rows, 9 + 4 * k:13 + 4 * k] = (
+                    factor * self.node_weights[:, node, k, None, None] * director.grad)
         return chain
 
     def _y_gradient(self) -> np.ndarray:
@@ -246,10 +275,12 @@ class PointOnLumenCurve:
         g_y = self._y_gradient()
         rl = self.offset
         u_start, t_start, u_end, t_end = self.directors
-        for first, u, t, g_u, g_t in ((9, u_start, t_start, g_y[:, 3:6], g_y[:, 9:12]),
-                                      (13, u_end, t_end, g_y[:, 6:9], g_y[:, 12:15])):
+        for node, u, t, g_u, g_t in ((0, u_start, t_start, g_y[:, 3:6], g_y[:, 9:12]),
+                                     (1, u_end, t_end, g_y[:, 6:9], g_y[:, 12:15])):
             block = rl * u.hessian(g_u) + t.hessian(g_t)
-            for i in (first, first + 4):
-                for j in (first, first + 4):
-                    hess[:, i:i + 4, j:j + 4] += block
+            w = self.node_weights[:, node]
+            for i in range(3):
+                for j in range(3):
+                    hess[:, 9 + 4 * i:13 + 4 * i, 9 + 4 * j:13 + 4 * j] += (
+                        (w[:, i] * w[:, j])[:, None, None] * block)
         return hess

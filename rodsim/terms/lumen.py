@@ -58,6 +58,7 @@ from rodsim.tendon import Tendon
 from rodsim.terms._lumen_segment import (
     PointOnLumenCurve,
     lumen_nodes,
+    node_weights,
     segment_of,
     segment_quaternions,
 )
@@ -208,7 +209,7 @@ class Lumen(TendonTerm):
         if self.conservative:
             return (self.dofs, float(tendon.alpha), float(tendon.beta), float(tendon.offset),
                     self._stiffness, float(tendon.catheter.geometry.segment_length),
-                    self._ends())
+                    self._ends(), self._node_weights())
         return (self.dofs, float(tendon.alpha), float(tendon.beta), float(tendon.offset),
                 float(self._stiffness), self._both, self.conservative, self._reaction_share())
 
@@ -218,7 +219,11 @@ class Lumen(TendonTerm):
 
     def _on_segments(self, x: np.ndarray) -> PointOnLumenCurve:
         return PointOnLumenCurve(self.tendon, x[self.dofs], self._stiffness,
-                                 self.tendon.catheter.geometry.segment_length, self._ends())
+                                 self.tendon.catheter.geometry.segment_length, self._ends(),
+                                 self._node_weights())
+
+    def _node_weights(self) -> np.ndarray:
+        return node_weights(self.parent, self.tendon.catheter.nodes - 1)
 
     def _ends(self) -> np.ndarray:
         """Per element: (on the catheter's first segment, on its last), shape (n, 2)."""
