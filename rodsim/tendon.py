@@ -89,6 +89,11 @@ def check_tendon(name: str, table: dict[str, Any], rods: dict[str, Any], prefix:
     if math.hypot(*table["direction"]) < 1e-12:
         raise SceneError(f"{prefix}.direction = {table['direction']!r}: d_t has zero length; "
                          "allowed: any non-zero (α, β)")
+    lumen = table.get("lumen") if "lumen" in table["terms"] else None
+    if lumen is not None and table["coupling"] == "conserving" and lumen["constrain"] == "d_t":
+        raise SceneError(f"{prefix}.lumen.constrain = 'd_t': the conserving coupling holds a "
+                         "tendon point on its lumen segment's line in both transverse "
+                         "directions; allowed: 'both', or coupling = 'paper' (Eq. 34)")
     actuation = table.get("tendon_actuation") if "tendon_actuation" in table["terms"] else None
     proximal = actuation is not None and actuation["point"] == "proximal"
     if proximal and tendon["clamp"] != "orientation":

@@ -17,7 +17,8 @@ def _k_p(values: tuple[float, ...]) -> Sweep:
 
 
 def _k_l(values: tuple[float, ...]) -> Sweep:
-    return Sweep("K_L", "tendons.tendon.lumen.K_L", values, "N/m", "lumen penalty K_L")
+    return Sweep("K_L", "tendons.tendon.lumen.K_L", values, "N/m^2",
+                 "lumen penalty K_L per unit tendon length")
 
 
 STUDY = Study(
@@ -31,8 +32,8 @@ STUDY = Study(
     reference="arc",
     plot="error_vs_parameter",
     sweeps={
-        "small": [_nodes((10, 20)), _k_p((1e4,)), _k_l((1e3, 1e5))],
+        "small": [_nodes((10, 20)), _k_p((1e4,)), _k_l((2e5, 2e7))],
         "full": [_nodes((5, 10, 20, 40, 80)), _k_p((1e2, 1e4, 1e6)),
-                 _k_l((1e3, 1e4, 1e5, 1e6))],
+                 _k_l((2e6, 2e7, 2e8, 2e9))],
     },
 )

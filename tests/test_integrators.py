@@ -152,3 +152,28 @@ def test_integrators_stay_within_the_bound_at_large_n(nodes, integrator):
     print(f"\n{integrator} at N = {nodes}: {distance / length:.2e} L from static "
           f"({distance / length / bound:.2f} of the declared bound)")
     assert distance < bound * length
+
+
+def test_paper_mass_scaling_puts_h2_omega2_where_asked():
+    """``solver.paper.h2_omega2`` (DESIGN erratum 12) scales M by (h ω₁)² / target, with
+    ω₁ = 1.875² √(E I / (ρ A L⁴)) computed here from the scene's values; 0 keeps the
+    physical masses. The equilibrium does not depend on M."""
+    from rodsim.integrators import registered_integrators
+
+    scene = rodsim.load_scene("table1-50g", ["solver.paper.h2_omega2=0.003"])
+    rod = next(iter(scene.data["rods"].values()))
+    area = np.pi * rod["radius"] ** 2
+    omega = 1.875**2 * np.sqrt(rod["youngs_modulus"] * area * rod["radius"] ** 2 / 4
+                               / (rod["density"] * area * rod["length"] ** 4))
+    solver = scene.data["solver"]
+    model = rodsim.build_model(scene)
+    paper = registered_integrators()["paper"](model, solver["paper"], solver["tolerance"],
+                                              solver["max_wall_time"], None)
+    h = solver["paper"]["h"]
+    assert paper.mass_scale() == pytest.approx((h * omega) ** 2 / 0.003, rel=1e-12)
+    np.testing.assert_allclose(paper._mass, model.masses() * paper.mass_scale(), rtol=1e-14)
+    physical = rodsim.load_scene("table1-50g")
+    plain = registered_integrators()["paper"](rodsim.build_model(physical),
+                                              physical.data["solver"]["paper"],
+                                              solver["tolerance"], solver["max_wall_time"], None)
+    assert plain.mass_scale() == 1.0

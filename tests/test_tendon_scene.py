@@ -112,12 +112,12 @@ def test_instrumentation_counts_tendon_code_in_a_tendon_scene(kernels, monkeypat
     result = rodsim.solve("tendon-conserving", "static", overrides=[f"kernels={kernels}"])
     assert result.success, result.message
     for label in ("rodsim.tendon.check_tendon", "rodsim.tendon.tendon_origin", "Tendon.of",
-                  "Tendon.lumen_points", "Lumen.registration"):
+                  "Lumen.registration"):
         assert counts[label] > 0, f"{label} not counted: {dict(counts)}"
     methods = (("__init__", "kernel_arguments") if kernels == "compiled" else
                ("__init__", "element_forces", "element_jacobians"))
     if kernels == "numpy":
-        assert counts["Tendon.lumen_frame"] > 0 and counts["PointOnLumen.__init__"] > 0
+        assert counts["Tendon.lumen_frame"] > 0 and counts["Lumen._on_segments"] > 0
     for cls in registered_terms().values():
         if issubclass(cls, TendonTerm):
             for method in methods:
@@ -285,6 +285,9 @@ CASES = [
      "tendons.tendon.tendon_actuation.point"),
     ("hysteresis-above-one", edit("K_L = 1000.0", "K_L = 1000.0\nhysteresis = 2.0"), [],
      "tendons.tendon.lumen.hysteresis"),
+    ("conserving-lumen-on-d_t-only",
+     edit("K_L = 1000.0", 'K_L = 1000.0\nconstrain = "d_t"'), ["--set", "coupling=conserving"],
+     "tendons.tendon.lumen.constrain"),
     ("tendons-not-a-table", "tendons = 3\n" + BASE.split("[tendons.tendon]")[0], [],
      "tendons"),
 ]
