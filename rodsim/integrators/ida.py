@@ -198,6 +198,9 @@ class Ida(SundialsIntegrator):
             return super().residual(x)
         return self.model.residual(self.system.constrained_force(y, self.model.force(x)))
 
+    def finish_start(self, y: np.ndarray) -> np.ndarray:
+        return y.copy()
+
     def finish_newton(self, y: np.ndarray) -> tuple[bool, np.ndarray, int]:
         """Newton on IDA's own equilibrium, R(y, y′ = 0) = 0 — F(x) + Gᵀμ = 0 with
         |q_j|² = 1 exactly (and v = 0 in the inertial form) — with the analytic dR/dy
@@ -227,7 +230,7 @@ class Ida(SundialsIntegrator):
         problem = NewtonProblem(force, jacobian, linear,
                                 residual=lambda g: float(np.max(np.abs(g) * weight)),
                                 weight=weight)
-        outcome = newton(problem, y.copy(), self.tolerance, self.options["newton_iterations"],
+        outcome = newton(problem, y, self.tolerance, self.options["newton_iterations"],
                          check=self.iteration_check("the Newton finish"))
         if outcome.converged:
             self._last_y = outcome.x

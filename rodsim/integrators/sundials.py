@@ -190,12 +190,17 @@ class SundialsIntegrator(Integrator):
         costs no extra evaluation of F."""
         return self.model.residual(self.equilibrium_force(y, self._last_force))
 
-    def finish_newton(self, y: np.ndarray) -> tuple[bool, np.ndarray, int]:
-        """One Newton solve of the finish from the solver state ``y`` on the current model:
-        (converged, the state it reached, iterations). Here Newton on F(x) = 0 (the state is
-        x); IDA solves its constrained equilibrium instead."""
-        return self.newton_equilibrium(self.positions_of(y).copy(), 1.0,
-                                       self.options["newton_iterations"], "the Newton finish")
+    def finish_start(self, y: np.ndarray) -> np.ndarray:
+        """The state the Newton finish starts from, given the solver state ``y``: here the
+        model coordinates x (IDA keeps y, multipliers included)."""
+        return self.positions_of(y).copy()
+
+    def finish_newton(self, state: np.ndarray) -> tuple[bool, np.ndarray, int]:
+        """One Newton solve of the finish from ``state`` (see :meth:`finish_start`) on the
+        current model: (converged, the state it reached, iterations). Here Newton on
+        F(x) = 0; IDA solves its constrained equilibrium instead."""
+        return self.newton_equilibrium(state, 1.0, self.options["newton_iterations"],
+                                       "the Newton finish")
 
     def finish_with_newton(self, y: np.ndarray) -> np.ndarray | None:
         """:meth:`finish_newton` at full load from ``y``, repeated while the tendon
@@ -207,7 +212,7 @@ class SundialsIntegrator(Integrator):
         model, system, counts = self.model, self.system, self.counts
         before = counts["force_evals"], counts["jacobian_evals"]
         try:
-            state = y
+            state = self.finish_start(y)
             for _ in range(MAX_SETTLES + 1):
                 converged, state, iterations = self.finish_newton(state)
                 counts["finish_newton_iters"] += iterations
