@@ -141,8 +141,8 @@ def test_loads_below_round_off_are_refused_not_reported_at_rest(integrator):
 
 
 @pytest.mark.parametrize(("integrator", "module", "solver_class"),
-                         [("cvode", "rodsim.integrators.cvode", "CVODE"),
-                          ("ida", "rodsim.integrators.ida", "IDA")])
+                         [("cvode", "sksundae.cvode", "CVODE"),
+                          ("ida", "sksundae.ida", "IDA")])
 def test_a_sundials_set_up_error_is_a_diagnosed_failure(integrator, module, solver_class,
                                                        monkeypatch):
     """scikit-sundae raises RuntimeError when SUNDIALS fails during set-up — for IDA, a

@@ -14,12 +14,12 @@ from __future__ import annotations
 import numpy as np
 import pytest
 import scipy.sparse as sp
+import sksundae.cvode as cvode_module  # rodsim imports the solver classes from here at each
+import sksundae.ida as ida_module  # start (lazily), so the recorder replaces them there
 from sksundae.cvode import CVODE
 from sksundae.ida import IDA
 
 import rodsim
-import rodsim.integrators.cvode as cvode_module
-import rodsim.integrators.ida as ida_module
 from rodsim.integrators.cvode import Cvode
 from rodsim.integrators.ida import Ida
 

@@ -13,8 +13,9 @@ Quaternion norm: held by the centerline penalty Eq. (9) only (same model as ``st
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
-from sksundae.cvode import CVODE
 
 from rodsim.integrators.pseudo_dynamics import FirstOrderSystem, damping_rate
 from rodsim.integrators.sundials import (
@@ -22,6 +23,9 @@ from rodsim.integrators.sundials import (
     jacobian_writer,
     started,
 )
+
+if TYPE_CHECKING:
+    from sksundae.cvode import CVODE
 
 
 class Cvode(SundialsIntegrator):
@@ -54,6 +58,8 @@ class Cvode(SundialsIntegrator):
         return self.options["atol"] * self.tightening * scale
 
     def start(self, t: float, y: np.ndarray, yp: np.ndarray | None) -> CVODE:
+        from sksundae.cvode import CVODE  # SUNDIALS is loaded by the first run, not at import
+
         system, model, ramp, counts = self.system, self.model, self.ramp, self.counts
         solver_kind = self.linear_solver(system.size)
         write = jacobian_writer(solver_kind, system.pattern_rows, system.pattern_cols)

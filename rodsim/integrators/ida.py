@@ -22,9 +22,9 @@ three masses, as close as the residual tolerance allows (tests/test_integrators.
 from __future__ import annotations
 
 from dataclasses import replace
+from typing import TYPE_CHECKING
 
 import numpy as np
-from sksundae.ida import IDA
 
 from rodsim.integrators.linear import LinearSolver
 from rodsim.integrators.newton import NewtonProblem, newton
@@ -36,6 +36,9 @@ from rodsim.integrators.sundials import (
     started,
 )
 from rodsim.model import Model
+
+if TYPE_CHECKING:
+    from sksundae.ida import IDA
 from rodsim.sparsity import csc_pattern
 
 
@@ -251,6 +254,8 @@ class Ida(SundialsIntegrator):
         return self.options["atol"] * self.tightening * atol
 
     def start(self, t: float, y: np.ndarray, yp: np.ndarray | None) -> IDA:
+        from sksundae.ida import IDA  # SUNDIALS is loaded by the first run, not at import
+
         system, model, ramp, counts = self.system, self.model, self.ramp, self.counts
         solver_kind = self.linear_solver(system.size)
 
