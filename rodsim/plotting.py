@@ -473,7 +473,8 @@ def _error_label(ds: xr.Dataset, name: str) -> str:
 def _error_grid(count: int, rows: int) -> tuple[Figure, np.ndarray]:
     """``rows`` × ``count`` panels: one row per error (each with its own unit), one column
     per value of the panel sweep."""
-    figure, grid = plt.subplots(rows, count, figsize=(4.2 * count + 0.8, 3.4 * rows + 0.6),
+    width = max(6.4, 4.2 * count + 0.8)
+    figure, grid = plt.subplots(rows, count, figsize=(width, 3.4 * rows + 0.6),
                                 squeeze=False, sharex="col", sharey="row",
                                 constrained_layout=True)
     return figure, grid
