@@ -43,8 +43,8 @@ from matplotlib.ticker import NullFormatter  # noqa: E402
 
 from rodsim.output import OutputError, check_target  # noqa: E402
 
-__all__ = ["plot_dataset", "PLOT_KINDS", "reference_centerlines", "PlotError",
-           "supported_formats", "check_output"]
+__all__ = ["plot_dataset", "draw_figure", "style", "STYLE", "PLOT_KINDS",
+           "reference_centerlines", "PlotError", "supported_formats", "check_output"]
 
 PLOT_KINDS = ("centerlines", "error_vs_parameter", "error_vs_iteration")
 
@@ -64,6 +64,8 @@ MARKERS = ("o", "s", "^", "v", "D", "P")
 #: Every how many σ samples the AM markers are drawn (101 samples: 11 markers).
 MARKER_EVERY = 10
 DPI = 100
+#: The style file of every rodsim figure (package data).
+STYLE = Path(__file__).with_name("rodsim.mplstyle")
 
 
 class PlotError(ValueError):
@@ -184,10 +186,27 @@ def _finish_x(axes: plt.Axes, ds: xr.Dataset, dim: str, log_ratio: float = 20.0)
     axes.set_xlabel(_axis_label(ds, dim))
 
 
-def _title(figure: Figure, ds: xr.Dataset) -> None:
-    text = f"{ds.attrs['study']} ({ds.attrs.get('size', '')}): {ds.attrs.get('paper', '')}"
-    width = max(40, int(14 * figure.get_figwidth()))  # characters of 8-pt text per line
-    figure.suptitle("\n".join(textwrap.wrap(text, width)), fontsize=8)
+def _title(figure: Figure, ds: xr.Dataset, result: str) -> None:
+    """The study's name and size, the measured result (one line computed from the archive)
+    and the paper's claim it is compared with."""
+    width = max(40, int(12 * figure.get_figwidth()))  # characters of 10-pt text per line
+    lines = [f"{ds.attrs['study']} ({ds.attrs.get('size', '')}) — measured: {result}"]
+    if ds.attrs.get("paper"):
+        lines.append(str(ds.attrs["paper"]))
+    figure.suptitle("\n".join(textwrap.fill(line, width) for line in lines))
+
+
+def _span(values: Iterable[float], fmt: str = "g") -> str:
+    """``a–b`` of the finite values (``a`` when they are all equal, ``n/a`` when none is)."""
+    finite = [v for v in values if np.isfinite(v)]
+    if not finite:
+        return "n/a"
+    low, high = format(min(finite), fmt), format(max(finite), fmt)
+    return low if low == high else f"{low}–{high}"
+
+
+def _percent(value: float) -> str:
+    return f"{100.0 * value:.2g} %"
 
 
 # Analytic references ------------------------------------------------------------------------
@@ -288,6 +307,24 @@ def _point_styles(ds: xr.Dataset) -> dict[tuple[int, ...], dict[str, Any]]:
     return out
 
 
+#: Markers on a model centerline every this many σ samples, offset by the point's number.
+STAGGER = 6
+#: Two centerlines closer than this fraction of the drawing's span coincide on the figure.
+COINCIDE = 0.01
+
+
+def _coinciding(lines: Sequence[np.ndarray]) -> int:
+    """How many of the (σ, 3) centerlines lie within :data:`COINCIDE` of the drawing's span
+    of another one (everywhere): those a reader cannot tell apart without markers."""
+    if len(lines) < 2:
+        return 0
+    stacked = np.stack([line[:, :2] for line in lines])
+    span = float(np.ptp(stacked.reshape(-1, 2), axis=0).max()) or 1.0
+    gaps = np.abs(stacked[:, None] - stacked[None, :]).max(axis=(2, 3))
+    np.fill_diagonal(gaps, np.inf)
+    return int((gaps.min(axis=1) < COINCIDE * span).sum())
+
+
 #: Above this many points a centerline legend lists colours and styles, not every point.
 LEGEND_POINTS = 12
 
@@ -314,7 +351,7 @@ def _compact_legend(ds: xr.Dataset, axes: plt.Axes) -> None:
             handles.append(Line2D([], [], color="0.4", ls=styles[index]["ls"],
                                   marker=styles[index]["marker"], ms=3))
             labels.append(_label(ds, {d: _value(ds, d, i) for d, i in select.items()}))
-    axes.legend(handles, labels, fontsize=6, loc="best")
+    axes.legend(handles, labels, loc="best")
 
 
 def _centerlines(ds: xr.Dataset) -> Figure:
@@ -327,7 +364,8 @@ def _centerlines(ds: xr.Dataset) -> Figure:
     styles = _point_styles(ds)
     rod = ds["rod"].values[0]
     last_is_reference = ds.attrs.get("reference") == "last" and bool(dims)
-    for index, style in styles.items():
+    drawn: list[np.ndarray] = []
+    for n, (index, style) in enumerate(styles.items()):
         point = dict(zip(dims, index, strict=True))
         sel = ds.isel(point)
         if int(sel["status"]) != 0:
@@ -337,18 +375,26 @@ def _centerlines(ds: xr.Dataset) -> Figure:
         if last_is_reference and point[dims[0]] == ds.sizes[dims[0]] - 1:
             label += " (reference)"
         many = len(styles) > LEGEND_POINTS
-        axes.plot(line[:, 0], line[:, 1], markersize=3, lw=1.2, markevery=5,
+        # Markers staggered along σ (every STAGGER-th sample, offset per point): curves that
+        # coincide show each colour's markers between the others'.
+        axes.plot(line[:, 0], line[:, 1], markersize=4.5, lw=1.8,
+                  markevery=(n % STAGGER, STAGGER),
                   label=None if many else label + _tip_error_text(sel), **style)
+        drawn.append(line)
     axes.set_xlabel("x [m]")
     axes.set_ylabel("y [m]")
     axes.set_aspect("equal", adjustable="datalim")
     axes.grid(True, alpha=0.3)
-    axes.set_title(f"{rod} centerline at equilibrium ({ds.attrs.get('integrator', '')})",
-                   fontsize=8)
+    title = f"{rod} centerline at equilibrium ({ds.attrs.get('integrator', '')})"
+    coinciding = _coinciding(drawn)
+    if coinciding:
+        title += (f"\n{coinciding} curves lie within {COINCIDE:.0%} of the span of another: "
+                  "their markers are staggered")
+    axes.set_title(title)
     if len(styles) > LEGEND_POINTS:
         _compact_legend(ds, axes)
     else:
-        axes.legend(fontsize=6, loc="best")
+        axes.legend(loc="best")
     if tip_dim is None:
         tips.set_visible(False)
     else:
@@ -383,10 +429,10 @@ def _tips(ds: xr.Dataset, axes: plt.Axes, dim: str,
                       label="reference tip" if n == 0 else None)
     _finish_x(axes, ds, dim)
     axes.set_ylabel("tip y [m]")
-    axes.set_title("tip deflection", fontsize=8)
+    axes.set_title("tip deflection")
     axes.grid(True, which="both", alpha=0.3)
     if len(_indices(ds, others)) <= LEGEND_POINTS:
-        axes.legend(fontsize=6)
+        axes.legend()
 
 
 # Errors against a parameter -----------------------------------------------------------------
@@ -409,7 +455,34 @@ def _panel_grid(count: int, width: float = 4.6, height: float = 4.0
     return figure, panels[:count]
 
 
+#: The errors an ``error_vs_parameter`` figure draws, one row of panels each, and their
+#: short axis labels (the units come from the archive).
+ERRORS = {"tip_error": "tip error / L", "area_error": "area error / L (Fig. 21)"}
+
+
+def _error_label(ds: xr.Dataset, name: str) -> str:
+    """``tip error / L [1]``-style label of an error with the archive's units, and what it
+    is measured against."""
+    units = ds[name].attrs.get("units", "1")
+    reference = ds.attrs.get("reference")
+    against = {None: "", "None": "", "last": "\nagainst the last point"}.get(
+        reference, f"\nagainst the {reference} reference")
+    return f"{ERRORS[name]} [{'dimensionless' if units in ('1', '-') else units}]{against}"
+
+
+def _error_grid(count: int, rows: int) -> tuple[Figure, np.ndarray]:
+    """``rows`` × ``count`` panels: one row per error (each with its own unit), one column
+    per value of the panel sweep."""
+    width = max(6.4, 4.2 * count + 0.8)
+    figure, grid = plt.subplots(rows, count, figsize=(width, 3.4 * rows + 0.6),
+                                squeeze=False, sharex="col", sharey="row",
+                                constrained_layout=True)
+    return figure, grid
+
+
 def _error_vs_parameter(ds: xr.Dataset) -> Figure:
+    """Tip error (top row, [1]) and area error (bottom row, [m]) against the first swept
+    parameter: the two have different units, so they never share an axis."""
     dims = _sweep_dims(ds)
     if not dims:  # nothing swept: no parameter to plot against
         return _centerlines(ds)
@@ -418,52 +491,81 @@ def _error_vs_parameter(ds: xr.Dataset) -> Figure:
     line_dims = [d for d in dims[1:] if d not in panel_dims]
     panel_groups = _indices(ds, panel_dims)
     line_groups = _indices(ds, line_dims)
-    figure, panels = _panel_grid(len(panel_groups))
+    errors = [name for name in ERRORS if name in ds]  # a study without a reference has none
+    figure, grid = _error_grid(len(panel_groups), max(len(errors), 1))
     x, _ = _positions(ds, first)
     colours = _colours(len(line_groups), len(line_dims) == 1 and _is_numeric(ds, line_dims[0]))
     anything = False
-    for axes, panel in zip(panels, panel_groups, strict=True):
-        panel_select = dict(zip(panel_dims, panel, strict=True))
-        for n, group in enumerate(line_groups):
-            select = panel_select | dict(zip(line_dims, group, strict=True))
-            sub = ds.isel(select)
-            label = _label(ds, {d: _value(ds, d, i) for d, i in zip(line_dims, group,
-                                                                    strict=True)})
-            for name, style in (("tip_error", "o-"), ("area_error", "s--")):
-                if name not in sub:  # a study without a reference stores no errors
-                    continue
+    for row, name in enumerate(errors):
+        for axes, panel in zip(grid[row], panel_groups, strict=True):
+            panel_select = dict(zip(panel_dims, panel, strict=True))
+            for n, group in enumerate(line_groups):
+                sub = ds.isel(panel_select | dict(zip(line_dims, group, strict=True)))
                 y = _positive(sub[name].where(sub["status"] == 0).values)
                 if np.all(np.isnan(y)):
                     continue
                 anything = True
-                # Successive lines thinner, so coinciding ones stay visible.
-                axes.plot(x, y, style, color=colours[n], ms=max(2.5, 5.5 - n),
-                          lw=max(0.8, 2.4 - 0.5 * n),
-                          label=(label or "model") if name == "tip_error" else None)
+                label = _label(ds, {d: _value(ds, d, i)
+                                    for d, i in zip(line_dims, group, strict=True)})
+                # Successive lines thinner, with their own marker: coinciding ones stay
+                # visible.
+                axes.plot(x, y, color=colours[n], marker=MARKERS[n % len(MARKERS)],
+                          ls=LINE_STYLES[n % len(LINE_STYLES)], ms=max(3.0, 6.5 - n),
+                          lw=max(1.0, 2.4 - 0.4 * n), label=label or "model")
+            axes.set_yscale("log")
+            axes.grid(True, which="both", alpha=0.3)
+            if row == 0:
+                _panel_title(axes, ds, panel_select)
+        grid[row, 0].set_ylabel(_error_label(ds, name))
+    for axes in grid[-1]:
         _finish_x(axes, ds, first, log_ratio=2.0)  # log–log: orders of convergence
-        axes.set_yscale("log")
-        axes.grid(True, which="both", alpha=0.3)
-        _panel_title(axes, ds, panel_select)
-    reference = ds.attrs.get("reference", "None")
-    panels[0].set_ylabel(f"error / L against the {reference} reference"
-                         if reference != "None" else "error / L")
     if not anything:
-        panels[0].text(0.5, 0.5, "no errors: the study has no reference, or no point has one",
-                       ha="center", va="center", transform=panels[0].transAxes, fontsize=8)
+        grid[0, 0].text(0.5, 0.5, "no errors: the study has no reference, or no point has one",
+                        ha="center", va="center", transform=grid[0, 0].transAxes)
         return figure
-    handles, labels = panels[0].get_legend_handles_labels()
-    handles += [Line2D([], [], color="0.3", marker="o", ls="-", ms=4),
-                Line2D([], [], color="0.3", marker="s", ls="--", ms=4)]
-    labels += ["tip error / L", "area error / L (Fig. 21) [m]"]
-    panels[-1].legend(handles, labels, fontsize=6, loc="best")
+    if line_dims:
+        grid[0, -1].legend(loc="best")
     return figure
+
+
+def _fitted_order(x: np.ndarray, y: np.ndarray) -> float:
+    """The order p of ``y ∝ x^-p`` fitted (least squares, log–log) to the positive finite
+    points; NaN with fewer than two."""
+    x, y = np.asarray(x, dtype=float), np.asarray(y, dtype=float)
+    keep = np.isfinite(x) & np.isfinite(y) & (x > 0.0) & (y > 0.0)
+    if keep.sum() < 2 or np.ptp(x[keep]) == 0.0:
+        return float("nan")
+    return float(-np.polyfit(np.log(x[keep]), np.log(y[keep]), 1)[0])
+
+
+def _error_vs_parameter_result(ds: xr.Dataset) -> str:
+    """The observed order of the tip error in the first swept parameter (fitted for every
+    line of the figure) and the smallest tip error, or what is plotted when there is
+    nothing to fit."""
+    dims = _sweep_dims(ds)
+    if not dims or "tip_error" not in ds:
+        return "tip and area errors against the swept parameter (none in this archive)"
+    first = dims[0]
+    error = ds["tip_error"].where(ds["status"] == 0)
+    name = ds[first].attrs.get("long_name", first)
+    if not _is_numeric(ds, first):
+        return f"tip error / L {_span(error.values.ravel(), '.2g')} over {name}"
+    others = dims[1:]
+    orders = [_fitted_order(ds[first].values, error.isel(dict(zip(others, group,
+                                                                  strict=True))).values)
+              for group in _indices(ds, others)]
+    best = error.where(error == error.min(), drop=True)
+    where = _label(ds, {d: best[d].values.ravel()[0].item() for d in dims if d in best.dims})
+    lines = f" ({len(orders)} lines)" if len(orders) > 1 else ""
+    return (f"tip error / L ∝ {first}^−p with p = {_span(orders, '.2f')}{lines}, fitted over "
+            f"{first} = {_span(ds[first].values.astype(float))}; smallest "
+            f"{_percent(float(error.min()))} of L at {where}")
 
 
 def _panel_title(axes: plt.Axes, ds: xr.Dataset, panel_select: dict[str, int]) -> None:
     """Title a panel with the swept values it holds (nothing when there is one panel)."""
     if panel_select:
-        axes.set_title(_label(ds, {d: _value(ds, d, i) for d, i in panel_select.items()}),
-                       fontsize=8)
+        axes.set_title(_label(ds, {d: _value(ds, d, i) for d, i in panel_select.items()}))
 
 
 # Errors against the iteration ---------------------------------------------------------------
@@ -474,7 +576,7 @@ def _error_vs_iteration(ds: xr.Dataset) -> Figure:
     if "history_error" not in ds:  # the study kept no per-step history (history=False)
         figure = _centerlines(ds)
         figure.axes[0].text(0.02, 0.02, "no per-step history in this archive: centerlines "
-                            "drawn instead", transform=figure.axes[0].transAxes, fontsize=7)
+                            "drawn instead", transform=figure.axes[0].transAxes)
         return figure
     line_dims, panel_dims = dims[:1], dims[1:]
     panel_groups = _indices(ds, panel_dims)
@@ -498,8 +600,65 @@ def _error_vs_iteration(ds: xr.Dataset) -> Figure:
         axes.grid(True, which="both", alpha=0.3)
         _panel_title(axes, ds, panel_select)
     panels[0].set_ylabel(f"tip error against the {ds.attrs.get('reference')} reference / L")
-    panels[-1].legend(fontsize=6)
+    panels[-1].legend()
     return figure
+
+
+def _steps_taken(ds: xr.Dataset) -> xr.DataArray:
+    """Time steps each point took to come to rest: its recorded history length (NaN for a
+    failed point)."""
+    steps = ds["history_error"].notnull().sum("step").astype(float)
+    return steps.where(ds["status"] == 0)
+
+
+def _error_vs_iteration_result(ds: xr.Dataset) -> str:
+    """Steps to rest per value of the first swept parameter, for each value of the others;
+    says so when the first parameter changes nothing."""
+    if "history_error" not in ds:
+        return "centerlines (no per-step history in this archive)"
+    dims = _sweep_dims(ds)
+    if not dims:
+        return f"{int(_steps_taken(ds))} time steps to rest"
+    steps = _steps_taken(ds)
+    line_dim, panel_dims = dims[0], dims[1:]
+    symbol = ds[line_dim].attrs.get("long_name", line_dim).split()[-1]
+    groups = _indices(ds, panel_dims)
+    if len(groups) == 1 and ds.sizes[line_dim] <= 8:
+        return "time steps to rest: " + ", ".join(
+            f"{symbol} = {_text(_value(ds, line_dim, i))}: {_span([float(v)], '.0f')}"
+            for i, v in enumerate(steps.values.ravel()))
+    parts, flat = [], True
+    for group in groups:
+        select = dict(zip(panel_dims, group, strict=True))
+        values = steps.isel(select).values.ravel()
+        flat &= bool(np.nanmin(values) == np.nanmax(values)) if np.isfinite(values).any() \
+            else True
+        parts.append(f"{_span(values, '.0f')} at "
+                     f"{_label(ds, {d: _value(ds, d, i) for d, i in select.items()})}")
+    lead = f"{symbol} has no effect: " if flat else ""
+    return f"{lead}time steps to rest for every {symbol}: " + "; ".join(parts)
+
+
+def _centerlines_result(ds: xr.Dataset) -> str:
+    """The largest tip error against the reference (per value of the first swept parameter
+    when there are two or more), or the range of the tip's y without a reference."""
+    dims = _sweep_dims(ds)
+    ok = ds["status"] == 0
+    error = ds["tip_error"].where(ok) if "tip_error" in ds else None
+    if error is not None and bool(error.notnull().any()):
+        reference = ds.attrs.get("reference")
+        against = (f"the last {dims[0]} point" if reference == "last"
+                   else f"the {reference} reference")
+        if len(dims) >= 2 and ds.sizes[dims[0]] > 1:
+            parts = [f"{_label(ds, {dims[0]: _value(ds, dims[0], i)})}: "
+                     f"{_percent(float(error.isel({dims[0]: i}).max()))}"
+                     for i in range(ds.sizes[dims[0]])]
+        else:
+            parts = [f"{_percent(float(error.max()))} over {int(error.notnull().sum())} points"]
+        return f"largest tip error / L against {against}: " + "; ".join(parts)
+    tip_y = ds["tip"].isel(rod=0).sel(axis="y").where(ok).values.ravel()
+    return (f"tip y of {ds['rod'].values[0]} from {_span(tip_y, '.3g')} m over "
+            f"{int(np.isfinite(tip_y).sum())} points")
 
 
 # Single runs --------------------------------------------------------------------------------
@@ -513,8 +672,8 @@ def _run_centerlines(ds: xr.Dataset) -> Figure:
     axes.set_xlabel("x [m]")
     axes.set_ylabel("y [m]")
     axes.set_aspect("equal", adjustable="datalim")
-    axes.legend(fontsize=7)
-    axes.set_title(ds.attrs.get("title", ""), fontsize=8)
+    axes.legend()
+    axes.set_title(ds.attrs.get("title", ""))
     return figure
 
 
@@ -547,14 +706,13 @@ def _track_figure(ds: xr.Dataset) -> Figure:
     shapes.set_xlabel("x [m]")
     shapes.set_ylabel("y [m]")
     shapes.set_aspect("equal", adjustable="datalim")
-    shapes.set_title(f"centerline of {ds['rod'].values[0]} at each of {len(values)} steps",
-                     fontsize=8)
+    shapes.set_title(f"centerline of {ds['rod'].values[0]} at each of {len(values)} steps")
     for axis, name in enumerate("xyz"):
         tips.plot(values, nodes[:, -1, axis], label=f"tip {name}")
     tips.set_xlabel(_ramp_label(ds, ramp))
     tips.set_ylabel("tip position [m]")
-    tips.legend(fontsize=7)
-    figure.suptitle(ds.attrs.get("title", ""), fontsize=9)
+    tips.legend()
+    figure.suptitle(ds.attrs.get("title", ""))
     return figure
 
 
@@ -576,7 +734,7 @@ def _views(ds: xr.Dataset, extra: np.ndarray) -> tuple[Figure, list[plt.Axes]]:
         panel.set_xlabel(f"{'xyz'[h]} [m]")
         panel.set_ylabel(f"{'xyz'[v]} [m]")
         panel.set_aspect("equal", adjustable="datalim")
-    figure.suptitle(ds.attrs.get("title", ""), fontsize=9)
+    figure.suptitle(ds.attrs.get("title", ""))
     return figure, list(zip(axes[0], views, strict=True))
 
 
@@ -587,11 +745,11 @@ def _fit_figure(ds: xr.Dataset) -> Figure:
     for panel, (h, v) in views:
         panel.plot(data[:, h], data[:, v], ls="none", marker="x", color="k", ms=5,
                    label="measured points")
-        panel.legend(fontsize=7)
+        panel.legend()
     fitted = ", ".join(f"{key} = {float(ds[key]):.5g} ± {float(ds[key + '.standard_error']):.2g}"
                        for key in json.loads(ds.attrs["fit_parameters"]))
     views[0][0].set_title(textwrap.fill(f"fit: {fitted}; residual RMS "
-                                        f"{ds.attrs['residual_rms']:.3g} m", 80), fontsize=7)
+                                        f"{ds.attrs['residual_rms']:.3g} m", 80))
     return figure
 
 
@@ -605,16 +763,19 @@ def _reach_figure(ds: xr.Dataset) -> Figure:
                    label="target")
         panel.plot(tip[h], tip[v], marker="o", mfc="none", ms=9, color="k", ls="none",
                    label="tip reached")
-        panel.legend(fontsize=7)
+        panel.legend()
     values = ", ".join(f"{key} = {float(ds[key]):.5g}"
                        for key in json.loads(ds.attrs["reach_parameters"]))
     views[0][0].set_title(textwrap.fill(f"reach: {values}; distance "
-                                        f"{ds.attrs['distance']:.3g} m", 80), fontsize=7)
+                                        f"{ds.attrs['distance']:.3g} m", 80))
     return figure
 
 
 DRAWERS = {"centerlines": _centerlines, "error_vs_parameter": _error_vs_parameter,
            "error_vs_iteration": _error_vs_iteration}
+#: The measured result of each study figure, one line computed from the archive.
+RESULTS = {"centerlines": _centerlines_result, "error_vs_parameter": _error_vs_parameter_result,
+           "error_vs_iteration": _error_vs_iteration_result}
 #: Figures of the inverse tools' archives, by their ``kind`` attribute.
 KIND_DRAWERS = {"track": _track_figure, "fit": _fit_figure, "reach": _reach_figure}
 
@@ -631,21 +792,35 @@ def plot_dataset(ds: xr.Dataset, stem: str | Path, formats: Iterable[str] = ("pn
     with warnings.catch_warnings():  # a character the font lacks is drawn as a box
         warnings.filterwarnings("ignore", message="Glyph .* missing from font",
                                 category=UserWarning)
-        return _draw_and_write(ds, stem, formats)
+        with style():
+            return _draw_and_write(ds, stem, formats)
 
 
-def _draw_and_write(ds: xr.Dataset, stem: str | Path, formats: list[str]) -> list[Path]:
-    """Draw the archive's figure and write it in each format (see :func:`plot_dataset`)."""
+def style() -> contextlib.AbstractContextManager[None]:
+    """rodsim's figure style (``rodsim/rodsim.mplstyle``: no text below 8 pt, readable
+    lines, a colour cycle whose neighbours differ) for the figures drawn inside it."""
+    return plt.style.context(STYLE)
+
+
+def draw_figure(ds: xr.Dataset) -> Figure:
+    """The archive's figure, not written (the caller closes it); draw it inside
+    :func:`style`. A study figure's title states the measured result (:data:`RESULTS`).
+    Raises :class:`PlotError` for an unknown plot kind."""
     if "study" in ds.attrs:
         kind = ds.attrs.get("plot", "centerlines")
         if kind not in DRAWERS:
             raise PlotError(f"unknown plot kind {kind!r}; known: {', '.join(DRAWERS)}")
         figure = DRAWERS[kind](ds)
-        _title(figure, ds)
-    elif ds.attrs.get("kind") in KIND_DRAWERS:
-        figure = KIND_DRAWERS[ds.attrs["kind"]](ds)
-    else:
-        figure = _run_centerlines(ds)
+        _title(figure, ds, RESULTS[kind](ds))
+        return figure
+    if ds.attrs.get("kind") in KIND_DRAWERS:
+        return KIND_DRAWERS[ds.attrs["kind"]](ds)
+    return _run_centerlines(ds)
+
+
+def _draw_and_write(ds: xr.Dataset, stem: str | Path, formats: list[str]) -> list[Path]:
+    """Draw the archive's figure and write it in each format (see :func:`plot_dataset`)."""
+    figure = draw_figure(ds)
     paths = []
     try:
         for fmt in formats:

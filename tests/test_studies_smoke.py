@@ -13,12 +13,14 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
+import matplotlib.pyplot as plt
 import numpy as np
 import pytest
 import xarray as xr
+from matplotlib.text import Text
 
 from rodsim.analytic.reference import REFERENCE_KINDS, reference_centerline
-from rodsim.plotting import plot_dataset
+from rodsim.plotting import draw_figure, plot_dataset, style
 from rodsim.study import STATUS, available_studies, grid_points, point_scene, rerun_study
 from rodsim.study_runner import run_study
 
@@ -122,6 +124,47 @@ def test_small_study_runs_and_plots(name, small, tmp_path):
     png, pdf = plot_dataset(reopened, tmp_path / name)
     assert png.read_bytes().startswith(b"\x89PNG\r\n\x1a\n") and png.stat().st_size > 5000
     assert pdf.read_bytes().startswith(b"%PDF") and pdf.stat().st_size > 1000
+
+
+def _measured(ds: xr.Dataset) -> str:
+    """The measured-result line of the study figure's title, drawn in rodsim's style; checks
+    on the way that no text of the figure is smaller than 8 pt."""
+    with style():
+        figure = draw_figure(ds)
+        try:
+            figure.canvas.draw()  # creates the tick labels
+            small_text = [(t.get_text(), t.get_fontsize()) for t in figure.findobj(Text)
+                          if t.get_text() and t.get_fontsize() < 8.0]
+            title = figure.get_suptitle()
+        finally:
+            plt.close(figure)
+    assert not small_text, small_text
+    head, _, result = " ".join(title.split()).partition("measured:")  # unwrapped
+    result = result.replace(" ".join(ds.attrs.get("paper", "").split()), "").strip()
+    assert ds.attrs["study"] in head and result, title
+    return result
+
+
+def _perturbed(ds: xr.Dataset) -> xr.Dataset:
+    """The archive with every measured quantity changed: errors and tips doubled, one step
+    fewer in every history."""
+    out = ds.copy(deep=True)
+    for key in ("tip_error", "area_error", "tip"):
+        if key in out:
+            out[key] = out[key] * 2.0
+    if "history_error" in out:
+        out["history_error"] = out["history_error"].shift(step=-1)
+    return out
+
+
+@pytest.mark.parametrize("name", sorted(STUDIES))
+def test_small_study_figure_states_what_was_measured(name, small):
+    """The title's measured line holds a number and follows the archive's data: it changes
+    when the measured quantities do; no text is below 8 pt."""
+    ds = small(name)[1]
+    measured = _measured(ds)
+    assert any(ch.isdigit() for ch in measured), measured
+    assert _measured(_perturbed(ds)) != measured
 
 
 # Physics on the small runs -------------------------------------------------------------------

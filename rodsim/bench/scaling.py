@@ -414,11 +414,26 @@ def band_threshold(ds, integrator: str, formulation: str) -> tuple[float, list[s
     return threshold, [f"{int(s)}: {r:.2f}" for s, r in zip(sizes, ratios, strict=True)]
 
 
-def _plot(ds, path: Path) -> Path:
-    import matplotlib
+#: The band-vs-sparse panels: how each linear solver is drawn, and what its legend says.
+SOLVER_STYLES = {"band": ({"ls": "-", "mfc": None}, "band: solid line, filled markers"),
+                 "sparse": ({"ls": "--", "mfc": "white"}, "sparse: dashed line, open markers")}
+#: Markers of the formulations in the band-vs-sparse panels.
+FORMULATION_MARKERS = {"overdamped": "o", "inertial": "s"}
 
-    matplotlib.use("Agg")
+
+def _plot(ds, path: Path) -> Path:
+    """The scaling figure, drawn in rodsim's style (:func:`rodsim.plotting.style`)."""
+    from rodsim.plotting import style  # selects the Agg backend
+
+    with style():
+        return _draw(ds, path)
+
+
+def _draw(ds, path: Path) -> Path:
+    """The four panels of :func:`_plot`: time and memory against N (every integrator) and
+    against n (band against sparse)."""
     import matplotlib.pyplot as plt
+    from matplotlib.lines import Line2D
 
     fig, axes = plt.subplots(2, 2, figsize=(11, 8.5))
     nodes = ds["nodes"].values
@@ -451,25 +466,31 @@ def _plot(ds, path: Path) -> Path:
         ok = row["success"].values == 1
         size = row["system_size"].values[ok]
         colour = "tab:red" if config.startswith("cvode") else "tab:green"
-        style = "-" if config.endswith("band") else "--"
-        marker = "s" if "inertial" in config else "o"
-        axes[1, 0].loglog(size, row["wall_time"].values[ok], marker=marker, ls=style,
-                          color=colour, label=config)
-        axes[1, 1].loglog(size, np.maximum(row["peak_memory"].values[ok], 0.1), marker=marker,
-                          ls=style, color=colour, label=config)
+        solver = "band" if config.endswith("band") else "sparse"
+        look = SOLVER_STYLES[solver][0] | {
+            "marker": FORMULATION_MARKERS["inertial" if "inertial" in config else "overdamped"],
+            "color": colour, "label": config}
+        axes[1, 0].loglog(size, row["wall_time"].values[ok], **look)
+        axes[1, 1].loglog(size, np.maximum(row["peak_memory"].values[ok], 0.1), **look)
     for ax in axes[1]:
         ax.axvline(ds.attrs["band_limit"], color="grey", ls=":", lw=1,
                    label=f"BAND_LIMIT = {ds.attrs['band_limit']}")
+        if forced:  # which line is which solver, whatever the configuration names say
+            handles, labels = ax.get_legend_handles_labels()
+            for look, text in SOLVER_STYLES.values():
+                handles.append(Line2D([], [], color="0.3", marker="o", **look))
+                labels.append(text)
+            ax.legend(handles, labels)
     axes[1, 0].set(xlabel="unknowns of the SUNDIALS system n", ylabel="wall time [s]",
                    title="band vs sparse: time")
     axes[1, 1].set(xlabel="unknowns of the SUNDIALS system n",
                    ylabel="peak memory above baseline [MiB]", title="band vs sparse: memory")
     for ax in axes.ravel():
         ax.grid(True, which="major", alpha=0.3)
-        if ax.get_legend_handles_labels()[0]:
-            ax.legend(fontsize=7)
+        if ax.get_legend_handles_labels()[0] and ax.get_legend() is None:
+            ax.legend()
     fig.suptitle(f"Scaling in N ({ds.attrs['size']}); {ds.attrs.get('machine_cpu', '')}, "
-                 f"{ds.attrs.get('machine_date', '')}", fontsize=9)
+                 f"{ds.attrs.get('machine_date', '')}")
     fig.tight_layout()
     fig.savefig(path, dpi=80)
     plt.close(fig)

@@ -155,9 +155,20 @@ def _figure(ds: xr.Dataset, path: Path) -> None:
     within a bin). Each cell is labelled converged/configurations; empty bins stay blank.
     Only the paper integrator uses h: its row is a control for the other three. A title
     names any crash or NaN reported as success (which must never happen)."""
-    import matplotlib
+    from rodsim.plotting import style  # selects the Agg backend
 
-    matplotlib.use("Agg")
+    with style():
+        _draw(ds, path)
+
+
+def _axis_label(ds: xr.Dataset, key: str) -> str:
+    """``long name [units]`` of a configuration coordinate (``[1]``: a pure number)."""
+    attrs = ds[key].attrs
+    return f"{attrs.get('long_name', key)} [{attrs.get('units', '1')}]"
+
+
+def _draw(ds: xr.Dataset, path: Path) -> None:
+    """The heat maps of :func:`_figure`, drawn in the current style."""
     import matplotlib.pyplot as plt
 
     refused = (ds["outcome"] == OUTCOMES.index("refused")).any("integrator").values
@@ -182,11 +193,11 @@ def _figure(ds: xr.Dataset, path: Path) -> None:
                 ax.text(10 ** (0.5 * (xedges[i] + xedges[i + 1])),
                         10 ** (0.5 * (yedges[j] + yedges[j + 1])),
                         f"{int(good[i, j])}/{int(total[i, j])}", ha="center", va="center",
-                        fontsize=6)
+                        fontsize=8)
             ax.set_xscale("log")
             ax.set_yscale("log")
-            ax.set_xlabel(xname)
-            ax.set_ylabel(yname)
+            ax.set_xlabel(_axis_label(ds, xname))
+            ax.set_ylabel(_axis_label(ds, yname))
             if row == 0:
                 never = ", ".join(f"{int(count)} {name}" for name in ("crash", "nan_success")
                                   if (count := (outcome == OUTCOMES.index(name)).sum()))
@@ -194,7 +205,11 @@ def _figure(ds: xr.Dataset, path: Path) -> None:
                              f"{int((~refused).sum())} converged" + (f" ({never}!)" if never
                                                                       else ""))
     if image is not None:
-        figure.colorbar(image, ax=axes, shrink=0.6, label="fraction converged")
+        figure.colorbar(image, ax=axes, shrink=0.6,
+                        label="fraction of the bin's configurations that converged [1]")
+    figure.suptitle(f"Convergence map ({ds.attrs.get('size', '')}): "
+                    f"{int((~refused).sum())} configurations per integrator; cells: "
+                    "converged/configurations in the bin")
     figure.savefig(path, dpi=100)
     plt.close(figure)
 

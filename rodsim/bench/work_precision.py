@@ -676,23 +676,32 @@ def pareto_front(errors: np.ndarray, times: np.ndarray) -> tuple[np.ndarray, np.
 
 
 def _plot(ds, path: Path) -> Path:
-    import matplotlib
+    """The work-precision figure, drawn in rodsim's style (:func:`rodsim.plotting.style`)."""
+    from rodsim.plotting import style  # selects the Agg backend
 
-    matplotlib.use("Agg")
+    with style():
+        return _draw(ds, path)
+
+
+def _draw(ds, path: Path) -> Path:
+    """The panels of :func:`_plot`: one row per scene, one column per family group; a panel
+    whose families ran nothing at this size says so instead of staying blank."""
     import matplotlib.pyplot as plt
 
     scenes = list(dict.fromkeys(ds["scene"].values.tolist()))
     panels = [("paper integrator", ("paper",)), ("CVODE", ("cvode",)),
               ("IDA and scipy", ("ida", "scipy")), ("fastest of each family", ())]
-    fig, axes = plt.subplots(len(scenes), len(panels), figsize=(4.6 * len(panels),
-                                                                  4.3 * len(scenes)),
-                             squeeze=False, sharey="row")
+    # Legends below their panels (8-pt text: a dozen methods would hide the curves).
+    fig, axes = plt.subplots(len(scenes), len(panels), figsize=(5.2 * len(panels),
+                                                                  6.6 * len(scenes)),
+                             squeeze=False, sharey="row", constrained_layout=True)
     for row, scene in enumerate(scenes):
         here = ds.where(ds["scene"] == scene, drop=True)
         ok = here.where(here["success"] == 1, drop=True)
         static = ok.where(ok["family"] == "static", drop=True)
         for col, (title, families) in enumerate(panels):
             ax = axes[row, col]
+            measured = int(here["family"].isin(list(families) or FAMILIES).sum())
             for family in families:
                 part = ok.where(ok["family"] == family, drop=True)
                 for label in dict.fromkeys(part["method"].values.tolist()):
@@ -718,18 +727,21 @@ def _plot(ds, path: Path) -> Path:
                                 & here["family"].isin(list(families)), drop=True)
             count = failed.sizes.get("point", 0)
             ax.set_title(f"{scene}: {title}" + (f"\n({count} failed runs not shown)"
-                                                 if count else ""), fontsize=9)
-            ax.set_xlabel("error / L (largest control-point distance to static)", fontsize=8)
+                                                 if count else ""))
+            if not measured:
+                ax.text(0.5, 0.5, f"no {' or '.join(families)} runs at this size",
+                        ha="center", va="center", transform=ax.transAxes)
+            ax.set_xlabel("error / L [1] (largest control-point distance to static)")
             if col == 0:
                 ax.set_ylabel("wall time to equilibrium [s]")
             ax.set_xlim(0.3 * ERROR_FLOOR, 1.0)
             ax.grid(True, which="major", alpha=0.3)
             if ax.get_legend_handles_labels()[0]:
-                ax.legend(fontsize=5.5, ncol=2 if len(families) else 1, loc="best")
+                ax.legend(ncol=2 if len(families) else 1, loc="upper center",
+                          bbox_to_anchor=(0.5, -0.16))
     fig.suptitle(f"Work-precision ({ds.attrs.get('size')}; errors below {ERROR_FLOOR:g} drawn "
                  f"at {ERROR_FLOOR:g}); {ds.attrs.get('machine_cpu', '')}, "
-                 f"{ds.attrs.get('machine_date', '')}", fontsize=9)
-    fig.tight_layout()
+                 f"{ds.attrs.get('machine_date', '')}")
     fig.savefig(path, dpi=72)
     plt.close(fig)
     return path
