@@ -243,6 +243,23 @@ class ScaledEquilibria:
         self.failures = 0
         self.last_failure = ""
 
+    @classmethod
+    def at_scene_values(cls, scene: Scene, keys: Sequence[NumericKey],
+                        rod: str) -> tuple[ScaledEquilibria, np.ndarray, np.ndarray]:
+        """The problem started at the scene's own values, each parameter scaled by its
+        magnitude (1 where it is 0), from a cold static equilibrium (EquilibriumFailure if
+        there is none); with the scaled lower and upper bounds of the parameters."""
+        from rodsim.api import solve
+
+        initial = np.array([k.value(scene) for k in keys])
+        scale = np.where(initial != 0.0, np.abs(initial), 1.0)
+        lower, upper = np.array([k.bounds() for k in keys]).T / scale
+        first = solve(scene, "static")
+        if not first.success:
+            raise EquilibriumFailure(f"the scene's own values have no equilibrium: "
+                                     f"{first.message}")
+        return cls(scene, keys, scale, first, rod), lower, upper
+
     def values_of(self, u: np.ndarray) -> np.ndarray:
         """The parameter values of u, those within :data:`BOUND_SNAP` × scale of a bound
         set to the bound: least_squares' trust-region reflective iterates stay strictly

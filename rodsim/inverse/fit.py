@@ -240,13 +240,8 @@ def fit(scene: Scene, points: Points, params: Sequence[str], *, rod: str | None 
     if count < len(keys):
         raise FitError(f"{count} data points for {len(keys)} parameters: need at least as "
                        "many points as parameters")
-    initial = np.array([k.value(scene) for k in keys])
-    scale = np.where(initial != 0.0, np.abs(initial), 1.0)
-    lower, upper = np.array([k.bounds() for k in keys]).T / scale
-    first = solve(scene, "static")
-    if not first.success:
-        raise EquilibriumFailure(f"the initial scene has no equilibrium: {first.message}")
-    problem = ScaledEquilibria(scene, keys, scale, first, rod)
+    problem, lower, upper = ScaledEquilibria.at_scene_values(scene, keys, rod)
+    initial, scale = problem.values.copy(), problem.scale
     s_nodes = problem.continuation.model.rods[rod].geometry.node_s
 
     def matched(nodes: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:

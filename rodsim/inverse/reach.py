@@ -112,13 +112,8 @@ def reach(scene: Scene, tip: Sequence[float], actuate: Sequence[str], *,
     rod = rod or next(iter(scene.data["rods"]))
     if rod not in scene.data["rods"]:
         raise SceneError(f"rod {rod!r}: no such rod; rods: {', '.join(scene.data['rods'])}")
-    initial = np.array([k.value(scene) for k in keys])
-    scale = np.where(initial != 0.0, np.abs(initial), 1.0)
-    lower, upper = np.array([k.bounds() for k in keys]).T / scale
-    first = solve(scene, "static")
-    if not first.success:
-        raise EquilibriumFailure(f"the starting scene has no equilibrium: {first.message}")
-    problem = ScaledEquilibria(scene, keys, scale, first, rod)
+    problem, lower, upper = ScaledEquilibria.at_scene_values(scene, keys, rod)
+    initial = problem.values.copy()
 
     far = np.full(3, 10.0 * float(scene.data["rods"][rod]["length"]))
 
