@@ -44,7 +44,7 @@ import numpy as np  # noqa: E402
 
 import rodsim  # noqa: E402
 from rodsim.bench.machine import machine  # noqa: E402
-from rodsim.result import count_text  # noqa: E402
+from rodsim.solvers.result import count_text  # noqa: E402
 
 SCENE = "table1-50g"
 NODES = 40

@@ -3,8 +3,8 @@
     python docs/generate_scene_reference.py          # rewrite docs/scenes.md
     python docs/generate_scene_reference.py --check  # exit 1 if docs/scenes.md is stale
 
-Reads rodsim.rod.rod.ROD_PARAMETERS, rodsim.tendon.TENDON_PARAMETERS,
-rodsim.scene.SOLVER_PARAMETERS, every registered term (``parameters``, ``equation``,
+Reads rodsim.core.rod.rod.ROD_PARAMETERS, rodsim.core.tendon.TENDON_PARAMETERS,
+rodsim.core.scene.SOLVER_PARAMETERS, every registered term (``parameters``, ``equation``,
 ``scope``) and every registered integrator (``parameters``, ``summary``,
 ``quaternion_norm``), and replaces the text between the markers
 ``<!-- BEGIN GENERATED -->`` and ``<!-- END GENERATED -->``. Everything else in the file is
@@ -19,14 +19,14 @@ import json
 import sys
 from pathlib import Path
 
-from rodsim.integrators import registered_integrators
-from rodsim.rod.rod import ROD_PARAMETERS
-from rodsim.scene import SOLVER_PARAMETERS
-from rodsim.schema import Parameter
-from rodsim.terms import registered_terms
+from rodsim.core.rod.rod import ROD_PARAMETERS
+from rodsim.core.scene import SOLVER_PARAMETERS
+from rodsim.core.schema import Parameter
+from rodsim.core.terms import registered_terms
+from rodsim.solvers import registered_integrators
 
 try:  # tendon scenes ([tendons.<rod>] tables)
-    from rodsim.tendon import TENDON_PARAMETERS
+    from rodsim.core.tendon import TENDON_PARAMETERS
 except ImportError:  # pragma: no cover - a rodsim without tendons
     TENDON_PARAMETERS = None
 

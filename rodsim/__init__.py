@@ -18,22 +18,22 @@ import os
 os.environ.setdefault("OMP_NUM_THREADS", "1")
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
-__version__ = "0.1.0"
+from rodsim.version import __version__
 
 __all__ = ["__version__", "build_model", "fit", "load_scene", "reach", "sensitivity", "solve",
            "track"]
 
 #: The inverse tools: name -> module (each module defines a function of the same name).
-_INVERSE = {"sensitivity": "rodsim.inverse.sensitivity", "track": "rodsim.inverse.track",
-            "fit": "rodsim.inverse.fit", "reach": "rodsim.inverse.reach"}
+_INVERSE = {"sensitivity": "rodsim.app.inverse.sensitivity", "track": "rodsim.app.inverse.track",
+            "fit": "rodsim.app.inverse.fit", "reach": "rodsim.app.inverse.reach"}
 
 
 def __getattr__(name: str):
-    """The Python entry points of :mod:`rodsim.api` and the inverse tools, imported on first
+    """The Python entry points of :mod:`rodsim.app.api` and the inverse tools, imported on first
     use: ``import rodsim`` stays light (SUNDIALS, xarray and numba are loaded only when a
     solve needs them)."""
     if name in ("build_model", "load_scene", "solve"):
-        from rodsim import api
+        from rodsim.app import api
 
         return getattr(api, name)
     if name in _INVERSE:

@@ -2,6 +2,6 @@
 
 import sys
 
-from rodsim.cli import main
+from rodsim.app.cli import main
 
 sys.exit(main())

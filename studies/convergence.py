@@ -1,7 +1,7 @@
 """Discretisation error surface of the tendon model: N × K_P × K_L against the
 constant-curvature arc (momentum-conserving coupling, DESIGN erratum 6)."""
 
-from rodsim.study import Study, Sweep
+from rodsim.app.study import Study, Sweep
 
 NODES = ("rods.catheter.nodes", "rods.tendon.nodes")
 

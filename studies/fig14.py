@@ -1,7 +1,7 @@
 """Fig. 14: catheter and tendon control points at 1:1, N_C = N_T (Table 3, catheter 1)."""
 
+from rodsim.app.study import Study, Sweep
 from rodsim.studies._tendon import INTEGRATOR, NODES
-from rodsim.study import Study, Sweep
 
 
 def _nodes(values: tuple[int, ...]) -> Sweep:

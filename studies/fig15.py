@@ -1,7 +1,7 @@
 """Fig. 15: tendon control points N_T at N_C = 30 (Table 3, catheter 1)."""
 
+from rodsim.app.study import Study, Sweep
 from rodsim.studies._tendon import INTEGRATOR
-from rodsim.study import Study, Sweep
 
 N_T = ("tendon_nodes", "rods.tendon.nodes")
 

@@ -1,7 +1,7 @@
 """Fig. 16: the lumen penalty constant K_L (Table 3, catheter 1, N_C = 30, N_T = 10)."""
 
+from rodsim.app.study import Study, Sweep
 from rodsim.studies._tendon import INTEGRATOR, K_L
-from rodsim.study import Study, Sweep
 
 STUDY = Study(
     name="fig16",

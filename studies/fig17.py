@@ -1,7 +1,7 @@
 """Fig. 17: the endpoint coupling constant K_C at K_E = 1500 (Table 3, catheter 1)."""
 
+from rodsim.app.study import Study, Sweep
 from rodsim.studies._tendon import INTEGRATOR, K_C, K_E
-from rodsim.study import Study, Sweep
 
 STUDY = Study(
     name="fig17",

@@ -1,7 +1,7 @@
 """Fig. 18: the endpoint compliance constant K_E at K_C = 1e5 (Table 3, catheter 1)."""
 
+from rodsim.app.study import Study, Sweep
 from rodsim.studies._tendon import INTEGRATOR, K_C, K_E
-from rodsim.study import Study, Sweep
 
 STUDY = Study(
     name="fig18",

@@ -1,7 +1,7 @@
 """Fig. 22: Table 3's three fits (K_E, K_C) of the tendon-driven catheter, F_A = 2 N."""
 
+from rodsim.app.study import Study, Sweep
 from rodsim.studies._tendon import INTEGRATOR, K_C, K_E
-from rodsim.study import Study, Sweep
 
 FITS = Sweep("fit", (K_E, K_C), ((950.0, 2e5), (1100.0, 1e5), (1200.0, 1e5)), "1",
              "Table 3 fit (K_E, K_C)", labels=("catheter 1", "catheter 2", "catheter 3"))

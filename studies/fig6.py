@@ -1,6 +1,6 @@
 """Fig. 6: the three hanging masses — Cosserat model vs the analytical model vs the elastica."""
 
-from rodsim.study import Study, Sweep
+from rodsim.app.study import Study, Sweep
 
 MASS = ("mass", "rods.catheter.tip_load.mass")
 

@@ -1,6 +1,6 @@
 """Fig. 7A: accuracy against the centerline penalty constant K_P (50 g, N = 40)."""
 
-from rodsim.study import Study, Sweep
+from rodsim.app.study import Study, Sweep
 
 K_P = ("K_P", "rods.catheter.centerline.K_P")
 

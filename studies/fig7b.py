@@ -1,6 +1,6 @@
 """Fig. 7B: accuracy against the number of control points N (50 g)."""
 
-from rodsim.study import Study, Sweep
+from rodsim.app.study import Study, Sweep
 
 STUDY = Study(
     name="fig7b",

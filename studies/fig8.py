@@ -1,6 +1,6 @@
 """Fig. 8: error against iteration for several damping constants ξ (paper integrator, 50 g)."""
 
-from rodsim.study import Study, Sweep
+from rodsim.app.study import Study, Sweep
 
 XI = ("xi", "solver.paper.xi")
 H = ("h", "solver.paper.h")

@@ -2,7 +2,7 @@
 (DESIGN erratum 12; ``solver.paper.h2_omega2``), where ξ = 0.9 damps the slowest mode
 critically. Table 1 in SI units gives h² ω₁² ≈ 26 and ξ has no effect (study ``fig8``)."""
 
-from rodsim.study import Study, Sweep
+from rodsim.app.study import Study, Sweep
 
 XI = ("xi", "solver.paper.xi")
 

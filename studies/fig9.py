@@ -1,6 +1,6 @@
 """Fig. 9: the corrected stiffness tensor Eq. (8) vs CORDE's, for the three masses."""
 
-from rodsim.study import Study, Sweep
+from rodsim.app.study import Study, Sweep
 
 STIFFNESS = Sweep("stiffness", "rods.catheter.bend_twist.stiffness", ("corrected", "corde"),
                   "1", "stiffness tensor (Eq. 8 corrected, or CORDE's)")

@@ -1,6 +1,6 @@
 """Self-weight on and off for the three hanging masses (DESIGN erratum 10)."""
 
-from rodsim.study import Study, Sweep
+from rodsim.app.study import Study, Sweep
 
 TERMS = ["stretch", "bend_twist", "centerline", "tip_load"]
 GRAVITY = Sweep("gravity", "rods.catheter.terms", (TERMS, [*TERMS, "gravity"]), "1",

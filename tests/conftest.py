@@ -17,8 +17,8 @@ import numpy as np  # noqa: E402
 import pytest  # noqa: E402
 
 import rodsim  # noqa: E402
-from rodsim.model import Model  # noqa: E402
-from rodsim.scene import Scene  # noqa: E402
+from rodsim.core.model import Model  # noqa: E402
+from rodsim.core.scene import Scene  # noqa: E402
 
 
 @pytest.fixture
@@ -103,8 +103,8 @@ def central_gradient(function: Callable[[np.ndarray], float], x: np.ndarray,
 
 @pytest.fixture
 def cli() -> Callable[[list[str]], int]:
-    """``cli(argv)``: ``rodsim.cli.main(argv)``, in process (its exit code)."""
-    from rodsim.cli import main
+    """``cli(argv)``: ``rodsim.app.cli.main(argv)``, in process (its exit code)."""
+    from rodsim.app.cli import main
 
     return main
 

@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 import rodsim
-from rodsim.analytic import exact_elastica, extensible_elastica
+from rodsim.core.analytic import exact_elastica, extensible_elastica
 
 TABLE1 = ("table1-20g", "table1-50g", "table1-100g")
 NODES = (10, 20, 40, 80)

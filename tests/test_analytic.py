@@ -1,4 +1,4 @@
-"""Tests of the continuum references in rodsim.analytic (paper Eqs. 21-23, DESIGN.md §2.9)."""
+"""Tests of the continuum references in rodsim.core.analytic (paper Eqs. 21-23, DESIGN.md §2.9)."""
 
 from __future__ import annotations
 
@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 
-from rodsim.analytic import (
+from rodsim.core.analytic import (
     exact_elastica,
     extensible_elastica,
     load_parameter,

@@ -10,9 +10,9 @@ import pytest
 import xarray as xr
 
 import rodsim
-from rodsim.archive import ArchiveError, read_dataset, rerun, write_dataset
-from rodsim.result import SCHEMA_VERSION
-from rodsim.scene import scene_paths
+from rodsim.core.scene import scene_paths
+from rodsim.io.archive import ArchiveError, read_dataset, rerun, write_dataset
+from rodsim.solvers.result import SCHEMA_VERSION
 
 OVERRIDES = ("nodes=12",)
 REQUIRED_ATTRS = ("scene_json", "scene_toml", "integrator", "integrator_options",
@@ -22,7 +22,7 @@ REQUIRED_ATTRS = ("scene_json", "scene_toml", "integrator", "integrator_options"
 
 
 @functools.cache
-def run(integrator: str) -> rodsim.result.Result:
+def run(integrator: str) -> rodsim.solvers.result.Result:
     result = rodsim.solve("table1-50g", integrator, overrides=list(OVERRIDES))
     assert result.success, result.message
     return result

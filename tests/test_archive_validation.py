@@ -13,9 +13,9 @@ import numpy as np
 import pytest
 import xarray as xr
 
-from rodsim.archive import read_dataset, write_dataset
-from rodsim.study import Study, Sweep
-from rodsim.study_runner import run_study
+from rodsim.app.study import Study, Sweep
+from rodsim.app.study_runner import run_study
+from rodsim.io.archive import read_dataset, write_dataset
 
 TINY = Study(name="validation_test", title="two points", paper="tests only",
              scene="table1-50g", integrator="static", reference=None,
@@ -27,7 +27,7 @@ DEEP = "[" * 100_000 + "]" * 100_000
 @pytest.fixture(scope="module")
 def archives(tmp_path_factory):
     """A run archive (static, N = 6) and a two-point study archive, written once."""
-    from rodsim.cli import main
+    from rodsim.app.cli import main
 
     folder = tmp_path_factory.mktemp("archives")
     run = folder / "run.nc"

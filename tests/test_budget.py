@@ -15,11 +15,11 @@ import pytest
 import scipy.sparse as sp
 
 import rodsim
-import rodsim.api
-from rodsim.integrators.base import SolverFailure
-from rodsim.integrators.linear import LinearSolver
-from rodsim.integrators.newton import NewtonProblem, newton
-from rodsim.model import Model
+import rodsim.app.api
+from rodsim.core.model import Model
+from rodsim.solvers.base import SolverFailure
+from rodsim.solvers.linear import LinearSolver
+from rodsim.solvers.newton import NewtonProblem, newton
 
 SLEEP = 0.05  # s added to every force evaluation
 BUDGET = 0.3  # s
@@ -68,7 +68,7 @@ def test_the_budget_covers_the_model_assembly(monkeypatch):
         time.sleep(BUDGET + 0.1)
         return Model(scene)
 
-    monkeypatch.setattr(rodsim.api, "Model", slow_assembly)
+    monkeypatch.setattr(rodsim.app.api, "Model", slow_assembly)
     result = rodsim.solve(rodsim.load_scene("table1-50g", ["nodes=6",
                                                            f"max_wall_time={BUDGET}"]),
                           "static")
@@ -95,7 +95,7 @@ def test_a_tiny_budget_at_moderate_n_exits_1_through_the_cli(tmp_path, cli, caps
 
 
 def test_newton_calls_check_once_per_iteration_and_stops_when_it_raises():
-    """The hook in rodsim/integrators/newton.py: a check that raises ends the iteration."""
+    """The hook in rodsim/solvers/newton.py: a check that raises ends the iteration."""
     calls = []
 
     def check():

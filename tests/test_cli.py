@@ -10,11 +10,11 @@ import sys
 import numpy as np
 import pytest
 
-import rodsim.progress  # imported at collection time, as a user's session imports it early
-from rodsim.analytic import exact_elastica
-from rodsim.archive import read_dataset, write_dataset
-from rodsim.cli import main
-from rodsim.scene import scene_paths
+import rodsim.app.progress  # imported at collection time, as a user's session imports it early
+from rodsim.app.cli import main
+from rodsim.core.analytic import exact_elastica
+from rodsim.core.scene import scene_paths
+from rodsim.io.archive import read_dataset, write_dataset
 
 NUMBER = r"[-+]?\d+\.?\d*(?:[eE][-+]?\d+)?"
 
@@ -139,7 +139,7 @@ def test_progress_goes_to_the_current_stderr(tmp_path, capsys):
     import time is replaced and closed (pytest's capture, ``contextlib.redirect_stderr``, a
     notebook), an in-process ``rodsim run`` must still work (a regression test: it once
     crashed with "I/O operation on closed file")."""
-    printer = rodsim.progress.ProgressPrinter()
+    printer = rodsim.app.progress.ProgressPrinter()
     assert printer.stream is sys.stderr, (
         "ProgressPrinter() writes to the stderr of import time, not the current sys.stderr")
     assert main(["run", "--integrator", "static", "--set", "nodes=12", "-o",

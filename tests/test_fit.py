@@ -1,4 +1,4 @@
-"""Fitting (rodsim/inverse/fit.py, ``rodsim fit``): synthetic data from known values are
+"""Fitting (rodsim/app/inverse/fit.py, ``rodsim fit``): synthetic data from known values are
 recovered, the standard errors describe the scatter, and bad data or unidentifiable
 parameters are refused with one line and exit 2."""
 
@@ -11,8 +11,8 @@ import pytest
 import xarray as xr
 
 import rodsim
-from rodsim.archive import read_dataset
-from rodsim.inverse.fit import FitError, Points, fit, read_points
+from rodsim.app.inverse.fit import FitError, Points, fit, read_points
+from rodsim.io.archive import read_dataset
 
 
 def synthetic(scene, truth: dict, *, count: int = 30, noise: float = 0.0, seed: int = 0,

@@ -6,10 +6,10 @@ rerun that differs, 2 bad input); exit 2 comes with exactly one line on stderr; 
 and no Python warning ever reaches the user; nothing is written outside the requested
 output, and nothing at all on exit 2.
 
-Each example runs ``rodsim.cli.main(argv)`` in this process, in a fresh folder, as the
+Each example runs ``rodsim.app.cli.main(argv)`` in this process, in a fresh folder, as the
 current folder. Scenes are kept small and fast: ``--integrator static``, a wall-time budget
 of 0.5 s in every base scene, and the machine's memory is set (for the memory estimate,
-rodsim/memory.py) so that any scene with more than 300 control points in all is refused.
+rodsim/core/memory.py) so that any scene with more than 300 control points in all is refused.
 
 Size: ``RODSIM_FUZZ_EXAMPLES`` examples per test (default: the per-test counts in
 ``EXAMPLES``, 210 in all); Hypothesis runs derandomized, without an example database, so
@@ -36,12 +36,12 @@ import xarray as xr
 from hypothesis import HealthCheck, assume, given, settings
 from hypothesis import strategies as st
 
-import rodsim.memory
+import rodsim.core.memory
 import rodsim.studies
-from rodsim.archive import ArchiveError, read_dataset, write_dataset
-from rodsim.cli import main
-from rodsim.study import Study, Sweep
-from rodsim.study_runner import parts_folder, run_study
+from rodsim.app.cli import main
+from rodsim.app.study import Study, Sweep
+from rodsim.app.study_runner import parts_folder, run_study
+from rodsim.io.archive import ArchiveError, read_dataset, write_dataset
 
 #: Examples per test in the default run (≥ 200 in all).
 EXAMPLES = {"set": 60, "scene": 50, "rerun": 40, "plot": 30, "resume": 30}
@@ -218,8 +218,8 @@ def kernels_loaded():
 def small_machine():
     """Any scene of more than 300 control points is refused by the memory estimate."""
     with pytest.MonkeyPatch.context() as patch:
-        patch.setattr(rodsim.memory, "physical_memory",
-                      lambda: 300 * rodsim.memory.BYTES_PER_NODE)
+        patch.setattr(rodsim.core.memory, "physical_memory",
+                      lambda: 300 * rodsim.core.memory.BYTES_PER_NODE)
         yield
 
 
@@ -239,7 +239,7 @@ def parts(root) -> Path:
     folder = root / "studies"
     folder.mkdir()
     (folder / f"{STUDY.name}.py").write_text(
-        f"from rodsim.study import Study, Sweep\n\nSTUDY = {STUDY!r}\n", encoding="utf-8")
+        f"from rodsim.app.study import Study, Sweep\n\nSTUDY = {STUDY!r}\n", encoding="utf-8")
     with pytest.MonkeyPatch.context() as patch:
         patch.setattr(rodsim.studies, "__path__", [*rodsim.studies.__path__, str(folder)])
         patch.delitem(sys.modules, f"rodsim.studies.{STUDY.name}", raising=False)

@@ -20,8 +20,8 @@ import numpy as np
 import pytest
 
 import rodsim
-from rodsim.integrators.sundials import FROZEN_CHANGE, FROZEN_STEPS
-from rodsim.scene import Scene
+from rodsim.core.scene import Scene
+from rodsim.solvers.sundials import FROZEN_CHANGE, FROZEN_STEPS
 
 TABLE1 = ("table1-20g", "table1-50g", "table1-100g")
 
@@ -36,7 +36,7 @@ RUNS = {
 
 
 @functools.cache
-def reference(scene_name: str) -> rodsim.result.Result:
+def reference(scene_name: str) -> rodsim.solvers.result.Result:
     result = rodsim.solve(scene_name, "static", overrides=["tolerance=1e-12"])
     assert result.success, result.message
     return result
@@ -57,7 +57,7 @@ def load_parameter(scene: Scene) -> float:
 def longest_repetition(residuals: list[float]) -> int:
     """Longest run of steps whose residual equals (to FROZEN_CHANGE) the one one or two steps
     before: a corrector that no longer moves the state, or a period-2 cycle (once 30 steps
-    long on table1-50g, before rodsim/integrators/sundials.py tightened on it)."""
+    long on table1-50g, before rodsim/solvers/sundials.py tightened on it)."""
     longest = run = 0
     for k in range(2, len(residuals)):
         value = residuals[k]
@@ -140,7 +140,7 @@ def test_loose_time_stepping_still_reaches_a_tight_equilibrium(integrator):
 def test_integrators_stay_within_the_bound_at_large_n(nodes, integrator):
     """The distance to ``static`` does not grow with N: at N = 320 CVODE used to stop 2.2e-6
     L from static with a passing max-norm residual, 40× the bound (it now finishes with
-    Newton, rodsim/integrators/sundials.py)."""
+    Newton, rodsim/solvers/sundials.py)."""
     overrides = [f"nodes={nodes}"]
     ref = rodsim.solve("table1-50g", "static", overrides=[*overrides, "tolerance=1e-12"])
     assert ref.success, ref.message
@@ -158,7 +158,7 @@ def test_paper_mass_scaling_puts_h2_omega2_where_asked():
     """``solver.paper.h2_omega2`` (DESIGN erratum 12) scales M by (h ω₁)² / target, with
     ω₁ = 1.875² √(E I / (ρ A L⁴)) computed here from the scene's values; 0 keeps the
     physical masses. The equilibrium does not depend on M."""
-    from rodsim.integrators import registered_integrators
+    from rodsim.solvers import registered_integrators
 
     scene = rodsim.load_scene("table1-50g", ["solver.paper.h2_omega2=0.003"])
     rod = next(iter(scene.data["rods"].values()))

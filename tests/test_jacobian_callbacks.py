@@ -20,8 +20,8 @@ from sksundae.cvode import CVODE
 from sksundae.ida import IDA
 
 import rodsim
-from rodsim.integrators.cvode import Cvode
-from rodsim.integrators.ida import Ida
+from rodsim.solvers.cvode import Cvode
+from rodsim.solvers.ida import Ida
 
 # With jacfn and sparsity both given, scikit-sundae warns that its own finite-difference
 # approximation over `sparsity` is not used: that is the point here.

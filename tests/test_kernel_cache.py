@@ -17,7 +17,7 @@ SCRIPT = """
 import json, sys
 import numpy as np
 import rodsim
-from rodsim.model import Model
+from rodsim.core.model import Model
 misses = hits = 0
 for name in ("table1-50g", "table3-catheter1"):
     model = Model(rodsim.load_scene(name), "compiled")

@@ -1,4 +1,4 @@
-"""Every term's compiled kernel (rodsim/kernels) against its numpy reference, term by term.
+"""Every term's compiled kernel (rodsim/core/kernels) against its numpy reference, term by term.
 
 For every term of every contract scene (tests/test_term_contract.py), at random non-trivial
 states, the kernel's accumulated force and Jacobian data must equal the numpy element
@@ -16,8 +16,8 @@ import numpy as np
 import pytest
 from test_term_contract import CONTRACT_SCENES, SMALL_SCENES
 
-from rodsim.model import Model
-from rodsim.scene import Scene, scene_paths
+from rodsim.core.model import Model
+from rodsim.core.scene import Scene, scene_paths
 
 ROUND_OFF = 1e-12
 

@@ -1,5 +1,5 @@
 """The globalised Newton iteration shared by ``static`` and ``paper``
-(rodsim/integrators/newton.py): the watchdog on non-conservative problems."""
+(rodsim/solvers/newton.py): the watchdog on non-conservative problems."""
 
 from __future__ import annotations
 
@@ -7,8 +7,8 @@ import numpy as np
 import scipy.sparse as sp
 
 import rodsim
-from rodsim.integrators.linear import LinearSolver
-from rodsim.integrators.newton import NewtonProblem, newton
+from rodsim.solvers.linear import LinearSolver
+from rodsim.solvers.newton import NewtonProblem, newton
 
 
 def arctan_problem() -> NewtonProblem:

@@ -16,10 +16,10 @@ import pytest
 import xarray as xr
 
 import rodsim
-import rodsim.api
+import rodsim.app.api
 import rodsim.bench.work_precision
-from rodsim.archive import ArchiveError, read_dataset, write_dataset
-from rodsim.output import OutputError, check_target
+from rodsim.io.archive import ArchiveError, read_dataset, write_dataset
+from rodsim.io.output import OutputError, check_target
 
 RUN = ["run", "--integrator", "static", "--set", "nodes=6"]
 
@@ -34,7 +34,7 @@ def one_line(capsys) -> str:
 @pytest.fixture
 def no_solve(monkeypatch):
     """Fail the test if a solve starts: the output must be refused before."""
-    monkeypatch.setattr(rodsim.api, "Model", lambda scene: pytest.fail("the solve started"))
+    monkeypatch.setattr(rodsim.app.api, "Model", lambda scene: pytest.fail("the solve started"))
 
 
 def unwritable_targets(tmp_path: Path) -> dict[str, Path]:
@@ -153,8 +153,8 @@ def test_the_next_write_removes_a_killed_writes_temporary(tmp_path, cli, capsys)
 def test_a_resumed_study_removes_the_temporary_of_its_killed_archive_write(tmp_path):
     """Item 11 through the study runner: a study killed while writing its archive resumes,
     and the resume's write removes the temporary the kill left."""
-    from rodsim.study import Study, Sweep
-    from rodsim.study_runner import run_study
+    from rodsim.app.study import Study, Sweep
+    from rodsim.app.study_runner import run_study
 
     study = Study(name="stale_test", title="t", paper="tests only", scene="table1-50g",
                   integrator="static", reference=None,

@@ -1,6 +1,6 @@
 """Every subpackage of rodsim is installed: pyproject.toml lists packages explicitly, and the
 test suite imports from the source tree, so a folder missing from the list passes every
-other test while ``pip install .`` ships without it (rodsim.inverse once did)."""
+other test while ``pip install .`` ships without it (rodsim.app.inverse once did)."""
 
 from __future__ import annotations
 

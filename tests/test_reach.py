@@ -1,4 +1,4 @@
-"""Inverse kinematics (rodsim/inverse/reach.py, ``rodsim reach``): tensions recovered from
+"""Inverse kinematics (rodsim/app/inverse/reach.py, ``rodsim reach``): tensions recovered from
 the tip they produce, on a catheter with several tendons in 3D; unreachable targets fail
 with the closest tip found."""
 
@@ -9,7 +9,7 @@ import pytest
 import xarray as xr
 
 import rodsim
-from rodsim.archive import read_dataset
+from rodsim.io.archive import read_dataset
 
 TENDONS = ("tendon_py", "tendon_pz", "tendon_my", "tendon_mz")
 SMALL = [f"{rod}.nodes=10" for rod in ("catheter", *TENDONS)]

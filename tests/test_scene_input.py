@@ -13,11 +13,11 @@ from pathlib import Path
 import pytest
 import scipy.sparse.linalg as spla
 
-import rodsim.api
-import rodsim.memory
-from rodsim.archive import read_dataset
-from rodsim.memory import BYTES_PER_NODE
-from rodsim.schema import SHOWN_WIDTH
+import rodsim.app.api
+import rodsim.core.memory
+from rodsim.core.memory import BYTES_PER_NODE
+from rodsim.core.schema import SHOWN_WIDTH
+from rodsim.io.archive import read_dataset
 
 SCENE = """\
 name = "{name}"
@@ -153,8 +153,8 @@ def test_a_scene_too_large_for_memory_is_refused_with_its_estimate(tmp_path, cli
                                                                    monkeypatch):
     """Item 5: 20 rods × 200 000 nodes is refused before any allocation, saying the estimate
     (the machine's memory is set to 8 GB so that the test does not depend on it)."""
-    monkeypatch.setattr(rodsim.memory, "physical_memory", lambda: 8 * 10**9)
-    monkeypatch.setattr(rodsim.api, "Model", lambda scene: pytest.fail("model was built"))
+    monkeypatch.setattr(rodsim.core.memory, "physical_memory", lambda: 8 * 10**9)
+    monkeypatch.setattr(rodsim.app.api, "Model", lambda scene: pytest.fail("model was built"))
     rods = "".join(scene_text(rod=f"rod{i}").split("\n", 1)[1].replace("nodes = 6",
                                                                         "nodes = 200000")
                    for i in range(20))

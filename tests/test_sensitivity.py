@@ -7,9 +7,9 @@ import numpy as np
 import pytest
 
 import rodsim
-from rodsim.inverse.parameter_keys import numeric_key, scene_with
-from rodsim.model import Model
-from rodsim.schema import SceneError
+from rodsim.app.inverse.parameter_keys import numeric_key, scene_with
+from rodsim.core.model import Model
+from rodsim.core.schema import SceneError
 
 #: Tight static equilibria: the finite differences of re-solves divide their error by 2h.
 TIGHT = "tolerance=1e-12"

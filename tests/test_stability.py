@@ -1,8 +1,8 @@
-"""The stability verdict of an equilibrium (issue 15, item 12; rodsim/stability.py).
+"""The stability verdict of an equilibrium (issue 15, item 12; rodsim/core/stability.py).
 
 A straight rod compressed beyond its Euler load is an equilibrium every integrator may
 return from the straight rest state; its stiffness K = −∂F/∂x is indefinite and the verdict
-must say so. The reference values here are independent of rodsim/stability.py: dense
+must say so. The reference values here are independent of rodsim/core/stability.py: dense
 eigenvalues of K computed with NumPy, and Euler's critical load π² E I / (4 L²) of a
 clamped–free column.
 """
@@ -16,9 +16,9 @@ import pytest
 import scipy.sparse as sp
 
 import rodsim
-from rodsim.archive import read_dataset
-from rodsim.model import Model
-from rodsim.stability import DENSE_LIMIT, stiffness_stability
+from rodsim.core.model import Model
+from rodsim.core.stability import DENSE_LIMIT, stiffness_stability
+from rodsim.io.archive import read_dataset
 
 COMPRESSED = ["mass=0", "tip_load.force=[-5, 0, 0]"]  # about 5× the Euler load
 

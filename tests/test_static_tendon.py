@@ -1,5 +1,5 @@
 """``static`` on the paper's tendon coupling (non-conservative): the stiff penalties are
-lowered from the start (rodsim/integrators/static.py). Before: 227 Newton iterations on
+lowered from the start (rodsim/solvers/static.py). Before: 227 Newton iterations on
 table3-catheter1; after: 90. The issue's target of 40 is not reached (see the module
 docstring of static.py), so the bound here is the measured count with a margin."""
 

@@ -1,6 +1,6 @@
 """Smoke tests of every shipped study (studies/*.py) at its "small" size.
 
-Parametrised over :func:`rodsim.study.available_studies`, so a new study file is covered
+Parametrised over :func:`rodsim.app.study.available_studies`, so a new study file is covered
 without new test code: each runs in this process (``workers=1``), and its Dataset must be
 well-formed (one dimension per sweep with the declared coordinates, units and long names, no
 failed point, errors exactly where a reference exists), re-open with plain
@@ -19,10 +19,10 @@ import pytest
 import xarray as xr
 from matplotlib.text import Text
 
-from rodsim.analytic.reference import REFERENCE_KINDS, reference_centerline
-from rodsim.plotting import draw_figure, plot_dataset, style
-from rodsim.study import STATUS, available_studies, grid_points, point_scene, rerun_study
-from rodsim.study_runner import run_study
+from rodsim.app.plotting import draw_figure, plot_dataset, style
+from rodsim.app.study import STATUS, available_studies, grid_points, point_scene, rerun_study
+from rodsim.app.study_runner import run_study
+from rodsim.core.analytic.reference import REFERENCE_KINDS, reference_centerline
 
 STUDIES = available_studies()
 

@@ -17,11 +17,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+import rodsim.app.study_runner
 import rodsim.studies
-import rodsim.study_runner
-from rodsim.archive import read_dataset
-from rodsim.study import STATUS, Study, Sweep, evaluate_point
-from rodsim.study_runner import TEST_FAULTS, parts_folder, run_spec, run_study
+from rodsim.app.study import STATUS, Study, Sweep, evaluate_point
+from rodsim.app.study_runner import TEST_FAULTS, parts_folder, run_spec, run_study
+from rodsim.io.archive import read_dataset
 
 #: Three quick points (static, N = 6–8).
 TRIO = Study(name="zz_hardening_trio", title="three points", paper="tests only",
@@ -32,7 +32,7 @@ CHILD = """\
 import sys
 import rodsim.studies
 rodsim.studies.__path__.append(sys.argv[1])
-from rodsim.cli import main
+from rodsim.app.cli import main
 sys.exit(main(["study", sys.argv[2], "--size", "small", "--workers", "2", "-o", sys.argv[3]]))
 """
 
@@ -40,7 +40,7 @@ sys.exit(main(["study", sys.argv[2], "--size", "small", "--workers", "2", "-o", 
 def register(folder: Path, study: Study) -> None:
     folder.mkdir(exist_ok=True)
     (folder / f"{study.name}.py").write_text(
-        f"from rodsim.study import Study, Sweep\n\nSTUDY = {study!r}\n", encoding="utf-8")
+        f"from rodsim.app.study import Study, Sweep\n\nSTUDY = {study!r}\n", encoding="utf-8")
 
 
 def test_stopping_a_parallel_study_prints_no_worker_traceback(tmp_path):
@@ -144,7 +144,7 @@ def test_a_valid_json_point_with_wrong_contents_runs_again(case, trio_parts, tmp
         calls.append(tuple(index))
         return evaluate_point(spec_, index)
 
-    monkeypatch.setattr(rodsim.study_runner, "evaluate_point", recording)
+    monkeypatch.setattr(rodsim.app.study_runner, "evaluate_point", recording)
     resumed = run_spec(spec, output, workers=1, log=logged.append)
     assert calls == [(1,)]
     assert len(logged) == 1 and "point-1.json" in logged[0] and "runs again" in logged[0]

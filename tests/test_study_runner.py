@@ -24,12 +24,10 @@ import pytest
 import xarray as xr
 
 import rodsim
+import rodsim.app.study_runner
 import rodsim.studies
-import rodsim.study_runner
-from rodsim.api import load_scene, solve
-from rodsim.archive import read_dataset, write_dataset
-from rodsim.result import SCHEMA_VERSION
-from rodsim.study import (
+from rodsim.app.api import load_scene, solve
+from rodsim.app.study import (
     STATUS,
     Study,
     StudyError,
@@ -39,7 +37,9 @@ from rodsim.study import (
     load_study,
     rerun_study,
 )
-from rodsim.study_runner import TEST_FAULTS, WORKER_DIED, parts_folder, run_spec, run_study
+from rodsim.app.study_runner import TEST_FAULTS, WORKER_DIED, parts_folder, run_spec, run_study
+from rodsim.io.archive import read_dataset, write_dataset
+from rodsim.solvers.result import SCHEMA_VERSION
 
 NODES = (6, 11, 21)  # 100/(N-1) is an integer: every node falls on the σ grid of 101 points
 MASSES = (0.02, 0.05)
@@ -151,7 +151,7 @@ def study_module(folder: Path, study: Study) -> Path:
     """Write ``study`` as a study file ``<folder>/<name>.py`` (for rodsim.studies)."""
     folder.mkdir(exist_ok=True)
     path = folder / f"{study.name}.py"
-    path.write_text(f"from rodsim.study import Study, Sweep\n\nSTUDY = {study!r}\n",
+    path.write_text(f"from rodsim.app.study import Study, Sweep\n\nSTUDY = {study!r}\n",
                     encoding="utf-8")
     return path
 
@@ -271,7 +271,7 @@ def test_one_dimension_per_sweep_and_common_sigma_grid(study_run):
 
 KILLABLE = """\
 import json, sys
-from rodsim.study_runner import run_spec
+from rodsim.app.study_runner import run_spec
 with open(sys.argv[1], encoding="utf-8") as stream:
     spec = json.load(stream)
 run_spec(spec, sys.argv[2], workers=int(sys.argv[3]))
@@ -356,7 +356,7 @@ def resume_and_check(spec: dict, output: Path, workers: int, whole: xr.Dataset,
         return evaluate_point(spec_, index)
 
     if workers == 1:  # in-process: every evaluated point is seen
-        monkeypatch.setattr(rodsim.study_runner, "evaluate_point", recording)
+        monkeypatch.setattr(rodsim.app.study_runner, "evaluate_point", recording)
         resumed = run_spec(spec, output, workers=1, keep_parts=True)
         assert len(calls) == len(set(calls)), f"a point ran twice: {calls}"
         assert set(calls) == set(grid_points(spec)) - done, "finished points ran again"
@@ -379,7 +379,7 @@ def resume_and_check(spec: dict, output: Path, workers: int, whole: xr.Dataset,
     # Resuming a complete parts folder runs nothing, reproduces the Dataset exactly (the
     # stored wall times included) and removes the parts folder.
     calls.clear()
-    monkeypatch.setattr(rodsim.study_runner, "evaluate_point", recording)
+    monkeypatch.setattr(rodsim.app.study_runner, "evaluate_point", recording)
     again = run_spec(spec, output, workers=1)
     monkeypatch.undo()
     assert calls == []
@@ -402,7 +402,7 @@ def test_resume_after_kill_of_a_two_process_run(tmp_path, monkeypatch, slow_whol
     output, workers = kill_mid_study(tmp_path, spec, workers=2)
     if sys.platform == "linux":
         assert len(workers) >= 2, f"expected the pool's workers, found {workers}"
-        deadline = time.monotonic() + 3 * rodsim.study_runner.PARENT_POLL + 10
+        deadline = time.monotonic() + 3 * rodsim.app.study_runner.PARENT_POLL + 10
         while any(alive(pid) for pid in workers) and time.monotonic() < deadline:
             time.sleep(0.05)
         assert not any(alive(pid) for pid in workers), "workers outlived their runner"
@@ -716,7 +716,7 @@ SIGTERM_CHILD = """\
 import sys
 import rodsim.studies
 rodsim.studies.__path__.append(sys.argv[1])
-from rodsim.cli import main
+from rodsim.app.cli import main
 sys.exit(main(["study", sys.argv[2], "--size", "small", "--workers", "2", "-o", sys.argv[3]]))
 """
 
@@ -771,7 +771,7 @@ def one_line_error(capsys) -> str:
 def test_cli_study_refuses_an_unwritable_output_before_running(registered, tmp_path, cli,
                                                                 capsys, monkeypatch):
     calls = []
-    monkeypatch.setattr(rodsim.study_runner, "evaluate_point",
+    monkeypatch.setattr(rodsim.app.study_runner, "evaluate_point",
                         lambda *args: calls.append(args))
     existing = tmp_path / "a folder.nc"
     existing.mkdir()
@@ -801,7 +801,7 @@ def test_a_point_that_cannot_be_saved_stops_the_study_cleanly(tmp_path, spec, st
             raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
         real_fsync(fd)
 
-    monkeypatch.setattr(rodsim.study_runner.os, "fsync", disk_full_after_two)
+    monkeypatch.setattr(rodsim.app.study_runner.os, "fsync", disk_full_after_two)
     output = tmp_path / "full.nc"
     parts = parts_folder(output)
     with pytest.raises(StudyError, match="No space left on device") as caught:
@@ -832,7 +832,7 @@ def test_corrupt_point_files_are_reported_and_run_again(tmp_path, spec, study_ru
         calls.append(tuple(index))
         return evaluate_point(spec_, index)
 
-    monkeypatch.setattr(rodsim.study_runner, "evaluate_point", recording)
+    monkeypatch.setattr(rodsim.app.study_runner, "evaluate_point", recording)
     resumed = run_spec(spec, output, workers=1, log=logged.append)
     assert sorted(calls) == [(0, 1), (1, 1), (2, 0)]
     assert len(logged) == 3, logged
@@ -916,7 +916,7 @@ def test_cli_study_workers_must_be_a_positive_whole_number(workers, cli, capsys)
 
 
 def test_eta_counts_only_the_points_run_in_this_session():
-    from rodsim.cli import _study_status
+    from rodsim.app.cli import _study_status
 
     # 4 points kept from an interrupted run, 2 run here in 10 s, 4 to go: 20 s, not 6.7 s.
     line = _study_status("fig7a", 6, 1, 10, 10.0, 4)

@@ -31,7 +31,7 @@ RUNS = {
 
 
 @functools.cache
-def reference(scene_name: str) -> rodsim.result.Result:
+def reference(scene_name: str) -> rodsim.solvers.result.Result:
     result = rodsim.solve(scene_name, "static", overrides=["tolerance=1e-12"])
     assert result.success, result.message
     return result
@@ -39,7 +39,7 @@ def reference(scene_name: str) -> rodsim.result.Result:
 
 #: Every integrator on every scene, the inertial pseudo-dynamics of the paper's coupling (a
 #: follower load and forces without reaction) included: their transient is long, and the
-#: run must not tighten its tolerances in it (rodsim/integrators/sundials.py, STALL_PERIODS).
+#: run must not tighten its tolerances in it (rodsim/solvers/sundials.py, STALL_PERIODS).
 CASES = [(scene, run) for scene in SCENES for run in RUNS]
 
 
@@ -67,7 +67,7 @@ def test_integrator_reaches_the_static_equilibrium_of_every_rod(scene_name, run)
 def four_paper_tendons() -> dict:
     """table3-catheter1 with four tendons at 90° (paper coupling), two adjacent ones pulled:
     each tendon point's parent depends on the path a solver takes unless the registration is
-    settled at equilibrium (rodsim/terms/lumen.py, Model.settle_registration)."""
+    settled at equilibrium (rodsim/core/terms/lumen.py, Model.settle_registration)."""
     data = copy.deepcopy(rodsim.load_scene("table3-catheter1").data)
     rod, table = data["rods"].pop("tendon"), data["tendons"].pop("tendon")
     for name, direction, force in (("t_y", [1, 0], 2.0), ("t_z", [0, 1], 2.0),
@@ -80,7 +80,7 @@ def four_paper_tendons() -> dict:
 
 
 @functools.cache
-def four_paper_tendons_static() -> rodsim.result.Result:
+def four_paper_tendons_static() -> rodsim.solvers.result.Result:
     static = rodsim.solve(four_paper_tendons(), "static", overrides=["tolerance=1e-12"])
     assert static.success, static.message
     return static
@@ -106,7 +106,7 @@ def test_four_paper_tendons_reach_the_same_equilibrium(integrator, overrides):
 
 def test_a_reused_model_gives_the_fresh_model_result():
     """A model carries tendon registration from one solve into the next unless every run
-    starts from the rest registration (rodsim/integrators/base.py): reusing a model must not
+    starts from the rest registration (rodsim/solvers/base.py): reusing a model must not
     change steps or the equilibrium."""
     scene = rodsim.load_scene("table3-catheter1")
     model = rodsim.build_model(scene)

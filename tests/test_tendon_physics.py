@@ -21,9 +21,9 @@ from typing import Any
 import numpy as np
 
 import rodsim
-from rodsim.model import Model
-from rodsim.rod.quaternion import director, director_gradient
-from rodsim.terms.base import TendonTerm
+from rodsim.core.model import Model
+from rodsim.core.rod.quaternion import director, director_gradient
+from rodsim.core.terms.base import TendonTerm
 
 CONSERVING = "tendon-conserving"
 PAPER = "table3-catheter1"

@@ -15,11 +15,11 @@ import pytest
 import xarray as xr
 
 import rodsim
-import rodsim.tendon
-from rodsim.archive import read_dataset, rerun, write_dataset
-from rodsim.scene import SceneError, scene_paths
-from rodsim.terms import registered_terms
-from rodsim.terms.base import TendonTerm, Term
+import rodsim.core.tendon
+from rodsim.core.scene import SceneError, scene_paths
+from rodsim.core.terms import registered_terms
+from rodsim.core.terms.base import TendonTerm, Term
+from rodsim.io.archive import read_dataset, rerun, write_dataset
 
 # ------------------------------------------------- (a) a single-rod scene runs no tendon code
 
@@ -62,26 +62,26 @@ def _instrument_class(monkeypatch, counts: Counter, cls: type, stop: tuple[type,
 
 def instrument_tendon_code(monkeypatch) -> tuple[Counter, list[str]]:
     """Count calls into every method of every TendonTerm subclass in the registry (and the
-    helper classes of their modules) and every function and class of rodsim/tendon.py."""
+    helper classes of their modules) and every function and class of rodsim/core/tendon.py."""
     counts: Counter = Counter()
     subclasses = [cls for cls in registered_terms().values() if issubclass(cls, TendonTerm)]
-    assert {cls.name for cls in subclasses} >= set(rodsim.tendon.TENDON_TERMS)
+    assert {cls.name for cls in subclasses} >= set(rodsim.core.tendon.TENDON_TERMS)
     classes = set(subclasses)
     for cls in subclasses:  # helper classes defined next to the terms (PointOnLumen …)
         module = sys.modules[cls.__module__]
         classes |= {c for c in vars(module).values()
                     if inspect.isclass(c) and c.__module__ == module.__name__}
-    classes |= {c for c in vars(rodsim.tendon).values()
-                if inspect.isclass(c) and c.__module__ == rodsim.tendon.__name__}
+    classes |= {c for c in vars(rodsim.core.tendon).values()
+                if inspect.isclass(c) and c.__module__ == rodsim.core.tendon.__name__}
     wrapped = 0
     for cls in sorted(classes, key=lambda c: c.__name__):
         stop = (Term, object) if issubclass(cls, Term) else (object,)
         wrapped += _instrument_class(monkeypatch, counts, cls, stop)
     # Module functions, also where other modules imported them by name (scene, model).
-    functions = {name: f for name, f in vars(rodsim.tendon).items()
-                 if inspect.isfunction(f) and f.__module__ == rodsim.tendon.__name__}
+    functions = {name: f for name, f in vars(rodsim.core.tendon).items()
+                 if inspect.isfunction(f) and f.__module__ == rodsim.core.tendon.__name__}
     for name, function in functions.items():
-        counted = _wrap(counts, f"rodsim.tendon.{name}", function)
+        counted = _wrap(counts, f"rodsim.core.tendon.{name}", function)
         for module in [m for key, m in sys.modules.items() if key.startswith("rodsim")]:
             for attribute, value in list(vars(module).items()):
                 if value is function:
@@ -111,7 +111,8 @@ def test_instrumentation_counts_tendon_code_in_a_tendon_scene(kernels, monkeypat
     counts, _ = instrument_tendon_code(monkeypatch)
     result = rodsim.solve("tendon-conserving", "static", overrides=[f"kernels={kernels}"])
     assert result.success, result.message
-    for label in ("rodsim.tendon.check_tendon", "rodsim.tendon.tendon_origin", "Tendon.of",
+    for label in ("rodsim.core.tendon.check_tendon", "rodsim.core.tendon.tendon_origin",
+                  "Tendon.of",
                   "Lumen.registration"):
         assert counts[label] > 0, f"{label} not counted: {dict(counts)}"
     methods = (("__init__", "kernel_arguments") if kernels == "compiled" else
@@ -131,7 +132,7 @@ ARCHIVE_RUNS = [("table3-catheter1", "cvode"), ("tendon-conserving", "static")]
 
 
 @functools.cache
-def archived(scene_name: str, integrator: str) -> rodsim.result.Result:
+def archived(scene_name: str, integrator: str) -> rodsim.solvers.result.Result:
     result = rodsim.solve(scene_name, integrator)
     assert result.success, result.message
     return result

@@ -1,4 +1,4 @@
-"""The Term contract (rodsim/terms/base.py), checked generically for every registered term.
+"""The Term contract (rodsim/core/terms/base.py), checked generically for every registered term.
 
 There is no per-term code here: every term the registry knows is looked up in the *contract
 scenes* — the shipped scenes in data/, SMALL_SCENE (every rod term, both clamp kinds),
@@ -26,10 +26,10 @@ import numpy as np
 import pytest
 
 import rodsim
-from rodsim.model import Model
-from rodsim.scene import Scene, scene_paths
-from rodsim.terms import registered_terms
-from rodsim.terms.base import Term
+from rodsim.core.model import Model
+from rodsim.core.scene import Scene, scene_paths
+from rodsim.core.terms import registered_terms
+from rodsim.core.terms.base import Term
 
 #: Two small rods listing every rod term, one per clamp kind, loaded out of plane.
 SMALL_SCENE = {

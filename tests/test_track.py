@@ -1,4 +1,4 @@
-"""Tracking (rodsim/inverse/track.py, ``rodsim track``): warm-started equilibria along a
+"""Tracking (rodsim/app/inverse/track.py, ``rodsim track``): warm-started equilibria along a
 path agree with cold solves, cost a fraction of them, halve failing steps and report the
 failures they cannot pass."""
 
@@ -9,7 +9,7 @@ import pytest
 import xarray as xr
 
 import rodsim
-from rodsim.archive import read_dataset
+from rodsim.io.archive import read_dataset
 
 
 def _cold(scene, values: dict, integrator: str = "static"):

@@ -13,7 +13,7 @@ and each evaluation path (``solver.kernels`` = ``numpy``, the reference, and ``c
 - a profile (cProfile, top functions by own time) of the default CVODE run;
 - the ratio to the previous single-rod results file (``single_rod.json``, solve-only times
   of the same scene before the fast core) when it is in the output folder;
-- tracking (rodsim/inverse/track.py, static): a ramp of the tip load (table1-50g) or the
+- tracking (rodsim/app/inverse/track.py, static): a ramp of the tip load (table1-50g) or the
   tendon force (table3-catheter1) in equal steps; per step of the best of the repeats, the
   warm step's wall time and Newton iterations against a cold static solve of the same
   equilibrium (model assembly included in both), and the tracking rate.
@@ -38,8 +38,8 @@ import numpy as np
 
 import rodsim
 from rodsim.bench.machine import machine
-from rodsim.integrators.base import Progress
-from rodsim.model import KERNELS, Model
+from rodsim.core.model import KERNELS, Model
+from rodsim.solvers.base import Progress
 
 INTEGRATORS = ("static", "paper", "cvode", "ida")
 SIZES = {"small": {"scenes": ("table1-50g",), "repeats": 2, "calls": 50, "large": False,
@@ -55,7 +55,7 @@ _COMPILE_SCRIPT = """
 import time
 t0 = time.perf_counter()
 import rodsim
-from rodsim.model import Model
+from rodsim.core.model import Model
 model = Model(rodsim.load_scene("table1-50g"), "compiled")  # evaluates J at rest
 model.evaluate(model.x0)
 print(time.perf_counter() - t0)

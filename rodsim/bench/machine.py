@@ -11,7 +11,7 @@ from pathlib import Path
 import numpy as np
 
 import rodsim
-from rodsim.study import git_commit
+from rodsim.io.provenance import git_commit
 
 __all__ = ["machine"]
 

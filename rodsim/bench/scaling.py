@@ -171,7 +171,7 @@ def _child(job: Job) -> dict[str, Any]:
     out["positions"] = np.concatenate([r.positions for r in result.rods.values()]).tolist()
     out["length"] = float(model.length_scale)
     if job.integrator in ("cvode", "ida"):
-        from rodsim.integrators import registered_integrators
+        from rodsim.solvers import registered_integrators
 
         solver = scene.data["solver"]
         runner = registered_integrators()[job.integrator](model, solver[job.integrator],
@@ -359,7 +359,7 @@ def _dataset(table: Table, unknowns: dict[int, int], size: str):
                                          dtype=str),
                       {"long_name": "scene overrides of the configuration"}),
     }
-    from rodsim.integrators.sundials import BAND_LIMIT
+    from rodsim.solvers.sundials import BAND_LIMIT
 
     ds = xr.Dataset(data_vars, coords=coords)
     ds.attrs.update({
@@ -422,8 +422,8 @@ FORMULATION_MARKERS = {"overdamped": "o", "inertial": "s"}
 
 
 def _plot(ds, path: Path) -> Path:
-    """The scaling figure, drawn in rodsim's style (:func:`rodsim.plotting.style`)."""
-    from rodsim.plotting import style  # selects the Agg backend
+    """The scaling figure, drawn in rodsim's style (:func:`rodsim.app.plotting.style`)."""
+    from rodsim.app.plotting import style  # selects the Agg backend
 
     with style():
         return _draw(ds, path)
@@ -593,7 +593,7 @@ def _markdown(ds, profiles: list[dict[str, Any]]) -> str:
 
 def run(size: str, output_dir: Path | str, progress: Progress | None = None) -> list[Path]:
     """Run the benchmark at ``size`` (``small`` or ``full``); returns the written paths."""
-    from rodsim.archive import write_dataset
+    from rodsim.io.archive import write_dataset
 
     if size not in ("small", "full"):
         raise ValueError(f"size {size!r}: expected 'small' or 'full'")

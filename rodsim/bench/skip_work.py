@@ -32,10 +32,10 @@ import scipy.sparse.linalg as spla
 import xarray as xr
 
 import rodsim
-from rodsim.archive import write_dataset
 from rodsim.bench.machine import machine
-from rodsim.model import Model
-from rodsim.rod.quaternion import rest_quaternion
+from rodsim.core.model import Model
+from rodsim.core.rod.quaternion import rest_quaternion
+from rodsim.io.archive import write_dataset
 
 __all__ = ["run"]
 

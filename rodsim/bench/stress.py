@@ -8,7 +8,7 @@ resolvable in double precision: a 10 µm rod under its α = 1 load with K_P = 1e
 far below the round-off of its penalty forces, and every integrator refuses such a scene up
 front with that diagnostic (docs/model.md; tests/test_failures.py). The map therefore keeps
 the first ``count`` draws whose model is resolvable (residual floor ≤
-:data:`~rodsim.integrators.base.MAX_RESIDUAL_FLOOR`) and records how many draws were refused
+:data:`~rodsim.solvers.base.MAX_RESIDUAL_FLOOR`) and records how many draws were refused
 (``box_draws``, ``box_refused``), so that all ``count`` configurations stress the
 integrators. Each configuration runs with every integrator (defaults otherwise) under a
 wall-time budget, through the study runner (parallel, resumable). Each run ends as
@@ -39,9 +39,9 @@ import numpy as np
 import xarray as xr
 from scipy.stats import qmc
 
+from rodsim.app.study import STATUS, Study, Sweep
+from rodsim.app.study_runner import run_study
 from rodsim.bench.machine import machine
-from rodsim.study import STATUS, Study, Sweep
-from rodsim.study_runner import run_study
 
 __all__ = ["run", "configurations", "OUTCOMES"]
 
@@ -72,7 +72,7 @@ def sample(count: int, max_nodes: int, seed: int = 0) -> tuple[tuple[Configurati
     module docstring (seeds ``seed``, ``seed + 1``, … until enough are found), and the
     number of draws refused on the way as below round-off."""
     import rodsim
-    from rodsim.integrators.base import MAX_RESIDUAL_FLOOR
+    from rodsim.solvers.base import MAX_RESIDUAL_FLOOR
 
     bounds = BOUNDS.copy()
     bounds[1, 1] = math.log10(max_nodes)
@@ -155,7 +155,7 @@ def _figure(ds: xr.Dataset, path: Path) -> None:
     within a bin). Each cell is labelled converged/configurations; empty bins stay blank.
     Only the paper integrator uses h: its row is a control for the other three. A title
     names any crash or NaN reported as success (which must never happen)."""
-    from rodsim.plotting import style  # selects the Agg backend
+    from rodsim.app.plotting import style  # selects the Agg backend
 
     with style():
         _draw(ds, path)
@@ -321,7 +321,7 @@ def run(size: str, output_dir: Path, progress=None) -> list[Path]:
             eta = f", ETA {elapsed / ran * (total - done):.0f} s" if ran and done < total else ""
             progress(done / total, f"stress: {done}/{total} runs, {failed} not converged{eta}")
 
-    from rodsim.archive import read_dataset
+    from rodsim.io.archive import read_dataset
 
     spec = study.spec(size)
     if output.exists() and read_dataset(output).attrs.get("spec_json") == json.dumps(
@@ -336,7 +336,7 @@ def run(size: str, output_dir: Path, progress=None) -> list[Path]:
                                      {"units": units, "long_name": long_name})})
     ds["outcome"] = classify(ds)
     ds.attrs.update(box_draws=len(configs) + box_refused, box_refused=box_refused)
-    from rodsim.archive import write_dataset
+    from rodsim.io.archive import write_dataset
 
     write_dataset(ds, output)
     figure = output.with_suffix(".png")

@@ -10,7 +10,7 @@ On each, every method runs from the rest state to equilibrium:
   1e-7 with rtol 1e-4, kept to show what it costs;
 - ``ida``: IDA over rtol (atol = rtol), overdamped or inertial, band, and atol = 1e-7;
 - ``scipy BDF`` / ``scipy LSODA``: :func:`scipy.integrate.solve_ivp` on the same overdamped
-  pseudo-dynamics (:class:`~rodsim.integrators.pseudo_dynamics.FirstOrderSystem`, same
+  pseudo-dynamics (:class:`~rodsim.solvers.pseudo_dynamics.FirstOrderSystem`, same
   pseudo-masses, damping and load ramp as rodsim's CVODE) with the model's analytic Jacobian,
   stopped by a terminal event on the same scaled residual — an outside baseline.
 
@@ -44,7 +44,7 @@ from typing import Any
 
 import numpy as np
 
-from rodsim.result import count_text
+from rodsim.solvers.result import count_text
 
 __all__ = ["run", "report", "Method", "methods_for", "machine_attributes", "markdown_table",
            "error_over_length", "solve_scipy", "SCENES"]
@@ -207,7 +207,7 @@ def solve_scipy(model, method: str, tolerance: float, rtol: float, atol: float,
     import scipy.sparse as sp
     from scipy.integrate import solve_ivp
 
-    from rodsim.integrators.pseudo_dynamics import (
+    from rodsim.solvers.pseudo_dynamics import (
         FirstOrderSystem,
         LoadRamp,
         damping_rate,
@@ -676,8 +676,8 @@ def pareto_front(errors: np.ndarray, times: np.ndarray) -> tuple[np.ndarray, np.
 
 
 def _plot(ds, path: Path) -> Path:
-    """The work-precision figure, drawn in rodsim's style (:func:`rodsim.plotting.style`)."""
-    from rodsim.plotting import style  # selects the Agg backend
+    """The work-precision figure, drawn in rodsim's style (:func:`rodsim.app.plotting.style`)."""
+    from rodsim.app.plotting import style  # selects the Agg backend
 
     with style():
         return _draw(ds, path)
@@ -837,7 +837,7 @@ def _markdown(ds, profile: dict[str, Any] | None = None) -> str:
 
 def run(size: str, output_dir: Path | str, progress: Progress | None = None) -> list[Path]:
     """Run the benchmark at ``size`` (``small`` or ``full``); returns the written paths."""
-    from rodsim.archive import write_dataset
+    from rodsim.io.archive import write_dataset
 
     if size not in ("small", "full"):
         raise ValueError(f"size {size!r}: expected 'small' or 'full'")

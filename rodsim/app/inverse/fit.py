@@ -1,0 +1,296 @@
+"""Fitting scene parameters to a measured shape (``rodsim fit``).
+
+Data: measured points of one rod's centerline (CSV with header ``x,y,z`` in metres, and
+optionally ``s``, the rest arc length [m] of each point), any number and spacing. Each point
+is matched to the model centerline (the polyline through the control points):
+
+- without ``s``, to the nearest point on the polyline (segment j, fraction t); the
+  residual P(j, t) − d is then normal to the segment, and its Jacobian is projected on the
+  segment's normal plane (the envelope theorem: moving along the curve changes the
+  distance only to second order);
+- with ``s``, to the polyline point at that rest arc length (interpolated between nodes).
+
+The matches are renewed at every evaluation. The parameters p minimise Σ |P_i(p) − d_i|²
+(scipy.optimize.least_squares, trust-region reflective, within each parameter's schema
+range); each evaluation is an equilibrium warm-started from the previous one
+(rodsim/app/inverse/continuation.py), and the Jacobian comes from the sensitivities
+(rodsim/app/inverse/sensitivity.py), ∂P(j, t)/∂p = (1 − t) ∂r_j/∂p + t ∂r_{j+1}/∂p. The
+parameters are scaled by their initial values. A trial step to values whose equilibrium
+cannot be solved gets a residual of ten rod lengths per component, so the trust region
+rejects it and shrinks.
+
+Standard errors: the Gauss–Newton covariance σ² (JᵀJ)⁻¹ at the solution, σ² = RSS/(m − p),
+where m counts the residual components that carry information: with nearest-point
+matching one per dimension of the data's span minus the one along the curve, i.e.
+m = points × (d − 1), with ``s`` m = points × d, d = the dimension (1–3) of the affine span
+of the data and the fitted centerline (planar data and a planar model: d = 2).
+
+Refused (:class:`FitError`): fewer points than parameters, no residual degrees of freedom
+left, and parameters that do not influence the shape (a zero column of J) or that cannot be
+told apart from it (J's columns, scaled, have a condition number above 1e10).
+"""
+
+from __future__ import annotations
+
+import csv
+import json
+import math
+import time
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from rodsim.app.inverse.continuation import EquilibriumFailure, ScaledEquilibria
+from rodsim.app.inverse.parameter_keys import NumericKey, numeric_keys, scene_with
+from rodsim.core.scene import Scene
+from rodsim.solvers.result import Result
+
+if TYPE_CHECKING:
+    import xarray as xr
+
+__all__ = ["Points", "Fit", "FitError", "read_points", "fit", "match", "MAX_CONDITION"]
+
+#: Largest condition number of the scaled Jacobian before the parameters are declared not
+#: identifiable from the data.
+MAX_CONDITION = 1e10
+#: A parameter whose relative change of 1 moves the matched points by less than this times
+#: the rod's length (RMS) does not influence the shape.
+NO_INFLUENCE = 1e-9
+#: Largest number of points a data file may hold.
+MAX_POINTS = 1_000_000
+
+
+class FitError(ValueError):
+    """Bad data or parameters: unreadable file, wrong columns, too few points, parameters
+    the shape does not determine."""
+
+
+@dataclass(frozen=True)
+class Points:
+    """Measured points (m, 3) [m], with their rest arc lengths (m,) [m] or None."""
+
+    xyz: np.ndarray
+    s: np.ndarray | None = None
+
+
+def read_points(path: str | Path) -> Points:
+    """Points from a CSV file with header ``x,y,z`` (and optionally ``s``); FitError names
+    the first problem (missing or unknown columns, a value that is not a finite number)."""
+    try:
+        with open(path, newline="", encoding="utf-8") as handle:
+            rows = list(csv.reader(handle))
+    except (OSError, UnicodeDecodeError) as exc:
+        raise FitError(f"cannot read data {str(path)!r}: {exc}") from None
+    except csv.Error as exc:
+        raise FitError(f"data {str(path)!r}: not CSV ({exc})") from None
+    rows = [row for row in rows if any(cell.strip() for cell in row)]
+    if not rows:
+        raise FitError(f"data {str(path)!r} is empty; expected a header x,y,z[,s]")
+    header = [cell.strip() for cell in rows[0]]
+    if sorted(header) not in (["x", "y", "z"], ["s", "x", "y", "z"]):
+        raise FitError(f"data {str(path)!r}: columns {','.join(header)[:60]!r}; expected "
+                       "x,y,z (metres) and optionally s (rest arc length, metres)")
+    if len(rows) - 1 > MAX_POINTS:
+        raise FitError(f"data {str(path)!r}: more than {MAX_POINTS} points")
+    values = np.empty((len(rows) - 1, len(header)))
+    for i, row in enumerate(rows[1:]):
+        if len(row) != len(header):
+            raise FitError(f"data {str(path)!r} line {i + 2}: {len(row)} values, expected "
+                           f"{len(header)}")
+        for j, cell in enumerate(row):
+            try:
+                values[i, j] = float(cell)
+            except ValueError:
+                raise FitError(f"data {str(path)!r} line {i + 2}: {cell.strip()[:30]!r} is "
+                               "not a number") from None
+            if not math.isfinite(values[i, j]):
+                raise FitError(f"data {str(path)!r} line {i + 2}: {header[j]} = "
+                               f"{cell.strip()[:30]} is not a finite number")
+    column = {name: values[:, header.index(name)] for name in header}
+    xyz = np.column_stack([column["x"], column["y"], column["z"]])
+    return Points(xyz, column.get("s"))
+
+
+def match(nodes: np.ndarray, s_nodes: np.ndarray, points: Points
+          ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(segment index j, fraction t, interior) of each point's match on the polyline through
+    ``nodes`` (N, 3): the nearest point, or the point at the rest arc length ``points.s``
+    (``s_nodes`` the nodes' rest arc lengths). ``interior`` marks nearest-point matches
+    strictly inside a segment (their residual is normal to it)."""
+    if points.s is not None:
+        j = np.clip(np.searchsorted(s_nodes, points.s, side="right") - 1, 0, len(s_nodes) - 2)
+        t = (points.s - s_nodes[j]) / (s_nodes[j + 1] - s_nodes[j])
+        return j, t, np.zeros(len(j), dtype=bool)
+    a, e = nodes[:-1], np.diff(nodes, axis=0)                       # segments a + t e
+    rel = points.xyz[:, None, :] - a[None, :, :]                     # (m, N−1, 3)
+    t = np.clip(np.einsum("mkc,kc->mk", rel, e) / np.einsum("kc,kc->k", e, e), 0.0, 1.0)
+    gap = rel - t[:, :, None] * e[None, :, :]
+    j = np.argmin(np.einsum("mkc,mkc->mk", gap, gap), axis=1)
+    t = t[np.arange(len(j)), j]
+    return j, t, (t > 0.0) & (t < 1.0)
+
+
+@dataclass
+class Fit:
+    """A finished fit: the fitted parameters with standard errors, the residual RMS [m],
+    evaluations, wall time, and the fitted scene's equilibrium (``result``)."""
+
+    keys: list[NumericKey]
+    initial: np.ndarray
+    values: np.ndarray
+    errors: np.ndarray
+    covariance: np.ndarray
+    residual_rms: float
+    degrees_of_freedom: int
+    evaluations: int
+    jacobians: int
+    wall_time: float
+    message: str
+    points: Points
+    matched: np.ndarray
+    rod: str
+    result: Result
+
+    def to_xarray(self) -> xr.Dataset:
+        """The fit archive: the run archive of the fitted scene (``rodsim rerun`` re-solves
+        it) with the data, their matches, and per parameter its fitted value, initial value
+        and standard error as scalar variables (docs/inverse.md)."""
+        ds = self.result.to_xarray()
+        ds["data_position"] = (("point", "axis"), self.points.xyz,
+                               {"units": "m", "long_name": "measured point"})
+        ds["matched_position"] = (("point", "axis"), self.matched,
+                                  {"units": "m", "long_name": "matching point on the fitted "
+                                   f"centerline of rod {self.rod!r}"})
+        if self.points.s is not None:
+            ds["data_s"] = ("point", self.points.s,
+                            {"units": "m", "long_name": "rest arc length of the measured point"})
+        for key, initial, value, error in zip(self.keys, self.initial, self.values,
+                                              self.errors, strict=True):
+            ds[key.name] = ((), value, {"units": key.unit, "long_name": f"fitted {key.name}"})
+            ds[f"{key.name}.initial"] = ((), initial, {"units": key.unit,
+                                                       "long_name": f"initial {key.name}"})
+            ds[f"{key.name}.standard_error"] = ((), error, {
+                "units": key.unit, "long_name": f"standard error of the fitted {key.name} "
+                "(Gauss-Newton covariance)"})
+        ds.attrs.update({
+            "title": f"rodsim fit of {len(self.keys)} value(s) of scene "
+                     f"{self.result.scene.name!r} to {len(self.points.xyz)} points",
+            "kind": "fit",
+            "fit_parameters": json.dumps([k.name for k in self.keys]),
+            "fit_rod": self.rod,
+            "residual_rms": self.residual_rms,
+            "degrees_of_freedom": self.degrees_of_freedom,
+            "fit_evaluations": self.evaluations,
+            "fit_jacobians": self.jacobians,
+            "fit_wall_time": self.wall_time,
+            "fit_message": self.message,
+        })
+        return ds
+
+
+def _span_dimension(points: np.ndarray) -> int:
+    """Dimension (1–3) of the affine span of ``points``."""
+    centred = points - points.mean(axis=0)
+    singular = np.linalg.svd(centred, compute_uv=False)
+    return max(1, int(np.sum(singular > 1e-9 * max(singular[0], 1e-300))))
+
+
+def _check_identifiable(jacobian: np.ndarray, keys: Sequence[NumericKey], length: float
+                        ) -> None:
+    """FitError for a parameter that does not move the matched points (a relative change of
+    1 moves them by less than :data:`NO_INFLUENCE` × the rod's ``length``, in RMS), or for
+    parameters that cannot be told apart (scaled Jacobian nearly rank deficient)."""
+    norms = np.linalg.norm(jacobian, axis=0)
+    points = jacobian.shape[0] // 3
+    for key, norm in zip(keys, norms, strict=True):
+        if not norm > NO_INFLUENCE * length * math.sqrt(points):
+            raise FitError(f"{key.name} does not influence the shape (its column of the "
+                           "Jacobian is zero, a singular Jacobian): it cannot be fitted")
+    if len(keys) > 1:
+        condition = np.linalg.cond(jacobian / norms)
+        if not condition < MAX_CONDITION:
+            raise FitError("the parameters " + ", ".join(k.name for k in keys) + " cannot be "
+                           f"told apart from the shape (singular Jacobian, condition number "
+                           f"{condition:.3g}): fit fewer of them")
+
+
+def fit(scene: Scene, points: Points, params: Sequence[str], *, rod: str | None = None,
+        max_evaluations: int = 100) -> Fit:
+    """Fit the numeric scene values ``params`` (keys as for ``--set``) to the measured
+    ``points`` of ``rod`` (default: the first rod), starting from the scene's values
+    (module docstring). Raises SceneError for bad keys, FitError for bad data or
+    unidentifiable parameters, EquilibriumFailure when an equilibrium cannot be solved."""
+    from scipy.optimize import least_squares
+
+    from rodsim.app.api import solve
+
+    started = time.perf_counter()
+    keys = numeric_keys(scene, params)
+    rod = rod or next(iter(scene.data["rods"]))
+    if rod not in scene.data["rods"]:
+        raise FitError(f"rod {rod!r}: no such rod; rods: {', '.join(scene.data['rods'])}")
+    count = len(points.xyz)
+    length = float(scene.data["rods"][rod]["length"])
+    if points.s is not None and (points.s.min() < 0.0 or points.s.max() > length):
+        raise FitError(f"data column s spans {points.s.min():.6g} to {points.s.max():.6g} m, "
+                       f"outside the rest arc length of rod {rod!r}, 0 to {length:g} m")
+    if count < len(keys):
+        raise FitError(f"{count} data points for {len(keys)} parameters: need at least as "
+                       "many points as parameters")
+    problem, lower, upper = ScaledEquilibria.at_scene_values(scene, keys, rod)
+    initial, scale = problem.values.copy(), problem.scale
+    s_nodes = problem.continuation.model.rods[rod].geometry.node_s
+
+    def matched(nodes: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        j, t, interior = match(nodes, s_nodes, points)
+        return (1 - t)[:, None] * nodes[j] + t[:, None] * nodes[j + 1], j, t, interior
+
+    far = np.full(points.xyz.size, 10.0 * float(scene.data["rods"][rod]["length"]))
+
+    def residuals(u: np.ndarray) -> np.ndarray:
+        # A step to values without a solvable equilibrium gets a residual far beyond any
+        # shape's, so that the trust region rejects it and shrinks.
+        if not problem.reached(u):
+            return far
+        return (matched(problem.nodes())[0] - points.xyz).ravel()
+
+    def jacobian(u: np.ndarray) -> np.ndarray:
+        problem.at(u)
+        nodes = problem.nodes()
+        _, j, t, interior = matched(nodes)
+        derivative = problem.node_sensitivity()                     # (P, N, 3)
+        rows = (1 - t)[None, :, None] * derivative[:, j] + t[None, :, None] * derivative[:, j + 1]
+        tangent = nodes[j + 1] - nodes[j]
+        tangent /= np.linalg.norm(tangent, axis=1, keepdims=True)
+        along = np.einsum("pmc,mc->pm", rows, tangent) * interior
+        rows = rows - along[:, :, None] * tangent[None]
+        return rows.transpose(1, 2, 0).reshape(-1, len(keys))
+
+    _check_identifiable(jacobian(np.ones(len(keys))), keys, length)
+    solution = least_squares(residuals, np.ones(len(keys)), jac=jacobian,
+                             bounds=(lower, upper), x_scale=1.0, xtol=1e-12, ftol=1e-15,
+                             gtol=1e-15, max_nfev=max_evaluations, method="trf")
+    problem.at(solution.x)
+    values = problem.values_of(solution.x)
+    final = solve(scene_with(scene, keys, values), "static")
+    if not final.success:
+        raise EquilibriumFailure(f"the fitted scene has no equilibrium: {final.message}")
+    nodes = problem.nodes()
+    fitted_points, *_ = matched(nodes)
+    residual = (fitted_points - points.xyz).ravel()
+    scaled = jacobian(solution.x)
+    span = _span_dimension(np.concatenate([points.xyz, nodes]))
+    freedom = count * (span if points.s is not None else max(span - 1, 1))
+    if freedom <= len(keys):
+        raise FitError(f"{count} points give {freedom} residual degrees of freedom for "
+                       f"{len(keys)} parameters: add points to estimate the errors")
+    sigma2 = float(residual @ residual) / (freedom - len(keys))
+    _check_identifiable(scaled, keys, length)
+    covariance = sigma2 * np.linalg.inv(scaled.T @ scaled) * np.outer(scale, scale)
+    return Fit(keys, initial, values, np.sqrt(np.diag(covariance)), covariance,
+               float(np.sqrt(np.mean(np.sum((fitted_points - points.xyz) ** 2, axis=1)))),
+               freedom, problem.evaluations, problem.jacobians, time.perf_counter() - started,
+               str(solution.message), points, fitted_points, rod, final)

@@ -1,0 +1,274 @@
+"""Tracking: a sequence of equilibria along an actuation path (``rodsim track``).
+
+Several numeric scene keys ramp together (a tendon force, a tip load, a modulus …): step k
+has the values ``ramps[key][k]``. Step 0 is solved cold with the chosen integrator (from
+rest); every later step is warm-started from the previous equilibrium and its registration
+(rodsim/app/inverse/continuation.py). With ``static``, step k + 1 starts from the first-order
+predictor x_k + (x_k − x_{k−1}) |p_{k+1} − p_k| / |p_k − p_{k−1}| (the path's last chord,
+from step 2 on) and solves from there (chord iterations with a kept factorisation, then
+Newton if they stall; no polishing past the tolerance). The path's chord is free. The
+tangent predictor x_k + (dx/dp)(p_{k+1} − p_k) from the sensitivities
+(rodsim/app/inverse/sensitivity.py) was measured on table3-catheter1 (201 steps of the tendon
+force, 0 → 2 N, before the chord iterations): it saved about one Newton iteration per step
+but cost model builds and a factorisation per ramped key, 9.7 ms per step against 5.3 ms
+with no predictor and 2.2 ms with the path's chord (docs/inverse.md).
+
+A step that fails is retried with half the increment, halved again on each failure and
+doubled after an easy sub-step; at the :data:`MAX_HALVINGS`-th failed attempt the track
+stops and reports the failure at that step (never skipped). The archive holds every step's
+shape along a ``step`` dimension with the ramped values as coordinates (docs/inverse.md).
+"""
+
+from __future__ import annotations
+
+import json
+import time
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from rodsim.app.inverse.continuation import MAX_HALVINGS, Continuation
+from rodsim.app.inverse.parameter_keys import NumericKey, numeric_keys, scene_with
+from rodsim.core.model import Model
+from rodsim.core.scene import Scene
+from rodsim.core.schema import SceneError
+from rodsim.solvers.base import Progress
+from rodsim.solvers.result import SCHEMA_VERSION, flatten_scene
+from rodsim.version import __version__
+
+if TYPE_CHECKING:
+    import xarray as xr
+
+__all__ = ["Track", "track", "parse_ramp", "rerun_track", "MAX_HALVINGS"]
+
+
+
+def parse_ramp(text: str) -> tuple[str, np.ndarray]:
+    """``KEY=START:STOP:COUNT`` → (key, COUNT values from START to STOP); SceneError."""
+    key, sep, spec = text.partition("=")
+    parts = spec.split(":")
+    if not sep or not key.strip() or len(parts) != 3:
+        raise SceneError(f"--ramp {text[:60]!r}: expected KEY=START:STOP:COUNT")
+    try:
+        start, stop = float(parts[0]), float(parts[1])
+        count = int(parts[2])
+    except ValueError:
+        raise SceneError(f"--ramp {text[:60]!r}: START and STOP must be numbers, COUNT a "
+                         "whole number") from None
+    if not (np.isfinite(start) and np.isfinite(stop)) or count < 2:
+        raise SceneError(f"--ramp {text[:60]!r}: finite START and STOP and COUNT >= 2 "
+                         "expected")
+    return key.strip(), np.linspace(start, stop, count)
+
+
+@dataclass
+class Track:
+    """The equilibria of a track: ``states`` the full state (clamped coordinates included,
+    which a ramped length or origin moves) of every completed step, ``positions`` (steps,
+    nodes, 3) [m] and ``quaternions`` (steps, segments, 4) the same concatenated over the rods
+    as in a run archive; ``values`` (steps planned, keys) the ramped values. ``success`` is
+    False when a step failed: ``failed_step`` names it and the arrays hold the steps before
+    it."""
+
+    scene: Scene
+    integrator: str
+    keys: list[NumericKey]
+    values: np.ndarray
+    model: Model
+    states: list[np.ndarray] = field(default_factory=list)
+    residuals: list[float] = field(default_factory=list)
+    iterations: list[int] = field(default_factory=list)
+    halvings: list[int] = field(default_factory=list)
+    times: list[float] = field(default_factory=list)
+    success: bool = True
+    message: str = "converged"
+    failed_step: int | None = None
+
+    @property
+    def steps(self) -> int:
+        """Completed steps."""
+        return len(self.states)
+
+    def _stacked(self, kind: str) -> np.ndarray:
+        index = np.concatenate([getattr(rod.layout, f"{kind}_index")
+                                for rod in self.model.rods.values()])
+        return np.array([full[index] for full in self.states])
+
+    @property
+    def positions(self) -> np.ndarray:
+        return self._stacked("position")
+
+    @property
+    def quaternions(self) -> np.ndarray:
+        return self._stacked("quaternion")
+
+    def tips(self, rod: str | None = None) -> np.ndarray:
+        """Tip of ``rod`` (default: the first) at every completed step, (steps, 3) [m]."""
+        layout = self.model.rods[rod or next(iter(self.model.rods))].layout
+        return np.array([full[layout.position_index[-1]] for full in self.states])
+
+    def to_xarray(self) -> xr.Dataset:
+        """The track archive (docs/inverse.md): ``position`` (step, node, axis) and
+        ``quaternion`` (step, segment, component), one coordinate per ramped key along
+        ``step``, per-step residual, Newton iterations, halvings and wall time."""
+        import xarray as xr
+
+        rods = self.model.rods
+        steps = self.steps
+        node_rod = np.concatenate([[name] * rod.nodes for name, rod in rods.items()])
+        seg_rod = np.concatenate([[name] * (rod.nodes - 1) for name, rod in rods.items()])
+        coords = {
+            "step": ("step", np.arange(steps), {"long_name": "step along the ramp"}),
+            "axis": ("axis", ["x", "y", "z"], {"long_name": "world axis"}),
+            "component": ("component", ["q1", "q2", "q3", "q4"],
+                          {"long_name": "quaternion component"}),
+            "s": ("node", np.concatenate([r.geometry.node_s for r in rods.values()]),
+                  {"units": "m", "long_name": "rest arc length of the control point"}),
+            "rod": ("node", node_rod.astype(str), {"long_name": "rod of the control point"}),
+            "segment_s": ("segment", np.concatenate([r.geometry.segment_s
+                                                     for r in rods.values()]),
+                          {"units": "m", "long_name": "rest arc length of the segment "
+                           "midpoint"}),
+            "segment_rod": ("segment", seg_rod.astype(str), {"long_name": "rod of the segment"}),
+        }
+        for column, key in enumerate(self.keys):
+            coords[key.name] = ("step", self.values[:steps, column],
+                                {"units": key.unit, "long_name": f"ramped value of {key.name}"})
+        size = (steps, len(node_rod), 3)
+        data = {
+            "position": (("step", "node", "axis"),
+                         self.positions if steps else np.zeros(size),
+                         {"units": "m", "long_name": "control point position"}),
+            "quaternion": (("step", "segment", "component"),
+                           self.quaternions if steps else np.zeros((steps, len(seg_rod), 4)),
+                           {"units": "1", "long_name": "segment orientation quaternion "
+                            "(q1, q2, q3 imaginary, q4 real)"}),
+            "residual": ("step", np.asarray(self.residuals, dtype=float),
+                         {"units": "1", "long_name": "scaled force residual of the step's "
+                          "equilibrium"}),
+            "iterations": ("step", np.asarray(self.iterations, dtype=float),
+                           {"units": "1", "long_name": "Newton iterations (static) or "
+                            "integrator steps of the step, halvings included"}),
+            "halvings": ("step", np.asarray(self.halvings, dtype=float),
+                         {"units": "1", "long_name": "failed attempts of the step, each "
+                          "halving its increment"}),
+            "wall_time": ("step", np.asarray(self.times, dtype=float),
+                          {"units": "s", "long_name": "wall time of the step"}),
+        }
+        ds = xr.Dataset(data_vars=data, coords=coords)
+        warm = np.asarray(self.times[1:])
+        ds.attrs.update({
+            "title": f"rodsim track of scene {self.scene.name!r} with the {self.integrator} "
+                     "integrator",
+            "kind": "track",
+            "rodsim_version": __version__,
+            "schema_version": SCHEMA_VERSION,
+            "integrator": self.integrator,
+            "integrator_options": json.dumps(self.scene.data["solver"][self.integrator],
+                                             sort_keys=True),
+            "success": int(self.success),
+            "message": self.message,
+            "ramp_json": json.dumps({k.name: self.values[:, i].tolist()
+                                     for i, k in enumerate(self.keys)}),
+            "solver_tolerance": float(self.scene.data["solver"]["tolerance"]),
+            "scene_json": self.scene.to_json(),
+            "scene_toml": self.scene.source,
+            "stats_steps": float(steps),
+            "stats_wall_time": float(np.sum(self.times)),
+            "stats_cold_wall_time": float(self.times[0]) if self.times else float("nan"),
+            "stats_warm_step_mean_wall_time": float(warm.mean()) if warm.size else float("nan"),
+        })
+        ds.attrs.update(flatten_scene(self.scene.data))
+        return ds
+
+
+def track(scene: Scene, ramps: Mapping[str, Sequence[float]], integrator: str = "static",
+          *, progress: Progress | None = None) -> Track:
+    """Equilibria along the path ``ramps`` (key → values, all of one length ≥ 2), step 0
+    from rest and every later step warm-started from the previous one (module docstring);
+    ``progress`` is called after each step with the fraction done and a status line.
+
+    Raises SceneError for bad keys or values; a solver failure comes back as
+    ``Track.success = False`` with the failing step in the message.
+    """
+    from rodsim.app.api import solve
+
+    keys = numeric_keys(scene, list(ramps))
+    lengths = {len(v) for v in ramps.values()}
+    if len(lengths) != 1 or lengths.pop() < 2:
+        raise SceneError("every ramp needs the same number of values (at least 2)")
+    values = np.column_stack([np.asarray(v, dtype=float) for v in ramps.values()])
+    if not np.all(np.isfinite(values)):
+        raise SceneError("ramp values must be finite numbers")
+    for column, key in enumerate(keys):  # every value in range before any work
+        low, high = key.bounds()
+        outside = (values[:, column] < low) | (values[:, column] > high)
+        if np.any(outside):
+            raise SceneError(f"{key.name} = {values[outside, column][0]:g}: out of range; "
+                             f"allowed: {key.parameter.allowed}")
+    started = time.perf_counter()
+    first_scene = scene_with(scene, keys, values[0])
+    first = solve(first_scene, integrator)
+    model = Model(first_scene)
+    out = Track(scene, integrator, keys, values, model)
+    if not first.success:
+        out.success, out.failed_step = False, 0
+        out.message = f"step 0 ({_values_text(keys, values[0])}) failed: {first.message}"
+        return out
+    continuation = Continuation(model, first.state, integrator)
+    out.states.append(model.full(first.state))
+    out.residuals.append(first.residual)
+    out.iterations.append(int(first.stats["newton_iters"] if integrator == "static"
+                              else first.stats["steps"]))
+    out.halvings.append(0)
+    out.times.append(time.perf_counter() - started)
+    previous: np.ndarray | None = None  # the equilibrium before the last, for the predictor
+    for step in range(1, len(values)):
+        started = time.perf_counter()
+        predictor = None
+        if previous is not None and integrator == "static":
+            # First-order (secant) predictor: the path's last chord, scaled to this step.
+            ratio = (np.linalg.norm(values[step] - values[step - 1])
+                     / np.linalg.norm(values[step - 1] - values[step - 2]))
+            predictor = continuation.x + ratio * (continuation.x - previous)
+        last = continuation.x
+        ok, iterations, halvings, message = continuation.walk(
+            scene, keys, values[step - 1], values[step], predictor)
+        if not ok:
+            out.success, out.failed_step = False, step
+            out.message = (f"step {step} ({_values_text(keys, values[step])}) failed: "
+                           f"{halvings} failed attempts, each halving the increment; last: "
+                           f"{message}")
+            return out
+        previous = last
+        out.states.append(continuation.model.full(continuation.x))
+        out.residuals.append(continuation.model.residual(continuation.model.force(
+            continuation.x)))
+        out.iterations.append(iterations)
+        out.halvings.append(halvings)
+        out.times.append(time.perf_counter() - started)
+        if progress is not None:
+            progress(step / (len(values) - 1), f"track: step {step}/{len(values) - 1}")
+    return out
+
+
+def _values_text(keys: Sequence[NumericKey], row: np.ndarray) -> str:
+    return ", ".join(f"{k.name} = {v:.6g}" for k, v in zip(keys, row, strict=True))
+
+
+def rerun_track(dataset: xr.Dataset) -> tuple[Track, float]:
+    """Re-run a stored track (its scene, ramps and integrator) from the archive alone;
+    returns the new track and the largest distance [m] between the stored and the
+    recomputed control points over every step (infinite if the step counts differ)."""
+    from rodsim.io.archive import scene_of
+    from rodsim.io.compare import largest_rod_distance
+
+    ramps = json.loads(dataset.attrs["ramp_json"])
+    again = track(scene_of(dataset), ramps, str(dataset.attrs["integrator"]))
+    stored = dataset["position"].values
+    if again.steps != stored.shape[0]:
+        return again, float("inf")
+    rods = np.concatenate([[name] * rod.nodes for name, rod in again.model.rods.items()])
+    return again, largest_rod_distance(stored, dataset["rod"].values, again.positions, rods)

@@ -1,0 +1,419 @@
+"""Studies: a base scene, swept parameters on a grid, and what to collect at each point.
+
+A study is declared once (``studies/<name>.py`` defines ``STUDY``) and runs point by point:
+:func:`evaluate_point` solves one grid point and returns a small JSON-able record (what the
+runner persists as soon as the point finishes); :func:`assemble` turns the records into one
+xarray Dataset with a dimension per swept parameter. Centerlines of different N are
+compared on a common normalised arc-length grid σ = s / L. Everything needed to re-run a
+point — the resolved base scene, the sweeps, the integrator — is stored in the Dataset's
+attributes (``spec_json``), independent of the study file that created it.
+"""
+
+from __future__ import annotations
+
+import importlib
+import itertools
+import json
+import pkgutil
+import traceback
+from dataclasses import asdict, dataclass, field
+from typing import Any
+
+import numpy as np
+import xarray as xr
+
+from rodsim.core.analytic.reference import REFERENCE_KINDS, reference_centerline
+from rodsim.core.scene import Scene, SceneError
+from rodsim.io.compare import largest_distance
+from rodsim.io.provenance import git_commit, git_dirty
+from rodsim.solvers.result import SCHEMA_VERSION
+from rodsim.version import __version__
+
+__all__ = ["Sweep", "Study", "StudyError", "available_studies", "load_study",
+           "evaluate_point", "assemble", "rerun_study", "STATUS"]
+
+#: Point status codes stored in the ``status`` variable.
+STATUS = {"ok": 0, "solver_failure": 1, "error": 2}
+
+#: Per-point statistics copied from the run (see rodsim.solvers.result.STAT_DOCS).
+POINT_STATS = ("steps", "newton_iters", "force_evals", "jacobian_evals", "linear_solves",
+               "wall_time")
+
+
+class StudyError(ValueError):
+    """A study definition, name, size or archive is invalid."""
+
+
+@dataclass(frozen=True)
+class Sweep:
+    """One swept scene value: a dimension of the study's Dataset.
+
+    ``key`` is a scene key as for ``--set`` (full dotted path or unambiguous suffix), or a
+    tuple of keys swept together (each value is then a tuple with one entry per key);
+    ``values`` are the scene values; ``labels`` the coordinate values when the scene values
+    are not scalars (term lists, tuples), default the values themselves.
+    """
+
+    name: str
+    key: str | tuple[str, ...]
+    values: tuple[Any, ...]
+    units: str = "1"
+    long_name: str = ""
+    labels: tuple[Any, ...] | None = None
+
+    @property
+    def coordinate(self) -> tuple[Any, ...]:
+        return self.labels if self.labels is not None else self.values
+
+
+@dataclass(frozen=True)
+class Study:
+    """A study declaration (see the module docstring).
+
+    Attributes
+    ----------
+    name, title
+        Registry name (``rodsim study NAME``) and a one-line title.
+    paper
+        What the paper shows for it (figure number and claim), for docs and plots.
+    scene
+        Base scene: a shipped scene name or a path.
+    integrator
+        Integrator used at every point; ``None`` uses each point's ``solver.integrator``
+        (so a sweep over that key compares integrators).
+    sweeps
+        ``{"small": [...], "full": [...]}``: the grid for each size.
+    overrides
+        Fixed ``key=value`` changes applied to the base scene.
+    reference
+        ``exact``, ``paper``, ``extensible`` or ``arc`` (analytic, per point), ``last`` (the
+        last point along the first sweep, e.g. the finest N), or ``None``.
+    plot
+        Figure kind for ``rodsim plot`` (see rodsim/app/plotting.py).
+    history
+        Keep per-step history (tip and error against the reference per step: Fig. 8).
+    sigma_points
+        Samples of the common normalised arc-length grid.
+    """
+
+    name: str
+    title: str
+    paper: str
+    scene: str
+    integrator: str | None
+    sweeps: dict[str, list[Sweep]]
+    overrides: tuple[str, ...] = ()
+    reference: str | None = None
+    plot: str = "centerlines"
+    history: bool = False
+    sigma_points: int = 101
+    notes: str = field(default="", compare=False)
+
+    def spec(self, size: str) -> dict[str, Any]:
+        """Everything a worker needs to run this study's points: JSON-able."""
+        if size not in self.sweeps:
+            raise StudyError(f"study {self.name!r} has no size {size!r}; sizes: "
+                             + ", ".join(self.sweeps))
+        if self.reference is not None and self.reference not in (*REFERENCE_KINDS, "last"):
+            raise StudyError(f"study {self.name!r}: unknown reference {self.reference!r}")
+        from rodsim.app.api import load_scene
+
+        try:
+            scene = load_scene(self.scene, self.overrides)
+        except SceneError as exc:
+            raise StudyError(f"study {self.name!r}: {exc}") from None
+        return {
+            "name": self.name, "title": self.title, "paper": self.paper, "size": size,
+            "integrator": self.integrator, "reference": self.reference, "plot": self.plot,
+            "history": self.history, "sigma_points": self.sigma_points,
+            "base_scene_json": scene.to_json(), "base_scene_toml": scene.source,
+            "sweeps": [asdict(s) | {"key": s.key if isinstance(s.key, str) else list(s.key),
+                                    "values": [v if not isinstance(v, tuple) else list(v)
+                                               for v in s.values],
+                                    "labels": None if s.labels is None else list(s.labels)}
+                       for s in self.sweeps[size]],
+        }
+
+
+def grid_shape(spec: dict[str, Any]) -> tuple[int, ...]:
+    return tuple(len(s["values"]) for s in spec["sweeps"])
+
+
+def grid_points(spec: dict[str, Any]) -> list[tuple[int, ...]]:
+    """Every point of the grid as a tuple of indices, in C order."""
+    return list(itertools.product(*(range(n) for n in grid_shape(spec))))
+
+
+def point_scene(spec: dict[str, Any], index: tuple[int, ...]) -> Scene:
+    """The scene of one grid point: the base scene with each sweep's value set."""
+    base = Scene.from_json(spec["base_scene_json"], spec.get("base_scene_toml", ""))
+    values: dict[str, Any] = {}
+    for sweep, i in zip(spec["sweeps"], index, strict=True):
+        if isinstance(sweep["key"], str):
+            values[sweep["key"]] = sweep["values"][i]
+        else:
+            values.update(zip(sweep["key"], sweep["values"][i], strict=True))
+    return base.with_values(values)
+
+
+def evaluate_point(spec: dict[str, Any], index: tuple[int, ...]) -> dict[str, Any]:
+    """Solve one grid point; never raises: a failure is recorded with its status and message.
+
+    Runs in worker processes (local pool or dask), so it takes and returns plain data.
+    """
+    from rodsim.app.api import solve
+
+    record: dict[str, Any] = {"index": list(index)}
+    try:
+        scene = point_scene(spec, index)
+        result = solve(scene, spec["integrator"] or scene.data["solver"]["integrator"])
+    except SceneError as exc:
+        return record | {"status": STATUS["error"], "message": f"bad scene value: {exc}"}
+    except Exception as exc:  # a bug must not stop the study: record it
+        detail = traceback.format_exception_only(type(exc), exc)[-1].strip()
+        return record | {"status": STATUS["error"], "message": f"internal error: {detail}"}
+    record |= {
+        "status": STATUS["ok"] if result.success else STATUS["solver_failure"],
+        "message": result.message,
+        "residual": result.residual,
+        "stats": {k: result.stats.get(k, 0.0) for k in POINT_STATS},
+    }
+    if not result.success:  # the state a failed solver stopped in is no result: store none
+        return record
+    sigma = np.linspace(0.0, 1.0, spec["sigma_points"])
+    record |= {
+        "quaternion_norm_error": result.quaternion_norm_error,
+        "tip": {name: shape.tip.tolist() for name, shape in result.rods.items()},
+        "centerline": {name: _resample(shape.s, shape.positions, sigma).tolist()
+                       for name, shape in result.rods.items()},
+    }
+    first = next(iter(result.rods.values()))
+    length = float(first.s[-1])
+    if spec["reference"] in REFERENCE_KINDS:
+        reference = reference_centerline(scene, spec["reference"], sigma * length)
+        if reference is not None:
+            mine = np.asarray(record["centerline"][next(iter(result.rods))])
+            record["tip_error"] = float(np.linalg.norm(mine[-1] - reference[-1]) / length)
+            record["area_error"] = ribbon_area(mine, reference) / length
+            if spec["history"]:
+                tips = np.asarray(result.history.get("tip", []), dtype=float).reshape(-1, 3)
+                record["history_error"] = (np.linalg.norm(tips - reference[-1], axis=1)
+                                           / length).tolist()
+    if spec["history"]:
+        record["history_time"] = list(result.history.get("time", []))
+        record["history_tip"] = list(result.history.get("tip", []))
+    return record
+
+
+def _resample(s: np.ndarray, positions: np.ndarray, sigma: np.ndarray) -> np.ndarray:
+    """Positions at normalised rest arc length σ (linear along the discrete centerline)."""
+    t = s / s[-1]
+    return np.stack([np.interp(sigma, t, positions[:, k]) for k in range(3)], axis=1)
+
+
+def ribbon_area(a: np.ndarray, b: np.ndarray) -> float:
+    """Area between two centerlines sampled at the same σ, in the x–y plane (Fig. 21).
+
+    The sum of the quadrilaterals (a_i, a_{i+1}, b_{i+1}, b_i): the area of the polygon the
+    two curves enclose when they do not cross, and never cancelling when they do.
+    """
+    ax, ay, bx, by = a[:, 0], a[:, 1], b[:, 0], b[:, 1]
+    quads = np.stack([np.stack([ax[:-1], ay[:-1]], 1), np.stack([ax[1:], ay[1:]], 1),
+                      np.stack([bx[1:], by[1:]], 1), np.stack([bx[:-1], by[:-1]], 1)], 1)
+    x, y = quads[..., 0], quads[..., 1]
+    signed = 0.5 * np.sum(x * np.roll(y, -1, axis=1) - np.roll(x, -1, axis=1) * y, axis=1)
+    return float(np.sum(np.abs(signed)))
+
+
+def assemble(spec: dict[str, Any], records: list[dict[str, Any]]) -> xr.Dataset:
+    """One Dataset for the whole study, a dimension per swept parameter (module docstring)."""
+    shape = grid_shape(spec)
+    dims = tuple(s["name"] for s in spec["sweeps"])
+    by_index = {tuple(r["index"]): r for r in records}
+    missing = [i for i in grid_points(spec) if i not in by_index]
+    if missing:
+        raise StudyError(f"{len(missing)} grid points have no record, e.g. {missing[0]}")
+    ok = [r for r in records if "tip" in r]
+    rods = list(ok[0]["tip"]) if ok else list(json.loads(spec["base_scene_json"])["rods"])
+    sigma = np.linspace(0.0, 1.0, spec["sigma_points"])
+
+    def grid(fill: Any, tail: tuple[int, ...] = (), dtype: Any = float) -> np.ndarray:
+        return np.full(shape + tail, fill, dtype=dtype)
+
+    status = grid(STATUS["error"], dtype=np.int8)
+    message = grid("", dtype=object)
+    # Errors only against a reference: a study without one stores no error variables.
+    errors = ("tip_error", "area_error") if spec["reference"] in REFERENCE_KINDS else ()
+    scalars = {k: grid(np.nan) for k in ("residual", "quaternion_norm_error", *errors,
+                                         *POINT_STATS)}
+    tip = grid(np.nan, (len(rods), 3))
+    centerline = grid(np.nan, (len(rods), len(sigma), 3))
+    steps = max((len(r.get("history_time", [])) for r in records), default=0)
+    history = {"history_time": grid(np.nan, (steps,)), "history_error": grid(np.nan, (steps,)),
+               "history_tip": grid(np.nan, (steps, 3))}
+    for index, r in by_index.items():
+        status[index], message[index] = r["status"], r["message"]
+        for key in ("residual", "quaternion_norm_error", *errors):
+            if key in r:
+                scalars[key][index] = r[key]
+        for key in POINT_STATS:
+            if "stats" in r:
+                scalars[key][index] = r["stats"][key]
+        if "tip" not in r:
+            continue
+        for k, rod in enumerate(rods):
+            tip[index + (k,)] = r["tip"][rod]
+            centerline[index + (k,)] = r["centerline"][rod]
+        for key, array in history.items():
+            values = np.asarray(r.get(key, []), dtype=float)
+            if len(values):
+                array[index + (slice(0, len(values)),)] = values
+    data_vars: dict[str, Any] = {
+        "status": (dims, status, {"units": "1", "long_name": "point status",
+                                  "flag_values": np.array(list(STATUS.values()), dtype=np.int8),
+                                  "flag_meanings": " ".join(STATUS)}),
+        # Text has no units (CF): string variables and coordinates carry long_name only.
+        "message": (dims, message.astype(str),
+                    {"long_name": "solver message of the point, or why it failed"}),
+        "tip": (dims + ("rod", "axis"), tip, {"units": "m", "long_name": "tip position"}),
+        "centerline": (dims + ("rod", "sigma", "axis"), centerline,
+                       {"units": "m", "long_name": "centerline at normalised arc length"}),
+    }
+    docs = {
+        "residual": ("1", "final scaled force residual"),
+        "quaternion_norm_error": ("1", "largest | |q| - 1 |"),
+        "tip_error": ("1", f"tip distance to the {spec['reference']} reference / L"),
+        "area_error": ("m", f"area between the centerline and the {spec['reference']} "
+                            "reference / L (Fig. 21)"),
+        "steps": ("1", "integrator steps"), "newton_iters": ("1", "Newton iterations"),
+        "force_evals": ("1", "force evaluations"), "jacobian_evals": ("1", "Jacobian evaluations"),
+        "linear_solves": ("1", "linear solves"), "wall_time": ("s", "wall time to equilibrium"),
+    }
+    for key, values in scalars.items():
+        units, long_name = docs[key]
+        data_vars[key] = (dims, values, {"units": units, "long_name": long_name})
+    if spec["history"]:
+        data_vars["history_time"] = (dims + ("step",), history["history_time"],
+                                     {"units": "s", "long_name": "pseudo-time after each step"})
+        data_vars["history_tip"] = (dims + ("step", "axis"), history["history_tip"],
+                                    {"units": "m", "long_name": "tip after each step"})
+        if errors:
+            data_vars["history_error"] = (
+                dims + ("step",), history["history_error"],
+                {"units": "1", "long_name": f"tip distance to the {spec['reference']} "
+                 "reference / L after each step"})
+    coords: dict[str, Any] = {
+        "rod": ("rod", rods, {"long_name": "rod"}),
+        "sigma": ("sigma", sigma, {"units": "1", "long_name": "normalised rest arc length s/L"}),
+        "axis": ("axis", ["x", "y", "z"], {"long_name": "world axis"}),
+    }
+    for s in spec["sweeps"]:
+        labels = np.asarray(s["labels"] if s["labels"] is not None else s["values"])
+        key = s["key"] if isinstance(s["key"], str) else ", ".join(s["key"])
+        attrs = {"units": s["units"], "long_name": s["long_name"] or key, "scene_key": key}
+        if not np.issubdtype(labels.dtype, np.number):  # names ("corde", "on"): no units
+            del attrs["units"]
+        coords[s["name"]] = (s["name"], labels, attrs)
+    ds = xr.Dataset(data_vars, coords)
+    if spec["reference"] == "last":
+        base = json.loads(spec["base_scene_json"])
+        _score_against_last(ds, dims[0], float(base["rods"][rods[0]]["length"]))
+    ds.attrs.update({
+        "title": f"rodsim study {spec['name']}: {spec['title']}",
+        "study": spec["name"], "size": spec["size"], "paper": spec["paper"],
+        "integrator": str(spec["integrator"] or "per point (solver.integrator)"),
+        "reference": str(spec["reference"]),
+        "plot": spec["plot"], "spec_json": json.dumps(spec, sort_keys=True),
+        "scene_json": spec["base_scene_json"], "scene_toml": spec.get("base_scene_toml", ""),
+        "rodsim_version": __version__, "schema_version": SCHEMA_VERSION,
+        "points": int(np.prod(shape)), "failed_points": int(np.sum(status != STATUS["ok"])),
+    })
+    commit = git_commit()
+    if commit:
+        ds.attrs["git_commit"] = commit
+        dirty = git_dirty()
+        if dirty is not None:
+            ds.attrs["git_dirty"] = int(dirty)
+    return ds
+
+
+def _score_against_last(ds: xr.Dataset, dim: str, length: float) -> None:
+    """Tip and area errors of the first rod against the last point along ``dim`` (which a
+    convergence sweep orders from coarse to fine)."""
+    first = ds["centerline"].isel(rod=0)
+    reference = first.isel({dim: -1})
+    gap = first.isel(sigma=-1) - reference.isel(sigma=-1)
+    ds["tip_error"] = (np.sqrt((gap**2).sum("axis")) / length).transpose(*ds["status"].dims)
+    areas = xr.apply_ufunc(ribbon_area, first, reference,
+                           input_core_dims=[["sigma", "axis"]] * 2, vectorize=True)
+    ds["area_error"] = (areas / length).transpose(*ds["status"].dims)
+    ds["tip_error"].attrs = {"units": "1",
+                             "long_name": f"tip distance to the last {dim} point / L"}
+    ds["area_error"].attrs = {"units": "m", "long_name": f"area between the centerline and "
+                              f"the last {dim} point's / L (Fig. 21)"}
+
+
+def available_studies() -> dict[str, Study]:
+    """Every study shipped in ``studies/`` (installed as the package ``rodsim.studies``)."""
+    import rodsim.studies as package
+
+    found = {}
+    for module in pkgutil.iter_modules(package.__path__):
+        if module.name.startswith("_"):
+            continue
+        study = getattr(importlib.import_module(f"rodsim.studies.{module.name}"), "STUDY", None)
+        if isinstance(study, Study):
+            found[study.name] = study
+    return dict(sorted(found.items()))
+
+
+def load_study(name: str) -> Study:
+    """A shipped study by name (StudyError listing the available ones otherwise)."""
+    studies = available_studies()
+    if name not in studies:
+        raise StudyError(f"unknown study {name!r}; available: {', '.join(studies)}")
+    return studies[name]
+
+
+def rerun_study(dataset: xr.Dataset, select: dict[str, Any] | None = None
+                ) -> tuple[list[dict[str, Any]], float]:
+    """Re-run a stored study (every point, or those matching ``select`` = {dim: label}).
+
+    Returns the new records and the largest distance [m] between stored and recomputed
+    centerlines (infinite when a point's success differs from the stored one, or either
+    centerline holds a NaN).
+    """
+    spec = json.loads(dataset.attrs["spec_json"])
+    dims = [s["name"] for s in spec["sweeps"]]
+    select = dict(select or {})
+    for dim in select:
+        if dim not in dims:
+            raise StudyError(f"--point {dim!r}=…: not a swept parameter; swept: "
+                             f"{', '.join(dims)}")
+    points = []
+    for index in grid_points(spec):
+        labels = {d: dataset[d].values[i].item() for d, i in zip(dims, index, strict=True)}
+        if all(_same(labels[d], v) for d, v in select.items()):
+            points.append(index)
+    if not points:
+        raise StudyError(f"no point matches {select}")
+    records, largest = [], 0.0
+    rods = list(dataset["rod"].values)
+    for index in points:
+        record = evaluate_point(spec, index)
+        records.append(record)
+        stored_ok = int(dataset["status"].values[index]) == STATUS["ok"]
+        if stored_ok != (record["status"] == STATUS["ok"]):
+            largest = np.inf  # a point that succeeded once and failed now (or the reverse)
+        elif stored_ok:
+            stored = dataset["centerline"].values[index]
+            new = np.stack([np.asarray(record["centerline"][rod]) for rod in rods])
+            largest = max(largest, largest_distance(stored, new))
+    return records, largest
+
+
+def _same(label: Any, wanted: Any) -> bool:
+    try:
+        return bool(np.isclose(float(label), float(wanted), rtol=1e-12, atol=0.0))
+    except (TypeError, ValueError):
+        return str(label) == str(wanted)

@@ -1,0 +1,561 @@
+"""Run a study's grid in parallel, persist every point as it finishes, and resume.
+
+Points run on local worker processes (default), in this process (``workers = 1``), or on
+a dask.distributed cluster (``scheduler = "tcp://…"``, or ``"local"`` for a LocalCluster).
+Each finished point is written at once, atomically, to ``<output>.parts/`` as a small JSON
+record; a study that is killed resumes where it stopped: points already recorded are not
+run again. A point that fails is recorded with its status and message and does not stop
+the study — nor does a point whose worker process dies (a crash, ``os._exit``, the OOM
+killer): it is recorded with status ``error`` and a message starting "worker process
+died", and the rest of the study goes on in a fresh pool. When every point is recorded the
+study's Dataset is assembled, written atomically to ``<output>``, and the parts folder is
+removed.
+
+Interrupts: a ``KeyboardInterrupt`` (Ctrl-C; the CLI turns SIGTERM into one) cancels the
+points not yet started and ends the worker processes at once; the points already finished
+stay in the parts folder. Local workers also end by themselves within about a second when
+the process that started them dies (SIGKILL), rather than idling forever.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import json
+import os
+import shutil
+import signal
+import sys
+import tempfile
+import threading
+import time
+import traceback
+from collections import deque
+from collections.abc import Callable
+from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
+from concurrent.futures.process import BrokenProcessPool
+from pathlib import Path
+from typing import Any
+
+import xarray as xr
+
+from rodsim.app.study import (
+    POINT_STATS,
+    STATUS,
+    Study,
+    StudyError,
+    assemble,
+    evaluate_point,
+    grid_points,
+)
+from rodsim.io.archive import write_dataset
+from rodsim.io.archive_schema import ArchiveSchemaError, check_point_record
+from rodsim.io.output import OutputError, check_target
+from rodsim.io.provenance import git_commit, git_dirty
+from rodsim.version import __version__
+
+__all__ = ["run_study", "run_spec", "parts_folder", "spec_differences", "WORKER_DIED",
+           "TEST_FAULTS"]
+
+#: Progress callback: (points done, points failed, points in total, seconds elapsed). The
+#: first call comes before any point runs, with the points already recorded by an earlier,
+#: interrupted run (resume) and 0 s; then one call per finished point, with the seconds
+#: since that first call.
+StudyProgress = Callable[[int, int, int, float], None]
+#: Log callback for one-line warnings and notes (default: printed on stderr).
+StudyLog = Callable[[str], None]
+
+#: The message of a point whose worker process died starts with this.
+WORKER_DIED = "worker process died"
+
+#: Test hook (fault injection), inert unless set: ``RODSIM_TEST_FAULTS="exit:<study>:<i>-<j>,
+#: hang:<study>:<i>-<j>,…"`` makes a worker process (local or dask; never the in-process
+#: runner) starting that grid point of that study call ``os._exit`` (as a segfault or the OOM
+#: killer would end it) or sleep for an hour (a point that never ends).
+TEST_FAULTS = "RODSIM_TEST_FAULTS"
+
+#: How often a local worker checks that the process that started it is still alive [s].
+PARENT_POLL = 1.0
+
+#: Marker file of a parts folder: the spec and the rodsim that computed its points.
+MARKER = "spec.json"
+
+
+def parts_folder(output: str | Path) -> Path:
+    """Where the finished points of a study writing to ``output`` are kept until assembly."""
+    output = Path(output)
+    return output.with_name(output.name + ".parts")
+
+
+def _point_file(folder: Path, index: tuple[int, ...]) -> Path:
+    return folder / ("point-" + "-".join(str(i) for i in index) + ".json")
+
+
+def _reason(exc: BaseException) -> str:
+    """An OSError's reason without its repeated path, other exceptions as they print."""
+    if isinstance(exc, OSError) and exc.strerror:
+        return exc.strerror
+    return str(exc) or type(exc).__name__
+
+
+def _stderr_log(message: str) -> None:
+    print(f"rodsim: {message}", file=sys.stderr, flush=True)
+
+
+# Files ----------------------------------------------------------------------------------
+
+
+def _write_atomic(path: Path, text: str) -> None:
+    """Write ``text`` to ``path`` through a synced temporary file renamed over it: a crash or
+    a full disk never leaves a partial ``path``, nor the temporary (StudyError)."""
+    try:
+        handle, temporary = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp",
+                                             dir=path.parent)
+    except OSError as exc:
+        raise StudyError(f"cannot write {path}: {_reason(exc)}") from exc
+    try:
+        with os.fdopen(handle, "w", encoding="utf-8") as stream:
+            stream.write(text)
+            stream.flush()
+            os.fsync(stream.fileno())
+        os.replace(temporary, path)
+    except BaseException as exc:  # an interrupt too: never leave the temporary behind
+        with contextlib.suppress(OSError):
+            os.unlink(temporary)
+        if isinstance(exc, Exception):
+            raise StudyError(f"cannot write {path}: {_reason(exc)}") from exc
+        raise
+
+
+def _check_output(output: Path) -> None:
+    """Refuse, before any point runs, an output the archive could not be written to."""
+    folder = output.parent if str(output.parent) else Path(".")
+    if not folder.is_dir():
+        raise StudyError(f"cannot write {output}: folder {str(folder)!r} does not exist")
+    if output.is_dir():
+        raise StudyError(f"cannot write {output}: it is a folder; give a file name "
+                         "(-o OUT.nc)")
+    parts = parts_folder(output)
+    if parts.exists() and not parts.is_dir():
+        raise StudyError(f"cannot keep the study's points in {parts}: a file of that name "
+                         "exists")
+    try:  # permissions, read-only or pseudo file systems (/proc), devices: try, as the run will
+        check_target(output)
+    except OutputError as exc:
+        raise StudyError(str(exc)) from None
+
+
+def _short(value: Any, width: int = 60) -> str:
+    text = json.dumps(value, sort_keys=True) if not isinstance(value, str) else repr(value)
+    return text if len(text) <= width else text[:width - 1] + "…"
+
+
+def _differences(old: Any, new: Any, path: str) -> list[str]:
+    """Where two JSON values differ, as ``path: old → new`` lines (dicts and equal-length
+    lists are compared item by item)."""
+    if isinstance(old, dict) and isinstance(new, dict):
+        out = []
+        for key in sorted(set(old) | set(new), key=str):
+            where = f"{path}.{key}" if path else str(key)
+            if key not in old:
+                out.append(f"{where}: absent in the parts folder, {_short(new[key])} now")
+            elif key not in new:
+                out.append(f"{where}: {_short(old[key])} in the parts folder, absent now")
+            else:
+                out += _differences(old[key], new[key], where)
+        return out
+    if isinstance(old, list) and isinstance(new, list) and len(old) == len(new):
+        return [line for i, (a, b) in enumerate(zip(old, new, strict=True))
+                for line in _differences(a, b, f"{path}[{i}]")]
+    if old != new:
+        return [f"{path}: {_short(old)} in the parts folder, {_short(new)} now"]
+    return []
+
+
+def spec_differences(old: dict[str, Any], new: dict[str, Any]) -> list[str]:
+    """What differs between two study specs, naming each key (the base scene key by key)."""
+    old_scene = old.get("base_scene_json", "{}")
+    new_scene = new.get("base_scene_json", "{}")
+    rest = [key for key in sorted(set(old) | set(new))
+            if key not in ("base_scene_json", "base_scene_toml")]
+    lines = _differences({k: old[k] for k in rest if k in old},
+                         {k: new[k] for k in rest if k in new}, "")
+    if old_scene != new_scene:
+        try:
+            lines += ["base scene " + line for line in
+                      _differences(json.loads(old_scene), json.loads(new_scene), "")]
+        except (TypeError, ValueError):
+            lines.append("base_scene_json differs")
+    elif old.get("base_scene_toml") != new.get("base_scene_toml"):
+        lines.append("base_scene_toml: the base scene file's text differs")
+    return lines
+
+
+def _marker(spec: dict[str, Any]) -> dict[str, Any]:
+    return {"spec": spec, "rodsim_version": __version__, "git_commit": git_commit(),
+            "git_dirty": git_dirty()}
+
+
+def _open_parts(folder: Path, spec: dict[str, Any],
+                log: StudyLog) -> dict[tuple[int, ...], dict[str, Any]]:
+    """Create the parts folder, or check it belongs to this spec and rodsim version and load
+    its records (an unreadable record is reported and its point runs again)."""
+    marker = folder / MARKER
+    spec = json.loads(json.dumps(spec))  # as it reads back from JSON: tuples become lists
+    if folder.exists():
+        if not marker.is_file():
+            raise StudyError(f"{folder} exists but is not a rodsim study's parts folder "
+                             f"(no {MARKER}); remove it or write the study elsewhere (-o)")
+        try:
+            stored = json.loads(marker.read_text(encoding="utf-8"))
+        except RecursionError:
+            raise StudyError(f"{folder}: unreadable {MARKER} (nested too deeply); remove the "
+                             "folder or write the study elsewhere (-o)") from None
+        except (OSError, ValueError) as exc:
+            raise StudyError(f"{folder}: unreadable {MARKER} ({_reason(exc)}); remove the "
+                             "folder or write the study elsewhere (-o)") from None
+        if not isinstance(stored, dict) or not isinstance(stored.get("spec", {}), dict):
+            raise StudyError(f"{folder}: {MARKER} does not hold a study spec; remove the "
+                             "folder or write the study elsewhere (-o)")
+        if "rodsim_version" not in stored:
+            raise StudyError(f"{folder} was written by an older rodsim that did not record its "
+                             f"version (rodsim_version differs: this is rodsim {__version__}); "
+                             "remove it or write the study elsewhere (-o)")
+        if stored["rodsim_version"] != __version__:
+            raise StudyError(f"{folder} holds points computed by rodsim "
+                             f"{stored['rodsim_version']}, this is rodsim {__version__} "
+                             "(rodsim_version differs); remove it or write the study "
+                             "elsewhere (-o)")
+        differences = spec_differences(stored.get("spec", {}), spec)
+        if differences:
+            more = f" (and {len(differences) - 3} more)" if len(differences) > 3 else ""
+            raise StudyError(f"{folder} holds points of a different study definition: "
+                             + "; ".join(differences[:3]) + more
+                             + "; remove it or write the study elsewhere (-o)")
+        commit = git_commit()
+        if isinstance(stored.get("git_commit"), str) and commit and (
+                stored["git_commit"] != commit):
+            log(f"note: the points in {folder} were computed at git commit "
+                f"{stored['git_commit'][:12]}, this rodsim is at {commit[:12]}; resuming")
+    else:  # create it complete, then rename: a kill never leaves a folder without its marker
+        try:
+            staging = Path(tempfile.mkdtemp(prefix=f".{folder.name}.", dir=folder.parent))
+        except OSError as exc:
+            raise StudyError(f"cannot create {folder}: {_reason(exc)}") from None
+        try:
+            _write_atomic(staging / MARKER, json.dumps(_marker(spec), sort_keys=True))
+            os.replace(staging, folder)
+        except BaseException as exc:
+            shutil.rmtree(staging, ignore_errors=True)
+            if isinstance(exc, OSError):
+                raise StudyError(f"cannot create {folder}: {_reason(exc)}") from None
+            raise
+    grid = set(grid_points(spec))
+    rods = list(json.loads(spec["base_scene_json"])["rods"])
+    records = {}
+    for path in sorted(folder.glob("point-*.json")):
+        try:
+            record = json.loads(path.read_text(encoding="utf-8"))
+            check_point_record(record, spec, rods, POINT_STATS)
+            index = tuple(record["index"]) if isinstance(record["index"], list) else None
+            if index not in grid or _point_file(folder, index).name != path.name:
+                raise ValueError(f"index {str(record['index'])[:40]} does not belong in "
+                                 "this file")
+        except (OSError, ValueError, RecursionError, ArchiveSchemaError) as exc:
+            reason = "nested too deeply" if isinstance(exc, RecursionError) else _reason(exc)
+            log(f"warning: {path} is unreadable, incomplete or invalid ({reason}); its point "
+                "runs again")
+            continue
+        records[index] = record
+    return records
+
+
+# Workers -------------------------------------------------------------------------------------
+
+
+def _died(index: tuple[int, ...], detail: str) -> dict[str, Any]:
+    return {"index": list(index), "status": STATUS["error"],
+            "message": f"{WORKER_DIED} while running this point ({detail})"}
+
+
+def _run_point(spec: dict[str, Any], index: tuple[int, ...]) -> dict[str, Any]:
+    """:func:`evaluate_point` in a worker process, after the test hook (TEST_FAULTS)."""
+    faults = os.environ.get(TEST_FAULTS, "")
+    if faults:
+        point = f"{spec['name']}:{'-'.join(map(str, index))}"
+        wanted = faults.split(",")
+        if f"exit:{point}" in wanted:
+            os._exit(70)
+        if f"hang:{point}" in wanted:
+            time.sleep(3600.0)
+    return evaluate_point(spec, index)
+
+
+def _worker_init(parent: int) -> None:
+    """Initializer of local workers: leave Ctrl-C to the parent (which ends the workers),
+    end quietly on SIGTERM (the default action, not the handler ``rodsim study`` installs in
+    the parent and a forked worker inherits, which would print a KeyboardInterrupt traceback
+    when the parent ends its workers), and exit when the parent dies (no idle workers left
+    behind by a SIGKILL)."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)
+    signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGTERM})
+    started_by = os.getppid()
+
+    def watch() -> None:
+        while True:
+            time.sleep(PARENT_POLL)
+            if os.getppid() != started_by:  # reparented: whoever started us is gone
+                os._exit(1)
+            try:
+                os.kill(parent, 0)
+            except ProcessLookupError:
+                os._exit(1)
+            except OSError:
+                pass
+
+    threading.Thread(target=watch, name="rodsim-parent-watch", daemon=True).start()
+
+
+def _end_pool(pool: ProcessPoolExecutor, abandon: bool) -> None:
+    """Shut a pool down: wait for it after a normal end; after an interrupt or error cancel
+    what has not started and end the running workers at once."""
+    if not abandon:
+        pool.shutdown(wait=True)
+        return
+    terminate = getattr(pool, "terminate_workers", None)  # Python >= 3.14
+    if terminate is not None:
+        terminate()
+        return
+    processes = list((getattr(pool, "_processes", None) or {}).values())
+    pool.shutdown(wait=False, cancel_futures=True)
+    for process in processes:
+        with contextlib.suppress(Exception):
+            process.terminate()
+    for process in processes:
+        with contextlib.suppress(Exception):
+            process.join(timeout=5.0)
+
+
+def _pool_pass(spec: dict[str, Any], queue: deque[tuple[int, ...]], workers: int,
+               persist: Callable[[dict[str, Any]], None]) -> list[tuple[int, ...]]:
+    """Run the points of ``queue`` (consumed) on a fresh pool, at most ``workers`` at a time.
+
+    Returns ``[]`` once the queue is done, or the points that were running when a worker
+    process died and broke the pool (one of them killed it; the others were collateral);
+    the points not started stay in ``queue``.
+    """
+    pool = ProcessPoolExecutor(max_workers=max(1, min(workers, len(queue))),
+                               initializer=_worker_init, initargs=(os.getpid(),))
+    # Workers fork on the first submit and inherit the parent's SIGTERM handler until their
+    # initializer resets it: SIGTERM stays blocked across the forks, so a worker receives it
+    # only once it would end quietly (the parent's is delivered when unblocked below).
+    blocked = threading.current_thread() is threading.main_thread()
+    if blocked:
+        signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGTERM})
+    running: dict[Future[dict[str, Any]], tuple[int, ...]] = {}
+    suspects: list[tuple[int, ...]] = []
+    broken = abandon = False
+    try:
+        while True:
+            while queue and len(running) < workers and not broken:
+                index = queue.popleft()
+                try:
+                    running[pool.submit(_run_point, spec, index)] = index
+                except BrokenProcessPool:  # an idle worker died: start a fresh pool
+                    queue.appendleft(index)
+                    broken = True
+            if blocked:  # the workers are forked: a pending SIGTERM is delivered here
+                blocked = False
+                signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGTERM})
+            if not running:
+                break
+            done, _ = wait(running, return_when=FIRST_COMPLETED)
+            for future in done:
+                index = running.pop(future)
+                try:
+                    record = future.result()
+                except BrokenProcessPool:
+                    suspects.append(index)
+                    broken = True
+                    continue
+                except KeyboardInterrupt:
+                    raise
+                except BaseException as exc:  # evaluate_point catches every Exception:
+                    # the transport failed, or the point called sys.exit (its own failure)
+                    detail = traceback.format_exception_only(type(exc), exc)[-1].strip()
+                    record = {"index": list(index), "status": STATUS["error"],
+                              "message": f"worker error: {detail}"}
+                persist(record)
+    except BaseException:
+        abandon = True
+        raise
+    finally:
+        try:
+            _end_pool(pool, abandon)
+        finally:
+            if blocked:  # only after an error before the first wait: the workers are ended
+                signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGTERM})
+    return suspects
+
+
+def _run_local(spec: dict[str, Any], todo: list[tuple[int, ...]], workers: int,
+               persist: Callable[[dict[str, Any]], None], log: StudyLog) -> None:
+    queue = deque(todo)
+    while queue:
+        suspects = _pool_pass(spec, queue, workers, persist)
+        if len(suspects) > 1:  # find which one died: each alone, in a pool of its own
+            log(f"a worker process died while {len(suspects)} points ran; running them one "
+                "at a time to find which")
+            suspects = [index for index in suspects
+                        if _pool_pass(spec, deque([index]), 1, persist)]
+        for index in suspects:
+            record = _died(index, "a crash, os._exit or the out-of-memory killer")
+            log(f"point {list(index)}: {record['message']}")
+            persist(record)
+
+
+# Dask ------------------------------------------------------------------------------------
+
+
+def _connect(scheduler: str) -> tuple[Any, Any]:
+    """A dask Client (and the LocalCluster for ``"local"``): StudyError when unreachable."""
+    try:
+        from distributed import Client, LocalCluster
+    except ImportError:
+        raise StudyError("--scheduler needs dask.distributed: pip install 'rodsim[dask]'") \
+            from None
+    cluster = None
+    try:
+        if scheduler == "local":
+            cluster = LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
+                                   dashboard_address=None)
+        return Client(cluster if cluster is not None else scheduler), cluster
+    except Exception as exc:
+        if cluster is not None:
+            with contextlib.suppress(Exception):
+                cluster.close()
+        reason = (_reason(exc).strip().splitlines() or [type(exc).__name__])[0]
+        raise StudyError(f"cannot reach the dask scheduler {scheduler!r}: {reason}") from None
+
+
+def _run_dask(client: Any, spec: dict[str, Any], todo: list[tuple[int, ...]],
+              persist: Callable[[dict[str, Any]], None], log: StudyLog) -> None:
+    from concurrent.futures import CancelledError
+
+    from distributed import KilledWorker
+    from distributed import as_completed as dask_completed
+
+    futures: dict[Any, tuple[int, ...]] = {}
+    finished = False
+
+    def results(batch: list[tuple[int, ...]]) -> list[tuple[int, ...]]:
+        """Run ``batch`` on the cluster and persist each point's record; returns the points
+        dask gave up on because their worker died (KilledWorker), unrecorded."""
+        futures.clear()
+        futures.update({client.submit(_run_point, spec, index, pure=False): index
+                        for index in batch})
+        killed = []
+        for future in dask_completed(futures):
+            index = futures[future]
+            try:
+                record = future.result()
+            except KilledWorker:
+                killed.append(index)
+                continue
+            except (CancelledError, OSError) as exc:  # the cluster is gone, not the point
+                raise StudyError(f"lost the dask cluster ({_reason(exc)}); the finished points "
+                                 "are kept: run the study again to resume") from None
+            except Exception as exc:
+                detail = traceback.format_exception_only(type(exc), exc)[-1].strip()
+                record = {"index": list(index), "status": STATUS["error"],
+                          "message": f"worker error: {detail}"}
+            persist(record)
+        return killed
+
+    try:
+        suspects = results(list(todo))
+        if len(suspects) > 1:  # a dying worker takes the points beside it along: find which
+            log(f"dask workers died while {len(suspects)} points ran; running them one at a "
+                "time to find which")
+            suspects = [index for index in suspects if results([index])]
+        for index in suspects:
+            record = _died(index, "dask gave up on it after its worker(s) died: KilledWorker")
+            log(f"point {list(index)}: {record['message']}")
+            persist(record)
+        finished = True
+    finally:
+        if not finished:
+            with contextlib.suppress(Exception):
+                client.cancel(list(futures), force=True)
+
+
+# The study -----------------------------------------------------------------------------------
+
+
+def run_spec(spec: dict[str, Any], output: str | Path, *, workers: int | None = None,
+             scheduler: str | None = None, progress: StudyProgress | None = None,
+             keep_parts: bool = False, log: StudyLog | None = None) -> xr.Dataset:
+    """Run (or resume) every point of ``spec`` and write the assembled Dataset to ``output``.
+
+    ``workers``: local worker processes (default: one per core, at most one per point);
+    ``1`` runs the points in this process (no protection against a point that crashes the
+    interpreter). ``scheduler``: a dask.distributed address, or ``"local"``; connected
+    before anything is written. ``log`` receives one-line warnings (default: stderr).
+    Raises :class:`StudyError` for an output that cannot be written (checked before any
+    point runs), a parts folder of another study or rodsim version, an unreachable
+    scheduler, or a point that cannot be saved.
+    """
+    output = Path(output)
+    log = log or _stderr_log
+    if workers is not None and (not isinstance(workers, int) or workers < 1):
+        raise StudyError(f"workers must be a positive whole number, not {workers!r}")
+    _check_output(output)
+    with contextlib.ExitStack() as stack:
+        if scheduler:
+            client, cluster = _connect(scheduler)
+            if cluster is not None:
+                stack.callback(cluster.close)
+            stack.callback(client.close)
+        folder = parts_folder(output)
+        records = _open_parts(folder, spec, log)
+        points = grid_points(spec)
+        todo = [index for index in points if index not in records]
+        start = time.perf_counter()
+        failed = sum(r["status"] != STATUS["ok"] for r in records.values())
+        if progress is not None:
+            progress(len(records), failed, len(points), 0.0)
+
+        def persist(record: dict[str, Any]) -> None:
+            nonlocal failed
+            index = tuple(record["index"])
+            _write_atomic(_point_file(folder, index), json.dumps(record))
+            records[index] = record
+            failed += record["status"] != STATUS["ok"]
+            if progress is not None:
+                progress(len(records), failed, len(points), time.perf_counter() - start)
+
+        if not todo:
+            pass
+        elif scheduler:
+            _run_dask(client, spec, todo, persist, log)
+        elif workers == 1:
+            for index in todo:
+                persist(evaluate_point(spec, index))
+        else:
+            _run_local(spec, todo, min(workers or os.cpu_count() or 1, len(todo)), persist,
+                       log)
+    dataset = assemble(spec, list(records.values()))
+    write_dataset(dataset, output)
+    if not keep_parts:
+        try:
+            shutil.rmtree(folder)
+        except OSError as exc:
+            log(f"warning: cannot remove {folder} ({_reason(exc)}); the archive {output} is "
+                "complete, the folder can be deleted")
+    return dataset
+
+
+def run_study(study: Study, size: str, output: str | Path, **kwargs: Any) -> xr.Dataset:
+    """Run a declared study at ``size`` (``small`` or ``full``); see :func:`run_spec`."""
+    return run_spec(study.spec(size), output, **kwargs)
+

@@ -1,0 +1,127 @@
+"""Continuum references for a scene: which analytic solution a run can be scored against.
+
+A hanging-mass scene qualifies when its first rod is a cantilever (rest along +x) loaded
+only by a dead tip force along −y (``tip_load`` without ``force``, no ``gravity``) — the
+paper's experiment of Figs. 5–9. A tendon scene qualifies for the constant-curvature arc
+when it has one tendon pulled at its base (the physical check of the conserving coupling).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from rodsim.core.analytic.elastica import ElasticaShape, exact_elastica, load_parameter
+from rodsim.core.analytic.extensible import extensible_elastica
+from rodsim.core.analytic.paper_model import paper_model
+from rodsim.core.analytic.tendon_arc import tendon_arc
+from rodsim.core.model import Model
+from rodsim.core.scene import Scene
+
+__all__ = ["CantileverReference", "cantilever_reference", "REFERENCE_KINDS",
+           "reference_centerline"]
+
+
+@dataclass(frozen=True)
+class CantileverReference:
+    """Analytic shapes of the scene's first rod: corrected paper model, exact elastica, and
+    the extensible elastica with the rod's own E_s A (``None`` when the tip force reaches
+    E_s A, where :func:`extensible_elastica` has no solution)."""
+
+    force: float
+    bending_stiffness: float
+    length: float
+    paper: ElasticaShape
+    exact: ElasticaShape
+    extensible: ElasticaShape | None
+
+    @property
+    def alpha(self) -> float:
+        """Load parameter α = F L² / (2 E I) (paper §3, corrected)."""
+        return load_parameter(self.force, self.bending_stiffness, self.length)
+
+    def tip_error(self, positions: np.ndarray, shape: str = "exact") -> float:
+        """|tip − reference tip| / L, the paper's accuracy metric (Figs. 6–7); NaN when the
+        reference does not exist."""
+        ref = getattr(self, shape)
+        if ref is None:
+            return float("nan")
+        return float(np.hypot(positions[-1, 0] - ref.x[-1], positions[-1, 1] - ref.y[-1])
+                     / self.length)
+
+
+def cantilever_reference(scene: Scene, samples: int = 201) -> CantileverReference | None:
+    """The references for ``scene``'s first rod, or ``None`` if the scene does not qualify."""
+    name, rod = next(iter(scene.data["rods"].items()))
+    if len(scene.data["rods"]) > 1 or "tip_load" not in rod["terms"] or "gravity" in rod["terms"]:
+        return None
+    load = rod["tip_load"]
+    if any(load["force"]) or rod["origin"] != [0.0, 0.0, 0.0]:
+        return None
+    model_rod = Model(scene).rods[name]
+    force = load["mass"] * load["gravity"]
+    ei, length = model_rod.bending_stiffness, model_rod.length
+    if force <= 0.0:
+        return None
+    s = np.linspace(0.0, length, samples)
+    stretch = model_rod.stretch_stiffness
+    return CantileverReference(
+        force, ei, length, paper_model(force, ei, length, samples),
+        exact_elastica(force, ei, length, s),
+        extensible_elastica((0.0, -force), ei, stretch, length, s) if force < stretch else None)
+
+
+#: Continuum references a study can score its first rod against.
+REFERENCE_KINDS = ("exact", "paper", "extensible", "arc")
+
+
+def reference_centerline(scene: Scene, kind: str, s: np.ndarray) -> np.ndarray | None:
+    """Reference positions (len(s), 3) [m] of the scene's first rod at rest arc lengths ``s``.
+
+    ``exact``, ``paper`` and ``extensible`` need a hanging-mass cantilever (see
+    :func:`cantilever_reference`); ``arc`` needs a single tendon pulled at its base
+    (:func:`~rodsim.core.analytic.tendon_arc.tendon_arc`). Returns ``None`` when the scene does
+    not qualify.
+    """
+    if kind not in REFERENCE_KINDS:
+        raise ValueError(f"unknown reference {kind!r}; known: {', '.join(REFERENCE_KINDS)}")
+    out = np.zeros((len(s), 3))
+    if kind == "arc":
+        tendons = scene.data["tendons"]
+        if len(tendons) != 1:
+            return None
+        (name, table), = tendons.items()
+        actuation = table.get("tendon_actuation")
+        if actuation is None or actuation["point"] != "proximal":
+            return None
+        model = Model(scene)
+        catheter = model.rods[table["catheter"]]
+        if catheter.name != next(iter(model.rods)):
+            return None
+        shape = tendon_arc(actuation["force"], table["offset"],
+                           catheter.bending_stiffness + model.rods[name].bending_stiffness,
+                           catheter.stretch_stiffness, catheter.length, s)
+        alpha, beta = model.tendons[name].alpha, model.tendons[name].beta
+        out[:, 0] = shape.x
+        out[:, 1] = alpha * shape.y
+        out[:, 2] = beta * shape.y
+        return out + catheter.origin
+    reference = cantilever_reference(scene)
+    if reference is None:
+        return None
+    length = reference.length
+    force, ei = reference.force, reference.bending_stiffness
+    if kind == "exact":
+        shape = exact_elastica(force, ei, length, s)
+    elif kind == "extensible":
+        stretch = next(iter(Model(scene).rods.values())).stretch_stiffness
+        if force >= stretch:
+            return None
+        shape = extensible_elastica((0.0, -force), ei, stretch, length, s)
+    else:  # the paper's model is sampled in φ: interpolate it at s
+        fine = paper_model(force, ei, length, 2001)
+        shape = ElasticaShape(s, np.interp(s, fine.s, fine.x), np.interp(s, fine.s, fine.y),
+                              fine.tip_angle)
+    out[:, 0], out[:, 1] = shape.x, shape.y
+    return out

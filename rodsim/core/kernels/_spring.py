@@ -1,0 +1,69 @@
+"""A linear spring of rest length ℓ between two nodes (a, b), edge e = r_b − r_a, shared by
+the stretch (Eq. 6) and endpoint-coupling (Eq. 29) kernels:
+
+    F = k (|e| − ℓ) ê on a, minus that on b,
+    H = k [ê êᵀ + ((|e| − ℓ) / |e|)(I − ê êᵀ)],  ∂F/∂(r_a, r_b) = [[−H, H], [H, −H]].
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+from rodsim.core.kernels._scatter import add_force, add_jacobian
+
+
+@njit(cache=True, inline="always")
+def edge_tangent(x: np.ndarray, dofs: np.ndarray, e: int, tangent: np.ndarray) -> float:
+    """|e| of element ``e``'s edge from its first node (dofs 0–2) to its second (3–5); the
+    unit tangent ê goes into ``tangent``."""
+    norm2 = 0.0
+    for a in range(3):
+        tangent[a] = x[dofs[e, 3 + a]] - x[dofs[e, a]]
+        norm2 += tangent[a] * tangent[a]
+    norm = np.sqrt(norm2)
+    for a in range(3):
+        tangent[a] /= norm
+    return norm
+
+
+@njit(cache=True)
+def spring(x: np.ndarray, dofs: np.ndarray, stiffness: float, rest: float, scale: float,
+           want_force: bool, force: np.ndarray, force_target: np.ndarray,
+           want_jacobian: bool, jacobian: np.ndarray, jacobian_target: np.ndarray) -> None:
+    """Every element's spring (k = ``stiffness``, ℓ = ``rest``), accumulated as the package
+    docstring describes."""
+    local_force = np.empty(6)
+    local_jacobian = np.empty((6, 6))
+    t = np.empty(3)
+    for e in range(dofs.shape[0]):
+        norm = edge_tangent(x, dofs, e, t)
+        stretch = norm - rest
+        if want_force:
+            for a in range(3):
+                pull = stiffness * stretch * t[a]
+                local_force[a] = pull
+                local_force[3 + a] = -pull
+            add_force(force, force_target, e, local_force, scale)
+        if want_jacobian:
+            ratio = stretch / norm
+            for a in range(3):
+                for b in range(3):
+                    tt = t[a] * t[b]
+                    h = stiffness * (tt + ratio * ((1.0 if a == b else 0.0) - tt))
+                    local_jacobian[a, b] = -h
+                    local_jacobian[3 + a, 3 + b] = -h
+                    local_jacobian[a, 3 + b] = h
+                    local_jacobian[3 + a, b] = h
+            add_jacobian(jacobian, jacobian_target, e, local_jacobian, scale)
+
+
+@njit(cache=True)
+def spring_energy(x: np.ndarray, dofs: np.ndarray, stiffness: float, rest: float) -> float:
+    """Σ ½ k (|e| − ℓ)² over the elements."""
+    t = np.empty(3)
+    total = 0.0
+    for e in range(dofs.shape[0]):
+        stretch = edge_tangent(x, dofs, e, t) - rest
+        total += 0.5 * stiffness * stretch * stretch
+    return total

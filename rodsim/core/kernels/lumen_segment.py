@@ -1,0 +1,220 @@
+"""Kernel of :mod:`rodsim.core.terms.lumen` with the conserving coupling, Eqs. (24)–(27),
+(32)–(35) with DESIGN erratum 13 (:mod:`rodsim.core.terms._lumen_segment`): per tendon point p on
+lumen segment j, local coordinates (p, r_j, r_{j+1}, q_{j−1}, q_j, q_{j+1}),
+
+    L_j = r_j + r_L u(s_j),  τ_j = t(s_j),  s_j = Σ_k weights[e, 0, k] q_slot k  (j + 1 likewise),
+    L(σ) = Σ_b w_b(σ) y_b over y = (L_j, L_{j+1}, τ_j, τ_{j+1}), w = (h00, h01, l̄ h10, l̄ h11),
+    σ: (L(σ) − p)·L′(σ) = 0 (Newton),   Δ = L(σ) − p,   E = ½ k |Δ|²,
+    f_y = k w ⊗ Δ (w_p = −1),   f_yy = k w wᵀ ⊗ I,   f_yσ = k (w′ ⊗ Δ + w ⊗ L′),
+    f_σσ = k (L′·L′ + Δ·L″),   ∇²_y E = f_yy − f_yσ f_yσᵀ / f_σσ,
+
+pulled back through the chain G = ∂y/∂x (15 × 21, y = (p, L_j, L_{j+1}, τ_j, τ_{j+1})):
+F = −Gᵀ f_y,  ∂F/∂x = −(Gᵀ ∇²_y E G + Σ over both nodes of r_L Σ_m f_{L,m} ∂²u_m/∂s²
++ Σ_m f_{τ,m} ∂²t_m/∂s² on the node's two quaternions), u, t and their derivatives from
+:mod:`rodsim.core.kernels._node_frame`. k = K_L × the point's share of the tendon's length, one
+value per element; ``ends`` marks elements on the catheter's first and last segment, where
+the lumen goes on straight beyond the catheter (:func:`rodsim.core.terms._lumen_segment.hermite`);
+``weights`` (n, 2, 3) are :func:`rodsim.core.terms._lumen_segment.node_weights`.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+from rodsim.core.kernels._node_frame import node_director, node_director_hessian, raw_directors
+from rodsim.core.kernels._scatter import add_force, add_jacobian
+
+SIGMA_TOLERANCE = 1e-12
+SIGMA_ITERATIONS = 50
+
+
+@njit(cache=True)
+def hermite(sigma: float, before: bool, after: bool, length: float, w: np.ndarray,
+            w1: np.ndarray, w2: np.ndarray) -> None:
+    """w, w′, w″ (5,) of y = (p, L_j, L_{j+1}, τ_j, τ_{j+1}) at σ, in place."""
+    s2 = sigma * sigma
+    s3 = s2 * sigma
+    w[0] = -1.0
+    w1[0] = 0.0
+    w2[0] = 0.0
+    if before and sigma < 0.0:
+        w[1], w[2], w[3], w[4] = 1.0, 0.0, length * sigma, 0.0
+        w1[1], w1[2], w1[3], w1[4] = 0.0, 0.0, length, 0.0
+        w2[1], w2[2], w2[3], w2[4] = 0.0, 0.0, 0.0, 0.0
+    elif after and sigma > 1.0:
+        w[1], w[2], w[3], w[4] = 0.0, 1.0, 0.0, length * (sigma - 1.0)
+        w1[1], w1[2], w1[3], w1[4] = 0.0, 0.0, 0.0, length
+        w2[1], w2[2], w2[3], w2[4] = 0.0, 0.0, 0.0, 0.0
+    else:
+        w[1] = 2.0 * s3 - 3.0 * s2 + 1.0
+        w[2] = -2.0 * s3 + 3.0 * s2
+        w[3] = length * (s3 - 2.0 * s2 + sigma)
+        w[4] = length * (s3 - s2)
+        w1[1] = 6.0 * s2 - 6.0 * sigma
+        w1[2] = -6.0 * s2 + 6.0 * sigma
+        w1[3] = length * (3.0 * s2 - 4.0 * sigma + 1.0)
+        w1[4] = length * (3.0 * s2 - 2.0 * sigma)
+        w2[1] = 12.0 * sigma - 6.0
+        w2[2] = -12.0 * sigma + 6.0
+        w2[3] = length * (6.0 * sigma - 4.0)
+        w2[4] = length * (6.0 * sigma - 2.0)
+
+
+@njit(cache=True)
+def _curve(y: np.ndarray, w: np.ndarray, w1: np.ndarray, w2: np.ndarray, delta: np.ndarray,
+           slope: np.ndarray, bend: np.ndarray) -> None:
+    """Δ = Σ w_b y_b (with w_p = −1), L′ and L″ at the weights, in place."""
+    for m in range(3):
+        d = 0.0
+        s1 = 0.0
+        s2 = 0.0
+        for b in range(5):
+            d += w[b] * y[b, m]
+            s1 += w1[b] * y[b, m]
+            s2 += w2[b] * y[b, m]
+        delta[m] = d
+        slope[m] = s1
+        bend[m] = s2
+
+
+@njit(cache=True)
+def evaluate(x: np.ndarray, dofs: np.ndarray, alpha: float, beta: float, offset: float,
+             stiffness: np.ndarray, length: float, ends: np.ndarray, weights: np.ndarray,
+             scale: float,
+             want_force: bool, force: np.ndarray, force_target: np.ndarray,
+             want_jacobian: bool, jacobian: np.ndarray, jacobian_target: np.ndarray) -> None:
+    lumen_c = np.array([alpha, beta, 0.0])
+    tangent_c = np.array([0.0, 0.0, 1.0])
+    s = np.empty((2, 4))
+    norm2 = np.empty(2)
+    directors = np.empty((2, 3, 3))
+    gradients = np.empty((2, 3, 3, 4))
+    u = np.empty((2, 3))
+    u_grad = np.empty((2, 3, 4))
+    t = np.empty((2, 3))
+    t_grad = np.empty((2, 3, 4))
+    y = np.empty((5, 3))
+    w = np.empty(5)
+    w1 = np.empty(5)
+    w2 = np.empty(5)
+    delta = np.empty(3)
+    slope = np.empty(3)
+    bend = np.empty(3)
+    g = np.empty(15)
+    f_ys = np.empty(15)
+    h_y = np.empty((15, 15))
+    chain = np.zeros((15, 21))
+    for m in range(3):
+        for block in range(3):
+            chain[3 * block + m, 3 * block + m] = 1.0
+    product = np.empty((15, 21))
+    block_h = np.empty((4, 4))
+    block_t = np.empty((4, 4))
+    scratch = np.empty((4, 4))
+    scaled = np.empty(3)
+    local_force = np.empty(21)
+    local_jacobian = np.empty((21, 21))
+    for e in range(dofs.shape[0]):
+        for node in range(2):
+            for a in range(4):
+                value = 0.0
+                for slot in range(3):
+                    value += weights[e, node, slot] * x[dofs[e, 9 + 4 * slot + a]]
+                s[node, a] = value
+            norm2[node] = raw_directors(s[node], directors[node], gradients[node])
+            node_director(s[node], norm2[node], directors[node], gradients[node], lumen_c,
+                          u[node], u_grad[node])
+            node_director(s[node], norm2[node], directors[node], gradients[node], tangent_c,
+                          t[node], t_grad[node])
+        for m in range(3):
+            y[0, m] = x[dofs[e, m]]
+            y[1, m] = x[dofs[e, 3 + m]] + offset * u[0, m]
+            y[2, m] = x[dofs[e, 6 + m]] + offset * u[1, m]
+            y[3, m] = t[0, m]
+            y[4, m] = t[1, m]
+        # σ by Newton from the projection on the chord.
+        ac = 0.0
+        cc = 0.0
+        for m in range(3):
+            chord = y[2, m] - y[1, m]
+            ac += (y[0, m] - y[1, m]) * chord
+            cc += chord * chord
+        sigma = ac / cc
+        before = ends[e, 0]
+        after = ends[e, 1]
+        for _ in range(SIGMA_ITERATIONS):
+            hermite(sigma, before, after, length, w, w1, w2)
+            _curve(y, w, w1, w2, delta, slope, bend)
+            numerator = 0.0
+            denominator = 0.0
+            for m in range(3):
+                numerator += delta[m] * slope[m]
+                denominator += slope[m] * slope[m] + delta[m] * bend[m]
+            step = numerator / denominator
+            sigma -= step
+            if abs(step) < SIGMA_TOLERANCE:
+                break
+        hermite(sigma, before, after, length, w, w1, w2)
+        _curve(y, w, w1, w2, delta, slope, bend)
+        k = stiffness[e]
+        for b in range(5):
+            for m in range(3):
+                g[3 * b + m] = k * w[b] * delta[m]
+        for slot in range(3):
+            first = 9 + 4 * slot
+            for m in range(3):
+                for a in range(4):
+                    chain[3 + m, first + a] = weights[e, 0, slot] * offset * u_grad[0, m, a]
+                    chain[6 + m, first + a] = weights[e, 1, slot] * offset * u_grad[1, m, a]
+                    chain[9 + m, first + a] = weights[e, 0, slot] * t_grad[0, m, a]
+                    chain[12 + m, first + a] = weights[e, 1, slot] * t_grad[1, m, a]
+        if want_force:
+            for a in range(21):
+                value = 0.0
+                for i in range(15):
+                    value += chain[i, a] * g[i]
+                local_force[a] = -value
+            add_force(force, force_target, e, local_force, scale)
+        if want_jacobian:
+            f_ss = 0.0
+            for m in range(3):
+                f_ss += slope[m] * slope[m] + delta[m] * bend[m]
+            f_ss *= k
+            for b in range(5):
+                for m in range(3):
+                    f_ys[3 * b + m] = k * (w1[b] * delta[m] + w[b] * slope[m])
+            for b in range(5):
+                for m in range(3):
+                    for c in range(5):
+                        for n in range(3):
+                            value = -f_ys[3 * b + m] * f_ys[3 * c + n] / f_ss
+                            if m == n:
+                                value += k * w[b] * w[c]
+                            h_y[3 * b + m, 3 * c + n] = value
+            for i in range(15):
+                for a in range(21):
+                    value = 0.0
+                    for j in range(15):
+                        value += h_y[i, j] * chain[j, a]
+                    product[i, a] = value
+            for a in range(21):
+                for b in range(21):
+                    value = 0.0
+                    for i in range(15):
+                        value += chain[i, a] * product[i, b]
+                    local_jacobian[a, b] = -value
+            for node in range(2):
+                node_director_hessian(s[node], norm2[node], lumen_c, u[node], u_grad[node],
+                                      g[3 + 3 * node:6 + 3 * node], block_h, scratch, scaled)
+                node_director_hessian(s[node], norm2[node], tangent_c, t[node], t_grad[node],
+                                      g[9 + 3 * node:12 + 3 * node], block_t, scratch, scaled)
+                for i in range(3):
+                    for j in range(3):
+                        both = weights[e, node, i] * weights[e, node, j]
+                        if both != 0.0:
+                            for a in range(4):
+                                for b in range(4):
+                                    local_jacobian[9 + 4 * i + a, 9 + 4 * j + b] -= both * (
+                                        offset * block_h[a, b] + block_t[a, b])
+            add_jacobian(jacobian, jacobian_target, e, local_jacobian, scale)

@@ -1,0 +1,431 @@
+"""Assemble a scene's rods and terms into F(x), its sparse Jacobian J(x) and the pattern.
+
+The *full* state holds every coordinate of every rod (Eqs. 18 and 30); the clamps fix some
+of them. Integrators only see the *free* coordinates ``x``: ``Model.force(x)`` and
+``Model.jacobian(x)`` return the generalised force F(x) = −∂E/∂x (plus non-conservative
+penalty forces) and ∂F/∂x on those. The sparsity pattern is the union of the terms'
+element blocks, fixed when the model is built; the Jacobian values are scattered into it
+with precomputed index maps.
+
+Two evaluation paths compute the same numbers (``solver.kernels``): ``compiled`` (default)
+calls each term's numba kernel (:mod:`rodsim.core.kernels`), which accumulates straight into the
+force vector and the CSC data; ``numpy`` calls the terms' vectorised numpy methods and
+scatters their element blocks — the readable reference.
+
+A model never changes once built. What a solver varies is passed in or returned as a new
+model: the load fraction is an argument of every evaluation; a penalty continuation scale is
+a model built by :meth:`Model.with_term_scales`; a tendon registration that changes gives a
+new model from :meth:`Model.reregistered` (new element coordinates, so a new pattern).
+"""
+
+from __future__ import annotations
+
+import copy
+from collections.abc import Mapping
+from dataclasses import dataclass
+from functools import cached_property
+
+import numpy as np
+import scipy.sparse as sp
+from scipy.sparse.csgraph import reverse_cuthill_mckee
+
+from rodsim.core.rod.layout import RodLayout
+from rodsim.core.rod.rod import Rod
+from rodsim.core.scene import Scene
+from rodsim.core.sparsity import csc_pattern
+from rodsim.core.tendon import Tendon, tendon_origin
+from rodsim.core.terms import Term, registered_terms
+
+__all__ = ["Model", "Band", "KERNELS"]
+
+#: The evaluation paths (``solver.kernels``).
+KERNELS = ("compiled", "numpy")
+
+
+@dataclass(frozen=True)
+class Band:
+    """Lower and upper bandwidth of the Jacobian of the free coordinates."""
+
+    lower: int
+    upper: int
+
+
+class Model:
+    """The discretised rod system of one scene.
+
+    Parameters
+    ----------
+    scene
+        A validated scene; only the terms it lists are built.
+    kernels
+        ``"compiled"`` or ``"numpy"`` (default: the scene's ``solver.kernels``).
+    """
+
+    def __init__(self, scene: Scene, kernels: str | None = None) -> None:
+        self.kernels = kernels or scene.data["solver"]["kernels"]
+        if self.kernels not in KERNELS:
+            raise ValueError(f"kernels {self.kernels!r}: allowed {', '.join(KERNELS)}")
+        self._assemble(scene)
+        self._build_maps()
+        if len(self.rods) > 1:
+            self._order_for_band()
+        self._build_scales()
+
+    def _assemble(self, scene: Scene) -> None:
+        """Rods, terms, tendons, the rest state and the free coordinates (in full-state order)
+        of ``scene``."""
+        self.scene = scene
+        tendons = scene.data["tendons"]
+        self.rods: dict[str, Rod] = {}
+        offset = 0
+        # Catheters first, so a tendon's base can be placed in its catheter's lumen.
+        for name in sorted(scene.data["rods"], key=lambda n: n in tendons):
+            params = scene.data["rods"][name]
+            layout = RodLayout(params["nodes"], offset)
+            origin = (tendon_origin(self.rods[tendons[name]["catheter"]], tendons[name])
+                      if name in tendons else np.asarray(params["origin"], dtype=float))
+            self.rods[name] = Rod(name, params, layout, origin)
+            offset += layout.size
+        self.rods = {name: self.rods[name] for name in scene.data["rods"]}
+        self.full_size = offset
+        catalogue = registered_terms()
+        self.terms: list[Term] = []
+        for rod in self.rods.values():
+            for term_name in rod.params["terms"]:
+                self.terms.append(catalogue[term_name](rod, rod.params[term_name]))
+        #: The scene's tendons (lumen geometry shared by their coupling terms).
+        self.tendons = {name: Tendon.of(name, self.rods, table)
+                        for name, table in tendons.items()}
+        for name, table in tendons.items():
+            for term_name in table["terms"]:
+                self.terms.append(catalogue[term_name](self.tendons[name], table[term_name]))
+        #: Factor on each term's output: 1, or a penalty continuation scale.
+        self.term_scales = np.ones(len(self.terms))
+        self._scale_list = self.term_scales.tolist()  # as floats, for the evaluation loops
+
+        self.rest_full = np.zeros(self.full_size)
+        fixed = []
+        for rod in self.rods.values():
+            self.rest_full[rod.layout.position_index] = rod.rest_positions()
+            self.rest_full[rod.layout.quaternion_index] = rod.rest_quaternions()
+            fixed.append(rod.fixed_index())
+        is_free = np.ones(self.full_size, dtype=bool)
+        is_free[np.concatenate(fixed)] = False
+        #: Full-state index of every free coordinate, in the integrators' order.
+        self.free = np.flatnonzero(is_free)
+        self.n = len(self.free)
+
+    def with_scene(self, scene: Scene) -> Model:
+        """The model of ``scene`` — other parameter values on this model's discretisation —
+        with this model's order of the free coordinates and the registration of its dynamic
+        terms (tendon points keep their parents).
+
+        Cheaper than ``Model(scene)`` followed by a re-registration: the band ordering is
+        not recomputed, and the Jacobian pattern is reused when every term keeps its element
+        coordinates (a changed load, modulus, penalty or tendon force). A tracking step's
+        model (rodsim/app/inverse/track.py). Raises ValueError when ``scene`` changes the free
+        coordinates (node counts, clamps, rods or terms).
+        """
+        other = copy.copy(self)
+        other._assemble(scene)
+        names = [term.name for term in self.terms]
+        if (other.full_size != self.full_size or other.n != self.n
+                or not np.array_equal(other.free, np.sort(self.free))
+                or [term.name for term in other.terms] != names):
+            raise ValueError("the scene changes the model's layout (nodes, clamps, rods or "
+                             "terms): build a new Model")
+        other.free = self.free
+        other.terms = [term.registered(mine.registration_state()) if term.dynamic else term
+                       for term, mine in zip(other.terms, self.terms, strict=True)]
+        if all(np.array_equal(a.dofs, b.dofs)
+               for a, b in zip(other.terms, self.terms, strict=True)):
+            other._kernel_calls = None  # same pattern and index maps, new term constants
+            other._build_force_scatter()
+        else:
+            other._build_maps()
+        other._build_scales()
+        return other
+
+    # ------------------------------------------------------------------ setup
+    def _build_maps(self) -> None:
+        self._free_of = np.full(self.full_size, self.n)  # fixed -> dump slot n
+        self._free_of[self.free] = np.arange(self.n)
+        self._build_force_scatter()
+        self._build_pattern()
+        self._kernel_calls: list[tuple] | None = None  # built at the first compiled call
+
+    def _order_for_band(self) -> None:
+        """Reorder the free coordinates (reverse Cuthill–McKee) when that narrows the band.
+
+        Coupled rods concatenated as in Eq. (30) give a wide band (a tendon point couples to
+        catheter coordinates far away in the vector); interleaving them keeps the system
+        banded. The order is fixed once, from the pattern at rest.
+        """
+        order = reverse_cuthill_mckee(self.pattern, symmetric_mode=True)
+        offsets = self.pattern_rows - self.pattern_cols
+        current = max(offsets.max(), -offsets.min())
+        inverse = np.empty_like(order)
+        inverse[order] = np.arange(self.n)
+        new_offsets = inverse[self.pattern_rows] - inverse[self.pattern_cols]
+        if max(new_offsets.max(), -new_offsets.min()) < current:
+            self.free = self.free[order]
+            self._build_maps()
+
+    def reregistered(self, x: np.ndarray, exact: bool = False) -> Model | None:
+        """The model with every dynamic term (tendon registration, §4.1) re-registered from
+        the state ``x`` (``exact``: without hysteresis, as at equilibrium), or None when no
+        registration changes.
+
+        The new model has new element coordinates and so a new Jacobian pattern; the order
+        of the free coordinates, the scales and everything else are shared.
+        """
+        full = self.full(x)
+        terms = list(self.terms)
+        changed = False
+        for k, term in enumerate(terms):
+            if term.dynamic:
+                state = term.registration(full, exact)
+                if state is not None:
+                    terms[k] = term.registered(state)
+                    changed = True
+        return self.with_terms(terms) if changed else None
+
+    def with_terms(self, terms: list[Term]) -> Model:
+        """The model with ``terms`` (same names and order; a dynamic term may carry another
+        registration) in place of :attr:`terms`."""
+        other = copy.copy(self)
+        other.terms = list(terms)
+        other._build_maps()
+        return other
+
+    def with_term_scales(self, scales: Mapping[int, float]) -> Model:
+        """The model with the output of the terms ``scales`` names (by index in
+        :attr:`terms`) multiplied by the given factors — a penalty continuation step.
+
+        Only penalty terms may be scaled: they are linear in their constant."""
+        factors = self.term_scales.copy()
+        for index, scale in scales.items():
+            if not self.terms[index].penalty:
+                raise ValueError(f"term {self.terms[index].name!r} is not a penalty")
+            factors[index] = scale
+        other = copy.copy(self)
+        other.term_scales = factors
+        other._scale_list = factors.tolist()
+        return other
+
+    @cached_property
+    def conservative(self) -> bool:
+        """True when every term is −∇ of its energy (F = −∇E: the Jacobian is symmetric and
+        Newton may line-search on the energy)."""
+        return all(term.conservative for term in self.terms)
+
+    @cached_property
+    def has_registration(self) -> bool:
+        """True when some term registers its elements to the state (a tendon's lumen)."""
+        return any(term.dynamic for term in self.terms)
+
+    def _build_force_scatter(self) -> None:
+        self._loads = [t for t in self.terms if t.is_load]
+        self._force_targets = np.concatenate([self._free_of[t.dofs.ravel()]
+                                              for t in self.terms])
+
+    def _build_pattern(self) -> None:
+        n = self.n
+        self._jac_terms = [t for t in self.terms if t.has_jacobian]
+        # The diagonal is always in the pattern; entries on fixed coordinates are dropped.
+        diagonal = np.arange(n)
+        rows, cols = self._element_entries(term.dofs for term in self._jac_terms)
+        keep = (rows < n) & (cols < n)
+        pattern = csc_pattern(np.concatenate([diagonal, rows[keep]]),
+                              np.concatenate([diagonal, cols[keep]]), n)
+        #: Jacobian sparsity pattern of the free coordinates (CSC, ones where J may be ≠ 0).
+        self.pattern = pattern.matrix
+        self.pattern_rows, self.pattern_cols = pattern.rows, pattern.cols
+        self.nnz = pattern.nnz
+        # Where each term's element entry lands in the CSC data (nnz: a dump slot for
+        # entries on fixed coordinates).
+        self._jac_targets = np.full(len(rows), self.nnz)
+        self._jac_targets[keep] = pattern.target[n:]
+        self.band = Band(*pattern.band)
+
+    def _element_entries(self, dof_sets) -> tuple[np.ndarray, np.ndarray]:
+        """(row, column) free indices of every entry of the element blocks ``dof_sets``
+        (fixed coordinates map to n)."""
+        rows, cols = [np.zeros(0, dtype=int)], [np.zeros(0, dtype=int)]
+        for dofs in dof_sets:
+            k = dofs.shape[1]
+            free = self._free_of[dofs]
+            rows.append(np.repeat(free, k, axis=1).ravel())
+            cols.append(np.tile(free, (1, k)).ravel())
+        return np.concatenate(rows), np.concatenate(cols)
+
+    def _build_scales(self) -> None:
+        x0 = self.x0
+        full = self.full(x0)
+        load = 0.0
+        for term in self._loads:
+            load += float(np.sum(np.linalg.norm(term.element_forces(full), axis=1)))
+        rods = list(self.rods.values())
+        fallback = max(r.bending_stiffness / r.length**2 for r in rods)
+        #: Force scale F_ref [N]: total external load, or max EI/L² for an unloaded scene.
+        self.force_scale = load if load > 0 else fallback
+        #: Length scale L_ref [m]: the longest rod.
+        self.length_scale = max(r.length for r in rods)
+        is_quat = np.zeros(self.full_size, dtype=bool)
+        for rod in rods:
+            is_quat[rod.layout.quaternion_index] = True
+        self.is_quaternion = is_quat[self.free]
+        #: Per-coordinate weights of :meth:`residual`: 1/F_ref, or 1/(F_ref L_ref) for
+        #: quaternion coordinates.
+        self.residual_weight = np.where(
+            self.is_quaternion, 1.0 / (self.force_scale * self.length_scale),
+            1.0 / self.force_scale)
+        # Round-off floor of the residual: F_i carries an absolute error of about
+        # eps |K_ii| |x_i| (stiff springs between coordinates of size ~L). The floor is set
+        # with a margin (32 eps) so that it is reliably attainable: residual noise measured at
+        # converged states is 5–20× below it; Newton iterations asked to go lower only stall.
+        magnitude = np.where(self.is_quaternion, 1.0, self.length_scale)
+        stiffness = np.abs(self.jacobian(x0).diagonal())
+        #: |∂F_i/∂x_i| at rest, the stiffness of each coordinate on its own.
+        self.rest_stiffness = stiffness
+        #: Smallest scaled residual the model reliably reaches in double precision.
+        self.residual_floor = float(32.0 * np.finfo(float).eps
+                                    * np.max(stiffness * magnitude * self.residual_weight))
+
+    # ------------------------------------------------------------- state maps
+    @property
+    def x0(self) -> np.ndarray:
+        """The undeformed rest state (free coordinates): every simulation starts here."""
+        return self.rest_full[self.free].copy()
+
+    def full(self, x: np.ndarray) -> np.ndarray:
+        """Full state (fixed coordinates included) from the free coordinates."""
+        out = self.rest_full.copy()
+        out[self.free] = x
+        return out
+
+    def positions(self, x: np.ndarray, rod: str) -> np.ndarray:
+        """Control points of one rod, shape (N, 3) [m]."""
+        return self.full(x)[self.rods[rod].layout.position_index]
+
+    def quaternions(self, x: np.ndarray, rod: str) -> np.ndarray:
+        """Segment quaternions of one rod, shape (N − 1, 4)."""
+        return self.full(x)[self.rods[rod].layout.quaternion_index]
+
+    def masses(self) -> np.ndarray:
+        """Diagonal mass matrix M of the free coordinates (Eq. 17) [kg or kg·m²]."""
+        full = np.zeros(self.full_size)
+        for rod in self.rods.values():
+            full[rod.layout.position_index] = rod.node_masses()[:, None]
+            full[rod.layout.quaternion_index] = rod.quaternion_masses()[:, None]
+        return full[self.free]
+
+    # ------------------------------------------------------------ evaluation
+    def _scale(self, index: int, term: Term, load: float) -> float:
+        """Factor on one term's output: its continuation scale, times ``load`` for loads."""
+        scale = self._scale_list[index]
+        return scale * load if term.is_load else scale
+
+    def energy(self, x: np.ndarray, load: float = 1.0) -> float:
+        """Total potential energy [J] (raises if a term is not conservative)."""
+        full = self.full(x)
+        compiled = {}
+        if self.kernels == "compiled":
+            if self._kernel_calls is None:
+                self._kernel_calls = self._build_kernel_calls()
+            compiled = {call[0]: call for call in self._kernel_calls if call[6] is not None}
+        total = 0.0
+        for index, term in enumerate(self.terms):
+            if index in compiled:
+                call = compiled[index]
+                value = call[6](full, *call[3])
+            else:
+                value = term.energy(full)
+            if value is None:
+                raise ValueError(f"term {term.name!r} is not conservative: no energy")
+            total += self._scale(index, term, load) * value
+        return total
+
+    def force(self, x: np.ndarray, load: float = 1.0) -> np.ndarray:
+        """Generalised force F(x) on the free coordinates; loads are scaled by ``load``."""
+        return self.evaluate(x, load, jacobian=False)[0]
+
+    def jacobian_data(self, x: np.ndarray, load: float = 1.0) -> np.ndarray:
+        """∂F/∂x as the data array of a CSC matrix with the pattern :attr:`pattern`."""
+        return self.evaluate(x, load, force=False)[1]
+
+    def evaluate(self, x: np.ndarray, load: float = 1.0, *, force: bool = True,
+                 jacobian: bool = True) -> tuple[np.ndarray, np.ndarray]:
+        """F(x) and ∂F/∂x (CSC data in :attr:`pattern` order) in one pass; the one not asked
+        for comes back empty."""
+        full = self.full(x)
+        if self.kernels == "compiled":
+            return self._evaluate_compiled(full, load, force, jacobian)
+        f = np.zeros(0)
+        j = np.zeros(0)
+        if force:
+            values = [self._scale(k, term, load) * term.element_forces(full).ravel()
+                      for k, term in enumerate(self.terms)]
+            f = np.bincount(self._force_targets, weights=np.concatenate(values),
+                            minlength=self.n + 1)[:-1]
+        if jacobian:
+            blocks = [self._scale(k, term, load) * term.element_jacobians(full).ravel()
+                      for k, term in enumerate(self.terms) if term.has_jacobian]
+            j = (np.bincount(self._jac_targets, weights=np.concatenate(blocks),
+                             minlength=self.nnz + 1)[:-1] if blocks else np.zeros(self.nnz))
+        return f, j
+
+    def _evaluate_compiled(self, full: np.ndarray, load: float, force: bool,
+                           jacobian: bool) -> tuple[np.ndarray, np.ndarray]:
+        if self._kernel_calls is None:
+            self._kernel_calls = self._build_kernel_calls()
+        f = np.zeros(self.n + 1 if force else 1)
+        j = np.zeros(self.nnz + 1 if jacobian else 1)
+        for index, term, kernel, arguments, force_target, jacobian_target, _ in (
+                self._kernel_calls):
+            kernel(full, *arguments, self._scale(index, term, load), force, f, force_target,
+                   jacobian, j, jacobian_target)
+        return (f[:-1] if force else np.zeros(0)), (j[:-1] if jacobian else np.zeros(0))
+
+    def _build_kernel_calls(self) -> list[tuple]:
+        """(index, term, kernel, constants, force targets, Jacobian targets, energy kernel or
+        None) of every term:
+        where each element's force and Jacobian entries land (slot n and nnz are dumps for
+        clamped coordinates)."""
+        from rodsim.core.kernels import load_kernel
+
+        calls = []
+        start = 0
+        for index, term in enumerate(self.terms):
+            elements, k = term.dofs.shape
+            force_target = np.ascontiguousarray(self._free_of[term.dofs])
+            if term.has_jacobian:
+                size = elements * k * k
+                jacobian_target = self._jac_targets[start:start + size].reshape(elements, k, k)
+                start += size
+            else:
+                jacobian_target = np.zeros((0, 0, 0), dtype=np.int64)
+            evaluate, energy = load_kernel(term)
+            calls.append((index, term, evaluate, term.kernel_arguments(), force_target,
+                          np.ascontiguousarray(jacobian_target), energy))
+        return calls
+
+    def jacobian(self, x: np.ndarray, load: float = 1.0) -> sp.csc_matrix:
+        """∂F/∂x as a sparse CSC matrix (n × n)."""
+        return self.pattern_matrix(self.jacobian_data(x, load))
+
+    def pattern_matrix(self, data: np.ndarray) -> sp.csc_matrix:
+        """A CSC matrix with :attr:`pattern`'s structure and the given data."""
+        return sp.csc_matrix((data, self.pattern.indices, self.pattern.indptr),
+                             shape=(self.n, self.n))
+
+    def residual(self, force: np.ndarray) -> float:
+        """Scaled residual max_i |F_i| w_i: forces / F_ref, quaternion forces / (F_ref L_ref)."""
+        return float(np.max(np.abs(force) * self.residual_weight))
+
+    def term(self, name: str) -> Term:
+        """The first built term with this name (KeyError if the scene does not use it)."""
+        for term in self.terms:
+            if term.name == name:
+                return term
+        raise KeyError(name)

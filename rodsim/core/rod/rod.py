@@ -1,0 +1,164 @@
+"""One Cosserat rod of a scene: material, cross-section, rest geometry, clamp and layout."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from functools import cached_property
+from typing import Any
+
+import numpy as np
+
+from rodsim.core.rod.geometry import RodGeometry
+from rodsim.core.rod.layout import RodLayout
+from rodsim.core.rod.quaternion import rest_quaternion
+from rodsim.core.schema import Parameter
+
+__all__ = ["Rod", "ROD_PARAMETERS", "CLAMPS"]
+
+#: How the rod's base (s = 0) is held; see docs/model.md, "Clamp".
+CLAMPS = ("frame", "first_segment", "orientation")
+
+ROD_PARAMETERS: tuple[Parameter, ...] = (
+    Parameter("length", "float", None, "m", "rest length L", 1e-6, 100.0),
+    Parameter("radius", "float", None, "m", "cross-section radius r (below L: a rod is slender)",
+              1e-9, 1.0),
+    Parameter("youngs_modulus", "float", None, "Pa", "Young's modulus of bending E_b", 1e-3,
+              1e13),
+    Parameter("stretch_modulus", "float", None, "Pa", "Young's modulus of stretching E_s",
+              1e-3, 1e13),
+    Parameter("poisson_ratio", "float", 0.5, "-",
+              "Poisson ratio ν; shear modulus G = E_b / (2(1 + ν)) sets the twist stiffness",
+              -0.99, 0.5),
+    Parameter("density", "float", None, "kg/m^3", "mass density ρ", 1e-3, 1e9),
+    Parameter("nodes", "int", None, "-", "number of control points N", 3, 200_000),
+    Parameter("clamp", "str", "frame", "-",
+              "base support: 'frame' (position and a frame at s = 0), 'first_segment' "
+              "(position and first quaternion fixed, as PyElastica) or 'orientation' (a frame "
+              "at s = 0 but the position free: a tendon pulled at its proximal end)",
+              choices=CLAMPS),
+    Parameter("origin", "vector", [0.0, 0.0, 0.0], "m", "position of the base r_0", -1e3, 1e3,
+              length=3),
+    Parameter("terms", "list", ["stretch", "bend_twist", "centerline"], "-",
+              "energy terms acting on this rod (`rodsim terms` lists them)"),
+)
+
+
+@dataclass(frozen=True)
+class Rod:
+    """A validated rod table turned into the quantities the terms need.
+
+    Attributes
+    ----------
+    name
+        Key of the rod in the scene (``[rods.<name>]``).
+    params
+        The validated rod table (SI units), including the per-term sub-tables.
+    layout
+        Where the rod's coordinates sit in the global state.
+    """
+
+    name: str
+    params: dict[str, Any]
+    layout: RodLayout = field(repr=False)
+    #: Position of the base r_0 [m]: the rod's ``origin``, or a tendon's lumen entrance.
+    origin: np.ndarray = field(default_factory=lambda: np.zeros(3), repr=False)
+
+    @cached_property
+    def geometry(self) -> RodGeometry:
+        return RodGeometry(self.params["nodes"], self.params["length"])
+
+    @property
+    def nodes(self) -> int:
+        return int(self.params["nodes"])
+
+    @property
+    def length(self) -> float:
+        return float(self.params["length"])
+
+    @property
+    def radius(self) -> float:
+        return float(self.params["radius"])
+
+    @property
+    def area(self) -> float:
+        """Cross-section area A = π r² [m²]."""
+        return math.pi * self.radius**2
+
+    @property
+    def second_moment(self) -> float:
+        """Area moment of inertia I = π r⁴ / 4 [m⁴] (bending, Eq. 8)."""
+        return math.pi * self.radius**4 / 4.0
+
+    @property
+    def polar_moment(self) -> float:
+        """Polar moment J = π r⁴ / 2 [m⁴] (twist, Eq. 8)."""
+        return math.pi * self.radius**4 / 2.0
+
+    @property
+    def youngs_modulus(self) -> float:
+        return float(self.params["youngs_modulus"])
+
+    @property
+    def shear_modulus(self) -> float:
+        """G = E_b / (2 (1 + ν)) [Pa]."""
+        return self.youngs_modulus / (2.0 * (1.0 + self.params["poisson_ratio"]))
+
+    @property
+    def bending_stiffness(self) -> float:
+        """E I [N·m²] (Eq. 8)."""
+        return self.youngs_modulus * self.second_moment
+
+    @property
+    def stretch_stiffness(self) -> float:
+        """K_s = E_s A [N] (Eq. 6)."""
+        return float(self.params["stretch_modulus"]) * self.area
+
+    @property
+    def density(self) -> float:
+        return float(self.params["density"])
+
+    @property
+    def base_quaternion(self) -> np.ndarray:
+        """Orientation of the clamp frame at s = 0 (the undeformed rod's orientation)."""
+        return rest_quaternion()
+
+    def rest_positions(self) -> np.ndarray:
+        """Straight rod along +x from ``origin``, shape (N, 3)."""
+        x = np.zeros((self.nodes, 3))
+        x[:, 0] = self.geometry.node_s
+        return x + self.origin
+
+    def rest_quaternions(self) -> np.ndarray:
+        """Every segment in the clamp orientation, shape (N − 1, 4)."""
+        return np.tile(self.base_quaternion, (self.nodes - 1, 1))
+
+    def fixed_index(self) -> np.ndarray:
+        """Global indices of the coordinates the clamp removes (see docs/model.md)."""
+        clamp = self.params["clamp"]
+        if clamp == "orientation":
+            return np.zeros(0, dtype=int)
+        if clamp == "first_segment":
+            return np.concatenate([self.layout.position_index[0],
+                                   self.layout.quaternion_index[0]])
+        return self.layout.position_index[0]
+
+    @property
+    def has_base_frame(self) -> bool:
+        """Whether a fixed frame at s = 0 anchors the bending term (clamps 'frame' and
+        'orientation')."""
+        return self.params["clamp"] in ("frame", "orientation")
+
+    def node_masses(self) -> np.ndarray:
+        """Lumped mass of each control point, ρ A × (half of each adjacent segment) [kg]."""
+        return self.density * self.area * self.geometry.node_mass_fraction
+
+    def quaternion_masses(self) -> np.ndarray:
+        """Generalised mass of each quaternion coordinate [kg·m²].
+
+        The kinetic energy of a segment's rotation is ½ ω·(ρ I l) ω with ω = 2 Q(q)ᵀ q̇ for
+        a unit quaternion, i.e. ½ (4 ρ I l) |q̇|² (isotropic approximation with the
+        transverse moment I, Eqs. 12–13). Only pseudo-dynamics use it.
+        """
+        return np.full(self.nodes - 1, 4.0 * self.density * self.second_moment
+                       * self.geometry.segment_length)

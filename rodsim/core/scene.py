@@ -1,0 +1,325 @@
+"""Scenes: TOML files describing rods, their terms, tendons and the solver settings.
+
+A scene is validated once, completely, into a *resolved* dict in which every default is
+filled in; that dict (as JSON) is what archives store and what ``rodsim rerun`` reads back.
+Any problem raises :class:`~rodsim.core.schema.SceneError` with a one-line message naming the key
+and the allowed values. Layout of a scene file (docs/scenes.md has the full reference)::
+
+    name = "hanging-mass-50g"
+    [rods.catheter]            # one table per rod
+    length = 0.12              # m
+    ...
+    terms = ["stretch", "bend_twist", "centerline", "tip_load"]
+    [rods.catheter.tip_load]   # parameters of one of the rod's terms
+    mass = 0.05                # kg
+    [tendons.tendon]           # a rod routed through a lumen of another (tendon scenes)
+    catheter = "catheter"
+    [tendons.tendon.lumen]     # parameters of one of the tendon's coupling terms
+    K_L = 1000.0               # N/m
+    [solver]                   # integrator and stopping rule
+    integrator = "cvode"
+    [solver.paper]             # options of one integrator
+    h = 0.3
+"""
+
+from __future__ import annotations
+
+import copy
+import json
+import tomllib
+from collections.abc import Iterable, Mapping
+from dataclasses import dataclass
+from importlib import resources
+from pathlib import Path
+from typing import Any
+
+from rodsim.core.names import check_rod_name, check_scene_name
+from rodsim.core.rod.rod import ROD_PARAMETERS
+from rodsim.core.scene_file import parse_toml, read_scene_text
+from rodsim.core.schema import Parameter, SceneError, shown, validate_table
+from rodsim.core.tendon import TENDON_PARAMETERS, check_tendon
+
+__all__ = ["Scene", "SceneError", "SOLVER_PARAMETERS", "default_scene_path", "scene_paths"]
+
+SOLVER_PARAMETERS: tuple[Parameter, ...] = (
+    Parameter("integrator", "str", "cvode", "-", "integrator used by `rodsim run`",
+              choices=("paper", "cvode", "ida", "static")),
+    Parameter("tolerance", "float", 1e-9, "-",
+              "equilibrium reached when the scaled force residual is below this "
+              "(forces / load scale F_ref, quaternion forces / (F_ref L))",
+              0.0, 1.0, exclusive_minimum=True),
+    Parameter("max_wall_time", "float", 600.0, "s", "give up after this much wall time",
+              0.0, 1e6, exclusive_minimum=True),
+    Parameter("kernels", "str", "compiled", "-",
+              "force and Jacobian evaluation: 'compiled' (numba kernels, cached on disk) or "
+              "'numpy' (the readable reference; same numbers)",
+              choices=("compiled", "numpy")),
+)
+
+_TOP_KEYS = ("name", "description", "rods", "tendons", "solver")
+
+
+
+def scene_paths() -> dict[str, Path]:
+    """Shipped scene files by name (file stem): the repository's ``data/`` folder, installed
+    as the package ``rodsim.data``."""
+    folder = Path(str(resources.files("rodsim.data")))
+    return {p.stem: p for p in sorted(folder.glob("*.toml"))}
+
+
+def default_scene_path() -> Path:
+    """The scene ``rodsim run`` uses without argument: Table 1 with the 50 g mass."""
+    return scene_paths()[DEFAULT_SCENE]
+
+
+#: Name of the scene ``rodsim run`` uses without argument.
+DEFAULT_SCENE = "table1-50g"
+
+
+@dataclass(frozen=True)
+class Scene:
+    """A validated scene.
+
+    Attributes
+    ----------
+    data
+        The resolved scene: every table validated and every default filled in.
+    source
+        The scene file's text, verbatim (empty when built from a dict).
+    """
+
+    data: dict[str, Any]
+    source: str = ""
+
+    @classmethod
+    def load(cls, path: str | Path) -> Scene:
+        """Read and validate a TOML scene file, or a shipped scene by name."""
+        path = Path(path)
+        if "\0" in str(path):
+            raise SceneError(f"cannot read scene {shown(str(path))}: a NUL in the path")
+        if not path.exists() and path.suffix == "" and str(path) in scene_paths():
+            path = scene_paths()[str(path)]
+        text = read_scene_text(path)
+        return cls(resolve(parse_toml(text, shown(str(path), width=500, bare=True))), text)
+
+    @classmethod
+    def from_dict(cls, raw: Mapping[str, Any]) -> Scene:
+        """Validate a scene given as a (possibly partial) dict."""
+        try:
+            return cls(resolve(copy.deepcopy(dict(raw))))
+        except RecursionError:
+            raise SceneError("scene: nested too deeply") from None
+
+    @classmethod
+    def from_json(cls, text: str, source: str = "") -> Scene:
+        """Rebuild a scene from :meth:`to_json` (as stored in archives)."""
+        try:
+            raw = json.loads(text)
+        except (ValueError, RecursionError):
+            raise SceneError("stored scene: not valid JSON, or nested too deeply") from None
+        if not isinstance(raw, dict):
+            raise SceneError(f"stored scene: not a JSON object (got {type(raw).__name__})")
+        return cls.from_dict(raw).with_source(source)
+
+    def with_source(self, source: str) -> Scene:
+        """The same scene, with ``source`` as its file text."""
+        return Scene(self.data, source)
+
+    def to_json(self) -> str:
+        """The resolved scene as canonical JSON (sorted keys)."""
+        return json.dumps(self.data, sort_keys=True)
+
+    @property
+    def name(self) -> str:
+        return str(self.data["name"])
+
+    def full_key(self, key: str, prefer: str = "") -> str:
+        """The full dotted key that ``key`` names (the short forms of :meth:`with_overrides`;
+        SceneError for an unknown or ambiguous key)."""
+        return _resolve_key(self.data, key, prefer)
+
+    def get(self, key: str) -> Any:
+        """Value at a dotted key, with the same short forms as :meth:`with_overrides`."""
+        node: Any = self.data
+        for part in _resolve_key(self.data, key).split("."):
+            node = node[int(part)] if isinstance(node, list) else node[part]
+        return node
+
+    def with_overrides(self, assignments: Iterable[str], prefer: str = "") -> Scene:
+        """A new scene with ``key=value`` assignments applied in order (the CLI's ``--set``).
+
+        ``key`` is a dotted path (``rods.catheter.nodes``) or any unambiguous suffix of one
+        (``nodes``, ``tip_load.mass``); a suffix that matches several keys resolves to the one
+        under ``prefer`` if exactly one is (the CLI prefers ``solver.<chosen integrator>``;
+        by default, the scene's own ``solver.<solver.integrator>``).
+        ``value`` is parsed as a TOML value (``80``, ``1e4``, ``"corde"``, ``[0, 1, 0]``) and
+        falls back to a plain string. Each assignment is validated before the next is
+        resolved, so a later key may refer to a term an earlier one added.
+        """
+        data = copy.deepcopy(self.data)
+        for assignment in assignments:
+            key, sep, text = assignment.partition("=")
+            key = key.strip()
+            if not sep or not key:
+                raise SceneError(f"--set {shown(assignment)}: expected key=value")
+            preferred = prefer or f"solver.{data['solver']['integrator']}"
+            full_key = _resolve_key(data, key, preferred)
+            data = _assign(data, full_key, _parse_value(text.strip()))
+            if full_key.endswith(".terms"):
+                _drop_unlisted_term_tables(data, full_key)
+            # Validate as we go so a later key can name a term an earlier one added; a scene
+            # that is only invalid half-way (e.g. switching two linked values) is checked
+            # again once every assignment is applied.
+            try:
+                data = resolve(data)
+            except SceneError:
+                pass
+        return Scene(resolve(data), self.source)
+
+    def with_values(self, values: Mapping[str, Any]) -> Scene:
+        """A new scene with already-typed values at dotted keys (used by studies)."""
+        data = copy.deepcopy(self.data)
+        for key, value in values.items():
+            data = _assign(data, _resolve_key(data, key), value)
+        return Scene(resolve(data), self.source)
+
+
+def resolve(raw: Mapping[str, Any]) -> dict[str, Any]:
+    """Validate a raw scene dict and fill every default (raises :class:`SceneError`)."""
+    from rodsim.core.terms import registered_terms
+    from rodsim.solvers import registered_integrators
+
+    terms = registered_terms()
+    for key in raw:
+        if key not in _TOP_KEYS:
+            raise SceneError(f"{shown(key, bare=True)}: unknown top-level key; known keys: "
+                             f"{', '.join(_TOP_KEYS)}")
+    name = check_scene_name(raw.get("name", "unnamed"))
+    description = raw.get("description", "")
+    if not isinstance(description, str):
+        raise SceneError(f"description = {shown(description)}: must be a string")
+    rods_raw = raw.get("rods")
+    if not isinstance(rods_raw, Mapping) or not rods_raw:
+        raise SceneError("rods: a scene needs at least one [rods.<name>] table")
+    for rod in rods_raw:
+        check_rod_name(rod, "rods")
+    rod_terms = sorted(n for n, t in terms.items() if t.scope == "rod")
+    tendon_terms = sorted(n for n, t in terms.items() if t.scope == "tendon")
+    rods = {rod: _resolve_with_terms(table, ROD_PARAMETERS, rod_terms, terms, f"rods.{rod}")
+            for rod, table in rods_raw.items()}
+    tendons_raw = raw.get("tendons", {})
+    if not isinstance(tendons_raw, Mapping):
+        raise SceneError("tendons: expected tables [tendons.<tendon rod name>]")
+    tendons = {}
+    for rod, table in tendons_raw.items():
+        prefix = f"tendons.{check_rod_name(rod, 'tendons')}"
+        tendons[rod] = _resolve_with_terms(table, TENDON_PARAMETERS, tendon_terms, terms,
+                                           prefix)
+        check_tendon(rod, tendons[rod], rods, prefix, tendons_raw.keys())
+    for rod, table in rods.items():
+        if not table["terms"]:
+            raise SceneError(f"rods.{rod}.terms = []: a rod needs at least one term; allowed: "
+                             "a list of distinct names from: " + ", ".join(rod_terms))
+        if table["radius"] >= table["length"]:
+            raise SceneError(f"rods.{rod}.radius = {table['radius']!r}: not below the length "
+                             f"{table['length']!r} m; allowed: radius < length (a slender rod)")
+        if table["clamp"] == "orientation" and rod not in tendons:
+            raise SceneError(f"rods.{rod}.clamp = 'orientation': it leaves the base position "
+                             "free, which only a tendon pulled at its base can have; allowed: "
+                             "'frame' or 'first_segment'")
+    integrators = registered_integrators()
+    solver_raw = raw.get("solver", {})
+    solver = validate_table(solver_raw, SOLVER_PARAMETERS, "solver",
+                            allow_extra=tuple(integrators))
+    for integrator_name, cls in integrators.items():
+        solver[integrator_name] = validate_table(
+            solver_raw.get(integrator_name, {}), cls.parameters, f"solver.{integrator_name}")
+    return {"name": name, "description": description, "rods": rods, "tendons": tendons,
+            "solver": solver}
+
+
+def _resolve_with_terms(table: Any, parameters: tuple[Parameter, ...], term_names: list[str],
+                        terms: Mapping[str, Any], prefix: str) -> dict[str, Any]:
+    """Validate a table that lists terms (a rod or a tendon) and its per-term sub-tables."""
+    declared = tuple(
+        p if p.name != "terms" else Parameter(p.name, p.kind, p.default, p.unit, p.doc,
+                                              choices=tuple(term_names))
+        for p in parameters)
+    resolved = validate_table(table, declared, prefix, allow_extra=tuple(term_names))
+    for term_name in term_names:
+        if term_name in resolved and term_name not in resolved["terms"]:
+            raise SceneError(f"{prefix}.{term_name}: parameters given for a term that "
+                             f"{prefix}.terms does not list")
+    for term_name in resolved["terms"]:
+        resolved[term_name] = validate_table(resolved.get(term_name, {}),
+                                             terms[term_name].parameters,
+                                             f"{prefix}.{term_name}")
+    return resolved
+
+
+def _leaf_keys(node: Any, prefix: str = "") -> list[str]:
+    if isinstance(node, Mapping):
+        out = []
+        for key, value in node.items():
+            out += _leaf_keys(value, f"{prefix}.{key}" if prefix else str(key))
+        return out
+    if isinstance(node, list) and node and all(isinstance(v, Mapping) for v in node):
+        out = []
+        for i, value in enumerate(node):
+            out += _leaf_keys(value, f"{prefix}.{i}")
+        return out
+    return [prefix]
+
+
+def _resolve_key(data: Mapping[str, Any], key: str, prefer: str = "") -> str:
+    leaves = _leaf_keys(data)
+    if key in leaves:
+        return key
+    matches = [leaf for leaf in leaves if leaf.endswith("." + key)]
+    preferred = [leaf for leaf in matches if prefer and leaf.startswith(prefer + ".")]
+    if len(matches) == 1:
+        return matches[0]
+    if len(preferred) == 1:
+        return preferred[0]
+    if not matches:
+        raise SceneError(f"--set {shown(key, bare=True)}: unknown key (see `rodsim run "
+                         "--help` for the keys)")
+    raise SceneError(f"--set {key}: ambiguous, could be " + ", ".join(matches))
+
+
+def _assign(data: dict[str, Any], key: str, value: Any) -> dict[str, Any]:
+    node: Any = data
+    parts = key.split(".")
+    for part in parts[:-1]:
+        node = node[int(part)] if isinstance(node, list) else node[part]
+    last = parts[-1]
+    if isinstance(node, list):
+        node[int(last)] = value
+    else:
+        node[last] = value
+    return data
+
+
+def _drop_unlisted_term_tables(data: dict[str, Any], terms_key: str) -> None:
+    """After ``--set <rod>.terms=[…]``: drop the parameter tables of the terms the new list
+    leaves out (they came from the scene or its defaults; keeping them would refuse the
+    removal as "parameters given for a term that terms does not list")."""
+    from rodsim.core.terms import registered_terms
+
+    node: Any = data
+    for part in terms_key.split(".")[:-1]:
+        node = node[part]
+    listed = node["terms"] if isinstance(node["terms"], list) else []
+    for term in registered_terms():
+        if term in node and term not in listed:
+            del node[term]
+
+
+def _parse_value(text: str) -> Any:
+    """A ``--set`` value: TOML if it parses as one, else the plain string."""
+    try:
+        return tomllib.loads(f"v = {text}")["v"]
+    except tomllib.TOMLDecodeError:
+        return text
+    except RecursionError:
+        raise SceneError(f"--set value {shown(text)}: nested too deeply") from None

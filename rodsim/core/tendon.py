@@ -1,0 +1,170 @@
+"""A tendon routed through a lumen of a catheter (paper §4): the shared configuration and the
+lumen geometry every coupling term uses.
+
+One ``[tendons.<rod>]`` table per tendon, keyed by the tendon rod's name, holds what the
+coupling terms share — which rod is the catheter, the lumen offset r_L, the lumen direction
+d_t = α d1 + β d2 (Eq. 32), the coupling variant — plus one sub-table per coupling term
+(``[tendons.<rod>.lumen]`` …). The lumen point at catheter node j is
+L_j = r_j + r_L d_t(q_j) (Eqs. 24, 32), using the quaternion of the segment that starts at
+node j (the last node uses the last segment).
+
+Coupling variants (docs/tendon.md):
+- ``paper``: as the paper writes it. The endpoint compliance force Eq. (28) acts on the tendon
+  only, and each catheter node receives the *average* of the lumen forces of the tendon
+  points registered to it (§4.1), applied at the node. Not momentum-conserving.
+- ``conserving``: every coupling is the gradient of a penalty energy, so each force has its
+  equal and opposite reaction (including the moment of a force applied at the lumen offset).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Collection
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from rodsim.core.rod.quaternion import DIRECTOR_FORMS, director, director_gradient
+from rodsim.core.rod.rod import Rod
+from rodsim.core.schema import Parameter, SceneError, shown
+
+__all__ = ["TENDON_PARAMETERS", "TENDON_TERMS", "Tendon", "check_tendon", "tendon_origin"]
+
+#: Coupling terms a tendon uses unless its table lists others.
+TENDON_TERMS = ["lumen", "endpoint_compliance", "endpoint_coupling", "tendon_actuation"]
+
+TENDON_PARAMETERS: tuple[Parameter, ...] = (
+    Parameter("catheter", "str", "catheter", "-", "name of the rod whose lumen holds the tendon"),
+    Parameter("offset", "float", 0.003, "m",
+              "lumen offset r_L from the catheter centerline (not given in the paper)",
+              0.0, 10.0, exclusive_minimum=True),
+    Parameter("direction", "vector", [1.0, 0.0], "-",
+              "(α, β) of the lumen direction d_t = α d1 + β d2 (Eq. 32); normalised; "
+              "(1, 0) is d1 = +y at rest", length=2),
+    Parameter("coupling", "str", "paper", "-",
+              "'paper' (Eq. 28 without reaction, averaged lumen reactions) or 'conserving' "
+              "(every penalty force has its reaction)", choices=("paper", "conserving")),
+    Parameter("terms", "list", TENDON_TERMS, "-", "coupling terms of this tendon"),
+)
+
+
+def _unit_direction(direction: list[float]) -> tuple[float, float]:
+    norm = math.hypot(*direction)
+    return direction[0] / norm, direction[1] / norm
+
+
+def check_tendon(name: str, table: dict[str, Any], rods: dict[str, Any], prefix: str,
+                 tendons: Collection[str] = ()) -> None:
+    """Cross-check a resolved tendon table against the scene's rods and the other tendons
+    (raises SceneError)."""
+    if name not in rods:
+        raise SceneError(f"{prefix}: no rod named {shown(name)} (a tendon table is keyed by its "
+                         f"rod's name); rods: {', '.join(rods)}")
+    catheter = table["catheter"]
+    if catheter not in rods:
+        raise SceneError(f"{prefix}.catheter = {shown(catheter)}: no such rod; rods: "
+                         + ", ".join(rods))
+    if catheter == name:
+        raise SceneError(f"{prefix}.catheter = {catheter!r}: a rod cannot be its own catheter")
+    if catheter in tendons:
+        raise SceneError(f"{prefix}.catheter = {catheter!r}: that rod is itself a tendon; "
+                         "allowed: a rod with no [tendons.<rod>] table")
+    tendon, host = rods[name], rods[catheter]
+    if tendon["length"] > host["length"] * (1 + 1e-9):
+        raise SceneError(f"rods.{name}.length = {tendon['length']!r}: the tendon is longer than "
+                         f"its catheter ({host['length']!r} m); allowed: equal lengths")
+    if tendon["length"] < host["length"] * (1 - 1e-9):
+        raise SceneError(f"rods.{name}.length = {tendon['length']!r}: the tendon must end at "
+                         f"the catheter's tip; allowed: the catheter's length "
+                         f"{host['length']!r} m")
+    if table["offset"] >= host["radius"]:
+        raise SceneError(f"{prefix}.offset = {table['offset']!r}: the lumen lies outside the "
+                         f"catheter; allowed: 0 < r_L < radius = {host['radius']!r} [m]")
+    if table["offset"] + tendon["radius"] >= host["radius"]:
+        raise SceneError(f"{prefix}.offset = {table['offset']!r} with rods.{name}.radius = "
+                         f"{tendon['radius']!r}: the tendon breaks through the catheter's wall; "
+                         f"allowed: r_L + tendon radius < catheter radius = {host['radius']!r} "
+                         "[m]")
+    if math.hypot(*table["direction"]) < 1e-12:
+        raise SceneError(f"{prefix}.direction = {table['direction']!r}: d_t has zero length; "
+                         "allowed: any non-zero (α, β)")
+    lumen = table.get("lumen") if "lumen" in table["terms"] else None
+    if lumen is not None and table["coupling"] == "conserving" and lumen["constrain"] == "d_t":
+        raise SceneError(f"{prefix}.lumen.constrain = 'd_t': the conserving coupling holds a "
+                         "tendon point on its lumen segment's line in both transverse "
+                         "directions; allowed: 'both', or coupling = 'paper' (Eq. 34)")
+    actuation = table.get("tendon_actuation") if "tendon_actuation" in table["terms"] else None
+    proximal = actuation is not None and actuation["point"] == "proximal"
+    if proximal and tendon["clamp"] != "orientation":
+        raise SceneError(f"rods.{name}.clamp = {tendon['clamp']!r}: a tendon pulled at its "
+                         "proximal end needs its base free to slide; allowed: 'orientation'")
+    if tendon["clamp"] == "orientation" and not proximal:
+        raise SceneError(f"rods.{name}.clamp = 'orientation': nothing holds the tendon's base "
+                         f"unless it is pulled there; allowed: 'frame', or "
+                         f"{prefix}.tendon_actuation.point = 'proximal'")
+    if tendon["clamp"] == "first_segment":
+        raise SceneError(f"rods.{name}.clamp = 'first_segment': a tendon's base is held by "
+                         "'frame' (distal actuation) or 'orientation' (proximal actuation)")
+    if tendon["origin"] != [0.0, 0.0, 0.0]:
+        raise SceneError(f"rods.{name}.origin = {tendon['origin']!r}: a tendon is placed in its "
+                         "lumen automatically; allowed: leave origin unset")
+
+
+def tendon_origin(catheter: Rod, table: dict[str, Any]) -> np.ndarray:
+    """Rest position of the tendon's base: the lumen point at the catheter's base (Eq. 32)."""
+    alpha, beta = _unit_direction(table["direction"])
+    frame = director(catheter.base_quaternion, 0), director(catheter.base_quaternion, 1)
+    return catheter.origin + table["offset"] * (
+        alpha * frame[0] + beta * frame[1])
+
+
+@dataclass(frozen=True)
+class Tendon:
+    """The pieces of one tendon table the coupling terms need."""
+
+    name: str
+    rod: Rod
+    catheter: Rod
+    offset: float
+    alpha: float
+    beta: float
+    coupling: str
+
+    @classmethod
+    def of(cls, name: str, rods: dict[str, Rod], table: dict[str, Any]) -> Tendon:
+        alpha, beta = _unit_direction(table["direction"])
+        return cls(name, rods[name], rods[table["catheter"]], table["offset"], alpha, beta,
+                   table["coupling"])
+
+    @property
+    def conserving(self) -> bool:
+        return self.coupling == "conserving"
+
+    def lumen_frame(self, q: np.ndarray) -> dict[str, np.ndarray]:
+        """d_t, d_n = d3 × d_t and their q-derivatives for quaternions q (n, 4).
+
+        Returns ``dt``, ``dn`` (n, 3), ``Dt``, ``Dn`` (n, 3, 4) and the constant second
+        derivatives ``Ht``, ``Hn`` (3, 4, 4) with ∂²d_t[m]/∂q² = Ht[m].
+        """
+        a, b = self.alpha, self.beta
+        d1, d2 = director(q, 0), director(q, 1)
+        g1, g2 = director_gradient(q, 0), director_gradient(q, 1)
+        return {
+            "dt": a * d1 + b * d2, "dn": a * d2 - b * d1,
+            "Dt": a * g1 + b * g2, "Dn": a * g2 - b * g1,
+            "Ht": 2.0 * (a * DIRECTOR_FORMS[0] + b * DIRECTOR_FORMS[1]),
+            "Hn": 2.0 * (a * DIRECTOR_FORMS[1] - b * DIRECTOR_FORMS[0]),
+        }
+
+    def lumen_segment(self, node: np.ndarray) -> np.ndarray:
+        """Segment whose quaternion orients the lumen point at catheter ``node``."""
+        return np.minimum(node, self.catheter.nodes - 2)
+
+    def lumen_points(self, full: np.ndarray) -> np.ndarray:
+        """L_j = r_j + r_L d_t(q_j) at every catheter node (Eqs. 24, 32), shape (N_C, 3)."""
+        layout = self.catheter.layout
+        r = full[layout.position_index]
+        q = full[layout.quaternion_index][self.lumen_segment(np.arange(self.catheter.nodes))]
+        frame = self.lumen_frame(q)
+        return r + self.offset * frame["dt"]

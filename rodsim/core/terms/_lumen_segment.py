@@ -1,0 +1,286 @@
+"""The lumen as a smooth curve through the node lumen points, for the momentum-conserving
+lumen penalty (paper Eqs. 24–27, 32–35, with DESIGN erratum 13).
+
+**Node frames.** The catheter's quaternions live on its segments (segment j, between nodes j
+and j + 1, has q_j). Node j takes the *bisector* frame of the two segments that meet there,
+
+    Q_j = normalise(q_{j−1} + q_j),   Q_0 = normalise(3 q_0 − q_1),
+    Q_{N−1} = normalise(3 q_{N−2} − q_{N−3})   (extrapolated to the end nodes),
+    L_j = r_j + r_L d_t(Q_j),   τ_j = d3(Q_j),   d_t = α d1 + β d2   (Eqs. 24, 32),
+
+the frame at s_j to second order; q_j alone (the paper's "parent element") is half a segment
+off. At the end nodes q_0 and q_{N−2} alone are half a segment off too: the lumen would
+leave the catheter's base tilted by half the first segment's turning, and a tendon pulled
+out of it would load the base with an O(l) moment error; the linear extrapolation of the
+quaternions to s = 0 and s = L is second order and, unlike the clamp's fixed frame, turns
+with the state, so the coupling stays free of net moment. Each director is a quadratic form
+of the quaternion, so d(Q) = d(s)/|s|² for the weighted sum s of the node's quaternions; for
+any director combination v(s) = d(s)/|s|² with forms B_m (d_m = qᵀB_m q):
+
+    ∂v_m/∂s = (2/|s|²)(B_m s − v_m s) =: V_m,
+    ∂²v_m/∂s² = (2/|s|²)(B_m − v_m I − s V_mᵀ − V_m sᵀ).
+
+Neighbouring quaternions stay on one hemisphere (q_{j−1}·q_j > 0): the state moves
+continuously from the rest state, where they are equal, and a sign change needs a 180° kink.
+
+**The lumen curve.** Between L_j and L_{j+1} the lumen is the cubic Hermite curve with the
+node tangents, L(σ) = h00 L_j + h01 L_{j+1} + l̄ (h10 τ_j + h11 τ_{j+1}) (l̄ the catheter's
+rest segment length), so the curve is tangent to τ_j at every node: its normal planes — and
+so the offset of a point from it — pass continuously from one segment to the next. Beyond
+the catheter's ends it goes on straight along τ_0 and τ_{N−1} (where a sliding tendon
+leaves the catheter; :func:`hermite`). A
+straight segment between the lumen points would push the tendon at right angles to the
+chord rather than to the tendon, which changes the tension by T φ² (½ − σ) at every point
+(φ the turning per segment): a first-order error when the points sit off the segments'
+middles, as a sliding tendon's do.
+
+**The point on its segment.** A tendon point p registered to lumen segment j is held at its
+distance from the curve: σ minimises |L(σ) − p|² (Newton from the chord projection; σ ∈ [0, 1]
+when p lies alongside the segment), Δ = L(σ) − p, and
+
+    E = ½ k |Δ|²,   k = K_L w   [N/m],
+
+K_L [N/m²] per unit tendon length and w [m] the point's share of the tendon's rest length.
+With f(x, σ) = ½ k |L(σ; x) − p|² and f_σ = 0 at σ, the gradient is f_x (the reaction on the
+lumen acts where the tendon touches it) and the Hessian ∇²E = f_xx − f_xσ f_xσᵀ / f_σσ.
+In y = (p, L_j, L_{j+1}, τ_j, τ_{j+1}) with weights w = (−1, h00, h01, l̄ h10, l̄ h11):
+f_y = k w ⊗ Δ, f_yy = k w wᵀ ⊗ I, f_yσ = k (w′ ⊗ Δ + w ⊗ L′), f_σσ = k (L′·L′ + Δ·L″).
+
+Each element couples (p, r_j, r_{j+1}, q_{j−1}, q_j, q_{j+1}), 21 coordinates; s_j and s_{j+1}
+are weighted sums of these three quaternion slots (:func:`node_weights`); at the ends a slot
+repeats a segment (the slots' contributions add up).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from rodsim.core.rod.quaternion import DIRECTOR_FORMS
+from rodsim.core.tendon import Tendon
+
+__all__ = ["PointOnLumenCurve", "lumen_nodes", "node_weights", "segment_of",
+           "segment_quaternions"]
+
+#: Local coordinates of one element: p, r_j, r_{j+1}, q_{j−1}, q_j, q_{j+1}.
+WIDTH = 21
+#: Newton iterations on σ stop below this step (σ is O(1); quadratic convergence puts σ at
+#: round-off then, and a smaller bound would stall on round-off).
+SIGMA_TOLERANCE = 1e-12
+SIGMA_ITERATIONS = 50
+
+
+def segment_quaternions(segment: np.ndarray, segments: int) -> np.ndarray:
+    """Segments (j − 1, j, j + 1) whose quaternions orient the ends of ``segment`` j,
+    clipped to the rod's ``segments``, shape (n, 3)."""
+    segment = np.asarray(segment)
+    return np.stack([np.maximum(segment - 1, 0), segment,
+                     np.minimum(segment + 1, segments - 1)], axis=1)
+
+
+def node_weights(segment: np.ndarray, segments: int) -> np.ndarray:
+    """Weights of the quaternion slots (q_{j−1}, q_j, q_{j+1}) in the sums s_j and s_{j+1} of
+    each element's two nodes, shape (n, 2, 3): (1, 1, 0) and (0, 1, 1) inside; at the base
+    node s_0 = 3 q_0 − q_1 (slots q_0, q_0, q_1), at the tip node 3 q_{N−2} − q_{N−3}."""
+    segment = np.asarray(segment)
+    weights = np.zeros((len(segment), 2, 3))
+    weights[:, 0] = (1.0, 1.0, 0.0)
+    weights[:, 1] = (0.0, 1.0, 1.0)
+    if segments > 1:
+        weights[segment == 0, 0] = (0.0, 3.0, -1.0)
+        weights[segment == segments - 1, 1] = (-1.0, 3.0, 0.0)
+    return weights
+
+
+class NodeDirector:
+    """v = d(s)/|s|² for unnormalised quaternion sums s (n, 4) and a director with forms
+    B (3, 4, 4); its gradient ``grad`` (n, 3, 4) and weighted Hessian (:meth:`hessian`)."""
+
+    def __init__(self, forms: np.ndarray, s: np.ndarray) -> None:
+        self.s = s
+        self.forms = forms
+        self.norm2 = np.sum(s * s, axis=1)
+        bs = np.einsum("mab,nb->nma", forms, s)
+        self.value = np.einsum("na,nma->nm", s, bs) / self.norm2[:, None]
+        self.grad = 2.0 / self.norm2[:, None, None] * (bs - self.value[:, :, None]
+                                                       * s[:, None, :])
+
+    def hessian(self, weights: np.ndarray) -> np.ndarray:
+        """Σ_m w_m ∂²v_m/∂s² for weights (n, 3), shape (n, 4, 4)."""
+        forms = np.einsum("nm,mab->nab", weights, self.forms)
+        wv = np.sum(weights * self.value, axis=1)
+        wg = np.einsum("nm,nma->na", weights, self.grad)
+        outer = self.s[:, :, None] * wg[:, None, :]
+        return 2.0 / self.norm2[:, None, None] * (
+            forms - wv[:, None, None] * np.eye(4) - outer - outer.transpose(0, 2, 1))
+
+
+def lumen_forms(tendon: Tendon) -> tuple[np.ndarray, np.ndarray]:
+    """Forms of d_t = α d1 + β d2 and of d3."""
+    return tendon.alpha * DIRECTOR_FORMS[0] + tendon.beta * DIRECTOR_FORMS[1], DIRECTOR_FORMS[2]
+
+
+def lumen_nodes(tendon: Tendon, full: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Node lumen points L_j and tangents τ_j with the bisector frames, (N_C, 3) each."""
+    catheter = tendon.catheter
+    q = full[catheter.layout.quaternion_index]
+    nodes = np.arange(catheter.nodes)
+    s = q[np.maximum(nodes - 1, 0)] + q[np.minimum(nodes, catheter.nodes - 2)]
+    if len(q) > 1:
+        s[0] = 3.0 * q[0] - q[1]
+        s[-1] = 3.0 * q[-1] - q[-2]
+    lumen, tangent = lumen_forms(tendon)
+    points = full[catheter.layout.position_index] + tendon.offset * NodeDirector(lumen, s).value
+    return points, NodeDirector(tangent, s).value
+
+
+def segment_of(lumen: np.ndarray, tangent: np.ndarray,
+               points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The lumen segment each point lies alongside, and the signed distance of every point
+    beyond the normal plane of the lumen curve at every interior node.
+
+    The curve's normal plane at L_k (through L_k, normal τ_k) is where the nearest point of
+    both segments that meet at L_k is L_k itself, so the offset hands over continuously
+    there. A point belongs to segment j when it lies beyond the planes of L_1 … L_j and
+    before those of L_{j+1} …; before the first plane it belongs to segment 0, beyond the
+    last to segment N − 2. Returns (segment (n,), beyond (n, N − 2)).
+    """
+    beyond = np.einsum("nkm,km->nk", points[:, None, :] - lumen[None, 1:-1, :], tangent[1:-1])
+    return np.sum(beyond >= 0.0, axis=1), beyond
+
+
+def hermite(sigma: np.ndarray, ends: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Weights of (L_j, L_{j+1}, τ_j, τ_{j+1}) in L(σ) (τ's without the factor l̄) and their
+    first and second σ-derivatives, shape (n, 4) each.
+
+    Hermite's (h00, h01, h10, h11) on the catheter; the lumen goes on straight along the end
+    tangent before the first node (σ < 0 on a segment with ``ends[:, 0]``: L_0 + σ l̄ τ_0) and
+    after the last (σ > 1 with ``ends[:, 1]``: L_N + (σ − 1) l̄ τ_N), where the tendon leaves
+    the catheter: the cubic, extrapolated, would curl away.
+    """
+    s2, s3 = sigma**2, sigma**3
+    one, zero = np.ones_like(sigma), np.zeros_like(sigma)
+    value = np.stack([2 * s3 - 3 * s2 + 1, -2 * s3 + 3 * s2, s3 - 2 * s2 + sigma, s3 - s2],
+                     axis=1)
+    first = np.stack([6 * s2 - 6 * sigma, -6 * s2 + 6 * sigma, 3 * s2 - 4 * sigma + 1,
+                      3 * s2 - 2 * sigma], axis=1)
+    second = np.stack([12 * sigma - 6 * one, -12 * sigma + 6 * one, 6 * sigma - 4 * one,
+                       6 * sigma - 2 * one], axis=1)
+    before = (ends[:, 0] & (sigma < 0.0))[:, None]
+    after = (ends[:, 1] & (sigma > 1.0))[:, None]
+    value = np.where(before, np.stack([one, zero, sigma, zero], axis=1), value)
+    value = np.where(after, np.stack([zero, one, zero, sigma - 1.0], axis=1), value)
+    first = np.where(before, np.stack([zero, zero, one, zero], axis=1), first)
+    first = np.where(after, np.stack([zero, zero, zero, one], axis=1), first)
+    second = np.where(before | after, 0.0, second)
+    return value, first, second
+
+
+class PointOnLumenCurve:
+    """E = ½ k |Δ|² of tendon points at their distance from the lumen curve of their
+    segment, with gradient and Hessian in the local coordinates
+    (p, r_j, r_{j+1}, q_{j−1}, q_j, q_{j+1}) (module docstring)."""
+
+    def __init__(self, tendon: Tendon, local: np.ndarray, stiffness: np.ndarray,
+                 segment_length: float, ends: np.ndarray, weights: np.ndarray) -> None:
+        self.offset = rl = tendon.offset
+        self.ends = ends
+        self.node_weights = weights
+        self.stiffness = stiffness
+        self.length = segment_length
+        q = local[:, 9:21].reshape(-1, 3, 4)
+        sums = np.einsum("nik,nka->nia", weights, q)
+        lumen, tangent = lumen_forms(tendon)
+        self.directors = [NodeDirector(forms, sums[:, i]) for i in (0, 1)
+                          for forms in (lumen, tangent)]  # u_j, τ_j, u_{j+1}, τ_{j+1}
+        start = local[:, 3:6] + rl * self.directors[0].value
+        end = local[:, 6:9] + rl * self.directors[2].value
+        # The curve's control vectors, in the order of the Hermite weights.
+        self.control = np.stack([start, end, self.directors[1].value, self.directors[3].value],
+                                axis=1)
+        self.p = local[:, 0:3]
+        self.sigma = self._project(end - start)
+        self.weights, self.slopes, self.curvatures = self._weights(self.sigma)
+        self.delta = np.einsum("nb,nbm->nm", self.weights[:, 1:], self.control) - self.p
+
+    def _weights(self, sigma: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """w, w′, w″ of y = (p, L_j, L_{j+1}, τ_j, τ_{j+1}): (−1, h00, h01, l̄ h10, l̄ h11)."""
+        scale = np.array([1.0, 1.0, self.length, self.length])
+        value, first, second = hermite(sigma, self.ends)
+        n = len(sigma)
+        return (np.concatenate([-np.ones((n, 1)), value * scale], axis=1),
+                np.concatenate([np.zeros((n, 1)), first * scale], axis=1),
+                np.concatenate([np.zeros((n, 1)), second * scale], axis=1))
+
+    def _project(self, chord: np.ndarray) -> np.ndarray:
+        """σ with (L(σ) − p)·L′(σ) = 0, by Newton from the projection on the chord."""
+        sigma = (np.sum((self.p - self.control[:, 0]) * chord, axis=1)
+                 / np.sum(chord * chord, axis=1))
+        for _ in range(SIGMA_ITERATIONS):
+            w, w1, w2 = self._weights(sigma)
+            delta = np.einsum("nb,nbm->nm", w[:, 1:], self.control) - self.p
+            slope = np.einsum("nb,nbm->nm", w1[:, 1:], self.control)
+            bend = np.einsum("nb,nbm->nm", w2[:, 1:], self.control)
+            step = (np.sum(delta * slope, axis=1)
+                    / (np.sum(slope * slope, axis=1) + np.sum(delta * bend, axis=1)))
+            sigma = sigma - step
+            if np.max(np.abs(step), initial=0.0) < SIGMA_TOLERANCE:
+                break
+        return sigma
+
+    def energy(self) -> float:
+        return float(0.5 * np.sum(self.stiffness * np.sum(self.delta**2, axis=1)))
+
+    def _chain(self) -> np.ndarray:
+        """∂y/∂(local coordinates), y = (p, L_j, L_{j+1}, τ_j, τ_{j+1}), shape (n, 15, 21)."""
+        n, rl = len(self.sigma), self.offset
+        chain = np.zeros((n, 15, WIDTH))
+        eye = np.eye(3)
+        for block in range(3):
+            chain[:, 3 * block:3 * block + 3, 3 * block:3 * block + 3] = eye
+        u_start, t_start, u_end, t_end = self.directors
+        for rows, director, factor, node in ((slice(3, 6), u_start, rl, 0),
+                                             (slice(6, 9), u_end, rl, 1),
+                                             (slice(9, 12), t_start, 1.0, 0),
+                                             (slice(12, 15), t_end, 1.0, 1)):
+            for k in range(3):
+                chain[:, rows, 9 + 4 * k:13 + 4 * k] = (
+                    factor * self.node_weights[:, node, k, None, None] * director.grad)
+        return chain
+
+    def _y_gradient(self) -> np.ndarray:
+        """f_y = k w ⊗ Δ, shape (n, 15)."""
+        k = self.stiffness
+        return (k[:, None, None] * self.weights[:, :, None] * self.delta[:, None, :]).reshape(
+            len(k), 15)
+
+    def gradient(self) -> np.ndarray:
+        """∂E_i/∂(local coordinates), shape (n, 21)."""
+        return np.einsum("nya,ny->na", self._chain(), self._y_gradient())
+
+    def hessian(self) -> np.ndarray:
+        """∂²E_i/∂(local coordinates)², shape (n, 21, 21)."""
+        k = self.stiffness
+        n = len(k)
+        w, w1, w2 = self.weights, self.slopes, self.curvatures
+        slope = np.einsum("nb,nbm->nm", w1[:, 1:], self.control)
+        bend = np.einsum("nb,nbm->nm", w2[:, 1:], self.control)
+        f_yy = (k[:, None, None, None, None] * w[:, :, None, None, None] * w[:, None, None, :, None]
+                * np.eye(3)[None, None, :, None, :]).reshape(n, 15, 15)
+        f_ys = (k[:, None, None] * (w1[:, :, None] * self.delta[:, None, :]
+                                    + w[:, :, None] * slope[:, None, :])).reshape(n, 15)
+        f_ss = k * (np.sum(slope * slope, axis=1) + np.sum(self.delta * bend, axis=1))
+        h_y = f_yy - f_ys[:, :, None] * f_ys[:, None, :] / f_ss[:, None, None]
+        chain = self._chain()
+        hess = np.einsum("nya,nyz,nzb->nab", chain, h_y, chain)
+        g_y = self._y_gradient()
+        rl = self.offset
+        u_start, t_start, u_end, t_end = self.directors
+        for node, u, t, g_u, g_t in ((0, u_start, t_start, g_y[:, 3:6], g_y[:, 9:12]),
+                                     (1, u_end, t_end, g_y[:, 6:9], g_y[:, 12:15])):
+            block = rl * u.hessian(g_u) + t.hessian(g_t)
+            w = self.node_weights[:, node]
+            for i in range(3):
+                for j in range(3):
+                    hess[:, 9 + 4 * i:13 + 4 * i, 9 + 4 * j:13 + 4 * j] += (
+                        (w[:, i] * w[:, j])[:, None, None] * block)
+        return hess

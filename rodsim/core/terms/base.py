@@ -1,0 +1,161 @@
+"""The Term contract and the registry that collects every term.
+
+An energy term is one file in :mod:`rodsim.core.terms` defining one :class:`Term` subclass with a
+unique ``name``. Defining the class registers it; a scene names the terms it uses and only
+those are built, so a term a scene does not list costs nothing.
+
+A term is a sum over *elements* (segments, interior nodes, tendon points …). Each element
+touches a fixed, small set of global coordinates, ``dofs[e]``; the term returns, per
+element, the generalised force on those coordinates and its derivative:
+
+- ``element_forces(x)``    -> (n_elem, k):     F_e = −∂E_e/∂x_e
+- ``element_jacobians(x)`` -> (n_elem, k, k):  ∂F_e/∂x_e (analytic, never finite differences)
+- ``energy(x)``            -> float:           Σ E_e (``None`` for non-conservative terms)
+
+These numpy methods are the readable reference. Each term also has a compiled kernel, one
+file in :mod:`rodsim.core.kernels` named after the term (or ``kernel``), which computes the same
+element forces and Jacobians with numba and accumulates them straight into the model's force
+vector and CSC Jacobian data; ``kernel_arguments`` hands it the term's constants. The model
+picks the path (``solver.kernels``); the contract test checks both against each other and
+against finite differences.
+
+A term is immutable once built: a dynamic term's registration (a tendon point's parent) is
+changed by building a new term (:meth:`Term.registered`), and a penalty's continuation scale
+and a load's fraction are applied by the model as a factor on the term's whole output.
+
+The model scatters these into the global force vector and sparse Jacobian; the sparsity
+pattern is the union of the element blocks, declared once by ``dofs``. The contract test
+(tests/test_term_contract.py) checks every registered term against finite differences with
+no per-term test code: force = −∂E/∂x, Jacobian = ∂F/∂x, symmetry when conservative.
+"""
+
+from __future__ import annotations
+
+from abc import ABC, abstractmethod
+from typing import TYPE_CHECKING, Any, ClassVar
+
+import numpy as np
+
+from rodsim.core.schema import Parameter
+
+if TYPE_CHECKING:
+    from rodsim.core.rod.rod import Rod
+    from rodsim.core.tendon import Tendon
+
+__all__ = ["Term", "RodTerm", "TendonTerm", "REGISTRY", "registered_terms"]
+
+#: Every defined term class, by name. Filled by ``Term.__init_subclass__``.
+REGISTRY: dict[str, type[Term]] = {}
+
+
+class Term(ABC):
+    """Contract of an energy (or penalty-force) term; see the module docstring.
+
+    Class attributes every subclass sets
+    ------------------------------------
+    name
+        Registry key, used in scenes.
+    equation
+        The paper's equation(s) the term implements, e.g. ``"Eq. (9)"``.
+    parameters
+        The term's own scene values (validated, with units and defaults).
+    conservative
+        ``True`` when the force is −∇ of ``energy``; the Jacobian is then symmetric.
+    is_load
+        ``True`` for external loads; the static solver scales them during load continuation.
+    has_jacobian
+        ``False`` for state-independent forces (no Jacobian entries, no pattern).
+    dynamic
+        ``True`` when an element's coordinates depend on a discrete state of the term (a
+        tendon point's parent catheter node), which :meth:`update_registration` updates
+        between solver steps; ``dofs`` changes with it.
+
+    ``conservative``, ``is_load`` and ``has_jacobian`` may be overridden per instance
+    (a term whose behaviour depends on its parameters).
+    """
+
+    name: ClassVar[str]
+    equation: ClassVar[str]
+    scope: ClassVar[str]
+    parameters: ClassVar[tuple[Parameter, ...]] = ()
+    conservative: ClassVar[bool] = True
+    is_load: ClassVar[bool] = False
+    has_jacobian: ClassVar[bool] = True
+    dynamic: ClassVar[bool] = False
+    #: True for a constraint penalty whose constant a solver may raise gradually; the term
+    #: must be linear in its constant, so that scaling its output scales the constant.
+    penalty: ClassVar[bool] = False
+    #: Module of :mod:`rodsim.core.kernels` holding the compiled kernel (default: ``name``).
+    kernel: ClassVar[str] = ""
+
+    #: Global coordinate indices of each element, shape (n_elem, k).
+    dofs: np.ndarray
+
+    def __init_subclass__(cls, **kwargs: Any) -> None:
+        super().__init_subclass__(**kwargs)
+        if "name" in cls.__dict__:
+            if cls.name in REGISTRY:
+                raise TypeError(f"term name {cls.name!r} registered twice")
+            REGISTRY[cls.name] = cls
+
+    @abstractmethod
+    def element_forces(self, x: np.ndarray) -> np.ndarray:
+        """Generalised force on each element's coordinates, shape (n_elem, k)."""
+
+    def element_jacobians(self, x: np.ndarray) -> np.ndarray:
+        """∂(element force)/∂(element coordinates), shape (n_elem, k, k)."""
+        raise NotImplementedError(f"term {self.name!r} declares no Jacobian")
+
+    def energy(self, x: np.ndarray) -> float | None:
+        """Potential energy [J]; ``None`` when the term is not conservative."""
+        return None
+
+    def kernel_arguments(self) -> tuple:
+        """The constants the compiled kernel takes after the state (arrays and floats)."""
+        raise NotImplementedError(f"term {self.name!r} has no compiled kernel")
+
+    def registration(self, x: np.ndarray, exact: bool = False) -> np.ndarray | None:
+        """A dynamic term's registration rule applied to the full state ``x``: the new
+        discrete state if it differs from this term's, else ``None``.
+
+        ``exact`` drops any hysteresis the term uses between solver steps: at equilibrium
+        the state must be the one its own registration rule gives, so that the equilibrium
+        does not depend on the path a solver took to it."""
+        return None
+
+    def registered(self, state: np.ndarray) -> Term:
+        """A copy of this dynamic term with the discrete state ``state`` (and its ``dofs``)."""
+        raise NotImplementedError(f"term {self.name!r} has no registration")
+
+    def registration_state(self) -> np.ndarray | None:
+        """A dynamic term's current discrete state (what :meth:`registered` takes), or
+        ``None`` for a term without registration."""
+        return None
+
+
+class RodTerm(Term):
+    """A term acting on one rod, configured by ``[rods.<rod>.<term name>]``."""
+
+    scope: ClassVar[str] = "rod"
+
+    def __init__(self, rod: Rod, params: dict[str, Any]) -> None:
+        self.rod = rod
+        self.params = params
+
+
+class TendonTerm(Term):
+    """A term coupling a tendon rod to its catheter, configured by ``[tendons.<rod>]`` and
+    ``[tendons.<rod>.<term name>]`` (see :mod:`rodsim.core.tendon`)."""
+
+    scope: ClassVar[str] = "tendon"
+
+    def __init__(self, tendon: Tendon, params: dict[str, Any]) -> None:
+        self.tendon = tendon
+        self.params = params
+
+
+def registered_terms() -> dict[str, type[Term]]:
+    """Every registered term class (imports :mod:`rodsim.core.terms` so all files are loaded)."""
+    import rodsim.core.terms  # noqa: F401  (importing the package registers every term file)
+
+    return dict(REGISTRY)

@@ -1,0 +1,190 @@
+"""Bending and twisting energy, paper Eqs. (7)–(8), with the q′ correction (DESIGN erratum 1).
+
+    V_b = ½ ∫ Σ_k K_kk (u_k − û_k)² ds,   u_k = (2 / |q|²) (B_k q) · q′        (Eqs. 3, 7)
+
+Discretely, at each interior node i between the quaternions a = q_{i−1} and b = q_i (a
+distance l̄ = l apart),
+
+    u_k,i = (2 / l̄) (B_k a) · b / (|a| |b|),   energy ½ l̄ Σ_k K_kk u_k,i².
+
+The normalisation is Eq. (3)'s 2/|q|², kept in the discrete form (the design brief's
+erratum 1 drops it). It makes the strains independent of the quaternions' norms, which
+only the centerline penalty Eq. (9) holds at 1. Without it, bending pulls |q| below 1 by
+O(EI κ² / K_P) and so softens the rod: on Table 1 (100 g, K_P = 1e4) that moved the tip by
+4.7e-5 L and made the penalty model differ from IDA's exactly-unit quaternions by as much
+(docs/model.md). The rest curvature û is zero (straight rods).
+
+With the ``frame`` (or ``orientation``) clamp a fixed frame q_c sits at s = 0, half a
+segment before q_0, and adds one element (q_c, q_0) with l̄ = l / 2; this keeps the
+discretisation second order in N
+(docs/model.md, "Clamp"). The ``first_segment`` clamp fixes q_0 instead and adds no element.
+
+Stiffness (Eq. 8, the paper's corrected tensor, default):
+    K_11 = K_22 = E π r⁴ / 4,   K_33 = G π r⁴ / 2
+``stiffness = "corde"`` uses the tensor printed in CORDE [33], which the paper's Fig. 9 shows
+to overestimate the stiffness:  K_11 = K_22 = E π r² / 4,  K_33 = G π r² / 2  (an r² where
+r⁴ belongs; dimensionally wrong, kept only to reproduce Fig. 9).
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any, NamedTuple
+
+import numpy as np
+
+from rodsim.core.rod.quaternion import B, form_combination
+from rodsim.core.rod.rod import Rod
+from rodsim.core.schema import Parameter
+from rodsim.core.terms.base import RodTerm
+
+#: B as flattened matrices: (b @ _B_ROWS)[n, 4k + a] = Σ_c B[k, c, a] b[n, c] (B_kᵀ b) and
+#: (a @ _B_COLUMNS)[n, 4k + c] = Σ_d B[k, c, d] a[n, d] (B_k a).
+_B_ROWS = np.ascontiguousarray(B.transpose(1, 0, 2).reshape(4, 12))
+_B_COLUMNS = np.ascontiguousarray(B.reshape(12, 4).T)
+
+
+def stiffness_tensor(rod: Rod, model: str, twist_override: float = 0.0) -> np.ndarray:
+    """Diagonal (K_11, K_22, K_33) of Eq. (8) [N·m²], or of CORDE's tensor for Fig. 9;
+    ``twist_override`` > 0 replaces K_33."""
+    if model == "corrected":  # E I and G J, Eq. (8)
+        bend, twist = rod.bending_stiffness, rod.shear_modulus * rod.polar_moment
+    else:  # CORDE's printed tensor: r² where r⁴ belongs
+        area = math.pi * rod.radius**2
+        bend, twist = rod.youngs_modulus * area / 4.0, rod.shear_modulus * area / 2.0
+    return np.array([bend, bend, twist_override if twist_override > 0.0 else twist])
+
+
+class BendKinematics(NamedTuple):
+    """Strains of the bending elements and the pieces of their derivatives.
+
+    ``a``, ``b``: the element's two quaternions (n, 4); ``na2``, ``nb2``: |a|², |b|²;
+    ``scale``: c s = (2/l̄) / (|a||b|); ``ga``, ``gb``: ∂f_k/∂a = B_kᵀ b and ∂f_k/∂b = B_k a
+    (n, 3, 4); ``f``: f_k = (B_k a)·b (n, 3); ``u``: strains u_k = c s f_k (n, 3) [1/m];
+    ``ha``, ``hb``: ∇u_k / (c s) with respect to a and b (n, 3, 4).
+    """
+
+    a: np.ndarray
+    b: np.ndarray
+    na2: np.ndarray
+    nb2: np.ndarray
+    scale: np.ndarray
+    ga: np.ndarray
+    gb: np.ndarray
+    f: np.ndarray
+    u: np.ndarray
+    ha: np.ndarray
+    hb: np.ndarray
+
+
+class BendTwist(RodTerm):
+    """Bending about d1, d2 and twisting about d3, Eqs. (7)–(8)."""
+
+    name = "bend_twist"
+    equation = "Eqs. (3), (7), (8)"
+    parameters = (
+        Parameter("stiffness", "str", "corrected", "-",
+                  "stiffness tensor: 'corrected' (Eq. 8) or 'corde' (Fig. 9 only)",
+                  choices=("corrected", "corde")),
+        Parameter("twist_stiffness", "float", 0.0, "N*m^2",
+                  "K_33 override; 0 keeps G J of Eq. (8). For a round tendon, whose twist "
+                  "couples to nothing, a larger value removes a near-null mode", 0.0, 1e6),
+    )
+
+    def __init__(self, rod: Rod, params: dict[str, Any]) -> None:
+        super().__init__(rod, params)
+        quat = rod.layout.quaternion_index
+        seg = rod.geometry.segment_length
+        self._stiffness = stiffness_tensor(rod, params["stiffness"], params["twist_stiffness"])
+        self.dofs = np.concatenate([quat[:-1], quat[1:]], axis=1)  # (q_{i-1}, q_i)
+
+        self._clamped = rod.has_base_frame
+        if self._clamped:
+            self._frame = rod.base_quaternion
+            # The clamp element (q_c, q_0) has only q_0 free: pad it to 8 coordinates by
+            # repeating q_0's indices in the first half and zeroing that half's entries.
+            self.dofs = np.concatenate([np.tile(quat[0], 2)[None, :], self.dofs], axis=0)
+            self._dual_lengths = np.r_[0.5 * seg, np.full(len(quat) - 1, seg)]
+        else:
+            self._dual_lengths = np.full(len(quat) - 1, seg)
+
+    def kernel_arguments(self) -> tuple:
+        frame = self._frame if self._clamped else np.zeros(4)  # unused when not clamped
+        return (self.dofs, self._dual_lengths, self._stiffness, bool(self._clamped), frame)
+
+    def _pairs(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        q = x[self.rod.layout.quaternion_index]
+        if self._clamped:
+            return np.concatenate([self._frame[None, :], q[:-1]]), q
+        return q[:-1], q[1:]
+
+    def _kinematics(self, x: np.ndarray) -> BendKinematics:
+        """Strains and the pieces of their derivatives (see :class:`BendKinematics`)."""
+        a, b = self._pairs(x)
+        na2, nb2 = np.sum(a * a, axis=1), np.sum(b * b, axis=1)
+        scale = 2.0 / (self._dual_lengths * np.sqrt(na2 * nb2))  # c s = (2/l̄) / (|a||b|)
+        ga = (b @ _B_ROWS).reshape(-1, 3, 4)  # ∂f_k/∂a = B_kᵀ b
+        gb = (a @ _B_COLUMNS).reshape(-1, 3, 4)  # ∂f_k/∂b = B_k a
+        f = np.einsum("nka,na->nk", ga, a)  # f_k = (B_k a) · b
+        u = scale[:, None] * f
+        # ∇u_k = c s (g − f q / |q|²) for each of a and b
+        ha = ga - (f / na2[:, None])[:, :, None] * a[:, None, :]
+        hb = gb - (f / nb2[:, None])[:, :, None] * b[:, None, :]
+        return BendKinematics(a, b, na2, nb2, scale, ga, gb, f, u, ha, hb)
+
+    def strains(self, x: np.ndarray) -> np.ndarray:
+        """Material strains u_k at every element, shape (n_elem, 3) [1/m] (Eq. 3)."""
+        return self._kinematics(x).u
+
+    def energy(self, x: np.ndarray) -> float:
+        u = self.strains(x)
+        return float(0.5 * np.sum(self._dual_lengths[:, None] * self._stiffness * u**2))
+
+    def element_forces(self, x: np.ndarray) -> np.ndarray:
+        kin = self._kinematics(x)
+        scale, u, ha, hb = kin.scale, kin.u, kin.ha, kin.hb
+        # ∂E/∂q = l̄ Σ_k K_k u_k ∇u_k,  ∇u_k = c s h_k
+        weight = (self._dual_lengths * scale)[:, None] * self._stiffness * u
+        grad_a = np.einsum("nk,nka->na", weight, ha)
+        grad_b = np.einsum("nk,nka->na", weight, hb)
+        if self._clamped:
+            grad_a[0] = 0.0
+        return -np.concatenate([grad_a, grad_b], axis=1)
+
+    def element_jacobians(self, x: np.ndarray) -> np.ndarray:
+        a, b, na2, nb2, scale, ga, gb, f, u, ha, hb = self._kinematics(x)
+        lbar = self._dual_lengths
+        # Gauss–Newton part: l̄ Σ_k K_k ∇u_k ∇u_kᵀ
+        gn = (lbar * scale**2)[:, None] * self._stiffness
+        grad = np.concatenate([ha, hb], axis=2)  # (n, 3, 8), ∇u_k / (c s)
+        hess = np.matmul((grad * gn[:, :, None]).transpose(0, 2, 1), grad)
+        # Curvature part: l̄ Σ_k K_k u_k ∇²u_k, with (per k, in units of c s)
+        #   ∇²_aa u = −[g_a aᵀ + a g_aᵀ + f I − 3 f a aᵀ/|a|²] / |a|²
+        #   ∇²_ab u = B_kᵀ − g_a bᵀ/|b|² − a g_bᵀ/|a|² + f a bᵀ/(|a|²|b|²)
+        w = (lbar * scale)[:, None] * self._stiffness * u  # l̄ K_k u_k c s
+        eye = np.eye(4)
+
+        def same(q: np.ndarray, g: np.ndarray, n2: np.ndarray) -> np.ndarray:
+            sym = np.matmul(w[:, None, :], g)[:, 0, :, None] * q[:, None, :]
+            fw = np.sum(w * f, axis=1)
+            qq = q[:, :, None] * q[:, None, :]
+            return -(sym + sym.transpose(0, 2, 1) + fw[:, None, None] * eye
+                     - 3.0 * (fw / n2)[:, None, None] * qq) / n2[:, None, None]
+
+        h_aa = same(a, ga, na2)
+        h_bb = same(b, gb, nb2)
+        fw = np.sum(w * f, axis=1)
+        wga = np.matmul(w[:, None, :], ga)[:, 0, :]  # Σ_k w_k ∂f_k/∂a
+        wgb = np.matmul(w[:, None, :], gb)[:, 0, :]
+        h_ab = (form_combination(w, B).transpose(0, 2, 1)
+                - wga[:, :, None] * b[:, None, :] / nb2[:, None, None]
+                - a[:, :, None] * wgb[:, None, :] / na2[:, None, None]
+                + (fw / (na2 * nb2))[:, None, None] * a[:, :, None] * b[:, None, :])
+        hess[:, :4, :4] += h_aa
+        hess[:, 4:, 4:] += h_bb
+        hess[:, :4, 4:] += h_ab
+        hess[:, 4:, :4] += h_ab.transpose(0, 2, 1)
+        if self._clamped:
+            hess[0, :4, :] = 0.0
+            hess[0, :, :4] = 0.0
+        return -hess

@@ -1,0 +1,83 @@
+"""Endpoint compliance, paper Eq. (28): the tendon's tip tethered to the lumen's end.
+
+    F_E = K_E (L_N − t),   L_N = r_N + r_L d_t(q_last)   (a zero-length spring, K_E [N/m])
+
+``coupling = "paper"``: F_E acts on the tendon tip only, as Eq. (28) is written — the
+catheter feels no reaction, so the term removes force from the system, which is why K_E
+works as the paper's fitting knob (Fig. 18, docs/tendon.md). ``coupling = "conserving"``:
+the gradient of ½ K_E |L_N − t|², with the reaction on the catheter's last node and, through
+the lumen offset, on its last quaternion.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from rodsim.core.schema import Parameter
+from rodsim.core.tendon import Tendon
+from rodsim.core.terms.base import TendonTerm
+
+
+class EndpointCompliance(TendonTerm):
+    """Spring from the tendon tip to the lumen's end point, Eq. (28)."""
+
+    name = "endpoint_compliance"
+    equation = "Eq. (28)"
+    parameters = (
+        Parameter("K_E", "float", 1500.0, "N/m", "endpoint compliance penalty constant",
+                  0.0, 1e15, exclusive_minimum=True),
+    )
+
+    def __init__(self, tendon: Tendon, params: dict[str, Any]) -> None:
+        super().__init__(tendon, params)
+        self.conservative = tendon.conserving
+        self._stiffness = params["K_E"]
+        catheter = tendon.catheter.layout
+        self._tip = tendon.rod.layout.position_index[-1]
+        self._end = catheter.position_index[-1]
+        self._quaternion = catheter.quaternion_index[-1]
+        self.dofs = np.concatenate([self._tip, self._end, self._quaternion])[None, :]
+
+    def kernel_arguments(self) -> tuple:
+        tendon = self.tendon
+        return (self.dofs, float(tendon.alpha), float(tendon.beta), float(tendon.offset),
+                float(self._stiffness), self.conservative)
+
+    def _offset(self, x: np.ndarray) -> tuple[np.ndarray, dict[str, np.ndarray]]:
+        frame = self.tendon.lumen_frame(x[self._quaternion][None, :])
+        lumen_end = x[self._end] + self.tendon.offset * frame["dt"][0]
+        return lumen_end - x[self._tip], frame
+
+    def energy(self, x: np.ndarray) -> float | None:
+        if not self.conservative:
+            return None
+        delta, _ = self._offset(x)
+        return float(0.5 * self._stiffness * delta @ delta)
+
+    def element_forces(self, x: np.ndarray) -> np.ndarray:
+        delta, frame = self._offset(x)
+        k, rl = self._stiffness, self.tendon.offset
+        force = np.zeros(10)
+        force[0:3] = k * delta
+        if self.conservative:
+            force[3:6] = -k * delta
+            force[6:10] = -k * rl * frame["Dt"][0].T @ delta
+        return force[None, :]
+
+    def element_jacobians(self, x: np.ndarray) -> np.ndarray:
+        delta, frame = self._offset(x)
+        k, rl = self._stiffness, self.tendon.offset
+        d_t = frame["Dt"][0]  # ∂d_t/∂q (3 × 4)
+        grad = np.zeros((3, 10))  # ∂Δ/∂(t, r_N, q)
+        grad[:, 0:3] = -np.eye(3)
+        grad[:, 3:6] = np.eye(3)
+        grad[:, 6:10] = rl * d_t
+        jac = np.zeros((10, 10))
+        jac[0:3] = k * grad  # F_t = K_E Δ
+        if self.conservative:
+            # F = −K_E (∂Δ/∂x)ᵀ Δ;  J = −K_E [(∂Δ/∂x)ᵀ ∂Δ/∂x + Σ_m Δ_m ∂²Δ_m/∂x²]
+            jac = -k * grad.T @ grad
+            jac[6:10, 6:10] -= k * rl * np.einsum("m,mab->ab", delta, frame["Ht"])
+        return jac[None, :, :]

@@ -1,0 +1,58 @@
+"""Endpoint coupling, paper Eq. (29): the tendon's tip held r_L from the catheter's tip.
+
+    F_C = K_C (|t − r_N| − r_L) (t − r_N) / |t − r_N|      (K_C [N/m])
+
+a spring of rest length r_L between the two tips, applied to both in opposite directions
+(the paper's wording), i.e. the gradient of ½ K_C (|t − r_N| − r_L)² in both coupling
+variants.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from rodsim.core.schema import Parameter
+from rodsim.core.tendon import Tendon
+from rodsim.core.terms._segment import Segments, two_node_block
+from rodsim.core.terms.base import TendonTerm
+
+
+class EndpointCoupling(TendonTerm):
+    """Spring of rest length r_L between the catheter's and the tendon's tips, Eq. (29)."""
+
+    name = "endpoint_coupling"
+    equation = "Eq. (29)"
+    parameters = (
+        Parameter("K_C", "float", 1e5, "N/m", "endpoint coupling penalty constant", 0.0, 1e15,
+                  exclusive_minimum=True),
+    )
+
+    def __init__(self, tendon: Tendon, params: dict[str, Any]) -> None:
+        super().__init__(tendon, params)
+        self._stiffness = params["K_C"]
+        ends = [tendon.catheter.layout.position_index[-1], tendon.rod.layout.position_index[-1]]
+        self.dofs = np.concatenate(ends)[None, :]  # (r_N, t): edge e = t − r_N
+
+    def kernel_arguments(self) -> tuple:
+        return (self.dofs, float(self._stiffness), float(self.tendon.offset))
+
+    def _edge(self, x: np.ndarray) -> Segments:
+        return Segments.of(x[self.dofs[0]].reshape(2, 3))
+
+    def energy(self, x: np.ndarray) -> float:
+        seg = self._edge(x)
+        return float(0.5 * self._stiffness * (seg.norm[0] - self.tendon.offset) ** 2)
+
+    def element_forces(self, x: np.ndarray) -> np.ndarray:
+        seg = self._edge(x)
+        pull = self._stiffness * (seg.norm - self.tendon.offset)[:, None] * seg.tangent
+        return np.concatenate([pull, -pull], axis=1)
+
+    def element_jacobians(self, x: np.ndarray) -> np.ndarray:
+        seg = self._edge(x)
+        t = seg.tangent
+        tt = t[:, :, None] * t[:, None, :]
+        stretch = ((seg.norm - self.tendon.offset) / seg.norm)[:, None, None]
+        return two_node_block(self._stiffness * (tt + stretch * (np.eye(3) - tt)))

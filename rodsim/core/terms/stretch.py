@@ -1,0 +1,55 @@
+"""Stretch energy, paper Eq. (6), integrated over rest arc length s (DESIGN erratum 3).
+
+    V_s = ½ ∫ K_s (|r′| − 1)² ds  ≈  Σ_j ½ K_s l (|e_j| / l − 1)²,   K_s = E_s π r²
+
+One element per segment j, coordinates (r_j, r_{j+1}).
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from rodsim.core.rod.rod import Rod
+from rodsim.core.terms._segment import Segments, two_node_block
+from rodsim.core.terms.base import RodTerm
+
+
+class Stretch(RodTerm):
+    """Axial stretch of the centerline, Eq. (6)."""
+
+    name = "stretch"
+    equation = "Eq. (6)"
+
+    def __init__(self, rod: Rod, params: dict[str, Any]) -> None:
+        super().__init__(rod, params)
+        pos = rod.layout.position_index
+        self.dofs = np.concatenate([pos[:-1], pos[1:]], axis=1)
+        self._stiffness = rod.stretch_stiffness
+        self._rest = rod.geometry.segment_length
+
+    def kernel_arguments(self) -> tuple:
+        return (self.dofs, float(self._stiffness), float(self._rest))
+
+    def _strain(self, x: np.ndarray) -> tuple[Segments, np.ndarray]:
+        seg = Segments.of(x[self.rod.layout.position_index])
+        return seg, seg.norm / self._rest - 1.0
+
+    def energy(self, x: np.ndarray) -> float:
+        _, strain = self._strain(x)
+        return float(0.5 * self._stiffness * self._rest * np.sum(strain**2))
+
+    def element_forces(self, x: np.ndarray) -> np.ndarray:
+        seg, strain = self._strain(x)
+        tension = (self._stiffness * strain)[:, None] * seg.tangent  # ∂E/∂e
+        return np.concatenate([tension, -tension], axis=1)
+
+    def element_jacobians(self, x: np.ndarray) -> np.ndarray:
+        seg, strain = self._strain(x)
+        t = seg.tangent
+        tt = t[:, :, None] * t[:, None, :]
+        h_edge = self._stiffness * (
+            tt / self._rest + (strain / seg.norm)[:, None, None] * (np.eye(3) - tt)
+        )
+        return two_node_block(h_edge)

@@ -1,0 +1,53 @@
+"""Hanging mass (or any constant force) at the rod's tip — the load of the paper's §3 scenes.
+
+    V = −F · r_{N−1},   F = m g (0, −1, 0) + F_extra
+
+A dead load: its force does not depend on the state, so it adds no Jacobian entries.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from rodsim.core.rod.rod import Rod
+from rodsim.core.schema import Parameter
+from rodsim.core.terms.base import RodTerm
+
+#: Standard gravity [m/s²]; the paper's hanging masses are weighed with it.
+STANDARD_GRAVITY = 9.81
+
+
+class TipLoad(RodTerm):
+    """Constant force on the last control point (hanging mass, Figs. 5–9)."""
+
+    name = "tip_load"
+    equation = "§3 (hanging mass); enters F_net of Eq. (17)"
+    is_load = True
+    has_jacobian = False
+    kernel = "constant_force"
+    parameters = (
+        Parameter("mass", "float", 0.0, "kg", "hanging mass at the tip, pulling along −y",
+                  0.0, 1e6),
+        Parameter("force", "vector", [0.0, 0.0, 0.0], "N", "extra constant force at the tip",
+                  -1e7, 1e7, length=3),
+        Parameter("gravity", "float", STANDARD_GRAVITY, "m/s^2", "gravitational acceleration",
+                  0.0, 1e3),
+    )
+
+    def __init__(self, rod: Rod, params: dict[str, Any]) -> None:
+        super().__init__(rod, params)
+        self.dofs = rod.layout.position_index[-1:]
+        self.force = np.asarray(params["force"], dtype=float) + np.array(
+            [0.0, -params["mass"] * params["gravity"], 0.0]
+        )
+
+    def kernel_arguments(self) -> tuple:
+        return (self.force[None, :].copy(),)
+
+    def energy(self, x: np.ndarray) -> float:
+        return float(-self.force @ x[self.dofs[0]])
+
+    def element_forces(self, x: np.ndarray) -> np.ndarray:
+        return self.force[None, :]

@@ -1,0 +1,107 @@
+"""netCDF archives: atomic writes, reads, and re-running a stored run.
+
+A write goes to a temporary file in the target's folder and is renamed over the target
+only when complete (``os.replace`` is atomic on POSIX), so a failed or interrupted write
+never leaves a corrupt archive nor clobbers an existing one. The target rules (a regular
+file or nothing; symbolic links followed; stale temporaries removed) are
+:mod:`rodsim.io.output`'s. A read checks the archive against its contract
+(:mod:`rodsim.io.archive_schema`) before returning it.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import os
+import tempfile
+from pathlib import Path
+
+import xarray as xr
+
+from rodsim.core.scene import Scene
+from rodsim.io.archive_schema import ArchiveSchemaError, check_archive, parse_json_object
+from rodsim.io.compare import largest_rod_distance
+from rodsim.io.output import OutputError, check_target, remove_stale_temporaries, temporary_prefix
+from rodsim.solvers.result import SCHEMA_VERSION, Result
+
+__all__ = ["ArchiveError", "write_dataset", "read_dataset", "scene_of", "rerun"]
+
+
+class ArchiveError(OSError):
+    """An archive cannot be written or read, or is not a rodsim archive."""
+
+
+def write_dataset(dataset: xr.Dataset, path: str | Path) -> Path:
+    """Write ``dataset`` to ``path`` (netCDF4) atomically; returns the path written (a
+    symbolic link's target)."""
+    try:
+        path = check_target(path)
+    except OutputError as exc:
+        raise ArchiveError(str(exc)) from None
+    folder = path.parent if str(path.parent) else Path(".")
+    remove_stale_temporaries(path)
+    try:
+        handle, temporary = tempfile.mkstemp(prefix=temporary_prefix(path), suffix=".tmp",
+                                             dir=folder)
+    except OSError as exc:
+        raise ArchiveError(f"cannot write {str(path)!r}: {exc}") from exc
+    try:
+        os.close(handle)
+        umask = os.umask(0)
+        os.umask(umask)
+        os.chmod(temporary, 0o666 & ~umask)  # mkstemp creates 0600; archives follow the umask
+        dataset.to_netcdf(temporary, engine="netcdf4")
+        os.replace(temporary, path)
+    except BaseException as exc:  # an interrupt too: never leave a half-written temporary
+        with contextlib.suppress(OSError):
+            os.unlink(temporary)
+        if isinstance(exc, Exception):
+            raise ArchiveError(f"cannot write {str(path)!r}: {exc}") from exc
+        raise
+    return path
+
+
+def read_dataset(path: str | Path) -> xr.Dataset:
+    """Read an archive fully into memory (the file is closed on return) and check it against
+    the archive contract (ArchiveError naming the first mismatch)."""
+    try:
+        with xr.open_dataset(path, engine="netcdf4") as ds:
+            loaded = ds.load()
+    except (OSError, ValueError, RuntimeError) as exc:
+        reason = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
+        raise ArchiveError(f"cannot read {str(path)!r}: {reason[:200]}") from None
+    if "schema_version" not in loaded.attrs or "scene_json" not in loaded.attrs:
+        raise ArchiveError(f"{str(path)!r} is not a rodsim archive (no scene_json attribute)")
+    if str(loaded.attrs["schema_version"]) != SCHEMA_VERSION:
+        raise ArchiveError(f"{str(path)!r} has archive schema {loaded.attrs['schema_version']}, "
+                           f"this rodsim reads schema {SCHEMA_VERSION}")
+    try:
+        check_archive(loaded)
+    except ArchiveSchemaError as exc:
+        raise ArchiveError(f"{str(path)!r} is not a valid rodsim archive: {exc}") from None
+    return loaded
+
+
+def scene_of(dataset: xr.Dataset) -> Scene:
+    """The scene stored in an archive (resolved values plus the original TOML text)."""
+    return Scene.from_json(dataset.attrs["scene_json"], dataset.attrs.get("scene_toml", ""))
+
+
+def rerun(dataset: xr.Dataset) -> tuple[Result, float]:
+    """Re-run a stored run from the archive alone.
+
+    Returns the new result and the largest distance [m] between stored and recomputed
+    control points (infinite when either holds a NaN: see :func:`largest_distance`).
+    """
+    from rodsim.app.api import solve
+
+    scene = scene_of(dataset)
+    stored_options = parse_json_object(dataset.attrs["integrator_options"],
+                                       "attribute 'integrator_options'")
+    integrator = str(dataset.attrs["integrator"])
+    if stored_options != scene.data["solver"][integrator]:
+        raise ArchiveError("archive is inconsistent: integrator_options differ from the "
+                           "scene's solver options")
+    result = solve(scene, integrator)
+    new = result.to_xarray()
+    return result, largest_rod_distance(dataset["position"].values, dataset["rod"].values,
+                                        new["position"].values, new["rod"].values)

@@ -1,6 +1,0 @@
-"""One discretised Cosserat rod: geometry, quaternion algebra and state layout."""
-
-from rodsim.rod.geometry import RodGeometry
-from rodsim.rod.layout import COORDS_PER_NODE, RodLayout
-
-__all__ = ["RodGeometry", "RodLayout", "COORDS_PER_NODE"]

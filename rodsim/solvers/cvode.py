@@ -1,0 +1,81 @@
+"""SUNDIALS CVODE (variable-order adaptive BDF, via scikit-sundae) to equilibrium.
+
+Integrates the pseudo-dynamics of :mod:`rodsim.solvers.pseudo_dynamics` (``inertial`` or
+``overdamped``) with the analytic Jacobian handed to CVODE's ``jacfn``, using the band
+solver (the default below ``BAND_LIMIT`` unknowns) or SuperLU_MT with the fixed sparsity
+pattern. The inertial form is limited to BDF order 2: BDF 3–5 are not A-stable, and the
+lightly damped stiff oscillations of a second-order system sit next to the imaginary axis
+(orders 3–5 were measured to stall there; docs/model.md). The run loop is
+:mod:`rodsim.solvers.sundials`.
+
+Quaternion norm: held by the centerline penalty Eq. (9) only (same model as ``static``).
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from rodsim.solvers.pseudo_dynamics import FirstOrderSystem, damping_rate
+from rodsim.solvers.sundials import (
+    SundialsIntegrator,
+    jacobian_writer,
+    started,
+)
+
+if TYPE_CHECKING:
+    from sksundae.cvode import CVODE
+
+
+class Cvode(SundialsIntegrator):
+    """CVODE BDF on the inertial or overdamped pseudo-dynamics, stopped at equilibrium."""
+
+    name = "cvode"
+    summary = "SUNDIALS CVODE (adaptive BDF) on damped pseudo-dynamics, stopped at equilibrium"
+    quaternion_norm = "penalty Eq. (9) only (|d3| = |q|² is pulled to 1)"
+
+    def build_system(self) -> None:
+        self.rate = damping_rate(self.model, self.options["damping_ratio"])
+        self.system = FirstOrderSystem(self.model, self.options["formulation"], self.rate,
+                                       self.masses)
+
+    def initial_state(self) -> np.ndarray:
+        return self.system.initial_state(self.start_state)
+
+    def positions_of(self, y: np.ndarray) -> np.ndarray:
+        return self.system.positions_of(y)
+
+    def _tolerances(self) -> np.ndarray:
+        system = self.system
+        scale_x = self.coordinate_scale()
+        if system.formulation == "overdamped":
+            scale = scale_x
+        else:
+            scale = np.empty(system.size)
+            scale[0::2] = scale_x
+            scale[1::2] = scale_x * self.rate
+        return self.options["atol"] * self.tightening * scale
+
+    def start(self, t: float, y: np.ndarray, yp: np.ndarray | None) -> CVODE:
+        from sksundae.cvode import CVODE  # SUNDIALS is loaded by the first run, not at import
+
+        system, model, ramp, counts = self.system, self.model, self.ramp, self.counts
+        solver_kind = self.linear_solver(system.size)
+        write = jacobian_writer(solver_kind, system.pattern_rows, system.pattern_cols)
+
+        def rhs(t: float, y: np.ndarray, yp: np.ndarray) -> None:
+            counts["force_evals"] += 1
+            force = model.force(system.positions_of(y), ramp(t))
+            self._last_force = force
+            system.rhs(y, force, yp)
+
+        def jacfn(t: float, y: np.ndarray, yp: np.ndarray, jj: np.ndarray) -> None:
+            counts["jacobian_evals"] += 1
+            write(jj, system.jacobian_data(model.jacobian_data(system.positions_of(y),
+                                                               ramp(t))))
+
+        options = self.common_options(solver_kind, system.band, system.pattern,
+                                      system.formulation == "inertial")
+        return started("CVODE", CVODE, rhs, jacfn, t, y, atol=self._tolerances(),
+                       **options)
