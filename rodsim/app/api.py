@@ -3,7 +3,7 @@
     >>> import rodsim
     >>> scene = rodsim.load_scene("table1-50g").with_overrides(["nodes=80"])
     >>> result = rodsim.solve(scene, "static")
-    >>> result.tip(), result.to_xarray()
+    >>> result.tip(), rodsim.run_dataset(result)
 
 Everything the CLI does goes through these functions (README, "Python").
 """
@@ -13,7 +13,7 @@ from __future__ import annotations
 import time
 from collections.abc import Iterable, Mapping
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -24,7 +24,10 @@ from rodsim.solvers import registered_integrators
 from rodsim.solvers.base import Progress
 from rodsim.solvers.result import Result
 
-__all__ = ["load_scene", "solve", "build_model"]
+if TYPE_CHECKING:
+    import xarray as xr
+
+__all__ = ["load_scene", "solve", "build_model", "rerun"]
 
 SceneLike = Scene | str | Path | Mapping[str, Any]
 
@@ -98,3 +101,27 @@ def solve(scene: SceneLike | None = None, integrator: str | None = None, *,
                                solver["max_wall_time"], progress, budget_start=started,
                                initial_state=initial_state)
     return runner.solve()
+
+
+def rerun(dataset: xr.Dataset) -> tuple[Result, float]:
+    """Re-run a stored run from the archive alone.
+
+    Returns the new result and the largest distance [m] between stored and recomputed
+    control points (infinite when either holds a NaN: see :func:`largest_distance`).
+    """
+    from rodsim.io.archive import ArchiveError, scene_of
+    from rodsim.io.archive_schema import parse_json_object
+    from rodsim.io.compare import largest_rod_distance
+    from rodsim.io.run_dataset import run_dataset
+
+    scene = scene_of(dataset)
+    stored_options = parse_json_object(dataset.attrs["integrator_options"],
+                                       "attribute 'integrator_options'")
+    integrator = str(dataset.attrs["integrator"])
+    if stored_options != scene.data["solver"][integrator]:
+        raise ArchiveError("archive is inconsistent: integrator_options differ from the "
+                           "scene's solver options")
+    result = solve(scene, integrator)
+    new = run_dataset(result)
+    return result, largest_rod_distance(dataset["position"].values, dataset["rod"].values,
+                                        new["position"].values, new["rod"].values)

@@ -118,6 +118,7 @@ def cmd_run(args: argparse.Namespace) -> int:
     from rodsim.core.scene import SceneError
     from rodsim.io.archive import ArchiveError, write_dataset
     from rodsim.io.output import OutputError, check_target
+    from rodsim.io.run_dataset import run_dataset
 
     scene = _load_scene_or_fail(args.scene, args.set, args.integrator)
     integrator = args.integrator or scene.data["solver"]["integrator"]
@@ -137,7 +138,7 @@ def cmd_run(args: argparse.Namespace) -> int:
         print(f"rodsim: solver failure: {result.message}", file=sys.stderr)
         return EXIT_SOLVER_FAILURE
     try:
-        write_dataset(result.to_xarray(), output)
+        write_dataset(run_dataset(result), output)
     except ArchiveError as exc:
         raise UserError(str(exc)) from None
     _print_run_summary(result, output)
@@ -157,9 +158,10 @@ def stability_text(stability: Stability) -> str:
 
 
 def cmd_rerun(args: argparse.Namespace) -> int:
+    from rodsim.app.api import rerun
     from rodsim.app.study import StudyError
     from rodsim.core.scene import SceneError
-    from rodsim.io.archive import ArchiveError, read_dataset, rerun
+    from rodsim.io.archive import ArchiveError, read_dataset
 
     try:
         dataset = read_dataset(args.archive)

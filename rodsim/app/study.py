@@ -24,17 +24,15 @@ import xarray as xr
 
 from rodsim.core.analytic.reference import REFERENCE_KINDS, reference_centerline
 from rodsim.core.scene import Scene, SceneError
+from rodsim.io.archive_schema import SCHEMA_VERSION, STATUS
 from rodsim.io.compare import largest_distance
 from rodsim.io.provenance import git_commit, git_dirty
-from rodsim.solvers.result import SCHEMA_VERSION
 from rodsim.version import __version__
 
 __all__ = ["Sweep", "Study", "StudyError", "available_studies", "load_study",
            "evaluate_point", "assemble", "rerun_study", "STATUS"]
 
 #: Point status codes stored in the ``status`` variable.
-STATUS = {"ok": 0, "solver_failure": 1, "error": 2}
-
 #: Per-point statistics copied from the run (see rodsim.solvers.result.STAT_DOCS).
 POINT_STATS = ("steps", "newton_iters", "force_evals", "jacobian_evals", "linear_solves",
                "wall_time")

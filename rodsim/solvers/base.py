@@ -120,6 +120,8 @@ class Integrator(ABC):
     #: How the integrator keeps the quaternions at unit norm.
     quaternion_norm: ClassVar[str]
     parameters: ClassVar[tuple[Parameter, ...]] = ()
+    #: Units and meaning of the history's ``time`` (recorded once per step).
+    history_time: ClassVar[tuple[str, str]] = ("s", "pseudo-time after each step")
 
     def __init_subclass__(cls, **kwargs: Any) -> None:
         super().__init_subclass__(**kwargs)
@@ -346,7 +348,7 @@ class Integrator(ABC):
         return Result.from_model(
             self.model, x if finite else self.state, integrator=self.name,
             options=self.options, success=success, message=message, residual=residual,
-            stats=stats, history=self.history.data,
+            stats=stats, history=self.history.data, history_time=self.history_time,
             stability=self.stability(x) if success else None)
 
 

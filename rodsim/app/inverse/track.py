@@ -34,8 +34,9 @@ from rodsim.app.inverse.parameter_keys import NumericKey, numeric_keys, scene_wi
 from rodsim.core.model import Model
 from rodsim.core.scene import Scene
 from rodsim.core.schema import SceneError
+from rodsim.io.archive_schema import SCHEMA_VERSION
+from rodsim.io.run_dataset import flatten_scene
 from rodsim.solvers.base import Progress
-from rodsim.solvers.result import SCHEMA_VERSION, flatten_scene
 from rodsim.version import __version__
 
 if TYPE_CHECKING:
