@@ -15,6 +15,7 @@ from rodsim.core.scene import scene_paths
 from rodsim.io.archive import ArchiveError, read_dataset, write_dataset
 from rodsim.io.archive_schema import SCHEMA_VERSION
 from rodsim.io.run_dataset import run_dataset
+from rodsim.solvers import registered_integrators
 
 OVERRIDES = ("nodes=12",)
 REQUIRED_ATTRS = ("scene_json", "scene_toml", "integrator", "integrator_options",
@@ -60,7 +61,8 @@ def test_archive_is_self_describing(integrator):
     assert json.loads(attrs["scene_json"])["rods"]["catheter"]["nodes"] == 12
     assert attrs["scene_toml"] == scene_paths()["table1-50g"].read_text(encoding="utf-8")
     assert attrs["integrator"] == integrator
-    assert json.loads(attrs["integrator_options"]) == result.scene.data["solver"][integrator]
+    assert json.loads(attrs["integrator_options"]) == (
+        registered_integrators()[integrator].options_of(result.scene))
     assert attrs["rodsim_version"] == rodsim.__version__
     assert str(attrs["schema_version"]) == SCHEMA_VERSION
     assert attrs["residual"] == result.residual

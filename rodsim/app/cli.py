@@ -10,11 +10,13 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import os
 import sys
 from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, NoReturn
 
+from rodsim.app.threads import pin_threads
 from rodsim.version import __version__
 
 if TYPE_CHECKING:
@@ -662,6 +664,11 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
+    """The ``rodsim`` command. It pins BLAS threads (:mod:`rodsim.app.threads`) and, as it
+    only writes figures to files, selects matplotlib's file backend unless ``MPLBACKEND`` is
+    set — before anything imports numpy or matplotlib."""
+    pin_threads()
+    os.environ.setdefault("MPLBACKEND", "Agg")
     parser = build_parser()
     args = parser.parse_args(argv)
     command: Callable[[argparse.Namespace], int] = args.func

@@ -44,6 +44,7 @@ from typing import Any
 
 import numpy as np
 
+from rodsim.solvers import registered_integrators
 from rodsim.solvers.result import count_text
 
 __all__ = ["run", "report", "Method", "methods_for", "machine_attributes", "markdown_table",
@@ -400,7 +401,7 @@ class Point:
         model = rodsim.build_model(scene)
         if self.method.family == "scipy":
             settings = self.method.settings
-            cvode = scene.data["solver"]["cvode"]
+            cvode = registered_integrators()["cvode"].options_of(scene)
             begin = time.perf_counter()
             outcome = solve_scipy(model, self.method.solver, self.tolerance, settings["rtol"],
                                   settings["atol"], self.max_wall_time,
