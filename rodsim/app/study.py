@@ -16,7 +16,7 @@ import itertools
 import json
 import pkgutil
 import traceback
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass
 from typing import Any
 
 import numpy as np
@@ -105,7 +105,6 @@ class Study:
     plot: str = "centerlines"
     history: bool = False
     sigma_points: int = 101
-    notes: str = field(default="", compare=False)
 
     def spec(self, size: str) -> dict[str, Any]:
         """Everything a worker needs to run this study's points: JSON-able."""

@@ -142,7 +142,6 @@ class Integrator(ABC):
         self.options = options
         #: The requested tolerance, raised to the model's round-off floor if below it.
         self.tolerance = max(tolerance, model.residual_floor)
-        self.requested_tolerance = tolerance
         self.max_wall_time = max_wall_time
         self._progress = progress
         #: Counters reported in the result's statistics (see rodsim.solvers.result.STAT_DOCS).
