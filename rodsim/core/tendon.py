@@ -21,7 +21,7 @@ from __future__ import annotations
 import math
 from collections.abc import Collection
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 
@@ -29,7 +29,8 @@ from rodsim.core.rod.quaternion import DIRECTOR_FORMS, director, director_gradie
 from rodsim.core.rod.rod import Rod
 from rodsim.core.schema import Parameter, SceneError, shown
 
-__all__ = ["TENDON_PARAMETERS", "TENDON_TERMS", "Tendon", "check_tendon", "tendon_origin"]
+__all__ = ["TENDON_PARAMETERS", "TENDON_TERMS", "LumenFrame", "Tendon", "check_tendon",
+           "tendon_origin"]
 
 #: Coupling terms a tendon uses unless its table lists others.
 TENDON_TERMS = ["lumen", "endpoint_compliance", "endpoint_coupling", "tendon_actuation"]
@@ -119,6 +120,23 @@ def tendon_origin(catheter: Rod, table: dict[str, Any]) -> np.ndarray:
         alpha * frame[0] + beta * frame[1])
 
 
+class LumenFrame(NamedTuple):
+    """The lumen's directions at n segments and their derivatives in the quaternions q."""
+
+    #: d_t = α d1 + β d2, the direction from the centerline to the lumen, (n, 3).
+    dt: np.ndarray
+    #: d_n = d3 × d_t, (n, 3).
+    dn: np.ndarray
+    #: ∂d_t/∂q, (n, 3, 4).
+    Dt: np.ndarray
+    #: ∂d_n/∂q, (n, 3, 4).
+    Dn: np.ndarray
+    #: ∂²d_t[m]/∂q² = Ht[m], constant, (3, 4, 4).
+    Ht: np.ndarray
+    #: ∂²d_n[m]/∂q² = Hn[m], constant, (3, 4, 4).
+    Hn: np.ndarray
+
+
 @dataclass(frozen=True)
 class Tendon:
     """The pieces of one tendon table the coupling terms need."""
@@ -141,21 +159,17 @@ class Tendon:
     def conserving(self) -> bool:
         return self.coupling == "conserving"
 
-    def lumen_frame(self, q: np.ndarray) -> dict[str, np.ndarray]:
-        """d_t, d_n = d3 × d_t and their q-derivatives for quaternions q (n, 4).
-
-        Returns ``dt``, ``dn`` (n, 3), ``Dt``, ``Dn`` (n, 3, 4) and the constant second
-        derivatives ``Ht``, ``Hn`` (3, 4, 4) with ∂²d_t[m]/∂q² = Ht[m].
-        """
+    def lumen_frame(self, q: np.ndarray) -> LumenFrame:
+        """d_t, d_n = d3 × d_t and their q-derivatives for quaternions q (n, 4)."""
         a, b = self.alpha, self.beta
         d1, d2 = director(q, 0), director(q, 1)
         g1, g2 = director_gradient(q, 0), director_gradient(q, 1)
-        return {
-            "dt": a * d1 + b * d2, "dn": a * d2 - b * d1,
-            "Dt": a * g1 + b * g2, "Dn": a * g2 - b * g1,
-            "Ht": 2.0 * (a * DIRECTOR_FORMS[0] + b * DIRECTOR_FORMS[1]),
-            "Hn": 2.0 * (a * DIRECTOR_FORMS[1] - b * DIRECTOR_FORMS[0]),
-        }
+        return LumenFrame(
+            dt=a * d1 + b * d2, dn=a * d2 - b * d1,
+            Dt=a * g1 + b * g2, Dn=a * g2 - b * g1,
+            Ht=2.0 * (a * DIRECTOR_FORMS[0] + b * DIRECTOR_FORMS[1]),
+            Hn=2.0 * (a * DIRECTOR_FORMS[1] - b * DIRECTOR_FORMS[0]),
+        )
 
     def lumen_segment(self, node: np.ndarray) -> np.ndarray:
         """Segment whose quaternion orients the lumen point at catheter ``node``."""
@@ -167,4 +181,4 @@ class Tendon:
         r = full[layout.position_index]
         q = full[layout.quaternion_index][self.lumen_segment(np.arange(self.catheter.nodes))]
         frame = self.lumen_frame(q)
-        return r + self.offset * frame["dt"]
+        return r + self.offset * frame.dt

@@ -47,7 +47,7 @@ class EndpointCompliance(TendonTerm):
 
     def _offset(self, x: np.ndarray) -> tuple[np.ndarray, dict[str, np.ndarray]]:
         frame = self.tendon.lumen_frame(x[self._quaternion][None, :])
-        lumen_end = x[self._end] + self.tendon.offset * frame["dt"][0]
+        lumen_end = x[self._end] + self.tendon.offset * frame.dt[0]
         return lumen_end - x[self._tip], frame
 
     def energy(self, x: np.ndarray) -> float | None:
@@ -63,13 +63,13 @@ class EndpointCompliance(TendonTerm):
         force[0:3] = k * delta
         if self.conservative:
             force[3:6] = -k * delta
-            force[6:10] = -k * rl * frame["Dt"][0].T @ delta
+            force[6:10] = -k * rl * frame.Dt[0].T @ delta
         return force[None, :]
 
     def element_jacobians(self, x: np.ndarray) -> np.ndarray:
         delta, frame = self._offset(x)
         k, rl = self._stiffness, self.tendon.offset
-        d_t = frame["Dt"][0]  # ∂d_t/∂q (3 × 4)
+        d_t = frame.Dt[0]  # ∂d_t/∂q (3 × 4)
         grad = np.zeros((3, 10))  # ∂Δ/∂(t, r_N, q)
         grad[:, 0:3] = -np.eye(3)
         grad[:, 3:6] = np.eye(3)
@@ -79,5 +79,5 @@ class EndpointCompliance(TendonTerm):
         if self.conservative:
             # F = −K_E (∂Δ/∂x)ᵀ Δ;  J = −K_E [(∂Δ/∂x)ᵀ ∂Δ/∂x + Σ_m Δ_m ∂²Δ_m/∂x²]
             jac = -k * grad.T @ grad
-            jac[6:10, 6:10] -= k * rl * np.einsum("m,mab->ab", delta, frame["Ht"])
+            jac[6:10, 6:10] -= k * rl * np.einsum("m,mab->ab", delta, frame.Ht)
         return jac[None, :, :]

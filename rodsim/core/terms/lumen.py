@@ -76,16 +76,16 @@ class PointOnLumen:
     def __init__(self, tendon: Tendon, p: np.ndarray, r: np.ndarray, q: np.ndarray) -> None:
         self.frame = f = tendon.lumen_frame(q)
         rl = tendon.offset
-        self.delta = r + rl * f["dt"] - p
+        self.delta = r + rl * f.dt - p
         self.offset = rl
-        self.c_t = np.sum(self.delta * f["dt"], axis=1)
-        self.c_n = np.sum(self.delta * f["dn"], axis=1)
+        self.c_t = np.sum(self.delta * f.dt, axis=1)
+        self.c_n = np.sum(self.delta * f.dn, axis=1)
         self.grad_t = np.concatenate(
-            [-f["dt"], f["dt"], np.einsum("nma,nm->na", f["Dt"], self.delta + rl * f["dt"])],
+            [-f.dt, f.dt, np.einsum("nma,nm->na", f.Dt, self.delta + rl * f.dt)],
             axis=1)
         self.grad_n = np.concatenate(
-            [-f["dn"], f["dn"], np.einsum("nma,nm->na", f["Dn"], self.delta)
-             + rl * np.einsum("nma,nm->na", f["Dt"], f["dn"])], axis=1)
+            [-f.dn, f.dn, np.einsum("nma,nm->na", f.Dn, self.delta)
+             + rl * np.einsum("nma,nm->na", f.Dt, f.dn)], axis=1)
 
     def hessians(self) -> tuple[np.ndarray, np.ndarray]:
         """∇²C_t and ∇²C_n, shape (n, 10, 10) each."""
@@ -93,17 +93,17 @@ class PointOnLumen:
         n = len(delta)
         h_t = np.zeros((n, 10, 10))
         h_n = np.zeros((n, 10, 10))
-        for h, d_mat in ((h_t, f["Dt"]), (h_n, f["Dn"])):
+        for h, d_mat in ((h_t, f.Dt), (h_n, f.Dn)):
             h[:, 0:3, 6:10] = -d_mat
             h[:, 3:6, 6:10] = d_mat
             h[:, 6:10, 0:3] = -d_mat.transpose(0, 2, 1)
             h[:, 6:10, 3:6] = d_mat.transpose(0, 2, 1)
-        dt_t = np.matmul(f["Dt"].transpose(0, 2, 1), f["Dt"])
-        h_t[:, 6:, 6:] = 2.0 * rl * dt_t + form_combination(delta + rl * f["dt"], f["Ht"])
-        cross = np.matmul(f["Dn"].transpose(0, 2, 1), f["Dt"])
+        dt_t = np.matmul(f.Dt.transpose(0, 2, 1), f.Dt)
+        h_t[:, 6:, 6:] = 2.0 * rl * dt_t + form_combination(delta + rl * f.dt, f.Ht)
+        cross = np.matmul(f.Dn.transpose(0, 2, 1), f.Dt)
         h_n[:, 6:, 6:] = (rl * (cross + cross.transpose(0, 2, 1))
-                          + form_combination(delta, f["Hn"])
-                          + rl * form_combination(f["dn"], f["Ht"]))
+                          + form_combination(delta, f.Hn)
+                          + rl * form_combination(f.dn, f.Ht))
         return h_t, h_n
 
 
