@@ -27,7 +27,7 @@ from __future__ import annotations
 
 import os
 
-# Single-threaded BLAS/OpenMP, set before numpy is imported (DESIGN.md §8).
+# Single-threaded BLAS/OpenMP, set before numpy is imported (docs/design.md §8).
 os.environ["OMP_NUM_THREADS"] = "1"
 os.environ["OPENBLAS_NUM_THREADS"] = "1"
 

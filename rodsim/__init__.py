@@ -1,7 +1,7 @@
 """rodsim: tendon-driven robotic catheters as systems of Cosserat rods.
 
 Implements Villard, Waite & Howe, *Cosserat rods for modeling tendon-driven robotic
-catheter systems* (see docs/model.md for the equation -> code map).
+catheter systems* (docs/architecture.md maps each equation to its file).
 
 Importing rodsim has no side effects: the ``rodsim`` command pins BLAS threads and selects a
 file-only matplotlib backend itself (:mod:`rodsim.app.threads`, :func:`rodsim.app.cli.main`).

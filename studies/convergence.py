@@ -1,5 +1,5 @@
 """Discretisation error surface of the tendon model: N × K_P × K_L against the
-constant-curvature arc (momentum-conserving coupling, DESIGN erratum 6)."""
+constant-curvature arc (momentum-conserving coupling, docs/design.md, erratum 6)."""
 
 from rodsim.app.study import Study, Sweep
 

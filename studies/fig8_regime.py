@@ -1,5 +1,5 @@
 """Fig. 8 in the paper's damping regime: the mass matrix scaled so that h² ω₁² ≈ 0.003
-(DESIGN erratum 12; ``solver.paper.h2_omega2``), where ξ = 0.9 damps the slowest mode
+(docs/design.md, erratum 12; ``solver.paper.h2_omega2``), where ξ = 0.9 damps the slowest mode
 critically. Table 1 in SI units gives h² ω₁² ≈ 26 and ξ has no effect (study ``fig8``)."""
 
 from rodsim.app.study import Study, Sweep

@@ -1,4 +1,4 @@
-"""Self-weight on and off for the three hanging masses (DESIGN erratum 10)."""
+"""Self-weight on and off for the three hanging masses (docs/design.md, erratum 10)."""
 
 from rodsim.app.study import Study, Sweep
 
@@ -11,7 +11,7 @@ STUDY = Study(
     name="gravity",
     title="the catheter's self-weight (≈ 1.47 N) on and off, Table 1's three masses",
     paper="not in the paper: §3 blames part of the small-load mismatch on gravity but the "
-          "model leaves self-weight out (DESIGN erratum 10)",
+          "model leaves self-weight out (docs/design.md, erratum 10)",
     scene="table1-50g",
     integrator="static",
     reference="exact",

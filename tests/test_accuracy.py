@@ -1,4 +1,4 @@
-"""Discretisation error of the model against continuum references (DESIGN §4).
+"""Discretisation error of the model against continuum references (docs/design.md §4).
 
 Only the ``static`` integrator is used: it returns the exact discrete equilibrium, so the
 errors below are the model's, not a solver's. Run with ``pytest -s`` to see the tables.

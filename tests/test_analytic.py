@@ -1,4 +1,5 @@
-"""Tests of the continuum references in rodsim.core.analytic (paper Eqs. 21-23, DESIGN.md §2.9)."""
+"""Tests of the continuum references in rodsim.core.analytic (paper Eqs. 21-23, docs/design.md,
+erratum 9)."""
 
 from __future__ import annotations
 

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import re
 import subprocess
 import sys
 from pathlib import Path
@@ -16,3 +17,55 @@ def test_scene_reference_in_docs_is_current():
     run = subprocess.run([sys.executable, str(script), "--check"], capture_output=True,
                          text=True, check=False)
     assert run.returncode == 0, run.stdout + run.stderr
+
+
+ARCHITECTURE = ROOT / "docs" / "architecture.md"
+
+#: A repository path as docs/architecture.md writes them: from a top-level folder of the
+#: repository, with no placeholder (``rodsim/core/terms/<term>.py`` is a pattern, not a file).
+PATH = re.compile(r"(?<![\w/.])(?:rodsim|tests|docs|studies|data|benchmarks)/[\w./-]*")
+
+
+def architecture_paths() -> list[str]:
+    text = ARCHITECTURE.read_text(encoding="utf-8")
+    paths = []
+    for match in PATH.finditer(text):
+        end = match.end()
+        if end < len(text) and text[end] == "<":
+            continue
+        paths.append(match.group().rstrip(".,"))
+    return paths
+
+
+def test_every_path_in_the_architecture_page_exists():
+    """docs/architecture.md is the newcomer's map from equations and layers to files: a file
+    moved or renamed without updating the map fails here."""
+    paths = architecture_paths()
+    assert len(paths) > 40, paths  # the map names the files, not just folders
+    missing = sorted({p for p in paths if not (ROOT / p).exists()})
+    assert not missing, f"docs/architecture.md names files that do not exist: {missing}"
+
+
+def _equation_numbers(text: str) -> set[int]:
+    """Numbers of the paper equations cited as "Eq. (n)", "Eqs. (a)–(b)", "Eqs. 3–7",
+    "Eqs. (25)–(27), (33)–(35)" …: every number, ranges expanded."""
+    numbers: set[int] = set()
+    for cite in re.finditer(r"Eqs?\.\s*((?:\(?\d+\)?(?:\s*[–-]\s*\(?\d+\)?)?(?:,\s*)?)+)",
+                            text):
+        for a, b in re.findall(r"(\d+)\)?(?:\s*[–-]\s*\(?(\d+))?", cite.group(1)):
+            numbers.update(range(int(a), int(b or a) + 1))
+    return numbers
+
+
+def test_every_equation_the_code_cites_is_in_the_architecture_map():
+    """Each paper equation a module of the package cites has a row in the equation → file
+    table of docs/architecture.md."""
+    table = "\n".join(line for line in ARCHITECTURE.read_text(encoding="utf-8").splitlines()
+                      if line.startswith("| Eq"))
+    mapped = _equation_numbers(table)
+    cited = set()
+    for path in (ROOT / "rodsim").rglob("*.py"):
+        cited |= _equation_numbers(path.read_text(encoding="utf-8"))
+    assert cited, "no equation citations found in rodsim/"
+    unmapped = sorted(cited - mapped)
+    assert not unmapped, f"equations cited in rodsim/ but not in docs/architecture.md: {unmapped}"

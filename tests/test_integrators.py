@@ -155,7 +155,7 @@ def test_integrators_stay_within_the_bound_at_large_n(nodes, integrator):
 
 
 def test_paper_mass_scaling_puts_h2_omega2_where_asked():
-    """``solver.paper.h2_omega2`` (DESIGN erratum 12) scales M by (h ω₁)² / target, with
+    """``solver.paper.h2_omega2`` (docs/design.md, erratum 12) scales M by (h ω₁)² / target, with
     ω₁ = 1.875² √(E I / (ρ A L⁴)) computed here from the scene's values; 0 keeps the
     physical masses. The equilibrium does not depend on M."""
     from rodsim.solvers import registered_integrators

@@ -1,7 +1,7 @@
 """The Jacobians handed to scikit-sundae are called, and are right.
 
 scikit-sundae 1.1.1 silently replaced a user ``jacfn`` by finite differences when
-``sparsity`` was given (DESIGN §8), so a run that "works" proves nothing about the analytic
+``sparsity`` was given (docs/design.md §8), so a run that "works" proves nothing about the analytic
 Jacobian. Here the CVODE / IDA constructors used by rodsim are wrapped to record the exact
 callbacks and options rodsim hands over; the tests then check that SUNDIALS calls the
 ``jacfn`` during a run, that it agrees with central finite differences of the recorded

@@ -1,4 +1,4 @@
-"""Sensitivities at equilibrium (rodsim/sensitivity.py) against finite differences of
+"""Sensitivities at equilibrium (rodsim/app/inverse/sensitivity.py) against finite differences of
 re-solved equilibria, for every kind of parameter, on one rod and on tendon scenes."""
 
 from __future__ import annotations

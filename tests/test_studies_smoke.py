@@ -197,7 +197,7 @@ def test_fig8_every_damping_reaches_the_same_equilibrium(small):
 
 
 def test_fig8_regime_xi_0_9_comes_to_rest_first(small):
-    """With the masses scaled to h² ω₁² = 0.003 (DESIGN erratum 12) the paper's ordering
+    """With the masses scaled to h² ω₁² = 0.003 (docs/design.md, erratum 12) the paper's ordering
     holds: ξ = 0.9 needs fewer steps to rest than 0.5 (overdamped) and 1.0 (only backward
     Euler's own damping), and all three reach the same equilibrium."""
     ds = small("fig8_regime")[1]

@@ -1,4 +1,4 @@
-"""Discretisation convergence of the momentum-conserving tendon coupling (issue 12, DESIGN
+"""Discretisation convergence of the momentum-conserving tendon coupling (docs/design.md,
 erratum 13) against the constant-curvature arc, static solves only.
 
 (a) N_C = N_T = N = 15, 30, 60, 120 at r_L = 2, 4, 5 mm: the largest centerline error

@@ -1,4 +1,5 @@
-"""Physics of the tendon–catheter system (paper §4, DESIGN §2 items 6–8), on computed numbers.
+"""Physics of the tendon–catheter system (paper §4; docs/design.md, errata 6–8), on computed
+numbers.
 
 (a) The momentum-conserving coupling: a stiff tendon with tension T in a lumen at offset r_L
     bends the catheter toward the constant-curvature arc κ = T r_L / (E I) as the penalty

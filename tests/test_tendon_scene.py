@@ -162,7 +162,7 @@ def test_archive_holds_every_rod(scene_name, integrator, tmp_path):
     if rods["tendon"]["clamp"] == "frame":
         # The clamped tendon base sits in the lumen at the catheter's base (Eq. 32).
         np.testing.assert_array_equal(result.positions("tendon")[0], [0.0, table["offset"], 0.0])
-    # The actuation choice (DESIGN §2 item 7) is recorded in every archive.
+    # The actuation choice (docs/design.md, erratum 7) is recorded in every archive.
     attrs = dataset.attrs
     point = table["tendon_actuation"]["point"]
     assert attrs["scene.tendons.tendon.tendon_actuation.point"] == point
@@ -361,7 +361,7 @@ def test_a_tendon_in_a_tendons_lumen_does_not_depend_on_the_declaration_order():
 
 def test_the_actuation_point_can_be_switched_with_overrides():
     """`--set` must be able to switch table3-catheter1 to proximal actuation, which needs
-    the point and the tendon's clamp changed together (DESIGN §2 item 7: the choice is a
+    the point and the tendon's clamp changed together (docs/design.md, erratum 7: the choice is a
     scene value). Each intermediate scene is invalid on its own, so the overrides must be
     validated together, after all are applied."""
     changes = {"rods.tendon.clamp": "orientation",

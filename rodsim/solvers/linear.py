@@ -11,12 +11,12 @@ rods so that the tendon system stays banded too (``Model._order_for_band``). So:
   paper's tendon coupling) or as the fallback above.
 - ``sparse_lu``: SuperLU, where the band is too wide for band storage to pay.
 
-Measured at N = 40 (273 unknowns) before this module: SuperLU 490–540 µs per solve against
+Measured at N = 40 (273 unknowns): SuperLU 490–540 µs per solve against
 50 µs (dpbsv) and 68 µs (dgbsv); at N = 4000, 43–53 ms against 4.5 ms (docs/benchmarks.md).
 The values are copied into band storage through index maps built once per pattern.
 
 :meth:`LinearSolver.factorized` factors J once and solves for many right-hand sides (the
-sensitivities of rodsim/sensitivity.py: one column per parameter): band Cholesky
+sensitivities of rodsim/app/inverse/sensitivity.py: one column per parameter): band Cholesky
 (dpbtrf/dpbtrs) of −J when symmetric and positive definite, else band LU (dgbtrf/dgbtrs), or
 SuperLU for wide bands.
 """

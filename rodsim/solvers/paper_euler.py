@@ -8,7 +8,7 @@ multiplied through by M so the Jacobian −M + h² ∂F/∂x stays symmetric, by
 with a band (Cholesky or LU) or sparse LU solve per iteration; then ẋ^{t+h} = (y − x^t)/h.
 ξ ∈ [0, 1] scales the carried-over velocity (ξ = 1: plain backward Euler; smaller ξ damps
 more). ``h2_omega2`` > 0 scales M so that h² ω₁² takes that value
-(:meth:`PaperEuler.mass_scale`, DESIGN erratum 12): the regime in which the paper's Fig. 8
+(:meth:`PaperEuler.mass_scale`, docs/design.md, erratum 12): the regime in which the paper's Fig. 8
 ordering of ξ can appear. The Jacobian is the model's analytic one, or —
 ``jacobian = "finite_difference"``,
 the paper's MATLAB cost model (fsolve with JacobPattern) — forward differences over the
@@ -81,7 +81,7 @@ class PaperEuler(Integrator):
                   "as the paper)", 0, 1_000_000),
         Parameter("h2_omega2", "float", 0.0, "-",
                   "0: physical masses; > 0: the mass matrix scaled so that h² ω₁² equals "
-                  "this (the paper's Fig. 8 regime is ≈ 0.003; DESIGN erratum 12)",
+                  "this (the paper's Fig. 8 regime is ≈ 0.003; docs/design.md, erratum 12)",
                   0.0, 1e6),
     )
 

@@ -1,6 +1,6 @@
 """The pseudo-dynamics CVODE and IDA integrate to equilibrium, as an explicit ODE y′ = f(y).
 
-Only the equilibrium matters, so the dynamics are free to choose (DESIGN §3); two are
+Only the equilibrium matters, so the dynamics are free to choose (docs/design.md §3); two are
 offered and must reach the same equilibrium:
 
 - ``inertial``: the damped second-order system of Eqs. (10)–(11),

@@ -1,7 +1,7 @@
 """Direct equilibrium solve: Newton on F(x) = 0 with load and penalty continuation.
 
 No pseudo-dynamics at all: this is the exact discrete equilibrium of the model, against
-which the other integrators are scored (DESIGN §3–4). Each Newton step solves
+which the other integrators are scored (docs/design.md §3–4). Each Newton step solves
 J(x) Δx = −F(x) with the analytic Jacobian (band Cholesky, band LU or SuperLU:
 rodsim/solvers/linear.py) and a backtracking line search
 (rodsim/solvers/newton.py). If Newton does not converge at full load, the external
@@ -33,9 +33,9 @@ the iterations below ~80 at full K_P).
 
 Quaternion norm: held by the centerline penalty Eq. (9) (|d3| = |q|²), as in the model.
 
-Warm start (``initial_state``, rodsim/track.py): Newton at full load from the given state,
-repeated while the registration changes; if that fails, the run starts over from rest with
-the continuations above.
+Warm start (``initial_state``, rodsim/app/inverse/track.py): Newton at full load from the
+given state, repeated while the registration changes; if that fails, the run starts over from
+rest with the continuations above.
 """
 
 from __future__ import annotations

@@ -1,5 +1,5 @@
 """Numeric scene parameters by key: what sensitivities, tracking, fitting and inverse
-kinematics vary (rodsim/app/inverse/)).
+kinematics vary (rodsim/app/inverse/).
 
 A key is any ``--set``-style key of a numeric scene value (a full dotted key or an
 unambiguous suffix: ``K_E``, ``tip_load.mass``, ``rods.catheter.youngs_modulus``), or one

@@ -1,4 +1,4 @@
-"""Continuum references for validating the discrete Cosserat rod (DESIGN.md §2.9, §4).
+"""Continuum references for validating the discrete Cosserat rod (docs/design.md, erratum 9, §4).
 
 All three describe a cantilever clamped at the origin, pointing along +x when unloaded, in
 SI units, and return an :class:`ElasticaShape` (rest arc length s, world x and y, tip angle

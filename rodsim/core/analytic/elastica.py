@@ -147,7 +147,7 @@ def arc_length_samples(s: np.ndarray | None, length: float) -> np.ndarray:
 def load_parameter(force: float, EI: float, length: float) -> float:
     """Dimensionless load parameter alpha = F L^2 / (2 EI) of Eq. (21).
 
-    The paper prints alpha = F L^2 / (2 E L); the denominator is 2 E I (DESIGN.md §2.2).
+    The paper prints alpha = F L^2 / (2 E L); the denominator is 2 E I (docs/design.md, erratum 2).
 
     Parameters
     ----------

@@ -13,7 +13,7 @@ dx = cos(phi) ds and v = sin(phi), dv = cos(phi) dphi:
            = sqrt(2EI/F) (sqrt(sin(phi0)) - sqrt(sin(phi0) - sin(phi))).   (corrected Eq. 22)
 
 The paper prints sqrt(sin(phi0)) - sqrt(sin(phi)), which is x(phi0) at the clamp and 0 at
-the tip (DESIGN.md §2.9); :func:`paper_model_as_printed` keeps it to show the erratum.
+the tip (docs/design.md, erratum 9); :func:`paper_model_as_printed` keeps it to show the erratum.
 
 The integrands of (21) and (23) have a 1/sqrt singularity at phi = phi0. The substitution
 sin(phi0) - sin(phi) = w^2 removes it, since 1 - (sin(phi0) - w^2)^2 = (eps + w^2)(1 + sin(phi))

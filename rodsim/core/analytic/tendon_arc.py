@@ -1,4 +1,4 @@
-"""Constant-curvature limit of a tendon-driven catheter (DESIGN erratum 6).
+"""Constant-curvature limit of a tendon-driven catheter (docs/design.md, erratum 6).
 
 A straight-routed tendon with tension T at offset r_L from the centerline loads the catheter,
 through its distributed lumen contact and its tip attachment, with a constant bending
@@ -11,8 +11,8 @@ stiffnesses, into an arc of curvature
 per unit *rest* arc length (the strains of Eqs. 3–7 are measured along the rest length),
 with the centerline shortened by the axial strain ε = T / (E_s A): at rest arc length s,
 θ = κ s, x = (1 − ε) sin θ / κ, and (1 − ε)(1 − cos θ)/κ towards the tendon's side. This is
-the continuum limit of rodsim's own equations; an earlier form, θ = κ s (1 − ε) with the
-catheter's E I alone, differs from it by two ~0.3 % effects (docs/tendon.md).
+the continuum limit of rodsim's own equations; the simpler form θ = κ s (1 − ε) with the
+catheter's E I alone differs from it by two ~0.3 % effects (docs/tendon.md).
 """
 
 from __future__ import annotations

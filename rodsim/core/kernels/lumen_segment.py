@@ -1,6 +1,6 @@
 """Kernel of :mod:`rodsim.core.terms.lumen` with the conserving coupling, Eqs. (24)–(27),
-(32)–(35) with DESIGN erratum 13 (:mod:`rodsim.core.terms._lumen_segment`): per tendon point p on
-lumen segment j, local coordinates (p, r_j, r_{j+1}, q_{j−1}, q_j, q_{j+1}),
+(32)–(35) with docs/design.md, erratum 13 (:mod:`rodsim.core.terms._lumen_segment`): per
+tendon point p on lumen segment j, local coordinates (p, r_j, r_{j+1}, q_{j−1}, q_j, q_{j+1}),
 
     L_j = r_j + r_L u(s_j),  τ_j = t(s_j),  s_j = Σ_k weights[e, 0, k] q_slot k  (j + 1 likewise),
     L(σ) = Σ_b w_b(σ) y_b over y = (L_j, L_{j+1}, τ_j, τ_{j+1}), w = (h00, h01, l̄ h10, l̄ h11),

@@ -2,7 +2,7 @@
 
 ``N`` control points ``r_0 … r_{N-1}`` split the rod into ``N−1`` equal segments; each
 segment carries one quaternion at its midpoint. Arc length ``s`` is the rest arc length in
-metres (DESIGN erratum 3: the paper's σ ∈ [0, 1] is replaced by s ∈ [0, L]).
+metres (docs/design.md, erratum 3: the paper's σ ∈ [0, 1] is replaced by s ∈ [0, L]).
 """
 
 from __future__ import annotations

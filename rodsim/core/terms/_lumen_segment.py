@@ -1,5 +1,5 @@
 """The lumen as a smooth curve through the node lumen points, for the momentum-conserving
-lumen penalty (paper Eqs. 24–27, 32–35, with DESIGN erratum 13).
+lumen penalty (paper Eqs. 24–27, 32–35, with docs/design.md, erratum 13).
 
 **Node frames.** The catheter's quaternions live on its segments (segment j, between nodes j
 and j + 1, has q_j). Node j takes the *bisector* frame of the two segments that meet there,

@@ -1,4 +1,4 @@
-"""Bending and twisting energy, paper Eqs. (7)–(8), with the q′ correction (DESIGN erratum 1).
+"""Bending and twisting energy, paper Eqs. (7)–(8), with q′ for q̇ (docs/design.md, erratum 1).
 
     V_b = ½ ∫ Σ_k K_kk (u_k − û_k)² ds,   u_k = (2 / |q|²) (B_k q) · q′        (Eqs. 3, 7)
 
@@ -7,8 +7,8 @@ distance l̄ = l apart),
 
     u_k,i = (2 / l̄) (B_k a) · b / (|a| |b|),   energy ½ l̄ Σ_k K_kk u_k,i².
 
-The normalisation is Eq. (3)'s 2/|q|², kept in the discrete form (the design brief's
-erratum 1 drops it). It makes the strains independent of the quaternions' norms, which
+The normalisation is Eq. (3)'s 2/|q|², kept in the discrete form (docs/design.md,
+erratum 1). It makes the strains independent of the quaternions' norms, which
 only the centerline penalty Eq. (9) holds at 1. Without it, bending pulls |q| below 1 by
 O(EI κ² / K_P) and so softens the rod: on Table 1 (100 g, K_P = 1e4) that moved the tip by
 4.7e-5 L and made the penalty model differ from IDA's exactly-unit quaternions by as much

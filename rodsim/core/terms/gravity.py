@@ -1,4 +1,4 @@
-"""Self-weight of the rod (DESIGN erratum 10): off in the paper's scenes, available here.
+"""Self-weight of the rod (docs/design.md, erratum 10): off in the paper's scenes, available here.
 
     V = Σ_i m_i g y_i,   m_i = ρ A × (rest length lumped on control point i)
 

@@ -15,9 +15,10 @@ the lumen is free. K_L is a force per unit offset per tendon point [N/m].
 Each catheter node receives the *average* of the lumen forces of the tendon points
 registered to it, applied at the node (§4.1). Not momentum-conserving.
 
-``coupling = "conserving"`` (DESIGN erratum 13; :mod:`rodsim.core.terms._lumen_segment`): the
-lumen is the smooth (C¹) curve through the node lumen points L_j = r_j + r_L d_t(Q_j), Q_j
-the bisector of the two segments' frames at node j, tangent to d3(Q_j) there; each point is
+``coupling = "conserving"`` (docs/design.md, erratum 13;
+:mod:`rodsim.core.terms._lumen_segment`): the lumen is the smooth (C¹) curve through the
+node lumen points L_j = r_j + r_L d_t(Q_j), Q_j the bisector of the two segments' frames at
+node j, tangent to d3(Q_j) there; each point is
 registered to the lumen *segment* it lies alongside and held at its distance from that
 segment's curve, E = Σ_i ½ K_L w_i |Δ_i|² with K_L per unit tendon length [N/m²] and w_i the
 point's share of the tendon's rest length [m] (l_T/2 for the base point, l_T for the
@@ -41,7 +42,7 @@ point is closer (paper), or it lies beyond the boundary plane of its lumen segme
 switching boundary cannot flip-flop; once a run is at equilibrium, every point is re-
 registered to its nearest lumen point without hysteresis and the run goes on if a parent
 changed (``Model.reregistered(x, exact=True)``), so the equilibrium does not depend on the
-path a solver took (before this, CVODE and static ended with different parents on a four-
+path a solver took (with hysteresis alone, CVODE and static ended with different parents on a four-
 tendon scene, 3.7e-4 L apart).
 """
 

@@ -1,4 +1,4 @@
-"""Stretch energy, paper Eq. (6), integrated over rest arc length s (DESIGN erratum 3).
+"""Stretch energy, paper Eq. (6), integrated over rest arc length s (docs/design.md, erratum 3).
 
     V_s = ½ ∫ K_s (|r′| − 1)² ds  ≈  Σ_j ½ K_s l (|e_j| / l − 1)²,   K_s = E_s π r²
 

@@ -2,7 +2,7 @@
 
 The paper does not say where F_A acts nor how the tendon's proximal end is held, and its
 tendon (E_s = 0.001 MPa, r = 0.1 mm: E_s A = 3.1e-5 N) cannot carry 2 N along its length
-(DESIGN erratum 7). Two choices, recorded in every archive through the scene:
+(docs/design.md, erratum 7). Two choices, recorded in every archive through the scene:
 
 - ``distal`` (default, for the paper's scenes): F_A pulls the tendon's tip back along the
   lumen, F = −F_A d3(q_last) of the catheter's last segment (a follower load). The tendon
