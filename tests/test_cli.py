@@ -63,8 +63,6 @@ def test_run_with_overrides_changes_archive(tmp_path, capsys, cli):
     assert dataset.sizes["node"] == 12
     assert dataset.sizes["segment"] == 11
     assert dataset.attrs["integrator"] == "static"
-    assert dataset.attrs["scene.rods.catheter.nodes"] == 12
-    assert dataset.attrs["scene.rods.catheter.tip_load.mass"] == 0.02
     scene = json.loads(dataset.attrs["scene_json"])
     assert scene["rods"]["catheter"]["nodes"] == 12
     assert scene["rods"]["catheter"]["tip_load"]["mass"] == 0.02

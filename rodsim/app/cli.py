@@ -11,6 +11,7 @@ import argparse
 import json
 import math
 import os
+import shlex
 import sys
 from collections.abc import Callable, Sequence
 from pathlib import Path
@@ -672,8 +673,12 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
     command: Callable[[argparse.Namespace], int] = args.func
+    from rodsim.io.provenance import invocation
+
+    words = list(sys.argv[1:] if argv is None else argv)
     try:
-        return command(args)
+        with invocation(shlex.join(["rodsim", *words])):  # the archives' history line
+            return command(args)
     except UserError as exc:
         print(f"rodsim: error: {exc}", file=sys.stderr)
         return EXIT_BAD_INPUT

@@ -26,8 +26,8 @@ from rodsim.core.analytic.reference import REFERENCE_KINDS, reference_centerline
 from rodsim.core.scene import Scene, SceneError
 from rodsim.io.archive_schema import SCHEMA_VERSION, STATUS
 from rodsim.io.compare import largest_distance
-from rodsim.io.provenance import git_commit, git_dirty
-from rodsim.version import __version__
+from rodsim.io.provenance import archive_attributes
+from rodsim.io.run_dataset import step_coordinate
 
 __all__ = ["Sweep", "Study", "StudyError", "available_studies", "load_study",
            "evaluate_point", "assemble", "rerun_study", "STATUS"]
@@ -311,26 +311,24 @@ def assemble(spec: dict[str, Any], records: list[dict[str, Any]]) -> xr.Dataset:
         if not np.issubdtype(labels.dtype, np.number):  # names ("corde", "on"): no units
             del attrs["units"]
         coords[s["name"]] = (s["name"], labels, attrs)
+    if spec["history"]:
+        coords.update(step_coordinate(steps))
     ds = xr.Dataset(data_vars, coords)
     if spec["reference"] == "last":
         base = json.loads(spec["base_scene_json"])
         _score_against_last(ds, dims[0], float(base["rods"][rods[0]]["length"]))
     ds.attrs.update({
         "title": f"rodsim study {spec['name']}: {spec['title']}",
+        **archive_attributes(f"rodsim.app.study.assemble(study {spec['name']!r}, "
+                              f"size {spec['size']!r})"),
         "study": spec["name"], "size": spec["size"], "paper": spec["paper"],
         "integrator": str(spec["integrator"] or "per point (solver.integrator)"),
         "reference": str(spec["reference"]),
         "plot": spec["plot"], "spec_json": json.dumps(spec, sort_keys=True),
         "scene_json": spec["base_scene_json"], "scene_toml": spec.get("base_scene_toml", ""),
-        "rodsim_version": __version__, "schema_version": SCHEMA_VERSION,
+        "schema_version": SCHEMA_VERSION,
         "points": int(np.prod(shape)), "failed_points": int(np.sum(status != STATUS["ok"])),
     })
-    commit = git_commit()
-    if commit:
-        ds.attrs["git_commit"] = commit
-        dirty = git_dirty()
-        if dirty is not None:
-            ds.attrs["git_dirty"] = int(dirty)
     return ds
 
 

@@ -19,7 +19,7 @@ import xarray as xr
 
 from rodsim.core.scene import Scene
 from rodsim.io.archive_schema import (
-    SCHEMA_VERSION,
+    READABLE_SCHEMA_VERSIONS,
     ArchiveSchemaError,
     check_archive,
 )
@@ -51,7 +51,10 @@ def write_dataset(dataset: xr.Dataset, path: str | Path) -> Path:
         umask = os.umask(0)
         os.umask(umask)
         os.chmod(temporary, 0o666 & ~umask)  # mkstemp creates 0600; archives follow the umask
-        dataset.to_netcdf(temporary, engine="netcdf4")
+        # No _FillValue on coordinates (CF: a coordinate has no missing values; xarray would
+        # add NaN as the fill value of every float one).
+        encoding = {name: {"_FillValue": None} for name in dataset.coords}
+        dataset.to_netcdf(temporary, engine="netcdf4", encoding=encoding)
         os.replace(temporary, path)
     except BaseException as exc:  # an interrupt too: never leave a half-written temporary
         with contextlib.suppress(OSError):
@@ -73,9 +76,10 @@ def read_dataset(path: str | Path) -> xr.Dataset:
         raise ArchiveError(f"cannot read {str(path)!r}: {reason[:200]}") from None
     if "schema_version" not in loaded.attrs or "scene_json" not in loaded.attrs:
         raise ArchiveError(f"{str(path)!r} is not a rodsim archive (no scene_json attribute)")
-    if str(loaded.attrs["schema_version"]) != SCHEMA_VERSION:
+    if str(loaded.attrs["schema_version"]) not in READABLE_SCHEMA_VERSIONS:
         raise ArchiveError(f"{str(path)!r} has archive schema {loaded.attrs['schema_version']}, "
-                           f"this rodsim reads schema {SCHEMA_VERSION}")
+                           "this rodsim reads schemas "
+                           + " and ".join(READABLE_SCHEMA_VERSIONS))
     try:
         check_archive(loaded)
     except ArchiveSchemaError as exc:

@@ -15,18 +15,34 @@ from __future__ import annotations
 import json
 import math
 from collections.abc import Mapping
+from datetime import datetime
 from typing import Any
 
 import numpy as np
 import xarray as xr
 
 from rodsim.core.scene import Scene, SceneError
+from rodsim.io.provenance import CONVENTIONS
 
 __all__ = ["ArchiveSchemaError", "check_archive", "check_point_record", "parse_json_object",
-           "MAX_SIGMA_POINTS", "KINDS"]
+           "MAX_SIGMA_POINTS", "KINDS", "SCHEMA_VERSION", "READABLE_SCHEMA_VERSIONS"]
 
 #: Version of the archive layout; bump when variables or attributes change meaning.
-SCHEMA_VERSION = "1"
+#: 2: CF-1.8 provenance attributes (Conventions, history, source, references, date_created,
+#: library versions, git commit) in every archive, the ``step`` coordinate, the scene only as
+#: ``scene_json`` (no more ``scene.*`` attributes), no _FillValue on coordinates.
+SCHEMA_VERSION = "2"
+
+#: Layouts this rodsim reads: schema 1 archives (before the CF attributes) hold the same
+#: variables, ``scene_json`` and ``integrator_options``, so they are read, re-run and plotted
+#: as they are; only the checks of the provenance attributes are skipped for them.
+READABLE_SCHEMA_VERSIONS = ("1", "2")
+
+#: Text attributes every schema 2 archive carries (docs/archive.md, "Conventions and
+#: provenance"; git_commit and git_dirty only from a checkout).
+PROVENANCE_ATTRIBUTES = ("history", "source", "references", "date_created", "rodsim_version",
+                         "numpy_version", "scipy_version", "scikit_sundae_version",
+                         "sundials_version")
 
 #: Status codes of a study point (the ``status`` variable of a study archive).
 STATUS = {"ok": 0, "solver_failure": 1, "error": 2}
@@ -111,6 +127,8 @@ def check_archive(ds: xr.Dataset) -> None:
     """Check a run archive (also a fit or reach archive), a track archive (``kind`` =
     ``track``) or a study archive (``study`` attribute) against its contract."""
     kind = ds.attrs.get("kind", "run")
+    if str(ds.attrs.get("schema_version")) != "1":
+        _check_provenance(ds)
     if "study" in ds.attrs:
         _check_study(ds)
     elif kind not in KINDS:
@@ -121,6 +139,31 @@ def check_archive(ds: xr.Dataset) -> None:
         _check_track(ds)
     else:
         _check_run(ds)
+
+
+def _check_provenance(ds: xr.Dataset) -> None:
+    """The CF and provenance attributes of a schema 2 archive, and a coordinate for the
+    ``step`` dimension."""
+    if ds.attrs.get("Conventions") != CONVENTIONS:
+        raise ArchiveSchemaError(f"attribute 'Conventions' is not {CONVENTIONS!r}")
+    for name in PROVENANCE_ATTRIBUTES:
+        value = _attribute(ds, name)
+        if not isinstance(value, str) or not value.strip():
+            raise ArchiveSchemaError(f"attribute {name!r} is not a non-empty text")
+    created = ds.attrs["date_created"]
+    try:
+        datetime.strptime(created, "%Y-%m-%dT%H:%M:%SZ")
+    except ValueError:
+        raise ArchiveSchemaError(f"attribute 'date_created' = {created[:40]!r} is not an ISO "
+                                 "8601 UTC time (YYYY-MM-DDThh:mm:ssZ)") from None
+    if "git_dirty" in ds.attrs and "git_commit" not in ds.attrs:
+        raise ArchiveSchemaError("attribute 'git_dirty' without 'git_commit'")
+    if "step" in ds.dims:
+        _variable(ds, "step", ("step",))
+    for name in ds.coords:
+        variable = ds[name]
+        if "_FillValue" in variable.attrs or variable.encoding.get("_FillValue") is not None:
+            raise ArchiveSchemaError(f"coordinate {name!r} has a _FillValue")
 
 
 def _check_track(ds: xr.Dataset) -> None:

@@ -2,7 +2,9 @@
 
 All rods' control points are concatenated along one ``node`` dimension, with the coordinate
 ``rod`` naming the rod of each node; likewise ``segment`` for quaternions. Select one rod
-with ``ds.sel(node=ds.rod == "tendon", segment=ds.segment_rod == "tendon")``.
+with ``ds.sel(node=ds.rod == "tendon", segment=ds.segment_rod == "tendon")``. The resolved
+scene is one JSON attribute (``scene_json``); the provenance attributes (CF ``Conventions``,
+``history``, versions, git commit) are :func:`rodsim.io.provenance.archive_attributes`'.
 """
 
 from __future__ import annotations
@@ -14,9 +16,10 @@ import numpy as np
 import xarray as xr
 
 from rodsim.io.archive_schema import SCHEMA_VERSION
+from rodsim.io.provenance import archive_attributes
 from rodsim.solvers.result import Result
 
-__all__ = ["run_dataset", "flatten_scene"]
+__all__ = ["run_dataset", "step_coordinate"]
 
 
 def run_dataset(result: Result) -> xr.Dataset:
@@ -51,6 +54,7 @@ def run_dataset(result: Result) -> xr.Dataset:
         },
     )
     if result.history.get("time"):
+        ds = ds.assign_coords(step_coordinate(len(result.history["time"])))
         time_attrs = ({"units": "1", "long_name": "load fraction after each load step"}
                       if result.integrator == "static" else
                       {"units": "s", "long_name": "pseudo-time after each step"})
@@ -65,10 +69,19 @@ def run_dataset(result: Result) -> xr.Dataset:
     ds.attrs.update(_attributes(result))
     return ds
 
+
+def step_coordinate(steps: int, long_name: str = "integrator step") -> dict[str, Any]:
+    """The ``step`` coordinate of a history, 0, 1, … (so that every dimension has one)."""
+    return {"step": ("step", np.arange(steps, dtype=np.int64),
+                     {"units": "1", "long_name": long_name})}
+
+
 def _attributes(result: Result) -> dict[str, Any]:
     attrs: dict[str, Any] = {
         "title": f"rodsim run of scene {result.scene.name!r} with the {result.integrator} "
                  "integrator",
+        **archive_attributes(f"rodsim.solve(scene {result.scene.name!r}, "
+                             f"integrator={result.integrator!r})"),
         "rodsim_version": result.version,
         "schema_version": SCHEMA_VERSION,
         "integrator": result.integrator,
@@ -86,25 +99,4 @@ def _attributes(result: Result) -> dict[str, Any]:
         attrs["stiffness_min_eigenvalue"] = float(result.stability.min_eigenvalue)
     for key, value in result.stats.items():
         attrs[f"stats_{key}"] = float(value)
-    attrs.update(flatten_scene(result.scene.data))
     return attrs
-
-
-def flatten_scene(data: dict[str, Any], prefix: str = "scene") -> dict[str, Any]:
-    """Scene values as flat ``scene.rods.catheter.length``-style attributes (netCDF-safe)."""
-    out: dict[str, Any] = {}
-    for key, value in data.items():
-        name = f"{prefix}.{key}"
-        if isinstance(value, dict):
-            out.update(flatten_scene(value, name))
-        elif isinstance(value, list) and value and isinstance(value[0], dict):
-            for i, item in enumerate(value):
-                out.update(flatten_scene(item, f"{name}.{i}"))
-        elif isinstance(value, bool):
-            out[name] = int(value)
-        elif isinstance(value, list):
-            out[name] = (", ".join(value) if all(isinstance(v, str) for v in value)
-                         else np.asarray(value, dtype=float))
-        else:
-            out[name] = value
-    return out

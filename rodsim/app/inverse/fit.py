@@ -46,6 +46,7 @@ import numpy as np
 from rodsim.app.inverse.continuation import EquilibriumFailure, ScaledEquilibria
 from rodsim.app.inverse.parameter_keys import NumericKey, numeric_keys, scene_with
 from rodsim.core.scene import Scene
+from rodsim.io.provenance import history
 from rodsim.io.run_dataset import run_dataset
 from rodsim.solvers.result import Result
 
@@ -180,6 +181,10 @@ class Fit:
             "title": f"rodsim fit of {len(self.keys)} value(s) of scene "
                      f"{self.result.scene.name!r} to {len(self.points.xyz)} points",
             "kind": "fit",
+            "history": history(f"rodsim.fit(scene {self.result.scene.name!r}, "
+                               f"{len(self.points.xyz)} points, parameters "
+                               f"{', '.join(k.name for k in self.keys)})",
+                               ds.attrs["date_created"]),
             "fit_parameters": json.dumps([k.name for k in self.keys]),
             "fit_rod": self.rod,
             "residual_rms": self.residual_rms,

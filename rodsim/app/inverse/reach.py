@@ -31,6 +31,7 @@ from rodsim.app.inverse.continuation import EquilibriumFailure, ScaledEquilibria
 from rodsim.app.inverse.parameter_keys import NumericKey, numeric_keys, scene_with
 from rodsim.core.scene import Scene
 from rodsim.core.schema import SceneError
+from rodsim.io.provenance import history
 from rodsim.io.run_dataset import run_dataset
 from rodsim.solvers.result import Result
 
@@ -79,6 +80,9 @@ class Reach:
             "title": f"rodsim reach of scene {self.result.scene.name!r} (tip of "
                      f"{self.rod!r})",
             "kind": "reach",
+            "history": history(f"rodsim.reach(scene {self.result.scene.name!r}, actuate "
+                               f"{', '.join(k.name for k in self.keys)})",
+                               ds.attrs["date_created"]),
             "reach_parameters": json.dumps([k.name for k in self.keys]),
             "reach_rod": self.rod,
             "distance": self.distance,

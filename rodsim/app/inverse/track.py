@@ -35,10 +35,10 @@ from rodsim.core.model import Model
 from rodsim.core.scene import Scene
 from rodsim.core.schema import SceneError
 from rodsim.io.archive_schema import SCHEMA_VERSION
-from rodsim.io.run_dataset import flatten_scene
+from rodsim.io.provenance import archive_attributes
+from rodsim.io.run_dataset import step_coordinate
 from rodsim.solvers import registered_integrators
 from rodsim.solvers.base import Progress
-from rodsim.version import __version__
 
 if TYPE_CHECKING:
     import xarray as xr
@@ -122,7 +122,7 @@ class Track:
         node_rod = np.concatenate([[name] * rod.nodes for name, rod in rods.items()])
         seg_rod = np.concatenate([[name] * (rod.nodes - 1) for name, rod in rods.items()])
         coords = {
-            "step": ("step", np.arange(steps), {"long_name": "step along the ramp"}),
+            **step_coordinate(steps, "step along the ramp"),
             "axis": ("axis", ["x", "y", "z"], {"long_name": "world axis"}),
             "component": ("component", ["q1", "q2", "q3", "q4"],
                           {"long_name": "quaternion component"}),
@@ -165,7 +165,9 @@ class Track:
             "title": f"rodsim track of scene {self.scene.name!r} with the {self.integrator} "
                      "integrator",
             "kind": "track",
-            "rodsim_version": __version__,
+            **archive_attributes(f"rodsim.track(scene {self.scene.name!r}, ramps "
+                                 f"{', '.join(k.name for k in self.keys)}, integrator="
+                                 f"{self.integrator!r})"),
             "schema_version": SCHEMA_VERSION,
             "integrator": self.integrator,
             "integrator_options": json.dumps(
@@ -183,7 +185,6 @@ class Track:
             "stats_cold_wall_time": float(self.times[0]) if self.times else float("nan"),
             "stats_warm_step_mean_wall_time": float(warm.mean()) if warm.size else float("nan"),
         })
-        ds.attrs.update(flatten_scene(self.scene.data))
         return ds
 
 
