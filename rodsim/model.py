@@ -419,22 +419,22 @@ class Model:
         return sp.csc_matrix((data, self.pattern.indices, self.pattern.indptr),
                              shape=(self.n, self.n))
 
-    #: Whether :meth:`step` also keeps each rod's segment lengths (measured: see step).
-    STEP_CHAINS = True
-
     @cached_property
-    def _step_maps(self) -> tuple[list[tuple[np.ndarray, np.ndarray]], list[np.ndarray]]:
-        """(free indices of the catheter tip and the tendon tip of every endpoint coupling
-        whose six coordinates are all free; full position indices of every rod)."""
+    def _step_maps(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(full position indices of every rod's nodes, rod k in rows starts[k]:starts[k+1];
+        those starts; free indices of the catheter tip and the tendon tip of every endpoint
+        coupling whose six coordinates are all free)."""
         couplings = []
         for term in self.terms:
             if term.name == "endpoint_coupling":
                 free = self._free_of[term.dofs[0]]
                 if np.all(free < self.n):
-                    couplings.append((free[:3], free[3:]))
-        chains = ([rod.layout.position_index for rod in self.rods.values()]
-                  if self.STEP_CHAINS else [])
-        return couplings, chains
+                    couplings.append(free)
+        chains = [rod.layout.position_index for rod in self.rods.values()]
+        starts = np.cumsum([0] + [len(index) for index in chains])
+        return (np.ascontiguousarray(np.concatenate(chains), dtype=np.int64),
+                starts.astype(np.int64),
+                np.array(couplings, dtype=np.int64).reshape(-1, 6))
 
     def step(self, x: np.ndarray, dx: np.ndarray) -> np.ndarray:
         """The state a Newton step ``dx`` from ``x`` reaches, with stiff lengths kept to first
@@ -445,25 +445,33 @@ class Model:
         endpoint spring (K_C, rest length r_L, no tension at rest) and the catheter's segments
         (stretch and centerline penalty). Here each rod's segments, walked from its base, and
         then each endpoint coupling (the tendon tip about the catheter tip) keep the length
-        the linearisation predicts, in the direction of the linear step's.
+        the linearisation predicts, in the direction of the linear step's. Compiled
+        (rodsim/kernels/_retraction.py) with ``kernels = "compiled"``; this numpy code is
+        the reference.
         """
-        couplings, chains = self._step_maps
+        chains, starts, couplings = self._step_maps
         y = x + dx
-        if chains:
-            before, after = self.full(x), self.full(y)
-            for index in chains:
-                r, moved = before[index], after[index]
-                edges = np.diff(r, axis=0)
-                length = np.linalg.norm(edges, axis=1)
-                predicted = length + np.einsum("ij,ij->i", edges,
-                                               np.diff(moved - r, axis=0)) / length
-                new_edges = np.diff(moved, axis=0)
-                new_edges *= (predicted / np.linalg.norm(new_edges, axis=1))[:, None]
-                moved[1:] = moved[0] + np.cumsum(new_edges, axis=0)
-                free = self._free_of[index]
-                keep = free < self.n
-                y[free[keep]] = moved[keep]
-        for tip, tendon_tip in couplings:
+        if self.kernels == "compiled":
+            from rodsim.kernels._retraction import retract
+
+            retract(x, dx, y, self.rest_full, self._free_of, chains, starts, couplings)
+            return y
+        before, after = self.full(x), self.full(y)
+        for k in range(len(starts) - 1):
+            index = chains[starts[k]:starts[k + 1]]
+            r, moved = before[index], after[index]
+            edges = np.diff(r, axis=0)
+            length = np.linalg.norm(edges, axis=1)
+            predicted = length + np.einsum("ij,ij->i", edges,
+                                           np.diff(moved - r, axis=0)) / length
+            new_edges = np.diff(moved, axis=0)
+            new_edges *= (predicted / np.linalg.norm(new_edges, axis=1))[:, None]
+            moved[1:] = moved[0] + np.cumsum(new_edges, axis=0)
+            free = self._free_of[index]
+            keep = free < self.n
+            y[free[keep]] = moved[keep]
+        for free in couplings:
+            tip, tendon_tip = free[:3], free[3:]
             edge = x[tendon_tip] - x[tip]
             length = float(np.linalg.norm(edge))
             if length == 0.0:

@@ -32,7 +32,7 @@ tension at rest) gave residuals 20–40× the loads after the first step, the ca
 segments (stretch and the centerline penalty) after later ones. Newton now steps through
 the retraction :meth:`Model.step` (each segment and the coupling keep the length the
 linearisation predicts), which converges a load step of 1/4 in 6 iterations (14 before).
-With it, on table3-catheter1 (catheter2, catheter3; tendon-conserving): 29 (30, 29; 17)
+With it, on table3-catheter1 (catheter2, catheter3; tendon-conserving): 29 (29, 29; 17)
 iterations, against 88 (86, 83; 21) — on the same equilibria to 1e-14 L:
 
 - retraction of the coupling alone: 42 → 30 (the segments' retraction: 30 → 29, and 20 → 17
