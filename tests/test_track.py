@@ -44,9 +44,9 @@ def test_a_tendon_track_keeps_the_registration_and_costs_a_few_newton_iterations
     assert path.success
     cold, result = _cold(scene, {"tendons.tendon.tendon_actuation.force": 2.0})
     assert np.abs(path.positions[-1] - cold).max() < 1e-8 * 0.16
-    # A cold static solve takes tens of Newton iterations (load and penalty continuation);
-    # a warm step a handful.
-    assert max(path.iterations[1:]) <= result.stats["newton_iters"] / 5
+    # A cold static solve takes tens of Newton iterations (load and penalty continuation:
+    # 29 since the retraction of static.py, 88 before); a warm step a handful.
+    assert max(path.iterations[1:]) <= result.stats["newton_iters"] / 4
 
 
 @pytest.mark.parametrize("integrator", ["cvode", "paper"])

@@ -415,6 +415,68 @@ class Model:
         return sp.csc_matrix((data, self.pattern.indices, self.pattern.indptr),
                              shape=(self.n, self.n))
 
+    @cached_property
+    def _step_maps(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(full position indices of every rod's nodes, rod k in rows starts[k]:starts[k+1];
+        those starts; free indices of the catheter tip and the tendon tip of every endpoint
+        coupling whose six coordinates are all free)."""
+        couplings = []
+        for term in self.terms:
+            if term.name == "endpoint_coupling":
+                free = self._free_of[term.dofs[0]]
+                if np.all(free < self.n):
+                    couplings.append(free)
+        chains = [rod.layout.position_index for rod in self.rods.values()]
+        starts = np.cumsum([0] + [len(index) for index in chains])
+        return (np.ascontiguousarray(np.concatenate(chains), dtype=np.int64),
+                starts.astype(np.int64),
+                np.array(couplings, dtype=np.int64).reshape(-1, 6))
+
+    def step(self, x: np.ndarray, dx: np.ndarray) -> np.ndarray:
+        """The state a Newton step ``dx`` from ``x`` reaches, with stiff lengths kept to first
+        order (a retraction: equal to x + dx to first order in dx).
+
+        A linear step that turns a stiff link of fixed length stretches it by O(δ²), which the
+        link's stiffness turns into a force far above the loads: on the paper's coupling the
+        endpoint spring (K_C, rest length r_L, no tension at rest) and the catheter's segments
+        (stretch and centerline penalty). Here each rod's segments, walked from its base, and
+        then each endpoint coupling (the tendon tip about the catheter tip) keep the length
+        the linearisation predicts, in the direction of the linear step's. Compiled
+        (rodsim/core/kernels/_retraction.py) with ``kernels = "compiled"``; this numpy code is
+        the reference.
+        """
+        chains, starts, couplings = self._step_maps
+        y = x + dx
+        if self.kernels == "compiled":
+            from rodsim.core.kernels._retraction import retract
+
+            retract(x, dx, y, self.rest_full, self._free_of, chains, starts, couplings)
+            return y
+        before, after = self.full(x), self.full(y)
+        for k in range(len(starts) - 1):
+            index = chains[starts[k]:starts[k + 1]]
+            r, moved = before[index], after[index]
+            edges = np.diff(r, axis=0)
+            length = np.linalg.norm(edges, axis=1)
+            predicted = length + np.einsum("ij,ij->i", edges,
+                                           np.diff(moved - r, axis=0)) / length
+            new_edges = np.diff(moved, axis=0)
+            new_edges *= (predicted / np.linalg.norm(new_edges, axis=1))[:, None]
+            moved[1:] = moved[0] + np.cumsum(new_edges, axis=0)
+            free = self._free_of[index]
+            keep = free < self.n
+            y[free[keep]] = moved[keep]
+        for free in couplings:
+            tip, tendon_tip = free[:3], free[3:]
+            edge = x[tendon_tip] - x[tip]
+            length = float(np.linalg.norm(edge))
+            if length == 0.0:
+                continue
+            predicted = length + float(edge @ (dx[tendon_tip] - dx[tip])) / length
+            new_edge = y[tendon_tip] - y[tip]
+            y[tendon_tip] = y[tip] + predicted * new_edge / np.linalg.norm(new_edge)
+        return y
+
     def residual(self, force: np.ndarray) -> float:
         """Scaled residual max_i |F_i| w_i: forces / F_ref, quaternion forces / (F_ref L_ref)."""
         return float(np.max(np.abs(force) * self.residual_weight))

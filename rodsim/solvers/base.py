@@ -205,10 +205,12 @@ class Integrator(ABC):
         return self._linear[1]
 
     def newton_equilibrium(self, x: np.ndarray, load: float, max_iterations: int,
-                           where: str) -> tuple[bool, np.ndarray, int]:
+                           where: str, polish: bool = True,
+                           retract: bool = False) -> tuple[bool, np.ndarray, int]:
         """Newton on F(x) = 0 at a fixed load fraction from ``x`` (analytic Jacobian, energy
         line search when the model is conservative); returns (converged, x, iterations), which
-        the caller counts."""
+        the caller counts. ``polish``: see :func:`rodsim.solvers.newton.newton`;
+        ``retract``: steps through :meth:`Model.step` instead of x + Δx."""
         from rodsim.solvers.newton import NewtonProblem, newton
 
         model = self.model
@@ -219,8 +221,9 @@ class Integrator(ABC):
             residual=model.residual,
             weight=model.residual_weight,
             potential=(lambda y: model.energy(y, load)) if model.conservative else None,
+            step=model.step if retract else None,
         )
-        outcome = newton(problem, x, self.tolerance, max_iterations,
+        outcome = newton(problem, x, self.tolerance, max_iterations, polish=polish,
                          check=self.iteration_check(where))
         return outcome.converged, outcome.x, outcome.iterations
 

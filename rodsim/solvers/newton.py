@@ -33,7 +33,10 @@ class NewtonProblem:
     """g(y) (a generalised force), its Jacobian ∂g/∂y (CSC data of ``linear``'s pattern),
     the solver of the linear systems, and optionally Φ with g = −∇Φ.
 
-    ``residual(g)`` is the scaled residual that decides convergence.
+    ``residual(g)`` is the scaled residual that decides convergence. ``step(y, dy)``, if
+    given, is the state a Newton step ``dy`` from ``y`` reaches in place of ``y + dy`` (a
+    retraction that keeps stiff lengths to first order, :meth:`rodsim.core.model.Model.step`);
+    it must agree with ``y + dy`` to first order in ``dy``.
     """
 
     force: Callable[[np.ndarray], np.ndarray]
@@ -42,6 +45,7 @@ class NewtonProblem:
     residual: Callable[[np.ndarray], float]
     weight: np.ndarray
     potential: Callable[[np.ndarray], float] | None = None
+    step: Callable[[np.ndarray, np.ndarray], np.ndarray] | None = None
 
 
 #: Extra iterations a converged, polishing Newton solve may take (each must halve the residual).
@@ -86,6 +90,9 @@ def newton(problem: NewtonProblem, x: np.ndarray, tolerance: float,
         except SolverFailure:
             return np.full_like(y, np.nan), np.inf
 
+    def advance(y: np.ndarray, dy: np.ndarray) -> np.ndarray:
+        return y + dy if problem.step is None else problem.step(y, dy)
+
     g = problem.force(x)
     residual = problem.residual(g)
     value = merit(x, g)
@@ -119,7 +126,7 @@ def newton(problem: NewtonProblem, x: np.ndarray, tolerance: float,
             return NewtonResult(x, False, iteration + 1, residual,
                                 "Newton direction is not a descent direction (unstable state)")
         alpha = 1.0
-        trial = x + dx
+        trial = advance(x, dx)
         trial_g, trial_value = evaluate(trial)
         full_step_watched = (may_watch and not backtrack and np.isfinite(trial_value)
                              and not residual < tolerance)
@@ -141,7 +148,7 @@ def newton(problem: NewtonProblem, x: np.ndarray, tolerance: float,
                                         "line search failed")
                 if check is not None:  # a long backtracking costs force evaluations too
                     check()
-                trial = x + alpha * dx
+                trial = advance(x, alpha * dx)
                 trial_g, trial_value = evaluate(trial)
         elif watched is None and trial_value > value + 1e-4 * slope:
             watched = (x, g, residual, value, WATCHDOG_STEPS)

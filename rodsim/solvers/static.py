@@ -6,30 +6,49 @@ J(x) Δx = −F(x) with the analytic Jacobian (band Cholesky, band LU or SuperLU
 rodsim/solvers/linear.py) and a backtracking line search
 (rodsim/solvers/newton.py). If Newton does not converge at full load, the external
 loads are applied in increments λ ∈ (0, 1] (load continuation), cutting the increment on
-failure and growing it after easy steps.
+failure and growing it after easy steps. Newton steps through the retraction
+:meth:`Model.step` (below).
 
 Penalty continuation: when the centerline penalty dwarfs bending at the scale of a segment
 (K_P l² / (E I) above ``penalty_ratio``), Newton from the rest state may converge only
 linearly — a linear quaternion update leaves the penalty's constraint manifold by O(δ²),
 which K_P amplifies. If load continuation has not converged within 20 × max_newton Newton
 iterations, the loads are applied again with those penalties lowered to that ratio, which
-are then raised tenfold per step back to their values, each step a short Newton solve from
-the last (measured on Table 1, 100 g, K_P = 1e8: 31 Newton iterations in all, against no
-convergence in 300 at full K_P).
+are then raised back to their values (at once; tenfold per step if that fails), each step a
+short Newton solve from the last (measured on Table 1, 100 g, K_P = 1e8: 31 Newton
+iterations in all, against no convergence in 300 at full K_P).
 
 A non-conservative model (the paper's tendon coupling) has no energy for the line search, and
 there the stiff penalties are lowered from the start. Measured on table3-catheter1 (the
 tendon's centerline penalty has K_P l²/(E I) = 6.8e9): at full K_P, load continuation took
-227 Newton iterations — 90 in three failed 30-iteration attempts (load 1, 0.25, 0.5625),
-54 in three struggling steps, and ~7 per step in 11 steps of 1/16, because Newton from the
-last equilibrium converges only for load increments up to 1/16–1/8 (not 1/4); the analytic
-Jacobian matches finite differences, so this is the geometry (the first Newton step raises
-the residual 20–40×, mostly the stiff endpoint coupling K_C at the catheter tip). With the
-penalty lowered first: 90 (75 loading, in steps of 1/4 after one failed attempt at full
-load, then 15 raising K_P), on the same equilibrium to 1e-14 L. Tried and dropped: secant and
-quadratic predictors across load steps, looser tolerances on intermediate steps, and
-retracting the linear update onto the quaternion norm or the coupling's length (none cut
-the iterations below ~80 at full K_P).
+227 Newton iterations; with the penalty lowered first and raised tenfold per step, 88 — 30
+in a failed attempt at full load, 44 loading in steps of 1/4 and 1/2 (15, 10 + 3 after a
+re-registration, 16), 14 raising K_P (7 steps of 2: one Newton step and one polishing
+iteration that gains nothing); no line-search backtracking outside the failed attempt.
+
+Where those iterations went: a linear Newton step that turns a stiff link of fixed length
+stretches it by O(δ²). The endpoint coupling (K_C, a spring of rest length r_L with no
+tension at rest) gave residuals 20–40× the loads after the first step, the catheter's
+segments (stretch and the centerline penalty) after later ones. Newton now steps through
+the retraction :meth:`Model.step` (each segment and the coupling keep the length the
+linearisation predicts), which converges a load step of 1/4 in 6 iterations (14 before).
+With it, on table3-catheter1 (catheter2, catheter3; tendon-conserving): 29 (29, 29; 17)
+iterations, against 88 (86, 83; 21) — on the same equilibria to 1e-14 L:
+
+- retraction of the coupling alone: 42 → 30 (the segments' retraction: 30 → 29, and 20 → 17
+  on tendon-conserving);
+- a non-conservative model loaded with lowered penalties starts at a load step of
+  :data:`NONCONSERVATIVE_FIRST_STEP` = 1/4: the attempt at full load fails in 30 iterations
+  (the watchdog returns to the start six times), and 1/2 and 1/8 were measured worse on
+  catheter1 (64 / 37);
+- the penalties are raised to their values in one step (2–3 iterations from the lowered
+  equilibrium, which is next to the full one); tenfold steps only if that fails;
+- intermediate solves are not polished past the tolerance; only the last one is.
+
+Tried and dropped: retracting the quaternions onto the norm the linearisation predicts (worse:
+66–104 iterations, the direction error of the linear quaternion update remains); secant and
+quadratic predictors across load steps, and looser tolerances on intermediate steps (at full
+K_P, before the penalty lowering).
 
 Quaternion norm: held by the centerline penalty Eq. (9) (|d3| = |q|²), as in the model.
 
@@ -46,6 +65,12 @@ from rodsim.core.model import Model
 from rodsim.core.schema import Parameter
 from rodsim.solvers.base import Integrator, Outcome
 
+#: First load increment of a non-conservative model loaded with its penalties lowered (when
+#: ``first_load_step`` is larger): see the module docstring.
+NONCONSERVATIVE_FIRST_STEP = 0.25
+#: Default of ``penalty_ratio`` (also the CVODE finish's, rodsim/solvers/sundials.py).
+DEFAULT_PENALTY_RATIO = 1e3
+
 
 class Static(Integrator):
     """Newton–Raphson with load continuation on F(x) = 0."""
@@ -60,7 +85,7 @@ class Static(Integrator):
                   exclusive_minimum=True),
         Parameter("min_load_step", "float", 1e-4, "-",
                   "smallest load increment before giving up", 0.0, 1.0, exclusive_minimum=True),
-        Parameter("penalty_ratio", "float", 1e3, "-",
+        Parameter("penalty_ratio", "float", DEFAULT_PENALTY_RATIO, "-",
                   "above this K_P l²/(E I), load with K_P lowered to it, then raise K_P "
                   "tenfold per step (penalty continuation)", 1.0, 1e300),
     )
@@ -86,22 +111,31 @@ class Static(Integrator):
             outcome = self._load_continuation(base, budget)
             if outcome.success or not penalties:
                 return outcome
-        # Stiff penalties: load with them lowered, then raise them tenfold per step.
+        # Stiff penalties: load with them lowered, then raise them to their values at once;
+        # if Newton fails there, raise them tenfold per step from the last scales reached.
         scales = dict(penalties)
-        outcome = self._load_continuation(base.with_term_scales(scales), None)
+        outcome = self._load_continuation(base.with_term_scales(scales), None,
+                                          None if base.conservative else NONCONSERVATIVE_FIRST_STEP)
+        factor = np.inf
         while outcome.success and min(scales.values()) < 1.0:
-            scales = {k: min(1.0, 10.0 * scale) for k, scale in scales.items()}
-            smallest = min(scales.values())
+            trial = {k: min(1.0, factor * scale) for k, scale in scales.items()}
+            smallest = min(trial.values())
             # Same registration as reached, new penalty scales.
-            self.model = self._with_registration_of(base.with_term_scales(scales))
+            model = self.model
+            self.model = self._with_registration_of(base.with_term_scales(trial))
             where = f"penalty scale {smallest:.3g}"
             self.check_budget(where)
             converged, x = self._newton_registered(outcome.x, smallest >= 1.0)
             self.counts["steps"] += 1
-            self.checkpoint(x, where)
             if not converged:
+                if factor > 10.0:  # the jump failed: back, and tenfold per step
+                    self.model, factor = model, 10.0
+                    continue
+                self.checkpoint(x, where)
                 return Outcome(outcome.x, False, "Newton did not converge while raising the "
                                "penalty constants")
+            self.checkpoint(x, where)
+            scales = trial
             outcome = Outcome(x, True, "converged")
         return outcome
 
@@ -113,13 +147,17 @@ class Static(Integrator):
             return model
         return model.with_terms(terms)
 
-    def _load_continuation(self, model: Model, budget: int | None) -> Outcome:
+    def _load_continuation(self, model: Model, budget: int | None,
+                           first_step: float | None = None) -> Outcome:
         """Apply the loads to ``model`` in increments from its rest state and registration;
-        give up after ``budget`` Newton iterations."""
+        give up after ``budget`` Newton iterations. The first increment is
+        ``first_load_step``, or ``first_step`` if smaller."""
         self.model = model
         counts = self.counts
         x = model.x0
-        load, step = 0.0, self.options["first_load_step"]
+        load, step = 0.0, min(self.options["first_load_step"], first_step or 1.0)
+        # Only the last solve (full load, penalties at their values) is polished.
+        final = bool(np.all(model.term_scales == 1.0))
         spent = 0
         # At full load the run ends once the registration settles (exact re-registration);
         # if a parent changes there, Newton goes on at full load from the same state.
@@ -128,7 +166,7 @@ class Static(Integrator):
                 return Outcome(x, False, f"no equilibrium within {budget} Newton iterations")
             target = min(1.0, load + step)
             self.check_budget(f"load fraction {target:.4g}")
-            converged, x_new, iterations = self._newton(x, target)
+            converged, x_new, iterations = self._newton(x, target, final and target >= 1.0)
             spent += iterations
             if not converged:
                 step *= 0.25
@@ -154,7 +192,7 @@ class Static(Integrator):
         changes (and, when ``final``, until it settles without hysteresis)."""
         while True:
             self.check_budget("full load")
-            converged, x, _ = self._newton(x, 1.0)
+            converged, x, _ = self._newton(x, 1.0, final)
             if not converged:
                 return False, x
             if self.reregister(x):
@@ -162,10 +200,14 @@ class Static(Integrator):
             if not final or self.settled(x):
                 return True, x
 
-    def _newton(self, x: np.ndarray, load: float) -> tuple[bool, np.ndarray, int]:
-        """Newton iterations at a fixed load, counted; returns (converged, x, iterations)."""
+    def _newton(self, x: np.ndarray, load: float,
+                polish: bool = True) -> tuple[bool, np.ndarray, int]:
+        """Newton iterations at a fixed load (polished past the tolerance when ``polish``:
+        intermediate steps need not be), through the retraction :meth:`Model.step`, counted;
+        returns (converged, x, iterations)."""
         converged, x, iterations = self.newton_equilibrium(
-            x, load, self.options["max_newton"], f"load fraction {load:.4g}")
+            x, load, self.options["max_newton"], f"load fraction {load:.4g}", polish,
+            retract=True)
         self.counts["newton_iters"] += iterations
         self.counts["linear_solves"] += iterations
         return converged, x, iterations
