@@ -7,6 +7,8 @@ figure and the markdown table exist.
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 import xarray as xr
@@ -183,3 +185,70 @@ def test_kernels_small_outputs(tmp_path):
     (track,) = report["tracking"]
     assert track["success"] and track["steps"] == 21
     assert 0 < track["warm_step_mean_s"] < track["cold_solve_s"]
+
+
+# ------------------------------------------- figure titles state the measured result
+RESULTS = Path(__file__).resolve().parents[1] / "benchmarks" / "results"
+
+
+def _suptitle(draw, ds, tmp_path, monkeypatch) -> str:
+    """The suptitle a bench figure is saved with."""
+    from matplotlib.figure import Figure
+
+    seen = []
+    monkeypatch.setattr(Figure, "savefig",
+                        lambda self, *a, **k: seen.append(self.get_suptitle()))
+    draw(ds, tmp_path / "figure.png")
+    assert len(seen) == 1
+    return seen[0].replace("\n", " ")
+
+
+def test_scaling_title_states_the_fitted_exponents(tmp_path, monkeypatch):
+    ds = xr.load_dataset(RESULTS / "scaling-full.nc")
+    text = scaling.measured_result(ds)
+    assert text.replace("\n", " ") in _suptitle(scaling._plot, ds, tmp_path, monkeypatch)
+    nodes = ds["nodes"].values.astype(float)
+    upper = nodes >= nodes.max() / 40
+    expected = np.polyfit(np.log(nodes[upper]),
+                          np.log(ds["wall_time"].sel(config="cvode").values[upper]), 1)[0]
+    assert f"cvode {expected:.2f}" in text, text
+    # One more power of N in CVODE's times shows in its exponent and in its ratio to static.
+    slower = ds.copy(deep=True)
+    slower["wall_time"].loc[{"config": "cvode"}] = slower["wall_time"].sel(config="cvode") * (
+        slower["nodes"] / slower["nodes"][0])
+    changed = scaling.measured_result(slower)
+    assert f"cvode {expected + 1:.2f}" in changed, changed
+    assert changed != text
+
+
+def test_work_precision_title_states_the_fastest_runs(tmp_path, monkeypatch):
+    ds = xr.load_dataset(RESULTS / "work_precision-full.nc")
+    text = work_precision.measured_result(ds)
+    assert " ".join(text.split()) in " ".join(
+        _suptitle(work_precision._plot, ds, tmp_path, monkeypatch).split())
+    for scene in ("table1-50g", "table3-catheter1"):
+        static, _ = work_precision.best_time(ds, scene, "static",
+                                             work_precision.TITLE_ERROR)
+        cvode, _ = work_precision.best_time(ds, scene, "cvode", work_precision.TITLE_ERROR)
+        assert f"{scene}: static {1e3 * static:.3g} ms" in text, text
+        assert f"cvode {cvode / static:.2g}×" in text, text
+    # Twice the static times halve every ratio.
+    slower = ds.copy(deep=True)
+    static = (slower["family"] == "static").values
+    slower["wall_time"].values[static] *= 2.0
+    assert work_precision.measured_result(slower) != text
+
+
+def test_stress_title_states_the_share_converged(tmp_path, monkeypatch):
+    ds = xr.load_dataset(RESULTS / "stress-full.nc")
+    text = stress.measured_result(ds)
+    assert text in _suptitle(stress._figure, ds, tmp_path, monkeypatch)
+    refused = (ds["outcome"] == stress.OUTCOMES.index("refused")).any("integrator").values
+    converged = (ds["outcome"].sel(integrator="cvode").values[~refused]
+                 == stress.OUTCOMES.index("converged"))
+    assert f"cvode {100 * converged.mean():.0f} %" in text, text
+    assert f"of {int((~refused).sum())} configurations" in text
+    # A crash shows in the title.
+    crashed = ds.copy(deep=True)
+    crashed["outcome"].values[np.flatnonzero(~refused)[0], 0] = stress.OUTCOMES.index("crash")
+    assert "1 crashes" in stress.measured_result(crashed)

@@ -28,6 +28,7 @@ from __future__ import annotations
 
 import json
 import os
+import textwrap
 import time
 import traceback
 from collections.abc import Callable
@@ -414,6 +415,46 @@ def band_threshold(ds, integrator: str, formulation: str) -> tuple[float, list[s
     return threshold, [f"{int(s)}: {r:.2f}" for s, r in zip(sizes, ratios, strict=True)]
 
 
+def fitted_exponent(nodes: np.ndarray, times: np.ndarray) -> float:
+    """p of wall time ∝ N^p, least squares in log–log over the finite times (NaN with fewer
+    than two)."""
+    ok = np.isfinite(times) & (times > 0)
+    if ok.sum() < 2:
+        return float("nan")
+    return float(np.polyfit(np.log(nodes[ok]), np.log(times[ok]), 1)[0])
+
+
+def measured_result(ds) -> str:
+    """The figure's result line, computed from the archive: the exponent p of time ∝ N^p of
+    each integrator (its default configuration) over N ≥ N_max/40 (the fixed costs of small
+    N left out), each one's time at the largest N against static's, and from which size
+    sparse beats band (CVODE overdamped)."""
+    nodes = ds["nodes"].values.astype(float)
+    upper = nodes >= nodes.max() / 40.0
+    auto = [c for c, g in zip(ds["config"].values, ds["group"].values, strict=True)
+            if g == "auto"]
+    exponents, largest = [], []
+    for config in auto:
+        times = ds["wall_time"].sel(config=config).values.astype(float)
+        ok = ds["success"].sel(config=config).values == 1
+        times = np.where(ok, times, np.nan)
+        exponents.append(f"{config} {fitted_exponent(nodes[upper], times[upper]):.2f}")
+        largest.append(times[-1])
+    text = (f"wall time ∝ N^p, p = {', '.join(exponents)} "
+            f"(N = {int(nodes[upper][0])}–{int(nodes.max())})")
+    if "static" in auto and np.isfinite(largest[auto.index("static")]):
+        base = largest[auto.index("static")]
+        others = [f"{c} {t / base:.2g}×" for c, t in zip(auto, largest, strict=True)
+                  if c != "static" and np.isfinite(t)]
+        text += f"; at N = {int(nodes.max())} static {base:.3g} s" + (
+            f", {', '.join(others)}" if others else "")
+    threshold, rows = band_threshold(ds, "cvode", "overdamped")
+    if rows:
+        text += ("; CVODE: band faster than sparse at every n measured" if np.isnan(threshold)
+                 else f"; CVODE: sparse faster than band from n = {int(threshold)}")
+    return text
+
+
 #: The band-vs-sparse panels: how each linear solver is drawn, and what its legend says.
 SOLVER_STYLES = {"band": ({"ls": "-", "mfc": None}, "band: solid line, filled markers"),
                  "sparse": ({"ls": "--", "mfc": "white"}, "sparse: dashed line, open markers")}
@@ -489,8 +530,9 @@ def _draw(ds, path: Path) -> Path:
         ax.grid(True, which="major", alpha=0.3)
         if ax.get_legend_handles_labels()[0] and ax.get_legend() is None:
             ax.legend()
-    fig.suptitle(f"Scaling in N ({ds.attrs['size']}); {ds.attrs.get('machine_cpu', '')}, "
-                 f"{ds.attrs.get('machine_date', '')}")
+    fig.suptitle(textwrap.fill(f"Scaling in N ({ds.attrs['size']}) — measured: "
+                               f"{measured_result(ds)}", 130)
+                 + f"\n{ds.attrs.get('machine_cpu', '')}, {ds.attrs.get('machine_date', '')}")
     fig.tight_layout()
     fig.savefig(path, dpi=80)
     plt.close(fig)

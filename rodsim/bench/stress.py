@@ -149,6 +149,24 @@ HEAT_MAPS = (("K_P", "nodes", np.linspace(*BOUNDS[0], 8), np.linspace(*BOUNDS[1]
              ("h", "alpha", np.linspace(*BOUNDS[4], 5), np.linspace(*BOUNDS[3], 7)))
 
 
+def measured_result(ds: xr.Dataset) -> str:
+    """The figure's result line, computed from the archive: the share of the configurations
+    (those no integrator refused) each integrator converged on, and the count of crashes
+    and of non-finite results reported as success (which must be 0)."""
+    refused = (ds["outcome"] == OUTCOMES.index("refused")).any("integrator").values
+    total = int((~refused).sum())
+    shares, never = [], {"crash": 0, "nan_success": 0}
+    for integrator in ds["integrator"].values.tolist():
+        outcome = ds["outcome"].sel(integrator=integrator).values
+        converged = int((outcome[~refused] == OUTCOMES.index("converged")).sum())
+        shares.append(f"{integrator} {100.0 * converged / max(total, 1):.0f} %")
+        for name in never:
+            never[name] += int((outcome == OUTCOMES.index(name)).sum())
+    return (f"converged on {', '.join(shares)} of {total} configurations; "
+            f"{never['crash']} crashes, {never['nan_success']} non-finite results reported "
+            "as success")
+
+
 def _figure(ds: xr.Dataset, path: Path) -> None:
     """Heat maps of the fraction of configurations that converged, per integrator (columns)
     and pair of configuration coordinates (rows, log-spaced bins; the other coordinates vary
@@ -207,9 +225,8 @@ def _draw(ds: xr.Dataset, path: Path) -> None:
     if image is not None:
         figure.colorbar(image, ax=axes, shrink=0.6,
                         label="fraction of the bin's configurations that converged [1]")
-    figure.suptitle(f"Convergence map ({ds.attrs.get('size', '')}): "
-                    f"{int((~refused).sum())} configurations per integrator; cells: "
-                    "converged/configurations in the bin")
+    figure.suptitle(f"Convergence map ({ds.attrs.get('size', '')}) — measured: "
+                    f"{measured_result(ds)}\ncells: converged/configurations in the bin")
     figure.savefig(path, dpi=100)
     plt.close(figure)
 

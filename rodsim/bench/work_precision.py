@@ -36,6 +36,7 @@ from __future__ import annotations
 
 import json
 import math
+import textwrap
 import time
 from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass, field
@@ -740,12 +741,37 @@ def _draw(ds, path: Path) -> Path:
             if ax.get_legend_handles_labels()[0]:
                 ax.legend(ncol=2 if len(families) else 1, loc="upper center",
                           bbox_to_anchor=(0.5, -0.16))
-    fig.suptitle(f"Work-precision ({ds.attrs.get('size')}; errors below {ERROR_FLOOR:g} drawn "
-                 f"at {ERROR_FLOOR:g}); {ds.attrs.get('machine_cpu', '')}, "
-                 f"{ds.attrs.get('machine_date', '')}")
+    fig.suptitle(textwrap.fill(f"Work-precision ({ds.attrs.get('size')}) — measured: "
+                               f"{measured_result(ds)}", int(12 * fig.get_figwidth()))
+                 + f"\nerrors below {ERROR_FLOOR:g} drawn at {ERROR_FLOOR:g}; "
+                 f"{ds.attrs.get('machine_cpu', '')}, {ds.attrs.get('machine_date', '')}")
     fig.savefig(path, dpi=72)
     plt.close(fig)
     return path
+
+
+#: The error the figure's title compares the families at [1].
+TITLE_ERROR = 1e-6
+
+
+def measured_result(ds) -> str:
+    """The figure's result line, computed from the archive: per scene, the fastest static
+    run with error ≤ :data:`TITLE_ERROR` and each other family's fastest such run against
+    it (× static; "none" when no run of the family got there)."""
+    parts = []
+    for scene in dict.fromkeys(ds["scene"].values.tolist()):
+        static, _ = best_time(ds, scene, "static", TITLE_ERROR)
+        others = []
+        for family in FAMILIES[1:]:
+            if not bool((ds["family"] == family).any()):
+                continue
+            time, _ = best_time(ds, scene, family, TITLE_ERROR)
+            others.append(f"{family} " + ("none" if np.isnan(time) else
+                                           f"{time / static:.2g}×" if np.isfinite(static)
+                                           else f"{1e3 * time:.3g} ms"))
+        head = f"static {1e3 * static:.3g} ms" if np.isfinite(static) else "static none"
+        parts.append(f"{scene}: {head}" + (f", {', '.join(others)}" if others else ""))
+    return (f"fastest run to error ≤ {TITLE_ERROR:g} L — " + "; ".join(parts))
 
 
 def best_time(ds, scene: str, family: str, error: float) -> tuple[float, str]:

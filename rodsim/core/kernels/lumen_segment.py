@@ -3,12 +3,16 @@
 tendon point p on lumen segment j, local coordinates (p, r_j, r_{j+1}, q_{j−1}, q_j, q_{j+1}),
 
     L_j = r_j + r_L u(s_j),  τ_j = t(s_j),  s_j = Σ_k weights[e, 0, k] q_slot k  (j + 1 likewise),
-    L(σ) = Σ_b w_b(σ) y_b over y = (L_j, L_{j+1}, τ_j, τ_{j+1}), w = (h00, h01, l̄ h10, l̄ h11),
+    K_j = Σ_k turns[e, 0, k] d3(q_slot k)/l̄  (K_{j+1} likewise; the curvature vectors),
+    L(σ) = Σ_b w_b(σ) y_b over y = (L_j, L_{j+1}, τ_j, τ_{j+1}, K_j, K_{j+1}),
+    w = (h00, h01, l̄ h10, l̄ h11, c (1 − σ), c σ)  (c = ``sagitta[e]``, the chord correction;
+    on the last segment (c g(σ), 0), g = 1 + 2σ − 3σ²),
     σ: (L(σ) − p)·L′(σ) = 0 (Newton),   Δ = L(σ) − p,   E = ½ k |Δ|²,
     f_y = k w ⊗ Δ (w_p = −1),   f_yy = k w wᵀ ⊗ I,   f_yσ = k (w′ ⊗ Δ + w ⊗ L′),
     f_σσ = k (L′·L′ + Δ·L″),   ∇²_y E = f_yy − f_yσ f_yσᵀ / f_σσ,
 
-pulled back through the chain G = ∂y/∂x (15 × 21, y = (p, L_j, L_{j+1}, τ_j, τ_{j+1})):
+pulled back through the chain G = ∂y/∂x (21 × 21, y = (p, L_j, L_{j+1}, τ_j, τ_{j+1}, K_j,
+K_{j+1})), plus each slot's Σ_m f_{K,m} ∂²d3_m/∂q² on its own quaternion:
 F = −Gᵀ f_y,  ∂F/∂x = −(Gᵀ ∇²_y E G + Σ over both nodes of r_L Σ_m f_{L,m} ∂²u_m/∂s²
 + Σ_m f_{τ,m} ∂²t_m/∂s² on the node's two quaternions), u, t and their derivatives from
 :mod:`rodsim.core.kernels._node_frame`. k = K_L × the point's share of the tendon's length, one
@@ -30,9 +34,10 @@ SIGMA_ITERATIONS = 50
 
 
 @njit(cache=True)
-def hermite(sigma: float, before: bool, after: bool, length: float, w: np.ndarray,
-            w1: np.ndarray, w2: np.ndarray) -> None:
-    """w, w′, w″ (5,) of y = (p, L_j, L_{j+1}, τ_j, τ_{j+1}) at σ, in place."""
+def hermite(sigma: float, before: bool, after: bool, length: float, sagitta: float,
+            w: np.ndarray, w1: np.ndarray, w2: np.ndarray) -> None:
+    """w, w′, w″ (7,) of y = (p, L_j, L_{j+1}, τ_j, τ_{j+1}, K_j, K_{j+1}) at σ, in place;
+    ``after`` marks the catheter's last segment (the offset tapers to 0 at its tip)."""
     s2 = sigma * sigma
     s3 = s2 * sigma
     w[0] = -1.0
@@ -42,10 +47,16 @@ def hermite(sigma: float, before: bool, after: bool, length: float, w: np.ndarra
         w[1], w[2], w[3], w[4] = 1.0, 0.0, length * sigma, 0.0
         w1[1], w1[2], w1[3], w1[4] = 0.0, 0.0, length, 0.0
         w2[1], w2[2], w2[3], w2[4] = 0.0, 0.0, 0.0, 0.0
+        w[5], w[6] = sagitta, 0.0
+        w1[5], w1[6] = 0.0, 0.0
+        w2[5], w2[6] = 0.0, 0.0
     elif after and sigma > 1.0:
         w[1], w[2], w[3], w[4] = 0.0, 1.0, 0.0, length * (sigma - 1.0)
         w1[1], w1[2], w1[3], w1[4] = 0.0, 0.0, 0.0, length
         w2[1], w2[2], w2[3], w2[4] = 0.0, 0.0, 0.0, 0.0
+        w[5], w[6] = 0.0, 0.0
+        w1[5], w1[6] = 0.0, 0.0
+        w2[5], w2[6] = 0.0, 0.0
     else:
         w[1] = 2.0 * s3 - 3.0 * s2 + 1.0
         w[2] = -2.0 * s3 + 3.0 * s2
@@ -59,6 +70,22 @@ def hermite(sigma: float, before: bool, after: bool, length: float, w: np.ndarra
         w2[2] = -12.0 * sigma + 6.0
         w2[3] = length * (6.0 * sigma - 4.0)
         w2[4] = length * (6.0 * sigma - 2.0)
+        if after:
+            # The catheter's last segment: the offset c g(σ) K_j, g = 1 + 2σ − 3σ², falls
+            # to 0 at the tip, where the tendon's endpoint is held at no offset.
+            w[5] = sagitta * (1.0 + 2.0 * sigma - 3.0 * s2)
+            w[6] = 0.0
+            w1[5] = sagitta * (2.0 - 6.0 * sigma)
+            w1[6] = 0.0
+            w2[5] = -6.0 * sagitta
+            w2[6] = 0.0
+        else:
+            w[5] = sagitta * (1.0 - sigma)
+            w[6] = sagitta * sigma
+            w1[5] = -sagitta
+            w1[6] = sagitta
+            w2[5] = 0.0
+            w2[6] = 0.0
 
 
 @njit(cache=True)
@@ -69,7 +96,7 @@ def _curve(y: np.ndarray, w: np.ndarray, w1: np.ndarray, w2: np.ndarray, delta: 
         d = 0.0
         s1 = 0.0
         s2 = 0.0
-        for b in range(5):
+        for b in range(7):
             d += w[b] * y[b, m]
             s1 += w1[b] * y[b, m]
             s2 += w2[b] * y[b, m]
@@ -81,7 +108,7 @@ def _curve(y: np.ndarray, w: np.ndarray, w1: np.ndarray, w2: np.ndarray, delta: 
 @njit(cache=True)
 def evaluate(x: np.ndarray, dofs: np.ndarray, alpha: float, beta: float, offset: float,
              stiffness: np.ndarray, length: float, ends: np.ndarray, weights: np.ndarray,
-             scale: float,
+             sagitta: np.ndarray, turns: np.ndarray, scale: float,
              want_force: bool, force: np.ndarray, force_target: np.ndarray,
              want_jacobian: bool, jacobian: np.ndarray, jacobian_target: np.ndarray) -> None:
     lumen_c = np.array([alpha, beta, 0.0])
@@ -94,21 +121,26 @@ def evaluate(x: np.ndarray, dofs: np.ndarray, alpha: float, beta: float, offset:
     u_grad = np.empty((2, 3, 4))
     t = np.empty((2, 3))
     t_grad = np.empty((2, 3, 4))
-    y = np.empty((5, 3))
-    w = np.empty(5)
-    w1 = np.empty(5)
-    w2 = np.empty(5)
+    slot_q = np.empty((3, 4))
+    slot_norm2 = np.empty(3)
+    slot_t = np.empty((3, 3))
+    slot_t_grad = np.empty((3, 3, 4))
+    y = np.empty((7, 3))
+    w = np.empty(7)
+    w1 = np.empty(7)
+    w2 = np.empty(7)
     delta = np.empty(3)
     slope = np.empty(3)
     bend = np.empty(3)
-    g = np.empty(15)
-    f_ys = np.empty(15)
-    h_y = np.empty((15, 15))
-    chain = np.zeros((15, 21))
+    g = np.empty(21)
+    g_k = np.empty(3)
+    f_ys = np.empty(21)
+    h_y = np.empty((21, 21))
+    chain = np.zeros((21, 21))
     for m in range(3):
         for block in range(3):
             chain[3 * block + m, 3 * block + m] = 1.0
-    product = np.empty((15, 21))
+    product = np.empty((21, 21))
     block_h = np.empty((4, 4))
     block_t = np.empty((4, 4))
     scratch = np.empty((4, 4))
@@ -127,6 +159,18 @@ def evaluate(x: np.ndarray, dofs: np.ndarray, alpha: float, beta: float, offset:
                           u[node], u_grad[node])
             node_director(s[node], norm2[node], directors[node], gradients[node], tangent_c,
                           t[node], t_grad[node])
+        for slot in range(3):
+            for a in range(4):
+                slot_q[slot, a] = x[dofs[e, 9 + 4 * slot + a]]
+            slot_norm2[slot] = raw_directors(slot_q[slot], directors[0], gradients[0])
+            node_director(slot_q[slot], slot_norm2[slot], directors[0], gradients[0],
+                          tangent_c, slot_t[slot], slot_t_grad[slot])
+        for m in range(3):
+            y[5, m] = 0.0
+            y[6, m] = 0.0
+            for slot in range(3):
+                y[5, m] += turns[e, 0, slot] * slot_t[slot, m] / length
+                y[6, m] += turns[e, 1, slot] * slot_t[slot, m] / length
         for m in range(3):
             y[0, m] = x[dofs[e, m]]
             y[1, m] = x[dofs[e, 3 + m]] + offset * u[0, m]
@@ -144,7 +188,7 @@ def evaluate(x: np.ndarray, dofs: np.ndarray, alpha: float, beta: float, offset:
         before = ends[e, 0]
         after = ends[e, 1]
         for _ in range(SIGMA_ITERATIONS):
-            hermite(sigma, before, after, length, w, w1, w2)
+            hermite(sigma, before, after, length, sagitta[e], w, w1, w2)
             _curve(y, w, w1, w2, delta, slope, bend)
             numerator = 0.0
             denominator = 0.0
@@ -155,10 +199,10 @@ def evaluate(x: np.ndarray, dofs: np.ndarray, alpha: float, beta: float, offset:
             sigma -= step
             if abs(step) < SIGMA_TOLERANCE:
                 break
-        hermite(sigma, before, after, length, w, w1, w2)
+        hermite(sigma, before, after, length, sagitta[e], w, w1, w2)
         _curve(y, w, w1, w2, delta, slope, bend)
         k = stiffness[e]
-        for b in range(5):
+        for b in range(7):
             for m in range(3):
                 g[3 * b + m] = k * w[b] * delta[m]
         for slot in range(3):
@@ -169,10 +213,14 @@ def evaluate(x: np.ndarray, dofs: np.ndarray, alpha: float, beta: float, offset:
                     chain[6 + m, first + a] = weights[e, 1, slot] * offset * u_grad[1, m, a]
                     chain[9 + m, first + a] = weights[e, 0, slot] * t_grad[0, m, a]
                     chain[12 + m, first + a] = weights[e, 1, slot] * t_grad[1, m, a]
+                    chain[15 + m, first + a] = (turns[e, 0, slot] * slot_t_grad[slot, m, a]
+                                                / length)
+                    chain[18 + m, first + a] = (turns[e, 1, slot] * slot_t_grad[slot, m, a]
+                                                / length)
         if want_force:
             for a in range(21):
                 value = 0.0
-                for i in range(15):
+                for i in range(21):
                     value += chain[i, a] * g[i]
                 local_force[a] = -value
             add_force(force, force_target, e, local_force, scale)
@@ -181,27 +229,27 @@ def evaluate(x: np.ndarray, dofs: np.ndarray, alpha: float, beta: float, offset:
             for m in range(3):
                 f_ss += slope[m] * slope[m] + delta[m] * bend[m]
             f_ss *= k
-            for b in range(5):
+            for b in range(7):
                 for m in range(3):
                     f_ys[3 * b + m] = k * (w1[b] * delta[m] + w[b] * slope[m])
-            for b in range(5):
+            for b in range(7):
                 for m in range(3):
-                    for c in range(5):
+                    for c in range(7):
                         for n in range(3):
                             value = -f_ys[3 * b + m] * f_ys[3 * c + n] / f_ss
                             if m == n:
                                 value += k * w[b] * w[c]
                             h_y[3 * b + m, 3 * c + n] = value
-            for i in range(15):
+            for i in range(21):
                 for a in range(21):
                     value = 0.0
-                    for j in range(15):
+                    for j in range(21):
                         value += h_y[i, j] * chain[j, a]
                     product[i, a] = value
             for a in range(21):
                 for b in range(21):
                     value = 0.0
-                    for i in range(15):
+                    for i in range(21):
                         value += chain[i, a] * product[i, b]
                     local_jacobian[a, b] = -value
             for node in range(2):
@@ -217,4 +265,17 @@ def evaluate(x: np.ndarray, dofs: np.ndarray, alpha: float, beta: float, offset:
                                 for b in range(4):
                                     local_jacobian[9 + 4 * i + a, 9 + 4 * j + b] -= both * (
                                         offset * block_h[a, b] + block_t[a, b])
+            for slot in range(3):
+                nonzero = False
+                for m in range(3):
+                    g_k[m] = (turns[e, 0, slot] * g[15 + m]
+                              + turns[e, 1, slot] * g[18 + m]) / length
+                    nonzero = nonzero or g_k[m] != 0.0
+                if nonzero:
+                    node_director_hessian(slot_q[slot], slot_norm2[slot], tangent_c,
+                                          slot_t[slot], slot_t_grad[slot], g_k, block_t,
+                                          scratch, scaled)
+                    for a in range(4):
+                        for b in range(4):
+                            local_jacobian[9 + 4 * slot + a, 9 + 4 * slot + b] -= block_t[a, b]
             add_jacobian(jacobian, jacobian_target, e, local_jacobian, scale)

@@ -34,6 +34,31 @@ chord rather than to the tendon, which changes the tension by T φ² (½ − σ)
 (φ the turning per segment): a first-order error when the points sit off the segments'
 middles, as a sliding tendon's do.
 
+**The chord correction.** Both rods are chains of chords, and the two chains measure the
+lumen differently: over a catheter segment (chord l_C, fixed by the stretch term) turned by
+φ the curve is l_C φ²/24 longer than its chord, and a tendon chord l_T inscribed in the
+curve covers l_T φ_T²/24 more curve than its own length. By virtual work the tendon's
+moment T r_L is off by T κ (l_T² − l_C²)/12 — 0.8 % of κ at N_T = 10, N_C = 30, and a
+dependence on N_T that the paper's Fig. 15 says a model should not have. Offsetting the curve
+along its curvature vector by v changes its length by −v·κ per unit length, and a chain of
+chords inscribed in it changes by Σ_chords (δ_a + δ_b) sin(φ_chord/2) with δ the offsets of
+its ends. So the curve a tendon point is held to is
+
+    M(σ) = L(σ) + c ((1 − σ) K_j + σ K_{j+1}),   c = (l_C² − l_T²)/24,
+
+K the catheter's discrete curvature vector at the nodes (:func:`turn_weights`; l_C, l_T the
+rest segment lengths): a chain of l_T chords in M is as long as a chain of l_C chords in
+L, whatever N_T. c = 0 when N_T = N_C. On the catheter's last segment the offset tapers to 0
+at the tip, c g(σ) K_j with g = 1 + 2σ − 3σ² (∫₀¹ g = 1), because the tendon's endpoint is
+held there by Eqs. (28)–(29) at no offset (a jump to 0 over one tendon chord would cost
+δ²/l_T, which grows as l_T falls); and when the tendon's chords are longer than the
+catheter's, its last lumen-held point takes c × 3/2 (:data:`TIP_SHARE`), the share of
+the chord to the unshifted endpoint. M is continuous at the nodes (K_j is the same from
+both sides); its kink there, c (K_{j+1} − K_j)/l̄, is third order. Measured
+(tests/test_tendon_convergence.py): with N_C = 30 the tip moves 1.26e-5 L between N_T = 10
+and 120 (6.5e-4 L without), ≤ 4.5e-6 L over N_T = 15 … 120. ``chord_correction = false``
+holds the points on L itself.
+
 **The point on its segment.** A tendon point p registered to lumen segment j is held at its
 distance from the curve: σ minimises |L(σ) − p|² (Newton from the chord projection; σ ∈ [0, 1]
 when p lies alongside the segment), Δ = L(σ) − p, and
@@ -43,7 +68,8 @@ when p lies alongside the segment), Δ = L(σ) − p, and
 K_L [N/m²] per unit tendon length and w [m] the point's share of the tendon's rest length.
 With f(x, σ) = ½ k |L(σ; x) − p|² and f_σ = 0 at σ, the gradient is f_x (the reaction on the
 lumen acts where the tendon touches it) and the Hessian ∇²E = f_xx − f_xσ f_xσᵀ / f_σσ.
-In y = (p, L_j, L_{j+1}, τ_j, τ_{j+1}) with weights w = (−1, h00, h01, l̄ h10, l̄ h11):
+(With the chord correction, M in place of L.) In y = (p, L_j, L_{j+1}, τ_j, τ_{j+1},
+K_j, K_{j+1}) with weights w = (−1, h00, h01, l̄ h10, l̄ h11, c (1 − σ), c σ):
 f_y = k w ⊗ Δ, f_yy = k w wᵀ ⊗ I, f_yσ = k (w′ ⊗ Δ + w ⊗ L′), f_σσ = k (L′·L′ + Δ·L″).
 
 Each element couples (p, r_j, r_{j+1}, q_{j−1}, q_j, q_{j+1}), 21 coordinates; s_j and s_{j+1}
@@ -59,7 +85,7 @@ from rodsim.core.rod.quaternion import DIRECTOR_FORMS
 from rodsim.core.tendon import Tendon
 
 __all__ = ["PointOnLumenCurve", "lumen_nodes", "node_weights", "segment_of",
-           "segment_quaternions"]
+           "segment_quaternions", "turn_weights"]
 
 #: Local coordinates of one element: p, r_j, r_{j+1}, q_{j−1}, q_j, q_{j+1}.
 WIDTH = 21
@@ -67,6 +93,9 @@ WIDTH = 21
 #: round-off then, and a smaller bound would stall on round-off).
 SIGMA_TOLERANCE = 1e-12
 SIGMA_ITERATIONS = 50
+#: The chord correction's share at the tendon's last lumen-held point when l_T > l_C (the
+#: chord from it to the endpoint, held at no offset, takes only half of its offset).
+TIP_SHARE = 1.5
 
 
 def segment_quaternions(segment: np.ndarray, segments: int) -> np.ndarray:
@@ -88,6 +117,23 @@ def node_weights(segment: np.ndarray, segments: int) -> np.ndarray:
     if segments > 1:
         weights[segment == 0, 0] = (0.0, 3.0, -1.0)
         weights[segment == segments - 1, 1] = (-1.0, 3.0, 0.0)
+    return weights
+
+
+def turn_weights(segment: np.ndarray, segments: int) -> np.ndarray:
+    """Weights of d3 of the quaternion slots (q_{j−1}, q_j, q_{j+1}) in l̄ K_j and l̄ K_{j+1}
+    at each element's two nodes, shape (n, 2, 3): K_j = (d3(q_j) − d3(q_{j−1}))/l̄, the
+    catheter's discrete curvature vector at node j, (−1, 1, 0) and (0, −1, 1) inside. The
+    end nodes take their neighbour's (K_0 = K_1, K_{N−1} = K_{N−2}): (0, −1, 1) twice on the
+    first segment, (−1, 1, 0) twice on the last."""
+    segment = np.asarray(segment)
+    weights = np.zeros((len(segment), 2, 3))
+    if segments < 2:
+        return weights
+    weights[:, 0] = (-1.0, 1.0, 0.0)
+    weights[:, 1] = (0.0, -1.0, 1.0)
+    weights[segment == 0] = (0.0, -1.0, 1.0)
+    weights[segment == segments - 1] = (-1.0, 1.0, 0.0)
     return weights
 
 
@@ -181,35 +227,56 @@ class PointOnLumenCurve:
     (p, r_j, r_{j+1}, q_{j−1}, q_j, q_{j+1}) (module docstring)."""
 
     def __init__(self, tendon: Tendon, local: np.ndarray, stiffness: np.ndarray,
-                 segment_length: float, ends: np.ndarray, weights: np.ndarray) -> None:
+                 segment_length: float, ends: np.ndarray, weights: np.ndarray,
+                 sagitta: np.ndarray | None = None, turns: np.ndarray | None = None) -> None:
         self.offset = rl = tendon.offset
         self.ends = ends
         self.node_weights = weights
         self.stiffness = stiffness
         self.length = segment_length
+        self.sagitta = np.zeros(len(local)) if sagitta is None else sagitta
         q = local[:, 9:21].reshape(-1, 3, 4)
+        self.turns = (np.zeros_like(weights) if turns is None else turns) / segment_length
         sums = np.einsum("nik,nka->nia", weights, q)
         lumen, tangent = lumen_forms(tendon)
         self.directors = [NodeDirector(forms, sums[:, i]) for i in (0, 1)
                           for forms in (lumen, tangent)]  # u_j, τ_j, u_{j+1}, τ_{j+1}
+        self.slot_tangents = [NodeDirector(tangent, q[:, i]) for i in range(3)]
+        bends = [sum(self.turns[:, node, i, None] * self.slot_tangents[i].value
+                     for i in range(3)) for node in (0, 1)]
         start = local[:, 3:6] + rl * self.directors[0].value
         end = local[:, 6:9] + rl * self.directors[2].value
-        # The curve's control vectors, in the order of the Hermite weights.
-        self.control = np.stack([start, end, self.directors[1].value, self.directors[3].value],
-                                axis=1)
+        # The curve's control vectors, in the order of the weights.
+        self.control = np.stack([start, end, self.directors[1].value, self.directors[3].value,
+                                 bends[0], bends[1]], axis=1)
         self.p = local[:, 0:3]
         self.sigma = self._project(end - start)
         self.weights, self.slopes, self.curvatures = self._weights(self.sigma)
         self.delta = np.einsum("nb,nbm->nm", self.weights[:, 1:], self.control) - self.p
 
     def _weights(self, sigma: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """w, w′, w″ of y = (p, L_j, L_{j+1}, τ_j, τ_{j+1}): (−1, h00, h01, l̄ h10, l̄ h11)."""
+        """w, w′, w″ of y = (p, L_j, L_{j+1}, τ_j, τ_{j+1}, K_j, K_{j+1}):
+        (−1, h00, h01, l̄ h10, l̄ h11, c (1 − σ), c σ), c the chord correction (module
+        docstring); on the last segment (c g(σ), 0), beyond the catheter's ends the end
+        node's offset (c, 0) before the base and 0 after the tip."""
         scale = np.array([1.0, 1.0, self.length, self.length])
         value, first, second = hermite(sigma, self.ends)
         n = len(sigma)
-        return (np.concatenate([-np.ones((n, 1)), value * scale], axis=1),
-                np.concatenate([np.zeros((n, 1)), first * scale], axis=1),
-                np.concatenate([np.zeros((n, 1)), second * scale], axis=1))
+        c = self.sagitta
+        last = self.ends[:, 1]
+        before = self.ends[:, 0] & (sigma < 0.0)
+        after = last & (sigma > 1.0)
+        inside = ~(before | after)
+        zero = np.zeros_like(sigma)
+        taper = np.where(last, 1.0 + 2.0 * sigma - 3.0 * sigma**2, 1.0 - sigma)
+        offset = np.stack([np.where(before, c, np.where(after, 0.0, c * taper)),
+                           np.where(before | after | last, 0.0, c * sigma)], axis=1)
+        rate = np.stack([np.where(inside, c * np.where(last, 2.0 - 6.0 * sigma, -1.0), 0.0),
+                         np.where(inside & ~last, c, 0.0)], axis=1)
+        curve = np.stack([np.where(inside & last, -6.0 * c, 0.0), zero], axis=1)
+        return (np.concatenate([-np.ones((n, 1)), value * scale, offset], axis=1),
+                np.concatenate([np.zeros((n, 1)), first * scale, rate], axis=1),
+                np.concatenate([np.zeros((n, 1)), second * scale, curve], axis=1))
 
     def _project(self, chord: np.ndarray) -> np.ndarray:
         """σ with (L(σ) − p)·L′(σ) = 0, by Newton from the projection on the chord."""
@@ -231,9 +298,10 @@ class PointOnLumenCurve:
         return float(0.5 * np.sum(self.stiffness * np.sum(self.delta**2, axis=1)))
 
     def _chain(self) -> np.ndarray:
-        """∂y/∂(local coordinates), y = (p, L_j, L_{j+1}, τ_j, τ_{j+1}), shape (n, 15, 21)."""
+        """∂y/∂(local coordinates), y = (p, L_j, L_{j+1}, τ_j, τ_{j+1}, K_j, K_{j+1}),
+        shape (n, 21, 21)."""
         n, rl = len(self.sigma), self.offset
-        chain = np.zeros((n, 15, WIDTH))
+        chain = np.zeros((n, 21, WIDTH))
         eye = np.eye(3)
         for block in range(3):
             chain[:, 3 * block:3 * block + 3, 3 * block:3 * block + 3] = eye
@@ -245,13 +313,17 @@ class PointOnLumenCurve:
             for k in range(3):
                 chain[:, rows, 9 + 4 * k:13 + 4 * k] = (
                     factor * self.node_weights[:, node, k, None, None] * director.grad)
+        for rows, node in ((slice(15, 18), 0), (slice(18, 21), 1)):
+            for k in range(3):
+                chain[:, rows, 9 + 4 * k:13 + 4 * k] += (
+                    self.turns[:, node, k, None, None] * self.slot_tangents[k].grad)
         return chain
 
     def _y_gradient(self) -> np.ndarray:
-        """f_y = k w ⊗ Δ, shape (n, 15)."""
+        """f_y = k w ⊗ Δ, shape (n, 21)."""
         k = self.stiffness
         return (k[:, None, None] * self.weights[:, :, None] * self.delta[:, None, :]).reshape(
-            len(k), 15)
+            len(k), 21)
 
     def gradient(self) -> np.ndarray:
         """∂E_i/∂(local coordinates), shape (n, 21)."""
@@ -265,9 +337,9 @@ class PointOnLumenCurve:
         slope = np.einsum("nb,nbm->nm", w1[:, 1:], self.control)
         bend = np.einsum("nb,nbm->nm", w2[:, 1:], self.control)
         f_yy = (k[:, None, None, None, None] * w[:, :, None, None, None] * w[:, None, None, :, None]
-                * np.eye(3)[None, None, :, None, :]).reshape(n, 15, 15)
+                * np.eye(3)[None, None, :, None, :]).reshape(n, 21, 21)
         f_ys = (k[:, None, None] * (w1[:, :, None] * self.delta[:, None, :]
-                                    + w[:, :, None] * slope[:, None, :])).reshape(n, 15)
+                                    + w[:, :, None] * slope[:, None, :])).reshape(n, 21)
         f_ss = k * (np.sum(slope * slope, axis=1) + np.sum(self.delta * bend, axis=1))
         h_y = f_yy - f_ys[:, :, None] * f_ys[:, None, :] / f_ss[:, None, None]
         chain = self._chain()
@@ -283,4 +355,9 @@ class PointOnLumenCurve:
                 for j in range(3):
                     hess[:, 9 + 4 * i:13 + 4 * i, 9 + 4 * j:13 + 4 * j] += (
                         (w[:, i] * w[:, j])[:, None, None] * block)
+        for i in range(3):
+            g_k = (self.turns[:, 0, i, None] * g_y[:, 15:18]
+                   + self.turns[:, 1, i, None] * g_y[:, 18:21])
+            hess[:, 9 + 4 * i:13 + 4 * i, 9 + 4 * i:13 + 4 * i] += (
+                self.slot_tangents[i].hessian(g_k))
         return hess

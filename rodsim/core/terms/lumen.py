@@ -22,7 +22,10 @@ node j, tangent to d3(Q_j) there; each point is
 registered to the lumen *segment* it lies alongside and held at its distance from that
 segment's curve, E = Σ_i ½ K_L w_i |Δ_i|² with K_L per unit tendon length [N/m²] and w_i the
 point's share of the tendon's rest length [m] (l_T/2 for the base point, l_T for the
-others). It is a gradient: the reaction −F_i acts where the tendon touches the lumen, on
+others), the curve offset by the chord correction (l_C² − l_T²)/24 × the catheter's
+curvature vector, so that the tendon's chords measure it as the catheter's chords do
+(``chord_correction``; :mod:`rodsim.core.terms._lumen_segment`). It is a gradient: the
+reaction −F_i acts where the tendon touches the lumen, on
 r_j, r_{j+1} and, through the offsets and tangents, on q_{j−1}, q_j, q_{j+1}. Only
 ``constrain = "both"``: the distance from a curve holds the point in both transverse
 directions.
@@ -57,11 +60,13 @@ from rodsim.core.rod.quaternion import form_combination
 from rodsim.core.schema import Parameter
 from rodsim.core.tendon import Tendon
 from rodsim.core.terms._lumen_segment import (
+    TIP_SHARE,
     PointOnLumenCurve,
     lumen_nodes,
     node_weights,
     segment_of,
     segment_quaternions,
+    turn_weights,
 )
 from rodsim.core.terms.base import TendonTerm
 
@@ -126,6 +131,11 @@ class Lumen(TendonTerm):
                   "a point changes parent when another lumen point is closer (paper), or it "
                   "lies beyond its lumen segment's boundary plane (conserving), by this "
                   "fraction of the catheter's segment length", 0.0, 1.0),
+        Parameter("chord_correction", "bool", True, "-",
+                  "coupling 'conserving': offset the lumen curve by (l_C² − l_T²)/24 times "
+                  "the catheter's curvature vector, so that a chain of tendon chords of rest "
+                  "length l_T measures the lumen as a chain of catheter chords l_C does "
+                  "(docs/tendon.md); false holds the points on the curve itself"),
     )
 
     def __init__(self, tendon: Tendon, params: dict[str, Any]) -> None:
@@ -142,6 +152,12 @@ class Lumen(TendonTerm):
             share = np.full(len(self._points), tendon.rod.geometry.segment_length)
             share[0] *= 0.5
             self._stiffness = params["K_L"] * share
+            self._sagitta = np.zeros(len(self._points))
+            if params["chord_correction"]:
+                self._sagitta[:] = (catheter.geometry.segment_length**2
+                                    - tendon.rod.geometry.segment_length**2) / 24.0
+                if tendon.rod.geometry.segment_length > catheter.geometry.segment_length:
+                    self._sagitta[-1] *= TIP_SHARE
         else:
             self._stiffness = params["K_L"]
         rest = np.zeros(max(catheter.layout.offset + catheter.layout.size,
@@ -213,7 +229,7 @@ class Lumen(TendonTerm):
         if self.conservative:
             return (self.dofs, float(tendon.alpha), float(tendon.beta), float(tendon.offset),
                     self._stiffness, float(tendon.catheter.geometry.segment_length),
-                    self._ends(), self._node_weights())
+                    self._ends(), self._node_weights(), self._sagitta, self._turn_weights())
         return (self.dofs, float(tendon.alpha), float(tendon.beta), float(tendon.offset),
                 float(self._stiffness), self._both, self.conservative, self._reaction_share())
 
@@ -224,10 +240,13 @@ class Lumen(TendonTerm):
     def _on_segments(self, x: np.ndarray) -> PointOnLumenCurve:
         return PointOnLumenCurve(self.tendon, x[self.dofs], self._stiffness,
                                  self.tendon.catheter.geometry.segment_length, self._ends(),
-                                 self._node_weights())
+                                 self._node_weights(), self._sagitta, self._turn_weights())
 
     def _node_weights(self) -> np.ndarray:
         return node_weights(self.parent, self.tendon.catheter.nodes - 1)
+
+    def _turn_weights(self) -> np.ndarray:
+        return turn_weights(self.parent, self.tendon.catheter.nodes - 1)
 
     def _ends(self) -> np.ndarray:
         """Per element: (on the catheter's first segment, on its last), shape (n, 2)."""
