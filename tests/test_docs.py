@@ -16,3 +16,19 @@ def test_scene_reference_in_docs_is_current():
     run = subprocess.run([sys.executable, str(script), "--check"], capture_output=True,
                          text=True, check=False)
     assert run.returncode == 0, run.stdout + run.stderr
+
+
+def test_the_error_examples_in_the_scene_docs_are_what_the_cli_prints(cli, capsys, tmp_path,
+                                                                       monkeypatch):
+    """Each ``$ rodsim …`` example of docs/scenes.md followed by a ``rodsim: error:`` line
+    prints that line (exit 2); the docs once showed an error for a command that runs."""
+    import re
+    import shlex
+
+    text = (ROOT / "docs" / "scenes.md").read_text(encoding="utf-8")
+    examples = re.findall(r"^\s*\$ rodsim (.+)\n\s*(rodsim: error: .+)$", text, re.MULTILINE)
+    assert len(examples) >= 2, examples
+    monkeypatch.chdir(tmp_path)
+    for command, error in examples:
+        assert cli(shlex.split(command)) == 2, command
+        assert capsys.readouterr().err.strip() == error.strip(), command
