@@ -32,3 +32,15 @@ def test_the_error_examples_in_the_scene_docs_are_what_the_cli_prints(cli, capsy
     for command, error in examples:
         assert cli(shlex.split(command)) == 2, command
         assert capsys.readouterr().err.strip() == error.strip(), command
+
+
+def test_ci_runs_the_readme_test_command():
+    """.ci/run runs the suite exactly as the README tells a newcomer to."""
+    import re
+
+    readme = (ROOT / "README.md").read_text(encoding="utf-8")
+    ci = (ROOT / ".ci" / "run").read_text(encoding="utf-8")
+    documented = re.search(r'pip install "\.\[test\]" && (python -m pytest[^\n]*)', readme)
+    assert documented, "the README's test command is not where it was"
+    assert re.search(rf"^{re.escape(documented[1])}$", ci, re.MULTILINE), (
+        f".ci/run does not run {documented[1]!r}")

@@ -105,8 +105,9 @@ class Scene:
             else:
                 close = difflib.get_close_matches(str(path), list(shipped), n=1)
                 hint = f" (did you mean {close[0]!r}?)" if close else ""
-                raise SceneError(f"{shown(str(path), bare=True)} is neither a shipped scene nor "
-                                 f"a file{hint}; shipped scenes: {', '.join(shipped)}",
+                raise SceneError(f"{shown(str(path), width=500, bare=True)} is neither a "
+                                 f"shipped scene nor a file{hint}; shipped scenes: "
+                                 f"{', '.join(shipped)}",
                                  key=str(path), allowed=tuple(shipped),
                                  reason="no such scene")
         text = read_scene_text(path)
