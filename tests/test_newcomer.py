@@ -181,3 +181,25 @@ def test_the_library_layers_name_no_cli_flag():
                 found += [f"{path.relative_to(ROOT)}: {flag} in {text[:60]!r}" for flag in flags
                           if re.search(rf"{re.escape(flag)}\b", text)]
     assert not found, "\n".join(found)
+
+
+def test_a_status_held_back_by_the_interval_is_shown_on_close():
+    """A solver's last report (e.g. its final Newton iteration) may fall inside the interval;
+    close() shows it, so the screen never ends on an older one. Reports at completion after
+    the first are rate-limited like any other (no flood of 100 % lines in a log)."""
+    stream = Terminal()
+    printer = ProgressPrinter(stream, delay=0.0, interval=1e9)
+    printer(0.2, "load 0.2")
+    printer(1.0, "load 1, Newton iteration 1")
+    for iteration in range(2, 20):
+        printer(1.0, f"load 1, Newton iteration {iteration}")
+    lines = written_lines(stream)
+    assert [line.split("] ")[1].strip() for line in lines] == [
+        "20.0% load 0.2", "100.0% load 1, Newton iteration 1"]
+    printer.close()
+    assert "Newton iteration 19" in written_lines(stream)[-1]
+    quiet = Terminal()
+    silent = ProgressPrinter(quiet, delay=1e9)
+    silent(0.5, "under the delay")
+    silent.close()
+    assert quiet.getvalue() == ""
