@@ -23,6 +23,14 @@ from rodsim.core.model import Model  # noqa: E402
 from rodsim.core.scene import Scene  # noqa: E402
 
 
+def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
+    """Tests marked ``slow`` run first (in their collected order, the others after them):
+    with ``-n`` workers, the long ones then overlap each other and the short ones fill the
+    gaps, instead of one long test starting last and running alone. Every worker sorts the
+    same way, as pytest-xdist requires."""
+    items.sort(key=lambda item: item.get_closest_marker("slow") is None)
+
+
 @pytest.fixture
 def load() -> Callable[..., Scene]:
     """``load(name_or_path, *overrides)``: a validated scene with ``--set``-style overrides."""

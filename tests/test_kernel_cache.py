@@ -13,6 +13,10 @@ import os
 import subprocess
 import sys
 
+import pytest
+
+pytestmark = pytest.mark.slow  # two fresh interpreters, the first compiling every kernel
+
 SCRIPT = """
 import json, sys
 import numpy as np

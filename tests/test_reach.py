@@ -39,6 +39,7 @@ def test_two_tensions_are_recovered_from_the_3d_tip_they_produce(four_tendons):
     assert found.distance < 1e-6
 
 
+@pytest.mark.slow
 def test_four_tendons_reach_a_target_with_tensions_that_reproduce_it(four_tendons):
     """With four tendons the tensions that reach a tip are not unique: the ones found are
     checked by solving forward with them."""

@@ -80,11 +80,11 @@ def test_a_scene_name_must_be_a_plain_file_stem(name, sandbox, cli, capsys):
 
 def test_a_plain_scene_name_names_the_default_archive(sandbox, cli, capsys):
     """The rule's other side: a stem with '.', '+', '-' and '_' is accepted and written in
-    the current folder."""
+    the current folder's runs/."""
     assert cli(["run", "--integrator", "static", "--set", "nodes=6", "--set",
                 'name="v1.2+rc_3-x"']) == 0
     capsys.readouterr()
-    assert files_under(sandbox / "a" / "b") == ["v1.2+rc_3-x-static.nc"]
+    assert files_under(sandbox / "a" / "b") == ["runs", "runs/v1.2+rc_3-x-static.nc"]
 
 
 def test_a_scene_file_that_is_not_utf8_text(tmp_path, cli, capsys):

@@ -43,6 +43,7 @@ def register(folder: Path, study: Study) -> None:
         f"from rodsim.app.study import Study, Sweep\n\nSTUDY = {study!r}\n", encoding="utf-8")
 
 
+@pytest.mark.slow
 def test_stopping_a_parallel_study_prints_no_worker_traceback(tmp_path):
     """Item 7: SIGTERM when the last point runs on one worker and the other is idle: the
     idle worker inherited the study's SIGTERM → KeyboardInterrupt handler and printed
@@ -75,6 +76,7 @@ def test_stopping_a_parallel_study_prints_no_worker_traceback(tmp_path):
 
 @pytest.mark.skipif(not hasattr(__import__("resource"), "RLIMIT_FSIZE"),
                     reason="needs RLIMIT_FSIZE")
+@pytest.mark.slow
 def test_a_file_size_limit_stops_the_study_in_one_line(tmp_path):
     """Item 7: `(ulimit -f 4; rodsim study …)`: a point cannot be saved, the study stops
     with one error line and its workers end without tracebacks."""

@@ -591,7 +591,9 @@ def test_rerun_study_reproduces_stored_centerlines(study_run):
 
     with pytest.raises(StudyError, match="not a swept parameter"):
         rerun_study(dataset, {"sigma": 0.5})
-    with pytest.raises(StudyError, match="no point matches"):
+    # A value no point has: the message lists the valid values of that dimension.
+    with pytest.raises(StudyError, match="nodes=7: no point has this value; the values of "
+                                         "nodes are 6, 11, 21$"):
         rerun_study(dataset, {"nodes": 7})
 
 
@@ -605,8 +607,15 @@ def test_cli_rerun_of_a_study_archive(study_run, tmp_path, cli, capsys):
 
     assert cli(["rerun", str(output), "--point", "sigma=0.5"]) == 2
     err = capsys.readouterr().err
-    assert "sigma" in err and "not a swept parameter" in err and "nodes, mass" in err, err
+    assert "sigma" in err and "not a swept parameter" in err, err
+    assert "the swept values are nodes: 6, 11, 21; mass: 0.02, 0.05" in err, err
     assert "Traceback" not in err
+
+    # A value that is not swept: the valid ones are listed (it printed a Python dict).
+    assert cli(["rerun", str(output), "--point", "nodes=22"]) == 2
+    err = capsys.readouterr().err
+    assert "nodes=22: no point has this value; the values of nodes are 6, 11, 21" in err, err
+    assert "{" not in err and len(err.strip().splitlines()) == 1
 
     # One value per swept parameter: a repeated dimension is refused, not silently dropped.
     assert cli(["rerun", str(output), "--point", "nodes=6", "--point", "nodes=11"]) == 2

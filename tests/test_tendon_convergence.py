@@ -22,9 +22,12 @@ import functools
 import math
 
 import numpy as np
+import pytest
 from test_tendon_physics import arc_points, rod_constants
 
 import rodsim
+
+pytestmark = pytest.mark.slow  # 19 static solves up to N = 120 with stiff penalties
 
 CONSERVING = "tendon-conserving"
 TENDON = "tendons.tendon"

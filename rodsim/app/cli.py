@@ -21,9 +21,14 @@ from rodsim.app.threads import pin_threads
 from rodsim.version import __version__
 
 if TYPE_CHECKING:
+    from rodsim.core.schema import SceneError
     from rodsim.core.stability import Stability
 
 EXIT_OK, EXIT_SOLVER_FAILURE, EXIT_BAD_INPUT = 0, 1, 2
+
+#: Folder (in the current folder) of every command's default output: a run's archive never
+#: lands beside the sources of a checkout, and one ignore rule covers them (.gitignore).
+DEFAULT_OUTPUT_FOLDER = Path("runs")
 
 
 class UserError(Exception):
@@ -88,9 +93,12 @@ def _print_run_summary(result, archive: Path | None) -> None:
               f"{100 * reference.tip_error(positions, 'exact'):.4f} % of L;  "
               f"vs extensible elastica (E_s A): {extensible}")
     stats = result.stats
-    print(f"residual    {result.residual:.3g} (tolerance {stats['effective_tolerance']:.3g})")
     requested = result.scene.data["solver"]["tolerance"]
-    if stats["effective_tolerance"] > 1e3 * requested:
+    used = stats["effective_tolerance"]
+    floor = (f": the round-off floor, above the requested {requested:.3g}"
+             if used > requested * (1 + 1e-9) else "")
+    print(f"residual    {result.residual:.3g} (tolerance {used:.3g}{floor})")
+    if used > 1e3 * requested:
         print(f"note        the tolerance {requested:.3g} is below this scene's round-off floor "
               f"and was raised to {stats['effective_tolerance']:.3g}: the equilibrium is "
               "defined only that loosely (lower K_P or N for a tighter one)")
@@ -105,6 +113,40 @@ def _print_run_summary(result, archive: Path | None) -> None:
         print(f"archive     {archive}")
 
 
+def _output_path(given: str | None, default: str) -> Path:
+    """The ``-o`` path if given, else ``runs/<default>`` in the current folder (the folder
+    created if missing)."""
+    if given:
+        return Path(given)
+    try:
+        DEFAULT_OUTPUT_FOLDER.mkdir(exist_ok=True)
+    except OSError as exc:
+        raise UserError(f"cannot create the output folder {str(DEFAULT_OUTPUT_FOLDER)!r} "
+                        f"({exc.strerror or exc}); give an archive path with -o") from None
+    return DEFAULT_OUTPUT_FOLDER / default
+
+
+def scene_error_text(exc: SceneError) -> str:
+    """A :class:`~rodsim.core.schema.SceneError` in the CLI's words: an override that could
+    not be read names the ``--set`` it came from; other errors (a value out of range, a
+    scene file) read the same as in Python."""
+    from rodsim.core.schema import shown
+
+    if exc.assignment is None:
+        return str(exc)
+    flag = f"--set {shown(exc.assignment, bare=True)}"
+    if exc.reason == "unknown key":
+        closest = f"; closest: {', '.join(exc.allowed)}" if exc.allowed else ""
+        return (f"{flag}: unknown key {shown(exc.key, bare=True)} (`rodsim run --help` "
+                f"lists the keys){closest}")
+    if exc.reason == "ambiguous key":
+        return (f"{flag}: {exc.key} is ambiguous, could be {', '.join(exc.allowed)} (give "
+                "more of the dotted key)")
+    if exc.reason == "expected key=value":
+        return f"{flag}: expected KEY=VALUE"
+    return f"{flag}: {exc.reason}"
+
+
 def _load_scene_or_fail(scene: str | None, overrides: Sequence[str], integrator: str | None):
     from rodsim.app.api import load_scene
     from rodsim.core.scene import SceneError
@@ -112,7 +154,7 @@ def _load_scene_or_fail(scene: str | None, overrides: Sequence[str], integrator:
     try:
         return load_scene(scene, overrides, f"solver.{integrator}" if integrator else "")
     except SceneError as exc:
-        raise UserError(str(exc)) from None
+        raise UserError(scene_error_text(exc)) from None
 
 
 def cmd_run(args: argparse.Namespace) -> int:
@@ -125,7 +167,7 @@ def cmd_run(args: argparse.Namespace) -> int:
 
     scene = _load_scene_or_fail(args.scene, args.set, args.integrator)
     integrator = args.integrator or scene.data["solver"]["integrator"]
-    output = Path(args.output or f"{scene.name}-{integrator}.nc")
+    output = _output_path(args.output, f"{scene.name}-{integrator}.nc")
     try:  # before the solve: an unwritable output fails in a second, not after an hour
         check_target(output)
     except OutputError as exc:
@@ -245,7 +287,7 @@ def cmd_track(args: argparse.Namespace) -> int:
 
     scene = _load_scene_or_fail(args.scene, args.set, args.integrator)
     integrator = args.integrator or scene.data["solver"]["integrator"]
-    output = Path(args.output or f"{scene.name}-track.nc")
+    output = _output_path(args.output, f"{scene.name}-track.nc")
     stem = _check_outputs(output)
     progress = ProgressPrinter()
     try:
@@ -280,7 +322,7 @@ def cmd_fit(args: argparse.Namespace) -> int:
     from rodsim.core.scene import SceneError
 
     scene = _load_scene_or_fail(args.scene, args.set, "static")
-    output = Path(args.output or f"{scene.name}-fit.nc")
+    output = _output_path(args.output, f"{scene.name}-fit.nc")
     stem = _check_outputs(output)
     try:
         points = read_points(args.data)
@@ -324,7 +366,7 @@ def cmd_reach(args: argparse.Namespace) -> int:
     from rodsim.core.scene import SceneError
 
     scene = _load_scene_or_fail(args.scene, args.set, "static")
-    output = Path(args.output or f"{scene.name}-reach.nc")
+    output = _output_path(args.output, f"{scene.name}-reach.nc")
     stem = _check_outputs(output)
     try:
         result = reach(scene, args.tip, args.actuate, rod=args.rod, tolerance=args.tolerance)
@@ -435,13 +477,14 @@ def cmd_study(args: argparse.Namespace) -> int:
         printer.close()  # end an in-place progress line first
         print(f"rodsim: {message}", file=sys.stderr, flush=True)
 
-    output = args.output or f"{args.name}-{args.size}.nc"
     # SIGTERM stops a study as Ctrl-C does: workers ended, finished points kept.
     previous = (signal.signal(signal.SIGTERM, _interrupt)
                 if threading.current_thread() is threading.main_thread() else None)
     interrupted = False
+    output = ""
     try:
         study = load_study(args.name)
+        output = str(_output_path(args.output, f"{args.name}-{args.size}.nc"))
         dataset = run_study(study, args.size, output, workers=args.workers,
                             scheduler=args.scheduler, progress=progress, log=log)
     except (StudyError, ArchiveError) as exc:
@@ -453,7 +496,7 @@ def cmd_study(args: argparse.Namespace) -> int:
         printer.close()
         if previous is not None:
             signal.signal(signal.SIGTERM, previous)
-        if interrupted and parts_folder(output).is_dir():
+        if interrupted and output and parts_folder(output).is_dir():
             print(f"rodsim: study stopped; its finished points are kept in "
                   f"{parts_folder(output)}: run the same command again to resume",
                   file=sys.stderr)
@@ -538,7 +581,8 @@ def build_parser() -> argparse.ArgumentParser:
                      help="integrator (default: the scene's solver.integrator, cvode)")
     run.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
                      help="override a scene value (repeatable), e.g. --set nodes=80")
-    run.add_argument("-o", "--output", help="archive path (default: <scene>-<integrator>.nc)")
+    run.add_argument("-o", "--output",
+                     help="archive path (default: runs/<scene>-<integrator>.nc)")
     run.add_argument("--require-stable", action="store_true",
                      help="exit 1 when the equilibrium found is unstable (its stiffness is "
                      "not positive definite; the archive is still written)")
@@ -562,7 +606,7 @@ def build_parser() -> argparse.ArgumentParser:
                            "OUT.parts/ so a killed or interrupted (Ctrl-C, SIGTERM) study "
                            "resumes. Without NAME: list them.")
     study.add_argument("name", nargs="?", help="study name (fig6, fig7a, …, convergence)")
-    study.add_argument("-o", "--output", help="archive path (default: <name>-<size>.nc)")
+    study.add_argument("-o", "--output", help="archive path (default: runs/<name>-<size>.nc)")
     study.add_argument("--size", choices=("small", "full"), default="full",
                        help="grid size: small (smoke test) or full (default)")
     study.add_argument("--workers", type=_positive_int, default=None,
@@ -588,7 +632,8 @@ def build_parser() -> argparse.ArgumentParser:
                         help="integrator (default: static)")
     follow.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
                         help="override a scene value first (repeatable)")
-    follow.add_argument("-o", "--output", help="archive path (default: <scene>-track.nc); "
+    follow.add_argument("-o", "--output", help="archive path (default: "
+                        "runs/<scene>-track.nc); "
                         "the figure goes beside it (.png)")
     follow.set_defaults(func=cmd_track)
 
@@ -608,7 +653,8 @@ def build_parser() -> argparse.ArgumentParser:
     calibrate.add_argument("--rod", help="rod the points belong to (default: the first)")
     calibrate.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
                            help="override a scene value first (repeatable)")
-    calibrate.add_argument("-o", "--output", help="archive path (default: <scene>-fit.nc); "
+    calibrate.add_argument("-o", "--output", help="archive path (default: "
+                           "runs/<scene>-fit.nc); "
                            "the figure goes beside it (.png)")
     calibrate.set_defaults(func=cmd_fit)
 
@@ -630,11 +676,16 @@ def build_parser() -> argparse.ArgumentParser:
                      help="distance at which the target counts as reached (default 1e-6 m)")
     aim.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
                      help="override a scene value first (repeatable)")
-    aim.add_argument("-o", "--output", help="archive path (default: <scene>-reach.nc); the "
+    aim.add_argument("-o", "--output", help="archive path (default: runs/<scene>-reach.nc); "
+                     "the "
                      "figure goes beside it (.png)")
     aim.set_defaults(func=cmd_reach)
 
-    plot = sub.add_parser("plot", help="draw an archive's figure (PNG and PDF)")
+    plot = sub.add_parser("plot", help="draw an archive's figure (PNG and PDF)",
+                          description="Draw the figure of an archive written by `rodsim "
+                          "run`, `study`, `track`, `fit` or `reach`, from the archive alone "
+                          "(no solve): STEM.png and STEM.pdf, by default beside the archive "
+                          "under its name.")
     plot.add_argument("archive", help="archive written by `rodsim run` or `rodsim study`")
     plot.add_argument("-o", "--output", metavar="STEM",
                       help="output path without extension (default: the archive's)")

@@ -15,6 +15,7 @@ import importlib
 import itertools
 import json
 import pkgutil
+import re
 import traceback
 from dataclasses import asdict, dataclass
 from typing import Any
@@ -24,6 +25,7 @@ import xarray as xr
 
 from rodsim.core.analytic.reference import REFERENCE_KINDS, reference_centerline
 from rodsim.core.scene import Scene, SceneError
+from rodsim.core.schema import shown
 from rodsim.io.archive_schema import SCHEMA_VERSION, STATUS
 from rodsim.io.compare import largest_distance
 from rodsim.io.provenance import archive_attributes
@@ -359,7 +361,13 @@ def available_studies() -> dict[str, Study]:
         study = getattr(importlib.import_module(f"rodsim.studies.{module.name}"), "STUDY", None)
         if isinstance(study, Study):
             found[study.name] = study
-    return dict(sorted(found.items()))
+    return dict(sorted(found.items(), key=lambda item: natural_key(item[0])))
+
+
+def natural_key(name: str) -> tuple[tuple[int, int | str], ...]:
+    """Sort key ordering the numbers within names by value: fig6 before fig22."""
+    return tuple((0, int(part)) if part.isdigit() else (1, part)
+                 for part in re.split(r"(\d+)", name) if part)
 
 
 def load_study(name: str) -> Study:
@@ -381,17 +389,27 @@ def rerun_study(dataset: xr.Dataset, select: dict[str, Any] | None = None
     spec = json.loads(dataset.attrs["spec_json"])
     dims = [s["name"] for s in spec["sweeps"]]
     select = dict(select or {})
-    for dim in select:
+    values = {d: [v.item() for v in dataset[d].values] for d in dims}
+
+    def swept() -> str:
+        return "; ".join(f"{d}: {', '.join(_label_text(v) for v in values[d])}" for d in dims)
+
+    for dim, wanted in select.items():
+        given = shown(f"{dim}={_label_text(wanted)}", bare=True)
         if dim not in dims:
-            raise StudyError(f"--point {dim!r}=…: not a swept parameter; swept: "
-                             f"{', '.join(dims)}")
+            raise StudyError(f"{given}: {shown(dim, bare=True)} is not a swept parameter of "
+                             f"this study; the swept values are {swept()}")
+        if not any(_same(v, wanted) for v in values[dim]):
+            raise StudyError(f"{given}: no point has this value; the values of {dim} are "
+                             f"{', '.join(map(_label_text, values[dim]))}")
     points = []
     for index in grid_points(spec):
-        labels = {d: dataset[d].values[i].item() for d, i in zip(dims, index, strict=True)}
+        labels = {d: values[d][i] for d, i in zip(dims, index, strict=True)}
         if all(_same(labels[d], v) for d, v in select.items()):
             points.append(index)
     if not points:
-        raise StudyError(f"no point matches {select}")
+        chosen = ", ".join(f"{d}={_label_text(v)}" for d, v in select.items())
+        raise StudyError(f"no point has {chosen}; the swept values are {swept()}")
     records, largest = [], 0.0
     rods = list(dataset["rod"].values)
     for index in points:
@@ -405,6 +423,13 @@ def rerun_study(dataset: xr.Dataset, select: dict[str, Any] | None = None
             new = np.stack([np.asarray(record["centerline"][rod]) for rod in rods])
             largest = max(largest, largest_distance(stored, new))
     return records, largest
+
+
+def _label_text(value: Any) -> str:
+    """A swept value as a user would type it after ``DIM=``."""
+    if isinstance(value, float):
+        return f"{value:.12g}"
+    return str(value)
 
 
 def _same(label: Any, wanted: Any) -> bool:

@@ -29,6 +29,7 @@ and the allowed values. Layout of a scene file (docs/scenes.md has the full refe
 from __future__ import annotations
 
 import copy
+import difflib
 import json
 import tomllib
 from collections.abc import Iterable, Mapping
@@ -101,8 +102,18 @@ class Scene:
         path = Path(path)
         if "\0" in str(path):
             raise SceneError(f"cannot read scene {shown(str(path))}: a NUL in the path")
-        if not path.exists() and path.suffix == "" and str(path) in scene_paths():
-            path = scene_paths()[str(path)]
+        if not path.exists() and not path.is_symlink():
+            shipped = scene_paths()
+            if path.suffix == "" and str(path) in shipped:
+                path = shipped[str(path)]
+            else:
+                close = difflib.get_close_matches(str(path), list(shipped), n=1)
+                hint = f" (did you mean {close[0]!r}?)" if close else ""
+                raise SceneError(f"{shown(str(path), width=500, bare=True)} is neither a "
+                                 f"shipped scene nor a file{hint}; shipped scenes: "
+                                 f"{', '.join(shipped)}",
+                                 key=str(path), allowed=tuple(shipped),
+                                 reason="no such scene")
         text = read_scene_text(path)
         return cls(resolve(parse_toml(text, shown(str(path), width=500, bare=True))), text)
 
@@ -151,7 +162,7 @@ class Scene:
 
     def with_overrides(self, assignments: Iterable[str], prefer: str = "",
                        known_keys: Iterable[str] = ()) -> Scene:
-        """A new scene with ``key=value`` assignments applied in order (the CLI's ``--set``).
+        """A new scene with ``key=value`` assignments applied in order.
 
         ``key`` is a dotted path (``rods.catheter.nodes``) or any unambiguous suffix of one
         (``nodes``, ``tip_load.mass``); a suffix that matches several keys resolves to the one
@@ -162,6 +173,8 @@ class Scene:
         resolved, so a later key may refer to a term an earlier one added. ``known_keys`` are
         full keys that may be set although the scene does not hold them yet (the integrators'
         options, which :func:`rodsim.load_scene` passes so that their short forms work too).
+        An assignment whose key or value cannot be read raises SceneError with
+        ``assignment`` set (the CLI words it as its ``--set`` flag).
         """
         known = tuple(known_keys)
         data = copy.deepcopy(self.data)
@@ -169,10 +182,17 @@ class Scene:
             key, sep, text = assignment.partition("=")
             key = key.strip()
             if not sep or not key:
-                raise SceneError(f"--set {shown(assignment)}: expected key=value")
+                raise SceneError(f"override {shown(assignment)}: expected key=value",
+                                 value=assignment, allowed="key=value",
+                                 reason="expected key=value", assignment=assignment)
             preferred = prefer or f"solver.{data['solver']['integrator']}"
-            full_key = _resolve_key(data, key, preferred, known)
-            data = _assign(data, full_key, _parse_value(text.strip()))
+            try:
+                full_key = _resolve_key(data, key, preferred, known)
+                value = _parse_value(text.strip())
+            except SceneError as exc:
+                exc.assignment = assignment
+                raise
+            data = _assign(data, full_key, value)
             if full_key.endswith(".terms"):
                 _drop_unlisted_term_tables(data, full_key)
             # Validate as we go so a later key can name a term an earlier one added; a scene
@@ -298,9 +318,14 @@ def _resolve_key(data: Mapping[str, Any], key: str, prefer: str = "",
     if len(preferred) == 1:
         return preferred[0]
     if not matches:
-        raise SceneError(f"--set {shown(key, bare=True)}: unknown key (see `rodsim run "
-                         "--help` for the keys)")
-    raise SceneError(f"--set {key}: ambiguous, could be " + ", ".join(matches))
+        names = sorted({leaf.rsplit(".", 1)[-1] for leaf in leaves} | set(leaves))
+        close = difflib.get_close_matches(key, names, n=3)
+        hint = f"; closest: {', '.join(close)}" if close else ""
+        raise SceneError(f"unknown key {shown(key, bare=True)}: no scene key is it or ends "
+                         f"with it (docs/scenes.md lists the keys){hint}", key=key,
+                         allowed=tuple(close), reason="unknown key")
+    raise SceneError(f"ambiguous key {shown(key, bare=True)}: could be {', '.join(matches)}",
+                     key=key, allowed=tuple(matches), reason="ambiguous key")
 
 
 def _assign(data: dict[str, Any], key: str, value: Any) -> dict[str, Any]:
@@ -317,7 +342,7 @@ def _assign(data: dict[str, Any], key: str, value: Any) -> dict[str, Any]:
 
 
 def _drop_unlisted_term_tables(data: dict[str, Any], terms_key: str) -> None:
-    """After ``--set <rod>.terms=[…]``: drop the parameter tables of the terms the new list
+    """After an override ``<rod>.terms=[…]``: drop the parameter tables of the terms the new list
     leaves out (they came from the scene or its defaults; keeping them would refuse the
     removal as "parameters given for a term that terms does not list")."""
     from rodsim.core.terms import registered_terms
@@ -332,10 +357,11 @@ def _drop_unlisted_term_tables(data: dict[str, Any], terms_key: str) -> None:
 
 
 def _parse_value(text: str) -> Any:
-    """A ``--set`` value: TOML if it parses as one, else the plain string."""
+    """An override's value: TOML if it parses as one, else the plain string."""
     try:
         return tomllib.loads(f"v = {text}")["v"]
     except tomllib.TOMLDecodeError:
         return text
     except RecursionError:
-        raise SceneError(f"--set value {shown(text)}: nested too deeply") from None
+        raise SceneError(f"value {shown(text)}: nested too deeply", value=text,
+                         reason="nested too deeply") from None

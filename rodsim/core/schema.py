@@ -20,7 +20,38 @@ SHOWN_WIDTH = 60
 
 
 class SceneError(ValueError):
-    """A scene value is missing, unknown, of the wrong type or outside its allowed range."""
+    """A scene value is missing, unknown, of the wrong type or outside its allowed range.
+
+    ``str(error)`` is a one-line message in the library's terms (dotted scene keys, Python
+    values). The fields let a front end word the error its own way (the CLI names its
+    ``--set`` flag, for instance) without parsing the message; each is ``None`` when it
+    does not apply.
+
+    Attributes
+    ----------
+    key
+        The dotted scene key concerned (as given by the user when it could not be resolved).
+    value
+        The offending value.
+    allowed
+        What is allowed instead: a description (``"an integer >= 3"``) or the tuple of
+        valid names (keys, choices, shipped scenes).
+    reason
+        A short phrase for what is wrong (``"unknown key"``, ``"out of range"``, …).
+    assignment
+        The ``key=value`` text of :meth:`rodsim.core.scene.Scene.with_overrides` whose key or
+        value could not be read (``None`` for errors in the values themselves).
+    """
+
+    def __init__(self, message: str, *, key: str | None = None, value: Any = None,
+                 allowed: str | tuple[str, ...] | None = None, reason: str | None = None,
+                 assignment: str | None = None) -> None:
+        super().__init__(message)
+        self.key = key
+        self.value = value
+        self.allowed = allowed
+        self.reason = reason
+        self.assignment = assignment
 
 
 def shown(value: Any, width: int = SHOWN_WIDTH, bare: bool = False) -> str:
@@ -112,7 +143,8 @@ class Parameter:
         """Return ``value`` converted to this parameter's kind, or raise :class:`SceneError`."""
 
         def fail(reason: str) -> SceneError:
-            return SceneError(f"{key} = {shown(value)}: {reason}; allowed: {self.allowed}")
+            return SceneError(f"{key} = {shown(value)}: {reason}; allowed: {self.allowed}",
+                              key=key, value=value, allowed=self.allowed, reason=reason)
 
         if self.kind == "bool":
             if not isinstance(value, bool):
@@ -185,19 +217,23 @@ def validate_table(
     known keys. Returns a new dict with every declared parameter present.
     """
     if not isinstance(table, Mapping):
-        raise SceneError(f"{prefix}: expected a table, got {type(table).__name__}")
+        raise SceneError(f"{prefix}: expected a table, got {type(table).__name__}",
+                         key=prefix, value=table, allowed="a table", reason="not a table")
     params = {p.name: p for p in parameters}
     out: dict[str, Any] = {}
     for key in table:
         if key not in params and key not in allow_extra:
-            known = ", ".join(sorted([*params, *allow_extra]))
-            raise SceneError(f"{prefix}.{shown(key, bare=True)}: unknown key; known keys: {known}")
+            known = tuple(sorted([*params, *allow_extra]))
+            raise SceneError(f"{prefix}.{shown(key, bare=True)}: unknown key; known keys: "
+                             f"{', '.join(known)}", key=f"{prefix}.{key}", allowed=known,
+                             reason="unknown key")
     for name, param in params.items():
         key = f"{prefix}.{name}"
         if name in table:
             out[name] = param.check(table[name], key)
         elif param.default is None:
-            raise SceneError(f"{key}: required value missing; allowed: {param.allowed}")
+            raise SceneError(f"{key}: required value missing; allowed: {param.allowed}",
+                             key=key, allowed=param.allowed, reason="required value missing")
         else:
             out[name] = param.default
     for name in allow_extra:

@@ -307,7 +307,8 @@ class Integrator(ABC):
 
     def advice(self) -> str:
         """What to try when this integrator fails (shown in the failure message)."""
-        return "try another integrator (--integrator static|cvode|ida|paper) or a looser tolerance"
+        return ("try another integrator (static, cvode, ida or paper) or a looser "
+                "solver.tolerance")
 
     def solve(self) -> Result:
         """Run the integrator to equilibrium and return a Result (never raises on failure)."""

@@ -118,9 +118,9 @@ class PaperEuler(Integrator):
         self._pattern_of = model
 
     def advice(self) -> str:
-        return ("try applying the load in increments (--set solver.paper.ramp_steps=20), a "
+        return ("try applying the load in increments (solver.paper.ramp_steps=20), a "
                 "smaller step (solver.paper.h=...), more Newton iterations per step "
-                "(solver.paper.max_newton=200), or --integrator cvode")
+                "(solver.paper.max_newton=200), or the cvode integrator")
 
     def _stiffness(self, y: np.ndarray, force: np.ndarray, load: float) -> np.ndarray:
         """∂F/∂x at y in pattern order: analytic, or grouped forward differences."""

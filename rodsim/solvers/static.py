@@ -92,7 +92,7 @@ class Static(Integrator):
 
     def advice(self) -> str:
         return ("try a smaller solver.static.first_load_step or min_load_step, or a "
-                "pseudo-dynamic integrator (--integrator cvode)")
+                "pseudo-dynamic integrator (cvode)")
 
     def advance(self) -> Outcome:
         if self.warm:

@@ -146,8 +146,8 @@ class SundialsIntegrator(Integrator):
 
     def advice(self) -> str:
         other = "inertial" if self.options["formulation"] == "overdamped" else "overdamped"
-        return (f"try --set solver.{self.name}.formulation={other}, a longer load_ramp, or "
-                "--integrator static")
+        return (f"try solver.{self.name}.formulation={other!r}, a longer load_ramp, or the "
+                "static integrator")
 
     def coordinate_scale(self) -> np.ndarray:
         """Size of each model coordinate, for absolute tolerances: L_ref for positions, 1 for
