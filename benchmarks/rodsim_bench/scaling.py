@@ -37,7 +37,7 @@ from typing import Any
 
 import numpy as np
 
-from rodsim.bench.work_precision import (
+from rodsim_bench.work_precision import (
     count,
     fmt,
     machine_attributes,
