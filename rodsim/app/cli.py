@@ -485,16 +485,16 @@ def cmd_bench(args: argparse.Namespace) -> int:
     try:
         package = load_benchmarks()
     except BenchmarksMissing as exc:
-        raise UserError(f"rodsim bench: {exc}") from None
+        raise UserError(str(exc)) from None
     if args.benchmark not in package.BENCHMARKS:
-        raise UserError(f"rodsim bench: no benchmark {args.benchmark!r}; the benchmarks are "
+        raise UserError(f"no benchmark {args.benchmark!r}; the benchmarks are "
                         + ", ".join(package.BENCHMARKS))
     module = importlib.import_module(f"{package.__name__}.{args.benchmark.replace('-', '_')}")
     if args.output_dir is None:
         output = default_output()
         if output is None:
-            raise UserError("rodsim bench: no benchmarks/results folder of a source checkout "
-                            "to write to; give the output folder with -o/--output")
+            raise UserError("no benchmarks/results folder of a source checkout to write the "
+                            "benchmark's results to; give the output folder with -o/--output")
     else:
         output = Path(args.output_dir)
     try:  # before the benchmark runs, not after
@@ -664,6 +664,7 @@ def build_parser() -> argparse.ArgumentParser:
     bench.add_argument("--size", choices=("small", "full"), default="full",
                        help="small: a smoke version in seconds; full: the real benchmark")
     bench.add_argument("-o", "--output", "--output-dir", dest="output_dir", default=None,
+                       metavar="DIR",
                        help="folder for the results (default: benchmarks/results of the "
                        "source checkout; required without one)")
     bench.set_defaults(func=cmd_bench)
