@@ -3,25 +3,20 @@
 Implements Villard, Waite & Howe, *Cosserat rods for modeling tendon-driven robotic
 catheter systems* (see docs/model.md for the equation -> code map).
 
-Importing rodsim pins OpenMP and OpenBLAS to one thread unless ``OMP_NUM_THREADS`` /
-``OPENBLAS_NUM_THREADS`` are already set: the solvers' callbacks hold the GIL and the linear
-algebra is small, and threaded BLAS on a shared 2-core machine gave intermittent 10×
-slow-downs (DESIGN §8). This takes effect only if numpy is not imported before rodsim.
+Importing rodsim has no side effects: the ``rodsim`` command pins BLAS threads and selects a
+file-only matplotlib backend itself (:mod:`rodsim.app.threads`, :func:`rodsim.app.cli.main`).
+The package is layered core → solvers → io → app (docs/architecture.md).
 
-``rodsim.load_scene``, ``rodsim.solve``, ``rodsim.build_model`` and the inverse tools
+``rodsim.load_scene``, ``rodsim.solve``, ``rodsim.build_model``, ``rodsim.run_dataset`` (a
+run's archive Dataset) and the inverse tools
 ``rodsim.sensitivity``, ``rodsim.track``, ``rodsim.fit`` and ``rodsim.reach``
 (docs/inverse.md) are imported on first use.
 """
 
-import os
-
-os.environ.setdefault("OMP_NUM_THREADS", "1")
-os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
-
 from rodsim.version import __version__
 
-__all__ = ["__version__", "build_model", "fit", "load_scene", "reach", "sensitivity", "solve",
-           "track"]
+__all__ = ["__version__", "build_model", "fit", "load_scene", "reach", "run_dataset",
+           "sensitivity", "solve", "track"]
 
 #: The inverse tools: name -> module (each module defines a function of the same name).
 _INVERSE = {"sensitivity": "rodsim.app.inverse.sensitivity", "track": "rodsim.app.inverse.track",
@@ -36,6 +31,10 @@ def __getattr__(name: str):
         from rodsim.app import api
 
         return getattr(api, name)
+    if name == "run_dataset":
+        from rodsim.io.run_dataset import run_dataset
+
+        return run_dataset
     if name in _INVERSE:
         import importlib
 

@@ -1,15 +1,17 @@
 """Shared fixtures: scene loading with overrides, random non-trivial states, finite differences.
 
-BLAS/OpenMP threads are pinned to one (DESIGN §8): the solvers' callbacks hold the GIL and
-the linear algebra is small, so extra threads only add contention on the test machine.
+BLAS/OpenMP threads are pinned to one (rodsim/app/threads.py) before numpy is imported, and
+figures use matplotlib's file backend, as the command line does.
 """
 
 from __future__ import annotations
 
 import os
 
-os.environ.setdefault("OMP_NUM_THREADS", "1")
-os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+from rodsim.app.threads import pin_threads
+
+pin_threads()
+os.environ.setdefault("MPLBACKEND", "Agg")
 
 from collections.abc import Callable  # noqa: E402
 

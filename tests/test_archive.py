@@ -10,9 +10,12 @@ import pytest
 import xarray as xr
 
 import rodsim
+from rodsim.app.api import rerun
 from rodsim.core.scene import scene_paths
-from rodsim.io.archive import ArchiveError, read_dataset, rerun, write_dataset
-from rodsim.solvers.result import SCHEMA_VERSION
+from rodsim.io.archive import ArchiveError, read_dataset, write_dataset
+from rodsim.io.archive_schema import SCHEMA_VERSION
+from rodsim.io.run_dataset import run_dataset
+from rodsim.solvers import registered_integrators
 
 OVERRIDES = ("nodes=12",)
 REQUIRED_ATTRS = ("scene_json", "scene_toml", "integrator", "integrator_options",
@@ -30,7 +33,7 @@ def run(integrator: str) -> rodsim.solvers.result.Result:
 
 @pytest.mark.parametrize("integrator", ["static", "cvode"])
 def test_round_trip_is_identical(integrator, tmp_path):
-    dataset = run(integrator).to_xarray()
+    dataset = run_dataset(run(integrator))
     path = write_dataset(dataset, tmp_path / "run.nc")
     assert path == tmp_path / "run.nc"
     back = read_dataset(path)
@@ -40,7 +43,7 @@ def test_round_trip_is_identical(integrator, tmp_path):
 @pytest.mark.parametrize("integrator", ["static", "cvode"])
 def test_archive_is_self_describing(integrator):
     result = run(integrator)
-    dataset = result.to_xarray()
+    dataset = run_dataset(result)
     assert {"position", "quaternion"} <= set(dataset.data_vars)
     for name, variable in dataset.data_vars.items():
         assert variable.attrs.get("units"), f"{name} has no units"
@@ -58,7 +61,8 @@ def test_archive_is_self_describing(integrator):
     assert json.loads(attrs["scene_json"])["rods"]["catheter"]["nodes"] == 12
     assert attrs["scene_toml"] == scene_paths()["table1-50g"].read_text(encoding="utf-8")
     assert attrs["integrator"] == integrator
-    assert json.loads(attrs["integrator_options"]) == result.scene.data["solver"][integrator]
+    assert json.loads(attrs["integrator_options"]) == (
+        registered_integrators()[integrator].options_of(result.scene))
     assert attrs["rodsim_version"] == rodsim.__version__
     assert str(attrs["schema_version"]) == SCHEMA_VERSION
     assert attrs["residual"] == result.residual
@@ -74,7 +78,7 @@ def test_archive_is_self_describing(integrator):
 
 @pytest.mark.parametrize("integrator", ["static", "cvode"])
 def test_rerun_reproduces_the_stored_positions(integrator, tmp_path):
-    path = write_dataset(run(integrator).to_xarray(), tmp_path / "run.nc")
+    path = write_dataset(run_dataset(run(integrator)), tmp_path / "run.nc")
     stored = read_dataset(path)
     again, difference = rerun(stored)
     assert again.success, again.message
@@ -88,7 +92,7 @@ def test_rerun_reproduces_the_stored_positions(integrator, tmp_path):
 
 def test_failed_write_leaves_the_previous_archive_and_no_temporary(tmp_path, monkeypatch):
     path = tmp_path / "run.nc"
-    write_dataset(run("static").to_xarray(), path)
+    write_dataset(run_dataset(run("static")), path)
     before = path.read_bytes()
 
     def broken_to_netcdf(self, target, *args, **kwargs):
@@ -98,16 +102,16 @@ def test_failed_write_leaves_the_previous_archive_and_no_temporary(tmp_path, mon
 
     monkeypatch.setattr(xr.Dataset, "to_netcdf", broken_to_netcdf)
     with pytest.raises(ArchiveError, match="simulated failure"):
-        write_dataset(run("cvode").to_xarray(), path)
+        write_dataset(run_dataset(run("cvode")), path)
     monkeypatch.undo()
     assert path.read_bytes() == before
     assert sorted(p.name for p in tmp_path.iterdir()) == ["run.nc"]
-    xr.testing.assert_identical(read_dataset(path), run("static").to_xarray())
+    xr.testing.assert_identical(read_dataset(path), run_dataset(run("static")))
 
 
 def test_write_to_a_missing_folder_raises(tmp_path):
     with pytest.raises(ArchiveError, match="does not exist"):
-        write_dataset(run("static").to_xarray(), tmp_path / "no" / "such" / "run.nc")
+        write_dataset(run_dataset(run("static")), tmp_path / "no" / "such" / "run.nc")
     assert list(tmp_path.iterdir()) == []
 
 
@@ -128,7 +132,7 @@ def test_reading_a_non_netcdf_or_missing_file_raises(tmp_path):
 
 
 def test_reading_another_schema_version_raises(tmp_path):
-    dataset = run("static").to_xarray()
+    dataset = run_dataset(run("static"))
     dataset.attrs["schema_version"] = "999"
     path = write_dataset(dataset, tmp_path / "future.nc")
     with pytest.raises(ArchiveError, match="schema"):

@@ -14,6 +14,7 @@ import pytest
 import xarray as xr
 
 import rodsim
+import rodsim.solvers
 from rodsim.app import bench_locator
 from rodsim_bench import scaling, skip_work, stress, work_precision
 
@@ -119,7 +120,8 @@ def test_work_precision_runs_the_scipy_baseline_by_name():
     assert {m.settings["method"] for m in scipy} == {"BDF", "LSODA"}
     assert all(m.solver == "scipy" for m in scipy)
     scene = rodsim.load_scene("table1-50g", ["nodes=10", *scipy[0].overrides()])
-    assert scene.data["solver"]["scipy"]["method"] == scipy[0].settings["method"]
+    options = rodsim.solvers.registered_integrators()["scipy"].options_of(scene)
+    assert options["method"] == scipy[0].settings["method"]
 
 
 def test_scipy_baseline_budget_is_a_failure_not_a_hang():

@@ -168,13 +168,13 @@ def test_paper_mass_scaling_puts_h2_omega2_where_asked():
                                / (rod["density"] * area * rod["length"] ** 4))
     solver = scene.data["solver"]
     model = rodsim.build_model(scene)
-    paper = registered_integrators()["paper"](model, solver["paper"], solver["tolerance"],
-                                              solver["max_wall_time"], None)
-    h = solver["paper"]["h"]
+    paper_class = registered_integrators()["paper"]
+    options = paper_class.options_of(scene)
+    paper = paper_class(model, options, solver["tolerance"], solver["max_wall_time"], None)
+    h = options["h"]
     assert paper.mass_scale() == pytest.approx((h * omega) ** 2 / 0.003, rel=1e-12)
     np.testing.assert_allclose(paper._mass, model.masses() * paper.mass_scale(), rtol=1e-14)
     physical = rodsim.load_scene("table1-50g")
-    plain = registered_integrators()["paper"](rodsim.build_model(physical),
-                                              physical.data["solver"]["paper"],
-                                              solver["tolerance"], solver["max_wall_time"], None)
+    plain = paper_class(rodsim.build_model(physical), paper_class.options_of(physical),
+                        solver["tolerance"], solver["max_wall_time"], None)
     assert plain.mass_scale() == 1.0

@@ -155,7 +155,7 @@ def test_cvode_jacfn_is_called_and_right(solver, formulation, monkeypatch, load,
     assert np.max(np.abs(result.positions() - reference.positions())) < 1e-6 * 0.12
 
     model = rodsim.build_model(scene)
-    integrator = Cvode(model, scene.data["solver"]["cvode"], 1e-9)
+    integrator = Cvode(model, Cvode.options_of(scene), 1e-9)
     system = integrator.system
     rng = np.random.default_rng(3)
     x = random_state(model, rng)
@@ -210,7 +210,7 @@ def test_ida_jacfn_is_called_and_right(solver, formulation, monkeypatch, load, r
     solve_counting_jacfn_calls(scene, "ida", recorder, solver, label)
 
     model = rodsim.build_model(scene)
-    integrator = Ida(model, scene.data["solver"]["ida"], 1e-9)
+    integrator = Ida(model, Ida.options_of(scene), 1e-9)
     system = integrator.system
     rng = np.random.default_rng(5)
     x = random_state(model, rng)

@@ -40,7 +40,7 @@ from rodsim.app.study import (
 )
 from rodsim.app.study_runner import WORKER_DIED, parts_folder, run_spec, run_study
 from rodsim.io.archive import read_dataset, write_dataset
-from rodsim.solvers.result import SCHEMA_VERSION
+from rodsim.io.archive_schema import SCHEMA_VERSION
 
 NODES = (6, 11, 21)  # 100/(N-1) is an integer: every node falls on the σ grid of 101 points
 MASSES = (0.02, 0.05)

@@ -16,10 +16,12 @@ import xarray as xr
 
 import rodsim
 import rodsim.core.tendon
+from rodsim.app.api import rerun
 from rodsim.core.scene import SceneError, scene_paths
 from rodsim.core.terms import registered_terms
 from rodsim.core.terms.base import TendonTerm, Term
-from rodsim.io.archive import read_dataset, rerun, write_dataset
+from rodsim.io.archive import read_dataset, write_dataset
+from rodsim.io.run_dataset import run_dataset
 
 # ------------------------------------------------- (a) a single-rod scene runs no tendon code
 
@@ -141,7 +143,7 @@ def archived(scene_name: str, integrator: str) -> rodsim.solvers.result.Result:
 @pytest.mark.parametrize(("scene_name", "integrator"), ARCHIVE_RUNS)
 def test_archive_holds_every_rod(scene_name, integrator, tmp_path):
     result = archived(scene_name, integrator)
-    dataset = result.to_xarray()
+    dataset = run_dataset(result)
     rods = result.scene.data["rods"]
     assert list(dict.fromkeys(dataset["rod"].values.tolist())) == list(rods)
     for name, rod in rods.items():
@@ -179,7 +181,7 @@ def test_archive_holds_every_rod(scene_name, integrator, tmp_path):
 
 @pytest.mark.parametrize(("scene_name", "integrator"), ARCHIVE_RUNS)
 def test_tendon_archive_reruns(scene_name, integrator, tmp_path, cli, capsys):
-    path = write_dataset(archived(scene_name, integrator).to_xarray(), tmp_path / "run.nc")
+    path = write_dataset(run_dataset(archived(scene_name, integrator)), tmp_path / "run.nc")
     stored = read_dataset(path)
     again, difference = rerun(stored)
     assert again.success, again.message

@@ -174,9 +174,9 @@ def _child(job: Job) -> dict[str, Any]:
     if job.integrator in ("cvode", "ida"):
         from rodsim.solvers import registered_integrators
 
-        solver = scene.data["solver"]
-        runner = registered_integrators()[job.integrator](model, solver[job.integrator],
-                                                          solver["tolerance"])
+        integrator = registered_integrators()[job.integrator]
+        runner = integrator(model, integrator.options_of(scene),
+                            scene.data["solver"]["tolerance"])
         out["system_size"] = int(runner.system.size)
         out["linear_solver"] = runner.linear_solver(runner.system.size)
     return out

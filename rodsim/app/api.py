@@ -3,7 +3,7 @@
     >>> import rodsim
     >>> scene = rodsim.load_scene("table1-50g").with_overrides(["nodes=80"])
     >>> result = rodsim.solve(scene, "static")
-    >>> result.tip(), result.to_xarray()
+    >>> result.tip(), rodsim.run_dataset(result)
 
 Everything the CLI does goes through these functions (README, "Python").
 """
@@ -13,18 +13,21 @@ from __future__ import annotations
 import time
 from collections.abc import Iterable, Mapping
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from rodsim.core.memory import check_memory
 from rodsim.core.model import Model
 from rodsim.core.scene import Scene, SceneError, default_scene_path
-from rodsim.solvers import registered_integrators
+from rodsim.solvers import check_solver_options, integrator_option_keys, registered_integrators
 from rodsim.solvers.base import Progress
 from rodsim.solvers.result import Result
 
-__all__ = ["load_scene", "solve", "build_model"]
+if TYPE_CHECKING:
+    import xarray as xr
+
+__all__ = ["load_scene", "solve", "build_model", "rerun"]
 
 SceneLike = Scene | str | Path | Mapping[str, Any]
 
@@ -34,7 +37,9 @@ def load_scene(scene: SceneLike | None = None, overrides: Iterable[str] = (),
     """A validated scene from a file path, a shipped scene name, a dict, or a Scene.
 
     ``None`` gives the default scene (Table 1, 50 g). ``overrides`` are ``key=value``
-    strings as for the CLI's ``--set`` (``prefer`` as in :meth:`Scene.with_overrides`).
+    strings as for the CLI's ``--set`` (``prefer`` as in :meth:`Scene.with_overrides`); the
+    integrators' options may be named by their short forms too. The solver tables are checked
+    against the registered integrators (:func:`rodsim.solvers.check_solver_options`).
     """
     if scene is None:
         loaded = Scene.load(default_scene_path())
@@ -45,7 +50,10 @@ def load_scene(scene: SceneLike | None = None, overrides: Iterable[str] = (),
     else:
         loaded = Scene.load(scene)
     overrides = list(overrides)
-    return loaded.with_overrides(overrides, prefer) if overrides else loaded
+    if overrides:
+        loaded = loaded.with_overrides(overrides, prefer, integrator_option_keys())
+    check_solver_options(loaded)
+    return loaded
 
 
 def build_model(scene: SceneLike | None = None) -> Model:
@@ -94,7 +102,31 @@ def solve(scene: SceneLike | None = None, integrator: str | None = None, *,
     if model is None or model.scene is not loaded:
         check_memory(loaded)
         model = Model(loaded)
-    runner = integrators[name](model, solver[name], solver["tolerance"],
+    runner = integrators[name](model, integrators[name].options_of(loaded), solver["tolerance"],
                                solver["max_wall_time"], progress, budget_start=started,
                                initial_state=initial_state)
     return runner.solve()
+
+
+def rerun(dataset: xr.Dataset) -> tuple[Result, float]:
+    """Re-run a stored run from the archive alone.
+
+    Returns the new result and the largest distance [m] between stored and recomputed
+    control points (infinite when either holds a NaN: see :func:`largest_distance`).
+    """
+    from rodsim.io.archive import ArchiveError, scene_of
+    from rodsim.io.archive_schema import parse_json_object
+    from rodsim.io.compare import largest_rod_distance
+    from rodsim.io.run_dataset import run_dataset
+
+    scene = scene_of(dataset)
+    stored_options = parse_json_object(dataset.attrs["integrator_options"],
+                                       "attribute 'integrator_options'")
+    integrator = str(dataset.attrs["integrator"])
+    if stored_options != registered_integrators()[integrator].options_of(scene):
+        raise ArchiveError("archive is inconsistent: integrator_options differ from the "
+                           "scene's solver options")
+    result = solve(scene, integrator)
+    new = run_dataset(result)
+    return result, largest_rod_distance(dataset["position"].values, dataset["rod"].values,
+                                        new["position"].values, new["rod"].values)

@@ -10,11 +10,13 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import os
 import sys
 from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, NoReturn
 
+from rodsim.app.threads import pin_threads
 from rodsim.version import __version__
 
 if TYPE_CHECKING:
@@ -118,6 +120,7 @@ def cmd_run(args: argparse.Namespace) -> int:
     from rodsim.core.scene import SceneError
     from rodsim.io.archive import ArchiveError, write_dataset
     from rodsim.io.output import OutputError, check_target
+    from rodsim.io.run_dataset import run_dataset
 
     scene = _load_scene_or_fail(args.scene, args.set, args.integrator)
     integrator = args.integrator or scene.data["solver"]["integrator"]
@@ -137,7 +140,7 @@ def cmd_run(args: argparse.Namespace) -> int:
         print(f"rodsim: solver failure: {result.message}", file=sys.stderr)
         return EXIT_SOLVER_FAILURE
     try:
-        write_dataset(result.to_xarray(), output)
+        write_dataset(run_dataset(result), output)
     except ArchiveError as exc:
         raise UserError(str(exc)) from None
     _print_run_summary(result, output)
@@ -157,9 +160,10 @@ def stability_text(stability: Stability) -> str:
 
 
 def cmd_rerun(args: argparse.Namespace) -> int:
+    from rodsim.app.api import rerun
     from rodsim.app.study import StudyError
     from rodsim.core.scene import SceneError
-    from rodsim.io.archive import ArchiveError, read_dataset, rerun
+    from rodsim.io.archive import ArchiveError, read_dataset
 
     try:
         dataset = read_dataset(args.archive)
@@ -678,6 +682,11 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
+    """The ``rodsim`` command. It pins BLAS threads (:mod:`rodsim.app.threads`) and, as it
+    only writes figures to files, selects matplotlib's file backend unless ``MPLBACKEND`` is
+    set — before anything imports numpy or matplotlib."""
+    pin_threads()
+    os.environ.setdefault("MPLBACKEND", "Agg")
     parser = build_parser()
     args = parser.parse_args(argv)
     command: Callable[[argparse.Namespace], int] = args.func

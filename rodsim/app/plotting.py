@@ -31,17 +31,14 @@ from collections.abc import Iterable, Sequence
 from pathlib import Path
 from typing import Any
 
-import matplotlib
+import matplotlib.pyplot as plt
+import numpy as np
+import xarray as xr
+from matplotlib.figure import Figure
+from matplotlib.lines import Line2D
+from matplotlib.ticker import NullFormatter
 
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-import xarray as xr  # noqa: E402
-from matplotlib.figure import Figure  # noqa: E402
-from matplotlib.lines import Line2D  # noqa: E402
-from matplotlib.ticker import NullFormatter  # noqa: E402
-
-from rodsim.io.output import OutputError, check_target  # noqa: E402
+from rodsim.io.output import OutputError, check_target
 
 __all__ = ["plot_dataset", "draw_figure", "style", "STYLE", "PLOT_KINDS",
            "reference_centerlines", "PlotError", "supported_formats", "check_output"]

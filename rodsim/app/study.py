@@ -16,7 +16,7 @@ import itertools
 import json
 import pkgutil
 import traceback
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass
 from typing import Any
 
 import numpy as np
@@ -24,17 +24,15 @@ import xarray as xr
 
 from rodsim.core.analytic.reference import REFERENCE_KINDS, reference_centerline
 from rodsim.core.scene import Scene, SceneError
+from rodsim.io.archive_schema import SCHEMA_VERSION, STATUS
 from rodsim.io.compare import largest_distance
 from rodsim.io.provenance import git_commit, git_dirty
-from rodsim.solvers.result import SCHEMA_VERSION
 from rodsim.version import __version__
 
 __all__ = ["Sweep", "Study", "StudyError", "available_studies", "load_study",
            "evaluate_point", "assemble", "rerun_study", "STATUS"]
 
 #: Point status codes stored in the ``status`` variable.
-STATUS = {"ok": 0, "solver_failure": 1, "error": 2}
-
 #: Per-point statistics copied from the run (see rodsim.solvers.result.STAT_DOCS).
 POINT_STATS = ("steps", "newton_iters", "force_evals", "jacobian_evals", "linear_solves",
                "wall_time")
@@ -107,7 +105,6 @@ class Study:
     plot: str = "centerlines"
     history: bool = False
     sigma_points: int = 101
-    notes: str = field(default="", compare=False)
 
     def spec(self, size: str) -> dict[str, Any]:
         """Everything a worker needs to run this study's points: JSON-able."""

@@ -308,10 +308,6 @@ class Model:
         """Control points of one rod, shape (N, 3) [m]."""
         return self.full(x)[self.rods[rod].layout.position_index]
 
-    def quaternions(self, x: np.ndarray, rod: str) -> np.ndarray:
-        """Segment quaternions of one rod, shape (N − 1, 4)."""
-        return self.full(x)[self.rods[rod].layout.quaternion_index]
-
     def masses(self) -> np.ndarray:
         """Diagonal mass matrix M of the free coordinates (Eq. 17) [kg or kg·m²]."""
         full = np.zeros(self.full_size)
@@ -422,10 +418,3 @@ class Model:
     def residual(self, force: np.ndarray) -> float:
         """Scaled residual max_i |F_i| w_i: forces / F_ref, quaternion forces / (F_ref L_ref)."""
         return float(np.max(np.abs(force) * self.residual_weight))
-
-    def term(self, name: str) -> Term:
-        """The first built term with this name (KeyError if the scene does not use it)."""
-        for term in self.terms:
-            if term.name == name:
-                return term
-        raise KeyError(name)

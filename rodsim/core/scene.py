@@ -1,7 +1,11 @@
 """Scenes: TOML files describing rods, their terms, tendons and the solver settings.
 
-A scene is validated once, completely, into a *resolved* dict in which every default is
-filled in; that dict (as JSON) is what archives store and what ``rodsim rerun`` reads back.
+A scene is validated once into a *resolved* dict in which every default of the rods, terms,
+tendons and generic solver settings is filled in; that dict (as JSON) is what archives store
+and what ``rodsim rerun`` reads back. The ``[solver.<integrator>]`` tables are kept as given:
+each integrator validates and completes its own options
+(:meth:`rodsim.solvers.base.Integrator.options_of`), so this module never imports the
+solvers (docs/architecture.md).
 Any problem raises :class:`~rodsim.core.schema.SceneError` with a one-line message naming the key
 and the allowed values. Layout of a scene file (docs/scenes.md has the full reference)::
 
@@ -42,8 +46,8 @@ from rodsim.core.tendon import TENDON_PARAMETERS, check_tendon
 __all__ = ["Scene", "SceneError", "SOLVER_PARAMETERS", "default_scene_path", "scene_paths"]
 
 SOLVER_PARAMETERS: tuple[Parameter, ...] = (
-    Parameter("integrator", "str", "cvode", "-", "integrator used by `rodsim run`",
-              choices=("paper", "cvode", "ida", "static")),
+    Parameter("integrator", "str", "cvode", "-",
+              "integrator used by `rodsim run`: a registered name (`rodsim integrators`)"),
     Parameter("tolerance", "float", 1e-9, "-",
               "equilibrium reached when the scaled force residual is below this "
               "(forces / load scale F_ref, quaternion forces / (F_ref L))",
@@ -145,7 +149,8 @@ class Scene:
             node = node[int(part)] if isinstance(node, list) else node[part]
         return node
 
-    def with_overrides(self, assignments: Iterable[str], prefer: str = "") -> Scene:
+    def with_overrides(self, assignments: Iterable[str], prefer: str = "",
+                       known_keys: Iterable[str] = ()) -> Scene:
         """A new scene with ``key=value`` assignments applied in order (the CLI's ``--set``).
 
         ``key`` is a dotted path (``rods.catheter.nodes``) or any unambiguous suffix of one
@@ -154,8 +159,11 @@ class Scene:
         by default, the scene's own ``solver.<solver.integrator>``).
         ``value`` is parsed as a TOML value (``80``, ``1e4``, ``"corde"``, ``[0, 1, 0]``) and
         falls back to a plain string. Each assignment is validated before the next is
-        resolved, so a later key may refer to a term an earlier one added.
+        resolved, so a later key may refer to a term an earlier one added. ``known_keys`` are
+        full keys that may be set although the scene does not hold them yet (the integrators'
+        options, which :func:`rodsim.load_scene` passes so that their short forms work too).
         """
+        known = tuple(known_keys)
         data = copy.deepcopy(self.data)
         for assignment in assignments:
             key, sep, text = assignment.partition("=")
@@ -163,7 +171,7 @@ class Scene:
             if not sep or not key:
                 raise SceneError(f"--set {shown(assignment)}: expected key=value")
             preferred = prefer or f"solver.{data['solver']['integrator']}"
-            full_key = _resolve_key(data, key, preferred)
+            full_key = _resolve_key(data, key, preferred, known)
             data = _assign(data, full_key, _parse_value(text.strip()))
             if full_key.endswith(".terms"):
                 _drop_unlisted_term_tables(data, full_key)
@@ -177,17 +185,18 @@ class Scene:
         return Scene(resolve(data), self.source)
 
     def with_values(self, values: Mapping[str, Any]) -> Scene:
-        """A new scene with already-typed values at dotted keys (used by studies)."""
+        """A new scene with already-typed values at dotted keys (used by studies); a full
+        ``solver.<integrator>.<option>`` key may be set although the scene does not hold it."""
         data = copy.deepcopy(self.data)
         for key, value in values.items():
-            data = _assign(data, _resolve_key(data, key), value)
+            option = key.startswith("solver.") and key.count(".") == 2
+            data = _assign(data, _resolve_key(data, key, known=(key,) if option else ()), value)
         return Scene(resolve(data), self.source)
 
 
 def resolve(raw: Mapping[str, Any]) -> dict[str, Any]:
     """Validate a raw scene dict and fill every default (raises :class:`SceneError`)."""
     from rodsim.core.terms import registered_terms
-    from rodsim.solvers import registered_integrators
 
     terms = registered_terms()
     for key in raw:
@@ -227,13 +236,18 @@ def resolve(raw: Mapping[str, Any]) -> dict[str, Any]:
             raise SceneError(f"rods.{rod}.clamp = 'orientation': it leaves the base position "
                              "free, which only a tendon pulled at its base can have; allowed: "
                              "'frame' or 'first_segment'")
-    integrators = registered_integrators()
     solver_raw = raw.get("solver", {})
-    solver = validate_table(solver_raw, SOLVER_PARAMETERS, "solver",
-                            allow_extra=tuple(integrators))
-    for integrator_name, cls in integrators.items():
-        solver[integrator_name] = validate_table(
-            solver_raw.get(integrator_name, {}), cls.parameters, f"solver.{integrator_name}")
+    if not isinstance(solver_raw, Mapping):
+        raise SceneError(f"solver: expected a table, got {type(solver_raw).__name__}")
+    generic = {p.name for p in SOLVER_PARAMETERS}
+    option_tables = tuple(key for key in solver_raw if key not in generic)
+    solver = validate_table(solver_raw, SOLVER_PARAMETERS, "solver", allow_extra=option_tables)
+    for integrator_name in option_tables:
+        if not isinstance(solver[integrator_name], Mapping):
+            raise SceneError(f"solver.{shown(integrator_name, bare=True)}: unknown key; known "
+                             "keys: " + ", ".join(sorted(generic)) + ", or a table "
+                             "[solver.<integrator>] of one integrator's options")
+        solver[integrator_name] = dict(solver[integrator_name])
     return {"name": name, "description": description, "rods": rods, "tendons": tendons,
             "solver": solver}
 
@@ -271,8 +285,10 @@ def _leaf_keys(node: Any, prefix: str = "") -> list[str]:
     return [prefix]
 
 
-def _resolve_key(data: Mapping[str, Any], key: str, prefer: str = "") -> str:
+def _resolve_key(data: Mapping[str, Any], key: str, prefer: str = "",
+                 known: tuple[str, ...] = ()) -> str:
     leaves = _leaf_keys(data)
+    leaves += [k for k in known if k not in leaves]
     if key in leaves:
         return key
     matches = [leaf for leaf in leaves if leaf.endswith("." + key)]
@@ -291,7 +307,7 @@ def _assign(data: dict[str, Any], key: str, value: Any) -> dict[str, Any]:
     node: Any = data
     parts = key.split(".")
     for part in parts[:-1]:
-        node = node[int(part)] if isinstance(node, list) else node[part]
+        node = node[int(part)] if isinstance(node, list) else node.setdefault(part, {})
     last = parts[-1]
     if isinstance(node, list):
         node[int(last)] = value

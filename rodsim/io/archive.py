@@ -1,4 +1,4 @@
-"""netCDF archives: atomic writes, reads, and re-running a stored run.
+"""netCDF archives: atomic writes and checked reads (:func:`rodsim.app.api.rerun` re-runs one).
 
 A write goes to a temporary file in the target's folder and is renamed over the target
 only when complete (``os.replace`` is atomic on POSIX), so a failed or interrupted write
@@ -18,12 +18,14 @@ from pathlib import Path
 import xarray as xr
 
 from rodsim.core.scene import Scene
-from rodsim.io.archive_schema import ArchiveSchemaError, check_archive, parse_json_object
-from rodsim.io.compare import largest_rod_distance
+from rodsim.io.archive_schema import (
+    SCHEMA_VERSION,
+    ArchiveSchemaError,
+    check_archive,
+)
 from rodsim.io.output import OutputError, check_target, remove_stale_temporaries, temporary_prefix
-from rodsim.solvers.result import SCHEMA_VERSION, Result
 
-__all__ = ["ArchiveError", "write_dataset", "read_dataset", "scene_of", "rerun"]
+__all__ = ["ArchiveError", "write_dataset", "read_dataset", "scene_of"]
 
 
 class ArchiveError(OSError):
@@ -84,24 +86,3 @@ def read_dataset(path: str | Path) -> xr.Dataset:
 def scene_of(dataset: xr.Dataset) -> Scene:
     """The scene stored in an archive (resolved values plus the original TOML text)."""
     return Scene.from_json(dataset.attrs["scene_json"], dataset.attrs.get("scene_toml", ""))
-
-
-def rerun(dataset: xr.Dataset) -> tuple[Result, float]:
-    """Re-run a stored run from the archive alone.
-
-    Returns the new result and the largest distance [m] between stored and recomputed
-    control points (infinite when either holds a NaN: see :func:`largest_distance`).
-    """
-    from rodsim.app.api import solve
-
-    scene = scene_of(dataset)
-    stored_options = parse_json_object(dataset.attrs["integrator_options"],
-                                       "attribute 'integrator_options'")
-    integrator = str(dataset.attrs["integrator"])
-    if stored_options != scene.data["solver"][integrator]:
-        raise ArchiveError("archive is inconsistent: integrator_options differ from the "
-                           "scene's solver options")
-    result = solve(scene, integrator)
-    new = result.to_xarray()
-    return result, largest_rod_distance(dataset["position"].values, dataset["rod"].values,
-                                        new["position"].values, new["rod"].values)

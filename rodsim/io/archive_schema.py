@@ -25,6 +25,12 @@ from rodsim.core.scene import Scene, SceneError
 __all__ = ["ArchiveSchemaError", "check_archive", "check_point_record", "parse_json_object",
            "MAX_SIGMA_POINTS", "KINDS"]
 
+#: Version of the archive layout; bump when variables or attributes change meaning.
+SCHEMA_VERSION = "1"
+
+#: Status codes of a study point (the ``status`` variable of a study archive).
+STATUS = {"ok": 0, "solver_failure": 1, "error": 2}
+
 #: Largest σ grid a study archive may declare (the shipped studies use 101).
 MAX_SIGMA_POINTS = 100_001
 
@@ -245,7 +251,6 @@ def check_point_record(record: Any, spec: Mapping[str, Any], rods: list[str],
     evaluate_point` writes it) for ``spec``, whose scene has ``rods`` and whose records carry
     the statistics ``stats``. A successful point must hold finite numbers of the right
     shapes; a failed one, its status and message."""
-    from rodsim.app.study import STATUS
 
     if not isinstance(record, dict):
         raise ArchiveSchemaError("not a JSON object")

@@ -1,4 +1,4 @@
-"""Integrators, one file each; importing this package registers all of them.
+"""Integrators, one file each, and the registry that finds them.
 
 - ``paper``:  the paper's damped semi-implicit Euler, Eqs. (17)/(19)
 - ``cvode``:  SUNDIALS CVODE (adaptive BDF) on the inertial or overdamped pseudo-dynamics
@@ -6,15 +6,62 @@
 - ``static``: Newton on F(x) = 0 with load continuation (the exact discrete equilibrium)
 - ``scipy``:  scipy's ``solve_ivp`` (BDF or LSODA) on the overdamped pseudo-dynamics, an
   outside baseline for the benchmarks
+
+Every module of this package that defines an :class:`~rodsim.solvers.base.Integrator`
+subclass with a ``name`` registers it; :func:`registered_integrators` imports them all on
+first use. Each integrator declares and validates its own ``[solver.<name>]`` options.
 """
 
+from __future__ import annotations
+
+import functools
 import importlib
 import pkgutil
+from typing import TYPE_CHECKING
 
-from rodsim.solvers.base import INTEGRATORS, Integrator, registered_integrators
+if TYPE_CHECKING:
+    from rodsim.core.scene import Scene
+    from rodsim.solvers.base import Integrator
 
-for _module in pkgutil.iter_modules(__path__):
-    if not _module.name.startswith("_") and _module.name != "base":
-        importlib.import_module(f"{__name__}.{_module.name}")
+__all__ = ["registered_integrators", "check_solver_options", "integrator_option_keys"]
 
-__all__ = ["INTEGRATORS", "Integrator", "registered_integrators"]
+
+def registered_integrators() -> dict[str, type[Integrator]]:
+    """Every registered integrator class by name (imports this package's modules)."""
+    from rodsim.solvers.base import INTEGRATORS
+
+    _import_every_module()
+    return dict(INTEGRATORS)
+
+
+def check_solver_options(scene: Scene) -> None:
+    """Raise :class:`~rodsim.core.schema.SceneError` unless ``solver.integrator`` and every
+    ``[solver.<name>]`` table of ``scene`` name a registered integrator with valid options."""
+    from rodsim.core.schema import SceneError, shown
+
+    integrators = registered_integrators()
+    solver = scene.data["solver"]
+    if solver["integrator"] not in integrators:
+        raise SceneError(f"solver.integrator = {shown(solver['integrator'])}: unknown "
+                         "integrator; allowed: " + ", ".join(integrators))
+    for name, table in solver.items():
+        if isinstance(table, dict):
+            if name not in integrators:
+                raise SceneError(f"solver.{shown(name, bare=True)}: unknown key; known keys: "
+                                 "integrator, kernels, max_wall_time, tolerance, "
+                                 + ", ".join(integrators))
+            integrators[name].options_of(scene)
+
+
+def integrator_option_keys() -> tuple[str, ...]:
+    """Full keys ``solver.<integrator>.<option>`` of every registered integrator's options."""
+    return tuple(f"solver.{name}.{p.name}" for name, cls in registered_integrators().items()
+                 for p in cls.parameters)
+
+
+@functools.cache
+def _import_every_module() -> None:
+    """Import each module of this package once (defining a class registers it)."""
+    for module in pkgutil.iter_modules(__path__):
+        if not module.name.startswith("_"):
+            importlib.import_module(f"{__name__}.{module.name}")

@@ -18,18 +18,21 @@ import time
 from abc import ABC, abstractmethod
 from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Any, ClassVar
+from typing import TYPE_CHECKING, Any, ClassVar
 
 import numpy as np
 
 from rodsim.core.model import Model
-from rodsim.core.schema import Parameter
+from rodsim.core.schema import Parameter, validate_table
 from rodsim.core.stability import Stability, assess
+from rodsim.solvers.failure import SolverFailure
 from rodsim.solvers.linear import LinearSolver
 from rodsim.solvers.result import Result
 
-__all__ = ["Integrator", "Outcome", "Progress", "SolverFailure", "INTEGRATORS",
-           "registered_integrators"]
+if TYPE_CHECKING:
+    from rodsim.core.scene import Scene
+
+__all__ = ["Integrator", "Outcome", "Progress", "SolverFailure", "INTEGRATORS"]
 
 #: Every defined integrator class, by name. Filled by ``Integrator.__init_subclass__``.
 INTEGRATORS: dict[str, type[Integrator]] = {}
@@ -46,15 +49,6 @@ MAX_SETTLES = 10
 
 #: Progress callback: (fraction done in [0, 1] or None, one-line status).
 Progress = Callable[[float | None, str], None]
-
-
-class SolverFailure(RuntimeError):
-    """Raised inside :meth:`Integrator.advance` to stop with a diagnostic message; ``advice``
-    replaces the integrator's generic advice when the failure has a specific remedy."""
-
-    def __init__(self, message: str, advice: str | None = None) -> None:
-        super().__init__(message)
-        self.advice = advice
 
 
 @dataclass
@@ -93,7 +87,7 @@ class Integrator(ABC):
     model
         The assembled rod system.
     options
-        Validated options of this integrator (``scene.data["solver"][name]``).
+        Validated options of this integrator (:meth:`options_of` the scene).
     tolerance
         Equilibrium residual tolerance (``solver.tolerance``), see :meth:`Model.residual`.
         A tolerance below the model's round-off floor (:attr:`Model.residual_floor`) is
@@ -120,6 +114,15 @@ class Integrator(ABC):
     #: How the integrator keeps the quaternions at unit norm.
     quaternion_norm: ClassVar[str]
     parameters: ClassVar[tuple[Parameter, ...]] = ()
+    #: Units and meaning of the history's ``time`` (recorded once per step).
+    history_time: ClassVar[tuple[str, str]] = ("s", "pseudo-time after each step")
+
+    @classmethod
+    def options_of(cls, scene: Scene) -> dict[str, Any]:
+        """This integrator's options in ``scene`` (its ``[solver.<name>]`` table), validated
+        and with every default filled in (SceneError on a bad value)."""
+        return validate_table(scene.data["solver"].get(cls.name, {}), cls.parameters,
+                              f"solver.{cls.name}")
 
     def __init_subclass__(cls, **kwargs: Any) -> None:
         super().__init_subclass__(**kwargs)
@@ -139,7 +142,6 @@ class Integrator(ABC):
         self.options = options
         #: The requested tolerance, raised to the model's round-off floor if below it.
         self.tolerance = max(tolerance, model.residual_floor)
-        self.requested_tolerance = tolerance
         self.max_wall_time = max_wall_time
         self._progress = progress
         #: Counters reported in the result's statistics (see rodsim.solvers.result.STAT_DOCS).
@@ -346,12 +348,5 @@ class Integrator(ABC):
         return Result.from_model(
             self.model, x if finite else self.state, integrator=self.name,
             options=self.options, success=success, message=message, residual=residual,
-            stats=stats, history=self.history.data,
+            stats=stats, history=self.history.data, history_time=self.history_time,
             stability=self.stability(x) if success else None)
-
-
-def registered_integrators() -> dict[str, type[Integrator]]:
-    """Every registered integrator class (imports :mod:`rodsim.solvers`)."""
-    import rodsim.solvers  # noqa: F401  (importing the package registers every file)
-
-    return dict(INTEGRATORS)

@@ -22,7 +22,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from rodsim.solvers.base import SolverFailure
+from rodsim.solvers.failure import SolverFailure
 from rodsim.solvers.linear import LinearSolver
 
 __all__ = ["NewtonProblem", "NewtonResult", "newton", "JACOBIAN_REUSE"]

@@ -46,6 +46,7 @@ import numpy as np
 from rodsim.app.inverse.continuation import EquilibriumFailure, ScaledEquilibria
 from rodsim.app.inverse.parameter_keys import NumericKey, numeric_keys, scene_with
 from rodsim.core.scene import Scene
+from rodsim.io.run_dataset import run_dataset
 from rodsim.solvers.result import Result
 
 if TYPE_CHECKING:
@@ -158,7 +159,7 @@ class Fit:
         """The fit archive: the run archive of the fitted scene (``rodsim rerun`` re-solves
         it) with the data, their matches, and per parameter its fitted value, initial value
         and standard error as scalar variables (docs/inverse.md)."""
-        ds = self.result.to_xarray()
+        ds = run_dataset(self.result)
         ds["data_position"] = (("point", "axis"), self.points.xyz,
                                {"units": "m", "long_name": "measured point"})
         ds["matched_position"] = (("point", "axis"), self.matched,

@@ -31,6 +31,7 @@ from rodsim.app.inverse.continuation import EquilibriumFailure, ScaledEquilibria
 from rodsim.app.inverse.parameter_keys import NumericKey, numeric_keys, scene_with
 from rodsim.core.scene import Scene
 from rodsim.core.schema import SceneError
+from rodsim.io.run_dataset import run_dataset
 from rodsim.solvers.result import Result
 
 if TYPE_CHECKING:
@@ -66,7 +67,7 @@ class Reach:
     def to_xarray(self) -> xr.Dataset:
         """The reach archive: the run archive of the scene with the values found, the
         target and the tip reached, and each actuation value as a scalar variable."""
-        ds = self.result.to_xarray()
+        ds = run_dataset(self.result)
         ds["target"] = ("axis", self.target, {"units": "m", "long_name": "tip target"})
         ds["tip_reached"] = ("axis", self.tip, {"units": "m", "long_name": f"tip of rod "
                                                 f"{self.rod!r} at the values found"})

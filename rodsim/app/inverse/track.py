@@ -34,8 +34,10 @@ from rodsim.app.inverse.parameter_keys import NumericKey, numeric_keys, scene_wi
 from rodsim.core.model import Model
 from rodsim.core.scene import Scene
 from rodsim.core.schema import SceneError
+from rodsim.io.archive_schema import SCHEMA_VERSION
+from rodsim.io.run_dataset import flatten_scene
+from rodsim.solvers import registered_integrators
 from rodsim.solvers.base import Progress
-from rodsim.solvers.result import SCHEMA_VERSION, flatten_scene
 from rodsim.version import __version__
 
 if TYPE_CHECKING:
@@ -166,8 +168,9 @@ class Track:
             "rodsim_version": __version__,
             "schema_version": SCHEMA_VERSION,
             "integrator": self.integrator,
-            "integrator_options": json.dumps(self.scene.data["solver"][self.integrator],
-                                             sort_keys=True),
+            "integrator_options": json.dumps(
+                registered_integrators()[self.integrator].options_of(self.scene),
+                sort_keys=True),
             "success": int(self.success),
             "message": self.message,
             "ramp_json": json.dumps({k.name: self.values[:, i].tolist()

@@ -51,11 +51,3 @@ class RodLayout:
         """Indices of the segment quaternions, shape (N − 1, 4)."""
         base = self.offset + COORDS_PER_NODE * np.arange(self.nodes - 1) + 3
         return base[:, None] + np.arange(4)
-
-    def positions(self, x: np.ndarray) -> np.ndarray:
-        """Control points of the rod in the global state ``x``, shape (N, 3)."""
-        return x[self.position_index]
-
-    def quaternions(self, x: np.ndarray) -> np.ndarray:
-        """Segment quaternions of the rod in the global state ``x``, shape (N − 1, 4)."""
-        return x[self.quaternion_index]

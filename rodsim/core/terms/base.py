@@ -42,7 +42,7 @@ if TYPE_CHECKING:
     from rodsim.core.rod.rod import Rod
     from rodsim.core.tendon import Tendon
 
-__all__ = ["Term", "RodTerm", "TendonTerm", "REGISTRY", "registered_terms"]
+__all__ = ["Term", "RodTerm", "TendonTerm", "REGISTRY"]
 
 #: Every defined term class, by name. Filled by ``Term.__init_subclass__``.
 REGISTRY: dict[str, type[Term]] = {}
@@ -152,10 +152,3 @@ class TendonTerm(Term):
     def __init__(self, tendon: Tendon, params: dict[str, Any]) -> None:
         self.tendon = tendon
         self.params = params
-
-
-def registered_terms() -> dict[str, type[Term]]:
-    """Every registered term class (imports :mod:`rodsim.core.terms` so all files are loaded)."""
-    import rodsim.core.terms  # noqa: F401  (importing the package registers every term file)
-
-    return dict(REGISTRY)

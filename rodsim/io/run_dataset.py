@@ -1,0 +1,110 @@
+"""The archive Dataset of one run (docs/archive.md).
+
+All rods' control points are concatenated along one ``node`` dimension, with the coordinate
+``rod`` naming the rod of each node; likewise ``segment`` for quaternions. Select one rod
+with ``ds.sel(node=ds.rod == "tendon", segment=ds.segment_rod == "tendon")``.
+"""
+
+from __future__ import annotations
+
+import json
+from typing import Any
+
+import numpy as np
+import xarray as xr
+
+from rodsim.io.archive_schema import SCHEMA_VERSION
+from rodsim.solvers.result import Result
+
+__all__ = ["run_dataset", "flatten_scene"]
+
+
+def run_dataset(result: Result) -> xr.Dataset:
+    """The archive Dataset of one run (see the module docstring and docs/archive.md)."""
+
+    names = list(result.rods)
+    shapes = list(result.rods.values())
+    node_rod = np.concatenate([[n] * len(r.s) for n, r in zip(names, shapes, strict=True)])
+    seg_rod = np.concatenate([[n] * len(r.segment_s)
+                              for n, r in zip(names, shapes, strict=True)])
+    ds = xr.Dataset(
+        data_vars={
+            "position": (("node", "axis"), np.concatenate([r.positions for r in shapes]),
+                         {"units": "m", "long_name": "control point position"}),
+            "quaternion": (("segment", "component"),
+                           np.concatenate([r.quaternions for r in shapes]),
+                           {"units": "1", "long_name": "segment orientation quaternion "
+                            "(q1, q2, q3 imaginary, q4 real)"}),
+        },
+        coords={
+            "axis": ("axis", ["x", "y", "z"], {"long_name": "world axis"}),
+            "component": ("component", ["q1", "q2", "q3", "q4"],
+                          {"long_name": "quaternion component"}),
+            "s": ("node", np.concatenate([r.s for r in shapes]),
+                  {"units": "m", "long_name": "rest arc length of the control point"}),
+            "rod": ("node", node_rod.astype(str), {"long_name": "rod of the control point"}),
+            "segment_s": ("segment", np.concatenate([r.segment_s for r in shapes]),
+                          {"units": "m", "long_name": "rest arc length of the segment "
+                           "midpoint"}),
+            "segment_rod": ("segment", seg_rod.astype(str),
+                            {"long_name": "rod of the segment"}),
+        },
+    )
+    if result.history.get("time"):
+        time_attrs = ({"units": "1", "long_name": "load fraction after each load step"}
+                      if result.integrator == "static" else
+                      {"units": "s", "long_name": "pseudo-time after each step"})
+        ds["history_time"] = ("step", np.asarray(result.history["time"], dtype=float),
+                              time_attrs)
+        ds["history_residual"] = ("step", np.asarray(result.history["residual"], dtype=float),
+                                  {"units": "1", "long_name": "scaled force residual "
+                                   "after each step"})
+        ds["history_tip"] = (("step", "axis"), np.asarray(result.history["tip"], dtype=float),
+                             {"units": "m", "long_name": f"tip of rod {names[0]!r} after "
+                              "each step"})
+    ds.attrs.update(_attributes(result))
+    return ds
+
+def _attributes(result: Result) -> dict[str, Any]:
+    attrs: dict[str, Any] = {
+        "title": f"rodsim run of scene {result.scene.name!r} with the {result.integrator} "
+                 "integrator",
+        "rodsim_version": result.version,
+        "schema_version": SCHEMA_VERSION,
+        "integrator": result.integrator,
+        "integrator_options": json.dumps(result.options, sort_keys=True),
+        "success": int(result.success),
+        "message": result.message,
+        "residual": float(result.residual),
+        "solver_tolerance": float(result.scene.data["solver"]["tolerance"]),
+        "quaternion_norm_error": result.quaternion_norm_error,
+        "scene_json": result.scene.to_json(),
+        "scene_toml": result.scene.source,
+    }
+    if result.stability is not None:
+        attrs["stable"] = int(result.stability.stable)
+        attrs["stiffness_min_eigenvalue"] = float(result.stability.min_eigenvalue)
+    for key, value in result.stats.items():
+        attrs[f"stats_{key}"] = float(value)
+    attrs.update(flatten_scene(result.scene.data))
+    return attrs
+
+
+def flatten_scene(data: dict[str, Any], prefix: str = "scene") -> dict[str, Any]:
+    """Scene values as flat ``scene.rods.catheter.length``-style attributes (netCDF-safe)."""
+    out: dict[str, Any] = {}
+    for key, value in data.items():
+        name = f"{prefix}.{key}"
+        if isinstance(value, dict):
+            out.update(flatten_scene(value, name))
+        elif isinstance(value, list) and value and isinstance(value[0], dict):
+            for i, item in enumerate(value):
+                out.update(flatten_scene(item, f"{name}.{i}"))
+        elif isinstance(value, bool):
+            out[name] = int(value)
+        elif isinstance(value, list):
+            out[name] = (", ".join(value) if all(isinstance(v, str) for v in value)
+                         else np.asarray(value, dtype=float))
+        else:
+            out[name] = value
+    return out
