@@ -27,9 +27,7 @@ class BenchmarksMissing(LookupError):
 def checkout_root() -> Path | None:
     """The source checkout this rodsim was imported from (it has ``benchmarks/rodsim_bench``
     beside the ``rodsim`` folder), or None for an installed rodsim."""
-    import rodsim
-
-    root = Path(rodsim.__file__).resolve().parent.parent
+    root = Path(__file__).resolve().parents[2]  # rodsim/app/bench_locator.py → the checkout
     if (root / "benchmarks" / PACKAGE / "__init__.py").is_file():
         return root
     return None
