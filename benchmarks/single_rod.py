@@ -43,8 +43,8 @@ from pathlib import Path  # noqa: E402
 import numpy as np  # noqa: E402
 
 import rodsim  # noqa: E402
-from rodsim.bench.machine import machine  # noqa: E402
 from rodsim.solvers.result import count_text  # noqa: E402
+from rodsim_bench.machine import machine  # noqa: E402
 
 SCENE = "table1-50g"
 NODES = 40

@@ -32,6 +32,7 @@ RUNS = {
     "cvode-overdamped": ("cvode", ["solver.cvode.formulation='overdamped'"]),
     "ida-overdamped": ("ida", ["solver.ida.formulation='overdamped'"]),
     "ida-inertial": ("ida", ["solver.ida.formulation='inertial'"]),
+    "scipy-bdf": ("scipy", []),
 }
 
 

@@ -4,6 +4,7 @@
 from __future__ import annotations
 
 import numpy as np
+import pytest
 import scipy.sparse as sp
 
 import rodsim
@@ -40,3 +41,37 @@ def test_full_steps_that_converge_are_kept_on_the_paper_coupling():
     paper = rodsim.solve("table3-catheter1", "paper")
     assert paper.success, paper.message
     assert np.max(np.abs(static.positions() - paper.positions())) < 1e-6 * 0.16
+
+
+@pytest.mark.parametrize("reuse", ["chord", "lagged"])
+def test_jacobian_reuse_reaches_the_same_root(reuse):
+    """Newton's ``reuse`` option with fewer Jacobian evaluations (what ``rodsim bench
+    skip-work`` times): the lagged Jacobian converges on the root of the fresh iteration; the
+    chord method, from rest at full load, crawls (as measured in
+    benchmarks/results/skip-work-full.md) and says so."""
+    from rodsim.solvers.linear import LinearSolver
+    from rodsim.solvers.newton import NewtonProblem, newton
+
+    model = rodsim.build_model(rodsim.load_scene("table1-50g", ["nodes=10"]))
+    linear = LinearSolver(model.pattern, model.pattern_rows, model.pattern_cols,
+                          (model.band.lower, model.band.upper), model.conservative)
+    outcomes, jacobians = {}, {}
+    for policy in ("fresh", reuse):
+        calls = []
+
+        def jacobian(x, calls=calls):
+            calls.append(1)
+            return model.jacobian_data(x)
+
+        problem = NewtonProblem(model.force, jacobian, linear, model.residual,
+                                model.residual_weight, model.energy)
+        outcomes[policy] = newton(problem, model.x0, 1e-9, 400, polish=False, reuse=policy)
+        jacobians[policy] = len(calls)
+    assert outcomes["fresh"].converged
+    assert jacobians[reuse] < jacobians["fresh"]
+    if reuse == "chord":
+        assert not outcomes[reuse].converged and "no convergence" in outcomes[reuse].message
+        return
+    assert outcomes[reuse].converged, outcomes[reuse].message
+    scale = model.length_scale
+    assert np.max(np.abs(outcomes[reuse].x - outcomes["fresh"].x)) < 1e-6 * scale

@@ -17,7 +17,6 @@ import xarray as xr
 
 import rodsim
 import rodsim.app.api
-import rodsim.bench.work_precision
 from rodsim.io.archive import ArchiveError, read_dataset, write_dataset
 from rodsim.io.output import OutputError, check_target
 
@@ -55,7 +54,9 @@ def test_run_refuses_an_unwritable_output_before_solving(tmp_path, cli, capsys, 
 def test_bench_refuses_an_unwritable_folder_before_running(tmp_path, cli, capsys,
                                                           monkeypatch):
     """Item 9: `bench` ran the whole benchmark, then failed to write."""
-    monkeypatch.setattr(rodsim.bench.work_precision, "run",
+    from rodsim_bench import work_precision
+
+    monkeypatch.setattr(work_precision, "run",
                         lambda *args: pytest.fail("the benchmark ran"))
     blocker = tmp_path / "a-file"
     blocker.write_text("", encoding="utf-8")

@@ -7,7 +7,6 @@ resume; a parts folder whose spec.json holds no spec is refused in one line."""
 from __future__ import annotations
 
 import json
-import os
 import signal
 import subprocess
 import sys
@@ -16,11 +15,12 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from fault_injection import child_preamble
 
 import rodsim.app.study_runner
 import rodsim.studies
 from rodsim.app.study import STATUS, Study, Sweep, evaluate_point
-from rodsim.app.study_runner import TEST_FAULTS, parts_folder, run_spec, run_study
+from rodsim.app.study_runner import parts_folder, run_spec, run_study
 from rodsim.io.archive import read_dataset
 
 #: Three quick points (static, N = 6–8).
@@ -28,8 +28,8 @@ TRIO = Study(name="zz_hardening_trio", title="three points", paper="tests only",
              scene="table1-50g", integrator="static", reference="exact",
              sweeps={"small": [Sweep("nodes", "rods.catheter.nodes", (6, 7, 8), "1", "N")]})
 
-CHILD = """\
-import sys
+# argv: studies folder, study, output, faults (fault_injection.Faults; "" for none).
+CHILD = child_preamble(4) + """\
 import rodsim.studies
 rodsim.studies.__path__.append(sys.argv[1])
 from rodsim.app.cli import main
@@ -51,10 +51,9 @@ def test_stopping_a_parallel_study_prints_no_worker_traceback(tmp_path):
     folder = tmp_path / "studies"
     register(folder, TRIO)
     output = tmp_path / "trio.nc"
-    env = os.environ | {TEST_FAULTS: f"hang:{TRIO.name}:2"}
     child = subprocess.Popen([sys.executable, "-c", CHILD, str(folder), TRIO.name,
-                              str(output)], env=env, cwd=tmp_path, stdout=subprocess.PIPE,
-                             stderr=subprocess.PIPE, text=True)
+                              str(output), f"hang:{TRIO.name}:2"], cwd=tmp_path,
+                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     try:
         deadline = time.monotonic() + 60
         parts = parts_folder(output)
@@ -91,7 +90,7 @@ def test_a_file_size_limit_stops_the_study_in_one_line(tmp_path):
         signal.signal(signal.SIGXFSZ, signal.SIG_IGN)
 
     child = subprocess.run([sys.executable, "-c", CHILD, str(folder), TRIO.name,
-                            str(output)], preexec_fn=limit, cwd=tmp_path,
+                            str(output), ""], preexec_fn=limit, cwd=tmp_path,
                            capture_output=True, text=True, timeout=120)
     lines = [line for line in child.stderr.splitlines() if not line.startswith("[")]
     assert child.returncode == 2, child.stderr

@@ -22,6 +22,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 import xarray as xr
+from fault_injection import Faults, child_preamble
 
 import rodsim
 import rodsim.app.study_runner
@@ -37,7 +38,7 @@ from rodsim.app.study import (
     load_study,
     rerun_study,
 )
-from rodsim.app.study_runner import TEST_FAULTS, WORKER_DIED, parts_folder, run_spec, run_study
+from rodsim.app.study_runner import WORKER_DIED, parts_folder, run_spec, run_study
 from rodsim.io.archive import read_dataset, write_dataset
 from rodsim.io.archive_schema import SCHEMA_VERSION
 
@@ -650,7 +651,8 @@ def test_cli_plot_of_a_study_archive(which, study_run, failing_run, tmp_path, cl
 
 # 10. Crashed workers, interrupts, bad outputs, full disks, corrupt points ------------------
 
-#: BASE under another name, so that the fault hook (TEST_FAULTS) can single out its points.
+#: BASE under another name, so that the fault hook (fault_injection.Faults) can single out
+#: its points.
 CRASH = dataclasses.replace(BASE, name="runner_test_crash")
 
 
@@ -660,7 +662,7 @@ def test_a_point_that_kills_its_worker_is_recorded_and_the_study_goes_on(
     error "worker process died …" — so a resume does not hit it again — and every other
     point completes, in a fresh pool, with the values of an in-process run."""
     dataset, _, _ = study_run
-    monkeypatch.setenv(TEST_FAULTS, f"exit:{CRASH.name}:1-0")
+    monkeypatch.setattr(rodsim.app.study_runner, "POINT_HOOK", Faults(f"exit:{CRASH.name}:1-0"))
     output = tmp_path / "crash.nc"
     logged: list[str] = []
     crashed = run_study(CRASH, "small", output, workers=2, log=logged.append, keep_parts=True)
@@ -696,8 +698,8 @@ def test_interrupt_cancels_queued_points_and_ends_the_workers(tmp_path, monkeypa
     kept; a resume completes the study as if it had never stopped."""
     spec = SLOW.spec("small")
     points = grid_points(spec)
-    monkeypatch.setenv(TEST_FAULTS, ",".join(f"hang:{SLOW.name}:{i}-{j}"
-                                             for i, j in points[1:]))
+    monkeypatch.setattr(rodsim.app.study_runner, "POINT_HOOK",
+                        Faults(",".join(f"hang:{SLOW.name}:{i}-{j}" for i, j in points[1:])))
     output = tmp_path / "interrupted.nc"
 
     def interrupt_after_first(done, failed, total, elapsed):
@@ -726,13 +728,12 @@ def test_interrupt_cancels_queued_points_and_ends_the_workers(tmp_path, monkeypa
     assert [p.name for p in parts.glob("point-*.json")] == ["point-0-0.json"]
     assert not output.exists()
 
-    monkeypatch.delenv(TEST_FAULTS)
+    monkeypatch.setattr(rodsim.app.study_runner, "POINT_HOOK", None)
     resumed = run_spec(spec, output, workers=2)
     xr.testing.assert_identical(without_timing(resumed), without_timing(slow_whole))
 
 
-SIGTERM_CHILD = """\
-import sys
+SIGTERM_CHILD = child_preamble(4) + """\
 import rodsim.studies
 rodsim.studies.__path__.append(sys.argv[1])
 from rodsim.app.cli import main
@@ -750,10 +751,9 @@ def test_cli_study_stops_on_sigterm_like_ctrl_c(tmp_path):
     output = tmp_path / "out" / "sigterm.nc"
     output.parent.mkdir()
     points = grid_points(study.spec("small"))
-    env = os.environ | {TEST_FAULTS: ",".join(f"hang:{study.name}:{i}-{j}"
-                                              for i, j in points[1:])}
+    faults = ",".join(f"hang:{study.name}:{i}-{j}" for i, j in points[1:])
     child = subprocess.Popen([sys.executable, "-c", SIGTERM_CHILD, str(folder), study.name,
-                              str(output)], env=env, stdout=subprocess.PIPE,
+                              str(output), faults], stdout=subprocess.PIPE,
                              stderr=subprocess.PIPE, text=True)
     try:
         deadline = time.monotonic() + 60
@@ -881,7 +881,9 @@ def test_dask_through_a_scheduler_address(study_run, spec, tmp_path, monkeypatch
     from distributed import LocalCluster
 
     dataset, _, _ = study_run
-    monkeypatch.setenv(TEST_FAULTS, f"exit:{CRASH.name}:1-0")  # the workers inherit it
+    # The hook travels with each task to the dask workers (pickled by reference: the tests
+    # folder is on the spawned workers' sys.path).
+    monkeypatch.setattr(rodsim.app.study_runner, "POINT_HOOK", Faults(f"exit:{CRASH.name}:1-0"))
     # Give up on a task at its first worker death (default: 3 retries, each a worker
     # restart), and send each one-thread worker one task at a time, so that the only task
     # on the dying worker is the point that kills it.

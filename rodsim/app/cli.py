@@ -526,11 +526,25 @@ def cmd_plot(args: argparse.Namespace) -> int:
 def cmd_bench(args: argparse.Namespace) -> int:
     import importlib
 
+    from rodsim.app.bench_locator import BenchmarksMissing, default_output, load_benchmarks
     from rodsim.app.progress import ProgressPrinter
     from rodsim.io.output import OutputError, probe_folder
 
-    module = importlib.import_module(f"rodsim.bench.{args.benchmark.replace('-', '_')}")
-    output = Path(args.output_dir)
+    try:
+        package = load_benchmarks()
+    except BenchmarksMissing as exc:
+        raise UserError(str(exc)) from None
+    if args.benchmark not in package.BENCHMARKS:
+        raise UserError(f"no benchmark {args.benchmark!r}; the benchmarks are "
+                        + ", ".join(package.BENCHMARKS))
+    module = importlib.import_module(f"{package.__name__}.{args.benchmark.replace('-', '_')}")
+    if args.output_dir is None:
+        output = default_output()
+        if output is None:
+            raise UserError("no benchmarks/results folder of a source checkout to write the "
+                            "benchmark's results to; give the output folder with -o/--output")
+    else:
+        output = Path(args.output_dir)
     try:  # before the benchmark runs, not after
         probe_folder(output, what=f"-o {output}")
     except OutputError as exc:
@@ -694,17 +708,21 @@ def build_parser() -> argparse.ArgumentParser:
                       "(default png,pdf)")
     plot.set_defaults(func=cmd_plot)
 
-    from rodsim.bench import BENCHMARKS
-
-    bench = sub.add_parser("bench", help="run a benchmark (work-precision, scaling, stress)",
+    bench = sub.add_parser("bench", help="run a benchmark (work-precision, scaling, stress, "
+                           "skip-work, kernels)",
                            description="Time the integrators against their error, their cost "
                            "in N, or their stability over a parameter map; writes netCDF, "
-                           "figures and a markdown table with the machine description.")
-    bench.add_argument("benchmark", choices=BENCHMARKS)
+                           "figures and a markdown table with the machine description. The "
+                           "benchmarks live in the benchmarks/ folder of a source checkout "
+                           "(benchmarks/rodsim_bench), not in the installed package.")
+    bench.add_argument("benchmark", metavar="BENCHMARK",
+                       help="work-precision, scaling, stress, skip-work or kernels")
     bench.add_argument("--size", choices=("small", "full"), default="full",
                        help="small: a smoke version in seconds; full: the real benchmark")
-    bench.add_argument("-o", "--output-dir", default="benchmarks/results",
-                       help="folder for the results (default: benchmarks/results)")
+    bench.add_argument("-o", "--output", "--output-dir", dest="output_dir", default=None,
+                       metavar="DIR",
+                       help="folder for the results (default: benchmarks/results of the "
+                       "source checkout; required without one)")
     bench.set_defaults(func=cmd_bench)
 
     scenes = sub.add_parser("scenes", help="list the shipped scenes (paper Tables 1 and 3)")

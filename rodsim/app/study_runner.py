@@ -11,6 +11,8 @@ died", and the rest of the study goes on in a fresh pool. When every point is re
 study's Dataset is assembled, written atomically to ``<output>``, and the parts folder is
 removed.
 
+Local workers are the shared pool of rodsim/app/worker_pool.py.
+
 Interrupts: a ``KeyboardInterrupt`` (Ctrl-C; the CLI turns SIGTERM into one) cancels the
 points not yet started and ends the worker processes at once; the points already finished
 stay in the parts folder. Local workers also end by themselves within about a second when
@@ -23,16 +25,11 @@ import contextlib
 import json
 import os
 import shutil
-import signal
 import sys
 import tempfile
-import threading
 import time
 import traceback
-from collections import deque
 from collections.abc import Callable
-from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
-from concurrent.futures.process import BrokenProcessPool
 from pathlib import Path
 from typing import Any
 
@@ -47,6 +44,7 @@ from rodsim.app.study import (
     evaluate_point,
     grid_points,
 )
+from rodsim.app.worker_pool import PARENT_POLL, TaskFailure, run_tasks
 from rodsim.io.archive import write_dataset
 from rodsim.io.archive_schema import ArchiveSchemaError, check_point_record
 from rodsim.io.output import OutputError, check_target
@@ -54,7 +52,7 @@ from rodsim.io.provenance import git_commit, git_dirty
 from rodsim.version import __version__
 
 __all__ = ["run_study", "run_spec", "parts_folder", "spec_differences", "WORKER_DIED",
-           "TEST_FAULTS"]
+           "PointHook", "PARENT_POLL"]
 
 #: Progress callback: (points done, points failed, points in total, seconds elapsed). The
 #: first call comes before any point runs, with the points already recorded by an earlier,
@@ -67,14 +65,14 @@ StudyLog = Callable[[str], None]
 #: The message of a point whose worker process died starts with this.
 WORKER_DIED = "worker process died"
 
-#: Test hook (fault injection), inert unless set: ``RODSIM_TEST_FAULTS="exit:<study>:<i>-<j>,
-#: hang:<study>:<i>-<j>,…"`` makes a worker process (local or dask; never the in-process
-#: runner) starting that grid point of that study call ``os._exit`` (as a segfault or the OOM
-#: killer would end it) or sleep for an hour (a point that never ends).
-TEST_FAULTS = "RODSIM_TEST_FAULTS"
+#: A callable run in the worker process (local or dask; never the in-process runner) with
+#: ``(spec, index)`` before each grid point: the tests inject faults through it (a worker
+#: that dies or hangs). It must pickle (a module-level function or class instance).
+PointHook = Callable[[dict[str, Any], tuple[int, ...]], None]
 
-#: How often a local worker checks that the process that started it is still alive [s].
-PARENT_POLL = 1.0
+#: The hook :func:`run_spec` uses when given none (None: no hook). For the tests, which set it
+#: (also in a child process before it runs the CLI); production code never does.
+POINT_HOOK: PointHook | None = None
 
 #: Marker file of a parts folder: the spec and the rodsim that computed its points.
 MARKER = "spec.json"
@@ -277,141 +275,33 @@ def _died(index: tuple[int, ...], detail: str) -> dict[str, Any]:
             "message": f"{WORKER_DIED} while running this point ({detail})"}
 
 
-def _run_point(spec: dict[str, Any], index: tuple[int, ...]) -> dict[str, Any]:
-    """:func:`evaluate_point` in a worker process, after the test hook (TEST_FAULTS)."""
-    faults = os.environ.get(TEST_FAULTS, "")
-    if faults:
-        point = f"{spec['name']}:{'-'.join(map(str, index))}"
-        wanted = faults.split(",")
-        if f"exit:{point}" in wanted:
-            os._exit(70)
-        if f"hang:{point}" in wanted:
-            time.sleep(3600.0)
+def _run_point(spec: dict[str, Any], index: tuple[int, ...],
+               hook: PointHook | None = None) -> dict[str, Any]:
+    """:func:`evaluate_point` in a worker process, after the injected ``hook`` if any."""
+    if hook is not None:
+        hook(spec, index)
     return evaluate_point(spec, index)
 
 
-def _worker_init(parent: int) -> None:
-    """Initializer of local workers: leave Ctrl-C to the parent (which ends the workers),
-    end quietly on SIGTERM (the default action, not the handler ``rodsim study`` installs in
-    the parent and a forked worker inherits, which would print a KeyboardInterrupt traceback
-    when the parent ends its workers), and exit when the parent dies (no idle workers left
-    behind by a SIGKILL)."""
-    signal.signal(signal.SIGINT, signal.SIG_IGN)
-    signal.signal(signal.SIGTERM, signal.SIG_DFL)
-    signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGTERM})
-    started_by = os.getppid()
-
-    def watch() -> None:
-        while True:
-            time.sleep(PARENT_POLL)
-            if os.getppid() != started_by:  # reparented: whoever started us is gone
-                os._exit(1)
-            try:
-                os.kill(parent, 0)
-            except ProcessLookupError:
-                os._exit(1)
-            except OSError:
-                pass
-
-    threading.Thread(target=watch, name="rodsim-parent-watch", daemon=True).start()
-
-
-def _end_pool(pool: ProcessPoolExecutor, abandon: bool) -> None:
-    """Shut a pool down: wait for it after a normal end; after an interrupt or error cancel
-    what has not started and end the running workers at once."""
-    if not abandon:
-        pool.shutdown(wait=True)
-        return
-    terminate = getattr(pool, "terminate_workers", None)  # Python >= 3.14
-    if terminate is not None:
-        terminate()
-        return
-    processes = list((getattr(pool, "_processes", None) or {}).values())
-    pool.shutdown(wait=False, cancel_futures=True)
-    for process in processes:
-        with contextlib.suppress(Exception):
-            process.terminate()
-    for process in processes:
-        with contextlib.suppress(Exception):
-            process.join(timeout=5.0)
-
-
-def _pool_pass(spec: dict[str, Any], queue: deque[tuple[int, ...]], workers: int,
-               persist: Callable[[dict[str, Any]], None]) -> list[tuple[int, ...]]:
-    """Run the points of ``queue`` (consumed) on a fresh pool, at most ``workers`` at a time.
-
-    Returns ``[]`` once the queue is done, or the points that were running when a worker
-    process died and broke the pool (one of them killed it; the others were collateral);
-    the points not started stay in ``queue``.
-    """
-    pool = ProcessPoolExecutor(max_workers=max(1, min(workers, len(queue))),
-                               initializer=_worker_init, initargs=(os.getpid(),))
-    # Workers fork on the first submit and inherit the parent's SIGTERM handler until their
-    # initializer resets it: SIGTERM stays blocked across the forks, so a worker receives it
-    # only once it would end quietly (the parent's is delivered when unblocked below).
-    blocked = threading.current_thread() is threading.main_thread()
-    if blocked:
-        signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGTERM})
-    running: dict[Future[dict[str, Any]], tuple[int, ...]] = {}
-    suspects: list[tuple[int, ...]] = []
-    broken = abandon = False
-    try:
-        while True:
-            while queue and len(running) < workers and not broken:
-                index = queue.popleft()
-                try:
-                    running[pool.submit(_run_point, spec, index)] = index
-                except BrokenProcessPool:  # an idle worker died: start a fresh pool
-                    queue.appendleft(index)
-                    broken = True
-            if blocked:  # the workers are forked: a pending SIGTERM is delivered here
-                blocked = False
-                signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGTERM})
-            if not running:
-                break
-            done, _ = wait(running, return_when=FIRST_COMPLETED)
-            for future in done:
-                index = running.pop(future)
-                try:
-                    record = future.result()
-                except BrokenProcessPool:
-                    suspects.append(index)
-                    broken = True
-                    continue
-                except KeyboardInterrupt:
-                    raise
-                except BaseException as exc:  # evaluate_point catches every Exception:
-                    # the transport failed, or the point called sys.exit (its own failure)
-                    detail = traceback.format_exception_only(type(exc), exc)[-1].strip()
-                    record = {"index": list(index), "status": STATUS["error"],
-                              "message": f"worker error: {detail}"}
-                persist(record)
-    except BaseException:
-        abandon = True
-        raise
-    finally:
-        try:
-            _end_pool(pool, abandon)
-        finally:
-            if blocked:  # only after an error before the first wait: the workers are ended
-                signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGTERM})
-    return suspects
-
-
 def _run_local(spec: dict[str, Any], todo: list[tuple[int, ...]], workers: int,
-               persist: Callable[[dict[str, Any]], None], log: StudyLog) -> None:
-    queue = deque(todo)
-    while queue:
-        suspects = _pool_pass(spec, queue, workers, persist)
-        if len(suspects) > 1:  # find which one died: each alone, in a pool of its own
-            log(f"a worker process died while {len(suspects)} points ran; running them one "
-                "at a time to find which")
-            suspects = [index for index in suspects
-                        if _pool_pass(spec, deque([index]), 1, persist)]
-        for index in suspects:
-            record = _died(index, "a crash, os._exit or the out-of-memory killer")
-            log(f"point {list(index)}: {record['message']}")
-            persist(record)
+               persist: Callable[[dict[str, Any]], None], log: StudyLog,
+               hook: PointHook | None = None) -> None:
+    """The points of ``todo`` on the shared worker pool (rodsim/app/worker_pool.py)."""
+
+    def done(index: tuple[int, ...], value: Any, seconds: float) -> None:
+        if isinstance(value, TaskFailure):
+            if value.kind == "died":
+                record = _died(index, value.detail)
+                log(f"point {list(index)}: {record['message']}")
+            else:
+                record = {"index": list(index), "status": STATUS["error"],
+                          "message": f"worker error: {value.detail}"}
+        else:
+            record = value
+        persist(record)
+
+    run_tasks(_run_point, [(index, (spec, index, hook)) for index in todo], workers, done,
+              log=log, noun="points")
 
 
 # Dask ------------------------------------------------------------------------------------
@@ -439,7 +329,8 @@ def _connect(scheduler: str) -> tuple[Any, Any]:
 
 
 def _run_dask(client: Any, spec: dict[str, Any], todo: list[tuple[int, ...]],
-              persist: Callable[[dict[str, Any]], None], log: StudyLog) -> None:
+              persist: Callable[[dict[str, Any]], None], log: StudyLog,
+              hook: PointHook | None = None) -> None:
     from concurrent.futures import CancelledError
 
     from distributed import KilledWorker
@@ -452,7 +343,7 @@ def _run_dask(client: Any, spec: dict[str, Any], todo: list[tuple[int, ...]],
         """Run ``batch`` on the cluster and persist each point's record; returns the points
         dask gave up on because their worker died (KilledWorker), unrecorded."""
         futures.clear()
-        futures.update({client.submit(_run_point, spec, index, pure=False): index
+        futures.update({client.submit(_run_point, spec, index, hook, pure=False): index
                         for index in batch})
         killed = []
         for future in dask_completed(futures):
@@ -494,7 +385,8 @@ def _run_dask(client: Any, spec: dict[str, Any], todo: list[tuple[int, ...]],
 
 def run_spec(spec: dict[str, Any], output: str | Path, *, workers: int | None = None,
              scheduler: str | None = None, progress: StudyProgress | None = None,
-             keep_parts: bool = False, log: StudyLog | None = None) -> xr.Dataset:
+             keep_parts: bool = False, log: StudyLog | None = None,
+             point_hook: PointHook | None = None) -> xr.Dataset:
     """Run (or resume) every point of ``spec`` and write the assembled Dataset to ``output``.
 
     ``workers``: local worker processes (default: one per core, at most one per point);
@@ -507,6 +399,7 @@ def run_spec(spec: dict[str, Any], output: str | Path, *, workers: int | None = 
     """
     output = Path(output)
     log = log or _stderr_log
+    hook = point_hook if point_hook is not None else POINT_HOOK
     if workers is not None and (not isinstance(workers, int) or workers < 1):
         raise StudyError(f"workers must be a positive whole number, not {workers!r}")
     _check_output(output)
@@ -537,13 +430,13 @@ def run_spec(spec: dict[str, Any], output: str | Path, *, workers: int | None = 
         if not todo:
             pass
         elif scheduler:
-            _run_dask(client, spec, todo, persist, log)
+            _run_dask(client, spec, todo, persist, log, hook)
         elif workers == 1:
             for index in todo:
                 persist(evaluate_point(spec, index))
         else:
             _run_local(spec, todo, min(workers or os.cpu_count() or 1, len(todo)), persist,
-                       log)
+                       log, hook)
     dataset = assemble(spec, list(records.values()))
     write_dataset(dataset, output)
     if not keep_parts:

@@ -4,6 +4,8 @@
 - ``cvode``:  SUNDIALS CVODE (adaptive BDF) on the inertial or overdamped pseudo-dynamics
 - ``ida``:    SUNDIALS IDA on the residual form, quaternion norms as algebraic equations
 - ``static``: Newton on F(x) = 0 with load continuation (the exact discrete equilibrium)
+- ``scipy``:  scipy's ``solve_ivp`` (BDF or LSODA) on the overdamped pseudo-dynamics, an
+  outside baseline for the benchmarks
 
 Every module of this package that defines an :class:`~rodsim.solvers.base.Integrator`
 subclass with a ``name`` registers it; :func:`registered_integrators` imports them all on

@@ -25,7 +25,14 @@ import numpy as np
 from rodsim.solvers.failure import SolverFailure
 from rodsim.solvers.linear import LinearSolver
 
-__all__ = ["NewtonProblem", "NewtonResult", "newton"]
+__all__ = ["NewtonProblem", "NewtonResult", "newton", "JACOBIAN_REUSE"]
+
+#: Jacobian policies of :func:`newton`: a fresh Jacobian every iteration (the default, what
+#: every integrator uses); ``chord``: one Jacobian and one factorisation reused throughout;
+#: ``lagged``: the factorisation is reused while each iteration at least halves the residual
+#: and refreshed otherwise. Either reuse refreshes it when its step is not a descent
+#: direction. (Measured by ``rodsim bench skip-work``, docs/benchmarks.md.)
+JACOBIAN_REUSE = ("fresh", "chord", "lagged")
 
 
 @dataclass(frozen=True)
@@ -66,7 +73,8 @@ class NewtonResult:
 
 def newton(problem: NewtonProblem, x: np.ndarray, tolerance: float,
            max_iterations: int, polish: bool = True,
-           check: Callable[[], None] | None = None) -> NewtonResult:
+           check: Callable[[], None] | None = None,
+           reuse: str = "fresh") -> NewtonResult:
     """Newton iterations from ``x`` until ``residual(g) < tolerance``.
 
     With ``polish``, takes up to :data:`POLISH_ITERATIONS` more iterations once below the
@@ -74,8 +82,13 @@ def newton(problem: NewtonProblem, x: np.ndarray, tolerance: float,
     round-off (quadratic convergence gets there in one or two). Returns (never raises) with
     ``converged = False`` and a reason when the iteration stalls or the linear system is
     singular. ``check`` is called once per iteration (the caller's wall-time budget and
-    progress); whatever it raises ends the iteration.
+    progress); whatever it raises ends the iteration. ``reuse`` is the Jacobian policy, one
+    of :data:`JACOBIAN_REUSE` (``problem.linear`` then needs ``factorized``).
     """
+    if reuse not in JACOBIAN_REUSE:
+        raise ValueError(f"reuse = {reuse!r}: expected one of {', '.join(JACOBIAN_REUSE)}")
+    factor: Callable[[np.ndarray], np.ndarray] | None = None  # a reused factorisation
+    previous = np.inf  # the residual before the last iteration (the lagged policy)
 
     def merit(y: np.ndarray, g: np.ndarray) -> float:
         if problem.potential is not None:
@@ -108,8 +121,20 @@ def newton(problem: NewtonProblem, x: np.ndarray, tolerance: float,
             if polishing == 0:
                 return NewtonResult(x, True, iteration, residual, "converged")
             polishing -= 1
-        jacobian = problem.jacobian(x)
-        dx = problem.linear.solve(jacobian, -g)
+        if reuse == "fresh":
+            jacobian = problem.jacobian(x)
+            dx = problem.linear.solve(jacobian, -g)
+        else:
+            stale = factor is not None and (reuse == "chord" or residual < 0.5 * previous)
+            if not stale:
+                jacobian = problem.jacobian(x)
+                factor = problem.linear.factorized(jacobian)
+            dx = factor(-g) if factor is not None else np.full_like(x, np.nan)
+            if stale and not -float(g @ dx) < 0.0 and problem.potential is not None:
+                jacobian = problem.jacobian(x)  # a stale step that does not descend: refresh
+                factor = problem.linear.factorized(jacobian)
+                dx = factor(-g) if factor is not None else np.full_like(x, np.nan)
+            previous = residual
         if not np.all(np.isfinite(dx)):
             return NewtonResult(x, False, iteration + 1, residual, "singular Jacobian")
         # Directional derivative of the merit along dx.

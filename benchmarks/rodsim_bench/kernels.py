@@ -37,9 +37,9 @@ from pathlib import Path
 import numpy as np
 
 import rodsim
-from rodsim.bench.machine import machine
 from rodsim.core.model import KERNELS, Model
 from rodsim.solvers.base import Progress
+from rodsim_bench.machine import machine
 
 INTEGRATORS = ("static", "paper", "cvode", "ida")
 SIZES = {"small": {"scenes": ("table1-50g",), "repeats": 2, "calls": 50, "large": False,

@@ -9,10 +9,11 @@ On each, every method runs from the rest state to equilibrium:
   shipped default is overdamped, band, rtol = atol = 1e-4), and the former default atol =
   1e-7 with rtol 1e-4, kept to show what it costs;
 - ``ida``: IDA over rtol (atol = rtol), overdamped or inertial, band, and atol = 1e-7;
-- ``scipy BDF`` / ``scipy LSODA``: :func:`scipy.integrate.solve_ivp` on the same overdamped
-  pseudo-dynamics (:class:`~rodsim.solvers.pseudo_dynamics.FirstOrderSystem`, same
-  pseudo-masses, damping and load ramp as rodsim's CVODE) with the model's analytic Jacobian,
-  stopped by a terminal event on the same scaled residual — an outside baseline.
+- ``scipy BDF`` / ``scipy LSODA``: the registered ``scipy`` integrator
+  (rodsim/solvers/scipy_ivp.py: :func:`scipy.integrate.solve_ivp` on the same overdamped
+  pseudo-dynamics, same pseudo-masses, damping and load ramp as rodsim's CVODE, with the
+  model's analytic Jacobian, stopped by a terminal event on the same scaled residual) — an
+  outside baseline, run through the same template as every other integrator.
 
 Every method stops on the same scaled force residual ``solver.tolerance`` τ, which is swept
 as well (the error at rest is set by τ; rtol only sets how the transient is followed, see
@@ -25,17 +26,16 @@ one solve into the next), minimum over the timed repeats after a warm-up run. Th
 run round-robin over all points so a burst of load on a shared machine hits every point
 alike.
 
-Writes ``work_precision-<size>.nc`` (one row per point; the machine in the attributes),
-``work_precision-<size>.png`` and ``work_precision-<size>.md`` under ``output_dir``; the full
+Writes ``work-precision-<size>.nc`` (one row per point; the machine in the attributes),
+``work-precision-<size>.png`` and ``work-precision-<size>.md`` under ``output_dir``; the full
 size also profiles static, paper and CVODE on both scenes (per-evaluation costs and cProfile,
-``work_precision-full-profile.json``, summarised in the markdown). The
-helpers here (machine attributes, timing, tables) are shared with :mod:`rodsim.bench.scaling`.
+``work-precision-full-profile.json``, summarised in the markdown). The
+helpers here (machine attributes, timing, tables) are shared with :mod:`rodsim_bench.scaling`.
 """
 
 from __future__ import annotations
 
 import json
-import math
 import textwrap
 import time
 from collections.abc import Callable, Iterable, Sequence
@@ -45,11 +45,10 @@ from typing import Any
 
 import numpy as np
 
-from rodsim.solvers import registered_integrators
 from rodsim.solvers.result import count_text
 
 __all__ = ["run", "report", "Method", "methods_for", "machine_attributes", "markdown_table",
-           "error_over_length", "solve_scipy", "SCENES"]
+           "error_over_length", "SCENES"]
 
 Progress = Callable[[float | None, str], None]
 
@@ -67,7 +66,7 @@ ERROR_FLOOR = 1e-15
 
 def machine_attributes() -> dict[str, str]:
     """The machine description as netCDF attributes ``machine_<key>``."""
-    from rodsim.bench.machine import machine
+    from rodsim_bench.machine import machine
 
     return {f"machine_{key}": str(value) for key, value in machine().items()}
 
@@ -173,139 +172,16 @@ def markdown_profile(title: str, profile: dict[str, Any]) -> list[str]:
     return lines + [""]
 
 
-# -------------------------------------------------------------- scipy baseline
-
-
-class _Stop(Exception):
-    """Ends a scipy run from inside a callback (budget spent, non-finite state)."""
-
-
-@dataclass
-class ScipyOutcome:
-    x: np.ndarray
-    success: bool
-    message: str
-    residual: float
-    tolerance: float
-    stats: dict[str, float]
-
-
-def solve_scipy(model, method: str, tolerance: float, rtol: float, atol: float,
-                max_wall_time: float, mass_scaling: float = 1e3, damping_ratio: float = 1.0,
-                load_ramp: float = 1.0) -> ScipyOutcome:
-    """``scipy.integrate.solve_ivp`` (``BDF`` or ``LSODA``) on rodsim's overdamped
-    pseudo-dynamics c M ẋ = F(x), to equilibrium.
-
-    Same masses (:func:`pseudo_masses`), damping rate, smooth load ramp, first step and
-    per-variable absolute tolerance scale (L for positions, 1 for quaternions) as rodsim's
-    CVODE; the analytic Jacobian is handed over as a sparse matrix (BDF: sparse LU) or dense
-    (LSODA accepts only dense or packed-band Jacobians). A terminal event on the scaled
-    residual of the full-load force, ``Model.residual(F(x)) − τ`` (τ raised to the model's
-    round-off floor, as every rodsim integrator does), stops the run; its state is the one
-    at the event. Tendon registration is updated after every accepted step (from the event
-    function, which scipy calls once per step at the step's end). Guards: the wall-time
-    budget and non-finite forces end the run from inside the right-hand side.
-    """
-    import scipy.sparse as sp
-    from scipy.integrate import solve_ivp
-
-    from rodsim.solvers.pseudo_dynamics import (
-        FirstOrderSystem,
-        LoadRamp,
-        damping_rate,
-        first_mode_frequency,
-        pseudo_masses,
-    )
-
-    start = time.perf_counter()
-    omega = first_mode_frequency(model)
-    rate = damping_rate(model, damping_ratio)
-    masses = pseudo_masses(model, mass_scaling)
-    ramp = LoadRamp(load_ramp * 2.0 * math.pi / omega)
-    tol = max(tolerance, model.residual_floor)
-    counts = {"steps": 0, "force_evals": 0, "jacobian_evals": 0, "reinits": 0,
-              "newton_iters": 0, "linear_solves": 0}
-    # The model in use and its system: a tendon re-registration replaces both.
-    holder = {"model": model, "system": FirstOrderSystem(model, "overdamped", rate, masses)}
-    last = {"t": 0.0, "x": model.x0}
-
-    def system() -> FirstOrderSystem:
-        return holder["system"]
-
-    def rhs(t: float, x: np.ndarray) -> np.ndarray:
-        if time.perf_counter() - start > max_wall_time:
-            raise _Stop(f"wall-time budget of {max_wall_time:g} s spent at t = {t:.4g} s")
-        counts["force_evals"] += 1
-        force = holder["model"].force(x, ramp(t))
-        if not np.all(np.isfinite(force)):
-            raise _Stop(f"the force became non-finite at t = {t:.4g} s")
-        out = np.empty_like(x)
-        system().rhs(x, force, out)
-        return out
-
-    def jacobian(t: float, x: np.ndarray):
-        counts["jacobian_evals"] += 1
-        sys_ = system()
-        data = sys_.jacobian_data(holder["model"].jacobian_data(x, ramp(t)))
-        matrix = sp.csc_matrix((data, sys_.pattern.indices, sys_.pattern.indptr),
-                               shape=(sys_.size, sys_.size))
-        return matrix if method == "BDF" else matrix.toarray()
-
-    def at_rest(t: float, x: np.ndarray) -> float:
-        if t > last["t"]:  # the end of an accepted step (root finding looks back in time)
-            last["t"], last["x"] = t, x.copy()
-            counts["steps"] += 1
-            moved = holder["model"].reregistered(x)
-            if moved is not None:
-                holder["model"] = moved
-                holder["system"] = FirstOrderSystem(moved, "overdamped", rate, masses)
-                counts["reinits"] += 1
-        return holder["model"].residual(holder["model"].force(x)) - tol
-
-    at_rest.terminal = True
-    at_rest.direction = -1
-    scale = np.where(model.is_quaternion, 1.0, model.length_scale)
-    horizon = 1e9 * 2.0 * math.pi / omega
-    try:
-        with np.errstate(all="ignore"):
-            solution = solve_ivp(rhs, (0.0, horizon), model.x0, method=method, jac=jacobian,
-                                 events=at_rest, rtol=rtol, atol=atol * scale,
-                                 first_step=1e-4 / omega, t_eval=np.empty(0))
-        if solution.status == 1 and len(solution.y_events[0]):
-            x = solution.y_events[0][-1]
-            message = "at equilibrium (terminal event)"
-        else:
-            x = last["x"]
-            message = f"scipy {method}: {solution.message}"
-            if solution.status == 0:
-                message = (f"scipy {method} reached t = {horizon:.3g} s (10⁹ periods) without "
-                           f"the residual falling below {tol:.3g}")
-    except _Stop as exc:
-        x, message = last["x"], f"scipy {method}: {exc}"
-    except (ValueError, RuntimeError, ArithmeticError, np.linalg.LinAlgError) as exc:
-        x, message = last["x"], f"scipy {method} raised {type(exc).__name__}: {exc}"
-    counts["wall_time"] = time.perf_counter() - start
-    final = holder["model"]
-    residual = (final.residual(final.force(x)) if np.all(np.isfinite(x)) else float("nan"))
-    # The event state is found by root finding on the dense output: accept a residual
-    # within 1 % above τ (the root's own tolerance), nothing more.
-    success = message.startswith("at equilibrium") and residual <= 1.01 * tol
-    if message.startswith("at equilibrium") and not success:
-        message = f"event state has residual {residual:.3g} above the tolerance {tol:.3g}"
-    counts["effective_tolerance"] = tol
-    return ScipyOutcome(np.asarray(x, dtype=float), success, message, residual, tol, counts)
-
-
 # --------------------------------------------------------------------- methods
 
 
 @dataclass(frozen=True)
 class Method:
-    """One configuration: a rodsim integrator with options, or a scipy method."""
+    """One configuration: a registered integrator with options."""
 
     label: str
     family: str  # static | paper | cvode | ida | scipy
-    solver: str  # rodsim integrator name, or the scipy method (BDF, LSODA)
+    solver: str  # the integrator's registered name
     options: tuple[tuple[str, Any], ...] = ()
 
     @property
@@ -313,9 +189,7 @@ class Method:
         return dict(self.options)
 
     def overrides(self) -> list[str]:
-        """Scene overrides for a rodsim integrator (none for scipy)."""
-        if self.family == "scipy":
-            return []
+        """Scene overrides setting the integrator's options."""
         return [f"solver.{self.solver}.{key}={value}" for key, value in self.options]
 
 
@@ -332,8 +206,8 @@ def _sundials(family: str, formulation: str, linear_solver: str, rtol: float,
 
 
 def _scipy(name: str, rtol: float) -> Method:
-    return Method(f"scipy {name} rtol={rtol:.0e}", "scipy", name, (("rtol", rtol),
-                                                                     ("atol", rtol)))
+    return Method(f"scipy {name} rtol={rtol:.0e}", "scipy", "scipy",
+                  (("method", name), ("rtol", rtol), ("atol", rtol)))
 
 
 def _paper(h: float, xi: float) -> Method:
@@ -400,23 +274,11 @@ class Point:
                      f"solver.max_wall_time={self.max_wall_time!r}"]
         scene = rodsim.load_scene(self.scene, overrides)
         model = rodsim.build_model(scene)
-        if self.method.family == "scipy":
-            settings = self.method.settings
-            cvode = registered_integrators()["cvode"].options_of(scene)
-            begin = time.perf_counter()
-            outcome = solve_scipy(model, self.method.solver, self.tolerance, settings["rtol"],
-                                  settings["atol"], self.max_wall_time,
-                                  cvode["mass_scaling"], cvode["damping_ratio"],
-                                  cvode["load_ramp"])
-            elapsed = time.perf_counter() - begin
-            x, success, message = outcome.x, outcome.success, outcome.message
-            residual, stats = outcome.residual, outcome.stats
-        else:
-            begin = time.perf_counter()
-            result = rodsim.solve(scene, self.method.solver, model=model)
-            elapsed = time.perf_counter() - begin
-            x, success, message = result.state, result.success, result.message
-            residual, stats = result.residual, result.stats
+        begin = time.perf_counter()
+        result = rodsim.solve(scene, self.method.solver, model=model)
+        elapsed = time.perf_counter() - begin
+        x, success, message = result.state, result.success, result.message
+        residual, stats = result.residual, result.stats
         if record:
             self.first_time = elapsed
             self.success, self.message = bool(success), message
@@ -576,7 +438,7 @@ def _dataset(points: list[Point], infos: dict[str, dict[str, Any]], size: str,
         "family": ("point", np.array([p.method.family for p in points], dtype=str),
                    {"long_name": "method family (static, paper, cvode, ida, scipy)"}),
         "solver": ("point", np.array([p.method.solver for p in points], dtype=str),
-                   {"long_name": "rodsim integrator or scipy method"}),
+                   {"long_name": "rodsim integrator"}),
         "tolerance": ("point", np.array([p.tolerance for p in points]),
                       {"units": "1", "long_name": "requested scaled residual tolerance τ "
                        "(solver.tolerance)"}),
@@ -890,7 +752,7 @@ def run(size: str, output_dir: Path | str, progress: Progress | None = None) -> 
     _measure(points, references, long_run, progress)
 
     ds = _dataset(points, infos, size, repeats)
-    stem = output / f"work_precision-{size}"
+    stem = output / f"work-precision-{size}"
     paths = [write_dataset(ds, stem.with_suffix(".nc"))]
     if size == "full":
         profile_path = stem.parent / f"{stem.name}-profile.json"

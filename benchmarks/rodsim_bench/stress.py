@@ -41,7 +41,7 @@ from scipy.stats import qmc
 
 from rodsim.app.study import STATUS, Study, Sweep
 from rodsim.app.study_runner import run_study
-from rodsim.bench.machine import machine
+from rodsim_bench.machine import machine
 
 __all__ = ["run", "configurations", "OUTCOMES"]
 

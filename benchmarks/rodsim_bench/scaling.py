@@ -6,11 +6,12 @@ Scene ``table1-50g`` (one rod, 50 g hanging mass) with N control points, N = 10 
 and sparse linear solvers side by side for CVODE and IDA at several system sizes n, to find
 where the band solver's dense (n × n) Jacobian template stops paying.
 
-Every (configuration, N) runs in a fresh process (``multiprocessing`` spawn context, one
-process per job): it imports rodsim, builds the model, runs one warm-up solve and then up to
-3 timed solves (fewer for long runs), and reports the wall times (minimum = the time) and
-its peak resident set size (``VmHWM`` of /proc/self/status: ``getrusage().ru_maxrss`` is
-not usable here, on Linux it carries the spawning parent's peak across fork + exec).
+Every (configuration, N) runs in a fresh process (spawned, one process per job, on the study
+runner's worker pool, rodsim/app/worker_pool.py): it imports rodsim, builds the model, runs
+one warm-up solve and then up to 3 timed solves (fewer for long runs), and reports the wall
+times (minimum = the time) and its peak resident set size (``VmHWM`` of /proc/self/status:
+``getrusage().ru_maxrss`` is not usable here, on Linux it carries the spawning parent's peak
+across fork + exec).
 **Peak memory** of a run = that peak minus the peak of a baseline process that only imports
 rodsim and builds the same model (the smaller of two such processes). A job
 that exceeds its wall-time budget (``solver.max_wall_time``, then a hard kill of the
@@ -38,7 +39,7 @@ from typing import Any
 
 import numpy as np
 
-from rodsim.bench.work_precision import (
+from rodsim_bench.work_precision import (
     count,
     fmt,
     machine_attributes,
@@ -182,66 +183,38 @@ def _child(job: Job) -> dict[str, Any]:
     return out
 
 
-def _child_main(connection, job: Job) -> None:
-    """Entry point of a spawned process: run ``job`` and send back a dict (or the error)."""
+def _child_run(job: Job) -> dict[str, Any]:
+    """What a worker process runs: ``job``, and a dict back (or the error, never lost)."""
     try:
-        payload = {"ok": True, **_child(job)}
+        return {"ok": True, **_child(job)}
     except BaseException as exc:  # noqa: BLE001  (reported to the parent, never lost)
-        payload = {"ok": False, "error": f"{type(exc).__name__}: {exc}",
-                   "traceback": traceback.format_exc(limit=6), "maxrss": _maxrss_bytes()}
-    try:
-        connection.send(payload)
-    finally:
-        connection.close()
+        return {"ok": False, "error": f"{type(exc).__name__}: {exc}",
+                "traceback": traceback.format_exc(limit=6), "maxrss": _maxrss_bytes()}
 
 
 def run_jobs(jobs: list[Job], workers: int, deadline: Callable[[Job], float],
              progress: Progress, label: Callable[[Job], str]) -> list[dict[str, Any]]:
-    """Run every job in its own spawned process, ``workers`` at a time; a process that
-    exceeds ``deadline(job)`` seconds is killed and its job recorded as failed."""
-    import multiprocessing
+    """Run every job in a fresh spawned process of its own, ``workers`` at a time, on the
+    study runner's worker pool (rodsim/app/worker_pool.py); a process that exceeds
+    ``deadline(job)`` seconds is killed, and one that dies is recorded, as a failed job."""
+    from rodsim.app.worker_pool import TaskFailure, run_tasks
 
-    context = multiprocessing.get_context("spawn")
     results: list[dict[str, Any] | None] = [None] * len(jobs)
-    pending = list(range(len(jobs)))
-    running: dict[int, tuple[Any, Any, float]] = {}
     finished = 0
-    while pending or running:
-        while pending and len(running) < workers:
-            index = pending.pop(0)
-            receiver, sender = context.Pipe(duplex=False)
-            process = context.Process(target=_child_main, args=(sender, jobs[index]),
-                                      daemon=True)
-            process.start()
-            sender.close()
-            running[index] = (process, receiver, time.perf_counter())
-        for index, (process, receiver, started) in list(running.items()):
-            payload = None
-            elapsed = time.perf_counter() - started
-            if receiver.poll(0.05):
-                try:
-                    payload = receiver.recv()
-                except EOFError:
-                    process.join(5.0)
-                    payload = {"ok": False, "error": "the process died without a result "
-                               f"(exit code {process.exitcode})"}
-            elif not process.is_alive():
-                payload = {"ok": False, "error": "the process died without a result "
-                           f"(exit code {process.exitcode})"}
-            elif elapsed > deadline(jobs[index]):
-                process.kill()
-                payload = {"ok": False, "error": f"killed after {elapsed:.0f} s (deadline "
-                           f"{deadline(jobs[index]):.0f} s)"}
-            if payload is None:
-                continue
-            process.join(10.0)
-            receiver.close()
-            payload["process_time"] = elapsed
-            results[index] = payload
-            del running[index]
-            finished += 1
-            progress(finished / len(jobs), f"scaling: {label(jobs[index])} done "
-                     f"({finished}/{len(jobs)})")
+
+    def done(index: int, value: Any, seconds: float) -> None:
+        nonlocal finished
+        if isinstance(value, TaskFailure):
+            value = {"ok": False, "error": (f"the process died without a result ({value.detail})"
+                                            if value.kind == "died" else value.detail)}
+        value["process_time"] = seconds
+        results[index] = value
+        finished += 1
+        progress(finished / len(jobs), f"scaling: {label(jobs[index])} done "
+                 f"({finished}/{len(jobs)})")
+
+    run_tasks(_child_run, [(index, (job,)) for index, job in enumerate(jobs)], workers, done,
+              deadline=lambda index: deadline(jobs[index]), fresh_processes=True)
     return [r or {"ok": False, "error": "not run"} for r in results]
 
 

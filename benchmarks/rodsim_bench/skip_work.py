@@ -7,17 +7,18 @@ warm-up):
   (second-order) pseudo-dynamics, when only the equilibrium is wanted;
 - **unlisted terms**: the cost of a term a scene lists but does not need (self-weight with
   g = 0) against not listing it — terms a scene does not list are never built;
-- **Jacobian reuse**: Newton with a fresh analytic Jacobian every iteration (what ``static``
-  does) against the chord method (one Jacobian and one LU factorisation reused throughout)
-  and against a lagged Jacobian (the factorisation is reused while each iteration at least
-  halves the residual, refreshed otherwise — SUNDIALS' own policy, in spirit);
+- **Jacobian reuse**: rodsim's Newton solver (rodsim/solvers/newton.py) with a fresh analytic
+  Jacobian every iteration (what ``static`` does) against its ``reuse="chord"`` option (one
+  Jacobian and one factorisation reused throughout) and ``reuse="lagged"`` (the
+  factorisation is reused while each iteration at least halves the residual, refreshed
+  otherwise — SUNDIALS' own policy, in spirit);
 - **planar reduction**: the static Newton solve of a planar scene with its linear systems
   reduced to the in-plane coordinates (x, y and the two quaternion combinations of a
   rotation about z) against the full 3-D systems — the forces and Jacobians are still
   evaluated in 3-D, so this measures what dropping the out-of-plane unknowns would save;
 - **load ramp** and **mass scaling**: the pseudo-dynamics options, on and off.
 
-Outputs ``skip_work.nc`` and ``skip_work.md`` (with the machine description).
+Outputs ``skip-work-<size>.nc`` and ``skip-work-<size>.md`` (with the machine description).
 """
 
 from __future__ import annotations
@@ -32,10 +33,12 @@ import scipy.sparse.linalg as spla
 import xarray as xr
 
 import rodsim
-from rodsim.bench.machine import machine
 from rodsim.core.model import Model
 from rodsim.core.rod.quaternion import rest_quaternion
 from rodsim.io.archive import write_dataset
+from rodsim.solvers.linear import LinearSolver
+from rodsim.solvers.newton import JACOBIAN_REUSE, NewtonProblem, newton
+from rodsim_bench.machine import machine
 
 __all__ = ["run"]
 
@@ -85,40 +88,49 @@ def _planar_basis(model: Model) -> sp.csc_matrix:
     return sp.csc_matrix((values, (rows, columns)), shape=(model.n, column))
 
 
-#: Jacobian policies of :func:`_newton`: refresh every iteration, never, or on slow progress.
-REUSE = ("fresh", "chord", "lagged")
+class PlanarLinear:
+    """The linear solves of :func:`rodsim.solvers.newton.newton` restricted to the in-plane
+    coordinates: J is projected onto the columns of ``basis`` (Bᵀ J B, SuperLU) and the step
+    mapped back (B Δp); forces and Jacobians are still evaluated in 3-D."""
+
+    def __init__(self, model: Model, basis: sp.csc_matrix) -> None:
+        self.model, self.basis = model, basis
+        self._full = model.pattern
+        self._diagonal = LinearSolver(model.pattern, model.pattern_rows, model.pattern_cols,
+                                      (model.band.lower, model.band.upper), False)
+
+    def diagonal(self, data: np.ndarray) -> np.ndarray:
+        return self._diagonal.diagonal(data)
+
+    def factorized(self, data: np.ndarray) -> Callable[[np.ndarray], np.ndarray] | None:
+        matrix = sp.csc_matrix((data, self._full.indices, self._full.indptr),
+                               shape=self._full.shape)
+        try:
+            lu = spla.splu((self.basis.T @ matrix @ self.basis).tocsc())
+        except RuntimeError:
+            return None
+        return lambda rhs: self.basis @ lu.solve(self.basis.T @ rhs)
+
+    def solve(self, data: np.ndarray, rhs: np.ndarray) -> np.ndarray:
+        solve = self.factorized(data)
+        return solve(rhs) if solve is not None else np.full(self.model.n, np.nan)
 
 
 def _newton(model: Model, basis: sp.csc_matrix | None, reuse: str = "fresh",
             tolerance: float = 1e-9, limit: int = 400) -> tuple[int, np.ndarray, bool]:
-    """Energy line-search Newton at full load, on the planar coordinates (``basis``) or
-    all of them, with a Jacobian policy from :data:`REUSE`: (iterations, state, converged)."""
-    x = model.x0
-    lu = None
-    previous = np.inf
-    for iteration in range(limit):
-        force = model.force(x)
-        residual = model.residual(force)
-        if residual < max(tolerance, model.residual_floor):
-            return iteration, x, True
-        stale = reuse == "chord" or (reuse == "lagged" and residual < 0.5 * previous)
-        if lu is None or not stale:
-            jacobian = model.jacobian(x)
-            if basis is not None:
-                jacobian = (basis.T @ jacobian @ basis).tocsc()
-            lu = spla.splu(jacobian)
-        previous = residual
-        rhs = -force if basis is None else -(basis.T @ force)
-        step = lu.solve(rhs)
-        dx = step if basis is None else basis @ step
-        energy, slope, alpha = model.energy(x), -float(force @ dx), 1.0
-        if slope >= 0.0:  # a stale Jacobian: a scaled gradient step instead
-            dx = force / np.abs(model.jacobian(x).diagonal())
-            slope = -float(force @ dx)
-        while model.energy(x + alpha * dx) > energy + 1e-4 * alpha * slope and alpha > 1e-10:
-            alpha *= 0.5
-        x = x + alpha * dx
-    return limit, x, False
+    """rodsim's Newton solver (:func:`rodsim.solvers.newton.newton`, energy line search) at
+    full load from rest, on the planar coordinates (``basis``) or all of them, with a
+    Jacobian policy from :data:`~rodsim.solvers.newton.JACOBIAN_REUSE`: (iterations, state,
+    converged)."""
+    linear = (PlanarLinear(model, basis) if basis is not None else
+              LinearSolver(model.pattern, model.pattern_rows, model.pattern_cols,
+                           (model.band.lower, model.band.upper), model.conservative))
+    problem = NewtonProblem(force=model.force, jacobian=model.jacobian_data, linear=linear,
+                            residual=model.residual, weight=model.residual_weight,
+                            potential=model.energy)
+    outcome = newton(problem, model.x0, max(tolerance, model.residual_floor), limit,
+                     polish=False, reuse=reuse)
+    return outcome.iterations, outcome.x, outcome.converged
 
 
 def _iterations(count: int, converged: bool) -> str:
@@ -173,7 +185,7 @@ def run(size: str, output_dir: Path, progress=None) -> list[Path]:
         model = rodsim.build_model(base.with_overrides([f"nodes={nodes}"]))
         basis = _planar_basis(model)
         runs = {policy: _best(lambda m=model, p=policy: _newton(m, None, p), repeats)
-                for policy in REUSE}
+                for policy in JACOBIAN_REUSE}
         t_full, (n_full, x_full, _) = runs["fresh"]
         t_plane, (n_plane, x_plane, _) = _best(lambda m=model, b=basis: _newton(m, b),
                                                repeats)
@@ -199,7 +211,7 @@ def run(size: str, output_dir: Path, progress=None) -> list[Path]:
                                                        "gain": "time (b) / time (a)"}[key]}
     ds.attrs = {"title": "rodsim: what skipping unneeded work buys", "size": size,
                 **{f"machine_{k}": v for k, v in machine().items()}}
-    output = Path(output_dir) / f"skip_work-{size}.nc"
+    output = Path(output_dir) / f"skip-work-{size}.nc"
     write_dataset(ds, output)
     table = output.with_suffix(".md")
     lines = [f"# Skip what a scene doesn't need ({size}, minimum of {repeats} after a warm-up)",

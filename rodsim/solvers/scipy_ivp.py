@@ -1,0 +1,149 @@
+"""scipy's ``solve_ivp`` (BDF or LSODA) on the overdamped pseudo-dynamics: an outside baseline.
+
+The same system CVODE integrates in its ``overdamped`` formulation
+(:class:`~rodsim.solvers.pseudo_dynamics.FirstOrderSystem`: c M ẋ = F(x), same pseudo-masses,
+damping rate, smooth load ramp and per-variable absolute tolerance scale — L for positions,
+1 for quaternion coordinates), integrated by :func:`scipy.integrate.solve_ivp` with the
+model's analytic Jacobian (sparse for ``BDF``, whose Newton uses a sparse LU; dense for
+``LSODA``, which takes only dense or packed-band Jacobians). It is there to put rodsim's own
+integrators in perspective (``rodsim bench work-precision``), not as a default.
+
+The run stops on a terminal event on the scaled residual of the full-load force,
+``Model.residual(F(x)) − τ``; the state kept is the end of the accepted step on which the
+event fired (whose residual is below τ), not scipy's interpolated root. The tendon
+registration is updated after every accepted step (from the event function, which scipy
+calls once at each step's end); at equilibrium a registration change restarts the
+integration from that state on the new model. Non-finite forces and the wall-time budget end
+the run from inside the right-hand side (through the template's :class:`SolverFailure`).
+
+Quaternion norm: held by the centerline penalty Eq. (9) only (same model as ``static``).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from rodsim.core.schema import Parameter
+from rodsim.solvers.base import Integrator, Outcome, SolverFailure
+from rodsim.solvers.pseudo_dynamics import (
+    FirstOrderSystem,
+    LoadRamp,
+    damping_rate,
+    first_mode_frequency,
+    pseudo_masses,
+)
+from rodsim.solvers.sundials import PSEUDO_DYNAMICS_PARAMETERS
+
+_SHARED = {p.name: p for p in PSEUDO_DYNAMICS_PARAMETERS}
+
+#: The wall-time budget is checked every this many right-hand-side evaluations.
+BUDGET_STRIDE = 16
+
+
+class ScipyIvp(Integrator):
+    """``scipy.integrate.solve_ivp`` (BDF or LSODA) on the overdamped pseudo-dynamics."""
+
+    name = "scipy"
+    summary = ("scipy solve_ivp (BDF or LSODA) on the overdamped pseudo-dynamics, stopped at "
+               "equilibrium (an outside baseline)")
+    quaternion_norm = "penalty Eq. (9) only (|d3| = |q|² is pulled to 1)"
+    parameters = (
+        Parameter("method", "str", "BDF", "-",
+                  "solve_ivp method: 'BDF' (sparse Jacobian) or 'LSODA' (dense Jacobian)",
+                  choices=("BDF", "LSODA")),
+        _SHARED["damping_ratio"],
+        _SHARED["mass_scaling"],
+        _SHARED["load_ramp"],
+        # 1e-6, not CVODE's 1e-4: scipy's BDF at 1e-4 stalls above τ on table1-20g and
+        # table1-100g (its Newton stops on the update size, not on the force).
+        Parameter("rtol", "float", 1e-6, "-", "relative tolerance of the time stepping",
+                  1e-13, 1e-1),
+        Parameter("atol", "float", 1e-6, "-",
+                  "absolute tolerance, relative to each variable's scale (L for positions, "
+                  "1 for quaternions)", 1e-20, 1e-1),
+    )
+
+    def advice(self) -> str:
+        return ("try a tighter solver.scipy.rtol (scipy's BDF can stall above τ: its Newton "
+                "stops on the update size, not on the force), or a rodsim integrator "
+                "(--integrator static|cvode)")
+
+    def advance(self) -> Outcome:
+        import scipy.sparse as sp
+        from scipy.integrate import solve_ivp
+
+        options = self.options
+        method = options["method"]
+        omega = first_mode_frequency(self.model)
+        period = 2.0 * math.pi / omega
+        rate = damping_rate(self.model, options["damping_ratio"])
+        masses = pseudo_masses(self.model, options["mass_scaling"])
+        ramp = LoadRamp(0.0 if self.warm else options["load_ramp"] * period)
+        self.counts["reinits"] = 0
+        systems: dict[int, FirstOrderSystem] = {}
+
+        def system() -> FirstOrderSystem:
+            """The overdamped system of the model in use (rebuilt on a re-registration)."""
+            key = id(self.model)
+            if key not in systems:
+                systems.clear()
+                systems[key] = FirstOrderSystem(self.model, "overdamped", rate, masses)
+            return systems[key]
+
+        def rhs(t: float, x: np.ndarray) -> np.ndarray:
+            if self.counts["force_evals"] % BUDGET_STRIDE == 0:
+                self.check_budget(f"t = {t:.4g} s")
+            force = self.force(x, ramp(t))
+            out = np.empty_like(x)
+            system().rhs(x, force, out)
+            return out
+
+        def jacobian(t: float, x: np.ndarray):
+            sys_ = system()
+            data = sys_.jacobian_data(self.jacobian_data(x, ramp(t)))
+            matrix = sp.csc_matrix((data, sys_.pattern.indices, sys_.pattern.indptr),
+                                   shape=(sys_.size, sys_.size))
+            return matrix if method == "BDF" else matrix.toarray()
+
+        last = {"t": -math.inf, "x": self.start_state, "residual": math.inf}
+
+        def at_rest(t: float, x: np.ndarray) -> float:
+            if t > last["t"]:  # the end of an accepted step (root finding looks back in time)
+                self.counts["steps"] += 1
+                if self.reregister(x):
+                    self.counts["reinits"] += 1
+                residual = self.residual(x)
+                if ramp(t) < 1.0:  # equilibrium under the full load only
+                    residual = max(residual, 2.0 * self.tolerance)
+                last.update(t=t, x=x.copy(), residual=residual)
+                self.checkpoint(last["x"], lambda t=t: f"t = {t:.4g} s")
+                self.history.record(t, x, residual)
+                if self.reporting:
+                    self.report(None, f"{self.name} {method}: t = {t:.3g} s, residual "
+                                      f"{residual:.3g}")
+                return residual - self.tolerance
+            return self.residual(x) - self.tolerance  # dense output inside the last step
+
+        at_rest.terminal = True
+        at_rest.direction = -1
+        scale = np.where(self.model.is_quaternion, 1.0, self.model.length_scale)
+        horizon = 1e9 * period
+        t0, x0 = 0.0, self.start_state
+        while True:
+            last["t"] = t0
+            solution = solve_ivp(rhs, (t0, horizon), x0, method=method, jac=jacobian,
+                                 events=at_rest, rtol=options["rtol"],
+                                 atol=options["atol"] * scale, first_step=1e-4 / omega,
+                                 t_eval=np.empty(0))
+            if solution.status == 1 and last["residual"] < self.tolerance:
+                x = last["x"]
+                if self.settled(x):
+                    return Outcome(x, True, f"at equilibrium (scipy {method}, terminal event)")
+                t0, x0 = last["t"], x  # a parent changed at equilibrium: go on from there
+                continue
+            if solution.status == 0:
+                raise SolverFailure(f"scipy {method} reached t = {horizon:.3g} s (10⁹ "
+                                    "first-mode periods) without reaching equilibrium")
+            raise SolverFailure(f"scipy {method}: {solution.message}")
