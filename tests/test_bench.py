@@ -263,7 +263,7 @@ def test_scaling_title_states_the_fitted_exponents(tmp_path, monkeypatch):
 
 
 def test_work_precision_title_states_the_fastest_runs(tmp_path, monkeypatch):
-    ds = xr.load_dataset(RESULTS / "work_precision-full.nc")
+    ds = xr.load_dataset(RESULTS / "work-precision-full.nc")
     text = work_precision.measured_result(ds)
     assert " ".join(text.split()) in " ".join(
         _suptitle(work_precision._plot, ds, tmp_path, monkeypatch).split())

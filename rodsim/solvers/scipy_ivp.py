@@ -67,8 +67,8 @@ class ScipyIvp(Integrator):
 
     def advice(self) -> str:
         return ("try a tighter solver.scipy.rtol (scipy's BDF can stall above τ: its Newton "
-                "stops on the update size, not on the force), or a rodsim integrator "
-                "(--integrator static|cvode)")
+                "stops on the update size, not on the force), or the static or cvode "
+                "integrator")
 
     def advance(self) -> Outcome:
         import scipy.sparse as sp
