@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import functools
 import json
 
@@ -62,7 +63,7 @@ def test_archive_is_self_describing(integrator):
     assert attrs["scene_toml"] == scene_paths()["table1-50g"].read_text(encoding="utf-8")
     assert attrs["integrator"] == integrator
     assert json.loads(attrs["integrator_options"]) == (
-        registered_integrators()[integrator].options_of(result.scene))
+        dataclasses.asdict(registered_integrators()[integrator].options_of(result.scene)))
     assert attrs["rodsim_version"] == rodsim.__version__
     assert str(attrs["schema_version"]) == SCHEMA_VERSION
     assert attrs["residual"] == result.residual

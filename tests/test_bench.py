@@ -123,7 +123,7 @@ def test_work_precision_runs_the_scipy_baseline_by_name():
     assert all(m.solver == "scipy" for m in scipy)
     scene = rodsim.load_scene("table1-50g", ["nodes=10", *scipy[0].overrides()])
     options = rodsim.solvers.registered_integrators()["scipy"].options_of(scene)
-    assert options["method"] == scipy[0].settings["method"]
+    assert options.method == scipy[0].settings["method"]
 
 
 def test_scipy_baseline_budget_is_a_failure_not_a_hang():

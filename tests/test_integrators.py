@@ -171,7 +171,7 @@ def test_paper_mass_scaling_puts_h2_omega2_where_asked():
     paper_class = registered_integrators()["paper"]
     options = paper_class.options_of(scene)
     paper = paper_class(model, options, solver["tolerance"], solver["max_wall_time"], None)
-    h = options["h"]
+    h = options.h
     assert paper.mass_scale() == pytest.approx((h * omega) ** 2 / 0.003, rel=1e-12)
     np.testing.assert_allclose(paper._mass, model.masses() * paper.mass_scale(), rtol=1e-14)
     physical = rodsim.load_scene("table1-50g")

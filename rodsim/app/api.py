@@ -10,6 +10,7 @@ Everything the CLI does goes through these functions (README, "Python").
 
 from __future__ import annotations
 
+import dataclasses
 import time
 from collections.abc import Iterable, Mapping
 from pathlib import Path
@@ -123,7 +124,7 @@ def rerun(dataset: xr.Dataset) -> tuple[Result, float]:
     stored_options = parse_json_object(dataset.attrs["integrator_options"],
                                        "attribute 'integrator_options'")
     integrator = str(dataset.attrs["integrator"])
-    if stored_options != registered_integrators()[integrator].options_of(scene):
+    if stored_options != dataclasses.asdict(registered_integrators()[integrator].options_of(scene)):
         raise ArchiveError("archive is inconsistent: integrator_options differ from the "
                            "scene's solver options")
     result = solve(scene, integrator)

@@ -8,6 +8,8 @@ full key and what is allowed.
 
 from __future__ import annotations
 
+import copy
+import dataclasses
 import math
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass
@@ -240,3 +242,21 @@ def validate_table(
         if name in table:
             out[name] = table[name]
     return out
+
+
+#: The Python type of a value of each parameter kind, after :meth:`Parameter.check`.
+KIND_TYPES: dict[str, Any] = {"float": float, "int": int, "str": str, "bool": bool,
+                              "vector": list, "list": list}
+
+
+def options_type(name: str, parameters: Iterable[Parameter], doc: str = "") -> type:
+    """A frozen dataclass named ``name`` with one typed field per parameter (its default
+    where it has one), so that validated options are read as attributes, not string keys.
+    Build an instance from :func:`validate_table`'s dict: ``options_type(...)(**table)``."""
+    fields = [(p.name, KIND_TYPES[p.kind],
+               dataclasses.field(default_factory=lambda d=p.default: copy.deepcopy(d))
+               if isinstance(p.default, list) else dataclasses.field(default=p.default))
+              for p in parameters]
+    cls = dataclasses.make_dataclass(name, fields, frozen=True)
+    cls.__doc__ = doc or f"Validated options ({', '.join(f[0] for f in fields)})."
+    return cls

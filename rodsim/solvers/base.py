@@ -13,6 +13,7 @@ the residual reached, and what to try.
 
 from __future__ import annotations
 
+import dataclasses
 import itertools
 import time
 from abc import ABC, abstractmethod
@@ -23,7 +24,7 @@ from typing import TYPE_CHECKING, Any, ClassVar
 import numpy as np
 
 from rodsim.core.model import Model
-from rodsim.core.schema import Parameter, validate_table
+from rodsim.core.schema import Parameter, options_type, validate_table
 from rodsim.core.stability import Stability, assess
 from rodsim.solvers.failure import SolverFailure
 from rodsim.solvers.linear import LinearSolver
@@ -87,7 +88,7 @@ class Integrator(ABC):
     model
         The assembled rod system.
     options
-        Validated options of this integrator (:meth:`options_of` the scene).
+        Validated options of this integrator, an :attr:`Options` instance (:meth:`options_of`).
     tolerance
         Equilibrium residual tolerance (``solver.tolerance``), see :meth:`Model.residual`.
         A tolerance below the model's round-off floor (:attr:`Model.residual_floor`) is
@@ -117,21 +118,29 @@ class Integrator(ABC):
     #: Units and meaning of the history's ``time`` (recorded once per step).
     history_time: ClassVar[tuple[str, str]] = ("s", "pseudo-time after each step")
 
+    #: The frozen dataclass of this integrator's options, one typed field per declared
+    #: parameter (made from :attr:`parameters` when the class is defined).
+    Options: ClassVar[type]
+
     @classmethod
-    def options_of(cls, scene: Scene) -> dict[str, Any]:
-        """This integrator's options in ``scene`` (its ``[solver.<name>]`` table), validated
-        and with every default filled in (SceneError on a bad value)."""
-        return validate_table(scene.data["solver"].get(cls.name, {}), cls.parameters,
-                              f"solver.{cls.name}")
+    def options_of(cls, scene: Scene) -> Any:
+        """This integrator's options in ``scene`` (its ``[solver.<name>]`` table), validated,
+        with every default filled in, as an :attr:`Options` instance (SceneError on a bad
+        value)."""
+        return cls.Options(**validate_table(scene.data["solver"].get(cls.name, {}),
+                                            cls.parameters, f"solver.{cls.name}"))
 
     def __init_subclass__(cls, **kwargs: Any) -> None:
         super().__init_subclass__(**kwargs)
+        cls.Options = options_type(f"{cls.__name__}Options", cls.parameters,
+                                   f"Options of the {getattr(cls, 'name', cls.__name__)} "
+                                   "integrator (docs/scenes.md lists them).")
         if "name" in cls.__dict__:
             if cls.name in INTEGRATORS:
                 raise TypeError(f"integrator name {cls.name!r} registered twice")
             INTEGRATORS[cls.name] = cls
 
-    def __init__(self, model: Model, options: dict[str, Any], tolerance: float,
+    def __init__(self, model: Model, options: Any, tolerance: float,
                  max_wall_time: float = 600.0, progress: Progress | None = None,
                  budget_start: float | None = None,
                  initial_state: np.ndarray | None = None) -> None:
@@ -351,6 +360,7 @@ class Integrator(ABC):
         stats = {**self.counts, "wall_time": wall, "effective_tolerance": self.tolerance}
         return Result.from_model(
             self.model, x if finite else self.state, integrator=self.name,
-            options=self.options, success=success, message=message, residual=residual,
+            options=dataclasses.asdict(self.options), success=success, message=message,
+            residual=residual,
             stats=stats, history=self.history.data, history_time=self.history_time,
             stability=self.stability(x) if success else None)

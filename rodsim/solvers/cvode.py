@@ -36,8 +36,8 @@ class Cvode(SundialsIntegrator):
     quaternion_norm = "penalty Eq. (9) only (|d3| = |q|² is pulled to 1)"
 
     def build_system(self) -> None:
-        self.rate = damping_rate(self.model, self.options["damping_ratio"])
-        self.system = FirstOrderSystem(self.model, self.options["formulation"], self.rate,
+        self.rate = damping_rate(self.model, self.options.damping_ratio)
+        self.system = FirstOrderSystem(self.model, self.options.formulation, self.rate,
                                        self.masses)
 
     def initial_state(self) -> np.ndarray:
@@ -55,7 +55,7 @@ class Cvode(SundialsIntegrator):
             scale = np.empty(system.size)
             scale[0::2] = scale_x
             scale[1::2] = scale_x * self.rate
-        return self.options["atol"] * self.tightening * scale
+        return self.options.atol * self.tightening * scale
 
     def start(self, t: float, y: np.ndarray, yp: np.ndarray | None) -> CVODE:
         from sksundae.cvode import CVODE  # SUNDIALS is loaded by the first run, not at import

@@ -178,8 +178,8 @@ class Ida(SundialsIntegrator):
                        for p in PSEUDO_DYNAMICS_PARAMETERS)
 
     def build_system(self) -> None:
-        self.rate = damping_rate(self.model, self.options["damping_ratio"])
-        self.system = ConstrainedSystem(self.model, self.options["formulation"], self.rate,
+        self.rate = damping_rate(self.model, self.options.damping_ratio)
+        self.system = ConstrainedSystem(self.model, self.options.formulation, self.rate,
                                         2.0 * self.omega, self.masses)
         self._last_y: np.ndarray | None = None
 
@@ -233,7 +233,7 @@ class Ida(SundialsIntegrator):
         problem = NewtonProblem(force, jacobian, linear,
                                 residual=lambda g: float(np.max(np.abs(g) * weight)),
                                 weight=weight)
-        outcome = newton(problem, y, self.tolerance, self.options["newton_iterations"],
+        outcome = newton(problem, y, self.tolerance, self.options.newton_iterations,
                          check=self.iteration_check("the Newton finish"))
         if outcome.converged:
             self._last_y = outcome.x
@@ -251,7 +251,7 @@ class Ida(SundialsIntegrator):
             atol[system.v_slot] = scale_x * self.rate
         # Multipliers are forces of size F_ref L; keep them out of the step-size control.
         atol[system.mu_slot] = 1e6 * model.force_scale * model.length_scale
-        return self.options["atol"] * self.tightening * atol
+        return self.options.atol * self.tightening * atol
 
     def start(self, t: float, y: np.ndarray, yp: np.ndarray | None) -> IDA:
         from sksundae.ida import IDA  # SUNDIALS is loaded by the first run, not at import

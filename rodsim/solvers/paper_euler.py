@@ -101,10 +101,10 @@ class PaperEuler(Integrator):
         step whatever ξ is. ξ = 0.9 damps that mode critically where (1 − √ξ)² ≈ h² ω₁²,
         i.e. h² ω₁² ≈ 0.003 — about 1e4 times the physical mass per stiffness.
         """
-        target = self.options["h2_omega2"]
+        target = self.options.h2_omega2
         if target == 0.0:
             return 1.0
-        return (self.options["h"] * first_mode_frequency(self.model)) ** 2 / target
+        return (self.options.h * first_mode_frequency(self.model)) ** 2 / target
 
     def _refresh_pattern(self) -> None:
         """Diagonal positions and FD column groups of the model's current pattern."""
@@ -114,7 +114,7 @@ class PaperEuler(Integrator):
         diag = np.flatnonzero(model.pattern_rows == model.pattern_cols)
         self._diag = diag[np.argsort(model.pattern_cols[diag])]
         self._groups = (column_groups(model.pattern)
-                        if self.options["jacobian"] == "finite_difference" else [])
+                        if self.options.jacobian == "finite_difference" else [])
         self._pattern_of = model
 
     def advice(self) -> str:
@@ -124,7 +124,7 @@ class PaperEuler(Integrator):
 
     def _stiffness(self, y: np.ndarray, force: np.ndarray, load: float) -> np.ndarray:
         """∂F/∂x at y in pattern order: analytic, or grouped forward differences."""
-        if self.options["jacobian"] == "analytic":
+        if self.options.jacobian == "analytic":
             return self.jacobian_data(y, load)
         model = self.model
         data = np.zeros(model.nnz)
@@ -166,22 +166,22 @@ class PaperEuler(Integrator):
                              potential if model.conservative else None)
 
     def advance(self) -> Outcome:
-        h, xi = self.options["h"], self.options["xi"]
+        h, xi = self.options.h, self.options.xi
         model, counts = self.model, self.counts
         x = self.start_state
         v = np.zeros_like(x)
         # Each step's Newton solve goes 10× below the tolerance, but not below round-off.
         inner = max(0.1 * self.tolerance, model.residual_floor)
         resting = 0
-        for step in range(1, self.options["max_steps"] + 1):
+        for step in range(1, self.options.max_steps + 1):
             where = f"step {step} (t = {step * h:.4g} s)"
             self.check_budget(where)
             predictor = x + xi * h * v
             self._refresh_pattern()  # registration changes the pattern between steps only
-            ramp = 0 if self.warm else self.options["ramp_steps"]
+            ramp = 0 if self.warm else self.options.ramp_steps
             load = min(1.0, step / ramp) if ramp else 1.0
             solved = newton(self._step_problem(predictor, h, load), predictor, inner,
-                            self.options["max_newton"], polish=False,
+                            self.options.max_newton, polish=False,
                             check=self.iteration_check(where))
             counts["newton_iters"] += solved.iterations
             counts["steps"] = step
@@ -201,6 +201,6 @@ class PaperEuler(Integrator):
             resting = resting + 1 if below else 0
             if resting >= RESTING_STEPS and self.settled(x):
                 return Outcome(x, True, "at rest")
-        raise SolverFailure(f"not at rest after max_steps = {self.options['max_steps']}",
+        raise SolverFailure(f"not at rest after max_steps = {self.options.max_steps}",
                             "try raising solver.paper.max_steps, or "
                             f"{self.advice().removeprefix('try ')}")

@@ -75,12 +75,12 @@ class ScipyIvp(Integrator):
         from scipy.integrate import solve_ivp
 
         options = self.options
-        method = options["method"]
+        method = options.method
         omega = first_mode_frequency(self.model)
         period = 2.0 * math.pi / omega
-        rate = damping_rate(self.model, options["damping_ratio"])
-        masses = pseudo_masses(self.model, options["mass_scaling"])
-        ramp = LoadRamp(0.0 if self.warm else options["load_ramp"] * period)
+        rate = damping_rate(self.model, options.damping_ratio)
+        masses = pseudo_masses(self.model, options.mass_scaling)
+        ramp = LoadRamp(0.0 if self.warm else options.load_ramp * period)
         self.counts["reinits"] = 0
         systems: dict[int, FirstOrderSystem] = {}
 
@@ -134,8 +134,8 @@ class ScipyIvp(Integrator):
         while True:
             last["t"] = t0
             solution = solve_ivp(rhs, (t0, horizon), x0, method=method, jac=jacobian,
-                                 events=at_rest, rtol=options["rtol"],
-                                 atol=options["atol"] * scale, first_step=1e-4 / omega,
+                                 events=at_rest, rtol=options.rtol,
+                                 atol=options.atol * scale, first_step=1e-4 / omega,
                                  t_eval=np.empty(0))
             if solution.status == 1 and last["residual"] < self.tolerance:
                 x = last["x"]

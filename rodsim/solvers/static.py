@@ -101,10 +101,10 @@ class Static(Integrator):
                 return Outcome(x, True, "converged (warm start)")
             self.model = self.base_model
         base = self.base_model
-        penalties = {k: self.options["penalty_ratio"] / term.penalty_ratio
+        penalties = {k: self.options.penalty_ratio / term.penalty_ratio
                      for k, term in enumerate(base.terms)
-                     if term.penalty and term.penalty_ratio > self.options["penalty_ratio"]}
-        budget = 20 * self.options["max_newton"] if penalties else None
+                     if term.penalty and term.penalty_ratio > self.options.penalty_ratio}
+        budget = 20 * self.options.max_newton if penalties else None
         # Without an energy to line-search on, Newton at full penalty first is not worth
         # trying: load with the penalties lowered straight away (module docstring).
         if base.conservative or not penalties:
@@ -155,7 +155,7 @@ class Static(Integrator):
         self.model = model
         counts = self.counts
         x = model.x0
-        load, step = 0.0, min(self.options["first_load_step"], first_step or 1.0)
+        load, step = 0.0, min(self.options.first_load_step, first_step or 1.0)
         # Only the last solve (full load, penalties at their values) is polished.
         final = bool(np.all(model.term_scales == 1.0))
         spent = 0
@@ -170,7 +170,7 @@ class Static(Integrator):
             spent += iterations
             if not converged:
                 step *= 0.25
-                if step < self.options["min_load_step"]:
+                if step < self.options.min_load_step:
                     return Outcome(x, False, f"Newton did not converge at load fraction "
                                    f"{target:.4g} and the load step fell below min_load_step")
                 continue
@@ -206,7 +206,7 @@ class Static(Integrator):
         intermediate steps need not be), through the retraction :meth:`Model.step`, counted;
         returns (converged, x, iterations)."""
         converged, x, iterations = self.newton_equilibrium(
-            x, load, self.options["max_newton"], f"load fraction {load:.4g}", polish,
+            x, load, self.options.max_newton, f"load fraction {load:.4g}", polish,
             retract=True)
         self.counts["newton_iters"] += iterations
         self.counts["linear_solves"] += iterations

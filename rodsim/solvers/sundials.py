@@ -122,7 +122,7 @@ class SundialsIntegrator(Integrator):
         #: First-mode period 2π/ω₁ [s], the pseudo-time unit of the ramp and the run's tests.
         self.period = 2.0 * math.pi / omega
         # A warm start (from a nearby equilibrium) takes the loads in full at once.
-        self.ramp = LoadRamp(0.0 if self.warm else self.options["load_ramp"] * self.period)
+        self.ramp = LoadRamp(0.0 if self.warm else self.options.load_ramp * self.period)
         #: Pseudo-time at which the run gives up (10⁹ first-mode periods).
         self.horizon = 1e9 * self.period
         self.counts["reinits"] = 0
@@ -131,21 +131,21 @@ class SundialsIntegrator(Integrator):
         self.counts["newton_iters"] = self.counts["linear_solves"] = float("nan")
         #: Factor applied to rtol and atol (divided by 100 at each tightening).
         self.tightening = 1.0
-        self.masses = pseudo_masses(model, self.options["mass_scaling"])
+        self.masses = pseudo_masses(model, self.options.mass_scaling)
         self.build_system()
 
     @property
     def rtol(self) -> float:
-        return self.options["rtol"] * self.tightening
+        return self.options.rtol * self.tightening
 
     def linear_solver(self, size: int) -> str:
-        choice = self.options["linear_solver"]
+        choice = self.options.linear_solver
         if choice == "auto":
             return "band" if size <= BAND_LIMIT else "sparse"
         return choice
 
     def advice(self) -> str:
-        other = "inertial" if self.options["formulation"] == "overdamped" else "overdamped"
+        other = "inertial" if self.options.formulation == "overdamped" else "overdamped"
         return (f"try solver.{self.name}.formulation={other!r}, a longer load_ramp, or the "
                 "static integrator")
 
@@ -230,7 +230,7 @@ class SundialsIntegrator(Integrator):
             if not converged:
                 return False, state, iterations
         converged, state, more = self.newton_equilibrium(
-            state, 1.0, self.options["newton_iterations"], "the Newton finish",
+            state, 1.0, self.options.newton_iterations, "the Newton finish",
             retract=True)
         return converged, state, iterations + more
 
@@ -256,7 +256,7 @@ class SundialsIntegrator(Integrator):
                 jacobian=lambda y: self.jacobian_data(y),
                 linear=self.newton_linear_solver(), residual=model.residual,
                 weight=model.residual_weight, step=model.step)
-            outcome = newton(problem, x, self.tolerance, self.options["newton_iterations"],
+            outcome = newton(problem, x, self.tolerance, self.options.newton_iterations,
                              polish=False,
                              check=self.iteration_check(f"the Newton finish (homotopy "
                                                         f"{target:.3g})"))
@@ -321,7 +321,7 @@ class SundialsIntegrator(Integrator):
 
     def advance(self) -> Outcome:
         opts, counts = self.options, self.counts
-        switch = opts["newton_switch"]
+        switch = opts.newton_switch
         for key in ("finish_attempts", "finish_newton_iters", "finish_force_evals",
                     "finish_jacobian_evals", "finish_unstable"):
             counts[key] = 0
@@ -353,7 +353,7 @@ class SundialsIntegrator(Integrator):
             finally:
                 sys.stdout = saved
 
-        for step in range(1, opts["max_steps"] + 1):
+        for step in range(1, opts.max_steps + 1):
             if t >= self.horizon:  # steps that large mean a stalled corrector: tighten
                 if self.rtol <= TIGHTEST_RTOL:
                     return Outcome(self.positions_of(y), False,
@@ -416,7 +416,7 @@ class SundialsIntegrator(Integrator):
                 best, best_step, best_time = residual, step, t + elapsed
                 frozen = 0
                 solver, t = restart(t, y)
-        raise SolverFailure(f"not at equilibrium after max_steps = {opts['max_steps']}",
+        raise SolverFailure(f"not at equilibrium after max_steps = {opts.max_steps}",
                             f"try raising solver.{self.name}.max_steps, or "
                             f"{self.advice().removeprefix('try ')}")
 

@@ -21,6 +21,7 @@ shape along a ``step`` dimension with the ramped values as coordinates (docs/inv
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import time
 from collections.abc import Mapping, Sequence
@@ -170,8 +171,8 @@ class Track:
                                  f"{self.integrator!r})"),
             "schema_version": SCHEMA_VERSION,
             "integrator": self.integrator,
-            "integrator_options": json.dumps(
-                registered_integrators()[self.integrator].options_of(self.scene),
+            "integrator_options": json.dumps(dataclasses.asdict(
+                registered_integrators()[self.integrator].options_of(self.scene)),
                 sort_keys=True),
             "success": int(self.success),
             "message": self.message,
