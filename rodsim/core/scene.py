@@ -48,7 +48,8 @@ __all__ = ["Scene", "SceneError", "SOLVER_PARAMETERS", "default_scene_path", "sc
 
 SOLVER_PARAMETERS: tuple[Parameter, ...] = (
     Parameter("integrator", "str", "cvode", "-",
-              "integrator used by `rodsim run`: a registered name (`rodsim integrators`)"),
+              "integrator used by `rodsim run`: a registered name (each has a "
+              "[solver.<name>] table in docs/scenes.md)"),
     Parameter("tolerance", "float", 1e-9, "-",
               "equilibrium reached when the scaled force residual is below this "
               "(forces / load scale F_ref, quaternion forces / (F_ref L))",
