@@ -239,7 +239,7 @@ def reference_centerlines(ds: xr.Dataset, kinds: Sequence[str] | None = None
     for index in _indices(ds, _sweep_dims(ds)):
         try:
             scene = point_scene(spec, index)
-            s = sigma * float(next(iter(scene.data["rods"].values()))["length"])
+            s = sigma * next(iter(scene.rods.values())).length
             cantilever = (cantilever_reference(scene) if set(kinds) - {"arc"} else None)
             for kind in kinds:
                 if kind == "arc":

@@ -165,7 +165,7 @@ def evaluate_point(spec: dict[str, Any], index: tuple[int, ...]) -> dict[str, An
     record: dict[str, Any] = {"index": list(index)}
     try:
         scene = point_scene(spec, index)
-        result = solve(scene, spec["integrator"] or scene.data["solver"]["integrator"])
+        result = solve(scene, spec["integrator"] or scene.solver.integrator)
     except SceneError as exc:
         return record | {"status": STATUS["error"], "message": f"bad scene value: {exc}"}
     except Exception as exc:  # a bug must not stop the study: record it

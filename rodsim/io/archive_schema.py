@@ -194,15 +194,15 @@ def _check_run(ds: xr.Dataset, leading: tuple[str, ...] = ()) -> None:
     _labels(ds, "component", ["q1", "q2", "q3", "q4"])
     rods = _variable(ds, "rod", ("node",), numeric=False).values.astype(str)
     segment_rods = _variable(ds, "segment_rod", ("segment",), numeric=False).values.astype(str)
-    for name, table in scene.data["rods"].items():
-        nodes = int(table["nodes"])
+    for name, rod in scene.rods.items():
+        nodes = rod.nodes
         for what, stored, expected in (("control points", rods, nodes),
                                        ("segments", segment_rods, nodes - 1)):
             count = int(np.sum(stored == name))
             if count != expected:
                 raise ArchiveSchemaError(f"rod {name!r} has {count} stored {what}, its scene "
                                          f"(scene_json) says {expected}")
-    _size(ds, "node", sum(int(t["nodes"]) for t in scene.data["rods"].values()),
+    _size(ds, "node", sum(rod.nodes for rod in scene.rods.values()),
           "the scene's control points")
 
 
@@ -243,7 +243,7 @@ def _check_study(ds: xr.Dataset) -> None:
     _size(ds, "sigma", points, "spec_json sigma_points")
     _labels(ds, "axis", ["x", "y", "z"])
     rods = _variable(ds, "rod", ("rod",), numeric=False).values.astype(str)
-    if set(rods) != set(scene.data["rods"]) or len(rods) != len(scene.data["rods"]):
+    if set(rods) != set(scene.rods) or len(rods) != len(scene.rods):
         raise ArchiveSchemaError(f"coordinate 'rod' ({', '.join(rods)[:60]}) does not name "
                                  "the base scene's rods")
     _variable(ds, "status", shape)
