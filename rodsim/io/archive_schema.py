@@ -288,12 +288,12 @@ def _number(value: Any) -> bool:
     return isinstance(value, (int, float)) and not isinstance(value, bool)
 
 
-def check_point_record(record: Any, spec: Mapping[str, Any], rods: list[str],
+def check_point_record(record: Any, sigma_points: int, rods: list[str],
                        stats: tuple[str, ...]) -> None:
     """Check one point record of a study's parts folder (as :func:`rodsim.app.study.
-    evaluate_point` writes it) for ``spec``, whose scene has ``rods`` and whose records carry
-    the statistics ``stats``. A successful point must hold finite numbers of the right
-    shapes; a failed one, its status and message."""
+    evaluate_point` writes it) for a study spec with ``sigma_points`` samples of σ, whose
+    scene has ``rods`` and whose records carry the statistics ``stats``. A successful point
+    must hold finite numbers of the right shapes; a failed one, its status and message."""
 
     if not isinstance(record, dict):
         raise ArchiveSchemaError("not a JSON object")
@@ -324,7 +324,7 @@ def check_point_record(record: Any, spec: Mapping[str, Any], rods: list[str],
     for key in ("residual", "quaternion_norm_error", "tip_error", "area_error"):
         if key in record and not _finite_number(record[key]):
             raise ArchiveSchemaError(f"{key} is not a finite number")
-    for key, shape in (("tip", (3,)), ("centerline", (spec["sigma_points"], 3))):
+    for key, shape in (("tip", (3,)), ("centerline", (sigma_points, 3))):
         stored = record[key]
         if not isinstance(stored, dict) or sorted(stored) != sorted(rods):
             raise ArchiveSchemaError(f"{key} does not name the scene's rods")
