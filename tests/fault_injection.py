@@ -16,8 +16,8 @@ class Faults:
     def __init__(self, wanted: str) -> None:
         self.wanted = tuple(wanted.split(","))
 
-    def __call__(self, spec: dict[str, Any], index: tuple[int, ...]) -> None:
-        point = f"{spec['name']}:{'-'.join(map(str, index))}"
+    def __call__(self, spec: Any, index: tuple[int, ...]) -> None:
+        point = f"{spec.name}:{'-'.join(map(str, index))}"
         if f"exit:{point}" in self.wanted:
             os._exit(70)
         if f"hang:{point}" in self.wanted:

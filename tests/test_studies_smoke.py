@@ -10,7 +10,6 @@ runs (each study runs once per session). The whole file takes about 20–40 s on
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 
 import matplotlib.pyplot as plt
@@ -20,7 +19,14 @@ import xarray as xr
 from matplotlib.text import Text
 
 from rodsim.app.plotting import draw_figure, plot_dataset, style
-from rodsim.app.study import STATUS, available_studies, grid_points, point_scene, rerun_study
+from rodsim.app.study import (
+    STATUS,
+    StudySpec,
+    available_studies,
+    grid_points,
+    point_scene,
+    rerun_study,
+)
 from rodsim.app.study_runner import run_study
 from rodsim.core.analytic.reference import REFERENCE_KINDS, reference_centerline
 
@@ -43,10 +49,10 @@ def small(tmp_path_factory):
     return run
 
 
-def _has_reference(spec: dict, index: tuple[int, ...], sigma: np.ndarray) -> bool:
+def _has_reference(spec: StudySpec, index: tuple[int, ...], sigma: np.ndarray) -> bool:
     scene = point_scene(spec, index)
-    length = float(next(iter(scene.data["rods"].values()))["length"])
-    return reference_centerline(scene, spec["reference"], sigma * length) is not None
+    length = next(iter(scene.rods.values())).length
+    return reference_centerline(scene, spec.reference, sigma * length) is not None
 
 
 def test_the_paper_figures_are_all_declared():
@@ -61,7 +67,7 @@ def test_the_paper_figures_are_all_declared():
 def test_small_study_runs_and_plots(name, small, tmp_path):
     study = STUDIES[name]
     path, ds = small(name)
-    spec = json.loads(ds.attrs["spec_json"])
+    spec = StudySpec.from_json(ds.attrs["spec_json"])
 
     # One dimension per sweep, in order, with the declared coordinates.
     sweeps = study.sweeps["small"]

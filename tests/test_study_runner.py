@@ -32,6 +32,7 @@ from rodsim.app.study import (
     STATUS,
     Study,
     StudyError,
+    StudySpec,
     Sweep,
     evaluate_point,
     grid_points,
@@ -139,7 +140,7 @@ def folder_snapshot(folder: Path) -> dict[str, tuple[bytes, int]]:
 
 
 @pytest.fixture(scope="module")
-def spec() -> dict:
+def spec() -> StudySpec:
     return BASE.spec("small")
 
 
@@ -204,8 +205,9 @@ def test_archive_round_trip_units_and_provenance(study_run, spec):
     base = load_scene("table1-50g")
     assert json.loads(attrs["scene_json"]) == json.loads(base.to_json())
     assert attrs["scene_toml"] == (REPO / "data" / "table1-50g.toml").read_text(encoding="utf-8")
+    assert attrs["spec_json"] == spec.to_json()
+    assert StudySpec.from_json(attrs["spec_json"]) == spec
     stored = json.loads(attrs["spec_json"])
-    assert stored == spec
     assert [s["key"] for s in stored["sweeps"]] == ["rods.catheter.nodes",
                                                     "rods.catheter.tip_load.mass"]
     assert [s["values"] for s in stored["sweeps"]] == [list(NODES), list(MASSES)]
@@ -281,10 +283,11 @@ def test_one_dimension_per_sweep_and_common_sigma_grid(study_run):
 # 3. Resume after a kill --------------------------------------------------------------------
 
 KILLABLE = """\
-import json, sys
+import sys
+from rodsim.app.study import StudySpec
 from rodsim.app.study_runner import run_spec
 with open(sys.argv[1], encoding="utf-8") as stream:
-    spec = json.load(stream)
+    spec = StudySpec.from_json(stream.read())
 run_spec(spec, sys.argv[2], workers=int(sys.argv[3]))
 """
 
@@ -319,11 +322,11 @@ def alive(pid: int) -> bool:
     return state != "Z"
 
 
-def kill_mid_study(tmp_path: Path, spec: dict, workers: int) -> tuple[Path, list[int]]:
+def kill_mid_study(tmp_path: Path, spec: StudySpec, workers: int) -> tuple[Path, list[int]]:
     """Run ``spec`` in a child process, SIGKILL it once two points are recorded; returns
     the output path and the child's own children (worker processes) at the kill."""
     spec_file = tmp_path / "spec.json"
-    spec_file.write_text(json.dumps(spec), encoding="utf-8")
+    spec_file.write_text(spec.to_json(), encoding="utf-8")
     output = tmp_path / "killed" / "slow.nc"
     output.parent.mkdir()
     parts = parts_folder(output)
@@ -517,8 +520,9 @@ def test_parts_folder_of_another_spec_is_refused_and_left_alone(tmp_path, spec):
     archive = output.read_bytes()
     assert len([name for name in folder if name.startswith("point-")]) == 2
 
-    other_sweep = json.loads(json.dumps(tiny.spec("small")))
-    other_sweep["sweeps"][0]["values"] = [6, 9]
+    small = tiny.spec("small")
+    other_sweep = dataclasses.replace(small, sweeps=(
+        dataclasses.replace(small.sweeps[0], values=(6, 9)),))
     other_scene = dataclasses.replace(tiny, overrides=("rods.catheter.tip_load.mass=0.02",))
     # Each refusal names what differs: a spec key, the sweep entry, the base scene's key.
     for other, named in ((tiny.spec("full"), ["size: 'small' in the parts folder, 'full' now",
@@ -543,7 +547,7 @@ def test_parts_folder_of_another_spec_is_refused_and_left_alone(tmp_path, spec):
     # an older rodsim's, which recorded none) is refused, naming rodsim_version.
     marker = json.loads((parts / "spec.json").read_text(encoding="utf-8"))
     assert marker["rodsim_version"] == rodsim.__version__
-    assert marker["spec"] == json.loads(json.dumps(tiny.spec("small")))
+    assert marker["spec"] == tiny.spec("small").to_dict()
     for stored, named in ((marker | {"rodsim_version": "0.0.1"}, "rodsim 0.0.1, this is rodsim"),
                           (marker["spec"], "older rodsim")):
         (parts / "spec.json").write_text(json.dumps(stored), encoding="utf-8")
@@ -576,7 +580,7 @@ def test_rerun_study_reproduces_stored_centerlines(study_run):
     dataset = read_dataset(output)
     records, largest = rerun_study(dataset)
     assert sorted(tuple(r["index"]) for r in records) == sorted(grid_points(
-        json.loads(dataset.attrs["spec_json"])))
+        StudySpec.from_json(dataset.attrs["spec_json"])))
     assert largest < 1e-12
     for record in records:
         assert record["status"] == STATUS["ok"]

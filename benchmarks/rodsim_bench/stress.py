@@ -30,7 +30,6 @@ from __future__ import annotations
 
 import functools
 import itertools
-import json
 import math
 import re
 from pathlib import Path
@@ -341,8 +340,7 @@ def run(size: str, output_dir: Path, progress=None) -> list[Path]:
     from rodsim.io.archive import read_dataset
 
     spec = study.spec(size)
-    if output.exists() and read_dataset(output).attrs.get("spec_json") == json.dumps(
-            spec, sort_keys=True):
+    if output.exists() and read_dataset(output).attrs.get("spec_json") == spec.to_json():
         # Already complete: re-derive outcomes, table and figure; keep the machine it ran on.
         ds = read_dataset(output)
     else:

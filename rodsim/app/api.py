@@ -95,16 +95,16 @@ def solve(scene: SceneLike | None = None, integrator: str | None = None, *,
     """
     started = time.perf_counter()
     loaded = load_scene(scene, overrides, f"solver.{integrator}" if integrator else "")
-    solver = loaded.data["solver"]
-    name = integrator or solver["integrator"]
+    solver = loaded.solver
+    name = integrator or solver.integrator
     integrators = registered_integrators()
     if name not in integrators:
         raise SceneError(f"integrator {name!r}: unknown; allowed: " + ", ".join(integrators))
     if model is None or model.scene is not loaded:
         check_memory(loaded)
         model = Model(loaded)
-    runner = integrators[name](model, integrators[name].options_of(loaded), solver["tolerance"],
-                               solver["max_wall_time"], progress, budget_start=started,
+    runner = integrators[name](model, integrators[name].options_of(loaded), solver.tolerance,
+                               solver.max_wall_time, progress, budget_start=started,
                                initial_state=initial_state)
     return runner.solve()
 

@@ -222,7 +222,7 @@ def reference_centerlines(ds: xr.Dataset, kinds: Sequence[str] | None = None
     :func:`~rodsim.core.analytic.reference.reference_centerline`. Points whose scene does not
     qualify, or is invalid, are left out.
     """
-    from rodsim.app.study import point_scene
+    from rodsim.app.study import StudySpec, point_scene
     from rodsim.core.analytic.reference import (
         REFERENCE_KINDS,
         cantilever_reference,
@@ -230,16 +230,17 @@ def reference_centerlines(ds: xr.Dataset, kinds: Sequence[str] | None = None
     )
 
     spec_json = ds.attrs.get("spec_json")
-    spec = json.loads(spec_json) if spec_json else {}
-    kinds = [k for k in (kinds or [spec.get("reference")]) if k in REFERENCE_KINDS]
+    spec = StudySpec.from_json(spec_json) if spec_json else None
+    wanted = kinds or [spec.reference if spec is not None else None]
+    kinds = [k for k in wanted if k in REFERENCE_KINDS]
     out: dict[str, dict[tuple[int, ...], np.ndarray]] = {k: {} for k in kinds}
-    if not spec or not kinds:
+    if spec is None or not kinds:
         return out
     sigma = ds["sigma"].values
     for index in _indices(ds, _sweep_dims(ds)):
         try:
             scene = point_scene(spec, index)
-            s = sigma * float(next(iter(scene.data["rods"].values()))["length"])
+            s = sigma * next(iter(scene.rods.values())).length
             cantilever = (cantilever_reference(scene) if set(kinds) - {"arc"} else None)
             for kind in kinds:
                 if kind == "arc":

@@ -17,7 +17,7 @@ import json
 import pkgutil
 import re
 import traceback
-from dataclasses import asdict, dataclass
+from dataclasses import dataclass, fields
 from typing import Any
 
 import numpy as np
@@ -31,8 +31,8 @@ from rodsim.io.compare import largest_distance
 from rodsim.io.provenance import archive_attributes
 from rodsim.io.run_dataset import step_coordinate
 
-__all__ = ["Sweep", "Study", "StudyError", "available_studies", "load_study",
-           "evaluate_point", "assemble", "rerun_study", "STATUS"]
+__all__ = ["Sweep", "Study", "StudySpec", "SweepSpec", "StudyError", "available_studies",
+           "load_study", "evaluate_point", "assemble", "rerun_study", "STATUS"]
 
 #: Point status codes stored in the ``status`` variable.
 #: Per-point statistics copied from the run (see rodsim.solvers.result.STAT_DOCS).
@@ -108,8 +108,8 @@ class Study:
     history: bool = False
     sigma_points: int = 101
 
-    def spec(self, size: str) -> dict[str, Any]:
-        """Everything a worker needs to run this study's points: JSON-able."""
+    def spec(self, size: str) -> StudySpec:
+        """Everything a worker needs to run this study's points (JSON-able, picklable)."""
         if size not in self.sweeps:
             raise StudyError(f"study {self.name!r} has no size {size!r}; sizes: "
                              + ", ".join(self.sweeps))
@@ -121,51 +121,158 @@ class Study:
             scene = load_scene(self.scene, self.overrides)
         except SceneError as exc:
             raise StudyError(f"study {self.name!r}: {exc}") from None
-        return {
-            "name": self.name, "title": self.title, "paper": self.paper, "size": size,
-            "integrator": self.integrator, "reference": self.reference, "plot": self.plot,
-            "history": self.history, "sigma_points": self.sigma_points,
-            "base_scene_json": scene.to_json(), "base_scene_toml": scene.source,
-            "sweeps": [asdict(s) | {"key": s.key if isinstance(s.key, str) else list(s.key),
-                                    "values": [v if not isinstance(v, tuple) else list(v)
-                                               for v in s.values],
-                                    "labels": None if s.labels is None else list(s.labels)}
-                       for s in self.sweeps[size]],
-        }
+        spec = StudySpec(
+            name=self.name, title=self.title, paper=self.paper, size=size,
+            integrator=self.integrator, reference=self.reference, plot=self.plot,
+            history=self.history, sigma_points=self.sigma_points,
+            base_scene_json=scene.to_json(), base_scene_toml=scene.source,
+            sweeps=tuple(SweepSpec(s.name, s.key, s.values, s.units, s.long_name, s.labels)
+                         for s in self.sweeps[size]))
+        return StudySpec.from_json(spec.to_json())  # as it reads back: tuples become lists
 
 
-def grid_shape(spec: dict[str, Any]) -> tuple[int, ...]:
-    return tuple(len(s["values"]) for s in spec["sweeps"])
+@dataclass(frozen=True)
+class SweepSpec:
+    """One sweep of a :class:`StudySpec`, as stored: ``key`` a scene key or a tuple of keys
+    swept together, ``values`` the scene values (JSON values: a list where a declaration
+    has a tuple), ``labels`` the coordinate values or ``None`` (see :class:`Sweep`)."""
+
+    name: str
+    key: str | tuple[str, ...]
+    values: tuple[Any, ...]
+    units: str = "1"
+    long_name: str = ""
+    labels: tuple[Any, ...] | None = None
+
+    @property
+    def coordinate(self) -> tuple[Any, ...]:
+        return self.labels if self.labels is not None else self.values
+
+    def scene_values(self, i: int) -> dict[str, Any]:
+        """The scene values of the sweep's ``i``-th point, by scene key."""
+        if isinstance(self.key, str):
+            return {self.key: self.values[i]}
+        return dict(zip(self.key, self.values[i], strict=True))
+
+    def to_dict(self) -> dict[str, Any]:
+        """The sweep as a JSON object (the layout of ``spec_json``'s ``sweeps``)."""
+        return {"name": self.name,
+                "key": self.key if isinstance(self.key, str) else list(self.key),
+                "values": [list(v) if isinstance(v, tuple) else v for v in self.values],
+                "units": self.units, "long_name": self.long_name,
+                "labels": None if self.labels is None else list(self.labels)}
+
+    @classmethod
+    def from_dict(cls, data: dict[str, Any]) -> SweepSpec:
+        key = data["key"]
+        labels = data.get("labels")
+        return cls(data["name"], key if isinstance(key, str) else tuple(key),
+                   tuple(data["values"]), data.get("units", "1"), data.get("long_name", ""),
+                   None if labels is None else tuple(labels))
 
 
-def grid_points(spec: dict[str, Any]) -> list[tuple[int, ...]]:
+@dataclass(frozen=True)
+class StudySpec:
+    """One size of a study, resolved: everything a worker needs to run its points, and what
+    a study archive stores as ``spec_json`` (:meth:`to_json`) to re-run them without the
+    study file. :meth:`from_json` reads what :meth:`to_json` (or any earlier rodsim) wrote.
+
+    Attributes
+    ----------
+    name, title, paper, integrator, reference, plot, history, sigma_points
+        As in the :class:`Study` declaration.
+    size
+        ``small`` or ``full``.
+    base_scene_json, base_scene_toml
+        The resolved base scene (:meth:`Scene.to_json`) and its file's text.
+    sweeps
+        The grid, one :class:`SweepSpec` per dimension.
+    """
+
+    name: str
+    title: str
+    paper: str
+    size: str
+    integrator: str | None
+    reference: str | None
+    plot: str
+    history: bool
+    sigma_points: int
+    base_scene_json: str
+    base_scene_toml: str
+    sweeps: tuple[SweepSpec, ...]
+
+    def to_dict(self) -> dict[str, Any]:
+        """The spec as a JSON object (the layout of ``spec_json``)."""
+        out = {f.name: getattr(self, f.name) for f in fields(self) if f.name != "sweeps"}
+        return out | {"sweeps": [sweep.to_dict() for sweep in self.sweeps]}
+
+    def to_json(self) -> str:
+        """Canonical JSON (sorted keys): byte for byte what study archives store."""
+        return json.dumps(self.to_dict(), sort_keys=True)
+
+    @classmethod
+    def from_dict(cls, data: dict[str, Any]) -> StudySpec:
+        """The spec of a JSON object as :meth:`to_dict` writes it (StudyError if it is not
+        one)."""
+        try:
+            return cls(**{f.name: data[f.name] for f in fields(cls)
+                          if f.name not in ("sweeps", "base_scene_toml")},
+                       base_scene_toml=data.get("base_scene_toml", ""),
+                       sweeps=tuple(SweepSpec.from_dict(s) for s in data["sweeps"]))
+        except (KeyError, TypeError, AttributeError) as exc:
+            raise StudyError(f"not a study spec ({type(exc).__name__}: {exc})") from None
+
+    @classmethod
+    def from_json(cls, text: str) -> StudySpec:
+        """The spec stored as ``text`` (an archive's ``spec_json``)."""
+        try:
+            data = json.loads(text)
+        except (ValueError, RecursionError):
+            raise StudyError("study spec: not valid JSON, or nested too deeply") from None
+        if not isinstance(data, dict):
+            raise StudyError(f"study spec: not a JSON object (got {type(data).__name__})")
+        return cls.from_dict(data)
+
+    def base_scene(self) -> Scene:
+        """The resolved base scene."""
+        return Scene.from_json(self.base_scene_json, self.base_scene_toml)
+
+    @property
+    def rod_names(self) -> list[str]:
+        """The base scene's rods, in scene order."""
+        return list(json.loads(self.base_scene_json)["rods"])
+
+
+def grid_shape(spec: StudySpec) -> tuple[int, ...]:
+    return tuple(len(s.values) for s in spec.sweeps)
+
+
+def grid_points(spec: StudySpec) -> list[tuple[int, ...]]:
     """Every point of the grid as a tuple of indices, in C order."""
     return list(itertools.product(*(range(n) for n in grid_shape(spec))))
 
 
-def point_scene(spec: dict[str, Any], index: tuple[int, ...]) -> Scene:
+def point_scene(spec: StudySpec, index: tuple[int, ...]) -> Scene:
     """The scene of one grid point: the base scene with each sweep's value set."""
-    base = Scene.from_json(spec["base_scene_json"], spec.get("base_scene_toml", ""))
     values: dict[str, Any] = {}
-    for sweep, i in zip(spec["sweeps"], index, strict=True):
-        if isinstance(sweep["key"], str):
-            values[sweep["key"]] = sweep["values"][i]
-        else:
-            values.update(zip(sweep["key"], sweep["values"][i], strict=True))
-    return base.with_values(values)
+    for sweep, i in zip(spec.sweeps, index, strict=True):
+        values.update(sweep.scene_values(i))
+    return spec.base_scene().with_values(values)
 
 
-def evaluate_point(spec: dict[str, Any], index: tuple[int, ...]) -> dict[str, Any]:
+def evaluate_point(spec: StudySpec, index: tuple[int, ...]) -> dict[str, Any]:
     """Solve one grid point; never raises: a failure is recorded with its status and message.
 
-    Runs in worker processes (local pool or dask), so it takes and returns plain data.
+    Runs in worker processes (local pool or dask): it takes a picklable spec and returns
+    plain data.
     """
     from rodsim.app.api import solve
 
     record: dict[str, Any] = {"index": list(index)}
     try:
         scene = point_scene(spec, index)
-        result = solve(scene, spec["integrator"] or scene.data["solver"]["integrator"])
+        result = solve(scene, spec.integrator or scene.solver.integrator)
     except SceneError as exc:
         return record | {"status": STATUS["error"], "message": f"bad scene value: {exc}"}
     except Exception as exc:  # a bug must not stop the study: record it
@@ -179,7 +286,7 @@ def evaluate_point(spec: dict[str, Any], index: tuple[int, ...]) -> dict[str, An
     }
     if not result.success:  # the state a failed solver stopped in is no result: store none
         return record
-    sigma = np.linspace(0.0, 1.0, spec["sigma_points"])
+    sigma = np.linspace(0.0, 1.0, spec.sigma_points)
     record |= {
         "quaternion_norm_error": result.quaternion_norm_error,
         "tip": {name: shape.tip.tolist() for name, shape in result.rods.items()},
@@ -188,17 +295,17 @@ def evaluate_point(spec: dict[str, Any], index: tuple[int, ...]) -> dict[str, An
     }
     first = next(iter(result.rods.values()))
     length = float(first.s[-1])
-    if spec["reference"] in REFERENCE_KINDS:
-        reference = reference_centerline(scene, spec["reference"], sigma * length)
+    if spec.reference in REFERENCE_KINDS:
+        reference = reference_centerline(scene, spec.reference, sigma * length)
         if reference is not None:
             mine = np.asarray(record["centerline"][next(iter(result.rods))])
             record["tip_error"] = float(np.linalg.norm(mine[-1] - reference[-1]) / length)
             record["area_error"] = ribbon_area(mine, reference) / length
-            if spec["history"]:
+            if spec.history:
                 tips = np.asarray(result.history.get("tip", []), dtype=float).reshape(-1, 3)
                 record["history_error"] = (np.linalg.norm(tips - reference[-1], axis=1)
                                            / length).tolist()
-    if spec["history"]:
+    if spec.history:
         record["history_time"] = list(result.history.get("time", []))
         record["history_tip"] = list(result.history.get("tip", []))
     return record
@@ -224,17 +331,17 @@ def ribbon_area(a: np.ndarray, b: np.ndarray) -> float:
     return float(np.sum(np.abs(signed)))
 
 
-def assemble(spec: dict[str, Any], records: list[dict[str, Any]]) -> xr.Dataset:
+def assemble(spec: StudySpec, records: list[dict[str, Any]]) -> xr.Dataset:
     """One Dataset for the whole study, a dimension per swept parameter (module docstring)."""
     shape = grid_shape(spec)
-    dims = tuple(s["name"] for s in spec["sweeps"])
+    dims = tuple(s.name for s in spec.sweeps)
     by_index = {tuple(r["index"]): r for r in records}
     missing = [i for i in grid_points(spec) if i not in by_index]
     if missing:
         raise StudyError(f"{len(missing)} grid points have no record, e.g. {missing[0]}")
     ok = [r for r in records if "tip" in r]
-    rods = list(ok[0]["tip"]) if ok else list(json.loads(spec["base_scene_json"])["rods"])
-    sigma = np.linspace(0.0, 1.0, spec["sigma_points"])
+    rods = list(ok[0]["tip"]) if ok else spec.rod_names
+    sigma = np.linspace(0.0, 1.0, spec.sigma_points)
 
     def grid(fill: Any, tail: tuple[int, ...] = (), dtype: Any = float) -> np.ndarray:
         return np.full(shape + tail, fill, dtype=dtype)
@@ -242,7 +349,7 @@ def assemble(spec: dict[str, Any], records: list[dict[str, Any]]) -> xr.Dataset:
     status = grid(STATUS["error"], dtype=np.int8)
     message = grid("", dtype=object)
     # Errors only against a reference: a study without one stores no error variables.
-    errors = ("tip_error", "area_error") if spec["reference"] in REFERENCE_KINDS else ()
+    errors = ("tip_error", "area_error") if spec.reference in REFERENCE_KINDS else ()
     scalars = {k: grid(np.nan) for k in ("residual", "quaternion_norm_error", *errors,
                                          *POINT_STATS)}
     tip = grid(np.nan, (len(rods), 3))
@@ -281,8 +388,8 @@ def assemble(spec: dict[str, Any], records: list[dict[str, Any]]) -> xr.Dataset:
     docs = {
         "residual": ("1", "final scaled force residual"),
         "quaternion_norm_error": ("1", "largest | |q| - 1 |"),
-        "tip_error": ("1", f"tip distance to the {spec['reference']} reference / L"),
-        "area_error": ("m", f"area between the centerline and the {spec['reference']} "
+        "tip_error": ("1", f"tip distance to the {spec.reference} reference / L"),
+        "area_error": ("m", f"area between the centerline and the {spec.reference} "
                             "reference / L (Fig. 21)"),
         "steps": ("1", "integrator steps"), "newton_iters": ("1", "Newton iterations"),
         "force_evals": ("1", "force evaluations"), "jacobian_evals": ("1", "Jacobian evaluations"),
@@ -291,7 +398,7 @@ def assemble(spec: dict[str, Any], records: list[dict[str, Any]]) -> xr.Dataset:
     for key, values in scalars.items():
         units, long_name = docs[key]
         data_vars[key] = (dims, values, {"units": units, "long_name": long_name})
-    if spec["history"]:
+    if spec.history:
         data_vars["history_time"] = (dims + ("step",), history["history_time"],
                                      {"units": "s", "long_name": "pseudo-time after each step"})
         data_vars["history_tip"] = (dims + ("step", "axis"), history["history_tip"],
@@ -299,35 +406,34 @@ def assemble(spec: dict[str, Any], records: list[dict[str, Any]]) -> xr.Dataset:
         if errors:
             data_vars["history_error"] = (
                 dims + ("step",), history["history_error"],
-                {"units": "1", "long_name": f"tip distance to the {spec['reference']} "
+                {"units": "1", "long_name": f"tip distance to the {spec.reference} "
                  "reference / L after each step"})
     coords: dict[str, Any] = {
         "rod": ("rod", rods, {"long_name": "rod"}),
         "sigma": ("sigma", sigma, {"units": "1", "long_name": "normalised rest arc length s/L"}),
         "axis": ("axis", ["x", "y", "z"], {"long_name": "world axis"}),
     }
-    for s in spec["sweeps"]:
-        labels = np.asarray(s["labels"] if s["labels"] is not None else s["values"])
-        key = s["key"] if isinstance(s["key"], str) else ", ".join(s["key"])
-        attrs = {"units": s["units"], "long_name": s["long_name"] or key, "scene_key": key}
+    for s in spec.sweeps:
+        labels = np.asarray(s.coordinate)
+        key = s.key if isinstance(s.key, str) else ", ".join(s.key)
+        attrs = {"units": s.units, "long_name": s.long_name or key, "scene_key": key}
         if not np.issubdtype(labels.dtype, np.number):  # names ("corde", "on"): no units
             del attrs["units"]
-        coords[s["name"]] = (s["name"], labels, attrs)
-    if spec["history"]:
+        coords[s.name] = (s.name, labels, attrs)
+    if spec.history:
         coords.update(step_coordinate(steps))
     ds = xr.Dataset(data_vars, coords)
-    if spec["reference"] == "last":
-        base = json.loads(spec["base_scene_json"])
-        _score_against_last(ds, dims[0], float(base["rods"][rods[0]]["length"]))
+    if spec.reference == "last":
+        _score_against_last(ds, dims[0], spec.base_scene().rods[rods[0]].length)
     ds.attrs.update({
-        "title": f"rodsim study {spec['name']}: {spec['title']}",
-        **archive_attributes(f"rodsim.app.study.assemble(study {spec['name']!r}, "
-                              f"size {spec['size']!r})"),
-        "study": spec["name"], "size": spec["size"], "paper": spec["paper"],
-        "integrator": str(spec["integrator"] or "per point (solver.integrator)"),
-        "reference": str(spec["reference"]),
-        "plot": spec["plot"], "spec_json": json.dumps(spec, sort_keys=True),
-        "scene_json": spec["base_scene_json"], "scene_toml": spec.get("base_scene_toml", ""),
+        "title": f"rodsim study {spec.name}: {spec.title}",
+        **archive_attributes(f"rodsim.app.study.assemble(study {spec.name!r}, "
+                              f"size {spec.size!r})"),
+        "study": spec.name, "size": spec.size, "paper": spec.paper,
+        "integrator": str(spec.integrator or "per point (solver.integrator)"),
+        "reference": str(spec.reference),
+        "plot": spec.plot, "spec_json": spec.to_json(),
+        "scene_json": spec.base_scene_json, "scene_toml": spec.base_scene_toml,
         "schema_version": SCHEMA_VERSION,
         "points": int(np.prod(shape)), "failed_points": int(np.sum(status != STATUS["ok"])),
     })
@@ -386,8 +492,8 @@ def rerun_study(dataset: xr.Dataset, select: dict[str, Any] | None = None
     centerlines (infinite when a point's success differs from the stored one, or either
     centerline holds a NaN).
     """
-    spec = json.loads(dataset.attrs["spec_json"])
-    dims = [s["name"] for s in spec["sweeps"]]
+    spec = StudySpec.from_json(dataset.attrs["spec_json"])
+    dims = [s.name for s in spec.sweeps]
     select = dict(select or {})
     values = {d: [v.item() for v in dataset[d].values] for d in dims}
 

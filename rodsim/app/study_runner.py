@@ -40,6 +40,7 @@ from rodsim.app.study import (
     STATUS,
     Study,
     StudyError,
+    StudySpec,
     assemble,
     evaluate_point,
     grid_points,
@@ -68,7 +69,7 @@ WORKER_DIED = "worker process died"
 #: A callable run in the worker process (local or dask; never the in-process runner) with
 #: ``(spec, index)`` before each grid point: the tests inject faults through it (a worker
 #: that dies or hangs). It must pickle (a module-level function or class instance).
-PointHook = Callable[[dict[str, Any], tuple[int, ...]], None]
+PointHook = Callable[[StudySpec, tuple[int, ...]], None]
 
 #: The hook :func:`run_spec` uses when given none (None: no hook). For the tests, which set it
 #: (also in a child process before it runs the CLI); production code never does.
@@ -188,17 +189,16 @@ def spec_differences(old: dict[str, Any], new: dict[str, Any]) -> list[str]:
     return lines
 
 
-def _marker(spec: dict[str, Any]) -> dict[str, Any]:
-    return {"spec": spec, "rodsim_version": __version__, "git_commit": git_commit(),
+def _marker(spec: StudySpec) -> dict[str, Any]:
+    return {"spec": spec.to_dict(), "rodsim_version": __version__, "git_commit": git_commit(),
             "git_dirty": git_dirty()}
 
 
-def _open_parts(folder: Path, spec: dict[str, Any],
+def _open_parts(folder: Path, spec: StudySpec,
                 log: StudyLog) -> dict[tuple[int, ...], dict[str, Any]]:
     """Create the parts folder, or check it belongs to this spec and rodsim version and load
     its records (an unreadable record is reported and its point runs again)."""
     marker = folder / MARKER
-    spec = json.loads(json.dumps(spec))  # as it reads back from JSON: tuples become lists
     if folder.exists():
         if not marker.is_file():
             raise StudyError(f"{folder} exists but is not a rodsim study's parts folder "
@@ -223,7 +223,7 @@ def _open_parts(folder: Path, spec: dict[str, Any],
                              f"{stored['rodsim_version']}, this is rodsim {__version__} "
                              "(rodsim_version differs); remove it or write the study "
                              "elsewhere (-o)")
-        differences = spec_differences(stored.get("spec", {}), spec)
+        differences = spec_differences(stored.get("spec", {}), spec.to_dict())
         if differences:
             more = f" (and {len(differences) - 3} more)" if len(differences) > 3 else ""
             raise StudyError(f"{folder} holds points of a different study definition: "
@@ -248,12 +248,12 @@ def _open_parts(folder: Path, spec: dict[str, Any],
                 raise StudyError(f"cannot create {folder}: {_reason(exc)}") from None
             raise
     grid = set(grid_points(spec))
-    rods = list(json.loads(spec["base_scene_json"])["rods"])
+    rods = spec.rod_names
     records = {}
     for path in sorted(folder.glob("point-*.json")):
         try:
             record = json.loads(path.read_text(encoding="utf-8"))
-            check_point_record(record, spec, rods, POINT_STATS)
+            check_point_record(record, spec.sigma_points, rods, POINT_STATS)
             index = tuple(record["index"]) if isinstance(record["index"], list) else None
             if index not in grid or _point_file(folder, index).name != path.name:
                 raise ValueError(f"index {str(record['index'])[:40]} does not belong in "
@@ -275,7 +275,7 @@ def _died(index: tuple[int, ...], detail: str) -> dict[str, Any]:
             "message": f"{WORKER_DIED} while running this point ({detail})"}
 
 
-def _run_point(spec: dict[str, Any], index: tuple[int, ...],
+def _run_point(spec: StudySpec, index: tuple[int, ...],
                hook: PointHook | None = None) -> dict[str, Any]:
     """:func:`evaluate_point` in a worker process, after the injected ``hook`` if any."""
     if hook is not None:
@@ -283,7 +283,7 @@ def _run_point(spec: dict[str, Any], index: tuple[int, ...],
     return evaluate_point(spec, index)
 
 
-def _run_local(spec: dict[str, Any], todo: list[tuple[int, ...]], workers: int,
+def _run_local(spec: StudySpec, todo: list[tuple[int, ...]], workers: int,
                persist: Callable[[dict[str, Any]], None], log: StudyLog,
                hook: PointHook | None = None) -> None:
     """The points of ``todo`` on the shared worker pool (rodsim/app/worker_pool.py)."""
@@ -328,7 +328,7 @@ def _connect(scheduler: str) -> tuple[Any, Any]:
         raise StudyError(f"cannot reach the dask scheduler {scheduler!r}: {reason}") from None
 
 
-def _run_dask(client: Any, spec: dict[str, Any], todo: list[tuple[int, ...]],
+def _run_dask(client: Any, spec: StudySpec, todo: list[tuple[int, ...]],
               persist: Callable[[dict[str, Any]], None], log: StudyLog,
               hook: PointHook | None = None) -> None:
     from concurrent.futures import CancelledError
@@ -383,7 +383,7 @@ def _run_dask(client: Any, spec: dict[str, Any], todo: list[tuple[int, ...]],
 # The study -----------------------------------------------------------------------------------
 
 
-def run_spec(spec: dict[str, Any], output: str | Path, *, workers: int | None = None,
+def run_spec(spec: StudySpec, output: str | Path, *, workers: int | None = None,
              scheduler: str | None = None, progress: StudyProgress | None = None,
              keep_parts: bool = False, log: StudyLog | None = None,
              point_hook: PointHook | None = None) -> xr.Dataset:

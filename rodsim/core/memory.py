@@ -24,7 +24,7 @@ BYTES_PER_NODE = 25_000
 
 def estimated_bytes(scene: Scene) -> int:
     """Estimated peak memory [bytes] of solving ``scene``."""
-    return BYTES_PER_NODE * sum(int(rod["nodes"]) for rod in scene.data["rods"].values())
+    return BYTES_PER_NODE * sum(rod.nodes for rod in scene.rods.values())
 
 
 def physical_memory() -> int | None:

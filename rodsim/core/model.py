@@ -62,7 +62,7 @@ class Model:
     """
 
     def __init__(self, scene: Scene, kernels: str | None = None) -> None:
-        self.kernels = kernels or scene.data["solver"]["kernels"]
+        self.kernels = kernels or scene.solver.kernels
         if self.kernels not in KERNELS:
             raise ValueError(f"kernels {self.kernels!r}: allowed {', '.join(KERNELS)}")
         self._assemble(scene)
@@ -75,30 +75,33 @@ class Model:
         """Rods, terms, tendons, the rest state and the free coordinates (in full-state order)
         of ``scene``."""
         self.scene = scene
-        tendons = scene.data["tendons"]
+        tendons = scene.tendons
         self.rods: dict[str, Rod] = {}
         offset = 0
         # Catheters first, so a tendon's base can be placed in its catheter's lumen.
-        for name in sorted(scene.data["rods"], key=lambda n: n in tendons):
-            params = scene.data["rods"][name]
-            layout = RodLayout(params["nodes"], offset)
-            origin = (tendon_origin(self.rods[tendons[name]["catheter"]], tendons[name])
-                      if name in tendons else np.asarray(params["origin"], dtype=float))
-            self.rods[name] = Rod(name, params, layout, origin)
+        rods = scene.rods
+        for name in sorted(rods, key=lambda n: n in tendons):
+            options = rods[name]
+            layout = RodLayout(options.nodes, offset)
+            origin = (tendon_origin(self.rods[tendons[name].catheter], tendons[name])
+                      if name in tendons else np.asarray(options.origin, dtype=float))
+            self.rods[name] = Rod(name, options, layout, origin)
             offset += layout.size
-        self.rods = {name: self.rods[name] for name in scene.data["rods"]}
+        self.rods = {name: self.rods[name] for name in rods}
         self.full_size = offset
         catalogue = registered_terms()
         self.terms: list[Term] = []
         for rod in self.rods.values():
-            for term_name in rod.params["terms"]:
-                self.terms.append(catalogue[term_name](rod, rod.params[term_name]))
+            for term_name in rod.options.terms:
+                self.terms.append(catalogue[term_name](
+                    rod, scene.term_options("rods", rod.name, term_name)))
         #: The scene's tendons (lumen geometry shared by their coupling terms).
-        self.tendons = {name: Tendon.of(name, self.rods, table)
-                        for name, table in tendons.items()}
-        for name, table in tendons.items():
-            for term_name in table["terms"]:
-                self.terms.append(catalogue[term_name](self.tendons[name], table[term_name]))
+        self.tendons = {name: Tendon.of(name, self.rods, options)
+                        for name, options in tendons.items()}
+        for name, options in tendons.items():
+            for term_name in options.terms:
+                self.terms.append(catalogue[term_name](
+                    self.tendons[name], scene.term_options("tendons", name, term_name)))
         #: Factor on each term's output: 1, or a penalty continuation scale.
         self.term_scales = np.ones(len(self.terms))
         self._scale_list = self.term_scales.tolist()  # as floats, for the evaluation loops

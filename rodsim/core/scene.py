@@ -39,12 +39,13 @@ from pathlib import Path
 from typing import Any
 
 from rodsim.core.names import check_rod_name, check_scene_name
-from rodsim.core.rod.rod import ROD_PARAMETERS
+from rodsim.core.rod.rod import ROD_PARAMETERS, RodOptions
 from rodsim.core.scene_file import parse_toml, read_scene_text
-from rodsim.core.schema import Parameter, SceneError, shown, validate_table
-from rodsim.core.tendon import TENDON_PARAMETERS, check_tendon
+from rodsim.core.schema import Parameter, SceneError, options_type, shown, validate_table
+from rodsim.core.tendon import TENDON_PARAMETERS, TendonOptions, check_tendon
 
-__all__ = ["Scene", "SceneError", "SOLVER_PARAMETERS", "default_scene_path", "scene_paths"]
+__all__ = ["Scene", "SceneError", "SOLVER_PARAMETERS", "SolverSettings", "default_scene_path",
+           "scene_paths"]
 
 SOLVER_PARAMETERS: tuple[Parameter, ...] = (
     Parameter("integrator", "str", "cvode", "-",
@@ -61,6 +62,12 @@ SOLVER_PARAMETERS: tuple[Parameter, ...] = (
               "'numpy' (the readable reference; same numbers)",
               choices=("compiled", "numpy")),
 )
+
+#: The generic solver settings, typed (one field per :data:`SOLVER_PARAMETERS`); each
+#: integrator's own ``[solver.<name>]`` options are its ``Options``
+#: (:meth:`rodsim.solvers.base.Integrator.options_of`).
+SolverSettings = options_type("SolverSettings", SOLVER_PARAMETERS,
+                              "The generic solver settings of a scene ([solver]).")
 
 _TOP_KEYS = ("name", "description", "rods", "tendons", "solver")
 
@@ -148,6 +155,38 @@ class Scene:
     @property
     def name(self) -> str:
         return str(self.data["name"])
+
+    @property
+    def description(self) -> str:
+        return str(self.data["description"])
+
+    @property
+    def solver(self) -> Any:
+        """The generic solver settings, a :data:`SolverSettings` (a view of ``data``)."""
+        return SolverSettings.of(self.data["solver"])
+
+    @property
+    def rods(self) -> dict[str, Any]:
+        """Each rod's own values by name, as :data:`~rodsim.core.rod.rod.RodOptions` (views
+        of ``data``; the per-term sub-tables are read with :meth:`term_table`)."""
+        return {name: RodOptions.of(table) for name, table in self.data["rods"].items()}
+
+    @property
+    def tendons(self) -> dict[str, Any]:
+        """Each tendon's own values by its rod's name, as
+        :data:`~rodsim.core.tendon.TendonOptions` (views of ``data``)."""
+        return {name: TendonOptions.of(table) for name, table in self.data["tendons"].items()}
+
+    def term_options(self, owner: str, name: str, term: str) -> Any:
+        """The options of term ``term`` of rod or tendon ``name`` (``owner`` is ``"rods"`` or
+        ``"tendons"``), as the term's ``Options`` (a view of ``data``); ``None`` when that
+        table does not list the term."""
+        from rodsim.core.terms import registered_terms
+
+        table = self.data[owner][name]
+        if term not in table["terms"]:
+            return None
+        return registered_terms()[term].Options.of(table[term])
 
     def full_key(self, key: str, prefer: str = "") -> str:
         """The full dotted key that ``key`` names (the short forms of :meth:`with_overrides`;
@@ -245,15 +284,18 @@ def resolve(raw: Mapping[str, Any]) -> dict[str, Any]:
         prefix = f"tendons.{check_rod_name(rod, 'tendons')}"
         tendons[rod] = _resolve_with_terms(table, TENDON_PARAMETERS, tendon_terms, terms,
                                            prefix)
-        check_tendon(rod, tendons[rod], rods, prefix, tendons_raw.keys())
+        term_options = {term: terms[term].Options.of(tendons[rod][term])
+                        for term in tendons[rod]["terms"]}
+        check_tendon(rod, tendons[rod], rods, prefix, tendons_raw.keys(), term_options)
     for rod, table in rods.items():
-        if not table["terms"]:
+        options = RodOptions.of(table)
+        if not options.terms:
             raise SceneError(f"rods.{rod}.terms = []: a rod needs at least one term; allowed: "
                              "a list of distinct names from: " + ", ".join(rod_terms))
-        if table["radius"] >= table["length"]:
-            raise SceneError(f"rods.{rod}.radius = {table['radius']!r}: not below the length "
-                             f"{table['length']!r} m; allowed: radius < length (a slender rod)")
-        if table["clamp"] == "orientation" and rod not in tendons:
+        if options.radius >= options.length:
+            raise SceneError(f"rods.{rod}.radius = {options.radius!r}: not below the length "
+                             f"{options.length!r} m; allowed: radius < length (a slender rod)")
+        if options.clamp == "orientation" and rod not in tendons:
             raise SceneError(f"rods.{rod}.clamp = 'orientation': it leaves the base position "
                              "free, which only a tendon pulled at its base can have; allowed: "
                              "'frame' or 'first_segment'")

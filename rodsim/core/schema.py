@@ -252,11 +252,20 @@ KIND_TYPES: dict[str, Any] = {"float": float, "int": int, "str": str, "bool": bo
 def options_type(name: str, parameters: Iterable[Parameter], doc: str = "") -> type:
     """A frozen dataclass named ``name`` with one typed field per parameter (its default
     where it has one), so that validated options are read as attributes, not string keys.
-    Build an instance from :func:`validate_table`'s dict: ``options_type(...)(**table)``."""
+    Build an instance from :func:`validate_table`'s dict with the class method ``of(table)``
+    (which ignores keys that are not declared parameters)."""
     fields = [(p.name, KIND_TYPES[p.kind],
                dataclasses.field(default_factory=lambda d=p.default: copy.deepcopy(d))
                if isinstance(p.default, list) else dataclasses.field(default=p.default))
               for p in parameters]
-    cls = dataclasses.make_dataclass(name, fields, frozen=True)
+    cls = dataclasses.make_dataclass(name, fields, frozen=True,
+                                     namespace={"of": classmethod(_options_of)})
     cls.__doc__ = doc or f"Validated options ({', '.join(f[0] for f in fields)})."
     return cls
+
+
+def _options_of(cls: type, table: Mapping[str, Any]) -> Any:
+    """The typed view of a validated table (:func:`validate_table`'s dict): its declared
+    values only; other keys (a rod's per-term sub-tables, the ``[solver.<integrator>]``
+    tables) are left out."""
+    return cls(**{f.name: table[f.name] for f in dataclasses.fields(cls)})

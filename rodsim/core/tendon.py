@@ -19,18 +19,18 @@ Coupling variants (docs/tendon.md):
 from __future__ import annotations
 
 import math
-from collections.abc import Collection
+from collections.abc import Collection, Mapping
 from dataclasses import dataclass
 from typing import Any, NamedTuple
 
 import numpy as np
 
 from rodsim.core.rod.quaternion import DIRECTOR_FORMS, director, director_gradient
-from rodsim.core.rod.rod import Rod
-from rodsim.core.schema import Parameter, SceneError, shown
+from rodsim.core.rod.rod import Rod, RodOptions
+from rodsim.core.schema import Parameter, SceneError, options_type, shown
 
-__all__ = ["TENDON_PARAMETERS", "TENDON_TERMS", "LumenFrame", "Tendon", "check_tendon",
-           "tendon_origin"]
+__all__ = ["TENDON_PARAMETERS", "TENDON_TERMS", "LumenFrame", "Tendon", "TendonOptions",
+           "check_tendon", "tendon_origin"]
 
 #: Coupling terms a tendon uses unless its table lists others.
 TENDON_TERMS = ["lumen", "endpoint_compliance", "endpoint_coupling", "tendon_actuation"]
@@ -49,20 +49,28 @@ TENDON_PARAMETERS: tuple[Parameter, ...] = (
     Parameter("terms", "list", TENDON_TERMS, "-", "coupling terms of this tendon"),
 )
 
+#: A tendon table's own values, typed (one field per :data:`TENDON_PARAMETERS`); its
+#: per-term sub-tables are the coupling terms' own options.
+TendonOptions = options_type("TendonOptions", TENDON_PARAMETERS,
+                             "A validated tendon table's own values ([tendons.<rod>]).")
+
 
 def _unit_direction(direction: list[float]) -> tuple[float, float]:
     norm = math.hypot(*direction)
     return direction[0] / norm, direction[1] / norm
 
 
-def check_tendon(name: str, table: dict[str, Any], rods: dict[str, Any], prefix: str,
-                 tendons: Collection[str] = ()) -> None:
-    """Cross-check a resolved tendon table against the scene's rods and the other tendons
-    (raises SceneError)."""
+def check_tendon(name: str, table: Mapping[str, Any], rods: Mapping[str, Mapping[str, Any]],
+                 prefix: str, tendons: Collection[str] = (),
+                 term_options: Mapping[str, Any] | None = None) -> None:
+    """Cross-check a resolved tendon table against the scene's rods (resolved tables) and the
+    other tendons (raises SceneError); ``term_options`` holds the typed options of the
+    coupling terms the table lists, by name."""
     if name not in rods:
         raise SceneError(f"{prefix}: no rod named {shown(name)} (a tendon table is keyed by its "
                          f"rod's name); rods: {', '.join(rods)}")
-    catheter = table["catheter"]
+    options = TendonOptions.of(table)
+    catheter = options.catheter
     if catheter not in rods:
         raise SceneError(f"{prefix}.catheter = {shown(catheter)}: no such rod; rods: "
                          + ", ".join(rods))
@@ -71,52 +79,55 @@ def check_tendon(name: str, table: dict[str, Any], rods: dict[str, Any], prefix:
     if catheter in tendons:
         raise SceneError(f"{prefix}.catheter = {catheter!r}: that rod is itself a tendon; "
                          "allowed: a rod with no [tendons.<rod>] table")
-    tendon, host = rods[name], rods[catheter]
-    if tendon["length"] > host["length"] * (1 + 1e-9):
-        raise SceneError(f"rods.{name}.length = {tendon['length']!r}: the tendon is longer than "
-                         f"its catheter ({host['length']!r} m); allowed: equal lengths")
-    if tendon["length"] < host["length"] * (1 - 1e-9):
-        raise SceneError(f"rods.{name}.length = {tendon['length']!r}: the tendon must end at "
+    tendon, host = RodOptions.of(rods[name]), RodOptions.of(rods[catheter])
+    if tendon.length > host.length * (1 + 1e-9):
+        raise SceneError(f"rods.{name}.length = {tendon.length!r}: the tendon is longer than "
+                         f"its catheter ({host.length!r} m); allowed: equal lengths")
+    if tendon.length < host.length * (1 - 1e-9):
+        raise SceneError(f"rods.{name}.length = {tendon.length!r}: the tendon must end at "
                          f"the catheter's tip; allowed: the catheter's length "
-                         f"{host['length']!r} m")
-    if table["offset"] >= host["radius"]:
-        raise SceneError(f"{prefix}.offset = {table['offset']!r}: the lumen lies outside the "
-                         f"catheter; allowed: 0 < r_L < radius = {host['radius']!r} [m]")
-    if table["offset"] + tendon["radius"] >= host["radius"]:
-        raise SceneError(f"{prefix}.offset = {table['offset']!r} with rods.{name}.radius = "
-                         f"{tendon['radius']!r}: the tendon breaks through the catheter's wall; "
-                         f"allowed: r_L + tendon radius < catheter radius = {host['radius']!r} "
+                         f"{host.length!r} m")
+    if options.offset >= host.radius:
+        raise SceneError(f"{prefix}.offset = {options.offset!r}: the lumen lies outside the "
+                         f"catheter; allowed: 0 < r_L < radius = {host.radius!r} [m]")
+    if options.offset + tendon.radius >= host.radius:
+        raise SceneError(f"{prefix}.offset = {options.offset!r} with rods.{name}.radius = "
+                         f"{tendon.radius!r}: the tendon breaks through the catheter's wall; "
+                         f"allowed: r_L + tendon radius < catheter radius = {host.radius!r} "
                          "[m]")
-    if math.hypot(*table["direction"]) < 1e-12:
-        raise SceneError(f"{prefix}.direction = {table['direction']!r}: d_t has zero length; "
+    if math.hypot(*options.direction) < 1e-12:
+        raise SceneError(f"{prefix}.direction = {options.direction!r}: d_t has zero length; "
                          "allowed: any non-zero (α, β)")
-    lumen = table.get("lumen") if "lumen" in table["terms"] else None
-    if lumen is not None and table["coupling"] == "conserving" and lumen["constrain"] == "d_t":
+    term_options = term_options or {}
+    lumen = term_options.get("lumen") if "lumen" in options.terms else None
+    if lumen is not None and options.coupling == "conserving" and lumen.constrain == "d_t":
         raise SceneError(f"{prefix}.lumen.constrain = 'd_t': the conserving coupling holds a "
                          "tendon point on its lumen segment's line in both transverse "
                          "directions; allowed: 'both', or coupling = 'paper' (Eq. 34)")
-    actuation = table.get("tendon_actuation") if "tendon_actuation" in table["terms"] else None
-    proximal = actuation is not None and actuation["point"] == "proximal"
-    if proximal and tendon["clamp"] != "orientation":
-        raise SceneError(f"rods.{name}.clamp = {tendon['clamp']!r}: a tendon pulled at its "
+    actuation = (term_options.get("tendon_actuation") if "tendon_actuation" in options.terms
+                 else None)
+    proximal = actuation is not None and actuation.point == "proximal"
+    if proximal and tendon.clamp != "orientation":
+        raise SceneError(f"rods.{name}.clamp = {tendon.clamp!r}: a tendon pulled at its "
                          "proximal end needs its base free to slide; allowed: 'orientation'")
-    if tendon["clamp"] == "orientation" and not proximal:
+    if tendon.clamp == "orientation" and not proximal:
         raise SceneError(f"rods.{name}.clamp = 'orientation': nothing holds the tendon's base "
                          f"unless it is pulled there; allowed: 'frame', or "
                          f"{prefix}.tendon_actuation.point = 'proximal'")
-    if tendon["clamp"] == "first_segment":
+    if tendon.clamp == "first_segment":
         raise SceneError(f"rods.{name}.clamp = 'first_segment': a tendon's base is held by "
                          "'frame' (distal actuation) or 'orientation' (proximal actuation)")
-    if tendon["origin"] != [0.0, 0.0, 0.0]:
-        raise SceneError(f"rods.{name}.origin = {tendon['origin']!r}: a tendon is placed in its "
+    if tendon.origin != [0.0, 0.0, 0.0]:
+        raise SceneError(f"rods.{name}.origin = {tendon.origin!r}: a tendon is placed in its "
                          "lumen automatically; allowed: leave origin unset")
 
 
-def tendon_origin(catheter: Rod, table: dict[str, Any]) -> np.ndarray:
-    """Rest position of the tendon's base: the lumen point at the catheter's base (Eq. 32)."""
-    alpha, beta = _unit_direction(table["direction"])
+def tendon_origin(catheter: Rod, options: Any) -> np.ndarray:
+    """Rest position of the tendon's base: the lumen point at the catheter's base (Eq. 32);
+    ``options`` is the tendon's :data:`TendonOptions`."""
+    alpha, beta = _unit_direction(options.direction)
     frame = director(catheter.base_quaternion, 0), director(catheter.base_quaternion, 1)
-    return catheter.origin + table["offset"] * (
+    return catheter.origin + options.offset * (
         alpha * frame[0] + beta * frame[1])
 
 
@@ -150,10 +161,11 @@ class Tendon:
     coupling: str
 
     @classmethod
-    def of(cls, name: str, rods: dict[str, Rod], table: dict[str, Any]) -> Tendon:
-        alpha, beta = _unit_direction(table["direction"])
-        return cls(name, rods[name], rods[table["catheter"]], table["offset"], alpha, beta,
-                   table["coupling"])
+    def of(cls, name: str, rods: dict[str, Rod], options: Any) -> Tendon:
+        """The tendon of rod ``name`` configured by ``options`` (its :data:`TendonOptions`)."""
+        alpha, beta = _unit_direction(options.direction)
+        return cls(name, rods[name], rods[options.catheter], options.offset, alpha, beta,
+                   options.coupling)
 
     @property
     def conserving(self) -> bool:

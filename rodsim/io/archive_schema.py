@@ -194,15 +194,15 @@ def _check_run(ds: xr.Dataset, leading: tuple[str, ...] = ()) -> None:
     _labels(ds, "component", ["q1", "q2", "q3", "q4"])
     rods = _variable(ds, "rod", ("node",), numeric=False).values.astype(str)
     segment_rods = _variable(ds, "segment_rod", ("segment",), numeric=False).values.astype(str)
-    for name, table in scene.data["rods"].items():
-        nodes = int(table["nodes"])
+    for name, rod in scene.rods.items():
+        nodes = rod.nodes
         for what, stored, expected in (("control points", rods, nodes),
                                        ("segments", segment_rods, nodes - 1)):
             count = int(np.sum(stored == name))
             if count != expected:
                 raise ArchiveSchemaError(f"rod {name!r} has {count} stored {what}, its scene "
                                          f"(scene_json) says {expected}")
-    _size(ds, "node", sum(int(t["nodes"]) for t in scene.data["rods"].values()),
+    _size(ds, "node", sum(rod.nodes for rod in scene.rods.values()),
           "the scene's control points")
 
 
@@ -243,7 +243,7 @@ def _check_study(ds: xr.Dataset) -> None:
     _size(ds, "sigma", points, "spec_json sigma_points")
     _labels(ds, "axis", ["x", "y", "z"])
     rods = _variable(ds, "rod", ("rod",), numeric=False).values.astype(str)
-    if set(rods) != set(scene.data["rods"]) or len(rods) != len(scene.data["rods"]):
+    if set(rods) != set(scene.rods) or len(rods) != len(scene.rods):
         raise ArchiveSchemaError(f"coordinate 'rod' ({', '.join(rods)[:60]}) does not name "
                                  "the base scene's rods")
     _variable(ds, "status", shape)
@@ -288,12 +288,12 @@ def _number(value: Any) -> bool:
     return isinstance(value, (int, float)) and not isinstance(value, bool)
 
 
-def check_point_record(record: Any, spec: Mapping[str, Any], rods: list[str],
+def check_point_record(record: Any, sigma_points: int, rods: list[str],
                        stats: tuple[str, ...]) -> None:
     """Check one point record of a study's parts folder (as :func:`rodsim.app.study.
-    evaluate_point` writes it) for ``spec``, whose scene has ``rods`` and whose records carry
-    the statistics ``stats``. A successful point must hold finite numbers of the right
-    shapes; a failed one, its status and message."""
+    evaluate_point` writes it) for a study spec with ``sigma_points`` samples of σ, whose
+    scene has ``rods`` and whose records carry the statistics ``stats``. A successful point
+    must hold finite numbers of the right shapes; a failed one, its status and message."""
 
     if not isinstance(record, dict):
         raise ArchiveSchemaError("not a JSON object")
@@ -324,7 +324,7 @@ def check_point_record(record: Any, spec: Mapping[str, Any], rods: list[str],
     for key in ("residual", "quaternion_norm_error", "tip_error", "area_error"):
         if key in record and not _finite_number(record[key]):
             raise ArchiveSchemaError(f"{key} is not a finite number")
-    for key, shape in (("tip", (3,)), ("centerline", (spec["sigma_points"], 3))):
+    for key, shape in (("tip", (3,)), ("centerline", (sigma_points, 3))):
         stored = record[key]
         if not isinstance(stored, dict) or sorted(stored) != sorted(rods):
             raise ArchiveSchemaError(f"{key} does not name the scene's rods")

@@ -89,7 +89,7 @@ def _attributes(result: Result) -> dict[str, Any]:
         "success": int(result.success),
         "message": result.message,
         "residual": float(result.residual),
-        "solver_tolerance": float(result.scene.data["solver"]["tolerance"]),
+        "solver_tolerance": float(result.scene.solver.tolerance),
         "quaternion_norm_error": result.quaternion_norm_error,
         "scene_json": result.scene.to_json(),
         "scene_toml": result.scene.source,

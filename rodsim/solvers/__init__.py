@@ -40,11 +40,11 @@ def check_solver_options(scene: Scene) -> None:
     from rodsim.core.schema import SceneError, shown
 
     integrators = registered_integrators()
-    solver = scene.data["solver"]
-    if solver["integrator"] not in integrators:
-        raise SceneError(f"solver.integrator = {shown(solver['integrator'])}: unknown "
+    if scene.solver.integrator not in integrators:
+        raise SceneError(f"solver.integrator = {shown(scene.solver.integrator)}: unknown "
                          "integrator; allowed: " + ", ".join(integrators))
-    for name, table in solver.items():
+    # The [solver.<name>] tables are the JSON scene's own (keyed by integrator name).
+    for name, table in scene.data["solver"].items():
         if isinstance(table, dict):
             if name not in integrators:
                 raise SceneError(f"solver.{shown(name, bare=True)}: unknown key; known keys: "

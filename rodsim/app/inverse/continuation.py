@@ -149,7 +149,7 @@ class Continuation:
             return StepOutcome(False, x, np.nan, 0, "the loads are below the round-off of "
                                f"the internal forces (residual floor {model.residual_floor:.3g}"
                                f" > {MAX_RESIDUAL_FLOOR:g})"), model
-        tolerance = max(model.scene.data["solver"]["tolerance"], model.residual_floor)
+        tolerance = max(model.scene.solver.tolerance, model.residual_floor)
         total = 0
         for _ in range(MAX_SETTLES + 1):
             chord = self._chord(model, x, tolerance)

@@ -235,11 +235,11 @@ def fit(scene: Scene, points: Points, params: Sequence[str], *, rod: str | None 
 
     started = time.perf_counter()
     keys = numeric_keys(scene, params)
-    rod = rod or next(iter(scene.data["rods"]))
-    if rod not in scene.data["rods"]:
-        raise FitError(f"rod {rod!r}: no such rod; rods: {', '.join(scene.data['rods'])}")
+    rod = rod or next(iter(scene.rods))
+    if rod not in scene.rods:
+        raise FitError(f"rod {rod!r}: no such rod; rods: {', '.join(scene.rods)}")
     count = len(points.xyz)
-    length = float(scene.data["rods"][rod]["length"])
+    length = scene.rods[rod].length
     if points.s is not None and (points.s.min() < 0.0 or points.s.max() > length):
         raise FitError(f"data column s spans {points.s.min():.6g} to {points.s.max():.6g} m, "
                        f"outside the rest arc length of rod {rod!r}, 0 to {length:g} m")
@@ -254,7 +254,7 @@ def fit(scene: Scene, points: Points, params: Sequence[str], *, rod: str | None 
         j, t, interior = match(nodes, s_nodes, points)
         return (1 - t)[:, None] * nodes[j] + t[:, None] * nodes[j + 1], j, t, interior
 
-    far = np.full(points.xyz.size, 10.0 * float(scene.data["rods"][rod]["length"]))
+    far = np.full(points.xyz.size, 10.0 * scene.rods[rod].length)
 
     def residuals(u: np.ndarray) -> np.ndarray:
         # A step to values without a solvable equilibrium gets a residual far beyond any

@@ -114,13 +114,13 @@ def reach(scene: Scene, tip: Sequence[float], actuate: Sequence[str], *,
     if not tolerance > 0:
         raise SceneError(f"tolerance {tolerance!r}: must be a distance > 0 [m]")
     keys = numeric_keys(scene, actuate)
-    rod = rod or next(iter(scene.data["rods"]))
-    if rod not in scene.data["rods"]:
-        raise SceneError(f"rod {rod!r}: no such rod; rods: {', '.join(scene.data['rods'])}")
+    rod = rod or next(iter(scene.rods))
+    if rod not in scene.rods:
+        raise SceneError(f"rod {rod!r}: no such rod; rods: {', '.join(scene.rods)}")
     problem, lower, upper = ScaledEquilibria.at_scene_values(scene, keys, rod)
     initial = problem.values.copy()
 
-    far = np.full(3, 10.0 * float(scene.data["rods"][rod]["length"]))
+    far = np.full(3, 10.0 * scene.rods[rod].length)
 
     def residuals(u: np.ndarray) -> np.ndarray:
         # A step to values without a solvable equilibrium gets a residual far beyond any

@@ -178,7 +178,7 @@ class Track:
             "message": self.message,
             "ramp_json": json.dumps({k.name: self.values[:, i].tolist()
                                      for i, k in enumerate(self.keys)}),
-            "solver_tolerance": float(self.scene.data["solver"]["tolerance"]),
+            "solver_tolerance": float(self.scene.solver.tolerance),
             "scene_json": self.scene.to_json(),
             "scene_toml": self.scene.source,
             "stats_steps": float(steps),

@@ -53,14 +53,15 @@ class CantileverReference:
 
 def cantilever_reference(scene: Scene, samples: int = 201) -> CantileverReference | None:
     """The references for ``scene``'s first rod, or ``None`` if the scene does not qualify."""
-    name, rod = next(iter(scene.data["rods"].items()))
-    if len(scene.data["rods"]) > 1 or "tip_load" not in rod["terms"] or "gravity" in rod["terms"]:
+    rods = scene.rods
+    name, rod = next(iter(rods.items()))
+    if len(rods) > 1 or "tip_load" not in rod.terms or "gravity" in rod.terms:
         return None
-    load = rod["tip_load"]
-    if any(load["force"]) or rod["origin"] != [0.0, 0.0, 0.0]:
+    load = scene.term_options("rods", name, "tip_load")
+    if any(load.force) or rod.origin != [0.0, 0.0, 0.0]:
         return None
     model_rod = Model(scene).rods[name]
-    force = load["mass"] * load["gravity"]
+    force = load.mass * load.gravity
     ei, length = model_rod.bending_stiffness, model_rod.length
     if force <= 0.0:
         return None
@@ -88,18 +89,18 @@ def reference_centerline(scene: Scene, kind: str, s: np.ndarray) -> np.ndarray |
         raise ValueError(f"unknown reference {kind!r}; known: {', '.join(REFERENCE_KINDS)}")
     out = np.zeros((len(s), 3))
     if kind == "arc":
-        tendons = scene.data["tendons"]
+        tendons = scene.tendons
         if len(tendons) != 1:
             return None
-        (name, table), = tendons.items()
-        actuation = table.get("tendon_actuation")
-        if actuation is None or actuation["point"] != "proximal":
+        (name, options), = tendons.items()
+        actuation = scene.term_options("tendons", name, "tendon_actuation")
+        if actuation is None or actuation.point != "proximal":
             return None
         model = Model(scene)
-        catheter = model.rods[table["catheter"]]
+        catheter = model.rods[options.catheter]
         if catheter.name != next(iter(model.rods)):
             return None
-        shape = tendon_arc(actuation["force"], table["offset"],
+        shape = tendon_arc(actuation.force, options.offset,
                            catheter.bending_stiffness + model.rods[name].bending_stiffness,
                            catheter.stretch_stiffness, catheter.length, s)
         alpha, beta = model.tendons[name].alpha, model.tendons[name].beta

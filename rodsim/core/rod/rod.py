@@ -12,9 +12,9 @@ import numpy as np
 from rodsim.core.rod.geometry import RodGeometry
 from rodsim.core.rod.layout import RodLayout
 from rodsim.core.rod.quaternion import rest_quaternion
-from rodsim.core.schema import Parameter
+from rodsim.core.schema import Parameter, options_type
 
-__all__ = ["Rod", "ROD_PARAMETERS", "CLAMPS"]
+__all__ = ["Rod", "RodOptions", "ROD_PARAMETERS", "CLAMPS"]
 
 #: How the rod's base (s = 0) is held; see docs/model.md, "Clamp".
 CLAMPS = ("frame", "first_segment", "orientation")
@@ -43,6 +43,11 @@ ROD_PARAMETERS: tuple[Parameter, ...] = (
               "energy terms acting on this rod (`rodsim terms` lists them)"),
 )
 
+#: A rod table's own values, typed (one field per :data:`ROD_PARAMETERS`); its per-term
+#: sub-tables are the terms' own options (:attr:`rodsim.core.terms.base.Term.Options`).
+RodOptions = options_type("RodOptions", ROD_PARAMETERS,
+                          "A validated rod table's own values ([rods.<name>], SI units).")
+
 
 @dataclass(frozen=True)
 class Rod:
@@ -52,33 +57,33 @@ class Rod:
     ----------
     name
         Key of the rod in the scene (``[rods.<name>]``).
-    params
-        The validated rod table (SI units), including the per-term sub-tables.
+    options
+        The rod table's own values (a :data:`RodOptions`, SI units).
     layout
         Where the rod's coordinates sit in the global state.
     """
 
     name: str
-    params: dict[str, Any]
+    options: Any  # RodOptions
     layout: RodLayout = field(repr=False)
     #: Position of the base r_0 [m]: the rod's ``origin``, or a tendon's lumen entrance.
     origin: np.ndarray = field(default_factory=lambda: np.zeros(3), repr=False)
 
     @cached_property
     def geometry(self) -> RodGeometry:
-        return RodGeometry(self.params["nodes"], self.params["length"])
+        return RodGeometry(self.options.nodes, self.options.length)
 
     @property
     def nodes(self) -> int:
-        return int(self.params["nodes"])
+        return int(self.options.nodes)
 
     @property
     def length(self) -> float:
-        return float(self.params["length"])
+        return float(self.options.length)
 
     @property
     def radius(self) -> float:
-        return float(self.params["radius"])
+        return float(self.options.radius)
 
     @property
     def area(self) -> float:
@@ -97,12 +102,12 @@ class Rod:
 
     @property
     def youngs_modulus(self) -> float:
-        return float(self.params["youngs_modulus"])
+        return float(self.options.youngs_modulus)
 
     @property
     def shear_modulus(self) -> float:
         """G = E_b / (2 (1 + ν)) [Pa]."""
-        return self.youngs_modulus / (2.0 * (1.0 + self.params["poisson_ratio"]))
+        return self.youngs_modulus / (2.0 * (1.0 + self.options.poisson_ratio))
 
     @property
     def bending_stiffness(self) -> float:
@@ -112,11 +117,11 @@ class Rod:
     @property
     def stretch_stiffness(self) -> float:
         """K_s = E_s A [N] (Eq. 6)."""
-        return float(self.params["stretch_modulus"]) * self.area
+        return float(self.options.stretch_modulus) * self.area
 
     @property
     def density(self) -> float:
-        return float(self.params["density"])
+        return float(self.options.density)
 
     @property
     def base_quaternion(self) -> np.ndarray:
@@ -135,7 +140,7 @@ class Rod:
 
     def fixed_index(self) -> np.ndarray:
         """Global indices of the coordinates the clamp removes (see docs/model.md)."""
-        clamp = self.params["clamp"]
+        clamp = self.options.clamp
         if clamp == "orientation":
             return np.zeros(0, dtype=int)
         if clamp == "first_segment":
@@ -147,7 +152,7 @@ class Rod:
     def has_base_frame(self) -> bool:
         """Whether a fixed frame at s = 0 anchors the bending term (clamps 'frame' and
         'orientation')."""
-        return self.params["clamp"] in ("frame", "orientation")
+        return self.options.clamp in ("frame", "orientation")
 
     def node_masses(self) -> np.ndarray:
         """Lumped mass of each control point, ρ A × (half of each adjacent segment) [kg]."""

@@ -36,7 +36,7 @@ from typing import TYPE_CHECKING, Any, ClassVar
 
 import numpy as np
 
-from rodsim.core.schema import Parameter
+from rodsim.core.schema import Parameter, options_type
 
 if TYPE_CHECKING:
     from rodsim.core.rod.rod import Rod
@@ -59,6 +59,13 @@ class Term(ABC):
         The paper's equation(s) the term implements, e.g. ``"Eq. (9)"``.
     parameters
         The term's own scene values (validated, with units and defaults).
+
+    Made from ``parameters`` when the class is defined
+    ---------------------------------------------------
+    Options
+        A frozen dataclass with one typed field per parameter; a term is built with an
+        instance of it (``Options.of(table)`` types a validated table) and reads attributes
+        (``self.options.K_P``).
     conservative
         ``True`` when the force is −∇ of ``energy``; the Jacobian is then symmetric.
     is_load
@@ -88,11 +95,17 @@ class Term(ABC):
     #: Module of :mod:`rodsim.core.kernels` holding the compiled kernel (default: ``name``).
     kernel: ClassVar[str] = ""
 
+    #: The frozen dataclass of this term's options (see above).
+    Options: ClassVar[type]
+
     #: Global coordinate indices of each element, shape (n_elem, k).
     dofs: np.ndarray
 
     def __init_subclass__(cls, **kwargs: Any) -> None:
         super().__init_subclass__(**kwargs)
+        cls.Options = options_type(f"{cls.__name__}Options", cls.parameters,
+                                   f"Options of the {getattr(cls, 'name', cls.__name__)} term "
+                                   "(docs/scenes.md lists them).")
         if "name" in cls.__dict__:
             if cls.name in REGISTRY:
                 raise TypeError(f"term name {cls.name!r} registered twice")
@@ -138,9 +151,10 @@ class RodTerm(Term):
 
     scope: ClassVar[str] = "rod"
 
-    def __init__(self, rod: Rod, params: dict[str, Any]) -> None:
+    def __init__(self, rod: Rod, options: Any) -> None:
         self.rod = rod
-        self.params = params
+        #: This term's validated options, an :attr:`Options` instance.
+        self.options = options
 
 
 class TendonTerm(Term):
@@ -149,6 +163,7 @@ class TendonTerm(Term):
 
     scope: ClassVar[str] = "tendon"
 
-    def __init__(self, tendon: Tendon, params: dict[str, Any]) -> None:
+    def __init__(self, tendon: Tendon, options: Any) -> None:
         self.tendon = tendon
-        self.params = params
+        #: This term's validated options, an :attr:`Options` instance.
+        self.options = options

@@ -91,11 +91,11 @@ class BendTwist(RodTerm):
                   "couples to nothing, a larger value removes a near-null mode", 0.0, 1e6),
     )
 
-    def __init__(self, rod: Rod, params: dict[str, Any]) -> None:
-        super().__init__(rod, params)
+    def __init__(self, rod: Rod, options: Any) -> None:
+        super().__init__(rod, options)
         quat = rod.layout.quaternion_index
         seg = rod.geometry.segment_length
-        self._stiffness = stiffness_tensor(rod, params["stiffness"], params["twist_stiffness"])
+        self._stiffness = stiffness_tensor(rod, options.stiffness, options.twist_stiffness)
         self.dofs = np.concatenate([quat[:-1], quat[1:]], axis=1)  # (q_{i-1}, q_i)
 
         self._clamped = rod.has_base_frame

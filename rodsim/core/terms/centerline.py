@@ -36,13 +36,13 @@ class Centerline(RodTerm):
                   0.0, 1e15, exclusive_minimum=True),
     )
 
-    def __init__(self, rod: Rod, params: dict[str, Any]) -> None:
-        super().__init__(rod, params)
+    def __init__(self, rod: Rod, options: Any) -> None:
+        super().__init__(rod, options)
         pos = rod.layout.position_index
         self.dofs = np.concatenate([pos[:-1], pos[1:], rod.layout.quaternion_index], axis=1)
-        self._weight = params["K_P"] * rod.geometry.segment_length  # K_P l
+        self._weight = options.K_P * rod.geometry.segment_length  # K_P l
         #: Penalty stiffness relative to bending at the scale of one segment, K_P l² / (E I).
-        self.penalty_ratio = (params["K_P"] * rod.geometry.segment_length**2
+        self.penalty_ratio = (options.K_P * rod.geometry.segment_length**2
                               / rod.bending_stiffness)
 
     def kernel_arguments(self) -> tuple:

@@ -30,10 +30,10 @@ class EndpointCompliance(TendonTerm):
                   0.0, 1e15, exclusive_minimum=True),
     )
 
-    def __init__(self, tendon: Tendon, params: dict[str, Any]) -> None:
-        super().__init__(tendon, params)
+    def __init__(self, tendon: Tendon, options: Any) -> None:
+        super().__init__(tendon, options)
         self.conservative = tendon.conserving
-        self._stiffness = params["K_E"]
+        self._stiffness = options.K_E
         catheter = tendon.catheter.layout
         self._tip = tendon.rod.layout.position_index[-1]
         self._end = catheter.position_index[-1]

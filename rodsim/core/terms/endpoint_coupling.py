@@ -29,9 +29,9 @@ class EndpointCoupling(TendonTerm):
                   exclusive_minimum=True),
     )
 
-    def __init__(self, tendon: Tendon, params: dict[str, Any]) -> None:
-        super().__init__(tendon, params)
-        self._stiffness = params["K_C"]
+    def __init__(self, tendon: Tendon, options: Any) -> None:
+        super().__init__(tendon, options)
+        self._stiffness = options.K_C
         ends = [tendon.catheter.layout.position_index[-1], tendon.rod.layout.position_index[-1]]
         self.dofs = np.concatenate(ends)[None, :]  # (r_N, t): edge e = t − r_N
 

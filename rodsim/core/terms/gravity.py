@@ -31,10 +31,10 @@ class Gravity(RodTerm):
                   0.0, 1e3),
     )
 
-    def __init__(self, rod: Rod, params: dict[str, Any]) -> None:
-        super().__init__(rod, params)
+    def __init__(self, rod: Rod, options: Any) -> None:
+        super().__init__(rod, options)
         self.dofs = rod.layout.position_index
-        weights = rod.node_masses() * params["gravity"]
+        weights = rod.node_masses() * options.gravity
         self._forces = np.zeros((rod.nodes, 3))
         self._forces[:, 1] = -weights
 

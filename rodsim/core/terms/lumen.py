@@ -138,12 +138,12 @@ class Lumen(TendonTerm):
                   "(docs/tendon.md); false holds the points on the curve itself"),
     )
 
-    def __init__(self, tendon: Tendon, params: dict[str, Any]) -> None:
-        super().__init__(tendon, params)
+    def __init__(self, tendon: Tendon, options: Any) -> None:
+        super().__init__(tendon, options)
         self.conservative = tendon.conserving
-        self._both = params["constrain"] == "both"
+        self._both = options.constrain == "both"
         catheter = tendon.catheter
-        self._margin = params["hysteresis"] * catheter.geometry.segment_length
+        self._margin = options.hysteresis * catheter.geometry.segment_length
         # Every tendon point but the endpoint, which Eqs. (28)–(29) hold instead (§4.1:
         # "we will define a distinct penalty force on the tendon endpoint").
         self._points = tendon.rod.layout.position_index[:-1]
@@ -151,15 +151,15 @@ class Lumen(TendonTerm):
             self.kernel = "lumen_segment"
             share = np.full(len(self._points), tendon.rod.geometry.segment_length)
             share[0] *= 0.5
-            self._stiffness = params["K_L"] * share
+            self._stiffness = options.K_L * share
             self._sagitta = np.zeros(len(self._points))
-            if params["chord_correction"]:
+            if options.chord_correction:
                 self._sagitta[:] = (catheter.geometry.segment_length**2
                                     - tendon.rod.geometry.segment_length**2) / 24.0
                 if tendon.rod.geometry.segment_length > catheter.geometry.segment_length:
                     self._sagitta[-1] *= TIP_SHARE
         else:
-            self._stiffness = params["K_L"]
+            self._stiffness = options.K_L
         rest = np.zeros(max(catheter.layout.offset + catheter.layout.size,
                             tendon.rod.layout.offset + tendon.rod.layout.size))
         rest[catheter.layout.position_index] = catheter.rest_positions()

@@ -22,8 +22,8 @@ class Stretch(RodTerm):
     name = "stretch"
     equation = "Eq. (6)"
 
-    def __init__(self, rod: Rod, params: dict[str, Any]) -> None:
-        super().__init__(rod, params)
+    def __init__(self, rod: Rod, options: Any) -> None:
+        super().__init__(rod, options)
         pos = rod.layout.position_index
         self.dofs = np.concatenate([pos[:-1], pos[1:]], axis=1)
         self._stiffness = rod.stretch_stiffness

@@ -39,10 +39,10 @@ class TendonActuation(TendonTerm):
                   choices=("distal", "proximal")),
     )
 
-    def __init__(self, tendon: Tendon, params: dict[str, Any]) -> None:
-        super().__init__(tendon, params)
-        self._force = params["force"]
-        self._distal = params["point"] == "distal"
+    def __init__(self, tendon: Tendon, options: Any) -> None:
+        super().__init__(tendon, options)
+        self._force = options.force
+        self._distal = options.point == "distal"
         catheter = tendon.catheter
         if self._distal:
             self._quaternion = catheter.layout.quaternion_index[-1]

@@ -36,11 +36,11 @@ class TipLoad(RodTerm):
                   0.0, 1e3),
     )
 
-    def __init__(self, rod: Rod, params: dict[str, Any]) -> None:
-        super().__init__(rod, params)
+    def __init__(self, rod: Rod, options: Any) -> None:
+        super().__init__(rod, options)
         self.dofs = rod.layout.position_index[-1:]
-        self.force = np.asarray(params["force"], dtype=float) + np.array(
-            [0.0, -params["mass"] * params["gravity"], 0.0]
+        self.force = np.asarray(options.force, dtype=float) + np.array(
+            [0.0, -options.mass * options.gravity, 0.0]
         )
 
     def kernel_arguments(self) -> tuple:
