@@ -83,7 +83,7 @@ def _print_run_summary(result, archive: Path | None) -> None:
     from rodsim.solvers.result import count_text
 
     scene = result.scene
-    print(f"scene       {scene.name}: {scene.data['description']}".rstrip(": "))
+    print(f"scene       {scene.name}: {scene.description}".rstrip(": "))
     print(f"integrator  {result.integrator}  ({result.message})")
     for name, shape in result.rods.items():
         tip = shape.tip
@@ -104,7 +104,7 @@ def _print_run_summary(result, archive: Path | None) -> None:
               f"{100 * reference.tip_error(positions, 'exact'):.4f} % of L;  "
               f"vs extensible elastica (E_s A): {extensible}")
     stats = result.stats
-    requested = result.scene.data["solver"]["tolerance"]
+    requested = result.scene.solver.tolerance
     used = stats["effective_tolerance"]
     floor = (f": the round-off floor, above the requested {requested:.3g}"
              if used > requested * (1 + 1e-9) else "")
@@ -178,7 +178,7 @@ def cmd_run(args: argparse.Namespace) -> int:
     from rodsim.io.run_dataset import run_dataset
 
     scene = _load_scene_or_fail(args.scene, args.set, args.integrator)
-    integrator = args.integrator or scene.data["solver"]["integrator"]
+    integrator = args.integrator or scene.solver.integrator
     output = _output_path(args.output, f"{scene.name}-{integrator}.nc")
     try:  # before the solve: an unwritable output fails in a second, not after an hour
         check_target(output)
@@ -299,7 +299,7 @@ def cmd_track(args: argparse.Namespace) -> int:
     from rodsim.core.scene import SceneError
 
     scene = _load_scene_or_fail(args.scene, args.set, args.integrator)
-    integrator = args.integrator or scene.data["solver"]["integrator"]
+    integrator = args.integrator or scene.solver.integrator
     output = _output_path(args.output, f"{scene.name}-track.nc")
     stem = _check_outputs(output)
     progress = ProgressPrinter()
@@ -576,7 +576,7 @@ def cmd_scenes(args: argparse.Namespace) -> int:
     from rodsim.core.scene import Scene, scene_paths
 
     for name, path in scene_paths().items():
-        print(f"{name:<24s} {Scene.load(path).data['description']}")
+        print(f"{name:<24s} {Scene.load(path).description}")
     return EXIT_OK
 
 
