@@ -37,6 +37,7 @@ def registered_integrators() -> dict[str, type[Integrator]]:
 def check_solver_options(scene: Scene) -> None:
     """Raise :class:`~rodsim.core.schema.SceneError` unless ``solver.integrator`` and every
     ``[solver.<name>]`` table of ``scene`` name a registered integrator with valid options."""
+    from rodsim.core.scene import SOLVER_PARAMETERS
     from rodsim.core.schema import SceneError, shown
 
     integrators = registered_integrators()
@@ -47,9 +48,9 @@ def check_solver_options(scene: Scene) -> None:
     for name, table in scene.data["solver"].items():
         if isinstance(table, dict):
             if name not in integrators:
+                known = sorted(p.name for p in SOLVER_PARAMETERS) + list(integrators)
                 raise SceneError(f"solver.{shown(name, bare=True)}: unknown key; known keys: "
-                                 "integrator, kernels, max_wall_time, tolerance, "
-                                 + ", ".join(integrators))
+                                 + ", ".join(known))
             integrators[name].options_of(scene)
 
 
