@@ -132,21 +132,9 @@ class Study:
 
 
 @dataclass(frozen=True)
-class SweepSpec:
-    """One sweep of a :class:`StudySpec`, as stored: ``key`` a scene key or a tuple of keys
-    swept together, ``values`` the scene values (JSON values: a list where a declaration
-    has a tuple), ``labels`` the coordinate values or ``None`` (see :class:`Sweep`)."""
-
-    name: str
-    key: str | tuple[str, ...]
-    values: tuple[Any, ...]
-    units: str = "1"
-    long_name: str = ""
-    labels: tuple[Any, ...] | None = None
-
-    @property
-    def coordinate(self) -> tuple[Any, ...]:
-        return self.labels if self.labels is not None else self.values
+class SweepSpec(Sweep):
+    """One sweep of a :class:`StudySpec`, as stored: the fields of :class:`Sweep`, with
+    ``values`` as JSON values (a list where a declaration has a tuple)."""
 
     def scene_values(self, i: int) -> dict[str, Any]:
         """The scene values of the sweep's ``i``-th point, by scene key."""
