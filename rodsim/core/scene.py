@@ -227,7 +227,7 @@ class Scene:
                                  reason="expected key=value", assignment=assignment)
             preferred = prefer or f"solver.{data['solver']['integrator']}"
             try:
-                full_key = _resolve_key(data, key, preferred, known)
+                full_key = _resolve_key(data, key, preferred, known + _integrator_option(key))
                 value = _parse_value(text.strip())
             except SceneError as exc:
                 exc.assignment = assignment
@@ -249,8 +249,7 @@ class Scene:
         ``solver.<integrator>.<option>`` key may be set although the scene does not hold it."""
         data = copy.deepcopy(self.data)
         for key, value in values.items():
-            option = key.startswith("solver.") and key.count(".") == 2
-            data = _assign(data, _resolve_key(data, key, known=(key,) if option else ()), value)
+            data = _assign(data, _resolve_key(data, key, known=_integrator_option(key)), value)
         return Scene(resolve(data), self.source)
 
 
@@ -346,6 +345,12 @@ def _leaf_keys(node: Any, prefix: str = "") -> list[str]:
             out += _leaf_keys(value, f"{prefix}.{i}")
         return out
     return [prefix]
+
+
+def _integrator_option(key: str) -> tuple[str, ...]:
+    """``(key,)`` when ``key`` is a full ``solver.<integrator>.<option>`` key, which may be set
+    although the scene does not hold it yet (the integrator validates it); else ``()``."""
+    return (key,) if key.startswith("solver.") and key.count(".") == 2 else ()
 
 
 def _resolve_key(data: Mapping[str, Any], key: str, prefer: str = "",
