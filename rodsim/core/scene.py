@@ -168,7 +168,7 @@ class Scene:
     @property
     def rods(self) -> dict[str, Any]:
         """Each rod's own values by name, as :data:`~rodsim.core.rod.rod.RodOptions` (views
-        of ``data``; the per-term sub-tables are read with :meth:`term_table`)."""
+        of ``data``; the per-term sub-tables are read with :meth:`term_options`)."""
         return {name: RodOptions.of(table) for name, table in self.data["rods"].items()}
 
     @property
