@@ -179,8 +179,8 @@ def test_the_chord_correction_makes_the_tip_independent_of_tendon_points():
 def test_what_the_correction_leaves_at_ten_tendon_points_is_of_higher_order_in_the_load():
     """The chord terms are ∝ T κ l² ∝ T² in δy/y·y; what is left at N_T = 10 falls much
     faster when T is halved (measured 1.26e-5 → 9.5e-7 L, 13×, against 4× for the
-    corrected terms), so it is not a missed part of them (next test: it is mostly the tip
-    treatment)."""
+    corrected terms), so it is not a missed part of them (docs/tendon.md, "What it is made
+    of"; next test)."""
     full, data = tips_against_tendon_points(True, 2.0)
     half, _ = tips_against_tendon_points(True, 1.0)
     plain_full, _ = tips_against_tendon_points(False, 2.0)
@@ -198,7 +198,7 @@ def test_what_the_correction_leaves_at_ten_tendon_points_is_of_higher_order_in_t
 
 
 def test_what_is_left_at_ten_tendon_points_is_set_by_the_tip_share(monkeypatch):
-    """The N_T = 10 residual (docs/tendon.md, "It is mostly the tip treatment") follows the
+    """The N_T = 10 residual (docs/tendon.md, "What it is made of") follows the
     correction's share at the last lumen-held tendon point, ``TIP_SHARE``: measured tip y
     against N_T = 120 of 2.06e-5 L at share 1, 1.26e-5 at 1.5 (shipped), 4.44e-6 at 2, so
     linear in the share and moved by more than its own size. The share that zeroes it
