@@ -9,6 +9,8 @@ seconds are marked ``slow``.
 
 from __future__ import annotations
 
+import math
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -18,7 +20,7 @@ import xarray as xr
 import rodsim
 import rodsim.solvers
 from rodsim.app import bench_locator
-from rodsim_bench import scaling, skip_work, stress, work_precision
+from rodsim_bench import pyelastica, scaling, skip_work, stress, work_precision
 
 MACHINE_KEYS = ("machine_cpu", "machine_cores", "machine_platform", "machine_python",
                 "machine_numpy", "machine_scipy", "machine_scikit_sundae", "machine_date",
@@ -293,3 +295,40 @@ def test_stress_title_states_the_share_converged(tmp_path, monkeypatch):
     crashed = ds.copy(deep=True)
     crashed["outcome"].values[np.flatnonzero(~refused)[0], 0] = stress.OUTCOMES.index("crash")
     assert "1 crashes" in stress.measured_result(crashed)
+
+
+def test_pyelastica_benchmark_skips_without_pyelastica(tmp_path, monkeypatch, capsys):
+    monkeypatch.setitem(sys.modules, "elastica", None)  # `import elastica` raises ImportError
+    messages = []
+    assert pyelastica.run("small", tmp_path, lambda f, s: messages.append(s)) == []
+    assert messages == [pyelastica.INSTALL_HINT]
+    assert "pip install pyelastica==1.0.0" in capsys.readouterr().err
+    assert not list(tmp_path.iterdir())
+
+
+def test_pyelastica_benchmark_matches_the_scene():
+    rod = pyelastica.cantilever(rodsim.load_scene("table1-50g").data)
+    assert rod.force == (0.0, -0.05 * 9.81, 0.0) and rod.nodes == 40
+    numbers = pyelastica.pyelastica_settings(rod, pyelastica.Settings(40))
+    assert numbers["elements"] == 39
+    # PyElastica's shear stiffness alpha_c G A is rodsim's centerline penalty K_P.
+    assert math.isclose(pyelastica.ALPHA_C * numbers["shear_modulus"] * rod.area, rod.penalty)
+    assert math.isclose(numbers["dt"] * numbers["wave_speed"] / numbers["dl"], 0.5)
+    assert math.isclose(numbers["damping"], 2.0 * rod.first_mode)
+    assert 16.9 < rod.first_mode < 17.0  # 1.8751² sqrt(EI / (rho A L⁴)), rad/s
+    with pytest.raises(ValueError, match="not the Table 1 cantilever"):
+        pyelastica.cantilever(rodsim.load_scene("table3-catheter1").data)
+
+
+def test_pyelastica_benchmark_errors_and_verdict():
+    reference = np.array([[0.0, 0.0, 0.0], [0.5, 0.0, 0.0], [1.0, -0.1, 0.0]])
+    moved = reference + np.array([[0.0, 0.0, 0.0], [0.0, 0.02, 0.0], [0.0, 0.01, 0.0]])
+    assert np.allclose(pyelastica.node_errors(moved, reference, 2.0), (0.005, 0.01))
+    assert np.isnan(pyelastica.node_errors(moved * np.nan, reference, 2.0)[0])
+    stops = [{"threshold": t, "wall_s": 1.0, "tip_error": 1e-2, "max_error": 1e-2}
+             for t in pyelastica.THRESHOLDS]
+    row = {"settings": {"nodes": 40}, "stops": stops, "oracle": None}
+    cvode = {"success": True, "wall_s": 0.01, "tip_error": 1e-4, "max_error": 1e-4}
+    assert pyelastica.verdict(row, cvode)["holds"]
+    assert not pyelastica.verdict(row, cvode | {"tip_error": 2e-3})["holds"]  # 5x the error
+    assert not pyelastica.verdict(row, cvode | {"wall_s": 0.1})["holds"]  # 10x the time

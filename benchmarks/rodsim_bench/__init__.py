@@ -8,4 +8,4 @@ figures and a markdown table under ``output_dir`` (default ``benchmarks/results`
 Timings on shared machines are noisy: compare the ratios measured within one run.
 """
 
-BENCHMARKS = ("work-precision", "scaling", "stress", "skip-work", "kernels")
+BENCHMARKS = ("work-precision", "scaling", "stress", "skip-work", "kernels", "pyelastica")
