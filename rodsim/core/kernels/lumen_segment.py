@@ -3,7 +3,8 @@
 tendon point p on lumen segment j, local coordinates (p, r_j, r_{j+1}, q_{j−1}, q_j, q_{j+1}),
 
     L_j = r_j + r_L u(s_j),  τ_j = t(s_j),  s_j = Σ_k weights[e, 0, k] q_slot k  (j + 1 likewise),
-    K_j = Σ_k turns[e, 0, k] d3(q_slot k)/l̄  (K_{j+1} likewise; the curvature vectors),
+    K_j = K_{j+1} = K_T = (e₊ − e₋)/l_T  (the tendon's turn at the stencil p_{b−1}, p_b, p_{b+1},
+    local coordinates 21–29, present when the chord correction is on; else 0),
     L(σ) = Σ_b w_b(σ) y_b over y = (L_j, L_{j+1}, τ_j, τ_{j+1}, K_j, K_{j+1}),
     w = (h00, h01, l̄ h10, l̄ h11, c (1 − σ), c σ)  (c = ``sagitta[e]``, the chord correction;
     on the last segment (c g(σ), 0), g = 1 + 2σ − 3σ²),
@@ -11,8 +12,8 @@ tendon point p on lumen segment j, local coordinates (p, r_j, r_{j+1}, q_{j−1}
     f_y = k w ⊗ Δ (w_p = −1),   f_yy = k w wᵀ ⊗ I,   f_yσ = k (w′ ⊗ Δ + w ⊗ L′),
     f_σσ = k (L′·L′ + Δ·L″),   ∇²_y E = f_yy − f_yσ f_yσᵀ / f_σσ,
 
-pulled back through the chain G = ∂y/∂x (21 × 21, y = (p, L_j, L_{j+1}, τ_j, τ_{j+1}, K_j,
-K_{j+1})), plus each slot's Σ_m f_{K,m} ∂²d3_m/∂q² on its own quaternion:
+pulled back through the chain G = ∂y/∂x (21 × width, y = (p, L_j, L_{j+1}, τ_j, τ_{j+1}, K_j,
+K_{j+1})), plus Σ_m f_{K,m} ∂²K_T,m on the stencil (f_K = f_{K_j} + f_{K_{j+1}}):
 F = −Gᵀ f_y,  ∂F/∂x = −(Gᵀ ∇²_y E G + Σ over both nodes of r_L Σ_m f_{L,m} ∂²u_m/∂s²
 + Σ_m f_{τ,m} ∂²t_m/∂s² on the node's two quaternions), u, t and their derivatives from
 :mod:`rodsim.core.kernels._node_frame`. k = K_L × the point's share of the tendon's length, one
@@ -106,9 +107,65 @@ def _curve(y: np.ndarray, w: np.ndarray, w1: np.ndarray, w2: np.ndarray, delta: 
 
 
 @njit(cache=True)
+def _tendon_turn(x: np.ndarray, dofs: np.ndarray, e: int, length: float, value: np.ndarray,
+                 grad: np.ndarray, unit: np.ndarray, norm: np.ndarray) -> None:
+    """K_T = (e₊ − e₋)/l_T from the stencil at local coordinates 21–29, its gradient
+    (3, 9) and the chord unit vectors e₊, e₋ and lengths, in place."""
+    for side in range(2):  # 0: d₊ = p_{b+1} − p_b, 1: d₋ = p_b − p_{b−1}
+        first = 24 if side == 0 else 21
+        r2 = 0.0
+        for m in range(3):
+            d = x[dofs[e, first + 3 + m]] - x[dofs[e, first + m]]
+            unit[side, m] = d
+            r2 += d * d
+        norm[side] = np.sqrt(r2)
+        for m in range(3):
+            unit[side, m] /= norm[side]
+    for m in range(3):
+        value[m] = (unit[0, m] - unit[1, m]) / length
+        for n in range(3):
+            projector_p = ((1.0 if m == n else 0.0) - unit[0, m] * unit[0, n]) / (
+                norm[0] * length)
+            projector_m = ((1.0 if m == n else 0.0) - unit[1, m] * unit[1, n]) / (
+                norm[1] * length)
+            grad[m, n] = projector_m
+            grad[m, 3 + n] = -projector_p - projector_m
+            grad[m, 6 + n] = projector_p
+
+
+@njit(cache=True)
+def _subtract_turn_hessian(g: np.ndarray, length: float, unit: np.ndarray, norm: np.ndarray,
+                           local_jacobian: np.ndarray) -> None:
+    """local_jacobian[21:30, 21:30] −= ∂²(g·K_T)/∂stencil²: for e = d/r, P = I − e eᵀ,
+    ∂²(g·e)/∂d² = −((e·g) P + e (P g)ᵀ + (P g) eᵀ)/r²; d₊ enters K_T with +1, d₋ with −1."""
+    pg = np.empty(3)
+    block = np.empty((3, 3))
+    for side in range(2):
+        sign = 1.0 if side == 0 else -1.0
+        first = 24 if side == 0 else 21
+        along = 0.0
+        for m in range(3):
+            along += unit[side, m] * g[m]
+        for m in range(3):
+            pg[m] = g[m] - unit[side, m] * along
+        factor = -sign / (norm[side] * norm[side] * length)
+        for m in range(3):
+            for n in range(3):
+                projector = (1.0 if m == n else 0.0) - unit[side, m] * unit[side, n]
+                block[m, n] = factor * (along * projector + unit[side, m] * pg[n]
+                                        + pg[m] * unit[side, n])
+        for m in range(3):
+            for n in range(3):
+                local_jacobian[first + m, first + n] -= block[m, n]
+                local_jacobian[first + 3 + m, first + 3 + n] -= block[m, n]
+                local_jacobian[first + m, first + 3 + n] += block[m, n]
+                local_jacobian[first + 3 + m, first + n] += block[m, n]
+
+
+@njit(cache=True)
 def evaluate(x: np.ndarray, dofs: np.ndarray, alpha: float, beta: float, offset: float,
              stiffness: np.ndarray, length: float, ends: np.ndarray, weights: np.ndarray,
-             sagitta: np.ndarray, turns: np.ndarray, scale: float,
+             sagitta: np.ndarray, tendon_length: float, scale: float,
              want_force: bool, force: np.ndarray, force_target: np.ndarray,
              want_jacobian: bool, jacobian: np.ndarray, jacobian_target: np.ndarray) -> None:
     lumen_c = np.array([alpha, beta, 0.0])
@@ -121,10 +178,12 @@ def evaluate(x: np.ndarray, dofs: np.ndarray, alpha: float, beta: float, offset:
     u_grad = np.empty((2, 3, 4))
     t = np.empty((2, 3))
     t_grad = np.empty((2, 3, 4))
-    slot_q = np.empty((3, 4))
-    slot_norm2 = np.empty(3)
-    slot_t = np.empty((3, 3))
-    slot_t_grad = np.empty((3, 3, 4))
+    width = dofs.shape[1]
+    corrected = width > 21
+    turn = np.zeros(3)
+    turn_grad = np.empty((3, 9))
+    unit = np.empty((2, 3))
+    norm = np.empty(2)
     y = np.empty((7, 3))
     w = np.empty(7)
     w1 = np.empty(7)
@@ -136,17 +195,17 @@ def evaluate(x: np.ndarray, dofs: np.ndarray, alpha: float, beta: float, offset:
     g_k = np.empty(3)
     f_ys = np.empty(21)
     h_y = np.empty((21, 21))
-    chain = np.zeros((21, 21))
+    chain = np.zeros((21, width))
     for m in range(3):
         for block in range(3):
             chain[3 * block + m, 3 * block + m] = 1.0
-    product = np.empty((21, 21))
+    product = np.empty((21, width))
     block_h = np.empty((4, 4))
     block_t = np.empty((4, 4))
     scratch = np.empty((4, 4))
     scaled = np.empty(3)
-    local_force = np.empty(21)
-    local_jacobian = np.empty((21, 21))
+    local_force = np.empty(width)
+    local_jacobian = np.empty((width, width))
     for e in range(dofs.shape[0]):
         for node in range(2):
             for a in range(4):
@@ -159,18 +218,11 @@ def evaluate(x: np.ndarray, dofs: np.ndarray, alpha: float, beta: float, offset:
                           u[node], u_grad[node])
             node_director(s[node], norm2[node], directors[node], gradients[node], tangent_c,
                           t[node], t_grad[node])
-        for slot in range(3):
-            for a in range(4):
-                slot_q[slot, a] = x[dofs[e, 9 + 4 * slot + a]]
-            slot_norm2[slot] = raw_directors(slot_q[slot], directors[0], gradients[0])
-            node_director(slot_q[slot], slot_norm2[slot], directors[0], gradients[0],
-                          tangent_c, slot_t[slot], slot_t_grad[slot])
+        if corrected:
+            _tendon_turn(x, dofs, e, tendon_length, turn, turn_grad, unit, norm)
         for m in range(3):
-            y[5, m] = 0.0
-            y[6, m] = 0.0
-            for slot in range(3):
-                y[5, m] += turns[e, 0, slot] * slot_t[slot, m] / length
-                y[6, m] += turns[e, 1, slot] * slot_t[slot, m] / length
+            y[5, m] = turn[m]
+            y[6, m] = turn[m]
         for m in range(3):
             y[0, m] = x[dofs[e, m]]
             y[1, m] = x[dofs[e, 3 + m]] + offset * u[0, m]
@@ -213,12 +265,13 @@ def evaluate(x: np.ndarray, dofs: np.ndarray, alpha: float, beta: float, offset:
                     chain[6 + m, first + a] = weights[e, 1, slot] * offset * u_grad[1, m, a]
                     chain[9 + m, first + a] = weights[e, 0, slot] * t_grad[0, m, a]
                     chain[12 + m, first + a] = weights[e, 1, slot] * t_grad[1, m, a]
-                    chain[15 + m, first + a] = (turns[e, 0, slot] * slot_t_grad[slot, m, a]
-                                                / length)
-                    chain[18 + m, first + a] = (turns[e, 1, slot] * slot_t_grad[slot, m, a]
-                                                / length)
+        if corrected:
+            for m in range(3):
+                for a in range(9):
+                    chain[15 + m, 21 + a] = turn_grad[m, a]
+                    chain[18 + m, 21 + a] = turn_grad[m, a]
         if want_force:
-            for a in range(21):
+            for a in range(width):
                 value = 0.0
                 for i in range(21):
                     value += chain[i, a] * g[i]
@@ -241,13 +294,13 @@ def evaluate(x: np.ndarray, dofs: np.ndarray, alpha: float, beta: float, offset:
                                 value += k * w[b] * w[c]
                             h_y[3 * b + m, 3 * c + n] = value
             for i in range(21):
-                for a in range(21):
+                for a in range(width):
                     value = 0.0
                     for j in range(21):
                         value += h_y[i, j] * chain[j, a]
                     product[i, a] = value
-            for a in range(21):
-                for b in range(21):
+            for a in range(width):
+                for b in range(width):
                     value = 0.0
                     for i in range(21):
                         value += chain[i, a] * product[i, b]
@@ -265,17 +318,8 @@ def evaluate(x: np.ndarray, dofs: np.ndarray, alpha: float, beta: float, offset:
                                 for b in range(4):
                                     local_jacobian[9 + 4 * i + a, 9 + 4 * j + b] -= both * (
                                         offset * block_h[a, b] + block_t[a, b])
-            for slot in range(3):
-                nonzero = False
+            if corrected:
                 for m in range(3):
-                    g_k[m] = (turns[e, 0, slot] * g[15 + m]
-                              + turns[e, 1, slot] * g[18 + m]) / length
-                    nonzero = nonzero or g_k[m] != 0.0
-                if nonzero:
-                    node_director_hessian(slot_q[slot], slot_norm2[slot], tangent_c,
-                                          slot_t[slot], slot_t_grad[slot], g_k, block_t,
-                                          scratch, scaled)
-                    for a in range(4):
-                        for b in range(4):
-                            local_jacobian[9 + 4 * slot + a, 9 + 4 * slot + b] -= block_t[a, b]
+                    g_k[m] = g[15 + m] + g[18 + m]
+                _subtract_turn_hessian(g_k, tendon_length, unit, norm, local_jacobian)
             add_jacobian(jacobian, jacobian_target, e, local_jacobian, scale)

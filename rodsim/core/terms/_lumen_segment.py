@@ -44,20 +44,33 @@ along its curvature vector by v changes its length by −v·κ per unit length, 
 chords inscribed in it changes by Σ_chords (δ_a + δ_b) sin(φ_chord/2) with δ the offsets of
 its ends. So the curve a tendon point is held to is
 
-    M(σ) = L(σ) + c ((1 − σ) K_j + σ K_{j+1}),   c = (l_C² − l_T²)/24,
+    M(σ) = L(σ) + c K_T,   c = (l_C² − l_T²)/24,
 
-K the catheter's discrete curvature vector at the nodes (:func:`turn_weights`; l_C, l_T the
-rest segment lengths): a chain of l_T chords in M is as long as a chain of l_C chords in
-L, whatever N_T. c = 0 when N_T = N_C. On the catheter's last segment the offset tapers to 0
-at the tip, c g(σ) K_j with g = 1 + 2σ − 3σ² (∫₀¹ g = 1), because the tendon's endpoint is
-held there by Eqs. (28)–(29) at no offset (a jump to 0 over one tendon chord would cost
-δ²/l_T, which grows as l_T falls); and when the tendon's chords are longer than the
-catheter's, its last lumen-held point takes c × 3/2 (:data:`TIP_SHARE`), the share of
-the chord to the unshifted endpoint. M is continuous at the nodes (K_j is the same from
-both sides); its kink there, c (K_{j+1} − K_j)/l̄, is third order. Measured
-(tests/test_tendon_convergence.py): with N_C = 30 the tip moves 1.26e-5 L between N_T = 10
-and 120 (6.5e-4 L without), ≤ 4.5e-6 L over N_T = 15 … 120. ``chord_correction = false``
-holds the points on L itself.
+K_T = (e₊ − e₋)/l_T the curvature vector of the tendon's own chain at the point (e± the
+unit vectors of its chords after and before it; at the base point the turn at the next
+vertex; :class:`TendonTurn`; l_C, l_T the rest segment lengths): a chain of l_T chords in M
+is as long as a chain of l_C chords in L, whatever N_T. c = 0 when N_T = N_C. On the
+catheter's last segment the offset tapers to 0 at the tip, c g(σ) K_T with
+g = 1 + 2σ − 3σ² (∫₀¹ g = 1), because the tendon's endpoint is held there by Eqs. (28)–(29)
+at no offset (a jump to 0 over one tendon chord would cost δ²/l_T, which grows as l_T
+falls); and when the tendon's chords are longer than the catheter's, its last lumen-held
+point takes c × 3/2 (:data:`TIP_SHARE`), the share of the chord to the unshifted endpoint
+(a chain computed apart, 2-D with a continuous catheter, balances uniform curvature at 1.41
+for N_T = 10).
+
+*Why the tendon's turn and not the catheter's curvature.* The offset's virtual work is a
+moment on whatever sets K. With the catheter's discrete curvature at the point it is a
+moment on the one or two joints next to the point, which dips the catheter's curvature
+there (−2 % of κ at N_C = 30, −15 % at 240: the dip's height grows as 1/l_C at a fixed
+integral) — and that dip lowers the K the offset is computed from, so the correction
+weakened itself as the catheter was refined: N_T = 10 against the arc grew 1.28e-5, 1.65e-5,
+2.28e-5, 3.78e-5 L at N_C = 30, 60, 120, 240. The tendon's turn averages over its two
+chords, finite in the continuum limit: 4.85e-6, 3.62e-6, 3.27e-6, 3.20e-6 L. The element
+then also couples the stencil (p_{b−1}, p_b, p_{b+1}), 30 local coordinates instead of 21;
+with c = 0 (N_T = N_C) the stencil is left out and the element is as before. Measured
+(tests/test_tendon_convergence.py): with N_C = 30 the tip moves ≤ 4.5e-6 L over
+N_T = 10 … 120 (6.5e-4 L without the correction). ``chord_correction = false`` holds the
+points on L itself.
 
 **The point on its segment.** A tendon point p registered to lumen segment j is held at its
 distance from the curve: σ minimises |L(σ) − p|² (Newton from the chord projection; σ ∈ [0, 1]
@@ -72,7 +85,8 @@ lumen acts where the tendon touches it) and the Hessian ∇²E = f_xx − f_xσ 
 K_j, K_{j+1}) with weights w = (−1, h00, h01, l̄ h10, l̄ h11, c (1 − σ), c σ):
 f_y = k w ⊗ Δ, f_yy = k w wᵀ ⊗ I, f_yσ = k (w′ ⊗ Δ + w ⊗ L′), f_σσ = k (L′·L′ + Δ·L″).
 
-Each element couples (p, r_j, r_{j+1}, q_{j−1}, q_j, q_{j+1}), 21 coordinates; s_j and s_{j+1}
+Each element couples (p, r_j, r_{j+1}, q_{j−1}, q_j, q_{j+1}), 21 coordinates (30 with the
+tendon stencil of the chord correction); s_j and s_{j+1}
 are weighted sums of these three quaternion slots (:func:`node_weights`); at the ends a slot
 repeats a segment (the slots' contributions add up).
 """
@@ -84,11 +98,14 @@ import numpy as np
 from rodsim.core.rod.quaternion import DIRECTOR_FORMS
 from rodsim.core.tendon import Tendon
 
-__all__ = ["PointOnLumenCurve", "lumen_nodes", "node_weights", "segment_of",
-           "segment_quaternions", "turn_weights"]
+__all__ = ["PointOnLumenCurve", "TendonTurn", "lumen_nodes", "node_weights", "segment_of",
+           "segment_quaternions", "tendon_stencil"]
 
-#: Local coordinates of one element: p, r_j, r_{j+1}, q_{j−1}, q_j, q_{j+1}.
+#: Local coordinates of one element: p, r_j, r_{j+1}, q_{j−1}, q_j, q_{j+1} …
 WIDTH = 21
+#: … and, when the chord correction is on, the tendon points p_{b−1}, p_b, p_{b+1} whose
+#: turn K_T sets the offset (:class:`TendonTurn`).
+CORRECTED_WIDTH = 30
 #: Newton iterations on σ stop below this step (σ is O(1); quadratic convergence puts σ at
 #: round-off then, and a smaller bound would stall on round-off).
 SIGMA_TOLERANCE = 1e-12
@@ -120,21 +137,55 @@ def node_weights(segment: np.ndarray, segments: int) -> np.ndarray:
     return weights
 
 
-def turn_weights(segment: np.ndarray, segments: int) -> np.ndarray:
-    """Weights of d3 of the quaternion slots (q_{j−1}, q_j, q_{j+1}) in l̄ K_j and l̄ K_{j+1}
-    at each element's two nodes, shape (n, 2, 3): K_j = (d3(q_j) − d3(q_{j−1}))/l̄, the
-    catheter's discrete curvature vector at node j, (−1, 1, 0) and (0, −1, 1) inside. The
-    end nodes take their neighbour's (K_0 = K_1, K_{N−1} = K_{N−2}): (0, −1, 1) twice on the
-    first segment, (−1, 1, 0) twice on the last."""
-    segment = np.asarray(segment)
-    weights = np.zeros((len(segment), 2, 3))
-    if segments < 2:
-        return weights
-    weights[:, 0] = (-1.0, 1.0, 0.0)
-    weights[:, 1] = (0.0, -1.0, 1.0)
-    weights[segment == 0] = (0.0, -1.0, 1.0)
-    weights[segment == segments - 1] = (-1.0, 1.0, 0.0)
-    return weights
+def tendon_stencil(points: int) -> np.ndarray:
+    """Tendon vertices (b − 1, b, b + 1) whose turn sets the chord correction of each of the
+    ``points`` lumen-held points (every tendon point but the endpoint, so the tendon has
+    ``points`` + 1): b = i, and b = 1 for the base point, which has no vertex before it.
+    Shape (points, 3); needs points ≥ 2."""
+    vertex = np.maximum(np.arange(points), 1)
+    return np.stack([vertex - 1, vertex, vertex + 1], axis=1)
+
+
+class TendonTurn:
+    """The tendon's discrete curvature vector at a vertex, K_T = (e₊ − e₋)/l_T, from the
+    stencil (p_{b−1}, p_b, p_{b+1}) (n, 9), e± the unit vectors along the chords after and
+    before p_b and l_T the tendon's rest segment length; its gradient (n, 3, 9) and the
+    Hessian of g·K_T (:meth:`hessian`). For a unit vector e = d/r (r = |d|) and P = I − e eᵀ:
+    ∂e/∂d = P/r and ∂²(g·e)/∂d² = −((e·g) P + e (P g)ᵀ + (P g) eᵀ)/r²."""
+
+    def __init__(self, stencil: np.ndarray, length: float) -> None:
+        self.length = length
+        before = stencil[:, 3:6] - stencil[:, 0:3]
+        after = stencil[:, 6:9] - stencil[:, 3:6]
+        self.r = [np.linalg.norm(after, axis=1), np.linalg.norm(before, axis=1)]
+        self.e = [after / self.r[0][:, None], before / self.r[1][:, None]]  # e₊, e₋
+        self.value = (self.e[0] - self.e[1]) / length
+        eye = np.eye(3)[None]
+        self.projector = [eye - e[:, :, None] * e[:, None, :] for e in self.e]
+        plus = self.projector[0] / (self.r[0] * length)[:, None, None]
+        minus = self.projector[1] / (self.r[1] * length)[:, None, None]
+        #: ∂K_T/∂(p_{b−1}, p_b, p_{b+1}), shape (n, 3, 9).
+        self.grad = np.concatenate([minus, -plus - minus, plus], axis=2)
+
+    def hessian(self, g: np.ndarray) -> np.ndarray:
+        """∂²(g·K_T)/∂(p_{b−1}, p_b, p_{b+1})², shape (n, 9, 9)."""
+        out = np.zeros((len(g), 9, 9))
+        # d₊ = p_{b+1} − p_b enters with sign +1, d₋ = p_b − p_{b−1} with −1 (K_T = (e₊ − e₋)/l).
+        for e, projector, r, sign, (first, second) in (
+                (self.e[0], self.projector[0], self.r[0], 1.0, (3, 6)),
+                (self.e[1], self.projector[1], self.r[1], -1.0, (0, 3))):
+            along = np.sum(e * g, axis=1)
+            pg = np.einsum("nab,nb->na", projector, g)
+            block = -(along[:, None, None] * projector + e[:, :, None] * pg[:, None, :]
+                      + pg[:, :, None] * e[:, None, :]) / (r**2)[:, None, None]
+            block *= sign / self.length
+            # d = p_second − p_first: ∂²/∂p² = [[B, −B], [−B, B]] on (first, second).
+            a, b = slice(first, first + 3), slice(second, second + 3)
+            out[:, a, a] += block
+            out[:, b, b] += block
+            out[:, a, b] -= block
+            out[:, b, a] -= block
+        return out
 
 
 class NodeDirector:
@@ -228,27 +279,28 @@ class PointOnLumenCurve:
 
     def __init__(self, tendon: Tendon, local: np.ndarray, stiffness: np.ndarray,
                  segment_length: float, ends: np.ndarray, weights: np.ndarray,
-                 sagitta: np.ndarray | None = None, turns: np.ndarray | None = None) -> None:
+                 sagitta: np.ndarray | None = None, tendon_length: float = 1.0) -> None:
         self.offset = rl = tendon.offset
         self.ends = ends
         self.node_weights = weights
         self.stiffness = stiffness
         self.length = segment_length
+        self.width = local.shape[1]
         self.sagitta = np.zeros(len(local)) if sagitta is None else sagitta
         q = local[:, 9:21].reshape(-1, 3, 4)
-        self.turns = (np.zeros_like(weights) if turns is None else turns) / segment_length
         sums = np.einsum("nik,nka->nia", weights, q)
         lumen, tangent = lumen_forms(tendon)
         self.directors = [NodeDirector(forms, sums[:, i]) for i in (0, 1)
                           for forms in (lumen, tangent)]  # u_j, τ_j, u_{j+1}, τ_{j+1}
-        self.slot_tangents = [NodeDirector(tangent, q[:, i]) for i in range(3)]
-        bends = [sum(self.turns[:, node, i, None] * self.slot_tangents[i].value
-                     for i in range(3)) for node in (0, 1)]
+        # The chord correction's curvature: the tendon's turn at its stencil (both K slots).
+        self.turn = (TendonTurn(local[:, WIDTH:CORRECTED_WIDTH], tendon_length)
+                     if self.width == CORRECTED_WIDTH else None)
+        bend = np.zeros((len(local), 3)) if self.turn is None else self.turn.value
         start = local[:, 3:6] + rl * self.directors[0].value
         end = local[:, 6:9] + rl * self.directors[2].value
         # The curve's control vectors, in the order of the weights.
         self.control = np.stack([start, end, self.directors[1].value, self.directors[3].value,
-                                 bends[0], bends[1]], axis=1)
+                                 bend, bend], axis=1)
         self.p = local[:, 0:3]
         self.sigma = self._project(end - start)
         self.weights, self.slopes, self.curvatures = self._weights(self.sigma)
@@ -299,9 +351,9 @@ class PointOnLumenCurve:
 
     def _chain(self) -> np.ndarray:
         """∂y/∂(local coordinates), y = (p, L_j, L_{j+1}, τ_j, τ_{j+1}, K_j, K_{j+1}),
-        shape (n, 21, 21)."""
+        shape (n, 21, width); both K slots hold the tendon's turn K_T."""
         n, rl = len(self.sigma), self.offset
-        chain = np.zeros((n, 21, WIDTH))
+        chain = np.zeros((n, 21, self.width))
         eye = np.eye(3)
         for block in range(3):
             chain[:, 3 * block:3 * block + 3, 3 * block:3 * block + 3] = eye
@@ -313,10 +365,9 @@ class PointOnLumenCurve:
             for k in range(3):
                 chain[:, rows, 9 + 4 * k:13 + 4 * k] = (
                     factor * self.node_weights[:, node, k, None, None] * director.grad)
-        for rows, node in ((slice(15, 18), 0), (slice(18, 21), 1)):
-            for k in range(3):
-                chain[:, rows, 9 + 4 * k:13 + 4 * k] += (
-                    self.turns[:, node, k, None, None] * self.slot_tangents[k].grad)
+        if self.turn is not None:
+            chain[:, 15:18, WIDTH:] = self.turn.grad
+            chain[:, 18:21, WIDTH:] = self.turn.grad
         return chain
 
     def _y_gradient(self) -> np.ndarray:
@@ -326,11 +377,11 @@ class PointOnLumenCurve:
             len(k), 21)
 
     def gradient(self) -> np.ndarray:
-        """∂E_i/∂(local coordinates), shape (n, 21)."""
+        """∂E_i/∂(local coordinates), shape (n, width)."""
         return np.einsum("nya,ny->na", self._chain(), self._y_gradient())
 
     def hessian(self) -> np.ndarray:
-        """∂²E_i/∂(local coordinates)², shape (n, 21, 21)."""
+        """∂²E_i/∂(local coordinates)², shape (n, width, width)."""
         k = self.stiffness
         n = len(k)
         w, w1, w2 = self.weights, self.slopes, self.curvatures
@@ -355,9 +406,6 @@ class PointOnLumenCurve:
                 for j in range(3):
                     hess[:, 9 + 4 * i:13 + 4 * i, 9 + 4 * j:13 + 4 * j] += (
                         (w[:, i] * w[:, j])[:, None, None] * block)
-        for i in range(3):
-            g_k = (self.turns[:, 0, i, None] * g_y[:, 15:18]
-                   + self.turns[:, 1, i, None] * g_y[:, 18:21])
-            hess[:, 9 + 4 * i:13 + 4 * i, 9 + 4 * i:13 + 4 * i] += (
-                self.slot_tangents[i].hessian(g_k))
+        if self.turn is not None:
+            hess[:, WIDTH:, WIDTH:] += self.turn.hessian(g_y[:, 15:18] + g_y[:, 18:21])
         return hess

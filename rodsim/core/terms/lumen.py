@@ -22,11 +22,12 @@ node j, tangent to d3(Q_j) there; each point is
 registered to the lumen *segment* it lies alongside and held at its distance from that
 segment's curve, E = Σ_i ½ K_L w_i |Δ_i|² with K_L per unit tendon length [N/m²] and w_i the
 point's share of the tendon's rest length [m] (l_T/2 for the base point, l_T for the
-others), the curve offset by the chord correction (l_C² − l_T²)/24 × the catheter's
-curvature vector, so that the tendon's chords measure it as the catheter's chords do
-(``chord_correction``; :mod:`rodsim.core.terms._lumen_segment`). It is a gradient: the
-reaction −F_i acts where the tendon touches the lumen, on
-r_j, r_{j+1} and, through the offsets and tangents, on q_{j−1}, q_j, q_{j+1}. Only
+others), the curve offset by the chord correction (l_C² − l_T²)/24 × the curvature
+vector of the tendon's chain at the point, so that the tendon's chords measure it as the
+catheter's chords do (``chord_correction``; :mod:`rodsim.core.terms._lumen_segment`). It is
+a gradient: the reaction −F_i acts where the tendon touches the lumen, on
+r_j, r_{j+1} and, through the offsets and tangents, on q_{j−1}, q_j, q_{j+1} (and, through
+the correction's curvature, on the tendon points p_{b−1}, p_b, p_{b+1} around it). Only
 ``constrain = "both"``: the distance from a curve holds the point in both transverse
 directions.
 
@@ -36,11 +37,11 @@ new model around it, ``Model.reregistered``). It is updated between solver steps
 every time step, Newton solve or CVODE/IDA step), not inside a force evaluation: the
 nearest-lumen-point rule switches the lumen line a point is held to and so makes the force
 discontinuous, which stalls Newton and the BDF error control. Between updates each element
-couples exactly (p_i, r_j, q_j) (paper) or (p_i, r_j, r_{j+1}, q_{j−1}, q_j, q_{j+1})
-(conserving), so the Jacobian pattern is exact; an update that changes a
-parent rebuilds the pattern (§4.2's "redefined on every iteration") and the SUNDIALS
-integrators re-initialise. During a run a point switches parent only when another lumen
-point is closer (paper), or it lies beyond the boundary plane of its lumen segment
+couples exactly (p_i, r_j, q_j) (paper) or (p_i, r_j, r_{j+1}, q_{j−1}, q_j, q_{j+1}) and
+the chord correction's tendon stencil (conserving), so the Jacobian pattern is exact; an
+update that changes a parent rebuilds the pattern (§4.2's "redefined on every iteration")
+and the SUNDIALS integrators re-initialise. During a run a point switches parent only when
+another lumen point is closer (paper), or it lies beyond the boundary plane of its lumen segment
 (conserving), by ``hysteresis`` × the catheter's segment length, so a transient on a
 switching boundary cannot flip-flop; once a run is at equilibrium, every point is re-
 registered to its nearest lumen point without hysteresis and the run goes on if a parent
@@ -66,7 +67,7 @@ from rodsim.core.terms._lumen_segment import (
     node_weights,
     segment_of,
     segment_quaternions,
-    turn_weights,
+    tendon_stencil,
 )
 from rodsim.core.terms.base import TendonTerm
 
@@ -133,9 +134,10 @@ class Lumen(TendonTerm):
                   "fraction of the catheter's segment length", 0.0, 1.0),
         Parameter("chord_correction", "bool", True, "-",
                   "coupling 'conserving': offset the lumen curve by (l_C² − l_T²)/24 times "
-                  "the catheter's curvature vector, so that a chain of tendon chords of rest "
-                  "length l_T measures the lumen as a chain of catheter chords l_C does "
-                  "(docs/tendon.md); false holds the points on the curve itself"),
+                  "the curvature vector of the tendon's chain at the point, so that a chain "
+                  "of tendon chords of rest length l_T measures the lumen as a chain of "
+                  "catheter chords l_C does (docs/tendon.md); false holds the points on the "
+                  "curve itself"),
     )
 
     def __init__(self, tendon: Tendon, options: Any) -> None:
@@ -153,7 +155,9 @@ class Lumen(TendonTerm):
             share[0] *= 0.5
             self._stiffness = options.K_L * share
             self._sagitta = np.zeros(len(self._points))
-            if options.chord_correction:
+            # The correction's curvature is the tendon's turn at a vertex, so it needs a
+            # tendon of at least three points.
+            if options.chord_correction and len(self._points) >= 2:
                 self._sagitta[:] = (catheter.geometry.segment_length**2
                                     - tendon.rod.geometry.segment_length**2) / 24.0
                 if tendon.rod.geometry.segment_length > catheter.geometry.segment_length:
@@ -216,8 +220,11 @@ class Lumen(TendonTerm):
             r = layout.position_index[np.stack([self.parent, self.parent + 1], axis=1)]
             q = layout.quaternion_index[segment_quaternions(self.parent,
                                                             self.tendon.catheter.nodes - 1)]
-            self.dofs = np.concatenate([self._points, r.reshape(len(r), 6),
-                                        q.reshape(len(q), 12)], axis=1)
+            blocks = [self._points, r.reshape(len(r), 6), q.reshape(len(q), 12)]
+            if np.any(self._sagitta):
+                position = self.tendon.rod.layout.position_index
+                blocks.append(position[tendon_stencil(len(self._points))].reshape(-1, 9))
+            self.dofs = np.concatenate(blocks, axis=1)
             return
         r = layout.position_index[self.parent]
         q = layout.quaternion_index[self.tendon.lumen_segment(self.parent)]
@@ -229,7 +236,8 @@ class Lumen(TendonTerm):
         if self.conservative:
             return (self.dofs, float(tendon.alpha), float(tendon.beta), float(tendon.offset),
                     self._stiffness, float(tendon.catheter.geometry.segment_length),
-                    self._ends(), self._node_weights(), self._sagitta, self._turn_weights())
+                    self._ends(), self._node_weights(), self._sagitta,
+                    float(tendon.rod.geometry.segment_length))
         return (self.dofs, float(tendon.alpha), float(tendon.beta), float(tendon.offset),
                 float(self._stiffness), self._both, self.conservative, self._reaction_share())
 
@@ -240,13 +248,11 @@ class Lumen(TendonTerm):
     def _on_segments(self, x: np.ndarray) -> PointOnLumenCurve:
         return PointOnLumenCurve(self.tendon, x[self.dofs], self._stiffness,
                                  self.tendon.catheter.geometry.segment_length, self._ends(),
-                                 self._node_weights(), self._sagitta, self._turn_weights())
+                                 self._node_weights(), self._sagitta,
+                                 self.tendon.rod.geometry.segment_length)
 
     def _node_weights(self) -> np.ndarray:
         return node_weights(self.parent, self.tendon.catheter.nodes - 1)
-
-    def _turn_weights(self) -> np.ndarray:
-        return turn_weights(self.parent, self.tendon.catheter.nodes - 1)
 
     def _ends(self) -> np.ndarray:
         """Per element: (on the catheter's first segment, on its last), shape (n, 2)."""
