@@ -146,6 +146,16 @@ def test_bench_command_finds_the_benchmarks_in_the_checkout():
     assert library and not any("rodsim_bench" in name for name in library)
 
 
+def test_bench_help_names_every_benchmark(cli, capsys):
+    """The CLI cannot import the benchmarks (they are outside the package), so its help
+    lists them by hand; this keeps that list equal to ``rodsim_bench.BENCHMARKS``."""
+    with pytest.raises(SystemExit):
+        cli(["bench", "--help"])
+    text = " ".join(capsys.readouterr().out.split())
+    for name in bench_locator.load_benchmarks().BENCHMARKS:
+        assert name in text, f"'rodsim bench --help' does not name {name!r}"
+
+
 def test_bench_without_a_checkout_says_so(cli, capsys, monkeypatch, tmp_path):
     """An installed rodsim has no benchmarks (and no benchmarks/results): one clear line,
     no traceback."""
