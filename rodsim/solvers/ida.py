@@ -172,8 +172,10 @@ class Ida(SundialsIntegrator):
                        "Baumgarte-stabilised to index 1")
     # The constrained Newton finish (a merit line search: no energy to minimise) fails more
     # often from far away than CVODE's: measured with switch 0.1 / 0.03 / 0.01 / 0 on
-    # table1-50g 24.8 / 13.2 / 21.6 / 19.4 ms (the 0.1 run wastes one 20-iteration attempt),
-    # tendon-conserving 18.1 / 17.1 / 19.5 / 32.1 ms, table3-catheter1 297 / 239 / 231 / 235.
+    # table1-50g 24.8 / 13.2 / 21.6 / 19.4 ms (the 0.1 run wastes one 20-iteration attempt;
+    # re-measured after the homotopy finish: 0.1 / 0.03 / 0.01 44 / 17 / 18 ms, table1-100g
+    # 25 / 18 / 22 ms). The tendon scenes, where the homotopy finish succeeds from 0.1,
+    # declare 0.1 and a step load (docs/benchmarks.md, "CVODE and IDA on the tendon scenes").
     parameters = tuple(replace(p, default=0.03) if p.name == "newton_switch" else p
                        for p in PSEUDO_DYNAMICS_PARAMETERS)
 
