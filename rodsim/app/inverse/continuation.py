@@ -238,6 +238,9 @@ class ScaledEquilibria:
         self.scene, self.keys, self.scale, self.rod = scene, list(keys), scale, rod
         self.continuation = Continuation(Model(result.scene), result.state)
         self.values = np.array([k.value(scene) for k in keys])
+        #: The scaled scene values, where a fit or a reach starts: ±1 for a non-zero value
+        #: (its sign), 0 for a zero one.
+        self.start = self.values / scale
         self.evaluations = 0
         self.jacobians = 0
         #: Evaluations whose equilibrium could not be solved (see :meth:`residual_or_none`).

@@ -275,8 +275,8 @@ def fit(scene: Scene, points: Points, params: Sequence[str], *, rod: str | None 
         rows = rows - along[:, :, None] * tangent[None]
         return rows.transpose(1, 2, 0).reshape(-1, len(keys))
 
-    _check_identifiable(jacobian(np.ones(len(keys))), keys, length)
-    solution = least_squares(residuals, np.ones(len(keys)), jac=jacobian,
+    _check_identifiable(jacobian(problem.start), keys, length)
+    solution = least_squares(residuals, problem.start, jac=jacobian,
                              bounds=(lower, upper), x_scale=1.0, xtol=1e-12, ftol=1e-15,
                              gtol=1e-15, max_nfev=max_evaluations, method="trf")
     problem.at(solution.x)

@@ -131,7 +131,7 @@ def reach(scene: Scene, tip: Sequence[float], actuate: Sequence[str], *,
         problem.at(u)
         return problem.node_sensitivity()[:, -1, :].T
 
-    solution = least_squares(residuals, np.ones(len(keys)), jac=jacobian,
+    solution = least_squares(residuals, problem.start, jac=jacobian,
                              bounds=(lower, upper), xtol=1e-12, ftol=1e-15, gtol=1e-15,
                              max_nfev=max_evaluations, method="trf")
     values = problem.values_of(solution.x)
