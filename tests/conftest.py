@@ -123,3 +123,20 @@ def cli() -> Callable[[list[str]], int]:
 def fd() -> dict[str, Callable]:
     """Finite-difference helpers: ``steps(model)``, ``jacobian(f, x, h)``, ``gradient(f, x, h)``."""
     return {"steps": fd_steps, "jacobian": central_jacobian, "gradient": central_gradient}
+
+
+@pytest.fixture
+def least_squares_starts(monkeypatch) -> list:
+    """The start x0 of every ``scipy.optimize.least_squares`` call (fit and reach import it
+    when they run), recorded in call order."""
+    import scipy.optimize
+
+    starts = []
+    solver = scipy.optimize.least_squares
+
+    def recorded(function, x0, **options):
+        starts.append(np.array(x0, dtype=float))
+        return solver(function, x0, **options)
+
+    monkeypatch.setattr(scipy.optimize, "least_squares", recorded)
+    return starts

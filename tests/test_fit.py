@@ -167,21 +167,11 @@ def test_fit_command_bad_input_exits_2_with_one_line_and_writes_nothing(
     assert list(output.parent.iterdir()) == []
 
 
-def test_a_fit_starts_from_the_scene_values_whatever_their_sign(monkeypatch):
+def test_a_fit_starts_from_the_scene_values_whatever_their_sign(least_squares_starts):
     """The start is the scaled scene value (−1 for a negative one, tests/test_reach.py has
     the zero case); it used to be +1 for every parameter, +0.02 m here instead of −0.02 m."""
-    import scipy.optimize
-
-    starts = []
-    solver = scipy.optimize.least_squares
-
-    def recorded(function, x0, **options):
-        starts.append(np.array(x0, dtype=float))
-        return solver(function, x0, **options)
-
-    monkeypatch.setattr(scipy.optimize, "least_squares", recorded)
     scene = rodsim.load_scene("table1-50g", ["nodes=10", "origin=[0.0, -0.02, 0.0]"])
     result = fit(scene, synthetic(scene, {"origin": "[0.0, -0.021, 0.0]"}, noise=1e-6),
                  ["origin[1]"])
-    assert starts and starts[0][0] == -1.0
+    assert least_squares_starts[0][0] == -1.0
     assert result.values[0] == pytest.approx(-0.021, abs=1e-5)

@@ -123,23 +123,13 @@ def test_reach_command_bad_input_exits_2(tmp_path, capsys, cli, argv, message):
 
 
 @pytest.mark.parametrize("origin", [-0.02, 0.0])
-def test_reach_starts_from_the_scene_values_whatever_their_sign(origin, monkeypatch):
+def test_reach_starts_from_the_scene_values_whatever_their_sign(origin, least_squares_starts):
     """Parameters are scaled by their magnitude (1 where they are 0), so the start is the
     scaled scene value: −1 for a negative one, 0 for a zero one. It used to be 1 for every
     parameter, i.e. +0.02 m instead of −0.02 m, and 1 m instead of 0 here."""
-    import scipy.optimize
-
-    starts = []
-    solver = scipy.optimize.least_squares
-
-    def recorded(function, x0, **options):
-        starts.append(np.array(x0, dtype=float))
-        return solver(function, x0, **options)
-
-    monkeypatch.setattr(scipy.optimize, "least_squares", recorded)
     scene = rodsim.load_scene("table1-50g", ["nodes=10", f"origin=[0.0, {origin}, 0.0]"])
     target = rodsim.solve(scene, "static").tip()
     found = rodsim.reach(scene, target, ["origin[1]"])
     assert found.success, found.message
-    assert starts and starts[0][0] == (np.sign(origin) if origin else 0.0)
+    assert least_squares_starts[0][0] == (np.sign(origin) if origin else 0.0)
     assert found.values[0] == pytest.approx(origin, abs=1e-9)

@@ -215,21 +215,14 @@ class Ida(SundialsIntegrator):
 
         On a non-conservative model with stiff penalties (the paper's tendon coupling) the
         positions first go to the equilibrium of F(x) = 0 with the penalties lowered, by
-        the residual homotopy CVODE's finish uses (:meth:`SundialsIntegrator.finish_newton`);
+        the residual homotopy CVODE's finish uses (:meth:`SundialsIntegrator.at_lowered_penalties`);
         the constrained Newton at the full penalties starts there. Without it, Newton at the
         full penalties failed until IDA had integrated much closer (measured on
         table3-catheter1: 4 finish attempts and 214 steps with a step load)."""
-        iterations = 0
-        lowered = self.lowered_penalties()
-        if lowered:
-            model = self.model
-            self.model = model.with_term_scales(lowered)
-            try:
-                converged, x, iterations = self.homotopy(self.system.positions_of(y).copy())
-            finally:
-                self.model = model
-            if not converged:
-                return False, y, iterations
+        converged, x, iterations = self.at_lowered_penalties(self.system.positions_of(y))
+        if not converged:
+            return False, y, iterations
+        if iterations:
             y = y.copy()
             y[self.system.x_slot] = x
         converged, y, more = self.constrained_newton(y)

@@ -218,21 +218,28 @@ class SundialsIntegrator(Integrator):
         for λ from 0 to 1 (:meth:`homotopy`) — whose equilibrium is next to the full one, then
         Newton at the full penalties from there. Both through the retraction
         :meth:`Model.step`."""
-        iterations = 0
-        lowered = self.lowered_penalties()
-        if lowered:
-            model = self.model
-            self.model = model.with_term_scales(lowered)
-            try:
-                converged, state, iterations = self.homotopy(state)
-            finally:
-                self.model = model
-            if not converged:
-                return False, state, iterations
+        converged, state, iterations = self.at_lowered_penalties(state)
+        if not converged:
+            return False, state, iterations
         converged, state, more = self.newton_equilibrium(
             state, 1.0, self.options.newton_iterations, "the Newton finish",
             retract=True)
         return converged, state, iterations + more
+
+    def at_lowered_penalties(self, x: np.ndarray) -> tuple[bool, np.ndarray, int]:
+        """The positions ``x`` taken to the equilibrium of :attr:`model` with its stiff
+        penalties lowered (:meth:`lowered_penalties`) by :meth:`homotopy`, where a Newton
+        finish at the full penalties then converges; ``x`` itself, with no iteration, when
+        nothing needs lowering. (converged, positions, iterations)."""
+        lowered = self.lowered_penalties()
+        if not lowered:
+            return True, x, 0
+        model = self.model
+        self.model = model.with_term_scales(lowered)
+        try:
+            return self.homotopy(x)
+        finally:
+            self.model = model
 
     def homotopy(self, x: np.ndarray) -> tuple[bool, np.ndarray, int]:
         """Solve F(x) = 0 on :attr:`model` from ``x`` by residual homotopy: Newton on
