@@ -20,7 +20,14 @@ import xarray as xr
 import rodsim
 import rodsim.solvers
 from rodsim.app import bench_locator
-from rodsim_bench import pyelastica, scaling, skip_work, stress, work_precision
+from rodsim_bench import (
+    paper_regime,
+    pyelastica,
+    scaling,
+    skip_work,
+    stress,
+    work_precision,
+)
 
 MACHINE_KEYS = ("machine_cpu", "machine_cores", "machine_platform", "machine_python",
                 "machine_numpy", "machine_scipy", "machine_scikit_sundae", "machine_date",
@@ -115,6 +122,34 @@ def test_scaling_small_outputs_via_cli(tmp_path, cli, capsys):
     band = float(ds["solve_memory"].sel(config="cvode overdamped band", nodes=200))
     sparse = float(ds["solve_memory"].sel(config="cvode overdamped sparse", nodes=200))
     assert band > sparse + 5.0  # the template is n² × 8 B = 15 MiB here
+
+
+def test_paper_regime_small_outputs(tmp_path, cli, capsys):
+    """`rodsim bench paper-regime --size small`: the files, every method in the table, every
+    run successful, and the regime (M scaled to h² ω₁² = 0.003) taking more steps to rest
+    than the same paper integrator with the physical masses (h² ω₁² ≈ 26)."""
+    assert cli(["bench", "paper-regime", "--size", "small", "-o", str(tmp_path)]) == 0
+    paths = sorted(tmp_path.glob("paper-regime-small.*"))
+    out = capsys.readouterr().out
+    assert paths and all(str(p) in out for p in paths)
+    ds = _check_common(paths, "paper-regime-small")
+    assert ds.attrs["benchmark"] == "paper-regime" and ds.attrs["size"] == "small"
+    assert np.all(ds["success"].values == 1), ds["message"].values
+    assert np.all(np.isfinite(ds["error"].values))
+    assert np.all(np.isfinite(ds["wall_time"].values) & (ds["wall_time"].values > 0))
+    text = (tmp_path / "paper-regime-small.md").read_text()
+    methods, _ = paper_regime.methods_for("small")
+    for method in methods:
+        assert f"| {method.label} |" in text, method.label
+    assert "Machine:" in text and "FAILED" not in text
+    groups = ds["group"].values
+    assert set(groups) == {"static", "paper regime", "paper physical M", "cvode"}
+    regime = float(ds["steps"].values[groups == "paper regime"][0])
+    physical = float(ds["steps"].values[groups == "paper physical M"][0])
+    assert regime > 5 * physical, (regime, physical)
+    assert float(ds["h2_omega2"].values[groups == "paper regime"][0]) == 0.003
+    # Same equilibrium: M changes the path, not where the rod comes to rest.
+    assert np.all(ds["error"].values < 1e-3)
 
 
 def test_work_precision_runs_the_scipy_baseline_by_name():
