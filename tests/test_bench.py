@@ -327,6 +327,23 @@ def test_work_precision_title_states_the_fastest_runs(tmp_path, monkeypatch):
     assert work_precision.measured_result(slower) != text
 
 
+def test_paper_regime_title_states_the_measured_ratios(tmp_path, monkeypatch):
+    ds = xr.load_dataset(RESULTS / "paper-regime-full.nc")
+    text = paper_regime.measured_result(ds)
+    assert " ".join(text.split()) in " ".join(
+        _suptitle(paper_regime._plot, ds, tmp_path, monkeypatch).split())
+    level = paper_regime.TITLE_ERROR
+    assert paper_regime.title_level(ds) == level
+    paper, k = paper_regime.best(ds, "paper regime", level)
+    cvode, _ = paper_regime.best(ds, "cvode", level)
+    assert k >= 0 and f"CVODE {paper / cvode:.3g}× faster" in text, text
+    assert f"ξ = {float(ds['xi'].values[k]):g}" in text, text
+    # Slower regime runs raise the ratio.
+    slower = ds.copy(deep=True)
+    slower["wall_time"].values[(slower["group"] == "paper regime").values] *= 2.0
+    assert f"CVODE {2 * paper / cvode:.3g}× faster" in paper_regime.measured_result(slower)
+
+
 def test_stress_title_states_the_share_converged(tmp_path, monkeypatch):
     ds = xr.load_dataset(RESULTS / "stress-full.nc")
     text = stress.measured_result(ds)

@@ -14,7 +14,10 @@ what that regime costs against CVODE and IDA, which choose their own steps and p
   0.95, 1.0} (the regime), and at h = 0.3, ξ = 0.9 with the physical masses
   (``h2_omega2 = 0``, rodsim's default) for contrast;
 - ``cvode`` and ``ida`` at their defaults (overdamped, band, rtol = atol = 1e-4) and
-  ``cvode`` at rtol = atol = 1e-6;
+  ``cvode`` at rtol = atol = 1e-6; and, for contrast, ``cvode`` and ``ida`` at their
+  defaults without their Newton finish (``newton_switch = 0``: they integrate all the way to
+  the tolerance instead of switching to Newton on F(x) = 0 once the scaled residual is
+  below 0.1) — the adaptive integrators' own cost;
 
 each at τ = ``solver.tolerance`` ∈ {1e-4, 1e-7, 1e-10} (1e-10 is raised to the scene's
 round-off floor). Error and time are measured as in :mod:`rodsim_bench.work_precision`
@@ -31,6 +34,7 @@ from __future__ import annotations
 
 import textwrap
 from collections.abc import Callable
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
@@ -73,7 +77,8 @@ COMPARE_AT = (1e-4, 1e-5, 1e-6, 1e-7, 1e-8)
 #: The error level the figure's title compares at [1].
 TITLE_ERROR = 1e-7
 #: Groups of methods (the ``group`` coordinate), in table order.
-GROUPS = ("static", "paper regime", "paper physical M", "cvode", "ida")
+GROUPS = ("static", "paper regime", "paper physical M", "cvode", "ida",
+          "cvode, no Newton finish", "ida, no Newton finish")
 
 
 def regime(xi: float, h: float = H) -> Method:
@@ -88,11 +93,19 @@ PHYSICAL = Method(f"paper h={H:g} ξ=0.9 physical M", "paper", "paper",
 CVODE_DEFAULT = _sundials("cvode", "overdamped", "band", 1e-4)
 
 
+def no_finish(method: Method) -> Method:
+    """``method`` (CVODE or IDA) integrating all the way to the tolerance: no Newton finish."""
+    return replace(method, label=f"{method.label} no Newton finish",
+                   options=(*method.options, ("newton_switch", 0.0)))
+
+
 def group(method: Method) -> str:
     """The method's group (one of :data:`GROUPS`)."""
     if method.family == "paper":
         return "paper regime" if method.settings.get("h2_omega2", 0.0) > 0 else (
             "paper physical M")
+    if method.settings.get("newton_switch") == 0.0:
+        return f"{method.family}, no Newton finish"
     return method.family
 
 
@@ -100,9 +113,10 @@ def methods_for(size: str) -> tuple[list[Method], list[float]]:
     """The methods and the tolerances τ at this ``size``."""
     if size == "small":
         return [STATIC, regime(0.9), PHYSICAL, CVODE_DEFAULT], [1e-4]
-    return ([STATIC, *(regime(xi) for xi in XIS), PHYSICAL, CVODE_DEFAULT,
-             _sundials("ida", "overdamped", "band", 1e-4),
-             _sundials("cvode", "overdamped", "band", 1e-6)], list(TOLERANCES))
+    ida = _sundials("ida", "overdamped", "band", 1e-4)
+    return ([STATIC, *(regime(xi) for xi in XIS), PHYSICAL, CVODE_DEFAULT, ida,
+             _sundials("cvode", "overdamped", "band", 1e-6), no_finish(CVODE_DEFAULT),
+             no_finish(ida)], list(TOLERANCES))
 
 
 # --------------------------------------------------------------------- outputs
@@ -118,7 +132,11 @@ def _archive(points: list[Point], info: dict[str, Any], size: str, repeats: int)
         h2_omega2=("point", np.array([p.method.settings.get("h2_omega2", np.nan)
                                       for p in points], dtype=float),
                    {"units": "1", "long_name": "paper integrator's h² ω₁² target "
-                    "(solver.paper.h2_omega2; 0: physical masses; NaN if n/a)"}))
+                    "(solver.paper.h2_omega2; 0: physical masses; NaN if n/a)"}),
+        newton_switch=("point", np.array([p.method.settings.get("newton_switch", np.nan)
+                                          for p in points], dtype=float),
+                       {"units": "1", "long_name": "CVODE/IDA newton_switch if set (0: no "
+                        "Newton finish; NaN: the default 0.1, or n/a)"}))
     ds.attrs.update({
         "title": "rodsim paper-regime benchmark: CVODE/IDA against the paper integrator "
                  "with h² ω₁² = 0.003",
@@ -163,19 +181,23 @@ def measured_result(ds, level: float | None = None) -> str:
     head = f"paper regime (h²ω₁² = {ds.attrs['h2_omega2']:g})"
     if kp < 0:
         return f"{head}: no run reached error ≤ {level:g}"
-    parts = []
-    for name in ("cvode", "ida"):
-        t, k = best(ds, name, level)
-        if k < 0:
-            if bool((ds["group"] == name).any()):
-                parts.append(f"{name.upper()} none")
-            continue
-        parts.append(f"{name.upper()} {paper / t:.3g}× faster" if t < paper else
-                     f"{name.upper()} {t / paper:.3g}× slower")
+    def against(names: tuple[str, ...]) -> list[str]:
+        out = []
+        for name in names:
+            if not bool((ds["group"] == name).any()):
+                continue
+            t, k = best(ds, name, level)
+            short = name.split(",")[0].upper()
+            out.append(f"{short} none" if k < 0 else f"{short} {paper / t:.3g}× faster"
+                       if t < paper else f"{short} {t / paper:.3g}× slower")
+        return out
+
     xi = float(ds["xi"].values[kp])
     static, _ = best(ds, "static", level)
-    tail = f" (static {paper / static:.3g}× faster)" if np.isfinite(static) else ""
-    return (f"{head}: " + ", ".join(parts or ["no adaptive run"])
+    bare = against(("cvode, no Newton finish", "ida, no Newton finish"))
+    tail = (f"; without their Newton finish {', '.join(bare)}" if bare else "") + (
+        f"; static {paper / static:.3g}× faster" if np.isfinite(static) else "")
+    return (f"{head}: " + ", ".join(against(("cvode", "ida")) or ["no adaptive run"])
             + f" than the best ξ (ξ = {xi:g}, {seconds(paper)}) at error ≤ {level:g}" + tail)
 
 
@@ -241,10 +263,13 @@ def _style(ds, label: str) -> dict[str, Any]:
                 "lw": 2.0 if xi == 0.9 else 1.2}
     if name == "paper physical M":
         return {"color": "tab:cyan", "marker": "D", "ls": "--"}
-    if name in ("cvode", "ida"):
+    if name.startswith(("cvode", "ida")):
         rtol = float(ds["rtol"].values[k])
-        return {"color": "tab:red" if name == "cvode" else "tab:green",
-                "marker": "s", "ls": "-" if rtol == 1e-4 else ":"}
+        finish = "no Newton finish" not in name
+        return {"color": ("tab:red" if finish else "tab:orange") if name.startswith("cvode")
+                else ("tab:green" if finish else "tab:olive"),
+                "marker": "s" if finish else "^",
+                "ls": "--" if not finish else "-" if rtol == 1e-4 else ":"}
     return {"color": "black", "marker": "*", "ls": "-.", "ms": 8}
 
 
