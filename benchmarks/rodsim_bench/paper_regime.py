@@ -286,7 +286,7 @@ def _plot(ds, path: Path) -> Path:
             series = ok.where(ok["method"] == label, drop=True)
             if not series.sizes.get("point", 0):
                 continue
-            series = series.sortby("wall_time")
+            series = series.sortby("tolerance")  # one line over τ
             ax.loglog(series["wall_time"].values,
                       np.maximum(series["error"].values, ERROR_FLOOR), label=label,
                       **{"ms": 5, "lw": 1.2, **_style(ds, label)})
