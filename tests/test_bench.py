@@ -20,7 +20,14 @@ import xarray as xr
 import rodsim
 import rodsim.solvers
 from rodsim.app import bench_locator
-from rodsim_bench import pyelastica, scaling, skip_work, stress, work_precision
+from rodsim_bench import (
+    paper_regime,
+    pyelastica,
+    scaling,
+    skip_work,
+    stress,
+    work_precision,
+)
 
 MACHINE_KEYS = ("machine_cpu", "machine_cores", "machine_platform", "machine_python",
                 "machine_numpy", "machine_scipy", "machine_scikit_sundae", "machine_date",
@@ -115,6 +122,34 @@ def test_scaling_small_outputs_via_cli(tmp_path, cli, capsys):
     band = float(ds["solve_memory"].sel(config="cvode overdamped band", nodes=200))
     sparse = float(ds["solve_memory"].sel(config="cvode overdamped sparse", nodes=200))
     assert band > sparse + 5.0  # the template is n² × 8 B = 15 MiB here
+
+
+def test_paper_regime_small_outputs(tmp_path, cli, capsys):
+    """`rodsim bench paper-regime --size small`: the files, every method in the table, every
+    run successful, and the regime (M scaled to h² ω₁² = 0.003) taking more steps to rest
+    than the same paper integrator with the physical masses (h² ω₁² ≈ 26)."""
+    assert cli(["bench", "paper-regime", "--size", "small", "-o", str(tmp_path)]) == 0
+    paths = sorted(tmp_path.glob("paper-regime-small.*"))
+    out = capsys.readouterr().out
+    assert paths and all(str(p) in out for p in paths)
+    ds = _check_common(paths, "paper-regime-small")
+    assert ds.attrs["benchmark"] == "paper-regime" and ds.attrs["size"] == "small"
+    assert np.all(ds["success"].values == 1), ds["message"].values
+    assert np.all(np.isfinite(ds["error"].values))
+    assert np.all(np.isfinite(ds["wall_time"].values) & (ds["wall_time"].values > 0))
+    text = (tmp_path / "paper-regime-small.md").read_text()
+    methods, _ = paper_regime.methods_for("small")
+    for method in methods:
+        assert f"| {method.label} |" in text, method.label
+    assert "Machine:" in text and "FAILED" not in text
+    groups = ds["group"].values
+    assert set(groups) == {"static", "paper regime", "paper physical M", "cvode"}
+    regime = float(ds["steps"].values[groups == "paper regime"][0])
+    physical = float(ds["steps"].values[groups == "paper physical M"][0])
+    assert regime > 5 * physical, (regime, physical)
+    assert float(ds["h2_omega2"].values[groups == "paper regime"][0]) == 0.003
+    # Same equilibrium: M changes the path, not where the rod comes to rest.
+    assert np.all(ds["error"].values < 1e-3)
 
 
 def test_work_precision_runs_the_scipy_baseline_by_name():
@@ -290,6 +325,23 @@ def test_work_precision_title_states_the_fastest_runs(tmp_path, monkeypatch):
     static = (slower["family"] == "static").values
     slower["wall_time"].values[static] *= 2.0
     assert work_precision.measured_result(slower) != text
+
+
+def test_paper_regime_title_states_the_measured_ratios(tmp_path, monkeypatch):
+    ds = xr.load_dataset(RESULTS / "paper-regime-full.nc")
+    text = paper_regime.measured_result(ds)
+    assert " ".join(text.split()) in " ".join(
+        _suptitle(paper_regime._plot, ds, tmp_path, monkeypatch).split())
+    level = paper_regime.TITLE_ERROR
+    assert paper_regime.title_level(ds) == level
+    paper, k = paper_regime.best(ds, "paper regime", level)
+    cvode, _ = paper_regime.best(ds, "cvode", level)
+    assert k >= 0 and f"CVODE {paper / cvode:.3g}× faster" in text, text
+    assert f"ξ = {float(ds['xi'].values[k]):g}" in text, text
+    # Slower regime runs raise the ratio.
+    slower = ds.copy(deep=True)
+    slower["wall_time"].values[(slower["group"] == "paper regime").values] *= 2.0
+    assert f"CVODE {2 * paper / cvode:.3g}× faster" in paper_regime.measured_result(slower)
 
 
 def test_stress_title_states_the_share_converged(tmp_path, monkeypatch):
