@@ -591,6 +591,15 @@ def cmd_terms(args: argparse.Namespace) -> int:
     return EXIT_OK
 
 
+def _add_scene_set_and_output(parser: argparse.ArgumentParser, kind: str) -> None:
+    """``--set`` and ``-o`` of the commands that start from a scene and write an archive
+    with its figure beside it (track, fit, reach)."""
+    parser.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
+                        help="override a scene value first (repeatable)")
+    parser.add_argument("-o", "--output", help=f"archive path (default: "
+                        f"runs/<scene>-{kind}.nc); the figure goes beside it (.png)")
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = OneLineParser(
         prog="rodsim", description="Tendon-driven catheters as Cosserat rods, to equilibrium.")
@@ -658,11 +667,7 @@ def build_parser() -> argparse.ArgumentParser:
     follow.add_argument("--integrator", metavar="NAME", default="static",
                         help="a registered integrator, listed by `rodsim run --help` "
                         "(default: static)")
-    follow.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
-                        help="override a scene value first (repeatable)")
-    follow.add_argument("-o", "--output", help="archive path (default: "
-                        "runs/<scene>-track.nc); "
-                        "the figure goes beside it (.png)")
+    _add_scene_set_and_output(follow, "track")
     follow.set_defaults(func=cmd_track)
 
     calibrate = sub.add_parser(
@@ -679,11 +684,7 @@ def build_parser() -> argparse.ArgumentParser:
     calibrate.add_argument("--param", action="append", required=True, metavar="KEY",
                            help="numeric scene value to fit (KEY as for --set), e.g. K_E")
     calibrate.add_argument("--rod", help="rod the points belong to (default: the first)")
-    calibrate.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
-                           help="override a scene value first (repeatable)")
-    calibrate.add_argument("-o", "--output", help="archive path (default: "
-                           "runs/<scene>-fit.nc); "
-                           "the figure goes beside it (.png)")
+    _add_scene_set_and_output(calibrate, "fit")
     calibrate.set_defaults(func=cmd_fit)
 
     aim = sub.add_parser(
@@ -702,11 +703,7 @@ def build_parser() -> argparse.ArgumentParser:
     aim.add_argument("--rod", help="rod whose tip is placed (default: the first)")
     aim.add_argument("--tolerance", type=_tolerance, default=1e-6, metavar="METRES",
                      help="distance at which the target counts as reached (default 1e-6 m)")
-    aim.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
-                     help="override a scene value first (repeatable)")
-    aim.add_argument("-o", "--output", help="archive path (default: runs/<scene>-reach.nc); "
-                     "the "
-                     "figure goes beside it (.png)")
+    _add_scene_set_and_output(aim, "reach")
     aim.set_defaults(func=cmd_reach)
 
     plot = sub.add_parser("plot", help="draw an archive's figure (PNG and PDF)",

@@ -15,7 +15,8 @@ from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
-__all__ = ["Parameter", "SceneError", "validate_table", "shown"]
+__all__ = ["Parameter", "SceneError", "validate_table", "shown", "options_type",
+           "register_with_options"]
 
 #: Longest echo of a user's value in a message (longer ones are cut with "…").
 SHOWN_WIDTH = 60
@@ -247,6 +248,20 @@ def validate_table(
 #: The Python type of a value of each parameter kind, after :meth:`Parameter.check`.
 KIND_TYPES: dict[str, Any] = {"float": float, "int": int, "str": str, "bool": bool,
                               "vector": list, "list": list}
+
+
+def register_with_options(cls: type, registry: dict[str, type], kind: str) -> None:
+    """What a term or integrator class does when it is defined: get its :func:`options_type`
+    from its ``parameters`` (as ``cls.Options``) and, when it declares its own ``name``,
+    enter ``registry`` under it (TypeError if the name is taken). ``kind`` names the
+    registry in messages ("term", "integrator")."""
+    label = getattr(cls, "name", cls.__name__)
+    cls.Options = options_type(f"{cls.__name__}Options", cls.parameters,
+                               f"Options of the {label} {kind} (docs/scenes.md lists them).")
+    if "name" in cls.__dict__:
+        if cls.name in registry:
+            raise TypeError(f"{kind} name {cls.name!r} registered twice")
+        registry[cls.name] = cls
 
 
 def options_type(name: str, parameters: Iterable[Parameter], doc: str = "") -> type:

@@ -24,7 +24,7 @@ from typing import TYPE_CHECKING, Any, ClassVar
 import numpy as np
 
 from rodsim.core.model import Model
-from rodsim.core.schema import Parameter, options_type, validate_table
+from rodsim.core.schema import Parameter, register_with_options, validate_table
 from rodsim.core.stability import Stability, assess
 from rodsim.solvers.failure import SolverFailure
 from rodsim.solvers.linear import LinearSolver
@@ -132,13 +132,7 @@ class Integrator(ABC):
 
     def __init_subclass__(cls, **kwargs: Any) -> None:
         super().__init_subclass__(**kwargs)
-        cls.Options = options_type(f"{cls.__name__}Options", cls.parameters,
-                                   f"Options of the {getattr(cls, 'name', cls.__name__)} "
-                                   "integrator (docs/scenes.md lists them).")
-        if "name" in cls.__dict__:
-            if cls.name in INTEGRATORS:
-                raise TypeError(f"integrator name {cls.name!r} registered twice")
-            INTEGRATORS[cls.name] = cls
+        register_with_options(cls, INTEGRATORS, "integrator")
 
     def __init__(self, model: Model, options: Any, tolerance: float,
                  max_wall_time: float = 600.0, progress: Progress | None = None,

@@ -36,7 +36,7 @@ from typing import TYPE_CHECKING, Any, ClassVar
 
 import numpy as np
 
-from rodsim.core.schema import Parameter, options_type
+from rodsim.core.schema import Parameter, register_with_options
 
 if TYPE_CHECKING:
     from rodsim.core.rod.rod import Rod
@@ -103,13 +103,7 @@ class Term(ABC):
 
     def __init_subclass__(cls, **kwargs: Any) -> None:
         super().__init_subclass__(**kwargs)
-        cls.Options = options_type(f"{cls.__name__}Options", cls.parameters,
-                                   f"Options of the {getattr(cls, 'name', cls.__name__)} term "
-                                   "(docs/scenes.md lists them).")
-        if "name" in cls.__dict__:
-            if cls.name in REGISTRY:
-                raise TypeError(f"term name {cls.name!r} registered twice")
-            REGISTRY[cls.name] = cls
+        register_with_options(cls, REGISTRY, "term")
 
     @abstractmethod
     def element_forces(self, x: np.ndarray) -> np.ndarray:
