@@ -66,6 +66,10 @@ def table(parameters: tuple[Parameter, ...], term_names: list[str] = ()) -> list
         doc = p.doc.replace("|", "\\|")
         lines.append(f"| `{p.name}` | {toml_value(p.default)} | {p.unit} "
                      f"| {allowed(p, list(term_names))} | {doc} |")
+        for item in p.items or ():  # the keys of each table of a list of tables
+            doc = item.doc.replace("|", "\\|")
+            lines.append(f"| `{p.name}[].{item.name}` | {toml_value(item.default)} "
+                         f"| {item.unit} | {allowed(item, [])} | {doc} |")
     return [*lines, ""]
 
 

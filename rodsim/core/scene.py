@@ -294,6 +294,10 @@ def resolve(raw: Mapping[str, Any]) -> dict[str, Any]:
         if options.radius >= options.length:
             raise SceneError(f"rods.{rod}.radius = {options.radius!r}: not below the length "
                              f"{options.length!r} m; allowed: radius < length (a slender rod)")
+        for term_name in options.terms:
+            if terms[term_name].scope == "rod":
+                terms[term_name].check_scene(terms[term_name].Options.of(table[term_name]),
+                                             options, f"rods.{rod}.{term_name}")
         if options.clamp == "orientation" and rod not in tendons:
             raise SceneError(f"rods.{rod}.clamp = 'orientation': it leaves the base position "
                              "free, which only a tendon pulled at its base can have; allowed: "
