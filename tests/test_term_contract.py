@@ -58,7 +58,8 @@ SMALL_SCENE = {
     },
 }
 
-#: Follower and world-frame point wrenches (a moment in the clamped first segment too).
+#: Follower and world-frame point wrenches (a moment in the clamped first segment too), a
+#: load per length, and sections that change inside segments (a tube, a thinner tip).
 SMALL_LOAD_SCENE = {
     "name": "contract-loads-and-sections",
     "rods": {
@@ -66,7 +67,11 @@ SMALL_LOAD_SCENE = {
             "length": 0.1, "radius": 0.004, "youngs_modulus": 2e6, "stretch_modulus": 5e6,
             "poisson_ratio": 0.3, "density": 1200.0, "nodes": 7, "clamp": "first_segment",
             "terms": ["stretch", "bend_twist", "centerline", "point_loads",
-                      "distributed_load"],
+                      "distributed_load", "gravity"],
+            "sections": [
+                {"start": 0.0, "end": 0.023, "youngs_modulus": 6e6, "inner_radius": 0.002},
+                {"start": 0.023, "end": 0.07, "stretch_modulus": 2e6, "density": 2000.0},
+                {"start": 0.07, "end": 0.1, "radius": 0.003, "shear_modulus": 5e5}],
             "distributed_load": {"force_per_length": [0.1, -0.2, 0.05], "spans": [
                 {"start": 0.01, "end": 0.047, "force_per_length": [0.0, 0.3, -0.1]}]},
             "point_loads": {"loads": [
