@@ -88,6 +88,18 @@ def test_sections_equal_to_the_rod_change_nothing():
         np.testing.assert_allclose(tip, uniform, rtol=0, atol=1e-13, err_msg=str(sections))
 
 
+def test_a_change_of_the_rod_reaches_the_spans_that_inherit_it():
+    """--set youngs_modulus (or a fit) changes every span that does not set its own E: the
+    resolved scene does not freeze the rod's values into the spans."""
+    scene = rodsim.load_scene(cantilever(10, {}, sections=TWO_SECTIONS))
+    stiffer = scene.with_overrides(["rods.c.youngs_modulus=2.0e7", "rods.c.density=2000.0"])
+    rod = rodsim.build_model(stiffer).rods["c"]
+    assert np.array_equal(rod.profile.youngs_modulus, [STIFF * MODULUS, 2.0e7])
+    assert np.array_equal(rod.profile.density, [2000.0, 2000.0])
+    with pytest.raises(SceneError, match="not below the radius"):
+        scene.with_overrides(["rods.c.radius=0.002"])  # below the tube's inner radius
+
+
 def test_mass_and_weight_follow_the_sections():
     """The lumped masses add up to ∫ ρ A ds and their first moment to ∫ s ρ A ds, exactly,
     for spans that end inside segments; gravity hangs on that weight."""

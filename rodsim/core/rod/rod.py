@@ -12,7 +12,7 @@ import numpy as np
 from rodsim.core.rod.geometry import RodGeometry
 from rodsim.core.rod.layout import RodLayout
 from rodsim.core.rod.quaternion import rest_quaternion
-from rodsim.core.rod.sections import SectionProfile
+from rodsim.core.rod.sections import INHERITED, SectionProfile
 from rodsim.core.schema import Parameter, options_type
 
 __all__ = ["Rod", "RodOptions", "ROD_PARAMETERS", "CLAMPS"]
@@ -79,7 +79,10 @@ class Rod:
     @cached_property
     def profile(self) -> SectionProfile | None:
         """The rod's spans (:mod:`rodsim.core.rod.sections`), ``None`` for a uniform rod."""
-        return SectionProfile.of(self.sections) if self.sections else None
+        if not self.sections:
+            return None
+        return SectionProfile.of(self.sections, {name: getattr(self.options, name)
+                                                 for name in INHERITED})
 
     @property
     def varying(self) -> bool:

@@ -2,11 +2,12 @@
 
 A rod without ``sections`` is uniform, with the rod table's own values. With ``sections``,
 the spans must cover the rod exactly: the first starts at s = 0, each starts where the one
-before ends, the last ends at s = L (docs/model.md, "Sections"). A span's material and
-radius default to the rod table's own values; its area A, second moment I and polar moment
-J default to those of a tube of ``radius`` and ``inner_radius`` (a solid rod when
-``inner_radius`` is 0), and may be given directly for other shapes (the bending stiffness is
-isotropic: one I for both bending directions).
+before ends, the last ends at s = L (docs/model.md, "Sections that vary along a rod"). A
+span's material and radius default to the rod table's own values (read when the rod is
+built, so that changing the rod's value changes every span that did not set its own); its
+area A, second moment I and polar moment J default to those of a tube of ``radius`` and
+``inner_radius`` (a solid rod when ``inner_radius`` is 0), and may be given directly for
+other shapes (the bending stiffness is isotropic: one I for both bending directions).
 
 How the discrete rod reads a piecewise-constant property p(s) (a boundary may fall anywhere,
 not only on a node or a quaternion):
@@ -66,8 +67,9 @@ SECTION_PARAMETERS: tuple[Parameter, ...] = (
 
 def resolve_sections(raw: Any, rod: Mapping[str, Any], prefix: str) -> list[dict[str, Any]]:
     """The validated spans of ``[[<prefix>.sections]]`` (``rod``: the rod's resolved table),
-    each with every value filled in; SceneError (one line) for bad input, spans that are not
-    increasing, overlap, leave a gap or do not cover [0, L]."""
+    each with every default filled in except the rod's own values (:data:`INHERITED`) it does
+    not set; SceneError (one line) for bad input, spans that are not increasing, overlap,
+    leave a gap or do not cover [0, L]."""
     key = f"{prefix}.sections"
     if not isinstance(raw, (list, tuple)) or not all(isinstance(t, Mapping) for t in raw):
         raise SceneError(f"{key} = {shown(raw)}: wrong type; allowed: a list of tables "
@@ -104,7 +106,11 @@ def resolve_sections(raw: Any, rod: Mapping[str, Any], prefix: str) -> list[dict
                          f"not cover the rod (length {length!r} m); allowed: the last span "
                          "ends at the rod's length", key=f"{key}.{len(spans) - 1}.end",
                          value=expected, reason="not covering")
-    return spans
+    # The resolved scene keeps an inherited value out of the span, so that a later change of
+    # the rod's own value (--set, a fit) still reaches the spans that did not set their own.
+    return [{name: value for name, value in span.items()
+             if name not in INHERITED or name in table}
+            for span, table in zip(spans, raw, strict=True)]
 
 
 @dataclass(frozen=True)
@@ -122,9 +128,11 @@ class SectionProfile:
     density: np.ndarray
 
     @classmethod
-    def of(cls, spans: Sequence[Mapping[str, Any]]) -> SectionProfile:
+    def of(cls, spans: Sequence[Mapping[str, Any]], rod: Mapping[str, Any]) -> SectionProfile:
+        """The profile of resolved ``spans``; ``rod`` gives the values of :data:`INHERITED`
+        a span does not set."""
         def column(name: str) -> np.ndarray:
-            return np.array([float(span[name]) for span in spans])
+            return np.array([float(span.get(name, rod.get(name))) for span in spans])
 
         outer, inner = column("radius"), column("inner_radius")
         area = np.where(column("area") > 0.0, column("area"), math.pi * (outer**2 - inner**2))
