@@ -20,6 +20,7 @@ import sys
 from pathlib import Path
 
 from rodsim.core.rod.rod import ROD_PARAMETERS
+from rodsim.core.rod.sections import INHERITED, SECTION_PARAMETERS
 from rodsim.core.scene import SOLVER_PARAMETERS
 from rodsim.core.schema import Parameter
 from rodsim.core.terms import registered_terms
@@ -58,14 +59,20 @@ def allowed(parameter: Parameter, term_names: list[str]) -> str:
     return dataclasses.replace(parameter, unit="-").allowed
 
 
-def table(parameters: tuple[Parameter, ...], term_names: list[str] = ()) -> list[str]:
+def table(parameters: tuple[Parameter, ...], term_names: list[str] = (),
+          inherited: tuple[str, ...] = ()) -> list[str]:
     if not parameters:
         return ["No parameters.", ""]
     lines = ["| key | default | unit | allowed | meaning |", "|---|---|---|---|---|"]
     for p in parameters:
         doc = p.doc.replace("|", "\\|")
-        lines.append(f"| `{p.name}` | {toml_value(p.default)} | {p.unit} "
+        default = "the rod's" if p.name in inherited else toml_value(p.default)
+        lines.append(f"| `{p.name}` | {default} | {p.unit} "
                      f"| {allowed(p, list(term_names))} | {doc} |")
+        for item in p.items or ():  # the keys of each table of a list of tables
+            doc = item.doc.replace("|", "\\|")
+            lines.append(f"| `{p.name}[].{item.name}` | {toml_value(item.default)} "
+                         f"| {item.unit} | {allowed(item, [])} | {doc} |")
     return [*lines, ""]
 
 
@@ -89,6 +96,12 @@ def reference() -> str:
         "### `[rods.<name>]`",
         "",
         *table(ROD_PARAMETERS, rod_terms),
+        "### `[[rods.<name>.sections]]`",
+        "",
+        "Optional spans of a rod with their own material and cross-section; when given they "
+        "must cover the rod, in order (docs/model.md, \"Sections\").",
+        "",
+        *table(SECTION_PARAMETERS, inherited=INHERITED),
         *term_tables(terms, "rod", "rods.<name>"),
     ]
     if TENDON_PARAMETERS is not None:

@@ -39,9 +39,12 @@ SMALL_SCENE = {
         "framed": {
             "length": 0.1, "radius": 0.004, "youngs_modulus": 2e6, "stretch_modulus": 5e6,
             "poisson_ratio": 0.3, "density": 1200.0, "nodes": 7, "clamp": "frame",
-            "terms": ["stretch", "bend_twist", "centerline", "tip_load", "gravity"],
+            "terms": ["stretch", "bend_twist", "centerline", "tip_load", "gravity",
+                      "point_loads"],
             "centerline": {"K_P": 3e3},
             "tip_load": {"mass": 0.01, "force": [0.05, 0.0, -0.02]},
+            "point_loads": {"loads": [{"s": 0.037, "force": [0.01, -0.03, 0.02]},
+                                      {"s": 0.05, "force": [0.0, 0.02, 0.0]}]},
         },
         "first_segment": {
             "length": 0.08, "radius": 0.003, "youngs_modulus": 4e6, "stretch_modulus": 3e6,
@@ -51,6 +54,32 @@ SMALL_SCENE = {
             "centerline": {"K_P": 5e2},
             "tip_load": {"mass": 0.02},
             "gravity": {"gravity": 3.7},
+        },
+    },
+}
+
+#: Follower and world-frame point wrenches (a moment in the clamped first segment too), a
+#: load per length, and sections that change inside segments (a tube, a thinner tip).
+SMALL_LOAD_SCENE = {
+    "name": "contract-loads-and-sections",
+    "rods": {
+        "loaded": {
+            "length": 0.1, "radius": 0.004, "youngs_modulus": 2e6, "stretch_modulus": 5e6,
+            "poisson_ratio": 0.3, "density": 1200.0, "nodes": 7, "clamp": "first_segment",
+            "terms": ["stretch", "bend_twist", "centerline", "point_loads",
+                      "distributed_load", "gravity"],
+            "sections": [
+                {"start": 0.0, "end": 0.023, "youngs_modulus": 6e6, "inner_radius": 0.002},
+                {"start": 0.023, "end": 0.07, "stretch_modulus": 2e6, "density": 2000.0},
+                {"start": 0.07, "end": 0.1, "radius": 0.003, "shear_modulus": 5e5}],
+            "distributed_load": {"force_per_length": [0.1, -0.2, 0.05], "spans": [
+                {"start": 0.01, "end": 0.047, "force_per_length": [0.0, 0.3, -0.1]}]},
+            "point_loads": {"loads": [
+                {"s": 0.005, "moment": [0.001, 0.002, -0.001]},
+                {"s": 0.031, "force": [0.01, -0.03, 0.02], "moment": [0.002, -0.001, 0.003],
+                 "frame": "body"},
+                {"s": 0.06, "force": [0.02, 0.01, -0.01], "moment": [-0.001, 0.003, 0.002]},
+                {"s": 0.1, "force": [0.0, 0.03, 0.01], "frame": "body"}]},
         },
     },
 }
@@ -102,7 +131,8 @@ FD_RELATIVE_STEP = 1e-6
 TOLERANCE = 1e-6
 
 
-SMALL_SCENES = {scene["name"]: scene for scene in (SMALL_SCENE, SMALL_TENDON_SCENE,
+SMALL_SCENES = {scene["name"]: scene for scene in (SMALL_SCENE, SMALL_LOAD_SCENE,
+                                                    SMALL_TENDON_SCENE,
                                                     SMALL_PAPER_TENDON_SCENE)}
 #: Every contract scene by name: the shipped scenes, then the small ones above.
 CONTRACT_SCENES = [*scene_paths(), *SMALL_SCENES]

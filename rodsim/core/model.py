@@ -85,7 +85,8 @@ class Model:
             layout = RodLayout(options.nodes, offset)
             origin = (tendon_origin(self.rods[tendons[name].catheter], tendons[name])
                       if name in tendons else np.asarray(options.origin, dtype=float))
-            self.rods[name] = Rod(name, options, layout, origin)
+            self.rods[name] = Rod(name, options, layout, origin,
+                                  tuple(scene.data["rods"][name].get("sections", ())))
             offset += layout.size
         self.rods = {name: self.rods[name] for name in rods}
         self.full_size = offset

@@ -40,6 +40,7 @@ from typing import Any
 
 from rodsim.core.names import check_rod_name, check_scene_name
 from rodsim.core.rod.rod import ROD_PARAMETERS, RodOptions
+from rodsim.core.rod.sections import resolve_sections
 from rodsim.core.scene_file import parse_toml, read_scene_text
 from rodsim.core.schema import Parameter, SceneError, options_type, shown, validate_table
 from rodsim.core.tendon import TENDON_PARAMETERS, TendonOptions, check_tendon
@@ -273,8 +274,14 @@ def resolve(raw: Mapping[str, Any]) -> dict[str, Any]:
         check_rod_name(rod, "rods")
     rod_terms = sorted(n for n, t in terms.items() if t.scope == "rod")
     tendon_terms = sorted(n for n, t in terms.items() if t.scope == "tendon")
-    rods = {rod: _resolve_with_terms(table, ROD_PARAMETERS, rod_terms, terms, f"rods.{rod}")
-            for rod, table in rods_raw.items()}
+    rods = {}
+    for rod, table in rods_raw.items():
+        given = isinstance(table, Mapping) and "sections" in table
+        own = {k: v for k, v in table.items() if k != "sections"} if given else table
+        rods[rod] = _resolve_with_terms(own, ROD_PARAMETERS, rod_terms, terms, f"rods.{rod}")
+        if given:  # only then: a uniform rod's resolved table is unchanged
+            rods[rod]["sections"] = resolve_sections(table["sections"], rods[rod],
+                                                     f"rods.{rod}")
     tendons_raw = raw.get("tendons", {})
     if not isinstance(tendons_raw, Mapping):
         raise SceneError("tendons: expected tables [tendons.<tendon rod name>]")
@@ -294,6 +301,10 @@ def resolve(raw: Mapping[str, Any]) -> dict[str, Any]:
         if options.radius >= options.length:
             raise SceneError(f"rods.{rod}.radius = {options.radius!r}: not below the length "
                              f"{options.length!r} m; allowed: radius < length (a slender rod)")
+        for term_name in options.terms:
+            if terms[term_name].scope == "rod":
+                terms[term_name].check_scene(terms[term_name].Options.of(table[term_name]),
+                                             options, f"rods.{rod}.{term_name}")
         if options.clamp == "orientation" and rod not in tendons:
             raise SceneError(f"rods.{rod}.clamp = 'orientation': it leaves the base position "
                              "free, which only a tendon pulled at its base can have; allowed: "

@@ -77,6 +77,7 @@ _KIND_NAMES = {
     "bool": "true or false",
     "vector": "a list of numbers",
     "list": "a list of strings",
+    "tables": "a list of tables",
 }
 
 
@@ -89,7 +90,8 @@ class Parameter:
     name
         Key in its TOML table.
     kind
-        ``float``, ``int``, ``str``, ``bool``, ``vector`` (list of floats) or ``list`` (of str).
+        ``float``, ``int``, ``str``, ``bool``, ``vector`` (list of floats), ``list`` (of str)
+        or ``tables`` (a list of tables, TOML ``[[...]]``, each checked against ``items``).
     default
         Value used when the scene omits the key; ``None`` makes the key required.
     unit
@@ -102,6 +104,8 @@ class Parameter:
         Allowed values for ``str`` parameters (or for the items of a ``list``).
     length
         Required length of a ``vector``.
+    items
+        The parameters of each table of a ``tables`` value.
     """
 
     name: str
@@ -114,6 +118,7 @@ class Parameter:
     exclusive_minimum: bool = False
     choices: tuple[str, ...] | None = None
     length: int | None = None
+    items: tuple[Parameter, ...] | None = None
 
     @property
     def allowed(self) -> str:
@@ -169,6 +174,11 @@ class Parameter:
             if len(set(value)) != len(value):
                 raise fail("repeated item")
             return list(value)
+        if self.kind == "tables":
+            if not isinstance(value, (list, tuple)):
+                raise fail("wrong type")
+            return [validate_table(item, self.items or (), f"{key}.{i}")
+                    for i, item in enumerate(value)]
         if self.kind == "vector":
             if not isinstance(value, (list, tuple)) or not all(_is_number(v) for v in value):
                 raise fail("wrong type")
@@ -247,7 +257,7 @@ def validate_table(
 
 #: The Python type of a value of each parameter kind, after :meth:`Parameter.check`.
 KIND_TYPES: dict[str, Any] = {"float": float, "int": int, "str": str, "bool": bool,
-                              "vector": list, "list": list}
+                              "vector": list, "list": list, "tables": list}
 
 
 def register_with_options(cls: type, registry: dict[str, type], kind: str) -> None:

@@ -1,9 +1,11 @@
 """Continuum references for a scene: which analytic solution a run can be scored against.
 
-A hanging-mass scene qualifies when its first rod is a cantilever (rest along +x) loaded
-only by a dead tip force along −y (``tip_load`` without ``force``, no ``gravity``) — the
-paper's experiment of Figs. 5–9. A tendon scene qualifies for the constant-curvature arc
-when it has one tendon pulled at its base (the physical check of the conserving coupling).
+A hanging-mass scene qualifies when its first rod is a uniform cantilever (rest along +x;
+sections that change along it rule the references out, a uniform set of sections is read
+through the rod's E I and E_s A) loaded only by a dead tip force along −y (``tip_load``
+without ``force``, no ``gravity``) — the paper's experiment of Figs. 5–9. A tendon scene
+qualifies for the constant-curvature arc when it has one tendon pulled at its base (the
+physical check of the conserving coupling).
 """
 
 from __future__ import annotations
@@ -61,6 +63,8 @@ def cantilever_reference(scene: Scene, samples: int = 201) -> CantileverReferenc
     if any(load.force) or rod.origin != [0.0, 0.0, 0.0]:
         return None
     model_rod = Model(scene).rods[name]
+    if model_rod.varying:  # the references are for a uniform rod
+        return None
     force = load.mass * load.gravity
     ei, length = model_rod.bending_stiffness, model_rod.length
     if force <= 0.0:
@@ -98,7 +102,7 @@ def reference_centerline(scene: Scene, kind: str, s: np.ndarray) -> np.ndarray |
             return None
         model = Model(scene)
         catheter = model.rods[options.catheter]
-        if catheter.name != next(iter(model.rods)):
+        if catheter.name != next(iter(model.rods)) or catheter.varying:
             return None
         shape = tendon_arc(actuation.force, options.offset,
                            catheter.bending_stiffness + model.rods[name].bending_stiffness,

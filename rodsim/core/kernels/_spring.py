@@ -1,5 +1,6 @@
 """A linear spring of rest length ℓ between two nodes (a, b), edge e = r_b − r_a, shared by
-the stretch (Eq. 6) and endpoint-coupling (Eq. 29) kernels:
+the stretch (Eq. 6, one k per segment: :func:`springs`) and endpoint-coupling (Eq. 29)
+kernels:
 
     F = k (|e| − ℓ) ê on a, minus that on b,
     H = k [ê êᵀ + ((|e| − ℓ) / |e|)(I − ê êᵀ)],  ∂F/∂(r_a, r_b) = [[−H, H], [H, −H]].
@@ -33,15 +34,25 @@ def spring(x: np.ndarray, dofs: np.ndarray, stiffness: float, rest: float, scale
            want_jacobian: bool, jacobian: np.ndarray, jacobian_target: np.ndarray) -> None:
     """Every element's spring (k = ``stiffness``, ℓ = ``rest``), accumulated as the package
     docstring describes."""
+    springs(x, dofs, np.full(dofs.shape[0], stiffness), rest, scale, want_force, force,
+            force_target, want_jacobian, jacobian, jacobian_target)
+
+
+@njit(cache=True)
+def springs(x: np.ndarray, dofs: np.ndarray, stiffness: np.ndarray, rest: float, scale: float,
+            want_force: bool, force: np.ndarray, force_target: np.ndarray,
+            want_jacobian: bool, jacobian: np.ndarray, jacobian_target: np.ndarray) -> None:
+    """:func:`spring` with one k per element, ``stiffness[e]``."""
     local_force = np.empty(6)
     local_jacobian = np.empty((6, 6))
     t = np.empty(3)
     for e in range(dofs.shape[0]):
         norm = edge_tangent(x, dofs, e, t)
         stretch = norm - rest
+        k = stiffness[e]
         if want_force:
             for a in range(3):
-                pull = stiffness * stretch * t[a]
+                pull = k * stretch * t[a]
                 local_force[a] = pull
                 local_force[3 + a] = -pull
             add_force(force, force_target, e, local_force, scale)
@@ -50,7 +61,7 @@ def spring(x: np.ndarray, dofs: np.ndarray, stiffness: float, rest: float, scale
             for a in range(3):
                 for b in range(3):
                     tt = t[a] * t[b]
-                    h = stiffness * (tt + ratio * ((1.0 if a == b else 0.0) - tt))
+                    h = k * (tt + ratio * ((1.0 if a == b else 0.0) - tt))
                     local_jacobian[a, b] = -h
                     local_jacobian[3 + a, 3 + b] = -h
                     local_jacobian[a, 3 + b] = h
@@ -61,9 +72,16 @@ def spring(x: np.ndarray, dofs: np.ndarray, stiffness: float, rest: float, scale
 @njit(cache=True)
 def spring_energy(x: np.ndarray, dofs: np.ndarray, stiffness: float, rest: float) -> float:
     """Σ ½ k (|e| − ℓ)² over the elements."""
+    return springs_energy(x, dofs, np.full(dofs.shape[0], stiffness), rest)
+
+
+@njit(cache=True)
+def springs_energy(x: np.ndarray, dofs: np.ndarray, stiffness: np.ndarray,
+                   rest: float) -> float:
+    """Σ ½ k_e (|e| − ℓ)² over the elements."""
     t = np.empty(3)
     total = 0.0
     for e in range(dofs.shape[0]):
         stretch = edge_tangent(x, dofs, e, t) - rest
-        total += 0.5 * stiffness * stretch * stretch
+        total += 0.5 * stiffness[e] * stretch * stretch
     return total

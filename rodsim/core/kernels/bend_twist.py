@@ -1,6 +1,6 @@
 """Kernel of :mod:`rodsim.core.terms.bend_twist`, Eqs. (3), (7), (8): per element (a, b) =
 (q_{i−1}, q_i), or (q_c, q_0) for the clamp element of a rod with a base frame, with the
-stiffness K_k of Eq. (8) and the dual length l̄,
+element's stiffness K_k of Eq. (8) (``stiffness[e, k]``) and the dual length l̄,
 
     f_k = (B_k a)·b,   c = (2/l̄) / (|a||b|),   u_k = c f_k,   E = ½ l̄ Σ_k K_k u_k²,
     ∇u_k = c h_k,   h_k = (B_kᵀ b − f_k a/|a|², B_k a − f_k b/|b|²),
@@ -63,8 +63,8 @@ def evaluate(x: np.ndarray, dofs: np.ndarray, dual_lengths: np.ndarray,
                 g[k, 4 + i] = b_a
                 fk += b_a * q[4 + i]
             f[k] = fk
-            w[k] = lbar * c * stiffness[k] * (c * fk)
-            gauss_newton[k] = lbar * c * c * stiffness[k]
+            w[k] = lbar * c * stiffness[e, k] * (c * fk)
+            gauss_newton[k] = lbar * c * c * stiffness[e, k]
             for i in range(4):
                 h[k, i] = g[k, i] - fk / na2 * q[i]
                 h[k, 4 + i] = g[k, 4 + i] - fk / nb2 * q[4 + i]
@@ -131,5 +131,5 @@ def energy(x: np.ndarray, dofs: np.ndarray, dual_lengths: np.ndarray, stiffness:
                 for j in range(4):
                     fk += _B[k, i, j] * a[j] * b[i]
             u = c * fk
-            total += 0.5 * lbar * stiffness[k] * u * u
+            total += 0.5 * lbar * stiffness[e, k] * u * u
     return total

@@ -55,3 +55,20 @@ class RodGeometry:
         share = np.full(self.nodes, self.segment_length)
         share[[0, -1]] *= 0.5
         return share
+
+    def hat_integrals(self, start: float, end: float) -> np.ndarray:
+        """∫_start^end N_i(s) ds for every control point i [m], shape (N,): N_i is the hat
+        function of the linear interpolation between control points (1 at s_i, 0 at its
+        neighbours). A load per length q on [start, end] puts q × this on the control points
+        (the consistent share of its virtual work); on [0, L] it equals
+        :attr:`node_mass_fraction`."""
+        seg = self.segment_length
+        left = np.arange(self.segments) * seg
+        t0 = np.clip((start - left) / seg, 0.0, 1.0)
+        t1 = np.clip((end - left) / seg, 0.0, 1.0)
+        t1 = np.maximum(t1, t0)
+        second = 0.5 * (t1**2 - t0**2)
+        out = np.zeros(self.nodes)
+        out[:-1] += seg * ((t1 - t0) - second)
+        out[1:] += seg * second
+        return out

@@ -12,6 +12,7 @@ import numpy as np
 from rodsim.core.rod.geometry import RodGeometry
 from rodsim.core.rod.layout import RodLayout
 from rodsim.core.rod.quaternion import rest_quaternion
+from rodsim.core.rod.sections import INHERITED, SectionProfile
 from rodsim.core.schema import Parameter, options_type
 
 __all__ = ["Rod", "RodOptions", "ROD_PARAMETERS", "CLAMPS"]
@@ -68,10 +69,32 @@ class Rod:
     layout: RodLayout = field(repr=False)
     #: Position of the base r_0 [m]: the rod's ``origin``, or a tendon's lumen entrance.
     origin: np.ndarray = field(default_factory=lambda: np.zeros(3), repr=False)
+    #: The validated ``[[rods.<name>.sections]]`` spans (empty: a uniform rod).
+    sections: tuple[dict[str, Any], ...] = field(default=(), repr=False)
 
     @cached_property
     def geometry(self) -> RodGeometry:
         return RodGeometry(self.options.nodes, self.options.length)
+
+    @cached_property
+    def profile(self) -> SectionProfile | None:
+        """The rod's spans (:mod:`rodsim.core.rod.sections`), ``None`` for a uniform rod."""
+        if not self.sections:
+            return None
+        return SectionProfile.of(self.sections, {name: getattr(self.options, name)
+                                                 for name in INHERITED})
+
+    @property
+    def varying(self) -> bool:
+        """Whether the stiffness or mass per length changes along the rod (the analytic
+        references of a uniform rod do not apply)."""
+        return self.profile is not None and not self.profile.uniform
+
+    def _whole(self, values: np.ndarray) -> float:
+        """Harmonic mean over [0, L] of per-span ``values``."""
+        assert self.profile is not None
+        return float(self.profile.harmonic_mean(values, np.zeros(1),
+                                                np.full(1, self.length))[0])
 
     @property
     def nodes(self) -> int:
@@ -111,13 +134,34 @@ class Rod:
 
     @property
     def bending_stiffness(self) -> float:
-        """E I [N·m²] (Eq. 8)."""
+        """E I [N·m²] (Eq. 8); with sections, its harmonic mean over the rod (the uniform rod
+        that turns by as much under a constant moment)."""
+        if self.profile is not None:
+            return self._whole(self.profile.youngs_modulus * self.profile.second_moment)
         return self.youngs_modulus * self.second_moment
 
     @property
     def stretch_stiffness(self) -> float:
-        """K_s = E_s A [N] (Eq. 6)."""
+        """K_s = E_s A [N] (Eq. 6); with sections, its harmonic mean over the rod."""
+        if self.profile is not None:
+            return self._whole(self.profile.stretch_modulus * self.profile.area)
         return float(self.options.stretch_modulus) * self.area
+
+    @property
+    def smallest_bending_stiffness(self) -> float:
+        """The least E I along the rod [N·m²] (E I of a uniform rod)."""
+        if self.profile is not None:
+            return float(np.min(self.profile.youngs_modulus * self.profile.second_moment))
+        return self.bending_stiffness
+
+    def segment_stretch_stiffness(self) -> np.ndarray:
+        """E_s A of every segment [N], shape (N − 1,): the harmonic mean over the segment
+        where sections change inside it."""
+        if self.profile is None:
+            return np.full(self.nodes - 1, self.stretch_stiffness)
+        left = np.arange(self.nodes - 1) * self.geometry.segment_length
+        return self.profile.harmonic_mean(self.profile.stretch_modulus * self.profile.area,
+                                          left, left + self.geometry.segment_length)
 
     @property
     def density(self) -> float:
@@ -155,7 +199,11 @@ class Rod:
         return self.options.clamp in ("frame", "orientation")
 
     def node_masses(self) -> np.ndarray:
-        """Lumped mass of each control point, ρ A × (half of each adjacent segment) [kg]."""
+        """Lumped mass of each control point, ρ A × (half of each adjacent segment) [kg];
+        with sections, the consistent share ∫ ρ A N_i ds."""
+        if self.profile is not None:
+            return self.profile.node_integral(self.profile.density * self.profile.area,
+                                              self.geometry)
         return self.density * self.area * self.geometry.node_mass_fraction
 
     def quaternion_masses(self) -> np.ndarray:
@@ -165,5 +213,9 @@ class Rod:
         a unit quaternion, i.e. ½ (4 ρ I l) |q̇|² (isotropic approximation with the
         transverse moment I, Eqs. 12–13). Only pseudo-dynamics use it.
         """
+        if self.profile is not None:
+            left = np.arange(self.nodes - 1) * self.geometry.segment_length
+            return 4.0 * self.profile.integral(self.profile.density * self.profile.second_moment,
+                                               left, left + self.geometry.segment_length)
         return np.full(self.nodes - 1, 4.0 * self.density * self.second_moment
                        * self.geometry.segment_length)

@@ -109,6 +109,14 @@ class Term(ABC):
     def element_forces(self, x: np.ndarray) -> np.ndarray:
         """Generalised force on each element's coordinates, shape (n_elem, k)."""
 
+    @classmethod
+    def check_scene(cls, options: Any, owner: Any, prefix: str) -> None:
+        """Checks of this term's ``options`` that need its owner's values (a rod term: the
+        rod's :data:`~rodsim.core.rod.rod.RodOptions`, e.g. an arclength within the rod's
+        length); raise :class:`~rodsim.core.schema.SceneError` with a one-line message
+        naming ``prefix``. Called once per use when a scene is resolved; default: none."""
+        return None
+
     def element_jacobians(self, x: np.ndarray) -> np.ndarray:
         """∂(element force)/∂(element coordinates), shape (n_elem, k, k)."""
         raise NotImplementedError(f"term {self.name!r} declares no Jacobian")

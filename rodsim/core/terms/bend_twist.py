@@ -24,6 +24,10 @@ Stiffness (Eq. 8, the paper's corrected tensor, default):
 ``stiffness = "corde"`` uses the tensor printed in CORDE [33], which the paper's Fig. 9 shows
 to overestimate the stiffness:  K_11 = K_22 = E π r² / 4,  K_33 = G π r² / 2  (an r² where
 r⁴ belongs; dimensionally wrong, kept only to reproduce Fig. 9).
+
+With sections that vary along the rod (:mod:`rodsim.core.rod.sections`) each element has its
+own K: the harmonic mean of the spans' stiffnesses over its dual interval, so that a
+piecewise-uniform rod under a constant moment turns by exactly ∫ M / (E I) ds.
 """
 
 from __future__ import annotations
@@ -53,6 +57,29 @@ def stiffness_tensor(rod: Rod, model: str, twist_override: float = 0.0) -> np.nd
         area = math.pi * rod.radius**2
         bend, twist = rod.youngs_modulus * area / 4.0, rod.shear_modulus * area / 2.0
     return np.array([bend, bend, twist_override if twist_override > 0.0 else twist])
+
+
+def element_stiffness(rod: Rod, model: str, twist_override: float, start: np.ndarray,
+                      end: np.ndarray) -> np.ndarray:
+    """(K_11, K_22, K_33) of each bending element over its dual interval [start, end] [N·m²],
+    shape (n_elem, 3). A uniform rod: :func:`stiffness_tensor` for every element. With
+    sections: each span's E I and G J (CORDE: E A / 4, G A / 2), harmonically averaged over
+    the element's dual interval (:mod:`rodsim.core.rod.sections`), which keeps the rotation
+    across the element exact under a constant moment."""
+    profile = rod.profile
+    if profile is None:
+        return np.tile(stiffness_tensor(rod, model, twist_override), (len(start), 1))
+    if model == "corrected":
+        bend = profile.youngs_modulus * profile.second_moment
+        twist = profile.shear_modulus * profile.polar_moment
+    else:
+        bend = profile.youngs_modulus * profile.area / 4.0
+        twist = profile.shear_modulus * profile.area / 2.0
+    out = np.empty((len(start), 3))
+    out[:, 0] = out[:, 1] = profile.harmonic_mean(bend, start, end)
+    out[:, 2] = (twist_override if twist_override > 0.0
+                 else profile.harmonic_mean(twist, start, end))
+    return out
 
 
 class BendKinematics(NamedTuple):
@@ -95,8 +122,9 @@ class BendTwist(RodTerm):
         super().__init__(rod, options)
         quat = rod.layout.quaternion_index
         seg = rod.geometry.segment_length
-        self._stiffness = stiffness_tensor(rod, options.stiffness, options.twist_stiffness)
         self.dofs = np.concatenate([quat[:-1], quat[1:]], axis=1)  # (q_{i-1}, q_i)
+        middles = rod.geometry.segment_s
+        starts, ends = middles[:-1], middles[1:]  # dual interval of each element
 
         self._clamped = rod.has_base_frame
         if self._clamped:
@@ -105,8 +133,12 @@ class BendTwist(RodTerm):
             # repeating q_0's indices in the first half and zeroing that half's entries.
             self.dofs = np.concatenate([np.tile(quat[0], 2)[None, :], self.dofs], axis=0)
             self._dual_lengths = np.r_[0.5 * seg, np.full(len(quat) - 1, seg)]
+            starts, ends = np.r_[0.0, starts], np.r_[0.5 * seg, ends]
         else:
             self._dual_lengths = np.full(len(quat) - 1, seg)
+        #: (K_11, K_22, K_33) of each element, shape (n_elem, 3) (Eq. 8; sections: docs/model.md)
+        self._stiffness = element_stiffness(rod, options.stiffness, options.twist_stiffness,
+                                            starts, ends)
 
     def kernel_arguments(self) -> tuple:
         frame = self._frame if self._clamped else np.zeros(4)  # unused when not clamped

@@ -41,9 +41,10 @@ class Centerline(RodTerm):
         pos = rod.layout.position_index
         self.dofs = np.concatenate([pos[:-1], pos[1:], rod.layout.quaternion_index], axis=1)
         self._weight = options.K_P * rod.geometry.segment_length  # K_P l
-        #: Penalty stiffness relative to bending at the scale of one segment, K_P l² / (E I).
+        #: Penalty stiffness relative to bending at the scale of one segment, K_P l² / (E I)
+        #: (the least E I along a rod with sections).
         self.penalty_ratio = (options.K_P * rod.geometry.segment_length**2
-                              / rod.bending_stiffness)
+                              / rod.smallest_bending_stiffness)
 
     def kernel_arguments(self) -> tuple:
         return (self.dofs, float(self._weight))

@@ -1,8 +1,10 @@
 """Stretch energy, paper Eq. (6), integrated over rest arc length s (docs/design.md, erratum 3).
 
-    V_s = ½ ∫ K_s (|r′| − 1)² ds  ≈  Σ_j ½ K_s l (|e_j| / l − 1)²,   K_s = E_s π r²
+    V_s = ½ ∫ K_s (|r′| − 1)² ds  ≈  Σ_j ½ K_s,j l (|e_j| / l − 1)²,   K_s = E_s π r²
 
-One element per segment j, coordinates (r_j, r_{j+1}).
+One element per segment j, coordinates (r_j, r_{j+1}). With sections
+(:mod:`rodsim.core.rod.sections`), K_s,j = E_s A of segment j (the harmonic mean where a
+section boundary falls inside it).
 """
 
 from __future__ import annotations
@@ -26,11 +28,11 @@ class Stretch(RodTerm):
         super().__init__(rod, options)
         pos = rod.layout.position_index
         self.dofs = np.concatenate([pos[:-1], pos[1:]], axis=1)
-        self._stiffness = rod.stretch_stiffness
+        self._stiffness = rod.segment_stretch_stiffness()  # K_s per segment
         self._rest = rod.geometry.segment_length
 
     def kernel_arguments(self) -> tuple:
-        return (self.dofs, float(self._stiffness), float(self._rest))
+        return (self.dofs, self._stiffness, float(self._rest))
 
     def _strain(self, x: np.ndarray) -> tuple[Segments, np.ndarray]:
         seg = Segments.of(x[self.rod.layout.position_index])
@@ -38,7 +40,7 @@ class Stretch(RodTerm):
 
     def energy(self, x: np.ndarray) -> float:
         _, strain = self._strain(x)
-        return float(0.5 * self._stiffness * self._rest * np.sum(strain**2))
+        return float(0.5 * self._rest * np.sum(self._stiffness * strain**2))
 
     def element_forces(self, x: np.ndarray) -> np.ndarray:
         seg, strain = self._strain(x)
@@ -49,7 +51,7 @@ class Stretch(RodTerm):
         seg, strain = self._strain(x)
         t = seg.tangent
         tt = t[:, :, None] * t[:, None, :]
-        h_edge = self._stiffness * (
+        h_edge = self._stiffness[:, None, None] * (
             tt / self._rest + (strain / seg.norm)[:, None, None] * (np.eye(3) - tt)
         )
         return two_node_block(h_edge)
