@@ -3,7 +3,8 @@
     python docs/generate_scene_reference.py          # rewrite docs/scenes.md
     python docs/generate_scene_reference.py --check  # exit 1 if docs/scenes.md is stale
 
-Reads rodsim.core.rod.rod.ROD_PARAMETERS, rodsim.core.tendon.TENDON_PARAMETERS,
+Reads rodsim.core.rod.rod.ROD_PARAMETERS, rodsim.core.supports.BASE_PARAMETERS,
+rodsim.core.tendon.TENDON_PARAMETERS,
 rodsim.core.scene.SOLVER_PARAMETERS, every registered term (``parameters``, ``equation``,
 ``scope``) and every registered integrator (``parameters``, ``summary``,
 ``quaternion_norm``), and replaces the text between the markers
@@ -22,6 +23,7 @@ from pathlib import Path
 from rodsim.core.rod.rod import ROD_PARAMETERS
 from rodsim.core.scene import SOLVER_PARAMETERS
 from rodsim.core.schema import Parameter
+from rodsim.core.supports import BASE_PARAMETERS
 from rodsim.core.terms import registered_terms
 from rodsim.solvers import registered_integrators
 
@@ -89,6 +91,12 @@ def reference() -> str:
         "### `[rods.<name>]`",
         "",
         *table(ROD_PARAMETERS, rod_terms),
+        "### `[rods.<name>.base]` — the base support (rodsim/core/supports.py)",
+        "",
+        "Not for a tendon rod: its base is its lumen's entrance and moves with its "
+        "catheter's base.",
+        "",
+        *table(BASE_PARAMETERS),
         *term_tables(terms, "rod", "rods.<name>"),
     ]
     if TENDON_PARAMETERS is not None:

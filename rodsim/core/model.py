@@ -1,11 +1,11 @@
 """Assemble a scene's rods and terms into F(x), its sparse Jacobian J(x) and the pattern.
 
-The *full* state holds every coordinate of every rod (Eqs. 18 and 30); the clamps fix some
-of them. Integrators only see the *free* coordinates ``x``: ``Model.force(x)`` and
-``Model.jacobian(x)`` return the generalised force F(x) = −∂E/∂x (plus non-conservative
-penalty forces) and ∂F/∂x on those. The sparsity pattern is the union of the terms'
-element blocks, fixed when the model is built; the Jacobian values are scattered into it
-with precomputed index maps.
+The *full* state holds every coordinate of every rod (Eqs. 18 and 30); the supports
+(rodsim/core/supports.py) fix some of them. Integrators only see the *free* coordinates
+``x``: ``Model.force(x)`` and ``Model.jacobian(x)`` return the generalised force
+F(x) = −∂E/∂x (plus non-conservative penalty forces) and ∂F/∂x on those. The sparsity
+pattern is the union of the terms' element blocks, fixed when the model is built; the
+Jacobian values are scattered into it with precomputed index maps.
 
 Two evaluation paths compute the same numbers (``solver.kernels``): ``compiled`` (default)
 calls each term's numba kernel (:mod:`rodsim.core.kernels`), which accumulates straight into the
@@ -33,7 +33,8 @@ from rodsim.core.rod.layout import RodLayout
 from rodsim.core.rod.rod import Rod
 from rodsim.core.scene import Scene
 from rodsim.core.sparsity import csc_pattern
-from rodsim.core.tendon import Tendon, tendon_origin
+from rodsim.core.supports import base_support
+from rodsim.core.tendon import Tendon, tendon_support
 from rodsim.core.terms import Term, registered_terms
 
 __all__ = ["Model", "Band", "KERNELS"]
@@ -83,9 +84,13 @@ class Model:
         for name in sorted(rods, key=lambda n: n in tendons):
             options = rods[name]
             layout = RodLayout(options.nodes, offset)
-            origin = (tendon_origin(self.rods[tendons[name].catheter], tendons[name])
-                      if name in tendons else np.asarray(options.origin, dtype=float))
-            self.rods[name] = Rod(name, options, layout, origin)
+            if name in tendons:
+                support = tendon_support(self.rods[tendons[name].catheter], tendons[name],
+                                         options.clamp)
+            else:
+                support = base_support(options.clamp, scene.base_options(name),
+                                       np.asarray(options.origin, dtype=float))
+            self.rods[name] = Rod(name, options, layout, support)
             offset += layout.size
         self.rods = {name: self.rods[name] for name in rods}
         self.full_size = offset

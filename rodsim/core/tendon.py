@@ -28,9 +28,10 @@ import numpy as np
 from rodsim.core.rod.quaternion import DIRECTOR_FORMS, director, director_gradient
 from rodsim.core.rod.rod import Rod, RodOptions
 from rodsim.core.schema import Parameter, SceneError, options_type, shown
+from rodsim.core.supports import Support
 
 __all__ = ["TENDON_PARAMETERS", "TENDON_TERMS", "LumenFrame", "Tendon", "TendonOptions",
-           "check_tendon", "tendon_origin"]
+           "check_tendon", "tendon_origin", "tendon_support"]
 
 #: Coupling terms a tendon uses unless its table lists others.
 TENDON_TERMS = ["lumen", "endpoint_compliance", "endpoint_coupling", "tendon_actuation"]
@@ -129,6 +130,13 @@ def tendon_origin(catheter: Rod, options: Any) -> np.ndarray:
     frame = director(catheter.base_quaternion, 0), director(catheter.base_quaternion, 1)
     return catheter.origin + options.offset * (
         alpha * frame[0] + beta * frame[1])
+
+
+def tendon_support(catheter: Rod, options: Any, clamp: str) -> Support:
+    """The base support of a tendon rod: at its lumen's entrance (:func:`tendon_origin`), in
+    its catheter's base frame, holding what the tendon rod's ``clamp`` says; it moves and
+    turns with the catheter's base (an inserted or rotated catheter carries its tendons)."""
+    return Support(clamp, tendon_origin(catheter, options), catheter.base_quaternion)
 
 
 class LumenFrame(NamedTuple):

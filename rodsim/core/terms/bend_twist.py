@@ -14,10 +14,12 @@ O(EI κ² / K_P) and so softens the rod: on Table 1 (100 g, K_P = 1e4) that move
 4.7e-5 L and made the penalty model differ from IDA's exactly-unit quaternions by as much
 (docs/model.md). The rest curvature û is zero (straight rods).
 
-With the ``frame`` (or ``orientation``) clamp a fixed frame q_c sits at s = 0, half a
-segment before q_0, and adds one element (q_c, q_0) with l̄ = l / 2; this keeps the
-discretisation second order in N
+When the rod's base support holds a frame (``clamp`` = ``frame`` or ``orientation``,
+rodsim/core/supports.py), its frame q_c sits at s = 0, half a segment before q_0, and adds
+one element (q_c, q_0) with l̄ = l / 2; this keeps the discretisation second order in N
 (docs/model.md, "Clamp"). The ``first_segment`` clamp fixes q_0 instead and adds no element.
+The frame comes from the support (an actuated base turns it); the term knows nothing else
+of how the rod is held.
 
 Stiffness (Eq. 8, the paper's corrected tensor, default):
     K_11 = K_22 = E π r⁴ / 4,   K_33 = G π r⁴ / 2
@@ -98,9 +100,10 @@ class BendTwist(RodTerm):
         self._stiffness = stiffness_tensor(rod, options.stiffness, options.twist_stiffness)
         self.dofs = np.concatenate([quat[:-1], quat[1:]], axis=1)  # (q_{i-1}, q_i)
 
-        self._clamped = rod.has_base_frame
+        support = rod.support
+        self._clamped = support.frame_element
         if self._clamped:
-            self._frame = rod.base_quaternion
+            self._frame = support.frame
             # The clamp element (q_c, q_0) has only q_0 free: pad it to 8 coordinates by
             # repeating q_0's indices in the first half and zeroing that half's entries.
             self.dofs = np.concatenate([np.tile(quat[0], 2)[None, :], self.dofs], axis=0)

@@ -1,0 +1,123 @@
+"""Supports: how a rod is held, and where (docs/model.md, "Supports and anchors").
+
+A *support* fixes or prescribes a rod's position and/or orientation at an arclength. Every
+rod has one at its base (s = 0), declared by two scene values:
+
+- ``rods.<rod>.clamp`` — what the base support holds (the shorthand kept from earlier
+  scenes): ``frame`` (the position r_0 and a frame q_c at s = 0), ``first_segment`` (r_0 and
+  the first quaternion q_0, as PyElastica), ``orientation`` (the frame q_c only: a tendon
+  pulled at its proximal end) or ``free`` (nothing: the rod is held by a ``joint`` anchor to
+  another rod, rodsim/core/terms/joint.py);
+- ``[rods.<rod>.base]`` — where it is: ``insertion`` d [m], the base moved along its axis,
+  and ``rotation`` θ [rad], the base frame turned about that axis. With the rod's ``origin``
+  o and the rest frame R₀ (d3 = +x, docs/model.md),
+
+      r_c = o + d d3,   R_c = R_x(θ) R₀,
+
+  so that an actuated base moves (and turns) the whole rest shape: the rest state, the
+  clamp frame of the bending term, and what is attached to the base (a tendon's lumen
+  entrance and its base frame, rodsim/core/tendon.py). ``rodsim track --ramp`` and
+  ``rodsim reach --actuate`` vary both like any numeric value.
+
+A support removes coordinates from the free state (:meth:`Support.fixed_index`) and hands
+the bending term its frame element (:attr:`Support.frame_element`, :attr:`Support.frame`):
+the element (q_c, q_0) of dual length l/2 that keeps the clamp second order in N
+(rodsim/core/terms/bend_twist.py). Nothing else in the model knows how a rod is held.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from rodsim.core.rod.layout import RodLayout
+from rodsim.core.rod.quaternion import from_rotation_matrix, rest_quaternion
+from rodsim.core.schema import Parameter, SceneError, options_type, validate_table
+
+__all__ = ["BASE_PARAMETERS", "BaseOptions", "CLAMPS", "Support", "base_frame",
+           "base_support", "resolve_base"]
+
+#: What a base support holds (``rods.<rod>.clamp``); see the module docstring.
+CLAMPS = ("frame", "first_segment", "orientation", "free")
+
+BASE_PARAMETERS: tuple[Parameter, ...] = (
+    Parameter("insertion", "float", 0.0, "m",
+              "base moved along its axis (+x at rest) from the rod's origin: the whole rod "
+              "is inserted by this length", -1e3, 1e3),
+    Parameter("rotation", "float", 0.0, "rad",
+              "base frame turned about its axis (+x) by this angle: the whole rod is rotated",
+              -1e3, 1e3),
+)
+
+#: A base table's values, typed (one field per :data:`BASE_PARAMETERS`).
+BaseOptions = options_type("BaseOptions", BASE_PARAMETERS,
+                           "A validated base table's values ([rods.<rod>.base], SI units).")
+
+
+def base_frame(rotation: float) -> np.ndarray:
+    """The quaternion q_c of the rest frame R₀ turned by ``rotation`` [rad] about +x
+    (d3 = +x stays; d1 = (0, cos θ, sin θ), d2 = (0, −sin θ, cos θ))."""
+    if rotation == 0.0:
+        return rest_quaternion()
+    c, s = math.cos(rotation), math.sin(rotation)
+    return from_rotation_matrix(np.array([[0.0, 0.0, 1.0], [c, -s, 0.0], [s, c, 0.0]]))
+
+
+@dataclass(frozen=True)
+class Support:
+    """How a rod is held at its base s = 0: what is held (``holds``, one of :data:`CLAMPS`),
+    the support point r_c [m] (``position``) and frame q_c (``frame``)."""
+
+    holds: str
+    position: np.ndarray = field(repr=False)
+    frame: np.ndarray = field(repr=False)
+    #: Arclength of the support on its rod [m] (the base).
+    s: float = 0.0
+
+    @property
+    def holds_position(self) -> bool:
+        """Whether r_0 is fixed at :attr:`position`."""
+        return self.holds in ("frame", "first_segment")
+
+    @property
+    def frame_element(self) -> bool:
+        """Whether the bending term gets the frame element (q_c, q_0) (the frame q_c half a
+        segment before q_0, docs/model.md "Clamp")."""
+        return self.holds in ("frame", "orientation")
+
+    def fixed_index(self, layout: RodLayout) -> np.ndarray:
+        """Global indices of the coordinates the support removes from the free state."""
+        if self.holds == "first_segment":
+            return np.concatenate([layout.position_index[0], layout.quaternion_index[0]])
+        if self.holds_position:
+            return layout.position_index[0]
+        return np.zeros(0, dtype=int)
+
+    @property
+    def axis(self) -> np.ndarray:
+        """The base axis d3 of the frame (+x)."""
+        return np.array([1.0, 0.0, 0.0])
+
+
+def base_support(clamp: str, base: Any, origin: np.ndarray) -> Support:
+    """The base support of a rod: ``clamp`` what it holds, ``base`` its
+    :data:`BaseOptions` (insertion, rotation), ``origin`` the rod's origin [m]."""
+    frame = base_frame(float(base.rotation))
+    position = np.asarray(origin, dtype=float) + float(base.insertion) * np.array([1.0, 0, 0])
+    return Support(clamp, position, frame)
+
+
+def resolve_base(rod: str, table: Mapping[str, Any], is_tendon: bool) -> dict[str, Any] | None:
+    """The validated ``[rods.<rod>.base]`` table of a resolved rod table (defaults filled),
+    or None for a tendon rod, whose base follows its catheter's (SceneError if it has one)."""
+    if is_tendon:
+        if "base" in table:
+            raise SceneError(f"rods.{rod}.base: a tendon's base is its lumen's entrance and "
+                             "moves with its catheter's base; allowed: set the catheter's "
+                             "[rods.<catheter>.base]")
+        return None
+    return validate_table(table.get("base", {}), BASE_PARAMETERS, f"rods.{rod}.base")
