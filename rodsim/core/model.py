@@ -426,12 +426,13 @@ class Model:
     @cached_property
     def _step_maps(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(full position indices of every rod's nodes, rod k in rows starts[k]:starts[k+1];
-        those starts; free indices of the catheter tip and the tendon tip of every endpoint
-        coupling whose six coordinates are all free)."""
+        those starts; free indices of the two points of every stiff link a term declares
+        (:meth:`Term.rigid_links`: the endpoint coupling's catheter and tendon tips) whose
+        six coordinates are all free)."""
         couplings = []
         for term in self.terms:
-            if term.name == "endpoint_coupling":
-                free = self._free_of[term.dofs[0]]
+            for link in term.rigid_links():
+                free = self._free_of[link]
                 if np.all(free < self.n):
                     couplings.append(free)
         chains = [rod.layout.position_index for rod in self.rods.values()]

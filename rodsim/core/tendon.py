@@ -25,6 +25,7 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
+from rodsim.core.anchors import Anchor, check_tendon_termination, tendon_termination
 from rodsim.core.rod.quaternion import DIRECTOR_FORMS, director, director_gradient
 from rodsim.core.rod.rod import Rod, RodOptions
 from rodsim.core.schema import Parameter, SceneError, options_type, shown
@@ -81,13 +82,7 @@ def check_tendon(name: str, table: Mapping[str, Any], rods: Mapping[str, Mapping
         raise SceneError(f"{prefix}.catheter = {catheter!r}: that rod is itself a tendon; "
                          "allowed: a rod with no [tendons.<rod>] table")
     tendon, host = RodOptions.of(rods[name]), RodOptions.of(rods[catheter])
-    if tendon.length > host.length * (1 + 1e-9):
-        raise SceneError(f"rods.{name}.length = {tendon.length!r}: the tendon is longer than "
-                         f"its catheter ({host.length!r} m); allowed: equal lengths")
-    if tendon.length < host.length * (1 - 1e-9):
-        raise SceneError(f"rods.{name}.length = {tendon.length!r}: the tendon must end at "
-                         f"the catheter's tip; allowed: the catheter's length "
-                         f"{host.length!r} m")
+    check_tendon_termination(name, tendon, host)
     if options.offset >= host.radius:
         raise SceneError(f"{prefix}.offset = {options.offset!r}: the lumen lies outside the "
                          f"catheter; allowed: 0 < r_L < radius = {host.radius!r} [m]")
@@ -178,6 +173,12 @@ class Tendon:
     @property
     def conserving(self) -> bool:
         return self.coupling == "conserving"
+
+    @property
+    def termination(self) -> Anchor:
+        """Where the tendon ends (rodsim/core/anchors.py): its node tied to the catheter's
+        node, and the catheter segment orienting the lumen there."""
+        return tendon_termination(self.rod, self.catheter)
 
     def lumen_frame(self, q: np.ndarray) -> LumenFrame:
         """d_t, d_n = d3 × d_t and their q-derivatives for quaternions q (n, 4)."""

@@ -134,6 +134,12 @@ class Term(ABC):
         """A copy of this dynamic term with the discrete state ``state`` (and its ``dofs``)."""
         raise NotImplementedError(f"term {self.name!r} has no registration")
 
+    def rigid_links(self) -> np.ndarray:
+        """Global position indices (a, b), shape (k, 6), of the stiff two-point links of
+        fixed length this term holds, which a Newton step keeps to first order
+        (:meth:`rodsim.core.model.Model.step`); none by default."""
+        return np.zeros((0, 6), dtype=int)
+
     def registration_state(self) -> np.ndarray | None:
         """A dynamic term's current discrete state (what :meth:`registered` takes), or
         ``None`` for a term without registration."""
