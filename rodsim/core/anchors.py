@@ -18,15 +18,18 @@ to.
 
 from __future__ import annotations
 
+from collections.abc import Collection, Mapping
 from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
 from rodsim.core.rod.rod import Rod
-from rodsim.core.schema import SceneError
+from rodsim.core.schema import SceneError, shown
+from rodsim.core.supports import Support
 
-__all__ = ["Anchor", "check_tendon_termination", "tendon_termination"]
+__all__ = ["Anchor", "check_joints", "check_tendon_termination", "joined_support",
+           "joint_depth", "node_at", "scene_joints", "tendon_termination"]
 
 
 @dataclass(frozen=True)
@@ -76,3 +79,80 @@ def check_tendon_termination(name: str, tendon: Any, host: Any) -> None:
         raise SceneError(f"rods.{name}.length = {tendon.length!r}: the tendon must end at "
                          f"the catheter's tip; allowed: the catheter's length "
                          f"{host.length!r} m")
+
+
+def scene_joints(scene: Any) -> dict[str, Any]:
+    """The ``joint`` options of every rod of a resolved scene that lists the term, by rod."""
+    return {name: scene.term_options("rods", name, "joint")
+            for name, table in scene.data["rods"].items() if "joint" in table["terms"]}
+
+
+def joint_depth(rod: str, joints: Mapping[str, Any]) -> int:
+    """How many joints separate ``rod`` from a supported rod (0 for a supported rod); the
+    model builds rods in this order so that a joined rod's base is placed at its joint."""
+    depth = 0
+    while rod in joints and depth <= len(joints):
+        rod = joints[rod].rod
+        depth += 1
+    return depth
+
+
+def joined_support(parent: Rod, s: float) -> Support:
+    """The base support of a rod joined at arclength ``s`` of ``parent``: it holds nothing
+    (the joint term does), at the parent's rest point there, in the parent's base frame."""
+    node = node_at(parent.nodes, parent.length, s)
+    return Support("free", parent.rest_positions()[node], parent.base_quaternion)
+
+
+def node_at(nodes: int, length: float, s: float) -> int:
+    """The node nearest arclength ``s`` of a rod of ``nodes`` nodes and ``length``."""
+    return int(round(s / length * (nodes - 1)))
+
+
+def check_joints(rods: Mapping[str, Mapping[str, Any]], tendons: Collection[str]) -> None:
+    """Cross-check the ``joint`` term of every rod (resolved tables) against the scene: the
+    rod it names exists, is not itself nor a tendon; ``s`` is on that rod and at a node;
+    the joined rod is no tendon and its own base holds nothing (``clamp = "free"``); no
+    chain of joints closes on itself. Raises SceneError."""
+    joined = {name: table["joint"] for name, table in rods.items()
+              if "joint" in table["terms"]}
+    for name, joint in joined.items():
+        prefix = f"rods.{name}.joint"
+        other = joint["rod"]
+        if other not in rods:
+            raise SceneError(f"{prefix}.rod = {shown(other)}: no such rod; rods: "
+                             + ", ".join(rods))
+        if other == name:
+            raise SceneError(f"{prefix}.rod = {other!r}: a rod cannot be joined to itself")
+        if name in tendons or other in tendons:
+            which = name if name in tendons else other
+            raise SceneError(f"{prefix}: rod {which!r} is a tendon, which is anchored to its "
+                             "catheter by its coupling terms; allowed: a joint between "
+                             "backbone rods")
+        clamp = rods[name]["clamp"]
+        if clamp != "free":
+            raise SceneError(f"rods.{name}.clamp = {clamp!r}: the base is also held by "
+                             f"{prefix} (a support and an anchor at the same point); "
+                             "allowed: 'free'")
+        if "base" in rods[name] and any(rods[name]["base"].get(k, 0.0) != 0.0
+                                        for k in ("insertion", "rotation")):
+            raise SceneError(f"rods.{name}.base: a joined rod's base follows its joint; "
+                             "allowed: insertion = rotation = 0")
+        length, nodes = float(rods[other]["length"]), int(rods[other]["nodes"])
+        s = float(joint["s"])
+        if s > length * (1 + 1e-12):
+            raise SceneError(f"{prefix}.s = {s!r}: beyond rod {other!r} (length "
+                             f"{length!r} m); allowed: 0 <= s <= {length!r}")
+        node = node_at(nodes, length, s)
+        if abs(s - node * length / (nodes - 1)) > 1e-9 * length:
+            raise SceneError(f"{prefix}.s = {s!r}: between two nodes of rod {other!r}; "
+                             f"allowed: a node's arclength k L/(N − 1), e.g. "
+                             f"{node * length / (nodes - 1)!r}")
+        seen, rod = {name}, other
+        while rod in joined:
+            if rod in seen:
+                raise SceneError(f"{prefix}.rod = {other!r}: the joints close a loop "
+                                 f"({', '.join(sorted(seen))}) and nothing holds them; "
+                                 "allowed: a chain of joints ending at a supported rod")
+            seen.add(rod)
+            rod = joined[rod]["rod"]

@@ -29,6 +29,7 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.sparse.csgraph import reverse_cuthill_mckee
 
+from rodsim.core.anchors import joined_support, joint_depth, scene_joints
 from rodsim.core.rod.layout import RodLayout
 from rodsim.core.rod.rod import Rod
 from rodsim.core.scene import Scene
@@ -79,14 +80,18 @@ class Model:
         tendons = scene.tendons
         self.rods: dict[str, Rod] = {}
         offset = 0
-        # Catheters first, so a tendon's base can be placed in its catheter's lumen.
+        # Catheters first, so a tendon's base can be placed in its catheter's lumen; a rod
+        # joined to another after it, so its base can be placed at the joint.
         rods = scene.rods
-        for name in sorted(rods, key=lambda n: n in tendons):
+        joints = scene_joints(scene)
+        for name in sorted(rods, key=lambda n: (n in tendons, joint_depth(n, joints))):
             options = rods[name]
             layout = RodLayout(options.nodes, offset)
             if name in tendons:
                 support = tendon_support(self.rods[tendons[name].catheter], tendons[name],
                                          options.clamp)
+            elif name in joints:
+                support = joined_support(self.rods[joints[name].rod], joints[name].s)
             else:
                 support = base_support(options.clamp, scene.base_options(name),
                                        np.asarray(options.origin, dtype=float))
@@ -98,8 +103,9 @@ class Model:
         self.terms: list[Term] = []
         for rod in self.rods.values():
             for term_name in rod.options.terms:
-                self.terms.append(catalogue[term_name](
-                    rod, scene.term_options("rods", rod.name, term_name)))
+                kind = catalogue[term_name]
+                self.terms.append(kind(rod, scene.term_options("rods", rod.name, term_name),
+                                       *((self.rods,) if kind.joins_rods else ())))
         #: The scene's tendons (lumen geometry shared by their coupling terms).
         self.tendons = {name: Tendon.of(name, self.rods, options)
                         for name, options in tendons.items()}

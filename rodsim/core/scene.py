@@ -40,6 +40,7 @@ from importlib import resources
 from pathlib import Path
 from typing import Any
 
+from rodsim.core.anchors import check_joints
 from rodsim.core.names import check_rod_name, check_scene_name
 from rodsim.core.rod.rod import ROD_PARAMETERS, RodOptions
 from rodsim.core.scene_file import parse_toml, read_scene_text
@@ -308,13 +309,15 @@ def resolve(raw: Mapping[str, Any]) -> dict[str, Any]:
         if options.radius >= options.length:
             raise SceneError(f"rods.{rod}.radius = {options.radius!r}: not below the length "
                              f"{options.length!r} m; allowed: radius < length (a slender rod)")
-        if options.clamp == "free":
+        if options.clamp == "free" and "joint" not in options.terms:
             raise SceneError(f"rods.{rod}.clamp = 'free': nothing would hold the rod; "
-                             "allowed: 'frame' or 'first_segment'")
+                             "allowed: 'frame' or 'first_segment', or 'free' with a joint "
+                             "to another rod (terms: joint)")
         if options.clamp == "orientation" and rod not in tendons:
             raise SceneError(f"rods.{rod}.clamp = 'orientation': it leaves the base position "
                              "free, which only a tendon pulled at its base can have; allowed: "
                              "'frame' or 'first_segment'")
+    check_joints(rods, tendons)
     solver_raw = raw.get("solver", {})
     if not isinstance(solver_raw, Mapping):
         raise SceneError(f"solver: expected a table, got {type(solver_raw).__name__}")

@@ -92,6 +92,9 @@ class Term(ABC):
     #: True for a constraint penalty whose constant a solver may raise gradually; the term
     #: must be linear in its constant, so that scaling its output scales the constant.
     penalty: ClassVar[bool] = False
+    #: True for a rod term that ties its rod to another (a joint, rodsim/core/anchors.py):
+    #: it is built with the model's rods as a third argument, ``Term(rod, options, rods)``.
+    joins_rods: ClassVar[bool] = False
     #: Module of :mod:`rodsim.core.kernels` holding the compiled kernel (default: ``name``).
     kernel: ClassVar[str] = ""
 
