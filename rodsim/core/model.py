@@ -34,7 +34,7 @@ from rodsim.core.rod.layout import RodLayout
 from rodsim.core.rod.rod import Rod
 from rodsim.core.scene import Scene
 from rodsim.core.sparsity import csc_pattern
-from rodsim.core.supports import base_support
+from rodsim.core.supports import base_support, quaternion_product, rigid_motion
 from rodsim.core.tendon import Tendon, tendon_support
 from rodsim.core.terms import Term, registered_terms
 
@@ -317,6 +317,25 @@ class Model:
         out = self.rest_full.copy()
         out[self.free] = x
         return out
+
+    def carried(self, x: np.ndarray, previous: Model) -> np.ndarray:
+        """The state ``x`` of ``previous`` (a model of the same layout) with each rod moved
+        rigidly as its base support moved from ``previous`` to this model (an inserted or
+        turned base, rodsim/core/supports.py): the warm start of a step that moves the
+        base. ``x`` itself when no support moved."""
+        full = None
+        for name, rod in self.rods.items():
+            motion = rigid_motion(previous.rods[name].support, rod.support)
+            if motion is None:
+                continue
+            if full is None:
+                full = previous.full(x)
+            turn, q_turn, before, after = motion
+            index = rod.layout.position_index
+            full[index] = after + (full[index] - before) @ turn.T
+            index = rod.layout.quaternion_index
+            full[index] = quaternion_product(q_turn, full[index])
+        return x if full is None else full[self.free]
 
     def positions(self, x: np.ndarray, rod: str) -> np.ndarray:
         """Control points of one rod, shape (N, 3) [m]."""

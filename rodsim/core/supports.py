@@ -35,11 +35,11 @@ from typing import Any
 import numpy as np
 
 from rodsim.core.rod.layout import RodLayout
-from rodsim.core.rod.quaternion import from_rotation_matrix, rest_quaternion
+from rodsim.core.rod.quaternion import directors, from_rotation_matrix, rest_quaternion
 from rodsim.core.schema import Parameter, SceneError, options_type, validate_table
 
 __all__ = ["BASE_PARAMETERS", "BaseOptions", "CLAMPS", "Support", "base_frame",
-           "base_support", "resolve_base"]
+           "base_support", "resolve_base", "rigid_motion"]
 
 #: What a base support holds (``rods.<rod>.clamp``); see the module docstring.
 CLAMPS = ("frame", "first_segment", "orientation", "free")
@@ -101,6 +101,29 @@ class Support:
     def axis(self) -> np.ndarray:
         """The base axis d3 of the frame (+x)."""
         return np.array([1.0, 0.0, 0.0])
+
+
+def rigid_motion(before: Support, after: Support
+                 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray] | None:
+    """The rigid motion that takes support ``before`` to ``after`` — (R, q_R, p₀, p₁) with
+    r ↦ p₁ + R (r − p₀) and q ↦ q_R ⊗ q (the Hamilton product, paper order) — or None
+    when the support did not move. A warm start carries a rod's equilibrium with it when
+    its base is inserted or turned (:meth:`rodsim.core.model.Model.carried`)."""
+    if (np.array_equal(before.position, after.position)
+            and np.array_equal(before.frame, after.frame)):
+        return None
+    turn = directors(after.frame).T @ directors(before.frame)  # R₁ R₀ᵀ (columns d_k)
+    return turn, from_rotation_matrix(turn), before.position, after.position
+
+
+def quaternion_product(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Hamilton product a ⊗ b of quaternions (..., 4) in the paper's order (q1, q2, q3
+    imaginary, q4 real): the directors of a ⊗ b are those of b turned by a's rotation."""
+    av, aw = a[..., :3], a[..., 3:]
+    bv, bw = b[..., :3], b[..., 3:]
+    vector = aw * bv + bw * av + np.cross(av, bv)
+    scalar = aw * bw - np.sum(av * bv, axis=-1, keepdims=True)
+    return np.concatenate([vector, scalar], axis=-1)
 
 
 def base_support(clamp: str, base: Any, origin: np.ndarray) -> Support:
