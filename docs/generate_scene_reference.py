@@ -3,7 +3,8 @@
     python docs/generate_scene_reference.py          # rewrite docs/scenes.md
     python docs/generate_scene_reference.py --check  # exit 1 if docs/scenes.md is stale
 
-Reads rodsim.core.rod.rod.ROD_PARAMETERS, rodsim.core.supports.BASE_PARAMETERS,
+Reads rodsim.core.rod.rod.ROD_PARAMETERS, rodsim.core.supports.BASE_PARAMETERS and
+SUPPORT_PARAMETERS,
 rodsim.core.tendon.TENDON_PARAMETERS,
 rodsim.core.scene.SOLVER_PARAMETERS, every registered term (``parameters``, ``equation``,
 ``scope``) and every registered integrator (``parameters``, ``summary``,
@@ -23,7 +24,7 @@ from pathlib import Path
 from rodsim.core.rod.rod import ROD_PARAMETERS
 from rodsim.core.scene import SOLVER_PARAMETERS
 from rodsim.core.schema import Parameter
-from rodsim.core.supports import BASE_PARAMETERS
+from rodsim.core.supports import BASE_PARAMETERS, SUPPORT_PARAMETERS
 from rodsim.core.terms import registered_terms
 from rodsim.solvers import registered_integrators
 
@@ -97,6 +98,13 @@ def reference() -> str:
         "catheter's base.",
         "",
         *table(BASE_PARAMETERS),
+        "### `[rods.<name>.supports.<support>]` — a node held in place "
+        "(rodsim/core/supports.py)",
+        "",
+        "Any number, each named; position only (orientation is held at the base). Not for a "
+        "tendon rod.",
+        "",
+        *table(SUPPORT_PARAMETERS),
         *term_tables(terms, "rod", "rods.<name>"),
     ]
     if TENDON_PARAMETERS is not None:

@@ -144,3 +144,76 @@ def test_a_tendon_rod_has_no_base_of_its_own():
     with pytest.raises(SceneError, match=r"^rods\.tendon\.base: a tendon's base") as error:
         Scene.from_dict(data)
     assert "\n" not in str(error.value)
+
+
+def _pinned(nodes: int, supports: dict, *overrides: str) -> dict:
+    data = copy.deepcopy(rodsim.load_scene(
+        "table1-50g", [f"nodes={nodes}", *STIFF, "tip_load.mass=0", *overrides]).data)
+    data["rods"]["catheter"]["supports"] = supports
+    return data
+
+
+def test_a_prescribed_tip_displacement_bends_the_rod_as_beam_theory_at_second_order():
+    """A cantilever whose tip node is held displaced by δ = 1e-4 L sideways: the linear
+    beam's y(s) = δ s² (3L − s) / (2L³) (the shape of a tip force; the nonlinearity is
+    O(δ²/L²)), at every node, the error falling at second order in N."""
+    delta = 1e-4 * LENGTH
+    errors = []
+    for nodes in (11, 21, 41):
+        result = _solve(Scene.from_dict(_pinned(
+            nodes, {"tip": {"s": LENGTH, "displacement": [0.0, delta, 0.0]}})))
+        s = np.linspace(0.0, LENGTH, nodes)
+        beam = delta * s**2 * (3 * LENGTH - s) / (2 * LENGTH**3)
+        errors.append(np.abs(result.rods["catheter"].positions[:, 1] - beam).max() / delta)
+    orders = np.log2(np.array(errors[:-1]) / errors[1:])
+    print(f"\nprescribed tip displacement: errors / δ {errors}, orders {orders}")
+    assert errors[-1] < 1e-4
+    assert np.all(orders > 1.8) and np.all(orders < 2.2)
+
+
+def test_track_ramps_a_prescribed_displacement():
+    """``rodsim track`` ramps a node support's displacement like any numeric value; each
+    step is the cold equilibrium."""
+    data = _pinned(15, {"mid": {"s": 0.06}})
+    scene = Scene.from_dict(data)
+    values = [0.0, 0.005, 0.01]
+    path = rodsim.track(scene, {"supports.mid.displacement[1]": values}, "static")
+    assert path.success, path.message
+    for step, value in enumerate(values):
+        cold = _solve(scene.with_values({"rods.catheter.supports.mid.displacement":
+                                         [0.0, value, 0.0]}))
+        assert abs(cold.rods["catheter"].positions[7, 1] - value) < 1e-15
+        assert np.abs(path.positions[step] - cold.rods["catheter"].positions).max() < (
+            1e-8 * LENGTH)
+
+
+@pytest.mark.parametrize(("supports", "message"), [
+    ({"far": {"s": 0.2}}, r"^rods\.catheter\.supports\.far\.s = 0\.2: beyond the rod"),
+    ({"off": {"s": 0.05}}, r"^rods\.catheter\.supports\.off\.s = 0\.05: between two nodes"),
+    ({"base": {"s": 0.0}}, r"^rods\.catheter\.supports\.base\.s = 0\.0: the base support"),
+    ({"a": {"s": 0.06}, "b": {"s": 0.06}},
+     r"^rods\.catheter\.supports\.b\.s = 0\.06: node 7 is already held by"),
+    ({"tip": {"s": 0.12, "angle": 1.0}}, r"^rods\.catheter\.supports\.tip\.angle: unknown key"),
+    ({"tip": 0.12}, r"^rods\.catheter\.supports: expected tables"),
+])
+def test_bad_supports_are_one_line_scene_errors(supports, message):
+    with pytest.raises(SceneError, match=message) as error:
+        Scene.from_dict(_pinned(15, supports))
+    assert "\n" not in str(error.value)
+
+
+def test_a_support_where_a_tendon_is_anchored_is_refused():
+    """The tendon's tip is held by its termination anchor: a support there too is a
+    one-line SceneError saying so."""
+    data = copy.deepcopy(rodsim.load_scene("table3-catheter1").data)
+    data["rods"]["tendon"]["supports"] = {"tip": {"s": 0.16}}
+    with pytest.raises(SceneError, match=r"^rods\.tendon\.supports\.tip: a support on a "
+                       r"tendon rod at its termination, where its anchor"):
+        Scene.from_dict(data)
+
+
+def test_the_node_of_a_support_is_not_a_numeric_parameter():
+    """Moving s changes which coordinates are fixed: refused as a track or reach key."""
+    scene = Scene.from_dict(_pinned(15, {"mid": {"s": 0.06}}))
+    with pytest.raises(SceneError, match="changes the discretisation"):
+        rodsim.track(scene, {"supports.mid.s": [0.06, 0.07]}, "static")

@@ -34,7 +34,7 @@ from rodsim.core.rod.layout import RodLayout
 from rodsim.core.rod.rod import Rod
 from rodsim.core.scene import Scene
 from rodsim.core.sparsity import csc_pattern
-from rodsim.core.supports import base_support, quaternion_product, rigid_motion
+from rodsim.core.supports import base_support, node_supports, quaternion_product, rigid_motion
 from rodsim.core.tendon import Tendon, tendon_support
 from rodsim.core.terms import Term, registered_terms
 
@@ -95,7 +95,12 @@ class Model:
             else:
                 support = base_support(options.clamp, scene.base_options(name),
                                        np.asarray(options.origin, dtype=float))
-            self.rods[name] = Rod(name, options, layout, support)
+            rod = Rod(name, options, layout, support)
+            tables = scene.support_tables(name)
+            if tables:
+                rod = Rod(name, options, layout, support, node_supports(
+                    options.nodes, options.length, rod.rest_positions(), tables))
+            self.rods[name] = rod
             offset += layout.size
         self.rods = {name: self.rods[name] for name in rods}
         self.full_size = offset
@@ -120,7 +125,7 @@ class Model:
         self.rest_full = np.zeros(self.full_size)
         fixed = []
         for rod in self.rods.values():
-            self.rest_full[rod.layout.position_index] = rod.rest_positions()
+            self.rest_full[rod.layout.position_index] = rod.held_positions()
             self.rest_full[rod.layout.quaternion_index] = rod.rest_quaternions()
             fixed.append(rod.fixed_index())
         is_free = np.ones(self.full_size, dtype=bool)

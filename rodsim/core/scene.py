@@ -45,7 +45,7 @@ from rodsim.core.names import check_rod_name, check_scene_name
 from rodsim.core.rod.rod import ROD_PARAMETERS, RodOptions
 from rodsim.core.scene_file import parse_toml, read_scene_text
 from rodsim.core.schema import Parameter, SceneError, options_type, shown, validate_table
-from rodsim.core.supports import BASE_PARAMETERS, BaseOptions, resolve_base
+from rodsim.core.supports import BASE_PARAMETERS, BaseOptions, resolve_base, resolve_supports
 from rodsim.core.tendon import TENDON_PARAMETERS, TendonOptions, check_tendon
 
 __all__ = ["Scene", "SceneError", "SOLVER_PARAMETERS", "SolverSettings", "default_scene_path",
@@ -188,6 +188,11 @@ class Scene:
         return BaseOptions.of(self.data["rods"][rod].get("base") or
                               {p.name: p.default for p in BASE_PARAMETERS})
 
+    def support_tables(self, rod: str) -> dict[str, Any]:
+        """The validated ``[rods.<rod>.supports.<name>]`` tables of rod ``rod`` by name
+        (none: an empty dict)."""
+        return self.data["rods"][rod].get("supports", {})
+
     def term_options(self, owner: str, name: str, term: str) -> Any:
         """The options of term ``term`` of rod or tendon ``name`` (``owner`` is ``"rods"`` or
         ``"tendons"``), as the term's ``Options`` (a view of ``data``); ``None`` when that
@@ -285,7 +290,7 @@ def resolve(raw: Mapping[str, Any]) -> dict[str, Any]:
     rod_terms = sorted(n for n, t in terms.items() if t.scope == "rod")
     tendon_terms = sorted(n for n, t in terms.items() if t.scope == "tendon")
     rods = {rod: _resolve_with_terms(table, ROD_PARAMETERS, rod_terms, terms, f"rods.{rod}",
-                                     extra_tables=("base",))
+                                     extra_tables=("base", "supports"))
             for rod, table in rods_raw.items()}
     tendons_raw = raw.get("tendons", {})
     if not isinstance(tendons_raw, Mapping):
@@ -302,6 +307,8 @@ def resolve(raw: Mapping[str, Any]) -> dict[str, Any]:
         base = resolve_base(rod, table, rod in tendons)
         if base is not None:
             table["base"] = base
+        if "supports" in table:
+            table["supports"] = resolve_supports(rod, table, rod in tendons)
         options = RodOptions.of(table)
         if not options.terms:
             raise SceneError(f"rods.{rod}.terms = []: a rod needs at least one term; allowed: "

@@ -19,6 +19,12 @@ rod has one at its base (s = 0), declared by two scene values:
   entrance and its base frame, rodsim/core/tendon.py). ``rodsim track --ramp`` and
   ``rodsim reach --actuate`` vary both like any numeric value.
 
+A rod may also be held at other arclengths: each ``[rods.<rod>.supports.<name>]`` table
+fixes the position of the node at ``s`` (a node: k L/(N − 1), not the base) at its rest
+place moved by ``displacement`` [m] (world frame; the rest place moves with the base) — a
+pinned node, or a prescribed displacement that ``rodsim track`` can ramp. Orientation is
+held at the base only.
+
 A support removes coordinates from the free state (:meth:`Support.fixed_index`) and hands
 the bending term its frame element (:attr:`Support.frame_element`, :attr:`Support.frame`):
 the element (q_c, q_0) of dual length l/2 that keeps the clamp second order in N
@@ -38,8 +44,9 @@ from rodsim.core.rod.layout import RodLayout
 from rodsim.core.rod.quaternion import directors, from_rotation_matrix, rest_quaternion
 from rodsim.core.schema import Parameter, SceneError, options_type, validate_table
 
-__all__ = ["BASE_PARAMETERS", "BaseOptions", "CLAMPS", "Support", "base_frame",
-           "base_support", "resolve_base", "rigid_motion"]
+__all__ = ["BASE_PARAMETERS", "BaseOptions", "CLAMPS", "SUPPORT_PARAMETERS", "Support",
+           "base_frame", "base_support", "node_supports", "resolve_base", "resolve_supports",
+           "rigid_motion"]
 
 #: What a base support holds (``rods.<rod>.clamp``); see the module docstring.
 CLAMPS = ("frame", "first_segment", "orientation", "free")
@@ -52,6 +59,19 @@ BASE_PARAMETERS: tuple[Parameter, ...] = (
               "base frame turned about its axis (+x) by this angle: the whole rod is rotated",
               -1e3, 1e3),
 )
+
+SUPPORT_PARAMETERS: tuple[Parameter, ...] = (
+    Parameter("s", "float", None, "m",
+              "arclength of the held node (a node: k L/(N − 1); not 0, the base's)",
+              0.0, 100.0),
+    Parameter("displacement", "vector", [0.0, 0.0, 0.0], "m",
+              "prescribed displacement of the node from its rest place (world frame; 0: "
+              "pinned where it is at rest)", -1e3, 1e3, length=3),
+)
+
+#: A support table's values, typed (one field per :data:`SUPPORT_PARAMETERS`).
+SupportOptions = options_type("SupportOptions", SUPPORT_PARAMETERS,
+                              "A validated support table ([rods.<rod>.supports.<name>]).")
 
 #: A base table's values, typed (one field per :data:`BASE_PARAMETERS`).
 BaseOptions = options_type("BaseOptions", BASE_PARAMETERS,
@@ -75,13 +95,15 @@ class Support:
     holds: str
     position: np.ndarray = field(repr=False)
     frame: np.ndarray = field(repr=False)
-    #: Arclength of the support on its rod [m] (the base).
+    #: Arclength of the support on its rod [m] (0: the base).
     s: float = 0.0
+    #: The node it holds (0: the base).
+    node: int = 0
 
     @property
     def holds_position(self) -> bool:
-        """Whether r_0 is fixed at :attr:`position`."""
-        return self.holds in ("frame", "first_segment")
+        """Whether the node's position is fixed at :attr:`position`."""
+        return self.holds in ("frame", "first_segment", "position")
 
     @property
     def frame_element(self) -> bool:
@@ -94,7 +116,7 @@ class Support:
         if self.holds == "first_segment":
             return np.concatenate([layout.position_index[0], layout.quaternion_index[0]])
         if self.holds_position:
-            return layout.position_index[0]
+            return layout.position_index[self.node]
         return np.zeros(0, dtype=int)
 
     @property
@@ -132,6 +154,60 @@ def base_support(clamp: str, base: Any, origin: np.ndarray) -> Support:
     frame = base_frame(float(base.rotation))
     position = np.asarray(origin, dtype=float) + float(base.insertion) * np.array([1.0, 0, 0])
     return Support(clamp, position, frame)
+
+
+def node_supports(nodes: int, length: float, rest: np.ndarray,
+                  supports: Mapping[str, Mapping[str, Any]]) -> tuple[Support, ...]:
+    """The position supports of a rod's ``[rods.<rod>.supports.<name>]`` tables (validated)
+    for a rod of ``nodes`` nodes, ``length`` and rest positions ``rest`` (N, 3)."""
+    out = []
+    for table in supports.values():
+        options = SupportOptions.of(table)
+        node = int(round(options.s / length * (nodes - 1)))
+        out.append(Support("position", rest[node] + np.asarray(options.displacement, float),
+                           np.zeros(4), float(options.s), node))
+    return tuple(out)
+
+
+def resolve_supports(rod: str, table: Mapping[str, Any], is_tendon: bool
+                     ) -> dict[str, dict[str, Any]]:
+    """The validated ``[rods.<rod>.supports.<name>]`` tables of a resolved rod table
+    (SceneError: not a table of tables, a tendon rod, ``s`` at the base, beyond the rod,
+    between nodes, or two supports on one node)."""
+    raw = table.get("supports", {})
+    prefix = f"rods.{rod}.supports"
+    if not isinstance(raw, Mapping) or not all(isinstance(v, Mapping) for v in raw.values()):
+        raise SceneError(f"{prefix}: expected tables [{prefix}.<name>] (keys: s, "
+                         "displacement)")
+    length, nodes = float(table["length"]), int(table["nodes"])
+    out: dict[str, dict[str, Any]] = {}
+    held: dict[int, str] = {}
+    for name, entry in raw.items():
+        key = f"{prefix}.{name}"
+        resolved = validate_table(entry, SUPPORT_PARAMETERS, key)
+        s = resolved["s"]
+        if is_tendon:
+            where = (" at its termination, where its anchor to the catheter holds it"
+                     if s >= length * (1 - 1e-12) else "")
+            raise SceneError(f"{key}: a support on a tendon rod{where}; a tendon is held by "
+                             "its lumen and its termination; allowed: supports on backbone "
+                             "rods")
+        if s > length * (1 + 1e-12):
+            raise SceneError(f"{key}.s = {s!r}: beyond the rod (length {length!r} m); "
+                             f"allowed: 0 < s <= {length!r}")
+        node = int(round(s / length * (nodes - 1)))
+        if abs(s - node * length / (nodes - 1)) > 1e-9 * length:
+            raise SceneError(f"{key}.s = {s!r}: between two nodes; allowed: a node's "
+                             f"arclength k L/(N − 1), e.g. {node * length / (nodes - 1)!r}")
+        if node == 0:
+            raise SceneError(f"{key}.s = {s!r}: the base support holds s = 0; allowed: "
+                             f"s > 0 (the base: rods.{rod}.clamp and [rods.{rod}.base])")
+        if node in held:
+            raise SceneError(f"{key}.s = {s!r}: node {node} is already held by "
+                             f"{prefix}.{held[node]}")
+        held[node] = name
+        out[name] = resolved
+    return out
 
 
 def resolve_base(rod: str, table: Mapping[str, Any], is_tendon: bool) -> dict[str, Any] | None:

@@ -22,7 +22,7 @@ from dataclasses import dataclass
 from rodsim.core.rod.rod import ROD_PARAMETERS
 from rodsim.core.scene import Scene
 from rodsim.core.schema import Parameter, SceneError, shown
-from rodsim.core.supports import BASE_PARAMETERS
+from rodsim.core.supports import BASE_PARAMETERS, SUPPORT_PARAMETERS
 from rodsim.core.tendon import TENDON_PARAMETERS
 
 __all__ = ["NumericKey", "numeric_key", "numeric_keys", "scene_with"]
@@ -75,6 +75,8 @@ def _schema(path: str) -> Parameter | None:
         return None
     if len(parts) == 4 and parts[0] == "rods" and parts[2] == "base":
         table = BASE_PARAMETERS  # the base support's insertion and rotation
+    elif len(parts) == 5 and parts[0] == "rods" and parts[2] == "supports":
+        table = SUPPORT_PARAMETERS  # a node support's s and displacement
     elif len(parts) == 4:
         term = registered_terms().get(parts[2])
         table = term.parameters if term is not None else ()
@@ -94,7 +96,8 @@ def numeric_key(scene: Scene, key: str) -> NumericKey:
     parameter = _schema(path)
     if parameter is None:
         raise SceneError(f"{shown(key, bare=True)}: {path} is not a numeric model parameter")
-    if parameter.kind == "int":
+    if parameter.kind == "int" or (parameter.name == "s" and (
+            ".supports." in path or ".joint." in path)):
         raise SceneError(f"{shown(key, bare=True)}: {path} changes the discretisation (the "
                          "free coordinates), so the equilibrium has no derivative with respect "
                          "to it")

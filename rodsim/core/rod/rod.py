@@ -68,6 +68,8 @@ class Rod:
     options: Any  # RodOptions
     layout: RodLayout = field(repr=False)
     support: Support = field(repr=False)
+    #: Supports at other nodes than the base (position only; rodsim/core/supports.py).
+    node_supports: tuple[Support, ...] = field(default=(), repr=False)
 
     @property
     def origin(self) -> np.ndarray:
@@ -146,8 +148,17 @@ class Rod:
         return np.tile(self.base_quaternion, (self.nodes - 1, 1))
 
     def fixed_index(self) -> np.ndarray:
-        """Global indices of the coordinates the support removes (see docs/model.md)."""
-        return self.support.fixed_index(self.layout)
+        """Global indices of the coordinates the supports remove (see docs/model.md)."""
+        return np.concatenate([self.support.fixed_index(self.layout),
+                               *(s.fixed_index(self.layout) for s in self.node_supports)])
+
+    def held_positions(self) -> np.ndarray:
+        """The rest state's positions (N, 3) [m] with every node support's node at its
+        prescribed place (the value the fixed coordinates keep)."""
+        positions = self.rest_positions()
+        for support in self.node_supports:
+            positions[support.node] = support.position
+        return positions
 
     def node_masses(self) -> np.ndarray:
         """Lumped mass of each control point, ρ A × (half of each adjacent segment) [kg]."""
