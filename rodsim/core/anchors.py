@@ -26,7 +26,7 @@ import numpy as np
 
 from rodsim.core.rod.rod import Rod
 from rodsim.core.schema import SceneError, shown
-from rodsim.core.supports import Support
+from rodsim.core.supports import Support, node_at
 
 __all__ = ["Anchor", "check_joints", "check_tendon_termination", "joined_support",
            "joint_depth", "node_at", "scene_joints", "tendon_termination"]
@@ -102,11 +102,6 @@ def joined_support(parent: Rod, s: float) -> Support:
     (the joint term does), at the parent's rest point there, in the parent's base frame."""
     node = node_at(parent.nodes, parent.length, s)
     return Support("free", parent.rest_positions()[node], parent.base_quaternion)
-
-
-def node_at(nodes: int, length: float, s: float) -> int:
-    """The node nearest arclength ``s`` of a rod of ``nodes`` nodes and ``length``."""
-    return int(round(s / length * (nodes - 1)))
 
 
 def check_joints(rods: Mapping[str, Mapping[str, Any]], tendons: Collection[str]) -> None:

@@ -45,8 +45,8 @@ from rodsim.core.rod.quaternion import directors, from_rotation_matrix, rest_qua
 from rodsim.core.schema import Parameter, SceneError, options_type, validate_table
 
 __all__ = ["BASE_PARAMETERS", "BaseOptions", "CLAMPS", "SUPPORT_PARAMETERS", "Support",
-           "base_frame", "base_support", "node_supports", "resolve_base", "resolve_supports",
-           "rigid_motion"]
+           "base_frame", "base_support", "node_at", "node_supports", "quaternion_product",
+           "resolve_base", "resolve_supports", "rigid_motion"]
 
 #: What a base support holds (``rods.<rod>.clamp``); see the module docstring.
 CLAMPS = ("frame", "first_segment", "orientation", "free")
@@ -156,6 +156,11 @@ def base_support(clamp: str, base: Any, origin: np.ndarray) -> Support:
     return Support(clamp, position, frame)
 
 
+def node_at(nodes: int, length: float, s: float) -> int:
+    """The node nearest arclength ``s`` of a rod of ``nodes`` nodes and ``length``."""
+    return int(round(s / length * (nodes - 1)))
+
+
 def node_supports(nodes: int, length: float, rest: np.ndarray,
                   supports: Mapping[str, Mapping[str, Any]]) -> tuple[Support, ...]:
     """The position supports of a rod's ``[rods.<rod>.supports.<name>]`` tables (validated)
@@ -163,7 +168,7 @@ def node_supports(nodes: int, length: float, rest: np.ndarray,
     out = []
     for table in supports.values():
         options = SupportOptions.of(table)
-        node = int(round(options.s / length * (nodes - 1)))
+        node = node_at(nodes, length, options.s)
         out.append(Support("position", rest[node] + np.asarray(options.displacement, float),
                            np.zeros(4), float(options.s), node))
     return tuple(out)
@@ -195,7 +200,7 @@ def resolve_supports(rod: str, table: Mapping[str, Any], is_tendon: bool
         if s > length * (1 + 1e-12):
             raise SceneError(f"{key}.s = {s!r}: beyond the rod (length {length!r} m); "
                              f"allowed: 0 < s <= {length!r}")
-        node = int(round(s / length * (nodes - 1)))
+        node = node_at(nodes, length, s)
         if abs(s - node * length / (nodes - 1)) > 1e-9 * length:
             raise SceneError(f"{key}.s = {s!r}: between two nodes; allowed: a node's "
                              f"arclength k L/(N − 1), e.g. {node * length / (nodes - 1)!r}")
