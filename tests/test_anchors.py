@@ -111,3 +111,33 @@ def test_a_joint_on_a_tendon_rod_is_refused():
     data["rods"]["tendon"]["joint"] = {"rod": "catheter", "s": 0.0}
     with pytest.raises(SceneError, match=r"^rods\.tendon\.joint: rod 'tendon' is a tendon"):
         Scene.from_dict(data)
+
+
+def test_a_joint_between_two_sections_is_second_order():
+    """A 0.072 m rod of radius 6 mm welded to a 0.048 m rod of radius 4 mm, tip force P
+    small enough for linear beam theory (tip deflection 2.5e-4 L): the tip deflection is
+    P[(L³ − L₂³)/(3 E I₁) + L₂³/(3 E I₂)] (∫ M²/EI) plus the model's two penalty
+    compliances, P L/K_P (the centerline penalty acting as a shear compliance) and P/K_J
+    (the joint), and the error falls at second order in N. With rod B's stiffness alone at
+    the joint element instead of the two half segments in series the order drops to 1.1.
+    (Finer N puts the load under the round-off of the internal forces.)"""
+    e, l1, l2, r1, r2, penalty = 5.9e6, 0.072, 0.048, 0.006, 0.004, 1e6
+    ei1, ei2 = e * np.pi * r1**4 / 4, e * np.pi * r2**4 / 4
+    length = l1 + l2
+    force = 1e-3 * length * 3 * ei2 / length**3
+    expected = (force * ((length**3 - l2**3) / (3 * ei1) + l2**3 / (3 * ei2))
+                + force / penalty + force * length / penalty)
+    errors = []
+    for k in (1, 2, 4):
+        data = {"name": "two-sections", "solver": {"static": {"max_newton": 200}}, "rods": {
+            "proximal": _rod(l1, 3 * k + 1, radius=r1, centerline={"K_P": penalty}),
+            "distal": _rod(l2, 2 * k + 1, radius=r2, clamp="free",
+                           terms=["stretch", "bend_twist", "centerline", "joint", "tip_load"],
+                           centerline={"K_P": penalty},
+                           joint={"rod": "proximal", "s": l1, "K_J": penalty},
+                           tip_load={"force": [0.0, -force, 0.0]})}}
+        errors.append(abs(-_solve(data).tip("distal")[1] - expected) / expected)
+    orders = np.log2(np.array(errors[:-1]) / errors[1:])
+    print(f"\ntwo sections: relative tip errors {errors}, orders {orders}")
+    assert errors[-1] < 3e-3
+    assert np.all(orders > 1.9) and np.all(orders < 2.1)
