@@ -141,3 +141,10 @@ def test_a_joint_between_two_sections_is_second_order():
     print(f"\ntwo sections: relative tip errors {errors}, orders {orders}")
     assert errors[-1] < 3e-3
     assert np.all(orders > 1.9) and np.all(orders < 2.1)
+
+
+def test_the_base_of_a_joined_rod_is_no_actuation_value():
+    """A joined rod's base follows its joint: ramping its base is refused, not ignored."""
+    scene = Scene.from_dict(joined(1e6))
+    with pytest.raises(SceneError, match=r"rod 'distal' is joined to another rod"):
+        rodsim.track(scene, {"rods.distal.base.insertion": [0.0, 0.01]}, "static")

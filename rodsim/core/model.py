@@ -143,7 +143,7 @@ class Model:
         not recomputed, and the Jacobian pattern is reused when every term keeps its element
         coordinates (a changed load, modulus, penalty or tendon force). A tracking step's
         model (rodsim/app/inverse/track.py). Raises ValueError when ``scene`` changes the free
-        coordinates (node counts, clamps, rods or terms).
+        coordinates (node counts, supports, rods or terms).
         """
         other = copy.copy(self)
         other._assemble(scene)
@@ -151,7 +151,7 @@ class Model:
         if (other.full_size != self.full_size or other.n != self.n
                 or not np.array_equal(other.free, np.sort(self.free))
                 or [term.name for term in other.terms] != names):
-            raise ValueError("the scene changes the model's layout (nodes, clamps, rods or "
+            raise ValueError("the scene changes the model's layout (nodes, supports, rods or "
                              "terms): build a new Model")
         other.free = self.free
         other.terms = [term.registered(mine.registration_state()) if term.dynamic else term

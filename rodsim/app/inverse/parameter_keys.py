@@ -96,6 +96,11 @@ def numeric_key(scene: Scene, key: str) -> NumericKey:
     parameter = _schema(path)
     if parameter is None:
         raise SceneError(f"{shown(key, bare=True)}: {path} is not a numeric model parameter")
+    parts = path.split(".")
+    if parts[0] == "rods" and parts[2] == "base" and "joint" in scene.data["rods"][parts[1]][
+            "terms"]:
+        raise SceneError(f"{shown(key, bare=True)}: rod {parts[1]!r} is joined to another "
+                         "rod, whose base it follows; allowed: the base of a supported rod")
     if parameter.kind == "int" or (parameter.name == "s" and (
             ".supports." in path or ".joint." in path)):
         raise SceneError(f"{shown(key, bare=True)}: {path} changes the discretisation (the "
