@@ -83,6 +83,11 @@ CASES = [
     ("base-insertion-nan", BASE, ["--set", "insertion=nan"], "rods.catheter.base.insertion"),
     ("base-rotation-text", BASE, ["--set", "rotation='left'"], "rods.catheter.base.rotation"),
     ("free-base-without-joint", BASE, ["--set", "clamp='free'"], "rods.catheter.clamp"),
+    ("joint-to-missing-rod",
+     edit('"tip_load"]', '"tip_load", "joint"]', edit('clamp = "frame"', 'clamp = "free"'))
+     + '\n[rods.catheter.joint]\nrod = "shaft"\ns = 0.1\n', [], "rods.catheter.joint.rod"),
+    ("support-beyond-the-rod", BASE + "\n[rods.catheter.supports.tip]\ns = 0.2\n", [],
+     "rods.catheter.supports.tip.s"),
     ("invalid-toml", edit("nodes = 8", "nodes = = 8"), [], "scene.toml"),
     ("nonexistent-file", None, [], "missing.toml"),
     ("unreadable-file", None, [], "folder.toml"),
