@@ -59,6 +59,9 @@ CASES = {
     "two tendons, one ends part-way": (
         {"a": string((1, 0), 2.0, end=0.12), "b": string((-0.5, 0.8660254), 1.5)},
         (0.0, 0.0, 0.0)),
+    "one ends mid-segment, tip force": (
+        {"a": string((1, 0), 2.0, end=0.1234), "b": string((-0.5, 0.8660254), 1.5)},
+        (0.0, 0.02, 0.03)),
     "helical tendon": ({"h": {"catheter": "backbone", "coupling": "string", "tendon_string": {
         "tension": 2.0, "spacers": True, "routing": "helix", "helix_radius": 0.01,
         "helix_pitch": 0.4}}}, (0.0, 0.0, 0.0)),
