@@ -19,6 +19,9 @@ is and solves only the scenes the file lacks (their commit is stored as
 ``commit/<scene>``):
 
     python tests/data/make_reference.py --add tests/data/scene_reference.npz
+
+``--redo NAME`` (repeatable, with ``--add``) drops one scene's arrays first, to regenerate
+the reference of a scene whose numbers are meant to change (say so in the commit).
 """
 
 from __future__ import annotations
@@ -60,6 +63,8 @@ def main() -> None:
     parser.add_argument("output", type=Path)
     parser.add_argument("--add", action="store_true",
                         help="keep the file's arrays; solve only the scenes it lacks")
+    parser.add_argument("--redo", action="append", default=[], metavar="NAME",
+                        help="with --add: drop this scene's arrays first (repeatable)")
     args = parser.parse_args()
     import rodsim
 
@@ -68,7 +73,9 @@ def main() -> None:
                             text=True, check=False).stdout.strip()
     if args.add:
         with np.load(args.output) as data:
-            stored = {key: data[key] for key in data.files}
+            stored = {key: data[key] for key in data.files
+                      if key.split("/")[0] not in args.redo
+                      and key.removeprefix("commit/") not in args.redo}
         present = {key.split("/")[0] for key in stored if key.count("/") == 3}
         added = reference(present)
         for name in {key.split("/")[0] for key in added}:

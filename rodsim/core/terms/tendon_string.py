@@ -18,17 +18,23 @@ segment midpoint s_j = (j + ½) h): the path is the polygon through
   on the segment m holding σ, plus the body-frame offset ρ = (ρ_y, ρ_z) of the routing
   (rodsim/core/routing.py), R(q̂) ρ = (ρ_y d1(q) + ρ_z d2(q)) / |q|² (Eq. 2, normalised);
 - q(σ) is interpolated linearly between the frame knots — the base frame at s = 0 (clamps
-  'frame' and 'orientation') and the segment midpoints — and extrapolated from the last two
-  beyond them; at a node it is ½ (q_{j−1} + q_j). Taking the frame of the segment that
-  holds σ instead puts the moment arm at the termination half a segment off and made the
-  tip converge at first order only.
+  'frame' and 'orientation') and the segment midpoints — and held constant beyond the last
+  knot (and before the first without a base frame); at a node it is ½ (q_{j−1} + q_j).
+  This follows the rod's own discrete kinematics: its bending elements sit between
+  consecutive knots, so the half segment past the last midpoint turns rigidly with q_{N−2}.
 
-Points at the nodes rather than at the segment midpoints ½ (r_j + r_{j+1}), which lie a
-sagitta κ h²/8 inside the bent centerline: against the Rucker–Webster reference
-(tests/test_string_tendon.py) the tip error at N = 81 was 1.8e-4 L (one tendon, 3 N on the
-0.2 m benchmark backbone) and 2.1e-3 L (two tendons, one ending part-way, tip force) with
-midpoints, 4.6e-5 L and 4.7e-5 L with nodes (both second order); a helical tendon was 1.1e-5
-L with midpoints, 2.4e-5 L with nodes.
+Measured against the Rucker–Webster reference (tests/test_string_tendon.py; tip error / L
+on the 0.2 m benchmark backbone at N = 21 → 81, all second order unless said):
+
+| choice | one tendon, 3 N, to the tip | two tendons, one ending at 0.12 m |
+|---|---|---|
+| points at the segment midpoints ½ (r_j + r_{j+1}) | 2.8e-3 → 1.8e-4 | 3.2e-3 → 2.1e-4 |
+| points at the nodes, frame extrapolated past the last knot | 7.4e-4 → 4.6e-5 | 7.5e-4 → 4.7e-5 |
+| points at the nodes, frame held past the last knot (this) | 3.6e-5 → 2.3e-6 | 1.1e-5 → 7.2e-7 |
+| the segment's own frame at entry and termination | 3.6e-5 → 2.3e-6 | 3.9e-3 → 9.8e-4, order 1 |
+
+(the midpoints sit a sagitta κ h²/8 inside the bent centerline; the segment's own frame puts
+a part-way termination's moment arm up to half a segment off).
 
 ℓ = Σ_k |p_{k+1} − p_k|: one element per chord, on the coordinates of its two points
 (r_m, r_{m+1} and the two knot quaternions of each: 28 coordinates). With d = p_B − p_A,
@@ -89,7 +95,7 @@ def routing_points(tendon: Tendon, routing: Routing, start: float,
     base = rod.has_base_frame
     knots = np.concatenate([[0.0], mid]) if base else mid
     k = np.clip(np.searchsorted(knots, s, side="right") - 1, 0, len(knots) - 2)
-    w = (s - knots[k]) / (knots[k + 1] - knots[k])
+    w = np.clip((s - knots[k]) / (knots[k + 1] - knots[k]), 0.0, 1.0)
     quat = rod.layout.quaternion_index
     pos = rod.layout.position_index
     # Knot i is segment i − 1 with a base frame (knot 0 is the constant base frame).
