@@ -63,6 +63,9 @@ CASES = {
     "one ends mid-segment, tip force": (
         {"a": string((1, 0), 2.0, end=0.1234), "b": string((-0.5, 0.8660254), 1.5)},
         (0.0, 0.02, 0.03)),
+    "entry past the base (0.05 m)": (
+        {"a": string((1, 0), 2.0, start=0.05), "b": string((-0.5, 0.8660254), 1.0)},
+        (0.0, 0.0, 0.0)),
     "helical tendon": ({"h": {"catheter": "backbone", "coupling": "string", "tendon_string": {
         "tension": 2.0, "spacers": True, "routing": "helix", "helix_radius": 0.01,
         "helix_pitch": 0.4}}}, (0.0, 0.0, 0.0)),
@@ -190,6 +193,22 @@ def test_reference_terminations_and_sections_are_consistent():
                                                                           ea)],
                        [tendon], s=np.array([0.1, LENGTH]))
     np.testing.assert_allclose(split.positions, full.positions, rtol=0, atol=1e-12)
+
+
+def test_reference_entry_past_the_base_leaves_the_rod_straight_before_it():
+    """A tendon entering at 0.1 m (its pull's reaction acting there) leaves [0, 0.1] unloaded
+    and straight; beyond, the rod bends as a 0.1 m rod clamped there with the tendon from
+    its base."""
+    ei, ea = E * math.pi * RADIUS**4 / 4, E * AREA
+    offset, slope = constant([0.006, -0.008]), constant([0.0, 0.0])
+    entering = tendon_rod(LENGTH, [Section(LENGTH, ei, 0.8 * ei, ea, SHEAR)],
+                          [BVPTendon(2.0, LENGTH, offset, slope, start=0.1)],
+                          s=np.array([0.1, LENGTH]))
+    clamped = tendon_rod(0.1, [Section(0.1, ei, 0.8 * ei, ea, SHEAR)],
+                         [BVPTendon(2.0, 0.1, offset, slope)], s=np.array([0.1]))
+    np.testing.assert_allclose(entering.positions[0], [0.1, 0.0, 0.0], rtol=0, atol=1e-14)
+    np.testing.assert_allclose(entering.positions[1],
+                               clamped.positions[0] + [0.1, 0.0, 0.0], rtol=0, atol=1e-12)
 
 
 # ------------------------------------------------------------------------ bad input

@@ -24,13 +24,15 @@ tendons crossing the section. The tendons then carry no external load but the ti
 
 continuous across every termination (where a tendon ends, its tension passes to the
 backbone: the point force and moment on the backbone and the kink in the path of the
-tendons that pass on are implied). At each s, the strains (u, v) solve the algebraic
+tendons that pass on are implied) and every entry past the base (where the pull's reaction
+acts on the rod: a Bowden sheath ending there, or an actuator the rod carries — the
+potential T ℓ of rodsim's string tendon). At each s, the strains (u, v) solve the algebraic
 system K u + Σ T_i ρ_i × τ_i = Rᵀ M and ∂W/∂v + Σ T_i τ_i = Rᵀ F (Newton, analytic
 Jacobian). Shooting: the unknown M(0) (3 values) is found by Newton on M(L) − L_tip with
 a finite-difference Jacobian; each shot integrates p, R, M with DOP853 at rtol 1e-12 from
-the clamp p(0) = origin, R(0) = the base frame, piecewise between terminations and span
-ends. Assumes: tendons enter at s = 0, routing C¹ on each tendon's span, a straight
-unstressed rod, no gravity.
+the clamp p(0) = origin, R(0) = the base frame, piecewise between entries, terminations and
+span ends. Assumes: routing C¹ on each tendon's span, a straight unstressed rod, no
+gravity.
 """
 
 from __future__ import annotations
@@ -64,13 +66,17 @@ class Section:
 
 @dataclass(frozen=True)
 class BVPTendon:
-    """A tendon from s = 0 to its termination ``end`` [m], pulled with ``tension`` [N];
-    ``offset(s)`` and ``slope(s)`` give ρ(s) and ρ′(s) as arrays (len(s), 2)."""
+    """A tendon from its entry ``start`` to its termination ``end`` [m], pulled with
+    ``tension`` [N]; ``offset(s)`` and ``slope(s)`` give ρ(s) and ρ′(s) as arrays
+    (len(s), 2). Past the base, the entry is where the pull's reaction acts on the rod (a
+    Bowden sheath ending there, or an actuator the rod carries): the tension leaves the
+    section wrench there as it does at the termination."""
 
     tension: float
     end: float
     offset: Callable[[np.ndarray], np.ndarray]
     slope: Callable[[np.ndarray], np.ndarray]
+    start: float = 0.0
 
 
 @dataclass(frozen=True)
@@ -187,11 +193,12 @@ def tendon_rod(length: float, sections: Sequence[Section], tendons: Sequence[BVP
     if abs(sections[-1].end - length) > 1e-12 * length:
         raise ValueError("the sections must end at the rod's length")
     for tendon in tendons:
-        if not 0.0 < tendon.end <= length * (1 + 1e-12):
-            raise ValueError(f"tendon termination {tendon.end!r} outside (0, L]")
+        if not 0.0 <= tendon.start < tendon.end <= length * (1 + 1e-12):
+            raise ValueError(f"tendon span [{tendon.start!r}, {tendon.end!r}] not within "
+                             "[0, L] or empty")
     s_out = np.linspace(0.0, length, 2) if s is None else np.asarray(s, dtype=float)
     breaks = sorted({0.0, length, *(min(t.end, length) for t in tendons),
-                     *(min(sec.end, length) for sec in sections)})
+                     *(t.start for t in tendons), *(min(sec.end, length) for sec in sections)})
     scale = sections[0].bending / length
     m0 = moment + np.cross(length * BASE_FRAME[:, 2], force)
     iterations = 0
@@ -235,7 +242,7 @@ def _shoot(m_start: np.ndarray, force: np.ndarray, breaks: list[float],
     for a, b in zip(breaks[:-1], breaks[1:], strict=True):
         middle = 0.5 * (a + b)
         section = next(sec for sec in sections if sec.end >= middle)
-        active = [t for t in tendons if t.end >= middle]
+        active = [t for t in tendons if t.start <= middle <= t.end]
         strains = _Strains(section, active, load)
 
         def rhs(s: float, y: np.ndarray, strains: _Strains = strains) -> np.ndarray:
@@ -266,8 +273,8 @@ def scene_reference(scene, s: np.ndarray | None = None, shear: bool = True,
     its E I, G J, E_s A and K_P (``shear = False``: unshearable), its tip load's force (mass
     included, along its gravity) and each tendon's tension, termination and routing.
     ``scene`` is a :class:`~rodsim.core.scene.Scene`. Raises ValueError for a scene the
-    reference does not describe (tendons entering past the base, other couplings, several
-    catheters, gravity, a base other than the 'frame' clamp)."""
+    reference does not describe (other couplings, several catheters, gravity, a base other
+    than the 'frame' clamp)."""
     from rodsim.core.model import Model
     from rodsim.core.routing import Routing, string_span
     from rodsim.core.terms.bend_twist import stiffness_tensor
@@ -292,10 +299,9 @@ def scene_reference(scene, s: np.ndarray | None = None, shear: bool = True,
     for tendon_name, options in scene.tendons.items():
         string = scene.term_options("tendons", tendon_name, "tendon_string")
         start, end = string_span(string, rod.length)
-        if start != 0.0:
-            raise ValueError("the reference's tendons enter at s = 0")
         routing = Routing.of(options.offset, options.direction, string)
-        tendons.append(BVPTendon(string.tension, end, routing.offsets, routing.derivatives))
+        tendons.append(BVPTendon(string.tension, end, routing.offsets, routing.derivatives,
+                                 start))
     force = np.zeros(3)
     load = scene.term_options("rods", name, "tip_load")
     if load is not None:
