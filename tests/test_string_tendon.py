@@ -195,6 +195,21 @@ def test_reference_terminations_and_sections_are_consistent():
     np.testing.assert_allclose(split.positions, full.positions, rtol=0, atol=1e-12)
 
 
+def test_reference_tip_moment_on_two_sections_is_two_arcs():
+    """A tip moment alone bends each span into an arc of curvature M / E I_span (no axial
+    force, so no stretch): a stiff proximal and a soft distal section."""
+    ei, ea, moment, joint = E * math.pi * RADIUS**4 / 4, E * AREA, 0.01, 0.12
+    solution = tendon_rod(LENGTH, [Section(joint, ei, 0.8 * ei, ea),
+                                   Section(LENGTH, ei / 3, 0.8 * ei / 3, ea)], [],
+                          tip_moment=(0.0, 0.0, moment), s=np.array([joint, LENGTH]))
+    k1, k2 = moment / ei, 3 * moment / ei
+    t1 = k1 * joint
+    first = np.array([math.sin(t1) / k1, (1 - math.cos(t1)) / k1, 0.0])
+    t2 = t1 + k2 * (LENGTH - joint)
+    tip = first + [(math.sin(t2) - math.sin(t1)) / k2, (math.cos(t1) - math.cos(t2)) / k2, 0]
+    np.testing.assert_allclose(solution.positions, [first, tip], rtol=0, atol=1e-12)
+
+
 def test_reference_entry_past_the_base_leaves_the_rod_straight_before_it():
     """A tendon entering at 0.1 m (its pull's reaction acting there) leaves [0, 0.1] unloaded
     and straight; beyond, the rod bends as a 0.1 m rod clamped there with the tendon from
