@@ -539,7 +539,7 @@ def cmd_plot(args: argparse.Namespace) -> int:
 def cmd_bench(args: argparse.Namespace) -> int:
     import importlib
 
-    from rodsim.app.bench_locator import BenchmarksMissing, default_output, load_benchmarks
+    from rodsim.app.bench_locator import BenchmarksMissing, load_benchmarks, results_folder
     from rodsim.app.progress import ProgressPrinter
     from rodsim.io.output import OutputError, probe_folder
 
@@ -551,13 +551,18 @@ def cmd_bench(args: argparse.Namespace) -> int:
         raise UserError(f"no benchmark {args.benchmark!r}; the benchmarks are "
                         + ", ".join(package.BENCHMARKS))
     module = importlib.import_module(f"{package.__name__}.{args.benchmark.replace('-', '_')}")
-    if args.output_dir is None:
-        output = default_output()
-        if output is None:
-            raise UserError("no benchmarks/results folder of a source checkout to write the "
-                            "benchmark's results to; give the output folder with -o/--output")
-    else:
-        output = Path(args.output_dir)
+    if args.output_dir is not None and args.commit:
+        raise UserError("give either -o/--output or --commit, not both")
+    output = results_folder(args.output_dir, args.commit)
+    if output is None:
+        raise UserError("--commit: no benchmarks/results folder of a source checkout to write "
+                        "the benchmark's results to; give the output folder with -o/--output")
+    if args.output_dir is None and not args.commit:
+        try:
+            output.mkdir(parents=True, exist_ok=True)
+        except OSError as exc:
+            raise UserError(f"cannot create the output folder {str(output)!r} "
+                            f"({exc.strerror or exc}); give one with -o") from None
     try:  # before the benchmark runs, not after
         probe_folder(output, what=f"-o {output}")
     except OutputError as exc:
@@ -725,17 +730,23 @@ def build_parser() -> argparse.ArgumentParser:
                            "in N, or their stability over a parameter map; writes netCDF, "
                            "figures and a markdown table with the machine description. The "
                            "benchmarks live in the benchmarks/ folder of a source checkout "
-                           "(benchmarks/rodsim_bench), not in the installed package.")
+                           "(benchmarks/rodsim_bench), not in the installed package: rodsim "
+                           "finds the checkout it was imported or pip-installed from, or the "
+                           "one the current folder is in.")
     bench.add_argument("benchmark", metavar="BENCHMARK",
                        help="work-precision, scaling, stress, skip-work, kernels, "
                        "paper-regime or pyelastica "
                        "(the last needs 'pip install pyelastica==1.0.0'; never a dependency)")
-    bench.add_argument("--size", choices=("small", "full"), default="full",
-                       help="small: a smoke version in seconds; full: the real benchmark")
+    bench.add_argument("--size", choices=("small", "full"), default="small",
+                       help="small (the default): a smoke version in seconds to a minute; "
+                       "full: the real benchmark (minutes to an hour, docs/benchmarks.md)")
     bench.add_argument("-o", "--output", "--output-dir", dest="output_dir", default=None,
                        metavar="DIR",
-                       help="folder for the results (default: benchmarks/results of the "
-                       "source checkout; required without one)")
+                       help="folder for the results (default: runs/bench of the current "
+                       "folder)")
+    bench.add_argument("--commit", action="store_true",
+                       help="write into the checkout's committed benchmarks/results instead "
+                       "(to update the published numbers)")
     bench.set_defaults(func=cmd_bench)
 
     scenes = sub.add_parser("scenes", help="list the shipped scenes (paper Tables 1 and 3)")
