@@ -82,8 +82,9 @@ def test_reach_command_writes_the_archive_and_a_figure(tmp_path, capsys, cli):
     assert cli(argv) == 0, capsys.readouterr().err
     assert (tmp_path / "reach.png").exists()
     with xr.open_dataset(output) as ds:
-        assert float(ds["tendons.tendon_py.tendon_actuation.force"]) == pytest.approx(2.0,
-                                                                                      rel=1e-6)
+        found = ds["tendons_tendon_py_tendon_actuation_force"]  # no dots in names (CF)
+        assert float(found) == pytest.approx(2.0, rel=1e-6)
+        assert found.attrs["scene_key"] == "tendons.tendon_py.tendon_actuation.force"
         assert ds["target"].attrs["units"] == "m"
         for name in list(ds.data_vars) + list(ds.coords):
             assert "long_name" in ds[name].attrs, name

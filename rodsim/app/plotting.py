@@ -38,6 +38,7 @@ from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
 from matplotlib.ticker import NullFormatter
 
+from rodsim.io.cf_layout import from_file, key_variable
 from rodsim.io.output import OutputError, check_target
 
 __all__ = ["plot_dataset", "draw_figure", "style", "STYLE", "PLOT_KINDS",
@@ -694,7 +695,7 @@ def _track_figure(ds: xr.Dataset) -> Figure:
     figure, (shapes, tips) = plt.subplots(1, 2, figsize=(10.0, 4.4), constrained_layout=True)
     nodes = _first_rod_nodes(ds).values
     ramp = list(json.loads(ds.attrs["ramp_json"]))[0]
-    values = ds[ramp].values
+    values = key_variable(ds, ramp).values
     colours = plt.get_cmap("viridis")(np.linspace(0.0, 1.0, max(len(values), 1)))
     for step, colour in enumerate(colours):
         shapes.plot(nodes[step, :, 0], nodes[step, :, 1], color=colour, lw=0.9)
@@ -715,7 +716,7 @@ def _track_figure(ds: xr.Dataset) -> Figure:
 
 
 def _ramp_label(ds: xr.Dataset, key: str) -> str:
-    unit = ds[key].attrs.get("units", "")
+    unit = key_variable(ds, key).attrs.get("units", "")
     return f"{key} [{unit}]" if unit not in ("", "1") else key
 
 
@@ -744,7 +745,8 @@ def _fit_figure(ds: xr.Dataset) -> Figure:
         panel.plot(data[:, h], data[:, v], ls="none", marker="x", color="k", ms=5,
                    label="measured points")
         panel.legend()
-    fitted = ", ".join(f"{key} = {float(ds[key]):.5g} ± {float(ds[key + '.standard_error']):.2g}"
+    fitted = ", ".join(f"{key} = {float(key_variable(ds, key)):.5g} ± "
+                       f"{float(key_variable(ds, key, 'standard_error')):.2g}"
                        for key in json.loads(ds.attrs["fit_parameters"]))
     views[0][0].set_title(textwrap.fill(f"fit: {fitted}; residual RMS "
                                         f"{ds.attrs['residual_rms']:.3g} m", 80))
@@ -762,7 +764,7 @@ def _reach_figure(ds: xr.Dataset) -> Figure:
         panel.plot(tip[h], tip[v], marker="o", mfc="none", ms=9, color="k", ls="none",
                    label="tip reached")
         panel.legend()
-    values = ", ".join(f"{key} = {float(ds[key]):.5g}"
+    values = ", ".join(f"{key} = {float(key_variable(ds, key)):.5g}"
                        for key in json.loads(ds.attrs["reach_parameters"]))
     views[0][0].set_title(textwrap.fill(f"reach: {values}; distance "
                                         f"{ds.attrs['distance']:.3g} m", 80))
@@ -803,7 +805,9 @@ def style() -> contextlib.AbstractContextManager[None]:
 def draw_figure(ds: xr.Dataset) -> Figure:
     """The archive's figure, not written (the caller closes it); draw it inside
     :func:`style`. A study figure's title states the measured result (:data:`RESULTS`).
-    Raises :class:`PlotError` for an unknown plot kind."""
+    Raises :class:`PlotError` for an unknown plot kind. A Dataset opened with plain xarray
+    from a schema 3 file gets its labels back first (:func:`rodsim.io.cf_layout.from_file`)."""
+    ds = from_file(ds)
     if "study" in ds.attrs:
         kind = ds.attrs.get("plot", "centerlines")
         if kind not in DRAWERS:

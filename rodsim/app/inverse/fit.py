@@ -46,6 +46,7 @@ import numpy as np
 from rodsim.app.inverse.continuation import EquilibriumFailure, ScaledEquilibria
 from rodsim.app.inverse.parameter_keys import NumericKey, numeric_keys, scene_with
 from rodsim.core.scene import Scene
+from rodsim.io.cf_layout import variable_name
 from rodsim.io.provenance import history
 from rodsim.io.run_dataset import run_dataset
 from rodsim.solvers.result import Result
@@ -171,11 +172,14 @@ class Fit:
                             {"units": "m", "long_name": "rest arc length of the measured point"})
         for key, initial, value, error in zip(self.keys, self.initial, self.values,
                                               self.errors, strict=True):
-            ds[key.name] = ((), value, {"units": key.unit, "long_name": f"fitted {key.name}"})
-            ds[f"{key.name}.initial"] = ((), initial, {"units": key.unit,
-                                                       "long_name": f"initial {key.name}"})
-            ds[f"{key.name}.standard_error"] = ((), error, {
-                "units": key.unit, "long_name": f"standard error of the fitted {key.name} "
+            name = variable_name(key.name)  # no dots (CF); the key is an attribute
+            ds[name] = ((), value, {"units": key.unit, "long_name": f"fitted {key.name}",
+                                    "scene_key": key.name})
+            ds[f"{name}_initial"] = ((), initial, {"units": key.unit, "scene_key": key.name,
+                                                   "long_name": f"initial {key.name}"})
+            ds[f"{name}_standard_error"] = ((), error, {
+                "units": key.unit, "scene_key": key.name,
+                "long_name": f"standard error of the fitted {key.name} "
                 "(Gauss-Newton covariance)"})
         ds.attrs.update({
             "title": f"rodsim fit of {len(self.keys)} value(s) of scene "

@@ -31,6 +31,7 @@ from rodsim.app.inverse.continuation import EquilibriumFailure, ScaledEquilibria
 from rodsim.app.inverse.parameter_keys import NumericKey, numeric_keys, scene_with
 from rodsim.core.scene import Scene
 from rodsim.core.schema import SceneError
+from rodsim.io.cf_layout import variable_name
 from rodsim.io.provenance import history
 from rodsim.io.run_dataset import run_dataset
 from rodsim.solvers.result import Result
@@ -73,9 +74,11 @@ class Reach:
         ds["tip_reached"] = ("axis", self.tip, {"units": "m", "long_name": f"tip of rod "
                                                 f"{self.rod!r} at the values found"})
         for key, initial, value in zip(self.keys, self.initial, self.values, strict=True):
-            ds[key.name] = ((), value, {"units": key.unit, "long_name": f"{key.name} found"})
-            ds[f"{key.name}.initial"] = ((), initial, {"units": key.unit, "long_name":
-                                                       f"starting value of {key.name}"})
+            name = variable_name(key.name)  # no dots (CF); the key is an attribute
+            ds[name] = ((), value, {"units": key.unit, "long_name": f"{key.name} found",
+                                    "scene_key": key.name})
+            ds[f"{name}_initial"] = ((), initial, {"units": key.unit, "scene_key": key.name,
+                                                   "long_name": f"starting value of {key.name}"})
         ds.attrs.update({
             "title": f"rodsim reach of scene {self.result.scene.name!r} (tip of "
                      f"{self.rod!r})",
