@@ -521,14 +521,19 @@ def cmd_study(args: argparse.Namespace) -> int:
 
 
 def cmd_plot(args: argparse.Namespace) -> int:
-    from rodsim.app.plotting import PlotError, check_output, plot_dataset
+    from rodsim.app import view3d
+    from rodsim.app.plotting import PlotError, check_output, plot_dataset, three_dimensional
     from rodsim.io.archive import ArchiveError, read_dataset
 
     stem = args.output or str(Path(args.archive).with_suffix(""))
+    requested = (args.format or "png,pdf").split(",")
     try:
-        formats = check_output(stem, args.format.split(",")) if args.output else None
+        formats = check_output(stem, requested) if args.output else None
         dataset = read_dataset(args.archive)
-        paths = plot_dataset(dataset, stem, formats or args.format.split(","))
+        formats = formats or requested
+        if args.format is None and three_dimensional(dataset) and view3d.available():
+            formats = [*formats, "html"]  # a 3D shape: the interactive view too
+        paths = plot_dataset(dataset, stem, formats)
     except (ArchiveError, PlotError) as exc:
         raise UserError(str(exc)) from None
     for path in paths:
@@ -719,8 +724,11 @@ def build_parser() -> argparse.ArgumentParser:
     plot.add_argument("archive", help="archive written by `rodsim run` or `rodsim study`")
     plot.add_argument("-o", "--output", metavar="STEM",
                       help="output path without extension (default: the archive's)")
-    plot.add_argument("--format", default="png,pdf",
-                      help="comma-separated formats matplotlib writes: png, pdf, svg, … "
+    plot.add_argument("--format", default=None,
+                      help="comma-separated formats matplotlib writes: png, pdf, svg, …, "
+                      "and html, the interactive 3D view of a run, track, fit or reach "
+                      "(needs plotly: pip install \"rodsim[view3d]\"; added by default "
+                      "for a shape that leaves the x-y plane when plotly is installed) "
                       "(default png,pdf)")
     plot.set_defaults(func=cmd_plot)
 
