@@ -134,3 +134,14 @@ def test_reach_starts_from_the_scene_values_whatever_their_sign(origin, least_sq
     assert found.success, found.message
     assert least_squares_starts[0][0] == (np.sign(origin) if origin else 0.0)
     assert found.values[0] == pytest.approx(origin, abs=1e-9)
+
+
+def test_reach_reports_progress_after_each_equilibrium():
+    """Issue 22: `rodsim reach` printed nothing while it ran (164 s on four-tendons)."""
+    scene = rodsim.load_scene("table3-catheter1", ["catheter.nodes=10", "tendon.nodes=6"])
+    key = "tendons.tendon.tendon_actuation.force"
+    target = rodsim.solve(scene.with_overrides([f"{key}=1.5"]), "static").tip("catheter")
+    heard = []
+    found = rodsim.reach(scene, target, [key], progress=lambda f, status: heard.append(status))
+    assert found.success and len(heard) >= 2
+    assert all(s.startswith("reach: equilibrium ") and "from the target" in s for s in heard)

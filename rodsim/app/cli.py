@@ -332,6 +332,7 @@ def cmd_track(args: argparse.Namespace) -> int:
 
 def cmd_fit(args: argparse.Namespace) -> int:
     from rodsim.app.inverse.fit import EquilibriumFailure, FitError, fit, read_points
+    from rodsim.app.progress import ProgressPrinter
     from rodsim.core.scene import SceneError
 
     scene = _load_scene_or_fail(args.scene, args.set, "static")
@@ -339,7 +340,11 @@ def cmd_fit(args: argparse.Namespace) -> int:
     stem = _check_outputs(output)
     try:
         points = read_points(args.data)
-        result = fit(scene, points, args.param, rod=args.rod)
+        progress = ProgressPrinter()
+        try:
+            result = fit(scene, points, args.param, rod=args.rod, progress=progress)
+        finally:
+            progress.close()
     except (FitError, SceneError) as exc:
         raise UserError(str(exc)) from None
     except EquilibriumFailure as exc:
@@ -376,18 +381,23 @@ def _target(text: str) -> list[float]:
 def cmd_reach(args: argparse.Namespace) -> int:
     from rodsim.app.inverse.continuation import EquilibriumFailure
     from rodsim.app.inverse.reach import reach
+    from rodsim.app.progress import ProgressPrinter
     from rodsim.core.scene import SceneError
 
     scene = _load_scene_or_fail(args.scene, args.set, "static")
     output = _output_path(args.output, f"{scene.name}-reach.nc")
     stem = _check_outputs(output)
+    progress = ProgressPrinter()
     try:
-        result = reach(scene, args.tip, args.actuate, rod=args.rod, tolerance=args.tolerance)
+        result = reach(scene, args.tip, args.actuate, rod=args.rod, tolerance=args.tolerance,
+                       progress=progress)
     except SceneError as exc:
         raise UserError(str(exc)) from None
     except EquilibriumFailure as exc:
         print(f"rodsim: solver failure: {exc}", file=sys.stderr)
         return EXIT_SOLVER_FAILURE
+    finally:
+        progress.close()
     if not result.success:
         print(f"rodsim: {result.message}", file=sys.stderr)
         return EXIT_SOLVER_FAILURE
