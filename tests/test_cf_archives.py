@@ -209,7 +209,14 @@ def archives(tmp_path_factory):
     track = write_dataset(path.to_xarray(), folder / "track.nc")
     study = folder / "study.nc"
     run_study(TINY, "small", study, workers=1)
-    return {"run": run, "track": track, "study": study}
+    truth = rodsim.solve(scene.with_overrides(["youngs_modulus=5e6"]), "static")
+    found = fit(scene, Points(truth.positions("catheter")[1:], None), ["youngs_modulus"])
+    fitted = write_dataset(found.to_xarray(), folder / "fit.nc")
+    tendon = rodsim.load_scene("table3-catheter1", ["catheter.nodes=10", "tendon.nodes=6"])
+    key = "tendons.tendon.tendon_actuation.force"
+    target = rodsim.solve(tendon.with_overrides([f"{key}=1.5"]), "static").tip("catheter")
+    reached = write_dataset(reach(tendon, target, [key]).to_xarray(), folder / "reach.nc")
+    return {"run": run, "track": track, "study": study, "fit": fitted, "reach": reached}
 
 
 @pytest.mark.parametrize("kind", ["run", "track", "study"])
@@ -271,7 +278,7 @@ def _cf_checker():
                      cfRegionNamesXML=str(TABLES / "region-names.xml"), silent=True)
 
 
-@pytest.mark.parametrize("kind", ["run", "track", "study"])
+@pytest.mark.parametrize("kind", ["run", "track", "study", "fit", "reach"])
 def test_cfchecker_finds_no_error_and_no_warning(archives, kind, capsys):
     """cfchecker (CF-1.8) on each archive kind: 0 errors, 0 warnings. It crashed on the
     text coordinate variables of schema 2 and warned about dotted names."""
