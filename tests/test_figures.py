@@ -114,10 +114,15 @@ def test_labels_are_short_and_carry_units(tmp_path, cli, capsys):
     output = tmp_path / "track.nc"
     assert cli(["track", "table1-50g", "--set", "nodes=8", "--ramp",
                 "tip_load.mass=0:0.05:3", "-o", str(output)]) == 0, capsys.readouterr().err
+    ds = read_dataset(output)
     with style():
-        figure = draw_figure(read_dataset(output))
+        figure = draw_figure(ds)
         try:
             text = _texts(figure)
         finally:
             plt.close(figure)
     assert "mass (catheter) [kg]" in text and "rods.catheter" not in text
+    # The title names the last step's tip, computed from the stored positions.
+    tip_y = float(ds["position"].isel(step=-1).sel(node=ds["rod"] == "catheter")[-1, 1])
+    assert "tip of catheter at mass (catheter) = 0.05 kg" in text
+    assert f"{1e3 * tip_y:.4g}" in text

@@ -823,7 +823,11 @@ def _track_figure(ds: xr.Dataset) -> Figure:
     tips.set_xlabel(_ramp_label(ds, ramp))
     tips.set_ylabel("tip position [m]")
     tips.legend()
-    figure.suptitle(ds.attrs.get("title", ""))
+    last = nodes[-1, -1] if len(values) else np.full(3, np.nan)
+    unit = key_variable(ds, ramp).attrs.get("units", "")
+    figure.suptitle(f"{ds.attrs.get('title', '')}\ntip of {ds['rod'].values[0]} at "
+                    f"{short_key(ramp)} = {values[-1]:.4g} {unit}: x, y, z = "
+                    + ", ".join(f"{1e3 * v:.4g}" for v in last) + " mm")
     return figure
 
 
