@@ -206,3 +206,22 @@ def test_every_command_and_snippet_runs(document, tmp_path, monkeypatch, cli, ca
              for c in commands(text) if c in KNOWN_FAILURES]
     if known:
         pytest.xfail("; ".join(KNOWN_FAILURES[c] for c in known))
+
+
+def test_every_complete_scene_in_the_docs_loads():
+    """A ```toml block with rods (a whole scene file, as docs/scenes.md shows one) is a valid
+    scene; fragments (a single tendon table) are left to the pages' prose."""
+    import tomllib
+
+    import rodsim
+
+    found = 0
+    for document in DOCUMENTS:
+        text = (ROOT / document).read_text(encoding="utf-8")
+        for block in re.findall(r"^```toml\n(.*?)^```", text, re.MULTILINE | re.DOTALL):
+            table = tomllib.loads(block)
+            if "rods" not in table:
+                continue
+            rodsim.load_scene(table)  # SceneError if a key, unit or value is wrong
+            found += 1
+    assert found >= 1
