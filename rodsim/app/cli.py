@@ -35,6 +35,11 @@ class UserError(Exception):
     """A problem with what the user asked for (exit code 2, one-line message)."""
 
 
+def warn(message: str) -> None:
+    """One ``rodsim: warning: …`` line on stderr (exit code unchanged)."""
+    print(f"rodsim: warning: {message}", file=sys.stderr, flush=True)
+
+
 def _check_integrator(name: str | None) -> None:
     """``--integrator NAME`` must name a registered integrator (the registry is the only list
     of names; ``rodsim run --help`` lists them)."""
@@ -195,7 +200,7 @@ def cmd_run(args: argparse.Namespace) -> int:
         print(f"rodsim: solver failure: {result.message}", file=sys.stderr)
         return EXIT_SOLVER_FAILURE
     try:
-        write_dataset(run_dataset(result), output)
+        write_dataset(run_dataset(result), output, note=warn)
     except ArchiveError as exc:
         raise UserError(str(exc)) from None
     _print_run_summary(result, output)
@@ -283,7 +288,7 @@ def _write_with_figure(dataset, output: Path, stem: str) -> None:
     from rodsim.io.archive import ArchiveError, write_dataset
 
     try:
-        write_dataset(dataset, output)
+        write_dataset(dataset, output, note=warn)
         figures = plot_dataset(dataset, stem, ["png"])
     except (ArchiveError, PlotError) as exc:
         raise UserError(str(exc)) from None

@@ -13,6 +13,7 @@ from __future__ import annotations
 import contextlib
 import os
 import tempfile
+from collections.abc import Callable
 from pathlib import Path
 
 import xarray as xr
@@ -23,7 +24,13 @@ from rodsim.io.archive_schema import (
     ArchiveSchemaError,
     check_archive,
 )
-from rodsim.io.output import OutputError, check_target, remove_stale_temporaries, temporary_prefix
+from rodsim.io.output import (
+    OutputError,
+    check_target,
+    other_writers,
+    owned_prefix,
+    remove_stale_temporaries,
+)
 
 __all__ = ["ArchiveError", "write_dataset", "read_dataset", "scene_of"]
 
@@ -32,9 +39,11 @@ class ArchiveError(OSError):
     """An archive cannot be written or read, or is not a rodsim archive."""
 
 
-def write_dataset(dataset: xr.Dataset, path: str | Path) -> Path:
+def write_dataset(dataset: xr.Dataset, path: str | Path,
+                  note: Callable[[str], None] | None = None) -> Path:
     """Write ``dataset`` to ``path`` (netCDF4) atomically; returns the path written (a
-    symbolic link's target)."""
+    symbolic link's target). ``note`` is told when other processes are writing the same
+    target at the moment of the rename (the target then holds the last one's archive)."""
     try:
         path = check_target(path)
     except OutputError as exc:
@@ -42,7 +51,7 @@ def write_dataset(dataset: xr.Dataset, path: str | Path) -> Path:
     folder = path.parent if str(path.parent) else Path(".")
     remove_stale_temporaries(path)
     try:
-        handle, temporary = tempfile.mkstemp(prefix=temporary_prefix(path), suffix=".tmp",
+        handle, temporary = tempfile.mkstemp(prefix=owned_prefix(path), suffix=".tmp",
                                              dir=folder)
     except OSError as exc:
         raise ArchiveError(f"cannot write {str(path)!r}: {exc}") from exc
@@ -55,6 +64,7 @@ def write_dataset(dataset: xr.Dataset, path: str | Path) -> Path:
         # add NaN as the fill value of every float one).
         encoding = {name: {"_FillValue": None} for name in dataset.coords}
         dataset.to_netcdf(temporary, engine="netcdf4", encoding=encoding)
+        others = other_writers(path)
         os.replace(temporary, path)
     except BaseException as exc:  # an interrupt too: never leave a half-written temporary
         with contextlib.suppress(OSError):
@@ -62,6 +72,9 @@ def write_dataset(dataset: xr.Dataset, path: str | Path) -> Path:
         if isinstance(exc, Exception):
             raise ArchiveError(f"cannot write {str(path)!r}: {exc}") from exc
         raise
+    if others and note is not None:
+        note(f"{others} other process(es) were writing {str(path)!r} at the same time: it "
+             "holds the archive of whichever finished last")
     return path
 
 
