@@ -305,33 +305,52 @@ def cmd_track(args: argparse.Namespace) -> int:
 
     scene = _load_scene_or_fail(args.scene, args.set, args.integrator)
     integrator = args.integrator or scene.solver.integrator
+    try:  # the ramps before any folder is made or any work starts
+        ramps = dict(parse_ramp(text) for text in args.ramp)
+    except SceneError as exc:
+        raise UserError(str(exc)) from None
+    if len(ramps) != len(args.ramp):
+        raise UserError("--ramp names the same key twice")
     output = _output_path(args.output, f"{scene.name}-track.nc")
     stem = _check_outputs(output)
     progress = ProgressPrinter()
     try:
-        ramps = dict(parse_ramp(text) for text in args.ramp)
-        if len(ramps) != len(args.ramp):
-            raise SceneError("--ramp names the same key twice")
-        result = track(scene, ramps, integrator, progress=progress)
+        result = track(scene, ramps, integrator, progress=progress,
+                       allow_unstable=args.allow_unstable)
     except SceneError as exc:
         raise UserError(str(exc)) from None
     finally:
         progress.close()
-    if not result.success:
+    if not result.success and result.unstable_step is None:
         print(f"rodsim: solver failure: {result.message}", file=sys.stderr)
         return EXIT_SOLVER_FAILURE
     times = result.times
     warm = sum(times[1:]) / max(len(times) - 1, 1)
+    last = result.steps - 1
     print(f"scene       {scene.name}: {result.steps} steps of "
-          + ", ".join(f"{k.name} {result.values[0, i]:g} → {result.values[-1, i]:g} {k.unit}"
+          + ", ".join(f"{k.name} {result.values[0, i]:g} → {result.values[last, i]:g} {k.unit}"
                       for i, k in enumerate(result.keys)))
     print(f"integrator  {integrator}")
     tip = result.tips()[-1]
     print(f"last tip    x = {tip[0]: .6f} m  y = {tip[1]: .6f} m  z = {tip[2]: .3g} m")
+    speed = f" ({1.0 / warm:.0f} steps/s)" if warm > 0 else ""
     print(f"wall time   {sum(times):.4f} s: first step (cold) {times[0]:.4f} s, warm steps "
-          f"{1e3 * warm:.3f} ms each ({1.0 / warm:.0f} steps/s), "
-          f"{int(sum(result.halvings))} halvings")
+          f"{1e3 * warm:.3f} ms each{speed}, {int(sum(result.halvings))} halvings")
+    unstable = result.unstable_steps
+    if unstable:
+        print(f"stability   UNSTABLE at {len(unstable)} of {result.steps} steps (first: step "
+              f"{unstable[0]}, smallest stiffness eigenvalue "
+              f"{result.min_eigenvalues[unstable[0]]:.3g}); flagged in the archive")
+    else:
+        print("stability   stable at every step (the stiffness K = -dF/dx is positive "
+              "definite)")
     _write_with_figure(result.to_xarray(), output, stem)
+    if not result.success:  # stopped at an unstable step: archived, and a failure
+        print(f"rodsim: {result.message}", file=sys.stderr)
+        return EXIT_SOLVER_FAILURE
+    if unstable:
+        warn(f"{len(unstable)} step(s) are unstable equilibria (first: step {unstable[0]}); "
+             "kept because of --allow-unstable, flagged in the archive (variable 'stable')")
     return EXIT_OK
 
 
@@ -356,11 +375,18 @@ def cmd_fit(args: argparse.Namespace) -> int:
                                           result.errors, strict=True):
         print(f"fitted      {key.name} = {value:.6g} ± {error:.2g} {key.unit} "
               f"(from {initial:.6g})")
-    print(f"residual    RMS {result.residual_rms:.3g} m over {result.degrees_of_freedom} "
-          "degrees of freedom")
+    print(f"residual    RMS {result.residual_rms:.3g} m = {result.residual_rms_relative:.3g} L "
+          f"over {result.degrees_of_freedom} degrees of freedom")
     print(f"cost        {result.evaluations} equilibria, {result.jacobians} Jacobians, "
           f"{result.wall_time:.3f} s ({result.message})")
+    if result.result.stability is not None:
+        print(stability_text(result.result.stability))
     _write_with_figure(result.to_xarray(), output, stem)
+    if not result.stable:
+        print("rodsim: the fitted equilibrium is UNSTABLE (its stiffness is not positive "
+              "definite): the best fit is not a shape the rod keeps; archived, flagged "
+              "(attribute 'stable' = 0)", file=sys.stderr)
+        return EXIT_SOLVER_FAILURE
     return EXIT_OK
 
 
@@ -672,6 +698,11 @@ def build_parser() -> argparse.ArgumentParser:
     follow.add_argument("--integrator", metavar="NAME", default="static",
                         help="a registered integrator, listed by `rodsim run --help` "
                         "(default: static)")
+    follow.add_argument("--allow-unstable", action="store_true",
+                        help="go on past a step whose equilibrium is unstable (its "
+                        "stiffness is not positive definite, e.g. a rod loaded past "
+                        "buckling), flagged in the output and the archive; by default the "
+                        "track stops there and exits 1 (the steps up to it archived)")
     _add_scene_set_and_output(follow, "track")
     follow.set_defaults(func=cmd_track)
 
