@@ -171,3 +171,60 @@ def test_fit_command_reports_the_rms_relative_to_the_length(tmp_path, cli, capsy
     stored = read_dataset(tmp_path / "f.nc")
     assert stored.attrs["residual_rms_relative"] == pytest.approx(
         stored.attrs["residual_rms"] / 0.12)
+
+
+# The smaller items (issue 23, section 7) ---------------------------------------------------
+
+
+def test_a_constant_ramp_warns_nothing_and_wastes_no_attempt(load, recwarn):
+    """START = STOP divided 0 by 0 in the predictor: RuntimeWarnings and a failed attempt."""
+    result = track(load("table1-50g", "nodes=6"), {"tip_load.mass": [0.05] * 4})
+    assert result.success and result.halvings == [0, 0, 0, 0]
+    assert not [w for w in recwarn if issubclass(w.category, RuntimeWarning)]
+
+
+@pytest.mark.parametrize("argv", [
+    ["track", "table1-50g", "--ramp", "mass=0:1"],
+    ["track", "table1-50g", "--ramp", "mass=0:0.1:100000000"],  # was a MemoryError
+    ["fit", "table1-50g", "--data", "missing.csv", "--param", "youngs_modulus"],
+    ["reach", "table1-50g", "--tip", "1e300,0,0", "--actuate", "tip_load.force[0]"],
+    ["study", "no-such-study"],
+])
+def test_exit_2_leaves_no_empty_runs_folder(argv, tmp_path, cli, capsys, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    assert cli(argv) == 2
+    one_line(capsys.readouterr().err)
+    assert list(tmp_path.iterdir()) == []
+
+
+@pytest.mark.parametrize(("output", "expected"), [("", "empty output path"),
+                                                  ("out/", "names a folder")])
+def test_an_output_that_is_empty_or_a_folder_is_refused(output, expected, tmp_path, cli,
+                                                        capsys, monkeypatch):
+    """`-o out/` wrote a file named `out`; `-o ''` silently used the default."""
+    monkeypatch.chdir(tmp_path)
+    for argv in (["run", "--set", "nodes=6"], ["track", "table1-50g", "--ramp",
+                                                "mass=0.05:0.06:2"]):
+        assert cli([*argv, "-o", output]) == 2
+        assert expected in one_line(capsys.readouterr().err)
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_python_api_misuse_is_a_one_line_error(load):
+    scene = load("table1-50g", "nodes=6")
+    with pytest.raises(SceneError, match="Scene"):
+        track("table1-50g", {"tip_load.mass": [0.05, 0.06]})
+    with pytest.raises(SceneError, match="same number of values"):
+        track(scene, {"tip_load.mass": [0.05]})
+    with pytest.raises(SceneError, match="list of numbers"):
+        track(scene, {"tip_load.mass": 0.05})
+    with pytest.raises(SceneError, match="three finite coordinates"):
+        reach(scene, "0.1,0,0", ["tip_load.force[0]"])
+    with pytest.raises(SceneError, match="list of scene keys"):
+        reach(scene, [0.1, 0, 0], "tip_load.force[0]")
+    with pytest.raises(SceneError, match="no shape of the rod reaches it"):
+        reach(scene, [1e300, 0, 0], ["tip_load.force[0]"])
+    with pytest.raises(FitError, match="Points"):
+        fit(scene, np.zeros((5, 3)), ["youngs_modulus"])
+    with pytest.raises(FitError, match="list of scene keys"):
+        fit(scene, Points(np.zeros((5, 3))), "youngs_modulus")

@@ -129,17 +129,41 @@ def _print_run_summary(result, archive: Path | None) -> None:
         print(f"archive     {archive}")
 
 
+#: The default output folder when this command created it (removed again if it stays
+#: empty because the command ends in a bad-input error).
+_created_output_folder: list[Path] = []
+
+
 def _output_path(given: str | None, default: str) -> Path:
     """The ``-o`` path if given, else ``runs/<default>`` in the current folder (the folder
-    created if missing)."""
-    if given:
+    created if missing). An empty ``-o`` and one naming a folder (a trailing ``/``) are
+    refused: a name was meant, and neither the default nor a file named like the folder
+    is what was asked for."""
+    if given is not None:
+        if not given.strip():
+            raise UserError("-o '': an empty output path; give a file name (or leave -o out "
+                            "for the default)")
+        if given.endswith(("/", os.sep)):
+            raise UserError(f"-o {given[:60]!r}: names a folder; give a file name in it "
+                            f"(e.g. {str(Path(given) / default)[:80]!r})")
         return Path(given)
     try:
-        DEFAULT_OUTPUT_FOLDER.mkdir(exist_ok=True)
+        if not DEFAULT_OUTPUT_FOLDER.exists():
+            DEFAULT_OUTPUT_FOLDER.mkdir()
+            _created_output_folder.append(DEFAULT_OUTPUT_FOLDER.absolute())
     except OSError as exc:
         raise UserError(f"cannot create the output folder {str(DEFAULT_OUTPUT_FOLDER)!r} "
                         f"({exc.strerror or exc}); give an archive path with -o") from None
     return DEFAULT_OUTPUT_FOLDER / default
+
+
+def _remove_created_output_folder() -> None:
+    """Remove the default output folder this command created, if it is still empty."""
+    import contextlib
+
+    while _created_output_folder:
+        with contextlib.suppress(OSError):
+            _created_output_folder.pop().rmdir()  # only an empty folder is removed
 
 
 def scene_error_text(exc: SceneError) -> str:
@@ -468,6 +492,17 @@ def _tolerance(text: str) -> float:
     return value
 
 
+def _positive_seconds(text: str) -> float:
+    """argparse type of ``--worker-timeout``: a finite number of seconds > 0."""
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected seconds, got {text[:40]!r}") from None
+    if not 0.0 < value < math.inf:
+        raise argparse.ArgumentTypeError(f"must be a finite number > 0, got {text[:40]!r}")
+    return value
+
+
 def _positive_int(text: str) -> int:
     """argparse type of ``--workers``: a whole number of at least 1."""
     try:
@@ -530,7 +565,8 @@ def cmd_study(args: argparse.Namespace) -> int:
         study = load_study(args.name)
         output = str(_output_path(args.output, f"{args.name}-{args.size}.nc"))
         dataset = run_study(study, args.size, output, workers=args.workers,
-                            scheduler=args.scheduler, progress=progress, log=log)
+                            scheduler=args.scheduler, progress=progress, log=log,
+                            worker_timeout=args.worker_timeout)
     except (StudyError, ArchiveError) as exc:
         raise UserError(str(exc)) from None
     except KeyboardInterrupt:
@@ -682,6 +718,10 @@ def build_parser() -> argparse.ArgumentParser:
     study.add_argument("--scheduler", metavar="ADDRESS",
                        help="run on a dask.distributed scheduler (tcp://host:port), or "
                        "'local' for a LocalCluster")
+    study.add_argument("--worker-timeout", type=_positive_seconds, default=60.0,
+                       metavar="SECONDS",
+                       help="with --scheduler: fail when the scheduler has had no worker for "
+                       "this long while points wait (default 60)")
     study.set_defaults(func=cmd_study)
 
     follow = sub.add_parser(
@@ -794,10 +834,12 @@ def main(argv: Sequence[str] | None = None) -> int:
     from rodsim.io.provenance import invocation
 
     words = list(sys.argv[1:] if argv is None else argv)
+    _created_output_folder.clear()
     try:
         with invocation(shlex.join(["rodsim", *words])):  # the archives' history line
             return command(args)
     except UserError as exc:
+        _remove_created_output_folder()  # exit 2 leaves nothing behind, an empty runs/ too
         print(f"rodsim: error: {exc}", file=sys.stderr)
         return EXIT_BAD_INPUT
     except BrokenPipeError:  # output piped into a closed reader (e.g. `| head`)

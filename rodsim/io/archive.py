@@ -24,6 +24,7 @@ from rodsim.io.archive_schema import (
     ArchiveSchemaError,
     check_archive,
 )
+from rodsim.io.input_file import InputError, check_input_file
 from rodsim.io.output import (
     OutputError,
     check_target,
@@ -79,24 +80,40 @@ def write_dataset(dataset: xr.Dataset, path: str | Path,
 
 
 def read_dataset(path: str | Path) -> xr.Dataset:
-    """Read an archive fully into memory (the file is closed on return) and check it against
-    the archive contract (ArchiveError naming the first mismatch)."""
+    """The one validating reader of archives: read an archive fully into memory (the file is
+    closed on return) and check it against the archive contract. Everything that is not a
+    readable, valid rodsim archive is an :class:`ArchiveError` with a one-line message — a
+    special file (FIFO, device, socket: refused before it is opened, so a FIFO cannot
+    block), a file over :data:`rodsim.io.input_file.MAX_INPUT_BYTES`, damaged bytes
+    (whatever the netCDF and HDF5 libraries or xarray's decoding raise: a text
+    ``scale_factor`` too), and every
+    mismatch of :func:`rodsim.io.archive_schema.check_archive` (bounded attribute lengths,
+    step counts and JSON depths, each kind's own fields)."""
+    try:
+        check_input_file(path, "archive")
+    except InputError as exc:
+        raise ArchiveError(str(exc)) from None
     try:
         with xr.open_dataset(path, engine="netcdf4") as ds:
             loaded = ds.load()
-    except (OSError, ValueError, RuntimeError) as exc:
+    except Exception as exc:  # noqa: BLE001 - damaged bytes raise anything (issue 23)
         reason = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
-        raise ArchiveError(f"cannot read {str(path)!r}: {reason[:200]}") from None
+        raise ArchiveError(f"cannot read {str(path)!r}: {reason[:200]} (not a netCDF archive, "
+                           "or a damaged one)") from None
     if "schema_version" not in loaded.attrs or "scene_json" not in loaded.attrs:
         raise ArchiveError(f"{str(path)!r} is not a rodsim archive (no scene_json attribute)")
-    if str(loaded.attrs["schema_version"]) not in READABLE_SCHEMA_VERSIONS:
-        raise ArchiveError(f"{str(path)!r} has archive schema {loaded.attrs['schema_version']}, "
-                           "this rodsim reads schemas "
-                           + " and ".join(READABLE_SCHEMA_VERSIONS))
+    if str(loaded.attrs["schema_version"])[:10] not in READABLE_SCHEMA_VERSIONS:
+        raise ArchiveError(f"{str(path)!r} has archive schema "
+                           f"{str(loaded.attrs['schema_version'])[:10]}, this rodsim reads "
+                           "schemas " + " and ".join(READABLE_SCHEMA_VERSIONS))
     try:
         check_archive(loaded)
     except ArchiveSchemaError as exc:
         raise ArchiveError(f"{str(path)!r} is not a valid rodsim archive: {exc}") from None
+    except (ValueError, TypeError, KeyError, IndexError, AttributeError, OverflowError,
+            RecursionError) as exc:  # a check tripped on a value of an unexpected type
+        raise ArchiveError(f"{str(path)!r} is not a valid rodsim archive: "
+                           f"{type(exc).__name__}: {str(exc)[:100]}") from None
     return loaded
 
 

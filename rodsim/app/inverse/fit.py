@@ -54,6 +54,7 @@ import numpy as np
 from rodsim.app.inverse.continuation import EquilibriumFailure, ScaledEquilibria
 from rodsim.app.inverse.parameter_keys import NumericKey, numeric_keys
 from rodsim.core.scene import Scene
+from rodsim.io.input_file import InputError, check_input_file
 from rodsim.io.provenance import history
 from rodsim.io.run_dataset import run_dataset
 from rodsim.solvers.result import Result
@@ -71,6 +72,8 @@ MAX_CONDITION = 1e10
 NO_INFLUENCE = 1e-9
 #: Largest number of points a data file may hold.
 MAX_POINTS = 1_000_000
+#: Largest data file read [bytes] (a million points of three 25-digit numbers).
+MAX_DATA_BYTES = 128 * 1024 ** 2
 #: Data farther than this many rod lengths from the rod's origin are refused.
 MAX_REACH = 10.0
 #: Unit mistakes :func:`check_plausible` recognises: (factor to metres, what the data were).
@@ -92,7 +95,13 @@ class Points:
 
 def read_points(path: str | Path) -> Points:
     """Points from a CSV file with header ``x,y,z`` (and optionally ``s``); FitError names
-    the first problem (missing or unknown columns, a value that is not a finite number)."""
+    the first problem (missing or unknown columns, a value that is not a finite number). A
+    FIFO, a device (``/dev/zero``), a folder or a file over :data:`MAX_DATA_BYTES` is
+    refused before it is opened."""
+    try:
+        check_input_file(path, "data", MAX_DATA_BYTES)
+    except InputError as exc:
+        raise FitError(str(exc)) from None
     try:
         with open(path, newline="", encoding="utf-8") as handle:
             rows = list(csv.reader(handle))
@@ -274,9 +283,20 @@ def fit(scene: Scene, points: Points, params: Sequence[str], *, rod: str | None 
     from scipy.optimize import least_squares
 
     started = time.perf_counter()
-    keys = numeric_keys(scene, params)
+    if not isinstance(scene, Scene):
+        raise FitError(f"fit needs a Scene (rodsim.load_scene), got {type(scene).__name__}")
+    if not isinstance(points, Points):
+        raise FitError(f"fit needs Points (rodsim.app.inverse.fit.read_points or Points(xyz)),"
+                       f" got {type(points).__name__}")
+    xyz = np.asarray(points.xyz)
+    if xyz.ndim != 2 or xyz.shape[1:] != (3,) or xyz.dtype.kind not in "fiu" or not np.all(
+            np.isfinite(xyz)):
+        raise FitError("Points.xyz must be an (m, 3) array of finite numbers [m]")
+    if isinstance(params, str) or not all(isinstance(key, str) for key in params):
+        raise FitError("params must be a list of scene keys (e.g. ['youngs_modulus'])")
+    keys = numeric_keys(scene, list(params))
     rod = rod or next(iter(scene.rods))
-    if rod not in scene.rods:
+    if not isinstance(rod, str) or rod not in scene.rods:
         raise FitError(f"rod {rod!r}: no such rod; rods: {', '.join(scene.rods)}")
     count = len(points.xyz)
     length = scene.rods[rod].length

@@ -30,6 +30,7 @@ its range instead, so the trust region sees a direction.
 from __future__ import annotations
 
 import json
+import math
 import time
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -52,6 +53,8 @@ __all__ = ["Reach", "reach", "DEFAULT_TOLERANCE"]
 
 #: Distance [m] below which the target counts as reached.
 DEFAULT_TOLERANCE = 1e-6
+#: Targets farther than this many rod lengths from the rod's origin are refused.
+MAX_REACH = 10.0
 #: Scaled step from the start of an actuation value the tip is insensitive to.
 NUDGE = 1e-2
 #: A tip sensitivity (m per unit of scaled value) below this × the rod's length is zero.
@@ -122,18 +125,32 @@ def reach(scene: Scene, tip: Sequence[float], actuate: Sequence[str], *,
     from scipy.optimize import least_squares
 
     started = time.perf_counter()
-    target = np.asarray(tip, dtype=float)
+    if not isinstance(scene, Scene):
+        raise SceneError(f"reach needs a Scene (rodsim.load_scene), got {type(scene).__name__}")
+    try:
+        target = np.asarray(tip, dtype=float)
+    except (TypeError, ValueError):
+        target = np.empty(0)
     if target.shape != (3,) or not np.all(np.isfinite(target)):
         raise SceneError("the tip target needs three finite coordinates X,Y,Z [m]")
-    if not tolerance > 0:
-        raise SceneError(f"tolerance {tolerance!r}: must be a distance > 0 [m]")
-    keys = numeric_keys(scene, actuate)
+    if isinstance(tolerance, bool) or not isinstance(tolerance, (int, float)) or not (
+            0 < tolerance < math.inf):
+        raise SceneError(f"tolerance {str(tolerance)[:40]!r}: must be a distance > 0 [m]")
+    if isinstance(actuate, str) or not all(isinstance(key, str) for key in actuate):
+        raise SceneError("actuate must be a list of scene keys (e.g. ['tendon_actuation."
+                         "force'])")
+    keys = numeric_keys(scene, list(actuate))
     rod = rod or next(iter(scene.rods))
-    if rod not in scene.rods:
-        raise SceneError(f"rod {rod!r}: no such rod; rods: {', '.join(scene.rods)}")
+    if not isinstance(rod, str) or rod not in scene.rods:
+        raise SceneError(f"rod {str(rod)[:40]!r}: no such rod; rods: {', '.join(scene.rods)}")
+    length = float(scene.rods[rod].length)
+    away = float(np.max(np.abs(target - np.asarray(scene.rods[rod].origin, dtype=float))))
+    if away > MAX_REACH * length:
+        raise SceneError(f"the target is {away:.3g} m from the origin of rod {rod!r}, "
+                         f"{away / length:.3g} times its length {length:g} m: no shape of the "
+                         "rod reaches it (the target must be in metres)")
     problem, lower, upper = ScaledEquilibria.at_scene_values(scene, keys, rod)
     initial = problem.values.copy()
-    length = scene.rods[rod].length
 
     far = np.full(3, 10.0 * scene.rods[rod].length)
 

@@ -310,10 +310,11 @@ def track(scene: Scene, ramps: Mapping[str, Sequence[float]], integrator: str = 
                            "spent")
             return out
         predictor = None
-        if previous is not None and integrator == "static":
-            # First-order (secant) predictor: the path's last chord, scaled to this step.
-            ratio = (np.linalg.norm(values[step] - values[step - 1])
-                     / np.linalg.norm(values[step - 1] - values[step - 2]))
+        chord = float(np.linalg.norm(values[step - 1] - values[step - 2])) if step > 1 else 0.0
+        if previous is not None and integrator == "static" and chord > 0.0:
+            # First-order (secant) predictor: the path's last chord, scaled to this step (none
+            # after a step that did not move: a constant ramp, START = STOP).
+            ratio = float(np.linalg.norm(values[step] - values[step - 1])) / chord
             predictor = continuation.x + ratio * (continuation.x - previous)
         last = continuation.x
         ok, iterations, halvings, message = continuation.walk(
