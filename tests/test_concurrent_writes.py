@@ -22,6 +22,7 @@ from rodsim.io.archive import read_dataset, write_dataset
 SLOW_WRITER = r"""
 import sys, time
 from pathlib import Path
+import xarray as xr
 from rodsim.io.archive import write_dataset
 target, ready, release = map(Path, sys.argv[1:4])
 original = xr.Dataset.to_netcdf
