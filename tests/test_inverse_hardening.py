@@ -228,3 +228,23 @@ def test_python_api_misuse_is_a_one_line_error(load):
         fit(scene, np.zeros((5, 3)), ["youngs_modulus"])
     with pytest.raises(FitError, match="list of scene keys"):
         fit(scene, Points(np.zeros((5, 3))), "youngs_modulus")
+
+
+def test_a_scene_beyond_the_process_memory_limit_is_one_line(tmp_path):
+    """Under `ulimit -v` a large N was a MemoryError traceback after minutes of assembly:
+    the estimate now counts what the process's address-space limit leaves."""
+    import os
+    import resource
+    import subprocess
+    import sys
+
+    def limited() -> None:
+        resource.setrlimit(resource.RLIMIT_AS, (1_200_000_000, 1_200_000_000))
+
+    done = subprocess.run([sys.executable, "-m", "rodsim.app.cli", "run", "--integrator",
+                           "static", "--set", "nodes=100000", "-o", str(tmp_path / "big.nc")],
+                          preexec_fn=limited, capture_output=True, text=True, timeout=300,
+                          env={**os.environ, "OMP_NUM_THREADS": "1"})
+    assert done.returncode == 2, done.stderr[-500:]
+    line = one_line(done.stderr)
+    assert "ulimit -v" in line and "100000 control points" in line

@@ -842,6 +842,11 @@ def main(argv: Sequence[str] | None = None) -> int:
         _remove_created_output_folder()  # exit 2 leaves nothing behind, an empty runs/ too
         print(f"rodsim: error: {exc}", file=sys.stderr)
         return EXIT_BAD_INPUT
+    except MemoryError:  # beyond the estimate (rodsim.core.memory): still one line
+        _remove_created_output_folder()
+        print("rodsim: error: out of memory (the process's limit or the machine's); lower "
+              "rods.<rod>.nodes, or raise the limit (ulimit -v)", file=sys.stderr)
+        return EXIT_BAD_INPUT
     except BrokenPipeError:  # output piped into a closed reader (e.g. `| head`)
         sys.stderr.close()
         return EXIT_OK
