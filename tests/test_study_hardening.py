@@ -243,7 +243,7 @@ def test_a_scheduler_without_workers_is_a_clear_failure(tmp_path):
     from rodsim.app.study import StudyError
 
     with dask.config.set({"distributed.comm.timeouts.connect": "30s"}), \
-            LocalCluster(n_workers=0, dashboard_address=None) as cluster:
+            LocalCluster(n_workers=0, dashboard_address=":0") as cluster:
         with pytest.raises(StudyError, match="no worker for 2 s"):
             run_study(TRIO, "small", tmp_path / "alone.nc", scheduler=cluster.scheduler_address,
                       worker_timeout=2.0)
