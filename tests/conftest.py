@@ -22,6 +22,16 @@ import rodsim  # noqa: E402
 from rodsim.core.model import Model  # noqa: E402
 from rodsim.core.scene import Scene  # noqa: E402
 
+#: Seed of the fuzz suite's varying examples (tests/test_fuzz.py): a new one each session
+#: unless RODSIM_FUZZ_SEED is set (to replay a run); set here, before any xdist worker
+#: starts, so that every worker uses the same one.
+os.environ.setdefault("RODSIM_FUZZ_SEED", str(int.from_bytes(os.urandom(4), "little")))
+
+
+def pytest_report_header(config: pytest.Config) -> str:
+    seed = os.environ["RODSIM_FUZZ_SEED"]
+    return f"rodsim fuzz seed: {seed} (RODSIM_FUZZ_SEED={seed} replays this run's examples)"
+
 
 def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
     """Tests marked ``slow`` run first (in their collected order, the others after them):

@@ -1,19 +1,35 @@
-"""Generated bad input against the command line (issue 15): scene files, ``--set`` strings,
-tampered run and study archives, and tampered point files of a study being resumed.
+"""Generated bad input against the command line (issues 15 and 23): scene files, ``--set``
+strings, tampered archives of every kind (run, study, track, fit, reach), byte-level damage,
+special files, bad arguments of ``track``, ``fit`` and ``reach``, tampered point files of a
+study being resumed, and concurrent writers of one archive.
 
 For every example: the exit code is one the CLI promises (0 success, 1 solver failure or a
 rerun that differs, 2 bad input); exit 2 comes with exactly one line on stderr; no traceback
 and no Python warning ever reaches the user; nothing is written outside the requested
 output, and nothing at all on exit 2.
 
-Each example runs ``rodsim.app.cli.main(argv)`` in this process, in a fresh folder, as the
-current folder. Scenes are kept small and fast: ``--integrator static``, a wall-time budget
-of 0.5 s in every base scene, and the machine's memory is set (for the memory estimate,
-rodsim/core/memory.py) so that any scene with more than 300 control points in all is refused.
+Two ways of running an example:
 
-Size: ``RODSIM_FUZZ_EXAMPLES`` examples per test (default: the per-test counts in
-``EXAMPLES``, 210 in all); Hypothesis runs derandomized, without an example database, so
-that CI is deterministic.
+- in this process (``rodsim.app.cli.main(argv)``, the current folder a fresh one): cheap,
+  but an exception never reaches a stderr (it fails the test by itself);
+- as a separate process (:func:`cli_process`): forked from this one (the same code, the
+  kernels already loaded) with its real file descriptors 1 and 2 captured and the
+  interpreter's own handling of an uncaught exception (a traceback on stderr, exit 1), so
+  a traceback, a C library's message or a warning printed anywhere is seen; a process
+  still running after :data:`HANG` seconds is a hang, a failure. The concurrent writers are
+  real ``python -m rodsim.app.cli`` processes.
+
+Scenes are kept small and fast: ``--integrator static``, a wall-time budget of 0.5 s in
+every base scene, and the machine's memory is set (for the memory estimate,
+rodsim/core/memory.py) so that any scene with more than 300 control points in all is
+refused.
+
+Seeds and size: the tests of issue 15 (``--set``, scene files, run and study archives,
+point files) run derandomized — the fixed-seed subset, the same examples every run; the
+others vary their examples with the session's seed, printed in pytest's header (``rodsim
+fuzz seed: N``; ``RODSIM_FUZZ_SEED=N`` replays a run). ``RODSIM_FUZZ_EXAMPLES=N`` runs N
+examples per test (a longer, nightly run; the concurrent writers then run N // 10 rounds);
+the default counts are :data:`EXAMPLES`.
 """
 
 from __future__ import annotations
@@ -25,6 +41,7 @@ import os
 import shutil
 import sys
 import tempfile
+import time
 import warnings
 from collections.abc import Callable
 from pathlib import Path
@@ -33,7 +50,7 @@ from typing import Any
 import numpy as np
 import pytest
 import xarray as xr
-from hypothesis import HealthCheck, assume, given, settings
+from hypothesis import HealthCheck, assume, given, seed, settings
 from hypothesis import strategies as st
 
 import rodsim.core.memory
@@ -43,8 +60,15 @@ from rodsim.app.study import Study, Sweep
 from rodsim.app.study_runner import parts_folder, run_study
 from rodsim.io.archive import ArchiveError, read_dataset, write_dataset
 
-#: Examples per test in the default run (≥ 200 in all).
-EXAMPLES = {"set": 60, "scene": 50, "rerun": 40, "plot": 30, "resume": 30}
+#: Examples per test in the default run: the fixed-seed tests first, then the varying ones.
+EXAMPLES = {"set": 30, "scene": 25, "rerun": 20, "plot": 15, "resume": 12,
+            "inverse archives": 16, "inverse commands": 10, "damaged bytes": 10,
+            "concurrent": 10}
+
+#: The session's seed of the varying examples (set by tests/conftest.py).
+SEED = int(os.environ.get("RODSIM_FUZZ_SEED", "0"))
+#: Seconds after which a CLI process counts as hung.
+HANG = float(os.environ.get("RODSIM_FUZZ_HANG", "120"))
 
 
 def examples(kind: str) -> int:
@@ -52,9 +76,20 @@ def examples(kind: str) -> int:
 
 
 def fuzz_settings(kind: str) -> settings:
+    """The fixed-seed tests: derandomized, the same examples every run."""
     return settings(max_examples=examples(kind), deadline=None, derandomize=True,
                     database=None, suppress_health_check=[HealthCheck.too_slow,
                                                          HealthCheck.data_too_large])
+
+
+def varying(kind: str) -> Callable:
+    """The varying tests: examples drawn from the session's seed (:data:`SEED`)."""
+    def decorate(test: Callable) -> Callable:
+        return seed(SEED)(settings(
+            max_examples=examples(kind), deadline=None, derandomize=False, database=None,
+            suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large,
+                                   HealthCheck.function_scoped_fixture])(test))
+    return decorate
 
 
 BUDGET = "max_wall_time=0.5"
@@ -425,3 +460,255 @@ def test_fuzz_resume_with_tampered_point_files(root, parts, data):
     outcome.check({0, 1, 2}, allowed)
     if outcome.code in (0, 1):
         assert output.exists() and not parts_folder(output).exists()
+
+
+# As a separate process -------------------------------------------------------------------
+
+
+def cli_process(argv: list[str], folder: Path) -> Outcome:
+    """``rodsim`` with ``argv`` in a separate process, forked from this one, its current
+    folder ``folder/cwd``; its real stdout and stderr (file descriptors 1 and 2), exit code,
+    and the files under ``folder`` before and after. An uncaught exception ends it as the
+    interpreter ends ``rodsim``: a traceback on stderr, exit 1. Still running after
+    :data:`HANG` s: killed, and the test fails (a hang)."""
+    cwd = folder / "cwd"
+    cwd.mkdir(exist_ok=True)
+    before = files(folder)
+    out_file, err_file = folder.parent / f"{folder.name}.out", folder.parent / f"{folder.name}.err"
+    sys.stdout.flush()
+    sys.stderr.flush()
+    pid = os.fork()
+    if pid == 0:  # the child: never returns into pytest
+        code = 1
+        try:
+            os.dup2(os.open(out_file, os.O_WRONLY | os.O_CREAT | os.O_TRUNC, 0o644), 1)
+            os.dup2(os.open(err_file, os.O_WRONLY | os.O_CREAT | os.O_TRUNC, 0o644), 2)
+            sys.stdout = open(1, "w", closefd=False)  # noqa: SIM115 - the process's own
+            sys.stderr = open(2, "w", closefd=False)  # noqa: SIM115
+            warnings.resetwarnings()  # the interpreter's defaults, not pytest's filters
+            warnings.simplefilter("default")
+            os.chdir(cwd)
+            try:
+                code = main(argv)
+            except SystemExit as exc:
+                code = exc.code if isinstance(exc.code, int) else 1
+        except BaseException:  # what the interpreter does with an uncaught exception
+            import traceback
+
+            traceback.print_exc()
+            code = 1
+        finally:
+            with contextlib.suppress(Exception):
+                sys.stdout.flush()
+                sys.stderr.flush()
+            os._exit(code)
+    waited = 0.0
+    while True:
+        done, status = os.waitpid(pid, os.WNOHANG)
+        if done:
+            break
+        if waited > HANG:
+            os.kill(pid, 9)
+            os.waitpid(pid, 0)
+            pytest.fail(f"rodsim {' '.join(argv)[:200]} hung (> {HANG:g} s)")
+        time.sleep(0.02)
+        waited += 0.02
+    code = os.waitstatus_to_exitcode(status)
+    out, err = out_file.read_text(errors="replace"), err_file.read_text(errors="replace")
+    out_file.unlink()
+    err_file.unlink()
+    after = files(folder)
+    return Outcome(code, out, err, [], after - before, before - after)
+
+
+INVERSE_RUN = ["--set", "nodes=6", "--set", BUDGET]
+
+
+@pytest.fixture(scope="module")
+def kinds(root) -> dict[str, Path]:
+    """One archive of each kind (run, study, track, fit, reach), small, written once."""
+    folder = root / "kinds"
+    folder.mkdir()
+    paths = {kind: folder / f"{kind}.nc" for kind in ("run", "study", "track", "fit",
+                                                        "reach")}
+    assert main(["run", *RUN, "-o", str(paths["run"])]) == 0
+    run_study(STUDY, "small", paths["study"], workers=1)
+    assert main(["track", "table1-50g", *INVERSE_RUN, "--ramp", "tip_load.mass=0.05:0.06:3",
+                 "-o", str(paths["track"])]) == 0
+    nodes = read_dataset(paths["run"])["position"].values
+    data = folder / "data.csv"
+    data.write_text("x,y,z\n" + "\n".join(",".join(f"{v:.17g}" for v in p) for p in nodes))
+    assert main(["fit", "table1-50g", *INVERSE_RUN, "--data", str(data), "--param",
+                 "youngs_modulus", "-o", str(paths["fit"])]) == 0
+    assert main(["reach", "table1-50g", *INVERSE_RUN, "--tip",
+                 f"{nodes[-1, 0]},{nodes[-1, 1] + 1e-4},0", "--actuate", "tip_load.force[1]",
+                 "--tolerance", "1e-3", "-o", str(paths["reach"])]) == 0
+    return paths
+
+
+@varying("inverse archives")
+@given(data=st.data())
+def test_fuzz_tampered_track_fit_and_reach_archives(root, kinds, data):
+    """Tampered track, fit and reach archives through ``rerun`` and ``plot``."""
+    folder = fresh(root)
+    kind = data.draw(st.sampled_from(["track", "fit", "reach"]))
+    tampered = tamper_archive(data.draw, read_dataset(kinds[kind]))
+    path = folder / "tampered.nc"
+    try:
+        write_dataset(tampered, path)
+    except (ArchiveError, TypeError, ValueError):
+        assume(False)
+    if data.draw(st.booleans()):
+        call(["plot", str(path), "--format", "svg"], folder).check({0, 2}, {"tampered.svg"})
+    else:
+        call(["rerun", str(path)], folder).check({0, 1, 2}, set())
+
+
+def damaged(draw: Callable, source: Path, target: Path) -> None:
+    """A copy of ``source`` with bytes overwritten at drawn offsets, or truncated."""
+    data = bytearray(source.read_bytes())
+    if draw(st.integers(0, 4)) == 0:
+        data = data[:draw(st.integers(0, len(data) - 1))]
+    else:
+        for _ in range(draw(st.integers(1, 4))):
+            start = draw(st.integers(0, len(data) - 1))
+            count = draw(st.integers(1, 64))
+            data[start:start + count] = draw(st.binary(min_size=count, max_size=count))
+    target.write_bytes(bytes(data[:len(source.read_bytes())]))
+
+
+@varying("damaged bytes")
+@given(data=st.data())
+def test_fuzz_damaged_bytes_of_every_archive_kind(root, kinds, data):
+    """Byte-level damage of each archive kind through ``plot`` and ``rerun``, as processes."""
+    folder = fresh(root)
+    kind = data.draw(st.sampled_from(sorted(kinds)))
+    path = folder / "damaged.nc"
+    damaged(data.draw, kinds[kind], path)
+    if kind == "study" or data.draw(st.booleans()):
+        outcome = cli_process(["plot", str(path), "--format", "svg"], folder)
+        outcome.check({0, 2}, {"damaged.svg"})
+    else:
+        cli_process(["rerun", str(path)], folder).check({0, 1, 2}, set())
+
+
+NUMBERS = st.one_of(st.sampled_from(["0", "-0", "1", "-5", "0.05", "1e300", "-1e300", "nan",
+                                     "inf", "1e-320", "", "x", "1,2", "0x10", "9" * 40]),
+                    st.floats(-10, 10).map(repr))
+RAMP_KEYS = ["tip_load.mass", "tip_load.force[0]", "tip_load.force[5]", "youngs_modulus",
+             "nodes", "rods.catheter.length", "bogus", "", "K_P", "origin", "clamp"]
+ACTUATE = ["tip_load.force[0]", "tip_load.force[1]", "tip_load.mass", "youngs_modulus",
+           "nodes", "bogus", "", "tip_load.force"]
+OUTPUTS = [None, "out.nc", "", "out/", "missing/out.nc", "out"]
+
+
+def inverse_argv(draw: Callable, folder: Path) -> tuple[list[str], str | None]:
+    """A generated ``track``, ``fit`` or ``reach`` command (and its ``-o``)."""
+    command = draw(st.sampled_from(["track", "fit", "reach"]))
+    argv = [command, "table1-50g", *INVERSE_RUN]
+    if command == "track":
+        for _ in range(draw(st.integers(1, 2))):
+            count = draw(st.one_of(st.sampled_from(["2", "3", "1", "0", "-1", "x",
+                                                    "100000000", "2.5"]),
+                                   st.integers(2, 6).map(str)))
+            argv += ["--ramp", f"{draw(st.sampled_from(RAMP_KEYS))}={draw(NUMBERS)}:"
+                     f"{draw(NUMBERS)}:{count}"]
+        if draw(st.booleans()):
+            argv.append("--allow-unstable")
+        if draw(st.integers(0, 3)) == 0:
+            argv += ["--integrator", draw(st.sampled_from(["cvode", "paper", "bogus"]))]
+    elif command == "fit":
+        data = folder / "data.csv"
+        header = draw(st.sampled_from(["x,y,z", "x,y,z,s", "s,z,y,x", "x,y", "a,b,c", ""]))
+        rows = draw(st.lists(st.lists(NUMBERS, min_size=2, max_size=4).map(",".join),
+                             max_size=8))
+        scale = draw(st.sampled_from([1.0, 1e3, 1e-3]))
+        straight = [f"{0.012 * i * scale},0,0" for i in range(draw(st.integers(0, 8)))]
+        data.write_text("\n".join([header, *straight, *rows]) + "\n", encoding="utf-8")
+        argv += ["--data", str(data)]
+        for _ in range(draw(st.integers(1, 2))):
+            argv += ["--param", draw(st.sampled_from(ACTUATE))]
+    else:
+        argv += ["--tip", ",".join(draw(st.lists(NUMBERS, min_size=2, max_size=4)))]
+        for _ in range(draw(st.integers(1, 3))):
+            argv += ["--actuate", draw(st.sampled_from(ACTUATE))]
+        if draw(st.booleans()):
+            argv += ["--tolerance", draw(NUMBERS)]
+    output = draw(st.sampled_from(OUTPUTS))
+    if output is not None:
+        argv += ["-o", output]
+    return argv, output
+
+
+@varying("inverse commands")
+@given(data=st.data())
+def test_fuzz_track_fit_and_reach_commands(root, data):
+    """Generated arguments and data of ``track``, ``fit`` and ``reach``, as processes, with
+    and without ``-o``: an archive and its figure, or nothing."""
+    folder = fresh(root)
+    argv, output = inverse_argv(data.draw, folder)
+    outcome = cli_process(argv, folder)
+    scene = "table1-50g"
+    if output is None:
+        allowed = {"cwd/runs", f"cwd/runs/{scene}-{argv[0]}.nc",
+                   f"cwd/runs/{scene}-{argv[0]}.png"}
+    else:
+        stem = output.removesuffix(".nc")
+        allowed = {f"cwd/{output}", f"cwd/{stem}.png"}
+    outcome.check({0, 1, 2}, allowed)
+
+
+SPECIAL = ["fifo", "folder", "/dev/zero", "/dev/null", "socket"]
+
+
+@pytest.mark.parametrize("special", SPECIAL)
+@pytest.mark.parametrize("command", ["rerun", "plot", "fit", "run"])
+def test_fuzz_special_files_are_refused_as_inputs(root, special, command):
+    """A FIFO blocked rerun, plot and fit --data forever; /dev/zero exhausted memory."""
+    import socket
+
+    folder = fresh(root)
+    path = folder / "special"
+    if special == "fifo":
+        os.mkfifo(path)
+    elif special == "folder":
+        path.mkdir()
+    elif special == "socket":
+        server = socket.socket(socket.AF_UNIX)
+        server.bind(str(path))
+        server.close()
+    else:
+        path = Path(special)
+    argv = {"rerun": ["rerun", str(path)], "plot": ["plot", str(path), "-o",
+                                                     str(folder / "fig")],
+            "fit": ["fit", "table1-50g", "--data", str(path), "--param", "youngs_modulus",
+                    "-o", str(folder / "fit.nc")],
+            "run": ["run", str(path), "-o", str(folder / "run.nc")]}[command]
+    outcome = cli_process(argv, folder)
+    outcome.check({2}, set())
+
+
+def test_fuzz_concurrent_writers_of_one_archive(root):
+    """Rounds of three real ``rodsim run -o same.nc`` at once: every one exits 0 (a warning
+    at most), and the file is a complete archive of one of them."""
+    import subprocess
+
+    folder = fresh(root)
+    target = folder / "same.nc"
+    env = {**os.environ, "OMP_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1"}
+    for round_ in range(max(1, examples("concurrent") // 10)):
+        masses = [0.01 * (i + 1) + 0.001 * round_ for i in range(3)]
+        runs = [subprocess.Popen([sys.executable, "-m", "rodsim.app.cli", "run", "--integrator",
+                                  "static", "--set", "nodes=6", "--set",
+                                  f"tip_load.mass={mass}", "-o", str(target)],
+                                 cwd=folder, env=env, stdout=subprocess.DEVNULL,
+                                 stderr=subprocess.PIPE, text=True) for mass in masses]
+        for run in runs:
+            _, err = run.communicate(timeout=HANG)
+            assert run.returncode == 0, err
+            assert all(line.startswith(("rodsim: warning: ", "[")) for line in
+                       err.splitlines() if line.strip()), err
+        stored = read_dataset(target)
+        mass = json.loads(stored.attrs["scene_json"])["rods"]["catheter"]["tip_load"]["mass"]
+        assert mass in masses
+    assert sorted(p.name for p in folder.iterdir()) == ["same.nc"]

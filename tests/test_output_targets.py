@@ -9,6 +9,8 @@ from __future__ import annotations
 
 import os
 import stat
+import subprocess
+import sys
 import tempfile
 from pathlib import Path
 
@@ -18,7 +20,7 @@ import xarray as xr
 import rodsim
 import rodsim.app.api
 from rodsim.io.archive import ArchiveError, read_dataset, write_dataset
-from rodsim.io.output import OutputError, check_target
+from rodsim.io.output import OutputError, check_target, owned_prefix
 
 RUN = ["run", "--integrator", "static", "--set", "nodes=6"]
 
@@ -28,6 +30,14 @@ def one_line(capsys) -> str:
     lines = captured.err.strip().splitlines()
     assert len(lines) == 1 and lines[0].startswith("rodsim: error: "), captured.err
     return lines[0]
+
+
+def killed_writers_prefix(target: Path) -> str:
+    """The temporary prefix a killed writer of ``target`` on this host used: this process's
+    stamp with the id of a process that has ended."""
+    child = subprocess.Popen([sys.executable, "-c", "pass"])
+    child.wait()
+    return owned_prefix(target).replace(f"-{os.getpid()}.", f"-{child.pid}.")
 
 
 @pytest.fixture
@@ -131,11 +141,12 @@ def test_check_target_returns_the_file_to_replace(tmp_path):
 
 
 def test_the_next_write_removes_a_killed_writes_temporary(tmp_path, cli, capsys):
-    """Item 11: kill -9 during the final archive write left `.X.nc.<random>.tmp` behind
-    for good. Another target's temporaries and other files are left alone."""
+    """Item 11: kill -9 during the final archive write left `.X.nc.<owner>.<random>.tmp`
+    behind for good; its owner is gone, so the next write removes it (issue 23: only then).
+    Another target's temporaries and other files are left alone."""
     target = tmp_path / "run.nc"
     stale = []
-    for prefix in (f".{target.name}.", f".{target.name}."):
+    for prefix in (killed_writers_prefix(target), killed_writers_prefix(target)):
         handle, name = tempfile.mkstemp(prefix=prefix, suffix=".tmp", dir=tmp_path)
         os.write(handle, b"half an archive")
         os.close(handle)
@@ -163,7 +174,8 @@ def test_a_resumed_study_removes_the_temporary_of_its_killed_archive_write(tmp_p
     output = tmp_path / "study.nc"
     run_study(study, "small", output, workers=1, keep_parts=True)
     output.unlink()  # as if killed during the write: the points are kept, no archive
-    handle, stale = tempfile.mkstemp(prefix=f".{output.name}.", suffix=".tmp", dir=tmp_path)
+    handle, stale = tempfile.mkstemp(prefix=killed_writers_prefix(output), suffix=".tmp",
+                                     dir=tmp_path)
     os.close(handle)
     run_study(study, "small", output, workers=1)
     assert not Path(stale).exists()

@@ -231,3 +231,20 @@ def test_run_study_in_process_still_matches(trio_parts, tmp_path):
                         progress=lambda *args: calls.append(args))
     assert [c[0] for c in calls] == [3]
     np.testing.assert_array_equal(resumed["centerline"].values, clean["centerline"].values)
+
+
+def test_a_scheduler_without_workers_is_a_clear_failure(tmp_path):
+    """`study --scheduler tcp://…` with no worker waited forever, silently. A scheduler that
+    has had no worker for `worker_timeout` seconds while points wait fails the study with
+    one line, and the parts folder stays for a resume."""
+    import dask
+    from distributed import LocalCluster
+
+    from rodsim.app.study import StudyError
+
+    with dask.config.set({"distributed.comm.timeouts.connect": "30s"}), \
+            LocalCluster(n_workers=0, dashboard_address=":0") as cluster:
+        with pytest.raises(StudyError, match="no worker for 2 s"):
+            run_study(TRIO, "small", tmp_path / "alone.nc", scheduler=cluster.scheduler_address,
+                      worker_timeout=2.0)
+    assert not (tmp_path / "alone.nc").exists()

@@ -35,6 +35,11 @@ class UserError(Exception):
     """A problem with what the user asked for (exit code 2, one-line message)."""
 
 
+def warn(message: str) -> None:
+    """One ``rodsim: warning: …`` line on stderr (exit code unchanged)."""
+    print(f"rodsim: warning: {message}", file=sys.stderr, flush=True)
+
+
 def _check_integrator(name: str | None) -> None:
     """``--integrator NAME`` must name a registered integrator (the registry is the only list
     of names; ``rodsim run --help`` lists them)."""
@@ -124,17 +129,41 @@ def _print_run_summary(result, archive: Path | None) -> None:
         print(f"archive     {archive}")
 
 
+#: The default output folder when this command created it (removed again if it stays
+#: empty because the command ends in a bad-input error).
+_created_output_folder: list[Path] = []
+
+
 def _output_path(given: str | None, default: str) -> Path:
     """The ``-o`` path if given, else ``runs/<default>`` in the current folder (the folder
-    created if missing)."""
-    if given:
+    created if missing). An empty ``-o`` and one naming a folder (a trailing ``/``) are
+    refused: a name was meant, and neither the default nor a file named like the folder
+    is what was asked for."""
+    if given is not None:
+        if not given.strip():
+            raise UserError("-o '': an empty output path; give a file name (or leave -o out "
+                            "for the default)")
+        if given.endswith(("/", os.sep)):
+            raise UserError(f"-o {given[:60]!r}: names a folder; give a file name in it "
+                            f"(e.g. {str(Path(given) / default)[:80]!r})")
         return Path(given)
     try:
-        DEFAULT_OUTPUT_FOLDER.mkdir(exist_ok=True)
+        if not DEFAULT_OUTPUT_FOLDER.exists():
+            DEFAULT_OUTPUT_FOLDER.mkdir()
+            _created_output_folder.append(DEFAULT_OUTPUT_FOLDER.absolute())
     except OSError as exc:
         raise UserError(f"cannot create the output folder {str(DEFAULT_OUTPUT_FOLDER)!r} "
                         f"({exc.strerror or exc}); give an archive path with -o") from None
     return DEFAULT_OUTPUT_FOLDER / default
+
+
+def _remove_created_output_folder() -> None:
+    """Remove the default output folder this command created, if it is still empty."""
+    import contextlib
+
+    while _created_output_folder:
+        with contextlib.suppress(OSError):
+            _created_output_folder.pop().rmdir()  # only an empty folder is removed
 
 
 def scene_error_text(exc: SceneError) -> str:
@@ -195,7 +224,7 @@ def cmd_run(args: argparse.Namespace) -> int:
         print(f"rodsim: solver failure: {result.message}", file=sys.stderr)
         return EXIT_SOLVER_FAILURE
     try:
-        write_dataset(run_dataset(result), output)
+        write_dataset(run_dataset(result), output, note=warn)
     except ArchiveError as exc:
         raise UserError(str(exc)) from None
     _print_run_summary(result, output)
@@ -283,7 +312,7 @@ def _write_with_figure(dataset, output: Path, stem: str) -> None:
     from rodsim.io.archive import ArchiveError, write_dataset
 
     try:
-        write_dataset(dataset, output)
+        write_dataset(dataset, output, note=warn)
         figures = plot_dataset(dataset, stem, ["png"])
     except (ArchiveError, PlotError) as exc:
         raise UserError(str(exc)) from None
@@ -300,33 +329,52 @@ def cmd_track(args: argparse.Namespace) -> int:
 
     scene = _load_scene_or_fail(args.scene, args.set, args.integrator)
     integrator = args.integrator or scene.solver.integrator
+    try:  # the ramps before any folder is made or any work starts
+        ramps = dict(parse_ramp(text) for text in args.ramp)
+    except SceneError as exc:
+        raise UserError(str(exc)) from None
+    if len(ramps) != len(args.ramp):
+        raise UserError("--ramp names the same key twice")
     output = _output_path(args.output, f"{scene.name}-track.nc")
     stem = _check_outputs(output)
     progress = ProgressPrinter()
     try:
-        ramps = dict(parse_ramp(text) for text in args.ramp)
-        if len(ramps) != len(args.ramp):
-            raise SceneError("--ramp names the same key twice")
-        result = track(scene, ramps, integrator, progress=progress)
+        result = track(scene, ramps, integrator, progress=progress,
+                       allow_unstable=args.allow_unstable)
     except SceneError as exc:
         raise UserError(str(exc)) from None
     finally:
         progress.close()
-    if not result.success:
+    if not result.success and result.unstable_step is None:
         print(f"rodsim: solver failure: {result.message}", file=sys.stderr)
         return EXIT_SOLVER_FAILURE
     times = result.times
     warm = sum(times[1:]) / max(len(times) - 1, 1)
+    last = result.steps - 1
     print(f"scene       {scene.name}: {result.steps} steps of "
-          + ", ".join(f"{k.name} {result.values[0, i]:g} → {result.values[-1, i]:g} {k.unit}"
+          + ", ".join(f"{k.name} {result.values[0, i]:g} → {result.values[last, i]:g} {k.unit}"
                       for i, k in enumerate(result.keys)))
     print(f"integrator  {integrator}")
     tip = result.tips()[-1]
     print(f"last tip    x = {tip[0]: .6f} m  y = {tip[1]: .6f} m  z = {tip[2]: .3g} m")
+    speed = f" ({1.0 / warm:.0f} steps/s)" if warm > 0 else ""
     print(f"wall time   {sum(times):.4f} s: first step (cold) {times[0]:.4f} s, warm steps "
-          f"{1e3 * warm:.3f} ms each ({1.0 / warm:.0f} steps/s), "
-          f"{int(sum(result.halvings))} halvings")
+          f"{1e3 * warm:.3f} ms each{speed}, {int(sum(result.halvings))} halvings")
+    unstable = result.unstable_steps
+    if unstable:
+        print(f"stability   UNSTABLE at {len(unstable)} of {result.steps} steps (first: step "
+              f"{unstable[0]}, smallest stiffness eigenvalue "
+              f"{result.min_eigenvalues[unstable[0]]:.3g}); flagged in the archive")
+    else:
+        print("stability   stable at every step (the stiffness K = -dF/dx is positive "
+              "definite)")
     _write_with_figure(result.to_xarray(), output, stem)
+    if not result.success:  # stopped at an unstable step: archived, and a failure
+        print(f"rodsim: {result.message}", file=sys.stderr)
+        return EXIT_SOLVER_FAILURE
+    if unstable:
+        warn(f"{len(unstable)} step(s) are unstable equilibria (first: step {unstable[0]}); "
+             "kept because of --allow-unstable, flagged in the archive (variable 'stable')")
     return EXIT_OK
 
 
@@ -356,11 +404,18 @@ def cmd_fit(args: argparse.Namespace) -> int:
                                           result.errors, strict=True):
         print(f"fitted      {key.name} = {value:.6g} ± {error:.2g} {key.unit} "
               f"(from {initial:.6g})")
-    print(f"residual    RMS {result.residual_rms:.3g} m over {result.degrees_of_freedom} "
-          "degrees of freedom")
+    print(f"residual    RMS {result.residual_rms:.3g} m = {result.residual_rms_relative:.3g} L "
+          f"over {result.degrees_of_freedom} degrees of freedom")
     print(f"cost        {result.evaluations} equilibria, {result.jacobians} Jacobians, "
           f"{result.wall_time:.3f} s ({result.message})")
+    if result.result.stability is not None:
+        print(stability_text(result.result.stability))
     _write_with_figure(result.to_xarray(), output, stem)
+    if not result.stable:
+        print("rodsim: the fitted equilibrium is UNSTABLE (its stiffness is not positive "
+              "definite): the best fit is not a shape the rod keeps; archived, flagged "
+              "(attribute 'stable' = 0)", file=sys.stderr)
+        return EXIT_SOLVER_FAILURE
     return EXIT_OK
 
 
@@ -447,6 +502,17 @@ def _tolerance(text: str) -> float:
     return value
 
 
+def _positive_seconds(text: str) -> float:
+    """argparse type of ``--worker-timeout``: a finite number of seconds > 0."""
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected seconds, got {text[:40]!r}") from None
+    if not 0.0 < value < math.inf:
+        raise argparse.ArgumentTypeError(f"must be a finite number > 0, got {text[:40]!r}")
+    return value
+
+
 def _positive_int(text: str) -> int:
     """argparse type of ``--workers``: a whole number of at least 1."""
     try:
@@ -509,7 +575,8 @@ def cmd_study(args: argparse.Namespace) -> int:
         study = load_study(args.name)
         output = str(_output_path(args.output, f"{args.name}-{args.size}.nc"))
         dataset = run_study(study, args.size, output, workers=args.workers,
-                            scheduler=args.scheduler, progress=progress, log=log)
+                            scheduler=args.scheduler, progress=progress, log=log,
+                            worker_timeout=args.worker_timeout)
     except (StudyError, ArchiveError) as exc:
         raise UserError(str(exc)) from None
     except KeyboardInterrupt:
@@ -671,6 +738,10 @@ def build_parser() -> argparse.ArgumentParser:
     study.add_argument("--scheduler", metavar="ADDRESS",
                        help="run on a dask.distributed scheduler (tcp://host:port), or "
                        "'local' for a LocalCluster")
+    study.add_argument("--worker-timeout", type=_positive_seconds, default=60.0,
+                       metavar="SECONDS",
+                       help="with --scheduler: fail when the scheduler has had no worker for "
+                       "this long while points wait (default 60)")
     study.set_defaults(func=cmd_study)
 
     follow = sub.add_parser(
@@ -687,6 +758,11 @@ def build_parser() -> argparse.ArgumentParser:
     follow.add_argument("--integrator", metavar="NAME", default="static",
                         help="a registered integrator, listed by `rodsim run --help` "
                         "(default: static)")
+    follow.add_argument("--allow-unstable", action="store_true",
+                        help="go on past a step whose equilibrium is unstable (its "
+                        "stiffness is not positive definite, e.g. a rod loaded past "
+                        "buckling), flagged in the output and the archive; by default the "
+                        "track stops there and exits 1 (the steps up to it archived)")
     _add_scene_set_and_output(follow, "track")
     follow.set_defaults(func=cmd_track)
 
@@ -787,11 +863,18 @@ def main(argv: Sequence[str] | None = None) -> int:
     from rodsim.io.provenance import invocation
 
     words = list(sys.argv[1:] if argv is None else argv)
+    _created_output_folder.clear()
     try:
         with invocation(shlex.join(["rodsim", *words])):  # the archives' history line
             return command(args)
     except UserError as exc:
+        _remove_created_output_folder()  # exit 2 leaves nothing behind, an empty runs/ too
         print(f"rodsim: error: {exc}", file=sys.stderr)
+        return EXIT_BAD_INPUT
+    except MemoryError:  # beyond the estimate (rodsim.core.memory): still one line
+        _remove_created_output_folder()
+        print("rodsim: error: out of memory (the process's limit or the machine's); lower "
+              "rods.<rod>.nodes, or raise the limit (ulimit -v)", file=sys.stderr)
         return EXIT_BAD_INPUT
     except BrokenPipeError:  # output piped into a closed reader (e.g. `| head`)
         sys.stderr.close()

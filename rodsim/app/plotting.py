@@ -973,13 +973,20 @@ def style() -> contextlib.AbstractContextManager[None]:
 def draw_figure(ds: xr.Dataset) -> Figure:
     """The archive's figure, not written (the caller closes it); draw it inside
     :func:`style`. A study figure's title states the measured result (:data:`RESULTS`).
-    Raises :class:`PlotError` for an unknown plot kind. A Dataset opened with plain xarray
-    from a schema 3 file gets its labels back first (:func:`rodsim.io.cf_layout.from_file`)."""
+    Raises :class:`PlotError` for an unknown plot kind, and for a study in which every
+    point failed (rodsim writes such archives: there is no shape or error to draw). A Dataset
+    opened with plain xarray from a schema 3 file gets its labels back first
+    (:func:`rodsim.io.cf_layout.from_file`)."""
     ds = from_file(ds)
     if "study" in ds.attrs:
         kind = ds.attrs.get("plot", "centerlines")
-        if kind not in DRAWERS:
-            raise PlotError(f"unknown plot kind {kind!r}; known: {', '.join(DRAWERS)}")
+        if not isinstance(kind, str) or kind not in DRAWERS:
+            raise PlotError(f"unknown plot kind {str(kind)[:40]!r}; known: "
+                            f"{', '.join(DRAWERS)}")
+        if not bool((ds["status"] == 0).any()):
+            raise PlotError(f"every one of the {int(ds['status'].size)} points of study "
+                            f"{str(ds.attrs['study'])[:40]!r} failed: nothing to draw (the "
+                            "archive's 'message' variable says why)")
         figure = DRAWERS[kind](ds)
         _title(figure, ds, RESULTS[kind](ds))
         return figure

@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import contextlib
 import json
+import math
 import os
 import shutil
 import sys
@@ -328,13 +329,54 @@ def _connect(scheduler: str) -> tuple[Any, Any]:
         raise StudyError(f"cannot reach the dask scheduler {scheduler!r}: {reason}") from None
 
 
+#: Default of ``worker_timeout``: seconds a dask scheduler may have no worker at all while
+#: points wait before the study fails (``rodsim study --worker-timeout``).
+WORKER_TIMEOUT = 60.0
+#: Seconds between two looks at the scheduler's workers while points wait.
+WORKER_POLL = 0.5
+
+
+def _completed(client: Any, futures: dict[Any, Any], worker_timeout: float) -> Any:
+    """The futures as they complete (dask's ``as_completed``), watching the scheduler: when
+    it has had no worker for ``worker_timeout`` seconds while futures wait, StudyError — a
+    scheduler nobody serves is a failure, not a silent wait."""
+    from distributed import as_completed as dask_completed
+
+    pending = dask_completed(futures)
+    alone_since: float | None = None
+    while True:
+        try:
+            batch = pending.next_batch(block=False)
+        except StopIteration:
+            return
+        if batch:
+            yield from batch
+            alone_since = None
+            continue
+        if pending.is_empty():
+            return
+        time.sleep(WORKER_POLL)
+        try:
+            workers = len(client.scheduler_info().get("workers", {}))
+        except Exception:  # noqa: BLE001 - the scheduler is gone: as_completed says how
+            workers = 1
+        if workers:
+            alone_since = None
+        elif alone_since is None:
+            alone_since = time.perf_counter()
+        elif time.perf_counter() - alone_since > worker_timeout:
+            raise StudyError(f"the dask scheduler has had no worker for {worker_timeout:g} s "
+                             f"while {pending.count()} point(s) waited: start workers for it "
+                             "(`dask worker ADDRESS`) or run without --scheduler; the "
+                             "finished points are kept (run the study again to resume)")
+
+
 def _run_dask(client: Any, spec: StudySpec, todo: list[tuple[int, ...]],
               persist: Callable[[dict[str, Any]], None], log: StudyLog,
-              hook: PointHook | None = None) -> None:
+              hook: PointHook | None = None, worker_timeout: float = WORKER_TIMEOUT) -> None:
     from concurrent.futures import CancelledError
 
     from distributed import KilledWorker
-    from distributed import as_completed as dask_completed
 
     futures: dict[Any, tuple[int, ...]] = {}
     finished = False
@@ -346,7 +388,7 @@ def _run_dask(client: Any, spec: StudySpec, todo: list[tuple[int, ...]],
         futures.update({client.submit(_run_point, spec, index, hook, pure=False): index
                         for index in batch})
         killed = []
-        for future in dask_completed(futures):
+        for future in _completed(client, futures, worker_timeout):
             index = futures[future]
             try:
                 record = future.result()
@@ -386,13 +428,15 @@ def _run_dask(client: Any, spec: StudySpec, todo: list[tuple[int, ...]],
 def run_spec(spec: StudySpec, output: str | Path, *, workers: int | None = None,
              scheduler: str | None = None, progress: StudyProgress | None = None,
              keep_parts: bool = False, log: StudyLog | None = None,
-             point_hook: PointHook | None = None) -> xr.Dataset:
+             point_hook: PointHook | None = None,
+             worker_timeout: float = WORKER_TIMEOUT) -> xr.Dataset:
     """Run (or resume) every point of ``spec`` and write the assembled Dataset to ``output``.
 
     ``workers``: local worker processes (default: one per core, at most one per point);
     ``1`` runs the points in this process (no protection against a point that crashes the
     interpreter). ``scheduler``: a dask.distributed address, or ``"local"``; connected
-    before anything is written. ``log`` receives one-line warnings (default: stderr).
+    before anything is written; a scheduler with no worker for ``worker_timeout`` seconds
+    while points wait fails the study. ``log`` receives one-line warnings (default: stderr).
     Raises :class:`StudyError` for an output that cannot be written (checked before any
     point runs), a parts folder of another study or rodsim version, an unreachable
     scheduler, or a point that cannot be saved.
@@ -402,6 +446,10 @@ def run_spec(spec: StudySpec, output: str | Path, *, workers: int | None = None,
     hook = point_hook if point_hook is not None else POINT_HOOK
     if workers is not None and (not isinstance(workers, int) or workers < 1):
         raise StudyError(f"workers must be a positive whole number, not {workers!r}")
+    if isinstance(worker_timeout, bool) or not isinstance(worker_timeout, (int, float)) or \
+            not 0 < worker_timeout < math.inf:
+        raise StudyError(f"worker_timeout must be a number of seconds > 0, not "
+                         f"{str(worker_timeout)[:40]!r}")
     _check_output(output)
     with contextlib.ExitStack() as stack:
         if scheduler:
@@ -430,7 +478,7 @@ def run_spec(spec: StudySpec, output: str | Path, *, workers: int | None = None,
         if not todo:
             pass
         elif scheduler:
-            _run_dask(client, spec, todo, persist, log, hook)
+            _run_dask(client, spec, todo, persist, log, hook, worker_timeout)
         elif workers == 1:
             for index in todo:
                 persist(evaluate_point(spec, index))

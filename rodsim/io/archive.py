@@ -13,6 +13,7 @@ from __future__ import annotations
 import contextlib
 import os
 import tempfile
+from collections.abc import Callable
 from pathlib import Path
 
 import xarray as xr
@@ -25,7 +26,14 @@ from rodsim.io.archive_schema import (
     check_archive,
 )
 from rodsim.io.cf_layout import from_file, to_file
-from rodsim.io.output import OutputError, check_target, remove_stale_temporaries, temporary_prefix
+from rodsim.io.input_file import InputError, check_input_file
+from rodsim.io.output import (
+    OutputError,
+    check_target,
+    other_writers,
+    owned_prefix,
+    remove_stale_temporaries,
+)
 
 __all__ = ["ArchiveError", "write_dataset", "read_dataset", "scene_of"]
 
@@ -34,9 +42,11 @@ class ArchiveError(OSError):
     """An archive cannot be written or read, or is not a rodsim archive."""
 
 
-def write_dataset(dataset: xr.Dataset, path: str | Path) -> Path:
+def write_dataset(dataset: xr.Dataset, path: str | Path,
+                  note: Callable[[str], None] | None = None) -> Path:
     """Write ``dataset`` to ``path`` (netCDF4) atomically; returns the path written (a
-    symbolic link's target)."""
+    symbolic link's target). ``note`` is told when other processes are writing the same
+    target at the moment of the rename (the target then holds the last one's archive)."""
     try:
         path = check_target(path)
     except OutputError as exc:
@@ -44,7 +54,7 @@ def write_dataset(dataset: xr.Dataset, path: str | Path) -> Path:
     folder = path.parent if str(path.parent) else Path(".")
     remove_stale_temporaries(path)
     try:
-        handle, temporary = tempfile.mkstemp(prefix=temporary_prefix(path), suffix=".tmp",
+        handle, temporary = tempfile.mkstemp(prefix=owned_prefix(path), suffix=".tmp",
                                              dir=folder)
     except OSError as exc:
         raise ArchiveError(f"cannot write {str(path)!r}: {exc}") from exc
@@ -62,6 +72,7 @@ def write_dataset(dataset: xr.Dataset, path: str | Path) -> Path:
         else:
             encoding = {name: {"_FillValue": None} for name in dataset.coords}
         dataset.to_netcdf(temporary, engine="netcdf4", encoding=encoding)
+        others = other_writers(path)
         os.replace(temporary, path)
     except BaseException as exc:  # an interrupt too: never leave a half-written temporary
         with contextlib.suppress(OSError):
@@ -69,32 +80,55 @@ def write_dataset(dataset: xr.Dataset, path: str | Path) -> Path:
         if isinstance(exc, Exception):
             raise ArchiveError(f"cannot write {str(path)!r}: {exc}") from exc
         raise
+    if others and note is not None:
+        note(f"{others} other process(es) were writing {str(path)!r} at the same time: it "
+             "holds the archive of whichever finished last")
     return path
 
 
 def read_dataset(path: str | Path) -> xr.Dataset:
-    """Read an archive fully into memory (the file is closed on return) and check it against
-    the archive contract (ArchiveError naming the first mismatch)."""
+    """The one validating reader of archives: read an archive fully into memory (the file is
+    closed on return) and check it against the archive contract. Everything that is not a
+    readable, valid rodsim archive is an :class:`ArchiveError` with a one-line message — a
+    special file (FIFO, device, socket: refused before it is opened, so a FIFO cannot
+    block), a file over :data:`rodsim.io.input_file.MAX_INPUT_BYTES`, damaged bytes
+    (whatever the netCDF and HDF5 libraries or xarray's decoding raise: a text
+    ``scale_factor`` too), and every
+    mismatch of :func:`rodsim.io.archive_schema.check_archive` (bounded attribute lengths,
+    step counts and JSON depths, each kind's own fields)."""
+    try:
+        check_input_file(path, "archive")
+    except InputError as exc:
+        raise ArchiveError(str(exc)) from None
     try:
         with xr.open_dataset(path, engine="netcdf4") as ds:
             loaded = ds.load()
-    except (OSError, ValueError, RuntimeError) as exc:
+    except Exception as exc:  # noqa: BLE001 - damaged bytes raise anything (issue 23)
         reason = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
-        raise ArchiveError(f"cannot read {str(path)!r}: {reason[:200]}") from None
+        raise ArchiveError(f"cannot read {str(path)!r}: {reason[:200]} (not a netCDF archive, "
+                           "or a damaged one)") from None
     if "schema_version" not in loaded.attrs or "scene_json" not in loaded.attrs:
         raise ArchiveError(f"{str(path)!r} is not a rodsim archive (no scene_json attribute)")
     # Schema 3 files hold numeric index coordinates with text labels beside them
     # (rodsim.io.cf_layout): the labels become the coordinates again.
-    loaded = from_file(loaded)
-    if str(loaded.attrs["schema_version"]) not in READABLE_SCHEMA_VERSIONS:
-        raise ArchiveError(f"{str(path)!r} has archive schema {loaded.attrs['schema_version']}, "
-                           "this rodsim reads schemas "
-                           + ", ".join(READABLE_SCHEMA_VERSIONS[:-1]) + " and "
+    if str(loaded.attrs["schema_version"])[:10] not in READABLE_SCHEMA_VERSIONS:
+        raise ArchiveError(f"{str(path)!r} has archive schema "
+                           f"{str(loaded.attrs['schema_version'])[:10]}, this rodsim reads "
+                           "schemas " + ", ".join(READABLE_SCHEMA_VERSIONS[:-1]) + " and "
                            + READABLE_SCHEMA_VERSIONS[-1])
+    try:
+        loaded = from_file(loaded)
+    except Exception as exc:  # noqa: BLE001 - damaged label variables raise anything
+        raise ArchiveError(f"{str(path)!r}: damaged coordinate labels "
+                           f"({type(exc).__name__})") from None
     try:
         check_archive(loaded)
     except ArchiveSchemaError as exc:
         raise ArchiveError(f"{str(path)!r} is not a valid rodsim archive: {exc}") from None
+    except (ValueError, TypeError, KeyError, IndexError, AttributeError, OverflowError,
+            RecursionError) as exc:  # a check tripped on a value of an unexpected type
+        raise ArchiveError(f"{str(path)!r} is not a valid rodsim archive: "
+                           f"{type(exc).__name__}: {str(exc)[:100]}") from None
     return loaded
 
 

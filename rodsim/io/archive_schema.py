@@ -56,6 +56,19 @@ STATUS = {"ok": 0, "solver_failure": 1, "error": 2}
 #: Largest σ grid a study archive may declare (the shipped studies use 101).
 MAX_SIGMA_POINTS = 100_001
 
+#: Longest JSON or TOML attribute (scene_json, scene_toml, spec_json, ramp_json, …) [chars]:
+#: a scene file is at most 1 MiB, and a ramp of the most steps about as long.
+MAX_JSON_CHARS = 4 * 1024 ** 2
+#: Longest other text attribute (a title, a message, a history line, units) [chars].
+MAX_TEXT_CHARS = 10_000
+#: Deepest nesting of a JSON attribute (a scene is 4 levels deep, a study spec 6).
+MAX_JSON_DEPTH = 32
+#: Most steps of a track archive (rodsim.app.inverse.track.MAX_STEPS) or of a history.
+MAX_STEPS = 100_000
+#: Attributes holding JSON or TOML (longer than plain text).
+LONG_ATTRIBUTES = ("scene_json", "scene_toml", "spec_json", "ramp_json", "integrator_options",
+                   "fit_parameters", "reach_parameters")
+
 #: Keys every study spec (``spec_json``) holds.
 SPEC_KEYS = ("name", "title", "paper", "size", "integrator", "reference", "plot", "history",
              "sigma_points", "base_scene_json", "sweeps")
@@ -77,7 +90,36 @@ def parse_json_object(text: Any, what: str) -> dict[str, Any]:
         raise ArchiveSchemaError(f"{what} is not valid JSON ({exc})") from None
     if not isinstance(value, dict):
         raise ArchiveSchemaError(f"{what} is not a JSON object (got {type(value).__name__})")
+    _check_depth(value, what)
     return value
+
+
+def parse_json_names(text: Any, what: str) -> list[str]:
+    """``text`` parsed as a non-empty JSON list of distinct names (the fitted or actuated
+    keys), or ArchiveSchemaError naming ``what``."""
+    if not isinstance(text, str):
+        raise ArchiveSchemaError(f"{what} is not text")
+    try:
+        value = json.loads(text)
+    except (ValueError, RecursionError):
+        raise ArchiveSchemaError(f"{what} is not valid JSON") from None
+    if (not isinstance(value, list) or not value or len(set(map(str, value))) != len(value)
+            or not all(isinstance(v, str) and 0 < len(v) <= 200 for v in value)):
+        raise ArchiveSchemaError(f"{what} is not a list of distinct scene keys")
+    return value
+
+
+def _check_depth(value: Any, what: str) -> None:
+    """ArchiveSchemaError when ``value`` nests deeper than :data:`MAX_JSON_DEPTH`."""
+    level, depth = [value], 0
+    while level:
+        depth += 1
+        if depth > MAX_JSON_DEPTH:
+            raise ArchiveSchemaError(f"{what} is nested too deeply (more than "
+                                     f"{MAX_JSON_DEPTH} levels)")
+        level = [item for container in level if isinstance(container, (dict, list))
+                 for item in (container.values() if isinstance(container, dict)
+                              else container)]
 
 
 def stored_scene(text: Any, what: str) -> Scene:
@@ -132,12 +174,13 @@ KINDS = ("run", "track", "fit", "reach")
 def check_archive(ds: xr.Dataset) -> None:
     """Check a run archive (also a fit or reach archive), a track archive (``kind`` =
     ``track``) or a study archive (``study`` attribute) against its contract."""
+    _check_sizes(ds)
     kind = ds.attrs.get("kind", "run")
     if str(ds.attrs.get("schema_version")) != "1":
         _check_provenance(ds)
     if "study" in ds.attrs:
         _check_study(ds)
-    elif kind not in KINDS:
+    elif not isinstance(kind, str) or kind not in KINDS:
         raise ArchiveSchemaError(f"attribute 'kind' = {str(kind)[:40]!r} is not one of "
                                  + ", ".join(KINDS))
     elif kind == "track":
@@ -145,6 +188,84 @@ def check_archive(ds: xr.Dataset) -> None:
         _check_track(ds)
     else:
         _check_run(ds)
+        if kind == "fit":
+            _check_fit(ds)
+        elif kind == "reach":
+            _check_reach(ds)
+
+
+def _check_sizes(ds: xr.Dataset) -> None:
+    """Bounded sizes: text attributes of the archive and of its variables, and steps."""
+    def check(name: str, value: Any, where: str) -> None:
+        limit = MAX_JSON_CHARS if name in LONG_ATTRIBUTES and not where else MAX_TEXT_CHARS
+        if isinstance(value, (str, bytes)) and len(value) > limit:
+            raise ArchiveSchemaError(f"attribute {name[:40]!r}{where} holds {len(value)} "
+                                     f"characters, more than the {limit} allowed")
+        if isinstance(value, np.ndarray) and value.size > MAX_TEXT_CHARS:
+            raise ArchiveSchemaError(f"attribute {name[:40]!r}{where} holds {value.size} "
+                                     "values")
+
+    for name, value in ds.attrs.items():
+        check(str(name), value, "")
+    for variable in ds.variables:
+        for name, value in ds[variable].attrs.items():
+            check(str(name), value, f" of variable {str(variable)[:40]!r}")
+    if ds.sizes.get("step", 0) > MAX_STEPS:
+        raise ArchiveSchemaError(f"dimension 'step' has {ds.sizes['step']} steps, more than "
+                                 f"the {MAX_STEPS} allowed")
+
+
+def _scalar(ds: xr.Dataset, name: str) -> float:
+    """A scalar numeric variable ``name``."""
+    return float(_variable(ds, name, ()).values)
+
+
+def _key_scalar(ds: xr.Dataset, key: str, suffix: str = "") -> float:
+    """The scalar variable of scene key ``key`` (and ``suffix``), named as the archive's
+    schema names it (:func:`rodsim.io.cf_layout.key_variable`)."""
+    try:
+        variable = key_variable(ds, key, suffix)
+    except KeyError:
+        raise ArchiveSchemaError(f"no variable holds {key[:60]!r}"
+                                 + (f" ({suffix})" if suffix else "")) from None
+    return _scalar(ds, str(variable.name))
+
+
+def _number_attribute(ds: xr.Dataset, name: str) -> float:
+    value = _attribute(ds, name)
+    if isinstance(value, np.ndarray) and value.size == 1:
+        value = value.item()
+    if not isinstance(value, (int, float, np.integer, np.floating)) or isinstance(value, bool):
+        raise ArchiveSchemaError(f"attribute {name!r} is not a number")
+    return float(value)
+
+
+def _check_fit(ds: xr.Dataset) -> None:
+    """A fit archive: the data and their matches (point × axis, finite), the fitted keys with
+    a value, an initial value and a standard error each, the residual RMS."""
+    data = _variable(ds, "data_position", ("point", "axis"))
+    matched = _variable(ds, "matched_position", ("point", "axis"))
+    if ds.sizes["point"] < 1 or not (np.all(np.isfinite(data.values))
+                                     and np.all(np.isfinite(matched.values))):
+        raise ArchiveSchemaError("data_position or matched_position is empty or not finite")
+    for name in parse_json_names(_attribute(ds, "fit_parameters"),
+                                 "attribute 'fit_parameters'"):
+        for suffix in ("", "initial", "standard_error"):
+            _key_scalar(ds, name, suffix)
+    _number_attribute(ds, "residual_rms")
+
+
+def _check_reach(ds: xr.Dataset) -> None:
+    """A reach archive: the target and the tip reached (axis, finite), the actuated keys
+    with a value and an initial value each, the distance."""
+    for name in ("target", "tip_reached"):
+        if not np.all(np.isfinite(_variable(ds, name, ("axis",)).values)):
+            raise ArchiveSchemaError(f"variable {name!r} is not finite")
+    for name in parse_json_names(_attribute(ds, "reach_parameters"),
+                                 "attribute 'reach_parameters'"):
+        for suffix in ("", "initial"):
+            _key_scalar(ds, name, suffix)
+    _number_attribute(ds, "distance")
 
 
 def _check_provenance(ds: xr.Dataset) -> None:
@@ -169,19 +290,30 @@ def _check_provenance(ds: xr.Dataset) -> None:
 
 
 def _check_track(ds: xr.Dataset) -> None:
+    """A track archive: its ramps (key → at least as many values as stored steps, at most
+    :data:`MAX_STEPS`), each ramped key a coordinate along ``step`` holding the stored
+    steps' values, at least one step."""
     ramps = parse_json_object(_attribute(ds, "ramp_json"), "attribute 'ramp_json'")
     if not ramps:
         raise ArchiveSchemaError("attribute 'ramp_json' names no ramped key")
+    steps = ds.sizes.get("step", 0)
+    if steps < 1:
+        raise ArchiveSchemaError("a track archive without a step")
     for key, values in ramps.items():
         if not isinstance(values, list) or not all(_finite_number(v) for v in values):
             raise ArchiveSchemaError(f"ramp_json {key[:40]!r} is not a list of numbers")
-        if len(values) < ds.sizes.get("step", 0):
-            raise ArchiveSchemaError(f"ramp_json {key[:40]!r} has fewer values than steps")
+        if not max(steps, 2) <= len(values) <= MAX_STEPS:
+            raise ArchiveSchemaError(f"ramp_json {key[:40]!r} has {len(values)} values for "
+                                     f"{steps} stored steps (from max(steps, 2) to "
+                                     f"{MAX_STEPS} expected)")
         try:
             variable = key_variable(ds, key)
         except KeyError:
             raise ArchiveSchemaError(f"no variable holds ramped key {key[:60]!r}") from None
-        _variable(ds, variable.name, ("step",))
+        stored = _variable(ds, variable.name, ("step",)).values
+        if not np.array_equal(np.asarray(stored, dtype=float), np.asarray(values[:steps])):
+            raise ArchiveSchemaError(f"variable {str(variable.name)[:40]!r} does not hold the "
+                                     "ramp_json values of the stored steps")
 
 
 def _check_run(ds: xr.Dataset, leading: tuple[str, ...] = ()) -> None:

@@ -29,6 +29,7 @@ function of (scaled) parameter values that a fit or a reach minimises over.
 
 from __future__ import annotations
 
+import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
@@ -44,7 +45,7 @@ from rodsim.solvers.newton import NewtonProblem, newton
 from rodsim.solvers.result import Result
 
 __all__ = ["Continuation", "StepOutcome", "ScaledEquilibria", "EquilibriumFailure",
-           "MAX_NEWTON", "MAX_HALVINGS", "EASY_ITERATIONS"]
+           "BudgetSpent", "MAX_NEWTON", "MAX_HALVINGS", "EASY_ITERATIONS"]
 
 #: Newton iterations a warm static step may take (per registration).
 MAX_NEWTON = 30
@@ -60,6 +61,10 @@ BOUND_SNAP = 1e-5
 
 class EquilibriumFailure(RuntimeError):
     """An equilibrium needed by a fit or a reach could not be solved."""
+
+
+class BudgetSpent(EquilibriumFailure):
+    """The wall-time budget (``solver.max_wall_time``) of a track, fit or reach is spent."""
 
 
 @dataclass(frozen=True)
@@ -85,12 +90,17 @@ class Continuation:
         That equilibrium (free coordinates); its registration is applied to ``model``.
     integrator
         ``static`` (Newton, default) or ``cvode``, ``ida``, ``paper``.
+    deadline
+        ``time.perf_counter()`` after which no solve starts (:meth:`walk` fails) and an
+        integrator's solve stops; None: none.
     """
 
-    def __init__(self, model: Model, x: np.ndarray, integrator: str = "static") -> None:
+    def __init__(self, model: Model, x: np.ndarray, integrator: str = "static",
+                 deadline: float | None = None) -> None:
         self.model = registered_model(model, x)
         self.x = np.array(x, dtype=float)
         self.integrator = integrator
+        self.deadline = deadline
         self._linear: tuple[object, LinearSolver] | None = None
         #: (pattern, solve) of a Jacobian factorised at an earlier state, for chord steps.
         self._factor: tuple[object, Callable[[np.ndarray], np.ndarray]] | None = None
@@ -132,6 +142,9 @@ class Continuation:
         done, fraction, failures, iterations = 0.0, 1.0, 0, 0
         message = ""
         while done < 1.0:
+            if self.deadline is not None and time.perf_counter() > self.deadline:
+                return False, iterations, failures, (
+                    "the wall-time budget (solver.max_wall_time) is spent")
             fraction = min(fraction, 1.0 - done)
             whole = done == 0.0 and fraction == 1.0
             final = done + fraction >= 1.0
@@ -223,9 +236,15 @@ class Continuation:
         return None
 
     def _integrate(self, model: Model, x: np.ndarray) -> tuple[StepOutcome, Model]:
-        from rodsim.app.api import solve
+        from rodsim.solvers import registered_integrators
 
-        result: Result = solve(model.scene, self.integrator, model=model, initial_state=x)
+        scene = model.scene
+        budget = scene.solver.max_wall_time
+        if self.deadline is not None:  # the integrator's own budget: what is left of ours
+            budget = min(budget, max(self.deadline - time.perf_counter(), 0.0))
+        kind = registered_integrators()[self.integrator]
+        result: Result = kind(model, kind.options_of(scene), scene.solver.tolerance, budget,
+                              None, initial_state=x).solve()
         steps = int(result.stats["steps"])
         if not result.success:
             return StepOutcome(False, x, result.residual, steps, result.message), model
@@ -264,11 +283,14 @@ class ScaledEquilibria:
         initial = np.array([k.value(scene) for k in keys])
         scale = np.where(initial != 0.0, np.abs(initial), 1.0)
         lower, upper = np.array([k.bounds() for k in keys]).T / scale
+        started = time.perf_counter()
         first = solve(scene, "static")
         if not first.success:
             raise EquilibriumFailure(f"the scene's own values have no equilibrium: "
                                      f"{first.message}")
-        return cls(scene, keys, scale, first, rod), lower, upper
+        problem = cls(scene, keys, scale, first, rod)
+        problem.continuation.deadline = started + float(scene.solver.max_wall_time)
+        return problem, lower, upper
 
     def values_of(self, u: np.ndarray) -> np.ndarray:
         """The parameter values of u, those within :data:`BOUND_SNAP` × scale of a bound
@@ -288,6 +310,8 @@ class ScaledEquilibria:
         if np.array_equal(values, self.values):
             return
         ok, _, _, message = self.continuation.walk(self.scene, self.keys, self.values, values)
+        if not ok and "wall-time budget" in message:
+            raise BudgetSpent(f"{message} after {self.evaluations} equilibria")
         if not ok:
             raise EquilibriumFailure(
                 "no equilibrium at " + ", ".join(f"{k.name} = {v:.6g}" for k, v in
@@ -303,11 +327,34 @@ class ScaledEquilibria:
         large residual and rejected, and the trust region shrinks."""
         try:
             self.at(u)
+        except BudgetSpent:
+            raise
         except EquilibriumFailure as exc:
             self.failures += 1
             self.last_failure = str(exc)
             return False
         return True
+
+    def result(self, what: str) -> Result:
+        """The current equilibrium — the one the optimiser measured, not a cold re-solve
+        that could land on another branch — as a static :class:`Result` with its stability
+        verdict; ``what`` names it in the message."""
+        import dataclasses
+
+        from rodsim.core.stability import assess
+        from rodsim.solvers import registered_integrators
+
+        model, x = self.continuation.model, self.continuation.x
+        options = registered_integrators()["static"].options_of(model.scene)
+        force = model.force(x)
+        return Result.from_model(
+            model, x, integrator="static", options=dataclasses.asdict(options), success=True,
+            message=f"converged ({what}: warm-started equilibrium)",
+            residual=float(model.residual(force)),
+            stats={"effective_tolerance": max(model.scene.solver.tolerance,
+                                              model.residual_floor),
+                   "force_evals": float(self.evaluations)},
+            history={}, stability=assess(model, x))
 
     def nodes(self) -> np.ndarray:
         model = self.continuation.model

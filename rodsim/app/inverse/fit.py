@@ -26,8 +26,16 @@ m = points × (d − 1), with ``s`` m = points × d, d = the dimension (1–3) o
 of the data and the fitted centerline (planar data and a planar model: d = 2).
 
 Refused (:class:`FitError`): fewer points than parameters, no residual degrees of freedom
-left, and parameters that do not influence the shape (a zero column of J) or that cannot be
-told apart from it (J's columns, scaled, have a condition number above 1e10).
+left, data farther than :data:`MAX_REACH` rod lengths from the rod's origin (no shape of the
+rod comes near them: the message guesses the cause, typically millimetres read as metres),
+and parameters that do not influence the shape (a zero column of J) or that cannot be told
+apart from it (J's columns, scaled, have a condition number above 1e10).
+
+The fitted state is the equilibrium the optimiser measured at the values found (the warm
+continuation's), never a cold re-solve that could land on another branch; it carries its
+stability verdict (``Fit.result.stability``). The residual RMS is reported in metres and
+relative to the rod's length; a fit whose RMS is not finite raises
+:class:`~rodsim.app.inverse.continuation.EquilibriumFailure`.
 """
 
 from __future__ import annotations
@@ -44,9 +52,10 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from rodsim.app.inverse.continuation import EquilibriumFailure, ScaledEquilibria
-from rodsim.app.inverse.parameter_keys import NumericKey, numeric_keys, scene_with
+from rodsim.app.inverse.parameter_keys import NumericKey, numeric_keys
 from rodsim.core.scene import Scene
 from rodsim.io.cf_layout import variable_name
+from rodsim.io.input_file import InputError, check_input_file
 from rodsim.io.provenance import history
 from rodsim.io.run_dataset import run_dataset
 from rodsim.solvers.base import Progress
@@ -65,6 +74,12 @@ MAX_CONDITION = 1e10
 NO_INFLUENCE = 1e-9
 #: Largest number of points a data file may hold.
 MAX_POINTS = 1_000_000
+#: Largest data file read [bytes] (a million points of three 25-digit numbers).
+MAX_DATA_BYTES = 128 * 1024 ** 2
+#: Data farther than this many rod lengths from the rod's origin are refused.
+MAX_REACH = 10.0
+#: Unit mistakes :func:`check_plausible` recognises: (factor to metres, what the data were).
+UNIT_GUESSES = ((1e-3, "millimetres"), (1e-2, "centimetres"), (0.0254, "inches"))
 
 
 class FitError(ValueError):
@@ -82,7 +97,13 @@ class Points:
 
 def read_points(path: str | Path) -> Points:
     """Points from a CSV file with header ``x,y,z`` (and optionally ``s``); FitError names
-    the first problem (missing or unknown columns, a value that is not a finite number)."""
+    the first problem (missing or unknown columns, a value that is not a finite number). A
+    FIFO, a device (``/dev/zero``), a folder or a file over :data:`MAX_DATA_BYTES` is
+    refused before it is opened."""
+    try:
+        check_input_file(path, "data", MAX_DATA_BYTES)
+    except InputError as exc:
+        raise FitError(str(exc)) from None
     try:
         with open(path, newline="", encoding="utf-8") as handle:
             rows = list(csv.reader(handle))
@@ -158,6 +179,16 @@ class Fit:
     rod: str
     result: Result
 
+    @property
+    def residual_rms_relative(self) -> float:
+        """The residual RMS divided by the fitted rod's length."""
+        return self.residual_rms / self.result.scene.rods[self.rod].length
+
+    @property
+    def stable(self) -> bool:
+        """Whether the fitted equilibrium is stable (rodsim/core/stability.py)."""
+        return self.result.stability is None or bool(self.result.stability.stable)
+
     def to_xarray(self) -> xr.Dataset:
         """The fit archive: the run archive of the fitted scene (``rodsim rerun`` re-solves
         it) with the data, their matches, and per parameter its fitted value, initial value
@@ -193,6 +224,7 @@ class Fit:
             "fit_parameters": json.dumps([k.name for k in self.keys]),
             "fit_rod": self.rod,
             "residual_rms": self.residual_rms,
+            "residual_rms_relative": self.residual_rms_relative,
             "degrees_of_freedom": self.degrees_of_freedom,
             "fit_evaluations": self.evaluations,
             "fit_jacobians": self.jacobians,
@@ -200,6 +232,25 @@ class Fit:
             "fit_message": self.message,
         })
         return ds
+
+
+def check_plausible(points: Points, scene: Scene, rod: str) -> None:
+    """FitError when a data point lies farther than :data:`MAX_REACH` lengths of ``rod``
+    from its origin (no shape of the rod comes near it), guessing the unit mistake."""
+    origin = np.asarray(scene.rods[rod].origin, dtype=float)
+    length = float(scene.rods[rod].length)
+    reach = float(np.max(np.abs(points.xyz - origin)))  # no overflow at 1e300
+    if reach <= MAX_REACH * length:
+        return
+    guess = ""
+    for factor, unit in UNIT_GUESSES:
+        if 0.2 * length <= reach * factor <= 1.5 * length:  # then a rod-sized extent
+            guess = (f"; in {unit} they would be {reach * factor:.3g} m away: convert them "
+                     "to metres")
+            break
+    raise FitError(f"data up to {reach:.3g} m from the origin of rod {rod!r}, {reach / length:.3g} "
+                   f"times its length {length:g} m: no shape of the rod comes near them (the "
+                   f"data must be in metres{guess})")
 
 
 def _span_dimension(points: np.ndarray) -> int:
@@ -237,12 +288,21 @@ def fit(scene: Scene, points: Points, params: Sequence[str], *, rod: str | None 
     unidentifiable parameters, EquilibriumFailure when an equilibrium cannot be solved."""
     from scipy.optimize import least_squares
 
-    from rodsim.app.api import solve
-
     started = time.perf_counter()
-    keys = numeric_keys(scene, params)
+    if not isinstance(scene, Scene):
+        raise FitError(f"fit needs a Scene (rodsim.load_scene), got {type(scene).__name__}")
+    if not isinstance(points, Points):
+        raise FitError(f"fit needs Points (rodsim.app.inverse.fit.read_points or Points(xyz)),"
+                       f" got {type(points).__name__}")
+    xyz = np.asarray(points.xyz)
+    if xyz.ndim != 2 or xyz.shape[1:] != (3,) or xyz.dtype.kind not in "fiu" or not np.all(
+            np.isfinite(xyz)):
+        raise FitError("Points.xyz must be an (m, 3) array of finite numbers [m]")
+    if isinstance(params, str) or not all(isinstance(key, str) for key in params):
+        raise FitError("params must be a list of scene keys (e.g. ['youngs_modulus'])")
+    keys = numeric_keys(scene, list(params))
     rod = rod or next(iter(scene.rods))
-    if rod not in scene.rods:
+    if not isinstance(rod, str) or rod not in scene.rods:
         raise FitError(f"rod {rod!r}: no such rod; rods: {', '.join(scene.rods)}")
     count = len(points.xyz)
     length = scene.rods[rod].length
@@ -252,6 +312,7 @@ def fit(scene: Scene, points: Points, params: Sequence[str], *, rod: str | None 
     if count < len(keys):
         raise FitError(f"{count} data points for {len(keys)} parameters: need at least as "
                        "many points as parameters")
+    check_plausible(points, scene, rod)
     problem, lower, upper = ScaledEquilibria.at_scene_values(scene, keys, rod)
     initial, scale = problem.values.copy(), problem.scale
     s_nodes = problem.continuation.model.rods[rod].geometry.node_s
@@ -289,11 +350,9 @@ def fit(scene: Scene, points: Points, params: Sequence[str], *, rod: str | None 
     solution = least_squares(residuals, problem.start, jac=jacobian,
                              bounds=(lower, upper), x_scale=1.0, xtol=1e-12, ftol=1e-15,
                              gtol=1e-15, max_nfev=max_evaluations, method="trf")
-    problem.at(solution.x)
+    problem.at(solution.x)  # the equilibrium the optimiser measured (no cold re-solve)
     values = problem.values_of(solution.x)
-    final = solve(scene_with(scene, keys, values), "static")
-    if not final.success:
-        raise EquilibriumFailure(f"the fitted scene has no equilibrium: {final.message}")
+    final = problem.result("fit")
     nodes = problem.nodes()
     fitted_points, *_ = matched(nodes)
     residual = (fitted_points - points.xyz).ravel()
@@ -306,7 +365,10 @@ def fit(scene: Scene, points: Points, params: Sequence[str], *, rod: str | None 
     sigma2 = float(residual @ residual) / (freedom - len(keys))
     _check_identifiable(scaled, keys, length)
     covariance = sigma2 * np.linalg.inv(scaled.T @ scaled) * np.outer(scale, scale)
-    return Fit(keys, initial, values, np.sqrt(np.diag(covariance)), covariance,
-               float(np.sqrt(np.mean(np.sum((fitted_points - points.xyz) ** 2, axis=1)))),
+    rms = float(np.sqrt(np.mean(np.sum((fitted_points - points.xyz) ** 2, axis=1))))
+    if not math.isfinite(rms):
+        raise EquilibriumFailure(f"the fit's residual RMS is {rms} (not a finite distance): "
+                                 "no fit")
+    return Fit(keys, initial, values, np.sqrt(np.diag(covariance)), covariance, rms,
                freedom, problem.evaluations, problem.jacobians, time.perf_counter() - started,
                str(solution.message), points, fitted_points, rod, final)

@@ -15,11 +15,22 @@ values.
 A target is reached when the final tip is within ``tolerance`` [m] of it; otherwise the
 target is out of reach and the answer is the closest tip found (a local minimum of the
 distance within the bounds), which the failure message reports.
+
+The answer is the equilibrium the optimiser measured at the values found (the warm
+continuation's), never a cold re-solve of those values, which can land on another branch
+(a folded rod far from the target). It carries its stability verdict: a target met only at
+an unstable equilibrium (a rod compressed past buckling) is not reached —
+``success`` False, ``unstable`` True, the message says so.
+
+Where the tip does not move with an actuation value at the start (its sensitivity is zero,
+as a tendon at zero tension can be), that value starts at :data:`NUDGE` of its scale inside
+its range instead, so the trust region sees a direction.
 """
 
 from __future__ import annotations
 
 import json
+import math
 import time
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -27,8 +38,8 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from rodsim.app.inverse.continuation import EquilibriumFailure, ScaledEquilibria
-from rodsim.app.inverse.parameter_keys import NumericKey, numeric_keys, scene_with
+from rodsim.app.inverse.continuation import ScaledEquilibria
+from rodsim.app.inverse.parameter_keys import NumericKey, numeric_keys
 from rodsim.core.scene import Scene
 from rodsim.core.schema import SceneError
 from rodsim.io.cf_layout import variable_name
@@ -44,6 +55,12 @@ __all__ = ["Reach", "reach", "DEFAULT_TOLERANCE"]
 
 #: Distance [m] below which the target counts as reached.
 DEFAULT_TOLERANCE = 1e-6
+#: Targets farther than this many rod lengths from the rod's origin are refused.
+MAX_REACH = 10.0
+#: Scaled step from the start of an actuation value the tip is insensitive to.
+NUDGE = 1e-2
+#: A tip sensitivity (m per unit of scaled value) below this × the rod's length is zero.
+NO_SENSITIVITY = 1e-12
 
 
 @dataclass
@@ -66,6 +83,7 @@ class Reach:
     wall_time: float
     rod: str
     result: Result
+    unstable: bool = False
 
     def to_xarray(self) -> xr.Dataset:
         """The reach archive: the run archive of the scene with the values found, the
@@ -92,6 +110,7 @@ class Reach:
             "distance": self.distance,
             "reach_tolerance": self.tolerance,
             "reached": int(self.success),
+            "reach_unstable": int(self.unstable),
             "reach_message": self.message,
             "reach_evaluations": self.evaluations,
             "reach_jacobians": self.jacobians,
@@ -109,18 +128,31 @@ def reach(scene: Scene, tip: Sequence[float], actuate: Sequence[str], *,
     EquilibriumFailure when an equilibrium on the way cannot be solved."""
     from scipy.optimize import least_squares
 
-    from rodsim.app.api import solve
-
     started = time.perf_counter()
-    target = np.asarray(tip, dtype=float)
+    if not isinstance(scene, Scene):
+        raise SceneError(f"reach needs a Scene (rodsim.load_scene), got {type(scene).__name__}")
+    try:
+        target = np.asarray(tip, dtype=float)
+    except (TypeError, ValueError):
+        target = np.empty(0)
     if target.shape != (3,) or not np.all(np.isfinite(target)):
         raise SceneError("the tip target needs three finite coordinates X,Y,Z [m]")
-    if not tolerance > 0:
-        raise SceneError(f"tolerance {tolerance!r}: must be a distance > 0 [m]")
-    keys = numeric_keys(scene, actuate)
+    if isinstance(tolerance, bool) or not isinstance(tolerance, (int, float)) or not (
+            0 < tolerance < math.inf):
+        raise SceneError(f"tolerance {str(tolerance)[:40]!r}: must be a distance > 0 [m]")
+    if isinstance(actuate, str) or not all(isinstance(key, str) for key in actuate):
+        raise SceneError("actuate must be a list of scene keys (e.g. ['tendon_actuation."
+                         "force'])")
+    keys = numeric_keys(scene, list(actuate))
     rod = rod or next(iter(scene.rods))
-    if rod not in scene.rods:
-        raise SceneError(f"rod {rod!r}: no such rod; rods: {', '.join(scene.rods)}")
+    if not isinstance(rod, str) or rod not in scene.rods:
+        raise SceneError(f"rod {str(rod)[:40]!r}: no such rod; rods: {', '.join(scene.rods)}")
+    length = float(scene.rods[rod].length)
+    away = float(np.max(np.abs(target - np.asarray(scene.rods[rod].origin, dtype=float))))
+    if away > MAX_REACH * length:
+        raise SceneError(f"the target is {away:.3g} m from the origin of rod {rod!r}, "
+                         f"{away / length:.3g} times its length {length:g} m: no shape of the "
+                         "rod reaches it (the target must be in metres)")
     problem, lower, upper = ScaledEquilibria.at_scene_values(scene, keys, rod)
     initial = problem.values.copy()
 
@@ -141,22 +173,36 @@ def reach(scene: Scene, tip: Sequence[float], actuate: Sequence[str], *,
         problem.at(u)
         return problem.node_sensitivity()[:, -1, :].T
 
-    solution = least_squares(residuals, problem.start, jac=jacobian,
+    start = np.array(problem.start, dtype=float)
+    insensitive = np.linalg.norm(jacobian(start), axis=0) <= NO_SENSITIVITY * length
+    for column in np.flatnonzero(insensitive):  # e.g. a tendon at zero tension
+        room_up, room_down = upper[column] - start[column], start[column] - lower[column]
+        step = min(NUDGE, 0.5 * max(room_up, room_down))
+        start[column] += step if room_up >= room_down else -step
+    solution = least_squares(residuals, start, jac=jacobian,
                              bounds=(lower, upper), xtol=1e-12, ftol=1e-15, gtol=1e-15,
                              max_nfev=max_evaluations, method="trf")
     values = problem.values_of(solution.x)
-    final = solve(scene_with(scene, keys, values), "static")
-    if not final.success:
-        raise EquilibriumFailure(f"no equilibrium at the values found: {final.message}")
+    problem.at(solution.x)  # the equilibrium the optimiser measured there (no cold re-solve)
+    final = problem.result("reach")
     reached = final.tip(rod)
     distance = float(np.linalg.norm(reached - target))
-    success = distance <= tolerance
+    unstable = not final.stability.stable
+    success = distance <= tolerance and not unstable
     described = ", ".join(f"{k.name} = {v:.6g} {k.unit}" for k, v in zip(keys, values,
                                                                           strict=True))
     where = ", ".join(f"{c:.6g}" for c in reached)
-    message = (f"reached within {distance:.3g} m with {described}" if success else
-               f"target out of reach: the closest tip found is ({where}) m, {distance:.3g} m "
-               f"from the target (tolerance {tolerance:.3g} m), with {described}")
+    if unstable:
+        message = (f"the best tip found, ({where}) m, {distance:.3g} m from the target, is an "
+                   "UNSTABLE equilibrium (smallest stiffness eigenvalue "
+                   f"{final.stability.min_eigenvalue:.3g}: e.g. a rod compressed past "
+                   f"buckling), with {described}; not a usable actuation")
+    elif success:
+        message = f"reached within {distance:.3g} m with {described}"
+    else:
+        message = (f"target out of reach: the closest tip found is ({where}) m, "
+                   f"{distance:.3g} m from the target (tolerance {tolerance:.3g} m), with "
+                   f"{described}")
     return Reach(keys, initial, values, target, reached, distance, tolerance, success,
                  message, problem.evaluations, problem.jacobians,
-                 time.perf_counter() - started, rod, final)
+                 time.perf_counter() - started, rod, final, unstable)

@@ -15,8 +15,20 @@ with no predictor and 2.2 ms with the path's chord (docs/inverse.md).
 
 A step that fails is retried with half the increment, halved again on each failure and
 doubled after an easy sub-step; at the :data:`MAX_HALVINGS`-th failed attempt the track
-stops and reports the failure at that step (never skipped). The archive holds every step's
-shape along a ``step`` dimension with the ramped values as coordinates (docs/inverse.md).
+stops and reports the failure at that step (never skipped).
+
+Every step's equilibrium gets a stability verdict (rodsim/core/stability.py): a warm start
+from a straight rod stays on the straight branch past the Euler load, an equilibrium that
+is not a minimum of the energy. The first unstable step stops the track (``success`` False,
+``unstable_step`` names it, the arrays hold it, flagged) unless ``allow_unstable``: then
+the track goes on and every step stays flagged (``stable``, ``min_eigenvalues``, and the
+archive's ``stable`` and ``stiffness_min_eigenvalue`` along ``step``).
+
+``solver.max_wall_time`` bounds the whole track (checked between steps and between the
+attempts of a step; an integrator's own solve is bounded by what is left).
+
+The archive holds every step's shape along a ``step`` dimension with the ramped values as
+coordinates (docs/inverse.md).
 """
 
 from __future__ import annotations
@@ -49,6 +61,11 @@ __all__ = ["Track", "track", "parse_ramp", "rerun_track", "MAX_HALVINGS"]
 
 
 
+#: Most steps a track may have (a ramp's COUNT): beyond, the values alone fill memory and
+#: the run takes days.
+MAX_STEPS = 100_000
+
+
 def parse_ramp(text: str) -> tuple[str, np.ndarray]:
     """``KEY=START:STOP:COUNT`` → (key, COUNT values from START to STOP); SceneError."""
     key, sep, spec = text.partition("=")
@@ -61,9 +78,9 @@ def parse_ramp(text: str) -> tuple[str, np.ndarray]:
     except ValueError:
         raise SceneError(f"--ramp {text[:60]!r}: START and STOP must be numbers, COUNT a "
                          "whole number") from None
-    if not (np.isfinite(start) and np.isfinite(stop)) or count < 2:
-        raise SceneError(f"--ramp {text[:60]!r}: finite START and STOP and COUNT >= 2 "
-                         "expected")
+    if not (np.isfinite(start) and np.isfinite(stop)) or not 2 <= count <= MAX_STEPS:
+        raise SceneError(f"--ramp {text[:60]!r}: finite START and STOP and COUNT from 2 to "
+                         f"{MAX_STEPS} expected")
     return key.strip(), np.linspace(start, stop, count)
 
 
@@ -74,7 +91,10 @@ class Track:
     nodes, 3) [m] and ``quaternions`` (steps, segments, 4) the same concatenated over the rods
     as in a run archive; ``values`` (steps planned, keys) the ramped values. ``success`` is
     False when a step failed: ``failed_step`` names it and the arrays hold the steps before
-    it."""
+    it; or when a step's equilibrium is unstable (and ``allow_unstable`` was not given):
+    ``unstable_step`` names it and the arrays end with it. ``stable`` and
+    ``min_eigenvalues`` hold every completed step's stability verdict (the smallest
+    eigenvalue of the stiffness is NaN for a stable step)."""
 
     scene: Scene
     integrator: str
@@ -86,9 +106,18 @@ class Track:
     iterations: list[int] = field(default_factory=list)
     halvings: list[int] = field(default_factory=list)
     times: list[float] = field(default_factory=list)
+    stable: list[bool] = field(default_factory=list)
+    min_eigenvalues: list[float] = field(default_factory=list)
     success: bool = True
     message: str = "converged"
     failed_step: int | None = None
+    unstable_step: int | None = None
+    allow_unstable: bool = False
+
+    @property
+    def unstable_steps(self) -> list[int]:
+        """The completed steps whose equilibrium is unstable."""
+        return [k for k, stable in enumerate(self.stable) if not stable]
 
     @property
     def steps(self) -> int:
@@ -162,6 +191,12 @@ class Track:
                           "halving its increment"}),
             "wall_time": ("step", np.asarray(self.times, dtype=float),
                           {"units": "s", "long_name": "wall time of the step"}),
+            "stable": ("step", np.asarray(self.stable, dtype=np.int8),
+                       {"units": "1", "long_name": "1 if the step's equilibrium is stable (its "
+                        "stiffness K = -dF/dx is positive definite), else 0"}),
+            "stiffness_min_eigenvalue": ("step", np.asarray(self.min_eigenvalues, dtype=float),
+                                         {"long_name": "smallest eigenvalue of the stiffness "
+                                          "of an unstable step (NaN when stable)"}),
         }
         ds = xr.Dataset(data_vars=data, coords=coords)
         warm = np.asarray(self.times[1:])
@@ -179,6 +214,8 @@ class Track:
                 sort_keys=True),
             "success": int(self.success),
             "message": self.message,
+            "unstable_steps": len(self.unstable_steps),
+            "allow_unstable": int(self.allow_unstable),
             "ramp_json": json.dumps({k.name: self.values[:, i].tolist()
                                      for i, k in enumerate(self.keys)}),
             "solver_tolerance": float(self.scene.solver.tolerance),
@@ -192,24 +229,53 @@ class Track:
         return ds
 
 
-def track(scene: Scene, ramps: Mapping[str, Sequence[float]], integrator: str = "static",
-          *, progress: Progress | None = None) -> Track:
-    """Equilibria along the path ``ramps`` (key → values, all of one length ≥ 2), step 0
-    from rest and every later step warm-started from the previous one (module docstring);
-    ``progress`` is called after each step with the fraction done and a status line.
-
-    Raises SceneError for bad keys or values; a solver failure comes back as
-    ``Track.success = False`` with the failing step in the message.
-    """
-    from rodsim.app.api import solve
-
-    keys = numeric_keys(scene, list(ramps))
-    lengths = {len(v) for v in ramps.values()}
-    if len(lengths) != 1 or lengths.pop() < 2:
-        raise SceneError("every ramp needs the same number of values (at least 2)")
-    values = np.column_stack([np.asarray(v, dtype=float) for v in ramps.values()])
+def _ramp_values(ramps: Mapping[str, Sequence[float]]) -> np.ndarray:
+    """The ramps as a (steps, keys) array of finite numbers; SceneError otherwise (a text, a
+    scalar, ramps of different lengths)."""
+    if not isinstance(ramps, Mapping) or not ramps:
+        raise SceneError("ramps must map scene keys to lists of values (e.g. {'force': "
+                         "[0, 1, 2]})")
+    columns = []
+    for key, ramp in ramps.items():
+        if isinstance(ramp, (str, bytes)) or not isinstance(ramp, (Sequence, np.ndarray)):
+            raise SceneError(f"ramp {str(key)[:60]!r}: expected a list of numbers, got "
+                             f"{type(ramp).__name__} (parse_ramp reads KEY=START:STOP:COUNT)")
+        try:
+            column = np.asarray(ramp, dtype=float)
+        except (TypeError, ValueError):
+            raise SceneError(f"ramp {str(key)[:60]!r}: expected a list of numbers") from None
+        if column.ndim != 1:
+            raise SceneError(f"ramp {str(key)[:60]!r}: expected a flat list of numbers")
+        columns.append(column)
+    lengths = {len(c) for c in columns}
+    if len(lengths) != 1 or not 2 <= lengths.pop() <= MAX_STEPS:
+        raise SceneError(f"every ramp needs the same number of values (2 to {MAX_STEPS})")
+    values = np.column_stack(columns)
     if not np.all(np.isfinite(values)):
         raise SceneError("ramp values must be finite numbers")
+    return values
+
+
+def track(scene: Scene, ramps: Mapping[str, Sequence[float]], integrator: str = "static",
+          *, progress: Progress | None = None, allow_unstable: bool = False) -> Track:
+    """Equilibria along the path ``ramps`` (key → values, all of one length ≥ 2), step 0
+    from rest and every later step warm-started from the previous one (module docstring);
+    ``progress`` is called after each step with the fraction done and a status line. The
+    first unstable step stops the track unless ``allow_unstable`` (module docstring).
+
+    Raises SceneError for bad keys or values; a solver failure, a spent wall-time budget or
+    an unstable step comes back as ``Track.success = False`` with the step in the message.
+    """
+    from rodsim.app.api import solve
+    from rodsim.core.stability import assess
+
+    if not isinstance(scene, Scene):
+        raise SceneError(f"track needs a Scene (rodsim.load_scene), got {type(scene).__name__}")
+    if integrator not in registered_integrators():
+        raise SceneError(f"integrator {str(integrator)[:40]!r}: unknown; allowed: "
+                         + ", ".join(registered_integrators()))
+    values = _ramp_values(ramps)
+    keys = numeric_keys(scene, list(ramps))
     for column, key in enumerate(keys):  # every value in range before any work
         low, high = key.bounds()
         outside = (values[:, column] < low) | (values[:, column] > high)
@@ -217,29 +283,41 @@ def track(scene: Scene, ramps: Mapping[str, Sequence[float]], integrator: str = 
             raise SceneError(f"{key.name} = {values[outside, column][0]:g}: out of range; "
                              f"allowed: {key.parameter.allowed}")
     started = time.perf_counter()
+    budget = float(scene.solver.max_wall_time)
+    deadline = started + budget
     first_scene = scene_with(scene, keys, values[0])
     first = solve(first_scene, integrator)
     model = Model(first_scene)
-    out = Track(scene, integrator, keys, values, model)
+    out = Track(scene, integrator, keys, values, model, allow_unstable=allow_unstable)
     if not first.success:
         out.success, out.failed_step = False, 0
         out.message = f"step 0 ({_values_text(keys, values[0])}) failed: {first.message}"
         return out
-    continuation = Continuation(model, first.state, integrator)
+    continuation = Continuation(model, first.state, integrator, deadline=deadline)
     out.states.append(model.full(first.state))
     out.residuals.append(first.residual)
     out.iterations.append(int(first.stats["newton_iters"] if integrator == "static"
                               else first.stats["steps"]))
     out.halvings.append(0)
     out.times.append(time.perf_counter() - started)
+    stability = first.stability or assess(model, first.state)
+    if not _record_stability(out, 0, stability, allow_unstable):
+        return out
     previous: np.ndarray | None = None  # the equilibrium before the last, for the predictor
     for step in range(1, len(values)):
         started = time.perf_counter()
+        if started > deadline:
+            out.success, out.failed_step = False, step
+            out.message = (f"step {step} ({_values_text(keys, values[step])}) not started: "
+                           f"the wall-time budget of {budget:g} s (solver.max_wall_time) is "
+                           "spent")
+            return out
         predictor = None
-        if previous is not None and integrator == "static":
-            # First-order (secant) predictor: the path's last chord, scaled to this step.
-            ratio = (np.linalg.norm(values[step] - values[step - 1])
-                     / np.linalg.norm(values[step - 1] - values[step - 2]))
+        chord = float(np.linalg.norm(values[step - 1] - values[step - 2])) if step > 1 else 0.0
+        if previous is not None and integrator == "static" and chord > 0.0:
+            # First-order (secant) predictor: the path's last chord, scaled to this step (none
+            # after a step that did not move: a constant ramp, START = STOP).
+            ratio = float(np.linalg.norm(values[step] - values[step - 1])) / chord
             predictor = continuation.x + ratio * (continuation.x - previous)
         last = continuation.x
         ok, iterations, halvings, message = continuation.walk(
@@ -256,10 +334,29 @@ def track(scene: Scene, ramps: Mapping[str, Sequence[float]], integrator: str = 
             continuation.x)))
         out.iterations.append(iterations)
         out.halvings.append(halvings)
+        verdict = assess(continuation.model, continuation.x)  # part of the step's time
         out.times.append(time.perf_counter() - started)
+        if not _record_stability(out, step, verdict, allow_unstable):
+            return out
         if progress is not None:
             progress(step / (len(values) - 1), f"track: step {step}/{len(values) - 1}")
     return out
+
+
+def _record_stability(out: Track, step: int, stability, allow_unstable: bool) -> bool:
+    """Append the verdict of ``step``; False (and the track stopped) when it is unstable
+    and unstable steps are not allowed."""
+    out.stable.append(bool(stability.stable))
+    out.min_eigenvalues.append(float("nan") if stability.stable
+                               else float(stability.min_eigenvalue))
+    if stability.stable or allow_unstable:
+        return True
+    out.success, out.unstable_step = False, step
+    out.message = (f"step {step} ({_values_text(out.keys, out.values[step])}) is an unstable "
+                   f"equilibrium (smallest stiffness eigenvalue {stability.min_eigenvalue:.3g}"
+                   "): the path crossed a stability limit (e.g. buckling) and the track "
+                   "stopped there (allow unstable steps to go on, flagged)")
+    return False
 
 
 def _values_text(keys: Sequence[NumericKey], row: np.ndarray) -> str:
@@ -267,16 +364,34 @@ def _values_text(keys: Sequence[NumericKey], row: np.ndarray) -> str:
 
 
 def rerun_track(dataset: xr.Dataset) -> tuple[Track, float]:
-    """Re-run a stored track (its scene, ramps and integrator) from the archive alone;
-    returns the new track and the largest distance [m] between the stored and the
-    recomputed control points over every step (infinite if the step counts differ)."""
-    from rodsim.io.archive import scene_of
+    """Re-run a stored track (its scene, ramps, integrator and integrator options) from the
+    archive alone, over the steps it stores (a track stopped at an unstable step stores
+    fewer than its ramps plan); returns the new track and the largest distance [m] between
+    the stored and the recomputed control points over every stored step (infinite if the
+    step counts differ, or if the integrator options the stored scene gives today are not
+    the stored ones). Unstable steps are allowed: they are compared, not stopped at."""
+    from rodsim.io.archive import ArchiveError, scene_of
+    from rodsim.io.archive_schema import parse_json_object
     from rodsim.io.compare import largest_rod_distance
 
-    ramps = json.loads(dataset.attrs["ramp_json"])
-    again = track(scene_of(dataset), ramps, str(dataset.attrs["integrator"]))
+    ramps = parse_json_object(dataset.attrs["ramp_json"], "attribute 'ramp_json'")
     stored = dataset["position"].values
-    if again.steps != stored.shape[0]:
+    steps = stored.shape[0]
+    ramps = {key: list(values)[:max(steps, 2)] for key, values in ramps.items()}
+    scene = scene_of(dataset)
+    integrator = str(dataset.attrs["integrator"])
+    options = parse_json_object(dataset.attrs["integrator_options"],
+                                "attribute 'integrator_options'")
+    today = json.loads(json.dumps(dataclasses.asdict(
+        registered_integrators()[integrator].options_of(scene))))
+    if options != today:
+        changed = sorted(str(k) for k in set(options) | set(today)
+                         if options.get(k) != today.get(k))
+        raise ArchiveError("archive is inconsistent: integrator_options differ from the "
+                           f"scene's solver options ({', '.join(changed)[:60]})")
+    again = track(scene, ramps, integrator, allow_unstable=True)
+    if again.steps < steps:
         return again, float("inf")
     rods = np.concatenate([[name] * rod.nodes for name, rod in again.model.rods.items()])
-    return again, largest_rod_distance(stored, dataset["rod"].values, again.positions, rods)
+    return again, largest_rod_distance(stored, dataset["rod"].values,
+                                       again.positions[:steps], rods)
