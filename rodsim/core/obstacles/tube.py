@@ -335,8 +335,9 @@ def _check_points(points: np.ndarray, prefix: str) -> None:
                          f"{points[bad[0]].tolist()}")
     bad = np.flatnonzero(points[:, 3] <= 0.0)
     if len(bad):
-        raise SceneError(f"{prefix}: point {int(bad[0])} has radius {points[bad[0], 3]!r} m; "
-                         "allowed: radius > 0")
+        value = float(points[bad[0], 3])
+        raise SceneError(f"{prefix}: point {int(bad[0])} has radius {value!r} m; allowed: "
+                         "radius > 0")
     chord = np.linalg.norm(np.diff(points[:, :3], axis=0), axis=1)
     bad = np.flatnonzero(chord == 0.0)
     if len(bad):

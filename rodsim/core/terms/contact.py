@@ -18,7 +18,9 @@ F and its Jacobian are continuous in the state and Newton converges quadraticall
 contact that appears or vanishes, and CVODE's error control sees no kink; unlike a log-barrier
 it is defined for every state (a Newton step may overshoot into the obstacle) and its
 stiffness is bounded (k), so the conditioning does not blow up near contact. The cost is a
-compliance: a contact force f penetrates by f/k + δ/2.
+compliance: a contact force f penetrates by p = √(2 δ f / k) while f < k δ/2 (the onset; with
+the defaults this holds for any force a catheter meets: k δ/2 ≈ 0.5 E I r / l³), else by
+f/k + δ/2.
 
 Scales (defaults from the rod, not tuned per scene): k = stiffness_scale · E I / l³ [N/m],
 l the segment length (the stiffness of one segment bent as a cantilever, so the penetration
