@@ -3,7 +3,9 @@
     python docs/generate_scene_reference.py          # rewrite docs/scenes.md
     python docs/generate_scene_reference.py --check  # exit 1 if docs/scenes.md is stale
 
-Reads rodsim.core.rod.rod.ROD_PARAMETERS, rodsim.core.tendon.TENDON_PARAMETERS,
+Reads rodsim.core.rod.rod.ROD_PARAMETERS, rodsim.core.supports.BASE_PARAMETERS and
+SUPPORT_PARAMETERS,
+rodsim.core.tendon.TENDON_PARAMETERS,
 rodsim.core.scene.SOLVER_PARAMETERS, every registered term (``parameters``, ``equation``,
 ``scope``) and every registered integrator (``parameters``, ``summary``,
 ``quaternion_norm``), and replaces the text between the markers
@@ -23,6 +25,7 @@ from rodsim.core.rod.rod import ROD_PARAMETERS
 from rodsim.core.rod.sections import INHERITED, SECTION_PARAMETERS
 from rodsim.core.scene import SOLVER_PARAMETERS
 from rodsim.core.schema import Parameter
+from rodsim.core.supports import BASE_PARAMETERS, SUPPORT_PARAMETERS
 from rodsim.core.terms import registered_terms
 from rodsim.solvers import registered_integrators
 
@@ -102,6 +105,19 @@ def reference() -> str:
         "must cover the rod, in order (docs/model.md, \"Sections\").",
         "",
         *table(SECTION_PARAMETERS, inherited=INHERITED),
+        "### `[rods.<name>.base]` — the base support (rodsim/core/supports.py)",
+        "",
+        "Not for a tendon rod: its base is its lumen's entrance and moves with its "
+        "catheter's base.",
+        "",
+        *table(BASE_PARAMETERS),
+        "### `[rods.<name>.supports.<support>]` — a node held in place "
+        "(rodsim/core/supports.py)",
+        "",
+        "Any number, each named; position only (orientation is held at the base). Not for a "
+        "tendon rod.",
+        "",
+        *table(SUPPORT_PARAMETERS),
         *term_tables(terms, "rod", "rods.<name>"),
     ]
     if TENDON_PARAMETERS is not None:

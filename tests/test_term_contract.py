@@ -4,7 +4,8 @@ There is no per-term code here: every term the registry knows is looked up in th
 scenes* — the shipped scenes in data/ (with a third of their nodes), SMALL_SCENE (every rod
 term, both clamp kinds), SMALL_TENDON_SCENE (the momentum-conserving tendon coupling, which
 the shipped scenes do not use) and SMALL_PAPER_TENDON_SCENE (the paper's coupling with
-shared parents and the lumen penalty of Eq. 34 only) — and checked by central finite
+shared parents and the lumen penalty of Eq. 34 only) and SMALL_JOINT_SCENE (backbone rods
+joined by anchors, welded and ball joints, an actuated base) — and checked by central finite
 differences at random non-trivial states:
 
 (a) element forces scattered to the free coordinates equal −∂E/∂x (conservative terms);
@@ -160,6 +161,35 @@ SMALL_CONTACT_SCENE = {
     },
 }
 
+#: Backbone rods joined by anchors (rodsim/core/terms/joint.py): a rod welded to the tip of
+#: a base-actuated rod (inserted and turned), and a third one on a ball joint at an
+#: interior node of the second; sections differ, so the welded frame's series stiffness
+#: mixes both.
+SMALL_JOINT_SCENE = {
+    "name": "contract-joints",
+    "rods": {
+        "proximal": {
+            "length": 0.1, "radius": 0.004, "youngs_modulus": 2e6, "stretch_modulus": 5e6,
+            "poisson_ratio": 0.3, "density": 1200.0, "nodes": 6, "clamp": "frame",
+            "terms": ["stretch", "bend_twist", "centerline"],
+            "base": {"insertion": 0.01, "rotation": 0.3},
+        },
+        "distal": {
+            "length": 0.06, "radius": 0.003, "youngs_modulus": 4e6, "stretch_modulus": 3e6,
+            "density": 900.0, "nodes": 5, "clamp": "free",
+            "terms": ["stretch", "bend_twist", "centerline", "joint", "tip_load"],
+            "joint": {"rod": "proximal", "s": 0.1, "K_J": 3e3},
+            "tip_load": {"force": [0.0, -0.02, 0.03]},
+        },
+        "branch": {
+            "length": 0.04, "radius": 0.002, "youngs_modulus": 4e6, "stretch_modulus": 3e6,
+            "density": 900.0, "nodes": 4, "clamp": "free",
+            "terms": ["stretch", "bend_twist", "centerline", "joint"],
+            "joint": {"rod": "distal", "s": 0.03, "K_J": 2e3, "orientation": False},
+        },
+    },
+}
+
 #: Random states per (scene, term).
 STATES = 2
 FD_RELATIVE_STEP = 1e-6
@@ -169,7 +199,8 @@ TOLERANCE = 1e-6
 SMALL_SCENES = {scene["name"]: scene for scene in (SMALL_SCENE, SMALL_LOAD_SCENE,
                                                     SMALL_TENDON_SCENE,
                                                     SMALL_PAPER_TENDON_SCENE,
-                                                    SMALL_CONTACT_SCENE)}
+                                                    SMALL_CONTACT_SCENE,
+                                                    SMALL_JOINT_SCENE)}
 #: Every contract scene by name: the shipped scenes, then the small ones above.
 CONTRACT_SCENES = [*scene_paths(), *SMALL_SCENES]
 

@@ -1,11 +1,11 @@
 """Assemble a scene's rods and terms into F(x), its sparse Jacobian J(x) and the pattern.
 
-The *full* state holds every coordinate of every rod (Eqs. 18 and 30); the clamps fix some
-of them. Integrators only see the *free* coordinates ``x``: ``Model.force(x)`` and
-``Model.jacobian(x)`` return the generalised force F(x) = −∂E/∂x (plus non-conservative
-penalty forces) and ∂F/∂x on those. The sparsity pattern is the union of the terms'
-element blocks, fixed when the model is built; the Jacobian values are scattered into it
-with precomputed index maps.
+The *full* state holds every coordinate of every rod (Eqs. 18 and 30); the supports
+(rodsim/core/supports.py) fix some of them. Integrators only see the *free* coordinates
+``x``: ``Model.force(x)`` and ``Model.jacobian(x)`` return the generalised force
+F(x) = −∂E/∂x (plus non-conservative penalty forces) and ∂F/∂x on those. The sparsity
+pattern is the union of the terms' element blocks, fixed when the model is built; the
+Jacobian values are scattered into it with precomputed index maps.
 
 Two evaluation paths compute the same numbers (``solver.kernels``): ``compiled`` (default)
 calls each term's numba kernel (:mod:`rodsim.core.kernels`), which accumulates straight into the
@@ -29,11 +29,13 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.sparse.csgraph import reverse_cuthill_mckee
 
+from rodsim.core.anchors import joined_support, joint_depth, scene_joints
 from rodsim.core.rod.layout import RodLayout
 from rodsim.core.rod.rod import Rod
 from rodsim.core.scene import Scene
 from rodsim.core.sparsity import csc_pattern
-from rodsim.core.tendon import Tendon, tendon_origin
+from rodsim.core.supports import base_support, node_supports, quaternion_product, rigid_motion
+from rodsim.core.tendon import Tendon, tendon_support
 from rodsim.core.terms import Term, registered_terms
 
 __all__ = ["Model", "Band", "KERNELS"]
@@ -78,15 +80,28 @@ class Model:
         tendons = scene.tendons
         self.rods: dict[str, Rod] = {}
         offset = 0
-        # Catheters first, so a tendon's base can be placed in its catheter's lumen.
+        # Catheters first, so a tendon's base can be placed in its catheter's lumen; a rod
+        # joined to another after it, so its base can be placed at the joint.
         rods = scene.rods
-        for name in sorted(rods, key=lambda n: n in tendons):
+        joints = scene_joints(scene)
+        for name in sorted(rods, key=lambda n: (n in tendons, joint_depth(n, joints))):
             options = rods[name]
             layout = RodLayout(options.nodes, offset)
-            origin = (tendon_origin(self.rods[tendons[name].catheter], tendons[name])
-                      if name in tendons else np.asarray(options.origin, dtype=float))
-            self.rods[name] = Rod(name, options, layout, origin,
-                                  tuple(scene.data["rods"][name].get("sections", ())))
+            if name in tendons:
+                support = tendon_support(self.rods[tendons[name].catheter], tendons[name],
+                                         options.clamp)
+            elif name in joints:
+                support = joined_support(self.rods[joints[name].rod], joints[name].s)
+            else:
+                support = base_support(options.clamp, scene.base_options(name),
+                                       np.asarray(options.origin, dtype=float))
+            sections = tuple(scene.data["rods"][name].get("sections", ()))
+            rod = Rod(name, options, layout, support, sections=sections)
+            tables = scene.support_tables(name)
+            if tables:
+                rod = Rod(name, options, layout, support, node_supports(
+                    options.nodes, options.length, rod.rest_positions(), tables), sections)
+            self.rods[name] = rod
             offset += layout.size
         self.rods = {name: self.rods[name] for name in rods}
         self.full_size = offset
@@ -94,8 +109,9 @@ class Model:
         self.terms: list[Term] = []
         for rod in self.rods.values():
             for term_name in rod.options.terms:
-                self.terms.append(catalogue[term_name](
-                    rod, scene.term_options("rods", rod.name, term_name)))
+                kind = catalogue[term_name]
+                self.terms.append(kind(rod, scene.term_options("rods", rod.name, term_name),
+                                       *((self.rods,) if kind.joins_rods else ())))
         #: The scene's tendons (lumen geometry shared by their coupling terms).
         self.tendons = {name: Tendon.of(name, self.rods, options)
                         for name, options in tendons.items()}
@@ -116,7 +132,7 @@ class Model:
         self.rest_full = np.zeros(self.full_size)
         fixed = []
         for rod in self.rods.values():
-            self.rest_full[rod.layout.position_index] = rod.rest_positions()
+            self.rest_full[rod.layout.position_index] = rod.held_positions()
             self.rest_full[rod.layout.quaternion_index] = rod.rest_quaternions()
             fixed.append(rod.fixed_index())
         is_free = np.ones(self.full_size, dtype=bool)
@@ -134,7 +150,7 @@ class Model:
         not recomputed, and the Jacobian pattern is reused when every term keeps its element
         coordinates (a changed load, modulus, penalty or tendon force). A tracking step's
         model (rodsim/app/inverse/track.py). Raises ValueError when ``scene`` changes the free
-        coordinates (node counts, clamps, rods or terms).
+        coordinates (node counts, supports, rods or terms).
         """
         other = copy.copy(self)
         other._assemble(scene)
@@ -142,7 +158,7 @@ class Model:
         if (other.full_size != self.full_size or other.n != self.n
                 or not np.array_equal(other.free, np.sort(self.free))
                 or [term.name for term in other.terms] != names):
-            raise ValueError("the scene changes the model's layout (nodes, clamps, rods or "
+            raise ValueError("the scene changes the model's layout (nodes, supports, rods or "
                              "terms): build a new Model")
         other.free = self.free
         other.terms = [term.registered(mine.registration_state()) if term.dynamic else term
@@ -314,6 +330,25 @@ class Model:
         out[self.free] = x
         return out
 
+    def carried(self, x: np.ndarray, previous: Model) -> np.ndarray:
+        """The state ``x`` of ``previous`` (a model of the same layout) with each rod moved
+        rigidly as its base support moved from ``previous`` to this model (an inserted or
+        turned base, rodsim/core/supports.py): the warm start of a step that moves the
+        base. ``x`` itself when no support moved."""
+        full = None
+        for name, rod in self.rods.items():
+            motion = rigid_motion(previous.rods[name].support, rod.support)
+            if motion is None:
+                continue
+            if full is None:
+                full = previous.full(x)
+            turn, q_turn, before, after = motion
+            index = rod.layout.position_index
+            full[index] = after + (full[index] - before) @ turn.T
+            index = rod.layout.quaternion_index
+            full[index] = quaternion_product(q_turn, full[index])
+        return x if full is None else full[self.free]
+
     def positions(self, x: np.ndarray, rod: str) -> np.ndarray:
         """Control points of one rod, shape (N, 3) [m]."""
         return self.full(x)[self.rods[rod].layout.position_index]
@@ -428,12 +463,13 @@ class Model:
     @cached_property
     def _step_maps(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(full position indices of every rod's nodes, rod k in rows starts[k]:starts[k+1];
-        those starts; free indices of the catheter tip and the tendon tip of every endpoint
-        coupling whose six coordinates are all free)."""
+        those starts; free indices of the two points of every stiff link a term declares
+        (:meth:`Term.rigid_links`: the endpoint coupling's catheter and tendon tips) whose
+        six coordinates are all free)."""
         couplings = []
         for term in self.terms:
-            if term.name == "endpoint_coupling":
-                free = self._free_of[term.dofs[0]]
+            for link in term.rigid_links():
+                free = self._free_of[link]
                 if np.all(free < self.n):
                     couplings.append(free)
         chains = [rod.layout.position_index for rod in self.rods.values()]

@@ -16,6 +16,8 @@ and the allowed values. Layout of a scene file (docs/scenes.md has the full refe
     terms = ["stretch", "bend_twist", "centerline", "tip_load"]
     [rods.catheter.tip_load]   # parameters of one of the rod's terms
     mass = 0.05                # kg
+    [rods.catheter.base]       # the base support's place (rodsim/core/supports.py)
+    insertion = 0.0            # m
     [tendons.tendon]           # a rod routed through a lumen of another (tendon scenes)
     catheter = "catheter"
     [tendons.tendon.lumen]     # parameters of one of the tendon's coupling terms
@@ -38,11 +40,13 @@ from importlib import resources
 from pathlib import Path
 from typing import Any
 
+from rodsim.core.anchors import check_joints
 from rodsim.core.names import check_rod_name, check_scene_name
 from rodsim.core.rod.rod import ROD_PARAMETERS, RodOptions
 from rodsim.core.rod.sections import resolve_sections
 from rodsim.core.scene_file import parse_toml, read_scene_text
 from rodsim.core.schema import Parameter, SceneError, options_type, shown, validate_table
+from rodsim.core.supports import BASE_PARAMETERS, BaseOptions, resolve_base, resolve_supports
 from rodsim.core.tendon import TENDON_PARAMETERS, TendonOptions, check_tendon
 
 __all__ = ["Scene", "SceneError", "SOLVER_PARAMETERS", "SolverSettings", "default_scene_path",
@@ -180,6 +184,18 @@ class Scene:
         :data:`~rodsim.core.tendon.TendonOptions` (views of ``data``)."""
         return {name: TendonOptions.of(table) for name, table in self.data["tendons"].items()}
 
+    def base_options(self, rod: str) -> Any:
+        """The base support's values of rod ``rod`` ([rods.<rod>.base]: insertion,
+        rotation) as a :data:`~rodsim.core.supports.BaseOptions`; the defaults for a tendon
+        rod, whose base follows its catheter's."""
+        return BaseOptions.of(self.data["rods"][rod].get("base") or
+                              {p.name: p.default for p in BASE_PARAMETERS})
+
+    def support_tables(self, rod: str) -> dict[str, Any]:
+        """The validated ``[rods.<rod>.supports.<name>]`` tables of rod ``rod`` by name
+        (none: an empty dict)."""
+        return self.data["rods"][rod].get("supports", {})
+
     def term_options(self, owner: str, name: str, term: str) -> Any:
         """The options of term ``term`` of rod or tendon ``name`` (``owner`` is ``"rods"`` or
         ``"tendons"``), as the term's ``Options`` (a view of ``data``); ``None`` when that
@@ -280,7 +296,8 @@ def resolve(raw: Mapping[str, Any]) -> dict[str, Any]:
     for rod, table in rods_raw.items():
         given = isinstance(table, Mapping) and "sections" in table
         own = {k: v for k, v in table.items() if k != "sections"} if given else table
-        rods[rod] = _resolve_with_terms(own, ROD_PARAMETERS, rod_terms, terms, f"rods.{rod}")
+        rods[rod] = _resolve_with_terms(own, ROD_PARAMETERS, rod_terms, terms, f"rods.{rod}",
+                                        extra_tables=("base", "supports"))
         if given:  # only then: a uniform rod's resolved table is unchanged
             rods[rod]["sections"] = resolve_sections(table["sections"], rods[rod],
                                                      f"rods.{rod}")
@@ -296,6 +313,11 @@ def resolve(raw: Mapping[str, Any]) -> dict[str, Any]:
                         for term in tendons[rod]["terms"]}
         check_tendon(rod, tendons[rod], rods, prefix, tendons_raw.keys(), term_options)
     for rod, table in rods.items():
+        base = resolve_base(rod, table, rod in tendons)
+        if base is not None:
+            table["base"] = base
+        if "supports" in table:
+            table["supports"] = resolve_supports(rod, table, rod in tendons)
         options = RodOptions.of(table)
         if not options.terms:
             raise SceneError(f"rods.{rod}.terms = []: a rod needs at least one term; allowed: "
@@ -307,10 +329,15 @@ def resolve(raw: Mapping[str, Any]) -> dict[str, Any]:
             if terms[term_name].scope == "rod":
                 terms[term_name].check_scene(terms[term_name].Options.of(table[term_name]),
                                              options, f"rods.{rod}.{term_name}")
+        if options.clamp == "free" and "joint" not in options.terms:
+            raise SceneError(f"rods.{rod}.clamp = 'free': nothing would hold the rod; "
+                             "allowed: 'frame' or 'first_segment', or 'free' with a joint "
+                             "to another rod (terms: joint)")
         if options.clamp == "orientation" and rod not in tendons:
             raise SceneError(f"rods.{rod}.clamp = 'orientation': it leaves the base position "
                              "free, which only a tendon pulled at its base can have; allowed: "
                              "'frame' or 'first_segment'")
+    check_joints(rods, tendons)
     solver_raw = raw.get("solver", {})
     if not isinstance(solver_raw, Mapping):
         raise SceneError(f"solver: expected a table, got {type(solver_raw).__name__}")
@@ -333,13 +360,16 @@ def resolve(raw: Mapping[str, Any]) -> dict[str, Any]:
 
 
 def _resolve_with_terms(table: Any, parameters: tuple[Parameter, ...], term_names: list[str],
-                        terms: Mapping[str, Any], prefix: str) -> dict[str, Any]:
-    """Validate a table that lists terms (a rod or a tendon) and its per-term sub-tables."""
+                        terms: Mapping[str, Any], prefix: str,
+                        extra_tables: tuple[str, ...] = ()) -> dict[str, Any]:
+    """Validate a table that lists terms (a rod or a tendon) and its per-term sub-tables
+    (``extra_tables``: other sub-tables it may hold, validated by the caller)."""
     declared = tuple(
         p if p.name != "terms" else Parameter(p.name, p.kind, p.default, p.unit, p.doc,
                                               choices=tuple(term_names))
         for p in parameters)
-    resolved = validate_table(table, declared, prefix, allow_extra=tuple(term_names))
+    resolved = validate_table(table, declared, prefix,
+                              allow_extra=tuple(term_names) + extra_tables)
     for term_name in term_names:
         if term_name in resolved and term_name not in resolved["terms"]:
             raise SceneError(f"{prefix}.{term_name}: parameters given for a term that "

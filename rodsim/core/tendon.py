@@ -25,12 +25,14 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
+from rodsim.core.anchors import Anchor, check_tendon_termination, tendon_termination
 from rodsim.core.rod.quaternion import DIRECTOR_FORMS, director, director_gradient
 from rodsim.core.rod.rod import Rod, RodOptions
 from rodsim.core.schema import Parameter, SceneError, options_type, shown
+from rodsim.core.supports import Support
 
 __all__ = ["TENDON_PARAMETERS", "TENDON_TERMS", "LumenFrame", "Tendon", "TendonOptions",
-           "check_tendon", "tendon_origin"]
+           "check_tendon", "tendon_origin", "tendon_support"]
 
 #: Coupling terms a tendon uses unless its table lists others.
 TENDON_TERMS = ["lumen", "endpoint_compliance", "endpoint_coupling", "tendon_actuation"]
@@ -80,13 +82,7 @@ def check_tendon(name: str, table: Mapping[str, Any], rods: Mapping[str, Mapping
         raise SceneError(f"{prefix}.catheter = {catheter!r}: that rod is itself a tendon; "
                          "allowed: a rod with no [tendons.<rod>] table")
     tendon, host = RodOptions.of(rods[name]), RodOptions.of(rods[catheter])
-    if tendon.length > host.length * (1 + 1e-9):
-        raise SceneError(f"rods.{name}.length = {tendon.length!r}: the tendon is longer than "
-                         f"its catheter ({host.length!r} m); allowed: equal lengths")
-    if tendon.length < host.length * (1 - 1e-9):
-        raise SceneError(f"rods.{name}.length = {tendon.length!r}: the tendon must end at "
-                         f"the catheter's tip; allowed: the catheter's length "
-                         f"{host.length!r} m")
+    check_tendon_termination(name, tendon, host)
     if options.offset >= host.radius:
         raise SceneError(f"{prefix}.offset = {options.offset!r}: the lumen lies outside the "
                          f"catheter; allowed: 0 < r_L < radius = {host.radius!r} [m]")
@@ -131,6 +127,13 @@ def tendon_origin(catheter: Rod, options: Any) -> np.ndarray:
         alpha * frame[0] + beta * frame[1])
 
 
+def tendon_support(catheter: Rod, options: Any, clamp: str) -> Support:
+    """The base support of a tendon rod: at its lumen's entrance (:func:`tendon_origin`), in
+    its catheter's base frame, holding what the tendon rod's ``clamp`` says; it moves and
+    turns with the catheter's base (an inserted or rotated catheter carries its tendons)."""
+    return Support(clamp, tendon_origin(catheter, options), catheter.base_quaternion)
+
+
 class LumenFrame(NamedTuple):
     """The lumen's directions at n segments and their derivatives in the quaternions q."""
 
@@ -170,6 +173,12 @@ class Tendon:
     @property
     def conserving(self) -> bool:
         return self.coupling == "conserving"
+
+    @property
+    def termination(self) -> Anchor:
+        """Where the tendon ends (rodsim/core/anchors.py): its node tied to the catheter's
+        node, and the catheter segment orienting the lumen there."""
+        return tendon_termination(self.rod, self.catheter)
 
     def lumen_frame(self, q: np.ndarray) -> LumenFrame:
         """d_t, d_n = d3 × d_t and their q-derivatives for quaternions q (n, 4)."""

@@ -8,7 +8,9 @@ the next scene from it:
 
 - ``static``: the next model is :meth:`Model.with_scene` of the last (same free-coordinate
   order, same registration, the Jacobian pattern reused when the elements keep their
-  coordinates), and from the last state or a given predictor it first tries chord
+  coordinates), and from the last state or a given predictor — or, when a base support
+  moves (insertion, rotation), the last state carried rigidly with it
+  (:meth:`Model.carried`) — it first tries chord
   iterations — Newton steps with a Jacobian factorised at an earlier equilibrium and kept
   while it works (each iteration halving the residual), so a step costs evaluations of F
   and band back-substitutions only — then, if they stall, Newton at full load (the analytic
@@ -104,7 +106,11 @@ class Continuation:
         """The equilibrium of ``scene`` (same discretisation) from ``start`` (default: the
         last equilibrium); on success it becomes the last equilibrium."""
         model = self.model.with_scene(scene)
-        x = self.x if start is None else start
+        # A base that moves (insertion, rotation) carries the last equilibrium with it; that
+        # rigid motion is exact where a chord predictor only linearises a rotation, so it
+        # replaces the predictor.
+        carried = model.carried(self.x, self.model)
+        x = carried if start is None or carried is not self.x else start
         if self.integrator == "static":
             outcome, model = self._newton(model, x)
         else:

@@ -2,7 +2,8 @@
 kinematics vary (rodsim/app/inverse/).
 
 A key is any ``--set``-style key of a numeric scene value (a full dotted key or an
-unambiguous suffix: ``K_E``, ``tip_load.mass``, ``rods.catheter.youngs_modulus``), or one
+unambiguous suffix: ``K_E``, ``tip_load.mass``, ``rods.catheter.youngs_modulus``, the base
+support's ``insertion`` and ``rotation``), or one
 component of a vector value as ``KEY[i]`` (``origin[1]``, ``tip_load.force[0]``). Each key
 carries its schema declaration (unit, allowed range), which gives the bounds of a fit.
 
@@ -21,6 +22,7 @@ from dataclasses import dataclass
 from rodsim.core.rod.rod import ROD_PARAMETERS
 from rodsim.core.scene import Scene
 from rodsim.core.schema import Parameter, SceneError, shown
+from rodsim.core.supports import BASE_PARAMETERS, SUPPORT_PARAMETERS
 from rodsim.core.tendon import TENDON_PARAMETERS
 
 __all__ = ["NumericKey", "numeric_key", "numeric_keys", "scene_with"]
@@ -71,7 +73,11 @@ def _schema(path: str) -> Parameter | None:
         table = TENDON_PARAMETERS
     else:
         return None
-    if len(parts) == 4:
+    if len(parts) == 4 and parts[0] == "rods" and parts[2] == "base":
+        table = BASE_PARAMETERS  # the base support's insertion and rotation
+    elif len(parts) == 5 and parts[0] == "rods" and parts[2] == "supports":
+        table = SUPPORT_PARAMETERS  # a node support's s and displacement
+    elif len(parts) == 4:
         term = registered_terms().get(parts[2])
         table = term.parameters if term is not None else ()
     elif len(parts) != 3:
@@ -90,7 +96,13 @@ def numeric_key(scene: Scene, key: str) -> NumericKey:
     parameter = _schema(path)
     if parameter is None:
         raise SceneError(f"{shown(key, bare=True)}: {path} is not a numeric model parameter")
-    if parameter.kind == "int":
+    parts = path.split(".")
+    if parts[0] == "rods" and parts[2] == "base" and "joint" in scene.data["rods"][parts[1]][
+            "terms"]:
+        raise SceneError(f"{shown(key, bare=True)}: rod {parts[1]!r} is joined to another "
+                         "rod, whose base it follows; allowed: the base of a supported rod")
+    if parameter.kind == "int" or (parameter.name == "s" and (
+            ".supports." in path or ".joint." in path)):
         raise SceneError(f"{shown(key, bare=True)}: {path} changes the discretisation (the "
                          "free coordinates), so the equilibrium has no derivative with respect "
                          "to it")
@@ -127,7 +139,8 @@ _LOCAL_ROD_VALUES = ("youngs_modulus", "stretch_modulus", "poisson_ratio", "dens
 
 
 def _local(key: NumericKey) -> bool:
-    """Whether the value of ``key`` is validated by its declaration alone (no cross-check)."""
+    """Whether the value of ``key`` is validated by its declaration alone (no cross-check;
+    a base support's insertion and rotation are: the model places the rod from them)."""
     parts = key.path.split(".")
     return len(parts) == 4 or (parts[0] == "rods" and parts[-1] in _LOCAL_ROD_VALUES)
 

@@ -117,8 +117,6 @@ def build_obstacle(name: str, table: Mapping[str, Any]) -> Obstacle:
 def resolve_obstacles(raw: Any, rods: Mapping[str, Mapping[str, Any]],
                       tendons: Mapping[str, Any]) -> dict[str, Any]:
     """Validate the ``obstacles`` tables of a raw scene against its resolved ``rods``."""
-    from rodsim.core.rod.geometry import RodGeometry
-
     if not isinstance(raw, Mapping):
         raise SceneError("obstacles: expected tables [obstacles.<name>]")
     types = registered_obstacles()
@@ -153,19 +151,18 @@ def resolve_obstacles(raw: Any, rods: Mapping[str, Mapping[str, Any]],
             if obstacle.encloses and radius >= obstacle.narrowest():
                 raise SceneError(f"{prefix}: rod {rod!r} (radius {radius!r} m) is thicker than "
                                  f"the vessel (narrowest radius {obstacle.narrowest():.6g} m)")
-            if obstacle.encloses:
-                geometry = RodGeometry(table_of_rod["nodes"], table_of_rod["length"])
-                points = np.zeros((geometry.nodes, 3))
-                points[:, 0] = geometry.node_s
-                points += np.asarray(table_of_rod["origin"], dtype=float)
-                phi = obstacle.gap(points)[0]
-                outside = np.flatnonzero(phi <= 0.0)
-                if len(outside):
-                    i = int(outside[0])
-                    where = ", ".join(f"{v:.6g}" for v in points[i])
-                    raise SceneError(f"{prefix}: rod {rod!r} starts outside the vessel at "
-                                     f"s = {geometry.node_s[i]:.6g} m, point ({where}) m "
-                                     f"({-phi[i]:.3g} m beyond the wall); the rest rod lies "
-                                     "along +x from its origin")
+            if obstacle.encloses and table_of_rod["clamp"] != "free":
+                # The base (s = 0, at its inserted place) must lie inside the vessel; the
+                # rest of the straight rest shape may cross the wall (the contact brings it
+                # in: a rod inserted into a bend).
+                base = table_of_rod.get("base") or {}
+                point = (np.asarray(table_of_rod["origin"], dtype=float)
+                         + np.array([float(base.get("insertion", 0.0)), 0.0, 0.0]))
+                phi = float(obstacle.gap(point[None, :])[0][0])
+                if phi <= 0.0:
+                    where = ", ".join(f"{v:.6g}" for v in point)
+                    raise SceneError(f"{prefix}: rod {rod!r} starts outside the vessel: its "
+                                     f"base (s = 0) at ({where}) m is {-phi:.3g} m beyond "
+                                     "the wall")
         out[name] = resolved
     return out

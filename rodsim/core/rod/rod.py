@@ -1,4 +1,4 @@
-"""One Cosserat rod of a scene: material, cross-section, rest geometry, clamp and layout."""
+"""One Cosserat rod of a scene: material, cross-section, rest geometry, support and layout."""
 
 from __future__ import annotations
 
@@ -11,14 +11,11 @@ import numpy as np
 
 from rodsim.core.rod.geometry import RodGeometry
 from rodsim.core.rod.layout import RodLayout
-from rodsim.core.rod.quaternion import rest_quaternion
 from rodsim.core.rod.sections import INHERITED, SectionProfile
 from rodsim.core.schema import Parameter, options_type
+from rodsim.core.supports import CLAMPS, Support
 
 __all__ = ["Rod", "RodOptions", "ROD_PARAMETERS", "CLAMPS"]
-
-#: How the rod's base (s = 0) is held; see docs/model.md, "Clamp".
-CLAMPS = ("frame", "first_segment", "orientation")
 
 ROD_PARAMETERS: tuple[Parameter, ...] = (
     Parameter("length", "float", None, "m", "rest length L", 1e-6, 100.0),
@@ -34,9 +31,10 @@ ROD_PARAMETERS: tuple[Parameter, ...] = (
     Parameter("density", "float", None, "kg/m^3", "mass density ρ", 1e-3, 1e9),
     Parameter("nodes", "int", None, "-", "number of control points N", 3, 200_000),
     Parameter("clamp", "str", "frame", "-",
-              "base support: 'frame' (position and a frame at s = 0), 'first_segment' "
-              "(position and first quaternion fixed, as PyElastica) or 'orientation' (a frame "
-              "at s = 0 but the position free: a tendon pulled at its proximal end)",
+              "what the base support holds: 'frame' (position and a frame at s = 0), "
+              "'first_segment' (position and first quaternion fixed, as PyElastica), "
+              "'orientation' (a frame at s = 0 but the position free: a tendon pulled at its "
+              "proximal end) or 'free' (nothing: the base is held by a joint to another rod)",
               choices=CLAMPS),
     Parameter("origin", "vector", [0.0, 0.0, 0.0], "m", "position of the base r_0", -1e3, 1e3,
               length=3),
@@ -62,15 +60,25 @@ class Rod:
         The rod table's own values (a :data:`RodOptions`, SI units).
     layout
         Where the rod's coordinates sit in the global state.
+    support
+        How its base is held and where (rodsim/core/supports.py): the base position r_0
+        and the base frame of the rest shape.
     """
 
     name: str
     options: Any  # RodOptions
     layout: RodLayout = field(repr=False)
-    #: Position of the base r_0 [m]: the rod's ``origin``, or a tendon's lumen entrance.
-    origin: np.ndarray = field(default_factory=lambda: np.zeros(3), repr=False)
+    support: Support = field(repr=False)
+    #: Supports at other nodes than the base (position only; rodsim/core/supports.py).
+    node_supports: tuple[Support, ...] = field(default=(), repr=False)
     #: The validated ``[[rods.<name>.sections]]`` spans (empty: a uniform rod).
     sections: tuple[dict[str, Any], ...] = field(default=(), repr=False)
+
+    @property
+    def origin(self) -> np.ndarray:
+        """Position of the base r_0 [m]: the support's point (the rod's ``origin`` moved by
+        its base insertion, or a tendon's lumen entrance)."""
+        return self.support.position
 
     @cached_property
     def geometry(self) -> RodGeometry:
@@ -169,8 +177,9 @@ class Rod:
 
     @property
     def base_quaternion(self) -> np.ndarray:
-        """Orientation of the clamp frame at s = 0 (the undeformed rod's orientation)."""
-        return rest_quaternion()
+        """Orientation of the base frame at s = 0 (the support's frame; the undeformed rod's
+        orientation)."""
+        return self.support.frame
 
     def rest_positions(self) -> np.ndarray:
         """Straight rod along +x from ``origin``, shape (N, 3)."""
@@ -179,24 +188,21 @@ class Rod:
         return x + self.origin
 
     def rest_quaternions(self) -> np.ndarray:
-        """Every segment in the clamp orientation, shape (N − 1, 4)."""
+        """Every segment in the base frame's orientation, shape (N − 1, 4)."""
         return np.tile(self.base_quaternion, (self.nodes - 1, 1))
 
     def fixed_index(self) -> np.ndarray:
-        """Global indices of the coordinates the clamp removes (see docs/model.md)."""
-        clamp = self.options.clamp
-        if clamp == "orientation":
-            return np.zeros(0, dtype=int)
-        if clamp == "first_segment":
-            return np.concatenate([self.layout.position_index[0],
-                                   self.layout.quaternion_index[0]])
-        return self.layout.position_index[0]
+        """Global indices of the coordinates the supports remove (see docs/model.md)."""
+        return np.concatenate([self.support.fixed_index(self.layout),
+                               *(s.fixed_index(self.layout) for s in self.node_supports)])
 
-    @property
-    def has_base_frame(self) -> bool:
-        """Whether a fixed frame at s = 0 anchors the bending term (clamps 'frame' and
-        'orientation')."""
-        return self.options.clamp in ("frame", "orientation")
+    def held_positions(self) -> np.ndarray:
+        """The rest state's positions (N, 3) [m] with every node support's node at its
+        prescribed place (the value the fixed coordinates keep)."""
+        positions = self.rest_positions()
+        for support in self.node_supports:
+            positions[support.node] = support.position
+        return positions
 
     def node_masses(self) -> np.ndarray:
         """Lumped mass of each control point, ρ A × (half of each adjacent segment) [kg];

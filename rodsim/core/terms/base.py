@@ -92,6 +92,9 @@ class Term(ABC):
     #: True for a constraint penalty whose constant a solver may raise gradually; the term
     #: must be linear in its constant, so that scaling its output scales the constant.
     penalty: ClassVar[bool] = False
+    #: True for a rod term that ties its rod to another (a joint, rodsim/core/anchors.py):
+    #: it is built with the model's rods as a third argument, ``Term(rod, options, rods)``.
+    joins_rods: ClassVar[bool] = False
     #: Module of :mod:`rodsim.core.kernels` holding the compiled kernel (default: ``name``).
     kernel: ClassVar[str] = ""
 
@@ -141,6 +144,12 @@ class Term(ABC):
     def registered(self, state: np.ndarray) -> Term:
         """A copy of this dynamic term with the discrete state ``state`` (and its ``dofs``)."""
         raise NotImplementedError(f"term {self.name!r} has no registration")
+
+    def rigid_links(self) -> np.ndarray:
+        """Global position indices (a, b), shape (k, 6), of the stiff two-point links of
+        fixed length this term holds, which a Newton step keeps to first order
+        (:meth:`rodsim.core.model.Model.step`); none by default."""
+        return np.zeros((0, 6), dtype=int)
 
     def registration_state(self) -> np.ndarray | None:
         """A dynamic term's current discrete state (what :meth:`registered` takes), or

@@ -14,10 +14,12 @@ O(EI κ² / K_P) and so softens the rod: on Table 1 (100 g, K_P = 1e4) that move
 4.7e-5 L and made the penalty model differ from IDA's exactly-unit quaternions by as much
 (docs/model.md). The rest curvature û is zero (straight rods).
 
-With the ``frame`` (or ``orientation``) clamp a fixed frame q_c sits at s = 0, half a
-segment before q_0, and adds one element (q_c, q_0) with l̄ = l / 2; this keeps the
-discretisation second order in N
+When the rod's base support holds a frame (``clamp`` = ``frame`` or ``orientation``,
+rodsim/core/supports.py), its frame q_c sits at s = 0, half a segment before q_0, and adds
+one element (q_c, q_0) with l̄ = l / 2; this keeps the discretisation second order in N
 (docs/model.md, "Clamp"). The ``first_segment`` clamp fixes q_0 instead and adds no element.
+The frame comes from the support (an actuated base turns it); the term knows nothing else
+of how the rod is held.
 
 Stiffness (Eq. 8, the paper's corrected tensor, default):
     K_11 = K_22 = E π r⁴ / 4,   K_33 = G π r⁴ / 2
@@ -104,6 +106,71 @@ class BendKinematics(NamedTuple):
     hb: np.ndarray
 
 
+def bend_kinematics(a: np.ndarray, b: np.ndarray, dual_lengths: np.ndarray) -> BendKinematics:
+    """Strains of the bending elements (a, b) of dual lengths l̄ and the pieces of their
+    derivatives (see :class:`BendKinematics`)."""
+    na2, nb2 = np.sum(a * a, axis=1), np.sum(b * b, axis=1)
+    scale = 2.0 / (dual_lengths * np.sqrt(na2 * nb2))  # c s = (2/l̄) / (|a||b|)
+    ga = (b @ _B_ROWS).reshape(-1, 3, 4)  # ∂f_k/∂a = B_kᵀ b
+    gb = (a @ _B_COLUMNS).reshape(-1, 3, 4)  # ∂f_k/∂b = B_k a
+    f = np.einsum("nka,na->nk", ga, a)  # f_k = (B_k a) · b
+    u = scale[:, None] * f
+    # ∇u_k = c s (g − f q / |q|²) for each of a and b
+    ha = ga - (f / na2[:, None])[:, :, None] * a[:, None, :]
+    hb = gb - (f / nb2[:, None])[:, :, None] * b[:, None, :]
+    return BendKinematics(a, b, na2, nb2, scale, ga, gb, f, u, ha, hb)
+
+
+def bend_forces(a: np.ndarray, b: np.ndarray, dual_lengths: np.ndarray,
+                stiffness: np.ndarray) -> np.ndarray:
+    """F = −∂E/∂(a, b) of the bending elements (a, b), shape (n, 8) (Eq. 7)."""
+    kin = bend_kinematics(a, b, dual_lengths)
+    scale, u, ha, hb = kin.scale, kin.u, kin.ha, kin.hb
+    # ∂E/∂q = l̄ Σ_k K_k u_k ∇u_k,  ∇u_k = c s h_k
+    weight = (dual_lengths * scale)[:, None] * stiffness * u
+    grad_a = np.einsum("nk,nka->na", weight, ha)
+    grad_b = np.einsum("nk,nka->na", weight, hb)
+    return -np.concatenate([grad_a, grad_b], axis=1)
+
+
+def bend_jacobians(a: np.ndarray, b: np.ndarray, dual_lengths: np.ndarray,
+                   stiffness: np.ndarray) -> np.ndarray:
+    """∂F/∂(a, b) of the bending elements (a, b), shape (n, 8, 8) (Eq. 7)."""
+    a, b, na2, nb2, scale, ga, gb, f, u, ha, hb = bend_kinematics(a, b, dual_lengths)
+    lbar = dual_lengths
+    # Gauss–Newton part: l̄ Σ_k K_k ∇u_k ∇u_kᵀ
+    gn = (lbar * scale**2)[:, None] * stiffness
+    grad = np.concatenate([ha, hb], axis=2)  # (n, 3, 8), ∇u_k / (c s)
+    hess = np.matmul((grad * gn[:, :, None]).transpose(0, 2, 1), grad)
+    # Curvature part: l̄ Σ_k K_k u_k ∇²u_k, with (per k, in units of c s)
+    #   ∇²_aa u = −[g_a aᵀ + a g_aᵀ + f I − 3 f a aᵀ/|a|²] / |a|²
+    #   ∇²_ab u = B_kᵀ − g_a bᵀ/|b|² − a g_bᵀ/|a|² + f a bᵀ/(|a|²|b|²)
+    w = (lbar * scale)[:, None] * stiffness * u  # l̄ K_k u_k c s
+    eye = np.eye(4)
+
+    def same(q: np.ndarray, g: np.ndarray, n2: np.ndarray) -> np.ndarray:
+        sym = np.matmul(w[:, None, :], g)[:, 0, :, None] * q[:, None, :]
+        fw = np.sum(w * f, axis=1)
+        qq = q[:, :, None] * q[:, None, :]
+        return -(sym + sym.transpose(0, 2, 1) + fw[:, None, None] * eye
+                 - 3.0 * (fw / n2)[:, None, None] * qq) / n2[:, None, None]
+
+    h_aa = same(a, ga, na2)
+    h_bb = same(b, gb, nb2)
+    fw = np.sum(w * f, axis=1)
+    wga = np.matmul(w[:, None, :], ga)[:, 0, :]  # Σ_k w_k ∂f_k/∂a
+    wgb = np.matmul(w[:, None, :], gb)[:, 0, :]
+    h_ab = (form_combination(w, B).transpose(0, 2, 1)
+            - wga[:, :, None] * b[:, None, :] / nb2[:, None, None]
+            - a[:, :, None] * wgb[:, None, :] / na2[:, None, None]
+            + (fw / (na2 * nb2))[:, None, None] * a[:, :, None] * b[:, None, :])
+    hess[:, :4, :4] += h_aa
+    hess[:, 4:, 4:] += h_bb
+    hess[:, :4, 4:] += h_ab
+    hess[:, 4:, :4] += h_ab.transpose(0, 2, 1)
+    return -hess
+
+
 class BendTwist(RodTerm):
     """Bending about d1, d2 and twisting about d3, Eqs. (7)–(8)."""
 
@@ -126,9 +193,10 @@ class BendTwist(RodTerm):
         middles = rod.geometry.segment_s
         starts, ends = middles[:-1], middles[1:]  # dual interval of each element
 
-        self._clamped = rod.has_base_frame
+        support = rod.support
+        self._clamped = support.frame_element
         if self._clamped:
-            self._frame = rod.base_quaternion
+            self._frame = support.frame
             # The clamp element (q_c, q_0) has only q_0 free: pad it to 8 coordinates by
             # repeating q_0's indices in the first half and zeroing that half's entries.
             self.dofs = np.concatenate([np.tile(quat[0], 2)[None, :], self.dofs], axis=0)
@@ -152,17 +220,7 @@ class BendTwist(RodTerm):
 
     def _kinematics(self, x: np.ndarray) -> BendKinematics:
         """Strains and the pieces of their derivatives (see :class:`BendKinematics`)."""
-        a, b = self._pairs(x)
-        na2, nb2 = np.sum(a * a, axis=1), np.sum(b * b, axis=1)
-        scale = 2.0 / (self._dual_lengths * np.sqrt(na2 * nb2))  # c s = (2/l̄) / (|a||b|)
-        ga = (b @ _B_ROWS).reshape(-1, 3, 4)  # ∂f_k/∂a = B_kᵀ b
-        gb = (a @ _B_COLUMNS).reshape(-1, 3, 4)  # ∂f_k/∂b = B_k a
-        f = np.einsum("nka,na->nk", ga, a)  # f_k = (B_k a) · b
-        u = scale[:, None] * f
-        # ∇u_k = c s (g − f q / |q|²) for each of a and b
-        ha = ga - (f / na2[:, None])[:, :, None] * a[:, None, :]
-        hb = gb - (f / nb2[:, None])[:, :, None] * b[:, None, :]
-        return BendKinematics(a, b, na2, nb2, scale, ga, gb, f, u, ha, hb)
+        return bend_kinematics(*self._pairs(x), self._dual_lengths)
 
     def strains(self, x: np.ndarray) -> np.ndarray:
         """Material strains u_k at every element, shape (n_elem, 3) [1/m] (Eq. 3)."""
@@ -173,50 +231,14 @@ class BendTwist(RodTerm):
         return float(0.5 * np.sum(self._dual_lengths[:, None] * self._stiffness * u**2))
 
     def element_forces(self, x: np.ndarray) -> np.ndarray:
-        kin = self._kinematics(x)
-        scale, u, ha, hb = kin.scale, kin.u, kin.ha, kin.hb
-        # ∂E/∂q = l̄ Σ_k K_k u_k ∇u_k,  ∇u_k = c s h_k
-        weight = (self._dual_lengths * scale)[:, None] * self._stiffness * u
-        grad_a = np.einsum("nk,nka->na", weight, ha)
-        grad_b = np.einsum("nk,nka->na", weight, hb)
+        forces = bend_forces(*self._pairs(x), self._dual_lengths, self._stiffness)
         if self._clamped:
-            grad_a[0] = 0.0
-        return -np.concatenate([grad_a, grad_b], axis=1)
+            forces[0, :4] = 0.0  # the frame q_c is fixed
+        return forces
 
     def element_jacobians(self, x: np.ndarray) -> np.ndarray:
-        a, b, na2, nb2, scale, ga, gb, f, u, ha, hb = self._kinematics(x)
-        lbar = self._dual_lengths
-        # Gauss–Newton part: l̄ Σ_k K_k ∇u_k ∇u_kᵀ
-        gn = (lbar * scale**2)[:, None] * self._stiffness
-        grad = np.concatenate([ha, hb], axis=2)  # (n, 3, 8), ∇u_k / (c s)
-        hess = np.matmul((grad * gn[:, :, None]).transpose(0, 2, 1), grad)
-        # Curvature part: l̄ Σ_k K_k u_k ∇²u_k, with (per k, in units of c s)
-        #   ∇²_aa u = −[g_a aᵀ + a g_aᵀ + f I − 3 f a aᵀ/|a|²] / |a|²
-        #   ∇²_ab u = B_kᵀ − g_a bᵀ/|b|² − a g_bᵀ/|a|² + f a bᵀ/(|a|²|b|²)
-        w = (lbar * scale)[:, None] * self._stiffness * u  # l̄ K_k u_k c s
-        eye = np.eye(4)
-
-        def same(q: np.ndarray, g: np.ndarray, n2: np.ndarray) -> np.ndarray:
-            sym = np.matmul(w[:, None, :], g)[:, 0, :, None] * q[:, None, :]
-            fw = np.sum(w * f, axis=1)
-            qq = q[:, :, None] * q[:, None, :]
-            return -(sym + sym.transpose(0, 2, 1) + fw[:, None, None] * eye
-                     - 3.0 * (fw / n2)[:, None, None] * qq) / n2[:, None, None]
-
-        h_aa = same(a, ga, na2)
-        h_bb = same(b, gb, nb2)
-        fw = np.sum(w * f, axis=1)
-        wga = np.matmul(w[:, None, :], ga)[:, 0, :]  # Σ_k w_k ∂f_k/∂a
-        wgb = np.matmul(w[:, None, :], gb)[:, 0, :]
-        h_ab = (form_combination(w, B).transpose(0, 2, 1)
-                - wga[:, :, None] * b[:, None, :] / nb2[:, None, None]
-                - a[:, :, None] * wgb[:, None, :] / na2[:, None, None]
-                + (fw / (na2 * nb2))[:, None, None] * a[:, :, None] * b[:, None, :])
-        hess[:, :4, :4] += h_aa
-        hess[:, 4:, 4:] += h_bb
-        hess[:, :4, 4:] += h_ab
-        hess[:, 4:, :4] += h_ab.transpose(0, 2, 1)
+        jacobians = bend_jacobians(*self._pairs(x), self._dual_lengths, self._stiffness)
         if self._clamped:
-            hess[0, :4, :] = 0.0
-            hess[0, :, :4] = 0.0
-        return -hess
+            jacobians[0, :4, :] = 0.0
+            jacobians[0, :, :4] = 0.0
+        return jacobians

@@ -34,10 +34,10 @@ class EndpointCompliance(TendonTerm):
         super().__init__(tendon, options)
         self.conservative = tendon.conserving
         self._stiffness = options.K_E
-        catheter = tendon.catheter.layout
-        self._tip = tendon.rod.layout.position_index[-1]
-        self._end = catheter.position_index[-1]
-        self._quaternion = catheter.quaternion_index[-1]
+        end = tendon.termination
+        self._tip = end.position_index
+        self._end = end.to_position_index
+        self._quaternion = end.to_quaternion_index
         self.dofs = np.concatenate([self._tip, self._end, self._quaternion])[None, :]
 
     def kernel_arguments(self) -> tuple:

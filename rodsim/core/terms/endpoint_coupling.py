@@ -32,8 +32,13 @@ class EndpointCoupling(TendonTerm):
     def __init__(self, tendon: Tendon, options: Any) -> None:
         super().__init__(tendon, options)
         self._stiffness = options.K_C
-        ends = [tendon.catheter.layout.position_index[-1], tendon.rod.layout.position_index[-1]]
-        self.dofs = np.concatenate(ends)[None, :]  # (r_N, t): edge e = t − r_N
+        end = tendon.termination
+        self.dofs = np.concatenate([end.to_position_index, end.position_index])[None, :]
+        # (r_N, t): edge e = t − r_N
+
+    def rigid_links(self) -> np.ndarray:
+        """The stiff link r_N–t, whose length a Newton step keeps (Model.step)."""
+        return self.dofs
 
     def kernel_arguments(self) -> tuple:
         return (self.dofs, float(self._stiffness), float(self.tendon.offset))

@@ -148,7 +148,8 @@ class Lumen(TendonTerm):
         self._margin = options.hysteresis * catheter.geometry.segment_length
         # Every tendon point but the endpoint, which Eqs. (28)–(29) hold instead (§4.1:
         # "we will define a distinct penalty force on the tendon endpoint").
-        self._points = tendon.rod.layout.position_index[:-1]
+        self._last = tendon.termination.node
+        self._points = tendon.rod.layout.position_index[:self._last]
         if self.conservative:
             self.kernel = "lumen_segment"
             share = np.full(len(self._points), tendon.rod.geometry.segment_length)
@@ -168,7 +169,7 @@ class Lumen(TendonTerm):
                             tendon.rod.layout.offset + tendon.rod.layout.size))
         rest[catheter.layout.position_index] = catheter.rest_positions()
         rest[catheter.layout.quaternion_index] = catheter.rest_quaternions()
-        rest[self._points] = tendon.rod.rest_positions()[:-1]
+        rest[self._points] = tendon.rod.rest_positions()[:self._last]
         self.parent = self._exact(rest)
         self._set_dofs()
 
@@ -219,7 +220,7 @@ class Lumen(TendonTerm):
         if self.conservative:
             r = layout.position_index[np.stack([self.parent, self.parent + 1], axis=1)]
             q = layout.quaternion_index[segment_quaternions(self.parent,
-                                                            self.tendon.catheter.nodes - 1)]
+                                                            self.tendon.termination.to_node)]
             blocks = [self._points, r.reshape(len(r), 6), q.reshape(len(q), 12)]
             if np.any(self._sagitta):
                 position = self.tendon.rod.layout.position_index
@@ -252,12 +253,12 @@ class Lumen(TendonTerm):
                                  self.tendon.rod.geometry.segment_length)
 
     def _node_weights(self) -> np.ndarray:
-        return node_weights(self.parent, self.tendon.catheter.nodes - 1)
+        return node_weights(self.parent, self.tendon.termination.to_node)
 
     def _ends(self) -> np.ndarray:
         """Per element: (on the catheter's first segment, on its last), shape (n, 2)."""
-        return np.stack([self.parent == 0, self.parent == self.tendon.catheter.nodes - 2],
-                        axis=1)
+        return np.stack([self.parent == 0,
+                         self.parent == self.tendon.termination.to_node - 1], axis=1)
 
     def energy(self, x: np.ndarray) -> float | None:
         if not self.conservative:

@@ -45,9 +45,9 @@ class TendonActuation(TendonTerm):
         self._distal = options.point == "distal"
         catheter = tendon.catheter
         if self._distal:
-            self._quaternion = catheter.layout.quaternion_index[-1]
-            self.dofs = np.concatenate([tendon.rod.layout.position_index[-1],
-                                        self._quaternion])[None, :]
+            end = tendon.termination
+            self._quaternion = end.to_quaternion_index
+            self.dofs = np.concatenate([end.position_index, self._quaternion])[None, :]
         else:
             self.has_jacobian = False
             self.conservative = True

@@ -1,0 +1,227 @@
+"""Supports: how a rod is held, and where (docs/model.md, "Supports and anchors").
+
+A *support* fixes or prescribes a rod's position and/or orientation at an arclength. Every
+rod has one at its base (s = 0), declared by two scene values:
+
+- ``rods.<rod>.clamp`` — what the base support holds (the shorthand kept from earlier
+  scenes): ``frame`` (the position r_0 and a frame q_c at s = 0), ``first_segment`` (r_0 and
+  the first quaternion q_0, as PyElastica), ``orientation`` (the frame q_c only: a tendon
+  pulled at its proximal end) or ``free`` (nothing: the rod is held by a ``joint`` anchor to
+  another rod, rodsim/core/terms/joint.py);
+- ``[rods.<rod>.base]`` — where it is: ``insertion`` d [m], the base moved along its axis,
+  and ``rotation`` θ [rad], the base frame turned about that axis. With the rod's ``origin``
+  o and the rest frame R₀ (d3 = +x, docs/model.md),
+
+      r_c = o + d d3,   R_c = R_x(θ) R₀,
+
+  so that an actuated base moves (and turns) the whole rest shape: the rest state, the
+  clamp frame of the bending term, and what is attached to the base (a tendon's lumen
+  entrance and its base frame, rodsim/core/tendon.py). ``rodsim track --ramp`` and
+  ``rodsim reach --actuate`` vary both like any numeric value.
+
+A rod may also be held at other arclengths: each ``[rods.<rod>.supports.<name>]`` table
+fixes the position of the node at ``s`` (a node: k L/(N − 1), not the base) at its rest
+place moved by ``displacement`` [m] (world frame; the rest place moves with the base) — a
+pinned node, or a prescribed displacement that ``rodsim track`` can ramp. Orientation is
+held at the base only.
+
+A support removes coordinates from the free state (:meth:`Support.fixed_index`) and hands
+the bending term its frame element (:attr:`Support.frame_element`, :attr:`Support.frame`):
+the element (q_c, q_0) of dual length l/2 that keeps the clamp second order in N
+(rodsim/core/terms/bend_twist.py). Nothing else in the model knows how a rod is held.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from rodsim.core.rod.layout import RodLayout
+from rodsim.core.rod.quaternion import directors, from_rotation_matrix, rest_quaternion
+from rodsim.core.schema import Parameter, SceneError, options_type, validate_table
+
+__all__ = ["BASE_PARAMETERS", "BaseOptions", "CLAMPS", "SUPPORT_PARAMETERS", "Support",
+           "base_frame", "base_support", "node_at", "node_supports", "quaternion_product",
+           "resolve_base", "resolve_supports", "rigid_motion"]
+
+#: What a base support holds (``rods.<rod>.clamp``); see the module docstring.
+CLAMPS = ("frame", "first_segment", "orientation", "free")
+
+BASE_PARAMETERS: tuple[Parameter, ...] = (
+    Parameter("insertion", "float", 0.0, "m",
+              "base moved along its axis (+x at rest) from the rod's origin: the whole rod "
+              "is inserted by this length", -1e3, 1e3),
+    Parameter("rotation", "float", 0.0, "rad",
+              "base frame turned about its axis (+x) by this angle: the whole rod is rotated",
+              -1e3, 1e3),
+)
+
+SUPPORT_PARAMETERS: tuple[Parameter, ...] = (
+    Parameter("s", "float", None, "m",
+              "arclength of the held node (a node: k L/(N − 1); not 0, the base's)",
+              0.0, 100.0),
+    Parameter("displacement", "vector", [0.0, 0.0, 0.0], "m",
+              "prescribed displacement of the node from its rest place (world frame; 0: "
+              "pinned where it is at rest)", -1e3, 1e3, length=3),
+)
+
+#: A support table's values, typed (one field per :data:`SUPPORT_PARAMETERS`).
+SupportOptions = options_type("SupportOptions", SUPPORT_PARAMETERS,
+                              "A validated support table ([rods.<rod>.supports.<name>]).")
+
+#: A base table's values, typed (one field per :data:`BASE_PARAMETERS`).
+BaseOptions = options_type("BaseOptions", BASE_PARAMETERS,
+                           "A validated base table's values ([rods.<rod>.base], SI units).")
+
+
+def base_frame(rotation: float) -> np.ndarray:
+    """The quaternion q_c of the rest frame R₀ turned by ``rotation`` [rad] about +x
+    (d3 = +x stays; d1 = (0, cos θ, sin θ), d2 = (0, −sin θ, cos θ))."""
+    if rotation == 0.0:
+        return rest_quaternion()
+    c, s = math.cos(rotation), math.sin(rotation)
+    return from_rotation_matrix(np.array([[0.0, 0.0, 1.0], [c, -s, 0.0], [s, c, 0.0]]))
+
+
+@dataclass(frozen=True)
+class Support:
+    """How a rod is held at its base s = 0: what is held (``holds``, one of :data:`CLAMPS`),
+    the support point r_c [m] (``position``) and frame q_c (``frame``)."""
+
+    holds: str
+    position: np.ndarray = field(repr=False)
+    frame: np.ndarray = field(repr=False)
+    #: Arclength of the support on its rod [m] (0: the base).
+    s: float = 0.0
+    #: The node it holds (0: the base).
+    node: int = 0
+
+    @property
+    def holds_position(self) -> bool:
+        """Whether the node's position is fixed at :attr:`position`."""
+        return self.holds in ("frame", "first_segment", "position")
+
+    @property
+    def frame_element(self) -> bool:
+        """Whether the bending term gets the frame element (q_c, q_0) (the frame q_c half a
+        segment before q_0, docs/model.md "Clamp")."""
+        return self.holds in ("frame", "orientation")
+
+    def fixed_index(self, layout: RodLayout) -> np.ndarray:
+        """Global indices of the coordinates the support removes from the free state."""
+        if self.holds == "first_segment":
+            return np.concatenate([layout.position_index[0], layout.quaternion_index[0]])
+        if self.holds_position:
+            return layout.position_index[self.node]
+        return np.zeros(0, dtype=int)
+
+    @property
+    def axis(self) -> np.ndarray:
+        """The base axis d3 of the frame (+x)."""
+        return np.array([1.0, 0.0, 0.0])
+
+
+def rigid_motion(before: Support, after: Support
+                 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray] | None:
+    """The rigid motion that takes support ``before`` to ``after`` — (R, q_R, p₀, p₁) with
+    r ↦ p₁ + R (r − p₀) and q ↦ q_R ⊗ q (the Hamilton product, paper order) — or None
+    when the support did not move. A warm start carries a rod's equilibrium with it when
+    its base is inserted or turned (:meth:`rodsim.core.model.Model.carried`)."""
+    if (np.array_equal(before.position, after.position)
+            and np.array_equal(before.frame, after.frame)):
+        return None
+    turn = directors(after.frame).T @ directors(before.frame)  # R₁ R₀ᵀ (columns d_k)
+    return turn, from_rotation_matrix(turn), before.position, after.position
+
+
+def quaternion_product(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Hamilton product a ⊗ b of quaternions (..., 4) in the paper's order (q1, q2, q3
+    imaginary, q4 real): the directors of a ⊗ b are those of b turned by a's rotation."""
+    av, aw = a[..., :3], a[..., 3:]
+    bv, bw = b[..., :3], b[..., 3:]
+    vector = aw * bv + bw * av + np.cross(av, bv)
+    scalar = aw * bw - np.sum(av * bv, axis=-1, keepdims=True)
+    return np.concatenate([vector, scalar], axis=-1)
+
+
+def base_support(clamp: str, base: Any, origin: np.ndarray) -> Support:
+    """The base support of a rod: ``clamp`` what it holds, ``base`` its
+    :data:`BaseOptions` (insertion, rotation), ``origin`` the rod's origin [m]."""
+    frame = base_frame(float(base.rotation))
+    position = np.asarray(origin, dtype=float) + float(base.insertion) * np.array([1.0, 0, 0])
+    return Support(clamp, position, frame)
+
+
+def node_at(nodes: int, length: float, s: float) -> int:
+    """The node nearest arclength ``s`` of a rod of ``nodes`` nodes and ``length``."""
+    return int(round(s / length * (nodes - 1)))
+
+
+def node_supports(nodes: int, length: float, rest: np.ndarray,
+                  supports: Mapping[str, Mapping[str, Any]]) -> tuple[Support, ...]:
+    """The position supports of a rod's ``[rods.<rod>.supports.<name>]`` tables (validated)
+    for a rod of ``nodes`` nodes, ``length`` and rest positions ``rest`` (N, 3)."""
+    out = []
+    for table in supports.values():
+        options = SupportOptions.of(table)
+        node = node_at(nodes, length, options.s)
+        out.append(Support("position", rest[node] + np.asarray(options.displacement, float),
+                           np.zeros(4), float(options.s), node))
+    return tuple(out)
+
+
+def resolve_supports(rod: str, table: Mapping[str, Any], is_tendon: bool
+                     ) -> dict[str, dict[str, Any]]:
+    """The validated ``[rods.<rod>.supports.<name>]`` tables of a resolved rod table
+    (SceneError: not a table of tables, a tendon rod, ``s`` at the base, beyond the rod,
+    between nodes, or two supports on one node)."""
+    raw = table.get("supports", {})
+    prefix = f"rods.{rod}.supports"
+    if not isinstance(raw, Mapping) or not all(isinstance(v, Mapping) for v in raw.values()):
+        raise SceneError(f"{prefix}: expected tables [{prefix}.<name>] (keys: s, "
+                         "displacement)")
+    length, nodes = float(table["length"]), int(table["nodes"])
+    out: dict[str, dict[str, Any]] = {}
+    held: dict[int, str] = {}
+    for name, entry in raw.items():
+        key = f"{prefix}.{name}"
+        resolved = validate_table(entry, SUPPORT_PARAMETERS, key)
+        s = resolved["s"]
+        if is_tendon:
+            where = (" at its termination, where its anchor to the catheter holds it"
+                     if s >= length * (1 - 1e-12) else "")
+            raise SceneError(f"{key}: a support on a tendon rod{where}; a tendon is held by "
+                             "its lumen and its termination; allowed: supports on backbone "
+                             "rods")
+        if s > length * (1 + 1e-12):
+            raise SceneError(f"{key}.s = {s!r}: beyond the rod (length {length!r} m); "
+                             f"allowed: 0 < s <= {length!r}")
+        node = node_at(nodes, length, s)
+        if abs(s - node * length / (nodes - 1)) > 1e-9 * length:
+            raise SceneError(f"{key}.s = {s!r}: between two nodes; allowed: a node's "
+                             f"arclength k L/(N − 1), e.g. {node * length / (nodes - 1)!r}")
+        if node == 0:
+            raise SceneError(f"{key}.s = {s!r}: the base support holds s = 0; allowed: "
+                             f"s > 0 (the base: rods.{rod}.clamp and [rods.{rod}.base])")
+        if node in held:
+            raise SceneError(f"{key}.s = {s!r}: node {node} is already held by "
+                             f"{prefix}.{held[node]}")
+        held[node] = name
+        out[name] = resolved
+    return out
+
+
+def resolve_base(rod: str, table: Mapping[str, Any], is_tendon: bool) -> dict[str, Any] | None:
+    """The validated ``[rods.<rod>.base]`` table of a resolved rod table (defaults filled),
+    or None for a tendon rod, whose base follows its catheter's (SceneError if it has one)."""
+    if is_tendon:
+        if "base" in table:
+            raise SceneError(f"rods.{rod}.base: a tendon's base is its lumen's entrance and "
+                             "moves with its catheter's base; allowed: set the catheter's "
+                             "[rods.<catheter>.base]")
+        return None
+    return validate_table(table.get("base", {}), BASE_PARAMETERS, f"rods.{rod}.base")

@@ -1,0 +1,219 @@
+"""Supports (rodsim/core/supports.py): an actuated base — insertion along the base axis and
+rotation about it — moves and turns the whole rest shape and what is attached to it;
+``track`` ramps both and ``reach`` solves for them (docs/model.md, "Supports and anchors")."""
+
+from __future__ import annotations
+
+import copy
+import math
+
+import numpy as np
+import pytest
+
+import rodsim
+from rodsim.core.analytic import extensible_elastica
+from rodsim.core.rod.quaternion import directors
+from rodsim.core.scene import Scene
+from rodsim.core.schema import SceneError
+
+LENGTH = 0.12  # m, table1-50g
+STIFF = ["K_P=1e8", "static.max_newton=200"]
+
+
+def rotation_x(angle: float) -> np.ndarray:
+    c, s = math.cos(angle), math.sin(angle)
+    return np.array([[1.0, 0.0, 0.0], [0.0, c, -s], [0.0, s, c]])
+
+
+def _solve(scene, values: dict | None = None):
+    result = rodsim.solve(scene.with_values(values or {}), "static")
+    assert result.success, result.message
+    return result
+
+
+def test_an_inserted_cantilever_is_the_elastica_moved_along_its_axis():
+    """A straight cantilever inserted by d under a hanging mass: its tip is the extensible
+    elastica's (the continuum reference, rodsim/core/analytic) moved by d along +x, within
+    the discretisation error at N = 80 (4e-6 m, tests/test_accuracy.py); and every node is
+    the uninserted equilibrium's moved by d, to round-off."""
+    scene = rodsim.load_scene("table1-50g", ["nodes=80", *STIFF])
+    rod = scene.data["rods"]["catheter"]
+    d = 0.037
+    inserted = _solve(scene, {"rods.catheter.base.insertion": d})
+    at_rest = _solve(scene)
+    ei = rod["youngs_modulus"] * math.pi * rod["radius"] ** 4 / 4.0
+    ea = rod["stretch_modulus"] * math.pi * rod["radius"] ** 2
+    ref = extensible_elastica((0.0, -rod["tip_load"]["mass"] * rod["tip_load"]["gravity"]),
+                              ei, ea, rod["length"])
+    tip = inserted.tip()
+    error = math.hypot(tip[0] - (ref.x[-1] + d), tip[1] - ref.y[-1])
+    print(f"\ninserted by {d} m: tip error vs elastica moved by d {error:.3e} m")
+    assert error < 1e-5
+    assert abs(tip[2]) < 1e-12
+    shift = inserted.rods["catheter"].positions - at_rest.rods["catheter"].positions
+    assert np.abs(shift - [d, 0.0, 0.0]).max() < 1e-12 * LENGTH
+    assert np.abs(inserted.rods["catheter"].quaternions
+                  - at_rest.rods["catheter"].quaternions).max() < 1e-12
+
+
+def test_rotation_about_the_axis_is_the_rotated_solution():
+    """A base turned by θ about its axis with a tip load along −y equals the unturned rod
+    under the load turned by −θ, turned by θ: positions and directors."""
+    scene = rodsim.load_scene("table1-50g", ["nodes=20"])
+    theta = 0.7
+    turn = rotation_x(theta)
+    weight = np.array([0.0, -0.05 * 9.81, 0.0])
+    turned = _solve(scene, {"rods.catheter.base.rotation": theta})
+    reference = _solve(scene, {"tip_load.mass": 0.0, "tip_load.force": list(turn.T @ weight)})
+    ours, theirs = turned.rods["catheter"], reference.rods["catheter"]
+    # the reference load is out of the rest d1 plane: its rod bends out of it
+    assert abs(reference.tip()[2]) > 0.01 * LENGTH
+    assert np.abs(ours.positions - theirs.positions @ turn.T).max() < 1e-12 * LENGTH
+    assert np.abs(directors(ours.quaternions)
+                  - directors(theirs.quaternions) @ turn.T).max() < 1e-10
+
+
+@pytest.mark.parametrize("name", ["table3-catheter1", "tendon-conserving"])
+def test_the_base_carries_its_tendons(name):
+    """Inserting or turning a tendon-driven catheter's base moves its tendons with it (their
+    lumen entrance and base frame): every rod of the equilibrium is the unmoved one moved
+    (d along +x) or turned (θ about +x), for the distal (paper) and the proximal
+    (conserving) actuation."""
+    scene = rodsim.load_scene(name)
+    at_rest = _solve(scene)
+    d, theta = 0.021, -1.1
+    inserted = _solve(scene, {"insertion": d})
+    turned = _solve(scene, {"rotation": theta})
+    for rod in at_rest.rods:
+        base = at_rest.rods[rod].positions
+        assert np.abs(inserted.rods[rod].positions - base - [d, 0, 0]).max() < 1e-11 * 0.16
+        assert np.abs(turned.rods[rod].positions - base @ rotation_x(theta).T).max() < (
+            1e-11 * 0.16)
+    assert abs(turned.tip("catheter")[2]) > 0.01 * 0.16  # the bending plane turned
+
+
+def test_sensitivity_to_insertion_is_a_rigid_translation():
+    """d(every node)/d(insertion) = +x: the implicit-function sensitivity of an inserted
+    base (rodsim/app/inverse/sensitivity.py) for a tendon-bent catheter."""
+    scene = rodsim.load_scene("table3-catheter1")
+    sens = rodsim.sensitivity(_solve(scene), ["insertion", "rotation"])
+    for rod, positions in sens.positions.items():
+        np.testing.assert_allclose(positions[0], np.tile([1.0, 0, 0], (len(positions[0]), 1)),
+                                   atol=1e-7, err_msg=rod)
+    # d(tip)/dθ = e_x × tip (a turn about +x through the origin)
+    tip = _solve(scene).tip("catheter")
+    np.testing.assert_allclose(sens.tip("catheter")[1], np.cross([1.0, 0, 0], tip),
+                               atol=1e-7 * 0.16)
+
+
+def test_track_ramps_insertion_and_rotation_together():
+    """``rodsim track`` along insertion 0 → 20 mm and rotation 0 → 1 rad: every step's tip
+    is the unmoved tip turned by θ_k and moved by d_k."""
+    scene = rodsim.load_scene("table3-catheter1")
+    tip0 = _solve(scene).tip("catheter")
+    ins = np.linspace(0.0, 0.02, 6)
+    rot = np.linspace(0.0, 1.0, 6)
+    path = rodsim.track(scene, {"insertion": ins, "rotation": rot}, "static")
+    assert path.success, path.message
+    # Each warm start is the last equilibrium carried rigidly with the base (Model.carried):
+    # already the next one, so no step is halved and no Newton iteration is needed (without
+    # it: 12 halvings and 1051 iterations over these 5 steps).
+    assert sum(path.halvings) == 0 and max(path.iterations[1:]) <= 1
+    for k in range(6):
+        expected = rotation_x(rot[k]) @ tip0 + [ins[k], 0.0, 0.0]
+        assert np.abs(path.tips("catheter")[k] - expected).max() < 1e-8 * 0.16, k
+
+
+def test_reach_solves_for_insertion_and_rotation():
+    """``rodsim reach --actuate insertion,rotation`` puts a tendon-bent catheter's tip on a
+    target made by inserting by 12 mm and turning by 0.4 rad; the values are recovered."""
+    scene = rodsim.load_scene("table3-catheter1")
+    tip0 = _solve(scene).tip("catheter")
+    target = rotation_x(0.4) @ tip0 + [0.012, 0.0, 0.0]
+    found = rodsim.reach(scene, target, ["insertion", "rotation"], rod="catheter")
+    assert found.success, found.message
+    np.testing.assert_allclose(found.values, [0.012, 0.4], rtol=1e-5)
+    assert found.distance < 1e-6
+
+
+def test_a_tendon_rod_has_no_base_of_its_own():
+    """A tendon's base is its lumen's entrance: a [rods.<tendon>.base] table is refused with
+    one line naming it."""
+    data = copy.deepcopy(rodsim.load_scene("table3-catheter1").data)
+    data["rods"]["tendon"]["base"] = {"insertion": 0.01}
+    with pytest.raises(SceneError, match=r"^rods\.tendon\.base: a tendon's base") as error:
+        Scene.from_dict(data)
+    assert "\n" not in str(error.value)
+
+
+def _pinned(nodes: int, supports: dict, *overrides: str) -> dict:
+    data = copy.deepcopy(rodsim.load_scene(
+        "table1-50g", [f"nodes={nodes}", *STIFF, "tip_load.mass=0", *overrides]).data)
+    data["rods"]["catheter"]["supports"] = supports
+    return data
+
+
+def test_a_prescribed_tip_displacement_bends_the_rod_as_beam_theory_at_second_order():
+    """A cantilever whose tip node is held displaced by δ = 1e-4 L sideways: the linear
+    beam's y(s) = δ s² (3L − s) / (2L³) (the shape of a tip force; the nonlinearity is
+    O(δ²/L²)), at every node, the error falling at second order in N."""
+    delta = 1e-4 * LENGTH
+    errors = []
+    for nodes in (11, 21, 41):
+        result = _solve(Scene.from_dict(_pinned(
+            nodes, {"tip": {"s": LENGTH, "displacement": [0.0, delta, 0.0]}})))
+        s = np.linspace(0.0, LENGTH, nodes)
+        beam = delta * s**2 * (3 * LENGTH - s) / (2 * LENGTH**3)
+        errors.append(np.abs(result.rods["catheter"].positions[:, 1] - beam).max() / delta)
+    orders = np.log2(np.array(errors[:-1]) / errors[1:])
+    print(f"\nprescribed tip displacement: errors / δ {errors}, orders {orders}")
+    assert errors[-1] < 1e-4
+    assert np.all(orders > 1.8) and np.all(orders < 2.2)
+
+
+def test_track_ramps_a_prescribed_displacement():
+    """``rodsim track`` ramps a node support's displacement like any numeric value; each
+    step is the cold equilibrium."""
+    data = _pinned(15, {"mid": {"s": 0.06}})
+    scene = Scene.from_dict(data)
+    values = [0.0, 0.005, 0.01]
+    path = rodsim.track(scene, {"supports.mid.displacement[1]": values}, "static")
+    assert path.success, path.message
+    for step, value in enumerate(values):
+        cold = _solve(scene.with_values({"rods.catheter.supports.mid.displacement":
+                                         [0.0, value, 0.0]}))
+        assert abs(cold.rods["catheter"].positions[7, 1] - value) < 1e-15
+        assert np.abs(path.positions[step] - cold.rods["catheter"].positions).max() < (
+            1e-8 * LENGTH)
+
+
+@pytest.mark.parametrize(("supports", "message"), [
+    ({"far": {"s": 0.2}}, r"^rods\.catheter\.supports\.far\.s = 0\.2: beyond the rod"),
+    ({"off": {"s": 0.05}}, r"^rods\.catheter\.supports\.off\.s = 0\.05: between two nodes"),
+    ({"base": {"s": 0.0}}, r"^rods\.catheter\.supports\.base\.s = 0\.0: the base support"),
+    ({"a": {"s": 0.06}, "b": {"s": 0.06}},
+     r"^rods\.catheter\.supports\.b\.s = 0\.06: node 7 is already held by"),
+    ({"tip": {"s": 0.12, "angle": 1.0}}, r"^rods\.catheter\.supports\.tip\.angle: unknown key"),
+    ({"tip": 0.12}, r"^rods\.catheter\.supports: expected tables"),
+])
+def test_bad_supports_are_one_line_scene_errors(supports, message):
+    with pytest.raises(SceneError, match=message) as error:
+        Scene.from_dict(_pinned(15, supports))
+    assert "\n" not in str(error.value)
+
+
+def test_a_support_where_a_tendon_is_anchored_is_refused():
+    """The tendon's tip is held by its termination anchor: a support there too is a
+    one-line SceneError saying so."""
+    data = copy.deepcopy(rodsim.load_scene("table3-catheter1").data)
+    data["rods"]["tendon"]["supports"] = {"tip": {"s": 0.16}}
+    with pytest.raises(SceneError, match=r"^rods\.tendon\.supports\.tip: a support on a "
+                       r"tendon rod at its termination, where its anchor"):
+        Scene.from_dict(data)
+
+
+def test_the_node_of_a_support_is_not_a_numeric_parameter():
+    """Moving s changes which coordinates are fixed: refused as a track or reach key."""
+    scene = Scene.from_dict(_pinned(15, {"mid": {"s": 0.06}}))
+    with pytest.raises(SceneError, match="changes the discretisation"):
+        rodsim.track(scene, {"supports.mid.s": [0.06, 0.07]}, "static")
