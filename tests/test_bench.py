@@ -275,6 +275,24 @@ def test_kernels_small_outputs(tmp_path):
     assert 0 < track["warm_step_mean_s"] < track["cold_solve_s"]
 
 
+def test_string_tendon_small_outputs(tmp_path):
+    """``rodsim bench string-tendon --size small``: two cases of tdcr-two-segment solved,
+    timed and scored against the Rucker–Webster reference within the scene's accuracy aim."""
+    import json
+
+    from rodsim_bench import string_tendon
+
+    paths = string_tendon.run("small", tmp_path, lambda fraction, status: None)
+    assert {p.name for p in paths} == {"string-tendon-small.json", "string-tendon-small.md"}
+    report = json.loads((tmp_path / "string-tendon-small.json").read_text())
+    assert len(report["cases"]) == 2
+    for row in report["cases"]:
+        solve = row["solves"]["static"]
+        assert solve["success"] and solve["cpu_s"] > 0
+        assert solve["error_over_L"] < 1e-4
+    assert "| default" in (tmp_path / "string-tendon-small.md").read_text()
+
+
 # ------------------------------------------- figure titles state the measured result
 RESULTS = Path(__file__).resolve().parents[1] / "benchmarks" / "results"
 

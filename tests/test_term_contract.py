@@ -190,6 +190,39 @@ SMALL_JOINT_SCENE = {
     },
 }
 
+#: String tendons (coupling = "string", no tendon rod): one ending part-way at a constant
+#: offset, a helical one entering past the base on spacer disks (both on a 'frame'-clamped
+#: catheter, whose base frame is a frame knot), and a tabulated one on a 'first_segment'
+#: catheter (no base frame: the frame is extrapolated below the first midpoint).
+SMALL_STRING_SCENE = {
+    "name": "contract-string-tendons",
+    "rods": {
+        "catheter": {
+            "length": 0.1, "radius": 0.005, "youngs_modulus": 3e6, "stretch_modulus": 3e6,
+            "density": 1100.0, "nodes": 8, "clamp": "frame",
+            "terms": ["stretch", "bend_twist", "centerline"],
+        },
+        "shaft": {
+            "length": 0.08, "radius": 0.004, "youngs_modulus": 5e6, "stretch_modulus": 5e6,
+            "density": 1100.0, "nodes": 6, "clamp": "first_segment", "origin": [0.0, 0.05, 0.0],
+            "terms": ["stretch", "bend_twist", "centerline"],
+        },
+    },
+    "tendons": {
+        "pull": {"catheter": "catheter", "coupling": "string", "offset": 0.002,
+                 "direction": [0.6, 0.8], "tendon_string": {"tension": 1.5, "end": 0.073}},
+        "helix": {"catheter": "catheter", "coupling": "string",
+                  "tendon_string": {"tension": 0.7, "start": 0.01, "routing": "helix",
+                                    "helix_radius": 0.008, "helix_pitch": 0.07,
+                                    "helix_phase": 0.3, "spacers": True}},
+        "table": {"catheter": "shaft", "coupling": "string",
+                  "tendon_string": {"tension": 0.9, "routing": "table",
+                                    "table_s": [0.0, 0.03, 0.06, 0.08],
+                                    "table_y": [0.002, 0.001, -0.001, -0.002],
+                                    "table_z": [0.0, 0.0015, 0.002, 0.001]}},
+    },
+}
+
 #: Random states per (scene, term).
 STATES = 2
 FD_RELATIVE_STEP = 1e-6
@@ -199,8 +232,8 @@ TOLERANCE = 1e-6
 SMALL_SCENES = {scene["name"]: scene for scene in (SMALL_SCENE, SMALL_LOAD_SCENE,
                                                     SMALL_TENDON_SCENE,
                                                     SMALL_PAPER_TENDON_SCENE,
-                                                    SMALL_CONTACT_SCENE,
-                                                    SMALL_JOINT_SCENE)}
+                                                    SMALL_CONTACT_SCENE, SMALL_JOINT_SCENE,
+                                                    SMALL_STRING_SCENE)}
 #: Every contract scene by name: the shipped scenes, then the small ones above.
 CONTRACT_SCENES = [*scene_paths(), *SMALL_SCENES]
 

@@ -290,7 +290,7 @@ class Model:
         full = self.full(x0)
         load = 0.0
         for term in self._loads:
-            load += float(np.sum(np.linalg.norm(term.element_forces(full), axis=1)))
+            load += term.load_scale(full)
         rods = list(self.rods.values())
         fallback = max(r.bending_stiffness / r.length**2 for r in rods)
         #: Force scale F_ref [N]: total external load, or max EI/L² for an unloaded scene.

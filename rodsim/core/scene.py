@@ -47,7 +47,7 @@ from rodsim.core.rod.sections import resolve_sections
 from rodsim.core.scene_file import parse_toml, read_scene_text
 from rodsim.core.schema import Parameter, SceneError, options_type, shown, validate_table
 from rodsim.core.supports import BASE_PARAMETERS, BaseOptions, resolve_base, resolve_supports
-from rodsim.core.tendon import TENDON_PARAMETERS, TendonOptions, check_tendon
+from rodsim.core.tendon import STRING_TERMS, TENDON_PARAMETERS, TendonOptions, check_tendon
 
 __all__ = ["Scene", "SceneError", "SOLVER_PARAMETERS", "SolverSettings", "default_scene_path",
            "scene_paths"]
@@ -307,6 +307,9 @@ def resolve(raw: Mapping[str, Any]) -> dict[str, Any]:
     tendons = {}
     for rod, table in tendons_raw.items():
         prefix = f"tendons.{check_rod_name(rod, 'tendons')}"
+        if (isinstance(table, Mapping) and table.get("coupling") == "string"
+                and "terms" not in table):
+            table = {**table, "terms": list(STRING_TERMS)}  # a string tendon's default term
         tendons[rod] = _resolve_with_terms(table, TENDON_PARAMETERS, tendon_terms, terms,
                                            prefix)
         term_options = {term: terms[term].Options.of(tendons[rod][term])

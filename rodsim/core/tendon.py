@@ -14,6 +14,10 @@ Coupling variants (docs/tendon.md):
   points registered to it (§4.1), applied at the node. Not momentum-conserving.
 - ``conserving``: every coupling is the gradient of a penalty energy, so each force has its
   equal and opposite reaction (including the moment of a force applied at the lumen offset).
+- ``string``: no tendon rod. A frictionless tendon under tension T is the potential T ℓ of its
+  path through routing points on the catheter (rodsim/core/terms/tendon_string.py,
+  rodsim/core/routing.py); the table is keyed by the tendon's own name, which must not be a
+  rod's, and its term is ``tendon_string``.
 """
 
 from __future__ import annotations
@@ -28,27 +32,36 @@ import numpy as np
 from rodsim.core.anchors import Anchor, check_tendon_termination, tendon_termination
 from rodsim.core.rod.quaternion import DIRECTOR_FORMS, director, director_gradient
 from rodsim.core.rod.rod import Rod, RodOptions
+from rodsim.core.routing import check_routing
 from rodsim.core.schema import Parameter, SceneError, options_type, shown
 from rodsim.core.supports import Support
 
-__all__ = ["TENDON_PARAMETERS", "TENDON_TERMS", "LumenFrame", "Tendon", "TendonOptions",
-           "check_tendon", "tendon_origin", "tendon_support"]
+__all__ = ["STRING_TERMS", "TENDON_PARAMETERS", "TENDON_TERMS", "LumenFrame", "Tendon",
+           "TendonOptions", "check_tendon", "tendon_origin", "tendon_support"]
 
 #: Coupling terms a tendon uses unless its table lists others.
 TENDON_TERMS = ["lumen", "endpoint_compliance", "endpoint_coupling", "tendon_actuation"]
 
+#: The coupling term of a ``string`` tendon (its default ``terms``).
+STRING_TERMS = ["tendon_string"]
+
 TENDON_PARAMETERS: tuple[Parameter, ...] = (
     Parameter("catheter", "str", "catheter", "-", "name of the rod whose lumen holds the tendon"),
     Parameter("offset", "float", 0.003, "m",
-              "lumen offset r_L from the catheter centerline (not given in the paper)",
+              "lumen offset r_L from the catheter centerline (not given in the paper); for "
+              "coupling = 'string', the offset of tendon_string.routing = 'constant'",
               0.0, 10.0, exclusive_minimum=True),
     Parameter("direction", "vector", [1.0, 0.0], "-",
               "(α, β) of the lumen direction d_t = α d1 + β d2 (Eq. 32); normalised; "
               "(1, 0) is d1 = +y at rest", length=2),
     Parameter("coupling", "str", "paper", "-",
-              "'paper' (Eq. 28 without reaction, averaged lumen reactions) or 'conserving' "
-              "(every penalty force has its reaction)", choices=("paper", "conserving")),
-    Parameter("terms", "list", TENDON_TERMS, "-", "coupling terms of this tendon"),
+              "'paper' (Eq. 28 without reaction, averaged lumen reactions), 'conserving' "
+              "(every penalty force has its reaction) or 'string' (no tendon rod: the "
+              "tension times the path's length, term tendon_string)",
+              choices=("paper", "conserving", "string")),
+    Parameter("terms", "list", TENDON_TERMS, "-",
+              "coupling terms of this tendon (default for coupling = 'string': "
+              "['tendon_string'])"),
 )
 
 #: A tendon table's own values, typed (one field per :data:`TENDON_PARAMETERS`); its
@@ -68,10 +81,17 @@ def check_tendon(name: str, table: Mapping[str, Any], rods: Mapping[str, Mapping
     """Cross-check a resolved tendon table against the scene's rods (resolved tables) and the
     other tendons (raises SceneError); ``term_options`` holds the typed options of the
     coupling terms the table lists, by name."""
+    options = TendonOptions.of(table)
+    if options.coupling == "string":
+        _check_string(name, options, rods, prefix, tendons, term_options or {})
+        return
+    if "tendon_string" in options.terms:
+        raise SceneError(f"{prefix}.terms: 'tendon_string' is the term of coupling = "
+                         f"'string'; this tendon has coupling = {options.coupling!r}")
     if name not in rods:
         raise SceneError(f"{prefix}: no rod named {shown(name)} (a tendon table is keyed by its "
-                         f"rod's name); rods: {', '.join(rods)}")
-    options = TendonOptions.of(table)
+                         f"rod's name, or set coupling = 'string' for a tendon without a rod); "
+                         f"rods: {', '.join(rods)}")
     catheter = options.catheter
     if catheter not in rods:
         raise SceneError(f"{prefix}.catheter = {shown(catheter)}: no such rod; rods: "
@@ -118,6 +138,30 @@ def check_tendon(name: str, table: Mapping[str, Any], rods: Mapping[str, Mapping
                          "lumen automatically; allowed: leave origin unset")
 
 
+def _check_string(name: str, options: Any, rods: Mapping[str, Mapping[str, Any]], prefix: str,
+                  tendons: Collection[str], term_options: Mapping[str, Any]) -> None:
+    """Cross-checks of a ``string`` tendon (no rod of its own)."""
+    if name in rods:
+        raise SceneError(f"{prefix}: coupling = 'string' needs no rod, but a rod is named "
+                         f"{name!r}; allowed: a tendon name that is not a rod's")
+    if options.terms != STRING_TERMS:
+        raise SceneError(f"{prefix}.terms = {shown(options.terms)}: a string tendon has the "
+                         f"one term 'tendon_string'; allowed: {STRING_TERMS!r} (or leave terms "
+                         "unset)")
+    catheter = options.catheter
+    if catheter not in rods:
+        raise SceneError(f"{prefix}.catheter = {shown(catheter)}: no such rod; rods: "
+                         + ", ".join(rods))
+    if catheter in tendons:
+        raise SceneError(f"{prefix}.catheter = {catheter!r}: that rod is itself a tendon; "
+                         "allowed: a rod with no [tendons.<rod>] table")
+    if math.hypot(*options.direction) < 1e-12:
+        raise SceneError(f"{prefix}.direction = {options.direction!r}: d_t has zero length; "
+                         "allowed: any non-zero (α, β)")
+    host = RodOptions.of(rods[catheter])
+    check_routing(prefix, options, term_options["tendon_string"], host.length, host.radius)
+
+
 def tendon_origin(catheter: Rod, options: Any) -> np.ndarray:
     """Rest position of the tendon's base: the lumen point at the catheter's base (Eq. 32);
     ``options`` is the tendon's :data:`TendonOptions`."""
@@ -156,7 +200,8 @@ class Tendon:
     """The pieces of one tendon table the coupling terms need."""
 
     name: str
-    rod: Rod
+    #: The tendon's rod; ``None`` for a string tendon.
+    rod: Rod | None
     catheter: Rod
     offset: float
     alpha: float
@@ -167,7 +212,7 @@ class Tendon:
     def of(cls, name: str, rods: dict[str, Rod], options: Any) -> Tendon:
         """The tendon of rod ``name`` configured by ``options`` (its :data:`TendonOptions`)."""
         alpha, beta = _unit_direction(options.direction)
-        return cls(name, rods[name], rods[options.catheter], options.offset, alpha, beta,
+        return cls(name, rods.get(name), rods[options.catheter], options.offset, alpha, beta,
                    options.coupling)
 
     @property

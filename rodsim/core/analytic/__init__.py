@@ -16,6 +16,10 @@ positive downward):
 :func:`tendon_arc` is the constant-curvature limit of a catheter bent by a tendon under
 tension (the physical check of the momentum-conserving tendon coupling).
 
+:func:`tendon_rod` is the Rucker–Webster rod driven by frictionless tendons of general
+routing ending anywhere, with piecewise sections and a tip wrench, solved by shooting to
+~1e-12 (the reference of the string tendon; :func:`scene_reference` reads a scene).
+
 :func:`load_parameter` is the paper's alpha = F L^2 / (2 EI) (printed with 2 E L).
 See docs/analytic.md.
 """
@@ -28,6 +32,7 @@ from rodsim.core.analytic.paper_model import (
     tip_angle_from_load,
 )
 from rodsim.core.analytic.tendon_arc import tendon_arc
+from rodsim.core.analytic.tendon_bvp import scene_reference, tendon_rod
 
 __all__ = [
     "ElasticaShape",
@@ -39,4 +44,6 @@ __all__ = [
     "paper_model_as_printed",
     "tip_angle_from_load",
     "tendon_arc",
+    "tendon_rod",
+    "scene_reference",
 ]

@@ -128,6 +128,11 @@ class Term(ABC):
         """Potential energy [J]; ``None`` when the term is not conservative."""
         return None
 
+    def load_scale(self, x: np.ndarray) -> float:
+        """A load's magnitude [N] at the full state ``x``, summed into the model's force
+        scale F_ref: by default the sum of its element forces' norms."""
+        return float(np.sum(np.linalg.norm(self.element_forces(x), axis=1)))
+
     def kernel_arguments(self) -> tuple:
         """The constants the compiled kernel takes after the state (arrays and floats)."""
         raise NotImplementedError(f"term {self.name!r} has no compiled kernel")

@@ -1,0 +1,251 @@
+"""A frictionless tendon under a controlled tension, as a string: V = T ℓ(x) (not in the paper).
+
+A tendon pulled with tension T at its proximal end and routed without friction through
+points its catheter carries stores the potential T ℓ, ℓ the length of its path from the
+entry (s = start) to its termination (s = end). Added to the catheter's elastic energy, its
+gradient is the Rucker–Webster load (Rucker & Webster, IEEE T-RO 27(6), 2011, Eqs. (16)–(18)
+and the point wrench at the termination): a distributed force from the path's curvature,
+its moment about the centerline, and the point force −T t and moment at the termination,
+including the kink a tendon that ends makes in the path of those that pass on. No tendon
+rod, no lumen penalty, no registration (docs/tendon.md, "String tendon").
+
+Discretisation (the catheter has N nodes r_j, segment length h, quaternion q_j at the
+segment midpoint s_j = (j + ½) h): the path is the polygon through
+
+- the entry point at s = start, every node s_j = j h with start + h/4 < s_j < end − h/4,
+  and the termination point at s = end;
+- each point p(σ) = (1 − t) r_m + t r_{m+1} + R(q̂(σ)) ρ(σ): the centerline interpolated
+  on the segment m holding σ, plus the body-frame offset ρ = (ρ_y, ρ_z) of the routing
+  (rodsim/core/routing.py), R(q̂) ρ = (ρ_y d1(q) + ρ_z d2(q)) / |q|² (Eq. 2, normalised);
+- q(σ) is interpolated linearly between the frame knots — the base frame at s = 0 (clamps
+  'frame' and 'orientation') and the segment midpoints — and held constant beyond the last
+  knot (and before the first without a base frame); at a node it is ½ (q_{j−1} + q_j).
+  This follows the rod's own discrete kinematics: its bending elements sit between
+  consecutive knots, so the half segment past the last midpoint turns rigidly with q_{N−2}.
+
+Measured against the Rucker–Webster reference (tests/test_string_tendon.py; tip error / L
+on the 0.2 m benchmark backbone at N = 21 → 81, all second order unless said):
+
+| choice | one tendon, 3 N, to the tip | two tendons, one ending at 0.12 m |
+|---|---|---|
+| points at the segment midpoints ½ (r_j + r_{j+1}) | 2.8e-3 → 1.8e-4 | 3.2e-3 → 2.1e-4 |
+| points at the nodes, frame extrapolated past the last knot | 7.4e-4 → 4.6e-5 | 7.5e-4 → 4.7e-5 |
+| points at the nodes, frame held past the last knot (this) | 3.6e-5 → 2.3e-6 | 1.1e-5 → 7.2e-7 |
+| the segment's own frame at entry and termination | 3.6e-5 → 2.3e-6 | 3.9e-3 → 9.8e-4, order 1 |
+
+(the midpoints sit a sagitta κ h²/8 inside the bent centerline; the segment's own frame puts
+a part-way termination's moment arm up to half a segment off).
+
+ℓ = Σ_k |p_{k+1} − p_k|: one element per chord, on the coordinates of its two points
+(r_m, r_{m+1} and the two knot quaternions of each: 28 coordinates). With d = p_B − p_A,
+u = d/|d| and p's derivatives J = ∂p/∂x_point,
+
+    ∂E/∂x = T [−J_Aᵀ u, J_Bᵀ u],
+    ∂²E/∂x² = T Jdᵀ (I − u uᵀ) Jd / |d| + T Σ_m u_m (∂²p_B[m] − ∂²p_A[m]),   Jd = [−J_A, J_B],
+
+with ∂²p[m]/∂q² = ∇²f_m of f = g/n, g_m = qᵀ G_m q, G_m = ρ_y A[0, m] + ρ_z A[1, m],
+n = |q|²:  ∇²f_m = 2G_m/n − 4(G_m q qᵀ + q qᵀ G_m)/n² − 2 g_m I/n² + 8 g_m q qᵀ/n³.
+The tension is a load (the static solver ramps it); its force scale is T.
+"""
+
+from __future__ import annotations
+
+from typing import Any, NamedTuple
+
+import numpy as np
+
+from rodsim.core.rod.quaternion import DIRECTOR_FORMS
+from rodsim.core.routing import ROUTINGS, Routing, string_span
+from rodsim.core.schema import Parameter
+from rodsim.core.tendon import Tendon
+from rodsim.core.terms.base import TendonTerm
+
+#: Local coordinates of one routing point: r_m, r_{m+1}, the two knot quaternions.
+POINT_SIZE = 14
+
+
+class RoutingPoints(NamedTuple):
+    """The routing points of a string tendon (P points), fixed when the term is built."""
+
+    #: Arc length of each point [m], (P,).
+    s: np.ndarray
+    #: Full-state indices of (r_m, r_{m+1}, Q_0, Q_1), (P, 14).
+    dofs: np.ndarray
+    #: (1 − t, t, w_0, w_1): weights of the two nodes and of the two knot quaternions, (P, 4).
+    weights: np.ndarray
+    #: Constant part of q (the base frame's share), (P, 4).
+    constant: np.ndarray
+    #: Body-frame offset ρ, (P, 2) [m].
+    offset: np.ndarray
+
+
+def routing_points(tendon: Tendon, routing: Routing, start: float,
+                   end: float) -> RoutingPoints:
+    """The routing points of a string tendon on ``tendon.catheter`` (module docstring)."""
+    rod = tendon.catheter
+    nodes, h = rod.nodes, rod.geometry.segment_length
+    mid = rod.geometry.segment_s
+    node_s = rod.geometry.node_s
+    inner = np.flatnonzero((node_s > start + 0.25 * h) & (node_s < end - 0.25 * h))
+    s = np.concatenate([[start], node_s[inner], [end]])
+    segment = np.minimum(np.floor(s / h).astype(int), nodes - 2)
+    segment[1:-1] = inner
+    t = s / h - segment
+    t[1:-1] = 0.0
+    base = rod.support.frame_element
+    knots = np.concatenate([[0.0], mid]) if base else mid
+    k = np.clip(np.searchsorted(knots, s, side="right") - 1, 0, len(knots) - 2)
+    w = np.clip((s - knots[k]) / (knots[k + 1] - knots[k]), 0.0, 1.0)
+    quat = rod.layout.quaternion_index
+    pos = rod.layout.position_index
+    # Knot i is segment i − 1 with a base frame (knot 0 is the constant base frame).
+    first = k - 1 if base else k
+    second = k if base else k + 1
+    constant = np.zeros((len(s), 4))
+    weights = np.stack([1.0 - t, t, 1.0 - w, w], axis=1)
+    if base:
+        at_base = first < 0
+        constant[at_base] = weights[at_base, 2:3] * rod.base_quaternion
+        weights[at_base, 2] = 0.0
+        first = np.maximum(first, 0)
+    dofs = np.concatenate([pos[segment], pos[segment + 1], quat[first], quat[second]],
+                          axis=1)
+    return RoutingPoints(s, dofs, weights, constant, routing.offsets(s))
+
+
+class PointGeometry(NamedTuple):
+    """Positions of the routing points and their derivatives in the points' coordinates."""
+
+    #: p, (P, 3).
+    p: np.ndarray
+    #: ∂p/∂x_point, (P, 3, 14).
+    jac: np.ndarray
+    #: ∇²f_m with respect to q, (P, 3, 4, 4).
+    hess: np.ndarray
+
+
+class TendonString(TendonTerm):
+    """V = T ℓ: a frictionless tendon under tension T routed along its catheter."""
+
+    name = "tendon_string"
+    equation = "V = T ℓ (Rucker & Webster 2011, Eqs. 16–18; not in the paper)"
+    is_load = True
+    parameters = (
+        Parameter("tension", "float", 1.0, "N", "tendon tension T, applied at its entry",
+                  0.0, 1e6),
+        Parameter("start", "float", 0.0, "m",
+                  "arc length of the tendon's entry (0: the catheter's base)", 0.0, 100.0),
+        Parameter("end", "float", 0.0, "m",
+                  "arc length of the termination; 0 (default) means the catheter's tip L",
+                  0.0, 100.0),
+        Parameter("routing", "str", "constant", "-",
+                  "'constant' (the tendon table's offset and direction), 'table' "
+                  "(table_s/y/z, cubic spline) or 'helix' (helix_radius/pitch/phase)",
+                  choices=ROUTINGS),
+        Parameter("table_s", "vector", [], "m",
+                  "routing = 'table': increasing arc lengths covering [start, end]",
+                  0.0, 100.0),
+        Parameter("table_y", "vector", [], "m", "routing = 'table': ρ along d1 at table_s",
+                  -10.0, 10.0),
+        Parameter("table_z", "vector", [], "m", "routing = 'table': ρ along d2 at table_s",
+                  -10.0, 10.0),
+        Parameter("helix_radius", "float", 0.0, "m",
+                  "routing = 'helix': distance from the centerline", 0.0, 10.0),
+        Parameter("helix_pitch", "float", 0.0, "m",
+                  "routing = 'helix': arc length per turn (negative: the other hand)",
+                  -1e3, 1e3),
+        Parameter("helix_phase", "float", 0.0, "rad",
+                  "routing = 'helix': angle from d1 toward d2 at s = 0", -1e3, 1e3),
+        Parameter("spacers", "bool", False, "-",
+                  "the tendon rides on spacer disks: offsets beyond the catheter's radius "
+                  "allowed"),
+    )
+
+    def __init__(self, tendon: Tendon, options: Any) -> None:
+        super().__init__(tendon, options)
+        catheter = tendon.catheter
+        self.routing = Routing.of(tendon.offset, (tendon.alpha, tendon.beta), options)
+        self.start, self.end = string_span(options, catheter.length)
+        self.points = routing_points(tendon, self.routing, self.start, self.end)
+        self.tension = float(options.tension)
+        self.dofs = np.concatenate([self.points.dofs[:-1], self.points.dofs[1:]], axis=1)
+        g = np.einsum("pa,amij->pmij", self.points.offset, DIRECTOR_FORMS[:2])
+        #: G_m = ρ_y A[0, m] + ρ_z A[1, m] of every point, (P, 3, 4, 4).
+        self._forms = g
+
+    def kernel_arguments(self) -> tuple:
+        pts = self.points
+        return (self.dofs, pts.weights, pts.constant, np.ascontiguousarray(self._forms),
+                self.tension)
+
+    def load_scale(self, x: np.ndarray) -> float:
+        """The tension: the termination's point force (the chords' forces cancel in pairs)."""
+        return self.tension
+
+    def _points(self, x: np.ndarray) -> PointGeometry:
+        pts = self.points
+        local = x[pts.dofs]
+        c0, c1, w0, w1 = pts.weights.T
+        q = w0[:, None] * local[:, 6:10] + w1[:, None] * local[:, 10:14] + pts.constant
+        n = np.einsum("pi,pi->p", q, q)
+        gq = np.einsum("pmij,pj->pmi", self._forms, q)  # G_m q
+        g = np.einsum("pmi,pi->pm", gq, q)
+        grad = 2.0 * gq / n[:, None, None] - 2.0 * g[:, :, None] * q[:, None, :] / (
+            n**2)[:, None, None]
+        p = (c0[:, None] * local[:, 0:3] + c1[:, None] * local[:, 3:6]
+             + g / n[:, None])
+        jac = np.zeros((len(n), 3, POINT_SIZE))
+        eye = np.eye(3)
+        jac[:, :, 0:3] = c0[:, None, None] * eye
+        jac[:, :, 3:6] = c1[:, None, None] * eye
+        jac[:, :, 6:10] = w0[:, None, None] * grad
+        jac[:, :, 10:14] = w1[:, None, None] * grad
+        qq = q[:, :, None] * q[:, None, :]
+        gqq = gq[:, :, :, None] * q[:, None, None, :]
+        hess = (2.0 * self._forms / n[:, None, None, None]
+                - 4.0 * (gqq + gqq.transpose(0, 1, 3, 2)) / (n**2)[:, None, None, None]
+                - 2.0 * g[:, :, None, None] * np.eye(4) / (n**2)[:, None, None, None]
+                + 8.0 * g[:, :, None, None] * qq[:, None] / (n**3)[:, None, None, None])
+        return PointGeometry(p, jac, hess)
+
+    def path(self, x: np.ndarray) -> np.ndarray:
+        """The tendon's path: the routing points in order, shape (P, 3) [m]."""
+        return self._points(x).p
+
+    def energy(self, x: np.ndarray) -> float:
+        return float(self.tension * np.sum(np.linalg.norm(np.diff(self.path(x), axis=0),
+                                                          axis=1)))
+
+    def _chords(self, x: np.ndarray) -> tuple[PointGeometry, np.ndarray, np.ndarray]:
+        geometry = self._points(x)
+        d = np.diff(geometry.p, axis=0)
+        length = np.linalg.norm(d, axis=1)
+        return geometry, d / length[:, None], length
+
+    def element_forces(self, x: np.ndarray) -> np.ndarray:
+        geometry, u, _ = self._chords(x)
+        pull = self.tension * u
+        grad_a = -np.einsum("emk,em->ek", geometry.jac[:-1], pull)
+        grad_b = np.einsum("emk,em->ek", geometry.jac[1:], pull)
+        return -np.concatenate([grad_a, grad_b], axis=1)
+
+    def element_jacobians(self, x: np.ndarray) -> np.ndarray:
+        geometry, u, length = self._chords(x)
+        jd = np.concatenate([-geometry.jac[:-1], geometry.jac[1:]], axis=2)  # (E, 3, 28)
+        proj = (np.eye(3) - u[:, :, None] * u[:, None, :]) * (self.tension / length)[:, None,
+                                                                                       None]
+        hess = np.einsum("eak,eab,ebl->ekl", jd, proj, jd)
+        w = self.points.weights[:, 2:]
+        pull = self.tension * u
+        for side, sign in ((0, -1.0), (1, 1.0)):
+            points = slice(0, -1) if side == 0 else slice(1, None)
+            curvature = sign * np.einsum("em,emij->eij", pull, geometry.hess[points])
+            weights = w[points]
+            offset = POINT_SIZE * side + 6
+            for a in range(2):
+                for b in range(2):
+                    rows = slice(offset + 4 * a, offset + 4 * a + 4)
+                    cols = slice(offset + 4 * b, offset + 4 * b + 4)
+                    hess[:, rows, cols] += (weights[:, a] * weights[:, b])[:, None,
+                                                                           None] * curvature
+        return -hess
