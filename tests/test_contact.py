@@ -226,3 +226,45 @@ def test_archive_holds_contact_forces_and_the_figure_draws_them(tmp_path):
     assert figure.stat().st_size > 10_000
     plain = run_dataset(rodsim.solve("table1-50g", "static"))
     assert "contact_force" not in plain and "contact_resultant" not in plain
+
+
+def test_tendon_bent_tip_on_a_plane_matches_the_rucker_webster_reference():
+    """Reference (c): the benchmark backbone of tests/test_string_tendon.py bent by one string
+    tendon (1 N at 10 mm) presses its tip on a frictionless plane above it (at 60 % of the
+    free tip's rise). The plane's force is λ n, n = −y fixed, so the Rucker–Webster shooting
+    (rodsim/core/analytic/tendon_bvp.py) under the tip force λ_N n, λ_N the contact force
+    rodsim finds at N, must put the tip on the plane (its sphere touching) and where rodsim
+    does: both distances fall at second order. (Finding λ by root search on the reference
+    instead takes minutes; done once by hand: λ = 0.030186 N, rodsim's force within 7.9e-5 of
+    it at N = 81.)"""
+    from test_string_tendon import LENGTH as BACKBONE
+    from test_string_tendon import RADIUS as WIRE
+    from test_string_tendon import backbone, string
+
+    from rodsim.core.analytic.tendon_bvp import scene_reference
+
+    tendon = {"a": string((1, 0), 1.0)}
+    plane_y = 0.6 * 0.0195772845 + WIRE  # 60 % of the free tip's y (reference) + r
+    on_plane, to_rodsim = [], []
+    nodes = (21, 41, 81)
+    for count in nodes:
+        scene = backbone(count, tendon) | {"obstacles": {"tissue": {
+            "type": "plane", "rods": ["backbone"], "point": [0.0, plane_y, 0.0],
+            "normal": [0.0, -1.0, 0.0]}}}
+        result = rodsim.solve(scene, "static", overrides=["static.max_newton=200"])
+        assert result.success, result.message
+        model = Model(Scene.from_dict(scene))
+        contact = next(t for t in model.terms if t.name == "contact")
+        force = contact.nodal_forces(model.full(result.state)).sum(axis=0)
+        assert abs(force[0]) + abs(force[2]) <= 1e-12 * abs(force[1])
+        tip = scene_reference(Scene.from_dict(backbone(5, tendon, tuple(force)))).tip
+        on_plane.append(abs(plane_y - tip[1] - WIRE) / BACKBONE)
+        to_rodsim.append(float(np.linalg.norm(tip - result.tip())) / BACKBONE)
+    orders = [-np.polyfit(np.log([n - 1 for n in nodes]), np.log(e), 1)[0]
+              for e in (on_plane, to_rodsim)]
+    print(f"\ntendon-bent tip on a plane, N = {nodes}: reference tip under rodsim's force, "
+          f"off the plane / L {', '.join(f'{e:.2g}' for e in on_plane)} (order "
+          f"{orders[0]:.2f}), from rodsim's tip / L {', '.join(f'{e:.2g}' for e in to_rodsim)}"
+          f" (order {orders[1]:.2f})")
+    assert min(orders) > 1.8
+    assert max(on_plane[-1], to_rodsim[-1]) < 1e-5
