@@ -268,3 +268,18 @@ def test_tendon_bent_tip_on_a_plane_matches_the_rucker_webster_reference():
           f" (order {orders[1]:.2f})")
     assert min(orders) > 1.8
     assert max(on_plane[-1], to_rodsim[-1]) < 1e-5
+
+
+def test_a_csv_vessel_is_read_into_the_scene_and_an_override_of_its_file_rereads(tmp_path):
+    """The resolved scene holds the csv's points (archives and reruns need no file); setting
+    another file reads it and replaces the old points."""
+    scene = rodsim.load_scene("vessel-insertion")
+    table = scene.data["obstacles"]["vessel"]
+    assert table["file"] == "" and len(table["points"]) == 4 * 33
+    again = Scene.from_json(scene.to_json())
+    assert again.data["obstacles"]["vessel"]["points"] == table["points"]
+    other = tmp_path / "wide.csv"
+    other.write_text("-0.2,0,0,0.004\n0.3,0,0,0.004\n", encoding="utf-8")
+    wide = scene.with_overrides([f'obstacles.vessel.file="{other}"'])
+    assert wide.data["obstacles"]["vessel"]["points"] == [-0.2, 0.0, 0.0, 0.004,
+                                                           0.3, 0.0, 0.0, 0.004]

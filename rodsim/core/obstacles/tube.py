@@ -76,9 +76,10 @@ class Tube(Obstacle):
                   exclusive_minimum=True),
         Parameter("file", "str", "", "-",
                   "csv centerline: a file of rows x,y,z,radius [m] (relative to the scene "
-                  "file, or a shipped data file); read into points"),
+                  "file, or a shipped data file); read into points when the scene is loaded "
+                  "(the resolved scene keeps the points, not the name); replaces points"),
         Parameter("points", "vector", [], "m",
-                  "csv centerline read from file (or given inline): x,y,z,radius per point, "
+                  "csv centerline given inline (or read from file): x,y,z,radius per point, "
                   "flattened", -1e3, 1e3),
     )
 
@@ -87,11 +88,14 @@ class Tube(Obstacle):
     def resolve(cls, table: dict[str, Any], prefix: str) -> dict[str, Any]:
         kind = table["centerline"]
         if kind == "csv":
-            if not table["points"]:
-                if not table["file"]:
-                    raise SceneError(f"{prefix}: a csv centerline needs file = '<x,y,z,radius "
-                                     "file>' (or points)")
+            if table["file"]:
+                # read once: the resolved scene (and so an archive) holds the points, and a
+                # later override of file reads the new file (a file replaces any points)
                 table["points"] = _read_points(table["file"], prefix)
+                table["file"] = ""
+            if not table["points"]:
+                raise SceneError(f"{prefix}: a csv centerline needs file = '<x,y,z,radius "
+                                 "file>' (or points)")
             points = np.asarray(table["points"], dtype=float)
             if len(points) % 4:
                 raise SceneError(f"{prefix}.points: {len(points)} values, not x,y,z,radius per "
