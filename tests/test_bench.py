@@ -205,11 +205,59 @@ def test_bench_without_a_checkout_says_so(cli, capsys, monkeypatch, tmp_path):
     assert "not installed with rodsim" in err and "Traceback" not in err
 
 
-def test_bench_default_output_needs_a_checkout(cli, capsys, monkeypatch):
+def test_bench_commit_needs_a_checkout(cli, capsys, monkeypatch):
     monkeypatch.setattr(bench_locator, "default_output", lambda: None)
-    assert cli(["bench", "skip-work", "--size", "small"]) == 2
+    assert cli(["bench", "skip-work", "--commit"]) == 2
     err = capsys.readouterr().err
     assert "-o/--output" in err and "Traceback" not in err
+
+
+@pytest.fixture
+def recorded_bench(monkeypatch):
+    """``rodsim bench skip-work`` with its ``run`` replaced by one that records its size and
+    folder (what the command decides, without running a benchmark)."""
+    from rodsim_bench import skip_work
+
+    calls = []
+    monkeypatch.setattr(skip_work, "run",
+                        lambda size, output, progress: calls.append((size, output)) or [])
+    return calls
+
+
+def test_bench_defaults_to_the_small_size_outside_the_committed_results(
+        cli, capsys, monkeypatch, tmp_path, recorded_bench):
+    """Issue 22: `rodsim bench NAME` ran the full size and wrote into the checkout's
+    committed benchmarks/results. Now: small, into runs/bench of the current folder; the
+    help says so; --commit (and only it) writes to benchmarks/results."""
+    monkeypatch.chdir(tmp_path)
+    assert cli(["bench", "skip-work"]) == 0
+    assert recorded_bench == [("small", bench_locator.DEFAULT_OUTPUT)]
+    assert (tmp_path / "runs" / "bench").is_dir()
+    assert cli(["bench", "skip-work", "--commit", "--size", "full"]) == 0
+    assert recorded_bench[-1] == ("full", bench_locator.default_output())
+    assert cli(["bench", "skip-work", "--commit", "-o", str(tmp_path)]) == 2
+    capsys.readouterr()
+    with pytest.raises(SystemExit):
+        cli(["bench", "--help"])
+    text = " ".join(capsys.readouterr().out.split())
+    assert "small (the default)" in text and "runs/bench" in text
+
+
+def test_bench_finds_the_checkout_pip_installed_from_or_the_current_folder(
+        monkeypatch, tmp_path):
+    """After a plain `pip install .` rodsim lives in site-packages: the checkout is the
+    folder pip recorded (direct_url.json), else the current folder or a parent."""
+    root = bench_locator.checkout_root()
+    assert root is not None
+    elsewhere = tmp_path / "site-packages" / "rodsim" / "app" / "bench_locator.py"
+    monkeypatch.setattr(bench_locator, "__file__", str(elsewhere))
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.setattr(bench_locator, "_installed_from", lambda: root)
+    assert bench_locator.checkout_root() == root
+    monkeypatch.setattr(bench_locator, "_installed_from", lambda: None)
+    assert bench_locator.checkout_root() is None
+    monkeypatch.chdir(root / "docs")
+    assert bench_locator.checkout_root() == root
 
 
 def test_failed_jobs_are_recorded_with_their_message():

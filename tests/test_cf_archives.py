@@ -3,20 +3,25 @@
 hide _FillValue and coordinates in its own model): the global attributes Conventions,
 history, source, references, date_created and the library versions; the resolved scene as
 one ``scene_json`` attribute and no ``scene.*`` attributes; no _FillValue on coordinate
-variables; a ``step`` coordinate where there is a ``step`` dimension; no ragged-array claim.
-Archives of schema 1 (before these attributes) are still read and re-run."""
+variables; a ``step`` coordinate where there is a ``step`` dimension; no ragged-array claim;
+since schema 3 numeric coordinate variables (text labels beside them), text as characters,
+no dots in variable names, and cfchecker's verdict where it is installed. Archives of
+schemas 1 and 2 are still read and re-run, and an archive saved back by xarray (which adds a
+_FillValue to float coordinates) is accepted: values are what count."""
 
 from __future__ import annotations
 
 import json
 import re
 from importlib import metadata
+from pathlib import Path
 
 import netCDF4
 import numpy as np
 import pytest
 import scipy
 import sksundae
+import xarray as xr
 
 import rodsim
 from rodsim.app.inverse.fit import Points, fit
@@ -57,7 +62,7 @@ def check_cf(path, command: str) -> netCDF4.Dataset:
     assert re.fullmatch(TIME, attrs["date_created"])
     assert attrs["history"] == f"{attrs['date_created']} rodsim {__version__}: {command}"
     assert attrs["rodsim_version"] == __version__
-    assert str(attrs["schema_version"]) == "2"
+    assert str(attrs["schema_version"]) == "3"
     assert attrs["numpy_version"] == np.__version__
     assert attrs["scipy_version"] == scipy.__version__
     assert attrs["scikit_sundae_version"] == metadata.version("scikit-sundae")
@@ -72,6 +77,16 @@ def check_cf(path, command: str) -> netCDF4.Dataset:
     assert coordinates
     for name in coordinates:
         assert "_FillValue" not in nc[name].ncattrs(), f"coordinate {name} has a _FillValue"
+    # Schema 3 (CF §2.2, §2.3, §5): coordinate variables are numeric, text is stored as
+    # characters (cfchecker refuses netCDF strings), names are letters, digits, underscores.
+    for name, variable in nc.variables.items():
+        assert re.fullmatch(r"[A-Za-z][A-Za-z0-9_]*", name), name
+        assert variable.dtype is not str, f"{name} is a netCDF string, not characters"
+        if variable.dimensions == (name,):
+            assert np.dtype(variable.dtype).kind in "iuf", f"coordinate {name} is not numeric"
+            label = getattr(variable, "label_variable", None)
+            if label is not None:
+                assert nc[label].dimensions[0] == name and label in coordinates
     if "step" in nc.dimensions:
         step = nc["step"]
         assert step.dimensions == ("step",)
@@ -92,7 +107,7 @@ def test_run_archive(tmp_path, cli, capsys):
             str(output)]
     assert cli(argv) == 0, capsys.readouterr().err
     with check_cf(output, "rodsim " + " ".join(argv)) as nc:
-        assert nc["rod"].dimensions == ("node",)
+        assert nc["rod"].dimensions[0] == "node"  # characters: (node, string<n>)
         assert set(nc["history_tip"].dimensions) == {"step", "axis"}
         assert nc.getncattr("title").startswith("rodsim run")
 
@@ -111,7 +126,8 @@ def test_study_archive(tmp_path):
     with check_cf(output, "rodsim.app.study.assemble(study 'cf_test_tiny', size 'small')") as nc:
         assert nc.getncattr("study") == "cf_test_tiny"
         assert "step" in nc.dimensions and "history_tip" in nc.variables
-        assert {"nodes", "rod", "sigma", "axis", "step"} <= coordinate_variables(nc)
+        assert {"nodes", "rod", "sigma", "axis", "step", "rod_label", "axis_label"} <= (
+            coordinate_variables(nc))
 
 
 def test_track_archive(tmp_path, cli, capsys):
@@ -183,16 +199,94 @@ def test_schema_2_archives_without_the_attributes_are_refused(tmp_path, edit, me
         read_dataset(path)
 
 
-def test_a_coordinate_with_a_fill_value_is_refused(tmp_path):
-    ds = run_dataset(rodsim.solve(rodsim.load_scene("table1-50g", ["nodes=8"]), "static"))
-    path = tmp_path / "filled.nc"
-    ds.to_netcdf(path, engine="netcdf4")  # not write_dataset: xarray's default fill values
-    with pytest.raises(ArchiveError, match="_FillValue"):
-        read_dataset(path)
+@pytest.fixture(scope="module")
+def archives(tmp_path_factory):
+    """A run, a track and a study archive as rodsim writes them."""
+    folder = tmp_path_factory.mktemp("kinds")
+    scene = rodsim.load_scene("table1-50g", ["nodes=8"])
+    run = write_dataset(run_dataset(rodsim.solve(scene, "static")), folder / "run.nc")
+    path = rodsim.track(scene, {"tip_load.mass": [0.0, 0.03, 0.05]})
+    track = write_dataset(path.to_xarray(), folder / "track.nc")
+    study = folder / "study.nc"
+    run_study(TINY, "small", study, workers=1)
+    truth = rodsim.solve(scene.with_overrides(["youngs_modulus=5e6"]), "static")
+    found = fit(scene, Points(truth.positions("catheter")[1:], None), ["youngs_modulus"])
+    fitted = write_dataset(found.to_xarray(), folder / "fit.nc")
+    tendon = rodsim.load_scene("table3-catheter1", ["catheter.nodes=10", "tendon.nodes=6"])
+    key = "tendons.tendon.tendon_actuation.force"
+    target = rodsim.solve(tendon.with_overrides([f"{key}=1.5"]), "static").tip("catheter")
+    reached = write_dataset(reach(tendon, target, [key]).to_xarray(), folder / "reach.nc")
+    return {"run": run, "track": track, "study": study, "fit": fitted, "reach": reached}
+
+
+@pytest.mark.parametrize("kind", ["run", "track", "study"])
+def test_an_archive_saved_back_by_xarray_is_re_run_and_plotted(archives, kind, tmp_path, cli,
+                                                               capsys):
+    """Issue 22: open an archive with xarray and save it with to_netcdf — xarray puts a
+    _FillValue on every float coordinate — and rerun and plot refused it. The values are
+    what count: the copy reads to the same Dataset, re-runs to 0 difference and plots."""
+    copy = tmp_path / f"{kind}.nc"
+    with xr.open_dataset(archives[kind]) as ds:
+        ds.load().to_netcdf(copy)
+    with netCDF4.Dataset(copy) as nc:
+        assert any("_FillValue" in nc[name].ncattrs() for name in coordinate_variables(nc))
+    original, saved = read_dataset(archives[kind]), read_dataset(copy)
+    xr.testing.assert_identical(original, saved)
+    assert saved["axis"].values.tolist() == ["x", "y", "z"]  # labels back as coordinates
+    assert cli(["rerun", str(copy)]) == 0, capsys.readouterr().err
+    assert "difference from the stored" in capsys.readouterr().out
+    assert cli(["plot", str(copy), "--format", "png"]) == 0, capsys.readouterr().err
+    assert copy.with_suffix(".png").is_file()
+
+
+def test_schema_2_archives_with_text_coordinates_are_read_and_re_run(tmp_path, cli, capsys):
+    """Schema 2 stored axis, component and rod labels as text coordinate variables and the
+    track's ramped keys under their dotted names; such archives are still read."""
+    scene = rodsim.load_scene("table1-50g", ["nodes=8"])
+    ds = rodsim.track(scene, {"tip_load.mass": [0.0, 0.05]}).to_xarray()
+    ds = ds.rename({"rods_catheter_tip_load_mass": "rods.catheter.tip_load.mass"})
+    ds.attrs["schema_version"] = "2"
+    path = write_dataset(ds, tmp_path / "old-track.nc")  # an old schema is written as it is
+    with netCDF4.Dataset(path) as nc:
+        assert nc["axis"].dtype is str and "rods.catheter.tip_load.mass" in nc.variables
+    assert read_dataset(path).attrs["schema_version"] == "2"
+    assert cli(["rerun", str(path)]) == 0, capsys.readouterr().err
+    assert cli(["plot", str(path), "--format", "png"]) == 0, capsys.readouterr().err
 
 
 def test_another_schema_is_refused_naming_the_readable_ones(tmp_path):
     ds = run_dataset(rodsim.solve(rodsim.load_scene("table1-50g", ["nodes=8"]), "static"))
-    path = write_dataset(ds.assign_attrs(schema_version="3"), tmp_path / "future.nc")
-    with pytest.raises(ArchiveError, match="reads schemas 1 and 2"):
+    path = write_dataset(ds.assign_attrs(schema_version="4"), tmp_path / "future.nc")
+    with pytest.raises(ArchiveError, match="reads schemas 1, 2 and 3"):
         read_dataset(path)
+
+
+TABLES = Path(__file__).resolve().parent / "data" / "cf-tables"
+
+
+def _cf_checker():
+    """cfchecker's checker with the local (empty) standard name, area type and region
+    tables — the archives use no standard names, and the tests never go online — or a
+    skip where cfchecker or the udunits2 library it loads is not installed."""
+    try:
+        from cfchecker.cfchecks import CFChecker
+    except (ImportError, OSError) as exc:  # cfunits raises OSError without libudunits2
+        pytest.skip(f"cfchecker is not usable here ({exc}): pip install cfchecker and "
+                    "apt-get install libudunits2-0")
+    return CFChecker(cfStandardNamesXML=str(TABLES / "standard-names.xml"),
+                     cfAreaTypesXML=str(TABLES / "area-types.xml"),
+                     cfRegionNamesXML=str(TABLES / "region-names.xml"), silent=True)
+
+
+@pytest.mark.parametrize("kind", ["run", "track", "study", "fit", "reach"])
+def test_cfchecker_finds_no_error_and_no_warning(archives, kind, capsys):
+    """cfchecker (CF-1.8) on each archive kind: 0 errors, 0 warnings. It crashed on the
+    text coordinate variables of schema 2 and warned about dotted names."""
+    checker = _cf_checker()
+    results = checker.checker(str(archives[kind]))
+    counts = checker.get_counts(results)
+    messages = [f"{where}: {message}" for where, found in
+                [("global", results["global"]), *results["variables"].items()]
+                for category in ("FATAL", "ERROR", "WARN") for message in found[category]]
+    assert counts["FATAL"] == counts["ERROR"] == counts["WARN"] == 0, messages
+    assert results["variables"], "cfchecker checked no variable"

@@ -82,8 +82,9 @@ def test_reach_command_writes_the_archive_and_a_figure(tmp_path, capsys, cli):
     assert cli(argv) == 0, capsys.readouterr().err
     assert (tmp_path / "reach.png").exists()
     with xr.open_dataset(output) as ds:
-        assert float(ds["tendons.tendon_py.tendon_actuation.force"]) == pytest.approx(2.0,
-                                                                                      rel=1e-6)
+        found = ds["tendons_tendon_py_tendon_actuation_force"]  # no dots in names (CF)
+        assert float(found) == pytest.approx(2.0, rel=1e-6)
+        assert found.attrs["scene_key"] == "tendons.tendon_py.tendon_actuation.force"
         assert ds["target"].attrs["units"] == "m"
         for name in list(ds.data_vars) + list(ds.coords):
             assert "long_name" in ds[name].attrs, name
@@ -133,3 +134,14 @@ def test_reach_starts_from_the_scene_values_whatever_their_sign(origin, least_sq
     assert found.success, found.message
     assert least_squares_starts[0][0] == (np.sign(origin) if origin else 0.0)
     assert found.values[0] == pytest.approx(origin, abs=1e-9)
+
+
+def test_reach_reports_progress_after_each_equilibrium():
+    """Issue 22: `rodsim reach` printed nothing while it ran (164 s on four-tendons)."""
+    scene = rodsim.load_scene("table3-catheter1", ["catheter.nodes=10", "tendon.nodes=6"])
+    key = "tendons.tendon.tendon_actuation.force"
+    target = rodsim.solve(scene.with_overrides([f"{key}=1.5"]), "static").tip("catheter")
+    heard = []
+    found = rodsim.reach(scene, target, [key], progress=lambda f, status: heard.append(status))
+    assert found.success and len(heard) >= 2
+    assert all(s.startswith("reach: equilibrium ") and "from the target" in s for s in heard)

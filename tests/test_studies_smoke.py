@@ -10,6 +10,7 @@ runs (each study runs once per session). The whole file takes about 20–40 s on
 
 from __future__ import annotations
 
+import re
 from pathlib import Path
 
 import matplotlib.pyplot as plt
@@ -264,3 +265,58 @@ def test_a_study_without_reference_reruns(small):
     records, largest = rerun_study(ds, {"K_L": first})
     assert [r["status"] for r in records] == [STATUS["ok"]]
     assert largest < 1e-9 * 0.16  # L = 0.16 m: the CLI's default tolerance
+
+
+# Figures that do not mislead (issue 22) -------------------------------------------------------
+
+
+def _texts(figure) -> list[str]:
+    texts = [figure._suptitle.get_text()] if figure._suptitle else []
+    for axes in figure.axes:
+        texts += [axes.get_title(), axes.get_xlabel(), axes.get_ylabel(),
+                  axes.yaxis.get_offset_text().get_text()]
+        legend = axes.get_legend()
+        if legend is not None:
+            texts += [t.get_text() for t in legend.get_texts()]
+    return texts
+
+
+@pytest.mark.parametrize("name", sorted(STUDIES))
+def test_no_figure_text_reads_nan(name, small):
+    """gravity's title read "gravity = on: nan %" (no exact reference with self-weight)."""
+    import matplotlib.pyplot as plt
+
+    with style():
+        figure = draw_figure(small(name)[1])
+        try:
+            texts = _texts(figure)
+        finally:
+            plt.close(figure)
+    bad = [t for t in texts if re.search(r"\bnan\b", t, re.IGNORECASE)]
+    assert not bad, bad
+
+
+def test_fig16_tip_panel_shows_the_size_of_the_change(small):
+    """Fig. 16's tip moves by a fraction of a µm over K_L: the panel drew it as a steep curve
+    on an offset axis. Its y range now spans at least 1 % of L (the curve is flat), there is
+    no offset, and the title gives the change, measured from the archive."""
+    import matplotlib.pyplot as plt
+
+    from rodsim.app.plotting import MIN_TIP_RANGE
+
+    ds = small("fig16")[1]
+    y = ds["tip"].isel(rod=0).sel(axis="y").values
+    change = float(y.max() - y.min())
+    length = 0.16  # table3-catheter1's catheter
+    assert 0 < change < 1e-5 * length
+    with style():
+        figure = draw_figure(ds)
+        try:
+            tips = figure.axes[1]
+            figure.canvas.draw()
+            low, high = tips.get_ylim()
+            assert high - low >= MIN_TIP_RANGE * length * (1 - 1e-9)
+            assert tips.yaxis.get_offset_text().get_text() == ""
+            assert f"{change * 1e6:.3g} µm" in tips.get_title()
+        finally:
+            plt.close(figure)

@@ -84,10 +84,11 @@ def test_track_command_writes_a_self_describing_archive_and_a_figure(tmp_path, c
     assert (tmp_path / "path.png").exists()
     with xr.open_dataset(output) as ds:
         assert ds.sizes["step"] == 5
-        mass = ds["rods.catheter.tip_load.mass"]
+        mass = ds["rods_catheter_tip_load_mass"]  # no dots in names (CF)
+        assert mass.attrs["scene_key"] == "rods.catheter.tip_load.mass"
         np.testing.assert_allclose(mass.values, np.linspace(0, 0.1, 5))
         assert mass.attrs["units"] == "kg"
-        assert ds["rods.catheter.tip_load.force[0]"].attrs["units"] == "N"
+        assert ds["rods_catheter_tip_load_force_0"].attrs["units"] == "N"
         for name in list(ds.data_vars) + list(ds.coords):
             assert "long_name" in ds[name].attrs, name
         for name in ("position", "wall_time", "residual"):

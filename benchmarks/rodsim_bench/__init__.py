@@ -5,7 +5,8 @@ reference), and the string tendons' solves against their reference.
 
 Each benchmark is one module with ``run(size, output_dir, progress) -> list[Path]`` that
 writes its numbers (a netCDF archive with the machine description in its attributes), its
-figures and a markdown table under ``output_dir`` (default ``benchmarks/results``).
+figures and a markdown table under ``output_dir`` (``rodsim bench`` gives ``runs/bench`` of the
+current folder by default, the committed ``benchmarks/results`` with ``--commit``).
 Timings on shared machines are noisy: compare the ratios measured within one run.
 """
 

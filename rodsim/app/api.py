@@ -88,6 +88,8 @@ def solve(scene: SceneLike | None = None, integrator: str | None = None, *,
         registration ``model`` should carry) instead of the rest state; the loads then act
         in full from the start.
 
+    Notes
+    -----
     A solver failure does not raise: check ``result.success`` and ``result.message``.
     Invalid scenes raise :class:`~rodsim.core.schema.SceneError`, and so does a scene too large
     for this machine's memory (:mod:`rodsim.core.memory`). The wall-time budget

@@ -332,6 +332,7 @@ def cmd_track(args: argparse.Namespace) -> int:
 
 def cmd_fit(args: argparse.Namespace) -> int:
     from rodsim.app.inverse.fit import EquilibriumFailure, FitError, fit, read_points
+    from rodsim.app.progress import ProgressPrinter
     from rodsim.core.scene import SceneError
 
     scene = _load_scene_or_fail(args.scene, args.set, "static")
@@ -339,7 +340,11 @@ def cmd_fit(args: argparse.Namespace) -> int:
     stem = _check_outputs(output)
     try:
         points = read_points(args.data)
-        result = fit(scene, points, args.param, rod=args.rod)
+        progress = ProgressPrinter()
+        try:
+            result = fit(scene, points, args.param, rod=args.rod, progress=progress)
+        finally:
+            progress.close()
     except (FitError, SceneError) as exc:
         raise UserError(str(exc)) from None
     except EquilibriumFailure as exc:
@@ -376,18 +381,23 @@ def _target(text: str) -> list[float]:
 def cmd_reach(args: argparse.Namespace) -> int:
     from rodsim.app.inverse.continuation import EquilibriumFailure
     from rodsim.app.inverse.reach import reach
+    from rodsim.app.progress import ProgressPrinter
     from rodsim.core.scene import SceneError
 
     scene = _load_scene_or_fail(args.scene, args.set, "static")
     output = _output_path(args.output, f"{scene.name}-reach.nc")
     stem = _check_outputs(output)
+    progress = ProgressPrinter()
     try:
-        result = reach(scene, args.tip, args.actuate, rod=args.rod, tolerance=args.tolerance)
+        result = reach(scene, args.tip, args.actuate, rod=args.rod, tolerance=args.tolerance,
+                       progress=progress)
     except SceneError as exc:
         raise UserError(str(exc)) from None
     except EquilibriumFailure as exc:
         print(f"rodsim: solver failure: {exc}", file=sys.stderr)
         return EXIT_SOLVER_FAILURE
+    finally:
+        progress.close()
     if not result.success:
         print(f"rodsim: {result.message}", file=sys.stderr)
         return EXIT_SOLVER_FAILURE
@@ -521,14 +531,19 @@ def cmd_study(args: argparse.Namespace) -> int:
 
 
 def cmd_plot(args: argparse.Namespace) -> int:
-    from rodsim.app.plotting import PlotError, check_output, plot_dataset
+    from rodsim.app import view3d
+    from rodsim.app.plotting import PlotError, check_output, plot_dataset, three_dimensional
     from rodsim.io.archive import ArchiveError, read_dataset
 
     stem = args.output or str(Path(args.archive).with_suffix(""))
+    requested = (args.format or "png,pdf").split(",")
     try:
-        formats = check_output(stem, args.format.split(",")) if args.output else None
+        formats = check_output(stem, requested) if args.output else None
         dataset = read_dataset(args.archive)
-        paths = plot_dataset(dataset, stem, formats or args.format.split(","))
+        formats = formats or requested
+        if args.format is None and three_dimensional(dataset) and view3d.available():
+            formats = [*formats, "html"]  # a 3D shape: the interactive view too
+        paths = plot_dataset(dataset, stem, formats)
     except (ArchiveError, PlotError) as exc:
         raise UserError(str(exc)) from None
     for path in paths:
@@ -539,7 +554,7 @@ def cmd_plot(args: argparse.Namespace) -> int:
 def cmd_bench(args: argparse.Namespace) -> int:
     import importlib
 
-    from rodsim.app.bench_locator import BenchmarksMissing, default_output, load_benchmarks
+    from rodsim.app.bench_locator import BenchmarksMissing, load_benchmarks, results_folder
     from rodsim.app.progress import ProgressPrinter
     from rodsim.io.output import OutputError, probe_folder
 
@@ -551,13 +566,18 @@ def cmd_bench(args: argparse.Namespace) -> int:
         raise UserError(f"no benchmark {args.benchmark!r}; the benchmarks are "
                         + ", ".join(package.BENCHMARKS))
     module = importlib.import_module(f"{package.__name__}.{args.benchmark.replace('-', '_')}")
-    if args.output_dir is None:
-        output = default_output()
-        if output is None:
-            raise UserError("no benchmarks/results folder of a source checkout to write the "
-                            "benchmark's results to; give the output folder with -o/--output")
-    else:
-        output = Path(args.output_dir)
+    if args.output_dir is not None and args.commit:
+        raise UserError("give either -o/--output or --commit, not both")
+    output = results_folder(args.output_dir, args.commit)
+    if output is None:
+        raise UserError("--commit: no benchmarks/results folder of a source checkout to write "
+                        "the benchmark's results to; give the output folder with -o/--output")
+    if args.output_dir is None and not args.commit:
+        try:
+            output.mkdir(parents=True, exist_ok=True)
+        except OSError as exc:
+            raise UserError(f"cannot create the output folder {str(output)!r} "
+                            f"({exc.strerror or exc}); give one with -o") from None
     try:  # before the benchmark runs, not after
         probe_folder(output, what=f"-o {output}")
     except OutputError as exc:
@@ -714,8 +734,11 @@ def build_parser() -> argparse.ArgumentParser:
     plot.add_argument("archive", help="archive written by `rodsim run` or `rodsim study`")
     plot.add_argument("-o", "--output", metavar="STEM",
                       help="output path without extension (default: the archive's)")
-    plot.add_argument("--format", default="png,pdf",
-                      help="comma-separated formats matplotlib writes: png, pdf, svg, … "
+    plot.add_argument("--format", default=None,
+                      help="comma-separated formats matplotlib writes: png, pdf, svg, …, "
+                      "and html, the interactive 3D view of a run, track, fit or reach "
+                      "(needs plotly: pip install \"rodsim[view3d]\"; added by default "
+                      "for a shape that leaves the x-y plane when plotly is installed) "
                       "(default png,pdf)")
     plot.set_defaults(func=cmd_plot)
 
@@ -726,17 +749,23 @@ def build_parser() -> argparse.ArgumentParser:
                            "in N, or their stability over a parameter map; writes netCDF, "
                            "figures and a markdown table with the machine description. The "
                            "benchmarks live in the benchmarks/ folder of a source checkout "
-                           "(benchmarks/rodsim_bench), not in the installed package.")
+                           "(benchmarks/rodsim_bench), not in the installed package: rodsim "
+                           "finds the checkout it was imported or pip-installed from, or the "
+                           "one the current folder is in.")
     bench.add_argument("benchmark", metavar="BENCHMARK",
                        help="work-precision, scaling, stress, skip-work, kernels, "
                        "paper-regime, string-tendon, contact or pyelastica "
                        "(the last needs 'pip install pyelastica==1.0.0'; never a dependency)")
-    bench.add_argument("--size", choices=("small", "full"), default="full",
-                       help="small: a smoke version in seconds; full: the real benchmark")
+    bench.add_argument("--size", choices=("small", "full"), default="small",
+                       help="small (the default): a smoke version in seconds to a minute; "
+                       "full: the real benchmark (minutes to an hour, docs/benchmarks.md)")
     bench.add_argument("-o", "--output", "--output-dir", dest="output_dir", default=None,
                        metavar="DIR",
-                       help="folder for the results (default: benchmarks/results of the "
-                       "source checkout; required without one)")
+                       help="folder for the results (default: runs/bench of the current "
+                       "folder)")
+    bench.add_argument("--commit", action="store_true",
+                       help="write into the checkout's committed benchmarks/results instead "
+                       "(to update the published numbers)")
     bench.set_defaults(func=cmd_bench)
 
     scenes = sub.add_parser("scenes", help="list the shipped scenes (paper Tables 1 and 3)")

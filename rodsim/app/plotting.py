@@ -38,6 +38,8 @@ from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
 from matplotlib.ticker import NullFormatter
 
+from rodsim.app import view3d
+from rodsim.io.cf_layout import from_file, key_variable
 from rodsim.io.output import OutputError, check_target
 
 __all__ = ["plot_dataset", "draw_figure", "style", "STYLE", "PLOT_KINDS",
@@ -63,6 +65,10 @@ MARKER_EVERY = 10
 DPI = 100
 #: The style file of every rodsim figure (package data).
 STYLE = Path(__file__).with_name("rodsim.mplstyle")
+
+
+#: The format of the interactive 3D view (rodsim/app/view3d.py, plotly).
+HTML = "html"
 
 
 class PlotError(ValueError):
@@ -94,10 +100,12 @@ def check_output(stem: str | Path, formats: Iterable[str]) -> list[str]:
     if not wanted:
         raise PlotError("no figure format given (e.g. --format png,pdf)")
     known = supported_formats()
-    unknown = [fmt for fmt in wanted if fmt not in known]
+    unknown = [fmt for fmt in wanted if fmt not in known and fmt != HTML]
     if unknown:
         raise PlotError(f"unknown figure format {unknown[0]!r}; matplotlib writes: "
-                        + ", ".join(known))
+                        + ", ".join(known) + f" (and {HTML}: the interactive 3D view)")
+    if HTML in wanted and not view3d.available():
+        raise PlotError(view3d.MISSING)
     text = str(stem)
     if not text or text.endswith(("/", os.sep)):
         raise PlotError(f"output {text!r} must name a file stem (e.g. figures/fig6), "
@@ -427,10 +435,54 @@ def _tips(ds: xr.Dataset, axes: plt.Axes, dim: str,
                       label="reference tip" if n == 0 else None)
     _finish_x(axes, ds, dim)
     axes.set_ylabel("tip y [m]")
-    axes.set_title("tip deflection")
+    _show_size_of_change(axes, ds, tip_y.values)
     axes.grid(True, which="both", alpha=0.3)
     if len(_indices(ds, others)) <= LEGEND_POINTS:
         axes.legend()
+
+
+#: The tip panel's y range spans at least this share of the rod's length, so that a
+#: change too small to matter is drawn flat (its size is in the panel's title).
+MIN_TIP_RANGE = 0.01
+
+
+def _rod_length(ds: xr.Dataset) -> float:
+    """The first rod's length from the stored scene (NaN if it cannot be read)."""
+    try:
+        rods = json.loads(ds.attrs["scene_json"])["rods"]
+        return float(rods[str(ds["rod"].values[0])]["length"])
+    except (KeyError, TypeError, ValueError):
+        return float("nan")
+
+
+def _length_text(value: float) -> str:
+    """A length with a unit that reads: m, mm or µm."""
+    magnitude = abs(value)
+    if magnitude >= 0.1:
+        return f"{value:.3g} m"
+    if magnitude >= 1e-4:
+        return f"{value * 1e3:.3g} mm"
+    return f"{value * 1e6:.3g} µm"
+
+
+def _show_size_of_change(axes: plt.Axes, ds: xr.Dataset, values: np.ndarray) -> None:
+    """No offset notation, a y range of at least :data:`MIN_TIP_RANGE` L around the values,
+    and the size of the change (max − min) in the title, in length and in L."""
+    finite = np.asarray(values, dtype=float)
+    finite = finite[np.isfinite(finite)]
+    axes.ticklabel_format(axis="y", useOffset=False, style="plain")
+    if finite.size == 0:
+        axes.set_title("tip deflection")
+        return
+    change = float(finite.max() - finite.min())
+    length = _rod_length(ds)
+    title = f"tip deflection: changes by {_length_text(change)}"
+    if np.isfinite(length) and length > 0:
+        title += f" ({change / length:.2g} L)"
+        low, high = axes.get_ylim()
+        middle, half = 0.5 * (finite.max() + finite.min()), 0.5 * MIN_TIP_RANGE * length
+        axes.set_ylim(min(low, middle - half), max(high, middle + half))
+    axes.set_title(title)
 
 
 # Errors against a parameter -----------------------------------------------------------------
@@ -478,6 +530,19 @@ def _error_grid(count: int, rows: int) -> tuple[Figure, np.ndarray]:
     return figure, grid
 
 
+def _draw_fitted_order(axes: plt.Axes, x: np.ndarray, y: np.ndarray, dim: str,
+                       first_line: bool) -> None:
+    """The power law fitted where the error still falls, dashed over that range only."""
+    order, keep = _fitted_order(x, y)
+    if not np.isfinite(order):
+        return
+    xs, ys = x[keep], y[keep]
+    scale = np.exp(np.mean(np.log(ys) + order * np.log(xs)))
+    span = np.array([xs.min(), xs.max()])
+    axes.plot(span, scale * span ** -order, color="k", ls="--", lw=0.9, zorder=4,
+              label=f"fit: ∝ {dim}^−{order:.2f}" if first_line else None)
+
+
 def _error_vs_parameter(ds: xr.Dataset) -> Figure:
     """Tip error (top row, [1]) and area error (bottom row, [m]) against the first swept
     parameter: the two have different units, so they never share an axis."""
@@ -510,6 +575,9 @@ def _error_vs_parameter(ds: xr.Dataset) -> Figure:
                 axes.plot(x, y, color=colours[n], marker=MARKERS[n % len(MARKERS)],
                           ls=LINE_STYLES[n % len(LINE_STYLES)], ms=max(3.0, 6.5 - n),
                           lw=max(1.0, 2.4 - 0.4 * n), label=label or "model")
+                if name == "tip_error" and _is_numeric(ds, first):
+                    _draw_fitted_order(axes, np.asarray(x, dtype=float), y, first,
+                                       first_line=n == 0)
             axes.set_yscale("log")
             axes.grid(True, which="both", alpha=0.3)
             if row == 0:
@@ -521,19 +589,45 @@ def _error_vs_parameter(ds: xr.Dataset) -> Figure:
         grid[0, 0].text(0.5, 0.5, "no errors: the study has no reference, or no point has one",
                         ha="center", va="center", transform=grid[0, 0].transAxes)
         return figure
-    if line_dims:
-        grid[0, -1].legend(loc="best")
+    grid[0, -1].legend(loc="best")
     return figure
 
 
-def _fitted_order(x: np.ndarray, y: np.ndarray) -> float:
-    """The order p of ``y ∝ x^-p`` fitted (least squares, log–log) to the positive finite
-    points; NaN with fewer than two."""
+#: A point belongs to the range an order is fitted over while the error still falls: the
+#: local order of each step of the sweep, −Δlog(error)/Δlog(parameter), must be at least
+#: this (a plateau, the floor set by another error, has a local order near 0).
+MIN_LOCAL_ORDER = 0.5
+
+
+def _falling(x: np.ndarray, y: np.ndarray) -> np.ndarray:
+    """Mask of the points where the error still falls: from the end of the sweep with the
+    largest error, the leading run of steps whose local order is at least
+    :data:`MIN_LOCAL_ORDER` (so a plateau is left out of the fit)."""
     x, y = np.asarray(x, dtype=float), np.asarray(y, dtype=float)
-    keep = np.isfinite(x) & np.isfinite(y) & (x > 0.0) & (y > 0.0)
+    usable = np.flatnonzero(np.isfinite(x) & np.isfinite(y) & (x > 0.0) & (y > 0.0))
+    mask = np.zeros(x.shape, dtype=bool)
+    if usable.size < 2:
+        return mask
+    order = usable[np.argsort(x[usable])]
+    if y[order[-1]] > y[order[0]]:  # the error falls towards small x
+        order = order[::-1]
+    mask[order[0]] = True
+    for previous, current in zip(order[:-1], order[1:], strict=True):
+        ratio = abs(np.log(x[current] / x[previous]))
+        if ratio == 0.0 or np.log(y[previous] / y[current]) / ratio < MIN_LOCAL_ORDER:
+            break
+        mask[current] = True
+    return mask
+
+
+def _fitted_order(x: np.ndarray, y: np.ndarray) -> tuple[float, np.ndarray]:
+    """The order p of ``y ∝ x^-p`` fitted (least squares, log–log) where the error still
+    falls (:func:`_falling`), and that mask; NaN with fewer than two such points."""
+    x, y = np.asarray(x, dtype=float), np.asarray(y, dtype=float)
+    keep = _falling(x, y)
     if keep.sum() < 2 or np.ptp(x[keep]) == 0.0:
-        return float("nan")
-    return float(-np.polyfit(np.log(x[keep]), np.log(y[keep]), 1)[0])
+        return float("nan"), keep
+    return float(-np.polyfit(np.log(x[keep]), np.log(y[keep]), 1)[0]), keep
 
 
 def _error_vs_parameter_result(ds: xr.Dataset) -> str:
@@ -549,15 +643,24 @@ def _error_vs_parameter_result(ds: xr.Dataset) -> str:
     if not _is_numeric(ds, first):
         return f"tip error / L {_span(error.values.ravel(), '.2g')} over {name}"
     others = dims[1:]
-    orders = [_fitted_order(ds[first].values, error.isel(dict(zip(others, group,
-                                                                  strict=True))).values)
-              for group in _indices(ds, others)]
+    x = ds[first].values.astype(float)
+    fits = [_fitted_order(x, error.isel(dict(zip(others, group, strict=True))).values)
+            for group in _indices(ds, others)]
+    orders = [p for p, _ in fits]
+    fitted = np.any([mask for p, mask in fits if np.isfinite(p)], axis=0) if any(
+        np.isfinite(orders)) else np.zeros(x.shape, dtype=bool)
+    if not bool(error.notnull().any()):
+        return f"no tip error: no point of {name} converged with a reference"
     best = error.where(error == error.min(), drop=True)
     where = _label(ds, {d: best[d].values.ravel()[0].item() for d in dims if d in best.dims})
+    smallest = f"smallest {_percent(float(error.min()))} of L at {where}"
+    if not fitted.any():
+        return f"the tip error does not fall over {first}; {smallest}"
     lines = f" ({len(orders)} lines)" if len(orders) > 1 else ""
-    return (f"tip error / L ∝ {first}^−p with p = {_span(orders, '.2f')}{lines}, fitted over "
-            f"{first} = {_span(ds[first].values.astype(float))}; smallest "
-            f"{_percent(float(error.min()))} of L at {where}")
+    levels = "" if fitted.all() else (f", then levels off (error of something else than "
+                                      f"{first})")
+    return (f"tip error / L ∝ {first}^−p with p = {_span(orders, '.2f')}{lines}, fitted where "
+            f"it still falls: {first} = {_span(x[fitted])}{levels}; {smallest}")
 
 
 def _panel_title(axes: plt.Axes, ds: xr.Dataset, panel_select: dict[str, int]) -> None:
@@ -649,29 +752,39 @@ def _centerlines_result(ds: xr.Dataset) -> str:
                    else f"the {reference} reference")
         if len(dims) >= 2 and ds.sizes[dims[0]] > 1:
             parts = [f"{_label(ds, {dims[0]: _value(ds, dims[0], i)})}: "
-                     f"{_percent(float(error.isel({dims[0]: i}).max()))}"
+                     + (_percent(float(error.isel({dims[0]: i}).max()))
+                        if bool(error.isel({dims[0]: i}).notnull().any())
+                        else f"no {reference} reference")
                      for i in range(ds.sizes[dims[0]])]
         else:
             parts = [f"{_percent(float(error.max()))} over {int(error.notnull().sum())} points"]
         return f"largest tip error / L against {against}: " + "; ".join(parts)
     tip_y = ds["tip"].isel(rod=0).sel(axis="y").where(ok).values.ravel()
-    return (f"tip y of {ds['rod'].values[0]} from {_span(tip_y, '.3g')} m over "
-            f"{int(np.isfinite(tip_y).sum())} points")
+    finite = tip_y[np.isfinite(tip_y)]
+    if finite.size == 0:
+        return "no point converged"
+    change = float(finite.max() - finite.min())
+    return (f"tip y of {ds['rod'].values[0]} {_span(finite, '.3g')} m over {finite.size} "
+            f"points (a change of {_length_text(change)})")
 
 
 # Single runs --------------------------------------------------------------------------------
 
 
+def _tip_text(ds: xr.Dataset) -> str:
+    """The first rod's tip, computed from the positions (mm)."""
+    tip = _first_rod_nodes(ds).values[-1]
+    return (f"tip of {ds['rod'].values[0]}: x, y, z = "
+            + ", ".join(f"{1e3 * v:.4g}" for v in tip) + " mm")
+
+
 def _run_centerlines(ds: xr.Dataset) -> Figure:
-    figure, axes = plt.subplots(figsize=(6.4, 4.8), constrained_layout=True)
-    for rod in np.unique(ds["rod"].values):
-        nodes = ds["position"].sel(node=ds["rod"] == rod).values
-        axes.plot(nodes[:, 0], nodes[:, 1], marker=".", label=str(rod))
-    axes.set_xlabel("x [m]")
-    axes.set_ylabel("y [m]")
-    axes.set_aspect("equal", adjustable="datalim")
-    axes.legend()
-    axes.set_title(ds.attrs.get("title", ""))
+    """A run: its rods in x–y, and in x–z and y–z too when the shape leaves the x–y plane;
+    the title names the tip, computed from the positions."""
+    figure, views = _views(ds, np.empty((0, 3)))
+    for panel, _ in views:
+        panel.legend(loc="best")
+    figure.suptitle(f"{ds.attrs.get('title', '')}\n{_tip_text(ds)}")
     return figure
 
 
@@ -684,7 +797,7 @@ def _first_rod_nodes(ds: xr.Dataset) -> xr.DataArray:
 
 
 def _out_of_plane(positions: np.ndarray) -> bool:
-    """Whether a shape leaves the x–y plane (then an x–z view is drawn too)."""
+    """Whether a shape leaves the x–y plane (then the x–z and y–z views are drawn too)."""
     return bool(np.ptp(positions[..., 2]) > 1e-6 * max(np.ptp(positions[..., 0]), 1e-12))
 
 
@@ -694,7 +807,7 @@ def _track_figure(ds: xr.Dataset) -> Figure:
     figure, (shapes, tips) = plt.subplots(1, 2, figsize=(10.0, 4.4), constrained_layout=True)
     nodes = _first_rod_nodes(ds).values
     ramp = list(json.loads(ds.attrs["ramp_json"]))[0]
-    values = ds[ramp].values
+    values = key_variable(ds, ramp).values
     colours = plt.get_cmap("viridis")(np.linspace(0.0, 1.0, max(len(values), 1)))
     for step, colour in enumerate(colours):
         shapes.plot(nodes[step, :, 0], nodes[step, :, 1], color=colour, lw=0.9)
@@ -710,21 +823,41 @@ def _track_figure(ds: xr.Dataset) -> Figure:
     tips.set_xlabel(_ramp_label(ds, ramp))
     tips.set_ylabel("tip position [m]")
     tips.legend()
-    figure.suptitle(ds.attrs.get("title", ""))
+    last = nodes[-1, -1] if len(values) else np.full(3, np.nan)
+    unit = key_variable(ds, ramp).attrs.get("units", "")
+    figure.suptitle(f"{ds.attrs.get('title', '')}\ntip of {ds['rod'].values[0]} at "
+                    f"{short_key(ramp)} = {values[-1]:.4g} {unit}: x, y, z = "
+                    + ", ".join(f"{1e3 * v:.4g}" for v in last) + " mm")
     return figure
 
 
+def short_key(key: str) -> str:
+    """A short label for a dotted scene key: its last part and the rod or tendon it belongs
+    to (``tendons.tendon.tendon_actuation.force`` → ``force (tendon)``)."""
+    parts = key.split(".")
+    if len(parts) >= 3 and parts[0] in ("rods", "tendons"):
+        return f"{parts[-1]} ({parts[1]})"
+    return parts[-1]
+
+
 def _ramp_label(ds: xr.Dataset, key: str) -> str:
-    unit = ds[key].attrs.get("units", "")
-    return f"{key} [{unit}]" if unit not in ("", "1") else key
+    unit = key_variable(ds, key).attrs.get("units", "")
+    label = short_key(key)
+    return f"{label} [{unit}]" if unit not in ("", "1") else label
+
+
+#: The projections of a 3D shape: (horizontal, vertical) world axes of each panel.
+PROJECTIONS = ((0, 1), (0, 2), (1, 2))
 
 
 def _views(ds: xr.Dataset, extra: np.ndarray) -> tuple[Figure, list[plt.Axes]]:
-    """The run's rods in x–y (and x–z when the shape or ``extra`` points leave the plane)."""
+    """The run's rods in x–y, and in x–z and y–z when the shape or ``extra`` points leave
+    the x–y plane (a 3D shape seen from one side only can hide a whole bend)."""
     three_d = _out_of_plane(np.concatenate([ds["position"].values, extra]))
-    figure, axes = plt.subplots(1, 2 if three_d else 1, figsize=(10.0 if three_d else 6.4, 4.8),
+    count = len(PROJECTIONS) if three_d else 1
+    figure, axes = plt.subplots(1, count, figsize=(4.4 * count + 1.0 if three_d else 6.4, 4.8),
                                 constrained_layout=True, squeeze=False)
-    views = [(0, 1), (0, 2)][:axes.shape[1]]
+    views = list(PROJECTIONS[:count])
     for panel, (h, v) in zip(axes[0], views, strict=True):
         for rod in np.unique(ds["rod"].values):
             nodes = ds["position"].sel(node=ds["rod"] == rod).values
@@ -736,6 +869,11 @@ def _views(ds: xr.Dataset, extra: np.ndarray) -> tuple[Figure, list[plt.Axes]]:
     return figure, list(zip(axes[0], views, strict=True))
 
 
+def _unit(variable: xr.DataArray) -> str:
+    unit = variable.attrs.get("units", "")
+    return f" {unit}" if unit not in ("", "1") else ""
+
+
 def _fit_figure(ds: xr.Dataset) -> Figure:
     """A fit: the measured points on the fitted shape, with the fitted values."""
     data = ds["data_position"].values
@@ -744,7 +882,9 @@ def _fit_figure(ds: xr.Dataset) -> Figure:
         panel.plot(data[:, h], data[:, v], ls="none", marker="x", color="k", ms=5,
                    label="measured points")
         panel.legend()
-    fitted = ", ".join(f"{key} = {float(ds[key]):.5g} ± {float(ds[key + '.standard_error']):.2g}"
+    fitted = ", ".join(f"{short_key(key)} = {float(key_variable(ds, key)):.5g} ± "
+                       f"{float(key_variable(ds, key, 'standard_error')):.2g}"
+                       f"{_unit(key_variable(ds, key))}"
                        for key in json.loads(ds.attrs["fit_parameters"]))
     views[0][0].set_title(textwrap.fill(f"fit: {fitted}; residual RMS "
                                         f"{ds.attrs['residual_rms']:.3g} m", 80))
@@ -762,7 +902,8 @@ def _reach_figure(ds: xr.Dataset) -> Figure:
         panel.plot(tip[h], tip[v], marker="o", mfc="none", ms=9, color="k", ls="none",
                    label="tip reached")
         panel.legend()
-    values = ", ".join(f"{key} = {float(ds[key]):.5g}"
+    values = ", ".join(f"{short_key(key)} = {float(key_variable(ds, key)):.5g}"
+                       f"{_unit(key_variable(ds, key))}"
                        for key in json.loads(ds.attrs["reach_parameters"]))
     views[0][0].set_title(textwrap.fill(f"reach: {values}; distance "
                                         f"{ds.attrs['distance']:.3g} m", 80))
@@ -787,11 +928,40 @@ def plot_dataset(ds: xr.Dataset, stem: str | Path, formats: Iterable[str] = ("pn
     :class:`PlotError`.
     """
     formats = check_output(stem, formats)
+    ds = from_file(ds)
+    html = HTML in formats
+    formats = [fmt for fmt in formats if fmt != HTML]
+    if html and "study" in ds.attrs:
+        raise PlotError("the interactive 3D view (html) is drawn for run, track, fit and "
+                        "reach archives, not studies")
+    paths = []
+    if html:
+        try:
+            paths.append(view3d.write_html(ds, _html_target(stem)))
+        except OSError as exc:
+            raise PlotError(f"cannot write {stem}.{HTML}: {exc.strerror or exc}") from None
+    if not formats:
+        return paths
     with warnings.catch_warnings():  # a character the font lacks is drawn as a box
         warnings.filterwarnings("ignore", message="Glyph .* missing from font",
                                 category=UserWarning)
         with style():
-            return _draw_and_write(ds, stem, formats)
+            return _draw_and_write(ds, stem, formats) + paths
+
+
+def _html_target(stem: str | Path) -> Path:
+    try:
+        return check_target(Path(f"{stem}.{HTML}"))
+    except OutputError as exc:
+        raise PlotError(str(exc)) from None
+
+
+def three_dimensional(ds: xr.Dataset) -> bool:
+    """Whether a run, track, fit or reach archive's shapes leave the x–y plane (then
+    ``rodsim plot`` adds the interactive 3D view when plotly is installed)."""
+    if "study" in ds.attrs or "position" not in ds:
+        return False
+    return _out_of_plane(ds["position"].values)
 
 
 def style() -> contextlib.AbstractContextManager[None]:
@@ -803,7 +973,9 @@ def style() -> contextlib.AbstractContextManager[None]:
 def draw_figure(ds: xr.Dataset) -> Figure:
     """The archive's figure, not written (the caller closes it); draw it inside
     :func:`style`. A study figure's title states the measured result (:data:`RESULTS`).
-    Raises :class:`PlotError` for an unknown plot kind."""
+    Raises :class:`PlotError` for an unknown plot kind. A Dataset opened with plain xarray
+    from a schema 3 file gets its labels back first (:func:`rodsim.io.cf_layout.from_file`)."""
+    ds = from_file(ds)
     if "study" in ds.attrs:
         kind = ds.attrs.get("plot", "centerlines")
         if kind not in DRAWERS:

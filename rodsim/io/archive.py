@@ -20,9 +20,11 @@ import xarray as xr
 from rodsim.core.scene import Scene
 from rodsim.io.archive_schema import (
     READABLE_SCHEMA_VERSIONS,
+    SCHEMA_VERSION,
     ArchiveSchemaError,
     check_archive,
 )
+from rodsim.io.cf_layout import from_file, to_file
 from rodsim.io.output import OutputError, check_target, remove_stale_temporaries, temporary_prefix
 
 __all__ = ["ArchiveError", "write_dataset", "read_dataset", "scene_of"]
@@ -52,8 +54,13 @@ def write_dataset(dataset: xr.Dataset, path: str | Path) -> Path:
         os.umask(umask)
         os.chmod(temporary, 0o666 & ~umask)  # mkstemp creates 0600; archives follow the umask
         # No _FillValue on coordinates (CF: a coordinate has no missing values; xarray would
-        # add NaN as the fill value of every float one).
-        encoding = {name: {"_FillValue": None} for name in dataset.coords}
+        # add NaN as the fill value of every float one). An archive of the current schema
+        # is stored in its CF layout (numeric index coordinates, text as characters:
+        # rodsim.io.cf_layout); a Dataset of an older schema is written as it is.
+        if str(dataset.attrs.get("schema_version")) == SCHEMA_VERSION:
+            dataset, encoding = to_file(dataset)
+        else:
+            encoding = {name: {"_FillValue": None} for name in dataset.coords}
         dataset.to_netcdf(temporary, engine="netcdf4", encoding=encoding)
         os.replace(temporary, path)
     except BaseException as exc:  # an interrupt too: never leave a half-written temporary
@@ -76,10 +83,14 @@ def read_dataset(path: str | Path) -> xr.Dataset:
         raise ArchiveError(f"cannot read {str(path)!r}: {reason[:200]}") from None
     if "schema_version" not in loaded.attrs or "scene_json" not in loaded.attrs:
         raise ArchiveError(f"{str(path)!r} is not a rodsim archive (no scene_json attribute)")
+    # Schema 3 files hold numeric index coordinates with text labels beside them
+    # (rodsim.io.cf_layout): the labels become the coordinates again.
+    loaded = from_file(loaded)
     if str(loaded.attrs["schema_version"]) not in READABLE_SCHEMA_VERSIONS:
         raise ArchiveError(f"{str(path)!r} has archive schema {loaded.attrs['schema_version']}, "
                            "this rodsim reads schemas "
-                           + " and ".join(READABLE_SCHEMA_VERSIONS))
+                           + ", ".join(READABLE_SCHEMA_VERSIONS[:-1]) + " and "
+                           + READABLE_SCHEMA_VERSIONS[-1])
     try:
         check_archive(loaded)
     except ArchiveSchemaError as exc:

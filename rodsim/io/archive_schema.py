@@ -22,6 +22,7 @@ import numpy as np
 import xarray as xr
 
 from rodsim.core.scene import Scene, SceneError
+from rodsim.io.cf_layout import key_variable
 from rodsim.io.provenance import CONVENTIONS
 
 __all__ = ["ArchiveSchemaError", "check_archive", "check_point_record", "parse_json_object",
@@ -31,12 +32,17 @@ __all__ = ["ArchiveSchemaError", "check_archive", "check_point_record", "parse_j
 #: 2: CF-1.8 provenance attributes (Conventions, history, source, references, date_created,
 #: library versions, git commit) in every archive, the ``step`` coordinate, the scene only as
 #: ``scene_json`` (no more ``scene.*`` attributes), no _FillValue on coordinates.
-SCHEMA_VERSION = "2"
+#: 3: the CF file layout (rodsim/io/cf_layout.py): text dimension coordinates stored as
+#: numeric indices with ``<dim>_label`` beside them, text as character arrays, scene values
+#: of track, fit and reach archives in variables named without dots (attribute
+#: ``scene_key``); a _FillValue on a coordinate (as xarray adds when saving an archive
+#: back) is accepted on read in every schema.
+SCHEMA_VERSION = "3"
 
 #: Layouts this rodsim reads: schema 1 archives (before the CF attributes) hold the same
 #: variables, ``scene_json`` and ``integrator_options``, so they are read, re-run and plotted
 #: as they are; only the checks of the provenance attributes are skipped for them.
-READABLE_SCHEMA_VERSIONS = ("1", "2")
+READABLE_SCHEMA_VERSIONS = ("1", "2", "3")
 
 #: Text attributes every schema 2 archive carries (docs/archive.md, "Conventions and
 #: provenance"; git_commit and git_dirty only from a checkout).
@@ -160,10 +166,6 @@ def _check_provenance(ds: xr.Dataset) -> None:
         raise ArchiveSchemaError("attribute 'git_dirty' without 'git_commit'")
     if "step" in ds.dims:
         _variable(ds, "step", ("step",))
-    for name in ds.coords:
-        variable = ds[name]
-        if "_FillValue" in variable.attrs or variable.encoding.get("_FillValue") is not None:
-            raise ArchiveSchemaError(f"coordinate {name!r} has a _FillValue")
 
 
 def _check_track(ds: xr.Dataset) -> None:
@@ -175,7 +177,11 @@ def _check_track(ds: xr.Dataset) -> None:
             raise ArchiveSchemaError(f"ramp_json {key[:40]!r} is not a list of numbers")
         if len(values) < ds.sizes.get("step", 0):
             raise ArchiveSchemaError(f"ramp_json {key[:40]!r} has fewer values than steps")
-        _variable(ds, key, ("step",))
+        try:
+            variable = key_variable(ds, key)
+        except KeyError:
+            raise ArchiveSchemaError(f"no variable holds ramped key {key[:60]!r}") from None
+        _variable(ds, variable.name, ("step",))
 
 
 def _check_run(ds: xr.Dataset, leading: tuple[str, ...] = ()) -> None:

@@ -46,8 +46,10 @@ import numpy as np
 from rodsim.app.inverse.continuation import EquilibriumFailure, ScaledEquilibria
 from rodsim.app.inverse.parameter_keys import NumericKey, numeric_keys, scene_with
 from rodsim.core.scene import Scene
+from rodsim.io.cf_layout import variable_name
 from rodsim.io.provenance import history
 from rodsim.io.run_dataset import run_dataset
+from rodsim.solvers.base import Progress
 from rodsim.solvers.result import Result
 
 if TYPE_CHECKING:
@@ -171,11 +173,14 @@ class Fit:
                             {"units": "m", "long_name": "rest arc length of the measured point"})
         for key, initial, value, error in zip(self.keys, self.initial, self.values,
                                               self.errors, strict=True):
-            ds[key.name] = ((), value, {"units": key.unit, "long_name": f"fitted {key.name}"})
-            ds[f"{key.name}.initial"] = ((), initial, {"units": key.unit,
-                                                       "long_name": f"initial {key.name}"})
-            ds[f"{key.name}.standard_error"] = ((), error, {
-                "units": key.unit, "long_name": f"standard error of the fitted {key.name} "
+            name = variable_name(key.name)  # no dots (CF); the key is an attribute
+            ds[name] = ((), value, {"units": key.unit, "long_name": f"fitted {key.name}",
+                                    "scene_key": key.name})
+            ds[f"{name}_initial"] = ((), initial, {"units": key.unit, "scene_key": key.name,
+                                                   "long_name": f"initial {key.name}"})
+            ds[f"{name}_standard_error"] = ((), error, {
+                "units": key.unit, "scene_key": key.name,
+                "long_name": f"standard error of the fitted {key.name} "
                 "(Gauss-Newton covariance)"})
         ds.attrs.update({
             "title": f"rodsim fit of {len(self.keys)} value(s) of scene "
@@ -224,10 +229,11 @@ def _check_identifiable(jacobian: np.ndarray, keys: Sequence[NumericKey], length
 
 
 def fit(scene: Scene, points: Points, params: Sequence[str], *, rod: str | None = None,
-        max_evaluations: int = 100) -> Fit:
+        max_evaluations: int = 100, progress: Progress | None = None) -> Fit:
     """Fit the numeric scene values ``params`` (keys as for ``--set``) to the measured
     ``points`` of ``rod`` (default: the first rod), starting from the scene's values
-    (module docstring). Raises SceneError for bad keys, FitError for bad data or
+    (module docstring); ``progress`` is called after each equilibrium with a status line.
+    Raises SceneError for bad keys, FitError for bad data or
     unidentifiable parameters, EquilibriumFailure when an equilibrium cannot be solved."""
     from scipy.optimize import least_squares
 
@@ -261,7 +267,11 @@ def fit(scene: Scene, points: Points, params: Sequence[str], *, rod: str | None 
         # shape's, so that the trust region rejects it and shrinks.
         if not problem.reached(u):
             return far
-        return (matched(problem.nodes())[0] - points.xyz).ravel()
+        gap = (matched(problem.nodes())[0] - points.xyz).ravel()
+        if progress is not None:
+            progress(None, f"fit: equilibrium {problem.evaluations}, residual RMS "
+                     f"{np.sqrt(np.mean(gap.reshape(-1, 3) ** 2) * 3):.3g} m")
+        return gap
 
     def jacobian(u: np.ndarray) -> np.ndarray:
         problem.at(u)

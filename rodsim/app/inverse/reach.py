@@ -31,8 +31,10 @@ from rodsim.app.inverse.continuation import EquilibriumFailure, ScaledEquilibria
 from rodsim.app.inverse.parameter_keys import NumericKey, numeric_keys, scene_with
 from rodsim.core.scene import Scene
 from rodsim.core.schema import SceneError
+from rodsim.io.cf_layout import variable_name
 from rodsim.io.provenance import history
 from rodsim.io.run_dataset import run_dataset
+from rodsim.solvers.base import Progress
 from rodsim.solvers.result import Result
 
 if TYPE_CHECKING:
@@ -73,9 +75,11 @@ class Reach:
         ds["tip_reached"] = ("axis", self.tip, {"units": "m", "long_name": f"tip of rod "
                                                 f"{self.rod!r} at the values found"})
         for key, initial, value in zip(self.keys, self.initial, self.values, strict=True):
-            ds[key.name] = ((), value, {"units": key.unit, "long_name": f"{key.name} found"})
-            ds[f"{key.name}.initial"] = ((), initial, {"units": key.unit, "long_name":
-                                                       f"starting value of {key.name}"})
+            name = variable_name(key.name)  # no dots (CF); the key is an attribute
+            ds[name] = ((), value, {"units": key.unit, "long_name": f"{key.name} found",
+                                    "scene_key": key.name})
+            ds[f"{name}_initial"] = ((), initial, {"units": key.unit, "scene_key": key.name,
+                                                   "long_name": f"starting value of {key.name}"})
         ds.attrs.update({
             "title": f"rodsim reach of scene {self.result.scene.name!r} (tip of "
                      f"{self.rod!r})",
@@ -98,7 +102,7 @@ class Reach:
 
 def reach(scene: Scene, tip: Sequence[float], actuate: Sequence[str], *,
           rod: str | None = None, tolerance: float = DEFAULT_TOLERANCE,
-          max_evaluations: int = 200) -> Reach:
+          max_evaluations: int = 200, progress: Progress | None = None) -> Reach:
     """Values of the scene keys ``actuate`` that put the tip of ``rod`` (default: the first
     rod) at ``tip`` [m], from the scene's values (module docstring). ``Reach.success`` is
     False when the target is out of reach. Raises SceneError for bad keys or a bad target,
@@ -125,7 +129,13 @@ def reach(scene: Scene, tip: Sequence[float], actuate: Sequence[str], *,
     def residuals(u: np.ndarray) -> np.ndarray:
         # A step to values without a solvable equilibrium gets a residual far beyond any
         # tip's, so that the trust region rejects it and shrinks.
-        return problem.nodes()[-1] - target if problem.reached(u) else far
+        if not problem.reached(u):
+            return far
+        gap = problem.nodes()[-1] - target
+        if progress is not None:
+            progress(None, f"reach: equilibrium {problem.evaluations}, tip "
+                     f"{np.linalg.norm(gap):.3g} m from the target")
+        return gap
 
     def jacobian(u: np.ndarray) -> np.ndarray:
         problem.at(u)

@@ -36,6 +36,7 @@ from rodsim.core.model import Model
 from rodsim.core.scene import Scene
 from rodsim.core.schema import SceneError
 from rodsim.io.archive_schema import SCHEMA_VERSION
+from rodsim.io.cf_layout import variable_name
 from rodsim.io.provenance import archive_attributes
 from rodsim.io.run_dataset import step_coordinate
 from rodsim.solvers import registered_integrators
@@ -137,8 +138,10 @@ class Track:
             "segment_rod": ("segment", seg_rod.astype(str), {"long_name": "rod of the segment"}),
         }
         for column, key in enumerate(self.keys):
-            coords[key.name] = ("step", self.values[:steps, column],
-                                {"units": key.unit, "long_name": f"ramped value of {key.name}"})
+            coords[variable_name(key.name)] = (
+                "step", self.values[:steps, column],
+                {"units": key.unit, "long_name": f"ramped value of {key.name}",
+                 "scene_key": key.name})
         size = (steps, len(node_rod), 3)
         data = {
             "position": (("step", "node", "axis"),

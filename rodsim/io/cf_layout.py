@@ -1,0 +1,96 @@
+"""The file layout of a schema 3 archive (docs/archive.md, "Labels and names in the file"),
+and the names of the variables that hold scene values.
+
+In memory a rodsim archive Dataset labels its small dimensions with text (``axis`` = x, y,
+z; ``component`` = q1 … q4; a study's ``rod`` and named sweep values), so that
+``ds.sel(axis="y")`` works. CF (and its checker) wants coordinate variables to be numeric,
+and text as character arrays. So :func:`to_file` (called by ``write_dataset``) stores each
+text dimension coordinate ``d`` as a numeric index 0, 1, … with the labels in an auxiliary
+coordinate ``d_label`` (attribute ``label_variable`` on ``d`` names it), and every text
+variable as a character array; :func:`from_file` (called by ``read_dataset``) puts the
+labels back as the dimension's coordinate. Archives of schemas 1 and 2 have text coordinates
+and are read as they are.
+
+Scene keys are dotted (``tendons.tendon.tendon_actuation.force``), which CF does not allow
+in a variable name (§2.3: letters, digits and underscores): :func:`variable_name` is the
+name of the variable holding a key's values in track, fit and reach archives, and the
+variable's ``scene_key`` attribute keeps the key (:func:`key_variable` finds it in any
+schema).
+"""
+
+from __future__ import annotations
+
+import re
+
+import numpy as np
+import xarray as xr
+
+__all__ = ["variable_name", "key_variable", "to_file", "from_file", "LABEL_ATTRIBUTE"]
+
+#: Attribute of a numeric index coordinate naming its label variable.
+LABEL_ATTRIBUTE = "label_variable"
+
+
+def variable_name(key: str) -> str:
+    """A CF-valid variable name for scene key ``key``: every run of characters other than
+    letters, digits and underscores becomes one underscore
+    (``rods.catheter.tip_load.force[0]`` → ``rods_catheter_tip_load_force_0``)."""
+    name = re.sub(r"[^A-Za-z0-9_]+", "_", key).strip("_")
+    return name if name[:1].isalpha() else f"v_{name}"
+
+
+def key_variable(ds: xr.Dataset, key: str, suffix: str = "") -> xr.DataArray:
+    """The variable of scene key ``key`` (plus ``suffix``: ``initial``, ``standard_error``)
+    in an archive of any schema: named by :func:`variable_name` since schema 3, by the
+    dotted key before (``key.suffix``). KeyError if neither is there."""
+    for name in (variable_name(key) + (f"_{suffix}" if suffix else ""),
+                 key + (f".{suffix}" if suffix else "")):
+        if name in ds.variables:
+            return ds[name]
+    raise KeyError(key)
+
+
+def _is_text(values: np.ndarray) -> bool:
+    return values.dtype.kind in "US" or (values.dtype.kind == "O" and values.size > 0
+                                        and all(isinstance(v, str) for v in values.flat))
+
+
+def to_file(ds: xr.Dataset) -> tuple[xr.Dataset, dict[str, dict]]:
+    """The Dataset as a schema 3 file holds it, and the encoding for ``to_netcdf`` (text as
+    character arrays; no _FillValue on any coordinate)."""
+    out = ds.copy()
+    for dim in list(ds.dims):
+        if dim not in ds.coords or not _is_text(ds[dim].values):
+            continue
+        label = f"{dim}_label"
+        if label in ds.variables:
+            raise ValueError(f"cannot label dimension {dim!r}: variable {label!r} exists")
+        attrs = dict(ds[dim].attrs)
+        long_name = attrs.get("long_name", dim)
+        out = out.drop_vars(dim).assign_coords({
+            dim: (dim, np.arange(ds.sizes[dim], dtype=np.int32),
+                  {"long_name": f"index of {long_name}", "units": "1",
+                   LABEL_ATTRIBUTE: label}),
+            label: (dim, ds[dim].values.astype(str), {**attrs, "long_name": long_name}),
+        })
+    encoding: dict[str, dict] = {name: {"_FillValue": None} for name in out.coords}
+    for name, variable in out.variables.items():
+        if _is_text(variable.values):
+            encoding.setdefault(name, {})["dtype"] = "S1"
+    return out, encoding
+
+
+def from_file(ds: xr.Dataset) -> xr.Dataset:
+    """The in-memory Dataset of a file written by :func:`to_file`: each labelled index
+    coordinate replaced by its labels (a Dataset without labelled indices is returned as
+    it is)."""
+    for dim in list(ds.dims):
+        if dim not in ds.coords:
+            continue
+        label = ds[dim].attrs.get(LABEL_ATTRIBUTE)
+        if not isinstance(label, str) or label not in ds.variables or ds[label].dims != (dim,):
+            continue
+        attrs = dict(ds[label].attrs)
+        values = ds[label].values.astype(str)
+        ds = ds.drop_vars([dim, label]).assign_coords({dim: (dim, values, attrs)})
+    return ds

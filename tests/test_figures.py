@@ -1,0 +1,128 @@
+"""Figures that do not mislead (issue 22): an order fitted only where the error still falls,
+3D runs in three projections, the interactive 3D view (plotly, optional), short labels with
+units."""
+
+from __future__ import annotations
+
+import matplotlib.pyplot as plt
+import numpy as np
+import pytest
+
+import rodsim
+from rodsim.app import plotting, view3d
+from rodsim.app.plotting import PlotError, draw_figure, plot_dataset, short_key, style
+from rodsim.io.archive import read_dataset, write_dataset
+from rodsim.io.run_dataset import run_dataset
+
+
+def test_the_order_is_fitted_only_where_the_error_still_falls():
+    """An error ∝ K^-1 that levels off at a floor (Fig. 7A's shape): the order over the whole
+    sweep was the plateau's average (0.25 on fig7a); fitted where it falls it is 1."""
+    k = np.array([1e1, 3e1, 1e2, 3e2, 1e3, 1e4, 1e5, 1e6])
+    error = np.where(k <= 1e3, 0.5 / k, 5e-4 * (1 + 1e-3 * np.log10(k)))
+    order, fitted = plotting._fitted_order(k, error)
+    assert order == pytest.approx(1.0, rel=1e-9)
+    np.testing.assert_array_equal(fitted, k <= 1e3)
+    # An error that falls over the whole sweep is fitted over all of it, in any order of x.
+    nodes = np.array([40.0, 5.0, 20.0, 10.0])
+    order, fitted = plotting._fitted_order(nodes, 3.0 * nodes ** -2.0)
+    assert order == pytest.approx(2.0, rel=1e-9) and fitted.all()
+    # No fall, no order (and never "nan" in a title: the result line says so).
+    assert np.isnan(plotting._fitted_order(k, np.full(k.shape, 1e-3))[0])
+
+
+def _texts(figure) -> str:
+    parts = [figure._suptitle.get_text() if figure._suptitle else ""]
+    for axes in figure.axes:
+        parts += [axes.get_title(), axes.get_xlabel(), axes.get_ylabel()]
+    return "\n".join(parts)
+
+
+@pytest.fixture(scope="module")
+def bent_in_3d(tmp_path_factory):
+    """four-tendons pulled by two neighbouring tendons: the tip leaves the x–y plane."""
+    scene = rodsim.load_scene("four-tendons", ["tendon_py.tendon_actuation.force=1.5",
+                                               "tendon_pz.tendon_actuation.force=0.8"])
+    result = rodsim.solve(scene, "static")
+    assert result.success, result.message
+    path = write_dataset(run_dataset(result), tmp_path_factory.mktemp("3d") / "four.nc")
+    return read_dataset(path), result
+
+
+def test_a_3d_run_is_drawn_in_three_projections_with_its_tip_in_the_title(bent_in_3d):
+    ds, result = bent_in_3d
+    tip = result.tip("catheter")
+    assert abs(tip[2]) > 1e-3  # a z the x–y view alone would hide
+    with style():
+        figure = draw_figure(ds)
+        try:
+            labels = [(a.get_xlabel(), a.get_ylabel()) for a in figure.axes]
+            text = _texts(figure)
+        finally:
+            plt.close(figure)
+    assert labels == [("x [m]", "y [m]"), ("x [m]", "z [m]"), ("y [m]", "z [m]")]
+    assert f"{1e3 * tip[2]:.4g}" in text, text
+
+
+def test_a_planar_run_keeps_one_view():
+    ds = run_dataset(rodsim.solve("table1-50g", "static", overrides=["nodes=8"]))
+    with style():
+        figure = draw_figure(ds)
+        try:
+            assert len(figure.axes) == 1
+        finally:
+            plt.close(figure)
+
+
+def test_the_interactive_3d_view(bent_in_3d, tmp_path, cli, capsys):
+    """With plotly: `rodsim plot` of a 3D run adds stem.html with every rod; a study is
+    refused. (Its absence is tested below.)"""
+    pytest.importorskip("plotly", reason="plotly is the optional extra rodsim[view3d]")
+    ds, _ = bent_in_3d
+    archive = write_dataset(ds, tmp_path / "four.nc")
+    assert cli(["plot", str(archive)]) == 0, capsys.readouterr().err
+    assert "four.html" in capsys.readouterr().out
+    page = (tmp_path / "four.html").read_text(encoding="utf-8")
+    for rod in ("catheter", "tendon_py", "tendon_mz"):
+        assert f'"name":"{rod}"' in page, rod
+    assert '"type":"scatter3d"' in page and '"aspectmode":"data"' in page
+    planar = write_dataset(run_dataset(rodsim.solve("table1-50g", "static",
+                                                    overrides=["nodes=8"])),
+                           tmp_path / "planar.nc")
+    assert cli(["plot", str(planar)]) == 0
+    assert not (tmp_path / "planar.html").exists()  # nothing to see in 3D
+    assert cli(["plot", str(planar), "--format", "html"]) == 0  # unless asked
+
+
+def test_without_plotly_html_is_a_one_line_error_and_the_rest_still_draws(
+        bent_in_3d, tmp_path, monkeypatch, cli, capsys):
+    monkeypatch.setattr(view3d, "available", lambda: False)
+    ds, _ = bent_in_3d
+    archive = write_dataset(ds, tmp_path / "four.nc")
+    assert cli(["plot", str(archive)]) == 0
+    assert not (tmp_path / "four.html").exists() and (tmp_path / "four.png").exists()
+    assert cli(["plot", str(archive), "--format", "png,html"]) == 2
+    err = capsys.readouterr().err
+    assert "plotly" in err and "rodsim[view3d]" in err and "Traceback" not in err
+    with pytest.raises(PlotError, match="plotly"):
+        plot_dataset(ds, tmp_path / "again", ["html"])
+
+
+def test_labels_are_short_and_carry_units(tmp_path, cli, capsys):
+    assert short_key("tendons.tendon.tendon_actuation.force") == "force (tendon)"
+    assert short_key("rods.catheter.tip_load.mass") == "mass (catheter)"
+    output = tmp_path / "track.nc"
+    assert cli(["track", "table1-50g", "--set", "nodes=8", "--ramp",
+                "tip_load.mass=0:0.05:3", "-o", str(output)]) == 0, capsys.readouterr().err
+    ds = read_dataset(output)
+    with style():
+        figure = draw_figure(ds)
+        try:
+            text = _texts(figure)
+        finally:
+            plt.close(figure)
+    assert "mass (catheter) [kg]" in text and "rods.catheter" not in text
+    # The title names the last step's tip, computed from the stored positions.
+    tip_y = float(ds["position"].isel(step=-1).sel(node=ds["rod"] == "catheter")[-1, 1])
+    assert "tip of catheter at mass (catheter) = 0.05 kg" in text
+    assert f"{1e3 * tip_y:.4g}" in text
