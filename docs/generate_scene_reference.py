@@ -124,8 +124,17 @@ def reference() -> str:
         tendon_terms = sorted(n for n, t in terms.items() if t.scope == "tendon")
         out += ["### `[tendons.<rod>]`", "", *table(TENDON_PARAMETERS, tendon_terms),
                 *term_tables(terms, "tendon", "tendons.<rod>")]
-    for scope in sorted(scopes - {"rod", "tendon"}):
+    for scope in sorted(scopes - {"rod", "tendon", "obstacle"}):
         out += term_tables(terms, scope, f"{scope}s.<...>")
+    if "obstacle" in scopes:
+        from rodsim.core.obstacles import COMMON_PARAMETERS, registered_obstacles
+
+        out += ["### `[obstacles.<name>]`", "",
+                "A rigid obstacle and the rods it acts on; the contact term "
+                "(docs/contact.md) is added for each of them. Every obstacle has:", "",
+                *table(COMMON_PARAMETERS)]
+        for kind, obstacle in sorted(registered_obstacles().items()):
+            out += [f"#### `type = \"{kind}\"`", "", *table(obstacle.parameters)]
     out += ["### `[solver]`", "", *table(SOLVER_PARAMETERS)]
     for name, integrator in integrators.items():
         summary = integrator.summary[:1].upper() + integrator.summary[1:]

@@ -126,6 +126,41 @@ SMALL_PAPER_TENDON_SCENE["tendons"]["tendon"] |= {
     "coupling": "paper", "lumen": {"K_L": 500.0, "constrain": "d_t"},
     "tendon_actuation": {"force": 1.5, "point": "distal"}}
 
+#: Contact (rodsim/core/terms/contact.py) with every obstacle type: a plane and a sphere the
+#: rest rod already touches, a csv vessel of varying radius, a torus section and a helix; the
+#: smoothing length is wide so that random states put nodes in the C² onset as well as in
+#: the linear part and out of contact.
+SMALL_CONTACT_SCENE = {
+    "name": "contract-contact",
+    "rods": {
+        "catheter": {
+            "length": 0.1, "radius": 0.004, "youngs_modulus": 2e6, "stretch_modulus": 5e6,
+            "density": 1200.0, "nodes": 9, "terms": ["stretch", "bend_twist", "centerline"],
+        },
+        "wire": {
+            "length": 0.08, "radius": 0.002, "youngs_modulus": 4e6, "stretch_modulus": 3e6,
+            "density": 900.0, "nodes": 7, "origin": [0.0, 0.0, 0.3],
+            "terms": ["stretch", "bend_twist", "centerline"],
+        },
+    },
+    "obstacles": {
+        "tissue": {"type": "plane", "rods": ["catheter"], "point": [0.05, 0.0, 0.0],
+                   "normal": [0.3, 1.0, 0.2], "smoothing_scale": 0.5},
+        "bulge": {"type": "sphere", "rods": ["catheter"], "center": [0.05, 0.0, 0.036],
+                  "radius": 0.04, "smoothing_scale": 0.5},
+        "vessel": {"type": "tube", "rods": ["catheter"], "centerline": "csv",
+                   "points": [-0.01, 0.0, 0.0, 0.011, 0.03, 0.003, 0.0, 0.013,
+                              0.07, 0.0, 0.003, 0.012, 0.12, -0.004, 0.0, 0.011],
+                   "smoothing_scale": 0.5},
+        "torus": {"type": "tube", "rods": ["wire"], "centerline": "arc", "radius": 0.0045,
+                  "start": [-0.01, 0.0, 0.3], "bend_radius": 2.0, "bend_toward": [0, 1, 1],
+                  "angle": 0.5, "smoothing_scale": 0.5},
+        "coil": {"type": "tube", "rods": ["wire"], "centerline": "helix", "radius": 0.0045,
+                 "start": [-0.01, -0.002, 0.3], "direction": [1, 0, 0], "bend_radius": 0.002,
+                 "pitch": 0.2, "turns": 0.6, "smoothing_scale": 0.5},
+    },
+}
+
 #: Backbone rods joined by anchors (rodsim/core/terms/joint.py): a rod welded to the tip of
 #: a base-actuated rod (inserted and turned), and a third one on a ball joint at an
 #: interior node of the second; sections differ, so the welded frame's series stiffness
@@ -197,7 +232,8 @@ TOLERANCE = 1e-6
 SMALL_SCENES = {scene["name"]: scene for scene in (SMALL_SCENE, SMALL_LOAD_SCENE,
                                                     SMALL_TENDON_SCENE,
                                                     SMALL_PAPER_TENDON_SCENE,
-                                                    SMALL_JOINT_SCENE, SMALL_STRING_SCENE)}
+                                                    SMALL_CONTACT_SCENE, SMALL_JOINT_SCENE,
+                                                    SMALL_STRING_SCENE)}
 #: Every contract scene by name: the shipped scenes, then the small ones above.
 CONTRACT_SCENES = [*scene_paths(), *SMALL_SCENES]
 

@@ -11,4 +11,4 @@ Timings on shared machines are noisy: compare the ratios measured within one run
 """
 
 BENCHMARKS = ("work-precision", "paper-regime", "scaling", "stress", "skip-work", "kernels",
-              "pyelastica", "string-tendon")
+              "pyelastica", "string-tendon", "contact")

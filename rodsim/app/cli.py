@@ -819,7 +819,8 @@ def build_parser() -> argparse.ArgumentParser:
     plot.set_defaults(func=cmd_plot)
 
     bench = sub.add_parser("bench", help="run a benchmark (work-precision, scaling, stress, "
-                           "skip-work, kernels, paper-regime, pyelastica, string-tendon)",
+                           "skip-work, kernels, paper-regime, pyelastica, string-tendon, "
+                           "contact)",
                            description="Time the integrators against their error, their cost "
                            "in N, or their stability over a parameter map; writes netCDF, "
                            "figures and a markdown table with the machine description. The "
@@ -829,7 +830,7 @@ def build_parser() -> argparse.ArgumentParser:
                            "one the current folder is in.")
     bench.add_argument("benchmark", metavar="BENCHMARK",
                        help="work-precision, scaling, stress, skip-work, kernels, "
-                       "paper-regime, string-tendon or pyelastica "
+                       "paper-regime, string-tendon, contact or pyelastica "
                        "(the last needs 'pip install pyelastica==1.0.0'; never a dependency)")
     bench.add_argument("--size", choices=("small", "full"), default="small",
                        help="small (the default): a smoke version in seconds to a minute; "

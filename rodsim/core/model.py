@@ -119,6 +119,12 @@ class Model:
             for term_name in options.terms:
                 self.terms.append(catalogue[term_name](
                     self.tendons[name], scene.term_options("tendons", name, term_name)))
+        for name, table in scene.data.get("obstacles", {}).items():
+            from rodsim.core.obstacles import build_obstacle
+
+            obstacle = build_obstacle(name, table)
+            for rod in table["rods"]:
+                self.terms.append(catalogue["contact"](self.rods[rod], obstacle))
         #: Factor on each term's output: 1, or a penalty continuation scale.
         self.term_scales = np.ones(len(self.terms))
         self._scale_list = self.term_scales.tolist()  # as floats, for the evaluation loops

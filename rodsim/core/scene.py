@@ -74,7 +74,7 @@ SOLVER_PARAMETERS: tuple[Parameter, ...] = (
 SolverSettings = options_type("SolverSettings", SOLVER_PARAMETERS,
                               "The generic solver settings of a scene ([solver]).")
 
-_TOP_KEYS = ("name", "description", "rods", "tendons", "solver")
+_TOP_KEYS = ("name", "description", "rods", "tendons", "obstacles", "solver")
 
 
 
@@ -128,7 +128,9 @@ class Scene:
                                  key=str(path), allowed=tuple(shipped),
                                  reason="no such scene")
         text = read_scene_text(path)
-        return cls(resolve(parse_toml(text, shown(str(path), width=500, bare=True))), text)
+        raw = parse_toml(text, shown(str(path), width=500, bare=True))
+        _files_beside(raw, path.parent)
+        return cls(resolve(raw), text)
 
     @classmethod
     def from_dict(cls, raw: Mapping[str, Any]) -> Scene:
@@ -351,8 +353,13 @@ def resolve(raw: Mapping[str, Any]) -> dict[str, Any]:
                              "keys: " + ", ".join(sorted(generic)) + ", or a table "
                              "[solver.<integrator>] of one integrator's options")
         solver[integrator_name] = dict(solver[integrator_name])
-    return {"name": name, "description": description, "rods": rods, "tendons": tendons,
-            "solver": solver}
+    out = {"name": name, "description": description, "rods": rods, "tendons": tendons,
+           "solver": solver}
+    if "obstacles" in raw:  # only then: a scene without obstacles resolves as before
+        from rodsim.core.obstacles import resolve_obstacles
+
+        out["obstacles"] = resolve_obstacles(raw["obstacles"], rods, tendons)
+    return out
 
 
 def _resolve_with_terms(table: Any, parameters: tuple[Parameter, ...], term_names: list[str],
@@ -375,6 +382,20 @@ def _resolve_with_terms(table: Any, parameters: tuple[Parameter, ...], term_name
                                              terms[term_name].parameters,
                                              f"{prefix}.{term_name}")
     return resolved
+
+
+def _files_beside(raw: Any, folder: Path) -> None:
+    """Make an obstacle's relative ``file`` (a vessel's csv centerline) relative to the scene
+    file's folder when it exists there."""
+    obstacles = raw.get("obstacles") if isinstance(raw, Mapping) else None
+    if not isinstance(obstacles, Mapping):
+        return
+    for table in obstacles.values():
+        file = table.get("file") if isinstance(table, dict) else None
+        if isinstance(file, str) and file and "\0" not in file and not Path(file).is_absolute():
+            beside = folder / file
+            if beside.is_file():
+                table["file"] = str(beside)
 
 
 def _leaf_keys(node: Any, prefix: str = "") -> list[str]:

@@ -66,8 +66,32 @@ def run_dataset(result: Result) -> xr.Dataset:
         ds["history_tip"] = (("step", "axis"), np.asarray(result.history["tip"], dtype=float),
                              {"units": "m", "long_name": f"tip of rod {names[0]!r} after "
                               "each step"})
+    if result.scene.data.get("obstacles"):
+        ds = ds.assign(_contact_variables(result))
     ds.attrs.update(_attributes(result))
     return ds
+
+
+def _contact_variables(result: Result) -> dict[str, Any]:
+    """Contact force on every control point (zero on rods no obstacle acts on) and their
+    resultant, for a scene with obstacles (docs/contact.md)."""
+    from rodsim.core.model import Model
+
+    model = Model(result.scene, "numpy")
+    full = model.full(result.state)
+    force = {name: np.zeros((rod.options.nodes, 3)) for name, rod in model.rods.items()}
+    for term in model.terms:
+        if term.name == "contact":
+            force[term.rod.name] += term.nodal_forces(full)
+    stacked = np.concatenate(list(force.values()))
+    return {
+        "contact_force": (("node", "axis"), stacked,
+                          {"units": "N", "long_name": "contact force on the control point "
+                           "(every obstacle)"}),
+        "contact_resultant": (("axis",), stacked.sum(axis=0),
+                              {"units": "N", "long_name": "sum of the contact forces on "
+                               "every control point"}),
+    }
 
 
 def step_coordinate(steps: int, long_name: str = "integrator step") -> dict[str, Any]:

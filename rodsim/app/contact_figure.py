@@ -1,0 +1,116 @@
+"""The contact figure of a run archive with obstacles (docs/contact.md): the obstacles, the
+rods and the contact force on every control point, drawn from the archive alone.
+
+The view is the plane of the two world axes along which the rods spread most (a catheter
+bent in a plane is drawn in that plane). Obstacles are cut by that plane through the rods'
+mean depth: a plane is a line (its solid side hatched), a sphere a circle, a vessel the two
+outlines of its wall (centerline ± radius across the view). Rods are drawn with their
+diameter; each contact force is an arrow from its node, scaled so that the largest is a
+fifth of the drawing, labelled with its value in mN.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import matplotlib.pyplot as plt
+import numpy as np
+import xarray as xr
+
+from rodsim.app.plotting import STYLE
+from rodsim.core.obstacles import build_obstacle
+from rodsim.io.archive_schema import stored_scene
+
+__all__ = ["contact_figure"]
+
+AXES = ("x", "y", "z")
+
+
+def contact_figure(ds: xr.Dataset, path: str | Path) -> Path:
+    """Draw the contact figure of a run archive ``ds`` (with ``contact_force``) to ``path``
+    (any format matplotlib writes: the suffix picks it)."""
+    if "contact_force" not in ds:
+        raise ValueError("the archive has no contact_force: its scene has no obstacles")
+    scene = stored_scene(ds.attrs["scene_json"], "attribute 'scene_json'")
+    positions = ds["position"].values
+    forces = ds["contact_force"].values
+    spread = np.ptp(positions, axis=0)
+    a, b = (int(i) for i in sorted(np.argsort(spread)[-2:]))
+    depth = 3 - a - b
+    level = float(np.mean(positions[:, depth]))
+    lo, hi = positions.min(axis=0), positions.max(axis=0)
+    size = float(max(hi[a] - lo[a], hi[b] - lo[b], 1e-9))
+    margin = 0.25 * size
+    with plt.style.context(STYLE):
+        fig, ax = plt.subplots(figsize=(6.4, 4.8))
+        for name, table in scene.data.get("obstacles", {}).items():
+            _draw_obstacle(ax, build_obstacle(name, table), a, b, depth, level,
+                           (lo[a] - margin, hi[a] + margin), (lo[b] - margin, hi[b] + margin))
+        rods = ds["rod"].values.astype(str)
+        for rod in dict.fromkeys(rods):
+            pts = positions[rods == rod]
+            width = 2 * scene.data["rods"][rod]["radius"]
+            ax.plot(pts[:, a], pts[:, b], color="C0", lw=1.2, label=f"rod {rod}")
+            ax.plot(pts[:, a], pts[:, b], color="C0", alpha=0.25, solid_capstyle="round",
+                    lw=max(1.0, 72 * width / size * 6.4 * 0.8))
+        magnitude = np.linalg.norm(forces, axis=1)
+        largest = float(magnitude.max(initial=0.0))
+        if largest > 0:
+            scale = 0.2 * size / largest
+            for p, f, m in zip(positions, forces, magnitude, strict=True):
+                if m > 1e-3 * largest:
+                    ax.annotate("", xy=(p[a], p[b]), xytext=(p[a] - scale * f[a],
+                                                              p[b] - scale * f[b]),
+                                arrowprops={"arrowstyle": "->", "color": "C3", "lw": 1.2})
+            tip = int(np.argmax(magnitude))
+            ax.annotate(f"{1e3 * largest:.3g} mN", (positions[tip, a], positions[tip, b]),
+                        textcoords="offset points", xytext=(6, 6), color="C3")
+        ax.set_xlim(lo[a] - margin, hi[a] + margin)
+        ax.set_ylim(lo[b] - margin, hi[b] + margin)
+        ax.set_aspect("equal")
+        ax.set_xlabel(f"{AXES[a]} [m]")
+        ax.set_ylabel(f"{AXES[b]} [m]")
+        total = np.linalg.norm(forces.sum(axis=0))
+        ax.set_title(f"{scene.name}: contact forces (red; resultant {1e3 * total:.3g} mN)")
+        ax.legend(loc="best")
+        path = Path(path)
+        fig.savefig(path)
+        plt.close(fig)
+    return path
+
+
+def _draw_obstacle(ax, obstacle, a: int, b: int, depth: int, level: float,
+                   xlim: tuple[float, float], ylim: tuple[float, float]) -> None:
+    kind = obstacle.type
+    grey = {"color": "0.35", "lw": 1.5}
+    if kind == "plane":
+        n, p0 = obstacle.normal, obstacle.point
+        direction = np.zeros(3)
+        direction[a], direction[b] = -n[b], n[a]  # along the plane's trace in the view
+        if np.hypot(n[a], n[b]) < 1e-12:
+            return
+        base = p0.copy()
+        base[depth] = level
+        reach = 2 * max(xlim[1] - xlim[0], ylim[1] - ylim[0])
+        ends = np.array([base - reach * direction, base + reach * direction])
+        ax.plot(ends[:, a], ends[:, b], label=f"plane {obstacle.name}", **grey)
+        shift = -0.03 * reach * np.array([n[a], n[b]]) / np.hypot(n[a], n[b])
+        ax.fill(np.r_[ends[:, a], ends[::-1, a] + shift[0] * 8],
+                np.r_[ends[:, b], ends[::-1, b] + shift[1] * 8], color="0.85", zorder=0)
+    elif kind == "sphere":
+        c, radius = obstacle.center, obstacle.radius
+        cut = radius**2 - (level - c[depth]) ** 2
+        if cut > 0:
+            ax.add_patch(plt.Circle((c[a], c[b]), np.sqrt(cut), color="0.85", zorder=0,
+                                    label=f"sphere {obstacle.name}"))
+    else:
+        u = np.linspace(obstacle.knots[0], obstacle.knots[-1], 400)
+        c, c1 = obstacle._c(u, 0), obstacle._c(u, 1)
+        radius = obstacle._r(u, 0)
+        across = np.zeros_like(c1)
+        across[:, a], across[:, b] = -c1[:, b], c1[:, a]
+        across /= np.maximum(np.linalg.norm(across, axis=1, keepdims=True), 1e-300)
+        for sign, label in ((1, f"vessel {obstacle.name}"), (-1, None)):
+            wall = c + sign * radius[:, None] * across
+            ax.plot(wall[:, a], wall[:, b], label=label, **grey)
+        ax.plot(c[:, a], c[:, b], color="0.6", lw=0.8, ls=":")

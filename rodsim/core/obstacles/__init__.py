@@ -1,0 +1,168 @@
+"""Rigid obstacles a rod may touch (vessel walls, tissue), one file per obstacle type, and the
+registry that finds them (issue 25).
+
+A scene lists obstacles as ``[obstacles.<name>]`` tables with a ``type`` (a registered
+obstacle: ``plane``, ``sphere``, ``tube``), the ``rods`` it applies to and the contact law's
+scales; each type declares its own geometry parameters. Defining an :class:`Obstacle`
+subclass with a new ``type`` registers it (:func:`registered_obstacles` imports every module
+of this package). The contact term (rodsim/core/terms/contact.py) turns an obstacle into a
+penalty on the rod's nodes; the obstacle only gives the geometry: the signed gap φ(p) of a
+point p (> 0 in free space, distance to the surface where it is smooth), its gradient and its
+Hessian.
+
+:func:`resolve_obstacles` validates the ``obstacles`` tables of a raw scene against the rods
+(one-line :class:`~rodsim.core.schema.SceneError` for every bad input).
+"""
+
+from __future__ import annotations
+
+import functools
+import importlib
+import pkgutil
+from abc import ABC, abstractmethod
+from collections.abc import Mapping
+from typing import Any, ClassVar
+
+import numpy as np
+
+from rodsim.core.names import check_rod_name
+from rodsim.core.schema import Parameter, SceneError, shown, validate_table
+
+__all__ = ["Obstacle", "OBSTACLES", "COMMON_PARAMETERS", "registered_obstacles",
+           "resolve_obstacles", "build_obstacle"]
+
+#: Every defined obstacle class, by ``type``.
+OBSTACLES: dict[str, type[Obstacle]] = {}
+
+#: Kernel codes of the obstacle kinds (rodsim/core/kernels/contact.py).
+PLANE, SPHERE, TUBE = 0, 1, 2
+
+#: Values every obstacle table has, whatever its type.
+COMMON_PARAMETERS: tuple[Parameter, ...] = (
+    Parameter("type", "str", None, "-", "obstacle type: 'plane', 'sphere' or 'tube'"),
+    Parameter("rods", "list", None, "-", "the rods this obstacle acts on (the catheters)"),
+    Parameter("stiffness_scale", "float", 1e3, "-",
+              "contact stiffness k = stiffness_scale * E I / l^3 of the rod (l its segment "
+              "length) [N/m]", 0.0, 1e12, exclusive_minimum=True),
+    Parameter("smoothing_scale", "float", 1e-3, "-",
+              "smoothing length delta = smoothing_scale * r of the rod (r its radius) over "
+              "which the contact force rises from zero (C2 onset)", 0.0, 1.0,
+              exclusive_minimum=True),
+)
+
+
+class Obstacle(ABC):
+    """A rigid obstacle: the signed gap φ(p) of points p and its first two derivatives.
+
+    Class attributes a subclass sets: ``type`` (registry key), ``parameters`` (its own
+    geometry values), ``kind`` (its kernel code: PLANE, SPHERE or TUBE).
+    """
+
+    type: ClassVar[str]
+    kind: ClassVar[int]
+    parameters: ClassVar[tuple[Parameter, ...]] = ()
+    #: True when the rod lies inside the obstacle (a vessel): it must start inside.
+    encloses: ClassVar[bool] = False
+
+    def __init_subclass__(cls, **kwargs: Any) -> None:
+        super().__init_subclass__(**kwargs)
+        if "type" in cls.__dict__:
+            if cls.type in OBSTACLES:
+                raise TypeError(f"obstacle type {cls.type!r} registered twice")
+            OBSTACLES[cls.type] = cls
+
+    def __init__(self, name: str, table: Mapping[str, Any]) -> None:
+        self.name = name
+        #: The validated table (common values and the type's own).
+        self.table = dict(table)
+
+    @classmethod
+    def resolve(cls, table: dict[str, Any], prefix: str) -> dict[str, Any]:
+        """Type-specific checks and completion of a validated table (SceneError, one line)."""
+        return table
+
+    @abstractmethod
+    def gap(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """φ (n,), ∇φ (n, 3) and ∇²φ (n, 3, 3) at ``points`` (n, 3) — the numpy reference."""
+
+    @abstractmethod
+    def kernel_data(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """(parameters (P,), piece starts (M,), centerline coefficients (M, 4, 3), radius
+        coefficients (M, 4)) for the compiled kernel; the last three are empty except for
+        tubes."""
+
+    def narrowest(self) -> float:
+        """The smallest free radius of an enclosing obstacle (inf for others) [m]."""
+        return float("inf")
+
+
+def registered_obstacles() -> dict[str, type[Obstacle]]:
+    """Every registered obstacle class by type (imports this package's modules)."""
+    _import_every_module()
+    return dict(OBSTACLES)
+
+
+@functools.cache
+def _import_every_module() -> None:
+    for module in pkgutil.iter_modules(__path__):
+        if not module.name.startswith("_"):
+            importlib.import_module(f"{__name__}.{module.name}")
+
+
+def build_obstacle(name: str, table: Mapping[str, Any]) -> Obstacle:
+    """The obstacle of a resolved ``[obstacles.<name>]`` table."""
+    return registered_obstacles()[table["type"]](name, table)
+
+
+def resolve_obstacles(raw: Any, rods: Mapping[str, Mapping[str, Any]],
+                      tendons: Mapping[str, Any]) -> dict[str, Any]:
+    """Validate the ``obstacles`` tables of a raw scene against its resolved ``rods``."""
+    if not isinstance(raw, Mapping):
+        raise SceneError("obstacles: expected tables [obstacles.<name>]")
+    types = registered_obstacles()
+    out: dict[str, Any] = {}
+    for name, table in raw.items():
+        prefix = f"obstacles.{check_rod_name(name, 'obstacles')}"
+        if not isinstance(table, Mapping):
+            raise SceneError(f"{prefix}: expected a table, got {type(table).__name__}")
+        kind = table.get("type")
+        if kind not in types:
+            raise SceneError(f"{prefix}.type = {shown(kind)}: unknown obstacle type; allowed: "
+                             f"one of {', '.join(repr(t) for t in sorted(types))}",
+                             key=f"{prefix}.type", value=kind, allowed=tuple(sorted(types)),
+                             reason="unknown obstacle type")
+        cls = types[kind]
+        resolved = validate_table(table, (*COMMON_PARAMETERS, *cls.parameters), prefix)
+        if not resolved["rods"]:
+            raise SceneError(f"{prefix}.rods = []: an obstacle acts on at least one rod")
+        for rod in resolved["rods"]:
+            if rod not in rods:
+                raise SceneError(f"{prefix}.rods: no rod {rod!r} in the scene; allowed: "
+                                 f"{', '.join(sorted(rods))}", key=f"{prefix}.rods",
+                                 value=rod, allowed=tuple(sorted(rods)), reason="unknown rod")
+            if rod in tendons:
+                raise SceneError(f"{prefix}.rods: {rod!r} is a tendon, which rides inside its "
+                                 "catheter; name the catheter")
+        resolved = cls.resolve(resolved, prefix)
+        obstacle = cls(name, resolved)
+        for rod in resolved["rods"]:
+            table_of_rod = rods[rod]
+            radius = float(table_of_rod["radius"])
+            if obstacle.encloses and radius >= obstacle.narrowest():
+                raise SceneError(f"{prefix}: rod {rod!r} (radius {radius!r} m) is thicker than "
+                                 f"the vessel (narrowest radius {obstacle.narrowest():.6g} m)")
+            if obstacle.encloses and table_of_rod["clamp"] != "free":
+                # The base (s = 0, at its inserted place) must lie inside the vessel; the
+                # rest of the straight rest shape may cross the wall (the contact brings it
+                # in: a rod inserted into a bend).
+                base = table_of_rod.get("base") or {}
+                point = (np.asarray(table_of_rod["origin"], dtype=float)
+                         + np.array([float(base.get("insertion", 0.0)), 0.0, 0.0]))
+                phi = float(obstacle.gap(point[None, :])[0][0])
+                if phi <= 0.0:
+                    where = ", ".join(f"{v:.6g}" for v in point)
+                    raise SceneError(f"{prefix}: rod {rod!r} starts outside the vessel: its "
+                                     f"base (s = 0) at ({where}) m is {-phi:.3g} m beyond "
+                                     "the wall")
+        out[name] = resolved
+    return out

@@ -1,0 +1,112 @@
+"""Frictionless contact of a rod's surface with a rigid obstacle (issue 25; not in the paper).
+
+One term per (obstacle, rod) pair of the scene's ``[obstacles.<name>]`` tables (the model
+builds them; a rod's ``terms`` does not list it). Node-based: each control point r_i is a
+sphere of the rod's radius r, and its penetration into the obstacle is
+
+    p_i = r − φ(r_i)          (φ: the obstacle's signed gap, rodsim/core/obstacles/)
+
+The energy is E = k Σ_i ψ(p_i) with the C² penalty
+
+    ψ(p) = 0                               p ≤ 0
+    ψ(p) = p³ / (6 δ)                      0 < p < δ
+    ψ(p) = p²/2 − δ p/2 + δ²/6             p ≥ δ
+
+— a linear spring (force k (p − δ/2)) whose stiffness is switched on over the smoothing length
+δ by a linear ramp of ψ''. Why this law: ψ, ψ' and ψ'' are continuous (ψ'' = p/δ, then 1), so
+F and its Jacobian are continuous in the state and Newton converges quadratically through a
+contact that appears or vanishes, and CVODE's error control sees no kink; unlike a log-barrier
+it is defined for every state (a Newton step may overshoot into the obstacle) and its
+stiffness is bounded (k), so the conditioning does not blow up near contact. The cost is a
+compliance: a contact force f penetrates by p = √(2 δ f / k) while f < k δ/2 (the onset; with
+the defaults this holds for any force a catheter meets: k δ/2 ≈ 0.5 E I r / l³), else by
+f/k + δ/2.
+
+Scales (defaults from the rod, not tuned per scene): k = stiffness_scale · E I / l³ [N/m],
+l the segment length (the stiffness of one segment bent as a cantilever, so the penetration
+under a node force f is ~ f l³/(E I) / stiffness_scale), and δ = smoothing_scale · r [m].
+
+Force on node i: F_i = k ψ'(p_i) ∇φ; Jacobian ∂F_i/∂r_i = k (−ψ''(p_i) ∇φ ∇φᵀ + ψ'(p_i) ∇²φ),
+symmetric. Each element is one node's three coordinates, so the Jacobian pattern is fixed and
+never changes when a contact appears or vanishes. What node-based contact misses: the
+segments between nodes may cut a convex obstacle's corner or a concave wall by up to
+~l²κ/8 (measured in docs/contact.md).
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from rodsim.core.obstacles import Obstacle
+from rodsim.core.rod.rod import Rod
+from rodsim.core.terms.base import RodTerm
+
+__all__ = ["Contact", "penalty"]
+
+
+def penalty(p: np.ndarray, delta: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """ψ(p), ψ'(p), ψ''(p) of the C² penalty (module docstring)."""
+    p = np.asarray(p, dtype=float)
+    inside = p > 0.0
+    ramp = inside & (p < delta)
+    full = p >= delta
+    psi = np.where(ramp, p**3 / (6 * delta), 0.0) + np.where(
+        full, 0.5 * p * p - 0.5 * delta * p + delta * delta / 6.0, 0.0)
+    d1 = np.where(ramp, p * p / (2 * delta), 0.0) + np.where(full, p - 0.5 * delta, 0.0)
+    d2 = np.where(ramp, p / delta, 0.0) + np.where(full, 1.0, 0.0)
+    return psi, d1, d2
+
+
+class Contact(RodTerm):
+    """Penalty contact of one rod's nodes with one obstacle."""
+
+    name = "contact"
+    equation = "contact penalty (not in the paper; docs/contact.md)"
+    scope = "obstacle"
+
+    def __init__(self, rod: Rod, obstacle: Obstacle) -> None:
+        super().__init__(rod, self.Options())
+        self.obstacle = obstacle
+        table = obstacle.table
+        segment = rod.geometry.segment_length
+        #: Contact stiffness k [N/m] and smoothing length δ [m].
+        self.stiffness = float(table["stiffness_scale"]) * rod.bending_stiffness / segment**3
+        self.smoothing = float(table["smoothing_scale"]) * rod.options.radius
+        self.radius = float(rod.options.radius)
+        self.dofs = np.ascontiguousarray(rod.layout.position_index)
+
+    def penetration(self, x: np.ndarray) -> np.ndarray:
+        """p_i = r − φ(r_i) of every node [m] (> 0 where the node's sphere touches)."""
+        return self.radius - self.obstacle.gap(x[self.dofs])[0]
+
+    def nodal_forces(self, x: np.ndarray) -> np.ndarray:
+        """Contact force on every node, shape (N, 3) [N]."""
+        return self.element_forces(x)
+
+    def energy(self, x: np.ndarray) -> float:
+        phi = self.obstacle.gap(x[self.dofs])[0]
+        return float(self.stiffness * np.sum(penalty(self.radius - phi, self.smoothing)[0]))
+
+    def element_forces(self, x: np.ndarray) -> np.ndarray:
+        phi, grad, _ = self.obstacle.gap(x[self.dofs])
+        d1 = penalty(self.radius - phi, self.smoothing)[1]
+        return self.stiffness * d1[:, None] * grad
+
+    def element_jacobians(self, x: np.ndarray) -> np.ndarray:
+        phi, grad, hess = self.obstacle.gap(x[self.dofs])
+        _, d1, d2 = penalty(self.radius - phi, self.smoothing)
+        active = d1 > 0.0
+        curvature = np.where(active[:, None, None], d1[:, None, None] * hess, 0.0)
+        return self.stiffness * (curvature - d2[:, None, None]
+                                 * np.einsum("ni,nj->nij", grad, grad))
+
+    def kernel_arguments(self) -> tuple:
+        params, starts, coef, rcoef = self.obstacle.kernel_data()
+        return (self.dofs.astype(np.int64), int(self.obstacle.kind), params, starts, coef,
+                rcoef, self.radius, self.stiffness, self.smoothing)
+
+    @classmethod
+    def check_scene(cls, options: Any, owner: Any, prefix: str) -> None:
+        return None

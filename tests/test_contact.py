@@ -1,0 +1,285 @@
+"""Contact with rigid obstacles (issue 25): bad input, no cost without obstacles, a tip on a
+frictionless plane against the elastica (a reference derived here, not from rodsim), and every
+integrator reaching the same contact equilibrium on the shipped ``tip-on-tissue`` scene. The
+finite-difference and kernel checks of the term are in tests/test_term_contract.py and
+tests/test_kernels.py (scene ``contract-contact``). Run with ``pytest -s`` for the tables."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from scipy.optimize import brentq
+
+import rodsim
+from rodsim.core.analytic import extensible_elastica
+from rodsim.core.model import Model
+from rodsim.core.scene import Scene
+
+LENGTH, RADIUS, MODULUS = 0.12, 0.006, 5.9e6
+EI = MODULUS * math.pi * RADIUS**4 / 4.0
+#: The elastica reference is for an (almost) inextensible, unshearable rod.
+EA = 1e4 * MODULUS * math.pi * RADIUS**2
+
+BASE_SCENE = """
+name = "contact-errors"
+[rods.catheter]
+length = 0.1
+radius = 0.001
+youngs_modulus = 1e7
+stretch_modulus = 1e7
+density = 1000.0
+nodes = 11
+[obstacles.wall]
+rods = ["catheter"]
+"""
+
+ERROR_CASES = [
+    ("csv-one-point", 'type = "tube"\ncenterline = "csv"\nfile = "one.csv"\n',
+     "0,0,0,0.01\n", "at least 2 points"),
+    ("csv-nan", 'type = "tube"\ncenterline = "csv"\nfile = "nan.csv"\n',
+     "x,y,z,radius\n-0.01,0,0,0.01\n0.05,nan,0,0.01\n0.12,0,0,0.01\n", "NaN"),
+    ("csv-zero-radius", 'type = "tube"\ncenterline = "csv"\nfile = "zero.csv"\n',
+     "-0.01,0,0,0.01\n0.05,0,0,0\n0.12,0,0,0.01\n", "radius 0.0"),
+    ("csv-too-few-values", 'type = "tube"\ncenterline = "csv"\nfile = "short.csv"\n',
+     "-0.01,0,0,0.01\n0.05,0,0\n", "line 2"),
+    ("csv-missing", 'type = "tube"\ncenterline = "csv"\nfile = "missing.csv"\n', None,
+     "no such file"),
+    ("thicker-than-vessel", 'type = "tube"\ncenterline = "straight"\nradius = 0.0008\n'
+     'start = [-0.01, 0, 0]\nlength = 0.2\n', None, "thicker than the vessel"),
+    ("starts-outside", 'type = "tube"\ncenterline = "arc"\nradius = 0.004\n'
+     'start = [-0.01, 0.005, 0]\nbend_radius = 0.2\n', None,
+     "starts outside the vessel: its base (s = 0) at (0, 0, 0) m is 0.00124 m beyond"),
+    ("analytic-zero-radius", 'type = "tube"\ncenterline = "straight"\n', None,
+     "radius"),
+    ("too-tight-bend", 'type = "tube"\ncenterline = "arc"\nradius = 0.01\n'
+     'bend_radius = 0.01\n', None, "bends tighter than its radius"),
+    ("unknown-type", 'type = "cylinder"\n', None, "unknown obstacle type"),
+    ("unknown-rod", 'type = "plane"\npoint = [0, -0.01, 0]\nnormal = [0, 1, 0]\n'
+     'rods = ["other"]\n', None, "no rod 'other'"),
+    ("zero-normal", 'type = "plane"\npoint = [0, -0.01, 0]\nnormal = [0, 0, 0]\n', None,
+     "zero vector"),
+]
+
+
+@pytest.mark.parametrize(("table", "csv", "phrase"), [c[1:] for c in ERROR_CASES],
+                         ids=[c[0] for c in ERROR_CASES])
+def test_bad_obstacle_exits_2_with_one_line(table, csv, phrase, tmp_path, capsys, cli):
+    text = BASE_SCENE + table
+    if 'rods = ["other"]' in table:
+        text = text.replace('rods = ["catheter"]\n', "")
+    scene = tmp_path / "scene.toml"
+    scene.write_text(text, encoding="utf-8")
+    if csv is not None:
+        name = table.split('file = "')[1].split('"')[0]
+        (tmp_path / name).write_text(csv, encoding="utf-8")
+    code = cli(["run", str(scene), "--integrator", "static", "-o", str(tmp_path / "r.nc")])
+    captured = capsys.readouterr()
+    stderr = captured.err.strip()
+    assert code == 2, f"exit code {code}; stderr: {stderr!r}"
+    assert "\n" not in stderr and "Traceback" not in stderr, stderr
+    assert "obstacles.wall" in stderr, stderr
+    assert phrase in stderr, f"{phrase!r} not in {stderr!r}"
+    assert not (tmp_path / "r.nc").exists()
+
+
+def test_scene_without_obstacles_builds_no_contact():
+    """No ``obstacles`` key is added to a resolved scene and no contact term is built: the
+    shipped scenes' numbers (tests/test_scene_reference.py) and cost are untouched."""
+    scene = rodsim.load_scene("table1-50g")
+    assert "obstacles" not in scene.data
+    assert all(term.name != "contact" for term in Model(scene).terms)
+
+
+def plane_scene(nodes: int) -> dict:
+    """A cantilever (rest along +x) whose straight tip would cross a plane inclined at 30°."""
+    return {"name": "tip-on-plane", "rods": {"c": {
+        "length": LENGTH, "radius": RADIUS, "youngs_modulus": MODULUS,
+        "stretch_modulus": 1e4 * MODULUS, "density": 1000.0, "nodes": nodes,
+        "terms": ["stretch", "bend_twist", "centerline"], "centerline": {"K_P": 1e6}}},
+        "obstacles": {"tissue": {"type": "plane", "rods": ["c"],
+                                 "point": [*PLANE_POINT, 0.0], "normal": [*PLANE_NORMAL, 0.0]}},
+        "solver": {"integrator": "static"}}
+
+
+PLANE_NORMAL = np.array([-math.cos(math.radians(30)), -math.sin(math.radians(30))])
+PLANE_POINT = np.array([0.9 * LENGTH, 0.0])
+
+
+def tip_on_plane_reference() -> tuple[float, np.ndarray]:
+    """(contact force λ [N], tip (x, y) [m]) of the rigid, frictionless contact: the tip force
+    of a frictionless plane is λ n (n its unit normal: a dead load in direction), so the
+    cantilever is the extensible elastica under λ n (rodsim.core.analytic.extensible_elastica,
+    shooting to ~1e-12), and λ is the root of n · (r(L) − p₀) = r (the tip node's sphere of
+    the rod's radius r touches the plane)."""
+
+    def tip(force: float) -> np.ndarray:
+        shape = extensible_elastica(force * PLANE_NORMAL, EI, EA, LENGTH, s=np.array([LENGTH]))
+        return np.array([shape.x[-1], shape.y[-1]])
+
+    force = brentq(lambda f: PLANE_NORMAL @ (tip(f) - PLANE_POINT) - RADIUS, 1e-9,
+                   5 * EI / LENGTH**2, xtol=1e-16, rtol=1e-15)
+    return force, tip(force)
+
+
+NODES = (10, 20, 40, 80)
+
+
+def test_tip_on_inclined_plane_matches_the_elastica():
+    """Tip position second order in 1/N (the penalty's compliance, √(2 δ λ / k) ∝ N^-1.5, is
+    below 1e-6 L at these N); the contact force (the nodal contact forces summed) within
+    1e-3 of λ at N = 80 and normal to the plane."""
+    force, exact = tip_on_plane_reference()
+    errors, force_errors = [], []
+    for nodes in NODES:
+        scene = Scene.from_dict(plane_scene(nodes))
+        result = rodsim.solve(scene, "static", overrides=["static.max_newton=200"])
+        assert result.success, result.message
+        tip = result.tip()
+        errors.append(float(np.hypot(*(tip[:2] - exact)) / LENGTH))
+        model = Model(scene)
+        contact = next(t for t in model.terms if t.name == "contact")
+        total = contact.nodal_forces(model.full(result.state)).sum(axis=0)
+        force_errors.append(float(np.linalg.norm(total[:2] - force * PLANE_NORMAL) / force))
+    order = -np.polyfit(np.log([n - 1 for n in NODES]), np.log(errors), 1)[0]
+    print(f"\ntip on a 30° plane, λ L²/EI = {force * LENGTH**2 / EI:.4f}: |tip − elastica| / L"
+          f" at N = {NODES}: {', '.join(f'{e:.3g}' for e in errors)}; order {order:.2f}; "
+          f"|force − λ n| / λ: {', '.join(f'{e:.2g}' for e in force_errors)}")
+    assert order > 1.8
+    assert errors[-1] < 5e-6
+    assert force_errors[-1] < 1e-3
+
+
+def test_every_integrator_reaches_the_same_contact_equilibrium():
+    """static, cvode, ida and paper on the shipped tip-on-tissue scene: every node within
+    1e-6 L of static's, and the tip on the plane (its sphere touching, y = 1.7 mm − r, up to
+    the penalty's penetration √(2 δ f / k) ≈ 1.1e-6 L here)."""
+    scene = rodsim.load_scene("tip-on-tissue")
+    length = scene.data["rods"]["catheter"]["length"]
+    radius = scene.data["rods"]["catheter"]["radius"]
+    shapes = {}
+    for integrator in ("static", "cvode", "ida", "paper"):
+        result = rodsim.solve(scene, integrator)
+        assert result.success, f"{integrator}: {result.message}"
+        shapes[integrator] = result.rods["catheter"].positions
+    gaps = {name: float(np.max(np.linalg.norm(p - shapes["static"], axis=1)) / length)
+            for name, p in shapes.items()}
+    print(f"\ntip-on-tissue: max node distance to static / L: {gaps}")
+    assert max(gaps.values()) < 1e-6
+    assert abs(shapes["static"][-1, 1] - (0.0017 - radius)) < 2e-6 * length
+
+
+def test_insertion_along_a_curved_vessel_is_warm_started_and_path_independent():
+    """``track`` advances the shipped vessel-insertion catheter 60 mm through the csv vessel's
+    bend (61 steps): every step converges, the nodes stay inside the wall up to the penalty's
+    compliance, and the last step equals that of a track in 16 steps to 1e-6 L (frictionless
+    contact: no path dependence). Prints how far segment midpoints (which node-based contact
+    does not see) reach past the wall. (A solve from rest at the full insertion is not a
+    check: the straight rest shape then lies far outside the bend and the rod can settle
+    outside the vessel — docs/contact.md.)"""
+    from rodsim.app.inverse.track import track
+
+    scene = rodsim.load_scene("vessel-insertion")
+    radius = scene.data["rods"]["catheter"]["radius"]
+    length = scene.data["rods"]["catheter"]["length"]
+    path = track(scene, {"rods.catheter.base.insertion": np.linspace(0.0, 0.06, 61)})
+    assert path.success, path.message
+    contact = next(t for t in path.model.terms if t.name == "contact")
+    nodes = max(float(np.max(contact.penetration(full))) for full in path.states)
+    midpoints = 0.0
+    for positions in path.positions:
+        middle = 0.5 * (positions[1:] + positions[:-1])
+        midpoints = max(midpoints, float(np.max(radius - contact.obstacle.gap(middle)[0])))
+    coarse = track(scene, {"rods.catheter.base.insertion": np.linspace(0.0, 0.06, 16)})
+    assert coarse.success, coarse.message
+    gap = float(np.max(np.linalg.norm(path.positions[-1] - coarse.positions[-1], axis=1))
+                ) / length
+    print(f"\nvessel insertion, 61 steps: deepest node {nodes / radius:.2g} r, deepest segment "
+          f"midpoint {midpoints / radius:.2g} r past the wall; last step vs 16 steps {gap:.2g} L")
+    assert nodes < 1e-2 * radius
+    assert gap < 1e-6
+
+
+def test_archive_holds_contact_forces_and_the_figure_draws_them(tmp_path):
+    """A run archive of a scene with obstacles holds the contact force per node (N) and their
+    resultant, passes the archive contract and round-trips through netCDF; a scene without
+    obstacles has neither variable. The contact figure is written from the archive alone."""
+    from rodsim.app.contact_figure import contact_figure
+    from rodsim.io.archive import read_dataset, write_dataset
+    from rodsim.io.archive_schema import check_archive
+    from rodsim.io.run_dataset import run_dataset
+
+    result = rodsim.solve("tip-on-tissue", "static")
+    ds = run_dataset(result)
+    check_archive(ds)
+    force = ds["contact_force"].values
+    assert ds["contact_force"].attrs["units"] == "N"
+    np.testing.assert_allclose(ds["contact_resultant"].values, force.sum(axis=0), rtol=1e-15)
+    # the plane's normal is -y: the tissue pushes the tip down, nothing else touches
+    assert force[-1, 1] < 0 and np.all(force[:-2] == 0.0)
+    path = tmp_path / "run.nc"
+    write_dataset(ds, path)
+    back = read_dataset(path)
+    np.testing.assert_array_equal(back["contact_force"].values, force)
+    figure = contact_figure(back, tmp_path / "contact.png")
+    assert figure.stat().st_size > 10_000
+    plain = run_dataset(rodsim.solve("table1-50g", "static"))
+    assert "contact_force" not in plain and "contact_resultant" not in plain
+
+
+def test_tendon_bent_tip_on_a_plane_matches_the_rucker_webster_reference():
+    """Reference (c): the benchmark backbone of tests/test_string_tendon.py bent by one string
+    tendon (1 N at 10 mm) presses its tip on a frictionless plane above it (at 60 % of the
+    free tip's rise). The plane's force is λ n, n = −y fixed, so the Rucker–Webster shooting
+    (rodsim/core/analytic/tendon_bvp.py) under the tip force λ_N n, λ_N the contact force
+    rodsim finds at N, must put the tip on the plane (its sphere touching) and where rodsim
+    does: both distances fall at second order. (Finding λ by root search on the reference
+    instead takes minutes; done once by hand: λ = 0.030186 N, rodsim's force within 7.9e-5 of
+    it at N = 81.)"""
+    from test_string_tendon import LENGTH as BACKBONE
+    from test_string_tendon import RADIUS as WIRE
+    from test_string_tendon import backbone, string
+
+    from rodsim.core.analytic.tendon_bvp import scene_reference
+
+    tendon = {"a": string((1, 0), 1.0)}
+    plane_y = 0.6 * 0.0195772845 + WIRE  # 60 % of the free tip's y (reference) + r
+    on_plane, to_rodsim = [], []
+    nodes = (21, 41, 81)
+    for count in nodes:
+        scene = backbone(count, tendon) | {"obstacles": {"tissue": {
+            "type": "plane", "rods": ["backbone"], "point": [0.0, plane_y, 0.0],
+            "normal": [0.0, -1.0, 0.0]}}}
+        result = rodsim.solve(scene, "static", overrides=["static.max_newton=200"])
+        assert result.success, result.message
+        model = Model(Scene.from_dict(scene))
+        contact = next(t for t in model.terms if t.name == "contact")
+        force = contact.nodal_forces(model.full(result.state)).sum(axis=0)
+        assert abs(force[0]) + abs(force[2]) <= 1e-12 * abs(force[1])
+        tip = scene_reference(Scene.from_dict(backbone(5, tendon, tuple(force)))).tip
+        on_plane.append(abs(plane_y - tip[1] - WIRE) / BACKBONE)
+        to_rodsim.append(float(np.linalg.norm(tip - result.tip())) / BACKBONE)
+    orders = [-np.polyfit(np.log([n - 1 for n in nodes]), np.log(e), 1)[0]
+              for e in (on_plane, to_rodsim)]
+    print(f"\ntendon-bent tip on a plane, N = {nodes}: reference tip under rodsim's force, "
+          f"off the plane / L {', '.join(f'{e:.2g}' for e in on_plane)} (order "
+          f"{orders[0]:.2f}), from rodsim's tip / L {', '.join(f'{e:.2g}' for e in to_rodsim)}"
+          f" (order {orders[1]:.2f})")
+    assert min(orders) > 1.8
+    assert max(on_plane[-1], to_rodsim[-1]) < 1e-5
+
+
+def test_a_csv_vessel_is_read_into_the_scene_and_an_override_of_its_file_rereads(tmp_path):
+    """The resolved scene holds the csv's points (archives and reruns need no file); setting
+    another file reads it and replaces the old points."""
+    scene = rodsim.load_scene("vessel-insertion")
+    table = scene.data["obstacles"]["vessel"]
+    assert table["file"] == "" and len(table["points"]) == 4 * 33
+    again = Scene.from_json(scene.to_json())
+    assert again.data["obstacles"]["vessel"]["points"] == table["points"]
+    other = tmp_path / "wide.csv"
+    other.write_text("-0.2,0,0,0.004\n0.3,0,0,0.004\n", encoding="utf-8")
+    wide = scene.with_overrides([f'obstacles.vessel.file="{other}"'])
+    assert wide.data["obstacles"]["vessel"]["points"] == [-0.2, 0.0, 0.0, 0.004,
+                                                           0.3, 0.0, 0.0, 0.004]
