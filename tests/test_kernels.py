@@ -56,8 +56,10 @@ def test_every_kernel_matches_its_numpy_reference(scene, random_state):
                    jacobian_target)
             expected_force, expected_data = reference(model, term, full, jacobian_target)
             label = f"term {term.name!r} (#{index}) in {scene!r}"
+            # An idle term (zero force at this state, e.g. an obstacle out of reach) must be
+            # exactly idle in the kernel too; tests/test_term_contract.py makes sure every
+            # term is exercised with a non-zero force somewhere.
             force_scale = np.max(np.abs(expected_force))
-            assert force_scale > 0.0, label
             np.testing.assert_allclose(force[:-1], expected_force, rtol=0,
                                        atol=ROUND_OFF * force_scale, err_msg=label)
             data_scale = max(np.max(np.abs(expected_data), initial=0.0), 1e-300)
