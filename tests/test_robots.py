@@ -1,0 +1,175 @@
+"""The load cases of issue 20's aims on the shipped robots ``tdcr-two-segment`` and
+``catheter-pull-ring``, against the Rucker–Webster reference
+(rodsim/core/analytic/tendon_bvp.py), which reads the pull-ring's two sections (stiff shaft,
+soft distal tube) span by span.
+
+Each case is a shipped scene with changed values (tensions, a tip force, a tip moment as
+``point_loads`` at s = L, an added helical tendon), solved by ``static`` at the scene's
+shipped N and at half its h. The tests print the table: |tip − reference| / L and the
+observed order log2(e(coarse) / e(shipped)). The reference includes rodsim's axial and K_P
+shear law, so what is left is the discretisation (the K_P floor, reference with shear
+against without, is stated in tests/test_string_tendon.py).
+"""
+
+from __future__ import annotations
+
+import copy
+import functools
+import math
+from collections.abc import Callable
+
+import numpy as np
+import pytest
+
+import rodsim
+from rodsim.core.analytic.tendon_bvp import scene_reference
+from rodsim.core.scene import Scene
+
+#: Shipped-N aim: tip within this fraction of L of the reference; least observed order.
+AIM, ORDER = 1e-4, 1.8
+
+TDCR = ("s1a", "s1b", "s1c", "s2a", "s2b", "s2c")
+
+
+def tensions(data: dict, **values: float) -> None:
+    """Set every tendon's tension: the named ones to their value, the others to 0."""
+    for name, options in data["tendons"].items():
+        options["tendon_string"]["tension"] = values.get(name, 0.0)
+
+
+def tip_wrench(data: dict, rod: str, force=(0.0, 0.0, 0.0), moment=(0.0, 0.0, 0.0)) -> None:
+    """A world-frame point load at s = L (the reference's tip wrench)."""
+    table = data["rods"][rod]
+    if "point_loads" not in table["terms"]:
+        table["terms"] = [*table["terms"], "point_loads"]
+    table["point_loads"] = {"loads": [{"s": table["length"], "force": list(force),
+                                       "moment": list(moment), "frame": "world"}]}
+
+
+def no_tip_force(data: dict) -> None:
+    data["rods"]["backbone"]["tip_load"]["force"] = [0.0, 0.0, 0.0]
+
+
+def helix(data: dict) -> None:
+    tensions(data)
+    data["tendons"]["h"] = {"catheter": "backbone", "coupling": "string", "tendon_string": {
+        "tension": 1.5, "spacers": True, "routing": "helix", "helix_radius": 0.01,
+        "helix_pitch": 0.4, "helix_phase": 0.3}}
+
+
+def _tdcr(*edits: Callable[[dict], None]) -> tuple[str, str, tuple]:
+    return ("tdcr-two-segment", "backbone", edits)
+
+
+def _ring(*edits: Callable[[dict], None]) -> tuple[str, str, tuple]:
+    return ("catheter-pull-ring", "catheter", edits)
+
+
+#: case -> (scene, catheter rod, edits of the scene's data).
+CASES = {
+    "tdcr: one tendon (s1a, 3 N)": _tdcr(no_tip_force, lambda d: tensions(d, s1a=3.0)),
+    "tdcr: two tendons (s1a 3 N, s2a 1.5 N)": _tdcr(
+        no_tip_force, lambda d: tensions(d, s1a=3.0, s2a=1.5)),
+    "tdcr: both segments into an S (shipped tensions)": _tdcr(no_tip_force),
+    "tdcr: S, tip force out of the plane (shipped)": _tdcr(),
+    "tdcr: tip force in the bending plane": _tdcr(
+        lambda d: tensions(d, s1a=3.0, s2a=0.5),
+        lambda d: d["rods"]["backbone"]["tip_load"].update(force=[0.0, -0.05, 0.0])),
+    "tdcr: tip moment (point_loads at s = L)": _tdcr(
+        no_tip_force, lambda d: tensions(d, s1a=2.0),
+        lambda d: tip_wrench(d, "backbone", moment=(0.0, 0.003, -0.004))),
+    "tdcr: helical tendon (half a turn)": _tdcr(no_tip_force, helix),
+    "pull-ring: one wire (shipped)": _ring(),
+    "pull-ring: both wires (1.5 N, 0.5 N)": _ring(
+        lambda d: tensions(d, wire_up=1.5, wire_down=0.5)),
+    "pull-ring: tip force out of the plane": _ring(
+        lambda d: tip_wrench(d, "catheter", force=(0.0, 0.02, -0.05))),
+    "pull-ring: tip moment": _ring(
+        lambda d: tip_wrench(d, "catheter", moment=(0.0, 0.0005, 0.0))),
+}
+
+
+def case_scene(case: str) -> tuple[Scene, str]:
+    name, rod, edits = CASES[case]
+    data = copy.deepcopy(rodsim.load_scene(name).data)
+    for edit in edits:
+        edit(data)
+    return Scene.from_dict(data), rod
+
+
+@functools.cache
+def reference_tip(case: str) -> np.ndarray:
+    return scene_reference(case_scene(case)[0]).tip
+
+
+@functools.cache
+def errors_of(case: str) -> dict[int, float]:
+    """|tip − reference| / L at half the shipped N's h and at the shipped N."""
+    scene, rod = case_scene(case)
+    reference = reference_tip(case)
+    shipped = scene.rods[rod].nodes
+    out = {}
+    for nodes in ((shipped - 1) // 2 + 1, shipped):
+        result = rodsim.solve(scene.with_values({f"rods.{rod}.nodes": nodes}), "static")
+        assert result.success, result.message
+        out[nodes] = float(np.linalg.norm(result.rods[rod].positions[-1] - reference)
+                           / scene.rods[rod].length)
+    (coarse, e_coarse), (shipped, e_shipped) = out.items()
+    print(f"\n{case}\n   N   |tip - reference| / L   order")
+    print(f"{coarse:5d}   {e_coarse:.3e}")
+    print(f"{shipped:5d}   {e_shipped:.3e}              {math.log2(e_coarse / e_shipped):.2f}")
+    return out
+
+
+#: Cases whose observed order is below ORDER. The pull-ring's tip moment, measured at
+#: N = 41 -> 81 -> 161 -> 321: order 1.81, 1.69, 1.48 against the reference, and rodsim's own
+#: successive differences 1.78, 1.61, so the defect is in the discrete model, not in the
+#: reference. Only the combination of varying sections, a string tendon and a 3-D load shows
+#: it (the tip force out of the plane: 1.91, 1.85, 1.70, passing here at 1.81); without
+#: sections, without the wire, or in-plane the same loads converge at 1.98-2.00. Cause not
+#: found; docs/scenes.md states it. strict: the mark goes when the order is fixed.
+SLOW_ORDER = {"pull-ring: tip moment"}
+
+
+@pytest.mark.parametrize("case", list(CASES))
+def test_robot_load_case_meets_the_accuracy_aim(case):
+    """At the scene's shipped N the tip is within 1e-4 L of the reference."""
+    errors = errors_of(case)
+    assert list(errors.values())[-1] <= AIM, errors
+
+
+@pytest.mark.parametrize("case", [
+    pytest.param(case, marks=pytest.mark.xfail(
+        strict=True, reason="order 1.6: sections + string tendon + 3-D load (measured)"))
+    if case in SLOW_ORDER else case for case in CASES])
+def test_robot_load_case_converges_at_second_order(case):
+    e_coarse, e_shipped = errors_of(case).values()
+    assert math.log2(e_coarse / e_shipped) >= ORDER, (e_coarse, e_shipped)
+
+
+def test_the_cases_do_what_their_names_say():
+    """The cases are not trivial: each tip leaves the straight rest by more than 5 % of L,
+    and the out-of-plane ones leave the plane x–y (|z| > 1 % of L)."""
+    for case in CASES:
+        scene, rod = case_scene(case)
+        tip = reference_tip(case)
+        length = scene.rods[rod].length
+        assert math.hypot(tip[1], tip[2]) > 0.05 * length, case
+        if "out of the plane" in case or "helical" in case or "moment" in case:
+            assert abs(tip[2]) > 0.01 * length, case
+
+
+def test_reference_reads_the_sections():
+    """The pull-ring's reference with its two sections differs from a uniform rod of the
+    shaft (the soft tip bends more), and sections equal to the rod's own values give the
+    uniform rod's reference to round-off."""
+    scene, _ = case_scene("pull-ring: one wire (shipped)")
+    data = copy.deepcopy(scene.data)
+    del data["rods"]["catheter"]["sections"]
+    uniform = scene_reference(Scene.from_dict(data)).tip
+    assert np.linalg.norm(reference_tip("pull-ring: one wire (shipped)") - uniform) > 0.1 * 0.1
+    same = copy.deepcopy(data)
+    same["rods"]["catheter"]["sections"] = [
+        {"start": 0.0, "end": 0.03}, {"start": 0.03, "end": 0.1}]
+    np.testing.assert_allclose(scene_reference(Scene.from_dict(same)).tip, uniform,
+                               rtol=0, atol=1e-12)
