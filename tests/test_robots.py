@@ -173,3 +173,98 @@ def test_reference_reads_the_sections():
         {"start": 0.0, "end": 0.03}, {"start": 0.03, "end": 0.1}]
     np.testing.assert_allclose(scene_reference(Scene.from_dict(same)).tip, uniform,
                                rtol=0, atol=1e-12)
+
+
+# ------------------------------------------------------------------ reach (inverse)
+TENSION = "{}.tendon_string.tension"
+TRUTH = dict(zip(TDCR, (2.5, 0.4, 0.8, 0.6, 1.7, 0.3), strict=True))
+
+
+@functools.cache
+def tdcr_pose() -> tuple[Scene, np.ndarray, np.ndarray, object]:
+    """The unloaded tdcr, its tip pose (position, frame) at the tensions TRUTH, and that
+    equilibrium."""
+    from rodsim.app.inverse.reach import tip_frame
+
+    scene = rodsim.load_scene("tdcr-two-segment", ["tip_load.force=[0, 0, 0]"])
+    truth = rodsim.solve(scene.with_overrides([f"{TENSION.format(t)}={v}"
+                                               for t, v in TRUTH.items()]), "static")
+    assert truth.success
+    return scene, truth.tip("backbone"), tip_frame(truth, "backbone"), truth
+
+
+def test_tdcr_pose_determines_four_tension_differences_not_the_common_modes():
+    """Six tensions from a tip pose (position and orientation): the tip pose is reached
+    (4e-9 m, 0 rad) and the tension differences within each segment are recovered to
+    1e-6 N, but not the two common modes. The pose's Jacobian d(tip, L d1, L d3)/dT shows
+    why: its singular values are 0.32, 0.24, 0.020, 0.019 m/N, then 9.3e-6 m/N (a common
+    mode seen only through the backbone's axial compliance: 1e-6 N is 1e-11 m of tip, below
+    the equilibrium's precision) and 4.6e-11 m/N (segment 1's common mode against minus
+    half segment 2's: the two segments' compressions cancel at the tip)."""
+    from rodsim.app.inverse.reach import _unit_director
+    from rodsim.app.inverse.sensitivity import sensitivity
+
+    scene, tip, frame, truth = tdcr_pose()
+    keys = [TENSION.format(t) for t in TDCR]
+    found = rodsim.reach(scene, tip, keys, orientation=frame)
+    assert found.success, found.message
+    assert found.angle is not None and found.angle <= 1e-6 / 0.4
+    error = found.values - np.array(list(TRUTH.values()))
+    for segment in (error[:3], error[3:]):
+        assert np.ptp(segment) <= 1e-6, error
+    # the common modes: measured, not claimed recovered
+    s = sensitivity(truth, keys)
+    q = truth.rods["backbone"].quaternions[-1]
+    jac = np.vstack([s.positions["backbone"][:, -1, :].T,
+                     *(0.4 * _unit_director(q, k)[1] @ s.quaternions["backbone"][:, -1, :].T
+                       for k in (0, 2))])
+    singular = np.linalg.svd(jac, compute_uv=False)
+    print("\nsingular values of d(pose)/dT [m/N]:", singular)
+    assert singular[3] > 1e-3 and singular[4] < 1e-4 and singular[5] < 1e-9
+
+
+def test_tdcr_pose_recovers_four_tensions_with_one_known_per_segment():
+    """With one tension per segment known (s1c, s2c at their true values), the four others
+    are recovered from the pose within 1e-6 N of the truth."""
+    scene, tip, frame, _ = tdcr_pose()
+    unknown = ("s1a", "s1b", "s2a", "s2b")
+    scene = scene.with_overrides([f"{TENSION.format(t)}={TRUTH[t]}" for t in ("s1c", "s2c")])
+    found = rodsim.reach(scene, tip, [TENSION.format(t) for t in unknown], orientation=frame)
+    assert found.success, found.message
+    np.testing.assert_allclose(found.values, [TRUTH[t] for t in unknown], rtol=0, atol=1e-6)
+
+
+def test_pull_ring_reaches_a_target_by_insertion_and_rotation():
+    """The handle's insertion and rotation (the base support's values) put the
+    pull-ring's tip, bent by its wire, on a target produced by known values."""
+    scene = rodsim.load_scene("catheter-pull-ring", ["catheter.nodes=41"])
+    moved = rodsim.solve(scene.with_overrides(["catheter.base.insertion=0.012",
+                                               "catheter.base.rotation=0.7"]), "static")
+    assert moved.success
+    target = moved.tip("catheter")
+    assert abs(target[2]) > 0.01  # the turned bend leaves the plane x-y
+    found = rodsim.reach(scene, target, ["catheter.base.insertion", "catheter.base.rotation"],
+                         rod="catheter")
+    assert found.success, found.message
+    np.testing.assert_allclose(found.values, [0.012, 0.7], rtol=0, atol=1e-6)
+
+
+def test_reach_orientation_on_the_cli(tmp_path, capsys):
+    from rodsim.app.cli import main
+
+    scene, tip, frame, _ = tdcr_pose()
+    truth = [f"{TENSION.format(t)}={TRUTH[t]}" for t in ("s1b", "s1c", "s2a", "s2b", "s2c")]
+    argv = ["reach", "tdcr-two-segment", "--set", "tip_load.force=[0, 0, 0]", "--tip",
+            ",".join(repr(float(v)) for v in tip), "--frame",
+            ",".join(repr(float(v)) for v in [*frame[0], *frame[2]]),
+            "--actuate", TENSION.format("s1a"), "-o", str(tmp_path / "r.nc")]
+    for value in truth:
+        argv += ["--set", value]
+    assert main(argv) == 0
+    out = capsys.readouterr().out
+    assert "rad from the orientation target" in out and "s1a.tendon_string.tension = 2.5" in out
+    bad = argv[:argv.index("--frame") + 1] + ["1,0,0,1,0,0"] + argv[argv.index("--frame") + 2:]
+    bad[bad.index("-o") + 1] = str(tmp_path / "bad.nc")
+    assert main(bad) == 2
+    err = capsys.readouterr().err
+    assert "not a rotation" in err and err.count("\n") == 1
