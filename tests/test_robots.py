@@ -121,13 +121,14 @@ def errors_of(case: str) -> dict[int, float]:
     return out
 
 
-#: Cases whose observed order is below ORDER. The pull-ring's tip moment, measured at
-#: N = 41 -> 81 -> 161 -> 321: order 1.81, 1.69, 1.48 against the reference, and rodsim's own
-#: successive differences 1.78, 1.61, so the defect is in the discrete model, not in the
-#: reference. Only the combination of varying sections, a string tendon and a 3-D load shows
-#: it (the tip force out of the plane: 1.91, 1.85, 1.70, passing here at 1.81); without
-#: sections, without the wire, or in-plane the same loads converge at 1.98-2.00. Cause not
-#: found; docs/scenes.md states it. strict: the mark goes when the order is fixed.
+#: Cases whose observed order is below ORDER. The pull-ring's tip moment, measured (with
+#: wire_down slack) at N = 41 -> 81 -> 161 -> 321: order 1.81, 1.69, 1.48 against the
+#: reference, and rodsim's own successive differences 1.78, 1.61, so the defect is in the
+#: discrete model, not in the reference. Only the combination of varying sections, a string
+#: tendon and a 3-D load shows it (the tip force out of the plane: 1.91, 1.85, 1.70, passing
+#: here at 1.81); without sections, without the wire, or in-plane the same loads converge
+#: at 1.98-2.00. Cause not found; docs/scenes.md states it. strict: the mark goes when the
+#: order is fixed.
 SLOW_ORDER = {"pull-ring: tip moment"}
 
 
