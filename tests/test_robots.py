@@ -127,7 +127,9 @@ def errors_of(case: str) -> dict[int, float]:
 #: discrete model, not in the reference. Only the combination of varying sections, a string
 #: tendon and a 3-D load shows it (the tip force out of the plane: 1.91, 1.85, 1.70, passing
 #: here at 1.81); without sections, without the wire, or in-plane the same loads converge
-#: at 1.98-2.00. Cause not found; docs/scenes.md states it. strict: the mark goes when the
+#: at 1.98-2.00, and so they do with equal E on both spans or with the pull ring moved into
+#: the shaft: it takes the wire crossing the stiffness jump. Cause not found; docs/scenes.md
+#: states it. strict: the mark goes when the
 #: order is fixed.
 SLOW_ORDER = {"pull-ring: tip moment"}
 
