@@ -433,6 +433,24 @@ def _target(text: str) -> list[float]:
     return values
 
 
+def _frame(text: str) -> list[list[float]]:
+    """argparse type of ``reach --frame``: the tip directors d1 and d3 (six finite numbers);
+    d2 = d3 × d1. Whether they are orthonormal is checked by ``reach`` (exit 2)."""
+    parts = text.split(",")
+    try:
+        values = [float(part) for part in parts]
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected D1X,D1Y,D1Z,D3X,D3Y,D3Z, got "
+                                         f"{text[:40]!r}") from None
+    if len(values) != 6 or not all(math.isfinite(v) for v in values):
+        raise argparse.ArgumentTypeError(f"expected six finite numbers D1X,D1Y,D1Z,D3X,D3Y,"
+                                         f"D3Z, got {text[:40]!r}")
+    d1, d3 = values[:3], values[3:]
+    d2 = [d3[1] * d1[2] - d3[2] * d1[1], d3[2] * d1[0] - d3[0] * d1[2],
+          d3[0] * d1[1] - d3[1] * d1[0]]
+    return [d1, d2, d3]
+
+
 def cmd_reach(args: argparse.Namespace) -> int:
     from rodsim.app.inverse.continuation import EquilibriumFailure
     from rodsim.app.inverse.reach import reach
@@ -445,7 +463,7 @@ def cmd_reach(args: argparse.Namespace) -> int:
     progress = ProgressPrinter()
     try:
         result = reach(scene, args.tip, args.actuate, rod=args.rod, tolerance=args.tolerance,
-                       progress=progress)
+                       progress=progress, orientation=args.frame)
     except SceneError as exc:
         raise UserError(str(exc)) from None
     except EquilibriumFailure as exc:
@@ -463,6 +481,8 @@ def cmd_reach(args: argparse.Namespace) -> int:
     tip = result.tip
     print(f"tip         x = {tip[0]: .6f} m  y = {tip[1]: .6f} m  z = {tip[2]: .6f} m, "
           f"{result.distance:.3g} m from the target")
+    if result.angle is not None:
+        print(f"frame       {result.angle:.3g} rad from the orientation target")
     print(f"cost        {result.evaluations} equilibria, {result.jacobians} Jacobians, "
           f"{result.wall_time:.3f} s")
     _write_with_figure(result.to_xarray(), output, stem)
@@ -796,6 +816,9 @@ def build_parser() -> argparse.ArgumentParser:
     aim.add_argument("--actuate", action="append", required=True, metavar="KEY",
                      help="numeric scene value to vary (repeatable), e.g. "
                      "tendon_py.tendon_actuation.force")
+    aim.add_argument("--frame", type=_frame, metavar="D1X,D1Y,D1Z,D3X,D3Y,D3Z",
+                     help="also the tip's orientation: directors d1 and d3 of the last "
+                     "segment (d3 the tangent); reached within --tolerance / L rad")
     aim.add_argument("--rod", help="rod whose tip is placed (default: the first)")
     aim.add_argument("--tolerance", type=_tolerance, default=1e-6, metavar="METRES",
                      help="distance at which the target counts as reached (default 1e-6 m)")

@@ -31,6 +31,7 @@ from scipy.sparse.csgraph import reverse_cuthill_mckee
 
 from rodsim.core.anchors import joined_support, joint_depth, scene_joints
 from rodsim.core.rod.layout import RodLayout
+from rodsim.core.rod.retraction import turn_segments
 from rodsim.core.rod.rod import Rod
 from rodsim.core.scene import Scene
 from rodsim.core.sparsity import csc_pattern
@@ -477,6 +478,29 @@ class Model:
         return (np.ascontiguousarray(np.concatenate(chains), dtype=np.int64),
                 starts.astype(np.int64),
                 np.array(couplings, dtype=np.int64).reshape(-1, 6))
+
+    def turned_step(self, x: np.ndarray, dx: np.ndarray) -> np.ndarray:
+        """:meth:`step` with each rod's segments turned as rigid frames instead of their
+        lengths kept (rodsim/core/rod/retraction.py; ``solver.static.retraction =
+        "frames"``); the endpoint couplings as in :meth:`step`. Equal to x + dx to first
+        order in dx."""
+        before, after = self.full(x), self.full(x + dx)
+        for rod in self.rods.values():
+            position, quaternion = rod.layout.position_index, rod.layout.quaternion_index
+            r, q = before[position], before[quaternion]
+            after[position], after[quaternion] = turn_segments(
+                r, q, after[position] - r, after[quaternion] - q,
+                np.all(self._free_of[position] >= self.n, axis=1))
+        y = after[self.free]
+        for free in self._step_maps[2]:  # the endpoint couplings, as in step()
+            tip, tendon_tip = free[:3], free[3:]
+            edge = x[tendon_tip] - x[tip]
+            length = float(np.linalg.norm(edge))
+            if length > 0.0:
+                predicted = length + float(edge @ (dx[tendon_tip] - dx[tip])) / length
+                new_edge = y[tendon_tip] - y[tip]
+                y[tendon_tip] = y[tip] + predicted * new_edge / np.linalg.norm(new_edge)
+        return y
 
     def step(self, x: np.ndarray, dx: np.ndarray) -> np.ndarray:
         """The state a Newton step ``dx`` from ``x`` reaches, with stiff lengths kept to first

@@ -54,6 +54,22 @@ Tried and dropped: retracting the quaternions onto the norm the linearisation pr
 quadratic predictors across load steps, and looser tolerances on intermediate steps (at full
 K_P, before the penalty lowering).
 
+``retraction = "frames"`` (opt-in; the default "lengths" is the retraction above, which
+every shipped scene's stored equilibrium was computed with): each segment turns as a rigid
+frame (:meth:`Model.turned_step`, rodsim/core/rod/retraction.py). With the default, Newton
+crept on tdcr-two-segment: a linear step leaves q off the rotations (|q + Δq|² = |q|² +
+|Δq|²) and turns each edge by atan θ instead of θ, so edge and d3 disagree at O(θ³), which
+the centerline penalty (K_P l²/(E I) = 139) turns into forces: the energy line search
+rejected every other full step (half steps accepted, the energy falling by 1e-3 per
+iteration), the attempt at full load ran out of iterations, and load steps of 1/4 followed.
+Measured (static, CPU, the six tdcr cases of ``rodsim bench string-tendon``): Newton
+iterations 22, 96, 30, 16, 13, 98 → 5, 6, 6, 5, 5, 6; time 40–142 → 31–37 ms, of which the
+model's assembly is about 22 ms. Same equilibria within 4.8e-10 m (the residual floor of
+tdcr: 1.2e-9 L); on the other shipped scenes 14/19/11/15/14 → 8/7/5/6/10 iterations
+(catheter-pull-ring, table1-100g/20g/50g, tendon-conserving), table3's paper coupling
+29/29/29 → 26/25/30 and four-tendons 4 → 5 (the numpy retraction then costs more than the
+iterations save: 21 → 29–42 ms), equilibria within 1e-15 m.
+
 Quaternion norm: held by the centerline penalty Eq. (9) (|d3| = |q|²), as in the model.
 
 Warm start (``initial_state``, rodsim/app/inverse/track.py): Newton at full load from the
@@ -74,6 +90,9 @@ from rodsim.solvers.base import Integrator, Outcome
 NONCONSERVATIVE_FIRST_STEP = 0.25
 #: Default of ``penalty_ratio`` (also the CVODE finish's, rodsim/solvers/sundials.py).
 DEFAULT_PENALTY_RATIO = 1e3
+#: ``retraction`` choices: :meth:`Model.step` (the default, every shipped scene's numbers)
+#: or :meth:`Model.turned_step`.
+RETRACTIONS = ("lengths", "frames")
 
 
 class Static(Integrator):
@@ -92,6 +111,11 @@ class Static(Integrator):
         Parameter("penalty_ratio", "float", DEFAULT_PENALTY_RATIO, "-",
                   "above this K_P l²/(E I), load with K_P lowered to it, then raise K_P "
                   "tenfold per step (penalty continuation)", 1.0, 1e300),
+        Parameter("retraction", "str", "lengths", "-",
+                  "how a Newton step moves the rods: 'lengths' (segment lengths kept) or "
+                  "'frames' (segments turned as rigid frames: far fewer iterations when "
+                  "segments turn a lot, rodsim/core/rod/retraction.py)",
+                  choices=RETRACTIONS),
     )
 
     def advice(self) -> str:
@@ -201,9 +225,32 @@ class Static(Integrator):
         """Newton iterations at a fixed load (polished past the tolerance when ``polish``:
         intermediate steps need not be), through the retraction :meth:`Model.step`, counted;
         returns (converged, x, iterations)."""
-        converged, x, iterations = self.newton_equilibrium(
-            x, load, self.options.max_newton, f"load fraction {load:.4g}", polish,
-            retract=True)
+        if self.options.retraction == "frames":
+            converged, x, iterations = self._turned_newton(x, load, polish)
+        else:
+            converged, x, iterations = self.newton_equilibrium(
+                x, load, self.options.max_newton, f"load fraction {load:.4g}", polish,
+                retract=True)
         self.counts["newton_iters"] += iterations
         self.counts["linear_solves"] += iterations
         return converged, x, iterations
+
+    def _turned_newton(self, x: np.ndarray, load: float,
+                       polish: bool) -> tuple[bool, np.ndarray, int]:
+        """:meth:`newton_equilibrium` through :meth:`Model.turned_step` (``retraction =
+        "frames"``)."""
+        from rodsim.solvers.newton import NewtonProblem, newton
+
+        model = self.model
+        problem = NewtonProblem(
+            force=lambda y: self.force(y, load),
+            jacobian=lambda y: self.jacobian_data(y, load),
+            linear=self.newton_linear_solver(),
+            residual=model.residual,
+            weight=model.residual_weight,
+            potential=(lambda y: model.energy(y, load)) if model.conservative else None,
+            step=model.turned_step,
+        )
+        outcome = newton(problem, x, self.tolerance, self.options.max_newton, polish=polish,
+                         check=self.iteration_check(f"load fraction {load:.4g}"))
+        return outcome.converged, outcome.x, outcome.iterations

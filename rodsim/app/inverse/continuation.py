@@ -360,6 +360,22 @@ class ScaledEquilibria:
         model = self.continuation.model
         return model.positions(self.continuation.x, self.rod)
 
+    def tip_quaternion(self) -> np.ndarray:
+        """The quaternion of the rod's last segment at the current equilibrium."""
+        model = self.continuation.model
+        full = model.full(self.continuation.x)
+        return full[model.rods[self.rod].layout.quaternion_index][-1]
+
+    def tip_sensitivity(self) -> tuple[np.ndarray, np.ndarray]:
+        """d(tip)/du (P, 3) and d(last quaternion)/du (P, 4) at the current equilibrium."""
+        self.jacobians += 1
+        model = self.continuation.model
+        _, full = equilibrium_sensitivity(model, self.continuation.x, self.keys)
+        layout = model.rods[self.rod].layout
+        position = full[layout.position_index][-1].T * self.scale[:, None]
+        quaternion = full[layout.quaternion_index][-1].T * self.scale[:, None]
+        return position, quaternion
+
     def node_sensitivity(self) -> np.ndarray:
         """d(nodes of the rod)/du at the current equilibrium, (P, N, 3)."""
         self.jacobians += 1

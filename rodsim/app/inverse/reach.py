@@ -25,6 +25,12 @@ an unstable equilibrium (a rod compressed past buckling) is not reached —
 Where the tip does not move with an actuation value at the start (its sensitivity is zero,
 as a tendon at zero tension can be), that value starts at :data:`NUDGE` of its scale inside
 its range instead, so the trust region sees a direction.
+
+An ``orientation`` target (the tip frame: directors d1, d2, d3 of the rod's last segment as
+the rows of a rotation matrix) adds six residuals L (d_k − d_k*) for k = 1, 3 (they vanish
+exactly when the frames agree, and are smooth, unlike an angle), with the Jacobian
+L ∂d_k/∂q · dq/dp from the quaternion sensitivities. The pose is reached when, besides the
+distance, the angle between the frames is within ``tolerance`` / L [rad].
 """
 
 from __future__ import annotations
@@ -40,6 +46,7 @@ import numpy as np
 
 from rodsim.app.inverse.continuation import ScaledEquilibria
 from rodsim.app.inverse.parameter_keys import NumericKey, numeric_keys
+from rodsim.core.rod.quaternion import director, director_gradient, directors
 from rodsim.core.scene import Scene
 from rodsim.core.schema import SceneError
 from rodsim.io.cf_layout import variable_name
@@ -51,7 +58,7 @@ from rodsim.solvers.result import Result
 if TYPE_CHECKING:
     import xarray as xr
 
-__all__ = ["Reach", "reach", "DEFAULT_TOLERANCE"]
+__all__ = ["Reach", "reach", "tip_frame", "frame_angle", "DEFAULT_TOLERANCE"]
 
 #: Distance [m] below which the target counts as reached.
 DEFAULT_TOLERANCE = 1e-6
@@ -84,6 +91,10 @@ class Reach:
     rod: str
     result: Result
     unstable: bool = False
+    #: The orientation target (rows d1, d2, d3) and the angle [rad] of the tip frame
+    #: reached from it; None without an orientation target.
+    orientation: np.ndarray | None = None
+    angle: float | None = None
 
     def to_xarray(self) -> xr.Dataset:
         """The reach archive: the run archive of the scene with the values found, the
@@ -92,6 +103,9 @@ class Reach:
         ds["target"] = ("axis", self.target, {"units": "m", "long_name": "tip target"})
         ds["tip_reached"] = ("axis", self.tip, {"units": "m", "long_name": f"tip of rod "
                                                 f"{self.rod!r} at the values found"})
+        if self.orientation is not None:
+            ds.attrs["orientation_target"] = json.dumps(self.orientation.tolist())
+            ds.attrs["orientation_angle"] = float(self.angle)
         for key, initial, value in zip(self.keys, self.initial, self.values, strict=True):
             name = variable_name(key.name)  # no dots (CF); the key is an attribute
             ds[name] = ((), value, {"units": key.unit, "long_name": f"{key.name} found",
@@ -119,11 +133,45 @@ class Reach:
         return ds
 
 
+def tip_frame(result: Result, rod: str) -> np.ndarray:
+    """Directors d1, d2, d3 (rows) of the last segment of ``rod``: the tip's frame."""
+    q = result.rods[rod].quaternions[-1]
+    return directors(q / np.linalg.norm(q))
+
+
+def frame_angle(a: np.ndarray, b: np.ndarray) -> float:
+    """Angle [rad] of the rotation between two frames (rows: directors)."""
+    cosine = (np.trace(a @ b.T) - 1.0) / 2.0
+    return float(np.arccos(np.clip(cosine, -1.0, 1.0)))
+
+
+def _unit_director(q: np.ndarray, k: int) -> tuple[np.ndarray, np.ndarray]:
+    """Director d_{k+1} of the unit quaternion q / |q| (Eq. 2 scales d_k by |q|²) and its
+    gradient with respect to q, (3,) and (3, 4)."""
+    norm2 = float(q @ q)
+    d = director(q, k)
+    return d / norm2, director_gradient(q, k) / norm2 - 2.0 * np.outer(d, q) / norm2**2
+
+
+def _checked_orientation(orientation: Sequence[Sequence[float]]) -> np.ndarray:
+    frame = np.asarray(orientation, dtype=float)
+    if frame.shape != (3, 3) or not np.all(np.isfinite(frame)):
+        raise SceneError("the orientation target needs three finite directors d1, d2, d3 "
+                         "(a 3 x 3 matrix, rows)")
+    if (np.max(np.abs(frame @ frame.T - np.eye(3))) > 1e-6
+            or np.linalg.det(frame) < 0.0):
+        raise SceneError("the orientation target is not a rotation: d1, d2, d3 must be "
+                         "orthonormal and right-handed (to 1e-6)")
+    return frame
+
+
 def reach(scene: Scene, tip: Sequence[float], actuate: Sequence[str], *,
           rod: str | None = None, tolerance: float = DEFAULT_TOLERANCE,
-          max_evaluations: int = 200, progress: Progress | None = None) -> Reach:
+          max_evaluations: int = 200, progress: Progress | None = None,
+          orientation: Sequence[Sequence[float]] | None = None) -> Reach:
     """Values of the scene keys ``actuate`` that put the tip of ``rod`` (default: the first
-    rod) at ``tip`` [m], from the scene's values (module docstring). ``Reach.success`` is
+    rod) at ``tip`` [m], and, if given, its frame at ``orientation`` (rows d1, d2, d3 of
+    the last segment), from the scene's values (module docstring). ``Reach.success`` is
     False when the target is out of reach. Raises SceneError for bad keys or a bad target,
     EquilibriumFailure when an equilibrium on the way cannot be solved."""
     from scipy.optimize import least_squares
@@ -143,6 +191,7 @@ def reach(scene: Scene, tip: Sequence[float], actuate: Sequence[str], *,
     if isinstance(actuate, str) or not all(isinstance(key, str) for key in actuate):
         raise SceneError("actuate must be a list of scene keys (e.g. ['tendon_actuation."
                          "force'])")
+    frame = None if orientation is None else _checked_orientation(orientation)
     keys = numeric_keys(scene, list(actuate))
     rod = rod or next(iter(scene.rods))
     if not isinstance(rod, str) or rod not in scene.rods:
@@ -156,7 +205,7 @@ def reach(scene: Scene, tip: Sequence[float], actuate: Sequence[str], *,
     problem, lower, upper = ScaledEquilibria.at_scene_values(scene, keys, rod)
     initial = problem.values.copy()
 
-    far = np.full(3, 10.0 * scene.rods[rod].length)
+    far = np.full(3 if frame is None else 9, 10.0 * length)
 
     def residuals(u: np.ndarray) -> np.ndarray:
         # A step to values without a solvable equilibrium gets a residual far beyond any
@@ -167,11 +216,20 @@ def reach(scene: Scene, tip: Sequence[float], actuate: Sequence[str], *,
         if progress is not None:
             progress(None, f"reach: equilibrium {problem.evaluations}, tip "
                      f"{np.linalg.norm(gap):.3g} m from the target")
-        return gap
+        if frame is None:
+            return gap
+        q = problem.tip_quaternion()
+        return np.concatenate([gap, *(length * (_unit_director(q, k)[0] - frame[k])
+                                      for k in (0, 2))])
 
     def jacobian(u: np.ndarray) -> np.ndarray:
         problem.at(u)
-        return problem.node_sensitivity()[:, -1, :].T
+        position, quaternion = problem.tip_sensitivity()
+        if frame is None:
+            return position.T
+        q = problem.tip_quaternion()
+        rows = [length * _unit_director(q, k)[1] @ quaternion.T for k in (0, 2)]
+        return np.vstack([position.T, *rows])
 
     start = np.array(problem.start, dtype=float)
     insensitive = np.linalg.norm(jacobian(start), axis=0) <= NO_SENSITIVITY * length
@@ -189,20 +247,26 @@ def reach(scene: Scene, tip: Sequence[float], actuate: Sequence[str], *,
     distance = float(np.linalg.norm(reached - target))
     unstable = not final.stability.stable
     success = distance <= tolerance and not unstable
+    angle, turned = None, ""
+    if frame is not None:
+        angle = frame_angle(tip_frame(final, rod), frame)
+        success = success and angle <= tolerance / length
+        turned = (f" and {angle:.3g} rad from the orientation (tolerance "
+                  f"{tolerance / length:.3g} rad)")
     described = ", ".join(f"{k.name} = {v:.6g} {k.unit}" for k, v in zip(keys, values,
                                                                           strict=True))
     where = ", ".join(f"{c:.6g}" for c in reached)
     if unstable:
-        message = (f"the best tip found, ({where}) m, {distance:.3g} m from the target, is an "
-                   "UNSTABLE equilibrium (smallest stiffness eigenvalue "
+        message = (f"the best tip found, ({where}) m, {distance:.3g} m from the target"
+                   f"{turned}, is an UNSTABLE equilibrium (smallest stiffness eigenvalue "
                    f"{final.stability.min_eigenvalue:.3g}: e.g. a rod compressed past "
                    f"buckling), with {described}; not a usable actuation")
     elif success:
-        message = f"reached within {distance:.3g} m with {described}"
+        message = f"reached within {distance:.3g} m{turned} with {described}"
     else:
         message = (f"target out of reach: the closest tip found is ({where}) m, "
-                   f"{distance:.3g} m from the target (tolerance {tolerance:.3g} m), with "
-                   f"{described}")
+                   f"{distance:.3g} m from the target (tolerance {tolerance:.3g} m){turned}, "
+                   f"with {described}")
     return Reach(keys, initial, values, target, reached, distance, tolerance, success,
                  message, problem.evaluations, problem.jacobians,
-                 time.perf_counter() - started, rod, final, unstable)
+                 time.perf_counter() - started, rod, final, unstable, frame, angle)

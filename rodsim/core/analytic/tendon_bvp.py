@@ -270,8 +270,10 @@ def _shoot(m_start: np.ndarray, force: np.ndarray, breaks: list[float],
 def scene_reference(scene, s: np.ndarray | None = None, shear: bool = True,
                     load_steps: int = 1) -> TendonRodSolution:
     """The reference of a rodsim scene whose string tendons all act on one catheter rod:
-    its E I, G J, E_s A and K_P (``shear = False``: unshearable), its tip load's force (mass
-    included, along its gravity) and each tendon's tension, termination and routing.
+    its E I, G J, E_s A per span of its sections (or of the uniform rod) and K_P
+    (``shear = False``: unshearable), its tip load's force (mass included, along its
+    gravity), its world-frame point_loads at s = L (force and moment) and each tendon's
+    tension, termination and routing.
     ``scene`` is a :class:`~rodsim.core.scene.Scene`. Raises ValueError for a scene the
     reference does not describe (other couplings, several catheters, gravity, a base other
     than the 'frame' clamp)."""
@@ -291,10 +293,22 @@ def scene_reference(scene, s: np.ndarray | None = None, shear: bool = True,
     if "gravity" in terms or not {"stretch", "bend_twist", "centerline"} <= set(terms):
         raise ValueError("the reference needs stretch, bend_twist and centerline, no gravity")
     bend = scene.term_options("rods", name, "bend_twist")
-    k = stiffness_tensor(rod, bend.stiffness, bend.twist_stiffness)
     k_p = scene.term_options("rods", name, "centerline").K_P
-    section = Section(rod.length, float(k[0]), float(k[2]), rod.stretch_stiffness,
-                      float(k_p) if shear else math.inf)
+    shear_stiffness = float(k_p) if shear else math.inf
+    profile = rod.profile
+    if profile is None:
+        k = stiffness_tensor(rod, bend.stiffness, bend.twist_stiffness)
+        sections = [Section(rod.length, float(k[0]), float(k[2]), rod.stretch_stiffness,
+                            shear_stiffness)]
+    else:  # [[rods.<rod>.sections]]: one reference span per span (E I, G J, E_s A each)
+        if bend.stiffness != "corrected" or bend.twist_stiffness > 0.0:
+            raise ValueError("the reference reads sections with the 'corrected' tensor only")
+        sections = [Section(float(end), float(e * i), float(g * j), float(es * a),
+                            shear_stiffness)
+                    for end, e, i, g, j, es, a in zip(
+                        profile.end, profile.youngs_modulus, profile.second_moment,
+                        profile.shear_modulus, profile.polar_moment, profile.stretch_modulus,
+                        profile.area, strict=True)]
     tendons = []
     for tendon_name, options in scene.tendons.items():
         string = scene.term_options("tendons", tendon_name, "tendon_string")
@@ -302,10 +316,18 @@ def scene_reference(scene, s: np.ndarray | None = None, shear: bool = True,
         routing = Routing.of(options.offset, options.direction, string)
         tendons.append(BVPTendon(string.tension, end, routing.offsets, routing.derivatives,
                                  start))
-    force = np.zeros(3)
+    force, moment = np.zeros(3), np.zeros(3)
     load = scene.term_options("rods", name, "tip_load")
     if load is not None:
         force = np.asarray(load.force, dtype=float) + np.array([0.0, -load.mass * load.gravity,
                                                                  0.0])
-    return tendon_rod(rod.length, [section], tendons, force, s=s, origin=rod.origin,
+    if "distributed_load" in terms:
+        raise ValueError("the reference takes no distributed load")
+    points = scene.term_options("rods", name, "point_loads")
+    for point in points.loads if points is not None and "point_loads" in terms else ():
+        if point["frame"] != "world" or abs(point["s"] - rod.length) > 1e-12 * rod.length:
+            raise ValueError("the reference takes world-frame point loads at the tip only")
+        force = force + np.asarray(point["force"], dtype=float)
+        moment = moment + np.asarray(point["moment"], dtype=float)
+    return tendon_rod(rod.length, sections, tendons, force, moment, s=s, origin=rod.origin,
                       load_steps=load_steps)
