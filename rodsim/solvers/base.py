@@ -237,6 +237,28 @@ class Integrator(ABC):
     def at_equilibrium(self, residual: float) -> bool:
         return residual < self.tolerance
 
+    def full_model(self) -> Model:
+        """:attr:`model` (its registration) with every penalty at its full value (continuation
+        scales back to 1): the model a result must be an equilibrium of."""
+        model = self.model
+        lowered = {k: 1.0 for k, scale in enumerate(model.term_scales) if scale != 1.0}
+        return model.with_term_scales(lowered) if lowered else model
+
+    def verification_force(self, model: Model, x: np.ndarray) -> np.ndarray:
+        """The force whose vanishing is this integrator's equilibrium, evaluated afresh on
+        ``model`` at ``x`` from ``x`` alone (no state of the run): F(x) here."""
+        return model.force(x)
+
+    def verified_residual(self, x: np.ndarray) -> float:
+        """The common stopping test (:meth:`Model.residual`) of the returned state ``x`` on
+        :meth:`full_model`, evaluated afresh (:meth:`verification_force`); :meth:`solve` fails
+        a run whose own test passed but this one does not."""
+        model = self.full_model()
+        force = self.verification_force(model, x)
+        if not np.all(np.isfinite(force)):
+            return float("inf")
+        return model.residual(force)
+
     def reregister(self, x: np.ndarray, exact: bool = False) -> bool:
         """Apply the tendon registration rule at ``x`` (``exact``: without hysteresis);
         True when a parent changed and :attr:`model` was replaced (new pattern)."""
@@ -339,11 +361,25 @@ class Integrator(ABC):
         residual = self.residual(x) if finite else float("nan")
         success = outcome.success and finite and self.at_equilibrium(residual)
         message = outcome.message
+        verified = float("nan")
+        if success:
+            # The integrator's own test is not the last word: the common stopping test on the
+            # full-penalty model, evaluated afresh at the returned state, is.
+            verified = self.verified_residual(x)
+            if not self.at_equilibrium(verified):
+                success = False
+                advice = advice or self.advice()
         if success and self.note:
             message = f"{message}; {self.note}"
         if not success:
             if outcome.success and not finite:
                 message = "final state is not finite"
+            elif outcome.success and self.at_equilibrium(residual):
+                message = (f"the state it returned is not an equilibrium: the residual of the "
+                           f"full-penalty model evaluated afresh there is {verified:.3g}, above "
+                           f"the tolerance {self.tolerance:.3g}, although its own test found "
+                           f"{residual:.3g}")
+                residual = verified
             elif outcome.success:
                 message = (f"stopped with residual {residual:.3g} above the tolerance "
                            f"{self.tolerance:.3g}")

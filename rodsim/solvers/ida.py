@@ -203,6 +203,17 @@ class Ida(SundialsIntegrator):
             return super().residual(x)
         return self.model.residual(self.system.constrained_force(y, self.model.force(x)))
 
+    def verification_force(self, model: Model, x: np.ndarray) -> np.ndarray:
+        """F + Gᵀμ with the multipliers recomputed from ``x`` alone (μ_j minimises the
+        constrained force of quaternion j: F_j minus its component along q_j), not taken from
+        the IDA state: the result's check (:meth:`Integrator.verified_residual`)."""
+        force = model.force(x)
+        q = x[self.system.quat]
+        f = force[self.system.quat]
+        along = np.sum(q * f, axis=1) / np.sum(q * q, axis=1)
+        force[self.system.quat] = f - along[:, None] * q
+        return force
+
     def finish_start(self, y: np.ndarray) -> np.ndarray:
         return y.copy()
 

@@ -1,0 +1,77 @@
+"""No wrong success: a result must pass the common stopping test on the full-penalty model,
+evaluated afresh at the returned state, whatever the integrator's own test said (issue 24).
+
+The integrator's own test is made to lie (its ``residual`` says 0 and ``advance`` returns a
+state far from equilibrium with success): the template must turn that into a failure with
+advice. And a real run's state, moved off its equilibrium afterwards, is refused the same way.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import rodsim
+from rodsim.solvers import registered_integrators
+from rodsim.solvers.base import Outcome
+
+SCENE = "table1-50g"
+BASE = ("nodes=10", "max_wall_time=60")
+
+
+def lying(integrator: str, monkeypatch: pytest.MonkeyPatch, offset: float) -> None:
+    """Make ``integrator`` report success at the rest state bent by ``offset`` (a fraction of
+    L along x on every free position), with its own residual test saying 0."""
+    cls = registered_integrators()[integrator]
+
+    def advance(self):
+        x = self.start_state.copy()
+        moved = np.flatnonzero(~self.model.is_quaternion)[0::3]
+        x[moved] += offset * self.model.length_scale
+        return Outcome(x, True, "converged")
+
+    monkeypatch.setattr(cls, "advance", advance)
+    monkeypatch.setattr(cls, "residual", lambda self, x: 0.0)
+
+
+@pytest.mark.parametrize("integrator", ["static", "paper", "cvode", "ida"])
+def test_a_state_far_from_equilibrium_is_never_a_success(integrator, monkeypatch):
+    lying(integrator, monkeypatch, 0.014)  # IDA's wrong success at N = 40 000 was 1.4 % L
+    result = rodsim.solve(SCENE, integrator, overrides=BASE)
+    assert not result.success
+    assert "not an equilibrium" in result.message
+    assert "try " in result.message  # advice
+    assert result.residual > result.stats["effective_tolerance"]
+
+
+@pytest.mark.parametrize("integrator", ["static", "cvode", "ida"])
+def test_the_check_is_on_the_full_penalty_model(integrator, monkeypatch):
+    """A state at equilibrium with the penalties lowered (what static's and the finishes'
+    continuations pass through) is not an equilibrium of the full model."""
+    cls = registered_integrators()[integrator]
+    scene = ("table1-50g", [*BASE, "rods.catheter.centerline.K_P=1e8"])
+
+    def advance(self):
+        model = self.model.with_term_scales(
+            {k: 1e-4 for k, term in enumerate(self.model.terms) if term.penalty})
+        self.model = model  # the run's own test now looks at the lowered model
+        from rodsim.solvers.base import Integrator
+
+        converged, x, _ = Integrator.newton_equilibrium(self, self.start_state, 1.0, 200,
+                                                        "test")
+        assert converged
+        return Outcome(x, True, "converged")
+
+    monkeypatch.setattr(cls, "advance", advance)
+    if integrator == "ida":  # its own test reads the IDA state, which this run has none of
+        monkeypatch.setattr(cls, "residual",
+                            lambda self, x: self.model.residual(self.model.force(x)))
+    result = rodsim.solve(scene[0], integrator, overrides=scene[1])
+    assert not result.success
+    assert "not an equilibrium" in result.message
+
+
+@pytest.mark.parametrize("integrator", ["static", "paper", "cvode", "ida"])
+def test_honest_runs_still_succeed(integrator):
+    result = rodsim.solve(SCENE, integrator, overrides=BASE)
+    assert result.success, result.message
