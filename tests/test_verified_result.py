@@ -44,6 +44,32 @@ def test_a_state_far_from_equilibrium_is_never_a_success(integrator, monkeypatch
     assert result.residual > result.stats["effective_tolerance"]
 
 
+def test_an_imbalance_spread_over_the_nodes_fails_the_correction_test():
+    """What IDA hit at N = 40 000: every node's force below the tolerance, the rod still off
+    its equilibrium. The state is the exact equilibrium of the scene with an extra self-weight
+    of about 1 % of the tip load (density lowered so) spread over N = 2000 nodes: on the scene
+    without it, each node's force residual is that weight / N, ~5e-6 of F_ref, while the
+    correction residual should read the distance between the two equilibria over the tip
+    load's displacement (both from static solves, independent of the function)."""
+    from rodsim.solvers.base import correction_residual
+
+    overrides = ["rods.catheter.nodes=2000"]
+    weighed = [*overrides, "rods.catheter.terms=['stretch','bend_twist','centerline',"
+               "'tip_load','gravity']", "rods.catheter.density=36.8"]
+    plain = rodsim.solve(SCENE, "static", overrides=overrides)
+    perturbed = rodsim.solve(SCENE, "static", overrides=weighed)
+    assert plain.success and perturbed.success
+    model = rodsim.app.api.build_model(rodsim.load_scene(SCENE, overrides))
+    x = perturbed.state
+    force = model.force(x)
+    assert model.residual(force) < 1e-5  # the force test alone would pass at N = 40 000
+    distance = np.max(np.abs(perturbed.positions() - plain.positions()))
+    reach = np.max(np.abs(plain.positions() - model.positions(model.x0, "catheter")))
+    value = correction_residual(model, x, force)
+    assert 1e-3 < value
+    assert 0.3 * distance / reach < value < 3.0 * distance / reach
+
+
 @pytest.mark.parametrize("integrator", ["static", "cvode", "ida"])
 def test_the_check_is_on_the_full_penalty_model(integrator, monkeypatch):
     """A state at equilibrium with the penalties lowered (what static's and the finishes'
