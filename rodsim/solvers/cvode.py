@@ -4,10 +4,10 @@ Integrates the pseudo-dynamics of :mod:`rodsim.solvers.pseudo_dynamics` (``inert
 ``overdamped``) with the analytic Jacobian handed to CVODE's ``jacfn``, using the band
 solver (the default up to ``BAND_LIMIT`` unknowns), GMRES preconditioned by rodsim's band LU
 of the same Newton matrix (``band_gmres``, the default above: no dense template) or
-SuperLU_MT with the fixed sparsity pattern. The inertial form is limited to BDF order 2: BDF 3–5 are not A-stable, and the
-lightly damped stiff oscillations of a second-order system sit next to the imaginary axis
-(orders 3–5 were measured to stall there; docs/model.md). The run loop is
-:mod:`rodsim.solvers.sundials`.
+SuperLU_MT with the fixed sparsity pattern. The inertial form is limited to BDF order 2:
+BDF 3–5 are not A-stable, and the lightly damped stiff oscillations of a second-order
+system sit next to the imaginary axis (orders 3–5 were measured to stall there;
+docs/model.md). The run loop is :mod:`rodsim.solvers.sundials`.
 
 Quaternion norm: held by the centerline penalty Eq. (9) only (same model as ``static``).
 """
