@@ -1,5 +1,5 @@
 """Benchmarks (``rodsim bench``): work-precision, adaptive against the paper integrator in
-the paper's damping regime, scaling in N, the stability stress map, and
+the paper's damping regime, scaling in N (and to N = 100 000), the stability stress map, and
 what skipping unneeded work buys, and the fast core (compiled kernels against the numpy
 reference).
 
@@ -9,5 +9,5 @@ figures and a markdown table under ``output_dir`` (default ``benchmarks/results`
 Timings on shared machines are noisy: compare the ratios measured within one run.
 """
 
-BENCHMARKS = ("work-precision", "paper-regime", "scaling", "stress", "skip-work", "kernels",
-              "pyelastica")
+BENCHMARKS = ("work-precision", "paper-regime", "scaling", "large-n", "stress", "skip-work",
+              "kernels", "pyelastica")

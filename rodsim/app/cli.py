@@ -719,15 +719,15 @@ def build_parser() -> argparse.ArgumentParser:
                       "(default png,pdf)")
     plot.set_defaults(func=cmd_plot)
 
-    bench = sub.add_parser("bench", help="run a benchmark (work-precision, scaling, stress, "
-                           "skip-work, kernels, paper-regime, pyelastica)",
+    bench = sub.add_parser("bench", help="run a benchmark (work-precision, scaling, large-n, "
+                           "stress, skip-work, kernels, paper-regime, pyelastica)",
                            description="Time the integrators against their error, their cost "
                            "in N, or their stability over a parameter map; writes netCDF, "
                            "figures and a markdown table with the machine description. The "
                            "benchmarks live in the benchmarks/ folder of a source checkout "
                            "(benchmarks/rodsim_bench), not in the installed package.")
     bench.add_argument("benchmark", metavar="BENCHMARK",
-                       help="work-precision, scaling, stress, skip-work, kernels, "
+                       help="work-precision, scaling, large-n, stress, skip-work, kernels, "
                        "paper-regime or pyelastica "
                        "(the last needs 'pip install pyelastica==1.0.0'; never a dependency)")
     bench.add_argument("--size", choices=("small", "full"), default="full",
