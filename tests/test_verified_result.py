@@ -101,3 +101,18 @@ def test_the_check_is_on_the_full_penalty_model(integrator, monkeypatch):
 def test_honest_runs_still_succeed(integrator):
     result = rodsim.solve(SCENE, integrator, overrides=BASE)
     assert result.success, result.message
+
+
+@pytest.mark.slow
+def test_ida_at_n_40000_is_right_or_a_failure():
+    """The real case (issue 24): IDA on table1-50g at N = 40 000 reported success 1.3 % L
+    from static's equilibrium. Now it must be within 1e-6 L of it or fail (about 5 min)."""
+    overrides = ["rods.catheter.nodes=40000", "solver.max_wall_time=900"]
+    static = rodsim.solve(SCENE, "static", overrides=overrides)
+    assert static.success, static.message
+    result = rodsim.solve(SCENE, "ida", overrides=overrides)
+    if result.success:
+        distance = np.max(np.abs(result.positions() - static.positions())) / 0.12
+        assert distance < 1e-6, f"IDA succeeded {distance:.3g} L from static"
+    else:
+        assert "not an equilibrium" in result.message or "stalled" in result.message
