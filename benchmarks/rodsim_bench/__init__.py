@@ -1,7 +1,7 @@
 """Benchmarks (``rodsim bench``): work-precision, adaptive against the paper integrator in
-the paper's damping regime, scaling in N, the stability stress map, and
+the paper's damping regime, scaling in N (and to N = 100 000), the stability stress map,
 what skipping unneeded work buys, the fast core (compiled kernels against the numpy
-reference), and the string tendons' solves against their reference.
+reference), the string tendons' solves against their reference, and contact.
 
 Each benchmark is one module with ``run(size, output_dir, progress) -> list[Path]`` that
 writes its numbers (a netCDF archive with the machine description in its attributes), its
@@ -10,5 +10,5 @@ current folder by default, the committed ``benchmarks/results`` with ``--commit`
 Timings on shared machines are noisy: compare the ratios measured within one run.
 """
 
-BENCHMARKS = ("work-precision", "paper-regime", "scaling", "stress", "skip-work", "kernels",
-              "pyelastica", "string-tendon", "contact")
+BENCHMARKS = ("work-precision", "paper-regime", "scaling", "large-n", "stress", "skip-work",
+              "kernels", "pyelastica", "string-tendon", "contact")

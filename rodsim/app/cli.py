@@ -841,9 +841,9 @@ def build_parser() -> argparse.ArgumentParser:
                       "(default png,pdf)")
     plot.set_defaults(func=cmd_plot)
 
-    bench = sub.add_parser("bench", help="run a benchmark (work-precision, scaling, stress, "
-                           "skip-work, kernels, paper-regime, pyelastica, string-tendon, "
-                           "contact)",
+    bench = sub.add_parser("bench", help="run a benchmark (work-precision, scaling, large-n, "
+                           "stress, skip-work, kernels, paper-regime, pyelastica, "
+                           "string-tendon, contact)",
                            description="Time the integrators against their error, their cost "
                            "in N, or their stability over a parameter map; writes netCDF, "
                            "figures and a markdown table with the machine description. The "
@@ -852,7 +852,7 @@ def build_parser() -> argparse.ArgumentParser:
                            "finds the checkout it was imported or pip-installed from, or the "
                            "one the current folder is in.")
     bench.add_argument("benchmark", metavar="BENCHMARK",
-                       help="work-precision, scaling, stress, skip-work, kernels, "
+                       help="work-precision, scaling, large-n, stress, skip-work, kernels, "
                        "paper-regime, string-tendon, contact or pyelastica "
                        "(the last needs 'pip install pyelastica==1.0.0'; never a dependency)")
     bench.add_argument("--size", choices=("small", "full"), default="small",

@@ -260,31 +260,43 @@ class Model:
         n = self.n
         self._jac_terms = [t for t in self.terms if t.has_jacobian]
         # The diagonal is always in the pattern; entries on fixed coordinates are dropped.
-        diagonal = np.arange(n)
         rows, cols = self._element_entries(term.dofs for term in self._jac_terms)
         keep = (rows < n) & (cols < n)
-        pattern = csc_pattern(np.concatenate([diagonal, rows[keep]]),
-                              np.concatenate([diagonal, cols[keep]]), n)
+        kept = int(np.count_nonzero(keep))
+        # [diagonal, kept entries], written in place (no entry-sized temporaries).
+        pattern_rows = np.empty(n + kept, dtype=rows.dtype)
+        pattern_cols = np.empty(n + kept, dtype=cols.dtype)
+        pattern_rows[:n] = pattern_cols[:n] = np.arange(n)
+        np.compress(keep, rows, out=pattern_rows[n:])
+        np.compress(keep, cols, out=pattern_cols[n:])
+        del rows, cols
+        pattern = csc_pattern(pattern_rows, pattern_cols, n)
+        del pattern_rows, pattern_cols
         #: Jacobian sparsity pattern of the free coordinates (CSC, ones where J may be ≠ 0).
         self.pattern = pattern.matrix
         self.pattern_rows, self.pattern_cols = pattern.rows, pattern.cols
         self.nnz = pattern.nnz
         # Where each term's element entry lands in the CSC data (nnz: a dump slot for
         # entries on fixed coordinates).
-        self._jac_targets = np.full(len(rows), self.nnz)
+        self._jac_targets = np.full(len(keep), self.nnz)
         self._jac_targets[keep] = pattern.target[n:]
         self.band = Band(*pattern.band)
 
     def _element_entries(self, dof_sets) -> tuple[np.ndarray, np.ndarray]:
         """(row, column) free indices of every entry of the element blocks ``dof_sets``
         (fixed coordinates map to n)."""
-        rows, cols = [np.zeros(0, dtype=int)], [np.zeros(0, dtype=int)]
+        dof_sets = list(dof_sets)
+        total = sum(dofs.shape[0] * dofs.shape[1] ** 2 for dofs in dof_sets)
+        rows, cols = np.empty(total, dtype=np.int64), np.empty(total, dtype=np.int64)
+        start = 0
         for dofs in dof_sets:
-            k = dofs.shape[1]
+            elements, k = dofs.shape
             free = self._free_of[dofs]
-            rows.append(np.repeat(free, k, axis=1).ravel())
-            cols.append(np.tile(free, (1, k)).ravel())
-        return np.concatenate(rows), np.concatenate(cols)
+            block = slice(start, start + elements * k * k)
+            rows[block].reshape(elements, k, k)[:] = free[:, :, None]
+            cols[block].reshape(elements, k, k)[:] = free[:, None, :]
+            start += elements * k * k
+        return rows, cols
 
     def _build_scales(self) -> None:
         x0 = self.x0

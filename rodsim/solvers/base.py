@@ -43,6 +43,14 @@ INTEGRATORS: dict[str, type[Integrator]] = {}
 #: rather than accept the rest state as "converged".
 MAX_RESIDUAL_FLOOR = 1e-3
 
+#: Largest correction residual (:func:`correction_residual`: the distance to the equilibrium
+#: over the load's displacement) a result may have, unless the tolerance is looser. Measured
+#: on the suite's honest runs (tests/test_integrators.py, test_tendon_integrators.py): at most
+#: 3.1e-6 (paper at N = 1000), Newton-finished runs ~1e-9 and below; IDA's wrong success on
+#: table1-50g at N = 40 000 (1.4 % L from static's, force residual 4.7e-6 under its
+#: tolerance 1.2e-5): 0.048.
+CORRECTION_TOLERANCE = 1e-5
+
 #: Re-registrations at equilibrium (Model.reregistered(x, exact=True)) before a run accepts the
 #: registration it reached with hysteresis: an equilibrium on the boundary between two
 #: parents would otherwise flip between them forever.
@@ -62,6 +70,34 @@ class Outcome:
     x: np.ndarray
     success: bool
     message: str
+
+
+def correction_residual(model: Model, x: np.ndarray, force: np.ndarray) -> float:
+    """How far ``x`` is from the equilibrium of ``model``, as a fraction of the load's effect:
+    max |J⁻¹ F| / max |J⁻¹ F_load| over the coordinates scaled by their size (L_ref for
+    positions, 1 for quaternions), J and the load forces F_load = F(x) − F(x, load 0) at ``x``.
+
+    The numerator is the Newton correction: the distance to the equilibrium to first order.
+    The denominator is the displacement the whole load makes, linearised there. So a residual
+    imbalance that is a fraction ε of the load, however it is spread over the N nodes, reads
+    ε; the max-norm force residual reads ε/N for an imbalance spread smoothly over the rod
+    (what let IDA stop 1.4 % L off at N = 40 000 with a force residual 4.7e-6). Its round-off
+    floor is that of the positions (the force round-off, ∝ N, lands in stiff directions that
+    J⁻¹ maps to displacements of order eps L). 0 when it cannot be told: J singular (the
+    stability verdict speaks then) or no load."""
+    solver = LinearSolver(model.pattern, model.pattern_rows, model.pattern_cols,
+                          (model.band.lower, model.band.upper), model.conservative)
+    solve = solver.factorized(model.jacobian_data(x))
+    if solve is None:
+        return 0.0
+    loads = model.force(x, 1.0) - model.force(x, 0.0)
+    both = solve(np.column_stack([force, loads]))
+    size = np.where(model.is_quaternion, 1.0, model.length_scale)
+    correction = float(np.max(np.abs(both[:, 0]) / size))
+    reach = float(np.max(np.abs(both[:, 1]) / size))
+    if not (np.isfinite(correction) and np.isfinite(reach)) or reach == 0.0:
+        return 0.0
+    return correction / reach
 
 
 class History:
@@ -237,6 +273,37 @@ class Integrator(ABC):
     def at_equilibrium(self, residual: float) -> bool:
         return residual < self.tolerance
 
+    def full_model(self) -> Model:
+        """:attr:`model` (its registration) with every penalty at its full value (continuation
+        scales back to 1): the model a result must be an equilibrium of."""
+        model = self.model
+        lowered = {k: 1.0 for k, scale in enumerate(model.term_scales) if scale != 1.0}
+        return model.with_term_scales(lowered) if lowered else model
+
+    def verification_force(self, model: Model, x: np.ndarray) -> np.ndarray:
+        """The force whose vanishing is this integrator's equilibrium, evaluated afresh on
+        ``model`` at ``x`` from ``x`` alone (no state of the run): F(x) here."""
+        return model.force(x)
+
+    def verified_residual(self, x: np.ndarray) -> tuple[float, float]:
+        """The common stopping test of the returned state ``x`` on :meth:`full_model`,
+        evaluated afresh (:meth:`verification_force`): (the scaled force residual of
+        :meth:`Model.residual`, the correction residual of :func:`correction_residual`, whose
+        meaning and round-off floor do not depend on N). :meth:`solve` fails a run whose own
+        test passed but this one does not (:meth:`verified`)."""
+        model = self.full_model()
+        force = self.verification_force(model, x)
+        if not np.all(np.isfinite(force)):
+            return float("inf"), float("inf")
+        return model.residual(force), correction_residual(model, x, force)
+
+    def verified(self, residuals: tuple[float, float]) -> bool:
+        """Whether :meth:`verified_residual`'s pair passes: the force residual below the
+        tolerance, the correction residual below it or :data:`CORRECTION_TOLERANCE`."""
+        force, correction = residuals
+        return (self.at_equilibrium(force)
+                and correction < max(self.tolerance, CORRECTION_TOLERANCE))
+
     def reregister(self, x: np.ndarray, exact: bool = False) -> bool:
         """Apply the tendon registration rule at ``x`` (``exact``: without hysteresis);
         True when a parent changed and :attr:`model` was replaced (new pattern)."""
@@ -339,11 +406,27 @@ class Integrator(ABC):
         residual = self.residual(x) if finite else float("nan")
         success = outcome.success and finite and self.at_equilibrium(residual)
         message = outcome.message
+        verified = (float("nan"), float("nan"))
+        if success:
+            # The integrator's own test is not the last word: the common stopping test on the
+            # full-penalty model, evaluated afresh at the returned state, is.
+            verified = self.verified_residual(x)
+            if not self.verified(verified):
+                success = False
+                advice = advice or self.advice()
         if success and self.note:
             message = f"{message}; {self.note}"
         if not success:
             if outcome.success and not finite:
                 message = "final state is not finite"
+            elif outcome.success and self.at_equilibrium(residual):
+                message = (f"the state it returned is not an equilibrium: evaluated afresh on "
+                           f"the full-penalty model, its force residual is {verified[0]:.3g} "
+                           f"(tolerance {self.tolerance:.3g}; its own test found "
+                           f"{residual:.3g}) and its correction residual (distance to the "
+                           f"equilibrium / the load's displacement) {verified[1]:.3g} "
+                           f"(tolerance {max(self.tolerance, CORRECTION_TOLERANCE):.3g})")
+                residual = verified[0]
             elif outcome.success:
                 message = (f"stopped with residual {residual:.3g} above the tolerance "
                            f"{self.tolerance:.3g}")

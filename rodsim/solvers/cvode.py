@@ -2,11 +2,12 @@
 
 Integrates the pseudo-dynamics of :mod:`rodsim.solvers.pseudo_dynamics` (``inertial`` or
 ``overdamped``) with the analytic Jacobian handed to CVODE's ``jacfn``, using the band
-solver (the default below ``BAND_LIMIT`` unknowns) or SuperLU_MT with the fixed sparsity
-pattern. The inertial form is limited to BDF order 2: BDF 3–5 are not A-stable, and the
-lightly damped stiff oscillations of a second-order system sit next to the imaginary axis
-(orders 3–5 were measured to stall there; docs/model.md). The run loop is
-:mod:`rodsim.solvers.sundials`.
+solver (the default up to ``BAND_LIMIT`` unknowns), GMRES preconditioned by rodsim's band LU
+of the same Newton matrix (``band_gmres``, the default above: no dense template) or
+SuperLU_MT with the fixed sparsity pattern. The inertial form is limited to BDF order 2:
+BDF 3–5 are not A-stable, and the lightly damped stiff oscillations of a second-order
+system sit next to the imaginary axis (orders 3–5 were measured to stall there;
+docs/model.md). The run loop is :mod:`rodsim.solvers.sundials`.
 
 Quaternion norm: held by the centerline penalty Eq. (9) only (same model as ``static``).
 """
@@ -19,6 +20,7 @@ import numpy as np
 
 from rodsim.solvers.pseudo_dynamics import FirstOrderSystem, damping_rate
 from rodsim.solvers.sundials import (
+    BandPreconditioner,
     SundialsIntegrator,
     jacobian_writer,
     started,
@@ -77,5 +79,40 @@ class Cvode(SundialsIntegrator):
 
         options = self.common_options(solver_kind, system.band, system.pattern,
                                       system.formulation == "inertial")
+        if solver_kind == "band_gmres":
+            from sksundae.cvode import CVODEJacTimes, CVODEPrecond
+
+            newton = BandPreconditioner(system.pattern, system.pattern_rows,
+                                        system.pattern_cols, system.band)
+            identity = np.zeros(system.pattern.nnz)
+            identity[np.flatnonzero(system.pattern_rows == system.pattern_cols)] = 1.0
+
+            def psetup(t: float, y: np.ndarray, fy: np.ndarray, jok: bool, jnew: list,
+                       gamma: float) -> None:
+                # M = I − γ J; J re-evaluated unless CVODE says the last one will do.
+                if not jok or newton.parts is None:
+                    counts["jacobian_evals"] += 1
+                    jac = system.jacobian_data(model.jacobian_data(system.positions_of(y),
+                                                                   ramp(t)))
+                    newton.update(identity, -jac)
+                    jnew[0] = 1
+                else:
+                    jnew[0] = 0
+                newton.factor(gamma)
+
+            def psolve(t: float, y: np.ndarray, fy: np.ndarray, r: np.ndarray,
+                       z: np.ndarray, gamma: float, delta: float, lr: int) -> None:
+                newton.solve(r, z)
+
+            def jtimes(t: float, y: np.ndarray, fy: np.ndarray, v: np.ndarray,
+                       jv: np.ndarray) -> None:
+                # J v (CVODE forms v − γ J v itself): minus the part per γ of M.
+                newton.product(v, jv, -1.0)
+                jv -= v
+
+            options.update(precond=CVODEPrecond(psetup, psolve, side="left"),
+                           jactimes=CVODEJacTimes(None, jtimes))
+            return started("CVODE", CVODE, rhs, None, t, y, atol=self._tolerances(),
+                           **options)
         return started("CVODE", CVODE, rhs, jacfn, t, y, atol=self._tolerances(),
                        **options)

@@ -13,7 +13,8 @@ rods so that the tendon system stays banded too (``Model._order_for_band``). So:
 
 Measured at N = 40 (273 unknowns): SuperLU 490–540 µs per solve against
 50 µs (dpbsv) and 68 µs (dgbsv); at N = 4000, 43–53 ms against 4.5 ms (docs/benchmarks.md).
-The values are copied into band storage through index maps built once per pattern.
+The values are written into Fortran-ordered band storage through offsets built once per
+pattern (sequential, in CSC order).
 
 :meth:`LinearSolver.factorized` factors J once and solves for many right-hand sides (the
 sensitivities of rodsim/app/inverse/sensitivity.py: one column per parameter): band Cholesky
@@ -63,17 +64,28 @@ class LinearSolver:
         self.banded = lower + upper + 1 <= MAX_BAND
         self.symmetric = symmetric and lower == upper
         self.counts = {"cholesky": 0, "band_lu": 0, "sparse_lu": 0}
-        n = self.n
         diagonal = np.flatnonzero(rows == cols)
         self._diagonal = diagonal[np.argsort(cols[diagonal])]
         if self.banded:
+            # Band storage is kept in Fortran order (what LAPACK reads: no copy on the call),
+            # so an entry's offset in it is column × rows + row, which increases along the
+            # CSC data (sorted by column, then row): the values are written straight in, in
+            # one sequential pass (the flat iterator's scatter, ab.flat[index] = ..., was
+            # 24 ms of a 54 ms solve at N = 40 000).
             # dgbsv: ab[kl + ku + i − j, j] = J[i, j] in a (2 kl + ku + 1) × n array.
             self._lu_rows = 2 * lower + upper + 1
-            self._lu_index = (lower + upper + rows - cols) * n + cols
+            self._lu_index = cols * self._lu_rows + (lower + upper + rows - cols)
             # dpbsv (lower form): ab[i − j, j] = −J[i, j] for i ≥ j.
             below = rows >= cols
             self._below = np.flatnonzero(below)
-            self._cholesky_index = (rows[below] - cols[below]) * n + cols[below]
+            self._cholesky_index = cols[below] * (lower + 1) + (rows[below] - cols[below])
+
+    def _band_storage(self, height: int, index: np.ndarray, values: np.ndarray) -> np.ndarray:
+        """A (height × n) Fortran-ordered band array with ``values`` at the Fortran-order
+        offsets ``index`` (zeros elsewhere)."""
+        ab = np.zeros((height, self.n), order="F")
+        ab.T.reshape(-1)[index] = values  # ab.T is C-contiguous: reshape is a view
+        return ab
 
     def diagonal(self, data: np.ndarray) -> np.ndarray:
         """The diagonal of J."""
@@ -85,14 +97,13 @@ class LinearSolver:
             return self._sparse(data, rhs)
         n = self.n
         if self.symmetric:
-            ab = np.zeros((self.lower + 1, n))
-            ab.flat[self._cholesky_index] = -data[self._below]
+            ab = self._band_storage(self.lower + 1, self._cholesky_index, data[self._below])
+            np.negative(ab, out=ab)
             _, x, info = lapack.dpbsv(ab, -rhs, lower=1, overwrite_ab=1, overwrite_b=1)
             if info == 0:
                 self.counts["cholesky"] += 1
                 return x
-        ab = np.zeros((self._lu_rows, n))
-        ab.flat[self._lu_index] = data
+        ab = self._band_storage(self._lu_rows, self._lu_index, data)
         _, _, x, info = lapack.dgbsv(self.lower, self.upper, ab, rhs.copy(),
                                      overwrite_ab=1, overwrite_b=1)
         self.counts["band_lu"] += 1
@@ -110,18 +121,16 @@ class LinearSolver:
                 return spla.splu(matrix).solve
             except RuntimeError:
                 return None
-        n = self.n
         if self.symmetric:
-            ab = np.zeros((self.lower + 1, n))
-            ab.flat[self._cholesky_index] = -data[self._below]
+            ab = self._band_storage(self.lower + 1, self._cholesky_index, data[self._below])
+            np.negative(ab, out=ab)
             factor, info = lapack.dpbtrf(ab, lower=1)
             if info == 0:
                 def cholesky_solve(rhs: np.ndarray) -> np.ndarray:
                     x, _ = lapack.dpbtrs(factor, -rhs, lower=1)
                     return x
                 return cholesky_solve
-        ab = np.zeros((self._lu_rows, n))
-        ab.flat[self._lu_index] = data
+        ab = self._band_storage(self._lu_rows, self._lu_index, data)
         lu, pivots, info = lapack.dgbtrf(ab, self.lower, self.upper)
         if info != 0:
             return None

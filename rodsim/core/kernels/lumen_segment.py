@@ -163,6 +163,66 @@ def _subtract_turn_hessian(g: np.ndarray, length: float, unit: np.ndarray, norm:
 
 
 @njit(cache=True)
+def _locate(x: np.ndarray, dofs: np.ndarray, e: int, offset: float, length: float,
+            ends: np.ndarray, weights: np.ndarray, sagitta: np.ndarray, tendon_length: float,
+            corrected: bool, lumen_c: np.ndarray, tangent_c: np.ndarray, s: np.ndarray,
+            norm2: np.ndarray, directors: np.ndarray, gradients: np.ndarray, u: np.ndarray,
+            u_grad: np.ndarray, t: np.ndarray, t_grad: np.ndarray, turn: np.ndarray,
+            turn_grad: np.ndarray, unit: np.ndarray, norm: np.ndarray, y: np.ndarray,
+            w: np.ndarray, w1: np.ndarray, w2: np.ndarray, delta: np.ndarray,
+            slope: np.ndarray, bend: np.ndarray) -> None:
+    """Element ``e``'s node frames, tendon turn, y, the closest point σ and the weights,
+    Δ = L(σ) − p, L′ and L″ at σ, all in place (what :func:`evaluate` and :func:`energy`
+    share)."""
+    for node in range(2):
+        for a in range(4):
+            value = 0.0
+            for slot in range(3):
+                value += weights[e, node, slot] * x[dofs[e, 9 + 4 * slot + a]]
+            s[node, a] = value
+        norm2[node] = raw_directors(s[node], directors[node], gradients[node])
+        node_director(s[node], norm2[node], directors[node], gradients[node], lumen_c,
+                      u[node], u_grad[node])
+        node_director(s[node], norm2[node], directors[node], gradients[node], tangent_c,
+                      t[node], t_grad[node])
+    if corrected:
+        _tendon_turn(x, dofs, e, tendon_length, turn, turn_grad, unit, norm)
+    for m in range(3):
+        y[5, m] = turn[m]
+        y[6, m] = turn[m]
+    for m in range(3):
+        y[0, m] = x[dofs[e, m]]
+        y[1, m] = x[dofs[e, 3 + m]] + offset * u[0, m]
+        y[2, m] = x[dofs[e, 6 + m]] + offset * u[1, m]
+        y[3, m] = t[0, m]
+        y[4, m] = t[1, m]
+    # σ by Newton from the projection on the chord.
+    ac = 0.0
+    cc = 0.0
+    for m in range(3):
+        chord = y[2, m] - y[1, m]
+        ac += (y[0, m] - y[1, m]) * chord
+        cc += chord * chord
+    sigma = ac / cc
+    before = ends[e, 0]
+    after = ends[e, 1]
+    for _ in range(SIGMA_ITERATIONS):
+        hermite(sigma, before, after, length, sagitta[e], w, w1, w2)
+        _curve(y, w, w1, w2, delta, slope, bend)
+        numerator = 0.0
+        denominator = 0.0
+        for m in range(3):
+            numerator += delta[m] * slope[m]
+            denominator += slope[m] * slope[m] + delta[m] * bend[m]
+        step = numerator / denominator
+        sigma -= step
+        if abs(step) < SIGMA_TOLERANCE:
+            break
+    hermite(sigma, before, after, length, sagitta[e], w, w1, w2)
+    _curve(y, w, w1, w2, delta, slope, bend)
+
+
+@njit(cache=True)
 def evaluate(x: np.ndarray, dofs: np.ndarray, alpha: float, beta: float, offset: float,
              stiffness: np.ndarray, length: float, ends: np.ndarray, weights: np.ndarray,
              sagitta: np.ndarray, tendon_length: float, scale: float,
@@ -207,52 +267,9 @@ def evaluate(x: np.ndarray, dofs: np.ndarray, alpha: float, beta: float, offset:
     local_force = np.empty(width)
     local_jacobian = np.empty((width, width))
     for e in range(dofs.shape[0]):
-        for node in range(2):
-            for a in range(4):
-                value = 0.0
-                for slot in range(3):
-                    value += weights[e, node, slot] * x[dofs[e, 9 + 4 * slot + a]]
-                s[node, a] = value
-            norm2[node] = raw_directors(s[node], directors[node], gradients[node])
-            node_director(s[node], norm2[node], directors[node], gradients[node], lumen_c,
-                          u[node], u_grad[node])
-            node_director(s[node], norm2[node], directors[node], gradients[node], tangent_c,
-                          t[node], t_grad[node])
-        if corrected:
-            _tendon_turn(x, dofs, e, tendon_length, turn, turn_grad, unit, norm)
-        for m in range(3):
-            y[5, m] = turn[m]
-            y[6, m] = turn[m]
-        for m in range(3):
-            y[0, m] = x[dofs[e, m]]
-            y[1, m] = x[dofs[e, 3 + m]] + offset * u[0, m]
-            y[2, m] = x[dofs[e, 6 + m]] + offset * u[1, m]
-            y[3, m] = t[0, m]
-            y[4, m] = t[1, m]
-        # σ by Newton from the projection on the chord.
-        ac = 0.0
-        cc = 0.0
-        for m in range(3):
-            chord = y[2, m] - y[1, m]
-            ac += (y[0, m] - y[1, m]) * chord
-            cc += chord * chord
-        sigma = ac / cc
-        before = ends[e, 0]
-        after = ends[e, 1]
-        for _ in range(SIGMA_ITERATIONS):
-            hermite(sigma, before, after, length, sagitta[e], w, w1, w2)
-            _curve(y, w, w1, w2, delta, slope, bend)
-            numerator = 0.0
-            denominator = 0.0
-            for m in range(3):
-                numerator += delta[m] * slope[m]
-                denominator += slope[m] * slope[m] + delta[m] * bend[m]
-            step = numerator / denominator
-            sigma -= step
-            if abs(step) < SIGMA_TOLERANCE:
-                break
-        hermite(sigma, before, after, length, sagitta[e], w, w1, w2)
-        _curve(y, w, w1, w2, delta, slope, bend)
+        _locate(x, dofs, e, offset, length, ends, weights, sagitta, tendon_length, corrected,
+                lumen_c, tangent_c, s, norm2, directors, gradients, u, u_grad, t, t_grad,
+                turn, turn_grad, unit, norm, y, w, w1, w2, delta, slope, bend)
         k = stiffness[e]
         for b in range(7):
             for m in range(3):
@@ -323,3 +340,41 @@ def evaluate(x: np.ndarray, dofs: np.ndarray, alpha: float, beta: float, offset:
                     g_k[m] = g[15 + m] + g[18 + m]
                 _subtract_turn_hessian(g_k, tendon_length, unit, norm, local_jacobian)
             add_jacobian(jacobian, jacobian_target, e, local_jacobian, scale)
+
+
+@njit(cache=True)
+def energy(x: np.ndarray, dofs: np.ndarray, alpha: float, beta: float, offset: float,
+           stiffness: np.ndarray, length: float, ends: np.ndarray, weights: np.ndarray,
+           sagitta: np.ndarray, tendon_length: float) -> float:
+    """E = Σ_e ½ k_e |Δ_e|², Δ at the closest point σ (the numpy reference:
+    :meth:`rodsim.core.terms._lumen_segment.OnSegments.energy`)."""
+    lumen_c = np.array([alpha, beta, 0.0])
+    tangent_c = np.array([0.0, 0.0, 1.0])
+    s = np.empty((2, 4))
+    norm2 = np.empty(2)
+    directors = np.empty((2, 3, 3))
+    gradients = np.empty((2, 3, 3, 4))
+    u = np.empty((2, 3))
+    u_grad = np.empty((2, 3, 4))
+    t = np.empty((2, 3))
+    t_grad = np.empty((2, 3, 4))
+    corrected = dofs.shape[1] > 21
+    turn = np.zeros(3)
+    turn_grad = np.empty((3, 9))
+    unit = np.empty((2, 3))
+    norm = np.empty(2)
+    y = np.empty((7, 3))
+    w = np.empty(7)
+    w1 = np.empty(7)
+    w2 = np.empty(7)
+    delta = np.empty(3)
+    slope = np.empty(3)
+    bend = np.empty(3)
+    total = 0.0
+    for e in range(dofs.shape[0]):
+        _locate(x, dofs, e, offset, length, ends, weights, sagitta, tendon_length, corrected,
+                lumen_c, tangent_c, s, norm2, directors, gradients, u, u_grad, t, t_grad,
+                turn, turn_grad, unit, norm, y, w, w1, w2, delta, slope, bend)
+        total += 0.5 * stiffness[e] * (delta[0] * delta[0] + delta[1] * delta[1]
+                                       + delta[2] * delta[2])
+    return total
