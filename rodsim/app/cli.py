@@ -53,6 +53,14 @@ class OneLineParser(argparse.ArgumentParser):
     def error(self, message: str) -> NoReturn:
         self.exit(EXIT_BAD_INPUT, f"{self.prog}: error: {message} (see {self.prog} --help)\n")
 
+    def format_help(self) -> str:
+        """The help text; an epilog given as a function is built here, when the help is
+        shown (``rodsim run``'s list of scene keys imports the terms and integrators, which
+        ``rodsim --help`` and every command do not need)."""
+        if callable(self.epilog):
+            self.epilog = self.epilog()
+        return super().format_help()
+
 
 def _scene_keys_help() -> str:
     """Every scene key with unit and default, for ``--help`` epilogs."""
@@ -608,7 +616,7 @@ def build_parser() -> argparse.ArgumentParser:
     formatter = argparse.RawDescriptionHelpFormatter
 
     run = sub.add_parser("run", help="simulate one scene to equilibrium and archive it",
-                         formatter_class=formatter, epilog=_scene_keys_help(),
+                         formatter_class=formatter, epilog=_scene_keys_help,  # type: ignore[arg-type]
                          description="Simulate a scene to equilibrium, print a summary and "
                          "write a netCDF archive. SCENE is a TOML file or a shipped scene "
                          "name (`rodsim scenes`); default: table1-50g (paper Table 1, 50 g).")
@@ -746,21 +754,33 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
-def main(argv: Sequence[str] | None = None) -> int:
+def main(argv: Sequence[str] | None = None, *, process: bool = False) -> int:
     """The ``rodsim`` command. It pins BLAS threads (:mod:`rodsim.app.threads`) and, as it
     only writes figures to files, selects matplotlib's file backend unless ``MPLBACKEND`` is
-    set — before anything imports numpy or matplotlib."""
+    set — before anything imports numpy or matplotlib.
+
+    ``process``: this call is the whole process (:func:`entry`, the installed command and
+    ``python -m rodsim``): a command of :data:`~rodsim.app.lean.LEAN_COMMANDS` then hides
+    dask from xarray and, once it returns normally, ends the process at once
+    (:mod:`rodsim.app.lean`)."""
     pin_threads()
     os.environ.setdefault("MPLBACKEND", "Agg")
     parser = build_parser()
     args = parser.parse_args(argv)
     command: Callable[[argparse.Namespace], int] = args.func
+    from rodsim.app.lean import LEAN_COMMANDS, fast_exit, hide_dask
     from rodsim.io.provenance import invocation
 
+    lean = process and args.command in LEAN_COMMANDS
+    if lean:
+        hide_dask()
     words = list(sys.argv[1:] if argv is None else argv)
     try:
         with invocation(shlex.join(["rodsim", *words])):  # the archives' history line
-            return command(args)
+            code = command(args)
+        if lean:
+            fast_exit(code)
+        return code
     except UserError as exc:
         print(f"rodsim: error: {exc}", file=sys.stderr)
         return EXIT_BAD_INPUT
@@ -772,5 +792,11 @@ def main(argv: Sequence[str] | None = None) -> int:
         return 130
 
 
+def entry() -> NoReturn:
+    """The installed ``rodsim`` command and ``python -m rodsim``: :func:`main` as the whole
+    process."""
+    sys.exit(main(process=True))
+
+
 if __name__ == "__main__":
-    sys.exit(main())
+    entry()
