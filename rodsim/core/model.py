@@ -107,11 +107,14 @@ class Model:
         self.full_size = offset
         catalogue = registered_terms()
         self.terms: list[Term] = []
+        #: (``"rods"`` or ``"tendons"``, owner's name, term name) of each term, in order.
+        self.term_keys: list[tuple[str, str, str]] = []
         for rod in self.rods.values():
             for term_name in rod.options.terms:
                 kind = catalogue[term_name]
                 self.terms.append(kind(rod, scene.term_options("rods", rod.name, term_name),
                                        *((self.rods,) if kind.joins_rods else ())))
+                self.term_keys.append(("rods", rod.name, term_name))
         #: The scene's tendons (lumen geometry shared by their coupling terms).
         self.tendons = {name: Tendon.of(name, self.rods, options)
                         for name, options in tendons.items()}
@@ -119,6 +122,7 @@ class Model:
             for term_name in options.terms:
                 self.terms.append(catalogue[term_name](
                     self.tendons[name], scene.term_options("tendons", name, term_name)))
+                self.term_keys.append(("tendons", name, term_name))
         #: Factor on each term's output: 1, or a penalty continuation scale.
         self.term_scales = np.ones(len(self.terms))
         self._scale_list = self.term_scales.tolist()  # as floats, for the evaluation loops
@@ -165,6 +169,91 @@ class Model:
             other._build_maps()
         other._build_scales()
         return other
+
+    def with_values(self, scene: Scene) -> Model:
+        """The model of ``scene`` when ``scene`` differs from this model's only in the
+        options of some terms (a load, a tendon force, a penalty: a tracking or fitting
+        step): those terms alone are rebuilt, with this model's registration; the rods,
+        tendons, free-coordinate order, Jacobian pattern, index maps and loaded kernels are
+        shared, and the scales are recomputed as :meth:`Model.__init__` computes them (the
+        same numbers as :meth:`with_scene`). Any other difference (rods, sections,
+        supports, tendons' geometry, the solver table, a term whose elements move) falls
+        back to :meth:`with_scene`."""
+        changed = self._changed_terms(scene)
+        if changed is None:
+            return self.with_scene(scene)
+        other = copy.copy(self)
+        other.scene = scene
+        if not changed:
+            return other
+        catalogue = registered_terms()
+        terms = list(self.terms)
+        for index in changed:
+            owner, name, term_name = self.term_keys[index]
+            kind = catalogue[term_name]
+            options = scene.term_options(owner, name, term_name)
+            if owner == "rods":
+                term = kind(self.rods[name], options,
+                            *((self.rods,) if kind.joins_rods else ()))
+            else:
+                term = kind(self.tendons[name], options)
+            if term.dynamic:
+                term = term.registered(self.terms[index].registration_state())
+            if (type(term) is not type(self.terms[index])
+                    or term.has_jacobian != self.terms[index].has_jacobian
+                    or term.is_load != self.terms[index].is_load
+                    or term.conservative != self.terms[index].conservative
+                    or not np.array_equal(term.dofs, self.terms[index].dofs)):
+                return self.with_scene(scene)
+            terms[index] = term
+        other.terms = terms
+        other._loads = [t for t in terms if t.is_load]
+        other._jac_terms = [t for t in terms if t.has_jacobian]
+        if self._kernel_calls is not None:  # the same kernels and targets, new constants
+            calls = list(self._kernel_calls)
+            for index in changed:
+                _, _, evaluate, _, force_target, jacobian_target, energy = calls[index]
+                calls[index] = (index, terms[index], evaluate, terms[index].kernel_arguments(),
+                                force_target, jacobian_target, energy)
+            other._kernel_calls = calls
+        other._build_scales(layout=False)
+        return other
+
+    def _changed_terms(self, scene: Scene) -> list[int] | None:
+        """Indices of the terms whose options differ between this model's scene and
+        ``scene``; None when anything else differs. Tables shared by the two scenes (a
+        scene changed along one path, :func:`rodsim.app.inverse.parameter_keys.scene_with`)
+        are skipped without comparing them."""
+        mine, theirs = self.scene.data, scene.data
+        if mine is theirs:
+            return []
+        if mine.keys() != theirs.keys():
+            return None
+        changed: set[tuple[str, str, str]] = set()
+        for key in mine:
+            if mine[key] is theirs[key]:
+                continue
+            if key not in ("rods", "tendons"):
+                if mine[key] != theirs[key]:
+                    return None
+                continue
+            owners, others = mine[key], theirs[key]
+            if owners.keys() != others.keys():
+                return None
+            for name in owners:
+                table, other = owners[name], others[name]
+                if table is other:
+                    continue
+                if table.keys() != other.keys() or table.get("terms") != other.get("terms"):
+                    return None
+                listed = set(table.get("terms", ()))
+                for entry in table:
+                    if table[entry] is other[entry] or table[entry] == other[entry]:
+                        continue
+                    if entry not in listed:
+                        return None  # a rod's or a tendon's own value
+                    changed.add((key, name, entry))
+        return [index for index, key in enumerate(self.term_keys) if key in changed]
 
     # ------------------------------------------------------------------ setup
     def _build_maps(self) -> None:
@@ -267,6 +356,9 @@ class Model:
         self._jac_targets = np.full(len(rows), self.nnz)
         self._jac_targets[keep] = pattern.target[n:]
         self.band = Band(*pattern.band)
+        # Where the diagonal entries lie in the CSC data (one per column, in column order).
+        columns = np.repeat(np.arange(n), np.diff(self.pattern.indptr))
+        self._diagonal_slots = np.flatnonzero(self.pattern.indices == columns)
 
     def _element_entries(self, dof_sets) -> tuple[np.ndarray, np.ndarray]:
         """(row, column) free indices of every entry of the element blocks ``dof_sets``
@@ -279,7 +371,9 @@ class Model:
             cols.append(np.tile(free, (1, k)).ravel())
         return np.concatenate(rows), np.concatenate(cols)
 
-    def _build_scales(self) -> None:
+    def _build_scales(self, layout: bool = True) -> None:
+        """F_ref, L_ref, the residual weights and the round-off floor (below); ``layout``
+        False keeps :attr:`is_quaternion` (a model of the same layout)."""
         x0 = self.x0
         full = self.full(x0)
         load = 0.0
@@ -291,10 +385,11 @@ class Model:
         self.force_scale = load if load > 0 else fallback
         #: Length scale L_ref [m]: the longest rod.
         self.length_scale = max(r.length for r in rods)
-        is_quat = np.zeros(self.full_size, dtype=bool)
-        for rod in rods:
-            is_quat[rod.layout.quaternion_index] = True
-        self.is_quaternion = is_quat[self.free]
+        if layout:
+            is_quat = np.zeros(self.full_size, dtype=bool)
+            for rod in rods:
+                is_quat[rod.layout.quaternion_index] = True
+            self.is_quaternion = is_quat[self.free]
         #: Per-coordinate weights of :meth:`residual`: 1/F_ref, or 1/(F_ref L_ref) for
         #: quaternion coordinates.
         self.residual_weight = np.where(
@@ -305,7 +400,7 @@ class Model:
         # with a margin (32 eps) so that it is reliably attainable: residual noise measured at
         # converged states is 5–20× below it; Newton iterations asked to go lower only stall.
         magnitude = np.where(self.is_quaternion, 1.0, self.length_scale)
-        stiffness = np.abs(self.jacobian(x0).diagonal())
+        stiffness = np.abs(self.jacobian_data(x0)[self._diagonal_slots])
         #: |∂F_i/∂x_i| at rest, the stiffness of each coordinate on its own.
         self.rest_stiffness = stiffness
         #: Smallest scaled residual the model reliably reaches in double precision.
