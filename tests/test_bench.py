@@ -411,3 +411,16 @@ def test_startup_small_outputs(tmp_path):
     assert np.all(ds["cpu"].values > 0)
     assert np.all(np.isfinite(ds["phase_cpu"].values))
     assert "| run |" in (tmp_path / "startup-small.md").read_text()
+
+
+def test_tracking_small_outputs(tmp_path):
+    """``rodsim bench tracking --size small``: both variants tracked, their states equal to
+    round-off, rates finite."""
+    from rodsim_bench import tracking
+
+    paths = tracking.run("small", tmp_path)
+    assert {p.name for p in paths} == {"tracking-small.nc", "tracking-small.md"}
+    ds = _open(tmp_path / "tracking-small.nc")
+    assert list(ds["variant"].values) == list(tracking.VARIANTS)
+    assert np.all(np.isfinite(ds["steps_per_second"].values))
+    assert ds.attrs["largest_state_difference"] < 1e-12

@@ -2,7 +2,7 @@
 the paper's damping regime, scaling in N, the stability stress map, and
 what skipping unneeded work buys, and the fast core (compiled kernels against the numpy
 reference), and the
-whole-process CPU of short commands (startup).
+whole-process CPU of short commands (startup) and the tracking rate (tracking).
 
 Each benchmark is one module with ``run(size, output_dir, progress) -> list[Path]`` that
 writes its numbers (a netCDF archive with the machine description in its attributes), its
@@ -11,4 +11,4 @@ Timings on shared machines are noisy: compare the ratios measured within one run
 """
 
 BENCHMARKS = ("work-precision", "paper-regime", "scaling", "stress", "skip-work", "kernels",
-              "pyelastica", "startup")
+              "pyelastica", "startup", "tracking")
