@@ -170,18 +170,19 @@ class Model:
         other._build_scales()
         return other
 
-    def with_values(self, scene: Scene) -> Model:
+    def with_values(self, scene: Scene, fallback: bool = True) -> Model | None:
         """The model of ``scene`` when ``scene`` differs from this model's only in the
         options of some terms (a load, a tendon force, a penalty: a tracking or fitting
         step): those terms alone are rebuilt, with this model's registration; the rods,
         tendons, free-coordinate order, Jacobian pattern, index maps and loaded kernels are
         shared, and the scales are recomputed as :meth:`Model.__init__` computes them (the
         same numbers as :meth:`with_scene`). Any other difference (rods, sections,
-        supports, tendons' geometry, the solver table, a term whose elements move) falls
-        back to :meth:`with_scene`."""
+        supports, tendons' geometry, the evaluation path ``solver.kernels``, a term whose
+        elements move) falls back to :meth:`with_scene` — or gives None when ``fallback`` is
+        False. The other solver settings are the integrators', not the model's."""
         changed = self._changed_terms(scene)
         if changed is None:
-            return self.with_scene(scene)
+            return self.with_scene(scene) if fallback else None
         other = copy.copy(self)
         other.scene = scene
         if not changed:
@@ -204,7 +205,7 @@ class Model:
                     or term.is_load != self.terms[index].is_load
                     or term.conservative != self.terms[index].conservative
                     or not np.array_equal(term.dofs, self.terms[index].dofs)):
-                return self.with_scene(scene)
+                return self.with_scene(scene) if fallback else None
             terms[index] = term
         other.terms = terms
         other._loads = [t for t in terms if t.is_load]
@@ -232,6 +233,10 @@ class Model:
         changed: set[tuple[str, str, str]] = set()
         for key in mine:
             if mine[key] is theirs[key]:
+                continue
+            if key == "solver":  # the model reads only the evaluation path
+                if self.scene.solver.kernels != scene.solver.kernels:
+                    return None
                 continue
             if key not in ("rods", "tendons"):
                 if mine[key] != theirs[key]:
