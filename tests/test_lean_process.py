@@ -112,9 +112,31 @@ def test_only_the_whole_process_entry_exits_early(tmp_path, monkeypatch, capsys)
     assert "archive" in capsys.readouterr().out
 
 
-def test_study_and_bench_keep_the_normal_exit():
+def test_study_and_bench_keep_dask_and_bench_the_normal_exit():
     assert {"study", "bench"}.isdisjoint(lean.LEAN_COMMANDS)
     assert {"run", "track", "rerun", "scenes"} <= lean.LEAN_COMMANDS
+    assert "bench" not in lean.EARLY_EXIT_COMMANDS and "study" in lean.EARLY_EXIT_COMMANDS
+
+
+def test_a_study_on_two_workers_is_complete_after_its_process_ends(tmp_path):
+    """The pool's workers are gone before the early exit, the archive holds every point."""
+    output = tmp_path / "fig7b.nc"
+    done = _child(["study", "fig7b", "--size", "small", "--workers", "2", "-o", str(output)])
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.splitlines()[-1] == f"archive     {output}"
+    stored = read_dataset(output)
+    assert stored.attrs["points"] == 4 and stored.attrs["failed_points"] == 0
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["fig7b.nc"]  # parts removed
+
+
+def test_a_live_child_process_keeps_the_normal_exit(monkeypatch):
+    import multiprocessing
+
+    monkeypatch.setattr(lean.os, "_exit", lambda code: pytest.fail("exited early"))
+    monkeypatch.setattr(multiprocessing, "active_children", lambda: ["a worker"])
+    with pytest.raises(SystemExit) as exit_info:
+        lean.fast_exit(0)
+    assert exit_info.value.code == 0
 
 
 def test_help_imports_neither_numpy_nor_the_solvers():

@@ -761,24 +761,23 @@ def main(argv: Sequence[str] | None = None, *, process: bool = False) -> int:
 
     ``process``: this call is the whole process (:func:`entry`, the installed command and
     ``python -m rodsim``): a command of :data:`~rodsim.app.lean.LEAN_COMMANDS` then hides
-    dask from xarray and, once it returns normally, ends the process at once
-    (:mod:`rodsim.app.lean`)."""
+    dask from xarray, and one of :data:`~rodsim.app.lean.EARLY_EXIT_COMMANDS` ends the
+    process at once when it returns normally (:mod:`rodsim.app.lean`)."""
     pin_threads()
     os.environ.setdefault("MPLBACKEND", "Agg")
     parser = build_parser()
     args = parser.parse_args(argv)
     command: Callable[[argparse.Namespace], int] = args.func
-    from rodsim.app.lean import LEAN_COMMANDS, fast_exit, hide_dask
+    from rodsim.app.lean import EARLY_EXIT_COMMANDS, LEAN_COMMANDS, fast_exit, hide_dask
     from rodsim.io.provenance import invocation
 
-    lean = process and args.command in LEAN_COMMANDS
-    if lean:
+    if process and args.command in LEAN_COMMANDS:
         hide_dask()
     words = list(sys.argv[1:] if argv is None else argv)
     try:
         with invocation(shlex.join(["rodsim", *words])):  # the archives' history line
             code = command(args)
-        if lean:
+        if process and args.command in EARLY_EXIT_COMMANDS:
             fast_exit(code)
         return code
     except UserError as exc:
