@@ -424,3 +424,15 @@ def test_tracking_small_outputs(tmp_path):
     assert list(ds["variant"].values) == list(tracking.VARIANTS)
     assert np.all(np.isfinite(ds["steps_per_second"].values))
     assert ds.attrs["largest_state_difference"] < 1e-12
+
+
+@pytest.mark.slow
+def test_study_workers_small_outputs(tmp_path):
+    """``rodsim bench study-workers --size small``: both worker counts ran, times positive."""
+    from rodsim_bench import study_workers
+
+    paths = study_workers.run("small", tmp_path)
+    assert {p.name for p in paths} == {"study-workers-small.nc", "study-workers-small.md"}
+    ds = _open(tmp_path / "study-workers-small.nc")
+    assert list(ds["workers"].values) == list(study_workers.WORKERS)
+    assert np.all(ds["wall"].values > 0) and np.all(ds["cpu"].values > 0)
