@@ -33,7 +33,7 @@ from rodsim.core.anchors import joined_support, joint_depth, scene_joints
 from rodsim.core.rod.layout import RodLayout
 from rodsim.core.rod.rod import Rod
 from rodsim.core.scene import Scene
-from rodsim.core.sparsity import csc_pattern
+from rodsim.core.sparsity import pattern_of_keys
 from rodsim.core.supports import base_support, node_supports, quaternion_product, rigid_motion
 from rodsim.core.tendon import Tendon, tendon_support
 from rodsim.core.terms import Term, registered_terms
@@ -344,37 +344,85 @@ class Model:
                                               for t in self.terms])
 
     def _build_pattern(self) -> None:
+        """The Jacobian pattern: the diagonal (always stored) and every element entry of the
+        terms with a Jacobian (entries on fixed coordinates dropped), in CSC order.
+
+        A re-registration (:meth:`reregistered`) changes only the dynamic terms' elements:
+        the sorted keys of the diagonal and the other terms' entries are kept from the model
+        it came from (:meth:`_fixed_keys`) and merged with the dynamic ones, instead of
+        sorting every entry again. The pattern and the targets are those a sort of all
+        entries gives (:func:`rodsim.core.sparsity.csc_pattern`)."""
         n = self.n
         self._jac_terms = [t for t in self.terms if t.has_jacobian]
-        # The diagonal is always in the pattern; entries on fixed coordinates are dropped.
-        diagonal = np.arange(n)
-        rows, cols = self._element_entries(term.dofs for term in self._jac_terms)
-        keep = (rows < n) & (cols < n)
-        pattern = csc_pattern(np.concatenate([diagonal, rows[keep]]),
-                              np.concatenate([diagonal, cols[keep]]), n)
+        fixed_terms, fixed_keys, fixed_slots, diagonal_slots = self._fixed_keys()
+        dynamic = {index: self._entry_keys(term) for index, term in enumerate(self._jac_terms)
+                   if term.dynamic}
+        stored = fixed_keys
+        if dynamic:
+            stored = np.sort(np.concatenate([fixed_keys,
+                                             *(k[k >= 0] for k in dynamic.values())]))
+            stored = stored[np.concatenate([[True], stored[1:] != stored[:-1]])]
+        moved = np.searchsorted(stored, fixed_keys)  # a fixed key's slot among all
+        nnz = len(stored)
+        targets = []
+        slots = iter(fixed_slots)
+        for index in range(len(self._jac_terms)):
+            if index in dynamic:
+                keys = dynamic[index]
+                target = np.where(keys >= 0, np.searchsorted(stored, keys), nnz)
+            else:
+                slot = next(slots)
+                target = np.where(slot >= 0, moved[slot], nnz)
+            targets.append(target)
+        pattern = pattern_of_keys(stored, np.concatenate([moved[diagonal_slots], *targets]), n)
         #: Jacobian sparsity pattern of the free coordinates (CSC, ones where J may be ≠ 0).
         self.pattern = pattern.matrix
         self.pattern_rows, self.pattern_cols = pattern.rows, pattern.cols
         self.nnz = pattern.nnz
         # Where each term's element entry lands in the CSC data (nnz: a dump slot for
         # entries on fixed coordinates).
-        self._jac_targets = np.full(len(rows), self.nnz)
-        self._jac_targets[keep] = pattern.target[n:]
+        self._jac_targets = np.concatenate([np.zeros(0, dtype=np.int64), *targets])
         self.band = Band(*pattern.band)
         # Where the diagonal entries lie in the CSC data (one per column, in column order).
-        columns = np.repeat(np.arange(n), np.diff(self.pattern.indptr))
-        self._diagonal_slots = np.flatnonzero(self.pattern.indices == columns)
+        self._diagonal_slots = moved[diagonal_slots]
+        self._fixed_pattern = (fixed_terms, self._free_of, fixed_keys, fixed_slots,
+                               diagonal_slots)
 
-    def _element_entries(self, dof_sets) -> tuple[np.ndarray, np.ndarray]:
-        """(row, column) free indices of every entry of the element blocks ``dof_sets``
-        (fixed coordinates map to n)."""
-        rows, cols = [np.zeros(0, dtype=int)], [np.zeros(0, dtype=int)]
-        for dofs in dof_sets:
-            k = dofs.shape[1]
-            free = self._free_of[dofs]
-            rows.append(np.repeat(free, k, axis=1).ravel())
-            cols.append(np.tile(free, (1, k)).ravel())
-        return np.concatenate(rows), np.concatenate(cols)
+    def _entry_keys(self, term: Term) -> np.ndarray:
+        """Column-major keys ``col * n + row`` of every entry of a term's element blocks
+        (row-major within each block), −1 for an entry on a fixed coordinate."""
+        n = self.n
+        k = term.dofs.shape[1]
+        free = self._free_of[term.dofs]
+        rows = np.repeat(free, k, axis=1).ravel()
+        cols = np.tile(free, (1, k)).ravel()
+        keys = cols * n + rows
+        keys[(rows >= n) | (cols >= n)] = -1
+        return keys
+
+    def _fixed_keys(self) -> tuple:
+        """(the non-dynamic terms with a Jacobian, the sorted unique keys of their entries
+        and of the diagonal, each such term's entries' positions in those keys (−1:
+        dropped), the diagonal's positions): kept from the model this one was copied from
+        when its terms and free-coordinate map are the same."""
+        fixed_terms = tuple(t for t in self._jac_terms if not t.dynamic)
+        cached = getattr(self, "_fixed_pattern", None)
+        if (cached is not None and len(cached[0]) == len(fixed_terms)
+                and all(a is b for a, b in zip(cached[0], fixed_terms, strict=True))
+                and (cached[1] is self._free_of or np.array_equal(cached[1], self._free_of))):
+            return fixed_terms, *cached[2:]
+        n = self.n
+        diagonal = np.arange(n) * (n + 1)
+        term_keys = [self._entry_keys(term) for term in fixed_terms]
+        everything = np.concatenate([diagonal, *term_keys])
+        keep = everything >= 0
+        keys, inverse = np.unique(everything[keep], return_inverse=True)
+        position = np.full(len(everything), -1)
+        position[keep] = inverse.ravel()
+        bounds = np.cumsum([n] + [len(k) for k in term_keys])
+        slots = [position[start:stop] for start, stop in zip(bounds[:-1], bounds[1:],
+                                                               strict=True)]
+        return fixed_terms, keys, slots, position[:n]
 
     def _build_scales(self, layout: bool = True) -> None:
         """F_ref, L_ref, the residual weights and the round-off floor (below); ``layout``

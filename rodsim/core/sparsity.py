@@ -12,7 +12,7 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.sparse as sp
 
-__all__ = ["Pattern", "csc_pattern"]
+__all__ = ["Pattern", "csc_pattern", "pattern_of_keys"]
 
 
 @dataclass(frozen=True)
@@ -45,9 +45,15 @@ class Pattern:
 def csc_pattern(rows: np.ndarray, cols: np.ndarray, size: int) -> Pattern:
     """The pattern of the entries (rows[k], cols[k]) of a ``size`` × ``size`` matrix."""
     keys, target = np.unique(np.asarray(cols) * size + np.asarray(rows), return_inverse=True)
+    return pattern_of_keys(keys, target.ravel(), size)
+
+
+def pattern_of_keys(keys: np.ndarray, target: np.ndarray, size: int) -> Pattern:
+    """The pattern whose stored entries have the sorted unique column-major keys
+    ``col * size + row``; ``target`` as in :class:`Pattern`."""
     pattern_rows, pattern_cols = keys % size, keys // size  # column-major keys: CSC order
     indptr = np.searchsorted(pattern_cols, np.arange(size + 1))
     matrix = sp.csc_matrix((np.ones(len(keys)), pattern_rows, indptr), shape=(size, size))
     offsets = pattern_rows - pattern_cols
     band = (int(max(offsets.max(initial=0), 0)), int(max(-offsets.min(initial=0), 0)))
-    return Pattern(matrix, pattern_rows, pattern_cols, target.ravel(), band)
+    return Pattern(matrix, pattern_rows, pattern_cols, target, band)
