@@ -427,12 +427,12 @@ def test_tracking_small_outputs(tmp_path):
 
 
 @pytest.mark.slow
-def test_study_workers_small_outputs(tmp_path):
-    """``rodsim bench study-workers --size small``: both worker counts ran, times positive."""
-    from rodsim_bench import study_workers
+def test_workers_small_outputs(tmp_path):
+    """``rodsim bench workers --size small``: both worker counts ran, times positive."""
+    from rodsim_bench import workers
 
-    paths = study_workers.run("small", tmp_path)
-    assert {p.name for p in paths} == {"study-workers-small.nc", "study-workers-small.md"}
-    ds = _open(tmp_path / "study-workers-small.nc")
-    assert list(ds["workers"].values) == list(study_workers.WORKERS)
+    paths = workers.run("small", tmp_path)
+    assert {p.name for p in paths} == {"workers-small.nc", "workers-small.md"}
+    ds = _open(tmp_path / "workers-small.nc")
+    assert list(ds["workers"].values) == list(workers.WORKERS)
     assert np.all(ds["wall"].values > 0) and np.all(ds["cpu"].values > 0)

@@ -729,7 +729,7 @@ def build_parser() -> argparse.ArgumentParser:
 
     bench = sub.add_parser("bench", help="run a benchmark (work-precision, scaling, stress, "
                            "skip-work, kernels, paper-regime, pyelastica, startup, tracking, "
-                           "study-workers)",
+                           "workers)",
                            description="Time the integrators against their error, their cost "
                            "in N, or their stability over a parameter map; writes netCDF, "
                            "figures and a markdown table with the machine description. The "
@@ -737,7 +737,7 @@ def build_parser() -> argparse.ArgumentParser:
                            "(benchmarks/rodsim_bench), not in the installed package.")
     bench.add_argument("benchmark", metavar="BENCHMARK",
                        help="work-precision, scaling, stress, skip-work, kernels, "
-                       "paper-regime, pyelastica, startup, tracking or study-workers "
+                       "paper-regime, pyelastica, startup, tracking or workers "
                        "(the last needs 'pip install pyelastica==1.0.0'; never a dependency)")
     bench.add_argument("--size", choices=("small", "full"), default="full",
                        help="small: a smoke version in seconds; full: the real benchmark")

@@ -1,11 +1,11 @@
-"""Studies and workers (``rodsim bench study-workers``): ``rodsim study fig7b --size full``
+"""Studies and workers (``rodsim bench workers``): ``rodsim study fig7b --size full``
 (``small``: ``--size small``) with ``--workers 1`` and ``--workers 2``, each a fresh
 process, interleaved, median of the repeats: wall time (what the user waits for) and CPU
 time of the process and its workers (user + system, ``RUSAGE_CHILDREN``). The machine's
 load average at the start and the end is recorded: on a loaded machine the wall-time ratio
 says little about what a second core would give, the CPU ratio says what the workers cost.
 
-Outputs ``study-workers-<size>.nc`` and ``study-workers-<size>.md``.
+Outputs ``workers-<size>.nc`` and ``workers-<size>.md``.
 """
 
 from __future__ import annotations
@@ -62,11 +62,11 @@ def run(size: str, output_dir: str | Path, progress=None) -> list[Path]:
     wall = {w: [] for w in WORKERS}
     cpu = {w: [] for w in WORKERS}
     load_start = _load()
-    with tempfile.TemporaryDirectory(prefix="rodsim-study-workers-") as folder:
+    with tempfile.TemporaryDirectory(prefix="rodsim-workers-") as folder:
         for repeat in range(repeats):
             for workers in WORKERS:
                 if progress is not None:
-                    progress(repeat / repeats, f"study-workers: {workers} workers "
+                    progress(repeat / repeats, f"workers: {workers} workers "
                              f"({repeat + 1}/{repeats})")
                 w, c = _study(workers, setting["study_size"], folder)
                 wall[workers].append(w)
@@ -83,11 +83,11 @@ def run(size: str, output_dir: str | Path, progress=None) -> list[Path]:
         coords={"workers": ("workers", np.array(WORKERS), {"long_name": "--workers"}),
                 "repeat": ("repeat", np.arange(repeats), {"long_name": "repeat"})})
     ds.attrs = {"title": f"rodsim: study {STUDY} on 1 and 2 workers",
-                "benchmark": "study-workers", "size": size,
+                "benchmark": "workers", "size": size,
                 "study_size": setting["study_size"], "load_average_start": load_start,
                 "load_average_end": load_end,
                 **{f"machine_{k}": v for k, v in machine().items()}}
-    output = Path(output_dir) / f"study-workers-{size}.nc"
+    output = Path(output_dir) / f"workers-{size}.nc"
     write_dataset(ds, output)
     lines = [f"# `rodsim study {STUDY} --size {setting['study_size']}` on 1 and 2 workers "
              f"({size}, median of {repeats})", "",
