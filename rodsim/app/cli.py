@@ -737,8 +737,8 @@ def build_parser() -> argparse.ArgumentParser:
                            "(benchmarks/rodsim_bench), not in the installed package.")
     bench.add_argument("benchmark", metavar="BENCHMARK",
                        help="work-precision, scaling, stress, skip-work, kernels, "
-                       "paper-regime, pyelastica, startup, tracking or workers "
-                       "(the last needs 'pip install pyelastica==1.0.0'; never a dependency)")
+                       "paper-regime, pyelastica (needs 'pip install pyelastica==1.0.0'; never "
+                       "a dependency), startup, tracking or workers")
     bench.add_argument("--size", choices=("small", "full"), default="full",
                        help="small: a smoke version in seconds; full: the real benchmark")
     bench.add_argument("-o", "--output", "--output-dir", dest="output_dir", default=None,
