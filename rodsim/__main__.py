@@ -1,7 +1,5 @@
 """``python -m rodsim`` is the ``rodsim`` command."""
 
-import sys
+from rodsim.app.cli import entry
 
-from rodsim.app.cli import main
-
-sys.exit(main())
+entry()

@@ -460,3 +460,45 @@ def test_pyelastica_benchmark_errors_and_verdict():
     assert pyelastica.verdict(row, cvode)["holds"]
     assert not pyelastica.verdict(row, cvode | {"tip_error": 2e-3})["holds"]  # 5x the error
     assert not pyelastica.verdict(row, cvode | {"wall_s": 0.1})["holds"]  # 10x the time
+
+
+@pytest.mark.slow
+def test_startup_small_outputs(tmp_path):
+    """``rodsim bench startup --size small``: every command has a positive CPU time, every
+    phase a finite one, and the table is written."""
+    from rodsim_bench import startup
+
+    paths = startup.run("small", tmp_path)
+    assert {p.name for p in paths} == {"startup-small.nc", "startup-small.md"}
+    ds = _open(tmp_path / "startup-small.nc")
+    for key in MACHINE_KEYS:
+        assert key in ds.attrs
+    assert list(ds["command"].values) == list(startup.COMMANDS)
+    assert np.all(ds["cpu"].values > 0)
+    assert np.all(np.isfinite(ds["phase_cpu"].values))
+    assert "| run |" in (tmp_path / "startup-small.md").read_text()
+
+
+def test_tracking_small_outputs(tmp_path):
+    """``rodsim bench tracking --size small``: both variants tracked, their states equal to
+    round-off, rates finite."""
+    from rodsim_bench import tracking
+
+    paths = tracking.run("small", tmp_path)
+    assert {p.name for p in paths} == {"tracking-small.nc", "tracking-small.md"}
+    ds = _open(tmp_path / "tracking-small.nc")
+    assert list(ds["variant"].values) == list(tracking.VARIANTS)
+    assert np.all(np.isfinite(ds["steps_per_second"].values))
+    assert ds.attrs["largest_state_difference"] < 1e-12
+
+
+@pytest.mark.slow
+def test_workers_small_outputs(tmp_path):
+    """``rodsim bench workers --size small``: both worker counts ran, times positive."""
+    from rodsim_bench import workers
+
+    paths = workers.run("small", tmp_path)
+    assert {p.name for p in paths} == {"workers-small.nc", "workers-small.md"}
+    ds = _open(tmp_path / "workers-small.nc")
+    assert list(ds["workers"].values) == list(workers.WORKERS)
+    assert np.all(ds["wall"].values > 0) and np.all(ds["cpu"].values > 0)

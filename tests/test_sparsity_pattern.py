@@ -31,7 +31,7 @@ def test_band_table_matches_sorting(size, half_width):
 
 def test_wide_sparse_entries_use_sorting(monkeypatch):
     calls = []
-    monkeypatch.setattr(sparsity, "_banded", lambda *a: calls.append(a))
+    monkeypatch.setattr(sparsity, "_banded_unique", lambda *a: calls.append(a))
     size = 1000
     rows, cols = np.array([0, 999, 5]), np.array([999, 0, 5])
     pattern = sparsity.csc_pattern(rows, cols, size)

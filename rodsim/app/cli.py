@@ -58,6 +58,14 @@ class OneLineParser(argparse.ArgumentParser):
     def error(self, message: str) -> NoReturn:
         self.exit(EXIT_BAD_INPUT, f"{self.prog}: error: {message} (see {self.prog} --help)\n")
 
+    def format_help(self) -> str:
+        """The help text; an epilog given as a function is built here, when the help is
+        shown (``rodsim run``'s list of scene keys imports the terms and integrators, which
+        ``rodsim --help`` and every command do not need)."""
+        if callable(self.epilog):
+            self.epilog = self.epilog()
+        return super().format_help()
+
 
 def _scene_keys_help() -> str:
     """Every scene key with unit and default, for ``--help`` epilogs."""
@@ -715,7 +723,7 @@ def build_parser() -> argparse.ArgumentParser:
     formatter = argparse.RawDescriptionHelpFormatter
 
     run = sub.add_parser("run", help="simulate one scene to equilibrium and archive it",
-                         formatter_class=formatter, epilog=_scene_keys_help(),
+                         formatter_class=formatter, epilog=_scene_keys_help,  # type: ignore[arg-type]
                          description="Simulate a scene to equilibrium, print a summary and "
                          "write a netCDF archive. SCENE is a TOML file or a shipped scene "
                          "name (`rodsim scenes`); default: table1-50g (paper Table 1, 50 g).")
@@ -843,7 +851,7 @@ def build_parser() -> argparse.ArgumentParser:
 
     bench = sub.add_parser("bench", help="run a benchmark (work-precision, scaling, large-n, "
                            "stress, skip-work, kernels, paper-regime, pyelastica, "
-                           "string-tendon, contact)",
+                           "string-tendon, contact, startup, tracking, workers)",
                            description="Time the integrators against their error, their cost "
                            "in N, or their stability over a parameter map; writes netCDF, "
                            "figures and a markdown table with the machine description. The "
@@ -853,8 +861,9 @@ def build_parser() -> argparse.ArgumentParser:
                            "one the current folder is in.")
     bench.add_argument("benchmark", metavar="BENCHMARK",
                        help="work-precision, scaling, large-n, stress, skip-work, kernels, "
-                       "paper-regime, string-tendon, contact or pyelastica "
-                       "(the last needs 'pip install pyelastica==1.0.0'; never a dependency)")
+                       "paper-regime, string-tendon, contact, startup, tracking, workers or "
+                       "pyelastica (the last needs 'pip install pyelastica==1.0.0'; never a "
+                       "dependency)")
     bench.add_argument("--size", choices=("small", "full"), default="small",
                        help="small (the default): a smoke version in seconds to a minute; "
                        "full: the real benchmark (minutes to an hour, docs/benchmarks.md)")
@@ -875,22 +884,33 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
-def main(argv: Sequence[str] | None = None) -> int:
+def main(argv: Sequence[str] | None = None, *, process: bool = False) -> int:
     """The ``rodsim`` command. It pins BLAS threads (:mod:`rodsim.app.threads`) and, as it
     only writes figures to files, selects matplotlib's file backend unless ``MPLBACKEND`` is
-    set — before anything imports numpy or matplotlib."""
+    set — before anything imports numpy or matplotlib.
+
+    ``process``: this call is the whole process (:func:`entry`, the installed command and
+    ``python -m rodsim``): a command of :data:`~rodsim.app.lean.LEAN_COMMANDS` then hides
+    dask from xarray, and one of :data:`~rodsim.app.lean.EARLY_EXIT_COMMANDS` ends the
+    process at once when it returns normally (:mod:`rodsim.app.lean`)."""
     pin_threads()
     os.environ.setdefault("MPLBACKEND", "Agg")
     parser = build_parser()
     args = parser.parse_args(argv)
     command: Callable[[argparse.Namespace], int] = args.func
+    from rodsim.app.lean import EARLY_EXIT_COMMANDS, LEAN_COMMANDS, fast_exit, hide_dask
     from rodsim.io.provenance import invocation
 
+    if process and args.command in LEAN_COMMANDS:
+        hide_dask()
     words = list(sys.argv[1:] if argv is None else argv)
     _created_output_folder.clear()
     try:
         with invocation(shlex.join(["rodsim", *words])):  # the archives' history line
-            return command(args)
+            code = command(args)
+        if process and args.command in EARLY_EXIT_COMMANDS:
+            fast_exit(code)
+        return code
     except UserError as exc:
         _remove_created_output_folder()  # exit 2 leaves nothing behind, an empty runs/ too
         print(f"rodsim: error: {exc}", file=sys.stderr)
@@ -908,5 +928,11 @@ def main(argv: Sequence[str] | None = None) -> int:
         return 130
 
 
+def entry() -> NoReturn:
+    """The installed ``rodsim`` command and ``python -m rodsim``: :func:`main` as the whole
+    process."""
+    sys.exit(main(process=True))
+
+
 if __name__ == "__main__":
-    sys.exit(main())
+    entry()

@@ -249,18 +249,45 @@ def point_scene(spec: StudySpec, index: tuple[int, ...]) -> Scene:
     return spec.base_scene().with_values(values)
 
 
+#: The last model built in this process for each study's base scene (spec.base_scene_json):
+#: a point whose scene differs from it only in term options or solver settings shares its
+#: assembly (:meth:`rodsim.core.model.Model.with_values`). Worker processes keep it across
+#: the points they run.
+_POINT_MODELS: dict[str, Any] = {}
+
+
+def point_model(spec: StudySpec, scene: Scene) -> Any:
+    """The model of a point's ``scene``: the process's last model of the study's base scene
+    with the swept values set, when only values of terms (or the solver's settings) differ;
+    else a new model, kept for the next points (SceneError when too large for memory)."""
+    from rodsim.core.memory import check_memory
+    from rodsim.core.model import Model
+
+    last = _POINT_MODELS.get(spec.base_scene_json)
+    if last is not None:
+        shared = last.with_values(scene, fallback=False)
+        if shared is not None:
+            return shared
+    check_memory(scene)
+    model = Model(scene)
+    _POINT_MODELS.clear()  # one study at a time: no growing cache
+    _POINT_MODELS[spec.base_scene_json] = model
+    return model
+
+
 def evaluate_point(spec: StudySpec, index: tuple[int, ...]) -> dict[str, Any]:
     """Solve one grid point; never raises: a failure is recorded with its status and message.
 
     Runs in worker processes (local pool or dask): it takes a picklable spec and returns
-    plain data.
+    plain data. The model is :func:`point_model`'s.
     """
     from rodsim.app.api import solve
 
     record: dict[str, Any] = {"index": list(index)}
     try:
         scene = point_scene(spec, index)
-        result = solve(scene, spec.integrator or scene.solver.integrator)
+        result = solve(scene, spec.integrator or scene.solver.integrator,
+                       model=point_model(spec, scene))
     except SceneError as exc:
         return record | {"status": STATUS["error"], "message": f"bad scene value: {exc}"}
     except Exception as exc:  # a bug must not stop the study: record it

@@ -24,6 +24,7 @@ from __future__ import annotations
 import contextlib
 import json
 import math
+import multiprocessing
 import os
 import shutil
 import sys
@@ -301,8 +302,28 @@ def _run_local(spec: StudySpec, todo: list[tuple[int, ...]], workers: int,
             record = value
         persist(record)
 
+    _preload(spec, todo[0])
     run_tasks(_run_point, [(index, (spec, index, hook)) for index in todo], workers, done,
               log=log, noun="points")
+
+
+def _preload(spec: StudySpec, index: tuple[int, ...]) -> None:
+    """Import the solvers and load the kernels of a point's model in this process before the
+    pool forks its workers, which then inherit them instead of each loading them again
+    (0.5 s of CPU per worker); nothing to inherit when workers are spawned. A point that
+    cannot be built is left to its worker to report."""
+    if multiprocessing.get_start_method() != "fork":
+        return
+    from rodsim.app.study import point_model, point_scene
+    from rodsim.solvers import registered_integrators
+
+    try:
+        scene = point_scene(spec, index)
+        registered_integrators()
+        model = point_model(spec, scene)
+        model.evaluate(model.x0)
+    except Exception:  # noqa: BLE001 - the point's worker records what went wrong
+        return
 
 
 # Dask ------------------------------------------------------------------------------------

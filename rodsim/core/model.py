@@ -34,7 +34,7 @@ from rodsim.core.rod.layout import RodLayout
 from rodsim.core.rod.retraction import turn_segments
 from rodsim.core.rod.rod import Rod
 from rodsim.core.scene import Scene
-from rodsim.core.sparsity import csc_pattern
+from rodsim.core.sparsity import pattern_of_keys, unique_keys
 from rodsim.core.supports import base_support, node_supports, quaternion_product, rigid_motion
 from rodsim.core.tendon import Tendon, tendon_support
 from rodsim.core.terms import Term, registered_terms
@@ -108,11 +108,14 @@ class Model:
         self.full_size = offset
         catalogue = registered_terms()
         self.terms: list[Term] = []
+        #: (``"rods"`` or ``"tendons"``, owner's name, term name) of each term, in order.
+        self.term_keys: list[tuple[str, str, str]] = []
         for rod in self.rods.values():
             for term_name in rod.options.terms:
                 kind = catalogue[term_name]
                 self.terms.append(kind(rod, scene.term_options("rods", rod.name, term_name),
                                        *((self.rods,) if kind.joins_rods else ())))
+                self.term_keys.append(("rods", rod.name, term_name))
         #: The scene's tendons (lumen geometry shared by their coupling terms).
         self.tendons = {name: Tendon.of(name, self.rods, options)
                         for name, options in tendons.items()}
@@ -120,12 +123,14 @@ class Model:
             for term_name in options.terms:
                 self.terms.append(catalogue[term_name](
                     self.tendons[name], scene.term_options("tendons", name, term_name)))
+                self.term_keys.append(("tendons", name, term_name))
         for name, table in scene.data.get("obstacles", {}).items():
             from rodsim.core.obstacles import build_obstacle
 
             obstacle = build_obstacle(name, table)
             for rod in table["rods"]:
                 self.terms.append(catalogue["contact"](self.rods[rod], obstacle))
+                self.term_keys.append(("obstacles", name, rod))  # changes: a new model
         #: Factor on each term's output: 1, or a penalty continuation scale.
         self.term_scales = np.ones(len(self.terms))
         self._scale_list = self.term_scales.tolist()  # as floats, for the evaluation loops
@@ -172,6 +177,96 @@ class Model:
             other._build_maps()
         other._build_scales()
         return other
+
+    def with_values(self, scene: Scene, fallback: bool = True) -> Model | None:
+        """The model of ``scene`` when ``scene`` differs from this model's only in the
+        options of some terms (a load, a tendon force, a penalty: a tracking or fitting
+        step): those terms alone are rebuilt, with this model's registration; the rods,
+        tendons, free-coordinate order, Jacobian pattern, index maps and loaded kernels are
+        shared, and the scales are recomputed as :meth:`Model.__init__` computes them (the
+        same numbers as :meth:`with_scene`). Any other difference (rods, sections,
+        supports, tendons' geometry, the evaluation path ``solver.kernels``, a term whose
+        elements move) falls back to :meth:`with_scene` — or gives None when ``fallback`` is
+        False. The other solver settings are the integrators', not the model's."""
+        changed = self._changed_terms(scene)
+        if changed is None:
+            return self.with_scene(scene) if fallback else None
+        other = copy.copy(self)
+        other.scene = scene
+        if not changed:
+            return other
+        catalogue = registered_terms()
+        terms = list(self.terms)
+        for index in changed:
+            owner, name, term_name = self.term_keys[index]
+            kind = catalogue[term_name]
+            options = scene.term_options(owner, name, term_name)
+            if owner == "rods":
+                term = kind(self.rods[name], options,
+                            *((self.rods,) if kind.joins_rods else ()))
+            else:
+                term = kind(self.tendons[name], options)
+            if term.dynamic:
+                term = term.registered(self.terms[index].registration_state())
+            if (type(term) is not type(self.terms[index])
+                    or term.has_jacobian != self.terms[index].has_jacobian
+                    or term.is_load != self.terms[index].is_load
+                    or term.conservative != self.terms[index].conservative
+                    or not np.array_equal(term.dofs, self.terms[index].dofs)):
+                return self.with_scene(scene) if fallback else None
+            terms[index] = term
+        other.terms = terms
+        other._loads = [t for t in terms if t.is_load]
+        other._jac_terms = [t for t in terms if t.has_jacobian]
+        if self._kernel_calls is not None:  # the same kernels and targets, new constants
+            calls = list(self._kernel_calls)
+            for index in changed:
+                _, _, evaluate, _, force_target, jacobian_target, energy = calls[index]
+                calls[index] = (index, terms[index], evaluate, terms[index].kernel_arguments(),
+                                force_target, jacobian_target, energy)
+            other._kernel_calls = calls
+        other._build_scales(layout=False)
+        return other
+
+    def _changed_terms(self, scene: Scene) -> list[int] | None:
+        """Indices of the terms whose options differ between this model's scene and
+        ``scene``; None when anything else differs. Tables shared by the two scenes (a
+        scene changed along one path, :func:`rodsim.app.inverse.parameter_keys.scene_with`)
+        are skipped without comparing them."""
+        mine, theirs = self.scene.data, scene.data
+        if mine is theirs:
+            return []
+        if mine.keys() != theirs.keys():
+            return None
+        changed: set[tuple[str, str, str]] = set()
+        for key in mine:
+            if mine[key] is theirs[key]:
+                continue
+            if key == "solver":  # the model reads only the evaluation path
+                if self.scene.solver.kernels != scene.solver.kernels:
+                    return None
+                continue
+            if key not in ("rods", "tendons"):
+                if mine[key] != theirs[key]:
+                    return None
+                continue
+            owners, others = mine[key], theirs[key]
+            if owners.keys() != others.keys():
+                return None
+            for name in owners:
+                table, other = owners[name], others[name]
+                if table is other:
+                    continue
+                if table.keys() != other.keys() or table.get("terms") != other.get("terms"):
+                    return None
+                listed = set(table.get("terms", ()))
+                for entry in table:
+                    if table[entry] is other[entry] or table[entry] == other[entry]:
+                        continue
+                    if entry not in listed:
+                        return None  # a rod's or a tendon's own value
+                    changed.add((key, name, entry))
+        return [index for index, key in enumerate(self.term_keys) if key in changed]
 
     # ------------------------------------------------------------------ setup
     def _build_maps(self) -> None:
@@ -257,48 +352,89 @@ class Model:
                                               for t in self.terms])
 
     def _build_pattern(self) -> None:
+        """The Jacobian pattern: the diagonal (always stored) and every element entry of the
+        terms with a Jacobian (entries on fixed coordinates dropped), in CSC order.
+
+        A re-registration (:meth:`reregistered`) changes only the dynamic terms' elements:
+        the sorted keys of the diagonal and the other terms' entries are kept from the model
+        it came from (:meth:`_fixed_keys`) and merged with the dynamic ones, instead of
+        sorting every entry again. The pattern and the targets are those a sort of all
+        entries gives (:func:`rodsim.core.sparsity.csc_pattern`)."""
         n = self.n
         self._jac_terms = [t for t in self.terms if t.has_jacobian]
-        # The diagonal is always in the pattern; entries on fixed coordinates are dropped.
-        rows, cols = self._element_entries(term.dofs for term in self._jac_terms)
-        keep = (rows < n) & (cols < n)
-        kept = int(np.count_nonzero(keep))
-        # [diagonal, kept entries], written in place (no entry-sized temporaries).
-        pattern_rows = np.empty(n + kept, dtype=rows.dtype)
-        pattern_cols = np.empty(n + kept, dtype=cols.dtype)
-        pattern_rows[:n] = pattern_cols[:n] = np.arange(n)
-        np.compress(keep, rows, out=pattern_rows[n:])
-        np.compress(keep, cols, out=pattern_cols[n:])
-        del rows, cols
-        pattern = csc_pattern(pattern_rows, pattern_cols, n)
-        del pattern_rows, pattern_cols
+        fixed_terms, fixed_keys, fixed_slots, diagonal_slots = self._fixed_keys()
+        dynamic = {index: self._entry_keys(term) for index, term in enumerate(self._jac_terms)
+                   if term.dynamic}
+        stored = fixed_keys
+        if dynamic:
+            stored = np.sort(np.concatenate([fixed_keys,
+                                             *(k[k >= 0] for k in dynamic.values())]))
+            stored = stored[np.concatenate([[True], stored[1:] != stored[:-1]])]
+        moved = np.searchsorted(stored, fixed_keys)  # a fixed key's slot among all
+        nnz = len(stored)
+        targets = []
+        slots = iter(fixed_slots)
+        for index in range(len(self._jac_terms)):
+            if index in dynamic:
+                keys = dynamic[index]
+                target = np.where(keys >= 0, np.searchsorted(stored, keys), nnz)
+            else:
+                slot = next(slots)
+                target = np.where(slot >= 0, moved[slot], nnz)
+            targets.append(target)
+        pattern = pattern_of_keys(stored, np.concatenate([moved[diagonal_slots], *targets]), n)
         #: Jacobian sparsity pattern of the free coordinates (CSC, ones where J may be ≠ 0).
         self.pattern = pattern.matrix
         self.pattern_rows, self.pattern_cols = pattern.rows, pattern.cols
         self.nnz = pattern.nnz
         # Where each term's element entry lands in the CSC data (nnz: a dump slot for
         # entries on fixed coordinates).
-        self._jac_targets = np.full(len(keep), self.nnz)
-        self._jac_targets[keep] = pattern.target[n:]
+        self._jac_targets = np.concatenate([np.zeros(0, dtype=np.int64), *targets])
         self.band = Band(*pattern.band)
+        # Where the diagonal entries lie in the CSC data (one per column, in column order).
+        self._diagonal_slots = moved[diagonal_slots]
+        self._fixed_pattern = (fixed_terms, self._free_of, fixed_keys, fixed_slots,
+                               diagonal_slots)
 
-    def _element_entries(self, dof_sets) -> tuple[np.ndarray, np.ndarray]:
-        """(row, column) free indices of every entry of the element blocks ``dof_sets``
-        (fixed coordinates map to n)."""
-        dof_sets = list(dof_sets)
-        total = sum(dofs.shape[0] * dofs.shape[1] ** 2 for dofs in dof_sets)
-        rows, cols = np.empty(total, dtype=np.int64), np.empty(total, dtype=np.int64)
-        start = 0
-        for dofs in dof_sets:
-            elements, k = dofs.shape
-            free = self._free_of[dofs]
-            block = slice(start, start + elements * k * k)
-            rows[block].reshape(elements, k, k)[:] = free[:, :, None]
-            cols[block].reshape(elements, k, k)[:] = free[:, None, :]
-            start += elements * k * k
-        return rows, cols
+    def _entry_keys(self, term: Term) -> np.ndarray:
+        """Column-major keys ``col * n + row`` of every entry of a term's element blocks
+        (row-major within each block), −1 for an entry on a fixed coordinate."""
+        n = self.n
+        k = term.dofs.shape[1]
+        free = self._free_of[term.dofs]
+        rows = np.repeat(free, k, axis=1).ravel()
+        cols = np.tile(free, (1, k)).ravel()
+        keys = cols * n + rows
+        keys[(rows >= n) | (cols >= n)] = -1
+        return keys
 
-    def _build_scales(self) -> None:
+    def _fixed_keys(self) -> tuple:
+        """(the non-dynamic terms with a Jacobian, the sorted unique keys of their entries
+        and of the diagonal, each such term's entries' positions in those keys (−1:
+        dropped), the diagonal's positions): kept from the model this one was copied from
+        when its terms and free-coordinate map are the same."""
+        fixed_terms = tuple(t for t in self._jac_terms if not t.dynamic)
+        cached = getattr(self, "_fixed_pattern", None)
+        if (cached is not None and len(cached[0]) == len(fixed_terms)
+                and all(a is b for a, b in zip(cached[0], fixed_terms, strict=True))
+                and (cached[1] is self._free_of or np.array_equal(cached[1], self._free_of))):
+            return fixed_terms, *cached[2:]
+        n = self.n
+        diagonal = np.arange(n) * (n + 1)
+        term_keys = [self._entry_keys(term) for term in fixed_terms]
+        everything = np.concatenate([diagonal, *term_keys])
+        keep = everything >= 0
+        keys, inverse = unique_keys(everything[keep], n)
+        position = np.full(len(everything), -1)
+        position[keep] = inverse.ravel()
+        bounds = np.cumsum([n] + [len(k) for k in term_keys])
+        slots = [position[start:stop] for start, stop in zip(bounds[:-1], bounds[1:],
+                                                               strict=True)]
+        return fixed_terms, keys, slots, position[:n]
+
+    def _build_scales(self, layout: bool = True) -> None:
+        """F_ref, L_ref, the residual weights and the round-off floor (below); ``layout``
+        False keeps :attr:`is_quaternion` (a model of the same layout)."""
         x0 = self.x0
         full = self.full(x0)
         load = 0.0
@@ -310,10 +446,11 @@ class Model:
         self.force_scale = load if load > 0 else fallback
         #: Length scale L_ref [m]: the longest rod.
         self.length_scale = max(r.length for r in rods)
-        is_quat = np.zeros(self.full_size, dtype=bool)
-        for rod in rods:
-            is_quat[rod.layout.quaternion_index] = True
-        self.is_quaternion = is_quat[self.free]
+        if layout:
+            is_quat = np.zeros(self.full_size, dtype=bool)
+            for rod in rods:
+                is_quat[rod.layout.quaternion_index] = True
+            self.is_quaternion = is_quat[self.free]
         #: Per-coordinate weights of :meth:`residual`: 1/F_ref, or 1/(F_ref L_ref) for
         #: quaternion coordinates.
         self.residual_weight = np.where(
@@ -324,7 +461,7 @@ class Model:
         # with a margin (32 eps) so that it is reliably attainable: residual noise measured at
         # converged states is 5–20× below it; Newton iterations asked to go lower only stall.
         magnitude = np.where(self.is_quaternion, 1.0, self.length_scale)
-        stiffness = np.abs(self.jacobian(x0).diagonal())
+        stiffness = np.abs(self.jacobian_data(x0)[self._diagonal_slots])
         #: |∂F_i/∂x_i| at rest, the stiffness of each coordinate on its own.
         self.rest_stiffness = stiffness
         #: Smallest scaled residual the model reliably reaches in double precision.

@@ -12,7 +12,7 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.sparse as sp
 
-__all__ = ["Pattern", "csc_pattern"]
+__all__ = ["Pattern", "csc_pattern", "pattern_of_keys"]
 
 
 @dataclass(frozen=True)
@@ -42,52 +42,63 @@ class Pattern:
         return len(self.rows)
 
 
-#: A banded pattern is built through a (size × band width) table of slots when that table
-#: is at most this many times the number of entries; otherwise by sorting (np.unique).
+#: Sorted unique keys of a banded set of entries are found through a (size × band width)
+#: table of slots when that table is at most this many times the number of entries;
+#: otherwise by sorting (np.unique).
 BAND_TABLE_RATIO = 4
 
 
 def csc_pattern(rows: np.ndarray, cols: np.ndarray, size: int) -> Pattern:
-    """The pattern of the entries (rows[k], cols[k]) of a ``size`` × ``size`` matrix.
+    """The pattern of the entries (rows[k], cols[k]) of a ``size`` × ``size`` matrix."""
+    keys, target = unique_keys(np.asarray(cols) * size + np.asarray(rows), size)
+    return pattern_of_keys(keys, target, size)
+
+
+def unique_keys(keys: np.ndarray, size: int) -> tuple[np.ndarray, np.ndarray]:
+    """(the sorted unique column-major keys ``col * size + row`` of ``keys``, each key's
+    position among them) — ``np.unique(keys, return_inverse=True)``.
 
     Where the entries lie in a band whose table (one slot per column and offset) is small
-    against the entries (:data:`BAND_TABLE_RATIO`), each entry's CSC slot is found by marking
-    and numbering that table — the same pattern and slots as sorting the entries, with two
-    entry-sized arrays instead of sorting's five or so (the model's assembly at N = 40 000
-    peaked at 794 MiB, mostly np.unique's temporaries; see docs/benchmarks.md)."""
-    rows, cols = np.asarray(rows), np.asarray(cols)
-    if len(rows):
+    against the entries (:data:`BAND_TABLE_RATIO`), the positions are found by marking and
+    numbering that table: the same answer with two entry-sized arrays instead of sorting's
+    five or so (the model's assembly at N = 40 000 peaked at 794 MiB, mostly np.unique's
+    temporaries; see docs/benchmarks.md)."""
+    keys = np.asarray(keys)
+    if len(keys):
+        rows, cols = keys % size, keys // size
         lower = max(int((rows - cols).max()), 0)
         upper = max(int((cols - rows).max()), 0)
         width = lower + upper + 1
-        if size * width <= BAND_TABLE_RATIO * len(rows):
-            return _banded(rows, cols, size, upper, width)
-    keys, target = np.unique(cols * size + rows, return_inverse=True)
+        if size * width <= BAND_TABLE_RATIO * len(keys):
+            return _banded_unique(rows, cols, size, upper, width)
+    unique, target = np.unique(keys, return_inverse=True)
+    return unique, target.ravel()
+
+
+def _banded_unique(rows: np.ndarray, cols: np.ndarray, size: int, upper: int,
+                   width: int) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`unique_keys` through the band table: slot (column c, row r) at
+    c × width + r − c + upper, which increases along CSC order (column, then row)."""
+    slot = cols * width
+    slot += rows
+    slot -= cols
+    slot += upper
+    table = np.zeros(size * width, dtype=np.int64)
+    table[slot] = 1
+    present = np.flatnonzero(table)
+    table[present] = np.arange(len(present))
+    target = table[slot]
+    del table, slot
+    columns = present // width
+    return columns * size + (present % width + columns - upper), target
+
+
+def pattern_of_keys(keys: np.ndarray, target: np.ndarray, size: int) -> Pattern:
+    """The pattern whose stored entries have the sorted unique column-major keys
+    ``col * size + row``; ``target`` as in :class:`Pattern`."""
     pattern_rows, pattern_cols = keys % size, keys // size  # column-major keys: CSC order
     indptr = np.searchsorted(pattern_cols, np.arange(size + 1))
     matrix = sp.csc_matrix((np.ones(len(keys)), pattern_rows, indptr), shape=(size, size))
-    offsets = pattern_rows - pattern_cols
-    band = (int(max(offsets.max(initial=0), 0)), int(max(-offsets.min(initial=0), 0)))
-    return Pattern(matrix, pattern_rows, pattern_cols, target.ravel(), band)
-
-
-def _banded(rows: np.ndarray, cols: np.ndarray, size: int, upper: int, width: int) -> Pattern:
-    """:func:`csc_pattern` through the band table: slot (column c, row r) at
-    c × width + r − c + upper, which increases along CSC order (column, then row)."""
-    key = cols * width
-    key += rows
-    key -= cols
-    key += upper
-    table = np.zeros(size * width, dtype=np.int64)
-    table[key] = 1
-    present = np.flatnonzero(table)
-    table[present] = np.arange(len(present))
-    target = table[key]
-    del table, key
-    pattern_cols = present // width
-    pattern_rows = present % width + pattern_cols - upper
-    indptr = np.searchsorted(pattern_cols, np.arange(size + 1))
-    matrix = sp.csc_matrix((np.ones(len(present)), pattern_rows, indptr), shape=(size, size))
     offsets = pattern_rows - pattern_cols
     band = (int(max(offsets.max(initial=0), 0)), int(max(-offsets.min(initial=0), 0)))
     return Pattern(matrix, pattern_rows, pattern_cols, target, band)

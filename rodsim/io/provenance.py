@@ -4,6 +4,7 @@ libraries. Recorded in every archive (docs/archive.md)."""
 
 from __future__ import annotations
 
+import functools
 import subprocess
 from collections.abc import Iterator
 from contextlib import contextmanager
@@ -17,11 +18,65 @@ from typing import Any
 _ROOT = Path(__file__).resolve().parents[2]
 
 
+def _git_folders(root: Path) -> tuple[Path, Path] | None:
+    """The git folder of the checkout at ``root`` and its common folder (they differ in a
+    linked worktree, whose ``.git`` is a file ``gitdir: …`` and whose folder names the
+    common one in ``commondir``)."""
+    dot = root / ".git"
+    if dot.is_dir():
+        return dot, dot
+    text = dot.read_text(encoding="utf-8").strip()
+    if not text.startswith("gitdir:"):
+        return None
+    folder = (root / text.removeprefix("gitdir:").strip()).resolve()
+    common = folder / "commondir"
+    if common.is_file():
+        return folder, (folder / common.read_text(encoding="utf-8").strip()).resolve()
+    return folder, folder
+
+
+def _read_head(root: Path) -> str | None:
+    """HEAD's commit read from the checkout's git files (a detached HEAD, a loose ref or a
+    packed one); None when they hold anything else (then ``git`` is asked)."""
+    try:
+        folders = _git_folders(root)
+        if folders is None:
+            return None
+        folder, common = folders
+        head = (folder / "HEAD").read_text(encoding="utf-8").strip()
+        if not head.startswith("ref:"):
+            return head if _is_commit(head) else None
+        ref = head.removeprefix("ref:").strip()
+        for base in (folder, common):
+            loose = base / ref
+            if loose.is_file():
+                value = loose.read_text(encoding="utf-8").strip()
+                return value if _is_commit(value) else None
+        packed = common / "packed-refs"
+        if packed.is_file():
+            for line in packed.read_text(encoding="utf-8").splitlines():
+                value, _, name = line.partition(" ")
+                if name.strip() == ref and _is_commit(value):
+                    return value
+    except (OSError, UnicodeDecodeError):
+        return None
+    return None
+
+
+def _is_commit(text: str) -> bool:
+    return len(text) in (40, 64) and all(c in "0123456789abcdef" for c in text)
+
+
+@functools.cache
 def git_commit() -> str | None:
-    """The git commit of the rodsim source, when it runs from a git checkout."""
+    """The git commit of the rodsim source, when it runs from a git checkout: read from the
+    git files (no subprocess), else from ``git rev-parse``; once per process."""
     root = _ROOT
     if not (root / ".git").exists():
         return None
+    head = _read_head(root)
+    if head is not None:
+        return head
     try:
         out = subprocess.run(["git", "-C", str(root), "rev-parse", "HEAD"], capture_output=True,
                              text=True, timeout=5, check=True)
@@ -34,9 +89,11 @@ def git_commit() -> str | None:
 SOURCE_PATHS = ("rodsim", "studies", "data", "pyproject.toml")
 
 
+@functools.cache
 def git_dirty() -> bool | None:
     """Whether the rodsim source (package, studies, scenes) has uncommitted changes —
-    modified, staged or untracked files — when it runs from a git checkout."""
+    modified, staged or untracked files — when it runs from a git checkout; asked of
+    ``git status`` once per process (a study's points share the answer)."""
     root = _ROOT
     if not (root / ".git").exists():
         return None

@@ -6,7 +6,9 @@ equilibria whose parameters differ a little. :class:`Continuation` keeps the las
 equilibrium — its state x and its model, which carries its tendon registration — and solves
 the next scene from it:
 
-- ``static``: the next model is :meth:`Model.with_scene` of the last (same free-coordinate
+- ``static``: the next model is :meth:`Model.with_values` of the last (only the terms whose
+  options changed are rebuilt; the assembly, pattern, scales' layout and kernels are
+  shared; any other change falls back to :meth:`Model.with_scene`: same free-coordinate
   order, same registration, the Jacobian pattern reused when the elements keep their
   coordinates), and from the last state or a given predictor — or, when a base support
   moves (insertion, rotation), the last state carried rigidly with it
@@ -115,7 +117,7 @@ class Continuation:
     def solve(self, scene: Scene, start: np.ndarray | None = None) -> StepOutcome:
         """The equilibrium of ``scene`` (same discretisation) from ``start`` (default: the
         last equilibrium); on success it becomes the last equilibrium."""
-        model = self.model.with_scene(scene)
+        model = self.model.with_values(scene)
         # A base that moves (insertion, rotation) carries the last equilibrium with it; that
         # rigid motion is exact where a chord predictor only linearises a rotation, so it
         # replaces the predictor.

@@ -5,7 +5,8 @@ Jacobian. J is factored once (band Cholesky of −J for a conservative model, ba
 otherwise, SuperLU for wide bands: :meth:`LinearSolver.factorized`) and solved for every
 parameter. ∂F/∂p is a central difference of F alone at the fixed state x — never of
 re-solved equilibria: the model of the scene with p ± h, with the same registration and the
-same order of the free coordinates (:meth:`Model.with_scene`), evaluated at x: the
+same order of the free coordinates (:meth:`Model.with_values`: only the terms whose options
+change are rebuilt, else :meth:`Model.with_scene`), evaluated at x: the
 fourth-order central difference (F at p ± h/2 and p ± h), or the third-order one-sided one
 for a parameter at the edge of its allowed range (F(x, p) is then the equilibrium's
 residual, ~0). Step: h = 1e-6 |p| (1e-6 in the parameter's unit at p = 0). F is linear in
@@ -115,7 +116,7 @@ def equilibrium_sensitivity(model: Model, x: np.ndarray, keys: Sequence[NumericK
             values = list(base_values)
             values[column] = point
             try:
-                perturbed = model.with_scene(scene_with(scene, keys, values))
+                perturbed = model.with_values(scene_with(scene, keys, values))
             except SceneError:
                 raise
             except ValueError as exc:

@@ -1,0 +1,179 @@
+"""What a user waits for around the solve (``rodsim bench startup``): whole-process CPU time
+of short commands, measured in one run as ratios.
+
+Commands (each a fresh process, median of the repeats; CPU = user + system time of the
+child, from ``resource.getrusage(RUSAGE_CHILDREN)``, so the machine's load from others
+counts less than in wall time):
+
+- ``import``: ``python -c "import numpy, scipy.sparse"``, the floor every command pays;
+- ``help``: ``rodsim --help``;
+- ``run``: ``rodsim run`` of the default scene into a temporary folder (the installed
+  command's process: rodsim/app/lean.py);
+- ``run, plain process``: the same ``rodsim run`` through ``main(argv)`` in a process that
+  exits normally and keeps dask visible to xarray — what every ``rodsim run`` cost before
+  the lean process (the help epilog aside).
+
+And the breakdown of one ``rodsim run`` into phases (a child process that does what the
+command does, step by step, reading its own CPU clock between steps; the exit is the
+child's total CPU minus its clock at the end), once as a plain process (dask visible,
+normal exit) and once as the lean one (dask hidden, early exit).
+
+Outputs ``startup-<size>.nc`` and ``startup-<size>.md`` (with the machine description).
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import resource
+import subprocess
+import sys
+import tempfile
+import textwrap
+from pathlib import Path
+
+import numpy as np
+import xarray as xr
+
+from rodsim.io.archive import write_dataset
+from rodsim_bench.machine import machine
+
+__all__ = ["run", "COMMANDS"]
+
+SIZES = {"small": {"repeats": 1}, "full": {"repeats": 5}}
+
+#: A plain process: main(argv) returns and the interpreter exits normally.
+_PLAIN = "import sys\nfrom rodsim.app.cli import main\nsys.exit(main(sys.argv[1:]))"
+
+#: label -> argv after the Python executable ({out}: the temporary folder).
+COMMANDS = {
+    "import": ["-c", "import numpy, scipy.sparse"],
+    "help": ["-m", "rodsim", "--help"],
+    "run": ["-m", "rodsim", "run", "-o", "{out}/run.nc"],
+    "run, plain process": ["-c", _PLAIN, "run", "-o", "{out}/plain.nc"],
+}
+
+#: The phases of one ``rodsim run``, each timed on the child's CPU clock.
+_PHASES = textwrap.dedent("""
+    import json, os, sys, time
+    clock = time.process_time
+    marks = []
+    def mark(name):
+        marks.append((name, clock()))
+    mark("interpreter start")
+    from rodsim.app.threads import pin_threads
+    pin_threads()
+    early = sys.argv[2] == "lean"
+    if early:
+        from rodsim.app.lean import hide_dask
+        hide_dask()
+    import numpy, scipy.sparse, scipy.sparse.linalg
+    mark("numpy + scipy.sparse/linalg import")
+    import numba
+    mark("numba import")
+    import sksundae
+    mark("scikit-sundae import")
+    import rodsim.app.api as api
+    import rodsim.solvers
+    rodsim.solvers.registered_integrators()
+    mark("rodsim modules and integrators")
+    scene = api.load_scene(None)
+    mark("scene load")
+    model = api.build_model(scene)
+    mark("Model(...) (kernels loaded, J at rest)")
+    result = api.solve(scene, model=model)
+    mark("solve")
+    import xarray, netCDF4
+    mark("xarray + netCDF4 import")
+    from rodsim.io.run_dataset import run_dataset
+    dataset = run_dataset(result)
+    mark("run_dataset (provenance)")
+    from rodsim.io.archive import write_dataset
+    write_dataset(dataset, sys.argv[1])
+    mark("netCDF write")
+    from rodsim.app.cli import _print_run_summary
+    saved = sys.stdout
+    sys.stdout = open(os.devnull, "w")
+    _print_run_summary(result, None)
+    sys.stdout.close()
+    sys.stdout = saved
+    mark("summary")
+    print(json.dumps(marks), flush=True)
+    if early:
+        os._exit(0)
+""")
+
+
+def _child_cpu(argv: list[str]) -> tuple[float, str]:
+    """CPU seconds (user + system) of one child process, and its stdout."""
+    before = resource.getrusage(resource.RUSAGE_CHILDREN)
+    env = dict(os.environ, OMP_NUM_THREADS="1", OPENBLAS_NUM_THREADS="1")
+    done = subprocess.run([sys.executable, *argv], capture_output=True, text=True, env=env,
+                          timeout=600, check=False)
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    if done.returncode != 0:
+        raise RuntimeError(f"{argv}: exit {done.returncode}: {done.stderr[-500:]}")
+    return (after.ru_utime - before.ru_utime + after.ru_stime - before.ru_stime,
+            done.stdout)
+
+
+def _phases(folder: str, exit_kind: str) -> dict[str, float]:
+    cpu, out = _child_cpu(["-c", _PHASES, f"{folder}/phases.nc", exit_kind])
+    marks = json.loads(out.splitlines()[-1])
+    phases = {name: t - marks[k - 1][1] for k, (name, t) in enumerate(marks) if k > 0}
+    phases = {"interpreter start": marks[0][1]} | phases
+    phases["interpreter exit"] = cpu - marks[-1][1]
+    phases["total"] = cpu
+    return phases
+
+
+def run(size: str, output_dir: str | Path, progress=None) -> list[Path]:
+    repeats = SIZES[size]["repeats"]
+    times: dict[str, list[float]] = {label: [] for label in COMMANDS}
+    phases: dict[str, list[dict[str, float]]] = {"plain": [], "lean": []}
+    with tempfile.TemporaryDirectory(prefix="rodsim-startup-") as folder:
+        for repeat in range(repeats):  # interleaved, so that a load change hits every row
+            for label, argv in COMMANDS.items():
+                if progress is not None:
+                    progress(repeat / repeats, f"startup: {label} ({repeat + 1}/{repeats})")
+                cpu, _ = _child_cpu([word.format(out=folder) for word in argv])
+                times[label].append(cpu)
+            for kind in phases:
+                phases[kind].append(_phases(folder, kind))
+    median = {label: float(np.median(values)) for label, values in times.items()}
+    names = list(phases["plain"][0])
+    phase_median = {kind: [float(np.median([p[name] for p in runs])) for name in names]
+                    for kind, runs in phases.items()}
+
+    ds = xr.Dataset(
+        {"cpu": (("command", "repeat"), np.array([times[c] for c in COMMANDS]),
+                 {"units": "s", "long_name": "whole-process CPU time (user + system)"}),
+         "cpu_median": ("command", [median[c] for c in COMMANDS],
+                        {"units": "s", "long_name": "median whole-process CPU time"}),
+         "phase_cpu": (("exit", "phase"),
+                       np.array([phase_median["plain"], phase_median["lean"]]),
+                       {"units": "s", "long_name": "median CPU time of each phase of a run"})},
+        coords={"command": ("command", list(COMMANDS), {"long_name": "command"}),
+                "repeat": ("repeat", np.arange(repeats), {"long_name": "repeat"}),
+                "exit": ("exit", ["plain", "lean"],
+                         {"long_name": "plain process (normal exit, dask visible) or lean "
+                          "(early exit, dask hidden)"}),
+                "phase": ("phase", names, {"long_name": "phase of one rodsim run"})})
+    ds.attrs = {"title": "rodsim: whole-process CPU time of short commands", "size": size,
+                "benchmark": "startup",
+                **{f"machine_{k}": v for k, v in machine().items()}}
+    output = Path(output_dir) / f"startup-{size}.nc"
+    write_dataset(ds, output)
+    floor = median["import"]
+    lines = [f"# Start-up: whole-process CPU ({size}, median of {repeats})", "",
+             "| command | CPU [s] | / import numpy, scipy.sparse |", "|---|--:|--:|"]
+    lines += [f"| {label} | {median[label]:.3f} | {median[label] / floor:.2f} |"
+              for label in COMMANDS]
+    lines += ["", "| phase of one `rodsim run` | plain process [s] | lean process [s] |",
+              "|---|--:|--:|"]
+    lines += [f"| {name} | {a:.3f} | {b:.3f} |" for name, a, b in
+              zip(names, phase_median["plain"], phase_median["lean"], strict=True)]
+    lines += ["", "Machine: " + ", ".join(f"{k} {v}" for k, v in machine().items())]
+    table = output.with_suffix(".md")
+    table.write_text("\n".join(lines) + "\n", encoding="utf-8")
+    return [output, table]

@@ -1,0 +1,70 @@
+"""A lean ``rodsim`` process: what the command line does for its own process only (never in
+a Python user's process, nor in the tests' process that calls :func:`rodsim.app.cli.main`).
+
+Two things cost a short command more than its work (docs/benchmarks.md, "Start-up"):
+
+* **dask, when it is installed.** xarray imports ``dask.array`` and ``distributed`` (0.5 s
+  of CPU) to learn whether the arrays of a Dataset it builds or writes are dask arrays. The
+  commands that never hand xarray a dask array nor run on dask (:data:`LEAN_COMMANDS`:
+  everything but ``study`` and ``bench``) mark dask as absent in their process before
+  anything imports it (:func:`hide_dask`).
+* **The interpreter's exit.** Once numba has loaded kernels, the normal exit tears down
+  LLVM and every module (0.4–0.6 s of CPU). :func:`fast_exit` ends the process with
+  ``os._exit`` instead, after flushing stdout and stderr, on the command's normal path
+  only: its archives are complete by then (written to a temporary file, closed, then
+  renamed: :mod:`rodsim.io.archive`), its figures closed. Anything unusual (a flush that
+  fails, another live thread, a child process still running) falls back to the normal
+  exit. ``study`` exits early too (:data:`EARLY_EXIT_COMMANDS`): its worker pool and dask
+  cluster are shut down before it returns; ``bench`` keeps the normal exit.
+"""
+
+from __future__ import annotations
+
+import os
+import sys
+from typing import NoReturn
+
+__all__ = ["LEAN_COMMANDS", "EARLY_EXIT_COMMANDS", "hide_dask", "fast_exit"]
+
+#: The commands that use neither dask nor worker processes: their process hides dask and
+#: ends with :func:`fast_exit`. ``study`` and ``bench`` start workers and clusters whose
+#: shutdown belongs to the normal exit.
+LEAN_COMMANDS = frozenset({"run", "rerun", "track", "fit", "reach", "plot", "scenes", "terms"})
+#: The commands whose process ends with :func:`fast_exit` once they return normally.
+EARLY_EXIT_COMMANDS = LEAN_COMMANDS | {"study"}
+
+
+def hide_dask() -> None:
+    """Make ``import dask`` fail in this process (``sys.modules["dask"] = None``, the
+    import system's documented way to mark a module absent) unless dask or xarray is
+    imported already (xarray remembers at import whether dask is there). xarray then
+    treats every array as in memory, as they are."""
+    if any(name in sys.modules for name in ("dask", "distributed", "xarray")):
+        return
+    for name in ("dask", "distributed"):
+        sys.modules[name] = None  # type: ignore[assignment]
+
+
+def fast_exit(code: int) -> NoReturn:
+    """End the process with exit status ``code`` without the interpreter's teardown, once
+    stdout and stderr are flushed; the normal exit (``SystemExit``) when a flush fails or
+    another non-daemon thread is alive (it would be killed mid-work) or a child process of
+    :mod:`multiprocessing` still runs (the normal exit joins it)."""
+    import threading
+
+    others: list[object] = [t for t in threading.enumerate()
+                            if t is not threading.main_thread() and not t.daemon
+                            and t.is_alive()]
+    if "multiprocessing" in sys.modules:
+        others += sys.modules["multiprocessing"].active_children()
+    try:
+        for stream in (sys.stdout, sys.stderr):
+            if stream is not None and not stream.closed:
+                stream.flush()
+        if "logging" in sys.modules:
+            sys.modules["logging"].shutdown()
+    except (OSError, ValueError):  # a closed pipe, a full disk: let the normal exit report
+        raise SystemExit(code) from None
+    if others:
+        raise SystemExit(code)
+    os._exit(code)

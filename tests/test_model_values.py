@@ -1,0 +1,82 @@
+"""Model.with_values (rodsim/core/model.py): a model whose scene differs only in term options
+rebuilds those terms alone and shares everything else — and gives the same numbers as the
+full re-assembly (Model.with_scene, itself checked against Model(scene) by the tracking
+tests): F, J, energy, the scales and the round-off floor, bit for bit; any other change
+falls back to the re-assembly. A track made with it reaches the same equilibria."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import rodsim
+from rodsim.app.inverse.parameter_keys import numeric_keys, scene_with
+from rodsim.core.model import Model
+
+TENDON_FORCE = "tendons.tendon.tendon_actuation.force"
+
+
+def _same_numbers(a: Model, b: Model, x: np.ndarray) -> None:
+    fa, ja = a.evaluate(x)
+    fb, jb = b.evaluate(x)
+    np.testing.assert_array_equal(fa, fb)
+    np.testing.assert_array_equal(ja, jb)
+    np.testing.assert_array_equal(a.pattern.indices, b.pattern.indices)
+    np.testing.assert_array_equal(a.pattern.indptr, b.pattern.indptr)
+    assert a.force_scale == b.force_scale
+    assert a.residual_floor == b.residual_floor
+    np.testing.assert_array_equal(a.residual_weight, b.residual_weight)
+    np.testing.assert_array_equal(a.rest_stiffness, b.rest_stiffness)
+    if a.conservative:
+        assert a.energy(x) == b.energy(x)
+
+
+@pytest.mark.parametrize("scene_name, key, value", [
+    ("table3-catheter1", TENDON_FORCE, 2.5),
+    ("table1-50g", "tip_load.mass", 0.08),
+    ("tendon-conserving", "tendon_actuation.force", 1.5),
+])
+def test_a_changed_term_option_gives_the_numbers_of_a_full_reassembly(scene_name, key, value):
+    scene = rodsim.load_scene(scene_name)
+    model = Model(scene)
+    x = model.x0 + 1e-4 * np.random.default_rng(1).standard_normal(model.n)
+    moved = model.reregistered(x)  # a registration other than the rest one, if any
+    model = moved or model
+    model.evaluate(x)  # its kernels loaded, as in a track
+    keys = numeric_keys(scene, [key])
+    other = scene_with(scene, keys, [value])
+    fast = model.with_values(other)
+    assert fast.pattern is model.pattern  # shared, not rebuilt
+    assert fast.scene is other
+    changed = [k for k, (a, b) in enumerate(zip(fast.terms, model.terms, strict=True))
+               if a is not b]
+    assert len(changed) == 1  # only the term that owns the value
+    _same_numbers(fast, model.with_scene(other), x)
+    # and the force really changed with the value (the test can see a stale term)
+    assert not np.array_equal(fast.force(x), model.force(x))
+
+
+def test_an_unchanged_scene_shares_the_model_and_other_changes_fall_back():
+    scene = rodsim.load_scene("table1-50g")
+    model = Model(scene)
+    same = model.with_values(rodsim.load_scene("table1-50g"))
+    assert same.terms == model.terms and same.pattern is model.pattern
+    x = model.x0 + 1e-4
+    # a rod's own value (the modulus): every term of the rod changes, the full path
+    stiffer = scene.with_overrides(["youngs_modulus=2e9"])
+    _same_numbers(model.with_values(stiffer), model.with_scene(stiffer), x)
+    # a layout change is refused as by with_scene
+    with pytest.raises(ValueError, match="layout"):
+        model.with_values(scene.with_overrides(["nodes=12"]))
+
+
+def test_a_track_with_shared_models_reaches_the_same_equilibria(monkeypatch):
+    scene = rodsim.load_scene("table3-catheter1")
+    ramp = {TENDON_FORCE: np.linspace(0.0, 4.0, 41)}
+    fast = rodsim.track(scene, ramp)
+    monkeypatch.setattr(Model, "with_values", Model.with_scene)
+    full = rodsim.track(scene, ramp)
+    assert fast.success and full.success
+    np.testing.assert_allclose(np.array(fast.states), np.array(full.states), rtol=0,
+                               atol=1e-14)
+    assert fast.iterations == full.iterations
