@@ -198,3 +198,50 @@ def test_family_converges_agrees_and_bends_toward_its_pull():
         errors.append(estimate.error)
         assert estimate.error <= 1e-4, (robot["name"], estimate.error)
     assert len(failures) <= 1, failures
+
+
+# --- the default tendon's rules and the compression check through the CLI ------------------
+
+def test_a_rod_tendon_setting_without_a_coupling_is_one_line(tmp_path, capsys):
+    """A lumen table under a tendon that asks for no coupling: exit 2, one line naming the
+    key and the way to keep a rod tendon."""
+    from rodsim.app.cli import main
+
+    scene = tmp_path / "rod-only.toml"
+    scene.write_text(USER_SCENE.read_text() + "\n[tendons.tendon_y.lumen]\nK_L = 1e5\n")
+    assert main(["run", str(scene), "-o", str(tmp_path / "x.nc")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1
+    assert "tendons.tendon_y.lumen" in err and 'coupling = "conserving"' in err.replace("'", '"')
+
+
+def test_a_shorter_tendon_rod_sets_where_the_string_ends():
+    """The rod table of a default tendon only sets its termination: a 0.15 m tendon rod on
+    the 0.25 m catheter ends the string at 0.15 m, and the result is the scene written with
+    tendon_string.end = 0.15 directly."""
+    text = USER_SCENE.read_text()
+    short = _toml(text)
+    short["rods"]["tendon_y"]["length"] = 0.15
+    direct = _toml(text)
+    del direct["rods"]["tendon_y"]
+    direct["tendons"]["tendon_y"]["tendon_string"] = {"end": 0.15}
+    a = rodsim.load_scene(short)
+    assert a.term_options("tendons", "tendon_y", "tendon_string").end == 0.15
+    assert a.term_options("tendons", "tendon_z", "tendon_string").end == 0.0  # the tip
+    assert a.data == rodsim.load_scene(direct).data
+
+
+def test_require_physical_fails_on_a_compressed_tendon(tmp_path, capsys):
+    from rodsim.app.cli import main
+
+    scene = tmp_path / "paper.toml"
+    scene.write_text(USER_SCENE.read_text().replace(
+        'offset = 0.0035\n', 'offset = 0.0035\ncoupling = "paper"\n'))
+    code = main(["run", str(scene), "--integrator", "static", "-o", str(tmp_path / "p.nc"),
+                 "--require-physical"])
+    captured = capsys.readouterr()
+    assert code == 1
+    assert "tendon tendon_y is in compression" in captured.out
+    assert "--require-physical" in captured.err
+    assert main(["run", str(USER_SCENE), "--integrator", "static", "-o",
+                 str(tmp_path / "u.nc"), "--require-physical"]) == 0
