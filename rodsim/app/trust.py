@@ -105,6 +105,9 @@ def penalty_error(result: Result, factor: float = 10.0) -> PenaltyError:
     data, count = stiffer_scene(result.scene, factor)
     if count == 0:
         return PenaltyError(0.0, 0.0, factor, length, 0)
+    # its own budget: never more than the scene's, nor above twice the run (10 s at least)
+    data["solver"]["max_wall_time"] = min(float(result.scene.solver.max_wall_time),
+                                          max(10.0, 2.0 * result.stats.get("wall_time", 0.0)))
     stiffer = solve(data, "static", initial_state=result.state)
     if not stiffer.success:
         return PenaltyError(float("nan"), float("nan"), factor, length, count)
