@@ -24,6 +24,7 @@ import numpy as np
 import pytest
 
 import rodsim
+import rodsim.core.schema
 from rodsim.app.trust import TRUST_WARNING, penalty_error, stiffer_scene, tendon_compression
 
 USER_SCENE = Path(__file__).parent / "data" / "user-two-tendon.toml"
@@ -213,6 +214,14 @@ def test_a_rod_tendon_setting_without_a_coupling_is_one_line(tmp_path, capsys):
     err = capsys.readouterr().err.strip()
     assert len(err.splitlines()) == 1
     assert "tendons.tendon_y.lumen" in err and 'coupling = "conserving"' in err.replace("'", '"')
+
+
+def test_a_default_tendon_force_out_of_range_names_the_key_the_user_wrote():
+    data = _toml(USER_SCENE.read_text())
+    data["tendons"]["tendon_y"]["tendon_actuation"]["force"] = 3e6
+    with pytest.raises(rodsim.core.schema.SceneError,
+                       match=r"^tendons\.tendon_y\.tendon_actuation\.force = 3000000\.0: "):
+        rodsim.load_scene(data)
 
 
 def test_a_shorter_tendon_rod_sets_where_the_string_ends():

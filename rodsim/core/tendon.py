@@ -46,6 +46,9 @@ TENDON_TERMS = ["lumen", "endpoint_compliance", "endpoint_coupling", "tendon_act
 #: The coupling term of a ``string`` tendon (its default ``terms``).
 STRING_TERMS = ["tendon_string"]
 
+#: Largest tension a string tendon takes [N] (tendon_string.tension's range).
+MAX_TENSION = 1e6
+
 #: Sub-tables that only a tendon rod's couplings ('paper', 'conserving') read.
 ROD_COUPLING_TABLES = ("lumen", "endpoint_compliance", "endpoint_coupling")
 
@@ -119,7 +122,13 @@ def physical_default(rods: Mapping[str, Any], tendons: Mapping[str, Any]
             if "tension" in string:
                 raise SceneError(f"{prefix}.tendon_actuation.force and {prefix}.tendon_string"
                                  ".tension both set the string's tension; allowed: one of them")
-            string["tension"] = actuation["force"]
+            force = actuation["force"]
+            if (isinstance(force, (int, float)) and not isinstance(force, bool)
+                    and not 0.0 <= force <= MAX_TENSION):
+                raise SceneError(f"{prefix}.tendon_actuation.force = {force!r}: out of range "
+                                 f"for the string's tension; allowed: a number >= 0 and <= "
+                                 f"{MAX_TENSION:g} [N]")
+            string["tension"] = force
         rod = rods_out.pop(name, None) if name in rods_out else None
         catheter = rods.get(table.get("catheter", "catheter"))
         if (isinstance(rod, Mapping) and isinstance(catheter, Mapping)
