@@ -70,6 +70,8 @@ def table(parameters: tuple[Parameter, ...], term_names: list[str] = (),
     for p in parameters:
         doc = p.doc.replace("|", "\\|")
         default = "the rod's" if p.name in inherited else toml_value(p.default)
+        if p.name == "stretch_modulus" and not inherited:  # rodsim/core/scene.py fills it
+            default = "`youngs_modulus`"
         lines.append(f"| `{p.name}` | {default} | {p.unit} "
                      f"| {allowed(p, list(term_names))} | {doc} |")
         for item in p.items or ():  # the keys of each table of a list of tables

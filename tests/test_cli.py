@@ -117,7 +117,7 @@ def test_run_help_shows_units_and_defaults(capsys, cli):
         assert unit in out, unit
     assert re.search(r"length = required \[m\]", out)
     assert re.search(r"youngs_modulus = required \[Pa\]", out)
-    assert re.search(r"K_P = 10000(\.0)? \[N\]", out)
+    assert re.search(r"K_P_relative = 100(\.0)?:", out)
     assert re.search(r"tolerance = 1e-09", out)
     assert re.search(r"h = 0\.3 \[s\]", out)
     assert "--integrator" in out and "--set" in out

@@ -209,6 +209,7 @@ def cmd_run(args: argparse.Namespace) -> int:
     _check_integrator(args.integrator)
     from rodsim.app.api import solve
     from rodsim.app.progress import ProgressPrinter
+    from rodsim.app.trust import compression_text, penalty_error, tendon_compression
     from rodsim.core.scene import SceneError
     from rodsim.io.archive import ArchiveError, write_dataset
     from rodsim.io.output import OutputError, check_target
@@ -231,13 +232,22 @@ def cmd_run(args: argparse.Namespace) -> int:
     if not result.success:
         print(f"rodsim: solver failure: {result.message}", file=sys.stderr)
         return EXIT_SOLVER_FAILURE
+    estimate = penalty_error(result)
+    result.penalty_error = estimate.error
+    result.tendon_compression = tendon_compression(result)
     try:
         write_dataset(run_dataset(result), output, note=warn)
     except ArchiveError as exc:
         raise UserError(str(exc)) from None
     _print_run_summary(result, output)
+    print(estimate.text())
+    if result.tendon_compression:
+        print(compression_text(result.tendon_compression))
     if args.require_stable and not result.stability.stable:
         print("rodsim: the equilibrium is unstable (--require-stable)", file=sys.stderr)
+        return EXIT_SOLVER_FAILURE
+    if args.require_physical and result.tendon_compression:
+        print("rodsim: a tendon is in compression (--require-physical)", file=sys.stderr)
         return EXIT_SOLVER_FAILURE
     return EXIT_OK
 
@@ -738,6 +748,9 @@ def build_parser() -> argparse.ArgumentParser:
     run.add_argument("--require-stable", action="store_true",
                      help="exit 1 when the equilibrium found is unstable (its stiffness is "
                      "not positive definite; the archive is still written)")
+    run.add_argument("--require-physical", action="store_true",
+                     help="exit 1 when a rod tendon carries compression (a tendon cannot "
+                     "push; the archive is still written)")
     run.set_defaults(func=cmd_run)
 
     again = sub.add_parser("rerun", help="re-run an archive and compare with what it stores",

@@ -47,7 +47,13 @@ from rodsim.core.rod.sections import resolve_sections
 from rodsim.core.scene_file import parse_toml, read_scene_text
 from rodsim.core.schema import Parameter, SceneError, options_type, shown, validate_table
 from rodsim.core.supports import BASE_PARAMETERS, BaseOptions, resolve_base, resolve_supports
-from rodsim.core.tendon import STRING_TERMS, TENDON_PARAMETERS, TendonOptions, check_tendon
+from rodsim.core.tendon import (
+    STRING_TERMS,
+    TENDON_PARAMETERS,
+    TendonOptions,
+    check_tendon,
+    physical_default,
+)
 
 __all__ = ["Scene", "SceneError", "SOLVER_PARAMETERS", "SolverSettings", "default_scene_path",
            "scene_paths"]
@@ -285,7 +291,9 @@ def resolve(raw: Mapping[str, Any]) -> dict[str, Any]:
     description = raw.get("description", "")
     if not isinstance(description, str):
         raise SceneError(f"description = {shown(description)}: must be a string")
-    rods_raw = raw.get("rods")
+    rods_raw, tendons_raw = raw.get("rods"), raw.get("tendons", {})
+    if tendons_raw:  # a tendon without a coupling is a string (docs/tendon.md)
+        rods_raw, tendons_raw = physical_default(rods_raw, tendons_raw)
     if not isinstance(rods_raw, Mapping) or not rods_raw:
         raise SceneError("rods: a scene needs at least one [rods.<name>] table")
     for rod in rods_raw:
@@ -296,12 +304,14 @@ def resolve(raw: Mapping[str, Any]) -> dict[str, Any]:
     for rod, table in rods_raw.items():
         given = isinstance(table, Mapping) and "sections" in table
         own = {k: v for k, v in table.items() if k != "sections"} if given else table
+        if (isinstance(own, Mapping) and "youngs_modulus" in own
+                and "stretch_modulus" not in own):  # E_s = E_b, an ideal material
+            own = {**own, "stretch_modulus": own["youngs_modulus"]}
         rods[rod] = _resolve_with_terms(own, ROD_PARAMETERS, rod_terms, terms, f"rods.{rod}",
                                         extra_tables=("base", "supports"))
         if given:  # only then: a uniform rod's resolved table is unchanged
             rods[rod]["sections"] = resolve_sections(table["sections"], rods[rod],
                                                      f"rods.{rod}")
-    tendons_raw = raw.get("tendons", {})
     if not isinstance(tendons_raw, Mapping):
         raise SceneError("tendons: expected tables [tendons.<tendon rod name>]")
     tendons = {}

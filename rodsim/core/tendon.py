@@ -36,14 +36,21 @@ from rodsim.core.routing import check_routing
 from rodsim.core.schema import Parameter, SceneError, options_type, shown
 from rodsim.core.supports import Support
 
-__all__ = ["STRING_TERMS", "TENDON_PARAMETERS", "TENDON_TERMS", "LumenFrame", "Tendon",
-           "TendonOptions", "check_tendon", "tendon_origin", "tendon_support"]
+__all__ = ["ROD_COUPLING_TABLES", "STRING_TERMS", "TENDON_PARAMETERS", "TENDON_TERMS",
+           "LumenFrame", "Tendon", "TendonOptions", "check_tendon", "physical_default",
+           "tendon_origin", "tendon_support"]
 
 #: Coupling terms a tendon uses unless its table lists others.
 TENDON_TERMS = ["lumen", "endpoint_compliance", "endpoint_coupling", "tendon_actuation"]
 
 #: The coupling term of a ``string`` tendon (its default ``terms``).
 STRING_TERMS = ["tendon_string"]
+
+#: Largest tension a string tendon takes [N] (tendon_string.tension's range).
+MAX_TENSION = 1e6
+
+#: Sub-tables that only a tendon rod's couplings ('paper', 'conserving') read.
+ROD_COUPLING_TABLES = ("lumen", "endpoint_compliance", "endpoint_coupling")
 
 TENDON_PARAMETERS: tuple[Parameter, ...] = (
     Parameter("catheter", "str", "catheter", "-", "name of the rod whose lumen holds the tendon"),
@@ -54,10 +61,12 @@ TENDON_PARAMETERS: tuple[Parameter, ...] = (
     Parameter("direction", "vector", [1.0, 0.0], "-",
               "(α, β) of the lumen direction d_t = α d1 + β d2 (Eq. 32); normalised; "
               "(1, 0) is d1 = +y at rest", length=2),
-    Parameter("coupling", "str", "paper", "-",
-              "'paper' (Eq. 28 without reaction, averaged lumen reactions), 'conserving' "
-              "(every penalty force has its reaction) or 'string' (no tendon rod: the "
-              "tension times the path's length, term tendon_string)",
+    Parameter("coupling", "str", "string", "-",
+              "'string' (the default, a physical frictionless tendon: no tendon rod, the "
+              "tension times the path's length, term tendon_string; a rod table of the "
+              "tendon's name only sets where it ends, and tendon_actuation.force is its "
+              "tension), 'conserving' (a tendon rod, every penalty force has its reaction) "
+              "or 'paper' (Eq. 28 without reaction, averaged lumen reactions)",
               choices=("paper", "conserving", "string")),
     Parameter("terms", "list", TENDON_TERMS, "-",
               "coupling terms of this tendon (default for coupling = 'string': "
@@ -68,6 +77,71 @@ TENDON_PARAMETERS: tuple[Parameter, ...] = (
 #: per-term sub-tables are the coupling terms' own options.
 TendonOptions = options_type("TendonOptions", TENDON_PARAMETERS,
                              "A validated tendon table's own values ([tendons.<rod>]).")
+
+
+def physical_default(rods: Mapping[str, Any], tendons: Mapping[str, Any]
+                     ) -> tuple[dict[str, Any], dict[str, Any]]:
+    """The raw ``rods`` and ``tendons`` tables with every tendon that does not ask for a
+    coupling made the physical one, a frictionless ``string`` (docs/tendon.md, "The default
+    tendon").
+
+    A tendon table without ``coupling`` becomes ``coupling = 'string'``: its
+    ``tendon_actuation.force`` (if given) is the string's ``tendon_string.tension``, and a rod
+    table of the tendon's name (how a rod tendon is written) is not simulated: it only sets
+    where the tendon ends (``tendon_string.end`` = the rod's length when that is shorter than
+    its catheter). A table that also sets what only a rod tendon reads (``terms``, ``lumen``,
+    ``endpoint_compliance``, ``endpoint_coupling``, ``tendon_actuation.point``) is refused
+    with the line that keeps a rod tendon: ``coupling = 'conserving'`` (or ``'paper'``).
+    Tables that are not mappings pass through for the validation to report.
+    """
+    if not isinstance(rods, Mapping) or not isinstance(tendons, Mapping):
+        return dict(rods) if isinstance(rods, Mapping) else rods, tendons
+    rods_out, tendons_out = dict(rods), {}
+    for name, table in tendons.items():
+        if not isinstance(table, Mapping) or "coupling" in table:
+            tendons_out[name] = table
+            continue
+        prefix = f"tendons.{shown(name, bare=True)}"
+        actuation = table.get("tendon_actuation", {})
+        rod_only = [key for key in ROD_COUPLING_TABLES if key in table]
+        if "terms" in table and table["terms"] != STRING_TERMS:
+            rod_only.insert(0, "terms")
+        if isinstance(actuation, Mapping):
+            rod_only += [f"tendon_actuation.{key}" for key in actuation if key != "force"]
+        if rod_only:
+            raise SceneError(f"{prefix}.{rod_only[0]}: a tendon without a coupling is a "
+                             "frictionless string (no tendon rod, no penalty), which has no "
+                             f"such setting; to keep a rod tendon set {prefix}.coupling = "
+                             "'conserving' (or 'paper', the paper's model)")
+        string = table.get("tendon_string", {})
+        if not isinstance(string, Mapping):
+            tendons_out[name] = {**table, "coupling": "string"}
+            continue
+        string = dict(string)
+        if isinstance(actuation, Mapping) and "force" in actuation:
+            if "tension" in string:
+                raise SceneError(f"{prefix}.tendon_actuation.force and {prefix}.tendon_string"
+                                 ".tension both set the string's tension; allowed: one of them")
+            force = actuation["force"]
+            if (isinstance(force, (int, float)) and not isinstance(force, bool)
+                    and not 0.0 <= force <= MAX_TENSION):
+                raise SceneError(f"{prefix}.tendon_actuation.force = {force!r}: out of range "
+                                 f"for the string's tension; allowed: a number >= 0 and <= "
+                                 f"{MAX_TENSION:g} [N]")
+            string["tension"] = force
+        rod = rods_out.pop(name, None) if name in rods_out else None
+        catheter = rods.get(table.get("catheter", "catheter"))
+        if (isinstance(rod, Mapping) and isinstance(catheter, Mapping)
+                and "end" not in string):
+            length, host = rod.get("length"), catheter.get("length")
+            if (isinstance(length, (int, float)) and isinstance(host, (int, float))
+                    and 0 < length < host):
+                string["end"] = float(length)
+        out = {k: v for k, v in table.items() if k != "tendon_actuation"}
+        out["coupling"] = "string"
+        out["tendon_string"] = string
+        tendons_out[name] = out
+    return rods_out, tendons_out
 
 
 def _unit_direction(direction: list[float]) -> tuple[float, float]:

@@ -121,6 +121,10 @@ def _attributes(result: Result) -> dict[str, Any]:
     if result.stability is not None:
         attrs["stable"] = int(result.stability.stable)
         attrs["stiffness_min_eigenvalue"] = float(result.stability.min_eigenvalue)
+    if result.penalty_error is not None:
+        attrs["penalty_error"] = float(result.penalty_error)
+    if result.tendon_compression:
+        attrs["tendon_compression"] = json.dumps(result.tendon_compression, sort_keys=True)
     for key, value in result.stats.items():
         attrs[f"stats_{key}"] = float(value)
     return attrs

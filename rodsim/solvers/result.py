@@ -77,6 +77,11 @@ class Result:
     #: Stability verdict of a successful run's equilibrium (rodsim/core/stability.py); None for
     #: a failed run.
     stability: Stability | None = None
+    #: A-posteriori penalty-error estimate in units of L (rodsim/app/trust.py), when made.
+    penalty_error: float | None = None
+    #: Rod tendons found in compression: the most compressive axial force [N] of each
+    #: (rodsim/app/trust.py), when checked.
+    tendon_compression: dict[str, float] = field(default_factory=dict)
 
     @classmethod
     def from_model(cls, model: Model, x: np.ndarray, *, integrator: str,

@@ -280,6 +280,7 @@ def scene_reference(scene, s: np.ndarray | None = None, shear: bool = True,
     from rodsim.core.model import Model
     from rodsim.core.routing import Routing, string_span
     from rodsim.core.terms.bend_twist import stiffness_tensor
+    from rodsim.core.terms.centerline import penalty_constant
 
     model = Model(scene)
     catheters = {options.catheter for options in scene.tendons.values()}
@@ -293,7 +294,7 @@ def scene_reference(scene, s: np.ndarray | None = None, shear: bool = True,
     if "gravity" in terms or not {"stretch", "bend_twist", "centerline"} <= set(terms):
         raise ValueError("the reference needs stretch, bend_twist and centerline, no gravity")
     bend = scene.term_options("rods", name, "bend_twist")
-    k_p = scene.term_options("rods", name, "centerline").K_P
+    k_p = penalty_constant(scene.term_options("rods", name, "centerline"), rod)
     shear_stiffness = float(k_p) if shear else math.inf
     profile = rod.profile
     if profile is None:

@@ -23,8 +23,9 @@ ROD_PARAMETERS: tuple[Parameter, ...] = (
               1e-9, 1.0),
     Parameter("youngs_modulus", "float", None, "Pa", "Young's modulus of bending E_b", 1e-3,
               1e13),
-    Parameter("stretch_modulus", "float", None, "Pa", "Young's modulus of stretching E_s",
-              1e-3, 1e13),
+    Parameter("stretch_modulus", "float", None, "Pa",
+              "Young's modulus of stretching E_s (if omitted: youngs_modulus, as in an ideal "
+              "material)", 1e-3, 1e13),
     Parameter("poisson_ratio", "float", 0.5, "-",
               "Poisson ratio ν; shear modulus G = E_b / (2(1 + ν)) sets the twist stiffness",
               -0.99, 0.5),

@@ -57,7 +57,7 @@ import numpy as np
 from rodsim.core.rod.quaternion import DIRECTOR_FORMS
 from rodsim.core.routing import ROUTINGS, Routing, string_span
 from rodsim.core.schema import Parameter
-from rodsim.core.tendon import Tendon
+from rodsim.core.tendon import MAX_TENSION, Tendon
 from rodsim.core.terms.base import TendonTerm
 
 #: Local coordinates of one routing point: r_m, r_{m+1}, the two knot quaternions.
@@ -132,7 +132,7 @@ class TendonString(TendonTerm):
     is_load = True
     parameters = (
         Parameter("tension", "float", 1.0, "N", "tendon tension T, applied at its entry",
-                  0.0, 1e6),
+                  0.0, MAX_TENSION),
         Parameter("start", "float", 0.0, "m",
                   "arc length of the tendon's entry (0: the catheter's base)", 0.0, 100.0),
         Parameter("end", "float", 0.0, "m",
