@@ -26,7 +26,7 @@ import numpy as np
 
 from rodsim.core.rod.rod import Rod
 from rodsim.core.schema import SceneError, shown
-from rodsim.core.supports import Support, node_at
+from rodsim.core.supports import Support, node_at, node_exactly_at
 
 __all__ = ["Anchor", "check_joints", "check_tendon_termination", "joined_support",
            "joint_depth", "node_at", "scene_joints", "tendon_termination"]
@@ -135,14 +135,7 @@ def check_joints(rods: Mapping[str, Mapping[str, Any]], tendons: Collection[str]
                              "allowed: insertion = rotation = 0")
         length, nodes = float(rods[other]["length"]), int(rods[other]["nodes"])
         s = float(joint["s"])
-        if s > length * (1 + 1e-12):
-            raise SceneError(f"{prefix}.s = {s!r}: beyond rod {other!r} (length "
-                             f"{length!r} m); allowed: 0 <= s <= {length!r}")
-        node = node_at(nodes, length, s)
-        if abs(s - node * length / (nodes - 1)) > 1e-9 * length:
-            raise SceneError(f"{prefix}.s = {s!r}: between two nodes of rod {other!r}; "
-                             f"allowed: a node's arclength k L/(N − 1), e.g. "
-                             f"{node * length / (nodes - 1)!r}")
+        node_exactly_at(nodes, length, s, f"{prefix}.s", f"rod {other!r}")
         seen, rod = {name}, other
         while rod in joined:
             if rod in seen:

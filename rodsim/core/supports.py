@@ -161,6 +161,19 @@ def node_at(nodes: int, length: float, s: float) -> int:
     return int(round(s / length * (nodes - 1)))
 
 
+def node_exactly_at(nodes: int, length: float, s: float, key: str, rod: str = "the rod") -> int:
+    """The node at arclength ``s`` of a rod of ``nodes`` nodes and ``length``; SceneError
+    (naming ``key`` and ``rod``) when ``s`` is beyond the rod or between two nodes."""
+    if s > length * (1 + 1e-12):
+        raise SceneError(f"{key} = {s!r}: beyond {rod} (length {length!r} m); allowed: "
+                         f"s <= {length!r}")
+    node = node_at(nodes, length, s)
+    if abs(s - node * length / (nodes - 1)) > 1e-9 * length:
+        raise SceneError(f"{key} = {s!r}: between two nodes of {rod}; allowed: a node's "
+                         f"arclength k L/(N − 1), e.g. {node * length / (nodes - 1)!r}")
+    return node
+
+
 def node_supports(nodes: int, length: float, rest: np.ndarray,
                   supports: Mapping[str, Mapping[str, Any]]) -> tuple[Support, ...]:
     """The position supports of a rod's ``[rods.<rod>.supports.<name>]`` tables (validated)
@@ -197,13 +210,7 @@ def resolve_supports(rod: str, table: Mapping[str, Any], is_tendon: bool
             raise SceneError(f"{key}: a support on a tendon rod{where}; a tendon is held by "
                              "its lumen and its termination; allowed: supports on backbone "
                              "rods")
-        if s > length * (1 + 1e-12):
-            raise SceneError(f"{key}.s = {s!r}: beyond the rod (length {length!r} m); "
-                             f"allowed: 0 < s <= {length!r}")
-        node = node_at(nodes, length, s)
-        if abs(s - node * length / (nodes - 1)) > 1e-9 * length:
-            raise SceneError(f"{key}.s = {s!r}: between two nodes; allowed: a node's "
-                             f"arclength k L/(N − 1), e.g. {node * length / (nodes - 1)!r}")
+        node = node_exactly_at(nodes, length, s, f"{key}.s")
         if node == 0:
             raise SceneError(f"{key}.s = {s!r}: the base support holds s = 0; allowed: "
                              f"s > 0 (the base: rods.{rod}.clamp and [rods.{rod}.base])")

@@ -245,11 +245,13 @@ class Integrator(ABC):
 
     def newton_equilibrium(self, x: np.ndarray, load: float, max_iterations: int,
                            where: str, polish: bool = True,
-                           retract: bool = False) -> tuple[bool, np.ndarray, int]:
+                           retraction: str | None = None) -> tuple[bool, np.ndarray, int]:
         """Newton on F(x) = 0 at a fixed load fraction from ``x`` (analytic Jacobian, energy
         line search when the model is conservative); returns (converged, x, iterations), which
         the caller counts. ``polish``: see :func:`rodsim.solvers.newton.newton`;
-        ``retract``: steps through :meth:`Model.step` instead of x + Δx."""
+        ``retraction``: how a step moves the rods — ``None``: x + Δx; ``"lengths"``:
+        :meth:`Model.step` (segment lengths kept); ``"frames"``: :meth:`Model.turned_step`
+        (segments turned as rigid frames)."""
         from rodsim.solvers.newton import NewtonProblem, newton
 
         model = self.model
@@ -260,7 +262,8 @@ class Integrator(ABC):
             residual=model.residual,
             weight=model.residual_weight,
             potential=(lambda y: model.energy(y, load)) if model.conservative else None,
-            step=model.step if retract else None,
+            step={None: None, "lengths": model.step,
+                  "frames": model.turned_step}[retraction],
         )
         outcome = newton(problem, x, self.tolerance, max_iterations, polish=polish,
                          check=self.iteration_check(where))

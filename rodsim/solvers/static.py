@@ -223,34 +223,11 @@ class Static(Integrator):
     def _newton(self, x: np.ndarray, load: float,
                 polish: bool = True) -> tuple[bool, np.ndarray, int]:
         """Newton iterations at a fixed load (polished past the tolerance when ``polish``:
-        intermediate steps need not be), through the retraction :meth:`Model.step`, counted;
+        intermediate steps need not be), through the retraction the options name, counted;
         returns (converged, x, iterations)."""
-        if self.options.retraction == "frames":
-            converged, x, iterations = self._turned_newton(x, load, polish)
-        else:
-            converged, x, iterations = self.newton_equilibrium(
-                x, load, self.options.max_newton, f"load fraction {load:.4g}", polish,
-                retract=True)
+        converged, x, iterations = self.newton_equilibrium(
+            x, load, self.options.max_newton, f"load fraction {load:.4g}", polish,
+            retraction=self.options.retraction)
         self.counts["newton_iters"] += iterations
         self.counts["linear_solves"] += iterations
         return converged, x, iterations
-
-    def _turned_newton(self, x: np.ndarray, load: float,
-                       polish: bool) -> tuple[bool, np.ndarray, int]:
-        """:meth:`newton_equilibrium` through :meth:`Model.turned_step` (``retraction =
-        "frames"``)."""
-        from rodsim.solvers.newton import NewtonProblem, newton
-
-        model = self.model
-        problem = NewtonProblem(
-            force=lambda y: self.force(y, load),
-            jacobian=lambda y: self.jacobian_data(y, load),
-            linear=self.newton_linear_solver(),
-            residual=model.residual,
-            weight=model.residual_weight,
-            potential=(lambda y: model.energy(y, load)) if model.conservative else None,
-            step=model.turned_step,
-        )
-        outcome = newton(problem, x, self.tolerance, self.options.max_newton, polish=polish,
-                         check=self.iteration_check(f"load fraction {load:.4g}"))
-        return outcome.converged, outcome.x, outcome.iterations

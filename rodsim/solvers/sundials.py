@@ -243,7 +243,7 @@ class SundialsIntegrator(Integrator):
             return False, state, iterations
         converged, state, more = self.newton_equilibrium(
             state, 1.0, self.options.newton_iterations, "the Newton finish",
-            retract=True)
+            retraction="lengths")
         return converged, state, iterations + more
 
     def at_lowered_penalties(self, x: np.ndarray) -> tuple[bool, np.ndarray, int]:

@@ -18,7 +18,7 @@ import numpy as np
 
 from rodsim.core.rod.rod import Rod
 from rodsim.core.schema import Parameter, SceneError, shown
-from rodsim.core.terms.base import RodTerm
+from rodsim.core.terms._dead_load import NodalDeadLoad
 
 SPAN_PARAMETERS: tuple[Parameter, ...] = (
     Parameter("start", "float", None, "m", "rest arclength where the span starts", 0.0, 100.0),
@@ -29,14 +29,11 @@ SPAN_PARAMETERS: tuple[Parameter, ...] = (
 )
 
 
-class DistributedLoad(RodTerm):
+class DistributedLoad(NodalDeadLoad):
     """Constant or piecewise-constant force per unit length, world frame."""
 
     name = "distributed_load"
     equation = "load per length (not in the paper); enters F_net of Eq. (17)"
-    is_load = True
-    has_jacobian = False
-    kernel = "constant_force"
     parameters = (
         Parameter("force_per_length", "vector", [0.0, 0.0, 0.0], "N/m",
                   "load per unit length on the whole rod, world frame", -1e9, 1e9, length=3),
@@ -58,21 +55,11 @@ class DistributedLoad(RodTerm):
                                  f"{owner.length!r} m; allowed: end <= length",
                                  key=f"{key}.end", value=span["end"], reason="out of range")
 
-    def __init__(self, rod: Rod, options: Any) -> None:
-        super().__init__(rod, options)
-        self.dofs = rod.layout.position_index
+    def nodal_forces(self, rod: Rod, options: Any) -> np.ndarray:
         geometry = rod.geometry
         uniform = np.asarray(options.force_per_length, dtype=float)
-        self._forces = geometry.node_mass_fraction[:, None] * uniform[None, :]
+        forces = geometry.node_mass_fraction[:, None] * uniform[None, :]
         for span in options.spans:
             share = geometry.hat_integrals(span["start"], span["end"])
-            self._forces += share[:, None] * np.asarray(span["force_per_length"])[None, :]
-
-    def kernel_arguments(self) -> tuple:
-        return (self._forces,)
-
-    def energy(self, x: np.ndarray) -> float:
-        return float(-np.sum(self._forces * x[self.dofs]))
-
-    def element_forces(self, x: np.ndarray) -> np.ndarray:
-        return self._forces
+            forces += share[:, None] * np.asarray(span["force_per_length"])[None, :]
+        return forces
