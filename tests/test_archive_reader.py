@@ -15,6 +15,7 @@ import numpy as np
 import pytest
 import xarray as xr
 
+from rodsim.app.cli import main
 from rodsim.app.study import Study, Sweep
 from rodsim.app.study_runner import run_study
 from rodsim.io.archive import read_dataset, write_dataset
@@ -231,3 +232,48 @@ def test_special_files_are_refused_before_they_are_opened(tmp_path):
         lines = done.stderr.strip().splitlines()
         assert len(lines) == 1 and lines[0].startswith("rodsim: error: "), done.stderr
         assert "regular file" in lines[0] or "folder" in lines[0], lines[0]
+
+
+def _read_in_a_fresh_process(script: str) -> subprocess.CompletedProcess:
+    """``script`` run by a fresh single-threaded interpreter (the probe of
+    rodsim.io.archive forks only there)."""
+    return subprocess.run([sys.executable, "-c", script], capture_output=True, text=True,
+                          timeout=120, env={**os.environ, "OMP_NUM_THREADS": "1"})
+
+
+def test_bytes_that_hang_the_netcdf_library_are_one_line_and_exit_2(tmp_path):
+    """tests/data/damaged-fit-archive.nc is a fit archive with 20 zero bytes at offset 3461
+    (a case the fuzz suite found): netCDF/HDF5 reads it forever. ``rerun`` refuses it in one
+    line after the probe's limit instead of hanging."""
+    damaged = Path(__file__).parent / "data" / "damaged-fit-archive.nc"
+    done = subprocess.run([sys.executable, "-m", "rodsim.app.cli", "rerun", str(damaged)],
+                          capture_output=True, text=True, timeout=120, cwd=tmp_path,
+                          env={**os.environ, "OMP_NUM_THREADS": "1"})
+    assert done.returncode == 2, done.stderr
+    assert done.stderr.count("\n") == 1 and "still reading it" in done.stderr, done.stderr
+
+
+@pytest.mark.parametrize(("behaviour", "message"), [
+    ("os.abort()", "crashed reading it (signal 6)"),
+    ("time.sleep(3600)", "still reading it after 1 s"),
+])
+def test_a_library_that_aborts_or_hangs_on_a_file_is_an_archive_error(tmp_path, behaviour,
+                                                                       message):
+    """The probe turns a C-level abort or an endless read into an ArchiveError: the child's
+    open is replaced by one that aborts or sleeps (the fork inherits the replacement)."""
+    path = tmp_path / "run.nc"
+    assert main(["run", "--integrator", "static", "--set", "nodes=6", "-o", str(path)]) == 0
+    done = _read_in_a_fresh_process(f"""
+import os, time
+import rodsim.io.archive as archive
+archive.PROBE_SECONDS = 1.0
+def broken(*args, **kwargs):
+    {behaviour}
+archive.xr.open_dataset = broken
+try:
+    archive.read_dataset({str(path)!r})
+except archive.ArchiveError as exc:
+    print(exc)
+""")
+    assert done.returncode == 0, done.stderr
+    assert message in done.stdout, done.stdout

@@ -12,7 +12,11 @@ from __future__ import annotations
 
 import contextlib
 import os
+import signal
+import sys
 import tempfile
+import threading
+import time
 from collections.abc import Callable
 from pathlib import Path
 
@@ -36,6 +40,10 @@ from rodsim.io.output import (
 )
 
 __all__ = ["ArchiveError", "write_dataset", "read_dataset", "scene_of"]
+
+#: Seconds a probe read of an archive (:func:`_probe_in_child`) may take, at least; plus one
+#: second per 10 MB of file.
+PROBE_SECONDS = 10.0
 
 
 class ArchiveError(OSError):
@@ -100,6 +108,7 @@ def read_dataset(path: str | Path) -> xr.Dataset:
         check_input_file(path, "archive")
     except InputError as exc:
         raise ArchiveError(str(exc)) from None
+    _probe_in_child(Path(path))
     try:
         with xr.open_dataset(path, engine="netcdf4") as ds:
             loaded = ds.load()
@@ -135,3 +144,51 @@ def read_dataset(path: str | Path) -> xr.Dataset:
 def scene_of(dataset: xr.Dataset) -> Scene:
     """The scene stored in an archive (resolved values plus the original TOML text)."""
     return Scene.from_json(dataset.attrs["scene_json"], dataset.attrs.get("scene_toml", ""))
+
+
+def _probe_in_child(path: Path) -> None:
+    """Read ``path`` once in a forked child before this process reads it: some damaged
+    bytes make the netCDF/HDF5 C library abort the process ("double free or corruption") or
+    loop forever, which no exception handler can turn into a message (found by
+    tests/test_fuzz.py). A child that dies by a signal, or is still reading after
+    :data:`PROBE_SECONDS` (plus a second per 10 MB), makes it an :class:`ArchiveError`; a
+    child that ends (read or raised) lets this process read the file itself.
+
+    Only where it is safe to fork: a POSIX process with one thread (the CLI; a forked
+    child copies only the calling thread, and a lock another thread held would never be
+    released in it). Elsewhere the file is read without the probe."""
+    if not hasattr(os, "fork") or threading.active_count() > 1:
+        return
+    for stream in (sys.stdout, sys.stderr):
+        with contextlib.suppress(Exception):
+            stream.flush()
+    pid = os.fork()
+    if pid == 0:  # the child: read, and leave without running this process's exit code
+        code = 0
+        try:
+            null = os.open(os.devnull, os.O_WRONLY)
+            os.dup2(null, 1)
+            os.dup2(null, 2)  # what the C library prints as it aborts is not ours to show
+            with xr.open_dataset(path, engine="netcdf4") as ds:
+                ds.load()
+        except BaseException:  # noqa: BLE001 - the parent's own read reports it
+            code = 3
+        finally:
+            os._exit(code)
+    limit = PROBE_SECONDS + path.stat().st_size / 1e7
+    deadline = time.monotonic() + limit
+    delay = 0.001
+    while True:
+        done, status = os.waitpid(pid, os.WNOHANG)
+        if done:
+            break
+        if time.monotonic() > deadline:
+            os.kill(pid, signal.SIGKILL)
+            os.waitpid(pid, 0)
+            raise ArchiveError(f"cannot read {str(path)!r}: the netCDF library was still "
+                               f"reading it after {limit:.0f} s (a damaged archive)")
+        time.sleep(delay)
+        delay = min(2 * delay, 0.05)
+    if os.WIFSIGNALED(status):
+        raise ArchiveError(f"cannot read {str(path)!r}: the netCDF/HDF5 library crashed "
+                           f"reading it (signal {os.WTERMSIG(status)}): a damaged archive")
