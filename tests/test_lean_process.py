@@ -59,7 +59,9 @@ def test_an_archive_written_by_rodsim_run_is_complete_after_the_process_ends(tmp
     assert done.returncode == 0, done.stderr
     lines = done.stdout.splitlines()
     assert lines[0].startswith("scene       table1-50g")
-    assert lines[-1] == f"archive     {output}"  # the last line printed reached the pipe
+    assert f"archive     {output}" in lines
+    # The last line `rodsim run` prints (its penalty-error estimate) reached the pipe.
+    assert lines[-1].startswith("penalty     error ≈ "), lines[-1]
     assert [p.name for p in tmp_path.iterdir()] == ["run.nc"]  # no temporary left behind
     stored = read_dataset(output)
     result = rodsim.solve(rodsim.load_scene("table1-50g", ["nodes=12"]), "static")

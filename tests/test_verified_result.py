@@ -104,9 +104,12 @@ def test_honest_runs_still_succeed(integrator):
 
 
 @pytest.mark.slow
+@pytest.mark.nightly
 def test_ida_at_n_40000_is_right_or_a_failure():
     """The real case (issue 24): IDA on table1-50g at N = 40 000 reported success 1.3 % L
-    from static's equilibrium. Now it must be within 1e-6 L of it or fail (about 5 min)."""
+    from static's equilibrium. Now it must be within 1e-6 L of it or fail (3–5 min, so
+    nightly: RODSIM_NIGHTLY=1; the lying-integrator tests above hold the same check in
+    every run)."""
     overrides = ["rods.catheter.nodes=40000", "solver.max_wall_time=900"]
     static = rodsim.solve(SCENE, "static", overrides=overrides)
     assert static.success, static.message
