@@ -18,6 +18,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from rodsim.core.assembly_budget import AssemblyBudget
 from rodsim.core.memory import check_memory
 from rodsim.core.model import Model
 from rodsim.core.scene import Scene, SceneError, default_scene_path
@@ -93,7 +94,9 @@ def solve(scene: SceneLike | None = None, integrator: str | None = None, *,
     A solver failure does not raise: check ``result.success`` and ``result.message``.
     Invalid scenes raise :class:`~rodsim.core.schema.SceneError`, and so does a scene too large
     for this machine's memory (:mod:`rodsim.core.memory`). The wall-time budget
-    (``solver.max_wall_time``) starts here: it covers the model's assembly.
+    (``solver.max_wall_time``) starts here: it covers the model's assembly, which raises
+    :class:`~rodsim.core.assembly_budget.AssemblyBudgetExceeded` once it is spent (there is no
+    model yet to make a failed result of).
     """
     started = time.perf_counter()
     loaded = load_scene(scene, overrides, f"solver.{integrator}" if integrator else "")
@@ -104,7 +107,9 @@ def solve(scene: SceneLike | None = None, integrator: str | None = None, *,
         raise SceneError(f"integrator {name!r}: unknown; allowed: " + ", ".join(integrators))
     if model is None or model.scene is not loaded:
         check_memory(loaded)
-        model = Model(loaded)
+        model = Model(loaded, budget=AssemblyBudget(
+            started, float(solver.max_wall_time),
+            sum(rod.nodes for rod in loaded.rods.values())))
     runner = integrators[name](model, integrators[name].options_of(loaded), solver.tolerance,
                                solver.max_wall_time, progress, budget_start=started,
                                initial_state=initial_state)
