@@ -912,7 +912,6 @@ def main(argv: Sequence[str] | None = None, *, process: bool = False) -> int:
     args = parser.parse_args(argv)
     command: Callable[[argparse.Namespace], int] = args.func
     from rodsim.app.lean import EARLY_EXIT_COMMANDS, LEAN_COMMANDS, fast_exit, hide_dask
-    from rodsim.core.assembly_budget import AssemblyBudgetExceeded
     from rodsim.io.provenance import invocation
 
     if process and args.command in LEAN_COMMANDS:
@@ -929,9 +928,6 @@ def main(argv: Sequence[str] | None = None, *, process: bool = False) -> int:
         _remove_created_output_folder()  # exit 2 leaves nothing behind, an empty runs/ too
         print(f"rodsim: error: {exc}", file=sys.stderr)
         return EXIT_BAD_INPUT
-    except AssemblyBudgetExceeded as exc:  # solver.max_wall_time spent building the model
-        print(f"rodsim: solver failure: {exc}", file=sys.stderr)
-        return EXIT_SOLVER_FAILURE
     except MemoryError:  # beyond the estimate (rodsim.core.memory): still one line
         _remove_created_output_folder()
         print("rodsim: error: out of memory (the process's limit or the machine's); lower "

@@ -5,8 +5,8 @@ stiffness of :class:`rodsim.core.model.Model`) takes seconds per 100 000 nodes a
 any integrator exists, so the integrators' own budget check only sees it once it is over.
 :class:`AssemblyBudget` is checked between the assembly's phases and between the terms in its
 per-term loops (one clock read each: a few dozen per model, nothing measurable); once the
-budget is spent it raises :class:`AssemblyBudgetExceeded`, which the command line reports as a
-solver failure (exit 1).
+budget is spent it raises :class:`AssemblyBudgetExceeded`, which :func:`rodsim.solve` returns
+as a failed result (the command line: a solver failure, exit 1).
 """
 
 from __future__ import annotations
@@ -22,8 +22,9 @@ class AssemblyBudgetExceeded(RuntimeError):
 
     def __init__(self, elapsed: float, budget: float, nodes: int) -> None:
         super().__init__(
-            f"model assembly exceeded max_wall_time ({budget:g} s) after {elapsed:.1f} s at "
-            f"N = {nodes}, lower nodes or raise the budget (solver.max_wall_time)")
+            f"model assembly exceeded max_wall_time after {elapsed:.1f} s at N = {nodes} "
+            f"(wall-time budget of {budget:g} s), lower nodes or raise the budget "
+            "(solver.max_wall_time)")
         self.elapsed = elapsed
         self.budget = budget
         self.nodes = nodes
