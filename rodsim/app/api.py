@@ -18,6 +18,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from rodsim.core.assembly_budget import AssemblyBudget, AssemblyBudgetExceeded
 from rodsim.core.memory import check_memory
 from rodsim.core.model import Model
 from rodsim.core.scene import Scene, SceneError, default_scene_path
@@ -93,7 +94,9 @@ def solve(scene: SceneLike | None = None, integrator: str | None = None, *,
     A solver failure does not raise: check ``result.success`` and ``result.message``.
     Invalid scenes raise :class:`~rodsim.core.schema.SceneError`, and so does a scene too large
     for this machine's memory (:mod:`rodsim.core.memory`). The wall-time budget
-    (``solver.max_wall_time``) starts here: it covers the model's assembly.
+    (``solver.max_wall_time``) starts here: it covers the model's assembly, which stops once
+    it is spent (rodsim/core/assembly_budget.py) with a failed result that holds no shape
+    (``rods`` empty, ``state`` of length 0: there is no model yet).
     """
     started = time.perf_counter()
     loaded = load_scene(scene, overrides, f"solver.{integrator}" if integrator else "")
@@ -104,11 +107,27 @@ def solve(scene: SceneLike | None = None, integrator: str | None = None, *,
         raise SceneError(f"integrator {name!r}: unknown; allowed: " + ", ".join(integrators))
     if model is None or model.scene is not loaded:
         check_memory(loaded)
-        model = Model(loaded)
+        try:
+            model = Model(loaded, budget=AssemblyBudget(
+                started, float(solver.max_wall_time),
+                sum(rod.nodes for rod in loaded.rods.values())))
+        except AssemblyBudgetExceeded as exc:
+            return _assembly_failure(loaded, name, exc)
     runner = integrators[name](model, integrators[name].options_of(loaded), solver.tolerance,
                                solver.max_wall_time, progress, budget_start=started,
                                initial_state=initial_state)
     return runner.solve()
+
+
+def _assembly_failure(scene: Scene, integrator: str, exc: AssemblyBudgetExceeded) -> Result:
+    """The failed result of a run whose wall-time budget was spent assembling the model."""
+    options = registered_integrators()[integrator].options_of(scene)
+    return Result(scene=scene, integrator=integrator, options=dataclasses.asdict(options),
+                  success=False, message=str(exc), residual=float("nan"),
+                  stats={"steps": 0, "newton_iters": 0, "force_evals": 0,
+                         "wall_time": exc.elapsed,
+                         "effective_tolerance": float(scene.solver.tolerance)},
+                  rods={}, state=np.zeros(0))
 
 
 def rerun(dataset: xr.Dataset) -> tuple[Result, float]:

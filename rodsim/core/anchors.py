@@ -69,16 +69,22 @@ def tendon_termination(tendon: Rod, catheter: Rod) -> Anchor:
     return Anchor(tendon, tendon.nodes - 1, catheter, catheter.nodes - 1)
 
 
-def check_tendon_termination(name: str, tendon: Any, host: Any) -> None:
+def check_tendon_termination(name: str, tendon: Any, host: Any,
+                             host_name: str | None = None) -> None:
     """SceneError unless the tendon rod ``name`` (its :data:`RodOptions` ``tendon``) can end
-    at its catheter's tip (``host``): equal lengths, to a relative 1e-9."""
+    at its catheter's tip (``host``, the rod ``host_name``): equal lengths, to a relative
+    1e-9."""
+    facts: dict[str, Any] = {
+        "key": f"rods.{name}.length", "value": tendon.length, "reason": "cross-table rule",
+        "allowed": "the catheter's length",
+        "related": (f"rods.{host_name}.length",) if host_name else ()}
     if tendon.length > host.length * (1 + 1e-9):
         raise SceneError(f"rods.{name}.length = {tendon.length!r}: the tendon is longer than "
-                         f"its catheter ({host.length!r} m); allowed: equal lengths")
+                         f"its catheter ({host.length!r} m); allowed: equal lengths", **facts)
     if tendon.length < host.length * (1 - 1e-9):
         raise SceneError(f"rods.{name}.length = {tendon.length!r}: the tendon must end at "
                          f"the catheter's tip; allowed: the catheter's length "
-                         f"{host.length!r} m")
+                         f"{host.length!r} m", **facts)
 
 
 def scene_joints(scene: Any) -> dict[str, Any]:

@@ -30,6 +30,7 @@ import scipy.sparse as sp
 from scipy.sparse.csgraph import reverse_cuthill_mckee
 
 from rodsim.core.anchors import joined_support, joint_depth, scene_joints
+from rodsim.core.assembly_budget import AssemblyBudget
 from rodsim.core.rod.layout import RodLayout
 from rodsim.core.rod.retraction import turn_segments
 from rodsim.core.rod.rod import Rod
@@ -62,17 +63,35 @@ class Model:
         A validated scene; only the terms it lists are built.
     kernels
         ``"compiled"`` or ``"numpy"`` (default: the scene's ``solver.kernels``).
+    budget
+        A wall-time budget for the assembly (rodsim/core/assembly_budget.py), checked between
+        its phases and between the terms of its per-term loops: once spent,
+        :class:`~rodsim.core.assembly_budget.AssemblyBudgetExceeded` is raised. None: no limit.
     """
 
-    def __init__(self, scene: Scene, kernels: str | None = None) -> None:
+    def __init__(self, scene: Scene, kernels: str | None = None,
+                 budget: AssemblyBudget | None = None) -> None:
         self.kernels = kernels or scene.solver.kernels
         if self.kernels not in KERNELS:
             raise ValueError(f"kernels {self.kernels!r}: allowed {', '.join(KERNELS)}")
-        self._assemble(scene)
-        self._build_maps()
-        if len(self.rods) > 1:
-            self._order_for_band()
-        self._build_scales()
+        self._budget = budget
+        try:
+            self._assemble(scene)
+            self._tick()
+            self._build_maps()
+            self._tick()
+            if len(self.rods) > 1:
+                self._order_for_band()
+                self._tick()
+            self._build_scales()
+        finally:
+            self._budget = None  # the budget covers this assembly only, not later copies
+
+    def _tick(self) -> None:
+        """Check the assembly's wall-time budget, if any (see ``budget``)."""
+        budget = getattr(self, "_budget", None)
+        if budget is not None:
+            budget.check()
 
     def _assemble(self, scene: Scene) -> None:
         """Rods, terms, tendons, the rest state and the free coordinates (in full-state order)
@@ -104,6 +123,7 @@ class Model:
                     options.nodes, options.length, rod.rest_positions(), tables), sections)
             self.rods[name] = rod
             offset += layout.size
+            self._tick()
         self.rods = {name: self.rods[name] for name in rods}
         self.full_size = offset
         catalogue = registered_terms()
@@ -116,6 +136,7 @@ class Model:
                 self.terms.append(kind(rod, scene.term_options("rods", rod.name, term_name),
                                        *((self.rods,) if kind.joins_rods else ())))
                 self.term_keys.append(("rods", rod.name, term_name))
+                self._tick()
         #: The scene's tendons (lumen geometry shared by their coupling terms).
         self.tendons = {name: Tendon.of(name, self.rods, options)
                         for name, options in tendons.items()}
@@ -124,6 +145,7 @@ class Model:
                 self.terms.append(catalogue[term_name](
                     self.tendons[name], scene.term_options("tendons", name, term_name)))
                 self.term_keys.append(("tendons", name, term_name))
+                self._tick()
         for name, table in scene.data.get("obstacles", {}).items():
             from rodsim.core.obstacles import build_obstacle
 
@@ -273,6 +295,7 @@ class Model:
         self._free_of = np.full(self.full_size, self.n)  # fixed -> dump slot n
         self._free_of[self.free] = np.arange(self.n)
         self._build_force_scatter()
+        self._tick()
         self._build_pattern()
         self._kernel_calls: list[tuple] | None = None  # built at the first compiled call
 
@@ -375,6 +398,7 @@ class Model:
         targets = []
         slots = iter(fixed_slots)
         for index in range(len(self._jac_terms)):
+            self._tick()
             if index in dynamic:
                 keys = dynamic[index]
                 target = np.where(keys >= 0, np.searchsorted(stored, keys), nnz)
@@ -382,6 +406,7 @@ class Model:
                 slot = next(slots)
                 target = np.where(slot >= 0, moved[slot], nnz)
             targets.append(target)
+        self._tick()
         pattern = pattern_of_keys(stored, np.concatenate([moved[diagonal_slots], *targets]), n)
         #: Jacobian sparsity pattern of the free coordinates (CSC, ones where J may be ≠ 0).
         self.pattern = pattern.matrix
@@ -421,10 +446,15 @@ class Model:
             return fixed_terms, *cached[2:]
         n = self.n
         diagonal = np.arange(n) * (n + 1)
-        term_keys = [self._entry_keys(term) for term in fixed_terms]
+        term_keys = []
+        for term in fixed_terms:
+            term_keys.append(self._entry_keys(term))
+            self._tick()
         everything = np.concatenate([diagonal, *term_keys])
         keep = everything >= 0
-        keys, inverse = unique_keys(everything[keep], n)
+        self._tick()
+        keys, inverse = unique_keys(everything[keep], n, self._tick)
+        self._tick()
         position = np.full(len(everything), -1)
         position[keep] = inverse.ravel()
         bounds = np.cumsum([n] + [len(k) for k in term_keys])
@@ -461,6 +491,7 @@ class Model:
         # with a margin (32 eps) so that it is reliably attainable: residual noise measured at
         # converged states is 5–20× below it; Newton iterations asked to go lower only stall.
         magnitude = np.where(self.is_quaternion, 1.0, self.length_scale)
+        self._tick()
         stiffness = np.abs(self.jacobian_data(x0)[self._diagonal_slots])
         #: |∂F_i/∂x_i| at rest, the stiffness of each coordinate on its own.
         self.rest_stiffness = stiffness

@@ -34,7 +34,7 @@ import copy
 import difflib
 import json
 import tomllib
-from collections.abc import Iterable, Mapping
+from collections.abc import Collection, Iterable, Mapping
 from dataclasses import dataclass
 from importlib import resources
 from pathlib import Path
@@ -243,6 +243,7 @@ class Scene:
         """
         known = tuple(known_keys)
         data = copy.deepcopy(self.data)
+        given: dict[str, str] = {}  # full key -> the assignment that set it
         for assignment in assignments:
             key, sep, text = assignment.partition("=")
             key = key.strip()
@@ -258,6 +259,7 @@ class Scene:
                 exc.assignment = assignment
                 raise
             data = _assign(data, full_key, value)
+            given[full_key] = assignment
             if full_key.endswith(".terms"):
                 _drop_unlisted_term_tables(data, full_key)
             # Validate as we go so a later key can name a term an earlier one added; a scene
@@ -267,7 +269,10 @@ class Scene:
                 data = resolve(data)
             except SceneError:
                 pass
-        return Scene(resolve(data), self.source)
+        try:
+            return Scene(resolve(data), self.source)
+        except SceneError as exc:
+            raise _blame_what_was_set(exc, given) from None
 
     def with_values(self, values: Mapping[str, Any]) -> Scene:
         """A new scene with already-typed values at dotted keys (used by studies); a full
@@ -276,6 +281,34 @@ class Scene:
         for key, value in values.items():
             data = _assign(data, _resolve_key(data, key, known=_integrator_option(key)), value)
         return Scene(resolve(data), self.source)
+
+
+def cross_table_culprit(exc: SceneError, given: Collection[str]) -> tuple[str, str] | None:
+    """(the key in ``given`` to blame, why) when ``exc`` is a cross-table rule that failed on
+    a value that is not in ``given`` (``exc.key``, the scene's own) because of one that is
+    (in ``exc.related``); else None. ``given``: the dotted keys the user set (issue 23:
+    such errors were blamed on values the user never gave)."""
+    if exc.key is None or exc.key in given:
+        return None
+    culprits = [key for key in exc.related if key in given]
+    if not culprits:
+        return None
+    return culprits[0], (f"makes {exc.key} = {exc.value!r} (the scene's value, not set) "
+                         f"invalid; allowed: {exc.allowed}; change {exc.key} too, or choose "
+                         "another value")
+
+
+def _blame_what_was_set(exc: SceneError, given: Mapping[str, str]) -> SceneError:
+    """``exc`` reworded by :func:`cross_table_culprit` to name the assignment (as the user
+    wrote it, from ``given``: full key -> assignment) that broke the rule."""
+    found = cross_table_culprit(exc, given)
+    if found is None:
+        return exc
+    culprit, reason = found
+    assignment = given[culprit]
+    return SceneError(f"{culprit} = {assignment.partition('=')[2].strip()} {reason}",
+                      key=culprit, value=exc.value, allowed=exc.allowed, reason=reason,
+                      assignment=assignment, related=(exc.key,))
 
 
 def resolve(raw: Mapping[str, Any]) -> dict[str, Any]:
@@ -337,7 +370,10 @@ def resolve(raw: Mapping[str, Any]) -> dict[str, Any]:
                              "a list of distinct names from: " + ", ".join(rod_terms))
         if options.radius >= options.length:
             raise SceneError(f"rods.{rod}.radius = {options.radius!r}: not below the length "
-                             f"{options.length!r} m; allowed: radius < length (a slender rod)")
+                             f"{options.length!r} m; allowed: radius < length (a slender rod)",
+                             key=f"rods.{rod}.radius", value=options.radius,
+                             allowed="radius < length (a slender rod)",
+                             reason="cross-table rule", related=(f"rods.{rod}.length",))
         for term_name in options.terms:
             if terms[term_name].scope == "rod":
                 terms[term_name].check_scene(terms[term_name].Options.of(table[term_name]),

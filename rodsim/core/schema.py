@@ -43,18 +43,24 @@ class SceneError(ValueError):
         A short phrase for what is wrong (``"unknown key"``, ``"out of range"``, …).
     assignment
         The ``key=value`` text of :meth:`rodsim.core.scene.Scene.with_overrides` whose key or
-        value could not be read (``None`` for errors in the values themselves).
+        value could not be read, or that made another value invalid (``None`` for errors in
+        the values themselves).
+    related
+        The other dotted keys a cross-table rule compares ``key`` with (radius against length,
+        a tendon's length against its catheter's, a lumen offset against the radii): when only
+        one of them was set, :meth:`~rodsim.core.scene.Scene.with_overrides` names that one.
     """
 
     def __init__(self, message: str, *, key: str | None = None, value: Any = None,
                  allowed: str | tuple[str, ...] | None = None, reason: str | None = None,
-                 assignment: str | None = None) -> None:
+                 assignment: str | None = None, related: tuple[str, ...] = ()) -> None:
         super().__init__(message)
         self.key = key
         self.value = value
         self.allowed = allowed
         self.reason = reason
         self.assignment = assignment
+        self.related = related
 
 
 def shown(value: Any, width: int = SHOWN_WIDTH, bare: bool = False) -> str:

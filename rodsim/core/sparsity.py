@@ -7,6 +7,7 @@ of entries into a CSC pattern and says where each entry lands in the CSC data.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -54,7 +55,8 @@ def csc_pattern(rows: np.ndarray, cols: np.ndarray, size: int) -> Pattern:
     return pattern_of_keys(keys, target, size)
 
 
-def unique_keys(keys: np.ndarray, size: int) -> tuple[np.ndarray, np.ndarray]:
+def unique_keys(keys: np.ndarray, size: int,
+                tick: Callable[[], None] | None = None) -> tuple[np.ndarray, np.ndarray]:
     """(the sorted unique column-major keys ``col * size + row`` of ``keys``, each key's
     position among them) — ``np.unique(keys, return_inverse=True)``.
 
@@ -62,31 +64,46 @@ def unique_keys(keys: np.ndarray, size: int) -> tuple[np.ndarray, np.ndarray]:
     against the entries (:data:`BAND_TABLE_RATIO`), the positions are found by marking and
     numbering that table: the same answer with two entry-sized arrays instead of sorting's
     five or so (the model's assembly at N = 40 000 peaked at 794 MiB, mostly np.unique's
-    temporaries; see docs/benchmarks.md)."""
+    temporaries; see docs/benchmarks.md).
+
+    ``tick`` is called between the steps (each a pass over the entries): the assembly's
+    wall-time budget (rodsim/core/assembly_budget.py)."""
+    tick = tick or _no_tick
     keys = np.asarray(keys)
     if len(keys):
-        rows, cols = keys % size, keys // size
+        rows = keys % size
+        tick()
+        cols = keys // size
+        tick()
         lower = max(int((rows - cols).max()), 0)
         upper = max(int((cols - rows).max()), 0)
+        tick()
         width = lower + upper + 1
         if size * width <= BAND_TABLE_RATIO * len(keys):
-            return _banded_unique(rows, cols, size, upper, width)
+            return _banded_unique(rows, cols, size, upper, width, tick)
     unique, target = np.unique(keys, return_inverse=True)
     return unique, target.ravel()
 
 
+def _no_tick() -> None:
+    """No budget to check."""
+
+
 def _banded_unique(rows: np.ndarray, cols: np.ndarray, size: int, upper: int,
-                   width: int) -> tuple[np.ndarray, np.ndarray]:
+                   width: int, tick: Callable[[], None]) -> tuple[np.ndarray, np.ndarray]:
     """:func:`unique_keys` through the band table: slot (column c, row r) at
     c × width + r − c + upper, which increases along CSC order (column, then row)."""
     slot = cols * width
     slot += rows
     slot -= cols
     slot += upper
+    tick()
     table = np.zeros(size * width, dtype=np.int64)
     table[slot] = 1
+    tick()
     present = np.flatnonzero(table)
     table[present] = np.arange(len(present))
+    tick()
     target = table[slot]
     del table, slot
     columns = present // width

@@ -176,15 +176,21 @@ def check_tendon(name: str, table: Mapping[str, Any], rods: Mapping[str, Mapping
         raise SceneError(f"{prefix}.catheter = {catheter!r}: that rod is itself a tendon; "
                          "allowed: a rod with no [tendons.<rod>] table")
     tendon, host = RodOptions.of(rods[name]), RodOptions.of(rods[catheter])
-    check_tendon_termination(name, tendon, host)
+    check_tendon_termination(name, tendon, host, catheter)
     if options.offset >= host.radius:
         raise SceneError(f"{prefix}.offset = {options.offset!r}: the lumen lies outside the "
-                         f"catheter; allowed: 0 < r_L < radius = {host.radius!r} [m]")
+                         f"catheter; allowed: 0 < r_L < radius = {host.radius!r} [m]",
+                         key=f"{prefix}.offset", value=options.offset,
+                         allowed=f"0 < r_L < rods.{catheter}.radius",
+                         reason="cross-table rule", related=(f"rods.{catheter}.radius",))
     if options.offset + tendon.radius >= host.radius:
         raise SceneError(f"{prefix}.offset = {options.offset!r} with rods.{name}.radius = "
                          f"{tendon.radius!r}: the tendon breaks through the catheter's wall; "
                          f"allowed: r_L + tendon radius < catheter radius = {host.radius!r} "
-                         "[m]")
+                         "[m]", key=f"{prefix}.offset", value=options.offset,
+                         allowed=f"r_L + rods.{name}.radius < rods.{catheter}.radius",
+                         reason="cross-table rule",
+                         related=(f"rods.{name}.radius", f"rods.{catheter}.radius"))
     if math.hypot(*options.direction) < 1e-12:
         raise SceneError(f"{prefix}.direction = {options.direction!r}: d_t has zero length; "
                          "allowed: any non-zero (α, β)")

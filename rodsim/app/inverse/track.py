@@ -256,6 +256,34 @@ def _ramp_values(ramps: Mapping[str, Sequence[float]]) -> np.ndarray:
     return values
 
 
+def _check_rules_across_tables(scene: Scene, keys: Sequence[NumericKey],
+                               values: np.ndarray) -> None:
+    """The rules across tables (radius < length, a tendon's length its catheter's, a lumen
+    offset inside the radii) checked before any work, at the first and last steps and at each
+    ramped value's smallest and largest (each rule compares values monotonically, so a ramp
+    that breaks one breaks it at one of these); a break is blamed on the ramp that caused it,
+    not on the scene's value it made invalid (issue 23: found only at that step, after the
+    earlier steps' work, and blamed on a value the user never gave)."""
+    from rodsim.app.inverse.parameter_keys import _local
+    from rodsim.core.scene import cross_table_culprit
+
+    if all(_local(key) for key in keys):
+        return
+    rows = sorted({0, len(values) - 1, *np.argmin(values, axis=0).tolist(),
+                   *np.argmax(values, axis=0).tolist()})
+    for row in rows:
+        try:
+            scene_with(scene, keys, values[row])
+        except SceneError as exc:
+            found = cross_table_culprit(exc, [key.path for key in keys if key.index is None])
+            if found is None:
+                raise
+            column = next(k for k, key in enumerate(keys) if key.path == found[0])
+            raise SceneError(f"--ramp {keys[column].name} reaches {values[row, column]:g} at "
+                             f"step {row}, which {found[1]}", key=found[0],
+                             value=float(values[row, column]), reason=found[1]) from None
+
+
 def track(scene: Scene, ramps: Mapping[str, Sequence[float]], integrator: str = "static",
           *, progress: Progress | None = None, allow_unstable: bool = False) -> Track:
     """Equilibria along the path ``ramps`` (key → values, all of one length ≥ 2), step 0
@@ -282,6 +310,7 @@ def track(scene: Scene, ramps: Mapping[str, Sequence[float]], integrator: str = 
         if np.any(outside):
             raise SceneError(f"{key.name} = {values[outside, column][0]:g}: out of range; "
                              f"allowed: {key.parameter.allowed}")
+    _check_rules_across_tables(scene, keys, values)
     started = time.perf_counter()
     budget = float(scene.solver.max_wall_time)
     deadline = started + budget
