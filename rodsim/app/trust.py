@@ -28,13 +28,14 @@ from rodsim.solvers.result import Result
 __all__ = ["PENALTIES", "TRUST_WARNING", "PenaltyError", "penalty_error", "stiffer_scene"]
 
 #: The penalty constant of each penalty term, absolute then relative spelling (an absolute
-#: value of 0 means "from the relative one", rodsim/core/terms/centerline.py).
+#: value of 0 means "from the relative one", rodsim/core/terms/centerline.py and
+#: rodsim/core/terms/_relative.py).
 PENALTIES: dict[str, tuple[str, ...]] = {
     "centerline": ("K_P", "K_P_relative"),
-    "lumen": ("K_L",),
-    "endpoint_compliance": ("K_E",),
-    "endpoint_coupling": ("K_C",),
-    "joint": ("K_J",),
+    "lumen": ("K_L", "K_L_relative"),
+    "endpoint_compliance": ("K_E", "K_E_relative"),
+    "endpoint_coupling": ("K_C", "K_C_relative"),
+    "joint": ("K_J", "K_J_relative"),
 }
 
 #: Above this estimate (in units of L) a run is flagged: its answer depends on a penalty.
