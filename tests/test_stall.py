@@ -3,8 +3,9 @@ residual stops progressing with a diagnosis and advice, instead of spending the 
 budget.
 
 The provoked stall is the user scene of issue 22 item 2 (two tendons with the conserving
-coupling, pulled at their bases, orientation clamps, the default K_L = 1000 N/m², far too
-soft), on fewer nodes: CVODE ran 602 s on it with t stuck at 1.43 s before this check.
+coupling, pulled at their bases, orientation clamps, K_L = 1000 N/m² — the default before
+the penalties scaled themselves, far too soft — and the old K_E, K_C), on fewer nodes:
+CVODE ran 602 s on it with t stuck at 1.43 s before this check.
 """
 
 from __future__ import annotations
@@ -17,7 +18,9 @@ import rodsim
 def tendon(direction: list[float], force: float) -> dict:
     return {"catheter": "catheter", "offset": 0.0035, "direction": direction,
             "coupling": "conserving",
-            "tendon_actuation": {"force": force, "point": "proximal"}}
+            "tendon_actuation": {"force": force, "point": "proximal"},
+            "lumen": {"K_L": 1000.0}, "endpoint_compliance": {"K_E": 1500.0},
+            "endpoint_coupling": {"K_C": 1e5}}
 
 
 def tendon_rod() -> dict:

@@ -75,9 +75,14 @@ def test_user_scene_bends_toward_its_tendons_and_integrators_agree(user_static):
 
 def test_user_scene_with_the_paper_coupling_is_flagged(tmp_path):
     """The old default (paper coupling, stiff tendon rods) bends away and its tendons push:
-    the compression check names both."""
+    the compression check names both. The penalties are the issue's, the defaults then
+    (K_L = 1000 N/m per point, K_E = 1500 N/m, K_C = 1e5 N/m)."""
     text = USER_SCENE.read_text().replace('offset = 0.0035\n',
                                           'offset = 0.0035\ncoupling = "paper"\n')
+    for name in ("tendon_y", "tendon_z"):
+        text += (f"\n[tendons.{name}.lumen]\nK_L = 1000.0\n"
+                 f"[tendons.{name}.endpoint_compliance]\nK_E = 1500.0\n"
+                 f"[tendons.{name}.endpoint_coupling]\nK_C = 1e5\n")
     result = rodsim.solve(_toml(text), "static")
     assert result.success, result.message
     assert result.tip()[1] < 0.0  # the issue's wrong answer: away from the tendon

@@ -209,7 +209,7 @@ def cmd_run(args: argparse.Namespace) -> int:
     _check_integrator(args.integrator)
     from rodsim.app.api import solve
     from rodsim.app.progress import ProgressPrinter
-    from rodsim.app.trust import compression_text, penalty_error, tendon_compression
+    from rodsim.app.trust import assess, compression_text
     from rodsim.core.scene import SceneError
     from rodsim.io.archive import ArchiveError, write_dataset
     from rodsim.io.output import OutputError, check_target
@@ -232,9 +232,7 @@ def cmd_run(args: argparse.Namespace) -> int:
     if not result.success:
         print(f"rodsim: solver failure: {result.message}", file=sys.stderr)
         return EXIT_SOLVER_FAILURE
-    estimate = penalty_error(result)
-    result.penalty_error = estimate.error
-    result.tendon_compression = tendon_compression(result)
+    estimate = assess(result)
     try:
         write_dataset(run_dataset(result), output, note=warn)
     except ArchiveError as exc:
@@ -386,6 +384,7 @@ def cmd_track(args: argparse.Namespace) -> int:
     else:
         print("stability   stable at every step (the stiffness K = -dF/dx is positive "
               "definite)")
+    _trust_of_last_step(result)
     _write_with_figure(result.to_xarray(), output, stem)
     if not result.success:  # stopped at an unstable step: archived, and a failure
         print(f"rodsim: {result.message}", file=sys.stderr)
@@ -394,6 +393,36 @@ def cmd_track(args: argparse.Namespace) -> int:
         warn(f"{len(unstable)} step(s) are unstable equilibria (first: step {unstable[0]}); "
              "kept because of --allow-unstable, flagged in the archive (variable 'stable')")
     return EXIT_OK
+
+
+def _trust_of_last_step(track) -> None:
+    """Print the last step's penalty-error estimate and compression check, and keep them on
+    ``track`` for its archive (rodsim/app/trust.py)."""
+    from rodsim.app.trust import assess, compression_text, last_step_result
+
+    last = last_step_result(track)
+    if last is None:
+        if track.steps:
+            track.penalty_error = float("nan")
+            print("penalty     error estimate unavailable: the last step did not re-solve "
+                  "with the static integrator")
+        return
+    estimate = assess(last)
+    track.penalty_error = last.penalty_error
+    track.tendon_compression = last.tendon_compression
+    print(estimate.text().replace("penalty     ", "penalty     last step: ", 1))
+    if last.tendon_compression:
+        print(compression_text(last.tendon_compression))
+
+
+def _trust(result) -> None:
+    """Print a result's penalty-error estimate and compression check, stored on it for its
+    archive (rodsim/app/trust.py)."""
+    from rodsim.app.trust import assess, compression_text
+
+    print(assess(result).text())
+    if result.tendon_compression:
+        print(compression_text(result.tendon_compression))
 
 
 def cmd_fit(args: argparse.Namespace) -> int:
@@ -428,6 +457,7 @@ def cmd_fit(args: argparse.Namespace) -> int:
           f"{result.wall_time:.3f} s ({result.message})")
     if result.result.stability is not None:
         print(stability_text(result.result.stability))
+    _trust(result.result)
     _write_with_figure(result.to_xarray(), output, stem)
     if not result.stable:
         print("rodsim: the fitted equilibrium is UNSTABLE (its stiffness is not positive "
@@ -503,6 +533,7 @@ def cmd_reach(args: argparse.Namespace) -> int:
         print(f"frame       {result.angle:.3g} rad from the orientation target")
     print(f"cost        {result.evaluations} equilibria, {result.jacobians} Jacobians, "
           f"{result.wall_time:.3f} s")
+    _trust(result.result)
     _write_with_figure(result.to_xarray(), output, stem)
     return EXIT_OK
 

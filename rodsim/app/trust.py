@@ -25,16 +25,18 @@ import numpy as np
 from rodsim.core.scene import Scene
 from rodsim.solvers.result import Result
 
-__all__ = ["PENALTIES", "TRUST_WARNING", "PenaltyError", "penalty_error", "stiffer_scene"]
+__all__ = ["PENALTIES", "TRUST_WARNING", "PenaltyError", "assess", "last_step_result",
+           "penalty_error", "stiffer_scene"]
 
 #: The penalty constant of each penalty term, absolute then relative spelling (an absolute
-#: value of 0 means "from the relative one", rodsim/core/terms/centerline.py).
+#: value of 0 means "from the relative one", rodsim/core/terms/centerline.py and
+#: rodsim/core/terms/_relative.py).
 PENALTIES: dict[str, tuple[str, ...]] = {
     "centerline": ("K_P", "K_P_relative"),
-    "lumen": ("K_L",),
-    "endpoint_compliance": ("K_E",),
-    "endpoint_coupling": ("K_C",),
-    "joint": ("K_J",),
+    "lumen": ("K_L", "K_L_relative"),
+    "endpoint_compliance": ("K_E", "K_E_relative"),
+    "endpoint_coupling": ("K_C", "K_C_relative"),
+    "joint": ("K_J", "K_J_relative"),
 }
 
 #: Above this estimate (in units of L) a run is flagged: its answer depends on a penalty.
@@ -152,3 +154,37 @@ def compression_text(compressed: dict[str, float]) -> str:
         f"warning     tendon {name} is in compression ({force:.3g} N at its most compressed "
         "segment): a tendon cannot push; the scene is not physical (docs/tendon.md)"
         for name, force in compressed.items())
+
+
+def assess(result: Result) -> PenaltyError:
+    """Estimate ``result``'s penalty error and check its tendons for compression, storing
+    both on it (``penalty_error``, ``tendon_compression``: the run archive's attributes);
+    returns the estimate. What ``rodsim run``, ``fit`` and ``reach`` do with their result."""
+    estimate = penalty_error(result)
+    result.penalty_error = estimate.error
+    result.tendon_compression = tendon_compression(result)
+    return estimate
+
+
+def last_step_result(track: Any) -> Result | None:
+    """The last completed step of a :class:`~rodsim.app.inverse.track.Track` as a static
+    result (a warm solve of the scene at that step's values from that step's state: already
+    at equilibrium, so one Newton iteration), for :func:`assess`; None without a step or
+    when that solve fails."""
+    from rodsim.app.api import solve
+
+    if not track.steps:
+        return None
+    last = track.steps - 1
+    values = {}
+    for column, key in enumerate(track.keys):
+        value = float(track.values[last, column])
+        if key.index is None:
+            values[key.path] = value
+        else:
+            vector = list(values.get(key.path, track.scene.get(key.path)))
+            vector[key.index] = value
+            values[key.path] = vector
+    scene = track.scene.with_values(values)
+    result = solve(scene, "static", initial_state=track.states[-1][track.model.free])
+    return result if result.success else None

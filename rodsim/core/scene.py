@@ -357,6 +357,8 @@ def resolve(raw: Mapping[str, Any]) -> dict[str, Any]:
                                            prefix)
         term_options = {term: terms[term].Options.of(tendons[rod][term])
                         for term in tendons[rod]["terms"]}
+        for term, term_opts in term_options.items():
+            terms[term].check_scene(term_opts, tendons[rod], f"{prefix}.{term}")
         check_tendon(rod, tendons[rod], rods, prefix, tendons_raw.keys(), term_options)
     for rod, table in rods.items():
         base = resolve_base(rod, table, rod in tendons)

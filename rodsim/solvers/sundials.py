@@ -70,7 +70,7 @@ FROZEN_STEPS = 10
 #: A run has stalled when its best residual has not halved over this many re-initialisations
 #: (a tendon point changing parent: the registration flipping back and forth); it then ends
 #: with advice instead of spending the wall-time budget. Measured on the user scene of issue
-#: 22 item 2 (conserving coupling, default K_L = 1000 N/m²): CVODE at t = 1.43-1.44 s for
+#: 22 item 2 (conserving coupling, K_L = 1000 N/m², then the default): CVODE at t = 1.43-1.44 s for
 #: 9 000 steps with 187 re-initialisations in 90 s, the residual wandering 1.5-160 (602 s
 #: before this check); 123 re-initialisations in its 1 000 steps after the best residual.
 #: Honest runs with the most: table3-catheter1 inertial, CVODE 23 in 13 028 steps, IDA 25 in
@@ -324,9 +324,9 @@ class SundialsIntegrator(Integrator):
                      "(the registration flips back and forth)")
         advice = []
         if reinits:
-            advice.append("stiffer lumen penalties (tendons.<name>.lumen.K_L: with the "
-                          "conserving coupling it is N/m² per unit length) or a larger "
-                          "tendons.<name>.lumen.hysteresis")
+            advice.append("stiffer lumen penalties (tendons.<name>.lumen.K_L_relative, "
+                          "or K_L: with the conserving coupling N/m² per unit length) or a "
+                          "larger tendons.<name>.lumen.hysteresis")
         if self.rtol > TIGHTEST_RTOL and not reinits:
             advice.append(f"a tighter solver.{self.name}.rtol/atol")
         other = "inertial" if self.options.formulation == "overdamped" else "overdamped"

@@ -113,6 +113,10 @@ class Track:
     failed_step: int | None = None
     unstable_step: int | None = None
     allow_unstable: bool = False
+    #: The last step's penalty-error estimate [L] and compressed tendons, when assessed
+    #: (rodsim/app/trust.py; ``rodsim track`` does): archive attributes as a run's.
+    penalty_error: float | None = None
+    tendon_compression: dict[str, float] = field(default_factory=dict)
 
     @property
     def unstable_steps(self) -> list[int]:
@@ -226,6 +230,11 @@ class Track:
             "stats_cold_wall_time": float(self.times[0]) if self.times else float("nan"),
             "stats_warm_step_mean_wall_time": float(warm.mean()) if warm.size else float("nan"),
         })
+        if self.penalty_error is not None:
+            ds.attrs["penalty_error"] = float(self.penalty_error)
+        if self.tendon_compression:
+            ds.attrs["tendon_compression"] = json.dumps(self.tendon_compression,
+                                                        sort_keys=True)
         return ds
 
 

@@ -15,9 +15,18 @@ from typing import Any
 
 import numpy as np
 
-from rodsim.core.schema import Parameter
 from rodsim.core.tendon import Tendon
+from rodsim.core.terms._relative import (
+    absolute,
+    check_one,
+    penalty_parameters,
+    tendon_axial_scale,
+)
 from rodsim.core.terms.base import TendonTerm
+
+#: Default K_E / (E_T A_T / L_T) (rodsim/core/terms/_relative.py): the spring adds 1e-4 of
+#: the tendon's own axial compliance.
+DEFAULT_K_E_RELATIVE = 1e4
 
 
 class EndpointCompliance(TendonTerm):
@@ -26,14 +35,21 @@ class EndpointCompliance(TendonTerm):
     name = "endpoint_compliance"
     equation = "Eq. (28)"
     parameters = (
-        Parameter("K_E", "float", 1500.0, "N/m", "endpoint compliance penalty constant",
-                  0.0, 1e15, exclusive_minimum=True),
+        *penalty_parameters("K_E", "N/m", "endpoint compliance penalty constant",
+                            DEFAULT_K_E_RELATIVE,
+                            "the tendon's axial stiffness E_T A_T / L_T"),
     )
+
+    @classmethod
+    def check_scene(cls, options: Any, owner: Any, prefix: str) -> None:
+        check_one(options, "K_E", DEFAULT_K_E_RELATIVE, prefix)
 
     def __init__(self, tendon: Tendon, options: Any) -> None:
         super().__init__(tendon, options)
         self.conservative = tendon.conserving
-        self._stiffness = options.K_E
+        #: The absolute penalty constant [N/m].
+        self.K_E = absolute(options, "K_E", tendon_axial_scale(tendon))
+        self._stiffness = self.K_E
         end = tendon.termination
         self._tip = end.position_index
         self._end = end.to_position_index

@@ -13,10 +13,19 @@ from typing import Any
 
 import numpy as np
 
-from rodsim.core.schema import Parameter
 from rodsim.core.tendon import Tendon
+from rodsim.core.terms._relative import (
+    absolute,
+    check_one,
+    penalty_parameters,
+    tendon_axial_scale,
+)
 from rodsim.core.terms._segment import Segments, two_node_block
 from rodsim.core.terms.base import TendonTerm
+
+#: Default K_C / (E_T A_T / L_T) (rodsim/core/terms/_relative.py): the spring adds 1e-4 of
+#: the tendon's own axial compliance.
+DEFAULT_K_C_RELATIVE = 1e4
 
 
 class EndpointCoupling(TendonTerm):
@@ -25,13 +34,20 @@ class EndpointCoupling(TendonTerm):
     name = "endpoint_coupling"
     equation = "Eq. (29)"
     parameters = (
-        Parameter("K_C", "float", 1e5, "N/m", "endpoint coupling penalty constant", 0.0, 1e15,
-                  exclusive_minimum=True),
+        *penalty_parameters("K_C", "N/m", "endpoint coupling penalty constant",
+                            DEFAULT_K_C_RELATIVE,
+                            "the tendon's axial stiffness E_T A_T / L_T"),
     )
+
+    @classmethod
+    def check_scene(cls, options: Any, owner: Any, prefix: str) -> None:
+        check_one(options, "K_C", DEFAULT_K_C_RELATIVE, prefix)
 
     def __init__(self, tendon: Tendon, options: Any) -> None:
         super().__init__(tendon, options)
-        self._stiffness = options.K_C
+        #: The absolute penalty constant [N/m].
+        self.K_C = absolute(options, "K_C", tendon_axial_scale(tendon))
+        self._stiffness = self.K_C
         end = tendon.termination
         self.dofs = np.concatenate([end.to_position_index, end.position_index])[None, :]
         # (r_N, t): edge e = t − r_N

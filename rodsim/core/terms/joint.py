@@ -30,6 +30,7 @@ import numpy as np
 from rodsim.core.anchors import Anchor, node_at
 from rodsim.core.rod.rod import Rod
 from rodsim.core.schema import Parameter
+from rodsim.core.terms._relative import absolute, check_one, penalty_parameters
 from rodsim.core.terms._segment import two_node_block
 from rodsim.core.terms.base import RodTerm
 from rodsim.core.terms.bend_twist import (
@@ -38,6 +39,10 @@ from rodsim.core.terms.bend_twist import (
     bend_kinematics,
     element_stiffness,
 )
+
+#: Default K_J / (E_s A / L) (rodsim/core/terms/_relative.py): the joint adds 1e-4 of the
+#: rod's own axial compliance.
+DEFAULT_K_J_RELATIVE = 1e4
 
 
 class Joint(RodTerm):
@@ -52,20 +57,27 @@ class Joint(RodTerm):
         Parameter("s", "float", None, "m",
                   "arclength on that rod where the base is tied (a node of that rod: "
                   "k L/(N − 1))", 0.0, 100.0),
-        Parameter("K_J", "float", 1e7, "N/m",
-                  "position penalty of the joint (the points part by F/K_J under a force F)",
-                  0.0, 1e15, exclusive_minimum=True),
+        *penalty_parameters("K_J", "N/m",
+                            "position penalty of the joint (the points part by F/K_J under a "
+                            "force F)", DEFAULT_K_J_RELATIVE,
+                            "this rod's axial stiffness E_s A / L"),
         Parameter("orientation", "bool", True, "-",
                   "tie the frames too (a welded joint: the bending element between the two "
                   "rods' segments); false: a ball joint"),
     )
+
+    @classmethod
+    def check_scene(cls, options: Any, owner: Any, prefix: str) -> None:
+        check_one(options, "K_J", DEFAULT_K_J_RELATIVE, prefix)
 
     def __init__(self, rod: Rod, options: Any, rods: dict[str, Rod]) -> None:
         super().__init__(rod, options)
         parent = rods[options.rod]
         #: The anchor: this rod's node 0 tied to the other rod's node at ``s``.
         self.anchor = Anchor(rod, 0, parent, node_at(parent.nodes, parent.length, options.s))
-        self._stiffness = float(options.K_J)
+        #: The absolute joint penalty constant [N/m].
+        self.K_J = absolute(options, "K_J", rod.stretch_stiffness / rod.length)
+        self._stiffness = self.K_J
         self._orientation = bool(options.orientation)
         blocks = [self.anchor.to_position_index, self.anchor.position_index]
         l_a, l_b = parent.geometry.segment_length, rod.geometry.segment_length

@@ -69,7 +69,12 @@ from rodsim.core.terms._lumen_segment import (
     segment_quaternions,
     tendon_stencil,
 )
+from rodsim.core.terms._relative import absolute, check_one, lumen_scale, penalty_parameters
 from rodsim.core.terms.base import TendonTerm
+
+#: Default K_L / (E I / (r_L² L_T²)) (rodsim/core/terms/_relative.py): measured on the user
+#: scene (tests/data/user-two-tendon.toml, coupling "conserving") and the user family.
+DEFAULT_K_L_RELATIVE = 1e5
 
 
 class PointOnLumen:
@@ -121,10 +126,12 @@ class Lumen(TendonTerm):
     equation = "Eqs. (24)–(27), (32)–(35)"
     dynamic = True
     parameters = (
-        Parameter("K_L", "float", 1000.0, "N/m",
-                  "lumen penalty constant: N/m per tendon point with coupling 'paper'; "
-                  "N/m² per unit tendon length with 'conserving'",
-                  0.0, 1e15, exclusive_minimum=True),
+        *penalty_parameters(
+            "K_L", "N/m or N/m²",
+            "lumen penalty constant (N/m per tendon point with coupling 'paper', N/m² per "
+            "unit tendon length with 'conserving')", DEFAULT_K_L_RELATIVE,
+            "E I / (r_L² L_T²) (catheter's least E I, lumen offset, tendon length; × the "
+            "tendon's segment length per point with 'paper')"),
         Parameter("constrain", "str", "both", "-",
                   "'both' transverse directions, or 'd_t' only as Eq. (34) (coupling 'paper')",
                   choices=("both", "d_t")),
@@ -140,9 +147,18 @@ class Lumen(TendonTerm):
                   "curve itself"),
     )
 
+    @classmethod
+    def check_scene(cls, options: Any, owner: Any, prefix: str) -> None:
+        check_one(options, "K_L", DEFAULT_K_L_RELATIVE, prefix)
+
     def __init__(self, tendon: Tendon, options: Any) -> None:
         super().__init__(tendon, options)
         self.conservative = tendon.conserving
+        scale = lumen_scale(tendon)
+        if not self.conservative:
+            scale *= tendon.rod.geometry.segment_length
+        #: The absolute lumen penalty constant (N/m² conserving, N/m per point paper).
+        self.K_L = absolute(options, "K_L", scale)
         self._both = options.constrain == "both"
         catheter = tendon.catheter
         self._margin = options.hysteresis * catheter.geometry.segment_length
@@ -154,7 +170,7 @@ class Lumen(TendonTerm):
             self.kernel = "lumen_segment"
             share = np.full(len(self._points), tendon.rod.geometry.segment_length)
             share[0] *= 0.5
-            self._stiffness = options.K_L * share
+            self._stiffness = self.K_L * share
             self._sagitta = np.zeros(len(self._points))
             # The correction's curvature is the tendon's turn at a vertex, so it needs a
             # tendon of at least three points.
@@ -164,7 +180,7 @@ class Lumen(TendonTerm):
                 if tendon.rod.geometry.segment_length > catheter.geometry.segment_length:
                     self._sagitta[-1] *= TIP_SHARE
         else:
-            self._stiffness = options.K_L
+            self._stiffness = self.K_L
         rest = np.zeros(max(catheter.layout.offset + catheter.layout.size,
                             tendon.rod.layout.offset + tendon.rod.layout.size))
         rest[catheter.layout.position_index] = catheter.rest_positions()
