@@ -248,3 +248,28 @@ def test_a_scheduler_without_workers_is_a_clear_failure(tmp_path):
             run_study(TRIO, "small", tmp_path / "alone.nc", scheduler=cluster.scheduler_address,
                       worker_timeout=2.0)
     assert not (tmp_path / "alone.nc").exists()
+
+
+def test_every_study_point_carries_its_stability_verdict(tmp_path):
+    """A study's points say whether their equilibrium is stable (issue 23): table1-50g's rod
+    pushed along its axis by 2 N is below its Euler load π²EI/(4L²) with E = 59 MPa
+    (10.3 N) and far above it with the scene's 5.9 MPa (1.03 N; both computed here
+    independently) — static stays on the straight, unstable branch there, which the archive
+    must flag, not pass as a plain result."""
+    from rodsim.app.study import Study, Sweep
+    from rodsim.app.study_runner import run_study
+
+    def euler_load(modulus: float) -> float:
+        return np.pi**2 * modulus * np.pi * 0.006**4 / 4 / (4 * 0.12**2)
+
+    assert euler_load(5.9e6) < 2.0 < euler_load(5.9e7)
+    study = Study(name="stability_test", title="push", paper="tests only",
+                  scene="table1-50g", integrator="static", reference=None,
+                  overrides=("tip_load.mass=0", "nodes=20", "tip_load.force=[-2.0, 0.0, 0.0]"),
+                  sweeps={"small": [Sweep("E", "rods.catheter.youngs_modulus", (5.9e7, 5.9e6),
+                                          "Pa", "Young's modulus")]})
+    ds = run_study(study, "small", tmp_path / "push.nc", workers=1)
+    assert ds["status"].values.tolist() == [0, 0]
+    assert ds["stable"].values.tolist() == [1.0, 0.0]
+    eigenvalues = ds["stiffness_min_eigenvalue"].values
+    assert np.isnan(eigenvalues[0]) and eigenvalues[1] < 0.0

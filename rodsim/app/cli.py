@@ -662,6 +662,10 @@ def cmd_study(args: argparse.Namespace) -> int:
     failed = int(dataset.attrs["failed_points"])
     print(f"study       {study.name} ({args.size}): {dataset.attrs['points']} points, "
           f"{failed} failed")
+    unstable = int((dataset["stable"] == 0).sum()) if "stable" in dataset else 0
+    if unstable:
+        print(f"rodsim: warning: {unstable} point(s) of the study are UNSTABLE equilibria "
+              "(the archive's 'stable' variable says which)", file=sys.stderr)
     print(f"archive     {output}")
     return EXIT_SOLVER_FAILURE if failed else EXIT_OK
 

@@ -302,6 +302,10 @@ def evaluate_point(spec: StudySpec, index: tuple[int, ...]) -> dict[str, Any]:
     if not result.success:  # the state a failed solver stopped in is no result: store none
         return record
     sigma = np.linspace(0.0, 1.0, spec.sigma_points)
+    if result.stability is not None:  # the point's verdict; the eigenvalue only if unstable
+        record["stable"] = int(result.stability.stable)
+        if not result.stability.stable:
+            record["stiffness_min_eigenvalue"] = float(result.stability.min_eigenvalue)
     record |= {
         "quaternion_norm_error": result.quaternion_norm_error,
         "tip": {name: shape.tip.tolist() for name, shape in result.rods.items()},
@@ -365,8 +369,9 @@ def assemble(spec: StudySpec, records: list[dict[str, Any]]) -> xr.Dataset:
     message = grid("", dtype=object)
     # Errors only against a reference: a study without one stores no error variables.
     errors = ("tip_error", "area_error") if spec.reference in REFERENCE_KINDS else ()
+    verdicts = ("stable", "stiffness_min_eigenvalue")
     scalars = {k: grid(np.nan) for k in ("residual", "quaternion_norm_error", *errors,
-                                         *POINT_STATS)}
+                                         *verdicts, *POINT_STATS)}
     tip = grid(np.nan, (len(rods), 3))
     centerline = grid(np.nan, (len(rods), len(sigma), 3))
     steps = max((len(r.get("history_time", [])) for r in records), default=0)
@@ -374,7 +379,7 @@ def assemble(spec: StudySpec, records: list[dict[str, Any]]) -> xr.Dataset:
                "history_tip": grid(np.nan, (steps, 3))}
     for index, r in by_index.items():
         status[index], message[index] = r["status"], r["message"]
-        for key in ("residual", "quaternion_norm_error", *errors):
+        for key in ("residual", "quaternion_norm_error", *errors, *verdicts):
             if key in r:
                 scalars[key][index] = r[key]
         for key in POINT_STATS:
@@ -403,6 +408,10 @@ def assemble(spec: StudySpec, records: list[dict[str, Any]]) -> xr.Dataset:
     docs = {
         "residual": ("1", "final scaled force residual"),
         "quaternion_norm_error": ("1", "largest | |q| - 1 |"),
+        "stable": ("1", "1 if the point's equilibrium is stable, 0 if not (NaN: failed point "
+                        "or no verdict)"),
+        "stiffness_min_eigenvalue": ("1", "smallest eigenvalue of the stiffness at an unstable "
+                                          "point (NaN where stable)"),
         "tip_error": ("1", f"tip distance to the {spec.reference} reference / L"),
         "area_error": ("m", f"area between the centerline and the {spec.reference} "
                             "reference / L (Fig. 21)"),

@@ -462,6 +462,10 @@ def check_point_record(record: Any, sigma_points: int, rods: list[str],
     for key in ("residual", "quaternion_norm_error", "tip_error", "area_error"):
         if key in record and not _finite_number(record[key]):
             raise ArchiveSchemaError(f"{key} is not a finite number")
+    if "stable" in record and record["stable"] not in (0, 1):
+        raise ArchiveSchemaError("stable is not 0 or 1")
+    if "stiffness_min_eigenvalue" in record and not _number(record["stiffness_min_eigenvalue"]):
+        raise ArchiveSchemaError("stiffness_min_eigenvalue is not a number")
     for key, shape in (("tip", (3,)), ("centerline", (sigma_points, 3))):
         stored = record[key]
         if not isinstance(stored, dict) or sorted(stored) != sorted(rods):
