@@ -15,7 +15,6 @@ Writes ``contact-<size>.json`` and ``contact-<size>.md``. Nothing is asserted.
 
 from __future__ import annotations
 
-import json
 import time
 from pathlib import Path
 
@@ -25,7 +24,7 @@ import rodsim
 from rodsim.app.inverse.track import track
 from rodsim.core.model import Model
 from rodsim.solvers.base import Progress
-from rodsim_bench.machine import machine
+from rodsim_bench.machine import machine, write_report
 
 __all__ = ["run"]
 
@@ -65,13 +64,9 @@ def run(size: str, output_dir: Path, progress: Progress) -> list[Path]:
               "nodes": scene.rods["catheter"].nodes,
               "evaluation_s": with_contact, "evaluation_without_contact_s": without_contact,
               "contact_share": (with_contact - without_contact) / with_contact}
-    stem = output_dir / f"contact-{size}"
-    json_path = stem.with_suffix(".json")
-    json_path.write_text(json.dumps(report, indent=1))
-    md_path = stem.with_suffix(".md")
     m = report["machine"]
     status = "all converged" if report["success"] else "FAILED"
-    md_path.write_text("\n".join([
+    text = "\n".join([
         f"# Contact: insertion along a csv vessel ({size})", "",
         f"{m['cpu']}, {m['cores_available']} cores, Python {m['python']}, numpy {m['numpy']}, "
         f"commit {m['git_commit'][:10]}, {m['date']}.", "",
@@ -84,5 +79,5 @@ def run(size: str, output_dir: Path, progress: Progress) -> list[Path]:
         f"| the same without the contact term | {without_contact * 1e6:.1f} µs |",
         f"| contact's share of an evaluation (search included) | "
         f"{100 * report['contact_share']:.0f} % |",
-        ""]))
-    return [json_path, md_path]
+        ""])
+    return write_report(report, text, output_dir / f"contact-{size}")

@@ -39,7 +39,7 @@ import numpy as np
 import rodsim
 from rodsim.core.model import KERNELS, Model
 from rodsim.solvers.base import Progress
-from rodsim_bench.machine import machine
+from rodsim_bench.machine import machine, write_report
 
 INTEGRATORS = ("static", "paper", "cvode", "ida")
 SIZES = {"small": {"scenes": ("table1-50g",), "repeats": 2, "calls": 50, "large": False,
@@ -211,12 +211,7 @@ def run(size: str, output_dir: Path, progress: Progress) -> list[Path]:
     report["cvode_profile"] = cvode_profile("table1-50g")
     report["tracking"] = [tracking_costs(name, config["track_steps"], config["repeats"],
                                          progress) for name in config["scenes"]]
-    stem = output_dir / f"kernels-{size}"
-    json_path = stem.with_suffix(".json")
-    json_path.write_text(json.dumps(report, indent=1))
-    md_path = stem.with_suffix(".md")
-    md_path.write_text(markdown(report))
-    return [json_path, md_path]
+    return write_report(report, markdown(report), output_dir / f"kernels-{size}")
 
 
 def markdown(report: dict) -> str:

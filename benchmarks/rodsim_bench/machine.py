@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import datetime
+import json
 import os
 import platform
 from importlib import metadata
@@ -13,7 +14,7 @@ import numpy as np
 import rodsim
 from rodsim.io.provenance import git_commit
 
-__all__ = ["machine"]
+__all__ = ["machine", "write_report"]
 
 
 def _cpu_model() -> str:
@@ -45,3 +46,12 @@ def machine() -> dict[str, str]:
         "OMP_NUM_THREADS": os.environ.get("OMP_NUM_THREADS", "unset"),
         "OPENBLAS_NUM_THREADS": os.environ.get("OPENBLAS_NUM_THREADS", "unset"),
     }
+
+
+def write_report(report: dict, markdown: str, stem: Path) -> list[Path]:
+    """Write a benchmark's numbers as ``<stem>.json`` (``report``; numpy scalars as floats)
+    and its table as ``<stem>.md`` (``markdown``); returns the two paths."""
+    json_path, md_path = stem.with_suffix(".json"), stem.with_suffix(".md")
+    json_path.write_text(json.dumps(report, indent=1, default=float))
+    md_path.write_text(markdown)
+    return [json_path, md_path]

@@ -39,7 +39,6 @@ Writes ``pyelastica-<size>.json`` and ``pyelastica-<size>.md``. Nothing is asser
 
 from __future__ import annotations
 
-import json
 import math
 import sys
 import time
@@ -371,7 +370,7 @@ def run(size: str, output_dir: Path, progress) -> list[Path]:
 
     import rodsim
     from rodsim.core.analytic import extensible_elastica
-    from rodsim_bench.machine import machine
+    from rodsim_bench.machine import machine, write_report
 
     config = SIZES[size]
     rod = cantilever(rodsim.load_scene(SCENE).data)
@@ -447,12 +446,7 @@ def run(size: str, output_dir: Path, progress) -> list[Path]:
             "error_ratio": favourable["oracle"]["tip_error"] / cvode["tip_error"]},
         "equal_error": equal_error(pyelastica_rows, rodsim_rows),
     }
-    stem = output_dir / f"pyelastica-{size}"
-    json_path = stem.with_suffix(".json")
-    json_path.write_text(json.dumps(report, indent=1, default=float))
-    md_path = stem.with_suffix(".md")
-    md_path.write_text(markdown(report))
-    return [json_path, md_path]
+    return write_report(report, markdown(report), output_dir / f"pyelastica-{size}")
 
 
 def extrapolate(tips: dict[int, list[float]], reference_tip: np.ndarray, length: float

@@ -11,7 +11,6 @@ own time is reported once per case. Writes ``string-tendon-<size>.json`` and
 
 from __future__ import annotations
 
-import json
 import time
 from pathlib import Path
 
@@ -20,7 +19,7 @@ import numpy as np
 import rodsim
 from rodsim.core.analytic.tendon_bvp import scene_reference
 from rodsim.solvers.base import Progress
-from rodsim_bench.machine import machine
+from rodsim_bench.machine import machine, write_report
 
 __all__ = ["run"]
 
@@ -91,12 +90,7 @@ def run(size: str, output_dir: Path, progress: Progress) -> list[Path]:
         rows.append(row)
     report = {"benchmark": "string-tendon", "size": size, "machine": machine(),
               "repeats": config["repeats"], "cases": rows}
-    stem = output_dir / f"string-tendon-{size}"
-    json_path = stem.with_suffix(".json")
-    json_path.write_text(json.dumps(report, indent=1))
-    md_path = stem.with_suffix(".md")
-    md_path.write_text(markdown(report))
-    return [json_path, md_path]
+    return write_report(report, markdown(report), output_dir / f"string-tendon-{size}")
 
 
 def markdown(report: dict) -> str:
