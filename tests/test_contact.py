@@ -283,3 +283,47 @@ def test_a_csv_vessel_is_read_into_the_scene_and_an_override_of_its_file_rereads
     wide = scene.with_overrides([f'obstacles.vessel.file="{other}"'])
     assert wide.data["obstacles"]["vessel"]["points"] == [-0.2, 0.0, 0.0, 0.004,
                                                            0.3, 0.0, 0.0, 0.004]
+
+
+def arc_vessel_scene(origin: float, nodes: int, length: float) -> dict:
+    """A rod along +x whose base is ``-origin`` behind a semicircular vessel (bend radius
+    40 mm, lumen 4 mm): the vessel continues straight behind its start and past its end."""
+    return {
+        "name": "far-walk",
+        "rods": {"catheter": {"length": length, "radius": 0.0003, "youngs_modulus": 6e10,
+                              "density": 6500.0, "nodes": nodes, "clamp": "frame",
+                              "origin": [origin, 0.0, 0.0],
+                              "terms": ["stretch", "bend_twist", "centerline"]}},
+        "obstacles": {"vessel": {"type": "tube", "rods": ["catheter"], "centerline": "arc",
+                                 "radius": 0.004, "start": [0.0, 0.0, 0.0],
+                                 "direction": [1.0, 0.0, 0.0], "bend_toward": [0.0, 1.0, 0.0],
+                                 "bend_radius": 0.04, "angle": math.pi}},
+    }
+
+
+def test_nearest_point_walk_reaches_nodes_far_along_the_vessel():
+    """The walk from the nearest knot (first node) or the previous node's parameter must reach
+    a node any distance away: far behind the vessel's start on its straight extension, across
+    most of the bend, far past its end. Each point is more than 40 knot intervals from the
+    last (the walk's old step cap): the gaps are checked against the exact geometry of the
+    semicircle and its two straight extensions, and the compiled kernel against numpy."""
+    bend, lumen = 0.04, 0.004
+    scene = Scene.from_dict(arc_vessel_scene(-0.12, 4, 0.3))  # base 0.12 m behind the start
+    points = np.array([
+        [-0.12, 0.001, 0.0],                                          # entry extension
+        [(bend + 0.003) * math.sin(2.0), bend - (bend + 0.003) * math.cos(2.0), 0.0],  # bend
+        [(bend - 0.0035) * math.sin(2.9), bend - (bend - 0.0035) * math.cos(2.9), 0.0],
+        [-0.1, 2.0 * bend + 0.0039, 0.0],                             # exit extension
+    ])
+    exact = lumen - np.array([0.001, 0.003, 0.0035, 0.0039])
+    numpy_model, compiled = Model(scene, "numpy"), Model(scene, "compiled")
+    contact = next(term for term in numpy_model.terms if term.name == "contact")
+    np.testing.assert_allclose(contact.obstacle.gap(points)[0], exact, rtol=0, atol=1e-9)
+    # The same state through both paths: three nodes in the onset or beyond, one outside.
+    full = numpy_model.full(numpy_model.x0)
+    full[numpy_model.rods["catheter"].layout.position_index] = points + [
+        [0, 0, 0], [0, 0.0008, 0], [0, 0, 0], [0, 0.0003, 0]]
+    x = full[numpy_model.free]
+    assert np.any(contact.nodal_forces(full) != 0.0)
+    np.testing.assert_allclose(compiled.force(x), numpy_model.force(x), rtol=0,
+                               atol=1e-12 * np.max(np.abs(numpy_model.force(x))))

@@ -37,7 +37,8 @@ def _curve(coef: np.ndarray, t: float, out: np.ndarray) -> None:
 @njit(cache=True)
 def _project(p: np.ndarray, u: float, k: int, step: float, starts: np.ndarray,
              coef: np.ndarray, cc: np.ndarray) -> tuple[float, int]:
-    for _ in range(MAX_ITERATIONS):
+    last = starts.shape[0] - 1
+    for _ in range(MAX_ITERATIONS + last):
         _curve(coef[k], u - starts[k], cc)
         speed2 = 0.0
         rc2 = 0.0
@@ -50,7 +51,13 @@ def _project(p: np.ndarray, u: float, k: int, step: float, starts: np.ndarray,
         a = speed2 - rc2
         if a < 0.1 * speed2:
             a = speed2
-        du = min(max(rc1 / a, -step), step)
+        du = rc1 / a
+        if u < starts[0]:  # straight extension: Newton's exact step, stopped at the spline
+            du = min(du, starts[0] - u)
+        elif u > starts[last]:
+            du = max(du, starts[last] - u)
+        else:
+            du = min(max(du, -step), step)
         u += du
         k = _piece(starts, k, u)
         if abs(du) <= 1e-14 * step:

@@ -190,15 +190,20 @@ class Tube(Obstacle):
 
     def project(self, points: np.ndarray) -> np.ndarray:
         """Nearest centerline parameter u* of each point: Newton on (c − p) · c' = 0 from the
-        previous point's u* (the first from the nearest knot)."""
+        previous point's u* (the first from the nearest knot). On the spline a step is at most
+        one knot interval (no jump to another branch of a bending vessel); on the straight
+        extensions the step is Newton's exact one, stopped at the spline's end. The walk may
+        take as many steps as the spline has knots: a node any distance along the vessel from
+        the previous one is reached."""
         out = np.zeros(len(points))
         if not len(points):
             return out
         knots = self.knots[:-1]  # the starts of the spline's pieces, as the kernel scans them
         knots_c = self._c(knots, 0)
         u = float(knots[np.argmin(np.sum((knots_c - points[0]) ** 2, axis=1))])
+        first, last = float(self.knots[0]), float(self.knots[-1])
         for i, p in enumerate(points):
-            for _ in range(MAX_ITERATIONS):
+            for _ in range(MAX_ITERATIONS + len(self.knots)):
                 at = np.array([u])
                 c, c1, c2 = self._c(at, 0)[0], self._c(at, 1)[0], self._c(at, 2)[0]
                 r = p - c
@@ -206,7 +211,13 @@ class Tube(Obstacle):
                 a = speed2 - float(r @ c2)
                 if a < 0.1 * speed2:
                     a = speed2
-                du = min(max(float(r @ c1) / a, -self.step), self.step)
+                du = float(r @ c1) / a
+                if u < first:  # on the straight extension Newton is exact: no step limit,
+                    du = min(du, first - u)  # but stop at the spline's start
+                elif u > last:
+                    du = max(du, last - u)
+                else:
+                    du = min(max(du, -self.step), self.step)
                 u += du
                 if abs(du) <= 1e-14 * self.step:
                     break
