@@ -327,3 +327,78 @@ def test_nearest_point_walk_reaches_nodes_far_along_the_vessel():
     assert np.any(contact.nodal_forces(full) != 0.0)
     np.testing.assert_allclose(compiled.force(x), numpy_model.force(x), rtol=0,
                                atol=1e-12 * np.max(np.abs(numpy_model.force(x))))
+
+
+def torus_insertion(nodes: int, steps: int) -> tuple[np.ndarray, np.ndarray, float]:
+    """A stiff wire (r = 0.3 mm, E = 60 GPa, L = 0.16 m) advanced 0.12 m from a straight
+    entry into a frictionless semicircular vessel (bend radius R = 40 mm, lumen a = 0.4 mm),
+    its tip free inside the bend. Returns the node positions, the contact force on every
+    node and the segment length."""
+    length = 0.16
+    raw = arc_vessel_scene(-length, nodes, length)
+    raw["obstacles"]["vessel"]["radius"] = TORUS_LUMEN
+    track = rodsim.track(Scene.from_dict(raw),
+                         {"rods.catheter.base.insertion": np.linspace(0.0, 0.12, steps)})
+    assert track.success, track.message
+    full = track.states[-1]
+    contact = next(term for term in track.model.terms if term.name == "contact")
+    return track.positions[-1].reshape(-1, 3), contact.nodal_forces(full), length / (nodes - 1)
+
+
+TORUS_BEND, TORUS_LUMEN, TORUS_WIRE = 0.04, 0.0004, 0.0003
+
+
+def torus_reference() -> tuple[float, float, float]:
+    """Away from its ends a rod pushed into a frictionless bend lies on the outer wall, a
+    circle of radius ρ = R + a − r (κ = 1/ρ). Derived here (docs/contact.md): with m = EIκ b
+    uniform, m' + t × n = 0 gives n = N t; n' + f = 0 with a normal wall force f = −p ν gives
+    N' = 0 and p = −Nκ. Moving the zone outward by dρ at fixed rod length keeps its length S
+    and changes its bending energy EI S/(2ρ²) by −EI S/ρ³ dρ, which the wall's work p S dρ
+    balances: p = EIκ³, N = −EIκ² (compression), so the axial strain is −EIκ²/EA.
+    Returns κ, p [N/m] and the strain."""
+    kappa = 1.0 / (TORUS_BEND + TORUS_LUMEN - TORUS_WIRE)
+    ei = 6e10 * math.pi * TORUS_WIRE**4 / 4.0
+    ea = 6e10 * math.pi * TORUS_WIRE**2
+    return kappa, ei * kappa**3, -ei * kappa**2 / ea
+
+
+def torus_middle(positions: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Angle of every node around the bend's axis (0 at the bend's start) and its distance
+    from that axis."""
+    d = positions - np.array([0.0, TORUS_BEND, 0.0])
+    return np.unwrap(np.arctan2(d[:, 0], -d[:, 1])), np.hypot(d[:, 0], d[:, 1])
+
+
+def test_rod_pushed_into_a_bend_lies_on_the_outer_wall_with_line_force_ei_kappa_cubed():
+    kappa, line_force, strain = torus_reference()
+    positions, forces, segment = torus_insertion(41, 61)
+    theta, radius = torus_middle(positions)
+    middle = int(np.argmin(np.abs(theta - 1.5)))  # the tip stops near theta = 3
+    measured = np.linalg.norm(forces, axis=1) / segment
+    assert abs(measured[middle] / line_force - 1.0) < 1e-4  # 3.0e-5 measured
+    stretch = np.linalg.norm(positions[middle + 1] - positions[middle]) / segment - 1.0
+    assert abs(stretch / strain - 1.0) < 1e-4  # 1.6e-5 measured: the rod's extensibility
+    # A uniform zone of at least 0.5 rad, on the wall (within the penalty's penetration).
+    zone = np.abs(measured / line_force - 1.0) < 3e-3
+    assert np.ptp(theta[zone]) > 0.5
+    assert np.all(np.abs(radius[zone] - 1.0 / kappa) < 1e-7)
+    # Before the zone (the entry) and after it (the free tip) the rod leaves the outer wall.
+    assert np.max(1.0 / kappa - radius[theta < 0.5]) > 1e-5
+    assert np.max(1.0 / kappa - radius[theta > 2.5]) > 1e-5
+
+
+@pytest.mark.slow
+def test_bend_contact_penetration_falls_as_n_squared():
+    """The wall holds the uniform zone with a node force p l against a stiffness
+    k = 1e3 EI/l³ in the onset: penetration √(2δ p l/k) ∝ l². Measured 4.9e-8 and 1.2e-8 m at
+    N = 41 and 81 (order 2.00); the line force stays within 3e-5 of EIκ³."""
+    kappa, line_force, _ = torus_reference()
+    depth = []
+    for nodes, steps in ((41, 61), (81, 121)):
+        positions, forces, segment = torus_insertion(nodes, steps)
+        theta, radius = torus_middle(positions)
+        middle = int(np.argmin(np.abs(theta - 1.5)))
+        depth.append(radius[middle] - 1.0 / kappa)
+        assert abs(np.linalg.norm(forces[middle]) / segment / line_force - 1.0) < 1e-4
+    assert depth[0] > 0.0 and depth[1] > 0.0
+    assert math.log2(depth[0] / depth[1]) == pytest.approx(2.0, abs=0.1)
