@@ -24,6 +24,7 @@ import copy
 from collections.abc import Mapping
 from dataclasses import dataclass
 from functools import cached_property
+from typing import TYPE_CHECKING, Any, NamedTuple
 
 import numpy as np
 import scipy.sparse as sp
@@ -40,7 +41,10 @@ from rodsim.core.supports import base_support, node_supports, quaternion_product
 from rodsim.core.tendon import Tendon, tendon_support
 from rodsim.core.terms import Term, registered_terms
 
-__all__ = ["Model", "Band", "KERNELS"]
+if TYPE_CHECKING:
+    from rodsim.core.kernels import Kernel
+
+__all__ = ["Model", "Band", "KERNELS", "KernelCall"]
 
 #: The evaluation paths (``solver.kernels``).
 KERNELS = ("compiled", "numpy")
@@ -52,6 +56,36 @@ class Band:
 
     lower: int
     upper: int
+
+
+class KernelCall(NamedTuple):
+    """How the compiled path evaluates one term (:meth:`Model._build_kernel_calls`)."""
+
+    #: The term's index in :attr:`Model.terms` (its continuation scale's index).
+    index: int
+    term: Term
+    #: The compiled kernel (rodsim/core/kernels/), its ``evaluate`` and ``energy``.
+    kernel: Kernel
+    #: The term's constants in the kernel's signature order (:meth:`Kernel.bind`).
+    arguments: tuple[Any, ...]
+    #: Free-coordinate index of each element's force entry, shape (n_elem, k); n: a dump.
+    force_target: np.ndarray
+    #: CSC data slot of each element's Jacobian entry, shape (n_elem, k, k); nnz: a dump.
+    jacobian_target: np.ndarray
+
+    @property
+    def evaluate(self) -> Any:
+        """The kernel's ``evaluate``."""
+        return self.kernel.evaluate
+
+    @property
+    def energy(self) -> Any:
+        """The kernel's ``energy``, or None when the module has none."""
+        return self.kernel.energy
+
+    def with_term(self, term: Term) -> KernelCall:
+        """This call for another term of the same kind and elements (new constants)."""
+        return self._replace(term=term, arguments=self.kernel.bind(term.kernel_arguments()))
 
 
 class Model:
@@ -243,9 +277,7 @@ class Model:
         if self._kernel_calls is not None:  # the same kernels and targets, new constants
             calls = list(self._kernel_calls)
             for index in changed:
-                _, _, evaluate, _, force_target, jacobian_target, energy = calls[index]
-                calls[index] = (index, terms[index], evaluate, terms[index].kernel_arguments(),
-                                force_target, jacobian_target, energy)
+                calls[index] = calls[index].with_term(terms[index])
             other._kernel_calls = calls
         other._build_scales(layout=False)
         return other
@@ -297,7 +329,7 @@ class Model:
         self._build_force_scatter()
         self._tick()
         self._build_pattern()
-        self._kernel_calls: list[tuple] | None = None  # built at the first compiled call
+        self._kernel_calls: list[KernelCall] | None = None  # built at the first compiled call
 
     def _order_for_band(self) -> None:
         """Reorder the free coordinates (reverse Cuthill–McKee) when that narrows the band.
@@ -555,12 +587,13 @@ class Model:
         if self.kernels == "compiled":
             if self._kernel_calls is None:
                 self._kernel_calls = self._build_kernel_calls()
-            compiled = {call[0]: call for call in self._kernel_calls if call[6] is not None}
+            compiled = {call.index: call for call in self._kernel_calls
+                        if call.energy is not None}
         total = 0.0
         for index, term in enumerate(self.terms):
             if index in compiled:
                 call = compiled[index]
-                value = call[6](full, *call[3])
+                value = call.energy(full, *call.arguments)
             else:
                 value = term.energy(full)
             if value is None:
@@ -603,17 +636,15 @@ class Model:
             self._kernel_calls = self._build_kernel_calls()
         f = np.zeros(self.n + 1 if force else 1)
         j = np.zeros(self.nnz + 1 if jacobian else 1)
-        for index, term, kernel, arguments, force_target, jacobian_target, _ in (
-                self._kernel_calls):
-            kernel(full, *arguments, self._scale(index, term, load), force, f, force_target,
-                   jacobian, j, jacobian_target)
+        for call in self._kernel_calls:
+            call.kernel.evaluate(full, *call.arguments, self._scale(call.index, call.term, load),
+                                 force, f, call.force_target, jacobian, j, call.jacobian_target)
         return (f[:-1] if force else np.zeros(0)), (j[:-1] if jacobian else np.zeros(0))
 
-    def _build_kernel_calls(self) -> list[tuple]:
-        """(index, term, kernel, constants, force targets, Jacobian targets, energy kernel or
-        None) of every term:
-        where each element's force and Jacobian entries land (slot n and nnz are dumps for
-        clamped coordinates)."""
+    def _build_kernel_calls(self) -> list[KernelCall]:
+        """The :class:`KernelCall` of every term: its kernel, its constants bound by name to
+        the kernel's signature, and where each element's force and Jacobian entries land
+        (slot n and nnz are dumps for clamped coordinates)."""
         from rodsim.core.kernels import load_kernel
 
         calls = []
@@ -627,9 +658,9 @@ class Model:
                 start += size
             else:
                 jacobian_target = np.zeros((0, 0, 0), dtype=np.int64)
-            evaluate, energy = load_kernel(term)
-            calls.append((index, term, evaluate, term.kernel_arguments(), force_target,
-                          np.ascontiguousarray(jacobian_target), energy))
+            kernel = load_kernel(term)
+            calls.append(KernelCall(index, term, kernel, kernel.bind(term.kernel_arguments()),
+                                    force_target, np.ascontiguousarray(jacobian_target)))
         return calls
 
     def jacobian(self, x: np.ndarray, load: float = 1.0) -> sp.csc_matrix:

@@ -15,7 +15,8 @@ element, the generalised force on those coordinates and its derivative:
 These numpy methods are the readable reference. Each term also has a compiled kernel, one
 file in :mod:`rodsim.core.kernels` named after the term (or ``kernel``), which computes the same
 element forces and Jacobians with numba and accumulates them straight into the model's force
-vector and CSC Jacobian data; ``kernel_arguments`` hands it the term's constants. The model
+vector and CSC Jacobian data; ``kernel_arguments`` hands it the term's constants by the
+names of the kernel's parameters (bound to its signature by name). The model
 picks the path (``solver.kernels``); the contract test checks both against each other and
 against finite differences.
 
@@ -32,6 +33,7 @@ no per-term test code: force = −∂E/∂x, Jacobian = ∂F/∂x, symmetry when
 from __future__ import annotations
 
 from abc import ABC, abstractmethod
+from collections.abc import Mapping
 from typing import TYPE_CHECKING, Any, ClassVar
 
 import numpy as np
@@ -42,7 +44,11 @@ if TYPE_CHECKING:
     from rodsim.core.rod.rod import Rod
     from rodsim.core.tendon import Tendon
 
-__all__ = ["Term", "RodTerm", "TendonTerm", "REGISTRY"]
+__all__ = ["Term", "RodTerm", "TendonTerm", "REGISTRY", "KernelArguments"]
+
+#: What :meth:`Term.kernel_arguments` returns: the compiled kernel's constants by the names of
+#: its parameters (rodsim/core/kernels/__init__.py orders them by the kernel's signature).
+KernelArguments = Mapping[str, Any]
 
 #: Every defined term class, by name. Filled by ``Term.__init_subclass__``.
 REGISTRY: dict[str, type[Term]] = {}
@@ -133,8 +139,11 @@ class Term(ABC):
         scale F_ref: by default the sum of its element forces' norms."""
         return float(np.sum(np.linalg.norm(self.element_forces(x), axis=1)))
 
-    def kernel_arguments(self) -> tuple:
-        """The constants the compiled kernel takes after the state (arrays and floats)."""
+    def kernel_arguments(self) -> KernelArguments:
+        """The constants the compiled kernel takes after the state (arrays and floats), by
+        the names of the kernel's parameters: the model binds them to the kernel's signature
+        by name (:meth:`rodsim.core.kernels.Kernel.bind`), so their order does not matter and
+        a missing or unknown name is an error."""
         raise NotImplementedError(f"term {self.name!r} has no compiled kernel")
 
     def registration(self, x: np.ndarray, exact: bool = False) -> np.ndarray | None:

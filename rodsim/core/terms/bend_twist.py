@@ -42,7 +42,7 @@ import numpy as np
 from rodsim.core.rod.quaternion import B, form_combination
 from rodsim.core.rod.rod import Rod
 from rodsim.core.schema import Parameter
-from rodsim.core.terms.base import RodTerm
+from rodsim.core.terms.base import KernelArguments, RodTerm
 
 #: B as flattened matrices: (b @ _B_ROWS)[n, 4k + a] = Σ_c B[k, c, a] b[n, c] (B_kᵀ b) and
 #: (a @ _B_COLUMNS)[n, 4k + c] = Σ_d B[k, c, d] a[n, d] (B_k a).
@@ -208,9 +208,10 @@ class BendTwist(RodTerm):
         self._stiffness = element_stiffness(rod, options.stiffness, options.twist_stiffness,
                                             starts, ends)
 
-    def kernel_arguments(self) -> tuple:
+    def kernel_arguments(self) -> KernelArguments:
         frame = self._frame if self._clamped else np.zeros(4)  # unused when not clamped
-        return (self.dofs, self._dual_lengths, self._stiffness, bool(self._clamped), frame)
+        return {"dofs": self.dofs, "dual_lengths": self._dual_lengths,
+                "stiffness": self._stiffness, "clamped": bool(self._clamped), "frame": frame}
 
     def _pairs(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         q = x[self.rod.layout.quaternion_index]

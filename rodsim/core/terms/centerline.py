@@ -27,7 +27,7 @@ from rodsim.core.rod.quaternion import (
 from rodsim.core.rod.rod import Rod
 from rodsim.core.schema import Parameter, SceneError
 from rodsim.core.terms._segment import Segments
-from rodsim.core.terms.base import RodTerm
+from rodsim.core.terms.base import KernelArguments, RodTerm
 
 #: Default K_P / (E_s A): the penalty error α r² / (2 K_P_relative L²) is ≤ 1e-4 L up to a
 #: load α = 8 (a tip force bending a cantilever far past 90°) on a rod as thick as L/r = 20;
@@ -78,8 +78,8 @@ class Centerline(RodTerm):
         self.penalty_ratio = (self.K_P * rod.geometry.segment_length**2
                               / rod.smallest_bending_stiffness)
 
-    def kernel_arguments(self) -> tuple:
-        return (self.dofs, float(self._weight))
+    def kernel_arguments(self) -> KernelArguments:
+        return {"dofs": self.dofs, "weight": float(self._weight)}
 
     def _mismatch(self, x: np.ndarray) -> tuple[Segments, np.ndarray, np.ndarray]:
         seg = Segments.of(x[self.rod.layout.position_index])

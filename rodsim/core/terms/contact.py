@@ -41,7 +41,7 @@ import numpy as np
 
 from rodsim.core.obstacles import Obstacle
 from rodsim.core.rod.rod import Rod
-from rodsim.core.terms.base import RodTerm
+from rodsim.core.terms.base import KernelArguments, RodTerm
 
 __all__ = ["Contact", "penalty"]
 
@@ -102,10 +102,11 @@ class Contact(RodTerm):
         return self.stiffness * (curvature - d2[:, None, None]
                                  * np.einsum("ni,nj->nij", grad, grad))
 
-    def kernel_arguments(self) -> tuple:
+    def kernel_arguments(self) -> KernelArguments:
         params, starts, coef, rcoef = self.obstacle.kernel_data()
-        return (self.dofs.astype(np.int64), int(self.obstacle.kind), params, starts, coef,
-                rcoef, self.radius, self.stiffness, self.smoothing)
+        return {"dofs": self.dofs.astype(np.int64), "kind": int(self.obstacle.kind),
+                "params": params, "starts": starts, "coef": coef, "rcoef": rcoef,
+                "radius": self.radius, "stiffness": self.stiffness, "delta": self.smoothing}
 
     @classmethod
     def check_scene(cls, options: Any, owner: Any, prefix: str) -> None:

@@ -22,7 +22,7 @@ from rodsim.core.terms._relative import (
     penalty_parameters,
     tendon_axial_scale,
 )
-from rodsim.core.terms.base import TendonTerm
+from rodsim.core.terms.base import KernelArguments, TendonTerm
 
 #: Default K_E / (E_T A_T / L_T) (rodsim/core/terms/_relative.py): the spring adds 1e-4 of
 #: the tendon's own axial compliance.
@@ -56,10 +56,11 @@ class EndpointCompliance(TendonTerm):
         self._quaternion = end.to_quaternion_index
         self.dofs = np.concatenate([self._tip, self._end, self._quaternion])[None, :]
 
-    def kernel_arguments(self) -> tuple:
+    def kernel_arguments(self) -> KernelArguments:
         tendon = self.tendon
-        return (self.dofs, float(tendon.alpha), float(tendon.beta), float(tendon.offset),
-                float(self._stiffness), self.conservative)
+        return {"dofs": self.dofs, "alpha": float(tendon.alpha), "beta": float(tendon.beta),
+                "offset": float(tendon.offset), "stiffness": float(self._stiffness),
+                "conserving": self.conservative}
 
     def _offset(self, x: np.ndarray) -> tuple[np.ndarray, dict[str, np.ndarray]]:
         frame = self.tendon.lumen_frame(x[self._quaternion][None, :])

@@ -21,7 +21,7 @@ from rodsim.core.terms._relative import (
     tendon_axial_scale,
 )
 from rodsim.core.terms._segment import Segments, two_node_block
-from rodsim.core.terms.base import TendonTerm
+from rodsim.core.terms.base import KernelArguments, TendonTerm
 
 #: Default K_C / (E_T A_T / L_T) (rodsim/core/terms/_relative.py): the spring adds 1e-4 of
 #: the tendon's own axial compliance.
@@ -56,8 +56,9 @@ class EndpointCoupling(TendonTerm):
         """The stiff link r_N–t, whose length a Newton step keeps (Model.step)."""
         return self.dofs
 
-    def kernel_arguments(self) -> tuple:
-        return (self.dofs, float(self._stiffness), float(self.tendon.offset))
+    def kernel_arguments(self) -> KernelArguments:
+        return {"dofs": self.dofs, "stiffness": float(self._stiffness),
+                "offset": float(self.tendon.offset)}
 
     def _edge(self, x: np.ndarray) -> Segments:
         return Segments.of(x[self.dofs[0]].reshape(2, 3))

@@ -32,7 +32,7 @@ from rodsim.core.rod.rod import Rod
 from rodsim.core.schema import Parameter
 from rodsim.core.terms._relative import absolute, check_one, penalty_parameters
 from rodsim.core.terms._segment import two_node_block
-from rodsim.core.terms.base import RodTerm
+from rodsim.core.terms.base import KernelArguments, RodTerm
 from rodsim.core.terms.bend_twist import (
     bend_forces,
     bend_jacobians,
@@ -97,11 +97,11 @@ class Joint(RodTerm):
             blocks += [self.anchor.to_quaternion_index, rod.layout.quaternion_index[0]]
         self.dofs = np.concatenate(blocks)[None, :]  # (r_A, r_B[, a, b])
 
-    def kernel_arguments(self) -> tuple:
+    def kernel_arguments(self) -> KernelArguments:
         bend_dofs = (np.ascontiguousarray(self.dofs[:, 6:14]) if self._orientation
                      else np.zeros((0, 8), dtype=self.dofs.dtype))
-        return (self.dofs, self._stiffness, bend_dofs, self._dual_lengths,
-                self._bend_stiffness)
+        return {"dofs": self.dofs, "stiffness": self._stiffness, "bend_dofs": bend_dofs,
+                "dual_lengths": self._dual_lengths, "bend_stiffness": self._bend_stiffness}
 
     def _gap(self, x: np.ndarray) -> np.ndarray:
         return x[self.dofs[0, 3:6]] - x[self.dofs[0, 0:3]]  # r_B,0 − r_A,k

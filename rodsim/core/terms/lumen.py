@@ -70,7 +70,7 @@ from rodsim.core.terms._lumen_segment import (
     tendon_stencil,
 )
 from rodsim.core.terms._relative import absolute, check_one, lumen_scale, penalty_parameters
-from rodsim.core.terms.base import TendonTerm
+from rodsim.core.terms.base import KernelArguments, TendonTerm
 
 #: Default K_L / (E I / (r_L² L_T²)) (rodsim/core/terms/_relative.py): measured on the user
 #: scene (tests/data/user-two-tendon.toml, coupling "conserving") and the user family.
@@ -248,15 +248,18 @@ class Lumen(TendonTerm):
         self.dofs = np.concatenate([self._points, r, q], axis=1)
 
     # ----------------------------------------------------------- evaluation
-    def kernel_arguments(self) -> tuple:
+    def kernel_arguments(self) -> KernelArguments:
         tendon = self.tendon
+        common = {"dofs": self.dofs, "alpha": float(tendon.alpha), "beta": float(tendon.beta),
+                  "offset": float(tendon.offset)}
         if self.conservative:
-            return (self.dofs, float(tendon.alpha), float(tendon.beta), float(tendon.offset),
-                    self._stiffness, float(tendon.catheter.geometry.segment_length),
-                    self._ends(), self._node_weights(), self._sagitta,
-                    float(tendon.rod.geometry.segment_length))
-        return (self.dofs, float(tendon.alpha), float(tendon.beta), float(tendon.offset),
-                float(self._stiffness), self._both, self.conservative, self._reaction_share())
+            return {**common, "stiffness": self._stiffness,
+                    "length": float(tendon.catheter.geometry.segment_length),
+                    "ends": self._ends(), "weights": self._node_weights(),
+                    "sagitta": self._sagitta,
+                    "tendon_length": float(tendon.rod.geometry.segment_length)}
+        return {**common, "stiffness": float(self._stiffness), "both": self._both,
+                "conserving": self.conservative, "share": self._reaction_share()}
 
     def _kinematics(self, x: np.ndarray) -> PointOnLumen:
         local = x[self.dofs]

@@ -36,7 +36,7 @@ import numpy as np
 from rodsim.core.rod.quaternion import B, director, director_gradient
 from rodsim.core.rod.rod import Rod
 from rodsim.core.schema import Parameter, SceneError, shown
-from rodsim.core.terms.base import RodTerm
+from rodsim.core.terms.base import KernelArguments, RodTerm
 
 #: Frames a load's components may be given in.
 LOAD_FRAMES = ("world", "body")
@@ -118,10 +118,12 @@ class PointLoads(RodTerm):
         self.has_jacobian = follower
         self.conservative = not follower
 
-    def kernel_arguments(self) -> tuple:
-        return (self.dofs, self._weights, self._frame_weights, self._own, self._world_force,
-                self._body_force, self._world_moment, self._body_moment,
-                bool(self.has_jacobian))
+    def kernel_arguments(self) -> KernelArguments:
+        return {"dofs": self.dofs, "weights": self._weights,
+                "frame_weights": self._frame_weights, "own": self._own,
+                "world_force": self._world_force, "body_force": self._body_force,
+                "world_moment": self._world_moment, "body_moment": self._body_moment,
+                "follower": bool(self.has_jacobian)}
 
     def energy(self, x: np.ndarray) -> float | None:
         """−Σ F · r(s) for world-frame forces; ``None`` if any load is a follower or a moment."""

@@ -15,7 +15,7 @@ import numpy as np
 
 from rodsim.core.rod.rod import Rod
 from rodsim.core.terms._segment import Segments, two_node_block
-from rodsim.core.terms.base import RodTerm
+from rodsim.core.terms.base import KernelArguments, RodTerm
 
 
 class Stretch(RodTerm):
@@ -31,8 +31,8 @@ class Stretch(RodTerm):
         self._stiffness = rod.segment_stretch_stiffness()  # K_s per segment
         self._rest = rod.geometry.segment_length
 
-    def kernel_arguments(self) -> tuple:
-        return (self.dofs, self._stiffness, float(self._rest))
+    def kernel_arguments(self) -> KernelArguments:
+        return {"dofs": self.dofs, "stiffness": self._stiffness, "rest": float(self._rest)}
 
     def _strain(self, x: np.ndarray) -> tuple[Segments, np.ndarray]:
         seg = Segments.of(x[self.rod.layout.position_index])

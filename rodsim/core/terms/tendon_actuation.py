@@ -21,7 +21,7 @@ import numpy as np
 from rodsim.core.rod.quaternion import director, director_gradient
 from rodsim.core.schema import Parameter
 from rodsim.core.tendon import Tendon
-from rodsim.core.terms.base import TendonTerm
+from rodsim.core.terms.base import KernelArguments, TendonTerm
 
 
 class TendonActuation(TendonTerm):
@@ -55,10 +55,10 @@ class TendonActuation(TendonTerm):
             self.dofs = tendon.rod.layout.position_index[:1]
             self._pull = -self._force * director(catheter.base_quaternion, 2)
 
-    def kernel_arguments(self) -> tuple:
+    def kernel_arguments(self) -> KernelArguments:
         if not self._distal:
-            return (self._pull[None, :].copy(),)
-        return (self.dofs, float(self._force))
+            return {"forces": self._pull[None, :].copy()}
+        return {"dofs": self.dofs, "pull": float(self._force)}
 
     def energy(self, x: np.ndarray) -> float | None:
         if self._distal:

@@ -58,7 +58,7 @@ from rodsim.core.rod.quaternion import DIRECTOR_FORMS
 from rodsim.core.routing import ROUTINGS, Routing, string_span
 from rodsim.core.schema import Parameter
 from rodsim.core.tendon import MAX_TENSION, Tendon
-from rodsim.core.terms.base import TendonTerm
+from rodsim.core.terms.base import KernelArguments, TendonTerm
 
 #: Local coordinates of one routing point: r_m, r_{m+1}, the two knot quaternions.
 POINT_SIZE = 14
@@ -173,10 +173,10 @@ class TendonString(TendonTerm):
         #: G_m = ρ_y A[0, m] + ρ_z A[1, m] of every point, (P, 3, 4, 4).
         self._forms = g
 
-    def kernel_arguments(self) -> tuple:
+    def kernel_arguments(self) -> KernelArguments:
         pts = self.points
-        return (self.dofs, pts.weights, pts.constant, np.ascontiguousarray(self._forms),
-                self.tension)
+        return {"dofs": self.dofs, "weights": pts.weights, "constant": pts.constant,
+                "forms": np.ascontiguousarray(self._forms), "tension": self.tension}
 
     def load_scale(self, x: np.ndarray) -> float:
         """The tension: the termination's point force (the chords' forces cancel in pairs)."""

@@ -13,7 +13,7 @@ import numpy as np
 
 from rodsim.core.rod.rod import Rod
 from rodsim.core.schema import Parameter
-from rodsim.core.terms.base import RodTerm
+from rodsim.core.terms.base import KernelArguments, RodTerm
 
 #: Standard gravity [m/s²]; the paper's hanging masses are weighed with it.
 STANDARD_GRAVITY = 9.81
@@ -43,8 +43,8 @@ class TipLoad(RodTerm):
             [0.0, -options.mass * options.gravity, 0.0]
         )
 
-    def kernel_arguments(self) -> tuple:
-        return (self.force[None, :].copy(),)
+    def kernel_arguments(self) -> KernelArguments:
+        return {"forces": self.force[None, :].copy()}
 
     def energy(self, x: np.ndarray) -> float:
         return float(-self.force @ x[self.dofs[0]])
