@@ -180,13 +180,18 @@ class Model:
                     self.tendons[name], scene.term_options("tendons", name, term_name)))
                 self.term_keys.append(("tendons", name, term_name))
                 self._tick()
-        for name, table in scene.data.get("obstacles", {}).items():
-            from rodsim.core.obstacles import build_obstacle
-
-            obstacle = build_obstacle(name, table)
-            for rod in table["rods"]:
-                self.terms.append(catalogue["contact"](self.rods[rod], obstacle))
-                self.term_keys.append(("obstacles", name, rod))  # changes: a new model
+        for kind in catalogue.values():  # terms built from a top-level table (obstacles)
+            if not kind.scene_table:
+                continue
+            for name, table in scene.data.get(kind.scene_table, {}).items():
+                for key, term in kind.from_table(name, table, self.rods):
+                    self.terms.append(term)
+                    self.term_keys.append((kind.scene_table, name, key))  # changes: new model
+        for term in self.terms:
+            if term.penalty and not (isinstance(getattr(term, "penalty_ratio", None), float)
+                                     and 0.0 < term.penalty_ratio < np.inf):
+                raise TypeError(f"penalty term {term.name!r} must set a finite positive float "
+                                "penalty_ratio (rodsim/core/terms/base.py)")
         #: Factor on each term's output: 1, or a penalty continuation scale.
         self.term_scales = np.ones(len(self.terms))
         self._scale_list = self.term_scales.tolist()  # as floats, for the evaluation loops

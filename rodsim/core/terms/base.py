@@ -80,8 +80,8 @@ class Term(ABC):
         ``False`` for state-independent forces (no Jacobian entries, no pattern).
     dynamic
         ``True`` when an element's coordinates depend on a discrete state of the term (a
-        tendon point's parent catheter node), which :meth:`update_registration` updates
-        between solver steps; ``dofs`` changes with it.
+        tendon point's parent catheter node), which :meth:`registration` applies to a state
+        and :meth:`registered` sets, between solver steps; ``dofs`` changes with it.
 
     ``conservative``, ``is_load`` and ``has_jacobian`` may be overridden per instance
     (a term whose behaviour depends on its parameters).
@@ -96,8 +96,21 @@ class Term(ABC):
     has_jacobian: ClassVar[bool] = True
     dynamic: ClassVar[bool] = False
     #: True for a constraint penalty whose constant a solver may raise gradually; the term
-    #: must be linear in its constant, so that scaling its output scales the constant.
+    #: must be linear in its constant, so that scaling its output scales the constant. A
+    #: penalty term must also set :attr:`penalty_ratio` (checked when a model is built).
     penalty: ClassVar[bool] = False
+    #: A penalty term's stiffness relative to the physics it constrains at the scale of one
+    #: element (the centerline penalty: K_P l² / (E I), l the segment length), a finite
+    #: positive number. The solvers that lower stiff penalties before loading (``static``,
+    #: the SUNDIALS finish) scale the term's output by ``their_ratio / penalty_ratio`` when
+    #: it is larger than theirs (:meth:`rodsim.core.model.Model.with_term_scales`). Set by
+    #: penalty terms only (``penalty = True``), per instance: it depends on the options and
+    #: the rod.
+    penalty_ratio: float
+    #: The top-level scene table whose entries build this term, instead of a rod's or a
+    #: tendon's ``terms`` list (contact: ``"obstacles"``); the model calls
+    #: :meth:`from_table` on each entry. Empty: a term a rod or a tendon lists.
+    scene_table: ClassVar[str] = ""
     #: True for a rod term that ties its rod to another (a joint, rodsim/core/anchors.py):
     #: it is built with the model's rods as a third argument, ``Term(rod, options, rods)``.
     joins_rods: ClassVar[bool] = False
@@ -158,6 +171,15 @@ class Term(ABC):
     def registered(self, state: np.ndarray) -> Term:
         """A copy of this dynamic term with the discrete state ``state`` (and its ``dofs``)."""
         raise NotImplementedError(f"term {self.name!r} has no registration")
+
+    @classmethod
+    def from_table(cls, name: str, table: Mapping[str, Any],
+                   rods: Mapping[str, Rod]) -> list[tuple[str, Term]]:
+        """The terms one entry ``[<scene_table>.<name>]`` of a term with a
+        :attr:`scene_table` builds, each with its key (unique within the entry: the model
+        names the term ``(scene_table, name, key)``), from the validated ``table`` and the
+        model's rods."""
+        raise NotImplementedError(f"term {cls.name!r} is not built from a scene table")
 
     def rigid_links(self) -> np.ndarray:
         """Global position indices (a, b), shape (k, 6), of the stiff two-point links of

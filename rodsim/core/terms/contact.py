@@ -35,11 +35,12 @@ segments between nodes may cut a convex obstacle's corner or a concave wall by u
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from typing import Any
 
 import numpy as np
 
-from rodsim.core.obstacles import Obstacle
+from rodsim.core.obstacles import Obstacle, build_obstacle
 from rodsim.core.rod.rod import Rod
 from rodsim.core.terms.base import KernelArguments, RodTerm
 
@@ -65,6 +66,14 @@ class Contact(RodTerm):
     name = "contact"
     equation = "contact penalty (not in the paper; docs/contact.md)"
     scope = "obstacle"
+    scene_table = "obstacles"
+
+    @classmethod
+    def from_table(cls, name: str, table: Mapping[str, Any],
+                   rods: Mapping[str, Rod]) -> list[tuple[str, Contact]]:
+        """One term per rod the obstacle ``[obstacles.<name>]`` touches, keyed by the rod."""
+        obstacle = build_obstacle(name, table)
+        return [(rod, cls(rods[rod], obstacle)) for rod in table["rods"]]
 
     def __init__(self, rod: Rod, obstacle: Obstacle) -> None:
         super().__init__(rod, self.Options())

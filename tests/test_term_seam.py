@@ -1,0 +1,66 @@
+"""The term ↔ model seam (issue 21 item 3): what the model asks of a term is declared on the
+term base class (rodsim/core/terms/base.py), and the model knows no term by name."""
+
+from __future__ import annotations
+
+import inspect
+import math
+
+import pytest
+
+import rodsim
+import rodsim.core.model as model_module
+from rodsim.core.model import Model
+from rodsim.core.scene import Scene
+from rodsim.core.terms import registered_terms
+from rodsim.core.terms.base import Term
+
+
+def test_the_model_names_no_term():
+    source = inspect.getsource(model_module)
+    named = [name for name in registered_terms() if f'"{name}"' in source
+             or f"'{name}'" in source]
+    assert not named, f"rodsim/core/model.py names the terms {named}: use a Term hook"
+
+
+def test_every_penalty_term_declares_its_penalty_ratio():
+    """``penalty_ratio`` is part of the contract: every penalty term of the shipped scenes
+    carries a finite positive one (the solvers lower the penalty by it)."""
+    penalties = 0
+    for name in ("table1-50g", "table3-catheter1", "tendon-conserving"):
+        for term in Model(rodsim.load_scene(name)).terms:
+            if term.penalty:
+                penalties += 1
+                assert isinstance(term.penalty_ratio, float)
+                assert 0.0 < term.penalty_ratio < math.inf
+    assert penalties >= 3
+    assert "penalty_ratio" in Term.__annotations__ and "penalty_ratio" in (
+        inspect.getsource(Term))
+
+
+def test_a_penalty_term_without_its_ratio_is_refused(monkeypatch):
+    catalogue = registered_terms()
+    centerline = catalogue["centerline"]
+
+    class NoRatio(centerline):  # no ``name`` of its own: not registered
+        def __init__(self, *args, **kwargs):
+            super().__init__(*args, **kwargs)
+            del self.penalty_ratio
+
+    monkeypatch.setattr(model_module, "registered_terms",
+                        lambda: {**catalogue, "centerline": NoRatio})
+    with pytest.raises(TypeError, match="penalty term 'centerline' must set"):
+        Model(rodsim.load_scene("table1-50g"))
+
+
+def test_terms_built_from_a_scene_table_come_from_their_hook():
+    """Contact terms are built by ``Contact.from_table`` from ``[obstacles.<name>]``, one per
+    rod the obstacle lists, under the keys the model has always used."""
+    scene = rodsim.load_scene("table1-50g").data
+    data = {**scene, "obstacles": {"floor": {"type": "plane", "point": [0.0, -0.05, 0.0],
+                                              "normal": [0.0, 1.0, 0.0], "rods": ["catheter"]}}}
+    model = Model(Scene.from_dict(data))
+    contacts = [(key, term) for key, term in zip(model.term_keys, model.terms, strict=True)
+                if term.scene_table]
+    assert [key for key, _ in contacts] == [("obstacles", "floor", "catheter")]
+    assert contacts[0][1].name == "contact" and contacts[0][1].rod is model.rods["catheter"]
