@@ -6,6 +6,7 @@ from __future__ import annotations
 import inspect
 import math
 
+import numpy as np
 import pytest
 
 import rodsim
@@ -64,3 +65,47 @@ def test_terms_built_from_a_scene_table_come_from_their_hook():
                 if term.scene_table]
     assert [key for key, _ in contacts] == [("obstacles", "floor", "catheter")]
     assert contacts[0][1].name == "contact" and contacts[0][1].rod is model.rods["catheter"]
+
+
+@pytest.mark.parametrize(("name", "kinds"), [("table1-50g", ("exact", "paper", "extensible")),
+                                             ("tendon-conserving", ("arc",))])
+def test_analytic_references_read_the_rods_without_a_model(name, kinds, monkeypatch):
+    """rodsim/core/analytic/reference.py reads E I, E_s A, L and the base from the scene's
+    rods (issue 21 item 3): with Model blocked it gives the centerlines the references give
+    for the constants of an assembled model's rods."""
+    from rodsim.core.analytic import reference
+    from rodsim.core.analytic.elastica import exact_elastica
+    from rodsim.core.analytic.extensible import extensible_elastica
+    from rodsim.core.analytic.tendon_arc import tendon_arc
+
+    scene = rodsim.load_scene(name)
+    model = Model(scene)  # the constants of the assembled model, before blocking it
+    first = next(iter(model.rods.values()))
+    s = np.linspace(0.0, first.length, 17)
+    expected = {}
+    if name == "table1-50g":
+        load = scene.term_options("rods", first.name, "tip_load")
+        force = load.mass * load.gravity
+        shape = exact_elastica(force, first.bending_stiffness, first.length, s)
+        expected["exact"] = np.stack([shape.x, shape.y, 0.0 * s], axis=1)
+        shape = extensible_elastica((0.0, -force), first.bending_stiffness,
+                                    first.stretch_stiffness, first.length, s)
+        expected["extensible"] = np.stack([shape.x, shape.y, 0.0 * s], axis=1)
+    else:
+        (tendon_name, tendon), = model.tendons.items()
+        pull = scene.term_options("tendons", tendon_name, "tendon_actuation").force
+        shape = tendon_arc(pull, tendon.offset, first.bending_stiffness
+                           + model.rods[tendon_name].bending_stiffness,
+                           first.stretch_stiffness, first.length, s)
+        expected["arc"] = first.origin + np.stack(
+            [shape.x, tendon.alpha * shape.y, tendon.beta * shape.y], axis=1)
+
+    def blocked(*args, **kwargs):
+        raise AssertionError("a reference built a Model")
+
+    monkeypatch.setattr(Model, "__init__", blocked)
+    for kind in kinds:
+        centerline = reference.reference_centerline(scene, kind, s)
+        assert centerline is not None and centerline.shape == (len(s), 3)
+        if kind in expected:
+            np.testing.assert_allclose(centerline, expected[kind], rtol=0, atol=1e-15)

@@ -44,7 +44,7 @@ from rodsim.core.terms import Term, registered_terms
 if TYPE_CHECKING:
     from rodsim.core.kernels import Kernel
 
-__all__ = ["Model", "Band", "KERNELS", "KernelCall"]
+__all__ = ["Model", "Band", "KERNELS", "KernelCall", "scene_rod"]
 
 #: The evaluation paths (``solver.kernels``).
 KERNELS = ("compiled", "numpy")
@@ -56,6 +56,27 @@ class Band:
 
     lower: int
     upper: int
+
+
+def scene_rod(scene: Scene, name: str, layout: RodLayout, rods: Mapping[str, Rod],
+              joints: Mapping[str, Any] | None = None) -> Rod:
+    """Rod ``name`` of ``scene`` at ``layout``, held by its base support (at its catheter's
+    lumen for a tendon rod, at its joint for a joined rod: ``rods`` must hold that catheter
+    or parent), with its sections; without the supports at other nodes. ``joints``:
+    :func:`~rodsim.core.anchors.scene_joints` of the scene (read when None)."""
+    options = scene.rods[name]
+    tendons = scene.data["tendons"]
+    joints = scene_joints(scene) if joints is None else joints
+    if name in tendons:
+        tendon = scene.tendons[name]
+        support = tendon_support(rods[tendon.catheter], tendon, options.clamp)
+    elif name in joints:
+        support = joined_support(rods[joints[name].rod], joints[name].s)
+    else:
+        support = base_support(options.clamp, scene.base_options(name),
+                               np.asarray(options.origin, dtype=float))
+    sections = tuple(scene.data["rods"][name].get("sections", ()))
+    return Rod(name, options, layout, support, sections=sections)
 
 
 class KernelCall(NamedTuple):
@@ -141,20 +162,12 @@ class Model:
         for name in sorted(rods, key=lambda n: (n in tendons, joint_depth(n, joints))):
             options = rods[name]
             layout = RodLayout(options.nodes, offset)
-            if name in tendons:
-                support = tendon_support(self.rods[tendons[name].catheter], tendons[name],
-                                         options.clamp)
-            elif name in joints:
-                support = joined_support(self.rods[joints[name].rod], joints[name].s)
-            else:
-                support = base_support(options.clamp, scene.base_options(name),
-                                       np.asarray(options.origin, dtype=float))
-            sections = tuple(scene.data["rods"][name].get("sections", ()))
-            rod = Rod(name, options, layout, support, sections=sections)
+            rod = scene_rod(scene, name, layout, self.rods, joints)
             tables = scene.support_tables(name)
             if tables:
-                rod = Rod(name, options, layout, support, node_supports(
-                    options.nodes, options.length, rod.rest_positions(), tables), sections)
+                rod = Rod(name, options, layout, rod.support, node_supports(
+                    options.nodes, options.length, rod.rest_positions(), tables),
+                    rod.sections)
             self.rods[name] = rod
             offset += layout.size
             self._tick()
