@@ -14,7 +14,7 @@ import rodsim.core.model as model_module
 from rodsim.core.model import Model
 from rodsim.core.scene import Scene
 from rodsim.core.terms import registered_terms
-from rodsim.core.terms.base import Term
+from rodsim.core.terms.base import REGISTRY, Term
 
 
 def test_the_model_names_no_term():
@@ -48,8 +48,7 @@ def test_a_penalty_term_without_its_ratio_is_refused(monkeypatch):
             super().__init__(*args, **kwargs)
             del self.penalty_ratio
 
-    monkeypatch.setattr(model_module, "registered_terms",
-                        lambda: {**catalogue, "centerline": NoRatio})
+    monkeypatch.setitem(REGISTRY, "centerline", NoRatio)
     with pytest.raises(TypeError, match="penalty term 'centerline' must set"):
         Model(rodsim.load_scene("table1-50g"))
 
@@ -109,3 +108,28 @@ def test_analytic_references_read_the_rods_without_a_model(name, kinds, monkeypa
         assert centerline is not None and centerline.shape == (len(s), 3)
         if kind in expected:
             np.testing.assert_allclose(centerline, expected[kind], rtol=0, atol=1e-15)
+
+
+def test_the_tendon_coupling_selects_one_of_two_registered_lumen_terms():
+    """The lumen is two registered terms under one scene key: the tendon's ``coupling``
+    picks the paper's (K_L in N/m per point) or the conserving one (N/m² per unit length);
+    a scene's lumen table stays valid when its coupling changes."""
+    from rodsim.core.terms.lumen import Lumen
+    from rodsim.core.terms.lumen_conserving import ConservingLumen
+
+    catalogue = registered_terms()
+    assert catalogue["lumen"] is Lumen and catalogue["lumen_conserving"] is ConservingLumen
+    assert Lumen.key == ConservingLumen.key == "lumen"
+    units = {cls.name: next(p.unit for p in cls.parameters if p.name == "K_L")
+             for cls in (Lumen, ConservingLumen)}
+    assert units == {"lumen": "N/m", "lumen_conserving": "N/m²"}
+    assert ([p.name for p in Lumen.parameters]
+            == [p.name for p in ConservingLumen.parameters])
+    for scene, expected in (("table3-catheter1", Lumen), ("tendon-conserving", ConservingLumen)):
+        loaded = rodsim.load_scene(scene)
+        lumens = [t for t in Model(loaded).terms if t.key == "lumen"]
+        assert lumens and all(type(t) is expected for t in lumens)
+        assert all(isinstance(t.options, expected.Options) for t in lumens)
+    switched = rodsim.load_scene("table3-catheter1", ["tendons.tendon.coupling=conserving"])
+    lumens = [t for t in Model(switched).terms if t.key == "lumen"]
+    assert lumens and all(type(t) is ConservingLumen and t.conservative for t in lumens)

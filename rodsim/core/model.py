@@ -175,11 +175,12 @@ class Model:
         self.full_size = offset
         catalogue = registered_terms()
         self.terms: list[Term] = []
-        #: (``"rods"`` or ``"tendons"``, owner's name, term name) of each term, in order.
+        #: (``"rods"``, ``"tendons"`` or a term's ``scene_table``, owner's name, term key) of
+        #: each term, in order.
         self.term_keys: list[tuple[str, str, str]] = []
         for rod in self.rods.values():
             for term_name in rod.options.terms:
-                kind = catalogue[term_name]
+                kind = scene.term_type("rods", rod.name, term_name)
                 self.terms.append(kind(rod, scene.term_options("rods", rod.name, term_name),
                                        *((self.rods,) if kind.joins_rods else ())))
                 self.term_keys.append(("rods", rod.name, term_name))
@@ -189,7 +190,7 @@ class Model:
                         for name, options in tendons.items()}
         for name, options in tendons.items():
             for term_name in options.terms:
-                self.terms.append(catalogue[term_name](
+                self.terms.append(scene.term_type("tendons", name, term_name)(
                     self.tendons[name], scene.term_options("tendons", name, term_name)))
                 self.term_keys.append(("tendons", name, term_name))
                 self._tick()
@@ -269,11 +270,10 @@ class Model:
         other.scene = scene
         if not changed:
             return other
-        catalogue = registered_terms()
         terms = list(self.terms)
         for index in changed:
             owner, name, term_name = self.term_keys[index]
-            kind = catalogue[term_name]
+            kind = scene.term_type(owner, name, term_name)
             options = scene.term_options(owner, name, term_name)
             if owner == "rods":
                 term = kind(self.rods[name], options,

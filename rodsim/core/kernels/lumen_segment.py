@@ -1,4 +1,4 @@
-"""Kernel of :mod:`rodsim.core.terms.lumen` with the conserving coupling, Eqs. (24)–(27),
+"""Kernel of :mod:`rodsim.core.terms.lumen_conserving` (the conserving coupling), Eqs. (24)–(27),
 (32)–(35) with docs/design.md, erratum 13 (:mod:`rodsim.core.terms._lumen_segment`): per
 tendon point p on lumen segment j, local coordinates (p, r_j, r_{j+1}, q_{j−1}, q_j, q_{j+1}),
 

@@ -116,6 +116,11 @@ class Term(ABC):
     joins_rods: ClassVar[bool] = False
     #: Module of :mod:`rodsim.core.kernels` holding the compiled kernel (default: ``name``).
     kernel: ClassVar[str] = ""
+    #: The scene key of the term: what a rod's or a tendon's ``terms`` lists and the name of
+    #: its options sub-table (default: ``name``). Terms sharing a key are variants of one
+    #: concept (the lumen's paper and conserving couplings); the owner's table picks one of
+    #: them with :meth:`selected_by`, and each variant declares the same option keys.
+    key: ClassVar[str] = ""
 
     #: The frozen dataclass of this term's options (see above).
     Options: ClassVar[type]
@@ -125,7 +130,15 @@ class Term(ABC):
 
     def __init_subclass__(cls, **kwargs: Any) -> None:
         super().__init_subclass__(**kwargs)
+        if "name" in cls.__dict__ and not cls.key:
+            cls.key = cls.name
         register_with_options(cls, REGISTRY, "term")
+
+    @classmethod
+    def selected_by(cls, owner: Mapping[str, Any]) -> bool:
+        """Whether the owner's table (a rod's or a tendon's own values, validated) selects
+        this class for its :attr:`key`; a key with one class: always."""
+        return True
 
     @abstractmethod
     def element_forces(self, x: np.ndarray) -> np.ndarray:
