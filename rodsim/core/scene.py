@@ -45,7 +45,7 @@ from rodsim.core.names import check_rod_name, check_scene_name
 from rodsim.core.rod.rod import ROD_PARAMETERS, RodOptions
 from rodsim.core.rod.sections import resolve_sections
 from rodsim.core.scene_file import parse_toml, read_scene_text
-from rodsim.core.schema import Parameter, SceneError, options_type, shown, validate_table
+from rodsim.core.schema import Options, Parameter, SceneError, shown, validate_table
 from rodsim.core.supports import BASE_PARAMETERS, BaseOptions, resolve_base, resolve_supports
 from rodsim.core.tendon import (
     STRING_TERMS,
@@ -77,11 +77,17 @@ SOLVER_PARAMETERS: tuple[Parameter, ...] = (
               choices=("compiled", "numpy")),
 )
 
-#: The generic solver settings, typed (one field per :data:`SOLVER_PARAMETERS`); each
-#: integrator's own ``[solver.<name>]`` options are its ``Options``
-#: (:meth:`rodsim.solvers.base.Integrator.options_of`).
-SolverSettings = options_type("SolverSettings", SOLVER_PARAMETERS,
-                              "The generic solver settings of a scene ([solver]).")
+@dataclass(frozen=True, kw_only=True)
+class SolverSettings(Options):
+    """The generic solver settings of a scene ([solver]), typed: one field per
+    :data:`SOLVER_PARAMETERS` (checked by tests/test_types.py); each integrator's own
+    ``[solver.<name>]`` options are its ``Options``
+    (:meth:`rodsim.solvers.base.Integrator.options_of`)."""
+
+    integrator: str = "cvode"
+    tolerance: float = 1e-9
+    max_wall_time: float = 600.0
+    kernels: str = "compiled"
 
 _TOP_KEYS = ("name", "description", "rods", "tendons", "obstacles", "solver")
 
@@ -177,23 +183,23 @@ class Scene:
         return str(self.data["description"])
 
     @property
-    def solver(self) -> Any:
+    def solver(self) -> SolverSettings:
         """The generic solver settings, a :data:`SolverSettings` (a view of ``data``)."""
         return SolverSettings.of(self.data["solver"])
 
     @property
-    def rods(self) -> dict[str, Any]:
+    def rods(self) -> dict[str, RodOptions]:
         """Each rod's own values by name, as :data:`~rodsim.core.rod.rod.RodOptions` (views
         of ``data``; the per-term sub-tables are read with :meth:`term_options`)."""
         return {name: RodOptions.of(table) for name, table in self.data["rods"].items()}
 
     @property
-    def tendons(self) -> dict[str, Any]:
+    def tendons(self) -> dict[str, TendonOptions]:
         """Each tendon's own values by its rod's name, as
         :data:`~rodsim.core.tendon.TendonOptions` (views of ``data``)."""
         return {name: TendonOptions.of(table) for name, table in self.data["tendons"].items()}
 
-    def base_options(self, rod: str) -> Any:
+    def base_options(self, rod: str) -> BaseOptions:
         """The base support's values of rod ``rod`` ([rods.<rod>.base]: insertion,
         rotation) as a :data:`~rodsim.core.supports.BaseOptions`; the defaults for a tendon
         rod, whose base follows its catheter's."""
