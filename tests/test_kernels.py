@@ -49,7 +49,7 @@ def test_every_kernel_matches_its_numpy_reference(scene, random_state):
         model = moved or compiled
         full = model.full(x)
         for call in model._build_kernel_calls():
-            index, term, arguments = call.index, call.term, call.arguments
+            index, term, arguments = call.term_index, call.term, call.arguments
             kernel, energy = call.kernel.evaluate, call.kernel.energy
             force_target, jacobian_target = call.force_target, call.jacobian_target
             force = np.zeros(model.n + 1)

@@ -102,3 +102,23 @@ def test_declared_options_are_what_the_scene_hands_out():
     assert all(type(options) is RodOptions for options in scene.rods.values())
     assert all(type(options) is TendonOptions for options in scene.tendons.values())
     assert dataclasses.asdict(scene.solver)["integrator"] == scene.data["solver"]["integrator"]
+
+
+def test_mypy_runs_clean_on_the_configured_packages():
+    """``python -m mypy`` with pyproject.toml's ``[tool.mypy]`` (rodsim/core at least; the
+    other packages join as they are made clean). Measured: 9.5 s with an empty cache, under
+    1 s with mypy's cache (.mypy_cache) warm."""
+    import subprocess
+    import sys
+    import tomllib
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parents[1]
+    config = tomllib.loads((root / "pyproject.toml").read_text(encoding="utf-8"))
+    assert "rodsim/core" in config["tool"]["mypy"]["files"]
+    assert any(item.startswith("mypy")
+               for item in config["project"]["optional-dependencies"]["test"])
+    run = subprocess.run([sys.executable, "-m", "mypy"], cwd=root, capture_output=True,
+                         text=True, timeout=600, check=False)
+    assert run.returncode == 0, run.stdout[-4000:] + run.stderr[-2000:]
+    assert "Success: no issues found" in run.stdout

@@ -79,11 +79,20 @@ def scene_rod(scene: Scene, name: str, layout: RodLayout, rods: Mapping[str, Rod
     return Rod(name, options, layout, support, sections=sections)
 
 
+def _registered_as(term: Term, other: Term) -> Term:
+    """The dynamic ``term`` with the registration of ``other`` (the same term of another
+    model of the same layout)."""
+    state = other.registration_state()
+    if state is None:
+        raise ValueError(f"dynamic term {other.name!r} has no registration state")
+    return term.registered(state)
+
+
 class KernelCall(NamedTuple):
     """How the compiled path evaluates one term (:meth:`Model._build_kernel_calls`)."""
 
     #: The term's index in :attr:`Model.terms` (its continuation scale's index).
-    index: int
+    term_index: int
     term: Term
     #: The compiled kernel (rodsim/core/kernels/), its ``evaluate`` and ``energy``.
     kernel: Kernel
@@ -186,10 +195,10 @@ class Model:
                 self.term_keys.append(("rods", rod.name, term_name))
                 self._tick()
         #: The scene's tendons (lumen geometry shared by their coupling terms).
-        self.tendons = {name: Tendon.of(name, self.rods, options)
-                        for name, options in tendons.items()}
-        for name, options in tendons.items():
-            for term_name in options.terms:
+        self.tendons = {name: Tendon.of(name, self.rods, table)
+                        for name, table in tendons.items()}
+        for name, table in tendons.items():
+            for term_name in table.terms:
                 self.terms.append(scene.term_type("tendons", name, term_name)(
                     self.tendons[name], scene.term_options("tendons", name, term_name)))
                 self.term_keys.append(("tendons", name, term_name))
@@ -242,7 +251,7 @@ class Model:
             raise ValueError("the scene changes the model's layout (nodes, supports, rods or "
                              "terms): build a new Model")
         other.free = self.free
-        other.terms = [term.registered(mine.registration_state()) if term.dynamic else term
+        other.terms = [_registered_as(term, mine) if term.dynamic else term
                        for term, mine in zip(other.terms, self.terms, strict=True)]
         if all(np.array_equal(a.dofs, b.dofs)
                for a, b in zip(other.terms, self.terms, strict=True)):
@@ -281,7 +290,7 @@ class Model:
             else:
                 term = kind(self.tendons[name], options)
             if term.dynamic:
-                term = term.registered(self.terms[index].registration_state())
+                term = _registered_as(term, self.terms[index])
             if (type(term) is not type(self.terms[index])
                     or term.has_jacobian != self.terms[index].has_jacobian
                     or term.is_load != self.terms[index].is_load
@@ -605,7 +614,7 @@ class Model:
         if self.kernels == "compiled":
             if self._kernel_calls is None:
                 self._kernel_calls = self._build_kernel_calls()
-            compiled = {call.index: call for call in self._kernel_calls
+            compiled = {call.term_index: call for call in self._kernel_calls
                         if call.energy is not None}
         total = 0.0
         for index, term in enumerate(self.terms):
@@ -634,8 +643,8 @@ class Model:
         full = self.full(x)
         if self.kernels == "compiled":
             return self._evaluate_compiled(full, load, force, jacobian)
-        f = np.zeros(0)
-        j = np.zeros(0)
+        f: np.ndarray = np.zeros(0)
+        j: np.ndarray = np.zeros(0)
         if force:
             values = [self._scale(k, term, load) * term.element_forces(full).ravel()
                       for k, term in enumerate(self.terms)]
@@ -655,8 +664,9 @@ class Model:
         f = np.zeros(self.n + 1 if force else 1)
         j = np.zeros(self.nnz + 1 if jacobian else 1)
         for call in self._kernel_calls:
-            call.kernel.evaluate(full, *call.arguments, self._scale(call.index, call.term, load),
-                                 force, f, call.force_target, jacobian, j, call.jacobian_target)
+            scale = self._scale(call.term_index, call.term, load)
+            call.kernel.evaluate(full, *call.arguments, scale, force, f, call.force_target,
+                                 jacobian, j, call.jacobian_target)
         return (f[:-1] if force else np.zeros(0)), (j[:-1] if jacobian else np.zeros(0))
 
     def _build_kernel_calls(self) -> list[KernelCall]:

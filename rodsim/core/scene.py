@@ -322,7 +322,8 @@ def _blame_what_was_set(exc: SceneError, given: Mapping[str, str]) -> SceneError
     assignment = given[culprit]
     return SceneError(f"{culprit} = {assignment.partition('=')[2].strip()} {reason}",
                       key=culprit, value=exc.value, allowed=exc.allowed, reason=reason,
-                      assignment=assignment, related=(exc.key,))
+                      assignment=assignment,
+                      related=(exc.key,) if exc.key is not None else ())
 
 
 def resolve(raw: Mapping[str, Any]) -> dict[str, Any]:
@@ -337,7 +338,8 @@ def resolve(raw: Mapping[str, Any]) -> dict[str, Any]:
     description = raw.get("description", "")
     if not isinstance(description, str):
         raise SceneError(f"description = {shown(description)}: must be a string")
-    rods_raw, tendons_raw = raw.get("rods"), raw.get("tendons", {})
+    rods_raw: Any = raw.get("rods")
+    tendons_raw: Any = raw.get("tendons", {})
     if tendons_raw:  # a tendon without a coupling is a string (docs/tendon.md)
         rods_raw, tendons_raw = physical_default(rods_raw, tendons_raw)
     if not isinstance(rods_raw, Mapping) or not rods_raw:

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import copy
 import dataclasses
+import functools
 import math
 import typing
 from collections.abc import Iterable, Mapping, Sequence
@@ -353,9 +354,10 @@ def register_with_options(cls: type, registry: dict[str, type], kind: str) -> No
             f"{cls.__name__}Options", parameters,
             f"Options of the {label} {kind} (docs/scenes.md lists them).")
     if "name" in cls.__dict__:
-        if cls.name in registry:
-            raise TypeError(f"{kind} name {cls.name!r} registered twice")
-        registry[cls.name] = cls
+        name = cls.__dict__["name"]
+        if name in registry:
+            raise TypeError(f"{kind} name {name!r} registered twice")
+        registry[name] = cls
 
 
 def options_type(name: str, parameters: Iterable[Parameter], doc: str = "") -> type[Options]:
@@ -366,7 +368,7 @@ def options_type(name: str, parameters: Iterable[Parameter], doc: str = "") -> t
     with the class method ``of(table)`` (which ignores keys that are not declared
     parameters)."""
     fields = [(p.name, KIND_TYPES[p.kind],
-               dataclasses.field(default_factory=lambda d=p.default: copy.deepcopy(d))
+               dataclasses.field(default_factory=functools.partial(copy.deepcopy, p.default))
                if isinstance(p.default, list) else dataclasses.field(default=p.default))
               for p in parameters]
     cls = dataclasses.make_dataclass(name, fields, bases=(Options,), frozen=True)

@@ -308,10 +308,17 @@ class Tendon:
         return self.coupling == "conserving"
 
     @property
+    def tendon_rod(self) -> Rod:
+        """The tendon's rod; ValueError for a string tendon (which has none)."""
+        if self.rod is None:
+            raise ValueError(f"tendon {self.name!r} is a string: it has no rod")
+        return self.rod
+
+    @property
     def termination(self) -> Anchor:
         """Where the tendon ends (rodsim/core/anchors.py): its node tied to the catheter's
         node, and the catheter segment orienting the lumen there."""
-        return tendon_termination(self.rod, self.catheter)
+        return tendon_termination(self.tendon_rod, self.catheter)
 
     def lumen_frame(self, q: np.ndarray) -> LumenFrame:
         """d_t, d_n = d3 × d_t and their q-derivatives for quaternions q (n, 4)."""

@@ -38,7 +38,7 @@ from typing import TYPE_CHECKING, Any, ClassVar
 
 import numpy as np
 
-from rodsim.core.schema import Parameter, register_with_options
+from rodsim.core.schema import Options, Parameter, register_with_options
 
 if TYPE_CHECKING:
     from rodsim.core.rod.rod import Rod
@@ -91,9 +91,10 @@ class Term(ABC):
     equation: ClassVar[str]
     scope: ClassVar[str]
     parameters: ClassVar[tuple[Parameter, ...]] = ()
-    conservative: ClassVar[bool] = True
-    is_load: ClassVar[bool] = False
-    has_jacobian: ClassVar[bool] = True
+    # Not ClassVar: a term may set these per instance (see above).
+    conservative: bool = True
+    is_load: bool = False
+    has_jacobian: bool = True
     dynamic: ClassVar[bool] = False
     #: True for a constraint penalty whose constant a solver may raise gradually; the term
     #: must be linear in its constant, so that scaling its output scales the constant. A
@@ -115,7 +116,8 @@ class Term(ABC):
     #: it is built with the model's rods as a third argument, ``Term(rod, options, rods)``.
     joins_rods: ClassVar[bool] = False
     #: Module of :mod:`rodsim.core.kernels` holding the compiled kernel (default: ``name``).
-    kernel: ClassVar[str] = ""
+    #: A term may pick its kernel per instance (the proximal pull: ``constant_force``).
+    kernel: str = ""
     #: The scene key of the term: what a rod's or a tendon's ``terms`` lists and the name of
     #: its options sub-table (default: ``name``). Terms sharing a key are variants of one
     #: concept (the lumen's paper and conserving couplings); the owner's table picks one of
@@ -123,10 +125,16 @@ class Term(ABC):
     key: ClassVar[str] = ""
 
     #: The frozen dataclass of this term's options (see above).
-    Options: ClassVar[type]
+    Options: ClassVar[type[Options]]
 
     #: Global coordinate indices of each element, shape (n_elem, k).
     dofs: np.ndarray
+
+    def __init__(self, owner: Any, options: Any, *context: Any) -> None:
+        """A term is built from its owner (a :class:`~rodsim.core.rod.rod.Rod` or a
+        :class:`~rodsim.core.tendon.Tendon`), its :attr:`Options` and, for a term that
+        :attr:`joins_rods`, the model's rods (:class:`RodTerm`, :class:`TendonTerm`)."""
+        self.options = options
 
     def __init_subclass__(cls, **kwargs: Any) -> None:
         super().__init_subclass__(**kwargs)

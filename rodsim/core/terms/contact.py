@@ -42,7 +42,7 @@ import numpy as np
 
 from rodsim.core.obstacles import Obstacle, build_obstacle
 from rodsim.core.rod.rod import Rod
-from rodsim.core.terms.base import KernelArguments, RodTerm
+from rodsim.core.terms.base import KernelArguments, RodTerm, Term
 
 __all__ = ["Contact", "penalty"]
 
@@ -70,7 +70,7 @@ class Contact(RodTerm):
 
     @classmethod
     def from_table(cls, name: str, table: Mapping[str, Any],
-                   rods: Mapping[str, Rod]) -> list[tuple[str, Contact]]:
+                   rods: Mapping[str, Rod]) -> list[tuple[str, Term]]:
         """One term per rod the obstacle ``[obstacles.<name>]`` touches, keyed by the rod."""
         obstacle = build_obstacle(name, table)
         return [(rod, cls(rods[rod], obstacle)) for rod in table["rods"]]

@@ -15,7 +15,7 @@ from typing import Any
 
 import numpy as np
 
-from rodsim.core.tendon import Tendon
+from rodsim.core.tendon import LumenFrame, Tendon
 from rodsim.core.terms._relative import (
     absolute,
     check_one,
@@ -62,7 +62,7 @@ class EndpointCompliance(TendonTerm):
                 "offset": float(tendon.offset), "stiffness": float(self._stiffness),
                 "conserving": self.conservative}
 
-    def _offset(self, x: np.ndarray) -> tuple[np.ndarray, dict[str, np.ndarray]]:
+    def _offset(self, x: np.ndarray) -> tuple[np.ndarray, LumenFrame]:
         frame = self.tendon.lumen_frame(x[self._quaternion][None, :])
         lumen_end = x[self._end] + self.tendon.offset * frame.dt[0]
         return lumen_end - x[self._tip], frame

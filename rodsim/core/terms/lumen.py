@@ -136,6 +136,8 @@ class LumenCoupling(TendonTerm):
     dynamic = True
     #: The tendon's ``coupling`` this class implements.
     coupling: ClassVar[str]
+    #: Each held tendon point's parent: a catheter node (paper) or lumen segment (conserving).
+    parent: np.ndarray
 
     @classmethod
     def selected_by(cls, owner: Mapping[str, Any]) -> bool:
@@ -151,10 +153,8 @@ class LumenCoupling(TendonTerm):
 
     def __init__(self, tendon: Tendon, options: Any) -> None:
         super().__init__(tendon, options)
-        if tendon.rod is None:
-            raise ValueError(f"tendon {tendon.name!r}: a lumen coupling needs a tendon rod")
         #: The tendon's rod (a lumen coupling holds a rod tendon, never a string).
-        self.rod: Rod = tendon.rod
+        self.rod: Rod = tendon.tendon_rod
         #: The absolute lumen penalty constant: given, or ``K_L_relative`` × the coupling's
         #: :meth:`penalty_scale`.
         self.K_L = absolute(options, "K_L", self.penalty_scale())

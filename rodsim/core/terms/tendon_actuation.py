@@ -52,7 +52,7 @@ class TendonActuation(TendonTerm):
             self.has_jacobian = False
             self.conservative = True
             self.kernel = "constant_force"
-            self.dofs = tendon.rod.layout.position_index[:1]
+            self.dofs = tendon.tendon_rod.layout.position_index[:1]
             self._pull = -self._force * director(catheter.base_quaternion, 2)
 
     def kernel_arguments(self) -> KernelArguments:
