@@ -96,7 +96,8 @@ class KernelCall(NamedTuple):
     term: Term
     #: The compiled kernel (rodsim/core/kernels/), its ``evaluate`` and ``energy``.
     kernel: Kernel
-    #: The term's constants in the kernel's signature order (:meth:`Kernel.bind`).
+    #: The term's constants in the kernel's signature order
+    #: (:meth:`rodsim.core.kernels.Kernel.bind`).
     arguments: tuple[Any, ...]
     #: Free-coordinate index of each element's force entry, shape (n_elem, k); n: a dump.
     force_target: np.ndarray
