@@ -20,6 +20,7 @@ from rodsim.core.supports import (
     SupportOptions,
 )
 from rodsim.core.tendon import TENDON_PARAMETERS, TendonOptions
+from rodsim.core.terms import registered_terms
 from rodsim.core.terms.base import RodTerm
 from rodsim.solvers import registered_integrators
 from rodsim.solvers.integrator_options import DECLARED
@@ -33,6 +34,16 @@ TABLES = [(SolverSettings, SOLVER_PARAMETERS), (RodOptions, ROD_PARAMETERS),
 def test_each_declared_table_type_matches_its_parameters(cls, parameters):
     assert issubclass(cls, Options)
     assert options_mismatch(cls, parameters) == []
+
+
+@pytest.mark.parametrize("name", sorted(registered_terms()))
+def test_each_term_declares_options_that_match_its_parameters(name):
+    """Every registered term declares its Options class (visible to a type checker) and it
+    agrees with the term's ``parameters``."""
+    term = registered_terms()[name]
+    assert term.Options.__module__ == term.__module__ or name == "lumen_conserving", (
+        f"term {name!r}: declare its Options beside the class")
+    assert options_mismatch(term.Options, term.parameters) == []
 
 
 @pytest.mark.parametrize("name", sorted(registered_integrators()))

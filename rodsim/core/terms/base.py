@@ -66,12 +66,16 @@ class Term(ABC):
     parameters
         The term's own scene values (validated, with units and defaults).
 
-    Made from ``parameters`` when the class is defined
-    ---------------------------------------------------
+    Declared beside the class, or made from ``parameters`` when it is defined
+    -------------------------------------------------------------------------
     Options
         A frozen dataclass with one typed field per parameter; a term is built with an
         instance of it (``Options.of(table)`` types a validated table) and reads attributes
-        (``self.options.K_P``).
+        (``self.options.K_P``). Every shipped term declares its own
+        (:class:`rodsim.core.schema.Options` subclass, ``Options = CenterlineOptions``;
+        annotate ``options: CenterlineOptions`` for the type checker), which is checked
+        against ``parameters`` when the class is defined; a term that declares none gets
+        one made at run time (a type checker then sees only the base class).
     conservative
         ``True`` when the force is −∇ of ``energy``; the Jacobian is then symmetric.
     is_load

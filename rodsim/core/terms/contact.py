@@ -36,12 +36,14 @@ segments between nodes may cut a convex obstacle's corner or a concave wall by u
 from __future__ import annotations
 
 from collections.abc import Mapping
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
 from rodsim.core.obstacles import Obstacle, build_obstacle
 from rodsim.core.rod.rod import Rod
+from rodsim.core.schema import Options
 from rodsim.core.terms.base import KernelArguments, RodTerm, Term
 
 __all__ = ["Contact", "penalty"]
@@ -60,10 +62,18 @@ def penalty(p: np.ndarray, delta: float) -> tuple[np.ndarray, np.ndarray, np.nda
     return psi, d1, d2
 
 
+@dataclass(frozen=True, kw_only=True)
+class ContactOptions(Options):
+    """The options of the ``contact`` term: one field per
+    parameter, checked against them when the term class is defined."""
+
+
 class Contact(RodTerm):
     """Penalty contact of one rod's nodes with one obstacle."""
 
     name = "contact"
+    Options = ContactOptions
+    options: ContactOptions
     equation = "contact penalty (not in the paper; docs/contact.md)"
     scope = "obstacle"
     scene_table = "obstacles"

@@ -11,10 +11,12 @@ the lumen offset, on its last quaternion.
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
+from rodsim.core.schema import Options
 from rodsim.core.tendon import LumenFrame, Tendon
 from rodsim.core.terms._relative import (
     absolute,
@@ -29,10 +31,21 @@ from rodsim.core.terms.base import KernelArguments, TendonTerm
 DEFAULT_K_E_RELATIVE = 1e4
 
 
+@dataclass(frozen=True, kw_only=True)
+class EndpointComplianceOptions(Options):
+    """The options of the ``endpoint_compliance`` term: one field per
+    parameter, checked against them when the term class is defined."""
+
+    K_E: float = 0.0
+    K_E_relative: float = DEFAULT_K_E_RELATIVE
+
+
 class EndpointCompliance(TendonTerm):
     """Spring from the tendon tip to the lumen's end point, Eq. (28)."""
 
     name = "endpoint_compliance"
+    Options = EndpointComplianceOptions
+    options: EndpointComplianceOptions
     equation = "Eq. (28)"
     parameters = (
         *penalty_parameters("K_E", "N/m", "endpoint compliance penalty constant",
@@ -44,7 +57,7 @@ class EndpointCompliance(TendonTerm):
     def check_scene(cls, options: Any, owner: Any, prefix: str) -> None:
         check_one(options, "K_E", DEFAULT_K_E_RELATIVE, prefix)
 
-    def __init__(self, tendon: Tendon, options: Any) -> None:
+    def __init__(self, tendon: Tendon, options: EndpointComplianceOptions) -> None:
         super().__init__(tendon, options)
         self.conservative = tendon.conserving
         #: The absolute penalty constant [N/m].

@@ -9,10 +9,12 @@ variants.
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
+from rodsim.core.schema import Options
 from rodsim.core.tendon import Tendon
 from rodsim.core.terms._relative import (
     absolute,
@@ -28,10 +30,21 @@ from rodsim.core.terms.base import KernelArguments, TendonTerm
 DEFAULT_K_C_RELATIVE = 1e4
 
 
+@dataclass(frozen=True, kw_only=True)
+class EndpointCouplingOptions(Options):
+    """The options of the ``endpoint_coupling`` term: one field per
+    parameter, checked against them when the term class is defined."""
+
+    K_C: float = 0.0
+    K_C_relative: float = DEFAULT_K_C_RELATIVE
+
+
 class EndpointCoupling(TendonTerm):
     """Spring of rest length r_L between the catheter's and the tendon's tips, Eq. (29)."""
 
     name = "endpoint_coupling"
+    Options = EndpointCouplingOptions
+    options: EndpointCouplingOptions
     equation = "Eq. (29)"
     parameters = (
         *penalty_parameters("K_C", "N/m", "endpoint coupling penalty constant",
@@ -43,7 +56,7 @@ class EndpointCoupling(TendonTerm):
     def check_scene(cls, options: Any, owner: Any, prefix: str) -> None:
         check_one(options, "K_C", DEFAULT_K_C_RELATIVE, prefix)
 
-    def __init__(self, tendon: Tendon, options: Any) -> None:
+    def __init__(self, tendon: Tendon, options: EndpointCouplingOptions) -> None:
         super().__init__(tendon, options)
         #: The absolute penalty constant [N/m].
         self.K_C = absolute(options, "K_C", tendon_axial_scale(tendon))

@@ -23,13 +23,14 @@ A's rest point, in A's base frame; A is built first.
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
 from rodsim.core.anchors import Anchor, node_at
 from rodsim.core.rod.rod import Rod
-from rodsim.core.schema import Parameter
+from rodsim.core.schema import Options, Parameter
 from rodsim.core.terms._relative import absolute, check_one, penalty_parameters
 from rodsim.core.terms._segment import two_node_block
 from rodsim.core.terms.base import KernelArguments, RodTerm
@@ -45,11 +46,25 @@ from rodsim.core.terms.bend_twist import (
 DEFAULT_K_J_RELATIVE = 1e4
 
 
+@dataclass(frozen=True, kw_only=True)
+class JointOptions(Options):
+    """The options of the ``joint`` term: one field per
+    parameter, checked against them when the term class is defined."""
+
+    rod: str
+    s: float
+    K_J: float = 0.0
+    K_J_relative: float = DEFAULT_K_J_RELATIVE
+    orientation: bool = True
+
+
 class Joint(RodTerm):
     """This rod's base tied to a node of another rod: a position penalty and, optionally,
     the bending element between the two rods' segments there."""
 
     name = "joint"
+    Options = JointOptions
+    options: JointOptions
     equation = "anchor (not in the paper); Eqs. (3), (7), (8) for the frame"
     joins_rods = True
     parameters = (
@@ -70,7 +85,7 @@ class Joint(RodTerm):
     def check_scene(cls, options: Any, owner: Any, prefix: str) -> None:
         check_one(options, "K_J", DEFAULT_K_J_RELATIVE, prefix)
 
-    def __init__(self, rod: Rod, options: Any, rods: dict[str, Rod]) -> None:
+    def __init__(self, rod: Rod, options: JointOptions, rods: dict[str, Rod]) -> None:
         super().__init__(rod, options)
         parent = rods[options.rod]
         #: The anchor: this rod's node 0 tied to the other rod's node at ``s``.

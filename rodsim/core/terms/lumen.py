@@ -46,13 +46,14 @@ from __future__ import annotations
 import copy
 from abc import abstractmethod
 from collections.abc import Mapping
+from dataclasses import dataclass
 from typing import Any, ClassVar
 
 import numpy as np
 
 from rodsim.core.rod.quaternion import form_combination
 from rodsim.core.rod.rod import Rod
-from rodsim.core.schema import Parameter
+from rodsim.core.schema import Options, Parameter
 from rodsim.core.tendon import Tendon
 from rodsim.core.terms._relative import absolute, check_one, lumen_scale, penalty_parameters
 from rodsim.core.terms.base import KernelArguments, TendonTerm
@@ -209,12 +210,26 @@ class LumenCoupling(TendonTerm):
         return self.parent.copy()
 
 
+@dataclass(frozen=True, kw_only=True)
+class LumenOptions(Options):
+    """The options of the ``lumen`` term (both couplings): one field per
+    parameter, checked against them when the term class is defined."""
+
+    K_L: float = 0.0
+    K_L_relative: float = DEFAULT_K_L_RELATIVE
+    constrain: str = "both"
+    hysteresis: float = 0.1
+    chord_correction: bool = True
+
+
 class Lumen(LumenCoupling):
     """Penalty keeping the tendon's points on the catheter's lumen with the paper's coupling,
     Eqs. (24)–(27), (32)–(35): K_L [N/m] per tendon point, the averaged reaction on the
     parent node."""
 
     name = "lumen"
+    Options = LumenOptions
+    options: LumenOptions
     coupling = "paper"
     conservative = False
     parameters = lumen_parameters(
@@ -222,7 +237,7 @@ class Lumen(LumenCoupling):
         "E I / (r_L² L_T²) × the tendon's segment length (catheter's least E I, lumen "
         "offset, tendon length)")
 
-    def __init__(self, tendon: Tendon, options: Any) -> None:
+    def __init__(self, tendon: Tendon, options: LumenOptions) -> None:
         super().__init__(tendon, options)
         self._stiffness = self.K_L
         self._both = options.constrain == "both"

@@ -29,8 +29,6 @@ segment length. Kernel: :mod:`rodsim.core.kernels.lumen_segment`.
 
 from __future__ import annotations
 
-from typing import Any
-
 import numpy as np
 
 from rodsim.core.tendon import Tendon
@@ -45,7 +43,7 @@ from rodsim.core.terms._lumen_segment import (
 )
 from rodsim.core.terms._relative import lumen_scale
 from rodsim.core.terms.base import KernelArguments
-from rodsim.core.terms.lumen import LumenCoupling, lumen_parameters
+from rodsim.core.terms.lumen import LumenCoupling, LumenOptions, lumen_parameters
 
 __all__ = ["ConservingLumen"]
 
@@ -55,6 +53,8 @@ class ConservingLumen(LumenCoupling):
     conserving coupling (erratum 13): K_L [N/m²] per unit tendon length."""
 
     name = "lumen_conserving"
+    Options = LumenOptions
+    options: LumenOptions
     coupling = "conserving"
     conservative = True
     kernel = "lumen_segment"
@@ -62,7 +62,7 @@ class ConservingLumen(LumenCoupling):
         "N/m²", "lumen penalty constant per unit tendon length (coupling 'conserving')",
         "E I / (r_L² L_T²) (catheter's least E I, lumen offset, tendon length)")
 
-    def __init__(self, tendon: Tendon, options: Any) -> None:
+    def __init__(self, tendon: Tendon, options: LumenOptions) -> None:
         super().__init__(tendon, options)
         catheter = self.tendon.catheter
         share = np.full(len(self._points), self.rod.geometry.segment_length)

@@ -29,13 +29,14 @@ no Jacobian) when every load is a world-frame force without moment.
 
 from __future__ import annotations
 
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 
 from rodsim.core.rod.quaternion import B, director, director_gradient
 from rodsim.core.rod.rod import Rod
-from rodsim.core.schema import Parameter, SceneError, shown
+from rodsim.core.schema import Options, Parameter, SceneError, shown
 from rodsim.core.terms.base import KernelArguments, RodTerm
 
 #: Frames a load's components may be given in.
@@ -63,10 +64,20 @@ def segment_of(s: np.ndarray, segment_length: float, segments: int
     return j, t
 
 
+@dataclass(frozen=True, kw_only=True)
+class PointLoadsOptions(Options):
+    """The options of the ``point_loads`` term: one field per
+    parameter, checked against them when the term class is defined."""
+
+    loads: list[dict[str, Any]] = field(default_factory=list)
+
+
 class PointLoads(RodTerm):
     """Point forces and moments at any arclength, world or body frame."""
 
     name = "point_loads"
+    Options = PointLoadsOptions
+    options: PointLoadsOptions
     equation = "point wrenches (not in the paper); enter F_net of Eq. (17)"
     is_load = True
     parameters = (
@@ -84,7 +95,7 @@ class PointLoads(RodTerm):
                                  key=f"{prefix}.loads.{i}.s", value=load["s"],
                                  reason="out of range")
 
-    def __init__(self, rod: Rod, options: Any) -> None:
+    def __init__(self, rod: Rod, options: PointLoadsOptions) -> None:
         super().__init__(rod, options)
         loads = options.loads
         n = len(loads)

@@ -9,22 +9,31 @@ section boundary falls inside it).
 
 from __future__ import annotations
 
-from typing import Any
+from dataclasses import dataclass
 
 import numpy as np
 
 from rodsim.core.rod.rod import Rod
+from rodsim.core.schema import Options
 from rodsim.core.terms._segment import Segments, two_node_block
 from rodsim.core.terms.base import KernelArguments, RodTerm
+
+
+@dataclass(frozen=True, kw_only=True)
+class StretchOptions(Options):
+    """The options of the ``stretch`` term: one field per
+    parameter, checked against them when the term class is defined."""
 
 
 class Stretch(RodTerm):
     """Axial stretch of the centerline, Eq. (6)."""
 
     name = "stretch"
+    Options = StretchOptions
+    options: StretchOptions
     equation = "Eq. (6)"
 
-    def __init__(self, rod: Rod, options: Any) -> None:
+    def __init__(self, rod: Rod, options: StretchOptions) -> None:
         super().__init__(rod, options)
         pos = rod.layout.position_index
         self.dofs = np.concatenate([pos[:-1], pos[1:]], axis=1)
