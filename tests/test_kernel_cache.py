@@ -27,7 +27,7 @@ for name in ("table1-50g", "table3-catheter1"):
     model = Model(rodsim.load_scene(name), "compiled")
     model.evaluate(model.x0)
     for call in model._kernel_calls:
-        stats = call[2].stats
+        stats = call.kernel.evaluate.stats
         misses += sum(stats.cache_misses.values())
         hits += sum(stats.cache_hits.values())
 print(json.dumps({"misses": misses, "hits": hits}))

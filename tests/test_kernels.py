@@ -48,8 +48,10 @@ def test_every_kernel_matches_its_numpy_reference(scene, random_state):
         moved = compiled.reregistered(x)
         model = moved or compiled
         full = model.full(x)
-        for index, term, kernel, arguments, force_target, jacobian_target, energy in (
-                model._build_kernel_calls()):
+        for call in model._build_kernel_calls():
+            index, term, arguments = call.term_index, call.term, call.arguments
+            kernel, energy = call.kernel.evaluate, call.kernel.energy
+            force_target, jacobian_target = call.force_target, call.jacobian_target
             force = np.zeros(model.n + 1)
             data = np.zeros(model.nnz + 1)
             kernel(full, *arguments, 1.0, True, force, force_target, True, data,
@@ -93,3 +95,40 @@ def test_assembled_paths_agree_with_load_and_penalty_scales(scene, random_state)
             if model.conservative:
                 expected = reference_model.energy(x, load)
                 assert abs(model.energy(x, load) - expected) <= ROUND_OFF * abs(expected)
+
+
+def test_kernel_constants_are_bound_by_name_to_the_kernel_signature():
+    """Every term of every contract scene names exactly the constants its kernel's
+    signature takes (rodsim/core/kernels/__init__.py reads them from ``evaluate``), and the
+    binding follows the names, not the order in which a term lists them."""
+    from rodsim.core.kernels import load_kernel, signature_constants
+
+    seen = set()
+    for scene in CONTRACT_SCENES:
+        _, compiled = both_models(scene)
+        for term in compiled.terms:
+            kernel = load_kernel(term)
+            named = dict(term.kernel_arguments())
+            assert tuple(named) and set(named) == set(kernel.constants), (
+                f"term {term.name!r}: kernel_arguments {sorted(named)} != kernel "
+                f"{kernel.module} constants {kernel.constants}")
+            if kernel.energy is not None:
+                assert signature_constants(kernel.energy) == kernel.constants
+            shuffled = dict(reversed(list(named.items())))
+            bound = kernel.bind(shuffled)
+            assert all(a is named[name] for a, name in zip(bound, kernel.constants,
+                                                              strict=True))
+            seen.add(kernel.module)
+    assert len(seen) >= 12, sorted(seen)
+
+
+def test_a_misnamed_kernel_constant_is_refused():
+    from rodsim.core.kernels import load_kernel
+
+    _, compiled = both_models("table1-50g")
+    term = next(t for t in compiled.terms if t.name == "stretch")
+    kernel = load_kernel(term)
+    named = dict(term.kernel_arguments())
+    named["rest_length"] = named.pop("rest")
+    with pytest.raises(TypeError, match=r"missing constants \['rest'\].*\['rest_length'\]"):
+        kernel.bind(named)

@@ -53,7 +53,7 @@ def _tip(data: dict) -> np.ndarray:
 def _constants(data: dict, term: str, constant: str) -> list[float]:
     """The absolute constant of every ``term`` of the model built from ``data``."""
     model = Model(Scene.from_dict(copy.deepcopy(data)))
-    return [getattr(t, constant) for t in model.terms if t.name == term]
+    return [getattr(t, constant) for t in model.terms if t.key == term]
 
 
 def _apart(a: np.ndarray, b: np.ndarray) -> float:

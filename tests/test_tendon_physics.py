@@ -131,7 +131,7 @@ def coupling_terms(model: Model) -> list[TendonTerm]:
     """The coupling terms (lumen, endpoint compliance, endpoint coupling): every tendon
     term except the external actuation load."""
     terms = [t for t in model.terms if isinstance(t, TendonTerm) and not t.is_load]
-    assert {t.name for t in terms} == {"lumen", "endpoint_compliance", "endpoint_coupling"}
+    assert {t.key for t in terms} == {"lumen", "endpoint_compliance", "endpoint_coupling"}
     return terms
 
 

@@ -115,14 +115,15 @@ def test_instrumentation_counts_tendon_code_in_a_tendon_scene(kernels, monkeypat
     assert result.success, result.message
     for label in ("rodsim.core.tendon.check_tendon", "rodsim.core.tendon.tendon_origin",
                   "Tendon.of",
-                  "Lumen.registration"):
+                  "ConservingLumen.registration"):
         assert counts[label] > 0, f"{label} not counted: {dict(counts)}"
     methods = (("__init__", "kernel_arguments") if kernels == "compiled" else
                ("__init__", "element_forces", "element_jacobians"))
     if kernels == "numpy":
-        assert counts["Tendon.lumen_frame"] > 0 and counts["Lumen._on_segments"] > 0
+        assert counts["Tendon.lumen_frame"] > 0 and counts["ConservingLumen._on_segments"] > 0
     for cls in registered_terms().values():
-        if issubclass(cls, TendonTerm) and cls.name != "tendon_string":  # no rod: own scenes
+        # The string tendon (no rod) and the paper's lumen coupling have scenes of their own.
+        if issubclass(cls, TendonTerm) and cls.name not in ("tendon_string", "lumen"):
             for method in methods:
                 if method == "element_jacobians" and cls.name == "tendon_actuation":
                     continue  # the proximal pull is a dead load: no Jacobian

@@ -346,7 +346,7 @@ def cases_for(term_name: str) -> list[tuple[str, Model, int]]:
 
 
 #: Terms whose contract takes more than ~10 s (every tendon scene uses the lumen).
-SLOW_TERMS = {"lumen"}
+SLOW_TERMS = {"lumen", "lumen_conserving"}
 
 
 @pytest.mark.parametrize("term_name", [

@@ -1,13 +1,12 @@
 """A scene's memory estimate, checked before its model is built.
 
 Peak memory grows linearly with the total number of control points: the state, the sparse
-Jacobian (about 120 entries per control point) and the LU factors of its linear solves.
-Measured on table1-50g with N = 20 000 (peak resident set minus the interpreter's):
-static 362 MB, paper 362 MB, ida 484 MB, i.e. 18–24 kB per control point;
-:data:`BYTES_PER_NODE` rounds the largest up. A scene whose estimate exceeds the machine's
-physical memory, or what the process's address-space limit (``ulimit -v``) leaves, is
-refused (``SceneError``, exit 2) rather than left to the out-of-memory
-killer after minutes of assembly.
+Jacobian (about 120 entries per control point) and the LU factors of its linear solves;
+:data:`BYTES_PER_NODE` rounds the largest measured cost per control point up (18–24 kB:
+docs/benchmarks.md, "Measurements behind the core's constants"). A scene whose estimate
+exceeds the machine's physical memory, or what the process's address-space limit
+(``ulimit -v``) leaves, is refused (``SceneError``, exit 2) rather than left to the
+out-of-memory killer after minutes of assembly.
 """
 
 from __future__ import annotations

@@ -24,6 +24,7 @@ import copy
 from collections.abc import Mapping
 from dataclasses import dataclass
 from functools import cached_property
+from typing import TYPE_CHECKING, Any, NamedTuple
 
 import numpy as np
 import scipy.sparse as sp
@@ -40,7 +41,10 @@ from rodsim.core.supports import base_support, node_supports, quaternion_product
 from rodsim.core.tendon import Tendon, tendon_support
 from rodsim.core.terms import Term, registered_terms
 
-__all__ = ["Model", "Band", "KERNELS"]
+if TYPE_CHECKING:
+    from rodsim.core.kernels import Kernel
+
+__all__ = ["Model", "Band", "KERNELS", "KernelCall", "scene_rod"]
 
 #: The evaluation paths (``solver.kernels``).
 KERNELS = ("compiled", "numpy")
@@ -52,6 +56,67 @@ class Band:
 
     lower: int
     upper: int
+
+
+def scene_rod(scene: Scene, name: str, layout: RodLayout, rods: Mapping[str, Rod],
+              joints: Mapping[str, Any] | None = None) -> Rod:
+    """Rod ``name`` of ``scene`` at ``layout``, held by its base support (at its catheter's
+    lumen for a tendon rod, at its joint for a joined rod: ``rods`` must hold that catheter
+    or parent), with its sections; without the supports at other nodes. ``joints``:
+    :func:`~rodsim.core.anchors.scene_joints` of the scene (read when None)."""
+    options = scene.rods[name]
+    tendons = scene.data["tendons"]
+    joints = scene_joints(scene) if joints is None else joints
+    if name in tendons:
+        tendon = scene.tendons[name]
+        support = tendon_support(rods[tendon.catheter], tendon, options.clamp)
+    elif name in joints:
+        support = joined_support(rods[joints[name].rod], joints[name].s)
+    else:
+        support = base_support(options.clamp, scene.base_options(name),
+                               np.asarray(options.origin, dtype=float))
+    sections = tuple(scene.data["rods"][name].get("sections", ()))
+    return Rod(name, options, layout, support, sections=sections)
+
+
+def _registered_as(term: Term, other: Term) -> Term:
+    """The dynamic ``term`` with the registration of ``other`` (the same term of another
+    model of the same layout)."""
+    state = other.registration_state()
+    if state is None:
+        raise ValueError(f"dynamic term {other.name!r} has no registration state")
+    return term.registered(state)
+
+
+class KernelCall(NamedTuple):
+    """How the compiled path evaluates one term (:meth:`Model._build_kernel_calls`)."""
+
+    #: The term's index in :attr:`Model.terms` (its continuation scale's index).
+    term_index: int
+    term: Term
+    #: The compiled kernel (rodsim/core/kernels/), its ``evaluate`` and ``energy``.
+    kernel: Kernel
+    #: The term's constants in the kernel's signature order
+    #: (:meth:`rodsim.core.kernels.Kernel.bind`).
+    arguments: tuple[Any, ...]
+    #: Free-coordinate index of each element's force entry, shape (n_elem, k); n: a dump.
+    force_target: np.ndarray
+    #: CSC data slot of each element's Jacobian entry, shape (n_elem, k, k); nnz: a dump.
+    jacobian_target: np.ndarray
+
+    @property
+    def evaluate(self) -> Any:
+        """The kernel's ``evaluate``."""
+        return self.kernel.evaluate
+
+    @property
+    def energy(self) -> Any:
+        """The kernel's ``energy``, or None when the module has none."""
+        return self.kernel.energy
+
+    def with_term(self, term: Term) -> KernelCall:
+        """This call for another term of the same kind and elements (new constants)."""
+        return self._replace(term=term, arguments=self.kernel.bind(term.kernel_arguments()))
 
 
 class Model:
@@ -107,20 +172,12 @@ class Model:
         for name in sorted(rods, key=lambda n: (n in tendons, joint_depth(n, joints))):
             options = rods[name]
             layout = RodLayout(options.nodes, offset)
-            if name in tendons:
-                support = tendon_support(self.rods[tendons[name].catheter], tendons[name],
-                                         options.clamp)
-            elif name in joints:
-                support = joined_support(self.rods[joints[name].rod], joints[name].s)
-            else:
-                support = base_support(options.clamp, scene.base_options(name),
-                                       np.asarray(options.origin, dtype=float))
-            sections = tuple(scene.data["rods"][name].get("sections", ()))
-            rod = Rod(name, options, layout, support, sections=sections)
+            rod = scene_rod(scene, name, layout, self.rods, joints)
             tables = scene.support_tables(name)
             if tables:
-                rod = Rod(name, options, layout, support, node_supports(
-                    options.nodes, options.length, rod.rest_positions(), tables), sections)
+                rod = Rod(name, options, layout, rod.support, node_supports(
+                    options.nodes, options.length, rod.rest_positions(), tables),
+                    rod.sections)
             self.rods[name] = rod
             offset += layout.size
             self._tick()
@@ -128,31 +185,37 @@ class Model:
         self.full_size = offset
         catalogue = registered_terms()
         self.terms: list[Term] = []
-        #: (``"rods"`` or ``"tendons"``, owner's name, term name) of each term, in order.
+        #: (``"rods"``, ``"tendons"`` or a term's ``scene_table``, owner's name, term key) of
+        #: each term, in order.
         self.term_keys: list[tuple[str, str, str]] = []
         for rod in self.rods.values():
             for term_name in rod.options.terms:
-                kind = catalogue[term_name]
+                kind = scene.term_type("rods", rod.name, term_name)
                 self.terms.append(kind(rod, scene.term_options("rods", rod.name, term_name),
                                        *((self.rods,) if kind.joins_rods else ())))
                 self.term_keys.append(("rods", rod.name, term_name))
                 self._tick()
         #: The scene's tendons (lumen geometry shared by their coupling terms).
-        self.tendons = {name: Tendon.of(name, self.rods, options)
-                        for name, options in tendons.items()}
-        for name, options in tendons.items():
-            for term_name in options.terms:
-                self.terms.append(catalogue[term_name](
+        self.tendons = {name: Tendon.of(name, self.rods, table)
+                        for name, table in tendons.items()}
+        for name, table in tendons.items():
+            for term_name in table.terms:
+                self.terms.append(scene.term_type("tendons", name, term_name)(
                     self.tendons[name], scene.term_options("tendons", name, term_name)))
                 self.term_keys.append(("tendons", name, term_name))
                 self._tick()
-        for name, table in scene.data.get("obstacles", {}).items():
-            from rodsim.core.obstacles import build_obstacle
-
-            obstacle = build_obstacle(name, table)
-            for rod in table["rods"]:
-                self.terms.append(catalogue["contact"](self.rods[rod], obstacle))
-                self.term_keys.append(("obstacles", name, rod))  # changes: a new model
+        for kind in catalogue.values():  # terms built from a top-level table (obstacles)
+            if not kind.scene_table:
+                continue
+            for name, table in scene.data.get(kind.scene_table, {}).items():
+                for key, term in kind.from_table(name, table, self.rods):
+                    self.terms.append(term)
+                    self.term_keys.append((kind.scene_table, name, key))  # changes: new model
+        for term in self.terms:
+            if term.penalty and not (isinstance(getattr(term, "penalty_ratio", None), float)
+                                     and 0.0 < term.penalty_ratio < np.inf):
+                raise TypeError(f"penalty term {term.name!r} must set a finite positive float "
+                                "penalty_ratio (rodsim/core/terms/base.py)")
         #: Factor on each term's output: 1, or a penalty continuation scale.
         self.term_scales = np.ones(len(self.terms))
         self._scale_list = self.term_scales.tolist()  # as floats, for the evaluation loops
@@ -189,7 +252,7 @@ class Model:
             raise ValueError("the scene changes the model's layout (nodes, supports, rods or "
                              "terms): build a new Model")
         other.free = self.free
-        other.terms = [term.registered(mine.registration_state()) if term.dynamic else term
+        other.terms = [_registered_as(term, mine) if term.dynamic else term
                        for term, mine in zip(other.terms, self.terms, strict=True)]
         if all(np.array_equal(a.dofs, b.dofs)
                for a, b in zip(other.terms, self.terms, strict=True)):
@@ -217,11 +280,10 @@ class Model:
         other.scene = scene
         if not changed:
             return other
-        catalogue = registered_terms()
         terms = list(self.terms)
         for index in changed:
             owner, name, term_name = self.term_keys[index]
-            kind = catalogue[term_name]
+            kind = scene.term_type(owner, name, term_name)
             options = scene.term_options(owner, name, term_name)
             if owner == "rods":
                 term = kind(self.rods[name], options,
@@ -229,7 +291,7 @@ class Model:
             else:
                 term = kind(self.tendons[name], options)
             if term.dynamic:
-                term = term.registered(self.terms[index].registration_state())
+                term = _registered_as(term, self.terms[index])
             if (type(term) is not type(self.terms[index])
                     or term.has_jacobian != self.terms[index].has_jacobian
                     or term.is_load != self.terms[index].is_load
@@ -243,9 +305,7 @@ class Model:
         if self._kernel_calls is not None:  # the same kernels and targets, new constants
             calls = list(self._kernel_calls)
             for index in changed:
-                _, _, evaluate, _, force_target, jacobian_target, energy = calls[index]
-                calls[index] = (index, terms[index], evaluate, terms[index].kernel_arguments(),
-                                force_target, jacobian_target, energy)
+                calls[index] = calls[index].with_term(terms[index])
             other._kernel_calls = calls
         other._build_scales(layout=False)
         return other
@@ -297,7 +357,7 @@ class Model:
         self._build_force_scatter()
         self._tick()
         self._build_pattern()
-        self._kernel_calls: list[tuple] | None = None  # built at the first compiled call
+        self._kernel_calls: list[KernelCall] | None = None  # built at the first compiled call
 
     def _order_for_band(self) -> None:
         """Reorder the free coordinates (reverse Cuthill–McKee) when that narrows the band.
@@ -555,12 +615,13 @@ class Model:
         if self.kernels == "compiled":
             if self._kernel_calls is None:
                 self._kernel_calls = self._build_kernel_calls()
-            compiled = {call[0]: call for call in self._kernel_calls if call[6] is not None}
+            compiled = {call.term_index: call for call in self._kernel_calls
+                        if call.energy is not None}
         total = 0.0
         for index, term in enumerate(self.terms):
             if index in compiled:
                 call = compiled[index]
-                value = call[6](full, *call[3])
+                value = call.energy(full, *call.arguments)
             else:
                 value = term.energy(full)
             if value is None:
@@ -583,8 +644,8 @@ class Model:
         full = self.full(x)
         if self.kernels == "compiled":
             return self._evaluate_compiled(full, load, force, jacobian)
-        f = np.zeros(0)
-        j = np.zeros(0)
+        f: np.ndarray = np.zeros(0)
+        j: np.ndarray = np.zeros(0)
         if force:
             values = [self._scale(k, term, load) * term.element_forces(full).ravel()
                       for k, term in enumerate(self.terms)]
@@ -603,17 +664,16 @@ class Model:
             self._kernel_calls = self._build_kernel_calls()
         f = np.zeros(self.n + 1 if force else 1)
         j = np.zeros(self.nnz + 1 if jacobian else 1)
-        for index, term, kernel, arguments, force_target, jacobian_target, _ in (
-                self._kernel_calls):
-            kernel(full, *arguments, self._scale(index, term, load), force, f, force_target,
-                   jacobian, j, jacobian_target)
+        for call in self._kernel_calls:
+            scale = self._scale(call.term_index, call.term, load)
+            call.kernel.evaluate(full, *call.arguments, scale, force, f, call.force_target,
+                                 jacobian, j, call.jacobian_target)
         return (f[:-1] if force else np.zeros(0)), (j[:-1] if jacobian else np.zeros(0))
 
-    def _build_kernel_calls(self) -> list[tuple]:
-        """(index, term, kernel, constants, force targets, Jacobian targets, energy kernel or
-        None) of every term:
-        where each element's force and Jacobian entries land (slot n and nnz are dumps for
-        clamped coordinates)."""
+    def _build_kernel_calls(self) -> list[KernelCall]:
+        """The :class:`KernelCall` of every term: its kernel, its constants bound by name to
+        the kernel's signature, and where each element's force and Jacobian entries land
+        (slot n and nnz are dumps for clamped coordinates)."""
         from rodsim.core.kernels import load_kernel
 
         calls = []
@@ -627,9 +687,9 @@ class Model:
                 start += size
             else:
                 jacobian_target = np.zeros((0, 0, 0), dtype=np.int64)
-            evaluate, energy = load_kernel(term)
-            calls.append((index, term, evaluate, term.kernel_arguments(), force_target,
-                          np.ascontiguousarray(jacobian_target), energy))
+            kernel = load_kernel(term)
+            calls.append(KernelCall(index, term, kernel, kernel.bind(term.kernel_arguments()),
+                                    force_target, np.ascontiguousarray(jacobian_target)))
         return calls
 
     def jacobian(self, x: np.ndarray, load: float = 1.0) -> sp.csc_matrix:

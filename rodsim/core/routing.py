@@ -60,10 +60,17 @@ class Routing:
         return cls("table", table=(tuple(string.table_s), tuple(string.table_y),
                                    tuple(string.table_z)))
 
+    @property
+    def knots(self) -> tuple[tuple[float, ...], tuple[float, ...], tuple[float, ...]]:
+        """The knots (s, y, z) of a ``table`` routing (ValueError for the other kinds)."""
+        if self.table is None:
+            raise ValueError(f"a {self.kind!r} routing has no table")
+        return self.table
+
     def _spline(self) -> Any:
         from scipy.interpolate import CubicSpline
 
-        s, y, z = (np.asarray(v, dtype=float) for v in self.table)
+        s, y, z = (np.asarray(v, dtype=float) for v in self.knots)
         return CubicSpline(s, np.stack([y, z], axis=1), bc_type="not-a-knot")
 
     def offsets(self, s: np.ndarray) -> np.ndarray:
@@ -75,14 +82,14 @@ class Routing:
             radius, pitch, phase = self.values
             angle = phase + 2.0 * math.pi * s / pitch
             return radius * np.stack([np.cos(angle), np.sin(angle)], axis=1)
-        if len(self.table[0]) == 1:
-            return np.tile([self.table[1][0], self.table[2][0]], (len(s), 1))
+        if len(self.knots[0]) == 1:
+            return np.tile([self.knots[1][0], self.knots[2][0]], (len(s), 1))
         return self._spline()(s)
 
     def derivatives(self, s: np.ndarray) -> np.ndarray:
         """ρ′(s), shape (len(s), 2) [-]."""
         s = np.asarray(s, dtype=float)
-        if self.kind == "constant" or (self.kind == "table" and len(self.table[0]) == 1):
+        if self.kind == "constant" or (self.kind == "table" and len(self.knots[0]) == 1):
             return np.zeros((len(s), 2))
         if self.kind == "helix":
             radius, pitch, phase = self.values

@@ -38,14 +38,14 @@ from collections.abc import Collection, Iterable, Mapping
 from dataclasses import dataclass
 from importlib import resources
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from rodsim.core.anchors import check_joints
 from rodsim.core.names import check_rod_name, check_scene_name
 from rodsim.core.rod.rod import ROD_PARAMETERS, RodOptions
 from rodsim.core.rod.sections import resolve_sections
 from rodsim.core.scene_file import parse_toml, read_scene_text
-from rodsim.core.schema import Parameter, SceneError, options_type, shown, validate_table
+from rodsim.core.schema import Options, Parameter, SceneError, shown, validate_table
 from rodsim.core.supports import BASE_PARAMETERS, BaseOptions, resolve_base, resolve_supports
 from rodsim.core.tendon import (
     STRING_TERMS,
@@ -54,6 +54,9 @@ from rodsim.core.tendon import (
     check_tendon,
     physical_default,
 )
+
+if TYPE_CHECKING:
+    from rodsim.core.terms.base import Term
 
 __all__ = ["Scene", "SceneError", "SOLVER_PARAMETERS", "SolverSettings", "default_scene_path",
            "scene_paths"]
@@ -74,11 +77,17 @@ SOLVER_PARAMETERS: tuple[Parameter, ...] = (
               choices=("compiled", "numpy")),
 )
 
-#: The generic solver settings, typed (one field per :data:`SOLVER_PARAMETERS`); each
-#: integrator's own ``[solver.<name>]`` options are its ``Options``
-#: (:meth:`rodsim.solvers.base.Integrator.options_of`).
-SolverSettings = options_type("SolverSettings", SOLVER_PARAMETERS,
-                              "The generic solver settings of a scene ([solver]).")
+@dataclass(frozen=True, kw_only=True)
+class SolverSettings(Options):
+    """The generic solver settings of a scene ([solver]), typed: one field per
+    :data:`SOLVER_PARAMETERS` (checked by tests/test_types.py); each integrator's own
+    ``[solver.<name>]`` options are its ``Options``
+    (:meth:`rodsim.solvers.base.Integrator.options_of`)."""
+
+    integrator: str = "cvode"
+    tolerance: float = 1e-9
+    max_wall_time: float = 600.0
+    kernels: str = "compiled"
 
 _TOP_KEYS = ("name", "description", "rods", "tendons", "obstacles", "solver")
 
@@ -174,23 +183,23 @@ class Scene:
         return str(self.data["description"])
 
     @property
-    def solver(self) -> Any:
+    def solver(self) -> SolverSettings:
         """The generic solver settings, a :data:`SolverSettings` (a view of ``data``)."""
         return SolverSettings.of(self.data["solver"])
 
     @property
-    def rods(self) -> dict[str, Any]:
+    def rods(self) -> dict[str, RodOptions]:
         """Each rod's own values by name, as :data:`~rodsim.core.rod.rod.RodOptions` (views
         of ``data``; the per-term sub-tables are read with :meth:`term_options`)."""
         return {name: RodOptions.of(table) for name, table in self.data["rods"].items()}
 
     @property
-    def tendons(self) -> dict[str, Any]:
+    def tendons(self) -> dict[str, TendonOptions]:
         """Each tendon's own values by its rod's name, as
         :data:`~rodsim.core.tendon.TendonOptions` (views of ``data``)."""
         return {name: TendonOptions.of(table) for name, table in self.data["tendons"].items()}
 
-    def base_options(self, rod: str) -> Any:
+    def base_options(self, rod: str) -> BaseOptions:
         """The base support's values of rod ``rod`` ([rods.<rod>.base]: insertion,
         rotation) as a :data:`~rodsim.core.supports.BaseOptions`; the defaults for a tendon
         rod, whose base follows its catheter's."""
@@ -203,15 +212,20 @@ class Scene:
         return self.data["rods"][rod].get("supports", {})
 
     def term_options(self, owner: str, name: str, term: str) -> Any:
-        """The options of term ``term`` of rod or tendon ``name`` (``owner`` is ``"rods"`` or
-        ``"tendons"``), as the term's ``Options`` (a view of ``data``); ``None`` when that
-        table does not list the term."""
-        from rodsim.core.terms import registered_terms
-
+        """The options of term ``term`` (its scene key) of rod or tendon ``name`` (``owner``
+        is ``"rods"`` or ``"tendons"``), as the term's ``Options`` (a view of ``data``);
+        ``None`` when that table does not list the term."""
         table = self.data[owner][name]
         if term not in table["terms"]:
             return None
-        return registered_terms()[term].Options.of(table[term])
+        return self.term_type(owner, name, term).Options.of(table[term])
+
+    def term_type(self, owner: str, name: str, term: str) -> type[Term]:
+        """The term class the scene key ``term`` of rod or tendon ``name`` builds (the
+        tendon's ``coupling`` picks the lumen's, :func:`rodsim.core.terms.term_class`)."""
+        from rodsim.core.terms import term_class
+
+        return term_class(term, self.data[owner][name])
 
     def full_key(self, key: str, prefer: str = "") -> str:
         """The full dotted key that ``key`` names (the short forms of :meth:`with_overrides`;
@@ -308,14 +322,14 @@ def _blame_what_was_set(exc: SceneError, given: Mapping[str, str]) -> SceneError
     assignment = given[culprit]
     return SceneError(f"{culprit} = {assignment.partition('=')[2].strip()} {reason}",
                       key=culprit, value=exc.value, allowed=exc.allowed, reason=reason,
-                      assignment=assignment, related=(exc.key,))
+                      assignment=assignment,
+                      related=(exc.key,) if exc.key is not None else ())
 
 
 def resolve(raw: Mapping[str, Any]) -> dict[str, Any]:
     """Validate a raw scene dict and fill every default (raises :class:`SceneError`)."""
-    from rodsim.core.terms import registered_terms
+    from rodsim.core.terms import term_class, term_keys
 
-    terms = registered_terms()
     for key in raw:
         if key not in _TOP_KEYS:
             raise SceneError(f"{shown(key, bare=True)}: unknown top-level key; known keys: "
@@ -324,15 +338,16 @@ def resolve(raw: Mapping[str, Any]) -> dict[str, Any]:
     description = raw.get("description", "")
     if not isinstance(description, str):
         raise SceneError(f"description = {shown(description)}: must be a string")
-    rods_raw, tendons_raw = raw.get("rods"), raw.get("tendons", {})
+    rods_raw: Any = raw.get("rods")
+    tendons_raw: Any = raw.get("tendons", {})
     if tendons_raw:  # a tendon without a coupling is a string (docs/tendon.md)
         rods_raw, tendons_raw = physical_default(rods_raw, tendons_raw)
     if not isinstance(rods_raw, Mapping) or not rods_raw:
         raise SceneError("rods: a scene needs at least one [rods.<name>] table")
     for rod in rods_raw:
         check_rod_name(rod, "rods")
-    rod_terms = sorted(n for n, t in terms.items() if t.scope == "rod")
-    tendon_terms = sorted(n for n, t in terms.items() if t.scope == "tendon")
+    rod_terms = term_keys("rod")
+    tendon_terms = term_keys("tendon")
     rods = {}
     for rod, table in rods_raw.items():
         given = isinstance(table, Mapping) and "sections" in table
@@ -340,7 +355,7 @@ def resolve(raw: Mapping[str, Any]) -> dict[str, Any]:
         if (isinstance(own, Mapping) and "youngs_modulus" in own
                 and "stretch_modulus" not in own):  # E_s = E_b, an ideal material
             own = {**own, "stretch_modulus": own["youngs_modulus"]}
-        rods[rod] = _resolve_with_terms(own, ROD_PARAMETERS, rod_terms, terms, f"rods.{rod}",
+        rods[rod] = _resolve_with_terms(own, ROD_PARAMETERS, rod_terms, f"rods.{rod}",
                                         extra_tables=("base", "supports"))
         if given:  # only then: a uniform rod's resolved table is unchanged
             rods[rod]["sections"] = resolve_sections(table["sections"], rods[rod],
@@ -353,12 +368,12 @@ def resolve(raw: Mapping[str, Any]) -> dict[str, Any]:
         if (isinstance(table, Mapping) and table.get("coupling") == "string"
                 and "terms" not in table):
             table = {**table, "terms": list(STRING_TERMS)}  # a string tendon's default term
-        tendons[rod] = _resolve_with_terms(table, TENDON_PARAMETERS, tendon_terms, terms,
-                                           prefix)
-        term_options = {term: terms[term].Options.of(tendons[rod][term])
+        tendons[rod] = _resolve_with_terms(table, TENDON_PARAMETERS, tendon_terms, prefix)
+        kinds = {term: term_class(term, tendons[rod]) for term in tendons[rod]["terms"]}
+        term_options = {term: kinds[term].Options.of(tendons[rod][term])
                         for term in tendons[rod]["terms"]}
         for term, term_opts in term_options.items():
-            terms[term].check_scene(term_opts, tendons[rod], f"{prefix}.{term}")
+            kinds[term].check_scene(term_opts, tendons[rod], f"{prefix}.{term}")
         check_tendon(rod, tendons[rod], rods, prefix, tendons_raw.keys(), term_options)
     for rod, table in rods.items():
         base = resolve_base(rod, table, rod in tendons)
@@ -377,9 +392,10 @@ def resolve(raw: Mapping[str, Any]) -> dict[str, Any]:
                              allowed="radius < length (a slender rod)",
                              reason="cross-table rule", related=(f"rods.{rod}.length",))
         for term_name in options.terms:
-            if terms[term_name].scope == "rod":
-                terms[term_name].check_scene(terms[term_name].Options.of(table[term_name]),
-                                             options, f"rods.{rod}.{term_name}")
+            kind = term_class(term_name, table)
+            if kind.scope == "rod":
+                kind.check_scene(kind.Options.of(table[term_name]), options,
+                                 f"rods.{rod}.{term_name}")
         if options.clamp == "free" and "joint" not in options.terms:
             raise SceneError(f"rods.{rod}.clamp = 'free': nothing would hold the rod; "
                              "allowed: 'frame' or 'first_segment', or 'free' with a joint "
@@ -411,10 +427,12 @@ def resolve(raw: Mapping[str, Any]) -> dict[str, Any]:
 
 
 def _resolve_with_terms(table: Any, parameters: tuple[Parameter, ...], term_names: list[str],
-                        terms: Mapping[str, Any], prefix: str,
-                        extra_tables: tuple[str, ...] = ()) -> dict[str, Any]:
+                        prefix: str, extra_tables: tuple[str, ...] = ()) -> dict[str, Any]:
     """Validate a table that lists terms (a rod or a tendon) and its per-term sub-tables
-    (``extra_tables``: other sub-tables it may hold, validated by the caller)."""
+    (``extra_tables``: other sub-tables it may hold, validated by the caller), each against
+    the parameters of the term class its key selects in the validated table."""
+    from rodsim.core.terms import term_class
+
     declared = tuple(
         p if p.name != "terms" else Parameter(p.name, p.kind, p.default, p.unit, p.doc,
                                               choices=tuple(term_names))
@@ -427,7 +445,7 @@ def _resolve_with_terms(table: Any, parameters: tuple[Parameter, ...], term_name
                              f"{prefix}.terms does not list")
     for term_name in resolved["terms"]:
         resolved[term_name] = validate_table(resolved.get(term_name, {}),
-                                             terms[term_name].parameters,
+                                             term_class(term_name, resolved).parameters,
                                              f"{prefix}.{term_name}")
     return resolved
 
@@ -512,7 +530,7 @@ def _drop_unlisted_term_tables(data: dict[str, Any], terms_key: str) -> None:
     for part in terms_key.split(".")[:-1]:
         node = node[part]
     listed = node["terms"] if isinstance(node["terms"], list) else []
-    for term in registered_terms():
+    for term in {kind.key for kind in registered_terms().values()}:
         if term in node and term not in listed:
             del node[term]
 

@@ -10,13 +10,15 @@ from __future__ import annotations
 
 import copy
 import dataclasses
+import functools
 import math
+import typing
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, ClassVar, Self
 
 __all__ = ["Parameter", "SceneError", "validate_table", "shown", "options_type",
-           "register_with_options"]
+           "register_with_options", "Options", "options_mismatch", "KIND_HINTS"]
 
 #: Longest echo of a user's value in a message (longer ones are cut with "…").
 SHOWN_WIDTH = 60
@@ -266,37 +268,109 @@ KIND_TYPES: dict[str, Any] = {"float": float, "int": int, "str": str, "bool": bo
                               "vector": list, "list": list, "tables": list}
 
 
+#: The annotation a hand-declared options field has for each parameter kind
+#: (:func:`options_mismatch` compares them).
+KIND_HINTS: dict[str, Any] = {"float": float, "int": int, "str": str, "bool": bool,
+                              "vector": list[float], "list": list[str],
+                              "tables": list[dict[str, Any]]}
+
+
+class Options:
+    """Base of the options dataclasses a type checker sees: a scene table's validated values
+    as typed attributes. A hand-declared subclass is a frozen, keyword-only dataclass with one
+    field per :class:`Parameter` of the table, in the declaration's order, annotated with
+    :data:`KIND_HINTS` of its kind and defaulting to its default (no default: a required
+    value); :func:`options_mismatch` checks that, and a term or an integrator that declares
+    its ``Options`` is checked when the class is defined (:func:`register_with_options`).
+
+    Example::
+
+        @dataclass(frozen=True, kw_only=True)
+        class BaseOptions(Options):
+            insertion: float = 0.0
+            rotation: float = 0.0
+    """
+
+    __dataclass_fields__: ClassVar[dict[str, Any]]
+
+    @classmethod
+    def of(cls, table: Mapping[str, Any]) -> Self:
+        """The typed view of a validated table (:func:`validate_table`'s dict): its declared
+        values only; other keys (a rod's per-term sub-tables, the ``[solver.<integrator>]``
+        tables) are left out."""
+        return cls(**{f.name: table[f.name] for f in dataclasses.fields(cls)})
+
+
+def options_mismatch(cls: type, parameters: Iterable[Parameter]) -> list[str]:
+    """How the options dataclass ``cls`` differs from the ``parameters`` it types (empty:
+    they agree): field names and order, annotations (:data:`KIND_HINTS`), defaults (a
+    required parameter: no default), frozen and keyword-only."""
+    parameters = tuple(parameters)
+    if not dataclasses.is_dataclass(cls):
+        return [f"{cls.__name__} is not a dataclass"]
+    problems = []
+    if not cls.__dataclass_params__.frozen:  # type: ignore[attr-defined]
+        problems.append("not frozen")
+    fields = dataclasses.fields(cls)
+    names, declared = [f.name for f in fields], [p.name for p in parameters]
+    if names != declared:
+        problems.append(f"fields {names} != parameters {declared}")
+    hints = typing.get_type_hints(cls)
+    for field in fields:
+        parameter = next((p for p in parameters if p.name == field.name), None)
+        if parameter is None:
+            continue
+        if hints[field.name] != KIND_HINTS[parameter.kind]:
+            problems.append(f"{field.name}: annotated {hints[field.name]!r}, kind "
+                            f"{parameter.kind!r} is {KIND_HINTS[parameter.kind]!r}")
+        if not field.kw_only:
+            problems.append(f"{field.name}: not keyword-only")
+        if field.default is not dataclasses.MISSING:
+            default = field.default
+        elif field.default_factory is not dataclasses.MISSING:
+            default = field.default_factory()
+        else:
+            default = None  # required
+        if default != parameter.default or type(default) is not type(parameter.default):
+            problems.append(f"{field.name}: default {default!r} != {parameter.default!r}")
+    return problems
+
+
 def register_with_options(cls: type, registry: dict[str, type], kind: str) -> None:
-    """What a term or integrator class does when it is defined: get its :func:`options_type`
-    from its ``parameters`` (as ``cls.Options``) and, when it declares its own ``name``,
-    enter ``registry`` under it (TypeError if the name is taken). ``kind`` names the
+    """What a term or integrator class does when it is defined: take the ``Options`` class it
+    declares (checked against its ``parameters``: TypeError naming each difference), or get
+    one made by :func:`options_type`, as ``cls.Options``; and, when it declares its own
+    ``name``, enter ``registry`` under it (TypeError if the name is taken). ``kind`` names the
     registry in messages ("term", "integrator")."""
     label = getattr(cls, "name", cls.__name__)
-    cls.Options = options_type(f"{cls.__name__}Options", cls.parameters,
-                               f"Options of the {label} {kind} (docs/scenes.md lists them).")
+    parameters = cls.parameters  # type: ignore[attr-defined]
+    if "Options" in cls.__dict__:
+        problems = options_mismatch(cls.__dict__["Options"], parameters)
+        if problems:
+            raise TypeError(f"{kind} {label!r}: its Options does not match its parameters: "
+                            + "; ".join(problems))
+    else:
+        cls.Options = options_type(  # type: ignore[attr-defined]
+            f"{cls.__name__}Options", parameters,
+            f"Options of the {label} {kind} (docs/scenes.md lists them).")
     if "name" in cls.__dict__:
-        if cls.name in registry:
-            raise TypeError(f"{kind} name {cls.name!r} registered twice")
-        registry[cls.name] = cls
+        name = cls.__dict__["name"]
+        if name in registry:
+            raise TypeError(f"{kind} name {name!r} registered twice")
+        registry[name] = cls
 
 
-def options_type(name: str, parameters: Iterable[Parameter], doc: str = "") -> type:
+def options_type(name: str, parameters: Iterable[Parameter], doc: str = "") -> type[Options]:
     """A frozen dataclass named ``name`` with one typed field per parameter (its default
-    where it has one), so that validated options are read as attributes, not string keys.
-    Build an instance from :func:`validate_table`'s dict with the class method ``of(table)``
-    (which ignores keys that are not declared parameters)."""
+    where it has one), made at run time for a table without a hand-declared :class:`Options`
+    class (a type checker sees only :class:`Options`), so that validated options are read
+    as attributes, not string keys. Build an instance from :func:`validate_table`'s dict
+    with the class method ``of(table)`` (which ignores keys that are not declared
+    parameters)."""
     fields = [(p.name, KIND_TYPES[p.kind],
-               dataclasses.field(default_factory=lambda d=p.default: copy.deepcopy(d))
+               dataclasses.field(default_factory=functools.partial(copy.deepcopy, p.default))
                if isinstance(p.default, list) else dataclasses.field(default=p.default))
               for p in parameters]
-    cls = dataclasses.make_dataclass(name, fields, frozen=True,
-                                     namespace={"of": classmethod(_options_of)})
+    cls = dataclasses.make_dataclass(name, fields, bases=(Options,), frozen=True)
     cls.__doc__ = doc or f"Validated options ({', '.join(f[0] for f in fields)})."
     return cls
-
-
-def _options_of(cls: type, table: Mapping[str, Any]) -> Any:
-    """The typed view of a validated table (:func:`validate_table`'s dict): its declared
-    values only; other keys (a rod's per-term sub-tables, the ``[solver.<integrator>]``
-    tables) are left out."""
-    return cls(**{f.name: table[f.name] for f in dataclasses.fields(cls)})

@@ -52,8 +52,9 @@ __all__ = ["Stability", "stiffness_stability", "assess", "DENSE_LIMIT"]
 
 #: Largest system (free coordinates) whose smallest eigenvalue is computed densely.
 DENSE_LIMIT = 2000
-#: Largest non-symmetric K whose eigenvalues are all computed (dense ``eigvals`` is O(n³):
-#: 12 ms at 266 coordinates, 0.7 s at 1477); above, the NEAREST ones to zero.
+#: Largest non-symmetric K whose eigenvalues are all computed (dense ``eigvals`` is O(n³);
+#: docs/benchmarks.md, "Measurements behind the core's constants"); above, the NEAREST ones
+#: to zero.
 DENSE_NONSYMMETRIC_LIMIT = 200
 NEAREST = 6
 #: Relative precision of the smallest eigenvalue found by bisection (larger systems).
@@ -153,9 +154,9 @@ def _smallest_real_part(stiffness: sp.csc_matrix) -> float:
     """The smallest real part of an eigenvalue of a general matrix (NaN if not computed):
     of all eigenvalues up to :data:`DENSE_NONSYMMETRIC_LIMIT` coordinates, else of the
     :data:`NEAREST` eigenvalues nearest zero (shift-invert at 0, one sparse LU) — a
-    divergence instability is an eigenvalue crossing zero. Measured on table3-catheter1
-    refined to N_C = 160 (1477 coordinates): the same smallest real part, 1.16e-3, in
-    36 ms against 0.70 s for all eigenvalues."""
+    divergence instability is an eigenvalue crossing zero; it finds the same smallest real
+    part as all eigenvalues at a twentieth of the time (docs/benchmarks.md, "Measurements
+    behind the core's constants")."""
     n = stiffness.shape[0]
     try:
         if n <= DENSE_NONSYMMETRIC_LIMIT:

@@ -42,7 +42,7 @@ import numpy as np
 
 from rodsim.core.rod.layout import RodLayout
 from rodsim.core.rod.quaternion import directors, from_rotation_matrix, rest_quaternion
-from rodsim.core.schema import Parameter, SceneError, options_type, validate_table
+from rodsim.core.schema import Options, Parameter, SceneError, validate_table
 
 __all__ = ["BASE_PARAMETERS", "BaseOptions", "CLAMPS", "SUPPORT_PARAMETERS", "Support",
            "base_frame", "base_support", "node_at", "node_supports", "quaternion_product",
@@ -69,13 +69,22 @@ SUPPORT_PARAMETERS: tuple[Parameter, ...] = (
               "pinned where it is at rest)", -1e3, 1e3, length=3),
 )
 
-#: A support table's values, typed (one field per :data:`SUPPORT_PARAMETERS`).
-SupportOptions = options_type("SupportOptions", SUPPORT_PARAMETERS,
-                              "A validated support table ([rods.<rod>.supports.<name>]).")
+@dataclass(frozen=True, kw_only=True)
+class SupportOptions(Options):
+    """A validated support table ([rods.<rod>.supports.<name>]), typed: one field per
+    :data:`SUPPORT_PARAMETERS` (checked by tests/test_types.py)."""
 
-#: A base table's values, typed (one field per :data:`BASE_PARAMETERS`).
-BaseOptions = options_type("BaseOptions", BASE_PARAMETERS,
-                           "A validated base table's values ([rods.<rod>.base], SI units).")
+    s: float
+    displacement: list[float] = field(default_factory=lambda: [0.0, 0.0, 0.0])
+
+
+@dataclass(frozen=True, kw_only=True)
+class BaseOptions(Options):
+    """A validated base table's values ([rods.<rod>.base], SI units), typed: one field per
+    :data:`BASE_PARAMETERS` (checked by tests/test_types.py)."""
+
+    insertion: float = 0.0
+    rotation: float = 0.0
 
 
 def base_frame(rotation: float) -> np.ndarray:
@@ -148,7 +157,7 @@ def quaternion_product(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return np.concatenate([vector, scalar], axis=-1)
 
 
-def base_support(clamp: str, base: Any, origin: np.ndarray) -> Support:
+def base_support(clamp: str, base: BaseOptions, origin: np.ndarray) -> Support:
     """The base support of a rod: ``clamp`` what it holds, ``base`` its
     :data:`BaseOptions` (insertion, rotation), ``origin`` the rod's origin [m]."""
     frame = base_frame(float(base.rotation))

@@ -24,7 +24,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Collection, Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any, NamedTuple
 
 import numpy as np
@@ -33,7 +33,7 @@ from rodsim.core.anchors import Anchor, check_tendon_termination, tendon_termina
 from rodsim.core.rod.quaternion import DIRECTOR_FORMS, director, director_gradient
 from rodsim.core.rod.rod import Rod, RodOptions
 from rodsim.core.routing import check_routing
-from rodsim.core.schema import Parameter, SceneError, options_type, shown
+from rodsim.core.schema import Options, Parameter, SceneError, shown
 from rodsim.core.supports import Support
 
 __all__ = ["ROD_COUPLING_TABLES", "STRING_TERMS", "TENDON_PARAMETERS", "TENDON_TERMS",
@@ -73,10 +73,18 @@ TENDON_PARAMETERS: tuple[Parameter, ...] = (
               "['tendon_string'])"),
 )
 
-#: A tendon table's own values, typed (one field per :data:`TENDON_PARAMETERS`); its
-#: per-term sub-tables are the coupling terms' own options.
-TendonOptions = options_type("TendonOptions", TENDON_PARAMETERS,
-                             "A validated tendon table's own values ([tendons.<rod>]).")
+@dataclass(frozen=True, kw_only=True)
+class TendonOptions(Options):
+    """A validated tendon table's own values ([tendons.<rod>]), typed: one field per
+    :data:`TENDON_PARAMETERS` (checked by tests/test_types.py); its per-term sub-tables are
+    the coupling terms' own options."""
+
+    catheter: str = "catheter"
+    offset: float = 0.003
+    direction: list[float] = field(default_factory=lambda: [1.0, 0.0])
+    coupling: str = "string"
+    terms: list[str] = field(default_factory=lambda: [
+        "lumen", "endpoint_compliance", "endpoint_coupling", "tendon_actuation"])
 
 
 def physical_default(rods: Mapping[str, Any], tendons: Mapping[str, Any]
@@ -242,7 +250,7 @@ def _check_string(name: str, options: Any, rods: Mapping[str, Mapping[str, Any]]
     check_routing(prefix, options, term_options["tendon_string"], host.length, host.radius)
 
 
-def tendon_origin(catheter: Rod, options: Any) -> np.ndarray:
+def tendon_origin(catheter: Rod, options: TendonOptions) -> np.ndarray:
     """Rest position of the tendon's base: the lumen point at the catheter's base (Eq. 32);
     ``options`` is the tendon's :data:`TendonOptions`."""
     alpha, beta = _unit_direction(options.direction)
@@ -251,7 +259,7 @@ def tendon_origin(catheter: Rod, options: Any) -> np.ndarray:
         alpha * frame[0] + beta * frame[1])
 
 
-def tendon_support(catheter: Rod, options: Any, clamp: str) -> Support:
+def tendon_support(catheter: Rod, options: TendonOptions, clamp: str) -> Support:
     """The base support of a tendon rod: at its lumen's entrance (:func:`tendon_origin`), in
     its catheter's base frame, holding what the tendon rod's ``clamp`` says; it moves and
     turns with the catheter's base (an inserted or rotated catheter carries its tendons)."""
@@ -289,7 +297,7 @@ class Tendon:
     coupling: str
 
     @classmethod
-    def of(cls, name: str, rods: dict[str, Rod], options: Any) -> Tendon:
+    def of(cls, name: str, rods: dict[str, Rod], options: TendonOptions) -> Tendon:
         """The tendon of rod ``name`` configured by ``options`` (its :data:`TendonOptions`)."""
         alpha, beta = _unit_direction(options.direction)
         return cls(name, rods.get(name), rods[options.catheter], options.offset, alpha, beta,
@@ -300,10 +308,17 @@ class Tendon:
         return self.coupling == "conserving"
 
     @property
+    def tendon_rod(self) -> Rod:
+        """The tendon's rod; ValueError for a string tendon (which has none)."""
+        if self.rod is None:
+            raise ValueError(f"tendon {self.name!r} is a string: it has no rod")
+        return self.rod
+
+    @property
     def termination(self) -> Anchor:
         """Where the tendon ends (rodsim/core/anchors.py): its node tied to the catheter's
         node, and the catheter segment orienting the lumen there."""
-        return tendon_termination(self.rod, self.catheter)
+        return tendon_termination(self.tendon_rod, self.catheter)
 
     def lumen_frame(self, q: np.ndarray) -> LumenFrame:
         """d_t, d_n = d3 × d_t and their q-derivatives for quaternions q (n, 4)."""
@@ -327,6 +342,7 @@ class Tendon:
         r = full[layout.position_index]
         q = full[layout.quaternion_index][self.lumen_segment(np.arange(self.catheter.nodes))]
         # d_t alone: the registration check runs this after every solver step, and the full
-        # lumen_frame (derivatives included) cost 24 µs of its 50 on table3-catheter1.
+        # lumen_frame (derivatives included) was half its cost (docs/benchmarks.md,
+        # "Measurements behind the core's constants").
         d_t = self.alpha * director(q, 0) + self.beta * director(q, 1)
         return r + self.offset * d_t

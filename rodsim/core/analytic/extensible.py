@@ -35,6 +35,7 @@ from dataclasses import dataclass
 from typing import ClassVar
 
 import numpy as np
+from numpy.typing import ArrayLike
 from scipy.integrate import solve_ivp
 from scipy.optimize import brentq
 
@@ -87,7 +88,7 @@ class _Load:
         def reaches_clamp_angle(_: float, z: np.ndarray) -> float:
             return z[0]
 
-        reaches_clamp_angle.terminal = True
+        reaches_clamp_angle.terminal = True  # type: ignore[attr-defined]
         sol = solve_ivp(
             lambda t, z: self.rhs(t, z)[:2],
             (1.0, 0.0),
@@ -125,7 +126,7 @@ def _solve_tip_angle(load: _Load) -> float:
 
 
 def extensible_elastica(
-    force_xy: np.ndarray,
+    force_xy: ArrayLike,
     EI: float,
     EA: float,
     length: float,

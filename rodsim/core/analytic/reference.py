@@ -6,6 +6,9 @@ through the rod's E I and E_s A) loaded only by a dead tip force along −y (``t
 without ``force``, no ``gravity``) — the paper's experiment of Figs. 5–9. A tendon scene
 qualifies for the constant-curvature arc when it has one tendon pulled at its base (the
 physical check of the conserving coupling).
+
+The references read the rods' constants (E I, E_s A, L, the base) from the scene alone
+(:func:`scene_rods`): no model is assembled, no kernel loaded.
 """
 
 from __future__ import annotations
@@ -18,11 +21,36 @@ from rodsim.core.analytic.elastica import ElasticaShape, exact_elastica, load_pa
 from rodsim.core.analytic.extensible import extensible_elastica
 from rodsim.core.analytic.paper_model import paper_model
 from rodsim.core.analytic.tendon_arc import tendon_arc
-from rodsim.core.model import Model
+from rodsim.core.anchors import scene_joints
+from rodsim.core.model import scene_rod
+from rodsim.core.rod.layout import RodLayout
+from rodsim.core.rod.rod import Rod
 from rodsim.core.scene import Scene
+from rodsim.core.tendon import Tendon
 
 __all__ = ["CantileverReference", "cantilever_reference", "REFERENCE_KINDS",
-           "reference_centerline"]
+           "reference_centerline", "scene_rods"]
+
+
+def scene_rods(scene: Scene, names: tuple[str, ...]) -> dict[str, Rod]:
+    """The rods ``names`` of ``scene`` (and the catheters or joint parents their bases are
+    placed on), with their constants and base supports as a model builds them, but no
+    model: no layout in a state vector, no terms, no assembly."""
+    joints = scene_joints(scene)
+    tendons = scene.data["tendons"]
+    rods: dict[str, Rod] = {}
+
+    def build(name: str) -> Rod:
+        if name not in rods:
+            parent = (tendons[name]["catheter"] if name in tendons
+                      else joints[name].rod if name in joints else None)
+            if parent is not None:
+                build(parent)
+            rods[name] = scene_rod(scene, name, RodLayout(scene.rods[name].nodes, 0), rods,
+                                   joints)
+        return rods[name]
+
+    return {name: build(name) for name in names}
 
 
 @dataclass(frozen=True)
@@ -62,7 +90,7 @@ def cantilever_reference(scene: Scene, samples: int = 201) -> CantileverReferenc
     load = scene.term_options("rods", name, "tip_load")
     if any(load.force) or rod.origin != [0.0, 0.0, 0.0]:
         return None
-    model_rod = Model(scene).rods[name]
+    model_rod = scene_rods(scene, (name,))[name]
     if model_rod.varying:  # the references are for a uniform rod
         return None
     force = load.mass * load.gravity
@@ -100,14 +128,17 @@ def reference_centerline(scene: Scene, kind: str, s: np.ndarray) -> np.ndarray |
         actuation = scene.term_options("tendons", name, "tendon_actuation")
         if actuation is None or actuation.point != "proximal":
             return None
-        model = Model(scene)
-        catheter = model.rods[options.catheter]
-        if catheter.name != next(iter(model.rods)) or catheter.varying:
+        if options.catheter != next(iter(scene.rods)):
+            return None
+        rods = scene_rods(scene, (options.catheter, name))
+        catheter = rods[options.catheter]
+        if catheter.varying:
             return None
         shape = tendon_arc(actuation.force, options.offset,
-                           catheter.bending_stiffness + model.rods[name].bending_stiffness,
+                           catheter.bending_stiffness + rods[name].bending_stiffness,
                            catheter.stretch_stiffness, catheter.length, s)
-        alpha, beta = model.tendons[name].alpha, model.tendons[name].beta
+        tendon = Tendon.of(name, rods, options)
+        alpha, beta = tendon.alpha, tendon.beta
         out[:, 0] = shape.x
         out[:, 1] = alpha * shape.y
         out[:, 2] = beta * shape.y
@@ -120,7 +151,8 @@ def reference_centerline(scene: Scene, kind: str, s: np.ndarray) -> np.ndarray |
     if kind == "exact":
         shape = exact_elastica(force, ei, length, s)
     elif kind == "extensible":
-        stretch = next(iter(Model(scene).rods.values())).stretch_stiffness
+        first = next(iter(scene.rods))
+        stretch = scene_rods(scene, (first,))[first].stretch_stiffness
         if force >= stretch:
             return None
         shape = extensible_elastica((0.0, -force), ei, stretch, length, s)

@@ -42,6 +42,7 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
+from numpy.typing import ArrayLike
 from scipy.integrate import solve_ivp
 
 __all__ = ["Section", "BVPTendon", "TendonRodSolution", "tendon_rod"]
@@ -178,9 +179,9 @@ def _unshearable_rhs(n_body: np.ndarray, shear: float) -> np.ndarray:
 
 
 def tendon_rod(length: float, sections: Sequence[Section], tendons: Sequence[BVPTendon],
-               tip_force: Sequence[float] = (0.0, 0.0, 0.0),
-               tip_moment: Sequence[float] = (0.0, 0.0, 0.0),
-               s: np.ndarray | None = None, origin: Sequence[float] = (0.0, 0.0, 0.0),
+               tip_force: ArrayLike = (0.0, 0.0, 0.0),
+               tip_moment: ArrayLike = (0.0, 0.0, 0.0),
+               s: np.ndarray | None = None, origin: ArrayLike = (0.0, 0.0, 0.0),
                tolerance: float = 1e-12, load_steps: int = 1) -> TendonRodSolution:
     """The equilibrium of a clamped rod (base at ``origin``, frame :data:`BASE_FRAME`) under
     the ``tendons`` and a tip wrench (world frame); ``sections`` cover [0, length] in order.

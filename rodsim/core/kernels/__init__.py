@@ -7,16 +7,18 @@ second process loads it instead of compiling. Every kernel has the same signatur
     evaluate(x, *constants, scale, want_force, force, force_target,
              want_jacobian, jacobian, jacobian_target)
 
-``x`` is the full state, ``constants`` what the term's ``kernel_arguments()`` returns,
-``scale`` a factor on the whole output (load fraction, penalty continuation). For element
-``e`` the kernel adds ``scale`` × its force on local coordinate ``a`` to
-``force[force_target[e, a]]`` and ``scale`` × ∂F_a/∂x_b to
-``jacobian[jacobian_target[e, a, b]]`` — the model's free-coordinate index and CSC data slot,
-with one dump slot past the end for clamped coordinates. A module may also define
-``energy(x, *constants) -> float`` (the term's energy, unscaled), which the line searches of
-``static`` and ``paper`` evaluate; without it the model calls the term's numpy ``energy``.
-The numpy methods of the term are the reference the kernel must reproduce
-(tests/test_kernels.py).
+``x`` is the full state, ``constants`` the term's constants, ``scale`` a factor on the whole
+output (load fraction, penalty continuation). A term hands its constants *by name*: its
+``kernel_arguments()`` returns a mapping from the kernel's parameter names to values, and
+:meth:`Kernel.bind` orders them by the kernel's own signature (a missing or unknown name is
+an error, never a silently shifted argument). For element ``e`` the kernel adds ``scale`` ×
+its force on local coordinate ``a`` to ``force[force_target[e, a]]`` and ``scale`` ×
+∂F_a/∂x_b to ``jacobian[jacobian_target[e, a, b]]`` — the model's free-coordinate index and
+CSC data slot, with one dump slot past the end for clamped coordinates. A module may also
+define ``energy(x, *constants) -> float`` (the term's energy, unscaled, the same constants),
+which the line searches of ``static`` and ``paper`` evaluate; without it the model calls the
+term's numpy ``energy``. The numpy methods of the term are the reference the kernel must
+reproduce (tests/test_kernels.py).
 
 Nothing here is imported until a model evaluates with ``solver.kernels = "compiled"``, so
 ``import rodsim`` does not pay for numba.
@@ -25,18 +27,63 @@ Nothing here is imported until a model evaluates with ``solver.kernels = "compil
 from __future__ import annotations
 
 import importlib
+import inspect
 from collections.abc import Callable
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any, NamedTuple
 
 if TYPE_CHECKING:
-    from rodsim.core.terms.base import Term
+    from rodsim.core.terms.base import KernelArguments, Term
 
-__all__ = ["load_kernel"]
+__all__ = ["Kernel", "load_kernel", "OUTPUT_PARAMETERS", "signature_constants"]
+
+#: The parameters every ``evaluate`` takes after its constants, in this order.
+OUTPUT_PARAMETERS = ("scale", "want_force", "force", "force_target", "want_jacobian",
+                     "jacobian", "jacobian_target")
 
 
-def load_kernel(term: Term) -> tuple[Callable[..., None], Callable[..., float] | None]:
-    """The compiled ``evaluate`` and ``energy`` (None where the module has none) of a term
-    (compiled, or loaded from the disk cache, on the first call with each argument type)."""
+class Kernel(NamedTuple):
+    """A term's compiled kernel module: ``evaluate``, ``energy`` (None where the module has
+    none) and the names of the constants both take after the state ``x``, read from
+    ``evaluate``'s signature."""
+
+    evaluate: Callable[..., None]
+    energy: Callable[..., float] | None
+    constants: tuple[str, ...]
+    module: str
+
+    def bind(self, arguments: KernelArguments) -> tuple[Any, ...]:
+        """The constants ``arguments`` names, in the order of the kernel's signature; raises
+        TypeError naming the kernel when a name is missing or unknown."""
+        missing = [name for name in self.constants if name not in arguments]
+        unknown = [name for name in arguments if name not in self.constants]
+        if missing or unknown:
+            raise TypeError(f"kernel rodsim.core.kernels.{self.module}: "
+                            f"missing constants {missing}, unknown constants {unknown} "
+                            f"(its signature takes {', '.join(self.constants)})")
+        return tuple(arguments[name] for name in self.constants)
+
+
+def signature_constants(function: Callable[..., Any], outputs: tuple[str, ...] = ()) -> tuple[
+        str, ...]:
+    """The parameter names of a kernel function between the state ``x`` and ``outputs``
+    (the trailing parameters, checked to be exactly those)."""
+    python = getattr(function, "py_func", function)  # a numba dispatcher keeps the source
+    names = tuple(inspect.signature(python).parameters)
+    if not names or names[0] != "x":
+        raise TypeError(f"kernel {python.__module__}.{python.__name__}: first parameter "
+                        f"must be the state x, got {names[:1]}")
+    if outputs:
+        if names[-len(outputs):] != outputs:
+            raise TypeError(f"kernel {python.__module__}.{python.__name__}: must end with "
+                            f"{', '.join(outputs)}")
+        return names[1:-len(outputs)]
+    return names[1:]
+
+
+def load_kernel(term: Term) -> Kernel:
+    """The compiled kernel of a term (compiled, or loaded from the disk cache, on the first
+    call with each argument type); TypeError when its ``energy`` takes other constants than
+    its ``evaluate``."""
     name = term.kernel or term.name
     try:
         module = importlib.import_module(f"{__name__}.{name}")
@@ -45,4 +92,9 @@ def load_kernel(term: Term) -> tuple[Callable[..., None], Callable[..., float] |
             raise RuntimeError("solver.kernels = 'compiled' needs numba (pip install numba); "
                                "solver.kernels = 'numpy' runs without it") from None
         raise
-    return module.evaluate, getattr(module, "energy", None)
+    constants = signature_constants(module.evaluate, OUTPUT_PARAMETERS)
+    energy = getattr(module, "energy", None)
+    if energy is not None and signature_constants(energy) != constants:
+        raise TypeError(f"kernel rodsim.core.kernels.{name}: energy takes other constants "
+                        f"than evaluate ({', '.join(constants)})")
+    return Kernel(module.evaluate, energy, constants, name)

@@ -1,5 +1,6 @@
-"""Kernel of :mod:`rodsim.core.terms.lumen`, Eqs. (24)–(27), (32)–(35): per tendon point p and its
-parent catheter node (r, q), local coordinates (p, r, q),
+"""Kernel of :mod:`rodsim.core.terms.lumen` (the paper's coupling), Eqs. (24)–(27),
+(32)–(35): per tendon point p and its parent catheter node (r, q), local coordinates
+(p, r, q),
 
     Δ = r + r_L d_t(q) − p,   C_t = Δ·d_t (Eqs. 26, 34),   C_n = Δ·d_n,
     ∇C_t = (−d_t, d_t, D_tᵀ(Δ + r_L d_t)),   ∇C_n = (−d_n, d_n, D_nᵀΔ + r_L D_tᵀd_n),
@@ -27,7 +28,7 @@ from rodsim.core.kernels._scatter import add_force, add_jacobian
 
 @njit(cache=True)
 def evaluate(x: np.ndarray, dofs: np.ndarray, alpha: float, beta: float, offset: float,
-             stiffness: float, both: bool, conserving: bool, share: np.ndarray, scale: float,
+             stiffness: float, both: bool, share: np.ndarray, scale: float,
              want_force: bool, force: np.ndarray, force_target: np.ndarray,
              want_jacobian: bool, jacobian: np.ndarray, jacobian_target: np.ndarray) -> None:
     q = np.empty(4)
@@ -76,11 +77,10 @@ def evaluate(x: np.ndarray, dofs: np.ndarray, alpha: float, beta: float, offset:
         if want_force:
             for a in range(10):
                 local_force[a] = -k_t * grad_t[a] - k_n * grad_n[a]
-            if not conserving:
-                for m in range(3):
-                    local_force[3 + m] = -share[e] * local_force[m]
-                for a in range(4):
-                    local_force[6 + a] = 0.0
+            for m in range(3):  # the averaged reaction on the parent node only
+                local_force[3 + m] = -share[e] * local_force[m]
+            for a in range(4):
+                local_force[6 + a] = 0.0
             add_force(force, force_target, e, local_force, scale)
         if want_jacobian:
             for a in range(10):
@@ -107,10 +107,9 @@ def evaluate(x: np.ndarray, dofs: np.ndarray, alpha: float, beta: float, offset:
                                      + k_n * (grad_dn[m, a] * grad_dt[m, b]
                                               + grad_dt[m, a] * grad_dn[m, b]))
                     local_jacobian[6 + a, 6 + b] -= offset * products + forms[a, b]
-            if not conserving:
-                for b in range(10):
-                    for m in range(3):
-                        local_jacobian[3 + m, b] = -share[e] * local_jacobian[m, b]
-                    for a in range(4):
-                        local_jacobian[6 + a, b] = 0.0
+            for b in range(10):
+                for m in range(3):
+                    local_jacobian[3 + m, b] = -share[e] * local_jacobian[m, b]
+                for a in range(4):
+                    local_jacobian[6 + a, b] = 0.0
             add_jacobian(jacobian, jacobian_target, e, local_jacobian, scale)

@@ -1,4 +1,4 @@
-"""Kernel of :mod:`rodsim.core.terms.lumen` with the conserving coupling, Eqs. (24)–(27),
+"""Kernel of :mod:`rodsim.core.terms.lumen_conserving` (the conserving coupling), Eqs. (24)–(27),
 (32)–(35) with docs/design.md, erratum 13 (:mod:`rodsim.core.terms._lumen_segment`): per
 tendon point p on lumen segment j, local coordinates (p, r_j, r_{j+1}, q_{j−1}, q_j, q_{j+1}),
 
@@ -347,7 +347,7 @@ def energy(x: np.ndarray, dofs: np.ndarray, alpha: float, beta: float, offset: f
            stiffness: np.ndarray, length: float, ends: np.ndarray, weights: np.ndarray,
            sagitta: np.ndarray, tendon_length: float) -> float:
     """E = Σ_e ½ k_e |Δ_e|², Δ at the closest point σ (the numpy reference:
-    :meth:`rodsim.core.terms._lumen_segment.OnSegments.energy`)."""
+    :meth:`rodsim.core.terms._lumen_segment.PointOnLumenCurve.energy`)."""
     lumen_c = np.array([alpha, beta, 0.0])
     tangent_c = np.array([0.0, 0.0, 1.0])
     s = np.empty((2, 4))

@@ -315,7 +315,7 @@ def _read_points(file: str, prefix: str) -> list[float]:
             raise SceneError(f"{prefix}.file = {shown(file)}: no such file (nor a shipped "
                              "data file)", key=f"{prefix}.file", value=file,
                              reason="no such file")
-    rows = []
+    rows: list[float] = []
     try:
         text = path.read_text(encoding="utf-8")
     except (OSError, UnicodeDecodeError) as exc:

@@ -12,7 +12,7 @@ import numpy as np
 from rodsim.core.rod.geometry import RodGeometry
 from rodsim.core.rod.layout import RodLayout
 from rodsim.core.rod.sections import INHERITED, SectionProfile
-from rodsim.core.schema import Parameter, options_type
+from rodsim.core.schema import Options, Parameter
 from rodsim.core.supports import CLAMPS, Support
 
 __all__ = ["Rod", "RodOptions", "ROD_PARAMETERS", "CLAMPS"]
@@ -43,10 +43,22 @@ ROD_PARAMETERS: tuple[Parameter, ...] = (
               "energy terms acting on this rod (`rodsim terms` lists them)"),
 )
 
-#: A rod table's own values, typed (one field per :data:`ROD_PARAMETERS`); its per-term
-#: sub-tables are the terms' own options (:attr:`rodsim.core.terms.base.Term.Options`).
-RodOptions = options_type("RodOptions", ROD_PARAMETERS,
-                          "A validated rod table's own values ([rods.<name>], SI units).")
+@dataclass(frozen=True, kw_only=True)
+class RodOptions(Options):
+    """A validated rod table's own values ([rods.<name>], SI units), typed: one field per
+    :data:`ROD_PARAMETERS` (checked by tests/test_types.py); its per-term sub-tables are the
+    terms' own options (:attr:`rodsim.core.terms.base.Term.Options`)."""
+
+    length: float
+    radius: float
+    youngs_modulus: float
+    stretch_modulus: float
+    poisson_ratio: float = 0.5
+    density: float
+    nodes: int
+    clamp: str = "frame"
+    origin: list[float] = field(default_factory=lambda: [0.0, 0.0, 0.0])
+    terms: list[str] = field(default_factory=lambda: ["stretch", "bend_twist", "centerline"])
 
 
 @dataclass(frozen=True)
@@ -67,7 +79,7 @@ class Rod:
     """
 
     name: str
-    options: Any  # RodOptions
+    options: RodOptions
     layout: RodLayout = field(repr=False)
     support: Support = field(repr=False)
     #: Supports at other nodes than the base (position only; rodsim/core/supports.py).

@@ -10,16 +10,35 @@ from __future__ import annotations
 import functools
 import importlib
 import pkgutil
+from collections.abc import Mapping
+from typing import Any
 
 from rodsim.core.terms.base import REGISTRY, RodTerm, TendonTerm, Term
 
-__all__ = ["REGISTRY", "Term", "RodTerm", "TendonTerm", "registered_terms"]
+__all__ = ["REGISTRY", "Term", "RodTerm", "TendonTerm", "registered_terms", "term_class",
+           "term_keys"]
 
 
 def registered_terms() -> dict[str, type[Term]]:
     """Every registered term class by name (imports this package's modules)."""
     _import_every_module()
     return dict(REGISTRY)
+
+
+def term_keys(scope: str) -> list[str]:
+    """The scene keys a rod (``scope = "rod"``) or a tendon (``"tendon"``) may list in its
+    ``terms``, sorted (a key shared by variants once)."""
+    return sorted({cls.key for cls in registered_terms().values() if cls.scope == scope})
+
+
+def term_class(key: str, owner: Mapping[str, Any]) -> type[Term]:
+    """The term class the scene key ``key`` builds for the owner table ``owner`` (a rod's or
+    a tendon's own values): the registered class of that key that the table selects
+    (:meth:`Term.selected_by`; the lumen's ``coupling``). KeyError when none does."""
+    for cls in registered_terms().values():
+        if cls.key == key and cls.selected_by(owner):
+            return cls
+    raise KeyError(key)
 
 
 @functools.cache

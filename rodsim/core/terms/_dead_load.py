@@ -14,7 +14,7 @@ from typing import Any
 import numpy as np
 
 from rodsim.core.rod.rod import Rod
-from rodsim.core.terms.base import RodTerm
+from rodsim.core.terms.base import KernelArguments, RodTerm
 
 
 class NodalDeadLoad(RodTerm):
@@ -33,8 +33,8 @@ class NodalDeadLoad(RodTerm):
         """The force on each control point [N], shape (N, 3)."""
         raise NotImplementedError
 
-    def kernel_arguments(self) -> tuple:
-        return (self._forces,)
+    def kernel_arguments(self) -> KernelArguments:
+        return {"forces": self._forces}
 
     def energy(self, x: np.ndarray) -> float:
         return float(-np.sum(self._forces * x[self.dofs]))

@@ -15,7 +15,8 @@ element, the generalised force on those coordinates and its derivative:
 These numpy methods are the readable reference. Each term also has a compiled kernel, one
 file in :mod:`rodsim.core.kernels` named after the term (or ``kernel``), which computes the same
 element forces and Jacobians with numba and accumulates them straight into the model's force
-vector and CSC Jacobian data; ``kernel_arguments`` hands it the term's constants. The model
+vector and CSC Jacobian data; ``kernel_arguments`` hands it the term's constants by the
+names of the kernel's parameters (bound to its signature by name). The model
 picks the path (``solver.kernels``); the contract test checks both against each other and
 against finite differences.
 
@@ -32,17 +33,22 @@ no per-term test code: force = −∂E/∂x, Jacobian = ∂F/∂x, symmetry when
 from __future__ import annotations
 
 from abc import ABC, abstractmethod
+from collections.abc import Mapping
 from typing import TYPE_CHECKING, Any, ClassVar
 
 import numpy as np
 
-from rodsim.core.schema import Parameter, register_with_options
+from rodsim.core.schema import Options, Parameter, register_with_options
 
 if TYPE_CHECKING:
     from rodsim.core.rod.rod import Rod
     from rodsim.core.tendon import Tendon
 
-__all__ = ["Term", "RodTerm", "TendonTerm", "REGISTRY"]
+__all__ = ["Term", "RodTerm", "TendonTerm", "REGISTRY", "KernelArguments"]
+
+#: What :meth:`Term.kernel_arguments` returns: the compiled kernel's constants by the names of
+#: its parameters (rodsim/core/kernels/__init__.py orders them by the kernel's signature).
+KernelArguments = Mapping[str, Any]
 
 #: Every defined term class, by name. Filled by ``Term.__init_subclass__``.
 REGISTRY: dict[str, type[Term]] = {}
@@ -60,12 +66,16 @@ class Term(ABC):
     parameters
         The term's own scene values (validated, with units and defaults).
 
-    Made from ``parameters`` when the class is defined
-    ---------------------------------------------------
+    Declared beside the class, or made from ``parameters`` when it is defined
+    -------------------------------------------------------------------------
     Options
         A frozen dataclass with one typed field per parameter; a term is built with an
         instance of it (``Options.of(table)`` types a validated table) and reads attributes
-        (``self.options.K_P``).
+        (``self.options.K_P``). Every shipped term declares its own
+        (:class:`rodsim.core.schema.Options` subclass, ``Options = CenterlineOptions``;
+        annotate ``options: CenterlineOptions`` for the type checker), which is checked
+        against ``parameters`` when the class is defined; a term that declares none gets
+        one made at run time (a type checker then sees only the base class).
     conservative
         ``True`` when the force is −∇ of ``energy``; the Jacobian is then symmetric.
     is_load
@@ -74,8 +84,8 @@ class Term(ABC):
         ``False`` for state-independent forces (no Jacobian entries, no pattern).
     dynamic
         ``True`` when an element's coordinates depend on a discrete state of the term (a
-        tendon point's parent catheter node), which :meth:`update_registration` updates
-        between solver steps; ``dofs`` changes with it.
+        tendon point's parent catheter node), which :meth:`registration` applies to a state
+        and :meth:`registered` sets, between solver steps; ``dofs`` changes with it.
 
     ``conservative``, ``is_load`` and ``has_jacobian`` may be overridden per instance
     (a term whose behaviour depends on its parameters).
@@ -85,28 +95,62 @@ class Term(ABC):
     equation: ClassVar[str]
     scope: ClassVar[str]
     parameters: ClassVar[tuple[Parameter, ...]] = ()
-    conservative: ClassVar[bool] = True
-    is_load: ClassVar[bool] = False
-    has_jacobian: ClassVar[bool] = True
+    # Not ClassVar: a term may set these per instance (see above).
+    conservative: bool = True
+    is_load: bool = False
+    has_jacobian: bool = True
     dynamic: ClassVar[bool] = False
     #: True for a constraint penalty whose constant a solver may raise gradually; the term
-    #: must be linear in its constant, so that scaling its output scales the constant.
+    #: must be linear in its constant, so that scaling its output scales the constant. A
+    #: penalty term must also set :attr:`penalty_ratio` (checked when a model is built).
     penalty: ClassVar[bool] = False
+    #: A penalty term's stiffness relative to the physics it constrains at the scale of one
+    #: element (the centerline penalty: K_P l² / (E I), l the segment length), a finite
+    #: positive number. The solvers that lower stiff penalties before loading (``static``,
+    #: the SUNDIALS finish) scale the term's output by ``their_ratio / penalty_ratio`` when
+    #: it is larger than theirs (:meth:`rodsim.core.model.Model.with_term_scales`). Set by
+    #: penalty terms only (``penalty = True``), per instance: it depends on the options and
+    #: the rod.
+    penalty_ratio: float
+    #: The top-level scene table whose entries build this term, instead of a rod's or a
+    #: tendon's ``terms`` list (contact: ``"obstacles"``); the model calls
+    #: :meth:`from_table` on each entry. Empty: a term a rod or a tendon lists.
+    scene_table: ClassVar[str] = ""
     #: True for a rod term that ties its rod to another (a joint, rodsim/core/anchors.py):
     #: it is built with the model's rods as a third argument, ``Term(rod, options, rods)``.
     joins_rods: ClassVar[bool] = False
     #: Module of :mod:`rodsim.core.kernels` holding the compiled kernel (default: ``name``).
-    kernel: ClassVar[str] = ""
+    #: A term may pick its kernel per instance (the proximal pull: ``constant_force``).
+    kernel: str = ""
+    #: The scene key of the term: what a rod's or a tendon's ``terms`` lists and the name of
+    #: its options sub-table (default: ``name``). Terms sharing a key are variants of one
+    #: concept (the lumen's paper and conserving couplings); the owner's table picks one of
+    #: them with :meth:`selected_by`, and each variant declares the same option keys.
+    key: ClassVar[str] = ""
 
     #: The frozen dataclass of this term's options (see above).
-    Options: ClassVar[type]
+    Options: ClassVar[type[Options]]
 
     #: Global coordinate indices of each element, shape (n_elem, k).
     dofs: np.ndarray
 
+    def __init__(self, owner: Any, options: Any, *context: Any) -> None:
+        """A term is built from its owner (a :class:`~rodsim.core.rod.rod.Rod` or a
+        :class:`~rodsim.core.tendon.Tendon`), its :attr:`Options` and, for a term that
+        :attr:`joins_rods`, the model's rods (:class:`RodTerm`, :class:`TendonTerm`)."""
+        self.options = options
+
     def __init_subclass__(cls, **kwargs: Any) -> None:
         super().__init_subclass__(**kwargs)
+        if "name" in cls.__dict__ and not cls.key:
+            cls.key = cls.name
         register_with_options(cls, REGISTRY, "term")
+
+    @classmethod
+    def selected_by(cls, owner: Mapping[str, Any]) -> bool:
+        """Whether the owner's table (a rod's or a tendon's own values, validated) selects
+        this class for its :attr:`key`; a key with one class: always."""
+        return True
 
     @abstractmethod
     def element_forces(self, x: np.ndarray) -> np.ndarray:
@@ -133,8 +177,11 @@ class Term(ABC):
         scale F_ref: by default the sum of its element forces' norms."""
         return float(np.sum(np.linalg.norm(self.element_forces(x), axis=1)))
 
-    def kernel_arguments(self) -> tuple:
-        """The constants the compiled kernel takes after the state (arrays and floats)."""
+    def kernel_arguments(self) -> KernelArguments:
+        """The constants the compiled kernel takes after the state (arrays and floats), by
+        the names of the kernel's parameters: the model binds them to the kernel's signature
+        by name (:meth:`rodsim.core.kernels.Kernel.bind`), so their order does not matter and
+        a missing or unknown name is an error."""
         raise NotImplementedError(f"term {self.name!r} has no compiled kernel")
 
     def registration(self, x: np.ndarray, exact: bool = False) -> np.ndarray | None:
@@ -149,6 +196,15 @@ class Term(ABC):
     def registered(self, state: np.ndarray) -> Term:
         """A copy of this dynamic term with the discrete state ``state`` (and its ``dofs``)."""
         raise NotImplementedError(f"term {self.name!r} has no registration")
+
+    @classmethod
+    def from_table(cls, name: str, table: Mapping[str, Any],
+                   rods: Mapping[str, Rod]) -> list[tuple[str, Term]]:
+        """The terms one entry ``[<scene_table>.<name>]`` of a term with a
+        :attr:`scene_table` builds, each with its key (unique within the entry: the model
+        names the term ``(scene_table, name, key)``), from the validated ``table`` and the
+        model's rods."""
+        raise NotImplementedError(f"term {cls.name!r} is not built from a scene table")
 
     def rigid_links(self) -> np.ndarray:
         """Global position indices (a, b), shape (k, 6), of the stiff two-point links of

@@ -35,14 +35,15 @@ piecewise-uniform rod under a constant moment turns by exactly ∫ M / (E I) ds.
 from __future__ import annotations
 
 import math
-from typing import Any, NamedTuple
+from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 
 from rodsim.core.rod.quaternion import B, form_combination
 from rodsim.core.rod.rod import Rod
-from rodsim.core.schema import Parameter
-from rodsim.core.terms.base import RodTerm
+from rodsim.core.schema import Options, Parameter
+from rodsim.core.terms.base import KernelArguments, RodTerm
 
 #: B as flattened matrices: (b @ _B_ROWS)[n, 4k + a] = Σ_c B[k, c, a] b[n, c] (B_kᵀ b) and
 #: (a @ _B_COLUMNS)[n, 4k + c] = Σ_d B[k, c, d] a[n, d] (B_k a).
@@ -171,10 +172,21 @@ def bend_jacobians(a: np.ndarray, b: np.ndarray, dual_lengths: np.ndarray,
     return -hess
 
 
+@dataclass(frozen=True, kw_only=True)
+class BendTwistOptions(Options):
+    """The options of the ``bend_twist`` term: one field per
+    parameter, checked against them when the term class is defined."""
+
+    stiffness: str = "corrected"
+    twist_stiffness: float = 0.0
+
+
 class BendTwist(RodTerm):
     """Bending about d1, d2 and twisting about d3, Eqs. (7)–(8)."""
 
     name = "bend_twist"
+    Options = BendTwistOptions
+    options: BendTwistOptions
     equation = "Eqs. (3), (7), (8)"
     parameters = (
         Parameter("stiffness", "str", "corrected", "-",
@@ -185,7 +197,7 @@ class BendTwist(RodTerm):
                   "couples to nothing, a larger value removes a near-null mode", 0.0, 1e6),
     )
 
-    def __init__(self, rod: Rod, options: Any) -> None:
+    def __init__(self, rod: Rod, options: BendTwistOptions) -> None:
         super().__init__(rod, options)
         quat = rod.layout.quaternion_index
         seg = rod.geometry.segment_length
@@ -208,9 +220,10 @@ class BendTwist(RodTerm):
         self._stiffness = element_stiffness(rod, options.stiffness, options.twist_stiffness,
                                             starts, ends)
 
-    def kernel_arguments(self) -> tuple:
+    def kernel_arguments(self) -> KernelArguments:
         frame = self._frame if self._clamped else np.zeros(4)  # unused when not clamped
-        return (self.dofs, self._dual_lengths, self._stiffness, bool(self._clamped), frame)
+        return {"dofs": self.dofs, "dual_lengths": self._dual_lengths,
+                "stiffness": self._stiffness, "clamped": bool(self._clamped), "frame": frame}
 
     def _pairs(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         q = x[self.rod.layout.quaternion_index]

@@ -14,6 +14,7 @@ this one does not change when a rod is split into two joined ones.
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -25,9 +26,9 @@ from rodsim.core.rod.quaternion import (
     form_combination,
 )
 from rodsim.core.rod.rod import Rod
-from rodsim.core.schema import Parameter, SceneError
+from rodsim.core.schema import Options, Parameter, SceneError
 from rodsim.core.terms._segment import Segments
-from rodsim.core.terms.base import RodTerm
+from rodsim.core.terms.base import KernelArguments, RodTerm
 
 #: Default K_P / (E_s A): the penalty error α r² / (2 K_P_relative L²) is ≤ 1e-4 L up to a
 #: load α = 8 (a tip force bending a cantilever far past 90°) on a rod as thick as L/r = 20;
@@ -43,10 +44,21 @@ def penalty_constant(options: Any, rod: Rod) -> float:
     return float(options.K_P_relative) * rod.stretch_stiffness
 
 
+@dataclass(frozen=True, kw_only=True)
+class CenterlineOptions(Options):
+    """The options of the ``centerline`` term: one field per
+    parameter, checked against them when the term class is defined."""
+
+    K_P: float = 0.0
+    K_P_relative: float = DEFAULT_K_P_RELATIVE
+
+
 class Centerline(RodTerm):
     """Penalty coupling the directors to the centerline, Eq. (9)."""
 
     name = "centerline"
+    Options = CenterlineOptions
+    options: CenterlineOptions
     equation = "Eq. (9)"
     penalty = True
     parameters = (
@@ -66,7 +78,7 @@ class Centerline(RodTerm):
                              f"{options.K_P_relative!r} both set the centerline penalty; "
                              "allowed: one of them")
 
-    def __init__(self, rod: Rod, options: Any) -> None:
+    def __init__(self, rod: Rod, options: CenterlineOptions) -> None:
         super().__init__(rod, options)
         pos = rod.layout.position_index
         self.dofs = np.concatenate([pos[:-1], pos[1:], rod.layout.quaternion_index], axis=1)
@@ -78,8 +90,8 @@ class Centerline(RodTerm):
         self.penalty_ratio = (self.K_P * rod.geometry.segment_length**2
                               / rod.smallest_bending_stiffness)
 
-    def kernel_arguments(self) -> tuple:
-        return (self.dofs, float(self._weight))
+    def kernel_arguments(self) -> KernelArguments:
+        return {"dofs": self.dofs, "weight": float(self._weight)}
 
     def _mismatch(self, x: np.ndarray) -> tuple[Segments, np.ndarray, np.ndarray]:
         seg = Segments.of(x[self.rod.layout.position_index])

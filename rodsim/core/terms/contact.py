@@ -35,13 +35,16 @@ segments between nodes may cut a convex obstacle's corner or a concave wall by u
 
 from __future__ import annotations
 
+from collections.abc import Mapping
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
-from rodsim.core.obstacles import Obstacle
+from rodsim.core.obstacles import Obstacle, build_obstacle
 from rodsim.core.rod.rod import Rod
-from rodsim.core.terms.base import RodTerm
+from rodsim.core.schema import Options
+from rodsim.core.terms.base import KernelArguments, RodTerm, Term
 
 __all__ = ["Contact", "penalty"]
 
@@ -59,12 +62,28 @@ def penalty(p: np.ndarray, delta: float) -> tuple[np.ndarray, np.ndarray, np.nda
     return psi, d1, d2
 
 
+@dataclass(frozen=True, kw_only=True)
+class ContactOptions(Options):
+    """The options of the ``contact`` term: one field per
+    parameter, checked against them when the term class is defined."""
+
+
 class Contact(RodTerm):
     """Penalty contact of one rod's nodes with one obstacle."""
 
     name = "contact"
+    Options = ContactOptions
+    options: ContactOptions
     equation = "contact penalty (not in the paper; docs/contact.md)"
     scope = "obstacle"
+    scene_table = "obstacles"
+
+    @classmethod
+    def from_table(cls, name: str, table: Mapping[str, Any],
+                   rods: Mapping[str, Rod]) -> list[tuple[str, Term]]:
+        """One term per rod the obstacle ``[obstacles.<name>]`` touches, keyed by the rod."""
+        obstacle = build_obstacle(name, table)
+        return [(rod, cls(rods[rod], obstacle)) for rod in table["rods"]]
 
     def __init__(self, rod: Rod, obstacle: Obstacle) -> None:
         super().__init__(rod, self.Options())
@@ -102,10 +121,11 @@ class Contact(RodTerm):
         return self.stiffness * (curvature - d2[:, None, None]
                                  * np.einsum("ni,nj->nij", grad, grad))
 
-    def kernel_arguments(self) -> tuple:
+    def kernel_arguments(self) -> KernelArguments:
         params, starts, coef, rcoef = self.obstacle.kernel_data()
-        return (self.dofs.astype(np.int64), int(self.obstacle.kind), params, starts, coef,
-                rcoef, self.radius, self.stiffness, self.smoothing)
+        return {"dofs": self.dofs.astype(np.int64), "kind": int(self.obstacle.kind),
+                "params": params, "starts": starts, "coef": coef, "rcoef": rcoef,
+                "radius": self.radius, "stiffness": self.stiffness, "delta": self.smoothing}
 
     @classmethod
     def check_scene(cls, options: Any, owner: Any, prefix: str) -> None:

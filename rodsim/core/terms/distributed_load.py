@@ -12,12 +12,13 @@ A dead load: no Jacobian entries.
 
 from __future__ import annotations
 
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 
 from rodsim.core.rod.rod import Rod
-from rodsim.core.schema import Parameter, SceneError, shown
+from rodsim.core.schema import Options, Parameter, SceneError, shown
 from rodsim.core.terms._dead_load import NodalDeadLoad
 
 SPAN_PARAMETERS: tuple[Parameter, ...] = (
@@ -29,10 +30,21 @@ SPAN_PARAMETERS: tuple[Parameter, ...] = (
 )
 
 
+@dataclass(frozen=True, kw_only=True)
+class DistributedLoadOptions(Options):
+    """The options of the ``distributed_load`` term: one field per
+    parameter, checked against them when the term class is defined."""
+
+    force_per_length: list[float] = field(default_factory=lambda: [0.0, 0.0, 0.0])
+    spans: list[dict[str, Any]] = field(default_factory=list)
+
+
 class DistributedLoad(NodalDeadLoad):
     """Constant or piecewise-constant force per unit length, world frame."""
 
     name = "distributed_load"
+    Options = DistributedLoadOptions
+    options: DistributedLoadOptions
     equation = "load per length (not in the paper); enters F_net of Eq. (17)"
     parameters = (
         Parameter("force_per_length", "vector", [0.0, 0.0, 0.0], "N/m",

@@ -11,28 +11,41 @@ the lumen offset, on its last quaternion.
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
-from rodsim.core.tendon import Tendon
+from rodsim.core.schema import Options
+from rodsim.core.tendon import LumenFrame, Tendon
 from rodsim.core.terms._relative import (
     absolute,
     check_one,
     penalty_parameters,
     tendon_axial_scale,
 )
-from rodsim.core.terms.base import TendonTerm
+from rodsim.core.terms.base import KernelArguments, TendonTerm
 
 #: Default K_E / (E_T A_T / L_T) (rodsim/core/terms/_relative.py): the spring adds 1e-4 of
 #: the tendon's own axial compliance.
 DEFAULT_K_E_RELATIVE = 1e4
 
 
+@dataclass(frozen=True, kw_only=True)
+class EndpointComplianceOptions(Options):
+    """The options of the ``endpoint_compliance`` term: one field per
+    parameter, checked against them when the term class is defined."""
+
+    K_E: float = 0.0
+    K_E_relative: float = DEFAULT_K_E_RELATIVE
+
+
 class EndpointCompliance(TendonTerm):
     """Spring from the tendon tip to the lumen's end point, Eq. (28)."""
 
     name = "endpoint_compliance"
+    Options = EndpointComplianceOptions
+    options: EndpointComplianceOptions
     equation = "Eq. (28)"
     parameters = (
         *penalty_parameters("K_E", "N/m", "endpoint compliance penalty constant",
@@ -44,7 +57,7 @@ class EndpointCompliance(TendonTerm):
     def check_scene(cls, options: Any, owner: Any, prefix: str) -> None:
         check_one(options, "K_E", DEFAULT_K_E_RELATIVE, prefix)
 
-    def __init__(self, tendon: Tendon, options: Any) -> None:
+    def __init__(self, tendon: Tendon, options: EndpointComplianceOptions) -> None:
         super().__init__(tendon, options)
         self.conservative = tendon.conserving
         #: The absolute penalty constant [N/m].
@@ -56,12 +69,13 @@ class EndpointCompliance(TendonTerm):
         self._quaternion = end.to_quaternion_index
         self.dofs = np.concatenate([self._tip, self._end, self._quaternion])[None, :]
 
-    def kernel_arguments(self) -> tuple:
+    def kernel_arguments(self) -> KernelArguments:
         tendon = self.tendon
-        return (self.dofs, float(tendon.alpha), float(tendon.beta), float(tendon.offset),
-                float(self._stiffness), self.conservative)
+        return {"dofs": self.dofs, "alpha": float(tendon.alpha), "beta": float(tendon.beta),
+                "offset": float(tendon.offset), "stiffness": float(self._stiffness),
+                "conserving": self.conservative}
 
-    def _offset(self, x: np.ndarray) -> tuple[np.ndarray, dict[str, np.ndarray]]:
+    def _offset(self, x: np.ndarray) -> tuple[np.ndarray, LumenFrame]:
         frame = self.tendon.lumen_frame(x[self._quaternion][None, :])
         lumen_end = x[self._end] + self.tendon.offset * frame.dt[0]
         return lumen_end - x[self._tip], frame

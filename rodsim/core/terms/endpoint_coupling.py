@@ -9,10 +9,12 @@ variants.
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
+from rodsim.core.schema import Options
 from rodsim.core.tendon import Tendon
 from rodsim.core.terms._relative import (
     absolute,
@@ -21,17 +23,28 @@ from rodsim.core.terms._relative import (
     tendon_axial_scale,
 )
 from rodsim.core.terms._segment import Segments, two_node_block
-from rodsim.core.terms.base import TendonTerm
+from rodsim.core.terms.base import KernelArguments, TendonTerm
 
 #: Default K_C / (E_T A_T / L_T) (rodsim/core/terms/_relative.py): the spring adds 1e-4 of
 #: the tendon's own axial compliance.
 DEFAULT_K_C_RELATIVE = 1e4
 
 
+@dataclass(frozen=True, kw_only=True)
+class EndpointCouplingOptions(Options):
+    """The options of the ``endpoint_coupling`` term: one field per
+    parameter, checked against them when the term class is defined."""
+
+    K_C: float = 0.0
+    K_C_relative: float = DEFAULT_K_C_RELATIVE
+
+
 class EndpointCoupling(TendonTerm):
     """Spring of rest length r_L between the catheter's and the tendon's tips, Eq. (29)."""
 
     name = "endpoint_coupling"
+    Options = EndpointCouplingOptions
+    options: EndpointCouplingOptions
     equation = "Eq. (29)"
     parameters = (
         *penalty_parameters("K_C", "N/m", "endpoint coupling penalty constant",
@@ -43,7 +56,7 @@ class EndpointCoupling(TendonTerm):
     def check_scene(cls, options: Any, owner: Any, prefix: str) -> None:
         check_one(options, "K_C", DEFAULT_K_C_RELATIVE, prefix)
 
-    def __init__(self, tendon: Tendon, options: Any) -> None:
+    def __init__(self, tendon: Tendon, options: EndpointCouplingOptions) -> None:
         super().__init__(tendon, options)
         #: The absolute penalty constant [N/m].
         self.K_C = absolute(options, "K_C", tendon_axial_scale(tendon))
@@ -56,8 +69,9 @@ class EndpointCoupling(TendonTerm):
         """The stiff link r_N–t, whose length a Newton step keeps (Model.step)."""
         return self.dofs
 
-    def kernel_arguments(self) -> tuple:
-        return (self.dofs, float(self._stiffness), float(self.tendon.offset))
+    def kernel_arguments(self) -> KernelArguments:
+        return {"dofs": self.dofs, "stiffness": float(self._stiffness),
+                "offset": float(self.tendon.offset)}
 
     def _edge(self, x: np.ndarray) -> Segments:
         return Segments.of(x[self.dofs[0]].reshape(2, 3))

@@ -8,20 +8,31 @@ The catheter of Table 1 weighs ≈ 0.15 kg, more than any mass the paper hangs o
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
 from rodsim.core.rod.rod import Rod
-from rodsim.core.schema import Parameter
+from rodsim.core.schema import Options, Parameter
 from rodsim.core.terms._dead_load import NodalDeadLoad
 from rodsim.core.terms.tip_load import STANDARD_GRAVITY
+
+
+@dataclass(frozen=True, kw_only=True)
+class GravityOptions(Options):
+    """The options of the ``gravity`` term: one field per
+    parameter, checked against them when the term class is defined."""
+
+    gravity: float = 9.81
 
 
 class Gravity(NodalDeadLoad):
     """Distributed weight of the rod, lumped on the control points, along −y."""
 
     name = "gravity"
+    Options = GravityOptions
+    options: GravityOptions
     equation = "self-weight (not in the paper); enters F_net of Eq. (17)"
     parameters = (
         Parameter("gravity", "float", STANDARD_GRAVITY, "m/s^2", "gravitational acceleration",

@@ -23,16 +23,17 @@ A's rest point, in A's base frame; A is built first.
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
 from rodsim.core.anchors import Anchor, node_at
 from rodsim.core.rod.rod import Rod
-from rodsim.core.schema import Parameter
+from rodsim.core.schema import Options, Parameter
 from rodsim.core.terms._relative import absolute, check_one, penalty_parameters
 from rodsim.core.terms._segment import two_node_block
-from rodsim.core.terms.base import RodTerm
+from rodsim.core.terms.base import KernelArguments, RodTerm
 from rodsim.core.terms.bend_twist import (
     bend_forces,
     bend_jacobians,
@@ -45,11 +46,25 @@ from rodsim.core.terms.bend_twist import (
 DEFAULT_K_J_RELATIVE = 1e4
 
 
+@dataclass(frozen=True, kw_only=True)
+class JointOptions(Options):
+    """The options of the ``joint`` term: one field per
+    parameter, checked against them when the term class is defined."""
+
+    rod: str
+    s: float
+    K_J: float = 0.0
+    K_J_relative: float = DEFAULT_K_J_RELATIVE
+    orientation: bool = True
+
+
 class Joint(RodTerm):
     """This rod's base tied to a node of another rod: a position penalty and, optionally,
     the bending element between the two rods' segments there."""
 
     name = "joint"
+    Options = JointOptions
+    options: JointOptions
     equation = "anchor (not in the paper); Eqs. (3), (7), (8) for the frame"
     joins_rods = True
     parameters = (
@@ -70,7 +85,7 @@ class Joint(RodTerm):
     def check_scene(cls, options: Any, owner: Any, prefix: str) -> None:
         check_one(options, "K_J", DEFAULT_K_J_RELATIVE, prefix)
 
-    def __init__(self, rod: Rod, options: Any, rods: dict[str, Rod]) -> None:
+    def __init__(self, rod: Rod, options: JointOptions, rods: dict[str, Rod]) -> None:
         super().__init__(rod, options)
         parent = rods[options.rod]
         #: The anchor: this rod's node 0 tied to the other rod's node at ``s``.
@@ -97,11 +112,11 @@ class Joint(RodTerm):
             blocks += [self.anchor.to_quaternion_index, rod.layout.quaternion_index[0]]
         self.dofs = np.concatenate(blocks)[None, :]  # (r_A, r_B[, a, b])
 
-    def kernel_arguments(self) -> tuple:
+    def kernel_arguments(self) -> KernelArguments:
         bend_dofs = (np.ascontiguousarray(self.dofs[:, 6:14]) if self._orientation
                      else np.zeros((0, 8), dtype=self.dofs.dtype))
-        return (self.dofs, self._stiffness, bend_dofs, self._dual_lengths,
-                self._bend_stiffness)
+        return {"dofs": self.dofs, "stiffness": self._stiffness, "bend_dofs": bend_dofs,
+                "dual_lengths": self._dual_lengths, "bend_stiffness": self._bend_stiffness}
 
     def _gap(self, x: np.ndarray) -> np.ndarray:
         return x[self.dofs[0, 3:6]] - x[self.dofs[0, 0:3]]  # r_B,0 − r_A,k

@@ -1,8 +1,9 @@
-"""Lumen constraint, paper Eqs. (24)–(27) and (32)–(35): tendon points held on the lumen.
+"""Lumen constraint with the paper's coupling, Eqs. (24)–(27) and (32)–(35): tendon points
+held on the lumen (``[tendons.<rod>] coupling = "paper"``).
 
-``coupling = "paper"``: each tendon point p_i but the endpoint (held by Eqs. 28–29 instead)
-is registered to exactly one parent catheter node j — the nearest lumen point
-L_j = r_j + r_L d_t(q_j) (§4.1). Its offset Δ = L_j − p_i is penalised across the lumen:
+Each tendon point p_i but the endpoint (held by Eqs. 28–29 instead) is registered to exactly
+one parent catheter node j — the nearest lumen point L_j = r_j + r_L d_t(q_j) (§4.1). Its
+offset Δ = L_j − p_i is penalised across the lumen:
 
     C_t = Δ · d_t  (Eqs. 26, 34),   C_n = Δ · d_n  (d_n = d3 × d_t),
     F_i = K_L (C_t d_t + C_n d_n)   (Eqs. 25, 33, 35 — the paper has only the d_t part)
@@ -15,33 +16,23 @@ the lumen is free. K_L is a force per unit offset per tendon point [N/m].
 Each catheter node receives the *average* of the lumen forces of the tendon points
 registered to it, applied at the node (§4.1). Not momentum-conserving.
 
-``coupling = "conserving"`` (docs/design.md, erratum 13;
-:mod:`rodsim.core.terms._lumen_segment`): the lumen is the smooth (C¹) curve through the
-node lumen points L_j = r_j + r_L d_t(Q_j), Q_j the bisector of the two segments' frames at
-node j, tangent to d3(Q_j) there; each point is
-registered to the lumen *segment* it lies alongside and held at its distance from that
-segment's curve, E = Σ_i ½ K_L w_i |Δ_i|² with K_L per unit tendon length [N/m²] and w_i the
-point's share of the tendon's rest length [m] (l_T/2 for the base point, l_T for the
-others), the curve offset by the chord correction (l_C² − l_T²)/24 × the curvature
-vector of the tendon's chain at the point, so that the tendon's chords measure it as the
-catheter's chords do (``chord_correction``; :mod:`rodsim.core.terms._lumen_segment`). It is
-a gradient: the reaction −F_i acts where the tendon touches the lumen, on
-r_j, r_{j+1} and, through the offsets and tangents, on q_{j−1}, q_j, q_{j+1} (and, through
-the correction's curvature, on the tendon points p_{b−1}, p_b, p_{b+1} around it). Only
-``constrain = "both"``: the distance from a curve holds the point in both transverse
-directions.
+The conserving coupling (``coupling = "conserving"``, docs/design.md erratum 13) is the other
+term of the scene key ``lumen``: :mod:`rodsim.core.terms.lumen_conserving`. The tendon's
+``coupling`` selects which of the two a tendon's ``lumen`` builds
+(:meth:`rodsim.core.terms.base.Term.selected_by`); both read the same ``[tendons.<rod>.lumen]``
+table, so a scene's table stays valid when its coupling changes.
 
-Registration (§4.1) is state of the term: :meth:`Lumen.registration` applies the rule to a
-state and :meth:`Lumen.registered` builds the term with the new parents (the model builds a
+Registration (§4.1) is state of the term (:class:`LumenCoupling`, shared by both couplings):
+:meth:`LumenCoupling.registration` applies the rule to a state and
+:meth:`LumenCoupling.registered` builds the term with the new parents (the model builds a
 new model around it, ``Model.reregistered``). It is updated between solver steps (after
 every time step, Newton solve or CVODE/IDA step), not inside a force evaluation: the
 nearest-lumen-point rule switches the lumen line a point is held to and so makes the force
 discontinuous, which stalls Newton and the BDF error control. Between updates each element
-couples exactly (p_i, r_j, q_j) (paper) or (p_i, r_j, r_{j+1}, q_{j−1}, q_j, q_{j+1}) and
-the chord correction's tendon stencil (conserving), so the Jacobian pattern is exact; an
-update that changes a parent rebuilds the pattern (§4.2's "redefined on every iteration")
-and the SUNDIALS integrators re-initialise. During a run a point switches parent only when
-another lumen point is closer (paper), or it lies beyond the boundary plane of its lumen segment
+couples exactly (p_i, r_j, q_j) here, so the Jacobian pattern is exact; an update that
+changes a parent rebuilds the pattern (§4.2's "redefined on every iteration") and the
+SUNDIALS integrators re-initialise. During a run a point switches parent only when another
+lumen point is closer (paper), or it lies beyond the boundary plane of its lumen segment
 (conserving), by ``hysteresis`` × the catheter's segment length, so a transient on a
 switching boundary cannot flip-flop; once a run is at equilibrium, every point is re-
 registered to its nearest lumen point without hysteresis and the run goes on if a parent
@@ -53,24 +44,19 @@ tendon scene, 3.7e-4 L apart).
 from __future__ import annotations
 
 import copy
-from typing import Any
+from abc import abstractmethod
+from collections.abc import Mapping
+from dataclasses import dataclass
+from typing import Any, ClassVar
 
 import numpy as np
 
 from rodsim.core.rod.quaternion import form_combination
-from rodsim.core.schema import Parameter
+from rodsim.core.rod.rod import Rod
+from rodsim.core.schema import Options, Parameter
 from rodsim.core.tendon import Tendon
-from rodsim.core.terms._lumen_segment import (
-    TIP_SHARE,
-    PointOnLumenCurve,
-    lumen_nodes,
-    node_weights,
-    segment_of,
-    segment_quaternions,
-    tendon_stencil,
-)
 from rodsim.core.terms._relative import absolute, check_one, lumen_scale, penalty_parameters
-from rodsim.core.terms.base import TendonTerm
+from rodsim.core.terms.base import KernelArguments, TendonTerm
 
 #: Default K_L / (E I / (r_L² L_T²)) (rodsim/core/terms/_relative.py): measured on the user
 #: scene (tests/data/user-two-tendon.toml, coupling "conserving") and the user family.
@@ -119,19 +105,11 @@ class PointOnLumen:
         return h_t, h_n
 
 
-class Lumen(TendonTerm):
-    """Penalty keeping the tendon's points on the catheter's lumen, Eqs. (24)–(27), (32)–(35)."""
-
-    name = "lumen"
-    equation = "Eqs. (24)–(27), (32)–(35)"
-    dynamic = True
-    parameters = (
-        *penalty_parameters(
-            "K_L", "N/m or N/m²",
-            "lumen penalty constant (N/m per tendon point with coupling 'paper', N/m² per "
-            "unit tendon length with 'conserving')", DEFAULT_K_L_RELATIVE,
-            "E I / (r_L² L_T²) (catheter's least E I, lumen offset, tendon length; × the "
-            "tendon's segment length per point with 'paper')"),
+def lumen_parameters(unit: str, meaning: str, scale: str) -> tuple[Parameter, ...]:
+    """The ``[tendons.<rod>.lumen]`` table of both couplings: the same keys (a table stays
+    valid when the tendon's coupling changes), with each coupling's unit of K_L."""
+    return (
+        *penalty_parameters("K_L", unit, meaning, DEFAULT_K_L_RELATIVE, scale),
         Parameter("constrain", "str", "both", "-",
                   "'both' transverse directions, or 'd_t' only as Eq. (34) (coupling 'paper')",
                   choices=("both", "d_t")),
@@ -147,82 +125,82 @@ class Lumen(TendonTerm):
                   "curve itself"),
     )
 
+
+class LumenCoupling(TendonTerm):
+    """What the two lumen couplings share: the scene key ``lumen`` (the tendon's ``coupling``
+    selects the class), the tendon points held (every one but the termination), their
+    parents on the catheter and the registration rule with hysteresis (module docstring).
+    Not registered itself (no ``name``)."""
+
+    key: ClassVar[str] = "lumen"
+    equation = "Eqs. (24)–(27), (32)–(35)"
+    dynamic = True
+    #: The tendon's ``coupling`` this class implements.
+    coupling: ClassVar[str]
+    #: Each held tendon point's parent: a catheter node (paper) or lumen segment (conserving).
+    parent: np.ndarray
+
+    @classmethod
+    def selected_by(cls, owner: Mapping[str, Any]) -> bool:
+        """The tendon's ``coupling`` names this class's (the paper's also answers a coupling
+        that has no lumen, which rodsim/core/tendon.py then refuses with its own message)."""
+        coupling = owner.get("coupling")
+        return coupling == cls.coupling or (cls.coupling == "paper"
+                                            and coupling != "conserving")
+
     @classmethod
     def check_scene(cls, options: Any, owner: Any, prefix: str) -> None:
         check_one(options, "K_L", DEFAULT_K_L_RELATIVE, prefix)
 
     def __init__(self, tendon: Tendon, options: Any) -> None:
         super().__init__(tendon, options)
-        self.conservative = tendon.conserving
-        scale = lumen_scale(tendon)
-        if not self.conservative:
-            scale *= tendon.rod.geometry.segment_length
-        #: The absolute lumen penalty constant (N/m² conserving, N/m per point paper).
-        self.K_L = absolute(options, "K_L", scale)
-        self._both = options.constrain == "both"
-        catheter = tendon.catheter
-        self._margin = options.hysteresis * catheter.geometry.segment_length
+        #: The tendon's rod (a lumen coupling holds a rod tendon, never a string).
+        self.rod: Rod = tendon.tendon_rod
+        #: The absolute lumen penalty constant: given, or ``K_L_relative`` × the coupling's
+        #: :meth:`penalty_scale`.
+        self.K_L = absolute(options, "K_L", self.penalty_scale())
+        self._margin = options.hysteresis * tendon.catheter.geometry.segment_length
         # Every tendon point but the endpoint, which Eqs. (28)–(29) hold instead (§4.1:
         # "we will define a distinct penalty force on the tendon endpoint").
         self._last = tendon.termination.node
-        self._points = tendon.rod.layout.position_index[:self._last]
-        if self.conservative:
-            self.kernel = "lumen_segment"
-            share = np.full(len(self._points), tendon.rod.geometry.segment_length)
-            share[0] *= 0.5
-            self._stiffness = self.K_L * share
-            self._sagitta = np.zeros(len(self._points))
-            # The correction's curvature is the tendon's turn at a vertex, so it needs a
-            # tendon of at least three points.
-            if options.chord_correction and len(self._points) >= 2:
-                self._sagitta[:] = (catheter.geometry.segment_length**2
-                                    - tendon.rod.geometry.segment_length**2) / 24.0
-                if tendon.rod.geometry.segment_length > catheter.geometry.segment_length:
-                    self._sagitta[-1] *= TIP_SHARE
-        else:
-            self._stiffness = self.K_L
+        self._points = self.rod.layout.position_index[:self._last]
+
+    def _rest_state(self) -> np.ndarray:
+        """The catheter's and the held tendon points' rest coordinates in a full state."""
+        catheter, rod = self.tendon.catheter, self.rod
         rest = np.zeros(max(catheter.layout.offset + catheter.layout.size,
-                            tendon.rod.layout.offset + tendon.rod.layout.size))
+                            rod.layout.offset + rod.layout.size))
         rest[catheter.layout.position_index] = catheter.rest_positions()
         rest[catheter.layout.quaternion_index] = catheter.rest_quaternions()
-        rest[self._points] = tendon.rod.rest_positions()[:self._last]
-        self.parent = self._exact(rest)
-        self._set_dofs()
+        rest[self._points] = rod.rest_positions()[:self._last]
+        return rest
 
-    # --------------------------------------------------------- registration
-    def _distances(self, x: np.ndarray) -> np.ndarray:
-        lumen = self.tendon.lumen_points(x)
-        p = x[self._points]
-        return np.sqrt(np.sum((lumen[None, :, :] - p[:, None, :]) ** 2, axis=2))
+    @abstractmethod
+    def penalty_scale(self) -> float:
+        """The scale K_L_relative multiplies, in this coupling's unit of K_L."""
 
+    @abstractmethod
     def _exact(self, x: np.ndarray) -> np.ndarray:
-        """The registration rule without hysteresis: the nearest lumen point (paper) or the
-        lumen segment each point lies alongside (conserving)."""
-        if self.conservative:
-            return segment_of(*lumen_nodes(self.tendon, x), x[self._points])[0]
-        return np.argmin(self._distances(x), axis=1)
+        """Every point's parent by the registration rule without hysteresis."""
+
+    @abstractmethod
+    def _switches(self, x: np.ndarray, margin: float) -> tuple[np.ndarray, np.ndarray]:
+        """(every point's parent without hysteresis, which points switch to it with
+        ``margin``)."""
+
+    @abstractmethod
+    def _set_dofs(self) -> None:
+        """``dofs`` from :attr:`parent`."""
 
     def registration(self, x: np.ndarray, exact: bool = False) -> np.ndarray | None:
         """Every tendon point's parent by the registration rule (with hysteresis, or without
         it when ``exact``), or None when no parent changes."""
-        margin = 0.0 if exact else self._margin
-        rows = np.arange(len(self.parent))
-        if self.conservative:
-            nearest, beyond = segment_of(*lumen_nodes(self.tendon, x), x[self._points])
-            # Past the plane at the segment's far end, or before the one at its near end.
-            padded = np.pad(beyond, ((0, 0), (1, 1)), constant_values=np.nan)
-            switch = ((padded[rows, self.parent + 1] > margin)
-                      | (padded[rows, self.parent] < -margin))
-            switch &= nearest != self.parent
-        else:
-            distance = self._distances(x)
-            nearest = np.argmin(distance, axis=1)
-            switch = distance[rows, nearest] < distance[rows, self.parent] - margin
+        nearest, switch = self._switches(x, 0.0 if exact else self._margin)
         if not np.any(switch):
             return None
         return np.where(switch, nearest, self.parent)
 
-    def registered(self, state: np.ndarray) -> Lumen:
+    def registered(self, state: np.ndarray) -> LumenCoupling:
         other = copy.copy(self)
         other.parent = np.asarray(state).copy()
         other._set_dofs()
@@ -231,55 +209,79 @@ class Lumen(TendonTerm):
     def registration_state(self) -> np.ndarray:
         return self.parent.copy()
 
+
+@dataclass(frozen=True, kw_only=True)
+class LumenOptions(Options):
+    """The options of the ``lumen`` term (both couplings): one field per
+    parameter, checked against them when the term class is defined."""
+
+    K_L: float = 0.0
+    K_L_relative: float = DEFAULT_K_L_RELATIVE
+    constrain: str = "both"
+    hysteresis: float = 0.1
+    chord_correction: bool = True
+
+
+class Lumen(LumenCoupling):
+    """Penalty keeping the tendon's points on the catheter's lumen with the paper's coupling,
+    Eqs. (24)–(27), (32)–(35): K_L [N/m] per tendon point, the averaged reaction on the
+    parent node."""
+
+    name = "lumen"
+    Options = LumenOptions
+    options: LumenOptions
+    coupling = "paper"
+    conservative = False
+    parameters = lumen_parameters(
+        "N/m", "lumen penalty constant per tendon point (coupling 'paper')",
+        "E I / (r_L² L_T²) × the tendon's segment length (catheter's least E I, lumen "
+        "offset, tendon length)")
+
+    def __init__(self, tendon: Tendon, options: LumenOptions) -> None:
+        super().__init__(tendon, options)
+        self._stiffness = self.K_L
+        self._both = options.constrain == "both"
+        self.parent = self._exact(self._rest_state())
+        self._set_dofs()
+
+    def penalty_scale(self) -> float:
+        """E I / (r_L² L_T²) × the tendon's segment length [N/m] (rodsim/core/terms/_relative.py,
+        per tendon point)."""
+        return lumen_scale(self.tendon) * self.rod.geometry.segment_length
+
+    # --------------------------------------------------------- registration
+    def _distances(self, x: np.ndarray) -> np.ndarray:
+        lumen = self.tendon.lumen_points(x)
+        p = x[self._points]
+        return np.sqrt(np.sum((lumen[None, :, :] - p[:, None, :]) ** 2, axis=2))
+
+    def _exact(self, x: np.ndarray) -> np.ndarray:
+        """The nearest lumen point of every tendon point."""
+        return np.argmin(self._distances(x), axis=1)
+
+    def _switches(self, x: np.ndarray, margin: float) -> tuple[np.ndarray, np.ndarray]:
+        """A point switches when another lumen point is closer by ``margin``."""
+        rows = np.arange(len(self.parent))
+        distance = self._distances(x)
+        nearest = np.argmin(distance, axis=1)
+        return nearest, distance[rows, nearest] < distance[rows, self.parent] - margin
+
     def _set_dofs(self) -> None:
         layout = self.tendon.catheter.layout
-        if self.conservative:
-            r = layout.position_index[np.stack([self.parent, self.parent + 1], axis=1)]
-            q = layout.quaternion_index[segment_quaternions(self.parent,
-                                                            self.tendon.termination.to_node)]
-            blocks = [self._points, r.reshape(len(r), 6), q.reshape(len(q), 12)]
-            if np.any(self._sagitta):
-                position = self.tendon.rod.layout.position_index
-                blocks.append(position[tendon_stencil(len(self._points))].reshape(-1, 9))
-            self.dofs = np.concatenate(blocks, axis=1)
-            return
         r = layout.position_index[self.parent]
         q = layout.quaternion_index[self.tendon.lumen_segment(self.parent)]
         self.dofs = np.concatenate([self._points, r, q], axis=1)
 
     # ----------------------------------------------------------- evaluation
-    def kernel_arguments(self) -> tuple:
+    def kernel_arguments(self) -> KernelArguments:
         tendon = self.tendon
-        if self.conservative:
-            return (self.dofs, float(tendon.alpha), float(tendon.beta), float(tendon.offset),
-                    self._stiffness, float(tendon.catheter.geometry.segment_length),
-                    self._ends(), self._node_weights(), self._sagitta,
-                    float(tendon.rod.geometry.segment_length))
-        return (self.dofs, float(tendon.alpha), float(tendon.beta), float(tendon.offset),
-                float(self._stiffness), self._both, self.conservative, self._reaction_share())
+        return {"dofs": self.dofs, "alpha": float(tendon.alpha), "beta": float(tendon.beta),
+                "offset": float(tendon.offset), "stiffness": float(self._stiffness),
+                "both": self._both, "share": self._reaction_share()}
 
     def _kinematics(self, x: np.ndarray) -> PointOnLumen:
         local = x[self.dofs]
         return PointOnLumen(self.tendon, local[:, 0:3], local[:, 3:6], local[:, 6:10])
-
-    def _on_segments(self, x: np.ndarray) -> PointOnLumenCurve:
-        return PointOnLumenCurve(self.tendon, x[self.dofs], self._stiffness,
-                                 self.tendon.catheter.geometry.segment_length, self._ends(),
-                                 self._node_weights(), self._sagitta,
-                                 self.tendon.rod.geometry.segment_length)
-
-    def _node_weights(self) -> np.ndarray:
-        return node_weights(self.parent, self.tendon.termination.to_node)
-
-    def _ends(self) -> np.ndarray:
-        """Per element: (on the catheter's first segment, on its last), shape (n, 2)."""
-        return np.stack([self.parent == 0,
-                         self.parent == self.tendon.termination.to_node - 1], axis=1)
-
-    def energy(self, x: np.ndarray) -> float | None:
-        if not self.conservative:
-            return None
-        return self._on_segments(x).energy()
 
     def _reaction_share(self) -> np.ndarray:
         """The paper's averaging: 1 / (number of tendon points sharing each point's parent)."""
@@ -287,8 +289,6 @@ class Lumen(TendonTerm):
         return 1.0 / counts[self.parent]
 
     def element_forces(self, x: np.ndarray) -> np.ndarray:
-        if self.conservative:
-            return -self._on_segments(x).gradient()
         kin = self._kinematics(x)
         k = self._stiffness
         force = -k * kin.c_t[:, None] * kin.grad_t
@@ -300,8 +300,6 @@ class Lumen(TendonTerm):
         return force
 
     def element_jacobians(self, x: np.ndarray) -> np.ndarray:
-        if self.conservative:
-            return -self._on_segments(x).hessian()
         kin = self._kinematics(x)
         k = self._stiffness
         h_t, h_n = kin.hessians()

@@ -29,14 +29,15 @@ no Jacobian) when every load is a world-frame force without moment.
 
 from __future__ import annotations
 
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 
 from rodsim.core.rod.quaternion import B, director, director_gradient
 from rodsim.core.rod.rod import Rod
-from rodsim.core.schema import Parameter, SceneError, shown
-from rodsim.core.terms.base import RodTerm
+from rodsim.core.schema import Options, Parameter, SceneError, shown
+from rodsim.core.terms.base import KernelArguments, RodTerm
 
 #: Frames a load's components may be given in.
 LOAD_FRAMES = ("world", "body")
@@ -63,10 +64,20 @@ def segment_of(s: np.ndarray, segment_length: float, segments: int
     return j, t
 
 
+@dataclass(frozen=True, kw_only=True)
+class PointLoadsOptions(Options):
+    """The options of the ``point_loads`` term: one field per
+    parameter, checked against them when the term class is defined."""
+
+    loads: list[dict[str, Any]] = field(default_factory=list)
+
+
 class PointLoads(RodTerm):
     """Point forces and moments at any arclength, world or body frame."""
 
     name = "point_loads"
+    Options = PointLoadsOptions
+    options: PointLoadsOptions
     equation = "point wrenches (not in the paper); enter F_net of Eq. (17)"
     is_load = True
     parameters = (
@@ -84,7 +95,7 @@ class PointLoads(RodTerm):
                                  key=f"{prefix}.loads.{i}.s", value=load["s"],
                                  reason="out of range")
 
-    def __init__(self, rod: Rod, options: Any) -> None:
+    def __init__(self, rod: Rod, options: PointLoadsOptions) -> None:
         super().__init__(rod, options)
         loads = options.loads
         n = len(loads)
@@ -118,10 +129,12 @@ class PointLoads(RodTerm):
         self.has_jacobian = follower
         self.conservative = not follower
 
-    def kernel_arguments(self) -> tuple:
-        return (self.dofs, self._weights, self._frame_weights, self._own, self._world_force,
-                self._body_force, self._world_moment, self._body_moment,
-                bool(self.has_jacobian))
+    def kernel_arguments(self) -> KernelArguments:
+        return {"dofs": self.dofs, "weights": self._weights,
+                "frame_weights": self._frame_weights, "own": self._own,
+                "world_force": self._world_force, "body_force": self._body_force,
+                "world_moment": self._world_moment, "body_moment": self._body_moment,
+                "follower": bool(self.has_jacobian)}
 
     def energy(self, x: np.ndarray) -> float | None:
         """−Σ F · r(s) for world-frame forces; ``None`` if any load is a follower or a moment."""

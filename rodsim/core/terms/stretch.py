@@ -9,30 +9,39 @@ section boundary falls inside it).
 
 from __future__ import annotations
 
-from typing import Any
+from dataclasses import dataclass
 
 import numpy as np
 
 from rodsim.core.rod.rod import Rod
+from rodsim.core.schema import Options
 from rodsim.core.terms._segment import Segments, two_node_block
-from rodsim.core.terms.base import RodTerm
+from rodsim.core.terms.base import KernelArguments, RodTerm
+
+
+@dataclass(frozen=True, kw_only=True)
+class StretchOptions(Options):
+    """The options of the ``stretch`` term: one field per
+    parameter, checked against them when the term class is defined."""
 
 
 class Stretch(RodTerm):
     """Axial stretch of the centerline, Eq. (6)."""
 
     name = "stretch"
+    Options = StretchOptions
+    options: StretchOptions
     equation = "Eq. (6)"
 
-    def __init__(self, rod: Rod, options: Any) -> None:
+    def __init__(self, rod: Rod, options: StretchOptions) -> None:
         super().__init__(rod, options)
         pos = rod.layout.position_index
         self.dofs = np.concatenate([pos[:-1], pos[1:]], axis=1)
         self._stiffness = rod.segment_stretch_stiffness()  # K_s per segment
         self._rest = rod.geometry.segment_length
 
-    def kernel_arguments(self) -> tuple:
-        return (self.dofs, self._stiffness, float(self._rest))
+    def kernel_arguments(self) -> KernelArguments:
+        return {"dofs": self.dofs, "stiffness": self._stiffness, "rest": float(self._rest)}
 
     def _strain(self, x: np.ndarray) -> tuple[Segments, np.ndarray]:
         seg = Segments.of(x[self.rod.layout.position_index])

@@ -14,20 +14,31 @@ tendon (E_s = 0.001 MPa, r = 0.1 mm: E_s A = 3.1e-5 N) cannot carry 2 N along it
 
 from __future__ import annotations
 
-from typing import Any
+from dataclasses import dataclass
 
 import numpy as np
 
 from rodsim.core.rod.quaternion import director, director_gradient
-from rodsim.core.schema import Parameter
+from rodsim.core.schema import Options, Parameter
 from rodsim.core.tendon import Tendon
-from rodsim.core.terms.base import TendonTerm
+from rodsim.core.terms.base import KernelArguments, TendonTerm
+
+
+@dataclass(frozen=True, kw_only=True)
+class TendonActuationOptions(Options):
+    """The options of the ``tendon_actuation`` term: one field per
+    parameter, checked against them when the term class is defined."""
+
+    force: float = 2.0
+    point: str = "distal"
 
 
 class TendonActuation(TendonTerm):
     """The actuation force F_A on the tendon, at its distal or proximal end."""
 
     name = "tendon_actuation"
+    Options = TendonActuationOptions
+    options: TendonActuationOptions
     equation = "§4.3 (F_A); enters F_net of Eq. (31)"
     is_load = True
     conservative = False
@@ -39,7 +50,7 @@ class TendonActuation(TendonTerm):
                   choices=("distal", "proximal")),
     )
 
-    def __init__(self, tendon: Tendon, options: Any) -> None:
+    def __init__(self, tendon: Tendon, options: TendonActuationOptions) -> None:
         super().__init__(tendon, options)
         self._force = options.force
         self._distal = options.point == "distal"
@@ -52,13 +63,13 @@ class TendonActuation(TendonTerm):
             self.has_jacobian = False
             self.conservative = True
             self.kernel = "constant_force"
-            self.dofs = tendon.rod.layout.position_index[:1]
+            self.dofs = tendon.tendon_rod.layout.position_index[:1]
             self._pull = -self._force * director(catheter.base_quaternion, 2)
 
-    def kernel_arguments(self) -> tuple:
+    def kernel_arguments(self) -> KernelArguments:
         if not self._distal:
-            return (self._pull[None, :].copy(),)
-        return (self.dofs, float(self._force))
+            return {"forces": self._pull[None, :].copy()}
+        return {"dofs": self.dofs, "pull": float(self._force)}
 
     def energy(self, x: np.ndarray) -> float | None:
         if self._distal:

@@ -50,15 +50,16 @@ The tension is a load (the static solver ramps it); its force scale is T.
 
 from __future__ import annotations
 
-from typing import Any, NamedTuple
+from dataclasses import dataclass, field
+from typing import NamedTuple
 
 import numpy as np
 
 from rodsim.core.rod.quaternion import DIRECTOR_FORMS
 from rodsim.core.routing import ROUTINGS, Routing, string_span
-from rodsim.core.schema import Parameter
+from rodsim.core.schema import Options, Parameter
 from rodsim.core.tendon import MAX_TENSION, Tendon
-from rodsim.core.terms.base import TendonTerm
+from rodsim.core.terms.base import KernelArguments, TendonTerm
 
 #: Local coordinates of one routing point: r_m, r_{m+1}, the two knot quaternions.
 POINT_SIZE = 14
@@ -124,10 +125,30 @@ class PointGeometry(NamedTuple):
     hess: np.ndarray
 
 
+@dataclass(frozen=True, kw_only=True)
+class TendonStringOptions(Options):
+    """The options of the ``tendon_string`` term: one field per
+    parameter, checked against them when the term class is defined."""
+
+    tension: float = 1.0
+    start: float = 0.0
+    end: float = 0.0
+    routing: str = "constant"
+    table_s: list[float] = field(default_factory=list)
+    table_y: list[float] = field(default_factory=list)
+    table_z: list[float] = field(default_factory=list)
+    helix_radius: float = 0.0
+    helix_pitch: float = 0.0
+    helix_phase: float = 0.0
+    spacers: bool = False
+
+
 class TendonString(TendonTerm):
     """V = T ℓ: a frictionless tendon under tension T routed along its catheter."""
 
     name = "tendon_string"
+    Options = TendonStringOptions
+    options: TendonStringOptions
     equation = "V = T ℓ (Rucker & Webster 2011, Eqs. 16–18; not in the paper)"
     is_load = True
     parameters = (
@@ -161,7 +182,7 @@ class TendonString(TendonTerm):
                   "allowed"),
     )
 
-    def __init__(self, tendon: Tendon, options: Any) -> None:
+    def __init__(self, tendon: Tendon, options: TendonStringOptions) -> None:
         super().__init__(tendon, options)
         catheter = tendon.catheter
         self.routing = Routing.of(tendon.offset, (tendon.alpha, tendon.beta), options)
@@ -173,10 +194,10 @@ class TendonString(TendonTerm):
         #: G_m = ρ_y A[0, m] + ρ_z A[1, m] of every point, (P, 3, 4, 4).
         self._forms = g
 
-    def kernel_arguments(self) -> tuple:
+    def kernel_arguments(self) -> KernelArguments:
         pts = self.points
-        return (self.dofs, pts.weights, pts.constant, np.ascontiguousarray(self._forms),
-                self.tension)
+        return {"dofs": self.dofs, "weights": pts.weights, "constant": pts.constant,
+                "forms": np.ascontiguousarray(self._forms), "tension": self.tension}
 
     def load_scale(self, x: np.ndarray) -> float:
         """The tension: the termination's point force (the chords' forces cancel in pairs)."""

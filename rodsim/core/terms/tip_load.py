@@ -7,22 +7,34 @@ A dead load: its force does not depend on the state, so it adds no Jacobian entr
 
 from __future__ import annotations
 
-from typing import Any
+from dataclasses import dataclass, field
 
 import numpy as np
 
 from rodsim.core.rod.rod import Rod
-from rodsim.core.schema import Parameter
-from rodsim.core.terms.base import RodTerm
+from rodsim.core.schema import Options, Parameter
+from rodsim.core.terms.base import KernelArguments, RodTerm
 
 #: Standard gravity [m/s²]; the paper's hanging masses are weighed with it.
 STANDARD_GRAVITY = 9.81
+
+
+@dataclass(frozen=True, kw_only=True)
+class TipLoadOptions(Options):
+    """The options of the ``tip_load`` term: one field per
+    parameter, checked against them when the term class is defined."""
+
+    mass: float = 0.0
+    force: list[float] = field(default_factory=lambda: [0.0, 0.0, 0.0])
+    gravity: float = 9.81
 
 
 class TipLoad(RodTerm):
     """Constant force on the last control point (hanging mass, Figs. 5–9)."""
 
     name = "tip_load"
+    Options = TipLoadOptions
+    options: TipLoadOptions
     equation = "§3 (hanging mass); enters F_net of Eq. (17)"
     is_load = True
     has_jacobian = False
@@ -36,15 +48,15 @@ class TipLoad(RodTerm):
                   0.0, 1e3),
     )
 
-    def __init__(self, rod: Rod, options: Any) -> None:
+    def __init__(self, rod: Rod, options: TipLoadOptions) -> None:
         super().__init__(rod, options)
         self.dofs = rod.layout.position_index[-1:]
         self.force = np.asarray(options.force, dtype=float) + np.array(
             [0.0, -options.mass * options.gravity, 0.0]
         )
 
-    def kernel_arguments(self) -> tuple:
-        return (self.force[None, :].copy(),)
+    def kernel_arguments(self) -> KernelArguments:
+        return {"forces": self.force[None, :].copy()}
 
     def energy(self, x: np.ndarray) -> float:
         return float(-self.force @ x[self.dofs[0]])

@@ -1,0 +1,135 @@
+"""Types a checker can see (issue 21 item 3): the options of the scene's tables and of each
+integrator are hand-declared dataclasses checked here against their ``Parameter``
+declarations, so the two cannot drift; mypy runs clean on the packages pyproject.toml's
+``[tool.mypy]`` lists."""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass, field
+
+import pytest
+
+from rodsim.core.rod.rod import ROD_PARAMETERS, RodOptions
+from rodsim.core.scene import SOLVER_PARAMETERS, SolverSettings
+from rodsim.core.schema import Options, Parameter, options_mismatch
+from rodsim.core.supports import (
+    BASE_PARAMETERS,
+    SUPPORT_PARAMETERS,
+    BaseOptions,
+    SupportOptions,
+)
+from rodsim.core.tendon import TENDON_PARAMETERS, TendonOptions
+from rodsim.core.terms import registered_terms
+from rodsim.core.terms.base import RodTerm
+from rodsim.solvers import registered_integrators
+from rodsim.solvers.integrator_options import DECLARED
+
+TABLES = [(SolverSettings, SOLVER_PARAMETERS), (RodOptions, ROD_PARAMETERS),
+          (TendonOptions, TENDON_PARAMETERS), (BaseOptions, BASE_PARAMETERS),
+          (SupportOptions, SUPPORT_PARAMETERS)]
+
+
+@pytest.mark.parametrize(("cls", "parameters"), TABLES, ids=lambda x: getattr(x, "__name__", ""))
+def test_each_declared_table_type_matches_its_parameters(cls, parameters):
+    assert issubclass(cls, Options)
+    assert options_mismatch(cls, parameters) == []
+
+
+@pytest.mark.parametrize("name", sorted(registered_terms()))
+def test_each_term_declares_options_that_match_its_parameters(name):
+    """Every registered term declares its Options class (visible to a type checker) and it
+    agrees with the term's ``parameters``."""
+    term = registered_terms()[name]
+    assert term.Options.__module__ == term.__module__ or name == "lumen_conserving", (
+        f"term {name!r}: declare its Options beside the class")
+    assert options_mismatch(term.Options, term.parameters) == []
+
+
+@pytest.mark.parametrize("name", sorted(registered_integrators()))
+def test_each_integrator_has_declared_options_that_match_its_parameters(name):
+    """Every registered integrator has a declared options class
+    (rodsim/solvers/integrator_options.py) agreeing with its ``parameters``."""
+    assert name in DECLARED, f"integrator {name!r}: declare its Options in integrator_options.py"
+    assert options_mismatch(DECLARED[name], registered_integrators()[name].parameters) == []
+
+
+def test_a_drifted_declaration_is_named():
+    """The check reports each kind of drift: a renamed or missing field, a wrong annotation,
+    a wrong or missing default, a positional field."""
+    parameters = (Parameter("h", "float", 0.3), Parameter("steps", "int", None),
+                  Parameter("origin", "vector", [0.0, 0.0, 0.0], length=3))
+
+    @dataclass(frozen=True, kw_only=True)
+    class Agrees(Options):
+        h: float = 0.3
+        steps: int
+        origin: list[float] = field(default_factory=lambda: [0.0, 0.0, 0.0])
+
+    assert options_mismatch(Agrees, parameters) == []
+
+    @dataclass(frozen=True, kw_only=True)
+    class Drifted(Options):
+        h: int = 3
+        steps: int = 5
+        origin: list[str] = field(default_factory=list)
+
+    problems = options_mismatch(Drifted, parameters)
+    assert len(problems) == 5, problems
+    assert any("h: annotated" in p for p in problems)
+    assert any("h: default 3 != 0.3" in p for p in problems)
+    assert any("steps: default 5 != None" in p for p in problems)
+
+    @dataclass(frozen=True)
+    class Positional(Options):
+        h: float = 0.3
+        steps: int = 0
+
+    problems = options_mismatch(Positional, parameters)
+    assert any("fields ['h', 'steps'] != parameters ['h', 'steps', 'origin']" in p
+               for p in problems)
+    assert any("h: not keyword-only" in p for p in problems)
+
+
+def test_a_term_declaring_options_that_drift_is_refused_when_defined():
+    with pytest.raises(TypeError, match=r"its Options does not match its parameters: "
+                                        r"K: annotated <class 'int'>"):
+        class Unregistered(RodTerm):  # no ``name``: never registered
+            parameters = (Parameter("K", "float", 1.0),)
+
+            @dataclass(frozen=True, kw_only=True)
+            class Options(Options):
+                K: int = 1
+
+            def element_forces(self, x):
+                return x
+
+
+def test_declared_options_are_what_the_scene_hands_out():
+    import rodsim
+
+    scene = rodsim.load_scene("tdcr-two-segment")
+    assert type(scene.solver) is SolverSettings
+    assert all(type(options) is RodOptions for options in scene.rods.values())
+    assert all(type(options) is TendonOptions for options in scene.tendons.values())
+    assert dataclasses.asdict(scene.solver)["integrator"] == scene.data["solver"]["integrator"]
+
+
+def test_mypy_runs_clean_on_the_configured_packages():
+    """``python -m mypy`` with pyproject.toml's ``[tool.mypy]`` (rodsim/core at least; the
+    other packages join as they are made clean). Measured: 9.5 s with an empty cache, under
+    1 s with mypy's cache (.mypy_cache) warm."""
+    import subprocess
+    import sys
+    import tomllib
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parents[1]
+    config = tomllib.loads((root / "pyproject.toml").read_text(encoding="utf-8"))
+    assert "rodsim/core" in config["tool"]["mypy"]["files"]
+    assert any(item.startswith("mypy")
+               for item in config["project"]["optional-dependencies"]["test"])
+    run = subprocess.run([sys.executable, "-m", "mypy"], cwd=root, capture_output=True,
+                         text=True, timeout=600, check=False)
+    assert run.returncode == 0, run.stdout[-4000:] + run.stderr[-2000:]
+    assert "Success: no issues found" in run.stdout
