@@ -50,6 +50,7 @@ from rodsim.app.study import (
 from rodsim.app.worker_pool import PARENT_POLL, TaskFailure, run_tasks
 from rodsim.io.archive import write_dataset
 from rodsim.io.archive_schema import ArchiveSchemaError, check_point_record
+from rodsim.io.atomic import write_text_atomic
 from rodsim.io.output import OutputError, check_target
 from rodsim.io.provenance import git_commit, git_dirty
 from rodsim.version import __version__
@@ -106,25 +107,13 @@ def _stderr_log(message: str) -> None:
 
 
 def _write_atomic(path: Path, text: str) -> None:
-    """Write ``text`` to ``path`` through a synced temporary file renamed over it: a crash or
-    a full disk never leaves a partial ``path``, nor the temporary (StudyError)."""
+    """Write ``text`` to ``path`` atomically and synced (:func:`rodsim.io.atomic.
+    write_text_atomic`): a crash or a full disk never leaves a partial ``path``, nor the
+    temporary (StudyError)."""
     try:
-        handle, temporary = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp",
-                                             dir=path.parent)
-    except OSError as exc:
+        write_text_atomic(path, text)
+    except Exception as exc:
         raise StudyError(f"cannot write {path}: {_reason(exc)}") from exc
-    try:
-        with os.fdopen(handle, "w", encoding="utf-8") as stream:
-            stream.write(text)
-            stream.flush()
-            os.fsync(stream.fileno())
-        os.replace(temporary, path)
-    except BaseException as exc:  # an interrupt too: never leave the temporary behind
-        with contextlib.suppress(OSError):
-            os.unlink(temporary)
-        if isinstance(exc, Exception):
-            raise StudyError(f"cannot write {path}: {_reason(exc)}") from exc
-        raise
 
 
 def _check_output(output: Path) -> None:
