@@ -310,7 +310,7 @@ def _rerun_track(dataset, args: argparse.Namespace) -> int:
 def _check_outputs(output: Path) -> str:
     """Check an inverse command's archive target and its figure's folder before any work;
     returns the figure's stem (the archive's path without ``.nc``)."""
-    from rodsim.app.plotting import PlotError, check_output
+    from rodsim.app.figures import PlotError, check_output
     from rodsim.io.output import OutputError, check_target
 
     stem = str(output.with_suffix("")) if output.suffix == ".nc" else str(output)
@@ -324,7 +324,7 @@ def _check_outputs(output: Path) -> str:
 
 def _write_with_figure(dataset, output: Path, stem: str) -> None:
     """Write an inverse command's archive (atomically) and its PNG figure."""
-    from rodsim.app.plotting import PlotError, plot_dataset
+    from rodsim.app.figures import PlotError, plot_dataset
     from rodsim.io.archive import ArchiveError, write_dataset
 
     try:
@@ -671,8 +671,7 @@ def cmd_study(args: argparse.Namespace) -> int:
 
 
 def cmd_plot(args: argparse.Namespace) -> int:
-    from rodsim.app import view3d
-    from rodsim.app.plotting import PlotError, check_output, plot_dataset, three_dimensional
+    from rodsim.app.figures import PlotError, check_output, plot_dataset, three_dimensional, view3d
     from rodsim.io.archive import ArchiveError, read_dataset
 
     stem = args.output or str(Path(args.archive).with_suffix(""))

@@ -89,7 +89,7 @@ class Study:
         ``exact``, ``paper``, ``extensible`` or ``arc`` (analytic, per point), ``last`` (the
         last point along the first sweep, e.g. the finest N), or ``None``.
     plot
-        Figure kind for ``rodsim plot`` (see rodsim/app/plotting.py).
+        Figure kind for ``rodsim plot`` (see rodsim/app/figures/plot.py).
     history
         Keep per-step history (tip and error against the reference per step: Fig. 8).
     sigma_points

@@ -1,0 +1,95 @@
+"""The analytic reference curves a study figure draws (the continuum models of
+:mod:`rodsim.core.analytic`), recomputed from the archive's spec alone."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import matplotlib.pyplot as plt
+import numpy as np
+import xarray as xr
+
+from rodsim.app.figures.style import grid_indices, sweep_dims
+
+__all__ = ["OVERLAYS", "reference_centerlines", "draw_references"]
+
+#: Every how many σ samples the AM markers are drawn (101 samples: 11 markers).
+MARKER_EVERY = 10
+
+#: Analytic curves drawn for a study's reference kind: (kind, label, style) — the first is
+#: the reference the errors are measured against.
+OVERLAYS = {
+    "exact": (("exact", "exact elastica", {"color": "k", "lw": 0.9, "ls": "-"}),
+              ("paper", "analytical model (AM), Eqs. (21)–(23) corrected",
+               {"color": "k", "ls": "none", "marker": "o", "mfc": "none", "ms": 4})),
+    "paper": (("paper", "analytical model (AM), Eqs. (21)–(23) corrected",
+               {"color": "k", "lw": 0.9, "ls": "-"}),),
+    "extensible": (("extensible", "extensible elastica", {"color": "k", "lw": 0.9, "ls": "-"}),),
+    "arc": (("arc", "constant-curvature arc", {"color": "k", "lw": 0.9, "ls": "-"}),),
+}
+def reference_centerlines(ds: xr.Dataset, kinds: Sequence[str] | None = None
+                          ) -> dict[str, dict[tuple[int, ...], np.ndarray]]:
+    """Analytic references (σ, 3) [m] of the first rod at every grid point that has one.
+
+    Returns ``{kind: {grid index: curve}}`` for each of ``kinds`` (default: the study's
+    reference). Recomputed from the archive's ``spec_json`` (the base scene and the sweeps,
+    :func:`rodsim.app.study.point_scene`), so it needs nothing but the Dataset. The hanging-mass
+    kinds (``exact``, ``paper``, ``extensible``) come from one
+    :func:`~rodsim.core.analytic.reference.cantilever_reference` per point, sampled at σ L (the
+    paper's model, sampled in φ, is interpolated); ``arc`` from
+    :func:`~rodsim.core.analytic.reference.reference_centerline`. Points whose scene does not
+    qualify, or is invalid, are left out.
+    """
+    from rodsim.app.study import StudySpec, point_scene
+    from rodsim.core.analytic.reference import (
+        REFERENCE_KINDS,
+        cantilever_reference,
+        reference_centerline,
+    )
+
+    spec_json = ds.attrs.get("spec_json")
+    spec = StudySpec.from_json(spec_json) if spec_json else None
+    wanted = kinds or [spec.reference if spec is not None else None]
+    kinds = [k for k in wanted if k in REFERENCE_KINDS]
+    out: dict[str, dict[tuple[int, ...], np.ndarray]] = {k: {} for k in kinds}
+    if spec is None or not kinds:
+        return out
+    sigma = ds["sigma"].values
+    for index in grid_indices(ds, sweep_dims(ds)):
+        try:
+            scene = point_scene(spec, index)
+            s = sigma * next(iter(scene.rods.values())).length
+            cantilever = (cantilever_reference(scene) if set(kinds) - {"arc"} else None)
+            for kind in kinds:
+                if kind == "arc":
+                    curve = reference_centerline(scene, kind, s)
+                elif cantilever is None:
+                    curve = None
+                else:
+                    shape = getattr(cantilever, kind)
+                    curve = np.zeros((len(s), 3))
+                    curve[:, 0] = np.interp(s, shape.s, shape.x)
+                    curve[:, 1] = np.interp(s, shape.s, shape.y)
+                if curve is not None:
+                    out[kind][index] = curve
+        except Exception:  # an invalid point (recorded as such): nothing to draw
+            continue
+    return out
+
+
+def draw_references(ds: xr.Dataset, axes: plt.Axes) -> dict[tuple[int, ...], np.ndarray]:
+    """Draw each distinct analytic reference curve once; returns the study's reference."""
+    overlays = OVERLAYS.get(ds.attrs.get("reference", ""), ())
+    if not overlays:
+        return {}
+    curves = reference_centerlines(ds, [kind for kind, _, _ in overlays])
+    for kind, label, style in overlays:
+        drawn: list[np.ndarray] = []
+        for curve in curves[kind].values():
+            if any(np.allclose(curve, other, rtol=0.0, atol=1e-12) for other in drawn):
+                continue
+            every = MARKER_EVERY if style.get("marker") else None
+            axes.plot(curve[:, 0], curve[:, 1], markevery=every, zorder=3,
+                      label=None if drawn else label, **style)
+            drawn.append(curve)
+    return curves[overlays[0][0]]
