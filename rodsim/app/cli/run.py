@@ -77,8 +77,10 @@ def cmd_run(args: argparse.Namespace) -> int:
 
 def print_run_summary(result: Any, archive: Path | None) -> None:
     """The summary of a run (``rodsim run``, ``rodsim rerun``): tips, the scores against the
-    analytic references, residual, statistics, stability, archive."""
-    from rodsim.core.analytic.reference import cantilever_reference
+    analytic references (:func:`rodsim.app.scoring.reference_lines`), residual, statistics,
+    stability, archive."""
+    from rodsim.app.scoring import reference_lines
+    from rodsim.io.statistics import SUMMARY_STATS
     from rodsim.solvers.result import count_text
 
     scene = result.scene
@@ -87,21 +89,8 @@ def print_run_summary(result: Any, archive: Path | None) -> None:
     for name, shape in result.rods.items():
         tip = shape.tip
         print(f"tip of {name:<12s} x = {tip[0]: .6f} m  y = {tip[1]: .6f} m  z = {tip[2]: .3g} m")
-    try:
-        reference = cantilever_reference(scene)
-    except (ValueError, ArithmeticError) as exc:  # beyond the analytic models' reach
-        print(f"load        analytic references n/a ({exc})")
-        reference = None
-    if reference is not None:
-        positions = result.positions()
-        print(f"load        α = F L²/(2EI) = {reference.alpha:.4g}  (F = {reference.force:.4g} N)")
-        print(f"tip error   vs analytical model (Eqs. 21–23, corrected): "
-              f"{100 * reference.tip_error(positions, 'paper'):.4f} % of L")
-        extensible = (f"{100 * reference.tip_error(positions, 'extensible'):.4f} % of L"
-                      if reference.extensible is not None else "n/a (tip force ≥ E_s A)")
-        print(f"            vs exact elastica: "
-              f"{100 * reference.tip_error(positions, 'exact'):.4f} % of L;  "
-              f"vs extensible elastica (E_s A): {extensible}")
+    for line in reference_lines(scene, result.positions()):
+        print(line)
     stats = result.stats
     requested = result.scene.solver.tolerance
     used = stats["effective_tolerance"]
@@ -113,9 +102,7 @@ def print_run_summary(result: Any, archive: Path | None) -> None:
               f"and was raised to {stats['effective_tolerance']:.3g}: the equilibrium is "
               "defined only that loosely (lower K_P or N for a tighter one)")
     print("statistics  " + ", ".join(
-        f"{key} {count_text(stats[key])}" for key in
-        ("steps", "newton_iters", "force_evals", "jacobian_evals", "linear_solves", "reinits",
-         "tightenings") if key in stats))
+        f"{key} {count_text(stats[key])}" for key in SUMMARY_STATS if key in stats))
     print(f"wall time   {stats['wall_time']:.4f} s")
     if result.stability is not None:
         print(stability_text(result.stability))

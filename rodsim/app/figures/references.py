@@ -33,19 +33,13 @@ def reference_centerlines(ds: xr.Dataset, kinds: Sequence[str] | None = None
 
     Returns ``{kind: {grid index: curve}}`` for each of ``kinds`` (default: the study's
     reference). Recomputed from the archive's ``spec_json`` (the base scene and the sweeps,
-    :func:`rodsim.app.study.point_scene`), so it needs nothing but the Dataset. The hanging-mass
-    kinds (``exact``, ``paper``, ``extensible``) come from one
-    :func:`~rodsim.core.analytic.reference.cantilever_reference` per point, sampled at σ L (the
-    paper's model, sampled in φ, is interpolated); ``arc`` from
-    :func:`~rodsim.core.analytic.reference.reference_centerline`. Points whose scene does not
-    qualify, or is invalid, are left out.
+    :func:`rodsim.app.study.point_scene`), so it needs nothing but the Dataset; the curves
+    of each point are :func:`rodsim.app.scoring.reference_curves`. Points whose scene does
+    not qualify, or is invalid, are left out.
     """
-    from rodsim.app.study import StudySpec, point_scene
-    from rodsim.core.analytic.reference import (
-        REFERENCE_KINDS,
-        cantilever_reference,
-        reference_centerline,
-    )
+    from rodsim.app.scoring import reference_curves
+    from rodsim.app.study_spec import StudySpec, point_scene
+    from rodsim.core.analytic.reference import REFERENCE_KINDS
 
     spec_json = ds.attrs.get("spec_json")
     spec = StudySpec.from_json(spec_json) if spec_json else None
@@ -57,23 +51,12 @@ def reference_centerlines(ds: xr.Dataset, kinds: Sequence[str] | None = None
     sigma = ds["sigma"].values
     for index in grid_indices(ds, sweep_dims(ds)):
         try:
-            scene = point_scene(spec, index)
-            s = sigma * next(iter(scene.rods.values())).length
-            cantilever = (cantilever_reference(scene) if set(kinds) - {"arc"} else None)
-            for kind in kinds:
-                if kind == "arc":
-                    curve = reference_centerline(scene, kind, s)
-                elif cantilever is None:
-                    curve = None
-                else:
-                    shape = getattr(cantilever, kind)
-                    curve = np.zeros((len(s), 3))
-                    curve[:, 0] = np.interp(s, shape.s, shape.x)
-                    curve[:, 1] = np.interp(s, shape.s, shape.y)
-                if curve is not None:
-                    out[kind][index] = curve
+            curves = reference_curves(point_scene(spec, index), kinds, sigma)
         except Exception:  # an invalid point (recorded as such): nothing to draw
             continue
+        for kind, curve in curves.items():
+            if curve is not None:
+                out[kind][index] = curve
     return out
 
 
