@@ -132,8 +132,14 @@ def read_dataset(path: str | Path) -> xr.Dataset:
 
 
 def scene_of(dataset: xr.Dataset) -> Scene:
-    """The scene stored in an archive (resolved values plus the original TOML text)."""
-    return Scene.from_json(dataset.attrs["scene_json"], dataset.attrs.get("scene_toml", ""))
+    """The scene stored in an archive (resolved values plus the original TOML text), validated
+    as fully as :func:`rodsim.load_scene` validates a scene file: its ``[solver.<name>]``
+    tables checked by the integrators too (SceneError)."""
+    from rodsim.solvers import check_solver_options
+
+    scene = Scene.from_json(dataset.attrs["scene_json"], dataset.attrs.get("scene_toml", ""))
+    check_solver_options(scene)
+    return scene
 
 
 def _probe_in_child(path: Path) -> None:
