@@ -2,12 +2,12 @@
 parameter, built from the points' records (docs/archive.md, "Study archives"). The run
 archive's layout is :mod:`rodsim.io.run_dataset`; the study's declaration, grid and
 evaluation are the app's (:mod:`rodsim.app.study`), which hands this module its resolved
-spec (anything with the attributes of :class:`StudyLayout`) and the records."""
+spec (a :class:`rodsim.app.study_spec.StudySpec`; io does not import the app) and the
+records."""
 
 from __future__ import annotations
 
-from collections.abc import Sequence
-from typing import Any, Protocol
+from typing import Any
 
 import numpy as np
 import xarray as xr
@@ -18,47 +18,14 @@ from rodsim.io.provenance import archive_attributes
 from rodsim.io.run_dataset import step_coordinate
 from rodsim.io.statistics import POINT_STAT_DOCS, POINT_STATS
 
-__all__ = ["StudyLayout", "study_dataset"]
+__all__ = ["study_dataset"]
 
 
-class SweepLayout(Protocol):
-    """What the layout reads of one sweep (:class:`rodsim.app.study.SweepSpec`)."""
-
-    name: str
-    key: str | tuple[str, ...]
-    values: tuple[Any, ...]
-    units: str
-    long_name: str
-
-    @property
-    def coordinate(self) -> tuple[Any, ...]: ...
-
-
-class StudyLayout(Protocol):
-    """What the layout reads of a resolved study (:class:`rodsim.app.study.StudySpec`)."""
-
-    name: str
-    title: str
-    paper: str
-    size: str
-    integrator: str | None
-    reference: str | None
-    plot: str
-    history: bool
-    sigma_points: int
-    base_scene_json: str
-    base_scene_toml: str
-    sweeps: Sequence[SweepLayout]
-
-    def to_json(self) -> str: ...
-
-    @property
-    def rod_names(self) -> list[str]: ...
-
-
-def study_dataset(spec: StudyLayout, records: list[dict[str, Any]], call: str) -> xr.Dataset:
+def study_dataset(spec: Any, records: list[dict[str, Any]], call: str) -> xr.Dataset:
     """One Dataset for the whole study from one record per grid point (every point has one:
-    the caller checks). ``call`` is the history's words for the call that built it."""
+    the caller checks). ``spec`` is the resolved study (its sweeps, reference, history,
+    σ samples, names and stored scene are read); ``call`` is the history's words for the
+    call that built it."""
     shape = tuple(len(s.values) for s in spec.sweeps)
     dims = tuple(s.name for s in spec.sweeps)
     by_index = {tuple(r["index"]): r for r in records}

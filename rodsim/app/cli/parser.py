@@ -5,9 +5,16 @@ imports the handlers' modules only, which import nothing heavy at module level (
 from __future__ import annotations
 
 import argparse
-import math
 from typing import NoReturn
 
+from rodsim.app.cli.arguments import (
+    add_scene_set_and_output,
+    frame_type,
+    positive_int,
+    positive_seconds,
+    target_type,
+    tolerance_type,
+)
 from rodsim.app.cli.bench import cmd_bench
 from rodsim.app.cli.common import EXIT_BAD_INPUT
 from rodsim.app.cli.fit import cmd_fit
@@ -63,80 +70,6 @@ def scene_keys_help() -> str:
     return "\n".join(lines)
 
 
-def _target(text: str) -> list[float]:
-    """argparse type of ``reach --tip``: three finite numbers X,Y,Z [m]."""
-    parts = text.split(",")
-    try:
-        values = [float(part) for part in parts]
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected X,Y,Z in metres, got {text[:40]!r}"
-                                         ) from None
-    if len(values) != 3 or not all(math.isfinite(v) for v in values):
-        raise argparse.ArgumentTypeError(f"expected three finite numbers X,Y,Z, got "
-                                         f"{text[:40]!r}")
-    return values
-
-
-def _frame(text: str) -> list[list[float]]:
-    """argparse type of ``reach --frame``: the tip directors d1 and d3 (six finite numbers);
-    d2 = d3 × d1. Whether they are orthonormal is checked by ``reach`` (exit 2)."""
-    parts = text.split(",")
-    try:
-        values = [float(part) for part in parts]
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected D1X,D1Y,D1Z,D3X,D3Y,D3Z, got "
-                                         f"{text[:40]!r}") from None
-    if len(values) != 6 or not all(math.isfinite(v) for v in values):
-        raise argparse.ArgumentTypeError(f"expected six finite numbers D1X,D1Y,D1Z,D3X,D3Y,"
-                                         f"D3Z, got {text[:40]!r}")
-    d1, d3 = values[:3], values[3:]
-    d2 = [d3[1] * d1[2] - d3[2] * d1[1], d3[2] * d1[0] - d3[0] * d1[2],
-          d3[0] * d1[1] - d3[1] * d1[0]]
-    return [d1, d2, d3]
-
-
-def _tolerance(text: str) -> float:
-    """argparse type of ``rerun --tolerance``: a finite number of at least 0."""
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a number, got {text[:40]!r}") from None
-    if not math.isfinite(value) or value < 0.0:
-        raise argparse.ArgumentTypeError(f"must be a finite number >= 0, got {text[:40]!r}")
-    return value
-
-
-def _positive_seconds(text: str) -> float:
-    """argparse type of ``--worker-timeout``: a finite number of seconds > 0."""
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected seconds, got {text[:40]!r}") from None
-    if not 0.0 < value < math.inf:
-        raise argparse.ArgumentTypeError(f"must be a finite number > 0, got {text[:40]!r}")
-    return value
-
-
-def _positive_int(text: str) -> int:
-    """argparse type of ``--workers``: a whole number of at least 1."""
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a whole number, got {text!r}") from None
-    if value < 1:
-        raise argparse.ArgumentTypeError(f"must be at least 1, got {value}")
-    return value
-
-
-def add_scene_set_and_output(parser: argparse.ArgumentParser, kind: str) -> None:
-    """``--set`` and ``-o`` of the commands that start from a scene and write an archive
-    with its figure beside it (track, fit, reach)."""
-    parser.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
-                        help="override a scene value first (repeatable)")
-    parser.add_argument("-o", "--output", help=f"archive path (default: "
-                        f"runs/<scene>-{kind}.nc); the figure goes beside it (.png)")
-
-
 def build_parser() -> argparse.ArgumentParser:
     parser = OneLineParser(
         prog="rodsim", description="Tendon-driven catheters as Cosserat rods, to equilibrium.")
@@ -172,7 +105,7 @@ def build_parser() -> argparse.ArgumentParser:
     again.add_argument("--point", action="append", default=[], metavar="DIM=VALUE",
                        help="study archives: re-run only the points with this swept value "
                        "(repeatable); default: every point")
-    again.add_argument("--tolerance", type=_tolerance, default=1e-9, metavar="FRACTION_OF_L",
+    again.add_argument("--tolerance", type=tolerance_type, default=1e-9, metavar="FRACTION_OF_L",
                        help="exit 1 if the positions differ by more than this × L "
                        "(default 1e-9)")
     again.set_defaults(func=cmd_rerun)
@@ -186,12 +119,12 @@ def build_parser() -> argparse.ArgumentParser:
     study.add_argument("-o", "--output", help="archive path (default: runs/<name>-<size>.nc)")
     study.add_argument("--size", choices=("small", "full"), default="full",
                        help="grid size: small (smoke test) or full (default)")
-    study.add_argument("--workers", type=_positive_int, default=None,
+    study.add_argument("--workers", type=positive_int, default=None,
                        help="local worker processes (default: all cores; 1 = in-process)")
     study.add_argument("--scheduler", metavar="ADDRESS",
                        help="run on a dask.distributed scheduler (tcp://host:port), or "
                        "'local' for a LocalCluster")
-    study.add_argument("--worker-timeout", type=_positive_seconds, default=60.0,
+    study.add_argument("--worker-timeout", type=positive_seconds, default=60.0,
                        metavar="SECONDS",
                        help="with --scheduler: fail when the scheduler has had no worker for "
                        "this long while points wait (default 60)")
@@ -244,16 +177,16 @@ def build_parser() -> argparse.ArgumentParser:
         "target is out of reach, with the closest tip found (docs/inverse.md).")
     aim.add_argument("scene", help="scene file or shipped scene name (its values are the "
                      "starting point)")
-    aim.add_argument("--tip", required=True, type=_target, metavar="X,Y,Z",
+    aim.add_argument("--tip", required=True, type=target_type, metavar="X,Y,Z",
                      help="target of the tip [m]")
     aim.add_argument("--actuate", action="append", required=True, metavar="KEY",
                      help="numeric scene value to vary (repeatable), e.g. "
                      "tendon_py.tendon_actuation.force")
-    aim.add_argument("--frame", type=_frame, metavar="D1X,D1Y,D1Z,D3X,D3Y,D3Z",
+    aim.add_argument("--frame", type=frame_type, metavar="D1X,D1Y,D1Z,D3X,D3Y,D3Z",
                      help="also the tip's orientation: directors d1 and d3 of the last "
                      "segment (d3 the tangent); reached within --tolerance / L rad")
     aim.add_argument("--rod", help="rod whose tip is placed (default: the first)")
-    aim.add_argument("--tolerance", type=_tolerance, default=1e-6, metavar="METRES",
+    aim.add_argument("--tolerance", type=tolerance_type, default=1e-6, metavar="METRES",
                      help="distance at which the target counts as reached (default 1e-6 m)")
     add_scene_set_and_output(aim, "reach")
     aim.set_defaults(func=cmd_reach)

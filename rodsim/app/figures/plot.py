@@ -29,7 +29,7 @@ from pathlib import Path
 import xarray as xr
 from matplotlib.figure import Figure
 
-from rodsim.app.figures import view3d
+from rodsim.app.figures import labels, view3d
 from rodsim.app.figures.inverse import (
     fit_figure,
     out_of_plane,
@@ -44,7 +44,7 @@ from rodsim.app.figures.study_errors import (
     error_vs_parameter_figure,
     error_vs_parameter_result,
 )
-from rodsim.app.figures.style import study_title, style
+from rodsim.app.figures.style import style
 from rodsim.app.figures.writer import HTML, PlotError, check_output, html_target, write_figure
 from rodsim.io.cf_layout import from_file
 
@@ -117,7 +117,7 @@ def draw_figure(ds: xr.Dataset) -> Figure:
                             f"{str(ds.attrs['study'])[:40]!r} failed: nothing to draw (the "
                             "archive's 'message' variable says why)")
         figure = DRAWERS[kind](ds)
-        study_title(figure, ds, RESULTS[kind](ds))
+        labels.study_title(figure, ds, RESULTS[kind](ds))
         return figure
     if ds.attrs.get("kind") in KIND_DRAWERS:
         return KIND_DRAWERS[ds.attrs["kind"]](ds)

@@ -9,7 +9,7 @@ import matplotlib.pyplot as plt
 import numpy as np
 import xarray as xr
 
-from rodsim.app.figures.style import grid_indices, sweep_dims
+from rodsim.app.figures import labels
 
 __all__ = ["OVERLAYS", "reference_centerlines", "draw_references"]
 
@@ -49,7 +49,7 @@ def reference_centerlines(ds: xr.Dataset, kinds: Sequence[str] | None = None
     if spec is None or not kinds:
         return out
     sigma = ds["sigma"].values
-    for index in grid_indices(ds, sweep_dims(ds)):
+    for index in labels.grid_indices(ds, labels.sweep_dims(ds)):
         try:
             curves = reference_curves(point_scene(spec, index), kinds, sigma)
         except Exception:  # an invalid point (recorded as such): nothing to draw

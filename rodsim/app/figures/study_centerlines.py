@@ -14,21 +14,9 @@ import xarray as xr
 from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
 
+from rodsim.app.figures import labels as lab
 from rodsim.app.figures.references import draw_references
-from rodsim.app.figures.style import (
-    LINE_STYLES,
-    MARKERS,
-    axis_positions,
-    colours_for,
-    finish_x,
-    grid_indices,
-    is_numeric,
-    percent_text,
-    point_label,
-    span_text,
-    sweep_dims,
-    value_at,
-)
+from rodsim.app.figures.style import LINE_STYLES, MARKERS, colours_for
 
 __all__ = ["centerlines_figure", "centerlines_result", "MIN_TIP_RANGE"]
 
@@ -41,15 +29,15 @@ def _tip_error_text(sel: xr.Dataset) -> str:
 def _point_styles(ds: xr.Dataset) -> dict[tuple[int, ...], dict[str, Any]]:
     """Colour, line style and marker of every grid point: the colour follows the last swept
     parameter with more than one value, the style the others (Fig. 9: colour = mass)."""
-    dims = sweep_dims(ds)
+    dims = lab.sweep_dims(ds)
     varying = [d for d in dims if ds.sizes[d] > 1] or dims
     colour_dim = varying[-1] if varying else None
     style_dims = [d for d in dims if d != colour_dim]
-    colours = (colours_for(ds.sizes[colour_dim], is_numeric(ds, colour_dim))
+    colours = (colours_for(ds.sizes[colour_dim], lab.is_numeric(ds, colour_dim))
                if colour_dim else ["C0"])
-    styles = {index: n for n, index in enumerate(grid_indices(ds, style_dims))}
+    styles = {index: n for n, index in enumerate(lab.grid_indices(ds, style_dims))}
     out = {}
-    for index in grid_indices(ds, dims):
+    for index in lab.grid_indices(ds, dims):
         point = dict(zip(dims, index, strict=True))
         n = styles[tuple(point[d] for d in style_dims)]
         out[index] = {"color": colours[point[colour_dim]] if colour_dim else colours[0],
@@ -83,7 +71,7 @@ LEGEND_POINTS = 12
 def _compact_legend(ds: xr.Dataset, axes: plt.Axes) -> None:
     """Legend for many points: one entry per colour value (last varying sweep) and, when
     they are few, one per line style (the other sweeps), plus the reference curves."""
-    dims = sweep_dims(ds)
+    dims = lab.sweep_dims(ds)
     styles = _point_styles(ds)
     varying = [d for d in dims if ds.sizes[d] > 1] or dims
     colour_dim = varying[-1]
@@ -93,21 +81,21 @@ def _compact_legend(ds: xr.Dataset, axes: plt.Axes) -> None:
     for i in range(ds.sizes[colour_dim]):
         index = tuple(i if d == colour_dim else 0 for d in dims)
         handles.append(Line2D([], [], color=styles[index]["color"], lw=2))
-        labels.append(point_label(ds, {colour_dim: value_at(ds, colour_dim, i)}))
-    groups = grid_indices(ds, style_dims)
+        lab.append(lab.point_label(ds, {colour_dim: lab.value_at(ds, colour_dim, i)}))
+    groups = lab.grid_indices(ds, style_dims)
     if style_dims and len(groups) <= LEGEND_POINTS:
         for group in groups:
             select = dict(zip(style_dims, group, strict=True))
             index = tuple(select.get(d, 0) for d in dims)
             handles.append(Line2D([], [], color="0.4", ls=styles[index]["ls"],
                                   marker=styles[index]["marker"], ms=3))
-            labels.append(point_label(ds, {d: value_at(ds, d, i) for d, i in select.items()}))
+            lab.append(lab.point_label(ds, {d: lab.value_at(ds, d, i) for d, i in select.items()}))
     axes.legend(handles, labels, loc="best")
 
 
 def centerlines_figure(ds: xr.Dataset) -> Figure:
-    dims = sweep_dims(ds)
-    numeric = [d for d in dims if is_numeric(ds, d) and ds.sizes[d] > 1]
+    dims = lab.sweep_dims(ds)
+    numeric = [d for d in dims if lab.is_numeric(ds, d) and ds.sizes[d] > 1]
     tip_dim = numeric[0] if numeric else (dims[0] if dims else None)
     figure, (axes, tips) = plt.subplots(1, 2, figsize=(11.0, 5.0), width_ratios=(1.6, 1.0),
                                         constrained_layout=True)
@@ -122,7 +110,7 @@ def centerlines_figure(ds: xr.Dataset) -> Figure:
         if int(sel["status"]) != 0:
             continue
         line = sel["centerline"].sel(rod=rod).values
-        label = point_label(ds, {d: value_at(ds, d, i) for d, i in point.items()})
+        label = lab.point_label(ds, {d: lab.value_at(ds, d, i) for d, i in point.items()})
         if last_is_reference and point[dims[0]] == ds.sizes[dims[0]] - 1:
             label += " (reference)"
         many = len(styles) > LEGEND_POINTS
@@ -158,16 +146,17 @@ def _tips(ds: xr.Dataset, axes: plt.Axes, dim: str,
           styles: dict[tuple[int, ...], dict[str, Any]]) -> None:
     """Tip y of the first rod against ``dim``: one grey line per value of the other sweeps,
     each point in its centerline's colour and marker; the reference's tip as black crosses."""
-    dims = sweep_dims(ds)
+    dims = lab.sweep_dims(ds)
     others = [d for d in dims if d != dim]
-    x, _ = axis_positions(ds, dim)
+    x, _ = lab.axis_positions(ds, dim)
     tip_y = ds["tip"].isel(rod=0).sel(axis="y").where(ds["status"] == 0)
-    for n, group in enumerate(grid_indices(ds, others)):
+    for n, group in enumerate(lab.grid_indices(ds, others)):
         select = dict(zip(others, group, strict=True))
         y = tip_y.isel(select).values
         indices = [tuple(i if d == dim else select[d] for d in dims)
                    for i in range(ds.sizes[dim])]
-        label = point_label(ds, {d: value_at(ds, d, i) for d, i in select.items()}) or "model"
+        label = (lab.point_label(ds, {d: lab.value_at(ds, d, i) for d, i in select.items()})
+                 or "model")
         first = styles[indices[0]]
         axes.plot(x, y, color="0.5", lw=1.0, ls=first["ls"], marker=first["marker"], ms=0,
                   label=label)
@@ -178,11 +167,11 @@ def _tips(ds: xr.Dataset, axes: plt.Axes, dim: str,
         if np.any(np.isfinite(ref)):
             axes.plot(x, ref, "x", color="k", ms=7,
                       label="reference tip" if n == 0 else None)
-    finish_x(axes, ds, dim)
+    lab.finish_x(axes, ds, dim)
     axes.set_ylabel("tip y [m]")
     _show_size_of_change(axes, ds, tip_y.values)
     axes.grid(True, which="both", alpha=0.3)
-    if len(grid_indices(ds, others)) <= LEGEND_POINTS:
+    if len(lab.grid_indices(ds, others)) <= LEGEND_POINTS:
         axes.legend()
 
 
@@ -233,7 +222,7 @@ def _show_size_of_change(axes: plt.Axes, ds: xr.Dataset, values: np.ndarray) -> 
 def centerlines_result(ds: xr.Dataset) -> str:
     """The largest tip error against the reference (per value of the first swept parameter
     when there are two or more), or the range of the tip's y without a reference."""
-    dims = sweep_dims(ds)
+    dims = lab.sweep_dims(ds)
     ok = ds["status"] == 0
     error = ds["tip_error"].where(ok) if "tip_error" in ds else None
     if error is not None and bool(error.notnull().any()):
@@ -241,18 +230,19 @@ def centerlines_result(ds: xr.Dataset) -> str:
         against = (f"the last {dims[0]} point" if reference == "last"
                    else f"the {reference} reference")
         if len(dims) >= 2 and ds.sizes[dims[0]] > 1:
-            parts = [f"{point_label(ds, {dims[0]: value_at(ds, dims[0], i)})}: "
-                     + (percent_text(float(error.isel({dims[0]: i}).max()))
+            parts = [f"{lab.point_label(ds, {dims[0]: lab.value_at(ds, dims[0], i)})}: "
+                     + (lab.percent_text(float(error.isel({dims[0]: i}).max()))
                         if bool(error.isel({dims[0]: i}).notnull().any())
                         else f"no {reference} reference")
                      for i in range(ds.sizes[dims[0]])]
         else:
-            parts = [f"{percent_text(float(error.max()))} over {int(error.notnull().sum())} points"]
+            parts = [f"{lab.percent_text(float(error.max()))} over "
+                     f"{int(error.notnull().sum())} points"]
         return f"largest tip error / L against {against}: " + "; ".join(parts)
     tip_y = ds["tip"].isel(rod=0).sel(axis="y").where(ok).values.ravel()
     finite = tip_y[np.isfinite(tip_y)]
     if finite.size == 0:
         return "no point converged"
     change = float(finite.max() - finite.min())
-    return (f"tip y of {ds['rod'].values[0]} {span_text(finite, '.3g')} m over {finite.size} "
+    return (f"tip y of {ds['rod'].values[0]} {lab.span_text(finite, '.3g')} m over {finite.size} "
             f"points (a change of {_length_text(change)})")

@@ -9,22 +9,9 @@ import numpy as np
 import xarray as xr
 from matplotlib.figure import Figure
 
+from rodsim.app.figures import labels as lab
 from rodsim.app.figures.study_centerlines import centerlines_figure
-from rodsim.app.figures.style import (
-    LINE_STYLES,
-    MARKERS,
-    axis_positions,
-    colours_for,
-    finish_x,
-    grid_indices,
-    is_numeric,
-    percent_text,
-    point_label,
-    span_text,
-    sweep_dims,
-    value_at,
-    value_text,
-)
+from rodsim.app.figures.style import LINE_STYLES, MARKERS, colours_for
 
 __all__ = ["error_vs_parameter_figure", "error_vs_parameter_result",
            "error_vs_iteration_figure", "error_vs_iteration_result"]
@@ -88,18 +75,19 @@ def _draw_fitted_order(axes: plt.Axes, x: np.ndarray, y: np.ndarray, dim: str,
 def error_vs_parameter_figure(ds: xr.Dataset) -> Figure:
     """Tip error (top row, [1]) and area error (bottom row, [m]) against the first swept
     parameter: the two have different units, so they never share an axis."""
-    dims = sweep_dims(ds)
+    dims = lab.sweep_dims(ds)
     if not dims:  # nothing swept: no parameter to plot against
         return centerlines_figure(ds)
     first = dims[0]
     panel_dims = [dims[-1]] if len(dims) >= 3 else []
     line_dims = [d for d in dims[1:] if d not in panel_dims]
-    panel_groups = grid_indices(ds, panel_dims)
-    line_groups = grid_indices(ds, line_dims)
+    panel_groups = lab.grid_indices(ds, panel_dims)
+    line_groups = lab.grid_indices(ds, line_dims)
     errors = [name for name in ERRORS if name in ds]  # a study without a reference has none
     figure, grid = _error_grid(len(panel_groups), max(len(errors), 1))
-    x, _ = axis_positions(ds, first)
-    colours = colours_for(len(line_groups), len(line_dims) == 1 and is_numeric(ds, line_dims[0]))
+    x, _ = lab.axis_positions(ds, first)
+    colours = colours_for(len(line_groups),
+                          len(line_dims) == 1 and lab.is_numeric(ds, line_dims[0]))
     anything = False
     for row, name in enumerate(errors):
         for axes, panel in zip(grid[row], panel_groups, strict=True):
@@ -110,14 +98,14 @@ def error_vs_parameter_figure(ds: xr.Dataset) -> Figure:
                 if np.all(np.isnan(y)):
                     continue
                 anything = True
-                label = point_label(ds, {d: value_at(ds, d, i)
+                label = lab.point_label(ds, {d: lab.value_at(ds, d, i)
                                     for d, i in zip(line_dims, group, strict=True)})
                 # Successive lines thinner, with their own marker: coinciding ones stay
                 # visible.
                 axes.plot(x, y, color=colours[n], marker=MARKERS[n % len(MARKERS)],
                           ls=LINE_STYLES[n % len(LINE_STYLES)], ms=max(3.0, 6.5 - n),
                           lw=max(1.0, 2.4 - 0.4 * n), label=label or "model")
-                if name == "tip_error" and is_numeric(ds, first):
+                if name == "tip_error" and lab.is_numeric(ds, first):
                     _draw_fitted_order(axes, np.asarray(x, dtype=float), y, first,
                                        first_line=n == 0)
             axes.set_yscale("log")
@@ -126,7 +114,7 @@ def error_vs_parameter_figure(ds: xr.Dataset) -> Figure:
                 _panel_title(axes, ds, panel_select)
         grid[row, 0].set_ylabel(_error_label(ds, name))
     for axes in grid[-1]:
-        finish_x(axes, ds, first, log_ratio=2.0)  # log–log: orders of convergence
+        lab.finish_x(axes, ds, first, log_ratio=2.0)  # log–log: orders of convergence
     if not anything:
         grid[0, 0].text(0.5, 0.5, "no errors: the study has no reference, or no point has one",
                         ha="center", va="center", transform=grid[0, 0].transAxes)
@@ -176,56 +164,59 @@ def error_vs_parameter_result(ds: xr.Dataset) -> str:
     """The observed order of the tip error in the first swept parameter (fitted for every
     line of the figure) and the smallest tip error, or what is plotted when there is
     nothing to fit."""
-    dims = sweep_dims(ds)
+    dims = lab.sweep_dims(ds)
     if not dims or "tip_error" not in ds:
         return "tip and area errors against the swept parameter (none in this archive)"
     first = dims[0]
     error = ds["tip_error"].where(ds["status"] == 0)
     name = ds[first].attrs.get("long_name", first)
-    if not is_numeric(ds, first):
-        return f"tip error / L {span_text(error.values.ravel(), '.2g')} over {name}"
+    if not lab.is_numeric(ds, first):
+        return f"tip error / L {lab.span_text(error.values.ravel(), '.2g')} over {name}"
     others = dims[1:]
     x = ds[first].values.astype(float)
     fits = [_fitted_order(x, error.isel(dict(zip(others, group, strict=True))).values)
-            for group in grid_indices(ds, others)]
+            for group in lab.grid_indices(ds, others)]
     orders = [p for p, _ in fits]
     fitted = np.any([mask for p, mask in fits if np.isfinite(p)], axis=0) if any(
         np.isfinite(orders)) else np.zeros(x.shape, dtype=bool)
     if not bool(error.notnull().any()):
         return f"no tip error: no point of {name} converged with a reference"
     best = error.where(error == error.min(), drop=True)
-    where = point_label(ds, {d: best[d].values.ravel()[0].item() for d in dims if d in best.dims})
-    smallest = f"smallest {percent_text(float(error.min()))} of L at {where}"
+    where = lab.point_label(ds, {d: best[d].values.ravel()[0].item() for d in dims
+                                 if d in best.dims})
+    smallest = f"smallest {lab.percent_text(float(error.min()))} of L at {where}"
     if not fitted.any():
         return f"the tip error does not fall over {first}; {smallest}"
     lines = f" ({len(orders)} lines)" if len(orders) > 1 else ""
     levels = "" if fitted.all() else (f", then levels off (error of something else than "
                                       f"{first})")
-    return (f"tip error / L ∝ {first}^−p with p = {span_text(orders, '.2f')}{lines}, fitted where "
-            f"it still falls: {first} = {span_text(x[fitted])}{levels}; {smallest}")
+    return (f"tip error / L ∝ {first}^−p with p = {lab.span_text(orders, '.2f')}{lines}, "
+            "fitted where "
+            f"it still falls: {first} = {lab.span_text(x[fitted])}{levels}; {smallest}")
 
 
 def _panel_title(axes: plt.Axes, ds: xr.Dataset, panel_select: dict[str, int]) -> None:
     """Title a panel with the swept values it holds (nothing when there is one panel)."""
     if panel_select:
-        axes.set_title(point_label(ds, {d: value_at(ds, d, i) for d, i in panel_select.items()}))
+        axes.set_title(lab.point_label(ds, {d: lab.value_at(ds, d, i)
+                                            for d, i in panel_select.items()}))
 
 
 # Errors against the iteration ---------------------------------------------------------------
 
 
 def error_vs_iteration_figure(ds: xr.Dataset) -> Figure:
-    dims = sweep_dims(ds)
+    dims = lab.sweep_dims(ds)
     if "history_error" not in ds:  # the study kept no per-step history (history=False)
         figure = centerlines_figure(ds)
         figure.axes[0].text(0.02, 0.02, "no per-step history in this archive: centerlines "
                             "drawn instead", transform=figure.axes[0].transAxes)
         return figure
     line_dims, panel_dims = dims[:1], dims[1:]
-    panel_groups = grid_indices(ds, panel_dims)
-    line_groups = grid_indices(ds, line_dims)
+    panel_groups = lab.grid_indices(ds, panel_dims)
+    line_groups = lab.grid_indices(ds, line_dims)
     figure, panels = _panel_grid(len(panel_groups))
-    colours = colours_for(len(line_groups), bool(line_dims) and is_numeric(ds, line_dims[0]))
+    colours = colours_for(len(line_groups), bool(line_dims) and lab.is_numeric(ds, line_dims[0]))
     for axes, panel in zip(panels, panel_groups, strict=True):
         panel_select = dict(zip(panel_dims, panel, strict=True))
         for n, group in enumerate(line_groups):
@@ -234,7 +225,7 @@ def error_vs_iteration_figure(ds: xr.Dataset) -> Figure:
             error = sub["history_error"].values
             keep = ~np.isnan(error)
             steps = np.arange(1, len(error) + 1)
-            label = point_label(ds, {d: value_at(ds, d, i) for d, i in zip(line_dims, group,
+            label = lab.point_label(ds, {d: lab.value_at(ds, d, i) for d, i in zip(line_dims, group,
                                                                     strict=True)})
             if int(sub["status"]) != 0:
                 label += " (failed)"
@@ -259,16 +250,17 @@ def error_vs_iteration_result(ds: xr.Dataset) -> str:
     says so when the first parameter changes nothing."""
     if "history_error" not in ds:
         return "centerlines (no per-step history in this archive)"
-    dims = sweep_dims(ds)
+    dims = lab.sweep_dims(ds)
     if not dims:
         return f"{int(_steps_taken(ds))} time steps to rest"
     steps = _steps_taken(ds)
     line_dim, panel_dims = dims[0], dims[1:]
     symbol = ds[line_dim].attrs.get("long_name", line_dim).split()[-1]
-    groups = grid_indices(ds, panel_dims)
+    groups = lab.grid_indices(ds, panel_dims)
     if len(groups) == 1 and ds.sizes[line_dim] <= 8:
         return "time steps to rest: " + ", ".join(
-            f"{symbol} = {value_text(value_at(ds, line_dim, i))}: {span_text([float(v)], '.0f')}"
+            f"{symbol} = {lab.value_text(lab.value_at(ds, line_dim, i))}: "
+            f"{lab.span_text([float(v)], '.0f')}"
             for i, v in enumerate(steps.values.ravel()))
     parts, flat = [], True
     for group in groups:
@@ -276,7 +268,8 @@ def error_vs_iteration_result(ds: xr.Dataset) -> str:
         values = steps.isel(select).values.ravel()
         flat &= bool(np.nanmin(values) == np.nanmax(values)) if np.isfinite(values).any() \
             else True
-        parts.append(f"{span_text(values, '.0f')} at "
-                     f"{point_label(ds, {d: value_at(ds, d, i) for d, i in select.items()})}")
+        parts.append(f"{lab.span_text(values, '.0f')} at "
+                     + lab.point_label(ds, {d: lab.value_at(ds, d, i)
+                                            for d, i in select.items()}))
     lead = f"{symbol} has no effect: " if flat else ""
     return f"{lead}time steps to rest for every {symbol}: " + "; ".join(parts)
