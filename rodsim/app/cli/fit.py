@@ -13,6 +13,11 @@ __all__ = ["cmd_fit"]
 
 
 class Fit(SceneCommand):
+    """Fit numeric scene values (--param, repeatable) to measured points of a rod's centerline
+    by least squares on the analytic sensitivities; reports the fitted values with standard
+    errors, writes the archive of the fitted scene (`rodsim rerun` re-solves it) and a
+    figure of data and fit (docs/inverse.md)."""
+
     kind = "fit"
     integrator = "static"
 

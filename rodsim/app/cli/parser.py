@@ -5,7 +5,8 @@ imports the handlers' modules only, which import nothing heavy at module level (
 from __future__ import annotations
 
 import argparse
-from typing import NoReturn
+from collections.abc import Callable
+from typing import Any, NoReturn
 
 from rodsim.app.cli.arguments import (
     add_scene_set_and_output,
@@ -17,14 +18,14 @@ from rodsim.app.cli.arguments import (
 )
 from rodsim.app.cli.bench import cmd_bench
 from rodsim.app.cli.common import EXIT_BAD_INPUT
-from rodsim.app.cli.fit import cmd_fit
+from rodsim.app.cli.fit import Fit, cmd_fit
 from rodsim.app.cli.listing import cmd_scenes, cmd_terms
 from rodsim.app.cli.plot import cmd_plot
-from rodsim.app.cli.reach import cmd_reach
+from rodsim.app.cli.reach import Reach, cmd_reach
 from rodsim.app.cli.rerun import cmd_rerun
 from rodsim.app.cli.run import cmd_run
 from rodsim.app.cli.study import cmd_study
-from rodsim.app.cli.track import cmd_track
+from rodsim.app.cli.track import Track, cmd_track
 from rodsim.version import __version__
 
 __all__ = ["OneLineParser", "build_parser"]
@@ -68,6 +69,26 @@ def scene_keys_help() -> str:
         lines.append(f"  solver.{name}:  [{integrator.summary}]")
         lines += [f"    {p.help()}" for p in integrator.parameters]
     return "\n".join(lines)
+
+
+#: The SCENE argument's help of the commands that start from a scene's values.
+STARTING_SCENE = "scene file or shipped scene name (its values are the starting point)"
+
+
+def _scene_command(sub: Any, name: str, command: type, scene_help: str, help: str
+                   ) -> argparse.ArgumentParser:
+    """A command that solves a scene (track, fit, reach): its parser, described by the
+    command class's docstring, with the SCENE argument first."""
+    parser = sub.add_parser(name, help=help, description=command.__doc__)
+    parser.add_argument("scene", help=scene_help)
+    return parser
+
+
+def _finish_scene_command(parser: argparse.ArgumentParser, kind: str,
+                          handler: Callable[[argparse.Namespace], int]) -> None:
+    """``--set`` and ``-o`` last (after the command's own options), and the handler."""
+    add_scene_set_and_output(parser, kind)
+    parser.set_defaults(func=handler)
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -130,13 +151,9 @@ def build_parser() -> argparse.ArgumentParser:
                        "this long while points wait (default 60)")
     study.set_defaults(func=cmd_study)
 
-    follow = sub.add_parser(
-        "track", help="equilibria along an actuation path, each warm-started from the last",
-        description="Solve a sequence of equilibria while scene values ramp together "
-        "(--ramp, repeatable: every ramp needs the same COUNT); each step starts from the "
-        "previous equilibrium, a failing step is retried with halved increments. Writes "
-        "one archive with a `step` dimension and a figure (docs/inverse.md).")
-    follow.add_argument("scene", help="scene file or shipped scene name")
+    follow = _scene_command(sub, "track", Track, "scene file or shipped scene name",
+                            help="equilibria along an actuation path, each warm-started "
+                            "from the last")
     follow.add_argument("--ramp", action="append", required=True,
                         metavar="KEY=START:STOP:COUNT",
                         help="ramp a numeric scene value (KEY as for --set; KEY[i] for a "
@@ -149,34 +166,20 @@ def build_parser() -> argparse.ArgumentParser:
                         "stiffness is not positive definite, e.g. a rod loaded past "
                         "buckling), flagged in the output and the archive; by default the "
                         "track stops there and exits 1 (the steps up to it archived)")
-    add_scene_set_and_output(follow, "track")
-    follow.set_defaults(func=cmd_track)
+    _finish_scene_command(follow, "track", cmd_track)
 
-    calibrate = sub.add_parser(
-        "fit", help="fit scene values to a measured centerline (least squares)",
-        description="Fit numeric scene values (--param, repeatable) to measured points of "
-        "a rod's centerline by least squares on the analytic sensitivities; reports the "
-        "fitted values with standard errors, writes the archive of the fitted scene (`rodsim "
-        "rerun` re-solves it) and a figure of data and fit (docs/inverse.md).")
-    calibrate.add_argument("scene", help="scene file or shipped scene name (its values are "
-                           "the starting point)")
+    calibrate = _scene_command(sub, "fit", Fit, STARTING_SCENE,
+                               help="fit scene values to a measured centerline (least squares)")
     calibrate.add_argument("--data", required=True, metavar="POINTS.csv",
                            help="CSV with header x,y,z [m] and optionally s (rest arc "
                            "length [m]); any number and spacing of points")
     calibrate.add_argument("--param", action="append", required=True, metavar="KEY",
                            help="numeric scene value to fit (KEY as for --set), e.g. K_E")
     calibrate.add_argument("--rod", help="rod the points belong to (default: the first)")
-    add_scene_set_and_output(calibrate, "fit")
-    calibrate.set_defaults(func=cmd_fit)
+    _finish_scene_command(calibrate, "fit", cmd_fit)
 
-    aim = sub.add_parser(
-        "reach", help="actuation values that put the tip at a target (inverse kinematics)",
-        description="Find values of the --actuate keys (e.g. the tensions of several "
-        "tendons) that put a rod's tip at --tip, by least squares on the analytic "
-        "sensitivities within each value's allowed range (tensions >= 0). Exit 1 when the "
-        "target is out of reach, with the closest tip found (docs/inverse.md).")
-    aim.add_argument("scene", help="scene file or shipped scene name (its values are the "
-                     "starting point)")
+    aim = _scene_command(sub, "reach", Reach, STARTING_SCENE, help="actuation values that put "
+                         "the tip at a target (inverse kinematics)")
     aim.add_argument("--tip", required=True, type=target_type, metavar="X,Y,Z",
                      help="target of the tip [m]")
     aim.add_argument("--actuate", action="append", required=True, metavar="KEY",
@@ -188,8 +191,7 @@ def build_parser() -> argparse.ArgumentParser:
     aim.add_argument("--rod", help="rod whose tip is placed (default: the first)")
     aim.add_argument("--tolerance", type=tolerance_type, default=1e-6, metavar="METRES",
                      help="distance at which the target counts as reached (default 1e-6 m)")
-    add_scene_set_and_output(aim, "reach")
-    aim.set_defaults(func=cmd_reach)
+    _finish_scene_command(aim, "reach", cmd_reach)
 
     plot = sub.add_parser("plot", help="draw an archive's figure (PNG and PDF)",
                           description="Draw the figure of an archive written by `rodsim "

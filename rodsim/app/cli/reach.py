@@ -12,6 +12,11 @@ __all__ = ["cmd_reach"]
 
 
 class Reach(SceneCommand):
+    """Find values of the --actuate keys (e.g. the tensions of several tendons) that put a
+    rod's tip at --tip, by least squares on the analytic sensitivities within each value's
+    allowed range (tensions >= 0). Exit 1 when the target is out of reach, with the closest
+    tip found (docs/inverse.md)."""
+
     kind = "reach"
     integrator = "static"
 

@@ -13,6 +13,11 @@ __all__ = ["cmd_track"]
 
 
 class Track(SceneCommand):
+    """Solve a sequence of equilibria while scene values ramp together (--ramp, repeatable:
+    every ramp needs the same COUNT); each step starts from the previous equilibrium, a
+    failing step is retried with halved increments. Writes one archive with a `step`
+    dimension and a figure (docs/inverse.md)."""
+
     kind = "track"
     integrator_flag = True
 
