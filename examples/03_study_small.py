@@ -7,7 +7,7 @@ Writes ``runs/examples/fig7b-small.nc`` and ``.png`` under the current folder. R
 
 from pathlib import Path
 
-from rodsim.app.plotting import plot_dataset
+from rodsim.app.figures import plot_dataset
 from rodsim.app.study import load_study
 from rodsim.app.study_runner import run_study
 

@@ -205,7 +205,7 @@ def test_archive_holds_contact_forces_and_the_figure_draws_them(tmp_path):
     """A run archive of a scene with obstacles holds the contact force per node (N) and their
     resultant, passes the archive contract and round-trips through netCDF; a scene without
     obstacles has neither variable. The contact figure is written from the archive alone."""
-    from rodsim.app.contact_figure import contact_figure
+    from rodsim.app.figures.contact import contact_figure
     from rodsim.io.archive import read_dataset, write_dataset
     from rodsim.io.archive_schema import check_archive
     from rodsim.io.run_dataset import run_dataset

@@ -9,8 +9,15 @@ import numpy as np
 import pytest
 
 import rodsim
-from rodsim.app import plotting, view3d
-from rodsim.app.plotting import PlotError, draw_figure, plot_dataset, short_key, style
+from rodsim.app.figures import (
+    PlotError,
+    draw_figure,
+    plot_dataset,
+    short_key,
+    study_errors,
+    style,
+    view3d,
+)
 from rodsim.io.archive import read_dataset, write_dataset
 from rodsim.io.run_dataset import run_dataset
 
@@ -20,15 +27,15 @@ def test_the_order_is_fitted_only_where_the_error_still_falls():
     sweep was the plateau's average (0.25 on fig7a); fitted where it falls it is 1."""
     k = np.array([1e1, 3e1, 1e2, 3e2, 1e3, 1e4, 1e5, 1e6])
     error = np.where(k <= 1e3, 0.5 / k, 5e-4 * (1 + 1e-3 * np.log10(k)))
-    order, fitted = plotting._fitted_order(k, error)
+    order, fitted = study_errors._fitted_order(k, error)
     assert order == pytest.approx(1.0, rel=1e-9)
     np.testing.assert_array_equal(fitted, k <= 1e3)
     # An error that falls over the whole sweep is fitted over all of it, in any order of x.
     nodes = np.array([40.0, 5.0, 20.0, 10.0])
-    order, fitted = plotting._fitted_order(nodes, 3.0 * nodes ** -2.0)
+    order, fitted = study_errors._fitted_order(nodes, 3.0 * nodes ** -2.0)
     assert order == pytest.approx(2.0, rel=1e-9) and fitted.all()
     # No fall, no order (and never "nan" in a title: the result line says so).
-    assert np.isnan(plotting._fitted_order(k, np.full(k.shape, 1e-3))[0])
+    assert np.isnan(study_errors._fitted_order(k, np.full(k.shape, 1e-3))[0])
 
 
 def _texts(figure) -> str:

@@ -168,7 +168,7 @@ def _strings(path: Path) -> list[str]:
 
 def test_the_library_layers_name_no_cli_flag():
     """rodsim/core, solvers and io speak Python (dotted scene keys, integrator names); the
-    CLI's flags (--set, --integrator, …) are the CLI's to word (rodsim/app/cli.py)."""
+    CLI's flags (--set, --integrator, …) are the CLI's to word (rodsim/app/cli/)."""
     parser = build_parser()
     flags = {option for action in parser._actions for option in action.option_strings}
     for sub in parser._subparsers._group_actions[0].choices.values():

@@ -19,7 +19,7 @@ import pytest
 import xarray as xr
 from matplotlib.text import Text
 
-from rodsim.app.plotting import draw_figure, plot_dataset, style
+from rodsim.app.figures import draw_figure, plot_dataset, style
 from rodsim.app.study import (
     STATUS,
     StudySpec,
@@ -302,7 +302,7 @@ def test_fig16_tip_panel_shows_the_size_of_the_change(small):
     no offset, and the title gives the change, measured from the archive."""
     import matplotlib.pyplot as plt
 
-    from rodsim.app.plotting import MIN_TIP_RANGE
+    from rodsim.app.figures.study_centerlines import MIN_TIP_RANGE
 
     ds = small("fig16")[1]
     y = ds["tip"].isel(rod=0).sel(axis="y").values

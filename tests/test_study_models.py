@@ -7,20 +7,20 @@ from __future__ import annotations
 
 import pytest
 
-from rodsim.app import study
+from rodsim.app import study, study_points
 from rodsim.app.study import evaluate_point, grid_points, load_study, point_model, point_scene
 from rodsim.core.model import Model
 
 
 def _records(spec) -> tuple[list[dict], int]:
     """Every point's record (wall time removed) and how many base models were assembled."""
-    study._POINT_MODELS.clear()
+    study_points._POINT_MODELS.clear()
     out, assembled = [], {}  # id -> model: held, so that no id is reused
     for index in grid_points(spec):
         record = evaluate_point(spec, index)
         record.get("stats", {}).pop("wall_time", None)
         out.append(record)
-        model = study._POINT_MODELS[spec.base_scene_json]
+        model = study_points._POINT_MODELS[spec.base_scene_json]
         assembled[id(model)] = model
     return out, len(assembled)
 
@@ -39,7 +39,7 @@ def test_shared_models_give_the_records_of_fresh_ones(name, monkeypatch):
 
 def test_a_point_with_another_layout_gets_its_own_model():
     spec = load_study("fig7b").spec("small")
-    study._POINT_MODELS.clear()
+    study_points._POINT_MODELS.clear()
     first, second = (point_model(spec, point_scene(spec, index))
                      for index in grid_points(spec)[:2])
     assert first.n != second.n

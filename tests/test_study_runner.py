@@ -946,7 +946,7 @@ def test_cli_study_workers_must_be_a_positive_whole_number(workers, cli, capsys)
 
 
 def test_eta_counts_only_the_points_run_in_this_session():
-    from rodsim.app.cli import _study_status
+    from rodsim.app.cli.study import study_status as _study_status
 
     # 4 points kept from an interrupted run, 2 run here in 10 s, 4 to go: 20 s, not 6.7 s.
     line = _study_status("fig7a", 6, 1, 10, 10.0, 4)

@@ -22,7 +22,7 @@ from rodsim.app.study import (
     grid_shape,
     point_scene,
 )
-from rodsim.app.study_runner import spec_differences
+from rodsim.app.study_parts import spec_differences
 
 REPO = Path(__file__).resolve().parents[1]
 OLD_ARCHIVE = REPO / "benchmarks" / "results" / "stress-full.nc"

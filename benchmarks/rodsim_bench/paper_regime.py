@@ -275,7 +275,7 @@ def _style(ds, label: str) -> dict[str, Any]:
 
 def _plot(ds, path: Path) -> Path:
     """Error / L against wall time, one line per method over τ, in rodsim's style."""
-    from rodsim.app.plotting import style  # selects the Agg backend
+    from rodsim.app.figures import style  # selects the Agg backend
 
     with style():
         import matplotlib.pyplot as plt

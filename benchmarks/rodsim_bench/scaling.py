@@ -436,8 +436,8 @@ FORMULATION_MARKERS = {"overdamped": "o", "inertial": "s"}
 
 
 def _plot(ds, path: Path) -> Path:
-    """The scaling figure, drawn in rodsim's style (:func:`rodsim.app.plotting.style`)."""
-    from rodsim.app.plotting import style  # selects the Agg backend
+    """The scaling figure, drawn in rodsim's style (:func:`rodsim.app.figures.style`)."""
+    from rodsim.app.figures import style  # selects the Agg backend
 
     with style():
         return _draw(ds, path)

@@ -91,7 +91,7 @@ _PHASES = textwrap.dedent("""
     from rodsim.io.archive import write_dataset
     write_dataset(dataset, sys.argv[1])
     mark("netCDF write")
-    from rodsim.app.cli import _print_run_summary
+    from rodsim.app.cli.run import print_run_summary as _print_run_summary
     saved = sys.stdout
     sys.stdout = open(os.devnull, "w")
     _print_run_summary(result, None)

@@ -172,7 +172,7 @@ def _figure(ds: xr.Dataset, path: Path) -> None:
     within a bin). Each cell is labelled converged/configurations; empty bins stay blank.
     Only the paper integrator uses h: its row is a control for the other three. A title
     names any crash or NaN reported as success (which must never happen)."""
-    from rodsim.app.plotting import style  # selects the Agg backend
+    from rodsim.app.figures import style  # selects the Agg backend
 
     with style():
         _draw(ds, path)

@@ -540,8 +540,8 @@ def pareto_front(errors: np.ndarray, times: np.ndarray) -> tuple[np.ndarray, np.
 
 
 def _plot(ds, path: Path) -> Path:
-    """The work-precision figure, drawn in rodsim's style (:func:`rodsim.app.plotting.style`)."""
-    from rodsim.app.plotting import style  # selects the Agg backend
+    """The work-precision figure, drawn in rodsim's style (:func:`rodsim.app.figures.style`)."""
+    from rodsim.app.figures import style  # selects the Agg backend
 
     with style():
         return _draw(ds, path)

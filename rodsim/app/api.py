@@ -36,12 +36,18 @@ SceneLike = Scene | str | Path | Mapping[str, Any]
 
 def load_scene(scene: SceneLike | None = None, overrides: Iterable[str] = (),
                prefer: str = "") -> Scene:
-    """A validated scene from a file path, a shipped scene name, a dict, or a Scene.
+    """A fully validated scene from a file path, a shipped scene name, a dict, or a Scene:
+    the one call that gives one (and an archive's scene, :func:`rodsim.io.archive.scene_of`).
 
-    ``None`` gives the default scene (Table 1, 50 g). ``overrides`` are ``key=value``
-    strings as for the CLI's ``--set`` (``prefer`` as in :meth:`Scene.with_overrides`); the
-    integrators' options may be named by their short forms too. The solver tables are checked
-    against the registered integrators (:func:`rodsim.solvers.check_solver_options`).
+    :meth:`Scene.load <rodsim.core.scene.Scene.load>` and :meth:`Scene.from_dict
+    <rodsim.core.scene.Scene.from_dict>` check the scene against the model's declarations
+    only: the core does not know the integrators, so the ``[solver.<name>]`` tables are
+    left to them: here they are checked against the registered integrators
+    (:func:`rodsim.solvers.check_solver_options`), after any overrides.
+
+    ``None`` gives the default scene (Table 1, 50 g). ``overrides`` are ``key=value`` strings
+    as for the CLI's ``--set`` (``prefer`` as in :meth:`Scene.with_overrides`); the
+    integrators' options may be named by their short forms too.
     """
     if scene is None:
         loaded = Scene.load(default_scene_path())

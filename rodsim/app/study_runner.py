@@ -28,7 +28,6 @@ import multiprocessing
 import os
 import shutil
 import sys
-import tempfile
 import time
 import traceback
 from collections.abc import Callable
@@ -37,24 +36,23 @@ from typing import Any
 
 import xarray as xr
 
-from rodsim.app.study import (
-    POINT_STATS,
-    STATUS,
-    Study,
-    StudyError,
-    StudySpec,
-    assemble,
-    evaluate_point,
-    grid_points,
+from rodsim.app.study import Study
+from rodsim.app.study_parts import (
+    StudyLog,
+    check_study_output,
+    failure_reason,
+    open_parts,
+    parts_folder,
+    point_file,
+    save_text,
 )
+from rodsim.app.study_points import assemble, evaluate_point
+from rodsim.app.study_spec import StudyError, StudySpec, grid_points
 from rodsim.app.worker_pool import PARENT_POLL, TaskFailure, run_tasks
 from rodsim.io.archive import write_dataset
-from rodsim.io.archive_schema import ArchiveSchemaError, check_point_record
-from rodsim.io.output import OutputError, check_target
-from rodsim.io.provenance import git_commit, git_dirty
-from rodsim.version import __version__
+from rodsim.io.archive_schema import STATUS
 
-__all__ = ["run_study", "run_spec", "parts_folder", "spec_differences", "WORKER_DIED",
+__all__ = ["run_study", "run_spec", "parts_folder", "WORKER_DIED",
            "PointHook", "PARENT_POLL"]
 
 #: Progress callback: (points done, points failed, points in total, seconds elapsed). The
@@ -62,8 +60,6 @@ __all__ = ["run_study", "run_spec", "parts_folder", "spec_differences", "WORKER_
 #: interrupted run (resume) and 0 s; then one call per finished point, with the seconds
 #: since that first call.
 StudyProgress = Callable[[int, int, int, float], None]
-#: Log callback for one-line warnings and notes (default: printed on stderr).
-StudyLog = Callable[[str], None]
 
 #: The message of a point whose worker process died starts with this.
 WORKER_DIED = "worker process died"
@@ -77,196 +73,8 @@ PointHook = Callable[[StudySpec, tuple[int, ...]], None]
 #: (also in a child process before it runs the CLI); production code never does.
 POINT_HOOK: PointHook | None = None
 
-#: Marker file of a parts folder: the spec and the rodsim that computed its points.
-MARKER = "spec.json"
-
-
-def parts_folder(output: str | Path) -> Path:
-    """Where the finished points of a study writing to ``output`` are kept until assembly."""
-    output = Path(output)
-    return output.with_name(output.name + ".parts")
-
-
-def _point_file(folder: Path, index: tuple[int, ...]) -> Path:
-    return folder / ("point-" + "-".join(str(i) for i in index) + ".json")
-
-
-def _reason(exc: BaseException) -> str:
-    """An OSError's reason without its repeated path, other exceptions as they print."""
-    if isinstance(exc, OSError) and exc.strerror:
-        return exc.strerror
-    return str(exc) or type(exc).__name__
-
-
 def _stderr_log(message: str) -> None:
     print(f"rodsim: {message}", file=sys.stderr, flush=True)
-
-
-# Files ----------------------------------------------------------------------------------
-
-
-def _write_atomic(path: Path, text: str) -> None:
-    """Write ``text`` to ``path`` through a synced temporary file renamed over it: a crash or
-    a full disk never leaves a partial ``path``, nor the temporary (StudyError)."""
-    try:
-        handle, temporary = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp",
-                                             dir=path.parent)
-    except OSError as exc:
-        raise StudyError(f"cannot write {path}: {_reason(exc)}") from exc
-    try:
-        with os.fdopen(handle, "w", encoding="utf-8") as stream:
-            stream.write(text)
-            stream.flush()
-            os.fsync(stream.fileno())
-        os.replace(temporary, path)
-    except BaseException as exc:  # an interrupt too: never leave the temporary behind
-        with contextlib.suppress(OSError):
-            os.unlink(temporary)
-        if isinstance(exc, Exception):
-            raise StudyError(f"cannot write {path}: {_reason(exc)}") from exc
-        raise
-
-
-def _check_output(output: Path) -> None:
-    """Refuse, before any point runs, an output the archive could not be written to."""
-    folder = output.parent if str(output.parent) else Path(".")
-    if not folder.is_dir():
-        raise StudyError(f"cannot write {output}: folder {str(folder)!r} does not exist")
-    if output.is_dir():
-        raise StudyError(f"cannot write {output}: it is a folder; give a file name "
-                         "(-o OUT.nc)")
-    parts = parts_folder(output)
-    if parts.exists() and not parts.is_dir():
-        raise StudyError(f"cannot keep the study's points in {parts}: a file of that name "
-                         "exists")
-    try:  # permissions, read-only or pseudo file systems (/proc), devices: try, as the run will
-        check_target(output)
-    except OutputError as exc:
-        raise StudyError(str(exc)) from None
-
-
-def _short(value: Any, width: int = 60) -> str:
-    text = json.dumps(value, sort_keys=True) if not isinstance(value, str) else repr(value)
-    return text if len(text) <= width else text[:width - 1] + "…"
-
-
-def _differences(old: Any, new: Any, path: str) -> list[str]:
-    """Where two JSON values differ, as ``path: old → new`` lines (dicts and equal-length
-    lists are compared item by item)."""
-    if isinstance(old, dict) and isinstance(new, dict):
-        out = []
-        for key in sorted(set(old) | set(new), key=str):
-            where = f"{path}.{key}" if path else str(key)
-            if key not in old:
-                out.append(f"{where}: absent in the parts folder, {_short(new[key])} now")
-            elif key not in new:
-                out.append(f"{where}: {_short(old[key])} in the parts folder, absent now")
-            else:
-                out += _differences(old[key], new[key], where)
-        return out
-    if isinstance(old, list) and isinstance(new, list) and len(old) == len(new):
-        return [line for i, (a, b) in enumerate(zip(old, new, strict=True))
-                for line in _differences(a, b, f"{path}[{i}]")]
-    if old != new:
-        return [f"{path}: {_short(old)} in the parts folder, {_short(new)} now"]
-    return []
-
-
-def spec_differences(old: dict[str, Any], new: dict[str, Any]) -> list[str]:
-    """What differs between two study specs, naming each key (the base scene key by key)."""
-    old_scene = old.get("base_scene_json", "{}")
-    new_scene = new.get("base_scene_json", "{}")
-    rest = [key for key in sorted(set(old) | set(new))
-            if key not in ("base_scene_json", "base_scene_toml")]
-    lines = _differences({k: old[k] for k in rest if k in old},
-                         {k: new[k] for k in rest if k in new}, "")
-    if old_scene != new_scene:
-        try:
-            lines += ["base scene " + line for line in
-                      _differences(json.loads(old_scene), json.loads(new_scene), "")]
-        except (TypeError, ValueError):
-            lines.append("base_scene_json differs")
-    elif old.get("base_scene_toml") != new.get("base_scene_toml"):
-        lines.append("base_scene_toml: the base scene file's text differs")
-    return lines
-
-
-def _marker(spec: StudySpec) -> dict[str, Any]:
-    return {"spec": spec.to_dict(), "rodsim_version": __version__, "git_commit": git_commit(),
-            "git_dirty": git_dirty()}
-
-
-def _open_parts(folder: Path, spec: StudySpec,
-                log: StudyLog) -> dict[tuple[int, ...], dict[str, Any]]:
-    """Create the parts folder, or check it belongs to this spec and rodsim version and load
-    its records (an unreadable record is reported and its point runs again)."""
-    marker = folder / MARKER
-    if folder.exists():
-        if not marker.is_file():
-            raise StudyError(f"{folder} exists but is not a rodsim study's parts folder "
-                             f"(no {MARKER}); remove it or write the study elsewhere (-o)")
-        try:
-            stored = json.loads(marker.read_text(encoding="utf-8"))
-        except RecursionError:
-            raise StudyError(f"{folder}: unreadable {MARKER} (nested too deeply); remove the "
-                             "folder or write the study elsewhere (-o)") from None
-        except (OSError, ValueError) as exc:
-            raise StudyError(f"{folder}: unreadable {MARKER} ({_reason(exc)}); remove the "
-                             "folder or write the study elsewhere (-o)") from None
-        if not isinstance(stored, dict) or not isinstance(stored.get("spec", {}), dict):
-            raise StudyError(f"{folder}: {MARKER} does not hold a study spec; remove the "
-                             "folder or write the study elsewhere (-o)")
-        if "rodsim_version" not in stored:
-            raise StudyError(f"{folder} was written by an older rodsim that did not record its "
-                             f"version (rodsim_version differs: this is rodsim {__version__}); "
-                             "remove it or write the study elsewhere (-o)")
-        if stored["rodsim_version"] != __version__:
-            raise StudyError(f"{folder} holds points computed by rodsim "
-                             f"{stored['rodsim_version']}, this is rodsim {__version__} "
-                             "(rodsim_version differs); remove it or write the study "
-                             "elsewhere (-o)")
-        differences = spec_differences(stored.get("spec", {}), spec.to_dict())
-        if differences:
-            more = f" (and {len(differences) - 3} more)" if len(differences) > 3 else ""
-            raise StudyError(f"{folder} holds points of a different study definition: "
-                             + "; ".join(differences[:3]) + more
-                             + "; remove it or write the study elsewhere (-o)")
-        commit = git_commit()
-        if isinstance(stored.get("git_commit"), str) and commit and (
-                stored["git_commit"] != commit):
-            log(f"note: the points in {folder} were computed at git commit "
-                f"{stored['git_commit'][:12]}, this rodsim is at {commit[:12]}; resuming")
-    else:  # create it complete, then rename: a kill never leaves a folder without its marker
-        try:
-            staging = Path(tempfile.mkdtemp(prefix=f".{folder.name}.", dir=folder.parent))
-        except OSError as exc:
-            raise StudyError(f"cannot create {folder}: {_reason(exc)}") from None
-        try:
-            _write_atomic(staging / MARKER, json.dumps(_marker(spec), sort_keys=True))
-            os.replace(staging, folder)
-        except BaseException as exc:
-            shutil.rmtree(staging, ignore_errors=True)
-            if isinstance(exc, OSError):
-                raise StudyError(f"cannot create {folder}: {_reason(exc)}") from None
-            raise
-    grid = set(grid_points(spec))
-    rods = spec.rod_names
-    records = {}
-    for path in sorted(folder.glob("point-*.json")):
-        try:
-            record = json.loads(path.read_text(encoding="utf-8"))
-            check_point_record(record, spec.sigma_points, rods, POINT_STATS)
-            index = tuple(record["index"]) if isinstance(record["index"], list) else None
-            if index not in grid or _point_file(folder, index).name != path.name:
-                raise ValueError(f"index {str(record['index'])[:40]} does not belong in "
-                                 "this file")
-        except (OSError, ValueError, RecursionError, ArchiveSchemaError) as exc:
-            reason = "nested too deeply" if isinstance(exc, RecursionError) else _reason(exc)
-            log(f"warning: {path} is unreadable, incomplete or invalid ({reason}); its point "
-                "runs again")
-            continue
-        records[index] = record
-    return records
 
 
 # Workers -------------------------------------------------------------------------------------
@@ -346,7 +154,7 @@ def _connect(scheduler: str) -> tuple[Any, Any]:
         if cluster is not None:
             with contextlib.suppress(Exception):
                 cluster.close()
-        reason = (_reason(exc).strip().splitlines() or [type(exc).__name__])[0]
+        reason = (failure_reason(exc).strip().splitlines() or [type(exc).__name__])[0]
         raise StudyError(f"cannot reach the dask scheduler {scheduler!r}: {reason}") from None
 
 
@@ -417,8 +225,8 @@ def _run_dask(client: Any, spec: StudySpec, todo: list[tuple[int, ...]],
                 killed.append(index)
                 continue
             except (CancelledError, OSError) as exc:  # the cluster is gone, not the point
-                raise StudyError(f"lost the dask cluster ({_reason(exc)}); the finished points "
-                                 "are kept: run the study again to resume") from None
+                raise StudyError(f"lost the dask cluster ({failure_reason(exc)}); the finished "
+                                 "points are kept: run the study again to resume") from None
             except Exception as exc:
                 detail = traceback.format_exception_only(type(exc), exc)[-1].strip()
                 record = {"index": list(index), "status": STATUS["error"],
@@ -471,7 +279,7 @@ def run_spec(spec: StudySpec, output: str | Path, *, workers: int | None = None,
             not 0 < worker_timeout < math.inf:
         raise StudyError(f"worker_timeout must be a number of seconds > 0, not "
                          f"{str(worker_timeout)[:40]!r}")
-    _check_output(output)
+    check_study_output(output)
     with contextlib.ExitStack() as stack:
         if scheduler:
             client, cluster = _connect(scheduler)
@@ -479,7 +287,7 @@ def run_spec(spec: StudySpec, output: str | Path, *, workers: int | None = None,
                 stack.callback(cluster.close)
             stack.callback(client.close)
         folder = parts_folder(output)
-        records = _open_parts(folder, spec, log)
+        records = open_parts(folder, spec, log)
         points = grid_points(spec)
         todo = [index for index in points if index not in records]
         start = time.perf_counter()
@@ -490,7 +298,7 @@ def run_spec(spec: StudySpec, output: str | Path, *, workers: int | None = None,
         def persist(record: dict[str, Any]) -> None:
             nonlocal failed
             index = tuple(record["index"])
-            _write_atomic(_point_file(folder, index), json.dumps(record))
+            save_text(point_file(folder, index), json.dumps(record))
             records[index] = record
             failed += record["status"] != STATUS["ok"]
             if progress is not None:
@@ -512,7 +320,7 @@ def run_spec(spec: StudySpec, output: str | Path, *, workers: int | None = None,
         try:
             shutil.rmtree(folder)
         except OSError as exc:
-            log(f"warning: cannot remove {folder} ({_reason(exc)}); the archive {output} is "
+            log(f"warning: cannot remove {folder} ({failure_reason(exc)}); the archive {output} is "
                 "complete, the folder can be deleted")
     return dataset
 

@@ -14,7 +14,6 @@ import contextlib
 import os
 import signal
 import sys
-import tempfile
 import threading
 import time
 from collections.abc import Callable
@@ -29,6 +28,7 @@ from rodsim.io.archive_schema import (
     ArchiveSchemaError,
     check_archive,
 )
+from rodsim.io.atomic import write_atomic
 from rodsim.io.cf_layout import from_file, to_file
 from rodsim.io.input_file import InputError, check_input_file
 from rodsim.io.output import (
@@ -59,35 +59,25 @@ def write_dataset(dataset: xr.Dataset, path: str | Path,
         path = check_target(path)
     except OutputError as exc:
         raise ArchiveError(str(exc)) from None
-    folder = path.parent if str(path.parent) else Path(".")
     remove_stale_temporaries(path)
-    try:
-        handle, temporary = tempfile.mkstemp(prefix=owned_prefix(path), suffix=".tmp",
-                                             dir=folder)
-    except OSError as exc:
-        raise ArchiveError(f"cannot write {str(path)!r}: {exc}") from exc
-    try:
-        os.close(handle)
-        umask = os.umask(0)
-        os.umask(umask)
-        os.chmod(temporary, 0o666 & ~umask)  # mkstemp creates 0600; archives follow the umask
+
+    def write(temporary: Path) -> None:
         # No _FillValue on coordinates (CF: a coordinate has no missing values; xarray would
         # add NaN as the fill value of every float one). An archive of the current schema
         # is stored in its CF layout (numeric index coordinates, text as characters:
         # rodsim.io.cf_layout); a Dataset of an older schema is written as it is.
         if str(dataset.attrs.get("schema_version")) == SCHEMA_VERSION:
-            dataset, encoding = to_file(dataset)
+            stored, encoding = to_file(dataset)
         else:
+            stored = dataset
             encoding = {name: {"_FillValue": None} for name in dataset.coords}
-        dataset.to_netcdf(temporary, engine="netcdf4", encoding=encoding)
-        others = other_writers(path)
-        os.replace(temporary, path)
-    except BaseException as exc:  # an interrupt too: never leave a half-written temporary
-        with contextlib.suppress(OSError):
-            os.unlink(temporary)
-        if isinstance(exc, Exception):
-            raise ArchiveError(f"cannot write {str(path)!r}: {exc}") from exc
-        raise
+        stored.to_netcdf(temporary, engine="netcdf4", encoding=encoding)
+
+    try:  # archives follow the umask (mkstemp alone would make them 0600)
+        others = write_atomic(path, write, prefix=owned_prefix(path), follow_umask=True,
+                              before_replace=lambda: other_writers(path))
+    except Exception as exc:
+        raise ArchiveError(f"cannot write {str(path)!r}: {exc}") from exc
     if others and note is not None:
         note(f"{others} other process(es) were writing {str(path)!r} at the same time: it "
              "holds the archive of whichever finished last")
@@ -142,8 +132,14 @@ def read_dataset(path: str | Path) -> xr.Dataset:
 
 
 def scene_of(dataset: xr.Dataset) -> Scene:
-    """The scene stored in an archive (resolved values plus the original TOML text)."""
-    return Scene.from_json(dataset.attrs["scene_json"], dataset.attrs.get("scene_toml", ""))
+    """The scene stored in an archive (resolved values plus the original TOML text), validated
+    as fully as :func:`rodsim.load_scene` validates a scene file: its ``[solver.<name>]``
+    tables checked by the integrators too (SceneError)."""
+    from rodsim.solvers import check_solver_options
+
+    scene = Scene.from_json(dataset.attrs["scene_json"], dataset.attrs.get("scene_toml", ""))
+    check_solver_options(scene)
+    return scene
 
 
 def _probe_in_child(path: Path) -> None:

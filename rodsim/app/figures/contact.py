@@ -17,7 +17,7 @@ import matplotlib.pyplot as plt
 import numpy as np
 import xarray as xr
 
-from rodsim.app.plotting import STYLE
+from rodsim.app.figures.style import STYLE
 from rodsim.core.obstacles import build_obstacle
 from rodsim.io.archive_schema import stored_scene
 

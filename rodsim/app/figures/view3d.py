@@ -16,6 +16,8 @@ from pathlib import Path
 import numpy as np
 import xarray as xr
 
+from rodsim.io.atomic import write_atomic
+
 __all__ = ["available", "write_html", "MISSING"]
 
 MISSING = ("the interactive 3D view (html) needs plotly: pip install plotly, or "
@@ -63,5 +65,6 @@ def write_html(ds: xr.Dataset, path: str | Path) -> Path:
                "aspectmode": "data"},
         margin={"l": 0, "r": 0, "t": 40, "b": 0})
     path = Path(path)
-    figure.write_html(path, include_plotlyjs=True, full_html=True)
+    write_atomic(path, lambda temporary: figure.write_html(
+        temporary, include_plotlyjs=True, full_html=True), follow_umask=True)
     return path

@@ -1,0 +1,160 @@
+"""The one path of the commands that solve a scene and write what they found (``run``,
+``track``, ``fit``, ``reach``): scene → output checked → solve (with progress) → print →
+write. A command says only what differs (:class:`SceneCommand`); :func:`execute` is the
+path, its order and its exits (2 for bad input before any work, 1 for a solver failure)."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+from typing import TYPE_CHECKING, Any, ClassVar
+
+from rodsim.app.cli.common import (
+    EXIT_OK,
+    EXIT_SOLVER_FAILURE,
+    UserError,
+    check_integrator,
+    load_scene_or_fail,
+    output_path,
+    warn,
+)
+
+if TYPE_CHECKING:
+    from rodsim.app.progress import ProgressPrinter
+    from rodsim.core.scene import Scene
+
+__all__ = ["SceneCommand", "execute", "check_outputs", "write_with_figure", "print_trust"]
+
+
+class SceneCommand:
+    """What one scene command does on the common path; a new instance per invocation (it
+    may keep what it learns, e.g. ``fit``'s points, for its summary).
+
+    ``kind`` names the default output (``runs/<scene>-<kind>.nc``); ``figure``: a PNG
+    figure is written beside the archive; ``integrator_flag``: the command has
+    ``--integrator`` (checked against the registry first) — otherwise ``integrator`` is the
+    one it solves with."""
+
+    kind: ClassVar[str]
+    figure: ClassVar[bool] = True
+    integrator_flag: ClassVar[bool] = False
+    integrator: ClassVar[str | None] = None
+
+    def __init__(self, args: argparse.Namespace) -> None:
+        self.args = args
+
+    def bad_input(self) -> tuple[type[Exception], ...]:
+        """Exceptions of :meth:`solve` that are bad input (exit 2, their text the message);
+        imported when called, so that ``--help`` imports no solver."""
+        return ()
+
+    def solver_failures(self) -> tuple[type[Exception], ...]:
+        """Exceptions of :meth:`solve` that are a solver failure (exit 1)."""
+        return ()
+
+    def prepare(self, scene: Scene) -> None:
+        """Checks of the command's own arguments, before any folder is made or work
+        starts (raise :class:`UserError`)."""
+
+    def output_name(self, scene: Scene, integrator: str) -> str:
+        return f"{scene.name}-{self.kind}.nc"
+
+    def solve(self, scene: Scene, integrator: str, progress: ProgressPrinter) -> Any:
+        raise NotImplementedError
+
+    def failure(self, result: Any) -> str | None:
+        """The stderr line of a result that is a failure (exit 1, nothing written)."""
+        return None
+
+    def report(self, result: Any) -> None:
+        """Print the summary before the outputs are written."""
+
+    def dataset(self, result: Any) -> Any:
+        return result.to_xarray()
+
+    def write(self, result: Any, output: Path, stem: str) -> None:
+        write_with_figure(self.dataset(result), output, stem)
+
+    def verdict(self, result: Any) -> int:
+        """The exit code once everything is written."""
+        return EXIT_OK
+
+
+def execute(command: SceneCommand) -> int:
+    """The common path of a :class:`SceneCommand` (module docstring)."""
+    from rodsim.app.progress import ProgressPrinter
+
+    args = command.args
+    flag = args.integrator if command.integrator_flag else command.integrator
+    if command.integrator_flag:
+        check_integrator(flag)
+    scene = load_scene_or_fail(args.scene, args.set, flag)
+    integrator = flag or scene.solver.integrator
+    command.prepare(scene)
+    output = output_path(args.output, command.output_name(scene, integrator))
+    stem = check_outputs(output, command.figure)
+    bad_input, solver_failures = command.bad_input(), command.solver_failures()
+    progress = ProgressPrinter()
+    try:
+        result = command.solve(scene, integrator, progress)
+    except bad_input as exc:
+        raise UserError(str(exc)) from None
+    except solver_failures as exc:
+        print(f"rodsim: solver failure: {exc}", file=sys.stderr)
+        return EXIT_SOLVER_FAILURE
+    finally:
+        progress.close()
+    message = command.failure(result)
+    if message is not None:
+        print(message, file=sys.stderr)
+        return EXIT_SOLVER_FAILURE
+    command.report(result)
+    command.write(result, output, stem)
+    return command.verdict(result)
+
+
+def check_outputs(output: Path, figure: bool = True) -> str:
+    """Check a command's archive target (and its figure's folder) before any work: an
+    unwritable output fails in a second, not after an hour. Returns the figure's stem (the
+    archive's path without ``.nc``)."""
+    from rodsim.io.output import OutputError, check_target
+
+    stem = str(output.with_suffix("")) if output.suffix == ".nc" else str(output)
+    try:
+        check_target(output)
+        if figure:
+            from rodsim.app.figures import PlotError, check_output
+
+            try:
+                check_output(stem, ["png"])
+            except PlotError as exc:
+                raise UserError(f"-o {exc}") from None
+    except OutputError as exc:
+        raise UserError(f"-o {exc}") from None
+    return stem
+
+
+def write_with_figure(dataset: Any, output: Path, stem: str) -> None:
+    """Write a command's archive (atomically) and its PNG figure."""
+    from rodsim.app.figures import PlotError, plot_dataset
+    from rodsim.io.archive import ArchiveError, write_dataset
+
+    try:
+        write_dataset(dataset, output, note=warn)
+        figures = plot_dataset(dataset, stem, ["png"])
+    except (ArchiveError, PlotError) as exc:
+        raise UserError(str(exc)) from None
+    print(f"archive     {output}")
+    for figure in figures:
+        print(f"figure      {figure}")
+
+
+def print_trust(result: Any) -> None:
+    """Print a result's penalty-error estimate and compression check, stored on it for its
+    archive (rodsim/app/trust.py)."""
+    from rodsim.app.trust import assess, compression_text
+
+    print(assess(result).text())
+    if result.tendon_compression:
+        print(compression_text(result.tendon_compression))

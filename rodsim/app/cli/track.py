@@ -1,0 +1,108 @@
+"""``rodsim track``: equilibria along an actuation path, each warm-started from the last."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from typing import Any
+
+from rodsim.app.cli.common import EXIT_OK, EXIT_SOLVER_FAILURE, UserError, warn
+from rodsim.app.cli.pipeline import SceneCommand, execute
+
+__all__ = ["cmd_track"]
+
+
+class Track(SceneCommand):
+    """Solve a sequence of equilibria while scene values ramp together (--ramp, repeatable:
+    every ramp needs the same COUNT); each step starts from the previous equilibrium, a
+    failing step is retried with halved increments. Writes one archive with a `step`
+    dimension and a figure (docs/inverse.md)."""
+
+    kind = "track"
+    integrator_flag = True
+
+    def prepare(self, scene: Any) -> None:
+        from rodsim.app.inverse.track import parse_ramp
+        from rodsim.core.scene import SceneError
+
+        try:  # the ramps before any folder is made or any work starts
+            self.ramps = dict(parse_ramp(text) for text in self.args.ramp)
+        except SceneError as exc:
+            raise UserError(str(exc)) from None
+        if len(self.ramps) != len(self.args.ramp):
+            raise UserError("--ramp names the same key twice")
+
+    def bad_input(self) -> tuple[type[Exception], ...]:
+        from rodsim.core.scene import SceneError
+
+        return (SceneError,)
+
+    def solve(self, scene: Any, integrator: str, progress: Any) -> Any:
+        from rodsim.app.inverse.track import track
+
+        self.scene, self.integrator_used = scene, integrator
+        return track(scene, self.ramps, integrator, progress=progress,
+                     allow_unstable=self.args.allow_unstable)
+
+    def failure(self, result: Any) -> str | None:
+        if not result.success and result.unstable_step is None:
+            return f"rodsim: solver failure: {result.message}"
+        return None
+
+    def report(self, result: Any) -> None:
+        scene = self.scene
+        times = result.times
+        warm = sum(times[1:]) / max(len(times) - 1, 1)
+        last = result.steps - 1
+        print(f"scene       {scene.name}: {result.steps} steps of "
+              + ", ".join(f"{k.name} {result.values[0, i]:g} → {result.values[last, i]:g} "
+                          f"{k.unit}" for i, k in enumerate(result.keys)))
+        print(f"integrator  {self.integrator_used}")
+        tip = result.tips()[-1]
+        print(f"last tip    x = {tip[0]: .6f} m  y = {tip[1]: .6f} m  z = {tip[2]: .3g} m")
+        speed = f" ({1.0 / warm:.0f} steps/s)" if warm > 0 else ""
+        print(f"wall time   {sum(times):.4f} s: first step (cold) {times[0]:.4f} s, warm steps "
+              f"{1e3 * warm:.3f} ms each{speed}, {int(sum(result.halvings))} halvings")
+        unstable = result.unstable_steps
+        if unstable:
+            print(f"stability   UNSTABLE at {len(unstable)} of {result.steps} steps (first: "
+                  f"step {unstable[0]}, smallest stiffness eigenvalue "
+                  f"{result.min_eigenvalues[unstable[0]]:.3g}); flagged in the archive")
+        else:
+            print("stability   stable at every step (the stiffness K = -dF/dx is positive "
+                  "definite)")
+        print_last_step_trust(result)
+
+    def verdict(self, result: Any) -> int:
+        if not result.success:  # stopped at an unstable step: archived, and a failure
+            print(f"rodsim: {result.message}", file=sys.stderr)
+            return EXIT_SOLVER_FAILURE
+        unstable = result.unstable_steps
+        if unstable:
+            warn(f"{len(unstable)} step(s) are unstable equilibria (first: step {unstable[0]}); "
+                 "kept because of --allow-unstable, flagged in the archive (variable 'stable')")
+        return EXIT_OK
+
+
+def cmd_track(args: argparse.Namespace) -> int:
+    return execute(Track(args))
+
+
+def print_last_step_trust(track) -> None:
+    """Print the last step's penalty-error estimate and compression check, and keep them on
+    ``track`` for its archive (rodsim/app/trust.py)."""
+    from rodsim.app.trust import assess, compression_text, last_step_result
+
+    last = last_step_result(track)
+    if last is None:
+        if track.steps:
+            track.penalty_error = float("nan")
+            print("penalty     error estimate unavailable: the last step did not re-solve "
+                  "with the static integrator")
+        return
+    estimate = assess(last)
+    track.penalty_error = last.penalty_error
+    track.tendon_compression = last.tendon_compression
+    print(estimate.text().replace("penalty     ", "penalty     last step: ", 1))
+    if last.tendon_compression:
+        print(compression_text(last.tendon_compression))

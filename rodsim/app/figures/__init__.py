@@ -1,0 +1,25 @@
+"""Figures drawn from archives alone, one file per figure family:
+
+- :mod:`~rodsim.app.figures.plot`: which figure an archive gets, and ``plot_dataset``;
+- :mod:`~rodsim.app.figures.style`: the one style (``rodsim.mplstyle``), colours, labels;
+- :mod:`~rodsim.app.figures.writer`: formats, output checks, the atomic write of each format
+  (through :func:`rodsim.io.atomic.write_atomic`, the package's one atomic writer);
+- :mod:`~rodsim.app.figures.references`: the analytic reference curves of a study;
+- :mod:`~rodsim.app.figures.study_centerlines`, :mod:`~rodsim.app.figures.study_errors`:
+  the study figures;
+- :mod:`~rodsim.app.figures.inverse`: a run's figure and those of track, fit and reach;
+- :mod:`~rodsim.app.figures.contact`: the contact figure;
+- :mod:`~rodsim.app.figures.view3d`: the interactive 3-D view (plotly).
+"""
+
+from __future__ import annotations
+
+from rodsim.app.figures.inverse import short_key
+from rodsim.app.figures.plot import PLOT_KINDS, draw_figure, plot_dataset, three_dimensional
+from rodsim.app.figures.references import reference_centerlines
+from rodsim.app.figures.style import STYLE, style
+from rodsim.app.figures.writer import PlotError, check_output, supported_formats
+
+__all__ = ["plot_dataset", "draw_figure", "three_dimensional", "style", "STYLE", "PLOT_KINDS",
+           "reference_centerlines", "PlotError", "supported_formats", "check_output",
+           "short_key"]

@@ -1,0 +1,156 @@
+"""The figures of a single run and of the inverse tools' archives (``track``, ``fit``,
+``reach``: docs/inverse.md): the rods in x–y, and in x–z and y–z when the shape leaves the
+x–y plane."""
+
+from __future__ import annotations
+
+import json
+import textwrap
+
+import matplotlib.pyplot as plt
+import numpy as np
+import xarray as xr
+from matplotlib.figure import Figure
+
+from rodsim.io.cf_layout import key_variable
+
+__all__ = ["run_figure", "track_figure", "fit_figure", "reach_figure", "out_of_plane",
+           "short_key"]
+
+def _tip_text(ds: xr.Dataset) -> str:
+    """The first rod's tip, computed from the positions (mm)."""
+    tip = _first_rod_nodes(ds).values[-1]
+    return (f"tip of {ds['rod'].values[0]}: x, y, z = "
+            + ", ".join(f"{1e3 * v:.4g}" for v in tip) + " mm")
+
+
+def run_figure(ds: xr.Dataset) -> Figure:
+    """A run: its rods in x–y, and in x–z and y–z too when the shape leaves the x–y plane;
+    the title names the tip, computed from the positions."""
+    figure, views = _views(ds, np.empty((0, 3)))
+    for panel, _ in views:
+        panel.legend(loc="best")
+    figure.suptitle(f"{ds.attrs.get('title', '')}\n{_tip_text(ds)}")
+    return figure
+
+
+# Inverse tools (docs/inverse.md) --------------------------------------------------------
+
+
+def _first_rod_nodes(ds: xr.Dataset) -> xr.DataArray:
+    first = ds["rod"].values[0]
+    return ds["position"].sel(node=ds["rod"] == first)
+
+
+def out_of_plane(positions: np.ndarray) -> bool:
+    """Whether a shape leaves the x–y plane (then the x–z and y–z views are drawn too)."""
+    return bool(np.ptp(positions[..., 2]) > 1e-6 * max(np.ptp(positions[..., 0]), 1e-12))
+
+
+def track_figure(ds: xr.Dataset) -> Figure:
+    """A track: the first rod's centerline at every step, coloured by step, and the tip
+    against the first ramped value."""
+    figure, (shapes, tips) = plt.subplots(1, 2, figsize=(10.0, 4.4), constrained_layout=True)
+    nodes = _first_rod_nodes(ds).values
+    ramp = list(json.loads(ds.attrs["ramp_json"]))[0]
+    values = key_variable(ds, ramp).values
+    colours = plt.get_cmap("viridis")(np.linspace(0.0, 1.0, max(len(values), 1)))
+    for step, colour in enumerate(colours):
+        shapes.plot(nodes[step, :, 0], nodes[step, :, 1], color=colour, lw=0.9)
+    mappable = plt.cm.ScalarMappable(cmap="viridis", norm=plt.Normalize(values.min(),
+                                                                        values.max()))
+    figure.colorbar(mappable, ax=shapes, label=_ramp_label(ds, ramp))
+    shapes.set_xlabel("x [m]")
+    shapes.set_ylabel("y [m]")
+    shapes.set_aspect("equal", adjustable="datalim")
+    shapes.set_title(f"centerline of {ds['rod'].values[0]} at each of {len(values)} steps")
+    for axis, name in enumerate("xyz"):
+        tips.plot(values, nodes[:, -1, axis], label=f"tip {name}")
+    tips.set_xlabel(_ramp_label(ds, ramp))
+    tips.set_ylabel("tip position [m]")
+    tips.legend()
+    last = nodes[-1, -1] if len(values) else np.full(3, np.nan)
+    unit = key_variable(ds, ramp).attrs.get("units", "")
+    figure.suptitle(f"{ds.attrs.get('title', '')}\ntip of {ds['rod'].values[0]} at "
+                    f"{short_key(ramp)} = {values[-1]:.4g} {unit}: x, y, z = "
+                    + ", ".join(f"{1e3 * v:.4g}" for v in last) + " mm")
+    return figure
+
+
+def short_key(key: str) -> str:
+    """A short label for a dotted scene key: its last part and the rod or tendon it belongs
+    to (``tendons.tendon.tendon_actuation.force`` → ``force (tendon)``)."""
+    parts = key.split(".")
+    if len(parts) >= 3 and parts[0] in ("rods", "tendons"):
+        return f"{parts[-1]} ({parts[1]})"
+    return parts[-1]
+
+
+def _ramp_label(ds: xr.Dataset, key: str) -> str:
+    unit = key_variable(ds, key).attrs.get("units", "")
+    label = short_key(key)
+    return f"{label} [{unit}]" if unit not in ("", "1") else label
+
+
+#: The projections of a 3D shape: (horizontal, vertical) world axes of each panel.
+PROJECTIONS = ((0, 1), (0, 2), (1, 2))
+
+
+def _views(ds: xr.Dataset, extra: np.ndarray) -> tuple[Figure, list[plt.Axes]]:
+    """The run's rods in x–y, and in x–z and y–z when the shape or ``extra`` points leave
+    the x–y plane (a 3D shape seen from one side only can hide a whole bend)."""
+    three_d = out_of_plane(np.concatenate([ds["position"].values, extra]))
+    count = len(PROJECTIONS) if three_d else 1
+    figure, axes = plt.subplots(1, count, figsize=(4.4 * count + 1.0 if three_d else 6.4, 4.8),
+                                constrained_layout=True, squeeze=False)
+    views = list(PROJECTIONS[:count])
+    for panel, (h, v) in zip(axes[0], views, strict=True):
+        for rod in np.unique(ds["rod"].values):
+            nodes = ds["position"].sel(node=ds["rod"] == rod).values
+            panel.plot(nodes[:, h], nodes[:, v], marker=".", ms=3, lw=0.9, label=str(rod))
+        panel.set_xlabel(f"{'xyz'[h]} [m]")
+        panel.set_ylabel(f"{'xyz'[v]} [m]")
+        panel.set_aspect("equal", adjustable="datalim")
+    figure.suptitle(ds.attrs.get("title", ""))
+    return figure, list(zip(axes[0], views, strict=True))
+
+
+def _unit(variable: xr.DataArray) -> str:
+    unit = variable.attrs.get("units", "")
+    return f" {unit}" if unit not in ("", "1") else ""
+
+
+def fit_figure(ds: xr.Dataset) -> Figure:
+    """A fit: the measured points on the fitted shape, with the fitted values."""
+    data = ds["data_position"].values
+    figure, views = _views(ds, data)
+    for panel, (h, v) in views:
+        panel.plot(data[:, h], data[:, v], ls="none", marker="x", color="k", ms=5,
+                   label="measured points")
+        panel.legend()
+    fitted = ", ".join(f"{short_key(key)} = {float(key_variable(ds, key)):.5g} ± "
+                       f"{float(key_variable(ds, key, 'standard_error')):.2g}"
+                       f"{_unit(key_variable(ds, key))}"
+                       for key in json.loads(ds.attrs["fit_parameters"]))
+    views[0][0].set_title(textwrap.fill(f"fit: {fitted}; residual RMS "
+                                        f"{ds.attrs['residual_rms']:.3g} m", 80))
+    return figure
+
+
+def reach_figure(ds: xr.Dataset) -> Figure:
+    """A reach: the shape that puts the tip nearest the target, the target and the tip."""
+    target = ds["target"].values
+    figure, views = _views(ds, target[None, :])
+    tip = _first_rod_nodes(ds).values[-1]
+    for panel, (h, v) in views:
+        panel.plot(target[h], target[v], marker="*", ms=12, color="r", ls="none",
+                   label="target")
+        panel.plot(tip[h], tip[v], marker="o", mfc="none", ms=9, color="k", ls="none",
+                   label="tip reached")
+        panel.legend()
+    values = ", ".join(f"{short_key(key)} = {float(key_variable(ds, key)):.5g}"
+                       f"{_unit(key_variable(ds, key))}"
+                       for key in json.loads(ds.attrs["reach_parameters"]))
+    views[0][0].set_title(textwrap.fill(f"reach: {values}; distance "
+                                        f"{ds.attrs['distance']:.3g} m", 80))
+    return figure

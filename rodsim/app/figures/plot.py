@@ -1,0 +1,124 @@
+"""Figures from archives: every plot is drawn from a Dataset alone (run or study).
+
+``plot_dataset(ds, stem)`` picks the figure from the archive's ``plot`` attribute (studies),
+its ``kind`` (``track``, ``fit``, ``reach``: docs/inverse.md), or draws the centerlines of a
+single run, and writes ``stem.png`` and ``stem.pdf``.
+Kinds:
+
+- ``centerlines``: the first rod's centerline at every point (Figs. 6, 9, 14–18, 22), with
+  the study's analytic reference for each point when it has one — recomputed from the
+  archive's ``spec_json`` (:func:`reference_centerlines`), the exact elastica drawn with the
+  paper's analytical model (AM) on it for the hanging-mass scenes. With two or more swept
+  parameters the colour follows the last one and the line style the others (Fig. 9: one
+  colour per mass, one style per stiffness tensor). A second panel gives the tip's y against
+  the first numeric swept parameter.
+- ``error_vs_parameter``: tip and area errors against the first swept parameter, log–log
+  (Fig. 7, convergence studies), one line per value of the second swept parameter and, with
+  three or more, one panel per value of the last.
+- ``error_vs_iteration``: tip error against the reference per step (Fig. 8), one line per
+  value of the first swept parameter, one panel per value of the others.
+"""
+
+
+from __future__ import annotations
+
+import warnings
+from collections.abc import Iterable
+from pathlib import Path
+
+import xarray as xr
+from matplotlib.figure import Figure
+
+from rodsim.app.figures import labels, view3d
+from rodsim.app.figures.inverse import (
+    fit_figure,
+    out_of_plane,
+    reach_figure,
+    run_figure,
+    track_figure,
+)
+from rodsim.app.figures.study_centerlines import centerlines_figure, centerlines_result
+from rodsim.app.figures.study_errors import (
+    error_vs_iteration_figure,
+    error_vs_iteration_result,
+    error_vs_parameter_figure,
+    error_vs_parameter_result,
+)
+from rodsim.app.figures.style import style
+from rodsim.app.figures.writer import HTML, PlotError, check_output, html_target, write_figure
+from rodsim.io.cf_layout import from_file
+
+__all__ = ["PLOT_KINDS", "plot_dataset", "draw_figure", "three_dimensional"]
+
+PLOT_KINDS = ("centerlines", "error_vs_parameter", "error_vs_iteration")
+#: The figure of each study plot kind.
+DRAWERS = {"centerlines": centerlines_figure, "error_vs_parameter": error_vs_parameter_figure,
+           "error_vs_iteration": error_vs_iteration_figure}
+#: The measured result of each study figure, one line computed from the archive.
+RESULTS = {"centerlines": centerlines_result, "error_vs_parameter": error_vs_parameter_result,
+           "error_vs_iteration": error_vs_iteration_result}
+#: Figures of the inverse tools' archives, by their ``kind`` attribute.
+KIND_DRAWERS = {"track": track_figure, "fit": fit_figure, "reach": reach_figure}
+
+
+def plot_dataset(ds: xr.Dataset, stem: str | Path, formats: Iterable[str] = ("png", "pdf")
+                 ) -> list[Path]:
+    """Draw the archive's figure and write ``stem.<format>`` for each format.
+
+    The formats and the folder are checked first (:func:`check_output`); a format that
+    fails to write (e.g. ``pgf`` without LaTeX) leaves no partial file. Raises
+    :class:`PlotError`.
+    """
+    formats = check_output(stem, formats)
+    ds = from_file(ds)
+    html = HTML in formats
+    formats = [fmt for fmt in formats if fmt != HTML]
+    if html and "study" in ds.attrs:
+        raise PlotError("the interactive 3D view (html) is drawn for run, track, fit and "
+                        "reach archives, not studies")
+    paths = []
+    if html:
+        try:
+            paths.append(view3d.write_html(ds, html_target(stem)))
+        except OSError as exc:
+            raise PlotError(f"cannot write {stem}.{HTML}: {exc.strerror or exc}") from None
+    if not formats:
+        return paths
+    with warnings.catch_warnings():  # a character the font lacks is drawn as a box
+        warnings.filterwarnings("ignore", message="Glyph .* missing from font",
+                                category=UserWarning)
+        with style():
+            return write_figure(draw_figure(ds), stem, formats) + paths
+
+
+def three_dimensional(ds: xr.Dataset) -> bool:
+    """Whether a run, track, fit or reach archive's shapes leave the x–y plane (then
+    ``rodsim plot`` adds the interactive 3D view when plotly is installed)."""
+    if "study" in ds.attrs or "position" not in ds:
+        return False
+    return out_of_plane(ds["position"].values)
+
+
+def draw_figure(ds: xr.Dataset) -> Figure:
+    """The archive's figure, not written (the caller closes it); draw it inside
+    :func:`style`. A study figure's title states the measured result (:data:`RESULTS`).
+    Raises :class:`PlotError` for an unknown plot kind, and for a study in which every
+    point failed (rodsim writes such archives: there is no shape or error to draw). A Dataset
+    opened with plain xarray from a schema 3 file gets its labels back first
+    (:func:`rodsim.io.cf_layout.from_file`)."""
+    ds = from_file(ds)
+    if "study" in ds.attrs:
+        kind = ds.attrs.get("plot", "centerlines")
+        if not isinstance(kind, str) or kind not in DRAWERS:
+            raise PlotError(f"unknown plot kind {str(kind)[:40]!r}; known: "
+                            f"{', '.join(DRAWERS)}")
+        if not bool((ds["status"] == 0).any()):
+            raise PlotError(f"every one of the {int(ds['status'].size)} points of study "
+                            f"{str(ds.attrs['study'])[:40]!r} failed: nothing to draw (the "
+                            "archive's 'message' variable says why)")
+        figure = DRAWERS[kind](ds)
+        labels.study_title(figure, ds, RESULTS[kind](ds))
+        return figure
+    if ds.attrs.get("kind") in KIND_DRAWERS:
+        return KIND_DRAWERS[ds.attrs["kind"]](ds)
+    return run_figure(ds)
