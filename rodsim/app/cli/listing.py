@@ -21,8 +21,23 @@ def cmd_terms(args: argparse.Namespace) -> int:
     from rodsim.core.terms import registered_terms
 
     for name, term in registered_terms().items():
-        where = "rods.<rod>" if term.scope == "rod" else "tendons.<tendon rod>"
-        print(f"{name:<20s} {term.equation}  [{where}.terms]")
+        print(f"{term_label(name, term):<20s} {term.equation}  [{term_place(term)}]")
         for parameter in term.parameters:
             print(f"    {parameter.help()}")
     return EXIT_OK
+
+
+def term_label(name: str, term: type) -> str:
+    """The scene key a term answers, with the variant's registry name when several terms
+    share the key (the lumen: ``lumen (lumen_conserving)``, chosen by the tendon's
+    coupling)."""
+    return term.key if term.key == name else f"{term.key} ({name})"
+
+
+def term_place(term: type) -> str:
+    """Where a scene asks for the term: a rod's or a tendon's ``terms`` list, or a table
+    of its own (contact: ``[obstacles.<name>]``)."""
+    if term.scene_table:
+        return f"[{term.scene_table}.<name>]"
+    return ("rods.<rod>" if term.scope == "rod" else "tendons.<tendon rod>") + ".terms"
+

@@ -58,8 +58,11 @@ def scene_keys_help() -> str:
              "  rods.<rod>:"]
     lines += [f"    {p.help()}" for p in ROD_PARAMETERS]
     for name, term in registered_terms().items():
-        where = "rods.<rod>" if term.scope == "rod" else "tendons.<tendon rod>"
-        prefix = f"{where}.{name}"
+        if term.scene_table:
+            prefix = f"{term.scene_table}.<name>"
+        else:
+            where = "rods.<rod>" if term.scope == "rod" else "tendons.<tendon rod>"
+            prefix = f"{where}.{term.key}" + ("" if term.key == name else f" ({name})")
         if term.parameters:
             lines.append(f"  {prefix}:  [{term.equation}]")
             lines += [f"    {p.help()}" for p in term.parameters]
