@@ -113,10 +113,8 @@ def solve(scene: SceneLike | None = None, integrator: str | None = None, *,
                 sum(rod.nodes for rod in loaded.rods.values())))
         except AssemblyBudgetExceeded as exc:
             return _assembly_failure(loaded, name, exc)
-    runner = integrators[name](model, integrators[name].options_of(loaded), solver.tolerance,
-                               solver.max_wall_time, progress, budget_start=started,
-                               initial_state=initial_state)
-    return runner.solve()
+    runner = integrators[name].for_scene(loaded, progress)
+    return runner.solve(model, initial_state, budget_start=started)
 
 
 def _assembly_failure(scene: Scene, integrator: str, exc: AssemblyBudgetExceeded) -> Result:

@@ -84,18 +84,18 @@ import numpy as np
 from rodsim.core.model import Model
 from rodsim.core.schema import Parameter
 from rodsim.solvers.base import Integrator, Outcome
+from rodsim.solvers.penalties import DEFAULT_PENALTY_RATIO, penalty_scales, with_registration_of
+from rodsim.solvers.run_state import RunState
 
 #: First load increment of a non-conservative model loaded with its penalties lowered (when
 #: ``first_load_step`` is larger): see the module docstring.
 NONCONSERVATIVE_FIRST_STEP = 0.25
-#: Default of ``penalty_ratio`` (also the CVODE finish's, rodsim/solvers/sundials.py).
-DEFAULT_PENALTY_RATIO = 1e3
 #: ``retraction`` choices: :meth:`Model.step` (the default, every shipped scene's numbers)
 #: or :meth:`Model.turned_step`.
 RETRACTIONS = ("lengths", "frames")
 
 
-class Static(Integrator):
+class Static(Integrator[RunState]):
     """Newton–Raphson with load continuation on F(x) = 0."""
 
     name = "static"
@@ -118,116 +118,109 @@ class Static(Integrator):
                   choices=RETRACTIONS),
     )
 
-    def advice(self) -> str:
+    def advice(self, run: RunState | None = None) -> str:
         return ("try a smaller solver.static.first_load_step or min_load_step, or a "
                 "pseudo-dynamic integrator (cvode)")
 
-    def advance(self) -> Outcome:
-        if self.warm:
-            converged, x = self._newton_registered(self.start_state, True)
+    def advance(self, run: RunState) -> Outcome:
+        if run.warm:
+            converged, x = self._newton_registered(run, run.start, True)
             if converged:
                 return Outcome(x, True, "converged (warm start)")
-            self.model = self.base_model
-        base = self.base_model
-        penalties = {k: self.options.penalty_ratio / term.penalty_ratio
-                     for k, term in enumerate(base.terms)
-                     if term.penalty and term.penalty_ratio > self.options.penalty_ratio}
+            run.model = run.base_model
+        base = run.base_model
+        penalties = penalty_scales(base, self.options.penalty_ratio)
         # Stiff penalties are lowered for loading straight away, with or without an energy to
         # line-search on: a first attempt at the full penalties was measured wasteful on
         # both kinds (module docstring).
         if not penalties:
-            return self._load_continuation(base)
+            return self._load_continuation(run, base)
         # Stiff penalties: load with them lowered, then raise them to their values at once;
         # if Newton fails there, raise them tenfold per step from the last scales reached.
         scales = dict(penalties)
-        outcome = self._load_continuation(base.with_term_scales(scales),
+        outcome = self._load_continuation(run, base.with_term_scales(scales),
                                           None if base.conservative else NONCONSERVATIVE_FIRST_STEP)
         factor = np.inf
         while outcome.success and min(scales.values()) < 1.0:
             trial = {k: min(1.0, factor * scale) for k, scale in scales.items()}
             smallest = min(trial.values())
             # Same registration as reached, new penalty scales.
-            model = self.model
-            self.model = self._with_registration_of(base.with_term_scales(trial))
+            model = run.model
+            run.model = with_registration_of(base.with_term_scales(trial), model)
             where = f"penalty scale {smallest:.3g}"
-            self.check_budget(where)
-            converged, x = self._newton_registered(outcome.x, smallest >= 1.0)
-            self.counts["steps"] += 1
+            self.check_budget(run, where)
+            converged, x = self._newton_registered(run, outcome.x, smallest >= 1.0)
+            run.counts["steps"] += 1
             if not converged:
                 if factor > 10.0:  # the jump failed: back, and tenfold per step
-                    self.model, factor = model, 10.0
+                    run.model, factor = model, 10.0
                     continue
-                self.checkpoint(x, where)
+                run.checkpoint(x, where)
                 return Outcome(outcome.x, False, "Newton did not converge while raising the "
                                "penalty constants")
-            self.checkpoint(x, where)
+            run.checkpoint(x, where)
             scales = trial
             outcome = Outcome(x, True, "converged")
         return outcome
 
-    def _with_registration_of(self, model: Model) -> Model:
-        """``model`` (same terms, other scales) with the registration of :attr:`model`."""
-        terms = [current if current.dynamic else term
-                 for current, term in zip(self.model.terms, model.terms, strict=True)]
-        if all(a is b for a, b in zip(terms, model.terms, strict=True)):
-            return model
-        return model.with_terms(terms)
-
-    def _load_continuation(self, model: Model, first_step: float | None = None) -> Outcome:
+    def _load_continuation(self, run: RunState, model: Model,
+                           first_step: float | None = None) -> Outcome:
         """Apply the loads to ``model`` in increments from its rest state and registration;
         the first increment is ``first_load_step``, or ``first_step`` if smaller."""
-        self.model = model
-        counts = self.counts
+        run.model = model
+        counts = run.counts
         x = model.x0
         load, step = 0.0, min(self.options.first_load_step, first_step or 1.0)
         # Only the last solve (full load, penalties at their values) is polished.
         final = bool(np.all(model.term_scales == 1.0))
         # At full load the run ends once the registration settles (exact re-registration);
         # if a parent changes there, Newton goes on at full load from the same state.
-        while load < 1.0 or not self.settled(x):
+        while load < 1.0 or not run.settled(x):
             target = min(1.0, load + step)
-            self.check_budget(f"load fraction {target:.4g}")
-            converged, x_new, iterations = self._newton(x, target, final and target >= 1.0)
+            self.check_budget(run, f"load fraction {target:.4g}")
+            converged, x_new, iterations = self._newton(run, x, target,
+                                                        final and target >= 1.0)
             if not converged:
                 step *= 0.25
                 if step < self.options.min_load_step:
                     return Outcome(x, False, f"Newton did not converge at load fraction "
                                    f"{target:.4g} and the load step fell below min_load_step")
                 continue
-            if self.reregister(x_new):
+            if run.reregister(x_new):
                 x = x_new  # a tendon point changed parent: solve again at this load
                 continue
             x, load = x_new, target
             counts["steps"] += 1
-            self.checkpoint(x, f"load fraction {load:.4g}")
-            self.history.record(load, x, self.residual(x))
+            run.checkpoint(x, f"load fraction {load:.4g}")
+            run.history.record(load, x, run.residual(x))
             self.report(load, f"static: load {load:.3f}, {counts['newton_iters']} Newton "
                         "iterations")
             if iterations <= 6:
                 step = min(1.0, 2.0 * step)
         return Outcome(x, True, "converged")
 
-    def _newton_registered(self, x: np.ndarray, final: bool) -> tuple[bool, np.ndarray]:
+    def _newton_registered(self, run: RunState, x: np.ndarray,
+                           final: bool) -> tuple[bool, np.ndarray]:
         """Newton at full load, repeated from its result while the tendon registration
         changes (and, when ``final``, until it settles without hysteresis)."""
         while True:
-            self.check_budget("full load")
-            converged, x, _ = self._newton(x, 1.0, final)
+            self.check_budget(run, "full load")
+            converged, x, _ = self._newton(run, x, 1.0, final)
             if not converged:
                 return False, x
-            if self.reregister(x):
+            if run.reregister(x):
                 continue
-            if not final or self.settled(x):
+            if not final or run.settled(x):
                 return True, x
 
-    def _newton(self, x: np.ndarray, load: float,
+    def _newton(self, run: RunState, x: np.ndarray, load: float,
                 polish: bool = True) -> tuple[bool, np.ndarray, int]:
         """Newton iterations at a fixed load (polished past the tolerance when ``polish``:
         intermediate steps need not be), through the retraction the options name, counted;
         returns (converged, x, iterations)."""
         converged, x, iterations = self.newton_equilibrium(
-            x, load, self.options.max_newton, f"load fraction {load:.4g}", polish,
+            run, x, load, self.options.max_newton, f"load fraction {load:.4g}", polish,
             retraction=self.options.retraction)
-        self.counts["newton_iters"] += iterations
-        self.counts["linear_solves"] += iterations
+        run.counts["newton_iters"] += iterations
+        run.counts["linear_solves"] += iterations
         return converged, x, iterations

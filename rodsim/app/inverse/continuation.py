@@ -245,8 +245,7 @@ class Continuation:
         if self.deadline is not None:  # the integrator's own budget: what is left of ours
             budget = min(budget, max(self.deadline - time.perf_counter(), 0.0))
         kind = registered_integrators()[self.integrator]
-        result: Result = kind(model, kind.options_of(scene), scene.solver.tolerance, budget,
-                              None, initial_state=x).solve()
+        result: Result = kind.for_scene(scene, max_wall_time=budget).solve(model, x)
         steps = int(result.stats["steps"])
         if not result.success:
             return StepOutcome(False, x, result.residual, steps, result.message), model
