@@ -18,6 +18,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, NoReturn
 
 from rodsim.app.threads import pin_threads
+from rodsim.solvers import DEFAULT_INTEGRATOR
 from rodsim.version import __version__
 
 if TYPE_CHECKING:
@@ -430,7 +431,7 @@ def cmd_fit(args: argparse.Namespace) -> int:
     from rodsim.app.progress import ProgressPrinter
     from rodsim.core.scene import SceneError
 
-    scene = _load_scene_or_fail(args.scene, args.set, "static")
+    scene = _load_scene_or_fail(args.scene, args.set, DEFAULT_INTEGRATOR)
     output = _output_path(args.output, f"{scene.name}-fit.nc")
     stem = _check_outputs(output)
     try:
@@ -505,7 +506,7 @@ def cmd_reach(args: argparse.Namespace) -> int:
     from rodsim.app.progress import ProgressPrinter
     from rodsim.core.scene import SceneError
 
-    scene = _load_scene_or_fail(args.scene, args.set, "static")
+    scene = _load_scene_or_fail(args.scene, args.set, DEFAULT_INTEGRATOR)
     output = _output_path(args.output, f"{scene.name}-reach.nc")
     stem = _check_outputs(output)
     progress = ProgressPrinter()
@@ -831,7 +832,7 @@ def build_parser() -> argparse.ArgumentParser:
                         metavar="KEY=START:STOP:COUNT",
                         help="ramp a numeric scene value (KEY as for --set; KEY[i] for a "
                         "vector component), e.g. --ramp tendon_actuation.force=0:4:101")
-    follow.add_argument("--integrator", metavar="NAME", default="static",
+    follow.add_argument("--integrator", metavar="NAME", default=DEFAULT_INTEGRATOR,
                         help="a registered integrator, listed by `rodsim run --help` "
                         "(default: static)")
     follow.add_argument("--allow-unstable", action="store_true",

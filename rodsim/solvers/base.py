@@ -44,15 +44,11 @@ if TYPE_CHECKING:
     from rodsim.core.scene import Scene
 
 __all__ = ["Integrator", "Outcome", "Progress", "RunState", "History", "SolverFailure",
-           "INTEGRATORS", "DEFAULT_INTEGRATOR", "MAX_RESIDUAL_FLOOR", "MAX_SETTLES",
+           "INTEGRATORS", "MAX_RESIDUAL_FLOOR", "MAX_SETTLES",
            "CORRECTION_TOLERANCE"]
 
 #: Every defined integrator class, by name. Filled by ``Integrator.__init_subclass__``.
 INTEGRATORS: dict[str, type[Integrator[Any]]] = {}
-
-#: The integrator a track, a fit, a reach or a warm re-solve uses unless told otherwise (and
-#: the command line's default): the direct Newton solve, the exact discrete equilibrium.
-DEFAULT_INTEGRATOR = "static"
 
 #: Progress callback: (fraction done in [0, 1] or None, one-line status).
 Progress = Callable[[float | None, str], None]
@@ -132,6 +128,10 @@ class Integrator(ABC, Generic[S]):
     history_time: ClassVar[tuple[str, str]] = ("s", "pseudo-time after each step")
     #: The class of this integrator's run state.
     State: ClassVar[type[RunState]] = RunState
+    #: Whether a continuation step benefits from a predicted start (the secant predictor of
+    #: rodsim/app/inverse/track.py): a Newton solve does; a pseudo-dynamics run from a
+    #: predicted state was not measured, and starts from the last equilibrium.
+    takes_predictor: ClassVar[bool] = False
 
     #: The frozen dataclass of this integrator's options, one typed field per declared
     #: parameter (made from :attr:`parameters` when the class is defined).
@@ -179,11 +179,30 @@ class Integrator(ABC, Generic[S]):
         self.prepare(state)  # type: ignore[arg-type]
         return state  # type: ignore[return-value]
 
-    def restart(self, state: S, model: Model | None = None,
-                budget_start: float | None = None) -> S:
-        """A new run's state from a returned one: its equilibrium ``state.x`` warm-starts a
-        run on ``model`` (default: the state's model, with its registration)."""
-        return self.init(state.model if model is None else model, state.x, budget_start)
+    def restart(self, previous: RunState | None, model: Model,
+                x: np.ndarray | None = None, budget_start: float | None = None) -> S:
+        """A continuation step's state: a warm start on ``model`` (nearby the model of
+        ``previous``, carrying its registration) from ``x`` (default: the equilibrium
+        ``previous.x``), marked ``continued`` and carrying what :meth:`carry` keeps of
+        ``previous`` (None: nothing, e.g. after a cold run of another integrator)."""
+        if x is None:
+            assert previous is not None, "restart needs a previous state or a start"
+            x = previous.x
+        state = self.init(model, x, budget_start)
+        state.continued = True
+        if previous is not None:
+            self.carry(previous, state)
+        return state
+
+    def carry(self, previous: RunState, state: S) -> None:
+        """Keep what a continuation step reuses of the state a run returned (default:
+        nothing; ``static`` keeps its factorisation)."""
+
+    @classmethod
+    def work(cls, stats: dict[str, float]) -> int:
+        """The work of a run, from its statistics, as track reports it per step: steps
+        here (Newton iterations for ``static``)."""
+        return int(stats["steps"])
 
     def state_fields(self, model: Model, warm: bool) -> dict[str, Any]:
         """The fields of this integrator's own :attr:`State` (beyond :class:`RunState`'s) for
@@ -296,9 +315,11 @@ class Integrator(ABC, Generic[S]):
         on failure): :meth:`init` then :meth:`run`."""
         return self.run(self.init(model, initial_state, budget_start))[0]
 
-    def run(self, run: S) -> tuple[Result, S]:
+    def run(self, run: S, verdict: bool = True) -> tuple[Result, S]:
         """Run the integrator from the state ``run`` to equilibrium: the Result (never raises
-        on failure) and the state reached (its model carries the registration reached)."""
+        on failure) and the state reached (its model carries the registration reached).
+        ``verdict``: give a successful result its stability verdict (a caller assessing the
+        equilibrium itself says False)."""
         run.clock_start = time.perf_counter()
         advice = None
         try:
@@ -351,5 +372,5 @@ class Integrator(ABC, Generic[S]):
             options=dataclasses.asdict(self.options), success=success, message=message,
             residual=residual,
             stats=stats, history=run.history.data, history_time=self.history_time,
-            stability=run.stability(x) if success else None)
+            stability=run.stability(x) if success and verdict else None)
         return result, run

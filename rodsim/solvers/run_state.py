@@ -84,6 +84,8 @@ class RunState:
         The free coordinates the run starts from (``model.x0`` unless a warm start).
     warm
         True when the run starts from a given state (loads in full from the start).
+    continued
+        True for a continuation step (a warm start from a returned state).
     x, where
         The last accepted state and where it was reached (a callable is formatted only when
         a failure report needs it).
@@ -111,6 +113,9 @@ class RunState:
     budget_start: float
     clock_start: float
     where: str | Callable[[], str] = "start"
+    #: True for a continuation step (:meth:`Integrator.restart`): a warm start from the
+    #: state a run returned, on a nearby model, which an integrator may solve more cheaply.
+    continued: bool = False
     note: str = ""
     last_force: np.ndarray | None = None
     _linear: tuple[Model, LinearSolver] | None = field(default=None, repr=False)
@@ -137,11 +142,12 @@ class RunState:
         return replace(self, **changes)
 
     # ------------------------------------------------------ counted evaluations
-    def force(self, x: np.ndarray, load: float = 1.0) -> np.ndarray:
-        """F(x) on :attr:`model`, counted; SolverFailure on a non-finite value."""
+    def force(self, x: np.ndarray, load: float = 1.0, check: bool = True) -> np.ndarray:
+        """F(x) on :attr:`model`, counted; SolverFailure on a non-finite value (unless not
+        ``check``: a caller that tests the value itself)."""
         self.counts["force_evals"] += 1
         f = self.model.force(x, load)
-        if not np.all(np.isfinite(f)):
+        if check and not np.all(np.isfinite(f)):
             raise SolverFailure("the force became non-finite (NaN or inf)")
         return f
 

@@ -79,13 +79,18 @@ rest with the continuations above.
 
 from __future__ import annotations
 
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Any
+
 import numpy as np
 
 from rodsim.core.model import Model
 from rodsim.core.schema import Parameter
 from rodsim.solvers.base import Integrator, Outcome
+from rodsim.solvers.newton import NewtonProblem, newton
 from rodsim.solvers.penalties import DEFAULT_PENALTY_RATIO, penalty_scales, with_registration_of
-from rodsim.solvers.run_state import RunState
+from rodsim.solvers.run_state import MAX_SETTLES, RunState
 
 #: First load increment of a non-conservative model loaded with its penalties lowered (when
 #: ``first_load_step`` is larger): see the module docstring.
@@ -93,10 +98,27 @@ NONCONSERVATIVE_FIRST_STEP = 0.25
 #: ``retraction`` choices: :meth:`Model.step` (the default, every shipped scene's numbers)
 #: or :meth:`Model.turned_step`.
 RETRACTIONS = ("lengths", "frames")
+#: Chord iterations (kept factorisation) a continuation step tries before Newton.
+MAX_CHORD = 10
+#: Newton iterations a continuation step may take (per registration), whatever
+#: ``max_newton`` (the budget of a cold load step) says: a step that needs more is retried
+#: smaller by the caller.
+CONTINUATION_NEWTON = 30
 
 
-class Static(Integrator[RunState]):
+@dataclass(eq=False, kw_only=True)
+class StaticState(RunState):
+    """A static run's state, with the factorisation a continuation step keeps: (the
+    Jacobian pattern it belongs to, its solve), or None."""
+
+    factor: tuple[Any, Callable[[np.ndarray], np.ndarray]] | None = None
+
+
+class Static(Integrator[StaticState]):
     """Newton–Raphson with load continuation on F(x) = 0."""
+
+    State = StaticState
+    takes_predictor = True
 
     name = "static"
     summary = "Newton on F(x) = 0 with the analytic Jacobian and load continuation"
@@ -119,10 +141,27 @@ class Static(Integrator[RunState]):
     )
 
     def advice(self, run: RunState | None = None) -> str:
+        if run is not None and run.continued:
+            return "try smaller parameter steps (the last equilibrium is too far away)"
         return ("try a smaller solver.static.first_load_step or min_load_step, or a "
                 "pseudo-dynamic integrator (cvode)")
 
-    def advance(self, run: RunState) -> Outcome:
+    @classmethod
+    def work(cls, stats: dict[str, float]) -> int:
+        return int(stats["newton_iters"] + stats.get("chord_iters", 0))
+
+    def carry(self, previous: RunState, state: StaticState) -> None:
+        """A continuation step keeps the factorisation and the linear solver of the last
+        step while the Jacobian pattern is the same."""
+        if isinstance(previous, StaticState):
+            state.factor = previous.factor
+        linear = previous._linear
+        if linear is not None and linear[0].pattern is state.model.pattern:
+            state._linear = state.model, linear[1]
+
+    def advance(self, run: StaticState) -> Outcome:
+        if run.continued:
+            return self._continuation_step(run)
         if run.warm:
             converged, x = self._newton_registered(run, run.start, True)
             if converged:
@@ -163,7 +202,76 @@ class Static(Integrator[RunState]):
             outcome = Outcome(x, True, "converged")
         return outcome
 
-    def _load_continuation(self, run: RunState, model: Model,
+    def _continuation_step(self, run: StaticState) -> Outcome:
+        """A continuation step (:meth:`Integrator.restart`: a nearby model, from a nearby
+        equilibrium or a predictor): chord iterations with the kept factorisation
+        (:meth:`_chord`), then, if they stall, Newton at full load (the analytic Jacobian,
+        band solves and line search; x + Δx, not polished past the tolerance); either
+        repeated while the registration changes, until it settles without hysteresis. No
+        load or penalty continuation and no fall-back to a cold start: a warm step costs a
+        few iterations, and a failed one is the caller's to retry with a smaller step
+        (rodsim/app/inverse/continuation.py)."""
+        x = run.start
+        counts = run.counts
+        counts["chord_iters"] = 0
+        run.where = "a continuation step"
+        for _ in range(MAX_SETTLES + 1):
+            self.check_budget(run, "a continuation step")
+            chord = self._chord(run, x)
+            if chord is not None:
+                x = chord
+                run.checkpoint(x, "a continuation step (chord iterations)")
+                if not run.reregister(x, exact=True):
+                    counts["steps"] += 1
+                    return Outcome(x, True, "converged")
+                continue
+            model = run.model
+            problem = NewtonProblem(
+                force=run.force, jacobian=run.jacobian_data, linear=run.linear_solver(),
+                residual=model.residual, weight=model.residual_weight,
+                potential=model.energy if model.conservative else None)
+            solved = newton(problem, x, run.tolerance, CONTINUATION_NEWTON, polish=False,
+                            check=self.iteration_check(run, "a continuation step"))
+            counts["newton_iters"] += solved.iterations
+            counts["linear_solves"] += solved.iterations
+            if not solved.converged:
+                return Outcome(x, False, f"Newton did not converge: {solved.message}")
+            x = solved.x
+            run.checkpoint(x, "a continuation step (Newton)")
+            if not run.reregister(x, exact=True):
+                counts["steps"] += 1
+                return Outcome(x, True, "converged")
+        return Outcome(x, False, "the tendon registration did not settle")
+
+    def _chord(self, run: StaticState, x: np.ndarray) -> np.ndarray | None:
+        """Chord iterations x ← x − J₀⁻¹F(x) with a factorisation J₀ kept from an earlier
+        equilibrium of the same Jacobian pattern (factored here if there is none): each
+        costs an evaluation of F and a band back-substitution instead of F, J and a band
+        factorisation. Returns x once the residual is below the tolerance, or None — and
+        drops J₀ — as soon as an iteration fails to halve it (J₀ too far from the current
+        Jacobian): Newton then takes over."""
+        model = run.model
+        if run.factor is None or run.factor[0] is not model.pattern:
+            solve = run.linear_solver().factorized(run.jacobian_data(x))
+            if solve is None:
+                return None
+            run.factor = model.pattern, solve
+        solve = run.factor[1]
+        previous = np.inf
+        for iteration in range(MAX_CHORD):
+            f = run.force(x, check=False)
+            residual = model.residual(f) if np.all(np.isfinite(f)) else np.inf
+            if residual < run.tolerance:
+                run.counts["chord_iters"] += iteration
+                return x
+            if not residual < 0.5 * previous:
+                break
+            previous = residual
+            x = x - solve(f)
+        run.factor = None  # iterations that led nowhere are not counted
+        return None
+
+    def _load_continuation(self, run: StaticState, model: Model,
                            first_step: float | None = None) -> Outcome:
         """Apply the loads to ``model`` in increments from its rest state and registration;
         the first increment is ``first_load_step``, or ``first_step`` if smaller."""
@@ -199,7 +307,7 @@ class Static(Integrator[RunState]):
                 step = min(1.0, 2.0 * step)
         return Outcome(x, True, "converged")
 
-    def _newton_registered(self, run: RunState, x: np.ndarray,
+    def _newton_registered(self, run: StaticState, x: np.ndarray,
                            final: bool) -> tuple[bool, np.ndarray]:
         """Newton at full load, repeated from its result while the tendon registration
         changes (and, when ``final``, until it settles without hysteresis)."""
@@ -213,7 +321,7 @@ class Static(Integrator[RunState]):
             if not final or run.settled(x):
                 return True, x
 
-    def _newton(self, run: RunState, x: np.ndarray, load: float,
+    def _newton(self, run: StaticState, x: np.ndarray, load: float,
                 polish: bool = True) -> tuple[bool, np.ndarray, int]:
         """Newton iterations at a fixed load (polished past the tolerance when ``polish``:
         intermediate steps need not be), through the retraction the options name, counted;
