@@ -50,11 +50,8 @@ class Ida(SundialsIntegrator):
     quaternion_norm = ("algebraic constraint |q|² = 1 per quaternion with a multiplier, "
                        "Baumgarte-stabilised to index 1")
     # The constrained Newton finish (a merit line search: no energy to minimise) fails more
-    # often from far away than CVODE's: measured with switch 0.1 / 0.03 / 0.01 / 0 on
-    # table1-50g 24.8 / 13.2 / 21.6 / 19.4 ms (the 0.1 run wastes one 20-iteration attempt;
-    # re-measured after the homotopy finish: 0.1 / 0.03 / 0.01 44 / 17 / 18 ms, table1-100g
-    # 25 / 18 / 22 ms). The tendon scenes, where the homotopy finish succeeds from 0.1,
-    # declare 0.1 and a step load (docs/benchmarks.md, "CVODE and IDA on the tendon scenes").
+    # often from far away than CVODE's, hence a smaller default switch (docs/benchmarks.md,
+    # "IDA: the default newton_switch = 0.03").
     parameters = tuple(replace(p, default=0.03) if p.name == "newton_switch" else p
                        for p in PSEUDO_DYNAMICS_PARAMETERS)
 
@@ -105,8 +102,8 @@ class Ida(SundialsIntegrator):
         positions first go to the equilibrium of F(x) = 0 with the penalties lowered, by
         the residual homotopy CVODE's finish uses (:meth:`SundialsIntegrator.at_lowered_penalties`);
         the constrained Newton at the full penalties starts there. Without it, Newton at the
-        full penalties failed until IDA had integrated much closer (measured on
-        table3-catheter1: 4 finish attempts and 214 steps with a step load)."""
+        full penalties failed until IDA had integrated much closer (docs/benchmarks.md,
+        "CVODE and IDA: the Newton finish")."""
         converged, x, iterations = self.at_lowered_penalties(run,
                                                              run.system.positions_of(y))
         if not converged:

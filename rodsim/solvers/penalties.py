@@ -56,11 +56,8 @@ def homotopy(run: RunState, x: np.ndarray, max_iterations: int,
     F(y) − (1 − λ) F(x) = 0 (x solves it at λ = 0) for λ rising in steps from
     :data:`HOMOTOPY_FIRST_STEP`, quartered after a failure and doubled after an easy step, as
     ``static``'s load continuation; every evaluation through the run's counted ones,
-    ``check(λ)`` the per-iteration callback. (converged, state, iterations).
-
-    Measured on table3-catheter1 (first finish at step 146, residual 2.4e-2): first step 1/2
-    13 iterations, 1/4 18, 1/8 21, 1 (plain Newton first) 38; CVODE 264 → 146 steps, the
-    finish 35 → 23 iterations."""
+    ``check(λ)`` the per-iteration callback. (converged, state, iterations). The first step
+    was measured: docs/benchmarks.md, "CVODE and IDA: the Newton finish"."""
     model = run.model
     start = run.force(x)
     lam, step, total = 0.0, HOMOTOPY_FIRST_STEP, 0

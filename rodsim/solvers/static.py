@@ -7,74 +7,35 @@ rodsim/solvers/linear.py) and a backtracking line search
 (rodsim/solvers/newton.py). If Newton does not converge at full load, the external
 loads are applied in increments λ ∈ (0, 1] (load continuation), cutting the increment on
 failure and growing it after easy steps. Newton steps through the retraction
-:meth:`Model.step` (below).
+:meth:`Model.step` (each segment and the endpoint coupling keep the length the
+linearisation predicts).
 
 Penalty continuation: when the centerline penalty dwarfs bending at the scale of a segment
 (K_P l² / (E I) above ``penalty_ratio``), Newton from the rest state may converge only
 linearly — a linear quaternion update leaves the penalty's constraint manifold by O(δ²),
-which K_P amplifies. The loads are then applied with those penalties lowered to that ratio,
-which are then raised back to their values (at once; tenfold per step if that fails), each
-step a short Newton solve from the last. On a conservative model this used to be a fallback
-after 20 × max_newton Newton iterations at the full penalties; going there straight away
-was measured on the same equilibria (≤ 1.3e-15 m apart): table1-100g with K_P = 1e8
-748 → 131 iterations (582 → 21 ms), at N = 160 1405 → 786, K_P = 1e6 276 → 255,
-tendon-conserving 17 → 14, four-tendons 6 → 4; scenes without stiff penalties (Table 1 at
-its K_P) are not affected.
-
-A non-conservative model (the paper's tendon coupling) has no energy for the line search, and
-there the stiff penalties were lowered from the start already. Measured on table3-catheter1 (the
-tendon's centerline penalty has K_P l²/(E I) = 6.8e9): at full K_P, load continuation took
-227 Newton iterations; with the penalty lowered first and raised tenfold per step, 88 — 30
-in a failed attempt at full load, 44 loading in steps of 1/4 and 1/2 (15, 10 + 3 after a
-re-registration, 16), 14 raising K_P (7 steps of 2: one Newton step and one polishing
-iteration that gains nothing); no line-search backtracking outside the failed attempt.
-
-Where those iterations went: a linear Newton step that turns a stiff link of fixed length
-stretches it by O(δ²). The endpoint coupling (K_C, a spring of rest length r_L with no
-tension at rest) gave residuals 20–40× the loads after the first step, the catheter's
-segments (stretch and the centerline penalty) after later ones. Newton now steps through
-the retraction :meth:`Model.step` (each segment and the coupling keep the length the
-linearisation predicts), which converges a load step of 1/4 in 6 iterations (14 before).
-With it, on table3-catheter1 (catheter2, catheter3; tendon-conserving): 29 (29, 29; 17, 14
-since the conserving scene also loads with its penalties lowered) iterations, against 88
-(86, 83; 21) — on the same equilibria to 1e-14 L:
-
-- retraction of the coupling alone: 42 → 30 (the segments' retraction: 30 → 29, and 20 → 17
-  on tendon-conserving);
-- a non-conservative model loaded with lowered penalties starts at a load step of
-  :data:`NONCONSERVATIVE_FIRST_STEP` = 1/4: the attempt at full load fails in 30 iterations
-  (the watchdog returns to the start six times), and 1/2 and 1/8 were measured worse on
-  catheter1 (64 / 37);
-- the penalties are raised to their values in one step (2–3 iterations from the lowered
-  equilibrium, which is next to the full one); tenfold steps only if that fails;
-- intermediate solves are not polished past the tolerance; only the last one is.
-
-Tried and dropped: retracting the quaternions onto the norm the linearisation predicts (worse:
-66–104 iterations, the direction error of the linear quaternion update remains); secant and
-quadratic predictors across load steps, and looser tolerances on intermediate steps (at full
-K_P, before the penalty lowering).
+which K_P amplifies. The loads are then applied with those penalties lowered to that ratio
+(rodsim/solvers/penalties.py), which are then raised back to their values (at once; tenfold
+per step if that fails), each step a short Newton solve from the last. A non-conservative
+model (the paper's tendon coupling: no energy for the line search) loaded with lowered
+penalties starts at a load step of :data:`NONCONSERVATIVE_FIRST_STEP`. Intermediate solves
+are not polished past the tolerance; only the last one is.
 
 ``retraction = "frames"`` (opt-in; the default "lengths" is the retraction above, which
 every shipped scene's stored equilibrium was computed with): each segment turns as a rigid
-frame (:meth:`Model.turned_step`, rodsim/core/rod/retraction.py). With the default, Newton
-crept on tdcr-two-segment: a linear step leaves q off the rotations (|q + Δq|² = |q|² +
-|Δq|²) and turns each edge by atan θ instead of θ, so edge and d3 disagree at O(θ³), which
-the centerline penalty (K_P l²/(E I) = 139) turns into forces: the energy line search
-rejected every other full step (half steps accepted, the energy falling by 1e-3 per
-iteration), the attempt at full load ran out of iterations, and load steps of 1/4 followed.
-Measured (static, CPU, the six tdcr cases of ``rodsim bench string-tendon``): Newton
-iterations 22, 96, 30, 16, 13, 98 → 5, 6, 6, 5, 5, 6; time 40–142 → 31–37 ms, of which the
-model's assembly is about 22 ms. Same equilibria within 4.8e-10 m (the residual floor of
-tdcr: 1.2e-9 L); on the other shipped scenes 14/19/11/15/14 → 8/7/5/6/10 iterations
-(catheter-pull-ring, table1-100g/20g/50g, tendon-conserving), table3's paper coupling
-29/29/29 → 26/25/30 and four-tendons 4 → 5 (the numpy retraction then costs more than the
-iterations save: 21 → 29–42 ms), equilibria within 1e-15 m.
+frame (:meth:`Model.turned_step`, rodsim/core/rod/retraction.py), far fewer iterations
+when segments turn a lot.
+
+Why each of these choices, with the measurements behind them (iterations and times per
+scene, what was tried and dropped): docs/benchmarks.md, "Solver design measurements".
 
 Quaternion norm: held by the centerline penalty Eq. (9) (|d3| = |q|²), as in the model.
 
-Warm start (``initial_state``, rodsim/app/inverse/track.py): Newton at full load from the
-given state, repeated while the registration changes; if that fails, the run starts over from
-rest with the continuations above.
+Warm start (``initial_state``, e.g. the penalty-error estimate of rodsim/app/trust.py):
+Newton at full load from the given state, repeated while the registration changes; if that
+fails, the run starts over from rest with the continuations above. A continuation step
+(:meth:`Integrator.restart`, what track, fit and reach take): chord iterations with the
+factorisation kept from the last step, then Newton if they stall, no fall-back
+(:meth:`Static._continuation_step`).
 """
 
 from __future__ import annotations

@@ -197,10 +197,10 @@ class SundialsIntegrator(Integrator[SundialsState]):
         F(x) = 0; IDA solves its constrained equilibrium instead.
 
         On a non-conservative model whose penalties are stiffer than ``static``'s
-        penalty_ratio (the paper's tendon coupling), Newton at the full penalties does not
-        converge until the residual is ~1e-6 (measured on table3-catheter1: 20 iterations
-        without convergence from 2.4e-2 and from 2.1e-3), nor does Newton with those penalties
-        lowered from 2.4e-2 (20 iterations). So, as ``static`` does, the finish first solves
+        penalty_ratio (the paper's tendon coupling), Newton at the full penalties converges
+        only very close to the equilibrium, and Newton with those penalties lowered does not
+        converge from far either (docs/benchmarks.md, "CVODE and IDA: the Newton finish").
+        So, as ``static`` does, the finish first solves
         with the penalties lowered to that ratio — by residual homotopy, F(x) = (1 − λ) F(x₀)
         for λ from 0 to 1 (rodsim/solvers/penalties.py) — whose equilibrium is next to the
         full one, then Newton at the full penalties from there. Both through the retraction
