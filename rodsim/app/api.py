@@ -21,8 +21,13 @@ import numpy as np
 from rodsim.core.assembly_budget import AssemblyBudget, AssemblyBudgetExceeded
 from rodsim.core.memory import check_memory
 from rodsim.core.model import Model
-from rodsim.core.scene import Scene, SceneError, default_scene_path
-from rodsim.solvers import check_solver_options, integrator_option_keys, registered_integrators
+from rodsim.core.scene import Scene, default_scene_path
+from rodsim.solvers import (
+    check_solver_options,
+    integrator_named,
+    integrator_option_keys,
+    registered_integrators,
+)
 from rodsim.solvers.base import Progress
 from rodsim.solvers.result import Result
 
@@ -102,9 +107,7 @@ def solve(scene: SceneLike | None = None, integrator: str | None = None, *,
     loaded = load_scene(scene, overrides, f"solver.{integrator}" if integrator else "")
     solver = loaded.solver
     name = integrator or solver.integrator
-    integrators = registered_integrators()
-    if name not in integrators:
-        raise SceneError(f"integrator {name!r}: unknown; allowed: " + ", ".join(integrators))
+    kind = integrator_named(name)
     if model is None or model.scene is not loaded:
         check_memory(loaded)
         try:
@@ -113,7 +116,7 @@ def solve(scene: SceneLike | None = None, integrator: str | None = None, *,
                 sum(rod.nodes for rod in loaded.rods.values())))
         except AssemblyBudgetExceeded as exc:
             return _assembly_failure(loaded, name, exc)
-    runner = integrators[name].for_scene(loaded, progress)
+    runner = kind.for_scene(loaded, progress)
     return runner.solve(model, initial_state, budget_start=started)
 
 

@@ -130,7 +130,7 @@ class Ida(SundialsIntegrator):
                                                     run.jacobian_data(system.positions_of(z))))
 
         weight = np.empty(system.size)
-        force_rows = system.v_slot if system.inertial else system.x_slot
+        force_rows = system.force_rows()
         weight[force_rows] = model.residual_weight
         if system.inertial:
             weight[system.x_slot] = 1.0 / (model.length_scale * run.dynamics.omega)

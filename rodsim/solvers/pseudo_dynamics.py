@@ -243,11 +243,11 @@ class ConstrainedSystem:
         n = model.n
         free_of = np.full(model.full_size, -1)
         free_of[model.free] = np.arange(n)
-        groups = []
+        groups: list[np.ndarray] = []
         for rod in model.rods.values():
             index = free_of[rod.layout.quaternion_index]
             groups.extend(row for row in index if np.all(row >= 0))
-        self.quat = np.array(groups, dtype=int).reshape(-1, 4)  # model coords of each q_j
+        self.quat = np.asarray(groups, dtype=np.int64).reshape(-1, 4)  # model coords of each q_j
         # Slot of every variable in y: per model coordinate 1 (or 2 with velocity) slots,
         # and one multiplier after the last coordinate of each quaternion.
         per = 2 if self.inertial else 1
@@ -255,7 +255,7 @@ class ConstrainedSystem:
         after[self.quat[:, 3]] = 1
         start = np.concatenate([[0], np.cumsum(per + after)[:-1]])
         self.x_slot = start
-        self.v_slot = start + 1 if self.inertial else None
+        self.v_slot: np.ndarray | None = start + 1 if self.inertial else None
         self.mu_slot = start[self.quat[:, 3]] + per
         self.size = n * per + len(self.quat)
         self.algebraic = self.mu_slot
@@ -263,7 +263,7 @@ class ConstrainedSystem:
 
     def _build_pattern(self) -> None:
         model, q = self.model, self.quat.ravel()
-        force_row = self.v_slot if self.inertial else self.x_slot
+        force_row = self.force_rows()
         mu = np.repeat(self.mu_slot, 4)
         slots = np.arange(self.size)
         blocks = {
@@ -272,7 +272,7 @@ class ConstrainedSystem:
             "mu_col": (force_row[q], mu),
             "mu_row_x": (mu, self.x_slot[q]),
         }
-        if self.inertial:
+        if self.v_slot is not None:
             blocks["mu_row_v"] = (mu, self.v_slot[q])
             blocks["xv"] = (self.x_slot, self.v_slot)
         pattern = csc_pattern(np.concatenate([r for r, _ in blocks.values()]),
@@ -286,6 +286,10 @@ class ConstrainedSystem:
         self._quat_diagonal = diagonal[np.isin(model.pattern_rows[diagonal], q)]
         self._quat_order = np.argsort(q)  # _quat_diagonal runs over ascending coordinates
         self.band = pattern.band
+
+    def force_rows(self) -> np.ndarray:
+        """The slots of the force rows: the velocities' (inertial) or the positions'."""
+        return self.v_slot if self.v_slot is not None else self.x_slot
 
     def constrained_force(self, y: np.ndarray, force: np.ndarray) -> np.ndarray:
         """F(x) + Gᵀμ: the force whose vanishing is IDA's (constrained) equilibrium."""

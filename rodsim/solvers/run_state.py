@@ -21,7 +21,7 @@ from __future__ import annotations
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field, replace
-from typing import Any
+from typing import Any, Self
 
 import numpy as np
 
@@ -123,7 +123,7 @@ class RunState:
 
     @classmethod
     def new(cls, model: Model, tolerance: float, initial_state: np.ndarray | None = None,
-            budget_start: float | None = None, **fields: Any) -> RunState:
+            budget_start: float | None = None, **fields: Any) -> Self:
         """A fresh state on ``model`` from its rest state or ``initial_state``."""
         now = time.perf_counter()
         start = model.x0 if initial_state is None else np.array(initial_state, dtype=float)
@@ -136,7 +136,7 @@ class RunState:
                    history=History(model), budget_start=now if budget_start is None
                    else budget_start, clock_start=now, **fields)
 
-    def derived(self, **changes: Any) -> RunState:
+    def derived(self, **changes: Any) -> Self:
         """A copy with ``changes`` (its counters shared unless given): for a trial on another
         model (lowered penalties, a finish) that the run adopts or drops."""
         return replace(self, **changes)

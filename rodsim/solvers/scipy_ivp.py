@@ -21,6 +21,7 @@ Quaternion norm: held by the centerline penalty Eq. (9) only (same model as ``st
 
 from __future__ import annotations
 
+import functools
 import math
 from typing import Any
 
@@ -115,7 +116,7 @@ class ScipyIvp(Integrator[RunState]):
                 if ramp(t) < 1.0:  # equilibrium under the full load only
                     residual = max(residual, 2.0 * run.tolerance)
                 last.update(t=t, x=x.copy(), residual=residual)
-                run.checkpoint(last["x"], lambda t=t: f"t = {t:.4g} s")
+                run.checkpoint(last["x"], functools.partial("t = {:.4g} s".format, t))
                 run.history.record(t, x, residual)
                 if self.reporting:
                     self.report(None, f"{self.name} {method}: t = {t:.3g} s, residual "

@@ -23,17 +23,19 @@ a diagnostic.
 from __future__ import annotations
 
 import contextlib
+import functools
 import io
 import sys
 import warnings
 from abc import abstractmethod
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, ClassVar
 
 import numpy as np
 
 from rodsim.core.model import Model
+from rodsim.core.schema import Parameter
 from rodsim.solvers.base import Integrator, Outcome, SolverFailure
 from rodsim.solvers.penalties import DEFAULT_PENALTY_RATIO, homotopy, penalty_scales
 from rodsim.solvers.pseudo_dynamics import (
@@ -104,7 +106,7 @@ class SundialsIntegrator(Integrator[SundialsState]):
     """Shared loop of :class:`~rodsim.solvers.cvode.Cvode` and
     :class:`~rodsim.solvers.ida.Ida`; subclasses build the system and the solver."""
 
-    parameters = PSEUDO_DYNAMICS_PARAMETERS
+    parameters: ClassVar[tuple[Parameter, ...]] = PSEUDO_DYNAMICS_PARAMETERS
     State = SundialsState
 
     def state_fields(self, model: Model, warm: bool) -> dict[str, Any]:
@@ -352,7 +354,8 @@ class SundialsIntegrator(Integrator[SundialsState]):
                                + (f" SUNDIALS: {detail}" if detail else ""))
             t, y, yp = float(out.t), out.y.copy(), getattr(out, "yp", None)
             x = self.positions_of(run, y)
-            run.checkpoint(x, lambda step=step, t=t + elapsed: f"step {step} (t = {t:.4g} s)")
+            run.checkpoint(x, functools.partial("step {} (t = {:.4g} s)".format, step,
+                                                t + elapsed))
             if step % BUDGET_STRIDE == 0:
                 self.check_budget(run, f"step {step} (t = {t + elapsed:.4g} s)")
             if run.reregister(x):
@@ -472,8 +475,9 @@ def jacobian_writer(solver_kind: str, rows: np.ndarray,
     return write
 
 
-def started(name: str, solver_class: type, function: Callable, jacfn: Callable, t: float,
-            *initial: np.ndarray, **options: Any) -> Any:
+def started(name: str, solver_class: type, function: Callable[..., None],
+            jacfn: Callable[..., None] | None, t: float, *initial: np.ndarray,
+            **options: Any) -> Any:
     """A scikit-sundae solver (``CVODE`` or ``IDA``, called ``name`` in diagnostics) with our
     analytic ``jacfn``, initialised at ``t`` from ``initial`` (y, or y and y′). Its warning
     that its own sparse finite-difference Jacobian goes unused is expected and silenced.
