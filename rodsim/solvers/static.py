@@ -14,7 +14,7 @@ Penalty continuation: when the centerline penalty dwarfs bending at the scale of
 (K_P l² / (E I) above ``penalty_ratio``), Newton from the rest state may converge only
 linearly — a linear quaternion update leaves the penalty's constraint manifold by O(δ²),
 which K_P amplifies. The loads are then applied with those penalties lowered to that ratio
-(rodsim/solvers/penalties.py), which are then raised back to their values (at once; tenfold
+(rodsim/solvers/continuation.py), which are then raised back to their values (at once; tenfold
 per step if that fails), each step a short Newton solve from the last. A non-conservative
 model (the paper's tendon coupling: no energy for the line search) loaded with lowered
 penalties starts at a load step of :data:`NONCONSERVATIVE_FIRST_STEP`. Intermediate solves
@@ -49,8 +49,13 @@ import numpy as np
 from rodsim.core.model import Model
 from rodsim.core.schema import Parameter
 from rodsim.solvers.base import Integrator, Outcome
+from rodsim.solvers.continuation import (
+    DEFAULT_PENALTY_RATIO,
+    load_continuation,
+    penalty_scales,
+    with_registration_of,
+)
 from rodsim.solvers.newton import NewtonProblem, newton
-from rodsim.solvers.penalties import DEFAULT_PENALTY_RATIO, penalty_scales, with_registration_of
 from rodsim.solvers.run_state import MAX_SETTLES, RunState
 
 #: First load increment of a non-conservative model loaded with its penalties lowered (when
@@ -234,39 +239,22 @@ class Static(Integrator[StaticState]):
 
     def _load_continuation(self, run: StaticState, model: Model,
                            first_step: float | None = None) -> Outcome:
-        """Apply the loads to ``model`` in increments from its rest state and registration;
-        the first increment is ``first_load_step``, or ``first_step`` if smaller."""
-        run.model = model
-        counts = run.counts
-        x = model.x0
-        load, step = 0.0, min(self.options.first_load_step, first_step or 1.0)
-        # Only the last solve (full load, penalties at their values) is polished.
-        final = bool(np.all(model.term_scales == 1.0))
-        # At full load the run ends once the registration settles (exact re-registration);
-        # if a parent changes there, Newton goes on at full load from the same state.
-        while load < 1.0 or not run.settled(x):
-            target = min(1.0, load + step)
-            self.check_budget(run, f"load fraction {target:.4g}")
-            converged, x_new, iterations = self._newton(run, x, target,
-                                                        final and target >= 1.0)
-            if not converged:
-                step *= 0.25
-                if step < self.options.min_load_step:
-                    return Outcome(x, False, f"Newton did not converge at load fraction "
-                                   f"{target:.4g} and the load step fell below min_load_step")
-                continue
-            if run.reregister(x_new):
-                x = x_new  # a tendon point changed parent: solve again at this load
-                continue
-            x, load = x_new, target
-            counts["steps"] += 1
-            run.checkpoint(x, f"load fraction {load:.4g}")
-            run.history.record(load, x, run.residual(x))
-            self.report(load, f"static: load {load:.3f}, {counts['newton_iters']} Newton "
+        """Apply the loads to ``model`` in increments from its rest state and registration
+        (rodsim/solvers/continuation.py); the first increment is ``first_load_step``, or
+        ``first_step`` if smaller."""
+
+        def newton_at(x: np.ndarray, load: float, polish: bool
+                      ) -> tuple[bool, np.ndarray, int]:
+            return self._newton(run, x, load, polish)
+
+        def progress(load: float) -> None:
+            self.report(load, f"static: load {load:.3f}, {run.counts['newton_iters']} Newton "
                         "iterations")
-            if iterations <= 6:
-                step = min(1.0, 2.0 * step)
-        return Outcome(x, True, "converged")
+
+        return load_continuation(run, model, min(self.options.first_load_step,
+                                                 first_step or 1.0),
+                                 self.options.min_load_step, newton_at,
+                                 lambda where: self.check_budget(run, where), progress)
 
     def _newton_registered(self, run: StaticState, x: np.ndarray,
                            final: bool) -> tuple[bool, np.ndarray]:

@@ -37,7 +37,7 @@ import numpy as np
 from rodsim.core.model import Model
 from rodsim.core.schema import Parameter
 from rodsim.solvers.base import Integrator, Outcome, SolverFailure
-from rodsim.solvers.penalties import DEFAULT_PENALTY_RATIO, homotopy, penalty_scales
+from rodsim.solvers.continuation import DEFAULT_PENALTY_RATIO, homotopy, penalty_scales
 from rodsim.solvers.pseudo_dynamics import (
     BAND_LIMIT,
     LINEAR_SOLVERS,
@@ -204,7 +204,7 @@ class SundialsIntegrator(Integrator[SundialsState]):
         converge from far either (docs/benchmarks.md, "CVODE and IDA: the Newton finish").
         So, as ``static`` does, the finish first solves
         with the penalties lowered to that ratio — by residual homotopy, F(x) = (1 − λ) F(x₀)
-        for λ from 0 to 1 (rodsim/solvers/penalties.py) — whose equilibrium is next to the
+        for λ from 0 to 1 (rodsim/solvers/continuation.py) — whose equilibrium is next to the
         full one, then Newton at the full penalties from there. Both through the retraction
         :meth:`Model.step`."""
         converged, state, iterations = self.at_lowered_penalties(run, state)
@@ -219,7 +219,7 @@ class SundialsIntegrator(Integrator[SundialsState]):
                              x: np.ndarray) -> tuple[bool, np.ndarray, int]:
         """The positions ``x`` taken to the equilibrium of ``run.model`` with its stiff
         penalties lowered (a non-conservative model's penalties stiffer than
-        :data:`~rodsim.solvers.penalties.DEFAULT_PENALTY_RATIO`) by residual homotopy, on a
+        :data:`~rodsim.solvers.continuation.DEFAULT_PENALTY_RATIO`) by residual homotopy, on a
         derived state (the run's model untouched), where a Newton finish at the full
         penalties then converges; ``x`` itself, with no iteration, when nothing needs
         lowering. (converged, positions, iterations)."""
