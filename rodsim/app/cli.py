@@ -18,7 +18,6 @@ from pathlib import Path
 from typing import TYPE_CHECKING, NoReturn
 
 from rodsim.app.threads import pin_threads
-from rodsim.solvers import DEFAULT_INTEGRATOR
 from rodsim.version import __version__
 
 if TYPE_CHECKING:
@@ -343,9 +342,10 @@ def cmd_track(args: argparse.Namespace) -> int:
     from rodsim.app.inverse.track import parse_ramp, track
     from rodsim.app.progress import ProgressPrinter
     from rodsim.core.scene import SceneError
+    from rodsim.solvers import DEFAULT_INTEGRATOR
 
-    scene = _load_scene_or_fail(args.scene, args.set, args.integrator)
-    integrator = args.integrator or scene.solver.integrator
+    integrator = args.integrator or DEFAULT_INTEGRATOR
+    scene = _load_scene_or_fail(args.scene, args.set, integrator)
     try:  # the ramps before any folder is made or any work starts
         ramps = dict(parse_ramp(text) for text in args.ramp)
     except SceneError as exc:
@@ -430,6 +430,7 @@ def cmd_fit(args: argparse.Namespace) -> int:
     from rodsim.app.inverse.fit import EquilibriumFailure, FitError, fit, read_points
     from rodsim.app.progress import ProgressPrinter
     from rodsim.core.scene import SceneError
+    from rodsim.solvers import DEFAULT_INTEGRATOR
 
     scene = _load_scene_or_fail(args.scene, args.set, DEFAULT_INTEGRATOR)
     output = _output_path(args.output, f"{scene.name}-fit.nc")
@@ -505,6 +506,7 @@ def cmd_reach(args: argparse.Namespace) -> int:
     from rodsim.app.inverse.reach import reach
     from rodsim.app.progress import ProgressPrinter
     from rodsim.core.scene import SceneError
+    from rodsim.solvers import DEFAULT_INTEGRATOR
 
     scene = _load_scene_or_fail(args.scene, args.set, DEFAULT_INTEGRATOR)
     output = _output_path(args.output, f"{scene.name}-reach.nc")
@@ -832,7 +834,7 @@ def build_parser() -> argparse.ArgumentParser:
                         metavar="KEY=START:STOP:COUNT",
                         help="ramp a numeric scene value (KEY as for --set; KEY[i] for a "
                         "vector component), e.g. --ramp tendon_actuation.force=0:4:101")
-    follow.add_argument("--integrator", metavar="NAME", default=DEFAULT_INTEGRATOR,
+    follow.add_argument("--integrator", metavar="NAME",
                         help="a registered integrator, listed by `rodsim run --help` "
                         "(default: static)")
     follow.add_argument("--allow-unstable", action="store_true",
