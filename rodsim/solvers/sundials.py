@@ -67,15 +67,9 @@ FROZEN_STEPS = 10
 
 #: A run has stalled when its best residual has not halved over this many re-initialisations
 #: (a tendon point changing parent: the registration flipping back and forth); it then ends
-#: with advice instead of spending the wall-time budget. Measured on the user scene of issue
-#: 22 item 2 (conserving coupling, K_L = 1000 N/m², then the default): CVODE at t = 1.43-1.44 s for
-#: 9 000 steps with 187 re-initialisations in 90 s, the residual wandering 1.5-160 (602 s
-#: before this check); 123 re-initialisations in its 1 000 steps after the best residual.
-#: Honest runs with the most: table3-catheter1 inertial, CVODE 23 in 13 028 steps, IDA 25 in
-#: 6 898. Pseudo-time is no test here: those honest runs also crawl (1 000 steps in 0.004
-#: first-mode periods: the period is the catheter's, the tendon is much faster). Nor is a
-#: residual frozen at the tightest tolerances: the same scene with K_L = 1e4 freezes there
-#: at 3.7e-4 after 4 tightenings and still converges (step 1 812, 6 finish attempts).
+#: with advice instead of spending the wall-time budget. Neither pseudo-time nor a residual
+#: frozen at the tightest tolerances tells such a run from an honest one (docs/benchmarks.md,
+#: "CVODE and IDA: a registration that flips").
 FLIP_REINITS = 50
 
 #: The wall-time budget is checked every this many steps (a step costs ~0.1 ms).

@@ -108,6 +108,7 @@ class Continuation:
         """The equilibrium of ``scene`` (same discretisation) from ``start`` (default: the
         last equilibrium); on success it becomes the last equilibrium."""
         model = self.model.with_values(scene)
+        assert model is not None  # with_values falls back to with_scene
         # A base that moves (insertion, rotation) carries the last equilibrium with it; that
         # rigid motion is exact where a chord predictor only linearises a rotation, so it
         # replaces the predictor.
