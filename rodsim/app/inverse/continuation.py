@@ -96,7 +96,9 @@ class Continuation:
         self.integrator = integrator
         self.kind = integrator_named(integrator)
         self.deadline = deadline
-        #: The state the last successful step returned (what its integrator carries on).
+        #: The state the last attempted step returned, successful or not: what its
+        #: integrator carries on to the next (static: the factorisation as the attempt left
+        #: it, refreshed or dropped).
         self.state: RunState | None = None
 
     @property
@@ -121,9 +123,9 @@ class Continuation:
         result, state = integrator.run(integrator.restart(self.state, model, x),
                                        verdict=False)
         work = self.kind.work(result.stats)
+        self.state = state
         if not result.success:
             return StepOutcome(False, x, result.residual, work, result.message)
-        self.state = state
         self.model, self.x = registered_model(state.model, result.state), result.state
         return StepOutcome(True, result.state, result.residual, work, "converged")
 
