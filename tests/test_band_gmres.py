@@ -28,7 +28,7 @@ def test_auto_uses_band_gmres_above_the_band_limit():
     model = rodsim.app.api.build_model(rodsim.load_scene("table1-50g", ["nodes=10"]))
     from rodsim.solvers.cvode import Cvode
 
-    runner = Cvode(model, Cvode.options_of(model.scene), 1e-9)
+    runner = Cvode(Cvode.options_of(model.scene), 1e-9)
     assert runner.linear_solver(BAND_LIMIT) == "band"
     assert runner.linear_solver(BAND_LIMIT + 1) == "band_gmres"
 

@@ -170,13 +170,17 @@ def test_sundials_failure_text_goes_into_the_diagnostic_not_to_stdout(capsys):
     model = rodsim.build_model(scene)
     calls = [0]
     force = model.force
+    rng = np.random.default_rng(0)
 
-    def failing_after_a_while(x, load=1.0):
+    def noisy_after_a_while(x, load=1.0):
+        # Finite but random: no corrector converges, and CVODE gives up with its own text.
         calls[0] += 1
         value = force(x, load)
-        return value * np.nan if calls[0] > 150 else value
+        if calls[0] <= 150:
+            return value
+        return value * (1.0 + 1e3 * rng.standard_normal(value.shape))
 
-    model.force = failing_after_a_while
+    model.force = noisy_after_a_while
     result = rodsim.solve(scene, "cvode", model=model,
                           progress=lambda fraction, line: print("progress:", line))
     assert not result.success
@@ -184,3 +188,25 @@ def test_sundials_failure_text_goes_into_the_diagnostic_not_to_stdout(capsys):
     out = capsys.readouterr().out
     assert "progress:" in out
     assert "cvHandleFailure" not in out and "Error" not in out, out
+
+
+@pytest.mark.parametrize("name", ["cvode", "ida"])
+def test_a_non_finite_force_in_a_sundials_callback_ends_the_run_with_a_diagnostic(name):
+    """Every CVODE/IDA callback evaluates the model through the run's checked evaluation
+    (rodsim/solvers/run_state.py, issue 21): a NaN force ends the run there, named, as in
+    every other integrator; before, it went into SUNDIALS unchecked."""
+    scene = rodsim.load_scene("table1-50g", [f"solver.{name}.newton_switch=0"])
+    model = rodsim.build_model(scene)
+    calls = [0]
+    force = model.force
+
+    def failing_after_a_while(x, load=1.0):
+        calls[0] += 1
+        value = force(x, load)
+        return value * np.nan if calls[0] > 150 else value
+
+    model.force = failing_after_a_while
+    result = rodsim.solve(scene, name, model=model)
+    assert not result.success
+    assert f"{name} integrator failed at step" in result.message, result.message
+    assert "the force became non-finite (NaN or inf)" in result.message, result.message

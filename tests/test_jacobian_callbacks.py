@@ -155,18 +155,18 @@ def test_cvode_jacfn_is_called_and_right(solver, formulation, monkeypatch, load,
     assert np.max(np.abs(result.positions() - reference.positions())) < 1e-6 * 0.12
 
     model = rodsim.build_model(scene)
-    integrator = Cvode(model, Cvode.options_of(scene), 1e-9)
-    system = integrator.system
+    run = Cvode(Cvode.options_of(scene), 1e-9).init(model)
+    system = run.system
     rng = np.random.default_rng(3)
     x = random_state(model, rng)
     y = system.initial_state()
     if formulation == "inertial":
         y[0::2] = x
-        y[1::2] = 0.01 * integrator.rate * model.length_scale * rng.standard_normal(model.n)
+        y[1::2] = 0.01 * run.dynamics.rate * model.length_scale * rng.standard_normal(model.n)
     else:
         y[:] = x
-    t = 0.5 * integrator.ramp.duration  # mid-ramp: loads scaled by 1/2
-    load_factor = integrator.ramp(t)
+    t = 0.5 * run.dynamics.ramp.duration  # mid-ramp: loads scaled by 1/2
+    load_factor = run.dynamics.ramp(t)
     steps = steps_for(y, np.arange(1, system.size, 2) if formulation == "inertial" else None)
     pattern = system.pattern.toarray() != 0
 
@@ -210,21 +210,21 @@ def test_ida_jacfn_is_called_and_right(solver, formulation, monkeypatch, load, r
     solve_counting_jacfn_calls(scene, "ida", recorder, solver, label)
 
     model = rodsim.build_model(scene)
-    integrator = Ida(model, Ida.options_of(scene), 1e-9)
-    system = integrator.system
+    run = Ida(Ida.options_of(scene), 1e-9).init(model)
+    system = run.system
     rng = np.random.default_rng(5)
     x = random_state(model, rng)
     y = system.initial_state()
     y[system.x_slot] = x
     if system.inertial:
-        y[system.v_slot] = 0.01 * integrator.rate * model.length_scale * rng.standard_normal(
+        y[system.v_slot] = 0.01 * run.dynamics.rate * model.length_scale * rng.standard_normal(
             model.n)
     y[system.mu_slot] = model.force_scale * model.length_scale * rng.standard_normal(
         len(system.mu_slot))
-    yp = 0.01 * integrator.rate * rng.standard_normal(system.size)
+    yp = 0.01 * run.dynamics.rate * rng.standard_normal(system.size)
     cj = 37.0
-    t = 0.5 * integrator.ramp.duration
-    load_factor = integrator.ramp(t)
+    t = 0.5 * run.dynamics.ramp.duration
+    load_factor = run.dynamics.ramp(t)
     pattern = system.pattern.toarray() != 0
 
     exact = np.concatenate([system.mu_slot, system.v_slot if system.inertial else []])

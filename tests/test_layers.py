@@ -131,3 +131,30 @@ def test_the_checker_sees_an_upward_import(tmp_path):
     tree_imports = imported_modules("rodsim.core.fake", fake)
     assert tree_imports == {"rodsim.app.api"}
     assert rank("rodsim.app.api") > rank("rodsim.core.fake")
+
+
+def integrator_modules() -> set[str]:
+    """The modules of rodsim.solvers that define a registered integrator."""
+    from rodsim.solvers import registered_integrators
+
+    return {cls.__module__ for cls in registered_integrators().values()}
+
+
+SOLVER_MODULES = sorted(m for m in MODULES if m.startswith("rodsim.solvers."))
+
+
+def test_the_integrator_modules_are_known():
+    assert integrator_modules() >= {"rodsim.solvers.static", "rodsim.solvers.cvode",
+                                    "rodsim.solvers.ida", "rodsim.solvers.paper_euler",
+                                    "rodsim.solvers.scipy_ivp"}
+
+
+@pytest.mark.parametrize("module", SOLVER_MODULES)
+def test_no_solver_module_imports_an_integrator_module(module):
+    """Integrators share parts (the template, the run state, Newton, the linear solves,
+    pseudo-dynamics, penalties, tolerances, the SUNDIALS loop), never each other: no module
+    of rodsim.solvers imports a module defining an integrator other than itself (issue 21;
+    deferred imports count)."""
+    siblings = sorted(GRAPH[module] & (integrator_modules() - {module}))
+    assert not siblings, f"{module} imports integrator modules {siblings}: move what it " \
+        "needs into a shared part"

@@ -24,14 +24,14 @@ def lying(integrator: str, monkeypatch: pytest.MonkeyPatch, offset: float) -> No
     L along x on every free position), with its own residual test saying 0."""
     cls = registered_integrators()[integrator]
 
-    def advance(self):
-        x = self.start_state.copy()
-        moved = np.flatnonzero(~self.model.is_quaternion)[0::3]
-        x[moved] += offset * self.model.length_scale
+    def advance(self, run):
+        x = run.start.copy()
+        moved = np.flatnonzero(~run.model.is_quaternion)[0::3]
+        x[moved] += offset * run.model.length_scale
         return Outcome(x, True, "converged")
 
     monkeypatch.setattr(cls, "advance", advance)
-    monkeypatch.setattr(cls, "residual", lambda self, x: 0.0)
+    monkeypatch.setattr(cls, "residual", lambda self, run, x: 0.0)
 
 
 @pytest.mark.parametrize("integrator", ["static", "paper", "cvode", "ida"])
@@ -77,13 +77,13 @@ def test_the_check_is_on_the_full_penalty_model(integrator, monkeypatch):
     cls = registered_integrators()[integrator]
     scene = ("table1-50g", [*BASE, "rods.catheter.centerline.K_P=1e8"])
 
-    def advance(self):
-        model = self.model.with_term_scales(
-            {k: 1e-4 for k, term in enumerate(self.model.terms) if term.penalty})
-        self.model = model  # the run's own test now looks at the lowered model
+    def advance(self, run):
+        model = run.model.with_term_scales(
+            {k: 1e-4 for k, term in enumerate(run.model.terms) if term.penalty})
+        run.model = model  # the run's own test now looks at the lowered model
         from rodsim.solvers.base import Integrator
 
-        converged, x, _ = Integrator.newton_equilibrium(self, self.start_state, 1.0, 200,
+        converged, x, _ = Integrator.newton_equilibrium(self, run, run.start, 1.0, 200,
                                                         "test")
         assert converged
         return Outcome(x, True, "converged")
@@ -91,7 +91,7 @@ def test_the_check_is_on_the_full_penalty_model(integrator, monkeypatch):
     monkeypatch.setattr(cls, "advance", advance)
     if integrator == "ida":  # its own test reads the IDA state, which this run has none of
         monkeypatch.setattr(cls, "residual",
-                            lambda self, x: self.model.residual(self.model.force(x)))
+                            lambda self, run, x: run.model.residual(run.model.force(x)))
     result = rodsim.solve(scene[0], integrator, overrides=scene[1])
     assert not result.success
     assert "not an equilibrium" in result.message

@@ -176,10 +176,10 @@ def _child(job: Job) -> dict[str, Any]:
         from rodsim.solvers import registered_integrators
 
         integrator = registered_integrators()[job.integrator]
-        runner = integrator(model, integrator.options_of(scene),
-                            scene.data["solver"]["tolerance"])
-        out["system_size"] = int(runner.system.size)
-        out["linear_solver"] = runner.linear_solver(runner.system.size)
+        runner = integrator.for_scene(scene)
+        system = runner.init(model).system
+        out["system_size"] = int(system.size)
+        out["linear_solver"] = runner.linear_solver(system.size)
     return out
 
 

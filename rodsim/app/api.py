@@ -21,8 +21,13 @@ import numpy as np
 from rodsim.core.assembly_budget import AssemblyBudget, AssemblyBudgetExceeded
 from rodsim.core.memory import check_memory
 from rodsim.core.model import Model
-from rodsim.core.scene import Scene, SceneError, default_scene_path
-from rodsim.solvers import check_solver_options, integrator_option_keys, registered_integrators
+from rodsim.core.scene import Scene, default_scene_path
+from rodsim.solvers import (
+    check_solver_options,
+    integrator_named,
+    integrator_option_keys,
+    registered_integrators,
+)
 from rodsim.solvers.base import Progress
 from rodsim.solvers.result import Result
 
@@ -108,9 +113,7 @@ def solve(scene: SceneLike | None = None, integrator: str | None = None, *,
     loaded = load_scene(scene, overrides, f"solver.{integrator}" if integrator else "")
     solver = loaded.solver
     name = integrator or solver.integrator
-    integrators = registered_integrators()
-    if name not in integrators:
-        raise SceneError(f"integrator {name!r}: unknown; allowed: " + ", ".join(integrators))
+    kind = integrator_named(name)
     if model is None or model.scene is not loaded:
         check_memory(loaded)
         try:
@@ -119,10 +122,8 @@ def solve(scene: SceneLike | None = None, integrator: str | None = None, *,
                 sum(rod.nodes for rod in loaded.rods.values())))
         except AssemblyBudgetExceeded as exc:
             return _assembly_failure(loaded, name, exc)
-    runner = integrators[name](model, integrators[name].options_of(loaded), solver.tolerance,
-                               solver.max_wall_time, progress, budget_start=started,
-                               initial_state=initial_state)
-    return runner.solve()
+    runner = kind.for_scene(loaded, progress)
+    return runner.solve(model, initial_state, budget_start=started)
 
 
 def _assembly_failure(scene: Scene, integrator: str, exc: AssemblyBudgetExceeded) -> Result:

@@ -23,6 +23,7 @@ from typing import Any
 import numpy as np
 
 from rodsim.core.scene import Scene
+from rodsim.solvers import DEFAULT_INTEGRATOR
 from rodsim.solvers.result import Result
 
 __all__ = ["PENALTIES", "TRUST_WARNING", "PenaltyError", "assess", "last_step_result",
@@ -110,7 +111,7 @@ def penalty_error(result: Result, factor: float = 10.0) -> PenaltyError:
     # its own budget: never more than the scene's, nor above twice the run (10 s at least)
     data["solver"]["max_wall_time"] = min(float(result.scene.solver.max_wall_time),
                                           max(10.0, 2.0 * result.stats.get("wall_time", 0.0)))
-    stiffer = solve(data, "static", initial_state=result.state)
+    stiffer = solve(data, DEFAULT_INTEGRATOR, initial_state=result.state)
     if not stiffer.success:
         return PenaltyError(float("nan"), float("nan"), factor, length, count)
     change = max(float(np.max(np.linalg.norm(stiffer.rods[name].positions - shape.positions,
@@ -186,5 +187,5 @@ def last_step_result(track: Any) -> Result | None:
             vector[key.index] = value
             values[key.path] = vector
     scene = track.scene.with_values(values)
-    result = solve(scene, "static", initial_state=track.states[-1][track.model.free])
+    result = solve(scene, DEFAULT_INTEGRATOR, initial_state=track.states[-1][track.model.free])
     return result if result.success else None

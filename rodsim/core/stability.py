@@ -22,7 +22,7 @@ No direction is null at an equilibrium of the shipped scenes: positions are clam
 base, each quaternion's norm is held by the centerline penalty (|d3| = |q|², Eq. 9), and
 its rotation about d3 by the bending–twisting term. IDA's unit quaternions are exact, but it
 returns the state in the same coordinates, so K is the same matrix. Measured: table1-50g
-with each of the four integrators gives a positive definite K.
+with each of static, cvode, ida and paper gives a positive definite K.
 
 Non-conservative terms (the paper's tendon coupling) make K non-symmetric. A positive
 definite symmetric part still proves stability (every eigenvalue of K then has a positive

@@ -23,7 +23,13 @@ if TYPE_CHECKING:
     from rodsim.core.scene import Scene
     from rodsim.solvers.base import Integrator
 
-__all__ = ["registered_integrators", "check_solver_options", "integrator_option_keys"]
+__all__ = ["registered_integrators", "integrator_named", "check_solver_options",
+           "integrator_option_keys", "DEFAULT_INTEGRATOR"]
+
+#: The integrator a track, a fit, a reach or a warm re-solve uses unless told otherwise, and
+#: the command line's default: the direct Newton solve, the exact discrete equilibrium. The
+#: one integrator name app code uses.
+DEFAULT_INTEGRATOR = "static"
 
 
 def registered_integrators() -> dict[str, type[Integrator]]:
@@ -32,6 +38,18 @@ def registered_integrators() -> dict[str, type[Integrator]]:
 
     _import_every_module()
     return dict(INTEGRATORS)
+
+
+def integrator_named(name: object) -> type[Integrator]:
+    """The registered integrator class called ``name``; SceneError (one line, naming the
+    allowed ones) for any other value."""
+    from rodsim.core.schema import SceneError
+
+    integrators = registered_integrators()
+    if not isinstance(name, str) or name not in integrators:
+        raise SceneError(f"integrator {str(name)[:40]!r}: unknown; allowed: "
+                         + ", ".join(integrators))
+    return integrators[name]
 
 
 def check_solver_options(scene: Scene) -> None:

@@ -1,12 +1,17 @@
 """The integrator contract, its registry, and the template solve loop.
 
 Every integrator is one file in :mod:`rodsim.solvers` defining one :class:`Integrator`
-subclass with a unique ``name``; defining the class registers it. A subclass implements
-:meth:`Integrator.advance`, which drives its method from the model's rest state toward
-equilibrium and returns an :class:`Outcome`. The base class owns everything the integrators
-share: counting force/Jacobian evaluations, the equilibrium test, the wall-time budget,
-progress reporting, catching non-finite states, and turning the outcome into a
-:class:`~rodsim.solvers.result.Result`. A failure is never raised past :meth:`Integrator.solve`:
+subclass with a unique ``name``; defining the class registers it. An integrator object holds
+configuration only (options, tolerance, wall-time budget, progress callback); a run's state
+is a value, a :class:`~rodsim.solvers.run_state.RunState` (or a subclass the integrator
+names as its ``State``) made by :meth:`Integrator.init` and passed to :meth:`Integrator.run`,
+which returns it with the Result: a returned state can start another run (a warm start,
+:meth:`Integrator.restart`). A subclass implements :meth:`Integrator.advance`, which drives
+its method from the state's start toward equilibrium and returns an :class:`Outcome`. The
+base class and the state own everything the integrators share: counting and checking
+force/Jacobian evaluations (:meth:`RunState.force`), the equilibrium test, the wall-time
+budget, progress reporting, catching non-finite states, and turning the outcome into a
+:class:`~rodsim.solvers.result.Result`. A failure is never raised past :meth:`Integrator.run`:
 it comes back as ``Result.success = False`` with a message saying which integrator, where,
 the residual reached, and what to try.
 """
@@ -19,53 +24,45 @@ import time
 from abc import ABC, abstractmethod
 from collections.abc import Callable
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any, ClassVar
+from typing import TYPE_CHECKING, Any, ClassVar, Generic, TypeVar
 
 import numpy as np
 
 from rodsim.core.model import Model
 from rodsim.core.schema import Parameter, register_with_options, validate_table
-from rodsim.core.stability import Stability, assess
 from rodsim.solvers.failure import SolverFailure
-from rodsim.solvers.linear import LinearSolver
+from rodsim.solvers.newton import NewtonProblem, newton
 from rodsim.solvers.result import Result
+from rodsim.solvers.run_state import MAX_SETTLES, History, RunState, linear_solver_of
+from rodsim.solvers.tolerance import (
+    CORRECTION_TOLERANCE,
+    MAX_RESIDUAL_FLOOR,
+    refuse_unresolvable,
+)
 
 if TYPE_CHECKING:
     from rodsim.core.scene import Scene
 
-__all__ = ["Integrator", "Outcome", "Progress", "SolverFailure", "INTEGRATORS"]
+__all__ = ["Integrator", "Outcome", "Progress", "RunState", "History", "SolverFailure",
+           "INTEGRATORS", "MAX_RESIDUAL_FLOOR", "MAX_SETTLES",
+           "CORRECTION_TOLERANCE"]
 
 #: Every defined integrator class, by name. Filled by ``Integrator.__init_subclass__``.
-INTEGRATORS: dict[str, type[Integrator]] = {}
-
-#: A model whose residual floor (round-off of the internal forces relative to the loads)
-#: exceeds this cannot resolve its equilibrium: every integrator refuses it with a diagnostic
-#: rather than accept the rest state as "converged".
-MAX_RESIDUAL_FLOOR = 1e-3
-
-#: Largest correction residual (:func:`correction_residual`: the distance to the equilibrium
-#: over the load's displacement) a result may have, unless the tolerance is looser. Measured
-#: on the suite's honest runs (tests/test_integrators.py, test_tendon_integrators.py): at most
-#: 3.1e-6 (paper at N = 1000), Newton-finished runs ~1e-9 and below; IDA's wrong success on
-#: table1-50g at N = 40 000 (1.4 % L from static's, force residual 4.7e-6 under its
-#: tolerance 1.2e-5): 0.048.
-CORRECTION_TOLERANCE = 1e-5
-
-#: Re-registrations at equilibrium (Model.reregistered(x, exact=True)) before a run accepts the
-#: registration it reached with hysteresis: an equilibrium on the boundary between two
-#: parents would otherwise flip between them forever.
-MAX_SETTLES = 10
+INTEGRATORS: dict[str, type[Integrator[Any]]] = {}
 
 #: Progress callback: (fraction done in [0, 1] or None, one-line status).
 Progress = Callable[[float | None, str], None]
+
+#: The state type of an integrator (:class:`RunState` or a subclass of it).
+S = TypeVar("S", bound=RunState)
 
 
 @dataclass
 class Outcome:
     """What :meth:`Integrator.advance` returns: the final state (free coordinates), whether
     it is an equilibrium by the method's own test, and a short message. Where the method
-    stopped, its counters and its history live on the integrator (:meth:`checkpoint`,
-    ``counts``, ``history``), so they survive a :class:`SolverFailure` raised mid-run."""
+    stopped, its counters and its history live on the run's state (:class:`RunState`), so
+    they survive a :class:`SolverFailure` raised mid-run."""
 
     x: np.ndarray
     success: bool
@@ -85,9 +82,7 @@ def correction_residual(model: Model, x: np.ndarray, force: np.ndarray) -> float
     floor is that of the positions (the force round-off, ∝ N, lands in stiff directions that
     J⁻¹ maps to displacements of order eps L). 0 when it cannot be told: J singular (the
     stability verdict speaks then) or no load."""
-    solver = LinearSolver(model.pattern, model.pattern_rows, model.pattern_cols,
-                          (model.band.lower, model.band.upper), model.conservative)
-    solve = solver.factorized(model.jacobian_data(x))
+    solve = linear_solver_of(model).factorized(model.jacobian_data(x))
     if solve is None:
         return 0.0
     loads = model.force(x, 1.0) - model.force(x, 0.0)
@@ -100,49 +95,27 @@ def correction_residual(model: Model, x: np.ndarray, force: np.ndarray) -> float
     return correction / reach
 
 
-class History:
-    """Per-step record of pseudo-time, residual and the first rod's tip (for Fig. 8)."""
-
-    def __init__(self, model: Model) -> None:
-        first = next(iter(model.rods.values()))
-        free_of = np.full(model.full_size, -1)
-        free_of[model.free] = np.arange(model.n)
-        self._tip_free = free_of[first.layout.position_index[-1]]
-        self.data: dict[str, list] = {"time": [], "residual": [], "tip": []}
-
-    def record(self, time: float, x: np.ndarray, residual: float) -> None:
-        self.data["time"].append(float(time))
-        self.data["residual"].append(float(residual))
-        self.data["tip"].append(x[self._tip_free].tolist())
-
-
-class Integrator(ABC):
-    """Base class of the four integrators; see the module docstring.
+class Integrator(ABC, Generic[S]):
+    """Base class of the integrators: configuration only; see the module docstring.
 
     Parameters
     ----------
-    model
-        The assembled rod system.
     options
         Validated options of this integrator, an :attr:`Options` instance (:meth:`options_of`).
     tolerance
         Equilibrium residual tolerance (``solver.tolerance``), see :meth:`Model.residual`.
-        A tolerance below the model's round-off floor (:attr:`Model.residual_floor`) is
-        raised to it; the result records the tolerance actually used.
+        A run raises a tolerance below its model's round-off floor
+        (:attr:`Model.residual_floor`) to it (:attr:`RunState.tolerance`); the result
+        records the tolerance actually used.
     max_wall_time
-        Wall-time budget [s]; exceeding it is a failure.
+        Wall-time budget [s] of a run; exceeding it is a failure.
     progress
         Optional callback for progress on long runs.
-    budget_start
-        ``time.perf_counter()`` at which the wall-time budget started (default: when
-        :meth:`solve` starts); :func:`rodsim.app.api.solve` passes the time before the model
-        was assembled, so the budget covers the assembly too.
-    initial_state
-        Free coordinates to start from instead of the rest state ``model.x0`` — a warm
-        start from a nearby equilibrium (rodsim/app/inverse/track.py). The loads then act in full
-       from
-        the start (no load ramp or continuation), and ``model`` should carry the
-        registration of that state.
+
+    A run: ``state = integrator.init(model)`` (or with ``initial_state``: a warm start from a
+    nearby equilibrium, the loads in full from the start, ``model`` carrying the registration
+    of that state), then ``result, state = integrator.run(state)``; :meth:`solve` does both.
+    :meth:`restart` starts a new run from a returned state on a nearby model.
     """
 
     name: ClassVar[str]
@@ -153,6 +126,12 @@ class Integrator(ABC):
     parameters: ClassVar[tuple[Parameter, ...]] = ()
     #: Units and meaning of the history's ``time`` (recorded once per step).
     history_time: ClassVar[tuple[str, str]] = ("s", "pseudo-time after each step")
+    #: The class of this integrator's run state.
+    State: ClassVar[type[RunState]] = RunState
+    #: Whether a continuation step benefits from a predicted start (the secant predictor of
+    #: rodsim/app/inverse/track.py): a Newton solve does; a pseudo-dynamics run from a
+    #: predicted state was not measured, and starts from the last equilibrium.
+    takes_predictor: ClassVar[bool] = False
 
     #: The frozen dataclass of this integrator's options, one typed field per declared
     #: parameter (made from :attr:`parameters` when the class is defined).
@@ -166,49 +145,72 @@ class Integrator(ABC):
         return cls.Options(**validate_table(scene.data["solver"].get(cls.name, {}),
                                             cls.parameters, f"solver.{cls.name}"))
 
+    @classmethod
+    def for_scene(cls, scene: Scene, progress: Progress | None = None,
+                  max_wall_time: float | None = None) -> Integrator[Any]:
+        """This integrator configured by ``scene`` (its options, tolerance and wall-time
+        budget, or ``max_wall_time``)."""
+        solver = scene.solver
+        return cls(cls.options_of(scene), float(solver.tolerance),
+                   float(solver.max_wall_time if max_wall_time is None else max_wall_time),
+                   progress)
+
     def __init_subclass__(cls, **kwargs: Any) -> None:
         super().__init_subclass__(**kwargs)
         register_with_options(cls, INTEGRATORS, "integrator")
 
-    def __init__(self, model: Model, options: Any, tolerance: float,
-                 max_wall_time: float = 600.0, progress: Progress | None = None,
-                 budget_start: float | None = None,
-                 initial_state: np.ndarray | None = None) -> None:
-        #: The model as built, at rest (its registration is the rest state's).
-        self.base_model = model
-        #: The model in use: a new one replaces it when the tendon registration changes.
-        self.model = model
+    def __init__(self, options: Any, tolerance: float, max_wall_time: float = 600.0,
+                 progress: Progress | None = None) -> None:
         self.options = options
-        #: The requested tolerance, raised to the model's round-off floor if below it.
-        self.tolerance = max(tolerance, model.residual_floor)
+        #: The requested tolerance (a run raises it to its model's round-off floor).
+        self.tolerance = tolerance
         self.max_wall_time = max_wall_time
         self._progress = progress
-        #: Counters reported in the result's statistics (see rodsim.solvers.result.STAT_DOCS).
-        self.counts: dict[str, float] = {"steps": 0, "newton_iters": 0, "force_evals": 0,
-                                         "jacobian_evals": 0, "linear_solves": 0}
-        #: Per-step record (pseudo-time, residual, first rod's tip).
-        self.history = History(model)
-        if model.has_registration:
-            self.counts["settles"] = 0
-        #: Appended to the message of a successful run (a registration that did not settle).
-        self.note = ""
-        #: True when the run starts from ``initial_state`` rather than the rest state.
-        self.warm = initial_state is not None
-        #: The state the run starts from.
-        self.start_state = (model.x0 if initial_state is None
-                            else np.array(initial_state, dtype=float))
-        self.state = self.start_state
-        self.where = "start"
-        self._start = 0.0
-        self._linear: tuple[Model, LinearSolver] | None = None
-        self._stability: tuple[Model, np.ndarray, Stability] | None = None
-        self._budget_start = budget_start
 
-    def checkpoint(self, x: np.ndarray, where: str | Callable[[], str]) -> None:
-        """Remember the last accepted state and where it was reached (for failure reports;
-        a callable is formatted only if a report needs it)."""
-        self.state = x
-        self.where = where
+    # ------------------------------------------------------------ the state
+    def init(self, model: Model, initial_state: np.ndarray | None = None,
+             budget_start: float | None = None) -> S:
+        """A new run's state on ``model``, from its rest state or ``initial_state`` (a warm
+        start); ``budget_start``: ``time.perf_counter()`` at which the wall-time budget
+        started (default: now; :func:`rodsim.app.api.solve` passes the time before the
+        model was assembled, so the budget covers the assembly too)."""
+        state = self.State.new(model, self.tolerance, initial_state, budget_start,
+                               **self.state_fields(model, initial_state is not None))
+        self.prepare(state)  # type: ignore[arg-type]
+        return state  # type: ignore[return-value]
+
+    def restart(self, previous: RunState | None, model: Model,
+                x: np.ndarray | None = None, budget_start: float | None = None) -> S:
+        """A continuation step's state: a warm start on ``model`` (nearby the model of
+        ``previous``, carrying its registration) from ``x`` (default: the equilibrium
+        ``previous.x``), marked ``continued`` and carrying what :meth:`carry` keeps of
+        ``previous`` (None: nothing, e.g. after a cold run of another integrator)."""
+        if x is None:
+            assert previous is not None, "restart needs a previous state or a start"
+            x = previous.x
+        state = self.init(model, x, budget_start)
+        state.continued = True
+        if previous is not None:
+            self.carry(previous, state)
+        return state
+
+    def carry(self, previous: RunState, state: S) -> None:
+        """Keep what a continuation step reuses of the state a run returned (default:
+        nothing; ``static`` keeps its factorisation)."""
+
+    @classmethod
+    def work(cls, stats: dict[str, float]) -> int:
+        """The work of a run, from its statistics, as track reports it per step: steps
+        here (Newton iterations for ``static``)."""
+        return int(stats["steps"])
+
+    def state_fields(self, model: Model, warm: bool) -> dict[str, Any]:
+        """The fields of this integrator's own :attr:`State` (beyond :class:`RunState`'s) for
+        a new run on ``model`` (``warm``: from a given state); default: none."""
+        return {}
+
+    def prepare(self, state: S) -> None:
+        """Complete a new run's state (its own counters; default: nothing)."""
 
     @property
     def reporting(self) -> bool:
@@ -216,153 +218,77 @@ class Integrator(ABC):
         return self._progress is not None
 
     # ----------------------------------------------------- shared services
-    def force(self, x: np.ndarray, load: float = 1.0) -> np.ndarray:
-        """F(x), counted; raises SolverFailure on a non-finite value."""
-        self.counts["force_evals"] += 1
-        f = self.model.force(x, load)
-        if not np.all(np.isfinite(f)):
-            raise SolverFailure("the force became non-finite (NaN or inf)")
-        return f
-
-    def jacobian_data(self, x: np.ndarray, load: float = 1.0) -> np.ndarray:
-        """∂F/∂x in the model's CSC pattern order, counted."""
-        self.counts["jacobian_evals"] += 1
-        data = self.model.jacobian_data(x, load)
-        if not np.all(np.isfinite(data)):
-            raise SolverFailure("the Jacobian became non-finite (NaN or inf)")
-        return data
-
-    def newton_linear_solver(self) -> LinearSolver:
-        """The Newton linear solver of :attr:`model`'s pattern (rebuilt when the model is
-        replaced by a re-registration)."""
-        if self._linear is None or self._linear[0] is not self.model:
-            model = self.model
-            self._linear = model, LinearSolver(model.pattern, model.pattern_rows,
-                                               model.pattern_cols,
-                                               (model.band.lower, model.band.upper),
-                                               model.conservative)
-        return self._linear[1]
-
-    def newton_equilibrium(self, x: np.ndarray, load: float, max_iterations: int,
+    def newton_equilibrium(self, run: S, x: np.ndarray, load: float, max_iterations: int,
                            where: str, polish: bool = True,
                            retraction: str | None = None) -> tuple[bool, np.ndarray, int]:
-        """Newton on F(x) = 0 at a fixed load fraction from ``x`` (analytic Jacobian, energy
-        line search when the model is conservative); returns (converged, x, iterations), which
-        the caller counts. ``polish``: see :func:`rodsim.solvers.newton.newton`;
-        ``retraction``: how a step moves the rods — ``None``: x + Δx; ``"lengths"``:
-        :meth:`Model.step` (segment lengths kept); ``"frames"``: :meth:`Model.turned_step`
-        (segments turned as rigid frames)."""
-        from rodsim.solvers.newton import NewtonProblem, newton
-
-        model = self.model
+        """Newton on F(x) = 0 of ``run.model`` at a fixed load fraction from ``x`` (analytic
+        Jacobian, energy line search when the model is conservative); returns (converged, x,
+        iterations), which the caller counts. ``polish``: see
+        :func:`rodsim.solvers.newton.newton`; ``retraction``: how a step moves the rods —
+        ``None``: x + Δx; ``"lengths"``: :meth:`Model.step` (segment lengths kept);
+        ``"frames"``: :meth:`Model.turned_step` (segments turned as rigid frames)."""
+        model = run.model
         problem = NewtonProblem(
-            force=lambda y: self.force(y, load),
-            jacobian=lambda y: self.jacobian_data(y, load),
-            linear=self.newton_linear_solver(),
+            force=lambda y: run.force(y, load),
+            jacobian=lambda y: run.jacobian_data(y, load),
+            linear=run.linear_solver(),
             residual=model.residual,
             weight=model.residual_weight,
             potential=(lambda y: model.energy(y, load)) if model.conservative else None,
             step={None: None, "lengths": model.step,
                   "frames": model.turned_step}[retraction],
         )
-        outcome = newton(problem, x, self.tolerance, max_iterations, polish=polish,
-                         check=self.iteration_check(where))
+        outcome = newton(problem, x, run.tolerance, max_iterations, polish=polish,
+                         check=self.iteration_check(run, where))
         return outcome.converged, outcome.x, outcome.iterations
 
-    def residual(self, x: np.ndarray) -> float:
-        """Scaled equilibrium residual of state ``x`` (uncounted evaluation)."""
-        return self.model.residual(self.model.force(x))
+    def residual(self, run: S, x: np.ndarray) -> float:
+        """Scaled equilibrium residual of ``x`` by this integrator's own test (uncounted):
+        F(x) on ``run.model`` here."""
+        return run.residual(x)
 
-    def at_equilibrium(self, residual: float) -> bool:
-        return residual < self.tolerance
-
-    def full_model(self) -> Model:
-        """:attr:`model` (its registration) with every penalty at its full value (continuation
-        scales back to 1): the model a result must be an equilibrium of."""
-        model = self.model
-        lowered = {k: 1.0 for k, scale in enumerate(model.term_scales) if scale != 1.0}
-        return model.with_term_scales(lowered) if lowered else model
-
-    def verification_force(self, model: Model, x: np.ndarray) -> np.ndarray:
+    def verification_force(self, run: S, model: Model, x: np.ndarray) -> np.ndarray:
         """The force whose vanishing is this integrator's equilibrium, evaluated afresh on
-        ``model`` at ``x`` from ``x`` alone (no state of the run): F(x) here."""
+        ``model`` at ``x`` from ``x`` alone (nothing else of the run): F(x) here."""
         return model.force(x)
 
-    def verified_residual(self, x: np.ndarray) -> tuple[float, float]:
-        """The common stopping test of the returned state ``x`` on :meth:`full_model`,
-        evaluated afresh (:meth:`verification_force`): (the scaled force residual of
-        :meth:`Model.residual`, the correction residual of :func:`correction_residual`, whose
-        meaning and round-off floor do not depend on N). :meth:`solve` fails a run whose own
-        test passed but this one does not (:meth:`verified`)."""
-        model = self.full_model()
-        force = self.verification_force(model, x)
+    def verified_residual(self, run: S, x: np.ndarray) -> tuple[float, float]:
+        """The common stopping test of the returned state ``x`` on
+        :meth:`RunState.full_model`, evaluated afresh (:meth:`verification_force`): (the
+        scaled force residual of :meth:`Model.residual`, the correction residual of
+        :func:`correction_residual`, whose meaning and round-off floor do not depend on N).
+        :meth:`run` fails a run whose own test passed but this one does not
+        (:meth:`verified`)."""
+        model = run.full_model()
+        force = self.verification_force(run, model, x)
         if not np.all(np.isfinite(force)):
             return float("inf"), float("inf")
         return model.residual(force), correction_residual(model, x, force)
 
-    def verified(self, residuals: tuple[float, float]) -> bool:
+    @staticmethod
+    def verified(run: RunState, residuals: tuple[float, float]) -> bool:
         """Whether :meth:`verified_residual`'s pair passes: the force residual below the
         tolerance, the correction residual below it or :data:`CORRECTION_TOLERANCE`."""
         force, correction = residuals
-        return (self.at_equilibrium(force)
-                and correction < max(self.tolerance, CORRECTION_TOLERANCE))
+        return (run.at_equilibrium(force)
+                and correction < max(run.tolerance, CORRECTION_TOLERANCE))
 
-    def reregister(self, x: np.ndarray, exact: bool = False) -> bool:
-        """Apply the tendon registration rule at ``x`` (``exact``: without hysteresis);
-        True when a parent changed and :attr:`model` was replaced (new pattern)."""
-        if not self.model.has_registration:
-            return False
-        moved = self.model.reregistered(x, exact)
-        if moved is None:
-            return False
-        self.model = moved
-        return True
-
-    def settled(self, x: np.ndarray) -> bool:
-        """Whether an equilibrium ``x`` may end the run: its registration needs no change
-        without hysteresis (:meth:`Model.reregistered` with ``exact``). False means a parent
-        changed and the integrator must go on from ``x`` (the pattern changed too)."""
-        if not self.model.has_registration:
-            return True
-        if self.counts["settles"] >= MAX_SETTLES:
-            self.note = (f"the tendon registration did not settle in {MAX_SETTLES} "
-                         "re-registrations (a point's equilibrium is on the boundary between "
-                         "two parents); the registration reached with hysteresis is kept")
-            return True
-        if not self.reregister(x, exact=True):
-            return True
-        self.counts["settles"] += 1
-        return False
-
-    def stability(self, x: np.ndarray) -> Stability:
-        """The stability verdict at the equilibrium ``x`` of :attr:`model`
-        (rodsim/core/stability.py),
-        computed once per (model, state): the Newton finish asks before the result does."""
-        cached = self._stability
-        if cached is not None and cached[0] is self.model and cached[1] is x:
-            return cached[2]
-        verdict = assess(self.model, x)
-        self._stability = (self.model, x, verdict)
-        return verdict
-
-    def elapsed(self) -> float:
-        return time.perf_counter() - self._start
-
-    def check_budget(self, where: str) -> None:
+    def check_budget(self, run: S, where: str) -> None:
         """Raise SolverFailure once the wall-time budget is spent, before ``where``."""
-        if time.perf_counter() - self._budget_start > self.max_wall_time:
+        if time.perf_counter() - run.budget_start > self.max_wall_time:
             raise SolverFailure(
                 f"wall-time budget of {self.max_wall_time:g} s spent before {where}",
-                f"try raising solver.max_wall_time, or {self.advice().removeprefix('try ')}")
+                f"try raising solver.max_wall_time, or "
+                f"{self.advice(run).removeprefix('try ')}")
 
-    def iteration_check(self, where: str) -> Callable[[], None]:
+    def iteration_check(self, run: S, where: str) -> Callable[[], None]:
         """A callback for long inner loops (each Newton iteration): checks the wall-time
         budget and reports progress, naming ``where`` and the iteration."""
         count = itertools.count(1)
 
         def check() -> None:
             iteration = next(count)
-            self.check_budget(f"Newton iteration {iteration} at {where}")
+            self.check_budget(run, f"Newton iteration {iteration} at {where}")
             if self.reporting:
                 self.report(None, f"{self.name}: {where}, Newton iteration {iteration}")
 
@@ -374,73 +300,77 @@ class Integrator(ABC):
 
     # ------------------------------------------------------------ template
     @abstractmethod
-    def advance(self) -> Outcome:
-        """Run the method from :attr:`start_state` (the rest state ``model.x0`` unless a warm
-        start was given) toward equilibrium (see the module docstring)."""
+    def advance(self, run: S) -> Outcome:
+        """Run the method from ``run.start`` (the rest state ``model.x0`` unless a warm
+        start was given) toward equilibrium (see the module docstring), updating ``run``."""
 
-    def advice(self) -> str:
+    def advice(self, run: S | None = None) -> str:
         """What to try when this integrator fails (shown in the failure message)."""
-        return ("try another integrator (static, cvode, ida or paper) or a looser "
+        return ("try another integrator (" + ", ".join(INTEGRATORS) + ") or a looser "
                 "solver.tolerance")
 
-    def solve(self) -> Result:
-        """Run the integrator to equilibrium and return a Result (never raises on failure)."""
-        self._start = time.perf_counter()
-        if self._budget_start is None:
-            self._budget_start = self._start
-        floor = self.model.residual_floor
+    def solve(self, model: Model, initial_state: np.ndarray | None = None,
+              budget_start: float | None = None) -> Result:
+        """Run the integrator on ``model`` to equilibrium and return a Result (never raises
+        on failure): :meth:`init` then :meth:`run`."""
+        return self.run(self.init(model, initial_state, budget_start))[0]
+
+    def run(self, run: S, verdict: bool = True) -> tuple[Result, S]:
+        """Run the integrator from the state ``run`` to equilibrium: the Result (never raises
+        on failure) and the state reached (its model carries the registration reached).
+        ``verdict``: give a successful result its stability verdict (a caller assessing the
+        equilibrium itself says False)."""
+        run.clock_start = time.perf_counter()
         advice = None
         try:
-            self.check_budget("the first step (model assembly took it)")
-            if floor > MAX_RESIDUAL_FLOOR:
-                raise SolverFailure(
-                    f"the loads are below the round-off of the internal forces (residual "
-                    f"floor {floor:.3g} > {MAX_RESIDUAL_FLOOR:g}): no equilibrium can be told "
-                    "apart from the rest state in double precision",
-                    "lower K_P, N or the stretch stiffness, or raise the load")
+            self.check_budget(run, "the first step (model assembly took it)")
+            refuse_unresolvable(run.model)
             with np.errstate(all="ignore"):
-                outcome = self.advance()
+                outcome = self.advance(run)
         except SolverFailure as exc:
-            outcome = Outcome(self.state, False, str(exc))
+            outcome = Outcome(run.x, False, str(exc))
             advice = exc.advice
-        wall = self.elapsed()
+        wall = run.elapsed()
         x = outcome.x
         finite = bool(np.all(np.isfinite(x)))
-        residual = self.residual(x) if finite else float("nan")
-        success = outcome.success and finite and self.at_equilibrium(residual)
+        residual = self.residual(run, x) if finite else float("nan")
+        success = outcome.success and finite and run.at_equilibrium(residual)
         message = outcome.message
         verified = (float("nan"), float("nan"))
         if success:
             # The integrator's own test is not the last word: the common stopping test on the
             # full-penalty model, evaluated afresh at the returned state, is.
-            verified = self.verified_residual(x)
-            if not self.verified(verified):
+            verified = self.verified_residual(run, x)
+            if not self.verified(run, verified):
                 success = False
-                advice = advice or self.advice()
-        if success and self.note:
-            message = f"{message}; {self.note}"
+                advice = advice or self.advice(run)
+        if success and run.note:
+            message = f"{message}; {run.note}"
+        tolerance = run.tolerance
         if not success:
             if outcome.success and not finite:
                 message = "final state is not finite"
-            elif outcome.success and self.at_equilibrium(residual):
+            elif outcome.success and run.at_equilibrium(residual):
                 message = (f"the state it returned is not an equilibrium: evaluated afresh on "
                            f"the full-penalty model, its force residual is {verified[0]:.3g} "
-                           f"(tolerance {self.tolerance:.3g}; its own test found "
+                           f"(tolerance {tolerance:.3g}; its own test found "
                            f"{residual:.3g}) and its correction residual (distance to the "
                            f"equilibrium / the load's displacement) {verified[1]:.3g} "
-                           f"(tolerance {max(self.tolerance, CORRECTION_TOLERANCE):.3g})")
+                           f"(tolerance {max(tolerance, CORRECTION_TOLERANCE):.3g})")
                 residual = verified[0]
             elif outcome.success:
                 message = (f"stopped with residual {residual:.3g} above the tolerance "
-                           f"{self.tolerance:.3g}")
-            where = self.where() if callable(self.where) else self.where
-            message = (f"{self.name} integrator failed at {where}: {message} "
-                       f"(residual {residual:.3g}, tolerance {self.tolerance:.3g}); "
-                       f"{advice or self.advice()}")
-        stats = {**self.counts, "wall_time": wall, "effective_tolerance": self.tolerance}
-        return Result.from_model(
-            self.model, x if finite else self.state, integrator=self.name,
+                           f"{tolerance:.3g}")
+            message = (f"{self.name} integrator failed at {run.where_text()}: {message} "
+                       f"(residual {residual:.3g}, tolerance {tolerance:.3g}); "
+                       f"{advice or self.advice(run)}")
+        if success:
+            run.x = x
+        stats = {**run.counts, "wall_time": wall, "effective_tolerance": tolerance}
+        result = Result.from_model(
+            run.model, x if finite else run.x, integrator=self.name,
             options=dataclasses.asdict(self.options), success=success, message=message,
             residual=residual,
-            stats=stats, history=self.history.data, history_time=self.history_time,
-            stability=self.stability(x) if success else None)
+            stats=stats, history=run.history.data, history_time=self.history_time,
+            stability=run.stability(x) if success and verdict else None)
+        return result, run

@@ -18,10 +18,11 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from rodsim.solvers.pseudo_dynamics import FirstOrderSystem, damping_rate
+from rodsim.solvers.pseudo_dynamics import FirstOrderSystem
 from rodsim.solvers.sundials import (
     BandPreconditioner,
     SundialsIntegrator,
+    SundialsState,
     jacobian_writer,
     started,
 )
@@ -37,47 +38,39 @@ class Cvode(SundialsIntegrator):
     summary = "SUNDIALS CVODE (adaptive BDF) on damped pseudo-dynamics, stopped at equilibrium"
     quaternion_norm = "penalty Eq. (9) only (|d3| = |q|² is pulled to 1)"
 
-    def build_system(self) -> None:
-        self.rate = damping_rate(self.model, self.options.damping_ratio)
-        self.system = FirstOrderSystem(self.model, self.options.formulation, self.rate,
-                                       self.masses)
+    def build_system(self, run: SundialsState) -> FirstOrderSystem:
+        return FirstOrderSystem(run.model, self.options.formulation, run.dynamics.rate,
+                                run.dynamics.masses)
 
-    def initial_state(self) -> np.ndarray:
-        return self.system.initial_state(self.start_state)
-
-    def positions_of(self, y: np.ndarray) -> np.ndarray:
-        return self.system.positions_of(y)
-
-    def _tolerances(self) -> np.ndarray:
-        system = self.system
-        scale_x = self.coordinate_scale()
+    def _tolerances(self, run: SundialsState) -> np.ndarray:
+        system = run.system
+        scale_x = self.coordinate_scale(run.model)
         if system.formulation == "overdamped":
             scale = scale_x
         else:
             scale = np.empty(system.size)
             scale[0::2] = scale_x
-            scale[1::2] = scale_x * self.rate
-        return self.options.atol * self.tightening * scale
+            scale[1::2] = scale_x * run.dynamics.rate
+        return np.asarray(self.options.atol * run.tightening * scale)
 
-    def start(self, t: float, y: np.ndarray, yp: np.ndarray | None) -> CVODE:
+    def start(self, run: SundialsState, t: float, y: np.ndarray,
+              yp: np.ndarray | None) -> CVODE:
         from sksundae.cvode import CVODE  # SUNDIALS is loaded by the first run, not at import
 
-        system, model, ramp, counts = self.system, self.model, self.ramp, self.counts
+        system, ramp = run.system, run.dynamics.ramp
         solver_kind = self.linear_solver(system.size)
         write = jacobian_writer(solver_kind, system.pattern_rows, system.pattern_cols)
 
+        # Every callback evaluates the model through the run's counted, checked evaluations.
         def rhs(t: float, y: np.ndarray, yp: np.ndarray) -> None:
-            counts["force_evals"] += 1
-            force = model.force(system.positions_of(y), ramp(t))
-            self._last_force = force
+            force = run.force(system.positions_of(y), ramp(t))
+            run.last_force = force
             system.rhs(y, force, yp)
 
         def jacfn(t: float, y: np.ndarray, yp: np.ndarray, jj: np.ndarray) -> None:
-            counts["jacobian_evals"] += 1
-            write(jj, system.jacobian_data(model.jacobian_data(system.positions_of(y),
-                                                               ramp(t))))
+            write(jj, system.jacobian_data(run.jacobian_data(system.positions_of(y), ramp(t))))
 
-        options = self.common_options(solver_kind, system.band, system.pattern,
+        options = self.common_options(run, solver_kind, system.band, system.pattern,
                                       system.formulation == "inertial")
         if solver_kind == "band_gmres":
             from sksundae.cvode import CVODEJacTimes, CVODEPrecond
@@ -87,13 +80,12 @@ class Cvode(SundialsIntegrator):
             identity = np.zeros(system.pattern.nnz)
             identity[np.flatnonzero(system.pattern_rows == system.pattern_cols)] = 1.0
 
-            def psetup(t: float, y: np.ndarray, fy: np.ndarray, jok: bool, jnew: list,
+            def psetup(t: float, y: np.ndarray, fy: np.ndarray, jok: bool, jnew: list[int],
                        gamma: float) -> None:
                 # M = I − γ J; J re-evaluated unless CVODE says the last one will do.
                 if not jok or newton.parts is None:
-                    counts["jacobian_evals"] += 1
-                    jac = system.jacobian_data(model.jacobian_data(system.positions_of(y),
-                                                                   ramp(t)))
+                    jac = system.jacobian_data(run.jacobian_data(system.positions_of(y),
+                                                                 ramp(t)))
                     newton.update(identity, -jac)
                     jnew[0] = 1
                 else:
@@ -112,7 +104,7 @@ class Cvode(SundialsIntegrator):
 
             options.update(precond=CVODEPrecond(psetup, psolve, side="left"),
                            jactimes=CVODEJacTimes(None, jtimes))
-            return started("CVODE", CVODE, rhs, None, t, y, atol=self._tolerances(),
+            return started("CVODE", CVODE, rhs, None, t, y, atol=self._tolerances(run),
                            **options)
-        return started("CVODE", CVODE, rhs, jacfn, t, y, atol=self._tolerances(),
+        return started("CVODE", CVODE, rhs, jacfn, t, y, atol=self._tolerances(run),
                        **options)

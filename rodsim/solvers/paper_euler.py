@@ -21,6 +21,9 @@ paper.
 
 from __future__ import annotations
 
+from dataclasses import dataclass, field
+from typing import Any
+
 import numpy as np
 import scipy.sparse as sp
 
@@ -29,6 +32,8 @@ from rodsim.core.schema import Parameter
 from rodsim.solvers.base import Integrator, Outcome, SolverFailure
 from rodsim.solvers.newton import NewtonProblem, newton
 from rodsim.solvers.pseudo_dynamics import first_mode_frequency
+from rodsim.solvers.run_state import RunState
+from rodsim.solvers.tolerance import effective_tolerance
 
 
 def column_groups(pattern: sp.csc_matrix) -> list[np.ndarray]:
@@ -40,7 +45,7 @@ def column_groups(pattern: sp.csc_matrix) -> list[np.ndarray]:
     n = pattern.shape[1]
     pattern = pattern.tocsc()
     rows_of = [pattern.indices[pattern.indptr[j]:pattern.indptr[j + 1]] for j in range(n)]
-    row_color = [set() for _ in range(pattern.shape[0])]
+    row_color: list[set[int]] = [set() for _ in range(pattern.shape[0])]
     color = np.empty(n, dtype=int)
     for j in range(n):
         used = set().union(*(row_color[r] for r in rows_of[j])) if len(rows_of[j]) else set()
@@ -59,7 +64,18 @@ def column_groups(pattern: sp.csc_matrix) -> list[np.ndarray]:
 RESTING_STEPS = 3
 
 
-class PaperEuler(Integrator):
+@dataclass(eq=False, kw_only=True)
+class PaperState(RunState):
+    """A paper run's state: the (scaled) masses, and the diagonal positions and FD column
+    groups of the pattern of :attr:`pattern_of` (refreshed when the registration changes)."""
+
+    mass: np.ndarray
+    diag: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=int))
+    groups: list[np.ndarray] = field(default_factory=list)
+    pattern_of: Model | None = None
+
+
+class PaperEuler(Integrator[PaperState]):
     """Eq. (17)/(19): fixed step h, damping ξ, one Newton root solve per step."""
 
     name = "paper"
@@ -85,13 +101,15 @@ class PaperEuler(Integrator):
                   0.0, 1e6),
     )
 
-    def __init__(self, model: Model, *args, **kwargs) -> None:
-        super().__init__(model, *args, **kwargs)
-        self._mass = model.masses() * self.mass_scale()
-        self._pattern_of: Model | None = None
-        self._refresh_pattern()
+    State = PaperState
 
-    def mass_scale(self) -> float:
+    def state_fields(self, model: Model, warm: bool) -> dict[str, Any]:
+        return {"mass": model.masses() * self.mass_scale(model)}
+
+    def prepare(self, run: PaperState) -> None:
+        self._refresh_pattern(run)
+
+    def mass_scale(self, model: Model) -> float:
         """Factor on M that puts h² ω₁² at ``h2_omega2`` (1 when it is 0).
 
         ω₁ = 1.875² √(E I / (ρ A L⁴)) is the first rod's first cantilever mode. Only the path
@@ -104,107 +122,109 @@ class PaperEuler(Integrator):
         target = self.options.h2_omega2
         if target == 0.0:
             return 1.0
-        return (self.options.h * first_mode_frequency(self.model)) ** 2 / target
+        return float((self.options.h * first_mode_frequency(model)) ** 2 / target)
 
-    def _refresh_pattern(self) -> None:
-        """Diagonal positions and FD column groups of the model's current pattern."""
-        model = self.model
-        if self._pattern_of is model:
+    def _refresh_pattern(self, run: PaperState) -> None:
+        """Diagonal positions and FD column groups of the run's model's current pattern."""
+        model = run.model
+        if run.pattern_of is model:
             return
         diag = np.flatnonzero(model.pattern_rows == model.pattern_cols)
-        self._diag = diag[np.argsort(model.pattern_cols[diag])]
-        self._groups = (column_groups(model.pattern)
-                        if self.options.jacobian == "finite_difference" else [])
-        self._pattern_of = model
+        run.diag = diag[np.argsort(model.pattern_cols[diag])]
+        run.groups = (column_groups(model.pattern)
+                      if self.options.jacobian == "finite_difference" else [])
+        run.pattern_of = model
 
-    def advice(self) -> str:
+    def advice(self, run: RunState | None = None) -> str:
         return ("try applying the load in increments (solver.paper.ramp_steps=20), a "
                 "smaller step (solver.paper.h=...), more Newton iterations per step "
                 "(solver.paper.max_newton=200), or the cvode integrator")
 
-    def _stiffness(self, y: np.ndarray, force: np.ndarray, load: float) -> np.ndarray:
+    def _stiffness(self, run: PaperState, y: np.ndarray, force: np.ndarray,
+                   load: float) -> np.ndarray:
         """∂F/∂x at y in pattern order: analytic, or grouped forward differences."""
         if self.options.jacobian == "analytic":
-            return self.jacobian_data(y, load)
-        model = self.model
+            return run.jacobian_data(y, load)
+        model = run.model
         data = np.zeros(model.nnz)
         rows, cols = model.pattern_rows, model.pattern_cols
-        for group in self._groups:
+        for group in run.groups:
             delta = np.sqrt(np.finfo(float).eps) * np.maximum(np.abs(y[group]), 1e-3)
             shifted = y.copy()
             shifted[group] += delta
-            diff = self.force(shifted, load) - force
+            diff = run.force(shifted, load) - force
             step = np.zeros(model.n)
             step[group] = delta
             in_group = step[cols] != 0.0
             data[in_group] = diff[rows[in_group]] / step[cols[in_group]]
         return data
 
-    def _step_problem(self, predictor: np.ndarray, h: float, load: float) -> NewtonProblem:
+    def _step_problem(self, run: PaperState, predictor: np.ndarray, h: float,
+                      load: float) -> NewtonProblem:
         """Eq. (19) times M: g(y) = M(p − y) + h² F(y) = −∇Φ(y), p = x^t + ξ h ẋ^t."""
-        model, mass = self.model, self._mass
+        model, mass = run.model, run.mass
         cache: dict[str, np.ndarray] = {}
 
         def force(y: np.ndarray) -> np.ndarray:
-            cache["y"], cache["F"] = y, self.force(y, load)
+            cache["y"], cache["F"] = y, run.force(y, load)
             return mass * (predictor - y) + h * h * cache["F"]
 
         def jacobian(y: np.ndarray) -> np.ndarray:
-            f = cache["F"] if cache.get("y") is y else self.force(y, load)
-            data = h * h * self._stiffness(y, f, load)
-            data[self._diag] -= mass
-            self.counts["linear_solves"] += 1
+            f = cache["F"] if cache.get("y") is y else run.force(y, load)
+            data = h * h * self._stiffness(run, y, f, load)
+            data[run.diag] -= mass
+            run.counts["linear_solves"] += 1
             return data
 
         def potential(y: np.ndarray) -> float:
             d = y - predictor
             return 0.5 * float(d @ (mass * d)) + h * h * model.energy(y, load)
 
-        return NewtonProblem(force, jacobian, self.newton_linear_solver(),
+        return NewtonProblem(force, jacobian, run.linear_solver(),
                              lambda g: model.residual(g / (h * h)),
                              model.residual_weight / (h * h),
                              potential if model.conservative else None)
 
-    def advance(self) -> Outcome:
+    def advance(self, run: PaperState) -> Outcome:
         h, xi = self.options.h, self.options.xi
-        model, counts = self.model, self.counts
-        x = self.start_state
+        model, counts = run.model, run.counts
+        x = run.start
         v = np.zeros_like(x)
         # Each step's Newton solve goes 10× below the tolerance, but not below round-off.
-        inner = max(0.1 * self.tolerance, model.residual_floor)
+        inner = effective_tolerance(model, 0.1 * run.tolerance)
         resting = 0
         for step in range(1, self.options.max_steps + 1):
             where = f"step {step} (t = {step * h:.4g} s)"
-            self.check_budget(where)
+            self.check_budget(run, where)
             predictor = x + xi * h * v
-            self._refresh_pattern()  # registration changes the pattern between steps only
-            ramp = 0 if self.warm else self.options.ramp_steps
+            self._refresh_pattern(run)  # registration changes the pattern between steps only
+            ramp = 0 if run.warm else self.options.ramp_steps
             load = min(1.0, step / ramp) if ramp else 1.0
-            solved = newton(self._step_problem(predictor, h, load), predictor, inner,
+            solved = newton(self._step_problem(run, predictor, h, load), predictor, inner,
                             self.options.max_newton, polish=False,
-                            check=self.iteration_check(where))
+                            check=self.iteration_check(run, where))
             counts["newton_iters"] += solved.iterations
             counts["steps"] = step
             if not solved.converged:
-                self.where = where
+                run.where = where
                 return Outcome(x, False, f"Newton failed: {solved.message}")
             v = (solved.x - x) / h
             x = solved.x
-            self.checkpoint(x, where)
+            run.checkpoint(x, where)
             # Tendon registration is recomputed after every step (§4.1).
-            moved = self.reregister(x)
-            residual = self.model.residual(self.model.force(x, load))
-            self.history.record(step * h, x, residual)
+            moved = run.reregister(x)
+            residual = run.model.residual(run.model.force(x, load))
+            run.history.record(step * h, x, residual)
             self.report(None, f"paper: {where}, residual {residual:.2e}")
             # At rest: below the tolerance on RESTING_STEPS consecutive steps (see there).
-            below = not moved and load == 1.0 and self.at_equilibrium(residual)
+            below = not moved and load == 1.0 and run.at_equilibrium(residual)
             resting = resting + 1 if below else 0
             # At rest by the force residual, the run also asks the result check (the
             # correction residual: a per-node force test lets a large N stop early, measured
             # N = 4 000: 1.2e-5 of the load's displacement from the equilibrium, 10 000:
             # 1.2e-4) and goes on stepping until it passes.
-            if (resting >= RESTING_STEPS and self.settled(x)
-                    and self.verified(self.verified_residual(x))):
+            if (resting >= RESTING_STEPS and run.settled(x)
+                    and self.verified(run, self.verified_residual(run, x))):
                 return Outcome(x, True, "at rest")
         raise SolverFailure(f"not at rest after max_steps = {self.options.max_steps}",
                             "try raising solver.paper.max_steps, or "

@@ -21,15 +21,90 @@ the slow bending dynamics only (measured in docs/model.md, "Pseudo-dynamics").
 
 from __future__ import annotations
 
+import math
+from dataclasses import dataclass
+from typing import Any
+
 import numpy as np
 
 from rodsim.core.model import Model
+from rodsim.core.schema import Parameter
 from rodsim.core.sparsity import csc_pattern
 
 __all__ = ["FORMULATIONS", "first_mode_frequency", "damping_rate", "pseudo_masses",
-           "LoadRamp", "FirstOrderSystem"]
+           "LoadRamp", "FirstOrderSystem", "ConstrainedSystem", "PseudoDynamics",
+           "PSEUDO_DYNAMICS_PARAMETERS", "BAND_LIMIT", "LINEAR_SOLVERS"]
 
 FORMULATIONS = ("inertial", "overdamped")
+
+#: Above this many unknowns the band solver's dense (n × n) Jacobian template costs too much
+#: memory (scikit-sundae hands band Jacobians to Python as a full array); ``linear_solver =
+#: "auto"`` then switches to ``band_gmres``: SUNDIALS' GMRES preconditioned by rodsim's own
+#: band LU of the same Newton matrix (:class:`BandPreconditioner`), which holds only the band.
+BAND_LIMIT = 4000
+#: The linear solvers of CVODE and IDA (``linear_solver``; "auto" picks one by size).
+LINEAR_SOLVERS = ("auto", "band", "band_gmres", "sparse")
+
+#: Options CVODE and IDA share (pseudo-dynamics and tolerances).
+PSEUDO_DYNAMICS_PARAMETERS = (
+    Parameter("formulation", "str", "overdamped", "-",
+              "'inertial' (damped second order, Eqs. 10–11) or 'overdamped' (gradient flow)",
+              choices=FORMULATIONS),
+    Parameter("damping_ratio", "float", 1.0, "-",
+              "ζ: damping rate c = 2 ζ ω₁ of the first bending mode", 0.0, 1e6,
+              exclusive_minimum=True),
+    Parameter("mass_scaling", "float", 1e3, "-",
+              "raise masses so no coordinate's own frequency exceeds this × ω₁ (0: physical "
+              "masses)", 0.0, 1e12),
+    Parameter("load_ramp", "float", 1.0, "-",
+              "ramp the loads in over this many first-mode periods 2π/ω₁ (0: step load)",
+              0.0, 1e6),
+    Parameter("rtol", "float", 1e-4, "-", "relative tolerance of the time stepping",
+              1e-15, 1e-1),
+    Parameter("atol", "float", 1e-4, "-",
+              "absolute tolerance, relative to each variable's scale (L for positions, 1 for "
+              "quaternions, L ω₁ for velocities)", 1e-20, 1e-1),
+    Parameter("linear_solver", "str", "auto", "-",
+              "'band', 'band_gmres' (GMRES with the exact band LU as preconditioner: band "
+              "storage only), 'sparse' (SuperLU_MT) or 'auto' (band up to "
+              f"{BAND_LIMIT} unknowns, band_gmres above)",
+              choices=LINEAR_SOLVERS),
+    Parameter("max_steps", "int", 200_000, "-", "give up after this many steps", 1,
+              100_000_000),
+    Parameter("newton_switch", "float", 0.1, "-",
+              "finish with Newton on F(x) = 0 once the scaled residual is below this (0: "
+              "integrate all the way to the tolerance)", 0.0, 1.0),
+    Parameter("newton_iterations", "int", 20, "-",
+              "Newton iterations of one finishing attempt (a failed attempt goes back to "
+              "integrating)", 1, 10_000),
+)
+
+
+@dataclass(frozen=True)
+class PseudoDynamics:
+    """The pseudo-dynamics' constants of one run, from its model and options (shared by
+    CVODE, IDA and scipy): ω₁, the first-mode period 2π/ω₁ (the pseudo-time unit of the
+    ramp and the run's tests), the damping rate c, the pseudo-masses, the load ramp (none
+    for a warm start: the loads in full at once) and the horizon (10⁹ periods) at which a
+    run gives up."""
+
+    omega: float
+    period: float
+    rate: float
+    masses: np.ndarray
+    ramp: LoadRamp
+    horizon: float
+
+    @classmethod
+    def of(cls, model: Model, options: Any, warm: bool) -> PseudoDynamics:
+        """From ``model`` and options carrying ``damping_ratio``, ``mass_scaling`` and
+        ``load_ramp`` (:data:`PSEUDO_DYNAMICS_PARAMETERS`)."""
+        omega = first_mode_frequency(model)
+        period = 2.0 * math.pi / omega
+        return cls(omega=omega, period=period, rate=damping_rate(model, options.damping_ratio),
+                   masses=pseudo_masses(model, options.mass_scaling),
+                   ramp=LoadRamp(0.0 if warm else options.load_ramp * period),
+                   horizon=1e9 * period)
 
 
 def first_mode_frequency(model: Model) -> float:
@@ -153,4 +228,129 @@ class FirstOrderSystem:
         index, value = self._constant
         data[index] = value
         data[self._data_from_model] = model_jacobian * self._scale[self._row_of_model]
+        return data
+
+
+class ConstrainedSystem:
+    """Index maps, residual and analytic Jacobian of IDA's constrained residual form."""
+
+    def __init__(self, model: Model, formulation: str, damping: float, baumgarte: float,
+                 masses: np.ndarray) -> None:
+        self.model = model
+        self.inertial = formulation == "inertial"
+        self.c, self.beta = damping, baumgarte
+        self.mass = masses
+        n = model.n
+        free_of = np.full(model.full_size, -1)
+        free_of[model.free] = np.arange(n)
+        groups: list[np.ndarray] = []
+        for rod in model.rods.values():
+            index = free_of[rod.layout.quaternion_index]
+            groups.extend(row for row in index if np.all(row >= 0))
+        self.quat = np.asarray(groups, dtype=np.int64).reshape(-1, 4)  # model coords of each q_j
+        # Slot of every variable in y: per model coordinate 1 (or 2 with velocity) slots,
+        # and one multiplier after the last coordinate of each quaternion.
+        per = 2 if self.inertial else 1
+        after = np.zeros(n, dtype=int)
+        after[self.quat[:, 3]] = 1
+        start = np.concatenate([[0], np.cumsum(per + after)[:-1]])
+        self.x_slot = start
+        self.v_slot: np.ndarray | None = start + 1 if self.inertial else None
+        self.mu_slot = start[self.quat[:, 3]] + per
+        self.size = n * per + len(self.quat)
+        self.algebraic = self.mu_slot
+        self._build_pattern()
+
+    def _build_pattern(self) -> None:
+        model, q = self.model, self.quat.ravel()
+        force_row = self.force_rows()
+        mu = np.repeat(self.mu_slot, 4)
+        slots = np.arange(self.size)
+        blocks = {
+            "K": (force_row[model.pattern_rows], self.x_slot[model.pattern_cols]),
+            "diag": (slots, slots),
+            "mu_col": (force_row[q], mu),
+            "mu_row_x": (mu, self.x_slot[q]),
+        }
+        if self.v_slot is not None:
+            blocks["mu_row_v"] = (mu, self.v_slot[q])
+            blocks["xv"] = (self.x_slot, self.v_slot)
+        pattern = csc_pattern(np.concatenate([r for r, _ in blocks.values()]),
+                              np.concatenate([c for _, c in blocks.values()]), self.size)
+        self.pattern, self.rows, self.cols = pattern.matrix, pattern.rows, pattern.cols
+        bounds = np.cumsum([0, *(len(r) for r, _ in blocks.values())])
+        #: For each block, where its entries land in the CSC data (unique within a block).
+        self._target = {name: pattern.target[bounds[k]:bounds[k + 1]]
+                        for k, name in enumerate(blocks)}
+        diagonal = np.flatnonzero(model.pattern_rows == model.pattern_cols)
+        self._quat_diagonal = diagonal[np.isin(model.pattern_rows[diagonal], q)]
+        self._quat_order = np.argsort(q)  # _quat_diagonal runs over ascending coordinates
+        self.band = pattern.band
+
+    def force_rows(self) -> np.ndarray:
+        """The slots of the force rows: the velocities' (inertial) or the positions'."""
+        return self.v_slot if self.v_slot is not None else self.x_slot
+
+    def constrained_force(self, y: np.ndarray, force: np.ndarray) -> np.ndarray:
+        """F(x) + Gᵀμ: the force whose vanishing is IDA's (constrained) equilibrium."""
+        total = force.copy()
+        total[self.quat] += 2.0 * y[self.mu_slot][:, None] * y[self.x_slot][self.quat]
+        return total
+
+    def initial_state(self, x0: np.ndarray | None = None) -> np.ndarray:
+        """The state ``x0`` (default: the rest state; or a warm start), at rest, μ = 0."""
+        y = np.zeros(self.size)
+        y[self.x_slot] = self.model.x0 if x0 is None else x0
+        return y
+
+    def positions_of(self, y: np.ndarray) -> np.ndarray:
+        return y[self.x_slot]
+
+    def residual(self, y: np.ndarray, yp: np.ndarray, force: np.ndarray,
+                 out: np.ndarray) -> None:
+        """R(t, y, y′) into ``out`` given F(x)."""
+        q = self.quat
+        qv = y[self.x_slot][q]
+        total = self.constrained_force(y, force)
+        g = np.sum(qv * qv, axis=1) - 1.0
+        if self.inertial:
+            v, vdot = y[self.v_slot], yp[self.v_slot]
+            vq = v[q]
+            out[self.x_slot] = yp[self.x_slot] - v
+            out[self.v_slot] = self.mass * (vdot + self.c * v) - total
+            out[self.mu_slot] = (2.0 * np.sum(qv * vdot[q], axis=1)
+                                 + 2.0 * np.sum(vq * vq, axis=1)
+                                 + 4.0 * self.beta * np.sum(qv * vq, axis=1)
+                                 + self.beta**2 * g)
+        else:
+            xdot = yp[self.x_slot]
+            out[self.x_slot] = self.c * self.mass * xdot - total
+            out[self.mu_slot] = 2.0 * np.sum(qv * xdot[q], axis=1) + self.beta * g
+
+    def jacobian_data(self, y: np.ndarray, yp: np.ndarray, cj: float,
+                      model_jacobian: np.ndarray) -> np.ndarray:
+        """dR/dy + cj dR/dy′ in the CSC order of :attr:`pattern`."""
+        q, t = self.quat, self._target
+        x, mu = y[self.x_slot], y[self.mu_slot]
+        qv = x[q]
+        stiffness = model_jacobian.copy()  # ∂(F + 2μq)/∂x = K + 2μ I on quaternion coords
+        stiffness[self._quat_diagonal] += np.repeat(2.0 * mu, 4)[self._quat_order]
+        data = np.zeros(self.pattern.nnz)
+        data[t["K"]] -= stiffness
+        diag = np.zeros(self.size)
+        if self.inertial:
+            v, vdot = y[self.v_slot], yp[self.v_slot]
+            vq = v[q]
+            diag[self.x_slot] = cj
+            diag[self.v_slot] = self.mass * (self.c + cj)
+            data[t["xv"]] -= 1.0
+            data[t["mu_row_x"]] += (2.0 * vdot[q] + 4.0 * self.beta * vq
+                                    + 2.0 * self.beta**2 * qv).ravel()
+            data[t["mu_row_v"]] += (4.0 * vq + (4.0 * self.beta + 2.0 * cj) * qv).ravel()
+        else:
+            diag[self.x_slot] = self.c * self.mass * cj
+            data[t["mu_row_x"]] += (2.0 * yp[self.x_slot][q]
+                                    + (2.0 * self.beta + 2.0 * cj) * qv).ravel()
+        data[t["diag"]] += diag
+        data[t["mu_col"]] -= 2.0 * qv.ravel()
         return data

@@ -21,20 +21,20 @@ Quaternion norm: held by the centerline penalty Eq. (9) only (same model as ``st
 
 from __future__ import annotations
 
+import functools
 import math
+from typing import Any
 
 import numpy as np
 
 from rodsim.core.schema import Parameter
 from rodsim.solvers.base import Integrator, Outcome, SolverFailure
 from rodsim.solvers.pseudo_dynamics import (
+    PSEUDO_DYNAMICS_PARAMETERS,
     FirstOrderSystem,
-    LoadRamp,
-    damping_rate,
-    first_mode_frequency,
-    pseudo_masses,
+    PseudoDynamics,
 )
-from rodsim.solvers.sundials import PSEUDO_DYNAMICS_PARAMETERS
+from rodsim.solvers.run_state import RunState
 
 _SHARED = {p.name: p for p in PSEUDO_DYNAMICS_PARAMETERS}
 
@@ -42,7 +42,7 @@ _SHARED = {p.name: p for p in PSEUDO_DYNAMICS_PARAMETERS}
 BUDGET_STRIDE = 16
 
 
-class ScipyIvp(Integrator):
+class ScipyIvp(Integrator[RunState]):
     """``scipy.integrate.solve_ivp`` (BDF or LSODA) on the overdamped pseudo-dynamics."""
 
     name = "scipy"
@@ -65,81 +65,79 @@ class ScipyIvp(Integrator):
                   "1 for quaternions)", 1e-20, 1e-1),
     )
 
-    def advice(self) -> str:
+    def advice(self, run: RunState | None = None) -> str:
         return ("try a tighter solver.scipy.rtol (scipy's BDF can stall above τ: its Newton "
                 "stops on the update size, not on the force), or the static or cvode "
                 "integrator")
 
-    def advance(self) -> Outcome:
+    def advance(self, run: RunState) -> Outcome:
         import scipy.sparse as sp
         from scipy.integrate import solve_ivp
 
         options = self.options
         method = options.method
-        omega = first_mode_frequency(self.model)
-        period = 2.0 * math.pi / omega
-        rate = damping_rate(self.model, options.damping_ratio)
-        masses = pseudo_masses(self.model, options.mass_scaling)
-        ramp = LoadRamp(0.0 if self.warm else options.load_ramp * period)
-        self.counts["reinits"] = 0
+        dynamics = PseudoDynamics.of(run.model, options, run.warm)
+        omega, ramp = dynamics.omega, dynamics.ramp
+        run.counts["reinits"] = 0
         systems: dict[int, FirstOrderSystem] = {}
 
         def system() -> FirstOrderSystem:
             """The overdamped system of the model in use (rebuilt on a re-registration)."""
-            key = id(self.model)
+            key = id(run.model)
             if key not in systems:
                 systems.clear()
-                systems[key] = FirstOrderSystem(self.model, "overdamped", rate, masses)
+                systems[key] = FirstOrderSystem(run.model, "overdamped", dynamics.rate,
+                                                dynamics.masses)
             return systems[key]
 
         def rhs(t: float, x: np.ndarray) -> np.ndarray:
-            if self.counts["force_evals"] % BUDGET_STRIDE == 0:
-                self.check_budget(f"t = {t:.4g} s")
-            force = self.force(x, ramp(t))
+            if run.counts["force_evals"] % BUDGET_STRIDE == 0:
+                self.check_budget(run, f"t = {t:.4g} s")
+            force = run.force(x, ramp(t))
             out = np.empty_like(x)
             system().rhs(x, force, out)
             return out
 
-        def jacobian(t: float, x: np.ndarray):
+        def jacobian(t: float, x: np.ndarray) -> Any:
             sys_ = system()
-            data = sys_.jacobian_data(self.jacobian_data(x, ramp(t)))
+            data = sys_.jacobian_data(run.jacobian_data(x, ramp(t)))
             matrix = sp.csc_matrix((data, sys_.pattern.indices, sys_.pattern.indptr),
                                    shape=(sys_.size, sys_.size))
             return matrix if method == "BDF" else matrix.toarray()
 
-        last = {"t": -math.inf, "x": self.start_state, "residual": math.inf}
+        last: dict[str, Any] = {"t": -math.inf, "x": run.start, "residual": math.inf}
 
         def at_rest(t: float, x: np.ndarray) -> float:
             if t > last["t"]:  # the end of an accepted step (root finding looks back in time)
-                self.counts["steps"] += 1
-                if self.reregister(x):
-                    self.counts["reinits"] += 1
-                residual = self.residual(x)
+                run.counts["steps"] += 1
+                if run.reregister(x):
+                    run.counts["reinits"] += 1
+                residual = run.residual(x)
                 if ramp(t) < 1.0:  # equilibrium under the full load only
-                    residual = max(residual, 2.0 * self.tolerance)
+                    residual = max(residual, 2.0 * run.tolerance)
                 last.update(t=t, x=x.copy(), residual=residual)
-                self.checkpoint(last["x"], lambda t=t: f"t = {t:.4g} s")
-                self.history.record(t, x, residual)
+                run.checkpoint(last["x"], functools.partial("t = {:.4g} s".format, t))
+                run.history.record(t, x, residual)
                 if self.reporting:
                     self.report(None, f"{self.name} {method}: t = {t:.3g} s, residual "
                                       f"{residual:.3g}")
-                return residual - self.tolerance
-            return self.residual(x) - self.tolerance  # dense output inside the last step
+                return float(residual - run.tolerance)
+            return run.residual(x) - run.tolerance  # dense output inside the last step
 
-        at_rest.terminal = True
-        at_rest.direction = -1
-        scale = np.where(self.model.is_quaternion, 1.0, self.model.length_scale)
-        horizon = 1e9 * period
-        t0, x0 = 0.0, self.start_state
+        at_rest.terminal = True  # type: ignore[attr-defined]
+        at_rest.direction = -1  # type: ignore[attr-defined]
+        scale = np.where(run.model.is_quaternion, 1.0, run.model.length_scale)
+        horizon = dynamics.horizon
+        t0, x0 = 0.0, run.start
         while True:
             last["t"] = t0
             solution = solve_ivp(rhs, (t0, horizon), x0, method=method, jac=jacobian,
                                  events=at_rest, rtol=options.rtol,
                                  atol=options.atol * scale, first_step=1e-4 / omega,
                                  t_eval=np.empty(0))
-            if solution.status == 1 and last["residual"] < self.tolerance:
+            if solution.status == 1 and last["residual"] < run.tolerance:
                 x = last["x"]
-                if self.settled(x):
+                if run.settled(x):
                     return Outcome(x, True, f"at equilibrium (scipy {method}, terminal event)")
                 t0, x0 = last["t"], x  # a parent changed at equilibrium: go on from there
                 continue

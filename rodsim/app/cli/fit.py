@@ -19,7 +19,7 @@ class Fit(SceneCommand):
     figure of data and fit (docs/inverse.md)."""
 
     kind = "fit"
-    integrator = "static"
+    integrator_flag = True
 
     def bad_input(self) -> tuple[type[Exception], ...]:
         from rodsim.app.inverse.fit import FitError
@@ -37,7 +37,8 @@ class Fit(SceneCommand):
 
         self.scene = scene
         self.points = read_points(self.args.data)
-        return fit(scene, self.points, self.args.param, rod=self.args.rod, progress=progress)
+        return fit(scene, self.points, self.args.param, rod=self.args.rod, progress=progress,
+                   integrator=integrator)
 
     def report(self, result: Any) -> None:
         points = self.points

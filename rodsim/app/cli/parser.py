@@ -87,6 +87,15 @@ def _scene_command(sub: Any, name: str, command: type, scene_help: str, help: st
     return parser
 
 
+def _add_warm_integrator(parser: argparse.ArgumentParser) -> None:
+    """``--integrator`` of the commands that solve many warm-started equilibria (track,
+    fit, reach): any registered integrator, the registry's default without it."""
+    parser.add_argument("--integrator", metavar="NAME",
+                        help="the integrator of every equilibrium, any registered one "
+                        "(listed by `rodsim run --help`; default: static, the fastest "
+                        "from a warm start)")
+
+
 def _finish_scene_command(parser: argparse.ArgumentParser, kind: str,
                           handler: Callable[[argparse.Namespace], int]) -> None:
     """``--set`` and ``-o`` last (after the command's own options), and the handler."""
@@ -161,9 +170,7 @@ def build_parser() -> argparse.ArgumentParser:
                         metavar="KEY=START:STOP:COUNT",
                         help="ramp a numeric scene value (KEY as for --set; KEY[i] for a "
                         "vector component), e.g. --ramp tendon_actuation.force=0:4:101")
-    follow.add_argument("--integrator", metavar="NAME", default="static",
-                        help="a registered integrator, listed by `rodsim run --help` "
-                        "(default: static)")
+    _add_warm_integrator(follow)
     follow.add_argument("--allow-unstable", action="store_true",
                         help="go on past a step whose equilibrium is unstable (its "
                         "stiffness is not positive definite, e.g. a rod loaded past "
@@ -179,6 +186,7 @@ def build_parser() -> argparse.ArgumentParser:
     calibrate.add_argument("--param", action="append", required=True, metavar="KEY",
                            help="numeric scene value to fit (KEY as for --set), e.g. K_E")
     calibrate.add_argument("--rod", help="rod the points belong to (default: the first)")
+    _add_warm_integrator(calibrate)
     _finish_scene_command(calibrate, "fit", cmd_fit)
 
     aim = _scene_command(sub, "reach", Reach, STARTING_SCENE, help="actuation values that put "
@@ -194,6 +202,7 @@ def build_parser() -> argparse.ArgumentParser:
     aim.add_argument("--rod", help="rod whose tip is placed (default: the first)")
     aim.add_argument("--tolerance", type=tolerance_type, default=1e-6, metavar="METRES",
                      help="distance at which the target counts as reached (default 1e-6 m)")
+    _add_warm_integrator(aim)
     _finish_scene_command(aim, "reach", cmd_reach)
 
     plot = sub.add_parser("plot", help="draw an archive's figure (PNG and PDF)",

@@ -33,13 +33,15 @@ class SceneCommand:
 
     ``kind`` names the default output (``runs/<scene>-<kind>.nc``); ``figure``: a PNG
     figure is written beside the archive; ``integrator_flag``: the command has
-    ``--integrator`` (checked against the registry first) — otherwise ``integrator`` is the
-    one it solves with."""
+    ``--integrator`` (checked against the registry first); without it, the command solves
+    with the scene's own ``solver.integrator`` if ``uses_scene_integrator`` (run), else with
+    the registry's default (:data:`rodsim.solvers.DEFAULT_INTEGRATOR`: track, fit and reach,
+    which solve many warm-started equilibria)."""
 
     kind: ClassVar[str]
     figure: ClassVar[bool] = True
     integrator_flag: ClassVar[bool] = False
-    integrator: ClassVar[str | None] = None
+    uses_scene_integrator: ClassVar[bool] = False
 
     def __init__(self, args: argparse.Namespace) -> None:
         self.args = args
@@ -86,9 +88,12 @@ def execute(command: SceneCommand) -> int:
     from rodsim.app.progress import ProgressPrinter
 
     args = command.args
-    flag = args.integrator if command.integrator_flag else command.integrator
-    if command.integrator_flag:
-        check_integrator(flag)
+    flag = args.integrator if command.integrator_flag else None
+    check_integrator(flag)
+    if flag is None and not command.uses_scene_integrator:
+        from rodsim.solvers import DEFAULT_INTEGRATOR
+
+        flag = DEFAULT_INTEGRATOR
     scene = load_scene_or_fail(args.scene, args.set, flag)
     integrator = flag or scene.solver.integrator
     command.prepare(scene)

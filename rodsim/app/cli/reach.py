@@ -18,7 +18,7 @@ class Reach(SceneCommand):
     tip found (docs/inverse.md)."""
 
     kind = "reach"
-    integrator = "static"
+    integrator_flag = True
 
     def bad_input(self) -> tuple[type[Exception], ...]:
         from rodsim.core.scene import SceneError
@@ -36,7 +36,7 @@ class Reach(SceneCommand):
         self.scene = scene
         args = self.args
         return reach(scene, args.tip, args.actuate, rod=args.rod, tolerance=args.tolerance,
-                     progress=progress, orientation=args.frame)
+                     progress=progress, orientation=args.frame, integrator=integrator)
 
     def failure(self, result: Any) -> str | None:
         return None if result.success else f"rodsim: {result.message}"

@@ -25,6 +25,7 @@ class Run(SceneCommand):
 
     figure = False
     integrator_flag = True
+    uses_scene_integrator = True
 
     def output_name(self, scene: Any, integrator: str) -> str:
         return f"{scene.name}-{integrator}.nc"

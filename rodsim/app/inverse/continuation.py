@@ -1,26 +1,20 @@
 """Equilibria of nearby parameter values, each solved from the previous one (a warm start).
 
 Tracking (rodsim/app/inverse/track.py), fitting (fit.py) and inverse kinematics (reach.py)
-solve many
-equilibria whose parameters differ a little. :class:`Continuation` keeps the last
-equilibrium — its state x and its model, which carries its tendon registration — and solves
-the next scene from it:
-
-- ``static``: the next model is :meth:`Model.with_values` of the last (only the terms whose
-  options changed are rebuilt; the assembly, pattern, scales' layout and kernels are
-  shared; any other change falls back to :meth:`Model.with_scene`: same free-coordinate
-  order, same registration, the Jacobian pattern reused when the elements keep their
-  coordinates), and from the last state or a given predictor — or, when a base support
-  moves (insertion, rotation), the last state carried rigidly with it
-  (:meth:`Model.carried`) — it first tries chord
-  iterations — Newton steps with a Jacobian factorised at an earlier equilibrium and kept
-  while it works (each iteration halving the residual), so a step costs evaluations of F
-  and band back-substitutions only — then, if they stall, Newton at full load (the analytic
-  Jacobian, band solves and line search of rodsim/solvers/newton.py); either is
-  repeated while the registration changes and until it settles without hysteresis. No load
-  or penalty continuation, no Result: a warm step costs a few iterations.
-- ``cvode``, ``ida``, ``paper``: the integrator itself, started from the last state
-  (``initial_state``) on the next model, the loads in full from the start.
+solve many equilibria whose parameters differ a little. :class:`Continuation` is the
+continuation policy alone: it keeps the last equilibrium — the run state an integrator
+returned, whose model carries its tendon registration — and solves the next scene from it
+with any registered integrator, through the integrator contract
+(:meth:`Integrator.restart`, a continuation step, then :meth:`Integrator.run`;
+rodsim/solvers/base.py). The next model is :meth:`Model.with_values` of the last (only the
+terms whose options changed are rebuilt; any other change falls back to
+:meth:`Model.with_scene`: same free-coordinate order, same registration, the Jacobian pattern
+reused when the elements keep their coordinates); the step starts from the last state or a
+given predictor — or, when a base support moves (insertion, rotation), the last state
+carried rigidly with it (:meth:`Model.carried`). How the integrator solves a continuation
+step is its own (``static``: chord iterations with a kept factorisation, then Newton,
+rodsim/solvers/static.py; the pseudo-dynamic ones: a run from that state, the loads in full
+from the start).
 
 A solve that fails leaves the continuation where it was. :meth:`Continuation.walk` moves
 between two sets of parameter values and retries a failed solve with half the increment,
@@ -32,7 +26,7 @@ function of (scaled) parameter values that a fit or a reach minimises over.
 from __future__ import annotations
 
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -41,21 +35,17 @@ from rodsim.app.inverse.parameter_keys import NumericKey, scene_with
 from rodsim.app.inverse.sensitivity import equilibrium_sensitivity, registered_model
 from rodsim.core.model import Model
 from rodsim.core.scene import Scene
-from rodsim.solvers.base import MAX_RESIDUAL_FLOOR, MAX_SETTLES, SolverFailure
-from rodsim.solvers.linear import LinearSolver
-from rodsim.solvers.newton import NewtonProblem, newton
+from rodsim.solvers import DEFAULT_INTEGRATOR, integrator_named, registered_integrators
+from rodsim.solvers.base import RunState
 from rodsim.solvers.result import Result
+from rodsim.solvers.tolerance import effective_tolerance
 
 __all__ = ["Continuation", "StepOutcome", "ScaledEquilibria", "EquilibriumFailure",
-           "BudgetSpent", "MAX_NEWTON", "MAX_HALVINGS", "EASY_ITERATIONS"]
+           "BudgetSpent", "MAX_HALVINGS", "EASY_ITERATIONS"]
 
-#: Newton iterations a warm static step may take (per registration).
-MAX_NEWTON = 30
-#: Chord iterations (kept factorisation) a warm static step tries before Newton.
-MAX_CHORD = 10
 #: Failed attempts (each halving the increment) after which :meth:`Continuation.walk` fails.
 MAX_HALVINGS = 10
-#: A sub-step that converged within this many Newton iterations doubles the increment again.
+#: A sub-step that converged within this many iterations doubles the increment again.
 EASY_ITERATIONS = 6
 #: Scaled distance from a bound within which a fit's or a reach's value is set to the bound.
 BOUND_SNAP = 1e-5
@@ -72,7 +62,8 @@ class BudgetSpent(EquilibriumFailure):
 @dataclass(frozen=True)
 class StepOutcome:
     """One warm solve: success, the equilibrium (free coordinates), the scaled residual,
-    Newton iterations (static) or integrator steps, and a message on failure."""
+    the integrator's work (:meth:`Integrator.work`: Newton and chord iterations for
+    ``static``, steps for the others), and a message on failure."""
 
     success: bool
     x: np.ndarray
@@ -91,45 +82,52 @@ class Continuation:
     x
         That equilibrium (free coordinates); its registration is applied to ``model``.
     integrator
-        ``static`` (Newton, default) or ``cvode``, ``ida``, ``paper``.
+        The name of a registered integrator (default
+        :data:`~rodsim.solvers.base.DEFAULT_INTEGRATOR`).
     deadline
         ``time.perf_counter()`` after which no solve starts (:meth:`walk` fails) and an
         integrator's solve stops; None: none.
     """
 
-    def __init__(self, model: Model, x: np.ndarray, integrator: str = "static",
+    def __init__(self, model: Model, x: np.ndarray, integrator: str = DEFAULT_INTEGRATOR,
                  deadline: float | None = None) -> None:
         self.model = registered_model(model, x)
         self.x = np.array(x, dtype=float)
         self.integrator = integrator
+        self.kind = integrator_named(integrator)
         self.deadline = deadline
-        self._linear: tuple[object, LinearSolver] | None = None
-        #: (pattern, solve) of a Jacobian factorised at an earlier state, for chord steps.
-        self._factor: tuple[object, Callable[[np.ndarray], np.ndarray]] | None = None
+        #: The state the last attempted step returned, successful or not: what its
+        #: integrator carries on to the next (static: the factorisation as the attempt left
+        #: it, refreshed or dropped).
+        self.state: RunState | None = None
 
-    def _linear_solver(self, model: Model) -> LinearSolver:
-        if self._linear is None or self._linear[0] is not model.pattern:
-            self._linear = model.pattern, LinearSolver(
-                model.pattern, model.pattern_rows, model.pattern_cols,
-                (model.band.lower, model.band.upper), model.conservative)
-        return self._linear[1]
+    @property
+    def takes_predictor(self) -> bool:
+        """Whether the integrator's continuation step starts from a predictor."""
+        return self.kind.takes_predictor
 
     def solve(self, scene: Scene, start: np.ndarray | None = None) -> StepOutcome:
         """The equilibrium of ``scene`` (same discretisation) from ``start`` (default: the
         last equilibrium); on success it becomes the last equilibrium."""
         model = self.model.with_values(scene)
+        assert model is not None  # with_values falls back to with_scene
         # A base that moves (insertion, rotation) carries the last equilibrium with it; that
         # rigid motion is exact where a chord predictor only linearises a rotation, so it
         # replaces the predictor.
         carried = model.carried(self.x, self.model)
         x = carried if start is None or carried is not self.x else start
-        if self.integrator == "static":
-            outcome, model = self._newton(model, x)
-        else:
-            outcome, model = self._integrate(model, x)
-        if outcome.success:
-            self.model, self.x = model, outcome.x
-        return outcome
+        budget = float(scene.solver.max_wall_time)
+        if self.deadline is not None:  # the integrator's own budget: what is left of ours
+            budget = min(budget, max(self.deadline - time.perf_counter(), 0.0))
+        integrator = self.kind.for_scene(scene, max_wall_time=budget)
+        result, state = integrator.run(integrator.restart(self.state, model, x),
+                                       verdict=False)
+        work = self.kind.work(result.stats)
+        self.state = state
+        if not result.success:
+            return StepOutcome(False, x, result.residual, work, result.message)
+        self.model, self.x = registered_model(state.model, result.state), result.state
+        return StepOutcome(True, result.state, result.residual, work, "converged")
 
     def walk(self, scene: Scene, keys: Sequence[NumericKey], start: np.ndarray,
              stop: np.ndarray, predictor: np.ndarray | None = None
@@ -165,94 +163,6 @@ class Continuation:
                 return False, iterations, failures, message
         return True, iterations, failures, message
 
-    def _newton(self, model: Model, x: np.ndarray) -> tuple[StepOutcome, Model]:
-        if model.residual_floor > MAX_RESIDUAL_FLOOR:  # as every integrator refuses it
-            return StepOutcome(False, x, np.nan, 0, "the loads are below the round-off of "
-                               f"the internal forces (residual floor {model.residual_floor:.3g}"
-                               f" > {MAX_RESIDUAL_FLOOR:g})"), model
-        tolerance = max(model.scene.solver.tolerance, model.residual_floor)
-        total = 0
-        for _ in range(MAX_SETTLES + 1):
-            chord = self._chord(model, x, tolerance)
-            if chord is not None:
-                x, iterations, residual = chord
-                total += iterations
-                moved = model.reregistered(x, exact=True)
-                if moved is None:
-                    return StepOutcome(True, x, residual, total, "converged"), model
-                model = moved
-                continue
-
-            def force(y: np.ndarray, model: Model = model) -> np.ndarray:
-                f = model.force(y)
-                if not np.all(np.isfinite(f)):
-                    raise SolverFailure("the force became non-finite (NaN or inf)")
-                return f
-
-            problem = NewtonProblem(
-                force=force, jacobian=model.jacobian_data,
-                linear=self._linear_solver(model), residual=model.residual,
-                weight=model.residual_weight,
-                potential=model.energy if model.conservative else None)
-            try:
-                solved = newton(problem, x, tolerance, MAX_NEWTON, polish=False)
-            except SolverFailure as exc:
-                return StepOutcome(False, x, np.nan, total, str(exc)), model
-            total += solved.iterations
-            if not solved.converged:
-                return StepOutcome(False, x, solved.residual, total,
-                                   f"Newton did not converge: {solved.message}"), model
-            x = solved.x
-            moved = model.reregistered(x, exact=True)
-            if moved is None:
-                return StepOutcome(True, x, solved.residual, total, "converged"), model
-            model = moved
-        return StepOutcome(False, x, np.nan, total, "the tendon registration did not settle"
-                           ), model
-
-    def _chord(self, model: Model, x: np.ndarray, tolerance: float
-               ) -> tuple[np.ndarray, int, float] | None:
-        """Chord iterations x ← x − J₀⁻¹F(x) with a factorisation J₀ kept from an earlier
-        equilibrium of the same Jacobian pattern (factored here if there is none): each
-        costs an evaluation of F and a band back-substitution instead of F, J and a band
-        factorisation. Returns (x, iterations, residual) once the residual is below
-        ``tolerance``, or None — and drops J₀ — as soon as an iteration fails to halve it
-        (J₀ too far from the current Jacobian): Newton then takes over."""
-        if self._factor is None or self._factor[0] is not model.pattern:
-            solve = self._linear_solver(model).factorized(model.jacobian_data(x))
-            if solve is None:
-                return None
-            self._factor = model.pattern, solve
-        solve = self._factor[1]
-        previous = np.inf
-        for iteration in range(MAX_CHORD):
-            f = model.force(x)
-            residual = model.residual(f) if np.all(np.isfinite(f)) else np.inf
-            if residual < tolerance:
-                return x, iteration, residual
-            if not residual < 0.5 * previous:
-                break
-            previous = residual
-            x = x - solve(f)
-        self._factor = None
-        return None
-
-    def _integrate(self, model: Model, x: np.ndarray) -> tuple[StepOutcome, Model]:
-        from rodsim.solvers import registered_integrators
-
-        scene = model.scene
-        budget = scene.solver.max_wall_time
-        if self.deadline is not None:  # the integrator's own budget: what is left of ours
-            budget = min(budget, max(self.deadline - time.perf_counter(), 0.0))
-        kind = registered_integrators()[self.integrator]
-        result: Result = kind(model, kind.options_of(scene), scene.solver.tolerance, budget,
-                              None, initial_state=x).solve()
-        steps = int(result.stats["steps"])
-        if not result.success:
-            return StepOutcome(False, x, result.residual, steps, result.message), model
-        return (StepOutcome(True, result.state, result.residual, steps, "converged"),
-                registered_model(model, result.state))
-
 
 class ScaledEquilibria:
     """Equilibria as a function of scaled parameter values u = p / ``scale`` (the
@@ -261,9 +171,9 @@ class ScaledEquilibria:
     equilibria and sensitivities computed."""
 
     def __init__(self, scene: Scene, keys: Sequence[NumericKey], scale: np.ndarray,
-                 result: Result, rod: str) -> None:
+                 result: Result, rod: str, integrator: str = DEFAULT_INTEGRATOR) -> None:
         self.scene, self.keys, self.scale, self.rod = scene, list(keys), scale, rod
-        self.continuation = Continuation(Model(result.scene), result.state)
+        self.continuation = Continuation(Model(result.scene), result.state, integrator)
         self.values = np.array([k.value(scene) for k in keys])
         #: The scaled scene values, where a fit or a reach starts: ±1 for a non-zero value
         #: (its sign), 0 for a zero one.
@@ -275,22 +185,24 @@ class ScaledEquilibria:
         self.last_failure = ""
 
     @classmethod
-    def at_scene_values(cls, scene: Scene, keys: Sequence[NumericKey],
-                        rod: str) -> tuple[ScaledEquilibria, np.ndarray, np.ndarray]:
+    def at_scene_values(cls, scene: Scene, keys: Sequence[NumericKey], rod: str,
+                        integrator: str = DEFAULT_INTEGRATOR
+                        ) -> tuple[ScaledEquilibria, np.ndarray, np.ndarray]:
         """The problem started at the scene's own values, each parameter scaled by its
-        magnitude (1 where it is 0), from a cold static equilibrium (EquilibriumFailure if
-        there is none); with the scaled lower and upper bounds of the parameters."""
+        magnitude (1 where it is 0), from a cold equilibrium by ``integrator``, which solves
+        every later one too (EquilibriumFailure if there is none); with the scaled lower and
+        upper bounds of the parameters."""
         from rodsim.app.api import solve
 
         initial = np.array([k.value(scene) for k in keys])
         scale = np.where(initial != 0.0, np.abs(initial), 1.0)
         lower, upper = np.array([k.bounds() for k in keys]).T / scale
         started = time.perf_counter()
-        first = solve(scene, "static")
+        first = solve(scene, integrator)
         if not first.success:
             raise EquilibriumFailure(f"the scene's own values have no equilibrium: "
                                      f"{first.message}")
-        problem = cls(scene, keys, scale, first, rod)
+        problem = cls(scene, keys, scale, first, rod, integrator)
         problem.continuation.deadline = started + float(scene.solver.max_wall_time)
         return problem, lower, upper
 
@@ -339,22 +251,22 @@ class ScaledEquilibria:
 
     def result(self, what: str) -> Result:
         """The current equilibrium — the one the optimiser measured, not a cold re-solve
-        that could land on another branch — as a static :class:`Result` with its stability
-        verdict; ``what`` names it in the message."""
+        that could land on another branch — as a :class:`Result` of the continuation's
+        integrator with its stability verdict; ``what`` names it in the message."""
         import dataclasses
 
         from rodsim.core.stability import assess
-        from rodsim.solvers import registered_integrators
 
         model, x = self.continuation.model, self.continuation.x
-        options = registered_integrators()["static"].options_of(model.scene)
+        name = self.continuation.integrator
+        options = registered_integrators()[name].options_of(model.scene)
         force = model.force(x)
         return Result.from_model(
-            model, x, integrator="static", options=dataclasses.asdict(options), success=True,
+            model, x, integrator=name, options=dataclasses.asdict(options), success=True,
             message=f"converged ({what}: warm-started equilibrium)",
             residual=float(model.residual(force)),
-            stats={"effective_tolerance": max(model.scene.solver.tolerance,
-                                              model.residual_floor),
+            stats={"effective_tolerance": effective_tolerance(model,
+                                                              model.scene.solver.tolerance),
                    "force_evals": float(self.evaluations)},
             history={}, stability=assess(model, x))
 

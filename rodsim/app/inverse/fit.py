@@ -58,6 +58,7 @@ from rodsim.io.cf_layout import variable_name
 from rodsim.io.input_file import InputError, check_input_file
 from rodsim.io.provenance import history
 from rodsim.io.run_dataset import run_dataset
+from rodsim.solvers import DEFAULT_INTEGRATOR, integrator_named
 from rodsim.solvers.base import Progress
 from rodsim.solvers.result import Result
 
@@ -280,10 +281,12 @@ def _check_identifiable(jacobian: np.ndarray, keys: Sequence[NumericKey], length
 
 
 def fit(scene: Scene, points: Points, params: Sequence[str], *, rod: str | None = None,
-        max_evaluations: int = 100, progress: Progress | None = None) -> Fit:
+        max_evaluations: int = 100, progress: Progress | None = None,
+        integrator: str = DEFAULT_INTEGRATOR) -> Fit:
     """Fit the numeric scene values ``params`` (keys as for ``--set``) to the measured
     ``points`` of ``rod`` (default: the first rod), starting from the scene's values
-    (module docstring); ``progress`` is called after each equilibrium with a status line.
+    (module docstring); ``progress`` is called after each equilibrium with a status line;
+    ``integrator`` (a registered name) solves every equilibrium.
     Raises SceneError for bad keys, FitError for bad data or
     unidentifiable parameters, EquilibriumFailure when an equilibrium cannot be solved."""
     from scipy.optimize import least_squares
@@ -313,7 +316,8 @@ def fit(scene: Scene, points: Points, params: Sequence[str], *, rod: str | None 
         raise FitError(f"{count} data points for {len(keys)} parameters: need at least as "
                        "many points as parameters")
     check_plausible(points, scene, rod)
-    problem, lower, upper = ScaledEquilibria.at_scene_values(scene, keys, rod)
+    problem, lower, upper = ScaledEquilibria.at_scene_values(scene, keys, rod,
+                                                             integrator_named(integrator).name)
     initial, scale = problem.values.copy(), problem.scale
     s_nodes = problem.continuation.model.rods[rod].geometry.node_s
 

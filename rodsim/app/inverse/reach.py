@@ -52,6 +52,7 @@ from rodsim.core.schema import SceneError
 from rodsim.io.cf_layout import variable_name
 from rodsim.io.provenance import history
 from rodsim.io.run_dataset import run_dataset
+from rodsim.solvers import DEFAULT_INTEGRATOR, integrator_named
 from rodsim.solvers.base import Progress
 from rodsim.solvers.result import Result
 
@@ -168,10 +169,12 @@ def _checked_orientation(orientation: Sequence[Sequence[float]]) -> np.ndarray:
 def reach(scene: Scene, tip: Sequence[float], actuate: Sequence[str], *,
           rod: str | None = None, tolerance: float = DEFAULT_TOLERANCE,
           max_evaluations: int = 200, progress: Progress | None = None,
-          orientation: Sequence[Sequence[float]] | None = None) -> Reach:
+          orientation: Sequence[Sequence[float]] | None = None,
+          integrator: str = DEFAULT_INTEGRATOR) -> Reach:
     """Values of the scene keys ``actuate`` that put the tip of ``rod`` (default: the first
     rod) at ``tip`` [m], and, if given, its frame at ``orientation`` (rows d1, d2, d3 of
-    the last segment), from the scene's values (module docstring). ``Reach.success`` is
+    the last segment), from the scene's values (module docstring), every equilibrium solved
+    by ``integrator`` (a registered name). ``Reach.success`` is
     False when the target is out of reach. Raises SceneError for bad keys or a bad target,
     EquilibriumFailure when an equilibrium on the way cannot be solved."""
     from scipy.optimize import least_squares
@@ -202,7 +205,8 @@ def reach(scene: Scene, tip: Sequence[float], actuate: Sequence[str], *,
         raise SceneError(f"the target is {away:.3g} m from the origin of rod {rod!r}, "
                          f"{away / length:.3g} times its length {length:g} m: no shape of the "
                          "rod reaches it (the target must be in metres)")
-    problem, lower, upper = ScaledEquilibria.at_scene_values(scene, keys, rod)
+    problem, lower, upper = ScaledEquilibria.at_scene_values(scene, keys, rod,
+                                                             integrator_named(integrator).name)
     initial = problem.values.copy()
 
     far = np.full(3 if frame is None else 9, 10.0 * length)

@@ -51,7 +51,7 @@ from rodsim.io.archive_schema import SCHEMA_VERSION
 from rodsim.io.cf_layout import variable_name
 from rodsim.io.provenance import archive_attributes
 from rodsim.io.run_dataset import step_coordinate
-from rodsim.solvers import registered_integrators
+from rodsim.solvers import DEFAULT_INTEGRATOR, integrator_named, registered_integrators
 from rodsim.solvers.base import Progress
 
 if TYPE_CHECKING:
@@ -293,7 +293,8 @@ def _check_rules_across_tables(scene: Scene, keys: Sequence[NumericKey],
                              value=float(values[row, column]), reason=found[1]) from None
 
 
-def track(scene: Scene, ramps: Mapping[str, Sequence[float]], integrator: str = "static",
+def track(scene: Scene, ramps: Mapping[str, Sequence[float]],
+          integrator: str = DEFAULT_INTEGRATOR,
           *, progress: Progress | None = None, allow_unstable: bool = False) -> Track:
     """Equilibria along the path ``ramps`` (key → values, all of one length ≥ 2), step 0
     from rest and every later step warm-started from the previous one (module docstring);
@@ -308,9 +309,7 @@ def track(scene: Scene, ramps: Mapping[str, Sequence[float]], integrator: str = 
 
     if not isinstance(scene, Scene):
         raise SceneError(f"track needs a Scene (rodsim.load_scene), got {type(scene).__name__}")
-    if integrator not in registered_integrators():
-        raise SceneError(f"integrator {str(integrator)[:40]!r}: unknown; allowed: "
-                         + ", ".join(registered_integrators()))
+    kind = integrator_named(integrator)
     values = _ramp_values(ramps)
     keys = numeric_keys(scene, list(ramps))
     for column, key in enumerate(keys):  # every value in range before any work
@@ -334,8 +333,7 @@ def track(scene: Scene, ramps: Mapping[str, Sequence[float]], integrator: str = 
     continuation = Continuation(model, first.state, integrator, deadline=deadline)
     out.states.append(model.full(first.state))
     out.residuals.append(first.residual)
-    out.iterations.append(int(first.stats["newton_iters"] if integrator == "static"
-                              else first.stats["steps"]))
+    out.iterations.append(kind.work(first.stats))
     out.halvings.append(0)
     out.times.append(time.perf_counter() - started)
     stability = first.stability or assess(model, first.state)
@@ -352,7 +350,7 @@ def track(scene: Scene, ramps: Mapping[str, Sequence[float]], integrator: str = 
             return out
         predictor = None
         chord = float(np.linalg.norm(values[step - 1] - values[step - 2])) if step > 1 else 0.0
-        if previous is not None and integrator == "static" and chord > 0.0:
+        if previous is not None and continuation.takes_predictor and chord > 0.0:
             # First-order (secant) predictor: the path's last chord, scaled to this step (none
             # after a step that did not move: a constant ramp, START = STOP).
             ratio = float(np.linalg.norm(values[step] - values[step - 1])) / chord

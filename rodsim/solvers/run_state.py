@@ -1,0 +1,233 @@
+"""A run's state, as a value: what an integrator's run has reached, apart from the integrator.
+
+An :class:`~rodsim.solvers.base.Integrator` holds configuration only (its options, the
+requested tolerance, the wall-time budget, the progress callback). Everything a run changes
+lives in a :class:`RunState`, made by :meth:`Integrator.init` and passed to and returned by
+:meth:`Integrator.run` (as diffrax's ``init`` / ``step(…, state)``): the model in use (its
+tendon registration and penalty scales), the effective tolerance, the counters, the last
+accepted state and where it was reached, the history, the run's clock. The state's own
+:meth:`RunState.force` and :meth:`RunState.jacobian_data` are the only way a run evaluates
+the model: each evaluation is counted and checked for non-finite values there (as scipy's
+``OdeSolver`` counts through its base's ``fun``). An integrator needing more state (the
+SUNDIALS system, IDA's last y, the static solve's kept factorisation) subclasses
+:class:`RunState` with typed fields of its own.
+
+A state returned by a run can start another (a warm start): :meth:`Integrator.init` with
+``initial_state``, or :meth:`Integrator.restart` from a returned state on a nearby model.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field, replace
+from typing import Any, Self
+
+import numpy as np
+
+from rodsim.core.model import Model
+from rodsim.core.stability import Stability, assess
+from rodsim.solvers.failure import SolverFailure
+from rodsim.solvers.linear import LinearSolver
+from rodsim.solvers.tolerance import effective_tolerance
+
+__all__ = ["RunState", "History", "MAX_SETTLES", "linear_solver_of"]
+
+#: Re-registrations at equilibrium (Model.reregistered(x, exact=True)) before a run accepts the
+#: registration it reached with hysteresis: an equilibrium on the boundary between two
+#: parents would otherwise flip between them forever.
+MAX_SETTLES = 10
+
+
+class History:
+    """Per-step record of pseudo-time, residual and the first rod's tip (for Fig. 8)."""
+
+    def __init__(self, model: Model) -> None:
+        first = next(iter(model.rods.values()))
+        free_of = np.full(model.full_size, -1)
+        free_of[model.free] = np.arange(model.n)
+        self._tip_free = free_of[first.layout.position_index[-1]]
+        self.data: dict[str, list[Any]] = {"time": [], "residual": [], "tip": []}
+
+    def record(self, time: float, x: np.ndarray, residual: float) -> None:
+        self.data["time"].append(float(time))
+        self.data["residual"].append(float(residual))
+        self.data["tip"].append(x[self._tip_free].tolist())
+
+
+def linear_solver_of(model: Model) -> LinearSolver:
+    """The Newton linear solver of ``model``'s Jacobian pattern (band or sparse)."""
+    return LinearSolver(model.pattern, model.pattern_rows, model.pattern_cols,
+                        (model.band.lower, model.band.upper), model.conservative)
+
+
+def base_counts() -> dict[str, float]:
+    """The counters every run reports (see rodsim.solvers.result.STAT_DOCS)."""
+    return {"steps": 0, "newton_iters": 0, "force_evals": 0, "jacobian_evals": 0,
+            "linear_solves": 0}
+
+
+@dataclass(eq=False)
+class RunState:
+    """The state of one run of an integrator (module docstring).
+
+    Attributes
+    ----------
+    model
+        The model in use: replaced (a new value) when the tendon registration changes or
+        penalties are scaled.
+    base_model
+        The model as built, at rest (its registration is the rest state's).
+    tolerance
+        The effective tolerance: the requested one raised to the model's round-off floor.
+    start
+        The free coordinates the run starts from (``model.x0`` unless a warm start).
+    warm
+        True when the run starts from a given state (loads in full from the start).
+    continued
+        True for a continuation step (a warm start from a returned state).
+    x, where
+        The last accepted state and where it was reached (a callable is formatted only when
+        a failure report needs it).
+    counts
+        Counters reported in the result's statistics.
+    history
+        Per-step record.
+    budget_start, clock_start
+        ``time.perf_counter()`` when the wall-time budget and the run started.
+    note
+        Appended to the message of a successful run.
+    last_force
+        The last F a right-hand side evaluated (a screen for the equilibrium test; None
+        before the first).
+    """
+
+    model: Model
+    base_model: Model
+    tolerance: float
+    start: np.ndarray
+    warm: bool
+    x: np.ndarray
+    counts: dict[str, float]
+    history: History
+    budget_start: float
+    clock_start: float
+    where: str | Callable[[], str] = "start"
+    #: True for a continuation step (:meth:`Integrator.restart`): a warm start from the
+    #: state a run returned, on a nearby model, which an integrator may solve more cheaply.
+    continued: bool = False
+    note: str = ""
+    last_force: np.ndarray | None = None
+    _linear: tuple[Model, LinearSolver] | None = field(default=None, repr=False)
+    _stability: tuple[Model, np.ndarray, Stability] | None = field(default=None, repr=False)
+
+    @classmethod
+    def new(cls, model: Model, tolerance: float, initial_state: np.ndarray | None = None,
+            budget_start: float | None = None, **fields: Any) -> Self:
+        """A fresh state on ``model`` from its rest state or ``initial_state``."""
+        now = time.perf_counter()
+        start = model.x0 if initial_state is None else np.array(initial_state, dtype=float)
+        counts = base_counts()
+        if model.has_registration:
+            counts["settles"] = 0
+        return cls(model=model, base_model=model,
+                   tolerance=effective_tolerance(model, tolerance), start=start,
+                   warm=initial_state is not None, x=start, counts=counts,
+                   history=History(model), budget_start=now if budget_start is None
+                   else budget_start, clock_start=now, **fields)
+
+    def derived(self, **changes: Any) -> Self:
+        """A copy with ``changes`` (its counters shared unless given): for a trial on another
+        model (lowered penalties, a finish) that the run adopts or drops."""
+        return replace(self, **changes)
+
+    # ------------------------------------------------------ counted evaluations
+    def force(self, x: np.ndarray, load: float = 1.0, check: bool = True) -> np.ndarray:
+        """F(x) on :attr:`model`, counted; SolverFailure on a non-finite value (unless not
+        ``check``: a caller that tests the value itself)."""
+        self.counts["force_evals"] += 1
+        f = self.model.force(x, load)
+        if check and not np.all(np.isfinite(f)):
+            raise SolverFailure("the force became non-finite (NaN or inf)")
+        return f
+
+    def jacobian_data(self, x: np.ndarray, load: float = 1.0) -> np.ndarray:
+        """∂F/∂x in :attr:`model`'s CSC pattern order, counted; SolverFailure on a
+        non-finite value."""
+        self.counts["jacobian_evals"] += 1
+        data = self.model.jacobian_data(x, load)
+        if not np.all(np.isfinite(data)):
+            raise SolverFailure("the Jacobian became non-finite (NaN or inf)")
+        return data
+
+    def residual(self, x: np.ndarray) -> float:
+        """Scaled equilibrium residual of state ``x`` (uncounted evaluation)."""
+        return self.model.residual(self.model.force(x))
+
+    def at_equilibrium(self, residual: float) -> bool:
+        return residual < self.tolerance
+
+    def linear_solver(self) -> LinearSolver:
+        """The Newton linear solver of :attr:`model`'s pattern (rebuilt when the model is
+        replaced)."""
+        if self._linear is None or self._linear[0] is not self.model:
+            self._linear = self.model, linear_solver_of(self.model)
+        return self._linear[1]
+
+    # ------------------------------------------------------------- progress
+    def checkpoint(self, x: np.ndarray, where: str | Callable[[], str]) -> None:
+        """Remember the last accepted state and where it was reached."""
+        self.x = x
+        self.where = where
+
+    def where_text(self) -> str:
+        return self.where() if callable(self.where) else self.where
+
+    def elapsed(self) -> float:
+        return time.perf_counter() - self.clock_start
+
+    # --------------------------------------------------------- registration
+    def reregister(self, x: np.ndarray, exact: bool = False) -> bool:
+        """Apply the tendon registration rule at ``x`` (``exact``: without hysteresis);
+        True when a parent changed and :attr:`model` was replaced (new pattern)."""
+        if not self.model.has_registration:
+            return False
+        moved = self.model.reregistered(x, exact)
+        if moved is None:
+            return False
+        self.model = moved
+        return True
+
+    def settled(self, x: np.ndarray) -> bool:
+        """Whether an equilibrium ``x`` may end the run: its registration needs no change
+        without hysteresis (:meth:`Model.reregistered` with ``exact``). False means a parent
+        changed and the run must go on from ``x`` (the pattern changed too)."""
+        if not self.model.has_registration:
+            return True
+        if self.counts["settles"] >= MAX_SETTLES:
+            self.note = (f"the tendon registration did not settle in {MAX_SETTLES} "
+                         "re-registrations (a point's equilibrium is on the boundary between "
+                         "two parents); the registration reached with hysteresis is kept")
+            return True
+        if not self.reregister(x, exact=True):
+            return True
+        self.counts["settles"] += 1
+        return False
+
+    # ------------------------------------------------------------- verdicts
+    def full_model(self) -> Model:
+        """:attr:`model` (its registration) with every penalty at its full value (continuation
+        scales back to 1): the model a result must be an equilibrium of."""
+        model = self.model
+        lowered = {k: 1.0 for k, scale in enumerate(model.term_scales) if scale != 1.0}
+        return model.with_term_scales(lowered) if lowered else model
+
+    def stability(self, x: np.ndarray) -> Stability:
+        """The stability verdict at the equilibrium ``x`` of :attr:`model`
+        (rodsim/core/stability.py), computed once per (model, state)."""
+        cached = self._stability
+        if cached is not None and cached[0] is self.model and cached[1] is x:
+            return cached[2]
+        verdict = assess(self.model, x)
+        self._stability = (self.model, x, verdict)
+        return verdict

@@ -1,0 +1,106 @@
+"""The integrator contract (rodsim/solvers/base.py, rodsim/solvers/run_state.py): an
+integrator holds configuration only, a run's state is a value that a run returns and that
+starts another (a warm start), and track, fit and reach solve their equilibria with any
+registered integrator through that contract (rodsim/app/inverse/continuation.py)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import rodsim
+from rodsim.app.inverse.fit import Points, fit
+from rodsim.core.schema import SceneError
+from rodsim.solvers import DEFAULT_INTEGRATOR, integrator_named, registered_integrators
+from rodsim.solvers.run_state import RunState
+
+#: Every integrator track, fit and reach are run with (scipy is the benchmarks' baseline).
+INTEGRATORS = ["static", "cvode", "ida", "paper"]
+SMALL = ["nodes=10"]
+LENGTH = 0.12  # table1's catheter [m]
+#: How close a pseudo-dynamic run's equilibrium is to static's on these scenes (its residual
+#: test stops at the tolerance; tests/test_integrators.py measures them closer).
+CLOSE = 1e-6 * LENGTH
+
+
+def _cold(scene, integrator: str = DEFAULT_INTEGRATOR):
+    result = rodsim.solve(scene, integrator)
+    assert result.success, result.message
+    return result
+
+
+@pytest.mark.parametrize("name", sorted(registered_integrators()))
+def test_an_integrator_holds_configuration_only(name):
+    scene = rodsim.load_scene("table1-50g", SMALL)
+    integrator = integrator_named(name).for_scene(scene)
+    before = dict(vars(integrator))
+    result, state = integrator.run(integrator.init(rodsim.build_model(scene)))
+    assert result.success, result.message
+    # A run wrote nothing on the integrator: the model in use, counters, history and the
+    # last force live on the returned state.
+    assert vars(integrator).keys() == before.keys() == {"options", "tolerance",
+                                                        "max_wall_time", "_progress"}
+    assert all(vars(integrator)[k] is before[k] for k in before)
+    assert isinstance(state, RunState) and state.counts["force_evals"] > 0
+    assert result.stats["force_evals"] == state.counts["force_evals"]
+
+
+@pytest.mark.parametrize("name", INTEGRATORS)
+def test_a_returned_state_warm_starts_a_run_on_a_nearby_model(name):
+    """restart: the equilibrium a run returned starts a continuation step on a nearby
+    model; it reaches the cold equilibrium of that model with fewer force evaluations, and
+    leaves the first run's state (its counters) as they were."""
+    scene = rodsim.load_scene("table1-50g", SMALL)
+    near = scene.with_values({"rods.catheter.tip_load.mass": 0.06})
+    integrator = integrator_named(name).for_scene(scene)
+    first, state = integrator.run(integrator.init(rodsim.build_model(scene)))
+    assert first.success, first.message
+    counted = dict(state.counts)
+    model = state.model.with_values(near)
+    warm, warm_state = integrator.run(integrator.restart(state, model))
+    assert warm.success, warm.message
+    assert warm_state is not state and state.counts == counted
+    cold = _cold(near, name)
+    assert warm.stats["force_evals"] < cold.stats["force_evals"]
+    reference = _cold(near)
+    assert np.abs(warm.positions() - reference.positions()).max() < CLOSE
+
+
+@pytest.mark.parametrize("name", INTEGRATORS)
+def test_track_runs_with_every_integrator(name):
+    scene = rodsim.load_scene("table1-50g", SMALL)
+    masses = [0.03, 0.045, 0.06]
+    path = rodsim.track(scene, {"tip_load.mass": masses}, name)
+    assert path.success, path.message
+    assert path.integrator == name and len(path.iterations) == 3
+    assert all(iterations > 0 for iterations in path.iterations)
+    for step, mass in enumerate(masses):
+        cold = _cold(scene.with_values({"rods.catheter.tip_load.mass": mass}))
+        assert np.abs(path.positions[step] - cold.positions()).max() < CLOSE
+
+
+@pytest.mark.parametrize("name", INTEGRATORS)
+def test_fit_runs_with_every_integrator(name):
+    scene = rodsim.load_scene("table1-50g", SMALL)
+    truth = _cold(scene.with_overrides(["youngs_modulus=5e6"]))
+    found = fit(scene, Points(truth.positions("catheter")[1:], None), ["youngs_modulus"],
+                integrator=name)
+    assert found.result.integrator == name
+    # Exact data: the modulus back to the equilibria's tolerance.
+    assert found.values[0] == pytest.approx(5e6, rel=1e-4)
+
+
+@pytest.mark.parametrize("name", INTEGRATORS)
+def test_reach_runs_with_every_integrator(name):
+    scene = rodsim.load_scene("table1-50g", SMALL)
+    target = _cold(scene.with_overrides(["origin=[0.0, 0.01, 0.0]"])).tip()
+    found = rodsim.reach(scene, target, ["origin[1]"], integrator=name)
+    assert found.success, found.message
+    assert found.result.integrator == name
+    assert found.values[0] == pytest.approx(0.01, abs=1e-6)
+
+
+def test_an_unknown_integrator_is_one_scene_error():
+    scene = rodsim.load_scene("table1-50g", SMALL)
+    with pytest.raises(SceneError, match="integrator 'nope': unknown; allowed: "):
+        rodsim.reach(scene, [0.1, 0.0, 0.0], ["origin[1]"], integrator="nope")
