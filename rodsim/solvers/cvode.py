@@ -18,6 +18,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from rodsim.solvers.integrator_options import CvodeOptions
 from rodsim.solvers.pseudo_dynamics import FirstOrderSystem
 from rodsim.solvers.sundials import (
     BandPreconditioner,
@@ -33,6 +34,9 @@ if TYPE_CHECKING:
 
 class Cvode(SundialsIntegrator):
     """CVODE BDF on the inertial or overdamped pseudo-dynamics, stopped at equilibrium."""
+
+    Options = CvodeOptions
+    options: CvodeOptions
 
     name = "cvode"
     summary = "SUNDIALS CVODE (adaptive BDF) on damped pseudo-dynamics, stopped at equilibrium"

@@ -27,6 +27,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from rodsim.core.model import Model
+from rodsim.solvers.integrator_options import IdaOptions
 from rodsim.solvers.linear import LinearSolver
 from rodsim.solvers.newton import NewtonProblem, newton
 from rodsim.solvers.pseudo_dynamics import PSEUDO_DYNAMICS_PARAMETERS, ConstrainedSystem
@@ -44,6 +45,9 @@ if TYPE_CHECKING:
 
 class Ida(SundialsIntegrator):
     """IDA BDF on the constrained residual form, stopped at equilibrium."""
+
+    Options = IdaOptions
+    options: IdaOptions
 
     name = "ida"
     summary = "SUNDIALS IDA on the residual form with quaternion norms as algebraic equations"

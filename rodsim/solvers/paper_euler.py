@@ -30,6 +30,7 @@ import scipy.sparse as sp
 from rodsim.core.model import Model
 from rodsim.core.schema import Parameter
 from rodsim.solvers.base import Integrator, Outcome, SolverFailure
+from rodsim.solvers.integrator_options import PaperOptions
 from rodsim.solvers.newton import NewtonProblem, newton
 from rodsim.solvers.pseudo_dynamics import first_mode_frequency
 from rodsim.solvers.run_state import RunState
@@ -77,6 +78,9 @@ class PaperState(RunState):
 
 class PaperEuler(Integrator[PaperState]):
     """Eq. (17)/(19): fixed step h, damping ξ, one Newton root solve per step."""
+
+    Options = PaperOptions
+    options: PaperOptions
 
     name = "paper"
     summary = "the paper's damped implicit Euler, Eqs. (17)/(19): fixed h, damping ξ"

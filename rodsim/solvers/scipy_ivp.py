@@ -29,6 +29,7 @@ import numpy as np
 
 from rodsim.core.schema import Parameter
 from rodsim.solvers.base import Integrator, Outcome, SolverFailure
+from rodsim.solvers.integrator_options import ScipyOptions
 from rodsim.solvers.pseudo_dynamics import (
     PSEUDO_DYNAMICS_PARAMETERS,
     FirstOrderSystem,
@@ -44,6 +45,9 @@ BUDGET_STRIDE = 16
 
 class ScipyIvp(Integrator[RunState]):
     """``scipy.integrate.solve_ivp`` (BDF or LSODA) on the overdamped pseudo-dynamics."""
+
+    Options = ScipyOptions
+    options: ScipyOptions
 
     name = "scipy"
     summary = ("scipy solve_ivp (BDF or LSODA) on the overdamped pseudo-dynamics, stopped at "

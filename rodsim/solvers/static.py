@@ -55,6 +55,7 @@ from rodsim.solvers.continuation import (
     penalty_scales,
     with_registration_of,
 )
+from rodsim.solvers.integrator_options import StaticOptions
 from rodsim.solvers.newton import NewtonProblem, newton
 from rodsim.solvers.run_state import MAX_SETTLES, RunState
 
@@ -82,6 +83,9 @@ class StaticState(RunState):
 
 class Static(Integrator[StaticState]):
     """Newton–Raphson with load continuation on F(x) = 0."""
+
+    Options = StaticOptions
+    options: StaticOptions
 
     State = StaticState
     takes_predictor = True
