@@ -104,3 +104,30 @@ def test_an_unknown_integrator_is_one_scene_error():
     scene = rodsim.load_scene("table1-50g", SMALL)
     with pytest.raises(SceneError, match="integrator 'nope': unknown; allowed: "):
         rodsim.reach(scene, [0.1, 0.0, 0.0], ["origin[1]"], integrator="nope")
+
+
+@pytest.mark.parametrize(("command", "name"), [("fit", "cvode"), ("reach", "ida"),
+                                               ("track", "paper"), ("fit", None)])
+def test_the_cli_solves_track_fit_and_reach_with_the_integrator_named(command, name,
+                                                                      tmp_path, cli):
+    """``--integrator`` on track, fit and reach reaches the continuation; without it they use
+    the registry's default, not the scene's own (table1-50g declares cvode)."""
+    import xarray as xr
+
+    scene = rodsim.load_scene("table1-50g", SMALL)
+    truth = _cold(scene.with_overrides(["youngs_modulus=5e6", "origin=[0.0, 0.01, 0.0]"]))
+    data = tmp_path / "shape.csv"
+    np.savetxt(data, truth.positions("catheter")[1:], delimiter=",", header="x,y,z",
+               comments="")
+    arguments = {"fit": ["--data", str(data), "--param", "youngs_modulus",
+                         "--set", "origin=[0.0, 0.01, 0.0]"],
+                 "reach": ["--tip", ",".join(f"{v:.12g}" for v in truth.tip()),
+                           "--actuate", "origin[1]", "--set", "youngs_modulus=5e6"],
+                 "track": ["--ramp", "tip_load.mass=0.05:0.06:3"]}[command]
+    output = tmp_path / f"{command}.nc"
+    chosen = [] if name is None else ["--integrator", name]
+    code = cli([command, "table1-50g", *arguments, *chosen, "--set", *SMALL,
+                "-o", str(output)])
+    assert code == 0
+    with xr.open_dataset(output) as ds:
+        assert ds.attrs["integrator"] == (name or DEFAULT_INTEGRATOR)

@@ -116,9 +116,9 @@ def test_declared_options_are_what_the_scene_hands_out():
 
 
 def test_mypy_runs_clean_on_the_configured_packages():
-    """``python -m mypy`` with pyproject.toml's ``[tool.mypy]`` (rodsim/core and rodsim/solvers at least; the
-    other packages join as they are made clean). Measured: 9.5 s with an empty cache, under
-    1 s with mypy's cache (.mypy_cache) warm."""
+    """``python -m mypy`` with pyproject.toml's ``[tool.mypy]`` (rodsim/core and rodsim/solvers
+    at least; the other packages join as they are made clean). Measured: 9.5 s with an empty
+    cache, under 1 s with mypy's cache (.mypy_cache) warm."""
     import subprocess
     import sys
     import tomllib
