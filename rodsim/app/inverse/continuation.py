@@ -136,13 +136,17 @@ class Continuation:
         the one at ``stop``, from ``predictor`` if given (for the whole step only), halving
         the increment on each failure and doubling it again (up to the rest of the step)
         after a sub-step that took at most :data:`EASY_ITERATIONS` iterations; fails at the
-        :data:`MAX_HALVINGS`-th failed attempt. Returns (success, iterations, failed
-        attempts, last failure message)."""
+        :data:`MAX_HALVINGS`-th failed attempt — and then leaves the continuation at the
+        equilibrium of ``start``, where it was, though sub-steps had moved it part of the way
+        (a fit or a reach goes on from the values it holds). Returns (success, iterations,
+        failed attempts, last failure message)."""
         start, stop = np.asarray(start, dtype=float), np.asarray(stop, dtype=float)
+        before = self.model, self.x, self.state
         done, fraction, failures, iterations = 0.0, 1.0, 0, 0
         message = ""
         while done < 1.0:
             if self.deadline is not None and time.perf_counter() > self.deadline:
+                self.model, self.x, self.state = before
                 return False, iterations, failures, (
                     "the wall-time budget (solver.max_wall_time) is spent")
             fraction = min(fraction, 1.0 - done)
@@ -160,6 +164,9 @@ class Continuation:
             failures += 1
             fraction *= 0.5
             if failures >= MAX_HALVINGS:
+                # The sub-steps that succeeded moved the continuation part of the way; the
+                # caller still holds the values at ``start``, so go back there.
+                self.model, self.x, self.state = before
                 return False, iterations, failures, message
         return True, iterations, failures, message
 
