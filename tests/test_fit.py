@@ -189,3 +189,26 @@ def test_fit_reports_progress_after_each_equilibrium():
                        ["youngs_modulus"], progress=lambda f, status: heard.append(status))
     assert len(heard) >= 2 and all(s.startswith("fit: equilibrium ") for s in heard)
     assert "residual RMS" in heard[-1] and len(heard) <= found.evaluations
+
+
+def test_a_fit_stalled_by_refused_trial_values_is_a_failure_not_a_result(monkeypatch):
+    """Every trial value but the start has no equilibrium (forced here): least_squares
+    shrinks its trust region to nothing and says 'xtol satisfied' at the start, 20 % from the
+    modulus the data were made with. That is not a fit: it must raise, naming the refusals."""
+    from rodsim.app.inverse.continuation import EquilibriumFailure, ScaledEquilibria
+
+    scene = rodsim.load_scene("table1-50g", ["nodes=10", "youngs_modulus=4e6"])
+    truth = rodsim.solve(scene.with_overrides(["youngs_modulus=5e6"]), "static")
+    reached = ScaledEquilibria.reached
+
+    def only_the_start(self, u):
+        if not np.array_equal(u, self.start):
+            self.failures += 1
+            self.last_failure = "refused by the test"
+            return False
+        return reached(self, u)
+
+    monkeypatch.setattr(ScaledEquilibria, "reached", only_the_start)
+    with pytest.raises(EquilibriumFailure, match="stopped short of a minimum.*refused by the "
+                       "test"):
+        fit(scene, Points(truth.positions("catheter")[1:], None), ["youngs_modulus"])

@@ -17,7 +17,13 @@ range); each evaluation is an equilibrium warm-started from the previous one
 (rodsim/app/inverse/sensitivity.py), ∂P(j, t)/∂p = (1 − t) ∂r_j/∂p + t ∂r_{j+1}/∂p. The
 parameters are scaled by their initial values. A trial step to values whose equilibrium
 cannot be solved gets a residual of ten rod lengths per component, so the trust region
-rejects it and shrinks.
+rejects it and shrinks. A trust region that shrinks to nothing on such refusals ends
+least_squares with "xtol satisfied" wherever it is; so a fit whose last :data:`STALLED`
+trial values had no equilibrium is checked: if a Gauss–Newton step in the parameters not
+held at a bound would remove more than :data:`NOT_A_MINIMUM` of the squared residual
+(linear prediction; ≈ 0 at a minimum), the fit stopped short of a minimum and raises
+:class:`~rodsim.app.inverse.continuation.EquilibriumFailure` saying how many trial values
+had no equilibrium.
 
 Standard errors: the Gauss–Newton covariance σ² (JᵀJ)⁻¹ at the solution, σ² = RSS/(m − p),
 where m counts the residual components that carry information: with nearest-point
@@ -73,6 +79,13 @@ MAX_CONDITION = 1e10
 #: A parameter whose relative change of 1 moves the matched points by less than this times
 #: the rod's length (RMS) does not influence the shape.
 NO_INFLUENCE = 1e-9
+#: Share of the squared residual a Gauss–Newton step from the fit's end point may still
+#: promise to remove: 0 at a minimum (JᵀR = 0); the equilibria's own round-off promises at
+#: most about (parameters / residual components), a stalled trust region nearly all of it.
+NOT_A_MINIMUM = 0.5
+#: The last this many trial values all without an equilibrium: the trust region shrank on
+#: refusals, not on a converged shape.
+STALLED = 3
 #: Largest number of points a data file may hold.
 MAX_POINTS = 1_000_000
 #: Largest data file read [bytes] (a million points of three 25-digit numbers).
@@ -261,6 +274,19 @@ def _span_dimension(points: np.ndarray) -> int:
     return max(1, int(np.sum(singular > 1e-9 * max(singular[0], 1e-300))))
 
 
+def _gauss_newton_gain(jacobian: np.ndarray, residual: np.ndarray, free: np.ndarray
+                       ) -> float:
+    """The share of |R|² that one Gauss–Newton step in the ``free`` parameters would remove
+    by the linear prediction, R + J δ with δ = argmin |R + J δ|: 0 at a minimum."""
+    total = float(residual @ residual)
+    if total == 0.0 or not np.any(free):
+        return 0.0
+    columns = jacobian[:, free]
+    step = np.linalg.lstsq(columns, -residual, rcond=None)[0]
+    after = residual + columns @ step
+    return 1.0 - float(after @ after) / total
+
+
 def _check_identifiable(jacobian: np.ndarray, keys: Sequence[NumericKey], length: float
                         ) -> None:
     """FitError for a parameter that does not move the matched points (a relative change of
@@ -327,10 +353,13 @@ def fit(scene: Scene, points: Points, params: Sequence[str], *, rod: str | None 
 
     far = np.full(points.xyz.size, 10.0 * scene.rods[rod].length)
 
+    refused: list[bool] = []  # per trial: its values had no equilibrium
+
     def residuals(u: np.ndarray) -> np.ndarray:
         # A step to values without a solvable equilibrium gets a residual far beyond any
         # shape's, so that the trust region rejects it and shrinks.
-        if not problem.reached(u):
+        refused.append(not problem.reached(u))
+        if refused[-1]:
             return far
         gap = (matched(problem.nodes())[0] - points.xyz).ravel()
         if progress is not None:
@@ -368,6 +397,13 @@ def fit(scene: Scene, points: Points, params: Sequence[str], *, rod: str | None 
                        f"{len(keys)} parameters: add points to estimate the errors")
     sigma2 = float(residual @ residual) / (freedom - len(keys))
     _check_identifiable(scaled, keys, length)
+    gain = _gauss_newton_gain(scaled, residual, solution.active_mask == 0)
+    if refused[-STALLED:] == [True] * STALLED and gain > NOT_A_MINIMUM:
+        raise EquilibriumFailure(
+            f"the fit stopped short of a minimum ({solution.message}): a Gauss-Newton step "
+            f"from there would still remove {100 * gain:.0f} % of the squared residual; "
+            f"{problem.failures} trial values had no equilibrium (last: "
+            f"{problem.last_failure or 'none'}); start nearer the answer (--set KEY=VALUE)")
     covariance = sigma2 * np.linalg.inv(scaled.T @ scaled) * np.outer(scale, scale)
     rms = float(np.sqrt(np.mean(np.sum((fitted_points - points.xyz) ** 2, axis=1))))
     if not math.isfinite(rms):
