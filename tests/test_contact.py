@@ -402,3 +402,38 @@ def test_bend_contact_penetration_falls_as_n_squared():
         assert abs(np.linalg.norm(forces[middle]) / segment / line_force - 1.0) < 1e-4
     assert depth[0] > 0.0 and depth[1] > 0.0
     assert math.log2(depth[0] / depth[1]) == pytest.approx(2.0, abs=0.1)
+
+
+def test_a_track_archive_holds_the_contact_forces_of_every_step(tmp_path):
+    """Issue 25 item 4: the insertion's archive holds the contact force on every node at
+    every step and their resultant; the last step's forces are those of a run archive of
+    the last step's scene re-solved from the track's last state (the same equilibrium), the
+    first step (tip at the bend's start, no wall touched) has none; the figure draws them."""
+    from rodsim.app.figures import plot_dataset
+    from rodsim.io.run_dataset import run_dataset
+
+    scene = rodsim.load_scene("vessel-insertion")
+    insertion = np.linspace(0.0, 0.06, 16)
+    path = rodsim.track(scene, {"rods.catheter.base.insertion": insertion})
+    assert path.success, path.message
+    ds = path.to_xarray()
+    assert ds["contact_force"].dims == ("step", "node", "axis")
+    assert ds["contact_force"].attrs["units"] == "N"
+    np.testing.assert_allclose(ds["contact_resultant"].values,
+                               ds["contact_force"].values.sum(axis=1), rtol=0, atol=1e-15)
+    assert not np.any(ds["contact_force"].values[0])
+    last = scene.with_values({"rods.catheter.base.insertion": float(insertion[-1])})
+    again = rodsim.solve(last, "static", initial_state=path.states[-1][path.model.free])
+    assert again.success, again.message
+    expected = run_dataset(again)["contact_force"].values
+    assert np.max(np.linalg.norm(expected, axis=1)) > 1e-3  # the bend pushes back (mN)
+    np.testing.assert_allclose(ds["contact_force"].values[-1], expected, rtol=0,
+                               atol=1e-6 * np.max(np.abs(expected)))
+    (figure,) = plot_dataset(ds, tmp_path / "insertion", ["png"])
+    assert figure.stat().st_size > 10_000
+    # The archive contract checks the variables' dimensions when they are there.
+    from rodsim.io.archive_schema import ArchiveSchemaError, check_archive
+
+    check_archive(ds)
+    with pytest.raises(ArchiveSchemaError, match="contact_resultant"):
+        check_archive(ds.drop_vars("contact_resultant"))

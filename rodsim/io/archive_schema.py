@@ -342,6 +342,9 @@ def _check_run(ds: xr.Dataset, leading: tuple[str, ...] = ()) -> None:
                                          f"(scene_json) says {expected}")
     _size(ds, "node", sum(rod.nodes for rod in scene.rods.values()),
           "the scene's control points")
+    if "contact_force" in ds.variables or "contact_resultant" in ds.variables:
+        _variable(ds, "contact_force", (*leading, "node", "axis"))
+        _variable(ds, "contact_resultant", (*leading, "axis"))
 
 
 def _check_study(ds: xr.Dataset) -> None:

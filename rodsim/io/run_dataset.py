@@ -19,7 +19,7 @@ from rodsim.io.archive_schema import SCHEMA_VERSION
 from rodsim.io.provenance import archive_attributes
 from rodsim.solvers.result import Result
 
-__all__ = ["run_dataset", "step_coordinate"]
+__all__ = ["contact_variables", "run_dataset", "step_coordinate"]
 
 
 def run_dataset(result: Result) -> xr.Dataset:
@@ -76,19 +76,23 @@ def _contact_variables(result: Result) -> dict[str, Any]:
     """Contact force on every control point (zero on rods no obstacle acts on) and their
     resultant, for a scene with obstacles (docs/contact.md)."""
     from rodsim.core.model import Model
+    from rodsim.core.terms.contact import contact_forces
 
     model = Model(result.scene, "numpy")
-    full = model.full(result.state)
-    force = {name: np.zeros((rod.options.nodes, 3)) for name, rod in model.rods.items()}
-    for term in model.terms:
-        if term.name == "contact":
-            force[term.rod.name] += term.nodal_forces(full)
-    stacked = np.concatenate(list(force.values()))
+    stacked = contact_forces(model.terms, model.rods, model.full(result.state))
+    assert stacked is not None  # called for a scene with obstacles only
+    return contact_variables(stacked, ())
+
+
+def contact_variables(force: np.ndarray, leading: tuple[str, ...]) -> dict[str, Any]:
+    """The archive variables ``contact_force`` (*leading, node, axis) and
+    ``contact_resultant`` (*leading, axis) [N] of contact forces ``force`` (a run's, or a
+    track's per step with ``leading = ("step",)``)."""
     return {
-        "contact_force": (("node", "axis"), stacked,
+        "contact_force": ((*leading, "node", "axis"), force,
                           {"units": "N", "long_name": "contact force on the control point "
                            "(every obstacle)"}),
-        "contact_resultant": (("axis",), stacked.sum(axis=0),
+        "contact_resultant": ((*leading, "axis"), force.sum(axis=-2),
                               {"units": "N", "long_name": "sum of the contact forces on "
                                "every control point"}),
     }

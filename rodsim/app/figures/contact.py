@@ -19,9 +19,10 @@ import xarray as xr
 
 from rodsim.app.figures.style import STYLE
 from rodsim.core.obstacles import build_obstacle
+from rodsim.core.scene import Scene
 from rodsim.io.archive_schema import stored_scene
 
-__all__ = ["contact_figure"]
+__all__ = ["contact_figure", "draw_contact"]
 
 AXES = ("x", "y", "z")
 
@@ -36,37 +37,16 @@ def contact_figure(ds: xr.Dataset, path: str | Path) -> Path:
     forces = ds["contact_force"].values
     spread = np.ptp(positions, axis=0)
     a, b = (int(i) for i in sorted(np.argsort(spread)[-2:]))
-    depth = 3 - a - b
-    level = float(np.mean(positions[:, depth]))
-    lo, hi = positions.min(axis=0), positions.max(axis=0)
-    size = float(max(hi[a] - lo[a], hi[b] - lo[b], 1e-9))
-    margin = 0.25 * size
     with plt.style.context(STYLE):
         fig, ax = plt.subplots(figsize=(6.4, 4.8))
-        for name, table in scene.data.get("obstacles", {}).items():
-            _draw_obstacle(ax, build_obstacle(name, table), a, b, depth, level,
-                           (lo[a] - margin, hi[a] + margin), (lo[b] - margin, hi[b] + margin))
         rods = ds["rod"].values.astype(str)
+        size = draw_contact(ax, scene, positions, forces, (a, b))
         for rod in dict.fromkeys(rods):
             pts = positions[rods == rod]
             width = 2 * scene.data["rods"][rod]["radius"]
             ax.plot(pts[:, a], pts[:, b], color="C0", lw=1.2, label=f"rod {rod}")
             ax.plot(pts[:, a], pts[:, b], color="C0", alpha=0.25, solid_capstyle="round",
                     lw=max(1.0, 72 * width / size * 6.4 * 0.8))
-        magnitude = np.linalg.norm(forces, axis=1)
-        largest = float(magnitude.max(initial=0.0))
-        if largest > 0:
-            scale = 0.2 * size / largest
-            for p, f, m in zip(positions, forces, magnitude, strict=True):
-                if m > 1e-3 * largest:
-                    ax.annotate("", xy=(p[a], p[b]), xytext=(p[a] - scale * f[a],
-                                                              p[b] - scale * f[b]),
-                                arrowprops={"arrowstyle": "->", "color": "C3", "lw": 1.2})
-            tip = int(np.argmax(magnitude))
-            ax.annotate(f"{1e3 * largest:.3g} mN", (positions[tip, a], positions[tip, b]),
-                        textcoords="offset points", xytext=(6, 6), color="C3")
-        ax.set_xlim(lo[a] - margin, hi[a] + margin)
-        ax.set_ylim(lo[b] - margin, hi[b] + margin)
         ax.set_aspect("equal")
         ax.set_xlabel(f"{AXES[a]} [m]")
         ax.set_ylabel(f"{AXES[b]} [m]")
@@ -77,6 +57,40 @@ def contact_figure(ds: xr.Dataset, path: str | Path) -> Path:
         fig.savefig(path)
         plt.close(fig)
     return path
+
+
+def draw_contact(ax: plt.Axes, scene: Scene, positions: np.ndarray, forces: np.ndarray,
+                 view: tuple[int, int], extent: np.ndarray | None = None) -> float:
+    """Draw on ``ax``, in the plane of the world axes ``view``, the scene's obstacles cut
+    through the rods' mean depth and the contact ``forces`` on the control points at
+    ``positions`` as arrows (the largest a fifth of the drawing, labelled in mN); set the
+    limits around the rods (or around the points ``extent``, e.g. every step of a track).
+    Returns the drawing's size [m] (the larger extent)."""
+    a, b = view
+    depth = 3 - a - b
+    level = float(np.mean(positions[:, depth]))
+    frame = positions if extent is None else extent.reshape(-1, 3)
+    lo, hi = frame.min(axis=0), frame.max(axis=0)
+    size = float(max(hi[a] - lo[a], hi[b] - lo[b], 1e-9))
+    margin = 0.25 * size
+    for name, table in scene.data.get("obstacles", {}).items():
+        _draw_obstacle(ax, build_obstacle(name, table), a, b, depth, level,
+                       (lo[a] - margin, hi[a] + margin), (lo[b] - margin, hi[b] + margin))
+    magnitude = np.linalg.norm(forces, axis=1)
+    largest = float(magnitude.max(initial=0.0))
+    if largest > 0:
+        scale = 0.2 * size / largest
+        for p, f, m in zip(positions, forces, magnitude, strict=True):
+            if m > 1e-3 * largest:
+                ax.annotate("", xy=(p[a], p[b]), xytext=(p[a] - scale * f[a],
+                                                          p[b] - scale * f[b]),
+                            arrowprops={"arrowstyle": "->", "color": "C3", "lw": 1.2})
+        tip = int(np.argmax(magnitude))
+        ax.annotate(f"{1e3 * largest:.3g} mN", (positions[tip, a], positions[tip, b]),
+                    textcoords="offset points", xytext=(6, 6), color="C3")
+    ax.set_xlim(lo[a] - margin, hi[a] + margin)
+    ax.set_ylim(lo[b] - margin, hi[b] + margin)
+    return size
 
 
 def _draw_obstacle(ax, obstacle, a: int, b: int, depth: int, level: float,

@@ -12,6 +12,8 @@ import numpy as np
 import xarray as xr
 from matplotlib.figure import Figure
 
+from rodsim.app.figures.contact import draw_contact
+from rodsim.io.archive_schema import stored_scene
 from rodsim.io.cf_layout import key_variable
 
 __all__ = ["run_figure", "track_figure", "fit_figure", "reach_figure", "out_of_plane",
@@ -62,8 +64,17 @@ def track_figure(ds: xr.Dataset) -> Figure:
     figure.colorbar(mappable, ax=shapes, label=_ramp_label(ds, ramp))
     shapes.set_xlabel("x [m]")
     shapes.set_ylabel("y [m]")
-    shapes.set_aspect("equal", adjustable="datalim")
     shapes.set_title(f"centerline of {ds['rod'].values[0]} at each of {len(values)} steps")
+    contact = ""
+    if "contact_force" in ds and len(values):  # obstacles, and the last step's forces
+        scene = stored_scene(ds.attrs["scene_json"], "attribute 'scene_json'")
+        draw_contact(shapes, scene, ds["position"].values[-1], ds["contact_force"].values[-1],
+                     (0, 1), extent=ds["position"].values)
+        shapes.set_aspect("equal")  # within the limits drawn around every step
+        resultant = float(np.linalg.norm(ds["contact_resultant"].values[-1]))
+        contact = f"; contact resultant {1e3 * resultant:.3g} mN (red: the last step's forces)"
+    else:
+        shapes.set_aspect("equal", adjustable="datalim")
     for axis, name in enumerate("xyz"):
         tips.plot(values, nodes[:, -1, axis], label=f"tip {name}")
     tips.set_xlabel(_ramp_label(ds, ramp))
@@ -73,7 +84,7 @@ def track_figure(ds: xr.Dataset) -> Figure:
     unit = key_variable(ds, ramp).attrs.get("units", "")
     figure.suptitle(f"{ds.attrs.get('title', '')}\ntip of {ds['rod'].values[0]} at "
                     f"{short_key(ramp)} = {values[-1]:.4g} {unit}: x, y, z = "
-                    + ", ".join(f"{1e3 * v:.4g}" for v in last) + " mm")
+                    + ", ".join(f"{1e3 * v:.4g}" for v in last) + " mm" + contact)
     return figure
 
 

@@ -47,10 +47,11 @@ from rodsim.app.inverse.parameter_keys import NumericKey, numeric_keys, scene_wi
 from rodsim.core.model import Model
 from rodsim.core.scene import Scene
 from rodsim.core.schema import SceneError
+from rodsim.core.terms.contact import contact_forces
 from rodsim.io.archive_schema import SCHEMA_VERSION
 from rodsim.io.cf_layout import variable_name
 from rodsim.io.provenance import archive_attributes
-from rodsim.io.run_dataset import step_coordinate
+from rodsim.io.run_dataset import contact_variables, step_coordinate
 from rodsim.solvers import DEFAULT_INTEGRATOR, integrator_named, registered_integrators
 from rodsim.solvers.base import Progress
 
@@ -108,6 +109,8 @@ class Track:
     times: list[float] = field(default_factory=list)
     stable: list[bool] = field(default_factory=list)
     min_eigenvalues: list[float] = field(default_factory=list)
+    #: With obstacles: the contact force on every control point, (nodes, 3) [N] per step.
+    contact: list[np.ndarray] = field(default_factory=list)
     success: bool = True
     message: str = "converged"
     failed_step: int | None = None
@@ -202,6 +205,8 @@ class Track:
                                          {"long_name": "smallest eigenvalue of the stiffness "
                                           "of an unstable step (NaN when stable)"}),
         }
+        if self.contact:
+            data.update(contact_variables(np.array(self.contact), ("step",)))
         ds = xr.Dataset(data_vars=data, coords=coords)
         warm = np.asarray(self.times[1:])
         ds.attrs.update({
@@ -332,6 +337,7 @@ def track(scene: Scene, ramps: Mapping[str, Sequence[float]],
         return out
     continuation = Continuation(model, first.state, integrator, deadline=deadline)
     out.states.append(model.full(first.state))
+    _record_contact(out, model)
     out.residuals.append(first.residual)
     out.iterations.append(kind.work(first.stats))
     out.halvings.append(0)
@@ -366,6 +372,7 @@ def track(scene: Scene, ramps: Mapping[str, Sequence[float]],
             return out
         previous = last
         out.states.append(continuation.model.full(continuation.x))
+        _record_contact(out, continuation.model)
         out.residuals.append(continuation.model.residual(continuation.model.force(
             continuation.x)))
         out.iterations.append(iterations)
@@ -377,6 +384,12 @@ def track(scene: Scene, ramps: Mapping[str, Sequence[float]],
         if progress is not None:
             progress(step / (len(values) - 1), f"track: step {step}/{len(values) - 1}")
     return out
+
+
+def _record_contact(out: Track, model: Model) -> None:
+    force = contact_forces(model.terms, model.rods, out.states[-1])  # the step's own model
+    if force is not None:
+        out.contact.append(force)
 
 
 def _record_stability(out: Track, step: int, stability, allow_unstable: bool) -> bool:

@@ -35,7 +35,7 @@ segments between nodes may cut a convex obstacle's corner or a concave wall by u
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
 from typing import Any
 
@@ -46,7 +46,7 @@ from rodsim.core.rod.rod import Rod
 from rodsim.core.schema import Options
 from rodsim.core.terms.base import KernelArguments, RodTerm, Term
 
-__all__ = ["Contact", "penalty"]
+__all__ = ["Contact", "contact_forces", "penalty"]
 
 
 def penalty(p: np.ndarray, delta: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -130,3 +130,18 @@ class Contact(RodTerm):
     @classmethod
     def check_scene(cls, options: Any, owner: Any, prefix: str) -> None:
         return None
+
+
+def contact_forces(terms: Iterable[Term], rods: Mapping[str, Rod], full: np.ndarray
+                   ) -> np.ndarray | None:
+    """The contact force on every control point of ``rods`` (stacked in their order, shape
+    (nodes, 3) [N]; zero on rods no obstacle acts on), summed over the contact ``terms`` at
+    the full state ``full``; None when no term is a contact (a scene without obstacles)."""
+    contacts = [term for term in terms if isinstance(term, Contact)]
+    if not contacts:
+        return None
+    force = {name: np.zeros((rod.options.nodes, 3)) for name, rod in rods.items()}
+    for term in contacts:
+        force[term.rod.name] += term.nodal_forces(full)
+    return np.concatenate(list(force.values()))
+
