@@ -33,11 +33,12 @@ DEFAULT_INTEGRATOR = "static"
 
 
 def registered_integrators() -> dict[str, type[Integrator]]:
-    """Every registered integrator class by name (imports this package's modules)."""
+    """Every registered integrator class by name, in the names' order (imports this
+    package's modules; the order does not depend on which of them was imported first)."""
     from rodsim.solvers.base import INTEGRATORS
 
     _import_every_module()
-    return dict(INTEGRATORS)
+    return dict(sorted(INTEGRATORS.items()))
 
 
 def integrator_named(name: object) -> type[Integrator]:

@@ -97,9 +97,10 @@ class Obstacle(ABC):
 
 
 def registered_obstacles() -> dict[str, type[Obstacle]]:
-    """Every registered obstacle class by type (imports this package's modules)."""
+    """Every registered obstacle class by type, in the types' order (imports this
+    package's modules)."""
     _import_every_module()
-    return dict(OBSTACLES)
+    return dict(sorted(OBSTACLES.items()))
 
 
 @functools.cache

@@ -20,9 +20,10 @@ __all__ = ["REGISTRY", "Term", "RodTerm", "TendonTerm", "registered_terms", "ter
 
 
 def registered_terms() -> dict[str, type[Term]]:
-    """Every registered term class by name (imports this package's modules)."""
+    """Every registered term class by name, in the names' order (imports this package's
+    modules; the order does not depend on which of them something imported first)."""
     _import_every_module()
-    return dict(REGISTRY)
+    return dict(sorted(REGISTRY.items()))
 
 
 def term_keys(scope: str) -> list[str]:
