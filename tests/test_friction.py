@@ -176,3 +176,25 @@ def test_insertion_then_retraction_is_path_dependent_with_friction_only():
         assert rubbing[k, 0] < smooth[k, 0] < rubbing[last - k, 0]
     assert np.max(np.linalg.norm(positions[-1] - positions[0], axis=1)) < 1e-10 * length
     assert np.max(np.linalg.norm(smooth_positions[-1] - positions[-1], axis=1)) < 1e-6 * length
+
+
+def test_a_tracks_last_step_is_assessed_with_its_own_anchors():
+    """The penalty-error estimate of a track's last step (rodsim/app/trust.py) re-solves that
+    step: with friction, with the anchors of that step (the equilibrium before it). The
+    dragged rod pulled back 2 mm then pushed 1 mm forward: its last step's friction pulls
+    −x (against the push); re-solved with the anchors it stays where it is, and the penalty
+    estimate is made; a model anchored at rest instead would pull +x and move it."""
+    from rodsim.app.trust import assess, last_step_result
+
+    path = track(dragged_rod(MU), {"rods.c.base.insertion": [0.0, -2e-3, -1e-3]})
+    assert path.success, path.message
+    assert path.contact[-1][:, 0].sum() < 0.0  # the last step's friction resists the push
+    free = path.model.free
+    last = last_step_result(path)
+    assert last is not None
+    assert np.max(np.abs(last.state - path.states[-1][free])) < 1e-12 * LENGTH
+    estimate = assess(last, model=path.last_model)
+    assert np.isfinite(estimate.error) and estimate.error < 1e-6
+    rest_anchors = Model(path.last_model.scene)
+    assert np.max(np.abs(rest_anchors.force(path.states[-1][free]))) > 1e3 * np.max(
+        np.abs(path.last_model.force(path.states[-1][free])))
