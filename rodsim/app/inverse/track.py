@@ -120,8 +120,7 @@ class Track:
     #: (rodsim/app/trust.py; ``rodsim track`` does): archive attributes as a run's.
     penalty_error: float | None = None
     tendon_compression: dict[str, float] = field(default_factory=dict)
-    #: The last completed step's own model: with friction, its anchors (the equilibrium
-    #: before it) are part of that step's equations (rodsim/core/terms/contact.py).
+    #: The last completed step's own model (with friction: that step's anchors).
     last_model: Model | None = None
 
     @property
