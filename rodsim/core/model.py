@@ -15,7 +15,9 @@ scatters their element blocks — the readable reference.
 A model never changes once built. What a solver varies is passed in or returned as a new
 model: the load fraction is an argument of every evaluation; a penalty continuation scale is
 a model built by :meth:`Model.with_term_scales`; a tendon registration that changes gives a
-new model from :meth:`Model.reregistered` (new element coordinates, so a new pattern).
+new model from :meth:`Model.reregistered` (new element coordinates, so a new pattern); the
+anchors of contact friction (the last converged equilibrium, rodsim/core/terms/contact.py)
+give a new model from :meth:`Model.anchored` (same elements and pattern).
 """
 
 from __future__ import annotations
