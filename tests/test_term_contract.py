@@ -161,6 +161,18 @@ SMALL_CONTACT_SCENE = {
     },
 }
 
+#: Contact with regularised Coulomb friction (rodsim/core/terms/contact.py, μ > 0): the
+#: anchors are the rest positions, so a random state has every touching node slipped by
+#: 1–5 % of L. With ε = 0.125 r = 0.5 mm (the plane, the csv vessel whose varying radius
+#: makes |∇φ| ≠ 1, the coil) the nodes are sliding (|v|/ε ≈ 2–10: g near the unit vector);
+#: with ε = 10 r = 40 mm (the sphere, the torus) they stick (|v| ≪ ε: the tangential
+#: spring). ε stays far above the finite-difference step (1e-7 m).
+SMALL_FRICTION_SCENE = copy.deepcopy(SMALL_CONTACT_SCENE) | {"name": "contract-friction"}
+for _name, (_mu, _slip) in {"tissue": (0.4, 0.125), "bulge": (0.5, 10.0),
+                            "vessel": (0.3, 0.125), "torus": (0.6, 10.0),
+                            "coil": (0.2, 0.125)}.items():
+    SMALL_FRICTION_SCENE["obstacles"][_name] |= {"friction": _mu, "slip_scale": _slip}
+
 #: Backbone rods joined by anchors (rodsim/core/terms/joint.py): a rod welded to the tip of
 #: a base-actuated rod (inserted and turned), and a third one on a ball joint at an
 #: interior node of the second; sections differ, so the welded frame's series stiffness
@@ -232,7 +244,8 @@ TOLERANCE = 1e-6
 SMALL_SCENES = {scene["name"]: scene for scene in (SMALL_SCENE, SMALL_LOAD_SCENE,
                                                     SMALL_TENDON_SCENE,
                                                     SMALL_PAPER_TENDON_SCENE,
-                                                    SMALL_CONTACT_SCENE, SMALL_JOINT_SCENE,
+                                                    SMALL_CONTACT_SCENE,
+                                                    SMALL_FRICTION_SCENE, SMALL_JOINT_SCENE,
                                                     SMALL_STRING_SCENE)}
 #: Every contract scene by name: the shipped scenes, then the small ones above.
 CONTRACT_SCENES = [*scene_paths(), *SMALL_SCENES]

@@ -22,6 +22,7 @@ from typing import Any
 
 import numpy as np
 
+from rodsim.core.model import Model
 from rodsim.core.scene import Scene
 from rodsim.solvers import DEFAULT_INTEGRATOR
 from rodsim.solvers.result import Result
@@ -99,10 +100,13 @@ def stiffer_scene(scene: Scene, factor: float) -> tuple[dict[str, Any], int]:
     return data, count
 
 
-def penalty_error(result: Result, factor: float = 10.0) -> PenaltyError:
+def penalty_error(result: Result, factor: float = 10.0,
+                  model: Model | None = None) -> PenaltyError:
     """Estimate how far ``result`` (a converged run) is from the penalty-free equilibrium by
-    one warm static solve with every penalty ×``factor`` (module docstring)."""
-    from rodsim.app.api import solve
+    one warm static solve with every penalty ×``factor`` (module docstring). ``model``: the
+    model ``result`` was solved with, when its friction anchors are not the rest state (a
+    track's step): the stiffer solve keeps them (:meth:`Model.with_scene`)."""
+    from rodsim.app.api import load_scene, solve
 
     length = _longest(result)
     data, count = stiffer_scene(result.scene, factor)
@@ -111,7 +115,11 @@ def penalty_error(result: Result, factor: float = 10.0) -> PenaltyError:
     # its own budget: never more than the scene's, nor above twice the run (10 s at least)
     data["solver"]["max_wall_time"] = min(float(result.scene.solver.max_wall_time),
                                           max(10.0, 2.0 * result.stats.get("wall_time", 0.0)))
-    stiffer = solve(data, DEFAULT_INTEGRATOR, initial_state=result.state)
+    stiffer_model = None
+    if model is not None:
+        data = load_scene(data)
+        stiffer_model = model.with_scene(data)
+    stiffer = solve(data, DEFAULT_INTEGRATOR, model=stiffer_model, initial_state=result.state)
     if not stiffer.success:
         return PenaltyError(float("nan"), float("nan"), factor, length, count)
     change = max(float(np.max(np.linalg.norm(stiffer.rods[name].positions - shape.positions,
@@ -157,11 +165,12 @@ def compression_text(compressed: dict[str, float]) -> str:
         for name, force in compressed.items())
 
 
-def assess(result: Result) -> PenaltyError:
+def assess(result: Result, model: Model | None = None) -> PenaltyError:
     """Estimate ``result``'s penalty error and check its tendons for compression, storing
     both on it (``penalty_error``, ``tendon_compression``: the run archive's attributes);
-    returns the estimate. What ``rodsim run``, ``fit`` and ``reach`` do with their result."""
-    estimate = penalty_error(result)
+    returns the estimate. What ``rodsim run``, ``fit`` and ``reach`` do with their result
+    (``model``: see :func:`penalty_error`)."""
+    estimate = penalty_error(result, model=model)
     result.penalty_error = estimate.error
     result.tendon_compression = tendon_compression(result)
     return estimate
@@ -187,5 +196,9 @@ def last_step_result(track: Any) -> Result | None:
             vector[key.index] = value
             values[key.path] = vector
     scene = track.scene.with_values(values)
-    result = solve(scene, DEFAULT_INTEGRATOR, initial_state=track.states[-1][track.model.free])
+    # The last step's own model for that scene: with friction, the anchors of that step.
+    last_model = getattr(track, "last_model", None)
+    model = last_model.with_values(scene) if last_model is not None else None
+    result = solve(scene, DEFAULT_INTEGRATOR, model=model,
+                   initial_state=track.states[-1][track.model.free])
     return result if result.success else None

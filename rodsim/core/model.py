@@ -15,7 +15,9 @@ scatters their element blocks — the readable reference.
 A model never changes once built. What a solver varies is passed in or returned as a new
 model: the load fraction is an argument of every evaluation; a penalty continuation scale is
 a model built by :meth:`Model.with_term_scales`; a tendon registration that changes gives a
-new model from :meth:`Model.reregistered` (new element coordinates, so a new pattern).
+new model from :meth:`Model.reregistered` (new element coordinates, so a new pattern); the
+anchors of contact friction (the last converged equilibrium, rodsim/core/terms/contact.py)
+give a new model from :meth:`Model.anchored` (same elements and pattern).
 """
 
 from __future__ import annotations
@@ -86,6 +88,15 @@ def _registered_as(term: Term, other: Term) -> Term:
     if state is None:
         raise ValueError(f"dynamic term {other.name!r} has no registration state")
     return term.registered(state)
+
+
+def _anchored_as(term: Term, other: Term) -> Term:
+    """``term`` with the friction anchors of ``other`` (the same term of another model of
+    the same layout) when both hold anchors; else ``term``."""
+    mine, theirs = term.anchor_positions(), other.anchor_positions()
+    if mine is None or theirs is None or mine.shape != theirs.shape:
+        return term
+    return term.anchored(theirs)
 
 
 class KernelCall(NamedTuple):
@@ -252,8 +263,9 @@ class Model:
             raise ValueError("the scene changes the model's layout (nodes, supports, rods or "
                              "terms): build a new Model")
         other.free = self.free
-        other.terms = [_registered_as(term, mine) if term.dynamic else term
+        other.terms = [_anchored_as(_registered_as(term, mine) if term.dynamic else term, mine)
                        for term, mine in zip(other.terms, self.terms, strict=True)]
+        other.__dict__.pop("conservative", None)  # cached from this model's terms
         if all(np.array_equal(a.dofs, b.dofs)
                for a, b in zip(other.terms, self.terms, strict=True)):
             other._kernel_calls = None  # same pattern and index maps, new term constants
@@ -394,6 +406,38 @@ class Model:
                     terms[k] = term.registered(state)
                     changed = True
         return self.with_terms(terms) if changed else None
+
+    def anchored(self, x: np.ndarray) -> Model:
+        """The model with every path-dependent term's anchors (friction,
+        rodsim/core/terms/contact.py) set from the state ``x`` (free coordinates): what a
+        track, a fit or a reach applies to the model of a converged equilibrium before it
+        solves the next step (rodsim/app/inverse/continuation.py), so that friction opposes
+        the slip since that equilibrium. The elements, the Jacobian pattern and the scales
+        are unchanged; this model itself when no term holds anchors (no friction)."""
+        full = None
+        terms = list(self.terms)
+        changed = []
+        for index, term in enumerate(terms):
+            if term.anchor_positions() is None:
+                continue
+            if full is None:
+                full = self.full(x)
+            anchors = term.anchors_at(full)
+            assert anchors is not None
+            terms[index] = term.anchored(anchors)
+            changed.append(index)
+        if not changed:
+            return self
+        other = copy.copy(self)
+        other.terms = terms
+        other._loads = [t for t in terms if t.is_load]
+        other._jac_terms = [t for t in terms if t.has_jacobian]
+        if self._kernel_calls is not None:  # the same kernels and targets, new anchors
+            calls = list(self._kernel_calls)
+            for index in changed:
+                calls[index] = calls[index].with_term(terms[index])
+            other._kernel_calls = calls
+        return other
 
     def with_terms(self, terms: list[Term]) -> Model:
         """The model with ``terms`` (same names and order; a dynamic term may carry another
@@ -616,7 +660,7 @@ class Model:
             if self._kernel_calls is None:
                 self._kernel_calls = self._build_kernel_calls()
             compiled = {call.term_index: call for call in self._kernel_calls
-                        if call.energy is not None}
+                        if call.energy is not None and call.term.conservative}
         total = 0.0
         for index, term in enumerate(self.terms):
             if index in compiled:

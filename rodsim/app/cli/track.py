@@ -100,7 +100,7 @@ def print_last_step_trust(track) -> None:
             print("penalty     error estimate unavailable: the last step did not re-solve "
                   "with the static integrator")
         return
-    estimate = assess(last)
+    estimate = assess(last, model=track.last_model)  # with friction: that step's anchors
     track.penalty_error = last.penalty_error
     track.tendon_compression = last.tendon_compression
     print(estimate.text().replace("penalty     ", "penalty     last step: ", 1))

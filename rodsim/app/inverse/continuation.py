@@ -108,8 +108,13 @@ class Continuation:
 
     def solve(self, scene: Scene, start: np.ndarray | None = None) -> StepOutcome:
         """The equilibrium of ``scene`` (same discretisation) from ``start`` (default: the
-        last equilibrium); on success it becomes the last equilibrium."""
-        model = self.model.with_values(scene)
+        last equilibrium); on success it becomes the last equilibrium.
+
+        Friction (rodsim/core/terms/contact.py) is anchored at the last equilibrium
+        (:meth:`Model.anchored`): it opposes the slip of this step. The model kept with the
+        new equilibrium is the one that solved it (its forces, the contact forces a track
+        records, are those of the equilibrium)."""
+        model = self.model.anchored(self.x).with_values(scene)
         assert model is not None  # with_values falls back to with_scene
         # A base that moves (insertion, rotation) carries the last equilibrium with it; that
         # rigid motion is exact where a chord predictor only linearises a rotation, so it

@@ -120,6 +120,8 @@ class Track:
     #: (rodsim/app/trust.py; ``rodsim track`` does): archive attributes as a run's.
     penalty_error: float | None = None
     tendon_compression: dict[str, float] = field(default_factory=dict)
+    #: The last completed step's own model (with friction: that step's anchors).
+    last_model: Model | None = None
 
     @property
     def unstable_steps(self) -> list[int]:
@@ -337,6 +339,7 @@ def track(scene: Scene, ramps: Mapping[str, Sequence[float]],
         return out
     continuation = Continuation(model, first.state, integrator, deadline=deadline)
     out.states.append(model.full(first.state))
+    out.last_model = model
     _record_contact(out, model)
     out.residuals.append(first.residual)
     out.iterations.append(kind.work(first.stats))
@@ -372,6 +375,7 @@ def track(scene: Scene, ramps: Mapping[str, Sequence[float]],
             return out
         previous = last
         out.states.append(continuation.model.full(continuation.x))
+        out.last_model = continuation.model
         _record_contact(out, continuation.model)
         out.residuals.append(continuation.model.residual(continuation.model.force(
             continuation.x)))

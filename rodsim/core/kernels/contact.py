@@ -1,7 +1,8 @@
 """Kernel of the contact term (rodsim/core/terms/contact.py): node against plane, sphere or
 tube, with the tube's nearest centerline point found by a warm-started Newton walk along the
 rod (each node starts from the previous node's parameter; the first from the nearest knot).
-The same numbers as the numpy reference in rodsim/core/obstacles/ and the term."""
+The same numbers as the numpy reference in rodsim/core/obstacles/ and the term, the
+regularised Coulomb friction included (added only when μ > 0)."""
 
 from __future__ import annotations
 
@@ -149,9 +150,69 @@ def _start(kind: int, p: np.ndarray, starts: np.ndarray, coef: np.ndarray) -> tu
 
 
 @njit(cache=True)
+def _friction(p: np.ndarray, anchor: np.ndarray, grad: np.ndarray, hess: np.ndarray,
+              d1: float, d2: float, stiffness: float, friction: float, slip: float,
+              local: np.ndarray, block: np.ndarray, want_jacobian: bool) -> None:
+    """Add the regularised Coulomb friction force −μ |f_n| v/√(|v|² + ε²) to ``local`` and
+    its exact derivative to ``block`` (rodsim/core/terms/contact.py)."""
+    size = 0.0
+    for i in range(3):
+        size += grad[i] * grad[i]
+    size = np.sqrt(size)
+    n = np.empty(3)
+    d = np.empty(3)
+    along = 0.0
+    for i in range(3):
+        n[i] = grad[i] / size
+        d[i] = p[i] - anchor[i]
+        along += n[i] * d[i]
+    v = np.empty(3)
+    v2 = 0.0
+    for i in range(3):
+        v[i] = d[i] - along * n[i]
+        v2 += v[i] * v[i]
+    q = np.sqrt(v2 + slip * slip)
+    normal_force = stiffness * d1 * size
+    for i in range(3):
+        local[i] -= friction * normal_force * v[i] / q
+    if not want_jacobian:
+        return
+    # ∂n/∂r = P H / |∇φ|, P = I − n nᵀ
+    hn = np.empty(3)
+    for i in range(3):
+        hn[i] = 0.0
+        for j in range(3):
+            hn[i] += hess[i, j] * n[j]
+    dn = np.empty((3, 3))
+    for i in range(3):
+        for k in range(3):
+            dn[i, k] = (hess[i, k] - n[i] * hn[k]) / size
+    ddn = np.empty(3)  # dᵀ ∂n/∂r
+    for k in range(3):
+        ddn[k] = 0.0
+        for j in range(3):
+            ddn[k] += d[j] * dn[j, k]
+    dfn = np.empty(3)  # ∂|f_n|/∂r
+    for k in range(3):
+        dfn[k] = stiffness * (-d2 * size * size * n[k] + d1 * hn[k])
+    dv = np.empty((3, 3))
+    for i in range(3):
+        for k in range(3):
+            dv[i, k] = ((1.0 if i == k else 0.0) - n[i] * n[k] - along * dn[i, k]
+                        - n[i] * ddn[k])
+    for i in range(3):
+        for k in range(3):
+            gdv = 0.0
+            for j in range(3):
+                gdv += ((1.0 if i == j else 0.0) - v[i] * v[j] / (q * q)) * dv[j, k]
+            block[i, k] -= friction * (v[i] / q * dfn[k] + normal_force * gdv / q)
+
+
+@njit(cache=True)
 def evaluate(x: np.ndarray, dofs: np.ndarray, kind: int, params: np.ndarray,
              starts: np.ndarray, coef: np.ndarray, rcoef: np.ndarray, radius: float,
-             stiffness: float, delta: float, scale: float, want_force: bool,
+             stiffness: float, delta: float, friction: float, slip: float,
+             anchors: np.ndarray, scale: float, want_force: bool,
              force: np.ndarray, force_target: np.ndarray, want_jacobian: bool,
              jacobian: np.ndarray, jacobian_target: np.ndarray) -> None:
     n = dofs.shape[0]
@@ -177,21 +238,28 @@ def evaluate(x: np.ndarray, dofs: np.ndarray, kind: int, params: np.ndarray,
         else:
             d1 = pen - 0.5 * delta
             d2 = 1.0
-        if want_force:
-            for i in range(3):
-                local[i] = stiffness * d1 * grad[i]
-            add_force(force, force_target, e, local, scale)
+        for i in range(3):
+            local[i] = stiffness * d1 * grad[i]
         if want_jacobian:
             for i in range(3):
                 for j in range(3):
                     block[i, j] = stiffness * (d1 * hess[i, j] - d2 * grad[i] * grad[j])
+        if friction > 0.0:  # skipped without friction: the frictionless numbers, bitwise
+            _friction(p, anchors[e], grad, hess, d1, d2, stiffness, friction, slip, local,
+                      block, want_jacobian)
+        if want_force:
+            add_force(force, force_target, e, local, scale)
+        if want_jacobian:
             add_jacobian(jacobian, jacobian_target, e, block, scale)
 
 
 @njit(cache=True)
 def energy(x: np.ndarray, dofs: np.ndarray, kind: int, params: np.ndarray,
            starts: np.ndarray, coef: np.ndarray, rcoef: np.ndarray, radius: float,
-           stiffness: float, delta: float) -> float:
+           stiffness: float, delta: float, friction: float, slip: float,
+           anchors: np.ndarray) -> float:
+    """The normal penalty's energy; friction has none (the model never asks a frictional
+    term for its energy: it is not conservative)."""
     n = dofs.shape[0]
     p = np.empty(3)
     cc = np.empty((4, 3))

@@ -48,6 +48,13 @@ COMMON_PARAMETERS: tuple[Parameter, ...] = (
               "smoothing length delta = smoothing_scale * r of the rod (r its radius) over "
               "which the contact force rises from zero (C2 onset)", 0.0, 1.0,
               exclusive_minimum=True),
+    Parameter("friction", "float", 0.0, "-",
+              "Coulomb friction coefficient mu of the regularised friction opposing each "
+              "node's slip since its anchor (0: frictionless)", 0.0, 10.0),
+    Parameter("slip_scale", "float", 1e-3, "-",
+              "regularisation length epsilon = slip_scale * r of the friction law (r the "
+              "rod's radius): the slip over which friction rises to mu |f_n|", 0.0, 1e3,
+              exclusive_minimum=True),
 )
 
 

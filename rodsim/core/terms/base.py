@@ -21,8 +21,10 @@ picks the path (``solver.kernels``); the contract test checks both against each 
 against finite differences.
 
 A term is immutable once built: a dynamic term's registration (a tendon point's parent) is
-changed by building a new term (:meth:`Term.registered`), and a penalty's continuation scale
-and a load's fraction are applied by the model as a factor on the term's whole output.
+changed by building a new term (:meth:`Term.registered`), so are a path-dependent term's
+anchors (friction: :meth:`Term.anchored`, set between the steps of a track), and a
+penalty's continuation scale and a load's fraction are applied by the model as a factor on
+the term's whole output.
 
 The model scatters these into the global force vector and sparse Jacobian; the sparsity
 pattern is the union of the element blocks, declared once by ``dofs``. The contract test
@@ -211,6 +213,23 @@ class Term(ABC):
         fixed length this term holds, which a Newton step keeps to first order
         (:meth:`rodsim.core.model.Model.step`); none by default."""
         return np.zeros((0, 6), dtype=int)
+
+    def anchor_positions(self) -> np.ndarray | None:
+        """A path-dependent term's anchors — the state of the last converged equilibrium its
+        force depends on (a frictional contact's node positions,
+        rodsim/core/terms/contact.py) — or ``None`` for a term whose force depends on the
+        state alone (every other term; a contact without friction)."""
+        return None
+
+    def anchors_at(self, full: np.ndarray) -> np.ndarray | None:
+        """The anchors the equilibrium ``full`` (full state) gives this path-dependent term,
+        or ``None`` (see :meth:`anchor_positions`)."""
+        return None
+
+    def anchored(self, anchors: np.ndarray) -> Term:
+        """A copy of this path-dependent term with the anchors ``anchors``
+        (:meth:`rodsim.core.model.Model.anchored` sets them after a converged step)."""
+        raise NotImplementedError(f"term {self.name!r} holds no anchors")
 
     def registration_state(self) -> np.ndarray | None:
         """A dynamic term's current discrete state (what :meth:`registered` takes), or

@@ -31,10 +31,28 @@ symmetric. Each element is one node's three coordinates, so the Jacobian pattern
 never changes when a contact appears or vanishes. What node-based contact misses: the
 segments between nodes may cut a convex obstacle's corner or a concave wall by up to
 ~l²κ/8 (measured in docs/contact.md).
+
+Regularised Coulomb friction (the obstacle's ``friction`` μ > 0; docs/contact.md,
+"Friction"). Each node holds an anchor a_i, its position at the last converged equilibrium
+(of a track step; for a single solve, the rest state the solve starts from). With
+n = ∇φ/|∇φ| the contact normal, P = I − n nᵀ, |f_n| = k ψ'(p) |∇φ| the normal force, the
+slip v = P (r_i − a_i) and ε = slip_scale · r, the friction force is
+
+    f_t = −μ |f_n| g(v),     g(v) = v / √(|v|² + ε²)
+
+— the implicit (backward) quasi-static step of Coulomb's law: for |v| ≫ ε it is μ|f_n|
+against the slip (sliding), for |v| ≲ ε a tangential spring of stiffness μ|f_n|/ε (sticking,
+up to a pre-sliding slip of order ε). The force is not −∇ of an energy (``conservative`` is
+False when μ > 0) and its Jacobian is not symmetric; it is exact, with
+∂|f_n|/∂r = k(−ψ'' |∇φ|² n + ψ' ∇²φ n), ∂n/∂r = P ∇²φ/|∇φ| and
+∂v/∂r = P − (n·d) ∂n/∂r − n (dᵀ ∂n/∂r), d = r_i − a_i. The anchors are set explicitly
+(:meth:`Contact.anchored`, through :meth:`rodsim.core.model.Model.anchored`): a term never
+changes once built. With μ = 0 none of this is evaluated: the frictionless numbers, bitwise.
 """
 
 from __future__ import annotations
 
+import copy
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
 from typing import Any
@@ -95,6 +113,32 @@ class Contact(RodTerm):
         self.smoothing = float(table["smoothing_scale"]) * rod.options.radius
         self.radius = float(rod.options.radius)
         self.dofs = np.ascontiguousarray(rod.layout.position_index)
+        #: Coulomb coefficient μ and the friction's regularisation length ε [m].
+        self.friction = float(table["friction"])
+        self.slip = float(table["slip_scale"]) * self.radius
+        #: Position of each node at the last converged equilibrium [m], shape (N, 3): at
+        #: first the rod's rest (held) positions, where a solve starts.
+        self.anchors = np.ascontiguousarray(rod.held_positions(), dtype=float)
+        self.conservative = self.friction == 0.0
+
+    def anchor_positions(self) -> np.ndarray | None:
+        """The friction anchors (N, 3) [m]; None without friction (nothing depends on the
+        path)."""
+        return self.anchors if self.friction > 0.0 else None
+
+    def anchors_at(self, full: np.ndarray) -> np.ndarray | None:
+        """The anchors an equilibrium ``full`` (full state) gives: its node positions; None
+        without friction."""
+        return np.ascontiguousarray(full[self.dofs]) if self.friction > 0.0 else None
+
+    def anchored(self, anchors: np.ndarray) -> Contact:
+        """A copy of this term with the friction anchors ``anchors`` (N, 3) [m]."""
+        anchors = np.ascontiguousarray(anchors, dtype=float)
+        if anchors.shape != self.anchors.shape:
+            raise ValueError(f"anchors of shape {anchors.shape}, expected {self.anchors.shape}")
+        other = copy.copy(self)
+        other.anchors = anchors
+        return other
 
     def penetration(self, x: np.ndarray) -> np.ndarray:
         """p_i = r − φ(r_i) of every node [m] (> 0 where the node's sphere touches)."""
@@ -104,28 +148,70 @@ class Contact(RodTerm):
         """Contact force on every node, shape (N, 3) [N]."""
         return self.element_forces(x)
 
-    def energy(self, x: np.ndarray) -> float:
+    def energy(self, x: np.ndarray) -> float | None:
+        if self.friction > 0.0:
+            return None  # friction is not the gradient of an energy
         phi = self.obstacle.gap(x[self.dofs])[0]
         return float(self.stiffness * np.sum(penalty(self.radius - phi, self.smoothing)[0]))
 
     def element_forces(self, x: np.ndarray) -> np.ndarray:
-        phi, grad, _ = self.obstacle.gap(x[self.dofs])
-        d1 = penalty(self.radius - phi, self.smoothing)[1]
-        return self.stiffness * d1[:, None] * grad
+        points = x[self.dofs]
+        phi, grad, hess = self.obstacle.gap(points)
+        _, d1, d2 = penalty(self.radius - phi, self.smoothing)
+        normal = self.stiffness * d1[:, None] * grad
+        if self.friction == 0.0:
+            return normal
+        return normal + self._friction(points, grad, hess, d1, d2, jacobian=False)[0]
 
     def element_jacobians(self, x: np.ndarray) -> np.ndarray:
-        phi, grad, hess = self.obstacle.gap(x[self.dofs])
+        points = x[self.dofs]
+        phi, grad, hess = self.obstacle.gap(points)
         _, d1, d2 = penalty(self.radius - phi, self.smoothing)
         active = d1 > 0.0
         curvature = np.where(active[:, None, None], d1[:, None, None] * hess, 0.0)
-        return self.stiffness * (curvature - d2[:, None, None]
-                                 * np.einsum("ni,nj->nij", grad, grad))
+        normal = self.stiffness * (curvature - d2[:, None, None]
+                                   * np.einsum("ni,nj->nij", grad, grad))
+        if self.friction == 0.0:
+            return normal
+        return normal + self._friction(points, grad, hess, d1, d2, jacobian=True)[1]
+
+    def _friction(self, points: np.ndarray, grad: np.ndarray, hess: np.ndarray,
+                  d1: np.ndarray, d2: np.ndarray, jacobian: bool
+                  ) -> tuple[np.ndarray, np.ndarray | None]:
+        """Friction force f_t (N, 3) on every node and, if asked, ∂f_t/∂r_i (N, 3, 3)
+        (module docstring); zero where the node does not touch (ψ' = 0)."""
+        active = d1 > 0.0
+        size = np.linalg.norm(grad, axis=1)
+        size = np.where(active, size, 1.0)
+        n = grad / size[:, None]
+        normal_force = self.stiffness * d1 * size  # |f_n|
+        d = points - self.anchors
+        along = np.einsum("ni,ni->n", n, d)
+        v = d - along[:, None] * n
+        q = np.sqrt(np.einsum("ni,ni->n", v, v) + self.slip**2)
+        g = v / q[:, None]
+        force = np.where(active[:, None], -self.friction * normal_force[:, None] * g, 0.0)
+        if not jacobian:
+            return force, None
+        eye = np.eye(3)
+        projector = eye - np.einsum("ni,nj->nij", n, n)
+        dn = np.einsum("nij,njk->nik", projector, hess) / size[:, None, None]
+        hn = np.einsum("nij,nj->ni", hess, n)
+        dfn = self.stiffness * (-(d2 * size * size)[:, None] * n + d1[:, None] * hn)
+        dv = (projector - along[:, None, None] * dn
+              - np.einsum("ni,nk->nik", n, np.einsum("nj,njk->nk", d, dn)))
+        dg = (eye - np.einsum("ni,nj->nij", v, v) / (q * q)[:, None, None]) / q[:, None, None]
+        block = -self.friction * (np.einsum("ni,nj->nij", g, dfn)
+                                  + normal_force[:, None, None]
+                                  * np.einsum("nij,njk->nik", dg, dv))
+        return force, np.where(active[:, None, None], block, 0.0)
 
     def kernel_arguments(self) -> KernelArguments:
         params, starts, coef, rcoef = self.obstacle.kernel_data()
         return {"dofs": self.dofs.astype(np.int64), "kind": int(self.obstacle.kind),
                 "params": params, "starts": starts, "coef": coef, "rcoef": rcoef,
-                "radius": self.radius, "stiffness": self.stiffness, "delta": self.smoothing}
+                "radius": self.radius, "stiffness": self.stiffness, "delta": self.smoothing,
+                "friction": self.friction, "slip": self.slip, "anchors": self.anchors}
 
     @classmethod
     def check_scene(cls, options: Any, owner: Any, prefix: str) -> None:
