@@ -36,7 +36,7 @@ from rodsim.core.rod.layout import RodLayout
 from rodsim.core.rod.retraction import turn_segments
 from rodsim.core.rod.rod import Rod
 from rodsim.core.scene import Scene
-from rodsim.core.sparsity import pattern_of_keys, unique_keys
+from rodsim.core.sparsity import block_pattern, pattern_of_keys
 from rodsim.core.supports import base_support, node_supports, quaternion_product, rigid_motion
 from rodsim.core.tendon import Tendon, tendon_support
 from rodsim.core.terms import Term, registered_terms
@@ -453,10 +453,13 @@ class Model:
             stored = np.sort(np.concatenate([fixed_keys,
                                              *(k[k >= 0] for k in dynamic.values())]))
             stored = stored[np.concatenate([[True], stored[1:] != stored[:-1]])]
-        moved = np.searchsorted(stored, fixed_keys)  # a fixed key's slot among all
+            moved = np.searchsorted(stored, fixed_keys)  # a fixed key's slot among all
+        else:
+            moved = np.arange(len(stored))
         nnz = len(stored)
         targets = []
         slots = iter(fixed_slots)
+        shared: dict[int, np.ndarray] = {}  # terms sharing their slots share their targets
         for index in range(len(self._jac_terms)):
             self._tick()
             if index in dynamic:
@@ -464,7 +467,10 @@ class Model:
                 target = np.where(keys >= 0, np.searchsorted(stored, keys), nnz)
             else:
                 slot = next(slots)
-                target = np.where(slot >= 0, moved[slot], nnz)
+                target = shared.get(id(slot))
+                if target is None:
+                    target = np.where(slot >= 0, moved[slot] if dynamic else slot, nnz)
+                    shared[id(slot)] = target
             targets.append(target)
         self._tick()
         pattern = pattern_of_keys(stored, np.concatenate([moved[diagonal_slots], *targets]), n)
@@ -504,23 +510,21 @@ class Model:
                 and all(a is b for a, b in zip(cached[0], fixed_terms, strict=True))
                 and (cached[1] is self._free_of or np.array_equal(cached[1], self._free_of))):
             return fixed_terms, *cached[2:]
-        n = self.n
-        diagonal = np.arange(n) * (n + 1)
-        term_keys = []
+        # Terms on the same coordinates (the tendons of one segment) share one computation.
+        blocks: list[np.ndarray] = []
+        which = []
         for term in fixed_terms:
-            term_keys.append(self._entry_keys(term))
+            free = self._free_of[term.dofs]
+            for index, seen in enumerate(blocks):
+                if seen.shape == free.shape and np.array_equal(seen, free):
+                    which.append(index)
+                    break
+            else:
+                which.append(len(blocks))
+                blocks.append(free)
             self._tick()
-        everything = np.concatenate([diagonal, *term_keys])
-        keep = everything >= 0
-        self._tick()
-        keys, inverse = unique_keys(everything[keep], n, self._tick)
-        self._tick()
-        position = np.full(len(everything), -1)
-        position[keep] = inverse.ravel()
-        bounds = np.cumsum([n] + [len(k) for k in term_keys])
-        slots = [position[start:stop] for start, stop in zip(bounds[:-1], bounds[1:],
-                                                               strict=True)]
-        return fixed_terms, keys, slots, position[:n]
+        keys, slots, diagonal_slots = block_pattern(blocks, self.n, self._tick)
+        return fixed_terms, keys, [slots[index] for index in which], diagonal_slots
 
     def _build_scales(self, layout: bool = True) -> None:
         """F_ref, L_ref, the residual weights and the round-off floor (below); ``layout``

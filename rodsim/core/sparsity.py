@@ -13,7 +13,7 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.sparse as sp
 
-__all__ = ["Pattern", "csc_pattern", "pattern_of_keys"]
+__all__ = ["Pattern", "csc_pattern", "block_pattern", "pattern_of_keys"]
 
 
 @dataclass(frozen=True)
@@ -108,6 +108,94 @@ def _banded_unique(rows: np.ndarray, cols: np.ndarray, size: int, upper: int,
     del table, slot
     columns = present // width
     return columns * size + (present % width + columns - upper), target
+
+
+def block_pattern(blocks: list[np.ndarray], size: int,
+                  tick: Callable[[], None] | None = None) -> tuple[
+        np.ndarray, list[np.ndarray], np.ndarray]:
+    """The pattern of the diagonal and of dense element blocks, as :func:`unique_keys`
+    gives it for their entries, without forming the entries' keys.
+
+    ``blocks`` are integer arrays f of shape (E, k): element e couples every pair of its
+    indices, entry (i, j) at row f[e, i] and column f[e, j], row-major within the element
+    (``Model._entry_keys``'s order); an index ≥ ``size`` (a fixed coordinate) drops the
+    entries on its row and column. Returns (the sorted unique column-major keys ``col * size
+    + row`` of the diagonal and of every kept entry; for each array of ``blocks``, each of
+    its entries' position among those keys, −1 where dropped, shape (E k k,); the diagonal's
+    positions).
+
+    Where the band table is small against the entries (:data:`BAND_TABLE_RATIO`), an entry's
+    slot in it is the sum of a row part and a column part read per index (``f`` is E × k,
+    the entries E × k × k), so the entries are never divided back into rows and columns:
+    on tdcr-two-segment this made the assembly's pattern ~4× cheaper (docs/benchmarks.md,
+    "Model assembly"). Otherwise: the keys, sorted (:func:`unique_keys`).
+
+    ``tick`` is called between the passes over a block's entries: the assembly's wall-time
+    budget."""
+    tick = tick or _no_tick
+    spread = 0
+    count = size
+    for free in blocks:
+        if free.size:
+            kept = free < size
+            spread = max(spread, int((np.where(kept, free, -1).max(axis=1)
+                                      - free.min(axis=1)).max()))
+            count += int(np.sum(np.sum(kept, axis=1) ** 2))
+    width = 2 * spread + 1  # lower = upper = spread: every block is symmetric
+    if size * width > BAND_TABLE_RATIO * count:
+        return _sorted_block_pattern(blocks, size, tick)
+    upper = spread
+    end = size * width  # slots ≥ end: an entry on a fixed coordinate
+    column_part = np.append(np.arange(size) * (width - 1) + upper, end)
+    row_part = np.append(np.arange(size), end)
+    table = np.zeros(end + 1, dtype=np.int64)
+    diagonal = np.arange(size) * width + upper
+    table[diagonal] = 1
+    slots = []
+    for free in blocks:
+        slot = (row_part[free][:, :, None] + column_part[free][:, None, :]).reshape(-1)
+        np.minimum(slot, end, out=slot)
+        table[slot] = 1
+        slots.append(slot)
+        tick()
+    table[end] = 0
+    present = np.flatnonzero(table)
+    table[present] = np.arange(len(present))
+    table[end] = -1
+    tick()
+    positions = []
+    for slot in slots:
+        positions.append(table[slot])
+        tick()
+    del slots
+    columns = present // width
+    keys = columns * size + (present % width + columns - upper)
+    return keys, positions, table[diagonal]
+
+
+def _sorted_block_pattern(blocks: list[np.ndarray], size: int,
+                          tick: Callable[[], None]) -> tuple[
+        np.ndarray, list[np.ndarray], np.ndarray]:
+    """:func:`block_pattern` by sorting every entry's key (a wide band)."""
+    keys = [np.arange(size) * (size + 1)]
+    for free in blocks:
+        k = free.shape[1]
+        rows = np.repeat(free, k, axis=1).ravel()
+        cols = np.tile(free, (1, k)).ravel()
+        entry = cols * size + rows
+        entry[(rows >= size) | (cols >= size)] = -1
+        keys.append(entry)
+        tick()
+    everything = np.concatenate(keys)
+    keep = everything >= 0
+    tick()
+    unique, inverse = unique_keys(everything[keep], size, tick)
+    tick()
+    position = np.full(len(everything), -1)
+    position[keep] = inverse.ravel()
+    bounds = np.cumsum([len(k) for k in keys])
+    return unique, [position[start:stop] for start, stop in zip(bounds[:-1], bounds[1:],
+                                                                strict=True)], position[:size]
 
 
 def pattern_of_keys(keys: np.ndarray, target: np.ndarray, size: int) -> Pattern:
