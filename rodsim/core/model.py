@@ -143,11 +143,11 @@ class Model:
         try:
             self._assemble(scene)
             self._tick()
-            self._build_maps()
-            self._tick()
             if len(self.rods) > 1:
                 self._order_for_band()
                 self._tick()
+            self._build_maps()
+            self._tick()
             self._build_scales()
         finally:
             self._budget = None  # the budget covers this assembly only, not later copies
@@ -364,17 +364,49 @@ class Model:
 
         Coupled rods concatenated as in Eq. (30) give a wide band (a tendon point couples to
         catheter coordinates far away in the vector); interleaving them keeps the system
-        banded. The order is fixed once, from the pattern at rest.
+        banded. The order is fixed once, from the pattern at rest (:meth:`_rest_structure`,
+        the structure of :attr:`pattern` in the scene's order), before the index maps are
+        built: they are built once, in the order kept.
         """
-        order = reverse_cuthill_mckee(self.pattern, symmetric_mode=True)
-        offsets = self.pattern_rows - self.pattern_cols
+        structure = self._rest_structure()
+        order = reverse_cuthill_mckee(structure, symmetric_mode=True)
+        rows = structure.indices
+        cols = np.repeat(np.arange(self.n), np.diff(structure.indptr))
+        offsets = rows - cols
         current = max(offsets.max(), -offsets.min())
         inverse = np.empty_like(order)
         inverse[order] = np.arange(self.n)
-        new_offsets = inverse[self.pattern_rows] - inverse[self.pattern_cols]
+        new_offsets = inverse[rows] - inverse[cols]
         if max(new_offsets.max(), -new_offsets.min()) < current:
             self.free = self.free[order]
-            self._build_maps()
+
+    def _rest_structure(self) -> sp.csc_matrix:
+        """The Jacobian's structure at rest in the current order of :attr:`free` (canonical
+        CSC, the structure :meth:`_build_pattern` gives): the diagonal and, for every term
+        with a Jacobian, each element's coordinates coupled pairwise — BᵀB of the incidence
+        matrix B (one row per element and one per coordinate, ones where it holds the
+        coordinate), without the targets the pattern's build computes."""
+        n = self.n
+        free_of = np.full(self.full_size, n)
+        free_of[self.free] = np.arange(n)
+        elements, coordinates = [np.arange(n)], [np.arange(n)]
+        count = n
+        for term in self.terms:
+            if not term.has_jacobian:
+                continue
+            free = free_of[term.dofs]
+            kept = free < n
+            elements.append(np.broadcast_to(
+                np.arange(count, count + len(free))[:, None], free.shape)[kept])
+            coordinates.append(free[kept])
+            count += len(free)
+        incidence = sp.csr_matrix((np.ones(sum(len(c) for c in coordinates)),
+                                   (np.concatenate(elements), np.concatenate(coordinates))),
+                                  shape=(count, n))
+        structure = (incidence.T @ incidence).tocsc()
+        structure.sum_duplicates()
+        structure.sort_indices()
+        return structure
 
     def reregistered(self, x: np.ndarray, exact: bool = False) -> Model | None:
         """The model with every dynamic term (tendon registration, §4.1) re-registered from
