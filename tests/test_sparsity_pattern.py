@@ -53,9 +53,10 @@ def _block_entries(blocks, size):
                          [(60, 4, True), (300, 12, True), (400, 399, False), (9, 0, True)])
 def test_block_pattern_matches_sorting_every_entry(size, spread, band_table, monkeypatch):
     """block_pattern (the model's pattern from element blocks) against np.unique of every
-    entry's key: the same sorted keys, each entry's position (−1 on a fixed index ≥ size),
-    the diagonal's positions; blocks of several shapes, repeated indices inside an element,
-    identical blocks, and the sorting fallback for a wide band."""
+    entry's key: the same sorted keys, each entry's position (the number of keys, a dump
+    slot, on a fixed index ≥ size), the diagonal's positions; blocks of several shapes,
+    repeated indices inside an element, identical blocks, and the sorting fallback for a
+    wide band."""
     rng = np.random.default_rng(size + spread)
     blocks = []
     for elements, k in ((size, 4), (size // 4, 7), (1, 3), (0, 5)):
@@ -74,7 +75,7 @@ def test_block_pattern_matches_sorting_every_entry(size, spread, band_table, mon
     expected, inverse = np.unique(everything, return_inverse=True)
     assert np.array_equal(keys, expected)
     assert np.array_equal(diagonal, inverse.ravel()[:size])
-    expected_positions = np.full(len(rows), -1)
+    expected_positions = np.full(len(rows), len(keys))
     expected_positions[kept] = inverse.ravel()[size:]
     assert np.array_equal(np.concatenate(positions), expected_positions)
     assert [len(p) for p in positions] == [f.size * f.shape[1] for f in blocks]

@@ -489,6 +489,7 @@ class Model:
         else:
             moved = np.arange(len(stored))
         nnz = len(stored)
+        moved_or_dump = np.append(moved, nnz) if dynamic else None
         targets = []
         slots = iter(fixed_slots)
         shared: dict[int, np.ndarray] = {}  # terms sharing their slots share their targets
@@ -500,8 +501,8 @@ class Model:
             else:
                 slot = next(slots)
                 target = shared.get(id(slot))
-                if target is None:
-                    target = np.where(slot >= 0, moved[slot] if dynamic else slot, nnz)
+                if target is None:  # a fixed key's slot (its dump: nnz), or itself
+                    target = slot if moved_or_dump is None else moved_or_dump[slot]
                     shared[id(slot)] = target
             targets.append(target)
         self._tick()
@@ -512,12 +513,24 @@ class Model:
         self.nnz = pattern.nnz
         # Where each term's element entry lands in the CSC data (nnz: a dump slot for
         # entries on fixed coordinates).
-        self._jac_targets = np.concatenate([np.zeros(0, dtype=np.int64), *targets])
+        # (each term's own array: terms on the same coordinates share one).
+        self._term_targets = targets
+        self._jac_targets_joined: np.ndarray | None = None
         self.band = Band(*pattern.band)
         # Where the diagonal entries lie in the CSC data (one per column, in column order).
         self._diagonal_slots = moved[diagonal_slots]
         self._fixed_pattern = (fixed_terms, self._free_of, fixed_keys, fixed_slots,
                                diagonal_slots)
+
+    @property
+    def _jac_targets(self) -> np.ndarray:
+        """Where every element entry of the terms with a Jacobian lands in the CSC data, in
+        term order (nnz: the dump); joined from the terms' arrays when first asked for (the
+        numpy path): the compiled path reads each term's own array."""
+        if self._jac_targets_joined is None:
+            self._jac_targets_joined = np.concatenate([np.zeros(0, dtype=np.int64),
+                                                       *self._term_targets])
+        return self._jac_targets_joined
 
     def _entry_keys(self, term: Term) -> np.ndarray:
         """Column-major keys ``col * n + row`` of every entry of a term's element blocks
@@ -533,8 +546,8 @@ class Model:
 
     def _fixed_keys(self) -> tuple:
         """(the non-dynamic terms with a Jacobian, the sorted unique keys of their entries
-        and of the diagonal, each such term's entries' positions in those keys (−1:
-        dropped), the diagonal's positions): kept from the model this one was copied from
+        and of the diagonal, each such term's entries' positions in those keys (their number
+        where dropped), the diagonal's positions): kept from the model this one was copied from
         when its terms and free-coordinate map are the same."""
         fixed_terms = tuple(t for t in self._jac_terms if not t.dynamic)
         cached = getattr(self, "_fixed_pattern", None)
@@ -713,14 +726,12 @@ class Model:
         from rodsim.core.kernels import load_kernel
 
         calls = []
-        start = 0
+        targets = iter(self._term_targets)
         for index, term in enumerate(self.terms):
             elements, k = term.dofs.shape
             force_target = np.ascontiguousarray(self._free_of[term.dofs])
             if term.has_jacobian:
-                size = elements * k * k
-                jacobian_target = self._jac_targets[start:start + size].reshape(elements, k, k)
-                start += size
+                jacobian_target = next(targets).reshape(elements, k, k)
             else:
                 jacobian_target = np.zeros((0, 0, 0), dtype=np.int64)
             kernel = load_kernel(term)

@@ -121,7 +121,8 @@ def block_pattern(blocks: list[np.ndarray], size: int,
     (``Model._entry_keys``'s order); an index ≥ ``size`` (a fixed coordinate) drops the
     entries on its row and column. Returns (the sorted unique column-major keys ``col * size
     + row`` of the diagonal and of every kept entry; for each array of ``blocks``, each of
-    its entries' position among those keys, −1 where dropped, shape (E k k,); the diagonal's
+    its entries' position among those keys, the number of keys where dropped (a dump slot past
+    the end), shape (E k k,); the diagonal's
     positions).
 
     Where the band table is small against the entries (:data:`BAND_TABLE_RATIO`), an entry's
@@ -161,7 +162,7 @@ def block_pattern(blocks: list[np.ndarray], size: int,
     table[end] = 0
     present = np.flatnonzero(table)
     table[present] = np.arange(len(present))
-    table[end] = -1
+    table[end] = len(present)
     tick()
     positions = []
     for slot in slots:
@@ -191,7 +192,7 @@ def _sorted_block_pattern(blocks: list[np.ndarray], size: int,
     tick()
     unique, inverse = unique_keys(everything[keep], size, tick)
     tick()
-    position = np.full(len(everything), -1)
+    position = np.full(len(everything), len(unique))
     position[keep] = inverse.ravel()
     bounds = np.cumsum([len(k) for k in keys])
     return unique, [position[start:stop] for start, stop in zip(bounds[:-1], bounds[1:],
