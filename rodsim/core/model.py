@@ -506,14 +506,15 @@ class Model:
                     shared[id(slot)] = target
             targets.append(target)
         self._tick()
-        pattern = pattern_of_keys(stored, np.concatenate([moved[diagonal_slots], *targets]), n)
+        # The targets stay per term (below), not joined into the pattern's.
+        pattern = pattern_of_keys(stored, np.zeros(0, dtype=np.int64), n)
         #: Jacobian sparsity pattern of the free coordinates (CSC, ones where J may be ≠ 0).
         self.pattern = pattern.matrix
         self.pattern_rows, self.pattern_cols = pattern.rows, pattern.cols
         self.nnz = pattern.nnz
-        # Where each term's element entry lands in the CSC data (nnz: a dump slot for
-        # entries on fixed coordinates).
-        # (each term's own array: terms on the same coordinates share one).
+        # Where each term's element entries land in the CSC data (nnz: a dump slot for
+        # entries on fixed coordinates), one array per term with a Jacobian (terms on the
+        # same coordinates share one).
         self._term_targets = targets
         self._jac_targets_joined: np.ndarray | None = None
         self.band = Band(*pattern.band)

@@ -121,9 +121,8 @@ def block_pattern(blocks: list[np.ndarray], size: int,
     (``Model._entry_keys``'s order); an index ≥ ``size`` (a fixed coordinate) drops the
     entries on its row and column. Returns (the sorted unique column-major keys ``col * size
     + row`` of the diagonal and of every kept entry; for each array of ``blocks``, each of
-    its entries' position among those keys, the number of keys where dropped (a dump slot past
-    the end), shape (E k k,); the diagonal's
-    positions).
+    its entries' position among those keys, the number of keys where dropped (a dump slot
+    past the end), shape (E k k,); the diagonal's positions).
 
     Where the band table is small against the entries (:data:`BAND_TABLE_RATIO`), an entry's
     slot in it is the sum of a row part and a column part read per index (``f`` is E × k,
