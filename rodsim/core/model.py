@@ -36,7 +36,15 @@ from rodsim.core.rod.layout import RodLayout
 from rodsim.core.rod.retraction import turn_segments
 from rodsim.core.rod.rod import Rod
 from rodsim.core.scene import Scene
-from rodsim.core.sparsity import block_pattern, pattern_of_keys
+from rodsim.core.sparsity import (
+    BandBlocks,
+    band_blocks,
+    band_table_fits,
+    block_pattern,
+    block_spread,
+    merged_pattern,
+    pattern_of_keys,
+)
 from rodsim.core.supports import base_support, node_supports, quaternion_product, rigid_motion
 from rodsim.core.tendon import Tendon, tendon_support
 from rodsim.core.terms import Term, registered_terms
@@ -117,6 +125,28 @@ class KernelCall(NamedTuple):
     def with_term(self, term: Term) -> KernelCall:
         """This call for another term of the same kind and elements (new constants)."""
         return self._replace(term=term, arguments=self.kernel.bind(term.kernel_arguments()))
+
+
+@dataclass
+class _FixedBlocks:
+    """The Jacobian pattern's part that a re-registration keeps (:meth:`Model._build_pattern`):
+    the element blocks of the non-dynamic terms, and what was computed from them — filled
+    when first needed and shared by the models that keep it."""
+
+    #: The non-dynamic terms with a Jacobian, and the free-coordinate map of their blocks.
+    terms: tuple[Term, ...]
+    free_of: np.ndarray
+    #: The distinct blocks (free indices, (E, k)) and each term's among them.
+    blocks: list[np.ndarray]
+    which: list[int]
+    #: :func:`~rodsim.core.sparsity.block_spread` of the blocks.
+    spread: int
+    count: int
+    #: The blocks in a band table (a model with dynamic terms), or None.
+    band: BandBlocks | None = None
+    #: :func:`~rodsim.core.sparsity.block_pattern` of the blocks (sorted keys, each block's
+    #: positions among them, the diagonal's), or None.
+    keys: tuple[np.ndarray, list[np.ndarray], np.ndarray] | None = None
 
 
 class Model:
@@ -471,47 +501,42 @@ class Model:
         terms with a Jacobian (entries on fixed coordinates dropped), in CSC order.
 
         A re-registration (:meth:`reregistered`) changes only the dynamic terms' elements:
-        the sorted keys of the diagonal and the other terms' entries are kept from the model
-        it came from (:meth:`_fixed_keys`) and merged with the dynamic ones, instead of
-        sorting every entry again. The pattern and the targets are those a sort of all
-        entries gives (:func:`rodsim.core.sparsity.csc_pattern`)."""
+        what the diagonal and the other terms give is kept from the model it came from
+        (:meth:`_fixed_blocks`) and merged with the dynamic ones — in a band table where it
+        is small against the entries (:func:`rodsim.core.sparsity.merged_pattern`),
+        otherwise as sorted keys merged with the dynamic terms' by sorting. The pattern and
+        the targets are those a sort of all entries gives
+        (:func:`rodsim.core.sparsity.csc_pattern`)."""
         n = self.n
         self._jac_terms = [t for t in self.terms if t.has_jacobian]
-        fixed_terms, fixed_keys, fixed_slots, diagonal_slots = self._fixed_keys()
-        dynamic = {index: self._entry_keys(term) for index, term in enumerate(self._jac_terms)
-                   if term.dynamic}
-        stored = fixed_keys
-        if dynamic:
-            stored = np.sort(np.concatenate([fixed_keys,
-                                             *(k[k >= 0] for k in dynamic.values())]))
-            stored = stored[np.concatenate([[True], stored[1:] != stored[:-1]])]
-            moved = np.searchsorted(stored, fixed_keys)  # a fixed key's slot among all
+        fixed = self._fixed_blocks()
+        dynamic = [index for index, term in enumerate(self._jac_terms) if term.dynamic]
+        dynamic_free = [self._free_of[self._jac_terms[index].dofs] for index in dynamic]
+        spread, count = block_spread(dynamic_free, n)
+        spread, count = max(spread, fixed.spread), count + fixed.count - n
+        if dynamic and band_table_fits(n, spread, count):
+            if fixed.band is None or fixed.band.spread < spread:
+                fixed.band = band_blocks(fixed.blocks, n, spread, self._tick)
+            stored, fixed_positions, dynamic_positions, diagonal = merged_pattern(
+                fixed.band, dynamic_free, self._tick)
+            fixed_targets = [fixed_positions[index] for index in fixed.which]
         else:
-            moved = np.arange(len(stored))
+            stored, fixed_targets, dynamic_positions, diagonal = self._sorted_merge(
+                fixed, dynamic)
         nnz = len(stored)
-        moved_or_dump = np.append(moved, nnz) if dynamic else None
         targets = []
-        slots = iter(fixed_slots)
-        shared: dict[int, np.ndarray] = {}  # terms sharing their slots share their targets
+        fixed_iter, dynamic_iter = iter(fixed_targets), iter(dynamic_positions)
         for index in range(len(self._jac_terms)):
             self._tick()
-            if index in dynamic:
-                keys = dynamic[index]
-                target = np.where(keys >= 0, np.searchsorted(stored, keys), nnz)
-            else:
-                slot = next(slots)
-                target = shared.get(id(slot))
-                if target is None:  # a fixed key's slot (its dump: nnz), or itself
-                    target = slot if moved_or_dump is None else moved_or_dump[slot]
-                    shared[id(slot)] = target
-            targets.append(target)
+            targets.append(next(dynamic_iter) if self._jac_terms[index].dynamic
+                           else next(fixed_iter))
         self._tick()
         # The targets stay per term (below), not joined into the pattern's.
         pattern = pattern_of_keys(stored, np.zeros(0, dtype=np.int64), n)
         #: Jacobian sparsity pattern of the free coordinates (CSC, ones where J may be ≠ 0).
         self.pattern = pattern.matrix
         self.pattern_rows, self.pattern_cols = pattern.rows, pattern.cols
-        self.nnz = pattern.nnz
+        self.nnz = nnz
         # Where each term's element entries land in the CSC data (nnz: a dump slot for
         # entries on fixed coordinates), one array per term with a Jacobian (terms on the
         # same coordinates share one).
@@ -519,9 +544,30 @@ class Model:
         self._jac_targets_joined: np.ndarray | None = None
         self.band = Band(*pattern.band)
         # Where the diagonal entries lie in the CSC data (one per column, in column order).
-        self._diagonal_slots = moved[diagonal_slots]
-        self._fixed_pattern = (fixed_terms, self._free_of, fixed_keys, fixed_slots,
-                               diagonal_slots)
+        self._diagonal_slots = diagonal
+        self._fixed_pattern = fixed
+
+    def _sorted_merge(self, fixed: _FixedBlocks, dynamic: list[int]) -> tuple[
+            np.ndarray, list[np.ndarray], list[np.ndarray], np.ndarray]:
+        """:meth:`_build_pattern`'s merge by sorting: the fixed terms' sorted keys (kept in
+        ``fixed``) and the dynamic terms' keys. Returns (the stored keys, each fixed term's
+        targets, each dynamic term's, the diagonal's slots)."""
+        n = self.n
+        if fixed.keys is None:
+            fixed.keys = block_pattern(fixed.blocks, n, self._tick)
+        fixed_keys, slots, diagonal = fixed.keys
+        keys = [self._entry_keys(self._jac_terms[index]) for index in dynamic]
+        if not keys:
+            return fixed_keys, [slots[index] for index in fixed.which], [], diagonal
+        stored = np.sort(np.concatenate([fixed_keys, *(k[k >= 0] for k in keys)]))
+        stored = stored[np.concatenate([[True], stored[1:] != stored[:-1]])]
+        nnz = len(stored)
+        moved = np.append(np.searchsorted(stored, fixed_keys), nnz)  # a fixed key's slot
+        self._tick()
+        targets = [moved[slot] for slot in slots]
+        return (stored, [targets[index] for index in fixed.which],
+                [np.where(k >= 0, np.searchsorted(stored, k), nnz) for k in keys],
+                moved[diagonal])
 
     @property
     def _jac_targets(self) -> np.ndarray:
@@ -545,17 +591,16 @@ class Model:
         keys[(rows >= n) | (cols >= n)] = -1
         return keys
 
-    def _fixed_keys(self) -> tuple:
-        """(the non-dynamic terms with a Jacobian, the sorted unique keys of their entries
-        and of the diagonal, each such term's entries' positions in those keys (their number
-        where dropped), the diagonal's positions): kept from the model this one was copied from
-        when its terms and free-coordinate map are the same."""
+    def _fixed_blocks(self) -> _FixedBlocks:
+        """The element blocks of the non-dynamic terms with a Jacobian, kept from the model
+        this one was copied from when its terms and free-coordinate map are the same."""
         fixed_terms = tuple(t for t in self._jac_terms if not t.dynamic)
         cached = getattr(self, "_fixed_pattern", None)
-        if (cached is not None and len(cached[0]) == len(fixed_terms)
-                and all(a is b for a, b in zip(cached[0], fixed_terms, strict=True))
-                and (cached[1] is self._free_of or np.array_equal(cached[1], self._free_of))):
-            return fixed_terms, *cached[2:]
+        if (cached is not None and len(cached.terms) == len(fixed_terms)
+                and all(a is b for a, b in zip(cached.terms, fixed_terms, strict=True))
+                and (cached.free_of is self._free_of
+                     or np.array_equal(cached.free_of, self._free_of))):
+            return cached
         # Terms on the same coordinates (the tendons of one segment) share one computation.
         blocks: list[np.ndarray] = []
         which = []
@@ -569,8 +614,8 @@ class Model:
                 which.append(len(blocks))
                 blocks.append(free)
             self._tick()
-        keys, slots, diagonal_slots = block_pattern(blocks, self.n, self._tick)
-        return fixed_terms, keys, [slots[index] for index in which], diagonal_slots
+        return _FixedBlocks(fixed_terms, self._free_of, blocks, which,
+                            *block_spread(blocks, self.n))
 
     def _build_scales(self, layout: bool = True) -> None:
         """F_ref, L_ref, the residual weights and the round-off floor (below); ``layout``
