@@ -79,3 +79,32 @@ def test_block_pattern_matches_sorting_every_entry(size, spread, band_table, mon
     expected_positions[kept] = inverse.ravel()[size:]
     assert np.array_equal(np.concatenate(positions), expected_positions)
     assert [len(p) for p in positions] == [f.size * f.shape[1] for f in blocks]
+
+
+@pytest.mark.parametrize("wider", [0, 5])
+def test_merged_pattern_matches_sorting_the_placed_and_the_new_blocks(wider):
+    """merged_pattern (a re-registration: kept blocks placed once, new blocks merged) against
+    np.unique of every entry of both; in a table wider than the blocks need as well (a
+    table kept from an earlier registration), and the placed blocks left unchanged."""
+    size, spread = 120, 6
+    rng = np.random.default_rng(wider)
+
+    def blocks(count, k):
+        start = rng.integers(0, size - spread, (count, 1))
+        free = start + rng.integers(0, spread + 1, (count, k))
+        free[rng.random((count, k)) < 0.1] = size
+        return free
+
+    kept, new = [blocks(size, 4), blocks(30, 6)], [blocks(40, 5), blocks(3, 2)]
+    placed = sparsity.band_blocks(kept, size, spread + wider)
+    marks = placed.marks.copy()
+    keys, kept_positions, new_positions, diagonal = sparsity.merged_pattern(placed, new)
+    assert np.array_equal(placed.marks, marks)
+    rows, cols, kept_mask = _block_entries(kept + new, size)
+    everything = np.concatenate([np.arange(size) * (size + 1), (cols * size + rows)[kept_mask]])
+    expected, inverse = np.unique(everything, return_inverse=True)
+    assert np.array_equal(keys, expected)
+    assert np.array_equal(diagonal, inverse.ravel()[:size])
+    expected_positions = np.full(len(rows), len(keys))
+    expected_positions[kept_mask] = inverse.ravel()[size:]
+    assert np.array_equal(np.concatenate(kept_positions + new_positions), expected_positions)
