@@ -91,8 +91,8 @@ def load_kernel(term: Term) -> Kernel:
 @functools.cache
 def _kernel_named(name: str) -> Kernel:
     """:func:`load_kernel` of the kernel module ``name``, once per process: reading the
-    signatures (``inspect``) cost ~1 ms of every model's assembly on tdcr-two-segment and
-    ~4 ms on four-tendons (docs/benchmarks.md, "Model assembly"). A failure is not cached."""
+    signatures (``inspect``) on every model cost 0.5 ms of each assembly of tdcr-two-segment
+    (docs/benchmarks.md, "Model assembly"). A failure is not cached."""
     try:
         module = importlib.import_module(f"{__name__}.{name}")
     except ModuleNotFoundError as exc:
