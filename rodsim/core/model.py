@@ -38,7 +38,15 @@ from rodsim.core.rod.layout import RodLayout
 from rodsim.core.rod.retraction import turn_segments
 from rodsim.core.rod.rod import Rod
 from rodsim.core.scene import Scene
-from rodsim.core.sparsity import pattern_of_keys, unique_keys
+from rodsim.core.sparsity import (
+    BandBlocks,
+    band_blocks,
+    band_table_fits,
+    block_pattern,
+    block_spread,
+    merged_pattern,
+    pattern_of_keys,
+)
 from rodsim.core.supports import base_support, node_supports, quaternion_product, rigid_motion
 from rodsim.core.tendon import Tendon, tendon_support
 from rodsim.core.terms import Term, registered_terms
@@ -130,6 +138,28 @@ class KernelCall(NamedTuple):
         return self._replace(term=term, arguments=self.kernel.bind(term.kernel_arguments()))
 
 
+@dataclass
+class _FixedBlocks:
+    """The Jacobian pattern's part that a re-registration keeps (:meth:`Model._build_pattern`):
+    the element blocks of the non-dynamic terms, and what was computed from them — filled
+    when first needed and shared by the models that keep it."""
+
+    #: The non-dynamic terms with a Jacobian, and the free-coordinate map of their blocks.
+    terms: tuple[Term, ...]
+    free_of: np.ndarray
+    #: The distinct blocks (free indices, (E, k)) and each term's among them.
+    blocks: list[np.ndarray]
+    which: list[int]
+    #: :func:`~rodsim.core.sparsity.block_spread` of the blocks.
+    spread: int
+    count: int
+    #: The blocks in a band table (a model with dynamic terms), or None.
+    band: BandBlocks | None = None
+    #: :func:`~rodsim.core.sparsity.block_pattern` of the blocks (sorted keys, each block's
+    #: positions among them, the diagonal's), or None.
+    keys: tuple[np.ndarray, list[np.ndarray], np.ndarray] | None = None
+
+
 class Model:
     """The discretised rod system of one scene.
 
@@ -154,11 +184,11 @@ class Model:
         try:
             self._assemble(scene)
             self._tick()
-            self._build_maps()
-            self._tick()
             if len(self.rods) > 1:
                 self._order_for_band()
                 self._tick()
+            self._build_maps()
+            self._tick()
             self._build_scales()
         finally:
             self._budget = None  # the budget covers this assembly only, not later copies
@@ -376,17 +406,49 @@ class Model:
 
         Coupled rods concatenated as in Eq. (30) give a wide band (a tendon point couples to
         catheter coordinates far away in the vector); interleaving them keeps the system
-        banded. The order is fixed once, from the pattern at rest.
+        banded. The order is fixed once, from the pattern at rest (:meth:`_rest_structure`,
+        the structure of :attr:`pattern` in the scene's order), before the index maps are
+        built: they are built once, in the order kept.
         """
-        order = reverse_cuthill_mckee(self.pattern, symmetric_mode=True)
-        offsets = self.pattern_rows - self.pattern_cols
+        structure = self._rest_structure()
+        order = reverse_cuthill_mckee(structure, symmetric_mode=True)
+        rows = structure.indices
+        cols = np.repeat(np.arange(self.n), np.diff(structure.indptr))
+        offsets = rows - cols
         current = max(offsets.max(), -offsets.min())
         inverse = np.empty_like(order)
         inverse[order] = np.arange(self.n)
-        new_offsets = inverse[self.pattern_rows] - inverse[self.pattern_cols]
+        new_offsets = inverse[rows] - inverse[cols]
         if max(new_offsets.max(), -new_offsets.min()) < current:
             self.free = self.free[order]
-            self._build_maps()
+
+    def _rest_structure(self) -> sp.csc_matrix:
+        """The Jacobian's structure at rest in the current order of :attr:`free` (canonical
+        CSC, the structure :meth:`_build_pattern` gives): the diagonal and, for every term
+        with a Jacobian, each element's coordinates coupled pairwise — BᵀB of the incidence
+        matrix B (one row per element and one per coordinate, ones where it holds the
+        coordinate), without the targets the pattern's build computes."""
+        n = self.n
+        free_of = np.full(self.full_size, n)
+        free_of[self.free] = np.arange(n)
+        elements, coordinates = [np.arange(n)], [np.arange(n)]
+        count = n
+        for term in self.terms:
+            if not term.has_jacobian:
+                continue
+            free = free_of[term.dofs]
+            kept = free < n
+            elements.append(np.broadcast_to(
+                np.arange(count, count + len(free))[:, None], free.shape)[kept])
+            coordinates.append(free[kept])
+            count += len(free)
+        incidence = sp.csr_matrix((np.ones(sum(len(c) for c in coordinates)),
+                                   (np.concatenate(elements), np.concatenate(coordinates))),
+                                  shape=(count, n))
+        structure = (incidence.T @ incidence).tocsc()
+        structure.sum_duplicates()
+        structure.sort_indices()
+        return structure
 
     def reregistered(self, x: np.ndarray, exact: bool = False) -> Model | None:
         """The model with every dynamic term (tendon registration, §4.1) re-registered from
@@ -483,47 +545,83 @@ class Model:
         terms with a Jacobian (entries on fixed coordinates dropped), in CSC order.
 
         A re-registration (:meth:`reregistered`) changes only the dynamic terms' elements:
-        the sorted keys of the diagonal and the other terms' entries are kept from the model
-        it came from (:meth:`_fixed_keys`) and merged with the dynamic ones, instead of
-        sorting every entry again. The pattern and the targets are those a sort of all
-        entries gives (:func:`rodsim.core.sparsity.csc_pattern`)."""
+        what the diagonal and the other terms give is kept from the model it came from
+        (:meth:`_fixed_blocks`) and merged with the dynamic ones — in a band table where it
+        is small against the entries (:func:`rodsim.core.sparsity.merged_pattern`),
+        otherwise as sorted keys merged with the dynamic terms' by sorting. The pattern and
+        the targets are those a sort of all entries gives
+        (:func:`rodsim.core.sparsity.csc_pattern`)."""
         n = self.n
         self._jac_terms = [t for t in self.terms if t.has_jacobian]
-        fixed_terms, fixed_keys, fixed_slots, diagonal_slots = self._fixed_keys()
-        dynamic = {index: self._entry_keys(term) for index, term in enumerate(self._jac_terms)
-                   if term.dynamic}
-        stored = fixed_keys
-        if dynamic:
-            stored = np.sort(np.concatenate([fixed_keys,
-                                             *(k[k >= 0] for k in dynamic.values())]))
-            stored = stored[np.concatenate([[True], stored[1:] != stored[:-1]])]
-        moved = np.searchsorted(stored, fixed_keys)  # a fixed key's slot among all
+        fixed = self._fixed_blocks()
+        dynamic = [index for index, term in enumerate(self._jac_terms) if term.dynamic]
+        dynamic_free = [self._free_of[self._jac_terms[index].dofs] for index in dynamic]
+        spread, count = block_spread(dynamic_free, n)
+        spread, count = max(spread, fixed.spread), count + fixed.count - n
+        if dynamic and band_table_fits(n, spread, count):
+            if fixed.band is None or fixed.band.spread < spread:
+                fixed.band = band_blocks(fixed.blocks, n, spread, self._tick)
+            stored, fixed_positions, dynamic_positions, diagonal = merged_pattern(
+                fixed.band, dynamic_free, self._tick)
+            fixed_targets = [fixed_positions[index] for index in fixed.which]
+        else:
+            stored, fixed_targets, dynamic_positions, diagonal = self._sorted_merge(
+                fixed, dynamic)
         nnz = len(stored)
         targets = []
-        slots = iter(fixed_slots)
+        fixed_iter, dynamic_iter = iter(fixed_targets), iter(dynamic_positions)
         for index in range(len(self._jac_terms)):
             self._tick()
-            if index in dynamic:
-                keys = dynamic[index]
-                target = np.where(keys >= 0, np.searchsorted(stored, keys), nnz)
-            else:
-                slot = next(slots)
-                target = np.where(slot >= 0, moved[slot], nnz)
-            targets.append(target)
+            targets.append(next(dynamic_iter) if self._jac_terms[index].dynamic
+                           else next(fixed_iter))
         self._tick()
-        pattern = pattern_of_keys(stored, np.concatenate([moved[diagonal_slots], *targets]), n)
+        # The targets stay per term (below), not joined into the pattern's.
+        pattern = pattern_of_keys(stored, np.zeros(0, dtype=np.int64), n)
         #: Jacobian sparsity pattern of the free coordinates (CSC, ones where J may be ≠ 0).
         self.pattern = pattern.matrix
         self.pattern_rows, self.pattern_cols = pattern.rows, pattern.cols
-        self.nnz = pattern.nnz
-        # Where each term's element entry lands in the CSC data (nnz: a dump slot for
-        # entries on fixed coordinates).
-        self._jac_targets = np.concatenate([np.zeros(0, dtype=np.int64), *targets])
+        self.nnz = nnz
+        # Where each term's element entries land in the CSC data (nnz: a dump slot for
+        # entries on fixed coordinates), one array per term with a Jacobian (terms on the
+        # same coordinates share one).
+        self._term_targets = targets
+        self._jac_targets_joined: np.ndarray | None = None
         self.band = Band(*pattern.band)
         # Where the diagonal entries lie in the CSC data (one per column, in column order).
-        self._diagonal_slots = moved[diagonal_slots]
-        self._fixed_pattern = (fixed_terms, self._free_of, fixed_keys, fixed_slots,
-                               diagonal_slots)
+        self._diagonal_slots = diagonal
+        self._fixed_pattern = fixed
+
+    def _sorted_merge(self, fixed: _FixedBlocks, dynamic: list[int]) -> tuple[
+            np.ndarray, list[np.ndarray], list[np.ndarray], np.ndarray]:
+        """:meth:`_build_pattern`'s merge by sorting: the fixed terms' sorted keys (kept in
+        ``fixed``) and the dynamic terms' keys. Returns (the stored keys, each fixed term's
+        targets, each dynamic term's, the diagonal's slots)."""
+        n = self.n
+        if fixed.keys is None:
+            fixed.keys = block_pattern(fixed.blocks, n, self._tick)
+        fixed_keys, slots, diagonal = fixed.keys
+        keys = [self._entry_keys(self._jac_terms[index]) for index in dynamic]
+        if not keys:
+            return fixed_keys, [slots[index] for index in fixed.which], [], diagonal
+        stored = np.sort(np.concatenate([fixed_keys, *(k[k >= 0] for k in keys)]))
+        stored = stored[np.concatenate([[True], stored[1:] != stored[:-1]])]
+        nnz = len(stored)
+        moved = np.append(np.searchsorted(stored, fixed_keys), nnz)  # a fixed key's slot
+        self._tick()
+        targets = [moved[slot] for slot in slots]
+        return (stored, [targets[index] for index in fixed.which],
+                [np.where(k >= 0, np.searchsorted(stored, k), nnz) for k in keys],
+                moved[diagonal])
+
+    @property
+    def _jac_targets(self) -> np.ndarray:
+        """Where every element entry of the terms with a Jacobian lands in the CSC data, in
+        term order (nnz: the dump); joined from the terms' arrays when first asked for (the
+        numpy path): the compiled path reads each term's own array."""
+        if self._jac_targets_joined is None:
+            self._jac_targets_joined = np.concatenate([np.zeros(0, dtype=np.int64),
+                                                       *self._term_targets])
+        return self._jac_targets_joined
 
     def _entry_keys(self, term: Term) -> np.ndarray:
         """Column-major keys ``col * n + row`` of every entry of a term's element blocks
@@ -537,34 +635,31 @@ class Model:
         keys[(rows >= n) | (cols >= n)] = -1
         return keys
 
-    def _fixed_keys(self) -> tuple:
-        """(the non-dynamic terms with a Jacobian, the sorted unique keys of their entries
-        and of the diagonal, each such term's entries' positions in those keys (−1:
-        dropped), the diagonal's positions): kept from the model this one was copied from
-        when its terms and free-coordinate map are the same."""
+    def _fixed_blocks(self) -> _FixedBlocks:
+        """The element blocks of the non-dynamic terms with a Jacobian, kept from the model
+        this one was copied from when its terms and free-coordinate map are the same."""
         fixed_terms = tuple(t for t in self._jac_terms if not t.dynamic)
         cached = getattr(self, "_fixed_pattern", None)
-        if (cached is not None and len(cached[0]) == len(fixed_terms)
-                and all(a is b for a, b in zip(cached[0], fixed_terms, strict=True))
-                and (cached[1] is self._free_of or np.array_equal(cached[1], self._free_of))):
-            return fixed_terms, *cached[2:]
-        n = self.n
-        diagonal = np.arange(n) * (n + 1)
-        term_keys = []
+        if (cached is not None and len(cached.terms) == len(fixed_terms)
+                and all(a is b for a, b in zip(cached.terms, fixed_terms, strict=True))
+                and (cached.free_of is self._free_of
+                     or np.array_equal(cached.free_of, self._free_of))):
+            return cached
+        # Terms on the same coordinates (the tendons of one segment) share one computation.
+        blocks: list[np.ndarray] = []
+        which = []
         for term in fixed_terms:
-            term_keys.append(self._entry_keys(term))
+            free = self._free_of[term.dofs]
+            for index, seen in enumerate(blocks):
+                if seen.shape == free.shape and np.array_equal(seen, free):
+                    which.append(index)
+                    break
+            else:
+                which.append(len(blocks))
+                blocks.append(free)
             self._tick()
-        everything = np.concatenate([diagonal, *term_keys])
-        keep = everything >= 0
-        self._tick()
-        keys, inverse = unique_keys(everything[keep], n, self._tick)
-        self._tick()
-        position = np.full(len(everything), -1)
-        position[keep] = inverse.ravel()
-        bounds = np.cumsum([n] + [len(k) for k in term_keys])
-        slots = [position[start:stop] for start, stop in zip(bounds[:-1], bounds[1:],
-                                                               strict=True)]
-        return fixed_terms, keys, slots, position[:n]
+        return _FixedBlocks(fixed_terms, self._free_of, blocks, which,
+                            *block_spread(blocks, self.n))
 
     def _build_scales(self, layout: bool = True) -> None:
         """F_ref, L_ref, the residual weights and the round-off floor (below); ``layout``
@@ -721,14 +816,12 @@ class Model:
         from rodsim.core.kernels import load_kernel
 
         calls = []
-        start = 0
+        targets = iter(self._term_targets)
         for index, term in enumerate(self.terms):
             elements, k = term.dofs.shape
             force_target = np.ascontiguousarray(self._free_of[term.dofs])
             if term.has_jacobian:
-                size = elements * k * k
-                jacobian_target = self._jac_targets[start:start + size].reshape(elements, k, k)
-                start += size
+                jacobian_target = next(targets).reshape(elements, k, k)
             else:
                 jacobian_target = np.zeros((0, 0, 0), dtype=np.int64)
             kernel = load_kernel(term)

@@ -13,7 +13,8 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.sparse as sp
 
-__all__ = ["Pattern", "csc_pattern", "pattern_of_keys"]
+__all__ = ["Pattern", "BandBlocks", "band_blocks", "block_pattern", "block_spread",
+           "csc_pattern", "merged_pattern", "pattern_of_keys"]
 
 
 @dataclass(frozen=True)
@@ -108,6 +109,173 @@ def _banded_unique(rows: np.ndarray, cols: np.ndarray, size: int, upper: int,
     del table, slot
     columns = present // width
     return columns * size + (present % width + columns - upper), target
+
+
+def block_pattern(blocks: list[np.ndarray], size: int,
+                  tick: Callable[[], None] | None = None) -> tuple[
+        np.ndarray, list[np.ndarray], np.ndarray]:
+    """The pattern of the diagonal and of dense element blocks, as :func:`unique_keys`
+    gives it for their entries, without forming the entries' keys.
+
+    ``blocks`` are integer arrays f of shape (E, k): element e couples every pair of its
+    indices, entry (i, j) at row f[e, i] and column f[e, j], row-major within the element
+    (``Model._entry_keys``'s order); an index ≥ ``size`` (a fixed coordinate) drops the
+    entries on its row and column. Returns (the sorted unique column-major keys ``col * size
+    + row`` of the diagonal and of every kept entry; for each array of ``blocks``, each of
+    its entries' position among those keys, the number of keys where dropped (a dump slot
+    past the end), shape (E k k,); the diagonal's positions).
+
+    Where the band table is small against the entries (:data:`BAND_TABLE_RATIO`), an entry's
+    slot in it is the sum of a row part and a column part read per index (``f`` is E × k,
+    the entries E × k × k), so the entries are never divided back into rows and columns:
+    on tdcr-two-segment this made the assembly's pattern ~4× cheaper (docs/benchmarks.md,
+    "Model assembly"). Otherwise: the keys, sorted (:func:`unique_keys`).
+
+    ``tick`` is called between the passes over a block's entries: the assembly's wall-time
+    budget."""
+    tick = tick or _no_tick
+    spread, count = block_spread(blocks, size)
+    if not band_table_fits(size, spread, count):
+        return _sorted_block_pattern(blocks, size, tick)
+    keys, positions, _, diagonal = merged_pattern(band_blocks(blocks, size, spread, tick), [],
+                                                  tick)
+    return keys, positions, diagonal
+
+
+def block_spread(blocks: list[np.ndarray], size: int) -> tuple[int, int]:
+    """(the largest distance between two kept indices of one element of ``blocks``, the
+    number of kept entries plus ``size`` for the diagonal): the band half-width the blocks
+    need (each block is symmetric: lower = upper) and what a band table is weighed
+    against."""
+    spread = 0
+    count = size
+    for free in blocks:
+        if free.size:
+            kept = free < size
+            spread = max(spread, int((np.where(kept, free, -1).max(axis=1)
+                                      - free.min(axis=1)).max()))
+            count += int(np.sum(np.sum(kept, axis=1) ** 2))
+    return spread, count
+
+
+def band_table_fits(size: int, spread: int, count: int) -> bool:
+    """Whether a band table of half-width ``spread`` is small against ``count`` entries
+    (:data:`BAND_TABLE_RATIO`)."""
+    return size * (2 * spread + 1) <= BAND_TABLE_RATIO * count
+
+
+@dataclass(frozen=True)
+class BandBlocks:
+    """Element blocks placed in a band table of half-width ``spread`` (:func:`band_blocks`):
+    kept by a model whose terms re-register, so that their new blocks are merged
+    (:func:`merged_pattern`) without placing these again.
+
+    Slot (column c, row r) of the table is c × width + r − c + spread (width = 2 spread + 1),
+    increasing in CSC order; slot ``end`` = size × width takes every entry on a fixed
+    coordinate."""
+
+    size: int
+    spread: int
+    #: Each block's entries' slots, shape (E k k,).
+    slots: list[np.ndarray]
+    #: True at the diagonal's slots and the blocks' entries', shape (end + 1,); False at end.
+    marks: np.ndarray
+
+    @property
+    def width(self) -> int:
+        return 2 * self.spread + 1
+
+    @property
+    def end(self) -> int:
+        return self.size * self.width
+
+    def place(self, free: np.ndarray) -> np.ndarray:
+        """The slots of the entries of one block (E, k), row-major within each element: the
+        sum of a row part and a column part read per index, never the entries' keys."""
+        width, end = self.width, self.end
+        column_part = np.append(np.arange(self.size) * (width - 1) + self.spread, end)
+        row_part = np.append(np.arange(self.size), end)
+        slot = (row_part[free][:, :, None] + column_part[free][:, None, :]).reshape(-1)
+        np.minimum(slot, end, out=slot)  # one fixed index or two: the dump
+        return slot
+
+
+def band_blocks(blocks: list[np.ndarray], size: int, spread: int,
+                tick: Callable[[], None] | None = None) -> BandBlocks:
+    """``blocks`` (as in :func:`block_pattern`, each element's kept indices at most
+    ``spread`` apart) and the diagonal placed in a band table."""
+    tick = tick or _no_tick
+    placed = BandBlocks(size, spread, [], np.zeros(size * (2 * spread + 1) + 1, dtype=bool))
+    placed.marks[np.arange(size) * placed.width + spread] = True
+    for free in blocks:
+        slot = placed.place(free)
+        placed.marks[slot] = True
+        placed.slots.append(slot)
+        tick()
+    placed.marks[placed.end] = False
+    return placed
+
+
+def merged_pattern(placed: BandBlocks, blocks: list[np.ndarray],
+                   tick: Callable[[], None] | None = None) -> tuple[
+        np.ndarray, list[np.ndarray], list[np.ndarray], np.ndarray]:
+    """The pattern of ``placed`` and further ``blocks`` (whose elements' kept indices are at
+    most ``placed.spread`` apart), as :func:`block_pattern` gives it for all of them: (the
+    sorted unique keys; the positions of ``placed``'s blocks' entries among them; those of
+    ``blocks``' entries; the diagonal's) — a dropped entry's position is the number of keys.
+    ``placed`` is not changed."""
+    tick = tick or _no_tick
+    marks = placed.marks
+    slots = []
+    if blocks:
+        marks = marks.copy()
+        for free in blocks:
+            slot = placed.place(free)
+            marks[slot] = True
+            slots.append(slot)
+            tick()
+        marks[placed.end] = False
+    present = np.flatnonzero(marks)
+    table = np.full(placed.end + 1, len(present), dtype=np.int64)
+    table[present] = np.arange(len(present))
+    tick()
+    positions = []
+    for slot in placed.slots:
+        positions.append(table[slot])
+        tick()
+    extra = []
+    for slot in slots:
+        extra.append(table[slot])
+        tick()
+    width, size, upper = placed.width, placed.size, placed.spread
+    columns = present // width
+    keys = columns * size + (present % width + columns - upper)
+    return keys, positions, extra, table[np.arange(size) * width + upper]
+
+
+def _sorted_block_pattern(blocks: list[np.ndarray], size: int,
+                          tick: Callable[[], None]) -> tuple[
+        np.ndarray, list[np.ndarray], np.ndarray]:
+    """:func:`block_pattern` by sorting every entry's key (a wide band)."""
+    keys = [np.arange(size) * (size + 1)]
+    for free in blocks:
+        k = free.shape[1]
+        rows = np.repeat(free, k, axis=1).ravel()
+        cols = np.tile(free, (1, k)).ravel()
+        entry = cols * size + rows
+        entry[(rows >= size) | (cols >= size)] = -1
+        keys.append(entry)
+        tick()
+    everything = np.concatenate(keys)
+    keep = everything >= 0
+    tick()
+    unique, inverse = unique_keys(everything[keep], size, tick)
+    tick()
+    position = np.full(len(everything), len(unique))
+    position[keep] = inverse.ravel()
+    bounds = np.cumsum([len(k) for k in keys])
+    return unique, [position[start:stop] for start, stop in zip(bounds[:-1], bounds[1:],
+                                                                strict=True)], position[:size]
 
 
 def pattern_of_keys(keys: np.ndarray, target: np.ndarray, size: int) -> Pattern:

@@ -26,6 +26,7 @@ Nothing here is imported until a model evaluates with ``solver.kernels = "compil
 
 from __future__ import annotations
 
+import functools
 import importlib
 import inspect
 from collections.abc import Callable
@@ -84,7 +85,14 @@ def load_kernel(term: Term) -> Kernel:
     """The compiled kernel of a term (compiled, or loaded from the disk cache, on the first
     call with each argument type); TypeError when its ``energy`` takes other constants than
     its ``evaluate``."""
-    name = term.kernel or term.name
+    return _kernel_named(term.kernel or term.name)
+
+
+@functools.cache
+def _kernel_named(name: str) -> Kernel:
+    """:func:`load_kernel` of the kernel module ``name``, once per process: reading the
+    signatures (``inspect``) on every model cost 0.5 ms of each assembly of tdcr-two-segment
+    (docs/benchmarks.md, "Model assembly"). A failure is not cached."""
     try:
         module = importlib.import_module(f"{__name__}.{name}")
     except ModuleNotFoundError as exc:
