@@ -175,6 +175,9 @@ class Model:
         :class:`~rodsim.core.assembly_budget.AssemblyBudgetExceeded` is raised. None: no limit.
     """
 
+    #: How the compiled path calls each term's kernel; built at the first compiled call.
+    _kernel_calls: list[KernelCall] | None
+
     def __init__(self, scene: Scene, kernels: str | None = None,
                  budget: AssemblyBudget | None = None) -> None:
         self.kernels = kernels or scene.solver.kernels
@@ -341,16 +344,22 @@ class Model:
                     or not np.array_equal(term.dofs, self.terms[index].dofs)):
                 return self.with_scene(scene) if fallback else None
             terms[index] = term
-        other.terms = terms
-        other._loads = [t for t in terms if t.is_load]
-        other._jac_terms = [t for t in terms if t.has_jacobian]
-        if self._kernel_calls is not None:  # the same kernels and targets, new constants
+        other._replace_terms(terms, changed)
+        other._build_scales(layout=False)
+        return other
+
+    def _replace_terms(self, terms: list[Term], changed: list[int]) -> None:
+        """Take ``terms`` (this model's, those at ``changed`` rebuilt with the same elements:
+        new constants or anchors), with the same kernels and targets (this model is a fresh
+        copy of the one the terms came from)."""
+        self.terms = terms
+        self._loads = [t for t in terms if t.is_load]
+        self._jac_terms = [t for t in terms if t.has_jacobian]
+        if self._kernel_calls is not None:
             calls = list(self._kernel_calls)
             for index in changed:
                 calls[index] = calls[index].with_term(terms[index])
-            other._kernel_calls = calls
-        other._build_scales(layout=False)
-        return other
+            self._kernel_calls = calls
 
     def _changed_terms(self, scene: Scene) -> list[int] | None:
         """Indices of the terms whose options differ between this model's scene and
@@ -399,7 +408,7 @@ class Model:
         self._build_force_scatter()
         self._tick()
         self._build_pattern()
-        self._kernel_calls: list[KernelCall] | None = None  # built at the first compiled call
+        self._kernel_calls = None
 
     def _order_for_band(self) -> None:
         """Reorder the free coordinates (reverse Cuthill–McKee) when that narrows the band.
@@ -491,14 +500,7 @@ class Model:
         if not changed:
             return self
         other = copy.copy(self)
-        other.terms = terms
-        other._loads = [t for t in terms if t.is_load]
-        other._jac_terms = [t for t in terms if t.has_jacobian]
-        if self._kernel_calls is not None:  # the same kernels and targets, new anchors
-            calls = list(self._kernel_calls)
-            for index in changed:
-                calls[index] = calls[index].with_term(terms[index])
-            other._kernel_calls = calls
+        other._replace_terms(terms, changed)
         return other
 
     def with_terms(self, terms: list[Term]) -> Model:
