@@ -437,3 +437,38 @@ def test_a_track_archive_holds_the_contact_forces_of_every_step(tmp_path):
     check_archive(ds)
     with pytest.raises(ArchiveSchemaError, match="contact_resultant"):
         check_archive(ds.drop_vars("contact_resultant"))
+
+
+def buckling_scene(factor: float, lateral: float = 0.0) -> Scene:
+    """A wire (r = 0.5 mm, E = 2 GPa, L = 0.1 m) clamped in a straight vessel of lumen
+    1.5 mm, pushed back along its axis by ``factor`` times its Euler load π²EI/(4L²), with a
+    lateral tip force ``lateral`` times that load."""
+    ei = 2e9 * math.pi * 0.0005**4 / 4.0
+    euler = math.pi**2 * ei / (4.0 * 0.1**2)
+    return Scene.from_dict({
+        "name": "buckling-in-a-vessel",
+        "rods": {"wire": {"length": 0.1, "radius": 0.0005, "youngs_modulus": 2e9,
+                          "density": 1000.0, "nodes": 41, "clamp": "frame",
+                          "terms": ["stretch", "bend_twist", "centerline", "tip_load"],
+                          "tip_load": {"force": [-factor * euler, lateral * euler, 0.0]}}},
+        "obstacles": {"vessel": {"type": "tube", "rods": ["wire"], "centerline": "straight",
+                                 "radius": 0.0015, "start": [-0.01, 0.0, 0.0],
+                                 "direction": [1.0, 0.0, 0.0], "length": 0.2}}})
+
+
+def test_a_rod_buckling_inside_a_vessel_is_reported_unstable_where_it_is():
+    """Issue 25's aim: the straight wire inside the vessel is stable below its Euler load and
+    unstable above it (Newton from the straight rest state stays on the straight branch; the
+    contact adds no stiffness where nothing touches); nudged sideways by a small lateral
+    force it buckles onto the wall (the tip 1 mm off the axis: lumen − r) and is stable
+    there. Measured: smallest eigenvalue −2.4e-4 (N/m-scaled) at twice the Euler load."""
+    below = rodsim.solve(buckling_scene(0.5), "static")
+    assert below.success and below.stability.stable
+    straight = rodsim.solve(buckling_scene(2.0), "static")
+    assert straight.success, straight.message
+    assert abs(straight.tip()[1]) < 1e-12  # still straight
+    assert not straight.stability.stable and straight.stability.min_eigenvalue < 0.0
+    on_wall = rodsim.solve(buckling_scene(2.0, lateral=1e-3), "static")
+    assert on_wall.success, on_wall.message
+    assert on_wall.tip()[1] == pytest.approx(0.001, abs=2e-6)  # on the wall
+    assert on_wall.stability.stable
