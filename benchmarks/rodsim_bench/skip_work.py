@@ -16,7 +16,10 @@ warm-up):
   reduced to the in-plane coordinates (x, y and the two quaternion combinations of a
   rotation about z) against the full 3-D systems — the forces and Jacobians are still
   evaluated in 3-D, so this measures what dropping the out-of-plane unknowns would save;
-- **load ramp** and **mass scaling**: the pseudo-dynamics options, on and off.
+- **load ramp** and **mass scaling**: the pseudo-dynamics options, on and off;
+- **obstacles**: a scene without obstacles builds no contact term and pays nothing for
+  contact; the row gives what a listed obstacle out of the rod's reach costs per force and
+  Jacobian evaluation.
 
 Outputs ``skip-work-<size>.nc`` and ``skip-work-<size>.md`` (with the machine description).
 """
@@ -24,6 +27,7 @@ Outputs ``skip-work-<size>.nc`` and ``skip-work-<size>.md`` (with the machine de
 from __future__ import annotations
 
 import time
+import tomllib
 from collections.abc import Callable
 from pathlib import Path
 
@@ -35,6 +39,7 @@ import xarray as xr
 import rodsim
 from rodsim.core.model import Model
 from rodsim.core.rod.quaternion import rest_quaternion
+from rodsim.core.scene import scene_paths
 from rodsim.io.archive import write_dataset
 from rodsim.solvers.linear import LinearSolver
 from rodsim.solvers.newton import JACOBIAN_REUSE, NewtonProblem, newton
@@ -180,6 +185,21 @@ def run(size: str, output_dir: Path, progress=None) -> list[Path]:
         rows.append({"row": "unlisted terms", "scene": "table1-50g",
                      "compared": f"force evaluation, gravity {scene_label}", "time_a": rows_time,
                      "time_b": np.nan, "gain": np.nan, "note": "(a): one F(x) evaluation"})
+
+    # Obstacles: a scene without them builds no contact term (nothing to pay); one that lists
+    # a plane out of the rod's reach pays the idle term's evaluation.
+    table = tomllib.loads(scene_paths()["table1-50g"].read_text(encoding="utf-8"))
+    far = rodsim.load_scene(table | {"obstacles": {"far": {
+        "type": "plane", "rods": ["catheter"], "point": [0.0, 1.0, 0.0],
+        "normal": [0.0, -1.0, 0.0]}}})
+    times = []
+    for scene in (base, far):
+        model = Model(scene)
+        x = model.x0 + 1e-4
+        t, _ = _best(lambda m=model, y=x: [m.evaluate(y) for _ in range(200)], repeats)
+        times.append(t / 200)
+    row("obstacles", "table1-50g", "F and J: no obstacle (a) vs a plane out of reach (b)",
+        times[0], times[1], "(a) builds no contact term")
 
     for nodes in setting["nodes"]:
         model = rodsim.build_model(base.with_overrides([f"nodes={nodes}"]))
