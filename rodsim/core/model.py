@@ -811,6 +811,24 @@ class Model:
                                  jacobian, j, call.jacobian_target)
         return (f[:-1] if force else np.zeros(0)), (j[:-1] if jacobian else np.zeros(0))
 
+    def element_forces(self, index: int, full: np.ndarray) -> np.ndarray:
+        """The forces on the elements of term ``index`` at the full state ``full``, shaped
+        as its ``dofs`` (clamped coordinates included), with its continuation scale: by its
+        compiled kernel on the compiled path, by its numpy reference otherwise (the same
+        numbers to round-off, tests/test_kernels.py)."""
+        term = self.terms[index]
+        scale = self._scale(index, term, 1.0)
+        if self.kernels != "compiled":
+            return scale * term.element_forces(full)
+        if self._kernel_calls is None:
+            self._kernel_calls = self._build_kernel_calls()
+        call = self._kernel_calls[index]
+        slots = np.arange(term.dofs.size, dtype=np.int64).reshape(term.dofs.shape)
+        out = np.zeros(term.dofs.size + 1)
+        call.kernel.evaluate(full, *call.arguments, scale, True, out, slots, False,
+                             np.zeros(1), call.jacobian_target)
+        return out[:-1].reshape(term.dofs.shape)
+
     def _build_kernel_calls(self) -> list[KernelCall]:
         """The :class:`KernelCall` of every term: its kernel, its constants bound by name to
         the kernel's signature, and where each element's force and Jacobian entries land

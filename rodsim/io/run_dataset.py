@@ -79,7 +79,7 @@ def _contact_variables(result: Result) -> dict[str, Any]:
     from rodsim.core.terms.contact import contact_forces
 
     model = Model(result.scene, "numpy")
-    stacked = contact_forces(model.terms, model.rods, model.full(result.state))
+    stacked = contact_forces(model, model.full(result.state))
     assert stacked is not None  # called for a scene with obstacles only
     return contact_variables(stacked, ())
 

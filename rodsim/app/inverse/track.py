@@ -391,7 +391,7 @@ def track(scene: Scene, ramps: Mapping[str, Sequence[float]],
 
 
 def _record_contact(out: Track, model: Model) -> None:
-    force = contact_forces(model.terms, model.rods, out.states[-1])  # the step's own model
+    force = contact_forces(model, out.states[-1])  # the step's own model (friction anchors)
     if force is not None:
         out.contact.append(force)
 

@@ -53,9 +53,9 @@ changes once built. With μ = 0 none of this is evaluated: the frictionless numb
 from __future__ import annotations
 
 import copy
-from collections.abc import Iterable, Mapping
+from collections.abc import Mapping
 from dataclasses import dataclass
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -63,6 +63,9 @@ from rodsim.core.obstacles import Obstacle, build_obstacle
 from rodsim.core.rod.rod import Rod
 from rodsim.core.schema import Options
 from rodsim.core.terms.base import KernelArguments, RodTerm, Term
+
+if TYPE_CHECKING:
+    from rodsim.core.model import Model
 
 __all__ = ["Contact", "contact_forces", "penalty"]
 
@@ -218,16 +221,17 @@ class Contact(RodTerm):
         return None
 
 
-def contact_forces(terms: Iterable[Term], rods: Mapping[str, Rod], full: np.ndarray
-                   ) -> np.ndarray | None:
-    """The contact force on every control point of ``rods`` (stacked in their order, shape
-    (nodes, 3) [N]; zero on rods no obstacle acts on), summed over the contact ``terms`` at
-    the full state ``full``; None when no term is a contact (a scene without obstacles)."""
-    contacts = [term for term in terms if isinstance(term, Contact)]
+def contact_forces(model: Model, full: np.ndarray) -> np.ndarray | None:
+    """The contact force on every control point of ``model``'s rods (stacked in their order,
+    shape (nodes, 3) [N]; zero on rods no obstacle acts on), summed over its contact terms at
+    the full state ``full`` (by the compiled kernels on the compiled path,
+    :meth:`Model.element_forces`); None when no term is a contact (a scene without
+    obstacles)."""
+    contacts = [(index, term) for index, term in enumerate(model.terms)
+                if isinstance(term, Contact)]
     if not contacts:
         return None
-    force = {name: np.zeros((rod.options.nodes, 3)) for name, rod in rods.items()}
-    for term in contacts:
-        force[term.rod.name] += term.nodal_forces(full)
+    force = {name: np.zeros((rod.options.nodes, 3)) for name, rod in model.rods.items()}
+    for index, term in contacts:
+        force[term.rod.name] += model.element_forces(index, full)
     return np.concatenate(list(force.values()))
-
