@@ -3,7 +3,7 @@ needs neither the solvers nor numpy, and only the whole-process entry takes the 
 
 The archives written by a process that ended with ``os._exit`` are read back after the
 process is gone and compared with the same run made in this process; the write is also
-slowed down (a sleep before and after xarray's write, in the child) so that an exit racing
+slowed down (a sleep before and after the netCDF write, in the child) so that an exit racing
 the write would show. No test measures time.
 """
 
@@ -22,19 +22,19 @@ from rodsim.app import lean
 from rodsim.app.cli import main
 from rodsim.io.archive import read_dataset
 
-#: A child process that runs the installed command's entry with xarray's netCDF write slowed
-#: down (``SLOW`` seconds before and after the write itself).
+#: A child process that runs the installed command's entry with the run archive's netCDF
+#: write (rodsim/io/netcdf_writer.py) slowed down (``SLOW`` seconds before and after it).
 SLOW_ENTRY = textwrap.dedent("""
     import sys, time
-    import xarray
+    from rodsim.io import netcdf_writer
     SLOW = float(sys.argv.pop(1))
-    original = xarray.Dataset.to_netcdf
-    def slow(self, *args, **kwargs):
+    original = netcdf_writer.write_netcdf
+    def slow(*args, **kwargs):
         time.sleep(SLOW)
-        out = original(self, *args, **kwargs)
+        out = original(*args, **kwargs)
         time.sleep(SLOW)
         return out
-    xarray.Dataset.to_netcdf = slow
+    netcdf_writer.write_netcdf = slow
     from rodsim.app.cli import entry
     entry()
 """)

@@ -6,10 +6,9 @@ models themselves are :mod:`rodsim.core.analytic`'s."""
 from __future__ import annotations
 
 from collections.abc import Sequence
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
-import xarray as xr
 
 from rodsim.core.analytic.reference import (
     REFERENCE_KINDS,
@@ -17,6 +16,9 @@ from rodsim.core.analytic.reference import (
     reference_centerline,
 )
 from rodsim.core.scene import Scene
+
+if TYPE_CHECKING:
+    import xarray as xr
 
 __all__ = ["resample", "ribbon_area", "point_errors", "score_against_last",
            "reference_curves", "reference_lines"]
@@ -70,6 +72,8 @@ def score_against_last(ds: xr.Dataset, dim: str, length: float) -> None:
     reference = first.isel({dim: -1})
     gap = first.isel(sigma=-1) - reference.isel(sigma=-1)
     ds["tip_error"] = (np.sqrt((gap**2).sum("axis")) / length).transpose(*ds["status"].dims)
+    import xarray as xr
+
     areas = xr.apply_ufunc(ribbon_area, first, reference,
                            input_core_dims=[["sigma", "axis"]] * 2, vectorize=True)
     ds["area_error"] = (areas / length).transpose(*ds["status"].dims)

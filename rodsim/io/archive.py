@@ -18,10 +18,10 @@ import threading
 import time
 from collections.abc import Callable
 from pathlib import Path
-
-import xarray as xr
+from typing import TYPE_CHECKING
 
 from rodsim.core.scene import Scene
+from rodsim.io.archive_content import ArchiveContent
 from rodsim.io.archive_schema import (
     READABLE_SCHEMA_VERSIONS,
     SCHEMA_VERSION,
@@ -29,7 +29,7 @@ from rodsim.io.archive_schema import (
     check_archive,
 )
 from rodsim.io.atomic import write_atomic
-from rodsim.io.cf_layout import from_file, to_file
+from rodsim.io.cf_layout import file_layout, from_file, to_file
 from rodsim.io.input_file import InputError, check_input_file
 from rodsim.io.output import (
     OutputError,
@@ -39,7 +39,10 @@ from rodsim.io.output import (
     remove_stale_temporaries,
 )
 
-__all__ = ["ArchiveError", "write_dataset", "read_dataset", "scene_of"]
+if TYPE_CHECKING:
+    import xarray as xr
+
+__all__ = ["ArchiveError", "write_content", "write_dataset", "read_dataset", "scene_of"]
 
 #: Seconds a probe read of an archive (:func:`_probe_in_child`) may take, at least; plus one
 #: second per 10 MB of file.
@@ -52,14 +55,10 @@ class ArchiveError(OSError):
 
 def write_dataset(dataset: xr.Dataset, path: str | Path,
                   note: Callable[[str], None] | None = None) -> Path:
-    """Write ``dataset`` to ``path`` (netCDF4) atomically; returns the path written (a
-    symbolic link's target). ``note`` is told when other processes are writing the same
-    target at the moment of the rename (the target then holds the last one's archive)."""
-    try:
-        path = check_target(path)
-    except OutputError as exc:
-        raise ArchiveError(str(exc)) from None
-    remove_stale_temporaries(path)
+    """Write ``dataset`` to ``path`` (netCDF4, by xarray) atomically; returns the path
+    written (a symbolic link's target). ``note`` is told when other processes are writing
+    the same target at the moment of the rename (the target then holds the last one's
+    archive)."""
 
     def write(temporary: Path) -> None:
         # No _FillValue on coordinates (CF: a coordinate has no missing values; xarray would
@@ -73,6 +72,28 @@ def write_dataset(dataset: xr.Dataset, path: str | Path,
             encoding = {name: {"_FillValue": None} for name in dataset.coords}
         stored.to_netcdf(temporary, engine="netcdf4", encoding=encoding)
 
+    return _write_archive(path, write, note)
+
+
+def write_content(content: ArchiveContent, path: str | Path,
+                  note: Callable[[str], None] | None = None) -> Path:
+    """:func:`write_dataset` of an archive's plain content (the current schema), written by
+    the netCDF4 library without importing xarray (:mod:`rodsim.io.netcdf_writer`): the
+    same file as ``write_dataset(content.to_xarray(), path)`` reads back."""
+    from rodsim.io.netcdf_writer import write_netcdf
+
+    stored = file_layout(content)
+    return _write_archive(path, lambda temporary: write_netcdf(stored, temporary), note)
+
+
+def _write_archive(path: str | Path, write: Callable[[Path], None],
+                   note: Callable[[str], None] | None) -> Path:
+    """The target rules (:mod:`rodsim.io.output`) and the atomic write of an archive."""
+    try:
+        path = check_target(path)
+    except OutputError as exc:
+        raise ArchiveError(str(exc)) from None
+    remove_stale_temporaries(path)
     try:  # archives follow the umask (mkstemp alone would make them 0600)
         others = write_atomic(path, write, prefix=owned_prefix(path), follow_umask=True,
                               before_replace=lambda: other_writers(path))
@@ -99,6 +120,8 @@ def read_dataset(path: str | Path) -> xr.Dataset:
     except InputError as exc:
         raise ArchiveError(str(exc)) from None
     _probe_in_child(Path(path))
+    import xarray as xr
+
     try:
         with xr.open_dataset(path, engine="netcdf4") as ds:
             loaded = ds.load()
@@ -165,6 +188,8 @@ def _probe_in_child(path: Path) -> None:
             null = os.open(os.devnull, os.O_WRONLY)
             os.dup2(null, 1)
             os.dup2(null, 2)  # what the C library prints as it aborts is not ours to show
+            import xarray as xr
+
             with xr.open_dataset(path, engine="netcdf4") as ds:
                 ds.load()
         except BaseException:  # noqa: BLE001 - the parent's own read reports it

@@ -16,14 +16,16 @@ import json
 import math
 from collections.abc import Mapping
 from datetime import datetime
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
-import xarray as xr
 
 from rodsim.core.scene import Scene, SceneError
 from rodsim.io.cf_layout import key_variable
 from rodsim.io.provenance import CONVENTIONS
+
+if TYPE_CHECKING:
+    import xarray as xr
 
 __all__ = ["ArchiveSchemaError", "check_archive", "check_point_record", "parse_json_object",
            "MAX_SIGMA_POINTS", "KINDS", "SCHEMA_VERSION", "READABLE_SCHEMA_VERSIONS"]

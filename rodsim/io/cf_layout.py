@@ -21,11 +21,17 @@ schema).
 from __future__ import annotations
 
 import re
+from typing import TYPE_CHECKING
 
 import numpy as np
-import xarray as xr
 
-__all__ = ["variable_name", "key_variable", "to_file", "from_file", "LABEL_ATTRIBUTE"]
+from rodsim.io.archive_content import ArchiveContent, is_text
+
+if TYPE_CHECKING:
+    import xarray as xr
+
+__all__ = ["variable_name", "key_variable", "file_layout", "to_file", "from_file",
+           "LABEL_ATTRIBUTE"]
 
 #: Attribute of a numeric index coordinate naming its label variable.
 LABEL_ATTRIBUTE = "label_variable"
@@ -50,32 +56,39 @@ def key_variable(ds: xr.Dataset, key: str, suffix: str = "") -> xr.DataArray:
     raise KeyError(key)
 
 
-def _is_text(values: np.ndarray) -> bool:
-    return values.dtype.kind in "US" or (values.dtype.kind == "O" and values.size > 0
-                                        and all(isinstance(v, str) for v in values.flat))
+def file_layout(content: ArchiveContent) -> ArchiveContent:
+    """The content as a schema 3 file holds it: each text dimension coordinate ``d``
+    replaced by the numeric index 0, 1, … (int32, attribute :data:`LABEL_ATTRIBUTE`) and
+    the labels in the coordinate ``d_label`` beside it (ValueError if that name is taken).
+    Text stays text here; the writers store it as characters."""
+    sizes = content.sizes()
+    coords = dict(content.coords)
+    for dim in sizes:
+        if dim not in coords or coords[dim][0] != (dim,) or not is_text(coords[dim][1]):
+            continue
+        label = f"{dim}_label"
+        if label in content.variables:
+            raise ValueError(f"cannot label dimension {dim!r}: variable {label!r} exists")
+        _, values, attrs = coords.pop(dim)
+        long_name = attrs.get("long_name", dim)
+        coords[dim] = ((dim,), np.arange(sizes[dim], dtype=np.int32),
+                       {"long_name": f"index of {long_name}", "units": "1",
+                        LABEL_ATTRIBUTE: label})
+        coords[label] = ((dim,), values.astype(str), {**attrs, "long_name": long_name})
+    return ArchiveContent(dict(content.data_vars), coords, dict(content.attrs))
 
 
 def to_file(ds: xr.Dataset) -> tuple[xr.Dataset, dict[str, dict]]:
-    """The Dataset as a schema 3 file holds it, and the encoding for ``to_netcdf`` (text as
-    character arrays; no _FillValue on any coordinate)."""
-    out = ds.copy()
-    for dim in list(ds.dims):
-        if dim not in ds.coords or not _is_text(ds[dim].values):
-            continue
-        label = f"{dim}_label"
-        if label in ds.variables:
-            raise ValueError(f"cannot label dimension {dim!r}: variable {label!r} exists")
-        attrs = dict(ds[dim].attrs)
-        long_name = attrs.get("long_name", dim)
-        out = out.drop_vars(dim).assign_coords({
-            dim: (dim, np.arange(ds.sizes[dim], dtype=np.int32),
-                  {"long_name": f"index of {long_name}", "units": "1",
-                   LABEL_ATTRIBUTE: label}),
-            label: (dim, ds[dim].values.astype(str), {**attrs, "long_name": long_name}),
-        })
+    """The Dataset as a schema 3 file holds it (:func:`file_layout`; the variables keep
+    their encodings), and the encoding for ``to_netcdf`` (text as character arrays; no
+    _FillValue on any coordinate)."""
+    out = file_layout(ArchiveContent.of(ds)).to_xarray()
+    for name in out.variables:
+        if name in ds.variables:
+            out[name].encoding = dict(ds[name].encoding)
     encoding: dict[str, dict] = {name: {"_FillValue": None} for name in out.coords}
     for name, variable in out.variables.items():
-        if _is_text(variable.values):
+        if is_text(variable.values):
             encoding.setdefault(name, {})["dtype"] = "S1"
     return out, encoding
 

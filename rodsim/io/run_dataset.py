@@ -10,27 +10,35 @@ scene is one JSON attribute (``scene_json``); the provenance attributes (CF ``Co
 from __future__ import annotations
 
 import json
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
-import xarray as xr
 
+from rodsim.io.archive_content import ArchiveContent
 from rodsim.io.archive_schema import SCHEMA_VERSION
 from rodsim.io.provenance import archive_attributes
 from rodsim.solvers.result import Result
 
-__all__ = ["contact_variables", "run_dataset", "step_coordinate"]
+if TYPE_CHECKING:
+    import xarray as xr
+
+__all__ = ["contact_variables", "run_content", "run_dataset", "step_coordinate"]
 
 
 def run_dataset(result: Result) -> xr.Dataset:
     """The archive Dataset of one run (see the module docstring and docs/archive.md)."""
+    return run_content(result).to_xarray()
 
+
+def run_content(result: Result) -> ArchiveContent:
+    """The archive of one run as plain values (:func:`run_dataset` without xarray;
+    ``rodsim run`` writes it with :func:`rodsim.io.archive.write_content`)."""
     names = list(result.rods)
     shapes = list(result.rods.values())
     node_rod = np.concatenate([[n] * len(r.s) for n, r in zip(names, shapes, strict=True)])
     seg_rod = np.concatenate([[n] * len(r.segment_s)
                               for n, r in zip(names, shapes, strict=True)])
-    ds = xr.Dataset(
+    content = ArchiveContent(
         data_vars={
             "position": (("node", "axis"), np.concatenate([r.positions for r in shapes]),
                          {"units": "m", "long_name": "control point position"}),
@@ -54,22 +62,24 @@ def run_dataset(result: Result) -> xr.Dataset:
         },
     )
     if result.history.get("time"):
-        ds = ds.assign_coords(step_coordinate(len(result.history["time"])))
+        content.coords.update(step_coordinate(len(result.history["time"])))
         time_attrs = ({"units": "1", "long_name": "load fraction after each load step"}
                       if result.integrator == "static" else
                       {"units": "s", "long_name": "pseudo-time after each step"})
-        ds["history_time"] = ("step", np.asarray(result.history["time"], dtype=float),
-                              time_attrs)
-        ds["history_residual"] = ("step", np.asarray(result.history["residual"], dtype=float),
-                                  {"units": "1", "long_name": "scaled force residual "
-                                   "after each step"})
-        ds["history_tip"] = (("step", "axis"), np.asarray(result.history["tip"], dtype=float),
-                             {"units": "m", "long_name": f"tip of rod {names[0]!r} after "
-                              "each step"})
+        content.data_vars.update({
+            "history_time": (("step",), np.asarray(result.history["time"], dtype=float),
+                             time_attrs),
+            "history_residual": (("step",), np.asarray(result.history["residual"],
+                                                       dtype=float),
+                                 {"units": "1", "long_name": "scaled force residual "
+                                  "after each step"}),
+            "history_tip": (("step", "axis"), np.asarray(result.history["tip"], dtype=float),
+                            {"units": "m", "long_name": f"tip of rod {names[0]!r} after "
+                             "each step"})})
     if result.scene.data.get("obstacles"):
-        ds = ds.assign(_contact_variables(result))
-    ds.attrs.update(_attributes(result))
-    return ds
+        content.data_vars.update(_contact_variables(result))
+    content.attrs.update(_attributes(result))
+    return content
 
 
 def _contact_variables(result: Result) -> dict[str, Any]:
@@ -100,7 +110,7 @@ def contact_variables(force: np.ndarray, leading: tuple[str, ...]) -> dict[str, 
 
 def step_coordinate(steps: int, long_name: str = "integrator step") -> dict[str, Any]:
     """The ``step`` coordinate of a history, 0, 1, … (so that every dimension has one)."""
-    return {"step": ("step", np.arange(steps, dtype=np.int64),
+    return {"step": (("step",), np.arange(steps, dtype=np.int64),
                      {"units": "1", "long_name": long_name})}
 
 

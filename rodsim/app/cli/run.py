@@ -50,11 +50,11 @@ class Run(SceneCommand):
 
     def write(self, result: Any, output: Path, stem: str) -> None:
         from rodsim.app.trust import compression_text
-        from rodsim.io.archive import ArchiveError, write_dataset
-        from rodsim.io.run_dataset import run_dataset
+        from rodsim.io.archive import ArchiveError, write_content
+        from rodsim.io.run_dataset import run_content
 
-        try:
-            write_dataset(run_dataset(result), output, note=warn)
+        try:  # without xarray: docs/benchmarks.md, "Start-up"
+            write_content(run_content(result), output, note=warn)
         except ArchiveError as exc:
             raise UserError(str(exc)) from None
         print_run_summary(result, output)
