@@ -16,7 +16,8 @@ counts less than in wall time):
 And the breakdown of one ``rodsim run`` into phases (a child process that does what the
 command does, step by step, reading its own CPU clock between steps; the exit is the
 child's total CPU minus its clock at the end), once as a plain process (dask visible,
-normal exit) and once as the lean one (dask hidden, early exit).
+the archive written through xarray, normal exit: the command before the lean process) and
+once as the lean one (dask hidden, the archive written without xarray, early exit).
 
 Outputs ``startup-<size>.nc`` and ``startup-<size>.md`` (with the machine description).
 """
@@ -83,14 +84,24 @@ _PHASES = textwrap.dedent("""
     mark("Model(...) (kernels loaded, J at rest)")
     result = api.solve(scene, model=model)
     mark("solve")
-    import xarray, netCDF4
-    mark("xarray + netCDF4 import")
-    from rodsim.io.run_dataset import run_dataset
-    dataset = run_dataset(result)
-    mark("run_dataset (provenance)")
-    from rodsim.io.archive import write_dataset
-    write_dataset(dataset, sys.argv[1])
-    mark("netCDF write")
+    if early:  # the command now: no xarray (rodsim/io/netcdf_writer.py)
+        import netCDF4
+        mark("archive libraries import (plain: xarray + netCDF4; lean: netCDF4)")
+        from rodsim.io.run_dataset import run_content
+        content = run_content(result)
+        mark("archive content (provenance)")
+        from rodsim.io.archive import write_content
+        write_content(content, sys.argv[1])
+        mark("netCDF write")
+    else:  # before: the xarray Dataset and its to_netcdf
+        import xarray, netCDF4
+        mark("archive libraries import (plain: xarray + netCDF4; lean: netCDF4)")
+        from rodsim.io.run_dataset import run_dataset
+        dataset = run_dataset(result)
+        mark("archive content (provenance)")
+        from rodsim.io.archive import write_dataset
+        write_dataset(dataset, sys.argv[1])
+        mark("netCDF write")
     from rodsim.app.cli.run import print_run_summary as _print_run_summary
     saved = sys.stdout
     sys.stdout = open(os.devnull, "w")
@@ -105,9 +116,14 @@ _PHASES = textwrap.dedent("""
 
 
 def _child_cpu(argv: list[str]) -> tuple[float, str]:
-    """CPU seconds (user + system) of one child process, and its stdout."""
+    """CPU seconds (user + system) of one child process, and its stdout. The child may
+    write and read Python's bytecode caches as a user's installation does
+    (PYTHONDONTWRITEBYTECODE, set in some development shells, would make every import
+    compile rodsim's sources again: ~0.1 s of a ``rodsim run``); the first, warm-up round
+    writes them."""
     before = resource.getrusage(resource.RUSAGE_CHILDREN)
     env = dict(os.environ, OMP_NUM_THREADS="1", OPENBLAS_NUM_THREADS="1")
+    env.pop("PYTHONDONTWRITEBYTECODE", None)
     done = subprocess.run([sys.executable, *argv], capture_output=True, text=True, env=env,
                           timeout=600, check=False)
     after = resource.getrusage(resource.RUSAGE_CHILDREN)
@@ -132,6 +148,9 @@ def run(size: str, output_dir: str | Path, progress=None) -> list[Path]:
     times: dict[str, list[float]] = {label: [] for label in COMMANDS}
     phases: dict[str, list[dict[str, float]]] = {"plain": [], "lean": []}
     with tempfile.TemporaryDirectory(prefix="rodsim-startup-") as folder:
+        for argv in COMMANDS.values():  # warm-up: bytecode and numba caches written
+            _child_cpu([word.format(out=folder) for word in argv])
+        _phases(folder, "lean")
         for repeat in range(repeats):  # interleaved, so that a load change hits every row
             for label, argv in COMMANDS.items():
                 if progress is not None:
