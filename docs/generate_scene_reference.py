@@ -123,8 +123,9 @@ def reference() -> str:
         "### `[rods.<name>.supports.<support>]` — a node held in place "
         "(rodsim/core/supports.py)",
         "",
-        "Any number, each named; position only (orientation is held at the base). Not for a "
-        "tendon rod.",
+        "Any number, each named: a pin (position), or with `orientation = true` a clamp "
+        "(position and frame: the frame elements of l/2 on both sides of the node, "
+        "rodsim/core/terms/bend_twist.py). Not for a tendon rod.",
         "",
         *table(SUPPORT_PARAMETERS),
         *term_tables(terms, "rod", "rods.<name>"),

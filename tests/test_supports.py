@@ -195,6 +195,8 @@ def test_track_ramps_a_prescribed_displacement():
      r"^rods\.catheter\.supports\.b\.s = 0\.06: node 7 is already held by"),
     ({"tip": {"s": 0.12, "angle": 1.0}}, r"^rods\.catheter\.supports\.tip\.angle: unknown key"),
     ({"tip": 0.12}, r"^rods\.catheter\.supports: expected tables"),
+    ({"tip": {"s": 0.12, "orientation": "yes"}},
+     r"^rods\.catheter\.supports\.tip\.orientation = 'yes': wrong type"),
 ])
 def test_bad_supports_are_one_line_scene_errors(supports, message):
     with pytest.raises(SceneError, match=message) as error:
@@ -217,3 +219,43 @@ def test_the_node_of_a_support_is_not_a_numeric_parameter():
     scene = Scene.from_dict(_pinned(15, {"mid": {"s": 0.06}}))
     with pytest.raises(SceneError, match="changes the discretisation"):
         rodsim.track(scene, {"supports.mid.s": [0.06, 0.07]}, "static")
+
+
+def test_a_support_that_holds_the_frame_clamps_the_rod_there():
+    """A rod held in position and frame at its middle node (``orientation = true``) under
+    the tip mass: the distal half is the cantilever of half the length clamped there — the
+    same discrete problem (frame elements of l/2 on both sides of the held node), so the
+    same equilibrium to the solver's tolerance — and the unloaded proximal half stays at
+    rest."""
+    held = _solve(Scene.from_dict(_pinned(
+        21, {"guide": {"s": LENGTH / 2, "orientation": True}}, "tip_load.mass=0.05")))
+    short = _solve(Scene.from_dict(_pinned(
+        11, {}, "tip_load.mass=0.05", f"length={LENGTH / 2}")))
+    rod, half = held.rods["catheter"], short.rods["catheter"]
+    distal = rod.positions[10:] - [LENGTH / 2, 0.0, 0.0]
+    print(f"\nheld at L/2: tip {rod.positions[-1]}, short cantilever's {half.positions[-1]}")
+    assert np.abs(half.positions[-1, 1]) > 0.01 * LENGTH  # it bends
+    assert np.abs(distal - half.positions).max() < 1e-9 * LENGTH
+    assert np.abs(rod.quaternions[10:] - half.quaternions).max() < 1e-8
+    rest = np.zeros((11, 3))
+    rest[:, 0] = np.linspace(0.0, LENGTH / 2, 11)
+    assert np.abs(rod.positions[:11] - rest).max() < 1e-12 * LENGTH
+
+
+def test_a_guided_tip_displacement_bends_the_rod_as_beam_theory_at_second_order():
+    """Both ends clamped, the tip node moved sideways by δ = 1e-4 L with its frame held
+    (a guided beam): the linear beam's y(s) = δ (3 (s/L)² − 2 (s/L)³) at every node, the
+    error falling at second order in N — the frame element at the tip as accurate as the
+    base's clamp."""
+    delta = 1e-4 * LENGTH
+    errors = []
+    for nodes in (11, 21, 41):
+        result = _solve(Scene.from_dict(_pinned(nodes, {"tip": {
+            "s": LENGTH, "displacement": [0.0, delta, 0.0], "orientation": True}})))
+        t = np.linspace(0.0, 1.0, nodes)
+        beam = delta * (3 * t**2 - 2 * t**3)
+        errors.append(np.abs(result.rods["catheter"].positions[:, 1] - beam).max() / delta)
+    orders = np.log2(np.array(errors[:-1]) / errors[1:])
+    print(f"\nguided tip displacement: errors / δ {errors}, orders {orders}")
+    assert errors[-1] < 1e-3
+    assert np.all(orders > 1.8) and np.all(orders < 2.2)

@@ -176,7 +176,8 @@ for _name, (_mu, _slip) in {"tissue": (0.4, 0.125), "bulge": (0.5, 10.0),
 #: Backbone rods joined by anchors (rodsim/core/terms/joint.py): a rod welded to the tip of
 #: a base-actuated rod (inserted and turned), and a third one on a ball joint at an
 #: interior node of the second; sections differ, so the welded frame's series stiffness
-#: mixes both.
+#: mixes both. Supports that hold the frame (rodsim/core/supports.py, ``orientation``): at
+#: an interior node of the first rod (displaced) and at the tip of the second.
 SMALL_JOINT_SCENE = {
     "name": "contract-joints",
     "rods": {
@@ -185,6 +186,8 @@ SMALL_JOINT_SCENE = {
             "poisson_ratio": 0.3, "density": 1200.0, "nodes": 6, "clamp": "frame",
             "terms": ["stretch", "bend_twist", "centerline"],
             "base": {"insertion": 0.01, "rotation": 0.3},
+            "supports": {"guide": {"s": 0.06, "orientation": True,
+                                   "displacement": [0.0, 0.002, -0.001]}},
         },
         "distal": {
             "length": 0.06, "radius": 0.003, "youngs_modulus": 4e6, "stretch_modulus": 3e6,
@@ -192,6 +195,7 @@ SMALL_JOINT_SCENE = {
             "terms": ["stretch", "bend_twist", "centerline", "joint", "tip_load"],
             "joint": {"rod": "proximal", "s": 0.1, "K_J": 3e3},
             "tip_load": {"force": [0.0, -0.02, 0.03]},
+            "supports": {"grip": {"s": 0.06, "orientation": True}},
         },
         "branch": {
             "length": 0.04, "radius": 0.002, "youngs_modulus": 4e6, "stretch_modulus": 3e6,

@@ -220,7 +220,8 @@ class Model:
             tables = scene.support_tables(name)
             if tables:
                 rod = Rod(name, options, layout, rod.support, node_supports(
-                    options.nodes, options.length, rod.rest_positions(), tables),
+                    options.nodes, options.length, rod.rest_positions(),
+                    rod.base_quaternion, tables),
                     rod.sections)
             self.rods[name] = rod
             offset += layout.size

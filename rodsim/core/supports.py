@@ -22,8 +22,10 @@ rod has one at its base (s = 0), declared by two scene values:
 A rod may also be held at other arclengths: each ``[rods.<rod>.supports.<name>]`` table
 fixes the position of the node at ``s`` (a node: k L/(N − 1), not the base) at its rest
 place moved by ``displacement`` [m] (world frame; the rest place moves with the base) — a
-pinned node, or a prescribed displacement that ``rodsim track`` can ramp. Orientation is
-held at the base only.
+pinned node, or a prescribed displacement that ``rodsim track`` can ramp — and, with
+``orientation = true``, the rod's frame there at its rest orientation (the base's frame,
+which an actuated base turns): a clamp at s, as a guide or an introducer that grips the
+rod (the bending term's frame elements at s_k, rodsim/core/terms/bend_twist.py).
 
 A support removes coordinates from the free state (:meth:`Support.fixed_index`) and hands
 the bending term its frame element (:attr:`Support.frame_element`, :attr:`Support.frame`):
@@ -67,6 +69,9 @@ SUPPORT_PARAMETERS: tuple[Parameter, ...] = (
     Parameter("displacement", "vector", [0.0, 0.0, 0.0], "m",
               "prescribed displacement of the node from its rest place (world frame; 0: "
               "pinned where it is at rest)", -1e3, 1e3, length=3),
+    Parameter("orientation", "bool", False, "-",
+              "hold the rod's frame at the node too, at its rest orientation (the base "
+              "frame): a clamp at s. false: a pin (position only)"),
 )
 
 @dataclass(frozen=True, kw_only=True)
@@ -76,6 +81,7 @@ class SupportOptions(Options):
 
     s: float
     displacement: list[float] = field(default_factory=lambda: [0.0, 0.0, 0.0])
+    orientation: bool = False
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -98,8 +104,9 @@ def base_frame(rotation: float) -> np.ndarray:
 
 @dataclass(frozen=True)
 class Support:
-    """How a rod is held at its base s = 0: what is held (``holds``, one of :data:`CLAMPS`),
-    the support point r_c [m] (``position``) and frame q_c (``frame``)."""
+    """How a rod is held at a node (its base s = 0, or ``node``): what is held (``holds``:
+    one of :data:`CLAMPS` at the base; ``position`` or ``frame`` elsewhere), the support
+    point r_c [m] (``position``) and frame q_c (``frame``)."""
 
     holds: str
     position: np.ndarray = field(repr=False)
@@ -183,16 +190,19 @@ def node_exactly_at(nodes: int, length: float, s: float, key: str, rod: str = "t
     return node
 
 
-def node_supports(nodes: int, length: float, rest: np.ndarray,
+def node_supports(nodes: int, length: float, rest: np.ndarray, frame: np.ndarray,
                   supports: Mapping[str, Mapping[str, Any]]) -> tuple[Support, ...]:
-    """The position supports of a rod's ``[rods.<rod>.supports.<name>]`` tables (validated)
-    for a rod of ``nodes`` nodes, ``length`` and rest positions ``rest`` (N, 3)."""
+    """The supports of a rod's ``[rods.<rod>.supports.<name>]`` tables (validated) for a rod
+    of ``nodes`` nodes, ``length``, rest positions ``rest`` (N, 3) and rest frame ``frame``
+    (its base's): each holds its node's position, and with ``orientation`` the frame too."""
     out = []
     for table in supports.values():
         options = SupportOptions.of(table)
         node = node_at(nodes, length, options.s)
-        out.append(Support("position", rest[node] + np.asarray(options.displacement, float),
-                           np.zeros(4), float(options.s), node))
+        out.append(Support("frame" if options.orientation else "position",
+                           rest[node] + np.asarray(options.displacement, float),
+                           np.asarray(frame, float) if options.orientation else np.zeros(4),
+                           float(options.s), node))
     return tuple(out)
 
 

@@ -1,6 +1,7 @@
 """Kernel of :mod:`rodsim.core.terms.bend_twist`, Eqs. (3), (7), (8): per element (a, b) =
-(q_{i−1}, q_i), or (q_c, q_0) for the clamp element of a rod with a base frame, with the
-element's stiffness K_k of Eq. (8) (``stiffness[e, k]``) and the dual length l̄,
+(q_{i−1}, q_i), or a frame element with one side a support's constant frame (``fixed[e]``
+= 1: a = ``frames[e]``, as (q_c, q_0) at a clamped base; 2: b = ``frames[e]``; 0: neither),
+with the element's stiffness K_k of Eq. (8) (``stiffness[e, k]``) and the dual length l̄,
 
     f_k = (B_k a)·b,   c = (2/l̄) / (|a||b|),   u_k = c f_k,   E = ½ l̄ Σ_k K_k u_k²,
     ∇u_k = c h_k,   h_k = (B_kᵀ b − f_k a/|a|², B_k a − f_k b/|b|²),
@@ -10,8 +11,8 @@ element's stiffness K_k of Eq. (8) (``stiffness[e, k]``) and the dual length l̄
     H_aa = −[γ_a aᵀ + a γ_aᵀ + φ I − 3 φ a aᵀ/|a|²] / |a|²  (H_bb likewise with b, γ_b),
     H_ab = Σ_k w_k B_kᵀ − γ_a bᵀ/|b|² − a γ_bᵀ/|a|² + φ a bᵀ/(|a|²|b|²).
 
-The clamp element's a is the constant frame q_c: its force and Jacobian entries on a are
-zero (its ``dofs`` repeat q_0 there, so exact zeros are added to real slots).
+A frame element's constant side has zero force and Jacobian entries (its ``dofs`` repeat the
+free side's there, so exact zeros are added to real slots).
 """
 
 from __future__ import annotations
@@ -27,7 +28,7 @@ _B = np.ascontiguousarray(B)
 
 @njit(cache=True)
 def evaluate(x: np.ndarray, dofs: np.ndarray, dual_lengths: np.ndarray,
-             stiffness: np.ndarray, clamped: bool, frame: np.ndarray, scale: float,
+             stiffness: np.ndarray, fixed: np.ndarray, frames: np.ndarray, scale: float,
              want_force: bool, force: np.ndarray, force_target: np.ndarray,
              want_jacobian: bool, jacobian: np.ndarray, jacobian_target: np.ndarray) -> None:
     local_force = np.empty(8)
@@ -40,10 +41,10 @@ def evaluate(x: np.ndarray, dofs: np.ndarray, dual_lengths: np.ndarray,
     h = np.empty((3, 8))  # ∇u_k / c
     wg = np.empty(8)  # (γ_a, γ_b)
     for e in range(dofs.shape[0]):
-        fixed = clamped and e == 0
+        side = fixed[e]
         for i in range(4):
-            q[i] = frame[i] if fixed else x[dofs[e, i]]
-            q[4 + i] = x[dofs[e, 4 + i]]
+            q[i] = frames[e, i] if side == 1 else x[dofs[e, i]]
+            q[4 + i] = frames[e, i] if side == 2 else x[dofs[e, 4 + i]]
         na2 = 0.0
         nb2 = 0.0
         for i in range(4):
@@ -71,8 +72,10 @@ def evaluate(x: np.ndarray, dofs: np.ndarray, dual_lengths: np.ndarray,
         if want_force:
             for i in range(8):
                 local_force[i] = -(w[0] * h[0, i] + w[1] * h[1, i] + w[2] * h[2, i])
-            if fixed:
+            if side == 1:
                 local_force[:4] = 0.0
+            elif side == 2:
+                local_force[4:] = 0.0
             add_force(force, force_target, e, local_force, scale)
         if want_jacobian:
             phi = w[0] * f[0] + w[1] * f[1] + w[2] * f[2]
@@ -101,26 +104,29 @@ def evaluate(x: np.ndarray, dofs: np.ndarray, dual_lengths: np.ndarray,
                     local_jacobian[4 + i, 4 + j] -= h_bb
                     local_jacobian[i, 4 + j] -= h_ab
                     local_jacobian[4 + j, i] -= h_ab
-            if fixed:
+            if side == 1:
                 local_jacobian[:4, :] = 0.0
                 local_jacobian[:, :4] = 0.0
+            elif side == 2:
+                local_jacobian[4:, :] = 0.0
+                local_jacobian[:, 4:] = 0.0
             add_jacobian(jacobian, jacobian_target, e, local_jacobian, scale)
 
 
 @njit(cache=True)
 def energy(x: np.ndarray, dofs: np.ndarray, dual_lengths: np.ndarray, stiffness: np.ndarray,
-           clamped: bool, frame: np.ndarray) -> float:
+           fixed: np.ndarray, frames: np.ndarray) -> float:
     """Σ_elements ½ l̄ Σ_k K_k u_k², u_k = (2/l̄)(B_k a)·b / (|a||b|)."""
     a = np.empty(4)
     b = np.empty(4)
     total = 0.0
     for e in range(dofs.shape[0]):
-        fixed = clamped and e == 0
+        side = fixed[e]
         na2 = 0.0
         nb2 = 0.0
         for i in range(4):
-            a[i] = frame[i] if fixed else x[dofs[e, i]]
-            b[i] = x[dofs[e, 4 + i]]
+            a[i] = frames[e, i] if side == 1 else x[dofs[e, i]]
+            b[i] = frames[e, i] if side == 2 else x[dofs[e, 4 + i]]
             na2 += a[i] * a[i]
             nb2 += b[i] * b[i]
         lbar = dual_lengths[e]

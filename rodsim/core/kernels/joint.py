@@ -10,8 +10,6 @@ from numba import njit
 
 from rodsim.core.kernels import bend_twist
 
-_NO_FRAME = np.zeros(4)
-
 
 @njit(cache=True)
 def evaluate(x: np.ndarray, dofs: np.ndarray, stiffness: float, bend_dofs: np.ndarray,
@@ -31,8 +29,9 @@ def evaluate(x: np.ndarray, dofs: np.ndarray, stiffness: float, bend_dofs: np.nd
                 jacobian[jacobian_target[e, m, 3 + m]] += k
                 jacobian[jacobian_target[e, 3 + m, m]] += k
     if bend_dofs.shape[0] > 0:
-        bend_twist.evaluate(x, bend_dofs, dual_lengths, bend_stiffness, False, _NO_FRAME,
-                            scale, want_force, force,
+        bend_twist.evaluate(x, bend_dofs, dual_lengths, bend_stiffness,
+                            np.zeros(bend_dofs.shape[0], np.int8),
+                            np.zeros((bend_dofs.shape[0], 4)), scale, want_force, force,
                             np.ascontiguousarray(force_target[:, 6:14]), want_jacobian,
                             jacobian, np.ascontiguousarray(jacobian_target[:, 6:14, 6:14]))
 
@@ -47,6 +46,7 @@ def energy(x: np.ndarray, dofs: np.ndarray, stiffness: float, bend_dofs: np.ndar
             gap = x[dofs[e, 3 + m]] - x[dofs[e, m]]
             total += 0.5 * stiffness * gap * gap
     if bend_dofs.shape[0] > 0:
-        total += bend_twist.energy(x, bend_dofs, dual_lengths, bend_stiffness, False,
-                                   _NO_FRAME)
+        total += bend_twist.energy(x, bend_dofs, dual_lengths, bend_stiffness,
+                                   np.zeros(bend_dofs.shape[0], np.int8),
+                                   np.zeros((bend_dofs.shape[0], 4)))
     return total

@@ -82,7 +82,8 @@ class Rod:
     options: RodOptions
     layout: RodLayout = field(repr=False)
     support: Support = field(repr=False)
-    #: Supports at other nodes than the base (position only; rodsim/core/supports.py).
+    #: Supports at other nodes than the base (position, or position and frame;
+    #: rodsim/core/supports.py).
     node_supports: tuple[Support, ...] = field(default=(), repr=False)
     #: The validated ``[[rods.<name>.sections]]`` spans (empty: a uniform rod).
     sections: tuple[dict[str, Any], ...] = field(default=(), repr=False)

@@ -18,8 +18,11 @@ When the rod's base support holds a frame (``clamp`` = ``frame`` or ``orientatio
 rodsim/core/supports.py), its frame q_c sits at s = 0, half a segment before q_0, and adds
 one element (q_c, q_0) with l̄ = l / 2; this keeps the discretisation second order in N
 (docs/model.md, "Clamp"). The ``first_segment`` clamp fixes q_0 instead and adds no element.
-The frame comes from the support (an actuated base turns it); the term knows nothing else
-of how the rod is held.
+A support at node k that holds the frame too (``orientation = true``) puts its frame q_c
+at s_k, between q_{k−1} and q_k: the element (q_{k−1}, q_k) becomes the two elements
+(q_{k−1}, q_c) and (q_c, q_k), each with l̄ = l / 2 (at the tip node, the first only) — a
+clamp at s_k on both sides. The frames come from the supports (an actuated base turns
+them); the term knows nothing else of how the rod is held.
 
 Stiffness (Eq. 8, the paper's corrected tensor, default):
     K_11 = K_22 = E π r⁴ / 4,   K_33 = G π r⁴ / 2
@@ -201,35 +204,47 @@ class BendTwist(RodTerm):
         super().__init__(rod, options)
         quat = rod.layout.quaternion_index
         seg = rod.geometry.segment_length
-        self.dofs = np.concatenate([quat[:-1], quat[1:]], axis=1)  # (q_{i-1}, q_i)
         middles = rod.geometry.segment_s
-        starts, ends = middles[:-1], middles[1:]  # dual interval of each element
-
-        support = rod.support
-        self._clamped = support.frame_element
-        if self._clamped:
-            self._frame = support.frame
-            # The clamp element (q_c, q_0) has only q_0 free: pad it to 8 coordinates by
-            # repeating q_0's indices in the first half and zeroing that half's entries.
-            self.dofs = np.concatenate([np.tile(quat[0], 2)[None, :], self.dofs], axis=0)
-            self._dual_lengths = np.r_[0.5 * seg, np.full(len(quat) - 1, seg)]
-            starts, ends = np.r_[0.0, starts], np.r_[0.5 * seg, ends]
-        else:
-            self._dual_lengths = np.full(len(quat) - 1, seg)
+        held = {support.node: support.frame for support in rod.node_supports
+                if support.frame_element}
+        # Elements (a, b, fixed side, frame, dual interval): a constant frame's side repeats
+        # the free side's indices, its entries zeroed (rodsim/core/kernels/bend_twist.py).
+        elements: list[tuple[np.ndarray, np.ndarray, int, np.ndarray, float, float]] = []
+        none = np.zeros(4)
+        if rod.support.frame_element:  # (q_c, q_0) at the base, l̄ = l/2
+            elements.append((quat[0], quat[0], 1, rod.support.frame, 0.0, 0.5 * seg))
+        for node in range(1, len(quat) + 1):
+            s_node = node * seg
+            if node in held:  # (q_{k−1}, q_c) and (q_c, q_k), each l̄ = l/2
+                elements.append((quat[node - 1], quat[node - 1], 2, held[node],
+                                 middles[node - 1], s_node))
+                if node < len(quat):
+                    elements.append((quat[node], quat[node], 1, held[node], s_node,
+                                     middles[node]))
+            elif node < len(quat):
+                elements.append((quat[node - 1], quat[node], 0, none, middles[node - 1],
+                                 middles[node]))
+        self.dofs = np.array([np.concatenate(e[:2]) for e in elements], dtype=np.int64
+                             ).reshape(-1, 8)
+        #: Per element: 0, or the side (1: a, 2: b) that is a support's constant frame.
+        self._fixed = np.array([e[2] for e in elements], dtype=np.int8)
+        self._frames = np.array([e[3] for e in elements], dtype=float).reshape(-1, 4)
+        starts = np.array([e[4] for e in elements], dtype=float)
+        ends = np.array([e[5] for e in elements], dtype=float)
+        self._dual_lengths = np.where(self._fixed == 0, seg, 0.5 * seg)
         #: (K_11, K_22, K_33) of each element, shape (n_elem, 3) (Eq. 8; sections: docs/model.md)
         self._stiffness = element_stiffness(rod, options.stiffness, options.twist_stiffness,
                                             starts, ends)
 
     def kernel_arguments(self) -> KernelArguments:
-        frame = self._frame if self._clamped else np.zeros(4)  # unused when not clamped
         return {"dofs": self.dofs, "dual_lengths": self._dual_lengths,
-                "stiffness": self._stiffness, "clamped": bool(self._clamped), "frame": frame}
+                "stiffness": self._stiffness, "fixed": self._fixed, "frames": self._frames}
 
     def _pairs(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        q = x[self.rod.layout.quaternion_index]
-        if self._clamped:
-            return np.concatenate([self._frame[None, :], q[:-1]]), q
-        return q[:-1], q[1:]
+        a, b = x[self.dofs[:, :4]], x[self.dofs[:, 4:]]
+        a[self._fixed == 1] = self._frames[self._fixed == 1]
+        b[self._fixed == 2] = self._frames[self._fixed == 2]
+        return a, b
 
     def _kinematics(self, x: np.ndarray) -> BendKinematics:
         """Strains and the pieces of their derivatives (see :class:`BendKinematics`)."""
@@ -245,13 +260,13 @@ class BendTwist(RodTerm):
 
     def element_forces(self, x: np.ndarray) -> np.ndarray:
         forces = bend_forces(*self._pairs(x), self._dual_lengths, self._stiffness)
-        if self._clamped:
-            forces[0, :4] = 0.0  # the frame q_c is fixed
+        forces[self._fixed == 1, :4] = 0.0  # a support's frame does not move
+        forces[self._fixed == 2, 4:] = 0.0
         return forces
 
     def element_jacobians(self, x: np.ndarray) -> np.ndarray:
         jacobians = bend_jacobians(*self._pairs(x), self._dual_lengths, self._stiffness)
-        if self._clamped:
-            jacobians[0, :4, :] = 0.0
-            jacobians[0, :, :4] = 0.0
+        for side, block in ((1, slice(0, 4)), (2, slice(4, 8))):
+            jacobians[self._fixed == side, block, :] = 0.0
+            jacobians[self._fixed == side, :, block] = 0.0
         return jacobians
