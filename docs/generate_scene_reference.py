@@ -87,6 +87,15 @@ def term_tables(terms: dict, scope: str, prefix: str) -> list[str]:
     out = []
     for key in sorted({t.key for t in terms.values() if t.scope == scope}):
         variants = [t for _, t in sorted(terms.items()) if t.key == key]
+        if len(variants) > 1 and all(t.parameters == variants[0].parameters
+                                     for t in variants):
+            out += [f"### `[{prefix}.{key}]` — " + "; ".join(
+                f"{t.selection}: {t.equation}" for t in variants), ""]
+            out += ["Terms " + ", ".join(f"`{t.name}` ({t.selection}, "
+                                         f"`{t.__module__.replace('.', '/')}.py`)"
+                                         for t in variants) + ".", ""]
+            out += table(variants[0].parameters)
+            continue
         for term in variants:
             out += [f"### `[{prefix}.{key}]` — {term.equation}", ""]
             if len(variants) > 1:

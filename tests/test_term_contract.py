@@ -209,7 +209,9 @@ SMALL_JOINT_SCENE = {
 #: String tendons (coupling = "string", no tendon rod): one ending part-way at a constant
 #: offset, a helical one entering past the base on spacer disks (both on a 'frame'-clamped
 #: catheter, whose base frame is a frame knot), and a tabulated one on a 'first_segment'
-#: catheter (no base frame: the frame is extrapolated below the first midpoint).
+#: catheter (no base frame: the frame is extrapolated below the first midpoint); and one
+#: pulled in by a prescribed displacement (rodsim/core/terms/tendon_string_displacement.py:
+#: one dense element; taut at the random states).
 SMALL_STRING_SCENE = {
     "name": "contract-string-tendons",
     "rods": {
@@ -231,6 +233,10 @@ SMALL_STRING_SCENE = {
                   "tendon_string": {"tension": 0.7, "start": 0.01, "routing": "helix",
                                     "helix_radius": 0.008, "helix_pitch": 0.07,
                                     "helix_phase": 0.3, "spacers": True}},
+        "pulled": {"catheter": "catheter", "coupling": "string", "offset": 0.003,
+                   "direction": [-0.2, 1.0],
+                   "tendon_string": {"control": "displacement", "displacement": 0.006,
+                                     "stiffness": 40.0, "start": 0.02, "end": 0.09}},
         "table": {"catheter": "shaft", "coupling": "string",
                   "tendon_string": {"tension": 0.9, "routing": "table",
                                     "table_s": [0.0, 0.03, 0.06, 0.08],

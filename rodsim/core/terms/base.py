@@ -129,6 +129,9 @@ class Term(ABC):
     #: concept (the lumen's paper and conserving couplings); the owner's table picks one of
     #: them with :meth:`selected_by`, and each variant declares the same option keys.
     key: ClassVar[str] = ""
+    #: For a variant whose table has the same keys as the others': what in the owner's
+    #: table selects it (e.g. ``control = "displacement"``), for the scene reference.
+    selection: ClassVar[str] = ""
 
     #: The frozen dataclass of this term's options (see above).
     Options: ClassVar[type[Options]]

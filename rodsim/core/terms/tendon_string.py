@@ -50,14 +50,15 @@ The tension is a load (the static solver ramps it); its force scale is T.
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass, field
-from typing import NamedTuple
+from typing import Any, NamedTuple
 
 import numpy as np
 
 from rodsim.core.rod.quaternion import DIRECTOR_FORMS
 from rodsim.core.routing import ROUTINGS, Routing, string_span
-from rodsim.core.schema import Options, Parameter
+from rodsim.core.schema import Options, Parameter, SceneError
 from rodsim.core.tendon import MAX_TENSION, Tendon
 from rodsim.core.terms.base import KernelArguments, TendonTerm
 
@@ -141,6 +142,9 @@ class TendonStringOptions(Options):
     helix_pitch: float = 0.0
     helix_phase: float = 0.0
     spacers: bool = False
+    control: str = "tension"
+    displacement: float = 0.0
+    stiffness: float = 0.0
 
 
 class TendonString(TendonTerm):
@@ -150,6 +154,8 @@ class TendonString(TendonTerm):
     Options = TendonStringOptions
     options: TendonStringOptions
     equation = "V = T ℓ (Rucker & Webster 2011, Eqs. 16–18; not in the paper)"
+    #: How the tendon's table selects this variant of the key ``tendon_string``.
+    selection = 'control = "tension"'
     is_load = True
     parameters = (
         Parameter("tension", "float", 1.0, "N", "tendon tension T, applied at its entry",
@@ -180,7 +186,33 @@ class TendonString(TendonTerm):
         Parameter("spacers", "bool", False, "-",
                   "the tendon rides on spacer disks: offsets beyond the catheter's radius "
                   "allowed"),
+        Parameter("control", "str", "tension", "-",
+                  "'tension' (T given: tension) or 'displacement' (the tendon pulled in by "
+                  "displacement, an elastic string of axial stiffness E A: "
+                  "rodsim/core/terms/tendon_string_displacement.py)",
+                  choices=("tension", "displacement")),
+        Parameter("displacement", "float", 0.0, "m",
+                  "control = 'displacement': length pulled in at the entry (negative: let "
+                  "out)", -100.0, 100.0),
+        Parameter("stiffness", "float", 0.0, "N",
+                  "control = 'displacement': the tendon's axial stiffness E A (required)",
+                  0.0, 1e12),
     )
+
+    @classmethod
+    def selected_by(cls, owner: Mapping[str, Any]) -> bool:
+        """The tendon's ``tendon_string.control`` is 'tension' (the default)."""
+        table = owner.get("tendon_string", {})
+        return not isinstance(table, Mapping) or table.get("control", "tension") != (
+            "displacement")
+
+    @classmethod
+    def check_scene(cls, options: Any, owner: Any, prefix: str) -> None:
+        for key in ("displacement", "stiffness"):
+            if getattr(options, key) != 0.0:
+                raise SceneError(f"{prefix}.{key} = {getattr(options, key)!r}: read only with "
+                                 f"control = 'displacement'; allowed: set {prefix}.control = "
+                                 "'displacement' (and no tension), or leave it unset")
 
     def __init__(self, tendon: Tendon, options: TendonStringOptions) -> None:
         super().__init__(tendon, options)
