@@ -6,6 +6,7 @@ with, across the integrators, and for slack; bad input is one line."""
 from __future__ import annotations
 
 import copy
+import json
 
 import numpy as np
 import pytest
@@ -14,6 +15,7 @@ import rodsim
 from rodsim.app.cli import main
 from rodsim.core.scene import Scene
 from rodsim.core.schema import SceneError
+from rodsim.io.archive import read_dataset
 
 LENGTH = 0.4  # m, tdcr-two-segment's backbone
 PULL = {"control": "displacement", "displacement": 0.004, "stiffness": 6e3}
@@ -111,6 +113,24 @@ def test_bad_displacement_input_is_one_line(values, nodes, message):
     with pytest.raises(SceneError, match=message) as error:
         rodsim.build_model(pulled(values, nodes))
     assert "\n" not in str(error.value)
+
+
+def test_the_tension_is_reported_in_the_summary_and_the_archive(capsys, tmp_path):
+    """The tension a pulled tendon ends with is an outcome: the result, the run summary and
+    the archive (attribute tendon_tension) carry it; tension-controlled tendons are not
+    listed (their tension is an input)."""
+    result = rodsim.solve(pulled(), "static")
+    tension, _, _ = tension_and_lengths(pulled(), result.state)
+    assert result.tendon_tension == {"s1a": tension}
+    output = tmp_path / "run.nc"
+    code = main(["run", "tdcr-two-segment", "--integrator", "static", "-o", str(output),
+                 *(f"--set=tendons.s1a.tendon_string.{key}={value}"
+                   for key, value in PULL.items())])
+    out = capsys.readouterr().out
+    assert code == 0
+    assert f"tension     s1a {tension:.6g} N (displacement control)" in out
+    stored = json.loads(read_dataset(output).attrs["tendon_tension"])
+    assert stored == pytest.approx({"s1a": tension}, rel=1e-9)
 
 
 def test_bad_displacement_input_exits_2_on_the_cli(capsys, tmp_path):

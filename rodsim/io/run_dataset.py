@@ -139,6 +139,8 @@ def _attributes(result: Result) -> dict[str, Any]:
         attrs["penalty_error"] = float(result.penalty_error)
     if result.tendon_compression:
         attrs["tendon_compression"] = json.dumps(result.tendon_compression, sort_keys=True)
+    if result.tendon_tension:
+        attrs["tendon_tension"] = json.dumps(result.tendon_tension, sort_keys=True)
     for key, value in result.stats.items():
         attrs[f"stats_{key}"] = float(value)
     return attrs

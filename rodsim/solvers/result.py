@@ -10,6 +10,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from rodsim.core.scene import Scene
+from rodsim.core.terms.base import TendonTerm
 from rodsim.version import __version__
 
 if TYPE_CHECKING:
@@ -82,6 +83,9 @@ class Result:
     #: Rod tendons found in compression: the most compressive axial force [N] of each
     #: (rodsim/app/trust.py), when checked.
     tendon_compression: dict[str, float] = field(default_factory=dict)
+    #: The tension [N] each tendon under displacement control ends with
+    #: (rodsim/core/terms/tendon_string_displacement.py): an outcome, not an input.
+    tendon_tension: dict[str, float] = field(default_factory=dict)
 
     @classmethod
     def from_model(cls, model: Model, x: np.ndarray, *, integrator: str,
@@ -97,9 +101,15 @@ class Result:
         }
         stats = {key: float(stats.get(key, 0.0)) for key in STAT_DOCS} | {
             k: float(v) for k, v in stats.items() if k not in STAT_DOCS}
+        tensions = {}
+        for term in model.terms:
+            if isinstance(term, TendonTerm):
+                tension = term.tension_outcome(full)
+                if tension is not None:
+                    tensions[term.tendon.name] = float(tension)
         return cls(model.scene, integrator, dict(options), success, message, residual, stats,
                    rods, np.array(x, dtype=float), history, history_time=history_time,
-                   stability=stability)
+                   stability=stability, tendon_tension=tensions)
 
     def positions(self, rod: str | None = None) -> np.ndarray:
         """Control points of ``rod`` (default: the first rod), shape (N, 3) [m]."""

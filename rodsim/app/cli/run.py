@@ -105,6 +105,8 @@ def print_run_summary(result: Any, archive: Path | None) -> None:
     print("statistics  " + ", ".join(
         f"{key} {count_text(stats[key])}" for key in SUMMARY_STATS if key in stats))
     print(f"wall time   {stats['wall_time']:.4f} s")
+    for name, tension in result.tendon_tension.items():
+        print(f"tension     {name} {tension:.6g} N (displacement control)")
     if result.stability is not None:
         print(stability_text(result.stability))
     if archive is not None:

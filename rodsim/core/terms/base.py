@@ -261,3 +261,9 @@ class TendonTerm(Term):
         self.tendon = tendon
         #: This term's validated options, an :attr:`Options` instance.
         self.options = options
+
+    def tension_outcome(self, x: np.ndarray) -> float | None:
+        """The tendon's tension [N] at the full state ``x`` when it is an outcome of the
+        solve (displacement control), reported with the result; None when it is an input
+        (or not one number)."""
+        return None

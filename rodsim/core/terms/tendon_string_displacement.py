@@ -123,6 +123,9 @@ class TendonStringDisplacement(TendonTerm):
         """T = (E A / ℓ*) max(0, ℓ(x) − ℓ*) at the full state ``x`` [N]."""
         return self.spring * max(0.0, self.path_length(x) - self.free_length)
 
+    def tension_outcome(self, x: np.ndarray) -> float | None:
+        return self.tension(x)
+
     def load_scale(self, x: np.ndarray) -> float:
         """An estimate of the tension [N]: the pull over the sum of the tendon's compliance
         ℓ*/(E A) and the catheter's, ρ² (span)/(E I) (a tension T bends the span to
