@@ -113,3 +113,29 @@ def test_a_sparse_stiffness_keeps_its_verdict():
     k = sp.diags([[2.0, 2.0, 2.0], [-1.0, -1.0], [-1.0, -1.0]], [0, 1, -1])
     assert stiffness_stability(k).stable
     assert not stiffness_stability(-k).stable
+
+
+@pytest.mark.parametrize("name", ["table3-catheter1", "tdcr-two-segment"])
+def test_the_verdict_reuses_the_verification_of_the_same_state_only(name):
+    """A run's verification factors J at the state it returns; the verdict of that state
+    takes it (the same verdict and smallest real part as computed afresh) and no other
+    state's or model's."""
+    from rodsim.solvers import integrator_named
+
+    scene = rodsim.load_scene(name)
+    kind = integrator_named("static")
+    integrator = kind.for_scene(scene)
+    result, state = integrator.run(integrator.init(Model(scene)))
+    assert result.success
+    factored = state.factorisation_at(state.model, result.state)
+    assert factored is not None
+    data, solve = factored
+    assert np.array_equal(data, state.model.jacobian_data(result.state))
+    reused, fresh = assess(state.model, result.state, factored), assess(state.model,
+                                                                        result.state)
+    assert reused.stable == fresh.stable
+    assert reused.min_eigenvalue == pytest.approx(fresh.min_eigenvalue, rel=1e-9,
+                                                  nan_ok=True)
+    moved = result.state + 1e-9
+    assert state.factorisation_at(state.model, moved) is None
+    assert state.factorisation_at(Model(scene), result.state) is None

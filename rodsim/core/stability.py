@@ -205,19 +205,25 @@ def _band_of(model: Model) -> BandStiffness | None:
     return _LAST_BAND[1]
 
 
-def assess(model: Model, x: np.ndarray) -> Stability:
+def assess(model: Model, x: np.ndarray,
+           factored: tuple[np.ndarray, Callable[[np.ndarray], np.ndarray] | None] | None
+           = None) -> Stability:
     """The verdict at the free state ``x`` of ``model`` (a :class:`rodsim.core.model.Model`),
     from its analytic Jacobian ∂F/∂x at full load: the verdict of
-    :func:`stiffness_stability`, its factorisations in band storage (module docstring)."""
+    :func:`stiffness_stability`, its factorisations in band storage (module docstring).
+    ``factored``: (J's CSC data at ``x``, a solve of J X = B or None), when the caller has
+    them (the integrators' verification of the same state, rodsim/solvers/base.py)."""
     band = model.band
     width = max(band.lower, band.upper)
     banded = _band_of(model)
+    data = model.jacobian_data(x) if factored is None else factored[0]
     if banded is None:
-        return stiffness_stability(-model.jacobian(x), width)
-    data = model.jacobian_data(x)
+        return stiffness_stability(-model.pattern_matrix(data), width)
     if banded.certified(data):
         return Stability(True)
     if banded.asymmetry(data) <= 1e-12 or model.n <= DENSE_NONSYMMETRIC_LIMIT:
         return stiffness_stability(-model.pattern_matrix(data), width, indefinite=True)
-    real_part = _smallest_real_part(-model.pattern_matrix(data), banded.inverse(data))
+    solve = None if factored is None else factored[1]
+    inverse = banded.inverse(data) if solve is None else (lambda v: -solve(v))
+    real_part = _smallest_real_part(-model.pattern_matrix(data), inverse)
     return Stability(bool(real_part > 0.0), real_part)

@@ -381,7 +381,8 @@ def track(scene: Scene, ramps: Mapping[str, Sequence[float]],
             continuation.x)))
         out.iterations.append(iterations)
         out.halvings.append(halvings)
-        verdict = assess(continuation.model, continuation.x)  # part of the step's time
+        verdict = assess(continuation.model, continuation.x,  # part of the step's time
+                         continuation.factorisation())
         out.times.append(time.perf_counter() - started)
         if not record_stability(out, step, verdict, allow_unstable):
             return out
