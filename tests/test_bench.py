@@ -481,16 +481,19 @@ def test_startup_small_outputs(tmp_path):
 
 
 def test_tracking_small_outputs(tmp_path):
-    """``rodsim bench tracking --size small``: both variants tracked, their states equal to
-    round-off, rates finite."""
+    """``rodsim bench tracking --size small``: both variants tracked on both scenes, their
+    states equal to round-off, rates finite, the verdicts' CPU a part of the track's."""
     from rodsim_bench import tracking
 
     paths = tracking.run("small", tmp_path)
     assert {p.name for p in paths} == {"tracking-small.nc", "tracking-small.md"}
     ds = _open(tmp_path / "tracking-small.nc")
     assert list(ds["variant"].values) == list(tracking.VARIANTS)
+    assert list(ds["scene"].values) == [case[0] for case in tracking.CASES]
     assert np.all(np.isfinite(ds["steps_per_second"].values))
-    assert ds.attrs["largest_state_difference"] < 1e-12
+    assert np.all(ds["largest_state_difference"].values < 1e-12)
+    cpu = ds["cpu"].values[:, 0].min(axis=-1)
+    assert np.all((ds["verdict_cpu"].values > 0) & (ds["verdict_cpu"].values < cpu))
 
 
 @pytest.mark.slow

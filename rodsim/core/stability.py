@@ -33,10 +33,16 @@ eigenvalues of K itself: stable when each has a positive real part (no divergenc
 static perturbation grows), and ``min_eigenvalue`` is then the smallest real part — of all
 eigenvalues up to 200 coordinates, of the six nearest zero above. Flutter (growing
 oscillations of the pseudo-dynamics) is not assessed.
+
+:func:`assess` (a model's verdict, what every run and every track step gets) does the
+factorisations in band storage straight from the Jacobian's data (rodsim/core/
+stability_band.py: the same Cholesky test; K⁻¹ for ARPACK by band LU instead of SuperLU);
+:func:`stiffness_stability` (any sparse K) builds the sparse matrices.
 """
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
@@ -44,6 +50,8 @@ import numpy as np
 import scipy.linalg as la
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
+
+from rodsim.core.stability_band import BandStiffness
 
 if TYPE_CHECKING:
     from rodsim.core.model import Model
@@ -61,6 +69,9 @@ NEAREST = 6
 BISECTION_TOLERANCE = 1e-6
 #: At most this many factorisations in the bisection (it needs about 30).
 MAX_BISECTIONS = 200
+#: Widest band (lower + upper + 1) factored in band storage by :func:`assess` (the Newton
+#: solves' limit, rodsim/solvers/linear.py); wider: the sparse path.
+MAX_BAND = 256
 
 
 @dataclass(frozen=True)
@@ -81,21 +92,26 @@ def _band_storage(matrix: sp.coo_matrix, width: int) -> np.ndarray:
     return ab
 
 
-def stiffness_stability(stiffness: sp.spmatrix, width: int | None = None) -> Stability:
+def stiffness_stability(stiffness: sp.spmatrix, width: int | None = None, *,
+                        indefinite: bool = False,
+                        inverse: Callable[[np.ndarray], np.ndarray] | None = None
+                        ) -> Stability:
     """The verdict for the stiffness matrix K (sparse, n × n) of bandwidth ``width``
-    (default: computed from the matrix)."""
+    (default: computed from the matrix). ``indefinite``: the scaled symmetric part is
+    already known not to be positive definite (the test is skipped); ``inverse``: v ↦ K⁻¹ v,
+    for the eigenvalues nearest zero (default: a sparse LU of K)."""
     stiffness = sp.csc_matrix(stiffness)
     if stiffness.shape[0] == 0:
         return Stability(True)
     symmetric = (0.5 * (stiffness + stiffness.T)).tocoo()
     if width is None:
         width = int(np.max(np.abs(symmetric.row - symmetric.col)))
-    if _positive_definite(symmetric, width):
+    if not indefinite and _positive_definite(symmetric, width):
         return Stability(True)
     asymmetry = abs(stiffness - stiffness.T).max()
     if asymmetry <= 1e-12 * abs(stiffness).max():
         return Stability(False, _smallest_eigenvalue(symmetric, width))
-    real_part = _smallest_real_part(stiffness)
+    real_part = _smallest_real_part(stiffness, inverse)
     return Stability(bool(real_part > 0.0), real_part)
 
 
@@ -150,26 +166,64 @@ def _smallest_eigenvalue(symmetric: sp.coo_matrix, width: int) -> float:
     return float(0.5 * (low + high))
 
 
-def _smallest_real_part(stiffness: sp.csc_matrix) -> float:
+def _smallest_real_part(stiffness: sp.csc_matrix,
+                        inverse: Callable[[np.ndarray], np.ndarray] | None = None) -> float:
     """The smallest real part of an eigenvalue of a general matrix (NaN if not computed):
     of all eigenvalues up to :data:`DENSE_NONSYMMETRIC_LIMIT` coordinates, else of the
     :data:`NEAREST` eigenvalues nearest zero (shift-invert at 0, one sparse LU) — a
     divergence instability is an eigenvalue crossing zero; it finds the same smallest real
     part as all eigenvalues at a twentieth of the time (docs/benchmarks.md, "Measurements
-    behind the core's constants")."""
+    behind the core's constants"). ``inverse`` (v ↦ K⁻¹ v) replaces the sparse LU."""
     n = stiffness.shape[0]
     try:
         if n <= DENSE_NONSYMMETRIC_LIMIT:
             return float(np.min(la.eigvals(stiffness.toarray()).real))
+        operator = (None if inverse is None
+                    else spla.LinearOperator((n, n), matvec=inverse, dtype=float))
         values = spla.eigs(stiffness, k=min(NEAREST, n - 2), sigma=0.0, which="LM",
-                           return_eigenvectors=False, maxiter=20 * n, tol=1e-10)
+                           OPinv=operator, return_eigenvectors=False, maxiter=20 * n,
+                           tol=1e-10)
         return float(np.min(values.real))
     except (la.LinAlgError, spla.ArpackError, RuntimeError, ValueError):
         return float("nan")
 
 
-def assess(model: Model, x: np.ndarray) -> Stability:
-    """The verdict at the free state ``x`` of ``model`` (a :class:`rodsim.core.model.Model`),
-    from its analytic Jacobian ∂F/∂x at full load."""
+#: The band factorisations of the last pattern assessed (a track's steps share one).
+_LAST_BAND: tuple[object, BandStiffness] | None = None
+
+
+def _band_of(model: Model) -> BandStiffness | None:
+    """The band factorisations of ``model``'s Jacobian pattern, or None when its band is
+    too wide for band storage."""
+    global _LAST_BAND
     band = model.band
-    return stiffness_stability(-model.jacobian(x), max(band.lower, band.upper))
+    if band.lower + band.upper + 1 > MAX_BAND:
+        return None
+    if _LAST_BAND is None or _LAST_BAND[0] is not model.pattern:
+        _LAST_BAND = model.pattern, BandStiffness(model.pattern_rows, model.pattern_cols,
+                                                  model.n, band.lower, band.upper)
+    return _LAST_BAND[1]
+
+
+def assess(model: Model, x: np.ndarray,
+           factored: tuple[np.ndarray, Callable[[np.ndarray], np.ndarray] | None] | None
+           = None) -> Stability:
+    """The verdict at the free state ``x`` of ``model`` (a :class:`rodsim.core.model.Model`),
+    from its analytic Jacobian ∂F/∂x at full load: the verdict of
+    :func:`stiffness_stability`, its factorisations in band storage (module docstring).
+    ``factored``: (J's CSC data at ``x``, a solve of J X = B or None), when the caller has
+    them (the integrators' verification of the same state, rodsim/solvers/base.py)."""
+    band = model.band
+    width = max(band.lower, band.upper)
+    banded = _band_of(model)
+    data = model.jacobian_data(x) if factored is None else factored[0]
+    if banded is None:
+        return stiffness_stability(-model.pattern_matrix(data), width)
+    if banded.certified(data):
+        return Stability(True)
+    if banded.asymmetry(data) <= 1e-12 or model.n <= DENSE_NONSYMMETRIC_LIMIT:
+        return stiffness_stability(-model.pattern_matrix(data), width, indefinite=True)
+    solve = None if factored is None else factored[1]
+    inverse = banded.inverse(data) if solve is None else (lambda v: -solve(v))
+    real_part = _smallest_real_part(-model.pattern_matrix(data), inverse)
+    return Stability(bool(real_part > 0.0), real_part)

@@ -69,7 +69,18 @@ class Outcome:
     message: str
 
 
-def correction_residual(model: Model, x: np.ndarray, force: np.ndarray) -> float:
+def equilibrium_factor(model: Model, x: np.ndarray
+                       ) -> tuple[np.ndarray, Callable[[np.ndarray], np.ndarray] | None]:
+    """J's CSC data at ``x`` and J factored (a solve of J X = B, or None when J is
+    singular): what :func:`correction_residual` needs, and what the stability verdict of
+    the same state reuses (:meth:`RunState.stability`, :func:`rodsim.core.stability.assess`)."""
+    data = model.jacobian_data(x)
+    return data, linear_solver_of(model).factorized(data)
+
+
+def correction_residual(model: Model, x: np.ndarray, force: np.ndarray,
+                        factor: tuple[np.ndarray, Callable[[np.ndarray], np.ndarray] | None]
+                        | None = None) -> float:
     """How far ``x`` is from the equilibrium of ``model``, as a fraction of the load's effect:
     max |J⁻¹ F| / max |J⁻¹ F_load| over the coordinates scaled by their size (L_ref for
     positions, 1 for quaternions), J and the load forces F_load = F(x) − F(x, load 0) at ``x``.
@@ -81,8 +92,9 @@ def correction_residual(model: Model, x: np.ndarray, force: np.ndarray) -> float
     (what let IDA stop 1.4 % L off at N = 40 000 with a force residual 4.7e-6). Its round-off
     floor is that of the positions (the force round-off, ∝ N, lands in stiff directions that
     J⁻¹ maps to displacements of order eps L). 0 when it cannot be told: J singular (the
-    stability verdict speaks then) or no load."""
-    solve = linear_solver_of(model).factorized(model.jacobian_data(x))
+    stability verdict speaks then) or no load. ``factor``: :func:`equilibrium_factor` of
+    ``model`` at ``x``, if already made."""
+    _, solve = factor if factor is not None else equilibrium_factor(model, x)
     if solve is None:
         return 0.0
     loads = model.force(x, 1.0) - model.force(x, 0.0)
@@ -263,7 +275,9 @@ class Integrator(ABC, Generic[S]):
         force = self.verification_force(run, model, x)
         if not np.all(np.isfinite(force)):
             return float("inf"), float("inf")
-        return model.residual(force), correction_residual(model, x, force)
+        factor = equilibrium_factor(model, x)
+        run.factored = model, x.copy(), factor  # the verdict of the same state reuses it
+        return model.residual(force), correction_residual(model, x, force, factor)
 
     @staticmethod
     def verified(run: RunState, residuals: tuple[float, float]) -> bool:

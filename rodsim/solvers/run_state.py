@@ -120,6 +120,10 @@ class RunState:
     last_force: np.ndarray | None = None
     _linear: tuple[Model, LinearSolver] | None = field(default=None, repr=False)
     _stability: tuple[Model, np.ndarray, Stability] | None = field(default=None, repr=False)
+    #: (model, state, (J's data, J factored)) of the last verified state
+    #: (:meth:`Integrator.verified_residual`), which its verdict reuses.
+    factored: tuple[Model, np.ndarray, tuple[np.ndarray, Callable[[np.ndarray], np.ndarray]
+                                              | None]] | None = field(default=None, repr=False)
 
     @classmethod
     def new(cls, model: Model, tolerance: float, initial_state: np.ndarray | None = None,
@@ -228,6 +232,16 @@ class RunState:
         cached = self._stability
         if cached is not None and cached[0] is self.model and cached[1] is x:
             return cached[2]
-        verdict = assess(self.model, x)
+        verdict = assess(self.model, x, self.factorisation_at(self.model, x))
         self._stability = (self.model, x, verdict)
         return verdict
+
+    def factorisation_at(self, model: Model, x: np.ndarray
+                         ) -> tuple[np.ndarray, Callable[[np.ndarray], np.ndarray] | None
+                                    ] | None:
+        """(J's CSC data, J factored) of ``model`` at ``x`` if the last verification made
+        them (the same model object and the same state), else None."""
+        factored = self.factored
+        if factored is None or factored[0] is not model or not np.array_equal(factored[1], x):
+            return None
+        return factored[2]

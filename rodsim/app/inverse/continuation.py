@@ -26,7 +26,7 @@ function of (scaled) parameter values that a fit or a reach minimises over.
 from __future__ import annotations
 
 import time
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -100,6 +100,14 @@ class Continuation:
         #: integrator carries on to the next (static: the factorisation as the attempt left
         #: it, refreshed or dropped).
         self.state: RunState | None = None
+
+    def factorisation(self) -> tuple[np.ndarray, Callable[[np.ndarray], np.ndarray] | None
+                                     ] | None:
+        """(J's CSC data, J factored) at the last equilibrium, if its solve's verification
+        made them (:meth:`RunState.factorisation_at`), for its stability verdict."""
+        if self.state is None:
+            return None
+        return self.state.factorisation_at(self.model, self.x)
 
     @property
     def takes_predictor(self) -> bool:

@@ -44,10 +44,10 @@ import numpy as np
 
 from rodsim.app.inverse.continuation import MAX_HALVINGS, Continuation
 from rodsim.app.inverse.parameter_keys import NumericKey, numeric_keys, scene_with
+from rodsim.app.inverse.track_steps import record_contact, record_stability, values_text
 from rodsim.core.model import Model
 from rodsim.core.scene import Scene
 from rodsim.core.schema import SceneError
-from rodsim.core.terms.contact import contact_forces
 from rodsim.io.archive_schema import SCHEMA_VERSION
 from rodsim.io.cf_layout import variable_name
 from rodsim.io.provenance import archive_attributes
@@ -335,25 +335,25 @@ def track(scene: Scene, ramps: Mapping[str, Sequence[float]],
     out = Track(scene, integrator, keys, values, model, allow_unstable=allow_unstable)
     if not first.success:
         out.success, out.failed_step = False, 0
-        out.message = f"step 0 ({_values_text(keys, values[0])}) failed: {first.message}"
+        out.message = f"step 0 ({values_text(keys, values[0])}) failed: {first.message}"
         return out
     continuation = Continuation(model, first.state, integrator, deadline=deadline)
     out.states.append(model.full(first.state))
     out.last_model = model
-    _record_contact(out, model)
+    record_contact(out, model)
     out.residuals.append(first.residual)
     out.iterations.append(kind.work(first.stats))
     out.halvings.append(0)
     out.times.append(time.perf_counter() - started)
     stability = first.stability or assess(model, first.state)
-    if not _record_stability(out, 0, stability, allow_unstable):
+    if not record_stability(out, 0, stability, allow_unstable):
         return out
     previous: np.ndarray | None = None  # the equilibrium before the last, for the predictor
     for step in range(1, len(values)):
         started = time.perf_counter()
         if started > deadline:
             out.success, out.failed_step = False, step
-            out.message = (f"step {step} ({_values_text(keys, values[step])}) not started: "
+            out.message = (f"step {step} ({values_text(keys, values[step])}) not started: "
                            f"the wall-time budget of {budget:g} s (solver.max_wall_time) is "
                            "spent")
             return out
@@ -369,51 +369,26 @@ def track(scene: Scene, ramps: Mapping[str, Sequence[float]],
             scene, keys, values[step - 1], values[step], predictor)
         if not ok:
             out.success, out.failed_step = False, step
-            out.message = (f"step {step} ({_values_text(keys, values[step])}) failed: "
+            out.message = (f"step {step} ({values_text(keys, values[step])}) failed: "
                            f"{halvings} failed attempts, each halving the increment; last: "
                            f"{message}")
             return out
         previous = last
         out.states.append(continuation.model.full(continuation.x))
         out.last_model = continuation.model
-        _record_contact(out, continuation.model)
+        record_contact(out, continuation.model)
         out.residuals.append(continuation.model.residual(continuation.model.force(
             continuation.x)))
         out.iterations.append(iterations)
         out.halvings.append(halvings)
-        verdict = assess(continuation.model, continuation.x)  # part of the step's time
+        verdict = assess(continuation.model, continuation.x,  # part of the step's time
+                         continuation.factorisation())
         out.times.append(time.perf_counter() - started)
-        if not _record_stability(out, step, verdict, allow_unstable):
+        if not record_stability(out, step, verdict, allow_unstable):
             return out
         if progress is not None:
             progress(step / (len(values) - 1), f"track: step {step}/{len(values) - 1}")
     return out
-
-
-def _record_contact(out: Track, model: Model) -> None:
-    force = contact_forces(model, out.states[-1])  # the step's own model (friction anchors)
-    if force is not None:
-        out.contact.append(force)
-
-
-def _record_stability(out: Track, step: int, stability, allow_unstable: bool) -> bool:
-    """Append the verdict of ``step``; False (and the track stopped) when it is unstable
-    and unstable steps are not allowed."""
-    out.stable.append(bool(stability.stable))
-    out.min_eigenvalues.append(float("nan") if stability.stable
-                               else float(stability.min_eigenvalue))
-    if stability.stable or allow_unstable:
-        return True
-    out.success, out.unstable_step = False, step
-    out.message = (f"step {step} ({_values_text(out.keys, out.values[step])}) is an unstable "
-                   f"equilibrium (smallest stiffness eigenvalue {stability.min_eigenvalue:.3g}"
-                   "): the path crossed a stability limit (e.g. buckling) and the track "
-                   "stopped there (allow unstable steps to go on, flagged)")
-    return False
-
-
-def _values_text(keys: Sequence[NumericKey], row: np.ndarray) -> str:
-    return ", ".join(f"{k.name} = {v:.6g}" for k, v in zip(keys, row, strict=True))
 
 
 def rerun_track(dataset: xr.Dataset) -> tuple[Track, float]:

@@ -21,17 +21,17 @@ from rodsim.core.kernels._scatter import add_force, add_jacobian
 @njit(cache=True)
 def _point(x: np.ndarray, dofs: np.ndarray, e: int, side: int, weights: np.ndarray,
            constant: np.ndarray, forms: np.ndarray, p: np.ndarray, jac: np.ndarray,
-           hess: np.ndarray, want_hessian: bool) -> None:
-    """Position p (3,), ∂p/∂x_point (3, 14) and ∇²f (3, 4, 4) of point e + side."""
+           hess: np.ndarray, want_hessian: bool, q: np.ndarray, gq: np.ndarray,
+           g: np.ndarray) -> None:
+    """Position p (3,), ∂p/∂x_point (3, 14) and ∇²f (3, 4, 4) of point e + side; ``q``
+    (4,), ``gq`` (3, 4) and ``g`` (3,) are scratch (allocated once by the caller: an
+    allocation per point was most of a force evaluation's time)."""
     k = e + side
     base = 14 * side
     c0, c1, w0, w1 = weights[k, 0], weights[k, 1], weights[k, 2], weights[k, 3]
-    q = np.empty(4)
     for i in range(4):
         q[i] = w0 * x[dofs[e, base + 6 + i]] + w1 * x[dofs[e, base + 10 + i]] + constant[k, i]
     n = q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3]
-    gq = np.empty((3, 4))
-    g = np.empty(3)
     for m in range(3):
         value = 0.0
         for i in range(4):
@@ -79,9 +79,12 @@ def evaluate(x: np.ndarray, dofs: np.ndarray, weights: np.ndarray, constant: np.
     u = np.empty(3)
     proj = np.empty((3, 3))
     pj = np.empty((3, 28))
+    q = np.empty(4)
+    gq = np.empty((3, 4))
+    g = np.empty(3)
     for e in range(dofs.shape[0]):
-        _point(x, dofs, e, 0, weights, constant, forms, pa, ja, ha, want_jacobian)
-        _point(x, dofs, e, 1, weights, constant, forms, pb, jb, hb, want_jacobian)
+        _point(x, dofs, e, 0, weights, constant, forms, pa, ja, ha, want_jacobian, q, gq, g)
+        _point(x, dofs, e, 1, weights, constant, forms, pb, jb, hb, want_jacobian, q, gq, g)
         length = 0.0
         for m in range(3):
             u[m] = pb[m] - pa[m]
@@ -140,9 +143,12 @@ def energy(x: np.ndarray, dofs: np.ndarray, weights: np.ndarray, constant: np.nd
     pb = np.empty(3)
     ja = np.empty((3, 14))
     hess = np.empty((3, 4, 4))
+    q = np.empty(4)
+    gq = np.empty((3, 4))
+    g = np.empty(3)
     total = 0.0
     for e in range(dofs.shape[0]):
-        _point(x, dofs, e, 0, weights, constant, forms, pa, ja, hess, False)
-        _point(x, dofs, e, 1, weights, constant, forms, pb, ja, hess, False)
+        _point(x, dofs, e, 0, weights, constant, forms, pa, ja, hess, False, q, gq, g)
+        _point(x, dofs, e, 1, weights, constant, forms, pb, ja, hess, False, q, gq, g)
         total += np.sqrt((pb[0] - pa[0]) ** 2 + (pb[1] - pa[1]) ** 2 + (pb[2] - pa[2]) ** 2)
     return tension * total

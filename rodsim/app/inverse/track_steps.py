@@ -1,0 +1,46 @@
+"""What a track records of each step (rodsim/app/inverse/track.py): the contact forces and
+the stability verdict, and the step's values as text for its messages."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from rodsim.app.inverse.parameter_keys import NumericKey
+from rodsim.core.model import Model
+from rodsim.core.stability import Stability
+from rodsim.core.terms.contact import contact_forces
+
+if TYPE_CHECKING:
+    from rodsim.app.inverse.track import Track
+
+__all__ = ["record_contact", "record_stability", "values_text"]
+
+
+def record_contact(out: Track, model: Model) -> None:
+    force = contact_forces(model, out.states[-1])  # the step's own model (friction anchors)
+    if force is not None:
+        out.contact.append(force)
+
+
+def record_stability(out: Track, step: int, stability: Stability,
+                     allow_unstable: bool) -> bool:
+    """Append the verdict of ``step``; False (and the track stopped) when it is unstable
+    and unstable steps are not allowed."""
+    out.stable.append(bool(stability.stable))
+    out.min_eigenvalues.append(float("nan") if stability.stable
+                               else float(stability.min_eigenvalue))
+    if stability.stable or allow_unstable:
+        return True
+    out.success, out.unstable_step = False, step
+    out.message = (f"step {step} ({values_text(out.keys, out.values[step])}) is an unstable "
+                   f"equilibrium (smallest stiffness eigenvalue {stability.min_eigenvalue:.3g}"
+                   "): the path crossed a stability limit (e.g. buckling) and the track "
+                   "stopped there (allow unstable steps to go on, flagged)")
+    return False
+
+
+def values_text(keys: Sequence[NumericKey], row: np.ndarray) -> str:
+    return ", ".join(f"{k.name} = {v:.6g}" for k, v in zip(keys, row, strict=True))

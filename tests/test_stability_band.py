@@ -1,0 +1,141 @@
+"""The stability verdict's band factorisations (rodsim/core/stability_band.py) against dense
+linear algebra, and the verdict of a track on a non-symmetric stiffness where a double
+eigenvalue crosses zero (issue 24: the verdict a track step gets must stay the full one)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import scipy.sparse as sp
+
+import rodsim
+from rodsim.app.inverse.sensitivity import registered_model
+from rodsim.app.inverse.track import track
+from rodsim.core.model import Model
+from rodsim.core.stability import assess, stiffness_stability
+from rodsim.core.stability_band import BandStiffness
+
+
+def _banded(rng: np.random.Generator, n: int, lower: int, upper: int,
+            symmetric: bool) -> np.ndarray:
+    a = np.zeros((n, n))
+    for i in range(n):
+        for j in range(max(0, i - lower), min(n, i + upper + 1)):
+            a[i, j] = rng.normal()
+    a += np.diag(rng.normal(size=n) * rng.choice([0.3, 4.0]))
+    return 0.5 * (a + a.T) if symmetric else a
+
+
+def _csc_entries(k: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Rows, columns and data of J = −K in CSC order (every entry of the band stored)."""
+    rows, cols = np.nonzero(k != 0.0)
+    order = np.lexsort((rows, cols))
+    rows, cols = rows[order], cols[order]
+    return rows, cols, -k[rows, cols]
+
+
+@pytest.mark.parametrize("seed", range(40))
+def test_band_factorisations_match_dense_linear_algebra(seed):
+    rng = np.random.default_rng(seed)
+    n = int(rng.integers(4, 40))
+    lower, upper = int(rng.integers(0, 4)), int(rng.integers(0, 4))
+    k = _banded(rng, n, lower, upper, symmetric=seed % 2 == 0)
+    rows, cols, data = _csc_entries(k)
+    band = BandStiffness(rows, cols, n, int(np.max(rows - cols, initial=0)),
+                         int(np.max(cols - rows, initial=0)))
+    s = 0.5 * (k + k.T)
+    d = np.diag(s)
+    positive = bool(np.all(d > 0)) and np.linalg.eigvalsh(s / np.sqrt(np.outer(d, d)))[0] > 0
+    assert band.certified(data) == positive
+    asymmetry = np.max(np.abs(k - k.T)) / np.max(np.abs(k))
+    assert band.asymmetry(data) == pytest.approx(asymmetry, abs=1e-15)
+    inverse = band.inverse(data)
+    v = rng.normal(size=n)
+    assert np.allclose(inverse(v), np.linalg.solve(k, v), rtol=1e-8, atol=1e-10)
+
+
+def test_a_non_finite_or_singular_stiffness_is_not_certified():
+    k = np.diag([1.0, 2.0, 0.0])
+    rows, cols, data = _csc_entries(k + np.diag([0.0, 0.0, 1e-300]))
+    band = BandStiffness(rows, cols, 3, 0, 0)
+    assert not band.certified(np.array([-1.0, -2.0, np.nan]))
+    assert band.inverse(np.array([-1.0, -2.0, 0.0])) is None
+
+
+def test_assess_agrees_with_the_sparse_verdict_on_the_paper_coupling():
+    """table3-catheter1 (non-symmetric K, indefinite symmetric part): the band path's
+    smallest real part is the sparse path's (SuperLU shift-invert), and both call it
+    stable."""
+    scene = rodsim.load_scene("table3-catheter1")
+    result = rodsim.solve(scene, "static")
+    model = registered_model(Model(scene), result.state)
+    band = assess(model, result.state)
+    sparse = stiffness_stability(-model.jacobian(result.state),
+                                 max(model.band.lower, model.band.upper))
+    assert band.stable and sparse.stable
+    assert band.min_eigenvalue == pytest.approx(sparse.min_eigenvalue, rel=1e-8)
+
+
+def test_a_track_flags_a_double_eigenvalue_crossing_zero_on_a_non_symmetric_stiffness():
+    """table3-catheter1 with the tendon slack and the catheter pushed along its axis: the
+    straight catheter buckles in two planes at once, a double real eigenvalue of the
+    non-symmetric K crossing zero — which the sign of det K does not see (it stayed +1 over
+    this whole track: the screen measured and rejected, rodsim/core/stability_band.py).
+    Every step's flag must match the dense eigenvalues of K at that step."""
+    scene = rodsim.load_scene("table3-catheter1", [
+        "tendons.tendon.tendon_actuation.force=0",
+        'rods.catheter.terms=["stretch", "bend_twist", "centerline", "tip_load"]',
+        "rods.catheter.tip_load.force=[0, 0, 0]"])
+    forces = np.linspace(0.0, -1.5, 8)
+    path = track(scene, {"rods.catheter.tip_load.force[0]": forces}, allow_unstable=True)
+    assert path.success and path.steps == len(forces)
+    smallest = []
+    for step, state in enumerate(path.states):
+        model = Model(rodsim.load_scene("table3-catheter1", [
+            "tendons.tendon.tendon_actuation.force=0",
+            'rods.catheter.terms=["stretch", "bend_twist", "centerline", "tip_load"]',
+            f"rods.catheter.tip_load.force=[{float(forces[step])!r}, 0, 0]"]))
+        x = state[model.free]
+        model = registered_model(model, x)
+        eigenvalues = np.linalg.eigvals(-model.jacobian(x).toarray())
+        smallest.append(float(np.min(eigenvalues.real)))
+        negative = np.sort(eigenvalues.real[eigenvalues.real < 0])
+        if negative.size:  # the crossing is a double one: det K keeps its sign
+            assert negative.size % 2 == 0
+    assert path.stable == [value > 0 for value in smallest]
+    assert 0 < len(path.unstable_steps) < len(forces) - 1
+    flagged = np.array(path.min_eigenvalues)[path.unstable_steps]
+    assert np.allclose(flagged, np.array(smallest)[path.unstable_steps], rtol=1e-6)
+
+
+def test_a_sparse_stiffness_keeps_its_verdict():
+    """stiffness_stability on a plain sparse matrix (no model) is the same as before."""
+    k = sp.diags([[2.0, 2.0, 2.0], [-1.0, -1.0], [-1.0, -1.0]], [0, 1, -1])
+    assert stiffness_stability(k).stable
+    assert not stiffness_stability(-k).stable
+
+
+@pytest.mark.parametrize("name", ["table3-catheter1", "tdcr-two-segment"])
+def test_the_verdict_reuses_the_verification_of_the_same_state_only(name):
+    """A run's verification factors J at the state it returns; the verdict of that state
+    takes it (the same verdict and smallest real part as computed afresh) and no other
+    state's or model's."""
+    from rodsim.solvers import integrator_named
+
+    scene = rodsim.load_scene(name)
+    kind = integrator_named("static")
+    integrator = kind.for_scene(scene)
+    result, state = integrator.run(integrator.init(Model(scene)))
+    assert result.success
+    factored = state.factorisation_at(state.model, result.state)
+    assert factored is not None
+    data, solve = factored
+    assert np.array_equal(data, state.model.jacobian_data(result.state))
+    reused, fresh = assess(state.model, result.state, factored), assess(state.model,
+                                                                        result.state)
+    assert reused.stable == fresh.stable
+    assert reused.min_eigenvalue == pytest.approx(fresh.min_eigenvalue, rel=1e-9,
+                                                  nan_ok=True)
+    moved = result.state + 1e-9
+    assert state.factorisation_at(state.model, moved) is None
+    assert state.factorisation_at(Model(scene), result.state) is None
