@@ -120,6 +120,28 @@ def test_mass_and_weight_follow_the_sections():
     np.testing.assert_allclose(weights, 9.81 * masses, rtol=1e-15)
 
 
+def test_compliance_fraction_measures_the_interval_in_compliance():
+    """Where s lies in [a, b] measured in ∫ 1/p ds: by hand, spans p = 10 on [0, 0.5] and
+    p = 1 on [0.5, 1] give 0.05 / 0.55 = 1/11 at the jump and 0.3 / 0.55 = 6/11 at 0.75;
+    clipped to [0, 1] outside [a, b]; an interval inside one span gets the linear
+    (s − a)/(b − a) to the bit, as does every interval of equal values."""
+    from rodsim.core.rod.sections import SectionProfile
+
+    ones = np.ones(2)
+    profile = SectionProfile(np.array([0.0, 0.5]), np.array([0.5, 1.0]), ones, ones, ones,
+                             ones, ones, ones, ones)
+    values = np.array([10.0, 1.0])
+    a, b = np.zeros(4), np.ones(4)
+    s = np.array([0.5, 0.75, -0.2, 1.3])
+    np.testing.assert_allclose(profile.compliance_fraction(values, a, s, b),
+                               [1 / 11, 6 / 11, 0.0, 1.0], rtol=1e-15, atol=0)
+    a, s, b = np.array([0.1, 0.6]), np.array([0.13, 0.77]), np.array([0.35, 0.95])
+    linear = np.clip((s - a) / (b - a), 0.0, 1.0)
+    assert np.array_equal(profile.compliance_fraction(values, a, s, b), linear)
+    assert np.array_equal(profile.compliance_fraction(np.array([3.0, 3.0]), np.zeros(1),
+                                                      np.full(1, 0.3), np.ones(1)), [0.3])
+
+
 def test_references_follow_uniform_sections_and_refuse_varying_ones():
     """A tube over the whole rod is scored against the elastica with the tube's E I; a rod
     whose sections vary has no uniform-rod reference."""

@@ -22,6 +22,11 @@ segment midpoint s_j = (j + ½) h): the path is the polygon through
   knot (and before the first without a base frame); at a node it is ½ (q_{j−1} + q_j).
   This follows the rod's own discrete kinematics: its bending elements sit between
   consecutive knots, so the half segment past the last midpoint turns rigidly with q_{N−2}.
+  On a rod with sections, "linearly" is in the twist compliance ∫ 1/(G J) ds between the
+  two knots (rodsim/core/rod/sections.py, ``compliance_fraction``): where G J jumps at a
+  node, the element's twist is not shared half and half, and the weight ½ put the node's
+  routing point O(h) off the continuum path, whose kink there (the twist rate jumps) then
+  fell at the wrong place: first order on catheter-pull-ring's tip moment (issue 20).
 
 Measured against the Rucker–Webster reference (tests/test_string_tendon.py; tip error / L
 on the 0.2 m benchmark backbone at N = 21 → 81, all second order unless said):
@@ -96,7 +101,12 @@ def routing_points(tendon: Tendon, routing: Routing, start: float,
     base = rod.support.frame_element
     knots = np.concatenate([[0.0], mid]) if base else mid
     k = np.clip(np.searchsorted(knots, s, side="right") - 1, 0, len(knots) - 2)
-    w = np.clip((s - knots[k]) / (knots[k + 1] - knots[k]), 0.0, 1.0)
+    profile = rod.profile
+    if profile is None:
+        w = np.clip((s - knots[k]) / (knots[k + 1] - knots[k]), 0.0, 1.0)
+    else:  # in the twist compliance: not ½ at a node where G J jumps (module docstring)
+        w = profile.compliance_fraction(profile.shear_modulus * profile.polar_moment,
+                                        knots[k], s, knots[k + 1])
     quat = rod.layout.quaternion_index
     pos = rod.layout.position_index
     # Knot i is segment i − 1 with a base frame (knot 0 is the constant base frame).
