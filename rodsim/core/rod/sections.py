@@ -26,7 +26,8 @@ not only on a node or a quaternion):
   crossing the jump of a twisted rod converged at first order (measured: issue 20's tip
   moment on catheter-pull-ring, order 1.68, 1.46, 1.24 at N = 41 → 321; with this weight
   1.94, 1.97, 1.99). Only the twist matters to first order: a bending rate's jump moves the
-  routing point along the tendon's path, which changes its length at O(δ²);
+  routing point along the tendon's path, which changes its length at O(δ²). A G J jump
+  inside a segment gets a routing point of its own (``changes``), where the path kinks;
 - masses and weights: the consistent share ∫ ρ A N_i ds of each control point (N_i the hat
   function of the linear interpolation), which is the usual half-segment lumping for a
   uniform span; a quaternion's rotational mass integrates ρ I over its segment.
@@ -186,6 +187,10 @@ class SectionProfile:
             return linear
         reached = self.overlaps(a, np.clip(s, a, b)) @ compliance
         return np.where(varies, reached / np.where(varies, overlap @ compliance, 1.0), linear)
+
+    def changes(self, values: np.ndarray) -> np.ndarray:
+        """The span boundaries inside the rod where the per-span ``values`` change [m]."""
+        return self.end[:-1][values[1:] != values[:-1]]
 
     def integral(self, values: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:
         """∫_a^b p ds of the per-span ``values`` over each [a_e, b_e]."""
