@@ -121,19 +121,6 @@ def errors_of(case: str) -> dict[int, float]:
     return out
 
 
-#: Cases whose observed order is below ORDER. The pull-ring's tip moment, measured (with
-#: wire_down slack) at N = 41 -> 81 -> 161 -> 321: order 1.81, 1.69, 1.48 against the
-#: reference, and rodsim's own successive differences 1.78, 1.61, so the defect is in the
-#: discrete model, not in the reference. Only the combination of varying sections, a string
-#: tendon and a 3-D load shows it (the tip force out of the plane: 1.91, 1.85, 1.70, passing
-#: here at 1.81); without sections, without the wire, or in-plane the same loads converge
-#: at 1.98-2.00, and so they do with equal E on both spans or with the pull ring moved into
-#: the shaft: it takes the wire crossing the stiffness jump. Cause not found; docs/scenes.md
-#: states it. strict: the mark goes when the
-#: order is fixed.
-SLOW_ORDER = {"pull-ring: tip moment"}
-
-
 @pytest.mark.parametrize("case", list(CASES))
 def test_robot_load_case_meets_the_accuracy_aim(case):
     """At the scene's shipped N the tip is within 1e-4 L of the reference."""
@@ -141,13 +128,82 @@ def test_robot_load_case_meets_the_accuracy_aim(case):
     assert list(errors.values())[-1] <= AIM, errors
 
 
-@pytest.mark.parametrize("case", [
-    pytest.param(case, marks=pytest.mark.xfail(
-        strict=True, reason="order 1.6: sections + string tendon + 3-D load (measured)"))
-    if case in SLOW_ORDER else case for case in CASES])
+@pytest.mark.parametrize("case", list(CASES))
 def test_robot_load_case_converges_at_second_order(case):
     e_coarse, e_shipped = errors_of(case).values()
     assert math.log2(e_coarse / e_shipped) >= ORDER, (e_coarse, e_shipped)
+
+
+def tip_moment_errors(edit: Callable[[dict], None], nodes: tuple[int, ...]) -> list[float]:
+    """|tip − reference| / L of the pull-ring's tip-moment case with ``edit`` applied to its
+    data, at each of ``nodes``."""
+    name, rod, edits = CASES["pull-ring: tip moment"]
+    data = copy.deepcopy(rodsim.load_scene(name).data)
+    for change in (*edits, edit):
+        change(data)
+    scene = Scene.from_dict(data)
+    reference = scene_reference(scene).tip
+    errors = []
+    for n in nodes:
+        result = rodsim.solve(scene.with_values({f"rods.{rod}.nodes": n}), "static")
+        assert result.success, result.message
+        errors.append(float(np.linalg.norm(result.rods[rod].positions[-1] - reference)
+                            / scene.rods[rod].length))
+    return errors
+
+
+def test_a_tendon_crossing_a_twist_stiffness_jump_converges_at_second_order():
+    """Issue 20: the pull-ring's tip moment converged at order 1.68, 1.46, 1.24 over
+    N = 41 -> 81 -> 161 -> 321 (rodsim's own successive differences 1.78, 1.60). The cause:
+    the twist rate jumps with G J at the section boundary (a node), so the tendon's path
+    kinks there, and the string tendon's routing point there took the frame
+    ½ (q_59 + q_60), O(h) off the continuum's; the frame is now interpolated in the twist
+    compliance (rodsim/core/rod/sections.py). Isolated here: the same rod with E I equal on
+    both spans and only G J ten times softer distally. Measured at
+    N = 41 -> 81 -> 161 -> 321: order 2.00, 2.01, 1.97 (1.52, 1.35, 1.21 with the weight
+    ½); with only E I jumping it was and is 1.97-1.99 (a bending rate's jump moves the
+    routing point along the path, which changes its length at second order only)."""
+    def twist_jump_only(data: dict) -> None:
+        distal = data["rods"]["catheter"]["sections"][1]
+        distal["youngs_modulus"] = 2.0e8                # E I of the shaft
+        distal["shear_modulus"] = 2.0e7 / (2.0 * 1.45)  # G J of the soft tube
+
+    errors = tip_moment_errors(twist_jump_only, (41, 81))
+    order = math.log2(errors[0] / errors[1])
+    print(f"\nG J jump only, tip moment, N = 41, 81: {errors[0]:.3e}, {errors[1]:.3e} L, "
+          f"order {order:.2f}")
+    assert order >= ORDER, errors
+
+
+def test_a_section_boundary_inside_a_segment_gets_a_routing_point():
+    """A G J jump off the nodes gets a routing point of its own, where the tendon's path
+    kinks. Boundary at 0.0611 m, a third of a segment past a node at N = 31 and at N = 121
+    (h / 4), so the two errors are alike: order 2.01 (then 2.07 to N = 481); without the
+    point (the kink cut by the chord between two nodes) 1.72, 1.41, and with neither the
+    point nor the compliance weight 1.62, 1.30. On a node the boundary adds no point."""
+    from rodsim.core.model import Model
+
+    boundary = 0.1 * 18.333333333333 / 30
+
+    def move_boundary(data: dict) -> None:
+        spans = data["rods"]["catheter"]["sections"]
+        spans[0]["end"] = spans[1]["start"] = boundary
+
+    errors = tip_moment_errors(move_boundary, (31, 121))
+    order = math.log(errors[0] / errors[1]) / math.log(4.0)
+    print(f"\nboundary at {boundary} m, tip moment, N = 31, 121: {errors[0]:.3e}, "
+          f"{errors[1]:.3e} L, order {order:.2f}")
+    assert order >= ORDER, errors
+    for nodes, extra in ((31, [boundary]), (101, [])):  # 0.06 m is node 60 at N = 101
+        data = copy.deepcopy(rodsim.load_scene("catheter-pull-ring").data)
+        data["rods"]["catheter"]["nodes"] = nodes
+        if extra:
+            move_boundary(data)
+        term = next(t for t in Model(Scene.from_dict(data)).terms
+                    if t.name == "tendon_string")
+        h = 0.1 / (nodes - 1)
+        off_nodes = [s for s in term.points.s[1:-1] if abs(s / h - round(s / h)) > 1e-9]
+        np.testing.assert_allclose(off_nodes, extra, rtol=0, atol=1e-15)
 
 
 def test_the_cases_do_what_their_names_say():

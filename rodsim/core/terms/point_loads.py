@@ -20,7 +20,12 @@ exact, non-symmetric Jacobian.
 M = Σ_k m_k D_k with D_k = d̂_k(q̃) of the quaternion interpolated at s between the two
 segment midpoints around it, q̃ = w_a q_a + w_b q_b (extrapolated within the half segments
 at the ends). The frame of q_j alone sits up to l/2 away from s, which made a follower tip
-moment converge at first order only; q̃ keeps it second order. Analytic Jacobians.
+moment converge at first order only; q̃ keeps it second order. On a rod with sections w_b is
+measured in the twist compliance between the two midpoints (rodsim/core/rod/sections.py,
+``compliance_fraction``), as a string tendon's routing points are: where G J jumps the
+linear weight puts the frame O(h) off (a body-frame force at the boundary of
+catheter-pull-ring's sections converged at order 1.02, 1.01; with the weight 2.0).
+Analytic Jacobians.
 
 One element per load, coordinates (r_j, r_{j+1}, q_a, q_b), q_j being one of q_a, q_b (for a
 world-frame load both are q_j: no frame at s is needed). The term is conservative (and has
@@ -106,6 +111,12 @@ class PointLoads(RodTerm):
         a = np.clip(np.floor(s / geometry.segment_length - 0.5).astype(int), 0,
                     geometry.segments - 2)
         w_b = s / geometry.segment_length - 0.5 - a
+        profile = rod.profile
+        if profile is not None:  # between the midpoints: in the twist compliance (docstring)
+            mid = geometry.segment_s
+            between = (w_b >= 0.0) & (w_b <= 1.0)
+            w_b = np.where(between, profile.compliance_fraction(
+                profile.shear_modulus * profile.polar_moment, mid[a], s, mid[a + 1]), w_b)
         body = np.array([load["frame"] == "body" for load in loads], dtype=bool)
         # A world-frame load needs no frame at s: its pair is (q_j, q_j) with q̃ = q_j, so
         # its element is the centerline's (r_j, r_{j+1}, q_j) and the band does not widen.
