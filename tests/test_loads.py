@@ -73,6 +73,30 @@ def test_tip_moment_bends_a_cantilever_into_the_exact_arc(frame, moment):
     assert errors[-1] < 2e-5
 
 
+@pytest.mark.parametrize("frame, moment, where", [
+    ("world", [0.0, 0.0, 0.05], 0.5), ("body", [0.0, 0.05, 0.0], 0.5),
+    ("world", [0.0, 0.0, 0.05], 0.37)])
+def test_an_interior_moment_bends_the_span_before_it_into_the_exact_arc(frame, moment, where):
+    """Pure bending again, the moment at s₀ inside the rod (on a node for s₀ = L/2 at every
+    N here; between nodes for 0.37 L): the arc of κ = M / (E I) up to s₀, then straight along
+    its tangent. Second order: the moment shared by the two quaternions around s₀ (with it
+    all on the segment holding s₀ the tip converged at first order, 1.0)."""
+    kappa, s0 = 0.05 / EI, where * LENGTH
+    angle = kappa * s0
+    exact = arc_tip(kappa, s0) + (LENGTH - s0) * np.array([math.cos(angle), math.sin(angle)])
+    nodes = (11, 21, 41, 81)
+    errors = []
+    for n in nodes:
+        tip = static_tip(cantilever(n, {"point_loads": {"loads": [
+            {"s": s0, "moment": moment, "frame": frame}]}}))
+        errors.append(float(np.hypot(*(tip[:2] - exact)) / LENGTH))
+    order = observed_order(nodes, errors)
+    print(f"\nmoment at {where} L ({frame}): |tip − exact| / L at N = {nodes}: "
+          f"{', '.join(f'{e:.3g}' for e in errors)}; order {order:.2f}")
+    assert order > 1.8
+    assert errors[-1] < 1e-4
+
+
 def test_point_force_between_nodes_matches_euler_bernoulli():
     """A small force P at a = 3L/8 (mid-segment at every N below): tip deflection
     P a² (3L − a) / (6 E I), converging at second order (α = P L²/(2EI) = 3.6e-3, so the

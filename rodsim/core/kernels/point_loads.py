@@ -1,14 +1,16 @@
 """Kernel of :mod:`rodsim.core.terms.point_loads`: per load, on (r_j, r_{j+1}, q_a, q_b) with the
-weights (1 − t, t) of its arclength in segment j, q = q_j (one of q_a, q_b: ``own``), the
-interpolated q̃ = w_a q_a + w_b q_b, d_k the directors of Eq. (2), G_k = ∂d_k/∂q, n² = |q|²,
-ñ² = |q̃|² and the unit directors at s D_k = d_k(q̃) / ñ²:
+weights (1 − t, t) of its arclength in segment j, the interpolated q̃ = w_a q_a + w_b q_b, the
+moment's shares (μ_a, μ_b) on q_a and q_b, d_k the directors of Eq. (2), G_k = ∂d_k/∂q,
+ñ² = |q̃|² and the unit directors at s D_k = d_k(q̃) / ñ²; for each c of the pair, q = q_c
+and n² = |q|²:
 
     F = F_w + Σ_k f_k D_k  → (1 − t) F on r_j, t F on r_{j+1},
-    M = M_w + Σ_k m_b,k D_k,   m_k = M · d_k(q) / n²,   Q = (2 / n²) Σ_k m_k B_k q  on q_j,
+    M = M_w + Σ_k m_b,k D_k,   m_k = M · d_k(q) / n²,   Q_c = (2 / n²) Σ_k m_k B_k q,
+    μ_c Q_c on q_c,
     ∂D_k/∂q̃ = G_k(q̃) / ñ² − 2 d_k(q̃) q̃ᵀ / ñ⁴,
     ∂m_k/∂q = Mᵀ G_k(q) / n² − 2 m_k qᵀ / n²,   ∂m_k/∂q̃ = d_k(q)ᵀ (∂M/∂q̃) / n²,
-    ∂Q/∂q = (2 / n²) Σ_k (m_k B_k + (B_k q) ∂m_k/∂qᵀ) − 2 Q qᵀ / n²,
-    ∂Q/∂q̃ = (2 / n²) Σ_k (B_k q) ∂m_k/∂q̃ᵀ,   ∂/∂q_a = w_a ∂/∂q̃,  ∂/∂q_b = w_b ∂/∂q̃.
+    ∂Q_c/∂q_c = (2 / n²) Σ_k (m_k B_k + (B_k q) ∂m_k/∂qᵀ) − 2 Q_c qᵀ / n²,
+    ∂Q_c/∂q̃ = (2 / n²) Σ_k (B_k q) ∂m_k/∂q̃ᵀ,   ∂/∂q_a = w_a ∂/∂q̃,  ∂/∂q_b = w_b ∂/∂q̃.
 
 Without follower loads or moments (``follower`` false) only the dead forces are added.
 """
@@ -43,7 +45,7 @@ def _frame(q: np.ndarray, d: np.ndarray, g: np.ndarray, row: np.ndarray,
 
 @njit(cache=True)
 def evaluate(x: np.ndarray, dofs: np.ndarray, weights: np.ndarray, frame_weights: np.ndarray,
-             own: np.ndarray, world_force: np.ndarray, body_force: np.ndarray,
+             moment_weights: np.ndarray, world_force: np.ndarray, body_force: np.ndarray,
              world_moment: np.ndarray, body_moment: np.ndarray, follower: bool, scale: float,
              want_force: bool, force: np.ndarray, force_target: np.ndarray,
              want_jacobian: bool, jacobian: np.ndarray, jacobian_target: np.ndarray) -> None:
@@ -83,11 +85,8 @@ def evaluate(x: np.ndarray, dofs: np.ndarray, weights: np.ndarray, frame_weights
             continue
         wa = frame_weights[e, 0]
         wb = frame_weights[e, 1]
-        mine = 6 + 4 * own[e]
         for a in range(4):
-            q[a] = x[dofs[e, mine + a]]
             qi[a] = wa * x[dofs[e, 6 + a]] + wb * x[dofs[e, 10 + a]]
-        n2 = _frame(q, d, g, row, grad)
         ni2 = _frame(qi, di, gi, row, grad)
         ni4 = ni2 * ni2
         for k in range(3):
@@ -102,26 +101,14 @@ def evaluate(x: np.ndarray, dofs: np.ndarray, weights: np.ndarray, frame_weights
                 tv += body_moment[e, k] * di[k, mm] / ni2
             f[mm] = fv
             total[mm] = tv
-        for k in range(3):
-            proj = 0.0
-            for mm in range(3):
-                proj += total[mm] * d[k, mm]
-            m[k] = proj / n2
-            for a in range(4):
-                value = 0.0
-                for b in range(4):
-                    value += _B[k, a, b] * q[b]
-                bq[k, a] = value
-        for a in range(4):
-            moment_force[a] = 2.0 * (m[0] * bq[0, a] + m[1] * bq[1, a] + m[2] * bq[2, a]) / n2
         if want_force:
             for a in range(3):
                 local_force[a] = w0 * f[a]
                 local_force[3 + a] = w1 * f[a]
-            for a in range(4):
-                local_force[mine + a] = moment_force[a]
-            add_force(force, force_target, e, local_force, scale)
         if want_jacobian:
+            for a in range(14):
+                for b in range(14):
+                    local_jacobian[a, b] = 0.0
             for mm in range(3):
                 for a in range(4):
                     fv = 0.0
@@ -131,27 +118,6 @@ def evaluate(x: np.ndarray, dofs: np.ndarray, weights: np.ndarray, frame_weights
                         tv += body_moment[e, k] * dunit[k, mm, a]
                     dforce[mm, a] = fv
                     dtotal[mm, a] = tv
-            for k in range(3):
-                for a in range(4):
-                    direct_value = 0.0
-                    frame_value = 0.0
-                    for mm in range(3):
-                        direct_value += total[mm] * g[k, mm, a]
-                        frame_value += d[k, mm] * dtotal[mm, a]
-                    dm_q[k, a] = direct_value / n2 - 2.0 * m[k] * q[a] / n2
-                    dm_i[k, a] = frame_value / n2
-            for a in range(4):
-                for b in range(4):
-                    value = 0.0
-                    value_i = 0.0
-                    for k in range(3):
-                        value += m[k] * _B[k, a, b] + bq[k, a] * dm_q[k, b]
-                        value_i += bq[k, a] * dm_i[k, b]
-                    direct[a, b] = 2.0 * value / n2 - 2.0 * moment_force[a] * q[b] / n2
-                    through[a, b] = 2.0 * value_i / n2
-            for a in range(14):
-                for b in range(14):
-                    local_jacobian[a, b] = 0.0
             for c in range(2):
                 w = wa if c == 0 else wb
                 col = 6 + 4 * c
@@ -159,10 +125,59 @@ def evaluate(x: np.ndarray, dofs: np.ndarray, weights: np.ndarray, frame_weights
                     for a in range(4):
                         local_jacobian[mm, col + a] = w0 * w * dforce[mm, a]
                         local_jacobian[3 + mm, col + a] = w1 * w * dforce[mm, a]
+        for c in range(2):  # each quaternion of the pair: its share of the moment
+            share = moment_weights[e, c]
+            if share == 0.0:
+                continue
+            mine = 6 + 4 * c
+            for a in range(4):
+                q[a] = x[dofs[e, mine + a]]
+            n2 = _frame(q, d, g, row, grad)
+            for k in range(3):
+                proj = 0.0
+                for mm in range(3):
+                    proj += total[mm] * d[k, mm]
+                m[k] = proj / n2
+                for a in range(4):
+                    value = 0.0
+                    for b in range(4):
+                        value += _B[k, a, b] * q[b]
+                    bq[k, a] = value
+            for a in range(4):
+                moment_force[a] = 2.0 * (m[0] * bq[0, a] + m[1] * bq[1, a]
+                                         + m[2] * bq[2, a]) / n2
+            if want_force:
+                for a in range(4):
+                    local_force[mine + a] += share * moment_force[a]
+            if want_jacobian:
+                for k in range(3):
+                    for a in range(4):
+                        direct_value = 0.0
+                        frame_value = 0.0
+                        for mm in range(3):
+                            direct_value += total[mm] * g[k, mm, a]
+                            frame_value += d[k, mm] * dtotal[mm, a]
+                        dm_q[k, a] = direct_value / n2 - 2.0 * m[k] * q[a] / n2
+                        dm_i[k, a] = frame_value / n2
                 for a in range(4):
                     for b in range(4):
-                        value = w * through[a, b]
-                        if own[e] == c:
-                            value += direct[a, b]
-                        local_jacobian[mine + a, col + b] = value
+                        value = 0.0
+                        value_i = 0.0
+                        for k in range(3):
+                            value += m[k] * _B[k, a, b] + bq[k, a] * dm_q[k, b]
+                            value_i += bq[k, a] * dm_i[k, b]
+                        direct[a, b] = 2.0 * value / n2 - 2.0 * moment_force[a] * q[b] / n2
+                        through[a, b] = 2.0 * value_i / n2
+                for col in range(2):
+                    w = wa if col == 0 else wb
+                    base = 6 + 4 * col
+                    for a in range(4):
+                        for b in range(4):
+                            value = w * through[a, b]
+                            if col == c:
+                                value += direct[a, b]
+                            local_jacobian[mine + a, base + b] += share * value
+        if want_force:
+            add_force(force, force_target, e, local_force, scale)
+        if want_jacobian:
             add_jacobian(jacobian, jacobian_target, e, local_jacobian, scale)
