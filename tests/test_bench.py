@@ -9,6 +9,7 @@ seconds are marked ``slow``.
 
 from __future__ import annotations
 
+import json
 import math
 import sys
 from pathlib import Path
@@ -506,3 +507,21 @@ def test_workers_small_outputs(tmp_path):
     ds = _open(tmp_path / "workers-small.nc")
     assert list(ds["workers"].values) == list(workers.WORKERS)
     assert np.all(ds["wall"].values > 0) and np.all(ds["cpu"].values > 0)
+
+
+def test_floor_small_outputs(tmp_path):
+    """``rodsim bench floor --size small``: each scene's solve counted (Newton's F, ∂F/∂x and
+    linear solves present: a conservative scene's line search calls the energy), the raw
+    costs positive and the floor below the solve it is a part of."""
+    from rodsim_bench import floor
+
+    paths = floor.run("small", tmp_path, lambda *_: None)
+    assert {p.name for p in paths} == {"floor-small.json", "floor-small.md"}
+    report = json.loads((tmp_path / "floor-small.json").read_text())
+    assert {"cpu", "cores_available", "python", "git_commit"} <= set(report["machine"])
+    for row in report["rows"]:
+        assert row["counts"]["jacobian"] >= row["newton_iters"] > 0
+        assert row["counts"]["linear"] >= row["newton_iters"]
+        assert all(row["raw_s"][key] > 0 for key in ("force", "jacobian", "linear"))
+        assert 0 < row["floor_s"] < row["solve_s"]
+    assert "| four-tendons |" in (tmp_path / "floor-small.md").read_text()

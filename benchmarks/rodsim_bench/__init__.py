@@ -2,7 +2,7 @@
 the paper's damping regime, scaling in N (and to N = 100 000), the stability stress map,
 what skipping unneeded work buys, the fast core (compiled kernels against the numpy
 reference), the string tendons' solves against their reference, contact, and a contact force
-recovered from the shape (force-from-shape); what a user
+recovered from the shape (force-from-shape), a static solve against its floor (floor); what a user
 waits for around the solves: the whole-process CPU of short commands (startup), the
 tracking rate (tracking) and a study on 1 and 2 workers (workers).
 
@@ -14,5 +14,5 @@ Timings on shared machines are noisy: compare the ratios measured within one run
 """
 
 BENCHMARKS = ("work-precision", "paper-regime", "scaling", "large-n", "stress", "skip-work",
-              "kernels", "pyelastica", "string-tendon", "contact", "force-from-shape", "startup",
-              "tracking", "workers")
+              "kernels", "pyelastica", "string-tendon", "contact", "force-from-shape", "floor",
+              "startup", "tracking", "workers")

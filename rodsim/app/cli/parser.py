@@ -223,8 +223,8 @@ def build_parser() -> argparse.ArgumentParser:
 
     bench = sub.add_parser("bench", help="run a benchmark (work-precision, scaling, large-n, "
                            "stress, skip-work, kernels, paper-regime, pyelastica, "
-                           "string-tendon, contact, force-from-shape, startup, tracking, "
-                           "workers)",
+                           "string-tendon, contact, force-from-shape, floor, startup, "
+                           "tracking, workers)",
                            description="Time the integrators against their error, their cost "
                            "in N, or their stability over a parameter map; writes netCDF, "
                            "figures and a markdown table with the machine description. The "
@@ -234,8 +234,8 @@ def build_parser() -> argparse.ArgumentParser:
                            "one the current folder is in.")
     bench.add_argument("benchmark", metavar="BENCHMARK",
                        help="work-precision, scaling, large-n, stress, skip-work, kernels, "
-                       "paper-regime, string-tendon, contact, force-from-shape, startup, "
-                       "tracking, workers or "
+                       "paper-regime, string-tendon, contact, force-from-shape, floor, "
+                       "startup, tracking, workers or "
                        "pyelastica (the last needs 'pip install pyelastica==1.0.0'; never a "
                        "dependency)")
     bench.add_argument("--size", choices=("small", "full"), default="small",
