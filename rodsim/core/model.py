@@ -876,11 +876,27 @@ class Model:
                 starts.astype(np.int64),
                 np.array(couplings, dtype=np.int64).reshape(-1, 6))
 
+    @cached_property
+    def _quaternion_chains(self) -> np.ndarray:
+        """Full quaternion indices (segment, 4) of every rod, in the order of
+        ``_step_maps``' chains: rod k in rows starts[k] − k:starts[k+1] − k − 1."""
+        return np.ascontiguousarray(np.concatenate(
+            [rod.layout.quaternion_index for rod in self.rods.values()]), dtype=np.int64)
+
     def turned_step(self, x: np.ndarray, dx: np.ndarray) -> np.ndarray:
         """:meth:`step` with each rod's segments turned as rigid frames instead of their
         lengths kept (rodsim/core/rod/retraction.py; ``solver.static.retraction =
         "frames"``); the endpoint couplings as in :meth:`step`. Equal to x + dx to first
-        order in dx."""
+        order in dx. Compiled (``turn`` of rodsim/core/kernels/_retraction.py) with
+        ``kernels = "compiled"``; this numpy code is the reference."""
+        if self.kernels == "compiled":
+            from rodsim.core.kernels._retraction import turn
+
+            chains, starts, couplings = self._step_maps
+            y = x + dx
+            turn(x, dx, y, self.rest_full, self._free_of, chains, starts,
+                 self._quaternion_chains, couplings)
+            return y
         before, after = self.full(x), self.full(x + dx)
         for rod in self.rods.values():
             position, quaternion = rod.layout.position_index, rod.layout.quaternion_index

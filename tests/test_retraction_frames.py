@@ -1,0 +1,44 @@
+"""The compiled frames retraction (``turn`` of rodsim/core/kernels/_retraction.py) against its
+numpy reference (:func:`rodsim.core.rod.retraction.turn_segments` in
+:meth:`rodsim.core.model.Model.turned_step` with ``kernels = "numpy"``)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import rodsim
+from rodsim.core.model import Model
+
+#: Scenes with fixed nodes (a clamp, an inserted base), several rods and an endpoint coupling
+#: (table3-catheter1, four-tendons), string tendons (tdcr-two-segment, catheter-pull-ring).
+SCENES = ["tdcr-two-segment", "catheter-pull-ring", "table3-catheter1", "four-tendons",
+          "table1-50g", "vessel-insertion"]
+
+
+@pytest.mark.parametrize("scene", SCENES)
+def test_compiled_frames_retraction_matches_the_numpy_reference(scene):
+    """Large random steps (segments turned by tenths of a radian), so that the retraction
+    differs from x + dx by far more than round-off: the two must agree to round-off."""
+    loaded = rodsim.load_scene(scene)
+    compiled, reference = Model(loaded, kernels="compiled"), Model(loaded, kernels="numpy")
+    rng = np.random.default_rng(11)
+    x = compiled.x0 + 1e-3 * rng.normal(size=compiled.n)
+    dx = 0.1 * rng.normal(size=compiled.n)
+    fast, slow = compiled.turned_step(x, dx), reference.turned_step(x, dx)
+    assert np.abs(slow - (x + dx)).max() > 1e-4  # the retraction does something here
+    scale = np.abs(slow).max()
+    assert np.abs(fast - slow).max() <= 1e-13 * scale
+    small = 1e-6 * dx
+    assert np.abs(compiled.turned_step(x, small) - (x + small)).max() < 1e-3 * np.abs(small).max()
+
+
+def test_static_solve_with_compiled_frames_matches_the_numpy_path():
+    """A whole static solve of tdcr-two-segment with the frames retraction: the compiled
+    kernels (the retraction among them) and the numpy references reach the same equilibrium
+    within the residual floor (1.2e-9 L)."""
+    scene = rodsim.load_scene("tdcr-two-segment", ["solver.static.retraction=frames"])
+    compiled = rodsim.solve(scene, "static")
+    numpy_path = rodsim.solve(scene.with_overrides(["kernels=numpy"]), "static")
+    assert compiled.success and numpy_path.success
+    assert np.abs(compiled.positions() - numpy_path.positions()).max() < 5e-9 * 0.4
