@@ -42,3 +42,31 @@ def test_static_solve_with_compiled_frames_matches_the_numpy_path():
     numpy_path = rodsim.solve(scene.with_overrides(["kernels=numpy"]), "static")
     assert compiled.success and numpy_path.success
     assert np.abs(compiled.positions() - numpy_path.positions()).max() < 5e-9 * 0.4
+
+
+@pytest.mark.parametrize(("scene", "expected"), [
+    ("tdcr-two-segment", "frames"), ("catheter-pull-ring", "frames"),
+    ("catheter-helical", "frames"), ("table1-50g", "frames"), ("vessel-insertion", "frames"),
+    ("table3-catheter1", "lengths"), ("four-tendons", "lengths"),
+    ("tendon-conserving", "lengths")])
+def test_the_default_retraction_follows_the_model(scene, expected):
+    """``retraction = "auto"`` (the default): "lengths" where a tendon is a rod (the paper's
+    couplings, measured no faster with "frames"), "frames" otherwise; a named one is kept."""
+    from rodsim.solvers.static import Static, retraction_of
+
+    loaded = rodsim.load_scene(scene)
+    model = Model(loaded)
+    assert Static.options_of(loaded).retraction == "auto"
+    assert retraction_of(model, "auto") == expected
+    assert retraction_of(model, "lengths") == "lengths"
+    assert retraction_of(model, "frames") == "frames"
+
+
+def test_the_default_static_solve_of_tdcr_takes_the_frames_path():
+    """Without hand tuning, tdcr-two-segment's static solve is the frames one: the same
+    iterations and the same equilibrium as with ``retraction = "frames"`` named."""
+    scene = rodsim.load_scene("tdcr-two-segment")
+    default = rodsim.solve(scene, "static")
+    named = rodsim.solve(scene.with_overrides(["solver.static.retraction=frames"]), "static")
+    assert default.stats["newton_iters"] == named.stats["newton_iters"] <= 6
+    assert np.array_equal(default.positions(), named.positions())
