@@ -58,6 +58,9 @@ __all__ = ["Model", "Band", "KERNELS", "KernelCall", "scene_rod"]
 
 #: The evaluation paths (``solver.kernels``).
 KERNELS = ("compiled", "numpy")
+#: Largest Jacobian (stored entries) whose last evaluation a model keeps (:meth:`Model.evaluate`):
+#: 8 MB; above, one evaluation's time matters less than the memory (F is always kept).
+MEMO_ENTRIES = 1 << 20
 
 
 @dataclass(frozen=True)
@@ -177,6 +180,8 @@ class Model:
 
     #: How the compiled path calls each term's kernel; built at the first compiled call.
     _kernel_calls: list[KernelCall] | None
+    #: The last evaluation: (state, load, F or None, ∂F/∂x data or None); see evaluate().
+    _memo: tuple[np.ndarray, float, np.ndarray | None, np.ndarray | None] | None
 
     def __init__(self, scene: Scene, kernels: str | None = None,
                  budget: AssemblyBudget | None = None) -> None:
@@ -261,6 +266,7 @@ class Model:
                 raise TypeError(f"penalty term {term.name!r} must set a finite positive float "
                                 "penalty_ratio (rodsim/core/terms/base.py)")
         #: Factor on each term's output: 1, or a penalty continuation scale.
+        self._memo = None
         self.term_scales = np.ones(len(self.terms))
         self._scale_list = self.term_scales.tolist()  # as floats, for the evaluation loops
 
@@ -402,7 +408,16 @@ class Model:
         return [index for index, key in enumerate(self.term_keys) if key in changed]
 
     # ------------------------------------------------------------------ setup
+    def __copy__(self) -> Model:
+        """A shallow copy without the memo of the last evaluation (:meth:`evaluate`): every
+        derived model (other values, scales or registration) is a copy."""
+        other = object.__new__(type(self))
+        other.__dict__.update(self.__dict__)
+        other._memo = None
+        return other
+
     def _build_maps(self) -> None:
+        self._memo = None
         self._free_of = np.full(self.full_size, self.n)  # fixed -> dump slot n
         self._free_of[self.free] = np.arange(self.n)
         self._build_force_scatter()
@@ -781,7 +796,29 @@ class Model:
     def evaluate(self, x: np.ndarray, load: float = 1.0, *, force: bool = True,
                  jacobian: bool = True) -> tuple[np.ndarray, np.ndarray]:
         """F(x) and ∂F/∂x (CSC data in :attr:`pattern` order) in one pass; the one not asked
-        for comes back empty."""
+        for comes back empty.
+
+        The last evaluation is remembered (:data:`MEMO_ENTRIES`): asked again at the same
+        state and load — a solve's checks after it converged evaluate F at the state its last
+        Newton step reached, the correction residual and the stability verdict ∂F/∂x at the
+        same state — it returns copies of the same numbers instead of evaluating again."""
+        memo = self._memo
+        if (memo is not None and memo[1] == load and (memo[2] is not None or not force)
+                and (memo[3] is not None or not jacobian) and np.array_equal(memo[0], x)):
+            return (memo[2].copy() if force else np.zeros(0),
+                    memo[3].copy() if jacobian else np.zeros(0))
+        f, j = self._evaluate(x, load, force, jacobian)
+        if memo is not None and memo[1] == load and np.array_equal(memo[0], x):
+            kept_f, kept_j = memo[2], memo[3]  # the part not asked for this time
+        else:
+            kept_f = kept_j = None
+        self._memo = (np.array(x, dtype=float), load, f.copy() if force else kept_f,
+                      j.copy() if jacobian and self.nnz <= MEMO_ENTRIES else kept_j)
+        return f, j
+
+    def _evaluate(self, x: np.ndarray, load: float, force: bool,
+                  jacobian: bool) -> tuple[np.ndarray, np.ndarray]:
+        """:meth:`evaluate` without the memo."""
         full = self.full(x)
         if self.kernels == "compiled":
             return self._evaluate_compiled(full, load, force, jacobian)
