@@ -98,6 +98,8 @@ def evaluate(x: np.ndarray, dofs: np.ndarray, weights: np.ndarray, constant: np.
              forms: np.ndarray, tension: float, scale: float, want_force: bool,
              force: np.ndarray, force_target: np.ndarray, want_jacobian: bool,
              jacobian: np.ndarray, jacobian_target: np.ndarray) -> None:
+    if tension == 0.0:
+        return  # a slack tendon: every entry is zero (its tension is a factor of each)
     local_force = np.empty(28)
     local_jacobian = np.empty((28, 28))
     columns = np.empty(28, dtype=np.int64)
@@ -174,6 +176,8 @@ def evaluate(x: np.ndarray, dofs: np.ndarray, weights: np.ndarray, constant: np.
 def energy(x: np.ndarray, dofs: np.ndarray, weights: np.ndarray, constant: np.ndarray,
            forms: np.ndarray, tension: float) -> float:
     """T Σ |p_{k+1} − p_k|."""
+    if tension == 0.0:
+        return 0.0
     p, _, _ = _points(x, dofs, weights, constant, forms, False)
     total = 0.0
     for e in range(dofs.shape[0]):
