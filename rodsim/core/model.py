@@ -58,8 +58,10 @@ __all__ = ["Model", "Band", "KERNELS", "KernelCall", "scene_rod"]
 
 #: The evaluation paths (``solver.kernels``).
 KERNELS = ("compiled", "numpy")
-#: Largest Jacobian (stored entries) whose last evaluation a model keeps (:meth:`Model.evaluate`):
-#: 8 MB; above, one evaluation's time matters less than the memory (F is always kept).
+#: States whose evaluation a model remembers (:meth:`Model.evaluate`).
+MEMO_STATES = 2
+#: Largest Jacobian (stored entries) a model remembers (:meth:`Model.evaluate`): 8 MB each;
+#: above, one evaluation's time matters less than the memory (F is always kept).
 MEMO_ENTRIES = 1 << 20
 
 
@@ -180,8 +182,9 @@ class Model:
 
     #: How the compiled path calls each term's kernel; built at the first compiled call.
     _kernel_calls: list[KernelCall] | None
-    #: The last evaluation: (state, load, F or None, ∂F/∂x data or None); see evaluate().
-    _memo: tuple[np.ndarray, float, np.ndarray | None, np.ndarray | None] | None
+    #: The last evaluations, newest first: (state, load, F or None, ∂F/∂x data or None);
+    #: see evaluate().
+    _memo: list[tuple[np.ndarray, float, np.ndarray | None, np.ndarray | None]]
 
     def __init__(self, scene: Scene, kernels: str | None = None,
                  budget: AssemblyBudget | None = None) -> None:
@@ -266,7 +269,7 @@ class Model:
                 raise TypeError(f"penalty term {term.name!r} must set a finite positive float "
                                 "penalty_ratio (rodsim/core/terms/base.py)")
         #: Factor on each term's output: 1, or a penalty continuation scale.
-        self._memo = None
+        self._memo = []
         self.term_scales = np.ones(len(self.terms))
         self._scale_list = self.term_scales.tolist()  # as floats, for the evaluation loops
 
@@ -413,11 +416,11 @@ class Model:
         derived model (other values, scales or registration) is a copy."""
         other = object.__new__(type(self))
         other.__dict__.update(self.__dict__)
-        other._memo = None
+        other._memo = []
         return other
 
     def _build_maps(self) -> None:
-        self._memo = None
+        self._memo = []
         self._free_of = np.full(self.full_size, self.n)  # fixed -> dump slot n
         self._free_of[self.free] = np.arange(self.n)
         self._build_force_scatter()
@@ -798,22 +801,25 @@ class Model:
         """F(x) and ∂F/∂x (CSC data in :attr:`pattern` order) in one pass; the one not asked
         for comes back empty.
 
-        The last evaluation is remembered (:data:`MEMO_ENTRIES`): asked again at the same
-        state and load — a solve's checks after it converged evaluate F at the state its last
-        Newton step reached, the correction residual and the stability verdict ∂F/∂x at the
-        same state — it returns copies of the same numbers instead of evaluating again."""
-        memo = self._memo
-        if (memo is not None and memo[1] == load and (memo[2] is not None or not force)
-                and (memo[3] is not None or not jacobian) and np.array_equal(memo[0], x)):
-            return (memo[2].copy() if force else np.zeros(0),
-                    memo[3].copy() if jacobian else np.zeros(0))
+        The last :data:`MEMO_STATES` evaluated states are remembered (∂F/∂x up to
+        :data:`MEMO_ENTRIES`): asked again at the same state and load — a solve's checks
+        after it converged evaluate F at the state its last Newton step reached (before a
+        rejected polishing trial), the correction residual and the stability verdict ∂F/∂x
+        at the same state — it returns copies of the same numbers instead of evaluating
+        again."""
+        same = None
+        for entry in self._memo:
+            if entry[1] == load and np.array_equal(entry[0], x):
+                if (entry[2] is not None or not force) and (entry[3] is not None or not jacobian):
+                    return (entry[2].copy() if force else np.zeros(0),
+                            entry[3].copy() if jacobian else np.zeros(0))
+                same = entry  # this state, without the part asked for now
+                break
         f, j = self._evaluate(x, load, force, jacobian)
-        if memo is not None and memo[1] == load and np.array_equal(memo[0], x):
-            kept_f, kept_j = memo[2], memo[3]  # the part not asked for this time
-        else:
-            kept_f = kept_j = None
-        self._memo = (np.array(x, dtype=float), load, f.copy() if force else kept_f,
-                      j.copy() if jacobian and self.nnz <= MEMO_ENTRIES else kept_j)
+        kept_f, kept_j = (same[2], same[3]) if same is not None else (None, None)
+        entry = (np.array(x, dtype=float), load, f.copy() if force else kept_f,
+                 j.copy() if jacobian and self.nnz <= MEMO_ENTRIES else kept_j)
+        self._memo = [entry] + [e for e in self._memo if e is not same][:MEMO_STATES - 1]
         return f, j
 
     def _evaluate(self, x: np.ndarray, load: float, force: bool,
@@ -844,6 +850,8 @@ class Model:
         j = np.zeros(self.nnz + 1 if jacobian else 1)
         for call in self._kernel_calls:
             scale = self._scale(call.term_index, call.term, load)
+            if scale == 0.0:
+                continue  # a load at load fraction 0 (or a term scaled away): adds only zeros
             call.kernel.evaluate(full, *call.arguments, scale, force, f, call.force_target,
                                  jacobian, j, call.jacobian_target)
         return (f[:-1] if force else np.zeros(0)), (j[:-1] if jacobian else np.zeros(0))
