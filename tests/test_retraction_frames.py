@@ -52,7 +52,8 @@ def test_static_solve_with_compiled_frames_matches_the_numpy_path():
 def test_the_default_retraction_follows_the_model(scene, expected):
     """``retraction = "auto"`` (the default): "lengths" where a tendon is a rod (the paper's
     couplings, measured no faster with "frames"), "frames" otherwise; a named one is kept."""
-    from rodsim.solvers.static import Static, retraction_of
+    from rodsim.solvers.base import retraction_of
+    from rodsim.solvers.static import Static
 
     loaded = rodsim.load_scene(scene)
     model = Model(loaded)

@@ -69,6 +69,16 @@ class Outcome:
     message: str
 
 
+def retraction_of(model: Model, option: str) -> str:
+    """The retraction ``option`` names on ``model``: "auto" is "lengths" if a tendon of the
+    model is a rod (the paper's two-rod couplings: "frames" was measured no faster there,
+    docs/benchmarks.md, "Solver design measurements") and "frames" otherwise."""
+    if option != "auto":
+        return option
+    rod_tendon = any(tendon.rod is not None for tendon in model.tendons.values())
+    return "lengths" if rod_tendon else "frames"
+
+
 def correction_residual(model: Model, x: np.ndarray, force: np.ndarray) -> float:
     """How far ``x`` is from the equilibrium of ``model``, as a fraction of the load's effect:
     max |J⁻¹ F| / max |J⁻¹ F_load| over the coordinates scaled by their size (L_ref for
@@ -226,8 +236,10 @@ class Integrator(ABC, Generic[S]):
         iterations), which the caller counts. ``polish``: see
         :func:`rodsim.solvers.newton.newton`; ``retraction``: how a step moves the rods —
         ``None``: x + Δx; ``"lengths"``: :meth:`Model.step` (segment lengths kept);
-        ``"frames"``: :meth:`Model.turned_step` (segments turned as rigid frames)."""
+        ``"frames"``: :meth:`Model.turned_step` (segments turned as rigid frames);
+        ``"auto"``: one of the two by the model's content (:func:`retraction_of`)."""
         model = run.model
+        retraction = retraction_of(model, retraction) if retraction == "auto" else retraction
         problem = NewtonProblem(
             force=lambda y: run.force(y, load),
             jacobian=lambda y: run.jacobian_data(y, load),

@@ -22,11 +22,12 @@ are not polished past the tolerance; only the last one is.
 
 ``retraction``: how a Newton step moves the rods. ``"lengths"`` is the retraction above;
 ``"frames"`` turns each segment as a rigid frame (:meth:`Model.turned_step`,
-rodsim/core/rod/retraction.py), far fewer iterations when segments turn a lot (tdcr-two-segment:
-5–6 instead of 13–98). The default ``"auto"`` (:func:`retraction_of`) takes "frames" unless a
-tendon of the model is a rod (the paper's two-rod couplings), where "lengths" was measured as
-fast or faster (four-tendons: 4 iterations against 5, table3-*: 25–30 against 29, each
-iteration dearer) and keeps the numbers those scenes were published with.
+rodsim/core/rod/retraction.py), far fewer iterations when segments turn a lot
+(tdcr-two-segment: 5–6 instead of 13–98). The default ``"auto"``
+(:func:`rodsim.solvers.base.retraction_of`) takes "frames" unless a tendon of the model is
+a rod (the paper's two-rod couplings), where "lengths" was measured as fast or faster
+(four-tendons: 4 iterations against 5, table3-*: 25–30 against 29, each iteration dearer)
+and keeps the numbers those scenes were published with.
 
 Why each of these choices, with the measurements behind them (iterations and times per
 scene, what was tried and dropped): docs/benchmarks.md, "Solver design measurements".
@@ -66,7 +67,7 @@ from rodsim.solvers.run_state import MAX_SETTLES, RunState
 #: ``first_load_step`` is larger): see the module docstring.
 NONCONSERVATIVE_FIRST_STEP = 0.25
 #: ``retraction`` choices: :meth:`Model.step`, :meth:`Model.turned_step`, or by the model's
-#: content (:func:`retraction_of`, the default).
+#: content (:func:`rodsim.solvers.base.retraction_of`, the default).
 RETRACTIONS = ("auto", "lengths", "frames")
 #: Chord iterations (kept factorisation) a continuation step tries before Newton.
 MAX_CHORD = 10
@@ -285,17 +286,7 @@ class Static(Integrator[StaticState]):
         returns (converged, x, iterations)."""
         converged, x, iterations = self.newton_equilibrium(
             run, x, load, self.options.max_newton, f"load fraction {load:.4g}", polish,
-            retraction=retraction_of(run.model, self.options.retraction))
+            retraction=self.options.retraction)
         run.counts["newton_iters"] += iterations
         run.counts["linear_solves"] += iterations
         return converged, x, iterations
-
-
-def retraction_of(model: Model, option: str) -> str:
-    """The retraction ``option`` names on ``model``: "auto" is "lengths" if a tendon of the
-    model is a rod (the paper's two-rod couplings: "frames" was measured no faster there,
-    docs/benchmarks.md, "Solver design measurements") and "frames" otherwise."""
-    if option != "auto":
-        return option
-    rod_tendon = any(tendon.rod is not None for tendon in model.tendons.values())
-    return "lengths" if rod_tendon else "frames"
