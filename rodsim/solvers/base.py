@@ -71,12 +71,16 @@ class Outcome:
 
 def retraction_of(model: Model, option: str) -> str:
     """The retraction ``option`` names on ``model``: "auto" is "lengths" if a tendon of the
-    model is a rod (the paper's two-rod couplings: "frames" was measured no faster there,
-    docs/benchmarks.md, "Solver design measurements") and "frames" otherwise."""
+    model is a rod (the paper's two-rod couplings: "frames" was measured no faster there) or
+    a rod meets an obstacle (contact: on a tip pushed onto a plane, the frames' first full
+    steps took the rod where its stiffness is indefinite and Newton failed, 20-80 nodes,
+    where "lengths" converged), and "frames" otherwise (docs/benchmarks.md, "Solver design
+    measurements")."""
     if option != "auto":
         return option
     rod_tendon = any(tendon.rod is not None for tendon in model.tendons.values())
-    return "lengths" if rod_tendon else "frames"
+    contact = any(term.name == "contact" for term in model.terms)
+    return "lengths" if rod_tendon or contact else "frames"
 
 
 def correction_residual(model: Model, x: np.ndarray, force: np.ndarray) -> float:

@@ -27,7 +27,9 @@ rodsim/core/rod/retraction.py), far fewer iterations when segments turn a lot
 (:func:`rodsim.solvers.base.retraction_of`) takes "frames" unless a tendon of the model is
 a rod (the paper's two-rod couplings), where "lengths" was measured as fast or faster
 (four-tendons: 4 iterations against 5, table3-*: 25–30 against 29, each iteration dearer)
-and keeps the numbers those scenes were published with.
+and keeps the numbers those scenes were published with, or a rod meets an obstacle, where
+the frames' long first steps were measured to leave Newton on an indefinite stiffness (a
+tip pushed onto a plane: failed where "lengths" converges).
 
 Why each of these choices, with the measurements behind them (iterations and times per
 scene, what was tried and dropped): docs/benchmarks.md, "Solver design measurements".
@@ -111,7 +113,7 @@ class Static(Integrator[StaticState]):
                   "how a Newton step moves the rods: 'lengths' (segment lengths kept), "
                   "'frames' (segments turned as rigid frames: far fewer iterations when "
                   "segments turn a lot, rodsim/core/rod/retraction.py) or 'auto' ('frames' "
-                  "unless a tendon is a rod, then 'lengths')",
+                  "unless a tendon is a rod or a rod meets an obstacle, then 'lengths')",
                   choices=RETRACTIONS),
     )
 
