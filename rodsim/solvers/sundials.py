@@ -201,7 +201,9 @@ class SundialsIntegrator(Integrator[SundialsState]):
         for λ from 0 to 1 (rodsim/solvers/continuation.py) — whose equilibrium is next to the
         full one, then Newton at the full penalties from there. Both through the retraction
         :meth:`Model.step` — or, on a model with string tendons, the Newton at full penalties
-        through :meth:`Model.turned_step` (segments turned as rigid frames): on
+        through the retraction ``static``'s default picks
+        (:func:`rodsim.solvers.base.retraction_of`: the frames, :meth:`Model.turned_step`,
+        unless a rod meets an obstacle): on
         tdcr-two-segment the finish with :meth:`Model.step` failed three times in the cases
         where a long distal segment turns (CVODE then took ~200 steps, 116 ms; with the
         frames, one finish after 11-12 steps, 10 ms). Only there: on table1-50g the frames
@@ -212,8 +214,8 @@ class SundialsIntegrator(Integrator[SundialsState]):
             return False, state, iterations
         converged, state, more = self.newton_equilibrium(
             run, state, 1.0, self.options.newton_iterations, "the Newton finish",
-            retraction="frames" if any(tendon.rod is None for tendon in
-                                       run.model.tendons.values()) else "lengths")
+            retraction="auto" if any(tendon.rod is None for tendon in
+                                     run.model.tendons.values()) else "lengths")
         return converged, state, iterations + more
 
     def at_lowered_penalties(self, run: SundialsState,
