@@ -810,9 +810,10 @@ class Model:
         same = None
         for entry in self._memo:
             if entry[1] == load and np.array_equal(entry[0], x):
-                if (entry[2] is not None or not force) and (entry[3] is not None or not jacobian):
-                    return (entry[2].copy() if force else np.zeros(0),
-                            entry[3].copy() if jacobian else np.zeros(0))
+                known_f, known_j = entry[2], entry[3]
+                if (known_f is not None or not force) and (known_j is not None or not jacobian):
+                    return (known_f.copy() if known_f is not None and force else np.zeros(0),
+                            known_j.copy() if known_j is not None and jacobian else np.zeros(0))
                 same = entry  # this state, without the part asked for now
                 break
         f, j = self._evaluate(x, load, force, jacobian)
