@@ -75,3 +75,25 @@ def test_jacobian_reuse_reaches_the_same_root(reuse):
     assert outcomes[reuse].converged, outcomes[reuse].message
     scale = model.length_scale
     assert np.max(np.abs(outcomes[reuse].x - outcomes["fresh"].x)) < 1e-6 * scale
+
+
+def test_polishing_does_not_backtrack():
+    """Below the tolerance (polishing), a full step the energy test rejects and that does not
+    halve the residual ends the iteration at once: backtracking could keep only a step that
+    halves the residual, which a shorter one does not. Here a Jacobian twice too stiff makes
+    every step exactly halve the residual (not strictly below half) and the energy grows
+    toward the root; before, the iteration backtracked to alpha < 1e-10 (35 evaluations)."""
+    calls = []
+
+    def force(y):
+        calls.append(y.copy())
+        return -y
+
+    one = np.zeros(1, dtype=int)
+    linear = LinearSolver(sp.csc_matrix(np.ones((1, 1))), one, one, (0, 0), symmetric=False)
+    problem = NewtonProblem(force=force, jacobian=lambda y: np.array([-2.0]), linear=linear,
+                            residual=lambda g: float(np.max(np.abs(g))), weight=np.ones(1),
+                            potential=lambda y: 1.0 / (1.0 + float(y @ y)))
+    result = newton(problem, np.array([1e-3]), 1.0, 10)
+    assert result.converged and result.x[0] == 1e-3
+    assert len(calls) == 2  # the start and the rejected full step

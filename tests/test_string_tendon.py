@@ -278,3 +278,24 @@ def test_bad_string_input_exits_2_on_the_cli(capsys):
     assert code == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "beyond the catheter's tip" in err[0]
+
+
+def test_a_slack_string_tendon_contributes_nothing_even_where_its_path_degenerates():
+    """A tendon at tension 0 (five of six in most load cases of tdcr-two-segment) adds
+    nothing to F, ∂F/∂x or the energy — its kernel returns at once — including at a state
+    where two of its routing points coincide (a chord of length 0, whose direction is 0/0)."""
+    from rodsim.core.model import Model
+
+    scene = rodsim.load_scene("tdcr-two-segment", ["s1a.tendon_string.tension=0"])
+    model = Model(scene)
+    model.evaluate(model.x0)
+    call = next(c for c in model._kernel_calls
+                if c.term.name == "tendon_string" and c.term.tendon.name == "s1a")
+    full = model.full(model.x0)
+    full[call.term.dofs[3, 14:17]] = full[call.term.dofs[3, 0:3]]  # node m+1 onto node m
+    full[call.term.dofs[3, 20:28]] = full[call.term.dofs[3, 6:14]]  # and its frames
+    force, jacobian = np.full(model.n + 1, 7.0), np.full(model.nnz + 1, 7.0)
+    call.kernel.evaluate(full, *call.arguments, 1.0, True, force, call.force_target, True,
+                         jacobian, call.jacobian_target)
+    assert np.all(force == 7.0) and np.all(jacobian == 7.0)
+    assert call.kernel.energy(full, *call.arguments) == 0.0

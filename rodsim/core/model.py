@@ -58,6 +58,11 @@ __all__ = ["Model", "Band", "KERNELS", "KernelCall", "scene_rod"]
 
 #: The evaluation paths (``solver.kernels``).
 KERNELS = ("compiled", "numpy")
+#: States whose evaluation a model remembers (:meth:`Model.evaluate`).
+MEMO_STATES = 2
+#: Largest Jacobian (stored entries) a model remembers (:meth:`Model.evaluate`): 8 MB each;
+#: above, one evaluation's time matters less than the memory (F is always kept).
+MEMO_ENTRIES = 1 << 20
 
 
 @dataclass(frozen=True)
@@ -177,6 +182,9 @@ class Model:
 
     #: How the compiled path calls each term's kernel; built at the first compiled call.
     _kernel_calls: list[KernelCall] | None
+    #: The last evaluations, newest first: (state, load, F or None, ∂F/∂x data or None);
+    #: see evaluate().
+    _memo: list[tuple[np.ndarray, float, np.ndarray | None, np.ndarray | None]]
 
     def __init__(self, scene: Scene, kernels: str | None = None,
                  budget: AssemblyBudget | None = None) -> None:
@@ -262,6 +270,7 @@ class Model:
                 raise TypeError(f"penalty term {term.name!r} must set a finite positive float "
                                 "penalty_ratio (rodsim/core/terms/base.py)")
         #: Factor on each term's output: 1, or a penalty continuation scale.
+        self._memo = []
         self.term_scales = np.ones(len(self.terms))
         self._scale_list = self.term_scales.tolist()  # as floats, for the evaluation loops
 
@@ -403,7 +412,16 @@ class Model:
         return [index for index, key in enumerate(self.term_keys) if key in changed]
 
     # ------------------------------------------------------------------ setup
+    def __copy__(self) -> Model:
+        """A shallow copy without the memo of the last evaluation (:meth:`evaluate`): every
+        derived model (other values, scales or registration) is a copy."""
+        other = object.__new__(type(self))
+        other.__dict__.update(self.__dict__)
+        other._memo = []
+        return other
+
     def _build_maps(self) -> None:
+        self._memo = []
         self._free_of = np.full(self.full_size, self.n)  # fixed -> dump slot n
         self._free_of[self.free] = np.arange(self.n)
         self._build_force_scatter()
@@ -782,7 +800,33 @@ class Model:
     def evaluate(self, x: np.ndarray, load: float = 1.0, *, force: bool = True,
                  jacobian: bool = True) -> tuple[np.ndarray, np.ndarray]:
         """F(x) and ∂F/∂x (CSC data in :attr:`pattern` order) in one pass; the one not asked
-        for comes back empty."""
+        for comes back empty.
+
+        The last :data:`MEMO_STATES` evaluated states are remembered (∂F/∂x up to
+        :data:`MEMO_ENTRIES`): asked again at the same state and load — a solve's checks
+        after it converged evaluate F at the state its last Newton step reached (before a
+        rejected polishing trial), the correction residual and the stability verdict ∂F/∂x
+        at the same state — it returns copies of the same numbers instead of evaluating
+        again."""
+        same = None
+        for entry in self._memo:
+            if entry[1] == load and np.array_equal(entry[0], x):
+                known_f, known_j = entry[2], entry[3]
+                if (known_f is not None or not force) and (known_j is not None or not jacobian):
+                    return (known_f.copy() if known_f is not None and force else np.zeros(0),
+                            known_j.copy() if known_j is not None and jacobian else np.zeros(0))
+                same = entry  # this state, without the part asked for now
+                break
+        f, j = self._evaluate(x, load, force, jacobian)
+        kept_f, kept_j = (same[2], same[3]) if same is not None else (None, None)
+        entry = (np.array(x, dtype=float), load, f.copy() if force else kept_f,
+                 j.copy() if jacobian and self.nnz <= MEMO_ENTRIES else kept_j)
+        self._memo = [entry] + [e for e in self._memo if e is not same][:MEMO_STATES - 1]
+        return f, j
+
+    def _evaluate(self, x: np.ndarray, load: float, force: bool,
+                  jacobian: bool) -> tuple[np.ndarray, np.ndarray]:
+        """:meth:`evaluate` without the memo."""
         full = self.full(x)
         if self.kernels == "compiled":
             return self._evaluate_compiled(full, load, force, jacobian)
@@ -808,6 +852,8 @@ class Model:
         j = np.zeros(self.nnz + 1 if jacobian else 1)
         for call in self._kernel_calls:
             scale = self._scale(call.term_index, call.term, load)
+            if scale == 0.0:
+                continue  # a load at load fraction 0 (or a term scaled away): adds only zeros
             call.kernel.evaluate(full, *call.arguments, scale, force, f, call.force_target,
                                  jacobian, j, call.jacobian_target)
         return (f[:-1] if force else np.zeros(0)), (j[:-1] if jacobian else np.zeros(0))
@@ -877,11 +923,27 @@ class Model:
                 starts.astype(np.int64),
                 np.array(couplings, dtype=np.int64).reshape(-1, 6))
 
+    @cached_property
+    def _quaternion_chains(self) -> np.ndarray:
+        """Full quaternion indices (segment, 4) of every rod, in the order of
+        ``_step_maps``' chains: rod k in rows starts[k] − k:starts[k+1] − k − 1."""
+        return np.ascontiguousarray(np.concatenate(
+            [rod.layout.quaternion_index for rod in self.rods.values()]), dtype=np.int64)
+
     def turned_step(self, x: np.ndarray, dx: np.ndarray) -> np.ndarray:
         """:meth:`step` with each rod's segments turned as rigid frames instead of their
         lengths kept (rodsim/core/rod/retraction.py; ``solver.static.retraction =
         "frames"``); the endpoint couplings as in :meth:`step`. Equal to x + dx to first
-        order in dx."""
+        order in dx. Compiled (``turn`` of rodsim/core/kernels/_retraction.py) with
+        ``kernels = "compiled"``; this numpy code is the reference."""
+        if self.kernels == "compiled":
+            from rodsim.core.kernels._retraction import turn
+
+            chains, starts, couplings = self._step_maps
+            y = x + dx
+            turn(x, dx, y, self.rest_full, self._free_of, chains, starts,
+                 self._quaternion_chains, couplings)
+            return y
         before, after = self.full(x), self.full(x + dx)
         for rod in self.rods.values():
             position, quaternion = rod.layout.position_index, rod.layout.quaternion_index

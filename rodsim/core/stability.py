@@ -103,11 +103,12 @@ def stiffness_stability(stiffness: sp.spmatrix, width: int | None = None, *,
     stiffness = sp.csc_matrix(stiffness)
     if stiffness.shape[0] == 0:
         return Stability(True)
-    symmetric = (0.5 * (stiffness + stiffness.T)).tocoo()
+    entries = stiffness.tocoo()
     if width is None:
-        width = int(np.max(np.abs(symmetric.row - symmetric.col)))
-    if not indefinite and _positive_definite(symmetric, width):
+        width = int(np.max(np.abs(entries.row - entries.col)))
+    if not indefinite and _symmetric_part_positive_definite(entries, width):
         return Stability(True)
+    symmetric = (0.5 * (stiffness + stiffness.T)).tocoo()
     asymmetry = abs(stiffness - stiffness.T).max()
     if asymmetry <= 1e-12 * abs(stiffness).max():
         return Stability(False, _smallest_eigenvalue(symmetric, width))
@@ -123,15 +124,26 @@ def _cholesky_succeeds(ab: np.ndarray) -> bool:
     return True
 
 
-def _positive_definite(symmetric: sp.coo_matrix, width: int) -> bool:
-    """Whether the Cholesky factorisation of the diagonally scaled ``symmetric`` succeeds."""
-    diagonal = symmetric.diagonal()
-    if np.any(diagonal <= 0.0) or not np.all(np.isfinite(symmetric.data)):
+def _symmetric_part_positive_definite(entries: sp.coo_matrix, width: int) -> bool:
+    """Whether the Cholesky factorisation of the diagonally scaled symmetric part (K + Kᵀ)/2
+    succeeds, from K's entries (no duplicates) without forming the sparse sum: its lower
+    band accumulated directly, 0.5 K_ij + 0.5 K_ji (= 0.5 (K_ij + K_ji) exactly: halving is
+    exact), entry (i, j) scaled by 1/√S_ii · 1/√S_jj — the numbers the sparse sum gave, at a
+    fraction of the time (the verdict of every converged solve)."""
+    n = entries.shape[0]
+    row, col = entries.row.astype(np.int64), entries.col.astype(np.int64)
+    lower = np.abs(row - col)
+    weights = np.where(row == col, entries.data, 0.5 * entries.data)
+    ab = np.bincount(lower * n + np.minimum(row, col), weights=weights,
+                     minlength=(width + 1) * n)[:(width + 1) * n].reshape(width + 1, n)
+    diagonal = ab[0]
+    if np.any(diagonal <= 0.0) or not np.all(np.isfinite(ab)):
         return False
     scale = 1.0 / np.sqrt(diagonal)
-    scaled = sp.coo_matrix((symmetric.data * scale[symmetric.row] * scale[symmetric.col],
-                            (symmetric.row, symmetric.col)), shape=symmetric.shape)
-    return _cholesky_succeeds(_band_storage(scaled, width))
+    for k in range(width + 1):  # entry (j + k, j): value · scale[j + k] · scale[j]
+        ab[k, :n - k] = ab[k, :n - k] * scale[k:] * scale[:n - k]
+        ab[k, n - k:] = 0.0
+    return _cholesky_succeeds(ab)
 
 
 def _smallest_eigenvalue(symmetric: sp.coo_matrix, width: int) -> float:

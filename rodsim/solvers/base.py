@@ -69,6 +69,20 @@ class Outcome:
     message: str
 
 
+def retraction_of(model: Model, option: str) -> str:
+    """The retraction ``option`` names on ``model``: "auto" is "lengths" if a tendon of the
+    model is a rod (the paper's two-rod couplings: "frames" was measured no faster there) or
+    a rod meets an obstacle (contact: on a tip pushed onto a plane, the frames' first full
+    steps took the rod where its stiffness is indefinite and Newton failed, 20-80 nodes,
+    where "lengths" converged), and "frames" otherwise (docs/benchmarks.md, "Solver design
+    measurements")."""
+    if option != "auto":
+        return option
+    rod_tendon = any(tendon.rod is not None for tendon in model.tendons.values())
+    contact = any(term.name == "contact" for term in model.terms)
+    return "lengths" if rod_tendon or contact else "frames"
+
+
 def equilibrium_factor(model: Model, x: np.ndarray
                        ) -> tuple[np.ndarray, Callable[[np.ndarray], np.ndarray] | None]:
     """J's CSC data at ``x`` and J factored (a solve of J X = B, or None when J is
@@ -238,8 +252,10 @@ class Integrator(ABC, Generic[S]):
         iterations), which the caller counts. ``polish``: see
         :func:`rodsim.solvers.newton.newton`; ``retraction``: how a step moves the rods —
         ``None``: x + Δx; ``"lengths"``: :meth:`Model.step` (segment lengths kept);
-        ``"frames"``: :meth:`Model.turned_step` (segments turned as rigid frames)."""
+        ``"frames"``: :meth:`Model.turned_step` (segments turned as rigid frames);
+        ``"auto"``: one of the two by the model's content (:func:`retraction_of`)."""
         model = run.model
+        retraction = retraction_of(model, retraction) if retraction == "auto" else retraction
         problem = NewtonProblem(
             force=lambda y: run.force(y, load),
             jacobian=lambda y: run.jacobian_data(y, load),

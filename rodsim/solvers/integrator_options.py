@@ -30,7 +30,7 @@ class StaticOptions(Options):
     first_load_step: float = 1.0
     min_load_step: float = 0.0001
     penalty_ratio: float = 1000.0
-    retraction: str = "lengths"
+    retraction: str = "auto"
 
 
 @dataclass(frozen=True, kw_only=True)

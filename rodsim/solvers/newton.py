@@ -165,6 +165,11 @@ def newton(problem: NewtonProblem, x: np.ndarray, tolerance: float,
                 if alpha == 1.0 and np.isfinite(trial_value) and (
                         problem.residual(trial_g) < 0.5 * residual):
                     break
+                if residual < tolerance:
+                    # Polishing: a shorter step would be kept only if it halved the
+                    # residual, which a step the full one overshoots does not do at
+                    # round-off: the state is the root already.
+                    return NewtonResult(x, True, iteration + 1, residual, "converged")
                 alpha *= 0.5
                 if alpha < 1e-10:
                     if residual < tolerance:

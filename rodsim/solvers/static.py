@@ -20,10 +20,16 @@ model (the paper's tendon coupling: no energy for the line search) loaded with l
 penalties starts at a load step of :data:`NONCONSERVATIVE_FIRST_STEP`. Intermediate solves
 are not polished past the tolerance; only the last one is.
 
-``retraction = "frames"`` (opt-in; the default "lengths" is the retraction above, which
-every shipped scene's stored equilibrium was computed with): each segment turns as a rigid
-frame (:meth:`Model.turned_step`, rodsim/core/rod/retraction.py), far fewer iterations
-when segments turn a lot.
+``retraction``: how a Newton step moves the rods. ``"lengths"`` is the retraction above;
+``"frames"`` turns each segment as a rigid frame (:meth:`Model.turned_step`,
+rodsim/core/rod/retraction.py), far fewer iterations when segments turn a lot
+(tdcr-two-segment: 5–6 instead of 13–98). The default ``"auto"``
+(:func:`rodsim.solvers.base.retraction_of`) takes "frames" unless a tendon of the model is
+a rod (the paper's two-rod couplings), where "lengths" was measured as fast or faster
+(four-tendons: 4 iterations against 5, table3-*: 25–30 against 29, each iteration dearer)
+and keeps the numbers those scenes were published with, or a rod meets an obstacle, where
+the frames' long first steps were measured to leave Newton on an indefinite stiffness (a
+tip pushed onto a plane: failed where "lengths" converges).
 
 Why each of these choices, with the measurements behind them (iterations and times per
 scene, what was tried and dropped): docs/benchmarks.md, "Solver design measurements".
@@ -62,9 +68,9 @@ from rodsim.solvers.run_state import MAX_SETTLES, RunState
 #: First load increment of a non-conservative model loaded with its penalties lowered (when
 #: ``first_load_step`` is larger): see the module docstring.
 NONCONSERVATIVE_FIRST_STEP = 0.25
-#: ``retraction`` choices: :meth:`Model.step` (the default, every shipped scene's numbers)
-#: or :meth:`Model.turned_step`.
-RETRACTIONS = ("lengths", "frames")
+#: ``retraction`` choices: :meth:`Model.step`, :meth:`Model.turned_step`, or by the model's
+#: content (:func:`rodsim.solvers.base.retraction_of`, the default).
+RETRACTIONS = ("auto", "lengths", "frames")
 #: Chord iterations (kept factorisation) a continuation step tries before Newton.
 MAX_CHORD = 10
 #: Newton iterations a continuation step may take (per registration), whatever
@@ -103,10 +109,11 @@ class Static(Integrator[StaticState]):
         Parameter("penalty_ratio", "float", DEFAULT_PENALTY_RATIO, "-",
                   "above this K_P l²/(E I), load with K_P lowered to it, then raise K_P "
                   "tenfold per step (penalty continuation)", 1.0, 1e300),
-        Parameter("retraction", "str", "lengths", "-",
-                  "how a Newton step moves the rods: 'lengths' (segment lengths kept) or "
+        Parameter("retraction", "str", "auto", "-",
+                  "how a Newton step moves the rods: 'lengths' (segment lengths kept), "
                   "'frames' (segments turned as rigid frames: far fewer iterations when "
-                  "segments turn a lot, rodsim/core/rod/retraction.py)",
+                  "segments turn a lot, rodsim/core/rod/retraction.py) or 'auto' ('frames' "
+                  "unless a tendon is a rod or a rod meets an obstacle, then 'lengths')",
                   choices=RETRACTIONS),
     )
 

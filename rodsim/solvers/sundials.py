@@ -200,13 +200,22 @@ class SundialsIntegrator(Integrator[SundialsState]):
         with the penalties lowered to that ratio — by residual homotopy, F(x) = (1 − λ) F(x₀)
         for λ from 0 to 1 (rodsim/solvers/continuation.py) — whose equilibrium is next to the
         full one, then Newton at the full penalties from there. Both through the retraction
-        :meth:`Model.step`."""
+        :meth:`Model.step` — or, on a model with string tendons, the Newton at full penalties
+        through the retraction ``static``'s default picks
+        (:func:`rodsim.solvers.base.retraction_of`: the frames, :meth:`Model.turned_step`,
+        unless a rod meets an obstacle): on
+        tdcr-two-segment the finish with :meth:`Model.step` failed three times in the cases
+        where a long distal segment turns (CVODE then took ~200 steps, 116 ms; with the
+        frames, one finish after 11-12 steps, 10 ms). Only there: on table1-50g the frames
+        finish moved the stored CVODE equilibrium by 8e-13 m (docs/benchmarks.md, "String
+        tendons")."""
         converged, state, iterations = self.at_lowered_penalties(run, state)
         if not converged:
             return False, state, iterations
         converged, state, more = self.newton_equilibrium(
             run, state, 1.0, self.options.newton_iterations, "the Newton finish",
-            retraction="lengths")
+            retraction="auto" if any(tendon.rod is None for tendon in
+                                     run.model.tendons.values()) else "lengths")
         return converged, state, iterations + more
 
     def at_lowered_penalties(self, run: SundialsState,

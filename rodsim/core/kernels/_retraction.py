@@ -1,12 +1,19 @@
-"""Compiled :meth:`rodsim.core.model.Model.step`: the Newton step with each rod's segment lengths
-and each endpoint coupling's length kept to first order (the numpy code in model.py is the
-reference; tests/test_static_tendon.py checks that the two agree). Standalone: no other
-kernel calls it."""
+"""Compiled retractions of a Newton step: :meth:`rodsim.core.model.Model.step` (``retract``: each
+rod's segment lengths and each endpoint coupling's length kept to first order; the numpy code
+in model.py is the reference, tests/test_static_tendon.py checks that the two agree) and
+:meth:`rodsim.core.model.Model.turned_step` (``turn``: each segment turned as a rigid frame,
+then the endpoint couplings as in ``retract``; the reference is
+:func:`rodsim.core.rod.retraction.turn_segments`, checked by tests/test_retraction_frames.py).
+Standalone: no other kernel calls them."""
 
 from __future__ import annotations
 
 import numpy as np
 from numba import njit
+
+from rodsim.core.rod.quaternion import DIRECTOR_FORMS
+
+_FORMS = np.ascontiguousarray(DIRECTOR_FORMS)
 
 
 @njit(cache=True)
@@ -59,6 +66,13 @@ def retract(x: np.ndarray, dx: np.ndarray, y: np.ndarray, rest: np.ndarray,
                 old_prev[a] = old[a]
                 moved_prev[a] = moved[a]
                 new_prev[a] = value
+    _couplings(x, dx, y, couplings)
+
+
+@njit(cache=True)
+def _couplings(x: np.ndarray, dx: np.ndarray, y: np.ndarray, couplings: np.ndarray) -> None:
+    """Each endpoint coupling's tendon tip (free indices 3–5) put about its catheter tip
+    (0–2) at the length the linearisation predicts, in the direction of ``y``'s."""
     for c in range(couplings.shape[0]):
         length2 = 0.0
         dot = 0.0
@@ -76,3 +90,110 @@ def retract(x: np.ndarray, dx: np.ndarray, y: np.ndarray, rest: np.ndarray,
         for a in range(3):
             y[couplings[c, 3 + a]] = y[couplings[c, a]] + factor * (
                 y[couplings[c, 3 + a]] - y[couplings[c, a]])
+
+
+@njit(cache=True)
+def _frame(q: np.ndarray, frame: np.ndarray) -> float:
+    """frame ← D(q) / |q|² (rows d_k, Eq. 2); returns |q|²."""
+    norm2 = q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3]
+    for k in range(3):
+        for m in range(3):
+            value = 0.0
+            for i in range(4):
+                row = 0.0
+                for j in range(4):
+                    row += _FORMS[k, m, i, j] * q[j]
+                value += q[i] * row
+            frame[k, m] = value / norm2
+    return norm2
+
+
+@njit(cache=True)
+def turn(x: np.ndarray, dx: np.ndarray, y: np.ndarray, rest: np.ndarray, free_of: np.ndarray,
+         chains: np.ndarray, starts: np.ndarray, quaternions: np.ndarray,
+         couplings: np.ndarray) -> None:
+    """Write into ``y`` (= x + dx on entry) the step with each rod's segments turned as rigid
+    frames (rodsim/core/rod/retraction.py, same formulas), then the endpoint couplings as in
+    :func:`retract`. ``chains`` holds the full position indices (node, 3) of every rod, rod k
+    in rows starts[k]:starts[k+1]; ``quaternions`` the full quaternion indices (segment, 4),
+    rod k in rows starts[k] − k:starts[k+1] − k − 1; ``couplings`` as in :func:`retract`."""
+    n = x.shape[0]
+    q = np.empty(4)
+    dq = np.empty(4)
+    turned = np.empty(4)
+    frame = np.empty((3, 3))
+    new_frame = np.empty((3, 3))
+    body = np.empty(3)
+    old = np.empty(3)
+    old_next = np.empty(3)
+    moved_base = np.empty(3)
+    walked = np.empty(3)
+    walked_base = np.empty(3)
+    for k in range(starts.shape[0] - 1):
+        first = starts[k]
+        last = starts[k + 1]
+        # The node the walk restarts from (the last held node, or the rod's first).
+        for a in range(3):
+            moved_base[a] = _value(x, dx, rest, free_of, n, chains[first, a], True)
+            walked[a] = 0.0
+            walked_base[a] = 0.0
+        for i in range(first, last - 1):
+            s = i - k  # this segment's row in quaternions
+            for a in range(4):
+                q[a] = _value(x, dx, rest, free_of, n, quaternions[s, a], False)
+                dq[a] = _value(x, dx, rest, free_of, n, quaternions[s, a], True) - q[a]
+            norm2 = _frame(q, frame)
+            along = q[0] * dq[0] + q[1] * dq[1] + q[2] * dq[2] + q[3] * dq[3]
+            # body = R (e + Δe) + ΔR e, ΔR[k, m] = 2 qᵀ A[k, m] Δq / |q|² − 2 R[k, m] q·Δq / |q|².
+            for a in range(3):
+                old[a] = _value(x, dx, rest, free_of, n, chains[i, a], False)
+                old_next[a] = _value(x, dx, rest, free_of, n, chains[i + 1, a], False)
+            for c in range(3):
+                value = 0.0
+                for m in range(3):
+                    edge = old_next[m] - old[m]
+                    step = ((_value(x, dx, rest, free_of, n, chains[i + 1, m], True)
+                             - old_next[m])
+                            - (_value(x, dx, rest, free_of, n, chains[i, m], True) - old[m]))
+                    form = 0.0
+                    for a in range(4):
+                        row = 0.0
+                        for b in range(4):
+                            row += _FORMS[c, m, a, b] * dq[b]
+                        form += q[a] * row
+                    change = 2.0 * form / norm2 - 2.0 * frame[c, m] * (along / norm2)
+                    value += frame[c, m] * (edge + step) + change * edge
+                body[c] = value
+            size = 0.0
+            for a in range(4):
+                turned[a] = q[a] + dq[a]
+                size += turned[a] * turned[a]
+            norm = np.sqrt(norm2)
+            factor = (norm + along / norm) / np.sqrt(size)
+            for a in range(4):
+                turned[a] *= factor
+            _frame(turned, new_frame)
+            for a in range(4):
+                f = free_of[quaternions[s, a]]
+                if f < n:
+                    y[f] = turned[a]
+            # The next node: walked from the last held node (kept where it is if held).
+            held = True
+            for a in range(3):
+                if free_of[chains[i + 1, a]] < n:
+                    held = False
+            for m in range(3):
+                value = 0.0
+                for c in range(3):
+                    value += new_frame[c, m] * body[c]
+                walked[m] += value
+            if held:
+                for a in range(3):
+                    moved_base[a] = _value(x, dx, rest, free_of, n, chains[i + 1, a], True)
+                    walked_base[a] = walked[a]
+            else:
+                for a in range(3):
+                    f = free_of[chains[i + 1, a]]
+                    if f < n:
+                        y[f] = moved_base[a] + walked[a] - walked_base[a]
+    _couplings(x, dx, y, couplings)

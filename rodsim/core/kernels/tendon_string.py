@@ -15,23 +15,23 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from rodsim.core.kernels._scatter import add_force, add_jacobian
+from rodsim.core.kernels._scatter import add_force
 
 
 @njit(cache=True)
 def _point(x: np.ndarray, dofs: np.ndarray, e: int, side: int, weights: np.ndarray,
            constant: np.ndarray, forms: np.ndarray, p: np.ndarray, jac: np.ndarray,
-           hess: np.ndarray, want_hessian: bool, q: np.ndarray, gq: np.ndarray,
-           g: np.ndarray) -> None:
-    """Position p (3,), ∂p/∂x_point (3, 14) and ∇²f (3, 4, 4) of point e + side; ``q``
-    (4,), ``gq`` (3, 4) and ``g`` (3,) are scratch (allocated once by the caller: an
-    allocation per point was most of a force evaluation's time)."""
+           hess: np.ndarray, want_hessian: bool) -> None:
+    """Position p (3,), ∂p/∂x_point (3, 14) and ∇²f (3, 4, 4) of point e + side."""
     k = e + side
     base = 14 * side
     c0, c1, w0, w1 = weights[k, 0], weights[k, 1], weights[k, 2], weights[k, 3]
+    q = np.empty(4)
     for i in range(4):
         q[i] = w0 * x[dofs[e, base + 6 + i]] + w1 * x[dofs[e, base + 10 + i]] + constant[k, i]
     n = q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3]
+    gq = np.empty((3, 4))
+    g = np.empty(3)
     for m in range(3):
         value = 0.0
         for i in range(4):
@@ -63,28 +63,53 @@ def _point(x: np.ndarray, dofs: np.ndarray, e: int, side: int, weights: np.ndarr
 
 
 @njit(cache=True)
+def _points(x: np.ndarray, dofs: np.ndarray, weights: np.ndarray, constant: np.ndarray,
+            forms: np.ndarray, want_hessian: bool) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """p, ∂p/∂x_point and ∇²f of every routing point, each computed once (point k is side 0
+    of chord k and side 1 of chord k − 1: the same numbers)."""
+    chords = dofs.shape[0]
+    p = np.empty((chords + 1, 3))
+    jac = np.empty((chords + 1, 3, 14))
+    hess = np.empty((chords + 1, 3, 4, 4))
+    for k in range(chords + 1):
+        e, side = (k, 0) if k < chords else (k - 1, 1)
+        _point(x, dofs, e, side, weights, constant, forms, p[k], jac[k], hess[k], want_hessian)
+    return p, jac, hess
+
+
+@njit(cache=True)
+def _active(weights: np.ndarray, e: int, columns: np.ndarray) -> int:
+    """The element's local columns whose weight is not zero (the others of ∂d/∂x are exact
+    zeros, and so are their rows and columns of the element Jacobian): their count, the
+    columns in ``columns``."""
+    count = 0
+    for side in range(2):
+        for group in range(4):
+            if weights[e + side, group] != 0.0:
+                first = 14 * side + (3 * group if group < 2 else 6 + 4 * (group - 2))
+                for a in range(3 if group < 2 else 4):
+                    columns[count] = first + a
+                    count += 1
+    return count
+
+
+@njit(cache=True)
 def evaluate(x: np.ndarray, dofs: np.ndarray, weights: np.ndarray, constant: np.ndarray,
              forms: np.ndarray, tension: float, scale: float, want_force: bool,
              force: np.ndarray, force_target: np.ndarray, want_jacobian: bool,
              jacobian: np.ndarray, jacobian_target: np.ndarray) -> None:
+    if tension == 0.0:
+        return  # a slack tendon: every entry is zero (its tension is a factor of each)
     local_force = np.empty(28)
     local_jacobian = np.empty((28, 28))
-    pa = np.empty(3)
-    pb = np.empty(3)
-    ja = np.empty((3, 14))
-    jb = np.empty((3, 14))
-    ha = np.empty((3, 4, 4))
-    hb = np.empty((3, 4, 4))
+    columns = np.empty(28, dtype=np.int64)
     jd = np.empty((3, 28))
     u = np.empty(3)
     proj = np.empty((3, 3))
     pj = np.empty((3, 28))
-    q = np.empty(4)
-    gq = np.empty((3, 4))
-    g = np.empty(3)
+    p, jac, hess = _points(x, dofs, weights, constant, forms, want_jacobian)
     for e in range(dofs.shape[0]):
-        _point(x, dofs, e, 0, weights, constant, forms, pa, ja, ha, want_jacobian, q, gq, g)
-        _point(x, dofs, e, 1, weights, constant, forms, pb, jb, hb, want_jacobian, q, gq, g)
+        pa, pb, ja, jb = p[e], p[e + 1], jac[e], jac[e + 1]
         length = 0.0
         for m in range(3):
             u[m] = pb[m] - pa[m]
@@ -103,52 +128,59 @@ def evaluate(x: np.ndarray, dofs: np.ndarray, weights: np.ndarray, constant: np.
                 local_force[a] = -tension * value
             add_force(force, force_target, e, local_force, scale)
         if want_jacobian:
+            # Only the columns with a weight: the rest of the element Jacobian is zero.
+            active = _active(weights, e, columns)
             for a in range(3):
                 for b in range(3):
                     proj[a, b] = ((1.0 if a == b else 0.0) - u[a] * u[b]) * tension / length
             for a in range(3):
-                for k in range(28):
+                for c in range(active):
+                    k = columns[c]
                     value = 0.0
                     for b in range(3):
                         value += proj[a, b] * jd[b, k]
                     pj[a, k] = value
-            for k in range(28):
-                for j in range(28):
+            for c in range(active):
+                k = columns[c]
+                for d in range(active):
+                    j = columns[d]
                     value = 0.0
                     for a in range(3):
                         value += jd[a, k] * pj[a, j]
                     local_jacobian[k, j] = -value
             for side in range(2):
                 k = e + side
+                h = hess[k]
                 sign = 1.0 if side == 1 else -1.0
                 offset = 14 * side + 6
                 for i in range(4):
                     for j in range(4):
                         curvature = 0.0
                         for m in range(3):
-                            curvature += u[m] * (hb[m, i, j] if side == 1 else ha[m, i, j])
+                            curvature += u[m] * h[m, i, j]
                         curvature *= sign * tension
                         for a in range(2):
                             for b in range(2):
-                                local_jacobian[offset + 4 * a + i, offset + 4 * b + j] -= (
-                                    weights[k, 2 + a] * weights[k, 2 + b] * curvature)
-            add_jacobian(jacobian, jacobian_target, e, local_jacobian, scale)
+                                weight = weights[k, 2 + a] * weights[k, 2 + b]
+                                if weight != 0.0:
+                                    local_jacobian[offset + 4 * a + i, offset + 4 * b + j] -= (
+                                        weight * curvature)
+            for c in range(active):
+                k = columns[c]
+                for d in range(active):
+                    j = columns[d]
+                    jacobian[jacobian_target[e, k, j]] += scale * local_jacobian[k, j]
 
 
 @njit(cache=True)
 def energy(x: np.ndarray, dofs: np.ndarray, weights: np.ndarray, constant: np.ndarray,
            forms: np.ndarray, tension: float) -> float:
     """T Σ |p_{k+1} − p_k|."""
-    pa = np.empty(3)
-    pb = np.empty(3)
-    ja = np.empty((3, 14))
-    hess = np.empty((3, 4, 4))
-    q = np.empty(4)
-    gq = np.empty((3, 4))
-    g = np.empty(3)
+    if tension == 0.0:
+        return 0.0
+    p, _, _ = _points(x, dofs, weights, constant, forms, False)
     total = 0.0
     for e in range(dofs.shape[0]):
-        _point(x, dofs, e, 0, weights, constant, forms, pa, ja, hess, False, q, gq, g)
-        _point(x, dofs, e, 1, weights, constant, forms, pb, ja, hess, False, q, gq, g)
-        total += np.sqrt((pb[0] - pa[0]) ** 2 + (pb[1] - pa[1]) ** 2 + (pb[2] - pa[2]) ** 2)
+        total += np.sqrt((p[e + 1, 0] - p[e, 0]) ** 2 + (p[e + 1, 1] - p[e, 1]) ** 2
+                         + (p[e + 1, 2] - p[e, 2]) ** 2)
     return tension * total
