@@ -265,11 +265,12 @@ def test_a_library_that_aborts_or_hangs_on_a_file_is_an_archive_error(tmp_path, 
     assert main(["run", "--integrator", "static", "--set", "nodes=6", "-o", str(path)]) == 0
     done = _read_in_a_fresh_process(f"""
 import os, time
+import xarray
 import rodsim.io.archive as archive
 archive.PROBE_SECONDS = 1.0
 def broken(*args, **kwargs):
     {behaviour}
-archive.xr.open_dataset = broken
+xarray.open_dataset = broken
 try:
     archive.read_dataset({str(path)!r})
 except archive.ArchiveError as exc:
