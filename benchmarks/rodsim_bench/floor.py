@@ -7,8 +7,8 @@ Per scene, with the model built once (kernels loaded; assembly is not part of a 
 - what it called, counted in one more solve with the model's and the linear solver's methods
   wrapped: evaluations of F alone, of ∂F/∂x (with or without F), of the energy (the line
   search), and band or sparse solves (factor and solve);
-- each primitive's raw cost at the solution, best of many calls, alternating two nearby
-  states so that no remembered evaluation is returned;
+- each primitive's raw cost at the solution, best of many calls, cycling through more nearby
+  states than the model remembers, so that no remembered evaluation is returned;
 - the floor Σ count × raw cost, and the ratio solve / floor: what the solver's own work
   (Python between the calls, load and penalty continuation bookkeeping, the checks after
   convergence) adds to the arithmetic it cannot avoid.
@@ -87,13 +87,19 @@ def counted_solve(scene: Any, model: Model) -> tuple[Any, Counter]:
     return result, counts
 
 
+#: Distinct states the raw costs cycle through: more than the model remembers (two), so
+#: that every timed call evaluates.
+STATES = 5
+
+
 def raw_costs(model: Model, x: np.ndarray, calls: int) -> dict[str, float]:
-    """Best CPU time [s] of each primitive at ``x`` (and a state 1e-9 L away, alternately)."""
-    states = [x, x + 1e-9 * model.length_scale * np.sin(np.arange(len(x)))]
+    """Best CPU time [s] of each primitive at ``x`` and states ~1e-9 L away, in turn."""
+    wiggle = np.sin(np.arange(len(x)))
+    states = [x + k * 1e-9 * model.length_scale * wiggle for k in range(STATES)]
     turn = iter(range(10**9))
 
     def state() -> np.ndarray:
-        return states[next(turn) % 2]
+        return states[next(turn) % STATES]
 
     linear = linear_solver_of(model)
     data = model.jacobian_data(x)
