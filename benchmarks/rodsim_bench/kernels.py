@@ -37,7 +37,7 @@ from pathlib import Path
 import numpy as np
 
 import rodsim
-from rodsim.core.model import KERNELS, Model
+from rodsim.core.model import EVALUATION_PATHS, Model
 from rodsim.solvers.base import Progress
 from rodsim_bench.machine import machine, write_report
 
@@ -93,8 +93,8 @@ def compile_times() -> dict[str, float]:
 
 def solve_times(scene_name: str, repeats: int, progress: Progress) -> list[dict]:
     scene = rodsim.load_scene(scene_name)
-    models = {kernels: Model(scene, kernels) for kernels in KERNELS}
-    runs = {(k, name): [] for k in KERNELS for name in INTEGRATORS}
+    models = {kernels: Model(scene, kernels) for kernels in EVALUATION_PATHS}
+    runs = {(k, name): [] for k in EVALUATION_PATHS for name in INTEGRATORS}
     results = {}
     for repeat in range(repeats + 1):  # the first round warms up (and compiles)
         for (kernels, name), times in runs.items():
@@ -200,7 +200,7 @@ def run(size: str, output_dir: Path, progress: Progress) -> list[Path]:
         scenes.append(("table1-50g", [f"nodes={LARGE_NODES}"]))
     for name, overrides in scenes:
         scene = rodsim.load_scene(name, overrides)
-        for kernels in KERNELS:
+        for kernels in EVALUATION_PATHS:
             model = Model(scene, kernels)
             costs.append({"scene": name, "overrides": overrides, "n": model.n,
                           "kernels": kernels, **evaluation_cost(model, config["calls"])})

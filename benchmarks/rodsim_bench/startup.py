@@ -8,16 +8,21 @@ counts less than in wall time):
 - ``import``: ``python -c "import numpy, scipy.sparse"``, the floor every command pays;
 - ``help``: ``rodsim --help``;
 - ``run``: ``rodsim run`` of the default scene into a temporary folder (the installed
-  command's process: rodsim/app/lean.py);
+  command's process: rodsim/app/lean.py; its ``solver.kernels = "auto"`` is ``tiered``:
+  numpy evaluations, the compiled kernels only once numpy has cost what loading them would,
+  rodsim/core/kernel_tier.py);
+- ``run, compiled kernels``: the same with ``--set solver.kernels=compiled`` (what
+  ``rodsim run`` did before the tiered path);
 - ``run, plain process``: the same ``rodsim run`` through ``main(argv)`` in a process that
   exits normally and keeps dask visible to xarray — what every ``rodsim run`` cost before
   the lean process (the help epilog aside).
 
 And the breakdown of one ``rodsim run`` into phases (a child process that does what the
 command does, step by step, reading its own CPU clock between steps; the exit is the
-child's total CPU minus its clock at the end), once as a plain process (dask visible,
-the archive written through xarray, normal exit: the command before the lean process) and
-once as the lean one (dask hidden, the archive written without xarray, early exit).
+child's total CPU minus its clock at the end), once as a plain process (compiled kernels,
+dask visible, the archive written through xarray, normal exit: the command before the lean
+process) and once as the lean one (the tiered kernels, so numba is not imported; dask
+hidden, the archive written without xarray, early exit).
 
 Outputs ``startup-<size>.nc`` and ``startup-<size>.md`` (with the machine description).
 """
@@ -51,6 +56,8 @@ COMMANDS = {
     "import": ["-c", "import numpy, scipy.sparse"],
     "help": ["-m", "rodsim", "--help"],
     "run": ["-m", "rodsim", "run", "-o", "{out}/run.nc"],
+    "run, compiled kernels": ["-m", "rodsim", "run", "--set", "solver.kernels=compiled",
+                              "-o", "{out}/compiled.nc"],
     "run, plain process": ["-c", _PLAIN, "run", "-o", "{out}/plain.nc"],
 }
 
@@ -70,8 +77,9 @@ _PHASES = textwrap.dedent("""
         hide_dask()
     import numpy, scipy.sparse, scipy.sparse.linalg
     mark("numpy + scipy.sparse/linalg import")
-    import numba
-    mark("numba import")
+    if not early:  # the tiered kernels of a short run never import numba
+        import numba
+    mark("numba import (lean: none, the tiered kernels stayed on numpy)")
     import sksundae
     mark("scikit-sundae import")
     import rodsim.app.api as api
@@ -79,9 +87,11 @@ _PHASES = textwrap.dedent("""
     rodsim.solvers.registered_integrators()
     mark("rodsim modules and integrators")
     scene = api.load_scene(None)
+    if early:  # what the command does with solver.kernels = "auto"
+        scene = scene.with_values({"solver.kernels": "tiered"})
     mark("scene load")
     model = api.build_model(scene)
-    mark("Model(...) (kernels loaded, J at rest)")
+    mark("Model(...) (plain: kernels loaded; J at rest)")
     result = api.solve(scene, model=model)
     mark("solve")
     if early:  # the command now: no xarray (rodsim/io/netcdf_writer.py)

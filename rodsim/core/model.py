@@ -7,10 +7,13 @@ F(x) = −∂E/∂x (plus non-conservative penalty forces) and ∂F/∂x on thos
 pattern is the union of the terms' element blocks, fixed when the model is built; the
 Jacobian values are scattered into it with precomputed index maps.
 
-Two evaluation paths compute the same numbers (``solver.kernels``): ``compiled`` (default)
-calls each term's numba kernel (:mod:`rodsim.core.kernels`), which accumulates straight into the
-force vector and the CSC data; ``numpy`` calls the terms' vectorised numpy methods and
-scatters their element blocks — the readable reference.
+Two evaluation paths compute the same numbers (``solver.kernels``): ``compiled`` (what
+``auto``, the default, means for a model) calls each term's numba kernel
+(:mod:`rodsim.core.kernels`), which accumulates straight into the force vector and the CSC
+data; ``numpy`` calls the terms' vectorised numpy methods and scatters their element blocks —
+the readable reference. ``tiered`` starts on numpy and moves to the compiled kernels once the
+process's numpy evaluations have cost what loading the kernels would
+(:mod:`rodsim.core.kernel_tier`; what ``rodsim run`` uses for ``auto``).
 
 A model never changes once built. What a solver varies is passed in or returned as a new
 model: the load fraction is an argument of every evaluation; a penalty continuation scale is
@@ -34,6 +37,7 @@ from scipy.sparse.csgraph import reverse_cuthill_mckee
 
 from rodsim.core.anchors import joined_support, joint_depth, scene_joints
 from rodsim.core.assembly_budget import AssemblyBudget
+from rodsim.core.kernel_tier import PROCESS_TIER
 from rodsim.core.rod.layout import RodLayout
 from rodsim.core.rod.retraction import turn_segments
 from rodsim.core.rod.rod import Rod
@@ -54,10 +58,12 @@ from rodsim.core.terms import Term, registered_terms
 if TYPE_CHECKING:
     from rodsim.core.kernels import Kernel
 
-__all__ = ["Model", "Band", "KERNELS", "KernelCall", "scene_rod"]
+__all__ = ["Model", "Band", "EVALUATION_PATHS", "KERNELS", "KernelCall", "scene_rod"]
 
-#: The evaluation paths (``solver.kernels``).
-KERNELS = ("compiled", "numpy")
+#: The two evaluation paths.
+EVALUATION_PATHS = ("compiled", "numpy")
+#: What ``solver.kernels`` may ask a model for (``auto`` is ``compiled`` for a model).
+KERNELS = (*EVALUATION_PATHS, "tiered")
 #: States whose evaluation a model remembers (:meth:`Model.evaluate`).
 MEMO_STATES = 2
 #: Largest Jacobian (stored entries) a model remembers (:meth:`Model.evaluate`): 8 MB each;
@@ -173,7 +179,8 @@ class Model:
     scene
         A validated scene; only the terms it lists are built.
     kernels
-        ``"compiled"`` or ``"numpy"`` (default: the scene's ``solver.kernels``).
+        ``"compiled"``, ``"numpy"`` or ``"tiered"`` (default: the scene's
+        ``solver.kernels``; its ``"auto"`` is ``"compiled"`` here).
     budget
         A wall-time budget for the assembly (rodsim/core/assembly_budget.py), checked between
         its phases and between the terms of its per-term loops: once spent,
@@ -188,7 +195,8 @@ class Model:
 
     def __init__(self, scene: Scene, kernels: str | None = None,
                  budget: AssemblyBudget | None = None) -> None:
-        self.kernels = kernels or scene.solver.kernels
+        requested = kernels or scene.solver.kernels
+        self.kernels = "compiled" if requested == "auto" else requested
         if self.kernels not in KERNELS:
             raise ValueError(f"kernels {self.kernels!r}: allowed {', '.join(KERNELS)}")
         self._budget = budget
@@ -772,7 +780,9 @@ class Model:
         """Total potential energy [J] (raises if a term is not conservative)."""
         full = self.full(x)
         compiled = {}
-        if self.kernels == "compiled":
+        tiered = self._tiered_numpy()
+        start = PROCESS_TIER.clock() if tiered else 0.0
+        if self._compiled():
             if self._kernel_calls is None:
                 self._kernel_calls = self._build_kernel_calls()
             compiled = {call.term_index: call for call in self._kernel_calls
@@ -787,7 +797,20 @@ class Model:
             if value is None:
                 raise ValueError(f"term {term.name!r} is not conservative: no energy")
             total += self._scale(index, term, load) * value
+        if tiered:
+            PROCESS_TIER.charge(PROCESS_TIER.clock() - start)
         return total
+
+    def _compiled(self) -> bool:
+        """Whether evaluations run the compiled kernels now: always on the ``compiled``
+        path, on the ``tiered`` path once the process has moved to them."""
+        return self.kernels == "compiled" or (self.kernels == "tiered"
+                                              and PROCESS_TIER.compiled)
+
+    def _tiered_numpy(self) -> bool:
+        """Whether this evaluation is a ``tiered`` model's numpy evaluation, whose CPU counts
+        toward the move to the compiled kernels (:mod:`rodsim.core.kernel_tier`)."""
+        return self.kernels == "tiered" and not PROCESS_TIER.compiled
 
     def force(self, x: np.ndarray, load: float = 1.0) -> np.ndarray:
         """Generalised force F(x) on the free coordinates; loads are scaled by ``load``."""
@@ -828,8 +851,10 @@ class Model:
                   jacobian: bool) -> tuple[np.ndarray, np.ndarray]:
         """:meth:`evaluate` without the memo."""
         full = self.full(x)
-        if self.kernels == "compiled":
+        if self._compiled():
             return self._evaluate_compiled(full, load, force, jacobian)
+        tiered = self._tiered_numpy()
+        start = PROCESS_TIER.clock() if tiered else 0.0
         f: np.ndarray = np.zeros(0)
         j: np.ndarray = np.zeros(0)
         if force:
@@ -842,6 +867,8 @@ class Model:
                       for k, term in enumerate(self.terms) if term.has_jacobian]
             j = (np.bincount(self._jac_targets, weights=np.concatenate(blocks),
                              minlength=self.nnz + 1)[:-1] if blocks else np.zeros(self.nnz))
+        if tiered:
+            PROCESS_TIER.charge(PROCESS_TIER.clock() - start)
         return f, j
 
     def _evaluate_compiled(self, full: np.ndarray, load: float, force: bool,
@@ -865,7 +892,7 @@ class Model:
         numbers to round-off, tests/test_kernels.py)."""
         term = self.terms[index]
         scale = self._scale(index, term, 1.0)
-        if self.kernels != "compiled":
+        if not self._compiled():
             return scale * term.element_forces(full)
         if self._kernel_calls is None:
             self._kernel_calls = self._build_kernel_calls()
@@ -936,7 +963,7 @@ class Model:
         "frames"``); the endpoint couplings as in :meth:`step`. Equal to x + dx to first
         order in dx. Compiled (``turn`` of rodsim/core/kernels/_retraction.py) with
         ``kernels = "compiled"``; this numpy code is the reference."""
-        if self.kernels == "compiled":
+        if self._compiled():
             from rodsim.core.kernels._retraction import turn
 
             chains, starts, couplings = self._step_maps
@@ -977,7 +1004,7 @@ class Model:
         """
         chains, starts, couplings = self._step_maps
         y = x + dx
-        if self.kernels == "compiled":
+        if self._compiled():
             from rodsim.core.kernels._retraction import retract
 
             retract(x, dx, y, self.rest_full, self._free_of, chains, starts, couplings)

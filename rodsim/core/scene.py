@@ -71,10 +71,13 @@ SOLVER_PARAMETERS: tuple[Parameter, ...] = (
               0.0, 1.0, exclusive_minimum=True),
     Parameter("max_wall_time", "float", 600.0, "s", "give up after this much wall time",
               0.0, 1e6, exclusive_minimum=True),
-    Parameter("kernels", "str", "compiled", "-",
-              "force and Jacobian evaluation: 'compiled' (numba kernels, cached on disk) or "
-              "'numpy' (the readable reference; same numbers)",
-              choices=("compiled", "numpy")),
+    Parameter("kernels", "str", "auto", "-",
+              "force and Jacobian evaluation: 'compiled' (numba kernels, cached on disk), "
+              "'numpy' (the readable reference; same numbers to round-off), 'tiered' (numpy "
+              "until its evaluations have cost what loading the compiled kernels would, "
+              "about 0.25 s of CPU, then compiled) or 'auto': tiered for `rodsim run` (one "
+              "solve in a fresh process), compiled everywhere else",
+              choices=("auto", "compiled", "numpy", "tiered")),
 )
 
 @dataclass(frozen=True, kw_only=True)
@@ -87,7 +90,7 @@ class SolverSettings(Options):
     integrator: str = "cvode"
     tolerance: float = 1e-9
     max_wall_time: float = 600.0
-    kernels: str = "compiled"
+    kernels: str = "auto"
 
 _TOP_KEYS = ("name", "description", "rods", "tendons", "obstacles", "solver")
 

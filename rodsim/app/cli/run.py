@@ -38,6 +38,8 @@ class Run(SceneCommand):
     def solve(self, scene: Any, integrator: str, progress: Any) -> Any:
         from rodsim.app.api import solve
 
+        if scene.solver.kernels == "auto":  # one solve in a fresh process: rodsim.core.kernel_tier
+            scene = scene.with_values({"solver.kernels": "tiered"})
         return solve(scene, integrator, progress=progress)
 
     def failure(self, result: Any) -> str | None:
@@ -53,8 +55,11 @@ class Run(SceneCommand):
         from rodsim.io.archive import ArchiveError, write_content
         from rodsim.io.run_dataset import run_content
 
+        content = run_content(result)
+        if result.scene.solver.kernels == "tiered":
+            content.attrs["kernels"] = _tier_text()
         try:  # without xarray: docs/benchmarks.md, "Start-up"
-            write_content(run_content(result), output, note=warn)
+            write_content(content, output, note=warn)
         except ArchiveError as exc:
             raise UserError(str(exc)) from None
         print_run_summary(result, output)
@@ -109,5 +114,14 @@ def print_run_summary(result: Any, archive: Path | None) -> None:
         print(f"tension     {name} {tension:.6g} N (displacement control)")
     if result.stability is not None:
         print(stability_text(result.stability))
+    if scene.solver.kernels == "tiered":
+        print(f"kernels     {_tier_text()}")
     if archive is not None:
         print(f"archive     {archive}")
+
+
+def _tier_text() -> str:
+    """Which evaluation path this process's ``tiered`` models took (rodsim.core.kernel_tier)."""
+    from rodsim.core.kernel_tier import PROCESS_TIER
+
+    return PROCESS_TIER.describe()
