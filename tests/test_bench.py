@@ -499,13 +499,16 @@ def test_tracking_small_outputs(tmp_path):
 
 @pytest.mark.slow
 def test_workers_small_outputs(tmp_path):
-    """``rodsim bench workers --size small``: both worker counts ran, times positive."""
+    """``rodsim bench workers --size small``: both studies, local and dask, both worker
+    counts ran, times positive."""
     from rodsim_bench import workers
 
     paths = workers.run("small", tmp_path)
     assert {p.name for p in paths} == {"workers-small.nc", "workers-small.md"}
     ds = _open(tmp_path / "workers-small.nc")
     assert list(ds["workers"].values) == list(workers.WORKERS)
+    assert list(ds["runner"].values) == ["local", "dask"]
+    assert list(ds["study"].values) == list(workers.STUDIES)
     assert np.all(ds["wall"].values > 0) and np.all(ds["cpu"].values > 0)
 
 

@@ -1,9 +1,14 @@
-"""Studies and workers (``rodsim bench workers``): ``rodsim study fig7b --size full``
-(``small``: ``--size small``) with ``--workers 1`` and ``--workers 2``, each a fresh
-process, interleaved, median of the repeats: wall time (what the user waits for) and CPU
-time of the process and its workers (user + system, ``RUSAGE_CHILDREN``). The machine's
-load average at the start and the end is recorded: on a loaded machine the wall-time ratio
-says little about what a second core would give, the CPU ratio says what the workers cost.
+"""Studies and workers (``rodsim bench workers``): shipped studies on 1 and 2 local worker
+processes (``--workers``) and on a dask LocalCluster of 1 and 2 workers (``--scheduler local
+--workers N``), each a fresh ``rodsim study`` process, interleaved, median of the repeats:
+wall time (what the user waits for) and CPU time of the process and its workers (user +
+system, ``RUSAGE_CHILDREN``; a LocalCluster's workers are the study process's children).
+
+Two studies: ``fig7b`` (seven points of milliseconds each: the process's imports and archive
+dominate, the Amdahl case) and ``convergence`` (sixty points of the two-rod tendon scene,
+up to N = 80: the points dominate). The machine's load average at the start and the end is
+recorded: on a loaded machine the wall-time ratio says little about what a second core would
+give, the CPU ratio says what the workers cost.
 
 Outputs ``workers-<size>.nc`` and ``workers-<size>.md``.
 """
@@ -24,11 +29,13 @@ import xarray as xr
 from rodsim.io.archive import write_dataset
 from rodsim_bench.machine import machine
 
-__all__ = ["run", "WORKERS"]
+__all__ = ["run", "WORKERS", "RUNNERS", "STUDIES"]
 
 SIZES = {"small": {"repeats": 1, "study_size": "small"},
          "full": {"repeats": 3, "study_size": "full"}}
-STUDY = "fig7b"
+STUDIES = ("fig7b", "convergence")
+#: local: ``--workers N`` (1 = in-process); dask: ``--scheduler local --workers N``.
+RUNNERS = ("local", "dask")
 WORKERS = (1, 2)
 
 
@@ -39,63 +46,73 @@ def _load() -> float:
         return float("nan")
 
 
-def _study(workers: int, study_size: str, folder: str) -> tuple[float, float]:
+def _study(study: str, runner: str, workers: int, study_size: str,
+           folder: str) -> tuple[float, float]:
     """(wall, CPU) seconds of one ``rodsim study`` process with its workers."""
     env = dict(os.environ, OMP_NUM_THREADS="1", OPENBLAS_NUM_THREADS="1")
+    env.pop("PYTHONDONTWRITEBYTECODE", None)
+    extra = ["--scheduler", "local"] if runner == "dask" else []
     before = resource.getrusage(resource.RUSAGE_CHILDREN)
     start = time.perf_counter()
-    done = subprocess.run([sys.executable, "-m", "rodsim", "study", STUDY, "--size",
-                           study_size, "--workers", str(workers), "-o",
-                           f"{folder}/{STUDY}-{workers}.nc"], capture_output=True, text=True,
-                          env=env, timeout=1800, check=False)
+    done = subprocess.run([sys.executable, "-m", "rodsim", "study", study, "--size",
+                           study_size, "--workers", str(workers), *extra, "-o",
+                           f"{folder}/{study}-{runner}-{workers}.nc"], capture_output=True,
+                          text=True, env=env, timeout=1800, check=False)
     wall = time.perf_counter() - start
     after = resource.getrusage(resource.RUSAGE_CHILDREN)
     if done.returncode != 0:
-        raise RuntimeError(f"study with {workers} workers: exit {done.returncode}: "
-                           f"{done.stderr[-500:]}")
+        raise RuntimeError(f"study {study} ({runner}, {workers} workers): exit "
+                           f"{done.returncode}: {done.stderr[-500:]}")
     return wall, (after.ru_utime - before.ru_utime + after.ru_stime - before.ru_stime)
 
 
 def run(size: str, output_dir: str | Path, progress=None) -> list[Path]:
     setting = SIZES[size]
     repeats = setting["repeats"]
-    wall = {w: [] for w in WORKERS}
-    cpu = {w: [] for w in WORKERS}
+    shape = (len(STUDIES), len(RUNNERS), len(WORKERS), repeats)
+    wall, cpu = np.full(shape, np.nan), np.full(shape, np.nan)
+    cases = [(i, j, k) for i in range(len(STUDIES)) for j in range(len(RUNNERS))
+             for k in range(len(WORKERS))]
     load_start = _load()
     with tempfile.TemporaryDirectory(prefix="rodsim-workers-") as folder:
-        for repeat in range(repeats):
-            for workers in WORKERS:
+        for repeat in range(repeats):  # interleaved, so that a load change hits every row
+            for n, (i, j, k) in enumerate(cases):
                 if progress is not None:
-                    progress(repeat / repeats, f"workers: {workers} workers "
+                    progress((repeat * len(cases) + n) / (repeats * len(cases)),
+                             f"workers: {STUDIES[i]}, {RUNNERS[j]}, {WORKERS[k]} workers "
                              f"({repeat + 1}/{repeats})")
-                w, c = _study(workers, setting["study_size"], folder)
-                wall[workers].append(w)
-                cpu[workers].append(c)
+                wall[i, j, k, repeat], cpu[i, j, k, repeat] = _study(
+                    STUDIES[i], RUNNERS[j], WORKERS[k], setting["study_size"], folder)
     load_end = _load()
-    med_wall = {w: float(np.median(wall[w])) for w in WORKERS}
-    med_cpu = {w: float(np.median(cpu[w])) for w in WORKERS}
+    med_wall, med_cpu = np.median(wall, axis=-1), np.median(cpu, axis=-1)
+    dims = ("study", "runner", "workers", "repeat")
     ds = xr.Dataset(
-        {"wall": (("workers", "repeat"), np.array([wall[w] for w in WORKERS]),
-                  {"units": "s", "long_name": "wall time of the study process"}),
-         "cpu": (("workers", "repeat"), np.array([cpu[w] for w in WORKERS]),
-                 {"units": "s", "long_name": "CPU time of the study process and its "
-                  "workers"})},
-        coords={"workers": ("workers", np.array(WORKERS), {"long_name": "--workers"}),
+        {"wall": (dims, wall, {"units": "s", "long_name": "wall time of the study process"}),
+         "cpu": (dims, cpu, {"units": "s", "long_name": "CPU time of the study process and "
+                             "its workers"})},
+        coords={"study": ("study", list(STUDIES), {"long_name": "shipped study"}),
+                "runner": ("runner", list(RUNNERS),
+                           {"long_name": "local worker processes or a dask LocalCluster"}),
+                "workers": ("workers", np.array(WORKERS), {"long_name": "--workers"}),
                 "repeat": ("repeat", np.arange(repeats), {"long_name": "repeat"})})
-    ds.attrs = {"title": f"rodsim: study {STUDY} on 1 and 2 workers",
+    ds.attrs = {"title": "rodsim: studies on 1 and 2 workers, local and dask",
                 "benchmark": "workers", "size": size,
                 "study_size": setting["study_size"], "load_average_start": load_start,
                 "load_average_end": load_end,
                 **{f"machine_{k}": v for k, v in machine().items()}}
     output = Path(output_dir) / f"workers-{size}.nc"
     write_dataset(ds, output)
-    lines = [f"# `rodsim study {STUDY} --size {setting['study_size']}` on 1 and 2 workers "
-             f"({size}, median of {repeats})", "",
-             "| workers | wall [s] | CPU [s] | speed-up (wall, vs 1) | CPU / CPU(1) |",
-             "|--:|--:|--:|--:|--:|"]
-    lines += [f"| {w} | {med_wall[w]:.2f} | {med_cpu[w]:.2f} | "
-              f"{med_wall[1] / med_wall[w]:.2f} | {med_cpu[w] / med_cpu[1]:.2f} |"
-              for w in WORKERS]
+    lines = [f"# `rodsim study NAME --size {setting['study_size']}` on 1 and 2 workers, local "
+             f"processes and a dask LocalCluster ({size}, median of {repeats})", "",
+             "| study | runner | workers | wall [s] | CPU [s] | speed-up (wall, vs 1) | "
+             "CPU / CPU(1) |", "|---|---|--:|--:|--:|--:|--:|"]
+    for i, study in enumerate(STUDIES):
+        for j, runner in enumerate(RUNNERS):
+            for k, workers in enumerate(WORKERS):
+                lines.append(f"| {study} | {runner} | {workers} | {med_wall[i, j, k]:.2f} | "
+                             f"{med_cpu[i, j, k]:.2f} | "
+                             f"{med_wall[i, j, 0] / med_wall[i, j, k]:.2f} | "
+                             f"{med_cpu[i, j, k] / med_cpu[i, j, 0]:.2f} |")
     lines += ["", f"Load average (1 min) at the start {load_start:.1f}, at the end "
               f"{load_end:.1f}, on {os.cpu_count()} cores.", "",
               "Machine: " + ", ".join(f"{k} {v}" for k, v in machine().items())]

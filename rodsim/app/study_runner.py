@@ -137,8 +137,9 @@ def _preload(spec: StudySpec, index: tuple[int, ...]) -> None:
 # Dask ------------------------------------------------------------------------------------
 
 
-def _connect(scheduler: str) -> tuple[Any, Any]:
-    """A dask Client (and the LocalCluster for ``"local"``): StudyError when unreachable."""
+def _connect(scheduler: str, workers: int | None = None) -> tuple[Any, Any]:
+    """A dask Client (and the LocalCluster for ``"local"``, of ``workers`` single-threaded
+    worker processes, default 2): StudyError when unreachable."""
     try:
         from distributed import Client, LocalCluster
     except ImportError:
@@ -147,7 +148,8 @@ def _connect(scheduler: str) -> tuple[Any, Any]:
     cluster = None
     try:
         if scheduler == "local":
-            cluster = LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
+            cluster = LocalCluster(n_workers=workers or 2, threads_per_worker=1,
+                                   processes=True,
                                    dashboard_address=None)
         return Client(cluster if cluster is not None else scheduler), cluster
     except Exception as exc:
@@ -263,7 +265,8 @@ def run_spec(spec: StudySpec, output: str | Path, *, workers: int | None = None,
 
     ``workers``: local worker processes (default: one per core, at most one per point);
     ``1`` runs the points in this process (no protection against a point that crashes the
-    interpreter). ``scheduler``: a dask.distributed address, or ``"local"``; connected
+    interpreter); with ``scheduler = "local"``, the LocalCluster's workers (default 2).
+    ``scheduler``: a dask.distributed address, or ``"local"``; connected
     before anything is written; a scheduler with no worker for ``worker_timeout`` seconds
     while points wait fails the study. ``log`` receives one-line warnings (default: stderr).
     Raises :class:`StudyError` for an output that cannot be written (checked before any
@@ -282,7 +285,7 @@ def run_spec(spec: StudySpec, output: str | Path, *, workers: int | None = None,
     check_study_output(output)
     with contextlib.ExitStack() as stack:
         if scheduler:
-            client, cluster = _connect(scheduler)
+            client, cluster = _connect(scheduler, workers)
             if cluster is not None:
                 stack.callback(cluster.close)
             stack.callback(client.close)

@@ -153,7 +153,8 @@ def build_parser() -> argparse.ArgumentParser:
     study.add_argument("--size", choices=("small", "full"), default="full",
                        help="grid size: small (smoke test) or full (default)")
     study.add_argument("--workers", type=positive_int, default=None,
-                       help="local worker processes (default: all cores; 1 = in-process)")
+                       help="local worker processes (default: all cores; 1 = in-process); "
+                            "with --scheduler local, the LocalCluster's workers (default 2)")
     study.add_argument("--scheduler", metavar="ADDRESS",
                        help="run on a dask.distributed scheduler (tcp://host:port), or "
                        "'local' for a LocalCluster")
