@@ -489,9 +489,10 @@ class Model:
         full = self.full(x)
         terms = list(self.terms)
         changed = False
+        compiled = self.kernels == "compiled"
         for k, term in enumerate(terms):
             if term.dynamic:
-                state = term.registration(full, exact)
+                state = term.registration(full, exact, compiled)
                 if state is not None:
                     terms[k] = term.registered(state)
                     changed = True
