@@ -132,3 +132,83 @@ def test_a_misnamed_kernel_constant_is_refused():
     named["rest_length"] = named.pop("rest")
     with pytest.raises(TypeError, match=r"missing constants \['rest'\].*\['rest_length'\]"):
         kernel.bind(named)
+
+
+#: Shipped scenes with each lumen coupling (the paper's: table3; the conserving one: the
+#: others), N_T ≠ N_C and N_T = N_C.
+REGISTRATION_SCENES = ("table3-catheter1", "tendon-conserving", "four-tendons")
+
+
+def _compiled_rule(term, full: np.ndarray, margin: float) -> tuple[int, np.ndarray]:
+    """The compiled registration rule's answer and the parents it wrote."""
+    from rodsim.core.kernels import _registration
+
+    parents = np.full_like(term.parent, -1)
+    rule = getattr(_registration, term._compiled_rule)
+    answer = rule(full, *term._registration_maps, float(term.tendon.alpha),
+                  float(term.tendon.beta), float(term.tendon.offset), term.parent, margin,
+                  parents)
+    return answer, parents
+
+
+@pytest.mark.parametrize("scene", REGISTRATION_SCENES)
+def test_the_compiled_registration_rule_picks_the_reference_parents(scene, random_state):
+    """The lumen terms' registration rule (rodsim/core/kernels/_registration.py) against its
+    numpy reference (``_switches``): a discrete choice, so the same parents exactly, with
+    and without hysteresis, from random parents at random states (the tendons slid along
+    the catheter by up to two segments; the parents anywhere, the rule's own or some a
+    segment off them) — and the term's ``registration`` gives the same answer on both
+    paths. The kernel must decide nearly every case itself (an undecided
+    case, left to numpy, tests nothing), and among them cases where parents change and
+    cases where none does."""
+    from rodsim.core.kernels import _registration
+
+    model = Model(Scene.load(scene_paths()[scene]), "compiled")
+    rng = np.random.default_rng(list(map(ord, scene)))
+    answers = []
+    for _ in range(40):
+        full = model.full(random_state(model, rng))
+        for term in (t for t in model.terms if t.dynamic):
+            slide = rng.uniform(-2.0, 2.0) * term.tendon.catheter.geometry.segment_length
+            full[term._points[:, 0]] += slide
+            # Parents anywhere, the rule's own, or the rule's with some a segment off.
+            top = len(term.tendon.catheter.layout.quaternion_index)
+            parents = term._exact(full)
+            kind = rng.integers(3)
+            if kind == 0:
+                parents = rng.integers(0, top, len(parents))
+            elif kind == 2:
+                parents = np.clip(parents + rng.integers(-1, 2, len(parents)), 0, top - 1)
+            term = term.registered(parents)
+            for margin in (0.0, term._margin):
+                answer, parents = _compiled_rule(term, full, margin)
+                answers.append(answer)
+                nearest, switch = term._switches(full, margin)
+                if answer != _registration.UNDECIDED:
+                    assert answer == (_registration.CHANGED if np.any(switch)
+                                      else _registration.UNCHANGED)
+                    np.testing.assert_array_equal(parents,
+                                                  np.where(switch, nearest, term.parent))
+            for exact in (True, False):
+                compiled = term.registration(full, exact, compiled=True)
+                reference = term.registration(full, exact)
+                assert (compiled is None) == (reference is None)
+                if reference is not None:
+                    np.testing.assert_array_equal(compiled, reference)
+    assert answers.count(_registration.UNDECIDED) <= len(answers) // 20, answers
+    assert answers.count(_registration.CHANGED) >= 10
+    assert answers.count(_registration.UNCHANGED) >= 1
+
+
+def test_a_registration_tie_is_left_to_the_numpy_rule():
+    """At four-tendons' rest state every tendon point lies on a plane of the lumen curve
+    (N_T = N_C): the compiled rule leaves the comparison to the numpy rule, and the term's
+    registration is the reference's."""
+    from rodsim.core.kernels import _registration
+
+    model = Model(Scene.load(scene_paths()["four-tendons"]), "compiled")
+    full = model.rest_full
+    for term in (t for t in model.terms if t.dynamic):
+        assert _compiled_rule(term, full, 0.0)[0] == _registration.UNDECIDED
+        assert term.registration(full, True, compiled=True) is None
+        assert term.registration(full, True) is None

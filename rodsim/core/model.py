@@ -48,7 +48,7 @@ from rodsim.core.sparsity import (
     band_table_fits,
     block_pattern,
     block_spread,
-    merged_pattern,
+    merge_placed,
     pattern_of_keys,
 )
 from rodsim.core.supports import base_support, node_supports, quaternion_product, rigid_motion
@@ -171,6 +171,29 @@ class _FixedBlocks:
     keys: tuple[np.ndarray, list[np.ndarray], np.ndarray] | None = None
 
 
+@dataclass
+class _DynamicBlock:
+    """A dynamic term's element blocks as :meth:`Model._build_pattern` uses them, kept by the
+    model re-registered from it while the term is the same object (at a re-registration,
+    only the terms whose parents changed are new): the free-coordinate map of its blocks and
+    their :func:`~rodsim.core.sparsity.block_spread`, and their slots in the band table
+    ``placed_in`` once placed."""
+
+    term: Term
+    free_of: np.ndarray
+    free: np.ndarray
+    spread: int
+    count: int
+    placed_in: BandBlocks | None = None
+    slots: np.ndarray | None = None
+
+    def slots_in(self, placed: BandBlocks) -> np.ndarray:
+        """The blocks' slots in ``placed``'s table (placed once per table)."""
+        if self.placed_in is not placed or self.slots is None:
+            self.slots, self.placed_in = placed.place(self.free), placed
+        return self.slots
+
+
 class Model:
     """The discretised rod system of one scene.
 
@@ -189,6 +212,9 @@ class Model:
 
     #: How the compiled path calls each term's kernel; built at the first compiled call.
     _kernel_calls: list[KernelCall] | None
+    #: The calls of the model a re-registration came from (:meth:`with_terms`), with the
+    #: index map they were built on, for :meth:`_build_kernel_calls` to keep.
+    _kept_calls: tuple[np.ndarray, list[KernelCall]] | None
     #: The last evaluations, newest first: (state, load, F or None, ∂F/∂x data or None);
     #: see evaluate().
     _memo: list[tuple[np.ndarray, float, np.ndarray | None, np.ndarray | None]]
@@ -436,6 +462,7 @@ class Model:
         self._tick()
         self._build_pattern()
         self._kernel_calls = None
+        self._kept_calls = None
 
     def _order_for_band(self) -> None:
         """Reorder the free coordinates (reverse Cuthill–McKee) when that narrows the band.
@@ -497,9 +524,10 @@ class Model:
         full = self.full(x)
         terms = list(self.terms)
         changed = False
+        compiled = self.kernels == "compiled"
         for k, term in enumerate(terms):
             if term.dynamic:
-                state = term.registration(full, exact)
+                state = term.registration(full, exact, compiled)
                 if state is not None:
                     terms[k] = term.registered(state)
                     changed = True
@@ -532,10 +560,21 @@ class Model:
 
     def with_terms(self, terms: list[Term]) -> Model:
         """The model with ``terms`` (same names and order; a dynamic term may carry another
-        registration) in place of :attr:`terms`."""
+        registration) in place of :attr:`terms`.
+
+        The order of the free coordinates is this model's, so its index map is shared, and
+        so are the blocks of the terms that are the same objects (:meth:`_build_pattern`)
+        and their kernel calls, which take the new pattern's targets
+        (:meth:`_build_kernel_calls`)."""
         other = copy.copy(self)
         other.terms = list(terms)
-        other._build_maps()
+        other._memo = []
+        other._build_force_scatter()
+        other._tick()
+        other._build_pattern()
+        if self._kernel_calls is not None:
+            other._kept_calls = self._free_of, self._kernel_calls
+        other._kernel_calls = None
         return other
 
     def with_term_scales(self, scales: Mapping[int, float]) -> Model:
@@ -584,15 +623,18 @@ class Model:
         self._jac_terms = [t for t in self.terms if t.has_jacobian]
         fixed = self._fixed_blocks()
         dynamic = [index for index, term in enumerate(self._jac_terms) if term.dynamic]
-        dynamic_free = [self._free_of[self._jac_terms[index].dofs] for index in dynamic]
-        spread, count = block_spread(dynamic_free, n)
-        spread, count = max(spread, fixed.spread), count + fixed.count - n
+        blocks = self._dynamic_blocks_of(dynamic)
+        spread = max([fixed.spread, *(block.spread for block in blocks)])
+        count = fixed.count + sum(block.count - n for block in blocks)
+        entries = None
         if dynamic and band_table_fits(n, spread, count):
             if fixed.band is None or fixed.band.spread < spread:
                 fixed.band = band_blocks(fixed.blocks, n, spread, self._tick)
-            stored, fixed_positions, dynamic_positions, diagonal = merged_pattern(
-                fixed.band, dynamic_free, self._tick)
-            fixed_targets = [fixed_positions[index] for index in fixed.which]
+            merged = merge_placed(fixed.band, [block.slots_in(fixed.band) for block in blocks],
+                                  self._tick)
+            stored, dynamic_positions, diagonal = merged.keys, merged.extra, merged.diagonal
+            entries = merged.rows, merged.cols
+            fixed_targets = [merged.positions[index] for index in fixed.which]
         else:
             stored, fixed_targets, dynamic_positions, diagonal = self._sorted_merge(
                 fixed, dynamic)
@@ -605,7 +647,7 @@ class Model:
                            else next(fixed_iter))
         self._tick()
         # The targets stay per term (below), not joined into the pattern's.
-        pattern = pattern_of_keys(stored, np.zeros(0, dtype=np.int64), n)
+        pattern = pattern_of_keys(stored, np.zeros(0, dtype=np.int64), n, entries)
         #: Jacobian sparsity pattern of the free coordinates (CSC, ones where J may be ≠ 0).
         self.pattern = pattern.matrix
         self.pattern_rows, self.pattern_cols = pattern.rows, pattern.cols
@@ -619,6 +661,24 @@ class Model:
         # Where the diagonal entries lie in the CSC data (one per column, in column order).
         self._diagonal_slots = diagonal
         self._fixed_pattern = fixed
+        self._dynamic_blocks = blocks
+
+    def _dynamic_blocks_of(self, dynamic: list[int]) -> list[_DynamicBlock]:
+        """The blocks of the dynamic terms (indices in ``_jac_terms``), kept from the model
+        this one was copied from for every term that is the same object on the same
+        free-coordinate map."""
+        kept = getattr(self, "_dynamic_blocks", [])
+        blocks = []
+        for position, index in enumerate(dynamic):
+            term = self._jac_terms[index]
+            old = kept[position] if position < len(kept) else None
+            if old is not None and old.term is term and old.free_of is self._free_of:
+                blocks.append(old)
+                continue
+            free = self._free_of[term.dofs]
+            blocks.append(_DynamicBlock(term, self._free_of, free,
+                                        *block_spread([free], self.n)))
+        return blocks
 
     def _sorted_merge(self, fixed: _FixedBlocks, dynamic: list[int]) -> tuple[
             np.ndarray, list[np.ndarray], list[np.ndarray], np.ndarray]:
@@ -909,18 +969,27 @@ class Model:
         (slot n and nnz are dumps for clamped coordinates)."""
         from rodsim.core.kernels import load_kernel
 
+        # A re-registered model (with_terms: the same index map) keeps the calls of the terms
+        # that are the same objects, with the new pattern's targets.
+        kept = None
+        if self._kept_calls is not None and self._kept_calls[0] is self._free_of:
+            kept = self._kept_calls[1]
+        self._kept_calls = None
         calls = []
         targets = iter(self._term_targets)
         for index, term in enumerate(self.terms):
             elements, k = term.dofs.shape
-            force_target = np.ascontiguousarray(self._free_of[term.dofs])
             if term.has_jacobian:
-                jacobian_target = next(targets).reshape(elements, k, k)
+                jacobian_target = np.ascontiguousarray(next(targets).reshape(elements, k, k))
             else:
                 jacobian_target = np.zeros((0, 0, 0), dtype=np.int64)
+            if kept is not None and kept[index].term is term:
+                calls.append(kept[index]._replace(jacobian_target=jacobian_target))
+                continue
+            force_target = np.ascontiguousarray(self._free_of[term.dofs])
             kernel = load_kernel(term)
             calls.append(KernelCall(index, term, kernel, kernel.bind(term.kernel_arguments()),
-                                    force_target, np.ascontiguousarray(jacobian_target)))
+                                    force_target, jacobian_target))
         return calls
 
     def jacobian(self, x: np.ndarray, load: float = 1.0) -> sp.csc_matrix:

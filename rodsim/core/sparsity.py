@@ -9,12 +9,13 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 import scipy.sparse as sp
 
-__all__ = ["Pattern", "BandBlocks", "band_blocks", "block_pattern", "block_spread",
-           "csc_pattern", "merged_pattern", "pattern_of_keys"]
+__all__ = ["Pattern", "BandBlocks", "MergedPattern", "band_blocks", "block_pattern",
+           "block_spread", "csc_pattern", "merge_placed", "merged_pattern", "pattern_of_keys"]
 
 
 @dataclass(frozen=True)
@@ -225,19 +226,49 @@ def merged_pattern(placed: BandBlocks, blocks: list[np.ndarray],
     ``blocks``' entries; the diagonal's) — a dropped entry's position is the number of keys.
     ``placed`` is not changed."""
     tick = tick or _no_tick
-    marks = placed.marks
     slots = []
-    if blocks:
+    for free in blocks:
+        slots.append(placed.place(free))
+        tick()
+    merged = merge_placed(placed, slots, tick)
+    return merged.keys, merged.positions, merged.extra, merged.diagonal
+
+
+class MergedPattern(NamedTuple):
+    """:func:`merge_placed`'s answer: the pattern's sorted unique column-major keys and
+    their rows and columns (CSC order), the positions among them of the placed blocks'
+    entries and of the further ones (the number of keys where dropped), the diagonal's."""
+
+    keys: np.ndarray
+    rows: np.ndarray
+    cols: np.ndarray
+    positions: list[np.ndarray]
+    extra: list[np.ndarray]
+    diagonal: np.ndarray
+
+
+def merge_placed(placed: BandBlocks, slots: list[np.ndarray],
+                 tick: Callable[[], None] | None = None) -> MergedPattern:
+    """:func:`merged_pattern` of further blocks already placed in ``placed``'s table
+    (``slots``: :meth:`BandBlocks.place` of each), with the stored entries' rows and columns
+    (one integer division of the slots, where the keys were divided back into rows and
+    columns in two more).
+    ``placed`` is not changed."""
+    tick = tick or _no_tick
+    marks = placed.marks
+    if slots:
         marks = marks.copy()
-        for free in blocks:
-            slot = placed.place(free)
+        for slot in slots:
             marks[slot] = True
-            slots.append(slot)
-            tick()
         marks[placed.end] = False
+        tick()
+    width, size, upper = placed.width, placed.size, placed.spread
     present = np.flatnonzero(marks)
-    table = np.full(placed.end + 1, len(present), dtype=np.int64)
-    table[present] = np.arange(len(present))
+    columns = present // width
+    rows = present - columns * (width - 1) - upper  # offset + column − upper
+    count = len(present)
+    table = np.full(placed.end + 1, count, dtype=np.int64)
+    table[present] = np.arange(count)
     tick()
     positions = []
     for slot in placed.slots:
@@ -247,10 +278,9 @@ def merged_pattern(placed: BandBlocks, blocks: list[np.ndarray],
     for slot in slots:
         extra.append(table[slot])
         tick()
-    width, size, upper = placed.width, placed.size, placed.spread
-    columns = present // width
-    keys = columns * size + (present % width + columns - upper)
-    return keys, positions, extra, table[np.arange(size) * width + upper]
+    keys = columns * size + rows
+    return MergedPattern(keys, rows, columns, positions, extra,
+                         table[np.arange(size) * width + upper])
 
 
 def _sorted_block_pattern(blocks: list[np.ndarray], size: int,
@@ -278,10 +308,16 @@ def _sorted_block_pattern(blocks: list[np.ndarray], size: int,
                                                                 strict=True)], position[:size]
 
 
-def pattern_of_keys(keys: np.ndarray, target: np.ndarray, size: int) -> Pattern:
+def pattern_of_keys(keys: np.ndarray, target: np.ndarray, size: int,
+                    entries: tuple[np.ndarray, np.ndarray] | None = None) -> Pattern:
     """The pattern whose stored entries have the sorted unique column-major keys
-    ``col * size + row``; ``target`` as in :class:`Pattern`."""
-    pattern_rows, pattern_cols = keys % size, keys // size  # column-major keys: CSC order
+    ``col * size + row``; ``target`` as in :class:`Pattern`. ``entries``: the keys' (rows,
+    columns) when the caller has them (:class:`MergedPattern`), else divided out of the
+    keys."""
+    if entries is None:
+        pattern_rows, pattern_cols = keys % size, keys // size  # column-major: CSC order
+    else:
+        pattern_rows, pattern_cols = entries
     indptr = np.searchsorted(pattern_cols, np.arange(size + 1))
     matrix = sp.csc_matrix((np.ones(len(keys)), pattern_rows, indptr), shape=(size, size))
     offsets = pattern_rows - pattern_cols

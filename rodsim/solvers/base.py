@@ -31,6 +31,7 @@ import numpy as np
 from rodsim.core.model import Model
 from rodsim.core.schema import Parameter, register_with_options, validate_table
 from rodsim.solvers.failure import SolverFailure
+from rodsim.solvers.linear import LinearSolver
 from rodsim.solvers.newton import NewtonProblem, newton
 from rodsim.solvers.result import Result
 from rodsim.solvers.run_state import MAX_SETTLES, History, RunState, linear_solver_of
@@ -83,13 +84,14 @@ def retraction_of(model: Model, option: str) -> str:
     return "lengths" if rod_tendon or contact else "frames"
 
 
-def equilibrium_factor(model: Model, x: np.ndarray
+def equilibrium_factor(model: Model, x: np.ndarray, linear: LinearSolver | None = None
                        ) -> tuple[np.ndarray, Callable[[np.ndarray], np.ndarray] | None]:
     """J's CSC data at ``x`` and J factored (a solve of J X = B, or None when J is
     singular): what :func:`correction_residual` needs, and what the stability verdict of
-    the same state reuses (:meth:`RunState.stability`, :func:`rodsim.core.stability.assess`)."""
+    the same state reuses (:meth:`RunState.stability`, :func:`rodsim.core.stability.assess`).
+    ``linear``: the linear solver of ``model``'s pattern, if the caller has one."""
     data = model.jacobian_data(x)
-    return data, linear_solver_of(model).factorized(data)
+    return data, (linear or linear_solver_of(model)).factorized(data)
 
 
 def correction_residual(model: Model, x: np.ndarray, force: np.ndarray,
@@ -291,7 +293,8 @@ class Integrator(ABC, Generic[S]):
         force = self.verification_force(run, model, x)
         if not np.all(np.isfinite(force)):
             return float("inf"), float("inf")
-        factor = equilibrium_factor(model, x)
+        factor = equilibrium_factor(model, x,
+                                    run.linear_solver() if model is run.model else None)
         run.factored = model, x.copy(), factor  # the verdict of the same state reuses it
         return model.residual(force), correction_residual(model, x, force, factor)
 

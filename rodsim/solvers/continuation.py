@@ -10,8 +10,8 @@ and, for stiff penalties: a penalty term much stiffer than bending at the scale 
 those penalties lowered to the ratio — a model whose equilibrium is next to the full one —
 and raise them back from there (``static``; the Newton finish of CVODE and IDA):
 
-- :func:`penalty_scales`: the term scales that lower every such penalty to the ratio;
-- :func:`with_registration_of`: a model with other scales but the registration reached;
+- :func:`penalty_scales`: the term scales that lower every such penalty to the ratio (raised
+  back on the model reached, ``Model.with_term_scales``, which keeps its registration);
 - :func:`homotopy`: F(x) = 0 solved from x by residual homotopy, F(y) − (1 − λ) F(x) = 0 for
   λ rising from 0 to 1 in steps (the SUNDIALS integrators' Newton finish).
 """
@@ -29,8 +29,7 @@ from rodsim.solvers.newton import NewtonProblem, newton
 from rodsim.solvers.run_state import RunState
 
 __all__ = ["DEFAULT_PENALTY_RATIO", "HOMOTOPY_FIRST_STEP", "HOMOTOPY_MIN_STEP",
-           "EASY_ITERATIONS", "penalty_scales", "with_registration_of", "homotopy",
-           "load_continuation"]
+           "EASY_ITERATIONS", "penalty_scales", "homotopy", "load_continuation"]
 
 #: Default K_P l²/(E I) above which a penalty is lowered (``static``'s ``penalty_ratio``, and
 #: the ratio of the SUNDIALS integrators' Newton finish).
@@ -56,15 +55,6 @@ def penalty_scales(model: Model, ratio: float = DEFAULT_PENALTY_RATIO) -> dict[i
     stiff = {k: float(cast(Any, term).penalty_ratio) for k, term in enumerate(model.terms)
              if term.penalty}
     return {k: ratio / value for k, value in stiff.items() if value > ratio}
-
-
-def with_registration_of(model: Model, registered: Model) -> Model:
-    """``model`` (same terms, other scales) with the registration of ``registered``."""
-    terms = [current if current.dynamic else term
-             for current, term in zip(registered.terms, model.terms, strict=True)]
-    if all(a is b for a, b in zip(terms, model.terms, strict=True)):
-        return model
-    return model.with_terms(terms)
 
 
 def homotopy(run: RunState, x: np.ndarray, max_iterations: int,

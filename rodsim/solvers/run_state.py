@@ -173,10 +173,17 @@ class RunState:
 
     def linear_solver(self) -> LinearSolver:
         """The Newton linear solver of :attr:`model`'s pattern (rebuilt when the model is
-        replaced)."""
-        if self._linear is None or self._linear[0] is not self.model:
-            self._linear = self.model, linear_solver_of(self.model)
-        return self._linear[1]
+        replaced by one of another pattern: kept across penalty scales, as
+        ``static``'s ``carry`` keeps it across continuation steps)."""
+        linear = self._linear
+        if linear is None or linear[0] is not self.model:
+            if (linear is None or linear[0].pattern is not self.model.pattern
+                    or linear[0].conservative != self.model.conservative):
+                linear = self.model, linear_solver_of(self.model)
+            else:  # the same pattern (other penalty scales): the same solver
+                linear = self.model, linear[1]
+            self._linear = linear
+        return linear[1]
 
     # ------------------------------------------------------------- progress
     def checkpoint(self, x: np.ndarray, where: str | Callable[[], str]) -> None:

@@ -59,7 +59,6 @@ from rodsim.solvers.continuation import (
     DEFAULT_PENALTY_RATIO,
     load_continuation,
     penalty_scales,
-    with_registration_of,
 )
 from rodsim.solvers.integrator_options import StaticOptions
 from rodsim.solvers.newton import NewtonProblem, newton
@@ -160,9 +159,12 @@ class Static(Integrator[StaticState]):
         while outcome.success and min(scales.values()) < 1.0:
             trial = {k: min(1.0, factor * scale) for k, scale in scales.items()}
             smallest = min(trial.values())
-            # Same registration as reached, new penalty scales.
+            # Same registration as reached, new penalty scales: the scales of the model
+            # reached (every penalty's among ``trial``'s keys, the others the base's), so its
+            # pattern, index maps and kernel calls are kept (a model of the base's rebuilt
+            # with this registration was a fourth pattern merge in a four-tendons solve).
             model = run.model
-            run.model = with_registration_of(base.with_term_scales(trial), model)
+            run.model = model.with_term_scales(trial)
             where = f"penalty scale {smallest:.3g}"
             self.check_budget(run, where)
             converged, x = self._newton_registered(run, outcome.x, smallest >= 1.0)

@@ -189,13 +189,16 @@ class Term(ABC):
         a missing or unknown name is an error."""
         raise NotImplementedError(f"term {self.name!r} has no compiled kernel")
 
-    def registration(self, x: np.ndarray, exact: bool = False) -> np.ndarray | None:
+    def registration(self, x: np.ndarray, exact: bool = False,
+                     compiled: bool = False) -> np.ndarray | None:
         """A dynamic term's registration rule applied to the full state ``x``: the new
         discrete state if it differs from this term's, else ``None``.
 
         ``exact`` drops any hysteresis the term uses between solver steps: at equilibrium
         the state must be the one its own registration rule gives, so that the equilibrium
-        does not depend on the path a solver took to it."""
+        does not depend on the path a solver took to it. ``compiled``: the model evaluates
+        with the compiled kernels, and a term may apply a compiled form of its rule, which
+        must give the same state."""
         return None
 
     def registered(self, state: np.ndarray) -> Term:

@@ -58,6 +58,7 @@ class ConservingLumen(LumenCoupling):
     coupling = "conserving"
     conservative = True
     kernel = "lumen_segment"
+    _compiled_rule = "segment_switches"
     parameters = lumen_parameters(
         "N/m²", "lumen penalty constant per unit tendon length (coupling 'conserving')",
         "E I / (r_L² L_T²) (catheter's least E I, lumen offset, tendon length)")
