@@ -524,7 +524,7 @@ class Model:
         full = self.full(x)
         terms = list(self.terms)
         changed = False
-        compiled = self.kernels == "compiled"
+        compiled = self._compiled()
         for k, term in enumerate(terms):
             if term.dynamic:
                 state = term.registration(full, exact, compiled)
