@@ -130,3 +130,24 @@ def test_rodsim_run_stays_on_numpy_and_never_imports_numba(tmp_path):
     dataset = read_dataset(output)
     assert dataset.attrs["kernels"].startswith("numpy (")
     assert json.loads(dataset.attrs["scene_json"])["solver"]["kernels"] == "tiered"
+
+
+def test_user_robots_reach_the_compiled_equilibrium_when_the_move_comes_midway(tier):
+    """The seeded family of user-like robots (tests/test_user_robot.py): a static solve that
+    moves to the compiled kernels after ten numpy evaluations ends within 1e-8 L of the
+    compiled path's equilibrium."""
+    from test_user_robot import family
+
+    tier.budget = 0.1
+    for robot, _ in family()[:8]:
+        tier.reset()
+        tiered = rodsim.solve({**robot, "solver": {**robot["solver"], "kernels": "tiered"}},
+                              "static")
+        plain = rodsim.solve({**robot, "solver": {**robot["solver"], "kernels": "compiled"}},
+                             "static")
+        assert tiered.success == plain.success, robot["name"]
+        if plain.success:
+            assert tier.compiled, robot["name"]
+            length = robot["rods"]["catheter"]["length"]
+            difference = np.abs(tiered.positions("catheter") - plain.positions("catheter"))
+            assert difference.max() <= 1e-8 * length, robot["name"]
