@@ -14,6 +14,7 @@ The references read the rods' constants (E I, E_s A, L, the base) from the scene
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import lru_cache
 
 import numpy as np
 
@@ -109,6 +110,14 @@ def cantilever_reference(scene: Scene, samples: int = 201) -> CantileverReferenc
 REFERENCE_KINDS = ("exact", "paper", "extensible", "arc")
 
 
+@lru_cache(maxsize=16)
+def _fine_paper_model(force: float, ei: float, length: float) -> ElasticaShape:
+    """The paper's model at 2001 points in φ (4000 quadratures, ~40 ms), remembered per
+    process: the points of a study that sweeps N or K_P share their load (fig7b's seven
+    points computed it seven times). Only read (interpolated) by its caller."""
+    return paper_model(force, ei, length, 2001)
+
+
 def reference_centerline(scene: Scene, kind: str, s: np.ndarray) -> np.ndarray | None:
     """Reference positions (len(s), 3) [m] of the scene's first rod at rest arc lengths ``s``.
 
@@ -157,7 +166,7 @@ def reference_centerline(scene: Scene, kind: str, s: np.ndarray) -> np.ndarray |
             return None
         shape = extensible_elastica((0.0, -force), ei, stretch, length, s)
     else:  # the paper's model is sampled in φ: interpolate it at s
-        fine = paper_model(force, ei, length, 2001)
+        fine = _fine_paper_model(force, ei, length)
         shape = ElasticaShape(s, np.interp(s, fine.s, fine.x), np.interp(s, fine.s, fine.y),
                               fine.tip_angle)
     out[:, 0], out[:, 1] = shape.x, shape.y
