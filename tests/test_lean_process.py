@@ -118,6 +118,38 @@ def test_study_and_bench_keep_dask_and_bench_the_normal_exit():
     assert {"study", "bench"}.isdisjoint(lean.LEAN_COMMANDS)
     assert {"run", "track", "rerun", "scenes"} <= lean.LEAN_COMMANDS
     assert "bench" not in lean.EARLY_EXIT_COMMANDS and "study" in lean.EARLY_EXIT_COMMANDS
+    assert lean.hides_dask("study") and not lean.hides_dask("study", "local")
+    assert not lean.hides_dask("bench")
+
+
+#: A whole ``rodsim`` process (``main(argv, process=True)``) that reports, as it ends, which
+#: of dask and distributed it imported.
+DASK_PROBE = textwrap.dedent("""
+    import sys
+    from rodsim.app import lean
+    early = lean.fast_exit
+    def report(code):
+        print("imported:", sorted(m for m in ("dask", "distributed")
+                                  if sys.modules.get(m) is not None), flush=True)
+        early(code)
+    lean.fast_exit = report
+    from rodsim.app.cli.main import main
+    sys.exit(main(sys.argv[1:], process=True))
+""")
+
+
+@pytest.mark.parametrize("workers", ["1", "2"])
+def test_a_study_on_local_workers_never_imports_dask(tmp_path, workers):
+    """xarray's netCDF write asks dask for its scheduler (0.4 s of imports, distributed
+    included): a study on local workers hides dask and its archive is still complete."""
+    output = tmp_path / "fig7b.nc"
+    done = subprocess.run([sys.executable, "-c", DASK_PROBE, "study", "fig7b", "--size",
+                           "small", "--workers", workers, "-o", str(output)],
+                          capture_output=True, text=True, timeout=600, check=False,
+                          env=dict(os.environ, OMP_NUM_THREADS="1", OPENBLAS_NUM_THREADS="1"))
+    assert done.returncode == 0, done.stderr
+    assert "imported: []" in done.stdout
+    assert read_dataset(output)["status"].size > 0
 
 
 def test_a_study_on_two_workers_is_complete_after_its_process_ends(tmp_path):

@@ -4,10 +4,11 @@ a Python user's process, nor in the tests' process that calls :func:`rodsim.app.
 Two things cost a short command more than its work (docs/benchmarks.md, "Start-up"):
 
 * **dask, when it is installed.** xarray imports ``dask.array`` and ``distributed`` (0.5 s
-  of CPU) to learn whether the arrays of a Dataset it builds or writes are dask arrays. The
-  commands that never hand xarray a dask array nor run on dask (:data:`LEAN_COMMANDS`:
-  everything but ``study`` and ``bench``) mark dask as absent in their process before
-  anything imports it (:func:`hide_dask`).
+  of CPU) to learn whether the arrays of a Dataset it builds or writes are dask arrays, and
+  ``to_netcdf`` asks dask for its scheduler. The commands that never hand xarray a dask
+  array nor run on dask (:data:`LEAN_COMMANDS`: everything but ``study`` and ``bench``; and
+  ``study`` on local workers, without ``--scheduler``: :func:`hides_dask`) mark dask as
+  absent in their process before anything imports it (:func:`hide_dask`).
 * **The interpreter's exit.** Once numba has loaded kernels, the normal exit tears down
   LLVM and every module (0.4–0.6 s of CPU). :func:`fast_exit` ends the process with
   ``os._exit`` instead, after flushing stdout and stderr, on the command's normal path
@@ -24,7 +25,7 @@ import os
 import sys
 from typing import NoReturn
 
-__all__ = ["LEAN_COMMANDS", "EARLY_EXIT_COMMANDS", "hide_dask", "fast_exit"]
+__all__ = ["LEAN_COMMANDS", "EARLY_EXIT_COMMANDS", "hides_dask", "hide_dask", "fast_exit"]
 
 #: The commands that use neither dask nor worker processes: their process hides dask and
 #: ends with :func:`fast_exit`. ``study`` and ``bench`` start workers and clusters whose
@@ -32,6 +33,13 @@ __all__ = ["LEAN_COMMANDS", "EARLY_EXIT_COMMANDS", "hide_dask", "fast_exit"]
 LEAN_COMMANDS = frozenset({"run", "rerun", "track", "fit", "reach", "plot", "scenes", "terms"})
 #: The commands whose process ends with :func:`fast_exit` once they return normally.
 EARLY_EXIT_COMMANDS = LEAN_COMMANDS | {"study"}
+
+
+def hides_dask(command: str, scheduler: str | None = None) -> bool:
+    """Whether the process of ``command`` hides dask: the lean commands, and ``study`` when
+    it runs on local workers (no ``--scheduler``; its workers are forked from this process
+    and never use dask either). A ``study`` on a dask scheduler keeps it."""
+    return command in LEAN_COMMANDS or (command == "study" and not scheduler)
 
 
 def hide_dask() -> None:

@@ -28,18 +28,19 @@ def main(argv: Sequence[str] | None = None, *, process: bool = False) -> int:
     set — before anything imports numpy or matplotlib.
 
     ``process``: this call is the whole process (:func:`entry`, the installed command and
-    ``python -m rodsim``): a command of :data:`~rodsim.app.lean.LEAN_COMMANDS` then hides
-    dask from xarray, and one of :data:`~rodsim.app.lean.EARLY_EXIT_COMMANDS` ends the
-    process at once when it returns normally (:mod:`rodsim.app.lean`)."""
+    ``python -m rodsim``): a command of :data:`~rodsim.app.lean.LEAN_COMMANDS`, or a study
+    on local workers, then hides dask from xarray (:func:`~rodsim.app.lean.hides_dask`),
+    and one of :data:`~rodsim.app.lean.EARLY_EXIT_COMMANDS` ends the process at once when it
+    returns normally (:mod:`rodsim.app.lean`)."""
     pin_threads()
     os.environ.setdefault("MPLBACKEND", "Agg")
     parser = build_parser()
     args = parser.parse_args(argv)
     command: Callable[[argparse.Namespace], int] = args.func
-    from rodsim.app.lean import EARLY_EXIT_COMMANDS, LEAN_COMMANDS, fast_exit, hide_dask
+    from rodsim.app.lean import EARLY_EXIT_COMMANDS, fast_exit, hide_dask, hides_dask
     from rodsim.io.provenance import invocation
 
-    if process and args.command in LEAN_COMMANDS:
+    if process and hides_dask(args.command, getattr(args, "scheduler", None)):
         hide_dask()
     words = list(sys.argv[1:] if argv is None else argv)
     common.CREATED_FOLDERS.clear()
