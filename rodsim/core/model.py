@@ -340,12 +340,16 @@ class Model:
             owner, name, term_name = self.term_keys[index]
             kind = scene.term_type(owner, name, term_name)
             options = scene.term_options(owner, name, term_name)
-            if owner == "rods":
+            known = self.terms[index]
+            made = known.with_options(options) if type(known) is kind else None
+            if made is not None:
+                term = made  # its elements and registration kept
+            elif owner == "rods":
                 term = kind(self.rods[name], options,
                             *((self.rods,) if kind.joins_rods else ()))
             else:
                 term = kind(self.tendons[name], options)
-            if term.dynamic:
+            if made is None and term.dynamic:
                 term = _registered_as(term, self.terms[index])
             if (type(term) is not type(self.terms[index])
                     or term.has_jacobian != self.terms[index].has_jacobian

@@ -55,10 +55,25 @@ class History:
         self.data["tip"].append(x[self._tip_free].tolist())
 
 
+#: The linear solver of the last pattern asked for, with the symmetry it was made for: the
+#: models of a track's or a fit's steps share one pattern (rodsim/app/inverse/), and each
+#: step's run and its verification would otherwise rebuild the same band offsets.
+_LAST_SOLVER: tuple[object, bool, LinearSolver] | None = None
+
+
 def linear_solver_of(model: Model) -> LinearSolver:
-    """The Newton linear solver of ``model``'s Jacobian pattern (band or sparse)."""
-    return LinearSolver(model.pattern, model.pattern_rows, model.pattern_cols,
-                        (model.band.lower, model.band.upper), model.conservative)
+    """The Newton linear solver of ``model``'s Jacobian pattern (band or sparse); the one
+    made for the last pattern asked for when it is the same pattern object and symmetry (a
+    solver holds only offsets computed from the pattern, and its counts)."""
+    global _LAST_SOLVER
+    symmetric = model.conservative
+    cached = _LAST_SOLVER
+    if cached is not None and cached[0] is model.pattern and cached[1] == symmetric:
+        return cached[2]
+    solver = LinearSolver(model.pattern, model.pattern_rows, model.pattern_cols,
+                          (model.band.lower, model.band.upper), symmetric)
+    _LAST_SOLVER = model.pattern, symmetric, solver
+    return solver
 
 
 def base_counts() -> dict[str, float]:
