@@ -70,6 +70,13 @@ def test_a_string_tendons_new_tension_keeps_its_routing_points_and_other_options
     built = type(term)(pulled.tendons["s1a"], term.options)
     for name, value in built.kernel_arguments().items():
         np.testing.assert_array_equal(term.kernel_arguments()[name], value)
+    # only that term's share of the rest stiffness was evaluated again
+    for k, (_, _, share) in model._diagonal_shares.items():
+        assert (pulled._diagonal_shares[k][2] is share) == (k != index), k
+    # and the shares add up to the diagonal of one whole Jacobian at rest (to round-off)
+    whole = np.abs(pulled.jacobian_data(pulled.x0)[pulled._diagonal_slots])
+    np.testing.assert_allclose(pulled.rest_stiffness, whole, rtol=1e-14, atol=0)
+    assert not np.array_equal(pulled.rest_stiffness, model.rest_stiffness)  # T stiffens
     # another option of the term (where the tendon ends) builds it anew
     moved = model.with_values(scene_with(scene, numeric_keys(
         scene, ["tendons.s1a.tendon_string.end"]), [0.9 * before.end]))
