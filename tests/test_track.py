@@ -9,6 +9,9 @@ import pytest
 import xarray as xr
 
 import rodsim
+from rodsim.app.inverse.continuation import Continuation
+from rodsim.app.inverse.parameter_keys import numeric_keys, scene_with
+from rodsim.core.model import Model
 from rodsim.io.archive import read_dataset
 
 
@@ -125,3 +128,29 @@ def test_a_failed_track_exits_1_and_writes_nothing(tmp_path, capsys, cli):
     assert code == 1
     assert "step 1" in capsys.readouterr().err
     assert list(tmp_path.iterdir()) == []
+
+
+def test_string_tendon_tracking_steps_are_solved_by_chord_iterations_without_newton():
+    # A continuation step of static factors J at its start and again where the chord
+    # iterations stall (rodsim/solvers/static.py, Static._chord); with the factorisation
+    # kept from the last step they stalled on every other step of this ramp and Newton
+    # (a Jacobian and a factorisation per iteration, a line search on the energy) took over.
+    scene = rodsim.load_scene("tdcr-two-segment")
+    keys = numeric_keys(scene, ["tendons.s1a.tendon_string.tension"])
+    values = np.linspace(0.5, 1.5, 21)
+    first = rodsim.solve(scene_with(scene, keys, [values[0]]), "static")
+    continuation = Continuation(Model(first.scene), first.state)
+    previous, with_newton = None, 0
+    for value in values[1:]:
+        predictor = None if previous is None else 2.0 * continuation.x - previous
+        last = continuation.x
+        assert continuation.solve(scene_with(scene, keys, [value]), predictor).success
+        previous = last
+        with_newton += continuation.state.counts["newton_iters"] > 0
+    assert with_newton <= 2
+    cold = rodsim.solve(scene_with(scene, keys, [values[-1]]), "static")
+    model = continuation.model
+    length = max(rod.length for rod in model.rods.values())
+    for rod in model.rods:
+        assert np.abs(model.positions(continuation.x, rod)
+                      - model.positions(cold.state, rod)).max() < 1e-8 * length
