@@ -135,6 +135,9 @@ class RunState:
     last_force: np.ndarray | None = None
     _linear: tuple[Model, LinearSolver] | None = field(default=None, repr=False)
     _stability: tuple[Model, np.ndarray, Stability] | None = field(default=None, repr=False)
+    #: (model, state) where :meth:`reregister` last found the model's registration exact
+    #: (``exact`` and no parent changed): :meth:`registered_exactly`.
+    _exact: tuple[Model, np.ndarray] | None = field(default=None, repr=False)
     #: (model, state, (J's data, J factored)) of the last verified state
     #: (:meth:`Integrator.verified_residual`), which its verdict reuses.
     factored: tuple[Model, np.ndarray, tuple[np.ndarray, Callable[[np.ndarray], np.ndarray]
@@ -213,9 +216,21 @@ class RunState:
             return False
         moved = self.model.reregistered(x, exact)
         if moved is None:
+            if exact:
+                self._exact = self.model, x
             return False
         self.model = moved
         return True
+
+    def registered_exactly(self, x: np.ndarray) -> bool:
+        """Whether :attr:`model` is known to carry the exact registration of the state
+        ``x`` (no hysteresis: :meth:`Model.reregistered` with ``exact`` at ``x`` would change
+        nothing) — true after :meth:`reregister` with ``exact`` found nothing to change at
+        that state on this model, or for a model without registration."""
+        if not self.model.has_registration:
+            return True
+        known = self._exact
+        return known is not None and known[0] is self.model and np.array_equal(known[1], x)
 
     def settled(self, x: np.ndarray) -> bool:
         """Whether an equilibrium ``x`` may end the run: its registration needs no change

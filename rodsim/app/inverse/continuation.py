@@ -139,7 +139,9 @@ class Continuation:
         self.state = state
         if not result.success:
             return StepOutcome(False, x, result.residual, work, result.message)
-        self.model, self.x = registered_model(state.model, result.state), result.state
+        self.model = (state.model if state.registered_exactly(result.state)
+                      else registered_model(state.model, result.state))
+        self.x = result.state
         return StepOutcome(True, result.state, result.residual, work, "converged")
 
     def walk(self, scene: Scene, keys: Sequence[NumericKey], start: np.ndarray,
