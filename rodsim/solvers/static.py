@@ -74,8 +74,11 @@ RETRACTIONS = ("auto", "lengths", "frames")
 #: Chord iterations a continuation step tries before Newton.
 MAX_CHORD = 10
 #: Times a continuation step's chord iterations factor the Jacobian again, at the state
-#: they stalled in, before Newton takes over (:meth:`Static._chord`).
+#: they stalled in, before Newton takes over (:meth:`Static._chord`)...
 CHORD_REFRESHES = 2
+#: ... and only once they brought the residual this far below the step's start (they
+#: stalled near the solution; on coarse steps a stall far from it is Newton's to solve).
+CHORD_REFRESH_BELOW = 1e-3
 #: Newton iterations a continuation step may take (per registration), whatever
 #: ``max_newton`` (the budget of a cold load step) says: a step that needs more is retried
 #: smaller by the caller.
@@ -224,9 +227,11 @@ class Static(Integrator[StaticState]):
     def _chord(self, run: StaticState, x: np.ndarray) -> np.ndarray | None:
         """Chord iterations x ← x − J₀⁻¹F(x) with J₀ factored at the step's start ``x``:
         each costs an evaluation of F and a band back-substitution instead of F, J and a
-        band factorisation. When an iteration fails to halve the residual, J₀ is factored
-        again at the state reached, up to :data:`CHORD_REFRESHES` times. Returns x once the
-        residual is below the tolerance, or None: Newton then takes over.
+        band factorisation. When an iteration fails to halve the residual (or is too slow
+        to reach the tolerance in the iterations left) after the iterations brought the
+        residual below :data:`CHORD_REFRESH_BELOW` of the start's, J₀ is factored again at
+        the state reached, up to :data:`CHORD_REFRESHES` times. Returns x once the residual
+        is below the tolerance, or None: Newton then takes over.
 
         Why J₀ is not kept from the last step (as it was before): between two neighbouring
         equilibria of a tracked ramp the Jacobian changes by far more than its parameters
@@ -237,7 +242,7 @@ class Static(Integrator[StaticState]):
         model = run.model
         counts = run.counts
         refreshes = 0
-        previous = np.inf
+        previous = start = np.inf
         solve = None
         iteration = 0
         while iteration < MAX_CHORD:
@@ -251,11 +256,14 @@ class Static(Integrator[StaticState]):
             if residual < run.tolerance:
                 counts["chord_iters"] += iteration
                 return x
+            if iteration == 0:
+                start = residual
             rate = residual / previous
             # Stalled (not halving), or too slow to reach the tolerance within the
             # iterations left at the rate just measured.
             if not rate < 0.5 or residual * rate ** (MAX_CHORD - iteration) >= run.tolerance:
-                if refreshes == CHORD_REFRESHES or not np.isfinite(residual):
+                if (refreshes == CHORD_REFRESHES
+                        or not residual < CHORD_REFRESH_BELOW * start):
                     break
                 refreshes += 1
                 previous, solve = np.inf, None  # factor again here
