@@ -154,3 +154,32 @@ def test_string_tendon_tracking_steps_are_solved_by_chord_iterations_without_new
     for rod in model.rods:
         assert np.abs(model.positions(continuation.x, rod)
                       - model.positions(cold.state, rod)).max() < 1e-8 * length
+
+
+def test_static_turns_the_predictor_as_rigid_frames_where_its_retraction_does():
+    # The secant predictor x_k + dx extrapolates turning segments along straight lines,
+    # which stretches them; static's "frames" retraction turns them (Static.predicted).
+    scene = rodsim.load_scene("tdcr-two-segment")
+    keys = numeric_keys(scene, ["tendons.s1a.tendon_string.tension"])
+    path = rodsim.track(scene, {"tendons.s1a.tendon_string.tension": [1.0, 1.5, 2.0]})
+    assert path.success
+    model = Model(scene_with(scene, keys, [2.5]))
+    x0, x1 = (state[model.free] for state in path.states[1:])
+    dx = x1 - x0
+    integrator = rodsim.solvers.integrator_named("static").for_scene(scene)
+    turned, straight = integrator.predicted(model, x1, dx), x1 + dx
+
+    def stretch(x):  # largest relative change of a backbone segment's length
+        r = model.positions(x, "backbone")
+        length = np.linalg.norm(np.diff(r, axis=0), axis=1)
+        rest = np.linalg.norm(np.diff(model.positions(x1, "backbone"), axis=0), axis=1)
+        return np.max(np.abs(length / rest - 1.0))
+
+    # measured: half the stretch and half the residual at this coarse step (0.5 N)
+    assert stretch(turned) < 0.6 * stretch(straight)
+    assert model.residual(model.force(turned)) < 0.6 * model.residual(model.force(straight))
+    # where the retraction is "lengths" (a tendon that is a rod) the straight line is kept
+    table3 = rodsim.load_scene("table3-catheter1")
+    other = Model(table3)
+    np.testing.assert_array_equal(
+        integrator.predicted(other, other.x0, np.full(other.n, 1e-6)), other.x0 + 1e-6)
