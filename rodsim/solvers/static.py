@@ -46,10 +46,6 @@ Newton if they still stall, no fall-back (:meth:`Static._continuation_step`).
 
 from __future__ import annotations
 
-from collections.abc import Callable
-from dataclasses import dataclass
-from typing import Any
-
 import numpy as np
 
 from rodsim.core.model import Model
@@ -85,21 +81,12 @@ CHORD_REFRESH_BELOW = 1e-3
 CONTINUATION_NEWTON = 30
 
 
-@dataclass(eq=False, kw_only=True)
-class StaticState(RunState):
-    """A static run's state, with the factorisation of a continuation step's chord
-    iterations: (the Jacobian pattern it belongs to, its solve), or None."""
-
-    factor: tuple[Any, Callable[[np.ndarray], np.ndarray]] | None = None
-
-
-class Static(Integrator[StaticState]):
+class Static(Integrator[RunState]):
     """Newton–Raphson with load continuation on F(x) = 0."""
 
     Options = StaticOptions
     options: StaticOptions
 
-    State = StaticState
     takes_predictor = True
 
     name = "static"
@@ -133,7 +120,7 @@ class Static(Integrator[StaticState]):
     def work(cls, stats: dict[str, float]) -> int:
         return int(stats["newton_iters"] + stats.get("chord_iters", 0))
 
-    def carry(self, previous: RunState, state: StaticState) -> None:
+    def carry(self, previous: RunState, state: RunState) -> None:
         """A continuation step keeps the linear solver of the last step while the Jacobian
         pattern is the same. (Not its factorisation: one kept from the last step was
         measured to stall the chord iterations, :meth:`_chord`.)"""
@@ -153,7 +140,7 @@ class Static(Integrator[StaticState]):
             return model.turned_step(x, dx)
         return x + dx
 
-    def advance(self, run: StaticState) -> Outcome:
+    def advance(self, run: RunState) -> Outcome:
         if run.continued:
             return self._continuation_step(run)
         if run.warm:
@@ -196,7 +183,7 @@ class Static(Integrator[StaticState]):
             outcome = Outcome(x, True, "converged")
         return outcome
 
-    def _continuation_step(self, run: StaticState) -> Outcome:
+    def _continuation_step(self, run: RunState) -> Outcome:
         """A continuation step (:meth:`Integrator.restart`: a nearby model, from a nearby
         equilibrium or a predictor): chord iterations (:meth:`_chord`), then, if they
         stall, Newton at full load (the analytic Jacobian, band solves and line search;
@@ -236,7 +223,7 @@ class Static(Integrator[StaticState]):
                 return Outcome(x, True, "converged")
         return Outcome(x, False, "the tendon registration did not settle")
 
-    def _chord(self, run: StaticState, x: np.ndarray) -> np.ndarray | None:
+    def _chord(self, run: RunState, x: np.ndarray) -> np.ndarray | None:
         """Chord iterations x ← x − J₀⁻¹F(x) with J₀ factored at the step's start ``x``:
         each costs an evaluation of F and a band back-substitution instead of F, J and a
         band factorisation. When an iteration fails to halve the residual (or is too slow
@@ -262,7 +249,6 @@ class Static(Integrator[StaticState]):
                 solve = run.linear_solver().factorized(run.jacobian_data(x))
                 if solve is None:
                     break
-                run.factor = model.pattern, solve
             f = run.force(x, check=False)
             residual = model.residual(f) if np.all(np.isfinite(f)) else np.inf
             if residual < run.tolerance:
@@ -283,10 +269,9 @@ class Static(Integrator[StaticState]):
             previous = residual
             x = x - solve(f)
             iteration += 1
-        run.factor = None  # iterations that led nowhere are not counted
-        return None
+        return None  # the iterations that led nowhere are not counted
 
-    def _load_continuation(self, run: StaticState, model: Model,
+    def _load_continuation(self, run: RunState, model: Model,
                            first_step: float | None = None) -> Outcome:
         """Apply the loads to ``model`` in increments from its rest state and registration
         (rodsim/solvers/continuation.py); the first increment is ``first_load_step``, or
@@ -305,7 +290,7 @@ class Static(Integrator[StaticState]):
                                  self.options.min_load_step, newton_at,
                                  lambda where: self.check_budget(run, where), progress)
 
-    def _newton_registered(self, run: StaticState, x: np.ndarray,
+    def _newton_registered(self, run: RunState, x: np.ndarray,
                            final: bool) -> tuple[bool, np.ndarray]:
         """Newton at full load, repeated from its result while the tendon registration
         changes (and, when ``final``, until it settles without hysteresis)."""
@@ -319,7 +304,7 @@ class Static(Integrator[StaticState]):
             if not final or run.settled(x):
                 return True, x
 
-    def _newton(self, run: StaticState, x: np.ndarray, load: float,
+    def _newton(self, run: RunState, x: np.ndarray, load: float,
                 polish: bool = True) -> tuple[bool, np.ndarray, int]:
         """Newton iterations at a fixed load (polished past the tolerance when ``polish``:
         intermediate steps need not be), through the retraction the options name, counted;
