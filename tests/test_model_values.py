@@ -35,6 +35,7 @@ def _same_numbers(a: Model, b: Model, x: np.ndarray) -> None:
     ("table3-catheter1", TENDON_FORCE, 2.5),
     ("table1-50g", "tip_load.mass", 0.08),
     ("tendon-conserving", "tendon_actuation.force", 1.5),
+    ("tdcr-two-segment", "tendons.s1a.tendon_string.tension", 2.0),
 ])
 def test_a_changed_term_option_gives_the_numbers_of_a_full_reassembly(scene_name, key, value):
     scene = rodsim.load_scene(scene_name)
@@ -54,6 +55,32 @@ def test_a_changed_term_option_gives_the_numbers_of_a_full_reassembly(scene_name
     _same_numbers(fast, model.with_scene(other), x)
     # and the force really changed with the value (the test can see a stale term)
     assert not np.array_equal(fast.force(x), model.force(x))
+
+
+def test_a_string_tendons_new_tension_keeps_its_routing_points_and_other_options_do_not():
+    scene = rodsim.load_scene("tdcr-two-segment")
+    model = Model(scene)
+    index = model.term_keys.index(("tendons", "s1a", "tendon_string"))
+    pulled = model.with_values(scene_with(scene, numeric_keys(
+        scene, ["tendons.s1a.tendon_string.tension"]), [2.0]))
+    term, before = pulled.terms[index], model.terms[index]
+    assert term is not before and term.tension == 2.0 and before.tension != 2.0
+    assert term.points is before.points  # the routing is not recomputed for a tension
+    # the copy is the term the constructor builds from the same options
+    built = type(term)(pulled.tendons["s1a"], term.options)
+    for name, value in built.kernel_arguments().items():
+        np.testing.assert_array_equal(term.kernel_arguments()[name], value)
+    # only that term's share of the rest stiffness was evaluated again
+    for k, (_, _, share) in model._diagonal_shares.items():
+        assert (pulled._diagonal_shares[k][2] is share) == (k != index), k
+    # and the shares add up to the diagonal of one whole Jacobian at rest (to round-off)
+    whole = np.abs(pulled.jacobian_data(pulled.x0)[pulled._diagonal_slots])
+    np.testing.assert_allclose(pulled.rest_stiffness, whole, rtol=1e-14, atol=0)
+    assert not np.array_equal(pulled.rest_stiffness, model.rest_stiffness)  # T stiffens
+    # another option of the term (where the tendon ends) builds it anew
+    moved = model.with_values(scene_with(scene, numeric_keys(
+        scene, ["tendons.s1a.tendon_string.end"]), [0.9 * before.end]))
+    assert moved.terms[index].points is not before.points
 
 
 def test_an_unchanged_scene_shares_the_model_and_other_changes_fall_back():

@@ -9,6 +9,9 @@ import pytest
 import xarray as xr
 
 import rodsim
+from rodsim.app.inverse.continuation import Continuation
+from rodsim.app.inverse.parameter_keys import numeric_keys, scene_with
+from rodsim.core.model import Model
 from rodsim.io.archive import read_dataset
 
 
@@ -125,3 +128,58 @@ def test_a_failed_track_exits_1_and_writes_nothing(tmp_path, capsys, cli):
     assert code == 1
     assert "step 1" in capsys.readouterr().err
     assert list(tmp_path.iterdir()) == []
+
+
+def test_string_tendon_tracking_steps_are_solved_by_chord_iterations_without_newton():
+    # A continuation step of static factors J at its start and again where the chord
+    # iterations stall (rodsim/solvers/static.py, Static._chord); with the factorisation
+    # kept from the last step they stalled on every other step of this ramp and Newton
+    # (a Jacobian and a factorisation per iteration, a line search on the energy) took over.
+    scene = rodsim.load_scene("tdcr-two-segment")
+    keys = numeric_keys(scene, ["tendons.s1a.tendon_string.tension"])
+    values = np.linspace(0.5, 1.5, 21)
+    first = rodsim.solve(scene_with(scene, keys, [values[0]]), "static")
+    continuation = Continuation(Model(first.scene), first.state)
+    previous, with_newton = None, 0
+    for value in values[1:]:
+        predictor = None if previous is None else 2.0 * continuation.x - previous
+        last = continuation.x
+        assert continuation.solve(scene_with(scene, keys, [value]), predictor).success
+        previous = last
+        with_newton += continuation.state.counts["newton_iters"] > 0
+    assert with_newton <= 2
+    cold = rodsim.solve(scene_with(scene, keys, [values[-1]]), "static")
+    model = continuation.model
+    length = max(rod.length for rod in model.rods.values())
+    for rod in model.rods:
+        assert np.abs(model.positions(continuation.x, rod)
+                      - model.positions(cold.state, rod)).max() < 1e-8 * length
+
+
+def test_static_turns_the_predictor_as_rigid_frames_where_its_retraction_does():
+    # The secant predictor x_k + dx extrapolates turning segments along straight lines,
+    # which stretches them; static's "frames" retraction turns them (Static.predicted).
+    scene = rodsim.load_scene("tdcr-two-segment")
+    keys = numeric_keys(scene, ["tendons.s1a.tendon_string.tension"])
+    path = rodsim.track(scene, {"tendons.s1a.tendon_string.tension": [1.0, 1.5, 2.0]})
+    assert path.success
+    model = Model(scene_with(scene, keys, [2.5]))
+    x0, x1 = (state[model.free] for state in path.states[1:])
+    dx = x1 - x0
+    integrator = rodsim.solvers.integrator_named("static").for_scene(scene)
+    turned, straight = integrator.predicted(model, x1, dx), x1 + dx
+
+    def stretch(x):  # largest relative change of a backbone segment's length
+        r = model.positions(x, "backbone")
+        length = np.linalg.norm(np.diff(r, axis=0), axis=1)
+        rest = np.linalg.norm(np.diff(model.positions(x1, "backbone"), axis=0), axis=1)
+        return np.max(np.abs(length / rest - 1.0))
+
+    # measured: half the stretch and half the residual at this coarse step (0.5 N)
+    assert stretch(turned) < 0.6 * stretch(straight)
+    assert model.residual(model.force(turned)) < 0.6 * model.residual(model.force(straight))
+    # where the retraction is "lengths" (a tendon that is a rod) the straight line is kept
+    table3 = rodsim.load_scene("table3-catheter1")
+    other = Model(table3)
+    np.testing.assert_array_equal(
+        integrator.predicted(other, other.x0, np.full(other.n, 1e-6)), other.x0 + 1e-6)

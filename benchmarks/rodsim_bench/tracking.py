@@ -9,10 +9,22 @@ best of the repeats, the variants interleaved; the equilibria of the two variant
 compared (largest difference of any coordinate, every step). The stability verdict's share
 (``rodsim.core.stability.assess``, every step's) is measured in the best repeat of the shared
 model. Outputs ``tracking-<size>.nc`` and ``tracking-<size>.md``.
+
+With the environment variable ``RODSIM_BENCH_BASELINE`` set to a git revision of this
+repository, the same tracks (shared model) are also run by that revision's code in the same
+run, interleaved with the repeats: its tree is extracted (``git archive``) into a temporary
+folder and each repeat runs it in a subprocess (``PYTHONPATH`` set to it; the same warm-up,
+the same CPU clock inside the process); the table then gives the baseline's steps/s, the
+ratio and the largest difference between the two revisions' states.
 """
 
 from __future__ import annotations
 
+import json
+import os
+import subprocess
+import sys
+import tempfile
 import time
 from pathlib import Path
 
@@ -59,16 +71,88 @@ def _track(scene_name: str, ramp: dict, variant: str):
         stability.assess = assess  # type: ignore[assignment]
 
 
+#: The environment variable naming a git revision to compare with (module docstring).
+BASELINE_ENV = "RODSIM_BENCH_BASELINE"
+
+#: What a baseline subprocess runs: argv[1] the number of steps, argv[2] a folder for the
+#: states; prints {scene: CPU seconds}.
+_BASELINE_SCRIPT = """
+import json, sys, time
+import numpy as np
+import rodsim
+cases = json.loads(sys.argv[3])
+steps, folder = int(sys.argv[1]), sys.argv[2]
+out = {}
+for scene_name, key, start, stop in cases:
+    scene = rodsim.load_scene(scene_name)
+    rodsim.track(scene, {key: np.linspace(start, stop, 3)})
+    began = time.process_time()
+    path = rodsim.track(scene, {key: np.linspace(start, stop, steps)})
+    out[scene_name] = time.process_time() - began
+    if not path.success:
+        raise SystemExit(scene_name + ': ' + path.message)
+    np.save(folder + '/' + scene_name + '.npy', np.array(path.states))
+print(json.dumps(out))
+"""
+
+
+class _Baseline:
+    """The tracks run by another revision's code (module docstring)."""
+
+    def __init__(self, revision: str, folder: Path) -> None:
+        root = Path(__file__).resolve().parents[2]
+        self.commit = subprocess.run(["git", "-C", str(root), "rev-parse", revision],
+                                     capture_output=True, text=True,
+                                     check=True).stdout.strip()
+        self.tree = folder / "tree"
+        self.tree.mkdir()
+        archive = subprocess.run(["git", "-C", str(root), "archive", self.commit],
+                                 capture_output=True, check=True).stdout
+        subprocess.run(["tar", "-x", "-C", str(self.tree)], input=archive, check=True)
+        self.states = folder / "states"
+        self.states.mkdir()
+
+    def run(self, steps: int) -> dict[str, float]:
+        env = {**os.environ, "PYTHONPATH": str(self.tree)}
+        done = subprocess.run([sys.executable, "-c", _BASELINE_SCRIPT, str(steps),
+                               str(self.states), json.dumps(CASES)], env=env,
+                              capture_output=True, text=True, cwd=str(self.tree))
+        if done.returncode != 0:
+            raise RuntimeError(f"baseline {self.commit}: {done.stderr.strip()[-500:]}")
+        return json.loads(done.stdout.strip().splitlines()[-1])
+
+    def states_of(self, scene_name: str) -> np.ndarray:
+        return np.load(self.states / f"{scene_name}.npy")
+
+
 def run(size: str, output_dir: str | Path, progress=None) -> list[Path]:
+    revision = os.environ.get(BASELINE_ENV, "")
+    if revision:
+        with tempfile.TemporaryDirectory() as folder:
+            baseline = _Baseline(revision, Path(folder))
+            baseline.run(3)  # warm-up: its kernels compiled into its own tree's cache
+            return _run(size, output_dir, progress, baseline)
+    return _run(size, output_dir, progress, None)
+
+
+def _run(size: str, output_dir: str | Path, progress, baseline: _Baseline | None
+         ) -> list[Path]:
     setting = SIZES[size]
     steps, repeats = setting["steps"], setting["repeats"]
     names = [case[0] for case in CASES]
     cpu = {(c, v): [] for c in names for v in VARIANTS}
+    base_cpu: dict[str, list[float]] = {c: [] for c in names}
     verdict = {c: np.inf for c in names}
     paths = {}
     for scene_name, key, start, stop in CASES:
         _track(scene_name, {key: np.linspace(start, stop, 3)}, VARIANTS[0])  # warm-up
     for repeat in range(repeats):
+        if baseline is not None:
+            if progress is not None:
+                progress(repeat / repeats, f"tracking: baseline {baseline.commit[:7]} "
+                         f"({repeat + 1}/{repeats})")
+            for scene_name, seconds in baseline.run(steps).items():
+                base_cpu[scene_name].append(seconds)
         for scene_name, key, start, stop in CASES:
             ramp = {key: np.linspace(start, stop, steps)}
             for variant in VARIANTS:
@@ -89,6 +173,16 @@ def run(size: str, output_dir: str | Path, progress=None) -> list[Path]:
                                           - np.array(paths[c, VARIANTS[1]].states))))
                   for c in names}
     iterations = {k: int(sum(p.iterations)) for k, p in paths.items()}
+    against = {}
+    if baseline is not None:
+        for c in names:
+            best_base = min(base_cpu[c])
+            ours = np.array(paths[c, VARIANTS[0]].states)
+            theirs = baseline.states_of(c)
+            against[c] = (best_base, (steps - 1) / best_base,
+                          best_base / best[c, VARIANTS[0]],
+                          float(np.max(np.abs(ours - theirs))) if ours.shape == theirs.shape
+                          else float("nan"))
     ds = xr.Dataset(
         {"cpu": (("scene", "variant", "repeat"),
                  np.array([[cpu[c, v] for v in VARIANTS] for c in names]),
@@ -113,6 +207,15 @@ def run(size: str, output_dir: str | Path, progress=None) -> list[Path]:
                 "variant": ("variant", list(VARIANTS), {"long_name": "how each step's "
                                                          "model is made"}),
                 "repeat": ("repeat", np.arange(repeats), {"long_name": "repeat"})})
+    if baseline is not None:
+        ds["baseline_cpu"] = (("scene", "repeat"), np.array([base_cpu[c] for c in names]),
+                              {"units": "s", "long_name": "CPU time of the whole track (shared "
+                               "model) by the baseline revision's code",
+                               "baseline_commit": baseline.commit})
+        ds["baseline_state_difference"] = ("scene", np.array([against[c][3] for c in names]),
+                                           {"units": "1", "long_name": "largest difference "
+                                            "of a coordinate between this revision's and the "
+                                            "baseline's tracks"})
     ds.attrs = {"title": "rodsim: tracking rate", "benchmark": "tracking", "size": size,
                 "ramps": "; ".join(f"{c[0]}: {c[1]} {c[2]} -> {c[3]}, {steps} values"
                                    for c in CASES),
@@ -133,6 +236,15 @@ def run(size: str, output_dir: str | Path, progress=None) -> list[Path]:
     lines += [""] + [f"{c}: ratio {rate[c, VARIANTS[0]] / rate[c, VARIANTS[1]]:.2f}×; "
                      f"largest difference between the two tracks' states: "
                      f"{difference[c]:.1e}." for c in names]
+    if baseline is not None:
+        lines += ["", f"Against the baseline {baseline.commit} (its code, the same tracks "
+                  "and repeats, interleaved in this run; shared model):", "",
+                  "| scene | baseline CPU [s] | baseline steps/s | this steps/s | speed-up | "
+                  "largest state difference |", "|---|--:|--:|--:|--:|--:|"]
+        for c in names:
+            base_seconds, base_rate, ratio, moved = against[c]
+            lines.append(f"| {c} | {base_seconds:.3f} | {base_rate:.0f} | "
+                         f"{rate[c, VARIANTS[0]]:.0f} | {ratio:.2f}× | {moved:.1e} |")
     lines += ["", "Machine: " + ", ".join(f"{k} {v}" for k, v in machine().items())]
     table = output.with_suffix(".md")
     table.write_text("\n".join(lines) + "\n", encoding="utf-8")

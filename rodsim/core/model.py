@@ -358,10 +358,13 @@ class Model:
         step): those terms alone are rebuilt, with this model's registration; the rods,
         tendons, free-coordinate order, Jacobian pattern, index maps and loaded kernels are
         shared, and the scales are recomputed as :meth:`Model.__init__` computes them (the
-        same numbers as :meth:`with_scene`). Any other difference (rods, sections,
-        supports, tendons' geometry, the evaluation path ``solver.kernels``, a term whose
-        elements move) falls back to :meth:`with_scene` — or gives None when ``fallback`` is
-        False. The other solver settings are the integrators', not the model's."""
+        same numbers as :meth:`with_scene`), the rest stiffness from the changed terms'
+        shares alone (:meth:`_rest_diagonal`); a term that only takes new constants is
+        made by :meth:`Term.with_options` (a string tendon's tension: its routing kept).
+        Any other difference (rods, sections, supports, tendons' geometry, the evaluation
+        path ``solver.kernels``, a term whose elements move) falls back to
+        :meth:`with_scene` — or gives None when ``fallback`` is False. The other solver
+        settings are the integrators', not the model's."""
         changed = self._changed_terms(scene)
         if changed is None:
             return self.with_scene(scene) if fallback else None
@@ -374,12 +377,16 @@ class Model:
             owner, name, term_name = self.term_keys[index]
             kind = scene.term_type(owner, name, term_name)
             options = scene.term_options(owner, name, term_name)
-            if owner == "rods":
+            known = self.terms[index]
+            made = known.with_options(options) if type(known) is kind else None
+            if made is not None:
+                term = made  # its elements and registration kept
+            elif owner == "rods":
                 term = kind(self.rods[name], options,
                             *((self.rods,) if kind.joins_rods else ()))
             else:
                 term = kind(self.tendons[name], options)
-            if term.dynamic:
+            if made is None and term.dynamic:
                 term = _registered_as(term, self.terms[index])
             if (type(term) is not type(self.terms[index])
                     or term.has_jacobian != self.terms[index].has_jacobian
@@ -780,12 +787,57 @@ class Model:
         # converged states is 5–20× below it; Newton iterations asked to go lower only stall.
         magnitude = np.where(self.is_quaternion, 1.0, self.length_scale)
         self._tick()
-        stiffness = np.abs(self.jacobian_data(x0)[self._diagonal_slots])
+        stiffness = np.abs(self._rest_diagonal(full))
         #: |∂F_i/∂x_i| at rest, the stiffness of each coordinate on its own.
         self.rest_stiffness = stiffness
         #: Smallest scaled residual the model reliably reaches in double precision.
         self.residual_floor = float(32.0 * np.finfo(float).eps
                                     * np.max(stiffness * magnitude * self.residual_weight))
+
+    def _rest_diagonal(self, full: np.ndarray) -> np.ndarray:
+        """The diagonal of ∂F/∂x at the full state ``full`` (the rest state), as the sum of
+        the terms' shares in term order. Each term's share is kept with the term and its
+        scale (:attr:`_diagonal_shares`) and recomputed only for a term or a scale that
+        changed: a model of other values (:meth:`with_values`) evaluates the changed terms
+        alone. (Summed by term, not accumulated in one pass, so that every model of the
+        same terms gets the same numbers whichever terms it recomputed.)"""
+        kept = getattr(self, "_diagonal_shares", None) or {}
+        shares: dict[int, tuple[Term, float, np.ndarray]] = {}
+        total = np.zeros(self.n)
+        buffer = None
+        targets = iter(self._term_targets)
+        compiled = self.kernels == "compiled"
+        if compiled and self._kernel_calls is None:
+            self._kernel_calls = self._build_kernel_calls()
+        for index, term in enumerate(self.terms):
+            if not term.has_jacobian:
+                continue
+            target = next(targets)
+            scale = self._scale(index, term, 1.0)
+            known = kept.get(index)
+            if known is not None and known[0] is term and known[1] == scale:
+                share = known[2]
+            elif compiled:
+                assert self._kernel_calls is not None
+                call = self._kernel_calls[index]
+                if buffer is None:
+                    buffer = np.zeros(self.nnz + 1)
+                if scale != 0.0:
+                    call.kernel.evaluate(full, *call.arguments, scale, False, np.zeros(1),
+                                         call.force_target, True, buffer,
+                                         call.jacobian_target)
+                share = buffer[self._diagonal_slots]
+                buffer[call.jacobian_target.ravel()] = 0.0
+                buffer[-1] = 0.0
+            else:
+                values = scale * term.element_jacobians(full).ravel()
+                share = np.bincount(target, weights=values,
+                                    minlength=self.nnz + 1)[self._diagonal_slots]
+            shares[index] = term, scale, share
+            total += share
+            self._tick()
+        self._diagonal_shares = shares
+        return total
 
     # ------------------------------------------------------------- state maps
     @property

@@ -224,7 +224,13 @@ class Integrator(ABC, Generic[S]):
 
     def carry(self, previous: RunState, state: S) -> None:
         """Keep what a continuation step reuses of the state a run returned (default:
-        nothing; ``static`` keeps its factorisation)."""
+        nothing; ``static`` keeps its linear solver)."""
+
+    def predicted(self, model: Model, x: np.ndarray, dx: np.ndarray) -> np.ndarray:
+        """The start a continuation step on ``model`` takes from the predictor ``x + dx``
+        (``x`` the last equilibrium, ``dx`` the path's last chord scaled to the step; only
+        for an integrator that :attr:`takes_predictor`): ``x + dx`` here."""
+        return x + dx
 
     @classmethod
     def work(cls, stats: dict[str, float]) -> int:

@@ -52,7 +52,8 @@ class LinearSolver:
     symmetric
         True when J is symmetric (a conservative model): −J is then tried with Cholesky.
 
-    ``counts`` records how many solves each method did.
+    ``counts`` records how many solves each method did (since the solver was made: the
+    runs on one pattern share a solver, rodsim/solvers/run_state.py).
     """
 
     def __init__(self, pattern: sp.csc_matrix, rows: np.ndarray, cols: np.ndarray,

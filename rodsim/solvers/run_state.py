@@ -55,10 +55,25 @@ class History:
         self.data["tip"].append(x[self._tip_free].tolist())
 
 
+#: The linear solver of the last pattern asked for, with the symmetry it was made for: the
+#: models of a track's or a fit's steps share one pattern (rodsim/app/inverse/), and each
+#: step's run and its verification would otherwise rebuild the same band offsets.
+_LAST_SOLVER: tuple[object, bool, LinearSolver] | None = None
+
+
 def linear_solver_of(model: Model) -> LinearSolver:
-    """The Newton linear solver of ``model``'s Jacobian pattern (band or sparse)."""
-    return LinearSolver(model.pattern, model.pattern_rows, model.pattern_cols,
-                        (model.band.lower, model.band.upper), model.conservative)
+    """The Newton linear solver of ``model``'s Jacobian pattern (band or sparse); the one
+    made for the last pattern asked for when it is the same pattern object and symmetry (a
+    solver holds only offsets computed from the pattern, and its counts)."""
+    global _LAST_SOLVER
+    symmetric = model.conservative
+    cached = _LAST_SOLVER
+    if cached is not None and cached[0] is model.pattern and cached[1] == symmetric:
+        return cached[2]
+    solver = LinearSolver(model.pattern, model.pattern_rows, model.pattern_cols,
+                          (model.band.lower, model.band.upper), symmetric)
+    _LAST_SOLVER = model.pattern, symmetric, solver
+    return solver
 
 
 def base_counts() -> dict[str, float]:
@@ -120,6 +135,9 @@ class RunState:
     last_force: np.ndarray | None = None
     _linear: tuple[Model, LinearSolver] | None = field(default=None, repr=False)
     _stability: tuple[Model, np.ndarray, Stability] | None = field(default=None, repr=False)
+    #: (model, state) where :meth:`reregister` last found the model's registration exact
+    #: (``exact`` and no parent changed): :meth:`registered_exactly`.
+    _exact: tuple[Model, np.ndarray] | None = field(default=None, repr=False)
     #: (model, state, (J's data, J factored)) of the last verified state
     #: (:meth:`Integrator.verified_residual`), which its verdict reuses.
     factored: tuple[Model, np.ndarray, tuple[np.ndarray, Callable[[np.ndarray], np.ndarray]
@@ -205,9 +223,21 @@ class RunState:
             return False
         moved = self.model.reregistered(x, exact)
         if moved is None:
+            if exact:
+                self._exact = self.model, x
             return False
         self.model = moved
         return True
+
+    def registered_exactly(self, x: np.ndarray) -> bool:
+        """Whether :attr:`model` is known to carry the exact registration of the state
+        ``x`` (no hysteresis: :meth:`Model.reregistered` with ``exact`` at ``x`` would change
+        nothing) — true after :meth:`reregister` with ``exact`` found nothing to change at
+        that state on this model, or for a model without registration."""
+        if not self.model.has_registration:
+            return True
+        known = self._exact
+        return known is not None and known[0] is self.model and np.array_equal(known[1], x)
 
     def settled(self, x: np.ndarray) -> bool:
         """Whether an equilibrium ``x`` may end the run: its registration needs no change

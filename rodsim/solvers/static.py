@@ -39,22 +39,18 @@ Quaternion norm: held by the centerline penalty Eq. (9) (|d3| = |q|²), as in th
 Warm start (``initial_state``, e.g. the penalty-error estimate of rodsim/app/trust.py):
 Newton at full load from the given state, repeated while the registration changes; if that
 fails, the run starts over from rest with the continuations above. A continuation step
-(:meth:`Integrator.restart`, what track, fit and reach take): chord iterations with the
-factorisation kept from the last step, then Newton if they stall, no fall-back
-(:meth:`Static._continuation_step`).
+(:meth:`Integrator.restart`, what track, fit and reach take): chord iterations with a
+factorisation made at the step's start (made again where they stall, twice at most), then
+Newton if they still stall, no fall-back (:meth:`Static._continuation_step`).
 """
 
 from __future__ import annotations
-
-from collections.abc import Callable
-from dataclasses import dataclass
-from typing import Any
 
 import numpy as np
 
 from rodsim.core.model import Model
 from rodsim.core.schema import Parameter
-from rodsim.solvers.base import Integrator, Outcome
+from rodsim.solvers.base import Integrator, Outcome, retraction_of
 from rodsim.solvers.continuation import (
     DEFAULT_PENALTY_RATIO,
     load_continuation,
@@ -70,29 +66,26 @@ NONCONSERVATIVE_FIRST_STEP = 0.25
 #: ``retraction`` choices: :meth:`Model.step`, :meth:`Model.turned_step`, or by the model's
 #: content (:func:`rodsim.solvers.base.retraction_of`, the default).
 RETRACTIONS = ("auto", "lengths", "frames")
-#: Chord iterations (kept factorisation) a continuation step tries before Newton.
+#: Chord iterations a continuation step tries before Newton.
 MAX_CHORD = 10
+#: Times a continuation step's chord iterations factor the Jacobian again, at the state
+#: they stalled in, before Newton takes over (:meth:`Static._chord`)...
+CHORD_REFRESHES = 2
+#: ... and only once they brought the residual this far below the step's start (they
+#: stalled near the solution; on coarse steps a stall far from it is Newton's to solve).
+CHORD_REFRESH_BELOW = 1e-3
 #: Newton iterations a continuation step may take (per registration), whatever
 #: ``max_newton`` (the budget of a cold load step) says: a step that needs more is retried
 #: smaller by the caller.
 CONTINUATION_NEWTON = 30
 
 
-@dataclass(eq=False, kw_only=True)
-class StaticState(RunState):
-    """A static run's state, with the factorisation a continuation step keeps: (the
-    Jacobian pattern it belongs to, its solve), or None."""
-
-    factor: tuple[Any, Callable[[np.ndarray], np.ndarray]] | None = None
-
-
-class Static(Integrator[StaticState]):
+class Static(Integrator[RunState]):
     """Newton–Raphson with load continuation on F(x) = 0."""
 
     Options = StaticOptions
     options: StaticOptions
 
-    State = StaticState
     takes_predictor = True
 
     name = "static"
@@ -126,16 +119,27 @@ class Static(Integrator[StaticState]):
     def work(cls, stats: dict[str, float]) -> int:
         return int(stats["newton_iters"] + stats.get("chord_iters", 0))
 
-    def carry(self, previous: RunState, state: StaticState) -> None:
-        """A continuation step keeps the factorisation and the linear solver of the last
-        step while the Jacobian pattern is the same."""
-        if isinstance(previous, StaticState):
-            state.factor = previous.factor
+    def carry(self, previous: RunState, state: RunState) -> None:
+        """A continuation step keeps the linear solver of the last step while the Jacobian
+        pattern is the same. (Not its factorisation: one kept from the last step was
+        measured to stall the chord iterations, :meth:`_chord`.)"""
         linear = previous._linear
         if linear is not None and linear[0].pattern is state.model.pattern:
             state._linear = state.model, linear[1]
 
-    def advance(self, run: StaticState) -> Outcome:
+    def predicted(self, model: Model, x: np.ndarray, dx: np.ndarray) -> np.ndarray:
+        """The predictor x + dx with each segment turned as a rigid frame
+        (:meth:`Model.turned_step`) where this integrator's retraction is "frames": a
+        straight-line extrapolation of turning segments stretches them, which their stretch
+        and penalty stiffness turn into a large residual (tdcr-two-segment, 201 steps: the
+        start's residual halves and one factorisation a step suffices instead of 1.5).
+        Where it is "lengths" the straight line is kept: :meth:`Model.step` was measured
+        slower there (table3-catheter1: 265 against 300 steps/s)."""
+        if retraction_of(model, self.options.retraction) == "frames":
+            return model.turned_step(x, dx)
+        return x + dx
+
+    def advance(self, run: RunState) -> Outcome:
         if run.continued:
             return self._continuation_step(run)
         if run.warm:
@@ -181,15 +185,14 @@ class Static(Integrator[StaticState]):
             outcome = Outcome(x, True, "converged")
         return outcome
 
-    def _continuation_step(self, run: StaticState) -> Outcome:
+    def _continuation_step(self, run: RunState) -> Outcome:
         """A continuation step (:meth:`Integrator.restart`: a nearby model, from a nearby
-        equilibrium or a predictor): chord iterations with the kept factorisation
-        (:meth:`_chord`), then, if they stall, Newton at full load (the analytic Jacobian,
-        band solves and line search; x + Δx, not polished past the tolerance); either
-        repeated while the registration changes, until it settles without hysteresis. No
-        load or penalty continuation and no fall-back to a cold start: a warm step costs a
-        few iterations, and a failed one is the caller's to retry with a smaller step
-        (rodsim/app/inverse/continuation.py)."""
+        equilibrium or a predictor): chord iterations (:meth:`_chord`), then, if they
+        stall, Newton at full load (the analytic Jacobian, band solves and line search;
+        x + Δx, not polished past the tolerance); either repeated while the registration
+        changes, until it settles without hysteresis. No load or penalty continuation and
+        no fall-back to a cold start: a warm step costs a few iterations, and a failed one
+        is the caller's to retry with a smaller step (rodsim/app/inverse/continuation.py)."""
         x = run.start
         counts = run.counts
         counts["chord_iters"] = 0
@@ -222,35 +225,55 @@ class Static(Integrator[StaticState]):
                 return Outcome(x, True, "converged")
         return Outcome(x, False, "the tendon registration did not settle")
 
-    def _chord(self, run: StaticState, x: np.ndarray) -> np.ndarray | None:
-        """Chord iterations x ← x − J₀⁻¹F(x) with a factorisation J₀ kept from an earlier
-        equilibrium of the same Jacobian pattern (factored here if there is none): each
-        costs an evaluation of F and a band back-substitution instead of F, J and a band
-        factorisation. Returns x once the residual is below the tolerance, or None — and
-        drops J₀ — as soon as an iteration fails to halve it (J₀ too far from the current
-        Jacobian): Newton then takes over."""
+    def _chord(self, run: RunState, x: np.ndarray) -> np.ndarray | None:
+        """Chord iterations x ← x − J₀⁻¹F(x) with J₀ factored at the step's start ``x``:
+        each costs an evaluation of F and a band back-substitution instead of F, J and a
+        band factorisation. When an iteration fails to halve the residual (or is too slow
+        to reach the tolerance in the iterations left) after the iterations brought the
+        residual below :data:`CHORD_REFRESH_BELOW` of the start's, J₀ is factored again at
+        the state reached, up to :data:`CHORD_REFRESHES` times. Returns x once the residual
+        is below the tolerance, or None: Newton then takes over.
+
+        Why J₀ is not kept from the last step (as it was before): between two neighbouring
+        equilibria of a tracked ramp the Jacobian changes by far more than its parameters
+        suggest (the spectral radius of J_k⁻¹ J_{k+1} − I is 2.5–6 on table3-catheter1 and
+        tdcr-two-segment at 201 steps, almost all of it from the state, not from the new
+        value), and a factorisation kept from the last step's start or equilibrium stalled
+        within one or two iterations (docs/benchmarks.md, "Tracking")."""
         model = run.model
-        if run.factor is None or run.factor[0] is not model.pattern:
-            solve = run.linear_solver().factorized(run.jacobian_data(x))
+        counts = run.counts
+        refreshes = 0
+        previous = start = np.inf
+        solve = None
+        iteration = 0
+        while iteration < MAX_CHORD:
             if solve is None:
-                return None
-            run.factor = model.pattern, solve
-        solve = run.factor[1]
-        previous = np.inf
-        for iteration in range(MAX_CHORD):
+                solve = run.linear_solver().factorized(run.jacobian_data(x))
+                if solve is None:
+                    break
             f = run.force(x, check=False)
             residual = model.residual(f) if np.all(np.isfinite(f)) else np.inf
             if residual < run.tolerance:
-                run.counts["chord_iters"] += iteration
+                counts["chord_iters"] += iteration
                 return x
-            if not residual < 0.5 * previous:
-                break
+            if iteration == 0:
+                start = residual
+            rate = residual / previous
+            # Stalled (not halving), or too slow to reach the tolerance within the
+            # iterations left at the rate just measured.
+            if not rate < 0.5 or residual * rate ** (MAX_CHORD - iteration) >= run.tolerance:
+                if (refreshes == CHORD_REFRESHES
+                        or not residual < CHORD_REFRESH_BELOW * start):
+                    break
+                refreshes += 1
+                previous, solve = np.inf, None  # factor again here
+                continue
             previous = residual
             x = x - solve(f)
-        run.factor = None  # iterations that led nowhere are not counted
-        return None
+            iteration += 1
+        return None  # the iterations that led nowhere are not counted
 
-    def _load_continuation(self, run: StaticState, model: Model,
+    def _load_continuation(self, run: RunState, model: Model,
                            first_step: float | None = None) -> Outcome:
         """Apply the loads to ``model`` in increments from its rest state and registration
         (rodsim/solvers/continuation.py); the first increment is ``first_load_step``, or
@@ -269,7 +292,7 @@ class Static(Integrator[StaticState]):
                                  self.options.min_load_step, newton_at,
                                  lambda where: self.check_budget(run, where), progress)
 
-    def _newton_registered(self, run: StaticState, x: np.ndarray,
+    def _newton_registered(self, run: RunState, x: np.ndarray,
                            final: bool) -> tuple[bool, np.ndarray]:
         """Newton at full load, repeated from its result while the tendon registration
         changes (and, when ``final``, until it settles without hysteresis)."""
@@ -283,7 +306,7 @@ class Static(Integrator[StaticState]):
             if not final or run.settled(x):
                 return True, x
 
-    def _newton(self, run: StaticState, x: np.ndarray, load: float,
+    def _newton(self, run: RunState, x: np.ndarray, load: float,
                 polish: bool = True) -> tuple[bool, np.ndarray, int]:
         """Newton iterations at a fixed load (polished past the tolerance when ``polish``:
         intermediate steps need not be), through the retraction the options name, counted;

@@ -114,6 +114,12 @@ class Continuation:
         """Whether the integrator's continuation step starts from a predictor."""
         return self.kind.takes_predictor
 
+    def predicted(self, scene: Scene, dx: np.ndarray) -> np.ndarray:
+        """The start of the next step from the predictor ``x + dx`` (``x`` the last
+        equilibrium), as the integrator configured by ``scene`` takes it
+        (:meth:`Integrator.predicted`)."""
+        return self.kind.for_scene(scene).predicted(self.model, self.x, dx)
+
     def solve(self, scene: Scene, start: np.ndarray | None = None) -> StepOutcome:
         """The equilibrium of ``scene`` (same discretisation) from ``start`` (default: the
         last equilibrium); on success it becomes the last equilibrium.
@@ -139,7 +145,9 @@ class Continuation:
         self.state = state
         if not result.success:
             return StepOutcome(False, x, result.residual, work, result.message)
-        self.model, self.x = registered_model(state.model, result.state), result.state
+        self.model = (state.model if state.registered_exactly(result.state)
+                      else registered_model(state.model, result.state))
+        self.x = result.state
         return StepOutcome(True, result.state, result.residual, work, "converged")
 
     def walk(self, scene: Scene, keys: Sequence[NumericKey], start: np.ndarray,

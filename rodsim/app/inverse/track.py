@@ -5,8 +5,10 @@ has the values ``ramps[key][k]``. Step 0 is solved cold with the chosen integrat
 rest); every later step is warm-started from the previous equilibrium and its registration
 (rodsim/app/inverse/continuation.py). With ``static``, step k + 1 starts from the first-order
 predictor x_k + (x_k − x_{k−1}) |p_{k+1} − p_k| / |p_k − p_{k−1}| (the path's last chord,
-from step 2 on) and solves from there (chord iterations with a kept factorisation, then
-Newton if they stall; no polishing past the tolerance). The path's chord is free. The
+from step 2 on; as the integrator takes it, :meth:`Integrator.predicted`: ``static`` turns
+the segments as rigid frames where its retraction does) and solves from there (chord
+iterations with a factorisation made at the step's start, then Newton if they stall; no
+polishing past the tolerance). The path's chord is free. The
 tangent predictor x_k + (dx/dp)(p_{k+1} − p_k) from the sensitivities
 (rodsim/app/inverse/sensitivity.py) was measured on table3-catheter1 (201 steps of the tendon
 force, 0 → 2 N, before the chord iterations): it saved about one Newton iteration per step
@@ -363,7 +365,7 @@ def track(scene: Scene, ramps: Mapping[str, Sequence[float]],
             # First-order (secant) predictor: the path's last chord, scaled to this step (none
             # after a step that did not move: a constant ramp, START = STOP).
             ratio = float(np.linalg.norm(values[step] - values[step - 1])) / chord
-            predictor = continuation.x + ratio * (continuation.x - previous)
+            predictor = continuation.predicted(scene, ratio * (continuation.x - previous))
         last = continuation.x
         ok, iterations, halvings, message = continuation.walk(
             scene, keys, values[step - 1], values[step], predictor)

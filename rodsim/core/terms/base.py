@@ -242,6 +242,15 @@ class Term(ABC):
         ``None`` for a term without registration."""
         return None
 
+    def with_options(self, options: Any) -> Term | None:
+        """This term with the options ``options`` (an :attr:`Options` of its class) made
+        from this one without rebuilding what they do not change — the same elements,
+        registration and geometry, new constants (a string tendon's tension: its routing
+        points kept) — or ``None``: build it anew (the default;
+        :meth:`rodsim.core.model.Model.with_values`). The term returned must equal the one
+        the constructor builds from ``options``."""
+        return None
+
 
 class RodTerm(Term):
     """A term acting on one rod, configured by ``[rods.<rod>.<term name>]``."""

@@ -63,6 +63,8 @@ The tension is a load (the static solver ramps it); its force scale is T.
 
 from __future__ import annotations
 
+import copy
+import dataclasses
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Any, NamedTuple
@@ -257,6 +259,17 @@ class TendonString(TendonTerm):
         g = np.einsum("pa,amij->pmij", self.points.offset, DIRECTOR_FORMS[:2])
         #: G_m = ρ_y A[0, m] + ρ_z A[1, m] of every point, (P, 3, 4, 4).
         self._forms = g
+
+    def with_options(self, options: TendonStringOptions) -> TendonString | None:
+        """A copy with another tension when that is the only option changed (a tracking
+        step): the routing, its points and their director forms depend on the other
+        options only."""
+        if dataclasses.replace(options, tension=self.options.tension) != self.options:
+            return None
+        other = copy.copy(self)
+        other.options = options
+        other.tension = float(options.tension)
+        return other
 
     def kernel_arguments(self) -> KernelArguments:
         pts = self.points
