@@ -806,7 +806,9 @@ class Model:
         total = np.zeros(self.n)
         buffer = None
         targets = iter(self._term_targets)
-        compiled = self.kernels == "compiled"
+        compiled = self._compiled()
+        tiered = self._tiered_numpy()
+        start = PROCESS_TIER.clock() if tiered else 0.0
         if compiled and self._kernel_calls is None:
             self._kernel_calls = self._build_kernel_calls()
         for index, term in enumerate(self.terms):
@@ -836,6 +838,8 @@ class Model:
             shares[index] = term, scale, share
             total += share
             self._tick()
+        if tiered:  # the numpy shares count toward the move to the compiled kernels
+            PROCESS_TIER.charge(PROCESS_TIER.clock() - start)
         self._diagonal_shares = shares
         return total
 
