@@ -512,6 +512,19 @@ def test_workers_small_outputs(tmp_path):
     assert np.all(ds["wall"].values > 0) and np.all(ds["cpu"].values > 0)
 
 
+def test_a_baseline_tree_runs_that_revisions_code(tmp_path):
+    """``RODSIM_BENCH_BASELINE`` (benchmarks/rodsim_bench/baseline.py): the revision's tree is
+    extracted and ``import rodsim`` in it is that tree's, not this checkout's."""
+    from rodsim_bench.baseline import BaselineTree
+
+    tree = BaselineTree("HEAD", tmp_path)
+    done = tree.python(["-c", "import rodsim; print(rodsim.__file__)"])
+    assert Path(done.stdout.strip()).is_relative_to(tmp_path / "tree")
+    assert len(tree.commit) == 40
+    with pytest.raises(RuntimeError, match="baseline"):
+        tree.python(["-c", "raise SystemExit(3)"])
+
+
 def test_floor_small_outputs(tmp_path):
     """``rodsim bench floor --size small``: each scene's solve counted (Newton's F, ∂F/∂x and
     linear solves present: a conservative scene's line search calls the energy), the raw

@@ -21,9 +21,6 @@ ratio and the largest difference between the two revisions' states.
 from __future__ import annotations
 
 import json
-import os
-import subprocess
-import sys
 import tempfile
 import time
 from pathlib import Path
@@ -35,6 +32,7 @@ import rodsim
 import rodsim.core.stability as stability
 from rodsim.core.model import Model
 from rodsim.io.archive import write_dataset
+from rodsim_bench.baseline import BaselineTree, baseline_revision
 from rodsim_bench.machine import machine
 
 __all__ = ["run", "VARIANTS", "CASES"]
@@ -71,9 +69,6 @@ def _track(scene_name: str, ramp: dict, variant: str):
         stability.assess = assess  # type: ignore[assignment]
 
 
-#: The environment variable naming a git revision to compare with (module docstring).
-BASELINE_ENV = "RODSIM_BENCH_BASELINE"
-
 #: What a baseline subprocess runs: argv[1] the number of steps, argv[2] a folder for the
 #: states; prints {scene: CPU seconds}.
 _BASELINE_SCRIPT = """
@@ -100,25 +95,14 @@ class _Baseline:
     """The tracks run by another revision's code (module docstring)."""
 
     def __init__(self, revision: str, folder: Path) -> None:
-        root = Path(__file__).resolve().parents[2]
-        self.commit = subprocess.run(["git", "-C", str(root), "rev-parse", revision],
-                                     capture_output=True, text=True,
-                                     check=True).stdout.strip()
-        self.tree = folder / "tree"
-        self.tree.mkdir()
-        archive = subprocess.run(["git", "-C", str(root), "archive", self.commit],
-                                 capture_output=True, check=True).stdout
-        subprocess.run(["tar", "-x", "-C", str(self.tree)], input=archive, check=True)
+        self._tree = BaselineTree(revision, folder)
+        self.commit = self._tree.commit
         self.states = folder / "states"
         self.states.mkdir()
 
     def run(self, steps: int) -> dict[str, float]:
-        env = {**os.environ, "PYTHONPATH": str(self.tree)}
-        done = subprocess.run([sys.executable, "-c", _BASELINE_SCRIPT, str(steps),
-                               str(self.states), json.dumps(CASES)], env=env,
-                              capture_output=True, text=True, cwd=str(self.tree))
-        if done.returncode != 0:
-            raise RuntimeError(f"baseline {self.commit}: {done.stderr.strip()[-500:]}")
+        done = self._tree.python(["-c", _BASELINE_SCRIPT, str(steps), str(self.states),
+                                  json.dumps(CASES)])
         return json.loads(done.stdout.strip().splitlines()[-1])
 
     def states_of(self, scene_name: str) -> np.ndarray:
@@ -126,7 +110,7 @@ class _Baseline:
 
 
 def run(size: str, output_dir: str | Path, progress=None) -> list[Path]:
-    revision = os.environ.get(BASELINE_ENV, "")
+    revision = baseline_revision()
     if revision:
         with tempfile.TemporaryDirectory() as folder:
             baseline = _Baseline(revision, Path(folder))

@@ -10,6 +10,10 @@ up to N = 80: the points dominate). The machine's load average at the start and 
 recorded: on a loaded machine the wall-time ratio says little about what a second core would
 give, the CPU ratio says what the workers cost.
 
+With ``RODSIM_BENCH_BASELINE`` set to a git revision (rodsim_bench/baseline.py), the local
+cases are also run by that revision's code in the same run, interleaved (not the dask ones:
+before 4d4ff50 ``--scheduler local`` ignored ``--workers`` and always started two).
+
 Outputs ``workers-<size>.nc`` and ``workers-<size>.md``.
 """
 
@@ -22,11 +26,13 @@ import sys
 import tempfile
 import time
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import xarray as xr
 
 from rodsim.io.archive import write_dataset
+from rodsim_bench.baseline import BaselineTree, baseline_revision
 from rodsim_bench.machine import machine
 
 __all__ = ["run", "WORKERS", "RUNNERS", "STUDIES"]
@@ -46,51 +52,72 @@ def _load() -> float:
         return float("nan")
 
 
-def _study(study: str, runner: str, workers: int, study_size: str,
-           folder: str) -> tuple[float, float]:
-    """(wall, CPU) seconds of one ``rodsim study`` process with its workers."""
+def _study(study: str, runner: str, workers: int, study_size: str, folder: str,
+           baseline: BaselineTree | None = None) -> tuple[float, float]:
+    """(wall, CPU) seconds of one ``rodsim study`` process with its workers (by
+    ``baseline``'s code when given)."""
     env = dict(os.environ, OMP_NUM_THREADS="1", OPENBLAS_NUM_THREADS="1")
     env.pop("PYTHONDONTWRITEBYTECODE", None)
+    where: dict[str, Any] = {}
+    if baseline is not None:
+        env, where = baseline.env(env), {"cwd": str(baseline.tree)}
     extra = ["--scheduler", "local"] if runner == "dask" else []
+    tag = "baseline" if baseline is not None else "this"
     before = resource.getrusage(resource.RUSAGE_CHILDREN)
     start = time.perf_counter()
     done = subprocess.run([sys.executable, "-m", "rodsim", "study", study, "--size",
                            study_size, "--workers", str(workers), *extra, "-o",
-                           f"{folder}/{study}-{runner}-{workers}.nc"], capture_output=True,
-                          text=True, env=env, timeout=1800, check=False)
+                           f"{folder}/{study}-{runner}-{workers}-{tag}.nc"],
+                          capture_output=True, text=True, env=env, timeout=1800, check=False,
+                          **where)
     wall = time.perf_counter() - start
     after = resource.getrusage(resource.RUSAGE_CHILDREN)
     if done.returncode != 0:
-        raise RuntimeError(f"study {study} ({runner}, {workers} workers): exit "
+        raise RuntimeError(f"study {study} ({runner}, {workers} workers, {tag}): exit "
                            f"{done.returncode}: {done.stderr[-500:]}")
     return wall, (after.ru_utime - before.ru_utime + after.ru_stime - before.ru_stime)
 
 
 def run(size: str, output_dir: str | Path, progress=None) -> list[Path]:
+    revision = baseline_revision()
+    with tempfile.TemporaryDirectory(prefix="rodsim-workers-") as folder:
+        baseline = BaselineTree(revision, Path(folder)) if revision else None
+        return _run(size, output_dir, progress, folder, baseline)
+
+
+def _run(size: str, output_dir: str | Path, progress, folder: str,
+         baseline: BaselineTree | None) -> list[Path]:
     setting = SIZES[size]
     repeats = setting["repeats"]
-    shape = (len(STUDIES), len(RUNNERS), len(WORKERS), repeats)
+    codes = ["this"] + ([f"baseline {baseline.commit[:7]}"] if baseline is not None else [])
+    shape = (len(codes), len(STUDIES), len(RUNNERS), len(WORKERS), repeats)
     wall, cpu = np.full(shape, np.nan), np.full(shape, np.nan)
-    cases = [(i, j, k) for i in range(len(STUDIES)) for j in range(len(RUNNERS))
-             for k in range(len(WORKERS))]
+    cases = [(c, i, j, k) for c in range(len(codes)) for i in range(len(STUDIES))
+             for j in range(len(RUNNERS)) for k in range(len(WORKERS))
+             if c == 0 or RUNNERS[j] == "local"]
+    if baseline is not None:  # warm-up: the baseline's kernels compiled into its tree
+        for study in STUDIES:
+            _study(study, "local", 1, "small", folder, baseline)
     load_start = _load()
-    with tempfile.TemporaryDirectory(prefix="rodsim-workers-") as folder:
-        for repeat in range(repeats):  # interleaved, so that a load change hits every row
-            for n, (i, j, k) in enumerate(cases):
-                if progress is not None:
-                    progress((repeat * len(cases) + n) / (repeats * len(cases)),
-                             f"workers: {STUDIES[i]}, {RUNNERS[j]}, {WORKERS[k]} workers "
-                             f"({repeat + 1}/{repeats})")
-                wall[i, j, k, repeat], cpu[i, j, k, repeat] = _study(
-                    STUDIES[i], RUNNERS[j], WORKERS[k], setting["study_size"], folder)
+    for repeat in range(repeats):  # interleaved, so that a load change hits every row
+        for n, (c, i, j, k) in enumerate(cases):
+            if progress is not None:
+                progress((repeat * len(cases) + n) / (repeats * len(cases)),
+                         f"workers: {codes[c]}, {STUDIES[i]}, {RUNNERS[j]}, {WORKERS[k]} "
+                         f"workers ({repeat + 1}/{repeats})")
+            wall[c, i, j, k, repeat], cpu[c, i, j, k, repeat] = _study(
+                STUDIES[i], RUNNERS[j], WORKERS[k], setting["study_size"], folder,
+                baseline if c else None)
     load_end = _load()
     med_wall, med_cpu = np.median(wall, axis=-1), np.median(cpu, axis=-1)
-    dims = ("study", "runner", "workers", "repeat")
+    dims = ("code", "study", "runner", "workers", "repeat")
     ds = xr.Dataset(
         {"wall": (dims, wall, {"units": "s", "long_name": "wall time of the study process"}),
          "cpu": (dims, cpu, {"units": "s", "long_name": "CPU time of the study process and "
                              "its workers"})},
-        coords={"study": ("study", list(STUDIES), {"long_name": "shipped study"}),
+        coords={"code": ("code", codes, {"long_name": "this checkout, or the baseline "
+                                         "revision's code (RODSIM_BENCH_BASELINE)"}),
+                "study": ("study", list(STUDIES), {"long_name": "shipped study"}),
                 "runner": ("runner", list(RUNNERS),
                            {"long_name": "local worker processes or a dask LocalCluster"}),
                 "workers": ("workers", np.array(WORKERS), {"long_name": "--workers"}),
@@ -104,15 +131,20 @@ def run(size: str, output_dir: str | Path, progress=None) -> list[Path]:
     write_dataset(ds, output)
     lines = [f"# `rodsim study NAME --size {setting['study_size']}` on 1 and 2 workers, local "
              f"processes and a dask LocalCluster ({size}, median of {repeats})", "",
-             "| study | runner | workers | wall [s] | CPU [s] | speed-up (wall, vs 1) | "
-             "CPU / CPU(1) |", "|---|---|--:|--:|--:|--:|--:|"]
-    for i, study in enumerate(STUDIES):
-        for j, runner in enumerate(RUNNERS):
-            for k, workers in enumerate(WORKERS):
-                lines.append(f"| {study} | {runner} | {workers} | {med_wall[i, j, k]:.2f} | "
-                             f"{med_cpu[i, j, k]:.2f} | "
-                             f"{med_wall[i, j, 0] / med_wall[i, j, k]:.2f} | "
-                             f"{med_cpu[i, j, k] / med_cpu[i, j, 0]:.2f} |")
+             "| code | study | runner | workers | wall [s] | CPU [s] | speed-up (wall, vs 1) | "
+             "CPU / CPU(1) | CPU / this code's |", "|---|---|---|--:|--:|--:|--:|--:|--:|"]
+    for c, code in enumerate(codes):
+        for i, study in enumerate(STUDIES):
+            for j, runner in enumerate(RUNNERS):
+                for k, workers in enumerate(WORKERS):
+                    if np.isnan(med_wall[c, i, j, k]):
+                        continue
+                    lines.append(
+                        f"| {code} | {study} | {runner} | {workers} | "
+                        f"{med_wall[c, i, j, k]:.2f} | {med_cpu[c, i, j, k]:.2f} | "
+                        f"{med_wall[c, i, j, 0] / med_wall[c, i, j, k]:.2f} | "
+                        f"{med_cpu[c, i, j, k] / med_cpu[c, i, j, 0]:.2f} | "
+                        f"{med_cpu[c, i, j, k] / med_cpu[0, i, j, k]:.2f} |")
     lines += ["", f"Load average (1 min) at the start {load_start:.1f}, at the end "
               f"{load_end:.1f}, on {os.cpu_count()} cores.", "",
               "Machine: " + ", ".join(f"{k} {v}" for k, v in machine().items())]
