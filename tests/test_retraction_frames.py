@@ -92,16 +92,16 @@ def test_cvode_finishes_tdcr_through_the_frames_retraction():
 
 
 def test_cvode_finishes_a_large_model_through_the_frames_retraction():
-    """Above FRAMES_FINISH_SIZE free coordinates CVODE's finish steps through the frames on
+    """Above LARGE_MODEL_SIZE free coordinates CVODE's finish steps through the frames on
     any model (rodsim/solvers/sundials.py): on table1-50g at N = 1 000 (6 993 unknowns) it
     takes 5 Newton iterations (measured; through Model.step it took 15, and at N = 20 000
     four finishes failed and CVODE took 1787 steps), on static's equilibrium within 1.4e-9 L
     (measured; its tolerance is the residual floor, 2.9e-7)."""
-    from rodsim.solvers.sundials import FRAMES_FINISH_SIZE
+    from rodsim.solvers.base import LARGE_MODEL_SIZE
 
     scene = rodsim.load_scene("table1-50g", ["rods.catheter.nodes=1000"])
     model = rodsim.build_model(scene)
-    assert model.n > FRAMES_FINISH_SIZE
+    assert model.n > LARGE_MODEL_SIZE
     cvode = rodsim.solve(scene, "cvode", model=model)
     static = rodsim.solve(scene, "static", model=model)
     assert cvode.success and static.success
@@ -110,7 +110,7 @@ def test_cvode_finishes_a_large_model_through_the_frames_retraction():
 
 
 def test_ida_finishes_a_large_model_through_the_frames_retraction():
-    """Above FRAMES_FINISH_SIZE free coordinates IDA's constrained Newton finish moves the
+    """Above LARGE_MODEL_SIZE free coordinates IDA's constrained Newton finish moves the
     model coordinates through the frames (rodsim/solvers/ida.py): on table1-50g at
     N = 1 000 the first finish succeeds after 17 steps (measured; with x + Δx three finishes
     and 85 steps), on static's equilibrium (3.8e-14 L measured)."""

@@ -45,7 +45,7 @@ if TYPE_CHECKING:
 
 __all__ = ["Integrator", "Outcome", "Progress", "RunState", "History", "SolverFailure",
            "INTEGRATORS", "MAX_RESIDUAL_FLOOR", "MAX_SETTLES",
-           "CORRECTION_TOLERANCE"]
+           "CORRECTION_TOLERANCE", "LARGE_MODEL_SIZE"]
 
 #: Every defined integrator class, by name. Filled by ``Integrator.__init_subclass__``.
 INTEGRATORS: dict[str, type[Integrator[Any]]] = {}
@@ -67,6 +67,18 @@ class Outcome:
     x: np.ndarray
     success: bool
     message: str
+
+
+#: Free coordinates above which the integrators' Newton solves take their large-model paths
+#: (a "large model"): CVODE's and IDA's Newton finishes step through the retraction ``static``'s
+#: default picks on any model (the frames, :meth:`Model.turned_step`, unless a tendon is a rod
+#: or a rod meets an obstacle; rodsim/solvers/sundials.py, ida.py). Linear and
+#: length-keeping Newton steps lose their way on long, finely divided rods: from rest on
+#: table1-50g, ``static`` through :meth:`Model.step` took 30 iterations at N = 20 000 (the
+#: frames: 5), and plain x + Δx stalled on a non-descent direction after 8. Below it the
+#: shipped scenes (at most 700 free coordinates) keep their stored equilibria (the frames
+#: finish moved table1-50g's CVODE equilibrium by 8e-13 m).
+LARGE_MODEL_SIZE = 4000
 
 
 def retraction_of(model: Model, option: str) -> str:

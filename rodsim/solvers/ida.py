@@ -27,13 +27,12 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from rodsim.core.model import Model
-from rodsim.solvers.base import retraction_of
+from rodsim.solvers.base import LARGE_MODEL_SIZE, retraction_of
 from rodsim.solvers.integrator_options import IdaOptions
 from rodsim.solvers.linear import LinearSolver
 from rodsim.solvers.newton import NewtonProblem, newton
 from rodsim.solvers.pseudo_dynamics import PSEUDO_DYNAMICS_PARAMETERS, ConstrainedSystem
 from rodsim.solvers.sundials import (
-    FRAMES_FINISH_SIZE,
     BandPreconditioner,
     SundialsIntegrator,
     SundialsState,
@@ -110,7 +109,7 @@ class Ida(SundialsIntegrator):
         the constrained Newton at the full penalties starts there. Without it, Newton at the
         full penalties failed until IDA had integrated much closer (docs/benchmarks.md,
         "CVODE and IDA: the Newton finish"). Above
-        :data:`~rodsim.solvers.sundials.FRAMES_FINISH_SIZE` free coordinates the model
+        :data:`~rodsim.solvers.base.LARGE_MODEL_SIZE` free coordinates the model
         coordinates step through the retraction ``static``'s default picks
         (:meth:`constrained_newton`)."""
         converged, x, iterations = self.at_lowered_penalties(run,
@@ -146,14 +145,14 @@ class Ida(SundialsIntegrator):
         weight[system.mu_slot] = 1.0 / (system.beta**2 if system.inertial else system.beta)
         linear = LinearSolver(system.pattern, system.rows, system.cols, system.band,
                               symmetric=False)
-        # Above FRAMES_FINISH_SIZE free coordinates the model coordinates move through the
+        # Above LARGE_MODEL_SIZE free coordinates the model coordinates move through the
         # retraction static's default picks (the frames keep |q_j| = 1 exactly), the
         # multipliers linearly: with x + Δx the finish failed four times on table1-50g at
         # N = 10 000 (97 steps, 21 s; through the frames one finish after 17 steps, 4.4 s),
         # and at N = 40 000 stopped 8.9e-4 L from static's equilibrium, which the result
         # check refused (now 19 steps, 22 s, on it).
         retract = None
-        if model.n > FRAMES_FINISH_SIZE:
+        if model.n > LARGE_MODEL_SIZE:
             move = (model.turned_step if retraction_of(model, "auto") == "frames"
                     else model.step)
 

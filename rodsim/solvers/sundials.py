@@ -36,7 +36,7 @@ import numpy as np
 
 from rodsim.core.model import Model
 from rodsim.core.schema import Parameter
-from rodsim.solvers.base import Integrator, Outcome, SolverFailure
+from rodsim.solvers.base import LARGE_MODEL_SIZE, Integrator, Outcome, SolverFailure
 from rodsim.solvers.continuation import DEFAULT_PENALTY_RATIO, homotopy, penalty_scales
 from rodsim.solvers.pseudo_dynamics import (
     BAND_LIMIT,
@@ -47,17 +47,7 @@ from rodsim.solvers.pseudo_dynamics import (
 from rodsim.solvers.run_state import MAX_SETTLES, RunState
 
 __all__ = ["SundialsIntegrator", "SundialsState", "BandPreconditioner", "jacobian_writer",
-           "started", "BAND_LIMIT", "FRAMES_FINISH_SIZE", "LINEAR_SOLVERS",
-           "PSEUDO_DYNAMICS_PARAMETERS"]
-
-#: Free coordinates above which CVODE's Newton finish goes through the retraction ``static``'s
-#: default picks (the frames, :meth:`Model.turned_step`, unless a tendon is a rod or a rod meets
-#: an obstacle) on any model, not only with string tendons (:meth:`finish_newton`). Linear and
-#: length-keeping Newton steps lose their way as segments shorten: from rest on table1-50g,
-#: ``static`` through :meth:`Model.step` took 30 iterations at N = 20 000 (frames: 5), and
-#: plain x + Δx stalled on a non-descent direction after 8. Below it the shipped scenes keep
-#: their stored CVODE equilibria (the frames finish moved table1-50g's by 8e-13 m).
-FRAMES_FINISH_SIZE = 4000
+           "started", "BAND_LIMIT", "LINEAR_SOLVERS", "PSEUDO_DYNAMICS_PARAMETERS"]
 
 #: Steps without halving the residual (after the load ramp) before tolerances are tightened…
 STALL_STEPS = 100
@@ -218,15 +208,16 @@ class SundialsIntegrator(Integrator[SundialsState]):
         where a long distal segment turns (CVODE then took ~200 steps, 116 ms; with the
         frames, one finish after 11-12 steps, 10 ms). Only there: on table1-50g the frames
         finish moved the stored CVODE equilibrium by 8e-13 m (docs/benchmarks.md, "String
-        tendons"). And on every model above :data:`FRAMES_FINISH_SIZE` free coordinates, where
-        the finish through :meth:`Model.step` fails as Newton from rest through it does
-        (table1-50g, N = 20 000: four failed finishes, 1787 steps, 164 s; through the frames
-        one finish of 7 iterations after 5 steps, 2.5 s)."""
+        tendons"). And on every model above
+        :data:`~rodsim.solvers.base.LARGE_MODEL_SIZE` free coordinates, where the finish
+        through :meth:`Model.step` fails as Newton from rest through it does (table1-50g,
+        N = 20 000: four failed finishes, 1787 steps, 164 s; through the frames one finish
+        of 7 iterations after 5 steps, 2.5 s)."""
         converged, state, iterations = self.at_lowered_penalties(run, state)
         if not converged:
             return False, state, iterations
         model = run.model
-        frames = (model.n > FRAMES_FINISH_SIZE
+        frames = (model.n > LARGE_MODEL_SIZE
                   or any(tendon.rod is None for tendon in model.tendons.values()))
         converged, state, more = self.newton_equilibrium(
             run, state, 1.0, self.options.newton_iterations, "the Newton finish",
