@@ -133,6 +133,28 @@ def correction_residual(model: Model, x: np.ndarray, force: np.ndarray,
     return correction / reach
 
 
+def correction_size(model: Model, x: np.ndarray | None = None
+                    ) -> Callable[[np.ndarray], float] | None:
+    """The size of a Newton correction dx as :func:`correction_residual` measures it —
+    max |dx| over max |J⁻¹ F_load|, each coordinate over its size (L_ref, or 1 for
+    quaternions) — with the load's displacement J⁻¹ F_load taken once at ``x`` (default: the
+    rest state): a stopping test for Newton solves (:class:`NewtonProblem` ``correction``)
+    whose meaning does not depend on N. None when it cannot be told (J singular, no load)."""
+    x = model.x0 if x is None else x
+    _, solve = equilibrium_factor(model, x)
+    if solve is None:
+        return None
+    size = np.where(model.is_quaternion, 1.0, model.length_scale)
+    reach = float(np.max(np.abs(solve(model.force(x, 1.0) - model.force(x, 0.0))) / size))
+    if not (np.isfinite(reach) and reach > 0.0):
+        return None
+    scale = 1.0 / (size * reach)
+
+    def correction(dx: np.ndarray) -> float:
+        return float(np.max(np.abs(dx) * scale))
+    return correction
+
+
 class Integrator(ABC, Generic[S]):
     """Base class of the integrators: configuration only; see the module docstring.
 
