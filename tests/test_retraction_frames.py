@@ -137,3 +137,19 @@ def test_paper_steps_a_large_model_from_the_last_state_through_the_frames():
     assert paper.stats["newton_iters"] <= 30
     distance = np.linalg.norm(paper.positions() - static.positions(), axis=-1).max()
     assert distance < 2e-7 * 0.12
+
+
+def test_a_finish_on_a_large_model_may_take_more_newton_iterations():
+    """The finish's iteration budget (rodsim/solvers/pseudo_dynamics.py,
+    LARGE_FINISH_ITERATIONS): the option on a shipped-size model, at least 60 above
+    LARGE_MODEL_SIZE (table1-50g at N = 100 000 needed 34 from CVODE's first switch)."""
+    from rodsim.solvers import integrator_named
+    from rodsim.solvers.pseudo_dynamics import LARGE_FINISH_ITERATIONS
+
+    small = rodsim.build_model("table1-50g")
+    large = rodsim.build_model(rodsim.load_scene("table1-50g", ["rods.catheter.nodes=1000"]))
+    for name in ("cvode", "ida"):
+        cls = integrator_named(name)
+        integrator = cls.for_scene(rodsim.load_scene("table1-50g"))
+        assert integrator.finish_iterations(small) == integrator.options.newton_iterations == 20
+        assert integrator.finish_iterations(large) == LARGE_FINISH_ITERATIONS >= 60

@@ -164,7 +164,7 @@ class Ida(SundialsIntegrator):
         problem = NewtonProblem(force, jacobian, linear,
                                 residual=lambda g: float(np.max(np.abs(g) * weight)),
                                 weight=weight, step=retract)
-        outcome = newton(problem, y, run.tolerance, self.options.newton_iterations,
+        outcome = newton(problem, y, run.tolerance, self.finish_iterations(model),
                          check=self.iteration_check(run, "the Newton finish"))
         if outcome.converged:
             run.last_y = outcome.x

@@ -40,6 +40,7 @@ from rodsim.solvers.base import LARGE_MODEL_SIZE, Integrator, Outcome, SolverFai
 from rodsim.solvers.continuation import DEFAULT_PENALTY_RATIO, homotopy, penalty_scales
 from rodsim.solvers.pseudo_dynamics import (
     BAND_LIMIT,
+    LARGE_FINISH_ITERATIONS,
     LINEAR_SOLVERS,
     PSEUDO_DYNAMICS_PARAMETERS,
     PseudoDynamics,
@@ -220,9 +221,17 @@ class SundialsIntegrator(Integrator[SundialsState]):
         frames = (model.n > LARGE_MODEL_SIZE
                   or any(tendon.rod is None for tendon in model.tendons.values()))
         converged, state, more = self.newton_equilibrium(
-            run, state, 1.0, self.options.newton_iterations, "the Newton finish",
+            run, state, 1.0, self.finish_iterations(model), "the Newton finish",
             retraction="auto" if frames else "lengths")
         return converged, state, iterations + more
+
+    def finish_iterations(self, model: Model) -> int:
+        """Newton iterations one finish may take on ``model``: ``newton_iterations``, or at
+        least :data:`LARGE_FINISH_ITERATIONS` on a large model (see there)."""
+        iterations = int(self.options.newton_iterations)
+        if model.n > LARGE_MODEL_SIZE:
+            return max(iterations, LARGE_FINISH_ITERATIONS)
+        return iterations
 
     def at_lowered_penalties(self, run: SundialsState,
                              x: np.ndarray) -> tuple[bool, np.ndarray, int]:
