@@ -70,9 +70,11 @@ class Outcome:
 
 
 #: Free coordinates above which the integrators' Newton solves take their large-model paths
-#: (a "large model"): CVODE's and IDA's Newton finishes step through the retraction ``static``'s
-#: default picks on any model (the frames, :meth:`Model.turned_step`, unless a tendon is a rod
-#: or a rod meets an obstacle; rodsim/solvers/sundials.py, ida.py). Linear and
+#: (a "large model"): CVODE's Newton finish and the paper integrator's step solves step through
+#: the retraction ``static``'s default picks on any model (the frames, :meth:`Model.turned_step`,
+#: unless a tendon is a rod or a rod meets an obstacle), IDA's finish through the frames where
+#: they are that default (rodsim/solvers/sundials.py, ida.py, paper_euler.py); the paper's
+#: steps also stop on the Newton correction (:func:`correction_size`). Linear and
 #: length-keeping Newton steps lose their way on long, finely divided rods: from rest on
 #: table1-50g, ``static`` through :meth:`Model.step` took 30 iterations at N = 20 000 (the
 #: frames: 5), and plain x + Δx stalled on a non-descent direction after 8. Below it the

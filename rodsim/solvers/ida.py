@@ -110,7 +110,7 @@ class Ida(SundialsIntegrator):
         full penalties failed until IDA had integrated much closer (docs/benchmarks.md,
         "CVODE and IDA: the Newton finish"). Above
         :data:`~rodsim.solvers.base.LARGE_MODEL_SIZE` free coordinates the model
-        coordinates step through the retraction ``static``'s default picks
+        coordinates step through the frames where they are ``static``'s default retraction
         (:meth:`constrained_newton`)."""
         converged, x, iterations = self.at_lowered_penalties(run,
                                                              run.system.positions_of(y))
@@ -145,20 +145,20 @@ class Ida(SundialsIntegrator):
         weight[system.mu_slot] = 1.0 / (system.beta**2 if system.inertial else system.beta)
         linear = LinearSolver(system.pattern, system.rows, system.cols, system.band,
                               symmetric=False)
-        # Above LARGE_MODEL_SIZE free coordinates the model coordinates move through the
-        # retraction static's default picks (the frames keep |q_j| = 1 exactly), the
-        # multipliers linearly: with x + Δx the finish failed four times on table1-50g at
-        # N = 10 000 (97 steps, 21 s; through the frames one finish after 17 steps, 4.4 s),
-        # and at N = 40 000 stopped 8.9e-4 L from static's equilibrium, which the result
-        # check refused (now 19 steps, 22 s, on it).
+        # Above LARGE_MODEL_SIZE free coordinates, where static's default retraction is the
+        # frames, the model coordinates move through them (which keep |q_j| = 1 exactly),
+        # the multipliers linearly: with x + Δx the finish failed four times on table1-50g
+        # at N = 10 000 (97 steps, 21 s; through the frames one finish after 17 steps,
+        # 4.4 s), and at N = 40 000 stopped 8.9e-4 L from static's equilibrium, which the
+        # result check refused (now 19 steps, 22 s, on it). Where static's default is the
+        # lengths (a tendon is a rod, or contact) the finish stays x + Δx: through
+        # Model.step it failed on tendon-conserving at N = 320 (455 steps, stalled on
+        # re-initialisations, where x + Δx finishes after 4 steps).
         retract = None
-        if model.n > LARGE_MODEL_SIZE:
-            move = (model.turned_step if retraction_of(model, "auto") == "frames"
-                    else model.step)
-
+        if model.n > LARGE_MODEL_SIZE and retraction_of(model, "auto") == "frames":
             def retract(z: np.ndarray, dz: np.ndarray) -> np.ndarray:
                 out = z + dz
-                out[system.x_slot] = move(z[system.x_slot], dz[system.x_slot])
+                out[system.x_slot] = model.turned_step(z[system.x_slot], dz[system.x_slot])
                 return out
 
         problem = NewtonProblem(force, jacobian, linear,
