@@ -3,6 +3,8 @@
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 import scipy.sparse as sp
@@ -97,3 +99,42 @@ def test_polishing_does_not_backtrack():
     result = newton(problem, np.array([1e-3]), 1.0, 10)
     assert result.converged and result.x[0] == 1e-3
     assert len(calls) == 2  # the start and the rejected full step
+
+
+def test_the_correction_test_sees_an_imbalance_spread_over_many_nodes():
+    """g(y) = −A(y − y*) + c (y − y*)³ (c = 1e-5) with A the stiffness of a chain of 2 000
+    springs held at one end, from y* + a smooth displacement of 1 % of the chain's span:
+    every node's force is far below the tolerance (|A δ| ≈ 5e-9; a unit load per node reaches
+    max |A⁻¹ 1| ≈ 2e6), so the max-norm test alone stops at once, 1e-2 from the root; with
+    the correction test (|Δy| over that reach below 1e-12) Newton goes on to the root."""
+    n = 2000
+    main = np.full(n, 2.0)
+    main[-1] = 1.0
+    stiffness = sp.diags([main, -np.ones(n - 1), -np.ones(n - 1)], [0, 1, -1], format="csc")
+    coo = stiffness.tocoo()
+    order = np.lexsort((coo.row, coo.col))
+    rows, cols = coo.row[order], coo.col[order]
+    data = -coo.data[order]
+    linear = LinearSolver(sp.csc_matrix(stiffness), rows, cols, (1, 1), symmetric=True)
+    root = np.linspace(0.0, 1.0, n)
+    cube = 1e-5
+
+    def force(y: np.ndarray) -> np.ndarray:
+        return -(stiffness @ (y - root)) + cube * (y - root) ** 3
+
+    def jacobian(y: np.ndarray) -> np.ndarray:
+        values = data.copy()
+        values[rows == cols] += 3.0 * cube * (y - root)[cols[rows == cols]] ** 2
+        return values
+
+    reach = float(np.max(np.abs(linear.solve(-data, np.ones(n)))))
+    start = root + 1e-2 * np.sin(0.5 * np.pi * np.arange(1, n + 1) / n)
+    problem = NewtonProblem(force=force, jacobian=jacobian, linear=linear,
+                            residual=lambda g: float(np.max(np.abs(g))), weight=np.ones(n))
+    assert problem.residual(force(start)) < 1e-5
+    alone = newton(problem, start, 1e-5, 20, polish=False)
+    assert alone.converged and np.max(np.abs(alone.x - root)) > 5e-3
+    corrected = newton(replace(problem, correction=lambda dy: float(np.max(np.abs(dy))) / reach,
+                               correction_tolerance=1e-12), start, 1e-5, 20, polish=False)
+    assert corrected.converged, corrected.message
+    assert np.max(np.abs(corrected.x - root)) < 1e-9

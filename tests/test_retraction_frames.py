@@ -89,3 +89,67 @@ def test_cvode_finishes_tdcr_through_the_frames_retraction():
     assert cvode.success and static.success
     assert cvode.stats["finish_attempts"] == 1 and cvode.stats["steps"] <= 30
     assert np.abs(cvode.positions() - static.positions()).max() < 5e-9 * 0.4
+
+
+def test_cvode_finishes_a_large_model_through_the_frames_retraction():
+    """Above LARGE_MODEL_SIZE free coordinates CVODE's finish steps through the frames on
+    any model (rodsim/solvers/sundials.py): on table1-50g at N = 1 000 (6 993 unknowns) it
+    takes 5 Newton iterations (measured; through Model.step it took 15, and at N = 20 000
+    four finishes failed and CVODE took 1787 steps), on static's equilibrium within 1.4e-9 L
+    (measured; its tolerance is the residual floor, 2.9e-7)."""
+    from rodsim.solvers.base import LARGE_MODEL_SIZE
+
+    scene = rodsim.load_scene("table1-50g", ["rods.catheter.nodes=1000"])
+    model = rodsim.build_model(scene)
+    assert model.n > LARGE_MODEL_SIZE
+    cvode = rodsim.solve(scene, "cvode", model=model)
+    static = rodsim.solve(scene, "static", model=model)
+    assert cvode.success and static.success
+    assert cvode.stats["finish_attempts"] == 1 and cvode.stats["finish_newton_iters"] <= 8
+    assert np.abs(cvode.positions() - static.positions()).max() < 5e-9 * 0.12
+
+
+def test_ida_finishes_a_large_model_through_the_frames_retraction():
+    """Above LARGE_MODEL_SIZE free coordinates IDA's constrained Newton finish moves the
+    model coordinates through the frames (rodsim/solvers/ida.py): on table1-50g at
+    N = 1 000 the first finish succeeds after 17 steps (measured; with x + Δx three finishes
+    and 85 steps), on static's equilibrium (3.8e-14 L measured)."""
+    scene = rodsim.load_scene("table1-50g", ["rods.catheter.nodes=1000"])
+    model = rodsim.build_model(scene)
+    ida = rodsim.solve(scene, "ida", model=model)
+    static = rodsim.solve(scene, "static", model=model)
+    assert ida.success and static.success
+    assert ida.stats["finish_attempts"] == 1 and ida.stats["steps"] <= 30
+    assert np.abs(ida.positions() - static.positions()).max() < 5e-9 * 0.12
+
+
+def test_paper_steps_a_large_model_from_the_last_state_through_the_frames():
+    """Above LARGE_MODEL_SIZE the paper integrator's step solves start from the last state,
+    step through the frames and stop on the correction too (rodsim/solvers/paper_euler.py):
+    on table1-50g at N = 1 000, 8 steps and 22 Newton iterations (measured; 47 before),
+    2.8e-8 L from static's equilibrium (8.9e-7 L before). At N = 20 000 the run used to
+    fail at its second step."""
+    scene = rodsim.load_scene("table1-50g", ["rods.catheter.nodes=1000"])
+    model = rodsim.build_model(scene)
+    paper = rodsim.solve(scene, "paper", model=model)
+    static = rodsim.solve(scene, "static", model=model)
+    assert paper.success and static.success
+    assert paper.stats["newton_iters"] <= 30
+    distance = np.linalg.norm(paper.positions() - static.positions(), axis=-1).max()
+    assert distance < 2e-7 * 0.12
+
+
+def test_a_finish_on_a_large_model_may_take_more_newton_iterations():
+    """The finish's iteration budget (rodsim/solvers/pseudo_dynamics.py,
+    LARGE_FINISH_ITERATIONS): the option on a shipped-size model, at least 60 above
+    LARGE_MODEL_SIZE (table1-50g at N = 100 000 needed 34 from CVODE's first switch)."""
+    from rodsim.solvers import integrator_named
+    from rodsim.solvers.pseudo_dynamics import LARGE_FINISH_ITERATIONS
+
+    small = rodsim.build_model("table1-50g")
+    large = rodsim.build_model(rodsim.load_scene("table1-50g", ["rods.catheter.nodes=1000"]))
+    for name in ("cvode", "ida"):
+        cls = integrator_named(name)
+        integrator = cls.for_scene(rodsim.load_scene("table1-50g"))
+        assert integrator.finish_iterations(small) == integrator.options.newton_iterations == 20
+        assert integrator.finish_iterations(large) == LARGE_FINISH_ITERATIONS >= 60

@@ -46,7 +46,7 @@ if TYPE_CHECKING:
 
 __all__ = ["Integrator", "Outcome", "Progress", "RunState", "History", "SolverFailure",
            "INTEGRATORS", "MAX_RESIDUAL_FLOOR", "MAX_SETTLES",
-           "CORRECTION_TOLERANCE"]
+           "CORRECTION_TOLERANCE", "LARGE_MODEL_SIZE"]
 
 #: Every defined integrator class, by name. Filled by ``Integrator.__init_subclass__``.
 INTEGRATORS: dict[str, type[Integrator[Any]]] = {}
@@ -68,6 +68,20 @@ class Outcome:
     x: np.ndarray
     success: bool
     message: str
+
+
+#: Free coordinates above which the integrators' Newton solves take their large-model paths
+#: (a "large model"): CVODE's Newton finish and the paper integrator's step solves step through
+#: the retraction ``static``'s default picks on any model (the frames, :meth:`Model.turned_step`,
+#: unless a tendon is a rod or a rod meets an obstacle), IDA's finish through the frames where
+#: they are that default (rodsim/solvers/sundials.py, ida.py, paper_euler.py); the paper's
+#: steps also stop on the Newton correction (:func:`correction_size`). Linear and
+#: length-keeping Newton steps lose their way on long, finely divided rods: from rest on
+#: table1-50g, ``static`` through :meth:`Model.step` took 30 iterations at N = 20 000 (the
+#: frames: 5), and plain x + Δx stalled on a non-descent direction after 8. Below it the
+#: shipped scenes (at most 700 free coordinates) keep their stored equilibria (the frames
+#: finish moved table1-50g's CVODE equilibrium by 8e-13 m).
+LARGE_MODEL_SIZE = 4000
 
 
 def retraction_of(model: Model, option: str) -> str:
@@ -121,6 +135,28 @@ def correction_residual(model: Model, x: np.ndarray, force: np.ndarray,
     if not (np.isfinite(correction) and np.isfinite(reach)) or reach == 0.0:
         return 0.0
     return correction / reach
+
+
+def correction_size(model: Model, x: np.ndarray | None = None
+                    ) -> Callable[[np.ndarray], float] | None:
+    """The size of a Newton correction dx as :func:`correction_residual` measures it —
+    max |dx| over max |J⁻¹ F_load|, each coordinate over its size (L_ref, or 1 for
+    quaternions) — with the load's displacement J⁻¹ F_load taken once at ``x`` (default: the
+    rest state): a stopping test for Newton solves (:class:`NewtonProblem` ``correction``)
+    whose meaning does not depend on N. None when it cannot be told (J singular, no load)."""
+    x = model.x0 if x is None else x
+    _, solve = equilibrium_factor(model, x)
+    if solve is None:
+        return None
+    size = np.where(model.is_quaternion, 1.0, model.length_scale)
+    reach = float(np.max(np.abs(solve(model.force(x, 1.0) - model.force(x, 0.0))) / size))
+    if not (np.isfinite(reach) and reach > 0.0):
+        return None
+    scale = 1.0 / (size * reach)
+
+    def correction(dx: np.ndarray) -> float:
+        return float(np.max(np.abs(dx) * scale))
+    return correction
 
 
 class Integrator(ABC, Generic[S]):

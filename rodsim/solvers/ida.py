@@ -27,6 +27,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from rodsim.core.model import Model
+from rodsim.solvers.base import LARGE_MODEL_SIZE, retraction_of
 from rodsim.solvers.integrator_options import IdaOptions
 from rodsim.solvers.linear import LinearSolver
 from rodsim.solvers.newton import NewtonProblem, newton
@@ -107,7 +108,10 @@ class Ida(SundialsIntegrator):
         the residual homotopy CVODE's finish uses (:meth:`SundialsIntegrator.at_lowered_penalties`);
         the constrained Newton at the full penalties starts there. Without it, Newton at the
         full penalties failed until IDA had integrated much closer (docs/benchmarks.md,
-        "CVODE and IDA: the Newton finish")."""
+        "CVODE and IDA: the Newton finish"). Above
+        :data:`~rodsim.solvers.base.LARGE_MODEL_SIZE` free coordinates the model
+        coordinates step through the frames where they are ``static``'s default retraction
+        (:meth:`constrained_newton`)."""
         converged, x, iterations = self.at_lowered_penalties(run,
                                                              run.system.positions_of(y))
         if not converged:
@@ -141,10 +145,26 @@ class Ida(SundialsIntegrator):
         weight[system.mu_slot] = 1.0 / (system.beta**2 if system.inertial else system.beta)
         linear = LinearSolver(system.pattern, system.rows, system.cols, system.band,
                               symmetric=False)
+        # Above LARGE_MODEL_SIZE free coordinates, where static's default retraction is the
+        # frames, the model coordinates move through them (which keep |q_j| = 1 exactly),
+        # the multipliers linearly: with x + Δx the finish failed four times on table1-50g
+        # at N = 10 000 (97 steps, 21 s; through the frames one finish after 17 steps,
+        # 4.4 s), and at N = 40 000 stopped 8.9e-4 L from static's equilibrium, which the
+        # result check refused (now 19 steps, 22 s, on it). Where static's default is the
+        # lengths (a tendon is a rod, or contact) the finish stays x + Δx: through
+        # Model.step it failed on tendon-conserving at N = 320 (455 steps, stalled on
+        # re-initialisations, where x + Δx finishes after 4 steps).
+        retract = None
+        if model.n > LARGE_MODEL_SIZE and retraction_of(model, "auto") == "frames":
+            def retract(z: np.ndarray, dz: np.ndarray) -> np.ndarray:
+                out = z + dz
+                out[system.x_slot] = model.turned_step(z[system.x_slot], dz[system.x_slot])
+                return out
+
         problem = NewtonProblem(force, jacobian, linear,
                                 residual=lambda g: float(np.max(np.abs(g) * weight)),
-                                weight=weight)
-        outcome = newton(problem, y, run.tolerance, self.options.newton_iterations,
+                                weight=weight, step=retract)
+        outcome = newton(problem, y, run.tolerance, self.finish_iterations(model),
                          check=self.iteration_check(run, "the Newton finish"))
         if outcome.converged:
             run.last_y = outcome.x

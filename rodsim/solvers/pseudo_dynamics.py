@@ -33,7 +33,8 @@ from rodsim.core.sparsity import csc_pattern
 
 __all__ = ["FORMULATIONS", "first_mode_frequency", "damping_rate", "pseudo_masses",
            "LoadRamp", "FirstOrderSystem", "ConstrainedSystem", "PseudoDynamics",
-           "PSEUDO_DYNAMICS_PARAMETERS", "BAND_LIMIT", "LINEAR_SOLVERS"]
+           "PSEUDO_DYNAMICS_PARAMETERS", "BAND_LIMIT", "LINEAR_SOLVERS",
+           "LARGE_FINISH_ITERATIONS"]
 
 FORMULATIONS = ("inertial", "overdamped")
 
@@ -42,6 +43,16 @@ FORMULATIONS = ("inertial", "overdamped")
 #: "auto"`` then switches to ``band_gmres``: SUNDIALS' GMRES preconditioned by rodsim's own
 #: band LU of the same Newton matrix (:class:`BandPreconditioner`), which holds only the band.
 BAND_LIMIT = 4000
+#: Newton iterations a finish may take on a large model (above ``LARGE_MODEL_SIZE`` free
+#: coordinates, rodsim/solvers/base.py) whatever ``newton_iterations`` says. There the
+#: max-norm residual falls below ``newton_switch`` while the rod is still near rest (an
+#: imbalance spread over N nodes reads 1/N of itself): the finish is then Newton from near rest,
+#: which converges (the energy line search) but may need more than 20 iterations, and a failed
+#: finish sends the run back to integrating, where a step costs several Newton iterations.
+#: Measured on table1-50g at N = 100 000: the first finish, after 7 steps, converged in 34
+#: iterations (CVODE 27 s in all); with 20 it failed, and CVODE took 244 steps, a tightening
+#: and a second finish (547 s).
+LARGE_FINISH_ITERATIONS = 60
 #: The linear solvers of CVODE and IDA (``linear_solver``; "auto" picks one by size).
 LINEAR_SOLVERS = ("auto", "band", "band_gmres", "sparse")
 
@@ -76,7 +87,8 @@ PSEUDO_DYNAMICS_PARAMETERS = (
               "integrate all the way to the tolerance)", 0.0, 1.0),
     Parameter("newton_iterations", "int", 20, "-",
               "Newton iterations of one finishing attempt (a failed attempt goes back to "
-              "integrating)", 1, 10_000),
+              f"integrating; at least {LARGE_FINISH_ITERATIONS} above 4000 unknowns)",
+              1, 10_000),
 )
 
 

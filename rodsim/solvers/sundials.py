@@ -36,10 +36,11 @@ import numpy as np
 
 from rodsim.core.model import Model
 from rodsim.core.schema import Parameter
-from rodsim.solvers.base import Integrator, Outcome, SolverFailure
+from rodsim.solvers.base import LARGE_MODEL_SIZE, Integrator, Outcome, SolverFailure
 from rodsim.solvers.continuation import DEFAULT_PENALTY_RATIO, homotopy, penalty_scales
 from rodsim.solvers.pseudo_dynamics import (
     BAND_LIMIT,
+    LARGE_FINISH_ITERATIONS,
     LINEAR_SOLVERS,
     PSEUDO_DYNAMICS_PARAMETERS,
     PseudoDynamics,
@@ -208,15 +209,29 @@ class SundialsIntegrator(Integrator[SundialsState]):
         where a long distal segment turns (CVODE then took ~200 steps, 116 ms; with the
         frames, one finish after 11-12 steps, 10 ms). Only there: on table1-50g the frames
         finish moved the stored CVODE equilibrium by 8e-13 m (docs/benchmarks.md, "String
-        tendons")."""
+        tendons"). And on every model above
+        :data:`~rodsim.solvers.base.LARGE_MODEL_SIZE` free coordinates, where the finish
+        through :meth:`Model.step` fails as Newton from rest through it does (table1-50g,
+        N = 20 000: four failed finishes, 1787 steps, 164 s; through the frames one finish
+        of 7 iterations after 5 steps, 2.5 s)."""
         converged, state, iterations = self.at_lowered_penalties(run, state)
         if not converged:
             return False, state, iterations
+        model = run.model
+        frames = (model.n > LARGE_MODEL_SIZE
+                  or any(tendon.rod is None for tendon in model.tendons.values()))
         converged, state, more = self.newton_equilibrium(
-            run, state, 1.0, self.options.newton_iterations, "the Newton finish",
-            retraction="auto" if any(tendon.rod is None for tendon in
-                                     run.model.tendons.values()) else "lengths")
+            run, state, 1.0, self.finish_iterations(model), "the Newton finish",
+            retraction="auto" if frames else "lengths")
         return converged, state, iterations + more
+
+    def finish_iterations(self, model: Model) -> int:
+        """Newton iterations one finish may take on ``model``: ``newton_iterations``, or at
+        least :data:`LARGE_FINISH_ITERATIONS` on a large model (see there)."""
+        iterations = int(self.options.newton_iterations)
+        if model.n > LARGE_MODEL_SIZE:
+            return max(iterations, LARGE_FINISH_ITERATIONS)
+        return iterations
 
     def at_lowered_penalties(self, run: SundialsState,
                              x: np.ndarray) -> tuple[bool, np.ndarray, int]:
