@@ -26,6 +26,7 @@ from __future__ import annotations
 
 import warnings
 from collections.abc import Callable
+from functools import cached_property
 
 import numpy as np
 import scipy.sparse as sp
@@ -67,19 +68,30 @@ class LinearSolver:
         self.counts = {"cholesky": 0, "band_lu": 0, "sparse_lu": 0}
         diagonal = np.flatnonzero(rows == cols)
         self._diagonal = diagonal[np.argsort(cols[diagonal])]
-        if self.banded:
-            # Band storage is kept in Fortran order (what LAPACK reads: no copy on the call),
-            # so an entry's offset in it is column × rows + row, which increases along the
-            # CSC data (sorted by column, then row): the values are written straight in, in
-            # one sequential pass (the flat iterator's scatter, ab.flat[index] = ..., was
-            # 24 ms of a 54 ms solve at N = 40 000).
-            # dgbsv: ab[kl + ku + i − j, j] = J[i, j] in a (2 kl + ku + 1) × n array.
-            self._lu_rows = 2 * lower + upper + 1
-            self._lu_index = cols * self._lu_rows + (lower + upper + rows - cols)
-            # dpbsv (lower form): ab[i − j, j] = −J[i, j] for i ≥ j.
-            below = rows >= cols
-            self._below = np.flatnonzero(below)
-            self._cholesky_index = cols[below] * (lower + 1) + (rows[below] - cols[below])
+        self._rows, self._cols = rows, cols
+        # Band storage is kept in Fortran order (what LAPACK reads: no copy on the call), so
+        # an entry's offset in it is column × rows + row, which increases along the CSC data
+        # (sorted by column, then row): the values are written straight in, in one
+        # sequential pass (the flat iterator's scatter, ab.flat[index] = ..., was 24 ms of a
+        # 54 ms solve at N = 40 000). The offsets are built at their first use: a symmetric
+        # J whose Cholesky succeeds never needs the LU's, a non-symmetric one never the
+        # Cholesky's (at N = 100 000 each is ~0.2 s of fresh memory).
+        # dgbsv: ab[kl + ku + i − j, j] = J[i, j] in a (2 kl + ku + 1) × n array.
+        self._lu_rows = 2 * lower + upper + 1
+
+    @cached_property
+    def _lu_index(self) -> np.ndarray:
+        """Offset of every entry in dgbsv's band storage."""
+        rows, cols = self._rows, self._cols
+        return cols * self._lu_rows + (self.lower + self.upper + rows - cols)
+
+    @cached_property
+    def _cholesky_slots(self) -> tuple[np.ndarray, np.ndarray]:
+        """(the entries on or below the diagonal, their offsets in dpbsv's lower-form band
+        storage: ab[i − j, j] = −J[i, j] for i ≥ j)."""
+        rows, cols = self._rows, self._cols
+        below = np.flatnonzero(rows >= cols)
+        return below, cols[below] * (self.lower + 1) + (rows[below] - cols[below])
 
     def _band_storage(self, height: int, index: np.ndarray, values: np.ndarray) -> np.ndarray:
         """A (height × n) Fortran-ordered band array with ``values`` at the Fortran-order
@@ -98,7 +110,8 @@ class LinearSolver:
             return self._sparse(data, rhs)
         n = self.n
         if self.symmetric:
-            ab = self._band_storage(self.lower + 1, self._cholesky_index, data[self._below])
+            below, index = self._cholesky_slots
+            ab = self._band_storage(self.lower + 1, index, data[below])
             np.negative(ab, out=ab)
             _, x, info = lapack.dpbsv(ab, -rhs, lower=1, overwrite_ab=1, overwrite_b=1)
             if info == 0:
@@ -123,7 +136,8 @@ class LinearSolver:
             except RuntimeError:
                 return None
         if self.symmetric:
-            ab = self._band_storage(self.lower + 1, self._cholesky_index, data[self._below])
+            below, index = self._cholesky_slots
+            ab = self._band_storage(self.lower + 1, index, data[below])
             np.negative(ab, out=ab)
             factor, info = lapack.dpbtrf(ab, lower=1)
             if info == 0:
