@@ -170,6 +170,47 @@ def test_every_integrator_reaches_the_same_contact_equilibrium():
     assert abs(shapes["static"][-1, 1] - (0.0017 - radius)) < 2e-6 * length
 
 
+def test_pseudo_masses_cap_a_touching_node_as_every_other_coordinate():
+    """Mass scaling caps each coordinate's own frequency at ``mass_scaling`` × ω₁; a contact
+    node's stiffness once it touches is its rest stiffness plus k (the rest state, out of
+    contact, shows none of k), so its pseudo-mass must hold that cap with k counted, on the
+    shipped plane scene and on the tests' inclined plane, and a model without obstacles
+    keeps the masses it had (no latent stiffness at all)."""
+    from rodsim.solvers.pseudo_dynamics import first_mode_frequency, pseudo_masses
+
+    cap = 1e3
+    for scene in (rodsim.load_scene("tip-on-tissue"), rodsim.load_scene(plane_scene(40))):
+        model = Model(scene)
+        contact = next(t for t in model.terms if t.name == "contact")
+        masses = pseudo_masses(model, cap)
+        inverse = np.full(model.full_size, -1)
+        inverse[model.free] = np.arange(model.n)
+        touching = inverse[contact.dofs.ravel()]
+        touching = touching[touching >= 0]
+        frequency = np.sqrt((model.rest_stiffness[touching] + contact.stiffness)
+                            / masses[touching])
+        assert np.all(frequency <= cap * first_mode_frequency(model) * (1.0 + 1e-12))
+    plain = Model(rodsim.load_scene("table1-50g"))
+    assert not np.any(plain.latent_stiffness())
+
+
+def test_cvode_reaches_a_frictional_contact_equilibrium():
+    """A rod pressed on a plane with friction μ = 0.3 (tests/test_friction.py's drag scene
+    before any drag): CVODE, the default integrator, reaches static's equilibrium. With the
+    contact nodes' pseudo-masses set by their rest stiffness alone, CVODE failed here at step
+    11 (corrector convergence)."""
+    from test_friction import dragged_rod
+
+    scene = dragged_rod(0.3)
+    reference = rodsim.solve(scene, "static")
+    result = rodsim.solve(scene, "cvode")
+    assert reference.success and result.success, result.message
+    length = scene.data["rods"]["c"]["length"]
+    distance = np.max(np.linalg.norm(result.rods["c"].positions
+                                     - reference.rods["c"].positions, axis=1)) / length
+    assert distance < 1e-6
+
+
 def test_insertion_along_a_curved_vessel_is_warm_started_and_path_independent():
     """``track`` advances the shipped vessel-insertion catheter 60 mm through the csv vessel's
     bend (61 steps): every step converges, the nodes stay inside the wall up to the penalty's

@@ -886,6 +886,19 @@ class Model:
             full[rod.layout.quaternion_index] = rod.quaternion_masses()[:, None]
         return full[self.free]
 
+    def latent_stiffness(self) -> np.ndarray:
+        """Per free coordinate [N/m or N·m], the stiffness the terms may add away from the
+        rest state that :attr:`rest_stiffness` does not show (a contact that appears:
+        :meth:`rodsim.core.terms.base.Term.latent_stiffness`), each term's times its scale;
+        zeros for a model without such terms."""
+        full = np.zeros(self.full_size)
+        for index, term in enumerate(self.terms):
+            latent = term.latent_stiffness()
+            if latent is not None:
+                coordinates, stiffness = latent
+                np.add.at(full, coordinates, self._scale(index, term, 1.0) * stiffness)
+        return full[self.free]
+
     # ------------------------------------------------------------ evaluation
     def _scale(self, index: int, term: Term, load: float) -> float:
         """Factor on one term's output: its continuation scale, times ``load`` for loads."""

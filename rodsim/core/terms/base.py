@@ -220,6 +220,14 @@ class Term(ABC):
         (:meth:`rodsim.core.model.Model.step`); none by default."""
         return np.zeros((0, 6), dtype=int)
 
+    def latent_stiffness(self) -> tuple[np.ndarray, float] | None:
+        """(global indices, stiffness) of the stiffness this term may put on those coordinates
+        away from the rest state although its Jacobian at rest shows none — a contact that
+        appears (rodsim/core/terms/contact.py) — or ``None`` (every other term: its rest
+        Jacobian is its stiffness's scale). The pseudo-dynamics' mass scaling counts it
+        (:func:`rodsim.solvers.pseudo_dynamics.pseudo_masses`)."""
+        return None
+
     def anchor_positions(self) -> np.ndarray | None:
         """A path-dependent term's anchors — the state of the last converged equilibrium its
         force depends on (a frictional contact's node positions,

@@ -124,6 +124,12 @@ class Contact(RodTerm):
         self.anchors = np.ascontiguousarray(rod.held_positions(), dtype=float)
         self.conservative = self.friction == 0.0
 
+    def latent_stiffness(self) -> tuple[np.ndarray, float]:
+        """Every node's three position coordinates and k: a node that touches meets the
+        stiffness k (ψ'' = 1 past the onset δ), which the rest state, out of contact, does
+        not show."""
+        return self.dofs.ravel(), self.stiffness
+
     def anchor_positions(self) -> np.ndarray | None:
         """The friction anchors (N, 3) [m]; None without friction (nothing depends on the
         path)."""
