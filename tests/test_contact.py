@@ -194,6 +194,20 @@ def test_pseudo_masses_cap_a_touching_node_as_every_other_coordinate():
     assert not np.any(plain.latent_stiffness())
 
 
+def test_a_scene_with_obstacles_runs_ida_unless_it_names_an_integrator():
+    """``solver.integrator`` unset: ida with obstacles (docs/contact.md, "Which integrator"),
+    cvode without; a scene that names one keeps it, and so does an override."""
+    scene = plane_scene(20)
+    del scene["solver"]
+    assert rodsim.load_scene(scene).solver.integrator == "ida"
+    assert rodsim.load_scene(scene, ["solver.integrator=cvode"]).solver.integrator == "cvode"
+    named = plane_scene(20) | {"solver": {"integrator": "cvode"}}
+    assert rodsim.load_scene(named).solver.integrator == "cvode"
+    without = plane_scene(20)
+    del without["solver"], without["obstacles"]
+    assert rodsim.load_scene(without).solver.integrator == "cvode"
+
+
 def test_cvode_reaches_a_frictional_contact_equilibrium():
     """A rod pressed on a plane with friction μ = 0.3 (tests/test_friction.py's drag scene
     before any drag): CVODE, the default integrator, reaches static's equilibrium. With the
