@@ -8,11 +8,11 @@ that makes one solve of a small scene — ``rodsim run`` on a shipped scene — 
 than that fixed cost on all of its numpy evaluations; a study, a track or a large scene
 spends far more.
 
-Which case a run is cannot be told before it runs (tip-on-tissue makes 11 500 evaluations
-of a 280-unknown model, table1-50g under CVODE a few dozen), so the choice is made as the
-classic rent-or-buy rule: evaluate by numpy, count the CPU those evaluations take, and move
-to the compiled kernels for good once that count passes the fixed cost of loading them
-(:data:`NUMPY_BUDGET`). A run that stays below it never loads numba; one that passes it
+Which case a run is cannot be told before it runs (tip-on-tissue under static makes 11 500
+evaluations of a 280-unknown model, table1-50g under CVODE a few dozen), so the choice is
+made as the classic rent-or-buy rule: evaluate by numpy, count the CPU those evaluations
+take, and move to the compiled kernels for good once that count passes the fixed cost of
+loading them (:data:`NUMPY_BUDGET`). A run that stays below it never loads numba; one that passes it
 pays at most about twice what the better path alone would have cost. The count is the
 process's, not a model's: once one model has moved on, every model of the process
 evaluates compiled (the kernels are loaded).
