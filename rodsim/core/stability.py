@@ -225,23 +225,37 @@ def _band_of(model: Model) -> BandStiffness | None:
 
 def assess(model: Model, x: np.ndarray,
            factored: tuple[np.ndarray, Callable[[np.ndarray], np.ndarray] | None] | None
-           = None) -> Stability:
+           = None, certify_first: bool = True) -> Stability:
     """The verdict at the free state ``x`` of ``model`` (a :class:`rodsim.core.model.Model`),
     from its analytic Jacobian ∂F/∂x at full load: the verdict of
     :func:`stiffness_stability`, its factorisations in band storage (module docstring).
     ``factored``: (J's CSC data at ``x``, a solve of J X = B or None), when the caller has
-    them (the integrators' verification of the same state, rodsim/solvers/base.py)."""
+    them (the integrators' verification of the same state, rodsim/solvers/base.py).
+
+    ``certify_first`` False (a track whose last step's symmetric part was not certified,
+    rodsim/app/inverse/track.py): for a non-symmetric K above
+    :data:`DENSE_NONSYMMETRIC_LIMIT` the eigenvalues nearest zero come first, and the
+    Cholesky certificate (~0.17 ms on table3-catheter1, failing at every step of its
+    tendon ramp) only when they do not say stable. The same ``stable`` as the default order
+    and, for an unstable K, the same ``min_eigenvalue`` (ARPACK's fixed start); a stable
+    K's ``min_eigenvalue`` is then its smallest real part where the certificate gives
+    NaN."""
     band = model.band
     width = max(band.lower, band.upper)
     banded = _band_of(model)
     data = model.jacobian_data(x) if factored is None else factored[0]
     if banded is None:
         return stiffness_stability(-model.pattern_matrix(data), width)
-    if banded.certified(data):
-        return Stability(True)
-    if banded.asymmetry(data) <= 1e-12 or model.n <= DENSE_NONSYMMETRIC_LIMIT:
-        return stiffness_stability(-model.pattern_matrix(data), width, indefinite=True)
+    nearest = (not certify_first and model.n > DENSE_NONSYMMETRIC_LIMIT
+               and banded.asymmetry(data) > 1e-12)
+    if not nearest:
+        if banded.certified(data):
+            return Stability(True)
+        if banded.asymmetry(data) <= 1e-12 or model.n <= DENSE_NONSYMMETRIC_LIMIT:
+            return stiffness_stability(-model.pattern_matrix(data), width, indefinite=True)
     solve = None if factored is None else factored[1]
     inverse = banded.inverse(data) if solve is None else (lambda v: -solve(v))
     real_part = _smallest_real_part(-model.pattern_matrix(data), inverse)
+    if nearest and not real_part > 0.0 and banded.certified(data):
+        return Stability(True)
     return Stability(bool(real_part > 0.0), real_part)
