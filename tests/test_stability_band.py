@@ -139,3 +139,72 @@ def test_the_verdict_reuses_the_verification_of_the_same_state_only(name):
     moved = result.state + 1e-9
     assert state.factorisation_at(state.model, moved) is None
     assert state.factorisation_at(Model(scene), result.state) is None
+
+
+def test_the_verdict_of_a_non_symmetric_stiffness_is_reproducible():
+    """ARPACK starts from a fixed vector: the same state's verdict twice gives the same
+    smallest real part bit for bit (its random start made it differ by ~1e-11 relative),
+    and it is the smallest real part of the six eigenvalues nearest zero by dense ones
+    (those of K⁻¹: the dense eigenvalues of K itself carry an error of order ε‖K‖)."""
+    scene = rodsim.load_scene("table3-catheter1")
+    result = rodsim.solve(scene, "static")
+    model = registered_model(Model(scene), result.state)
+    first, second = assess(model, result.state), assess(model, result.state)
+    assert not np.isnan(first.min_eigenvalue)  # the ARPACK path, not the certificate
+    assert first.min_eigenvalue == second.min_eigenvalue
+    inverse = np.linalg.inv(-model.jacobian(result.state).toarray())
+    values = 1.0 / np.linalg.eigvals(inverse)
+    nearest = values[np.argsort(np.abs(values))[:6]]
+    assert first.min_eigenvalue == pytest.approx(float(np.min(nearest.real)), rel=1e-7)
+
+
+def _tracks_both_orders(monkeypatch, scene, ramps, **options):
+    """The track of ``ramps`` as it runs (a step's verdict tries the eigenvalues nearest
+    zero first after a step that was not certified) and with every verdict in the default
+    order (the certificate first), with the certificates each made."""
+    import rodsim.core.stability as stability
+
+    calls = []
+    certified = BandStiffness.certified
+
+    def counted(self, jacobian):
+        calls.append(1)
+        return certified(self, jacobian)
+
+    monkeypatch.setattr(BandStiffness, "certified", counted)
+    fast = track(scene, ramps, **options)
+    fast_calls = len(calls)
+    original = stability.assess
+    monkeypatch.setattr(stability, "assess",
+                        lambda model, x, factored=None, certify_first=True:
+                        original(model, x, factored, True))
+    calls.clear()
+    default = track(scene, ramps, **options)
+    return fast, fast_calls, default, len(calls)
+
+
+def test_a_track_that_is_never_certified_skips_the_certificate_with_the_same_verdicts(
+        monkeypatch):
+    """table3-catheter1's tendon ramp (never certified: the paper coupling's symmetric
+    part is indefinite) and that catheter pushed past buckling (stable, then unstable
+    steps): the track's verdicts, smallest eigenvalues and states are those of the default
+    order, bit for bit, with the certificate tried at no step of the first after step 1."""
+    scene = rodsim.load_scene("table3-catheter1")
+    ramps = {"tendons.tendon.tendon_actuation.force": np.linspace(0.0, 4.0, 41)}
+    fast, fast_calls, default, default_calls = _tracks_both_orders(monkeypatch, scene, ramps)
+    assert fast.success and fast.steps == 41 and all(fast.stable)
+    assert default_calls >= 40 and fast_calls <= 2
+    assert fast.stable == default.stable
+    assert np.array_equal(np.array(fast.states), np.array(default.states))
+    monkeypatch.undo()
+    pushed = rodsim.load_scene("table3-catheter1", [
+        "tendons.tendon.tendon_actuation.force=0",
+        'rods.catheter.terms=["stretch", "bend_twist", "centerline", "tip_load"]',
+        "rods.catheter.tip_load.force=[0, 0, 0]"])
+    ramps = {"rods.catheter.tip_load.force[0]": np.linspace(0.0, -1.5, 8)}
+    fast, _, default, _ = _tracks_both_orders(monkeypatch, pushed, ramps,
+                                              allow_unstable=True)
+    assert fast.unstable_steps and fast.stable == default.stable
+    assert np.array_equal(np.array(fast.min_eigenvalues), np.array(default.min_eigenvalues),
+                          equal_nan=True)
+    assert np.array_equal(np.array(fast.states), np.array(default.states))

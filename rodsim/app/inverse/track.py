@@ -351,6 +351,7 @@ def track(scene: Scene, ramps: Mapping[str, Sequence[float]],
     if not record_stability(out, 0, stability, allow_unstable):
         return out
     previous: np.ndarray | None = None  # the equilibrium before the last, for the predictor
+    certified = True  # the last verdict certified K's symmetric part (assess's order)
     for step in range(1, len(values)):
         started = time.perf_counter()
         if started > deadline:
@@ -384,7 +385,10 @@ def track(scene: Scene, ramps: Mapping[str, Sequence[float]],
         out.iterations.append(iterations)
         out.halvings.append(halvings)
         verdict = assess(continuation.model, continuation.x,  # part of the step's time
-                         continuation.factorisation())
+                         continuation.factorisation(), certified)
+        # The next verdict tries the certificate first only if this one was certified
+        # (stable with no eigenvalue computed): the same verdicts, rodsim/core/stability.py.
+        certified = verdict.stable and np.isnan(verdict.min_eigenvalue)
         out.times.append(time.perf_counter() - started)
         if not record_stability(out, step, verdict, allow_unstable):
             return out
