@@ -208,6 +208,25 @@ def test_a_scene_with_obstacles_runs_ida_unless_it_names_an_integrator():
     assert rodsim.load_scene(without).solver.integrator == "cvode"
 
 
+@pytest.mark.parametrize("moment", [0.001, 0.003])
+def test_static_presses_a_tip_onto_tissue_with_its_default_newton_budget(moment):
+    """tip-on-tissue with another tip moment and ``static.max_newton`` at its default (30):
+    each load step starts from the secant through the last two equilibria (a model with
+    contact, rodsim/solvers/static.py ``secant_predicted``) and the solve converges to IDA's
+    equilibrium. Started from the last equilibrium instead, every load step after the tip
+    touched the plane ran out of its 30 iterations and the run failed."""
+    scene = rodsim.load_scene("tip-on-tissue", [
+        f"rods.catheter.point_loads.loads.0.moment=[0.0, {moment}, 0.0]",
+        "rods.catheter.nodes=21", "solver.static.max_newton=30"])
+    static = rodsim.solve(scene, "static")
+    assert static.success, static.message
+    reference = rodsim.solve(scene, "ida")
+    assert reference.success, reference.message
+    distance = np.max(np.linalg.norm(static.rods["catheter"].positions
+                                     - reference.rods["catheter"].positions, axis=1))
+    assert distance < 1e-6 * scene.data["rods"]["catheter"]["length"]
+
+
 def test_cvode_reaches_a_frictional_contact_equilibrium():
     """A rod pressed on a plane with friction μ = 0.3 (tests/test_friction.py's drag scene
     before any drag): CVODE, the default integrator, reaches static's equilibrium. With the

@@ -42,6 +42,7 @@ HOMOTOPY_MIN_STEP = 1e-3
 #: A continuation step that converged within this many Newton iterations doubles the next.
 EASY_ITERATIONS = 6
 
+
 #: ``newton(x, load, polish)``: a Newton solve at a load fraction from x, counted by the
 #: caller: (converged, x reached, iterations).
 NewtonAt = Callable[[np.ndarray, float, bool], tuple[bool, np.ndarray, int]]
@@ -95,22 +96,31 @@ def homotopy(run: RunState, x: np.ndarray, max_iterations: int,
 
 def load_continuation(run: RunState, model: Model, first_step: float, min_step: float,
                       newton_at: NewtonAt, before: Callable[[str], None],
-                      after: Callable[[float], None]) -> Outcome:
+                      after: Callable[[float], None], predict: bool = False) -> Outcome:
     """Apply the loads to ``model`` (which becomes ``run.model``) in increments from its rest
     state and registration, the first ``first_step``, quartered after a failed Newton solve
     (the run fails below ``min_step``) and doubled after an easy one; a tendon point that
     changes parent repeats the solve at the same load, and at full load the run ends once the
     registration settles (exact re-registration). Only the last solve (full load, penalties
     at their values) is polished. ``before(where)`` is called before each solve (the budget),
-    ``after(load)`` after each accepted step (progress)."""
+    ``after(load)`` after each accepted step (progress).
+
+    ``predict``: each solve after the second starts from the secant through the last two
+    equilibria, x + (x − x_prev) (λ_target − λ)/(λ − λ_prev), instead of from the last one
+    (``static`` takes it on a model with contact:
+    :func:`rodsim.solvers.static.secant_predicted`)."""
     run.model = model
     x = model.x0
     load, step = 0.0, first_step
+    previous: tuple[np.ndarray, float] | None = None  # the equilibrium before x, its load
     final = bool(np.all(model.term_scales == 1.0))
     while load < 1.0 or not run.settled(x):
         target = min(1.0, load + step)
         before(f"load fraction {target:.4g}")
-        converged, x_new, iterations = newton_at(x, target, final and target >= 1.0)
+        start = x
+        if predict and previous is not None and target > load > previous[1]:
+            start = x + (x - previous[0]) * ((target - load) / (load - previous[1]))
+        converged, x_new, iterations = newton_at(start, target, final and target >= 1.0)
         if not converged:
             step *= 0.25
             if step < min_step:
@@ -120,6 +130,7 @@ def load_continuation(run: RunState, model: Model, first_step: float, min_step: 
         if run.reregister(x_new):
             x = x_new  # a tendon point changed parent: solve again at this load
             continue
+        previous = x, load
         x, load = x_new, target
         run.counts["steps"] += 1
         run.checkpoint(x, f"load fraction {load:.4g}")
