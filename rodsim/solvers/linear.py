@@ -126,17 +126,17 @@ class LinearSolver:
             return self._band_storage(height, self._lu_index, data)
         from rodsim.core.kernels._band import fill_band
 
-        kept: dict[int, np.ndarray] = self._scratch.__dict__
-        ab = kept.get(height) if keep else None
-        if ab is None:
-            ab = np.empty((height, self.n), order="F")
+        kept: dict[int, np.ndarray] = self._scratch.__dict__.setdefault("arrays", {})
+        band = kept.get(height) if keep else None
+        if band is None:
+            band = np.empty((height, self.n), order="F")
             if keep:
-                kept[height] = ab
+                kept[height] = band
         pattern = self._pattern
-        fill_band(ab.T, data, pattern.indptr, pattern.indices,
+        fill_band(band.T, data, pattern.indptr, pattern.indices,
                   0 if cholesky else self.lower + self.upper, -1.0 if cholesky else 1.0,
                   cholesky)
-        return ab
+        return band
 
     def diagonal(self, data: np.ndarray) -> np.ndarray:
         """The diagonal of J."""
