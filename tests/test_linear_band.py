@@ -69,3 +69,29 @@ def test_solves_through_either_fill_are_the_same_numbers(scene):
     assert np.linalg.norm(dense @ expected - rhs) <= 1e-8 * np.linalg.norm(rhs)
     block = np.stack([rhs, 2.0 * rhs], axis=1)
     assert np.array_equal(compiled.factorized(data)(block), numpy_fill.factorized(data)(block))
+
+
+def test_a_kept_factorisation_solves_as_a_fresh_one():
+    """``factorized(keep=True)`` (the SUNDIALS preconditioner's, rodsim/solvers/sundials.py)
+    factors in the solver's kept band array: the same solves as a fresh factorisation, and
+    a preconditioner factored again for another c solves with the new matrix."""
+    from rodsim.solvers.sundials import BandPreconditioner
+
+    model = rodsim.build_model(rodsim.load_scene("table3-catheter1"))
+    numpy_fill, compiled = solvers(model)
+    x = loaded_state(model)
+    data, rhs = model.jacobian_data(x), -model.force(x)
+    assert np.array_equal(compiled.factorized(data, keep=True)(rhs),
+                          numpy_fill.factorized(data)(rhs))
+    identity = np.where(model.pattern_rows == model.pattern_cols, 1.0, 0.0)
+    band = (model.band.lower, model.band.upper)
+    preconditioner = BandPreconditioner(model.pattern, model.pattern_rows,
+                                        model.pattern_cols, band)
+    preconditioner.linear._compiled_fill = True
+    preconditioner.update(identity, -data)
+    out = np.empty(model.n)
+    for c in (1e-3, 2e-2):
+        preconditioner.factor(c)
+        preconditioner.solve(rhs, out)
+        expected = numpy_fill.factorized(identity + c * -data)(rhs)
+        assert np.array_equal(out, expected)
