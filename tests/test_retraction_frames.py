@@ -185,3 +185,34 @@ def test_cvode_finishes_a_barely_moved_large_model_from_rest(monkeypatch):
         start, rest = starts[0]
         assert np.array_equal(start, rest) == large
         assert np.abs(cvode.positions() - static.positions()).max() < 5e-9 * 0.12
+
+
+def test_cvode_finishes_from_rest_at_its_first_attempt_only(monkeypatch):
+    """A finish from rest that fails (forced here) is not repeated: CVODE integrates on and
+    its next finish starts where CVODE is (rodsim/solvers/cvode.py, finish_start), however
+    little it has moved (every state counts as barely moved here)."""
+    import rodsim.solvers.cvode as cvode_module
+    from rodsim.solvers.cvode import Cvode
+
+    monkeypatch.setattr(cvode_module, "FINISH_FROM_REST", 10.0)
+
+    starts: list[bool] = []
+    finish_start, finish_newton = Cvode.finish_start, Cvode.finish_newton
+
+    def recorded(self, run, y):
+        start = finish_start(self, run, y)
+        starts.append(bool(np.array_equal(start, run.model.x0)))
+        return start
+
+    def first_fails(self, run, state):
+        if len(starts) == 1:
+            return False, state, 0
+        return finish_newton(self, run, state)
+
+    monkeypatch.setattr(Cvode, "finish_start", recorded)
+    monkeypatch.setattr(Cvode, "finish_newton", first_fails)
+    scene = rodsim.load_scene("table1-50g", ["rods.catheter.nodes=4000"])
+    cvode = rodsim.solve(scene, "cvode")
+    assert cvode.success, cvode.message
+    assert cvode.stats["finish_attempts"] == len(starts) >= 2
+    assert starts[0] and not any(starts[1:])

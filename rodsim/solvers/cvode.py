@@ -51,8 +51,9 @@ class Cvode(SundialsIntegrator):
     def finish_start(self, run: SundialsState, y: np.ndarray) -> np.ndarray:
         """The model coordinates of ``y``; on a model above
         :data:`~rodsim.solvers.base.LARGE_MODEL_SIZE` free coordinates without a tendon
-        registration, the rest state when no control point of ``y`` has moved
-        :data:`FINISH_FROM_REST` L from it.
+        registration, at the first finish attempt, the rest state when no control point of
+        ``y`` has moved :data:`FINISH_FROM_REST` L from it (a later attempt, after Newton from
+        rest failed at full load, starts where CVODE is: no static load continuation here).
 
         On a large model the switch to the finish (a max-norm residual below
         ``newton_switch``) comes after a few steps with the rod barely moved: the pseudo-
@@ -66,7 +67,8 @@ class Cvode(SundialsIntegrator):
         indefinite stiffness and backtracking."""
         x = super().finish_start(run, y)
         model = run.model
-        if model.n <= LARGE_MODEL_SIZE or model.has_registration:
+        if (model.n <= LARGE_MODEL_SIZE or model.has_registration
+                or run.counts.get("finish_attempts", 1) > 1):
             return x
         rest = model.x0
         moved = max(float(np.max(np.abs(model.positions(x, rod) - model.positions(rest, rod))))

@@ -285,8 +285,10 @@ class SundialsIntegrator(Integrator[SundialsState]):
         It runs on a derived state with counters of its own, added to the run's ``finish_*``
         statistics (its evaluations are counted apart from the integration's)."""
         counts = run.counts
+        # The trial's own counters, and which finish attempt this is (finish_start's to read).
         trial = run.derived(counts={"force_evals": 0, "jacobian_evals": 0,
-                                    "settles": counts.get("settles", 0)})
+                                    "settles": counts.get("settles", 0),
+                                    "finish_attempts": counts.get("finish_attempts", 1)})
         try:
             state = self.finish_start(trial, y)
             for _ in range(MAX_SETTLES + 1):
