@@ -79,3 +79,30 @@ def test_loads_at_load_fraction_zero_are_skipped_with_the_same_numbers():
                        atol=1e-12 * np.abs(unloaded).max())
     assert not np.allclose(unloaded, compiled.force(x, 1.0), rtol=0.0,
                            atol=1e-6 * np.abs(unloaded).max())
+
+
+def test_a_large_jacobian_reuses_only_an_array_no_one_holds(monkeypatch):
+    """From REUSE_ENTRIES on, a Jacobian is accumulated into the last one's array once no
+    one refers to it (rodsim/core/model.py, _jacobian_zeros): a held Jacobian is never
+    written over, and a reused array holds exactly the Jacobian (zeroed first)."""
+    import rodsim.core.model as model_module
+
+    model = Model(rodsim.load_scene("table1-50g", ["nodes=40"]))
+    rng = np.random.default_rng(5)
+    states = [model.x0 + 1e-3 * rng.normal(size=model.n) for _ in range(3)]
+    expected = [model._evaluate(x, 1.0, False, True)[1] for x in states]  # fresh arrays
+    monkeypatch.setattr(model_module, "REUSE_ENTRIES", 10)
+
+    def address(a: np.ndarray) -> int:
+        return a.__array_interface__["data"][0]
+
+    held = model._evaluate(states[0], 1.0, False, True)[1]
+    other = model._evaluate(states[1], 1.0, False, True)[1]
+    assert not np.shares_memory(held, other)  # ``held`` is in use: a fresh array
+    assert np.array_equal(held, expected[0]) and np.array_equal(other, expected[1])
+    where = address(other)
+    del other  # dropped: the next evaluation writes into its array
+    again = model._evaluate(states[2], 1.0, False, True)[1]
+    assert address(again) == where
+    assert np.array_equal(again, expected[2])
+    assert np.array_equal(held, expected[0])

@@ -153,3 +153,66 @@ def test_a_finish_on_a_large_model_may_take_more_newton_iterations():
         integrator = cls.for_scene(rodsim.load_scene("table1-50g"))
         assert integrator.finish_iterations(small) == integrator.options.newton_iterations == 20
         assert integrator.finish_iterations(large) == LARGE_FINISH_ITERATIONS >= 60
+
+
+def test_cvode_finishes_a_barely_moved_large_model_from_rest(monkeypatch):
+    """Above LARGE_MODEL_SIZE, CVODE's Newton finish from a state that moved less than
+    FINISH_FROM_REST L from rest (a boundary layer at the tip, where the max-norm residual
+    already passes the switch) starts at the rest state (rodsim/solvers/cvode.py): on
+    table1-50g at N = 4 000 the switch comes with the tip moved ~1e-5 L, the finish starts
+    at rest and lands on static's equilibrium. On a small model it starts where CVODE is."""
+    from rodsim.solvers.base import LARGE_MODEL_SIZE
+    from rodsim.solvers.cvode import Cvode
+
+    starts: list[tuple[np.ndarray, np.ndarray]] = []
+    finish_start = Cvode.finish_start
+
+    def recorded(self, run, y):
+        start = finish_start(self, run, y)
+        starts.append((start, run.model.x0))
+        return start
+
+    monkeypatch.setattr(Cvode, "finish_start", recorded)
+    for nodes, large in ((4000, True), (40, False)):
+        scene = rodsim.load_scene("table1-50g", [f"rods.catheter.nodes={nodes}"])
+        model = rodsim.build_model(scene)
+        assert (model.n > LARGE_MODEL_SIZE) == large
+        starts.clear()
+        cvode = rodsim.solve(scene, "cvode", model=model)
+        static = rodsim.solve(scene, "static", model=model)
+        assert cvode.success and static.success
+        assert len(starts) == cvode.stats["finish_attempts"] == 1
+        start, rest = starts[0]
+        assert np.array_equal(start, rest) == large
+        assert np.abs(cvode.positions() - static.positions()).max() < 5e-9 * 0.12
+
+
+def test_cvode_finishes_from_rest_at_its_first_attempt_only(monkeypatch):
+    """A finish from rest that fails (forced here) is not repeated: CVODE integrates on and
+    its next finish starts where CVODE is (rodsim/solvers/cvode.py, finish_start), however
+    little it has moved (every state counts as barely moved here)."""
+    import rodsim.solvers.cvode as cvode_module
+    from rodsim.solvers.cvode import Cvode
+
+    monkeypatch.setattr(cvode_module, "FINISH_FROM_REST", 10.0)
+
+    starts: list[bool] = []
+    finish_start, finish_newton = Cvode.finish_start, Cvode.finish_newton
+
+    def recorded(self, run, y):
+        start = finish_start(self, run, y)
+        starts.append(bool(np.array_equal(start, run.model.x0)))
+        return start
+
+    def first_fails(self, run, state):
+        if len(starts) == 1:
+            return False, state, 0
+        return finish_newton(self, run, state)
+
+    monkeypatch.setattr(Cvode, "finish_start", recorded)
+    monkeypatch.setattr(Cvode, "finish_newton", first_fails)
+    scene = rodsim.load_scene("table1-50g", ["rods.catheter.nodes=4000"])
+    cvode = rodsim.solve(scene, "cvode")
+    assert cvode.success, cvode.message
+    assert cvode.stats["finish_attempts"] == len(starts) >= 2
+    assert starts[0] and not any(starts[1:])

@@ -54,6 +54,51 @@ def test_band_factorisations_match_dense_linear_algebra(seed):
     assert np.allclose(inverse(v), np.linalg.solve(k, v), rtol=1e-8, atol=1e-10)
 
 
+def _both_paths(rows, cols, n, lower, upper) -> tuple[BandStiffness, BandStiffness]:
+    """The numpy verdict and the compiled one (forced: it runs from COMPILED_SIZE on)."""
+    made = []
+    for compiled in (False, True):
+        band = BandStiffness(rows, cols, n, lower, upper)
+        band.compiled = compiled
+        made.append(band)
+    return made[0], made[1]
+
+
+@pytest.mark.parametrize("seed", range(20))
+def test_the_compiled_verdict_band_is_the_numpy_one(seed):
+    """The compiled pass (rodsim/core/kernels/_band.py) writes the same scaled band as the
+    numpy offsets, bit for bit, and so gives the same verdict (certified or not, random band
+    matrices, symmetric and not, some with a non-positive diagonal)."""
+    rng = np.random.default_rng(100 + seed)
+    n = int(rng.integers(4, 40))
+    lower, upper = int(rng.integers(0, 4)), int(rng.integers(0, 4))
+    k = _banded(rng, n, lower, upper, symmetric=seed % 2 == 0)
+    k += [0.0, 3.0, 8.0, 30.0][seed % 4] * np.eye(n)  # some certified, some not
+    rows, cols, data = _csc_entries(k)
+    numpy_band, compiled = _both_paths(rows, cols, n, int(np.max(rows - cols, initial=0)),
+                                       int(np.max(cols - rows, initial=0)))
+    expected = numpy_band._scaled_band(data)
+    got = compiled._scaled_band(data)
+    assert (got is None) == (expected is None)
+    if expected is not None:
+        assert got.flags.f_contiguous
+        assert np.array_equal(got, expected)
+    assert compiled.certified(data) == numpy_band.certified(data)
+
+
+def test_the_compiled_verdict_on_a_rod_and_on_non_finite_data():
+    scene = rodsim.load_scene("table1-50g")
+    result = rodsim.solve(scene, "static")
+    model = Model(scene)
+    data = model.jacobian_data(result.state)
+    numpy_band, compiled = _both_paths(model.pattern_rows, model.pattern_cols, model.n,
+                                       model.band.lower, model.band.upper)
+    assert np.array_equal(compiled._scaled_band(data), numpy_band._scaled_band(data))
+    assert compiled.certified(data) and numpy_band.certified(data)
+    data[7] = np.nan
+    assert compiled._scaled_band(data) is None and not compiled.certified(data)
+
+
 def test_a_non_finite_or_singular_stiffness_is_not_certified():
     k = np.diag([1.0, 2.0, 0.0])
     rows, cols, data = _csc_entries(k + np.diag([0.0, 0.0, 1e-300]))

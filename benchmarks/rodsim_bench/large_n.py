@@ -76,8 +76,8 @@ def _dataset(nodes: list[int], grid: list[tuple[str, int]], base: dict[str, Any]
     mib = 1.0 / 2**20
     shape = (len(INTEGRATORS), len(nodes))
     arrays = {key: np.full(shape, np.nan) for key in (
-        "wall_time", "success", "error", "newton_iters", "finish_newton_iters", "steps",
-        "jacobian_evals", "effective_tolerance", "maxrss")}
+        "wall_time", "cpu_time", "success", "error", "newton_iters", "finish_newton_iters",
+        "steps", "jacobian_evals", "effective_tolerance", "maxrss")}
     message = np.full(shape, "", dtype=object)
     linear = np.full(shape, "", dtype=object)
     positions: dict[tuple[int, int], np.ndarray] = {}
@@ -89,6 +89,7 @@ def _dataset(nodes: list[int], grid: list[tuple[str, int]], base: dict[str, Any]
             message[i, j] = result.get("error", "failed")
             continue
         arrays["wall_time"][i, j] = result["first_run_time"]
+        arrays["cpu_time"][i, j] = result.get("first_run_cpu", np.nan)
         arrays["success"][i, j] = int(result["success"])
         message[i, j] = result["message"]
         linear[i, j] = result.get("linear_solver", "")
@@ -104,9 +105,12 @@ def _dataset(nodes: list[int], grid: list[tuple[str, int]], base: dict[str, Any]
     assembly = np.array([(b.get("maxrss", np.nan) - fixed) * mib if b.get("ok") else np.nan
                          for b in builds])
     unknowns = np.array([b.get("unknowns", -1) if b.get("ok") else -1 for b in builds])
-    units = {"wall_time": "s", "maxrss": "MiB", "effective_tolerance": "1", "error": "1"}
+    units = {"wall_time": "s", "cpu_time": "s", "maxrss": "MiB", "effective_tolerance": "1",
+             "error": "1"}
     long_names = {
         "wall_time": "wall time of rodsim.solve on a built model (one run, fresh process)",
+        "cpu_time": "CPU time of the same solve (the process's; on a shared machine the "
+                    "wall time also counts the other processes' turns)",
         "success": "1 if the run reached equilibrium, 0 if it failed",
         "error": "largest control-point distance to static's equilibrium at the same N, / L",
         "newton_iters": "Newton iterations (static, paper; NaN for SUNDIALS' own)",
@@ -153,21 +157,23 @@ def _markdown(ds) -> str:
             if not np.isfinite(iterations):
                 iterations = float(point["finish_newton_iters"])
             rows.append([str(integrator), str(n), _fmt(float(point["wall_time"])),
+                         _fmt(float(point["cpu_time"])),
                          "yes" if ok else "no", _fmt(float(point["error"]), ".2g"),
                          _fmt(iterations, ".0f"), _fmt(float(point["steps"]), ".0f"),
                          str(point["linear_solver"].values) or "–",
                          _fmt(float(point["maxrss"]), ".0f"),
                          "" if ok else str(point["message"].values)[:160]])
-    lines += markdown_table(["integrator", "N", "time [s]", "success", "to static / L",
+    lines += markdown_table(["integrator", "N", "time [s]", "CPU [s]", "success", "to static / L",
                              "Newton iterations", "steps", "linear solver", "peak RSS [MiB]",
                              "message"], rows)
     lines += ["", "Ratios (aims: t(100 000)/t(10 000) ≤ 12; Newton iterations at 100 000 "
               "within 2× of 4 000):", ""]
     for integrator in ("static", "cvode"):
-        times = ds["wall_time"].sel(integrator=integrator)
         if 100000 in nodes and 10000 in nodes:
-            lines.append(f"- {integrator}: t(100 000)/t(10 000) = "
-                         f"{_fmt(float(times.sel(nodes=100000) / times.sel(nodes=10000)))}")
+            ratios = [_fmt(float(t.sel(nodes=100000) / t.sel(nodes=10000))) for t in (
+                ds[key].sel(integrator=integrator) for key in ("wall_time", "cpu_time"))]
+            lines.append(f"- {integrator}: t(100 000)/t(10 000) = {ratios[0]} (wall), "
+                         f"{ratios[1]} (CPU)")
     if 100000 in nodes:
         it = ds["newton_iters"].sel(integrator="static")
         lines.append(f"- static Newton iterations 100 000 / 4 000 = "

@@ -151,11 +151,12 @@ def _child(job: Job) -> dict[str, Any]:
 
     times, result = [], None
     for k in range(1 + job.max_repeats):
-        begin = time.perf_counter()
+        begin, begin_cpu = time.perf_counter(), time.process_time()
         result = rodsim.solve(scene, job.integrator, model=model)
         elapsed = time.perf_counter() - begin
         if k == 0:
             out["first_run_time"] = elapsed
+            out["first_run_cpu"] = time.process_time() - begin_cpu
             if not result.success:
                 break
         else:

@@ -30,7 +30,14 @@ from functools import cached_property
 import numpy as np
 from scipy.linalg import lapack
 
-__all__ = ["BandStiffness"]
+__all__ = ["BandStiffness", "COMPILED_SIZE"]
+
+#: Unknowns from which :meth:`BandStiffness.certified` fills its band by a compiled pass over
+#: J's entries (no offset arrays, no temporaries; the same array as the numpy offsets) rather
+#: than a ``bincount`` through offsets (below: no numba to load for a small model's verdict).
+#: At N = 100 000 on table1-50g (12.3 million entries) the offsets cost ~1 s to build and the
+#: numpy verdict ~0.5 s more.
+COMPILED_SIZE = 4000
 
 
 class BandStiffness:
@@ -44,18 +51,32 @@ class BandStiffness:
         self.width = width
         self._rows = np.asarray(rows, dtype=np.int64)
         self._cols = np.asarray(cols, dtype=np.int64)
-        # S's lower band, Fortran order: S[i, j] (i ≥ j) at j (width + 1) + i − j; K[i, j]
-        # above the diagonal lands on S[j, i]. Each of K[i, j] and K[j, i] brings half.
-        # Built in place (min(i, j) (width + 1) + |i − j|): at N = 100 000 (12 million
-        # entries) each temporary array is ~0.1 s of fresh memory.
-        offset = self._rows - self._cols
-        self._symmetric_index = np.minimum(self._rows, self._cols)
-        self._symmetric_index *= width + 1
-        self._symmetric_index += np.abs(offset, out=offset)
-        self._symmetric_weight = np.where(offset == 0, 1.0, 0.5)
-        #: Row of S of each band slot (n: a padding slot below the last row).
-        self._slot_rows = np.minimum(np.arange(width + 1)[:, None] + np.arange(n)[None, :], n)
         self._lu_rows = 2 * lower + upper + 1
+        #: Whether :meth:`certified` runs the compiled pass (rodsim/core/kernels/_band.py)
+        #: instead of the offsets below, which are then never built.
+        self.compiled = n >= COMPILED_SIZE
+
+    # S's lower band, Fortran order: S[i, j] (i ≥ j) at j (width + 1) + i − j; K[i, j] above
+    # the diagonal lands on S[j, i]. Each of K[i, j] and K[j, i] brings half. Built at their
+    # first use, in place (min(i, j) (width + 1) + |i − j|): at N = 100 000 (12 million
+    # entries) each temporary array is ~0.1 s of fresh memory.
+    @cached_property
+    def _symmetric_index(self) -> np.ndarray:
+        index = np.minimum(self._rows, self._cols)
+        index *= self.width + 1
+        offset = self._rows - self._cols
+        index += np.abs(offset, out=offset)
+        return index
+
+    @cached_property
+    def _symmetric_weight(self) -> np.ndarray:
+        return np.where(self._rows == self._cols, 1.0, 0.5)
+
+    @cached_property
+    def _slot_rows(self) -> np.ndarray:
+        """Row of S of each band slot (n: a padding slot below the last row)."""
+        n = self.n
+        return np.minimum(np.arange(self.width + 1)[:, None] + np.arange(n)[None, :], n)
 
     # The two below serve a stiffness whose symmetric part is not certified (a
     # non-symmetric K): built at its first verdict, never for a conservative model's.
@@ -73,19 +94,34 @@ class BandStiffness:
     def certified(self, jacobian: np.ndarray) -> bool:
         """Whether the scaled symmetric part of K = −J (``jacobian``: J's CSC data) is
         positive definite (its band Cholesky succeeds): K is then stable."""
-        if not np.all(np.isfinite(jacobian)):
+        ab = self._scaled_band(jacobian)
+        if ab is None:
             return False
+        _, info = lapack.dpbtrf(ab, lower=1, overwrite_ab=1)
+        return info == 0
+
+    def _scaled_band(self, jacobian: np.ndarray) -> np.ndarray | None:
+        """D S D's lower band (Fortran order, what dpbtrf reads), or None when ``jacobian``
+        is not finite or a diagonal entry of S is not positive (no certificate)."""
         n, width = self.n, self.width
+        if self.compiled:
+            from rodsim.core.kernels._band import scaled_symmetric_band
+
+            scaled = np.empty((width + 1, n), order="F")
+            if scaled_symmetric_band(scaled.T, jacobian, self._rows, self._cols) != 0:
+                return None
+            return scaled
+        if not np.all(np.isfinite(jacobian)):
+            return None
         values = np.bincount(self._symmetric_index, weights=self._symmetric_weight * jacobian,
                              minlength=(width + 1) * n)
         ab = -values.reshape(n, width + 1).T  # (width + 1) × n
         diagonal = ab[0]
         if np.any(diagonal <= 0.0):
-            return False
+            return None
         scale = np.append(1.0 / np.sqrt(diagonal), 0.0)
         ab = ab * scale[self._slot_rows] * scale[:n][None, :]  # (S_ij d_i) d_j
-        _, info = lapack.dpbtrf(np.asfortranarray(ab), lower=1, overwrite_ab=1)
-        return info == 0
+        return np.asfortranarray(ab)
 
     def asymmetry(self, jacobian: np.ndarray) -> float:
         """max |K − Kᵀ| relative to max |K| (K = −J; ``jacobian``: J's CSC data)."""

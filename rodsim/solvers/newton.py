@@ -129,6 +129,8 @@ def newton(problem: NewtonProblem, x: np.ndarray, tolerance: float,
     watched: tuple[np.ndarray, np.ndarray, float, float, int] | None = None
     may_watch = problem.potential is None
     backtrack = False  # set after a failed watch: the next step must backtrack
+    #: The Jacobian of this iteration's step (and, reused, of the factorisation's state).
+    jacobian: np.ndarray | None = None
     for iteration in range(max_iterations):
         if check is not None:
             check()
@@ -165,9 +167,14 @@ def newton(problem: NewtonProblem, x: np.ndarray, tolerance: float,
         if slope >= 0.0 and problem.potential is not None:
             # Not a descent direction (an inexact — finite-difference — Jacobian, or a state
             # off a stable branch): fall back to a diagonally scaled gradient step on Φ.
+            assert jacobian is not None  # evaluated at the first iteration at the latest
             diagonal = np.abs(problem.linear.diagonal(jacobian))
             dx = g / np.where(diagonal > 0.0, diagonal, 1.0)
             slope = -float(g @ dx)
+        if reuse == "fresh":
+            # Not needed any more: a large model's next Jacobian may then be accumulated in
+            # its array instead of fresh memory (rodsim/core/model.py, _jacobian_zeros).
+            jacobian = None
         if slope >= 0.0:
             if near:
                 return NewtonResult(x, True, iteration + 1, residual, "converged")

@@ -245,6 +245,8 @@ class FirstOrderSystem:
 
     def jacobian_data(self, model_jacobian: np.ndarray) -> np.ndarray:
         """∂f/∂y in the CSC order of :attr:`pattern`, from ∂F/∂x in the model's order."""
+        if self.formulation == "overdamped":  # the model's pattern and order, no constants
+            return model_jacobian * self._scale[self._row_of_model]
         data = np.zeros(self.pattern.nnz)
         index, value = self._constant
         data[index] = value

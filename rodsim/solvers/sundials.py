@@ -285,8 +285,10 @@ class SundialsIntegrator(Integrator[SundialsState]):
         It runs on a derived state with counters of its own, added to the run's ``finish_*``
         statistics (its evaluations are counted apart from the integration's)."""
         counts = run.counts
+        # The trial's own counters, and which finish attempt this is (finish_start's to read).
         trial = run.derived(counts={"force_evals": 0, "jacobian_evals": 0,
-                                    "settles": counts.get("settles", 0)})
+                                    "settles": counts.get("settles", 0),
+                                    "finish_attempts": counts.get("finish_attempts", 1)})
         try:
             state = self.finish_start(trial, y)
             for _ in range(MAX_SETTLES + 1):
@@ -455,6 +457,7 @@ class BandPreconditioner:
         self.matrices: tuple[Any, Any] | None = None
         self.c = 0.0
         self._solve: Callable[[np.ndarray], np.ndarray] | None = None
+        self._matrix: np.ndarray | None = None
 
     def update(self, constant: np.ndarray, per_c: np.ndarray) -> None:
         self.parts = constant, per_c
@@ -466,7 +469,19 @@ class BandPreconditioner:
     def factor(self, c: float) -> None:
         assert self.parts is not None
         self.c = c
-        self._solve = self.linear.factorized(self.parts[0] + c * self.parts[1])
+        # A₀ + c A₁ into the array of the last factorisation's matrix, factored in the band
+        # array the solver keeps (LinearSolver.factorized): the last factorisation, which
+        # used it, is dropped here. On a large model fresh arrays of this size cost more
+        # than the factorisation (docs/benchmarks.md, "Large N").
+        self._solve = None
+        constant, per_c = self.parts
+        matrix = self._matrix
+        if matrix is None or matrix.shape != per_c.shape:
+            matrix = np.empty_like(per_c)
+        np.multiply(per_c, c, out=matrix)
+        matrix += constant
+        self._matrix = matrix
+        self._solve = self.linear.factorized(matrix, keep=True)
         if self._solve is None:
             raise SolverFailure("the Newton matrix of a step is singular")
 
