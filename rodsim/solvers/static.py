@@ -97,6 +97,23 @@ def secant_predicted(model: Model) -> bool:
     return bool(np.any(model.latent_stiffness()))
 
 
+def rest_imbalance(run: RunState, model: Model) -> np.ndarray | None:
+    """The force F₀ = F(x₀) of ``model``'s unloaded rest state when it is not an equilibrium
+    (its residual above the run's tolerance), else None.
+
+    Load continuation starts from the rest state as the equilibrium at load 0; a rod that
+    starts inside an obstacle (a straight catheter in a curved vessel) is not one, and Newton
+    at the first small load fraction then failed (its contact force does not scale with the
+    load). The continuation then fades that imbalance out with the load instead: each step
+    solves F(x; λ) = (1 − λ)^p F₀ (p = :data:`~rodsim.solvers.base.IMBALANCE_FADE_POWER`),
+    the rest state at λ = 0, the model at λ = 1. Only the imbalance's existence decides;
+    every model whose rest state balances (every shipped scene's) solves as before, bit for
+    bit (one more force evaluation is counted)."""
+    run.counts["force_evals"] += 1
+    force = model.force(model.x0, 0.0)
+    return force if model.residual(force) > run.tolerance else None
+
+
 class Static(Integrator[RunState]):
     """Newton–Raphson with load continuation on F(x) = 0."""
 
@@ -296,9 +313,11 @@ class Static(Integrator[RunState]):
         (rodsim/solvers/continuation.py); the first increment is ``first_load_step``, or
         ``first_step`` if smaller."""
 
+        imbalance = rest_imbalance(run, model)
+
         def newton_at(x: np.ndarray, load: float, polish: bool
                       ) -> tuple[bool, np.ndarray, int]:
-            return self._newton(run, x, load, polish)
+            return self._newton(run, x, load, polish, imbalance)
 
         def progress(load: float) -> None:
             self.report(load, f"static: load {load:.3f}, {run.counts['newton_iters']} Newton "
@@ -325,13 +344,14 @@ class Static(Integrator[RunState]):
                 return True, x
 
     def _newton(self, run: RunState, x: np.ndarray, load: float,
-                polish: bool = True) -> tuple[bool, np.ndarray, int]:
+                polish: bool = True, imbalance: np.ndarray | None = None
+                ) -> tuple[bool, np.ndarray, int]:
         """Newton iterations at a fixed load (polished past the tolerance when ``polish``:
         intermediate steps need not be), through the retraction the options name, counted;
-        returns (converged, x, iterations)."""
+        returns (converged, x, iterations). ``imbalance``: see :func:`rest_imbalance`."""
         converged, x, iterations = self.newton_equilibrium(
             run, x, load, self.options.max_newton, f"load fraction {load:.4g}", polish,
-            retraction=self.options.retraction)
+            retraction=self.options.retraction, imbalance=imbalance)
         run.counts["newton_iters"] += iterations
         run.counts["linear_solves"] += iterations
         return converged, x, iterations
