@@ -169,6 +169,7 @@ def correction_size(model: Model, x: np.ndarray | None = None
 #: converged 21 of 32 without the fade, 16 with p = 1, 28 with 3, 30 with 4, 29 with 6.
 IMBALANCE_FADE_POWER = 4
 
+
 class Integrator(ABC, Generic[S]):
     """Base class of the integrators: configuration only; see the module docstring.
 
