@@ -344,6 +344,17 @@ def test_static_solves_a_rod_that_starts_inside_an_obstacle(name):
     assert distance < 1e-6 * raw["rods"][rod]["length"]
 
 
+def test_a_failed_static_solve_on_contact_advises_ida():
+    """static's advice names the integrator of the scene's kind: ida with obstacles
+    (docs/contact.md, "Which integrator"), cvode without (a solve made to fail: one Newton
+    iteration a step, no step below half the load)."""
+    starved = ["solver.static.max_newton=1", "solver.static.min_load_step=0.5"]
+    for name, other in (("tip-on-tissue", "ida"), ("table1-50g", "cvode")):
+        result = rodsim.solve(rodsim.load_scene(name, starved), "static")
+        assert not result.success
+        assert f"pseudo-dynamic integrator ({other})" in result.message, result.message
+
+
 def test_cvode_reaches_a_frictional_contact_equilibrium():
     """A rod pressed on a plane with friction μ = 0.3 (tests/test_friction.py's drag scene
     before any drag): CVODE, the default integrator, reaches static's equilibrium. With the

@@ -146,8 +146,10 @@ class Static(Integrator[RunState]):
     def advice(self, run: RunState | None = None) -> str:
         if run is not None and run.continued:
             return "try smaller parameter steps (the last equilibrium is too far away)"
+        # ida is the integrator of a scene with obstacles (docs/contact.md, "Which integrator")
+        other = "ida" if run is not None and secant_predicted(run.model) else "cvode"
         return ("try a smaller solver.static.first_load_step or min_load_step, or a "
-                "pseudo-dynamic integrator (cvode)")
+                f"pseudo-dynamic integrator ({other})")
 
     @classmethod
     def work(cls, stats: dict[str, float]) -> int:
