@@ -42,7 +42,6 @@ HOMOTOPY_MIN_STEP = 1e-3
 #: A continuation step that converged within this many Newton iterations doubles the next.
 EASY_ITERATIONS = 6
 
-
 #: ``newton(x, load, polish)``: a Newton solve at a load fraction from x, counted by the
 #: caller: (converged, x reached, iterations).
 NewtonAt = Callable[[np.ndarray, float, bool], tuple[bool, np.ndarray, int]]

@@ -80,10 +80,16 @@ CHORD_REFRESH_BELOW = 1e-3
 CONTINUATION_NEWTON = 30
 
 
+def meets_obstacles(model: Model) -> bool:
+    """Whether ``model`` has contact: a term with latent stiffness
+    (:meth:`Model.latent_stiffness`, an obstacle's contact)."""
+    return bool(np.any(model.latent_stiffness()))
+
+
 def secant_predicted(model: Model) -> bool:
     """Whether ``static``'s load steps start from the secant through the last two equilibria
     (:func:`rodsim.solvers.continuation.load_continuation`'s ``predict``): on a model with
-    contact (a term with latent stiffness, :meth:`Model.latent_stiffness`), not elsewhere.
+    contact (:func:`meets_obstacles`), not elsewhere.
 
     Started from the last equilibrium, a node resting in the contact's onset (ψ'' = p/δ ≪ 1)
     leaves it in the first Newton step; the next step, with no contact stiffness left, sends
@@ -94,7 +100,7 @@ def secant_predicted(model: Model) -> bool:
     iterations with ``max_newton`` = 200, and the twelve variants all converge with the
     default 30. Not taken elsewhere: table3-catheter1's lowered-penalty load steps went
     29 → 167 iterations with it."""
-    return bool(np.any(model.latent_stiffness()))
+    return meets_obstacles(model)
 
 
 def rest_imbalance(run: RunState, model: Model) -> np.ndarray | None:
@@ -147,7 +153,7 @@ class Static(Integrator[RunState]):
         if run is not None and run.continued:
             return "try smaller parameter steps (the last equilibrium is too far away)"
         # ida is the integrator of a scene with obstacles (docs/contact.md, "Which integrator")
-        other = "ida" if run is not None and secant_predicted(run.model) else "cvode"
+        other = "ida" if run is not None and meets_obstacles(run.model) else "cvode"
         return ("try a smaller solver.static.first_load_step or min_load_step, or a "
                 f"pseudo-dynamic integrator ({other})")
 
