@@ -57,6 +57,16 @@ def _director(q: np.ndarray, alpha: float, beta: float, gamma: float, out: np.nd
 
 
 @njit(cache=True)
+def _tie(x: np.ndarray, points: np.ndarray, magnitude: float) -> float:
+    """TIE times the largest of ``magnitude`` (the lumen's coordinates and offset) and the
+    held points' coordinates: a deciding comparison within it is left to the numpy rule."""
+    for i in range(points.shape[0]):
+        for m in range(3):
+            magnitude = max(magnitude, abs(x[points[i, m]]))
+    return TIE * magnitude
+
+
+@njit(cache=True)
 def segment_switches(x: np.ndarray, position_index: np.ndarray, quaternion_index: np.ndarray,
                      points: np.ndarray, alpha: float, beta: float, offset: float,
                      parent: np.ndarray, margin: float, out: np.ndarray) -> int:
@@ -85,10 +95,7 @@ def segment_switches(x: np.ndarray, position_index: np.ndarray, quaternion_index
         _director(s, 0.0, 0.0, 1.0, d)
         for m in range(3):
             tangent[k, m] = d[m] / norm2
-    for i in range(points.shape[0]):
-        for m in range(3):
-            magnitude = max(magnitude, abs(x[points[i, m]]))
-    tie = TIE * magnitude
+    tie = _tie(x, points, magnitude)
     beyond = np.empty(max(planes, 0))
     changed = False
     for i in range(points.shape[0]):
@@ -146,10 +153,7 @@ def nearest_node_switches(x: np.ndarray, position_index: np.ndarray,
             r = x[position_index[j, m]]
             lumen[j, m] = r + offset * d[m]
             magnitude = max(magnitude, abs(r))
-    for i in range(points.shape[0]):
-        for m in range(3):
-            magnitude = max(magnitude, abs(x[points[i, m]]))
-    tie = TIE * magnitude
+    tie = _tie(x, points, magnitude)
     distance = np.empty(nodes)
     changed = False
     for i in range(points.shape[0]):
