@@ -103,6 +103,7 @@ def _write(path, text: str):
     ("x,y,z\n0.1,abc,0\n", "'abc' is not a number"),
     ("x,y,z\n0.1,0\n", "2 values, expected 3"),
     ("", "is empty"),
+    ("x,y,z,s\n", "a header and no points"),  # found by tests/test_fuzz.py in CI
 ])
 def test_bad_data_files_are_refused(tmp_path, text, message):
     with pytest.raises(FitError, match=message):
@@ -114,6 +115,17 @@ def test_arc_lengths_outside_the_rod_are_refused(cantilever):
     shifted = Points(points.xyz, points.s + 0.05)  # past the 0.12 m rod for some points
     with pytest.raises(FitError, match="outside the rest arc length"):
         fit(cantilever, shifted, ["youngs_modulus"])
+
+
+@pytest.mark.parametrize(("xyz", "s", "message"), [
+    (np.empty((0, 3)), None, "no data points"),
+    (np.empty((0, 3)), np.empty(0), "no data points"),
+    (np.zeros((2, 3)), np.zeros(3), "one per point"),
+    (np.zeros((2, 3)), np.array([0.0, np.nan]), "one per point"),
+])
+def test_points_without_data_or_with_bad_arc_lengths_are_refused(cantilever, xyz, s, message):
+    with pytest.raises(FitError, match=message):
+        fit(cantilever, Points(xyz, s), ["youngs_modulus"])
 
 
 def test_a_data_file_with_s_in_any_column_order_is_read(tmp_path):

@@ -132,6 +132,8 @@ def read_points(path: str | Path) -> Points:
     if sorted(header) not in (["x", "y", "z"], ["s", "x", "y", "z"]):
         raise FitError(f"data {str(path)!r}: columns {','.join(header)[:60]!r}; expected "
                        "x,y,z (metres) and optionally s (rest arc length, metres)")
+    if len(rows) == 1:
+        raise FitError(f"data {str(path)!r} has a header and no points")
     if len(rows) - 1 > MAX_POINTS:
         raise FitError(f"data {str(path)!r}: more than {MAX_POINTS} points")
     values = np.empty((len(rows) - 1, len(header)))
@@ -334,6 +336,12 @@ def fit(scene: Scene, points: Points, params: Sequence[str], *, rod: str | None 
     if not isinstance(rod, str) or rod not in scene.rods:
         raise FitError(f"rod {rod!r}: no such rod; rods: {', '.join(scene.rods)}")
     count = len(points.xyz)
+    if count == 0:
+        raise FitError("no data points: Points.xyz is empty")
+    if points.s is not None and (np.shape(points.s) != (count,) or not np.all(
+            np.isfinite(points.s))):
+        raise FitError(f"Points.s must be None or ({count},) finite rest arc lengths [m], one "
+                       "per point")
     length = scene.rods[rod].length
     if points.s is not None and (points.s.min() < 0.0 or points.s.max() > length):
         raise FitError(f"data column s spans {points.s.min():.6g} to {points.s.max():.6g} m, "
