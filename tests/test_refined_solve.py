@@ -1,0 +1,70 @@
+"""Iterative refinement of the large models' Newton solves (rodsim/solvers/linear.py,
+``REFINED_SOLVE_SIZE``): the compensated residual (rodsim/core/kernels/_refinement.py) is the
+exact residual rounded, and one refinement step with it makes the solution of an
+ill-conditioned rod system accurate to working precision, where the band factorisation
+alone is not. The references are independent: exact rational arithmetic, and refinement to
+convergence with numpy's extended-precision (long double) residual."""
+
+from __future__ import annotations
+
+from fractions import Fraction
+
+import numpy as np
+import pytest
+import scipy.sparse as sp
+
+import rodsim
+from rodsim.core.kernels._refinement import compensated_residual
+from rodsim.solvers.linear import REFINED_SOLVE_SIZE, LinearSolver
+
+
+def test_the_compensated_residual_is_the_exact_residual_rounded():
+    rng = np.random.default_rng(7)
+    n = 40
+    matrix = (sp.random(n, n, density=0.3, random_state=3, format="csc")
+              + 1e8 * sp.eye(n, format="csc")).tocsc()
+    x = rng.standard_normal(n) * np.logspace(0, 10, n)
+    b = (matrix @ x) * (1.0 + 1e-12 * rng.standard_normal(n))  # r ≪ |A| |x|: cancellation
+    out = np.empty(n)
+    compensated_residual(matrix.data, matrix.indptr, matrix.indices, x, b, out)
+    dense = matrix.toarray()
+    exact = np.array([float(Fraction(b[i]) - sum(Fraction(dense[i, j]) * Fraction(x[j])
+                                                 for j in range(n))) for i in range(n)])
+    eps = np.finfo(float).eps
+    assert np.all(np.abs(out - exact) <= 2 * eps * np.abs(exact))
+    plain = b - matrix @ x
+    assert np.max(np.abs(plain - exact) / np.abs(exact)) > 1e3 * eps  # what it avoids
+
+
+def _solver(model, refined: bool, symmetric: bool) -> LinearSolver:
+    solver = LinearSolver(model.pattern, model.pattern_rows, model.pattern_cols,
+                          (model.band.lower, model.band.upper), symmetric)
+    solver.refined = refined
+    return solver
+
+
+@pytest.mark.parametrize("symmetric", [True, False], ids=["cholesky", "band_lu"])
+def test_one_refinement_makes_a_large_rods_newton_step_accurate(symmetric):
+    """table1-50g at N = 2 000 (14 000 unknowns): the first Newton step from rest. Measured
+    forward errors (relative to the step's largest entry) at N = 2 000: Cholesky 4.1e-9
+    unrefined against 9.2e-12 refined, LU 6.9e-9 against 9.0e-12; at N = 10 000 (Cholesky)
+    1.6e-6 against 9.9e-12."""
+    model = rodsim.build_model(rodsim.load_scene("table1-50g", ["nodes=2000"]))
+    assert model.n >= REFINED_SOLVE_SIZE
+    assert LinearSolver(model.pattern, model.pattern_rows, model.pattern_cols,
+                        (model.band.lower, model.band.upper), model.conservative).refined
+    data, rhs = model.jacobian_data(model.x0), -model.force(model.x0)
+    plain = _solver(model, False, symmetric).solve(data, rhs.copy())
+    refined_solver = _solver(model, True, symmetric)
+    refined = refined_solver.solve(data, rhs.copy())
+    assert refined_solver.counts["cholesky" if symmetric else "band_lu"] == 1
+    matrix = model.pattern_matrix(data).astype(np.longdouble)
+    reference, solver = plain.copy(), _solver(model, False, symmetric)
+    for _ in range(6):
+        residual = rhs.astype(np.longdouble) - matrix @ reference.astype(np.longdouble)
+        reference = reference + solver.solve(data, residual.astype(float))
+    scale = np.max(np.abs(reference))
+    refined_error = np.max(np.abs(refined - reference)) / scale
+    plain_error = np.max(np.abs(plain - reference)) / scale
+    assert refined_error < 1e-10
+    assert plain_error > 20 * refined_error
