@@ -2,8 +2,9 @@
 refinement of the large models' Newton solves (:class:`rodsim.solvers.linear.LinearSolver`).
 
 r = b − A x for a CSC matrix A: every product a·x is split exactly into its rounded value and
-its rounding error (Dekker's TwoProduct, with Veltkamp's splitting: no fused multiply-add
-needed), and each row's sum is carried as an unevaluated pair (value, error) by Knuth's
+its rounding error (TwoProduct: the error is fma(a, x, −a·x), exact; LLVM's fused
+multiply-add, one instruction on a CPU that has it and a correctly rounded library call on
+one that does not), and each row's sum is carried as an unevaluated pair (value, error) by Knuth's
 TwoSum. The result is r rounded once to double, as accurate as if it had been computed in
 about 106-bit arithmetic and rounded (Ogita, Rump & Oishi, "Accurate sum and dot product",
 SIAM J. Sci. Comput. 26, 2005: the compensated dot product Dot2). A plain double residual
@@ -14,10 +15,23 @@ Standalone: no other kernel calls it."""
 from __future__ import annotations
 
 import numpy as np
+from llvmlite import ir
 from numba import njit
+from numba.core import cgutils, types
+from numba.extending import intrinsic
 
-#: Veltkamp's splitting constant for doubles: 2^27 + 1.
-SPLITTER = 134217729.0
+
+@intrinsic
+def _fused_multiply_add(typing_context, a, b, c):  # type: ignore[no-untyped-def]
+    """a·b + c rounded once (LLVM's ``llvm.fma.f64``)."""
+    signature = types.float64(types.float64, types.float64, types.float64)
+
+    def codegen(context, builder, sig, args):  # type: ignore[no-untyped-def]
+        double = ir.DoubleType()
+        function = cgutils.get_or_insert_function(
+            builder.module, ir.FunctionType(double, [double] * 3), "llvm.fma.f64")
+        return builder.call(function, args)
+    return signature, codegen
 
 
 @njit(cache=True)
@@ -32,18 +46,11 @@ def compensated_residual(data: np.ndarray, indptr: np.ndarray, indices: np.ndarr
         out[i] = b[i]
     for j in range(n):
         xj = -x[j]
-        c = SPLITTER * xj
-        x_high = c - (c - xj)
-        x_low = xj - x_high
         for k in range(indptr[j], indptr[j + 1]):
             a = data[k]
             i = indices[k]
             product = a * xj                                 # TwoProduct(a, −x_j)
-            c = SPLITTER * a
-            a_high = c - (c - a)
-            a_low = a - a_high
-            product_error = (((a_high * x_high - product) + a_high * x_low)
-                             + a_low * x_high) + a_low * x_low
+            product_error = _fused_multiply_add(a, xj, -product)
             total = out[i] + product                         # TwoSum(out_i, product)
             back = total - out[i]
             sum_error = (out[i] - (total - back)) + (product - back)
