@@ -36,6 +36,16 @@ def test_the_compensated_residual_is_the_exact_residual_rounded():
     assert np.max(np.abs(plain - exact) / np.abs(exact)) > 1e3 * eps  # what it avoids
 
 
+@pytest.mark.parametrize("n", [REFINED_SOLVE_SIZE - 1, REFINED_SOLVE_SIZE])
+def test_solves_are_refined_from_refined_solve_size_on(n):
+    pattern = sp.eye(n, format="csc")
+    rows = np.arange(n)
+    solver = LinearSolver(pattern, rows, rows, (0, 0), True)
+    assert solver.refined == (n >= REFINED_SOLVE_SIZE)
+    rhs = np.linspace(1.0, 2.0, n)
+    assert np.allclose(solver.solve(-2.0 * np.ones(n), rhs.copy()), -0.5 * rhs, rtol=1e-15)
+
+
 def _solver(model, refined: bool, symmetric: bool) -> LinearSolver:
     solver = LinearSolver(model.pattern, model.pattern_rows, model.pattern_cols,
                           (model.band.lower, model.band.upper), symmetric)
@@ -50,9 +60,6 @@ def test_one_refinement_makes_a_large_rods_newton_step_accurate(symmetric):
     unrefined against 9.2e-12 refined, LU 6.9e-9 against 9.0e-12; at N = 10 000 (Cholesky)
     1.6e-6 against 9.9e-12."""
     model = rodsim.build_model(rodsim.load_scene("table1-50g", ["nodes=2000"]))
-    assert model.n >= REFINED_SOLVE_SIZE
-    assert LinearSolver(model.pattern, model.pattern_rows, model.pattern_cols,
-                        (model.band.lower, model.band.upper), model.conservative).refined
     data, rhs = model.jacobian_data(model.x0), -model.force(model.x0)
     plain = _solver(model, False, symmetric).solve(data, rhs.copy())
     refined_solver = _solver(model, True, symmetric)
