@@ -20,6 +20,13 @@ temporaries, a band array kept from solve to solve): at N = 100 000 on table1-50
 unknowns, 12.3 million entries) the offsets cost 0.39 s (Cholesky) and 0.23 s (LU) to build
 and each fill 54 / 60 ms, against 21 / 30 ms compiled (the same array).
 
+From :data:`REFINED_SOLVE_SIZE` unknowns on, :meth:`LinearSolver.solve` refines its solution
+once with the residual rhs − J Δx computed in twice the working precision
+(rodsim/core/kernels/_refinement.py): the band factorisation's forward error grows with the
+condition number (on table1-50g 4e-9 of the step at N = 2 000, 3.5e-5 at 100 000) and at
+100 000 it cost static three Newton iterations; refined, 5 at every N (docs/benchmarks.md,
+"Large N").
+
 :meth:`LinearSolver.factorized` factors J once and solves for many right-hand sides (the
 sensitivities of rodsim/app/inverse/sensitivity.py: one column per parameter): band Cholesky
 (dpbtrf/dpbtrs) of −J when symmetric and positive definite, else band LU (dgbtrf/dgbtrs), or

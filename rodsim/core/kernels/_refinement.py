@@ -14,6 +14,9 @@ Standalone: no other kernel calls it."""
 
 from __future__ import annotations
 
+from collections.abc import Callable
+from typing import Any, cast
+
 import numpy as np
 from llvmlite import ir
 from numba import njit
@@ -21,17 +24,22 @@ from numba.core import cgutils, types
 from numba.extending import intrinsic
 
 
-@intrinsic
-def _fused_multiply_add(typing_context, a, b, c):  # type: ignore[no-untyped-def]
-    """a·b + c rounded once (LLVM's ``llvm.fma.f64``)."""
+def _fused_multiply_add_typing(typing_context: Any, a: Any, b: Any, c: Any
+                               ) -> tuple[Any, Callable[..., Any]]:
+    """numba's typing and code of :data:`_fused_multiply_add`: LLVM's ``llvm.fma.f64``."""
     signature = types.float64(types.float64, types.float64, types.float64)
 
-    def codegen(context, builder, sig, args):  # type: ignore[no-untyped-def]
+    def codegen(context: Any, builder: Any, sig: Any, args: Any) -> Any:
         double = ir.DoubleType()
         function = cgutils.get_or_insert_function(
             builder.module, ir.FunctionType(double, [double] * 3), "llvm.fma.f64")
         return builder.call(function, args)
     return signature, codegen
+
+
+#: a·b + c rounded once, callable from compiled code.
+_fused_multiply_add = cast(Callable[[float, float, float], float],
+                           intrinsic(_fused_multiply_add_typing))
 
 
 @njit(cache=True)
