@@ -200,6 +200,37 @@ def test_the_compiled_registration_rule_picks_the_reference_parents(scene, rando
     assert answers.count(_registration.UNCHANGED) >= 1
 
 
+@pytest.mark.parametrize("scene", REGISTRATION_SCENES)
+def test_the_registration_in_blocks_is_the_registration_at_once(scene, random_state,
+                                                                monkeypatch):
+    """The numpy rules compare every held point with every lumen point in blocks of points
+    (``REGISTRATION_BLOCK_BYTES``: a 60 000-node catheter with a 20 000-node tendon asked
+    27 GiB at once): blocks of one point give the parents and switches of one block of all,
+    exactly, at random states and parents."""
+    import rodsim.core.terms.lumen as lumen
+
+    model = Model(Scene.load(scene_paths()[scene]), "numpy")
+    rng = np.random.default_rng(list(map(ord, scene)) + [7])
+    compared, default = 0, lumen.REGISTRATION_BLOCK_BYTES
+    for _ in range(10):
+        full = model.full(random_state(model, rng))
+        for term in (t for t in model.terms if t.dynamic):
+            top = len(term.tendon.catheter.layout.quaternion_index)
+            term = term.registered(rng.integers(0, top, len(term.parent)))
+            answers = []
+            for block_bytes in (default, 1):
+                monkeypatch.setattr(lumen, "REGISTRATION_BLOCK_BYTES", block_bytes)
+                blocks = len(term._blocks())
+                answers.append((blocks, term._exact(full), term._switches(full, term._margin)))
+            (whole, *at_once), (single, *in_blocks) = answers
+            assert whole == 1 and single == len(term.parent) > 1
+            np.testing.assert_array_equal(at_once[0], in_blocks[0])
+            np.testing.assert_array_equal(at_once[1][0], in_blocks[1][0])
+            np.testing.assert_array_equal(at_once[1][1], in_blocks[1][1])
+            compared += 1
+    assert compared >= 10
+
+
 def test_a_registration_tie_is_left_to_the_numpy_rule():
     """At four-tendons' rest state every tendon point lies on a plane of the lumen curve
     (N_T = N_C): the compiled rule leaves the comparison to the numpy rule, and the term's

@@ -58,6 +58,12 @@ from rodsim.core.tendon import Tendon
 from rodsim.core.terms._relative import absolute, check_one, lumen_scale, penalty_parameters
 from rodsim.core.terms.base import KernelArguments, TendonTerm
 
+#: Largest temporary of a registration pass [bytes]: the rules compare every held tendon
+#: point with every lumen point, so the points go in blocks whose (points × lumen points × 3)
+#: float arrays stay below this (a catheter of 60 000 nodes with a tendon of 20 000 asked
+#: 27 GiB at once and failed with numpy's MemoryError).
+REGISTRATION_BLOCK_BYTES = 32 * 1024 ** 2
+
 #: Default K_L / (E I / (r_L² L_T²)) (rodsim/core/terms/_relative.py): measured on the user
 #: scene (tests/data/user-two-tendon.toml, coupling "conserving") and the user family.
 DEFAULT_K_L_RELATIVE = 1e5
@@ -181,6 +187,14 @@ class LumenCoupling(TendonTerm):
         rest[self._points] = rod.rest_positions()[:self._last]
         return rest
 
+    def _blocks(self) -> list[slice]:
+        """The held points in blocks for a registration pass (:data:`REGISTRATION_BLOCK_BYTES`):
+        each block's rows give the same numbers as the whole would."""
+        points = len(self._points)
+        per_point = 24 * self.tendon.catheter.nodes  # one (lumen points × 3) float row
+        size = max(1, REGISTRATION_BLOCK_BYTES // per_point)
+        return [slice(start, start + size) for start in range(0, points, size)]
+
     @abstractmethod
     def penalty_scale(self) -> float:
         """The scale K_L_relative multiplies, in this coupling's unit of K_L."""
@@ -280,21 +294,28 @@ class Lumen(LumenCoupling):
         return lumen_scale(self.tendon) * self.rod.geometry.segment_length
 
     # --------------------------------------------------------- registration
-    def _distances(self, x: np.ndarray) -> np.ndarray:
+    def _distances(self, x: np.ndarray, block: slice) -> np.ndarray:
+        """Distances (block points × lumen points) of the held points in ``block``."""
         lumen = self.tendon.lumen_points(x)
-        p = x[self._points]
+        p = x[self._points[block]]
         return np.sqrt(np.sum((lumen[None, :, :] - p[:, None, :]) ** 2, axis=2))
 
     def _exact(self, x: np.ndarray) -> np.ndarray:
         """The nearest lumen point of every tendon point."""
-        return np.argmin(self._distances(x), axis=1)
+        return np.concatenate([np.argmin(self._distances(x, block), axis=1)
+                               for block in self._blocks()])
 
     def _switches(self, x: np.ndarray, margin: float) -> tuple[np.ndarray, np.ndarray]:
         """A point switches when another lumen point is closer by ``margin``."""
-        rows = np.arange(len(self.parent))
-        distance = self._distances(x)
-        nearest = np.argmin(distance, axis=1)
-        return nearest, distance[rows, nearest] < distance[rows, self.parent] - margin
+        nearest, switch = [], []
+        for block in self._blocks():
+            distance = self._distances(x, block)
+            rows = np.arange(len(distance))
+            closest = np.argmin(distance, axis=1)
+            nearest.append(closest)
+            switch.append(distance[rows, closest]
+                          < distance[rows, self.parent[block]] - margin)
+        return np.concatenate(nearest), np.concatenate(switch)
 
     def _set_dofs(self) -> None:
         layout = self.tendon.catheter.layout

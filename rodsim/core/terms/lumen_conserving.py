@@ -87,16 +87,27 @@ class ConservingLumen(LumenCoupling):
     # --------------------------------------------------------- registration
     def _exact(self, x: np.ndarray) -> np.ndarray:
         """The lumen segment each tendon point lies alongside."""
-        return segment_of(*lumen_nodes(self.tendon, x), x[self._points])[0]
+        lumen, tangent = lumen_nodes(self.tendon, x)
+        points = x[self._points]
+        return np.concatenate([segment_of(lumen, tangent, points[block])[0]
+                               for block in self._blocks()])
 
     def _switches(self, x: np.ndarray, margin: float) -> tuple[np.ndarray, np.ndarray]:
         """A point switches when it lies past the plane at its segment's far end, or before
         the one at its near end, by ``margin``."""
-        rows = np.arange(len(self.parent))
-        nearest, beyond = segment_of(*lumen_nodes(self.tendon, x), x[self._points])
-        padded = np.pad(beyond, ((0, 0), (1, 1)), constant_values=np.nan)
-        switch = ((padded[rows, self.parent + 1] > margin)
-                  | (padded[rows, self.parent] < -margin))
+        lumen, tangent = lumen_nodes(self.tendon, x)
+        points = x[self._points]
+        nearest_blocks, switch_blocks = [], []
+        for block in self._blocks():
+            nearest, beyond = segment_of(lumen, tangent, points[block])
+            parent = self.parent[block]
+            rows = np.arange(len(parent))
+            padded = np.pad(beyond, ((0, 0), (1, 1)), constant_values=np.nan)
+            nearest_blocks.append(nearest)
+            switch_blocks.append((padded[rows, parent + 1] > margin)
+                                 | (padded[rows, parent] < -margin))
+        nearest = np.concatenate(nearest_blocks)
+        switch = np.concatenate(switch_blocks)
         return nearest, switch & (nearest != self.parent)
 
     def _set_dofs(self) -> None:
