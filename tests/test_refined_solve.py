@@ -2,8 +2,9 @@
 ``REFINED_SOLVE_SIZE``): the compensated residual (rodsim/core/kernels/_refinement.py) is the
 exact residual rounded, and one refinement step with it makes the solution of an
 ill-conditioned rod system accurate to working precision, where the band factorisation
-alone is not. The references are independent: exact rational arithmetic, and refinement to
-convergence with numpy's extended-precision (long double) residual."""
+alone is not — on table1-50g and on robots of the seeded user family. The references are
+independent: exact rational arithmetic, and refinement to convergence with numpy's
+extended-precision (long double) residual."""
 
 from __future__ import annotations
 
@@ -12,6 +13,7 @@ from fractions import Fraction
 import numpy as np
 import pytest
 import scipy.sparse as sp
+from test_user_robot import family
 
 import rodsim
 from rodsim.core.kernels._refinement import compensated_residual
@@ -53,13 +55,25 @@ def _solver(model, refined: bool, symmetric: bool) -> LinearSolver:
     return solver
 
 
+def _user_robot(index: int) -> rodsim.Scene:
+    """Robot ``index`` of tests/test_user_robot.py's seeded family on 2 000 nodes."""
+    data = family()[index][0]
+    return rodsim.load_scene(data, [f"rods.{rod}.nodes=2000" for rod in data["rods"]])
+
+
+SCENES = {"table1-50g": lambda: rodsim.load_scene("table1-50g", ["nodes=2000"]),
+          "user-robot-0": lambda: _user_robot(0), "user-robot-3": lambda: _user_robot(3)}
+
+
+@pytest.mark.parametrize("scene", SCENES)
 @pytest.mark.parametrize("symmetric", [True, False], ids=["cholesky", "band_lu"])
-def test_one_refinement_makes_a_large_rods_newton_step_accurate(symmetric):
-    """table1-50g at N = 2 000 (14 000 unknowns): the first Newton step from rest. Measured
-    forward errors (relative to the step's largest entry) at N = 2 000: Cholesky 4.1e-9
-    unrefined against 9.2e-12 refined, LU 6.9e-9 against 9.0e-12; at N = 10 000 (Cholesky)
-    1.6e-6 against 9.9e-12."""
-    model = rodsim.build_model(rodsim.load_scene("table1-50g", ["nodes=2000"]))
+def test_one_refinement_makes_a_large_rods_newton_step_accurate(scene, symmetric):
+    """The first Newton step from rest on 2 000 nodes (14 000 unknowns), table1-50g and two
+    robots of the user family. Measured forward errors (relative to the step's largest
+    entry), unrefined against refined: table1-50g Cholesky 4.1e-9 / 9.2e-12, LU 6.9e-9 /
+    9.0e-12; the user robots 2e-9 … 4e-8 / 3e-13 … 2e-12 (Cholesky); at N = 10 000 on
+    table1-50g (Cholesky) 1.6e-6 / 9.9e-12."""
+    model = rodsim.build_model(SCENES[scene]())
     data, rhs = model.jacobian_data(model.x0), -model.force(model.x0)
     plain = _solver(model, False, symmetric).solve(data, rhs.copy())
     refined_solver = _solver(model, True, symmetric)
