@@ -162,6 +162,34 @@ def test_a_sundials_set_up_error_is_a_diagnosed_failure(integrator, module, solv
     assert "could not start" in result.message and "CalcIC" in result.message, result.message
 
 
+@pytest.mark.parametrize(("integrator", "module", "solver_class"),
+                         [("cvode", "sksundae.cvode", "CVODE"),
+                          ("ida", "sksundae.ida", "IDA")])
+def test_a_failed_restart_names_the_runs_time_not_the_new_solvers(integrator, module,
+                                                                  solver_class, monkeypatch):
+    """A set-up that fails when the run re-initialises (table3-catheter1 re-initialises
+    once, a tendon point changing parent): the message said "could not start at t = 0 s",
+    the new solver's clock; it names the run's pseudo-time and the restarts before."""
+    import importlib
+
+    target = getattr(importlib.import_module(module), solver_class)
+    original, calls = target.init_step, []
+
+    def failing_on_restart(self, *args, **kwargs):
+        calls.append(args[0])
+        if len(calls) > 1:
+            raise RuntimeError(f"{solver_class}CalcIC - Convergence tests failed too many times")
+        return original(self, *args, **kwargs)
+
+    monkeypatch.setattr(target, "init_step", failing_on_restart)
+    result = rodsim.solve("table3-catheter1", integrator)
+    assert not result.success and len(calls) == 2
+    assert "could not restart at t = " in result.message, result.message
+    assert "could not start" not in result.message
+    assert "(after 1 re-initialisation and 0 tightenings)" in result.message
+    assert "CalcIC" in result.message
+
+
 def test_sundials_failure_text_goes_into_the_diagnostic_not_to_stdout(capsys):
     """SUNDIALS prints its failure text to stdout during a step (scikit-sundae's error
     handler); rodsim puts it into the failure message and nothing reaches stdout, while a

@@ -50,7 +50,7 @@ from rodsim.solvers.pseudo_dynamics import (
 from rodsim.solvers.run_state import MAX_SETTLES, RunState
 
 __all__ = ["SundialsIntegrator", "SundialsState", "BandPreconditioner", "jacobian_writer",
-           "started", "BAND_LIMIT", "LINEAR_SOLVERS", "PSEUDO_DYNAMICS_PARAMETERS"]
+           "started", "StartFailure", "BAND_LIMIT", "LINEAR_SOLVERS", "PSEUDO_DYNAMICS_PARAMETERS"]
 
 #: Steps without halving the residual (after the load ramp) before tolerances are tightened…
 STALL_STEPS = 100
@@ -357,10 +357,19 @@ class SundialsIntegrator(Integrator[SundialsState]):
 
         def restart(t: float, y: np.ndarray) -> tuple[Any, float]:
             nonlocal elapsed
+            at = t + elapsed
             if t > ramp.duration:
                 elapsed += t - ramp.duration
                 t = ramp.duration
-            return self.start(run, t, y, None), t
+            try:
+                return self.start(run, t, y, None), t
+            except StartFailure as exc:  # say where the run was, not the new solver's clock
+                reinits, tightenings = int(counts["reinits"]), int(counts["tightenings"])
+                raise SolverFailure(
+                    f"{self.name.upper()} could not restart at t = {at:.4g} s (after "
+                    f"{reinits} re-initialisation{'' if reinits == 1 else 's'} and "
+                    f"{tightenings} tightening{'' if tightenings == 1 else 's'}): "
+                    f"{exc.detail}") from None
 
         # SUNDIALS prints its failure text to stdout (scikit-sundae's error handler): each step
         # writes there into one buffer, so it lands in rodsim's diagnostic, not in the middle
@@ -526,6 +535,15 @@ def jacobian_writer(solver_kind: str, rows: np.ndarray,
     return write
 
 
+class StartFailure(SolverFailure):
+    """A SUNDIALS solver that could not be set up (:func:`started`); ``detail`` is what
+    SUNDIALS said, for a caller that names the place itself (a restart mid-run)."""
+
+    def __init__(self, where: str, detail: str) -> None:
+        super().__init__(f"{where}: {detail}")
+        self.detail = detail
+
+
 def started(name: str, solver_class: type, function: Callable[..., None],
             jacfn: Callable[..., None] | None, t: float, *initial: np.ndarray,
             **options: Any) -> Any:
@@ -544,10 +562,10 @@ def started(name: str, solver_class: type, function: Callable[..., None],
                 solver = solver_class(function, jacfn=jacfn, **options)
             initialised = solver.init_step(t, *initial)
         except RuntimeError as exc:
-            raise SolverFailure(f"{where}: {exc}") from None
+            raise StartFailure(where, str(exc)) from None
     if not initialised.success:
-        raise SolverFailure(f"{where}: {initialised.message} "
-                            + " ".join(printed.getvalue().split()))
+        raise StartFailure(where, f"{initialised.message} "
+                           + " ".join(printed.getvalue().split()))
     return solver
 
 
