@@ -253,3 +253,58 @@ def test_a_track_that_is_never_certified_skips_the_certificate_with_the_same_ver
     assert np.array_equal(np.array(fast.min_eigenvalues), np.array(default.min_eigenvalues),
                           equal_nan=True)
     assert np.array_equal(np.array(fast.states), np.array(default.states))
+
+
+def _verdicts_of_both_factorisations(model: Model, x: np.ndarray) -> tuple[bool, bool, float]:
+    """(−J's band Cholesky from the Newton solver exists, the verdict's own certificate of
+    the scaled symmetric part succeeds, K's smallest eigenvalue relative to its largest)."""
+    from rodsim.solvers.linear import BandCholeskySolve
+    from rodsim.solvers.run_state import linear_solver_of
+
+    data = model.jacobian_data(x)
+    band = model.band
+    own = BandStiffness(model.pattern_rows, model.pattern_cols, model.n, band.lower,
+                        band.upper).certified(data)
+    reused = isinstance(linear_solver_of(model).factorized(data), BandCholeskySolve)
+    stiffness = -model.pattern_matrix(data).toarray()
+    eigenvalues = np.linalg.eigvalsh(0.5 * (stiffness + stiffness.T))
+    return reused, own, float(eigenvalues[0] / np.max(np.abs(eigenvalues)))
+
+
+def test_the_newton_cholesky_proves_stability_exactly_when_the_certificate_does():
+    """A run's verification factors −J by band Cholesky for a conservative model; the
+    verdict takes that factorisation's existence as its certificate instead of factoring
+    the scaled symmetric part again (rodsim/solvers/linear.py, BandCholeskySolve). The two
+    must agree with each other and with K's dense eigenvalues: on a column near and past
+    its Euler load (the straight equilibrium, stable below, unstable above) and on robots
+    of the seeded user family at their equilibria and at random states around them."""
+    from tests.test_stability import euler_load
+    from tests.test_user_robot import family
+
+    cases = []
+    base = rodsim.load_scene("table1-50g", ["nodes=20", "mass=0"])
+    for fraction in (0.9, 0.99, 0.999, 1.001, 1.01, 1.1):
+        force = fraction * euler_load(base)
+        scene = base.with_overrides([f"tip_load.force=[{-force!r}, 0, 0]"])
+        model = Model(scene)
+        result = rodsim.solve(scene, "static", model=model)
+        assert result.success, result.message
+        cases.append((model, result.state, fraction < 1.0))
+    rng = np.random.default_rng(20261126)
+    for robot, _ in family()[:8]:
+        model = Model(rodsim.load_scene(robot))
+        if not model.conservative:
+            continue
+        result = rodsim.solve(robot, "static", model=model)
+        assert result.success, result.message
+        cases.append((model, result.state, True))
+        for size in (1e-3, 3e-2, 3e-1):
+            cases.append((model, result.state + size * rng.standard_normal(model.n), None))
+    outcomes = set()
+    for model, x, expected in cases:
+        reused, own, smallest = _verdicts_of_both_factorisations(model, x)
+        assert reused == own == (smallest > 0.0), (model.scene.name, smallest)
+        if expected is not None:
+            assert reused == expected
+        outcomes.add(reused)
+    assert outcomes == {True, False}  # both verdicts exercised

@@ -230,7 +230,10 @@ def assess(model: Model, x: np.ndarray,
     from its analytic Jacobian ∂F/∂x at full load: the verdict of
     :func:`stiffness_stability`, its factorisations in band storage (module docstring).
     ``factored``: (J's CSC data at ``x``, a solve of J X = B or None), when the caller has
-    them (the integrators' verification of the same state, rodsim/solvers/base.py).
+    them (the integrators' verification of the same state, rodsim/solvers/base.py). A solve
+    whose ``proves_stable`` is True is the band Cholesky factor of −J = K
+    (:class:`rodsim.solvers.linear.BandCholeskySolve`): K is then positive definite, the
+    verdict stable, and nothing is factored again.
 
     ``certify_first`` False (a track whose last step's symmetric part was not certified,
     rodsim/app/inverse/track.py): for a non-symmetric K above
@@ -240,6 +243,9 @@ def assess(model: Model, x: np.ndarray,
     and, for an unstable K, the same ``min_eigenvalue`` (ARPACK's fixed start); a stable
     K's ``min_eigenvalue`` is then its smallest real part where the certificate gives
     NaN."""
+    solve = None if factored is None else factored[1]
+    if getattr(solve, "proves_stable", False):  # −J's band Cholesky: K is positive definite
+        return Stability(True)
     band = model.band
     width = max(band.lower, band.upper)
     banded = _band_of(model)
@@ -253,7 +259,6 @@ def assess(model: Model, x: np.ndarray,
             return Stability(True)
         if banded.asymmetry(data) <= 1e-12 or model.n <= DENSE_NONSYMMETRIC_LIMIT:
             return stiffness_stability(-model.pattern_matrix(data), width, indefinite=True)
-    solve = None if factored is None else factored[1]
     inverse = banded.inverse(data) if solve is None else (lambda v: -solve(v))
     real_part = _smallest_real_part(-model.pattern_matrix(data), inverse)
     if nearest and not real_part > 0.0 and banded.certified(data):

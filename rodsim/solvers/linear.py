@@ -45,7 +45,7 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 from scipy.linalg import lapack
 
-__all__ = ["LinearSolver", "MAX_BAND"]
+__all__ = ["BandCholeskySolve", "LinearSolver", "MAX_BAND"]
 
 #: Widest band (lower + upper + 1) solved in band storage; wider patterns use SuperLU.
 MAX_BAND = 256
@@ -59,6 +59,26 @@ COMPILED_FILL_SIZE = 4000
 #: 5 Newton iterations; at 40 000 (280 000) it is even (5 iterations against 6), at
 #: 100 000 (700 000) it saves three of eight.
 REFINED_SOLVE_SIZE = 200_000
+
+
+class BandCholeskySolve:
+    """X ↦ J⁻¹ X by the band Cholesky factor L of −J = L Lᵀ (LAPACK dpbtrs), what
+    :meth:`LinearSolver.factorized` returns for a conservative model when the factorisation
+    succeeds. That it exists says −J = K, the stiffness, is positive definite (Sylvester;
+    Cholesky's success is invariant under diagonal scaling to within a factor of the order
+    of n·eps, Demmel 1989): the stability verdict of the same state takes it for its
+    certificate instead of factoring K again (``proves_stable``,
+    :func:`rodsim.core.stability.assess`)."""
+
+    #: Read by :func:`rodsim.core.stability.assess`: this factorisation proves K stable.
+    proves_stable = True
+
+    def __init__(self, factor: np.ndarray) -> None:
+        self._factor = factor
+
+    def __call__(self, rhs: np.ndarray) -> np.ndarray:
+        x, _ = lapack.dpbtrs(self._factor, -rhs, lower=1)
+        return x
 
 
 class LinearSolver:
@@ -214,10 +234,7 @@ class LinearSolver:
             ab = self._filled(data, True, keep=keep)
             factor, info = lapack.dpbtrf(ab, lower=1, overwrite_ab=1)
             if info == 0:
-                def cholesky_solve(rhs: np.ndarray) -> np.ndarray:
-                    x, _ = lapack.dpbtrs(factor, -rhs, lower=1)
-                    return x
-                return cholesky_solve
+                return BandCholeskySolve(factor)
         ab = self._filled(data, False, keep=keep)
         lu, pivots, info = lapack.dgbtrf(ab, self.lower, self.upper, overwrite_ab=1)
         if info != 0:
