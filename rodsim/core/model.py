@@ -593,6 +593,35 @@ class Model:
         other._replace_terms(terms, changed)
         return other
 
+    @cached_property
+    def support_displacements(self) -> tuple[tuple[np.ndarray, np.ndarray, np.ndarray], ...]:
+        """(full-state indices of its node's position, the rest place, the prescribed place)
+        of every node support that moves its node from its rest place
+        (``[rods.<rod>.supports.<name>] displacement`` ≠ 0, rodsim/core/supports.py): a
+        prescribed displacement, which ``static`` applies in increments with the loads
+        (:meth:`with_supports_moved`)."""
+        moved = []
+        for rod in self.rods.values():
+            rest = rod.rest_positions()
+            for support in rod.node_supports:
+                if np.any(support.position != rest[support.node]):
+                    moved.append((rod.layout.position_index[support.node], rest[support.node],
+                                  support.position))
+        return tuple(moved)
+
+    def with_supports_moved(self, fraction: float) -> Model:
+        """The model with every node support's prescribed displacement (the scene's) scaled
+        by ``fraction`` (0: the nodes held at their rest places; 1: at their prescribed
+        places, exactly). A support's displacement enters the model only as the value its
+        fixed coordinates keep (:attr:`rest_full`), so everything else is shared
+        (tests/test_supports.py checks F and J against the model built from the scaled
+        scene)."""
+        other = copy.copy(self)
+        other.rest_full = self.rest_full.copy()
+        for index, rest, held in self.support_displacements:
+            other.rest_full[index] = held if fraction == 1.0 else rest + fraction * (held - rest)
+        return other
+
     def with_terms(self, terms: list[Term]) -> Model:
         """The model with ``terms`` (same names and order; a dynamic term may carry another
         registration) in place of :attr:`terms`.

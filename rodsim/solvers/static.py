@@ -322,9 +322,15 @@ class Static(Integrator[RunState]):
         ``first_step`` if smaller."""
 
         imbalance = rest_imbalance(run, model)
+        # Node supports moved from their rest places are moved with the loads, as loads.
+        moved = imbalance is not None and bool(model.support_displacements)
+        if moved:
+            imbalance = rest_imbalance(run, model.with_supports_moved(0.0))
 
         def newton_at(x: np.ndarray, load: float, polish: bool
                       ) -> tuple[bool, np.ndarray, int]:
+            if moved:  # the model reached (its registration), the supports at ``load``
+                run.model = run.model.with_supports_moved(load)
             return self._newton(run, x, load, polish, imbalance)
 
         def progress(load: float) -> None:
