@@ -379,3 +379,64 @@ def test_static_moves_a_displaced_support_of_a_tendon_catheter(name):
     assert static.stability.stable
     gap = np.linalg.norm(static.positions() - cvode.positions(), axis=1).max()
     assert gap <= 1e-6 * rod["length"]
+
+
+def slender_pushed() -> dict:
+    """A slender rod (L/r = 376, E = 4.6 GPa, 38 nodes, no load) whose middle node is pushed
+    5.7 mm toward the base (and 0.4 mm sideways): the span buckles, and the plane it buckles
+    in is held only by the small sideways part, a soft mode."""
+    length, nodes = 0.23048496371667976, 38
+    return {"name": "slender-pushed", "rods": {"catheter": {
+        "length": length, "radius": 6.13e-4, "youngs_modulus": 4.64e9, "density": 1500.0,
+        "nodes": nodes, "supports": {"pin": {
+            "s": 19 * length / (nodes - 1), "displacement": [-0.0057, 5.5e-6, -0.000385]}}}}}
+
+
+def test_a_rod_moved_by_its_supports_alone_has_their_force_scale():
+    """F_ref of a scene whose supports move it (Rod.support_reaction_scale): a pin pushed
+    along the rod meets its span's buckling scale 2.05 π² E I / s², one moved across it a
+    cantilever's 3 E I δ / s³, never less than the unloaded scene's E I / L². It was E I /
+    L² alone: slender-pushed's residual floor 1.08e-3 of it was refused by every integrator
+    as 'no equilibrium can be told apart from the rest state' (now 1.4e-5)."""
+    from rodsim.core.model import Model
+
+    robot = slender_pushed()
+    rod = robot["rods"]["catheter"]
+    bending = rod["youngs_modulus"] * math.pi * rod["radius"] ** 4 / 4
+    span = rod["supports"]["pin"]["s"]
+    model = Model(rodsim.load_scene(robot))
+    across = math.hypot(5.5e-6, 0.000385)
+    expected = 2.05 * math.pi**2 * bending / span**2 + 3 * bending * across / span**3
+    assert model.force_scale == pytest.approx(expected, rel=1e-12)
+    assert model.residual_floor < 2e-5
+    rod["supports"]["pin"]["displacement"] = [0.0, 0.02, 0.0]
+    assert Model(rodsim.load_scene(robot)).force_scale == pytest.approx(
+        3 * bending * 0.02 / span**3, rel=1e-12)
+    rod["supports"]["pin"]["displacement"] = [0.0, 1e-9, 0.0]  # tiny: E I / L² stays
+    assert Model(rodsim.load_scene(robot)).force_scale == pytest.approx(
+        bending / rod["length"] ** 2, rel=1e-12)
+
+
+def test_a_soft_mode_does_not_pass_a_state_far_from_equilibrium():
+    """On slender-pushed IDA converges (its Newton correction, by a dense solve here, is
+    below 1e-6 L) and CVODE stops 2.5e-3 L away, its force residual 1.44e-5 just under the
+    tolerance 1.47e-5. The correction residual divides that distance by the load's
+    linearised displacement, which the soft mode makes 7 700 L: it read 3e-7 and passed
+    CVODE's state as a success. Counted at most as L (solvers/base.py, load_reach), the
+    distance fails it, with a message saying so."""
+    from rodsim.core.model import Model
+
+    robot = slender_pushed()
+    model = Model(rodsim.load_scene(robot))
+    length = robot["rods"]["catheter"]["length"]
+    ida = rodsim.solve(robot, "ida", model=model)
+    assert ida.success, ida.message
+    jacobian = model.pattern_matrix(model.jacobian_data(ida.state)).toarray()
+    correction = np.linalg.solve(jacobian, model.force(ida.state))
+    assert np.abs(correction[~model.is_quaternion]).max() < 1e-6 * length
+    cvode = rodsim.solve(robot, "cvode", model=model)
+    assert not cvode.success
+    assert "not an equilibrium" in cvode.message and "correction residual" in cvode.message
+    jacobian = model.pattern_matrix(model.jacobian_data(cvode.state)).toarray()
+    correction = np.linalg.solve(jacobian, model.force(cvode.state))
+    assert np.abs(correction[~model.is_quaternion]).max() > 1e-3 * length

@@ -824,8 +824,15 @@ class Model:
             load += term.load_scale(full)
         rods = list(self.rods.values())
         fallback = max(r.bending_stiffness / r.length**2 for r in rods)
-        #: Force scale F_ref [N]: total external load, or max EI/L² for an unloaded scene.
-        self.force_scale = load if load > 0 else fallback
+        moved = sum(rod.support_reaction_scale() for rod in rods)
+        #: Force scale F_ref [N]: total external load, or max EI/L² for an unloaded scene;
+        #: with node supports moved from their rest places, the larger of the loads plus
+        #: their displacements' reaction scale (:meth:`Rod.support_reaction_scale`) and
+        #: max EI/L².
+        if moved > 0.0:
+            self.force_scale = max(load + moved, fallback)
+        else:
+            self.force_scale = load if load > 0 else fallback
         #: Length scale L_ref [m]: the longest rod.
         self.length_scale = max(r.length for r in rods)
         if layout:

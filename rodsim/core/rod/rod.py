@@ -218,6 +218,27 @@ class Rod:
             positions[support.node] = support.position
         return positions
 
+    def support_reaction_scale(self) -> float:
+        """Force scale [N] of the node supports' prescribed displacements (0 when none
+        moves its node): the reaction a displacement δ of a node held at a span s beyond the
+        last held point before it would meet, 3 E I |δ⊥| / s³ across the rod (a
+        cantilever's tip stiffness) plus min(E_s A |δ∥| / s, 2.05 π² E I / s²) along it
+        (axial stiffness, up to the buckling load of a clamped–pinned column). A scale, not
+        a prediction: what F_ref adds for a displacement as it adds a load's size
+        (:meth:`rodsim.core.model.Model._build_scales`)."""
+        total, held = 0.0, 0.0
+        rest = self.rest_positions()
+        for support in sorted(self.node_supports, key=lambda support: support.s):
+            displacement = support.position - rest[support.node]
+            span = support.s - held
+            held = support.s
+            bending = self.bending_stiffness
+            across = float(np.hypot(displacement[1], displacement[2]))
+            total += 3.0 * bending * across / span**3 + min(
+                self.stretch_stiffness * abs(float(displacement[0])) / span,
+                2.05 * math.pi**2 * bending / span**2)
+        return total
+
     def node_masses(self) -> np.ndarray:
         """Lumped mass of each control point, ρ A × (half of each adjacent segment) [kg];
         with sections, the consistent share ∫ ρ A N_i ds."""
