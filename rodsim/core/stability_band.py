@@ -91,14 +91,38 @@ class BandStiffness:
         return (self._cols * self._lu_rows
                 + (self.lower + self.upper + self._rows - self._cols))
 
-    def certified(self, jacobian: np.ndarray) -> bool:
+    def certified(self, jacobian: np.ndarray, shift: float = 0.0) -> bool:
         """Whether the scaled symmetric part of K = −J (``jacobian``: J's CSC data) is
-        positive definite (its band Cholesky succeeds): K is then stable."""
+        positive definite (its band Cholesky succeeds): K is then stable. With ``shift``
+        σ: whether S + σ I is (D (S + σ I) D = D S D + σ D², D² = 1 / diag S), i.e. every
+        eigenvalue of S is above −σ."""
         ab = self._scaled_band(jacobian)
         if ab is None:
             return False
+        if shift:
+            ab[0] += shift / -jacobian[self._diagonal]
         _, info = lapack.dpbtrf(ab, lower=1, overwrite_ab=1)
         return info == 0
+
+    @cached_property
+    def _diagonal(self) -> np.ndarray:
+        """Position in the CSC data of each column's diagonal entry, column by column."""
+        return np.flatnonzero(self._rows == self._cols)
+
+    def skew_norm_bound(self, jacobian: np.ndarray) -> float:
+        """An upper bound on ‖A‖₂, A = (K − Kᵀ)/2 the skew part of K = −J: its largest
+        absolute column sum (‖A‖₂ ≤ √(‖A‖₁ ‖A‖∞), and ‖A‖₁ = ‖A‖∞ for a skew matrix)."""
+        skew = np.abs(0.5 * (jacobian - jacobian[self._transposed]))
+        return float(np.max(np.bincount(self._cols, weights=skew, minlength=self.n)))
+
+    @cached_property
+    def _transposed(self) -> np.ndarray:
+        """Position in the CSC data of the entry (j, i) for each entry (i, j) (the pattern
+        of J is structurally symmetric: every term couples its coordinates both ways)."""
+        key = self._rows * self.n + self._cols
+        order = np.argsort(key)
+        mirrored = self._cols * self.n + self._rows
+        return order[np.searchsorted(key, mirrored, sorter=order)]
 
     def _scaled_band(self, jacobian: np.ndarray) -> np.ndarray | None:
         """D S D's lower band (Fortran order, what dpbtrf reads), or None when ``jacobian``
