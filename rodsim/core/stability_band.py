@@ -24,13 +24,12 @@ been reported stable. The verdict is therefore computed in full at every step.
 
 from __future__ import annotations
 
-from collections.abc import Callable
 from functools import cached_property
 
 import numpy as np
 from scipy.linalg import lapack
 
-__all__ = ["BandStiffness", "COMPILED_SIZE"]
+__all__ = ["BandLU", "BandStiffness", "COMPILED_SIZE"]
 
 #: Unknowns from which :meth:`BandStiffness.certified` fills its band by a compiled pass over
 #: J's entries (no offset arrays, no temporaries; the same array as the numpy offsets) rather
@@ -154,9 +153,9 @@ class BandStiffness:
         largest = float(np.max(np.abs(jacobian))) if jacobian.size else 0.0
         return 2.0 * float(np.max(np.abs(skew))) / largest if largest > 0.0 else 0.0
 
-    def inverse(self, jacobian: np.ndarray) -> Callable[[np.ndarray], np.ndarray] | None:
-        """v ↦ K⁻¹ v (K = −J; ``jacobian``: J's CSC data) by band LU, or None when K is
-        singular or not finite."""
+    def inverse(self, jacobian: np.ndarray) -> BandLU | None:
+        """v ↦ K⁻¹ v (K = −J; ``jacobian``: J's CSC data) by band LU, with the sign of
+        det K, or None when K is singular or not finite."""
         if not np.all(np.isfinite(jacobian)):
             return None
         ab = np.zeros((self._lu_rows, self.n), order="F")
@@ -164,9 +163,26 @@ class BandStiffness:
         lu, pivots, info = lapack.dgbtrf(ab, self.lower, self.upper, overwrite_ab=1)
         if info != 0:
             return None
-        lower, upper = self.lower, self.upper
+        return BandLU(lu, pivots, self.lower, self.upper)
 
-        def solve(v: np.ndarray) -> np.ndarray:
-            x, _ = lapack.dgbtrs(lu, lower, upper, v, pivots)
-            return x
-        return solve
+
+class BandLU:
+    """A matrix A factored by LAPACK's band LU (dgbtrf: ``lu``, ``pivots``, bandwidths
+    ``lower`` and ``upper``): called with B, it solves A X = B (dgbtrs).
+    :attr:`determinant_sign` is the sign of det A, read off the factors for nothing:
+    det A = ± Π U_ii, the sign of the row permutation times that of the pivots. The stability
+    verdict takes det K < 0 as a proof of an odd number of negative real eigenvalues of K
+    (rodsim/core/stability.py)."""
+
+    def __init__(self, lu: np.ndarray, pivots: np.ndarray, lower: int, upper: int) -> None:
+        self._lu, self._pivots, self._lower, self._upper = lu, pivots, lower, upper
+        diagonal = lu[lower + upper]
+        swaps = np.count_nonzero(pivots != np.arange(len(pivots)))  # scipy: 0-based rows
+        negative = np.count_nonzero(diagonal < 0.0)
+        #: +1.0 or −1.0, the sign of det A (0.0: a zero pivot).
+        self.determinant_sign = (0.0 if np.any(diagonal == 0.0)
+                                 else -1.0 if (swaps + negative) % 2 else 1.0)
+
+    def __call__(self, rhs: np.ndarray) -> np.ndarray:
+        x, _ = lapack.dgbtrs(self._lu, self._lower, self._upper, rhs, self._pivots)
+        return x

@@ -45,6 +45,8 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 from scipy.linalg import lapack
 
+from rodsim.core.stability_band import BandLU
+
 __all__ = ["BandCholeskySolve", "LinearSolver", "MAX_BAND"]
 
 #: Widest band (lower + upper + 1) solved in band storage; wider patterns use SuperLU.
@@ -239,11 +241,7 @@ class LinearSolver:
         lu, pivots, info = lapack.dgbtrf(ab, self.lower, self.upper, overwrite_ab=1)
         if info != 0:
             return None
-
-        def lu_solve(rhs: np.ndarray) -> np.ndarray:
-            x, _ = lapack.dgbtrs(lu, self.lower, self.upper, rhs, pivots)
-            return x
-        return lu_solve
+        return BandLU(lu, pivots, self.lower, self.upper)  # with the sign of det J
 
     def _sparse(self, data: np.ndarray, rhs: np.ndarray) -> np.ndarray:
         self.counts["sparse_lu"] += 1
