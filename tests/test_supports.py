@@ -440,3 +440,15 @@ def test_a_soft_mode_does_not_pass_a_state_far_from_equilibrium():
     jacobian = model.pattern_matrix(model.jacobian_data(cvode.state)).toarray()
     correction = np.linalg.solve(jacobian, model.force(cvode.state))
     assert np.abs(correction[~model.is_quaternion]).max() > 1e-3 * length
+
+
+def test_ida_failing_on_a_moved_support_names_static_first():
+    """IDA applies a support's displacement at once (its load ramp ramps loads only) and on
+    some pinned robots fails at t = 0; its advice then names static, which moves supports
+    with its loads and solves the robot, instead of a longer load ramp, which cannot help."""
+    robot = pinned_robot(np.random.default_rng(20261126), 0)
+    ida = rodsim.solve(robot, "ida")
+    assert not ida.success
+    assert "try the static integrator (it moves displaced supports" in ida.message
+    assert "load_ramp" not in ida.message
+    assert rodsim.solve(robot, "static").success

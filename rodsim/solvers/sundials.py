@@ -138,6 +138,11 @@ class SundialsIntegrator(Integrator[SundialsState]):
 
     def advice(self, run: RunState | None = None) -> str:
         other = "inertial" if self.options.formulation == "overdamped" else "overdamped"
+        if run is not None and run.model.support_displacements:
+            # The load ramp ramps loads, not a support's displacement, which the rest state
+            # meets at once; static moves supports with its load steps.
+            return (f"try the static integrator (it moves displaced supports in with the "
+                    f"loads), or solver.{self.name}.formulation={other!r}")
         return (f"try solver.{self.name}.formulation={other!r}, a longer load_ramp, or the "
                 "static integrator")
 
