@@ -475,3 +475,15 @@ def test_an_odd_number_of_negative_real_eigenvalues_is_found_by_the_determinant(
     assert np.count_nonzero(np.abs(eigenvalues) < np.abs(real[real < 0.0]).min()) > 6
     assert not result.stability.stable and np.isnan(result.stability.min_eigenvalue)
     assert not assess(model, result.state).stable  # the same without the run's factors
+
+
+def test_an_unlocated_negative_eigenvalue_is_said_so_not_printed_as_nan():
+    """A verdict proven unstable by det K < 0 has no eigenvalue value (NaN): the messages of
+    run, track and reach say it was not located instead of printing 'nan'."""
+    from rodsim.app.cli.common import stability_text
+    from rodsim.core.stability import Stability, eigenvalue_text
+
+    assert "smallest eigenvalue not located: det K < 0" in stability_text(Stability(False))
+    assert "nan" not in stability_text(Stability(False))
+    assert eigenvalue_text(-0.0825) == "smallest eigenvalue -0.0825"
+    assert "smallest eigenvalue -0.0825" in stability_text(Stability(False, -0.0825))

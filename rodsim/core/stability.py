@@ -65,7 +65,7 @@ from rodsim.core.stability_band import BandStiffness
 if TYPE_CHECKING:
     from rodsim.core.model import Model
 
-__all__ = ["Stability", "stiffness_stability", "assess", "DENSE_LIMIT"]
+__all__ = ["Stability", "stiffness_stability", "assess", "eigenvalue_text", "DENSE_LIMIT"]
 
 #: Largest system (free coordinates) whose smallest eigenvalue is computed densely.
 DENSE_LIMIT = 2000
@@ -94,6 +94,20 @@ class Stability:
 
     stable: bool
     min_eigenvalue: float = float("nan")
+
+    @property
+    def eigenvalue_text(self) -> str:
+        """The smallest eigenvalue as the messages quote it (:func:`eigenvalue_text`)."""
+        return eigenvalue_text(self.min_eigenvalue)
+
+
+def eigenvalue_text(value: float) -> str:
+    """'smallest eigenvalue <value>' for a verdict's ``min_eigenvalue``, or, for NaN (an
+    unstable K whose negative eigenvalue was proven by det K < 0 but not located, or a
+    value that could not be computed), what is known."""
+    if np.isnan(value):
+        return "smallest eigenvalue not located: det K < 0 or not computed"
+    return f"smallest eigenvalue {value:.3g}"
 
 
 def _band_storage(matrix: sp.coo_matrix, width: int) -> np.ndarray:

@@ -123,5 +123,5 @@ def stability_text(stability: Stability) -> str:
     if stability.stable:
         return "stability   stable (the stiffness K = -dF/dx is positive definite)"
     return (f"warning     UNSTABLE equilibrium: the stiffness K = -dF/dx is not positive "
-            f"definite (smallest eigenvalue {stability.min_eigenvalue:.3g}); a small "
+            f"definite ({stability.eigenvalue_text}); a small "
             "perturbation leaves it (e.g. a compressed rod past its buckling load)")

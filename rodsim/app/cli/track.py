@@ -65,9 +65,12 @@ class Track(SceneCommand):
               f"{1e3 * warm:.3f} ms each{speed}, {int(sum(result.halvings))} halvings")
         unstable = result.unstable_steps
         if unstable:
+            from rodsim.core.stability import eigenvalue_text
+
             print(f"stability   UNSTABLE at {len(unstable)} of {result.steps} steps (first: "
-                  f"step {unstable[0]}, smallest stiffness eigenvalue "
-                  f"{result.min_eigenvalues[unstable[0]]:.3g}); flagged in the archive")
+                  f"step {unstable[0]}, stiffness "
+                  f"{eigenvalue_text(result.min_eigenvalues[unstable[0]])}); flagged in the "
+                  "archive")
         else:
             print("stability   stable at every step (the stiffness K = -dF/dx is positive "
                   "definite)")

@@ -262,8 +262,8 @@ def reach(scene: Scene, tip: Sequence[float], actuate: Sequence[str], *,
     where = ", ".join(f"{c:.6g}" for c in reached)
     if unstable:
         message = (f"the best tip found, ({where}) m, {distance:.3g} m from the target"
-                   f"{turned}, is an UNSTABLE equilibrium (smallest stiffness eigenvalue "
-                   f"{final.stability.min_eigenvalue:.3g}: e.g. a rod compressed past "
+                   f"{turned}, is an UNSTABLE equilibrium (stiffness "
+                   f"{final.stability.eigenvalue_text}: e.g. a rod compressed past "
                    f"buckling), with {described}; not a usable actuation")
     elif success:
         message = f"reached within {distance:.3g} m{turned} with {described}"

@@ -36,7 +36,7 @@ def record_stability(out: Track, step: int, stability: Stability,
         return True
     out.success, out.unstable_step = False, step
     out.message = (f"step {step} ({values_text(out.keys, out.values[step])}) is an unstable "
-                   f"equilibrium (smallest stiffness eigenvalue {stability.min_eigenvalue:.3g}"
+                   f"equilibrium (stiffness {stability.eigenvalue_text}"
                    "): the path crossed a stability limit (e.g. buckling) and the track "
                    "stopped there (allow unstable steps to go on, flagged)")
     return False
