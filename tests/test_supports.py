@@ -422,7 +422,7 @@ def test_a_soft_mode_does_not_pass_a_state_far_from_equilibrium():
     below 1e-6 L) and CVODE stops 2.5e-3 L away, its force residual 1.44e-5 just under the
     tolerance 1.47e-5. The correction residual divides that distance by the load's
     linearised displacement, which the soft mode makes 7 700 L: it read 3e-7 and passed
-    CVODE's state as a success. Counted at most as L (solvers/base.py, load_reach), the
+    CVODE's state as a success. Counted at most as L (solvers/base.py, capped_reach), the
     distance fails it, with a message saying so."""
     from rodsim.core.model import Model
 

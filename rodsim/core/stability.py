@@ -40,8 +40,8 @@ read off the band LU that ARPACK's shift-invert uses anyway, proves an odd numbe
 negative real eigenvalues wherever they are (``min_eigenvalue`` NaN: not located). Not
 seen: an even number of negative real eigenvalues, or complex pairs with negative real
 parts, beyond the six nearest zero when the skew part is large (measured on rod tendons
-pulled at their distal ends: 2 of 13 states with negative real eigenvalues had an even
-number there). Flutter (growing oscillations of the pseudo-dynamics) is not assessed.
+pulled at their distal ends: 2 of the 6 states with negative real eigenvalues had an
+even number there). Flutter (growing oscillations of the pseudo-dynamics) is not assessed.
 
 :func:`assess` (a model's verdict, what every run and every track step gets) does the
 factorisations in band storage straight from the Jacobian's data (rodsim/core/
