@@ -541,3 +541,21 @@ def test_floor_small_outputs(tmp_path):
         assert all(row["raw_s"][key] > 0 for key in ("force", "jacobian", "linear"))
         assert 0 < row["floor_s"] < row["solve_s"]
     assert "| four-tendons |" in (tmp_path / "floor-small.md").read_text()
+
+
+def test_iterations_small_outputs(tmp_path):
+    """``rodsim bench iterations --size small``: each case solved once, its counts those of
+    the same solve made here (a count is deterministic in one process), and the cases the
+    tests bound with tests/counts.py among the full size's."""
+    import rodsim
+    from rodsim_bench import iterations
+
+    paths = iterations.run("small", tmp_path, lambda *_: None)
+    assert {p.name for p in paths} == {"iterations-small.json", "iterations-small.md"}
+    report = json.loads((tmp_path / "iterations-small.json").read_text())
+    assert {"cpu", "numpy", "scipy", "git_commit"} <= set(report["machine"])
+    first = report["cases"][0]
+    again = rodsim.solve(first["scene"], first["integrator"], overrides=first["overrides"])
+    assert first["success"] and first["newton_iters"] == again.stats["newton_iters"] > 0
+    assert "table3-catheter3 static" in iterations.CASES
+    assert f"| {first['case']} | yes | " in (tmp_path / "iterations-small.md").read_text()

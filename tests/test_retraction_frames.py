@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from counts import at_most
 
 import rodsim
 from rodsim.core.model import Model
@@ -72,7 +73,7 @@ def test_the_default_static_solve_of_tdcr_takes_the_frames_path():
     scene = rodsim.load_scene("tdcr-two-segment")
     default = rodsim.solve(scene, "static")
     named = rodsim.solve(scene.with_overrides(["solver.static.retraction=frames"]), "static")
-    assert default.stats["newton_iters"] == named.stats["newton_iters"] <= 6
+    assert default.stats["newton_iters"] == named.stats["newton_iters"] <= at_most(6)
     assert np.array_equal(default.positions(), named.positions())
 
 
@@ -87,14 +88,14 @@ def test_cvode_finishes_tdcr_through_the_frames_retraction():
         "tip_load.force=[0, 0, 0]", "s1a.tendon_string.tension=3"])
     cvode, static = rodsim.solve(scene, "cvode"), rodsim.solve(scene, "static")
     assert cvode.success and static.success
-    assert cvode.stats["finish_attempts"] == 1 and cvode.stats["steps"] <= 30
+    assert cvode.stats["finish_attempts"] == 1 and cvode.stats["steps"] <= at_most(12)
     assert np.abs(cvode.positions() - static.positions()).max() < 5e-9 * 0.4
 
 
 def test_cvode_finishes_a_large_model_through_the_frames_retraction():
     """Above LARGE_MODEL_SIZE free coordinates CVODE's finish steps through the frames on
     any model (rodsim/solvers/sundials.py): on table1-50g at N = 1 000 (6 993 unknowns) it
-    takes 5 Newton iterations (measured; through Model.step it took 15, and at N = 20 000
+    takes 5-6 Newton iterations (measured; through Model.step it took 15, and at N = 20 000
     four finishes failed and CVODE took 1787 steps), on static's equilibrium within 1.4e-9 L
     (measured; its tolerance is the residual floor, 2.9e-7)."""
     from rodsim.solvers.base import LARGE_MODEL_SIZE
@@ -105,7 +106,8 @@ def test_cvode_finishes_a_large_model_through_the_frames_retraction():
     cvode = rodsim.solve(scene, "cvode", model=model)
     static = rodsim.solve(scene, "static", model=model)
     assert cvode.success and static.success
-    assert cvode.stats["finish_attempts"] == 1 and cvode.stats["finish_newton_iters"] <= 8
+    assert cvode.stats["finish_attempts"] == 1
+    assert cvode.stats["finish_newton_iters"] <= at_most(6)
     assert np.abs(cvode.positions() - static.positions()).max() < 5e-9 * 0.12
 
 
@@ -119,7 +121,7 @@ def test_ida_finishes_a_large_model_through_the_frames_retraction():
     ida = rodsim.solve(scene, "ida", model=model)
     static = rodsim.solve(scene, "static", model=model)
     assert ida.success and static.success
-    assert ida.stats["finish_attempts"] == 1 and ida.stats["steps"] <= 30
+    assert ida.stats["finish_attempts"] == 1 and ida.stats["steps"] <= at_most(17)
     assert np.abs(ida.positions() - static.positions()).max() < 5e-9 * 0.12
 
 
@@ -134,7 +136,7 @@ def test_paper_steps_a_large_model_from_the_last_state_through_the_frames():
     paper = rodsim.solve(scene, "paper", model=model)
     static = rodsim.solve(scene, "static", model=model)
     assert paper.success and static.success
-    assert paper.stats["newton_iters"] <= 30
+    assert paper.stats["newton_iters"] <= at_most(22)
     distance = np.linalg.norm(paper.positions() - static.positions(), axis=-1).max()
     assert distance < 2e-7 * 0.12
 

@@ -20,6 +20,7 @@ from collections.abc import Callable
 
 import numpy as np
 import pytest
+from counts import at_most
 
 import rodsim
 from rodsim.core.analytic.tendon_bvp import scene_reference
@@ -368,5 +369,6 @@ def test_frames_retraction_cuts_newton_iterations_on_tdcr(case):
     assert lengths.success and frames.success
     print(f"\n{case}: Newton iterations lengths {lengths.stats['newton_iters']:.0f}, "
           f"frames {frames.stats['newton_iters']:.0f}")
-    assert frames.stats["newton_iters"] <= 6 < lengths.stats["newton_iters"]
+    assert frames.stats["newton_iters"] <= at_most(6)
+    assert frames.stats["newton_iters"] < lengths.stats["newton_iters"]
     assert np.abs(frames.positions() - lengths.positions()).max() < 5e-9 * 0.4

@@ -1,13 +1,15 @@
 """``static`` on the paper's tendon coupling (non-conservative): the stiff penalties are
 lowered from the start, Newton steps through the retraction Model.step, the load starts at
 1/4 and the penalties are raised at once (rodsim/solvers/static.py). Newton iterations on
-table3-catheter1: 227, then 88, now 29 (issue 11 asks ≤ 40). Counting iterations is
-deterministic, so the bounds are the measured counts: a regression fails here."""
+table3-catheter1: 227, then 88, now 29 (issue 11 asks ≤ 40). The bounds are the measured
+counts with the margin of tests/counts.py (round-off moves a count between machines); the
+exact counts are `rodsim bench iterations`'s."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
+from counts import at_most
 
 import rodsim
 
@@ -17,7 +19,7 @@ def test_static_on_table3_catheter1_is_cheap_and_on_the_paper_equilibrium():
     assert static.success, static.message
     print(f"table3-catheter1 static: {static.stats['newton_iters']:.0f} Newton iterations, "
           f"{static.stats['steps']:.0f} steps")
-    assert static.stats["newton_iters"] <= 29
+    assert static.stats["newton_iters"] <= at_most(29)
     paper = rodsim.solve("table3-catheter1", "paper")
     assert paper.success, paper.message
     assert np.max(np.abs(static.positions() - paper.positions())) < 1e-6 * 0.16
@@ -25,12 +27,13 @@ def test_static_on_table3_catheter1_is_cheap_and_on_the_paper_equilibrium():
 
 @pytest.mark.parametrize("scene, iterations", [("table3-catheter2", 29),
                                                ("table3-catheter3", 29),
-                                               ("tendon-conserving", 17)])
+                                               ("tendon-conserving", 14)])
 def test_static_iterations_on_the_other_tendon_scenes_do_not_regress(scene, iterations):
-    """Measured: 86, 83, 21 before the retraction and the schedule of static.py."""
+    """Measured: 86, 83, 21 before the retraction and the schedule of static.py; 29, 29, 14
+    at 27422c4 (29, 30 on another machine)."""
     static = rodsim.solve(scene, "static")
     assert static.success, static.message
-    assert static.stats["newton_iters"] <= iterations
+    assert static.stats["newton_iters"] <= at_most(iterations)
 
 
 @pytest.mark.parametrize("scene", ["table1-50g", "table3-catheter1", "four-tendons"])

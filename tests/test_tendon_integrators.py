@@ -16,6 +16,7 @@ import functools
 
 import numpy as np
 import pytest
+from counts import at_most
 
 import rodsim
 
@@ -147,12 +148,13 @@ def test_cvode_on_table3_catheter1_finishes_at_the_end_of_the_load_ramp():
     """The Newton finish of a non-conservative scene with stiff penalties goes through the
     lowered penalties by residual homotopy (rodsim/solvers/sundials.py): the first finish
     attempt, at the end of the load ramp, succeeds. Measured: 146 steps and 23 finish
-    iterations (488 and 43 before: two failed attempts); counts are deterministic. The
+    iterations (488 and 43 before: two failed attempts); bounded with the margin of
+    tests/counts.py. The
     shipped scene steps its load (load_ramp = 0); the ramp is put back here."""
     result = rodsim.solve("table3-catheter1", "cvode", overrides=["solver.cvode.load_ramp=1"])
     assert result.success, result.message
     assert result.stats["finish_attempts"] == 1
-    assert result.stats["steps"] <= 146
+    assert result.stats["steps"] <= at_most(146)
     assert np.max(np.abs(result.positions() - reference("table3-catheter1").positions())) \
         < 1e-6 * 0.16
 
@@ -162,11 +164,13 @@ def test_cvode_on_table3_catheter1_finishes_at_the_end_of_the_load_ramp():
 def test_the_tendon_scenes_step_their_load_for_cvode(scene, steps):
     """The tendon scenes declare ``solver.cvode.load_ramp = 0``: the same equilibrium as with
     the one-period ramp (≤ 1e-15 m apart) in fewer steps (catheter1 146 → 44, catheter2
-    119 → 30, catheter3 97 → 20, tendon-conserving 55 → 4; deterministic counts)."""
+    119 → 30, catheter3 97 → 20, tendon-conserving 55 → 4; bounded with the margin of
+    tests/counts.py)."""
     result = rodsim.solve(scene, "cvode")
     ramped = rodsim.solve(scene, "cvode", overrides=["solver.cvode.load_ramp=1"])
     assert result.success and ramped.success
-    assert result.stats["steps"] <= steps < ramped.stats["steps"]
+    assert result.stats["steps"] <= at_most(steps)
+    assert result.stats["steps"] < ramped.stats["steps"]
     for rod in result.rods:
         assert np.max(np.abs(result.positions(rod) - ramped.positions(rod))) < 1e-12
 
@@ -178,13 +182,15 @@ def test_the_tendon_scenes_step_their_load_for_ida(scene, steps):
     """The tendon scenes declare ``[solver.ida] load_ramp = 0, newton_switch = 0.1``: the
     same equilibrium as IDA's defaults (one-period ramp, switch 0.03; ≤ 4e-15 m apart) in
     fewer steps (catheter1 132 → 23, catheter2 66 → 18, catheter3 98 → 19,
-    tendon-conserving 136 → 4, four-tendons 33 → 1; deterministic counts). Needs the
+    tendon-conserving 136 → 4, four-tendons 33 → 1; bounded with the margin of
+    tests/counts.py). Needs the
     lowered-penalty homotopy in IDA's finish on the paper coupling: one finish attempt."""
     result = rodsim.solve(scene, "ida")
     defaults = rodsim.solve(scene, "ida", overrides=["solver.ida.load_ramp=1",
                                                      "solver.ida.newton_switch=0.03"])
     assert result.success and defaults.success
     assert result.stats["finish_attempts"] == 1
-    assert result.stats["steps"] <= steps < defaults.stats["steps"]
+    assert result.stats["steps"] <= at_most(steps)
+    assert result.stats["steps"] < defaults.stats["steps"]
     for rod in result.rods:
         assert np.max(np.abs(result.positions(rod) - defaults.positions(rod))) < 1e-12
