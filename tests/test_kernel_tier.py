@@ -1,40 +1,31 @@
-"""The ``tiered`` evaluation path (rodsim/core/kernel_tier.py): numpy evaluations until they
-have cost the budget, the compiled kernels after, and the same numbers either way.
+"""The ``tiered`` evaluation path (rodsim/core/kernel_tier.py): numpy evaluations until their
+nominal cost passes the budget, the compiled kernels after, and the same numbers either way;
+the move comes after the same evaluations on every run, whatever the clock says.
 
-The process's CPU clock is replaced by a counter that advances a fixed amount per reading, so
-where the move happens is deterministic here (no test measures time)."""
+Most tests here charge a fixed nominal cost per numpy evaluation, so that where the move
+happens is simple to state; the tests at the end use the real nominal costs."""
 
 from __future__ import annotations
 
 import json
 import subprocess
 import sys
+import time
 
 import numpy as np
 import pytest
 
 import rodsim
-from rodsim.core.kernel_tier import PROCESS_TIER
+from rodsim.core import model as model_module
+from rodsim.core.kernel_tier import PROCESS_TIER, nominal_cost
 from rodsim.core.model import Model
-
-
-class TickingClock:
-    """A clock that advances ``tick`` seconds at every reading: one numpy evaluation (read
-    before and after) costs one tick."""
-
-    def __init__(self, tick: float) -> None:
-        self.tick, self.now = tick, 0.0
-
-    def __call__(self) -> float:
-        self.now += self.tick
-        return self.now
 
 
 @pytest.fixture
 def tier(monkeypatch):
-    """The process's account, reset, with a ticking clock: each numpy evaluation 0.01 s."""
+    """The process's account, reset, with each numpy evaluation charged 0.01 s."""
     PROCESS_TIER.reset()
-    monkeypatch.setattr(PROCESS_TIER, "clock", TickingClock(0.01))
+    monkeypatch.setattr(model_module, "nominal_cost", lambda *_, **__: 0.01)
     monkeypatch.setattr(PROCESS_TIER, "budget", 0.035)
     yield PROCESS_TIER
     PROCESS_TIER.reset()
@@ -151,3 +142,78 @@ def test_user_robots_reach_the_compiled_equilibrium_when_the_move_comes_midway(t
             length = robot["rods"]["catheter"]["length"]
             difference = np.abs(tiered.positions("catheter") - plain.positions("catheter"))
             assert difference.max() <= 1e-8 * length, robot["name"]
+
+
+def test_the_nominal_cost_is_a_function_of_the_terms_sizes():
+    """A Jacobian costs more than a force (d² entries an element against d), a conserving
+    lumen more than a paper one of the same size (its numpy_cost_factor), and the cost grows
+    with the number of nodes."""
+    small = Model(rodsim.load_scene("table1-50g"), kernels="numpy")
+    large = Model(rodsim.load_scene("table1-50g", ["nodes=200"]), kernels="numpy")
+    for model in (small, large):
+        assert 0 < nominal_cost(model.terms, force=True, jacobian=False) \
+            < nominal_cost(model.terms, force=False, jacobian=True)
+    assert nominal_cost(large.terms, force=True, jacobian=True) \
+        > 2 * nominal_cost(small.terms, force=True, jacobian=True)
+    conserving = rodsim.load_scene("table3-catheter1", ["coupling=conserving"])
+    paper = Model(rodsim.load_scene("table3-catheter1"), kernels="numpy")
+    lumen = {type(term).__name__: term for term in Model(conserving, kernels="numpy").terms}
+    paper_lumen = {type(term).__name__: term for term in paper.terms}["Lumen"]
+    assert nominal_cost([lumen["ConservingLumen"]], force=False, jacobian=True) > 5 * \
+        nominal_cost([paper_lumen], force=False, jacobian=True)
+
+
+def test_the_move_does_not_read_the_clock(monkeypatch):
+    """A clock that runs a thousand times faster moves nothing: the same evaluations are
+    numpy, the same state is reached bit for bit."""
+    scene = _tiered("tip-on-tissue")
+
+    def tiered_solve() -> tuple[int, np.ndarray]:
+        PROCESS_TIER.reset()
+        result = rodsim.solve(scene, "static")
+        assert result.success and PROCESS_TIER.compiled, result.message
+        return PROCESS_TIER.numpy_evaluations, result.positions()
+
+    try:
+        evaluations, positions = tiered_solve()
+        real = time.process_time
+        monkeypatch.setattr(time, "process_time", lambda: 1000.0 * real())
+        monkeypatch.setattr(time, "perf_counter", lambda: 1000.0 * real())
+        # (a clock the account held, as it did until 2026-12, runs fast too)
+        monkeypatch.setattr(PROCESS_TIER, "clock", lambda: 1000.0 * real(), raising=False)
+        again, moved = tiered_solve()
+    finally:
+        PROCESS_TIER.reset()
+    assert again == evaluations
+    assert np.array_equal(moved, positions)
+
+
+_RUN_TIERED = """
+import hashlib, sys
+import rodsim
+from rodsim.core.kernel_tier import PROCESS_TIER
+scene = rodsim.load_scene("tip-on-tissue").with_values({"solver.kernels": "tiered"})
+result = rodsim.solve(scene, "cvode")
+digest = hashlib.sha256(result.positions().tobytes()).hexdigest()
+print(result.success, PROCESS_TIER.numpy_evaluations, PROCESS_TIER.compiled, digest)
+"""
+
+
+@pytest.mark.slow
+def test_a_contact_scene_gives_the_same_state_five_times_under_load():
+    """tip-on-tissue under CVODE moves to the compiled kernels mid-run (after ~700 numpy
+    evaluations). Run five times in fresh processes while a busy process loads the CPU, it
+    moves after the same evaluations and reaches the same state, bit for bit. (With the CPU
+    clock charged, the same test gave five different states, the move after 353 to 551
+    evaluations.)"""
+    burners = [subprocess.Popen([sys.executable, "-c", "while True: pass"])]
+    try:
+        outputs = [subprocess.run([sys.executable, "-c", _RUN_TIERED], capture_output=True,
+                                  text=True, timeout=600, check=True).stdout.split()
+                   for _ in range(5)]
+    finally:
+        for burner in burners:
+            burner.kill()
+            burner.wait()
+    assert all(output[0] == "True" and output[2] == "True" for output in outputs), outputs
+    assert len({tuple(output) for output in outputs}) == 1, outputs

@@ -10,40 +10,74 @@ spends far more.
 
 Which case a run is cannot be told before it runs (tip-on-tissue under static makes 11 500
 evaluations of a 280-unknown model, table1-50g under CVODE a few dozen), so the choice is
-made as the classic rent-or-buy rule: evaluate by numpy, count the CPU those evaluations
-take, and move to the compiled kernels for good once that count passes the fixed cost of
-loading them (:data:`NUMPY_BUDGET`). A run that stays below it never loads numba; one that passes it
-pays at most about twice what the better path alone would have cost. The count is the
-process's, not a model's: once one model has moved on, every model of the process
-evaluates compiled (the kernels are loaded).
+made as the classic rent-or-buy rule: evaluate by numpy, count what those evaluations cost,
+and move to the compiled kernels for good once that count passes the fixed cost of loading
+them (:data:`NUMPY_BUDGET`). A run that stays below it never loads numba.
 
-The two paths compute the same numbers to round-off (tests/test_kernels.py), so where the
-move happens changes a result only at round-off, and the move is reported
+The cost counted is **nominal**, never the clock's: each numpy evaluation is charged what
+its terms' element arrays should cost (:func:`nominal_cost`: a fixed cost per term call and
+one per entry, measured once on the shipped scenes' terms), so the move happens after the
+same evaluations on every run of a scene, loaded machine or not. Until 2026-12 the CPU the
+evaluations took was charged: the move then came after 40, 41 or 44 evaluations of one
+guidewire scene, and CVODE landed on different equilibria of it from run to run.
+
+The count is the process's, not a model's: once one model has moved on, every model of the
+process evaluates compiled (the kernels are loaded). A process that runs one scene — ``rodsim
+run``, ``rodsim rerun`` — so moves at the same evaluation every time; a Python process that
+solves several ``tiered`` scenes moves where their sequence makes it. The two paths compute
+the same numbers to round-off (tests/test_kernels.py), and the move is reported
 (:meth:`KernelTier.describe`, stored with a run's archive).
 """
 
 from __future__ import annotations
 
-import time
-from collections.abc import Callable
+from collections.abc import Iterable
+from typing import TYPE_CHECKING
 
-__all__ = ["KernelTier", "NUMPY_BUDGET", "PROCESS_TIER"]
+if TYPE_CHECKING:
+    from rodsim.core.terms.base import Term
 
-#: CPU seconds of numpy evaluations after which a ``tiered`` model moves to the compiled
+__all__ = ["KernelTier", "NUMPY_BUDGET", "PROCESS_TIER", "nominal_cost"]
+
+#: Nominal seconds of numpy evaluations after which a ``tiered`` model moves to the compiled
 #: kernels: about what loading them costs a process from a warm cache (numba's import
 #: 0.12 s and eight cached kernels 0.17 s for table1-50g, docs/benchmarks.md "Start-up").
 NUMPY_BUDGET = 0.25
 
+#: Nominal CPU of one term's numpy call [s], whatever its size (measured 20–120 µs).
+TERM_CALL_SECONDS = 40e-6
+#: Nominal CPU per entry of a term's numpy element forces [s] (measured 100–450 ns on the
+#: shipped scenes' stretch, bending, centerline, lumen, string and contact terms).
+FORCE_ENTRY_SECONDS = 100e-9
+#: Nominal CPU per entry of a term's numpy element Jacobians [s] (measured 18–160 ns).
+JACOBIAN_ENTRY_SECONDS = 40e-9
+
+
+def nominal_cost(terms: Iterable[Term], *, force: bool, jacobian: bool) -> float:
+    """What a numpy evaluation of ``terms`` is charged [nominal s]: per term, a call and each
+    entry of its element forces (``force``; also an energy's cost) and element Jacobians
+    (``jacobian``), times the term's :attr:`~rodsim.core.terms.base.Term.numpy_cost_factor`.
+    A function of the terms' sizes alone, so of the scene."""
+    total = 0.0
+    for term in terms:
+        elements, width = term.dofs.shape if term.dofs.ndim == 2 else (term.dofs.size, 1)
+        entries = 0.0
+        if force:
+            entries += FORCE_ENTRY_SECONDS * elements * width
+        if jacobian and term.has_jacobian:
+            entries += JACOBIAN_ENTRY_SECONDS * elements * width * width
+        calls = int(force) + int(jacobian and term.has_jacobian)
+        total += calls * TERM_CALL_SECONDS + term.numpy_cost_factor * entries
+    return total
+
 
 class KernelTier:
     """A process's account of its numpy evaluations under ``solver.kernels = "tiered"``:
-    the CPU they took and whether the compiled kernels have taken over."""
+    their nominal cost and whether the compiled kernels have taken over."""
 
-    def __init__(self, budget: float = NUMPY_BUDGET,
-                 clock: Callable[[], float] = time.process_time) -> None:
+    def __init__(self, budget: float = NUMPY_BUDGET) -> None:
         self.budget = budget
-        self.clock = clock
-        #: CPU seconds spent in numpy evaluations of tiered models so far.
+        #: Nominal seconds charged for numpy evaluations of tiered models so far.
         self.spent = 0.0
         #: Numpy evaluations made before the move (all of them while it has not happened).
         self.numpy_evaluations = 0
@@ -51,7 +85,7 @@ class KernelTier:
         self.compiled = False
 
     def charge(self, seconds: float) -> None:
-        """Count one numpy evaluation that took ``seconds`` of CPU; move to the compiled
+        """Count one numpy evaluation of nominal cost ``seconds``; move to the compiled
         kernels once the total passes the budget."""
         self.numpy_evaluations += 1
         self.spent += seconds
@@ -62,8 +96,8 @@ class KernelTier:
         """One line: which path the tiered evaluations took."""
         if self.compiled:
             return (f"numpy for the first {self.numpy_evaluations} evaluations "
-                    f"({self.spent:.2f} s CPU), compiled after")
-        return f"numpy ({self.numpy_evaluations} evaluations, {self.spent:.2f} s CPU)"
+                    f"({self.spent:.2f} s nominal), compiled after")
+        return f"numpy ({self.numpy_evaluations} evaluations, {self.spent:.2f} s nominal)"
 
     def reset(self) -> None:
         """Start the account again (a test's fixture; a process never needs it)."""

@@ -12,8 +12,8 @@ Two evaluation paths compute the same numbers (``solver.kernels``): ``compiled``
 (:mod:`rodsim.core.kernels`), which accumulates straight into the force vector and the CSC
 data; ``numpy`` calls the terms' vectorised numpy methods and scatters their element blocks —
 the readable reference. ``tiered`` starts on numpy and moves to the compiled kernels once the
-process's numpy evaluations have cost what loading the kernels would
-(:mod:`rodsim.core.kernel_tier`; what ``rodsim run`` uses for ``auto``).
+process's numpy evaluations have cost, nominally (never by the clock), what loading the
+kernels would (:mod:`rodsim.core.kernel_tier`; what ``rodsim run`` uses for ``auto``).
 
 A model never changes once built. What a solver varies is passed in or returned as a new
 model: the load fraction is an argument of every evaluation; a penalty continuation scale is
@@ -38,7 +38,7 @@ from scipy.sparse.csgraph import reverse_cuthill_mckee
 
 from rodsim.core.anchors import joined_support, joint_depth, scene_joints
 from rodsim.core.assembly_budget import AssemblyBudget
-from rodsim.core.kernel_tier import PROCESS_TIER
+from rodsim.core.kernel_tier import PROCESS_TIER, nominal_cost
 from rodsim.core.rod.layout import RodLayout
 from rodsim.core.rod.retraction import turn_segments
 from rodsim.core.rod.rod import Rod
@@ -872,7 +872,7 @@ class Model:
         targets = iter(self._term_targets)
         compiled = self._compiled()
         tiered = self._tiered_numpy()
-        start = PROCESS_TIER.clock() if tiered else 0.0
+        recomputed: list[Term] = []
         if compiled and self._kernel_calls is None:
             self._kernel_calls = self._build_kernel_calls()
         for index, term in enumerate(self.terms):
@@ -899,11 +899,12 @@ class Model:
                 values = scale * term.element_jacobians(full).ravel()
                 share = np.bincount(target, weights=values,
                                     minlength=self.nnz + 1)[self._diagonal_slots]
+                recomputed.append(term)
             shares[index] = term, scale, share
             total += share
             self._tick()
         if tiered:  # the numpy shares count toward the move to the compiled kernels
-            PROCESS_TIER.charge(PROCESS_TIER.clock() - start)
+            PROCESS_TIER.charge(nominal_cost(recomputed, force=False, jacobian=True))
         self._diagonal_shares = shares
         return total
 
@@ -974,7 +975,6 @@ class Model:
         full = self.full(x)
         compiled = {}
         tiered = self._tiered_numpy()
-        start = PROCESS_TIER.clock() if tiered else 0.0
         if self._compiled():
             if self._kernel_calls is None:
                 self._kernel_calls = self._build_kernel_calls()
@@ -991,7 +991,7 @@ class Model:
                 raise ValueError(f"term {term.name!r} is not conservative: no energy")
             total += self._scale(index, term, load) * value
         if tiered:
-            PROCESS_TIER.charge(PROCESS_TIER.clock() - start)
+            PROCESS_TIER.charge(nominal_cost(self.terms, force=True, jacobian=False))
         return total
 
     def _compiled(self) -> bool:
@@ -1047,7 +1047,6 @@ class Model:
         if self._compiled():
             return self._evaluate_compiled(full, load, force, jacobian)
         tiered = self._tiered_numpy()
-        start = PROCESS_TIER.clock() if tiered else 0.0
         f: np.ndarray = np.zeros(0)
         j: np.ndarray = np.zeros(0)
         if force:
@@ -1061,7 +1060,7 @@ class Model:
             j = (np.bincount(self._jac_targets, weights=np.concatenate(blocks),
                              minlength=self.nnz + 1)[:-1] if blocks else np.zeros(self.nnz))
         if tiered:
-            PROCESS_TIER.charge(PROCESS_TIER.clock() - start)
+            PROCESS_TIER.charge(nominal_cost(self.terms, force=force, jacobian=jacobian))
         return f, j
 
     def _evaluate_compiled(self, full: np.ndarray, load: float, force: bool,

@@ -136,6 +136,11 @@ class Term(ABC):
     #: The frozen dataclass of this term's options (see above).
     Options: ClassVar[type[Options]]
 
+    #: How much dearer per entry of its element arrays this term's numpy reference is than
+    #: the typical term's (1): what the ``tiered`` path charges for its numpy evaluations
+    #: (:func:`rodsim.core.kernel_tier.nominal_cost`), measured, not timed at run time.
+    numpy_cost_factor: ClassVar[float] = 1.0
+
     #: Global coordinate indices of each element, shape (n_elem, k).
     dofs: np.ndarray
 

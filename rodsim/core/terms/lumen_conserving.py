@@ -58,6 +58,9 @@ class ConservingLumen(LumenCoupling):
     coupling = "conserving"
     conservative = True
     kernel = "lumen_segment"
+    #: Its numpy reference costs ~800 ns an entry of ∂F/∂x against ~40 ns for the others
+    #: (tendon-conserving, four-tendons; rodsim/core/kernel_tier.py).
+    numpy_cost_factor = 16.0
     _compiled_rule = "segment_switches"
     parameters = lumen_parameters(
         "N/m²", "lumen penalty constant per unit tendon length (coupling 'conserving')",
