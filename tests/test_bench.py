@@ -541,3 +541,17 @@ def test_floor_small_outputs(tmp_path):
         assert all(row["raw_s"][key] > 0 for key in ("force", "jacobian", "linear"))
         assert 0 < row["floor_s"] < row["solve_s"]
     assert "| four-tendons |" in (tmp_path / "floor-small.md").read_text()
+
+
+def test_modes_small_outputs(tmp_path):
+    """``rodsim bench modes --size small``: tdcr-two-segment's modes timed, its report
+    written with the aim and positive frequencies (no timing is asserted)."""
+    from rodsim_bench import modes
+
+    paths = modes.run("small", tmp_path, lambda *_: None)
+    assert {p.name for p in paths} == {"modes-small.json", "modes-small.md"}
+    report = json.loads((tmp_path / "modes-small.json").read_text())
+    (row,) = report["rows"]
+    assert row["scene"] == "tdcr-two-segment" and row["symmetric"]
+    assert row["modes_s"] > 0.0 and all(f > 0.0 for f in row["frequencies_hz"])
+    assert "| tdcr-two-segment |" in (tmp_path / "modes-small.md").read_text()
