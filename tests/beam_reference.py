@@ -41,7 +41,10 @@ def _system(omega: float, EI: float, rhoA: float, rhoI: float, shear: float,
 
 
 def _determinant(omega: float, length: float, tip_mass: float, **beam: float) -> float:
-    transfer = expm(_system(omega, **beam) * length)
+    return _tip_determinant(expm(_system(omega, **beam) * length), omega, tip_mass)
+
+
+def _tip_determinant(transfer: np.ndarray, omega: float, tip_mass: float) -> float:
     tip = transfer[:, 2:]  # the solutions starting from (0, 0, 1, 0) and (0, 0, 0, 1)
     conditions = np.array([tip[3], tip[2] - tip_mass * omega**2 * tip[0]])
     scale = np.abs(tip).max()
@@ -66,6 +69,33 @@ def clamped_free_frequencies(count: int, *, length: float, EI: float, rhoA: floa
                 lambda w: _determinant(w, length, tip_mass, EI=EI, rhoA=rhoA, rhoI=rhoI,
                                        shear=shear, tension=tension),
                 low, high, xtol=1e-300, rtol=1e-14, maxiter=200))
+            if len(found) == count:
+                break
+        previous = value
+    assert len(found) == count, "reference: roots not bracketed"
+    return np.array(found) / (2.0 * math.pi)
+
+
+def spans_frequencies(count: int, spans: list[dict[str, float]], *, first: float,
+                      tension: float = 0.0, tip_mass: float = 0.0) -> np.ndarray:
+    """The same for a piecewise-uniform beam: ``spans`` from the clamp to the tip, each
+    ``{"length", "EI", "rhoA", "rhoI", "shear"}``; y(L) is the product of the spans'
+    exact transfer matrices (w, ψ, V, M are continuous across a junction). ``first``: a
+    scale of the first angular frequency [rad/s] for the bracketing grid."""
+    def determinant(omega: float) -> float:
+        transfer = np.eye(4)
+        for span in spans:
+            beam = {key: span[key] for key in ("EI", "rhoA", "rhoI", "shear")}
+            transfer = expm(_system(omega, tension=tension, **beam) * span["length"]) @ transfer
+        return _tip_determinant(transfer, omega, tip_mass)
+
+    grid = np.linspace(1e-3 * first, first * (2.0 * count + 4.0) ** 2, 400 * count + 400)
+    found: list[float] = []
+    previous = determinant(grid[0])
+    for low, high in zip(grid[:-1], grid[1:], strict=True):
+        value = determinant(high)
+        if previous * value < 0.0:
+            found.append(brentq(determinant, low, high, xtol=1e-300, rtol=1e-14, maxiter=200))
             if len(found) == count:
                 break
         previous = value

@@ -156,8 +156,8 @@ def _modes_of(result: Result, model: Model, vibration: Vibration, rotary: bool,
         messages.append("unstable equilibrium: ω² ≤ 0 for a mode (no oscillation; a small "
                         "perturbation grows)")
     if not vibration.symmetric:
-        messages.append("K is not symmetric (a non-conservative tendon coupling): ω² may be "
-                        "complex; shapes are the real parts")
+        messages.append("K is not symmetric (a non-conservative term: the paper's tendon "
+                        "coupling, friction): ω² may be complex; shapes are the real parts")
     return Modes(result, True, "; ".join(messages) or "ok",
                  frequencies=frequencies, eigenvalues=vibration.eigenvalues,
                  shapes=shapes.real, rotations=rotations.real,
