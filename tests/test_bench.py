@@ -559,3 +559,17 @@ def test_iterations_small_outputs(tmp_path):
     assert first["success"] and first["newton_iters"] == again.stats["newton_iters"] > 0
     assert "table3-catheter3 static" in iterations.CASES
     assert f"| {first['case']} | yes | " in (tmp_path / "iterations-small.md").read_text()
+
+
+def test_modes_small_outputs(tmp_path):
+    """``rodsim bench modes --size small``: tdcr-two-segment's modes timed, its report
+    written with the aim and positive frequencies (no timing is asserted)."""
+    from rodsim_bench import modes
+
+    paths = modes.run("small", tmp_path, lambda *_: None)
+    assert {p.name for p in paths} == {"modes-small.json", "modes-small.md"}
+    report = json.loads((tmp_path / "modes-small.json").read_text())
+    (row,) = report["rows"]
+    assert row["scene"] == "tdcr-two-segment" and row["symmetric"]
+    assert row["modes_s"] > 0.0 and all(f > 0.0 for f in row["frequencies_hz"])
+    assert "| tdcr-two-segment |" in (tmp_path / "modes-small.md").read_text()

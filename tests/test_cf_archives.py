@@ -201,7 +201,7 @@ def test_schema_2_archives_without_the_attributes_are_refused(tmp_path, edit, me
 
 @pytest.fixture(scope="module")
 def archives(tmp_path_factory):
-    """A run, a track and a study archive as rodsim writes them."""
+    """A run, a track, a study, a fit, a reach and a modes archive as rodsim writes them."""
     folder = tmp_path_factory.mktemp("kinds")
     scene = rodsim.load_scene("table1-50g", ["nodes=8"])
     run = write_dataset(run_dataset(rodsim.solve(scene, "static")), folder / "run.nc")
@@ -216,10 +216,12 @@ def archives(tmp_path_factory):
     key = "tendons.tendon.tendon_actuation.force"
     target = rodsim.solve(tendon.with_overrides([f"{key}=1.5"]), "static").tip("catheter")
     reached = write_dataset(reach(tendon, target, [key]).to_xarray(), folder / "reach.nc")
-    return {"run": run, "track": track, "study": study, "fit": fitted, "reach": reached}
+    vibration = write_dataset(rodsim.modes(scene, count=3).to_xarray(), folder / "modes.nc")
+    return {"run": run, "track": track, "study": study, "fit": fitted, "reach": reached,
+            "modes": vibration}
 
 
-@pytest.mark.parametrize("kind", ["run", "track", "study"])
+@pytest.mark.parametrize("kind", ["run", "track", "study", "modes"])
 def test_an_archive_saved_back_by_xarray_is_re_run_and_plotted(archives, kind, tmp_path, cli,
                                                                capsys):
     """Issue 22: open an archive with xarray and save it with to_netcdf — xarray puts a
@@ -278,7 +280,7 @@ def _cf_checker():
                      cfRegionNamesXML=str(TABLES / "region-names.xml"), silent=True)
 
 
-@pytest.mark.parametrize("kind", ["run", "track", "study", "fit", "reach"])
+@pytest.mark.parametrize("kind", ["run", "track", "study", "fit", "reach", "modes"])
 def test_cfchecker_finds_no_error_and_no_warning(archives, kind, capsys):
     """cfchecker (CF-1.8) on each archive kind: 0 errors, 0 warnings. It crashed on the
     text coordinate variables of schema 2 and warned about dotted names."""

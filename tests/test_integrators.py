@@ -173,7 +173,8 @@ def test_paper_mass_scaling_puts_h2_omega2_where_asked():
     paper = paper_class(options, solver["tolerance"], solver["max_wall_time"], None)
     h = options.h
     assert paper.mass_scale(model) == pytest.approx((h * omega) ** 2 / 0.003, rel=1e-12)
-    np.testing.assert_allclose(paper.init(model).mass, model.masses() * paper.mass_scale(model),
+    np.testing.assert_allclose(paper.init(model).mass,
+                               model.pseudo_time_masses() * paper.mass_scale(model),
                                rtol=1e-14)
     physical = rodsim.load_scene("table1-50g")
     plain = paper_class(paper_class.options_of(physical), solver["tolerance"],

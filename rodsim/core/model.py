@@ -943,12 +943,15 @@ class Model:
         """Control points of one rod, shape (N, 3) [m]."""
         return self.full(x)[self.rods[rod].layout.position_index]
 
-    def masses(self) -> np.ndarray:
-        """Diagonal mass matrix M of the free coordinates (Eq. 17) [kg or kg·m²]."""
+    def pseudo_time_masses(self) -> np.ndarray:
+        """Diagonal mass matrix M of the free coordinates for the pseudo-dynamics (Eq. 17)
+        [kg or kg·m²]: the integrators' way to equilibrium, not the physical inertia
+        (that is :mod:`rodsim.core.inertia`)."""
         full = np.zeros(self.full_size)
         for rod in self.rods.values():
             full[rod.layout.position_index] = rod.node_masses()[:, None]
-            full[rod.layout.quaternion_index] = rod.quaternion_masses()[:, None]
+            full[rod.layout.quaternion_index] = (
+                rod.pseudo_time_quaternion_masses()[:, None])
         return full[self.free]
 
     def latent_stiffness(self) -> np.ndarray:

@@ -169,8 +169,9 @@ def _labels(ds: xr.Dataset, dim: str, labels: list[str]) -> None:
 
 
 #: Archive kinds (attribute ``kind``; a run archive without it is a ``run``): a fit or a
-#: reach archive is a run archive of the fitted or reached scene with extra variables.
-KINDS = ("run", "track", "fit", "reach")
+#: reach archive is a run archive of the fitted or reached scene with extra variables, a
+#: modes archive one of the equilibrium with a ``mode`` dimension.
+KINDS = ("run", "track", "fit", "reach", "modes")
 
 
 def check_archive(ds: xr.Dataset) -> None:
@@ -194,6 +195,8 @@ def check_archive(ds: xr.Dataset) -> None:
             _check_fit(ds)
         elif kind == "reach":
             _check_reach(ds)
+        elif kind == "modes":
+            _check_modes(ds)
 
 
 def _check_sizes(ds: xr.Dataset) -> None:
@@ -268,6 +271,20 @@ def _check_reach(ds: xr.Dataset) -> None:
         for suffix in ("", "initial"):
             _key_scalar(ds, name, suffix)
     _number_attribute(ds, "distance")
+
+
+def _check_modes(ds: xr.Dataset) -> None:
+    """A modes archive: at least one mode, its frequency, ω² (real and imaginary parts) and
+    rotational share along ``mode``, the shapes laid out as the positions and quaternions."""
+    if ds.sizes.get("mode", 0) < 1:
+        raise ArchiveSchemaError("a modes archive without a mode")
+    for name in ("mode", "frequency", "eigenvalue_real", "eigenvalue_imag",
+                 "rotational_share"):
+        _variable(ds, name, ("mode",))
+    _variable(ds, "mode_position", ("mode", "node", "axis"))
+    _variable(ds, "mode_quaternion", ("mode", "segment", "component"))
+    if not np.all(np.isfinite(ds["mode_position"].values)):
+        raise ArchiveSchemaError("variable 'mode_position' is not finite")
 
 
 def _check_provenance(ds: xr.Dataset) -> None:

@@ -116,7 +116,7 @@ class PaperEuler(Integrator[PaperState]):
     State = PaperState
 
     def state_fields(self, model: Model, warm: bool) -> dict[str, Any]:
-        return {"mass": model.masses() * self.mass_scale(model)}
+        return {"mass": model.pseudo_time_masses() * self.mass_scale(model)}
 
     def prepare(self, run: PaperState) -> None:
         self._refresh_pattern(run)

@@ -148,7 +148,7 @@ def pseudo_masses(model: Model, cap: float) -> np.ndarray:
     tests' inclined plane at N = 40 6 490 → 1 887, and a frictional drag that failed now
     converges.
     """
-    masses = model.masses()
+    masses = model.pseudo_time_masses()
     if cap <= 0.0:
         return masses
     stiffness = model.rest_stiffness + model.latent_stiffness()

@@ -20,6 +20,7 @@ from rodsim.app.cli.bench import cmd_bench
 from rodsim.app.cli.common import EXIT_BAD_INPUT
 from rodsim.app.cli.fit import Fit, cmd_fit
 from rodsim.app.cli.listing import cmd_scenes, cmd_terms
+from rodsim.app.cli.modes import Modes, cmd_modes
 from rodsim.app.cli.plot import cmd_plot
 from rodsim.app.cli.reach import Reach, cmd_reach
 from rodsim.app.cli.rerun import cmd_rerun
@@ -206,9 +207,16 @@ def build_parser() -> argparse.ArgumentParser:
     _add_warm_integrator(aim)
     _finish_scene_command(aim, "reach", cmd_reach)
 
+    vibrate = _scene_command(sub, "modes", Modes, "scene file or shipped scene name",
+                             help="natural frequencies and mode shapes about the equilibrium")
+    vibrate.add_argument("--count", type=positive_int, default=6, metavar="K",
+                         help="number of modes, lowest first (default 6)")
+    _finish_scene_command(vibrate, "modes", cmd_modes)
+
     plot = sub.add_parser("plot", help="draw an archive's figure (PNG and PDF)",
                           description="Draw the figure of an archive written by `rodsim "
-                          "run`, `study`, `track`, `fit` or `reach`, from the archive alone "
+                          "run`, `study`, `track`, `fit`, `reach` or `modes`, from the archive "
+                          "alone "
                           "(no solve): STEM.png and STEM.pdf, by default beside the archive "
                           "under its name.")
     plot.add_argument("archive", help="archive written by `rodsim run` or `rodsim study`")
@@ -225,7 +233,7 @@ def build_parser() -> argparse.ArgumentParser:
     bench = sub.add_parser("bench", help="run a benchmark (work-precision, scaling, large-n, "
                            "stress, skip-work, kernels, paper-regime, pyelastica, "
                            "string-tendon, contact, force-from-shape, floor, iterations, "
-                           "startup, tracking, workers)",
+                           "startup, tracking, workers, modes)",
                            description="Time the integrators against their error, their cost "
                            "in N, or their stability over a parameter map; writes netCDF, "
                            "figures and a markdown table with the machine description. The "
@@ -236,7 +244,7 @@ def build_parser() -> argparse.ArgumentParser:
     bench.add_argument("benchmark", metavar="BENCHMARK",
                        help="work-precision, scaling, large-n, stress, skip-work, kernels, "
                        "paper-regime, string-tendon, contact, force-from-shape, floor, "
-                       "iterations, startup, tracking, workers or "
+                       "iterations, startup, tracking, workers, modes or "
                        "pyelastica (the last needs 'pip install pyelastica==1.0.0'; never a "
                        "dependency)")
     bench.add_argument("--size", choices=("small", "full"), default="small",

@@ -1,8 +1,8 @@
 """Figures from archives: every plot is drawn from a Dataset alone (run or study).
 
 ``plot_dataset(ds, stem)`` picks the figure from the archive's ``plot`` attribute (studies),
-its ``kind`` (``track``, ``fit``, ``reach``: docs/inverse.md), or draws the centerlines of a
-single run, and writes ``stem.png`` and ``stem.pdf``.
+its ``kind`` (``track``, ``fit``, ``reach``: docs/inverse.md; ``modes``: docs/dynamics.md), or
+draws the centerlines of a single run, and writes ``stem.png`` and ``stem.pdf``.
 Kinds:
 
 - ``centerlines``: the first rod's centerline at every point (Figs. 6, 9, 14–18, 22), with
@@ -37,6 +37,7 @@ from rodsim.app.figures.inverse import (
     run_figure,
     track_figure,
 )
+from rodsim.app.figures.modes import modes_figure
 from rodsim.app.figures.study_centerlines import centerlines_figure, centerlines_result
 from rodsim.app.figures.study_errors import (
     error_vs_iteration_figure,
@@ -58,7 +59,8 @@ DRAWERS = {"centerlines": centerlines_figure, "error_vs_parameter": error_vs_par
 RESULTS = {"centerlines": centerlines_result, "error_vs_parameter": error_vs_parameter_result,
            "error_vs_iteration": error_vs_iteration_result}
 #: Figures of the inverse tools' archives, by their ``kind`` attribute.
-KIND_DRAWERS = {"track": track_figure, "fit": fit_figure, "reach": reach_figure}
+KIND_DRAWERS = {"track": track_figure, "fit": fit_figure, "reach": reach_figure,
+                "modes": modes_figure}
 
 
 def plot_dataset(ds: xr.Dataset, stem: str | Path, formats: Iterable[str] = ("png", "pdf")

@@ -247,12 +247,13 @@ class Rod:
                                               self.geometry)
         return self.density * self.area * self.geometry.node_mass_fraction
 
-    def quaternion_masses(self) -> np.ndarray:
+    def pseudo_time_quaternion_masses(self) -> np.ndarray:
         """Generalised mass of each quaternion coordinate [kg·m²].
 
         The kinetic energy of a segment's rotation is ½ ω·(ρ I l) ω with ω = 2 Q(q)ᵀ q̇ for
         a unit quaternion, i.e. ½ (4 ρ I l) |q̇|² (isotropic approximation with the
-        transverse moment I, Eqs. 12–13). Only pseudo-dynamics use it.
+        transverse moment I, Eqs. 12–13). Only the pseudo-dynamics use it; the physical
+        rotary inertia (ρ I and ρ J, rank 3) is :mod:`rodsim.core.inertia`.
         """
         if self.profile is not None:
             left = np.arange(self.nodes - 1) * self.geometry.segment_length

@@ -233,6 +233,13 @@ class Term(ABC):
         (:func:`rodsim.solvers.pseudo_dynamics.pseudo_masses`)."""
         return None
 
+    def point_masses(self) -> tuple[np.ndarray, np.ndarray] | None:
+        """(global position indices (k, 3), masses (k,) [kg]) of the point masses this term
+        attaches to control points — a hanging mass's inertia (rodsim/core/terms/tip_load.py)
+        — or ``None`` (every other term). The physical mass model adds them
+        (:mod:`rodsim.core.inertia`); statics and the pseudo-dynamics do not read them."""
+        return None
+
     def anchor_positions(self) -> np.ndarray | None:
         """A path-dependent term's anchors — the state of the last converged equilibrium its
         force depends on (a frictional contact's node positions,

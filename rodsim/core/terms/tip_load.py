@@ -55,6 +55,13 @@ class TipLoad(RodTerm):
             [0.0, -options.mass * options.gravity, 0.0]
         )
 
+    def point_masses(self) -> tuple[np.ndarray, np.ndarray] | None:
+        """The hanging mass's inertia at the tip (natural frequencies, docs/dynamics.md);
+        ``None`` without a mass (a ``force`` alone is massless)."""
+        if self.options.mass <= 0.0:
+            return None
+        return self.dofs.copy(), np.array([float(self.options.mass)])
+
     def kernel_arguments(self) -> KernelArguments:
         return {"forces": self.force[None, :].copy()}
 

@@ -1,0 +1,66 @@
+"""The archive of ``rodsim modes`` (docs/archive.md, "Modes archives"): the run archive of
+the equilibrium (:func:`rodsim.io.run_dataset.run_dataset`) with a ``mode`` dimension.
+
+Variables along ``mode`` (lowest frequency first): ``frequency`` [Hz], ``eigenvalue_real``
+and ``eigenvalue_imag`` (ω² [rad²/s²]; netCDF has no complex numbers), ``mode_position``
+(mode, node, axis) and ``mode_quaternion`` (mode, segment, component): the mode shapes laid
+out as ``position`` and ``quaternion``, scaled to a modal mass of the scene's whole mass
+times 1 m² (:attr:`rodsim.app.modes.Modes.shapes`), and
+``rotational_share``. Attributes: ``kind`` = ``modes``, ``rotary_inertia``,
+``modes_message``.
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from rodsim.io.provenance import history
+from rodsim.io.run_dataset import run_dataset
+from rodsim.solvers.result import Result
+
+if TYPE_CHECKING:
+    import xarray as xr
+
+__all__ = ["modes_dataset"]
+
+
+def modes_dataset(result: Result, *, frequencies: np.ndarray, eigenvalues: np.ndarray,
+                  shapes: np.ndarray, rotations: np.ndarray, rotational_share: np.ndarray,
+                  rotary_inertia: bool, message: str) -> xr.Dataset:
+    """The modes archive of the equilibrium ``result`` (module docstring)."""
+    ds = run_dataset(result)
+    count = len(frequencies)
+    eigenvalues = np.asarray(eigenvalues, dtype=complex)
+    ds = ds.assign_coords(mode=("mode", np.arange(count, dtype=np.int64),
+                                {"units": "1", "long_name": "mode number, lowest frequency "
+                                 "first"}))
+    ds["frequency"] = ("mode", np.asarray(frequencies, dtype=float),
+                       {"units": "Hz", "long_name": "natural frequency Re(omega)/(2 pi) "
+                        "(NaN: omega^2 <= 0, no oscillation)"})
+    ds["eigenvalue_real"] = ("mode", eigenvalues.real.copy(),
+                             {"units": "rad2 s-2", "long_name": "real part of omega^2"})
+    ds["eigenvalue_imag"] = ("mode", eigenvalues.imag.copy(),
+                             {"units": "rad2 s-2", "long_name": "imaginary part of omega^2 "
+                              "(nonzero only for a non-conservative coupling)"})
+    ds["mode_position"] = (("mode", "node", "axis"), np.asarray(shapes, dtype=float),
+                           {"units": "m", "long_name": "control point displacement of the "
+                            "mode (modal mass: the whole mass times 1 m2)"})
+    ds["mode_quaternion"] = (("mode", "segment", "component"),
+                             np.asarray(rotations, dtype=float),
+                             {"units": "1", "long_name": "quaternion change of the mode "
+                              "(modal mass: the whole mass times 1 m2)"})
+    ds["rotational_share"] = ("mode", np.asarray(rotational_share, dtype=float),
+                              {"units": "1", "long_name": "fraction of the modal kinetic "
+                               "energy in the segments' rotation"})
+    name = result.scene.name
+    ds.attrs.update({
+        "title": f"rodsim modes of scene {name!r} about its equilibrium",
+        "kind": "modes",
+        "history": history(f"rodsim.modes(scene {name!r}, count={count})",
+                           ds.attrs["date_created"]),
+        "rotary_inertia": int(rotary_inertia),
+        "modes_message": message,
+    })
+    return ds
