@@ -83,8 +83,8 @@ SOLVER_PARAMETERS: tuple[Parameter, ...] = (
               "force and Jacobian evaluation: 'compiled' (numba kernels, cached on disk), "
               "'numpy' (the readable reference; same numbers to round-off), 'tiered' (numpy "
               "until its evaluations have cost, nominally and never by the clock, what loading "
-              "the compiled kernels would, about 0.25 s of CPU, then compiled) or 'auto': tiered for `rodsim run` (one "
-              "solve in a fresh process), compiled everywhere else",
+              "the compiled kernels would, about 0.25 s of CPU, then compiled) or 'auto': "
+              "tiered for `rodsim run` (one solve in a fresh process), compiled everywhere else",
               choices=("auto", "compiled", "numpy", "tiered")),
 )
 
