@@ -180,3 +180,18 @@ def test_paper_mass_scaling_puts_h2_omega2_where_asked():
     plain = paper_class(paper_class.options_of(physical), solver["tolerance"],
                         solver["max_wall_time"], None)
     assert plain.mass_scale(rodsim.build_model(physical)) == 1.0
+
+
+@pytest.mark.parametrize("integrator", ["scipy", "static", "cvode", "ida", "paper"])
+def test_every_integrator_returns_the_rest_state_of_an_unloaded_rod(integrator):
+    """No load: the rest state is the equilibrium, and every integrator returns it (scipy's
+    equilibrium event used to raise brentq's 'f(a) and f(b) must have different signs': its
+    residual inside a step was not the one at the step's ends while the load ramped)."""
+    result = rodsim.solve("table1-50g", integrator, overrides=["tip_load.mass=0"])
+    assert result.success, result.message
+    rest = rodsim.load_scene("table1-50g")
+    length = rod_length(rest)
+    positions = result.positions()
+    straight = np.linspace(0.0, length, len(positions))
+    assert np.abs(positions[:, 0] - straight).max() < 1e-9 * length
+    assert np.abs(positions[:, 1:]).max() < 1e-9 * length
