@@ -116,17 +116,17 @@ class ScipyIvp(Integrator[RunState]):
                 run.counts["steps"] += 1
                 if run.reregister(x):
                     run.counts["reinits"] += 1
-                residual = run.residual(x)
+                residual = run.residual_at(x)
                 if ramp(t) < 1.0:  # equilibrium under the full load only
                     residual = max(residual, 2.0 * run.tolerance)
                 last.update(t=t, x=x.copy(), residual=residual)
                 run.checkpoint(last["x"], functools.partial("t = {:.4g} s".format, t))
-                run.history.record(t, x, residual)
+                run.record(t, x, residual)
                 if self.reporting:
                     self.report(None, f"{self.name} {method}: t = {t:.3g} s, residual "
                                       f"{residual:.3g}")
                 return float(residual - run.tolerance)
-            return run.residual(x) - run.tolerance  # dense output inside the last step
+            return run.residual_at(x) - run.tolerance  # dense output inside the last step
 
         at_rest.terminal = True  # type: ignore[attr-defined]
         at_rest.direction = -1  # type: ignore[attr-defined]
