@@ -7,13 +7,20 @@ is a value, a :class:`~rodsim.solvers.run_state.RunState` (or a subclass the int
 names as its ``State``) made by :meth:`Integrator.init` and passed to :meth:`Integrator.run`,
 which returns it with the Result: a returned state can start another run (a warm start,
 :meth:`Integrator.restart`). A subclass implements :meth:`Integrator.advance`, which drives
-its method from the state's start toward equilibrium and returns an :class:`Outcome`. The
-base class and the state own everything the integrators share: counting and checking
-force/Jacobian evaluations (:meth:`RunState.force`), the equilibrium test, the wall-time
-budget, progress reporting, catching non-finite states, and turning the outcome into a
+its method from the state's start until the run's stop and returns an :class:`Outcome`.
+The run's contract is two values on its state: when it stops
+(:class:`~rodsim.solvers.stops.Stop`: at equilibrium by default, or at a time) and what it
+records (:class:`~rodsim.solvers.recorder.SaveAt`). The base class and the state own
+everything the integrators share: counting and checking force/Jacobian evaluations
+(:meth:`RunState.force`), the wall-time budget, progress reporting, catching non-finite
+states, and turning where the run ended, as its stop judges it
+(:meth:`~rodsim.solvers.stops.Stop.verdict`: the equilibrium test and the result check for
+:class:`~rodsim.solvers.stops.Equilibrium`), into a
 :class:`~rodsim.solvers.result.Result`. A failure is never raised past :meth:`Integrator.run`:
 it comes back as ``Result.success = False`` with a message saying which integrator, where,
-the residual reached, and what to try.
+the residual reached, and what to try. A bad argument (a start that is not a state of the
+model, a stop the integrator cannot honour) is refused by :meth:`Integrator.init` in one
+line (ValueError).
 """
 
 from __future__ import annotations
