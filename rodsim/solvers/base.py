@@ -30,7 +30,6 @@ import itertools
 import time
 from abc import ABC, abstractmethod
 from collections.abc import Callable
-from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any, ClassVar, Generic, TypeVar
 
 import numpy as np
@@ -40,10 +39,11 @@ from rodsim.core.schema import Parameter, register_with_options, validate_table
 from rodsim.solvers.failure import SolverFailure
 from rodsim.solvers.linear import LinearSolver
 from rodsim.solvers.newton import NewtonProblem, newton
+from rodsim.solvers.outcome import Outcome
 from rodsim.solvers.recorder import SaveAt
 from rodsim.solvers.result import Result
 from rodsim.solvers.run_state import MAX_SETTLES, History, RunState, linear_solver_of
-from rodsim.solvers.stops import Ended, Equilibrium, Stop
+from rodsim.solvers.stops import Equilibrium, Stop
 from rodsim.solvers.tolerance import (
     CORRECTION_TOLERANCE,
     MAX_RESIDUAL_FLOOR,
@@ -65,18 +65,6 @@ Progress = Callable[[float | None, str], None]
 
 #: The state type of an integrator (:class:`RunState` or a subclass of it).
 S = TypeVar("S", bound=RunState)
-
-
-@dataclass
-class Outcome:
-    """What :meth:`Integrator.advance` returns: the final state (free coordinates), whether
-    it is an equilibrium by the method's own test, and a short message. Where the method
-    stopped, its counters and its history live on the run's state (:class:`RunState`), so
-    they survive a :class:`SolverFailure` raised mid-run."""
-
-    x: np.ndarray
-    success: bool
-    message: str
 
 
 #: Free coordinates above which the integrators' Newton solves take their large-model paths
@@ -495,7 +483,7 @@ class Integrator(ABC, Generic[S]):
             trajectory=run.recorder.trajectory(run.model, self.history_time))
         return result, run
 
-    def ended(self, run: S) -> Ended:
+    def ended(self, run: S) -> Outcome:
         """:meth:`advance` on ``run`` from a fresh clock, its failures caught: where it
         ended. A :class:`SolverFailure` ends at the last checkpoint with the failure's
         advice; so does a division by zero in the model (a state outside its domain: a
@@ -507,8 +495,8 @@ class Integrator(ABC, Generic[S]):
             with np.errstate(all="ignore"):
                 outcome = self.advance(run)
         except SolverFailure as exc:
-            return Ended(run.x, False, str(exc), exc.advice)
+            return Outcome(run.x, False, str(exc), exc.advice)
         except ZeroDivisionError:
-            return Ended(run.x, False, "the model could not be evaluated at a state "
-                         "(division by zero: a quaternion of zero length)")
-        return Ended(outcome.x, outcome.success, outcome.message)
+            return Outcome(run.x, False, "the model could not be evaluated at a state "
+                           "(division by zero: a quaternion of zero length)")
+        return outcome

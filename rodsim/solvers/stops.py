@@ -28,10 +28,11 @@ from typing import Any, ClassVar, Protocol
 
 import numpy as np
 
+from rodsim.solvers.outcome import Outcome
 from rodsim.solvers.recorder import SaveAt, increasing_times
 from rodsim.solvers.tolerance import CORRECTION_TOLERANCE
 
-__all__ = ["Stop", "Equilibrium", "Until", "Verdict", "Ended"]
+__all__ = ["Stop", "Equilibrium", "Until", "Verdict"]
 
 
 class Run(Protocol):
@@ -61,18 +62,6 @@ class Judged(Protocol):
 
 
 @dataclass(frozen=True)
-class Ended:
-    """Where ``advance`` ended (its :class:`~rodsim.solvers.base.Outcome`): the state
-    ``x``, whether it met its own test, its message, and a :class:`SolverFailure`'s advice
-    if it raised one."""
-
-    x: np.ndarray
-    success: bool
-    message: str
-    advice: str | None = None
-
-
-@dataclass(frozen=True)
 class Verdict:
     """How a run ended: ``success``, the result's ``message``, the ``residual`` it reports
     (the force residual at the state), and whether the state was finite."""
@@ -95,7 +84,7 @@ class Stop(ABC):
         return SaveAt()
 
     @abstractmethod
-    def verdict(self, integrator: Judged, run: Run, outcome: Ended) -> Verdict:
+    def verdict(self, integrator: Judged, run: Run, outcome: Outcome) -> Verdict:
         """Judge the state ``outcome.x`` where ``integrator``'s ``advance`` ended on
         ``run``."""
 
@@ -115,7 +104,7 @@ class Equilibrium(Stop):
 
     at_rest: ClassVar[bool] = True
 
-    def verdict(self, integrator: Judged, run: Run, outcome: Ended) -> Verdict:
+    def verdict(self, integrator: Judged, run: Run, outcome: Outcome) -> Verdict:
         x, advice = outcome.x, outcome.advice
         finite = bool(np.all(np.isfinite(x)))
         residual = integrator.residual_at(run, x) if finite else float("nan")
@@ -172,7 +161,7 @@ class Until(Stop):
     def save(self) -> SaveAt:
         return SaveAt(times=self.times)
 
-    def verdict(self, integrator: Judged, run: Run, outcome: Ended) -> Verdict:
+    def verdict(self, integrator: Judged, run: Run, outcome: Outcome) -> Verdict:
         x, advice = outcome.x, outcome.advice
         finite = bool(np.all(np.isfinite(x)))
         residual = integrator.residual_at(run, x) if finite else float("nan")
