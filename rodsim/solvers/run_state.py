@@ -5,7 +5,11 @@ requested tolerance, the wall-time budget, the progress callback). Everything a 
 lives in a :class:`RunState`, made by :meth:`Integrator.init` and passed to and returned by
 :meth:`Integrator.run` (as diffrax's ``init`` / ``step(…, state)``): the model in use (its
 tendon registration and penalty scales), the effective tolerance, the counters, the last
-accepted state and where it was reached, the history, the run's clock. The state's own
+accepted state and where it was reached (:meth:`RunState.checkpoint`), the run's contract —
+when it stops (:class:`~rodsim.solvers.stops.Stop`) and the recorder of what it records
+(:class:`~rodsim.solvers.recorder.Recorder`, behind :meth:`RunState.record`) — and the run's
+clock. A run starts from a state of its model's free coordinates, refused in one line
+otherwise (:func:`checked_state`). The state's own
 :meth:`RunState.force` and :meth:`RunState.jacobian_data` are the only way a run evaluates
 the model: each evaluation is counted and checked for non-finite values there (as scipy's
 ``OdeSolver`` counts through its base's ``fun``). An integrator needing more state (the
