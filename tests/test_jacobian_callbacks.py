@@ -232,7 +232,7 @@ def test_ida_jacfn_is_called_and_right(solver, formulation, monkeypatch, load, r
 
     def residual(state, rate):
         out = np.empty(system.size)
-        system.residual(state, rate, model.force(system.positions_of(state), load_factor), out)
+        system.dae_residual(state, rate, model.force(system.positions_of(state), load_factor), out)
         return out
 
     jac_fd = (fd_columns(lambda s: residual(s, yp), y, y_steps)

@@ -31,7 +31,7 @@ def lying(integrator: str, monkeypatch: pytest.MonkeyPatch, offset: float) -> No
         return Outcome(x, True, "converged")
 
     monkeypatch.setattr(cls, "advance", advance)
-    monkeypatch.setattr(cls, "residual", lambda self, run, x: 0.0)
+    monkeypatch.setattr(cls, "residual_at", lambda self, run, x: 0.0)
 
 
 @pytest.mark.parametrize("integrator", ["static", "paper", "cvode", "ida"])
@@ -90,7 +90,7 @@ def test_the_check_is_on_the_full_penalty_model(integrator, monkeypatch):
 
     monkeypatch.setattr(cls, "advance", advance)
     if integrator == "ida":  # its own test reads the IDA state, which this run has none of
-        monkeypatch.setattr(cls, "residual",
+        monkeypatch.setattr(cls, "residual_at",
                             lambda self, run, x: run.model.residual(run.model.force(x)))
     result = rodsim.solve(scene[0], integrator, overrides=scene[1])
     assert not result.success

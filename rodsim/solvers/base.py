@@ -7,13 +7,20 @@ is a value, a :class:`~rodsim.solvers.run_state.RunState` (or a subclass the int
 names as its ``State``) made by :meth:`Integrator.init` and passed to :meth:`Integrator.run`,
 which returns it with the Result: a returned state can start another run (a warm start,
 :meth:`Integrator.restart`). A subclass implements :meth:`Integrator.advance`, which drives
-its method from the state's start toward equilibrium and returns an :class:`Outcome`. The
-base class and the state own everything the integrators share: counting and checking
-force/Jacobian evaluations (:meth:`RunState.force`), the equilibrium test, the wall-time
-budget, progress reporting, catching non-finite states, and turning the outcome into a
+its method from the state's start until the run's stop and returns an :class:`Outcome`.
+The run's contract is two values on its state: when it stops
+(:class:`~rodsim.solvers.stops.Stop`: at equilibrium by default, or at a time) and what it
+records (:class:`~rodsim.solvers.recorder.SaveAt`). The base class and the state own
+everything the integrators share: counting and checking force/Jacobian evaluations
+(:meth:`RunState.force`), the wall-time budget, progress reporting, catching non-finite
+states, and turning where the run ended, as its stop judges it
+(:meth:`~rodsim.solvers.stops.Stop.verdict`: the equilibrium test and the result check for
+:class:`~rodsim.solvers.stops.Equilibrium`), into a
 :class:`~rodsim.solvers.result.Result`. A failure is never raised past :meth:`Integrator.run`:
 it comes back as ``Result.success = False`` with a message saying which integrator, where,
-the residual reached, and what to try.
+the residual reached, and what to try. A bad argument (a start that is not a state of the
+model, a stop the integrator cannot honour) is refused by :meth:`Integrator.init` in one
+line (ValueError).
 """
 
 from __future__ import annotations
@@ -23,7 +30,6 @@ import itertools
 import time
 from abc import ABC, abstractmethod
 from collections.abc import Callable
-from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any, ClassVar, Generic, TypeVar
 
 import numpy as np
@@ -33,8 +39,11 @@ from rodsim.core.schema import Parameter, register_with_options, validate_table
 from rodsim.solvers.failure import SolverFailure
 from rodsim.solvers.linear import LinearSolver
 from rodsim.solvers.newton import NewtonProblem, newton
+from rodsim.solvers.outcome import Outcome
+from rodsim.solvers.recorder import SaveAt
 from rodsim.solvers.result import Result
 from rodsim.solvers.run_state import MAX_SETTLES, History, RunState, linear_solver_of
+from rodsim.solvers.stops import Equilibrium, Stop
 from rodsim.solvers.tolerance import (
     CORRECTION_TOLERANCE,
     MAX_RESIDUAL_FLOOR,
@@ -46,7 +55,7 @@ if TYPE_CHECKING:
 
 __all__ = ["Integrator", "Outcome", "Progress", "RunState", "History", "SolverFailure",
            "INTEGRATORS", "MAX_RESIDUAL_FLOOR", "MAX_SETTLES",
-           "CORRECTION_TOLERANCE", "LARGE_MODEL_SIZE"]
+           "CORRECTION_TOLERANCE", "LARGE_MODEL_SIZE", "Equilibrium", "SaveAt", "Stop"]
 
 #: Every defined integrator class, by name. Filled by ``Integrator.__init_subclass__``.
 INTEGRATORS: dict[str, type[Integrator[Any]]] = {}
@@ -56,18 +65,6 @@ Progress = Callable[[float | None, str], None]
 
 #: The state type of an integrator (:class:`RunState` or a subclass of it).
 S = TypeVar("S", bound=RunState)
-
-
-@dataclass
-class Outcome:
-    """What :meth:`Integrator.advance` returns: the final state (free coordinates), whether
-    it is an equilibrium by the method's own test, and a short message. Where the method
-    stopped, its counters and its history live on the run's state (:class:`RunState`), so
-    they survive a :class:`SolverFailure` raised mid-run."""
-
-    x: np.ndarray
-    success: bool
-    message: str
 
 
 #: Free coordinates above which the integrators' Newton solves take their large-model paths
@@ -219,6 +216,13 @@ class Integrator(ABC, Generic[S]):
     history_time: ClassVar[tuple[str, str]] = ("s", "pseudo-time after each step")
     #: The class of this integrator's run state.
     State: ClassVar[type[RunState]] = RunState
+    #: The stops a run of this integrator honours (:mod:`rodsim.solvers.stops`; it reads
+    #: ``run.stop`` in :meth:`advance`).
+    stops: ClassVar[tuple[type[Stop], ...]] = (Equilibrium,)
+    #: Whether :meth:`advance` reports each step's dense output to the recorder
+    #: (:meth:`Recorder.dense`), so that a run can record at requested times
+    #: (``SaveAt.times``) without forcing steps.
+    dense_output: ClassVar[bool] = False
     #: Whether a continuation step benefits from a predicted start (the secant predictor of
     #: rodsim/app/inverse/track.py): a Newton solve does; a pseudo-dynamics run from a
     #: predicted state was not measured, and starts from the last equilibrium.
@@ -260,13 +264,30 @@ class Integrator(ABC, Generic[S]):
 
     # ------------------------------------------------------------ the state
     def init(self, model: Model, initial_state: np.ndarray | None = None,
-             budget_start: float | None = None) -> S:
+             budget_start: float | None = None, *, stop: Stop | None = None,
+             save: SaveAt | None = None) -> S:
         """A new run's state on ``model``, from its rest state or ``initial_state`` (a warm
-        start); ``budget_start``: ``time.perf_counter()`` at which the wall-time budget
-        started (default: now; :func:`rodsim.app.api.solve` passes the time before the
-        model was assembled, so the budget covers the assembly too)."""
-        state = self.State.new(model, self.tolerance, initial_state, budget_start,
-                               **self.state_fields(model, initial_state is not None))
+        start: free coordinates of ``model``, ValueError on anything else,
+        :func:`~rodsim.solvers.run_state.checked_state`); ``budget_start``:
+        ``time.perf_counter()`` at which the wall-time budget started (default: now;
+        :func:`rodsim.app.api.solve` passes the time before the model was assembled, so the
+        budget covers the assembly too). ``stop``: when the run stops (default: at
+        equilibrium, :class:`~rodsim.solvers.stops.Equilibrium`; one of :attr:`stops`);
+        ``save``: what it records (default: what the stop asks for,
+        :class:`~rodsim.solvers.recorder.SaveAt`). ValueError, one line, on a stop or
+        output times this integrator cannot honour."""
+        stop = Equilibrium() if stop is None else stop
+        if not isinstance(stop, self.stops):
+            raise ValueError(f"the {self.name} integrator cannot stop by "
+                             f"{type(stop).__name__}; it stops by "
+                             + ", ".join(kind.__name__ for kind in self.stops))
+        save = stop.save() if save is None else save
+        if save.times and not (self.dense_output and not stop.at_rest):
+            raise ValueError(f"output times (SaveAt.times) need an integrator with dense "
+                             f"output and a stop at a time (Until); {self.name} stopping by "
+                             f"{type(stop).__name__} records steps only")
+        state = self.State.new(model, self.tolerance, initial_state, budget_start, stop,
+                               save, **self.state_fields(model, initial_state is not None))
         self.prepare(state)  # type: ignore[arg-type]
         return state  # type: ignore[return-value]
 
@@ -361,10 +382,11 @@ class Integrator(ABC, Generic[S]):
                          check=self.iteration_check(run, where))
         return outcome.converged, outcome.x, outcome.iterations
 
-    def residual(self, run: S, x: np.ndarray) -> float:
-        """Scaled equilibrium residual of ``x`` by this integrator's own test (uncounted):
-        F(x) on ``run.model`` here."""
-        return run.residual(x)
+    def residual_at(self, run: S, x: np.ndarray) -> float:
+        """The scaled force residual at the state ``x`` by this integrator's own
+        equilibrium (uncounted): of F(x) on ``run.model`` here (:meth:`RunState.residual_at`;
+        IDA: of its constrained force)."""
+        return run.residual_at(x)
 
     def verification_force(self, run: S, model: Model, x: np.ndarray) -> np.ndarray:
         """The force whose vanishing is this integrator's equilibrium, evaluated afresh on
@@ -438,61 +460,43 @@ class Integrator(ABC, Generic[S]):
         return self.run(self.init(model, initial_state, budget_start))[0]
 
     def run(self, run: S, verdict: bool = True) -> tuple[Result, S]:
-        """Run the integrator from the state ``run`` to equilibrium: the Result (never raises
-        on failure) and the state reached (its model carries the registration reached).
-        ``verdict``: give a successful result its stability verdict (a caller assessing the
-        equilibrium itself says False)."""
+        """Run the integrator from the state ``run`` until ``run.stop`` (default: to
+        equilibrium): the Result (never raises on failure) and the state reached (its model
+        carries the registration reached). The stop judges where :meth:`advance` ended
+        (:meth:`Stop.verdict <rodsim.solvers.stops.Stop.verdict>`). ``verdict``: give a
+        successful equilibrium its stability verdict (a caller assessing the equilibrium
+        itself says False)."""
+        ended = self.ended(run)
+        wall = run.elapsed()
+        judged = run.stop.verdict(self, run, ended)
+        x = ended.x
+        if judged.success:
+            run.x = x
+        stats = {**run.counts, "wall_time": wall, "effective_tolerance": run.tolerance}
+        result = Result.from_model(
+            run.model, x if judged.finite else run.x, integrator=self.name,
+            options=dataclasses.asdict(self.options), success=judged.success,
+            message=judged.message, residual=judged.residual,
+            stats=stats, history=run.history.data, history_time=self.history_time,
+            stability=(run.stability(x) if judged.success and verdict and run.stop.at_rest
+                       else None),
+            trajectory=run.recorder.trajectory(run.model, self.history_time))
+        return result, run
+
+    def ended(self, run: S) -> Outcome:
+        """:meth:`advance` on ``run`` from a fresh clock, its failures caught: where it
+        ended. A :class:`SolverFailure` ends at the last checkpoint with the failure's
+        advice; so does a division by zero in the model (a state outside its domain: a
+        quaternion of zero length), which would otherwise escape the run."""
         run.clock_start = time.perf_counter()
-        advice = None
         try:
             self.check_budget(run, "the first step (model assembly took it)")
             refuse_unresolvable(run.model)
             with np.errstate(all="ignore"):
                 outcome = self.advance(run)
         except SolverFailure as exc:
-            outcome = Outcome(run.x, False, str(exc))
-            advice = exc.advice
-        wall = run.elapsed()
-        x = outcome.x
-        finite = bool(np.all(np.isfinite(x)))
-        residual = self.residual(run, x) if finite else float("nan")
-        success = outcome.success and finite and run.at_equilibrium(residual)
-        message = outcome.message
-        verified = (float("nan"), float("nan"))
-        if success:
-            # The integrator's own test is not the last word: the common stopping test on the
-            # full-penalty model, evaluated afresh at the returned state, is.
-            verified = self.verified_residual(run, x)
-            if not self.verified(run, verified):
-                success = False
-                advice = advice or self.advice(run)
-        if success and run.note:
-            message = f"{message}; {run.note}"
-        tolerance = run.tolerance
-        if not success:
-            if outcome.success and not finite:
-                message = "final state is not finite"
-            elif outcome.success and run.at_equilibrium(residual):
-                message = (f"the state it returned is not an equilibrium: evaluated afresh on "
-                           f"the full-penalty model, its force residual is {verified[0]:.3g} "
-                           f"(tolerance {tolerance:.3g}; its own test found "
-                           f"{residual:.3g}) and its correction residual (distance to the "
-                           f"equilibrium / the load's displacement) {verified[1]:.3g} "
-                           f"(tolerance {max(tolerance, CORRECTION_TOLERANCE):.3g})")
-                residual = verified[0]
-            elif outcome.success:
-                message = (f"stopped with residual {residual:.3g} above the tolerance "
-                           f"{tolerance:.3g}")
-            message = (f"{self.name} integrator failed at {run.where_text()}: {message} "
-                       f"(residual {residual:.3g}, tolerance {tolerance:.3g}); "
-                       f"{advice or self.advice(run)}")
-        if success:
-            run.x = x
-        stats = {**run.counts, "wall_time": wall, "effective_tolerance": tolerance}
-        result = Result.from_model(
-            run.model, x if finite else run.x, integrator=self.name,
-            options=dataclasses.asdict(self.options), success=success, message=message,
-            residual=residual,
-            stats=stats, history=run.history.data, history_time=self.history_time,
-            stability=run.stability(x) if success and verdict else None)
-        return result, run
+            return Outcome(run.x, False, str(exc), exc.advice)
+        except ZeroDivisionError:
+            return Outcome(run.x, False, "the model could not be evaluated at a state "
+                           "(division by zero: a quaternion of zero length)")
+        return outcome

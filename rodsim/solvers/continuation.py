@@ -133,7 +133,7 @@ def load_continuation(run: RunState, model: Model, first_step: float, min_step: 
         x, load = x_new, target
         run.counts["steps"] += 1
         run.checkpoint(x, f"load fraction {load:.4g}")
-        run.history.record(load, x, run.residual(x))
+        run.record(load, x, run.residual_at(x))
         after(load)
         if iterations <= EASY_ITERATIONS:
             step = min(1.0, 2.0 * step)

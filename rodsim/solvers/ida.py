@@ -72,11 +72,11 @@ class Ida(SundialsIntegrator):
         run.last_y = y
         return np.asarray(run.system.constrained_force(y, force))
 
-    def residual(self, run: SundialsState, x: np.ndarray) -> float:
+    def residual_at(self, run: SundialsState, x: np.ndarray) -> float:
         """Residual of the constrained equilibrium F + Gᵀμ = 0 at the last IDA state."""
         y = run.last_y
         if y is None or not np.array_equal(run.system.positions_of(y), x):
-            return super().residual(run, x)
+            return super().residual_at(run, x)
         return run.model.residual(run.system.constrained_force(y, run.model.force(x)))
 
     def verification_force(self, run: SundialsState, model: Model,
@@ -130,7 +130,7 @@ class Ida(SundialsIntegrator):
 
         def force(z: np.ndarray) -> np.ndarray:
             out = np.empty(system.size)
-            system.residual(z, rest, run.force(system.positions_of(z)), out)
+            system.dae_residual(z, rest, run.force(system.positions_of(z)), out)
             return -out
 
         def jacobian(z: np.ndarray) -> np.ndarray:
@@ -195,7 +195,7 @@ class Ida(SundialsIntegrator):
         def resfn(t: float, y: np.ndarray, yp: np.ndarray, res: np.ndarray) -> None:
             force = run.force(system.positions_of(y), ramp(t))
             run.last_force = force
-            system.residual(y, yp, force, res)
+            system.dae_residual(y, yp, force, res)
 
         def jacobian(t: float, y: np.ndarray, yp: np.ndarray, cj: float) -> np.ndarray:
             return np.asarray(system.jacobian_data(

@@ -243,7 +243,7 @@ class PaperEuler(Integrator[PaperState]):
             # Tendon registration is recomputed after every step (§4.1).
             moved = run.reregister(x)
             residual = run.model.residual(run.model.force(x, load))
-            run.history.record(step * h, x, residual)
+            run.record(step * h, x, residual)
             self.report(None, f"paper: {where}, residual {residual:.2e}")
             # At rest: below the tolerance on RESTING_STEPS consecutive steps (see there).
             below = not moved and load == 1.0 and run.at_equilibrium(residual)

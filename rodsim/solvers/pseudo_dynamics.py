@@ -329,9 +329,9 @@ class ConstrainedSystem:
     def positions_of(self, y: np.ndarray) -> np.ndarray:
         return y[self.x_slot]
 
-    def residual(self, y: np.ndarray, yp: np.ndarray, force: np.ndarray,
-                 out: np.ndarray) -> None:
-        """R(t, y, y′) into ``out`` given F(x)."""
+    def dae_residual(self, y: np.ndarray, yp: np.ndarray, force: np.ndarray,
+                     out: np.ndarray) -> None:
+        """The DAE residual R(t, y, y′) (IDA's) into ``out`` given F(x)."""
         q = self.quat
         qv = y[self.x_slot][q]
         total = self.constrained_force(y, force)

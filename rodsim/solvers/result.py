@@ -1,6 +1,7 @@
-"""What one run of one integrator returns: the equilibrium of each rod, the statistics, the
-per-step history and the stability verdict. Its archive Dataset is
-:func:`rodsim.io.run_dataset.run_dataset`."""
+"""What one run of one integrator returns: the state of each rod where it stopped (the
+equilibrium, or the state at the end time), the statistics, the per-step history, the
+trajectory when one was recorded, and the stability verdict of an equilibrium. Its archive
+Dataset is :func:`rodsim.io.run_dataset.run_dataset`."""
 
 from __future__ import annotations
 
@@ -16,6 +17,7 @@ from rodsim.version import __version__
 if TYPE_CHECKING:
     from rodsim.core.model import Model
     from rodsim.core.stability import Stability
+    from rodsim.solvers.trajectory import Trajectory
 
 __all__ = ["Result", "RodShape", "STAT_DOCS", "count_text"]
 
@@ -86,13 +88,18 @@ class Result:
     #: The tension [N] each tendon under displacement control ends with
     #: (rodsim/core/terms/tendon_string_displacement.py): an outcome, not an input.
     tendon_tension: dict[str, float] = field(default_factory=dict)
+    #: The states over time the run recorded (:class:`~rodsim.solvers.trajectory.Trajectory`:
+    #: times, states, each rod's positions at each time), when its ``SaveAt`` asked for
+    #: them (:mod:`rodsim.solvers.recorder`); None otherwise.
+    trajectory: Trajectory | None = None
 
     @classmethod
     def from_model(cls, model: Model, x: np.ndarray, *, integrator: str,
                    options: dict[str, Any], success: bool, message: str, residual: float,
                    stats: dict[str, float], history: dict[str, list[float]],
                    history_time: tuple[str, str] = ("s", "pseudo-time after each step"),
-                   stability: Stability | None = None) -> Result:
+                   stability: Stability | None = None,
+                   trajectory: Trajectory | None = None) -> Result:
         full = model.full(x)
         rods = {
             name: RodShape(full[rod.layout.position_index], full[rod.layout.quaternion_index],
@@ -109,7 +116,7 @@ class Result:
                     tensions[term.tendon.name] = float(tension)
         return cls(model.scene, integrator, dict(options), success, message, residual, stats,
                    rods, np.array(x, dtype=float), history, history_time=history_time,
-                   stability=stability, tendon_tension=tensions)
+                   stability=stability, tendon_tension=tensions, trajectory=trajectory)
 
     def positions(self, rod: str | None = None) -> np.ndarray:
         """Control points of ``rod`` (default: the first rod), shape (N, 3) [m]."""

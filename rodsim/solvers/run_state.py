@@ -5,7 +5,11 @@ requested tolerance, the wall-time budget, the progress callback). Everything a 
 lives in a :class:`RunState`, made by :meth:`Integrator.init` and passed to and returned by
 :meth:`Integrator.run` (as diffrax's ``init`` / ``step(…, state)``): the model in use (its
 tendon registration and penalty scales), the effective tolerance, the counters, the last
-accepted state and where it was reached, the history, the run's clock. The state's own
+accepted state and where it was reached (:meth:`RunState.checkpoint`), the run's contract —
+when it stops (:class:`~rodsim.solvers.stops.Stop`) and the recorder of what it records
+(:class:`~rodsim.solvers.recorder.Recorder`, behind :meth:`RunState.record`) — and the run's
+clock. A run starts from a state of its model's free coordinates, refused in one line
+otherwise (:func:`checked_state`). The state's own
 :meth:`RunState.force` and :meth:`RunState.jacobian_data` are the only way a run evaluates
 the model: each evaluation is counted and checked for non-finite values there (as scipy's
 ``OdeSolver`` counts through its base's ``fun``). An integrator needing more state (the
@@ -29,30 +33,16 @@ from rodsim.core.model import Model
 from rodsim.core.stability import Stability, assess
 from rodsim.solvers.failure import SolverFailure
 from rodsim.solvers.linear import LinearSolver
+from rodsim.solvers.recorder import History, Recorder, SaveAt
+from rodsim.solvers.stops import Equilibrium, Stop
 from rodsim.solvers.tolerance import effective_tolerance
 
-__all__ = ["RunState", "History", "MAX_SETTLES", "linear_solver_of"]
+__all__ = ["RunState", "History", "MAX_SETTLES", "linear_solver_of", "checked_state"]
 
 #: Re-registrations at equilibrium (Model.reregistered(x, exact=True)) before a run accepts the
 #: registration it reached with hysteresis: an equilibrium on the boundary between two
 #: parents would otherwise flip between them forever.
 MAX_SETTLES = 10
-
-
-class History:
-    """Per-step record of pseudo-time, residual and the first rod's tip (for Fig. 8)."""
-
-    def __init__(self, model: Model) -> None:
-        first = next(iter(model.rods.values()))
-        free_of = np.full(model.full_size, -1)
-        free_of[model.free] = np.arange(model.n)
-        self._tip_free = free_of[first.layout.position_index[-1]]
-        self.data: dict[str, list[Any]] = {"time": [], "residual": [], "tip": []}
-
-    def record(self, time: float, x: np.ndarray, residual: float) -> None:
-        self.data["time"].append(float(time))
-        self.data["residual"].append(float(residual))
-        self.data["tip"].append(x[self._tip_free].tolist())
 
 
 #: The linear solver of the last pattern asked for, with the symmetry it was made for: the
@@ -82,6 +72,29 @@ def base_counts() -> dict[str, float]:
             "linear_solves": 0}
 
 
+def checked_state(model: Model, state: Any) -> np.ndarray:
+    """``state`` as a start of a run on ``model``: a copy, as floats, of its free
+    coordinates (one vector of length ``model.n``, finite, every quaternion of non-zero
+    length, as :meth:`Model.step` keeps them); ValueError, one line, otherwise — a force, a
+    full-coordinate vector or another model's state passed where this model's state was
+    expected (a force at rest, whose quaternion entries vanish, used to divide by zero in
+    a kernel)."""
+    x = np.array(state, dtype=float)
+    if x.shape != (model.n,):
+        raise ValueError(f"a state of this model is a vector of its {model.n} free "
+                         f"coordinates (Model.x0, Result.state), got shape {x.shape}")
+    if not np.all(np.isfinite(x)):
+        raise ValueError("the state has non-finite coordinates (NaN or inf)")
+    quaternions = model.full(x)[np.concatenate(
+        [rod.layout.quaternion_index for rod in model.rods.values()])]
+    lengths = np.linalg.norm(quaternions, axis=1)
+    if np.any(lengths < 1e-3):
+        raise ValueError(f"the state is not one of this model: a quaternion has length "
+                         f"{lengths.min():.3g} (unit length expected; a force or another "
+                         f"array passed as a state?)")
+    return x
+
+
 @dataclass(eq=False)
 class RunState:
     """The state of one run of an integrator (module docstring).
@@ -106,8 +119,12 @@ class RunState:
         a failure report needs it).
     counts
         Counters reported in the result's statistics.
-    history
-        Per-step record.
+    recorder
+        What the run records (:class:`~rodsim.solvers.recorder.Recorder`, behind
+        :meth:`record`): the per-step history and the trajectory its ``SaveAt`` asks for.
+    stop
+        When the run stops (:class:`~rodsim.solvers.stops.Stop`: at equilibrium, or at a
+        time).
     budget_start, clock_start
         ``time.perf_counter()`` when the wall-time budget and the run started.
     note
@@ -124,10 +141,11 @@ class RunState:
     warm: bool
     x: np.ndarray
     counts: dict[str, float]
-    history: History
+    recorder: Recorder
     budget_start: float
     clock_start: float
     where: str | Callable[[], str] = "start"
+    stop: Stop = field(default_factory=Equilibrium)
     #: True for a continuation step (:meth:`Integrator.restart`): a warm start from the
     #: state a run returned, on a nearby model, which an integrator may solve more cheaply.
     continued: bool = False
@@ -145,18 +163,23 @@ class RunState:
 
     @classmethod
     def new(cls, model: Model, tolerance: float, initial_state: np.ndarray | None = None,
-            budget_start: float | None = None, **fields: Any) -> Self:
-        """A fresh state on ``model`` from its rest state or ``initial_state``."""
+            budget_start: float | None = None, stop: Stop | None = None,
+            save: SaveAt | None = None, **fields: Any) -> Self:
+        """A fresh state on ``model`` from its rest state or ``initial_state``
+        (:func:`checked_state`), stopping by ``stop`` (default: :class:`Equilibrium`) and
+        recording what ``save`` asks for (default: what the stop asks for)."""
         now = time.perf_counter()
-        start = model.x0 if initial_state is None else np.array(initial_state, dtype=float)
+        start = model.x0 if initial_state is None else checked_state(model, initial_state)
+        stop = Equilibrium() if stop is None else stop
         counts = base_counts()
         if model.has_registration:
             counts["settles"] = 0
         return cls(model=model, base_model=model,
                    tolerance=effective_tolerance(model, tolerance), start=start,
                    warm=initial_state is not None, x=start, counts=counts,
-                   history=History(model), budget_start=now if budget_start is None
-                   else budget_start, clock_start=now, **fields)
+                   recorder=Recorder(model, stop.save() if save is None else save),
+                   stop=stop, budget_start=now if budget_start is None else budget_start,
+                   clock_start=now, **fields)
 
     def derived(self, **changes: Any) -> Self:
         """A copy with ``changes`` (its counters shared unless given): for a trial on another
@@ -182,8 +205,9 @@ class RunState:
             raise SolverFailure("the Jacobian became non-finite (NaN or inf)")
         return data
 
-    def residual(self, x: np.ndarray) -> float:
-        """Scaled equilibrium residual of state ``x`` (uncounted evaluation)."""
+    def residual_at(self, x: np.ndarray) -> float:
+        """The scaled force residual (:meth:`Model.residual`) of F at the state ``x``
+        (uncounted evaluation)."""
         return self.model.residual(self.model.force(x))
 
     def at_equilibrium(self, residual: float) -> bool:
@@ -208,6 +232,16 @@ class RunState:
         """Remember the last accepted state and where it was reached."""
         self.x = x
         self.where = where
+
+    def record(self, time: float, x: np.ndarray, residual: float) -> None:
+        """An accepted step ended at ``time`` (the integrator's time) in the state ``x``
+        with the force residual ``residual``: to the recorder."""
+        self.recorder.record(time, x, residual)
+
+    @property
+    def history(self) -> History:
+        """The per-step history the recorder keeps."""
+        return self.recorder.history
 
     def where_text(self) -> str:
         return self.where() if callable(self.where) else self.where

@@ -111,11 +111,11 @@ class ScipyIvp(Integrator[RunState]):
 
         last: dict[str, Any] = {"t": -math.inf, "x": run.start, "residual": math.inf}
 
-        def residual_at(t: float, x: np.ndarray) -> float:
+        def held_residual(t: float, x: np.ndarray) -> float:
             """The run's residual at x, held above the tolerance while the load still ramps
             (equilibrium under the full load only): the same function at a step's end and
             inside it, so that the root finding sees the sign change the step ends saw."""
-            residual = run.residual(x)
+            residual = run.residual_at(x)
             return max(residual, 2.0 * run.tolerance) if ramp(t) < 1.0 else residual
 
         def at_rest(t: float, x: np.ndarray) -> float:
@@ -123,15 +123,15 @@ class ScipyIvp(Integrator[RunState]):
                 run.counts["steps"] += 1
                 if run.reregister(x):
                     run.counts["reinits"] += 1
-                residual = residual_at(t, x)
+                residual = held_residual(t, x)
                 last.update(t=t, x=x.copy(), residual=residual)
                 run.checkpoint(last["x"], functools.partial("t = {:.4g} s".format, t))
-                run.history.record(t, x, residual)
+                run.record(t, x, residual)
                 if self.reporting:
                     self.report(None, f"{self.name} {method}: t = {t:.3g} s, residual "
                                       f"{residual:.3g}")
                 return float(residual - run.tolerance)
-            return residual_at(t, x) - run.tolerance  # dense output inside the last step
+            return held_residual(t, x) - run.tolerance  # dense output inside the last step
 
         at_rest.terminal = True  # type: ignore[attr-defined]
         at_rest.direction = -1  # type: ignore[attr-defined]

@@ -24,13 +24,8 @@ run with a diagnostic.
 
 from __future__ import annotations
 
-import contextlib
 import functools
-import io
-import sys
-import warnings
 from abc import abstractmethod
-from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 from typing import Any, ClassVar
 
@@ -48,6 +43,14 @@ from rodsim.solvers.pseudo_dynamics import (
     PseudoDynamics,
 )
 from rodsim.solvers.run_state import MAX_SETTLES, RunState
+from rodsim.solvers.stops import Equilibrium, Until
+from rodsim.solvers.sundials_clock import Clock
+from rodsim.solvers.sundials_setup import (
+    BandPreconditioner,
+    StartFailure,
+    jacobian_writer,
+    started,
+)
 
 __all__ = ["SundialsIntegrator", "SundialsState", "BandPreconditioner", "jacobian_writer",
            "started", "StartFailure", "BAND_LIMIT", "LINEAR_SOLVERS", "PSEUDO_DYNAMICS_PARAMETERS"]
@@ -92,6 +95,35 @@ BUDGET_STRIDE = 16
 #: table3-catheter1 CVODE 340 → 264 steps, catheter2 286 → 233, other scenes unchanged).
 RETRY_FACTOR = 0.3
 
+#: The counters of the Newton finish (:meth:`SundialsIntegrator.finish_with_newton`).
+FINISH_COUNTS = ("finish_attempts", "finish_newton_iters", "finish_force_evals",
+                 "finish_jacobian_evals", "finish_unstable")
+
+
+@dataclass
+class StallWatch:
+    """What a run to equilibrium watches for a stall: the best residual, the step, time
+    and re-initialisation count where it was reached, and how many steps in a row the
+    residual repeated one of the two before it (``frozen``, see :data:`FROZEN_CHANGE`)."""
+
+    best: float = np.inf
+    best_step: int = 0
+    best_time: float = 0.0
+    reinits_at_best: float = 0.0
+    previous: tuple[float, float] = (np.inf, np.inf)  # the residuals one and two steps back
+    frozen: int = 0
+
+    def observe(self, residual: float) -> None:
+        """Count a residual that repeats one of the two before it."""
+        repeats = min(abs(residual - r) for r in self.previous) < FROZEN_CHANGE * residual
+        self.frozen = self.frozen + 1 if repeats else 0
+        self.previous = (residual, self.previous[0])
+
+    def mark(self, residual: float, step: int, time: float, reinits: float) -> None:
+        """Take ``residual`` as the best, reached at ``step``, ``time``, ``reinits``."""
+        self.best, self.best_step, self.best_time = residual, step, time
+        self.reinits_at_best = reinits
+
 
 
 @dataclass(eq=False, kw_only=True)
@@ -115,6 +147,8 @@ class SundialsIntegrator(Integrator[SundialsState]):
 
     parameters: ClassVar[tuple[Parameter, ...]] = PSEUDO_DYNAMICS_PARAMETERS
     State = SundialsState
+    stops = (Equilibrium, Until)
+    dense_output = True
 
     def state_fields(self, model: Model, warm: bool) -> dict[str, Any]:
         # A warm start (from a nearby equilibrium) takes the loads in full at once.
@@ -344,241 +378,139 @@ class SundialsIntegrator(Integrator[SundialsState]):
         return state
 
     def advance(self, run: SundialsState) -> Outcome:
-        opts, counts, dynamics = self.options, run.counts, run.dynamics
-        ramp, horizon, period = dynamics.ramp, dynamics.horizon, dynamics.period
-        switch = opts.newton_switch
-        for key in ("finish_attempts", "finish_newton_iters", "finish_force_evals",
-                    "finish_jacobian_evals", "finish_unstable"):
-            counts[key] = 0
-        t, y, yp = 0.0, self.initial_state(run), None
-        solver = self.start(run, t, y, yp)
-        # Pseudo-time already elapsed in solvers that were replaced (reinits, tightenings):
-        # a new solver restarts its clock at the end of the load ramp, where the dynamics are
-        # autonomous, so its first step is not lost against a huge t.
-        elapsed = 0.0
-        best, best_step, best_time = np.inf, 0, 0.0
-        reinits_at_best = 0.0
-        previous, frozen = [np.inf, np.inf], 0  # the residuals one and two steps back
+        """Step the pseudo-dynamics from ``run.start`` until ``run.stop``: to equilibrium
+        (:meth:`to_equilibrium`) or to a time (:meth:`until`)."""
+        for key in FINISH_COUNTS:
+            run.counts[key] = 0
+        stop = run.stop
+        clock = Clock(self, run, self.initial_state(run), shift=not isinstance(stop, Until))
+        if isinstance(stop, Until):
+            return self.until(run, clock, stop)
+        return self.to_equilibrium(run, clock)
 
-        def restart(t: float, y: np.ndarray) -> tuple[Any, float]:
-            nonlocal elapsed
-            at = t + elapsed
-            if t > ramp.duration:
-                elapsed += t - ramp.duration
-                t = ramp.duration
-            try:
-                return self.start(run, t, y, None), t
-            except StartFailure as exc:  # say where the run was, not the new solver's clock
-                reinits, tightenings = int(counts["reinits"]), int(counts["tightenings"])
-                raise SolverFailure(
-                    f"{self.name.upper()} could not restart at t = {at:.4g} s (after "
-                    f"{reinits} re-initialisation{'' if reinits == 1 else 's'} and "
-                    f"{tightenings} tightening{'' if tightenings == 1 else 's'}): "
-                    f"{exc.detail}") from None
-
-        # SUNDIALS prints its failure text to stdout (scikit-sundae's error handler): each step
-        # writes there into one buffer, so it lands in rodsim's diagnostic, not in the middle
-        # of rodsim run's summary, while progress callbacks print as usual.
-        printed = io.StringIO()
-
-        def step_quietly(solver: Any) -> Any:
-            saved, sys.stdout = sys.stdout, printed
-            try:
-                return solver.step(horizon, method="onestep")
-            finally:
-                sys.stdout = saved
-
+    def to_equilibrium(self, run: SundialsState, clock: Clock) -> Outcome:
+        """Step until the state is an equilibrium (the module docstring): after the load
+        ramp, each step's screened residual decides a Newton finish
+        (:meth:`finish_with_newton`), the equilibrium test, and the watch for a stall
+        (:meth:`watch`)."""
+        opts, counts, ramp = self.options, run.counts, run.dynamics.ramp
+        horizon = run.dynamics.horizon
+        stalls, switch = StallWatch(), opts.newton_switch
         for step in range(1, opts.max_steps + 1):
-            if t >= horizon:  # steps that large mean a stalled corrector: tighten
+            if clock.t >= horizon:  # steps that large mean a stalled corrector: tighten
                 if self.rtol(run) <= TIGHTEST_RTOL:
-                    return Outcome(self.positions_of(run, y), False,
-                                   f"not at equilibrium by t = {t + elapsed:.3g} s")
-                run.tightening /= 100.0
-                counts["tightenings"] += 1
-                solver, t = restart(t, y)
-            out = step_quietly(solver)
-            counts["steps"] = step
-            if not out.success:
-                detail = " ".join(printed.getvalue().split())
-                return Outcome(self.positions_of(run, y), False,
-                               f"{self.name.upper()} error: {out.message}"
-                               + (f" SUNDIALS: {detail}" if detail else ""))
-            t, y, yp = float(out.t), out.y.copy(), getattr(out, "yp", None)
-            x = self.positions_of(run, y)
-            run.checkpoint(x, functools.partial("step {} (t = {:.4g} s)".format, step,
-                                                t + elapsed))
-            if step % BUDGET_STRIDE == 0:
-                self.check_budget(run, f"step {step} (t = {t + elapsed:.4g} s)")
+                    return Outcome(self.positions_of(run, clock.y), False,
+                                   f"not at equilibrium by t = {clock.time:.3g} s")
+                self.tighten(run, clock)
+            x = self.take_step(run, clock, step, horizon)
+            if isinstance(x, Outcome):
+                return x
             if run.reregister(x):
-                # A tendon point changed parent (§4.1): new pattern, new solver, same state.
-                counts["reinits"] += 1
-                run.system = self.build_system(run)
-                solver, t = restart(t, y)
+                self.reinitialise(run, clock)  # a tendon point changed parent (§4.1)
                 continue
-            if t < ramp.duration:
+            if clock.t < ramp.duration:
                 continue
-            residual = self.screened_residual(run, y)
-            run.history.record(t + elapsed, x, residual)
+            residual = self.screened_residual(run, clock.y)
+            run.record(clock.time, x, residual)
             if self.reporting:
-                self.report(None, f"{self.name}: t = {t + elapsed:.3g} s, residual "
+                self.report(None, f"{self.name}: t = {clock.time:.3g} s, residual "
                             f"{residual:.2e}")
             if residual < switch:
                 counts["finish_attempts"] += 1
-                finished = self.finish_with_newton(run, y)
+                finished = self.finish_with_newton(run, clock.y)
                 if finished is not None:
                     return Outcome(finished, True, "at equilibrium (Newton finish)")
                 switch = RETRY_FACTOR * residual  # try again once closer
             if residual < 10.0 * run.tolerance:
-                residual = run.model.residual(self.equilibrium_force(run, y, run.force(x)))
+                residual = run.model.residual(self.equilibrium_force(run, clock.y,
+                                                                     run.force(x)))
                 if run.at_equilibrium(residual):
                     if run.settled(x):
                         return Outcome(x.copy(), True, "at equilibrium")
                     # A parent changed without hysteresis: go on, on the new pattern.
-                    counts["reinits"] += 1
-                    run.system = self.build_system(run)
-                    solver, t = restart(t, y)
+                    self.reinitialise(run, clock)
                     continue
-            repeats = min(abs(residual - r) for r in previous) < FROZEN_CHANGE * residual
-            frozen = frozen + 1 if repeats else 0
-            previous = [residual, previous[0]]
-            if residual < 0.5 * best:
-                best, best_step, best_time = residual, step, t + elapsed
-                reinits_at_best = counts["reinits"]
-                continue
-            stalled = (step - best_step > STALL_STEPS
-                       and t + elapsed - best_time > STALL_PERIODS * period)
-            flipping = counts["reinits"] - reinits_at_best >= FLIP_REINITS
-            unsettled = step - best_step > max(STALL_STEPS, NEVER_SETTLES_SHARE * opts.max_steps)
-            if flipping or unsettled:
-                self.stall(run, step - best_step, t + elapsed - best_time, best, residual,
-                           int(counts["reinits"] - reinits_at_best))
-            if self.rtol(run) > TIGHTEST_RTOL and (frozen >= FROZEN_STEPS or stalled):
-                run.tightening /= 100.0
-                counts["tightenings"] += 1
-                best, best_step, best_time = residual, step, t + elapsed
-                reinits_at_best = counts["reinits"]
-                frozen = 0
-                solver, t = restart(t, y)
+            self.watch(run, clock, stalls, step, residual)
         raise SolverFailure(f"not at equilibrium after max_steps = {opts.max_steps}",
                             f"try raising solver.{self.name}.max_steps, or "
                             f"{self.advice(run).removeprefix('try ')}")
 
+    def until(self, run: SundialsState, clock: Clock, stop: Until) -> Outcome:
+        """Step to the time ``stop.t_end`` (not past it), whatever the state: the recorder
+        takes the output times each step spans from its dense output (they force no step),
+        and every step's end with its screened residual; a tendon re-registration restarts
+        the solver at the same time."""
+        for step in range(1, self.options.max_steps + 1):
+            start = clock.t
+            x = self.take_step(run, clock, step, stop.t_end, tstop=stop.t_end)
+            if isinstance(x, Outcome):
+                return x
+            run.recorder.dense(start, clock.t, lambda t: self.positions_of(
+                run, clock.interpolate(t) if t < clock.t else clock.y))
+            run.record(clock.t, x, self.screened_residual(run, clock.y))
+            if self.reporting:
+                self.report(clock.t / stop.t_end, f"{self.name}: t = {clock.t:.4g} s of "
+                            f"{stop.t_end:.4g} s")
+            if clock.t >= stop.t_end:
+                return Outcome(x.copy(), True, f"reached t = {stop.t_end:.4g} s")
+            if run.reregister(x):
+                self.reinitialise(run, clock)
+        raise SolverFailure(f"did not reach t = {stop.t_end:.4g} s in max_steps = "
+                            f"{self.options.max_steps}",
+                            f"try raising solver.{self.name}.max_steps, or a looser "
+                            f"solver.{self.name}.rtol/atol")
 
-class BandPreconditioner:
-    """The Newton matrix of a SUNDIALS step, A = A₀ + c A₁ (CVODE: I − γ J, c = γ; IDA:
-    ∂R/∂y + c_j ∂R/∂y′), held in its CSC pattern, factored by rodsim's band LU
-    (:class:`~rodsim.solvers.linear.LinearSolver`, band storage only) and handed to SUNDIALS'
-    GMRES as its preconditioner, with the product A v for the Krylov iterations. With the
-    factorisation of the very matrix GMRES works on, it converges in one iteration: the same
-    modified Newton as a direct band solve, without scikit-sundae's dense (n × n) template.
+    def take_step(self, run: SundialsState, clock: Clock, step: int, toward: float,
+                  tstop: float | None = None) -> np.ndarray | Outcome:
+        """Step ``step`` of the run toward ``toward``: the model coordinates it reached
+        (checkpointed; the wall-time budget checked every :data:`BUDGET_STRIDE` steps), or
+        the failed Outcome of a SUNDIALS error."""
+        out = clock.step(toward, tstop)
+        run.counts["steps"] = step
+        if not out.success:
+            detail = clock.failure_text()
+            return Outcome(self.positions_of(run, clock.y), False,
+                           f"{self.name.upper()} error: {out.message}"
+                           + (f" SUNDIALS: {detail}" if detail else ""))
+        clock.accept(out)
+        x = self.positions_of(run, clock.y)
+        run.checkpoint(x, functools.partial("step {} (t = {:.4g} s)".format, step,
+                                            clock.time))
+        if step % BUDGET_STRIDE == 0:
+            self.check_budget(run, f"step {step} (t = {clock.time:.4g} s)")
+        return x
 
-    :meth:`update` takes the two parts from the integrator's analytic Jacobian (once per
-    SUNDIALS set-up), :meth:`factor` factors A for the current c, :meth:`solve` and
-    :meth:`product` are the preconditioner solve and A v."""
+    def tighten(self, run: SundialsState, clock: Clock) -> None:
+        """rtol and atol 100× tighter, on a new solver from the last accepted state."""
+        run.tightening /= 100.0
+        run.counts["tightenings"] += 1
+        clock.restart()
 
-    def __init__(self, pattern: Any, rows: np.ndarray, cols: np.ndarray,
-                 band: tuple[int, int]) -> None:
-        import scipy.sparse as sp
+    def reinitialise(self, run: SundialsState, clock: Clock) -> None:
+        """A new system on the new pattern of ``run.model`` (a tendon point changed
+        parent), and a new solver on it from the last accepted state."""
+        run.counts["reinits"] += 1
+        run.system = self.build_system(run)
+        clock.restart()
 
-        from rodsim.solvers.linear import LinearSolver
-
-        self._sp = sp
-        self.pattern = pattern
-        self.linear = LinearSolver(pattern, rows, cols, band, symmetric=False)
-        self.parts: tuple[np.ndarray, np.ndarray] | None = None
-        self.matrices: tuple[Any, Any] | None = None
-        self.c = 0.0
-        self._solve: Callable[[np.ndarray], np.ndarray] | None = None
-        self._matrix: np.ndarray | None = None
-
-    def update(self, constant: np.ndarray, per_c: np.ndarray) -> None:
-        self.parts = constant, per_c
-        n = self.pattern.shape[0]
-        self.matrices = tuple(self._sp.csc_matrix((data, self.pattern.indices,
-                                                   self.pattern.indptr), shape=(n, n))
-                              for data in self.parts)
-
-    def factor(self, c: float) -> None:
-        assert self.parts is not None
-        self.c = c
-        # A₀ + c A₁ into the array of the last factorisation's matrix, factored in the band
-        # array the solver keeps (LinearSolver.factorized): the last factorisation, which
-        # used it, is dropped here. On a large model fresh arrays of this size cost more
-        # than the factorisation (docs/benchmarks.md, "Large N").
-        self._solve = None
-        constant, per_c = self.parts
-        matrix = self._matrix
-        if matrix is None or matrix.shape != per_c.shape:
-            matrix = np.empty_like(per_c)
-        np.multiply(per_c, c, out=matrix)
-        matrix += constant
-        self._matrix = matrix
-        self._solve = self.linear.factorized(matrix, keep=True)
-        if self._solve is None:
-            raise SolverFailure("the Newton matrix of a step is singular")
-
-    def solve(self, rhs: np.ndarray, out: np.ndarray) -> None:
-        assert self._solve is not None
-        out[:] = self._solve(rhs)
-
-    def product(self, v: np.ndarray, out: np.ndarray, c: float) -> None:
-        assert self.matrices is not None
-        out[:] = self.matrices[0] @ v + c * (self.matrices[1] @ v)
-
-
-def jacobian_writer(solver_kind: str, rows: np.ndarray,
-                    cols: np.ndarray) -> Callable[[np.ndarray, np.ndarray], None]:
-    """``write(jj, data)``: put Jacobian values given in CSC pattern order into the array
-    SUNDIALS hands a ``jacfn`` — for the band solver a full (n, n) array (only the band is
-    read), for the sparse solver the CSC data itself."""
-    if solver_kind == "band":
-        def write(jj: np.ndarray, data: np.ndarray) -> None:
-            jj[rows, cols] = data
-    else:
-        def write(jj: np.ndarray, data: np.ndarray) -> None:
-            jj[:] = data
-    return write
-
-
-class StartFailure(SolverFailure):
-    """A SUNDIALS solver that could not be set up (:func:`started`); ``detail`` is what
-    SUNDIALS said, for a caller that names the place itself (a restart mid-run)."""
-
-    def __init__(self, where: str, detail: str) -> None:
-        super().__init__(f"{where}: {detail}")
-        self.detail = detail
-
-
-def started(name: str, solver_class: type, function: Callable[..., None],
-            jacfn: Callable[..., None] | None, t: float, *initial: np.ndarray,
-            **options: Any) -> Any:
-    """A scikit-sundae solver (``CVODE`` or ``IDA``, called ``name`` in diagnostics) with our
-    analytic ``jacfn``, initialised at ``t`` from ``initial`` (y, or y and y′). Its warning
-    that its own sparse finite-difference Jacobian goes unused is expected and silenced.
-    A set-up failure —
-    scikit-sundae raises RuntimeError for some (e.g. a failed consistent-initial-condition
-    solve, IDACalcIC) and reports others as an unsuccessful ``init_step`` — is a
-    :class:`SolverFailure` carrying SUNDIALS' own text."""
-    where = f"{name} could not start at t = {t:.4g} s"
-    with captured_sundials_messages() as printed:
-        try:
-            with warnings.catch_warnings():
-                warnings.filterwarnings("ignore", "Custom sparse Jacobian", UserWarning)
-                solver = solver_class(function, jacfn=jacfn, **options)
-            initialised = solver.init_step(t, *initial)
-        except RuntimeError as exc:
-            raise StartFailure(where, str(exc)) from None
-    if not initialised.success:
-        raise StartFailure(where, f"{initialised.message} "
-                           + " ".join(printed.getvalue().split()))
-    return solver
-
-
-@contextlib.contextmanager
-def captured_sundials_messages() -> Iterator[io.StringIO]:
-    """Capture what SUNDIALS reports on a failure: scikit-sundae's error handler prints it
-    to stdout, where it would land in the middle of ``rodsim run``'s summary; rodsim puts it
-    in its own diagnostic instead."""
-    buffer = io.StringIO()
-    with contextlib.redirect_stdout(buffer):
-        yield buffer
+    def watch(self, run: SundialsState, clock: Clock, stalls: StallWatch, step: int,
+              residual: float) -> None:
+        """After a step's ``residual`` (no equilibrium yet): end a run that has stalled
+        (:meth:`stall`), tighten the tolerances of one whose residual froze or has not
+        halved for :data:`STALL_STEPS` steps over :data:`STALL_PERIODS` periods."""
+        counts, max_steps = run.counts, self.options.max_steps
+        stalls.observe(residual)
+        if residual < 0.5 * stalls.best:
+            stalls.mark(residual, step, clock.time, counts["reinits"])
+            return
+        stalled = (step - stalls.best_step > STALL_STEPS
+                   and clock.time - stalls.best_time > STALL_PERIODS * run.dynamics.period)
+        flipping = counts["reinits"] - stalls.reinits_at_best >= FLIP_REINITS
+        unsettled = step - stalls.best_step > max(STALL_STEPS, NEVER_SETTLES_SHARE * max_steps)
+        if flipping or unsettled:
+            self.stall(run, step - stalls.best_step, clock.time - stalls.best_time,
+                       stalls.best, residual, int(counts["reinits"] - stalls.reinits_at_best))
+        if self.rtol(run) > TIGHTEST_RTOL and (stalls.frozen >= FROZEN_STEPS or stalled):
+            stalls.mark(residual, step, clock.time, counts["reinits"])
+            stalls.frozen = 0
+            self.tighten(run, clock)
