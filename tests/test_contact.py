@@ -7,6 +7,7 @@ tests/test_kernels.py (scene ``contract-contact``). Run with ``pytest -s`` for t
 from __future__ import annotations
 
 import math
+import os
 
 import numpy as np
 import pytest
@@ -82,6 +83,37 @@ def test_bad_obstacle_exits_2_with_one_line(table, csv, phrase, tmp_path, capsys
     assert "obstacles.wall" in stderr, stderr
     assert phrase in stderr, f"{phrase!r} not in {stderr!r}"
     assert not (tmp_path / "r.nc").exists()
+
+
+@pytest.mark.parametrize("special", ["fifo", "/dev/zero", "/dev/urandom"])
+def test_a_centerline_that_is_no_regular_file_is_refused_without_reading_it(special, tmp_path,
+                                                                           capsys, cli):
+    """A FIFO would wait for a writer and a device never ends: both hung ``run`` (and made
+    ``plot`` grow to 6 GB); they are refused before they are opened."""
+    if special == "fifo":
+        special = str(tmp_path / "vessel.csv")
+        os.mkfifo(special)
+    scene = tmp_path / "scene.toml"
+    scene.write_text(BASE_SCENE + f'type = "tube"\ncenterline = "csv"\nfile = "{special}"\n',
+                     encoding="utf-8")
+    code = cli(["run", str(scene), "--integrator", "static", "-o", str(tmp_path / "r.nc")])
+    stderr = capsys.readouterr().err.strip()
+    assert code == 2 and "\n" not in stderr, stderr
+    assert "not a regular file" in stderr, stderr
+
+
+def test_a_centerline_csv_with_a_byte_order_mark_is_read(tmp_path):
+    """Spreadsheets write UTF-8 with a byte-order mark; it was refused as a bad first line."""
+    text = "-0.01,0,0,0.004\n0.05,0.001,0,0.004\n0.12,0,0,0.004\n"  # no header line
+    points = []
+    for name, encoding in (("plain", "utf-8"), ("marked", "utf-8-sig")):
+        (tmp_path / f"{name}.csv").write_text(text, encoding=encoding)
+        scene = tmp_path / f"{name}.toml"
+        scene.write_text(BASE_SCENE + f'type = "tube"\ncenterline = "csv"\nfile = "{name}.csv"\n',
+                         encoding="utf-8")
+        points.append(rodsim.load_scene(scene).data["obstacles"]["wall"]["points"])
+    assert (tmp_path / "marked.csv").read_bytes().startswith(b"\xef\xbb\xbf")
+    assert points[0] == points[1] and len(points[0]) == 12
 
 
 def test_scene_without_obstacles_builds_no_contact():

@@ -26,6 +26,8 @@ tighter than its radius, R κ ≥ 1, where it would not be).
 from __future__ import annotations
 
 import math
+import os
+import stat
 from pathlib import Path
 from typing import Any
 
@@ -36,6 +38,8 @@ from rodsim.core.obstacles import TUBE, Obstacle
 from rodsim.core.schema import Parameter, SceneError, shown
 
 CENTERLINES = ("straight", "arc", "helix", "csv")
+#: Largest centerline csv read [bytes].
+MAX_CENTERLINE_BYTES = 64 << 20
 
 #: Spline knots per full turn of an analytic curve.
 KNOTS_PER_TURN = 256
@@ -317,7 +321,17 @@ def _read_points(file: str, prefix: str) -> list[float]:
                              reason="no such file")
     rows: list[float] = []
     try:
-        text = path.read_text(encoding="utf-8")
+        # Checked before opening: a FIFO would wait for a writer, a device never ends.
+        if not stat.S_ISREG(os.stat(path).st_mode):
+            raise SceneError(f"{prefix}.file = {shown(file)}: not a regular file",
+                             key=f"{prefix}.file", value=file, reason="not a regular file")
+        with open(path, "rb") as stream:
+            data = stream.read(MAX_CENTERLINE_BYTES + 1)
+        if len(data) > MAX_CENTERLINE_BYTES:
+            raise SceneError(f"{prefix}.file = {shown(file)}: larger than "
+                             f"{MAX_CENTERLINE_BYTES >> 20} MiB (a centerline csv of a few "
+                             "thousand points is under 1 MiB)")
+        text = data.decode("utf-8-sig")  # a byte-order mark, as spreadsheets write, is fine
     except (OSError, UnicodeDecodeError) as exc:
         raise SceneError(f"{prefix}.file = {shown(file)}: cannot read it "
                          f"({type(exc).__name__})") from None
