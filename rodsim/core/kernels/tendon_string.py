@@ -8,6 +8,12 @@ then of B). For a point with weights (c0, c1, w0, w1), constant quaternion q_c a
 
 with d = p_B − p_A, u = d/|d|: F = −T Jdᵀ u and ∂F/∂x = −T [Jdᵀ (I − u uᵀ) Jd / |d|
 + Σ_m u_m (∂²p_B[m] − ∂²p_A[m])], Jd = [−J_A, J_B].
+
+With friction μ > 0 each chord carries its own tension τ_e in place of T — the capstan
+profile with the stored history ``profile`` (rodsim/core/tendon_friction.py: the entry's
+turn from d3 = qᵀ A_3 q / n of the entry point, the turns at the points, the cone
+projection swept from the actuator) — and the Jacobian is the one at frozen τ_e. With
+μ = 0 every τ_e is T: the frictionless numbers, bitwise.
 """
 
 from __future__ import annotations
@@ -78,6 +84,51 @@ def _points(x: np.ndarray, dofs: np.ndarray, weights: np.ndarray, constant: np.n
 
 
 @njit(cache=True)
+def _tensions(x: np.ndarray, dofs: np.ndarray, weights: np.ndarray, constant: np.ndarray,
+              entry_form: np.ndarray, p: np.ndarray, tension: float, friction: float,
+              profile: np.ndarray, out: np.ndarray) -> None:
+    """τ_e of every chord into ``out``: T without friction, else the capstan profile
+    (rodsim/core/tendon_friction.py)."""
+    chords = dofs.shape[0]
+    if friction == 0.0:
+        for e in range(chords):
+            out[e] = tension
+        return
+    w0, w1 = weights[0, 2], weights[0, 3]
+    q = np.empty(4)
+    for i in range(4):
+        q[i] = w0 * x[dofs[0, 6 + i]] + w1 * x[dofs[0, 10 + i]] + constant[0, i]
+    n = q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3]
+    a = np.empty(3)
+    for m in range(3):
+        value = 0.0
+        for i in range(4):
+            for j in range(4):
+                value += q[i] * entry_form[m, i, j] * q[j]
+        a[m] = value / n
+    b = np.empty(3)
+    before = tension
+    for e in range(chords):
+        length = 0.0
+        for m in range(3):
+            b[m] = p[e + 1, m] - p[e, m]
+            length += b[m] * b[m]
+        length = np.sqrt(length)
+        for m in range(3):
+            b[m] /= length
+        cx = a[1] * b[2] - a[2] * b[1]
+        cy = a[2] * b[0] - a[0] * b[2]
+        cz = a[0] * b[1] - a[1] * b[0]
+        theta = np.arctan2(np.sqrt(cx * cx + cy * cy + cz * cz),
+                           a[0] * b[0] + a[1] * b[1] + a[2] * b[2])
+        ratio = np.exp(friction * theta)
+        before = min(max(profile[e], before / ratio), before * ratio)
+        out[e] = before
+        for m in range(3):
+            a[m] = b[m]
+
+
+@njit(cache=True)
 def _active(weights: np.ndarray, e: int, columns: np.ndarray) -> int:
     """The element's local columns whose weight is not zero (the others of ∂d/∂x are exact
     zeros, and so are their rows and columns of the element Jacobian): their count, the
@@ -95,7 +146,8 @@ def _active(weights: np.ndarray, e: int, columns: np.ndarray) -> int:
 
 @njit(cache=True)
 def evaluate(x: np.ndarray, dofs: np.ndarray, weights: np.ndarray, constant: np.ndarray,
-             forms: np.ndarray, tension: float, scale: float, want_force: bool,
+             forms: np.ndarray, tension: float, friction: float, profile: np.ndarray,
+             entry_form: np.ndarray, scale: float, want_force: bool,
              force: np.ndarray, force_target: np.ndarray, want_jacobian: bool,
              jacobian: np.ndarray, jacobian_target: np.ndarray) -> None:
     if tension == 0.0:
@@ -108,7 +160,11 @@ def evaluate(x: np.ndarray, dofs: np.ndarray, weights: np.ndarray, constant: np.
     proj = np.empty((3, 3))
     pj = np.empty((3, 28))
     p, jac, hess = _points(x, dofs, weights, constant, forms, want_jacobian)
+    chord_tension = np.empty(dofs.shape[0])
+    _tensions(x, dofs, weights, constant, entry_form, p, tension, friction, profile,
+              chord_tension)
     for e in range(dofs.shape[0]):
+        pull = chord_tension[e]
         pa, pb, ja, jb = p[e], p[e + 1], jac[e], jac[e + 1]
         length = 0.0
         for m in range(3):
@@ -125,14 +181,14 @@ def evaluate(x: np.ndarray, dofs: np.ndarray, weights: np.ndarray, constant: np.
                 value = 0.0
                 for m in range(3):
                     value += jd[m, a] * u[m]
-                local_force[a] = -tension * value
+                local_force[a] = -pull * value
             add_force(force, force_target, e, local_force, scale)
         if want_jacobian:
             # Only the columns with a weight: the rest of the element Jacobian is zero.
             active = _active(weights, e, columns)
             for a in range(3):
                 for b in range(3):
-                    proj[a, b] = ((1.0 if a == b else 0.0) - u[a] * u[b]) * tension / length
+                    proj[a, b] = ((1.0 if a == b else 0.0) - u[a] * u[b]) * pull / length
             for a in range(3):
                 for c in range(active):
                     k = columns[c]
@@ -158,7 +214,7 @@ def evaluate(x: np.ndarray, dofs: np.ndarray, weights: np.ndarray, constant: np.
                         curvature = 0.0
                         for m in range(3):
                             curvature += u[m] * h[m, i, j]
-                        curvature *= sign * tension
+                        curvature *= sign * pull
                         for a in range(2):
                             for b in range(2):
                                 weight = weights[k, 2 + a] * weights[k, 2 + b]
@@ -174,8 +230,9 @@ def evaluate(x: np.ndarray, dofs: np.ndarray, weights: np.ndarray, constant: np.
 
 @njit(cache=True)
 def energy(x: np.ndarray, dofs: np.ndarray, weights: np.ndarray, constant: np.ndarray,
-           forms: np.ndarray, tension: float) -> float:
-    """T Σ |p_{k+1} − p_k|."""
+           forms: np.ndarray, tension: float, friction: float, profile: np.ndarray,
+           entry_form: np.ndarray) -> float:
+    """T Σ |p_{k+1} − p_k| (frictionless; with friction the model asks for no energy)."""
     if tension == 0.0:
         return 0.0
     p, _, _ = _points(x, dofs, weights, constant, forms, False)
