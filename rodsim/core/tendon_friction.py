@@ -3,55 +3,57 @@
 
 The string tendon (rodsim/core/terms/tendon_string.py) runs along a polygon of routing
 points p_0 (the entry, s = start) … p_{P−1} (the termination), chord e joining p_e and
-p_{e+1} with direction u_e. The tendon turns by
+p_{e+1} with direction u_e. The tendon comes in from the actuator along the catheter's axis
+d3 at the entry (Eq. 2), and turns by
 
-    θ_0 = ∠(d3(start), u_0)     at the entry (it comes in from the actuator along the
-                                  catheter's tangent d3 at the entry, Eq. 2),
-    θ_k = ∠(u_{k−1}, u_k)       at every routing point k = 1 … P−2 (a node of a lumen, a
-                                  spacer disk), computed as atan2(|a × b|, a·b),
+    θ_0 = ∠(d3, t_in) + ∠(t_in, u_0)   at the entry: t_in ∝ d3 + ρ′_y d1 + ρ′_z d2 is the
+                                         path's tangent there (ρ′ the routing's slope,
+                                         rodsim/core/routing.py; t_in = d3 for a constant
+                                         offset), then on along the path to the first chord,
+    θ_k = ∠(u_{k−1}, u_k)               at every routing point k = 1 … P−2 (a node of a
+                                         lumen, a spacer disk),
 
-and Θ_e = θ_0 + … + θ_e is the wrap from the actuator to chord e. At the termination the
-tendon ends: no turn, no friction.
+each angle computed as atan2(|a × b|, a·b); Θ_e = θ_0 + … + θ_e is the wrap from the
+actuator to chord e. At the termination the tendon ends: no turn, no friction.
 
 Capstan law. A tendon sliding over a curved support under Coulomb friction μ satisfies
 dT/dΘ = ∓μ T (the normal load per unit length is T |dt/ds|, so dT/ds = ∓μ |f_n| is
 dT = ∓μ T dΘ), whence T_after = T_before e^{∓μθ} across a turn θ: the loss of the
 lumen's continuous wrap, lumped at each node, and the eyelet of a spacer disk (the tendon
 wraps the hole's rounded edge). Chord e then carries τ_e = T_0 e^{−μΘ_e} while the tendon
-is pulled in (sliding toward the actuator), T_0 e^{+μΘ_e} while it is let out. On a lumen
-of curvature κ the chord's Θ_e is the continuum's wrap at the chord's midpoint (half a
-segment's turn at the entry, a whole one at each node), so τ_e is the continuum tension
-there to O(h²).
+is pulled in (sliding toward the actuator), T_0 e^{+μΘ_e} while it is let out. On a path of
+curvature κ the chord's Θ_e is the continuum's wrap at the chord's midpoint (the entry's
+abrupt turn plus half a segment's wrap at the entry, a whole one at each node), so τ_e is
+the continuum tension there to O(h²) (tests/test_tendon_friction.py: order 2 on a helix).
 
-Sticking and history. While the tendon does not slide at a routing point, the tensions on
-its two sides may differ by anything the friction there can hold:
+Sticking and history. Where the tendon does not slide, the tension may differ across a
+routing point by anything its friction holds: τ_{k−1} e^{−μθ_k} ≤ τ_k ≤ τ_{k−1} e^{+μθ_k}
+(τ_{−1} = T_0). The tension a chord holds is state: the profile τ_old of the last converged
+equilibrium (the term's anchors, :meth:`rodsim.core.model.Model.anchored`, set by the
+continuation of track, fit and reach between steps), and
 
-    τ_{k−1} e^{−μθ_k} ≤ τ_k ≤ τ_{k−1} e^{+μθ_k}     (τ_{−1} = T_0, the actuator's tension).
+    τ_e = clip(τ_old_e, T_0 e^{−μΘ_e}, T_0 e^{+μΘ_e}).
 
-The tension a chord holds is state: the profile τ_old of the last converged equilibrium (the
-term's anchors, :meth:`rodsim.core.model.Model.anchored`, set by the continuation of track,
-fit and reach between steps). The new profile keeps each stored tension where the friction
-can hold it and slides where it cannot — the projection onto the cones, swept from the
-actuator:
-
-    τ_e = clip(τ_old_e, τ_{e−1} e^{−μθ_e}, τ_{e−1} e^{+μθ_e}),   e = 0 … P−2.
-
-For an admissible τ_old (one inside its cones, which every profile this rule makes is on
-the geometry it was made on) and a base tension raised from T_old to T_0 ≥ T_old, this is
-τ_e = max(τ_old_e, T_0 e^{−μΘ_e}): ln τ_old_e + μΘ_e is non-decreasing in e (the lower
-cone), so the chords where T_0 e^{−μΘ_e} exceeds τ_old_e are a prefix — the slip zone,
-sliding at the capstan bound — and beyond its front the stored tensions hold and stay
-admissible. Lowered, it is τ_e = min(τ_old_e, T_0 e^{+μΘ_e}) by the same argument. The
-termination's tension is therefore unchanged after a reversal from T_max until
+Why: let τ_old be admissible (inside its cones; every profile this rule makes is, on the
+shape it was made on) and the actuator's tension go from T_old to T_0 ≥ T_old. The upper
+bound is inactive (τ_old_e ≤ T_old e^{μΘ_e} ≤ T_0 e^{μΘ_e}), so τ_e = max(τ_old_e,
+T_0 e^{−μΘ_e}); and ln τ_old_e + μΘ_e is non-decreasing in e (the lower cone), so the
+chords where T_0 e^{−μΘ_e} exceeds τ_old_e are a prefix — the slip zone, sliding in at the
+capstan bound — and beyond its front the stored tensions hold, admissible across the front.
+Lowered, τ_e = min(τ_old_e, T_0 e^{+μΘ_e}) the same way: the tendon slides out from the
+base. The termination's tension therefore holds after a reversal from T_max until
 T_0 e^{μΘ} falls below T_max e^{−μΘ}: a dead zone of ratio e^{2μΘ} in the actuator's
-tension (Θ the total wrap, measured on the state). A cold solve assumes the tendon was
-pulled in from slack, monotonically: τ_old = 0, so τ_e = T_0 e^{−μΘ_e} everywhere.
+tension on a rigid path (Θ the total wrap, measured on the state); on a catheter the
+tendon bends, Θ itself moves with the tension and the ratio is e^{μ(Θ_pull + Θ_release)}.
+A cold solve assumes the tendon was pulled in from slack, monotonically: τ_old = 0, so
+τ_e = T_0 e^{−μΘ_e} everywhere.
 
 The rule is evaluated at the current shape (the turning angles of the state being solved:
 the implicit, backward quasi-static step, as contact friction's slip is, docs/contact.md).
 What it leaves out: the tendon's own elasticity (a stuck chord keeps its tension while the
-catheter bends under it; an elastic tendon would stretch with the path), rate effects, and
-stiction above the kinetic coefficient (one μ).
+catheter bends under it; an elastic tendon would stretch with the path, and a stuck zone
+whose turns change is not re-checked against its own cones, only against the actuator's
+bounds), rate effects, and stiction above the kinetic coefficient (one μ).
 
 These are the numpy reference's functions; the compiled kernel
 (rodsim/core/kernels/tendon_string.py) evaluates the same formulas.
@@ -69,26 +71,28 @@ __all__ = ["MAX_FRICTION", "chord_tensions", "turning_angles"]
 MAX_FRICTION = 2.0
 
 
-def turning_angles(entry: np.ndarray, p: np.ndarray) -> np.ndarray:
-    """θ_e, e = 0 … P−2 (module docstring): the entry's turn from the unit direction
-    ``entry`` (d3 at the entry) to the first chord, then the turn at each routing point
-    between its two chords, for the polygon ``p`` (P, 3) [rad]."""
+def _angle(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """∠(a, b) row by row for unit vectors, as atan2(|a × b|, a·b) [rad]."""
+    return np.arctan2(np.linalg.norm(np.cross(a, b), axis=-1), np.sum(a * b, axis=-1))
+
+
+def turning_angles(axis: np.ndarray, tangent: np.ndarray, p: np.ndarray) -> np.ndarray:
+    """θ_e, e = 0 … P−2 (module docstring), of the polygon ``p`` (P, 3): the entry's turn
+    from the catheter's axis d3 (``axis``) to the path's tangent t_in there (``tangent``)
+    and on to the first chord, then the turn at each routing point between its two chords
+    [rad]."""
     d = np.diff(p, axis=0)
     u = d / np.linalg.norm(d, axis=1)[:, None]
-    before = np.concatenate([entry[None, :], u[:-1]])
-    cross = np.linalg.norm(np.cross(before, u), axis=1)
-    return np.arctan2(cross, np.einsum("ei,ei->e", before, u))
+    theta = _angle(np.concatenate([tangent[None, :], u[:-1]]), u)
+    theta[0] += float(_angle(axis, tangent))
+    return theta
 
 
 def chord_tensions(tension: float, friction: float, theta: np.ndarray,
                    profile: np.ndarray) -> np.ndarray:
     """τ_e of every chord [N] from the actuator's tension T_0 = ``tension``, μ =
-    ``friction``, the turning angles ``theta`` and the stored profile τ_old = ``profile``
-    (module docstring: the cone projection swept from the actuator)."""
-    out = np.empty(len(theta))
-    before = float(tension)
-    for e in range(len(theta)):
-        ratio = np.exp(friction * theta[e])
-        before = min(max(float(profile[e]), before / ratio), before * ratio)
-        out[e] = before
-    return out
+    ``friction``, the turning angles ``theta`` and the stored profile τ_old = ``profile``:
+    clip(τ_old_e, T_0 e^{−μΘ_e}, T_0 e^{+μΘ_e}), Θ_e = θ_0 + … + θ_e (module docstring)."""
+    wrap = np.cumsum(theta)
+    return np.minimum(np.maximum(profile, tension * np.exp(-friction * wrap)),
+                      tension * np.exp(friction * wrap))

@@ -53,7 +53,13 @@ from rodsim.core.schema import SceneError
 from rodsim.io.archive_schema import SCHEMA_VERSION
 from rodsim.io.cf_layout import variable_name
 from rodsim.io.provenance import archive_attributes
-from rodsim.io.run_dataset import contact_variables, step_coordinate
+from rodsim.io.run_dataset import (
+    FRICTION_HISTORY,
+    contact_variables,
+    step_coordinate,
+    tension_coordinates,
+    tension_variable,
+)
 from rodsim.solvers import DEFAULT_INTEGRATOR, integrator_named, registered_integrators
 from rodsim.solvers.base import Progress
 
@@ -113,6 +119,10 @@ class Track:
     min_eigenvalues: list[float] = field(default_factory=list)
     #: With obstacles: the contact force on every control point, (nodes, 3) [N] per step.
     contact: list[np.ndarray] = field(default_factory=list)
+    #: With tendon friction: the tension of every chord of those tendons, (chords,) [N] per
+    #: step, and each such tendon's chords (rest arc lengths of their midpoints [m]).
+    tension: list[np.ndarray] = field(default_factory=list)
+    chords: dict[str, np.ndarray] = field(default_factory=dict)
     success: bool = True
     message: str = "converged"
     failed_step: int | None = None
@@ -211,6 +221,9 @@ class Track:
         }
         if self.contact:
             data.update(contact_variables(np.array(self.contact), ("step",)))
+        if self.tension:
+            coords.update(tension_coordinates(self.chords))
+            data.update(tension_variable(np.array(self.tension), ("step",)))
         ds = xr.Dataset(data_vars=data, coords=coords)
         warm = np.asarray(self.times[1:])
         ds.attrs.update({
@@ -241,6 +254,9 @@ class Track:
         })
         if self.penalty_error is not None:
             ds.attrs["penalty_error"] = float(self.penalty_error)
+        if self.tension:
+            ds.attrs["friction_history"] = (f"step 0: {FRICTION_HISTORY}; then the track's "
+                                            "path, each step from the one before")
         if self.tendon_compression:
             ds.attrs["tendon_compression"] = json.dumps(self.tendon_compression,
                                                         sort_keys=True)

@@ -11,9 +11,10 @@ with d = p_B − p_A, u = d/|d|: F = −T Jdᵀ u and ∂F/∂x = −T [Jdᵀ (I
 
 With friction μ > 0 each chord carries its own tension τ_e in place of T — the capstan
 profile with the stored history ``profile`` (rodsim/core/tendon_friction.py: the entry's
-turn from d3 = qᵀ A_3 q / n of the entry point, the turns at the points, the cone
-projection swept from the actuator) — and the Jacobian is the one at frozen τ_e. With
-μ = 0 every τ_e is T: the frictionless numbers, bitwise.
+turn from d3 to the path's tangent d3 + ρ′_y d1 + ρ′_z d2 (d_k = qᵀ A_k q / n of the entry
+point, ρ′ = ``entry_slope``) and on, the turns at the points, the actuator's bounds) —
+and the Jacobian is the one at frozen τ_e. With μ = 0 every τ_e is T: the frictionless
+numbers, bitwise.
 """
 
 from __future__ import annotations
@@ -84,11 +85,21 @@ def _points(x: np.ndarray, dofs: np.ndarray, weights: np.ndarray, constant: np.n
 
 
 @njit(cache=True)
+def _angle(a: np.ndarray, b: np.ndarray) -> float:
+    """∠(a, b) of unit vectors, atan2(|a × b|, a·b)."""
+    cx = a[1] * b[2] - a[2] * b[1]
+    cy = a[2] * b[0] - a[0] * b[2]
+    cz = a[0] * b[1] - a[1] * b[0]
+    return np.arctan2(np.sqrt(cx * cx + cy * cy + cz * cz),
+                      a[0] * b[0] + a[1] * b[1] + a[2] * b[2])
+
+
+@njit(cache=True)
 def _tensions(x: np.ndarray, dofs: np.ndarray, weights: np.ndarray, constant: np.ndarray,
-              entry_form: np.ndarray, p: np.ndarray, tension: float, friction: float,
-              profile: np.ndarray, out: np.ndarray) -> None:
-    """τ_e of every chord into ``out``: T without friction, else the capstan profile
-    (rodsim/core/tendon_friction.py)."""
+              entry_forms: np.ndarray, entry_slope: np.ndarray, p: np.ndarray,
+              tension: float, friction: float, profile: np.ndarray, out: np.ndarray) -> None:
+    """τ_e of every chord into ``out``: T without friction, else
+    clip(τ_old_e, T e^{−μΘ_e}, T e^{+μΘ_e}) (rodsim/core/tendon_friction.py)."""
     chords = dofs.shape[0]
     if friction == 0.0:
         for e in range(chords):
@@ -99,15 +110,23 @@ def _tensions(x: np.ndarray, dofs: np.ndarray, weights: np.ndarray, constant: np
     for i in range(4):
         q[i] = w0 * x[dofs[0, 6 + i]] + w1 * x[dofs[0, 10 + i]] + constant[0, i]
     n = q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3]
+    d = np.empty((3, 3))
+    for k in range(3):
+        for m in range(3):
+            value = 0.0
+            for i in range(4):
+                for j in range(4):
+                    value += q[i] * entry_forms[k, m, i, j] * q[j]
+            d[k, m] = value / n
+    axis = d[2]
     a = np.empty(3)
     for m in range(3):
-        value = 0.0
-        for i in range(4):
-            for j in range(4):
-                value += q[i] * entry_form[m, i, j] * q[j]
-        a[m] = value / n
+        a[m] = d[2, m] + entry_slope[0] * d[0, m] + entry_slope[1] * d[1, m]
+    size = np.sqrt(a[0] * a[0] + a[1] * a[1] + a[2] * a[2])
+    for m in range(3):
+        a[m] /= size
+    wrap = _angle(axis, a)
     b = np.empty(3)
-    before = tension
     for e in range(chords):
         length = 0.0
         for m in range(3):
@@ -116,14 +135,9 @@ def _tensions(x: np.ndarray, dofs: np.ndarray, weights: np.ndarray, constant: np
         length = np.sqrt(length)
         for m in range(3):
             b[m] /= length
-        cx = a[1] * b[2] - a[2] * b[1]
-        cy = a[2] * b[0] - a[0] * b[2]
-        cz = a[0] * b[1] - a[1] * b[0]
-        theta = np.arctan2(np.sqrt(cx * cx + cy * cy + cz * cz),
-                           a[0] * b[0] + a[1] * b[1] + a[2] * b[2])
-        ratio = np.exp(friction * theta)
-        before = min(max(profile[e], before / ratio), before * ratio)
-        out[e] = before
+        wrap += _angle(a, b)
+        out[e] = min(max(profile[e], tension * np.exp(-friction * wrap)),
+                     tension * np.exp(friction * wrap))
         for m in range(3):
             a[m] = b[m]
 
@@ -147,7 +161,8 @@ def _active(weights: np.ndarray, e: int, columns: np.ndarray) -> int:
 @njit(cache=True)
 def evaluate(x: np.ndarray, dofs: np.ndarray, weights: np.ndarray, constant: np.ndarray,
              forms: np.ndarray, tension: float, friction: float, profile: np.ndarray,
-             entry_form: np.ndarray, scale: float, want_force: bool,
+             entry_forms: np.ndarray, entry_slope: np.ndarray, scale: float,
+             want_force: bool,
              force: np.ndarray, force_target: np.ndarray, want_jacobian: bool,
              jacobian: np.ndarray, jacobian_target: np.ndarray) -> None:
     if tension == 0.0:
@@ -161,8 +176,8 @@ def evaluate(x: np.ndarray, dofs: np.ndarray, weights: np.ndarray, constant: np.
     pj = np.empty((3, 28))
     p, jac, hess = _points(x, dofs, weights, constant, forms, want_jacobian)
     chord_tension = np.empty(dofs.shape[0])
-    _tensions(x, dofs, weights, constant, entry_form, p, tension, friction, profile,
-              chord_tension)
+    _tensions(x, dofs, weights, constant, entry_forms, entry_slope, p, tension, friction,
+              profile, chord_tension)
     for e in range(dofs.shape[0]):
         pull = chord_tension[e]
         pa, pb, ja, jb = p[e], p[e + 1], jac[e], jac[e + 1]
@@ -231,7 +246,7 @@ def evaluate(x: np.ndarray, dofs: np.ndarray, weights: np.ndarray, constant: np.
 @njit(cache=True)
 def energy(x: np.ndarray, dofs: np.ndarray, weights: np.ndarray, constant: np.ndarray,
            forms: np.ndarray, tension: float, friction: float, profile: np.ndarray,
-           entry_form: np.ndarray) -> float:
+           entry_forms: np.ndarray, entry_slope: np.ndarray) -> float:
     """T Σ |p_{k+1} − p_k| (frictionless; with friction the model asks for no energy)."""
     if tension == 0.0:
         return 0.0

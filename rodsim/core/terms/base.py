@@ -287,3 +287,9 @@ class TendonTerm(Term):
         solve (displacement control), reported with the result; None when it is an input
         (or not one number)."""
         return None
+
+    def tension_profile(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
+        """(rest arc length of each chord's midpoint [m], its tension [N]) along a tendon
+        whose tension varies along its path (a string with friction) at the full state
+        ``x``; None when it is one number."""
+        return None

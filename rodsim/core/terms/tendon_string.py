@@ -282,6 +282,9 @@ class TendonString(TendonTerm):
         #: The chord tensions τ_old of the last converged equilibrium [N], (P − 1,): the
         #: friction's history. At first 0: pulled in from slack, monotonically.
         self.profile = np.zeros(len(self.points.s) - 1)
+        #: ρ′ at the entry (the path's slope there), (2,).
+        self._entry_slope = np.ascontiguousarray(self.routing.derivatives(
+            np.array([self.start]))[0], dtype=float)
         self.conservative = self.friction == 0.0
 
     def with_options(self, options: TendonStringOptions) -> TendonString | None:
@@ -315,17 +318,20 @@ class TendonString(TendonTerm):
         other.profile = anchors
         return other
 
-    def entry_direction(self, x: np.ndarray) -> np.ndarray:
-        """d3 at the entry point (the direction the tendon comes in from the actuator)."""
+    def entry_directions(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(d3, t_in) at the entry point: the catheter's axis, along which the tendon comes
+        in from the actuator, and the path's tangent t_in ∝ d3 + ρ′_y d1 + ρ′_z d2."""
         pts = self.points
         local = x[pts.dofs[0]]
         _, _, w0, w1 = pts.weights[0]
         q = w0 * local[6:10] + w1 * local[10:14] + pts.constant[0]
-        return np.einsum("i,mij,j->m", q, DIRECTOR_FORMS[2], q) / float(q @ q)
+        d = np.einsum("i,kmij,j->km", q, DIRECTOR_FORMS, q) / float(q @ q)
+        tangent = d[2] + self._entry_slope[0] * d[0] + self._entry_slope[1] * d[1]
+        return d[2], tangent / np.linalg.norm(tangent)
 
     def turning_angles(self, x: np.ndarray) -> np.ndarray:
         """θ_e of every chord (the entry's turn, then each routing point's) [rad]."""
-        return turning_angles(self.entry_direction(x), self.path(x))
+        return turning_angles(*self.entry_directions(x), self.path(x))
 
     def chord_tensions(self, x: np.ndarray) -> np.ndarray:
         """τ_e of every chord [N]: T everywhere without friction, else the capstan profile
@@ -336,12 +342,20 @@ class TendonString(TendonTerm):
         return chord_tensions(self.tension, self.friction, self.turning_angles(x),
                               self.profile)
 
+    def tension_profile(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
+        """(rest arc length of each chord's midpoint, τ_e) with friction; None without."""
+        if self.friction == 0.0:
+            return None
+        s = self.points.s
+        return 0.5 * (s[:-1] + s[1:]), self.chord_tensions(x)
+
     def kernel_arguments(self) -> KernelArguments:
         pts = self.points
         return {"dofs": self.dofs, "weights": pts.weights, "constant": pts.constant,
                 "forms": np.ascontiguousarray(self._forms), "tension": self.tension,
                 "friction": self.friction, "profile": self.profile,
-                "entry_form": np.ascontiguousarray(DIRECTOR_FORMS[2])}
+                "entry_forms": np.ascontiguousarray(DIRECTOR_FORMS),
+                "entry_slope": self._entry_slope}
 
     def load_scale(self, x: np.ndarray) -> float:
         """The tension: the termination's point force (the chords' forces cancel in pairs)."""

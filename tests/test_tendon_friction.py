@@ -1,0 +1,317 @@
+"""Friction between a string tendon and its routing (rodsim/core/tendon_friction.py; issue 34)
+against closed forms derived in docs/tendon.md, "Friction".
+
+- A catheter bent by its own tendon (planar, constant offset ρ, tension T0 at the base):
+  the internal moment at s is T(s) ρ (cut the catheter and the tendon at s), so
+  dΘ/ds = T ρ / EI and, sliding, dT/dΘ = −μ T. Pulled in from slack:
+  T(s) = T0 / (1 + μ T0 ρ s / EI), Θ(s) = ln(1 + μ T0 ρ s / EI) / μ. Released from T_max
+  to T0: the tendon slides outward up to the slip front
+  s_f = (T_max − T0) EI / (2 μ T0 T_max ρ), where T(s) = T0 / (1 − μ T0 ρ s / EI); beyond
+  it the pulled profile holds. The tip is the quadrature of (1 − T/EA)(cos Θ, sin Θ).
+- A tendon on a rigid helix (a stiff straight rod): the wrap from the actuator to the path's
+  arc length l is α + κ_h l (α the entry's turn from the axis), T = T0 e^{−μ(α + κ_h l)}.
+"""
+
+from __future__ import annotations
+
+import copy
+import math
+
+import numpy as np
+import pytest
+from scipy.integrate import quad
+
+import rodsim
+from rodsim.core.model import Model
+from rodsim.core.scene import Scene
+from rodsim.core.schema import SceneError
+from rodsim.core.terms.tendon_string import TendonString
+
+#: The benchmark backbone (nitinol, r = 0.7 mm, 0.2 m) with a tendon on spacer disks 10 mm off.
+E, RADIUS, LENGTH, OFFSET = 54e9, 0.7e-3, 0.2, 0.01
+AREA, INERTIA = math.pi * RADIUS**2, math.pi * RADIUS**4 / 4
+EI, EA = E * INERTIA, E * AREA
+TENSION = "tendons.a.tendon_string.tension"
+
+
+def catheter(nodes: int, friction: float, tension: float, **string) -> dict:
+    return {"name": "friction-case", "rods": {"backbone": {
+        "length": LENGTH, "radius": RADIUS, "youngs_modulus": E, "stretch_modulus": E,
+        "poisson_ratio": 0.3, "density": 6450.0, "nodes": nodes, "clamp": "frame",
+        "terms": ["stretch", "bend_twist", "centerline"],
+        "centerline": {"K_P": E / 2.6 * AREA}}},
+        "tendons": {"a": {"catheter": "backbone", "coupling": "string", "offset": OFFSET,
+                          "direction": [1.0, 0.0], "tendon_string": {
+                              "tension": tension, "spacers": True, "friction": friction,
+                              **string}}},
+        "solver": {"integrator": "static"}}
+
+
+def string_term(model: Model) -> TendonString:
+    return next(t for t in model.terms if isinstance(t, TendonString))
+
+
+def _tip(theta, tension, pieces) -> np.ndarray:
+    """∫ (1 − T/EA)(sin Θ, cos Θ) ds over ``pieces`` (lateral, axial)."""
+    out = np.zeros(2)
+    for a, b in pieces:
+        for k, f in enumerate((math.sin, math.cos)):
+            out[k] += quad(lambda s, f=f: (1 - tension(s) / EA) * f(theta(s)), a, b,
+                           epsabs=1e-15, epsrel=1e-13)[0]
+    return out
+
+
+def pulled(mu: float, t0: float):
+    """(Θ(s), T(s)) pulled in from slack (module docstring)."""
+    c = mu * t0 * OFFSET / EI
+    return (lambda s: math.log1p(c * s) / mu), (lambda s: t0 / (1 + c * s))
+
+
+def pulled_tip(mu: float, t0: float) -> np.ndarray:
+    theta, tension = pulled(mu, t0)
+    return _tip(theta, tension, [(0.0, LENGTH)])
+
+
+def released(mu: float, t_max: float, t0: float):
+    """(Θ(s), T(s), s_f) released from t_max to t0 (module docstring)."""
+    front = min((t_max - t0) * EI / (2 * mu * t0 * t_max * OFFSET), LENGTH)
+    c = mu * t0 * OFFSET / EI
+    theta_old, tension_old = pulled(mu, t_max)
+    slip = lambda s: -math.log1p(-c * s) / mu  # noqa: E731
+
+    def theta(s):
+        return slip(s) if s <= front else slip(front) + theta_old(s) - theta_old(front)
+
+    def tension(s):
+        return t0 / (1 - c * s) if s <= front else tension_old(s)
+    return theta, tension, front
+
+
+def model_tip(positions: np.ndarray) -> np.ndarray:
+    return np.array([positions[-1, 1], positions[-1, 0]])  # (lateral, axial)
+
+
+def test_pulled_catheter_meets_the_closed_form_at_second_order():
+    """Tip of the self-bent catheter pulled from straight (μ = 0.2, 3 N: a 32° bend) against
+    the closed form, the chord tensions against T(s) at the chords' midpoints, and the
+    termination's tension against the wrap measured on the state."""
+    mu, t0 = 0.2, 3.0
+    reference = pulled_tip(mu, t0)
+    errors = {}
+    for n in (21, 41, 81):
+        scene = Scene.from_dict(catheter(n, mu, t0))
+        result = rodsim.solve(scene)
+        assert result.success, result.message
+        errors[n] = float(np.linalg.norm(model_tip(result.positions()) - reference)) / LENGTH
+        s, tension = result.tension_profiles["a"]
+        expected = np.array([pulled(mu, t0)[1](v) for v in s])
+        assert np.max(np.abs(tension - expected)) < 2.0 / n**2 * t0
+        # Termination tension = T0 e^{−μΘ}, Θ the sum of the turns measured on the state.
+        model = Model(scene)
+        term = string_term(model)
+        full = model.full(result.state)
+        path = term.path(full)
+        chords = np.diff(path, axis=0)
+        chords /= np.linalg.norm(chords, axis=1)[:, None]
+        rest = term.tendon.catheter.rest_positions()
+        entry = rest[1] - rest[0]  # the clamped base frame's d3
+        turns = [math.acos(min(1.0, float(a @ b))) for a, b in zip(
+            np.vstack([entry / np.linalg.norm(entry), chords[:-1]]), chords, strict=True)]
+        assert tension[-1] == pytest.approx(t0 * math.exp(-mu * sum(turns)), rel=1e-12)
+    orders = [math.log2(errors[a] / errors[b]) for a, b in ((21, 41), (41, 81))]
+    assert errors[41] < 1e-4 and min(orders) > 1.8, (errors, orders)
+
+
+def test_tip_moment_is_the_termination_tension_times_the_offset():
+    """The bending moment of the last element, E I κ, is T_tip ρ (to O(h))."""
+    mu, t0, n = 0.3, 2.0, 81
+    scene = Scene.from_dict(catheter(n, mu, t0))
+    result = rodsim.solve(scene)
+    r = result.positions()
+    h = LENGTH / (n - 1)
+    t1, t2 = r[-2] - r[-3], r[-1] - r[-2]
+    kappa = math.atan2(np.linalg.norm(np.cross(t1, t2)), t1 @ t2) / h
+    moment = EI * kappa
+    tip_tension = result.tension_profiles["a"][1][-1]
+    assert moment == pytest.approx(tip_tension * OFFSET, rel=2e-2)
+    assert tip_tension == pytest.approx(pulled(mu, t0)[1](LENGTH), rel=2e-2)
+
+
+def _pull_release(n: int, mu: float, up: np.ndarray, down: np.ndarray):
+    values = np.concatenate([up, down])
+    track = rodsim.track(Scene.from_dict(catheter(n, mu, float(up[0]))), {TENSION: values})
+    assert track.success, track.message
+    return values, track
+
+
+def test_release_meets_the_closed_form_and_its_slip_front():
+    """Pulled to 3 N then released in steps: every released tip against the closed form
+    with the slip front s_f, and the front's position within one segment."""
+    mu, t_max, n = 0.25, 3.0, 41
+    up, down = np.linspace(0.5, t_max, 6), np.linspace(2.7, 1.5, 5)
+    values, track = _pull_release(n, mu, up, down)
+    h = LENGTH / (n - 1)
+    for k, t0 in enumerate(values):
+        if k < len(up):
+            reference = pulled_tip(mu, t0)
+        else:
+            theta, tension, front = released(mu, t_max, t0)
+            reference = _tip(theta, tension, [(0.0, front), (front, LENGTH)])
+            profile = track.tension[k]
+            stuck = np.isclose(profile, track.tension[len(up) - 1], rtol=1e-12, atol=0)
+            first_stuck = track.chords["a"][np.argmax(stuck)] if stuck.any() else LENGTH
+            assert abs(first_stuck - front) <= h, (t0, first_stuck, front)
+        error = float(np.linalg.norm(model_tip(track.positions[k]) - reference)) / LENGTH
+        assert error < 2e-5, (k, t0, error)
+
+
+def test_pull_release_hysteresis_and_the_dead_zone():
+    """The same tension gives a larger bend on release; after the reversal the termination's
+    tension holds while T0 > T_tip e^{−μΘ} and changes below (Θ the total wrap on the
+    state), so the dead zone spans T_max e^{−μ(Θ_max + Θ)}: e^{2μΘ} on a rigid path."""
+    mu, t_max, n = 0.2, 3.0, 41
+    up = np.linspace(0.5, t_max, 11)
+    down = np.linspace(t_max, 0.5, 11)[1:]
+    values, track = _pull_release(n, mu, up, down)
+    tips = track.tips()[:, 1]
+    for t0 in values[1:len(up) - 1]:
+        pull = tips[np.flatnonzero(np.isclose(values, t0))[0]]
+        release = tips[np.flatnonzero(np.isclose(values, t0))[-1]]
+        assert release - pull > 1e-3 * LENGTH
+    model = Model(Scene.from_dict(catheter(n, mu, t_max)))
+    term = string_term(model)
+    top = track.tension[len(up) - 1][-1]
+    for k in range(len(up), len(values)):
+        wrap = float(np.sum(term.turning_angles(track.states[k])))
+        held = track.tension[k][-1] == top
+        assert held == (values[k] * math.exp(mu * wrap) >= top), (k, values[k])
+    dead = [values[k] for k in range(len(up), len(values)) if track.tension[k][-1] == top]
+    closed_edge = t_max / (1 + 2 * mu * t_max * OFFSET * LENGTH / EI)
+    assert min(dead) >= closed_edge * (1 - 0.02) and len(dead) < len(down)
+
+
+def helix_scene(nodes: int, friction: float, tension: float) -> dict:
+    scene = catheter(nodes, friction, tension, routing="helix", helix_radius=1.5e-3,
+                     helix_pitch=0.05, spacers=False)
+    scene["rods"]["backbone"] |= {"radius": 2e-3, "youngs_modulus": 200e9,
+                                  "stretch_modulus": 200e9, "length": 0.1,
+                                  "centerline": {"K_P": 200e9 / 2.6 * math.pi * 4e-6}}
+    return scene
+
+
+def helix_wrap(s: np.ndarray) -> np.ndarray:
+    """α + κ_h l(s) on the helix of radius a, pitch p: tan α = a φ′, φ′ = 2π/p."""
+    a, rate = 1.5e-3, 2 * math.pi / 0.05
+    slope = a * rate
+    return math.atan(slope) + a * rate**2 / (1 + slope**2) * s * math.sqrt(1 + slope**2)
+
+
+def test_capstan_on_a_rigid_helix_and_the_hold_range():
+    """A tendon on a helix around a stiff steel rod (0.1 N: rigid): each chord's tension
+    T0 e^{−μ(α + κ_h l)} at its midpoint, converging at second order; released, the
+    termination holds its tension down to T_max e^{−2μΘ} and not below."""
+    mu = 0.3
+    errors = {}
+    for n in (21, 41, 81):
+        result = rodsim.solve(Scene.from_dict(helix_scene(n, mu, 0.1)))
+        s, tension = result.tension_profiles["a"]
+        errors[n] = float(np.max(np.abs(tension / 0.1 - np.exp(-mu * helix_wrap(s)))))
+    orders = [math.log2(errors[a] / errors[b]) for a, b in ((21, 41), (41, 81))]
+    assert errors[81] < 1e-3 and min(orders) > 1.8, (errors, orders)
+    scene = Scene.from_dict(helix_scene(41, mu, 0.1))
+    term = string_term(Model(scene))
+    track = rodsim.track(scene, {TENSION: [0.1, 1.0]})
+    wrap = float(np.sum(term.turning_angles(track.states[-1])))
+    edge = 1.0 * math.exp(-2 * mu * wrap)
+    top = track.tension[-1][-1]
+    for factor, held in ((1.002, True), (0.998, False)):
+        again = rodsim.track(scene, {TENSION: [0.1, 1.0, edge * factor]})
+        assert again.success
+        assert (again.tension[-1][-1] == pytest.approx(top, rel=1e-9)) == held, factor
+
+
+def test_zero_friction_is_the_frictionless_tendon_bitwise_and_small_friction_tends_to_it():
+    base = catheter(31, 0.0, 2.0)
+    without = copy.deepcopy(base)
+    del without["tendons"]["a"]["tendon_string"]["friction"]
+    a = rodsim.solve(Scene.from_dict(base))
+    b = rodsim.solve(Scene.from_dict(without))
+    assert np.array_equal(a.state, b.state) and not a.tension_profiles
+    gaps = [np.max(np.abs(rodsim.solve(Scene.from_dict(catheter(31, mu, 2.0))).positions()
+                          - a.positions())) for mu in (1e-2, 1e-3, 1e-4)]
+    assert gaps[0] > 0.0
+    assert gaps[1] / gaps[0] == pytest.approx(0.1, rel=0.05)
+    assert gaps[2] / gaps[1] == pytest.approx(0.1, rel=0.05)
+
+
+def _scatter(model: Model, term: TendonString, values: np.ndarray) -> np.ndarray:
+    index = np.full(model.full_size, -1)
+    index[model.free] = np.arange(model.n)
+    target = index[term.dofs]
+    if values.ndim == 2:
+        keep = target >= 0
+        return np.bincount(target[keep], weights=values[keep], minlength=model.n)
+    out = np.zeros((model.n, model.n))
+    rows = np.broadcast_to(target[:, :, None], values.shape)
+    cols = np.broadcast_to(target[:, None, :], values.shape)
+    keep = (rows >= 0) & (cols >= 0)
+    np.add.at(out, (rows[keep], cols[keep]), values[keep])
+    return out
+
+
+def test_kernel_matches_the_reference_and_the_jacobian_is_the_frozen_tension_one(
+        random_state, fd):
+    """With the history of another state (sticking on part of the path, slipping on the
+    rest), the compiled kernel's force and Jacobian equal the numpy reference's, and the
+    Jacobian is the derivative of the force at frozen chord tensions (finite differences)."""
+    rng = np.random.default_rng(3)
+    models = {kernels: Model(Scene.from_dict(catheter(9, 0.3, 2.0) | {
+        "solver": {"integrator": "static", "kernels": kernels}}))
+        for kernels in ("numpy", "compiled")}
+    x = random_state(models["numpy"], rng)
+    full = models["numpy"].full(x)
+    pulled_in = string_term(models["numpy"]).chord_tensions(full)
+    history = pulled_in * np.where(np.arange(len(pulled_in)) % 3 == 0, 0.8, 1.1)
+    models = {k: m.with_terms([t.anchored(history) if isinstance(t, TendonString) else t
+                               for t in m.terms]) for k, m in models.items()}
+    term = string_term(models["numpy"])
+    slipping = term.chord_tensions(full) != term.profile
+    assert 0 < np.sum(slipping) < len(slipping)  # both regimes are exercised
+    assert not models["numpy"].conservative
+    force = models["numpy"].force(x)
+    jacobian = models["numpy"].jacobian(x).toarray()
+    scale = np.max(np.abs(force))
+    assert np.max(np.abs(models["compiled"].force(x) - force)) < 1e-12 * scale
+    assert np.max(np.abs(models["compiled"].jacobian(x).toarray() - jacobian)) < 1e-11 * (
+        np.max(np.abs(jacobian)))
+    model = models["numpy"]
+    tension = term.chord_tensions(full)
+    unit = copy.copy(term)
+    unit.friction, unit.tension = 0.0, 1.0  # each chord's force at unit tension
+
+    def frozen(y: np.ndarray) -> np.ndarray:
+        return _scatter(model, term, unit.element_forces(model.full(y)) * np.repeat(
+            tension, 1)[:, None])
+
+    analytic = _scatter(model, term, term.element_jacobians(full))
+    numeric = fd["jacobian"](frozen, x, fd["steps"](model, 1e-6))
+    assert np.max(np.abs(analytic - numeric)) < 1e-6 * np.max(np.abs(analytic))
+    assert np.max(np.abs(_scatter(model, term, term.element_forces(full))
+                         - frozen(x))) < 1e-12 * np.max(np.abs(frozen(x)))
+
+
+@pytest.mark.parametrize("values, message", [
+    ({"friction": -0.1}, "friction"),
+    ({"friction": float("nan")}, "not finite"),
+    ({"friction": float("inf")}, "friction"),
+    ({"friction": 0.2, "control": "displacement", "stiffness": 6e3, "tension": 1.0},
+     "tension-controlled string only"),
+])
+def test_bad_friction_is_one_line(values, message):
+    scene = catheter(11, 0.0, 1.0)
+    scene["tendons"]["a"]["tendon_string"] |= values
+    if values.get("control") == "displacement":
+        del scene["tendons"]["a"]["tendon_string"]["tension"]
+    with pytest.raises(SceneError, match=message) as info:
+        Scene.from_dict(scene)
+    assert "\n" not in str(info.value)
