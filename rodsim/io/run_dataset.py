@@ -99,10 +99,10 @@ def tension_coordinates(chords: dict[str, np.ndarray]) -> dict[str, Any]:
     tendon by tendon, actuator first."""
     names = np.concatenate([[name] * len(s) for name, s in chords.items()])
     return {
-        "chord_s": ("chord", np.concatenate(list(chords.values())),
+        "chord_s": (("chord",), np.concatenate(list(chords.values())),
                     {"units": "m", "long_name": "rest arc length of the tendon chord's "
                      "midpoint"}),
-        "chord_tendon": ("chord", names.astype(str), {"long_name": "tendon of the chord"}),
+        "chord_tendon": (("chord",), names.astype(str), {"long_name": "tendon of the chord"}),
     }
 
 
