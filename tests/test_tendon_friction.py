@@ -415,6 +415,17 @@ def test_the_tension_profile_is_archived_for_a_run_and_a_track(tmp_path):
     assert "step 0" in stored.attrs["friction_history"]
     plain = rodsim.solve(Scene.from_dict(catheter(21, 0.0, 3.0)))
     assert "tension_profile" not in run_content(plain).data_vars
+    # Both figures draw the tension: along the tendon (run), at the termination (track).
+    import matplotlib.pyplot as plt
+
+    from rodsim.app.figures.plot import draw_figure
+    for archive, title in ((run, "tension along the tendons (friction)"),
+                           (stored, "termination tension (friction)")):
+        figure = draw_figure(archive)
+        panel = next(ax for ax in figure.axes if ax.get_title() == title)
+        assert np.allclose(panel.lines[0].get_ydata(), archive["tension_profile"].values[
+            ..., -1] if archive is stored else archive["tension_profile"].values)
+        plt.close(figure)
 
 
 @pytest.mark.parametrize("integrator, options", [
