@@ -63,7 +63,11 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["MAX_FRICTION", "chord_tensions", "turning_angles"]
+__all__ = ["MAX_FRICTION", "ONE_WAY", "chord_tensions", "slide_rates", "turning_angles"]
+
+#: |Θ_e − ψ_e| below which (relative to max(1, Θ_e)) the path up to chord e turns one way
+#: in one plane (Θ_e = ψ_e = ∠(d3, u_e)): round-off of the sum of turns.
+ONE_WAY = 1e-10
 
 #: Largest friction coefficient a scene may set (tendon_string.friction's range): steel on
 #: PTFE ~0.05–0.1, braided polymer on steel disks ~0.1–0.3; 2 is already a tendon that
@@ -73,7 +77,11 @@ MAX_FRICTION = 2.0
 
 def _angle(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """∠(a, b) row by row for unit vectors, as atan2(|a × b|, a·b) [rad]."""
-    return np.arctan2(np.linalg.norm(np.cross(a, b), axis=-1), np.sum(a * b, axis=-1))
+    ax, ay, az = np.moveaxis(a, -1, 0)
+    bx, by, bz = np.moveaxis(b, -1, 0)
+    cross = np.sqrt((ay * bz - az * by) ** 2 + (az * bx - ax * bz) ** 2
+                    + (ax * by - ay * bx) ** 2)
+    return np.arctan2(cross, ax * bx + ay * by + az * bz)
 
 
 def turning_angles(axis: np.ndarray, tangent: np.ndarray, p: np.ndarray) -> np.ndarray:
@@ -86,6 +94,17 @@ def turning_angles(axis: np.ndarray, tangent: np.ndarray, p: np.ndarray) -> np.n
     theta = _angle(np.concatenate([tangent[None, :], u[:-1]]), u)
     theta[0] += float(_angle(axis, tangent))
     return theta
+
+
+def slide_rates(tension: float, friction: float, theta: np.ndarray, profile: np.ndarray
+                ) -> np.ndarray:
+    """∂τ_e/∂Θ_e of every chord: −μ τ_e where the tendon slides in (the lower bound
+    holds), +μ τ_e where it slides out (the upper), 0 where it sticks."""
+    wrap = np.cumsum(theta)
+    low = tension * np.exp(-friction * wrap)
+    high = tension * np.exp(friction * wrap)
+    return np.where(low > profile, -friction * low,
+                    np.where(high < profile, friction * high, 0.0))
 
 
 def chord_tensions(tension: float, friction: float, theta: np.ndarray,

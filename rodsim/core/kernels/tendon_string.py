@@ -23,6 +23,7 @@ import numpy as np
 from numba import njit
 
 from rodsim.core.kernels._scatter import add_force
+from rodsim.core.tendon_friction import ONE_WAY
 
 
 @njit(cache=True)
@@ -97,9 +98,12 @@ def _angle(a: np.ndarray, b: np.ndarray) -> float:
 @njit(cache=True)
 def _tensions(x: np.ndarray, dofs: np.ndarray, weights: np.ndarray, constant: np.ndarray,
               entry_forms: np.ndarray, entry_slope: np.ndarray, p: np.ndarray,
-              tension: float, friction: float, profile: np.ndarray, out: np.ndarray) -> None:
+              tension: float, friction: float, profile: np.ndarray, out: np.ndarray,
+              rate: np.ndarray, axis: np.ndarray) -> None:
     """τ_e of every chord into ``out``: T without friction, else
-    clip(τ_old_e, T e^{−μΘ_e}, T e^{+μΘ_e}) (rodsim/core/tendon_friction.py)."""
+    clip(τ_old_e, T e^{−μΘ_e}, T e^{+μΘ_e}) (rodsim/core/tendon_friction.py); with friction
+    also ∂τ_e/∂Θ_e into ``rate`` where the path up to chord e turns one way in one plane from
+    a held entry frame (else 0) and d3 at the entry into ``axis``."""
     chords = dofs.shape[0]
     if friction == 0.0:
         for e in range(chords):
@@ -118,7 +122,9 @@ def _tensions(x: np.ndarray, dofs: np.ndarray, weights: np.ndarray, constant: np
                 for j in range(4):
                     value += q[i] * entry_forms[k, m, i, j] * q[j]
             d[k, m] = value / n
-    axis = d[2]
+    for m in range(3):
+        axis[m] = d[2, m]
+    held = weights[0, 2] == 0.0 and weights[0, 3] == 0.0
     a = np.empty(3)
     for m in range(3):
         a[m] = d[2, m] + entry_slope[0] * d[0, m] + entry_slope[1] * d[1, m]
@@ -136,10 +142,49 @@ def _tensions(x: np.ndarray, dofs: np.ndarray, weights: np.ndarray, constant: np
         for m in range(3):
             b[m] /= length
         wrap += _angle(a, b)
-        out[e] = min(max(profile[e], tension * np.exp(-friction * wrap)),
-                     tension * np.exp(friction * wrap))
+        low = tension * np.exp(-friction * wrap)
+        high = tension * np.exp(friction * wrap)
+        out[e] = min(max(profile[e], low), high)
+        rate[e] = 0.0
+        if held and np.abs(wrap - _angle(axis, b)) <= ONE_WAY * max(1.0, wrap):
+            if low > profile[e]:
+                rate[e] = -friction * low
+            elif high < profile[e]:
+                rate[e] = friction * high
         for m in range(3):
             a[m] = b[m]
+
+
+@njit(cache=True)
+def _one_way_coupling(jd: np.ndarray, u: np.ndarray, length: float, axis: np.ndarray,
+                      rate: float, columns: np.ndarray, active: int, slope: np.ndarray,
+                      gradient: np.ndarray, unit_force: np.ndarray,
+                      local_jacobian: np.ndarray) -> None:
+    """Add f ⊗ rate ∂ψ/∂x of a chord on a one-way planar path to its element Jacobian:
+    f = −Jdᵀ u, ∂ψ/∂x = −(d3 − (d3·u) u)ᵀ Jd / (|d3 × u| |d|) (rodsim/core/tendon_friction.py)."""
+    cosine = axis[0] * u[0] + axis[1] * u[1] + axis[2] * u[2]
+    cx = axis[1] * u[2] - axis[2] * u[1]
+    cy = axis[2] * u[0] - axis[0] * u[2]
+    cz = axis[0] * u[1] - axis[1] * u[0]
+    sine = np.sqrt(cx * cx + cy * cy + cz * cz)
+    if sine == 0.0:
+        return
+    for m in range(3):
+        slope[m] = -(axis[m] - cosine * u[m]) / (sine * length)
+    for c in range(active):
+        k = columns[c]
+        g = 0.0
+        f = 0.0
+        for m in range(3):
+            g += slope[m] * jd[m, k]
+            f -= jd[m, k] * u[m]
+        gradient[k] = rate * g
+        unit_force[k] = f
+    for c in range(active):
+        k = columns[c]
+        for d in range(active):
+            j = columns[d]
+            local_jacobian[k, j] += unit_force[k] * gradient[j]
 
 
 @njit(cache=True)
@@ -176,8 +221,13 @@ def evaluate(x: np.ndarray, dofs: np.ndarray, weights: np.ndarray, constant: np.
     pj = np.empty((3, 28))
     p, jac, hess = _points(x, dofs, weights, constant, forms, want_jacobian)
     chord_tension = np.empty(dofs.shape[0])
+    rate = np.zeros(dofs.shape[0])
+    axis = np.zeros(3)
     _tensions(x, dofs, weights, constant, entry_forms, entry_slope, p, tension, friction,
-              profile, chord_tension)
+              profile, chord_tension, rate, axis)
+    slope = np.empty(3)
+    gradient = np.empty(28)
+    unit_force = np.empty(28)
     for e in range(dofs.shape[0]):
         pull = chord_tension[e]
         pa, pb, ja, jb = p[e], p[e + 1], jac[e], jac[e + 1]
@@ -236,6 +286,9 @@ def evaluate(x: np.ndarray, dofs: np.ndarray, weights: np.ndarray, constant: np.
                                 if weight != 0.0:
                                     local_jacobian[offset + 4 * a + i, offset + 4 * b + j] -= (
                                         weight * curvature)
+            if rate[e] != 0.0:
+                _one_way_coupling(jd, u, length, axis, rate[e], columns, active, slope,
+                                  gradient, unit_force, local_jacobian)
             for c in range(active):
                 k = columns[c]
                 for d in range(active):

@@ -66,10 +66,15 @@ points and the stored profile of the last equilibrium (the term's anchors); the 
 F = −Σ_e τ_e ∂ℓ_e/∂x (each chord's pull at its two ends: the difference of the tensions at
 a point is the friction it takes). τ_e depends on every turn upstream of chord e, so the
 exact Jacobian couples each chord to the whole path before it (a dense lower-triangular
-block, no band): ``element_jacobians`` is the Jacobian at frozen τ_e (the chords' own
-stencils, the frictionless pattern), which Newton converges with linearly at a rate of
-order μ; the term is then not conservative (no energy) and the stability verdict takes the
-non-symmetric path. With μ = 0 every τ_e is T and nothing of this runs: the frictionless
+block, no band). ``element_jacobians`` keeps the frictionless pattern: the Jacobian at
+frozen τ_e (the chords' own stencils) plus, on the chords up to which the path turns one
+way in one plane from a held entry frame (a tendon bending its catheter from a clamped
+base), the exact coupling: there the wrap Θ_e equals ψ_e = ∠(d3, u_e) with the same
+gradient (out of the plane both change at second order), which lies on chord e's own
+coordinates. So the Jacobian is exact on such paths (Newton converges quadratically) and
+the frozen-tension one elsewhere (3-D or S-shaped paths, a moving entry: linearly, at a
+rate of order μ); the term is not conservative (no energy) and the stability verdict
+takes the non-symmetric path. With μ = 0 every τ_e is T and nothing of this runs: the frictionless
 numbers, bitwise.
 """
 
@@ -87,7 +92,13 @@ from rodsim.core.rod.quaternion import DIRECTOR_FORMS
 from rodsim.core.routing import ROUTINGS, Routing, string_span
 from rodsim.core.schema import Options, Parameter, SceneError
 from rodsim.core.tendon import MAX_TENSION, Tendon
-from rodsim.core.tendon_friction import MAX_FRICTION, chord_tensions, turning_angles
+from rodsim.core.tendon_friction import (
+    MAX_FRICTION,
+    ONE_WAY,
+    chord_tensions,
+    slide_rates,
+    turning_angles,
+)
 from rodsim.core.terms.base import KernelArguments, TendonTerm
 
 #: A change of G J closer than this fraction of a segment to a node (or to the tendon's entry
@@ -361,7 +372,8 @@ class TendonString(TendonTerm):
         """The tension: the termination's point force (the chords' forces cancel in pairs)."""
         return self.tension
 
-    def _points(self, x: np.ndarray) -> PointGeometry:
+    def _points(self, x: np.ndarray, derivatives: bool = True) -> PointGeometry:
+        """p and, with ``derivatives``, ∂p/∂x_point and ∇²f (else empty arrays)."""
         pts = self.points
         local = x[pts.dofs]
         c0, c1, w0, w1 = pts.weights.T
@@ -369,10 +381,12 @@ class TendonString(TendonTerm):
         n = np.einsum("pi,pi->p", q, q)
         gq = np.einsum("pmij,pj->pmi", self._forms, q)  # G_m q
         g = np.einsum("pmi,pi->pm", gq, q)
-        grad = 2.0 * gq / n[:, None, None] - 2.0 * g[:, :, None] * q[:, None, :] / (
-            n**2)[:, None, None]
         p = (c0[:, None] * local[:, 0:3] + c1[:, None] * local[:, 3:6]
              + g / n[:, None])
+        if not derivatives:
+            return PointGeometry(p, np.empty(0), np.empty(0))
+        grad = 2.0 * gq / n[:, None, None] - 2.0 * g[:, :, None] * q[:, None, :] / (
+            n**2)[:, None, None]
         jac = np.zeros((len(n), 3, POINT_SIZE))
         eye = np.eye(3)
         jac[:, :, 0:3] = c0[:, None, None] * eye
@@ -389,7 +403,7 @@ class TendonString(TendonTerm):
 
     def path(self, x: np.ndarray) -> np.ndarray:
         """The tendon's path: the routing points in order, shape (P, 3) [m]."""
-        return self._points(x).p
+        return self._points(x, derivatives=False).p
 
     def length(self, x: np.ndarray) -> float:
         """ℓ(x), the length of the tendon's path [m]."""
@@ -434,4 +448,28 @@ class TendonString(TendonTerm):
                     cols = slice(offset + 4 * b, offset + 4 * b + 4)
                     hess[:, rows, cols] += (weights[:, a] * weights[:, b])[:, None,
                                                                            None] * curvature
-        return -hess
+        jacobian = -hess
+        if self.friction > 0.0 and not np.any(self.points.weights[0, 2:]):
+            jacobian += self._one_way_coupling(x, u, length, jd)
+        return jacobian
+
+    def _one_way_coupling(self, x: np.ndarray, u: np.ndarray, length: np.ndarray,
+                          jd: np.ndarray) -> np.ndarray:
+        """Σ_e f_e ⊗ ∂τ_e/∂x on the chords up to which the path turns one way in one plane
+        from a held entry frame (module docstring, "Friction"): there Θ_e = ψ_e =
+        ∠(d3, u_e), whose gradient −(d3 − (d3·u_e) u_e)ᵀ Jd_e / (|d3 × u_e| |d_e|) lies on
+        the chord's own coordinates; f_e = −Jd_eᵀ u_e, the chord's force per unit tension."""
+        theta = self.turning_angles(x)
+        wrap = np.cumsum(theta)
+        rate = slide_rates(self.tension, self.friction, theta, self.profile)
+        axis = self.entry_directions(x)[0]
+        sine = np.linalg.norm(np.cross(axis[None, :], u), axis=1)
+        cosine = u @ axis
+        psi = np.arctan2(sine, cosine)
+        one_way = (np.abs(wrap - psi) <= ONE_WAY * np.maximum(1.0, wrap)) & (sine > 0.0)
+        rate = np.where(one_way, rate, 0.0)
+        slope = -(axis[None, :] - cosine[:, None] * u) / np.where(
+            one_way, sine * length, 1.0)[:, None]
+        gradient = rate[:, None] * np.einsum("em,emk->ek", slope, jd)
+        unit_force = -np.einsum("emk,em->ek", jd, u)
+        return unit_force[:, :, None] * gradient[:, None, :]
