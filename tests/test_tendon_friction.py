@@ -467,3 +467,29 @@ def test_every_integrator_reaches_the_static_equilibrium_with_friction(integrato
         del data["solver"]["paper"]
         plain = rodsim.solve(Scene.from_dict(data))
         assert plain.success or "ramp_steps" in plain.message  # the advice it gets
+
+
+def test_a_cold_run_says_which_history_it_assumed(tmp_path, capsys):
+    """`rodsim run` of a friction scene prints the tension past the entry and at the
+    termination with the history it assumed; the verdict of its equilibrium is given."""
+    from rodsim.app.cli import main
+
+    scene = tmp_path / "friction.toml"
+    scene.write_text("\n".join([
+        'name = "friction-cli"', "[rods.backbone]", f"length = {LENGTH}",
+        f"radius = {RADIUS}", f"youngs_modulus = {E}", f"stretch_modulus = {E}",
+        "density = 6450.0", "nodes = 21",
+        'terms = ["stretch", "bend_twist", "centerline"]',
+        "[rods.backbone.centerline]", f"K_P = {E / 2.6 * AREA}",
+        "[tendons.a]", 'catheter = "backbone"', 'coupling = "string"', f"offset = {OFFSET}",
+        "[tendons.a.tendon_string]", "tension = 3.0", "spacers = true", "friction = 0.2",
+        "[solver]", 'integrator = "static"', ""]))
+    assert main(["run", str(scene), "-o", str(tmp_path / "out.nc")]) == 0
+    out = capsys.readouterr().out
+    line = next(text for text in out.splitlines() if text.startswith("tension"))
+    assert "history: pulled in from slack, monotonically" in line
+    termination = float(line.split(",")[1].split()[0])
+    assert termination == pytest.approx(pulled(0.2, 3.0)[1](LENGTH), rel=1e-2)
+    assert "stability   stable" in out
+    assert main(["run", str(scene), "--set", "tendons.a.tendon_string.friction=-0.5",
+                 "-o", str(tmp_path / "bad.nc")]) == 2
