@@ -231,8 +231,9 @@ class Term(ABC):
     def anchor_positions(self) -> np.ndarray | None:
         """A path-dependent term's anchors — the state of the last converged equilibrium its
         force depends on (a frictional contact's node positions,
-        rodsim/core/terms/contact.py) — or ``None`` for a term whose force depends on the
-        state alone (every other term; a contact without friction)."""
+        rodsim/core/terms/contact.py; a string tendon's chord tensions with friction,
+        rodsim/core/tendon_friction.py) — or ``None`` for a term whose force depends on the
+        state alone (every other term; a contact or a tendon without friction)."""
         return None
 
     def anchors_at(self, full: np.ndarray) -> np.ndarray | None:
