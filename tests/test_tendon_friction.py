@@ -469,12 +469,9 @@ def test_every_integrator_reaches_the_static_equilibrium_with_friction(integrato
         assert plain.success or "ramp_steps" in plain.message  # the advice it gets
 
 
-def test_a_cold_run_says_which_history_it_assumed(tmp_path, capsys):
-    """`rodsim run` of a friction scene prints the tension past the entry and at the
-    termination with the history it assumed; the verdict of its equilibrium is given."""
-    from rodsim.app.cli import main
-
-    scene = tmp_path / "friction.toml"
+def toml_scene(folder, tension: float):
+    """The friction catheter (21 nodes, μ = 0.2) as a user's TOML file."""
+    scene = folder / "friction.toml"
     scene.write_text("\n".join([
         'name = "friction-cli"', "[rods.backbone]", f"length = {LENGTH}",
         f"radius = {RADIUS}", f"youngs_modulus = {E}", f"stretch_modulus = {E}",
@@ -482,8 +479,17 @@ def test_a_cold_run_says_which_history_it_assumed(tmp_path, capsys):
         'terms = ["stretch", "bend_twist", "centerline"]',
         "[rods.backbone.centerline]", f"K_P = {E / 2.6 * AREA}",
         "[tendons.a]", 'catheter = "backbone"', 'coupling = "string"', f"offset = {OFFSET}",
-        "[tendons.a.tendon_string]", "tension = 3.0", "spacers = true", "friction = 0.2",
-        "[solver]", 'integrator = "static"', ""]))
+        "[tendons.a.tendon_string]", f"tension = {tension}", "spacers = true",
+        "friction = 0.2", "[solver]", 'integrator = "static"', ""]))
+    return scene
+
+
+def test_a_cold_run_says_which_history_it_assumed(tmp_path, capsys):
+    """`rodsim run` of a friction scene prints the tension past the entry and at the
+    termination with the history it assumed; the verdict of its equilibrium is given."""
+    from rodsim.app.cli import main
+
+    scene = toml_scene(tmp_path, 3.0)
     assert main(["run", str(scene), "-o", str(tmp_path / "out.nc")]) == 0
     out = capsys.readouterr().out
     line = next(text for text in out.splitlines() if text.startswith("tension"))
@@ -493,3 +499,26 @@ def test_a_cold_run_says_which_history_it_assumed(tmp_path, capsys):
     assert "stability   stable" in out
     assert main(["run", str(scene), "--set", "tendons.a.tendon_string.friction=-0.5",
                  "-o", str(tmp_path / "bad.nc")]) == 2
+
+
+def test_a_ramp_with_legs_is_a_pull_release_cycle_on_the_command_line(tmp_path):
+    """``--ramp KEY=START:STOP:COUNT:STOP:COUNT`` goes up and back down; its archive holds
+    the loop (the same tension, a larger bend on the way back). Bad legs are one line."""
+    from rodsim.app.cli import main
+    from rodsim.app.inverse.ramps import parse_ramp
+    from rodsim.io.archive import read_dataset
+
+    key, values = parse_ramp(f"{TENSION}=0.5:3:6:0.5:5")
+    assert key == TENSION
+    np.testing.assert_allclose(values, [0.5, 1.0, 1.5, 2.0, 2.5, 3.0, 2.5, 2.0, 1.5, 1.0, 0.5])
+    np.testing.assert_array_equal(parse_ramp("x=0:4:101")[1], np.linspace(0, 4, 101))
+    for bad in ("x=0:1:5:2", "x=0:1:5:2:0", "x=0:1:1", "x=0:1:5:nan:3"):
+        with pytest.raises(SceneError, match="--ramp"):
+            parse_ramp(bad)
+    scene = toml_scene(tmp_path, 0.5)
+    archive = tmp_path / "cycle.nc"
+    assert main(["track", str(scene), "--ramp", f"{TENSION}=0.5:3:6:0.5:5",
+                 "-o", str(archive)]) == 0
+    ds = read_dataset(archive)
+    lateral = ds["position"].values[:, -1, 1]
+    assert ds.sizes["step"] == 11 and lateral[6] > lateral[4] + 1e-3 * LENGTH

@@ -46,6 +46,7 @@ import numpy as np
 
 from rodsim.app.inverse.continuation import MAX_HALVINGS, Continuation
 from rodsim.app.inverse.parameter_keys import NumericKey, numeric_keys, scene_with
+from rodsim.app.inverse.ramps import MAX_STEPS, parse_ramp
 from rodsim.app.inverse.track_steps import record_contact, record_stability, values_text
 from rodsim.core.model import Model
 from rodsim.core.scene import Scene
@@ -67,30 +68,6 @@ if TYPE_CHECKING:
     import xarray as xr
 
 __all__ = ["Track", "track", "parse_ramp", "rerun_track", "MAX_HALVINGS"]
-
-
-
-#: Most steps a track may have (a ramp's COUNT): beyond, the values alone fill memory and
-#: the run takes days.
-MAX_STEPS = 100_000
-
-
-def parse_ramp(text: str) -> tuple[str, np.ndarray]:
-    """``KEY=START:STOP:COUNT`` → (key, COUNT values from START to STOP); SceneError."""
-    key, sep, spec = text.partition("=")
-    parts = spec.split(":")
-    if not sep or not key.strip() or len(parts) != 3:
-        raise SceneError(f"--ramp {text[:60]!r}: expected KEY=START:STOP:COUNT")
-    try:
-        start, stop = float(parts[0]), float(parts[1])
-        count = int(parts[2])
-    except ValueError:
-        raise SceneError(f"--ramp {text[:60]!r}: START and STOP must be numbers, COUNT a "
-                         "whole number") from None
-    if not (np.isfinite(start) and np.isfinite(stop)) or not 2 <= count <= MAX_STEPS:
-        raise SceneError(f"--ramp {text[:60]!r}: finite START and STOP and COUNT from 2 to "
-                         f"{MAX_STEPS} expected")
-    return key.strip(), np.linspace(start, stop, count)
 
 
 @dataclass
