@@ -13,8 +13,10 @@ With friction μ > 0 each chord carries its own tension τ_e in place of T — t
 profile with the stored history ``profile`` (rodsim/core/tendon_friction.py: the entry's
 turn from d3 to the path's tangent d3 + ρ′_y d1 + ρ′_z d2 (d_k = qᵀ A_k q / n of the entry
 point, ρ′ = ``entry_slope``) and on, the turns at the points, the actuator's bounds) —
-and the Jacobian is the one at frozen τ_e. With μ = 0 every τ_e is T: the frictionless
-numbers, bitwise.
+and the Jacobian is the one at frozen τ_e plus, on a chord up to which the path turns one
+way in one plane from a held entry frame, f ⊗ ∂τ_e/∂x with ∂τ_e/∂x = (∂τ_e/∂Θ_e) ∂ψ_e/∂x,
+ψ_e = ∠(d3, u_e) (rodsim/core/terms/tendon_string.py, "Friction"). With μ = 0 every τ_e is
+T and the coupling is skipped: the frictionless numbers, bitwise.
 """
 
 from __future__ import annotations

@@ -74,8 +74,8 @@ gradient (out of the plane both change at second order), which lies on chord e's
 coordinates. So the Jacobian is exact on such paths (Newton converges quadratically) and
 the frozen-tension one elsewhere (3-D or S-shaped paths, a moving entry: linearly, at a
 rate of order μ); the term is not conservative (no energy) and the stability verdict
-takes the non-symmetric path. With μ = 0 every τ_e is T and nothing of this runs: the frictionless
-numbers, bitwise.
+takes the non-symmetric path. With μ = 0 every τ_e is T and nothing of this runs: the
+frictionless numbers, bitwise.
 """
 
 from __future__ import annotations
