@@ -19,8 +19,10 @@ A model never changes once built. What a solver varies is passed in or returned 
 model: the load fraction is an argument of every evaluation; a penalty continuation scale is
 a model built by :meth:`Model.with_term_scales`; a tendon registration that changes gives a
 new model from :meth:`Model.reregistered` (new element coordinates, so a new pattern); the
-anchors of contact friction (the last converged equilibrium, rodsim/core/terms/contact.py)
-give a new model from :meth:`Model.anchored` (same elements and pattern).
+anchors of friction (the last converged equilibrium: contact's node positions,
+rodsim/core/terms/contact.py; a string tendon's chord tensions,
+rodsim/core/tendon_friction.py) give a new model from :meth:`Model.anchored` (same elements
+and pattern).
 """
 
 from __future__ import annotations
@@ -569,8 +571,9 @@ class Model:
         return self.with_terms(terms) if changed else None
 
     def anchored(self, x: np.ndarray) -> Model:
-        """The model with every path-dependent term's anchors (friction,
-        rodsim/core/terms/contact.py) set from the state ``x`` (free coordinates): what a
+        """The model with every path-dependent term's anchors (friction: contact,
+        rodsim/core/terms/contact.py; a string tendon, rodsim/core/tendon_friction.py) set
+        from the state ``x`` (free coordinates): what a
         track, a fit or a reach applies to the model of a converged equilibrium before it
         solves the next step (rodsim/app/inverse/continuation.py), so that friction opposes
         the slip since that equilibrium. The elements, the Jacobian pattern and the scales

@@ -364,6 +364,10 @@ def _check_run(ds: xr.Dataset, leading: tuple[str, ...] = ()) -> None:
     if "contact_force" in ds.variables or "contact_resultant" in ds.variables:
         _variable(ds, "contact_force", (*leading, "node", "axis"))
         _variable(ds, "contact_resultant", (*leading, "axis"))
+    if "tension_profile" in ds.variables:
+        _variable(ds, "tension_profile", (*leading, "chord"))
+        _variable(ds, "chord_s", ("chord",))
+        _variable(ds, "chord_tendon", ("chord",), numeric=False)
 
 
 def _check_study(ds: xr.Dataset) -> None:

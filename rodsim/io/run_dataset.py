@@ -22,7 +22,12 @@ from rodsim.solvers.result import Result
 if TYPE_CHECKING:
     import xarray as xr
 
-__all__ = ["contact_variables", "run_content", "run_dataset", "step_coordinate"]
+__all__ = ["FRICTION_HISTORY", "contact_variables", "run_content", "run_dataset",
+           "step_coordinate", "tension_coordinates", "tension_variable"]
+
+#: The history a solve from rest assumes for tendon friction (rodsim/core/tendon_friction.py).
+FRICTION_HISTORY = ("tendons pulled in from slack to their tension, monotonically (the "
+                    "friction's history a solve from rest assumes)")
 
 
 def run_dataset(result: Result) -> xr.Dataset:
@@ -78,8 +83,35 @@ def run_content(result: Result) -> ArchiveContent:
                              "each step"})})
     if result.scene.data.get("obstacles"):
         content.data_vars.update(_contact_variables(result))
+    if result.tension_profiles:
+        profiles = result.tension_profiles
+        content.coords.update(tension_coordinates(
+            {name: s for name, (s, _) in profiles.items()}))
+        content.data_vars.update(tension_variable(
+            np.concatenate([tension for _, tension in profiles.values()]), ()))
     content.attrs.update(_attributes(result))
     return content
+
+
+def tension_coordinates(chords: dict[str, np.ndarray]) -> dict[str, Any]:
+    """The ``chord`` coordinates of the tension profiles of the tendons with friction: each
+    chord's rest arc length (``chord_s``, its midpoint's) and tendon (``chord_tendon``),
+    tendon by tendon, actuator first."""
+    names = np.concatenate([[name] * len(s) for name, s in chords.items()])
+    return {
+        "chord_s": (("chord",), np.concatenate(list(chords.values())),
+                    {"units": "m", "long_name": "rest arc length of the tendon chord's "
+                     "midpoint"}),
+        "chord_tendon": (("chord",), names.astype(str), {"long_name": "tendon of the chord"}),
+    }
+
+
+def tension_variable(tension: np.ndarray, leading: tuple[str, ...]) -> dict[str, Any]:
+    """The archive variable ``tension_profile`` (*leading, chord) [N]: the tension each
+    chord of a tendon with friction carries (docs/tendon.md, "Friction")."""
+    return {"tension_profile": ((*leading, "chord"), tension,
+                                {"units": "N", "long_name": "tendon tension along its path "
+                                 "(friction), one value per chord"})}
 
 
 def _contact_variables(result: Result) -> dict[str, Any]:
@@ -139,6 +171,8 @@ def _attributes(result: Result) -> dict[str, Any]:
         attrs["penalty_error"] = float(result.penalty_error)
     if result.tendon_compression:
         attrs["tendon_compression"] = json.dumps(result.tendon_compression, sort_keys=True)
+    if result.tension_profiles:
+        attrs["friction_history"] = FRICTION_HISTORY
     if result.tendon_tension:
         attrs["tendon_tension"] = json.dumps(result.tendon_tension, sort_keys=True)
     for key, value in result.stats.items():

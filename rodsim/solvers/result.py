@@ -92,6 +92,9 @@ class Result:
     #: times, states, each rod's positions at each time), when its ``SaveAt`` asked for
     #: them (:mod:`rodsim.solvers.recorder`); None otherwise.
     trajectory: Trajectory | None = None
+    #: With friction (rodsim/core/tendon_friction.py): each such tendon's (rest arc length of
+    #: each chord's midpoint [m], chord tension [N]), actuator first.
+    tension_profiles: dict[str, tuple[np.ndarray, np.ndarray]] = field(default_factory=dict)
 
     @classmethod
     def from_model(cls, model: Model, x: np.ndarray, *, integrator: str,
@@ -109,14 +112,19 @@ class Result:
         stats = {key: float(stats.get(key, 0.0)) for key in STAT_DOCS} | {
             k: float(v) for k, v in stats.items() if k not in STAT_DOCS}
         tensions = {}
+        profiles = {}
         for term in model.terms:
             if isinstance(term, TendonTerm):
                 tension = term.tension_outcome(full)
                 if tension is not None:
                     tensions[term.tendon.name] = float(tension)
+                profile = term.tension_profile(full)
+                if profile is not None:
+                    profiles[term.tendon.name] = profile
         return cls(model.scene, integrator, dict(options), success, message, residual, stats,
                    rods, np.array(x, dtype=float), history, history_time=history_time,
-                   stability=stability, tendon_tension=tensions, trajectory=trajectory)
+                   stability=stability, tendon_tension=tensions, tension_profiles=profiles,
+                   trajectory=trajectory)
 
     def positions(self, rod: str | None = None) -> np.ndarray:
         """Control points of ``rod`` (default: the first rod), shape (N, 3) [m]."""

@@ -171,7 +171,9 @@ def build_parser() -> argparse.ArgumentParser:
     follow.add_argument("--ramp", action="append", required=True,
                         metavar="KEY=START:STOP:COUNT",
                         help="ramp a numeric scene value (KEY as for --set; KEY[i] for a "
-                        "vector component), e.g. --ramp tendon_actuation.force=0:4:101")
+                        "vector component), e.g. --ramp tendon_actuation.force=0:4:101; "
+                        "further :STOP:COUNT legs go on from the last stop (0:4:101:0:100: "
+                        "up and back down)")
     _add_warm_integrator(follow)
     follow.add_argument("--allow-unstable", action="store_true",
                         help="go on past a step whose equilibrium is unstable (its "

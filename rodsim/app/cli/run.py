@@ -112,6 +112,9 @@ def print_run_summary(result: Any, archive: Path | None) -> None:
     print(f"wall time   {stats['wall_time']:.4f} s")
     for name, tension in result.tendon_tension.items():
         print(f"tension     {name} {tension:.6g} N (displacement control)")
+    for name, (_, profile) in result.tension_profiles.items():
+        print(f"tension     {name} {profile[0]:.6g} N past the entry, {profile[-1]:.6g} N at "
+              "the termination (friction; history: pulled in from slack, monotonically)")
     if result.stability is not None:
         print(stability_text(result.stability))
     if scene.solver.kernels == "tiered":

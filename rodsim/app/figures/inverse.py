@@ -1,6 +1,7 @@
 """The figures of a single run and of the inverse tools' archives (``track``, ``fit``,
 ``reach``: docs/inverse.md): the rods in x–y, and in x–z and y–z when the shape leaves the
-x–y plane."""
+x–y plane; with tendon friction also the tension along each tendon (a run) or at each
+termination against the ramp (a track: the pull–release loop)."""
 
 from __future__ import annotations
 
@@ -27,9 +28,13 @@ def _tip_text(ds: xr.Dataset) -> str:
 
 
 def run_figure(ds: xr.Dataset) -> Figure:
-    """A run: its rods in x–y, and in x–z and y–z too when the shape leaves the x–y plane;
-    the title names the tip, computed from the positions."""
-    figure, views = _views(ds, np.empty((0, 3)))
+    """A run: its rods in x–y, and in x–z and y–z too when the shape leaves the x–y plane
+    (with tendon friction, a last panel: the tension along each tendon); the title names
+    the tip, computed from the positions."""
+    friction = "tension_profile" in ds
+    figure, views = _views(ds, np.empty((0, 3)), panels=int(friction))
+    if friction:
+        _tension_along(figure.axes[-1], ds)
     for panel, _ in views:
         panel.legend(loc="best")
     figure.suptitle(f"{ds.attrs.get('title', '')}\n{_tip_text(ds)}")
@@ -52,7 +57,10 @@ def out_of_plane(positions: np.ndarray) -> bool:
 def track_figure(ds: xr.Dataset) -> Figure:
     """A track: the first rod's centerline at every step, coloured by step, and the tip
     against the first ramped value."""
-    figure, (shapes, tips) = plt.subplots(1, 2, figsize=(10.0, 4.4), constrained_layout=True)
+    friction = "tension_profile" in ds
+    figure, axes = plt.subplots(1, 2 + friction, figsize=(10.0 + 4.6 * friction, 4.4),
+                                constrained_layout=True)
+    shapes, tips = axes[0], axes[1]
     nodes = _first_rod_nodes(ds).values
     ramp = list(json.loads(ds.attrs["ramp_json"]))[0]
     values = key_variable(ds, ramp).values
@@ -80,12 +88,29 @@ def track_figure(ds: xr.Dataset) -> Figure:
     tips.set_xlabel(_ramp_label(ds, ramp))
     tips.set_ylabel("tip position [m]")
     tips.legend()
+    if friction:
+        _termination_loop(axes[2], ds, values, _ramp_label(ds, ramp))
     last = nodes[-1, -1] if len(values) else np.full(3, np.nan)
     unit = key_variable(ds, ramp).attrs.get("units", "")
     figure.suptitle(f"{ds.attrs.get('title', '')}\ntip of {ds['rod'].values[0]} at "
                     f"{short_key(ramp)} = {values[-1]:.4g} {unit}: x, y, z = "
                     + ", ".join(f"{1e3 * v:.4g}" for v in last) + " mm" + contact)
     return figure
+
+
+def _termination_loop(panel: plt.Axes, ds: xr.Dataset, values: np.ndarray, label: str
+                      ) -> None:
+    """Each friction tendon's termination tension (its last chord's) against the ramped
+    value, step after step: the pull–release loop and its dead zone."""
+    tendons = ds["chord_tendon"].values.astype(str)
+    for name in dict.fromkeys(tendons):
+        last = np.flatnonzero(tendons == name)[-1]
+        panel.plot(values, ds["tension_profile"].values[:, last], marker=".", ms=4, lw=0.9,
+                   label=f"{name} at its termination")
+    panel.set_xlabel(label)
+    panel.set_ylabel("tendon tension [N]")
+    panel.set_title("termination tension (friction)")
+    panel.legend(loc="best")
 
 
 def short_key(key: str) -> str:
@@ -107,15 +132,32 @@ def _ramp_label(ds: xr.Dataset, key: str) -> str:
 PROJECTIONS = ((0, 1), (0, 2), (1, 2))
 
 
-def _views(ds: xr.Dataset, extra: np.ndarray) -> tuple[Figure, list[plt.Axes]]:
+def _tension_along(panel: plt.Axes, ds: xr.Dataset) -> None:
+    """The tension of each chord of every tendon with friction against its arc length."""
+    tendons = ds["chord_tendon"].values.astype(str)
+    for name in dict.fromkeys(tendons):
+        mine = tendons == name
+        panel.plot(ds["chord_s"].values[mine], ds["tension_profile"].values[mine],
+                   marker=".", ms=3, lw=0.9, label=name)
+    panel.set_xlabel("rest arc length s [m]")
+    panel.set_ylabel("tendon tension [N]")
+    panel.set_title("tension along the tendons (friction)")
+    panel.legend(loc="best")
+
+
+def _views(ds: xr.Dataset, extra: np.ndarray, panels: int = 0
+           ) -> tuple[Figure, list[plt.Axes]]:
     """The run's rods in x–y, and in x–z and y–z when the shape or ``extra`` points leave
-    the x–y plane (a 3D shape seen from one side only can hide a whole bend)."""
+    the x–y plane (a 3D shape seen from one side only can hide a whole bend); ``panels``
+    more axes after them (the figure's last axes)."""
     three_d = out_of_plane(np.concatenate([ds["position"].values, extra]))
     count = len(PROJECTIONS) if three_d else 1
-    figure, axes = plt.subplots(1, count, figsize=(4.4 * count + 1.0 if three_d else 6.4, 4.8),
+    figure, axes = plt.subplots(1, count + panels,
+                                figsize=(4.4 * (count + panels) + 1.0 if three_d or panels
+                                         else 6.4, 4.8),
                                 constrained_layout=True, squeeze=False)
     views = list(PROJECTIONS[:count])
-    for panel, (h, v) in zip(axes[0], views, strict=True):
+    for panel, (h, v) in zip(axes[0][:count], views, strict=True):
         for rod in np.unique(ds["rod"].values):
             nodes = ds["position"].sel(node=ds["rod"] == rod).values
             panel.plot(nodes[:, h], nodes[:, v], marker=".", ms=3, lw=0.9, label=str(rod))
@@ -123,7 +165,7 @@ def _views(ds: xr.Dataset, extra: np.ndarray) -> tuple[Figure, list[plt.Axes]]:
         panel.set_ylabel(f"{'xyz'[v]} [m]")
         panel.set_aspect("equal", adjustable="datalim")
     figure.suptitle(ds.attrs.get("title", ""))
-    return figure, list(zip(axes[0], views, strict=True))
+    return figure, list(zip(axes[0][:count], views, strict=True))
 
 
 def _unit(variable: xr.DataArray) -> str:

@@ -124,7 +124,8 @@ class Continuation:
         """The equilibrium of ``scene`` (same discretisation) from ``start`` (default: the
         last equilibrium); on success it becomes the last equilibrium.
 
-        Friction (rodsim/core/terms/contact.py) is anchored at the last equilibrium
+        Friction (contact, rodsim/core/terms/contact.py; tendons,
+        rodsim/core/tendon_friction.py) is anchored at the last equilibrium
         (:meth:`Model.anchored`): it opposes the slip of this step. The model kept with the
         new equilibrium is the one that solved it (its forces, the contact forces a track
         records, are those of the equilibrium)."""

@@ -46,6 +46,7 @@ import numpy as np
 
 from rodsim.app.inverse.continuation import MAX_HALVINGS, Continuation
 from rodsim.app.inverse.parameter_keys import NumericKey, numeric_keys, scene_with
+from rodsim.app.inverse.ramps import MAX_STEPS, parse_ramp
 from rodsim.app.inverse.track_steps import record_contact, record_stability, values_text
 from rodsim.core.model import Model
 from rodsim.core.scene import Scene
@@ -53,7 +54,13 @@ from rodsim.core.schema import SceneError
 from rodsim.io.archive_schema import SCHEMA_VERSION
 from rodsim.io.cf_layout import variable_name
 from rodsim.io.provenance import archive_attributes
-from rodsim.io.run_dataset import contact_variables, step_coordinate
+from rodsim.io.run_dataset import (
+    FRICTION_HISTORY,
+    contact_variables,
+    step_coordinate,
+    tension_coordinates,
+    tension_variable,
+)
 from rodsim.solvers import DEFAULT_INTEGRATOR, integrator_named, registered_integrators
 from rodsim.solvers.base import Progress
 
@@ -61,30 +68,6 @@ if TYPE_CHECKING:
     import xarray as xr
 
 __all__ = ["Track", "track", "parse_ramp", "rerun_track", "MAX_HALVINGS"]
-
-
-
-#: Most steps a track may have (a ramp's COUNT): beyond, the values alone fill memory and
-#: the run takes days.
-MAX_STEPS = 100_000
-
-
-def parse_ramp(text: str) -> tuple[str, np.ndarray]:
-    """``KEY=START:STOP:COUNT`` → (key, COUNT values from START to STOP); SceneError."""
-    key, sep, spec = text.partition("=")
-    parts = spec.split(":")
-    if not sep or not key.strip() or len(parts) != 3:
-        raise SceneError(f"--ramp {text[:60]!r}: expected KEY=START:STOP:COUNT")
-    try:
-        start, stop = float(parts[0]), float(parts[1])
-        count = int(parts[2])
-    except ValueError:
-        raise SceneError(f"--ramp {text[:60]!r}: START and STOP must be numbers, COUNT a "
-                         "whole number") from None
-    if not (np.isfinite(start) and np.isfinite(stop)) or not 2 <= count <= MAX_STEPS:
-        raise SceneError(f"--ramp {text[:60]!r}: finite START and STOP and COUNT from 2 to "
-                         f"{MAX_STEPS} expected")
-    return key.strip(), np.linspace(start, stop, count)
 
 
 @dataclass
@@ -113,6 +96,10 @@ class Track:
     min_eigenvalues: list[float] = field(default_factory=list)
     #: With obstacles: the contact force on every control point, (nodes, 3) [N] per step.
     contact: list[np.ndarray] = field(default_factory=list)
+    #: With tendon friction: the tension of every chord of those tendons, (chords,) [N] per
+    #: step, and each such tendon's chords (rest arc lengths of their midpoints [m]).
+    tension: list[np.ndarray] = field(default_factory=list)
+    chords: dict[str, np.ndarray] = field(default_factory=dict)
     success: bool = True
     message: str = "converged"
     failed_step: int | None = None
@@ -211,6 +198,9 @@ class Track:
         }
         if self.contact:
             data.update(contact_variables(np.array(self.contact), ("step",)))
+        if self.tension:
+            coords.update(tension_coordinates(self.chords))
+            data.update(tension_variable(np.array(self.tension), ("step",)))
         ds = xr.Dataset(data_vars=data, coords=coords)
         warm = np.asarray(self.times[1:])
         ds.attrs.update({
@@ -241,6 +231,9 @@ class Track:
         })
         if self.penalty_error is not None:
             ds.attrs["penalty_error"] = float(self.penalty_error)
+        if self.tension:
+            ds.attrs["friction_history"] = (f"step 0: {FRICTION_HISTORY}; then the track's "
+                                            "path, each step from the one before")
         if self.tendon_compression:
             ds.attrs["tendon_compression"] = json.dumps(self.tendon_compression,
                                                         sort_keys=True)

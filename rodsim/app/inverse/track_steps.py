@@ -1,5 +1,6 @@
-"""What a track records of each step (rodsim/app/inverse/track.py): the contact forces and
-the stability verdict, and the step's values as text for its messages."""
+"""What a track records of each step (rodsim/app/inverse/track.py): the contact forces, the
+tension profiles of tendons with friction, the stability verdict, and the step's values as
+text for its messages."""
 
 from __future__ import annotations
 
@@ -11,6 +12,7 @@ import numpy as np
 from rodsim.app.inverse.parameter_keys import NumericKey
 from rodsim.core.model import Model
 from rodsim.core.stability import Stability
+from rodsim.core.terms.base import TendonTerm
 from rodsim.core.terms.contact import contact_forces
 
 if TYPE_CHECKING:
@@ -20,9 +22,20 @@ __all__ = ["record_contact", "record_stability", "values_text"]
 
 
 def record_contact(out: Track, model: Model) -> None:
-    force = contact_forces(model, out.states[-1])  # the step's own model (friction anchors)
+    """The step's contact forces and, with tendon friction, its tension profiles (from the
+    step's own model: its friction anchors)."""
+    force = contact_forces(model, out.states[-1])
     if force is not None:
         out.contact.append(force)
+    profiles = {}
+    for term in model.terms:
+        if isinstance(term, TendonTerm):
+            profile = term.tension_profile(out.states[-1])
+            if profile is not None:
+                profiles[term.tendon.name] = profile
+    if profiles:
+        out.chords = {name: s for name, (s, _) in profiles.items()}
+        out.tension.append(np.concatenate([tension for _, tension in profiles.values()]))
 
 
 def record_stability(out: Track, step: int, stability: Stability,

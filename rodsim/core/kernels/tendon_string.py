@@ -8,6 +8,15 @@ then of B). For a point with weights (c0, c1, w0, w1), constant quaternion q_c a
 
 with d = p_B − p_A, u = d/|d|: F = −T Jdᵀ u and ∂F/∂x = −T [Jdᵀ (I − u uᵀ) Jd / |d|
 + Σ_m u_m (∂²p_B[m] − ∂²p_A[m])], Jd = [−J_A, J_B].
+
+With friction μ > 0 each chord carries its own tension τ_e in place of T — the capstan
+profile with the stored history ``profile`` (rodsim/core/tendon_friction.py: the entry's
+turn from d3 to the path's tangent d3 + ρ′_y d1 + ρ′_z d2 (d_k = qᵀ A_k q / n of the entry
+point, ρ′ = ``entry_slope``) and on, the turns at the points, the actuator's bounds) —
+and the Jacobian is the one at frozen τ_e plus, on a chord up to which the path turns one
+way in one plane from a held entry frame, f ⊗ ∂τ_e/∂x with ∂τ_e/∂x = (∂τ_e/∂Θ_e) ∂ψ_e/∂x,
+ψ_e = ∠(d3, u_e) (rodsim/core/terms/tendon_string.py, "Friction"). With μ = 0 every τ_e is
+T and the coupling is skipped: the frictionless numbers, bitwise.
 """
 
 from __future__ import annotations
@@ -16,6 +25,7 @@ import numpy as np
 from numba import njit
 
 from rodsim.core.kernels._scatter import add_force
+from rodsim.core.tendon_friction import ONE_WAY
 
 
 @njit(cache=True)
@@ -78,6 +88,108 @@ def _points(x: np.ndarray, dofs: np.ndarray, weights: np.ndarray, constant: np.n
 
 
 @njit(cache=True)
+def _angle(a: np.ndarray, b: np.ndarray) -> float:
+    """∠(a, b) of unit vectors, atan2(|a × b|, a·b)."""
+    cx = a[1] * b[2] - a[2] * b[1]
+    cy = a[2] * b[0] - a[0] * b[2]
+    cz = a[0] * b[1] - a[1] * b[0]
+    return np.arctan2(np.sqrt(cx * cx + cy * cy + cz * cz),
+                      a[0] * b[0] + a[1] * b[1] + a[2] * b[2])
+
+
+@njit(cache=True)
+def _tensions(x: np.ndarray, dofs: np.ndarray, weights: np.ndarray, constant: np.ndarray,
+              entry_forms: np.ndarray, entry_slope: np.ndarray, p: np.ndarray,
+              tension: float, friction: float, profile: np.ndarray, out: np.ndarray,
+              rate: np.ndarray, axis: np.ndarray) -> None:
+    """τ_e of every chord into ``out``: T without friction, else
+    clip(τ_old_e, T e^{−μΘ_e}, T e^{+μΘ_e}) (rodsim/core/tendon_friction.py); with friction
+    also ∂τ_e/∂Θ_e into ``rate`` where the path up to chord e turns one way in one plane from
+    a held entry frame (else 0) and d3 at the entry into ``axis``."""
+    chords = dofs.shape[0]
+    if friction == 0.0:
+        for e in range(chords):
+            out[e] = tension
+        return
+    w0, w1 = weights[0, 2], weights[0, 3]
+    q = np.empty(4)
+    for i in range(4):
+        q[i] = w0 * x[dofs[0, 6 + i]] + w1 * x[dofs[0, 10 + i]] + constant[0, i]
+    n = q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3]
+    d = np.empty((3, 3))
+    for k in range(3):
+        for m in range(3):
+            value = 0.0
+            for i in range(4):
+                for j in range(4):
+                    value += q[i] * entry_forms[k, m, i, j] * q[j]
+            d[k, m] = value / n
+    for m in range(3):
+        axis[m] = d[2, m]
+    held = weights[0, 2] == 0.0 and weights[0, 3] == 0.0
+    a = np.empty(3)
+    for m in range(3):
+        a[m] = d[2, m] + entry_slope[0] * d[0, m] + entry_slope[1] * d[1, m]
+    size = np.sqrt(a[0] * a[0] + a[1] * a[1] + a[2] * a[2])
+    for m in range(3):
+        a[m] /= size
+    wrap = _angle(axis, a)
+    b = np.empty(3)
+    for e in range(chords):
+        length = 0.0
+        for m in range(3):
+            b[m] = p[e + 1, m] - p[e, m]
+            length += b[m] * b[m]
+        length = np.sqrt(length)
+        for m in range(3):
+            b[m] /= length
+        wrap += _angle(a, b)
+        low = tension * np.exp(-friction * wrap)
+        high = tension * np.exp(friction * wrap)
+        out[e] = min(max(profile[e], low), high)
+        rate[e] = 0.0
+        if held and np.abs(wrap - _angle(axis, b)) <= ONE_WAY * max(1.0, wrap):
+            if low > profile[e]:
+                rate[e] = -friction * low
+            elif high < profile[e]:
+                rate[e] = friction * high
+        for m in range(3):
+            a[m] = b[m]
+
+
+@njit(cache=True)
+def _one_way_coupling(jd: np.ndarray, u: np.ndarray, length: float, axis: np.ndarray,
+                      rate: float, columns: np.ndarray, active: int, slope: np.ndarray,
+                      gradient: np.ndarray, unit_force: np.ndarray,
+                      local_jacobian: np.ndarray) -> None:
+    """Add f ⊗ rate ∂ψ/∂x of a chord on a one-way planar path to its element Jacobian:
+    f = −Jdᵀ u, ∂ψ/∂x = −(d3 − (d3·u) u)ᵀ Jd / (|d3 × u| |d|) (rodsim/core/tendon_friction.py)."""
+    cosine = axis[0] * u[0] + axis[1] * u[1] + axis[2] * u[2]
+    cx = axis[1] * u[2] - axis[2] * u[1]
+    cy = axis[2] * u[0] - axis[0] * u[2]
+    cz = axis[0] * u[1] - axis[1] * u[0]
+    sine = np.sqrt(cx * cx + cy * cy + cz * cz)
+    if sine == 0.0:
+        return
+    for m in range(3):
+        slope[m] = -(axis[m] - cosine * u[m]) / (sine * length)
+    for c in range(active):
+        k = columns[c]
+        g = 0.0
+        f = 0.0
+        for m in range(3):
+            g += slope[m] * jd[m, k]
+            f -= jd[m, k] * u[m]
+        gradient[k] = rate * g
+        unit_force[k] = f
+    for c in range(active):
+        k = columns[c]
+        for d in range(active):
+            j = columns[d]
+            local_jacobian[k, j] += unit_force[k] * gradient[j]
+
+
+@njit(cache=True)
 def _active(weights: np.ndarray, e: int, columns: np.ndarray) -> int:
     """The element's local columns whose weight is not zero (the others of ∂d/∂x are exact
     zeros, and so are their rows and columns of the element Jacobian): their count, the
@@ -95,7 +207,9 @@ def _active(weights: np.ndarray, e: int, columns: np.ndarray) -> int:
 
 @njit(cache=True)
 def evaluate(x: np.ndarray, dofs: np.ndarray, weights: np.ndarray, constant: np.ndarray,
-             forms: np.ndarray, tension: float, scale: float, want_force: bool,
+             forms: np.ndarray, tension: float, friction: float, profile: np.ndarray,
+             entry_forms: np.ndarray, entry_slope: np.ndarray, scale: float,
+             want_force: bool,
              force: np.ndarray, force_target: np.ndarray, want_jacobian: bool,
              jacobian: np.ndarray, jacobian_target: np.ndarray) -> None:
     if tension == 0.0:
@@ -108,7 +222,16 @@ def evaluate(x: np.ndarray, dofs: np.ndarray, weights: np.ndarray, constant: np.
     proj = np.empty((3, 3))
     pj = np.empty((3, 28))
     p, jac, hess = _points(x, dofs, weights, constant, forms, want_jacobian)
+    chord_tension = np.empty(dofs.shape[0])
+    rate = np.zeros(dofs.shape[0])
+    axis = np.zeros(3)
+    _tensions(x, dofs, weights, constant, entry_forms, entry_slope, p, tension, friction,
+              profile, chord_tension, rate, axis)
+    slope = np.empty(3)
+    gradient = np.empty(28)
+    unit_force = np.empty(28)
     for e in range(dofs.shape[0]):
+        pull = chord_tension[e]
         pa, pb, ja, jb = p[e], p[e + 1], jac[e], jac[e + 1]
         length = 0.0
         for m in range(3):
@@ -125,14 +248,14 @@ def evaluate(x: np.ndarray, dofs: np.ndarray, weights: np.ndarray, constant: np.
                 value = 0.0
                 for m in range(3):
                     value += jd[m, a] * u[m]
-                local_force[a] = -tension * value
+                local_force[a] = -pull * value
             add_force(force, force_target, e, local_force, scale)
         if want_jacobian:
             # Only the columns with a weight: the rest of the element Jacobian is zero.
             active = _active(weights, e, columns)
             for a in range(3):
                 for b in range(3):
-                    proj[a, b] = ((1.0 if a == b else 0.0) - u[a] * u[b]) * tension / length
+                    proj[a, b] = ((1.0 if a == b else 0.0) - u[a] * u[b]) * pull / length
             for a in range(3):
                 for c in range(active):
                     k = columns[c]
@@ -158,13 +281,16 @@ def evaluate(x: np.ndarray, dofs: np.ndarray, weights: np.ndarray, constant: np.
                         curvature = 0.0
                         for m in range(3):
                             curvature += u[m] * h[m, i, j]
-                        curvature *= sign * tension
+                        curvature *= sign * pull
                         for a in range(2):
                             for b in range(2):
                                 weight = weights[k, 2 + a] * weights[k, 2 + b]
                                 if weight != 0.0:
                                     local_jacobian[offset + 4 * a + i, offset + 4 * b + j] -= (
                                         weight * curvature)
+            if rate[e] != 0.0:
+                _one_way_coupling(jd, u, length, axis, rate[e], columns, active, slope,
+                                  gradient, unit_force, local_jacobian)
             for c in range(active):
                 k = columns[c]
                 for d in range(active):
@@ -174,8 +300,9 @@ def evaluate(x: np.ndarray, dofs: np.ndarray, weights: np.ndarray, constant: np.
 
 @njit(cache=True)
 def energy(x: np.ndarray, dofs: np.ndarray, weights: np.ndarray, constant: np.ndarray,
-           forms: np.ndarray, tension: float) -> float:
-    """T Σ |p_{k+1} − p_k|."""
+           forms: np.ndarray, tension: float, friction: float, profile: np.ndarray,
+           entry_forms: np.ndarray, entry_slope: np.ndarray) -> float:
+    """T Σ |p_{k+1} − p_k| (frictionless; with friction the model asks for no energy)."""
     if tension == 0.0:
         return 0.0
     p, _, _ = _points(x, dofs, weights, constant, forms, False)

@@ -25,10 +25,14 @@ def evaluate(x: np.ndarray, dofs: np.ndarray, chord_dofs: np.ndarray, weights: n
     m = dofs.shape[1]
     unused = np.empty(0)
     unused_target = np.empty((0, 0, 0), dtype=np.int64)
+    entry_forms = np.zeros((3, 3, 4, 4))  # read only with friction, which this tendon has not
+    slope = np.zeros(2)
     minus_gradient = np.zeros(m)  # −∇ℓ
-    tendon_string.evaluate(x, chord_dofs, weights, constant, forms, 1.0, 1.0, True,
-                           minus_gradient, chord_local, False, unused, unused_target)
-    length = tendon_string.energy(x, chord_dofs, weights, constant, forms, 1.0)
+    tendon_string.evaluate(x, chord_dofs, weights, constant, forms, 1.0, 0.0, unused,
+                           entry_forms, slope, 1.0, True, minus_gradient, chord_local, False,
+                           unused, unused_target)
+    length = tendon_string.energy(x, chord_dofs, weights, constant, forms, 1.0, 0.0, unused,
+                                  entry_forms, slope)
     stretch = length - free_length
     tension = spring * stretch if stretch > 0.0 else 0.0
     if want_force:
@@ -39,8 +43,9 @@ def evaluate(x: np.ndarray, dofs: np.ndarray, chord_dofs: np.ndarray, weights: n
     if want_jacobian:
         flat = np.zeros(m * m)
         unused_force_target = np.empty((0, 0), dtype=np.int64)
-        tendon_string.evaluate(x, chord_dofs, weights, constant, forms, tension, 1.0, False,
-                               unused, unused_force_target, True, flat, chord_pairs)
+        tendon_string.evaluate(x, chord_dofs, weights, constant, forms, tension, 0.0, unused,
+                               entry_forms, slope, 1.0, False, unused, unused_force_target,
+                               True, flat, chord_pairs)
         local_jacobian = flat.reshape((m, m))
         if stretch > 0.0:
             for a in range(m):
@@ -54,6 +59,7 @@ def energy(x: np.ndarray, dofs: np.ndarray, chord_dofs: np.ndarray, weights: np.
            constant: np.ndarray, forms: np.ndarray, chord_local: np.ndarray,
            chord_pairs: np.ndarray, spring: float, free_length: float) -> float:
     """½ k max(0, ℓ − ℓ*)²."""
-    length = tendon_string.energy(x, chord_dofs, weights, constant, forms, 1.0)
+    length = tendon_string.energy(x, chord_dofs, weights, constant, forms, 1.0, 0.0,
+                                  np.empty(0), np.zeros((3, 3, 4, 4)), np.zeros(2))
     stretch = length - free_length
     return 0.5 * spring * stretch * stretch if stretch > 0.0 else 0.0

@@ -243,8 +243,9 @@ class Term(ABC):
     def anchor_positions(self) -> np.ndarray | None:
         """A path-dependent term's anchors — the state of the last converged equilibrium its
         force depends on (a frictional contact's node positions,
-        rodsim/core/terms/contact.py) — or ``None`` for a term whose force depends on the
-        state alone (every other term; a contact without friction)."""
+        rodsim/core/terms/contact.py; a string tendon's chord tensions with friction,
+        rodsim/core/tendon_friction.py) — or ``None`` for a term whose force depends on the
+        state alone (every other term; a contact or a tendon without friction)."""
         return None
 
     def anchors_at(self, full: np.ndarray) -> np.ndarray | None:
@@ -298,4 +299,10 @@ class TendonTerm(Term):
         """The tendon's tension [N] at the full state ``x`` when it is an outcome of the
         solve (displacement control), reported with the result; None when it is an input
         (or not one number)."""
+        return None
+
+    def tension_profile(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
+        """(rest arc length of each chord's midpoint [m], its tension [N]) along a tendon
+        whose tension varies along its path (a string with friction) at the full state
+        ``x``; None when it is one number."""
         return None

@@ -59,6 +59,23 @@ u = d/|d| and p's derivatives J = ∂p/∂x_point,
 with ∂²p[m]/∂q² = ∇²f_m of f = g/n, g_m = qᵀ G_m q, G_m = ρ_y A[0, m] + ρ_z A[1, m],
 n = |q|²:  ∇²f_m = 2G_m/n − 4(G_m q qᵀ + q qᵀ G_m)/n² − 2 g_m I/n² + 8 g_m q qᵀ/n³.
 The tension is a load (the static solver ramps it); its force scale is T.
+
+Friction (``friction`` μ > 0, rodsim/core/tendon_friction.py): chord e carries its own
+tension τ_e, the capstan profile from the turning angles at the entry and the routing
+points and the stored profile of the last equilibrium (the term's anchors); the force is
+F = −Σ_e τ_e ∂ℓ_e/∂x (each chord's pull at its two ends: the difference of the tensions at
+a point is the friction it takes). τ_e depends on every turn upstream of chord e, so the
+exact Jacobian couples each chord to the whole path before it (a dense lower-triangular
+block, no band). ``element_jacobians`` keeps the frictionless pattern: the Jacobian at
+frozen τ_e (the chords' own stencils) plus, on the chords up to which the path turns one
+way in one plane from a held entry frame (a tendon bending its catheter from a clamped
+base), the exact coupling: there the wrap Θ_e equals ψ_e = ∠(d3, u_e) with the same
+gradient (out of the plane both change at second order), which lies on chord e's own
+coordinates. So the Jacobian is exact on such paths (Newton converges quadratically) and
+the frozen-tension one elsewhere (3-D or S-shaped paths, a moving entry: linearly, at a
+rate of order μ); the term is not conservative (no energy) and the stability verdict
+takes the non-symmetric path. With μ = 0 every τ_e is T and nothing of this runs: the
+frictionless numbers, bitwise.
 """
 
 from __future__ import annotations
@@ -75,6 +92,13 @@ from rodsim.core.rod.quaternion import DIRECTOR_FORMS
 from rodsim.core.routing import ROUTINGS, Routing, string_span
 from rodsim.core.schema import Options, Parameter, SceneError
 from rodsim.core.tendon import MAX_TENSION, Tendon
+from rodsim.core.tendon_friction import (
+    MAX_FRICTION,
+    ONE_WAY,
+    chord_tensions,
+    slide_rates,
+    turning_angles,
+)
 from rodsim.core.terms.base import KernelArguments, TendonTerm
 
 #: A change of G J closer than this fraction of a segment to a node (or to the tendon's entry
@@ -179,6 +203,7 @@ class TendonStringOptions(Options):
     control: str = "tension"
     displacement: float = 0.0
     stiffness: float = 0.0
+    friction: float = 0.0
 
 
 class TendonString(TendonTerm):
@@ -231,6 +256,10 @@ class TendonString(TendonTerm):
         Parameter("stiffness", "float", 0.0, "N",
                   "control = 'displacement': the tendon's axial stiffness E A (required)",
                   0.0, 1e12),
+        Parameter("friction", "float", 0.0, "-",
+                  "Coulomb coefficient μ between the tendon and its routing (spacer disks or "
+                  "lumen; capstan law, rodsim/core/tendon_friction.py); 0: frictionless",
+                  0.0, MAX_FRICTION),
     )
 
     @classmethod
@@ -259,6 +288,15 @@ class TendonString(TendonTerm):
         g = np.einsum("pa,amij->pmij", self.points.offset, DIRECTOR_FORMS[:2])
         #: G_m = ρ_y A[0, m] + ρ_z A[1, m] of every point, (P, 3, 4, 4).
         self._forms = g
+        #: Coulomb coefficient μ (rodsim/core/tendon_friction.py); 0: frictionless.
+        self.friction = float(options.friction)
+        #: The chord tensions τ_old of the last converged equilibrium [N], (P − 1,): the
+        #: friction's history. At first 0: pulled in from slack, monotonically.
+        self.profile = np.zeros(len(self.points.s) - 1)
+        #: ρ′ at the entry (the path's slope there), (2,).
+        self._entry_slope = np.ascontiguousarray(self.routing.derivatives(
+            np.array([self.start]))[0], dtype=float)
+        self.conservative = self.friction == 0.0
 
     def with_options(self, options: TendonStringOptions) -> TendonString | None:
         """A copy with another tension when that is the only option changed (a tracking
@@ -271,16 +309,71 @@ class TendonString(TendonTerm):
         other.tension = float(options.tension)
         return other
 
+    def anchor_positions(self) -> np.ndarray | None:
+        """The stored chord tensions τ_old (P − 1,) [N] with friction; None without (the
+        force then depends on the state alone)."""
+        return self.profile if self.friction > 0.0 else None
+
+    def anchors_at(self, full: np.ndarray) -> np.ndarray | None:
+        """The chord tensions the equilibrium ``full`` gives (the next step's history); None
+        without friction."""
+        return self.chord_tensions(full) if self.friction > 0.0 else None
+
+    def anchored(self, anchors: np.ndarray) -> TendonString:
+        """A copy of this term with the stored chord tensions ``anchors`` (P − 1,) [N]."""
+        anchors = np.ascontiguousarray(anchors, dtype=float)
+        if anchors.shape != self.profile.shape:
+            raise ValueError(f"a tension profile of shape {anchors.shape}, expected "
+                             f"{self.profile.shape}")
+        other = copy.copy(self)
+        other.profile = anchors
+        return other
+
+    def entry_directions(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(d3, t_in) at the entry point: the catheter's axis, along which the tendon comes
+        in from the actuator, and the path's tangent t_in ∝ d3 + ρ′_y d1 + ρ′_z d2."""
+        pts = self.points
+        local = x[pts.dofs[0]]
+        _, _, w0, w1 = pts.weights[0]
+        q = w0 * local[6:10] + w1 * local[10:14] + pts.constant[0]
+        d = np.einsum("i,kmij,j->km", q, DIRECTOR_FORMS, q) / float(q @ q)
+        tangent = d[2] + self._entry_slope[0] * d[0] + self._entry_slope[1] * d[1]
+        return d[2], tangent / np.linalg.norm(tangent)
+
+    def turning_angles(self, x: np.ndarray) -> np.ndarray:
+        """θ_e of every chord (the entry's turn, then each routing point's) [rad]."""
+        return turning_angles(*self.entry_directions(x), self.path(x))
+
+    def chord_tensions(self, x: np.ndarray) -> np.ndarray:
+        """τ_e of every chord [N]: T everywhere without friction, else the capstan profile
+        with this term's history (rodsim/core/tendon_friction.py)."""
+        chords = len(self.points.s) - 1
+        if self.friction == 0.0:
+            return np.full(chords, self.tension)
+        return chord_tensions(self.tension, self.friction, self.turning_angles(x),
+                              self.profile)
+
+    def tension_profile(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
+        """(rest arc length of each chord's midpoint, τ_e) with friction; None without."""
+        if self.friction == 0.0:
+            return None
+        s = self.points.s
+        return 0.5 * (s[:-1] + s[1:]), self.chord_tensions(x)
+
     def kernel_arguments(self) -> KernelArguments:
         pts = self.points
         return {"dofs": self.dofs, "weights": pts.weights, "constant": pts.constant,
-                "forms": np.ascontiguousarray(self._forms), "tension": self.tension}
+                "forms": np.ascontiguousarray(self._forms), "tension": self.tension,
+                "friction": self.friction, "profile": self.profile,
+                "entry_forms": np.ascontiguousarray(DIRECTOR_FORMS),
+                "entry_slope": self._entry_slope}
 
     def load_scale(self, x: np.ndarray) -> float:
         """The tension: the termination's point force (the chords' forces cancel in pairs)."""
         return self.tension
 
-    def _points(self, x: np.ndarray) -> PointGeometry:
+    def _points(self, x: np.ndarray, derivatives: bool = True) -> PointGeometry:
+        """p and, with ``derivatives``, ∂p/∂x_point and ∇²f (else empty arrays)."""
         pts = self.points
         local = x[pts.dofs]
         c0, c1, w0, w1 = pts.weights.T
@@ -288,10 +381,12 @@ class TendonString(TendonTerm):
         n = np.einsum("pi,pi->p", q, q)
         gq = np.einsum("pmij,pj->pmi", self._forms, q)  # G_m q
         g = np.einsum("pmi,pi->pm", gq, q)
-        grad = 2.0 * gq / n[:, None, None] - 2.0 * g[:, :, None] * q[:, None, :] / (
-            n**2)[:, None, None]
         p = (c0[:, None] * local[:, 0:3] + c1[:, None] * local[:, 3:6]
              + g / n[:, None])
+        if not derivatives:
+            return PointGeometry(p, np.empty(0), np.empty(0))
+        grad = 2.0 * gq / n[:, None, None] - 2.0 * g[:, :, None] * q[:, None, :] / (
+            n**2)[:, None, None]
         jac = np.zeros((len(n), 3, POINT_SIZE))
         eye = np.eye(3)
         jac[:, :, 0:3] = c0[:, None, None] * eye
@@ -308,9 +403,15 @@ class TendonString(TendonTerm):
 
     def path(self, x: np.ndarray) -> np.ndarray:
         """The tendon's path: the routing points in order, shape (P, 3) [m]."""
-        return self._points(x).p
+        return self._points(x, derivatives=False).p
 
-    def energy(self, x: np.ndarray) -> float:
+    def length(self, x: np.ndarray) -> float:
+        """ℓ(x), the length of the tendon's path [m]."""
+        return float(np.sum(np.linalg.norm(np.diff(self.path(x), axis=0), axis=1)))
+
+    def energy(self, x: np.ndarray) -> float | None:
+        if self.friction > 0.0:
+            return None  # the capstan profile is not the gradient of an energy
         return float(self.tension * np.sum(np.linalg.norm(np.diff(self.path(x), axis=0),
                                                           axis=1)))
 
@@ -322,19 +423,20 @@ class TendonString(TendonTerm):
 
     def element_forces(self, x: np.ndarray) -> np.ndarray:
         geometry, u, _ = self._chords(x)
-        pull = self.tension * u
+        pull = self.chord_tensions(x)[:, None] * u
         grad_a = -np.einsum("emk,em->ek", geometry.jac[:-1], pull)
         grad_b = np.einsum("emk,em->ek", geometry.jac[1:], pull)
         return -np.concatenate([grad_a, grad_b], axis=1)
 
     def element_jacobians(self, x: np.ndarray) -> np.ndarray:
         geometry, u, length = self._chords(x)
+        tension = self.chord_tensions(x)
         jd = np.concatenate([-geometry.jac[:-1], geometry.jac[1:]], axis=2)  # (E, 3, 28)
-        proj = (np.eye(3) - u[:, :, None] * u[:, None, :]) * (self.tension / length)[:, None,
-                                                                                       None]
+        proj = (np.eye(3) - u[:, :, None] * u[:, None, :]) * (tension / length)[:, None,
+                                                                                  None]
         hess = np.einsum("eak,eab,ebl->ekl", jd, proj, jd)
         w = self.points.weights[:, 2:]
-        pull = self.tension * u
+        pull = tension[:, None] * u
         for side, sign in ((0, -1.0), (1, 1.0)):
             points = slice(0, -1) if side == 0 else slice(1, None)
             curvature = sign * np.einsum("em,emij->eij", pull, geometry.hess[points])
@@ -346,4 +448,28 @@ class TendonString(TendonTerm):
                     cols = slice(offset + 4 * b, offset + 4 * b + 4)
                     hess[:, rows, cols] += (weights[:, a] * weights[:, b])[:, None,
                                                                            None] * curvature
-        return -hess
+        jacobian = -hess
+        if self.friction > 0.0 and not np.any(self.points.weights[0, 2:]):
+            jacobian += self._one_way_coupling(x, u, length, jd)
+        return jacobian
+
+    def _one_way_coupling(self, x: np.ndarray, u: np.ndarray, length: np.ndarray,
+                          jd: np.ndarray) -> np.ndarray:
+        """Σ_e f_e ⊗ ∂τ_e/∂x on the chords up to which the path turns one way in one plane
+        from a held entry frame (module docstring, "Friction"): there Θ_e = ψ_e =
+        ∠(d3, u_e), whose gradient −(d3 − (d3·u_e) u_e)ᵀ Jd_e / (|d3 × u_e| |d_e|) lies on
+        the chord's own coordinates; f_e = −Jd_eᵀ u_e, the chord's force per unit tension."""
+        theta = self.turning_angles(x)
+        wrap = np.cumsum(theta)
+        rate = slide_rates(self.tension, self.friction, theta, self.profile)
+        axis = self.entry_directions(x)[0]
+        sine = np.linalg.norm(np.cross(axis[None, :], u), axis=1)
+        cosine = u @ axis
+        psi = np.arctan2(sine, cosine)
+        one_way = (np.abs(wrap - psi) <= ONE_WAY * np.maximum(1.0, wrap)) & (sine > 0.0)
+        rate = np.where(one_way, rate, 0.0)
+        slope = -(axis[None, :] - cosine[:, None] * u) / np.where(
+            one_way, sine * length, 1.0)[:, None]
+        gradient = rate[:, None] * np.einsum("em,emk->ek", slope, jd)
+        unit_force = -np.einsum("emk,em->ek", jd, u)
+        return unit_force[:, :, None] * gradient[:, None, :]

@@ -65,6 +65,10 @@ class TendonStringDisplacement(TendonTerm):
 
     @classmethod
     def check_scene(cls, options: Any, owner: Any, prefix: str) -> None:
+        if options.friction != 0.0:
+            raise SceneError(f"{prefix}.friction = {options.friction!r}: friction is "
+                             "modelled on a tension-controlled string only; allowed: "
+                             "friction = 0 with control = 'displacement'")
         if not options.stiffness > 0.0:
             raise SceneError(f"{prefix}.stiffness = {options.stiffness!r}: control = "
                              "'displacement' needs the tendon's axial stiffness E A; allowed: "
@@ -96,7 +100,7 @@ class TendonStringDisplacement(TendonTerm):
         rest[catheter.layout.position_index] = catheter.rest_positions()
         rest[catheter.layout.quaternion_index] = catheter.rest_quaternions()
         #: ℓ₀, the rest path's length, and ℓ* = ℓ₀ − d, the free length [m].
-        self.rest_length = float(self.string.energy(rest))
+        self.rest_length = self.string.length(rest)
         self.free_length = self.rest_length - float(options.displacement)
         if not self.free_length > 0.0:
             raise SceneError(
@@ -117,7 +121,7 @@ class TendonStringDisplacement(TendonTerm):
 
     def path_length(self, x: np.ndarray) -> float:
         """ℓ(x), the length of the tendon's path at the full state ``x`` [m]."""
-        return float(self.string.energy(x))
+        return self.string.length(x)
 
     def tension(self, x: np.ndarray) -> float:
         """T = (E A / ℓ*) max(0, ℓ(x) − ℓ*) at the full state ``x`` [N]."""
