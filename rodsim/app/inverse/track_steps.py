@@ -1,10 +1,13 @@
 """What a track records of each step (rodsim/app/inverse/track.py): the contact forces and
-the stability verdict, and the step's values as text for its messages."""
+the stability verdict, and the step's values as text for its messages.
+
+The recorders write into a :class:`TrackRecord`, the part of a track they read and write:
+track.py's ``Track`` is one, and this module does not import track.py (which imports it)."""
 
 from __future__ import annotations
 
 from collections.abc import Sequence
-from typing import TYPE_CHECKING
+from typing import Protocol
 
 import numpy as np
 
@@ -13,19 +16,31 @@ from rodsim.core.model import Model
 from rodsim.core.stability import Stability
 from rodsim.core.terms.contact import contact_forces
 
-if TYPE_CHECKING:
-    from rodsim.app.inverse.track import Track
-
-__all__ = ["record_contact", "record_stability", "values_text"]
+__all__ = ["TrackRecord", "record_contact", "record_stability", "values_text"]
 
 
-def record_contact(out: Track, model: Model) -> None:
+class TrackRecord(Protocol):
+    """The fields of a track (:class:`rodsim.app.inverse.track.Track`) that the step
+    recorders read and write."""
+
+    keys: list[NumericKey]
+    values: np.ndarray
+    states: list[np.ndarray]
+    stable: list[bool]
+    min_eigenvalues: list[float]
+    contact: list[np.ndarray]
+    success: bool
+    message: str
+    unstable_step: int | None
+
+
+def record_contact(out: TrackRecord, model: Model) -> None:
     force = contact_forces(model, out.states[-1])  # the step's own model (friction anchors)
     if force is not None:
         out.contact.append(force)
 
 
-def record_stability(out: Track, step: int, stability: Stability,
+def record_stability(out: TrackRecord, step: int, stability: Stability,
                      allow_unstable: bool) -> bool:
     """Append the verdict of ``step``; False (and the track stopped) when it is unstable
     and unstable steps are not allowed."""
