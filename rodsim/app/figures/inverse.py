@@ -110,8 +110,7 @@ PROJECTIONS = ((0, 1), (0, 2), (1, 2))
 def _views(ds: xr.Dataset, extra: np.ndarray
            ) -> tuple[Figure, list[tuple[plt.Axes, tuple[int, int]]]]:
     """The run's rods in x–y, and in x–z and y–z when the shape or ``extra`` points leave
-    the x–y plane (a 3D shape seen from one side only can hide a whole bend): the figure
-    and each panel with its (horizontal, vertical) world axes."""
+    the x–y plane (a 3D shape seen from one side only can hide a whole bend)."""
     three_d = out_of_plane(np.concatenate([ds["position"].values, extra]))
     count = len(PROJECTIONS) if three_d else 1
     figure, axes = plt.subplots(1, count, figsize=(4.4 * count + 1.0 if three_d else 6.4, 4.8),

@@ -1,8 +1,5 @@
 """What a track records of each step (rodsim/app/inverse/track.py): the contact forces and
-the stability verdict, and the step's values as text for its messages.
-
-The recorders write into a :class:`TrackRecord`, the part of a track they read and write:
-track.py's ``Track`` is one, and this module does not import track.py (which imports it)."""
+the stability verdict, and the step's values as text for its messages."""
 
 from __future__ import annotations
 
@@ -20,8 +17,9 @@ __all__ = ["TrackRecord", "record_contact", "record_stability", "values_text"]
 
 
 class TrackRecord(Protocol):
-    """The fields of a track (:class:`rodsim.app.inverse.track.Track`) that the step
-    recorders read and write."""
+    """The fields of a track that the step recorders read and write: track.py's ``Track``
+    is one, and this module does not import track.py, which imports it (no import cycle,
+    type-only ones included: tests/test_layers.py)."""
 
     keys: list[NumericKey]
     values: np.ndarray
