@@ -133,3 +133,35 @@ def test_labels_are_short_and_carry_units(tmp_path, cli, capsys):
     tip_y = float(ds["position"].isel(step=-1).sel(node=ds["rod"] == "catheter")[-1, 1])
     assert "tip of catheter at mass (catheter) = 0.05 kg" in text
     assert f"{1e3 * tip_y:.4g}" in text
+
+
+def test_a_centerlines_figure_of_many_points_gets_a_compact_legend(tmp_path):
+    """A study of more than LEGEND_POINTS (12) points draws its centerlines with one legend
+    entry per value of the colour sweep (the last one) and one per line style (the other
+    sweep), not one per point. It raised AttributeError (the labels went to the labels
+    module, not the list), found by mypy."""
+    from rodsim.app.figures.study_centerlines import LEGEND_POINTS
+    from rodsim.app.study import Study, Sweep
+    from rodsim.app.study_runner import run_study
+
+    masses = (0.005, 0.01, 0.02, 0.03, 0.04, 0.05, 0.07)
+    study = Study(name="many_points", title="tip against N and mass", paper="tests only",
+                  scene="table1-50g", integrator="static", reference="exact",
+                  plot="centerlines",
+                  sweeps={"small": [Sweep("nodes", "rods.catheter.nodes", (6, 11), "1", "N"),
+                                    Sweep("mass", "rods.catheter.tip_load.mass", masses, "kg",
+                                          "tip mass")]})
+    ds = run_study(study, "small", tmp_path / "many.nc", workers=1)
+    assert ds["status"].size == 14 > LEGEND_POINTS
+    with style():
+        figure = draw_figure(ds)
+        try:
+            legend = figure.axes[0].get_legend()
+            texts = [text.get_text() for text in legend.get_texts()]
+        finally:
+            plt.close(figure)
+    assert len(legend.legend_handles) == len(texts)
+    for mass in masses:
+        assert f"mass = {mass:g} kg" in texts
+    assert "nodes = 6" in texts and "nodes = 11" in texts
+    assert not any("nodes" in text and "mass" in text for text in texts)  # no point's own

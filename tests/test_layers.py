@@ -2,8 +2,10 @@
 → app, and no module imports itself back through a chain of others.
 
 Every ``import`` and ``from … import`` is read from the source with :mod:`ast`, including
-imports inside functions (a deferred import is still a dependency); imports under
-``if TYPE_CHECKING:`` are annotations only and are left out.
+imports inside functions (a deferred import is still a dependency). Imports under
+``if TYPE_CHECKING:`` are annotations only: the layer check leaves them out, the cycle check
+counts them (two modules that need each other's types are one concept in two files, or
+share a type that belongs in a third).
 """
 
 from __future__ import annotations
@@ -56,13 +58,14 @@ def _type_checking_block(node: ast.AST) -> bool:
             and node.test.id == "TYPE_CHECKING")
 
 
-def imported_modules(module: str, path: Path) -> set[str]:
+def imported_modules(module: str, path: Path, type_only: bool = False) -> set[str]:
     """The rodsim modules ``module`` imports (``from a import b`` counts as ``a.b`` when that
-    is a module, else ``a``)."""
+    is a module, else ``a``); with ``type_only`` also those imported under
+    ``if TYPE_CHECKING:``."""
     tree = ast.parse(path.read_text(), str(path))
     skip: set[int] = set()
     for node in ast.walk(tree):
-        if _type_checking_block(node):
+        if _type_checking_block(node) and not type_only:
             skip.update(id(child) for child in ast.walk(node))
     found: set[str] = set()
     package = module if path.name == "__init__.py" else module.rpartition(".")[0]
@@ -86,6 +89,9 @@ def imported_modules(module: str, path: Path) -> set[str]:
 
 
 GRAPH = {module: imported_modules(module, path) for module, path in MODULES.items()}
+#: With the type-only imports.
+TYPED_GRAPH = {module: imported_modules(module, path, type_only=True)
+               for module, path in MODULES.items()}
 
 
 def test_the_layer_map_covers_every_module():
@@ -100,8 +106,9 @@ def test_no_module_imports_a_higher_layer(module):
     assert not upward, f"{module} (layer {rank(module)}) imports higher layers: {upward}"
 
 
-def test_no_import_cycles():
-    """Depth-first search for a back edge among the package's modules."""
+def import_cycles(graph: dict[str, set[str]]) -> list[list[str]]:
+    """The cycles a depth-first search finds among ``graph``'s modules (one per back edge;
+    none when there is no cycle)."""
     state: dict[str, int] = {}  # 1 on the current path, 2 finished
     path: list[str] = []
     cycles: list[list[str]] = []
@@ -109,7 +116,7 @@ def test_no_import_cycles():
     def visit(module: str) -> None:
         state[module] = 1
         path.append(module)
-        for target in sorted(GRAPH.get(module, ())):
+        for target in sorted(graph.get(module, ())):
             if state.get(target) == 1:
                 cycles.append(path[path.index(target):] + [target])
             elif target not in state:
@@ -117,10 +124,33 @@ def test_no_import_cycles():
         path.pop()
         state[module] = 2
 
-    for module in sorted(GRAPH):
+    for module in sorted(graph):
         if module not in state:
             visit(module)
+    return cycles
+
+
+def test_no_import_cycles_type_only_imports_included():
+    cycles = import_cycles(TYPED_GRAPH)
     assert not cycles, "import cycles:\n" + "\n".join(" -> ".join(c) for c in cycles)
+
+
+def test_the_checker_sees_a_type_only_cycle(tmp_path):
+    """Two modules that import each other, one of them only under ``if TYPE_CHECKING:``,
+    are a cycle; the runtime imports alone are not."""
+    folder = tmp_path / "rodsim" / "app"
+    folder.mkdir(parents=True)
+    (folder / "a.py").write_text("from rodsim.app.b import helper\n")
+    (folder / "b.py").write_text("from typing import TYPE_CHECKING\n\nif TYPE_CHECKING:\n"
+                                 "    from rodsim.app.a import Thing\n\n"
+                                 "def helper(x: 'Thing') -> None:\n    pass\n")
+    runtime = {m: imported_modules(m, folder / f"{m[-1]}.py") for m in ("rodsim.app.a",
+                                                                         "rodsim.app.b")}
+    typed = {m: imported_modules(m, folder / f"{m[-1]}.py", type_only=True)
+             for m in ("rodsim.app.a", "rodsim.app.b")}
+    assert runtime == {"rodsim.app.a": {"rodsim.app.b"}, "rodsim.app.b": set()}
+    assert import_cycles(runtime) == []
+    assert import_cycles(typed) == [["rodsim.app.a", "rodsim.app.b", "rodsim.app.a"]]
 
 
 def test_the_checker_sees_an_upward_import(tmp_path):

@@ -68,12 +68,13 @@ def point_errors(scene: Scene, kind: str | None, centerline: np.ndarray, sigma: 
 def score_against_last(ds: xr.Dataset, dim: str, length: float) -> None:
     """Tip and area errors of the first rod against the last point along ``dim`` (which a
     convergence sweep orders from coarse to fine)."""
+    import xarray as xr
+
     first = ds["centerline"].isel(rod=0)
     reference = first.isel({dim: -1})
     gap = first.isel(sigma=-1) - reference.isel(sigma=-1)
-    ds["tip_error"] = (np.sqrt((gap**2).sum("axis")) / length).transpose(*ds["status"].dims)
-    import xarray as xr
-
+    distance = xr.apply_ufunc(np.sqrt, (gap**2).sum("axis"))
+    ds["tip_error"] = (distance / length).transpose(*ds["status"].dims)
     areas = xr.apply_ufunc(ribbon_area, first, reference,
                            input_core_dims=[["sigma", "axis"]] * 2, vectorize=True)
     ds["area_error"] = (areas / length).transpose(*ds["status"].dims)

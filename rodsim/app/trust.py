@@ -115,11 +115,12 @@ def penalty_error(result: Result, factor: float = 10.0,
     # its own budget: never more than the scene's, nor above twice the run (10 s at least)
     data["solver"]["max_wall_time"] = min(float(result.scene.solver.max_wall_time),
                                           max(10.0, 2.0 * result.stats.get("wall_time", 0.0)))
+    scene: Scene | dict[str, Any] = data
     stiffer_model = None
     if model is not None:
-        data = load_scene(data)
-        stiffer_model = model.with_scene(data)
-    stiffer = solve(data, DEFAULT_INTEGRATOR, model=stiffer_model, initial_state=result.state)
+        scene = load_scene(data)
+        stiffer_model = model.with_scene(scene)
+    stiffer = solve(scene, DEFAULT_INTEGRATOR, model=stiffer_model, initial_state=result.state)
     if not stiffer.success:
         return PenaltyError(float("nan"), float("nan"), factor, length, count)
     change = max(float(np.max(np.linalg.norm(stiffer.rods[name].positions - shape.positions,
@@ -186,13 +187,14 @@ def last_step_result(track: Any) -> Result | None:
     if not track.steps:
         return None
     last = track.steps - 1
-    values = {}
+    values: dict[str, float | list[float]] = {}
+    vectors: dict[str, list[float]] = {}
     for column, key in enumerate(track.keys):
         value = float(track.values[last, column])
         if key.index is None:
             values[key.path] = value
         else:
-            vector = list(values.get(key.path, track.scene.get(key.path)))
+            vector = vectors.setdefault(key.path, list(track.scene.get(key.path)))
             vector[key.index] = value
             values[key.path] = vector
     scene = track.scene.with_values(values)

@@ -36,7 +36,7 @@ from collections.abc import Callable, Hashable, Iterable
 from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
 from concurrent.futures.process import BrokenProcessPool
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, TypeVar
 
 __all__ = ["TaskFailure", "run_tasks", "PARENT_POLL"]
 
@@ -44,6 +44,8 @@ __all__ = ["TaskFailure", "run_tasks", "PARENT_POLL"]
 PARENT_POLL = 1.0
 #: How often the parent checks the running tasks' deadlines [s] (when there are deadlines).
 DEADLINE_POLL = 0.1
+#: A task's key (the caller's: a study point's index, a benchmark's case).
+K = TypeVar("K", bound=Hashable)
 
 
 @dataclass(frozen=True)
@@ -99,9 +101,9 @@ def _end_pool(pool: ProcessPoolExecutor, abandon: bool, pids: Any) -> None:
             os.kill(pid, signal.SIGTERM)
 
 
-def _pass(function: Callable[..., Any], tasks: dict[Hashable, tuple], queue: deque,
-          workers: int, done: Callable[[Hashable, Any, float], None],
-          deadline: Callable[[Hashable], float] | None, fresh: bool) -> list[Hashable]:
+def _pass(function: Callable[..., Any], tasks: dict[K, tuple], queue: deque[K],
+          workers: int, done: Callable[[K, Any, float], None],
+          deadline: Callable[[K], float] | None, fresh: bool) -> list[K]:
     """Run the tasks of ``queue`` (consumed) on a fresh pool, at most ``workers`` at a time.
 
     Returns ``[]`` once the queue is done, or the tasks that were running when a worker
@@ -121,8 +123,8 @@ def _pass(function: Callable[..., Any], tasks: dict[Hashable, tuple], queue: deq
     blocked = threading.current_thread() is threading.main_thread()
     if blocked:
         signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGTERM})
-    running: dict[Future[Any], tuple[Hashable, float]] = {}
-    suspects: list[Hashable] = []
+    running: dict[Future[Any], tuple[K, float]] = {}
+    suspects: list[K] = []
     broken = abandon = False
     try:
         while True:
@@ -181,9 +183,9 @@ def _pass(function: Callable[..., Any], tasks: dict[Hashable, tuple], queue: deq
     return suspects
 
 
-def run_tasks(function: Callable[..., Any], tasks: Iterable[tuple[Hashable, tuple]],
-              workers: int, done: Callable[[Hashable, Any, float], None], *,
-              deadline: Callable[[Hashable], float] | None = None,
+def run_tasks(function: Callable[..., Any], tasks: Iterable[tuple[K, tuple]],
+              workers: int, done: Callable[[K, Any, float], None], *,
+              deadline: Callable[[K], float] | None = None,
               fresh_processes: bool = False, log: Callable[[str], None] | None = None,
               noun: str = "tasks") -> None:
     """Run ``function(*args)`` for every ``(key, args)`` of ``tasks`` on local worker
@@ -191,16 +193,16 @@ def run_tasks(function: Callable[..., Any], tasks: Iterable[tuple[Hashable, tupl
     called in this process as each one finishes. ``function`` and the arguments must pickle.
     ``log`` hears (in ``noun``) when the tasks beside a dying worker are re-run one at a time.
     """
-    tasks = dict(tasks)
-    queue = deque(tasks)
+    table = dict(tasks)
+    queue = deque(table)
     while queue:
-        suspects = _pass(function, tasks, queue, workers, done, deadline, fresh_processes)
+        suspects = _pass(function, table, queue, workers, done, deadline, fresh_processes)
         if len(suspects) > 1:  # find which one died: each alone, in a pool of its own
             if log is not None:
                 log(f"a worker process died while {len(suspects)} {noun} ran; running them "
                     "one at a time to find which")
             suspects = [key for key in suspects
-                        if _pass(function, tasks, deque([key]), 1, done, deadline,
+                        if _pass(function, table, deque([key]), 1, done, deadline,
                                  fresh_processes)]
         for key in suspects:
             done(key, TaskFailure("died", "a crash, os._exit or the out-of-memory killer"),

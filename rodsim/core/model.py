@@ -32,7 +32,7 @@ import sys
 from collections.abc import Mapping
 from dataclasses import dataclass
 from functools import cached_property
-from typing import TYPE_CHECKING, Any, NamedTuple
+from typing import TYPE_CHECKING, Any, Literal, NamedTuple, overload
 
 import numpy as np
 import scipy.sparse as sp
@@ -381,6 +381,12 @@ class Model:
             other._build_maps()
         other._build_scales()
         return other
+
+    @overload
+    def with_values(self, scene: Scene, fallback: Literal[True] = True) -> Model: ...
+
+    @overload
+    def with_values(self, scene: Scene, fallback: bool) -> Model | None: ...
 
     def with_values(self, scene: Scene, fallback: bool = True) -> Model | None:
         """The model of ``scene`` when ``scene`` differs from this model's only in the

@@ -11,18 +11,25 @@ constructor takes it.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 if TYPE_CHECKING:
     import xarray as xr
 
-__all__ = ["ArchiveContent", "Variable", "is_text"]
+__all__ = ["ArchiveContent", "Variable", "VariableLike", "is_text"]
 
 #: A variable: its dimension names, values and attributes.
 Variable = tuple[tuple[str, ...], np.ndarray, dict[str, Any]]
+#: A variable as :class:`ArchiveContent` takes it (as xarray's constructor does): one
+#: dimension's name or a sequence of names, values of any array-like form, and attributes
+#: (optional).
+VariableLike = (tuple[str | Sequence[str], ArrayLike]
+                | tuple[str | Sequence[str], ArrayLike, Mapping[str, Any]])
 
 
 def is_text(values: np.ndarray) -> bool:
@@ -31,18 +38,22 @@ def is_text(values: np.ndarray) -> bool:
                                         and all(isinstance(v, str) for v in values.flat))
 
 
-@dataclass
+@dataclass(init=False)
 class ArchiveContent:
     """Data variables, coordinates and global attributes of an archive, in the order they
-    were added (a file keeps that order)."""
+    were added (a file keeps that order). The variables are taken in any
+    :data:`VariableLike` form and held as :data:`Variable`."""
 
-    data_vars: dict[str, Variable] = field(default_factory=dict)
-    coords: dict[str, Variable] = field(default_factory=dict)
-    attrs: dict[str, Any] = field(default_factory=dict)
+    data_vars: dict[str, Variable]
+    coords: dict[str, Variable]
+    attrs: dict[str, Any]
 
-    def __post_init__(self) -> None:
-        self.data_vars = {name: _variable(v) for name, v in self.data_vars.items()}
-        self.coords = {name: _variable(v) for name, v in self.coords.items()}
+    def __init__(self, data_vars: Mapping[str, VariableLike] | None = None,
+                 coords: Mapping[str, VariableLike] | None = None,
+                 attrs: dict[str, Any] | None = None) -> None:
+        self.data_vars = {name: _variable(v) for name, v in (data_vars or {}).items()}
+        self.coords = {name: _variable(v) for name, v in (coords or {}).items()}
+        self.attrs = attrs if attrs is not None else {}
 
     @property
     def variables(self) -> dict[str, Variable]:
@@ -79,7 +90,7 @@ class ArchiveContent:
                    {str(n): plain(n) for n in dataset.coords}, dict(dataset.attrs))
 
 
-def _variable(variable: Any) -> Variable:
+def _variable(variable: VariableLike) -> Variable:
     dims, values, *rest = variable
     dims = (dims,) if isinstance(dims, str) else tuple(dims)
     return dims, np.asarray(values), dict(rest[0]) if rest else {}

@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import json
 import math
-from collections.abc import Mapping
+from collections.abc import Hashable, Mapping
 from datetime import datetime
 from typing import TYPE_CHECKING, Any
 
@@ -141,7 +141,7 @@ def _attribute(ds: xr.Dataset, name: str) -> Any:
     return ds.attrs[name]
 
 
-def _variable(ds: xr.Dataset, name: str, dims: tuple[str, ...], numeric: bool = True
+def _variable(ds: xr.Dataset, name: Hashable, dims: tuple[str, ...], numeric: bool = True
               ) -> xr.DataArray:
     """Variable or coordinate ``name`` with exactly ``dims`` (numeric unless told)."""
     if name not in ds.variables:

@@ -21,7 +21,8 @@ schema).
 from __future__ import annotations
 
 import re
-from typing import TYPE_CHECKING
+from collections.abc import Hashable
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -78,7 +79,7 @@ def file_layout(content: ArchiveContent) -> ArchiveContent:
     return ArchiveContent(dict(content.data_vars), coords, dict(content.attrs))
 
 
-def to_file(ds: xr.Dataset) -> tuple[xr.Dataset, dict[str, dict]]:
+def to_file(ds: xr.Dataset) -> tuple[xr.Dataset, dict[Hashable, dict[str, Any]]]:
     """The Dataset as a schema 3 file holds it (:func:`file_layout`; the variables keep
     their encodings), and the encoding for ``to_netcdf`` (text as character arrays; no
     _FillValue on any coordinate)."""
@@ -86,7 +87,8 @@ def to_file(ds: xr.Dataset) -> tuple[xr.Dataset, dict[str, dict]]:
     for name in out.variables:
         if name in ds.variables:
             out[name].encoding = dict(ds[name].encoding)
-    encoding: dict[str, dict] = {name: {"_FillValue": None} for name in out.coords}
+    encoding: dict[Hashable, dict[str, Any]] = {name: {"_FillValue": None}
+                                                for name in out.coords}
     for name, variable in out.variables.items():
         if is_text(variable.values):
             encoding.setdefault(name, {})["dtype"] = "S1"

@@ -93,12 +93,14 @@ def scene_error_text(exc: SceneError) -> str:
     if exc.assignment is None:
         return str(exc)
     flag = f"--set {shown(exc.assignment, bare=True)}"
+    # the keys an unknown or ambiguous key could be (a tuple), or a description
+    names = exc.allowed if isinstance(exc.allowed, str) else ", ".join(exc.allowed or ())
     if exc.reason == "unknown key":
-        closest = f"; closest: {', '.join(exc.allowed)}" if exc.allowed else ""
+        closest = f"; closest: {names}" if names else ""
         return (f"{flag}: unknown key {shown(exc.key, bare=True)} (`rodsim run --help` "
                 f"lists the keys){closest}")
     if exc.reason == "ambiguous key":
-        return (f"{flag}: {exc.key} is ambiguous, could be {', '.join(exc.allowed)} (give "
+        return (f"{flag}: {exc.key} is ambiguous, could be {names} (give "
                 "more of the dotted key)")
     if exc.reason == "expected key=value":
         return f"{flag}: expected KEY=VALUE"

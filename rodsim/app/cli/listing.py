@@ -3,8 +3,12 @@
 from __future__ import annotations
 
 import argparse
+from typing import TYPE_CHECKING
 
 from rodsim.app.cli.common import EXIT_OK
+
+if TYPE_CHECKING:
+    from rodsim.core.terms import Term
 
 __all__ = ["cmd_scenes", "cmd_terms"]
 
@@ -27,14 +31,14 @@ def cmd_terms(args: argparse.Namespace) -> int:
     return EXIT_OK
 
 
-def term_label(name: str, term: type) -> str:
+def term_label(name: str, term: type[Term]) -> str:
     """The scene key a term answers, with the variant's registry name when several terms
     share the key (the lumen: ``lumen (lumen_conserving)``, chosen by the tendon's
     coupling)."""
     return term.key if term.key == name else f"{term.key} ({name})"
 
 
-def term_place(term: type) -> str:
+def term_place(term: type[Term]) -> str:
     """Where a scene asks for the term: a rod's or a tendon's ``terms`` list, or a table
     of its own (contact: ``[obstacles.<name>]``)."""
     if term.scene_table:

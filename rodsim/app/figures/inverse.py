@@ -146,7 +146,7 @@ def _tension_along(panel: plt.Axes, ds: xr.Dataset) -> None:
 
 
 def _views(ds: xr.Dataset, extra: np.ndarray, panels: int = 0
-           ) -> tuple[Figure, list[plt.Axes]]:
+           ) -> tuple[Figure, list[tuple[plt.Axes, tuple[int, int]]]]:
     """The run's rods in x–y, and in x–z and y–z when the shape or ``extra`` points leave
     the x–y plane (a 3D shape seen from one side only can hide a whole bend); ``panels``
     more axes after them (the figure's last axes)."""

@@ -20,7 +20,7 @@ __all__ = ["sweep_dims", "value_at", "is_numeric", "value_text", "point_label", 
 
 
 def sweep_dims(ds: xr.Dataset) -> list[str]:
-    return list(ds["status"].dims)
+    return [str(dim) for dim in ds["status"].dims]
 
 
 def value_at(ds: xr.Dataset, dim: str, i: int) -> Any:

@@ -4,6 +4,7 @@
 from __future__ import annotations
 
 from collections.abc import Sequence
+from typing import Any
 
 import matplotlib.pyplot as plt
 import numpy as np
@@ -17,8 +18,9 @@ __all__ = ["OVERLAYS", "reference_centerlines", "draw_references"]
 MARKER_EVERY = 10
 
 #: Analytic curves drawn for a study's reference kind: (kind, label, style) — the first is
-#: the reference the errors are measured against.
-OVERLAYS = {
+#: the reference the errors are measured against; the style is keyword arguments of
+#: ``Axes.plot``.
+OVERLAYS: dict[str, tuple[tuple[str, str, dict[str, Any]], ...]] = {
     "exact": (("exact", "exact elastica", {"color": "k", "lw": 0.9, "ls": "-"}),
               ("paper", "analytical model (AM), Eqs. (21)–(23) corrected",
                {"color": "k", "ls": "none", "marker": "o", "mfc": "none", "ms": 4})),
@@ -43,7 +45,7 @@ def reference_centerlines(ds: xr.Dataset, kinds: Sequence[str] | None = None
 
     spec_json = ds.attrs.get("spec_json")
     spec = StudySpec.from_json(spec_json) if spec_json else None
-    wanted = kinds or [spec.reference if spec is not None else None]
+    wanted = kinds or ([spec.reference] if spec is not None and spec.reference else [])
     kinds = [k for k in wanted if k in REFERENCE_KINDS]
     out: dict[str, dict[tuple[int, ...], np.ndarray]] = {k: {} for k in kinds}
     if spec is None or not kinds:

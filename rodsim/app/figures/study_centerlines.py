@@ -81,7 +81,7 @@ def _compact_legend(ds: xr.Dataset, axes: plt.Axes) -> None:
     for i in range(ds.sizes[colour_dim]):
         index = tuple(i if d == colour_dim else 0 for d in dims)
         handles.append(Line2D([], [], color=styles[index]["color"], lw=2))
-        lab.append(lab.point_label(ds, {colour_dim: lab.value_at(ds, colour_dim, i)}))
+        labels.append(lab.point_label(ds, {colour_dim: lab.value_at(ds, colour_dim, i)}))
     groups = lab.grid_indices(ds, style_dims)
     if style_dims and len(groups) <= LEGEND_POINTS:
         for group in groups:
@@ -89,7 +89,8 @@ def _compact_legend(ds: xr.Dataset, axes: plt.Axes) -> None:
             index = tuple(select.get(d, 0) for d in dims)
             handles.append(Line2D([], [], color="0.4", ls=styles[index]["ls"],
                                   marker=styles[index]["marker"], ms=3))
-            lab.append(lab.point_label(ds, {d: lab.value_at(ds, d, i) for d, i in select.items()}))
+            labels.append(lab.point_label(ds, {d: lab.value_at(ds, d, i)
+                                               for d, i in select.items()}))
     axes.legend(handles, labels, loc="best")
 
 

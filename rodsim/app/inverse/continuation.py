@@ -130,7 +130,6 @@ class Continuation:
         new equilibrium is the one that solved it (its forces, the contact forces a track
         records, are those of the equilibrium)."""
         model = self.model.anchored(self.x).with_values(scene)
-        assert model is not None  # with_values falls back to with_scene
         # A base that moves (insertion, rotation) carries the last equilibrium with it; that
         # rigid motion is exact where a chord predictor only linearises a rotation, so it
         # replaces the predictor.

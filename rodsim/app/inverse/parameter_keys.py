@@ -19,6 +19,8 @@ import re
 from collections.abc import Sequence
 from dataclasses import dataclass
 
+import numpy as np
+
 from rodsim.core.rod.rod import ROD_PARAMETERS
 from rodsim.core.scene import Scene
 from rodsim.core.schema import Parameter, SceneError, shown
@@ -145,7 +147,8 @@ def _local(key: NumericKey) -> bool:
     return len(parts) == 4 or (parts[0] == "rods" and parts[-1] in _LOCAL_ROD_VALUES)
 
 
-def scene_with(scene: Scene, keys: Sequence[NumericKey], values: Sequence[float]) -> Scene:
+def scene_with(scene: Scene, keys: Sequence[NumericKey], values: Sequence[float] | np.ndarray
+               ) -> Scene:
     """``scene`` with the given values at ``keys`` (validated: SceneError out of range).
 
     Tracking and fitting build one scene per step, so values that take part in no rule
@@ -167,12 +170,13 @@ def scene_with(scene: Scene, keys: Sequence[NumericKey], values: Sequence[float]
                 vector[key.index] = float(value)
                 node[last] = key.parameter.check(vector, key.path)
         return Scene(data, scene.source)
-    assignments: dict[str, object] = {}
+    assignments: dict[str, float | list[float]] = {}
+    vectors: dict[str, list[float]] = {}
     for key, value in zip(keys, values, strict=True):
         if key.index is None:
             assignments[key.path] = float(value)
         else:
-            vector = list(assignments.get(key.path, scene.get(key.path)))
+            vector = vectors.setdefault(key.path, list(scene.get(key.path)))
             vector[key.index] = float(value)
             assignments[key.path] = vector
     return scene.with_values(assignments)

@@ -106,6 +106,7 @@ class Reach:
                                                 f"{self.rod!r} at the values found"})
         if self.orientation is not None:
             ds.attrs["orientation_target"] = json.dumps(self.orientation.tolist())
+        if self.angle is not None:
             ds.attrs["orientation_angle"] = float(self.angle)
         for key, initial, value in zip(self.keys, self.initial, self.values, strict=True):
             name = variable_name(key.name)  # no dots (CF); the key is an attribute
@@ -247,9 +248,11 @@ def reach(scene: Scene, tip: Sequence[float], actuate: Sequence[str], *,
     values = problem.values_of(solution.x)
     problem.at(solution.x)  # the equilibrium the optimiser measured there (no cold re-solve)
     final = problem.result("reach")
+    stability = final.stability
+    assert stability is not None  # ScaledEquilibria.result assesses its equilibrium
     reached = final.tip(rod)
     distance = float(np.linalg.norm(reached - target))
-    unstable = not final.stability.stable
+    unstable = not stability.stable
     success = distance <= tolerance and not unstable
     angle, turned = None, ""
     if frame is not None:
@@ -263,7 +266,7 @@ def reach(scene: Scene, tip: Sequence[float], actuate: Sequence[str], *,
     if unstable:
         message = (f"the best tip found, ({where}) m, {distance:.3g} m from the target"
                    f"{turned}, is an UNSTABLE equilibrium (stiffness "
-                   f"{final.stability.eigenvalue_text}: e.g. a rod compressed past "
+                   f"{stability.eigenvalue_text}: e.g. a rod compressed past "
                    f"buckling), with {described}; not a usable actuation")
     elif success:
         message = f"reached within {distance:.3g} m{turned} with {described}"

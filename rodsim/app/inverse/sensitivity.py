@@ -84,6 +84,8 @@ def _stencil(key: NumericKey, value: float) -> list[tuple[float, float]]:
     Σ weight × F(x, point)."""
     h = RELATIVE_STEP * abs(value) if value != 0.0 else RELATIVE_STEP
     low, high = key.bounds()
+    offsets: tuple[float, ...]
+    weights: tuple[float, ...]
     if value - h >= low and value + h <= high:
         offsets, weights = (-h, -h / 2, h / 2, h), (1.0, -8.0, 8.0, -1.0)
         scale = 6.0 * h

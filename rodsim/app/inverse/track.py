@@ -240,7 +240,7 @@ class Track:
         return ds
 
 
-def _ramp_values(ramps: Mapping[str, Sequence[float]]) -> np.ndarray:
+def _ramp_values(ramps: Mapping[str, Sequence[float] | np.ndarray]) -> np.ndarray:
     """The ramps as a (steps, keys) array of finite numbers; SceneError otherwise (a text, a
     scalar, ramps of different lengths)."""
     if not isinstance(ramps, Mapping) or not ramps:
@@ -295,7 +295,7 @@ def _check_rules_across_tables(scene: Scene, keys: Sequence[NumericKey],
                              value=float(values[row, column]), reason=found[1]) from None
 
 
-def track(scene: Scene, ramps: Mapping[str, Sequence[float]],
+def track(scene: Scene, ramps: Mapping[str, Sequence[float] | np.ndarray],
           integrator: str = DEFAULT_INTEGRATOR,
           *, progress: Progress | None = None, allow_unstable: bool = False) -> Track:
     """Equilibria along the path ``ramps`` (key → values, all of one length ≥ 2), step 0

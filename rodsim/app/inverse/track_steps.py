@@ -5,7 +5,7 @@ text for its messages."""
 from __future__ import annotations
 
 from collections.abc import Sequence
-from typing import TYPE_CHECKING
+from typing import Protocol
 
 import numpy as np
 
@@ -15,13 +15,28 @@ from rodsim.core.stability import Stability
 from rodsim.core.terms.base import TendonTerm
 from rodsim.core.terms.contact import contact_forces
 
-if TYPE_CHECKING:
-    from rodsim.app.inverse.track import Track
-
-__all__ = ["record_contact", "record_stability", "values_text"]
+__all__ = ["TrackRecord", "record_contact", "record_stability", "values_text"]
 
 
-def record_contact(out: Track, model: Model) -> None:
+class TrackRecord(Protocol):
+    """The fields of a track that the step recorders read and write: track.py's ``Track``
+    is one, and this module does not import track.py, which imports it (no import cycle,
+    type-only ones included: tests/test_layers.py)."""
+
+    keys: list[NumericKey]
+    values: np.ndarray
+    states: list[np.ndarray]
+    stable: list[bool]
+    min_eigenvalues: list[float]
+    contact: list[np.ndarray]
+    success: bool
+    message: str
+    unstable_step: int | None
+    tension: list[np.ndarray]
+    chords: dict[str, np.ndarray]
+
+
+def record_contact(out: TrackRecord, model: Model) -> None:
     """The step's contact forces and, with tendon friction, its tension profiles (from the
     step's own model: its friction anchors)."""
     force = contact_forces(model, out.states[-1])
@@ -38,7 +53,7 @@ def record_contact(out: Track, model: Model) -> None:
         out.tension.append(np.concatenate([tension for _, tension in profiles.values()]))
 
 
-def record_stability(out: Track, step: int, stability: Stability,
+def record_stability(out: TrackRecord, step: int, stability: Stability,
                      allow_unstable: bool) -> bool:
     """Append the verdict of ``step``; False (and the track stopped) when it is unstable
     and unstable steps are not allowed."""
