@@ -98,6 +98,17 @@ class Routing:
             return radius * rate * np.stack([-np.sin(angle), np.cos(angle)], axis=1)
         return self._spline()(s, 1)
 
+    def second_derivatives(self, s: np.ndarray) -> np.ndarray:
+        """ρ″(s), shape (len(s), 2) [1/m] (the friction reference's tendon curvature,
+        rodsim/core/analytic/tendon_friction_bvp.py)."""
+        s = np.asarray(s, dtype=float)
+        if self.kind == "constant" or (self.kind == "table" and len(self.knots[0]) == 1):
+            return np.zeros((len(s), 2))
+        if self.kind == "helix":
+            pitch = self.values[1]
+            return -(2.0 * math.pi / pitch) ** 2 * self.offsets(s)
+        return self._spline()(s, 2)
+
 
 def string_span(string: Any, length: float) -> tuple[float, float]:
     """(start, end) arc lengths [m] of a string tendon on a catheter of ``length``

@@ -45,7 +45,8 @@ import numpy as np
 from numpy.typing import ArrayLike
 from scipy.integrate import solve_ivp
 
-__all__ = ["Section", "BVPTendon", "TendonRodSolution", "tendon_rod"]
+__all__ = ["BVPTendon", "SceneProblem", "Section", "TendonRodSolution", "scene_problem",
+           "scene_reference", "tendon_rod"]
 
 _RTOL = 1e-12
 _ATOL = 1e-14
@@ -110,6 +111,7 @@ class _Strains:
         self.tendons = tendons
         self.load = load
         self.z = np.array([0.0, 0.0, 0.0, 0.0, 0.0, 1.0])
+        self.jacobian = np.eye(6)
 
     def _axial_shear(self, v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """∂W/∂v and its Jacobian."""
@@ -128,8 +130,11 @@ class _Strains:
                - self.shear * (d_f / r - np.outer(f, h) / r**2))
         return force, jac
 
-    def solve(self, s: float, m_body: np.ndarray, n_body: np.ndarray) -> tuple[np.ndarray,
-                                                                                 np.ndarray]:
+    def solve(self, s: float, m_body: np.ndarray, n_body: np.ndarray,
+              tensions: ArrayLike | None = None) -> tuple[np.ndarray, np.ndarray]:
+        """(u, v) at ``s``; ``tensions`` [N] replace ``load`` × each tendon's own (a
+        tension that varies along the tendon: rodsim/core/analytic/tendon_friction_bvp.py).
+        The system's Jacobian at the solution is kept in ``jacobian``."""
         rho = [np.r_[t.offset(np.array([s]))[0], 0.0] for t in self.tendons]
         slope = [np.r_[t.slope(np.array([s]))[0], 0.0] for t in self.tendons]
         skews = [_skew(r) for r in rho]
@@ -142,8 +147,10 @@ class _Strains:
             jac = np.zeros((6, 6))
             jac[:3, :3] = np.diag(self.k)
             jac[3:, 3:] = d2v
-            for tendon, r, rs, dr in zip(self.tendons, rho, skews, slope, strict=True):
-                tension = self.load * tendon.tension
+            for k, (tendon, r, rs, dr) in enumerate(zip(self.tendons, rho, skews, slope,
+                                                         strict=True)):
+                tension = (self.load * tendon.tension if tensions is None
+                           else float(np.asarray(tensions)[k]))
                 a = v + np.cross(u, r) + dr
                 norm = float(np.linalg.norm(a))
                 tau = a / norm
@@ -162,6 +169,7 @@ class _Strains:
                 jac[3:, :3] -= tension * proj_rows @ rs
                 jac[3:, 3:] += tension * proj_rows
             g = np.r_[g1, g2]
+            self.jacobian = jac
             step = np.linalg.solve(jac, g)
             z = z - step
             if np.max(np.abs(step)) < 1e-15 * (1.0 + np.max(np.abs(z))):
@@ -268,16 +276,40 @@ def _shoot(m_start: np.ndarray, force: np.ndarray, breaks: list[float],
     return y[12:15]
 
 
+@dataclass(frozen=True)
+class SceneProblem:
+    """What the reference reads from a scene (:func:`scene_problem`): the catheter's
+    length, spans and base position, its string tendons (with each one's routing and
+    friction coefficient μ, in the scene's order) and the tip wrench (world frame)."""
+
+    length: float
+    sections: list[Section]
+    tendons: list[BVPTendon]
+    routings: list
+    frictions: list[float]
+    force: np.ndarray
+    moment: np.ndarray
+    origin: np.ndarray
+
+
 def scene_reference(scene, s: np.ndarray | None = None, shear: bool = True,
                     load_steps: int = 1) -> TendonRodSolution:
     """The reference of a rodsim scene whose string tendons all act on one catheter rod:
     its E I, G J, E_s A per span of its sections (or of the uniform rod) and K_P
     (``shear = False``: unshearable), its tip load's force (mass included, along its
     gravity), its world-frame point_loads at s = L (force and moment) and each tendon's
-    tension, termination and routing.
+    tension, termination and routing (frictionless: each tendon's μ is ignored).
     ``scene`` is a :class:`~rodsim.core.scene.Scene`. Raises ValueError for a scene the
     reference does not describe (other couplings, several catheters, gravity, a base other
     than the 'frame' clamp)."""
+    problem = scene_problem(scene, shear)
+    return tendon_rod(problem.length, problem.sections, problem.tendons, problem.force,
+                      problem.moment, s=s, origin=problem.origin, load_steps=load_steps)
+
+
+def scene_problem(scene, shear: bool = True) -> SceneProblem:
+    """The problem :func:`scene_reference` solves, read from ``scene`` (same arguments and
+    errors)."""
     from rodsim.core.model import Model
     from rodsim.core.routing import Routing, string_span
     from rodsim.core.terms.bend_twist import stiffness_tensor
@@ -311,13 +343,15 @@ def scene_reference(scene, s: np.ndarray | None = None, shear: bool = True,
                         profile.end, profile.youngs_modulus, profile.second_moment,
                         profile.shear_modulus, profile.polar_moment, profile.stretch_modulus,
                         profile.area, strict=True)]
-    tendons = []
+    tendons, routings, frictions = [], [], []
     for tendon_name, options in scene.tendons.items():
         string = scene.term_options("tendons", tendon_name, "tendon_string")
         start, end = string_span(string, rod.length)
         routing = Routing.of(options.offset, options.direction, string)
         tendons.append(BVPTendon(string.tension, end, routing.offsets, routing.derivatives,
                                  start))
+        routings.append(routing)
+        frictions.append(float(string.friction))
     force, moment = np.zeros(3), np.zeros(3)
     load = scene.term_options("rods", name, "tip_load")
     if load is not None:
@@ -331,5 +365,5 @@ def scene_reference(scene, s: np.ndarray | None = None, shear: bool = True,
             raise ValueError("the reference takes world-frame point loads at the tip only")
         force = force + np.asarray(point["force"], dtype=float)
         moment = moment + np.asarray(point["moment"], dtype=float)
-    return tendon_rod(rod.length, sections, tendons, force, moment, s=s, origin=rod.origin,
-                      load_steps=load_steps)
+    return SceneProblem(rod.length, sections, tendons, routings, frictions, force, moment,
+                        np.asarray(rod.origin, dtype=float))
