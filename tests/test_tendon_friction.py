@@ -190,6 +190,9 @@ def test_pull_release_hysteresis_and_the_dead_zone():
     moved = [values[k] for k in released if track.tension[k][-1] != top]
     closed_edge = t_max / (1 + 2 * mu * t_max * OFFSET * LENGTH / EI)  # 2.428 N
     assert max(moved) < closed_edge <= min(dead)
+    # The track reports the released steps above the closed form's edge as its dead zone,
+    # and no step of the pull (each moves the termination).
+    assert track.dead_zone_steps == [k for k in released if values[k] >= closed_edge]
 
 
 def helix_scene(nodes: int, friction: float, tension: float) -> dict:
@@ -337,6 +340,24 @@ def test_bad_friction_is_one_line(values, message):
         del scene["tendons"]["a"]["tendon_string"]["tension"]
     with pytest.raises(SceneError, match=message) as info:
         Scene.from_dict(scene)
+    assert "\n" not in str(info.value)
+
+
+@pytest.mark.parametrize("where", ["tendon", "tendon_actuation"])
+def test_friction_on_a_rod_tendon_is_one_line_naming_the_string(where):
+    """The rod tendons (couplings paper, conserving) have no friction: a scene file that
+    sets it on their table or on their actuation term gets one line saying where friction
+    is (docs/tendon.md, "Friction": why the rod tendons are left out)."""
+    import tomllib
+    from pathlib import Path
+
+    data = tomllib.loads((Path(__file__).parents[1] / "data" / "table3-catheter1.toml")
+                         .read_text())
+    table = data["tendons"]["tendon"]
+    (table if where == "tendon" else table["tendon_actuation"])["friction"] = 0.2
+    with pytest.raises(SceneError, match="friction is a key of tendons.<name>.tendon_string "
+                       "only") as info:
+        Scene.from_dict(data)
     assert "\n" not in str(info.value)
 
 
@@ -501,7 +522,7 @@ def test_a_cold_run_says_which_history_it_assumed(tmp_path, capsys):
                  "-o", str(tmp_path / "bad.nc")]) == 2
 
 
-def test_a_ramp_with_legs_is_a_pull_release_cycle_on_the_command_line(tmp_path):
+def test_a_ramp_with_legs_is_a_pull_release_cycle_on_the_command_line(tmp_path, capsys):
     """``--ramp KEY=START:STOP:COUNT:STOP:COUNT`` goes up and back down; its archive holds
     the loop (the same tension, a larger bend on the way back). Bad legs are one line."""
     from rodsim.app.cli import main
@@ -522,3 +543,8 @@ def test_a_ramp_with_legs_is_a_pull_release_cycle_on_the_command_line(tmp_path):
     ds = read_dataset(archive)
     lateral = ds["position"].values[:, -1, 1]
     assert ds.sizes["step"] == 11 and lateral[6] > lateral[4] + 1e-3 * LENGTH
+    # Released from 3 N, the termination holds down to the closed form's edge (2.43 N at
+    # μ = 0.2, docs/tendon.md): step 6 (2.5 N) is in the dead zone, step 7 (2 N) is not.
+    line = next(t for t in capsys.readouterr().out.splitlines() if t.startswith("dead zone"))
+    assert "1 of 11 steps (first: step 6)" in line
+    assert ds.attrs["dead_zone_steps"] == "[6]"

@@ -245,9 +245,13 @@ def validate_table(
     for key in table:
         if key not in params and key not in allow_extra:
             known = tuple(sorted([*params, *allow_extra]))
+            # friction on a rod tendon (docs/tendon.md, "Friction": only the string has it)
+            hint = ("; friction is a key of tendons.<name>.tendon_string only (coupling = "
+                    "\"string\"): the rod tendons are frictionless"
+                    if key == "friction" and prefix.startswith("tendons.") else "")
             raise SceneError(f"{prefix}.{shown(key, bare=True)}: unknown key; known keys: "
-                             f"{', '.join(known)}", key=f"{prefix}.{key}", allowed=known,
-                             reason="unknown key")
+                             f"{', '.join(known)}{hint}", key=f"{prefix}.{key}",
+                             allowed=known, reason="unknown key")
     for name, param in params.items():
         key = f"{prefix}.{name}"
         if name in table:

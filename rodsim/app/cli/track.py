@@ -74,6 +74,12 @@ class Track(SceneCommand):
         else:
             print("stability   stable at every step (the stiffness K = -dF/dx is positive "
                   "definite)")
+        dead = result.dead_zone_steps
+        if result.tension:
+            print("dead zone   " + (f"{len(dead)} of {result.steps} steps (first: step "
+                                    f"{dead[0]}): the termination tensions held while the "
+                                    "ramp moved (backlash)" if dead else "none: every "
+                                    "step moved a termination tension"))
         print_last_step_trust(result)
 
     def verdict(self, result: Any) -> int:

@@ -135,6 +135,18 @@ class Track:
     def quaternions(self) -> np.ndarray:
         return self._stacked("quaternion")
 
+    @property
+    def dead_zone_steps(self) -> list[int]:
+        """With tendon friction: the steps inside the backlash dead zone — the ramped values
+        moved from the step before, but the termination tension of every tendon with
+        friction held exactly (its last chord stuck: docs/tendon.md, "Friction")."""
+        if not self.tension:
+            return []
+        ends = np.cumsum([len(s) for s in self.chords.values()]) - 1
+        return [k for k in range(1, self.steps)
+                if np.any(self.values[k] != self.values[k - 1])
+                and np.array_equal(self.tension[k][ends], self.tension[k - 1][ends])]
+
     def tips(self, rod: str | None = None) -> np.ndarray:
         """Tip of ``rod`` (default: the first) at every completed step, (steps, 3) [m]."""
         layout = self.model.rods[rod or next(iter(self.model.rods))].layout
@@ -234,6 +246,7 @@ class Track:
         if self.tension:
             ds.attrs["friction_history"] = (f"step 0: {FRICTION_HISTORY}; then the track's "
                                             "path, each step from the one before")
+            ds.attrs["dead_zone_steps"] = json.dumps(self.dead_zone_steps)
         if self.tendon_compression:
             ds.attrs["tendon_compression"] = json.dumps(self.tendon_compression,
                                                         sort_keys=True)
