@@ -297,6 +297,8 @@ class TendonString(TendonTerm):
         self._entry_slope = np.ascontiguousarray(self.routing.derivatives(
             np.array([self.start]))[0], dtype=float)
         self.conservative = self.friction == 0.0
+        #: (state, tension, profile, chord tensions) of the last chord_tensions call.
+        self._memo: tuple[np.ndarray, float, np.ndarray, np.ndarray] | None = None
 
     def with_options(self, options: TendonStringOptions) -> TendonString | None:
         """A copy with another tension when that is the only option changed (a tracking
@@ -350,8 +352,16 @@ class TendonString(TendonTerm):
         chords = len(self.points.s) - 1
         if self.friction == 0.0:
             return np.full(chords, self.tension)
-        return chord_tensions(self.tension, self.friction, self.turning_angles(x),
-                              self.profile)
+        # The last state's, kept: a converged step reads them three times (its result, the
+        # track's record, the next step's anchors) at the same state and history.
+        memo = self._memo
+        if (memo is not None and memo[1] == self.tension and memo[2] is self.profile
+                and np.array_equal(memo[0], x)):
+            return memo[3].copy()
+        out = chord_tensions(self.tension, self.friction, self.turning_angles(x),
+                             self.profile)
+        self._memo = (np.array(x, dtype=float), self.tension, self.profile, out)
+        return out.copy()
 
     def tension_profile(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
         """(rest arc length of each chord's midpoint, τ_e) with friction; None without."""
