@@ -1,0 +1,54 @@
+"""Estimating a tendon's friction coefficient μ from a measured pull–release series
+(rodsim/app/inverse/series_fit.py; docs/tendon.md, "Friction"). The measurements are
+synthesised by the model at μ = 0.2 with Gaussian noise on the tip's in-plane coordinates;
+the fit starts at μ = 0.1."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from test_tendon_friction import LENGTH, TENSION, catheter
+
+import rodsim
+from rodsim.app.inverse.series_fit import fit_series
+from rodsim.core.scene import Scene
+from rodsim.core.schema import SceneError
+
+FRICTION = "tendons.a.tendon_string.friction"
+CYCLE = np.r_[np.linspace(0.5, 3.0, 6), np.linspace(2.5, 0.5, 5)]  # N, up and back down
+
+
+def measured(mu: float, noise: float, seed: int) -> np.ndarray:
+    truth = rodsim.track(Scene.from_dict(catheter(21, mu, CYCLE[0])), {TENSION: CYCLE})
+    assert truth.success
+    rng = np.random.default_rng(seed)
+    return truth.tips() + noise * rng.standard_normal((len(CYCLE), 3)) * [1.0, 1.0, 0.0]
+
+
+def test_noise_free_series_gives_mu_back():
+    fitted = fit_series(Scene.from_dict(catheter(21, 0.1, CYCLE[0])), {TENSION: CYCLE},
+                        measured(0.2, 0.0, 0), [FRICTION])
+    assert fitted.values[FRICTION] == pytest.approx(0.2, abs=1e-6)
+    assert fitted.rms < 1e-9 * LENGTH
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_noisy_series_gives_mu_within_its_standard_error(seed):
+    """Noise of 0.1 mm (5e-4 L) per coordinate: μ̂ within 3 standard errors of 0.2, the
+    standard error a few percent of μ, and the residual RMS the noise's (two noisy
+    coordinates of three: σ √(2/3))."""
+    noise = 1e-4
+    fitted = fit_series(Scene.from_dict(catheter(21, 0.1, CYCLE[0])), {TENSION: CYCLE},
+                        measured(0.2, noise, seed), [FRICTION])
+    mu, error = fitted.values[FRICTION], fitted.standard_errors[FRICTION]
+    assert abs(mu - 0.2) < 3 * error, (mu, error)
+    assert 1e-3 < error < 0.03
+    assert fitted.rms == pytest.approx(noise * np.sqrt(2 / 3), rel=0.5)
+    assert fitted.track.success and len(fitted.track.states) == len(CYCLE)
+
+
+def test_a_series_of_the_wrong_length_is_one_line():
+    with pytest.raises(SceneError, match="one per ramp value") as info:
+        fit_series(Scene.from_dict(catheter(11, 0.1, 0.5)), {TENSION: CYCLE},
+                   np.zeros((3, 3)), [FRICTION])
+    assert "\n" not in str(info.value)
