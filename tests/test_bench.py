@@ -343,6 +343,27 @@ def test_string_tendon_small_outputs(tmp_path):
     assert "| default" in (tmp_path / "string-tendon-small.md").read_text()
 
 
+def test_friction_small_outputs(tmp_path):
+    """``rodsim bench friction --size small``: both scenes' cycles and static solves ran at
+    μ = 0 and 0.3; the ramp goes up and back down; the frictionless solve's ratio is 1."""
+    import json
+
+    from rodsim_bench import friction
+
+    values = friction.cycle(3.0, 35)
+    assert len(values) == 35 and values[0] == values[-1] and values.max() == 3.0
+    assert values[0] == pytest.approx(0.3) and np.all(np.diff(values)[:17] > 0)
+    paths = friction.run("small", tmp_path, lambda fraction, status: None)
+    assert {p.name for p in paths} == {"friction-small.json", "friction-small.md"}
+    rows = json.loads((tmp_path / "friction-small.json").read_text())["rows"]
+    assert {(r["scene"], r["friction"]) for r in rows} == {
+        (name, mu) for name in friction.CASES for mu in (0.0, 0.3)}
+    for row in rows:
+        assert row["track_success"] and row["solve_success"] and row["steps_per_second"] > 0
+        assert (row["solve_ratio"] == 1.0) == (row["friction"] == 0.0)
+    assert "| tdcr-two-segment | 0.3 |" in (tmp_path / "friction-small.md").read_text()
+
+
 # ------------------------------------------- figure titles state the measured result
 RESULTS = Path(__file__).resolve().parents[1] / "benchmarks" / "results"
 
