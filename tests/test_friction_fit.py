@@ -1,7 +1,7 @@
 """Estimating a tendon's friction coefficient μ from a measured pull–release series
 (rodsim/app/inverse/series_fit.py; docs/tendon.md, "Friction"). The measurements are
 synthesised by the model at μ = 0.2 with Gaussian noise on the tip's in-plane coordinates;
-the fit starts at μ = 0.1."""
+the fit starts at μ = 0.1. And reach telling a target in the backlash dead zone."""
 
 from __future__ import annotations
 
@@ -52,3 +52,23 @@ def test_a_series_of_the_wrong_length_is_one_line():
         fit_series(Scene.from_dict(catheter(11, 0.1, 0.5)), {TENSION: CYCLE},
                    np.zeros((3, 3)), [FRICTION])
     assert "\n" not in str(info.value)
+
+
+def test_reach_says_when_its_target_lies_in_the_dead_zone():
+    """From the cold equilibrium at 3 N (μ = 0.2; the dead zone reaches down to 2.43 N,
+    docs/tendon.md), a target released to 2.75 N is reached by lowering the tension while
+    the termination's tension holds: reach flags the dead zone and says so; a target pulled
+    further (3.2 N) moves the termination and is not flagged, nor is a frictionless reach."""
+    scene = Scene.from_dict(catheter(21, 0.2, 3.0))
+    released = rodsim.track(scene, {TENSION: [3.0, 2.75]}).tips()[-1]
+    inside = rodsim.reach(scene, released, [TENSION])
+    assert inside.dead_zone and "backlash dead zone" in inside.message
+    assert 2.43 < inside.values[0] < 3.0
+    ends = inside.result.tension_profiles["a"][1][-1]
+    assert ends == rodsim.solve(scene).tension_profiles["a"][1][-1]
+    pulled = rodsim.track(scene, {TENSION: [3.0, 3.2]}).tips()[-1]
+    beyond = rodsim.reach(scene, pulled, [TENSION])
+    assert beyond.success and not beyond.dead_zone
+    assert beyond.values[0] == pytest.approx(3.2, rel=1e-6)
+    plain = rodsim.reach(Scene.from_dict(catheter(21, 0.0, 3.0)), pulled, [TENSION])
+    assert not plain.dead_zone

@@ -96,6 +96,9 @@ class Reach:
     #: reached from it; None without an orientation target.
     orientation: np.ndarray | None = None
     angle: float | None = None
+    #: With tendon friction: the values moved but no tendon's termination tension did (the
+    #: actuation stayed inside the backlash dead zone; docs/tendon.md, "Friction").
+    dead_zone: bool = False
 
     def to_xarray(self) -> xr.Dataset:
         """The reach archive: the run archive of the scene with the values found, the
@@ -209,6 +212,7 @@ def reach(scene: Scene, tip: Sequence[float], actuate: Sequence[str], *,
     problem, lower, upper = ScaledEquilibria.at_scene_values(scene, keys, rod,
                                                              integrator_named(integrator).name)
     initial = problem.values.copy()
+    held = _terminations(problem.result("reach")) if _rubs(scene) else {}
 
     far = np.full(3 if frame is None else 9, 10.0 * length)
 
@@ -260,6 +264,10 @@ def reach(scene: Scene, tip: Sequence[float], actuate: Sequence[str], *,
         success = success and angle <= tolerance / length
         turned = (f" and {angle:.3g} rad from the orientation (tolerance "
                   f"{tolerance / length:.3g} rad)")
+    dead_zone = bool(held) and bool(np.any(values != initial)) and _terminations(final) == held
+    if dead_zone:
+        turned += (" (inside the backlash dead zone: the actuation moved, no tendon's "
+                   "termination tension did)")
     described = ", ".join(f"{k.name} = {v:.6g} {k.unit}" for k, v in zip(keys, values,
                                                                           strict=True))
     where = ", ".join(f"{c:.6g}" for c in reached)
@@ -276,4 +284,16 @@ def reach(scene: Scene, tip: Sequence[float], actuate: Sequence[str], *,
                    f"with {described}")
     return Reach(keys, initial, values, target, reached, distance, tolerance, success,
                  message, problem.evaluations, problem.jacobians,
-                 time.perf_counter() - started, rod, final, unstable, frame, angle)
+                 time.perf_counter() - started, rod, final, unstable, frame, angle, dead_zone)
+
+
+def _rubs(scene: Scene) -> bool:
+    """Whether a string tendon of ``scene`` has friction."""
+    return any(options.coupling == "string"
+               and scene.term_options("tendons", name, "tendon_string").friction > 0.0
+               for name, options in scene.tendons.items())
+
+
+def _terminations(result: Result) -> dict[str, float]:
+    """Each friction tendon's termination tension [N] at ``result``."""
+    return {name: float(tension[-1]) for name, (_, tension) in result.tension_profiles.items()}
