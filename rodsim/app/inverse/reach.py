@@ -97,6 +97,16 @@ class Reach:
     orientation: np.ndarray | None = None
     angle: float | None = None
 
+    def __repr__(self) -> str:
+        from rodsim.app.inverse.summaries import summary
+
+        return summary(self, html=False)
+
+    def _repr_html_(self) -> str:
+        from rodsim.app.inverse.summaries import summary
+
+        return summary(self, html=True)
+
     def to_xarray(self) -> xr.Dataset:
         """The reach archive: the run archive of the scene with the values found, the
         target and the tip reached, and each actuation value as a scalar variable."""
