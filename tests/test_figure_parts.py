@@ -217,3 +217,22 @@ def test_a_string_tendons_drawn_path_is_the_models(scene):
         assert got.shape == expected.shape
         np.testing.assert_allclose(got[-1], expected[-1], rtol=0, atol=1e-12)
         assert np.max(np.abs(got - expected)) < 0.02 * offset
+
+
+def test_a_tracks_movie_has_one_frame_per_step(tmp_path, cli, capsys):
+    from PIL import Image
+
+    archive = tmp_path / "track.nc"
+    assert cli(["track", "table1-50g", "--set", "nodes=8", "--ramp",
+                "tip_load.mass=0:0.05:5", "-o", str(archive)]) == 0
+    assert cli(["plot", str(archive), "--movie", "--format", "png"]) == 0
+    assert "track.gif" in capsys.readouterr().out
+    with Image.open(tmp_path / "track.gif") as movie:
+        assert movie.n_frames == 5
+    run = tmp_path / "run.nc"
+    assert cli(["run", "table1-50g", "--set", "nodes=8", "-o", str(run)]) == 0
+    capsys.readouterr()
+    assert cli(["plot", str(run), "--movie"]) == 2
+    err = capsys.readouterr().err
+    assert "track archive" in err and "Traceback" not in err and len(err.splitlines()) == 1
+    assert not (tmp_path / "run.png").exists()  # refused before anything is drawn
