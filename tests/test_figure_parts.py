@@ -236,3 +236,53 @@ def test_a_tracks_movie_has_one_frame_per_step(tmp_path, cli, capsys):
     err = capsys.readouterr().err
     assert "track archive" in err and "Traceback" not in err and len(err.splitlines()) == 1
     assert not (tmp_path / "run.png").exists()  # refused before anything is drawn
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_loads_of_robots_of_other_sizes_are_drawn_as_they_act(seed):
+    """Seeded robots (steel, nitinol, soft polymer; 2–30 cm; mN to N loads) with a tip load,
+    a world-frame point force, a distributed load on a span and gravity, one with sections:
+    each load is drawn where it acts with its resultant, and the weight is the model's own
+    lumped masses times g."""
+    from rodsim.app.figures.scene_parts import scene_parts
+
+    rng = np.random.default_rng(seed)
+    modulus, density = [(2e11, 7850.0), (6e10, 6450.0), (2e7, 1100.0)][seed]
+    length = float(rng.uniform(0.02, 0.3))
+    radius = float(rng.uniform(2e-4, 1.5e-3))
+    stiffness = modulus * np.pi * radius**4 / 4
+    scale = float(rng.uniform(0.05, 0.3)) * stiffness / length**2  # a moderate bend
+    point = [float(v) for v in rng.normal(0.0, scale, 3)]
+    span_q = [0.0, -scale / length, 0.0]
+    rod = {"length": length, "radius": radius, "nodes": 13, "youngs_modulus": modulus,
+           "density": density,
+           "terms": ["stretch", "bend_twist", "centerline", "tip_load", "point_loads",
+                     "distributed_load", "gravity"],
+           "tip_load": {"mass": 0.0, "force": [0.0, 0.0, scale]},
+           "point_loads": {"loads": [{"s": length / 2, "force": point, "frame": "world"}]},
+           "distributed_load": {"spans": [{"start": 0.25 * length, "end": 0.75 * length,
+                                           "force_per_length": span_q}]}}
+    if seed == 2:
+        rod["sections"] = [{"start": 0.0, "end": length / 2, "inner_radius": radius / 2},
+                           {"start": length / 2, "end": length}]
+    scene = {"name": f"robot{seed}", "rods": {"wire": rod}}
+    result = rodsim.solve(scene)
+    assert result.success, result.message
+    ds = run_dataset(result)
+    loads = {a.gid: a for a in scene_parts(ds).loads}
+    nodes = result.positions("wire")
+    np.testing.assert_allclose(loads["load:wire:tip_load"].point, nodes[-1])
+    np.testing.assert_allclose(loads["load:wire:tip_load"].vector, [0.0, 0.0, scale])
+    middle = np.interp(length / 2, result.rods["wire"].s, np.arange(len(nodes)))
+    lower = int(np.floor(middle))
+    expected = nodes[lower] + (middle - lower) * (nodes[min(lower + 1, len(nodes) - 1)]
+                                                  - nodes[lower])
+    np.testing.assert_allclose(loads["load:wire:point_loads"].point, expected, atol=1e-12)
+    np.testing.assert_allclose(loads["load:wire:point_loads"].vector, point)
+    np.testing.assert_allclose(loads["load:wire:distributed_load"].vector,
+                               np.array(span_q) * 0.5 * length, rtol=1e-12)
+    weight = rodsim.build_model(result.scene).rods["wire"].node_masses().sum() * 9.81
+    np.testing.assert_allclose(loads["load:wire:gravity"].vector, [0.0, -weight, 0.0],
+                               rtol=1e-9)
+    assert {f"load:wire:{t}" for t in ("tip_load", "point_loads", "distributed_load",
+                                       "gravity")} <= drawn(ds)
