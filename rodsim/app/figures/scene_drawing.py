@@ -7,7 +7,8 @@ Each artist carries a ``gid`` naming what it draws (``rod:<name>``, ``tendon:<na
 ``termination:<name>``, ``obstacle:<name>``, ``load:<owner>:<term>``, ``contact:<rod>``):
 tests find them by it. Arrows are drawn to a scale stated on the panel: the largest force
 a fifth of the drawing, the largest moment (right-hand rule, dashed) likewise; contact
-forces have their own scale.
+forces have their own scale. A load starts at its point of action, a contact force ends
+there; one across the view is a circle with a dot (out of the page) or a cross (into it).
 """
 
 from __future__ import annotations
@@ -92,7 +93,8 @@ def _arrows(ax: plt.Axes, arrows: list[Arrow], view: tuple[int, int], length: fl
             colour: str, unit: str, what: str, dashed: bool = False, legend: bool = True
             ) -> None:
     """Arrows at their points, the largest ``length`` long (its value stated on the
-    panel); forces point at their point of action, moments start there."""
+    panel): a load (force or moment) starts at its point of action, a contact force ends
+    there (the wall pushing on the rod)."""
     if not arrows:
         return
     a, b = view
@@ -104,15 +106,22 @@ def _arrows(ax: plt.Axes, arrows: list[Arrow], view: tuple[int, int], length: fl
     for arrow in arrows:
         v = scale * arrow.vector[[a, b]]
         p = arrow.point[[a, b]]
-        tail, head = (p, p + v) if arrow.moment else (p - v, p)
+        tail, head = (p - v, p) if arrow.gid.startswith("contact:") else (p, p + v)
         label = None
         if legend and arrow.label not in seen:
             seen.add(arrow.label)
             label = f"{arrow.label}: {np.linalg.norm(arrow.vector):.3g} {unit}"
-        ax.annotate("", xy=tuple(head), xytext=tuple(tail), gid=arrow.gid,
-                    arrowprops={"arrowstyle": "-|>", "color": colour, "lw": 1.2,
-                                "ls": "--" if dashed else "-", "shrinkA": 0, "shrinkB": 0},
-                    zorder=6)
+        if np.linalg.norm(v) < 0.05 * length:  # across the view: ⊙ out of it, ⊗ into it
+            out = float(arrow.vector @ np.cross(np.eye(3)[a], np.eye(3)[b])) > 0
+            ax.plot(*p, ls="none", marker="o", ms=9, mfc="white", color=colour, zorder=6,
+                    gid=arrow.gid)
+            ax.plot(*p, ls="none", marker="." if out else "x", ms=6 if out else 5,
+                    color=colour, zorder=7)
+        else:
+            ax.annotate("", xy=tuple(head), xytext=tuple(tail), gid=arrow.gid,
+                        arrowprops={"arrowstyle": "-|>", "color": colour, "lw": 1.2,
+                                    "ls": "--" if dashed else "-", "shrinkA": 0,
+                                    "shrinkB": 0}, zorder=6)
         if label:  # a legend entry for the arrow (annotations have none)
             ax.plot([], [], color=colour, ls="--" if dashed else "-", marker=">",
                     label=label)

@@ -111,7 +111,8 @@ def _moving(parts: SceneParts, size: float) -> list[Any]:
 
 def _arrow_trace(arrows: list[Arrow], length: float, colour: str, name: str) -> Any:
     """One trace of arrows (shafts with a marker at the head; the largest ``length``),
-    forces ending at their point, moments starting there; empty when there are none."""
+    loads starting at their point, contact forces ending there; empty when there are
+    none."""
     import plotly.graph_objects as go
 
     xyz: list[np.ndarray] = []
@@ -121,8 +122,8 @@ def _arrow_trace(arrows: list[Arrow], length: float, colour: str, name: str) -> 
         if largest == 0.0:
             break
         v = length / largest * arrow.vector
-        tail, head = ((arrow.point, arrow.point + v) if arrow.moment
-                      else (arrow.point - v, arrow.point))
+        tail, head = ((arrow.point - v, arrow.point) if arrow.gid.startswith("contact:")
+                      else (arrow.point, arrow.point + v))
         unit = "N m" if arrow.moment else "N"
         xyz += [tail, head, np.full(3, np.nan)]
         text += ["", f"{arrow.label}: {np.linalg.norm(arrow.vector):.3g} {unit}", ""]
