@@ -193,6 +193,12 @@ def test_an_obstacle_type_added_without_a_drawing_is_drawn_by_its_gap(ellipsoid)
     # grid cell
     radius = np.hypot((points[:, 0] - 0.05) / 0.03, (points[:, 1] + 0.02) / 0.01)
     assert len(points) > 20 and np.max(np.abs(radius - 1.0)) < 0.05
+    # the 3D view draws its outlines (it has no surface of its own)
+    pytest.importorskip("plotly", reason="plotly is the optional extra rodsim[view3d]")
+    from rodsim.app.figures.view3d import view_figure
+
+    (trace,) = [t for t in view_figure(ds).data if t.name == "test_ellipsoid bulge"]
+    assert np.isfinite(np.asarray(trace.x, dtype=float)).sum() > 20
 
 
 @pytest.mark.parametrize("scene", ["catheter-helical", "tdcr-two-segment",
