@@ -25,6 +25,12 @@ _INVERSE = {"sensitivity": "rodsim.app.inverse.sensitivity", "track": "rodsim.ap
             "fit": "rodsim.app.inverse.fit", "reach": "rodsim.app.inverse.reach"}
 
 
+def __dir__() -> list[str]:
+    """The module's names and its entry points, which are imported on first use (so
+    ``dir(rodsim)`` and a notebook's completion list them)."""
+    return sorted(set(globals()) | set(__all__))
+
+
 def __getattr__(name: str):
     """The Python entry points of :mod:`rodsim.app.api` and the inverse tools, imported on first
     use: ``import rodsim`` stays light (SUNDIALS, xarray and numba are loaded only when a

@@ -107,11 +107,11 @@ def _prepare(folder: Path) -> None:
 
     (folder / "docs").mkdir()
     shutil.copy(ROOT / "docs" / "two-rods.toml", folder / "docs" / "two-rods.toml")
-    # "my-scene.toml" stands for a user's scene file: the shipped default.
-    shutil.copy(ROOT / "data" / "table1-50g.toml", folder / "my-scene.toml")
-    # Measured points for the fit examples: the scenes solved with other values.
-    catheter = rodsim.solve("table3-catheter1", "static", overrides=["K_E=1200"])
-    _write_points(folder / "shape.csv", catheter.positions("catheter")[1:])
+    # The example files the commands name (examples/my-scene.toml, examples/shape.csv).
+    (folder / "examples").mkdir()
+    for name in ("my-scene.toml", "shape.csv"):
+        shutil.copy(ROOT / "examples" / name, folder / "examples" / name)
+    # Measured points for the other fit examples: the scene solved with other values.
     photo = rodsim.solve("table1-50g", "static",
                          overrides=["youngs_modulus=5e6", "tip_load.force=[0.1, 0.0, 0.0]"])
     _write_points(folder / "photo.csv", photo.positions("catheter")[1:])

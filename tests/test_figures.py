@@ -92,7 +92,7 @@ def test_the_interactive_3d_view(bent_in_3d, tmp_path, cli, capsys):
     page = (tmp_path / "four.html").read_text(encoding="utf-8")
     for rod in ("catheter", "tendon_py", "tendon_mz"):
         assert f'"name":"{rod}"' in page, rod
-    assert '"type":"scatter3d"' in page and '"aspectmode":"data"' in page
+    assert '"type":"scatter3d"' in page and '"aspectmode":"manual"' in page
     planar = write_dataset(run_dataset(rodsim.solve("table1-50g", "static",
                                                     overrides=["nodes=8"])),
                            tmp_path / "planar.nc")

@@ -12,6 +12,7 @@ import numpy as np
 
 from rodsim.core.scene import Scene
 from rodsim.core.terms.base import TendonTerm
+from rodsim.solvers.summary import millimetres, summary_html, summary_text
 from rodsim.version import __version__
 
 if TYPE_CHECKING:
@@ -60,7 +61,8 @@ class Result:
     """One run of one integrator on one scene.
 
     :meth:`positions` gives a rod's centerline; :func:`rodsim.io.run_dataset.run_dataset`
-    the archive Dataset.
+    the archive Dataset. ``repr`` is a summary of at most ten lines, and Jupyter shows it as
+    a table (``_repr_html_``).
     """
 
     scene: Scene
@@ -139,3 +141,38 @@ class Result:
         """Largest | |q| − 1 | over every segment of every rod."""
         return float(max(np.max(np.abs(np.linalg.norm(r.quaternions, axis=1) - 1.0))
                          for r in self.rods.values()))
+
+    def summary_rows(self) -> list[tuple[str, str]]:
+        """The summary's rows: outcome, residual, work, rods, the first rod's tip, the
+        stability verdict, and the error estimate and trajectory when there are any."""
+        tolerance = self.stats.get("effective_tolerance", 0.0)
+        rows = [("outcome", self.message if self.success else f"FAILED: {self.message}"),
+                ("residual", f"{self.residual:.3g}"
+                 + (f" (tolerance {tolerance:.3g})" if tolerance else "")),
+                ("work", f"{int(self.stats.get('steps', 0))} steps, "
+                 f"{count_text(self.stats.get('newton_iters', 0.0))} Newton iterations, "
+                 f"{self.stats.get('wall_time', 0.0):.3g} s"),
+                ("rods", ", ".join(f"{name} ({len(rod.positions)} nodes)"
+                                   for name, rod in self.rods.items()))]
+        if self.rods:
+            rows.append((f"tip of {next(iter(self.rods))}", millimetres(self.tip())))
+        if self.stability is not None:
+            rows.append(("stability", "stable" if self.stability.stable else
+                         f"UNSTABLE ({self.stability.eigenvalue_text})"))
+        if self.penalty_error is not None:
+            rows.append(("penalty error", f"{self.penalty_error:.2g} L"))
+        if self.tendon_tension:
+            rows.append(("tendon tension", ", ".join(
+                f"{name} {value:.4g} N" for name, value in self.tendon_tension.items())))
+        if self.trajectory is not None:
+            rows.append(("trajectory", f"{len(self.trajectory.times)} recorded states"))
+        return rows
+
+    def _title(self) -> str:
+        return f"rodsim Result: scene {self.scene.name!r}, integrator {self.integrator}"
+
+    def __repr__(self) -> str:
+        return summary_text(self._title(), self.summary_rows())
+
+    def _repr_html_(self) -> str:
+        return summary_html(self._title(), self.summary_rows())

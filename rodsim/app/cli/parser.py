@@ -230,6 +230,8 @@ def build_parser() -> argparse.ArgumentParser:
                       "(needs plotly: pip install \"rodsim[view3d]\"; added by default "
                       "for a shape that leaves the x-y plane when plotly is installed) "
                       "(default png,pdf)")
+    plot.add_argument("--movie", action="store_true",
+                      help="also write STEM.gif, a track's movie: one frame per step")
     plot.set_defaults(func=cmd_plot)
 
     bench = sub.add_parser("bench", help="run a benchmark (work-precision, scaling, large-n, "

@@ -22,7 +22,13 @@ def cmd_plot(args: argparse.Namespace) -> int:
         formats = formats or requested
         if args.format is None and three_dimensional(dataset) and view3d.available():
             formats = [*formats, "html"]  # a 3D shape: the interactive view too
+        if args.movie:
+            from rodsim.app.figures.movie import check_movie, write_movie
+
+            check_movie(dataset)  # before any file is written
         paths = plot_dataset(dataset, stem, formats)
+        if args.movie:
+            paths.append(write_movie(dataset, Path(f"{stem}.gif")))
     except (ArchiveError, PlotError) as exc:
         raise UserError(str(exc)) from None
     for path in paths:

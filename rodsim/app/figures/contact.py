@@ -3,8 +3,9 @@ rods and the contact force on every control point, drawn from the archive alone.
 
 The view is the plane of the two world axes along which the rods spread most (a catheter
 bent in a plane is drawn in that plane). Obstacles are cut by that plane through the rods'
-mean depth: a plane is a line (its solid side hatched), a sphere a circle, a vessel the two
-outlines of its wall (centerline ± radius across the view). Rods are drawn with their
+mean depth, each drawing its own outline (:meth:`rodsim.core.obstacles.Obstacle.outline`):
+a plane is a line, a sphere a circle, a vessel the two outlines of its wall (centerline ±
+radius across the view). Rods are drawn with their
 diameter; each contact force is an arrow from its node, scaled so that the largest is a
 fifth of the drawing, labelled with its value in mN.
 """
@@ -16,9 +17,10 @@ from pathlib import Path
 import matplotlib.pyplot as plt
 import numpy as np
 import xarray as xr
+from matplotlib.collections import LineCollection
 
 from rodsim.app.figures.style import STYLE
-from rodsim.core.obstacles import build_obstacle
+from rodsim.core.obstacles import Obstacle, build_obstacle
 from rodsim.core.scene import Scene
 from rodsim.io.archive_schema import stored_scene
 
@@ -93,38 +95,14 @@ def draw_contact(ax: plt.Axes, scene: Scene, positions: np.ndarray, forces: np.n
     return size
 
 
-def _draw_obstacle(ax, obstacle, a: int, b: int, depth: int, level: float,
-                   xlim: tuple[float, float], ylim: tuple[float, float]) -> None:
-    kind = obstacle.type
-    grey = {"color": "0.35", "lw": 1.5}
-    if kind == "plane":
-        n, p0 = obstacle.normal, obstacle.point
-        direction = np.zeros(3)
-        direction[a], direction[b] = -n[b], n[a]  # along the plane's trace in the view
-        if np.hypot(n[a], n[b]) < 1e-12:
-            return
-        base = p0.copy()
-        base[depth] = level
-        reach = 2 * max(xlim[1] - xlim[0], ylim[1] - ylim[0])
-        ends = np.array([base - reach * direction, base + reach * direction])
-        ax.plot(ends[:, a], ends[:, b], label=f"plane {obstacle.name}", **grey)
-        shift = -0.03 * reach * np.array([n[a], n[b]]) / np.hypot(n[a], n[b])
-        ax.fill(np.r_[ends[:, a], ends[::-1, a] + shift[0] * 8],
-                np.r_[ends[:, b], ends[::-1, b] + shift[1] * 8], color="0.85", zorder=0)
-    elif kind == "sphere":
-        c, radius = obstacle.center, obstacle.radius
-        cut = radius**2 - (level - c[depth]) ** 2
-        if cut > 0:
-            ax.add_patch(plt.Circle((c[a], c[b]), np.sqrt(cut), color="0.85", zorder=0,
-                                    label=f"sphere {obstacle.name}"))
-    else:
-        u = np.linspace(obstacle.knots[0], obstacle.knots[-1], 400)
-        c, c1 = obstacle._c(u, 0), obstacle._c(u, 1)
-        radius = obstacle._r(u, 0)
-        across = np.zeros_like(c1)
-        across[:, a], across[:, b] = -c1[:, b], c1[:, a]
-        across /= np.maximum(np.linalg.norm(across, axis=1, keepdims=True), 1e-300)
-        for sign, label in ((1, f"vessel {obstacle.name}"), (-1, None)):
-            wall = c + sign * radius[:, None] * across
-            ax.plot(wall[:, a], wall[:, b], label=label, **grey)
-        ax.plot(c[:, a], c[:, b], color="0.6", lw=0.8, ls=":")
+def _draw_obstacle(ax: plt.Axes, obstacle: Obstacle, a: int, b: int, depth: int,
+                   level: float, xlim: tuple[float, float], ylim: tuple[float, float]
+                   ) -> None:
+    """The obstacle's own outline in the view (:meth:`Obstacle.outline`), named by gid."""
+    lower, upper = np.full(3, level), np.full(3, level)
+    lower[a], upper[a] = xlim
+    lower[b], upper[b] = ylim
+    curves = [c[:, [a, b]] for c in obstacle.outline((a, b), level, lower, upper)]
+    ax.add_collection(LineCollection(curves, colors="0.35", lw=1.5, zorder=1,
+                                     gid=f"obstacle:{obstacle.name}",
+                                     label=f"{obstacle.type} {obstacle.name}"))

@@ -14,6 +14,8 @@ import xarray as xr
 from matplotlib.figure import Figure
 
 from rodsim.app.figures.contact import draw_contact
+from rodsim.app.figures.scene_drawing import draw_parts
+from rodsim.app.figures.scene_parts import scene_parts
 from rodsim.io.archive_schema import stored_scene
 from rodsim.io.cf_layout import key_variable
 
@@ -28,15 +30,24 @@ def _tip_text(ds: xr.Dataset) -> str:
 
 
 def run_figure(ds: xr.Dataset) -> Figure:
-    """A run: its rods in x–y, and in x–z and y–z too when the shape leaves the x–y plane
-    (with tendon friction, a last panel: the tension along each tendon); the title names
-    the tip, computed from the positions."""
+    """A run: its rods, tendons (paths, routing points, terminations), obstacles, loads
+    and contact forces (:mod:`rodsim.app.figures.scene_drawing`) in x–y, and in x–z and
+    y–z too when the scene leaves the x–y plane (with tendon friction, a last panel: the
+    tension along each tendon); the title names the tip, computed from the positions."""
     friction = "tension_profile" in ds
-    figure, views = _views(ds, np.empty((0, 3)), panels=int(friction))
+    parts = scene_parts(ds)
+    count = len(PROJECTIONS) if out_of_plane(parts.points()) else 1
+    panels = count + int(friction)
+    figure, axes = plt.subplots(1, panels, figsize=(4.2 * panels + 0.6 if panels > 1
+                                                    else 6.4, 5.2),
+                                constrained_layout=True, squeeze=False)
+    for panel, view in zip(axes[0][:count], PROJECTIONS[:count], strict=True):
+        draw_parts(panel, parts, view)
     if friction:
-        _tension_along(figure.axes[-1], ds)
-    for panel, _ in views:
-        panel.legend(loc="best")
+        _tension_along(axes[0][-1], ds)
+    handles, names = axes[0][0].get_legend_handles_labels()
+    figure.legend(handles, names, loc="outside lower center",
+                  ncols=min(len(names), 4 if panels > 1 else 3))
     figure.suptitle(f"{ds.attrs.get('title', '')}\n{_tip_text(ds)}")
     return figure
 

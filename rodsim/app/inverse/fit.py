@@ -205,6 +205,16 @@ class Fit:
         """Whether the fitted equilibrium is stable (rodsim/core/stability.py)."""
         return self.result.stability is None or bool(self.result.stability.stable)
 
+    def __repr__(self) -> str:
+        from rodsim.app.inverse.summaries import summary
+
+        return summary(self, html=False)
+
+    def _repr_html_(self) -> str:
+        from rodsim.app.inverse.summaries import summary
+
+        return summary(self, html=True)
+
     def to_xarray(self) -> xr.Dataset:
         """The fit archive: the run archive of the fitted scene (``rodsim rerun`` re-solves
         it) with the data, their matches, and per parameter its fitted value, initial value

@@ -100,6 +100,16 @@ class Reach:
     #: actuation stayed inside the backlash dead zone; docs/tendon.md, "Friction").
     dead_zone: bool = False
 
+    def __repr__(self) -> str:
+        from rodsim.app.inverse.summaries import summary
+
+        return summary(self, html=False)
+
+    def _repr_html_(self) -> str:
+        from rodsim.app.inverse.summaries import summary
+
+        return summary(self, html=True)
+
     def to_xarray(self) -> xr.Dataset:
         """The reach archive: the run archive of the scene with the values found, the
         target and the tip reached, and each actuation value as a scalar variable."""

@@ -152,6 +152,16 @@ class Track:
         layout = self.model.rods[rod or next(iter(self.model.rods))].layout
         return np.array([full[layout.position_index[-1]] for full in self.states])
 
+    def __repr__(self) -> str:
+        from rodsim.app.inverse.summaries import summary
+
+        return summary(self, html=False)
+
+    def _repr_html_(self) -> str:
+        from rodsim.app.inverse.summaries import summary
+
+        return summary(self, html=True)
+
     def to_xarray(self) -> xr.Dataset:
         """The track archive (docs/inverse.md): ``position`` (step, node, axis) and
         ``quaternion`` (step, segment, component), one coordinate per ramped key along

@@ -102,6 +102,26 @@ class Obstacle(ABC):
         """The smallest free radius of an enclosing obstacle (inf for others) [m]."""
         return float("inf")
 
+    # Drawing (figures and the 3-D view; the model never calls these) ------------------
+
+    def outline(self, view: tuple[int, int], level: float, lower: np.ndarray,
+                upper: np.ndarray) -> list[np.ndarray]:
+        """The obstacle as drawn in the plane of the world axes ``view`` (the third axis at
+        depth ``level``) within the box ``lower``–``upper`` (3,): curves, each (k, 3) world
+        points. By default the surface φ = 0 cut by that plane (marching squares on a grid
+        of :meth:`gap`, so an obstacle type without a drawing of its own is still drawn);
+        a type overrides it with its exact outline."""
+        from rodsim.core.obstacles._drawing import zero_level
+
+        return zero_level(lambda p: self.gap(p)[0], view, level, lower, upper)
+
+    def surface(self, lower: np.ndarray, upper: np.ndarray
+                ) -> tuple[np.ndarray, np.ndarray] | None:
+        """A triangulated surface near the box ``lower``–``upper``: vertices (n, 3) and
+        triangles (m, 3); None (the default) when the type has none, and the 3-D view
+        draws its :meth:`outline` in the three planes through the box's centre."""
+        return None
+
 
 def registered_obstacles() -> dict[str, type[Obstacle]]:
     """Every registered obstacle class by type, in the types' order (imports this

@@ -10,6 +10,7 @@ from typing import Any
 import numpy as np
 
 from rodsim.core.obstacles import PLANE, Obstacle
+from rodsim.core.obstacles._drawing import plane_patch
 from rodsim.core.schema import Parameter, SceneError
 
 
@@ -45,3 +46,27 @@ class Plane(Obstacle):
     def kernel_data(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         return (np.concatenate([self.point, self.normal]), np.zeros(0), np.zeros((0, 4, 3)),
                 np.zeros((0, 4)))
+
+    def outline(self, view: tuple[int, int], level: float, lower: np.ndarray,
+                upper: np.ndarray) -> list[np.ndarray]:
+        """The plane's trace across the box (none when the view lies in the plane)."""
+        a, b = view
+        n = self.normal
+        if np.hypot(n[a], n[b]) < 1e-12:
+            return []
+        direction = np.zeros(3)
+        direction[a], direction[b] = -n[b], n[a]
+        direction /= np.linalg.norm(direction)
+        base = np.asarray(lower + upper, dtype=float) / 2
+        base[3 - a - b] = level
+        # the point of the trace nearest the box's centre: along the in-view normal
+        inplane = np.zeros(3)
+        inplane[a], inplane[b] = n[a], n[b]
+        base = base - ((base - self.point) @ n) / (inplane @ n) * inplane
+        reach = float(np.linalg.norm(upper - lower))
+        return [np.array([base - reach * direction, base + reach * direction])]
+
+    def surface(self, lower: np.ndarray, upper: np.ndarray
+                ) -> tuple[np.ndarray, np.ndarray] | None:
+        """A square of the plane as wide as the box's diagonal."""
+        return plane_patch(self.point, self.normal, lower, upper)

@@ -10,6 +10,7 @@ from typing import Any
 import numpy as np
 
 from rodsim.core.obstacles import SPHERE, Obstacle
+from rodsim.core.obstacles._drawing import sphere_mesh
 from rodsim.core.schema import Parameter
 
 
@@ -38,3 +39,23 @@ class Sphere(Obstacle):
     def kernel_data(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         return (np.concatenate([self.center, [self.radius]]), np.zeros(0),
                 np.zeros((0, 4, 3)), np.zeros((0, 4)))
+
+    def outline(self, view: tuple[int, int], level: float, lower: np.ndarray,
+                upper: np.ndarray) -> list[np.ndarray]:
+        """The circle the plane at ``level`` cuts (none when it misses the ball)."""
+        a, b = view
+        depth = 3 - a - b
+        cut = self.radius**2 - (level - self.center[depth]) ** 2
+        if cut <= 0.0:
+            return []
+        angle = np.linspace(0.0, 2 * np.pi, 181)
+        circle = np.tile(self.center, (len(angle), 1))
+        circle[:, a] += np.sqrt(cut) * np.cos(angle)
+        circle[:, b] += np.sqrt(cut) * np.sin(angle)
+        circle[:, depth] = level
+        return [circle]
+
+    def surface(self, lower: np.ndarray, upper: np.ndarray
+                ) -> tuple[np.ndarray, np.ndarray] | None:
+        """The whole sphere."""
+        return sphere_mesh(self.center, self.radius)

@@ -35,6 +35,7 @@ import numpy as np
 from scipy.interpolate import CubicSpline
 
 from rodsim.core.obstacles import TUBE, Obstacle
+from rodsim.core.obstacles._drawing import tube_mesh
 from rodsim.core.schema import Parameter, SceneError, shown
 
 CENTERLINES = ("straight", "arc", "helix", "csv")
@@ -176,6 +177,29 @@ class Tube(Obstacle):
     def narrowest(self) -> float:
         u = np.linspace(self.knots[0], self.knots[-1], 20 * len(self.knots))
         return float(np.min(self._r(u, 0)))
+
+    def _sampled(self, count: int = 400) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """c(u), c'(u) and R(u) at ``count`` parameters spanning the centerline."""
+        u = np.linspace(self.knots[0], self.knots[-1], count)
+        return self._c(u, 0), self._c(u, 1), self._r(u, 0)
+
+    def outline(self, view: tuple[int, int], level: float, lower: np.ndarray,
+                upper: np.ndarray) -> list[np.ndarray]:
+        """The vessel's wall seen across the view: the two curves c(u) ± R(u) n(u), n the
+        in-view normal of the centerline (the outline of the vessel projected on the
+        view's plane; exact for a centerline in that plane)."""
+        a, b = view
+        c, c1, radius = self._sampled()
+        across = np.zeros_like(c1)
+        across[:, a], across[:, b] = -c1[:, b], c1[:, a]
+        across /= np.maximum(np.linalg.norm(across, axis=1, keepdims=True), 1e-300)
+        return [c + radius[:, None] * across, c - radius[:, None] * across]
+
+    def surface(self, lower: np.ndarray, upper: np.ndarray
+                ) -> tuple[np.ndarray, np.ndarray] | None:
+        """The vessel's wall along its whole centerline."""
+        c, c1, radius = self._sampled(200)
+        return tube_mesh(c, c1, radius)
 
     def _piece(self, u: np.ndarray) -> np.ndarray:
         k = np.searchsorted(self.knots, u, side="right")

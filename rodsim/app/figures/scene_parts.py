@@ -1,0 +1,242 @@
+"""What a figure of one state draws, read from an archive alone: the rods, the tendons'
+paths, the obstacles, the loads and the contact forces (the run figure, the contact figure
+and the 3-D view share it).
+
+- A rod tendon (``coupling = "conserving"`` or ``"one_way"``) is drawn by its control
+  points; a string tendon (rodsim/core/routing.py) by its routing points
+  r(s) + ρ_y(s) d1(s) + ρ_z(s) d2(s) at the catheter's nodes between its start and end and
+  at both ends (the termination is the last), with the directors of the quaternion
+  interpolated linearly in s between the segment midpoints (clamped to the end segments).
+- Loads are the rod and tendon terms that push (:data:`TERM_DRAWINGS`): a tip load (mass
+  and force) at the tip, each point load's force and moment where it acts, a distributed
+  load's resultant at the middle of each span, gravity's total weight at the rod's middle
+  node, and a tendon's actuation force at the end of the tendon it pulls.
+- Every term the registry holds is in :data:`TERM_DRAWINGS`, so a new term says how it is
+  drawn (tests/test_figure_parts.py walks the registry).
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import dataclass, field
+from types import SimpleNamespace
+from typing import Any
+
+import numpy as np
+import xarray as xr
+
+from rodsim.core.obstacles import Obstacle, build_obstacle
+from rodsim.core.rod.quaternion import directors
+from rodsim.core.routing import Routing, string_span
+
+__all__ = ["TERM_DRAWINGS", "SHAPE", "TENDON", "LOAD", "CONTACT", "Arrow", "TendonPath",
+           "SceneParts", "scene_parts"]
+
+#: How each registered term shows in a figure: in the rods' shape, as a tendon's path, as
+#: load arrows, or as the contact forces on the obstacles.
+SHAPE, TENDON, LOAD, CONTACT = "shape", "tendon", "load", "contact"
+TERM_DRAWINGS: dict[str, str] = {
+    "bend_twist": SHAPE, "centerline": SHAPE, "stretch": SHAPE, "joint": SHAPE,
+    "contact": CONTACT,
+    "distributed_load": LOAD, "gravity": LOAD, "point_loads": LOAD, "tip_load": LOAD,
+    "tendon_actuation": LOAD,
+    "endpoint_compliance": TENDON, "endpoint_coupling": TENDON, "lumen": TENDON,
+    "lumen_conserving": TENDON, "tendon_string": TENDON, "tendon_string_displacement": TENDON,
+}
+
+
+@dataclass(frozen=True)
+class Arrow:
+    """A force [N] or a moment [N m] (``moment``) at a point [m]; ``gid`` names it in the
+    figure (``load:<owner>:<term>`` or ``contact:<rod>``)."""
+
+    gid: str
+    label: str
+    point: np.ndarray
+    vector: np.ndarray
+    moment: bool = False
+
+
+@dataclass(frozen=True)
+class TendonPath:
+    """A tendon's path (P, 3) [m]: a string tendon's routing points (``string``) or a rod
+    tendon's control points; the termination is the last point."""
+
+    name: str
+    points: np.ndarray
+    string: bool
+
+
+@dataclass(frozen=True)
+class SceneParts:
+    """One state of an archive, ready to draw (see the module docstring)."""
+
+    title: str
+    rods: dict[str, np.ndarray]
+    radii: dict[str, float]
+    tendons: list[TendonPath]
+    obstacles: list[Obstacle]
+    loads: list[Arrow] = field(default_factory=list)
+    contacts: list[Arrow] = field(default_factory=list)
+
+    def points(self) -> np.ndarray:
+        """Every control point and tendon point (n, 3): what the view must contain."""
+        parts = [*self.rods.values(), *(t.points for t in self.tendons)]
+        return np.concatenate(parts) if parts else np.zeros((0, 3))
+
+
+def _at(variable: xr.DataArray, step: int | None) -> np.ndarray:
+    if "step" in variable.dims:
+        return variable.isel(step=-1 if step is None else step).values
+    return variable.values
+
+
+def scene_parts(ds: xr.Dataset, step: int | None = None) -> SceneParts:
+    """The parts of run, fit, reach or track archive ``ds`` (a track's step ``step``, its
+    last by default)."""
+    from rodsim.io.archive_schema import stored_scene
+
+    scene = stored_scene(ds.attrs["scene_json"], "attribute 'scene_json'")
+    raw = json.loads(ds.attrs["scene_json"])
+    positions = _at(ds["position"], step)
+    node_rod = ds["rod"].values.astype(str)
+    quaternions = _at(ds["quaternion"], step) if "quaternion" in ds else None
+    segment_rod = ds["segment_rod"].values.astype(str) if "segment_rod" in ds else None
+    tendons_raw = raw.get("tendons", {}) or {}
+    rods = {name: positions[node_rod == name] for name in dict.fromkeys(node_rod)}
+    frames = {}
+    if quaternions is not None and segment_rod is not None:
+        for name in rods:
+            mine = segment_rod == name
+            frames[name] = (ds["segment_s"].values[mine], quaternions[mine])
+    node_s = {name: ds["s"].values[node_rod == name] for name in rods}
+    paths: list[TendonPath] = []
+    for name, table in tendons_raw.items():
+        if name in rods:
+            paths.append(TendonPath(name, rods.pop(name), string=False))
+        elif "tendon_string" in table and table["catheter"] in frames:
+            paths.append(TendonPath(name, _string_path(
+                table, rods[table["catheter"]], node_s[table["catheter"]],
+                *frames[table["catheter"]], float(raw["rods"][table["catheter"]]["length"])),
+                string=True))
+    obstacles = [build_obstacle(name, table)
+                 for name, table in scene.data.get("obstacles", {}).items()]
+    rods_raw = raw["rods"]
+    loads = [arrow for name, table in rods_raw.items() if name in rods
+             for arrow in _rod_loads(name, table, rods[name], node_s[name],
+                                     frames.get(name))]
+    for name, table in tendons_raw.items():
+        if "tendon_actuation" in table.get("terms", ()):
+            loads.extend(_actuation(name, table, paths, frames.get(table["catheter"])))
+    contacts: list[Arrow] = []
+    if "contact_force" in ds:
+        forces = _at(ds["contact_force"], step)
+        contacts = [Arrow(f"contact:{node_rod[i]}", "contact force", positions[i], forces[i])
+                    for i in np.flatnonzero(np.linalg.norm(forces, axis=1) > 0.0)]
+    radii = {name: float(rods_raw[name]["radius"]) for name in rods}
+    return SceneParts(str(ds.attrs.get("title", scene.name)), rods, radii, paths, obstacles,
+                      loads, contacts)
+
+
+def _frame_at(s: np.ndarray, knots: np.ndarray, quaternions: np.ndarray) -> np.ndarray:
+    """Directors (len(s), 3, 3) of the quaternion interpolated in s between the segment
+    midpoints ``knots`` (clamped beyond the first and last)."""
+    if len(knots) == 1:
+        q = np.repeat(quaternions, len(s), axis=0)
+    else:
+        k = np.clip(np.searchsorted(knots, s, side="right") - 1, 0, len(knots) - 2)
+        w = np.clip((s - knots[k]) / (knots[k + 1] - knots[k]), 0.0, 1.0)[:, None]
+        q = (1.0 - w) * quaternions[k] + w * quaternions[k + 1]
+    q = q / np.linalg.norm(q, axis=1, keepdims=True)
+    return directors(q)
+
+
+def _along(s: np.ndarray, node_s: np.ndarray, nodes: np.ndarray) -> np.ndarray:
+    """The centerline r(s) (len(s), 3), linear between the control points."""
+    return np.stack([np.interp(s, node_s, nodes[:, k]) for k in range(3)], axis=1)
+
+
+def _string_path(table: dict[str, Any], nodes: np.ndarray, node_s: np.ndarray,
+                 knots: np.ndarray, quaternions: np.ndarray, length: float) -> np.ndarray:
+    string = SimpleNamespace(**table["tendon_string"])
+    routing = Routing.of(float(table["offset"]), table["direction"], string)
+    start, end = string_span(string, length)
+    h = float(np.min(np.diff(node_s))) if len(node_s) > 1 else length
+    inner = node_s[(node_s > start + 0.25 * h) & (node_s < end - 0.25 * h)]
+    s = np.concatenate([[start], inner, [end]])
+    frame = _frame_at(s, knots, quaternions)
+    rho = routing.offsets(s)
+    return (_along(s, node_s, nodes) + rho[:, 0:1] * frame[:, 0] + rho[:, 1:2] * frame[:, 1])
+
+
+def _rod_loads(name: str, table: dict[str, Any], nodes: np.ndarray, node_s: np.ndarray,
+               frames: tuple[np.ndarray, np.ndarray] | None) -> list[Arrow]:
+    """The load arrows of rod ``name``'s load terms (module docstring)."""
+    terms = table.get("terms", ())
+    out = []
+    if "tip_load" in terms:
+        o = table["tip_load"]
+        force = np.asarray(o["force"], dtype=float) + np.array([0.0, -o["mass"] * o["gravity"],
+                                                                0.0])
+        label = f"tip load ({o['mass'] * 1e3:.3g} g)" if o["mass"] else "tip force"
+        out.append(Arrow(f"load:{name}:tip_load", label, nodes[-1], force))
+    if "point_loads" in terms:
+        for load in table["point_loads"]["loads"]:
+            s = np.array([float(load["s"])])
+            point = _along(s, node_s, nodes)[0]
+            force, moment = (np.asarray(load[k], dtype=float) for k in ("force", "moment"))
+            if load.get("frame") == "body" and frames is not None:
+                d = _frame_at(s, *frames)[0]
+                force, moment = force @ d, moment @ d
+            out.append(Arrow(f"load:{name}:point_loads", "point force", point, force))
+            if np.any(moment):
+                out.append(Arrow(f"load:{name}:point_loads", "point moment", point, moment,
+                                 moment=True))
+    if "distributed_load" in terms:
+        o = table["distributed_load"]
+        spans = [{"start": node_s[0], "end": node_s[-1], "force_per_length":
+                  o["force_per_length"]}, *o["spans"]]
+        for span in spans:
+            q = np.asarray(span["force_per_length"], dtype=float)
+            middle = np.array([0.5 * (span["start"] + span["end"])])
+            out.append(Arrow(f"load:{name}:distributed_load",
+                             "distributed load (resultant of a span)",
+                             _along(middle, node_s, nodes)[0],
+                             q * (span["end"] - span["start"])))
+    if "gravity" in terms:
+        weight = _mass(table) * float(table["gravity"]["gravity"])
+        out.append(Arrow(f"load:{name}:gravity", "weight (total)", nodes[len(nodes) // 2],
+                         np.array([0.0, -weight, 0.0])))
+    return [arrow for arrow in out if np.any(arrow.vector)]
+
+
+def _mass(table: dict[str, Any]) -> float:
+    """The rod's mass ρ A L [kg] (with sections, summed over them; a section's area 0
+    means the annulus between its inner radius and the rod's)."""
+    radius, density, length = (float(table[k]) for k in ("radius", "density", "length"))
+    sections = table.get("sections") or ()
+    if not sections:
+        return density * math.pi * radius**2 * length
+    total = 0.0
+    for section in sections:
+        area = float(section.get("area") or 0.0) or math.pi * (
+            radius**2 - float(section.get("inner_radius") or 0.0) ** 2)
+        total += density * area * (float(section["end"]) - float(section["start"]))
+    return total
+
+
+def _actuation(name: str, table: dict[str, Any], paths: list[TendonPath],
+               catheter: tuple[np.ndarray, np.ndarray] | None) -> list[Arrow]:
+    """The actuation force F_A on rod tendon ``name``: at its tip along −d3 of the
+    catheter's last segment (distal), or at its base along −d3 of the catheter's first
+    (proximal): rodsim/core/terms/tendon_actuation.py."""
+    path = next((p for p in paths if p.name == name), None)
+    if path is None or catheter is None:
+        return []
+    o = table["tendon_actuation"]
+    distal = o["point"] == "distal"
+    d3 = directors(catheter[1][-1 if distal else 0] / np.linalg.norm(
+        catheter[1][-1 if distal else 0]))[2]
+    return [Arrow(f"load:{name}:tendon_actuation", "actuation F_A",
+                  path.points[-1 if distal else 0], -float(o["force"]) * d3)]

@@ -1,0 +1,91 @@
+"""The interactive 3-D view (issue 36): its opening camera frames every node of the scene,
+it draws the string tendons and the obstacles (translucent), and a track is animated with
+one frame per step."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+import rodsim
+from rodsim.app.figures.scene_parts import scene_parts
+from rodsim.io.run_dataset import run_dataset
+
+go = pytest.importorskip("plotly.graph_objects",
+                         reason="plotly is the optional extra rodsim[view3d]")
+from rodsim.app.figures import view3d  # noqa: E402
+
+
+def projected(figure, points: np.ndarray, width_over_height: float) -> np.ndarray:
+    """Normalised device coordinates (n, 2) of ``points`` seen by the figure's camera: a
+    perspective of vertical field of view 45° looking from ``eye`` at ``center`` with
+    ``up``, the scene box spanning ± its aspect ratio (the wider reading of plotly's
+    units); |x|, |y| <= 1 is on screen."""
+    scene = figure.layout.scene
+    lo = np.array([scene[f"{n}axis"].range[0] for n in "xyz"])
+    hi = np.array([scene[f"{n}axis"].range[1] for n in "xyz"])
+    ratio = np.array([scene.aspectratio[n] for n in "xyz"])
+    units = (2 * (points - lo) / (hi - lo) - 1) * ratio  # the box at ± ratio
+    camera = scene.camera
+    eye = np.array([camera.eye[n] for n in "xyz"])
+    centre = np.array([camera.center[n] for n in "xyz"])
+    up = np.array([camera.up[n] for n in "xyz"])
+    forward = (centre - eye) / np.linalg.norm(centre - eye)
+    right = np.cross(forward, up)
+    right /= np.linalg.norm(right)
+    true_up = np.cross(right, forward)
+    rel = units - eye
+    depth = rel @ forward
+    assert np.all(depth > 0), "a point behind the camera"
+    f = 1 / math.tan(math.pi / 8)
+    return np.stack([f / width_over_height * (rel @ right) / depth,
+                     f * (rel @ true_up) / depth], axis=1)
+
+
+@pytest.mark.parametrize("scene", ["catheter-helical", "tdcr-two-segment", "table1-20g",
+                                   "vessel-insertion"])
+def test_the_opening_camera_frames_every_node(scene):
+    ds = run_dataset(rodsim.solve(scene))
+    figure = view3d.view_figure(ds)
+    points = np.concatenate([ds["position"].values, scene_parts(ds).points()])
+    layout = figure.layout.scene
+    for k, name in enumerate("xyz"):
+        low, high = layout[f"{name}axis"].range
+        assert low <= points[:, k].min() and points[:, k].max() <= high, name
+    assert layout.aspectmode == "manual"
+    for aspect in (4 / 3, 1.0, 16 / 9):  # landscape and square windows
+        ndc = projected(figure, points, aspect)
+        assert np.max(np.abs(ndc)) < 1.0, (aspect, np.max(np.abs(ndc)))
+
+
+def test_string_tendons_and_a_translucent_vessel_are_drawn():
+    figure = view3d.view_figure(run_dataset(rodsim.solve("tdcr-two-segment")))
+    names = {trace.name for trace in figure.data}
+    assert {"s1a", "s1b", "s1c", "s2a", "s2b", "s2c", "backbone", "loads"} <= names
+    vessel = view3d.view_figure(run_dataset(rodsim.solve("vessel-insertion")))
+    (mesh,) = [t for t in vessel.data if isinstance(t, go.Mesh3d)]
+    assert mesh.name == "tube vessel" and 0 < mesh.opacity < 1
+
+
+def test_a_track_is_animated_one_frame_per_step(tmp_path):
+    forces = np.linspace(0.0, 0.5, 6)
+    path = rodsim.track(rodsim.load_scene("table1-50g", ["nodes=8"]),
+                        {"tip_load.mass": forces / 9.81})
+    assert path.success, path.message
+    ds = path.to_xarray()
+    figure = view3d.view_figure(ds)
+    assert len(figure.frames) == len(forces) == ds.sizes["step"]
+    (slider,) = figure.layout.sliders
+    assert len(slider.steps) == len(forces)
+    assert figure.layout.updatemenus[0].buttons[0].label == "play"
+    # each frame holds that step's rod
+    rod = ds["position"].values
+    for step, frame in enumerate(figure.frames):
+        np.testing.assert_allclose(frame.data[0].y, rod[step, :, 1])
+    # and the camera frames every step
+    every = rod.reshape(-1, 3)
+    assert np.max(np.abs(projected(figure, every, 4 / 3))) < 1.0
+    page = view3d.write_html(ds, tmp_path / "track.html").read_text(encoding="utf-8")
+    assert page.count('"name":"5"') >= 1 and "Plotly.addFrames" in page
