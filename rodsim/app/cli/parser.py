@@ -261,7 +261,7 @@ def build_parser() -> argparse.ArgumentParser:
     bench = sub.add_parser("bench", help="run a benchmark (work-precision, scaling, large-n, "
                            "stress, skip-work, kernels, paper-regime, pyelastica, "
                            "string-tendon, contact, force-from-shape, floor, iterations, "
-                           "startup, tracking, workers, modes)",
+                           "startup, tracking, workers, modes, batch)",
                            description="Time the integrators against their error, their cost "
                            "in N, or their stability over a parameter map; writes netCDF, "
                            "figures and a markdown table with the machine description. The "
@@ -272,7 +272,7 @@ def build_parser() -> argparse.ArgumentParser:
     bench.add_argument("benchmark", metavar="BENCHMARK",
                        help="work-precision, scaling, large-n, stress, skip-work, kernels, "
                        "paper-regime, string-tendon, contact, force-from-shape, floor, "
-                       "iterations, startup, tracking, workers, modes or "
+                       "iterations, startup, tracking, workers, modes, batch or "
                        "pyelastica (the last needs 'pip install pyelastica==1.0.0'; never a "
                        "dependency)")
     bench.add_argument("--size", choices=("small", "full"), default="small",
