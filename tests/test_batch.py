@@ -268,6 +268,11 @@ def test_cli_batch_writes_a_validated_archive(tmp_path, monkeypatch, capsys):
                                    "tendons.s1a.tendon_string.tension"))
     with pytest.raises(ArchiveSchemaError, match="case key"):
         check_archive(broken)
+    # rerun re-solves every case from the archive alone; plot says it draws none.
+    assert main(["rerun", "b.nc"]) == 0
+    assert "largest difference from the stored positions: 0 m" in capsys.readouterr().out
+    assert main(["plot", "b.nc"]) == 2
+    assert "batch archive has no figure" in capsys.readouterr().err
 
 
 # A seeded family of user robots -------------------------------------------------------------

@@ -335,3 +335,38 @@ def _run(job: BatchJob, shape: tuple[int, int], output: Path | None, workers: in
                   min(workers or os.cpu_count() or 1, len(todo)), finished, log=log,
                   noun="chunks")
     return [case for start in sorted(records) for case in records[start]["cases"]]
+
+
+def rerun_batch(dataset: xr.Dataset) -> tuple[xr.Dataset, float]:
+    """Re-run a stored batch (its scene, integrator and cases) from the archive alone, in
+    this process; returns the new Dataset and the largest distance [m] between the stored
+    and the recomputed control points over the cases that succeeded (infinite when a case's
+    success differs, or when the integrator options the stored scene gives today are not
+    the stored ones)."""
+    import dataclasses
+
+    from rodsim.io.archive import ArchiveError, scene_of
+    from rodsim.io.archive_schema import parse_json_names, parse_json_object
+    from rodsim.io.cf_layout import key_variable
+    from rodsim.io.compare import largest_rod_distance
+    from rodsim.solvers import registered_integrators
+
+    scene = scene_of(dataset)
+    integrator = str(dataset.attrs["integrator"])
+    stored = parse_json_object(dataset.attrs["integrator_options"],
+                               "attribute 'integrator_options'")
+    today = json.loads(json.dumps(dataclasses.asdict(
+        registered_integrators()[integrator].options_of(scene))))
+    if stored != today:
+        raise ArchiveError("archive is inconsistent: integrator_options differ from the "
+                           "scene's solver options")
+    keys = parse_json_names(dataset.attrs["case_keys"], "attribute 'case_keys'")
+    cases = {key: key_variable(dataset, key).values for key in keys}
+    again = solve_many(scene, cases, integrator)
+    ok = dataset["status"].values == STATUS["ok"]
+    if not np.array_equal(ok, again["status"].values == STATUS["ok"]):
+        return again, float("inf")
+    if not ok.any():
+        return again, 0.0
+    return again, largest_rod_distance(dataset["position"].values[ok], dataset["rod"].values,
+                                       again["position"].values[ok], again["rod"].values)
