@@ -11,14 +11,14 @@ The package is layered core → solvers → io → app (docs/architecture.md).
 docs/batch.md), ``rodsim.build_model``, ``rodsim.run_dataset`` (a
 run's archive Dataset), ``rodsim.penalty_error`` (how far a result depends on its
 penalties, docs/model.md) and the inverse tools
-``rodsim.sensitivity``, ``rodsim.track``, ``rodsim.fit`` and ``rodsim.reach``
-(docs/inverse.md) and ``rodsim.modes`` (natural frequencies and mode shapes,
+``rodsim.sensitivity``, ``rodsim.track``, ``rodsim.Tracker``, ``rodsim.fit`` and
+``rodsim.reach`` (docs/inverse.md) and ``rodsim.modes`` (natural frequencies and mode shapes,
 docs/dynamics.md) are imported on first use.
 """
 
 from rodsim.version import __version__
 
-__all__ = ["__version__", "build_model", "fit", "load_scene", "modes", "penalty_error",
+__all__ = ["Tracker", "__version__", "build_model", "fit", "load_scene", "modes", "penalty_error",
            "reach", "run_dataset", "sensitivity", "solve", "solve_many", "track"]
 
 #: The inverse tools: name -> module (each module defines a function of the same name).
@@ -38,6 +38,10 @@ def __getattr__(name: str):
         from rodsim.io.run_dataset import run_dataset
 
         return run_dataset
+    if name == "Tracker":
+        from rodsim.app.inverse.tracker import Tracker
+
+        return Tracker
     if name == "solve_many":
         from rodsim.app.batch import solve_many
 
