@@ -74,8 +74,12 @@ class Tracker:
     rod
         The rod whose tip is reported (default: the first).
 
-    Raises SceneError for bad keys, EquilibriumFailure when the scene's own values have no
-    equilibrium.
+    Raises
+    ------
+    SceneError
+        For bad keys.
+    EquilibriumFailure
+        When the scene's own values have no equilibrium.
     """
 
     def __init__(self, scene: Any, keys: Sequence[str], integrator: str = "static",
