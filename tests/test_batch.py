@@ -106,6 +106,41 @@ def test_two_worker_processes_give_the_same_archive(tdcr_batch, tmp_path):
     assert not parts_folder(tmp_path / "two.nc").exists()
 
 
+@pytest.mark.slow  # a LocalCluster starts fresh worker processes that import rodsim
+def test_a_dask_local_cluster_gives_the_same_archive(tdcr_batch, tmp_path):
+    pytest.importorskip("distributed")
+    cases, batch = tdcr_batch
+    few = {key: values[:12] for key, values in cases.items()}
+    dask = solve_many(TDCR, few, chunk=5, workers=2, scheduler="local",
+                      output=tmp_path / "dask.nc")
+    assert np.array_equal(dask["position"].values, batch["position"].values[:12])
+    assert not parts_folder(tmp_path / "dask.nc").exists()
+
+
+def dying_chunk(job, start, end):
+    """A chunk whose worker process dies (as a segfault or the OOM killer would end it)."""
+    if start == 5:
+        os._exit(3)
+    return solve_chunk(job, start, end)
+
+
+def test_a_chunk_whose_worker_dies_is_recorded_and_the_rest_goes_on(tdcr_batch,
+                                                                     monkeypatch):
+    cases, batch = tdcr_batch
+    few = {key: values[:15] for key, values in cases.items()}
+    monkeypatch.setattr(rodsim.app.batch, "solve_chunk", dying_chunk)
+    heard = []
+    out = solve_many(TDCR, few, chunk=5, workers=2, log=heard.append)
+    dead = slice(5, 10)
+    assert (out["status"].values[dead] == STATUS["error"]).all()
+    assert all(str(m).startswith("worker process died") for m in out["message"].values[dead])
+    assert np.isnan(out["position"].values[dead]).all()
+    alive = np.r_[0:5, 10:15]
+    assert (out["status"].values[alive] == STATUS["ok"]).all()
+    assert np.array_equal(out["position"].values[alive], batch["position"].values[alive])
+    assert out.attrs["failed_cases"] == 5
+
+
 def test_inputs_as_a_dataframe_and_an_xarray_dataset(tdcr_batch):
     pandas = pytest.importorskip("pandas")
     cases, batch = tdcr_batch
