@@ -237,6 +237,36 @@ def test_a_killed_batch_resumes_without_recomputing_what_it_wrote(tmp_path, monk
         solve_many(TDCR, {k: v[:8] + 0.1 for k, v in cases.items()}, output=output, chunk=4)
 
 
+def test_corrupt_chunk_files_are_reported_and_run_again(tdcr_batch, tmp_path, monkeypatch):
+    """A chunk file cut short, one whose positions hold a NaN and one of another chunk's
+    cases are each reported and their cases run again; the archive is the uninterrupted
+    one's."""
+    cases, batch = tdcr_batch
+    few = {key: values[:15] for key, values in cases.items()}
+    output = tmp_path / "b.nc"
+    solve_many(TDCR, few, output=output, chunk=5, keep_parts=True)
+    parts = parts_folder(output)
+    first, second, third = sorted(parts.glob("chunk-*.json"))
+    first.write_text(first.read_text()[:100])
+    record = json.loads(second.read_text())
+    record["cases"][2]["position"][3][1] = float("nan")
+    second.write_text(json.dumps(record))
+    record = json.loads(third.read_text())
+    record["start"], record["end"] = 0, 5
+    third.write_text(json.dumps(record))
+    calls, heard = [], []
+
+    def recording(job, start, end):
+        calls.append(start)
+        return solve_chunk(job, start, end)
+
+    monkeypatch.setattr(rodsim.app.batch, "solve_chunk", recording)
+    again = solve_many(TDCR, few, output=output, chunk=5, log=heard.append)
+    assert sorted(calls) == [0, 5, 10]
+    assert len(heard) == 3 and all("its cases run again" in line for line in heard), heard
+    assert np.array_equal(again["position"].values, batch["position"].values[:15])
+
+
 # Bad input --------------------------------------------------------------------------------
 
 
