@@ -52,7 +52,7 @@ def cmd_batch(args: argparse.Namespace) -> int:
         if not resumed:
             resumed.append(done)
         printer(done / total, study_status("batch", done, failed, total, elapsed,
-                                           resumed[0]).replace("points", "cases"))
+                                           resumed[0]))
 
     def log(message: str) -> None:
         printer.close()
