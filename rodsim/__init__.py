@@ -7,18 +7,19 @@ Importing rodsim has no side effects: the ``rodsim`` command pins BLAS threads a
 file-only matplotlib backend itself (:mod:`rodsim.app.threads`, :func:`rodsim.app.cli.main`).
 The package is layered core → solvers → io → app (docs/architecture.md).
 
-``rodsim.load_scene``, ``rodsim.solve``, ``rodsim.build_model``, ``rodsim.run_dataset`` (a
+``rodsim.load_scene``, ``rodsim.solve``, ``rodsim.solve_many`` (many cases of one scene,
+docs/batch.md), ``rodsim.build_model``, ``rodsim.run_dataset`` (a
 run's archive Dataset), ``rodsim.penalty_error`` (how far a result depends on its
 penalties, docs/model.md) and the inverse tools
-``rodsim.sensitivity``, ``rodsim.track``, ``rodsim.fit`` and ``rodsim.reach``
-(docs/inverse.md) and ``rodsim.modes`` (natural frequencies and mode shapes,
+``rodsim.sensitivity``, ``rodsim.track``, ``rodsim.Tracker``, ``rodsim.fit`` and
+``rodsim.reach`` (docs/inverse.md) and ``rodsim.modes`` (natural frequencies and mode shapes,
 docs/dynamics.md) are imported on first use.
 """
 
 from rodsim.version import __version__
 
-__all__ = ["__version__", "build_model", "fit", "load_scene", "modes", "penalty_error",
-           "reach", "run_dataset", "sensitivity", "solve", "track"]
+__all__ = ["Tracker", "__version__", "build_model", "fit", "load_scene", "modes", "penalty_error",
+           "reach", "run_dataset", "sensitivity", "solve", "solve_many", "track"]
 
 #: The inverse tools: name -> module (each module defines a function of the same name).
 _INVERSE = {"sensitivity": "rodsim.app.inverse.sensitivity", "track": "rodsim.app.inverse.track",
@@ -43,6 +44,14 @@ def __getattr__(name: str):
         from rodsim.io.run_dataset import run_dataset
 
         return run_dataset
+    if name == "Tracker":
+        from rodsim.app.inverse.tracker import Tracker
+
+        return Tracker
+    if name == "solve_many":
+        from rodsim.app.batch import solve_many
+
+        return solve_many
     if name == "modes":
         from rodsim.app.modes import modes
 

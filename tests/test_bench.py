@@ -533,6 +533,21 @@ def test_workers_small_outputs(tmp_path):
     assert np.all(ds["wall"].values > 0) and np.all(ds["cpu"].values > 0)
 
 
+def test_batch_small_outputs(tmp_path):
+    """``rodsim bench batch --size small``: 1 and 2 local workers ran every case, the same
+    equilibria (bit for bit) as each other and as the cases solved alone (round-off)."""
+    from rodsim_bench import batch
+
+    paths = batch.run("small", tmp_path)
+    assert {p.name for p in paths} == {"batch-small.nc", "batch-small.md"}
+    ds = _open(tmp_path / "batch-small.nc")
+    assert list(ds["runner"].values) == ["local-1", "local-2"]
+    assert np.all(ds["failed_cases"].values == 0)
+    assert np.all(ds["largest_difference"].values == 0.0)
+    assert ds.attrs["largest_difference_from_alone"] <= 1e-12 * 0.4
+    assert np.all(ds["equilibria_per_cpu_second"].values > 0)
+
+
 def test_a_baseline_tree_runs_that_revisions_code(tmp_path):
     """``RODSIM_BENCH_BASELINE`` (benchmarks/rodsim_bench/baseline.py): the revision's tree is
     extracted and ``import rodsim`` in it is that tree's, not this checkout's."""

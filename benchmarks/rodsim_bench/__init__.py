@@ -5,8 +5,9 @@ reference), the string tendons' solves against their reference, contact, and a c
 recovered from the shape (force-from-shape), a static solve against its floor (floor), the
 exact iteration and step counts the tests bound with a margin (iterations); what a user
 waits for around the solves: the whole-process CPU of short commands (startup), the tracking
-rate (tracking), a study on 1 and 2 workers (workers) and the natural frequencies of a
-bent robot (modes); tendon friction's pull–release cycles and static solves (friction).
+rate (tracking), a study on 1 and 2 workers (workers), the natural frequencies of a
+bent robot (modes), tendon friction's pull–release cycles and static solves (friction) and
+many equilibria of one scene on 1 and 2 workers (batch).
 
 Each benchmark is one module with ``run(size, output_dir, progress) -> list[Path]`` that
 writes its numbers (a netCDF archive with the machine description in its attributes), its
@@ -17,4 +18,5 @@ Timings on shared machines are noisy: compare the ratios measured within one run
 
 BENCHMARKS = ("work-precision", "paper-regime", "scaling", "large-n", "stress", "skip-work",
               "kernels", "pyelastica", "string-tendon", "contact", "force-from-shape", "floor",
-              "iterations", "startup", "tracking", "workers", "modes", "friction")
+              "iterations", "startup", "tracking", "workers", "modes", "friction",
+              "batch")

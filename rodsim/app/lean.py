@@ -6,17 +6,19 @@ Two things cost a short command more than its work (docs/benchmarks.md, "Start-u
 * **dask, when it is installed.** xarray imports ``dask.array`` and ``distributed`` (0.5 s
   of CPU) to learn whether the arrays of a Dataset it builds or writes are dask arrays, and
   ``to_netcdf`` asks dask for its scheduler. The commands that never hand xarray a dask
-  array nor run on dask (:data:`LEAN_COMMANDS`: everything but ``study`` and ``bench``; and
-  ``study`` on local workers, without ``--scheduler``: :func:`hides_dask`) mark dask as
-  absent in their process before anything imports it (:func:`hide_dask`).
+  array nor run on dask (:data:`LEAN_COMMANDS`: everything but ``study``, ``batch`` and
+  ``bench``; and ``study`` and ``batch`` on local workers, without ``--scheduler``:
+  :func:`hides_dask`) mark dask as absent in their process before anything imports it
+  (:func:`hide_dask`).
 * **The interpreter's exit.** Once numba has loaded kernels, the normal exit tears down
   LLVM and every module (0.4–0.6 s of CPU). :func:`fast_exit` ends the process with
   ``os._exit`` instead, after flushing stdout and stderr, on the command's normal path
   only: its archives are complete by then (written to a temporary file, closed, then
   renamed: :mod:`rodsim.io.archive`), its figures closed. Anything unusual (a flush that
   fails, another live thread, a child process still running) falls back to the normal
-  exit. ``study`` exits early too (:data:`EARLY_EXIT_COMMANDS`): its worker pool and dask
-  cluster are shut down before it returns; ``bench`` keeps the normal exit.
+  exit. ``study`` and ``batch`` exit early too (:data:`EARLY_EXIT_COMMANDS`): their worker
+  pools and dask clusters are shut down before they return; ``bench`` keeps the normal
+  exit.
 """
 
 from __future__ import annotations
@@ -28,18 +30,18 @@ from typing import NoReturn
 __all__ = ["LEAN_COMMANDS", "EARLY_EXIT_COMMANDS", "hides_dask", "hide_dask", "fast_exit"]
 
 #: The commands that use neither dask nor worker processes: their process hides dask and
-#: ends with :func:`fast_exit`. ``study`` and ``bench`` start workers and clusters whose
-#: shutdown belongs to the normal exit.
+#: ends with :func:`fast_exit`. ``study``, ``batch`` and ``bench`` start workers and clusters
+#: whose shutdown belongs to the normal exit.
 LEAN_COMMANDS = frozenset({"run", "rerun", "track", "fit", "reach", "plot", "scenes", "terms"})
 #: The commands whose process ends with :func:`fast_exit` once they return normally.
-EARLY_EXIT_COMMANDS = LEAN_COMMANDS | {"study"}
+EARLY_EXIT_COMMANDS = LEAN_COMMANDS | {"study", "batch"}
 
 
 def hides_dask(command: str, scheduler: str | None = None) -> bool:
-    """Whether the process of ``command`` hides dask: the lean commands, and ``study`` when
-    it runs on local workers (no ``--scheduler``; its workers are forked from this process
-    and never use dask either). A ``study`` on a dask scheduler keeps it."""
-    return command in LEAN_COMMANDS or (command == "study" and not scheduler)
+    """Whether the process of ``command`` hides dask: the lean commands, and ``study`` and
+    ``batch`` when they run on local workers (no ``--scheduler``; their workers are forked
+    from this process and never use dask either). On a dask scheduler they keep it."""
+    return command in LEAN_COMMANDS or (command in ("study", "batch") and not scheduler)
 
 
 def hide_dask() -> None:

@@ -22,7 +22,7 @@ from rodsim.io.statistics import POINT_STATS
 from rodsim.version import __version__
 
 __all__ = ["StudyLog", "MARKER", "parts_folder", "point_file", "failure_reason", "save_text",
-           "check_study_output", "spec_differences", "open_parts"]
+           "check_study_output", "spec_differences", "open_folder", "open_parts"]
 
 #: Log callback for one-line warnings and notes (default: printed on stderr).
 StudyLog = Callable[[str], None]
@@ -122,15 +122,17 @@ def spec_differences(old: dict[str, Any], new: dict[str, Any]) -> list[str]:
     return lines
 
 
-def _marker(spec: StudySpec) -> dict[str, Any]:
-    return {"spec": spec.to_dict(), "rodsim_version": __version__, "git_commit": git_commit(),
+def _marker(spec: dict[str, Any]) -> dict[str, Any]:
+    return {"spec": spec, "rodsim_version": __version__, "git_commit": git_commit(),
             "git_dirty": git_dirty()}
 
 
-def open_parts(folder: Path, spec: StudySpec,
-                log: StudyLog) -> dict[tuple[int, ...], dict[str, Any]]:
-    """Create the parts folder, or check it belongs to this spec and rodsim version and load
-    its records (an unreadable record is reported and its point runs again)."""
+def open_folder(folder: Path, spec: dict[str, Any], log: StudyLog, noun: str = "study"
+                ) -> None:
+    """Create the parts folder with its marker (``spec``, a JSON-able dict: a study's spec,
+    a batch's job), or check an existing one belongs to the same ``spec`` and rodsim version
+    (StudyError naming what differs, and the ``noun`` of its definition). The study's and the
+    batch's (rodsim/app/batch.py)."""
     marker = folder / MARKER
     if folder.exists():
         if not marker.is_file():
@@ -156,10 +158,10 @@ def open_parts(folder: Path, spec: StudySpec,
                              f"{stored['rodsim_version']}, this is rodsim {__version__} "
                              "(rodsim_version differs); remove it or write the study "
                              "elsewhere (-o)")
-        differences = spec_differences(stored.get("spec", {}), spec.to_dict())
+        differences = spec_differences(stored.get("spec", {}), spec)
         if differences:
             more = f" (and {len(differences) - 3} more)" if len(differences) > 3 else ""
-            raise StudyError(f"{folder} holds points of a different study definition: "
+            raise StudyError(f"{folder} holds points of a different {noun} definition: "
                              + "; ".join(differences[:3]) + more
                              + "; remove it or write the study elsewhere (-o)")
         commit = git_commit()
@@ -180,6 +182,14 @@ def open_parts(folder: Path, spec: StudySpec,
             if isinstance(exc, OSError):
                 raise StudyError(f"cannot create {folder}: {failure_reason(exc)}") from None
             raise
+
+
+def open_parts(folder: Path, spec: StudySpec,
+               log: StudyLog) -> dict[tuple[int, ...], dict[str, Any]]:
+    """Create the parts folder, or check it belongs to this spec and rodsim version
+    (:func:`open_folder`), and load its records (an unreadable record is reported and its
+    point runs again)."""
+    open_folder(folder, spec.to_dict(), log)
     grid = set(grid_points(spec))
     rods = spec.rod_names
     records = {}

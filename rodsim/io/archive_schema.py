@@ -170,8 +170,9 @@ def _labels(ds: xr.Dataset, dim: str, labels: list[str]) -> None:
 
 #: Archive kinds (attribute ``kind``; a run archive without it is a ``run``): a fit or a
 #: reach archive is a run archive of the fitted or reached scene with extra variables, a
-#: modes archive one of the equilibrium with a ``mode`` dimension.
-KINDS = ("run", "track", "fit", "reach", "modes")
+#: modes archive one of the equilibrium with a ``mode`` dimension, a batch archive holds
+#: many equilibria along ``case`` (rodsim/io/batch_dataset.py).
+KINDS = ("run", "track", "fit", "reach", "modes", "batch")
 
 
 def check_archive(ds: xr.Dataset) -> None:
@@ -189,6 +190,9 @@ def check_archive(ds: xr.Dataset) -> None:
     elif kind == "track":
         _check_run(ds, ("step",))
         _check_track(ds)
+    elif kind == "batch":
+        _check_run(ds, ("case",))
+        _check_batch(ds)
     else:
         _check_run(ds)
         if kind == "fit":
@@ -333,6 +337,25 @@ def _check_track(ds: xr.Dataset) -> None:
         if not np.array_equal(np.asarray(stored, dtype=float), np.asarray(values[:steps])):
             raise ArchiveSchemaError(f"variable {str(variable.name)[:40]!r} does not hold the "
                                      "ramp_json values of the stored steps")
+
+
+def _check_batch(ds: xr.Dataset) -> None:
+    """A batch archive: at least one case, a status of the known flags per case, and each
+    key of ``case_keys`` a variable along ``case``."""
+    cases = ds.sizes.get("case", 0)
+    if cases < 1 or _number_attribute(ds, "cases") != cases:
+        raise ArchiveSchemaError(f"a batch archive of {cases} cases (attribute 'cases' "
+                                 f"= {ds.attrs.get('cases')!r})")
+    status = _variable(ds, "status", ("case",)).values
+    if not np.isin(status, list(STATUS.values())).all():
+        raise ArchiveSchemaError("variable 'status' holds a value that is not a status flag")
+    _variable(ds, "message", ("case",), numeric=False)
+    for key in parse_json_names(_attribute(ds, "case_keys"), "attribute 'case_keys'"):
+        try:
+            variable = key_variable(ds, key)
+        except KeyError:
+            raise ArchiveSchemaError(f"no variable holds case key {key[:60]!r}") from None
+        _variable(ds, variable.name, ("case",))
 
 
 def _check_run(ds: xr.Dataset, leading: tuple[str, ...] = ()) -> None:

@@ -16,6 +16,7 @@ from rodsim.app.cli.arguments import (
     target_type,
     tolerance_type,
 )
+from rodsim.app.cli.batch import cmd_batch
 from rodsim.app.cli.bench import cmd_bench
 from rodsim.app.cli.common import EXIT_BAD_INPUT
 from rodsim.app.cli.fit import Fit, cmd_fit
@@ -165,6 +166,31 @@ def build_parser() -> argparse.ArgumentParser:
                        "this long while points wait (default 60)")
     study.set_defaults(func=cmd_study)
 
+    many = sub.add_parser("batch", help="the equilibria of many cases of one scene into one "
+                          "archive", description="Solve SCENE once per row of a cases table "
+                          "(a CSV whose header names numeric scene keys, as for --set) on "
+                          "local processes or a dask cluster, one model shared; finished "
+                          "cases are kept in OUT.parts/ so a killed batch resumes "
+                          "(docs/batch.md).")
+    many.add_argument("scene", help="scene file or shipped scene name")
+    many.add_argument("--cases", required=True, metavar="CASES.csv",
+                      help="CSV: a header of scene keys (KEY[i] for a vector component), "
+                      "then one row of values per case")
+    many.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
+                      help="override a scene value for every case (repeatable)")
+    many.add_argument("--integrator", metavar="NAME",
+                      help="a registered integrator (default: static)")
+    many.add_argument("-o", "--output", help="archive path (default: runs/<scene>-batch.nc)")
+    many.add_argument("--workers", type=positive_int, default=None,
+                      help="local worker processes (default: all cores; 1 = in-process); "
+                      "with --scheduler local, the LocalCluster's workers (default 2)")
+    many.add_argument("--scheduler", metavar="ADDRESS",
+                      help="run on a dask.distributed scheduler (tcp://host:port), or "
+                      "'local' for a LocalCluster")
+    many.add_argument("--chunk", type=positive_int, default=50, metavar="CASES",
+                      help="cases per task and per file of OUT.parts/ (default 50)")
+    many.set_defaults(func=cmd_batch)
+
     follow = _scene_command(sub, "track", Track, "scene file or shipped scene name",
                             help="equilibria along an actuation path, each warm-started "
                             "from the last")
@@ -237,7 +263,7 @@ def build_parser() -> argparse.ArgumentParser:
     bench = sub.add_parser("bench", help="run a benchmark (work-precision, scaling, large-n, "
                            "stress, skip-work, kernels, paper-regime, pyelastica, "
                            "string-tendon, contact, force-from-shape, floor, iterations, "
-                           "startup, tracking, workers, modes, friction)",
+                           "startup, tracking, workers, modes, friction, batch)",
                            description="Time the integrators against their error, their cost "
                            "in N, or their stability over a parameter map; writes netCDF, "
                            "figures and a markdown table with the machine description. The "
@@ -248,7 +274,7 @@ def build_parser() -> argparse.ArgumentParser:
     bench.add_argument("benchmark", metavar="BENCHMARK",
                        help="work-precision, scaling, large-n, stress, skip-work, kernels, "
                        "paper-regime, string-tendon, contact, force-from-shape, floor, "
-                       "iterations, startup, tracking, workers, modes, friction or "
+                       "iterations, startup, tracking, workers, modes, friction, batch or "
                        "pyelastica (the last needs 'pip install pyelastica==1.0.0'; never a "
                        "dependency)")
     bench.add_argument("--size", choices=("small", "full"), default="small",

@@ -27,6 +27,8 @@ def cmd_rerun(args: argparse.Namespace) -> int:
             raise UserError("--point applies to study archives only")
         if dataset.attrs.get("kind") == "track":
             return _rerun_track(dataset, args)
+        if dataset.attrs.get("kind") == "batch":
+            return _rerun_batch(dataset, args)
         result, difference = rerun(dataset)
     except (ArchiveError, SceneError, StudyError) as exc:
         raise UserError(f"{args.archive}: {exc}") from None
@@ -47,6 +49,16 @@ def rerun_verdict(what: str, difference: float, length: float, tolerance: float)
               file=sys.stderr)
         return EXIT_SOLVER_FAILURE
     return EXIT_OK
+
+
+def _rerun_batch(dataset, args: argparse.Namespace) -> int:
+    from rodsim.app.batch import rerun_batch
+
+    again, difference = rerun_batch(dataset)
+    print(f"batch       re-ran {again.attrs['cases']} cases, {again.attrs['failed_cases']} "
+          "failed")
+    length = float(again["s"].max())  # the longest rod's length
+    return rerun_verdict("positions", difference, length, args.tolerance)
 
 
 def _rerun_track(dataset, args: argparse.Namespace) -> int:

@@ -73,6 +73,9 @@ def plot_dataset(ds: xr.Dataset, stem: str | Path, formats: Iterable[str] = ("pn
     """
     formats = check_output(stem, formats)
     ds = from_file(ds)
+    if ds.attrs.get("kind") == "batch":
+        raise PlotError("a batch archive has no figure: select cases with xarray "
+                        "(ds.sel(case=…)) and plot their positions (docs/batch.md)")
     html = HTML in formats
     formats = [fmt for fmt in formats if fmt != HTML]
     if html and "study" in ds.attrs:

@@ -30,7 +30,7 @@ at the registration of the equilibrium, as is every derivative of a piecewise-sm
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -97,12 +97,15 @@ def _stencil(key: NumericKey, value: float) -> list[tuple[float, float]]:
                                                                          strict=True)]
 
 
-def equilibrium_sensitivity(model: Model, x: np.ndarray, keys: Sequence[NumericKey]
+def equilibrium_sensitivity(model: Model, x: np.ndarray, keys: Sequence[NumericKey],
+                            solve: Callable[[np.ndarray], np.ndarray] | None = None
                             ) -> tuple[np.ndarray, np.ndarray]:
     """(dx/dp (n, P), d(full state)/dp (full size, P)) at the equilibrium ``x`` of
     ``model`` (which must carry the registration of ``x``), by the method of the module
-    docstring. Raises SensitivityError when J is singular and SceneError when a parameter
-    change alters the model's layout."""
+    docstring. ``solve``: J at ``x`` already factored (a solve of J X = B: the verification
+    of the solve that found ``x``, :meth:`RunState.factorisation_at`), else J is factored
+    here. Raises SensitivityError when J is singular and SceneError when a parameter change
+    alters the model's layout."""
     scene = model.scene
     base_values = [key.value(scene) for key in keys]
     force_at_x = model.force(x)
@@ -125,9 +128,10 @@ def equilibrium_sensitivity(model: Model, x: np.ndarray, keys: Sequence[NumericK
                 raise SceneError(f"{key.name}: {exc}; it has no derivative") from None
             rhs[:, column] -= weight * (perturbed.force(x) - force_at_x)
             rest[:, column] += weight * (perturbed.rest_full - model.rest_full)
-    solver = LinearSolver(model.pattern, model.pattern_rows, model.pattern_cols,
-                          (model.band.lower, model.band.upper), model.conservative)
-    solve = solver.factorized(model.jacobian_data(x))
+    if solve is None:
+        solver = LinearSolver(model.pattern, model.pattern_rows, model.pattern_cols,
+                              (model.band.lower, model.band.upper), model.conservative)
+        solve = solver.factorized(model.jacobian_data(x))
     dx = solve(rhs) if solve is not None else None
     if dx is None or not np.all(np.isfinite(dx)):
         raise SensitivityError("the Jacobian at this state is singular: no sensitivity")

@@ -1,0 +1,154 @@
+"""A tracker a control loop holds (``rodsim.Tracker``; docs/inverse.md, "A tracker"): the
+equilibrium at each new set of actuation values, warm-started from the last, with the tip's
+pose and its Jacobian with respect to those values.
+
+``tracker = rodsim.Tracker(scene, keys)`` solves the scene at its own values of ``keys``
+(cold, from rest); each ``tracker.step(values)`` then moves to the equilibrium at ``values``
+the way ``track`` moves from one step to the next (:meth:`Continuation.walk`,
+rodsim/app/inverse/continuation.py: a warm start from the last equilibrium and its
+registration, from the tangent predictor x + (dx/dp) Δp of the last step's Jacobian, which
+the tracker has computed anyway; the increment halved on a failed attempt), judges its
+stability from the
+factorisation the step's own verification made (:func:`rodsim.core.stability.assess`, the
+certificate first only after a certified step, as ``track``), and gives the tip's
+Jacobian d(tip)/d(values) by the implicit-function theorem (:func:`equilibrium_sensitivity`,
+rodsim/app/inverse/sensitivity.py) solved with that same factorisation: no second one. A
+step that fails leaves the tracker at its last equilibrium and says why (``success`` False).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from rodsim.app.inverse.continuation import Continuation, EquilibriumFailure
+from rodsim.app.inverse.parameter_keys import numeric_keys, scene_with
+from rodsim.app.inverse.sensitivity import equilibrium_sensitivity
+from rodsim.core.model import Model
+from rodsim.core.schema import SceneError
+from rodsim.core.stability import Stability, assess
+from rodsim.solvers import integrator_named
+
+__all__ = ["Tracker", "TrackerStep"]
+
+
+@dataclass(frozen=True)
+class TrackerStep:
+    """One step of a :class:`Tracker`: ``success`` and ``message``; the equilibrium
+    (``state``, free coordinates; ``positions`` of the tracked rod (N, 3) [m]); the tip's
+    ``tip`` [m] and ``tip_quaternion`` (its last segment's, q4 real); ``tip_jacobian``
+    d(tip)/d(values) (3, P) and ``quaternion_jacobian`` (4, P), one column per key in the
+    tracker's order, per unit of the key; the ``stability`` verdict; ``iterations`` (Newton
+    and chord) and ``halvings`` (failed attempts). A failed step holds the last
+    equilibrium's values (the tracker stays there) and no Jacobian (NaN)."""
+
+    success: bool
+    message: str
+    values: np.ndarray
+    state: np.ndarray
+    positions: np.ndarray
+    tip: np.ndarray
+    tip_quaternion: np.ndarray
+    tip_jacobian: np.ndarray
+    quaternion_jacobian: np.ndarray
+    stability: Stability | None
+    iterations: int
+    halvings: int
+
+
+class Tracker:
+    """Equilibria for a control loop (module docstring).
+
+    Parameters
+    ----------
+    scene
+        A Scene, a path or a shipped scene name (:func:`rodsim.load_scene`).
+    keys
+        The actuation values (numeric scene keys as for ``track``'s ramps: a tension, a
+        base's insertion, ``KEY[i]`` for a vector component).
+    integrator
+        ``static`` (the default) or another registered integrator.
+    rod
+        The rod whose tip is reported (default: the first).
+
+    Raises
+    ------
+    SceneError
+        For bad keys.
+    EquilibriumFailure
+        When the scene's own values have no equilibrium.
+    """
+
+    def __init__(self, scene: Any, keys: Sequence[str], integrator: str = "static",
+                 rod: str | None = None) -> None:
+        from rodsim.app.api import load_scene, solve
+
+        self.scene = load_scene(scene)
+        integrator_named(integrator)
+        self.keys = numeric_keys(self.scene, list(keys))
+        self.rod = rod or next(iter(self.scene.rods))
+        if self.rod not in self.scene.rods:
+            raise SceneError(f"rod {self.rod!r}: no such rod; the scene's rods are "
+                             + ", ".join(self.scene.rods))
+        first = solve(self.scene, integrator)
+        if not first.success:
+            raise EquilibriumFailure(f"the scene's own values have no equilibrium: "
+                                     f"{first.message}")
+        self.values = np.array([key.value(self.scene) for key in self.keys])
+        self.continuation = Continuation(Model(first.scene), first.state, integrator)
+        self._certified = True
+        #: dx/d(values) (n, P) at the last equilibrium (its step's Jacobian): the next
+        #: step's tangent predictor. None before the first step and after a failed one.
+        self._tangent: np.ndarray | None = None
+
+    def _checked(self, values: Any) -> np.ndarray:
+        """``values`` as finite numbers in range, one per key; SceneError (the rules across
+        tables are checked by the step's scene)."""
+        row = np.asarray(values, dtype=float).reshape(-1)
+        if row.shape != (len(self.keys),) or not np.all(np.isfinite(row)):
+            raise SceneError(f"a step needs {len(self.keys)} finite values, one per key ("
+                             + ", ".join(k.name for k in self.keys) + ")")
+        for key, value in zip(self.keys, row, strict=True):
+            low, high = key.bounds()
+            if not low <= value <= high:
+                raise SceneError(f"{key.name} = {value:g}: out of range; allowed: "
+                                 f"{key.parameter.allowed}")
+        scene_with(self.scene, self.keys, row)
+        return row
+
+    def step(self, values: Any) -> TrackerStep:
+        """Move to the equilibrium at ``values`` (one per key) and return it with the tip's
+        pose, Jacobian and stability; SceneError for values out of range (nothing moves)."""
+        row = self._checked(values)
+        continuation = self.continuation
+        predictor = None
+        if self._tangent is not None and continuation.takes_predictor:
+            predictor = continuation.predicted(self.scene, self._tangent @ (row - self.values))
+        ok, iterations, halvings, message = continuation.walk(self.scene, self.keys,
+                                                              self.values, row, predictor)
+        model, x = continuation.model, continuation.x
+        layout = model.rods[self.rod].layout
+        full = model.full(x)
+        if not ok:
+            self._tangent = None
+            nan = np.full((3, len(self.keys)), np.nan)
+            return TrackerStep(False, message, self.values.copy(), x.copy(),
+                               full[layout.position_index], full[layout.position_index[-1]],
+                               full[layout.quaternion_index[-1]], nan,
+                               np.full((4, len(self.keys)), np.nan), None, iterations,
+                               halvings)
+        self.values = row
+        factored = continuation.factorisation()
+        verdict = assess(model, x, factored, self._certified)
+        self._certified = verdict.stable and np.isnan(verdict.min_eigenvalue)
+        self._tangent, derivative = equilibrium_sensitivity(
+            model, x, self.keys, factored[1] if factored is not None else None)
+        return TrackerStep(True, message or "converged", row.copy(), x.copy(),
+                           full[layout.position_index], full[layout.position_index[-1]],
+                           full[layout.quaternion_index[-1]],
+                           derivative[layout.position_index[-1]],
+                           derivative[layout.quaternion_index[-1]], verdict, iterations,
+                           halvings)
