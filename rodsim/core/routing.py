@@ -40,7 +40,7 @@ import numpy as np
 from rodsim.core.schema import SceneError, shown
 
 __all__ = ["ROUTINGS", "SEGMENTS_PER_KNOT", "SEGMENTS_PER_TURN", "Routing", "check_routing",
-           "string_span"]
+           "routing_limits", "string_span"]
 
 #: The routing forms.
 ROUTINGS = ("constant", "table", "helix")
@@ -149,6 +149,38 @@ def _check_sampling(key: str, string: Any, length: float, nodes: int, start: flo
                      f"{segment:.6g} m long: fewer than {per} segments per {what}, so the "
                      f"nodes alias the routing; allowed: nodes >= {enough} on this catheter, "
                      f"or a routing that turns more slowly")
+
+
+def routing_limits(string: Any, length: float, radius: float, nodes: int
+                   ) -> dict[str, tuple[float, float, str]]:
+    """The range each number of a string tendon may take, one at a time, under the rules of
+    :func:`check_routing`: name -> (low, high, the rule), for ``start``, ``end``,
+    ``helix_radius``, ``helix_pitch`` (its hand kept), ``table_y`` and ``table_z`` (each
+    knot's offset) and the tendon table's ``offset``. ``end`` = 0 lies outside its range:
+    it names the tip, and a termination to vary is given as a number (L). What varies the
+    routing (fit, reach, a track's ramp) is bounded by these before any work;
+    :func:`check_routing` still judges each whole scene (a spline can overshoot its knots).
+    """
+    start, end = string_span(string, length)
+    room = 1e-9 * length  # strict inequalities, as closed bounds
+    wall = length if string.spacers else radius
+    where = "below the catheter's length (spacers)" if string.spacers else (
+        "inside the catheter's radius")
+    limits = {"start": (0.0, end - room, f"0 <= start < end = {end!r} m")}
+    limits["end"] = (start + room, length, f"start = {start!r} < end <= L = {length!r} m (end "
+                     "= 0 names the tip and cannot vary: give end = L)")
+    limits["offset"] = (0.0, wall * (1 - 1e-9), f"offset >= 0, {where} ({wall!r} m)")
+    limits["helix_radius"] = (1e-300, wall * (1 - 1e-9), f"helix_radius > 0, {where} "
+                              f"({wall!r} m)")
+    turn = SEGMENTS_PER_TURN * length / (nodes - 1)
+    text = (f"|helix_pitch| >= {SEGMENTS_PER_TURN} segments = {turn:.6g} m (the nodes "
+            "sample each turn), of the scene's hand")
+    limits["helix_pitch"] = ((turn, math.inf, text) if string.helix_pitch >= 0.0
+                             else (-math.inf, -turn, text))
+    for axis in ("table_y", "table_z"):
+        limits[axis] = (-wall * (1 - 1e-9), wall * (1 - 1e-9), f"|{axis}| {where} "
+                        f"({wall!r} m)")
+    return limits
 
 
 def check_routing(prefix: str, tendon: Any, string: Any, length: float,
