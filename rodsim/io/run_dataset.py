@@ -167,6 +167,9 @@ def _attributes(result: Result) -> dict[str, Any]:
     if result.stability is not None:
         attrs["stable"] = int(result.stability.stable)
         attrs["stiffness_min_eigenvalue"] = float(result.stability.min_eigenvalue)
+        if result.stability.neutral:  # rodsim/core/stability.py, "Neutral states"
+            attrs["stiffness_neutral_modes"] = int(result.stability.neutral_modes)
+            attrs["stiffness_neutral_tolerance"] = float(result.stability.tolerance)
     if result.penalty_error is not None:
         attrs["penalty_error"] = float(result.penalty_error)
     if result.tendon_compression:

@@ -202,8 +202,9 @@ class Fit:
 
     @property
     def stable(self) -> bool:
-        """Whether the fitted equilibrium is stable (rodsim/core/stability.py)."""
-        return self.result.stability is None or bool(self.result.stability.stable)
+        """Whether the fitted equilibrium is not unstable (stable or neutral,
+        rodsim/core/stability.py)."""
+        return self.result.stability is None or not self.result.stability.unstable
 
     def to_xarray(self) -> xr.Dataset:
         """The fit archive: the run archive of the fitted scene (``rodsim rerun`` re-solves
