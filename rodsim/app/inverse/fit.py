@@ -29,7 +29,11 @@ Standard errors: the Gauss–Newton covariance σ² (JᵀJ)⁻¹ at the solution
 where m counts the residual components that carry information: with nearest-point
 matching one per dimension of the data's span minus the one along the curve, i.e.
 m = points × (d − 1), with ``s`` m = points × d, d = the dimension (1–3) of the affine span
-of the data and the fitted centerline (planar data and a planar model: d = 2).
+of the data and the fitted centerline (planar data and a planar model: d = 2). A parameter
+whose standard error exceeds :data:`MAX_RELATIVE_ERROR` times its value, or whose error is
+not finite (a singular Fisher matrix JᵀJ), is *undetermined* (``Fit.undetermined``): the
+data do not determine it, and ``rodsim fit`` exits 1 saying so (a helix pitch of 1000 m on
+a 0.16 m catheter came back "999.9 ± 2e6 m" as a success).
 
 Refused (:class:`FitError`): fewer points than parameters, no residual degrees of freedom
 left, data farther than :data:`MAX_REACH` rod lengths from the rod's origin (no shape of the
@@ -71,7 +75,12 @@ from rodsim.solvers.result import Result
 if TYPE_CHECKING:
     import xarray as xr
 
-__all__ = ["Points", "Fit", "FitError", "read_points", "fit", "match", "MAX_CONDITION"]
+__all__ = ["Points", "Fit", "FitError", "read_points", "fit", "match", "MAX_CONDITION",
+           "MAX_RELATIVE_ERROR"]
+
+#: Largest relative standard error (σ / |value|) of a determined parameter: above it the
+#: value's 2σ interval (about 95 %) reaches zero or beyond, and the data do not determine it.
+MAX_RELATIVE_ERROR = 0.5
 
 #: Largest condition number of the scaled Jacobian before the parameters are declared not
 #: identifiable from the data.
@@ -201,6 +210,27 @@ class Fit:
         return self.residual_rms / self.result.scene.rods[self.rod].length
 
     @property
+    def undetermined(self) -> list[str]:
+        """The parameters the data do not determine: a relative standard error above
+        :data:`MAX_RELATIVE_ERROR`, or none (a singular Fisher matrix JᵀJ: not finite)."""
+        return [key.name for key, value, error in zip(self.keys, self.values, self.errors,
+                                                      strict=True)
+                if not (math.isfinite(error) and error <= MAX_RELATIVE_ERROR * abs(value))]
+
+    @property
+    def undetermined_text(self) -> str:
+        """One line naming each undetermined parameter with its value and error."""
+        parts = []
+        for key, value, error in zip(self.keys, self.values, self.errors, strict=True):
+            if key.name in self.undetermined:
+                relative = error / abs(value) if value else math.inf
+                parts.append(f"{key.name} = {value:.6g} ± {error:.2g} {key.unit} (relative "
+                             f"standard error {relative:.2g})")
+        return (", ".join(parts) + f": above {MAX_RELATIVE_ERROR:g}, the data do not "
+                "determine it; fit fewer parameters, add data where the shape depends on it, "
+                "or start nearer the answer (--set KEY=VALUE)")
+
+    @property
     def stable(self) -> bool:
         """Whether the fitted equilibrium is not unstable (stable or neutral,
         rodsim/core/stability.py)."""
@@ -230,6 +260,8 @@ class Fit:
                 "units": key.unit, "scene_key": key.name,
                 "long_name": f"standard error of the fitted {key.name} "
                 "(Gauss-Newton covariance)"})
+        if self.undetermined:  # not a result: the data do not determine these
+            ds.attrs["undetermined"] = ", ".join(self.undetermined)
         ds.attrs.update({
             "title": f"rodsim fit of {len(self.keys)} value(s) of scene "
                      f"{self.result.scene.name!r} to {len(self.points.xyz)} points",
@@ -413,7 +445,11 @@ def fit(scene: Scene, points: Points, params: Sequence[str], *, rod: str | None 
             f"from there would still remove {100 * gain:.0f} % of the squared residual; "
             f"{problem.failures} trial values had no equilibrium (last: "
             f"{problem.last_failure or 'none'}); start nearer the answer (--set KEY=VALUE)")
-    covariance = sigma2 * np.linalg.inv(scaled.T @ scaled) * np.outer(scale, scale)
+    try:  # a singular Fisher matrix: infinite errors, undetermined (Fit.undetermined)
+        fisher_inverse = np.linalg.inv(scaled.T @ scaled)
+    except np.linalg.LinAlgError:
+        fisher_inverse = np.full((len(keys), len(keys)), math.inf)
+    covariance = sigma2 * fisher_inverse * np.outer(scale, scale)
     rms = float(np.sqrt(np.mean(np.sum((fitted_points - points.xyz) ** 2, axis=1))))
     if not math.isfinite(rms):
         raise EquilibriumFailure(f"the fit's residual RMS is {rms} (not a finite distance): "
