@@ -30,10 +30,9 @@ where m counts the residual components that carry information: with nearest-poin
 matching one per dimension of the data's span minus the one along the curve, i.e.
 m = points × (d − 1), with ``s`` m = points × d, d = the dimension (1–3) of the affine span
 of the data and the fitted centerline (planar data and a planar model: d = 2). A parameter
-whose standard error exceeds :data:`MAX_RELATIVE_ERROR` times its value, or whose error is
-not finite (a singular Fisher matrix JᵀJ), is *undetermined* (``Fit.undetermined``): the
-data do not determine it, and ``rodsim fit`` exits 1 saying so (a helix pitch of 1000 m on
-a 0.16 m catheter came back "999.9 ± 2e6 m" as a success).
+whose standard error exceeds :data:`MAX_RELATIVE_ERROR` times its value is *undetermined*
+(``Fit.undetermined``; a singular Fisher matrix JᵀJ is refused above): ``rodsim fit`` exits
+1 saying so (a pitch of 1000 m on a 0.16 m catheter was "999.9 ± 2e6 m", a success).
 
 Refused (:class:`FitError`): fewer points than parameters, no residual degrees of freedom
 left, data farther than :data:`MAX_REACH` rod lengths from the rod's origin (no shape of the
@@ -78,8 +77,7 @@ if TYPE_CHECKING:
 __all__ = ["Points", "Fit", "FitError", "read_points", "fit", "match", "MAX_CONDITION",
            "MAX_RELATIVE_ERROR"]
 
-#: Largest relative standard error (σ / |value|) of a determined parameter: above it the
-#: value's 2σ interval (about 95 %) reaches zero or beyond, and the data do not determine it.
+#: Largest σ / |value| of a determined parameter (above: its 2σ interval reaches zero).
 MAX_RELATIVE_ERROR = 0.5
 
 #: Largest condition number of the scaled Jacobian before the parameters are declared not
@@ -212,20 +210,17 @@ class Fit:
     @property
     def undetermined(self) -> list[str]:
         """The parameters the data do not determine: a relative standard error above
-        :data:`MAX_RELATIVE_ERROR`, or none (a singular Fisher matrix JᵀJ: not finite)."""
-        return [key.name for key, value, error in zip(self.keys, self.values, self.errors,
-                                                      strict=True)
-                if not (math.isfinite(error) and error <= MAX_RELATIVE_ERROR * abs(value))]
+        :data:`MAX_RELATIVE_ERROR`, or not finite."""
+        return [k.name for k, v, e in zip(self.keys, self.values, self.errors, strict=True)
+                if not (math.isfinite(e) and e <= MAX_RELATIVE_ERROR * abs(v))]
 
     @property
     def undetermined_text(self) -> str:
         """One line naming each undetermined parameter with its value and error."""
-        parts = []
-        for key, value, error in zip(self.keys, self.values, self.errors, strict=True):
-            if key.name in self.undetermined:
-                relative = error / abs(value) if value else math.inf
-                parts.append(f"{key.name} = {value:.6g} ± {error:.2g} {key.unit} (relative "
-                             f"standard error {relative:.2g})")
+        parts = [f"{k.name} = {v:.6g} ± {e:.2g} {k.unit} (relative standard error "
+                 f"{e / abs(v) if v else math.inf:.2g})" for k, v, e in
+                 zip(self.keys, self.values, self.errors, strict=True)
+                 if k.name in self.undetermined]
         return (", ".join(parts) + f": above {MAX_RELATIVE_ERROR:g}, the data do not "
                 "determine it; fit fewer parameters, add data where the shape depends on it, "
                 "or start nearer the answer (--set KEY=VALUE)")
@@ -445,11 +440,7 @@ def fit(scene: Scene, points: Points, params: Sequence[str], *, rod: str | None 
             f"from there would still remove {100 * gain:.0f} % of the squared residual; "
             f"{problem.failures} trial values had no equilibrium (last: "
             f"{problem.last_failure or 'none'}); start nearer the answer (--set KEY=VALUE)")
-    try:  # a singular Fisher matrix: infinite errors, undetermined (Fit.undetermined)
-        fisher_inverse = np.linalg.inv(scaled.T @ scaled)
-    except np.linalg.LinAlgError:
-        fisher_inverse = np.full((len(keys), len(keys)), math.inf)
-    covariance = sigma2 * fisher_inverse * np.outer(scale, scale)
+    covariance = sigma2 * np.linalg.inv(scaled.T @ scaled) * np.outer(scale, scale)
     rms = float(np.sqrt(np.mean(np.sum((fitted_points - points.xyz) ** 2, axis=1))))
     if not math.isfinite(rms):
         raise EquilibriumFailure(f"the fit's residual RMS is {rms} (not a finite distance): "
