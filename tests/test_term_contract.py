@@ -145,7 +145,10 @@ SMALL_CONTACT_SCENE = {
     },
     "obstacles": {
         "tissue": {"type": "plane", "rods": ["catheter"], "point": [0.05, 0.0, 0.0],
-                   "normal": [0.3, 1.0, 0.2], "smoothing_scale": 0.5},
+                   # tilted so that the clamped base lies outside it (a held node inside a
+                   # solid obstacle is refused, rodsim/core/contact_depth.py) and the rod
+                   # crosses it past x = 0.05 m
+                   "normal": [-0.3, 1.0, 0.2], "smoothing_scale": 0.5},
         "bulge": {"type": "sphere", "rods": ["catheter"], "center": [0.05, 0.0, 0.036],
                   "radius": 0.04, "smoothing_scale": 0.5},
         "vessel": {"type": "tube", "rods": ["catheter"], "centerline": "csv",

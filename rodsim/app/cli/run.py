@@ -66,6 +66,10 @@ class Run(SceneCommand):
         print(self.estimate.text())
         if result.tendon_compression:
             print(compression_text(result.tendon_compression))
+        from rodsim.app.contact_report import contact_warnings
+
+        for line in contact_warnings(result):
+            print(line)
 
     def verdict(self, result: Any) -> int:
         if self.args.require_stable and not result.stability.stable:
