@@ -99,7 +99,7 @@ def test_a_rest_shape_through_the_wall_is_warned_about():
     scene = rodsim.load_scene(str(DATA / "guidewire.toml"))
     crossings = rest_crossings(Model(scene))
     assert len(crossings) == 1 and "crosses obstacle 'vessel'" in crossings[0]
-    lines = contact_warnings(types.SimpleNamespace(scene=scene))
+    lines = contact_warnings(types.SimpleNamespace(scene=scene, rods={}))
     assert lines and lines[0].startswith("warning     the rest shape of rod 'wire'")
     # The shipped contact scenes start clear of their walls.
     for name in ("tip-on-tissue", "vessel-insertion"):

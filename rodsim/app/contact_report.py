@@ -1,5 +1,6 @@
 """The summary's contact warnings: a rest shape through an obstacle's wall
-(rodsim/core/contact_depth.py, :func:`~rodsim.core.contact_depth.rest_crossings`).
+(rodsim/core/contact_depth.py, :func:`~rodsim.core.contact_depth.rest_crossings`), and a rod
+that passes through itself (rodsim/core/self_crossing.py; rodsim has no self-contact).
 
 A rest state deeper inside an obstacle than the contact law's validity starts the solve
 through the wall, where it may settle on the far side (a user's guidewire whose straight
@@ -15,11 +16,14 @@ __all__ = ["contact_warnings"]
 
 def contact_warnings(result: Any) -> list[str]:
     """The summary lines ("warning     …") for ``result`` (a Result): one per rod and
-    obstacle whose rest shape crosses the obstacle's wall; none for a scene without
-    obstacles."""
-    if not result.scene.data.get("obstacles"):
-        return []
-    from rodsim.core.contact_depth import rest_crossings
-    from rodsim.core.model import Model
+    obstacle whose rest shape crosses the obstacle's wall (scenes with obstacles), and one
+    per rod that passes through itself."""
+    from rodsim.io.run_dataset import self_crossings
 
-    return [f"warning     {line}" for line in rest_crossings(Model(result.scene))]
+    lines = self_crossings(result)
+    if result.scene.data.get("obstacles"):
+        from rodsim.core.contact_depth import rest_crossings
+        from rodsim.core.model import Model
+
+        lines = rest_crossings(Model(result.scene)) + lines
+    return [f"warning     {line}" for line in lines]
