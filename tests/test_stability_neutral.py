@@ -98,3 +98,15 @@ def test_shipped_scenes_stay_stable(name):
     assert result.stability.stable, result.stability
     model = Model(result.scene)
     assert assess(model, result.state).stable
+
+
+@pytest.mark.parametrize(("terms", "kernels", "modes"), [
+    ([], "numpy", 3), ([], "compiled", 3), (["gravity"], "compiled", 1)])
+def test_the_verdict_does_not_follow_the_kernel_choice(terms, kernels, modes):
+    """The sign of a zero eigenvalue followed the kernels before; the count does not.
+    (numpy kernels with gravity: static fails from the horizontal rest state, not a
+    verdict.)"""
+    scene = ball_jointed(terms).with_values({"solver.kernels": kernels})
+    result = rodsim.solve(scene, "static")
+    assert result.success, result.message
+    assert result.stability.neutral and result.stability.neutral_modes == modes
