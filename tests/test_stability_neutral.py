@@ -110,3 +110,41 @@ def test_the_verdict_does_not_follow_the_kernel_choice(terms, kernels, modes):
     result = rodsim.solve(scene, "static")
     assert result.success, result.message
     assert result.stability.neutral and result.stability.neutral_modes == modes
+
+
+BALL_TOML = """
+name = "ball"
+[rods.mount]
+length = 0.02
+radius = 0.006
+youngs_modulus = 5.9e6
+stretch_modulus = 5.9e6
+density = 6450.0
+nodes = 5
+terms = ["stretch", "bend_twist", "centerline"]
+[rods.hang]
+length = 0.1
+radius = 0.006
+youngs_modulus = 5.9e6
+stretch_modulus = 5.9e6
+density = 6450.0
+nodes = 11
+clamp = "free"
+terms = ["stretch", "bend_twist", "centerline", "joint"]
+[rods.hang.joint]
+rod = "mount"
+s = 0.02
+orientation = false
+"""
+
+
+def test_the_cli_prints_neutral_and_require_stable_refuses_it(tmp_path, capsys):
+    from rodsim.app.cli.main import main
+
+    scene = tmp_path / "ball.toml"
+    scene.write_text(BALL_TOML)
+    assert main(["run", str(scene), "-o", str(tmp_path / "a.nc")]) == 0
+    out = capsys.readouterr().out
+    assert "stability   neutral: 3 zero modes within 2.2e-12" in out
+    assert main(["run", str(scene), "-o", str(tmp_path / "b.nc"), "--require-stable"]) == 1
+    assert "the equilibrium is neutral (--require-stable)" in capsys.readouterr().err
