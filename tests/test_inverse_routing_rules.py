@@ -91,3 +91,14 @@ def test_fit_of_a_tip_termination_is_refused_before_any_work():
     points = np.array([[0.1, 0.01, 0.0], [0.15, 0.02, 0.0]])
     with pytest.raises(SceneError, match="end = 0 names the tip"):
         rodsim.fit(scene, Points(points, None), ["helix.tendon_string.end"])
+
+
+def test_a_multi_leg_ramp_is_checked_in_every_leg(tmp_path, capsys):
+    """parse_ramp's later legs (KEY=START:STOP:COUNT:STOP:COUNT): the second leg goes down to
+    an aliased pitch (0.004 m: one segment per turn at N = 41)."""
+    out = tmp_path / "t.nc"
+    code = main(["track", "catheter-helical", "--ramp", "helix_pitch=0.32:0.1:3:0.004:2",
+                 "-o", str(out)])
+    err = capsys.readouterr().err
+    assert code == 2 and "4 segments" in err and "Traceback" not in err
+    assert not out.exists()
