@@ -145,7 +145,10 @@ SMALL_CONTACT_SCENE = {
     },
     "obstacles": {
         "tissue": {"type": "plane", "rods": ["catheter"], "point": [0.05, 0.0, 0.0],
-                   "normal": [0.3, 1.0, 0.2], "smoothing_scale": 0.5},
+                   # tilted so that the clamped base lies outside it (a held node inside a
+                   # solid obstacle is refused, rodsim/core/contact_depth.py) and the rod
+                   # crosses it past x = 0.05 m
+                   "normal": [-0.3, 1.0, 0.2], "smoothing_scale": 0.5},
         "bulge": {"type": "sphere", "rods": ["catheter"], "center": [0.05, 0.0, 0.036],
                   "radius": 0.04, "smoothing_scale": 0.5},
         "vessel": {"type": "tube", "rods": ["catheter"], "centerline": "csv",
@@ -209,7 +212,8 @@ SMALL_JOINT_SCENE = {
 #: String tendons (coupling = "string", no tendon rod): one ending part-way at a constant
 #: offset, a helical one entering past the base on spacer disks (both on a 'frame'-clamped
 #: catheter, whose base frame is a frame knot), and a tabulated one on a 'first_segment'
-#: catheter (no base frame: the frame is extrapolated below the first midpoint); and one
+#: catheter (no base frame: the frame is extrapolated below the first midpoint; 9 nodes, two
+#: segments per knot spacing, rodsim/core/routing.py "Sampling"); and one
 #: pulled in by a prescribed displacement (rodsim/core/terms/tendon_string_displacement.py:
 #: one dense element; taut at the random states).
 SMALL_STRING_SCENE = {
@@ -222,7 +226,7 @@ SMALL_STRING_SCENE = {
         },
         "shaft": {
             "length": 0.08, "radius": 0.004, "youngs_modulus": 5e6, "stretch_modulus": 5e6,
-            "density": 1100.0, "nodes": 6, "clamp": "first_segment", "origin": [0.0, 0.05, 0.0],
+            "density": 1100.0, "nodes": 9, "clamp": "first_segment", "origin": [0.0, 0.05, 0.0],
             "terms": ["stretch", "bend_twist", "centerline"],
         },
     },

@@ -15,7 +15,18 @@ r(s) + ρ_y(s) d1(s) + ρ_z(s) d2(s), with (ρ_y, ρ_z) = ρ(s) in metres. Three
 
 The same :class:`Routing` gives the discrete model its offsets and the Rucker–Webster
 reference (rodsim/core/analytic/tendon_bvp.py) ρ and ρ′. :func:`check_routing` validates a
-routing against its catheter (one-line SceneError).
+routing against its catheter (one-line SceneError), including the sampling rule below.
+
+Sampling: the discrete tendon path is the polygon through routing points at the catheter's
+nodes (rodsim/core/terms/tendon_string.py), so a routing that turns faster than the nodes
+sample it is aliased: a helix of pitch h (one segment per turn) is seen as a constant offset
+and bends the catheter the wrong way (catheter-helical with helix_pitch = 0.004 m at N = 41
+moved the tip 0.159 L sideways; the Rucker–Webster reference and N = 321 agree on y ≈ 0).
+:func:`check_routing` refuses a helix with fewer than :data:`SEGMENTS_PER_TURN` segments per
+turn and a table whose knots are closer than :data:`SEGMENTS_PER_KNOT` segments (a cubic
+spline's shortest wave spans two knot spacings: the same four segments per wave), naming
+the number of nodes that is enough. Measured on catheter-helical (tip error / L against the
+reference): 1 segment per turn 1.6e-1, 2: 7e-4 – 1.5e-3, 4: 1.4e-4 – 6.3e-4, 8: 6e-5 – 4e-4.
 """
 
 from __future__ import annotations
@@ -28,13 +39,21 @@ import numpy as np
 
 from rodsim.core.schema import SceneError, shown
 
-__all__ = ["ROUTINGS", "Routing", "check_routing", "string_span"]
+__all__ = ["ROUTINGS", "SEGMENTS_PER_KNOT", "SEGMENTS_PER_TURN", "Routing", "check_routing",
+           "routing_limits", "string_span"]
 
 #: The routing forms.
 ROUTINGS = ("constant", "table", "helix")
 
 #: Samples of the span on which the routing's offset is checked against the catheter.
 _CHECK_SAMPLES = 2001
+
+#: Fewest catheter segments per turn of a helical routing (module docstring, "Sampling").
+SEGMENTS_PER_TURN = 4
+
+#: Fewest catheter segments per knot spacing of a tabulated routing (two per spacing: four
+#: per the shortest wave a cubic spline through the knots can make).
+SEGMENTS_PER_KNOT = 2
 
 
 @dataclass(frozen=True)
@@ -116,10 +135,70 @@ def string_span(string: Any, length: float) -> tuple[float, float]:
     return float(string.start), float(string.end) if string.end > 0.0 else float(length)
 
 
+def _check_sampling(key: str, string: Any, length: float, nodes: int, start: float,
+                    end: float) -> None:
+    """Refuse a routing that turns faster than the catheter's ``nodes`` sample it (module
+    docstring, "Sampling"); the message names the number of nodes that is enough."""
+    segment = length / (nodes - 1)
+    if string.routing == "helix":
+        feature, per, what = abs(string.helix_pitch), SEGMENTS_PER_TURN, "turn (helix_pitch)"
+        shown_value = f"helix_pitch = {string.helix_pitch!r} m"
+    elif string.routing == "table" and len(string.table_s) > 1:
+        s = np.asarray(string.table_s, dtype=float)
+        inside = (s[1:] > start) & (s[:-1] < end)  # the knot spacings the span meets
+        if not np.any(inside):
+            return
+        feature = float(np.min(np.diff(s)[inside]))
+        per, what = SEGMENTS_PER_KNOT, "knot spacing of table_s"
+        shown_value = f"table_s has knots {feature:.6g} m apart"
+    else:
+        return
+    if segment * per <= feature * (1.0 + 1e-9):
+        return
+    enough = math.ceil(per * length / feature * (1.0 - 1e-12)) + 1
+    raise SceneError(f"{key}: {shown_value}, but the catheter's segments are "
+                     f"{segment:.6g} m long: fewer than {per} segments per {what}, so the "
+                     f"nodes alias the routing; allowed: nodes >= {enough} on this catheter, "
+                     f"or a routing that turns more slowly")
+
+
+def routing_limits(string: Any, length: float, radius: float, nodes: int
+                   ) -> dict[str, tuple[float, float, str]]:
+    """The range each number of a string tendon may take, one at a time, under the rules of
+    :func:`check_routing`: name -> (low, high, the rule), for ``start``, ``end``,
+    ``helix_radius``, ``helix_pitch`` (its hand kept), ``table_y`` and ``table_z`` (each
+    knot's offset) and the tendon table's ``offset``. ``end`` = 0 lies outside its range:
+    it names the tip, and a termination to vary is given as a number (L). What varies the
+    routing (fit, reach, a track's ramp) is bounded by these before any work;
+    :func:`check_routing` still judges each whole scene (a spline can overshoot its knots).
+    """
+    start, end = string_span(string, length)
+    room = 1e-9 * length  # strict inequalities, as closed bounds
+    wall = length if string.spacers else radius
+    where = "below the catheter's length (spacers)" if string.spacers else (
+        "inside the catheter's radius")
+    limits = {"start": (0.0, end - room, f"0 <= start < end = {end!r} m")}
+    limits["end"] = (start + room, length, f"start = {start!r} < end <= L = {length!r} m (end "
+                     "= 0 names the tip and cannot vary: give end = L)")
+    limits["offset"] = (0.0, wall * (1 - 1e-9), f"offset >= 0, {where} ({wall!r} m)")
+    limits["helix_radius"] = (1e-300, wall * (1 - 1e-9), f"helix_radius > 0, {where} "
+                              f"({wall!r} m)")
+    turn = SEGMENTS_PER_TURN * length / (nodes - 1)
+    text = (f"|helix_pitch| >= {SEGMENTS_PER_TURN} segments = {turn:.6g} m (the nodes "
+            "sample each turn), of the scene's hand")
+    limits["helix_pitch"] = ((turn, math.inf, text) if string.helix_pitch >= 0.0
+                             else (-math.inf, -turn, text))
+    for axis in ("table_y", "table_z"):
+        limits[axis] = (-wall * (1 - 1e-9), wall * (1 - 1e-9), f"|{axis}| {where} "
+                        f"({wall!r} m)")
+    return limits
+
+
 def check_routing(prefix: str, tendon: Any, string: Any, length: float,
-                  radius: float) -> None:
-    """Validate a string tendon's span and routing on a catheter of ``length`` and ``radius``
-    (raises SceneError); ``prefix`` is the tendon table's key."""
+                  radius: float, nodes: int | None = None) -> None:
+    """Validate a string tendon's span and routing on a catheter of ``length``, ``radius``
+    and ``nodes`` (None: the sampling rule is not checked) (raises SceneError); ``prefix``
+    is the tendon table's key."""
     key = f"{prefix}.tendon_string"
     start, end = string_span(string, length)
     if end > length * (1 + 1e-12):
@@ -150,6 +229,8 @@ def check_routing(prefix: str, tendon: Any, string: Any, length: float,
         if string.helix_pitch == 0.0:
             raise SceneError(f"{key}.helix_pitch = 0.0: allowed: a non-zero arc length per "
                              "turn [m] (negative: the other hand)")
+    if nodes is not None:
+        _check_sampling(key, string, length, nodes, start, end)
     routing = Routing.of(tendon.offset, tendon.direction, string)
     samples = np.linspace(start, end, _CHECK_SAMPLES)
     if string.routing == "table":

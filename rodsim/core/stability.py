@@ -43,6 +43,23 @@ parts, beyond the six nearest zero when the skew part is large (measured on rod 
 pulled at their distal ends: 2 of the 6 states with negative real eigenvalues had an
 even number there). Flutter (growing oscillations of the pseudo-dynamics) is not assessed.
 
+Neutral states. A mechanism or a rigid-body mode (a rod hung from a ball joint turns about
+its own axis for free; an unloaded one swings freely) has zero eigenvalues, which round-off
+puts on either side of zero: Cholesky certified a ball joint with no load "positive definite"
+and called a hanging rod "UNSTABLE, smallest eigenvalue 2.09e-10", the sign following the
+kernel choice. The verdict is therefore read on the diagonally scaled symmetric part
+D S D (unit diagonal, dimensionless) with a stated tolerance τ = :func:`neutral_tolerance`
+(100 n ε, n free coordinates): every eigenvalue above τ: stable; one below −τ: unstable;
+otherwise neutral, with the number of eigenvalues within τ of zero (``neutral_modes``;
+counted densely up to :data:`DENSE_LIMIT` coordinates, −1 above: not counted). Measured
+(n = 101: τ = 2.2e-12): the zero modes of ball-jointed rods at 3e-16 from static and up to
+3.0e-13 from IDA (its state a residual away from the exact equilibrium: the zero mode's
+curvature is not exactly zero there), the pendulum's swing 1.3e-7; the smallest scaled
+eigenvalue of a shipped scene 4.6e-11 (tip-on-tissue, n = 280: τ = 6.2e-12), of the others
+6e-10 and above. One more band Cholesky (of D S D − τ I) per certified verdict tells a strict
+minimum from a neutral one. The non-symmetric path (the paper's tendon coupling) is judged
+by its eigenvalues' real parts as before: no neutral state there.
+
 :func:`assess` (a model's verdict, what every run and every track step gets) does the
 factorisations in band storage straight from the Jacobian's data (rodsim/core/
 stability_band.py: the same Cholesky test; K⁻¹ for ARPACK by band LU instead of SuperLU);
@@ -65,7 +82,8 @@ from rodsim.core.stability_band import BandStiffness
 if TYPE_CHECKING:
     from rodsim.core.model import Model
 
-__all__ = ["Stability", "stiffness_stability", "assess", "eigenvalue_text", "DENSE_LIMIT"]
+__all__ = ["Stability", "stiffness_stability", "assess", "eigenvalue_text", "neutral_tolerance",
+           "DENSE_LIMIT"]
 
 #: Largest system (free coordinates) whose smallest eigenvalue is computed densely.
 DENSE_LIMIT = 2000
@@ -87,13 +105,42 @@ MAX_BAND = 256
 ARPACK_SEED = 24
 
 
+def neutral_tolerance(n: int) -> float:
+    """τ: an eigenvalue of the unit-diagonal D S D of n coordinates within τ of zero is a
+    neutral mode (module docstring, "Neutral states")."""
+    return 100.0 * n * float(np.finfo(float).eps)
+
+
 @dataclass(frozen=True)
 class Stability:
-    """The verdict: ``stable`` when K's symmetric part is positive definite; otherwise
-    ``min_eigenvalue`` is its smallest eigenvalue (NaN when it could not be computed)."""
+    """The verdict: ``stable`` when K's symmetric part is positive definite beyond the
+    neutral tolerance; otherwise ``min_eigenvalue`` is its smallest eigenvalue (NaN when it
+    could not be computed), and ``neutral_modes`` > 0 (−1: not counted) says that no
+    eigenvalue lies below −``tolerance`` but that many lie within it of zero: a neutral
+    state, neither stable nor unstable (module docstring)."""
 
     stable: bool
     min_eigenvalue: float = float("nan")
+    neutral_modes: int = 0
+    tolerance: float = float("nan")
+
+    @property
+    def neutral(self) -> bool:
+        """A mechanism or rigid-body mode: zero eigenvalues within the tolerance, none
+        below it."""
+        return not self.stable and self.neutral_modes != 0
+
+    @property
+    def unstable(self) -> bool:
+        """An eigenvalue below −tolerance (or a real part below zero): a perturbation grows."""
+        return not self.stable and self.neutral_modes == 0
+
+    @property
+    def neutral_text(self) -> str:
+        """'k zero modes within τ' for a neutral verdict."""
+        count = "zero modes" if self.neutral_modes < 0 else (
+            f"{self.neutral_modes} zero mode{'s' if self.neutral_modes != 1 else ''}")
+        return f"{count} within {self.tolerance:.2g}"
 
     @property
     def eigenvalue_text(self) -> str:
@@ -133,11 +180,16 @@ def stiffness_stability(stiffness: sp.spmatrix, width: int | None = None, *,
     entries = stiffness.tocoo()
     if width is None:
         width = int(np.max(np.abs(entries.row - entries.col)))
+    tolerance = neutral_tolerance(stiffness.shape[0])
     if not indefinite and _symmetric_part_positive_definite(entries, width):
-        return Stability(True)
+        if _symmetric_part_positive_definite(entries, width, -tolerance):
+            return Stability(True)
+        return _neutral(stiffness)
     symmetric = (0.5 * (stiffness + stiffness.T)).tocoo()
     asymmetry = abs(stiffness - stiffness.T).max()
     if asymmetry <= 1e-12 * abs(stiffness).max():
+        if _symmetric_part_positive_definite(entries, width, tolerance):
+            return _neutral(stiffness)
         return Stability(False, _smallest_eigenvalue(symmetric, width))
     real_part = _smallest_real_part(stiffness, inverse)
     if real_part > 0.0 and stiffness.shape[0] > DENSE_NONSYMMETRIC_LIMIT:
@@ -156,7 +208,8 @@ def _cholesky_succeeds(ab: np.ndarray) -> bool:
     return True
 
 
-def _symmetric_part_positive_definite(entries: sp.coo_matrix, width: int) -> bool:
+def _symmetric_part_positive_definite(entries: sp.coo_matrix, width: int,
+                                      scaled_shift: float = 0.0) -> bool:
     """Whether the Cholesky factorisation of the diagonally scaled symmetric part (K + Kᵀ)/2
     succeeds, from K's entries (no duplicates) without forming the sparse sum: its lower
     band accumulated directly, 0.5 K_ij + 0.5 K_ji (= 0.5 (K_ij + K_ji) exactly: halving is
@@ -175,7 +228,36 @@ def _symmetric_part_positive_definite(entries: sp.coo_matrix, width: int) -> boo
     for k in range(width + 1):  # entry (j + k, j): value · scale[j + k] · scale[j]
         ab[k, :n - k] = ab[k, :n - k] * scale[k:] * scale[:n - k]
         ab[k, n - k:] = 0.0
+    ab[0] += scaled_shift  # D S D + τ I (the neutral test)
     return _cholesky_succeeds(ab)
+
+
+def _scaled_symmetric(stiffness: sp.spmatrix) -> tuple[np.ndarray, np.ndarray] | None:
+    """(S, D S D) dense, or None when S has a diagonal entry that is not positive."""
+    dense = stiffness.toarray()
+    symmetric = 0.5 * (dense + dense.T)
+    diagonal = np.diag(symmetric)
+    if np.any(diagonal <= 0.0) or not np.all(np.isfinite(symmetric)):
+        return None
+    scale = 1.0 / np.sqrt(diagonal)
+    return symmetric, symmetric * scale[:, None] * scale[None, :]
+
+
+def _neutral(stiffness: sp.spmatrix) -> Stability:
+    """The neutral verdict of a K whose D S D has no eigenvalue below −τ and one within τ
+    of zero: the count of those (dense up to DENSE_LIMIT, else −1) and S's smallest
+    eigenvalue."""
+    n = stiffness.shape[0]
+    tolerance = neutral_tolerance(n)
+    if n > DENSE_LIMIT:
+        return Stability(False, float("nan"), -1, tolerance)
+    parts = _scaled_symmetric(stiffness)
+    if parts is None:
+        return Stability(False, float("nan"), -1, tolerance)
+    symmetric, scaled = parts
+    count = int(np.sum(np.abs(la.eigvalsh(scaled)) <= tolerance))
+    smallest = float(la.eigvalsh(symmetric, subset_by_index=[0, 0])[0])
+    return Stability(False, smallest, max(count, 1), tolerance)
 
 
 def _smallest_eigenvalue(symmetric: sp.coo_matrix, width: int) -> float:
@@ -304,11 +386,15 @@ def assess(model: Model, x: np.ndarray,
     K's ``min_eigenvalue`` is then its smallest real part where the certificate gives
     NaN."""
     solve = None if factored is None else factored[1]
-    if getattr(solve, "proves_stable", False):  # −J's band Cholesky: K is positive definite
-        return Stability(True)
     band = model.band
     width = max(band.lower, band.upper)
     banded = _band_of(model)
+    tolerance = neutral_tolerance(model.n)
+    if getattr(solve, "proves_stable", False):  # −J's band Cholesky: K is positive definite
+        assert factored is not None
+        if banded is None or banded.certified(factored[0], scaled_shift=-tolerance):
+            return Stability(True)
+        return _neutral(-model.pattern_matrix(factored[0]))  # but not beyond τ
     data = model.jacobian_data(x) if factored is None else factored[0]
     if banded is None:
         return stiffness_stability(-model.pattern_matrix(data), width)
@@ -316,7 +402,9 @@ def assess(model: Model, x: np.ndarray,
                and banded.asymmetry(data) > 1e-12)
     if not nearest:
         if banded.certified(data):
-            return Stability(True)
+            if banded.certified(data, scaled_shift=-tolerance):
+                return Stability(True)
+            return _neutral(-model.pattern_matrix(data))
         if banded.asymmetry(data) <= 1e-12 or model.n <= DENSE_NONSYMMETRIC_LIMIT:
             return stiffness_stability(-model.pattern_matrix(data), width, indefinite=True)
     inverse: Callable[[np.ndarray], np.ndarray] | None

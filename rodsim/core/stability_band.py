@@ -90,16 +90,21 @@ class BandStiffness:
         return (self._cols * self._lu_rows
                 + (self.lower + self.upper + self._rows - self._cols))
 
-    def certified(self, jacobian: np.ndarray, shift: float = 0.0) -> bool:
+    def certified(self, jacobian: np.ndarray, shift: float = 0.0,
+                  scaled_shift: float = 0.0) -> bool:
         """Whether the scaled symmetric part of K = −J (``jacobian``: J's CSC data) is
         positive definite (its band Cholesky succeeds): K is then stable. With ``shift``
         σ: whether S + σ I is (D (S + σ I) D = D S D + σ D², D² = 1 / diag S), i.e. every
-        eigenvalue of S is above −σ."""
+        eigenvalue of S is above −σ; with ``scaled_shift`` τ: whether D S D + τ I is (every
+        eigenvalue of the unit-diagonal D S D above −τ: the neutral test of
+        rodsim/core/stability.py)."""
         ab = self._scaled_band(jacobian)
         if ab is None:
             return False
         if shift:
             ab[0] += shift / -jacobian[self._diagonal]
+        if scaled_shift:
+            ab[0] += scaled_shift
         _, info = lapack.dpbtrf(ab, lower=1, overwrite_ab=1)
         return info == 0
 

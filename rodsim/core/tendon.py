@@ -247,7 +247,8 @@ def _check_string(name: str, options: Any, rods: Mapping[str, Mapping[str, Any]]
         raise SceneError(f"{prefix}.direction = {options.direction!r}: d_t has zero length; "
                          "allowed: any non-zero (α, β)")
     host = RodOptions.of(rods[catheter])
-    check_routing(prefix, options, term_options["tendon_string"], host.length, host.radius)
+    check_routing(prefix, options, term_options["tendon_string"], host.length, host.radius,
+                  host.nodes)
 
 
 def tendon_origin(catheter: Rod, options: TendonOptions) -> np.ndarray:

@@ -22,7 +22,7 @@ from rodsim.solvers.result import Result
 if TYPE_CHECKING:
     import xarray as xr
 
-__all__ = ["FRICTION_HISTORY", "contact_variables", "run_content", "run_dataset",
+__all__ = ["FRICTION_HISTORY", "contact_variables", "run_content", "run_dataset", "self_crossings",
            "step_coordinate", "tension_coordinates", "tension_variable"]
 
 #: The history a solve from rest assumes for tendon friction (rodsim/core/tendon_friction.py).
@@ -146,6 +146,19 @@ def step_coordinate(steps: int, long_name: str = "integrator step") -> dict[str,
                      {"units": "1", "long_name": long_name})}
 
 
+def self_crossings(result: Result) -> list[str]:
+    """One line per rod of ``result`` that passes through itself
+    (rodsim/core/self_crossing.py)."""
+    from rodsim.core.self_crossing import self_crossing
+
+    lines = []
+    for name, rod in result.rods.items():
+        found = self_crossing(rod.positions, float(result.scene.data["rods"][name]["radius"]))
+        if found is not None:
+            lines.append(found.text(name))
+    return lines
+
+
 def _attributes(result: Result) -> dict[str, Any]:
     attrs: dict[str, Any] = {
         "title": f"rodsim run of scene {result.scene.name!r} with the {result.integrator} "
@@ -167,6 +180,12 @@ def _attributes(result: Result) -> dict[str, Any]:
     if result.stability is not None:
         attrs["stable"] = int(result.stability.stable)
         attrs["stiffness_min_eigenvalue"] = float(result.stability.min_eigenvalue)
+        if result.stability.neutral:  # rodsim/core/stability.py, "Neutral states"
+            attrs["stiffness_neutral_modes"] = int(result.stability.neutral_modes)
+            attrs["stiffness_neutral_tolerance"] = float(result.stability.tolerance)
+    crossings = self_crossings(result)
+    if crossings:  # rodsim/core/self_crossing.py: no self-contact, so flagged
+        attrs["self_crossing"] = "; ".join(crossings)
     if result.penalty_error is not None:
         attrs["penalty_error"] = float(result.penalty_error)
     if result.tendon_compression:

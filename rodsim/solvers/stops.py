@@ -24,13 +24,17 @@ from __future__ import annotations
 import math
 from abc import ABC, abstractmethod
 from dataclasses import dataclass, field
-from typing import Any, ClassVar, Protocol
+from typing import TYPE_CHECKING, Any, ClassVar, Protocol
 
 import numpy as np
 
+from rodsim.core.contact_depth import depth_failure
 from rodsim.solvers.outcome import Outcome
 from rodsim.solvers.recorder import SaveAt, increasing_times
 from rodsim.solvers.tolerance import CORRECTION_TOLERANCE
+
+if TYPE_CHECKING:
+    from rodsim.core.model import Model
 
 __all__ = ["Stop", "Equilibrium", "Until", "Verdict"]
 
@@ -40,6 +44,7 @@ class Run(Protocol):
 
     tolerance: float
     note: str
+    model: Model
 
     def at_equilibrium(self, residual: float) -> bool: ...
 
@@ -118,13 +123,18 @@ class Equilibrium(Stop):
             if not integrator.verified(run, verified):
                 success = False
                 advice = advice or integrator.advice(run)
+        depth = depth_failure(run.model, x) if success else None
+        if depth is not None:  # an equilibrium of the penalty, not of the rigid wall
+            success, outcome_note = False, depth
+        else:
+            outcome_note = ""
         if success and run.note:
             message = f"{message}; {run.note}"
         tolerance = run.tolerance
         if not success:
             if outcome.success and not finite:
                 message = "final state is not finite"
-            elif outcome.success and run.at_equilibrium(residual):
+            elif outcome.success and run.at_equilibrium(residual) and not outcome_note:
                 message = (f"the state it returned is not an equilibrium: evaluated afresh on "
                            f"the full-penalty model, its force residual is {verified[0]:.3g} "
                            f"(tolerance {tolerance:.3g}; its own test found "
@@ -132,6 +142,9 @@ class Equilibrium(Stop):
                            f"equilibrium / the load's displacement) {verified[1]:.3g} "
                            f"(tolerance {max(tolerance, CORRECTION_TOLERANCE):.3g})")
                 residual = verified[0]
+            elif outcome.success and outcome_note:
+                message = outcome_note
+                advice = "the state is not a contact with a rigid wall"
             elif outcome.success:
                 message = (f"stopped with residual {residual:.3g} above the tolerance "
                            f"{tolerance:.3g}")

@@ -124,6 +124,10 @@ def stability_text(stability: Stability) -> str:
     """The summary line of a :class:`~rodsim.core.stability.Stability` verdict."""
     if stability.stable:
         return "stability   stable (the stiffness K = -dF/dx is positive definite)"
+    if stability.neutral:
+        return (f"stability   neutral: {stability.neutral_text} (eigenvalues of the "
+                "diagonally scaled stiffness; none below): a mechanism or a rigid-body mode, "
+                "the state is not unique (e.g. a rod free to turn about a ball joint)")
     return (f"warning     UNSTABLE equilibrium: the stiffness K = -dF/dx is not positive "
             f"definite ({stability.eigenvalue_text}); a small "
             "perturbation leaves it (e.g. a compressed rod past its buckling load)")

@@ -58,6 +58,10 @@ class Fit(SceneCommand):
         print_trust(result.result)
 
     def verdict(self, result: Any) -> int:
+        if result.undetermined:
+            print(f"rodsim: fit undetermined: {result.undetermined_text}; archived, flagged "
+                  "(attribute 'undetermined')", file=sys.stderr)
+            return EXIT_SOLVER_FAILURE
         if not result.stable:
             print("rodsim: the fitted equilibrium is UNSTABLE (its stiffness is not positive "
                   "definite): the best fit is not a shape the rod keeps; archived, flagged "

@@ -158,8 +158,11 @@ def write_with_figure(dataset: Any, output: Path, stem: str) -> None:
 def print_trust(result: Any) -> None:
     """Print a result's penalty-error estimate and compression check, stored on it for its
     archive (rodsim/app/trust.py)."""
+    from rodsim.app.contact_report import contact_warnings
     from rodsim.app.trust import assess, compression_text
 
     print(assess(result).text())
     if result.tendon_compression:
         print(compression_text(result.tendon_compression))
+    for line in contact_warnings(result):
+        print(line)

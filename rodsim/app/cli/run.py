@@ -66,10 +66,15 @@ class Run(SceneCommand):
         print(self.estimate.text())
         if result.tendon_compression:
             print(compression_text(result.tendon_compression))
+        from rodsim.app.contact_report import contact_warnings
+
+        for line in contact_warnings(result):
+            print(line)
 
     def verdict(self, result: Any) -> int:
         if self.args.require_stable and not result.stability.stable:
-            print("rodsim: the equilibrium is unstable (--require-stable)", file=sys.stderr)
+            kind = "neutral" if result.stability.neutral else "unstable"
+            print(f"rodsim: the equilibrium is {kind} (--require-stable)", file=sys.stderr)
             return EXIT_SOLVER_FAILURE
         if self.args.require_physical and result.tendon_compression:
             print("rodsim: a tendon is in compression (--require-physical)", file=sys.stderr)

@@ -72,8 +72,8 @@ class Track(SceneCommand):
                   f"{eigenvalue_text(result.min_eigenvalues[unstable[0]])}); flagged in the "
                   "archive")
         else:
-            print("stability   stable at every step (the stiffness K = -dF/dx is positive "
-                  "definite)")
+            print("stability   no unstable step (the stiffness K = -dF/dx positive definite, "
+                  "or neutral: zero modes within its tolerance)")
         dead = result.dead_zone_steps
         if result.tension:
             print("dead zone   " + (f"{len(dead)} of {result.steps} steps (first: step "

@@ -35,6 +35,7 @@ from rodsim.app.inverse.parameter_keys import NumericKey, scene_with
 from rodsim.app.inverse.sensitivity import equilibrium_sensitivity, registered_model
 from rodsim.core.model import Model
 from rodsim.core.scene import Scene
+from rodsim.core.schema import SceneError
 from rodsim.solvers import DEFAULT_INTEGRATOR, integrator_named, registered_integrators
 from rodsim.solvers.base import RunState
 from rodsim.solvers.result import Result
@@ -223,6 +224,12 @@ class ScaledEquilibria:
         from rodsim.app.api import solve
 
         initial = np.array([k.value(scene) for k in keys])
+        for key, value in zip(keys, initial, strict=True):  # before any work
+            low, high = key.bounds()
+            if not low <= value <= high:
+                raise SceneError(f"{key.name} = {value:g}: the scene's value, where the search "
+                                 f"starts, is outside the range it may take; allowed: "
+                                 f"{key.allowed}")
         scale = np.where(initial != 0.0, np.abs(initial), 1.0)
         lower, upper = np.array([k.bounds() for k in keys]).T / scale
         started = time.perf_counter()

@@ -5,7 +5,11 @@ A key is any ``--set``-style key of a numeric scene value (a full dotted key or 
 unambiguous suffix: ``K_E``, ``tip_load.mass``, ``rods.catheter.youngs_modulus``, the base
 support's ``insertion`` and ``rotation``), or one
 component of a vector value as ``KEY[i]`` (``origin[1]``, ``tip_load.force[0]``). Each key
-carries its schema declaration (unit, allowed range), which gives the bounds of a fit.
+carries its schema declaration (unit, allowed range), which gives the bounds of a fit,
+narrowed for a string tendon's numbers by the routing rules (rodsim/core/routing.py,
+``routing_limits``: an end past the tip, a start after the end, routing outside the catheter,
+a helix the nodes alias), so that a track, a fit or a reach never asks for a scene that
+``run`` refuses.
 
 Refused, with a one-line :class:`~rodsim.core.schema.SceneError`: solver settings (they do not
 change the equilibrium), integer values (``nodes`` changes the discretisation: the state has
@@ -40,6 +44,8 @@ class NumericKey:
     path: str
     index: int | None
     parameter: Parameter
+    #: (low, high, the rule) from the rules across tables, or None (the declaration alone).
+    limits: tuple[float, float, str] | None = None
 
     @property
     def name(self) -> str:
@@ -61,7 +67,39 @@ class NumericKey:
         if self.parameter.exclusive_minimum:
             low = low + max(abs(low) * 1e-9, 1e-300)
         high = math.inf if self.parameter.maximum is None else float(self.parameter.maximum)
+        if self.limits is not None:
+            low, high = max(low, self.limits[0]), min(high, self.limits[1])
         return low, high
+
+    @property
+    def allowed(self) -> str:
+        """The allowed values in words: the declaration's, and the rule's where one narrows
+        it."""
+        if self.limits is None:
+            return self.parameter.allowed
+        return f"{self.parameter.allowed}; and {self.limits[2]}"
+
+    @property
+    def routing(self) -> bool:
+        """Whether the value takes part in a string tendon's routing rules."""
+        return self.limits is not None
+
+
+def _routing_limits(scene: Scene, path: str) -> tuple[float, float, str] | None:
+    """The routing rule's range of a string tendon's number at ``path`` (None for others)."""
+    from rodsim.core.routing import routing_limits
+
+    parts = path.split(".")
+    if parts[0] != "tendons" or scene.tendons[parts[1]].coupling != "string":
+        return None
+    name = parts[-1] if len(parts) == 3 or parts[2] == "tendon_string" else None
+    if name is None:
+        return None
+    rod = scene.rods[scene.tendons[parts[1]].catheter]
+    string = scene.term_options("tendons", parts[1], "tendon_string")
+    if name == "offset" and string.routing != "constant":
+        return None
+    return routing_limits(string, rod.length, rod.radius, rod.nodes).get(name)
 
 
 def _schema(path: str) -> Parameter | None:
@@ -120,7 +158,7 @@ def numeric_key(scene: Scene, key: str) -> NumericKey:
         raise SceneError(f"{shown(key, bare=True)}: {path} is not a number ({parameter.allowed})")
     elif index is not None:
         raise SceneError(f"{shown(key, bare=True)}: {path} is a number, not a vector")
-    return NumericKey(path, index, parameter)
+    return NumericKey(path, index, parameter, _routing_limits(scene, path))
 
 
 def numeric_keys(scene: Scene, keys: Sequence[str]) -> list[NumericKey]:
@@ -144,6 +182,8 @@ def _local(key: NumericKey) -> bool:
     """Whether the value of ``key`` is validated by its declaration alone (no cross-check;
     a base support's insertion and rotation are: the model places the rod from them)."""
     parts = key.path.split(".")
+    if key.routing:
+        return False
     return len(parts) == 4 or (parts[0] == "rods" and parts[-1] in _LOCAL_ROD_VALUES)
 
 

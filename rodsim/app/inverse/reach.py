@@ -266,7 +266,7 @@ def reach(scene: Scene, tip: Sequence[float], actuate: Sequence[str], *,
     assert stability is not None  # ScaledEquilibria.result assesses its equilibrium
     reached = final.tip(rod)
     distance = float(np.linalg.norm(reached - target))
-    unstable = not stability.stable
+    unstable = stability.unstable
     success = distance <= tolerance and not unstable
     angle, turned = None, ""
     if frame is not None:

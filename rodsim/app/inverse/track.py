@@ -295,7 +295,8 @@ def _check_rules_across_tables(scene: Scene, keys: Sequence[NumericKey],
     """The rules across tables (radius < length, a tendon's length its catheter's, a lumen
     offset inside the radii) checked before any work, at the first and last steps and at each
     ramped value's smallest and largest (each rule compares values monotonically, so a ramp
-    that breaks one breaks it at one of these); a break is blamed on the ramp that caused it,
+    that breaks one breaks it at one of these; a string tendon's routing, whose spline can
+    overshoot its knots, at every distinct step); a break is blamed on the ramp that caused it,
     not on the scene's value it made invalid (issue 23: found only at that step, after the
     earlier steps' work, and blamed on a value the user never gave)."""
     from rodsim.app.inverse.parameter_keys import _local
@@ -305,11 +306,16 @@ def _check_rules_across_tables(scene: Scene, keys: Sequence[NumericKey],
         return
     rows = sorted({0, len(values) - 1, *np.argmin(values, axis=0).tolist(),
                    *np.argmax(values, axis=0).tolist()})
-    for row in rows:
+    if any(key.routing for key in keys):  # a spline's overshoot is not monotone: every step
+        rows = np.unique(values, axis=0, return_index=True)[1].tolist()
+    for row in sorted(rows):
         try:
             scene_with(scene, keys, values[row])
         except SceneError as exc:
             found = cross_table_culprit(exc, [key.path for key in keys if key.index is None])
+            if found is None and any(key.routing for key in keys):
+                raise SceneError(f"--ramp at step {row} ({values_text(keys, values[row])}): "
+                                 f"{exc}") from None
             if found is None:
                 raise
             column = next(k for k, key in enumerate(keys) if key.path == found[0])
@@ -342,7 +348,7 @@ def track(scene: Scene, ramps: Mapping[str, Sequence[float] | np.ndarray],
         outside = (values[:, column] < low) | (values[:, column] > high)
         if np.any(outside):
             raise SceneError(f"{key.name} = {values[outside, column][0]:g}: out of range; "
-                             f"allowed: {key.parameter.allowed}")
+                             f"allowed: {key.allowed}")
     _check_rules_across_tables(scene, keys, values)
     started = time.perf_counter()
     budget = float(scene.solver.max_wall_time)

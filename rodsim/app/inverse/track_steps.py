@@ -56,11 +56,12 @@ def record_contact(out: TrackRecord, model: Model) -> None:
 def record_stability(out: TrackRecord, step: int, stability: Stability,
                      allow_unstable: bool) -> bool:
     """Append the verdict of ``step``; False (and the track stopped) when it is unstable
-    and unstable steps are not allowed."""
-    out.stable.append(bool(stability.stable))
-    out.min_eigenvalues.append(float("nan") if stability.stable
+    and unstable steps are not allowed (a neutral step, rodsim/core/stability.py, is not
+    unstable: it is recorded as stable)."""
+    out.stable.append(not stability.unstable)
+    out.min_eigenvalues.append(float("nan") if not stability.unstable
                                else float(stability.min_eigenvalue))
-    if stability.stable or allow_unstable:
+    if not stability.unstable or allow_unstable:
         return True
     out.success, out.unstable_step = False, step
     out.message = (f"step {step} ({values_text(out.keys, out.values[step])}) is an unstable "

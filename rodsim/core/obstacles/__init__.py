@@ -28,11 +28,15 @@ import numpy as np
 from rodsim.core.names import check_rod_name
 from rodsim.core.schema import Parameter, SceneError, shown, validate_table
 
-__all__ = ["Obstacle", "OBSTACLES", "COMMON_PARAMETERS", "registered_obstacles",
+__all__ = ["Obstacle", "OBSTACLES", "COMMON_PARAMETERS", "DEPTH_LIMIT", "registered_obstacles",
            "resolve_obstacles", "build_obstacle"]
 
 #: Every defined obstacle class, by ``type``.
 OBSTACLES: dict[str, type[Obstacle]] = {}
+
+#: Deepest penetration p of a node's sphere into a rigid obstacle for which the penalty law
+#: is taken as a rigid contact, in rod radii (rodsim/core/contact_depth.py).
+DEPTH_LIMIT = 0.1
 
 #: Kernel codes of the obstacle kinds (rodsim/core/kernels/contact.py).
 PLANE, SPHERE, TUBE = 0, 1, 2
@@ -149,6 +153,7 @@ def resolve_obstacles(raw: Any, rods: Mapping[str, Mapping[str, Any]],
         raise SceneError("obstacles: expected tables [obstacles.<name>]")
     types = registered_obstacles()
     out: dict[str, Any] = {}
+    held: list[tuple[Obstacle, str, str]] = []  # checked after the free space
     for name, table in raw.items():
         prefix = f"obstacles.{check_rod_name(name, 'obstacles')}"
         if not isinstance(table, Mapping):
@@ -192,5 +197,69 @@ def resolve_obstacles(raw: Any, rods: Mapping[str, Mapping[str, Any]],
                     raise SceneError(f"{prefix}: rod {rod!r} starts outside the vessel: its "
                                      f"base (s = 0) at ({where}) m is {-phi:.3g} m beyond "
                                      "the wall")
+            if not obstacle.encloses:
+                held.append((obstacle, prefix, rod))
         out[name] = resolved
+    _check_free_space(out, rods)
+    for obstacle, prefix, rod in held:
+        _check_held_outside(obstacle, prefix, rod, rods[rod])
     return out
+
+
+def _held_points(table: Mapping[str, Any]) -> list[tuple[str, np.ndarray]]:
+    """(what, rest position) of each node a resolved rod table holds in place: its base
+    (clamps 'frame' and 'first_segment') and its node supports, on the straight rest shape
+    along +x (rodsim/core/supports.py)."""
+    from rodsim.core.supports import node_at
+
+    base = table.get("base") or {}
+    origin = np.asarray(table["origin"], dtype=float) + np.array(
+        [float(base.get("insertion", 0.0)), 0.0, 0.0])
+    out = []
+    if table["clamp"] in ("frame", "first_segment"):
+        out.append(("its base (s = 0)", origin))
+    length, nodes = float(table["length"]), int(table["nodes"])
+    for name, support in (table.get("supports") or {}).items():
+        node = node_at(nodes, length, float(support["s"]))
+        place = origin + np.array([node * length / (nodes - 1), 0.0, 0.0]) + np.asarray(
+            support.get("displacement", (0.0, 0.0, 0.0)), dtype=float)
+        out.append((f"its support {name!r} (s = {float(support['s']):.6g} m)", place))
+    return out
+
+
+def _check_held_outside(obstacle: Obstacle, prefix: str, rod: str,
+                        table: Mapping[str, Any]) -> None:
+    """SceneError when a node the rod holds in place lies deeper inside a solid obstacle
+    than the contact law's validity (rodsim/core/contact_depth.py): it cannot leave, and the
+    penalty pushes on it for ever (a rod based inside a plane, a support driving the tip
+    into one)."""
+    radius = float(table["radius"])
+    for what, point in _held_points(table):
+        depth = (radius - float(obstacle.gap(point[None, :])[0][0])) / radius
+        if depth > DEPTH_LIMIT:
+            where = ", ".join(f"{v:.6g}" for v in point)
+            raise SceneError(f"{prefix}: rod {rod!r} holds {what} at ({where}) m, "
+                             f"{depth:.3g} radii inside the obstacle; allowed: held nodes "
+                             f"outside it (at most {DEPTH_LIMIT:g} radii in, the contact "
+                             "law's validity, docs/contact.md)")
+
+
+def _check_free_space(obstacles: Mapping[str, Mapping[str, Any]],
+                      rods: Mapping[str, Mapping[str, Any]]) -> None:
+    """SceneError when two planes facing each other on one rod leave it no room: their free
+    half-spaces overlap by less than the rod's diameter."""
+    planes = [(name, table) for name, table in obstacles.items() if table["type"] == "plane"]
+    for i, (first, a) in enumerate(planes):
+        for second, b in planes[i + 1:]:
+            na = np.asarray(a["normal"], float) / np.linalg.norm(a["normal"])
+            nb = np.asarray(b["normal"], float) / np.linalg.norm(b["normal"])
+            if na @ nb > -1.0 + 1e-9:
+                continue  # not facing each other: the free space is unbounded
+            width = float(na @ (np.asarray(b["point"], float) - np.asarray(a["point"], float)))
+            for rod in set(a["rods"]) & set(b["rods"]):
+                diameter = 2.0 * float(rods[rod]["radius"])
+                if width < diameter:
+                    raise SceneError(f"obstacles.{first} and obstacles.{second}: facing planes "
+                                     f"{width:.6g} m apart leave rod {rod!r} (diameter "
+                                     f"{diameter:.6g} m) no free space; allowed: planes "
+                                     "farther apart than the rod is thick")
