@@ -1,17 +1,19 @@
-"""How far to trust a result: an a-posteriori estimate of its penalty error (docs/model.md,
-"The penalty-error estimate").
+"""How far to trust a result: an a-posteriori estimate of its penalty error, beside its
+discretisation error (rodsim/app/discretisation.py), and the tendon-compression check
+(docs/model.md, "The error estimates every result carries").
 
-Every penalty term (centerline K_P, lumen K_L, endpoint compliance K_E, endpoint coupling K_C,
-joint K_J) holds a constraint only to within force/K, so an equilibrium x(K) differs from the
-constrained one x(∞) by an error that, for stiff enough penalties, falls as 1/K:
-x(K) ≈ x(∞) + c/K. One warm Newton solve with every penalty constant ×f from the converged
-state gives x(fK), and
+Every constraint penalty (a term's :attr:`~rodsim.core.terms.base.Term.constraint_constant`:
+centerline K_P, lumen K_L, joint K_J, an obstacle's contact stiffness; not the paper's
+fitted endpoint springs K_E, K_C, which are physics) holds a constraint only to within
+force/K, so an equilibrium x(K) differs from the constrained one x(∞) by an error that, for
+stiff enough penalties, falls as 1/K: x(K) ≈ x(∞) + c/K. One warm Newton solve with every
+such constant ×f from the converged state gives x(fK), and
 
     x(K) − x(∞) ≈ (x(K) − x(fK)) · f / (f − 1),
 
 reported as the largest distance over every control point of every rod, in units of the
 longest rod's length L. Checked against the change a 100× stiffer solve makes on the user
-scene and the random family (tests/test_user_robot.py).
+scene and the random family (tests/test_user_robot.py, tests/test_error_estimates.py).
 """
 
 from __future__ import annotations
