@@ -255,3 +255,37 @@ def test_ablation_run_warns_to_raise_the_nodes(tmp_path, capsys):
 
     line = DiscretisationError(4e-3, 1.2, 2.0, {"catheter": 121}).text()
     assert "warning" in line and "nodes" in line
+
+
+def pinned(nodes: int, node: int) -> dict:
+    """A soft rod under a tip force, held at node ``node`` of ``nodes`` (moved 1 cm)."""
+    length, radius, young = 0.3, 1.5e-3, 2e7
+    bending = young * math.pi * radius**4 / 4
+    return {"name": "pinned", "rods": {"rod": {
+        "length": length, "radius": radius, "youngs_modulus": young, "density": 1200.0,
+        "nodes": nodes, "terms": ["stretch", "bend_twist", "centerline", "tip_load"],
+        "tip_load": {"force": [0.0, 1.5 * bending / length**2, 0.0]},
+        "supports": {"pin": {"s": node * length / (nodes - 1),
+                             "displacement": [0.0, 0.01, 0.0]}}}}}
+
+
+def test_a_support_off_the_half_count_nodes_takes_other_coarse_counts():
+    """Held at node 15 of 41 (s = 15 L/40: off every node of 21): the coarse solves take the
+    nearest counts that keep the support on a node (17 and 25 nodes), and the estimate
+    meets the truth."""
+    result = rodsim.solve(pinned(41, 15), "static")
+    assert result.success, result.message
+    estimate = discretisation_error(result)
+    assert sorted(round(ratio, 3) for ratio, _ in estimate.levels) == [1.667, 2.5]
+    error, truth = check_against_truth(result)
+    assert truth > FLOOR
+
+
+def test_a_support_no_coarser_count_holds_gives_no_estimate_and_says_so():
+    """Held at node 7 of 21: no coarser rod has a node at 7 L/20, so there is no estimate
+    (NaN) and the summary line says why and warns."""
+    result = rodsim.solve(pinned(21, 7), "static")
+    assert result.success, result.message
+    estimate = discretisation_error(result)
+    assert np.isnan(estimate.error) and estimate.warning
+    assert "unavailable" in estimate.text() and "between two nodes" in estimate.text()

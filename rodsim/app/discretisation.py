@@ -53,6 +53,9 @@ BUDGET_FLOOR = 60.0
 #: their mean is reported, never below half the larger (docs/model.md).
 RATIOS = (2.0, 1.5)
 
+#: How many coarse node counts are tried per ratio when the scene refuses one.
+ATTEMPTS = 8
+
 #: The fewest nodes a coarse rod may have (the schema's minimum, rodsim/core/rod/rod.py).
 MIN_NODES = 3
 
@@ -79,6 +82,8 @@ class DiscretisationError:
     reason: str = ""
     #: (r, estimate in units of L) of each coarse solve made.
     levels: tuple[tuple[float, float], ...] = ()
+    #: True when the coarse scene was refused (e.g. a support no longer on a node).
+    refused: bool = False
 
     @property
     def order(self) -> float:
@@ -110,20 +115,34 @@ def coarser_nodes(nodes: int, ratio: float = 2.0) -> int:
     return max(MIN_NODES, int(np.floor((nodes - 1) / ratio + 0.5)) + 1)
 
 
-def coarser_scene(scene: Scene, target: float = 2.0) -> tuple[dict[str, Any], dict[str, int],
-                                                                float]:
-    """The resolved scene dict with every rod at :func:`coarser_nodes` for ``target``, the
+def coarser_scene(scene: Scene, target: float = 2.0,
+                  attempt: int = 0) -> tuple[dict[str, Any], dict[str, int], float]:
+    """The resolved scene dict with every rod at about 1/``target`` of its segments, the
     coarse node counts and the smallest ratio r of coarse to fine segment length over the
-    rods."""
+    rods. ``attempt`` k takes each rod's k-th count by closeness to :func:`coarser_nodes`
+    among those with a ratio in [1.25, 2.6] (a support must stay on a node: the next
+    attempt when a scene is refused)."""
     data = copy.deepcopy(scene.data)
     nodes: dict[str, int] = {}
     ratio = np.inf
     for name, table in data.get("rods", {}).items():
         fine = int(table["nodes"])
-        nodes[name] = coarser_nodes(fine, target)
+        nodes[name] = _candidates(fine, target)[attempt] if attempt else coarser_nodes(fine,
+                                                                                     target)
         table["nodes"] = nodes[name]
         ratio = min(ratio, (fine - 1) / (nodes[name] - 1))
     return data, nodes, float(ratio)
+
+
+def _candidates(fine: int, target: float) -> list[int]:
+    """Coarse node counts of a rod of ``fine`` nodes, closest to 1/``target`` of its segments
+    first, with ratios in [1.25, 2.6] (the nearest one alone when none is); repeated to
+    :data:`ATTEMPTS` entries."""
+    best = coarser_nodes(fine, target)
+    counts = sorted((m for m in range(MIN_NODES, fine) if 1.25 <= (fine - 1) / (m - 1) <= 2.6),
+                    key=lambda m: (abs(m - best), m))
+    counts = counts or [best]
+    return [counts[min(k, len(counts) - 1)] for k in range(ATTEMPTS)]
 
 
 def discretisation_error(result: Result, model: Model | None = None) -> DiscretisationError:
@@ -137,10 +156,16 @@ def discretisation_error(result: Result, model: Model | None = None) -> Discreti
     started = time.process_time()
     made: list[DiscretisationError] = []
     for target in RATIOS:
-        data, nodes, ratio = coarser_scene(result.scene, target)
-        if ratio <= 1.0 or any(level.ratio == ratio for level in made):
+        for attempt in range(ATTEMPTS):
+            data, nodes, ratio = coarser_scene(result.scene, target, attempt)
+            if ratio <= 1.0 or any(level.ratio == ratio for level in made):
+                level = None
+                break
+            level = _level(result, data, nodes, ratio, length)
+            if not level.refused:
+                break
+        if level is None:
             continue
-        level = _level(result, data, nodes, ratio, length)
         if not np.isfinite(level.error):
             return replace(level, cpu_time=time.process_time() - started)
         made.append(level)
@@ -166,7 +191,7 @@ def _level(result: Result, data: dict[str, Any], nodes: dict[str, int], ratio: f
         coarse_scene = load_scene(data)
     except SceneError as exc:
         return DiscretisationError(float("nan"), length, ratio, nodes, reason=(
-            f"the scene at {counts} nodes is refused: {exc}"))
+            f"the scene at {counts} nodes is refused: {exc}"), refused=True)
     coarse_model = Model(coarse_scene)
     coarse = solve(coarse_scene, DEFAULT_INTEGRATOR, model=coarse_model,
                    initial_state=warm_state(result, coarse_model))
