@@ -289,3 +289,24 @@ def test_a_support_no_coarser_count_holds_gives_no_estimate_and_says_so():
     estimate = discretisation_error(result)
     assert np.isnan(estimate.error) and estimate.warning
     assert "unavailable" in estimate.text() and "between two nodes" in estimate.text()
+
+
+def test_an_archive_with_a_negative_or_text_estimate_is_refused(tmp_path):
+    """The archive contract checks the estimates it carries (rodsim/io/archive_schema.py)."""
+    from rodsim.io.archive import write_dataset
+    from rodsim.io.archive_schema import ArchiveSchemaError, check_archive
+    from rodsim.io.run_dataset import run_dataset
+
+    result = rodsim.solve("tdcr-two-segment", "static")
+    assess(result)
+    ds = run_dataset(result)
+    check_archive(ds)
+    write_dataset(ds, tmp_path / "ok.nc")
+    for value in (-1e-3, "small"):
+        bad = ds.copy()
+        bad.attrs["discretisation_error"] = value
+        with pytest.raises(ArchiveSchemaError, match="discretisation_error"):
+            check_archive(bad)
+    nan = ds.copy()
+    nan.attrs["penalty_error"] = float("nan")
+    check_archive(nan)
