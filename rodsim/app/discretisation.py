@@ -24,7 +24,6 @@ from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
-from scipy.interpolate import CubicSpline
 
 from rodsim.core.model import Model
 from rodsim.core.scene import Scene, SceneError
@@ -180,6 +179,8 @@ def discretisation_error(result: Result, model: Model | None = None) -> Discreti
 def _level(result: Result, data: dict[str, Any], nodes: dict[str, int], ratio: float,
            length: float) -> DiscretisationError:
     """The Richardson estimate from one coarse solve of the scene ``data``."""
+    from scipy.interpolate import CubicSpline  # when used: docs/benchmarks.md, "Start-up"
+
     from rodsim.app.api import load_scene, solve
 
     # its own budget: never more than the scene's, nor above twice the run (a floor at least)
@@ -218,6 +219,8 @@ def warm_state(result: Result, coarse: Model) -> np.ndarray:
     positions at the coarse nodes' arc lengths and quaternions at the coarse segments'
     midpoints, by cubic splines in s (quaternions made of one sign along the rod first, then
     normalised); fixed coordinates from the coarse model's rest state."""
+    from scipy.interpolate import CubicSpline  # when used: docs/benchmarks.md, "Start-up"
+
     full = coarse.rest_full.copy()
     for name, rod in coarse.rods.items():
         shape = result.rods[name]
