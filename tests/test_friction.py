@@ -196,7 +196,7 @@ def test_a_tracks_last_step_is_assessed_with_its_own_anchors():
     assert last is not None
     assert np.max(np.abs(last.state - path.states[-1][free])) < 1e-12 * LENGTH
     estimate = assess(last, model=path.last_model)
-    assert np.isfinite(estimate.error) and estimate.error < 1e-6
+    assert np.isfinite(estimate.penalty.error) and estimate.penalty.error < 1e-6
     rest_anchors = Model(path.last_model.scene)
     assert np.max(np.abs(rest_anchors.force(path.states[-1][free]))) > 1e3 * np.max(
         np.abs(path.last_model.force(path.states[-1][free])))

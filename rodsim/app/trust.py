@@ -1,17 +1,19 @@
-"""How far to trust a result: an a-posteriori estimate of its penalty error (docs/model.md,
-"The penalty-error estimate").
+"""How far to trust a result: an a-posteriori estimate of its penalty error, beside its
+discretisation error (rodsim/app/discretisation.py), and the tendon-compression check
+(docs/model.md, "The error estimates every result carries").
 
-Every penalty term (centerline K_P, lumen K_L, endpoint compliance K_E, endpoint coupling K_C,
-joint K_J) holds a constraint only to within force/K, so an equilibrium x(K) differs from the
-constrained one x(∞) by an error that, for stiff enough penalties, falls as 1/K:
-x(K) ≈ x(∞) + c/K. One warm Newton solve with every penalty constant ×f from the converged
-state gives x(fK), and
+Every constraint penalty (a term's :attr:`~rodsim.core.terms.base.Term.constraint_constant`:
+centerline K_P, lumen K_L, joint K_J, an obstacle's contact stiffness; not the paper's
+fitted endpoint springs K_E, K_C, which are physics) holds a constraint only to within
+force/K, so an equilibrium x(K) differs from the constrained one x(∞) by an error that, for
+stiff enough penalties, falls as 1/K: x(K) ≈ x(∞) + c/K. One warm Newton solve with every
+such constant ×f from the converged state gives x(fK), and
 
     x(K) − x(∞) ≈ (x(K) − x(fK)) · f / (f − 1),
 
 reported as the largest distance over every control point of every rod, in units of the
 longest rod's length L. Checked against the change a 100× stiffer solve makes on the user
-scene and the random family (tests/test_user_robot.py).
+scene and the random family (tests/test_user_robot.py, tests/test_error_estimates.py).
 """
 
 from __future__ import annotations
@@ -22,27 +24,55 @@ from typing import Any
 
 import numpy as np
 
+from rodsim.app.discretisation import (
+    BUDGET_FLOOR,
+    TRUST_WARNING,
+    DiscretisationError,
+    discretisation_error,
+)
 from rodsim.core.model import Model
 from rodsim.core.scene import Scene
+from rodsim.core.terms import registered_terms
 from rodsim.solvers import DEFAULT_INTEGRATOR
 from rodsim.solvers.result import Result
 
-__all__ = ["PENALTIES", "TRUST_WARNING", "PenaltyError", "assess", "last_step_result",
-           "penalty_error", "stiffer_scene"]
+__all__ = ["Estimates", "PenaltyError", "TRUST_WARNING", "assess", "last_step_result",
+           "penalty_constants", "penalty_error", "stiffer_scene"]
 
-#: The penalty constant of each penalty term, absolute then relative spelling (an absolute
-#: value of 0 means "from the relative one", rodsim/core/terms/centerline.py and
-#: rodsim/core/terms/_relative.py).
-PENALTIES: dict[str, tuple[str, ...]] = {
-    "centerline": ("K_P", "K_P_relative"),
-    "lumen": ("K_L", "K_L_relative"),
-    "endpoint_compliance": ("K_E", "K_E_relative"),
-    "endpoint_coupling": ("K_C", "K_C_relative"),
-    "joint": ("K_J", "K_J_relative"),
+
+def penalty_constants() -> dict[str, tuple[str, ...]]:
+    """The constraint-penalty constant of each term that has one, by the scene key a rod's
+    or a tendon's ``terms`` lists it under (or the top-level table of a term built from one,
+    ``obstacles``): absolute then relative spelling, from the terms' own declaration
+    (:attr:`rodsim.core.terms.base.Term.constraint_constant`). The paper's endpoint springs
+    K_E and K_C are physics and not among them (docs/model.md, "Which constants are
+    penalties")."""
+    out: dict[str, tuple[str, ...]] = {}
+    for kind in registered_terms().values():
+        key = kind.constraint_constant
+        if not key:
+            continue
+        spellings = tuple(name for name in (key, f"{key}_relative")
+                          if any(p.name == name for p in kind.parameters)) or (key,)
+        out[kind.scene_table or kind.key] = spellings
+    return out
+
+
+
+
+#: What the penalty warning asks to raise, by the dominant kind of penalty.
+_RAISE = {
+    "centerline": "the centerline penalty (rods.<name>.centerline.K_P_relative, or K_P), which "
+                  "moves the result most",
+    "lumen": "the lumen penalty (tendons.<name>.lumen.K_L_relative, or K_L), which moves the "
+             "result most",
+    "joint": "the joint penalty (rods.<name>.joint.K_J_relative, or K_J), which moves the "
+             "result most",
+    "obstacles": "the contact stiffness (obstacles.<name>.stiffness_scale), which moves the "
+                 "result most",
+    "": "the penalty constants (K_P_relative, K_L_relative, K_J_relative, an obstacle's "
+        "stiffness_scale)",
 }
-
-#: Above this estimate (in units of L) a run is flagged: its answer depends on a penalty.
-TRUST_WARNING = 1e-3
 
 
 @dataclass(frozen=True)
@@ -60,44 +90,63 @@ class PenaltyError:
     length: float
     #: How many penalty constants were scaled.
     penalties: int
+    #: Above the warning: the scene key of the kind of penalty whose stiffening alone moves
+    #: the result most (``centerline``, ``lumen``, ``joint``, ``obstacles``); else empty.
+    dominant: str = ""
 
     @property
     def warning(self) -> bool:
         """True when the estimate exceeds :data:`TRUST_WARNING` (or could not be made)."""
         return not self.error <= TRUST_WARNING
 
-    def text(self) -> str:
-        """The CLI's summary line."""
+    def text(self, prefix: str = "") -> str:
+        """The CLI's summary line (and its warning); ``prefix`` after the label (e.g.
+        ``"last step: "``)."""
         if self.penalties == 0:
-            return "penalty     none in this scene (no penalty error)"
+            return f"penalty     {prefix}none in this scene (no penalty error)"
         if not np.isfinite(self.error):
-            return (f"penalty     error estimate unavailable: the solve with penalties ×"
+            return (f"penalty     {prefix}error estimate unavailable: the solve with penalties ×"
                     f"{self.factor:g} failed (warning: the result may depend on a penalty)")
-        line = (f"penalty     error ≈ {self.error:.2g} L ({self.error * self.length:.2g} m; "
+        size = self.error * self.length
+        line = (f"penalty     {prefix}error ≈ {self.error:.2g} L ({size:.2g} m; "
                 f"from a re-solve with every penalty ×{self.factor:g})")
         if self.warning:
-            line += (f"\nwarning     the penalty error exceeds {TRUST_WARNING:g} L: stiffen the "
-                     "penalties (e.g. K_P_relative, K_L) and compare")
+            line += (f"\nwarning     the penalty error exceeds {TRUST_WARNING:g} L: raise "
+                     f"{_RAISE.get(self.dominant, _RAISE[''])} and compare")
         return line
 
 
-def stiffer_scene(scene: Scene, factor: float) -> tuple[dict[str, Any], int]:
-    """The resolved scene dict with every penalty constant multiplied by ``factor``, and how
-    many constants were scaled."""
+def stiffer_scene(scene: Scene, factor: float,
+                  only: str | None = None) -> tuple[dict[str, Any], int]:
+    """The resolved scene dict with every constraint-penalty constant
+    (:func:`penalty_constants`; ``only``: those of that scene key alone) multiplied by
+    ``factor``, and how many constants were scaled."""
     data = copy.deepcopy(scene.data)
+    constants = penalty_constants()
     count = 0
     for owner in ("rods", "tendons"):
         for table in data.get(owner, {}).values():
             for term in table.get("terms", []):
                 options = table.get(term)
-                if term not in PENALTIES or not isinstance(options, dict):
+                if (term not in constants or not isinstance(options, dict)
+                        or only not in (None, term)):
                     continue
-                for key in PENALTIES[term]:  # the first one set is the one in use
-                    if options.get(key):
-                        options[key] = float(options[key]) * factor
-                        count += 1
-                        break
+                count += _scale_first(options, constants[term], factor)
+    for kind in registered_terms().values():  # terms built from a top-level table
+        if kind.scene_table and kind.constraint_constant and only in (None, kind.scene_table):
+            for table in data.get(kind.scene_table, {}).values():
+                count += _scale_first(table, constants[kind.scene_table], factor)
     return data, count
+
+
+def _scale_first(options: dict[str, Any], spellings: tuple[str, ...], factor: float) -> int:
+    """Multiply the first of ``spellings`` set (non-zero) in ``options`` by ``factor`` (the
+    one in use: an absolute value of 0 means "from the relative one"); 1 if one was."""
+    for key in spellings:
+        if options.get(key):
+            options[key] = float(options[key]) * factor
+            return 1
+    return 0
 
 
 def penalty_error(result: Result, factor: float = 10.0,
@@ -105,16 +154,39 @@ def penalty_error(result: Result, factor: float = 10.0,
     """Estimate how far ``result`` (a converged run) is from the penalty-free equilibrium by
     one warm static solve with every penalty ×``factor`` (module docstring). ``model``: the
     model ``result`` was solved with, when its friction anchors are not the rest state (a
-    track's step): the stiffer solve keeps them (:meth:`Model.with_scene`)."""
-    from rodsim.app.api import load_scene, solve
-
+    track's step): the stiffer solve keeps them (:meth:`Model.with_scene`). Above
+    :data:`TRUST_WARNING`, one more solve per kind of penalty (each alone ×``factor``)
+    names the one that moves the result most (``dominant``)."""
     length = _longest(result)
     data, count = stiffer_scene(result.scene, factor)
     if count == 0:
         return PenaltyError(0.0, 0.0, factor, length, 0)
-    # its own budget: never more than the scene's, nor above twice the run (10 s at least)
-    data["solver"]["max_wall_time"] = min(float(result.scene.solver.max_wall_time),
-                                          max(10.0, 2.0 * result.stats.get("wall_time", 0.0)))
+    change = _change(result, data, model)
+    if not np.isfinite(change):
+        return PenaltyError(float("nan"), float("nan"), factor, length, count)
+    error = change * factor / (factor - 1.0) / length
+    dominant = ""
+    if error > TRUST_WARNING:
+        kinds = {key: stiffer_scene(result.scene, factor, only=key)
+                 for key in penalty_constants()}
+        changes = {key: _change(result, scaled, model)
+                   for key, (scaled, scaled_count) in kinds.items() if scaled_count}
+        if len(changes) > 1:
+            dominant = max(changes, key=lambda key: np.nan_to_num(changes[key], nan=-1.0))
+        elif changes:
+            dominant = next(iter(changes))
+    return PenaltyError(error, change, factor, length, count, dominant)
+
+
+def _change(result: Result, data: dict[str, Any], model: Model | None) -> float:
+    """The largest control-point move [m] of a warm static solve of the scene ``data`` from
+    ``result``'s state (NaN when it fails), in its own budget: never more than the scene's,
+    nor above twice the run (:data:`BUDGET_FLOOR` at least)."""
+    from rodsim.app.api import load_scene, solve
+
+    data["solver"]["max_wall_time"] = min(
+        float(result.scene.solver.max_wall_time),
+        max(BUDGET_FLOOR, 2.0 * result.stats.get("wall_time", 0.0)))
     scene: Scene | dict[str, Any] = data
     stiffer_model = None
     if model is not None:
@@ -122,12 +194,10 @@ def penalty_error(result: Result, factor: float = 10.0,
         stiffer_model = model.with_scene(scene)
     stiffer = solve(scene, DEFAULT_INTEGRATOR, model=stiffer_model, initial_state=result.state)
     if not stiffer.success:
-        return PenaltyError(float("nan"), float("nan"), factor, length, count)
-    change = max(float(np.max(np.linalg.norm(stiffer.rods[name].positions - shape.positions,
-                                             axis=1)))
-                 for name, shape in result.rods.items())
-    return PenaltyError(change * factor / (factor - 1.0) / length, change, factor, length,
-                        count)
+        return float("nan")
+    return max(float(np.max(np.linalg.norm(stiffer.rods[name].positions - shape.positions,
+                                           axis=1)))
+               for name, shape in result.rods.items())
 
 
 def _longest(result: Result) -> float:
@@ -166,15 +236,36 @@ def compression_text(compressed: dict[str, float]) -> str:
         for name, force in compressed.items())
 
 
-def assess(result: Result, model: Model | None = None) -> PenaltyError:
-    """Estimate ``result``'s penalty error and check its tendons for compression, storing
-    both on it (``penalty_error``, ``tendon_compression``: the run archive's attributes);
-    returns the estimate. What ``rodsim run``, ``fit`` and ``reach`` do with their result
-    (``model``: see :func:`penalty_error`)."""
-    estimate = penalty_error(result, model=model)
-    result.penalty_error = estimate.error
+@dataclass(frozen=True)
+class Estimates:
+    """What :func:`assess` found: the penalty and the discretisation error estimates."""
+
+    penalty: PenaltyError
+    discretisation: DiscretisationError
+
+    @property
+    def warning(self) -> bool:
+        """True when either estimate exceeds :data:`TRUST_WARNING` (or could not be made)."""
+        return self.penalty.warning or self.discretisation.warning
+
+    def text(self, prefix: str = "") -> str:
+        """The CLI's summary lines, each estimate's after its label with ``prefix`` (e.g.
+        ``"last step: "``)."""
+        return self.discretisation.text(prefix) + "\n" + self.penalty.text(prefix)
+
+
+def assess(result: Result, model: Model | None = None) -> Estimates:
+    """Estimate ``result``'s discretisation and penalty errors and check its tendons for
+    compression, storing them on it (``discretisation_error``, ``penalty_error``,
+    ``tendon_compression``: the run archive's attributes); returns the estimates. What
+    ``rodsim run``, ``fit`` and ``reach`` do with their result (``model``: see
+    :func:`penalty_error`)."""
+    penalty = penalty_error(result, model=model)
+    discretisation = discretisation_error(result, model=model)
+    result.penalty_error = penalty.error
+    result.discretisation_error = discretisation.error
     result.tendon_compression = tendon_compression(result)
-    return estimate
+    return Estimates(penalty, discretisation)
 
 
 def last_step_result(track: Any) -> Result | None:

@@ -71,6 +71,10 @@ MAX_STEPS = 100_000
 LONG_ATTRIBUTES = ("scene_json", "scene_toml", "spec_json", "ramp_json", "integrator_options",
                    "fit_parameters", "reach_parameters")
 
+#: The error estimates a run, fit, reach or track archive may carry, in units of L
+#: (docs/archive.md; rodsim/app/trust.py).
+ERROR_ESTIMATES = ("discretisation_error", "penalty_error")
+
 #: Keys every study spec (``spec_json``) holds.
 SPEC_KEYS = ("name", "title", "paper", "size", "integrator", "reference", "plot", "history",
              "sigma_points", "base_scene_json", "sweeps")
@@ -372,6 +376,10 @@ def _check_run(ds: xr.Dataset, leading: tuple[str, ...] = ()) -> None:
     _variable(ds, "quaternion", (*leading, "segment", "component"))
     _labels(ds, "axis", ["x", "y", "z"])
     _labels(ds, "component", ["q1", "q2", "q3", "q4"])
+    for name in ERROR_ESTIMATES:  # optional; a number, NaN where it could not be made
+        if name in ds.attrs and not _number_attribute(ds, name) >= 0.0 and not math.isnan(
+                _number_attribute(ds, name)):
+            raise ArchiveSchemaError(f"attribute {name!r} is negative")
     rods = _variable(ds, "rod", ("node",), numeric=False).values.astype(str)
     segment_rods = _variable(ds, "segment_rod", ("segment",), numeric=False).values.astype(str)
     for name, rod in scene.rods.items():

@@ -188,6 +188,8 @@ def _attributes(result: Result) -> dict[str, Any]:
         attrs["self_crossing"] = "; ".join(crossings)
     if result.penalty_error is not None:
         attrs["penalty_error"] = float(result.penalty_error)
+    if result.discretisation_error is not None:
+        attrs["discretisation_error"] = float(result.discretisation_error)
     if result.tendon_compression:
         attrs["tendon_compression"] = json.dumps(result.tendon_compression, sort_keys=True)
     if result.tension_profiles:

@@ -84,6 +84,9 @@ class Result:
     stability: Stability | None = None
     #: A-posteriori penalty-error estimate in units of L (rodsim/app/trust.py), when made.
     penalty_error: float | None = None
+    #: A-posteriori discretisation-error estimate in units of L (rodsim/app/discretisation.py),
+    #: when made.
+    discretisation_error: float | None = None
     #: Rod tendons found in compression: the most compressive axial force [N] of each
     #: (rodsim/app/trust.py), when checked.
     tendon_compression: dict[str, float] = field(default_factory=dict)

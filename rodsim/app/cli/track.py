@@ -98,20 +98,21 @@ def cmd_track(args: argparse.Namespace) -> int:
 
 
 def print_last_step_trust(track) -> None:
-    """Print the last step's penalty-error estimate and compression check, and keep them on
+    """Print the last step's error estimates and compression check, and keep them on
     ``track`` for its archive (rodsim/app/trust.py)."""
     from rodsim.app.trust import assess, compression_text, last_step_result
 
     last = last_step_result(track)
     if last is None:
         if track.steps:
-            track.penalty_error = float("nan")
-            print("penalty     error estimate unavailable: the last step did not re-solve "
+            track.penalty_error = track.discretisation_error = float("nan")
+            print("penalty     error estimates unavailable: the last step did not re-solve "
                   "with the static integrator")
         return
     estimate = assess(last, model=track.last_model)  # with friction: that step's anchors
     track.penalty_error = last.penalty_error
+    track.discretisation_error = last.discretisation_error
     track.tendon_compression = last.tendon_compression
-    print(estimate.text().replace("penalty     ", "penalty     last step: ", 1))
+    print(estimate.text("last step: "))
     if last.tendon_compression:
         print(compression_text(last.tendon_compression))

@@ -108,6 +108,9 @@ class Track:
     #: The last step's penalty-error estimate [L] and compressed tendons, when assessed
     #: (rodsim/app/trust.py; ``rodsim track`` does): archive attributes as a run's.
     penalty_error: float | None = None
+    #: The last step's discretisation-error estimate in units of L (rodsim/app/trust.py; ``rodsim
+    #: track`` does): an archive attribute as a run's.
+    discretisation_error: float | None = None
     tendon_compression: dict[str, float] = field(default_factory=dict)
     #: The last completed step's own model (with friction: that step's anchors).
     last_model: Model | None = None
@@ -253,6 +256,8 @@ class Track:
         })
         if self.penalty_error is not None:
             ds.attrs["penalty_error"] = float(self.penalty_error)
+        if self.discretisation_error is not None:
+            ds.attrs["discretisation_error"] = float(self.discretisation_error)
         if self.tension:
             ds.attrs["friction_history"] = (f"step 0: {FRICTION_HISTORY}; then the track's "
                                             "path, each step from the one before")

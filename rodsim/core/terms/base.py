@@ -114,6 +114,17 @@ class Term(ABC):
     #: penalty terms only (``penalty = True``), per instance: it depends on the options and
     #: the rod.
     penalty_ratio: float
+    #: The scene key of this term's constraint-penalty constant, absolute spelling (a
+    #: relative one is ``<key>_relative``, rodsim/core/terms/_relative.py): a constant whose
+    #: limit K → ∞ is the model itself — a constraint the continuum rod holds exactly (d3
+    #: along the tangent, a tendon in its lumen, two rods joined, a rigid obstacle) — so that
+    #: its finite value is a numerical error, which rodsim/app/trust.py estimates by
+    #: stiffening it. Empty for a term whose constants are physics: a stiffness or a load of
+    #: the model, among them the paper's endpoint springs K_E (Eq. 28) and K_C (Eq. 29),
+    #: parameters of its tendon model fitted to experiment (Table 3), not penalties to
+    #: stiffen (docs/model.md, "Which constants are penalties"). Wider than :attr:`penalty`,
+    #: which marks the penalties a solver may lower and raise gradually.
+    constraint_constant: ClassVar[str] = ""
     #: The top-level scene table whose entries build this term, instead of a rod's or a
     #: tendon's ``terms`` list (contact: ``"obstacles"``); the model calls
     #: :meth:`from_table` on each entry. Empty: a term a rod or a tendon lists.

@@ -61,6 +61,7 @@ class Centerline(RodTerm):
     options: CenterlineOptions
     equation = "Eq. (9)"
     penalty = True
+    constraint_constant = "K_P"
     parameters = (
         Parameter("K_P", "float", 0.0, "N",
                   "centerline penalty constant (energy per length); 0 (default): from "

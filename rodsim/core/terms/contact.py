@@ -98,6 +98,7 @@ class Contact(RodTerm):
     equation = "contact penalty (not in the paper; docs/contact.md)"
     scope = "obstacle"
     scene_table = "obstacles"
+    constraint_constant = "stiffness_scale"
 
     @classmethod
     def from_table(cls, name: str, table: Mapping[str, Any],

@@ -139,6 +139,7 @@ class LumenCoupling(TendonTerm):
     Not registered itself (no ``name``)."""
 
     key: ClassVar[str] = "lumen"
+    constraint_constant: ClassVar[str] = "K_L"
     equation = "Eqs. (24)–(27), (32)–(35)"
     dynamic = True
     #: The tendon's ``coupling`` this class implements.
