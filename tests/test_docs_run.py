@@ -53,6 +53,7 @@ ADAPTED: dict[str, tuple[str | None, str]] = {
     "rodsim bench startup --size full --commit": (SKIP, "~2 min, into the checkout"),
     "rodsim bench tracking --size full --commit": (SKIP, "into the checkout"),
     "rodsim bench workers --size full --commit": (SKIP, "~1 min, into the checkout"),
+    "rodsim bench iterations --size full --commit": (SKIP, "~1 min, into the checkout"),
     "python benchmarks/single_rod.py": (
         "python {root}/benchmarks/single_rod.py --repeats 1 --output-dir single-rod",
         "its default output is the checkout's committed results, and repeats only refine "

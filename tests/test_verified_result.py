@@ -150,7 +150,7 @@ def test_static_and_ida_agree_on_a_folded_rod(overrides):
 def test_every_integrator_succeeds_at_n_40000():
     """Issue 24's aim: static, CVODE, IDA and paper on table1-50g at N = 40 000 all succeed
     on one equilibrium within 1e-6 L (about 40 s in all, so nightly). Measured: CVODE and
-    IDA within 1.7e-9 L of static, paper 2.8e-8 L (docs/benchmarks.md, "Large N"); before
+    IDA within 1.7e-9 L of static, paper 2.8e-8 L (docs/benchmark-history.md, "Large N"); before
     the large-model paths (rodsim/solvers/base.py, LARGE_MODEL_SIZE) only static
     succeeded."""
     scene = rodsim.load_scene(SCENE, ["rods.catheter.nodes=40000", "solver.max_wall_time=300"])

@@ -17,7 +17,7 @@ On each, every method runs from the rest state to equilibrium:
 
 Every method stops on the same scaled force residual ``solver.tolerance`` τ, which is swept
 as well (the error at rest is set by τ; rtol only sets how the transient is followed, see
-docs/benchmarks.md). **Error** = largest control-point distance (every rod) to the exact
+docs/benchmark-history.md). **Error** = largest control-point distance (every rod) to the exact
 discrete equilibrium (``static`` with tolerance 1e-12, polished to round-off) / L (the
 longest rod). **Time** = wall time of ``rodsim.solve(scene, name, model=model)`` (the
 integrator's own set-up included, the model's assembly not: a fresh model is built before
@@ -234,7 +234,7 @@ def methods_for(size: str, scene: str) -> tuple[list[Method], list[float]]:
     methods += [_sundials("ida", f, "band", r) for f in ("overdamped", "inertial")
                 for r in rtols]
     # The former default atol = 1e-7 (overdamped, band, rtol 1e-4): 2-3x the cost at equal
-    # error (docs/benchmarks.md), which is why the shipped default is now atol = rtol = 1e-4.
+    # error (docs/benchmark-history.md), which is why the shipped default is now atol = rtol = 1e-4.
     methods += [_sundials(name, "overdamped", "band", 1e-4, 1e-7) for name in ("cvode", "ida")]
     methods += [_scipy(name, r) for name in ("BDF", "LSODA") for r in rtols]
     return methods, list(TOLERANCES)

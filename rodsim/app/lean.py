@@ -1,7 +1,7 @@
 """A lean ``rodsim`` process: what the command line does for its own process only (never in
 a Python user's process, nor in the tests' process that calls :func:`rodsim.app.cli.main`).
 
-Two things cost a short command more than its work (docs/benchmarks.md, "Start-up"):
+Two things cost a short command more than its work (docs/benchmark-history.md, "Start-up"):
 
 * **dask, when it is installed.** xarray imports ``dask.array`` and ``distributed`` (0.5 s
   of CPU) to learn whether the arrays of a Dataset it builds or writes are dask arrays, and

@@ -3,7 +3,7 @@
 Loading the compiled kernels costs a process a fixed ~0.3 s of CPU before its first
 evaluation (numba's import and each kernel read from the on-disk cache; a fresh machine also
 compiles them, seconds per kernel), while the numpy reference computes the same numbers at
-a few to twenty times the cost per evaluation (docs/benchmarks.md, "Start-up"). A process
+a few to twenty times the cost per evaluation (docs/benchmark-history.md, "Start-up"). A process
 that makes one solve of a small scene — ``rodsim run`` on a shipped scene — spends less
 than that fixed cost on all of its numpy evaluations; a study, a track or a large scene
 spends far more.
@@ -41,7 +41,7 @@ __all__ = ["KernelTier", "NUMPY_BUDGET", "PROCESS_TIER", "nominal_cost"]
 
 #: Nominal seconds of numpy evaluations after which a ``tiered`` model moves to the compiled
 #: kernels: about what loading them costs a process from a warm cache (numba's import
-#: 0.12 s and eight cached kernels 0.17 s for table1-50g, docs/benchmarks.md "Start-up").
+#: 0.12 s and eight cached kernels 0.17 s for table1-50g, docs/benchmark-history.md "Start-up").
 NUMPY_BUDGET = 0.25
 
 #: Nominal CPU of one term's numpy call [s], whatever its size (measured 20–120 µs).

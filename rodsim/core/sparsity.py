@@ -66,7 +66,7 @@ def unique_keys(keys: np.ndarray, size: int,
     against the entries (:data:`BAND_TABLE_RATIO`), the positions are found by marking and
     numbering that table: the same answer with two entry-sized arrays instead of sorting's
     five or so (the model's assembly at N = 40 000 peaked at 794 MiB, mostly np.unique's
-    temporaries; see docs/benchmarks.md).
+    temporaries; see docs/benchmark-history.md).
 
     ``tick`` is called between the steps (each a pass over the entries): the assembly's
     wall-time budget (rodsim/core/assembly_budget.py)."""
@@ -129,7 +129,7 @@ def block_pattern(blocks: list[np.ndarray], size: int,
     Where the band table is small against the entries (:data:`BAND_TABLE_RATIO`), an entry's
     slot in it is the sum of a row part and a column part read per index (``f`` is E × k,
     the entries E × k × k), so the entries are never divided back into rows and columns:
-    on tdcr-two-segment this made the assembly's pattern ~4× cheaper (docs/benchmarks.md,
+    on tdcr-two-segment this made the assembly's pattern ~4× cheaper (docs/benchmark-history.md,
     "Model assembly"). Otherwise: the keys, sorted (:func:`unique_keys`).
 
     ``tick`` is called between the passes over a block's entries: the assembly's wall-time

@@ -88,7 +88,7 @@ __all__ = ["Stability", "stiffness_stability", "assess", "eigenvalue_text", "neu
 #: Largest system (free coordinates) whose smallest eigenvalue is computed densely.
 DENSE_LIMIT = 2000
 #: Largest non-symmetric K whose eigenvalues are all computed (dense ``eigvals`` is O(n³);
-#: docs/benchmarks.md, "Measurements behind the core's constants"); above, the NEAREST ones
+#: docs/benchmark-history.md, "Measurements behind the core's constants"); above, the NEAREST ones
 #: to zero.
 DENSE_NONSYMMETRIC_LIMIT = 200
 NEAREST = 6
@@ -298,7 +298,7 @@ def _smallest_real_part(stiffness: sp.csc_matrix,
     of all eigenvalues up to :data:`DENSE_NONSYMMETRIC_LIMIT` coordinates, else of the
     :data:`NEAREST` eigenvalues nearest zero (shift-invert at 0, one sparse LU) — a
     divergence instability is an eigenvalue crossing zero; it finds the same smallest real
-    part as all eigenvalues at a twentieth of the time (docs/benchmarks.md, "Measurements
+    part as all eigenvalues at a twentieth of the time (docs/benchmark-history.md, "Measurements
     behind the core's constants"). ``inverse`` (v ↦ K⁻¹ v) replaces the sparse LU. ARPACK
     starts from a fixed pseudo-random vector (:data:`ARPACK_SEED`): reproducible."""
     n = stiffness.shape[0]

@@ -343,7 +343,7 @@ class Tendon:
         r = full[layout.position_index]
         q = full[layout.quaternion_index][self.lumen_segment(np.arange(self.catheter.nodes))]
         # d_t alone: the registration check runs this after every solver step, and the full
-        # lumen_frame (derivatives included) was half its cost (docs/benchmarks.md,
+        # lumen_frame (derivatives included) was half its cost (docs/benchmark-history.md,
         # "Measurements behind the core's constants").
         d_t = self.alpha * director(q, 0) + self.beta * director(q, 1)
         return r + self.offset * d_t

@@ -3,7 +3,7 @@ holds, without xarray.
 
 ``rodsim run`` builds its archive, lays it out for the file (:func:`rodsim.io.cf_layout.
 file_layout`) and writes it (:mod:`rodsim.io.netcdf_writer`) without importing xarray and
-pandas (0.28 s of CPU of a 1 s command, docs/benchmarks.md "Start-up"); the Python API
+pandas (0.28 s of CPU of a 1 s command, docs/benchmark-history.md "Start-up"); the Python API
 (:func:`rodsim.run_dataset`) turns the same content into the Dataset with
 :meth:`ArchiveContent.to_xarray`. A variable is ``(dims, values, attrs)``, as xarray's own
 constructor takes it.

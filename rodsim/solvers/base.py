@@ -86,7 +86,7 @@ def retraction_of(model: Model, option: str) -> str:
     model is a rod (the paper's two-rod couplings: "frames" was measured no faster there) or
     a rod meets an obstacle (contact: on a tip pushed onto a plane, the frames' first full
     steps took the rod where its stiffness is indefinite and Newton failed, 20-80 nodes,
-    where "lengths" converged), and "frames" otherwise (docs/benchmarks.md, "Solver design
+    where "lengths" converged), and "frames" otherwise (docs/benchmark-history.md, "Solver design
     measurements")."""
     if option != "auto":
         return option

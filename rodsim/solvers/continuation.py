@@ -6,7 +6,7 @@
 
 and, for stiff penalties: a penalty term much stiffer than bending at the scale of a segment
 (K_P l² / (E I) above a ratio) makes Newton from far away converge slowly or not at all
-(docs/benchmarks.md, "Solver design measurements"). The integrators then solve first with
+(docs/benchmark-history.md, "Solver design measurements"). The integrators then solve first with
 those penalties lowered to the ratio — a model whose equilibrium is next to the full one —
 and raise them back from there (``static``; the Newton finish of CVODE and IDA):
 
@@ -64,7 +64,7 @@ def homotopy(run: RunState, x: np.ndarray, max_iterations: int,
     :data:`HOMOTOPY_FIRST_STEP`, quartered after a failure and doubled after an easy step, as
     ``static``'s load continuation; every evaluation through the run's counted ones,
     ``check(λ)`` the per-iteration callback. (converged, state, iterations). The first step
-    was measured: docs/benchmarks.md, "CVODE and IDA: the Newton finish"."""
+    was measured: docs/benchmark-history.md, "CVODE and IDA: the Newton finish"."""
     model = run.model
     start = run.force(x)
     lam, step, total = 0.0, HOMOTOPY_FIRST_STEP, 0

@@ -55,7 +55,7 @@ class Ida(SundialsIntegrator):
     quaternion_norm = ("algebraic constraint |q|² = 1 per quaternion with a multiplier, "
                        "Baumgarte-stabilised to index 1")
     # The constrained Newton finish (a merit line search: no energy to minimise) fails more
-    # often from far away than CVODE's, hence a smaller default switch (docs/benchmarks.md,
+    # often from far away than CVODE's, hence a smaller default switch (docs/benchmark-history.md,
     # "IDA: the default newton_switch = 0.03").
     parameters = tuple(replace(p, default=0.03) if p.name == "newton_switch" else p
                        for p in PSEUDO_DYNAMICS_PARAMETERS)
@@ -107,7 +107,7 @@ class Ida(SundialsIntegrator):
         positions first go to the equilibrium of F(x) = 0 with the penalties lowered, by
         the residual homotopy CVODE's finish uses (:meth:`SundialsIntegrator.at_lowered_penalties`);
         the constrained Newton at the full penalties starts there. Without it, Newton at the
-        full penalties failed until IDA had integrated much closer (docs/benchmarks.md,
+        full penalties failed until IDA had integrated much closer (docs/benchmark-history.md,
         "CVODE and IDA: the Newton finish"). Above
         :data:`~rodsim.solvers.base.LARGE_MODEL_SIZE` free coordinates the model
         coordinates step through the frames where they are ``static``'s default retraction

@@ -12,7 +12,7 @@ rods so that the tendon system stays banded too (``Model._order_for_band``). So:
 - ``sparse_lu``: SuperLU, where the band is too wide for band storage to pay.
 
 Measured at N = 40 (273 unknowns): SuperLU 490–540 µs per solve against
-50 µs (dpbsv) and 68 µs (dgbsv); at N = 4000, 43–53 ms against 4.5 ms (docs/benchmarks.md).
+50 µs (dpbsv) and 68 µs (dgbsv); at N = 4000, 43–53 ms against 4.5 ms (docs/benchmark-history.md).
 The values are written into Fortran-ordered band storage through offsets built once per
 pattern (sequential, in CSC order); from :data:`COMPILED_FILL_SIZE` unknowns on, by a compiled
 pass over the CSC columns instead (rodsim/core/kernels/_band.py: no offset arrays, no
@@ -24,7 +24,7 @@ From :data:`REFINED_SOLVE_SIZE` unknowns on, :meth:`LinearSolver.solve` refines 
 once with the residual rhs − J Δx computed in twice the working precision
 (rodsim/core/kernels/_refinement.py): the band factorisation's forward error grows with the
 condition number (on table1-50g 4e-9 of the step at N = 2 000, 3.5e-5 at 100 000) and at
-100 000 it cost static three Newton iterations; refined, 5 at every N (docs/benchmarks.md,
+100 000 it cost static three Newton iterations; refined, 5 at every N (docs/benchmark-history.md,
 "Large N").
 
 :meth:`LinearSolver.factorized` factors J once and solves for many right-hand sides (the

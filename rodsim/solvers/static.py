@@ -32,7 +32,7 @@ the frames' long first steps were measured to leave Newton on an indefinite stif
 tip pushed onto a plane: failed where "lengths" converges).
 
 Why each of these choices, with the measurements behind them (iterations and times per
-scene, what was tried and dropped): docs/benchmarks.md, "Solver design measurements".
+scene, what was tried and dropped): docs/benchmark-history.md, "Solver design measurements".
 
 Quaternion norm: held by the centerline penalty Eq. (9) (|d3| = |q|²), as in the model.
 
@@ -281,7 +281,7 @@ class Static(Integrator[RunState]):
         suggest (the spectral radius of J_k⁻¹ J_{k+1} − I is 2.5–6 on table3-catheter1 and
         tdcr-two-segment at 201 steps, almost all of it from the state, not from the new
         value), and a factorisation kept from the last step's start or equilibrium stalled
-        within one or two iterations (docs/benchmarks.md, "Tracking")."""
+        within one or two iterations (docs/benchmark-history.md, "Tracking")."""
         model = run.model
         counts = run.counts
         refreshes = 0

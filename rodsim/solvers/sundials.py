@@ -74,7 +74,7 @@ FROZEN_STEPS = 10
 #: A run has stalled when its best residual has not halved over this many re-initialisations
 #: (a tendon point changing parent: the registration flipping back and forth); it then ends
 #: with advice instead of spending the wall-time budget. Neither pseudo-time nor a residual
-#: frozen at the tightest tolerances tells such a run from an honest one (docs/benchmarks.md,
+#: frozen at the tightest tolerances tells such a run from an honest one (docs/benchmark-history.md,
 #: "CVODE and IDA: a registration that flips").
 FLIP_REINITS = 50
 
@@ -247,7 +247,7 @@ class SundialsIntegrator(Integrator[SundialsState]):
         On a non-conservative model whose penalties are stiffer than ``static``'s
         penalty_ratio (the paper's tendon coupling), Newton at the full penalties converges
         only very close to the equilibrium, and Newton with those penalties lowered does not
-        converge from far either (docs/benchmarks.md, "CVODE and IDA: the Newton finish").
+        converge from far either (docs/benchmark-history.md, "CVODE and IDA: the Newton finish").
         So, as ``static`` does, the finish first solves
         with the penalties lowered to that ratio — by residual homotopy, F(x) = (1 − λ) F(x₀)
         for λ from 0 to 1 (rodsim/solvers/continuation.py) — whose equilibrium is next to the
@@ -259,7 +259,7 @@ class SundialsIntegrator(Integrator[SundialsState]):
         tdcr-two-segment the finish with :meth:`Model.step` failed three times in the cases
         where a long distal segment turns (CVODE then took ~200 steps, 116 ms; with the
         frames, one finish after 11-12 steps, 10 ms). Only there: on table1-50g the frames
-        finish moved the stored CVODE equilibrium by 8e-13 m (docs/benchmarks.md, "String
+        finish moved the stored CVODE equilibrium by 8e-13 m (docs/benchmark-history.md, "String
         tendons"). And on every model above
         :data:`~rodsim.solvers.base.LARGE_MODEL_SIZE` free coordinates, where the finish
         through :meth:`Model.step` fails as Newton from rest through it does (table1-50g,

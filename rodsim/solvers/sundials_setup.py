@@ -60,7 +60,7 @@ class BandPreconditioner:
         # A₀ + c A₁ into the array of the last factorisation's matrix, factored in the band
         # array the solver keeps (LinearSolver.factorized): the last factorisation, which
         # used it, is dropped here. On a large model fresh arrays of this size cost more
-        # than the factorisation (docs/benchmarks.md, "Large N").
+        # than the factorisation (docs/benchmark-history.md, "Large N").
         self._solve = None
         constant, per_c = self.parts
         matrix = self._matrix

@@ -58,7 +58,7 @@ class Run(SceneCommand):
         content = run_content(result)
         if result.scene.solver.kernels == "tiered":
             content.attrs["kernels"] = _tier_text()
-        try:  # without xarray: docs/benchmarks.md, "Start-up"
+        try:  # without xarray: docs/benchmark-history.md, "Start-up"
             write_content(content, output, note=warn)
         except ArchiveError as exc:
             raise UserError(str(exc)) from None

@@ -92,7 +92,7 @@ def load_kernel(term: Term) -> Kernel:
 def _kernel_named(name: str) -> Kernel:
     """:func:`load_kernel` of the kernel module ``name``, once per process: reading the
     signatures (``inspect``) on every model cost 0.5 ms of each assembly of tdcr-two-segment
-    (docs/benchmarks.md, "Model assembly"). A failure is not cached."""
+    (docs/benchmark-history.md, "Model assembly"). A failure is not cached."""
     try:
         module = importlib.import_module(f"{__name__}.{name}")
     except ModuleNotFoundError as exc:

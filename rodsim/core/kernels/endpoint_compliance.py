@@ -8,7 +8,7 @@
 with D_t = ∂d_t/∂q and H_t[m] = ∂²d_t[m]/∂q², so Σ_m Δ_m H_t[m] = ∂²(Δ·d_t)/∂q² at frozen Δ
 (:mod:`rodsim.core.kernels._lumen_frame`). The energy ½ K_E |Δ|² of the conserving coupling
 (:func:`energy`; the paper's has none) is what the line searches evaluate: in numpy it was
-four calls of ~21 µs in each energy of four-tendons (docs/benchmarks.md).
+four calls of ~21 µs in each energy of four-tendons (docs/benchmark-history.md).
 """
 
 from __future__ import annotations

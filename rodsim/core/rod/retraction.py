@@ -7,7 +7,7 @@ instead of θ. Both are right to first order, but they disagree with each other 
 and third order (θ³/4 between the edge and d3 for a turn θ), and the stiff centerline
 penalty Eq. (9) — K_P l² / (E I) = 139 on tdcr-two-segment — turns the disagreement into a
 force far above the loads: the energy line search then cuts every other step and Newton
-creeps (tens of iterations for one static solve of tdcr-two-segment; docs/benchmarks.md,
+creeps (tens of iterations for one static solve of tdcr-two-segment; docs/benchmark-history.md,
 "Measurements behind the core's constants").
 
 Here, per segment j (frame R_j = D(q_j) / |q_j|², D of Eq. 2, rows d_k):
@@ -23,7 +23,7 @@ Here, per segment j (frame R_j = D(q_j) / |q_j|², D of Eq. 2, rows d_k):
 To first order in the step this is r + Δr, q + Δq (R'ᵀ = Rᵀ + ΔRᵀ + O(Δ²) and
 Δ(RᵀR) = 0), so Newton's local convergence is unchanged; a rigid turn of a segment by any
 angle is reproduced with the edge still along d3, and the static solves of
-tdcr-two-segment take a handful of Newton iterations (docs/benchmarks.md, "Measurements
+tdcr-two-segment take a handful of Newton iterations (docs/benchmark-history.md, "Measurements
 behind the core's constants").
 """
 
