@@ -54,6 +54,8 @@ ADAPTED: dict[str, tuple[str | None, str]] = {
     "rodsim bench tracking --size full --commit": (SKIP, "into the checkout"),
     "rodsim bench workers --size full --commit": (SKIP, "~1 min, into the checkout"),
     "rodsim bench iterations --size full --commit": (SKIP, "~1 min, into the checkout"),
+    "rodsim batch tdcr-two-segment --cases examples/cases.csv --scheduler tcp://host:8786": (
+        SKIP, "needs a dask scheduler at that address (the dask path: tests/test_batch.py)"),
     "python benchmarks/single_rod.py": (
         "python {root}/benchmarks/single_rod.py --repeats 1 --output-dir single-rod",
         "its default output is the checkout's committed results, and repeats only refine "
@@ -108,9 +110,9 @@ def _prepare(folder: Path) -> None:
 
     (folder / "docs").mkdir()
     shutil.copy(ROOT / "docs" / "two-rods.toml", folder / "docs" / "two-rods.toml")
-    # The example files the commands name (examples/my-scene.toml, examples/shape.csv).
+    # The example files the commands name (examples/my-scene.toml, shape.csv, cases.csv).
     (folder / "examples").mkdir()
-    for name in ("my-scene.toml", "shape.csv"):
+    for name in ("my-scene.toml", "shape.csv", "cases.csv"):
         shutil.copy(ROOT / "examples" / name, folder / "examples" / name)
     # Measured points for the other fit examples: the scene solved with other values.
     photo = rodsim.solve("table1-50g", "static",
