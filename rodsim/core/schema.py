@@ -12,12 +12,13 @@ import copy
 import dataclasses
 import functools
 import math
+import numbers
 import typing
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any, ClassVar, Self
 
-__all__ = ["Parameter", "SceneError", "validate_table", "shown", "options_type",
+__all__ = ["Parameter", "SceneError", "validate_table", "shown", "options_type", "is_integer",
            "register_with_options", "Options", "options_mismatch", "KIND_HINTS"]
 
 #: Longest echo of a user's value in a message (longer ones are cut with "…").
@@ -198,11 +199,12 @@ class Parameter:
                 raise fail("component out of range")
             return [float(v) for v in value]
         if self.kind == "int":
-            if isinstance(value, bool) or not isinstance(value, int):
-                if isinstance(value, float) and value.is_integer():
-                    value = int(value)
-                else:
-                    raise fail("wrong type")
+            if is_integer(value):  # numpy's integers too (a count from np.arange, …)
+                value = int(value)
+            elif isinstance(value, float) and value.is_integer():
+                value = int(value)
+            else:
+                raise fail("wrong type")
         elif self.kind == "float":
             if not _is_number(value):
                 raise fail("wrong type")
@@ -223,7 +225,14 @@ class Parameter:
 
 
 def _is_number(value: Any) -> bool:
-    return isinstance(value, (int, float)) and not isinstance(value, bool)
+    """A real number, numpy's included (np.float32, np.int64: numpy registers them with
+    :mod:`numbers`); not a bool (numpy's bool is no number)."""
+    return isinstance(value, numbers.Real) and not isinstance(value, bool)
+
+
+def is_integer(value: Any) -> bool:
+    """A whole number of an integer type, numpy's included (np.int64); not a bool."""
+    return isinstance(value, numbers.Integral) and not isinstance(value, bool)
 
 
 def validate_table(
