@@ -18,7 +18,8 @@ from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any, ClassVar, Self
 
-__all__ = ["Parameter", "SceneError", "validate_table", "shown", "options_type", "is_integer",
+__all__ = ["Parameter", "SceneError", "validate_table", "shown", "shown_path", "options_type",
+           "is_integer",
            "register_with_options", "Options", "options_mismatch", "KIND_HINTS"]
 
 #: Longest echo of a user's value in a message (longer ones are cut with "…").
@@ -77,6 +78,17 @@ def shown(value: Any, width: int = SHOWN_WIDTH, bare: bool = False) -> str:
     except RecursionError:
         text = f"<deeply nested {type(value).__name__}>"
     return text if len(text) <= width else text[:width - 1] + "…"
+
+
+#: Widest path echoed in a message [characters]: a longer one is cut (a 300-character
+#: path was echoed whole).
+PATH_WIDTH = 160
+
+
+def shown_path(path: Any) -> str:
+    """A file path for a one-line message: :func:`shown` of its text, cut to
+    :data:`PATH_WIDTH` characters."""
+    return shown(str(path), PATH_WIDTH)
 
 
 _KIND_NAMES = {

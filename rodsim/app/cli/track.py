@@ -60,7 +60,7 @@ class Track(SceneCommand):
                           f"{k.unit}" for i, k in enumerate(result.keys)))
         print(f"integrator  {self.integrator_used}")
         tip = result.tips()[-1]
-        print(f"last tip    x = {tip[0]: .6f} m  y = {tip[1]: .6f} m  z = {tip[2]: .3g} m")
+        print(f"last tip    x = {tip[0]: .6f} m  y = {tip[1]: .6f} m  z = {tip[2]: .6f} m")
         speed = f" ({1.0 / warm:.0f} steps/s)" if warm > 0 else ""
         print(f"wall time   {sum(times):.4f} s: first step (cold) {times[0]:.4f} s, warm steps "
               f"{1e3 * warm:.3f} ms each{speed}, {int(sum(result.halvings))} halvings")

@@ -121,6 +121,13 @@ class Tube(Obstacle):
             if kind in ("arc", "helix") and float(np.linalg.norm(b)) < 1e-9:
                 raise SceneError(f"{prefix}.bend_toward = {table['bend_toward']!r}: parallel "
                                  "to direction; allowed: a direction across it")
+            if kind == "helix" and table["turns"] > 1.0 and table["pitch"] < 2 * table["radius"]:
+                # a point and the one a turn later are one pitch apart: the lumens overlap
+                raise SceneError(f"{prefix}.pitch = {shown(table['pitch'])}: the vessel's "
+                                 f"turns overlap (radius {table['radius']!r} m); allowed: a "
+                                 "pitch of at least twice the radius, or at most one turn",
+                                 key=f"{prefix}.pitch", value=table["pitch"],
+                                 reason="self-overlapping")
         tube = cls("", table)
         tube._check_bend(prefix)
         return table
