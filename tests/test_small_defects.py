@@ -143,3 +143,34 @@ def test_a_300_character_path_is_shortened(command, tmp_path, cli, capsys):
     assert cli(argv) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "a" * 200 not in err[0] and "…" in err[0], err
+
+
+def test_a_1000_turn_helix_vessel_is_validated_without_walking_every_knot(monkeypatch):
+    """`max_wall_time = 1 s` took 11 s on a 1 000-turn helix vessel: before the solve (and
+    its budget), the scene's validation projected the rod's base by a walk over all
+    256 000 knots (round-off kept the projection stepping at the spline's start) and
+    sampled the bend check at 20 points per knot. Counted in evaluations of the centerline
+    (no timing): far below one per knot now. The solve then holds the budget."""
+    from rodsim.core.obstacles import tube
+
+    data = json.loads(rodsim.load_scene("table1-50g", ["nodes=20", "solver.max_wall_time=1"])
+                      .to_json())
+    data["rods"]["catheter"] |= {"radius": 0.0005,
+                                 "terms": ["stretch", "bend_twist", "centerline"]}
+    data["rods"]["catheter"].pop("tip_load")
+    data["obstacles"] = {"vessel": {
+        "type": "tube", "rods": ["catheter"], "centerline": "helix", "radius": 0.002,
+        "bend_radius": 0.05, "pitch": 0.005, "turns": 1000.0, "start": [-0.05, 0.0, 0.0],
+        "direction": [1.0, 0.0, 0.0], "bend_toward": [0.0, 1.0, 0.0]}}
+    calls, points = [], []
+    original = tube.Tube._c
+
+    def counted(self, u, order):
+        calls.append(1)
+        points.append(len(u))
+        return original(self, u, order)
+
+    monkeypatch.setattr(tube.Tube, "_c", counted)
+    Scene.from_dict(data)
+    knots = 256 * 1000
+    assert len(calls) < 0.01 * knots and sum(points) < 6 * knots  # before: 768 130, 11.5 M
