@@ -174,3 +174,20 @@ def test_a_1000_turn_helix_vessel_is_validated_without_walking_every_knot(monkey
     Scene.from_dict(data)
     knots = 256 * 1000
     assert len(calls) < 0.01 * knots and sum(points) < 6 * knots  # before: 768 130, 11.5 M
+
+
+@pytest.mark.parametrize("origin", [[-0.1, 0.0, 0.0], [0.0, 0.0, 0.0], [1.0, 0.0, 0.0]])
+def test_static_solves_an_unloaded_rod_in_a_4000_point_straight_vessel(origin, tmp_path):
+    """The issue's report (`static` failed on an unloaded rod in a 4 000-point straight
+    vessel) did not reproduce on this code (nor on the commit before this branch's): a
+    guard. The rest state is the equilibrium: the tip stays at origin + L x."""
+    vessel = tmp_path / "straight.csv"
+    vessel.write_text("".join(f"{0.001 * k!r},0.0,0.0,0.002\n" for k in range(4000)))
+    scene = Scene.from_dict({"name": "wire", "rods": {"wire": {
+        "length": 0.2, "radius": 0.000178, "youngs_modulus": 60e9, "density": 6450.0,
+        "nodes": 81, "origin": origin}},
+        "obstacles": {"vessel": {"type": "tube", "rods": ["wire"], "centerline": "csv",
+                                 "file": str(vessel)}}})
+    result = rodsim.solve(scene, "static")
+    assert result.success, result.message
+    assert abs(result.tip()[0] - (origin[0] + 0.2)) < 1e-12 and abs(result.tip()[1]) < 1e-12
