@@ -121,12 +121,20 @@ def test_bad_ramps_exit_2_with_one_line_and_write_nothing(tmp_path, capsys, cli,
     assert list(tmp_path.iterdir()) == []
 
 
-def test_a_failed_track_exits_1_and_writes_nothing(tmp_path, capsys, cli):
+def test_a_failed_track_exits_1_and_keeps_its_finished_steps(tmp_path, capsys, cli):
     output = tmp_path / "fail.nc"
     code = cli(["track", "table3-catheter1", "--ramp", "tendon_actuation.force=0.5:5000:2",
                 "-o", str(output)])
     assert code == 1
     assert "step 1" in capsys.readouterr().err
+    assert read_dataset(output).attrs["complete"] == 0  # step 0, marked incomplete
+
+
+def test_a_track_whose_first_step_fails_writes_nothing(tmp_path, capsys, cli):
+    code = cli(["track", "table3-catheter1", "--ramp", "tendon_actuation.force=5000:1:2",
+                "-o", str(tmp_path / "fail.nc")])
+    assert code == 1
+    assert "step 0" in capsys.readouterr().err
     assert list(tmp_path.iterdir()) == []
 
 

@@ -25,6 +25,7 @@ import contextlib
 import json
 import math
 import multiprocessing
+import numbers
 import os
 import shutil
 import sys
@@ -49,6 +50,7 @@ from rodsim.app.study_parts import (
 from rodsim.app.study_points import assemble, evaluate_point
 from rodsim.app.study_spec import StudyError, StudySpec, grid_points
 from rodsim.app.worker_pool import PARENT_POLL, TaskFailure, run_tasks
+from rodsim.core.schema import is_integer
 from rodsim.io.archive import write_dataset
 from rodsim.io.archive_schema import STATUS
 
@@ -276,9 +278,9 @@ def run_spec(spec: StudySpec, output: str | Path, *, workers: int | None = None,
     output = Path(output)
     log = log or _stderr_log
     hook = point_hook if point_hook is not None else POINT_HOOK
-    if workers is not None and (not isinstance(workers, int) or workers < 1):
+    if workers is not None and (not is_integer(workers) or workers < 1):
         raise StudyError(f"workers must be a positive whole number, not {workers!r}")
-    if isinstance(worker_timeout, bool) or not isinstance(worker_timeout, (int, float)) or \
+    if isinstance(worker_timeout, bool) or not isinstance(worker_timeout, numbers.Real) or \
             not 0 < worker_timeout < math.inf:
         raise StudyError(f"worker_timeout must be a number of seconds > 0, not "
                          f"{str(worker_timeout)[:40]!r}")

@@ -34,10 +34,11 @@ def check_scene_name(name: object) -> str:
     return name
 
 
-def check_rod_name(name: object, table: str) -> str:
-    """A rod's (or tendon's) name in ``[<table>.<name>]``, else :class:`SceneError`."""
+def check_rod_name(name: object, table: str, what: str = "rod") -> str:
+    """A rod's (or tendon's, obstacle's, support's: ``what``) name in ``[<table>.<name>]``,
+    else :class:`SceneError`."""
     if not isinstance(name, str) or not _ROD.fullmatch(name) or len(name) > MAX_NAME_LENGTH:
-        raise SceneError(f"{table}.{shown(name)}: not a valid rod name; allowed: up to "
+        raise SceneError(f"{table}.{shown(name)}: not a valid {what} name; allowed: up to "
                          f"{MAX_NAME_LENGTH} letters, digits, '_', '-' and '+', starting "
                          "with a letter, digit or '_' (no '.': it separates scene keys)")
     return name

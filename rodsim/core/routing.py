@@ -218,6 +218,9 @@ def check_routing(prefix: str, tendon: Any, string: Any, length: float,
         if any(b <= a for a, b in zip(s[:-1], s[1:], strict=True)):
             raise SceneError(f"{key}.table_s = {shown(s)}: not strictly increasing; allowed: "
                              "increasing arc lengths [m]")
+        if s[0] < 0.0 or s[-1] > length * (1 + 1e-12):  # a knot off the catheter
+            raise SceneError(f"{key}.table_s = {shown(s)}: outside the catheter; allowed: "
+                             f"arc lengths from 0 to L = {length!r} [m]")
         if len(s) > 1 and (s[0] > start + 1e-12 * length or s[-1] < end - 1e-12 * length):
             raise SceneError(f"{key}.table_s = {shown(s)}: does not cover the tendon's span "
                              f"[{start!r}, {end!r}] m; allowed: table_s[0] <= start and "

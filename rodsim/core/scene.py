@@ -45,7 +45,15 @@ from rodsim.core.names import check_rod_name, check_scene_name
 from rodsim.core.rod.rod import ROD_PARAMETERS, RodOptions
 from rodsim.core.rod.sections import resolve_sections
 from rodsim.core.scene_file import parse_toml, read_scene_text
-from rodsim.core.schema import Options, Parameter, SceneError, shown, validate_table
+from rodsim.core.schema import (
+    PATH_WIDTH,
+    Options,
+    Parameter,
+    SceneError,
+    shown,
+    shown_path,
+    validate_table,
+)
 from rodsim.core.supports import BASE_PARAMETERS, BaseOptions, resolve_base, resolve_supports
 from rodsim.core.tendon import (
     STRING_TERMS,
@@ -141,20 +149,25 @@ class Scene:
         path = Path(path)
         if "\0" in str(path):
             raise SceneError(f"cannot read scene {shown(str(path))}: a NUL in the path")
-        if not path.exists() and not path.is_symlink():
+        try:
+            missing = not path.exists() and not path.is_symlink()
+        except OSError as exc:  # a name too long for the system
+            raise SceneError(f"cannot read scene {shown_path(path)}: "
+                             f"{exc.strerror or type(exc).__name__}") from None
+        if missing:
             shipped = scene_paths()
             if path.suffix == "" and str(path) in shipped:
                 path = shipped[str(path)]
             else:
                 close = difflib.get_close_matches(str(path), list(shipped), n=1)
                 hint = f" (did you mean {close[0]!r}?)" if close else ""
-                raise SceneError(f"{shown(str(path), width=500, bare=True)} is neither a "
+                raise SceneError(f"{shown(str(path), width=PATH_WIDTH, bare=True)} is neither a "
                                  f"shipped scene nor a file{hint}; shipped scenes: "
                                  f"{', '.join(shipped)}",
                                  key=str(path), allowed=tuple(shipped),
                                  reason="no such scene")
         text = read_scene_text(path)
-        raw = parse_toml(text, shown(str(path), width=500, bare=True))
+        raw = parse_toml(text, shown(str(path), width=PATH_WIDTH, bare=True))
         _files_beside(raw, path.parent)
         return cls(resolve(raw), text)
 
@@ -283,7 +296,10 @@ class Scene:
             except SceneError as exc:
                 exc.assignment = assignment
                 raise
+            follower = self._defaulted_stretch(full_key, data)
             data = _assign(data, full_key, value)
+            if follower and isinstance(value, (int, float)) and not isinstance(value, bool):
+                data = _assign(data, follower, value)  # E_s defaulted from E_b follows it
             given[full_key] = assignment
             if full_key.endswith(".terms"):
                 _drop_unlisted_term_tables(data, full_key)
@@ -298,6 +314,25 @@ class Scene:
             return Scene(resolve(data), self.source)
         except SceneError as exc:
             raise _blame_what_was_set(exc, given) from None
+
+    def _defaulted_stretch(self, key: str, data: Mapping[str, Any]) -> str | None:
+        """The full key of a rod's ``stretch_modulus`` when ``key`` is that rod's
+        ``youngs_modulus`` and the stretch modulus defaulted from it (the scene file's rod
+        table does not give it, and it still equals E_b): an override of E_b then moves E_s
+        too, as the same scene file with the new E_b would."""
+        parts = key.split(".")
+        if len(parts) != 3 or parts[0] != "rods" or parts[2] != "youngs_modulus":
+            return None
+        rod = data["rods"][parts[1]]
+        if not self.source or rod.get("stretch_modulus") != rod.get("youngs_modulus"):
+            return None
+        try:
+            table = tomllib.loads(self.source).get("rods", {}).get(parts[1])
+        except tomllib.TOMLDecodeError:
+            return None
+        if not isinstance(table, Mapping) or "stretch_modulus" in table:
+            return None
+        return f"rods.{parts[1]}.stretch_modulus"
 
     def with_values(self, values: Mapping[str, Any]) -> Scene:
         """A new scene with already-typed values at dotted keys (used by studies); a full

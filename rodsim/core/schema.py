@@ -12,12 +12,14 @@ import copy
 import dataclasses
 import functools
 import math
+import numbers
 import typing
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any, ClassVar, Self
 
-__all__ = ["Parameter", "SceneError", "validate_table", "shown", "options_type",
+__all__ = ["Parameter", "SceneError", "validate_table", "shown", "shown_path", "options_type",
+           "is_integer",
            "register_with_options", "Options", "options_mismatch", "KIND_HINTS"]
 
 #: Longest echo of a user's value in a message (longer ones are cut with "…").
@@ -76,6 +78,17 @@ def shown(value: Any, width: int = SHOWN_WIDTH, bare: bool = False) -> str:
     except RecursionError:
         text = f"<deeply nested {type(value).__name__}>"
     return text if len(text) <= width else text[:width - 1] + "…"
+
+
+#: Widest path echoed in a message [characters]: a longer one is cut (a 300-character
+#: path was echoed whole).
+PATH_WIDTH = 160
+
+
+def shown_path(path: Any) -> str:
+    """A file path for a one-line message: :func:`shown` of its text, cut to
+    :data:`PATH_WIDTH` characters."""
+    return shown(str(path), PATH_WIDTH)
 
 
 _KIND_NAMES = {
@@ -198,11 +211,12 @@ class Parameter:
                 raise fail("component out of range")
             return [float(v) for v in value]
         if self.kind == "int":
-            if isinstance(value, bool) or not isinstance(value, int):
-                if isinstance(value, float) and value.is_integer():
-                    value = int(value)
-                else:
-                    raise fail("wrong type")
+            if is_integer(value):  # numpy's integers too (a count from np.arange, …)
+                value = int(value)
+            elif isinstance(value, float) and value.is_integer():
+                value = int(value)
+            else:
+                raise fail("wrong type")
         elif self.kind == "float":
             if not _is_number(value):
                 raise fail("wrong type")
@@ -223,7 +237,14 @@ class Parameter:
 
 
 def _is_number(value: Any) -> bool:
-    return isinstance(value, (int, float)) and not isinstance(value, bool)
+    """A real number, numpy's included (np.float32, np.int64: numpy registers them with
+    :mod:`numbers`); not a bool (numpy's bool is no number)."""
+    return isinstance(value, numbers.Real) and not isinstance(value, bool)
+
+
+def is_integer(value: Any) -> bool:
+    """A whole number of an integer type, numpy's included (np.int64); not a bool."""
+    return isinstance(value, numbers.Integral) and not isinstance(value, bool)
 
 
 def validate_table(

@@ -42,6 +42,7 @@ from typing import Any
 
 import numpy as np
 
+from rodsim.core.names import check_rod_name
 from rodsim.core.rod.layout import RodLayout
 from rodsim.core.rod.quaternion import directors, from_rotation_matrix, rest_quaternion
 from rodsim.core.schema import Options, Parameter, SceneError, validate_table
@@ -220,7 +221,7 @@ def resolve_supports(rod: str, table: Mapping[str, Any], is_tendon: bool
     out: dict[str, dict[str, Any]] = {}
     held: dict[int, str] = {}
     for name, entry in raw.items():
-        key = f"{prefix}.{name}"
+        key = f"{prefix}.{check_rod_name(name, prefix, 'support')}"  # '.' would split its keys
         resolved = validate_table(entry, SUPPORT_PARAMETERS, key)
         s = resolved["s"]
         if is_tendon:

@@ -11,6 +11,7 @@ file or nothing; symbolic links followed; stale temporaries removed) are
 from __future__ import annotations
 
 import contextlib
+import errno
 import os
 import signal
 import sys
@@ -21,6 +22,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from rodsim.core.scene import Scene
+from rodsim.core.schema import shown_path
 from rodsim.io.archive_content import ArchiveContent
 from rodsim.io.archive_schema import (
     READABLE_SCHEMA_VERSIONS,
@@ -98,11 +100,25 @@ def _write_archive(path: str | Path, write: Callable[[Path], None],
         others = write_atomic(path, write, prefix=owned_prefix(path), follow_umask=True,
                               before_replace=lambda: other_writers(path))
     except Exception as exc:
-        raise ArchiveError(f"cannot write {str(path)!r}: {exc}") from exc
+        reason = "the disk is full (no space left on the device)" if _disk_full(exc, path) \
+            else str(exc)
+        raise ArchiveError(f"cannot write {shown_path(path)}: {reason}") from exc
     if others and note is not None:
-        note(f"{others} other process(es) were writing {str(path)!r} at the same time: it "
+        note(f"{others} other process(es) were writing {shown_path(path)} at the same time: it "
              "holds the archive of whichever finished last")
     return path
+
+
+def _disk_full(exc: BaseException, path: Path) -> bool:
+    """Whether a failed write failed for want of space: ENOSPC or EDQUOT, or a library
+    error (the HDF5 library says "HDF error") on a file system with no block left."""
+    if isinstance(exc, OSError) and exc.errno in (errno.ENOSPC, errno.EDQUOT):
+        return True
+    try:
+        status = os.statvfs(path.parent if str(path.parent) else ".")
+    except (OSError, AttributeError):
+        return False
+    return status.f_bavail == 0
 
 
 def read_dataset(path: str | Path) -> xr.Dataset:
@@ -127,29 +143,29 @@ def read_dataset(path: str | Path) -> xr.Dataset:
             loaded = ds.load()
     except Exception as exc:  # noqa: BLE001 - damaged bytes raise anything (issue 23)
         reason = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
-        raise ArchiveError(f"cannot read {str(path)!r}: {reason[:200]} (not a netCDF archive, "
+        raise ArchiveError(f"cannot read {shown_path(path)}: {reason[:200]} (not a netCDF archive, "
                            "or a damaged one)") from None
     if "schema_version" not in loaded.attrs or "scene_json" not in loaded.attrs:
-        raise ArchiveError(f"{str(path)!r} is not a rodsim archive (no scene_json attribute)")
+        raise ArchiveError(f"{shown_path(path)} is not a rodsim archive (no scene_json attribute)")
     # Schema 3 files hold numeric index coordinates with text labels beside them
     # (rodsim.io.cf_layout): the labels become the coordinates again.
     if str(loaded.attrs["schema_version"])[:10] not in READABLE_SCHEMA_VERSIONS:
-        raise ArchiveError(f"{str(path)!r} has archive schema "
+        raise ArchiveError(f"{shown_path(path)} has archive schema "
                            f"{str(loaded.attrs['schema_version'])[:10]}, this rodsim reads "
                            "schemas " + ", ".join(READABLE_SCHEMA_VERSIONS[:-1]) + " and "
                            + READABLE_SCHEMA_VERSIONS[-1])
     try:
         loaded = from_file(loaded)
     except Exception as exc:  # noqa: BLE001 - damaged label variables raise anything
-        raise ArchiveError(f"{str(path)!r}: damaged coordinate labels "
+        raise ArchiveError(f"{shown_path(path)}: damaged coordinate labels "
                            f"({type(exc).__name__})") from None
     try:
         check_archive(loaded)
     except ArchiveSchemaError as exc:
-        raise ArchiveError(f"{str(path)!r} is not a valid rodsim archive: {exc}") from None
+        raise ArchiveError(f"{shown_path(path)} is not a valid rodsim archive: {exc}") from None
     except (ValueError, TypeError, KeyError, IndexError, AttributeError, OverflowError,
             RecursionError) as exc:  # a check tripped on a value of an unexpected type
-        raise ArchiveError(f"{str(path)!r} is not a valid rodsim archive: "
+        raise ArchiveError(f"{shown_path(path)} is not a valid rodsim archive: "
                            f"{type(exc).__name__}: {str(exc)[:100]}") from None
     return loaded
 
@@ -206,10 +222,10 @@ def _probe_in_child(path: Path) -> None:
         if time.monotonic() > deadline:
             os.kill(pid, signal.SIGKILL)
             os.waitpid(pid, 0)
-            raise ArchiveError(f"cannot read {str(path)!r}: the netCDF library was still "
+            raise ArchiveError(f"cannot read {shown_path(path)}: the netCDF library was still "
                                f"reading it after {limit:.0f} s (a damaged archive)")
         time.sleep(delay)
         delay = min(2 * delay, 0.05)
     if os.WIFSIGNALED(status):
-        raise ArchiveError(f"cannot read {str(path)!r}: the netCDF/HDF5 library crashed "
+        raise ArchiveError(f"cannot read {shown_path(path)}: the netCDF/HDF5 library crashed "
                            f"reading it (signal {os.WTERMSIG(status)}): a damaged archive")

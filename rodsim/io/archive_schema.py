@@ -27,7 +27,8 @@ from rodsim.io.provenance import CONVENTIONS
 if TYPE_CHECKING:
     import xarray as xr
 
-__all__ = ["ArchiveSchemaError", "check_archive", "check_point_record", "parse_json_object",
+__all__ = ["ArchiveSchemaError", "check_archive", "check_attribute_sizes", "check_point_record",
+           "parse_json_object",
            "MAX_SIGMA_POINTS", "KINDS", "SCHEMA_VERSION", "READABLE_SCHEMA_VERSIONS"]
 
 #: Version of the archive layout; bump when variables or attributes change meaning.
@@ -59,8 +60,11 @@ STATUS = {"ok": 0, "solver_failure": 1, "error": 2}
 MAX_SIGMA_POINTS = 100_001
 
 #: Longest JSON or TOML attribute (scene_json, scene_toml, spec_json, ramp_json, …) [chars]:
-#: a scene file is at most 1 MiB, and a ramp of the most steps about as long.
-MAX_JSON_CHARS = 4 * 1024 ** 2
+#: a scene file is at most 1 MiB, but its resolved scene holds the points of a vessel's csv
+#: centerline (10 MB of JSON for 400 000 points; a csv may hold 64 MiB), and a ramp of the
+#: most steps takes 2.5 MB per ramped key. ``rodsim`` refuses a scene beyond it before any
+#: work (:func:`check_attribute_sizes`), so that every archive it writes, it reads.
+MAX_JSON_CHARS = 64 * 1024 ** 2
 #: Longest other text attribute (a title, a message, a history line, units) [chars].
 MAX_TEXT_CHARS = 10_000
 #: Deepest nesting of a JSON attribute (a scene is 4 levels deep, a study spec 6).
@@ -207,22 +211,32 @@ def check_archive(ds: xr.Dataset) -> None:
             _check_modes(ds)
 
 
+def _check_size(name: str, value: Any, where: str) -> None:
+    """One attribute's size: JSON and TOML ones of the archive up to :data:`MAX_JSON_CHARS`,
+    other texts up to :data:`MAX_TEXT_CHARS`."""
+    limit = MAX_JSON_CHARS if name in LONG_ATTRIBUTES and not where else MAX_TEXT_CHARS
+    if isinstance(value, (str, bytes)) and len(value) > limit:
+        raise ArchiveSchemaError(f"attribute {name[:40]!r}{where} holds {len(value)} "
+                                 f"characters, more than the {limit} allowed")
+    if isinstance(value, np.ndarray) and value.size > MAX_TEXT_CHARS:
+        raise ArchiveSchemaError(f"attribute {name[:40]!r}{where} holds {value.size} "
+                                 "values")
+
+
+def check_attribute_sizes(attrs: Mapping[str, Any]) -> None:
+    """The archive attributes ``attrs`` within the reader's bounds (ArchiveSchemaError
+    otherwise): ``rodsim`` checks a scene's before any work, so that what it writes, it
+    reads."""
+    for name, value in attrs.items():
+        _check_size(str(name), value, "")
+
+
 def _check_sizes(ds: xr.Dataset) -> None:
     """Bounded sizes: text attributes of the archive and of its variables, and steps."""
-    def check(name: str, value: Any, where: str) -> None:
-        limit = MAX_JSON_CHARS if name in LONG_ATTRIBUTES and not where else MAX_TEXT_CHARS
-        if isinstance(value, (str, bytes)) and len(value) > limit:
-            raise ArchiveSchemaError(f"attribute {name[:40]!r}{where} holds {len(value)} "
-                                     f"characters, more than the {limit} allowed")
-        if isinstance(value, np.ndarray) and value.size > MAX_TEXT_CHARS:
-            raise ArchiveSchemaError(f"attribute {name[:40]!r}{where} holds {value.size} "
-                                     "values")
-
-    for name, value in ds.attrs.items():
-        check(str(name), value, "")
+    check_attribute_sizes(ds.attrs)
     for variable in ds.variables:
         for name, value in ds[variable].attrs.items():
-            check(str(name), value, f" of variable {str(variable)[:40]!r}")
+            _check_size(str(name), value, f" of variable {str(variable)[:40]!r}")
     if ds.sizes.get("step", 0) > MAX_STEPS:
         raise ArchiveSchemaError(f"dimension 'step' has {ds.sizes['step']} steps, more than "
                                  f"the {MAX_STEPS} allowed")

@@ -12,6 +12,8 @@ import os
 import stat
 from pathlib import Path
 
+from rodsim.core.schema import shown_path
+
 __all__ = ["InputError", "check_input_file", "MAX_INPUT_BYTES"]
 
 #: Largest input file read (an archive of a 100 000-step track of 40 nodes is ~200 MB).
@@ -27,21 +29,21 @@ def check_input_file(path: str | Path, what: str = "file",
     """``path`` as a Path once it is known to be a regular file of at most ``max_bytes``
     bytes; :class:`InputError` otherwise (missing, a folder, a FIFO, a device, a socket,
     too large, a name the system refuses)."""
-    shown = str(path)[:200]
+    named = shown_path(path)
     try:
         status = os.stat(path)
     except FileNotFoundError:
-        raise InputError(f"cannot read {what} {shown!r}: no such file") from None
+        raise InputError(f"cannot read {what} {named}: no such file") from None
     except (OSError, ValueError) as exc:  # a name too long, a NUL, a loop of links
-        raise InputError(f"cannot read {what} {shown!r}: "
+        raise InputError(f"cannot read {what} {named}: "
                          f"{getattr(exc, 'strerror', None) or exc}") from None
     mode = status.st_mode
     if stat.S_ISDIR(mode):
-        raise InputError(f"cannot read {what} {shown!r}: it is a folder")
+        raise InputError(f"cannot read {what} {named}: it is a folder")
     if not stat.S_ISREG(mode):
-        raise InputError(f"cannot read {what} {shown!r}: not a regular file (a FIFO, device "
+        raise InputError(f"cannot read {what} {named}: not a regular file (a FIFO, device "
                          "or socket)")
     if status.st_size > max_bytes:
-        raise InputError(f"cannot read {what} {shown!r}: {status.st_size} bytes, more than "
+        raise InputError(f"cannot read {what} {named}: {status.st_size} bytes, more than "
                          f"the {max_bytes} bytes allowed")
     return Path(path)

@@ -31,6 +31,8 @@ import stat
 import tempfile
 from pathlib import Path
 
+from rodsim.core.schema import shown_path
+
 __all__ = ["OutputError", "check_target", "probe_folder", "remove_stale_temporaries",
            "temporary_prefix", "owned_prefix", "other_writers"]
 
@@ -135,14 +137,14 @@ def check_target(path: str | Path) -> Path:
     except FileNotFoundError:
         mode = None
     except OSError as exc:  # a name too long, a path through a file, a loop of links
-        raise OutputError(f"cannot write {str(path)!r}: {_reason(exc)}") from None
+        raise OutputError(f"cannot write {shown_path(path)}: {_reason(exc)}") from None
     except ValueError as exc:  # a NUL in the path
-        raise OutputError(f"cannot write {str(path)!r}: {exc}") from None
+        raise OutputError(f"cannot write {shown_path(path)}: {exc}") from None
     if mode is not None and not stat.S_ISREG(mode):
         kind = "a folder" if stat.S_ISDIR(mode) else "not a regular file (a device, " \
                                                       "socket or FIFO)"
-        raise OutputError(f"cannot write {str(path)!r}: it is {kind}; give a file name")
-    probe_folder(_folder(target), temporary_prefix(target), repr(str(path)))
+        raise OutputError(f"cannot write {shown_path(path)}: it is {kind}; give a file name")
+    probe_folder(_folder(target), temporary_prefix(target), shown_path(path))
     return target
 
 

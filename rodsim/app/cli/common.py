@@ -15,12 +15,15 @@ if TYPE_CHECKING:
     from rodsim.core.schema import SceneError
     from rodsim.core.stability import Stability
 
-__all__ = ["EXIT_OK", "EXIT_SOLVER_FAILURE", "EXIT_BAD_INPUT", "DEFAULT_OUTPUT_FOLDER",
+__all__ = ["EXIT_OK", "EXIT_SOLVER_FAILURE", "EXIT_BAD_INPUT", "EXIT_INTERRUPTED",
+           "DEFAULT_OUTPUT_FOLDER",
            "UserError", "warn", "check_integrator", "output_path", "CREATED_FOLDERS",
            "remove_created_output_folder", "scene_error_text", "load_scene_or_fail",
            "stability_text"]
 
 EXIT_OK, EXIT_SOLVER_FAILURE, EXIT_BAD_INPUT = 0, 1, 2
+#: Ctrl-C or SIGTERM (128 + SIGINT, as a shell reports it).
+EXIT_INTERRUPTED = 130
 
 #: Folder (in the current folder) of every command's default output: a run's archive never
 #: lands beside the sources of a checkout, and one ignore rule covers them (.gitignore).

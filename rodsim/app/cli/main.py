@@ -2,7 +2,8 @@
 :func:`entry`, the installed command's whole process.
 
 Human-readable summaries go to stdout, errors to stderr. Exit codes: 0 success, 1 solver
-failure, 2 bad input (scene, option, path or archive). User errors never show a traceback.
+failure, 2 bad input (scene, option, path or archive), 130 interrupted (Ctrl-C or SIGTERM).
+User errors never show a traceback.
 """
 
 from __future__ import annotations
@@ -10,12 +11,14 @@ from __future__ import annotations
 import argparse
 import os
 import shlex
+import signal
 import sys
+import threading
 from collections.abc import Callable, Sequence
 from typing import NoReturn
 
 from rodsim.app.cli import common
-from rodsim.app.cli.common import EXIT_BAD_INPUT, EXIT_OK, UserError
+from rodsim.app.cli.common import EXIT_BAD_INPUT, EXIT_INTERRUPTED, EXIT_OK, UserError
 from rodsim.app.cli.parser import build_parser
 from rodsim.app.threads import pin_threads
 
@@ -44,6 +47,8 @@ def main(argv: Sequence[str] | None = None, *, process: bool = False) -> int:
         hide_dask()
     words = list(sys.argv[1:] if argv is None else argv)
     common.CREATED_FOLDERS.clear()
+    previous = (signal.signal(signal.SIGTERM, _interrupt)  # SIGTERM stops as Ctrl-C does
+                if threading.current_thread() is threading.main_thread() else None)
     try:
         with invocation(shlex.join(["rodsim", *words])):  # the archives' history line
             code = command(args)
@@ -64,7 +69,16 @@ def main(argv: Sequence[str] | None = None, *, process: bool = False) -> int:
         return EXIT_OK
     except KeyboardInterrupt:
         print("rodsim: interrupted", file=sys.stderr)
-        return 130
+        return EXIT_INTERRUPTED
+    finally:
+        if previous is not None:
+            signal.signal(signal.SIGTERM, previous)
+
+
+def _interrupt(signum: int, frame: object) -> None:
+    """SIGTERM handler of every command: stop as Ctrl-C does (what is finished and worth
+    keeping is written, e.g. a track's steps; then "rodsim: interrupted", exit 130)."""
+    raise KeyboardInterrupt
 
 
 def entry() -> NoReturn:

@@ -1,7 +1,9 @@
 """The one path of the commands that solve a scene and write what they found (``run``,
 ``track``, ``fit``, ``reach``): scene → output checked → solve (with progress) → print →
 write. A command says only what differs (:class:`SceneCommand`); :func:`execute` is the
-path, its order and its exits (2 for bad input before any work, 1 for a solver failure)."""
+path, its order and its exits (2 for bad input before any work, 1 for a solver failure,
+130 on Ctrl-C or SIGTERM, after writing what a command finished:
+:class:`~rodsim.app.interrupted.Interrupted`)."""
 
 from __future__ import annotations
 
@@ -19,6 +21,7 @@ from rodsim.app.cli.common import (
     output_path,
     warn,
 )
+from rodsim.app.interrupted import Interrupted
 
 if TYPE_CHECKING:
     from rodsim.app.progress import ProgressPrinter
@@ -96,6 +99,7 @@ def execute(command: SceneCommand) -> int:
         flag = DEFAULT_INTEGRATOR
     scene = load_scene_or_fail(args.scene, args.set, flag)
     integrator = flag or scene.solver.integrator
+    check_archivable(scene)
     command.prepare(scene)
     output = output_path(args.output, command.output_name(scene, integrator))
     stem = check_outputs(output, command.figure)
@@ -108,6 +112,12 @@ def execute(command: SceneCommand) -> int:
     except solver_failures as exc:
         print(f"rodsim: solver failure: {exc}", file=sys.stderr)
         return EXIT_SOLVER_FAILURE
+    except Interrupted as stop:  # Ctrl-C or SIGTERM: keep what is finished, then stop
+        progress.close()
+        print(f"rodsim: {stop}; writing the finished part, marked incomplete",
+              file=sys.stderr)
+        command.write(stop.partial, output, stem)
+        raise
     finally:
         progress.close()
     message = command.failure(result)
@@ -117,6 +127,18 @@ def execute(command: SceneCommand) -> int:
     command.report(result)
     command.write(result, output, stem)
     return command.verdict(result)
+
+
+def check_archivable(scene: Scene) -> None:
+    """A scene too large for its archive (its resolved JSON holds a vessel's csv points) is
+    refused before any work: the archive would be refused when written, or when read."""
+    from rodsim.io.archive_schema import ArchiveSchemaError, check_attribute_sizes
+
+    try:
+        check_attribute_sizes({"scene_json": scene.to_json(), "scene_toml": scene.source})
+    except ArchiveSchemaError as exc:
+        raise UserError(f"scene {scene.name}: too large for an archive ({exc}); use fewer "
+                        "centerline points") from None
 
 
 def check_outputs(output: Path, figure: bool = True) -> str:

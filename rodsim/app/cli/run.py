@@ -99,7 +99,7 @@ def print_run_summary(result: Any, archive: Path | None) -> None:
     print(f"integrator  {result.integrator}  ({result.message})")
     for name, shape in result.rods.items():
         tip = shape.tip
-        print(f"tip of {name:<12s} x = {tip[0]: .6f} m  y = {tip[1]: .6f} m  z = {tip[2]: .3g} m")
+        print(f"tip of {name:<12s} x = {tip[0]: .6f} m  y = {tip[1]: .6f} m  z = {tip[2]: .6f} m")
     for line in reference_lines(scene, result.positions()):
         print(line)
     stats = result.stats

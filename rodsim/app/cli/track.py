@@ -16,7 +16,8 @@ class Track(SceneCommand):
     """Solve a sequence of equilibria while scene values ramp together (--ramp, repeatable:
     every ramp needs the same COUNT); each step starts from the previous equilibrium, a
     failing step is retried with halved increments. Writes one archive with a `step`
-    dimension and a figure (docs/inverse.md)."""
+    dimension and a figure (docs/inverse.md); a track that stops early (a failed or unstable
+    step, Ctrl-C, SIGTERM) writes its finished steps, marked incomplete."""
 
     kind = "track"
     integrator_flag = True
@@ -45,7 +46,7 @@ class Track(SceneCommand):
                      allow_unstable=self.args.allow_unstable)
 
     def failure(self, result: Any) -> str | None:
-        if not result.success and result.unstable_step is None:
+        if not result.steps:  # nothing finished: nothing written
             return f"rodsim: solver failure: {result.message}"
         return None
 
@@ -59,7 +60,7 @@ class Track(SceneCommand):
                           f"{k.unit}" for i, k in enumerate(result.keys)))
         print(f"integrator  {self.integrator_used}")
         tip = result.tips()[-1]
-        print(f"last tip    x = {tip[0]: .6f} m  y = {tip[1]: .6f} m  z = {tip[2]: .3g} m")
+        print(f"last tip    x = {tip[0]: .6f} m  y = {tip[1]: .6f} m  z = {tip[2]: .6f} m")
         speed = f" ({1.0 / warm:.0f} steps/s)" if warm > 0 else ""
         print(f"wall time   {sum(times):.4f} s: first step (cold) {times[0]:.4f} s, warm steps "
               f"{1e3 * warm:.3f} ms each{speed}, {int(sum(result.halvings))} halvings")
@@ -83,8 +84,10 @@ class Track(SceneCommand):
         print_last_step_trust(result)
 
     def verdict(self, result: Any) -> int:
-        if not result.success:  # stopped at an unstable step: archived, and a failure
-            print(f"rodsim: {result.message}", file=sys.stderr)
+        if not result.success:  # stopped at a failed or unstable step: archived, a failure
+            failure = "" if result.unstable_step is not None else "solver failure: "
+            print(f"rodsim: {failure}{result.message}; the archive holds the {result.steps} "
+                  "finished step(s), marked incomplete", file=sys.stderr)
             return EXIT_SOLVER_FAILURE
         unstable = result.unstable_steps
         if unstable:

@@ -70,8 +70,13 @@ def draw_contact(ax: plt.Axes, scene: Scene, positions: np.ndarray, forces: np.n
     Returns the drawing's size [m] (the larger extent)."""
     a, b = view
     depth = 3 - a - b
-    level = float(np.mean(positions[:, depth]))
     frame = positions if extent is None else extent.reshape(-1, 3)
+    # A damaged archive's NaN point is left out (it is not drawn either), not a traceback.
+    frame = frame[np.all(np.isfinite(frame), axis=1)]
+    if not len(frame):
+        frame = np.zeros((1, 3))
+    shown_depth = positions[np.isfinite(positions[:, depth]), depth]
+    level = float(np.mean(shown_depth)) if shown_depth.size else float(frame[0, depth])
     lo, hi = frame.min(axis=0), frame.max(axis=0)
     size = float(max(hi[a] - lo[a], hi[b] - lo[b], 1e-9))
     margin = 0.25 * size
@@ -79,6 +84,7 @@ def draw_contact(ax: plt.Axes, scene: Scene, positions: np.ndarray, forces: np.n
         _draw_obstacle(ax, build_obstacle(name, table), a, b, depth, level,
                        (lo[a] - margin, hi[a] + margin), (lo[b] - margin, hi[b] + margin))
     magnitude = np.linalg.norm(forces, axis=1)
+    magnitude[~np.isfinite(magnitude) | ~np.all(np.isfinite(positions), axis=1)] = 0.0
     largest = float(magnitude.max(initial=0.0))
     if largest > 0:
         scale = 0.2 * size / largest

@@ -367,8 +367,10 @@ def fit(scene: Scene, points: Points, params: Sequence[str], *, rod: str | None 
     if xyz.ndim != 2 or xyz.shape[1:] != (3,) or xyz.dtype.kind not in "fiu" or not np.all(
             np.isfinite(xyz)):
         raise FitError("Points.xyz must be an (m, 3) array of finite numbers [m]")
-    if isinstance(params, str) or not all(isinstance(key, str) for key in params):
-        raise FitError("params must be a list of scene keys (e.g. ['youngs_modulus'])")
+    if (not isinstance(params, (list, tuple)) or not params
+            or not all(isinstance(key, str) for key in params)):
+        raise FitError("params must be a non-empty list of scene keys (e.g. "
+                       "['youngs_modulus'])")
     keys = numeric_keys(scene, list(params))
     rod = rod or next(iter(scene.rods))
     if not isinstance(rod, str) or rod not in scene.rods:

@@ -37,6 +37,7 @@ from __future__ import annotations
 
 import json
 import math
+import numbers
 import time
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -202,12 +203,13 @@ def reach(scene: Scene, tip: Sequence[float], actuate: Sequence[str], *,
         target = np.empty(0)
     if target.shape != (3,) or not np.all(np.isfinite(target)):
         raise SceneError("the tip target needs three finite coordinates X,Y,Z [m]")
-    if isinstance(tolerance, bool) or not isinstance(tolerance, (int, float)) or not (
+    if isinstance(tolerance, bool) or not isinstance(tolerance, numbers.Real) or not (
             0 < tolerance < math.inf):
         raise SceneError(f"tolerance {str(tolerance)[:40]!r}: must be a distance > 0 [m]")
-    if isinstance(actuate, str) or not all(isinstance(key, str) for key in actuate):
-        raise SceneError("actuate must be a list of scene keys (e.g. ['tendon_actuation."
-                         "force'])")
+    if (not isinstance(actuate, (list, tuple)) or not actuate
+            or not all(isinstance(key, str) for key in actuate)):
+        raise SceneError("actuate must be a non-empty list of scene keys (e.g. "
+                         "['tendon_actuation.force'])")
     frame = None if orientation is None else _checked_orientation(orientation)
     keys = numeric_keys(scene, list(actuate))
     rod = rod or next(iter(scene.rods))

@@ -30,7 +30,9 @@ archive's ``stable`` and ``stiffness_min_eigenvalue`` along ``step``).
 attempts of a step; an integrator's own solve is bounded by what is left).
 
 The archive holds every step's shape along a ``step`` dimension with the ramped values as
-coordinates (docs/inverse.md).
+coordinates (docs/inverse.md). A track that stops early (a failed or unstable step, a spent
+budget, or Ctrl-C / SIGTERM: :class:`rodsim.app.interrupted.Interrupted` carries the steps
+done) keeps its finished steps: its archive says ``complete = 0`` (docs/archive.md).
 """
 
 from __future__ import annotations
@@ -40,10 +42,11 @@ import json
 import time
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from rodsim.app.interrupted import Interrupted
 from rodsim.app.inverse.continuation import MAX_HALVINGS, Continuation
 from rodsim.app.inverse.parameter_keys import NumericKey, numeric_keys, scene_with
 from rodsim.app.inverse.ramps import MAX_STEPS, parse_ramp
@@ -63,6 +66,7 @@ from rodsim.io.run_dataset import (
 )
 from rodsim.solvers import DEFAULT_INTEGRATOR, integrator_named, registered_integrators
 from rodsim.solvers.base import Progress
+from rodsim.solvers.result import Result
 
 if TYPE_CHECKING:
     import xarray as xr
@@ -114,6 +118,23 @@ class Track:
     tendon_compression: dict[str, float] = field(default_factory=dict)
     #: The last completed step's own model (with friction: that step's anchors).
     last_model: Model | None = None
+    #: Stopped by Ctrl-C or SIGTERM (:class:`rodsim.app.interrupted.Interrupted`).
+    interrupted: bool = False
+
+    @property
+    def complete(self) -> bool:
+        """Every planned step was solved (an archive of fewer steps is marked incomplete)."""
+        return self.steps == len(self.values)
+
+    def drop_unfinished(self) -> None:
+        """Keep only the steps whose every record was made (a stop between two records of a
+        step leaves the lists of different lengths)."""
+        records: list[list[Any]] = [self.states, self.residuals, self.iterations,
+                                    self.halvings, self.times, self.stable,
+                                    self.min_eigenvalues]
+        done = min(len(r) for r in records)
+        for r in [*records, *(r for r in (self.contact, self.tension) if r)]:
+            del r[done:]
 
     @property
     def unstable_steps(self) -> list[int]:
@@ -241,6 +262,7 @@ class Track:
                 registered_integrators()[self.integrator].options_of(self.scene)),
                 sort_keys=True),
             "success": int(self.success),
+            "complete": int(self.complete),
             "message": self.message,
             "unstable_steps": len(self.unstable_steps),
             "allow_unstable": int(self.allow_unstable),
@@ -338,14 +360,17 @@ def track(scene: Scene, ramps: Mapping[str, Sequence[float] | np.ndarray],
     first unstable step stops the track unless ``allow_unstable`` (module docstring).
 
     Raises SceneError for bad keys or values; a solver failure, a spent wall-time budget or
-    an unstable step comes back as ``Track.success = False`` with the step in the message.
+    an unstable step comes back as ``Track.success = False`` with the step in the message
+    (the steps before it kept, ``complete`` False). A ``KeyboardInterrupt`` (Ctrl-C; the
+    ``rodsim`` command turns SIGTERM into one) after step 0 is raised as
+    :class:`~rodsim.app.interrupted.Interrupted`, whose ``partial`` is the track of the steps
+    done (``interrupted`` True).
     """
     from rodsim.app.api import solve
-    from rodsim.core.stability import assess
 
     if not isinstance(scene, Scene):
         raise SceneError(f"track needs a Scene (rodsim.load_scene), got {type(scene).__name__}")
-    kind = integrator_named(integrator)
+    integrator_named(integrator)
     values = _ramp_values(ramps)
     keys = numeric_keys(scene, list(ramps))
     for column, key in enumerate(keys):  # every value in range before any work
@@ -366,6 +391,29 @@ def track(scene: Scene, ramps: Mapping[str, Sequence[float] | np.ndarray],
         out.success, out.failed_step = False, 0
         out.message = f"step 0 ({values_text(keys, values[0])}) failed: {first.message}"
         return out
+    try:
+        _walk(out, first, scene, deadline=deadline, budget=budget, started=started,
+              progress=progress)
+    except KeyboardInterrupt:
+        out.drop_unfinished()
+        if not out.steps:
+            raise
+        out.success, out.interrupted = False, True
+        out.message = (f"interrupted (Ctrl-C or SIGTERM) after {out.steps} of {len(values)} "
+                       "steps")
+        raise Interrupted(out, out.message) from None
+    return out
+
+
+def _walk(out: Track, first: Result, scene: Scene, *, deadline: float, budget: float,
+          started: float, progress: Progress | None) -> None:
+    """Record step 0 (``first``, solved cold) and walk the later steps into ``out``
+    (:func:`track`; a stop leaves ``out`` with the steps done)."""
+    from rodsim.core.stability import assess
+
+    keys, values, model = out.keys, out.values, out.model
+    integrator, allow_unstable = out.integrator, out.allow_unstable
+    kind = integrator_named(integrator)
     continuation = Continuation(model, first.state, integrator, deadline=deadline)
     out.states.append(model.full(first.state))
     out.last_model = model
@@ -376,7 +424,7 @@ def track(scene: Scene, ramps: Mapping[str, Sequence[float] | np.ndarray],
     out.times.append(time.perf_counter() - started)
     stability = first.stability or assess(model, first.state)
     if not record_stability(out, 0, stability, allow_unstable):
-        return out
+        return
     previous: np.ndarray | None = None  # the equilibrium before the last, for the predictor
     certified = True  # the last verdict certified K's symmetric part (assess's order)
     for step in range(1, len(values)):
@@ -386,7 +434,7 @@ def track(scene: Scene, ramps: Mapping[str, Sequence[float] | np.ndarray],
             out.message = (f"step {step} ({values_text(keys, values[step])}) not started: "
                            f"the wall-time budget of {budget:g} s (solver.max_wall_time) is "
                            "spent")
-            return out
+            return
         predictor = None
         chord = float(np.linalg.norm(values[step - 1] - values[step - 2])) if step > 1 else 0.0
         if previous is not None and continuation.takes_predictor and chord > 0.0:
@@ -402,7 +450,7 @@ def track(scene: Scene, ramps: Mapping[str, Sequence[float] | np.ndarray],
             out.message = (f"step {step} ({values_text(keys, values[step])}) failed: "
                            f"{halvings} failed attempts, each halving the increment; last: "
                            f"{message}")
-            return out
+            return
         previous = last
         out.states.append(continuation.model.full(continuation.x))
         out.last_model = continuation.model
@@ -418,10 +466,9 @@ def track(scene: Scene, ramps: Mapping[str, Sequence[float] | np.ndarray],
         certified = verdict.stable and np.isnan(verdict.min_eigenvalue)
         out.times.append(time.perf_counter() - started)
         if not record_stability(out, step, verdict, allow_unstable):
-            return out
+            return
         if progress is not None:
             progress(step / (len(values) - 1), f"track: step {step}/{len(values) - 1}")
-    return out
 
 
 def rerun_track(dataset: xr.Dataset) -> tuple[Track, float]:

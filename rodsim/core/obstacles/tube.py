@@ -122,14 +122,24 @@ class Tube(Obstacle):
             if kind in ("arc", "helix") and float(np.linalg.norm(b)) < 1e-9:
                 raise SceneError(f"{prefix}.bend_toward = {table['bend_toward']!r}: parallel "
                                  "to direction; allowed: a direction across it")
+            if kind == "helix" and table["turns"] > 1.0 and table["pitch"] < 2 * table["radius"]:
+                # a point and the one a turn later are one pitch apart: the lumens overlap
+                raise SceneError(f"{prefix}.pitch = {shown(table['pitch'])}: the vessel's "
+                                 f"turns overlap (radius {table['radius']!r} m); allowed: a "
+                                 "pitch of at least twice the radius, or at most one turn",
+                                 key=f"{prefix}.pitch", value=table["pitch"],
+                                 reason="self-overlapping")
         tube = cls("", table)
-        tube._check_bend(prefix)
+        tube._check_bend(prefix, 20 if kind == "csv" else 2)
         return table
 
-    def _check_bend(self, prefix: str) -> None:
+    def _check_bend(self, prefix: str, per_knot: int) -> None:
         """Refuse a vessel bending tighter than its radius (R κ ≥ 1): the nearest centerline
-        point, and so the wall, is not unique there."""
-        u = np.linspace(self.knots[0], self.knots[-1], 20 * len(self.knots))
+        point, and so the wall, is not unique there. Sampled ``per_knot`` times per knot: a
+        csv's spline anywhere between its points; an analytic centerline's, of constant
+        curvature and KNOTS_PER_TURN knots a turn, twice (20 took 9 s on a 1 000-turn
+        helix)."""
+        u = np.linspace(self.knots[0], self.knots[-1], per_knot * len(self.knots))
         c1, c2 = self._c(u, 1), self._c(u, 2)
         speed = np.linalg.norm(c1, axis=1)
         kappa = np.linalg.norm(np.cross(c1, c2), axis=1) / speed**3
@@ -231,7 +241,7 @@ class Tube(Obstacle):
         u = float(knots[np.argmin(np.sum((knots_c - points[0]) ** 2, axis=1))])
         first, last = float(self.knots[0]), float(self.knots[-1])
         for i, p in enumerate(points):
-            for _ in range(MAX_ITERATIONS + len(self.knots)):
+            for iteration in range(MAX_ITERATIONS + len(self.knots)):
                 at = np.array([u])
                 c, c1, c2 = self._c(at, 0)[0], self._c(at, 1)[0], self._c(at, 2)[0]
                 r = p - c
@@ -248,6 +258,11 @@ class Tube(Obstacle):
                     du = min(max(du, -self.step), self.step)
                 u += du
                 if abs(du) <= 1e-14 * self.step:
+                    break
+                if iteration >= MAX_ITERATIONS and abs(du) <= 1e-12 * self.step:
+                    # Converged, but round-off keeps u stepping back and forth (a node at
+                    # the spline's end): the walk took every knot of a 1 000-turn helix,
+                    # 13 s of a scene's validation (issue 37).
                     break
             out[i] = u
         return out

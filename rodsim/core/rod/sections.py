@@ -77,6 +77,14 @@ SECTION_PARAMETERS: tuple[Parameter, ...] = (
 )
 
 
+#: Section geometry a span may give itself (0: computed from its radii).
+GEOMETRY_OVERRIDES = ("area", "second_moment", "polar_moment")
+#: Smallest such value: the smallest normal double, whose reciprocal (the compliance of the
+#: span's harmonic mean, :class:`SectionProfile`) is finite; a subnormal 1e-320 made it
+#: infinite and every force NaN.
+MIN_GEOMETRY = float(np.finfo(float).tiny)
+
+
 def resolve_sections(raw: Any, rod: Mapping[str, Any], prefix: str) -> list[dict[str, Any]]:
     """The validated spans of ``[[<prefix>.sections]]`` (``rod``: the rod's resolved table),
     each with every default filled in except the rod's own values (:data:`INHERITED`) it does
@@ -112,6 +120,12 @@ def resolve_sections(raw: Any, rod: Mapping[str, Any], prefix: str) -> list[dict
                              f"the radius {span['radius']!r} m; allowed: inner_radius < radius",
                              key=f"{where}.inner_radius", value=span["inner_radius"],
                              reason="out of range")
+        for name in GEOMETRY_OVERRIDES:  # 0: from the radii; else a normal number
+            if 0.0 < span[name] < MIN_GEOMETRY:  # a subnormal's reciprocal is infinite
+                raise SceneError(f"{where}.{name} = {shown(span[name])}: too small; allowed: "
+                                 f"0 (from the radii) or at least {MIN_GEOMETRY:g}",
+                                 key=f"{where}.{name}", value=span[name],
+                                 reason="out of range")
         expected = span["end"]
     if abs(expected - length) > 1e-12 * length:
         raise SceneError(f"{key}.{len(spans) - 1}.end = {shown(expected)}: the sections do "
