@@ -46,6 +46,7 @@ from rodsim.core.rod.rod import ROD_PARAMETERS, RodOptions
 from rodsim.core.rod.sections import resolve_sections
 from rodsim.core.scene_file import parse_toml, read_scene_text
 from rodsim.core.schema import Options, Parameter, SceneError, shown, validate_table
+from rodsim.core.damping import resolve_damping
 from rodsim.core.supports import BASE_PARAMETERS, BaseOptions, resolve_base, resolve_supports
 from rodsim.core.tendon import (
     STRING_TERMS,
@@ -367,7 +368,7 @@ def resolve(raw: Mapping[str, Any]) -> dict[str, Any]:
                 and "stretch_modulus" not in own):  # E_s = E_b, an ideal material
             own = {**own, "stretch_modulus": own["youngs_modulus"]}
         rods[rod] = _resolve_with_terms(own, ROD_PARAMETERS, rod_terms, f"rods.{rod}",
-                                        extra_tables=("base", "supports"))
+                                        extra_tables=("base", "supports", "damping"))
         if given:  # only then: a uniform rod's resolved table is unchanged
             rods[rod]["sections"] = resolve_sections(table["sections"], rods[rod],
                                                      f"rods.{rod}")
@@ -392,6 +393,9 @@ def resolve(raw: Mapping[str, Any]) -> dict[str, Any]:
             table["base"] = base
         if "supports" in table:
             table["supports"] = resolve_supports(rod, table, rod in tendons)
+        damping = resolve_damping(rod, table)
+        if damping is not None:  # only then: a scene without damping resolves as before
+            table["damping"] = damping
         options = RodOptions.of(table)
         if not options.terms:
             raise SceneError(f"rods.{rod}.terms = []: a rod needs at least one term; allowed: "
