@@ -84,6 +84,8 @@ class Simulation:
     integrator: str = "midpoint"
     steps: int = 0
     iterations: int = 0
+    #: Steps whose Newton failed, taken as two half steps instead.
+    halvings: int = 0
     rods: tuple[str, ...] = ()
     #: The free-coordinate states at the output times (T, n), for checks.
     states: np.ndarray = field(default_factory=lambda: np.zeros((0, 0)), repr=False)
@@ -242,4 +244,5 @@ def simulate(scene: SceneLike | None, t_end: float, *, output_dt: float | None =
     return Simulation(record.success, message, loaded, np.array(record.times), positions,
                       quaternions, np.array(record.kinetic), np.array(record.potential),
                       np.array(record.dissipated), np.array(record.work), h,
-                      integrator, record.steps, record.iterations, tuple(model.rods), states)
+                      integrator, record.steps, record.iterations, record.halvings,
+                      tuple(model.rods), states)

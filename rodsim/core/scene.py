@@ -41,12 +41,12 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from rodsim.core.anchors import check_joints
+from rodsim.core.damping import resolve_damping
 from rodsim.core.names import check_rod_name, check_scene_name
 from rodsim.core.rod.rod import ROD_PARAMETERS, RodOptions
 from rodsim.core.rod.sections import resolve_sections
 from rodsim.core.scene_file import parse_toml, read_scene_text
 from rodsim.core.schema import Options, Parameter, SceneError, shown, validate_table
-from rodsim.core.damping import resolve_damping
 from rodsim.core.supports import BASE_PARAMETERS, BaseOptions, resolve_base, resolve_supports
 from rodsim.core.tendon import (
     STRING_TERMS,
