@@ -4,7 +4,7 @@
     python docs/generate_scene_reference.py --check  # exit 1 if docs/scenes.md is stale
 
 Reads rodsim.core.rod.rod.ROD_PARAMETERS, rodsim.core.supports.BASE_PARAMETERS and
-SUPPORT_PARAMETERS,
+SUPPORT_PARAMETERS, rodsim.core.damping.DAMPING_PARAMETERS,
 rodsim.core.tendon.TENDON_PARAMETERS,
 rodsim.core.scene.SOLVER_PARAMETERS, every registered term (``parameters``, ``equation``,
 ``scope``) and every registered integrator (``parameters``, ``summary``,
@@ -21,6 +21,7 @@ import json
 import sys
 from pathlib import Path
 
+from rodsim.core.damping import DAMPING_PARAMETERS
 from rodsim.core.rod.rod import ROD_PARAMETERS
 from rodsim.core.rod.sections import INHERITED, SECTION_PARAMETERS
 from rodsim.core.scene import SOLVER_PARAMETERS
@@ -137,6 +138,13 @@ def reference() -> str:
         "rodsim/core/terms/bend_twist.py). Not for a tendon rod.",
         "",
         *table(SUPPORT_PARAMETERS),
+        "### `[rods.<name>.damping]` — physical damping in physical time "
+        "(rodsim/core/damping.py)",
+        "",
+        "Optional; read by `rodsim.simulate` only (docs/dynamics.md), never by the "
+        "equilibrium solvers.",
+        "",
+        *table(DAMPING_PARAMETERS),
         *term_tables(terms, "rod", "rods.<name>"),
     ]
     if TENDON_PARAMETERS is not None:

@@ -12,14 +12,15 @@ docs/batch.md), ``rodsim.build_model``, ``rodsim.run_dataset`` (a
 run's archive Dataset), ``rodsim.penalty_error`` (how far a result depends on its
 penalties, docs/model.md) and the inverse tools
 ``rodsim.sensitivity``, ``rodsim.track``, ``rodsim.Tracker``, ``rodsim.fit`` and
-``rodsim.reach`` (docs/inverse.md) and ``rodsim.modes`` (natural frequencies and mode shapes,
-docs/dynamics.md) are imported on first use.
+``rodsim.reach`` (docs/inverse.md), ``rodsim.modes`` (natural frequencies and mode shapes,
+docs/dynamics.md) and ``rodsim.simulate`` (motion in physical time, docs/dynamics.md) are
+imported on first use.
 """
 
 from rodsim.version import __version__
 
 __all__ = ["Tracker", "__version__", "build_model", "fit", "load_scene", "modes", "penalty_error",
-           "reach", "run_dataset", "sensitivity", "solve", "solve_many", "track"]
+           "reach", "run_dataset", "sensitivity", "simulate", "solve", "solve_many", "track"]
 
 #: The inverse tools: name -> module (each module defines a function of the same name).
 _INVERSE = {"sensitivity": "rodsim.app.inverse.sensitivity", "track": "rodsim.app.inverse.track",
@@ -56,6 +57,10 @@ def __getattr__(name: str):
         from rodsim.app.modes import modes
 
         return modes
+    if name == "simulate":
+        from rodsim.app.simulate import simulate
+
+        return simulate
     if name == "penalty_error":
         from rodsim.app.trust import penalty_error
 

@@ -41,6 +41,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from rodsim.core.anchors import check_joints
+from rodsim.core.damping import resolve_damping
 from rodsim.core.names import check_rod_name, check_scene_name
 from rodsim.core.rod.rod import ROD_PARAMETERS, RodOptions
 from rodsim.core.rod.sections import resolve_sections
@@ -402,7 +403,7 @@ def resolve(raw: Mapping[str, Any]) -> dict[str, Any]:
                 and "stretch_modulus" not in own):  # E_s = E_b, an ideal material
             own = {**own, "stretch_modulus": own["youngs_modulus"]}
         rods[rod] = _resolve_with_terms(own, ROD_PARAMETERS, rod_terms, f"rods.{rod}",
-                                        extra_tables=("base", "supports"))
+                                        extra_tables=("base", "supports", "damping"))
         if given:  # only then: a uniform rod's resolved table is unchanged
             rods[rod]["sections"] = resolve_sections(table["sections"], rods[rod],
                                                      f"rods.{rod}")
@@ -427,6 +428,9 @@ def resolve(raw: Mapping[str, Any]) -> dict[str, Any]:
             table["base"] = base
         if "supports" in table:
             table["supports"] = resolve_supports(rod, table, rod in tendons)
+        damping = resolve_damping(rod, table)
+        if damping is not None:  # only then: a scene without damping resolves as before
+            table["damping"] = damping
         options = RodOptions.of(table)
         if not options.terms:
             raise SceneError(f"rods.{rod}.terms = []: a rod needs at least one term; allowed: "

@@ -1,0 +1,248 @@
+"""``rodsim.simulate``: how a scene moves in physical time (issue 33; docs/dynamics.md).
+
+    >>> import rodsim
+    >>> run = rodsim.simulate(scene, 0.5, output_dt=1e-3,
+    ...                       initial={"tip_load.force": [0.0, -0.01, 0.0]})
+    >>> run.times, run.positions[:, -1]      # s; the tip [m] at every output time
+
+The rods move under their physical inertia (rodsim/core/inertia.py), the scene's forces,
+their damping (``[rods.<rod>.damping]``, rodsim/core/damping.py) and values that change in
+time (``program``), integrated by the implicit midpoint rule
+(rodsim/solvers/physical/midpoint.py). The run starts at rest, from the scene's rest state
+or from the equilibrium of the scene with the ``initial`` values (a release: hold the tip
+with a force, let go at t = 0), or from a solved Result's state.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from rodsim.app.api import SceneLike, load_scene, solve
+from rodsim.app.inverse.parameter_keys import NumericKey, numeric_key, scene_with
+from rodsim.core.damping import ELASTIC_TERMS, Damping
+from rodsim.core.inertia import mass_factor
+from rodsim.core.model import Model
+from rodsim.core.scene import Scene
+from rodsim.core.schema import SceneError, shown
+from rodsim.core.vibration import ModesError, natural_modes
+from rodsim.solvers.physical.coordinates import PhysicalCoordinates
+from rodsim.solvers.physical.midpoint import MidpointStep, Motion
+from rodsim.solvers.physical.trajectory import integrate
+from rodsim.solvers.result import Result
+
+__all__ = ["Simulation", "simulate", "INTEGRATORS", "STEPS_PER_PERIOD"]
+
+#: The integrators of physical time.
+INTEGRATORS = ("midpoint",)
+#: Default steps per period of the lowest natural mode, when no step is given.
+STEPS_PER_PERIOD = 100
+
+Program = Mapping[str, tuple[Sequence[float], Sequence[float]]]
+
+
+@dataclass
+class Simulation:
+    """A run in physical time.
+
+    Attributes
+    ----------
+    success, message
+        Whether the run reached ``t_end``; what happened (a failure's time and advice: the
+        outputs up to it are kept).
+    times
+        The output times [s], shape (T,).
+    positions
+        Every control point at each output time [m], shape (T, nodes, 3), the rods
+        concatenated as in a run archive (the scene's order).
+    quaternions
+        Every segment's quaternion, shape (T, segments, 4).
+    kinetic_energy, potential_energy, dissipated_energy, work
+        At each output time [J] (docs/dynamics.md, "Energy"); the potential and the work are
+        NaN for a non-conservative scene.
+    energy_error
+        The balance T + V + D − W − (T₀ + V₀) at each output time [J].
+    step
+        The step asked for [s] (the steps taken are at most this; ``steps`` counts them).
+    """
+
+    success: bool
+    message: str
+    scene: Scene
+    times: np.ndarray
+    positions: np.ndarray
+    quaternions: np.ndarray
+    kinetic_energy: np.ndarray
+    potential_energy: np.ndarray
+    dissipated_energy: np.ndarray
+    work: np.ndarray
+    step: float
+    integrator: str = "midpoint"
+    steps: int = 0
+    iterations: int = 0
+    #: Steps whose Newton failed, taken as two half steps instead.
+    halvings: int = 0
+    rods: tuple[str, ...] = ()
+    #: The free-coordinate states at the output times (T, n), for checks.
+    states: np.ndarray = field(default_factory=lambda: np.zeros((0, 0)), repr=False)
+
+    @property
+    def energy_error(self) -> np.ndarray:
+        total = self.kinetic_energy + self.potential_energy + self.dissipated_energy - self.work
+        return total - total[0]
+
+
+def _programs(scene: Scene, program: Program | None
+              ) -> tuple[list[NumericKey], list[np.ndarray], list[np.ndarray]]:
+    """The checked programs: keys, times, values (SceneError, one line, for a key that is not
+    a term's number, times that do not increase, or a value outside the key's range)."""
+    keys, times, values = [], [], []
+    for name, table in (program or {}).items():
+        key = numeric_key(scene, name)
+        parts = key.path.split(".")
+        if len(parts) != 4 or parts[2] in ("base", "supports") or (
+                parts[0] == "rods" and parts[2] in ELASTIC_TERMS):
+            raise SceneError(f"program {shown(name, bare=True)}: {key.path} cannot vary in "
+                             "time; allowed: a load's or a tendon's value (a term parameter "
+                             "other than the rod's own stiffness)")
+        try:
+            t, v = (np.asarray(part, dtype=float) for part in table)
+        except (TypeError, ValueError):
+            raise SceneError(f"program {shown(name, bare=True)}: expected (times, values), two "
+                             "lists of numbers") from None
+        if t.ndim != 1 or t.shape != v.shape or t.size == 0 or not (
+                np.all(np.isfinite(t)) and np.all(np.isfinite(v))):
+            raise SceneError(f"program {shown(name, bare=True)}: expected times and values of "
+                             "the same length, finite")
+        if np.any(np.diff(t) < 0.0) or np.any(t[2:] == t[:-2]):
+            raise SceneError(f"program {shown(name, bare=True)}: times must not decrease (one "
+                             "repeated time is a step)")
+        keys.append(key)
+        times.append(t)
+        values.append(v)
+    for row in range(max((len(t) for t in times), default=0)):
+        for k, key in enumerate(keys):  # every table value, against its key's range
+            if row < len(times[k]):
+                scene_with(scene, [key], [float(values[k][row])])
+    return keys, times, values
+
+
+def _value_at(t: float, times: np.ndarray, values: np.ndarray) -> float:
+    """The piecewise-linear program at ``t`` (its end values outside; at a step, the value
+    after it)."""
+    right = int(np.searchsorted(times, t, side="right"))
+    if right == 0:
+        return float(values[0])
+    if right == len(times):
+        return float(values[-1])
+    t0, t1 = times[right - 1], times[right]
+    share = (t - t0) / (t1 - t0)
+    return float(values[right - 1] + share * (values[right] - values[right - 1]))
+
+
+def _start_state(scene: Scene, model: Model, initial: Mapping[str, Any] | Result | None
+                 ) -> np.ndarray:
+    """The free state the run starts from (at rest): the rest state, the equilibrium of the
+    scene with ``initial``'s values, or a solved Result's state."""
+    if initial is None:
+        return model.x0
+    if isinstance(initial, Result):
+        result = initial
+    else:
+        result = solve(scene.with_values(dict(initial)), "static")
+    if not result.success:
+        raise SceneError(f"initial: no equilibrium to start from ({result.message})")
+    other = Model(result.scene)
+    if other.full_size != model.full_size:
+        raise SceneError("initial: the Result's rods differ from the scene's")
+    x = other.full(result.state)[model.free]
+    coordinates = PhysicalCoordinates.of(model, x)
+    q = x[coordinates.quaternions]
+    x[coordinates.quaternions] = q / np.linalg.norm(q, axis=1)[:, None]
+    return x
+
+
+def _default_step(model: Model, x: np.ndarray) -> float:
+    """1/:data:`STEPS_PER_PERIOD` of the lowest natural period at ``x``."""
+    try:
+        vibration = natural_modes(-model.jacobian(x), mass_factor(model, x), 1)
+    except ModesError as exc:
+        raise SceneError(f"no default step ({exc}); give step=") from None
+    omega2 = float(np.real(vibration.eigenvalues[0]))
+    if not omega2 > 0.0:
+        raise SceneError("no default step (the start is not a stable equilibrium); give step=")
+    return 2.0 * math.pi / math.sqrt(omega2) / STEPS_PER_PERIOD
+
+
+def simulate(scene: SceneLike | None, t_end: float, *, output_dt: float | None = None,
+             integrator: str = "midpoint", initial: Mapping[str, Any] | Result | None = None,
+             program: Program | None = None, step: float | None = None,
+             overrides: Sequence[str] = (),
+             progress: Callable[[float], None] | None = None) -> Simulation:
+    """Integrate ``scene`` in physical time from t = 0 to ``t_end`` [s].
+
+    ``output_dt``: the spacing of the output times [s] (default: every step); ``step``: the
+    longest time step [s] (default: 1/100 of the lowest natural period at the start);
+    ``initial``: a mapping of ``--set`` keys to values whose equilibrium the run starts
+    from, or a solved Result (default: the rest state); ``program``: key → (times, values),
+    a piecewise-linear table per numeric term value; ``overrides``: ``key=value`` changes
+    of the scene. The run starts at rest. Bad input raises
+    :class:`~rodsim.core.schema.SceneError` (one line) before any work; a run that fails
+    part-way returns ``success`` False with what it computed.
+    """
+    if integrator not in INTEGRATORS:
+        raise SceneError(f"integrator {shown(integrator)}: allowed: {', '.join(INTEGRATORS)}")
+    for name, value, allow_none in (("t_end", t_end, False), ("output_dt", output_dt, True),
+                                    ("step", step, True)):
+        if value is None and allow_none:
+            continue
+        if (isinstance(value, bool) or not isinstance(value, (int, float))
+                or not math.isfinite(value) or value <= 0.0):
+            raise SceneError(f"{name} = {shown(value)}: allowed a number > 0 [s]")
+    loaded = load_scene(scene, overrides)
+    keys, times, values = _programs(loaded, program)
+    model = Model(loaded)
+    x = _start_state(loaded, model, initial)
+    h = float(step) if step is not None else _default_step(model, x)
+    spacing = float(output_dt) if output_dt is not None else h
+    count = max(1, math.ceil(float(t_end) / spacing * (1.0 - 1e-12)))
+    outputs = np.minimum(np.arange(count + 1) * spacing, float(t_end))
+    models: dict[tuple[float, ...], Model] = {}
+
+    def model_at(t: float) -> Model:
+        if not keys:
+            return model
+        now = tuple(_value_at(t, times[k], values[k]) for k in range(len(keys)))
+        if now not in models:
+            if len(models) > 64:
+                models.clear()
+            changed = model.with_values(scene_with(loaded, keys, list(now)))
+            assert changed is not None
+            models[now] = changed
+        return models[now]
+
+    coordinates = PhysicalCoordinates.of(model, x)
+    length = max(rod.options.length for rod in model.rods.values())
+    stepper = MidpointStep(coordinates, Damping(model), length)
+    start = Motion(x, np.zeros(len(coordinates.positions)),
+                   np.zeros((len(coordinates.quaternions), 3)))
+    record = integrate(model_at, stepper, start, outputs, h, progress)
+    states = np.array(record.states)
+    full = np.array([model.full(state) for state in states])
+    positions = np.concatenate([full[:, model.rods[name].layout.position_index]
+                                for name in model.rods], axis=1)
+    quaternions = np.concatenate([full[:, model.rods[name].layout.quaternion_index]
+                                  for name in model.rods], axis=1)
+    message = record.message
+    if record.success and not model.conservative:
+        message = ("ok; a non-conservative term (the paper's lumen coupling, friction): no "
+                   "potential energy, no energy balance")
+    return Simulation(record.success, message, loaded, np.array(record.times), positions,
+                      quaternions, np.array(record.kinetic), np.array(record.potential),
+                      np.array(record.dissipated), np.array(record.work), h,
+                      integrator, record.steps, record.iterations, record.halvings,
+                      tuple(model.rods), states)

@@ -1,0 +1,157 @@
+"""Physical damping of the rods in physical time: Kelvin–Voigt material damping and a linear
+viscous drag (issue 33, item 1; docs/dynamics.md).
+
+This is the damping of the catheter itself, for ``rodsim.simulate``. It is kept apart from
+the pseudo-dynamics' damping (rodsim/solvers/pseudo_dynamics.py, the integrators' way to an
+equilibrium), which is chosen for speed, not physics.
+
+A rod's ``[rods.<rod>.damping]`` table holds
+
+- ``retardation_time`` τ [s]: Kelvin–Voigt material damping. Each strain's stress gets a
+  viscous part η ε̇ with η = τ × that strain's stiffness (stretch E_s A, shear — the
+  centerline penalty's K_P, which plays κGA —, bending E I, twist G J). Summed over the
+  rod's elastic terms (``stretch``, ``bend_twist``, ``centerline``: paper Eqs. 6, 7, 9),
+  the damping force is f_D = −τ K_el(x) ẋ with K_el = −∂F_el/∂x the elastic terms'
+  Jacobian at the state. The n-th mode of a uniform rod then decays with the damping ratio
+  ζ_n = τ ω_n / 2 (tests/test_simulate.py measures it).
+- ``drag`` c [N·s/m²]: a force −c ṙ(s) per unit length on the centerline (a catheter in a
+  still fluid), distributed with the centerline's hat functions: f_D = −c C ṙ with
+  C_ij = ∫ N_i N_j ds (l (1/3, 1/6, 1/3) per segment, the consistent mass with ρA = 1).
+
+K_el(x) is assembled from each elastic element's Hessian (the terms' analytic element
+Jacobians) with the negative eigenvalues of each element's block set to zero: at rest every
+block is positive semi-definite and this is τ K exactly; at a stressed state the geometric
+part (the stress times the strains' second derivatives, smaller than the material part by
+the bending angle per segment) could make a block indefinite, and a viscosity must never
+feed energy in. Measured on the steel rod: without the clipping, the stretch and centerline
+elements' geometric part under a 0.1 N release (τ = 3e-4 s) made the step's Newton
+diverge within a period. The dissipated power ẋᵀ D ẋ ≥ 0 is accumulated and reported by
+the integrator (rodsim/solvers/physical/trajectory.py).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+import scipy.sparse as sp
+
+from rodsim.core.schema import Options, Parameter, SceneError, validate_table
+
+if TYPE_CHECKING:
+    from rodsim.core.model import Model
+
+__all__ = ["DAMPING_PARAMETERS", "DampingOptions", "ELASTIC_TERMS", "resolve_damping",
+           "rod_damping", "Damping"]
+
+DAMPING_PARAMETERS: tuple[Parameter, ...] = (
+    Parameter("retardation_time", "float", 0.0, "s",
+              "Kelvin-Voigt retardation time tau: each strain's viscosity is tau times its "
+              "stiffness (damping ratio tau*omega/2)", 0.0, 1e3),
+    Parameter("drag", "float", 0.0, "N*s/m^2",
+              "linear viscous drag per unit length on the centerline (a fluid around the rod)",
+              0.0, 1e9),
+)
+
+#: The rod terms whose stiffness Kelvin–Voigt damping scales (paper Eqs. 6, 7, 9).
+ELASTIC_TERMS = ("stretch", "bend_twist")
+
+
+@dataclass(frozen=True, kw_only=True)
+class DampingOptions(Options):
+    """A validated ``[rods.<rod>.damping]`` table: one field per :data:`DAMPING_PARAMETERS`."""
+
+    retardation_time: float = 0.0
+    drag: float = 0.0
+
+
+def resolve_damping(rod: str, table: Mapping[str, Any]) -> dict[str, Any] | None:
+    """The validated ``[rods.<rod>.damping]`` table of a rod table (defaults filled), or None
+    when the rod has none; SceneError (one line) for a negative or unknown value."""
+    if "damping" not in table:
+        return None
+    raw = table["damping"]
+    if not isinstance(raw, Mapping):
+        raise SceneError(f"rods.{rod}.damping: expected a table with retardation_time and "
+                         "drag")
+    return validate_table(raw, DAMPING_PARAMETERS, f"rods.{rod}.damping")
+
+
+def rod_damping(model: Model, rod: str) -> DampingOptions:
+    """The damping of rod ``rod`` of ``model``'s scene (zeros without a table)."""
+    table = model.scene.data["rods"][rod].get("damping")
+    return DampingOptions.of(table) if table else DampingOptions()
+
+
+class Damping:
+    """The damping matrix D(x) (free coordinates) of a model's rods: f_D = −D(x) ẋ."""
+
+    def __init__(self, model: Model) -> None:
+        self.model = model
+        free_of = np.full(model.full_size, -1)
+        free_of[model.free] = np.arange(model.n)
+        self._free_of = free_of
+        #: (term, τ) of every elastic term of a rod with τ > 0.
+        self.elastic: list[tuple[Any, float]] = []
+        rows: list[np.ndarray] = []
+        cols: list[np.ndarray] = []
+        values: list[np.ndarray] = []
+        for (owner, name, key), term in zip(model.term_keys, model.terms, strict=True):
+            if owner == "rods" and key in ELASTIC_TERMS:
+                tau = rod_damping(model, name).retardation_time
+                if tau > 0.0:
+                    self.elastic.append((term, tau))
+        for name, rod in model.rods.items():
+            c = rod_damping(model, name).drag
+            if c <= 0.0:
+                continue
+            length = rod.geometry.segment_length
+            index = rod.layout.position_index  # (N, 3)
+            for a, b, share in ((0, 0, 1 / 3), (1, 1, 1 / 3), (0, 1, 1 / 6), (1, 0, 1 / 6)):
+                i = index[a:len(index) - 1 + a].ravel()
+                j = index[b:len(index) - 1 + b].ravel()
+                rows.append(i)
+                cols.append(j)
+                values.append(np.full(i.size, c * length * share))
+        self.drag = self._assemble(rows, cols, values)
+
+    @property
+    def active(self) -> bool:
+        """Whether any rod is damped."""
+        return bool(self.elastic) or self.drag.nnz > 0
+
+    def _assemble(self, rows: list[np.ndarray], cols: list[np.ndarray],
+                  values: list[np.ndarray]) -> sp.csr_matrix:
+        """A sparse matrix on the free coordinates from full-state entries (held ones
+        dropped)."""
+        n = self.model.n
+        if not rows:
+            return sp.csr_matrix((n, n))
+        i = self._free_of[np.concatenate(rows)]
+        j = self._free_of[np.concatenate(cols)]
+        v = np.concatenate(values)
+        keep = (i >= 0) & (j >= 0)
+        return sp.csr_matrix((v[keep], (i[keep], j[keep])), shape=(n, n))
+
+    def matrix(self, x: np.ndarray) -> sp.csr_matrix:
+        """D(x) = Σ_rods τ K_el(x) + c C on the free coordinates at the free state ``x``
+        [N·s/m and the quaternions' units]; symmetric."""
+        if not self.elastic:
+            return self.drag
+        full = self.model.full(x)
+        rows, cols, values = [], [], []
+        for term, tau in self.elastic:
+            stiffness = -term.element_jacobians(full)  # K_e = −∂F_e/∂x_e
+            values_e, vectors_e = np.linalg.eigh(0.5 * (stiffness + np.swapaxes(stiffness, 1,
+                                                                                 2)))
+            blocks = -np.einsum("eik,ek,ejk->eij", vectors_e, np.maximum(values_e, 0.0),
+                                vectors_e)
+            dofs = term.dofs
+            k = dofs.shape[1]
+            rows.append(np.repeat(dofs, k, axis=1).ravel())
+            cols.append(np.tile(dofs, (1, k)).ravel())
+            values.append(-tau * blocks.ravel())
+        material = self._assemble(rows, cols, values)
+        return (material + material.T) * 0.5 + self.drag

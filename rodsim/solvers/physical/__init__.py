@@ -1,0 +1,14 @@
+"""Physical time: the equations of motion with the rods' real inertia and damping
+(paper Eqs. 10–13; docs/dynamics.md).
+
+Kept apart from the integrators of this package's parent, which reach an equilibrium
+through a pseudo-time (rodsim/solvers/pseudo_dynamics.py): nothing here is registered as an
+:class:`~rodsim.solvers.base.Integrator`.
+
+- :mod:`~rodsim.solvers.physical.coordinates`: the physical velocities (node velocities and
+  each segment's body angular velocity), the mass, the quaternion kinematics (Eq. 13).
+- :mod:`~rodsim.solvers.physical.midpoint`: the implicit midpoint step, Newton on the
+  model's analytic Jacobian.
+- :mod:`~rodsim.solvers.physical.trajectory`: the run to ``t_end``, output times, the
+  energy balance.
+"""

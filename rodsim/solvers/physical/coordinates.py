@@ -1,0 +1,117 @@
+"""The physical coordinates of a model's motion: where each free coordinate sits, the
+velocities, the mass and the quaternion kinematics (paper Eqs. 10–13; docs/dynamics.md).
+
+The state is the model's free coordinates x (node positions r and segment quaternions q,
+Eq. 18) and the physical velocities u = (ṙ, ω): every free position coordinate's velocity
+and each free segment's body-frame angular velocity ω = (ω_1, ω_2, ω_3) on its directors
+(d1, d2, d3). Eq. (13), q̇ = ½ Q(q) (0, ω), reads in the discretisation's matrices (Eq. 4)
+
+    q̇ = ½ Σ_k ω_k B_k q,
+
+so that ω_k = (2/|q|²) (B_k q) · q̇ (rodsim/core/inertia.py). B_k is skew, so q̇ ⊥ q: the
+kinematics keep |q| = 1 and the quaternion's norm, which has no mass (its direction q is
+the null vector of the rotary mass M_q), is no degree of freedom of the motion. A
+generalised force F_q on a quaternion acts on the segment as the torque
+τ_k = ½ (B_k q) · F_q (virtual work F_q · δq with δq = ½ Σ_k δθ_k B_k q); its part along q
+(the centerline penalty's pull on the norm, Eq. 9) is the constraint's reaction and does no
+work.
+
+The mass is constant in these velocities: the consistent translational mass M_r
+(:func:`rodsim.core.inertia.mass_factor`, point masses included) and the body inertia
+I = l diag(ρI, ρI, ρJ) of each segment (:func:`rodsim.core.inertia.segment_inertia`); the
+kinetic energy is T = ½ ṙᵀ M_r ṙ + ½ Σ_segments ωᵀ I ω.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.sparse as sp
+
+from rodsim.core.inertia import mass_factor, segment_inertia
+from rodsim.core.model import Model
+from rodsim.core.rod.quaternion import B
+
+__all__ = ["PhysicalCoordinates", "velocity_rows", "cayley"]
+
+
+def velocity_rows(q: np.ndarray) -> np.ndarray:
+    """B_k q for quaternions ``q`` (s, 4): shape (s, 3, 4), row k = B_k q."""
+    return np.einsum("kab,sb->ska", B, q)
+
+
+def cayley(q: np.ndarray, w: np.ndarray, h: float) -> np.ndarray:
+    """The quaternions q₁ with q₁ − q = (h/2) Ω (q + q₁)/2, Ω = Σ_k w_k B_k: the implicit
+    midpoint step of q̇ = ½ Ω q at the constant rate ``w`` (s, 3) over ``h``, the Cayley
+    transform (I − hΩ/4)⁻¹ (I + hΩ/4) q, which keeps |q| exactly (Ω is skew)."""
+    omega = np.einsum("sk,kab->sab", w, B)
+    eye = np.eye(4)[None]
+    return np.linalg.solve(eye - 0.25 * h * omega, ((eye + 0.25 * h * omega) @ q[..., None])
+                           )[..., 0]
+
+
+@dataclass(frozen=True)
+class PhysicalCoordinates:
+    """Where the physical degrees of freedom sit among a model's free coordinates, and their
+    mass.
+
+    Attributes
+    ----------
+    positions
+        Free index of every free position coordinate, shape (p,).
+    quaternions
+        Free indices of every free segment's quaternion, shape (s, 4).
+    mass
+        The translational mass M_r on ``positions`` [kg], sparse (p, p).
+    inertia
+        Body-frame inertia (I_1, I_2, I_3) of each free segment [kg·m²], shape (s, 3).
+    """
+
+    positions: np.ndarray
+    quaternions: np.ndarray
+    mass: sp.csr_matrix
+    inertia: np.ndarray
+
+    @classmethod
+    def of(cls, model: Model, x: np.ndarray) -> PhysicalCoordinates:
+        """The coordinates of ``model`` (ValueError when a quaternion is only partly held,
+        or a free coordinate is neither a position nor a quaternion)."""
+        free_of = np.full(model.full_size, -1)
+        free_of[model.free] = np.arange(model.n)
+        positions, quaternions, inertia = [], [], []
+        for rod in model.rods.values():
+            index = free_of[rod.layout.position_index].ravel()
+            positions.append(index[index >= 0])
+            q_index = free_of[rod.layout.quaternion_index]
+            moving = np.all(q_index >= 0, axis=1)
+            if np.any(np.any(q_index >= 0, axis=1) & ~moving):
+                raise ValueError(f"rod {rod.name!r}: a quaternion is only partly held; "
+                                 "physical time needs each segment free or held")
+            quaternions.append(q_index[moving])
+            inertia.append(segment_inertia(rod)[moving])
+        p = np.concatenate(positions)
+        q = np.concatenate(quaternions).reshape(-1, 4)
+        if p.size + q.size != model.n:
+            raise ValueError("a free coordinate is neither a position nor a quaternion")
+        factor = mass_factor(model, x, rotary=False).tocsr()
+        full = (factor @ factor.T).tocsr()
+        return cls(p, q, full[p][:, p].tocsr(), np.concatenate(inertia).reshape(-1, 3))
+
+    @property
+    def size(self) -> int:
+        """The number of physical degrees of freedom, p + 3 s."""
+        return len(self.positions) + 3 * len(self.quaternions)
+
+    def kinetic_energy(self, v: np.ndarray, w: np.ndarray) -> float:
+        """T = ½ vᵀ M_r v + ½ Σ ωᵀ I ω [J] for node velocities ``v`` (p,) and body rates
+        ``w`` (s, 3)."""
+        return float(0.5 * v @ (self.mass @ v) + 0.5 * np.sum(self.inertia * w * w))
+
+    def rates(self, x: np.ndarray, x_dot: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The physical velocities (ṙ, ω) of a motion ``x_dot`` of the free coordinates at
+        ``x`` (ω_k = (2/|q|²) (B_k q) · q̇)."""
+        q = x[self.quaternions]
+        rows = velocity_rows(q) * (2.0 / np.sum(q * q, axis=1))[:, None, None]
+        return x_dot[self.positions].copy(), np.einsum("ska,sa->sk", rows,
+                                                       x_dot[self.quaternions])

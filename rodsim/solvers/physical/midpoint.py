@@ -1,0 +1,335 @@
+"""The implicit midpoint step of the equations of motion in physical time (docs/dynamics.md).
+
+The equations (paper Eqs. 10–13 with the physical masses of rodsim/core/inertia.py, in the
+velocities of rodsim/solvers/physical/coordinates.py):
+
+    ṙ = v,                    M_r v̇ = F_r(x, t) − (D ẋ)_r
+    q̇ = ½ Σ_k ω_k B_k q,      I ω̇ + ω × I ω = τ(x, t) − Gᵀ(D ẋ)_q,   τ_k = ½ (B_k q) · F_q
+
+with F = −∂V/∂x the model's force (loads at full value, a program's values at time t), D
+the damping (rodsim/core/damping.py) and G the map from ω to q̇. One step of length h from
+(r₀, v₀, q₀, ω₀) solves for the midpoint velocities v_m = (r₁ − r₀)/h and ω_m:
+
+    (2/h) M_r (v_m − v₀) = F_r(x_m) − (D ẋ_m)_r
+    (2/h) I (ω_m − ω₀) + ω_m × I ω_m = τ(x_m) − Gᵀ (D ẋ_m)_q
+    q₁ = Cayley(h ω_m) q₀,   v₁ = 2 v_m − v₀,   ω₁ = 2 ω_m − ω₀,
+
+x_m the midpoint: positions (r₀ + r₁)/2, quaternions (q₀ + q₁)/|q₀ + q₁| — on the unit
+sphere, where the centerline penalty's norm stiffness (Eq. 9) is at rest, so it puts no
+spurious force into the step. q₁ − q₀ is orthogonal to q₀ + q₁, so the quaternion rate at
+the midpoint of the path normalise((1 − s) q₀ + s q₁) is ½ Σ ω_m,k B_k q̂_m: with it the
+step's kinetic energy change is exactly h u_m · (f(x_m) − D_t u_m) (the gyroscopic term
+does no work), and the potential's is h u_m · f(x_m) up to the midpoint rule's O(h³) per
+step. The scheme is symmetric and second order; undamped, its energy error does not drift
+(tests/test_simulate.py measures both); the Cayley transform keeps |q| = 1 to round-off,
+and q₁ is normalised after each step to keep it there over many steps.
+
+Newton on the midpoint velocities uses the model's analytic sparse Jacobian ∂F/∂x at the
+step's first iterate, factored once (SuperLU) and kept while each iteration shrinks the
+change tenfold (a simplified Newton; a fresh Jacobian otherwise), to the tolerance
+:data:`NEWTON_TOLERANCE`; the damping, D_t = Gᵀ D G on the physical velocities, is
+evaluated at each iterate's midpoint, so that the converged step's is the midpoint's
+(held from a predicted midpoint instead, an O(h²) error in the strain rates that the stiff
+stretch amplifies put the Kelvin–Voigt damping ratio of the steel rod's first mode 7 % to
+24 % high at 100 steps a period); its dissipation h u_m · D_t u_m ≥ 0 is what the step
+removes, exactly. Newton starts from the
+last step's midpoint velocities (:class:`Motion`).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.sparse as sp
+import scipy.sparse.linalg as spla
+
+from rodsim.core.damping import Damping
+from rodsim.core.model import Model
+from rodsim.core.rod.quaternion import B
+from rodsim.solvers.physical.coordinates import PhysicalCoordinates, cayley, velocity_rows
+
+__all__ = ["Motion", "StepFailure", "MidpointStep", "NEWTON_TOLERANCE", "MAX_ITERATIONS"]
+
+#: Newton stops when its step moves no node by more than this times the longest rod and no
+#: segment by more than this angle [rad] over the time step.
+NEWTON_TOLERANCE = 1e-12
+#: A change this small that is no longer half the smallest so far is the round-off floor
+#: of the forces (the stiff terms' internal forces cancel): converged.
+ROUNDOFF = 1e-9
+#: A Newton iteration that shrinks the change by less than this factor takes a fresh
+#: Jacobian for the next.
+REFRESH = 0.1
+#: A Newton change this large (a tenth of the rod's length, or of a radian) is divergence.
+DIVERGED = 0.1
+#: Newton iterations allowed per time step.
+MAX_ITERATIONS = 25
+
+
+class StepFailure(RuntimeError):
+    """A time step could not be taken (Newton did not converge, or a value is not finite)."""
+
+
+@dataclass(frozen=True)
+class Motion:
+    """A state of motion: free coordinates ``x``, node velocities ``v`` (p,) [m/s] and body
+    rates ``w`` (s, 3) [rad/s]; ``middle``: the midpoint velocities (v_m, ω_m) of the step
+    that reached it (None at the start), the next step's predictor.
+
+    The predictor: a mode the step cannot resolve (ωh ≫ 1: stretch, shear, twist, and
+    the overdamped modes of Kelvin–Voigt damping) reverses its velocity every step under
+    the midpoint rule, which is not L-stable, so v₁ ≈ −v₀ there and v_m ≈ 0; the last
+    step's v_m predicts that and the resolved modes alike (to O(h)). Predicting v₀ instead
+    put Newton's start a whole reversal away and made it diverge on a damped steel rod.
+    """
+
+    x: np.ndarray
+    v: np.ndarray
+    w: np.ndarray
+    middle: tuple[np.ndarray, np.ndarray] | None = None
+
+
+@dataclass(frozen=True)
+class StepOutcome:
+    """The motion a step reached, the energy its damping dissipated [J] and its Newton
+    iterations."""
+
+    motion: Motion
+    dissipated: float
+    iterations: int
+
+
+def _skew(a: np.ndarray) -> np.ndarray:
+    """[a]× for vectors ``a`` (s, 3): shape (s, 3, 3)."""
+    out = np.zeros(a.shape[:-1] + (3, 3))
+    out[..., 0, 1], out[..., 0, 2] = -a[..., 2], a[..., 1]
+    out[..., 1, 0], out[..., 1, 2] = a[..., 2], -a[..., 0]
+    out[..., 2, 0], out[..., 2, 1] = -a[..., 1], a[..., 0]
+    return out
+
+
+def _block_diagonal(blocks: np.ndarray, rows: np.ndarray, cols: np.ndarray, shape: tuple[
+        int, int]) -> sp.csr_matrix:
+    """A sparse matrix of ``blocks`` (s, a, b) placed at row indices ``rows`` (s, a) and
+    column indices ``cols`` (s, b)."""
+    a, b = blocks.shape[1:]
+    r = np.repeat(rows[:, :, None], b, axis=2).ravel()
+    c = np.repeat(cols[:, None, :], a, axis=1).ravel()
+    return sp.csr_matrix((blocks.ravel(), (r, c)), shape=shape)
+
+
+class MidpointStep:
+    """The implicit midpoint step of one model's motion (module docstring)."""
+
+    def __init__(self, coordinates: PhysicalCoordinates, damping: Damping,
+                 length_scale: float, tolerance: float = NEWTON_TOLERANCE,
+                 quadrature: int = 2) -> None:
+        self.coordinates = coordinates
+        self.damping = damping
+        self.length_scale = length_scale
+        self.tolerance = tolerance
+        self.quadrature = quadrature
+        c = coordinates
+        self._p = len(c.positions)
+        self._s = len(c.quaternions)
+        self._angle_cols = self._p + np.arange(3 * self._s).reshape(-1, 3)
+
+    def _midpoint(self, x0: np.ndarray, r1: np.ndarray, wm: np.ndarray, h: float
+                  ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """(x_m, q₁, the unnormalised midpoint quaternions, their norms)."""
+        c = self.coordinates
+        q0 = x0[c.quaternions]
+        q1 = cayley(q0, wm, h)
+        qm = 0.5 * (q0 + q1)
+        norm = np.linalg.norm(qm, axis=1)
+        xm = x0.copy()
+        xm[c.positions] = 0.5 * (x0[c.positions] + r1)
+        xm[c.quaternions] = qm / norm[:, None]
+        return xm, q1, qm, norm
+
+    def _tangent(self, xm: np.ndarray, velocity: np.ndarray, w: np.ndarray) -> np.ndarray:
+        """ẋ = G u at the (unit) midpoint ``xm``: positions ``velocity``, q̇ = ½ Σ w_k B_k q."""
+        c = self.coordinates
+        out = np.zeros(len(xm))
+        out[c.positions] = velocity
+        out[c.quaternions] = 0.5 * np.einsum("ska,sk->sa", velocity_rows(xm[c.quaternions]), w)
+        return out
+
+    def _generalised(self, xm: np.ndarray, f: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Gᵀ f at ``xm``: (f_r, τ) with τ_k = ½ (B_k q) · f_q."""
+        c = self.coordinates
+        rows = velocity_rows(xm[c.quaternions])
+        return f[c.positions], 0.5 * np.einsum("ska,sa->sk", rows, f[c.quaternions])
+
+    def _averaged(self, model: Model, x0: np.ndarray, r1: np.ndarray, q1: np.ndarray,
+                  qm: np.ndarray, dq1: np.ndarray | None = None
+                  ) -> tuple[np.ndarray, np.ndarray, sp.csr_matrix | None]:
+        """The generalised force averaged along the step's path γ(s) = (r₀ + s Δr,
+        normalise(q₀ + s Δq)), s in [0, 1], by Gauss–Legendre quadrature (``quadrature``
+        points): (f̄_r, τ̄) with h u_m · (f̄_r, τ̄) = ∫ F(γ) · γ′ ds, the work of the force
+        over the step (module docstring). With ``dq1`` (∂q₁/∂ω_m, (s, 4, 3)) also the
+        derivative of (f̄_r, τ̄) with respect to (r₁, ω_m): the stiffness terms and the
+        change of the path's direction with ω_m at fixed force (large where a penalty's
+        internal force is: leaving it out made Newton diverge on stiff wires)."""
+        c = self.coordinates
+        n, m = model.n, c.size
+        r0, q0 = x0[c.positions], x0[c.quaternions]
+        rows = velocity_rows(qm)  # B_k q_m: Δq = (h/2) Σ ω_m,k B_k q_m
+        f_r = np.zeros(self._p)
+        tau = np.zeros((self._s, 3))
+        derivative = None
+        nodes, weights = np.polynomial.legendre.leggauss(self.quadrature)
+        for node, weight in zip(0.5 * (nodes + 1.0), 0.5 * weights, strict=True):
+            q = q0 + node * (q1 - q0)
+            norm = np.linalg.norm(q, axis=1)
+            unit = q / norm[:, None]
+            x = x0.copy()
+            x[c.positions] = r0 + node * (r1 - r0)
+            x[c.quaternions] = unit
+            if dq1 is None:
+                f, jac = model.force(x), np.zeros(0)
+            else:
+                f, jac = model.evaluate(x)
+            if not (np.all(np.isfinite(f)) and np.all(np.isfinite(jac))):
+                raise StepFailure("the force or its Jacobian is not finite")
+            f_q = f[c.quaternions]
+            across = f_q - unit * np.sum(unit * f_q, axis=1)[:, None]  # (I − q̂q̂ᵀ) f_q
+            f_r += weight * f[c.positions]
+            tau += weight * 0.5 * np.einsum("ska,sa->sk", rows, across) / norm[:, None]
+            if dq1 is None:
+                continue
+            project = (np.eye(4)[None] - unit[:, :, None] * unit[:, None, :]) / norm[:, None,
+                                                                                    None]
+            g = self._map(0.5 * project @ np.transpose(rows, (0, 2, 1)), 1.0, n, m)
+            p = self._map(project @ (node * dq1), node, n, m)
+            # τ_k = ½ a_kᵀ P f / |q| (a_k = B_k q_m, P = I − q̂q̂ᵀ) at fixed f: through a_k
+            # (q_m moves by ½ ∂q₁/∂ω_m) and through q̂ and |q| (q moves by s ∂q₁/∂ω_m)
+            turned = np.einsum("kba,sb->ska", B, across) / norm[:, None, None]  # B_kᵀ P f
+            along = np.einsum("ska,sa->sk", rows, unit)  # a_k · q̂
+            pull = np.sum(unit * f_q, axis=1)  # q̂ · f
+            moment = np.einsum("ska,sa->sk", rows, across)  # a_k · P f
+            through_q = (-(along[:, :, None] * f_q[:, None, :]
+                           + pull[:, None, None] * rows) @ (project * norm[:, None, None])
+                         - moment[:, :, None] * unit[:, None, :]) / norm[:, None, None] ** 2
+            geometric = 0.5 * (np.einsum("ska,sal->skl", turned, 0.5 * dq1)
+                               + np.einsum("ska,sal->skl", through_q, node * dq1))
+            local = self._angle_cols - self._p
+            part = (g.T @ model.pattern_matrix(jac) @ p) + sp.block_diag([
+                sp.csr_matrix((self._p, self._p)),
+                _block_diagonal(geometric, local, local, (3 * self._s, 3 * self._s))])
+            derivative = weight * part if derivative is None else derivative + weight * part
+        return f_r, tau, None if derivative is None else derivative.tocsr()
+
+    def _map(self, blocks: np.ndarray, position: float, n: int, m: int) -> sp.csr_matrix:
+        """An n × m map: ``position`` times the identity on the positions, the 4 × 3
+        ``blocks`` on each segment's quaternion and angles."""
+        c = self.coordinates
+        positions = sp.csr_matrix((np.full(self._p, position),
+                                   (c.positions, np.arange(self._p))), shape=(n, m))
+        return positions + _block_diagonal(blocks, c.quaternions, self._angle_cols, (n, m))
+
+    def _g_matrix(self, xm: np.ndarray, n: int) -> sp.csr_matrix:
+        """G (n × m) at ``xm``: ẋ = G u."""
+        c = self.coordinates
+        positions = sp.csr_matrix((np.ones(self._p), (c.positions, np.arange(self._p))),
+                                  shape=(n, c.size))
+        blocks = 0.5 * np.transpose(velocity_rows(xm[c.quaternions]), (0, 2, 1))
+        return positions + _block_diagonal(blocks, c.quaternions, self._angle_cols,
+                                           (n, c.size))
+
+    def step(self, model: Model, start: Motion, h: float) -> StepOutcome:
+        """One step of length ``h`` [s] from ``start`` with ``model``'s forces (those of the
+        step's midpoint time); StepFailure when Newton does not converge."""
+        c = self.coordinates
+        n = model.n
+        x0, v0, w0 = start.x, start.v, start.w
+        r0 = x0[c.positions]
+        damping = None  # D_t = Gᵀ D G on the physical velocities at the iterate's midpoint
+        r1, wm = r0 + h * v0, w0.copy()
+        if start.middle is not None:
+            r1, wm = r0 + h * start.middle[0], start.middle[1].copy()
+        inertia = c.inertia
+        solve: Callable[[np.ndarray], np.ndarray] | None = None
+        previous = moved = best = np.inf
+        iterations = 0
+        for _ in range(MAX_ITERATIONS):
+            iterations += 1
+            xm, q1, qm, norm = self._midpoint(x0, r1, wm, h)
+            vm = (r1 - r0) / h
+            fresh = solve is None
+            dq1 = self._cayley_derivative(qm, wm, h) if fresh else None
+            f_r, tau, stiffness = self._averaged(model, x0, r1, q1, qm, dq1)
+            res_r = (2.0 / h) * (c.mass @ (vm - v0)) - f_r
+            res_w = ((2.0 / h) * inertia * (wm - w0) + np.cross(wm, inertia * wm) - tau)
+            if self.damping.active:
+                g = self._g_matrix(xm, n)
+                damping = (g.T @ self.damping.matrix(xm) @ g).tocsr()
+                dragged = damping @ np.concatenate([vm, wm.ravel()])
+                res_r = res_r + dragged[:self._p]
+                res_w = res_w + dragged[self._p:].reshape(-1, 3)
+            residual = np.concatenate([res_r, res_w.ravel()])
+            if stiffness is not None:  # a fresh Newton matrix, kept while it converges fast
+                matrix = self._newton_matrix(stiffness, damping, wm, h)
+                try:
+                    solve = spla.splu(matrix.tocsc()).solve
+                except RuntimeError as exc:
+                    raise StepFailure(f"the Newton matrix is singular ({exc})") from None
+            assert solve is not None
+            delta = solve(-residual)
+            if not np.all(np.isfinite(delta)):
+                raise StepFailure("the Newton step is not finite (a singular Newton matrix)")
+            r1 = r1 + delta[:self._p]
+            wm = wm + delta[self._p:].reshape(-1, 3)
+            moved = max(float(np.max(np.abs(delta[:self._p]), initial=0.0))
+                        / self.length_scale,
+                        h * float(np.max(np.abs(delta[self._p:]), initial=0.0)))
+            if moved > DIVERGED:
+                raise StepFailure(f"Newton diverges (a change of {moved:.1e})")
+            if moved <= self.tolerance or (moved <= ROUNDOFF and moved > 0.5 * best):
+                break  # converged, or at the round-off floor of the forces
+            best = min(best, moved)
+            if moved > REFRESH * previous:
+                solve = None  # slow: a fresh Jacobian at the next iterate
+            previous = moved
+        else:
+            raise StepFailure(f"Newton did not converge in {MAX_ITERATIONS} iterations "
+                              f"(last change {moved:.1e})")
+        xm, q1, _, _ = self._midpoint(x0, r1, wm, h)
+        vm = (r1 - r0) / h
+        dissipated = 0.0
+        if damping is not None:
+            velocity = np.concatenate([vm, wm.ravel()])
+            dissipated = float(h * velocity @ (damping @ velocity))
+        x1 = x0.copy()
+        x1[c.positions] = r1
+        x1[c.quaternions] = q1 / np.linalg.norm(q1, axis=1)[:, None]
+        return StepOutcome(Motion(x1, 2.0 * vm - v0, 2.0 * wm - w0, (vm, wm)), dissipated,
+                           iterations)
+
+    @staticmethod
+    def _cayley_derivative(qm: np.ndarray, wm: np.ndarray, h: float) -> np.ndarray:
+        """∂q₁/∂ω_m = (I − hΩ/4)⁻¹ (h/2) [B_k q_m]_k, shape (s, 4, 3) (from
+        q₁ − q₀ = (h/2) Ω q_m)."""
+        omega = np.einsum("sk,kab->sab", wm, B)
+        return np.linalg.solve(np.eye(4)[None] - 0.25 * h * omega,
+                               0.5 * h * np.transpose(velocity_rows(qm), (0, 2, 1)))
+
+    def _newton_matrix(self, stiffness: sp.csr_matrix,
+                       damping: sp.csr_matrix | None, wm: np.ndarray, h: float
+                       ) -> sp.csr_matrix:
+        """∂(residual)/∂(r₁, ω_m): the masses, the gyroscopic term, minus the averaged
+        force's derivative ``stiffness``, plus the (held) damping D_t ∂u_m/∂(r₁, ω_m)."""
+        c = self.coordinates
+        inertia = c.inertia
+        gyro = _skew(wm) * inertia[:, None, :] - _skew(inertia * wm)
+        rotation = (2.0 / h) * np.eye(3)[None] * inertia[:, :, None] + gyro
+        local = self._angle_cols - self._p
+        masses = sp.block_diag([(2.0 / h**2) * c.mass,
+                                _block_diagonal(rotation, local, local,
+                                                (3 * self._s, 3 * self._s))]).tocsr()
+        matrix = masses - stiffness
+        if damping is not None:
+            scale = np.concatenate([np.full(self._p, 1.0 / h), np.ones(3 * self._s)])
+            matrix = matrix + damping @ sp.diags(scale)
+        return matrix.tocsr()
