@@ -57,7 +57,11 @@ counted densely up to :data:`DENSE_LIMIT` coordinates, −1 above: not counted).
 curvature is not exactly zero there), the pendulum's swing 1.3e-7; the smallest scaled
 eigenvalue of a shipped scene 4.6e-11 (tip-on-tissue, n = 280: τ = 6.2e-12), of the others
 6e-10 and above. One more band Cholesky (of D S D − τ I) per certified verdict tells a strict
-minimum from a neutral one. The non-symmetric path (the paper's tendon coupling) is judged
+minimum from a neutral one, up to :data:`DENSE_LIMIT` coordinates only: a slender rod's
+smallest scaled eigenvalue falls like (h/L)³, below τ (which grows like n) at large N —
+table1-50g at N = 4 000 (28 000 coordinates) was called neutral and CVODE's finish refused
+it seven times — so above the limit a positive definite K is stable, as before the neutral
+test. The non-symmetric path (the paper's tendon coupling) is judged
 by its eigenvalues' real parts as before: no neutral state there.
 
 :func:`assess` (a model's verdict, what every run and every track step gets) does the
@@ -182,7 +186,8 @@ def stiffness_stability(stiffness: sp.spmatrix, width: int | None = None, *,
         width = int(np.max(np.abs(entries.row - entries.col)))
     tolerance = neutral_tolerance(stiffness.shape[0])
     if not indefinite and _symmetric_part_positive_definite(entries, width):
-        if _symmetric_part_positive_definite(entries, width, -tolerance):
+        if (stiffness.shape[0] > DENSE_LIMIT
+                or _symmetric_part_positive_definite(entries, width, -tolerance)):
             return Stability(True)
         return _neutral(stiffness)
     symmetric = (0.5 * (stiffness + stiffness.T)).tocoo()
@@ -392,7 +397,8 @@ def assess(model: Model, x: np.ndarray,
     tolerance = neutral_tolerance(model.n)
     if getattr(solve, "proves_stable", False):  # −J's band Cholesky: K is positive definite
         assert factored is not None
-        if banded is None or banded.certified(factored[0], scaled_shift=-tolerance):
+        if (banded is None or model.n > DENSE_LIMIT
+                or banded.certified(factored[0], scaled_shift=-tolerance)):
             return Stability(True)
         return _neutral(-model.pattern_matrix(factored[0]))  # but not beyond τ
     data = model.jacobian_data(x) if factored is None else factored[0]
@@ -402,7 +408,7 @@ def assess(model: Model, x: np.ndarray,
                and banded.asymmetry(data) > 1e-12)
     if not nearest:
         if banded.certified(data):
-            if banded.certified(data, scaled_shift=-tolerance):
+            if model.n > DENSE_LIMIT or banded.certified(data, scaled_shift=-tolerance):
                 return Stability(True)
             return _neutral(-model.pattern_matrix(data))
         if banded.asymmetry(data) <= 1e-12 or model.n <= DENSE_NONSYMMETRIC_LIMIT:
