@@ -92,6 +92,13 @@ def _at(variable: xr.DataArray, step: int | None) -> np.ndarray:
     return variable.values
 
 
+def _arc_length(positions: np.ndarray) -> np.ndarray:
+    """Arc length along the nodes [m]: the routing's s where an archive has no ``s`` (the
+    contract does not require it)."""
+    return np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(positions, axis=0),
+                                                           axis=1))])
+
+
 def scene_parts(ds: xr.Dataset, step: int | None = None) -> SceneParts:
     """The parts of run, fit, reach or track archive ``ds`` (a track's step ``step``, its
     last by default)."""
@@ -110,7 +117,8 @@ def scene_parts(ds: xr.Dataset, step: int | None = None) -> SceneParts:
         for name in rods:
             mine = segment_rod == name
             frames[name] = (ds["segment_s"].values[mine], quaternions[mine])
-    node_s = {name: ds["s"].values[node_rod == name] for name in rods}
+    node_s = {name: (ds["s"].values[node_rod == name] if "s" in ds
+                     else _arc_length(rods[name])) for name in rods}
     paths: list[TendonPath] = []
     for name, table in tendons_raw.items():
         if name in rods:
