@@ -49,7 +49,7 @@ import numpy as np
 from rodsim.app.interrupted import Interrupted
 from rodsim.app.inverse.continuation import MAX_HALVINGS, Continuation
 from rodsim.app.inverse.parameter_keys import NumericKey, numeric_keys, scene_with
-from rodsim.app.inverse.ramps import MAX_STEPS, parse_ramp
+from rodsim.app.inverse.ramps import check_rules_across_tables, parse_ramp, ramp_values
 from rodsim.app.inverse.track_steps import record_contact, record_stability, values_text
 from rodsim.core.model import Model
 from rodsim.core.scene import Scene
@@ -290,67 +290,6 @@ class Track:
         return ds
 
 
-def _ramp_values(ramps: Mapping[str, Sequence[float] | np.ndarray]) -> np.ndarray:
-    """The ramps as a (steps, keys) array of finite numbers; SceneError otherwise (a text, a
-    scalar, ramps of different lengths)."""
-    if not isinstance(ramps, Mapping) or not ramps:
-        raise SceneError("ramps must map scene keys to lists of values (e.g. {'force': "
-                         "[0, 1, 2]})")
-    columns = []
-    for key, ramp in ramps.items():
-        if isinstance(ramp, (str, bytes)) or not isinstance(ramp, (Sequence, np.ndarray)):
-            raise SceneError(f"ramp {str(key)[:60]!r}: expected a list of numbers, got "
-                             f"{type(ramp).__name__} (parse_ramp reads KEY=START:STOP:COUNT)")
-        try:
-            column = np.asarray(ramp, dtype=float)
-        except (TypeError, ValueError):
-            raise SceneError(f"ramp {str(key)[:60]!r}: expected a list of numbers") from None
-        if column.ndim != 1:
-            raise SceneError(f"ramp {str(key)[:60]!r}: expected a flat list of numbers")
-        columns.append(column)
-    lengths = {len(c) for c in columns}
-    if len(lengths) != 1 or not 2 <= lengths.pop() <= MAX_STEPS:
-        raise SceneError(f"every ramp needs the same number of values (2 to {MAX_STEPS})")
-    values = np.column_stack(columns)
-    if not np.all(np.isfinite(values)):
-        raise SceneError("ramp values must be finite numbers")
-    return values
-
-
-def _check_rules_across_tables(scene: Scene, keys: Sequence[NumericKey],
-                               values: np.ndarray) -> None:
-    """The rules across tables (radius < length, a tendon's length its catheter's, a lumen
-    offset inside the radii) checked before any work, at the first and last steps and at each
-    ramped value's smallest and largest (each rule compares values monotonically, so a ramp
-    that breaks one breaks it at one of these; a string tendon's routing, whose spline can
-    overshoot its knots, at every distinct step); a break is blamed on the ramp that caused it,
-    not on the scene's value it made invalid (issue 23: found only at that step, after the
-    earlier steps' work, and blamed on a value the user never gave)."""
-    from rodsim.app.inverse.parameter_keys import _local
-    from rodsim.core.scene import cross_table_culprit
-
-    if all(_local(key) for key in keys):
-        return
-    rows = sorted({0, len(values) - 1, *np.argmin(values, axis=0).tolist(),
-                   *np.argmax(values, axis=0).tolist()})
-    if any(key.routing for key in keys):  # a spline's overshoot is not monotone: every step
-        rows = np.unique(values, axis=0, return_index=True)[1].tolist()
-    for row in sorted(rows):
-        try:
-            scene_with(scene, keys, values[row])
-        except SceneError as exc:
-            found = cross_table_culprit(exc, [key.path for key in keys if key.index is None])
-            if found is None and any(key.routing for key in keys):
-                raise SceneError(f"--ramp at step {row} ({values_text(keys, values[row])}): "
-                                 f"{exc}") from None
-            if found is None:
-                raise
-            column = next(k for k, key in enumerate(keys) if key.path == found[0])
-            raise SceneError(f"--ramp {keys[column].name} reaches {values[row, column]:g} at "
-                             f"step {row}, which {found[1]}", key=found[0],
-                             value=float(values[row, column]), reason=found[1]) from None
-
-
 def track(scene: Scene, ramps: Mapping[str, Sequence[float] | np.ndarray],
           integrator: str = DEFAULT_INTEGRATOR,
           *, progress: Progress | None = None, allow_unstable: bool = False) -> Track:
@@ -371,7 +310,7 @@ def track(scene: Scene, ramps: Mapping[str, Sequence[float] | np.ndarray],
     if not isinstance(scene, Scene):
         raise SceneError(f"track needs a Scene (rodsim.load_scene), got {type(scene).__name__}")
     integrator_named(integrator)
-    values = _ramp_values(ramps)
+    values = ramp_values(ramps)
     keys = numeric_keys(scene, list(ramps))
     for column, key in enumerate(keys):  # every value in range before any work
         low, high = key.bounds()
@@ -379,7 +318,7 @@ def track(scene: Scene, ramps: Mapping[str, Sequence[float] | np.ndarray],
         if np.any(outside):
             raise SceneError(f"{key.name} = {values[outside, column][0]:g}: out of range; "
                              f"allowed: {key.allowed}")
-    _check_rules_across_tables(scene, keys, values)
+    check_rules_across_tables(scene, keys, values)
     started = time.perf_counter()
     budget = float(scene.solver.max_wall_time)
     deadline = started + budget
