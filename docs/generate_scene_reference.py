@@ -21,7 +21,7 @@ import json
 import sys
 from pathlib import Path
 
-from rodsim.core.damping import DAMPING_PARAMETERS
+from rodsim.core.damping_options import DAMPING_PARAMETERS
 from rodsim.core.rod.rod import ROD_PARAMETERS
 from rodsim.core.rod.sections import INHERITED, SECTION_PARAMETERS
 from rodsim.core.scene import SOLVER_PARAMETERS

@@ -24,7 +24,8 @@ import numpy as np
 
 from rodsim.app.api import SceneLike, load_scene, solve
 from rodsim.app.inverse.parameter_keys import NumericKey, numeric_key, scene_with
-from rodsim.core.damping import ELASTIC_TERMS, Damping
+from rodsim.core.damping import Damping
+from rodsim.core.damping_options import ELASTIC_TERMS
 from rodsim.core.inertia import mass_factor
 from rodsim.core.model import Model
 from rodsim.core.scene import Scene

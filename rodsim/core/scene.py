@@ -41,7 +41,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from rodsim.core.anchors import check_joints
-from rodsim.core.damping import resolve_damping
+from rodsim.core.damping_options import resolve_damping
 from rodsim.core.names import check_rod_name, check_scene_name
 from rodsim.core.rod.rod import ROD_PARAMETERS, RodOptions
 from rodsim.core.rod.sections import resolve_sections
