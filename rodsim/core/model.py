@@ -57,6 +57,7 @@ from rodsim.core.sparsity import (
 from rodsim.core.supports import base_support, node_supports, quaternion_product, rigid_motion
 from rodsim.core.tendon import Tendon, tendon_support
 from rodsim.core.terms import Term, registered_terms
+from rodsim.core.terms.tendon_string import split_at_breaks
 
 if TYPE_CHECKING:
     from rodsim.core.kernels import Kernel
@@ -328,6 +329,7 @@ class Model:
                 for key, term in kind.from_table(name, table, self.rods):
                     self.terms.append(term)
                     self.term_keys.append((kind.scene_table, name, key))  # changes: new model
+        split_at_breaks(self.terms)
         for term in self.terms:
             if term.penalty and not (isinstance(getattr(term, "penalty_ratio", None), float)
                                      and 0.0 < term.penalty_ratio < np.inf):

@@ -26,6 +26,25 @@ curvature κ the chord's Θ_e is the continuum's wrap at the chord's midpoint (t
 abrupt turn plus half a segment's wrap at the entry, a whole one at each node), so τ_e is
 the continuum tension there to O(h²) (tests/test_tendon_friction.py: order 2 on a helix).
 
+Split turns. One node's angle ∠(u_{k−1}, u_k) lumps half a chord's wrap on each side of
+point k and any kink there; where the wrap turns back at k (an S-shape: a curvature of the
+other sign past k), or a kink leaves the wrap's plane, that angle misses O(h) of the
+continuum's ∫|dt/ds| ds, a first-order error downstream. There the turn runs through
+tangents extrapolated from the chords on each side, which do not straddle k:
+
+- the entry (``split`` given): d3 → t_in → t⁺ → u_0 with t⁺ = (3u_0 − u_1)/2 normalised,
+  unless t_in, t⁺ and u_0 lie in one plane (|t_in · (t⁺ × u_0)| ≤ ONE_WAY: there the plain
+  angle is exact, and a path turning one way keeps Θ_e = ψ_e);
+- a marked point k (where another string tendon on the catheter starts or ends: the
+  catheter's curvature jumps there, rodsim/core/terms/tendon_string.py): the turns at
+  k − 1, k, k + 1 become u_{k−2} → a₁ (at k − 1), a₁ → a → b → b₁ (at k), b₁ → u_{k+1}
+  (at k + 1), with a₁, a = u_{k−2} + (1, 3/2)(u_{k−2} − u_{k−3}) and b₁, b = u_{k+1} +
+  (1, 3/2)(u_{k+1} − u_{k+2}) normalised: the tangents at the chords' midpoints next to k
+  and at k, carried from two chords away. The chords next to k are left out because the
+  discrete catheter's shape there carries an O(h) share of the jump (its sum of signed
+  turns is right, the sum of their magnitudes is not); extrapolating from one chord away
+  left the S-shape first order (measured, docs/tendon.md).
+
 Sticking and history. Where the tendon does not slide, the tension may differ across a
 routing point by anything its friction holds: τ_{k−1} e^{−μθ_k} ≤ τ_k ≤ τ_{k−1} e^{+μθ_k}
 (τ_{−1} = T_0). The tension a chord holds is state: the profile τ_old of the last converged
@@ -84,15 +103,40 @@ def _angle(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return np.arctan2(cross, ax * bx + ay * by + az * bz)
 
 
-def turning_angles(axis: np.ndarray, tangent: np.ndarray, p: np.ndarray) -> np.ndarray:
+def _unit(v: np.ndarray) -> np.ndarray:
+    """v / |v|."""
+    return v / np.linalg.norm(v)
+
+
+def turning_angles(axis: np.ndarray, tangent: np.ndarray, p: np.ndarray,
+                   split: np.ndarray | None = None) -> np.ndarray:
     """θ_e, e = 0 … P−2 (module docstring), of the polygon ``p`` (P, 3): the entry's turn
     from the catheter's axis d3 (``axis``) to the path's tangent t_in there (``tangent``)
     and on to the first chord, then the turn at each routing point between its two chords
-    [rad]."""
+    [rad]. With ``split`` (P booleans) the entry's turn, and the turn at each routing point
+    k that ``split[k]`` marks, run through the one-sided tangents (module docstring, "Split
+    turns"); None: every turn is the chords' plain angle."""
     d = np.diff(p, axis=0)
     u = d / np.linalg.norm(d, axis=1)[:, None]
     theta = _angle(np.concatenate([tangent[None, :], u[:-1]]), u)
     theta[0] += float(_angle(axis, tangent))
+    if split is None or len(u) < 2:
+        return theta
+    ahead = 1.5 * u[:-1] - 0.5 * u[1:]  # t⁺ at point k from chords k, k + 1 (k = 0 … P−3)
+    ahead /= np.linalg.norm(ahead, axis=1)[:, None]
+    if abs(float(tangent @ np.cross(ahead[0], u[0]))) > ONE_WAY:  # out of one plane
+        theta[0] = float(_angle(axis, tangent) + _angle(tangent, ahead[0])
+                         + _angle(ahead[0], u[0]))
+    for k in np.flatnonzero(split[3:len(u) - 2]) + 3:
+        # Across routing point k the turns at k − 1, k, k + 1 are taken from the tangents
+        # extrapolated from the chords beyond (k − 3, k − 2 and k + 1, k + 2) to the chords'
+        # midpoints next to k and to k itself (module docstring, "Split turns").
+        before, after = u[k - 2] - u[k - 3], u[k + 1] - u[k + 2]
+        a1, a = _unit(u[k - 2] + before), _unit(u[k - 2] + 1.5 * before)
+        b1, b = _unit(u[k + 1] + after), _unit(u[k + 1] + 1.5 * after)
+        theta[k - 1] = float(_angle(u[k - 2], a1))
+        theta[k] = float(_angle(a1, a) + _angle(a, b) + _angle(b, b1))
+        theta[k + 1] = float(_angle(b1, u[k + 1]))
     return theta
 
 

@@ -12,7 +12,8 @@ with d = p_B − p_A, u = d/|d|: F = −T Jdᵀ u and ∂F/∂x = −T [Jdᵀ (I
 With friction μ > 0 each chord carries its own tension τ_e in place of T — the capstan
 profile with the stored history ``profile`` (rodsim/core/tendon_friction.py: the entry's
 turn from d3 to the path's tangent d3 + ρ′_y d1 + ρ′_z d2 (d_k = qᵀ A_k q / n of the entry
-point, ρ′ = ``entry_slope``) and on, the turns at the points, the actuator's bounds) —
+point, ρ′ = ``entry_slope``) and on, the turns at the points, split at the entry and at
+the points ``split`` marks, the actuator's bounds) —
 and the Jacobian is the one at frozen τ_e plus, on a chord up to which the path turns one
 way in one plane from a held entry frame, f ⊗ ∂τ_e/∂x with ∂τ_e/∂x = (∂τ_e/∂Θ_e) ∂ψ_e/∂x,
 ψ_e = ∠(d3, u_e) (rodsim/core/terms/tendon_string.py, "Friction"). With μ = 0 every τ_e is
@@ -98,10 +99,24 @@ def _angle(a: np.ndarray, b: np.ndarray) -> float:
 
 
 @njit(cache=True)
+def _extrapolated(near: np.ndarray, far: np.ndarray, step: float) -> np.ndarray:
+    """The unit vector along near + step (near − far): a chord's tangent carried ``step``
+    chords on, away from its neighbour ``far``."""
+    out = np.empty(3)
+    size = 0.0
+    for m in range(3):
+        out[m] = near[m] + step * (near[m] - far[m])
+        size += out[m] * out[m]
+    for m in range(3):
+        out[m] /= np.sqrt(size)
+    return out
+
+
+@njit(cache=True)
 def _tensions(x: np.ndarray, dofs: np.ndarray, weights: np.ndarray, constant: np.ndarray,
-              entry_forms: np.ndarray, entry_slope: np.ndarray, p: np.ndarray,
-              tension: float, friction: float, profile: np.ndarray, out: np.ndarray,
-              rate: np.ndarray, axis: np.ndarray) -> None:
+              entry_forms: np.ndarray, entry_slope: np.ndarray, split: np.ndarray,
+              p: np.ndarray, tension: float, friction: float, profile: np.ndarray,
+              out: np.ndarray, rate: np.ndarray, axis: np.ndarray) -> None:
     """τ_e of every chord into ``out``: T without friction, else
     clip(τ_old_e, T e^{−μΘ_e}, T e^{+μΘ_e}) (rodsim/core/tendon_friction.py); with friction
     also ∂τ_e/∂Θ_e into ``rate`` where the path up to chord e turns one way in one plane from
@@ -133,28 +148,55 @@ def _tensions(x: np.ndarray, dofs: np.ndarray, weights: np.ndarray, constant: np
     size = np.sqrt(a[0] * a[0] + a[1] * a[1] + a[2] * a[2])
     for m in range(3):
         a[m] /= size
-    wrap = _angle(axis, a)
-    b = np.empty(3)
+    plain = _angle(axis, a)
+    wrap = plain
+    u = np.empty((chords, 3))
     for e in range(chords):
         length = 0.0
         for m in range(3):
-            b[m] = p[e + 1, m] - p[e, m]
-            length += b[m] * b[m]
+            u[e, m] = p[e + 1, m] - p[e, m]
+            length += u[e, m] * u[e, m]
         length = np.sqrt(length)
         for m in range(3):
-            b[m] /= length
-        wrap += _angle(a, b)
+            u[e, m] /= length
+    theta = np.empty(chords)
+    for e in range(chords):
+        theta[e] = _angle(a if e == 0 else u[e - 1], u[e])
+    turns = theta.copy()
+    if chords >= 2:
+        # The entry's turn through t⁺, extrapolated from chords 0 and 1, unless t_in, t⁺ and
+        # u_0 lie in one plane (rodsim/core/tendon_friction.py, "Split turns").
+        ahead = _extrapolated(u[0], u[1], 0.5)
+        volume = (a[0] * (ahead[1] * u[0, 2] - ahead[2] * u[0, 1])
+                  + a[1] * (ahead[2] * u[0, 0] - ahead[0] * u[0, 2])
+                  + a[2] * (ahead[0] * u[0, 1] - ahead[1] * u[0, 0]))
+        if np.abs(volume) > ONE_WAY:
+            theta[0] = _angle(a, ahead) + _angle(ahead, u[0])
+    for k in range(3, chords - 2):
+        if split[k]:
+            a1 = _extrapolated(u[k - 2], u[k - 3], 1.0)
+            a2 = _extrapolated(u[k - 2], u[k - 3], 1.5)
+            b1 = _extrapolated(u[k + 1], u[k + 2], 1.0)
+            b2 = _extrapolated(u[k + 1], u[k + 2], 1.5)
+            theta[k - 1] = _angle(u[k - 2], a1)
+            theta[k] = _angle(a1, a2) + _angle(a2, b2) + _angle(b2, b1)
+            theta[k + 1] = _angle(b1, u[k + 1])
+    b = np.empty(3)
+    for e in range(chords):
+        for m in range(3):
+            b[m] = u[e, m]
+        plain += turns[e]
+        turn = theta[e]
+        wrap += turn
         low = tension * np.exp(-friction * wrap)
         high = tension * np.exp(friction * wrap)
         out[e] = min(max(profile[e], low), high)
         rate[e] = 0.0
-        if held and np.abs(wrap - _angle(axis, b)) <= ONE_WAY * max(1.0, wrap):
+        if held and np.abs(plain - _angle(axis, b)) <= ONE_WAY * max(1.0, plain):
             if low > profile[e]:
                 rate[e] = -friction * low
             elif high < profile[e]:
                 rate[e] = friction * high
-        for m in range(3):
-            a[m] = b[m]
 
 
 @njit(cache=True)
@@ -208,8 +250,8 @@ def _active(weights: np.ndarray, e: int, columns: np.ndarray) -> int:
 @njit(cache=True)
 def evaluate(x: np.ndarray, dofs: np.ndarray, weights: np.ndarray, constant: np.ndarray,
              forms: np.ndarray, tension: float, friction: float, profile: np.ndarray,
-             entry_forms: np.ndarray, entry_slope: np.ndarray, scale: float,
-             want_force: bool,
+             entry_forms: np.ndarray, entry_slope: np.ndarray, split: np.ndarray,
+             scale: float, want_force: bool,
              force: np.ndarray, force_target: np.ndarray, want_jacobian: bool,
              jacobian: np.ndarray, jacobian_target: np.ndarray) -> None:
     if tension == 0.0:
@@ -225,8 +267,8 @@ def evaluate(x: np.ndarray, dofs: np.ndarray, weights: np.ndarray, constant: np.
     chord_tension = np.empty(dofs.shape[0])
     rate = np.zeros(dofs.shape[0])
     axis = np.zeros(3)
-    _tensions(x, dofs, weights, constant, entry_forms, entry_slope, p, tension, friction,
-              profile, chord_tension, rate, axis)
+    _tensions(x, dofs, weights, constant, entry_forms, entry_slope, split, p, tension,
+              friction, profile, chord_tension, rate, axis)
     slope = np.empty(3)
     gradient = np.empty(28)
     unit_force = np.empty(28)
@@ -301,7 +343,7 @@ def evaluate(x: np.ndarray, dofs: np.ndarray, weights: np.ndarray, constant: np.
 @njit(cache=True)
 def energy(x: np.ndarray, dofs: np.ndarray, weights: np.ndarray, constant: np.ndarray,
            forms: np.ndarray, tension: float, friction: float, profile: np.ndarray,
-           entry_forms: np.ndarray, entry_slope: np.ndarray) -> float:
+           entry_forms: np.ndarray, entry_slope: np.ndarray, split: np.ndarray) -> float:
     """T Σ |p_{k+1} − p_k| (frictionless; with friction the model asks for no energy)."""
     if tension == 0.0:
         return 0.0

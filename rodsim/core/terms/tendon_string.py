@@ -82,7 +82,7 @@ from __future__ import annotations
 
 import copy
 import dataclasses
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any, NamedTuple
 
@@ -104,6 +104,10 @@ from rodsim.core.terms.base import KernelArguments, TendonTerm
 #: A change of G J closer than this fraction of a segment to a node (or to the tendon's entry
 #: or termination) is taken there: no routing point of its own.
 JUMP_AT_NODE = 1e-6
+
+#: A routing point within this fraction of the catheter's length of another string tendon's
+#: start or end has its turn split (:func:`split_at_breaks`).
+SPLIT_AT = 1e-9
 
 #: Local coordinates of one routing point: r_m, r_{m+1}, the two knot quaternions.
 POINT_SIZE = 14
@@ -297,6 +301,9 @@ class TendonString(TendonTerm):
         self._entry_slope = np.ascontiguousarray(self.routing.derivatives(
             np.array([self.start]))[0], dtype=float)
         self.conservative = self.friction == 0.0
+        #: The routing points whose turn is split through one-sided tangents (where another
+        #: string tendon on the catheter starts or ends: :func:`split_at_breaks`), (P,).
+        self.split = np.zeros(len(self.points.s), dtype=np.bool_)
         #: (state, tension, profile, chord tensions) of the last chord_tensions call.
         self._memo: tuple[np.ndarray, float, np.ndarray, np.ndarray] | None = None
 
@@ -344,7 +351,7 @@ class TendonString(TendonTerm):
 
     def turning_angles(self, x: np.ndarray) -> np.ndarray:
         """θ_e of every chord (the entry's turn, then each routing point's) [rad]."""
-        return turning_angles(*self.entry_directions(x), self.path(x))
+        return turning_angles(*self.entry_directions(x), self.path(x), self.split)
 
     def chord_tensions(self, x: np.ndarray) -> np.ndarray:
         """τ_e of every chord [N]: T everywhere without friction, else the capstan profile
@@ -376,7 +383,7 @@ class TendonString(TendonTerm):
                 "forms": np.ascontiguousarray(self._forms), "tension": self.tension,
                 "friction": self.friction, "profile": self.profile,
                 "entry_forms": np.ascontiguousarray(DIRECTOR_FORMS),
-                "entry_slope": self._entry_slope}
+                "entry_slope": self._entry_slope, "split": self.split}
 
     def load_scale(self, x: np.ndarray) -> float:
         """The tension: the termination's point force (the chords' forces cancel in pairs)."""
@@ -470,9 +477,10 @@ class TendonString(TendonTerm):
         ∠(d3, u_e), whose gradient −(d3 − (d3·u_e) u_e)ᵀ Jd_e / (|d3 × u_e| |d_e|) lies on
         the chord's own coordinates; f_e = −Jd_eᵀ u_e, the chord's force per unit tension."""
         theta = self.turning_angles(x)
-        wrap = np.cumsum(theta)
         rate = slide_rates(self.tension, self.friction, theta, self.profile)
-        axis = self.entry_directions(x)[0]
+        axis, tangent = self.entry_directions(x)
+        # One way in one plane: the plain turns (no split) sum to ψ_e.
+        wrap = np.cumsum(turning_angles(axis, tangent, self.path(x)))
         sine = np.linalg.norm(np.cross(axis[None, :], u), axis=1)
         cosine = u @ axis
         psi = np.arctan2(sine, cosine)
@@ -483,3 +491,23 @@ class TendonString(TendonTerm):
         gradient = rate[:, None] * np.einsum("em,emk->ek", slope, jd)
         unit_force = -np.einsum("emk,em->ek", jd, u)
         return unit_force[:, :, None] * gradient[:, None, :]
+
+
+def split_at_breaks(terms: Sequence[object]) -> None:
+    """Mark on every string tendon with friction among ``terms`` the routing points where
+    another string tendon on its catheter starts or ends (its ``split``): there the
+    catheter's curvature jumps, and the path may turn back or out of its plane
+    (rodsim/core/tendon_friction.py, "Split turns")."""
+    strings = [t for t in (getattr(term, "string", term) for term in terms)
+               if isinstance(t, TendonString)]
+    for term in strings:
+        if term.friction == 0.0:
+            continue
+        rod = term.tendon.catheter
+        breaks = np.array([s for other in strings if other is not term
+                           and other.tendon.catheter is rod for s in (other.start, other.end)])
+        if len(breaks):
+            near = np.abs(term.points.s[:, None] - breaks[None, :]) <= SPLIT_AT * rod.length
+            split = np.any(near, axis=1)
+            split[[0, -1]] = False  # the entry's turn is its own; the termination has none
+            term.split = split
