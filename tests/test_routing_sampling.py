@@ -59,9 +59,13 @@ def test_a_table_with_knots_closer_than_the_segments_is_refused():
     with pytest.raises(SceneError, match=r"nodes >= 41"):
         Scene.from_dict(_table_scene(21, knots))
     Scene.from_dict(_table_scene(41, knots))
-    # Knots outside the tendon's span do not count.
-    scene = _table_scene(21, [0.0, 0.04, 0.08, 0.1, 0.101])
+    # Knots outside the tendon's span do not count (a tendon ending at 0.08 m; knots beyond
+    # the rod itself are refused by another rule, tests/test_small_defects.py).
+    scene = _table_scene(21, [0.0, 0.04, 0.08, 0.095, 0.1])
+    scene["tendons"]["t"]["tendon_string"]["end"] = 0.08
     Scene.from_dict(scene)
+    with pytest.raises(SceneError, match=r"nodes >= "):
+        Scene.from_dict(_table_scene(21, [0.0, 0.04, 0.08, 0.095, 0.1]))
 
 
 def _helix(rng: np.random.Generator) -> tuple[Scene, float]:
