@@ -125,3 +125,41 @@ def test_bad_input_is_one_line_and_writes_nothing(tmp_path, monkeypatch, capsys,
     assert words in captured.err and len(captured.err.strip().splitlines()) == 1
     assert captured.out == ""
     assert list(tmp_path.iterdir()) == []
+
+
+def test_an_interrupted_run_keeps_its_outputs(python_run):
+    from rodsim.app.interrupted import Interrupted
+
+    def stop(t: float) -> None:
+        if t > 0.025:
+            raise KeyboardInterrupt
+
+    with pytest.raises(Interrupted) as caught:
+        rodsim.simulate("table1-50g", 0.05, output_dt=0.01, overrides=["nodes=11"],
+                        initial={"tip_load.mass": 0.1}, progress=stop)
+    partial = caught.value.partial
+    assert not partial.success and "interrupted after t = 0.02 s" in partial.message
+    np.testing.assert_array_equal(partial.times, python_run.times[:3])
+    np.testing.assert_array_equal(partial.positions, python_run.positions[:3])
+    ds = partial.to_xarray()
+    check_archive(ds)
+    assert ds.attrs["complete"] == 0 and ds.attrs["success"] == 0
+
+
+def test_ctrl_c_in_the_command_writes_the_part_done(tmp_path, monkeypatch, capsys, python_run):
+    from rodsim.app.progress import ProgressPrinter
+
+    def interrupt(self, fraction, status):
+        if fraction > 0.5:
+            raise KeyboardInterrupt
+
+    monkeypatch.setattr(ProgressPrinter, "__call__", interrupt)
+    out = tmp_path / "stopped.nc"
+    assert run_cli("simulate", *SMALL, "-o", str(out)) == 130
+    assert "marked incomplete" in capsys.readouterr().err
+    ds = read_dataset(out)
+    assert ds.attrs["complete"] == 0 and "interrupted" in ds.attrs["message"]
+    assert ds.attrs["initial"] == "equilibrium with tip_load.mass=0.1"
+    count = ds.sizes["time"]
+    assert 1 <= count < 6
+    np.testing.assert_array_equal(ds["position"].values, python_run.positions[:count])

@@ -24,6 +24,7 @@ from typing import Any
 import numpy as np
 
 from rodsim.app.api import SceneLike, load_scene, solve
+from rodsim.app.interrupted import Interrupted
 from rodsim.app.inverse.parameter_keys import NumericKey, numeric_key, scene_with
 from rodsim.core.damping import Damping
 from rodsim.core.damping_options import ELASTIC_TERMS
@@ -34,7 +35,7 @@ from rodsim.core.schema import SceneError, shown
 from rodsim.core.vibration import ModesError, natural_modes
 from rodsim.solvers.physical.coordinates import PhysicalCoordinates
 from rodsim.solvers.physical.midpoint import MidpointStep, Motion
-from rodsim.solvers.physical.trajectory import integrate
+from rodsim.solvers.physical.trajectory import Record, integrate
 from rodsim.solvers.result import Result
 
 __all__ = ["Simulation", "simulate", "check_programs", "INTEGRATORS", "STEPS_PER_PERIOD"]
@@ -265,7 +266,31 @@ def simulate(scene: SceneLike | None, t_end: float, *, output_dt: float | None =
     stepper = MidpointStep(coordinates, Damping(model), length)
     start = Motion(x, np.zeros(len(coordinates.positions)),
                    np.zeros((len(coordinates.quaternions), 3)))
-    record = integrate(model_at, stepper, start, outputs, h, progress)
+    record = Record()
+    try:
+        integrate(model_at, stepper, start, outputs, h, progress, record)
+    except KeyboardInterrupt:  # Ctrl-C or SIGTERM: what was computed, marked incomplete
+        done = min(len(record.times), len(record.states), len(record.kinetic),
+                   len(record.potential), len(record.dissipated), len(record.work))
+        del record.states[done:]
+        for column in (record.times, record.kinetic, record.potential, record.dissipated,
+                       record.work):
+            del column[done:]
+        if not record.times:
+            raise
+        record.success = False
+        record.message = (f"interrupted after t = {record.times[-1]:.6g} s (the outputs up to "
+                          "it are kept)")
+        partial = _simulation(loaded, model, record, h, integrator, float(t_end), program,
+                              initial)
+        raise Interrupted(partial, record.message) from None
+    return _simulation(loaded, model, record, h, integrator, float(t_end), program, initial)
+
+
+def _simulation(loaded: Scene, model: Model, record: Record, h: float, integrator: str,
+                t_end: float, program: Program | None,
+                initial: Mapping[str, Any] | Result | None) -> Simulation:
+    """The :class:`Simulation` of what ``record`` holds."""
     states = np.array(record.states)
     full = np.array([model.full(state) for state in states])
     positions = np.concatenate([full[:, model.rods[name].layout.position_index]
@@ -280,6 +305,6 @@ def simulate(scene: SceneLike | None, t_end: float, *, output_dt: float | None =
                       quaternions, np.array(record.kinetic), np.array(record.potential),
                       np.array(record.dissipated), np.array(record.work), h,
                       integrator, record.steps, record.iterations, record.halvings,
-                      tuple(model.rods), states, float(t_end),
+                      tuple(model.rods), states, t_end,
                       {k: (list(map(float, t)), list(map(float, v)))
                        for k, (t, v) in (program or {}).items()}, _initial_text(initial))

@@ -78,6 +78,7 @@ class Simulate(SceneCommand):
 
     def solve(self, scene: Any, integrator: str, progress: Any) -> Any:
         from rodsim.app.api import solve
+        from rodsim.app.interrupted import Interrupted
         from rodsim.app.simulate import simulate
 
         args = self.args
@@ -90,11 +91,17 @@ class Simulate(SceneCommand):
         def report(t: float) -> None:
             progress(t / t_end, f"t = {t:.6g} s of {t_end:g} s")
 
-        run = simulate(scene, t_end, output_dt=args.output_dt, integrator=args.integrator,
-                       initial=initial, program=self.program, step=args.step,
-                       progress=report)
-        if args.initial:
-            run.initial = "equilibrium with " + ", ".join(args.initial)
+        started = "equilibrium with " + ", ".join(args.initial) if args.initial else None
+        try:
+            run = simulate(scene, t_end, output_dt=args.output_dt, integrator=args.integrator,
+                           initial=initial, program=self.program, step=args.step,
+                           progress=report)
+        except Interrupted as stop:  # written by the pipeline, marked incomplete
+            if started:
+                stop.partial.initial = started
+            raise
+        if started:
+            run.initial = started
         return run
 
     def report(self, result: Any) -> None:
