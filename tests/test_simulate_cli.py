@@ -88,6 +88,9 @@ def test_plot_draws_tip_and_energies(tmp_path, python_run):
     assert run_cli("plot", str(archive), "-o", str(tmp_path / "fig")) == 0
     assert (tmp_path / "fig.png").stat().st_size > 0
     assert (tmp_path / "fig.pdf").stat().st_size > 0
+    assert run_cli("plot", str(archive), "-o", str(tmp_path / "view"), "--format",
+                   "html") == 2  # no 3D view of a trajectory (yet): one line, nothing written
+    assert not list(tmp_path.glob("view*"))
 
 
 def test_a_broken_trajectory_archive_is_refused(tmp_path, python_run):
