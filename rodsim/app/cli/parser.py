@@ -264,7 +264,8 @@ def build_parser() -> argparse.ArgumentParser:
 
     plot = sub.add_parser("plot", help="draw an archive's figure (PNG and PDF)",
                           description="Draw the figure of an archive written by `rodsim "
-                          "run`, `study`, `track`, `fit`, `reach` or `modes`, from the archive "
+                          "run`, `study`, `track`, `fit`, `reach`, `modes` or `simulate`, from "
+                          "the archive "
                           "alone "
                           "(no solve): STEM.png and STEM.pdf, by default beside the archive "
                           "under its name.")
