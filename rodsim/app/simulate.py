@@ -15,6 +15,7 @@ with a force, let go at t = 0), or from a solved Result's state.
 
 from __future__ import annotations
 
+import json
 import math
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
@@ -23,6 +24,7 @@ from typing import Any
 import numpy as np
 
 from rodsim.app.api import SceneLike, load_scene, solve
+from rodsim.app.interrupted import Interrupted
 from rodsim.app.inverse.parameter_keys import NumericKey, numeric_key, scene_with
 from rodsim.core.damping import Damping
 from rodsim.core.damping_options import ELASTIC_TERMS
@@ -33,10 +35,10 @@ from rodsim.core.schema import SceneError, shown
 from rodsim.core.vibration import ModesError, natural_modes
 from rodsim.solvers.physical.coordinates import PhysicalCoordinates
 from rodsim.solvers.physical.midpoint import MidpointStep, Motion
-from rodsim.solvers.physical.trajectory import integrate
+from rodsim.solvers.physical.trajectory import Record, integrate
 from rodsim.solvers.result import Result
 
-__all__ = ["Simulation", "simulate", "INTEGRATORS", "STEPS_PER_PERIOD"]
+__all__ = ["Simulation", "simulate", "check_programs", "INTEGRATORS", "STEPS_PER_PERIOD"]
 
 #: The integrators of physical time.
 INTEGRATORS = ("midpoint",)
@@ -90,15 +92,39 @@ class Simulation:
     rods: tuple[str, ...] = ()
     #: The free-coordinate states at the output times (T, n), for checks.
     states: np.ndarray = field(default_factory=lambda: np.zeros((0, 0)), repr=False)
+    #: The end time asked for [s].
+    t_end: float = math.nan
+    #: The programs as given (key → (times, values)), and the starting values (text).
+    program: dict[str, tuple[list[float], list[float]]] = field(default_factory=dict)
+    initial: str = "rest state"
 
     @property
     def energy_error(self) -> np.ndarray:
         total = self.kinetic_energy + self.potential_energy + self.dissipated_energy - self.work
         return total - total[0]
 
+    def to_xarray(self) -> Any:
+        """The trajectory archive (rodsim/io/trajectory_dataset.py, docs/archive.md): a run
+        that stopped part-way gives the times it reached, ``complete`` = 0 and its
+        message."""
+        from rodsim.io.trajectory_dataset import TrajectoryRecord, trajectory_dataset
 
-def _programs(scene: Scene, program: Program | None
-              ) -> tuple[list[NumericKey], list[np.ndarray], list[np.ndarray]]:
+        model = Model(self.scene, "numpy")
+        rods = {name: (rod.geometry.node_s, rod.geometry.segment_s)
+                for name, rod in model.rods.items()}
+        energies = {"kinetic_energy": self.kinetic_energy,
+                    "potential_energy": self.potential_energy,
+                    "dissipated_energy": self.dissipated_energy, "work": self.work}
+        stats = {"steps": self.steps, "iterations": self.iterations,
+                 "halvings": self.halvings}
+        return trajectory_dataset(TrajectoryRecord(
+            self.scene, rods, self.times, self.positions, self.quaternions, energies,
+            self.success, self.message, self.t_end, self.integrator, self.step, stats,
+            self.program, self.initial))
+
+
+def check_programs(scene: Scene, program: Program | None
+                   ) -> tuple[list[NumericKey], list[np.ndarray], list[np.ndarray]]:
     """The checked programs: keys, times, values (SceneError, one line, for a key that is not
     a term's number, times that do not increase, or a value outside the key's range)."""
     keys, times, values = [], [], []
@@ -167,6 +193,15 @@ def _start_state(scene: Scene, model: Model, initial: Mapping[str, Any] | Result
     return x
 
 
+def _initial_text(initial: Mapping[str, Any] | Result | None) -> str:
+    """How the run started, for its archive."""
+    if initial is None:
+        return "rest state"
+    if isinstance(initial, Result):
+        return f"a solved Result of scene {initial.scene.name!r}"
+    return "equilibrium with " + json.dumps(dict(initial), sort_keys=True, default=str)
+
+
 def _default_step(model: Model, x: np.ndarray) -> float:
     """1/:data:`STEPS_PER_PERIOD` of the lowest natural period at ``x``."""
     try:
@@ -205,7 +240,7 @@ def simulate(scene: SceneLike | None, t_end: float, *, output_dt: float | None =
                 or not math.isfinite(value) or value <= 0.0):
             raise SceneError(f"{name} = {shown(value)}: allowed a number > 0 [s]")
     loaded = load_scene(scene, overrides)
-    keys, times, values = _programs(loaded, program)
+    keys, times, values = check_programs(loaded, program)
     model = Model(loaded)
     x = _start_state(loaded, model, initial)
     h = float(step) if step is not None else _default_step(model, x)
@@ -231,7 +266,31 @@ def simulate(scene: SceneLike | None, t_end: float, *, output_dt: float | None =
     stepper = MidpointStep(coordinates, Damping(model), length)
     start = Motion(x, np.zeros(len(coordinates.positions)),
                    np.zeros((len(coordinates.quaternions), 3)))
-    record = integrate(model_at, stepper, start, outputs, h, progress)
+    record = Record()
+    try:
+        integrate(model_at, stepper, start, outputs, h, progress, record)
+    except KeyboardInterrupt:  # Ctrl-C or SIGTERM: what was computed, marked incomplete
+        done = min(len(record.times), len(record.states), len(record.kinetic),
+                   len(record.potential), len(record.dissipated), len(record.work))
+        del record.states[done:]
+        for column in (record.times, record.kinetic, record.potential, record.dissipated,
+                       record.work):
+            del column[done:]
+        if not record.times:
+            raise
+        record.success = False
+        record.message = (f"interrupted after t = {record.times[-1]:.6g} s (the outputs up to "
+                          "it are kept)")
+        partial = _simulation(loaded, model, record, h, integrator, float(t_end), program,
+                              initial)
+        raise Interrupted(partial, record.message) from None
+    return _simulation(loaded, model, record, h, integrator, float(t_end), program, initial)
+
+
+def _simulation(loaded: Scene, model: Model, record: Record, h: float, integrator: str,
+                t_end: float, program: Program | None,
+                initial: Mapping[str, Any] | Result | None) -> Simulation:
+    """The :class:`Simulation` of what ``record`` holds."""
     states = np.array(record.states)
     full = np.array([model.full(state) for state in states])
     positions = np.concatenate([full[:, model.rods[name].layout.position_index]
@@ -246,4 +305,6 @@ def simulate(scene: SceneLike | None, t_end: float, *, output_dt: float | None =
                       quaternions, np.array(record.kinetic), np.array(record.potential),
                       np.array(record.dissipated), np.array(record.work), h,
                       integrator, record.steps, record.iterations, record.halvings,
-                      tuple(model.rods), states)
+                      tuple(model.rods), states, t_end,
+                      {k: (list(map(float, t)), list(map(float, v)))
+                       for k, (t, v) in (program or {}).items()}, _initial_text(initial))

@@ -179,8 +179,9 @@ def _labels(ds: xr.Dataset, dim: str, labels: list[str]) -> None:
 #: Archive kinds (attribute ``kind``; a run archive without it is a ``run``): a fit or a
 #: reach archive is a run archive of the fitted or reached scene with extra variables, a
 #: modes archive one of the equilibrium with a ``mode`` dimension, a batch archive holds
-#: many equilibria along ``case`` (rodsim/io/batch_dataset.py).
-KINDS = ("run", "track", "fit", "reach", "modes", "batch")
+#: many equilibria along ``case`` (rodsim/io/batch_dataset.py), a trajectory archive a run in
+#: physical time along ``time`` (rodsim/io/trajectory_dataset.py).
+KINDS = ("run", "track", "fit", "reach", "modes", "batch", "trajectory")
 
 
 def check_archive(ds: xr.Dataset) -> None:
@@ -201,6 +202,8 @@ def check_archive(ds: xr.Dataset) -> None:
     elif kind == "batch":
         _check_run(ds, ("case",))
         _check_batch(ds)
+    elif kind == "trajectory":
+        _check_trajectory(ds)
     else:
         _check_run(ds)
         if kind == "fit":
@@ -385,6 +388,25 @@ def _check_run(ds: xr.Dataset, leading: tuple[str, ...] = ()) -> None:
         raise ArchiveSchemaError(f"attribute 'integrator' = {str(integrator)[:40]!r} is not "
                                  "one of " + ", ".join(integrators))
     parse_json_object(_attribute(ds, "integrator_options"), "attribute 'integrator_options'")
+    _check_layout(ds, leading)
+
+
+def _check_trajectory(ds: xr.Dataset) -> None:
+    """A trajectory archive: increasing finite times (at least one), the shapes along them
+    laid out as a run's, the energies along ``time``, ``complete`` and ``t_end``."""
+    times = _variable(ds, "time", ("time",)).values
+    if times.size < 1 or not np.all(np.isfinite(times)) or np.any(np.diff(times) <= 0.0):
+        raise ArchiveSchemaError("coordinate 'time' is empty, not finite or not increasing")
+    for name in ("kinetic_energy", "potential_energy", "dissipated_energy", "work"):
+        _variable(ds, name, ("time",))
+    if _number_attribute(ds, "complete") not in (0.0, 1.0) or not _number_attribute(
+            ds, "t_end") > 0.0:
+        raise ArchiveSchemaError("attribute 'complete' is not 0 or 1, or 't_end' not > 0")
+    _check_layout(ds, ("time",))
+
+
+def _check_layout(ds: xr.Dataset, leading: tuple[str, ...]) -> None:
+    """The scene, the shapes (positions, quaternions) and the node and segment labels."""
     scene = stored_scene(_attribute(ds, "scene_json"), "attribute 'scene_json'")
     _variable(ds, "position", (*leading, "node", "axis"))
     _variable(ds, "quaternion", (*leading, "segment", "component"))

@@ -26,6 +26,7 @@ from rodsim.app.cli.plot import cmd_plot
 from rodsim.app.cli.reach import Reach, cmd_reach
 from rodsim.app.cli.rerun import cmd_rerun
 from rodsim.app.cli.run import cmd_run
+from rodsim.app.cli.simulate import Simulate, cmd_simulate
 from rodsim.app.cli.study import cmd_study
 from rodsim.app.cli.track import Track, cmd_track
 from rodsim.version import __version__
@@ -241,9 +242,30 @@ def build_parser() -> argparse.ArgumentParser:
                          help="number of modes, lowest first (default 6)")
     _finish_scene_command(vibrate, "modes", cmd_modes)
 
+    move = _scene_command(sub, "simulate", Simulate, "scene file or shipped scene name",
+                          help="motion in physical time (inertia, damping, programs)")
+    move.add_argument("--t-end", required=True, type=positive_seconds, metavar="T",
+                      help="end time [s]; the run starts at t = 0, at rest")
+    move.add_argument("--output-dt", type=positive_seconds, metavar="DT",
+                      help="spacing of the stored times [s] (default: every step)")
+    move.add_argument("--step", type=positive_seconds, metavar="DT",
+                      help="longest time step [s] (default: 1/100 of the lowest natural "
+                      "period at the start)")
+    move.add_argument("--integrator", default="midpoint", metavar="NAME",
+                      help="integrator of physical time: midpoint (default)")
+    move.add_argument("--initial", action="append", default=[], metavar="KEY=VALUE",
+                      help="start from the equilibrium with this value (KEY as for --set; "
+                      "repeatable): released at t = 0")
+    move.add_argument("--program", action="append", default=[],
+                      metavar="KEY=t0:v0,t1:v1,...",
+                      help="a numeric value following a piecewise-linear table in time "
+                      "(repeatable), e.g. tendon_actuation.force=0:0,0.1:2")
+    _finish_scene_command(move, "simulate", cmd_simulate)
+
     plot = sub.add_parser("plot", help="draw an archive's figure (PNG and PDF)",
                           description="Draw the figure of an archive written by `rodsim "
-                          "run`, `study`, `track`, `fit`, `reach` or `modes`, from the archive "
+                          "run`, `study`, `track`, `fit`, `reach`, `modes` or `simulate`, from "
+                          "the archive "
                           "alone "
                           "(no solve): STEM.png and STEM.pdf, by default beside the archive "
                           "under its name.")

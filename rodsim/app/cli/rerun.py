@@ -29,6 +29,9 @@ def cmd_rerun(args: argparse.Namespace) -> int:
             return _rerun_track(dataset, args)
         if dataset.attrs.get("kind") == "batch":
             return _rerun_batch(dataset, args)
+        if dataset.attrs.get("kind") == "trajectory":
+            raise UserError("a trajectory archive is not re-run (rerun compares equilibria): "
+                            "run `rodsim simulate` again with its history's arguments")
         result, difference = rerun(dataset)
     except (ArchiveError, SceneError, StudyError) as exc:
         raise UserError(f"{args.archive}: {exc}") from None

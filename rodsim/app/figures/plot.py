@@ -1,7 +1,8 @@
 """Figures from archives: every plot is drawn from a Dataset alone (run or study).
 
 ``plot_dataset(ds, stem)`` picks the figure from the archive's ``plot`` attribute (studies),
-its ``kind`` (``track``, ``fit``, ``reach``: docs/inverse.md; ``modes``: docs/dynamics.md), or
+its ``kind`` (``track``, ``fit``, ``reach``: docs/inverse.md; ``modes``, ``trajectory``:
+docs/dynamics.md), or
 draws the centerlines of a single run, and writes ``stem.png`` and ``stem.pdf``.
 Kinds:
 
@@ -46,6 +47,7 @@ from rodsim.app.figures.study_errors import (
     error_vs_parameter_result,
 )
 from rodsim.app.figures.style import style
+from rodsim.app.figures.trajectory import trajectory_figure
 from rodsim.app.figures.writer import HTML, PlotError, check_output, html_target, write_figure
 from rodsim.io.cf_layout import from_file
 
@@ -60,7 +62,7 @@ RESULTS = {"centerlines": centerlines_result, "error_vs_parameter": error_vs_par
            "error_vs_iteration": error_vs_iteration_result}
 #: Figures of the inverse tools' archives, by their ``kind`` attribute.
 KIND_DRAWERS = {"track": track_figure, "fit": fit_figure, "reach": reach_figure,
-                "modes": modes_figure}
+                "modes": modes_figure, "trajectory": trajectory_figure}
 
 
 def plot_dataset(ds: xr.Dataset, stem: str | Path, formats: Iterable[str] = ("png", "pdf")
@@ -78,9 +80,9 @@ def plot_dataset(ds: xr.Dataset, stem: str | Path, formats: Iterable[str] = ("pn
                         "(ds.sel(case=…)) and plot their positions (docs/batch.md)")
     html = HTML in formats
     formats = [fmt for fmt in formats if fmt != HTML]
-    if html and "study" in ds.attrs:
+    if html and ("study" in ds.attrs or ds.attrs.get("kind") == "trajectory"):
         raise PlotError("the interactive 3D view (html) is drawn for run, track, fit and "
-                        "reach archives, not studies")
+                        "reach archives, not studies or trajectories")
     paths = []
     if html:
         try:
@@ -99,7 +101,7 @@ def plot_dataset(ds: xr.Dataset, stem: str | Path, formats: Iterable[str] = ("pn
 def three_dimensional(ds: xr.Dataset) -> bool:
     """Whether a run, track, fit or reach archive's shapes leave the x–y plane (then
     ``rodsim plot`` adds the interactive 3D view when plotly is installed)."""
-    if "study" in ds.attrs or "position" not in ds:
+    if "study" in ds.attrs or "position" not in ds or ds.attrs.get("kind") == "trajectory":
         return False
     return out_of_plane(ds["position"].values)
 

@@ -105,12 +105,14 @@ def _advance(model_at: Callable[[float], Model], stepper: MidpointStep, motion: 
 
 def integrate(model_at: Callable[[float], Model], stepper: MidpointStep, start: Motion,
               output_times: Sequence[float], step: float,
-              progress: Callable[[float], None] | None = None) -> Record:
+              progress: Callable[[float], None] | None = None,
+              record: Record | None = None) -> Record:
     """Integrate from ``start`` at ``output_times[0]`` through every output time with steps
     of at most ``step`` [s]; ``model_at(t)`` is the model with the values at time t (the same
     object while nothing changes). A step that fails ends the run: the record holds what was
-    computed, ``success`` False and a message with the time and advice."""
-    record = Record()
+    computed, ``success`` False and a message with the time and advice. ``record``: an empty
+    record to fill (the caller keeps what it holds if the run is interrupted)."""
+    record = Record() if record is None else record
     t = float(output_times[0])
     motion = start
     model = model_at(t)

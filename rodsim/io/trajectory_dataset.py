@@ -1,0 +1,123 @@
+"""The archive of ``rodsim simulate`` (docs/archive.md, "Trajectory archives"): a run in
+physical time (rodsim/app/simulate.py, docs/dynamics.md).
+
+Coordinate ``time`` [s] (the output times); ``position`` (time, node, axis) and
+``quaternion`` (time, segment, component) laid out as in a run archive
+(:func:`rodsim.io.run_dataset.run_content`: the rods concatenated, coordinates ``s``,
+``rod``, ``segment_s``, ``segment_rod``); ``kinetic_energy``, ``potential_energy``,
+``dissipated_energy`` and ``work`` along ``time`` [J]. Attributes: ``kind`` =
+``trajectory``, the provenance, ``success``, ``complete`` (0: the run stopped before
+``t_end``; the times it reached are kept) and ``message``, ``t_end``, the scene, the
+programs and the starting values.
+"""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Mapping
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from rodsim.core.scene import Scene
+from rodsim.io.archive_schema import SCHEMA_VERSION
+from rodsim.io.provenance import archive_attributes
+
+if TYPE_CHECKING:
+    import xarray as xr
+
+__all__ = ["TrajectoryRecord", "trajectory_dataset"]
+
+#: The energy variables, their long names (docs/dynamics.md, "Energy").
+ENERGIES = {
+    "kinetic_energy": "kinetic energy T of the control points and segments",
+    "potential_energy": "potential energy V (elastic, penalties, gravity, loads; NaN for a "
+                        "non-conservative scene)",
+    "dissipated_energy": "energy dissipated by the damping since t = 0",
+    "work": "work done by the programs (values changing in time) since t = 0 (NaN for a "
+            "non-conservative scene)",
+}
+
+
+@dataclass(frozen=True)
+class TrajectoryRecord:
+    """What a run in physical time computed, as plain arrays (the archive's content)."""
+
+    scene: Scene
+    #: Each rod's rest arc lengths (control points, segment midpoints) [m], scene order.
+    rods: Mapping[str, tuple[np.ndarray, np.ndarray]]
+    times: np.ndarray
+    positions: np.ndarray
+    quaternions: np.ndarray
+    energies: Mapping[str, np.ndarray]
+    success: bool
+    message: str
+    t_end: float
+    integrator: str
+    step: float
+    stats: Mapping[str, float]
+    program: Mapping[str, tuple[list[float], list[float]]]
+    initial: str
+
+
+def trajectory_dataset(record: TrajectoryRecord) -> xr.Dataset:
+    """The trajectory archive of ``record`` (module docstring)."""
+    import xarray as xr
+
+    names = list(record.rods)
+    node_s = [s for s, _ in record.rods.values()]
+    segment_s = [s for _, s in record.rods.values()]
+    coords: dict[str, Any] = {
+        "time": ("time", np.asarray(record.times, dtype=float),
+                 {"units": "s", "long_name": "physical time", "standard_name": "time"}),
+        "axis": ("axis", ["x", "y", "z"], {"long_name": "world axis"}),
+        "component": ("component", ["q1", "q2", "q3", "q4"],
+                      {"long_name": "quaternion component"}),
+        "s": ("node", np.concatenate(node_s),
+              {"units": "m", "long_name": "rest arc length of the control point"}),
+        "rod": ("node", np.concatenate([[n] * len(s) for n, s in zip(names, node_s,
+                                                                     strict=True)]).astype(str),
+                {"long_name": "rod of the control point"}),
+        "segment_s": ("segment", np.concatenate(segment_s),
+                      {"units": "m", "long_name": "rest arc length of the segment midpoint"}),
+        "segment_rod": ("segment", np.concatenate(
+            [[n] * len(s) for n, s in zip(names, segment_s, strict=True)]).astype(str),
+            {"long_name": "rod of the segment"}),
+    }
+    data: dict[str, Any] = {
+        "position": (("time", "node", "axis"), np.asarray(record.positions, dtype=float),
+                     {"units": "m", "long_name": "control point position"}),
+        "quaternion": (("time", "segment", "component"),
+                       np.asarray(record.quaternions, dtype=float),
+                       {"units": "1", "long_name": "segment orientation quaternion (q1, q2, "
+                        "q3 imaginary, q4 real)"}),
+    }
+    for name, long_name in ENERGIES.items():
+        data[name] = ("time", np.asarray(record.energies[name], dtype=float),
+                      {"units": "J", "long_name": long_name})
+    ds = xr.Dataset(data_vars=data, coords=coords)
+    name = record.scene.name
+    reached = float(record.times[-1]) if len(record.times) else 0.0
+    ds.attrs.update({
+        "title": f"rodsim simulate of scene {name!r} to t = {record.t_end:g} s with the "
+                 f"{record.integrator} integrator",
+        "kind": "trajectory",
+        **archive_attributes(f"rodsim.simulate(scene {name!r}, t_end={record.t_end!r}, "
+                             f"integrator={record.integrator!r})"),
+        "schema_version": SCHEMA_VERSION,
+        "integrator": record.integrator,
+        "success": int(record.success),
+        "complete": int(record.success and reached >= record.t_end),
+        "message": record.message,
+        "t_end": float(record.t_end),
+        "time_step": float(record.step),
+        "program_json": json.dumps({k: [list(map(float, t)), list(map(float, v))]
+                                    for k, (t, v) in record.program.items()}, sort_keys=True),
+        "initial": record.initial,
+        "scene_json": record.scene.to_json(),
+        "scene_toml": record.scene.source,
+    })
+    for key, value in record.stats.items():
+        ds.attrs[f"stats_{key}"] = float(value)
+    return ds
