@@ -26,7 +26,6 @@ import os
 import shutil
 import sys
 import time
-import traceback
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
@@ -44,10 +43,10 @@ from rodsim.app.study_parts import (
     parts_folder,
     save_text,
 )
+from rodsim.app.study_points import solved_record
 from rodsim.app.study_spec import StudyError
 from rodsim.app.worker_pool import TaskFailure, run_tasks
 from rodsim.core.scene import Scene
-from rodsim.core.schema import SceneError
 from rodsim.io.archive_schema import STATUS, ArchiveSchemaError
 from rodsim.io.batch_dataset import batch_dataset, check_chunk_record
 from rodsim.io.statistics import POINT_STATS
@@ -56,6 +55,7 @@ if TYPE_CHECKING:
     import xarray as xr
 
     from rodsim.core.model import Model
+    from rodsim.solvers.result import Result
 
 __all__ = ["BatchJob", "solve_many", "solve_chunk", "CHUNK", "BatchProgress"]
 
@@ -124,29 +124,15 @@ def _case(job: BatchJob, case: int) -> dict[str, Any]:
     with its status and message). A failed solve stores no shape."""
     from rodsim.app.api import solve
 
-    record: dict[str, Any] = {"case": case}
-    try:
+    def solve_case() -> tuple[Scene, Result]:
         base, keys, model = _shared(job)
         scene = scene_with(base, keys, job.values[case])
-        result = solve(scene, job.integrator, model=model.with_values(scene))
-    except SceneError as exc:
-        return record | {"status": STATUS["error"], "message": f"bad scene value: {exc}"}
-    except Exception as exc:  # a bug must not stop the batch: record it
-        detail = traceback.format_exception_only(type(exc), exc)[-1].strip()
-        return record | {"status": STATUS["error"], "message": f"internal error: {detail}"}
-    record |= {
-        "status": STATUS["ok"] if result.success else STATUS["solver_failure"],
-        "message": result.message,
-        "residual": result.residual,
-        "stats": {k: float(result.stats.get(k, 0.0)) for k in POINT_STATS},
-    }
-    if not result.success:
+        return scene, solve(scene, job.integrator, model=model.with_values(scene))
+
+    record, solved = solved_record({"case": case}, solve_case)
+    if solved is None:
         return record
-    if result.stability is not None:
-        record["stable"] = int(result.stability.stable)
-        if not result.stability.stable:
-            record["stiffness_min_eigenvalue"] = float(result.stability.min_eigenvalue)
-    record["quaternion_norm_error"] = result.quaternion_norm_error
+    result = solved[1]
     record["position"] = np.concatenate([r.positions for r in result.rods.values()]).tolist()
     record["quaternion"] = np.concatenate([r.quaternions
                                            for r in result.rods.values()]).tolist()

@@ -5,6 +5,7 @@ assembly of the records into the study's Dataset, and the re-run of a stored stu
 from __future__ import annotations
 
 import traceback
+from collections.abc import Callable
 from typing import Any
 
 import numpy as np
@@ -18,8 +19,9 @@ from rodsim.io.archive_schema import STATUS
 from rodsim.io.compare import largest_distance
 from rodsim.io.statistics import POINT_STATS
 from rodsim.io.study_dataset import study_dataset
+from rodsim.solvers.result import Result
 
-__all__ = ["point_model", "evaluate_point", "assemble", "rerun_study"]
+__all__ = ["point_model", "evaluate_point", "solved_record", "assemble", "rerun_study"]
 
 
 #: The last model built in this process for each study's base scene (spec.base_scene_json):
@@ -48,6 +50,37 @@ def point_model(spec: StudySpec, scene: Scene) -> Any:
     return model
 
 
+def solved_record(record: dict[str, Any], solve_point: Callable[[], tuple[Scene, Result]]
+                  ) -> tuple[dict[str, Any], tuple[Scene, Result] | None]:
+    """``record`` with the outcome of ``solve_point()`` — status, message, residual and
+    statistics; for a success its stability verdict (the eigenvalue only if unstable) and
+    quaternion norm error — and the scene and result of a success (None otherwise). Never
+    raises: a bad scene value or a bug is recorded, so that one point or case does not stop
+    a study or a batch (rodsim/app/batch.py)."""
+    try:
+        scene, result = solve_point()
+    except SceneError as exc:
+        return record | {"status": STATUS["error"], "message": f"bad scene value: {exc}"}, None
+    except Exception as exc:  # a bug must not stop the study: record it
+        detail = traceback.format_exception_only(type(exc), exc)[-1].strip()
+        return (record | {"status": STATUS["error"], "message": f"internal error: {detail}"},
+                None)
+    record |= {
+        "status": STATUS["ok"] if result.success else STATUS["solver_failure"],
+        "message": result.message,
+        "residual": result.residual,
+        "stats": {k: float(result.stats.get(k, 0.0)) for k in POINT_STATS},
+    }
+    if not result.success:
+        return record, None
+    if result.stability is not None:
+        record["stable"] = int(result.stability.stable)
+        if not result.stability.stable:
+            record["stiffness_min_eigenvalue"] = float(result.stability.min_eigenvalue)
+    record["quaternion_norm_error"] = result.quaternion_norm_error
+    return record, (scene, result)
+
+
 def evaluate_point(spec: StudySpec, index: tuple[int, ...]) -> dict[str, Any]:
     """Solve one grid point; never raises: a failure is recorded with its status and message.
 
@@ -56,31 +89,17 @@ def evaluate_point(spec: StudySpec, index: tuple[int, ...]) -> dict[str, Any]:
     """
     from rodsim.app.api import solve
 
-    record: dict[str, Any] = {"index": list(index)}
-    try:
+    def solve_point() -> tuple[Scene, Result]:
         scene = point_scene(spec, index)
-        result = solve(scene, spec.integrator or scene.solver.integrator,
-                       model=point_model(spec, scene))
-    except SceneError as exc:
-        return record | {"status": STATUS["error"], "message": f"bad scene value: {exc}"}
-    except Exception as exc:  # a bug must not stop the study: record it
-        detail = traceback.format_exception_only(type(exc), exc)[-1].strip()
-        return record | {"status": STATUS["error"], "message": f"internal error: {detail}"}
-    record |= {
-        "status": STATUS["ok"] if result.success else STATUS["solver_failure"],
-        "message": result.message,
-        "residual": result.residual,
-        "stats": {k: result.stats.get(k, 0.0) for k in POINT_STATS},
-    }
-    if not result.success:  # the state a failed solver stopped in is no result: store none
+        return scene, solve(scene, spec.integrator or scene.solver.integrator,
+                            model=point_model(spec, scene))
+
+    record, solved = solved_record({"index": list(index)}, solve_point)
+    if solved is None:  # the state a failed solver stopped in is no result: store none
         return record
+    scene, result = solved
     sigma = np.linspace(0.0, 1.0, spec.sigma_points)
-    if result.stability is not None:  # the point's verdict; the eigenvalue only if unstable
-        record["stable"] = int(result.stability.stable)
-        if not result.stability.stable:
-            record["stiffness_min_eigenvalue"] = float(result.stability.min_eigenvalue)
     record |= {
-        "quaternion_norm_error": result.quaternion_norm_error,
         "tip": {name: shape.tip.tolist() for name, shape in result.rods.items()},
         "centerline": {name: resample(shape.s, shape.positions, sigma).tolist()
                        for name, shape in result.rods.items()},
