@@ -45,7 +45,8 @@ import numpy as np
 from numpy.typing import ArrayLike
 from scipy.integrate import solve_ivp
 
-__all__ = ["BVPTendon", "SceneProblem", "Section", "TendonRodSolution", "scene_problem",
+__all__ = ["BVPTendon", "SceneProblem", "Section", "TendonRodSolution", "base_moment_newton",
+           "scene_problem",
            "scene_reference", "tendon_rod"]
 
 _RTOL = 1e-12
@@ -186,6 +187,32 @@ def _unshearable_rhs(n_body: np.ndarray, shear: float) -> np.ndarray:
     return n_body
 
 
+def base_moment_newton(shoot: Callable[[np.ndarray], np.ndarray], m0: np.ndarray,
+                       target: np.ndarray, scale: float, tolerance: float, what: str
+                       ) -> tuple[np.ndarray, float, int]:
+    """Newton on the base moment ``m0`` until the tip moment ``shoot(m0)`` is ``target``
+    within ``tolerance`` · ``scale`` (finite-difference Jacobian, steps of 1e-6 · scale):
+    the shooting of both references (this module's and the friction one's). Returns the
+    base moment, the scaled residual and the iterations taken; RuntimeError naming ``what``
+    after 60."""
+    residual = math.inf
+    for iteration in range(60):
+        end_moment = shoot(m0)
+        r = (end_moment - target) / scale
+        residual = float(np.max(np.abs(r)))
+        if residual < tolerance:
+            return m0, residual, iteration
+        jac = np.empty((3, 3))
+        h = 1e-6 * scale
+        for k in range(3):
+            dm = np.zeros(3)
+            dm[k] = h
+            jac[:, k] = (shoot(m0 + dm) - end_moment) / h
+        m0 = m0 - np.linalg.solve(jac, r * scale)
+    raise RuntimeError(f"{what}: Newton did not converge (residual {residual:.3g}); raise "
+                       "load_steps")
+
+
 def tendon_rod(length: float, sections: Sequence[Section], tendons: Sequence[BVPTendon],
                tip_force: ArrayLike = (0.0, 0.0, 0.0),
                tip_moment: ArrayLike = (0.0, 0.0, 0.0),
@@ -215,26 +242,13 @@ def tendon_rod(length: float, sections: Sequence[Section], tendons: Sequence[BVP
     for step in range(1, load_steps + 1):
         load = step / load_steps
 
-        def shoot(m_start: np.ndarray, *, dense: bool = False, load: float = load):
-            return _shoot(m_start, force * load, breaks, sections, tendons, load, s_out, dense)
+        def shoot(m_start: np.ndarray, load: float = load) -> np.ndarray:
+            return _shoot(m_start, force * load, breaks, sections, tendons, load, s_out,
+                          False)
 
-        for _ in range(60):
-            end_moment = shoot(m0)
-            r = (end_moment - moment * load) / scale
-            residual = float(np.max(np.abs(r)))
-            if residual < tolerance:
-                break
-            jac = np.empty((3, 3))
-            h = 1e-6 * scale
-            for k in range(3):
-                dm = np.zeros(3)
-                dm[k] = h
-                jac[:, k] = (shoot(m0 + dm) - end_moment) / h
-            m0 = m0 - np.linalg.solve(jac, r * scale)
-            iterations += 1
-        else:
-            raise RuntimeError(f"tendon_rod: Newton did not converge at load {load:g} "
-                               f"(residual {residual:.3g}); raise load_steps")
+        m0, residual, taken = base_moment_newton(shoot, m0, moment * load, scale, tolerance,
+                                                 f"tendon_rod at load {load:g}")
+        iterations += taken
     positions, frames = _shoot(m0, force, breaks, sections, tendons, 1.0, s_out, True)
     return TendonRodSolution(s_out, positions + np.asarray(origin, dtype=float), frames,
                              residual, iterations)

@@ -55,6 +55,7 @@ from rodsim.core.analytic.tendon_bvp import (
     TendonRodSolution,
     _skew,
     _Strains,
+    base_moment_newton,
     scene_problem,
 )
 
@@ -274,23 +275,9 @@ def friction_tendon_rod(length: float, sections: Sequence[Section],
             return _shoot(m_start, force * load, breaks, sections, tendons, load, sliding,
                           s_out, False)
 
-        for _ in range(60):
-            end_moment = shoot(m0)
-            r = (end_moment - moment * load) / scale
-            residual = float(np.max(np.abs(r)))
-            if residual < tolerance:
-                break
-            jac = np.empty((3, 3))
-            h = 1e-6 * scale
-            for k in range(3):
-                dm = np.zeros(3)
-                dm[k] = h
-                jac[:, k] = (shoot(m0 + dm) - end_moment) / h
-            m0 = m0 - np.linalg.solve(jac, r * scale)
-            iterations += 1
-        else:
-            raise RuntimeError(f"friction reference: Newton did not converge at load "
-                               f"{load:g} (residual {residual:.3g}); raise load_steps")
+        m0, residual, taken = base_moment_newton(shoot, m0, moment * load, scale, tolerance,
+                                                 f"friction reference at load {load:g}")
+        iterations += taken
     positions, frames, tension = _shoot(m0, force, breaks, sections, tendons, 1.0, sliding,
                                         s_out, True)
     return TendonRodSolution(s_out, positions + np.asarray(origin, dtype=float), frames,
