@@ -20,15 +20,7 @@ from rodsim.app.cli.study import study_status
 __all__ = ["cmd_batch"]
 
 
-def _interrupt(signum: int, frame: object) -> None:
-    """SIGTERM handler of ``rodsim batch``: stop as Ctrl-C does."""
-    raise KeyboardInterrupt
-
-
 def cmd_batch(args: argparse.Namespace) -> int:
-    import signal
-    import threading
-
     from rodsim.app.batch import solve_many
     from rodsim.app.batch_cases import checked_cases, read_cases_csv
     from rodsim.app.progress import ProgressPrinter
@@ -58,8 +50,6 @@ def cmd_batch(args: argparse.Namespace) -> int:
         printer.close()
         print(f"rodsim: {message}", file=sys.stderr, flush=True)
 
-    previous = (signal.signal(signal.SIGTERM, _interrupt)
-                if threading.current_thread() is threading.main_thread() else None)
     interrupted = False
     try:
         dataset = solve_many(scene, cases, args.integrator, output=output,
@@ -72,8 +62,6 @@ def cmd_batch(args: argparse.Namespace) -> int:
         raise
     finally:
         printer.close()
-        if previous is not None:
-            signal.signal(signal.SIGTERM, previous)
         if interrupted and parts_folder(output).is_dir():
             print(f"rodsim: batch stopped; its finished cases are kept in "
                   f"{parts_folder(output)}: run the same command again to resume",

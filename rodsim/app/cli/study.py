@@ -21,15 +21,7 @@ def study_status(name: str, done: int, failed: int, total: int, elapsed: float,
     return f"{name}: {done}/{total} done{kept}, {failed} failed, {remaining} remaining{eta}"
 
 
-def _interrupt(signum: int, frame: object) -> None:
-    """SIGTERM handler of ``rodsim study``: stop as Ctrl-C does."""
-    raise KeyboardInterrupt
-
-
 def cmd_study(args: argparse.Namespace) -> int:
-    import signal
-    import threading
-
     from rodsim.app.progress import ProgressPrinter
     from rodsim.app.study import StudyError, available_studies, load_study
     from rodsim.app.study_runner import parts_folder, run_study
@@ -52,9 +44,7 @@ def cmd_study(args: argparse.Namespace) -> int:
         printer.close()  # end an in-place progress line first
         print(f"rodsim: {message}", file=sys.stderr, flush=True)
 
-    # SIGTERM stops a study as Ctrl-C does: workers ended, finished points kept.
-    previous = (signal.signal(signal.SIGTERM, _interrupt)
-                if threading.current_thread() is threading.main_thread() else None)
+    # SIGTERM stops a study as Ctrl-C does (rodsim.app.cli.main): finished points kept.
     interrupted = False
     output = ""
     try:
@@ -70,8 +60,6 @@ def cmd_study(args: argparse.Namespace) -> int:
         raise
     finally:
         printer.close()
-        if previous is not None:
-            signal.signal(signal.SIGTERM, previous)
         if interrupted and output and parts_folder(output).is_dir():
             print(f"rodsim: study stopped; its finished points are kept in "
                   f"{parts_folder(output)}: run the same command again to resume",
