@@ -98,7 +98,8 @@ def perturbed_state(model: Model, rng: np.random.Generator) -> np.ndarray:
         quats *= rng.uniform(0.97, 1.03, len(quats))[:, None]
         full[rod.layout.quaternion_index] = quats
     # The clamped coordinates are dropped here; model.full() puts back their fixed values.
-    return full[model.free]
+    # The free coordinates are offsets from the rest state (Model.x0 is zero).
+    return model.state_of(full)
 
 
 @pytest.fixture

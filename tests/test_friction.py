@@ -116,7 +116,7 @@ def test_anchors_are_explicit_model_state():
     moved = model.full(x)
     moved[positions[1:, 0]] += 1e-4  # every free node slid 0.1 mm along +x
     moved[positions[1:, 1]] -= 1e-6  # and pressed into the plane
-    x = moved[model.free]
+    x = model.state_of(moved)
     slid = model.terms[-1].element_forces(model.full(x))
     assert np.all(slid[1:, 0] < 0.0)  # friction against the slide
     anchored = model.anchored(x)
@@ -191,12 +191,12 @@ def test_a_tracks_last_step_is_assessed_with_its_own_anchors():
     path = track(dragged_rod(MU), {"rods.c.base.insertion": [0.0, -2e-3, -1e-3]})
     assert path.success, path.message
     assert path.contact[-1][:, 0].sum() < 0.0  # the last step's friction resists the push
-    free = path.model.free
     last = last_step_result(path)
     assert last is not None
-    assert np.max(np.abs(last.state - path.states[-1][free])) < 1e-12 * LENGTH
+    state = path.last_model.state_of(path.states[-1])  # offsets from the last model's rest
+    assert np.max(np.abs(last.state - state)) < 1e-12 * LENGTH
     estimate = assess(last, model=path.last_model)
     assert np.isfinite(estimate.penalty.error) and estimate.penalty.error < 1e-6
     rest_anchors = Model(path.last_model.scene)
-    assert np.max(np.abs(rest_anchors.force(path.states[-1][free]))) > 1e3 * np.max(
-        np.abs(path.last_model.force(path.states[-1][free])))
+    assert np.max(np.abs(rest_anchors.force(state))) > 1e3 * np.max(
+        np.abs(path.last_model.force(state)))

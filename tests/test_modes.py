@@ -369,7 +369,8 @@ def tdcr():
 def test_tdcr_bent_equilibrium_modes_are_consistent(tdcr):
     """About tdcr-two-segment's bent equilibrium (string tendons: conservative): ω² real
     and positive, K φ = ω² M φ to round-off, unit modal mass, and the same ω² as a dense
-    generalised eigensolve of the whole (singular) pencil (K, M)."""
+    generalised eigensolve of the whole (singular) pencil (K, M) (the Rayleigh quotients of
+    its eigenvectors)."""
     result, modes = tdcr
     assert modes.success and modes.symmetric and modes.message == "ok"
     assert np.all(modes.eigenvalues > 0.0) and np.all(modes.growth == 0.0)
@@ -388,9 +389,17 @@ def test_tdcr_bent_equilibrium_modes_are_consistent(tdcr):
     full[:, model.free] = modes.vectors * math.sqrt(total)
     np.testing.assert_array_equal(
         modes.shapes, full[:, model.rods["backbone"].layout.position_index])
-    dense = la.eigvals(stiffness, mass)
-    finite = np.sort(dense[np.isfinite(dense)].real)
-    np.testing.assert_allclose(modes.eigenvalues, finite[:8], rtol=1e-7)
+    # The dense QZ's eigenvalues carry its round-off (~eps |K| / |M| with the centerline
+    # penalty in K: up to 1.6e-7 relative, on mode 2 of a near-degenerate pair); the
+    # Rayleigh quotients of its eigenvectors are accurate to second order (within 1.1e-8
+    # of ours on every mode), so the comparison is on them.
+    values, vectors = la.eig(stiffness, mass)
+    finite = np.flatnonzero(np.isfinite(values))
+    lowest = finite[np.argsort(values[finite].real)[:8]]
+    quotients = [(v @ stiffness @ v) / (v @ mass @ v)
+                 for v in (vectors[:, i].real for i in lowest)]
+    np.testing.assert_allclose(values[lowest].real, quotients, rtol=1e-6)
+    np.testing.assert_allclose(modes.eigenvalues, quotients, rtol=1e-7)
     # the tendons' load matters: the straight unloaded robot vibrates differently
     unloaded = rodsim.modes("tdcr-two-segment", count=2, overrides=[
         "tendons.s1a.tendon_string.tension=0", "tendons.s1b.tendon_string.tension=0",

@@ -140,7 +140,7 @@ def test_a_track_flags_a_double_eigenvalue_crossing_zero_on_a_non_symmetric_stif
             "tendons.tendon.tendon_actuation.force=0",
             'rods.catheter.terms=["stretch", "bend_twist", "centerline", "tip_load"]',
             f"rods.catheter.tip_load.force=[{float(forces[step])!r}, 0, 0]"]))
-        x = state[model.free]
+        x = model.state_of(state)
         model = registered_model(model, x)
         eigenvalues = np.linalg.eigvals(-model.jacobian(x).toarray())
         smallest.append(float(np.min(eigenvalues.real)))

@@ -25,12 +25,14 @@ def test_static_on_table3_catheter1_is_cheap_and_on_the_paper_equilibrium():
     assert np.max(np.abs(static.positions() - paper.positions())) < 1e-6 * 0.16
 
 
-@pytest.mark.parametrize("scene, iterations", [("table3-catheter2", 29),
+@pytest.mark.parametrize("scene, iterations", [("table3-catheter2", 30),
                                                ("table3-catheter3", 29),
                                                ("tendon-conserving", 14)])
 def test_static_iterations_on_the_other_tendon_scenes_do_not_regress(scene, iterations):
     """Measured: 86, 83, 21 before the retraction and the schedule of static.py; 29, 29, 14
-    at 27422c4 (29, 30 on another machine)."""
+    at 27422c4 (29, 30 on another machine). On the offset state (docs/model.md)
+    table3-catheter2 takes 30: the extra one is a polishing iteration that now halves the
+    residual (1.5e-11 → 2.9e-12) where it stalled on the positions' round-off."""
     static = rodsim.solve(scene, "static")
     assert static.success, static.message
     assert static.stats["newton_iters"] <= at_most(iterations)

@@ -419,7 +419,9 @@ def test_a_rod_moved_by_its_supports_alone_has_their_force_scale():
 
 def test_a_soft_mode_does_not_pass_a_state_far_from_equilibrium():
     """On slender-pushed IDA converges (its Newton correction, by a dense solve here, is
-    below 1e-6 L) and CVODE stops 2.5e-3 L away, its force residual 1.44e-5 just under the
+    below 1e-5 L: measured 5.1e-7 L at 27422c4 and 5.7e-6 L on the offset state, both at a
+    force residual of 1.6e-7 under the tolerance 1.47e-5, which along the soft mode allows
+    far more) and CVODE stops 2.5e-3 L away, its force residual 1.44e-5 just under the
     tolerance 1.47e-5. The correction residual divides that distance by the load's
     linearised displacement, which the soft mode makes 7 700 L: it read 3e-7 and passed
     CVODE's state as a success. Counted at most as L (solvers/base.py, capped_reach), the
@@ -433,7 +435,7 @@ def test_a_soft_mode_does_not_pass_a_state_far_from_equilibrium():
     assert ida.success, ida.message
     jacobian = model.pattern_matrix(model.jacobian_data(ida.state)).toarray()
     correction = np.linalg.solve(jacobian, model.force(ida.state))
-    assert np.abs(correction[~model.is_quaternion]).max() < 1e-6 * length
+    assert np.abs(correction[~model.is_quaternion]).max() < 1e-5 * length
     cvode = rodsim.solve(robot, "cvode", model=model)
     assert not cvode.success
     assert "not an equilibrium" in cvode.message and "correction residual" in cvode.message

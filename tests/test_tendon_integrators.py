@@ -149,23 +149,28 @@ def test_cvode_on_table3_catheter1_finishes_at_the_end_of_the_load_ramp():
     lowered penalties by residual homotopy (rodsim/solvers/sundials.py): the first finish
     attempt, at the end of the load ramp, succeeds. Measured: 146 steps and 23 finish
     iterations (488 and 43 before: two failed attempts); bounded with the margin of
-    tests/counts.py. The
-    shipped scene steps its load (load_ramp = 0); the ramp is put back here."""
+    tests/counts.py. On the offset state (docs/model.md) 161 steps: SUNDIALS' relative error
+    weight rtol |y| is now taken on offsets, not on positions of size L. The shipped scene
+    steps its load (load_ramp = 0); the ramp is put back here."""
     result = rodsim.solve("table3-catheter1", "cvode", overrides=["solver.cvode.load_ramp=1"])
     assert result.success, result.message
     assert result.stats["finish_attempts"] == 1
-    assert result.stats["steps"] <= at_most(146)
+    assert result.stats["steps"] <= at_most(161)
     assert np.max(np.abs(result.positions() - reference("table3-catheter1").positions())) \
         < 1e-6 * 0.16
 
 
-@pytest.mark.parametrize(("scene", "steps"), [("table3-catheter1", 44), ("table3-catheter2", 30),
-                                             ("table3-catheter3", 20), ("tendon-conserving", 4)])
+@pytest.mark.parametrize(("scene", "steps"), [("table3-catheter1", 44), ("table3-catheter2", 32),
+                                             ("table3-catheter3", 28), ("tendon-conserving", 4)])
 def test_the_tendon_scenes_step_their_load_for_cvode(scene, steps):
     """The tendon scenes declare ``solver.cvode.load_ramp = 0``: the same equilibrium as with
     the one-period ramp (≤ 1e-15 m apart) in fewer steps (catheter1 146 → 44, catheter2
     119 → 30, catheter3 97 → 20, tendon-conserving 55 → 4; bounded with the margin of
-    tests/counts.py)."""
+    tests/counts.py). On the offset state (docs/model.md), whose coordinates SUNDIALS'
+    relative error weight rtol |y| now sees as offsets rather than positions of size L:
+    catheter1 26, catheter2 32, catheter3 28 (keeping that weight on the rest values instead
+    gave 40, 30, 20 but failed IDA on slender-pushed and the ×10 re-solve of the conserving
+    user scene: docs/benchmark-history.md, "The offset state")."""
     result = rodsim.solve(scene, "cvode")
     ramped = rodsim.solve(scene, "cvode", overrides=["solver.cvode.load_ramp=1"])
     assert result.success and ramped.success
@@ -175,7 +180,7 @@ def test_the_tendon_scenes_step_their_load_for_cvode(scene, steps):
         assert np.max(np.abs(result.positions(rod) - ramped.positions(rod))) < 1e-12
 
 
-@pytest.mark.parametrize(("scene", "steps"), [("table3-catheter1", 23), ("table3-catheter2", 18),
+@pytest.mark.parametrize(("scene", "steps"), [("table3-catheter1", 23), ("table3-catheter2", 21),
                                              ("table3-catheter3", 19), ("tendon-conserving", 4),
                                              ("four-tendons", 1)])
 def test_the_tendon_scenes_step_their_load_for_ida(scene, steps):
@@ -183,7 +188,7 @@ def test_the_tendon_scenes_step_their_load_for_ida(scene, steps):
     same equilibrium as IDA's defaults (one-period ramp, switch 0.03; ≤ 4e-15 m apart) in
     fewer steps (catheter1 132 → 23, catheter2 66 → 18, catheter3 98 → 19,
     tendon-conserving 136 → 4, four-tendons 33 → 1; bounded with the margin of
-    tests/counts.py). Needs the
+    tests/counts.py; catheter2 21 on the offset state, docs/model.md). Needs the
     lowered-penalty homotopy in IDA's finish on the paper coupling: one finish attempt."""
     result = rodsim.solve(scene, "ida")
     defaults = rodsim.solve(scene, "ida", overrides=["solver.ida.load_ramp=1",

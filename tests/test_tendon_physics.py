@@ -139,7 +139,8 @@ def scattered(model: Model, terms, full: np.ndarray) -> np.ndarray:
     """The terms' element forces scattered onto the *full* state (clamped coordinates too)."""
     out = np.zeros(model.full_size)
     for term in terms:
-        np.add.at(out, term.dofs.ravel(), np.asarray(term.element_forces(full)).ravel())
+        state = full - model.reference if term.offsets else full  # Term.offsets: offsets
+        np.add.at(out, term.dofs.ravel(), np.asarray(term.element_forces(state)).ravel())
     return out
 
 
@@ -214,7 +215,7 @@ def test_conserving_coupling_balances_forces_and_moments():
     # Control: the paper's coupling, evaluated at the same state, is not balanced (Eq. 28
     # has no reaction; averaged lumen reactions act at the node, not at the lumen point).
     paper = rodsim.build_model(model.scene.with_values({f"{TENDON}.coupling": "paper"}))
-    paper = paper.reregistered(full[paper.free]) or paper
+    paper = paper.reregistered(paper.state_of(full)) or paper
     unbalanced = scattered(paper, coupling_terms(paper), full)
     paper_force, paper_moment = net_force_and_moment(paper, unbalanced, full)
     print(f"paper coupling at the same state: net force {np.linalg.norm(paper_force):.3g} N, "
@@ -463,7 +464,7 @@ def catheter_alone_residual(result, scene, force: np.ndarray) -> float:
     state = coupled.full(result.state)
     full[there.position_index] = state[here.position_index]
     full[there.quaternion_index] = state[here.quaternion_index]
-    residual = alone.force(full[alone.free])
+    residual = alone.force(alone.state_of(full))
     positions = np.isin(alone.free, there.position_index.ravel())
     return float(np.max(np.abs(residual[positions])))
 

@@ -294,10 +294,16 @@ def free_index(model: Model) -> np.ndarray:
     return index
 
 
+def state_for(model: Model, term: Term, x: np.ndarray) -> np.ndarray:
+    """The full state ``term`` is evaluated on at the free coordinates ``x``: the offsets
+    for a term on offsets (:attr:`Term.offsets`), else the positions and quaternions."""
+    return model.offsets(x) if term.offsets else model.full(x)
+
+
 def term_force(model: Model, term: Term, x: np.ndarray) -> np.ndarray:
     """One term's element forces scattered (with accumulation) onto the free coordinates."""
     target = free_index(model)[term.dofs]
-    values = np.asarray(term.element_forces(model.full(x)), dtype=float)
+    values = np.asarray(term.element_forces(state_for(model, term, x)), dtype=float)
     assert values.shape == term.dofs.shape, f"{term.name}: element_forces shape"
     keep = target >= 0
     return np.bincount(target[keep], weights=values[keep], minlength=model.n)
@@ -309,7 +315,7 @@ def term_jacobian(model: Model, term: Term, x: np.ndarray) -> np.ndarray:
     if not term.has_jacobian:
         return out
     target = free_index(model)[term.dofs]
-    values = np.asarray(term.element_jacobians(model.full(x)), dtype=float)
+    values = np.asarray(term.element_jacobians(state_for(model, term, x)), dtype=float)
     k = term.dofs.shape[1]
     assert values.shape == (len(term.dofs), k, k), f"{term.name}: element_jacobians shape"
     rows = np.broadcast_to(target[:, :, None], values.shape)
@@ -351,7 +357,7 @@ def block_errors(model: Model, jac: np.ndarray, jac_fd: np.ndarray) -> list[tupl
 
 
 def term_energy(model: Model, term: Term, x: np.ndarray) -> float:
-    return float(term.energy(model.full(x)))
+    return float(term.energy(state_for(model, term, x)))
 
 
 def pattern_set(model: Model) -> set[tuple[int, int]]:
@@ -414,7 +420,7 @@ def test_term_contract(term_name, random_state, fd):
                     f"{label}: has_jacobian = False but the force depends on the state")
 
             if term.conservative:
-                assert term.energy(model.full(x)) is not None, (
+                assert term.energy(state_for(model, term, x)) is not None, (
                     f"{label}: conservative but energy() returns None")
                 grad = fd["gradient"](lambda y, t=term, m=model: term_energy(m, t, y), x, steps)
                 error = np.max(np.abs(force + grad))

@@ -54,7 +54,7 @@ def run(size: str, output_dir: Path, progress: Progress) -> list[Path]:
         best = min(best, time.process_time() - start)
     progress(config["repeats"] / (config["repeats"] + 1), "contact: evaluation share")
     end = Model(scene.with_values({KEY: float(values[-1])}))
-    x = path.states[-1][end.free]
+    x = end.state_of(path.states[-1])
     with_contact = _evaluation_time(end, x, config["calls"])
     without = end.with_terms([t for t in end.terms if t.name != "contact"])
     without_contact = _evaluation_time(without, x, config["calls"])

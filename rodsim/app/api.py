@@ -98,7 +98,10 @@ def solve(scene: SceneLike | None = None, integrator: str | None = None, *,
     initial_state
         Free coordinates to start from (a warm start from a nearby equilibrium, whose
         registration ``model`` should carry) instead of the rest state; the loads then act
-        in full from the start.
+        in full from the start. They are offsets from the rest state of the scene's model
+        (a ``Result.state`` of the same scene; a stored shape, such as a track's
+        ``states[k]``, through ``build_model(scene).state_of(shape)``: docs/model.md, "The
+        offset state and the residual floor").
 
     Notes
     -----

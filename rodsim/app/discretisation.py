@@ -235,4 +235,4 @@ def warm_state(result: Result, coarse: Model) -> np.ndarray:
         else:
             q = np.repeat(quaternions, len(rod.geometry.segment_s), axis=0)
         full[rod.layout.quaternion_index] = q / np.linalg.norm(q, axis=1, keepdims=True)
-    return full[coarse.free]
+    return coarse.state_of(full)

@@ -33,7 +33,11 @@ from rodsim.core.model import Model
 from rodsim.core.scene import Scene
 from rodsim.core.schema import SceneError, shown
 from rodsim.core.vibration import ModesError, natural_modes
-from rodsim.solvers.physical.coordinates import PhysicalCoordinates
+from rodsim.solvers.physical.coordinates import (
+    PhysicalCoordinates,
+    model_state,
+    physical_state,
+)
 from rodsim.solvers.physical.midpoint import MidpointStep, Motion
 from rodsim.solvers.physical.trajectory import Record, integrate
 from rodsim.solvers.result import Result
@@ -176,7 +180,7 @@ def _start_state(scene: Scene, model: Model, initial: Mapping[str, Any] | Result
     """The free state the run starts from (at rest): the rest state, the equilibrium of the
     scene with ``initial``'s values, or a solved Result's state."""
     if initial is None:
-        return model.x0
+        return physical_state(model, model.x0)
     if isinstance(initial, Result):
         result = initial
     else:
@@ -205,7 +209,8 @@ def _initial_text(initial: Mapping[str, Any] | Result | None) -> str:
 def _default_step(model: Model, x: np.ndarray) -> float:
     """1/:data:`STEPS_PER_PERIOD` of the lowest natural period at ``x``."""
     try:
-        vibration = natural_modes(-model.jacobian(x), mass_factor(model, x), 1)
+        state = model_state(model, x)
+        vibration = natural_modes(-model.jacobian(state), mass_factor(model, state), 1)
     except ModesError as exc:
         raise SceneError(f"no default step ({exc}); give step=") from None
     omega2 = float(np.real(vibration.eigenvalues[0]))
@@ -292,7 +297,7 @@ def _simulation(loaded: Scene, model: Model, record: Record, h: float, integrato
                 initial: Mapping[str, Any] | Result | None) -> Simulation:
     """The :class:`Simulation` of what ``record`` holds."""
     states = np.array(record.states)
-    full = np.array([model.full(state) for state in states])
+    full = np.array([model.full(model_state(model, state)) for state in states])
     positions = np.concatenate([full[:, model.rods[name].layout.position_index]
                                 for name in model.rods], axis=1)
     quaternions = np.concatenate([full[:, model.rods[name].layout.quaternion_index]

@@ -273,7 +273,7 @@ def last_step_result(track: Any) -> Result | None:
     result (a warm solve of the scene at that step's values from that step's state: already
     at equilibrium, so one Newton iteration), for :func:`assess`; None without a step or
     when that solve fails."""
-    from rodsim.app.api import solve
+    from rodsim.app.api import build_model, solve
 
     if not track.steps:
         return None
@@ -291,7 +291,8 @@ def last_step_result(track: Any) -> Result | None:
     scene = track.scene.with_values(values)
     # The last step's own model for that scene: with friction, the anchors of that step.
     last_model = getattr(track, "last_model", None)
-    model = last_model.with_values(scene) if last_model is not None else None
+    model = last_model.with_values(scene) if last_model is not None else build_model(scene)
+    # The free coordinates are offsets from that model's rest state (Model.state_of).
     result = solve(scene, DEFAULT_INTEGRATOR, model=model,
-                   initial_state=track.states[-1][track.model.free])
+                   initial_state=model.state_of(track.states[-1]))
     return result if result.success else None

@@ -100,14 +100,17 @@ class Damping:
         return sp.csr_matrix((v[keep], (i[keep], j[keep])), shape=(n, n))
 
     def matrix(self, x: np.ndarray) -> sp.csr_matrix:
-        """D(x) = Σ_rods τ K_el(x) + c C on the free coordinates at the free state ``x``
+        """D(x) = Σ_rods τ K_el(x) + c C on the free coordinates at ``x``, the free coordinates
+        themselves (positions and quaternions, not the model's offsets)
         [N·s/m and the quaternions' units]; symmetric."""
         if not self.elastic:
             return self.drag
-        full = self.model.full(x)
+        state = x - self.model.reference[self.model.free]  # the model's offsets
+        full, offsets = self.model.full(state), self.model.offsets(state)
         rows, cols, values = [], [], []
         for term, tau in self.elastic:
-            stiffness = -term.element_jacobians(full)  # K_e = −∂F_e/∂x_e
+            # K_e = −∂F_e/∂x_e, a term on offsets (Term.offsets) evaluated at them
+            stiffness = -term.element_jacobians(offsets if term.offsets else full)
             values_e, vectors_e = np.linalg.eigh(0.5 * (stiffness + np.swapaxes(stiffness, 1,
                                                                                  2)))
             blocks = -np.einsum("eik,ek,ejk->eij", vectors_e, np.maximum(values_e, 0.0),

@@ -29,7 +29,7 @@ from __future__ import annotations
 
 import copy
 import sys
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from functools import cached_property
 from typing import TYPE_CHECKING, Any, Literal, NamedTuple, overload
@@ -57,6 +57,7 @@ from rodsim.core.sparsity import (
 from rodsim.core.supports import base_support, node_supports, quaternion_product, rigid_motion
 from rodsim.core.tendon import Tendon, tendon_support
 from rodsim.core.terms import Term, registered_terms
+from rodsim.core.terms.base import RodTerm
 from rodsim.core.terms.tendon_string import split_at_breaks
 
 if TYPE_CHECKING:
@@ -341,11 +342,19 @@ class Model:
         self._scale_list = self.term_scales.tolist()  # as floats, for the evaluation loops
 
         self.rest_full = np.zeros(self.full_size)
+        #: The rest state the free coordinates are offsets from (docs/model.md, "The offset
+        #: state and the residual floor"): every rod's rest positions and rest quaternions.
+        self.reference = np.zeros(self.full_size)
         fixed = []
         for rod in self.rods.values():
             self.rest_full[rod.layout.position_index] = rod.held_positions()
             self.rest_full[rod.layout.quaternion_index] = rod.rest_quaternions()
+            self.reference[rod.layout.position_index] = rod.rest_positions()
+            self.reference[rod.layout.quaternion_index] = rod.rest_quaternions()
             fixed.append(rod.fixed_index())
+        #: :attr:`rest_full` as offsets from :attr:`reference` (non-zero only where a node
+        #: support holds its node away from its rest place).
+        self.rest_offsets = self.rest_full - self.reference
         is_free = np.ones(self.full_size, dtype=bool)
         is_free[np.concatenate(fixed)] = False
         #: Full-state index of every free coordinate, in the integrators' order.
@@ -629,8 +638,10 @@ class Model:
         scene)."""
         other = copy.copy(self)
         other.rest_full = self.rest_full.copy()
+        other.rest_offsets = self.rest_offsets.copy()
         for index, rest, held in self.support_displacements:
             other.rest_full[index] = held if fraction == 1.0 else rest + fraction * (held - rest)
+            other.rest_offsets[index] = fraction * (held - rest)
         return other
 
     def with_terms(self, terms: list[Term]) -> Model:
@@ -856,22 +867,44 @@ class Model:
         self.residual_weight = np.where(
             self.is_quaternion, 1.0 / (self.force_scale * self.length_scale),
             1.0 / self.force_scale)
-        # Round-off floor of the residual: F_i carries an absolute error of about
-        # eps |K_ii| |x_i| (stiff springs between coordinates of size ~L). The floor is set
-        # with a margin (32 eps) so that it is reliably attainable: residual noise measured at
-        # converged states is 5–20× below it; Newton iterations asked to go lower only stall.
-        magnitude = np.where(self.is_quaternion, 1.0, self.length_scale)
         self._tick()
-        stiffness = np.abs(self._rest_diagonal(full))
+        stiffness = np.abs(self._rest_diagonal(full, self.rest_offsets))
         #: |∂F_i/∂x_i| at rest, the stiffness of each coordinate on its own.
         self.rest_stiffness = stiffness
-        #: Smallest scaled residual the model reliably reaches in double precision.
+        #: Smallest scaled residual the model reliably reaches in double precision
+        #: (:meth:`_roundoff`).
         self.residual_floor = float(32.0 * np.finfo(float).eps
-                                    * np.max(stiffness * magnitude * self.residual_weight))
+                                    * np.max(self._roundoff() * self.residual_weight))
 
-    def _rest_diagonal(self, full: np.ndarray) -> np.ndarray:
+    def _roundoff(self) -> np.ndarray:
+        """Per free coordinate, the round-off of F_i over eps: each term's |∂F_i/∂x_i| at
+        rest (its share of :attr:`rest_stiffness`) times the size of the numbers its force
+        is a difference of (docs/model.md, "The offset state and the residual floor").
+
+        A term on the full state (springs and penalties between positions of size ~L) takes
+        L_ref for positions and 1 for quaternions. A term on offsets (:attr:`Term.offsets`)
+        takes the size of the offsets the loads make: on its rod, the displacement
+        D = min(L, F_ref L³ / (3 E I)) (a cantilever's tip under F_ref, E I the least along
+        the rod: a bound for loads that bend by a moment) and the quaternion change
+        min(1, 1.5 D / L). The residual floor is 32 eps times the largest of these, weighted
+        as the residual: the margin makes it reliably attainable (noise measured at
+        converged states is below it; Newton iterations asked to go lower only stall)."""
+        noise = np.zeros(self.n)
+        for term, _scale, share in self._diagonal_shares.values():
+            if term.offsets and isinstance(term, RodTerm):
+                rod = term.rod
+                displacement = min(rod.length, self.force_scale * rod.length**3
+                                   / (3.0 * rod.smallest_bending_stiffness))
+                turn = min(1.0, 1.5 * displacement / rod.length)
+            else:
+                displacement, turn = self.length_scale, 1.0
+            noise += np.abs(share) * np.where(self.is_quaternion, turn, displacement)
+        return noise
+
+    def _rest_diagonal(self, full: np.ndarray, offsets: np.ndarray) -> np.ndarray:
         """The diagonal of ∂F/∂x at the full state ``full`` (the rest state), as the sum of
-        the terms' shares in term order. Each term's share is kept with the term and its
+        the terms' shares in term order (a term on offsets, :attr:`Term.offsets`, evaluated
+        at ``offsets``). Each term's share is kept with the term and its
         scale (:attr:`_diagonal_shares`) and recomputed only for a term or a scale that
         changed: a model of other values (:meth:`with_values`) evaluates the changed terms
         alone. (Summed by term, not accumulated in one pass, so that every model of the
@@ -900,14 +933,16 @@ class Model:
                 if buffer is None:
                     buffer = np.zeros(self.nnz + 1)
                 if scale != 0.0:
-                    call.kernel.evaluate(full, *call.arguments, scale, False, np.zeros(1),
+                    call.kernel.evaluate(offsets if term.offsets else full,
+                                         *call.arguments, scale, False, np.zeros(1),
                                          call.force_target, True, buffer,
                                          call.jacobian_target)
                 share = buffer[self._diagonal_slots]
                 buffer[call.jacobian_target.ravel()] = 0.0
                 buffer[-1] = 0.0
             else:
-                values = scale * term.element_jacobians(full).ravel()
+                values = scale * term.element_jacobians(
+                    offsets if term.offsets else full).ravel()
                 share = np.bincount(target, weights=values,
                                     minlength=self.nnz + 1)[self._diagonal_slots]
                 recomputed.append(term)
@@ -922,20 +957,49 @@ class Model:
     # ------------------------------------------------------------- state maps
     @property
     def x0(self) -> np.ndarray:
-        """The undeformed rest state (free coordinates): every simulation starts here."""
-        return self.rest_full[self.free].copy()
+        """The undeformed rest state (free coordinates): every simulation starts here.
+
+        The free coordinates are offsets from the rest state (:attr:`reference`): a
+        position's displacement from its rest place, a quaternion's difference from its rest
+        quaternion (docs/model.md, "The offset state and the residual floor"); the rest
+        state is zero. :meth:`full` gives the positions and quaternions themselves."""
+        return self.rest_offsets[self.free].copy()
 
     def full(self, x: np.ndarray) -> np.ndarray:
-        """Full state (fixed coordinates included) from the free coordinates."""
+        """Full state (fixed coordinates included) from the free coordinates: the
+        positions [m] and quaternions themselves (:attr:`reference` plus the offsets)."""
         out = self.rest_full.copy()
+        out[self.free] = self._reference_free() + x
+        return out
+
+    def _reference_free(self) -> np.ndarray:
+        """:attr:`reference` at the free coordinates, kept for this model's ``free``."""
+        kept = self.__dict__.get("_kept_reference")
+        if kept is None or kept[0] is not self.free or kept[1] is not self.reference:
+            kept = (self.free, self.reference, self.reference[self.free])
+            self._kept_reference = kept
+        return kept[2]
+
+    def offsets(self, x: np.ndarray) -> np.ndarray:
+        """The full state as offsets from :attr:`reference` (fixed coordinates included):
+        what the terms with :attr:`Term.offsets` are evaluated on."""
+        out = self.rest_offsets.copy()
         out[self.free] = x
         return out
+
+    def state_of(self, full: np.ndarray) -> np.ndarray:
+        """The free coordinates (offsets) of the full state ``full`` (positions and
+        quaternions themselves, as :meth:`full` gives them): a warm start from a stored
+        shape."""
+        return full[self.free] - self._reference_free()
 
     def carried(self, x: np.ndarray, previous: Model) -> np.ndarray:
         """The state ``x`` of ``previous`` (a model of the same layout) with each rod moved
         rigidly as its base support moved from ``previous`` to this model (an inserted or
         turned base, rodsim/core/supports.py): the warm start of a step that moves the
-        base. ``x`` itself when no support moved."""
+        base. ``x`` itself when no support moved and both models have the same rest state
+        (:attr:`reference`); otherwise the same positions and quaternions as offsets from
+        this model's rest state."""
         full = None
         for name, rod in self.rods.items():
             motion = rigid_motion(previous.rods[name].support, rod.support)
@@ -948,7 +1012,12 @@ class Model:
             full[index] = after + (full[index] - before) @ turn.T
             index = rod.layout.quaternion_index
             full[index] = quaternion_product(q_turn, full[index])
-        return x if full is None else full[self.free]
+        if full is None:
+            if previous.reference is self.reference or np.array_equal(previous.reference,
+                                                                      self.reference):
+                return x
+            full = previous.full(x)
+        return self.state_of(full)
 
     def positions(self, x: np.ndarray, rod: str) -> np.ndarray:
         """Control points of one rod, shape (N, 3) [m]."""
@@ -987,6 +1056,7 @@ class Model:
     def energy(self, x: np.ndarray, load: float = 1.0) -> float:
         """Total potential energy [J] (raises if a term is not conservative)."""
         full = self.full(x)
+        offsets = self.offsets(x)
         compiled = {}
         tiered = self._tiered_numpy()
         if self._compiled():
@@ -998,9 +1068,9 @@ class Model:
         for index, term in enumerate(self.terms):
             if index in compiled:
                 call = compiled[index]
-                value = call.energy(full, *call.arguments)
+                value = call.energy(offsets if term.offsets else full, *call.arguments)
             else:
-                value = term.energy(full)
+                value = term.energy(offsets if term.offsets else full)
             if value is None:
                 raise ValueError(f"term {term.name!r} is not conservative: no energy")
             total += self._scale(index, term, load) * value
@@ -1058,18 +1128,21 @@ class Model:
                   jacobian: bool) -> tuple[np.ndarray, np.ndarray]:
         """:meth:`evaluate` without the memo."""
         full = self.full(x)
+        offsets = self.offsets(x)
         if self._compiled():
-            return self._evaluate_compiled(full, load, force, jacobian)
+            return self._evaluate_compiled(full, offsets, load, force, jacobian)
         tiered = self._tiered_numpy()
         f: np.ndarray = np.zeros(0)
         j: np.ndarray = np.zeros(0)
         if force:
-            values = [self._scale(k, term, load) * term.element_forces(full).ravel()
+            values = [self._scale(k, term, load)
+                      * term.element_forces(offsets if term.offsets else full).ravel()
                       for k, term in enumerate(self.terms)]
             f = np.bincount(self._force_targets, weights=np.concatenate(values),
                             minlength=self.n + 1)[:-1]
         if jacobian:
-            blocks = [self._scale(k, term, load) * term.element_jacobians(full).ravel()
+            blocks = [self._scale(k, term, load)
+                      * term.element_jacobians(offsets if term.offsets else full).ravel()
                       for k, term in enumerate(self.terms) if term.has_jacobian]
             j = (np.bincount(self._jac_targets, weights=np.concatenate(blocks),
                              minlength=self.nnz + 1)[:-1] if blocks else np.zeros(self.nnz))
@@ -1077,8 +1150,8 @@ class Model:
             PROCESS_TIER.charge(nominal_cost(self.terms, force=force, jacobian=jacobian))
         return f, j
 
-    def _evaluate_compiled(self, full: np.ndarray, load: float, force: bool,
-                           jacobian: bool) -> tuple[np.ndarray, np.ndarray]:
+    def _evaluate_compiled(self, full: np.ndarray, offsets: np.ndarray, load: float,
+                           force: bool, jacobian: bool) -> tuple[np.ndarray, np.ndarray]:
         if self._kernel_calls is None:
             self._kernel_calls = self._build_kernel_calls()
         f = np.zeros(self.n + 1 if force else 1)
@@ -1087,17 +1160,21 @@ class Model:
             scale = self._scale(call.term_index, call.term, load)
             if scale == 0.0:
                 continue  # a load at load fraction 0 (or a term scaled away): adds only zeros
-            call.kernel.evaluate(full, *call.arguments, scale, force, f, call.force_target,
-                                 jacobian, j, call.jacobian_target)
+            call.kernel.evaluate(offsets if call.term.offsets else full, *call.arguments,
+                                 scale, force, f, call.force_target, jacobian, j,
+                                 call.jacobian_target)
         return (f[:-1] if force else np.zeros(0)), (j[:-1] if jacobian else np.zeros(0))
 
     def element_forces(self, index: int, full: np.ndarray) -> np.ndarray:
         """The forces on the elements of term ``index`` at the full state ``full``, shaped
         as its ``dofs`` (clamped coordinates included), with its continuation scale: by its
         compiled kernel on the compiled path, by its numpy reference otherwise (the same
-        numbers to round-off, tests/test_kernels.py)."""
+        numbers to round-off, tests/test_kernels.py). A term evaluated on offsets
+        (:attr:`Term.offsets`) gets ``full`` minus :attr:`reference`."""
         term = self.terms[index]
         scale = self._scale(index, term, 1.0)
+        if term.offsets:
+            full = full - self.reference
         if not self._compiled():
             return scale * term.element_forces(full)
         if self._kernel_calls is None:
@@ -1172,11 +1249,41 @@ class Model:
         return np.ascontiguousarray(np.concatenate(
             [rod.layout.quaternion_index for rod in self.rods.values()]), dtype=np.int64)
 
+    def _absolute(self, x: np.ndarray) -> np.ndarray:
+        """The full state from free coordinates that hold the positions and quaternions
+        themselves (not offsets): the retractions' own arithmetic."""
+        out = self.rest_full.copy()
+        out[self.free] = x
+        return out
+
+    def _retracted(self, method: Callable[[np.ndarray, np.ndarray], np.ndarray],
+                   x: np.ndarray, dx: np.ndarray) -> np.ndarray:
+        """A retraction ``method`` (on positions and quaternions themselves) applied to the
+        offset state ``x``: x + dx plus the retraction's correction, or x + dx alone when
+        the whole correction is within the round-off of the retraction's own arithmetic on
+        positions (each rod walked from its base: ~N eps L). Taken there, it would put that
+        round-off into offsets that resolve far below it; the correction is O(dx²) and that
+        small only once the steps are (a Newton solve's last ones)."""
+        absolute = self._reference_free() + x
+        linear = absolute + dx
+        correction = method(absolute, dx) - linear
+        chain = max(rod.nodes for rod in self.rods.values())
+        noise = (4.0 * chain * np.finfo(float).eps
+                 * float(np.max(np.abs(absolute), initial=0.0) + np.max(np.abs(dx), initial=0.0)))
+        if float(np.max(np.abs(correction), initial=0.0)) <= noise:
+            return x + dx
+        return x + dx + correction
+
     def turned_step(self, x: np.ndarray, dx: np.ndarray) -> np.ndarray:
         """:meth:`step` with each rod's segments turned as rigid frames instead of their
         lengths kept (rodsim/core/rod/retraction.py; ``solver.static.retraction =
         "frames"``); the endpoint couplings as in :meth:`step`. Equal to x + dx to first
-        order in dx. Compiled (``turn`` of rodsim/core/kernels/_retraction.py) with
+        order in dx (on the offset state: :meth:`_retracted`)."""
+        return self._retracted(self._turned_absolute, x, dx)
+
+    def _turned_absolute(self, x: np.ndarray, dx: np.ndarray) -> np.ndarray:
+        """:meth:`turned_step` on free coordinates that are positions and quaternions
+        themselves. Compiled (``turn`` of rodsim/core/kernels/_retraction.py) with
         ``kernels = "compiled"``; this numpy code is the reference."""
         if self._compiled():
             from rodsim.core.kernels._retraction import turn
@@ -1186,7 +1293,7 @@ class Model:
             turn(x, dx, y, self.rest_full, self._free_of, chains, starts,
                  self._quaternion_chains, couplings)
             return y
-        before, after = self.full(x), self.full(x + dx)
+        before, after = self._absolute(x), self._absolute(x + dx)
         for rod in self.rods.values():
             position, quaternion = rod.layout.position_index, rod.layout.quaternion_index
             r, q = before[position], before[quaternion]
@@ -1206,7 +1313,12 @@ class Model:
 
     def step(self, x: np.ndarray, dx: np.ndarray) -> np.ndarray:
         """The state a Newton step ``dx`` from ``x`` reaches, with stiff lengths kept to first
-        order (a retraction: equal to x + dx to first order in dx).
+        order (a retraction: equal to x + dx to first order in dx; on the offset state:
+        :meth:`_retracted`, the arithmetic below on positions: :meth:`_step_absolute`)."""
+        return self._retracted(self._step_absolute, x, dx)
+
+    def _step_absolute(self, x: np.ndarray, dx: np.ndarray) -> np.ndarray:
+        """:meth:`step` on free coordinates that are positions and quaternions themselves.
 
         A linear step that turns a stiff link of fixed length stretches it by O(δ²), which the
         link's stiffness turns into a force far above the loads: on the paper's coupling the
@@ -1224,7 +1336,7 @@ class Model:
 
             retract(x, dx, y, self.rest_full, self._free_of, chains, starts, couplings)
             return y
-        before, after = self.full(x), self.full(y)
+        before, after = self._absolute(x), self._absolute(y)
         for k in range(len(starts) - 1):
             index = chains[starts[k]:starts[k + 1]]
             r, moved = before[index], after[index]

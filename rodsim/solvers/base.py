@@ -42,7 +42,14 @@ from rodsim.solvers.newton import NewtonProblem, newton
 from rodsim.solvers.outcome import Outcome
 from rodsim.solvers.recorder import SaveAt
 from rodsim.solvers.result import Result
-from rodsim.solvers.run_state import MAX_SETTLES, History, RunState, linear_solver_of
+from rodsim.solvers.run_state import (
+    MAX_SETTLES,
+    History,
+    RunState,
+    checked_state,
+    linear_solver_of,
+    plausible_start,
+)
 from rodsim.solvers.stops import Equilibrium, Stop
 from rodsim.solvers.tolerance import (
     CORRECTION_TOLERANCE,
@@ -456,7 +463,10 @@ class Integrator(ABC, Generic[S]):
     def solve(self, model: Model, initial_state: np.ndarray | None = None,
               budget_start: float | None = None) -> Result:
         """Run the integrator on ``model`` to equilibrium and return a Result (never raises
-        on failure): :meth:`init` then :meth:`run`."""
+        on failure): :meth:`init` then :meth:`run`; a start that no run reaches (a force
+        passed as a state, :func:`plausible_start`) is refused in one line."""
+        if initial_state is not None:
+            plausible_start(model, checked_state(model, initial_state))
         return self.run(self.init(model, initial_state, budget_start))[0]
 
     def run(self, run: S, verdict: bool = True) -> tuple[Result, S]:

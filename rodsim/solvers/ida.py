@@ -86,7 +86,7 @@ class Ida(SundialsIntegrator):
         the IDA state: the result's check (:meth:`Integrator.verified_residual`)."""
         force = model.force(x)
         quat = run.system.quat
-        q = x[quat]
+        q = run.system.quaternions(x)
         f = force[quat]
         along = np.sum(q * f, axis=1) / np.sum(q * q, axis=1)
         force[quat] = f - along[:, None] * q

@@ -78,6 +78,24 @@ class NewtonResult:
     message: str
 
 
+#: A direction whose Jacobi-scaled stiffness (module :func:`_neutral`) is below this, in
+#: magnitude, is neutral: its sign is round-off.
+NEUTRAL_STIFFNESS = 1e-12
+
+
+def _neutral(problem: NewtonProblem, jacobian: np.ndarray, dx: np.ndarray, slope: float) -> bool:
+    """Whether the stiffness along the Newton step ``dx`` is neutral: its Rayleigh quotient
+    dx·J·dx = slope (J dx = −g) over dx·|diag J|·dx, the same quotient with the diagonal's
+    magnitudes, below :data:`NEUTRAL_STIFFNESS`. The Jacobi scaling makes it independent
+    of the coordinates' units (metres, quaternion components). Measured: a ball joint's
+    free rotation at rest (tests/test_stability_neutral.py) 1e-17 to 1.3e-15; the ascent
+    steps of reach's inner solves on table1's unstable equilibrium
+    (tests/test_inverse_hardening.py) 3e-14 to 4e-5, mostly above 1e-8."""
+    diagonal = np.abs(problem.linear.diagonal(jacobian))
+    scale = float(dx @ (diagonal * dx))
+    return scale > 0.0 and abs(slope) < NEUTRAL_STIFFNESS * scale
+
+
 def newton(problem: NewtonProblem, x: np.ndarray, tolerance: float,
            max_iterations: int, polish: bool = True,
            check: Callable[[], None] | None = None,
@@ -164,6 +182,15 @@ def newton(problem: NewtonProblem, x: np.ndarray, tolerance: float,
             near = False
         # Directional derivative of the merit along dx.
         slope = -float(g @ dx) if problem.potential is not None else -2.0 * value
+        if slope > 0.0 and problem.potential is not None and near is False and (
+                problem.correction is None) and jacobian is not None and _neutral(
+                    problem, jacobian, dx, slope):
+            # An ascent direction along a neutral one (a free rotation at rest, whose
+            # exact zero the offset state keeps; round-off gives it either sign): the
+            # reverse step descends Φ as steeply (−g·(−dx) = −slope) and the line search
+            # shortens it. An ascent along a clearly negative stiffness (an unstable
+            # equilibrium that reach's inner solves must reach) is not reversed.
+            dx, slope = -dx, -slope
         if slope >= 0.0 and problem.potential is not None:
             # Not a descent direction (an inexact — finite-difference — Jacobian, or a state
             # off a stable branch): fall back to a diagonally scaled gradient step on Φ.

@@ -271,6 +271,9 @@ class ConstrainedSystem:
             index = free_of[rod.layout.quaternion_index]
             groups.extend(row for row in index if np.all(row >= 0))
         self.quat = np.asarray(groups, dtype=np.int64).reshape(-1, 4)  # model coords of each q_j
+        # The free coordinates are offsets from the rest state (Model.x0): q_j = q⁰_j + δ_j.
+        self.rest_quat = model.reference[model.free][self.quat]
+        self._rest_norm = np.sum(self.rest_quat * self.rest_quat, axis=1) - 1.0
         # Slot of every variable in y: per model coordinate 1 (or 2 with velocity) slots,
         # and one multiplier after the last coordinate of each quaternion.
         per = 2 if self.inertial else 1
@@ -314,10 +317,22 @@ class ConstrainedSystem:
         """The slots of the force rows: the velocities' (inertial) or the positions'."""
         return self.v_slot if self.v_slot is not None else self.x_slot
 
+    def quaternions(self, x: np.ndarray) -> np.ndarray:
+        """The free quaternions q_j (j, 4) of the model state ``x`` (offsets δ_j from the
+        rest quaternions q⁰_j)."""
+        return self.rest_quat + x[self.quat]
+
+    def norm_error(self, x: np.ndarray) -> np.ndarray:
+        """|q_j|² − 1 of the model state ``x``, formed from the offsets without
+        cancellation: δ·(2q⁰ + δ) + (|q⁰|² − 1)."""
+        delta = x[self.quat]
+        return (np.sum(delta * (2.0 * self.rest_quat + delta), axis=1)
+                + self._rest_norm)
+
     def constrained_force(self, y: np.ndarray, force: np.ndarray) -> np.ndarray:
         """F(x) + Gᵀμ: the force whose vanishing is IDA's (constrained) equilibrium."""
         total = force.copy()
-        total[self.quat] += 2.0 * y[self.mu_slot][:, None] * y[self.x_slot][self.quat]
+        total[self.quat] += 2.0 * y[self.mu_slot][:, None] * self.quaternions(y[self.x_slot])
         return total
 
     def initial_state(self, x0: np.ndarray | None = None) -> np.ndarray:
@@ -333,9 +348,9 @@ class ConstrainedSystem:
                      out: np.ndarray) -> None:
         """The DAE residual R(t, y, y′) (IDA's) into ``out`` given F(x)."""
         q = self.quat
-        qv = y[self.x_slot][q]
+        qv = self.quaternions(y[self.x_slot])
         total = self.constrained_force(y, force)
-        g = np.sum(qv * qv, axis=1) - 1.0
+        g = self.norm_error(y[self.x_slot])
         if self.inertial:
             v, vdot = y[self.v_slot], yp[self.v_slot]
             vq = v[q]
@@ -355,7 +370,7 @@ class ConstrainedSystem:
         """dR/dy + cj dR/dy′ in the CSC order of :attr:`pattern`."""
         q, t = self.quat, self._target
         x, mu = y[self.x_slot], y[self.mu_slot]
-        qv = x[q]
+        qv = self.quaternions(x)
         stiffness = model_jacobian.copy()  # ∂(F + 2μq)/∂x = K + 2μ I on quaternion coords
         stiffness[self._quat_diagonal] += np.repeat(2.0 * mu, 4)[self._quat_order]
         data = np.zeros(self.pattern.nnz)

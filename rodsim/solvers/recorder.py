@@ -77,12 +77,14 @@ class History:
         free_of = np.full(model.full_size, -1)
         free_of[model.free] = np.arange(model.n)
         self._tip_free = free_of[first.layout.position_index[-1]]
+        # The free coordinates are offsets from the rest state (Model.x0): the tip's rest place.
+        self._tip_rest = model.reference[first.layout.position_index[-1]]
         self.data: dict[str, list[Any]] = {"time": [], "residual": [], "tip": []}
 
     def record(self, time: float, x: np.ndarray, residual: float) -> None:
         self.data["time"].append(float(time))
         self.data["residual"].append(float(residual))
-        self.data["tip"].append(x[self._tip_free].tolist())
+        self.data["tip"].append((self._tip_rest + x[self._tip_free]).tolist())
 
 
 class Recorder:

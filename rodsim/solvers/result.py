@@ -73,6 +73,9 @@ class Result:
     residual: float
     stats: dict[str, float]
     rods: dict[str, RodShape]
+    #: The model's free coordinates at the result: offsets from the rest state
+    #: (:meth:`rodsim.core.model.Model.full` gives the positions and quaternions; ``rods``
+    #: holds them), a warm start (``initial_state``) for the same scene.
     state: np.ndarray
     history: dict[str, list[float]] = field(default_factory=dict)
     #: Units and meaning of ``history["time"]``, supplied by the integrator (pseudo-time in s,

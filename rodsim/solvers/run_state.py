@@ -75,10 +75,9 @@ def base_counts() -> dict[str, float]:
 def checked_state(model: Model, state: Any) -> np.ndarray:
     """``state`` as a start of a run on ``model``: a copy, as floats, of its free
     coordinates (one vector of length ``model.n``, finite, every quaternion of non-zero
-    length, as :meth:`Model.step` keeps them); ValueError, one line, otherwise — a force, a
+    length, as :meth:`Model.step` keeps them); ValueError, one line, otherwise — a
     full-coordinate vector or another model's state passed where this model's state was
-    expected (a force at rest, whose quaternion entries vanish, used to divide by zero in
-    a kernel)."""
+    expected. A caller's start is checked further by :func:`plausible_start`."""
     x = np.array(state, dtype=float)
     if x.shape != (model.n,):
         raise ValueError(f"a state of this model is a vector of its {model.n} free "
@@ -93,6 +92,41 @@ def checked_state(model: Model, state: Any) -> np.ndarray:
                          f"{lengths.min():.3g} (unit length expected; a force or another "
                          f"array passed as a state?)")
     return x
+
+
+def plausible_start(model: Model, x: np.ndarray) -> None:
+    """ValueError, one line, when a caller's start ``x`` (free coordinates of ``model``)
+    keeps every quaternion at rest exactly and stretches a segment past
+    :data:`MAX_START_STRETCH` times its rest length: a force passed where a state was
+    expected. The free coordinates are offsets from the rest
+    state, so a force read as a state keeps the rest quaternions; its position entries
+    (newtons read as metres) stretch the segments where the loads act (table1-20g: 11.5
+    times the rest length at the tip). A loaded equilibrium turns its segments, however
+    far it is stretched (table1 under an absurd 1e4 kg: 148 times), so a start with a
+    quaternion off its rest value is accepted. Not applied to the warm starts a continuation
+    predicts (:meth:`Integrator.restart`): extrapolated over a step it cannot pass, such a
+    start may be stretched, and its run's failure is the step's report."""
+    full, rest = model.full(x), model.full(model.x0)
+    quaternions = np.concatenate([rod.layout.quaternion_index for rod in model.rods.values()])
+    if np.any(full[quaternions] != rest[quaternions]):
+        return  # a turned segment: a state, however loaded (1e4 kg stretches table1 148x)
+    stretch = max(float(np.max(segment_lengths(full, rod) / segment_lengths(rest, rod)))
+                  for rod in model.rods.values())
+    if stretch > MAX_START_STRETCH:
+        raise ValueError(f"the state is not one of this model: a segment is stretched "
+                         f"{stretch:.3g} times its rest length (a force or another array "
+                         f"passed as a state?)")
+
+
+#: The largest stretch (segment length over rest length) :func:`plausible_start` accepts
+#: in a caller's start: a rod's stretch strain stays far below 1 at an equilibrium.
+MAX_START_STRETCH = 2.0
+
+
+def segment_lengths(full: np.ndarray, rod: Any) -> np.ndarray:
+    """The lengths of the segments of ``rod`` in the full state ``full``."""
+    positions = full[rod.layout.position_index]
+    return np.asarray(np.linalg.norm(np.diff(positions, axis=0), axis=1))
 
 
 @dataclass(eq=False)

@@ -111,6 +111,7 @@ def equilibrium_sensitivity(model: Model, x: np.ndarray, keys: Sequence[NumericK
     force_at_x = model.force(x)
     rhs = np.zeros((model.n, len(keys)))
     rest = np.zeros((model.full_size, len(keys)))
+    reference = np.zeros((model.full_size, len(keys)))
     for column, key in enumerate(keys):
         value = base_values[column]
         # Σ weight = 0: summing weight × (F(p_i) − F(p)) keeps a parameter F does not depend
@@ -128,6 +129,7 @@ def equilibrium_sensitivity(model: Model, x: np.ndarray, keys: Sequence[NumericK
                 raise SceneError(f"{key.name}: {exc}; it has no derivative") from None
             rhs[:, column] -= weight * (perturbed.force(x) - force_at_x)
             rest[:, column] += weight * (perturbed.rest_full - model.rest_full)
+            reference[:, column] += weight * (perturbed.reference - model.reference)
     if solve is None:
         solver = LinearSolver(model.pattern, model.pattern_rows, model.pattern_cols,
                               (model.band.lower, model.band.upper), model.conservative)
@@ -137,7 +139,9 @@ def equilibrium_sensitivity(model: Model, x: np.ndarray, keys: Sequence[NumericK
         raise SensitivityError("the Jacobian at this state is singular: no sensitivity")
     dx = dx.reshape(model.n, len(keys))
     full = rest
-    full[model.free] = dx
+    # The free coordinates are offsets from the rest state (Model.reference): the positions'
+    # derivative adds the rest state's own.
+    full[model.free] = dx + reference[model.free]
     return dx, full
 
 

@@ -28,6 +28,37 @@ def edge_tangent(x: np.ndarray, dofs: np.ndarray, e: int, tangent: np.ndarray) -
     return norm
 
 
+@njit(cache=True, inline="always")
+def offset_edge(u: np.ndarray, dofs: np.ndarray, e: int, rest_edges: np.ndarray,
+                rest_lengths: np.ndarray, tangent: np.ndarray,
+                turn: np.ndarray) -> tuple[float, float]:
+    """(|e|, |e| − |E|) of element ``e``'s edge on the offset state ``u`` (its nodes'
+    displacements, dofs 0–2 and 3–5, from the rest edge E = ``rest_edges[e]`` of length
+    ``rest_lengths[e]``); the unit tangent goes into ``tangent`` and t − T into ``turn``,
+    both changes formed from the displacements without cancellation
+    (rodsim/core/terms/_segment.py, Segments.about)."""
+    norm2 = 0.0
+    dot = 0.0
+    square = 0.0
+    for a in range(3):
+        delta = u[dofs[e, 3 + a]] - u[dofs[e, a]]
+        edge = rest_edges[e, a] + delta
+        turn[a] = delta
+        tangent[a] = edge
+        norm2 += edge * edge
+        dot += rest_edges[e, a] * delta
+        square += delta * delta
+    norm = np.sqrt(norm2)
+    rest = rest_lengths[e]
+    change = (2.0 * dot + square) / (norm + rest)
+    ratio = change / rest
+    inverse = 1.0 / norm
+    for a in range(3):
+        tangent[a] *= inverse
+        turn[a] = (turn[a] - rest_edges[e, a] * ratio) * inverse
+    return norm, change
+
+
 @njit(cache=True)
 def spring(x: np.ndarray, dofs: np.ndarray, stiffness: float, rest: float, scale: float,
            want_force: bool, force: np.ndarray, force_target: np.ndarray,

@@ -1,7 +1,9 @@
-"""Kernel of :mod:`rodsim.core.terms.centerline`, Eq. (9): per segment (r_j, r_{j+1}, q_j), with
-W = K_P l, e = r_{j+1} − r_j, t = e/|e|, P = I − t tᵀ, d3 = d3(q_j) and G = ∂d3/∂q (Eq. 2),
+"""Kernel of :mod:`rodsim.core.terms.centerline`, Eq. (9), on the offset state: per segment
+(r_j, r_{j+1}, q_j), with W = K_P l, e = r_{j+1} − r_j, t = e/|e|, P = I − t tᵀ,
+q = q⁰ + δ, d3 = d3(q_j) and G = ∂d3/∂q (Eq. 2),
 
-    w = t − d3,   F = (F_e, −F_e, W Gᵀ w),   F_e = W P w / |e|,
+    w = (t − T) − ½ (G(q⁰) + G(q)) δ + m⁰   (= t − d3, formed without cancellation),
+    F = (F_e, −F_e, W Gᵀ w),   F_e = W P w / |e|,
     H_ee = W [P − (t wᵀ + w tᵀ) − (w·t)(I − 3 t tᵀ)] / |e|²,   H_eq = −W P G / |e|,
     H_qq = W [Gᵀ G − 2 Σ_m w_m A[2, m]],
     ∂F/∂(r_j, r_{j+1}, q_j) = −[[H_ee, −H_ee, −H_eq], [−H_ee, H_ee, H_eq],
@@ -15,11 +17,33 @@ from numba import njit
 
 from rodsim.core.kernels._quaternion import director_and_gradient, form_combination
 from rodsim.core.kernels._scatter import add_force, add_jacobian
-from rodsim.core.kernels._spring import edge_tangent
+from rodsim.core.kernels._spring import offset_edge
+
+
+@njit(cache=True, inline="always")
+def _mismatch(x: np.ndarray, dofs: np.ndarray, e: int, rest_edges: np.ndarray,
+              rest_lengths: np.ndarray, rest_quaternions: np.ndarray, rest_gradients: np.ndarray,
+              rest_mismatch: np.ndarray, t: np.ndarray, q: np.ndarray, w: np.ndarray,
+              d3: np.ndarray, gradient: np.ndarray) -> float:
+    """|e| of element ``e``; t, q = q⁰ + δ, w (module docstring: the change of d3 is
+    ½ (G(q⁰) + G(q)) δ, G(q⁰) = ``rest_gradients[e]``), and d3(q), G(q) into ``d3`` and
+    ``gradient`` (``w`` holds t − T on the way)."""
+    norm = offset_edge(x, dofs, e, rest_edges, rest_lengths, t, w)[0]
+    for i in range(4):
+        q[i] = rest_quaternions[e, i] + x[dofs[e, 6 + i]]
+    director_and_gradient(q, 2, d3, gradient)
+    for m in range(3):
+        change = 0.0
+        for i in range(4):
+            change += (rest_gradients[e, m, i] + gradient[m, i]) * x[dofs[e, 6 + i]]
+        w[m] += rest_mismatch[e, m] - 0.5 * change
+    return norm
 
 
 @njit(cache=True)
-def evaluate(x: np.ndarray, dofs: np.ndarray, weight: float, scale: float,
+def evaluate(x: np.ndarray, dofs: np.ndarray, weight: float, rest_edges: np.ndarray,
+             rest_lengths: np.ndarray, rest_quaternions: np.ndarray, rest_gradients: np.ndarray,
+             rest_mismatch: np.ndarray, scale: float,
              want_force: bool, force: np.ndarray, force_target: np.ndarray,
              want_jacobian: bool, jacobian: np.ndarray, jacobian_target: np.ndarray) -> None:
     local_force = np.empty(10)
@@ -32,13 +56,10 @@ def evaluate(x: np.ndarray, dofs: np.ndarray, weight: float, scale: float,
     projector = np.empty((3, 3))
     curvature = np.empty((4, 4))
     for e in range(dofs.shape[0]):
-        norm = edge_tangent(x, dofs, e, t)
-        for i in range(4):
-            q[i] = x[dofs[e, 6 + i]]
-        director_and_gradient(q, 2, d3, gradient)
+        norm = _mismatch(x, dofs, e, rest_edges, rest_lengths, rest_quaternions,
+                         rest_gradients, rest_mismatch, t, q, w, d3, gradient)
         wt = 0.0
         for a in range(3):
-            w[a] = t[a] - d3[a]
             wt += w[a] * t[a]
         if want_force:
             for a in range(3):
@@ -84,18 +105,19 @@ def evaluate(x: np.ndarray, dofs: np.ndarray, weight: float, scale: float,
 
 
 @njit(cache=True)
-def energy(x: np.ndarray, dofs: np.ndarray, weight: float) -> float:
-    """Σ ½ K_P l |t − d3(q)|²."""
+def energy(x: np.ndarray, dofs: np.ndarray, weight: float, rest_edges: np.ndarray,
+           rest_lengths: np.ndarray, rest_quaternions: np.ndarray, rest_gradients: np.ndarray,
+           rest_mismatch: np.ndarray) -> float:
+    """Σ ½ K_P l |w|², w = t − d3(q) formed about the rest state."""
     t = np.empty(3)
     q = np.empty(4)
+    w = np.empty(3)
     d3 = np.empty(3)
     gradient = np.empty((3, 4))
     total = 0.0
     for e in range(dofs.shape[0]):
-        edge_tangent(x, dofs, e, t)
-        for i in range(4):
-            q[i] = x[dofs[e, 6 + i]]
-        director_and_gradient(q, 2, d3, gradient)
+        _mismatch(x, dofs, e, rest_edges, rest_lengths, rest_quaternions, rest_gradients,
+                  rest_mismatch, t, q, w, d3, gradient)
         for a in range(3):
-            total += 0.5 * weight * (t[a] - d3[a]) ** 2
+            total += 0.5 * weight * w[a] ** 2
     return total

@@ -102,6 +102,14 @@ class Term(ABC):
     is_load: bool = False
     has_jacobian: bool = True
     dynamic: ClassVar[bool] = False
+    #: True for a term evaluated on the offset state (:meth:`rodsim.core.model.Model.offsets`,
+    #: docs/model.md, "The offset state and the residual floor"): the state it is given holds
+    #: each position's displacement from its rest place and each quaternion's difference from
+    #: its rest quaternion (:attr:`rodsim.core.model.Model.reference`), not the positions and
+    #: quaternions themselves; its kernel takes the same. The stiff terms whose forces are
+    #: small differences of large numbers (stretch, centerline) are; the others are given
+    #: the full state.
+    offsets: ClassVar[bool] = False
     #: True for a constraint penalty whose constant a solver may raise gradually; the term
     #: must be linear in its constant, so that scaling its output scales the constant. A
     #: penalty term must also set :attr:`penalty_ratio` (checked when a model is built).

@@ -10,6 +10,15 @@ transverse force F a segment shears by about F/K_P, which in units of L is
 F/(K_P_relative E_s A) = α r² / (2 K_P_relative L²) for a uniform rod with E_s = E
 (α = F L²/(2 E I) the load parameter, I = π r⁴/4). Unlike a scale built on the rod's length,
 this one does not change when a rod is split into two joined ones.
+
+Evaluated on the offset state (:attr:`rodsim.core.terms.base.Term.offsets`): the mismatch is
+formed about the rest state, w = (t − T) − (d3(q) − d3(q⁰)) + m⁰, with t − T from the
+displacements (:meth:`rodsim.core.terms._segment.Segments.about`) and
+d3(q) − d3(q⁰) = δ·A[2, m](q⁰ + q) = ½ (G(q⁰) + G(q)) δ from the quaternion's change
+δ = q − q⁰ (Eq. 2 is quadratic, G = ∂d3/∂q), each without cancellation;
+m⁰ = T − d3(q⁰) is the rest shape's own mismatch, taken as 0 where it is round-off
+(≤ :data:`REST_ROUNDOFF`). The force then carries a round-off relative to the deformation
+instead of eps K_P (docs/model.md, "The offset state and the residual floor").
 """
 
 from __future__ import annotations
@@ -34,6 +43,11 @@ from rodsim.core.terms.base import KernelArguments, RodTerm
 #: load α = 8 (a tip force bending a cantilever far past 90°) on a rod as thick as L/r = 20;
 #: measured on the random user family (tests/test_user_robot.py).
 DEFAULT_K_P_RELATIVE = 100.0
+
+#: A rest mismatch |T − d3(q⁰)| component at most this is round-off of the rest shape (the
+#: rest quaternions are built to give d3 = T): it is taken as 0, so that the rest state is
+#: an exact zero of the penalty.
+REST_ROUNDOFF = 64.0 * float(np.finfo(float).eps)
 
 
 def penalty_constant(options: Any, rod: Rod) -> float:
@@ -62,6 +76,7 @@ class Centerline(RodTerm):
     equation = "Eq. (9)"
     penalty = True
     constraint_constant = "K_P"
+    offsets = True
     parameters = (
         Parameter("K_P", "float", 0.0, "N",
                   "centerline penalty constant (energy per length); 0 (default): from "
@@ -90,14 +105,32 @@ class Centerline(RodTerm):
         #: (the least E I along a rod with sections).
         self.penalty_ratio = (self.K_P * rod.geometry.segment_length**2
                               / rod.smallest_bending_stiffness)
+        #: The rest edges E_j and rest quaternions q⁰_j the offsets are taken from, and the
+        #: rest mismatch m⁰_j (0 where it is round-off).
+        self.rest_edges = np.ascontiguousarray(np.diff(rod.rest_positions(), axis=0))
+        self.rest_lengths = np.linalg.norm(self.rest_edges, axis=1)
+        self.rest_quaternions = np.ascontiguousarray(rod.rest_quaternions())
+        self.rest_gradients = np.ascontiguousarray(director_gradient(self.rest_quaternions, 2))
+        rest = self.rest_edges / self.rest_lengths[:, None]
+        mismatch = rest - director(self.rest_quaternions, 2)
+        mismatch[np.abs(mismatch) <= REST_ROUNDOFF] = 0.0
+        self.rest_mismatch = np.ascontiguousarray(mismatch)
 
     def kernel_arguments(self) -> KernelArguments:
-        return {"dofs": self.dofs, "weight": float(self._weight)}
+        return {"dofs": self.dofs, "weight": float(self._weight),
+                "rest_edges": self.rest_edges, "rest_lengths": self.rest_lengths,
+                "rest_quaternions": self.rest_quaternions,
+                "rest_gradients": self.rest_gradients, "rest_mismatch": self.rest_mismatch}
 
     def _mismatch(self, x: np.ndarray) -> tuple[Segments, np.ndarray, np.ndarray]:
-        seg = Segments.of(x[self.rod.layout.position_index])
-        q = x[self.rod.layout.quaternion_index]
-        return seg, q, seg.tangent - director(q, 2)
+        seg = Segments.about(x[self.rod.layout.position_index], self.rest_edges,
+                             self.rest_lengths)
+        delta = x[self.rod.layout.quaternion_index]
+        q = self.rest_quaternions + delta
+        # d3(q) − d3(q⁰) = δ·A(q⁰ + q) = ½ (G(q⁰) + G(q)) δ, G = ∂d3/∂q (Eq. 2 is quadratic)
+        change = 0.5 * np.einsum("nmi,ni->nm",
+                                 self.rest_gradients + director_gradient(q, 2), delta)
+        return seg, q, seg.turn - change + self.rest_mismatch
 
     def energy(self, x: np.ndarray) -> float:
         _, _, w = self._mismatch(x)

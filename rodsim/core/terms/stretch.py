@@ -2,7 +2,12 @@
 
     V_s = ½ ∫ K_s (|r′| − 1)² ds  ≈  Σ_j ½ K_s,j l (|e_j| / l − 1)²,   K_s = E_s π r²
 
-One element per segment j, coordinates (r_j, r_{j+1}). With sections
+One element per segment j, coordinates (r_j, r_{j+1}). Evaluated on the offset state
+(:attr:`rodsim.core.terms.base.Term.offsets`): the stretch |e_j| − l is formed as
+|e_j| − |E_j| from the displacements (:meth:`rodsim.core.terms._segment.Segments.about`),
+E_j the rest edge, whose length is l to round-off: the rest state is stress-free exactly and
+the force carries a round-off relative to the displacement (docs/model.md, "The offset state
+and the residual floor"). With sections
 (:mod:`rodsim.core.rod.sections`), K_s,j = E_s A of segment j (the harmonic mean where a
 section boundary falls inside it).
 """
@@ -32,6 +37,7 @@ class Stretch(RodTerm):
     Options = StretchOptions
     options: StretchOptions
     equation = "Eq. (6)"
+    offsets = True
 
     def __init__(self, rod: Rod, options: StretchOptions) -> None:
         super().__init__(rod, options)
@@ -39,13 +45,18 @@ class Stretch(RodTerm):
         self.dofs = np.concatenate([pos[:-1], pos[1:]], axis=1)
         self._stiffness = rod.segment_stretch_stiffness()  # K_s per segment
         self._rest = rod.geometry.segment_length
+        #: The rest edges E_j (N − 1, 3) the offsets are taken from.
+        self.rest_edges = np.ascontiguousarray(np.diff(rod.rest_positions(), axis=0))
+        self.rest_lengths = np.linalg.norm(self.rest_edges, axis=1)
 
     def kernel_arguments(self) -> KernelArguments:
-        return {"dofs": self.dofs, "stiffness": self._stiffness, "rest": float(self._rest)}
+        return {"dofs": self.dofs, "stiffness": self._stiffness, "rest": float(self._rest),
+                "rest_edges": self.rest_edges, "rest_lengths": self.rest_lengths}
 
     def _strain(self, x: np.ndarray) -> tuple[Segments, np.ndarray]:
-        seg = Segments.of(x[self.rod.layout.position_index])
-        return seg, seg.norm / self._rest - 1.0
+        seg = Segments.about(x[self.rod.layout.position_index], self.rest_edges,
+                             self.rest_lengths)
+        return seg, seg.change / self._rest
 
     def energy(self, x: np.ndarray) -> float:
         _, strain = self._strain(x)

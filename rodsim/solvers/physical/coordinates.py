@@ -94,7 +94,7 @@ class PhysicalCoordinates:
         q = np.concatenate(quaternions).reshape(-1, 4)
         if p.size + q.size != model.n:
             raise ValueError("a free coordinate is neither a position nor a quaternion")
-        factor = mass_factor(model, x, rotary=False).tocsr()
+        factor = mass_factor(model, model_state(model, x), rotary=False).tocsr()
         full = (factor @ factor.T).tocsr()
         return cls(p, q, full[p][:, p].tocsr(), np.concatenate(inertia).reshape(-1, 3))
 
@@ -115,3 +115,17 @@ class PhysicalCoordinates:
         rows = velocity_rows(q) * (2.0 / np.sum(q * q, axis=1))[:, None, None]
         return x_dot[self.positions].copy(), np.einsum("ska,sa->sk", rows,
                                                        x_dot[self.quaternions])
+
+
+def model_state(model: Model, x: np.ndarray) -> np.ndarray:
+    """The model's free state (offsets from its rest state, :meth:`Model.full`) of ``x``, the
+    free coordinates themselves — positions [m] and quaternions — in which physical time
+    steps (a quaternion's Cayley update needs the quaternion, not its offset)."""
+    return x - model.reference[model.free]
+
+
+def physical_state(model: Model, state: np.ndarray) -> np.ndarray:
+    """The free coordinates themselves of the model's free state ``state`` (offsets):
+    the inverse of :func:`model_state`."""
+    return state + model.reference[model.free]
+

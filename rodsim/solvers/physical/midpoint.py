@@ -48,7 +48,12 @@ import scipy.sparse.linalg as spla
 from rodsim.core.damping import Damping
 from rodsim.core.model import Model
 from rodsim.core.rod.quaternion import B
-from rodsim.solvers.physical.coordinates import PhysicalCoordinates, cayley, velocity_rows
+from rodsim.solvers.physical.coordinates import (
+    PhysicalCoordinates,
+    cayley,
+    model_state,
+    velocity_rows,
+)
 
 __all__ = ["Motion", "StepFailure", "MidpointStep", "NEWTON_TOLERANCE", "MAX_ITERATIONS"]
 
@@ -188,9 +193,9 @@ class MidpointStep:
             x[c.positions] = r0 + node * (r1 - r0)
             x[c.quaternions] = unit
             if dq1 is None:
-                f, jac = model.force(x), np.zeros(0)
+                f, jac = model.force(model_state(model, x)), np.zeros(0)
             else:
-                f, jac = model.evaluate(x)
+                f, jac = model.evaluate(model_state(model, x))
             if not (np.all(np.isfinite(f)) and np.all(np.isfinite(jac))):
                 raise StepFailure("the force or its Jacobian is not finite")
             f_q = f[c.quaternions]

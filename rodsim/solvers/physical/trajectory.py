@@ -32,6 +32,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from rodsim.core.model import Model
+from rodsim.solvers.physical.coordinates import model_state
 from rodsim.solvers.physical.midpoint import MidpointStep, Motion, StepFailure
 
 __all__ = ["Record", "integrate", "MAX_HALVINGS"]
@@ -71,7 +72,7 @@ def _potential(model: Model, x: np.ndarray) -> float:
     """V(x) of ``model``, NaN for a non-conservative model."""
     if not model.conservative:
         return math.nan
-    return model.energy(x)
+    return model.energy(model_state(model, x))
 
 
 def _advance(model_at: Callable[[float], Model], stepper: MidpointStep, motion: Motion,
