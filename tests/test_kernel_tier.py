@@ -16,7 +16,7 @@ import numpy as np
 import pytest
 
 import rodsim
-from rodsim.core import model as model_module
+from rodsim.core import model_evaluation, model_scales
 from rodsim.core.kernel_tier import PROCESS_TIER, nominal_cost
 from rodsim.core.model import Model
 
@@ -25,7 +25,8 @@ from rodsim.core.model import Model
 def tier(monkeypatch):
     """The process's account, reset, with each numpy evaluation charged 0.01 s."""
     PROCESS_TIER.reset()
-    monkeypatch.setattr(model_module, "nominal_cost", lambda *_, **__: 0.01)
+    for charged in (model_evaluation, model_scales):  # the evaluations and the rest diagonal
+        monkeypatch.setattr(charged, "nominal_cost", lambda *_, **__: 0.01)
     monkeypatch.setattr(PROCESS_TIER, "budget", 0.035)
     yield PROCESS_TIER
     PROCESS_TIER.reset()

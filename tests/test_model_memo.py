@@ -83,9 +83,9 @@ def test_loads_at_load_fraction_zero_are_skipped_with_the_same_numbers():
 
 def test_a_large_jacobian_reuses_only_an_array_no_one_holds(monkeypatch):
     """From REUSE_ENTRIES on, a Jacobian is accumulated into the last one's array once no
-    one refers to it (rodsim/core/model.py, _jacobian_zeros): a held Jacobian is never
+    one refers to it (rodsim/core/model_evaluation.py, _jacobian_zeros): a held Jacobian is never
     written over, and a reused array holds exactly the Jacobian (zeroed first)."""
-    import rodsim.core.model as model_module
+    import rodsim.core.model_evaluation as model_module
 
     model = Model(rodsim.load_scene("table1-50g", ["nodes=40"]))
     rng = np.random.default_rng(5)

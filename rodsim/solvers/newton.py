@@ -200,7 +200,7 @@ def newton(problem: NewtonProblem, x: np.ndarray, tolerance: float,
             slope = -float(g @ dx)
         if reuse == "fresh":
             # Not needed any more: a large model's next Jacobian may then be accumulated in
-            # its array instead of fresh memory (rodsim/core/model.py, _jacobian_zeros).
+            # its array instead of fresh memory (rodsim/core/model_evaluation.py, _jacobian_zeros).
             jacobian = None
         if slope >= 0.0:
             if near:

@@ -1,0 +1,228 @@
+"""The evaluation of a model: F(x) = −∂E/∂x (plus non-conservative penalty forces), its
+Jacobian ∂F/∂x in the pattern's CSC order, and E(x).
+
+Two evaluation paths compute the same numbers (``solver.kernels``): ``compiled`` (what
+``auto``, the default, means for a model) calls each term's numba kernel
+(:mod:`rodsim.core.kernels`), which accumulates straight into the force vector and the CSC
+data; ``numpy`` calls the terms' vectorised numpy methods and scatters their element blocks —
+the readable reference. ``tiered`` starts on numpy and moves to the compiled kernels once the
+process's numpy evaluations have cost, nominally (never by the clock), what loading the
+kernels would (:mod:`rodsim.core.kernel_tier`; what ``rodsim run`` uses for ``auto``).
+The last states evaluated are remembered (:meth:`ModelEvaluation.evaluate`).
+"""
+
+from __future__ import annotations
+
+import sys
+
+import numpy as np
+import scipy.sparse as sp
+
+from rodsim.core.kernel_call import KernelCall
+from rodsim.core.kernel_tier import PROCESS_TIER, nominal_cost
+from rodsim.core.model_manifold import ModelManifold
+from rodsim.core.model_pattern import ModelPattern
+from rodsim.core.terms import Term
+
+__all__ = ["ModelEvaluation", "EVALUATION_PATHS", "KERNELS", "MEMO_STATES", "MEMO_ENTRIES",
+           "REUSE_ENTRIES"]
+
+#: The two evaluation paths.
+EVALUATION_PATHS = ("compiled", "numpy")
+#: What ``solver.kernels`` may ask a model for (``auto`` is ``compiled`` for a model).
+KERNELS = (*EVALUATION_PATHS, "tiered")
+#: States whose evaluation a model remembers (:meth:`ModelEvaluation.evaluate`).
+MEMO_STATES = 2
+#: Largest Jacobian (stored entries) a model remembers (:meth:`ModelEvaluation.evaluate`):
+#: 8 MB each; above, one evaluation's time matters less than the memory (F is always kept).
+MEMO_ENTRIES = 1 << 20
+#: Jacobians (stored entries) from this size on are accumulated into the array of the last
+#: such evaluation once no one holds it any more (:func:`_jacobian_zeros`).
+REUSE_ENTRIES = 1 << 20
+
+_KEPT_JACOBIAN: np.ndarray | None = None
+
+
+def _jacobian_zeros(size: int) -> np.ndarray:
+    """Zeros of ``size`` for a Jacobian evaluation to accumulate into. From
+    :data:`REUSE_ENTRIES` on, the array of the last such evaluation when nothing outside
+    this function refers to it any more (its data, or any view of it, dropped by whoever
+    got it): zeroing warm memory instead of faulting in fresh pages. On table1-50g at
+    N = 100 000 (12.3 million entries, 98 MB) the first kernel writing into a fresh array
+    took 25–267 ms in a static solve, where zeroing the kept one takes 14 ms and the kernel
+    then 16 ms."""
+    global _KEPT_JACOBIAN
+    if size < REUSE_ENTRIES:
+        return np.zeros(size)
+    kept = _KEPT_JACOBIAN
+    # References to a free array: the global, ``kept`` and getrefcount's argument. Any
+    # other (a caller's array or view, another thread's ``kept``) means it is in use.
+    if kept is not None and kept.size == size and sys.getrefcount(kept) == 3:
+        kept.fill(0.0)
+        return kept
+    _KEPT_JACOBIAN = out = np.zeros(size)
+    return out
+
+
+class ModelEvaluation(ModelPattern, ModelManifold):
+    """The evaluation part of :class:`rodsim.core.model.Model` (module docstring)."""
+
+    def _scale(self, index: int, term: Term, load: float) -> float:
+        """Factor on one term's output: its continuation scale, times ``load`` for loads."""
+        scale = self._scale_list[index]
+        return scale * load if term.is_load else scale
+
+    def energy(self, x: np.ndarray, load: float = 1.0) -> float:
+        """Total potential energy [J] (raises if a term is not conservative)."""
+        full = self.full(x)
+        offsets = self.offsets(x)
+        compiled = {}
+        tiered = self._tiered_numpy()
+        if self._compiled():
+            if self._kernel_calls is None:
+                self._kernel_calls = self._build_kernel_calls()
+            compiled = {call.term_index: call for call in self._kernel_calls
+                        if call.energy is not None and call.term.conservative}
+        total = 0.0
+        for index, term in enumerate(self.terms):
+            if index in compiled:
+                call = compiled[index]
+                value = call.energy(offsets if term.offsets else full, *call.arguments)
+            else:
+                value = term.energy(offsets if term.offsets else full)
+            if value is None:
+                raise ValueError(f"term {term.name!r} is not conservative: no energy")
+            total += self._scale(index, term, load) * value
+        if tiered:
+            PROCESS_TIER.charge(nominal_cost(self.terms, force=True, jacobian=False))
+        return total
+
+    def force(self, x: np.ndarray, load: float = 1.0) -> np.ndarray:
+        """Generalised force F(x) on the free coordinates; loads are scaled by ``load``."""
+        return self.evaluate(x, load, jacobian=False)[0]
+
+    def jacobian_data(self, x: np.ndarray, load: float = 1.0) -> np.ndarray:
+        """∂F/∂x as the data array of a CSC matrix with the pattern :attr:`pattern`."""
+        return self.evaluate(x, load, force=False)[1]
+
+    def evaluate(self, x: np.ndarray, load: float = 1.0, *, force: bool = True,
+                 jacobian: bool = True) -> tuple[np.ndarray, np.ndarray]:
+        """F(x) and ∂F/∂x (CSC data in :attr:`pattern` order) in one pass; the one not asked
+        for comes back empty.
+
+        The last :data:`MEMO_STATES` evaluated states are remembered (∂F/∂x up to
+        :data:`MEMO_ENTRIES`): asked again at the same state and load — a solve's checks
+        after it converged evaluate F at the state its last Newton step reached (before a
+        rejected polishing trial), the correction residual and the stability verdict ∂F/∂x
+        at the same state — it returns copies of the same numbers instead of evaluating
+        again."""
+        same = None
+        for entry in self._memo:
+            if entry[1] == load and np.array_equal(entry[0], x):
+                known_f, known_j = entry[2], entry[3]
+                if (known_f is not None or not force) and (known_j is not None or not jacobian):
+                    return (known_f.copy() if known_f is not None and force else np.zeros(0),
+                            known_j.copy() if known_j is not None and jacobian else np.zeros(0))
+                same = entry  # this state, without the part asked for now
+                break
+        f, j = self._evaluate(x, load, force, jacobian)
+        kept_f, kept_j = (same[2], same[3]) if same is not None else (None, None)
+        entry = (np.array(x, dtype=float), load, f.copy() if force else kept_f,
+                 j.copy() if jacobian and self.nnz <= MEMO_ENTRIES else kept_j)
+        self._memo = [entry] + [e for e in self._memo if e is not same][:MEMO_STATES - 1]
+        return f, j
+
+    def _evaluate(self, x: np.ndarray, load: float, force: bool,
+                  jacobian: bool) -> tuple[np.ndarray, np.ndarray]:
+        """:meth:`evaluate` without the memo."""
+        full = self.full(x)
+        offsets = self.offsets(x)
+        if self._compiled():
+            return self._evaluate_compiled(full, offsets, load, force, jacobian)
+        tiered = self._tiered_numpy()
+        f: np.ndarray = np.zeros(0)
+        j: np.ndarray = np.zeros(0)
+        if force:
+            values = [self._scale(k, term, load)
+                      * term.element_forces(offsets if term.offsets else full).ravel()
+                      for k, term in enumerate(self.terms)]
+            f = np.bincount(self._force_targets, weights=np.concatenate(values),
+                            minlength=self.n + 1)[:-1]
+        if jacobian:
+            blocks = [self._scale(k, term, load)
+                      * term.element_jacobians(offsets if term.offsets else full).ravel()
+                      for k, term in enumerate(self.terms) if term.has_jacobian]
+            j = (np.bincount(self._jac_targets, weights=np.concatenate(blocks),
+                             minlength=self.nnz + 1)[:-1] if blocks else np.zeros(self.nnz))
+        if tiered:
+            PROCESS_TIER.charge(nominal_cost(self.terms, force=force, jacobian=jacobian))
+        return f, j
+
+    def _evaluate_compiled(self, full: np.ndarray, offsets: np.ndarray, load: float,
+                           force: bool, jacobian: bool) -> tuple[np.ndarray, np.ndarray]:
+        if self._kernel_calls is None:
+            self._kernel_calls = self._build_kernel_calls()
+        f = np.zeros(self.n + 1 if force else 1)
+        j = _jacobian_zeros(self.nnz + 1) if jacobian else np.zeros(1)
+        for call in self._kernel_calls:
+            scale = self._scale(call.term_index, call.term, load)
+            if scale == 0.0:
+                continue  # a load at load fraction 0 (or a term scaled away): adds only zeros
+            call.kernel.evaluate(offsets if call.term.offsets else full, *call.arguments,
+                                 scale, force, f, call.force_target, jacobian, j,
+                                 call.jacobian_target)
+        return (f[:-1] if force else np.zeros(0)), (j[:-1] if jacobian else np.zeros(0))
+
+    def element_forces(self, index: int, full: np.ndarray) -> np.ndarray:
+        """The forces on the elements of term ``index`` at the full state ``full``, shaped
+        as its ``dofs`` (clamped coordinates included), with its continuation scale: by its
+        compiled kernel on the compiled path, by its numpy reference otherwise (the same
+        numbers to round-off, tests/test_kernels.py). A term evaluated on offsets
+        (:attr:`Term.offsets`) gets ``full`` minus :attr:`reference`."""
+        term = self.terms[index]
+        scale = self._scale(index, term, 1.0)
+        if term.offsets:
+            full = full - self.reference
+        if not self._compiled():
+            return scale * term.element_forces(full)
+        if self._kernel_calls is None:
+            self._kernel_calls = self._build_kernel_calls()
+        call = self._kernel_calls[index]
+        slots = np.arange(term.dofs.size, dtype=np.int64).reshape(term.dofs.shape)
+        out = np.zeros(term.dofs.size + 1)
+        call.kernel.evaluate(full, *call.arguments, scale, True, out, slots, False,
+                             np.zeros(1), call.jacobian_target)
+        return out[:-1].reshape(term.dofs.shape)
+
+    def _build_kernel_calls(self) -> list[KernelCall]:
+        """The :class:`KernelCall` of every term: its kernel, its constants bound by name to
+        the kernel's signature, and where each element's force and Jacobian entries land
+        (slot n and nnz are dumps for clamped coordinates)."""
+        from rodsim.core.kernels import load_kernel
+
+        # A re-registered model (with_terms: the same index map) keeps the calls of the terms
+        # that are the same objects, with the new pattern's targets.
+        kept = None
+        if self._kept_calls is not None and self._kept_calls[0] is self._free_of:
+            kept = self._kept_calls[1]
+        self._kept_calls = None
+        calls = []
+        targets = iter(self._term_targets)
+        for index, term in enumerate(self.terms):
+            elements, k = term.dofs.shape
+            if term.has_jacobian:
+                jacobian_target = np.ascontiguousarray(next(targets).reshape(elements, k, k))
+            else:
+                jacobian_target = np.zeros((0, 0, 0), dtype=np.int64)
+            if kept is not None and kept[index].term is term:
+                calls.append(kept[index]._replace(jacobian_target=jacobian_target))
+                continue
+            force_target = np.ascontiguousarray(self._free_of[term.dofs])
+            kernel = load_kernel(term)
+            calls.append(KernelCall(index, term, kernel, kernel.bind(term.kernel_arguments()),
+                                    force_target, jacobian_target))
+        return calls
+
+    def jacobian(self, x: np.ndarray, load: float = 1.0) -> sp.csc_matrix:
+        """∂F/∂x as a sparse CSC matrix (n × n)."""
+        return self.pattern_matrix(self.jacobian_data(x, load))
