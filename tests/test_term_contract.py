@@ -5,8 +5,8 @@ scenes* — the shipped scenes in data/ (with a third of their nodes), SMALL_SCE
 term, both clamp kinds), SMALL_TENDON_SCENE (the momentum-conserving tendon coupling, which
 the shipped scenes do not use) and SMALL_PAPER_TENDON_SCENE (the paper's coupling with
 shared parents and the lumen penalty of Eq. 34 only) and SMALL_JOINT_SCENE (backbone rods
-joined by anchors, welded and ball joints, an actuated base) — and checked by central finite
-differences at random non-trivial states:
+joined by anchors, welded and ball joints, an actuated base; an elastic base) — and checked
+by central finite differences at random non-trivial states:
 
 (a) element forces scattered to the free coordinates equal −∂E/∂x (conservative terms);
 (b) element Jacobians scattered to the free coordinates equal ∂F/∂x, block by block (rod ×
@@ -205,6 +205,15 @@ SMALL_JOINT_SCENE = {
             "density": 900.0, "nodes": 4, "clamp": "free",
             "terms": ["stretch", "bend_twist", "centerline", "joint"],
             "joint": {"rod": "distal", "s": 0.03, "K_J": 2e3, "orientation": False},
+        },
+        "sprung": {
+            "length": 0.05, "radius": 0.002, "youngs_modulus": 5e6, "stretch_modulus": 4e6,
+            "density": 1000.0, "nodes": 5, "clamp": "free", "origin": [0.0, 0.08, 0.0],
+            "terms": ["stretch", "bend_twist", "centerline", "elastic_base", "tip_load"],
+            "base": {"insertion": 0.004, "rotation": -0.7},
+            "elastic_base": {"stiffness": 40.0, "rotational_stiffness": 2e-3,
+                             "torsional_stiffness": 7e-4},
+            "tip_load": {"force": [0.01, 0.02, -0.015]},
         },
     },
 }

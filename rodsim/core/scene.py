@@ -446,10 +446,14 @@ def resolve(raw: Mapping[str, Any]) -> dict[str, Any]:
             if kind.scope == "rod":
                 kind.check_scene(kind.Options.of(table[term_name]), options,
                                  f"rods.{rod}.{term_name}")
-        if options.clamp == "free" and "joint" not in options.terms:
+        holders = [name for name in options.terms if term_class(name, table).holds_base]
+        if options.clamp == "free" and not holders:
             raise SceneError(f"rods.{rod}.clamp = 'free': nothing would hold the rod; "
                              "allowed: 'frame' or 'first_segment', or 'free' with a joint "
-                             "to another rod (terms: joint)")
+                             "to another rod or an elastic base (terms: joint, elastic_base)")
+        if len(holders) > 1:
+            raise SceneError(f"rods.{rod}.terms: {' and '.join(holders)} would both hold the "
+                             "base; allowed: one of them")
         if options.clamp == "orientation" and rod not in tendons:
             raise SceneError(f"rods.{rod}.clamp = 'orientation': it leaves the base position "
                              "free, which only a tendon pulled at its base can have; allowed: "

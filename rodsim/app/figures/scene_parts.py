@@ -38,6 +38,7 @@ __all__ = ["TERM_DRAWINGS", "SHAPE", "TENDON", "LOAD", "CONTACT", "Arrow", "Tend
 SHAPE, TENDON, LOAD, CONTACT = "shape", "tendon", "load", "contact"
 TERM_DRAWINGS: dict[str, str] = {
     "bend_twist": SHAPE, "centerline": SHAPE, "stretch": SHAPE, "joint": SHAPE,
+    "elastic_base": SHAPE,
     "contact": CONTACT,
     "distributed_load": LOAD, "gravity": LOAD, "point_loads": LOAD, "tip_load": LOAD,
     "tendon_actuation": LOAD,

@@ -35,7 +35,8 @@ ROD_PARAMETERS: tuple[Parameter, ...] = (
               "what the base support holds: 'frame' (position and a frame at s = 0), "
               "'first_segment' (position and first quaternion fixed, as PyElastica), "
               "'orientation' (a frame at s = 0 but the position free: a tendon pulled at its "
-              "proximal end) or 'free' (nothing: the base is held by a joint to another rod)",
+              "proximal end) or 'free' (nothing: the base is held by a joint to another rod "
+              "or by an elastic base)",
               choices=CLAMPS),
     Parameter("origin", "vector", [0.0, 0.0, 0.0], "m", "position of the base r_0", -1e3, 1e3,
               length=3),

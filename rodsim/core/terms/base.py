@@ -140,6 +140,10 @@ class Term(ABC):
     #: True for a rod term that ties its rod to another (a joint, rodsim/core/anchors.py):
     #: it is built with the model's rods as a third argument, ``Term(rod, options, rods)``.
     joins_rods: ClassVar[bool] = False
+    #: True for a rod term that holds its rod's base in place of a rigid support (a joint
+    #: to another rod, an elastic base): the rod's ``clamp`` must be ``"free"``, and no
+    #: other term may hold the same base (rodsim/core/scene.py).
+    holds_base: ClassVar[bool] = False
     #: Module of :mod:`rodsim.core.kernels` holding the compiled kernel (default: ``name``).
     #: A term may pick its kernel per instance (the proximal pull: ``constant_force``).
     kernel: str = ""

@@ -67,6 +67,7 @@ class Joint(RodTerm):
     options: JointOptions
     equation = "anchor (not in the paper); Eqs. (3), (7), (8) for the frame"
     joins_rods = True
+    holds_base = True
     constraint_constant = "K_J"
     parameters = (
         Parameter("rod", "str", None, "-", "name of the rod this rod's base is tied to"),
