@@ -6,7 +6,7 @@ import argparse
 import sys
 from typing import Any
 
-from rodsim.app.cli.common import EXIT_OK, EXIT_SOLVER_FAILURE, stability_text
+from rodsim.app.cli.common import EXIT_OK, EXIT_SOLVER_FAILURE, UserError, stability_text
 from rodsim.app.cli.pipeline import SceneCommand, execute, print_trust
 
 __all__ = ["cmd_fit"]
@@ -71,4 +71,11 @@ class Fit(SceneCommand):
 
 
 def cmd_fit(args: argparse.Namespace) -> int:
+    if args.series is not None:
+        from rodsim.app.cli.fit_series import FitSeries
+
+        return execute(FitSeries(args))
+    if args.ramp:
+        raise UserError("--ramp goes with --series (tips measured along a ramp); a "
+                        "centerline (--data) is one equilibrium")
     return execute(Fit(args))

@@ -210,10 +210,20 @@ def build_parser() -> argparse.ArgumentParser:
     _finish_scene_command(follow, "track", cmd_track)
 
     calibrate = _scene_command(sub, "fit", Fit, STARTING_SCENE,
-                               help="fit scene values to a measured centerline (least squares)")
-    calibrate.add_argument("--data", required=True, metavar="POINTS.csv",
-                           help="CSV with header x,y,z [m] and optionally s (rest arc "
-                           "length [m]); any number and spacing of points")
+                               help="fit scene values to a measured centerline, or to tips "
+                               "measured along a ramp (least squares)")
+    measured = calibrate.add_mutually_exclusive_group(required=True)
+    measured.add_argument("--data", metavar="POINTS.csv",
+                          help="CSV with header x,y,z [m] and optionally s (rest arc "
+                          "length [m]); any number and spacing of points")
+    measured.add_argument("--series", metavar="TIPS.csv",
+                          help="CSV with header x,y,z [m], the tip measured at each value of "
+                          "the --ramp (one row per value, in order): e.g. a tendon's "
+                          "friction from a pull-release cycle")
+    calibrate.add_argument("--ramp", action="append", default=[],
+                           metavar="KEY=START:STOP:COUNT",
+                           help="with --series: the ramp the tips were measured along, as "
+                           "for `rodsim track` (legs up and back down: 0.5:3:6:0.5:5)")
     calibrate.add_argument("--param", action="append", required=True, metavar="KEY",
                            help="numeric scene value to fit (KEY as for --set), e.g. K_E")
     calibrate.add_argument("--rod", help="rod the points belong to (default: the first)")

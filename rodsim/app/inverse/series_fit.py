@@ -29,6 +29,7 @@ from rodsim.app.inverse.track import Track, track
 from rodsim.core.scene import Scene
 from rodsim.core.schema import SceneError
 from rodsim.solvers import DEFAULT_INTEGRATOR
+from rodsim.solvers.base import Progress
 
 __all__ = ["SeriesFit", "fit_series"]
 
@@ -39,13 +40,16 @@ DIFFERENCE_STEP = 1e-4
 @dataclass
 class SeriesFit:
     """The fitted ``values`` {key: value}, their ``standard_errors``, the residual RMS [m]
-    per tip coordinate, and the ``track`` at the fitted values."""
+    per tip coordinate, the ``track`` at the fitted values, the misfit ``evaluations`` of
+    the least squares and the distinct ``tracks`` solved (its finite differences
+    included)."""
 
     values: dict[str, float]
     standard_errors: dict[str, float]
     rms: float
     track: Track
     evaluations: int
+    tracks: int
 
 
 def _span_dimension(points: np.ndarray) -> int:
@@ -57,7 +61,8 @@ def _span_dimension(points: np.ndarray) -> int:
 
 def fit_series(scene: Scene, ramps: Mapping[str, Sequence[float] | np.ndarray],
                tips: np.ndarray, params: Sequence[str], *, rod: str | None = None,
-               integrator: str = DEFAULT_INTEGRATOR) -> SeriesFit:
+               integrator: str = DEFAULT_INTEGRATOR,
+               progress: Progress | None = None) -> SeriesFit:
     """Fit the scene values ``params`` (dotted keys, e.g.
     ``tendons.a.tendon_string.friction``) so that ``rodsim.track(scene, ramps)`` puts the tip
     of ``rod`` (default: the first) at the measured ``tips`` (steps, 3) [m] (module
@@ -84,6 +89,11 @@ def fit_series(scene: Scene, ramps: Mapping[str, Sequence[float] | np.ndarray],
         if key not in tracks:
             values = {k.name: float(v) for k, v in zip(keys, p * scale, strict=True)}
             tracks[key] = track(scene.with_values(values), ramps, integrator)
+            if progress is not None:
+                path = tracks[key]
+                misfit = (float(np.sqrt(np.mean((path.tips(rod) - measured) ** 2)))
+                          if path.success else float("nan"))
+                progress(None, f"fit: track {len(tracks)}, residual RMS {misfit:.3g} m")
         return tracks[key]
 
     def residual(p: np.ndarray) -> np.ndarray:
@@ -108,4 +118,5 @@ def fit_series(scene: Scene, ramps: Mapping[str, Sequence[float] | np.ndarray],
     fitted = solution.x * scale
     return SeriesFit({k.name: float(v) for k, v in zip(keys, fitted, strict=True)},
                      {k.name: float(np.sqrt(covariance[i, i])) for i, k in enumerate(keys)},
-                     float(np.sqrt(rss / solution.fun.size)), best, int(solution.nfev))
+                     float(np.sqrt(rss / solution.fun.size)), best, int(solution.nfev),
+                     len(tracks))
