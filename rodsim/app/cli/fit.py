@@ -2,14 +2,13 @@
 
 from __future__ import annotations
 
-import argparse
 import sys
 from typing import Any
 
-from rodsim.app.cli.common import EXIT_OK, EXIT_SOLVER_FAILURE, UserError, stability_text
-from rodsim.app.cli.pipeline import SceneCommand, execute, print_trust
+from rodsim.app.cli.common import EXIT_OK, EXIT_SOLVER_FAILURE, stability_text
+from rodsim.app.cli.pipeline import SceneCommand, print_trust
 
-__all__ = ["cmd_fit"]
+__all__ = ["Fit"]
 
 
 class Fit(SceneCommand):
@@ -68,14 +67,3 @@ class Fit(SceneCommand):
                   "(attribute 'stable' = 0)", file=sys.stderr)
             return EXIT_SOLVER_FAILURE
         return EXIT_OK
-
-
-def cmd_fit(args: argparse.Namespace) -> int:
-    if args.series is not None:
-        from rodsim.app.cli.fit_series import FitSeries
-
-        return execute(FitSeries(args))
-    if args.ramp:
-        raise UserError("--ramp goes with --series (tips measured along a ramp); a "
-                        "centerline (--data) is one equilibrium")
-    return execute(Fit(args))

@@ -1,18 +1,22 @@
 """``rodsim fit --series``: scene values (a tendon's friction coefficient μ) fitted to tip
 positions measured along a ramp, up and back down (``rodsim.fit_series``; docs/tendon.md,
-"Friction")."""
+"Friction"); and :func:`cmd_fit`, which runs ``rodsim fit`` as a fit to a centerline
+(``--data``, :class:`rodsim.app.cli.fit.Fit`) or to a series (``--series``)."""
 
 from __future__ import annotations
 
+import argparse
 import json
 import sys
 from pathlib import Path
 from typing import Any
 
 from rodsim.app.cli.common import EXIT_OK, EXIT_SOLVER_FAILURE, UserError
-from rodsim.app.cli.pipeline import SceneCommand, write_with_figure
+from rodsim.app.cli.fit import Fit
+from rodsim.app.cli.pipeline import execute, write_with_figure
+from rodsim.app.cli.track import parsed_ramps
 
-__all__ = ["FitSeries", "read_series"]
+__all__ = ["FitSeries", "cmd_fit", "read_series"]
 
 
 def read_series(path: str | Path) -> Any:
@@ -28,40 +32,21 @@ def read_series(path: str | Path) -> Any:
     return points.xyz
 
 
-class FitSeries(SceneCommand):
+class FitSeries(Fit):
     """Fit numeric scene values (--param, repeatable) so that the track of the ramps
     (--ramp, as for `rodsim track`) puts the tip at the measured positions (--series, one
     row per ramp value): the friction coefficient of a tendon from a pull–release cycle.
     Reports the fitted values with standard errors; writes the track at the fitted values
-    (kind track, with the measured tips and the fit in its attributes) and its figure."""
+    (kind track, with the measured tips and the fit in its attributes) and its figure. Bad
+    input and solver failures as `rodsim fit`'s."""
 
     kind = "fit-series"
-    integrator_flag = True
 
     def prepare(self, scene: Any) -> None:
-        from rodsim.app.inverse.track import parse_ramp
-        from rodsim.core.scene import SceneError
-
         if not self.args.ramp:
             raise UserError("--series needs the ramps the series was measured along "
                             "(--ramp KEY=START:STOP:COUNT[:STOP:COUNT...])")
-        try:
-            self.ramps = dict(parse_ramp(text) for text in self.args.ramp)
-        except SceneError as exc:
-            raise UserError(str(exc)) from None
-        if len(self.ramps) != len(self.args.ramp):
-            raise UserError("--ramp names the same key twice")
-
-    def bad_input(self) -> tuple[type[Exception], ...]:
-        from rodsim.app.inverse.fit import FitError
-        from rodsim.core.scene import SceneError
-
-        return (FitError, SceneError)
-
-    def solver_failures(self) -> tuple[type[Exception], ...]:
-        from rodsim.app.inverse.continuation import EquilibriumFailure
-
-        return (EquilibriumFailure,)
+        self.ramps = parsed_ramps(self.args.ramp)
 
     def solve(self, scene: Any, integrator: str, progress: Any) -> Any:
         from rodsim.app.inverse.series_fit import fit_series
@@ -104,3 +89,12 @@ class FitSeries(SceneCommand):
                   f"{result.track.message}; archived, marked incomplete", file=sys.stderr)
             return EXIT_SOLVER_FAILURE
         return EXIT_OK
+
+
+def cmd_fit(args: argparse.Namespace) -> int:
+    if args.series is not None:
+        return execute(FitSeries(args))
+    if args.ramp:
+        raise UserError("--ramp goes with --series (tips measured along a ramp); a "
+                        "centerline (--data) is one equilibrium")
+    return execute(Fit(args))

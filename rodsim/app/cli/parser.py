@@ -19,7 +19,8 @@ from rodsim.app.cli.arguments import (
 from rodsim.app.cli.batch import cmd_batch
 from rodsim.app.cli.bench import cmd_bench
 from rodsim.app.cli.common import EXIT_BAD_INPUT
-from rodsim.app.cli.fit import Fit, cmd_fit
+from rodsim.app.cli.fit import Fit
+from rodsim.app.cli.fit_series import cmd_fit
 from rodsim.app.cli.listing import cmd_scenes, cmd_terms
 from rodsim.app.cli.modes import Modes, cmd_modes
 from rodsim.app.cli.plot import cmd_plot
@@ -307,8 +308,8 @@ def build_parser() -> argparse.ArgumentParser:
                        help="work-precision, scaling, large-n, stress, skip-work, kernels, "
                        "paper-regime, string-tendon, contact, force-from-shape, floor, "
                        "iterations, startup, tracking, workers, modes, friction, batch, "
-                       "hostile or pyelastica (the last needs 'pip install pyelastica==1.0.0'; never a "
-                       "dependency)")
+                       "hostile or pyelastica (the last needs 'pip install "
+                       "pyelastica==1.0.0'; never a dependency)")
     bench.add_argument("--size", choices=("small", "full"), default="small",
                        help="small (the default): a smoke version in seconds to a minute; "
                        "full: the real benchmark (minutes to an hour, docs/benchmarks.md)")

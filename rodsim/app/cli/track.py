@@ -9,7 +9,7 @@ from typing import Any
 from rodsim.app.cli.common import EXIT_OK, EXIT_SOLVER_FAILURE, UserError, warn
 from rodsim.app.cli.pipeline import SceneCommand, execute
 
-__all__ = ["cmd_track"]
+__all__ = ["cmd_track", "parsed_ramps"]
 
 
 class Track(SceneCommand):
@@ -23,15 +23,7 @@ class Track(SceneCommand):
     integrator_flag = True
 
     def prepare(self, scene: Any) -> None:
-        from rodsim.app.inverse.track import parse_ramp
-        from rodsim.core.scene import SceneError
-
-        try:  # the ramps before any folder is made or any work starts
-            self.ramps = dict(parse_ramp(text) for text in self.args.ramp)
-        except SceneError as exc:
-            raise UserError(str(exc)) from None
-        if len(self.ramps) != len(self.args.ramp):
-            raise UserError("--ramp names the same key twice")
+        self.ramps = parsed_ramps(self.args.ramp)  # before any folder or work
 
     def bad_input(self) -> tuple[type[Exception], ...]:
         from rodsim.core.scene import SceneError
@@ -94,6 +86,21 @@ class Track(SceneCommand):
             warn(f"{len(unstable)} step(s) are unstable equilibria (first: step {unstable[0]}); "
                  "kept because of --allow-unstable, flagged in the archive (variable 'stable')")
         return EXIT_OK
+
+
+def parsed_ramps(texts: list[str]) -> dict[str, Any]:
+    """The ``--ramp`` arguments as {key: values} (UserError, one line, for a bad one or a
+    key named twice)."""
+    from rodsim.app.inverse.track import parse_ramp
+    from rodsim.core.scene import SceneError
+
+    try:
+        ramps = dict(parse_ramp(text) for text in texts)
+    except SceneError as exc:
+        raise UserError(str(exc)) from None
+    if len(ramps) != len(texts):
+        raise UserError("--ramp names the same key twice")
+    return ramps
 
 
 def cmd_track(args: argparse.Namespace) -> int:

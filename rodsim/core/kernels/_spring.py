@@ -59,6 +59,33 @@ def offset_edge(u: np.ndarray, dofs: np.ndarray, e: int, rest_edges: np.ndarray,
     return norm, change
 
 
+@njit(cache=True, inline="always")
+def add_spring(k: float, stretch: float, norm: float, t: np.ndarray, e: int, scale: float,
+               want_force: bool, force: np.ndarray, force_target: np.ndarray,
+               want_jacobian: bool, jacobian: np.ndarray, jacobian_target: np.ndarray,
+               local_force: np.ndarray, local_jacobian: np.ndarray) -> None:
+    """Accumulate element ``e``'s spring of stiffness ``k``, stretch |e| − ℓ, length |e| and
+    unit tangent ``t`` (the module docstring's F and ∂F/∂(r_a, r_b)), through the work
+    arrays ``local_force`` (6,) and ``local_jacobian`` (6, 6)."""
+    if want_force:
+        for a in range(3):
+            pull = k * stretch * t[a]
+            local_force[a] = pull
+            local_force[3 + a] = -pull
+        add_force(force, force_target, e, local_force, scale)
+    if want_jacobian:
+        ratio = stretch / norm
+        for a in range(3):
+            for b in range(3):
+                tt = t[a] * t[b]
+                h = k * (tt + ratio * ((1.0 if a == b else 0.0) - tt))
+                local_jacobian[a, b] = -h
+                local_jacobian[3 + a, 3 + b] = -h
+                local_jacobian[a, 3 + b] = h
+                local_jacobian[3 + a, b] = h
+        add_jacobian(jacobian, jacobian_target, e, local_jacobian, scale)
+
+
 @njit(cache=True)
 def spring(x: np.ndarray, dofs: np.ndarray, stiffness: float, rest: float, scale: float,
            want_force: bool, force: np.ndarray, force_target: np.ndarray,
@@ -81,23 +108,8 @@ def springs(x: np.ndarray, dofs: np.ndarray, stiffness: np.ndarray, rest: float,
         norm = edge_tangent(x, dofs, e, t)
         stretch = norm - rest
         k = stiffness[e]
-        if want_force:
-            for a in range(3):
-                pull = k * stretch * t[a]
-                local_force[a] = pull
-                local_force[3 + a] = -pull
-            add_force(force, force_target, e, local_force, scale)
-        if want_jacobian:
-            ratio = stretch / norm
-            for a in range(3):
-                for b in range(3):
-                    tt = t[a] * t[b]
-                    h = k * (tt + ratio * ((1.0 if a == b else 0.0) - tt))
-                    local_jacobian[a, b] = -h
-                    local_jacobian[3 + a, 3 + b] = -h
-                    local_jacobian[a, 3 + b] = h
-                    local_jacobian[3 + a, b] = h
-            add_jacobian(jacobian, jacobian_target, e, local_jacobian, scale)
+        add_spring(k, stretch, norm, t, e, scale, want_force, force, force_target,
+                   want_jacobian, jacobian, jacobian_target, local_force, local_jacobian)
 
 
 @njit(cache=True)

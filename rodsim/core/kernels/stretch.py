@@ -11,8 +11,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from rodsim.core.kernels._scatter import add_force, add_jacobian
-from rodsim.core.kernels._spring import offset_edge
+from rodsim.core.kernels._spring import add_spring, offset_edge
 
 
 @njit(cache=True)
@@ -27,23 +26,8 @@ def evaluate(x: np.ndarray, dofs: np.ndarray, stiffness: np.ndarray, rest: float
     for e in range(dofs.shape[0]):
         norm, stretch = offset_edge(x, dofs, e, rest_edges, rest_lengths, t, turn)
         k = stiffness[e] / rest
-        if want_force:
-            for a in range(3):
-                pull = k * stretch * t[a]
-                local_force[a] = pull
-                local_force[3 + a] = -pull
-            add_force(force, force_target, e, local_force, scale)
-        if want_jacobian:
-            ratio = stretch / norm
-            for a in range(3):
-                for b in range(3):
-                    tt = t[a] * t[b]
-                    h = k * (tt + ratio * ((1.0 if a == b else 0.0) - tt))
-                    local_jacobian[a, b] = -h
-                    local_jacobian[3 + a, 3 + b] = -h
-                    local_jacobian[a, 3 + b] = h
-                    local_jacobian[3 + a, b] = h
-            add_jacobian(jacobian, jacobian_target, e, local_jacobian, scale)
+        add_spring(k, stretch, norm, t, e, scale, want_force, force, force_target,
+                   want_jacobian, jacobian, jacobian_target, local_force, local_jacobian)
 
 
 @njit(cache=True)
