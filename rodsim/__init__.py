@@ -13,14 +13,15 @@ run's archive Dataset), ``rodsim.penalty_error`` (how far a result depends on it
 penalties, docs/model.md) and the inverse tools
 ``rodsim.sensitivity``, ``rodsim.track``, ``rodsim.Tracker``, ``rodsim.fit`` and
 ``rodsim.reach`` (docs/inverse.md), ``rodsim.modes`` (natural frequencies and mode shapes,
-docs/dynamics.md) and ``rodsim.simulate`` (motion in physical time, docs/dynamics.md) are
-imported on first use.
+docs/dynamics.md) and ``rodsim.simulate`` (motion in physical time, with
+``rodsim.Sinusoid`` programs; docs/dynamics.md) are imported on first use.
 """
 
 from rodsim.version import __version__
 
-__all__ = ["Tracker", "__version__", "build_model", "fit", "load_scene", "modes", "penalty_error",
-           "reach", "run_dataset", "sensitivity", "simulate", "solve", "solve_many", "track"]
+__all__ = ["Sinusoid", "Tracker", "__version__", "build_model", "fit", "load_scene", "modes",
+           "penalty_error", "reach", "run_dataset", "sensitivity", "simulate", "solve",
+           "solve_many", "track"]
 
 #: The inverse tools: name -> module (each module defines a function of the same name).
 _INVERSE = {"sensitivity": "rodsim.app.inverse.sensitivity", "track": "rodsim.app.inverse.track",
@@ -61,6 +62,10 @@ def __getattr__(name: str):
         from rodsim.app.simulate import simulate
 
         return simulate
+    if name == "Sinusoid":
+        from rodsim.core.program import Sinusoid
+
+        return Sinusoid
     if name == "penalty_error":
         from rodsim.app.trust import penalty_error
 

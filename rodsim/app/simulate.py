@@ -30,6 +30,7 @@ from rodsim.core.damping import Damping
 from rodsim.core.damping_options import ELASTIC_TERMS
 from rodsim.core.inertia import mass_factor
 from rodsim.core.model import Model
+from rodsim.core.program import ProgramEntry, Sinusoid, program_entry
 from rodsim.core.scene import Scene
 from rodsim.core.schema import SceneError, shown
 from rodsim.core.vibration import ModesError, natural_modes
@@ -49,7 +50,10 @@ INTEGRATORS = ("midpoint",)
 #: Default steps per period of the lowest natural mode, when no step is given.
 STEPS_PER_PERIOD = 100
 
-Program = Mapping[str, tuple[Sequence[float], Sequence[float]]]
+#: key → (times, values), a :class:`~rodsim.core.program.Sinusoid` or a table of either
+#: (rodsim/core/program.py).
+Program = Mapping[str, tuple[Sequence[float], Sequence[float]] | ProgramEntry
+                  | Mapping[str, Any]]
 
 
 @dataclass
@@ -98,8 +102,9 @@ class Simulation:
     states: np.ndarray = field(default_factory=lambda: np.zeros((0, 0)), repr=False)
     #: The end time asked for [s].
     t_end: float = math.nan
-    #: The programs as given (key → (times, values)), and the starting values (text).
-    program: dict[str, tuple[list[float], list[float]]] = field(default_factory=dict)
+    #: The checked programs (full key → Table or Sinusoid, the scene file's and the
+    #: call's), and the starting values (text).
+    program: dict[str, ProgramEntry] = field(default_factory=dict)
     initial: str = "rest state"
 
     @property
@@ -124,55 +129,46 @@ class Simulation:
         return trajectory_dataset(TrajectoryRecord(
             self.scene, rods, self.times, self.positions, self.quaternions, energies,
             self.success, self.message, self.t_end, self.integrator, self.step, stats,
-            self.program, self.initial))
+            {key: entry.archived() for key, entry in self.program.items()}, self.initial))
 
 
 def check_programs(scene: Scene, program: Program | None
-                   ) -> tuple[list[NumericKey], list[np.ndarray], list[np.ndarray]]:
-    """The checked programs: keys, times, values (SceneError, one line, for a key that is not
-    a term's number, times that do not increase, or a value outside the key's range)."""
-    keys, times, values = [], [], []
-    for name, table in (program or {}).items():
-        key = numeric_key(scene, name)
-        parts = key.path.split(".")
-        if len(parts) != 4 or parts[2] in ("base", "supports") or (
-                parts[0] == "rods" and parts[2] in ELASTIC_TERMS):
-            raise SceneError(f"program {shown(name, bare=True)}: {key.path} cannot vary in "
-                             "time; allowed: a load's or a tendon's value (a term parameter "
-                             "other than the rod's own stiffness)")
-        try:
-            t, v = (np.asarray(part, dtype=float) for part in table)
-        except (TypeError, ValueError):
-            raise SceneError(f"program {shown(name, bare=True)}: expected (times, values), two "
-                             "lists of numbers") from None
-        if t.ndim != 1 or t.shape != v.shape or t.size == 0 or not (
-                np.all(np.isfinite(t)) and np.all(np.isfinite(v))):
-            raise SceneError(f"program {shown(name, bare=True)}: expected times and values of "
-                             "the same length, finite")
-        if np.any(np.diff(t) < 0.0) or np.any(t[2:] == t[:-2]):
-            raise SceneError(f"program {shown(name, bare=True)}: times must not decrease (one "
-                             "repeated time is a step)")
-        keys.append(key)
-        times.append(t)
-        values.append(v)
-    for row in range(max((len(t) for t in times), default=0)):
-        for k, key in enumerate(keys):  # every table value, against its key's range
-            if row < len(times[k]):
-                scene_with(scene, [key], [float(values[k][row])])
-    return keys, times, values
-
-
-def _value_at(t: float, times: np.ndarray, values: np.ndarray) -> float:
-    """The piecewise-linear program at ``t`` (its end values outside; at a step, the value
-    after it)."""
-    right = int(np.searchsorted(times, t, side="right"))
-    if right == 0:
-        return float(values[0])
-    if right == len(times):
-        return float(values[-1])
-    t0, t1 = times[right - 1], times[right]
-    share = (t - t0) / (t1 - t0)
-    return float(values[right - 1] + share * (values[right] - values[right - 1]))
+                   ) -> tuple[list[NumericKey], list[ProgramEntry]]:
+    """The checked programs, the scene file's ``[program]`` table and then ``program`` (which
+    replaces the scene's entry for the same value): their keys and entries, each sinusoid
+    given the scene's value as its offset when it has none. SceneError (one line) for a
+    key that is not a term's number or that cannot vary in time, a malformed entry, a value
+    named twice in one source, or a program that leaves the key's range at some time (its
+    smallest and largest value are checked: a table's at its times, a sinusoid's
+    offset ∓ amplitude)."""
+    chosen: dict[str, tuple[NumericKey, ProgramEntry]] = {}
+    for source in (scene.data.get("program", {}), program or {}):
+        named: set[str] = set()
+        for name, raw in source.items():
+            key = numeric_key(scene, name)
+            parts = key.path.split(".")
+            if len(parts) != 4 or parts[2] in ("base", "supports") or (
+                    parts[0] == "rods" and parts[2] in ELASTIC_TERMS) or (
+                    parts[2:] == ["gravity", "direction"]):
+                raise SceneError(f"program {shown(name, bare=True)}: {key.path} cannot vary "
+                                 "in time; allowed: a load's or a tendon's value (a term "
+                                 "parameter other than the rod's own stiffness or gravity's "
+                                 "direction)")
+            if key.name in named:
+                raise SceneError(f"program {shown(name, bare=True)}: {key.name} is named "
+                                 "twice")
+            named.add(key.name)
+            entry = program_entry(name, raw)
+            if isinstance(entry, Sinusoid):
+                entry = entry.about(key.value(scene))
+            chosen[key.name] = (key, entry)
+    for key, entry in chosen.values():  # its extremes, against the key's range
+        for value in sorted(set(entry.extremes())):
+            try:
+                scene_with(scene, [key], [value])
+            except SceneError as exc:
+                raise SceneError(f"program {key.name} reaches {value:.6g}: {exc}") from None
+    return [key for key, _ in chosen.values()], [entry for _, entry in chosen.values()]
 
 
 def _start_state(scene: Scene, model: Model, initial: Mapping[str, Any] | Result | None
@@ -229,8 +225,10 @@ def simulate(scene: SceneLike | None, t_end: float, *, output_dt: float | None =
     ``output_dt``: the spacing of the output times [s] (default: every step); ``step``: the
     longest time step [s] (default: 1/100 of the lowest natural period at the start);
     ``initial``: a mapping of ``--set`` keys to values whose equilibrium the run starts
-    from, or a solved Result (default: the rest state); ``program``: key → (times, values),
-    a piecewise-linear table per numeric term value; ``overrides``: ``key=value`` changes
+    from, or a solved Result (default: the rest state); ``program``: key → (times, values)
+    (piecewise linear) or a :class:`~rodsim.core.program.Sinusoid` per numeric term value,
+    added to the scene file's ``[program]`` (replacing its entry for the same value);
+    ``overrides``: ``key=value`` changes
     of the scene. The run starts at rest. Bad input raises
     :class:`~rodsim.core.schema.SceneError` (one line) before any work; a run that fails
     part-way returns ``success`` False with what it computed.
@@ -245,7 +243,8 @@ def simulate(scene: SceneLike | None, t_end: float, *, output_dt: float | None =
                 or not math.isfinite(value) or value <= 0.0):
             raise SceneError(f"{name} = {shown(value)}: allowed a number > 0 [s]")
     loaded = load_scene(scene, overrides)
-    keys, times, values = check_programs(loaded, program)
+    keys, entries = check_programs(loaded, program)
+    programs = {key.name: entry for key, entry in zip(keys, entries, strict=True)}
     model = Model(loaded)
     x = _start_state(loaded, model, initial)
     h = float(step) if step is not None else _default_step(model, x)
@@ -257,7 +256,7 @@ def simulate(scene: SceneLike | None, t_end: float, *, output_dt: float | None =
     def model_at(t: float) -> Model:
         if not keys:
             return model
-        now = tuple(_value_at(t, times[k], values[k]) for k in range(len(keys)))
+        now = tuple(entry.value(t) for entry in entries)
         if now not in models:
             if len(models) > 64:
                 models.clear()
@@ -286,14 +285,14 @@ def simulate(scene: SceneLike | None, t_end: float, *, output_dt: float | None =
         record.success = False
         record.message = (f"interrupted after t = {record.times[-1]:.6g} s (the outputs up to "
                           "it are kept)")
-        partial = _simulation(loaded, model, record, h, integrator, float(t_end), program,
+        partial = _simulation(loaded, model, record, h, integrator, float(t_end), programs,
                               initial)
         raise Interrupted(partial, record.message) from None
-    return _simulation(loaded, model, record, h, integrator, float(t_end), program, initial)
+    return _simulation(loaded, model, record, h, integrator, float(t_end), programs, initial)
 
 
 def _simulation(loaded: Scene, model: Model, record: Record, h: float, integrator: str,
-                t_end: float, program: Program | None,
+                t_end: float, programs: dict[str, ProgramEntry],
                 initial: Mapping[str, Any] | Result | None) -> Simulation:
     """The :class:`Simulation` of what ``record`` holds."""
     states = np.array(record.states)
@@ -310,6 +309,4 @@ def _simulation(loaded: Scene, model: Model, record: Record, h: float, integrato
                       quaternions, np.array(record.kinetic), np.array(record.potential),
                       np.array(record.dissipated), np.array(record.work), h,
                       integrator, record.steps, record.iterations, record.halvings,
-                      tuple(model.rods), states, t_end,
-                      {k: (list(map(float, t)), list(map(float, v)))
-                       for k, (t, v) in (program or {}).items()}, _initial_text(initial))
+                      tuple(model.rods), states, t_end, programs, _initial_text(initial))

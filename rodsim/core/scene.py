@@ -26,6 +26,9 @@ and the allowed values. Layout of a scene file (docs/scenes.md has the full refe
     integrator = "cvode"
     [solver.paper]             # options of one integrator
     h = 0.3
+    [program."tip_load.mass"]  # a value varying in time (rodsim simulate; core/program.py)
+    amplitude = 0.01           # the key's unit
+    frequency = 2.0            # Hz
 """
 
 from __future__ import annotations
@@ -43,6 +46,7 @@ from typing import TYPE_CHECKING, Any
 from rodsim.core.anchors import check_joints
 from rodsim.core.damping_options import resolve_damping
 from rodsim.core.names import check_rod_name, check_scene_name
+from rodsim.core.program import resolve_program
 from rodsim.core.rod.rod import ROD_PARAMETERS, RodOptions
 from rodsim.core.rod.sections import resolve_sections
 from rodsim.core.scene_file import parse_toml, read_scene_text
@@ -109,7 +113,7 @@ class SolverSettings(Options):
     max_wall_time: float = 600.0
     kernels: str = "auto"
 
-_TOP_KEYS = ("name", "description", "rods", "tendons", "obstacles", "solver")
+_TOP_KEYS = ("name", "description", "rods", "tendons", "obstacles", "solver", "program")
 
 
 
@@ -479,6 +483,8 @@ def resolve(raw: Mapping[str, Any]) -> dict[str, Any]:
         out["obstacles"] = resolve_obstacles(raw["obstacles"], rods, tendons)
         if "integrator" not in solver_raw:
             solver["integrator"] = OBSTACLE_INTEGRATOR
+    if "program" in raw:  # only then: a scene without programs resolves as before
+        out["program"] = resolve_program(raw["program"])
     return out
 
 
@@ -521,9 +527,13 @@ def _files_beside(raw: Any, folder: Path) -> None:
 
 
 def _leaf_keys(node: Any, prefix: str = "") -> list[str]:
+    """The dotted keys of every value under ``node``; the scene's ``[program]`` table is
+    left out (its entries are keys themselves, set with ``--program``, not ``--set``)."""
     if isinstance(node, Mapping):
         out = []
         for key, value in node.items():
+            if not prefix and key == "program":
+                continue
             out += _leaf_keys(value, f"{prefix}.{key}" if prefix else str(key))
         return out
     if isinstance(node, list) and node and all(isinstance(v, Mapping) for v in node):

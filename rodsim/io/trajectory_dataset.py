@@ -57,7 +57,9 @@ class TrajectoryRecord:
     integrator: str
     step: float
     stats: Mapping[str, float]
-    program: Mapping[str, tuple[list[float], list[float]]]
+    #: key → [times, values] (a table) or the sinusoid's amplitude, frequency, phase,
+    #: offset (rodsim/core/program.py)
+    program: Mapping[str, list[list[float]] | dict[str, float]]
     initial: str
 
 
@@ -112,8 +114,7 @@ def trajectory_dataset(record: TrajectoryRecord) -> xr.Dataset:
         "message": record.message,
         "t_end": float(record.t_end),
         "time_step": float(record.step),
-        "program_json": json.dumps({k: [list(map(float, t)), list(map(float, v))]
-                                    for k, (t, v) in record.program.items()}, sort_keys=True),
+        "program_json": json.dumps(dict(record.program), sort_keys=True),
         "initial": record.initial,
         "scene_json": record.scene.to_json(),
         "scene_toml": record.scene.source,

@@ -268,9 +268,12 @@ def build_parser() -> argparse.ArgumentParser:
                       help="start from the equilibrium with this value (KEY as for --set; "
                       "repeatable): released at t = 0")
     move.add_argument("--program", action="append", default=[],
-                      metavar="KEY=t0:v0,t1:v1,...",
-                      help="a numeric value following a piecewise-linear table in time "
-                      "(repeatable), e.g. tendon_actuation.force=0:0,0.1:2")
+                      metavar="KEY=t0:v0,t1:v1,...|KEY=sin:A,F[,PHASE[,OFFSET]]",
+                      help="a numeric value following a piecewise-linear table in time, or "
+                      "the sinusoid OFFSET + A sin(2 pi F t + PHASE) (F in Hz, PHASE in rad, "
+                      "OFFSET by default the scene's value); repeatable, replaces the scene "
+                      "file's [program] entry for the same value; e.g. "
+                      "tendon_actuation.force=0:0,0.1:2 or tip_load.force[1]=sin:0.1,5")
     _finish_scene_command(move, "simulate", cmd_simulate)
 
     plot = sub.add_parser("plot", help="draw an archive's figure (PNG and PDF)",

@@ -12,13 +12,30 @@ from rodsim.app.cli.pipeline import SceneCommand, execute
 __all__ = ["Simulate", "cmd_simulate", "parse_program"]
 
 
-def parse_program(text: str) -> tuple[str, tuple[list[float], list[float]]]:
-    """``KEY=t0:v0,t1:v1,...`` → (KEY, (times, values)); a one-line :class:`UserError`
-    for anything else."""
+def parse_program(text: str) -> tuple[str, Any]:
+    """``KEY=t0:v0,t1:v1,...`` → (KEY, (times, values)) and
+    ``KEY=sin:AMPLITUDE,FREQUENCY[,PHASE[,OFFSET]]`` → (KEY, the sinusoid's table: frequency
+    in Hz, phase in rad, offset by default the scene's value); a one-line
+    :class:`UserError` for anything else."""
     flag = f"--program {text[:60]!r}"
     key, sep, table = text.partition("=")
     if not sep or not key.strip() or not table.strip():
-        raise UserError(f"{flag}: expected KEY=t0:v0,t1:v1,... (times in s)")
+        raise UserError(f"{flag}: expected KEY=t0:v0,t1:v1,... (times in s) or "
+                        "KEY=sin:AMPLITUDE,FREQUENCY[,PHASE[,OFFSET]]")
+    form, colon, rest = table.partition(":")
+    if form.strip().lower() == "sin" and colon:
+        parts = rest.split(",")
+        numbers = []
+        for part in parts:
+            try:
+                numbers.append(float(part))
+            except ValueError:
+                numbers.append(math.nan)
+        if not 2 <= len(numbers) <= 4 or not all(math.isfinite(n) for n in numbers):
+            raise UserError(f"{flag}: expected sin:AMPLITUDE,FREQUENCY[,PHASE[,OFFSET]] (two "
+                            "to four finite numbers; frequency in Hz, phase in rad)")
+        return key.strip(), dict(zip(("amplitude", "frequency", "phase", "offset"), numbers,
+                                     strict=False))
     times, values = [], []
     for pair in table.split(","):
         t, colon, v = pair.partition(":")
@@ -28,7 +45,7 @@ def parse_program(text: str) -> tuple[str, tuple[list[float], list[float]]]:
             time = value = math.nan
         if not colon or not (math.isfinite(time) and math.isfinite(value)):
             raise UserError(f"{flag}: {pair.strip()[:40]!r} is not TIME:VALUE (two finite "
-                            "numbers)")
+                            "numbers), nor is the value sin:AMPLITUDE,FREQUENCY[,PHASE[,OFFSET]]")
         times.append(time)
         values.append(value)
     return key.strip(), (times, values)
@@ -38,10 +55,11 @@ class Simulate(SceneCommand):
     """Integrate the scene in physical time from t = 0 to --t-end (implicit midpoint rule,
     the rods' inertia and damping; docs/dynamics.md). The run starts at rest, from the rest
     state or from the equilibrium with the --initial values (a release); --program makes a
-    value follow a piecewise-linear table in time. Prints the progress in simulated time and
-    a summary (tip at the end, energy balance, steps); writes the trajectory archive and a
-    figure of the tip and the energies against time. A run that fails part-way writes what
-    it computed, marked incomplete, and exits 1."""
+    value follow a piecewise-linear table or a sinusoid in time (as the scene file's
+    [program] table does; --program replaces its entry for the same value). Prints the
+    progress in simulated time and a summary (tip at the end, energy balance, steps);
+    writes the trajectory archive and a figure of the tip and the energies against time. A
+    run that fails part-way writes what it computed, marked incomplete, and exits 1."""
 
     kind = "simulate"
 
@@ -59,6 +77,10 @@ class Simulate(SceneCommand):
             raise UserError(f"--integrator {args.integrator[:40]!r}: allowed: "
                             + ", ".join(INTEGRATORS))
         self.program = dict(parse_program(text) for text in args.program)
+        try:  # the scene file's [program] first, then each --program
+            check_programs(scene, {})
+        except SceneError as exc:
+            raise UserError(f"{scene.name}: {exc}") from None
         for key, table in self.program.items():
             try:
                 check_programs(scene, {key: table})
