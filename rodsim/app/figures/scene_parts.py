@@ -29,6 +29,7 @@ import xarray as xr
 from rodsim.core.obstacles import Obstacle, build_obstacle
 from rodsim.core.rod.quaternion import directors
 from rodsim.core.routing import Routing, string_span
+from rodsim.core.terms.gravity import unit_direction
 
 __all__ = ["TERM_DRAWINGS", "SHAPE", "TENDON", "LOAD", "CONTACT", "Arrow", "TendonPath",
            "SceneParts", "scene_parts"]
@@ -215,8 +216,10 @@ def _rod_loads(name: str, table: dict[str, Any], nodes: np.ndarray, node_s: np.n
                              q * (span["end"] - span["start"])))
     if "gravity" in terms:
         weight = _mass(table) * float(table["gravity"]["gravity"])
+        direction = unit_direction(table["gravity"].get("direction", [0.0, -1.0, 0.0]),
+                                   f"rods.{name}.gravity.direction")  # older archives: −y
         out.append(Arrow(f"load:{name}:gravity", "weight (total)", nodes[len(nodes) // 2],
-                         np.array([0.0, -weight, 0.0])))
+                         weight * direction))
     return [arrow for arrow in out if np.any(arrow.vector)]
 
 
