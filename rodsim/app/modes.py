@@ -17,13 +17,17 @@ from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
 import numpy as np
+import scipy.sparse as sp
 
 from rodsim.app.api import SceneLike, load_scene, solve
+from rodsim.core.damped_vibration import DampedVibration, damped_modes
+from rodsim.core.damping import Damping
 from rodsim.core.inertia import mass_factor, total_mass
 from rodsim.core.model import Model
 from rodsim.core.stability import MAX_BAND
 from rodsim.core.stability_band import BandStiffness
 from rodsim.core.vibration import ModesError, Vibration, natural_modes
+from rodsim.solvers.physical.coordinates import physical_state
 from rodsim.solvers.result import Result
 
 if TYPE_CHECKING:
@@ -66,6 +70,16 @@ class Modes:
         for a torsion mode, small for bending and axial modes (0 without rotary inertia).
     rotary_inertia
         Whether the segments' rotary inertia (ρI, ρJ) was included.
+    damped_eigenvalues
+        With the scene's damping (``[rods.<rod>.damping]``: Kelvin–Voigt and drag), the
+        roots λ [1/s] of (λ² M + λ D + K) φ = 0 of lowest |λ|, one of each conjugate pair
+        (rodsim/core/damped_vibration.py); without damping, i ω. For light damping the
+        k-th is the k-th mode's.
+    damped_frequencies
+        Im λ / 2π [Hz]: the frequency a damped mode rings at (0: a root that does not
+        oscillate, an overdamped mode or a relaxation).
+    damping_ratios
+        ζ = −Re λ / |λ| of each root (0 without damping; 1 for a real root).
     """
 
     result: Result
@@ -79,6 +93,9 @@ class Modes:
     rotational_share: np.ndarray = field(default_factory=lambda: np.zeros(0))
     rotary_inertia: bool = True
     symmetric: bool = True
+    damped_eigenvalues: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=complex))
+    damped_frequencies: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    damping_ratios: np.ndarray = field(default_factory=lambda: np.zeros(0))
     #: The modes on the free coordinates (count, n), unit modal mass (φᴴ M φ = 1), for
     #: checks (K φ = ω² M φ).
     vectors: np.ndarray = field(default_factory=lambda: np.zeros((0, 0)), repr=False)
@@ -92,7 +109,10 @@ class Modes:
                              eigenvalues=self.eigenvalues, shapes=self.shapes,
                              rotations=self.rotations,
                              rotational_share=self.rotational_share,
-                             rotary_inertia=self.rotary_inertia, message=self.message)
+                             rotary_inertia=self.rotary_inertia, message=self.message,
+                             damped_eigenvalues=self.damped_eigenvalues,
+                             damped_frequencies=self.damped_frequencies,
+                             damping_ratios=self.damping_ratios)
 
 
 def modes(scene: SceneLike | Result | None = None, count: int = DEFAULT_COUNT, *,
@@ -127,22 +147,64 @@ def modes(scene: SceneLike | Result | None = None, count: int = DEFAULT_COUNT, *
     vibration = _solve(model, x, count, rotary_inertia)
     translational = mass_factor(model, x, rotary=False).T @ vibration.vectors.T
     share = 1.0 - np.sum(np.abs(translational) ** 2, axis=0)
-    return _modes_of(result, model, vibration, rotary_inertia, np.clip(share, 0.0, 1.0))
+    damper = Damping(model)
+    damped = _damped(model, x, count, rotary_inertia, damper) if damper.active else None
+    return _modes_of(result, model, vibration, rotary_inertia, np.clip(share, 0.0, 1.0),
+                     damped)
 
 
-def _solve(model: Model, x: np.ndarray, count: int, rotary: bool) -> Vibration:
-    """The eigenproblem of ``model`` at ``x`` (band LU when the band is narrow enough)."""
+def _problem(model: Model, x: np.ndarray
+             ) -> tuple[sp.spmatrix, BandStiffness | None, np.ndarray]:
+    """K = −∂F/∂x of ``model`` at ``x``, its band storage when the band is narrow enough,
+    and the Jacobian's data."""
     data = model.jacobian_data(x)
     band = model.band
     banded = (BandStiffness(model.pattern_rows, model.pattern_cols, model.n, band.lower,
                             band.upper) if band.lower + band.upper + 1 <= MAX_BAND else None)
-    return natural_modes(-model.pattern_matrix(data), mass_factor(model, x, rotary), count,
-                         band=banded, jacobian=data)
+    return -model.pattern_matrix(data), banded, data
+
+
+def _solve(model: Model, x: np.ndarray, count: int, rotary: bool) -> Vibration:
+    """The eigenproblem of ``model`` at ``x`` (band LU when the band is narrow enough)."""
+    stiffness, banded, data = _problem(model, x)
+    return natural_modes(stiffness, mass_factor(model, x, rotary), count, band=banded,
+                         jacobian=data)
+
+
+def _damped(model: Model, x: np.ndarray, count: int, rotary: bool, damper: Damping
+            ) -> DampedVibration:
+    """The damped roots of ``model`` at ``x`` with its damping D, each quaternion's norm
+    direction taken out of D (as in physical time, where |q| = 1 is kept exactly and the
+    damping acts through Gᵀ D G, rodsim/solvers/physical/midpoint.py)."""
+    stiffness, banded, data = _problem(model, x)
+    free_of = np.full(model.full_size, -1)
+    free_of[model.free] = np.arange(model.n)
+    physical = physical_state(model, x)
+    rows, cols, values = [], [], []
+    for rod in model.rods.values():
+        for block in free_of[rod.layout.quaternion_index]:
+            index = block[block >= 0]
+            q = physical[index]
+            norm = float(np.linalg.norm(q))
+            if norm > 0.0:
+                q = q / norm
+                rows.append(np.repeat(index, len(index)))
+                cols.append(np.tile(index, len(index)))
+                values.append(-np.outer(q, q).ravel())
+    projector = sp.identity(model.n, format="csr")
+    if rows:
+        projector = projector + sp.csr_matrix(
+            (np.concatenate(values), (np.concatenate(rows), np.concatenate(cols))),
+            shape=(model.n, model.n))
+    damping = projector @ damper.matrix(physical) @ projector
+    return damped_modes(stiffness, mass_factor(model, x, rotary), damping, count,
+                        band=banded, jacobian=data)
 
 
 def _modes_of(result: Result, model: Model, vibration: Vibration, rotary: bool,
-              rotational_share: np.ndarray) -> Modes:
-    """The user's view of ``vibration``: frequencies in Hz, node displacements per rod."""
+              rotational_share: np.ndarray, damped: DampedVibration | None) -> Modes:
+    """The user's view of ``vibration`` (and of ``damped``, the damped roots; None: no
+    damping): frequencies in Hz, node displacements per rod."""
     omega = vibration.angular_frequencies
     frequencies = np.where(vibration.eigenvalues.real > 0.0, omega.real, np.nan) / (2 * np.pi)
     full = np.zeros((len(vibration.vectors), model.full_size), dtype=vibration.vectors.dtype)
@@ -158,10 +220,27 @@ def _modes_of(result: Result, model: Model, vibration: Vibration, rotary: bool,
     if not vibration.symmetric:
         messages.append("K is not symmetric (a non-conservative term: the paper's tendon "
                         "coupling, friction): ω² may be complex; shapes are the real parts")
+    if damped is None:
+        roots = 1j * omega
+        damped_frequencies = frequencies.copy()
+        ratios = np.where(np.isnan(frequencies), np.nan, 0.0)
+    else:
+        roots = damped.eigenvalues
+        damped_frequencies = damped.damped_frequencies
+        ratios = damped.damping_ratios
+        still = int(np.sum(np.isfinite(roots) & (roots.imag == 0.0)))
+        if still:
+            messages.append(f"{still} of the damped roots do not oscillate (overdamped "
+                            "modes or relaxations: damped frequency 0, damping ratio 1)")
+        if np.any(np.isnan(roots)):
+            messages.append("fewer damped roots converged than modes asked for (NaN; "
+                            "Kelvin-Voigt's overdamped modes gather near lambda = -1/tau)")
     return Modes(result, True, "; ".join(messages) or "ok",
                  frequencies=frequencies, eigenvalues=vibration.eigenvalues,
                  shapes=shapes.real, rotations=rotations.real,
                  growth=omega.imag / (2 * np.pi), rotational_share=rotational_share,
                  rotary_inertia=rotary,
-                 symmetric=vibration.symmetric, vectors=vibration.vectors)
+                 symmetric=vibration.symmetric, damped_eigenvalues=roots,
+                 damped_frequencies=damped_frequencies, damping_ratios=ratios,
+                 vectors=vibration.vectors)
 

@@ -39,7 +39,8 @@ import scipy.sparse.linalg as spla
 
 from rodsim.core.stability_band import BandStiffness
 
-__all__ = ["Vibration", "natural_modes", "ModesError", "ARPACK_SEED", "DENSE_SIZE"]
+__all__ = ["Vibration", "natural_modes", "stiffness_solver", "ModesError", "ARPACK_SEED",
+           "DENSE_SIZE"]
 
 #: Seed of ARPACK's start vector (reproducible modes).
 ARPACK_SEED = 33
@@ -81,8 +82,8 @@ class Vibration:
         return np.sqrt(self.eigenvalues.astype(complex))
 
 
-def _inverse(stiffness: sp.csc_matrix, jacobian: np.ndarray | None,
-             band: BandStiffness | None) -> Callable[[np.ndarray], np.ndarray]:
+def stiffness_solver(stiffness: sp.csc_matrix, jacobian: np.ndarray | None,
+                     band: BandStiffness | None) -> Callable[[np.ndarray], np.ndarray]:
     """v ↦ K⁻¹ v, by band LU when ``band`` is given (``jacobian``: J's CSC data, K = −J),
     else SuperLU; ModesError when K is singular."""
     if band is not None and jacobian is not None:
@@ -117,7 +118,7 @@ def natural_modes(stiffness: sp.spmatrix, factor: sp.spmatrix, count: int, *,
         raise ModesError("the stiffness K = -dF/dx is not finite at this equilibrium")
     largest = float(abs(stiffness).max()) if stiffness.nnz else 0.0
     symmetric = bool(abs(stiffness - stiffness.T).max() <= SYMMETRY_TOLERANCE * largest)
-    solve = _inverse(stiffness, jacobian, band)
+    solve = stiffness_solver(stiffness, jacobian, band)
     if m <= DENSE_SIZE or count >= m - 1:
         mu, psi = _dense(factor, solve, symmetric)
     else:

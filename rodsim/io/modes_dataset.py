@@ -6,8 +6,10 @@ and ``eigenvalue_imag`` (ω² [rad²/s²]; netCDF has no complex numbers), ``mod
 (mode, node, axis) and ``mode_quaternion`` (mode, segment, component): the mode shapes laid
 out as ``position`` and ``quaternion``, scaled to a modal mass of the scene's whole mass
 times 1 m² (:attr:`rodsim.app.modes.Modes.shapes`), and
-``rotational_share``. Attributes: ``kind`` = ``modes``, ``rotary_inertia``,
-``modes_message``.
+``rotational_share``; with the scene's damping (rodsim/core/damped_vibration.py),
+``damped_frequency`` [Hz], ``damping_ratio`` and ``damped_eigenvalue_real`` and
+``damped_eigenvalue_imag`` (λ [1/s]; without damping λ = iω, ζ = 0). Attributes: ``kind`` =
+``modes``, ``rotary_inertia``, ``modes_message``.
 """
 
 from __future__ import annotations
@@ -28,7 +30,9 @@ __all__ = ["modes_dataset"]
 
 def modes_dataset(result: Result, *, frequencies: np.ndarray, eigenvalues: np.ndarray,
                   shapes: np.ndarray, rotations: np.ndarray, rotational_share: np.ndarray,
-                  rotary_inertia: bool, message: str) -> xr.Dataset:
+                  rotary_inertia: bool, message: str,
+                  damped_eigenvalues: np.ndarray, damped_frequencies: np.ndarray,
+                  damping_ratios: np.ndarray) -> xr.Dataset:
     """The modes archive of the equilibrium ``result`` (module docstring)."""
     ds = run_dataset(result)
     count = len(frequencies)
@@ -54,6 +58,19 @@ def modes_dataset(result: Result, *, frequencies: np.ndarray, eigenvalues: np.nd
     ds["rotational_share"] = ("mode", np.asarray(rotational_share, dtype=float),
                               {"units": "1", "long_name": "fraction of the modal kinetic "
                                "energy in the segments' rotation"})
+    roots = np.asarray(damped_eigenvalues, dtype=complex)
+    ds["damped_frequency"] = ("mode", np.asarray(damped_frequencies, dtype=float),
+                              {"units": "Hz", "long_name": "damped frequency Im(lambda)/(2 pi) "
+                               "with the scene's damping (0: the root does not oscillate)"})
+    ds["damping_ratio"] = ("mode", np.asarray(damping_ratios, dtype=float),
+                           {"units": "1", "long_name": "damping ratio -Re(lambda)/|lambda| "
+                            "(0 without damping)"})
+    ds["damped_eigenvalue_real"] = ("mode", roots.real.copy(),
+                                    {"units": "s-1", "long_name": "real part of the damped "
+                                     "root lambda of (lambda^2 M + lambda D + K) phi = 0"})
+    ds["damped_eigenvalue_imag"] = ("mode", roots.imag.copy(),
+                                    {"units": "s-1", "long_name": "imaginary part of the "
+                                     "damped root lambda"})
     name = result.scene.name
     ds.attrs.update({
         "title": f"rodsim modes of scene {name!r} about its equilibrium",

@@ -14,7 +14,8 @@ __all__ = ["Modes", "cmd_modes"]
 class Modes(SceneCommand):
     """Solve the scene's equilibrium (with static), then the lowest natural frequencies and
     mode shapes about it, K phi = omega^2 M phi with the physical masses (rho A per node,
-    rho I and rho J per segment; docs/dynamics.md). Prints the frequencies; writes the
+    rho I and rho J per segment; docs/dynamics.md), and with the scene's damping the damped
+    frequencies and damping ratios. Prints the frequencies; writes the
     equilibrium's archive with a `mode` dimension and a figure of the first mode shapes."""
 
     kind = "modes"
@@ -36,18 +37,24 @@ class Modes(SceneCommand):
         return None if result.success else f"rodsim: solver failure: {result.message}"
 
     def report(self, result: Any) -> None:
+        import numpy as np
+
         equilibrium = result.result
         print(f"scene       {self.scene.name}: {len(result.frequencies)} modes about the "
               f"equilibrium ({equilibrium.integrator}, residual {equilibrium.residual:.2e})")
         if equilibrium.stability is not None:
             print(stability_text(equilibrium.stability))
-        print("mode   frequency [Hz]   omega^2 [rad^2/s^2]   rotation share")
+        damped = bool(np.any(result.damping_ratios != 0.0))
+        print("mode   frequency [Hz]   omega^2 [rad^2/s^2]   rotation share"
+              + ("   damped [Hz]   damping ratio" if damped else ""))
         for k, (frequency, value, share) in enumerate(zip(
                 result.frequencies, result.eigenvalues, result.rotational_share,
                 strict=True)):
             shown = (f"{value.real:.6e}" if value.imag == 0.0
                      else f"{value.real:.4e}{value.imag:+.2e}j")
-            print(f"{k + 1:>4}   {frequency:>14.6g}   {shown:>19}   {share:>14.3f}")
+            extra = (f"   {result.damped_frequencies[k]:>11.6g}   "
+                     f"{result.damping_ratios[k]:>13.4g}" if damped else "")
+            print(f"{k + 1:>4}   {frequency:>14.6g}   {shown:>19}   {share:>14.3f}{extra}")
         if result.message != "ok":
             print(f"note        {result.message}")
 

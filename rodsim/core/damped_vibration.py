@@ -1,0 +1,157 @@
+"""Damped modes about an equilibrium: the quadratic eigenproblem (λ² M + λ D + K) φ = 0.
+
+Small motions x = x* + φ e^{λt} of M ẍ + D ẋ + K x = 0 (paper Eqs. 10–13 with the physical
+masses of rodsim/core/inertia.py and the damping of rodsim/core/damping.py: Kelvin–Voigt
+D = τ K_el and a drag c per unit length) about an equilibrium x*. Each lightly damped mode
+gives a conjugate pair λ = ω_n (−ζ ± i √(1 − ζ²)): its damped angular frequency Im λ, its
+decay rate −Re λ, its undamped frequency |λ| and its damping ratio ζ = −Re λ / |λ|.
+Without damping λ = ± i ω with the ω of K φ = ω² M φ (rodsim/core/vibration.py).
+
+M = L Lᵀ is singular (each quaternion's norm has no mass; every quaternion without rotary
+inertia), so the problem is posed in its flexibility form with μ = 1/λ, as the undamped one
+(rodsim/core/vibration.py): dividing by λ² and applying K⁻¹,
+
+    μ² x + μ K⁻¹ D x + K⁻¹ M x = 0,
+
+linearised with w = μ x into the standard eigenproblem of size 2n
+
+    μ (x, w) = A (x, w),   A = [[0, I], [−K⁻¹ M, −K⁻¹ D]].
+
+A massless, undamped direction (a quaternion's norm) gives μ = 0 (λ infinite: it follows
+the others quasi-statically, as in the undamped condensation); a massless, damped one (the
+rotations without rotary inertia) a real μ, a relaxation. The slowest motions are A's
+eigenvalues of largest |μ|: ARPACK (``eigs``, one solve with K per product, from a fixed
+seeded start) or, for n ≤ :data:`DENSE_SIZE`, a dense eigensolve. Each conjugate pair is
+kept once (Im λ > 0) and each real root once; the roots are ordered by |λ|.
+
+A real root is a motion that does not oscillate: an overdamped mode's pair of real roots
+(Kelvin–Voigt damps the n-th mode with ζ_n = τ ω_n / 2, so from some mode on), or a
+relaxation; its damping ratio −Re λ / |λ| is 1 and its damped frequency 0. The roots of
+Kelvin–Voigt's overdamped modes gather near λ = −1/τ.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.linalg as la
+import scipy.sparse as sp
+import scipy.sparse.linalg as spla
+
+from rodsim.core.stability_band import BandStiffness
+from rodsim.core.vibration import ARPACK_SEED, ModesError, stiffness_solver
+
+__all__ = ["DampedVibration", "damped_modes", "DENSE_SIZE", "REAL_TOLERANCE"]
+
+#: Largest number of free coordinates solved densely (the linearised problem is twice that;
+#: measured 0.3 s for n = 400 on the shared machine). Dense is also the answer to Kelvin–Voigt
+#: damping's cluster of real roots near −1/τ, on which ARPACK converges slowly.
+DENSE_SIZE = 400
+#: Smallest Arnoldi basis ARPACK builds.
+MIN_BASIS = 40
+#: ARPACK's restarts before it stops with the roots it has converged (the others NaN).
+MAX_RESTARTS = 300
+#: A root with |Im λ| at most this times |λ| counts as real (no oscillation).
+REAL_TOLERANCE = 1e-10
+
+
+@dataclass(frozen=True)
+class DampedVibration:
+    """The ``count`` roots λ of lowest |λ| of (λ² M + λ D + K) φ = 0, one of each conjugate
+    pair (Im λ > 0) and each real root.
+
+    Attributes
+    ----------
+    eigenvalues
+        λ [1/s], shape (count,), by |λ| (NaN where fewer roots were found).
+    """
+
+    eigenvalues: np.ndarray
+
+    @property
+    def damped_frequencies(self) -> np.ndarray:
+        """Im λ / 2π [Hz]: 0 for a real root."""
+        return np.asarray(self.eigenvalues.imag / (2.0 * np.pi))
+
+    @property
+    def damping_ratios(self) -> np.ndarray:
+        """ζ = −Re λ / |λ|: the mode's damping ratio for an oscillating root; 1 for a
+        decaying real root."""
+        return np.asarray(-self.eigenvalues.real / np.abs(self.eigenvalues))
+
+    @property
+    def undamped_frequencies(self) -> np.ndarray:
+        """|λ| / 2π [Hz], the ω_n of an oscillating root."""
+        return np.asarray(np.abs(self.eigenvalues) / (2.0 * np.pi))
+
+
+def damped_modes(stiffness: sp.spmatrix, factor: sp.spmatrix, damping: sp.spmatrix,
+                 count: int, *, band: BandStiffness | None = None,
+                 jacobian: np.ndarray | None = None) -> DampedVibration:
+    """The ``count`` roots of lowest |λ| of (λ² L Lᵀ + λ D + K) φ = 0 (module docstring).
+
+    ``stiffness``: K (n × n, sparse); ``factor``: L (n × m), M = L Lᵀ; ``damping``: D
+    (n × n, sparse); ``band`` and ``jacobian``: K factored in band storage, as for
+    :func:`~rodsim.core.vibration.natural_modes`. ModesError for a count outside 1..m or a
+    singular K.
+    """
+    stiffness = sp.csc_matrix(stiffness)
+    factor = sp.csr_matrix(factor)
+    damping = sp.csr_matrix(damping)
+    n, m = factor.shape
+    if not 1 <= count <= m:
+        raise ModesError(f"count = {count}: allowed 1 to {m}, the system's physical degrees "
+                         "of freedom")
+    if not (np.all(np.isfinite(stiffness.data)) and np.all(np.isfinite(damping.data))):
+        raise ModesError("the stiffness or the damping is not finite at this equilibrium")
+    solve = stiffness_solver(stiffness, jacobian, band)
+    mass = (factor @ factor.T).tocsr()
+    if n <= DENSE_SIZE:
+        mu = _dense(mass, damping, solve)
+    else:
+        mu = _arpack(mass, damping, solve, min(2 * count + 2, 2 * n - 2))
+    finite = mu != 0.0
+    roots = 1.0 / mu[finite]
+    keep = roots.imag > REAL_TOLERANCE * np.abs(roots)
+    real = np.abs(roots.imag) <= REAL_TOLERANCE * np.abs(roots)
+    chosen = np.concatenate([roots[keep], roots[real].real.astype(complex)])
+    chosen = chosen[np.argsort(np.abs(chosen), kind="stable")][:count]
+    if len(chosen) < count:
+        chosen = np.concatenate([chosen, np.full(count - len(chosen), np.nan + 0j)])
+    return DampedVibration(chosen)
+
+
+Solve = Callable[[np.ndarray], np.ndarray]
+
+
+def _dense(mass: sp.csr_matrix, damping: sp.csr_matrix, solve: Solve) -> np.ndarray:
+    """Every eigenvalue μ of A, dense (``solve``: v ↦ K⁻¹ v on an (n, k) block)."""
+    n = mass.shape[0]
+    a = np.zeros((2 * n, 2 * n))
+    a[:n, n:] = np.eye(n)
+    a[n:, :n] = -solve(mass.toarray())
+    a[n:, n:] = -solve(damping.toarray())
+    return np.asarray(la.eigvals(a))
+
+
+def _arpack(mass: sp.csr_matrix, damping: sp.csr_matrix, solve: Solve, k: int
+            ) -> np.ndarray:
+    """The ``k`` eigenvalues μ of A of largest magnitude, by ARPACK from a fixed start."""
+    n = mass.shape[0]
+
+    def apply(z: np.ndarray) -> np.ndarray:
+        z = np.asarray(z, dtype=float).ravel()
+        x, w = z[:n], z[n:]
+        return np.concatenate([w, -solve(mass @ x + damping @ w)])
+
+    operator = spla.LinearOperator((2 * n, 2 * n), matvec=apply, dtype=float)
+    start = np.random.default_rng(ARPACK_SEED).standard_normal(2 * n)
+    try:
+        mu = spla.eigs(operator, k=k, which="LM", v0=start, maxiter=MAX_RESTARTS,
+                       ncv=min(2 * n - 1, max(2 * k + 1, MIN_BASIS)),
+                       return_eigenvectors=False)
+    except spla.ArpackNoConvergence as exc:  # a cluster (Kelvin–Voigt's near −1/τ): partial
+        return np.asarray(exc.eigenvalues)
+    return np.asarray(mu)
