@@ -183,3 +183,36 @@ def test_cli_prints_and_archives_the_damped_modes(tmp_path, monkeypatch, capsys)
     omega = 2.0 * math.pi * python.frequencies[0]
     expected = 3e-4 * omega / 2.0 + 0.05 / (2.0 * RHO_A * omega)
     assert python.damping_ratios[0] == pytest.approx(expected, rel=1e-3)
+
+
+def user_rod(rng: np.random.Generator, kind: str) -> dict:
+    """A steel or nitinol wire, or a soft polymer catheter, as a user writes one."""
+    if kind == "polymer":
+        return {"length": rng.uniform(0.05, 0.3), "radius": rng.uniform(0.8e-3, 3e-3),
+                "youngs_modulus": rng.uniform(5e6, 60e6), "density": rng.uniform(1000, 1250),
+                "poisson_ratio": 0.45}
+    return {"length": rng.uniform(0.1, 0.5), "radius": rng.uniform(0.2e-3, 1e-3),
+            "youngs_modulus": 200e9 if kind == "steel" else rng.uniform(40e9, 75e9),
+            "density": 7900.0 if kind == "steel" else 6450.0, "poisson_ratio": 0.3}
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_family_of_user_robots(seed):
+    """Seeded robots (steel and nitinol wires, soft polymer catheters) with both dampings
+    at random: the first pair's ζ is τ ω₁/2 + c/(2 ρA ω₁) (a Rayleigh damping, one
+    stiffness- and one mass-proportional part, decouples the modes) within 1e-3, ω₁ the
+    robot's own undamped frequency (measured ≤ 1.0e-4, on the thick polymer catheters:
+    their rotary inertia, which the drag does not act on)."""
+    rng = np.random.default_rng(300 + seed)
+    kind = ["steel", "nitinol", "polymer"][seed % 3]
+    rod = user_rod(rng, kind)
+    omega = first_frequency(rod)
+    rho_a = rod["density"] * math.pi * rod["radius"] ** 2
+    tau = 2.0 * rng.uniform(0.002, 0.05) / omega
+    drag = 2.0 * rng.uniform(0.002, 0.05) * rho_a * omega
+    modes = rodsim.modes(wire(int(rng.choice([21, 31])), rod,
+                              damping={"retardation_time": tau, "drag": drag}), count=2)
+    assert modes.success, modes.message
+    own = 2.0 * math.pi * modes.frequencies
+    expected = tau * own / 2.0 + drag / (2.0 * rho_a * own)
+    assert np.all(np.abs(modes.damping_ratios / expected - 1.0) < 1e-3)

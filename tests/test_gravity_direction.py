@@ -123,3 +123,35 @@ def test_a_zero_direction_is_refused_in_one_line(tmp_path, monkeypatch, capsys):
     captured = capsys.readouterr()
     assert code == 2 and "zero vector" in captured.err
     assert len(captured.err.strip().splitlines()) == 1 and list(tmp_path.iterdir()) == []
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_family_of_user_robots(seed):
+    """Seeded robots (steel and nitinol wires, soft polymer catheters that bend far under
+    their weight) with gravity across the rod in a random direction and of a random
+    strength: the −y equilibrium turned onto it."""
+    rng = np.random.default_rng(400 + seed)
+    kind = ["steel", "nitinol", "polymer"][seed % 3]
+    if kind == "polymer":
+        rod = {"length": rng.uniform(0.05, 0.2), "radius": rng.uniform(0.8e-3, 3e-3),
+               "youngs_modulus": rng.uniform(5e6, 60e6), "density": rng.uniform(1000, 1250),
+               "poisson_ratio": 0.45}
+    else:
+        rod = {"length": rng.uniform(0.1, 0.5), "radius": rng.uniform(0.2e-3, 1e-3),
+               "youngs_modulus": 200e9 if kind == "steel" else rng.uniform(40e9, 75e9),
+               "density": 7900.0 if kind == "steel" else 6450.0, "poisson_ratio": 0.3}
+    g = float(rng.uniform(1.0, 20.0))
+    angle = float(rng.uniform(-math.pi, math.pi))
+    scale = float(rng.uniform(0.1, 10.0))
+    direction = [0.0, -scale * math.cos(angle), scale * math.sin(angle)]
+
+    def scene(direction: list[float] | None) -> dict:
+        table = {**rod, "nodes": 21, "terms": ["stretch", "bend_twist", "centerline",
+                                                "gravity"], "gravity": {"gravity": g}}
+        if direction is not None:
+            table["gravity"]["direction"] = direction
+        return {"name": "robot", "rods": {"rod": table}}
+
+    reference = positions(scene(None))
+    np.testing.assert_allclose(positions(scene(direction)), turned(reference, angle),
+                               rtol=0.0, atol=1e-9 * rod["length"])
