@@ -288,3 +288,18 @@ def test_family_of_user_robots(seed):
     exchanged = max(np.max(np.abs(run.work)), np.max(run.kinetic_energy))
     assert exchanged > 0.0 and np.max(np.abs(run.energy_error)) < 1e-5 * exchanged
     assert np.max(np.abs(run.positions[:, -1, 2])) > 0.0  # it moves along z
+
+
+def test_gravitys_direction_cannot_vary_in_time():
+    """A direction is normalised, so a program on one component would turn it through a
+    path no range check sees (it could pass through zero): refused, one line."""
+    scene = wire(11)
+    scene["rods"]["wire"]["terms"] = ["stretch", "bend_twist", "centerline", "tip_load",
+                                      "gravity"]
+    with pytest.raises(SceneError, match="cannot vary") as error:
+        rodsim.simulate(scene, 1e3, step=1e-3,
+                        program={"gravity.direction[2]": Sinusoid(1.0, 1.0)})
+    assert "\n" not in str(error.value)
+    run = rodsim.simulate(scene, 2e-3, step=1e-3,  # its strength can
+                          program={"gravity.gravity": ([0.0, 1e-3], [9.81, 1.0])})
+    assert run.success and run.work[-1] != 0.0
