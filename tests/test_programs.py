@@ -303,3 +303,16 @@ def test_gravitys_direction_cannot_vary_in_time():
     run = rodsim.simulate(scene, 2e-3, step=1e-3,  # its strength can
                           program={"gravity.gravity": ([0.0, 1e-3], [9.81, 1.0])})
     assert run.success and run.work[-1] != 0.0
+
+
+def test_programs_that_break_a_rule_together_stop_the_run_keeping_its_outputs():
+    """Each program is in its key's range, but together a string tendon's start passes its
+    end at some time (a rule across two values, checked as each model is built): the run
+    stops there, keeps the outputs before it and says why."""
+    run = rodsim.simulate("tdcr-two-segment", 0.05, step=5e-4, output_dt=5e-3, program={
+        "s1a.tendon_string.start": Sinusoid(0.05, 20.0, offset=0.06),
+        "s1a.tendon_string.end": Sinusoid(0.05, 20.0, math.pi, offset=0.14)})
+    assert not run.success and "not before the termination" in run.message
+    # start = end where sin(40πt) = 0.8: t = 0.00738 s, after the output at 0.005 s
+    np.testing.assert_allclose(run.times, [0.0, 0.005], rtol=0, atol=1e-15)
+    assert run.positions.shape[0] == 2 and np.all(np.isfinite(run.positions))

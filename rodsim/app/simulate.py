@@ -288,6 +288,13 @@ def simulate(scene: SceneLike | None, t_end: float, *, output_dt: float | None =
         partial = _simulation(loaded, model, record, h, integrator, float(t_end), programs,
                               initial)
         raise Interrupted(partial, record.message) from None
+    except SceneError as exc:  # a rule across two programmed values, broken at some time
+        if not record.times:
+            raise
+        record.success = False
+        record.message = (f"stopped after the output at t = {record.times[-1]:.6g} s: the "
+                          f"programs' values break a rule before the next ({exc}); the "
+                          "outputs up to it are kept")
     return _simulation(loaded, model, record, h, integrator, float(t_end), programs, initial)
 
 
