@@ -21,8 +21,9 @@ A massless, undamped direction (a quaternion's norm) gives μ = 0 (λ infinite: 
 the others quasi-statically, as in the undamped condensation); a massless, damped one (the
 rotations without rotary inertia) a real μ, a relaxation. The slowest motions are A's
 eigenvalues of largest |μ|: ARPACK (``eigs``, one solve with K per product, from a fixed
-seeded start) or, for n ≤ :data:`DENSE_SIZE`, a dense eigensolve. Each conjugate pair is
-kept once (Im λ > 0) and each real root once; the roots are ordered by |λ|.
+seeded start) or, for n ≤ :data:`DENSE_SIZE` (≤ :data:`DENSE_FALLBACK` where ARPACK does
+not converge), a dense eigensolve. Each conjugate pair is kept once (Im λ > 0) and each
+real root once; the roots are ordered by |λ|.
 
 A real root is a motion that does not oscillate: an overdamped mode's pair of real roots
 (Kelvin–Voigt damps the n-th mode with ζ_n = τ ω_n / 2, so from some mode on), or a
@@ -45,10 +46,12 @@ from rodsim.core.vibration import ARPACK_SEED, ModesError, stiffness_solver
 
 __all__ = ["DampedVibration", "damped_modes", "DENSE_SIZE", "REAL_TOLERANCE"]
 
-#: Largest number of free coordinates solved densely (the linearised problem is twice that;
-#: measured 0.3 s for n = 400 on the shared machine). Dense is also the answer to Kelvin–Voigt
-#: damping's cluster of real roots near −1/τ, on which ARPACK converges slowly.
-DENSE_SIZE = 400
+#: Largest number of free coordinates solved densely first (the linearised problem is twice
+#: that).
+DENSE_SIZE = 150
+#: Largest number solved densely when ARPACK does not converge (Kelvin–Voigt's cluster of
+#: real roots near −1/τ); beyond, the roots ARPACK did converge, the others NaN.
+DENSE_FALLBACK = 400
 #: Smallest Arnoldi basis ARPACK builds.
 MIN_BASIS = 40
 #: ARPACK's restarts before it stops with the roots it has converged (the others NaN).
@@ -108,10 +111,10 @@ def damped_modes(stiffness: sp.spmatrix, factor: sp.spmatrix, damping: sp.spmatr
         raise ModesError("the stiffness or the damping is not finite at this equilibrium")
     solve = stiffness_solver(stiffness, jacobian, band)
     mass = (factor @ factor.T).tocsr()
-    if n <= DENSE_SIZE:
+    mu = None if n <= DENSE_SIZE else _arpack(mass, damping, solve,
+                                               min(2 * count + 2, 2 * n - 2))
+    if mu is None or (mu.size < min(2 * count + 2, 2 * n - 2) and n <= DENSE_FALLBACK):
         mu = _dense(mass, damping, solve)
-    else:
-        mu = _arpack(mass, damping, solve, min(2 * count + 2, 2 * n - 2))
     finite = mu != 0.0
     roots = 1.0 / mu[finite]
     keep = roots.imag > REAL_TOLERANCE * np.abs(roots)
