@@ -155,3 +155,23 @@ def test_family_of_user_robots(seed):
     reference = positions(scene(None))
     np.testing.assert_allclose(positions(scene(direction)), turned(reference, angle),
                                rtol=0.0, atol=1e-9 * rod["length"])
+
+
+@pytest.mark.parametrize("direction", [[0.0, 0.0, 1.0], [0.0, 0.6, -0.8]])
+def test_a_hanging_mass_hangs_along_its_direction_with_the_weight(direction):
+    """A tip mass given the rod's gravity direction: the −y solution (weight and mass) turned
+    about the rod's axis onto it, to round-off; the default stays −y."""
+    def loaded(direction: list[float] | None, mass_direction: list[float] | None) -> dict:
+        scene = cantilever(21, direction)
+        rod = scene["rods"]["rod"]
+        rod["terms"] = [*rod["terms"], "tip_load"]
+        rod["tip_load"] = {"mass": 0.05} | (
+            {"direction": mass_direction} if mass_direction else {})
+        return scene
+
+    reference = positions(loaded(None, None))
+    angle = math.atan2(direction[2], -direction[1])
+    np.testing.assert_allclose(positions(loaded(direction, direction)),
+                               turned(reference, angle), rtol=0.0, atol=1e-12)
+    with pytest.raises(SceneError, match="tip_load.direction = .*zero vector"):
+        rodsim.load_scene(loaded(None, [0.0, 0.0, 0.0]))

@@ -29,7 +29,7 @@ import xarray as xr
 from rodsim.core.obstacles import Obstacle, build_obstacle
 from rodsim.core.rod.quaternion import directors
 from rodsim.core.routing import Routing, string_span
-from rodsim.core.terms.gravity import unit_direction
+from rodsim.core.terms._dead_load import unit_direction
 
 __all__ = ["TERM_DRAWINGS", "SHAPE", "TENDON", "LOAD", "CONTACT", "Arrow", "TendonPath",
            "SceneParts", "scene_parts"]
@@ -187,8 +187,8 @@ def _rod_loads(name: str, table: dict[str, Any], nodes: np.ndarray, node_s: np.n
     out = []
     if "tip_load" in terms:
         o = table["tip_load"]
-        force = np.asarray(o["force"], dtype=float) + np.array([0.0, -o["mass"] * o["gravity"],
-                                                                0.0])
+        force = np.asarray(o["force"], dtype=float) + o["mass"] * o["gravity"] * unit_direction(
+            o.get("direction", [0.0, -1.0, 0.0]), f"rods.{name}.tip_load.direction")
         label = f"tip load ({o['mass'] * 1e3:.3g} g)" if o["mass"] else "tip force"
         out.append(Arrow(f"load:{name}:tip_load", label, nodes[-1], force))
     if "point_loads" in terms:

@@ -14,7 +14,24 @@ from typing import Any
 import numpy as np
 
 from rodsim.core.rod.rod import Rod
+from rodsim.core.schema import SceneError, shown
 from rodsim.core.terms.base import KernelArguments, RodTerm
+
+#: Standard gravity [m/s²]; the paper's hanging masses are weighed with it.
+STANDARD_GRAVITY = 9.81
+
+
+def unit_direction(direction: Any, key: str) -> np.ndarray:
+    """``direction`` normalised (SceneError, one line, for a zero vector): where gravity
+    pulls a rod's weight or a hanging mass."""
+    vector = np.asarray(direction, dtype=float)
+    norm = float(np.linalg.norm(vector))
+    if not norm > 0.0:
+        raise SceneError(f"{key} = {shown(list(direction))}: a zero vector has no direction; "
+                         "allowed: any nonzero vector (normalised)", key=key,
+                         value=list(direction), allowed="a nonzero vector",
+                         reason="zero vector")
+    return vector / norm
 
 
 class NodalDeadLoad(RodTerm):

@@ -22,9 +22,8 @@ from typing import Any
 import numpy as np
 
 from rodsim.core.rod.rod import Rod
-from rodsim.core.schema import Options, Parameter, SceneError, shown
-from rodsim.core.terms._dead_load import NodalDeadLoad
-from rodsim.core.terms.tip_load import STANDARD_GRAVITY
+from rodsim.core.schema import Options, Parameter
+from rodsim.core.terms._dead_load import STANDARD_GRAVITY, NodalDeadLoad, unit_direction
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -34,18 +33,6 @@ class GravityOptions(Options):
 
     gravity: float = 9.81
     direction: list[float] = field(default_factory=lambda: [0.0, -1.0, 0.0])
-
-
-def unit_direction(direction: Any, key: str) -> np.ndarray:
-    """``direction`` normalised (SceneError, one line, for a zero vector)."""
-    vector = np.asarray(direction, dtype=float)
-    norm = float(np.linalg.norm(vector))
-    if not norm > 0.0:
-        raise SceneError(f"{key} = {shown(list(direction))}: a zero vector has no direction; "
-                         "allowed: any nonzero vector (normalised)", key=key,
-                         value=list(direction), allowed="a nonzero vector",
-                         reason="zero vector")
-    return vector / norm
 
 
 class Gravity(NodalDeadLoad):

@@ -1,6 +1,9 @@
 """Hanging mass (or any constant force) at the rod's tip — the load of the paper's §3 scenes.
 
-    V = −F · r_{N−1},   F = m g (0, −1, 0) + F_extra
+    V = −F · r_{N−1},   F = m g d̂ + F_extra,
+
+d̂ the direction the mass hangs along (``direction``, −y by default: the paper's; set it as
+the rod's ``gravity.direction`` when gravity pulls elsewhere).
 
 A dead load: its force does not depend on the state, so it adds no Jacobian entries.
 """
@@ -8,15 +11,14 @@ A dead load: its force does not depend on the state, so it adds no Jacobian entr
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
 from rodsim.core.rod.rod import Rod
 from rodsim.core.schema import Options, Parameter
+from rodsim.core.terms._dead_load import STANDARD_GRAVITY, unit_direction
 from rodsim.core.terms.base import KernelArguments, RodTerm
-
-#: Standard gravity [m/s²]; the paper's hanging masses are weighed with it.
-STANDARD_GRAVITY = 9.81
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -27,6 +29,7 @@ class TipLoadOptions(Options):
     mass: float = 0.0
     force: list[float] = field(default_factory=lambda: [0.0, 0.0, 0.0])
     gravity: float = 9.81
+    direction: list[float] = field(default_factory=lambda: [0.0, -1.0, 0.0])
 
 
 class TipLoad(RodTerm):
@@ -40,20 +43,28 @@ class TipLoad(RodTerm):
     has_jacobian = False
     kernel = "constant_force"
     parameters = (
-        Parameter("mass", "float", 0.0, "kg", "hanging mass at the tip, pulling along −y",
-                  0.0, 1e6),
+        Parameter("mass", "float", 0.0, "kg", "hanging mass at the tip, pulling along "
+                  "direction (−y by default)", 0.0, 1e6),
         Parameter("force", "vector", [0.0, 0.0, 0.0], "N", "extra constant force at the tip",
                   -1e7, 1e7, length=3),
         Parameter("gravity", "float", STANDARD_GRAVITY, "m/s^2", "gravitational acceleration",
                   0.0, 1e3),
+        Parameter("direction", "vector", [0.0, -1.0, 0.0], "-",
+                  "direction the hanging mass pulls along, world frame (normalised; not zero): "
+                  "the rod's gravity.direction where gravity pulls elsewhere than −y",
+                  -1e3, 1e3, length=3),
     )
+
+    @classmethod
+    def check_scene(cls, options: Any, owner: Any, prefix: str) -> None:
+        unit_direction(options.direction, f"{prefix}.direction")
 
     def __init__(self, rod: Rod, options: TipLoadOptions) -> None:
         super().__init__(rod, options)
         self.dofs = rod.layout.position_index[-1:]
-        self.force = np.asarray(options.force, dtype=float) + np.array(
-            [0.0, -options.mass * options.gravity, 0.0]
-        )
+        self.force = np.asarray(options.force, dtype=float) + (
+            options.mass * options.gravity
+            * unit_direction(options.direction, f"rods.{rod.name}.tip_load.direction"))
 
     def point_masses(self) -> tuple[np.ndarray, np.ndarray] | None:
         """The hanging mass's inertia at the tip (natural frequencies, docs/dynamics.md);
