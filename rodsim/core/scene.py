@@ -44,7 +44,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from rodsim.core.anchors import check_joints
-from rodsim.core.damping_options import resolve_damping
+from rodsim.core.damping_options import DAMPING_PARAMETERS, resolve_damping
 from rodsim.core.names import check_rod_name, check_scene_name
 from rodsim.core.program import resolve_program
 from rodsim.core.rod.rod import ROD_PARAMETERS, RodOptions
@@ -280,7 +280,9 @@ class Scene:
         falls back to a plain string. Each assignment is validated before the next is
         resolved, so a later key may refer to a term an earlier one added. ``known_keys`` are
         full keys that may be set although the scene does not hold them yet (the integrators'
-        options, which :func:`rodsim.load_scene` passes so that their short forms work too).
+        options, which :func:`rodsim.load_scene` passes so that their short forms work too);
+        so may every rod's damping values (``rods.<rod>.damping.retardation_time``,
+        ``damping.drag`` on a one-rod scene), which only ``simulate`` and ``modes`` read.
         An assignment whose key or value cannot be read raises SceneError with
         ``assignment`` set (the CLI words it as its ``--set`` flag).
         """
@@ -296,7 +298,8 @@ class Scene:
                                  reason="expected key=value", assignment=assignment)
             preferred = prefer or f"solver.{data['solver']['integrator']}"
             try:
-                full_key = _resolve_key(data, key, preferred, known + _integrator_option(key))
+                full_key = _resolve_key(data, key, preferred,
+                                        known + _integrator_option(key) + _damping_keys(data))
                 value = _parse_value(text.strip())
             except SceneError as exc:
                 exc.assignment = assignment
@@ -548,6 +551,13 @@ def _integrator_option(key: str) -> tuple[str, ...]:
     """``(key,)`` when ``key`` is a full ``solver.<integrator>.<option>`` key, which may be set
     although the scene does not hold it yet (the integrator validates it); else ``()``."""
     return (key,) if key.startswith("solver.") and key.count(".") == 2 else ()
+
+
+def _damping_keys(data: Mapping[str, Any]) -> tuple[str, ...]:
+    """Every rod's ``rods.<rod>.damping.<value>`` key, which may be set although the scene
+    has no damping table (read by ``rodsim simulate`` only; docs/dynamics.md)."""
+    return tuple(f"rods.{rod}.damping.{parameter.name}" for rod in data.get("rods", {})
+                 for parameter in DAMPING_PARAMETERS)
 
 
 def _resolve_key(data: Mapping[str, Any], key: str, prefer: str = "",
