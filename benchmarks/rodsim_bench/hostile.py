@@ -148,17 +148,28 @@ def _joint(rng: np.random.Generator) -> Try:
 
 
 def _sections(rng: np.random.Generator) -> Try:
+    """Spans that cover the rod (as a user writes them), each changing one property by a
+    factor 1e-3 to 10; one try in four then broken: a gap, a reversed span or an end past
+    the rod."""
     rod = _rod(rng)
+    cuts = np.sort(rng.uniform(0.0, rod["length"], size=int(rng.integers(0, 3))))
+    edges = [0.0, *cuts.tolist(), rod["length"]]
+    scales = {"youngs_modulus": rod["youngs_modulus"], "radius": rod["radius"],
+              "density": rod["density"]}
     sections = []
-    for _ in range(int(rng.integers(1, 4))):
-        start, end = sorted(rng.uniform(-0.01, 1.1 * rod["length"], size=2))
-        if rng.random() < 0.2:
-            start, end = end, start
-        section = {"start": float(start), "end": float(end)}
-        key = str(rng.choice(["youngs_modulus", "radius", "density"]))
-        scale = {"youngs_modulus": 1e11, "radius": 3e-3, "density": 1e4}[key]
-        section[key] = float(10 ** rng.uniform(-6, 0)) * scale
-        sections.append(section)
+    for start, end in zip(edges[:-1], edges[1:], strict=True):
+        key = str(rng.choice(list(scales)))
+        sections.append({"start": start, "end": end,
+                         key: float(10 ** rng.uniform(-3, 1)) * scales[key]})
+    if rng.random() < 0.25:
+        broken = sections[int(rng.integers(len(sections)))]
+        how = int(rng.integers(3))
+        if how == 0:
+            broken["start"] += 0.1 * (broken["end"] - broken["start"])
+        elif how == 1:
+            broken["start"], broken["end"] = broken["end"], broken["start"]
+        else:
+            broken["end"] *= 1.5
     rod["sections"] = sections
     return ("sections", ["run", "scene.toml"],
             {"scene.toml": toml_text({"name": "hostile-sections", "rods": {"rod": rod}})})
