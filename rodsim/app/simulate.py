@@ -25,9 +25,8 @@ import numpy as np
 
 from rodsim.app.api import SceneLike, load_scene, solve
 from rodsim.app.interrupted import Interrupted
-from rodsim.app.inverse.parameter_keys import NumericKey, numeric_key, scene_with
+from rodsim.app.programs import Program, Programs, check_programs
 from rodsim.core.damping import Damping
-from rodsim.core.damping_options import ELASTIC_TERMS
 from rodsim.core.inertia import mass_factor
 from rodsim.core.model import Model
 from rodsim.core.scene import Scene
@@ -48,8 +47,6 @@ __all__ = ["Simulation", "simulate", "check_programs", "INTEGRATORS", "STEPS_PER
 INTEGRATORS = ("midpoint",)
 #: Default steps per period of the lowest natural mode, when no step is given.
 STEPS_PER_PERIOD = 100
-
-Program = Mapping[str, tuple[Sequence[float], Sequence[float]]]
 
 
 @dataclass
@@ -127,54 +124,6 @@ class Simulation:
             self.program, self.initial))
 
 
-def check_programs(scene: Scene, program: Program | None
-                   ) -> tuple[list[NumericKey], list[np.ndarray], list[np.ndarray]]:
-    """The checked programs: keys, times, values (SceneError, one line, for a key that is not
-    a term's number, times that do not increase, or a value outside the key's range)."""
-    keys, times, values = [], [], []
-    for name, table in (program or {}).items():
-        key = numeric_key(scene, name)
-        parts = key.path.split(".")
-        if len(parts) != 4 or parts[2] in ("base", "supports") or (
-                parts[0] == "rods" and parts[2] in ELASTIC_TERMS):
-            raise SceneError(f"program {shown(name, bare=True)}: {key.path} cannot vary in "
-                             "time; allowed: a load's or a tendon's value (a term parameter "
-                             "other than the rod's own stiffness)")
-        try:
-            t, v = (np.asarray(part, dtype=float) for part in table)
-        except (TypeError, ValueError):
-            raise SceneError(f"program {shown(name, bare=True)}: expected (times, values), two "
-                             "lists of numbers") from None
-        if t.ndim != 1 or t.shape != v.shape or t.size == 0 or not (
-                np.all(np.isfinite(t)) and np.all(np.isfinite(v))):
-            raise SceneError(f"program {shown(name, bare=True)}: expected times and values of "
-                             "the same length, finite")
-        if np.any(np.diff(t) < 0.0) or np.any(t[2:] == t[:-2]):
-            raise SceneError(f"program {shown(name, bare=True)}: times must not decrease (one "
-                             "repeated time is a step)")
-        keys.append(key)
-        times.append(t)
-        values.append(v)
-    for row in range(max((len(t) for t in times), default=0)):
-        for k, key in enumerate(keys):  # every table value, against its key's range
-            if row < len(times[k]):
-                scene_with(scene, [key], [float(values[k][row])])
-    return keys, times, values
-
-
-def _value_at(t: float, times: np.ndarray, values: np.ndarray) -> float:
-    """The piecewise-linear program at ``t`` (its end values outside; at a step, the value
-    after it)."""
-    right = int(np.searchsorted(times, t, side="right"))
-    if right == 0:
-        return float(values[0])
-    if right == len(times):
-        return float(values[-1])
-    t0, t1 = times[right - 1], times[right]
-    share = (t - t0) / (t1 - t0)
-    return float(values[right - 1] + share * (values[right] - values[right - 1]))
-
-
 def _start_state(scene: Scene, model: Model, initial: Mapping[str, Any] | Result | None
                  ) -> np.ndarray:
     """The free state the run starts from (at rest): the rest state, the equilibrium of the
@@ -245,27 +194,13 @@ def simulate(scene: SceneLike | None, t_end: float, *, output_dt: float | None =
                 or not math.isfinite(value) or value <= 0.0):
             raise SceneError(f"{name} = {shown(value)}: allowed a number > 0 [s]")
     loaded = load_scene(scene, overrides)
-    keys, times, values = check_programs(loaded, program)
     model = Model(loaded)
+    programs = Programs(loaded, model, program)
     x = _start_state(loaded, model, initial)
     h = float(step) if step is not None else _default_step(model, x)
     spacing = float(output_dt) if output_dt is not None else h
     count = max(1, math.ceil(float(t_end) / spacing * (1.0 - 1e-12)))
     outputs = np.minimum(np.arange(count + 1) * spacing, float(t_end))
-    models: dict[tuple[float, ...], Model] = {}
-
-    def model_at(t: float) -> Model:
-        if not keys:
-            return model
-        now = tuple(_value_at(t, times[k], values[k]) for k in range(len(keys)))
-        if now not in models:
-            if len(models) > 64:
-                models.clear()
-            changed = model.with_values(scene_with(loaded, keys, list(now)))
-            assert changed is not None
-            models[now] = changed
-        return models[now]
-
     coordinates = PhysicalCoordinates.of(model, x)
     length = max(rod.options.length for rod in model.rods.values())
     stepper = MidpointStep(coordinates, Damping(model), length)
@@ -273,7 +208,7 @@ def simulate(scene: SceneLike | None, t_end: float, *, output_dt: float | None =
                    np.zeros((len(coordinates.quaternions), 3)))
     record = Record()
     try:
-        integrate(model_at, stepper, start, outputs, h, progress, record)
+        integrate(programs.model_at, stepper, start, outputs, h, progress, record)
     except KeyboardInterrupt:  # Ctrl-C or SIGTERM: what was computed, marked incomplete
         done = min(len(record.times), len(record.states), len(record.kinetic),
                    len(record.potential), len(record.dissipated), len(record.work))
