@@ -37,14 +37,20 @@ from rodsim.solvers.physical.coordinates import (
     model_state,
     physical_state,
 )
+from rodsim.solvers.physical.dae import PhysicalDae
+from rodsim.solvers.physical.ida_run import IdaOptions, integrate_ida
 from rodsim.solvers.physical.midpoint import MidpointStep, Motion
 from rodsim.solvers.physical.trajectory import Record, integrate
 from rodsim.solvers.result import Result
 
-__all__ = ["Simulation", "simulate", "check_programs", "INTEGRATORS", "STEPS_PER_PERIOD"]
+__all__ = ["Simulation", "simulate", "check_programs", "ida_options", "INTEGRATORS",
+           "IDA_DEFAULTS", "STEPS_PER_PERIOD"]
 
 #: The integrators of physical time.
-INTEGRATORS = ("midpoint",)
+INTEGRATORS = ("midpoint", "ida")
+#: IDA's defaults: relative tolerance, absolute tolerance (× L on positions, radians on
+#: angles; docs/dynamics.md, "IDA") and BDF order cap.
+IDA_DEFAULTS = {"rtol": 1e-5, "atol": 1e-5, "max_order": 2}
 #: Default steps per period of the lowest natural mode, when no step is given.
 STEPS_PER_PERIOD = 100
 
@@ -71,7 +77,11 @@ class Simulation:
     energy_error
         The balance T + V + D − W − (T₀ + V₀) at each output time [J].
     step
-        The step asked for [s] (the steps taken are at most this; ``steps`` counts them).
+        The midpoint rule's step asked for [s] (the steps taken are at most this); IDA's
+        longest step taken. ``steps`` counts the steps.
+    iterations
+        The midpoint rule's Newton iterations; IDA's residual evaluations (one per
+        iteration of its corrector).
     """
 
     success: bool
@@ -155,28 +165,60 @@ def _initial_text(initial: Mapping[str, Any] | Result | None) -> str:
     return "equilibrium with " + json.dumps(dict(initial), sort_keys=True, default=str)
 
 
-def _default_step(model: Model, x: np.ndarray) -> float:
-    """1/:data:`STEPS_PER_PERIOD` of the lowest natural period at ``x``."""
+def _lowest_frequency(model: Model, x: np.ndarray, what: str) -> float:
+    """ω₁ [rad/s], the lowest natural angular frequency at ``x``; SceneError saying that
+    ``what`` (the default step, or IDA's velocity scale) needs it."""
     try:
         state = model_state(model, x)
         vibration = natural_modes(-model.jacobian(state), mass_factor(model, state), 1)
     except ModesError as exc:
-        raise SceneError(f"no default step ({exc}); give step=") from None
+        raise SceneError(f"no {what} ({exc}); give step=") from None
     omega2 = float(np.real(vibration.eigenvalues[0]))
     if not omega2 > 0.0:
-        raise SceneError("no default step (the start is not a stable equilibrium); give step=")
-    return 2.0 * math.pi / math.sqrt(omega2) / STEPS_PER_PERIOD
+        raise SceneError(f"no {what} (the start is not a stable equilibrium); give step=")
+    return math.sqrt(omega2)
+
+
+def ida_options(integrator: str, rtol: float | None, atol: float | None,
+                 max_order: int | None) -> dict[str, float]:
+    """IDA's checked settings (SceneError, one line, for a bad value, or for one given to
+    the midpoint rule, which has none)."""
+    given = {"rtol": rtol, "atol": atol, "max_order": max_order}
+    if integrator != "ida":
+        named = [name for name, value in given.items() if value is not None]
+        if named:
+            raise SceneError(f"{named[0]}: only for integrator 'ida' (the midpoint rule has "
+                             "fixed steps)")
+        return {}
+    out: dict[str, float] = {}
+    for name, value in given.items():
+        value = IDA_DEFAULTS[name] if value is None else value
+        if name == "max_order":
+            if isinstance(value, bool) or not isinstance(value, int) or not 1 <= value <= 5:
+                raise SceneError(f"max_order = {shown(value)}: allowed an integer 1 to 5 (the "
+                                 "BDF order cap)")
+        elif (isinstance(value, bool) or not isinstance(value, (int, float))
+              or not 1e-14 <= value <= 1e-2):
+            raise SceneError(f"{name} = {shown(value)}: allowed a number from 1e-14 to 1e-2")
+        out[name] = value
+    return out
 
 
 def simulate(scene: SceneLike | None, t_end: float, *, output_dt: float | None = None,
              integrator: str = "midpoint", initial: Mapping[str, Any] | Result | None = None,
              program: Program | None = None, step: float | None = None,
              overrides: Sequence[str] = (),
-             progress: Callable[[float], None] | None = None) -> Simulation:
+             progress: Callable[[float], None] | None = None, rtol: float | None = None,
+             atol: float | None = None, max_order: int | None = None) -> Simulation:
     """Integrate ``scene`` in physical time from t = 0 to ``t_end`` [s].
 
-    ``output_dt``: the spacing of the output times [s] (default: every step); ``step``: the
-    longest time step [s] (default: 1/100 of the lowest natural period at the start);
+    ``integrator``: ``"midpoint"`` (the implicit midpoint rule, fixed steps) or ``"ida"``
+    (SUNDIALS IDA, adaptive BDF under error control: ``rtol``, ``atol`` — × the longest
+    rod's length on positions, radians on angles, and × ω₁ on their rates — and the order
+    cap ``max_order``; docs/dynamics.md). ``output_dt``: the spacing of the output times
+    [s] (default: every step of the midpoint rule; 1/100 of the lowest natural period for
+    IDA); ``step``: the longest time step [s] (midpoint default: 1/100 of the lowest natural
+    period at the start; IDA: none);
     ``initial``: a mapping of ``--set`` keys to values whose equilibrium the run starts
     from, or a solved Result (default: the rest state); ``program``: key → (times, values),
     a piecewise-linear table per numeric term value; ``overrides``: ``key=value`` changes
@@ -193,11 +235,16 @@ def simulate(scene: SceneLike | None, t_end: float, *, output_dt: float | None =
         if (isinstance(value, bool) or not isinstance(value, (int, float))
                 or not math.isfinite(value) or value <= 0.0):
             raise SceneError(f"{name} = {shown(value)}: allowed a number > 0 [s]")
+    settings = ida_options(integrator, rtol, atol, max_order)
     loaded = load_scene(scene, overrides)
     model = Model(loaded)
     programs = Programs(loaded, model, program)
     x = _start_state(loaded, model, initial)
-    h = float(step) if step is not None else _default_step(model, x)
+    omega = math.nan
+    if integrator == "ida" or step is None or output_dt is None:
+        omega = _lowest_frequency(model, x, "default step" if integrator == "midpoint"
+                                  else "velocity scale for IDA's tolerances")
+    h = float(step) if step is not None else 2.0 * math.pi / omega / STEPS_PER_PERIOD
     spacing = float(output_dt) if output_dt is not None else h
     count = max(1, math.ceil(float(t_end) / spacing * (1.0 - 1e-12)))
     outputs = np.minimum(np.arange(count + 1) * spacing, float(t_end))
@@ -208,7 +255,14 @@ def simulate(scene: SceneLike | None, t_end: float, *, output_dt: float | None =
                    np.zeros((len(coordinates.quaternions), 3)))
     record = Record()
     try:
-        integrate(programs.model_at, stepper, start, outputs, h, progress, record)
+        if integrator == "ida":
+            options = IdaOptions(settings["rtol"], settings["atol"], int(settings["max_order"]),
+                                 0.0 if step is None else float(step), length, omega)
+            dae = PhysicalDae(coordinates, stepper.damping, programs.model_at, model.n)
+            integrate_ida(dae, programs.model_at, start, outputs, programs.breaks, options,
+                          progress, record)
+        else:
+            integrate(programs.model_at, stepper, start, outputs, h, progress, record)
     except KeyboardInterrupt:  # Ctrl-C or SIGTERM: what was computed, marked incomplete
         done = min(len(record.times), len(record.states), len(record.kinetic),
                    len(record.potential), len(record.dissipated), len(record.work))
@@ -221,10 +275,17 @@ def simulate(scene: SceneLike | None, t_end: float, *, output_dt: float | None =
         record.success = False
         record.message = (f"interrupted after t = {record.times[-1]:.6g} s (the outputs up to "
                           "it are kept)")
-        partial = _simulation(loaded, model, record, h, integrator, float(t_end), program,
+        partial = _simulation(loaded, model, record, _step_of(record, h, integrator),
+                              integrator, float(t_end), program,
                               initial)
         raise Interrupted(partial, record.message) from None
-    return _simulation(loaded, model, record, h, integrator, float(t_end), program, initial)
+    return _simulation(loaded, model, record, _step_of(record, h, integrator), integrator,
+                       float(t_end), program, initial)
+
+
+def _step_of(record: Record, h: float, integrator: str) -> float:
+    """The step a Simulation reports: the midpoint rule's ``h``, IDA's longest step."""
+    return record.largest_step if integrator == "ida" else h
 
 
 def _simulation(loaded: Scene, model: Model, record: Record, h: float, integrator: str,

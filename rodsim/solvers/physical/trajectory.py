@@ -55,6 +55,8 @@ class Record:
     iterations: int = 0
     #: Steps whose Newton failed and that were taken as two half steps instead.
     halvings: int = 0
+    #: The longest step taken [s].
+    largest_step: float = 0.0
     success: bool = True
     message: str = "ok"
 
@@ -141,6 +143,7 @@ def integrate(model_at: Callable[[float], Model], stepper: MidpointStep, start: 
             record.steps += taken[0]
             record.iterations += taken[1]
             record.halvings += taken[2]
+            record.largest_step = max(record.largest_step, t1 - t0)
             if progress is not None:
                 progress(t1)
         t = t_next
