@@ -85,7 +85,7 @@ def _advance(model_at: Callable[[float], Model], stepper: MidpointStep, motion: 
     dissipated energy, (steps, Newton iterations, halvings))."""
     middle = model_at(0.5 * (t0 + t1))
     if middle.has_registration:
-        registered = middle.reregistered(motion.x)
+        registered = middle.reregistered(model_state(middle, motion.x))
         middle = middle if registered is None else registered
     try:
         outcome = stepper.step(middle, motion, t1 - t0)
