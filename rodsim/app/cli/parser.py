@@ -295,7 +295,7 @@ def build_parser() -> argparse.ArgumentParser:
     bench = sub.add_parser("bench", help="run a benchmark (work-precision, scaling, large-n, "
                            "stress, skip-work, kernels, paper-regime, pyelastica, "
                            "string-tendon, contact, force-from-shape, floor, iterations, "
-                           "startup, tracking, workers, modes, friction, batch)",
+                           "startup, tracking, workers, modes, friction, batch, dynamics)",
                            description="Time the integrators against their error, their cost "
                            "in N, or their stability over a parameter map; writes netCDF, "
                            "figures and a markdown table with the machine description. The "
@@ -306,7 +306,8 @@ def build_parser() -> argparse.ArgumentParser:
     bench.add_argument("benchmark", metavar="BENCHMARK",
                        help="work-precision, scaling, large-n, stress, skip-work, kernels, "
                        "paper-regime, string-tendon, contact, force-from-shape, floor, "
-                       "iterations, startup, tracking, workers, modes, friction, batch or "
+                       "iterations, startup, tracking, workers, modes, friction, batch, "
+                       "dynamics or "
                        "pyelastica (the last needs 'pip install pyelastica==1.0.0'; never a "
                        "dependency)")
     bench.add_argument("--size", choices=("small", "full"), default="small",
