@@ -47,7 +47,7 @@ __all__ = ["Simulation", "simulate", "check_programs", "ida_options", "INTEGRATO
            "IDA_DEFAULTS", "STEPS_PER_PERIOD"]
 
 #: The integrators of physical time.
-INTEGRATORS = ("midpoint", "ida")
+INTEGRATORS = ("midpoint", "ida", "cvode")
 #: IDA's defaults: relative tolerance, absolute tolerance (× L on positions, radians on
 #: angles; docs/dynamics.md, "IDA") and BDF order cap.
 IDA_DEFAULTS = {"rtol": 1e-5, "atol": 1e-5, "max_order": 2}
@@ -184,11 +184,11 @@ def ida_options(integrator: str, rtol: float | None, atol: float | None,
     """IDA's checked settings (SceneError, one line, for a bad value, or for one given to
     the midpoint rule, which has none)."""
     given = {"rtol": rtol, "atol": atol, "max_order": max_order}
-    if integrator != "ida":
+    if integrator == "midpoint":
         named = [name for name, value in given.items() if value is not None]
         if named:
-            raise SceneError(f"{named[0]}: only for integrator 'ida' (the midpoint rule has "
-                             "fixed steps)")
+            raise SceneError(f"{named[0]}: only for integrators 'ida' and 'cvode' (the "
+                             "midpoint rule has fixed steps)")
         return {}
     out: dict[str, float] = {}
     for name, value in given.items():
@@ -212,13 +212,14 @@ def simulate(scene: SceneLike | None, t_end: float, *, output_dt: float | None =
              atol: float | None = None, max_order: int | None = None) -> Simulation:
     """Integrate ``scene`` in physical time from t = 0 to ``t_end`` [s].
 
-    ``integrator``: ``"midpoint"`` (the implicit midpoint rule, fixed steps) or ``"ida"``
+    ``integrator``: ``"midpoint"`` (the implicit midpoint rule, fixed steps), ``"ida"``
     (SUNDIALS IDA, adaptive BDF under error control: ``rtol``, ``atol`` — × the longest
     rod's length on positions, radians on angles, and × ω₁ on their rates — and the order
-    cap ``max_order``; docs/dynamics.md). ``output_dt``: the spacing of the output times
-    [s] (default: every step of the midpoint rule; 1/100 of the lowest natural period for
-    IDA); ``step``: the longest time step [s] (midpoint default: 1/100 of the lowest natural
-    period at the start; IDA: none);
+    cap ``max_order``; docs/dynamics.md) or ``"cvode"`` (SUNDIALS CVODE on the explicit
+    form, the same options; a dense Jacobian: for small rods). ``output_dt``: the spacing of
+    the output times [s] (default: every step of the midpoint rule; 1/100 of the lowest
+    natural period for IDA and CVODE); ``step``: the longest time step [s] (midpoint
+    default: 1/100 of the lowest natural period at the start; IDA and CVODE: none);
     ``initial``: a mapping of ``--set`` keys to values whose equilibrium the run starts
     from, or a solved Result (default: the rest state); ``program``: key → (times, values),
     a piecewise-linear table per numeric term value; ``overrides``: ``key=value`` changes
@@ -241,9 +242,9 @@ def simulate(scene: SceneLike | None, t_end: float, *, output_dt: float | None =
     programs = Programs(loaded, model, program)
     x = _start_state(loaded, model, initial)
     omega = math.nan
-    if integrator == "ida" or step is None or output_dt is None:
+    if integrator != "midpoint" or step is None or output_dt is None:
         omega = _lowest_frequency(model, x, "default step" if integrator == "midpoint"
-                                  else "velocity scale for IDA's tolerances")
+                                  else "velocity scale of the tolerances")
     h = float(step) if step is not None else 2.0 * math.pi / omega / STEPS_PER_PERIOD
     spacing = float(output_dt) if output_dt is not None else h
     count = max(1, math.ceil(float(t_end) / spacing * (1.0 - 1e-12)))
@@ -255,12 +256,12 @@ def simulate(scene: SceneLike | None, t_end: float, *, output_dt: float | None =
                    np.zeros((len(coordinates.quaternions), 3)))
     record = Record()
     try:
-        if integrator == "ida":
+        if integrator != "midpoint":
             options = IdaOptions(settings["rtol"], settings["atol"], int(settings["max_order"]),
                                  0.0 if step is None else float(step), length, omega)
             dae = PhysicalDae(coordinates, stepper.damping, programs.model_at, model.n)
             integrate_ida(dae, programs.model_at, start, outputs, programs.breaks, options,
-                          progress, record)
+                          progress, record, integrator)
         else:
             integrate(programs.model_at, stepper, start, outputs, h, progress, record)
     except KeyboardInterrupt:  # Ctrl-C or SIGTERM: what was computed, marked incomplete
@@ -284,8 +285,9 @@ def simulate(scene: SceneLike | None, t_end: float, *, output_dt: float | None =
 
 
 def _step_of(record: Record, h: float, integrator: str) -> float:
-    """The step a Simulation reports: the midpoint rule's ``h``, IDA's longest step."""
-    return record.largest_step if integrator == "ida" else h
+    """The step a Simulation reports: the midpoint rule's ``h``, IDA's or CVODE's longest
+    step."""
+    return h if integrator == "midpoint" else record.largest_step
 
 
 def _simulation(loaded: Scene, model: Model, record: Record, h: float, integrator: str,

@@ -252,16 +252,17 @@ def build_parser() -> argparse.ArgumentParser:
                       help="longest time step [s] (default: 1/100 of the lowest natural "
                       "period at the start)")
     move.add_argument("--integrator", default="midpoint", metavar="NAME",
-                      help="integrator of physical time: midpoint (default; fixed steps) or "
-                      "ida (SUNDIALS IDA: adaptive BDF under error control)")
+                      help="integrator of physical time: midpoint (default; fixed steps), "
+                      "ida (SUNDIALS IDA: adaptive BDF under error control) or cvode (SUNDIALS "
+                      "CVODE, the same on the explicit form: small rods)")
     move.add_argument("--rtol", type=float, metavar="R",
-                      help="ida: relative tolerance (default 1e-5)")
+                      help="ida, cvode: relative tolerance (default 1e-5)")
     move.add_argument("--atol", type=float, metavar="A",
-                      help="ida: absolute tolerance, x the longest rod's length on positions, "
-                      "radians on angles, x the lowest natural angular frequency on their "
-                      "rates (default 1e-5)")
+                      help="ida, cvode: absolute tolerance, x the longest rod's length on "
+                      "positions, radians on angles, x the lowest natural angular frequency on "
+                      "their rates (default 1e-5)")
     move.add_argument("--max-order", type=int, metavar="K",
-                      help="ida: highest BDF order, 1 to 5 (default 2: orders 3-5 are not "
+                      help="ida, cvode: highest BDF order, 1 to 5 (default 2: orders 3-5 are not "
                       "A-stable and an undamped rod's modes sit on the imaginary axis)")
     move.add_argument("--initial", action="append", default=[], metavar="KEY=VALUE",
                       help="start from the equilibrium with this value (KEY as for --set; "

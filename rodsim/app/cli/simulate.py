@@ -126,7 +126,7 @@ class Simulate(SceneCommand):
                               abs(result.dissipated_energy).max(), abs(result.work).max()))
             relative = f" ({error / scale:.2e} of the largest energy change)" if scale else ""
             print(f"energy      balance error {error:.3e} J{relative}")
-        if result.integrator == "ida":
+        if result.integrator != "midpoint":
             print(f"steps       {result.steps} (the longest {result.step:.4g} s), "
                   f"{result.iterations} residual evaluations")
         else:

@@ -72,7 +72,7 @@ class PhysicalDae:
                                + 0.1 * np.arange(3)[None]).ravel()])
         self.order = np.argsort(key, kind="stable")
         self.place = np.argsort(self.order)  # natural index → band index
-        self._mass_solve = spla.splu(c.mass.tocsc()).solve if self.p else None
+        self.mass_solve = spla.splu(c.mass.tocsc()).solve if self.p else None
         #: Residual evaluations so far.
         self.evaluations = 0
 
@@ -129,8 +129,8 @@ class PhysicalDae:
                                                                          ).ravel()])
         if damping is not None:
             right -= damping @ u
-        if self._mass_solve is not None:
-            out[n:n + self.p] = self._mass_solve(right[:self.p])
+        if self.mass_solve is not None:
+            out[n:n + self.p] = self.mass_solve(right[:self.p])
         out[n + self.p:] = right[self.p:] / c.inertia.ravel()
         return out
 
@@ -140,11 +140,6 @@ class PhysicalDae:
         model's whole Jacobian pattern (ones), for the band widths."""
         c, n, p, s = self.coordinates, self.n, self.p, self.s
         x, _, w = self.split(y)
-        u = y[n:]
-        model, force, g, damping = self._forces(t, x, u)
-        state = model_state(model, x)
-        stiffness = (model.pattern_matrix(np.ones(model.pattern.nnz)) if structure
-                     else model.jacobian(state))  # ∂F/∂x
         q, qp = x[c.quaternions], yp[c.quaternions]
         norm2 = np.sum(q * q, axis=1)
         rows = velocity_rows(q)  # (s, 3, 4): B_k q
@@ -158,19 +153,31 @@ class PhysicalDae:
         kin_u = sp.csr_matrix((np.concatenate([-np.ones(p), np.repeat(-0.5 * norm2, 3)]),
                                (np.concatenate([c.positions, c.quaternions[:, :3].ravel()]),
                                 np.arange(p + 3 * s))), shape=(n, p + 3 * s))
-        # dynamic rows on x: −Gᵀ ∂F/∂x − the turning of G at fixed F: −½ B_kᵀ F_q on q
+        dyn_x, dyn_u = self.dynamic_rows(t, y, cj, structure)
+        return sp.bmat([[positions + quaternion_rows, kin_u], [dyn_x, dyn_u]]).tocoo()
+
+    def dynamic_rows(self, t: float, y: np.ndarray, cj: float, structure: bool = False
+                     ) -> tuple[sp.csr_matrix, sp.csr_matrix]:
+        """The dynamic rows' derivatives (on x, on u) of R at c_j (module docstring):
+        −Gᵀ ∂F/∂x minus the turning of G at fixed F; c_j M, c_j I + the gyroscopic term,
+        plus D_t."""
+        c, n, p, s = self.coordinates, self.n, self.p, self.s
+        x, _, w = self.split(y)
+        model, force, g, damping = self._forces(t, x, y[n:])
+        stiffness = (model.pattern_matrix(np.ones(model.pattern.nnz)) if structure
+                     else model.jacobian(model_state(model, x)))  # ∂F/∂x
+        # the turning of G at fixed F: τ_k's derivative ½ B_kᵀ F_q on q (with a minus)
         geometric = 0.5 * np.einsum("kab,sb->ska", B, force[c.quaternions])
         local = np.arange(3 * s).reshape(-1, 3) + p
         dyn_x = -(g.T @ stiffness) + block_diagonal(geometric, local, c.quaternions,
                                                     (p + 3 * s, n))
-        # dynamic rows on u: c_j M, c_j I + gyroscopic, + D_t
         rotation = (cj * np.eye(3)[None] * c.inertia[:, :, None]
                     + gyroscopic_jacobian(c.inertia, w))
         dyn_u = sp.block_diag([cj * c.mass, block_diagonal(
             rotation, local - p, local - p, (3 * s, 3 * s))]).tocsr()
         if damping is not None:
             dyn_u = dyn_u + damping
-        return sp.bmat([[positions + quaternion_rows, kin_u], [dyn_x, dyn_u]]).tocoo()
+        return dyn_x.tocsr(), dyn_u
 
     def band_entries(self, matrix: sp.coo_matrix) -> tuple[np.ndarray, np.ndarray,
                                                            np.ndarray]:

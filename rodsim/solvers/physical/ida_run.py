@@ -1,5 +1,7 @@
-"""A run in physical time with SUNDIALS IDA: adaptive, error-controlled BDF on the residual
-form of rodsim/solvers/physical/dae.py (docs/dynamics.md, "IDA").
+"""A run in physical time with SUNDIALS IDA — adaptive, error-controlled BDF on the residual
+form of rodsim/solvers/physical/dae.py — or CVODE, the same BDF on the explicit form of
+rodsim/solvers/physical/ode.py (docs/dynamics.md, "IDA" and "CVODE"); one loop, one set of
+options (:class:`IdaOptions`) for both.
 
 IDA takes its own steps under its error test, in physical units: an absolute tolerance of
 ``atol`` × L on positions (L the longest rod), ``atol`` on the quaternions (radians: a
@@ -49,11 +51,13 @@ from rodsim.solvers.failure import SolverFailure
 from rodsim.solvers.physical.coordinates import model_state
 from rodsim.solvers.physical.dae import PhysicalDae
 from rodsim.solvers.physical.midpoint import Motion
+from rodsim.solvers.physical.ode import PhysicalOde
 from rodsim.solvers.physical.trajectory import Record
 from rodsim.solvers.sundials_clock import Clock
 from rodsim.solvers.sundials_setup import started
 
 if TYPE_CHECKING:
+    from sksundae.cvode import CVODE
     from sksundae.ida import IDA
 
 __all__ = ["IdaOptions", "integrate_ida", "MAX_STEPS"]
@@ -86,20 +90,25 @@ class _Run:
     counts: dict[str, float] = field(default_factory=lambda: {"reinits": 0})
 
 
-class _Starter:
+def _tolerances(dae: PhysicalDae, o: IdaOptions) -> np.ndarray:
+    """The absolute tolerances in band order (module docstring)."""
+    c = dae.coordinates
+    atol = np.empty(dae.size)
+    atol[c.positions] = o.atol * o.length
+    atol[c.quaternions] = o.atol
+    atol[dae.velocities] = o.atol * o.length * o.omega
+    atol[dae.angles] = o.atol * o.omega
+    return atol[dae.order]
+
+
+class _IdaStarter:
     """IDA on ``dae`` started at (t, y[, ẏ]) in band order (the clock's integrator)."""
 
     name = "ida"
 
     def __init__(self, dae: PhysicalDae, options: IdaOptions) -> None:
         self.dae, self.options = dae, options
-        c, o = dae.coordinates, options
-        atol = np.empty(dae.size)
-        atol[c.positions] = o.atol * o.length
-        atol[c.quaternions] = o.atol
-        atol[dae.velocities] = o.atol * o.length * o.omega
-        atol[dae.angles] = o.atol * o.omega
-        self.atol = atol[dae.order]
+        self.atol = _tolerances(dae, options)
 
     def start(self, run: Any, t: float, y: np.ndarray, yp: np.ndarray | None) -> IDA:
         from sksundae.ida import IDA  # SUNDIALS is loaded by the first run, not at import
@@ -123,6 +132,36 @@ class _Starter:
         return started("IDA", IDA, resfn, jacfn, t, y, yp, linsolver="band", lband=lower,
                        uband=upper, rtol=o.rtol, atol=self.atol, max_order=o.max_order,
                        max_step=o.max_step)
+
+
+class _CvodeStarter:
+    """CVODE on the explicit form of ``dae``'s equations (rodsim/solvers/physical/ode.py)
+    started at (t, y) in band order (the clock's integrator)."""
+
+    name = "cvode"
+
+    def __init__(self, dae: PhysicalDae, options: IdaOptions) -> None:
+        self.ode, self.options = PhysicalOde(dae), options
+        self.atol = _tolerances(dae, options)
+
+    def start(self, run: Any, t: float, y: np.ndarray, yp: np.ndarray | None) -> CVODE:
+        from sksundae.cvode import CVODE  # SUNDIALS is loaded by the first run, not at import
+
+        ode, o = self.ode, self.options
+        order, place = ode.dae.order, ode.dae.place
+
+        def rhsfn(t: float, y: np.ndarray, yp: np.ndarray) -> None:
+            yp[:] = ode.rhs(t, y[place])[order]
+
+        def jacfn(t: float, y: np.ndarray, fy: np.ndarray, jj: np.ndarray) -> None:
+            jj[:, :] = ode.jacobian(t, y[place])[np.ix_(order, order)]
+
+        return started("CVODE", CVODE, rhsfn, jacfn, t, y, linsolver="dense", rtol=o.rtol,
+                       atol=self.atol, max_order=o.max_order, max_step=o.max_step)
+
+
+STARTERS: dict[str, type[_IdaStarter] | type[_CvodeStarter]] = {"ida": _IdaStarter,
+                                                                  "cvode": _CvodeStarter}
 
 
 class _Models:
@@ -195,12 +234,13 @@ class _Energy:
 def integrate_ida(dae: PhysicalDae, model_at: Callable[[float, bool], Model],
                   start: Motion, output_times: Sequence[float], breaks: Sequence[float],
                   options: IdaOptions, progress: Callable[[float], None] | None = None,
-                  record: Record | None = None) -> Record:
+                  record: Record | None = None, solver: str = "ida") -> Record:
     """Integrate from ``start`` (t = ``output_times[0]`` = 0) through every output time;
     ``model_at(t, before)`` is the model with the values at t (``before``: their values
     just before t, where a value jumps), ``breaks`` the programs' breakpoints. A failure
     ends the run: the record holds what was computed, ``success`` False and a message with
-    the time and advice. ``record``: an empty record to fill (kept on interruption)."""
+    the time and advice. ``record``: an empty record to fill (kept on interruption);
+    ``solver``: ``"ida"`` (the residual form) or ``"cvode"`` (the explicit form)."""
     record = Record() if record is None else record
     c, n = dae.coordinates, dae.n
     ends = sorted({float(b) for b in breaks if 0.0 < b < output_times[-1]}
@@ -225,21 +265,21 @@ def integrate_ida(dae: PhysicalDae, model_at: Callable[[float, bool], Model],
     dae.model_at = models
     clock: Clock | None = None
     try:
-        clock = Clock(_Starter(dae, options), run, y0[dae.order], shift=False)
+        clock = Clock(STARTERS[solver](dae, options), run, y0[dae.order], shift=False)
         for end in ends:
             models.end = end
             if clock.t > piece_start:
                 clock.restart()  # a breakpoint: the rates of the new values
             while clock.t < end:
                 if record.steps >= MAX_STEPS:
-                    raise SolverFailure(f"IDA took {MAX_STEPS} steps without reaching "
-                                        f"t = {end:.6g} s",
+                    raise SolverFailure(f"{solver.upper()} took {MAX_STEPS} steps without "
+                                        f"reaching t = {end:.6g} s",
                                         "try looser rtol/atol or the midpoint integrator")
                 before = clock.t
                 out = clock.step(end, tstop=end)
                 if not out.success:
                     detail = clock.failure_text()
-                    raise SolverFailure(f"IDA error: {out.message}"
+                    raise SolverFailure(f"{solver.upper()} error: {out.message}"
                                         + (f" SUNDIALS: {detail}" if detail else ""),
                                         "try a looser rtol/atol, a lower max_order or the "
                                         "midpoint integrator")
