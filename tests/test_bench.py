@@ -597,6 +597,21 @@ def test_iterations_small_outputs(tmp_path):
     assert f"| {first['case']} | yes | " in (tmp_path / "iterations-small.md").read_text()
 
 
+def test_dynamics_small_outputs(tmp_path):
+    """``rodsim bench dynamics --size small``: the midpoint rule and IDA timed against IDA's
+    tight reference, each more accurate at its finer setting (no timing is asserted)."""
+    from rodsim_bench import dynamics
+
+    paths = dynamics.run("small", tmp_path, lambda *_: None)
+    assert {p.name for p in paths} == {"dynamics-small.json", "dynamics-small.md"}
+    rows = json.loads((tmp_path / "dynamics-small.json").read_text())["rows"]
+    assert [row["integrator"] for row in rows] == ["midpoint", "midpoint", "ida", "ida"]
+    assert all(row["success"] and row["cpu_s"] > 0.0 for row in rows)
+    errors = [row["tip_error_over_L"] for row in rows]
+    assert errors[1] < errors[0] and errors[3] < errors[2]
+    assert "| ida | rtol = atol = 1e-06 |" in (tmp_path / "dynamics-small.md").read_text()
+
+
 def test_modes_small_outputs(tmp_path):
     """``rodsim bench modes --size small``: tdcr-two-segment's modes timed, its report
     written with the aim and positive frequencies (no timing is asserted)."""

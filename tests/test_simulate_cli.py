@@ -64,6 +64,22 @@ def test_cli_writes_the_python_result_to_a_validated_archive(tmp_path, monkeypat
     assert "balance error" in out and "Newton iterations" in out
 
 
+def test_ida_from_the_command_line_writes_the_python_result(tmp_path, capsys):
+    """--integrator ida with its tolerances: the archive holds rodsim.simulate's arrays
+    bit for bit, and the summary names IDA's counts."""
+    out = tmp_path / "ida.nc"
+    assert run_cli("simulate", *SMALL, "--integrator", "ida", "--rtol", "1e-6", "--atol",
+                   "1e-6", "--max-order", "2", "-o", str(out)) == 0
+    assert "residual evaluations" in capsys.readouterr().out
+    ds = read_dataset(out)
+    assert ds.attrs["complete"] == 1 and ds.attrs["integrator"] == "ida"
+    python = rodsim.simulate("table1-50g", 0.05, output_dt=0.01, overrides=["nodes=11"],
+                             initial={"tip_load.mass": 0.1}, integrator="ida", rtol=1e-6,
+                             atol=1e-6, max_order=2)
+    np.testing.assert_array_equal(ds["position"].values, python.positions)
+    np.testing.assert_array_equal(ds["kinetic_energy"].values, python.kinetic_energy)
+
+
 def test_a_run_that_fails_part_way_is_written_incomplete(tmp_path, capsys):
     # 2 kg let go on a 0.02 s step: Newton diverges at t = 0.22 s even with halvings
     out = tmp_path / "fail.nc"
@@ -119,6 +135,10 @@ def test_a_broken_trajectory_archive_is_refused(tmp_path, python_run):
     (("--t-end", "0.05", "--program", "radius=0:0.001,1:0.002"), "cannot vary"),
     (("--t-end", "0.05", "--integrator", "rk4"), "midpoint"),
     (("--t-end", "0.05", "--initial", "foo=1"), "--initial foo=1"),
+    (("--t-end", "0.05", "--integrator", "ida", "--rtol", "0"), "--rtol"),
+    (("--t-end", "0.05", "--integrator", "ida", "--atol", "1"), "--atol"),
+    (("--t-end", "0.05", "--integrator", "ida", "--max-order", "6"), "--max-order"),
+    (("--t-end", "0.05", "--rtol", "1e-6"), "only for integrators"),
 ])
 def test_bad_input_is_one_line_and_writes_nothing(tmp_path, monkeypatch, capsys, args,
                                                    words):

@@ -25,12 +25,11 @@ import numpy as np
 
 from rodsim.app.api import SceneLike, load_scene, solve
 from rodsim.app.interrupted import Interrupted
-from rodsim.app.inverse.parameter_keys import NumericKey, numeric_key, scene_with
+from rodsim.app.programs import Program, Programs, check_programs
 from rodsim.core.damping import Damping
-from rodsim.core.damping_options import ELASTIC_TERMS
 from rodsim.core.inertia import mass_factor
 from rodsim.core.model import Model
-from rodsim.core.program import ProgramEntry, Sinusoid, program_entry
+from rodsim.core.program import ProgramEntry
 from rodsim.core.scene import Scene
 from rodsim.core.schema import SceneError, shown
 from rodsim.core.vibration import ModesError, natural_modes
@@ -39,21 +38,22 @@ from rodsim.solvers.physical.coordinates import (
     model_state,
     physical_state,
 )
+from rodsim.solvers.physical.dae import PhysicalDae
+from rodsim.solvers.physical.ida_run import IdaOptions, integrate_ida
 from rodsim.solvers.physical.midpoint import MidpointStep, Motion
 from rodsim.solvers.physical.trajectory import Record, integrate
 from rodsim.solvers.result import Result
 
-__all__ = ["Simulation", "simulate", "check_programs", "INTEGRATORS", "STEPS_PER_PERIOD"]
+__all__ = ["Simulation", "simulate", "check_programs", "ida_options", "INTEGRATORS",
+           "IDA_DEFAULTS", "STEPS_PER_PERIOD"]
 
 #: The integrators of physical time.
-INTEGRATORS = ("midpoint",)
+INTEGRATORS = ("midpoint", "ida", "cvode")
+#: IDA's defaults: relative tolerance, absolute tolerance (× L on positions, radians on
+#: angles; docs/dynamics.md, "IDA") and BDF order cap.
+IDA_DEFAULTS = {"rtol": 1e-5, "atol": 1e-5, "max_order": 2}
 #: Default steps per period of the lowest natural mode, when no step is given.
 STEPS_PER_PERIOD = 100
-
-#: key → (times, values), a :class:`~rodsim.core.program.Sinusoid` or a table of either
-#: (rodsim/core/program.py).
-Program = Mapping[str, tuple[Sequence[float], Sequence[float]] | ProgramEntry
-                  | Mapping[str, Any]]
 
 
 @dataclass
@@ -78,7 +78,11 @@ class Simulation:
     energy_error
         The balance T + V + D − W − (T₀ + V₀) at each output time [J].
     step
-        The step asked for [s] (the steps taken are at most this; ``steps`` counts them).
+        The midpoint rule's step asked for [s] (the steps taken are at most this); IDA's
+        longest step taken. ``steps`` counts the steps.
+    iterations
+        The midpoint rule's Newton iterations; IDA's residual evaluations (one per
+        iteration of its corrector).
     """
 
     success: bool
@@ -132,45 +136,6 @@ class Simulation:
             {key: entry.archived() for key, entry in self.program.items()}, self.initial))
 
 
-def check_programs(scene: Scene, program: Program | None
-                   ) -> tuple[list[NumericKey], list[ProgramEntry]]:
-    """The checked programs, the scene file's ``[program]`` table and then ``program`` (which
-    replaces the scene's entry for the same value): their keys and entries, each sinusoid
-    given the scene's value as its offset when it has none. SceneError (one line) for a
-    key that is not a term's number or that cannot vary in time, a malformed entry, a value
-    named twice in one source, or a program that leaves the key's range at some time (its
-    smallest and largest value are checked: a table's at its times, a sinusoid's
-    offset ∓ amplitude)."""
-    chosen: dict[str, tuple[NumericKey, ProgramEntry]] = {}
-    for source in (scene.data.get("program", {}), program or {}):
-        named: set[str] = set()
-        for name, raw in source.items():
-            key = numeric_key(scene, name)
-            parts = key.path.split(".")
-            if len(parts) != 4 or parts[2] in ("base", "supports") or (
-                    parts[0] == "rods" and parts[2] in ELASTIC_TERMS) or (
-                    parts[2:] == ["gravity", "direction"]):
-                raise SceneError(f"program {shown(name, bare=True)}: {key.path} cannot vary "
-                                 "in time; allowed: a load's or a tendon's value (a term "
-                                 "parameter other than the rod's own stiffness or gravity's "
-                                 "direction)")
-            if key.name in named:
-                raise SceneError(f"program {shown(name, bare=True)}: {key.name} is named "
-                                 "twice")
-            named.add(key.name)
-            entry = program_entry(name, raw)
-            if isinstance(entry, Sinusoid):
-                entry = entry.about(key.value(scene))
-            chosen[key.name] = (key, entry)
-    for key, entry in chosen.values():  # its extremes, against the key's range
-        for value in sorted(set(entry.extremes())):
-            try:
-                scene_with(scene, [key], [value])
-            except SceneError as exc:
-                raise SceneError(f"program {key.name} reaches {value:.6g}: {exc}") from None
-    return [key for key, _ in chosen.values()], [entry for _, entry in chosen.values()]
-
-
 def _start_state(scene: Scene, model: Model, initial: Mapping[str, Any] | Result | None
                  ) -> np.ndarray:
     """The free state the run starts from (at rest): the rest state, the equilibrium of the
@@ -202,28 +167,61 @@ def _initial_text(initial: Mapping[str, Any] | Result | None) -> str:
     return "equilibrium with " + json.dumps(dict(initial), sort_keys=True, default=str)
 
 
-def _default_step(model: Model, x: np.ndarray) -> float:
-    """1/:data:`STEPS_PER_PERIOD` of the lowest natural period at ``x``."""
+def _lowest_frequency(model: Model, x: np.ndarray, what: str) -> float:
+    """ω₁ [rad/s], the lowest natural angular frequency at ``x``; SceneError saying that
+    ``what`` (the default step, or IDA's velocity scale) needs it."""
     try:
         state = model_state(model, x)
         vibration = natural_modes(-model.jacobian(state), mass_factor(model, state), 1)
     except ModesError as exc:
-        raise SceneError(f"no default step ({exc}); give step=") from None
+        raise SceneError(f"no {what} ({exc}); give step=") from None
     omega2 = float(np.real(vibration.eigenvalues[0]))
     if not omega2 > 0.0:
-        raise SceneError("no default step (the start is not a stable equilibrium); give step=")
-    return 2.0 * math.pi / math.sqrt(omega2) / STEPS_PER_PERIOD
+        raise SceneError(f"no {what} (the start is not a stable equilibrium); give step=")
+    return math.sqrt(omega2)
+
+
+def ida_options(integrator: str, rtol: float | None, atol: float | None,
+                 max_order: int | None) -> dict[str, float]:
+    """IDA's checked settings (SceneError, one line, for a bad value, or for one given to
+    the midpoint rule, which has none)."""
+    given = {"rtol": rtol, "atol": atol, "max_order": max_order}
+    if integrator == "midpoint":
+        named = [name for name, value in given.items() if value is not None]
+        if named:
+            raise SceneError(f"{named[0]}: only for integrators 'ida' and 'cvode' (the "
+                             "midpoint rule has fixed steps)")
+        return {}
+    out: dict[str, float] = {}
+    for name, value in given.items():
+        value = IDA_DEFAULTS[name] if value is None else value
+        if name == "max_order":
+            if isinstance(value, bool) or not isinstance(value, int) or not 1 <= value <= 5:
+                raise SceneError(f"max_order = {shown(value)}: allowed an integer 1 to 5 (the "
+                                 "BDF order cap)")
+        elif (isinstance(value, bool) or not isinstance(value, (int, float))
+              or not 1e-14 <= value <= 1e-2):
+            raise SceneError(f"{name} = {shown(value)}: allowed a number from 1e-14 to 1e-2")
+        out[name] = value
+    return out
 
 
 def simulate(scene: SceneLike | None, t_end: float, *, output_dt: float | None = None,
              integrator: str = "midpoint", initial: Mapping[str, Any] | Result | None = None,
              program: Program | None = None, step: float | None = None,
              overrides: Sequence[str] = (),
-             progress: Callable[[float], None] | None = None) -> Simulation:
+             progress: Callable[[float], None] | None = None, rtol: float | None = None,
+             atol: float | None = None, max_order: int | None = None) -> Simulation:
     """Integrate ``scene`` in physical time from t = 0 to ``t_end`` [s].
 
-    ``output_dt``: the spacing of the output times [s] (default: every step); ``step``: the
-    longest time step [s] (default: 1/100 of the lowest natural period at the start);
+    ``integrator``: ``"midpoint"`` (the implicit midpoint rule, fixed steps), ``"ida"``
+    (SUNDIALS IDA, adaptive BDF under error control: ``rtol``, ``atol`` — × the longest
+    rod's length on positions, radians on angles, and × ω₁ on their rates — and the order
+    cap ``max_order``; docs/dynamics.md) or ``"cvode"`` (SUNDIALS CVODE on the explicit
+    form, the same options; a dense Jacobian: for small rods). ``output_dt``: the spacing of
+    the output times [s] (default: every step of the midpoint rule; 1/100 of the lowest
+    natural period for IDA and CVODE); ``step``: the longest time step [s] (midpoint
+    default: 1/100 of the lowest natural period at the start; IDA and CVODE: none);
     ``initial``: a mapping of ``--set`` keys to values whose equilibrium the run starts
     from, or a solved Result (default: the rest state); ``program``: key → (times, values)
     (piecewise linear) or a :class:`~rodsim.core.program.Sinusoid` per numeric term value,
@@ -242,29 +240,19 @@ def simulate(scene: SceneLike | None, t_end: float, *, output_dt: float | None =
         if (isinstance(value, bool) or not isinstance(value, (int, float))
                 or not math.isfinite(value) or value <= 0.0):
             raise SceneError(f"{name} = {shown(value)}: allowed a number > 0 [s]")
+    settings = ida_options(integrator, rtol, atol, max_order)
     loaded = load_scene(scene, overrides)
-    keys, entries = check_programs(loaded, program)
-    programs = {key.name: entry for key, entry in zip(keys, entries, strict=True)}
     model = Model(loaded)
+    programs = Programs(loaded, model, program)
     x = _start_state(loaded, model, initial)
-    h = float(step) if step is not None else _default_step(model, x)
+    omega = math.nan
+    if integrator != "midpoint" or step is None or output_dt is None:
+        omega = _lowest_frequency(model, x, "default step" if integrator == "midpoint"
+                                  else "velocity scale of the tolerances")
+    h = float(step) if step is not None else 2.0 * math.pi / omega / STEPS_PER_PERIOD
     spacing = float(output_dt) if output_dt is not None else h
     count = max(1, math.ceil(float(t_end) / spacing * (1.0 - 1e-12)))
     outputs = np.minimum(np.arange(count + 1) * spacing, float(t_end))
-    models: dict[tuple[float, ...], Model] = {}
-
-    def model_at(t: float) -> Model:
-        if not keys:
-            return model
-        now = tuple(entry.value(t) for entry in entries)
-        if now not in models:
-            if len(models) > 64:
-                models.clear()
-            changed = model.with_values(scene_with(loaded, keys, list(now)))
-            assert changed is not None
-            models[now] = changed
-        return models[now]
-
     coordinates = PhysicalCoordinates.of(model, x)
     length = max(rod.options.length for rod in model.rods.values())
     stepper = MidpointStep(coordinates, Damping(model), length)
@@ -272,7 +260,14 @@ def simulate(scene: SceneLike | None, t_end: float, *, output_dt: float | None =
                    np.zeros((len(coordinates.quaternions), 3)))
     record = Record()
     try:
-        integrate(model_at, stepper, start, outputs, h, progress, record)
+        if integrator != "midpoint":
+            options = IdaOptions(settings["rtol"], settings["atol"], int(settings["max_order"]),
+                                 0.0 if step is None else float(step), length, omega)
+            dae = PhysicalDae(coordinates, stepper.damping, programs.model_at, model.n)
+            integrate_ida(dae, programs.model_at, start, outputs, programs.breaks, options,
+                          progress, record, integrator)
+        else:
+            integrate(programs.model_at, stepper, start, outputs, h, progress, record)
     except KeyboardInterrupt:  # Ctrl-C or SIGTERM: what was computed, marked incomplete
         done = min(len(record.times), len(record.states), len(record.kinetic),
                    len(record.potential), len(record.dissipated), len(record.work))
@@ -285,8 +280,8 @@ def simulate(scene: SceneLike | None, t_end: float, *, output_dt: float | None =
         record.success = False
         record.message = (f"interrupted after t = {record.times[-1]:.6g} s (the outputs up to "
                           "it are kept)")
-        partial = _simulation(loaded, model, record, h, integrator, float(t_end), programs,
-                              initial)
+        partial = _simulation(loaded, model, record, _step_of(record, h, integrator),
+                              integrator, float(t_end), programs.by_name, initial)
         raise Interrupted(partial, record.message) from None
     except SceneError as exc:  # a rule across two programmed values, broken at some time
         if not record.times:
@@ -295,7 +290,14 @@ def simulate(scene: SceneLike | None, t_end: float, *, output_dt: float | None =
         record.message = (f"stopped after the output at t = {record.times[-1]:.6g} s: the "
                           f"programs' values break a rule before the next ({exc}); the "
                           "outputs up to it are kept")
-    return _simulation(loaded, model, record, h, integrator, float(t_end), programs, initial)
+    return _simulation(loaded, model, record, _step_of(record, h, integrator), integrator,
+                       float(t_end), programs.by_name, initial)
+
+
+def _step_of(record: Record, h: float, integrator: str) -> float:
+    """The step a Simulation reports: the midpoint rule's ``h``, IDA's or CVODE's longest
+    step."""
+    return h if integrator == "midpoint" else record.largest_step
 
 
 def _simulation(loaded: Scene, model: Model, record: Record, h: float, integrator: str,

@@ -29,7 +29,7 @@ form as for ``--set``, quoted because it has dots), either form::
 :func:`program_entry` reads either (and ``(times, values)`` pairs, the Python form);
 :func:`resolve_program` validates the scene file's table (structure and numbers: the keys
 and the values' ranges need the scene and are checked by ``rodsim.simulate`` before any
-work, :func:`rodsim.app.simulate.check_programs`).
+work, :func:`rodsim.app.programs.check_programs`).
 """
 
 from __future__ import annotations
@@ -58,11 +58,11 @@ class Table:
     times: tuple[float, ...]
     values: tuple[float, ...]
 
-    def value(self, t: float) -> float:
+    def value(self, t: float, before: bool = False) -> float:
         """p(t): linear between the times, the end values outside, at a step the value
-        after it."""
+        after it (``before``: the value before it)."""
         times = np.asarray(self.times)
-        right = int(np.searchsorted(times, t, side="right"))
+        right = int(np.searchsorted(times, t, side="left" if before else "right"))
         if right == 0:
             return self.values[0]
         if right == len(times):
@@ -105,8 +105,9 @@ class Sinusoid:
             return self
         return Sinusoid(self.amplitude, self.frequency, self.phase, float(value))
 
-    def value(self, t: float) -> float:
-        """p(t) (ValueError without an offset: :meth:`about` first)."""
+    def value(self, t: float, before: bool = False) -> float:
+        """p(t) (ValueError without an offset: :meth:`about` first); ``before`` changes
+        nothing, a sinusoid has no step."""
         if self.offset is None:
             raise ValueError("a sinusoid without offset: give it the scene's value (about)")
         return self.offset + self.amplitude * math.sin(2.0 * math.pi * self.frequency * t

@@ -60,15 +60,14 @@ class Clock:
         """A new solver from the last accepted state, at rest (y′ from the residual)."""
         at = self.time
         t = self.t
-        duration = self.run.dynamics.ramp.duration
-        if self.shift and t > duration:
-            self.elapsed += t - duration
-            t = duration
+        if self.shift and t > self.run.dynamics.ramp.duration:
+            self.elapsed += t - self.run.dynamics.ramp.duration
+            t = self.run.dynamics.ramp.duration
         try:
             self.solver = self.integrator.start(self.run, t, self.y, None)
         except StartFailure as exc:  # say where the run was, not the new solver's clock
             counts = self.run.counts
-            reinits, tightenings = int(counts["reinits"]), int(counts["tightenings"])
+            reinits, tightenings = int(counts["reinits"]), int(counts.get("tightenings", 0))
             raise SolverFailure(
                 f"{self.integrator.name.upper()} could not restart at t = {at:.4g} s (after "
                 f"{reinits} re-initialisation{'' if reinits == 1 else 's'} and "

@@ -263,7 +263,18 @@ def build_parser() -> argparse.ArgumentParser:
                       help="longest time step [s] (default: 1/100 of the lowest natural "
                       "period at the start)")
     move.add_argument("--integrator", default="midpoint", metavar="NAME",
-                      help="integrator of physical time: midpoint (default)")
+                      help="integrator of physical time: midpoint (default; fixed steps), "
+                      "ida (SUNDIALS IDA: adaptive BDF under error control) or cvode (SUNDIALS "
+                      "CVODE, the same on the explicit form: small rods)")
+    move.add_argument("--rtol", type=float, metavar="R",
+                      help="ida, cvode: relative tolerance (default 1e-5)")
+    move.add_argument("--atol", type=float, metavar="A",
+                      help="ida, cvode: absolute tolerance, x the longest rod's length on "
+                      "positions, radians on angles, x the lowest natural angular frequency on "
+                      "their rates (default 1e-5)")
+    move.add_argument("--max-order", type=int, metavar="K",
+                      help="ida, cvode: highest BDF order, 1 to 5 (default 2: orders 3-5 are not "
+                      "A-stable and an undamped rod's modes sit on the imaginary axis)")
     move.add_argument("--initial", action="append", default=[], metavar="KEY=VALUE",
                       help="start from the equilibrium with this value (KEY as for --set; "
                       "repeatable): released at t = 0")
@@ -299,7 +310,7 @@ def build_parser() -> argparse.ArgumentParser:
     bench = sub.add_parser("bench", help="run a benchmark (work-precision, scaling, large-n, "
                            "stress, skip-work, kernels, paper-regime, pyelastica, "
                            "string-tendon, contact, force-from-shape, floor, iterations, "
-                           "startup, tracking, workers, modes, friction, batch)",
+                           "startup, tracking, workers, modes, friction, batch, dynamics)",
                            description="Time the integrators against their error, their cost "
                            "in N, or their stability over a parameter map; writes netCDF, "
                            "figures and a markdown table with the machine description. The "
@@ -311,7 +322,7 @@ def build_parser() -> argparse.ArgumentParser:
                        help="work-precision, scaling, large-n, stress, skip-work, kernels, "
                        "paper-regime, string-tendon, contact, force-from-shape, floor, "
                        "iterations, startup, tracking, workers, modes, friction, batch, "
-                       "hostile or pyelastica (the last needs 'pip install "
+                       "dynamics, hostile or pyelastica (the last needs 'pip install "
                        "pyelastica==1.0.0'; never a dependency)")
     bench.add_argument("--size", choices=("small", "full"), default="small",
                        help="small (the default): a smoke version in seconds to a minute; "

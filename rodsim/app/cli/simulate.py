@@ -52,8 +52,9 @@ def parse_program(text: str) -> tuple[str, Any]:
 
 
 class Simulate(SceneCommand):
-    """Integrate the scene in physical time from t = 0 to --t-end (implicit midpoint rule,
-    the rods' inertia and damping; docs/dynamics.md). The run starts at rest, from the rest
+    """Integrate the scene in physical time from t = 0 to --t-end (the implicit midpoint
+    rule, or SUNDIALS IDA with --integrator ida; the rods' inertia and damping;
+    docs/dynamics.md). The run starts at rest, from the rest
     state or from the equilibrium with the --initial values (a release); --program makes a
     value follow a piecewise-linear table or a sinusoid in time (as the scene file's
     [program] table does; --program replaces its entry for the same value). Prints the
@@ -69,13 +70,17 @@ class Simulate(SceneCommand):
         return (SceneError,)
 
     def prepare(self, scene: Any) -> None:
-        from rodsim.app.simulate import INTEGRATORS, check_programs
+        from rodsim.app.simulate import INTEGRATORS, check_programs, ida_options
         from rodsim.core.scene import SceneError
 
         args = self.args
         if args.integrator not in INTEGRATORS:
             raise UserError(f"--integrator {args.integrator[:40]!r}: allowed: "
                             + ", ".join(INTEGRATORS))
+        try:
+            ida_options(args.integrator, args.rtol, args.atol, args.max_order)
+        except SceneError as exc:
+            raise UserError("--" + str(exc).replace("_", "-", 1)) from None
         self.program = dict(parse_program(text) for text in args.program)
         try:  # the scene file's [program] first, then each --program
             check_programs(scene, {})
@@ -117,7 +122,8 @@ class Simulate(SceneCommand):
         try:
             run = simulate(scene, t_end, output_dt=args.output_dt, integrator=args.integrator,
                            initial=initial, program=self.program, step=args.step,
-                           progress=report)
+                           progress=report, rtol=args.rtol, atol=args.atol,
+                           max_order=args.max_order)
         except Interrupted as stop:  # written by the pipeline, marked incomplete
             if started:
                 stop.partial.initial = started
@@ -142,8 +148,12 @@ class Simulate(SceneCommand):
                               abs(result.dissipated_energy).max(), abs(result.work).max()))
             relative = f" ({error / scale:.2e} of the largest energy change)" if scale else ""
             print(f"energy      balance error {error:.3e} J{relative}")
-        print(f"steps       {result.steps} of at most {result.step:.4g} s, "
-              f"{result.iterations} Newton iterations, {result.halvings} halved")
+        if result.integrator != "midpoint":
+            print(f"steps       {result.steps} (the longest {result.step:.4g} s), "
+                  f"{result.iterations} residual evaluations")
+        else:
+            print(f"steps       {result.steps} of at most {result.step:.4g} s, "
+                  f"{result.iterations} Newton iterations, {result.halvings} halved")
         if not result.success:
             print(f"incomplete  {result.message}")
 

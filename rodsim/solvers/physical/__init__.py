@@ -11,4 +11,9 @@ through a pseudo-time (rodsim/solvers/pseudo_dynamics.py): nothing here is regis
   model's analytic Jacobian.
 - :mod:`~rodsim.solvers.physical.trajectory`: the run to ``t_end``, output times, the
   energy balance.
+- :mod:`~rodsim.solvers.physical.dae`: the equations as a residual for SUNDIALS IDA, the
+  unit quaternion an algebraic equation; :mod:`~rodsim.solvers.physical.ode`: the explicit
+  form for CVODE, the quaternions projected.
+- :mod:`~rodsim.solvers.physical.ida_run`: the adaptive run with IDA or CVODE (dense output,
+  program breakpoints, the same energy balance).
 """

@@ -33,7 +33,8 @@ from rodsim.core.inertia import mass_factor, segment_inertia
 from rodsim.core.model import Model
 from rodsim.core.rod.quaternion import B
 
-__all__ = ["PhysicalCoordinates", "velocity_rows", "cayley"]
+__all__ = ["PhysicalCoordinates", "velocity_rows", "cayley", "skew", "block_diagonal",
+           "gyroscopic_jacobian"]
 
 
 def velocity_rows(q: np.ndarray) -> np.ndarray:
@@ -49,6 +50,31 @@ def cayley(q: np.ndarray, w: np.ndarray, h: float) -> np.ndarray:
     eye = np.eye(4)[None]
     return np.linalg.solve(eye - 0.25 * h * omega, ((eye + 0.25 * h * omega) @ q[..., None])
                            )[..., 0]
+
+
+def skew(a: np.ndarray) -> np.ndarray:
+    """[a]× for vectors ``a`` (s, 3): shape (s, 3, 3)."""
+    out = np.zeros(a.shape[:-1] + (3, 3))
+    out[..., 0, 1], out[..., 0, 2] = -a[..., 2], a[..., 1]
+    out[..., 1, 0], out[..., 1, 2] = a[..., 2], -a[..., 0]
+    out[..., 2, 0], out[..., 2, 1] = -a[..., 1], a[..., 0]
+    return out
+
+
+def gyroscopic_jacobian(inertia: np.ndarray, w: np.ndarray) -> np.ndarray:
+    """∂(ω × I ω)/∂ω = [ω]× I − [I ω]× per segment, for body inertias ``inertia`` and rates
+    ``w`` (s, 3): shape (s, 3, 3)."""
+    return skew(w) * inertia[:, None, :] - skew(inertia * w)
+
+
+def block_diagonal(blocks: np.ndarray, rows: np.ndarray, cols: np.ndarray, shape: tuple[
+        int, int]) -> sp.csr_matrix:
+    """A sparse matrix of ``blocks`` (s, a, b) placed at row indices ``rows`` (s, a) and
+    column indices ``cols`` (s, b)."""
+    a, b = blocks.shape[1:]
+    r = np.repeat(rows[:, :, None], b, axis=2).ravel()
+    c = np.repeat(cols[:, None, :], a, axis=1).ravel()
+    return sp.csr_matrix((blocks.ravel(), (r, c)), shape=shape)
 
 
 @dataclass(frozen=True)
@@ -107,6 +133,17 @@ class PhysicalCoordinates:
         """T = ½ vᵀ M_r v + ½ Σ ωᵀ I ω [J] for node velocities ``v`` (p,) and body rates
         ``w`` (s, 3)."""
         return float(0.5 * v @ (self.mass @ v) + 0.5 * np.sum(self.inertia * w * w))
+
+    def g_matrix(self, x: np.ndarray, n: int) -> sp.csr_matrix:
+        """G (n × (p + 3 s)) at ``x`` (unit quaternions), ``n`` free coordinates: ẋ = G u
+        (positions: the velocities; q̇ = ½ Σ_k ω_k B_k q), and Gᵀ f = (f_r, τ) with
+        τ_k = ½ (B_k q) · f_q."""
+        p, s = len(self.positions), len(self.quaternions)
+        positions = sp.csr_matrix((np.ones(p), (self.positions, np.arange(p))),
+                                  shape=(n, self.size))
+        blocks = 0.5 * np.transpose(velocity_rows(x[self.quaternions]), (0, 2, 1))
+        return positions + block_diagonal(blocks, self.quaternions,
+                                          p + np.arange(3 * s).reshape(-1, 3), (n, self.size))
 
     def rates(self, x: np.ndarray, x_dot: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """The physical velocities (ṙ, ω) of a motion ``x_dot`` of the free coordinates at

@@ -50,7 +50,9 @@ from rodsim.core.model import Model
 from rodsim.core.rod.quaternion import B
 from rodsim.solvers.physical.coordinates import (
     PhysicalCoordinates,
+    block_diagonal,
     cayley,
+    gyroscopic_jacobian,
     model_state,
     velocity_rows,
 )
@@ -103,25 +105,6 @@ class StepOutcome:
     motion: Motion
     dissipated: float
     iterations: int
-
-
-def _skew(a: np.ndarray) -> np.ndarray:
-    """[a]× for vectors ``a`` (s, 3): shape (s, 3, 3)."""
-    out = np.zeros(a.shape[:-1] + (3, 3))
-    out[..., 0, 1], out[..., 0, 2] = -a[..., 2], a[..., 1]
-    out[..., 1, 0], out[..., 1, 2] = a[..., 2], -a[..., 0]
-    out[..., 2, 0], out[..., 2, 1] = -a[..., 1], a[..., 0]
-    return out
-
-
-def _block_diagonal(blocks: np.ndarray, rows: np.ndarray, cols: np.ndarray, shape: tuple[
-        int, int]) -> sp.csr_matrix:
-    """A sparse matrix of ``blocks`` (s, a, b) placed at row indices ``rows`` (s, a) and
-    column indices ``cols`` (s, b)."""
-    a, b = blocks.shape[1:]
-    r = np.repeat(rows[:, :, None], b, axis=2).ravel()
-    c = np.repeat(cols[:, None, :], a, axis=1).ravel()
-    return sp.csr_matrix((blocks.ravel(), (r, c)), shape=shape)
 
 
 class MidpointStep:
@@ -222,7 +205,7 @@ class MidpointStep:
             local = self._angle_cols - self._p
             part = (g.T @ model.pattern_matrix(jac) @ p) + sp.block_diag([
                 sp.csr_matrix((self._p, self._p)),
-                _block_diagonal(geometric, local, local, (3 * self._s, 3 * self._s))])
+                block_diagonal(geometric, local, local, (3 * self._s, 3 * self._s))])
             derivative = weight * part if derivative is None else derivative + weight * part
         return f_r, tau, None if derivative is None else derivative.tocsr()
 
@@ -232,16 +215,7 @@ class MidpointStep:
         c = self.coordinates
         positions = sp.csr_matrix((np.full(self._p, position),
                                    (c.positions, np.arange(self._p))), shape=(n, m))
-        return positions + _block_diagonal(blocks, c.quaternions, self._angle_cols, (n, m))
-
-    def _g_matrix(self, xm: np.ndarray, n: int) -> sp.csr_matrix:
-        """G (n × m) at ``xm``: ẋ = G u."""
-        c = self.coordinates
-        positions = sp.csr_matrix((np.ones(self._p), (c.positions, np.arange(self._p))),
-                                  shape=(n, c.size))
-        blocks = 0.5 * np.transpose(velocity_rows(xm[c.quaternions]), (0, 2, 1))
-        return positions + _block_diagonal(blocks, c.quaternions, self._angle_cols,
-                                           (n, c.size))
+        return positions + block_diagonal(blocks, c.quaternions, self._angle_cols, (n, m))
 
     def step(self, model: Model, start: Motion, h: float) -> StepOutcome:
         """One step of length ``h`` [s] from ``start`` with ``model``'s forces (those of the
@@ -268,7 +242,7 @@ class MidpointStep:
             res_r = (2.0 / h) * (c.mass @ (vm - v0)) - f_r
             res_w = ((2.0 / h) * inertia * (wm - w0) + np.cross(wm, inertia * wm) - tau)
             if self.damping.active:
-                g = self._g_matrix(xm, n)
+                g = c.g_matrix(xm, n)
                 damping = (g.T @ self.damping.matrix(xm) @ g).tocsr()
                 dragged = damping @ np.concatenate([vm, wm.ravel()])
                 res_r = res_r + dragged[:self._p]
@@ -327,11 +301,11 @@ class MidpointStep:
         force's derivative ``stiffness``, plus the (held) damping D_t ∂u_m/∂(r₁, ω_m)."""
         c = self.coordinates
         inertia = c.inertia
-        gyro = _skew(wm) * inertia[:, None, :] - _skew(inertia * wm)
+        gyro = gyroscopic_jacobian(inertia, wm)
         rotation = (2.0 / h) * np.eye(3)[None] * inertia[:, :, None] + gyro
         local = self._angle_cols - self._p
         masses = sp.block_diag([(2.0 / h**2) * c.mass,
-                                _block_diagonal(rotation, local, local,
+                                block_diagonal(rotation, local, local,
                                                 (3 * self._s, 3 * self._s))]).tocsr()
         matrix = masses - stiffness
         if damping is not None:

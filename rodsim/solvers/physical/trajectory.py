@@ -55,6 +55,8 @@ class Record:
     iterations: int = 0
     #: Steps whose Newton failed and that were taken as two half steps instead.
     halvings: int = 0
+    #: The longest step taken [s].
+    largest_step: float = 0.0
     success: bool = True
     message: str = "ok"
 
@@ -83,7 +85,7 @@ def _advance(model_at: Callable[[float], Model], stepper: MidpointStep, motion: 
     dissipated energy, (steps, Newton iterations, halvings))."""
     middle = model_at(0.5 * (t0 + t1))
     if middle.has_registration:
-        registered = middle.reregistered(motion.x)
+        registered = middle.reregistered(model_state(middle, motion.x))
         middle = middle if registered is None else registered
     try:
         outcome = stepper.step(middle, motion, t1 - t0)
@@ -141,6 +143,7 @@ def integrate(model_at: Callable[[float], Model], stepper: MidpointStep, start: 
             record.steps += taken[0]
             record.iterations += taken[1]
             record.halvings += taken[2]
+            record.largest_step = max(record.largest_step, t1 - t0)
             if progress is not None:
                 progress(t1)
         t = t_next

@@ -1,0 +1,99 @@
+"""Benchmark ``dynamics``: CPU for equal tip accuracy in physical time, the implicit
+midpoint rule against SUNDIALS IDA (docs/dynamics.md, "IDA").
+
+The steel rod of tests/test_simulate.py (L 0.4 m, r 1.2 mm, E 207 GPa, ρ 8000, clamped)
+released from a 0.1 N tip force, one period of its first mode, the tip at 20 output times.
+The reference is IDA at rtol = atol = 1e-9 (not timed). Each run is timed as a user calls
+it — ``rodsim.simulate`` with the start's static solve — in CPU seconds
+(``time.process_time``), once: the midpoint rule at 100 to 1600 steps a period, IDA (BDF
+order ≤ 2) at rtol = atol = 1e-4 to 1e-7. For each midpoint run, the cheapest IDA run at
+least as accurate gives the CPU ratio.
+
+Writes ``dynamics-<size>.json`` and ``dynamics-<size>.md``. Nothing is asserted.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from pathlib import Path
+
+import numpy as np
+
+import rodsim
+from rodsim.solvers.base import Progress
+from rodsim_bench.machine import machine, write_report
+
+__all__ = ["run"]
+
+STEEL = {"length": 0.4, "radius": 1.2e-3, "youngs_modulus": 207e9, "density": 8000.0,
+         "poisson_ratio": 0.3}
+#: Euler–Bernoulli clamped–free first root β₁L.
+BETA_1 = 1.87510407
+SIZES = {"small": {"nodes": 7, "steps": (100, 400), "tolerances": (1e-5, 1e-6)},
+         "full": {"nodes": 11, "steps": (100, 200, 400, 800, 1600),
+                  "tolerances": (1e-4, 3e-5, 1e-5, 3e-6, 1e-6, 1e-7)}}
+
+
+def _scene(nodes: int) -> dict:
+    table = {**STEEL, "nodes": nodes, "terms": ["stretch", "bend_twist", "centerline",
+                                                 "tip_load"],
+             "tip_load": {"force": [0.0, 0.0, 0.0], "mass": 0.0}}
+    return {"name": "steel-wire", "rods": {"wire": table}}
+
+
+def _period() -> float:
+    r = STEEL["radius"]
+    omega = BETA_1**2 / STEEL["length"] ** 2 * math.sqrt(
+        STEEL["youngs_modulus"] * math.pi * r**4 / 4.0 / (STEEL["density"] * math.pi * r**2))
+    return 2.0 * math.pi / omega
+
+
+def run(size: str, output_dir: Path, progress: Progress) -> list[Path]:
+    config = SIZES[size]
+    scene, period = _scene(config["nodes"]), _period()
+    options = {"output_dt": period / 20, "initial": {"tip_load.force": [0.0, -0.1, 0.0]}}
+    progress(0.0, "dynamics: the reference (IDA at 1e-9)")
+    reference = rodsim.simulate(scene, period, integrator="ida", rtol=1e-9, atol=1e-9,
+                                **options)
+    cases = ([("midpoint", {"step": period / steps}, f"{steps} steps a period")
+              for steps in config["steps"]]
+             + [("ida", {"integrator": "ida", "rtol": tol, "atol": tol, "max_order": 2},
+                 f"rtol = atol = {tol:g}") for tol in config["tolerances"]])
+    rows = []
+    for k, (name, settings, label) in enumerate(cases):
+        progress((k + 1) / (len(cases) + 1), f"dynamics: {name}, {label}")
+        start = time.process_time()
+        result = rodsim.simulate(scene, period, **settings, **options)
+        cpu = time.process_time() - start
+        error = float(np.max(np.abs(result.positions[:, -1] - reference.positions[:, -1])))
+        rows.append({"integrator": name, "setting": label, "success": result.success,
+                     "steps": result.steps, "cpu_s": cpu,
+                     "tip_error_over_L": error / STEEL["length"]})
+    for row in rows:
+        if row["integrator"] != "midpoint":
+            continue
+        matching = [other["cpu_s"] for other in rows if other["integrator"] == "ida"
+                    and other["tip_error_over_L"] <= row["tip_error_over_L"]]
+        row["ida_cpu_ratio"] = min(matching) / row["cpu_s"] if matching else None
+    report = {"benchmark": "dynamics", "size": size, "machine": machine(),
+              "nodes": config["nodes"], "period_s": period, "reference_steps":
+              reference.steps, "rows": rows}
+    m = report["machine"]
+    lines = [f"# Physical time: midpoint rule against IDA at equal tip accuracy ({size})", "",
+             f"{m['cpu']}, {m['cores_available']} cores, Python {m['python']}, numpy "
+             f"{m['numpy']}, commit {m['git_commit'][:10]}, {m['date']}. The steel rod "
+             f"(N = {config['nodes']}) released from a 0.1 N tip force, one period "
+             f"({period * 1e3:.2f} ms); the tip's largest error at 20 output times against "
+             "IDA at rtol = atol = 1e-9; CPU of `rodsim.simulate` (one run each). Ratio: "
+             "the cheapest IDA run at least as accurate, over the midpoint run.", "",
+             "| integrator | setting | steps | tip error / L | CPU [s] | IDA CPU ratio |",
+             "|---|---|--:|--:|--:|--:|"]
+    for row in rows:
+        ratio = row.get("ida_cpu_ratio")
+        shown = "" if row["integrator"] == "ida" else ("none as accurate" if ratio is None
+                                                        else f"{ratio:.2f}")
+        lines.append(f"| {row['integrator']} | {row['setting']} | {row['steps']} | "
+                     f"{row['tip_error_over_L']:.2e} | {row['cpu_s']:.3f} | {shown} |")
+    lines.append("")
+    return write_report(report, "\n".join(lines), output_dir / f"dynamics-{size}")

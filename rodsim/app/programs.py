@@ -1,0 +1,100 @@
+"""Values that vary in physical time: the programs of a run, checked against their keys
+before any work (docs/dynamics.md, "Initial state and programs"), and :class:`Programs`,
+the model with the values of a time.
+
+A program maps a term's numeric value to a piecewise-linear table or a sinusoid
+(rodsim/core/program.py), from the scene file's ``[program]`` table and from the caller
+(``program=`` / ``--program``), the caller's replacing the file's entry for the same value.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from typing import Any
+
+from rodsim.app.inverse.parameter_keys import NumericKey, numeric_key, scene_with
+from rodsim.core.damping_options import ELASTIC_TERMS
+from rodsim.core.model import Model
+from rodsim.core.program import ProgramEntry, Sinusoid, Table, program_entry
+from rodsim.core.scene import Scene
+from rodsim.core.schema import SceneError, shown
+
+__all__ = ["Program", "check_programs", "Programs"]
+
+#: key → (times, values), a :class:`~rodsim.core.program.Sinusoid` or a table of either
+#: (rodsim/core/program.py).
+Program = Mapping[str, tuple[Sequence[float], Sequence[float]] | ProgramEntry
+                  | Mapping[str, Any]]
+
+
+def check_programs(scene: Scene, program: Program | None
+                   ) -> tuple[list[NumericKey], list[ProgramEntry]]:
+    """The checked programs, the scene file's ``[program]`` table and then ``program`` (which
+    replaces the scene's entry for the same value): their keys and entries, each sinusoid
+    given the scene's value as its offset when it has none. SceneError (one line) for a
+    key that is not a term's number or that cannot vary in time, a malformed entry, a value
+    named twice in one source, or a program that leaves the key's range at some time (its
+    smallest and largest value are checked: a table's at its times, a sinusoid's
+    offset ∓ amplitude)."""
+    chosen: dict[str, tuple[NumericKey, ProgramEntry]] = {}
+    for source in (scene.data.get("program", {}), program or {}):
+        named: set[str] = set()
+        for name, raw in source.items():
+            key = numeric_key(scene, name)
+            parts = key.path.split(".")
+            if len(parts) != 4 or parts[2] in ("base", "supports") or (
+                    parts[0] == "rods" and parts[2] in ELASTIC_TERMS) or (
+                    parts[2:] == ["gravity", "direction"]):
+                raise SceneError(f"program {shown(name, bare=True)}: {key.path} cannot vary "
+                                 "in time; allowed: a load's or a tendon's value (a term "
+                                 "parameter other than the rod's own stiffness or gravity's "
+                                 "direction)")
+            if key.name in named:
+                raise SceneError(f"program {shown(name, bare=True)}: {key.name} is named "
+                                 "twice")
+            named.add(key.name)
+            entry = program_entry(name, raw)
+            if isinstance(entry, Sinusoid):
+                entry = entry.about(key.value(scene))
+            chosen[key.name] = (key, entry)
+    for key, entry in chosen.values():  # its extremes, against the key's range
+        for value in sorted(set(entry.extremes())):
+            try:
+                scene_with(scene, [key], [value])
+            except SceneError as exc:
+                raise SceneError(f"program {key.name} reaches {value:.6g}: {exc}") from None
+    return [key for key, _ in chosen.values()], [entry for _, entry in chosen.values()]
+
+
+class Programs:
+    """The models of a scene's values in time: ``model`` with the checked programs
+    (:func:`check_programs`) at each time, the same object while nothing changes."""
+
+    def __init__(self, scene: Scene, model: Model, program: Program | None) -> None:
+        self.scene, self.model = scene, model
+        self.keys, self.entries = check_programs(scene, program)
+        #: The entries by full key (what a Simulation and its archive keep).
+        self.by_name = {key.name: entry
+                        for key, entry in zip(self.keys, self.entries, strict=True)}
+        self._models: dict[tuple[float, ...], Model] = {}
+
+    @property
+    def breaks(self) -> list[float]:
+        """Every table time: where a value's slope changes or it jumps (a sinusoid is
+        smooth)."""
+        return sorted({float(t) for entry in self.entries if isinstance(entry, Table)
+                       for t in entry.times})
+
+    def model_at(self, t: float, before: bool = False) -> Model:
+        """The model with the values at ``t`` (``before``: just before ``t``, where a table
+        steps)."""
+        if not self.keys:
+            return self.model
+        now = tuple(entry.value(t, before) for entry in self.entries)
+        if now not in self._models:
+            if len(self._models) > 64:
+                self._models.clear()
+            changed = self.model.with_values(scene_with(self.scene, self.keys, list(now)))
+            assert changed is not None
+            self._models[now] = changed
+        return self._models[now]
