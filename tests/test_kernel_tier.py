@@ -203,18 +203,20 @@ print(result.success, PROCESS_TIER.numpy_evaluations, PROCESS_TIER.compiled, dig
 @pytest.mark.slow
 def test_a_contact_scene_gives_the_same_state_five_times_under_load():
     """tip-on-tissue under CVODE moves to the compiled kernels mid-run (after ~700 numpy
-    evaluations). Run five times in fresh processes while a busy process loads the CPU, it
-    moves after the same evaluations and reaches the same state, bit for bit. (With the CPU
-    clock charged, the same test gave five different states, the move after 353 to 551
-    evaluations.)"""
-    burners = [subprocess.Popen([sys.executable, "-c", "while True: pass"])]
+    evaluations). Run five times in fresh processes, all at once so that each loads the CPU
+    for the others (five busy processes on the suite's two cores), it moves after the same
+    evaluations and reaches the same state, bit for bit. (With the CPU clock charged, the
+    same test — then one run after another beside a busy loop — gave five different
+    states, the move after 353 to 551 evaluations.)"""
+    runs = [subprocess.Popen([sys.executable, "-c", _RUN_TIERED], stdout=subprocess.PIPE,
+                             stderr=subprocess.PIPE, text=True) for _ in range(5)]
     try:
-        outputs = [subprocess.run([sys.executable, "-c", _RUN_TIERED], capture_output=True,
-                                  text=True, timeout=600, check=True).stdout.split()
-                   for _ in range(5)]
+        done = [run.communicate(timeout=600) for run in runs]
     finally:
-        for burner in burners:
-            burner.kill()
-            burner.wait()
+        for run in runs:
+            run.kill()
+            run.wait()
+    assert all(run.returncode == 0 for run in runs), [err[-1500:] for _, err in done]
+    outputs = [out.split() for out, _ in done]
     assert all(output[0] == "True" and output[2] == "True" for output in outputs), outputs
     assert len({tuple(output) for output in outputs}) == 1, outputs
