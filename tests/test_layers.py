@@ -11,6 +11,7 @@ share a type that belongs in a third).
 from __future__ import annotations
 
 import ast
+import functools
 from pathlib import Path
 
 import pytest
@@ -88,10 +89,18 @@ def imported_modules(module: str, path: Path, type_only: bool = False) -> set[st
     return found
 
 
-GRAPH = {module: imported_modules(module, path) for module, path in MODULES.items()}
-#: With the type-only imports.
-TYPED_GRAPH = {module: imported_modules(module, path, type_only=True)
-               for module, path in MODULES.items()}
+@functools.cache
+def graph() -> dict[str, set[str]]:
+    """The rodsim modules each module imports at run time (read once per process, by the
+    first test that needs it: not at collection, which every worker does)."""
+    return {module: imported_modules(module, path) for module, path in MODULES.items()}
+
+
+@functools.cache
+def typed_graph() -> dict[str, set[str]]:
+    """:func:`graph` with the type-only imports."""
+    return {module: imported_modules(module, path, type_only=True)
+            for module, path in MODULES.items()}
 
 
 def test_the_layer_map_covers_every_module():
@@ -102,7 +111,7 @@ def test_the_layer_map_covers_every_module():
 
 @pytest.mark.parametrize("module", sorted(MODULES))
 def test_no_module_imports_a_higher_layer(module):
-    upward = sorted(target for target in GRAPH[module] if rank(target) > rank(module))
+    upward = sorted(target for target in graph()[module] if rank(target) > rank(module))
     assert not upward, f"{module} (layer {rank(module)}) imports higher layers: {upward}"
 
 
@@ -131,7 +140,7 @@ def import_cycles(graph: dict[str, set[str]]) -> list[list[str]]:
 
 
 def test_no_import_cycles_type_only_imports_included():
-    cycles = import_cycles(TYPED_GRAPH)
+    cycles = import_cycles(typed_graph())
     assert not cycles, "import cycles:\n" + "\n".join(" -> ".join(c) for c in cycles)
 
 
@@ -185,6 +194,6 @@ def test_no_solver_module_imports_an_integrator_module(module):
     pseudo-dynamics, penalties, tolerances, the SUNDIALS loop), never each other: no module
     of rodsim.solvers imports a module defining an integrator other than itself (issue 21;
     deferred imports count)."""
-    siblings = sorted(GRAPH[module] & (integrator_modules() - {module}))
+    siblings = sorted(graph()[module] & (integrator_modules() - {module}))
     assert not siblings, f"{module} imports integrator modules {siblings}: move what it " \
         "needs into a shared part"
