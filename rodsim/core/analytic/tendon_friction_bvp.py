@@ -48,13 +48,16 @@ from scipy.integrate import solve_ivp
 
 from rodsim.core.analytic.tendon_bvp import (
     _ATOL,
+    _EYE3,
     _RTOL,
     BASE_FRAME,
     BVPTendon,
     Section,
     TendonRodSolution,
+    _cross,
     _skew,
     _Strains,
+    _with_zero,
     base_moment_newton,
     scene_problem,
 )
@@ -78,14 +81,14 @@ class FrictionTendon:
 
 def _angle(a: np.ndarray, b: np.ndarray) -> float:
     """∠(a, b) [rad] as atan2(|a × b|, a·b)."""
-    return math.atan2(float(np.linalg.norm(np.cross(a, b))), float(a @ b))
+    return math.atan2(float(np.linalg.norm(_cross(a, b))), float(a @ b))
 
 
 def _routing(tendon: FrictionTendon, s: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """ρ, ρ′, ρ″ at ``s`` as body-frame 3-vectors."""
     at = np.array([s])
-    return (np.r_[tendon.tendon.offset(at)[0], 0.0], np.r_[tendon.tendon.slope(at)[0], 0.0],
-            np.r_[tendon.curvature(at)[0], 0.0])
+    return (_with_zero(tendon.tendon.offset(at)[0]), _with_zero(tendon.tendon.slope(at)[0]),
+            _with_zero(tendon.curvature(at)[0]))
 
 
 def _tangents(tendons: Sequence[FrictionTendon], s: float, u: np.ndarray,
@@ -94,7 +97,7 @@ def _tangents(tendons: Sequence[FrictionTendon], s: float, u: np.ndarray,
     out = []
     for tendon in tendons:
         rho, slope, _ = _routing(tendon, s)
-        a = v + np.cross(u, rho) + slope
+        a = v + _cross(u, rho) + slope
         out.append(a / np.linalg.norm(a))
     return out
 
@@ -121,18 +124,18 @@ class _Segment:
         jac = self.strains.jacobian
         # ∂g/∂s along the solution without the tensions' rates, and each ∂g/∂T_i; the
         # section wrench's rates are (Rᵀ M)′ = −u × Rᵀ M − v × Rᵀ F, (Rᵀ F)′ = −u × Rᵀ F.
-        explicit = np.r_[np.cross(u, m_b) + np.cross(v, n_b), np.cross(u, n_b) * self.mask]
+        explicit = np.concatenate((_cross(u, m_b) + _cross(v, n_b), _cross(u, n_b) * self.mask))
         columns, geometry = [], []
         for tendon, tension in zip(self.tendons, tensions, strict=True):
             rho, slope, curve = _routing(tendon, s)
-            a = v + np.cross(u, rho) + slope
+            a = v + _cross(u, rho) + slope
             norm = float(np.linalg.norm(a))
             tau = a / norm
-            proj = (np.eye(3) - np.outer(tau, tau)) / norm
-            a_s = np.cross(u, slope) + curve
-            explicit = explicit + tension * np.r_[
-                np.cross(slope, tau) + np.cross(rho, proj @ a_s), (proj @ a_s) * self.mask]
-            columns.append(np.r_[np.cross(rho, tau), tau * self.mask])
+            proj = (_EYE3 - np.outer(tau, tau)) / norm
+            a_s = _cross(u, slope) + curve
+            explicit = explicit + tension * np.concatenate((
+                _cross(slope, tau) + _cross(rho, proj @ a_s), (proj @ a_s) * self.mask))
+            columns.append(np.concatenate((_cross(rho, tau), tau * self.mask)))
             geometry.append((rho, tau, proj, a_s))
         base = -np.linalg.solve(jac, explicit)
         per_tension = [-np.linalg.solve(jac, c) for c in columns]
@@ -143,8 +146,8 @@ class _Segment:
             new = np.empty_like(rate)
             for k, (tendon, (rho, tau, proj, a_s)) in enumerate(zip(self.tendons, geometry,
                                                                     strict=True)):
-                a_rate = dz[3:] + np.cross(dz[:3], rho) + a_s
-                turn = np.cross(u, tau) + proj @ a_rate
+                a_rate = dz[3:] + _cross(dz[:3], rho) + a_s
+                turn = _cross(u, tau) + proj @ a_rate
                 new[k] = -self.sliding * tendon.friction * tensions[k] * np.linalg.norm(turn)
             done = np.max(np.abs(new - rate), initial=0.0) <= 1e-15 * (
                 np.max(np.abs(new), initial=0.0) + 1e-300)
@@ -214,7 +217,7 @@ def _shoot(m_start: np.ndarray, force: np.ndarray, breaks: list[float],
             u, v, rate = segment.rates(s, rot, y[12:15], force, y[[15 + k for k in active]])
             dp = rot @ v
             out = np.zeros_like(y)
-            out[:3], out[3:12], out[12:15] = dp, (rot @ _skew(u)).ravel(), -np.cross(dp, force)
+            out[:3], out[3:12], out[12:15] = dp, (rot @ _skew(u)).ravel(), -_cross(dp, force)
             out[[15 + k for k in active]] = rate
             return out
 
