@@ -255,20 +255,29 @@ def hermite(sigma: np.ndarray, ends: np.ndarray) -> tuple[np.ndarray, np.ndarray
     the catheter: the cubic, extrapolated, would curl away.
     """
     s2, s3 = sigma**2, sigma**3
-    one, zero = np.ones_like(sigma), np.zeros_like(sigma)
-    value = np.stack([2 * s3 - 3 * s2 + 1, -2 * s3 + 3 * s2, s3 - 2 * s2 + sigma, s3 - s2],
-                     axis=1)
-    first = np.stack([6 * s2 - 6 * sigma, -6 * s2 + 6 * sigma, 3 * s2 - 4 * sigma + 1,
-                      3 * s2 - 2 * sigma], axis=1)
-    second = np.stack([12 * sigma - 6 * one, -12 * sigma + 6 * one, 6 * sigma - 4 * one,
-                       6 * sigma - 2 * one], axis=1)
-    before = (ends[:, 0] & (sigma < 0.0))[:, None]
-    after = (ends[:, 1] & (sigma > 1.0))[:, None]
-    value = np.where(before, np.stack([one, zero, sigma, zero], axis=1), value)
-    value = np.where(after, np.stack([zero, one, zero, sigma - 1.0], axis=1), value)
-    first = np.where(before, np.stack([zero, zero, one, zero], axis=1), first)
-    first = np.where(after, np.stack([zero, zero, zero, one], axis=1), first)
-    second = np.where(before | after, 0.0, second)
+    # Each column filled by the operations np.stack of the columns took, and the end rows
+    # overwritten as np.where chose them (the same numbers, without ~12 array builds per
+    # call: this runs in every projection step of the numpy path).
+    value, first, second = (np.empty((len(sigma), 4)) for _ in range(3))
+    value[:, 0], value[:, 1] = 2 * s3 - 3 * s2 + 1, -2 * s3 + 3 * s2
+    value[:, 2], value[:, 3] = s3 - 2 * s2 + sigma, s3 - s2
+    first[:, 0], first[:, 1] = 6 * s2 - 6 * sigma, -6 * s2 + 6 * sigma
+    first[:, 2], first[:, 3] = 3 * s2 - 4 * sigma + 1, 3 * s2 - 2 * sigma
+    second[:, 0], second[:, 1] = 12 * sigma - 6.0, -12 * sigma + 6.0
+    second[:, 2], second[:, 3] = 6 * sigma - 4.0, 6 * sigma - 2.0
+    before = ends[:, 0] & (sigma < 0.0)
+    after = ends[:, 1] & (sigma > 1.0)
+    if before.any():
+        value[before] = 0.0
+        value[before, 0], value[before, 2] = 1.0, sigma[before]
+        first[before] = 0.0
+        first[before, 2] = 1.0
+    if after.any():
+        value[after] = 0.0
+        value[after, 1], value[after, 3] = 1.0, sigma[after] - 1.0
+        first[after] = 0.0
+        first[after, 3] = 1.0
+    second[before | after] = 0.0
     return value, first, second
 
 
@@ -321,14 +330,16 @@ class PointOnLumenCurve:
         inside = ~(before | after)
         zero = np.zeros_like(sigma)
         taper = np.where(last, 1.0 + 2.0 * sigma - 3.0 * sigma**2, 1.0 - sigma)
-        offset = np.stack([np.where(before, c, np.where(after, 0.0, c * taper)),
-                           np.where(before | after | last, 0.0, c * sigma)], axis=1)
-        rate = np.stack([np.where(inside, c * np.where(last, 2.0 - 6.0 * sigma, -1.0), 0.0),
-                         np.where(inside & ~last, c, 0.0)], axis=1)
-        curve = np.stack([np.where(inside & last, -6.0 * c, 0.0), zero], axis=1)
-        return (np.concatenate([-np.ones((n, 1)), value * scale, offset], axis=1),
-                np.concatenate([np.zeros((n, 1)), first * scale, rate], axis=1),
-                np.concatenate([np.zeros((n, 1)), second * scale, curve], axis=1))
+        # Filled column by column with the numbers the stacks and concatenations took.
+        w, w1, w2 = (np.empty((n, 7)) for _ in range(3))
+        w[:, 0], w1[:, 0], w2[:, 0] = -1.0, 0.0, 0.0
+        w[:, 1:5], w1[:, 1:5], w2[:, 1:5] = value * scale, first * scale, second * scale
+        w[:, 5] = np.where(before, c, np.where(after, 0.0, c * taper))
+        w[:, 6] = np.where(before | after | last, 0.0, c * sigma)
+        w1[:, 5] = np.where(inside, c * np.where(last, 2.0 - 6.0 * sigma, -1.0), 0.0)
+        w1[:, 6] = np.where(inside & ~last, c, 0.0)
+        w2[:, 5], w2[:, 6] = np.where(inside & last, -6.0 * c, 0.0), zero
+        return w, w1, w2
 
     def _project(self, chord: np.ndarray) -> np.ndarray:
         """σ with (L(σ) − p)·L′(σ) = 0, by Newton from the projection on the chord."""
