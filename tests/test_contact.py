@@ -6,6 +6,7 @@ tests/test_kernels.py (scene ``contract-contact``). Run with ``pytest -s`` for t
 
 from __future__ import annotations
 
+import functools
 import math
 import os
 
@@ -574,9 +575,11 @@ def torus_scene(nodes: int, insertion: float = 0.0) -> Scene:
     return Scene.from_dict(raw).with_values({"rods.catheter.base.insertion": insertion})
 
 
+@functools.cache
 def torus_track(nodes: int, steps: int) -> Track:
     """The wire of :func:`torus_scene` advanced 0.12 m from a straight entry into the bend,
-    its tip free inside it, in ``steps`` equilibria."""
+    its tip free inside it, in ``steps`` equilibria (tracked once per process: two tests
+    read the one at 41 nodes, neither changes it)."""
     track = rodsim.track(torus_scene(nodes),
                          {"rods.catheter.base.insertion": np.linspace(0.0, 0.12, steps)})
     assert track.success, track.message
