@@ -13,6 +13,7 @@ import copy
 import math
 
 import numpy as np
+import pytest
 from test_term_contract import SMALL_SCENES
 
 import rodsim
@@ -147,6 +148,7 @@ def insertion_and_retraction(mu: float, integrator: str) -> tuple[np.ndarray, np
     return insertions, np.array(path.contact).sum(axis=1), np.array(path.positions)
 
 
+@pytest.mark.slow
 def test_insertion_then_retraction_is_path_dependent_with_friction_only():
     """Hysteresis: with friction 0.3 the vessel's force on the catheter at the same insertion
     differs going in and coming out — its axial (x) part resists the motion: against the

@@ -134,6 +134,7 @@ def test_both_spellings_is_a_one_line_error(where, table):
     assert "\n" not in str(error.value)
 
 
+@pytest.mark.slow
 def test_the_defaults_hold_the_conserving_user_scene_within_1e_4_L():
     """Issue 22 item 2 with every penalty at its default: converged, the estimate ≤ 1e-4 L,
     and the change under ×100 stiffer penalties (measured) ≤ 1e-4 L too. Measured: estimate
