@@ -597,6 +597,7 @@ def test_iterations_small_outputs(tmp_path):
     assert f"| {first['case']} | yes | " in (tmp_path / "iterations-small.md").read_text()
 
 
+@pytest.mark.slow
 def test_dynamics_small_outputs(tmp_path):
     """``rodsim bench dynamics --size small``: the midpoint rule and IDA timed against IDA's
     tight reference, each more accurate at its finer setting (no timing is asserted)."""
