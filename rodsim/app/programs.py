@@ -12,6 +12,8 @@ from __future__ import annotations
 from collections.abc import Mapping, Sequence
 from typing import Any
 
+import numpy as np
+
 from rodsim.app.inverse.parameter_keys import NumericKey, numeric_key, scene_with
 from rodsim.core.damping_options import ELASTIC_TERMS
 from rodsim.core.model import Model
@@ -68,10 +70,15 @@ def check_programs(scene: Scene, program: Program | None
 
 class Programs:
     """The models of a scene's values in time: ``model`` with the checked programs
-    (:func:`check_programs`) at each time, the same object while nothing changes."""
+    (:func:`check_programs`) at each time, the same object while nothing changes, and with
+    friction's history as far as the run has gone (:meth:`carry_history`)."""
 
     def __init__(self, scene: Scene, model: Model, program: Program | None) -> None:
         self.scene, self.model = scene, model
+        #: Whether a term's force depends on the path (friction: a string tendon's capstan,
+        #: a frictional contact; rodsim/core/tendon_friction.py, terms/contact.py).
+        self.path_dependent = any(term.anchor_positions() is not None
+                                  for term in model.terms)
         self.keys, self.entries = check_programs(scene, program)
         #: The entries by full key (what a Simulation and its archive keep).
         self.by_name = {key.name: entry
@@ -98,3 +105,15 @@ class Programs:
             assert changed is not None
             self._models[now] = changed
         return self._models[now]
+
+    def carry_history(self, t: float, x: np.ndarray) -> None:
+        """Friction's history after a step that ended at time ``t`` in the state ``x`` (free
+        coordinates): the anchors the model of time ``t`` gives at ``x`` (a string tendon's
+        chord tensions, a frictional contact's node positions) become those of every later
+        model, so that each step's friction opposes the slip since the step before — as
+        ``track`` carries it from one equilibrium to the next (docs/dynamics.md,
+        "Friction in physical time"). Nothing without friction."""
+        if not self.path_dependent:
+            return
+        self.model = self.model.with_anchors_of(self.model_at(t).anchored(x))
+        self._models.clear()

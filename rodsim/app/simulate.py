@@ -245,6 +245,13 @@ def simulate(scene: SceneLike | None, t_end: float, *, output_dt: float | None =
     model = Model(loaded)
     programs = Programs(loaded, model, program)
     x = _start_state(loaded, model, initial)
+    if programs.path_dependent:
+        if integrator != "midpoint":
+            raise SceneError(f"integrator {integrator!r}: the scene has friction (a string "
+                             "tendon's or a contact's), whose history each step carries to "
+                             "the next; allowed: integrator 'midpoint' (IDA's and CVODE's "
+                             "adaptive steps would each need a restart)")
+        programs.carry_history(0.0, x)  # the start: at rest in the equilibrium it was left in
     omega = math.nan
     if integrator != "midpoint" or step is None or output_dt is None:
         omega = _lowest_frequency(model, x, "default step" if integrator == "midpoint"
@@ -267,7 +274,8 @@ def simulate(scene: SceneLike | None, t_end: float, *, output_dt: float | None =
             integrate_ida(dae, programs.model_at, start, outputs, programs.breaks, options,
                           progress, record, integrator)
         else:
-            integrate(programs.model_at, stepper, start, outputs, h, progress, record)
+            integrate(programs.model_at, stepper, start, outputs, h, progress, record,
+                      programs.carry_history if programs.path_dependent else None)
     except KeyboardInterrupt:  # Ctrl-C or SIGTERM: what was computed, marked incomplete
         done = min(len(record.times), len(record.states), len(record.kinetic),
                    len(record.potential), len(record.dissipated), len(record.work))

@@ -401,6 +401,24 @@ class Model(ModelScales):
         other._replace_terms(terms, changed)
         return other
 
+    def with_anchors_of(self, other: Model) -> Model:
+        """This model with the friction anchors of ``other``, a model of the same layout
+        (this scene at other values, :meth:`with_values`): how a run in physical time
+        carries friction's history from the model of one time to the model of the next
+        (rodsim/app/programs.py). This model itself when no term holds anchors."""
+        terms = list(self.terms)
+        changed = []
+        for index, (term, theirs) in enumerate(zip(self.terms, other.terms, strict=True)):
+            anchored = _anchored_as(term, theirs)
+            if anchored is not term:
+                terms[index] = anchored
+                changed.append(index)
+        if not changed:
+            return self
+        out = copy.copy(self)
+        out._replace_terms(terms, changed)
+        return out
+
     @cached_property
     def support_displacements(self) -> tuple[tuple[np.ndarray, np.ndarray, np.ndarray], ...]:
         """(full-state indices of its node's position, the rest place, the prescribed place)

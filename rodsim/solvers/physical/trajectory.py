@@ -35,6 +35,10 @@ from rodsim.core.model import Model
 from rodsim.solvers.physical.coordinates import model_state
 from rodsim.solvers.physical.midpoint import MidpointStep, Motion, StepFailure
 
+#: What a run is told at the end of every step: ``after_step(t, x)``, x the model's free
+#: coordinates (offsets from the rest state).
+AfterStep = Callable[[float, np.ndarray], None]
+
 __all__ = ["Record", "integrate", "MAX_HALVINGS"]
 
 #: How many times a step whose Newton fails may be halved before the run stops.
@@ -78,11 +82,12 @@ def _potential(model: Model, x: np.ndarray) -> float:
 
 
 def _advance(model_at: Callable[[float], Model], stepper: MidpointStep, motion: Motion,
-             t0: float, t1: float, halvings: int
+             t0: float, t1: float, halvings: int, after_step: AfterStep | None = None
              ) -> tuple[Motion, float, float, tuple[int, int, int]]:
     """One step from ``t0`` to ``t1``, or, if its Newton fails, two half steps (each halved
     again, ``halvings`` times at most): (the motion reached, the programs' work, the
-    dissipated energy, (steps, Newton iterations, halvings))."""
+    dissipated energy, (steps, Newton iterations, halvings)). ``after_step(t, x)`` is told
+    the end of every step taken (x the model's free coordinates)."""
     middle = model_at(0.5 * (t0 + t1))
     if middle.has_registration:
         registered = middle.reregistered(model_state(middle, motion.x))
@@ -93,13 +98,15 @@ def _advance(model_at: Callable[[float], Model], stepper: MidpointStep, motion: 
         if halvings == 0:
             raise
         half = 0.5 * (t0 + t1)
-        first = _advance(model_at, stepper, motion, t0, half, halvings - 1)
-        second = _advance(model_at, stepper, first[0], half, t1, halvings - 1)
+        first = _advance(model_at, stepper, motion, t0, half, halvings - 1, after_step)
+        second = _advance(model_at, stepper, first[0], half, t1, halvings - 1, after_step)
         return (second[0], first[1] + second[1], first[2] + second[2],
                 (first[3][0] + second[3][0], first[3][1] + second[3][1],
                  first[3][2] + second[3][2] + 1))
     work = 0.0
     start_model, end_model = model_at(t0), model_at(t1)
+    if after_step is not None:
+        after_step(t1, model_state(middle, outcome.motion.x))
     if start_model is not middle or end_model is not middle:
         work = (_potential(end_model, outcome.motion.x) - _potential(middle, outcome.motion.x)
                 + _potential(middle, motion.x) - _potential(start_model, motion.x))
@@ -109,12 +116,14 @@ def _advance(model_at: Callable[[float], Model], stepper: MidpointStep, motion: 
 def integrate(model_at: Callable[[float], Model], stepper: MidpointStep, start: Motion,
               output_times: Sequence[float], step: float,
               progress: Callable[[float], None] | None = None,
-              record: Record | None = None) -> Record:
+              record: Record | None = None, after_step: AfterStep | None = None) -> Record:
     """Integrate from ``start`` at ``output_times[0]`` through every output time with steps
     of at most ``step`` [s]; ``model_at(t)`` is the model with the values at time t (the same
     object while nothing changes). A step that fails ends the run: the record holds what was
     computed, ``success`` False and a message with the time and advice. ``record``: an empty
-    record to fill (the caller keeps what it holds if the run is interrupted)."""
+    record to fill (the caller keeps what it holds if the run is interrupted).
+    ``after_step(t, x)``: told the end of every step (friction's history,
+    :meth:`rodsim.app.programs.Programs.carry_history`)."""
     record = Record() if record is None else record
     t = float(output_times[0])
     motion = start
@@ -132,7 +141,7 @@ def integrate(model_at: Callable[[float], Model], stepper: MidpointStep, start: 
             t1 = t_next if k == count - 1 else t_first + (t_next - t_first) * (k + 1) / count
             try:
                 motion, gained, lost, taken = _advance(model_at, stepper, motion, t0, t1,
-                                                       MAX_HALVINGS)
+                                                       MAX_HALVINGS, after_step)
             except StepFailure as exc:
                 record.success = False
                 record.message = (f"step from t = {t0:.6g} s failed: {exc}; try a smaller "
