@@ -44,6 +44,8 @@ ADAPTED: dict[str, tuple[str | None, str]] = {
     "rodsim study fig17 --scheduler local": (
         "rodsim study fig17 --size small --scheduler local -o fig17.nc",
         "the full grid takes minutes; the small one exercises the same dask path"),
+    "rodsim bench kernels": (
+        SKIP, "the same small run as tests/test_bench.py::test_kernels_small_outputs"),
     "rodsim bench scaling --size full --commit": (
         SKIP, "the full benchmark takes minutes and writes into the checkout's committed "
         "results; the small size runs in test_bench.py"),
