@@ -8,25 +8,25 @@ equilibrium), which is chosen for speed, not physics.
 A rod's ``[rods.<rod>.damping]`` table holds
 
 - ``retardation_time`` τ [s]: Kelvin–Voigt material damping. Each strain's stress gets a
-  viscous part η ε̇ with η = τ × that strain's stiffness (stretch E_s A, shear — the
-  centerline penalty's K_P, which plays κGA —, bending E I, twist G J). Summed over the
-  rod's elastic terms (``stretch``, ``bend_twist``, ``centerline``: paper Eqs. 6, 7, 9),
-  the damping force is f_D = −τ K_el(x) ẋ with K_el = −∂F_el/∂x the elastic terms'
-  Jacobian at the state. The n-th mode of a uniform rod then decays with the damping ratio
-  ζ_n = τ ω_n / 2 (tests/test_simulate.py measures it).
+  viscous part η ε̇ with η = τ × that strain's stiffness (stretch E_s A, bending E I,
+  twist G J; not the centerline penalty's shear, a constraint: docs/dynamics.md). Summed
+  over the rod's elastic terms (``stretch``, ``bend_twist``: paper Eqs. 6–8), the damping
+  force is f_D = −τ K_mat(x) ẋ with K_mat = Σ_e (∂ε_e/∂x)ᵀ C_e (∂ε_e/∂x) the material part of the
+  elastic terms' stiffness at the state (:meth:`rodsim.core.terms.base.Term.
+  material_stiffness`): a viscous stress τ C ε̇ on each strain. The n-th mode of a uniform
+  rod then decays with the damping ratio ζ_n = τ ω_n / 2 (tests/test_simulate.py measures
+  it).
 - ``drag`` c [N·s/m²]: a force −c ṙ(s) per unit length on the centerline (a catheter in a
   still fluid), distributed with the centerline's hat functions: f_D = −c C ṙ with
   C_ij = ∫ N_i N_j ds (l (1/3, 1/6, 1/3) per segment, the consistent mass with ρA = 1).
 
-K_el(x) is assembled from each elastic element's Hessian (the terms' analytic element
-Jacobians) with the negative eigenvalues of each element's block set to zero: at rest every
-block is positive semi-definite and this is τ K exactly; at a stressed state the geometric
-part (the stress times the strains' second derivatives, smaller than the material part by
-the bending angle per segment) could make a block indefinite, and a viscosity must never
-feed energy in. Measured on the steel rod: without the clipping, the stretch and centerline
-elements' geometric part under a 0.1 N release (τ = 3e-4 s) made the step's Newton
-diverge within a period. The dissipated power ẋᵀ D ẋ ≥ 0 is accumulated and reported by
-the integrator (rodsim/solvers/physical/trajectory.py).
+K_mat is positive semi-definite at every state: it holds the strain rates' stiffness only,
+not the geometric part of the elastic Jacobian (the stress times the strains' second
+derivatives), which at a stressed state would make a viscosity feed energy in (an earlier
+version clipped each element block's negative eigenvalues instead: the positive geometric
+part left in made the damping grow with the amplitude, ζ₁ +1.5 % from a 0.1 N release of
+the steel rod and +7.5 % from 0.5 N). The dissipated power ẋᵀ D ẋ ≥ 0 is accumulated and
+reported by the integrator (rodsim/solvers/physical/trajectory.py).
 """
 
 from __future__ import annotations
@@ -100,7 +100,7 @@ class Damping:
         return sp.csr_matrix((v[keep], (i[keep], j[keep])), shape=(n, n))
 
     def matrix(self, x: np.ndarray) -> sp.csr_matrix:
-        """D(x) = Σ_rods τ K_el(x) + c C on the free coordinates at ``x``, the free coordinates
+        """D(x) = Σ_rods τ K_mat(x) + c C on the free coordinates at ``x``, the free coordinates
         themselves (positions and quaternions, not the model's offsets)
         [N·s/m and the quaternions' units]; symmetric."""
         if not self.elastic:
@@ -109,16 +109,12 @@ class Damping:
         full, offsets = self.model.full(state), self.model.offsets(state)
         rows, cols, values = [], [], []
         for term, tau in self.elastic:
-            # K_e = −∂F_e/∂x_e, a term on offsets (Term.offsets) evaluated at them
-            stiffness = -term.element_jacobians(offsets if term.offsets else full)
-            values_e, vectors_e = np.linalg.eigh(0.5 * (stiffness + np.swapaxes(stiffness, 1,
-                                                                                 2)))
-            blocks = -np.einsum("eik,ek,ejk->eij", vectors_e, np.maximum(values_e, 0.0),
-                                vectors_e)
+            # the material stiffness, a term on offsets (Term.offsets) evaluated at them
+            blocks = term.material_stiffness(offsets if term.offsets else full)
             dofs = term.dofs
             k = dofs.shape[1]
             rows.append(np.repeat(dofs, k, axis=1).ravel())
             cols.append(np.tile(dofs, (1, k)).ravel())
-            values.append(-tau * blocks.ravel())
+            values.append(tau * blocks.ravel())
         material = self._assemble(rows, cols, values)
         return (material + material.T) * 0.5 + self.drag

@@ -263,6 +263,15 @@ class Term(ABC):
         (:mod:`rodsim.core.inertia`); statics and the pseudo-dynamics do not read them."""
         return None
 
+    def material_stiffness(self, x: np.ndarray) -> np.ndarray | None:
+        """The material part of the element stiffness at ``x`` (the state the term is
+        evaluated on), shape (n_elem, k, k): Σ (∂ε/∂x_e)ᵀ C (∂ε/∂x_e) over the element's
+        strains ε and their stiffnesses C — the Gauss–Newton part of −∂F_e/∂x_e, positive
+        semi-definite at any state, without the stress times the strains' second
+        derivatives. What Kelvin–Voigt damping is made of, a viscosity per strain rate
+        (rodsim/core/damping.py). None for a term with no material strain (the default)."""
+        return None
+
     def anchor_positions(self) -> np.ndarray | None:
         """A path-dependent term's anchors — the state of the last converged equilibrium its
         force depends on (a frictional contact's node positions,

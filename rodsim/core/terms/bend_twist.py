@@ -137,15 +137,22 @@ def bend_forces(a: np.ndarray, b: np.ndarray, dual_lengths: np.ndarray,
     return -np.concatenate([grad_a, grad_b], axis=1)
 
 
+def _gauss_newton(kinematics: BendKinematics, dual_lengths: np.ndarray,
+                  stiffness: np.ndarray) -> np.ndarray:
+    """l̄ Σ_k K_k ∇u_k ∇u_kᵀ of the bending elements, shape (n, 8, 8): the material part of
+    the stiffness (positive semi-definite)."""
+    gn = (dual_lengths * kinematics.scale**2)[:, None] * stiffness
+    grad = np.concatenate([kinematics.ha, kinematics.hb], axis=2)  # (n, 3, 8), ∇u_k / (c s)
+    return np.matmul((grad * gn[:, :, None]).transpose(0, 2, 1), grad)
+
+
 def bend_jacobians(a: np.ndarray, b: np.ndarray, dual_lengths: np.ndarray,
                    stiffness: np.ndarray) -> np.ndarray:
     """∂F/∂(a, b) of the bending elements (a, b), shape (n, 8, 8) (Eq. 7)."""
-    a, b, na2, nb2, scale, ga, gb, f, u, ha, hb = bend_kinematics(a, b, dual_lengths)
+    kinematics = bend_kinematics(a, b, dual_lengths)
+    a, b, na2, nb2, scale, ga, gb, f, u, ha, hb = kinematics
     lbar = dual_lengths
-    # Gauss–Newton part: l̄ Σ_k K_k ∇u_k ∇u_kᵀ
-    gn = (lbar * scale**2)[:, None] * stiffness
-    grad = np.concatenate([ha, hb], axis=2)  # (n, 3, 8), ∇u_k / (c s)
-    hess = np.matmul((grad * gn[:, :, None]).transpose(0, 2, 1), grad)
+    hess = _gauss_newton(kinematics, dual_lengths, stiffness)
     # Curvature part: l̄ Σ_k K_k u_k ∇²u_k, with (per k, in units of c s)
     #   ∇²_aa u = −[g_a aᵀ + a g_aᵀ + f I − 3 f a aᵀ/|a|²] / |a|²
     #   ∇²_ab u = B_kᵀ − g_a bᵀ/|b|² − a g_bᵀ/|a|² + f a bᵀ/(|a|²|b|²)
@@ -263,6 +270,15 @@ class BendTwist(RodTerm):
         forces[self._fixed == 1, :4] = 0.0  # a support's frame does not move
         forces[self._fixed == 2, 4:] = 0.0
         return forces
+
+    def material_stiffness(self, x: np.ndarray) -> np.ndarray:
+        """l̄ Σ_k K_k ∇u_k ∇u_kᵀ per element (the strain rates u̇_k = ∇u_k · q̇ with
+        stiffnesses l̄ K_k), a support's constant frame's rows and columns zero."""
+        blocks = _gauss_newton(self._kinematics(x), self._dual_lengths, self._stiffness)
+        for side, block in ((1, slice(0, 4)), (2, slice(4, 8))):
+            blocks[self._fixed == side, block, :] = 0.0
+            blocks[self._fixed == side, :, block] = 0.0
+        return blocks
 
     def element_jacobians(self, x: np.ndarray) -> np.ndarray:
         jacobians = bend_jacobians(*self._pairs(x), self._dual_lengths, self._stiffness)

@@ -67,6 +67,14 @@ class Stretch(RodTerm):
         tension = (self._stiffness * strain)[:, None] * seg.tangent  # ∂E/∂e
         return np.concatenate([tension, -tension], axis=1)
 
+    def material_stiffness(self, x: np.ndarray) -> np.ndarray:
+        """k t tᵀ on the edge (the stretch rate ṡ = t · ė with stiffness k = K_s / l), as a
+        two-node block: the Jacobian's first term, without its geometric part."""
+        seg, _ = self._strain(x)
+        t = seg.tangent
+        tt = t[:, :, None] * t[:, None, :]
+        return -two_node_block(self._stiffness[:, None, None] * tt / self._rest)
+
     def element_jacobians(self, x: np.ndarray) -> np.ndarray:
         seg, strain = self._strain(x)
         t = seg.tangent
