@@ -12,6 +12,7 @@ import math
 
 import numpy as np
 import pytest
+from user_robots import KINDS, user_rod
 
 import rodsim
 from rodsim.app.cli.main import main
@@ -131,15 +132,8 @@ def test_family_of_user_robots(seed):
     their weight) with gravity across the rod in a random direction and of a random
     strength: the −y equilibrium turned onto it."""
     rng = np.random.default_rng(400 + seed)
-    kind = ["steel", "nitinol", "polymer"][seed % 3]
-    if kind == "polymer":
-        rod = {"length": rng.uniform(0.05, 0.2), "radius": rng.uniform(0.8e-3, 3e-3),
-               "youngs_modulus": rng.uniform(5e6, 60e6), "density": rng.uniform(1000, 1250),
-               "poisson_ratio": 0.45}
-    else:
-        rod = {"length": rng.uniform(0.1, 0.5), "radius": rng.uniform(0.2e-3, 1e-3),
-               "youngs_modulus": 200e9 if kind == "steel" else rng.uniform(40e9, 75e9),
-               "density": 7900.0 if kind == "steel" else 6450.0, "poisson_ratio": 0.3}
+    kind = KINDS[seed % 3]
+    rod = user_rod(rng, kind, polymer_length=(0.05, 0.2))
     g = float(rng.uniform(1.0, 20.0))
     angle = float(rng.uniform(-math.pi, math.pi))
     scale = float(rng.uniform(0.1, 10.0))

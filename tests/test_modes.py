@@ -15,6 +15,7 @@ import pytest
 import scipy.linalg as la
 from beam_reference import clamped_free_frequencies, spans_frequencies
 from scipy.optimize import brentq
+from user_robots import KINDS, user_rod
 
 import rodsim
 from rodsim.core.inertia import (
@@ -321,15 +322,8 @@ def test_family_of_user_robots(seed):
     the leading discretisation error c_n (β_n h)² measured on the steel rod at N = 81
     (c = 0.13, 0.072, 0.043: the error is scale-free) of the Timoshenko reference."""
     rng = np.random.default_rng(seed)
-    kind = ["steel", "nitinol", "polymer"][seed % 3]
-    if kind == "polymer":
-        rod = {"length": rng.uniform(0.05, 0.3), "radius": rng.uniform(0.8e-3, 3e-3),
-               "youngs_modulus": rng.uniform(5e6, 60e6), "density": rng.uniform(1000, 1250),
-               "poisson_ratio": 0.45}
-    else:
-        rod = {"length": rng.uniform(0.1, 0.5), "radius": rng.uniform(0.2e-3, 1e-3),
-               "youngs_modulus": 200e9 if kind == "steel" else rng.uniform(40e9, 75e9),
-               "density": 7900.0 if kind == "steel" else 6450.0, "poisson_ratio": 0.3}
+    kind = KINDS[seed % 3]
+    rod = user_rod(rng, kind)
     nodes = int(rng.choice([31, 41, 61, 81]))
     length, stiffness, line_mass, rotary = section(rod)
     tension = tip_mass = 0.0

@@ -13,6 +13,7 @@ import math
 import numpy as np
 import pytest
 from test_simulate import BETA_1, STEEL, first_frequency, modal, wire
+from user_robots import KINDS, user_rod
 
 import rodsim
 from rodsim.app.cli.main import main
@@ -265,15 +266,8 @@ def test_family_of_user_robots(seed):
     two periods of the first mode at 100 steps a period (measured ≤ 2.7e-6, on the steel
     wires driven near resonance; ≤ 3.6e-8 at 200 steps)."""
     rng = np.random.default_rng(500 + seed)
-    kind = ["steel", "nitinol", "polymer"][seed % 3]
-    if kind == "polymer":
-        rod = {"length": rng.uniform(0.05, 0.3), "radius": rng.uniform(0.8e-3, 3e-3),
-               "youngs_modulus": rng.uniform(5e6, 60e6), "density": rng.uniform(1000, 1250),
-               "poisson_ratio": 0.45}
-    else:
-        rod = {"length": rng.uniform(0.1, 0.5), "radius": rng.uniform(0.2e-3, 1e-3),
-               "youngs_modulus": 200e9 if kind == "steel" else rng.uniform(40e9, 75e9),
-               "density": 7900.0 if kind == "steel" else 6450.0, "poisson_ratio": 0.3}
+    kind = KINDS[seed % 3]
+    rod = user_rod(rng, kind)
     omega = first_frequency(rod)
     stiffness = rod["youngs_modulus"] * math.pi * rod["radius"] ** 4 / 4.0
     force = float(rng.uniform(0.05, 0.15)) * stiffness / rod["length"] ** 2

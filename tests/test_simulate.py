@@ -10,6 +10,7 @@ import math
 
 import numpy as np
 import pytest
+from user_robots import KINDS, user_rod
 
 import rodsim
 from rodsim.core.model import Model
@@ -206,15 +207,8 @@ def test_family_of_user_robots(seed):
     L; smaller forces on the stiff wires are below the static solve's round-off floor):
     finite, unit quaternions, energy conserved undamped over two periods."""
     rng = np.random.default_rng(100 + seed)
-    kind = ["steel", "nitinol", "polymer"][seed % 3]
-    if kind == "polymer":
-        rod = {"length": rng.uniform(0.05, 0.3), "radius": rng.uniform(0.8e-3, 3e-3),
-               "youngs_modulus": rng.uniform(5e6, 60e6), "density": rng.uniform(1000, 1250),
-               "poisson_ratio": 0.45}
-    else:
-        rod = {"length": rng.uniform(0.1, 0.5), "radius": rng.uniform(0.2e-3, 1e-3),
-               "youngs_modulus": 200e9 if kind == "steel" else rng.uniform(40e9, 75e9),
-               "density": 7900.0 if kind == "steel" else 6450.0, "poisson_ratio": 0.3}
+    kind = KINDS[seed % 3]
+    rod = user_rod(rng, kind)
     stiffness = rod["youngs_modulus"] * math.pi * rod["radius"] ** 4 / 4.0
     force = float(rng.uniform(0.08, 0.15)) * stiffness / rod["length"] ** 2
     period = 2.0 * math.pi / first_frequency(rod)
