@@ -244,13 +244,13 @@ def simulate(scene: SceneLike | None, t_end: float, *, output_dt: float | None =
     loaded = load_scene(scene, overrides)
     model = Model(loaded)
     programs = Programs(loaded, model, program)
+    if programs.path_dependent and integrator != "midpoint":  # before any work
+        raise SceneError(f"integrator {integrator!r}: the scene has friction (a string "
+                         "tendon's or a contact's), whose history each step carries to the "
+                         "next; allowed: integrator 'midpoint' (IDA's and CVODE's adaptive "
+                         "steps would each need a restart)")
     x = _start_state(loaded, model, initial)
     if programs.path_dependent:
-        if integrator != "midpoint":
-            raise SceneError(f"integrator {integrator!r}: the scene has friction (a string "
-                             "tendon's or a contact's), whose history each step carries to "
-                             "the next; allowed: integrator 'midpoint' (IDA's and CVODE's "
-                             "adaptive steps would each need a restart)")
         programs.carry_history(0.0, x)  # the start: at rest in the equilibrium it was left in
     omega = math.nan
     if integrator != "midpoint" or step is None or output_dt is None:
