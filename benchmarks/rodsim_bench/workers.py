@@ -37,9 +37,11 @@ from rodsim_bench.machine import machine
 
 __all__ = ["run", "WORKERS", "RUNNERS", "STUDIES"]
 
-SIZES = {"small": {"repeats": 1, "study_size": "small"},
-         "full": {"repeats": 3, "study_size": "full"}}
 STUDIES = ("fig7b", "convergence")
+#: Per size: repeats, the studies' own size, and the studies (small: a smoke run of the
+#: same code paths on one study).
+SIZES = {"small": {"repeats": 1, "study_size": "small", "studies": STUDIES[:1]},
+         "full": {"repeats": 3, "study_size": "full", "studies": STUDIES}}
 #: local: ``--workers N`` (1 = in-process); dask: ``--scheduler local --workers N``.
 RUNNERS = ("local", "dask")
 WORKERS = (1, 2)
@@ -89,24 +91,25 @@ def _run(size: str, output_dir: str | Path, progress, folder: str,
          baseline: BaselineTree | None) -> list[Path]:
     setting = SIZES[size]
     repeats = setting["repeats"]
+    studies = setting["studies"]
     codes = ["this"] + ([f"baseline {baseline.commit[:7]}"] if baseline is not None else [])
-    shape = (len(codes), len(STUDIES), len(RUNNERS), len(WORKERS), repeats)
+    shape = (len(codes), len(studies), len(RUNNERS), len(WORKERS), repeats)
     wall, cpu = np.full(shape, np.nan), np.full(shape, np.nan)
-    cases = [(c, i, j, k) for c in range(len(codes)) for i in range(len(STUDIES))
+    cases = [(c, i, j, k) for c in range(len(codes)) for i in range(len(studies))
              for j in range(len(RUNNERS)) for k in range(len(WORKERS))
              if c == 0 or RUNNERS[j] == "local"]
     if baseline is not None:  # warm-up: the baseline's kernels compiled into its tree
-        for study in STUDIES:
+        for study in studies:
             _study(study, "local", 1, "small", folder, baseline)
     load_start = _load()
     for repeat in range(repeats):  # interleaved, so that a load change hits every row
         for n, (c, i, j, k) in enumerate(cases):
             if progress is not None:
                 progress((repeat * len(cases) + n) / (repeats * len(cases)),
-                         f"workers: {codes[c]}, {STUDIES[i]}, {RUNNERS[j]}, {WORKERS[k]} "
+                         f"workers: {codes[c]}, {studies[i]}, {RUNNERS[j]}, {WORKERS[k]} "
                          f"workers ({repeat + 1}/{repeats})")
             wall[c, i, j, k, repeat], cpu[c, i, j, k, repeat] = _study(
-                STUDIES[i], RUNNERS[j], WORKERS[k], setting["study_size"], folder,
+                studies[i], RUNNERS[j], WORKERS[k], setting["study_size"], folder,
                 baseline if c else None)
     load_end = _load()
     med_wall, med_cpu = np.median(wall, axis=-1), np.median(cpu, axis=-1)
@@ -117,7 +120,7 @@ def _run(size: str, output_dir: str | Path, progress, folder: str,
                              "its workers"})},
         coords={"code": ("code", codes, {"long_name": "this checkout, or the baseline "
                                          "revision's code (RODSIM_BENCH_BASELINE)"}),
-                "study": ("study", list(STUDIES), {"long_name": "shipped study"}),
+                "study": ("study", list(studies), {"long_name": "shipped study"}),
                 "runner": ("runner", list(RUNNERS),
                            {"long_name": "local worker processes or a dask LocalCluster"}),
                 "workers": ("workers", np.array(WORKERS), {"long_name": "--workers"}),
@@ -134,7 +137,7 @@ def _run(size: str, output_dir: str | Path, progress, folder: str,
              "| code | study | runner | workers | wall [s] | CPU [s] | speed-up (wall, vs 1) | "
              "CPU / CPU(1) | CPU / this code's |", "|---|---|---|--:|--:|--:|--:|--:|--:|"]
     for c, code in enumerate(codes):
-        for i, study in enumerate(STUDIES):
+        for i, study in enumerate(studies):
             for j, runner in enumerate(RUNNERS):
                 for k, workers in enumerate(WORKERS):
                     if np.isnan(med_wall[c, i, j, k]):
