@@ -44,12 +44,20 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from rodsim.core.anchors import check_joints
-from rodsim.core.damping_options import DAMPING_PARAMETERS, resolve_damping
+from rodsim.core.damping_options import resolve_damping
 from rodsim.core.names import check_rod_name, check_scene_name
 from rodsim.core.program import resolve_program
 from rodsim.core.rod.rod import ROD_PARAMETERS, RodOptions
 from rodsim.core.rod.sections import resolve_sections
 from rodsim.core.scene_file import parse_toml, read_scene_text
+from rodsim.core.scene_keys import (
+    assign,
+    damping_keys,
+    drop_unlisted_term_tables,
+    integrator_option,
+    parse_value,
+    resolve_key,
+)
 from rodsim.core.schema import (
     PATH_WIDTH,
     Options,
@@ -259,12 +267,12 @@ class Scene:
     def full_key(self, key: str, prefer: str = "") -> str:
         """The full dotted key that ``key`` names (the short forms of :meth:`with_overrides`;
         SceneError for an unknown or ambiguous key)."""
-        return _resolve_key(self.data, key, prefer)
+        return resolve_key(self.data, key, prefer)
 
     def get(self, key: str) -> Any:
         """Value at a dotted key, with the same short forms as :meth:`with_overrides`."""
         node: Any = self.data
-        for part in _resolve_key(self.data, key).split("."):
+        for part in resolve_key(self.data, key).split("."):
             node = node[int(part)] if isinstance(node, list) else node[part]
         return node
 
@@ -298,19 +306,19 @@ class Scene:
                                  reason="expected key=value", assignment=assignment)
             preferred = prefer or f"solver.{data['solver']['integrator']}"
             try:
-                full_key = _resolve_key(data, key, preferred,
-                                        known + _integrator_option(key) + _damping_keys(data))
-                value = _parse_value(text.strip())
+                full_key = resolve_key(data, key, preferred,
+                                        known + integrator_option(key) + damping_keys(data))
+                value = parse_value(text.strip())
             except SceneError as exc:
                 exc.assignment = assignment
                 raise
             follower = self._defaulted_stretch(full_key, data)
-            data = _assign(data, full_key, value)
+            data = assign(data, full_key, value)
             if follower and isinstance(value, (int, float)) and not isinstance(value, bool):
-                data = _assign(data, follower, value)  # E_s defaulted from E_b follows it
+                data = assign(data, follower, value)  # E_s defaulted from E_b follows it
             given[full_key] = assignment
             if full_key.endswith(".terms"):
-                _drop_unlisted_term_tables(data, full_key)
+                drop_unlisted_term_tables(data, full_key)
             # Validate as we go so a later key can name a term an earlier one added; a scene
             # that is only invalid half-way (e.g. switching two linked values) is checked
             # again once every assignment is applied.
@@ -347,7 +355,7 @@ class Scene:
         ``solver.<integrator>.<option>`` key may be set although the scene does not hold it."""
         data = copy.deepcopy(self.data)
         for key, value in values.items():
-            data = _assign(data, _resolve_key(data, key, known=_integrator_option(key)), value)
+            data = assign(data, resolve_key(data, key, known=integrator_option(key)), value)
         return Scene(resolve(data), self.source)
 
 
@@ -527,96 +535,3 @@ def _files_beside(raw: Any, folder: Path) -> None:
             beside = folder / file
             if beside.is_file():
                 table["file"] = str(beside)
-
-
-def _leaf_keys(node: Any, prefix: str = "") -> list[str]:
-    """The dotted keys of every value under ``node``; the scene's ``[program]`` table is
-    left out (its entries are keys themselves, set with ``--program``, not ``--set``)."""
-    if isinstance(node, Mapping):
-        out = []
-        for key, value in node.items():
-            if not prefix and key == "program":
-                continue
-            out += _leaf_keys(value, f"{prefix}.{key}" if prefix else str(key))
-        return out
-    if isinstance(node, list) and node and all(isinstance(v, Mapping) for v in node):
-        out = []
-        for i, value in enumerate(node):
-            out += _leaf_keys(value, f"{prefix}.{i}")
-        return out
-    return [prefix]
-
-
-def _integrator_option(key: str) -> tuple[str, ...]:
-    """``(key,)`` when ``key`` is a full ``solver.<integrator>.<option>`` key, which may be set
-    although the scene does not hold it yet (the integrator validates it); else ``()``."""
-    return (key,) if key.startswith("solver.") and key.count(".") == 2 else ()
-
-
-def _damping_keys(data: Mapping[str, Any]) -> tuple[str, ...]:
-    """Every rod's ``rods.<rod>.damping.<value>`` key, which may be set although the scene
-    has no damping table (read by ``rodsim simulate`` only; docs/dynamics.md)."""
-    return tuple(f"rods.{rod}.damping.{parameter.name}" for rod in data.get("rods", {})
-                 for parameter in DAMPING_PARAMETERS)
-
-
-def _resolve_key(data: Mapping[str, Any], key: str, prefer: str = "",
-                 known: tuple[str, ...] = ()) -> str:
-    leaves = _leaf_keys(data)
-    leaves += [k for k in known if k not in leaves]
-    if key in leaves:
-        return key
-    matches = [leaf for leaf in leaves if leaf.endswith("." + key)]
-    preferred = [leaf for leaf in matches if prefer and leaf.startswith(prefer + ".")]
-    if len(matches) == 1:
-        return matches[0]
-    if len(preferred) == 1:
-        return preferred[0]
-    if not matches:
-        names = sorted({leaf.rsplit(".", 1)[-1] for leaf in leaves} | set(leaves))
-        close = difflib.get_close_matches(key, names, n=3)
-        hint = f"; closest: {', '.join(close)}" if close else ""
-        raise SceneError(f"unknown key {shown(key, bare=True)}: no scene key is it or ends "
-                         f"with it (docs/scenes.md lists the keys){hint}", key=key,
-                         allowed=tuple(close), reason="unknown key")
-    raise SceneError(f"ambiguous key {shown(key, bare=True)}: could be {', '.join(matches)}",
-                     key=key, allowed=tuple(matches), reason="ambiguous key")
-
-
-def _assign(data: dict[str, Any], key: str, value: Any) -> dict[str, Any]:
-    node: Any = data
-    parts = key.split(".")
-    for part in parts[:-1]:
-        node = node[int(part)] if isinstance(node, list) else node.setdefault(part, {})
-    last = parts[-1]
-    if isinstance(node, list):
-        node[int(last)] = value
-    else:
-        node[last] = value
-    return data
-
-
-def _drop_unlisted_term_tables(data: dict[str, Any], terms_key: str) -> None:
-    """After an override ``<rod>.terms=[…]``: drop the parameter tables of the terms the new list
-    leaves out (they came from the scene or its defaults; keeping them would refuse the
-    removal as "parameters given for a term that terms does not list")."""
-    from rodsim.core.terms import registered_terms
-
-    node: Any = data
-    for part in terms_key.split(".")[:-1]:
-        node = node[part]
-    listed = node["terms"] if isinstance(node["terms"], list) else []
-    for term in {kind.key for kind in registered_terms().values()}:
-        if term in node and term not in listed:
-            del node[term]
-
-
-def _parse_value(text: str) -> Any:
-    """An override's value: TOML if it parses as one, else the plain string."""
-    try:
-        return tomllib.loads(f"v = {text}")["v"]
-    except tomllib.TOMLDecodeError:
-        return text
-    except RecursionError:
-        raise SceneError(f"value {shown(text)}: nested too deeply", value=text,
-                         reason="nested too deeply") from None
