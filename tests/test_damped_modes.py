@@ -12,7 +12,7 @@ import math
 import numpy as np
 import pytest
 import scipy.linalg as la
-from test_simulate import STEEL, first_frequency, modal, peaks, wire
+from test_simulate import STEEL, decay_ratio, first_frequency, modal, peaks, wire
 
 import rodsim
 from rodsim.app.cli.main import main
@@ -136,8 +136,7 @@ def test_the_decay_rodsim_simulate_measures(kind):
                           initial={"tip_load.force": [0.0, -0.02, 0.0]})
     assert run.success, run.message
     times, values = peaks(run.times, modal(run))
-    decrement = np.log(values[0] / values[-1]) / (len(values) - 1)
-    measured = decrement / math.sqrt(4.0 * math.pi**2 + decrement**2)
+    measured = decay_ratio(values)
     assert abs(measured / modes.damping_ratios[0] - 1.0) < 0.01
     ringing = np.mean(np.diff(times))
     omega_h = 2.0 * math.pi * modes.frequencies[0] * h

@@ -67,6 +67,13 @@ def peaks(t: np.ndarray, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return t[i] + shift * (t[1] - t[0]), b - 0.25 * (a - c) * shift
 
 
+def decay_ratio(values: np.ndarray) -> float:
+    """The damping ratio ζ of successive peak ``values`` of a mode's coordinate, from their
+    logarithmic decrement δ: ζ = δ / √(4π² + δ²)."""
+    decrement = np.log(values[0] / values[-1]) / (len(values) - 1)
+    return float(decrement / math.sqrt(4.0 * math.pi**2 + decrement**2))
+
+
 def vibration_energy(run: rodsim.app.simulate.Simulation) -> float:
     """V(x₀) − V(rest): the energy of the free vibration [J]."""
     model = Model(run.scene)
@@ -135,8 +142,7 @@ def test_damping_ratio_from_the_logarithmic_decrement(kind):
                           output_dt=period / 100, initial=RELEASE)
     assert run.success, run.message
     times, values = peaks(run.times, modal(run))
-    decrement = np.log(values[0] / values[-1]) / (len(values) - 1)
-    measured = decrement / math.sqrt(4.0 * math.pi**2 + decrement**2)
+    measured = decay_ratio(values)
     assert abs(measured / zeta - 1.0) < 0.02
     assert run.dissipated_energy[-1] > 0.4 * vibration_energy(run)  # e^{-4π ζ 5} = 0.53 left
     assert np.max(np.abs(run.energy_error)) < 1e-6 * vibration_energy(run)
@@ -157,8 +163,7 @@ def test_kelvin_voigt_damping_does_not_grow_with_the_amplitude():
                           initial={"tip_load.force": [0.0, -0.5, 0.0]})
     assert run.success, run.message
     times, values = peaks(run.times, modal(run))
-    decrement = np.log(values[0] / values[-1]) / (len(values) - 1)
-    measured = decrement / math.sqrt(4.0 * math.pi**2 + decrement**2)
+    measured = decay_ratio(values)
     assert abs(measured / zeta - 1.0) < 0.015, measured / zeta - 1.0
 
 

@@ -42,7 +42,7 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
 from rodsim.core.stability_band import BandStiffness
-from rodsim.core.vibration import ARPACK_SEED, ModesError, stiffness_solver
+from rodsim.core.vibration import ARPACK_SEED, ModesError, check_count, stiffness_solver
 
 __all__ = ["DampedVibration", "damped_modes", "DENSE_SIZE", "REAL_TOLERANCE"]
 
@@ -104,9 +104,7 @@ def damped_modes(stiffness: sp.spmatrix, factor: sp.spmatrix, damping: sp.spmatr
     factor = sp.csr_matrix(factor)
     damping = sp.csr_matrix(damping)
     n, m = factor.shape
-    if not 1 <= count <= m:
-        raise ModesError(f"count = {count}: allowed 1 to {m}, the system's physical degrees "
-                         "of freedom")
+    check_count(count, m)
     if not (np.all(np.isfinite(stiffness.data)) and np.all(np.isfinite(damping.data))):
         raise ModesError("the stiffness or the damping is not finite at this equilibrium")
     solve = stiffness_solver(stiffness, jacobian, band)

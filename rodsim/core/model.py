@@ -395,11 +395,7 @@ class Model(ModelScales):
             assert anchors is not None
             terms[index] = term.anchored(anchors)
             changed.append(index)
-        if not changed:
-            return self
-        other = copy.copy(self)
-        other._replace_terms(terms, changed)
-        return other
+        return self._with_replaced(terms, changed)
 
     def with_anchors_of(self, other: Model) -> Model:
         """This model with the friction anchors of ``other``, a model of the same layout
@@ -413,11 +409,16 @@ class Model(ModelScales):
             if anchored is not term:
                 terms[index] = anchored
                 changed.append(index)
+        return self._with_replaced(terms, changed)
+
+    def _with_replaced(self, terms: list[Term], changed: list[int]) -> Model:
+        """A copy with ``terms`` (those at ``changed`` rebuilt on the same elements: other
+        anchors), or this model itself when nothing changed."""
         if not changed:
             return self
-        out = copy.copy(self)
-        out._replace_terms(terms, changed)
-        return out
+        other = copy.copy(self)
+        other._replace_terms(terms, changed)
+        return other
 
     @cached_property
     def support_displacements(self) -> tuple[tuple[np.ndarray, np.ndarray, np.ndarray], ...]:

@@ -39,8 +39,8 @@ import scipy.sparse.linalg as spla
 
 from rodsim.core.stability_band import BandStiffness
 
-__all__ = ["Vibration", "natural_modes", "stiffness_solver", "ModesError", "ARPACK_SEED",
-           "DENSE_SIZE"]
+__all__ = ["Vibration", "natural_modes", "stiffness_solver", "check_count", "ModesError",
+           "ARPACK_SEED", "DENSE_SIZE"]
 
 #: Seed of ARPACK's start vector (reproducible modes).
 ARPACK_SEED = 33
@@ -99,6 +99,14 @@ def stiffness_solver(stiffness: sp.csc_matrix, jacobian: np.ndarray | None,
                          "motion without stiffness: an unheld rod, or a mechanism)") from None
 
 
+def check_count(count: int, degrees: int) -> None:
+    """ModesError, one line, for a number of modes outside 1..``degrees`` (the system's
+    physical degrees of freedom)."""
+    if not 1 <= count <= degrees:
+        raise ModesError(f"count = {count}: allowed 1 to {degrees}, the system's physical "
+                         "degrees of freedom")
+
+
 def natural_modes(stiffness: sp.spmatrix, factor: sp.spmatrix, count: int, *,
                   band: BandStiffness | None = None,
                   jacobian: np.ndarray | None = None) -> Vibration:
@@ -111,9 +119,7 @@ def natural_modes(stiffness: sp.spmatrix, factor: sp.spmatrix, count: int, *,
     stiffness = sp.csc_matrix(stiffness)
     factor = sp.csr_matrix(factor)
     n, m = factor.shape
-    if not 1 <= count <= m:
-        raise ModesError(f"count = {count}: allowed 1 to {m}, the system's physical degrees "
-                         "of freedom")
+    check_count(count, m)
     if not np.all(np.isfinite(stiffness.data)):
         raise ModesError("the stiffness K = -dF/dx is not finite at this equilibrium")
     largest = float(abs(stiffness).max()) if stiffness.nnz else 0.0
