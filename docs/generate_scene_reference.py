@@ -18,6 +18,7 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import json
+import re
 import sys
 from pathlib import Path
 
@@ -63,20 +64,30 @@ def allowed(parameter: Parameter, term_names: list[str]) -> str:
     return dataclasses.replace(parameter, unit="-").allowed
 
 
+#: A scene table's name with a placeholder, ``[rods.<name>.base]``, written in a meaning: shown
+#: as code, or a Markdown renderer (the docs site) would take ``<name>`` for an HTML tag.
+TABLE_NAME = re.compile(r"(?<!`)(\[\[?[\w.]*<[\w.<>]+\]\]?)(?!`)")
+
+
+def meaning(doc: str) -> str:
+    """A parameter's doc as a table cell."""
+    return TABLE_NAME.sub(r"`\1`", doc.replace("|", "\\|"))
+
+
 def table(parameters: tuple[Parameter, ...], term_names: list[str] = (),
           inherited: tuple[str, ...] = ()) -> list[str]:
     if not parameters:
         return ["No parameters.", ""]
     lines = ["| key | default | unit | allowed | meaning |", "|---|---|---|---|---|"]
     for p in parameters:
-        doc = p.doc.replace("|", "\\|")
+        doc = meaning(p.doc)
         default = "the rod's" if p.name in inherited else toml_value(p.default)
         if p.name == "stretch_modulus" and not inherited:  # rodsim/core/scene.py fills it
             default = "`youngs_modulus`"
         lines.append(f"| `{p.name}` | {default} | {p.unit} "
                      f"| {allowed(p, list(term_names))} | {doc} |")
         for item in p.items or ():  # the keys of each table of a list of tables
-            doc = item.doc.replace("|", "\\|")
+            doc = meaning(item.doc)
             lines.append(f"| `{p.name}[].{item.name}` | {toml_value(item.default)} "
                          f"| {item.unit} | {allowed(item, [])} | {doc} |")
     return [*lines, ""]

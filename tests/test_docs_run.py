@@ -183,9 +183,10 @@ SETUP = {
 }
 
 #: > 5 s of CPU each (measured: README.md 19, docs/dynamics.md 14, docs/batch.md 8.5,
-#: docs/inverse.md 6.5, docs/benchmarks.md 3.4-5): run first on the parallel workers.
+#: docs/inverse.md 6.5, docs/getting-started.md 6, docs/benchmarks.md 3.4-5): run first on
+#: the parallel workers.
 SLOW = {"README.md", "docs/dynamics.md", "docs/batch.md", "docs/inverse.md",
-        "docs/benchmarks.md"}
+        "docs/getting-started.md", "docs/benchmarks.md"}
 
 
 @pytest.mark.parametrize("document", [
