@@ -97,3 +97,12 @@ def test_ci_runs_the_readme_test_command():
     assert documented, "the README's test command is not where it was"
     assert re.search(rf"^{re.escape(documented[1])}$", ci, re.MULTILINE), (
         f".ci/run does not run {documented[1]!r}")
+
+
+def test_the_gallery_is_current():
+    """docs/gallery.md shows every shipped scene and example script, with a figure for each
+    scene; a scene or example added, renamed or redescribed must be regenerated
+    (python docs/generate_gallery.py, with --figures for a new or changed scene)."""
+    run = subprocess.run([sys.executable, str(ROOT / "docs" / "generate_gallery.py"), "--check"],
+                         capture_output=True, text=True, check=False)
+    assert run.returncode == 0, run.stdout + run.stderr
