@@ -39,6 +39,10 @@ ADAPTED: dict[str, tuple[str | None, str]] = {
     ". .venv/bin/activate": (SKIP, "activates the environment the tests already run in"),
     "pip install .": (SKIP, "installs software"),
     "pip install '.[test]'": (SKIP, "installs software"),
+    "pip install '.[docs]'": (SKIP, "installs software"),
+    "mkdocs build --strict": (SKIP, "builds the site: tests/test_docs_site.py does, into a "
+                              "temporary folder"),
+    "mkdocs serve": (SKIP, "serves the site until it is stopped"),
     "python -m pytest -q -n auto --dist worksteal": (
         SKIP, "runs the test suite this test is part of (.ci/run runs it: test_docs.py)"),
     "rodsim study fig17 --scheduler local": (

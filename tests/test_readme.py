@@ -24,6 +24,27 @@ def test_the_readme_lists_every_shipped_scene_and_no_other(cli, capsys):
                                f"not shipped: {sorted(listed - printed)}")
 
 
+def test_the_readme_lists_every_scene_file_of_the_package():
+    """The same list checked against the files themselves: every rodsim/data/*.toml (the
+    repository's data/ folder) is in the README's list, and nothing else is."""
+    start = README.index("Shipped scenes (`rodsim scenes`")
+    end = README.index("A name that is neither a shipped scene nor a file", start)
+    listed = {name for name in re.findall(r"`([a-z0-9][a-z0-9-]*)`", README[start:end])
+              if name != "reach"}
+    files = {path.stem for path in (ROOT / "rodsim" / "data").glob("*.toml")}
+    assert len(files) >= 13
+    assert listed == files, (f"missing from README: {sorted(files - listed)}; "
+                             f"no such file: {sorted(listed - files)}")
+
+
+def test_the_readme_says_how_to_build_the_docs_site():
+    section = README[README.index("## Documentation site"):]
+    section = section[:section.index("\n## ")]
+    for needed in ("mkdocs build --strict", "mkdocs serve", 'pip install ".[docs]"',
+                   "docs/getting-started.md", "docs/gallery.md"):
+        assert needed in section, needed
+
+
 def test_the_files_the_readme_commands_name_are_shipped():
     named = set(re.findall(r"\bexamples/[\w.-]+\.(?:toml|csv|py)\b", README))
     assert {"examples/my-scene.toml", "examples/shape.csv"} <= named
