@@ -4,7 +4,7 @@ Implements Villard, Waite & Howe, *Cosserat rods for modeling tendon-driven robo
 catheter systems* (docs/architecture.md maps each equation to its file).
 
 Importing rodsim has no side effects: the ``rodsim`` command pins BLAS threads and selects a
-file-only matplotlib backend itself (:mod:`rodsim.app.threads`, :func:`rodsim.app.cli.main`).
+file-only matplotlib backend itself (``rodsim.app.threads``, ``rodsim.app.cli.main``).
 The package is layered core → solvers → io → app (docs/architecture.md).
 
 ``rodsim.load_scene``, ``rodsim.solve``, ``rodsim.solve_many`` (many cases of one scene,
@@ -35,7 +35,7 @@ def __dir__() -> list[str]:
 
 
 def __getattr__(name: str):
-    """The Python entry points of :mod:`rodsim.app.api` and the inverse tools, imported on first
+    """The Python entry points of ``rodsim.app.api`` and the inverse tools, imported on first
     use: ``import rodsim`` stays light (SUNDIALS, xarray and numba are loaded only when a
     solve needs them)."""
     if name in ("build_model", "load_scene", "solve"):

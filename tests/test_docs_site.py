@@ -7,6 +7,8 @@ elsewhere the build test skips, saying so."""
 
 from __future__ import annotations
 
+import ast
+import re
 import subprocess
 import sys
 from pathlib import Path
@@ -15,6 +17,9 @@ import pytest
 
 ROOT = Path(__file__).resolve().parent.parent
 DOCS = ROOT / "docs"
+#: A Sphinx cross-reference role (``:func:`x```, ``:class:`~a.B```, …): mkdocstrings shows it
+#: as raw text, so docstrings write a plain code span (``x``) instead.
+ROLE = re.compile(r":(?:py:)?(?:func|class|meth|mod|data|attr|exc|obj|const|ref):`")
 
 
 def nav_pages(nav: list) -> list[str]:
@@ -74,3 +79,18 @@ def test_the_site_builds_strictly_with_the_user_guide_and_the_api(site):
     assert "Values of the scene keys" in api and "rodsim.app.inverse.reach.reach" in api
     # The figures the pages show are copied beside them.
     assert (site / "figures" / "fig7b.png").is_file()
+
+
+def test_no_docstring_in_the_package_holds_a_raw_sphinx_role():
+    """Every docstring of rodsim/ (modules, classes, functions, and the strings documenting
+    attributes) writes names as code spans: the site renders Markdown, not reStructuredText."""
+    found = []
+    for path in sorted((ROOT / "rodsim").rglob("*.py")):
+        tree = ast.parse(path.read_text(encoding="utf-8"))
+        for node in ast.walk(tree):
+            if (isinstance(node, ast.Expr) and isinstance(node.value, ast.Constant)
+                    and isinstance(node.value.value, str)):
+                found += [f"{path.relative_to(ROOT)}:{node.lineno}: {role.group()}…"
+                          for role in ROLE.finditer(node.value.value)]
+    assert len(list((ROOT / "rodsim").rglob("*.py"))) > 100
+    assert not found, "write ``name``, not a Sphinx role:\n" + "\n".join(found[:20])

@@ -42,16 +42,15 @@ SceneLike = Scene | str | Path | Mapping[str, Any]
 def load_scene(scene: SceneLike | None = None, overrides: Iterable[str] = (),
                prefer: str = "") -> Scene:
     """A fully validated scene from a file path, a shipped scene name, a dict, or a Scene:
-    the one call that gives one (and an archive's scene, :func:`rodsim.io.archive.scene_of`).
+    the one call that gives one (and an archive's scene, ``rodsim.io.archive.scene_of``).
 
-    :meth:`Scene.load <rodsim.core.scene.Scene.load>` and :meth:`Scene.from_dict
-    <rodsim.core.scene.Scene.from_dict>` check the scene against the model's declarations
+    ``Scene.load`` and ``Scene.from_dict`` check the scene against the model's declarations
     only: the core does not know the integrators, so the ``[solver.<name>]`` tables are
     left to them: here they are checked against the registered integrators
-    (:func:`rodsim.solvers.check_solver_options`), after any overrides.
+    (``rodsim.solvers.check_solver_options``), after any overrides.
 
     ``None`` gives the default scene (Table 1, 50 g). ``overrides`` are ``key=value`` strings
-    as for the CLI's ``--set`` (``prefer`` as in :meth:`Scene.with_overrides`); the
+    as for the CLI's ``--set`` (``prefer`` as in ``Scene.with_overrides``); the
     integrators' options may be named by their short forms too.
     """
     if scene is None:
@@ -71,7 +70,7 @@ def load_scene(scene: SceneLike | None = None, overrides: Iterable[str] = (),
 
 def build_model(scene: SceneLike | None = None) -> Model:
     """The assembled model (force, Jacobian, pattern) of a scene (SceneError when the scene
-    is too large for this machine's memory, :mod:`rodsim.core.memory`)."""
+    is too large for this machine's memory, ``rodsim.core.memory``)."""
     loaded = load_scene(scene)
     check_memory(loaded)
     return Model(loaded)
@@ -80,7 +79,7 @@ def build_model(scene: SceneLike | None = None) -> Model:
 def solve(scene: SceneLike | None = None, integrator: str | None = None, *,
           overrides: Iterable[str] = (), progress: Progress | None = None,
           model: Model | None = None, initial_state: np.ndarray | None = None) -> Result:
-    """Run one integrator to equilibrium and return its :class:`~rodsim.solvers.result.Result`.
+    """Run one integrator to equilibrium and return its ``rodsim.solvers.result.Result``.
 
     Parameters
     ----------
@@ -106,8 +105,8 @@ def solve(scene: SceneLike | None = None, integrator: str | None = None, *,
     Notes
     -----
     A solver failure does not raise: check ``result.success`` and ``result.message``.
-    Invalid scenes raise :class:`~rodsim.core.schema.SceneError`, and so does a scene too large
-    for this machine's memory (:mod:`rodsim.core.memory`). The wall-time budget
+    Invalid scenes raise ``rodsim.core.schema.SceneError``, and so does a scene too large
+    for this machine's memory (``rodsim.core.memory``). The wall-time budget
     (``solver.max_wall_time``) starts here: it covers the model's assembly, which stops once
     it is spent (rodsim/core/assembly_budget.py) with a failed result that holds no shape
     (``rods`` empty, ``state`` of length 0: there is no model yet).
@@ -144,7 +143,7 @@ def rerun(dataset: xr.Dataset) -> tuple[Result, float]:
     """Re-run a stored run from the archive alone.
 
     Returns the new result and the largest distance [m] between stored and recomputed
-    control points (infinite when either holds a NaN: see :func:`largest_distance`).
+    control points (infinite when either holds a NaN: see ``largest_distance``).
     """
     from rodsim.io.archive import ArchiveError, scene_of
     from rodsim.io.archive_schema import parse_json_object

@@ -2,13 +2,13 @@
 
 A batch is a scene and a table of cases (rodsim/app/batch_cases.py: one column per numeric
 scene key, one row per case), checked in full before any case runs. The model is assembled
-once per process; each case only sets its values (:meth:`rodsim.core.model.Model.with_values`,
+once per process; each case only sets its values (``rodsim.core.model.Model.with_values``,
 the study points' way of sharing a model: rodsim/app/study_points.py) and converges on its own
 from the rest state, with its own verdict, message and stability verdict: the same solve as
 ``rodsim.solve`` of that case alone. A case that fails is recorded with its message and the
 others go on.
 
-Cases run in chunks of :data:`CHUNK` (a task of the local worker pool,
+Cases run in chunks of ``CHUNK`` (a task of the local worker pool,
 rodsim/app/worker_pool.py, or of a dask cluster; workers keep their imports, kernels and
 model from chunk to chunk). With an output path, every finished chunk is written at once,
 atomically, to ``<output>.parts/`` (the study's parts folder, rodsim/app/study_parts.py, with

@@ -5,7 +5,7 @@ its columns; pandas is never imported here) or a CSV file, and checked in full b
 case runs: every key a numeric model parameter, every value a finite number in its declared
 range, and, for values that take part in a rule across tables (a radius against a length, a
 lumen offset inside the radii), every case's scene valid. A bad table is refused with a
-one-line :class:`~rodsim.core.schema.SceneError` naming the case and the key.
+one-line ``rodsim.core.schema.SceneError`` naming the case and the key.
 """
 
 from __future__ import annotations
@@ -112,8 +112,8 @@ def checked_cases(scene: Scene, cases: Any) -> tuple[list[NumericKey], np.ndarra
 
 def read_cases_csv(path: str | Path) -> dict[str, list[str]]:
     """The columns of a cases CSV (a header of scene keys, one row per case; a UTF-8
-    byte-order mark is read), as text for :func:`checked_cases`. InputError for a path that
-    is not a regular file of at most :data:`MAX_CASES_BYTES`, SceneError for a table that
+    byte-order mark is read), as text for ``checked_cases``. InputError for a path that
+    is not a regular file of at most ``MAX_CASES_BYTES``, SceneError for a table that
     is not one (no header, a row of another width)."""
     checked = check_input_file(path, "cases table", MAX_CASES_BYTES)
     try:

@@ -12,7 +12,7 @@ order:
 3. the current folder or one of its parents (running ``rodsim bench`` inside a clone);
 
 or from ``sys.path`` (e.g. ``PYTHONPATH=benchmarks``). Without any of them,
-:class:`BenchmarksMissing` says so in one line.
+``BenchmarksMissing`` says so in one line.
 
 The results go to ``runs/bench`` of the current folder unless asked otherwise
 (``-o DIR``, or ``--commit`` for the checkout's committed ``benchmarks/results``).
@@ -115,7 +115,7 @@ def default_output() -> Path | None:
 
 def results_folder(output: str | None, commit: bool) -> Path | None:
     """Where a benchmark writes: ``output`` if given, the checkout's committed results with
-    ``commit`` (None if there is none), else :data:`DEFAULT_OUTPUT`."""
+    ``commit`` (None if there is none), else ``DEFAULT_OUTPUT``."""
     if output is not None:
         return Path(output)
     if commit:

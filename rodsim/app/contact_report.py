@@ -1,5 +1,5 @@
 """The summary's contact warnings: a rest shape through an obstacle's wall
-(rodsim/core/contact_depth.py, :func:`~rodsim.core.contact_depth.rest_crossings`), and a rod
+(rodsim/core/contact_depth.py, ``rodsim.core.contact_depth.rest_crossings``), and a rod
 that passes through itself (rodsim/core/self_crossing.py; rodsim has no self-contact).
 
 A rest state deeper inside an obstacle than the contact law's validity starts the solve

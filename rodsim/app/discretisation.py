@@ -4,7 +4,7 @@ error (docs/model.md, "The discretisation-error estimate").
 The discretisation (paper §2.2: nodes r_j, segment quaternions q_j, the bending elements
 between them, Eqs. 3-9) converges at order p = 2 in the segment length h: an equilibrium
 x(h) ≈ x(0) + C h². One warm solve of the same scene with every rod at about half its
-segments (h_c = r h, r ≈ 2: :func:`coarser_nodes`) gives x(r h), and Richardson's
+segments (h_c = r h, r ≈ 2: ``coarser_nodes``) gives x(r h), and Richardson's
 extrapolation
 
     x(h) − x(0) ≈ (x(h) − x(r h)) / (r² − 1),      x(0) ≈ x(h) + (x(h) − x(r h)) / (r² − 1),
@@ -61,7 +61,7 @@ MIN_NODES = 3
 
 @dataclass(frozen=True)
 class DiscretisationError:
-    """The estimate of :func:`discretisation_error`."""
+    """The estimate of ``discretisation_error``."""
 
     #: Estimated distance of the result from the continuum rod's equilibrium, in units of L
     #: (NaN when the coarse solve could not be made or failed; see ``reason``).
@@ -86,12 +86,12 @@ class DiscretisationError:
 
     @property
     def order(self) -> float:
-        """The order the extrapolation assumes (:data:`ORDER`)."""
+        """The order the extrapolation assumes (``ORDER``)."""
         return ORDER
 
     @property
     def warning(self) -> bool:
-        """True when the estimate exceeds :data:`TRUST_WARNING` (or could not be made)."""
+        """True when the estimate exceeds ``TRUST_WARNING`` (or could not be made)."""
         return not self.error <= TRUST_WARNING
 
     def text(self, prefix: str = "") -> str:
@@ -110,7 +110,7 @@ class DiscretisationError:
 
 def coarser_nodes(nodes: int, ratio: float = 2.0) -> int:
     """About 1/``ratio`` of the segments of a rod of ``nodes`` nodes: round((N − 1)/ratio) +
-    1 nodes, at least :data:`MIN_NODES`."""
+    1 nodes, at least ``MIN_NODES``."""
     return max(MIN_NODES, int(np.floor((nodes - 1) / ratio + 0.5)) + 1)
 
 
@@ -118,7 +118,7 @@ def coarser_scene(scene: Scene, target: float = 2.0,
                   attempt: int = 0) -> tuple[dict[str, Any], dict[str, int], float]:
     """The resolved scene dict with every rod at about 1/``target`` of its segments, the
     coarse node counts and the smallest ratio r of coarse to fine segment length over the
-    rods. ``attempt`` k takes each rod's k-th count by closeness to :func:`coarser_nodes`
+    rods. ``attempt`` k takes each rod's k-th count by closeness to ``coarser_nodes``
     among those with a ratio in [1.25, 2.6] (a support must stay on a node: the next
     attempt when a scene is refused)."""
     data = copy.deepcopy(scene.data)
@@ -136,7 +136,7 @@ def coarser_scene(scene: Scene, target: float = 2.0,
 def _candidates(fine: int, target: float) -> list[int]:
     """Coarse node counts of a rod of ``fine`` nodes, closest to 1/``target`` of its segments
     first, with ratios in [1.25, 2.6] (the nearest one alone when none is); repeated to
-    :data:`ATTEMPTS` entries."""
+    ``ATTEMPTS`` entries."""
     best = coarser_nodes(fine, target)
     counts = sorted((m for m in range(MIN_NODES, fine) if 1.25 <= (fine - 1) / (m - 1) <= 2.6),
                     key=lambda m: (abs(m - best), m))
@@ -146,7 +146,7 @@ def _candidates(fine: int, target: float) -> list[int]:
 
 def discretisation_error(result: Result, model: Model | None = None) -> DiscretisationError:
     """Estimate how far ``result`` (a converged run) is from the continuum equilibrium by
-    static solves at about 1/2 and 2/3 of the segments (:data:`RATIOS`), each started from
+    static solves at about 1/2 and 2/3 of the segments (``RATIOS``), each started from
     ``result``'s shape, and the mean of their Richardson estimates (module docstring); the
     extrapolated shape is the first one's.
     ``model``: the model ``result`` was solved with (unused: the layout changes, and a

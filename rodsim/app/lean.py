@@ -1,22 +1,22 @@
 """A lean ``rodsim`` process: what the command line does for its own process only (never in
-a Python user's process, nor in the tests' process that calls :func:`rodsim.app.cli.main`).
+a Python user's process, nor in the tests' process that calls ``rodsim.app.cli.main``).
 
 Two things cost a short command more than its work (docs/benchmark-history.md, "Start-up"):
 
 * **dask, when it is installed.** xarray imports ``dask.array`` and ``distributed`` (0.5 s
   of CPU) to learn whether the arrays of a Dataset it builds or writes are dask arrays, and
   ``to_netcdf`` asks dask for its scheduler. The commands that never hand xarray a dask
-  array nor run on dask (:data:`LEAN_COMMANDS`: everything but ``study``, ``batch`` and
+  array nor run on dask (``LEAN_COMMANDS``: everything but ``study``, ``batch`` and
   ``bench``; and ``study`` and ``batch`` on local workers, without ``--scheduler``:
-  :func:`hides_dask`) mark dask as absent in their process before anything imports it
-  (:func:`hide_dask`).
+  ``hides_dask``) mark dask as absent in their process before anything imports it
+  (``hide_dask``).
 * **The interpreter's exit.** Once numba has loaded kernels, the normal exit tears down
-  LLVM and every module (0.4–0.6 s of CPU). :func:`fast_exit` ends the process with
+  LLVM and every module (0.4–0.6 s of CPU). ``fast_exit`` ends the process with
   ``os._exit`` instead, after flushing stdout and stderr, on the command's normal path
   only: its archives are complete by then (written to a temporary file, closed, then
-  renamed: :mod:`rodsim.io.archive`), its figures closed. Anything unusual (a flush that
+  renamed: ``rodsim.io.archive``), its figures closed. Anything unusual (a flush that
   fails, another live thread, a child process still running) falls back to the normal
-  exit. ``study`` and ``batch`` exit early too (:data:`EARLY_EXIT_COMMANDS`): their worker
+  exit. ``study`` and ``batch`` exit early too (``EARLY_EXIT_COMMANDS``): their worker
   pools and dask clusters are shut down before they return; ``bench`` keeps the normal
   exit.
 """
@@ -59,7 +59,7 @@ def fast_exit(code: int) -> NoReturn:
     """End the process with exit status ``code`` without the interpreter's teardown, once
     stdout and stderr are flushed; the normal exit (``SystemExit``) when a flush fails or
     another non-daemon thread is alive (it would be killed mid-work) or a child process of
-    :mod:`multiprocessing` still runs (the normal exit joins it)."""
+    ``multiprocessing`` still runs (the normal exit joins it)."""
     import threading
 
     others: list[object] = [t for t in threading.enumerate()

@@ -6,7 +6,7 @@
     >>> modes.shapes[0]            # the first mode's displacement of every node (nodes, 3)
 
 The equilibrium is solved first (``static`` by default), or taken from a solved
-:class:`~rodsim.solvers.result.Result`; then K φ = ω² M φ is solved about it with the
+``rodsim.solvers.result.Result``; then K φ = ω² M φ is solved about it with the
 physical masses (rodsim/core/inertia.py, rodsim/core/vibration.py; docs/dynamics.md).
 """
 
@@ -122,11 +122,11 @@ def modes(scene: SceneLike | Result | None = None, count: int = DEFAULT_COUNT, *
 
     ``scene``: a scene, path, shipped scene name or dict (its equilibrium is solved with
     ``integrator``, ``overrides`` applied first), or a solved
-    :class:`~rodsim.solvers.result.Result` (its state is the equilibrium). ``rotary_inertia``
+    ``rodsim.solvers.result.Result`` (its state is the equilibrium). ``rotary_inertia``
     False leaves the segments' rotary inertia out (the Euler–Bernoulli beam's inertia).
     A failed equilibrium gives ``success`` False; a bad ``count`` raises
-    :class:`~rodsim.core.vibration.ModesError` (a ValueError), a bad scene
-    :class:`~rodsim.core.schema.SceneError`.
+    ``rodsim.core.vibration.ModesError`` (a ValueError), a bad scene
+    ``rodsim.core.schema.SceneError``.
     """
     if isinstance(count, bool) or not isinstance(count, (int, np.integer)) or count < 1:
         raise ModesError(f"count = {count!r}: allowed a whole number >= 1")

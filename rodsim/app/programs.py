@@ -1,5 +1,5 @@
 """Values that vary in physical time: the programs of a run, checked against their keys
-before any work (docs/dynamics.md, "Initial state and programs"), and :class:`Programs`,
+before any work (docs/dynamics.md, "Initial state and programs"), and ``Programs``,
 the model with the values of a time.
 
 A program maps a term's numeric value to a piecewise-linear table or a sinusoid
@@ -70,8 +70,8 @@ def check_programs(scene: Scene, program: Program | None
 
 class Programs:
     """The models of a scene's values in time: ``model`` with the checked programs
-    (:func:`check_programs`) at each time, the same object while nothing changes, and with
-    friction's history as far as the run has gone (:meth:`carry_history`)."""
+    (``check_programs``) at each time, the same object while nothing changes, and with
+    friction's history as far as the run has gone (``carry_history``)."""
 
     def __init__(self, scene: Scene, model: Model, program: Program | None) -> None:
         self.scene, self.model = scene, model

@@ -11,13 +11,13 @@ __all__ = ["ProgressPrinter"]
 
 
 class ProgressPrinter:
-    """A progress callback (see :data:`rodsim.solvers.base.Progress`).
+    """A progress callback (see ``rodsim.solvers.base.Progress``).
 
     Silent for the first ``delay`` seconds; then one status line at most every ``interval``
     seconds — rewritten in place on a terminal (cut to the terminal's width, so it never
     wraps), appended otherwise (logs stay readable). The last line shown is never a stale
     one: the first report of completion (``fraction`` 1) is shown at once, and a status held
-    back by the interval is shown by :meth:`close`.
+    back by the interval is shown by ``close``.
     """
 
     def __init__(self, stream: TextIO | None = None, delay: float = 1.0,

@@ -1,7 +1,7 @@
 """Scoring against a reference, one home: the analytic reference curves of a scene, a
 point's tip and area errors (Fig. 21's area between centerlines), a convergence sweep scored
 against its last point, and the reference lines of ``rodsim run``'s summary. The continuum
-models themselves are :mod:`rodsim.core.analytic`'s."""
+models themselves are ``rodsim.core.analytic``'s."""
 
 from __future__ import annotations
 
@@ -89,9 +89,9 @@ def reference_curves(scene: Scene, kinds: Sequence[str], sigma: np.ndarray
     """The analytic references (σ, 3) [m] of ``scene``'s first rod for each of ``kinds``
     (``None`` where the scene does not qualify), as a figure draws them: the hanging-mass
     kinds (``exact``, ``paper``, ``extensible``) from one
-    :func:`~rodsim.core.analytic.reference.cantilever_reference`, interpolated at σ L (the
+    ``rodsim.core.analytic.reference.cantilever_reference``, interpolated at σ L (the
     paper's model is sampled in φ); ``arc`` from
-    :func:`~rodsim.core.analytic.reference.reference_centerline`."""
+    ``rodsim.core.analytic.reference.reference_centerline``."""
     s = sigma * next(iter(scene.rods.values())).length
     cantilever = (cantilever_reference(scene) if set(kinds) - {"arc"} else None)
     out: dict[str, np.ndarray | None] = {}

@@ -224,11 +224,11 @@ def simulate(scene: SceneLike | None, t_end: float, *, output_dt: float | None =
     default: 1/100 of the lowest natural period at the start; IDA and CVODE: none);
     ``initial``: a mapping of ``--set`` keys to values whose equilibrium the run starts
     from, or a solved Result (default: the rest state); ``program``: key → (times, values)
-    (piecewise linear) or a :class:`~rodsim.core.program.Sinusoid` per numeric term value,
+    (piecewise linear) or a ``rodsim.core.program.Sinusoid`` per numeric term value,
     added to the scene file's ``[program]`` (replacing its entry for the same value);
     ``overrides``: ``key=value`` changes
     of the scene. The run starts at rest. Bad input raises
-    :class:`~rodsim.core.schema.SceneError` (one line) before any work; a run that fails
+    ``rodsim.core.schema.SceneError`` (one line) before any work; a run that fails
     part-way returns ``success`` False with what it computed.
     """
     if integrator not in INTEGRATORS:
@@ -311,7 +311,7 @@ def _step_of(record: Record, h: float, integrator: str) -> float:
 def _simulation(loaded: Scene, model: Model, record: Record, h: float, integrator: str,
                 t_end: float, programs: dict[str, ProgramEntry],
                 initial: Mapping[str, Any] | Result | None) -> Simulation:
-    """The :class:`Simulation` of what ``record`` holds."""
+    """The ``Simulation`` of what ``record`` holds."""
     states = np.array(record.states)
     full = np.array([model.full(model_state(model, state)) for state in states])
     positions = np.concatenate([full[:, model.rods[name].layout.position_index]

@@ -1,9 +1,9 @@
 """Studies: a base scene, swept parameters on a grid, and what to collect at each point.
 
-A study is declared once (``studies/<name>.py`` defines ``STUDY``, a :class:`Study` of
-:class:`Sweep` s) and runs point by point: :func:`evaluate_point` solves one grid point and
+A study is declared once (``studies/<name>.py`` defines ``STUDY``, a ``Study`` of
+``Sweep`` s) and runs point by point: ``evaluate_point`` solves one grid point and
 returns a small JSON-able record (what the runner persists as soon as the point finishes);
-:func:`assemble` turns the records into one xarray Dataset with a dimension per swept
+``assemble`` turns the records into one xarray Dataset with a dimension per swept
 parameter. Centerlines of different N are compared on a common normalised arc-length grid
 σ = s / L. Everything needed to re-run a point — the resolved base scene, the sweeps, the
 integrator — is stored in the Dataset's attributes (``spec_json``), independent of the study
@@ -11,9 +11,9 @@ file that created it.
 
 This module holds the declaration and the registry of shipped studies, and is the import
 home of the names a user needs; the parts live beside it: the resolved spec and the grid
-(:mod:`rodsim.app.study_spec`), the points (:mod:`rodsim.app.study_points`), their scoring
-(:mod:`rodsim.app.scoring`), the parts folder (:mod:`rodsim.app.study_parts`), the runner
-(:mod:`rodsim.app.study_runner`) and the archive's layout (:mod:`rodsim.io.study_dataset`).
+(``rodsim.app.study_spec``), the points (``rodsim.app.study_points``), their scoring
+(``rodsim.app.scoring``), the parts folder (``rodsim.app.study_parts``), the runner
+(``rodsim.app.study_runner``) and the archive's layout (``rodsim.io.study_dataset``).
 """
 
 from __future__ import annotations

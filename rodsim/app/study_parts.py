@@ -1,5 +1,5 @@
 """A study's parts folder (``<output>.parts/``): where each finished point is kept as a
-small JSON record, written atomically (:func:`rodsim.io.atomic.write_text_atomic`), until
+small JSON record, written atomically (``rodsim.io.atomic.write_text_atomic``), until
 the study's Dataset is assembled. A folder is created complete with its marker (the spec and
 the rodsim that computed its points) and is resumed only by the same spec and version."""
 
@@ -49,8 +49,8 @@ def failure_reason(exc: BaseException) -> str:
 
 
 def save_text(path: Path, text: str) -> None:
-    """Write ``text`` to ``path`` atomically and synced (:func:`rodsim.io.atomic.
-    write_text_atomic`): a crash or a full disk never leaves a partial ``path``, nor the
+    """Write ``text`` to ``path`` atomically and synced (``rodsim.io.atomic.
+    write_text_atomic``): a crash or a full disk never leaves a partial ``path``, nor the
     temporary (StudyError)."""
     try:
         write_text_atomic(path, text)
@@ -187,7 +187,7 @@ def open_folder(folder: Path, spec: dict[str, Any], log: StudyLog, noun: str = "
 def open_parts(folder: Path, spec: StudySpec,
                log: StudyLog) -> dict[tuple[int, ...], dict[str, Any]]:
     """Create the parts folder, or check it belongs to this spec and rodsim version
-    (:func:`open_folder`), and load its records (an unreadable record is reported and its
+    (``open_folder``), and load its records (an unreadable record is reported and its
     point runs again)."""
     open_folder(folder, spec.to_dict(), log)
     grid = set(grid_points(spec))

@@ -85,7 +85,7 @@ def evaluate_point(spec: StudySpec, index: tuple[int, ...]) -> dict[str, Any]:
     """Solve one grid point; never raises: a failure is recorded with its status and message.
 
     Runs in worker processes (local pool or dask): it takes a picklable spec and returns
-    plain data. The model is :func:`point_model`'s.
+    plain data. The model is ``point_model``'s.
     """
     from rodsim.app.api import solve
 
@@ -117,8 +117,8 @@ def evaluate_point(spec: StudySpec, index: tuple[int, ...]) -> dict[str, Any]:
 
 def assemble(spec: StudySpec, records: list[dict[str, Any]]) -> xr.Dataset:
     """One Dataset for the whole study, a dimension per swept parameter: the layout of
-    :func:`rodsim.io.study_dataset.study_dataset`, a convergence sweep scored against its
-    last point (:func:`rodsim.app.scoring.score_against_last`). StudyError when a grid point
+    ``rodsim.io.study_dataset.study_dataset``, a convergence sweep scored against its
+    last point (``rodsim.app.scoring.score_against_last``). StudyError when a grid point
     has no record."""
     by_index = {tuple(r["index"]) for r in records}
     missing = [i for i in grid_points(spec) if i not in by_index]

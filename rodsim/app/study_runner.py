@@ -89,7 +89,7 @@ def _died(index: tuple[int, ...], detail: str) -> dict[str, Any]:
 
 def _run_point(spec: StudySpec, index: tuple[int, ...],
                hook: PointHook | None = None) -> dict[str, Any]:
-    """:func:`evaluate_point` in a worker process, after the injected ``hook`` if any."""
+    """``evaluate_point`` in a worker process, after the injected ``hook`` if any."""
     if hook is not None:
         hook(spec, index)
     return evaluate_point(spec, index)
@@ -271,7 +271,7 @@ def run_spec(spec: StudySpec, output: str | Path, *, workers: int | None = None,
     ``scheduler``: a dask.distributed address, or ``"local"``; connected
     before anything is written; a scheduler with no worker for ``worker_timeout`` seconds
     while points wait fails the study. ``log`` receives one-line warnings (default: stderr).
-    Raises :class:`StudyError` for an output that cannot be written (checked before any
+    Raises ``StudyError`` for an output that cannot be written (checked before any
     point runs), a parts folder of another study or rodsim version, an unreachable
     scheduler, or a point that cannot be saved.
     """
@@ -331,6 +331,6 @@ def run_spec(spec: StudySpec, output: str | Path, *, workers: int | None = None,
 
 
 def run_study(study: Study, size: str, output: str | Path, **kwargs: Any) -> xr.Dataset:
-    """Run a declared study at ``size`` (``small`` or ``full``); see :func:`run_spec`."""
+    """Run a declared study at ``size`` (``small`` or ``full``); see ``run_spec``."""
     return run_spec(study.spec(size), output, **kwargs)
 

@@ -1,7 +1,7 @@
 """A study's resolved spec and its grid: what a worker needs to run the points of one size
 of a study, and what a study archive stores as ``spec_json`` to re-run them without the
-study file (:class:`StudySpec`); the declaration types a study file uses (:class:`Sweep`;
-:class:`rodsim.app.study.Study`)."""
+study file (``StudySpec``); the declaration types a study file uses (``Sweep``;
+``rodsim.app.study.Study``)."""
 
 from __future__ import annotations
 
@@ -44,7 +44,7 @@ class Sweep:
 
 @dataclass(frozen=True)
 class SweepSpec(Sweep):
-    """One sweep of a :class:`StudySpec`, as stored: the fields of :class:`Sweep`, with
+    """One sweep of a ``StudySpec``, as stored: the fields of ``Sweep``, with
     ``values`` as JSON values (a list where a declaration has a tuple)."""
 
     def scene_values(self, i: int) -> dict[str, Any]:
@@ -73,19 +73,19 @@ class SweepSpec(Sweep):
 @dataclass(frozen=True)
 class StudySpec:
     """One size of a study, resolved: everything a worker needs to run its points, and what
-    a study archive stores as ``spec_json`` (:meth:`to_json`) to re-run them without the
-    study file. :meth:`from_json` reads what :meth:`to_json` (or any earlier rodsim) wrote.
+    a study archive stores as ``spec_json`` (``to_json``) to re-run them without the
+    study file. ``from_json`` reads what ``to_json`` (or any earlier rodsim) wrote.
 
     Attributes
     ----------
     name, title, paper, integrator, reference, plot, history, sigma_points
-        As in the :class:`Study` declaration.
+        As in the ``Study`` declaration.
     size
         ``small`` or ``full``.
     base_scene_json, base_scene_toml
-        The resolved base scene (:meth:`Scene.to_json`) and its file's text.
+        The resolved base scene (``Scene.to_json``) and its file's text.
     sweeps
-        The grid, one :class:`SweepSpec` per dimension.
+        The grid, one ``SweepSpec`` per dimension.
     """
 
     name: str
@@ -112,7 +112,7 @@ class StudySpec:
 
     @classmethod
     def from_dict(cls, data: dict[str, Any]) -> StudySpec:
-        """The spec of a JSON object as :meth:`to_dict` writes it (StudyError if it is not
+        """The spec of a JSON object as ``to_dict`` writes it (StudyError if it is not
         one)."""
         try:
             return cls(**{f.name: data[f.name] for f in fields(cls)

@@ -4,7 +4,7 @@ The solvers' callbacks hold the GIL and their linear algebra is small (band solv
 hundred to a few thousand unknowns), so BLAS threads only add contention; on the shared
 2-core machine threaded BLAS gave intermittent 10× slow-downs (docs/design.md, "Threads").
 The setting takes effect only before numpy is first imported, so the CLI calls
-:func:`pin_threads` first thing and the tests in their configuration; a Python user who wants
+``pin_threads`` first thing and the tests in their configuration; a Python user who wants
 it sets the variables or calls this before importing numpy. An existing setting is kept.
 """
 
@@ -19,6 +19,6 @@ THREAD_VARIABLES = ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS")
 
 
 def pin_threads() -> None:
-    """Set each of :data:`THREAD_VARIABLES` to 1 unless it is already set."""
+    """Set each of ``THREAD_VARIABLES`` to 1 unless it is already set."""
     for name in THREAD_VARIABLES:
         os.environ.setdefault(name, "1")

@@ -2,7 +2,7 @@
 discretisation error (rodsim/app/discretisation.py), and the tendon-compression check
 (docs/model.md, "The error estimates every result carries").
 
-Every constraint penalty (a term's :attr:`~rodsim.core.terms.base.Term.constraint_constant`:
+Every constraint penalty (a term's ``rodsim.core.terms.base.Term.constraint_constant``:
 centerline K_P, lumen K_L, joint K_J, an obstacle's contact stiffness; not the paper's
 fitted endpoint springs K_E, K_C, which are physics) holds a constraint only to within
 force/K, so an equilibrium x(K) differs from the constrained one x(∞) by an error that, for
@@ -44,7 +44,7 @@ def penalty_constants() -> dict[str, tuple[str, ...]]:
     """The constraint-penalty constant of each term that has one, by the scene key a rod's
     or a tendon's ``terms`` lists it under (or the top-level table of a term built from one,
     ``obstacles``): absolute then relative spelling, from the terms' own declaration
-    (:attr:`rodsim.core.terms.base.Term.constraint_constant`). The paper's endpoint springs
+    (``rodsim.core.terms.base.Term.constraint_constant``). The paper's endpoint springs
     K_E and K_C are physics and not among them (docs/model.md, "Which constants are
     penalties")."""
     out: dict[str, tuple[str, ...]] = {}
@@ -77,7 +77,7 @@ _RAISE = {
 
 @dataclass(frozen=True)
 class PenaltyError:
-    """The estimate of :func:`penalty_error`."""
+    """The estimate of ``penalty_error``."""
 
     #: Estimated distance of the result from the penalty-free one, in units of L (NaN when
     #: the stiffer solve failed; 0 when the scene has no penalty).
@@ -96,7 +96,7 @@ class PenaltyError:
 
     @property
     def warning(self) -> bool:
-        """True when the estimate exceeds :data:`TRUST_WARNING` (or could not be made)."""
+        """True when the estimate exceeds ``TRUST_WARNING`` (or could not be made)."""
         return not self.error <= TRUST_WARNING
 
     def text(self, prefix: str = "") -> str:
@@ -119,7 +119,7 @@ class PenaltyError:
 def stiffer_scene(scene: Scene, factor: float,
                   only: str | None = None) -> tuple[dict[str, Any], int]:
     """The resolved scene dict with every constraint-penalty constant
-    (:func:`penalty_constants`; ``only``: those of that scene key alone) multiplied by
+    (``penalty_constants``; ``only``: those of that scene key alone) multiplied by
     ``factor``, and how many constants were scaled."""
     data = copy.deepcopy(scene.data)
     constants = penalty_constants()
@@ -154,8 +154,8 @@ def penalty_error(result: Result, factor: float = 10.0,
     """Estimate how far ``result`` (a converged run) is from the penalty-free equilibrium by
     one warm static solve with every penalty ×``factor`` (module docstring). ``model``: the
     model ``result`` was solved with, when its friction anchors are not the rest state (a
-    track's step): the stiffer solve keeps them (:meth:`Model.with_scene`). Above
-    :data:`TRUST_WARNING`, one more solve per kind of penalty (each alone ×``factor``)
+    track's step): the stiffer solve keeps them (``Model.with_scene``). Above
+    ``TRUST_WARNING``, one more solve per kind of penalty (each alone ×``factor``)
     names the one that moves the result most (``dominant``)."""
     length = _longest(result)
     data, count = stiffer_scene(result.scene, factor)
@@ -181,7 +181,7 @@ def penalty_error(result: Result, factor: float = 10.0,
 def _change(result: Result, data: dict[str, Any], model: Model | None) -> float:
     """The largest control-point move [m] of a warm static solve of the scene ``data`` from
     ``result``'s state (NaN when it fails), in its own budget: never more than the scene's,
-    nor above twice the run (:data:`BUDGET_FLOOR` at least)."""
+    nor above twice the run (``BUDGET_FLOOR`` at least)."""
     from rodsim.app.api import load_scene, solve
 
     data["solver"]["max_wall_time"] = min(
@@ -229,7 +229,7 @@ def tendon_compression(result: Result) -> dict[str, float]:
 
 
 def compression_text(compressed: dict[str, float]) -> str:
-    """The CLI's warning lines for :func:`tendon_compression`."""
+    """The CLI's warning lines for ``tendon_compression``."""
     return "\n".join(
         f"warning     tendon {name} is in compression ({force:.3g} N at its most compressed "
         "segment): a tendon cannot push; the scene is not physical (docs/tendon.md)"
@@ -238,14 +238,14 @@ def compression_text(compressed: dict[str, float]) -> str:
 
 @dataclass(frozen=True)
 class Estimates:
-    """What :func:`assess` found: the penalty and the discretisation error estimates."""
+    """What ``assess`` found: the penalty and the discretisation error estimates."""
 
     penalty: PenaltyError
     discretisation: DiscretisationError
 
     @property
     def warning(self) -> bool:
-        """True when either estimate exceeds :data:`TRUST_WARNING` (or could not be made)."""
+        """True when either estimate exceeds ``TRUST_WARNING`` (or could not be made)."""
         return self.penalty.warning or self.discretisation.warning
 
     def text(self, prefix: str = "") -> str:
@@ -259,7 +259,7 @@ def assess(result: Result, model: Model | None = None) -> Estimates:
     compression, storing them on it (``discretisation_error``, ``penalty_error``,
     ``tendon_compression``: the run archive's attributes); returns the estimates. What
     ``rodsim run``, ``fit`` and ``reach`` do with their result (``model``: see
-    :func:`penalty_error`)."""
+    ``penalty_error``)."""
     penalty = penalty_error(result, model=model)
     discretisation = discretisation_error(result, model=model)
     result.penalty_error = penalty.error
@@ -269,9 +269,9 @@ def assess(result: Result, model: Model | None = None) -> Estimates:
 
 
 def last_step_result(track: Any) -> Result | None:
-    """The last completed step of a :class:`~rodsim.app.inverse.track.Track` as a static
+    """The last completed step of a ``rodsim.app.inverse.track.Track`` as a static
     result (a warm solve of the scene at that step's values from that step's state: already
-    at equilibrium, so one Newton iteration), for :func:`assess`; None without a step or
+    at equilibrium, so one Newton iteration), for ``assess``; None without a step or
     when that solve fails."""
     from rodsim.app.api import build_model, solve
 

@@ -1,23 +1,23 @@
 """Run tasks on local worker processes that may crash or hang, and go on without them.
 
 The pool the study runner (rodsim/app/study_runner.py) and the benchmarks
-(benchmarks/rodsim_bench/scaling.py) share. :func:`run_tasks` runs ``function(*args)`` for
-every task on a :class:`~concurrent.futures.ProcessPoolExecutor`, at most ``workers`` at a time,
+(benchmarks/rodsim_bench/scaling.py) share. ``run_tasks`` runs ``function(*args)`` for
+every task on a ``concurrent.futures.ProcessPoolExecutor``, at most ``workers`` at a time,
 and hands each task's outcome to ``done`` as it finishes:
 
 - the function's return value;
-- :class:`TaskFailure` ``"died"`` when the task's worker process died (a crash, ``os._exit``,
+- ``TaskFailure`` ``"died"`` when the task's worker process died (a crash, ``os._exit``,
   the OOM killer). A dying worker breaks the whole pool: the tasks running beside it are run
   again one at a time, each in a pool of its own, to find which one killed it; the rest goes
   on in a fresh pool;
-- :class:`TaskFailure` ``"deadline"`` when the task ran longer than ``deadline(key)`` seconds:
+- ``TaskFailure`` ``"deadline"`` when the task ran longer than ``deadline(key)`` seconds:
   the pool's workers are ended, the tasks running beside it start again in a fresh pool;
-- :class:`TaskFailure` ``"error"`` when the task's result could not come back (the transport
+- ``TaskFailure`` ``"error"`` when the task's result could not come back (the transport
   failed, or the task called ``sys.exit``).
 
 ``fresh_processes`` runs every task in a process of its own (spawned, never reused): what a
 measurement of a process's peak memory needs. Workers ignore Ctrl-C (the parent ends them),
-end quietly on SIGTERM, and exit by themselves within :data:`PARENT_POLL` seconds when the
+end quietly on SIGTERM, and exit by themselves within ``PARENT_POLL`` seconds when the
 process that started them dies. A ``KeyboardInterrupt`` (or any error) in the parent cancels
 the tasks not yet started and ends the running workers at once.
 """
@@ -50,7 +50,7 @@ K = TypeVar("K", bound=Hashable)
 
 @dataclass(frozen=True)
 class TaskFailure:
-    """What :func:`run_tasks` hands over instead of a task's value: ``kind`` is ``"died"``,
+    """What ``run_tasks`` hands over instead of a task's value: ``kind`` is ``"died"``,
     ``"deadline"`` or ``"error"``; ``detail`` says what happened, in a few words."""
 
     kind: str

@@ -3,7 +3,7 @@ anchors").
 
 Two kinds use an anchor:
 
-- a tendon's *termination* (:func:`tendon_termination`): the tendon's last node tied to its
+- a tendon's *termination* (``tendon_termination``): the tendon's last node tied to its
   catheter's node where the tendon ends. The coupling terms that hold the tendon there
   (endpoint compliance Eq. 28, endpoint coupling Eq. 29), the distal actuation (§4.3) and
   the lumen terms (every tendon point before the termination is on the lumen, whose last
@@ -59,19 +59,19 @@ class Anchor:
 
     @property
     def to_quaternion_index(self) -> np.ndarray:
-        """Global indices of :attr:`to_segment`'s quaternion (4,)."""
+        """Global indices of ``to_segment``'s quaternion (4,)."""
         return self.to.layout.quaternion_index[self.to_segment]
 
 
 def tendon_termination(tendon: Rod, catheter: Rod) -> Anchor:
     """Where a tendon ends: its last node, tied to its catheter's last node (the tendon has
-    its catheter's length, :func:`check_tendon_termination`)."""
+    its catheter's length, ``check_tendon_termination``)."""
     return Anchor(tendon, tendon.nodes - 1, catheter, catheter.nodes - 1)
 
 
 def check_tendon_termination(name: str, tendon: Any, host: Any,
                              host_name: str | None = None) -> None:
-    """SceneError unless the tendon rod ``name`` (its :data:`RodOptions` ``tendon``) can end
+    """SceneError unless the tendon rod ``name`` (its ``RodOptions`` ``tendon``) can end
     at its catheter's tip (``host``, the rod ``host_name``): equal lengths, to a relative
     1e-9."""
     facts: dict[str, Any] = {

@@ -1,11 +1,11 @@
 """The wall-time budget (``solver.max_wall_time``) while a model is assembled.
 
 Assembling a large model (the rods, the terms, the Jacobian pattern and the rest-state
-stiffness of :class:`rodsim.core.model.Model`) takes seconds per 100 000 nodes and runs before
+stiffness of ``rodsim.core.model.Model``) takes seconds per 100 000 nodes and runs before
 any integrator exists, so the integrators' own budget check only sees it once it is over.
-:class:`AssemblyBudget` is checked between the assembly's phases and between the terms in its
+``AssemblyBudget`` is checked between the assembly's phases and between the terms in its
 per-term loops (one clock read each: a few dozen per model, nothing measurable); once the
-budget is spent it raises :class:`AssemblyBudgetExceeded`, which :func:`rodsim.solve` returns
+budget is spent it raises ``AssemblyBudgetExceeded``, which ``rodsim.solve`` returns
 as a failed result (the command line: a solver failure, exit 1).
 """
 
@@ -33,14 +33,14 @@ class AssemblyBudgetExceeded(RuntimeError):
 @dataclass(frozen=True)
 class AssemblyBudget:
     """A budget of ``seconds`` of wall time counted from ``start`` (a
-    :func:`time.perf_counter` value) for assembling a model of ``nodes`` control points."""
+    ``time.perf_counter`` value) for assembling a model of ``nodes`` control points."""
 
     start: float
     seconds: float
     nodes: int
 
     def check(self) -> None:
-        """Raise :class:`AssemblyBudgetExceeded` once the budget is spent."""
+        """Raise ``AssemblyBudgetExceeded`` once the budget is spent."""
         elapsed = time.perf_counter() - self.start
         if elapsed > self.seconds:
             raise AssemblyBudgetExceeded(elapsed, self.seconds, self.nodes)

@@ -4,12 +4,12 @@ validity (docs/contact.md, "The law").
 The penalty ψ of rodsim/core/terms/contact.py stands for a rigid wall through its
 compliance: a node's sphere sinks p = f/k + δ/2 into the wall under a contact force f. That
 is a model of a rigid contact only while p is small against the rod's radius r; the law is
-stated for p ≤ :data:`DEPTH_LIMIT` r. Deeper, the equilibrium is the penalty's, not the
+stated for p ≤ ``DEPTH_LIMIT`` r. Deeper, the equilibrium is the penalty's, not the
 wall's: `tip-on-tissue` with its plane moved 5 mm into the rod's path came back "stable"
 with the tip 4.3 radii inside rigid tissue under a contact force of 50 kN. The equilibrium
 stop (rodsim/solvers/stops.py) fails such a state with this module's reason; a rest state
 already that deep (the straight rest shape through a wall) gets a warning
-(:func:`rest_crossings`); a held node that deep (a clamped base, a node support) is refused
+(``rest_crossings``); a held node that deep (a clamped base, a node support) is refused
 when the scene is validated (rodsim/core/obstacles/__init__.py). Measured on the shipped
 contact scenes: the deepest node 0.0067 r (tip-on-tissue) and 3.1e-4 r (vessel-insertion).
 """
@@ -61,7 +61,7 @@ def _penetrations(model: Model, full: np.ndarray) -> list[Penetration]:
 
 
 def deepest(model: Model, x: np.ndarray) -> Penetration | None:
-    """The deepest node past :data:`DEPTH_LIMIT` at the free state ``x``, or None."""
+    """The deepest node past ``DEPTH_LIMIT`` at the free state ``x``, or None."""
     found = [p for p in _penetrations(model, model.full(x)) if p.radii > DEPTH_LIMIT]
     return max(found, key=lambda p: p.radii) if found else None
 
@@ -79,7 +79,7 @@ def depth_failure(model: Model, x: np.ndarray) -> str | None:
 
 def rest_crossings(model: Model) -> list[str]:
     """One warning per (rod, obstacle) whose rest (held) shape lies deeper than
-    :data:`DEPTH_LIMIT` inside the obstacle: the solve starts through the wall."""
+    ``DEPTH_LIMIT`` inside the obstacle: the solve starts through the wall."""
     from rodsim.core.terms.contact import Contact
 
     out = []

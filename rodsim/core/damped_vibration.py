@@ -21,7 +21,7 @@ A massless, undamped direction (a quaternion's norm) gives μ = 0 (λ infinite: 
 the others quasi-statically, as in the undamped condensation); a massless, damped one (the
 rotations without rotary inertia) a real μ, a relaxation. The slowest motions are A's
 eigenvalues of largest |μ|: ARPACK (``eigs``, one solve with K per product, from a fixed
-seeded start) or, for n ≤ :data:`DENSE_SIZE` (≤ :data:`DENSE_FALLBACK` where ARPACK does
+seeded start) or, for n ≤ ``DENSE_SIZE`` (≤ ``DENSE_FALLBACK`` where ARPACK does
 not converge), a dense eigensolve. Each conjugate pair is kept once (Im λ > 0) and each
 real root once; the roots are ordered by |λ|.
 
@@ -97,7 +97,7 @@ def damped_modes(stiffness: sp.spmatrix, factor: sp.spmatrix, damping: sp.spmatr
 
     ``stiffness``: K (n × n, sparse); ``factor``: L (n × m), M = L Lᵀ; ``damping``: D
     (n × n, sparse); ``band`` and ``jacobian``: K factored in band storage, as for
-    :func:`~rodsim.core.vibration.natural_modes`. ModesError for a count outside 1..m or a
+    ``rodsim.core.vibration.natural_modes``. ModesError for a count outside 1..m or a
     singular K.
     """
     stiffness = sp.csc_matrix(stiffness)

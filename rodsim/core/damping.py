@@ -12,8 +12,8 @@ A rod's ``[rods.<rod>.damping]`` table holds
   twist G J; not the centerline penalty's shear, a constraint: docs/dynamics.md). Summed
   over the rod's elastic terms (``stretch``, ``bend_twist``: paper Eqs. 6–8), the damping
   force is f_D = −τ K_mat(x) ẋ with K_mat = Σ_e (∂ε_e/∂x)ᵀ C_e (∂ε_e/∂x) the material part of the
-  elastic terms' stiffness at the state (:meth:`rodsim.core.terms.base.Term.
-  material_stiffness`): a viscous stress τ C ε̇ on each strain. The n-th mode of a uniform
+  elastic terms' stiffness at the state (``rodsim.core.terms.base.Term.
+  material_stiffness``): a viscous stress τ C ε̇ on each strain. The n-th mode of a uniform
   rod then decays with the damping ratio ζ_n = τ ω_n / 2 (tests/test_simulate.py measures
   it).
 - ``drag`` c [N·s/m²]: a force −c ṙ(s) per unit length on the centerline (a catheter in a

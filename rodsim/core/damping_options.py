@@ -27,7 +27,7 @@ ELASTIC_TERMS = ("stretch", "bend_twist")
 
 @dataclass(frozen=True, kw_only=True)
 class DampingOptions(Options):
-    """A validated ``[rods.<rod>.damping]`` table: one field per :data:`DAMPING_PARAMETERS`."""
+    """A validated ``[rods.<rod>.damping]`` table: one field per ``DAMPING_PARAMETERS``."""
 
     retardation_time: float = 0.0
     drag: float = 0.0

@@ -2,7 +2,7 @@
 
 This is the inertia of the catheter itself, for physical time (natural frequencies,
 rodsim/core/vibration.py; docs/dynamics.md). It is kept apart from the pseudo-dynamics'
-masses (:meth:`rodsim.core.model.Model.pseudo_time_masses`, the integrators' way to an
+masses (``rodsim.core.model.Model.pseudo_time_masses``, the integrators' way to an
 equilibrium), which are chosen for speed, not physics.
 
 Translational inertia (Eqs. 10–11): the kinetic energy of the centerline as the paper
@@ -10,8 +10,8 @@ interpolates it, linearly between control points (§2.2), ½ ∫ ρA |ṙ(s)|² 
 ṙ(s) = Σ_i N_i(s) ṙ_i (N_i the hat functions): the consistent mass M_ij = ∫ ρA N_i N_j ds,
 tridiagonal per axis (ρA l (1/3, 1/6, 1/3) per segment of a uniform rod; with sections,
 ∫ ρA N_i N_j ds over each span), plus any point mass a term attaches (a hanging mass,
-:meth:`Term.point_masses <rodsim.core.terms.base.Term.point_masses>`). Its row sums are the
-lumped node masses m_i = ∫ ρA N_i ds (:meth:`rodsim.core.rod.rod.Rod.node_masses`, which the
+``Term.point_masses``). Its row sums are the
+lumped node masses m_i = ∫ ρA N_i ds (``rodsim.core.rod.rod.Rod.node_masses``, which the
 weight uses). Measured on a clamped–free steel rod (tests/test_modes.py): the lumped
 diagonal puts the third bending frequency 1.4e-3 low at N = 81, the consistent mass 4.1e-4
 low (both second order; the paper does not say which it used).
@@ -59,7 +59,7 @@ __all__ = ["segment_inertia", "quaternion_mass_factor", "quaternion_mass",
 def segment_inertia(rod: Rod) -> np.ndarray:
     """Body-frame rotary inertia of every segment, (ρI l, ρI l, ρJ l) [kg·m²], shape
     (N − 1, 3): about d1 and d2 (bending) and about d3 (twist). With sections, ∫ ρI ds and
-    ∫ ρJ ds over each segment (:mod:`rodsim.core.rod.sections`)."""
+    ∫ ρJ ds over each segment (``rodsim.core.rod.sections``)."""
     length = rod.geometry.segment_length
     out = np.empty((rod.nodes - 1, 3))
     profile = rod.profile

@@ -1,5 +1,5 @@
-"""How the compiled path calls one term's kernel: :class:`KernelCall`, built by
-:meth:`rodsim.core.model_evaluation.ModelEvaluation._build_kernel_calls`."""
+"""How the compiled path calls one term's kernel: ``KernelCall``, built by
+``rodsim.core.model_evaluation.ModelEvaluation._build_kernel_calls``."""
 
 from __future__ import annotations
 
@@ -16,7 +16,7 @@ __all__ = ["KernelCall"]
 
 
 class KernelCall(NamedTuple):
-    """How the compiled path evaluates one term (:meth:`Model._build_kernel_calls`)."""
+    """How the compiled path evaluates one term (``Model._build_kernel_calls``)."""
 
     #: The term's index in :attr:`Model.terms` (its continuation scale's index).
     term_index: int

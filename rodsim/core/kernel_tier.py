@@ -12,10 +12,10 @@ Which case a run is cannot be told before it runs (tip-on-tissue under static ma
 evaluations of a 280-unknown model, table1-50g under CVODE a few dozen), so the choice is
 made as the classic rent-or-buy rule: evaluate by numpy, count what those evaluations cost,
 and move to the compiled kernels for good once that count passes the fixed cost of loading
-them (:data:`NUMPY_BUDGET`). A run that stays below it never loads numba.
+them (``NUMPY_BUDGET``). A run that stays below it never loads numba.
 
 The cost counted is **nominal**, never the clock's: each numpy evaluation is charged what
-its terms' element arrays should cost (:func:`nominal_cost`: a fixed cost per term call and
+its terms' element arrays should cost (``nominal_cost``: a fixed cost per term call and
 one per entry, measured once on the shipped scenes' terms), so the move happens after the
 same evaluations on every run of a scene, loaded machine or not. Until 2026-12 the CPU the
 evaluations took was charged: the move then came after 40, 41 or 44 evaluations of one
@@ -26,7 +26,7 @@ process evaluates compiled (the kernels are loaded). A process that runs one sce
 run``, ``rodsim rerun`` — so moves at the same evaluation every time; a Python process that
 solves several ``tiered`` scenes moves where their sequence makes it. The two paths compute
 the same numbers to round-off (tests/test_kernels.py), and the move is reported
-(:meth:`KernelTier.describe`, stored with a run's archive).
+(``KernelTier.describe``, stored with a run's archive).
 """
 
 from __future__ import annotations
@@ -56,7 +56,7 @@ JACOBIAN_ENTRY_SECONDS = 40e-9
 def nominal_cost(terms: Iterable[Term], *, force: bool, jacobian: bool) -> float:
     """What a numpy evaluation of ``terms`` is charged [nominal s]: per term, a call and each
     entry of its element forces (``force``; also an energy's cost) and element Jacobians
-    (``jacobian``), times the term's :attr:`~rodsim.core.terms.base.Term.numpy_cost_factor`.
+    (``jacobian``), times the term's ``rodsim.core.terms.base.Term.numpy_cost_factor``.
     A function of the terms' sizes alone, so of the scene."""
     total = 0.0
     for term in terms:

@@ -2,7 +2,7 @@
 
 Peak memory grows linearly with the total number of control points: the state, the sparse
 Jacobian (about 120 entries per control point) and the LU factors of its linear solves;
-:data:`BYTES_PER_NODE` rounds the largest measured cost per control point up (18–24 kB:
+``BYTES_PER_NODE`` rounds the largest measured cost per control point up (18–24 kB:
 docs/benchmark-history.md, "Measurements behind the core's constants"). A scene whose estimate
 exceeds the machine's physical memory, or what the process's address-space limit
 (``ulimit -v``) leaves, is refused (``SceneError``, exit 2) rather than left to the

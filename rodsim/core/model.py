@@ -1,5 +1,5 @@
 """A scene's rods and terms assembled into F(x), its sparse Jacobian J(x) and the pattern:
-:class:`Model`.
+``Model``.
 
 The *full* state holds every coordinate of every rod (Eqs. 18 and 30); the supports
 (rodsim/core/supports.py) fix some of them. Integrators only see the *free* coordinates
@@ -15,11 +15,11 @@ the compiled kernels or the numpy reference (model_evaluation.py) and the scales
 
 A model never changes once built. What a solver varies is passed in or returned as a new
 model: the load fraction is an argument of every evaluation; a penalty continuation scale is
-a model built by :meth:`Model.with_term_scales`; a tendon registration that changes gives a
-new model from :meth:`Model.reregistered` (new element coordinates, so a new pattern); the
+a model built by ``Model.with_term_scales``; a tendon registration that changes gives a
+new model from ``Model.reregistered`` (new element coordinates, so a new pattern); the
 anchors of friction (the last converged equilibrium: contact's node positions,
 rodsim/core/terms/contact.py; a string tendon's chord tensions,
-rodsim/core/tendon_friction.py) give a new model from :meth:`Model.anchored` (same elements
+rodsim/core/tendon_friction.py) give a new model from ``Model.anchored`` (same elements
 and pattern).
 """
 
@@ -54,7 +54,7 @@ def scene_rod(scene: Scene, name: str, layout: RodLayout, rods: Mapping[str, Rod
     """Rod ``name`` of ``scene`` at ``layout``, held by its base support (at its catheter's
     lumen for a tendon rod, at its joint for a joined rod: ``rods`` must hold that catheter
     or parent), with its sections; without the supports at other nodes. ``joints``:
-    :func:`~rodsim.core.anchors.scene_joints` of the scene (read when None)."""
+    ``rodsim.core.anchors.scene_joints`` of the scene (read when None)."""
     options = scene.rods[name]
     tendons = scene.data["tendons"]
     joints = scene_joints(scene) if joints is None else joints
@@ -101,7 +101,7 @@ class Model(ModelScales):
     budget
         A wall-time budget for the assembly (rodsim/core/assembly_budget.py), checked between
         its phases and between the terms of its per-term loops: once spent,
-        :class:`~rodsim.core.assembly_budget.AssemblyBudgetExceeded` is raised. None: no limit.
+        ``rodsim.core.assembly_budget.AssemblyBudgetExceeded`` is raised. None: no limit.
     """
 
     def __init__(self, scene: Scene, kernels: str | None = None,
@@ -251,13 +251,13 @@ class Model(ModelScales):
         options of some terms (a load, a tendon force, a penalty: a tracking or fitting
         step): those terms alone are rebuilt, with this model's registration; the rods,
         tendons, free-coordinate order, Jacobian pattern, index maps and loaded kernels are
-        shared, and the scales are recomputed as :meth:`Model.__init__` computes them (the
-        same numbers as :meth:`with_scene`), the rest stiffness from the changed terms'
-        shares alone (:meth:`_rest_diagonal`); a term that only takes new constants is
-        made by :meth:`Term.with_options` (a string tendon's tension: its routing kept).
+        shared, and the scales are recomputed as ``Model.__init__`` computes them (the
+        same numbers as ``with_scene``), the rest stiffness from the changed terms'
+        shares alone (``_rest_diagonal``); a term that only takes new constants is
+        made by ``Term.with_options`` (a string tendon's tension: its routing kept).
         Any other difference (rods, sections, supports, tendons' geometry, the evaluation
         path ``solver.kernels``, a term whose elements move) falls back to
-        :meth:`with_scene` — or gives None when ``fallback`` is False. The other solver
+        ``with_scene`` — or gives None when ``fallback`` is False. The other solver
         settings are the integrators', not the model's."""
         changed = self._changed_terms(scene)
         if changed is None:
@@ -309,7 +309,7 @@ class Model(ModelScales):
     def _changed_terms(self, scene: Scene) -> list[int] | None:
         """Indices of the terms whose options differ between this model's scene and
         ``scene``; None when anything else differs. Tables shared by the two scenes (a
-        scene changed along one path, :func:`rodsim.app.inverse.parameter_keys.scene_with`)
+        scene changed along one path, ``rodsim.app.inverse.parameter_keys.scene_with``)
         are skipped without comparing them."""
         mine, theirs = self.scene.data, scene.data
         if mine is theirs:
@@ -348,7 +348,7 @@ class Model(ModelScales):
 
     # ------------------------------------------------------------------ setup
     def __copy__(self) -> Model:
-        """A shallow copy without the memo of the last evaluation (:meth:`evaluate`): every
+        """A shallow copy without the memo of the last evaluation (``evaluate``): every
         derived model (other values, scales or registration) is a copy."""
         other = object.__new__(type(self))
         other.__dict__.update(self.__dict__)
@@ -399,7 +399,7 @@ class Model(ModelScales):
 
     def with_anchors_of(self, other: Model) -> Model:
         """This model with the friction anchors of ``other``, a model of the same layout
-        (this scene at other values, :meth:`with_values`): how a run in physical time
+        (this scene at other values, ``with_values``): how a run in physical time
         carries friction's history from the model of one time to the model of the next
         (rodsim/app/programs.py). This model itself when no term holds anchors."""
         terms = list(self.terms)
@@ -426,7 +426,7 @@ class Model(ModelScales):
         of every node support that moves its node from its rest place
         (``[rods.<rod>.supports.<name>] displacement`` ≠ 0, rodsim/core/supports.py): a
         prescribed displacement, which ``static`` applies in increments with the loads
-        (:meth:`with_supports_moved`)."""
+        (``with_supports_moved``)."""
         moved = []
         for rod in self.rods.values():
             rest = rod.rest_positions()
@@ -440,7 +440,7 @@ class Model(ModelScales):
         """The model with every node support's prescribed displacement (the scene's) scaled
         by ``fraction`` (0: the nodes held at their rest places; 1: at their prescribed
         places, exactly). A support's displacement enters the model only as the value its
-        fixed coordinates keep (:attr:`rest_full`), so everything else is shared
+        fixed coordinates keep (``rest_full``), so everything else is shared
         (tests/test_supports.py checks F and J against the model built from the scaled
         scene)."""
         other = copy.copy(self)
@@ -453,12 +453,12 @@ class Model(ModelScales):
 
     def with_terms(self, terms: list[Term]) -> Model:
         """The model with ``terms`` (same names and order; a dynamic term may carry another
-        registration) in place of :attr:`terms`.
+        registration) in place of ``terms``.
 
         The order of the free coordinates is this model's, so its index map is shared, and
-        so are the blocks of the terms that are the same objects (:meth:`_build_pattern`)
+        so are the blocks of the terms that are the same objects (``_build_pattern``)
         and their kernel calls, which take the new pattern's targets
-        (:meth:`_build_kernel_calls`)."""
+        (``_build_kernel_calls``)."""
         other = copy.copy(self)
         other.terms = list(terms)
         other._memo = []
@@ -472,7 +472,7 @@ class Model(ModelScales):
 
     def with_term_scales(self, scales: Mapping[int, float]) -> Model:
         """The model with the output of the terms ``scales`` names (by index in
-        :attr:`terms`) multiplied by the given factors — a penalty continuation step.
+        ``terms``) multiplied by the given factors — a penalty continuation step.
 
         Only penalty terms may be scaled: they are linear in their constant."""
         factors = self.term_scales.copy()

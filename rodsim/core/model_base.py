@@ -1,4 +1,4 @@
-"""What the parts of :class:`rodsim.core.model.Model` share: the attributes that more than
+"""What the parts of ``rodsim.core.model.Model`` share: the attributes that more than
 one part reads, declared once with their meaning, and the questions every part asks (the
 assembly's budget, which evaluation path runs now).
 
@@ -34,7 +34,7 @@ __all__ = ["ModelBase"]
 
 class ModelBase:
     """The attributes the parts of a model share (module docstring); set by
-    :meth:`rodsim.core.model.Model._assemble` and the builds of the parts."""
+    ``rodsim.core.model.Model._assemble`` and the builds of the parts."""
 
     #: The scene the model was built from.
     scene: Scene
@@ -95,5 +95,5 @@ class ModelBase:
 
     def _tiered_numpy(self) -> bool:
         """Whether this evaluation is a ``tiered`` model's numpy evaluation, whose CPU counts
-        toward the move to the compiled kernels (:mod:`rodsim.core.kernel_tier`)."""
+        toward the move to the compiled kernels (``rodsim.core.kernel_tier``)."""
         return self.kernels == "tiered" and not PROCESS_TIER.compiled

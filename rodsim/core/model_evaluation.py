@@ -3,12 +3,12 @@ Jacobian ∂F/∂x in the pattern's CSC order, and E(x).
 
 Two evaluation paths compute the same numbers (``solver.kernels``): ``compiled`` (what
 ``auto``, the default, means for a model) calls each term's numba kernel
-(:mod:`rodsim.core.kernels`), which accumulates straight into the force vector and the CSC
+(``rodsim.core.kernels``), which accumulates straight into the force vector and the CSC
 data; ``numpy`` calls the terms' vectorised numpy methods and scatters their element blocks —
 the readable reference. ``tiered`` starts on numpy and moves to the compiled kernels once the
 process's numpy evaluations have cost, nominally (never by the clock), what loading the
-kernels would (:mod:`rodsim.core.kernel_tier`; what ``rodsim run`` uses for ``auto``).
-The last states evaluated are remembered (:meth:`ModelEvaluation.evaluate`).
+kernels would (``rodsim.core.kernel_tier``; what ``rodsim run`` uses for ``auto``).
+The last states evaluated are remembered (``ModelEvaluation.evaluate``).
 """
 
 from __future__ import annotations
@@ -45,7 +45,7 @@ _KEPT_JACOBIAN: np.ndarray | None = None
 
 def _jacobian_zeros(size: int) -> np.ndarray:
     """Zeros of ``size`` for a Jacobian evaluation to accumulate into. From
-    :data:`REUSE_ENTRIES` on, the array of the last such evaluation when nothing outside
+    ``REUSE_ENTRIES`` on, the array of the last such evaluation when nothing outside
     this function refers to it any more (its data, or any view of it, dropped by whoever
     got it): zeroing warm memory instead of faulting in fresh pages. On table1-50g at
     N = 100 000 (12.3 million entries, 98 MB) the first kernel writing into a fresh array
@@ -65,7 +65,7 @@ def _jacobian_zeros(size: int) -> np.ndarray:
 
 
 class ModelEvaluation(ModelPattern, ModelManifold):
-    """The evaluation part of :class:`rodsim.core.model.Model` (module docstring)."""
+    """The evaluation part of ``rodsim.core.model.Model`` (module docstring)."""
 
     def _scale(self, index: int, term: Term, load: float) -> float:
         """Factor on one term's output: its continuation scale, times ``load`` for loads."""
@@ -102,16 +102,16 @@ class ModelEvaluation(ModelPattern, ModelManifold):
         return self.evaluate(x, load, jacobian=False)[0]
 
     def jacobian_data(self, x: np.ndarray, load: float = 1.0) -> np.ndarray:
-        """∂F/∂x as the data array of a CSC matrix with the pattern :attr:`pattern`."""
+        """∂F/∂x as the data array of a CSC matrix with the pattern ``pattern``."""
         return self.evaluate(x, load, force=False)[1]
 
     def evaluate(self, x: np.ndarray, load: float = 1.0, *, force: bool = True,
                  jacobian: bool = True) -> tuple[np.ndarray, np.ndarray]:
-        """F(x) and ∂F/∂x (CSC data in :attr:`pattern` order) in one pass; the one not asked
+        """F(x) and ∂F/∂x (CSC data in ``pattern`` order) in one pass; the one not asked
         for comes back empty.
 
-        The last :data:`MEMO_STATES` evaluated states are remembered (∂F/∂x up to
-        :data:`MEMO_ENTRIES`): asked again at the same state and load — a solve's checks
+        The last ``MEMO_STATES`` evaluated states are remembered (∂F/∂x up to
+        ``MEMO_ENTRIES``): asked again at the same state and load — a solve's checks
         after it converged evaluate F at the state its last Newton step reached (before a
         rejected polishing trial), the correction residual and the stability verdict ∂F/∂x
         at the same state — it returns copies of the same numbers instead of evaluating
@@ -134,7 +134,7 @@ class ModelEvaluation(ModelPattern, ModelManifold):
 
     def _evaluate(self, x: np.ndarray, load: float, force: bool,
                   jacobian: bool) -> tuple[np.ndarray, np.ndarray]:
-        """:meth:`evaluate` without the memo."""
+        """``evaluate`` without the memo."""
         full = self.full(x)
         offsets = self.offsets(x)
         if self._compiled():
@@ -178,7 +178,7 @@ class ModelEvaluation(ModelPattern, ModelManifold):
         as its ``dofs`` (clamped coordinates included), with its continuation scale: by its
         compiled kernel on the compiled path, by its numpy reference otherwise (the same
         numbers to round-off, tests/test_kernels.py). A term evaluated on offsets
-        (:attr:`Term.offsets`) gets ``full`` minus :attr:`reference`."""
+        (``Term.offsets``) gets ``full`` minus ``reference``."""
         term = self.terms[index]
         scale = self._scale(index, term, 1.0)
         if term.offsets:
@@ -195,7 +195,7 @@ class ModelEvaluation(ModelPattern, ModelManifold):
         return out[:-1].reshape(term.dofs.shape)
 
     def _build_kernel_calls(self) -> list[KernelCall]:
-        """The :class:`KernelCall` of every term: its kernel, its constants bound by name to
+        """The ``KernelCall`` of every term: its kernel, its constants bound by name to
         the kernel's signature, and where each element's force and Jacobian entries land
         (slot n and nnz are dumps for clamped coordinates)."""
         from rodsim.core.kernels import load_kernel

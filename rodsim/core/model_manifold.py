@@ -19,27 +19,27 @@ __all__ = ["ModelManifold"]
 
 
 class ModelManifold(ModelBase):
-    """The state part of :class:`rodsim.core.model.Model` (module docstring)."""
+    """The state part of ``rodsim.core.model.Model`` (module docstring)."""
 
     @property
     def x0(self) -> np.ndarray:
         """The undeformed rest state (free coordinates): every simulation starts here.
 
-        The free coordinates are offsets from the rest state (:attr:`reference`): a
+        The free coordinates are offsets from the rest state (``reference``): a
         position's displacement from its rest place, a quaternion's difference from its rest
         quaternion (docs/model.md, "The offset state and the residual floor"); the rest
-        state is zero. :meth:`full` gives the positions and quaternions themselves."""
+        state is zero. ``full`` gives the positions and quaternions themselves."""
         return self.rest_offsets[self.free].copy()
 
     def full(self, x: np.ndarray) -> np.ndarray:
         """Full state (fixed coordinates included) from the free coordinates: the
-        positions [m] and quaternions themselves (:attr:`reference` plus the offsets)."""
+        positions [m] and quaternions themselves (``reference`` plus the offsets)."""
         out = self.rest_full.copy()
         out[self.free] = self._reference_free() + x
         return out
 
     def _reference_free(self) -> np.ndarray:
-        """:attr:`reference` at the free coordinates, kept for this model's ``free``."""
+        """``reference`` at the free coordinates, kept for this model's ``free``."""
         kept = self.__dict__.get("_kept_reference")
         if kept is None or kept[0] is not self.free or kept[1] is not self.reference:
             kept = (self.free, self.reference, self.reference[self.free])
@@ -47,15 +47,15 @@ class ModelManifold(ModelBase):
         return kept[2]
 
     def offsets(self, x: np.ndarray) -> np.ndarray:
-        """The full state as offsets from :attr:`reference` (fixed coordinates included):
-        what the terms with :attr:`Term.offsets` are evaluated on."""
+        """The full state as offsets from ``reference`` (fixed coordinates included):
+        what the terms with ``Term.offsets`` are evaluated on."""
         out = self.rest_offsets.copy()
         out[self.free] = x
         return out
 
     def state_of(self, full: np.ndarray) -> np.ndarray:
         """The free coordinates (offsets) of the full state ``full`` (positions and
-        quaternions themselves, as :meth:`full` gives them): a warm start from a stored
+        quaternions themselves, as ``full`` gives them): a warm start from a stored
         shape."""
         return full[self.free] - self._reference_free()
 
@@ -64,7 +64,7 @@ class ModelManifold(ModelBase):
         rigidly as its base support moved from ``previous`` to this model (an inserted or
         turned base, rodsim/core/supports.py): the warm start of a step that moves the
         base. ``x`` itself when no support moved and both models have the same rest state
-        (:attr:`reference`); otherwise the same positions and quaternions as offsets from
+        (``reference``); otherwise the same positions and quaternions as offsets from
         this model's rest state."""
         full = None
         for name, rod in self.rods.items():
@@ -93,7 +93,7 @@ class ModelManifold(ModelBase):
     def _step_maps(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(full position indices of every rod's nodes, rod k in rows starts[k]:starts[k+1];
         those starts; free indices of the two points of every stiff link a term declares
-        (:meth:`Term.rigid_links`: the endpoint coupling's catheter and tendon tips) whose
+        (``Term.rigid_links``: the endpoint coupling's catheter and tendon tips) whose
         six coordinates are all free)."""
         couplings = []
         for term in self.terms:
@@ -140,14 +140,14 @@ class ModelManifold(ModelBase):
         return x + dx + correction
 
     def turned_step(self, x: np.ndarray, dx: np.ndarray) -> np.ndarray:
-        """:meth:`step` with each rod's segments turned as rigid frames instead of their
+        """``step`` with each rod's segments turned as rigid frames instead of their
         lengths kept (rodsim/core/rod/retraction.py; ``solver.static.retraction =
-        "frames"``); the endpoint couplings as in :meth:`step`. Equal to x + dx to first
-        order in dx (on the offset state: :meth:`_retracted`)."""
+        "frames"``); the endpoint couplings as in ``step``. Equal to x + dx to first
+        order in dx (on the offset state: ``_retracted``)."""
         return self._retracted(self._turned_absolute, x, dx)
 
     def _turned_absolute(self, x: np.ndarray, dx: np.ndarray) -> np.ndarray:
-        """:meth:`turned_step` on free coordinates that are positions and quaternions
+        """``turned_step`` on free coordinates that are positions and quaternions
         themselves. Compiled (``turn`` of rodsim/core/kernels/_retraction.py) with
         ``kernels = "compiled"``; this numpy code is the reference."""
         if self._compiled():
@@ -179,11 +179,11 @@ class ModelManifold(ModelBase):
     def step(self, x: np.ndarray, dx: np.ndarray) -> np.ndarray:
         """The state a Newton step ``dx`` from ``x`` reaches, with stiff lengths kept to first
         order (a retraction: equal to x + dx to first order in dx; on the offset state:
-        :meth:`_retracted`, the arithmetic below on positions: :meth:`_step_absolute`)."""
+        ``_retracted``, the arithmetic below on positions: ``_step_absolute``)."""
         return self._retracted(self._step_absolute, x, dx)
 
     def _step_absolute(self, x: np.ndarray, dx: np.ndarray) -> np.ndarray:
-        """:meth:`step` on free coordinates that are positions and quaternions themselves.
+        """``step`` on free coordinates that are positions and quaternions themselves.
 
         A linear step that turns a stiff link of fixed length stretches it by O(δ²), which the
         link's stiffness turns into a force far above the loads: on the paper's coupling the

@@ -37,7 +37,7 @@ class Band:
 
 @dataclass
 class _FixedBlocks:
-    """The Jacobian pattern's part that a re-registration keeps (:meth:`Model._build_pattern`):
+    """The Jacobian pattern's part that a re-registration keeps (``Model._build_pattern``):
     the element blocks of the non-dynamic terms, and what was computed from them — filled
     when first needed and shared by the models that keep it."""
 
@@ -59,10 +59,10 @@ class _FixedBlocks:
 
 @dataclass
 class _DynamicBlock:
-    """A dynamic term's element blocks as :meth:`Model._build_pattern` uses them, kept by the
+    """A dynamic term's element blocks as ``Model._build_pattern`` uses them, kept by the
     model re-registered from it while the term is the same object (at a re-registration,
     only the terms whose parents changed are new): the free-coordinate map of its blocks and
-    their :func:`~rodsim.core.sparsity.block_spread`, and their slots in the band table
+    their ``rodsim.core.sparsity.block_spread``, and their slots in the band table
     ``placed_in`` once placed."""
 
     term: Term
@@ -81,7 +81,7 @@ class _DynamicBlock:
 
 
 class ModelPattern(ModelBase):
-    """The structure part of :class:`rodsim.core.model.Model` (module docstring)."""
+    """The structure part of ``rodsim.core.model.Model`` (module docstring)."""
 
     #: Jacobian sparsity pattern of the free coordinates (CSC, ones where J may be ≠ 0),
     #: its rows and columns, its stored entries and its bandwidths.
@@ -104,8 +104,8 @@ class ModelPattern(ModelBase):
 
         Coupled rods concatenated as in Eq. (30) give a wide band (a tendon point couples to
         catheter coordinates far away in the vector); interleaving them keeps the system
-        banded. The order is fixed once, from the pattern at rest (:meth:`_rest_structure`,
-        the structure of :attr:`pattern` in the scene's order), before the index maps are
+        banded. The order is fixed once, from the pattern at rest (``_rest_structure``,
+        the structure of ``pattern`` in the scene's order), before the index maps are
         built: they are built once, in the order kept.
         """
         structure = self._rest_structure()
@@ -121,8 +121,8 @@ class ModelPattern(ModelBase):
             self.free = self.free[order]
 
     def _rest_structure(self) -> sp.csc_matrix:
-        """The Jacobian's structure at rest in the current order of :attr:`free` (canonical
-        CSC, the structure :meth:`_build_pattern` gives): the diagonal and, for every term
+        """The Jacobian's structure at rest in the current order of ``free`` (canonical
+        CSC, the structure ``_build_pattern`` gives): the diagonal and, for every term
         with a Jacobian, each element's coordinates coupled pairwise — BᵀB of the incidence
         matrix B (one row per element and one per coordinate, ones where it holds the
         coordinate), without the targets the pattern's build computes."""
@@ -157,13 +157,13 @@ class ModelPattern(ModelBase):
         """The Jacobian pattern: the diagonal (always stored) and every element entry of the
         terms with a Jacobian (entries on fixed coordinates dropped), in CSC order.
 
-        A re-registration (:meth:`reregistered`) changes only the dynamic terms' elements:
+        A re-registration (``reregistered``) changes only the dynamic terms' elements:
         what the diagonal and the other terms give is kept from the model it came from
-        (:meth:`_fixed_blocks`) and merged with the dynamic ones — in a band table where it
-        is small against the entries (:func:`rodsim.core.sparsity.merged_pattern`),
+        (``_fixed_blocks``) and merged with the dynamic ones — in a band table where it
+        is small against the entries (``rodsim.core.sparsity.merged_pattern``),
         otherwise as sorted keys merged with the dynamic terms' by sorting. The pattern and
         the targets are those a sort of all entries gives
-        (:func:`rodsim.core.sparsity.csc_pattern`)."""
+        (``rodsim.core.sparsity.csc_pattern``)."""
         n = self.n
         self._jac_terms = [t for t in self.terms if t.has_jacobian]
         fixed = self._fixed_blocks()
@@ -227,7 +227,7 @@ class ModelPattern(ModelBase):
 
     def _sorted_merge(self, fixed: _FixedBlocks, dynamic: list[int]) -> tuple[
             np.ndarray, list[np.ndarray], list[np.ndarray], np.ndarray]:
-        """:meth:`_build_pattern`'s merge by sorting: the fixed terms' sorted keys (kept in
+        """``_build_pattern``'s merge by sorting: the fixed terms' sorted keys (kept in
         ``fixed``) and the dynamic terms' keys. Returns (the stored keys, each fixed term's
         targets, each dynamic term's, the diagonal's slots)."""
         n = self.n
@@ -296,6 +296,6 @@ class ModelPattern(ModelBase):
                             *block_spread(blocks, self.n))
 
     def pattern_matrix(self, data: np.ndarray) -> sp.csc_matrix:
-        """A CSC matrix with :attr:`pattern`'s structure and the given data."""
+        """A CSC matrix with ``pattern``'s structure and the given data."""
         return sp.csc_matrix((data, self.pattern.indices, self.pattern.indptr),
                              shape=(self.n, self.n))

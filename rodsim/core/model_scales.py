@@ -16,7 +16,7 @@ __all__ = ["ModelScales"]
 
 
 class ModelScales(ModelEvaluation):
-    """The scales part of :class:`rodsim.core.model.Model` (module docstring)."""
+    """The scales part of ``rodsim.core.model.Model`` (module docstring)."""
 
     #: Each term's share of the rest diagonal, with the term and scale it was computed for
     #: (:meth:`_rest_diagonal`).
@@ -24,7 +24,7 @@ class ModelScales(ModelEvaluation):
 
     def _build_scales(self, layout: bool = True) -> None:
         """F_ref, L_ref, the residual weights and the round-off floor (below); ``layout``
-        False keeps :attr:`is_quaternion` (a model of the same layout)."""
+        False keeps ``is_quaternion`` (a model of the same layout)."""
         x0 = self.x0
         full = self.full(x0)
         load = 0.0
@@ -64,11 +64,11 @@ class ModelScales(ModelEvaluation):
 
     def _roundoff(self) -> np.ndarray:
         """Per free coordinate, the round-off of F_i over eps: each term's |∂F_i/∂x_i| at
-        rest (its share of :attr:`rest_stiffness`) times the size of the numbers its force
+        rest (its share of ``rest_stiffness``) times the size of the numbers its force
         is a difference of (docs/model.md, "The offset state and the residual floor").
 
         A term on the full state (springs and penalties between positions of size ~L) takes
-        L_ref for positions and 1 for quaternions. A term on offsets (:attr:`Term.offsets`)
+        L_ref for positions and 1 for quaternions. A term on offsets (``Term.offsets``)
         takes the size of the offsets the loads make: on its rod, the displacement
         D = min(L, F_ref L³ / (3 E I)) (a cantilever's tip under F_ref, E I the least along
         the rod: a bound for loads that bend by a moment) and the quaternion change
@@ -89,10 +89,10 @@ class ModelScales(ModelEvaluation):
 
     def _rest_diagonal(self, full: np.ndarray, offsets: np.ndarray) -> np.ndarray:
         """The diagonal of ∂F/∂x at the full state ``full`` (the rest state), as the sum of
-        the terms' shares in term order (a term on offsets, :attr:`Term.offsets`, evaluated
+        the terms' shares in term order (a term on offsets, ``Term.offsets``, evaluated
         at ``offsets``). Each term's share is kept with the term and its
-        scale (:attr:`_diagonal_shares`) and recomputed only for a term or a scale that
-        changed: a model of other values (:meth:`with_values`) evaluates the changed terms
+        scale (``_diagonal_shares``) and recomputed only for a term or a scale that
+        changed: a model of other values (``with_values``) evaluates the changed terms
         alone. (Summed by term, not accumulated in one pass, so that every model of the
         same terms gets the same numbers whichever terms it recomputed.)"""
         kept = getattr(self, "_diagonal_shares", None) or {}
@@ -147,7 +147,7 @@ class ModelScales(ModelEvaluation):
     def pseudo_time_masses(self) -> np.ndarray:
         """Diagonal mass matrix M of the free coordinates for the pseudo-dynamics (Eq. 17)
         [kg or kg·m²]: the integrators' way to equilibrium, not the physical inertia
-        (that is :mod:`rodsim.core.inertia`)."""
+        (that is ``rodsim.core.inertia``)."""
         full = np.zeros(self.full_size)
         for rod in self.rods.values():
             full[rod.layout.position_index] = rod.node_masses()[:, None]
@@ -157,8 +157,8 @@ class ModelScales(ModelEvaluation):
 
     def latent_stiffness(self) -> np.ndarray:
         """Per free coordinate [N/m or N·m], the stiffness the terms may add away from the
-        rest state that :attr:`rest_stiffness` does not show (a contact that appears:
-        :meth:`rodsim.core.terms.base.Term.latent_stiffness`), each term's times its scale;
+        rest state that ``rest_stiffness`` does not show (a contact that appears:
+        ``rodsim.core.terms.base.Term.latent_stiffness``), each term's times its scale;
         zeros for a model without such terms."""
         full = np.zeros(self.full_size)
         for index, term in enumerate(self.terms):

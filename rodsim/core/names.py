@@ -2,7 +2,7 @@
 parts of dotted keys (``rods.<rod>.nodes``).
 
 - A scene name is a plain file-name stem: one line of letters, digits, ``_``, ``-``, ``.``
-  and ``+``, starting with a letter, digit or ``_``, at most :data:`MAX_NAME_LENGTH`
+  and ``+``, starting with a letter, digit or ``_``, at most ``MAX_NAME_LENGTH``
   characters. ``rodsim run`` writes ``<name>-<integrator>.nc`` in the current folder by
   default; a name with a ``/``, ``..``, a NUL or a newline could write elsewhere or break
   the one-line messages.
@@ -26,7 +26,7 @@ _ROD = re.compile(r"[A-Za-z0-9_][A-Za-z0-9_+-]*")
 
 
 def check_scene_name(name: object) -> str:
-    """The scene's ``name`` if it is a plain file-name stem, else :class:`SceneError`."""
+    """The scene's ``name`` if it is a plain file-name stem, else ``SceneError``."""
     if not isinstance(name, str) or not _STEM.fullmatch(name) or len(name) > MAX_NAME_LENGTH:
         raise SceneError(f"name = {shown(name)}: not a plain file-name stem; allowed: up to "
                          f"{MAX_NAME_LENGTH} letters, digits, '_', '-', '.' and '+', starting "
@@ -36,7 +36,7 @@ def check_scene_name(name: object) -> str:
 
 def check_rod_name(name: object, table: str, what: str = "rod") -> str:
     """A rod's (or tendon's, obstacle's, support's: ``what``) name in ``[<table>.<name>]``,
-    else :class:`SceneError`."""
+    else ``SceneError``."""
     if not isinstance(name, str) or not _ROD.fullmatch(name) or len(name) > MAX_NAME_LENGTH:
         raise SceneError(f"{table}.{shown(name)}: not a valid {what} name; allowed: up to "
                          f"{MAX_NAME_LENGTH} letters, digits, '_', '-' and '+', starting "

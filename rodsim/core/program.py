@@ -6,11 +6,11 @@ key ``track`` ramps) as a function of time for ``rodsim.simulate``; the model at
 the scene with p(t), and the loads' potential −F·r then does the work ∫ ∂V/∂p ṗ dt
 (rodsim/solvers/physical/trajectory.py). Two forms:
 
-- :class:`Table` — piecewise linear through (times, values): a repeated time is a step;
+- ``Table`` — piecewise linear through (times, values): a repeated time is a step;
   before the first time and after the last the end values hold.
-- :class:`Sinusoid` — p(t) = offset + amplitude · sin(2π · frequency · t + phase), frequency
+- ``Sinusoid`` — p(t) = offset + amplitude · sin(2π · frequency · t + phase), frequency
   in Hz and phase in radians; ``offset`` None stands for the scene's own value of the key
-  (filled in by :meth:`Sinusoid.about`), so that a run from the scene's equilibrium starts
+  (filled in by ``Sinusoid.about``), so that a run from the scene's equilibrium starts
   with p(0) = offset + amplitude · sin(phase).
 
 In a scene file, a ``[program]`` table holds one entry per key (a dotted key or a short
@@ -26,10 +26,10 @@ form as for ``--set``, quoted because it has dots), either form::
     phase = 0.0                    # rad (default 0)
     offset = 1.0                   # default: the scene's value
 
-:func:`program_entry` reads either (and ``(times, values)`` pairs, the Python form);
-:func:`resolve_program` validates the scene file's table (structure and numbers: the keys
+``program_entry`` reads either (and ``(times, values)`` pairs, the Python form);
+``resolve_program`` validates the scene file's table (structure and numbers: the keys
 and the values' ranges need the scene and are checked by ``rodsim.simulate`` before any
-work, :func:`rodsim.app.programs.check_programs`).
+work, ``rodsim.app.programs.check_programs``).
 """
 
 from __future__ import annotations
@@ -91,7 +91,7 @@ class Sinusoid:
     """p(t) = offset + amplitude · sin(2π · frequency · t + phase).
 
     ``amplitude`` ≥ 0 in the key's unit, ``frequency`` > 0 [Hz], ``phase`` [rad];
-    ``offset`` None: the scene's value of the key (:meth:`about`).
+    ``offset`` None: the scene's value of the key (``about``).
     """
 
     amplitude: float
@@ -106,7 +106,7 @@ class Sinusoid:
         return Sinusoid(self.amplitude, self.frequency, self.phase, float(value))
 
     def value(self, t: float, before: bool = False) -> float:
-        """p(t) (ValueError without an offset: :meth:`about` first); ``before`` changes
+        """p(t) (ValueError without an offset: ``about`` first); ``before`` changes
         nothing, a sinusoid has no step."""
         if self.offset is None:
             raise ValueError("a sinusoid without offset: give it the scene's value (about)")
@@ -128,7 +128,7 @@ class Sinusoid:
         return out
 
     def archived(self) -> dict[str, float]:
-        """The trajectory archive's form: :meth:`data`."""
+        """The trajectory archive's form: ``data``."""
         return self.data()
 
 
@@ -145,7 +145,7 @@ def _number(name: str, field: str, value: Any) -> float:
 
 
 def _table(name: str, times: Any, values: Any) -> Table:
-    """A checked :class:`Table` from two lists of numbers."""
+    """A checked ``Table`` from two lists of numbers."""
     try:
         t, v = (np.asarray(part, dtype=float) for part in (times, values))
     except (TypeError, ValueError):
@@ -162,7 +162,7 @@ def _table(name: str, times: Any, values: Any) -> Table:
 
 
 def _sinusoid(name: str, table: Mapping[str, Any]) -> Sinusoid:
-    """A checked :class:`Sinusoid` from a table of :data:`SINUSOID_KEYS`."""
+    """A checked ``Sinusoid`` from a table of ``SINUSOID_KEYS``."""
     unknown = [key for key in table if key not in SINUSOID_KEYS]
     if unknown:
         raise SceneError(f"program {shown(name, bare=True)}.{shown(unknown[0], bare=True)}: "
@@ -185,7 +185,7 @@ def _sinusoid(name: str, table: Mapping[str, Any]) -> Sinusoid:
 
 
 def program_entry(name: str, raw: Any) -> ProgramEntry:
-    """One key's program from any of its forms: a :class:`Table` or :class:`Sinusoid`
+    """One key's program from any of its forms: a ``Table`` or ``Sinusoid``
     (checked again), a pair ``(times, values)``, or a mapping with ``times`` and ``values``
     or with the keys of a sinusoid (module docstring); SceneError (one line) otherwise."""
     if isinstance(raw, Table):
@@ -209,7 +209,7 @@ def program_entry(name: str, raw: Any) -> ProgramEntry:
 
 def resolve_program(raw: Any) -> dict[str, dict[str, Any]]:
     """The validated ``[program]`` table of a scene file: key → the entry's
-    :meth:`~Table.data` (SceneError, one line, for a malformed entry)."""
+    ``Table.data`` (SceneError, one line, for a malformed entry)."""
     if not isinstance(raw, Mapping):
         raise SceneError("program: expected a table, one entry per key ([program.\"KEY\"] "
                          "with times and values, or amplitude and frequency)")

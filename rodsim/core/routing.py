@@ -13,8 +13,8 @@ r(s) + ρ_y(s) d1(s) + ρ_z(s) d2(s), with (ρ_y, ρ_z) = ρ(s) in metres. Three
 - ``helix``: ρ = radius (cos φ, sin φ), φ = phase + 2π s / pitch (a negative pitch turns
   the other way).
 
-The same :class:`Routing` gives the discrete model its offsets and the Rucker–Webster
-reference (rodsim/core/analytic/tendon_bvp.py) ρ and ρ′. :func:`check_routing` validates a
+The same ``Routing`` gives the discrete model its offsets and the Rucker–Webster
+reference (rodsim/core/analytic/tendon_bvp.py) ρ and ρ′. ``check_routing`` validates a
 routing against its catheter (one-line SceneError), including the sampling rule below.
 
 Sampling: the discrete tendon path is the polygon through routing points at the catheter's
@@ -22,8 +22,8 @@ nodes (rodsim/core/terms/tendon_string.py), so a routing that turns faster than 
 sample it is aliased: a helix of pitch h (one segment per turn) is seen as a constant offset
 and bends the catheter the wrong way (catheter-helical with helix_pitch = 0.004 m at N = 41
 moved the tip 0.159 L sideways; the Rucker–Webster reference and N = 321 agree on y ≈ 0).
-:func:`check_routing` refuses a helix with fewer than :data:`SEGMENTS_PER_TURN` segments per
-turn and a table whose knots are closer than :data:`SEGMENTS_PER_KNOT` segments (a cubic
+``check_routing`` refuses a helix with fewer than ``SEGMENTS_PER_TURN`` segments per
+turn and a table whose knots are closer than ``SEGMENTS_PER_KNOT`` segments (a cubic
 spline's shortest wave spans two knot spacings: the same four segments per wave), naming
 the number of nodes that is enough. Measured on catheter-helical (tip error / L against the
 reference): 1 segment per turn 1.6e-1, 2: 7e-4 – 1.5e-3, 4: 1.4e-4 – 6.3e-4, 8: 6e-5 – 4e-4.
@@ -165,12 +165,12 @@ def _check_sampling(key: str, string: Any, length: float, nodes: int, start: flo
 def routing_limits(string: Any, length: float, radius: float, nodes: int
                    ) -> dict[str, tuple[float, float, str]]:
     """The range each number of a string tendon may take, one at a time, under the rules of
-    :func:`check_routing`: name -> (low, high, the rule), for ``start``, ``end``,
+    ``check_routing``: name -> (low, high, the rule), for ``start``, ``end``,
     ``helix_radius``, ``helix_pitch`` (its hand kept), ``table_y`` and ``table_z`` (each
     knot's offset) and the tendon table's ``offset``. ``end`` = 0 lies outside its range:
     it names the tip, and a termination to vary is given as a number (L). What varies the
     routing (fit, reach, a track's ramp) is bounded by these before any work;
-    :func:`check_routing` still judges each whole scene (a spline can overshoot its knots).
+    ``check_routing`` still judges each whole scene (a spline can overshoot its knots).
     """
     start, end = string_span(string, length)
     room = 1e-9 * length  # strict inequalities, as closed bounds

@@ -4,9 +4,9 @@ A scene is validated once into a *resolved* dict in which every default of the r
 tendons and generic solver settings is filled in; that dict (as JSON) is what archives store
 and what ``rodsim rerun`` reads back. The ``[solver.<integrator>]`` tables are kept as given:
 each integrator validates and completes its own options
-(:meth:`rodsim.solvers.base.Integrator.options_of`), so this module never imports the
+(``rodsim.solvers.base.Integrator.options_of``), so this module never imports the
 solvers (docs/architecture.md).
-Any problem raises :class:`~rodsim.core.schema.SceneError` with a one-line message naming the key
+Any problem raises ``rodsim.core.schema.SceneError`` with a one-line message naming the key
 and the allowed values. Layout of a scene file (docs/scenes.md has the full reference)::
 
     name = "hanging-mass-50g"
@@ -112,9 +112,9 @@ SOLVER_PARAMETERS: tuple[Parameter, ...] = (
 @dataclass(frozen=True, kw_only=True)
 class SolverSettings(Options):
     """The generic solver settings of a scene ([solver]), typed: one field per
-    :data:`SOLVER_PARAMETERS` (checked by tests/test_types.py); each integrator's own
+    ``SOLVER_PARAMETERS`` (checked by tests/test_types.py); each integrator's own
     ``[solver.<name>]`` options are its ``Options``
-    (:meth:`rodsim.solvers.base.Integrator.options_of`)."""
+    (``rodsim.solvers.base.Integrator.options_of``)."""
 
     integrator: str = "cvode"
     tolerance: float = 1e-9
@@ -194,7 +194,7 @@ class Scene:
 
     @classmethod
     def from_json(cls, text: str, source: str = "") -> Scene:
-        """Rebuild a scene from :meth:`to_json` (as stored in archives)."""
+        """Rebuild a scene from ``to_json`` (as stored in archives)."""
         try:
             raw = json.loads(text)
         except (ValueError, RecursionError):
@@ -221,24 +221,24 @@ class Scene:
 
     @property
     def solver(self) -> SolverSettings:
-        """The generic solver settings, a :data:`SolverSettings` (a view of ``data``)."""
+        """The generic solver settings, a ``SolverSettings`` (a view of ``data``)."""
         return SolverSettings.of(self.data["solver"])
 
     @property
     def rods(self) -> dict[str, RodOptions]:
-        """Each rod's own values by name, as :data:`~rodsim.core.rod.rod.RodOptions` (views
-        of ``data``; the per-term sub-tables are read with :meth:`term_options`)."""
+        """Each rod's own values by name, as ``rodsim.core.rod.rod.RodOptions`` (views
+        of ``data``; the per-term sub-tables are read with ``term_options``)."""
         return {name: RodOptions.of(table) for name, table in self.data["rods"].items()}
 
     @property
     def tendons(self) -> dict[str, TendonOptions]:
         """Each tendon's own values by its rod's name, as
-        :data:`~rodsim.core.tendon.TendonOptions` (views of ``data``)."""
+        ``rodsim.core.tendon.TendonOptions`` (views of ``data``)."""
         return {name: TendonOptions.of(table) for name, table in self.data["tendons"].items()}
 
     def base_options(self, rod: str) -> BaseOptions:
         """The base support's values of rod ``rod`` ([rods.<rod>.base]: insertion,
-        rotation) as a :data:`~rodsim.core.supports.BaseOptions`; the defaults for a tendon
+        rotation) as a ``rodsim.core.supports.BaseOptions``; the defaults for a tendon
         rod, whose base follows its catheter's."""
         return BaseOptions.of(self.data["rods"][rod].get("base") or
                               {p.name: p.default for p in BASE_PARAMETERS})
@@ -259,18 +259,18 @@ class Scene:
 
     def term_type(self, owner: str, name: str, term: str) -> type[Term]:
         """The term class the scene key ``term`` of rod or tendon ``name`` builds (the
-        tendon's ``coupling`` picks the lumen's, :func:`rodsim.core.terms.term_class`)."""
+        tendon's ``coupling`` picks the lumen's, ``rodsim.core.terms.term_class``)."""
         from rodsim.core.terms import term_class
 
         return term_class(term, self.data[owner][name])
 
     def full_key(self, key: str, prefer: str = "") -> str:
-        """The full dotted key that ``key`` names (the short forms of :meth:`with_overrides`;
+        """The full dotted key that ``key`` names (the short forms of ``with_overrides``;
         SceneError for an unknown or ambiguous key)."""
         return resolve_key(self.data, key, prefer)
 
     def get(self, key: str) -> Any:
-        """Value at a dotted key, with the same short forms as :meth:`with_overrides`."""
+        """Value at a dotted key, with the same short forms as ``with_overrides``."""
         node: Any = self.data
         for part in resolve_key(self.data, key).split("."):
             node = node[int(part)] if isinstance(node, list) else node[part]
@@ -288,7 +288,7 @@ class Scene:
         falls back to a plain string. Each assignment is validated before the next is
         resolved, so a later key may refer to a term an earlier one added. ``known_keys`` are
         full keys that may be set although the scene does not hold them yet (the integrators'
-        options, which :func:`rodsim.load_scene` passes so that their short forms work too);
+        options, which ``rodsim.load_scene`` passes so that their short forms work too);
         so may every rod's damping values (``rods.<rod>.damping.retardation_time``,
         ``damping.drag`` on a one-rod scene), which only ``simulate`` and ``modes`` read.
         An assignment whose key or value cannot be read raises SceneError with
@@ -375,7 +375,7 @@ def cross_table_culprit(exc: SceneError, given: Collection[str]) -> tuple[str, s
 
 
 def _blame_what_was_set(exc: SceneError, given: Mapping[str, str]) -> SceneError:
-    """``exc`` reworded by :func:`cross_table_culprit` to name the assignment (as the user
+    """``exc`` reworded by ``cross_table_culprit`` to name the assignment (as the user
     wrote it, from ``given``: full key -> assignment) that broke the rule."""
     found = cross_table_culprit(exc, given)
     if found is None:
@@ -389,7 +389,7 @@ def _blame_what_was_set(exc: SceneError, given: Mapping[str, str]) -> SceneError
 
 
 def resolve(raw: Mapping[str, Any]) -> dict[str, Any]:
-    """Validate a raw scene dict and fill every default (raises :class:`SceneError`)."""
+    """Validate a raw scene dict and fill every default (raises ``SceneError``)."""
     from rodsim.core.terms import term_class, term_keys
 
     for key in raw:

@@ -1,5 +1,5 @@
 """Reading a scene file safely: a regular file of bounded size, UTF-8 text, TOML of
-bounded nesting. Every problem is a :class:`~rodsim.core.schema.SceneError` with one line.
+bounded nesting. Every problem is a ``rodsim.core.schema.SceneError`` with one line.
 
 ``rodsim run /dev/zero`` would otherwise read forever, a binary file would raise a
 ``UnicodeDecodeError``, and deeply nested arrays (in a file or a ``--set`` value) would

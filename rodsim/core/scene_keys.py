@@ -1,7 +1,7 @@
 """Dotted scene keys (``rods.catheter.nodes``, ``tip_load.force``): the keys a scene holds
 and may take, a short key resolved to the one it ends, a value assigned at a key, and an
-override's value parsed — what :meth:`rodsim.core.scene.Scene.with_overrides` (``--set``)
-and :meth:`~rodsim.core.scene.Scene.get` are made of."""
+override's value parsed — what ``rodsim.core.scene.Scene.with_overrides`` (``--set``)
+and ``rodsim.core.scene.Scene.get`` are made of."""
 
 from __future__ import annotations
 

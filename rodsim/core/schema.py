@@ -1,8 +1,8 @@
-"""Declarative parameter schemas: one :class:`Parameter` per scene value.
+"""Declarative parameter schemas: one ``Parameter`` per scene value.
 
 Scene tables (rods, terms, couplings, integrators) each declare their parameters once, with
 unit, default and allowed range; validation, ``--help`` texts and the docs all read the same
-declaration. Every violation raises :class:`SceneError` with a one-line message naming the
+declaration. Every violation raises ``SceneError`` with a one-line message naming the
 full key and what is allowed.
 """
 
@@ -46,13 +46,13 @@ class SceneError(ValueError):
     reason
         A short phrase for what is wrong (``"unknown key"``, ``"out of range"``, …).
     assignment
-        The ``key=value`` text of :meth:`rodsim.core.scene.Scene.with_overrides` whose key or
+        The ``key=value`` text of ``rodsim.core.scene.Scene.with_overrides`` whose key or
         value could not be read, or that made another value invalid (``None`` for errors in
         the values themselves).
     related
         The other dotted keys a cross-table rule compares ``key`` with (radius against length,
         a tendon's length against its catheter's, a lumen offset against the radii): when only
-        one of them was set, :meth:`~rodsim.core.scene.Scene.with_overrides` names that one.
+        one of them was set, ``rodsim.core.scene.Scene.with_overrides`` names that one.
     """
 
     def __init__(self, message: str, *, key: str | None = None, value: Any = None,
@@ -86,8 +86,8 @@ PATH_WIDTH = 160
 
 
 def shown_path(path: Any) -> str:
-    """A file path for a one-line message: :func:`shown` of its text, cut to
-    :data:`PATH_WIDTH` characters."""
+    """A file path for a one-line message: ``shown`` of its text, cut to
+    ``PATH_WIDTH`` characters."""
     return shown(str(path), PATH_WIDTH)
 
 
@@ -169,7 +169,7 @@ class Parameter:
         return f"{self.name} = {default}{unit}: {self.doc}"
 
     def check(self, value: Any, key: str) -> Any:
-        """Return ``value`` converted to this parameter's kind, or raise :class:`SceneError`."""
+        """Return ``value`` converted to this parameter's kind, or raise ``SceneError``."""
 
         def fail(reason: str) -> SceneError:
             return SceneError(f"{key} = {shown(value)}: {reason}; allowed: {self.allowed}",
@@ -238,7 +238,7 @@ class Parameter:
 
 def _is_number(value: Any) -> bool:
     """A real number, numpy's included (np.float32, np.int64: numpy registers them with
-    :mod:`numbers`); not a bool (numpy's bool is no number)."""
+    ``numbers``); not a bool (numpy's bool is no number)."""
     return isinstance(value, numbers.Real) and not isinstance(value, bool)
 
 
@@ -303,10 +303,10 @@ KIND_HINTS: dict[str, Any] = {"float": float, "int": int, "str": str, "bool": bo
 class Options:
     """Base of the options dataclasses a type checker sees: a scene table's validated values
     as typed attributes. A hand-declared subclass is a frozen, keyword-only dataclass with one
-    field per :class:`Parameter` of the table, in the declaration's order, annotated with
-    :data:`KIND_HINTS` of its kind and defaulting to its default (no default: a required
-    value); :func:`options_mismatch` checks that, and a term or an integrator that declares
-    its ``Options`` is checked when the class is defined (:func:`register_with_options`).
+    field per ``Parameter`` of the table, in the declaration's order, annotated with
+    ``KIND_HINTS`` of its kind and defaulting to its default (no default: a required
+    value); ``options_mismatch`` checks that, and a term or an integrator that declares
+    its ``Options`` is checked when the class is defined (``register_with_options``).
 
     Example::
 
@@ -320,7 +320,7 @@ class Options:
 
     @classmethod
     def of(cls, table: Mapping[str, Any]) -> Self:
-        """The typed view of a validated table (:func:`validate_table`'s dict): its declared
+        """The typed view of a validated table (``validate_table``'s dict): its declared
         values only; other keys (a rod's per-term sub-tables, the ``[solver.<integrator>]``
         tables) are left out."""
         return cls(**{f.name: table[f.name] for f in dataclasses.fields(cls)})
@@ -328,7 +328,7 @@ class Options:
 
 def options_mismatch(cls: type, parameters: Iterable[Parameter]) -> list[str]:
     """How the options dataclass ``cls`` differs from the ``parameters`` it types (empty:
-    they agree): field names and order, annotations (:data:`KIND_HINTS`), defaults (a
+    they agree): field names and order, annotations (``KIND_HINTS``), defaults (a
     required parameter: no default), frozen and keyword-only."""
     parameters = tuple(parameters)
     if not dataclasses.is_dataclass(cls):
@@ -364,7 +364,7 @@ def options_mismatch(cls: type, parameters: Iterable[Parameter]) -> list[str]:
 def register_with_options(cls: type, registry: dict[str, type], kind: str) -> None:
     """What a term or integrator class does when it is defined: take the ``Options`` class it
     declares (checked against its ``parameters``: TypeError naming each difference), or get
-    one made by :func:`options_type`, as ``cls.Options``; and, when it declares its own
+    one made by ``options_type``, as ``cls.Options``; and, when it declares its own
     ``name``, enter ``registry`` under it (TypeError if the name is taken). ``kind`` names the
     registry in messages ("term", "integrator")."""
     label = getattr(cls, "name", cls.__name__)
@@ -387,9 +387,9 @@ def register_with_options(cls: type, registry: dict[str, type], kind: str) -> No
 
 def options_type(name: str, parameters: Iterable[Parameter], doc: str = "") -> type[Options]:
     """A frozen dataclass named ``name`` with one typed field per parameter (its default
-    where it has one), made at run time for a table without a hand-declared :class:`Options`
-    class (a type checker sees only :class:`Options`), so that validated options are read
-    as attributes, not string keys. Build an instance from :func:`validate_table`'s dict
+    where it has one), made at run time for a table without a hand-declared ``Options``
+    class (a type checker sees only ``Options``), so that validated options are read
+    as attributes, not string keys. Build an instance from ``validate_table``'s dict
     with the class method ``of(table)`` (which ignores keys that are not declared
     parameters)."""
     fields = [(p.name, KIND_TYPES[p.kind],

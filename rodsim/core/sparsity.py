@@ -63,7 +63,7 @@ def unique_keys(keys: np.ndarray, size: int,
     position among them) — ``np.unique(keys, return_inverse=True)``.
 
     Where the entries lie in a band whose table (one slot per column and offset) is small
-    against the entries (:data:`BAND_TABLE_RATIO`), the positions are found by marking and
+    against the entries (``BAND_TABLE_RATIO``), the positions are found by marking and
     numbering that table: the same answer with two entry-sized arrays instead of sorting's
     five or so (the model's assembly at N = 40 000 peaked at 794 MiB, mostly np.unique's
     temporaries; see docs/benchmark-history.md).
@@ -93,7 +93,7 @@ def _no_tick() -> None:
 
 def _banded_unique(rows: np.ndarray, cols: np.ndarray, size: int, upper: int,
                    width: int, tick: Callable[[], None]) -> tuple[np.ndarray, np.ndarray]:
-    """:func:`unique_keys` through the band table: slot (column c, row r) at
+    """``unique_keys`` through the band table: slot (column c, row r) at
     c × width + r − c + upper, which increases along CSC order (column, then row)."""
     slot = cols * width
     slot += rows
@@ -115,7 +115,7 @@ def _banded_unique(rows: np.ndarray, cols: np.ndarray, size: int, upper: int,
 def block_pattern(blocks: list[np.ndarray], size: int,
                   tick: Callable[[], None] | None = None) -> tuple[
         np.ndarray, list[np.ndarray], np.ndarray]:
-    """The pattern of the diagonal and of dense element blocks, as :func:`unique_keys`
+    """The pattern of the diagonal and of dense element blocks, as ``unique_keys``
     gives it for their entries, without forming the entries' keys.
 
     ``blocks`` are integer arrays f of shape (E, k): element e couples every pair of its
@@ -126,11 +126,11 @@ def block_pattern(blocks: list[np.ndarray], size: int,
     its entries' position among those keys, the number of keys where dropped (a dump slot
     past the end), shape (E k k,); the diagonal's positions).
 
-    Where the band table is small against the entries (:data:`BAND_TABLE_RATIO`), an entry's
+    Where the band table is small against the entries (``BAND_TABLE_RATIO``), an entry's
     slot in it is the sum of a row part and a column part read per index (``f`` is E × k,
     the entries E × k × k), so the entries are never divided back into rows and columns:
     on tdcr-two-segment this made the assembly's pattern ~4× cheaper (docs/benchmark-history.md,
-    "Model assembly"). Otherwise: the keys, sorted (:func:`unique_keys`).
+    "Model assembly"). Otherwise: the keys, sorted (``unique_keys``).
 
     ``tick`` is called between the passes over a block's entries: the assembly's wall-time
     budget."""
@@ -161,15 +161,15 @@ def block_spread(blocks: list[np.ndarray], size: int) -> tuple[int, int]:
 
 def band_table_fits(size: int, spread: int, count: int) -> bool:
     """Whether a band table of half-width ``spread`` is small against ``count`` entries
-    (:data:`BAND_TABLE_RATIO`)."""
+    (``BAND_TABLE_RATIO``)."""
     return size * (2 * spread + 1) <= BAND_TABLE_RATIO * count
 
 
 @dataclass(frozen=True)
 class BandBlocks:
-    """Element blocks placed in a band table of half-width ``spread`` (:func:`band_blocks`):
+    """Element blocks placed in a band table of half-width ``spread`` (``band_blocks``):
     kept by a model whose terms re-register, so that their new blocks are merged
-    (:func:`merged_pattern`) without placing these again.
+    (``merged_pattern``) without placing these again.
 
     Slot (column c, row r) of the table is c × width + r − c + spread (width = 2 spread + 1),
     increasing in CSC order; slot ``end`` = size × width takes every entry on a fixed
@@ -203,7 +203,7 @@ class BandBlocks:
 
 def band_blocks(blocks: list[np.ndarray], size: int, spread: int,
                 tick: Callable[[], None] | None = None) -> BandBlocks:
-    """``blocks`` (as in :func:`block_pattern`, each element's kept indices at most
+    """``blocks`` (as in ``block_pattern``, each element's kept indices at most
     ``spread`` apart) and the diagonal placed in a band table."""
     tick = tick or _no_tick
     placed = BandBlocks(size, spread, [], np.zeros(size * (2 * spread + 1) + 1, dtype=bool))
@@ -221,7 +221,7 @@ def merged_pattern(placed: BandBlocks, blocks: list[np.ndarray],
                    tick: Callable[[], None] | None = None) -> tuple[
         np.ndarray, list[np.ndarray], list[np.ndarray], np.ndarray]:
     """The pattern of ``placed`` and further ``blocks`` (whose elements' kept indices are at
-    most ``placed.spread`` apart), as :func:`block_pattern` gives it for all of them: (the
+    most ``placed.spread`` apart), as ``block_pattern`` gives it for all of them: (the
     sorted unique keys; the positions of ``placed``'s blocks' entries among them; those of
     ``blocks``' entries; the diagonal's) — a dropped entry's position is the number of keys.
     ``placed`` is not changed."""
@@ -235,7 +235,7 @@ def merged_pattern(placed: BandBlocks, blocks: list[np.ndarray],
 
 
 class MergedPattern(NamedTuple):
-    """:func:`merge_placed`'s answer: the pattern's sorted unique column-major keys and
+    """``merge_placed``'s answer: the pattern's sorted unique column-major keys and
     their rows and columns (CSC order), the positions among them of the placed blocks'
     entries and of the further ones (the number of keys where dropped), the diagonal's."""
 
@@ -249,8 +249,8 @@ class MergedPattern(NamedTuple):
 
 def merge_placed(placed: BandBlocks, slots: list[np.ndarray],
                  tick: Callable[[], None] | None = None) -> MergedPattern:
-    """:func:`merged_pattern` of further blocks already placed in ``placed``'s table
-    (``slots``: :meth:`BandBlocks.place` of each), with the stored entries' rows and columns
+    """``merged_pattern`` of further blocks already placed in ``placed``'s table
+    (``slots``: ``BandBlocks.place`` of each), with the stored entries' rows and columns
     (one integer division of the slots, where the keys were divided back into rows and
     columns in two more).
     ``placed`` is not changed."""
@@ -286,7 +286,7 @@ def merge_placed(placed: BandBlocks, slots: list[np.ndarray],
 def _sorted_block_pattern(blocks: list[np.ndarray], size: int,
                           tick: Callable[[], None]) -> tuple[
         np.ndarray, list[np.ndarray], np.ndarray]:
-    """:func:`block_pattern` by sorting every entry's key (a wide band)."""
+    """``block_pattern`` by sorting every entry's key (a wide band)."""
     keys = [np.arange(size) * (size + 1)]
     for free in blocks:
         k = free.shape[1]
@@ -311,8 +311,8 @@ def _sorted_block_pattern(blocks: list[np.ndarray], size: int,
 def pattern_of_keys(keys: np.ndarray, target: np.ndarray, size: int,
                     entries: tuple[np.ndarray, np.ndarray] | None = None) -> Pattern:
     """The pattern whose stored entries have the sorted unique column-major keys
-    ``col * size + row``; ``target`` as in :class:`Pattern`. ``entries``: the keys' (rows,
-    columns) when the caller has them (:class:`MergedPattern`), else divided out of the
+    ``col * size + row``; ``target`` as in ``Pattern``. ``entries``: the keys' (rows,
+    columns) when the caller has them (``MergedPattern``), else divided out of the
     keys."""
     if entries is None:
         pattern_rows, pattern_cols = keys % size, keys // size  # column-major: CSC order

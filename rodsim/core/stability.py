@@ -13,7 +13,7 @@ congruence: the same definiteness), so that positions [m] and quaternion compone
 stiff penalties (K_P) next to soft bending do not make the factorisation's round-off depend
 on units. When the factorisation fails, the smallest eigenvalue of S is reported
 (``min_eigenvalue``, in K's units: N/m, N or N·m per quaternion unit): dense ``eigvalsh`` for
-up to :data:`DENSE_LIMIT` coordinates, else by bisection on the shift σ with Cholesky
+up to ``DENSE_LIMIT`` coordinates, else by bisection on the shift σ with Cholesky
 factorisations of S − σ I (ARPACK's smallest-algebraic mode did not converge in minutes on
 a straight compressed rod of 1000 nodes; the bisection takes about 30 banded
 factorisations).
@@ -34,8 +34,8 @@ static perturbation grows), and ``min_eigenvalue`` is then the smallest real par
 eigenvalues up to 200 coordinates, of the six nearest zero above. Those six can all lie
 right of zero while one further out lies left of it (many soft modes first): when the
 skew part A = (K − Kᵀ)/2 is small enough, K's symmetric part proves that eigenvalue
-(:func:`_proven_left_eigenvalue`; one shifted band Cholesky decides whether to look, a
-dense symmetric eigensolve up to :data:`DENSE_LIMIT` coordinates looks); and det K < 0,
+(``_proven_left_eigenvalue``; one shifted band Cholesky decides whether to look, a
+dense symmetric eigensolve up to ``DENSE_LIMIT`` coordinates looks); and det K < 0,
 read off the band LU that ARPACK's shift-invert uses anyway, proves an odd number of
 negative real eigenvalues wherever they are (``min_eigenvalue`` NaN: not located). Not
 seen: an even number of negative real eigenvalues, or complex pairs with negative real
@@ -48,26 +48,26 @@ its own axis for free; an unloaded one swings freely) has zero eigenvalues, whic
 puts on either side of zero: Cholesky certified a ball joint with no load "positive definite"
 and called a hanging rod "UNSTABLE, smallest eigenvalue 2.09e-10", the sign following the
 kernel choice. The verdict is therefore read on the diagonally scaled symmetric part
-D S D (unit diagonal, dimensionless) with a stated tolerance τ = :func:`neutral_tolerance`
+D S D (unit diagonal, dimensionless) with a stated tolerance τ = ``neutral_tolerance``
 (100 n ε, n free coordinates): every eigenvalue above τ: stable; one below −τ: unstable;
 otherwise neutral, with the number of eigenvalues within τ of zero (``neutral_modes``;
-counted densely up to :data:`DENSE_LIMIT` coordinates, −1 above: not counted). Measured
+counted densely up to ``DENSE_LIMIT`` coordinates, −1 above: not counted). Measured
 (n = 101: τ = 2.2e-12): the zero modes of ball-jointed rods at 3e-16 from static and up to
 3.0e-13 from IDA (its state a residual away from the exact equilibrium: the zero mode's
 curvature is not exactly zero there), the pendulum's swing 1.3e-7; the smallest scaled
 eigenvalue of a shipped scene 4.6e-11 (tip-on-tissue, n = 280: τ = 6.2e-12), of the others
 6e-10 and above. One more band Cholesky (of D S D − τ I) per certified verdict tells a strict
-minimum from a neutral one, up to :data:`DENSE_LIMIT` coordinates only: a slender rod's
+minimum from a neutral one, up to ``DENSE_LIMIT`` coordinates only: a slender rod's
 smallest scaled eigenvalue falls like (h/L)³, below τ (which grows like n) at large N —
 table1-50g at N = 4 000 (28 000 coordinates) was called neutral and CVODE's finish refused
 it seven times — so above the limit a positive definite K is stable, as before the neutral
 test. The non-symmetric path (the paper's tendon coupling) is judged
 by its eigenvalues' real parts as before: no neutral state there.
 
-:func:`assess` (a model's verdict, what every run and every track step gets) does the
+``assess`` (a model's verdict, what every run and every track step gets) does the
 factorisations in band storage straight from the Jacobian's data (rodsim/core/
 stability_band.py: the same Cholesky test; K⁻¹ for ARPACK by band LU instead of SuperLU);
-:func:`stiffness_stability` (any sparse K) builds the sparse matrices.
+``stiffness_stability`` (any sparse K) builds the sparse matrices.
 """
 
 from __future__ import annotations
@@ -148,7 +148,7 @@ class Stability:
 
     @property
     def eigenvalue_text(self) -> str:
-        """The smallest eigenvalue as the messages quote it (:func:`eigenvalue_text`)."""
+        """The smallest eigenvalue as the messages quote it (``eigenvalue_text``)."""
         return eigenvalue_text(self.min_eigenvalue)
 
 
@@ -269,7 +269,7 @@ def _smallest_eigenvalue(symmetric: sp.coo_matrix, width: int) -> float:
     """The smallest eigenvalue of a symmetric matrix that is not positive definite: dense
     for up to DENSE_LIMIT coordinates, else by bisection on the shift σ — the Cholesky
     factorisation of S − σ I succeeds exactly when σ is below it — to a relative
-    :data:`BISECTION_TOLERANCE` (about 30 banded factorisations). NaN if not finite."""
+    ``BISECTION_TOLERANCE`` (about 30 banded factorisations). NaN if not finite."""
     if not np.all(np.isfinite(symmetric.data)):
         return float("nan")
     n = symmetric.shape[0]
@@ -300,12 +300,12 @@ def _smallest_eigenvalue(symmetric: sp.coo_matrix, width: int) -> float:
 def _smallest_real_part(stiffness: sp.csc_matrix,
                         inverse: Callable[[np.ndarray], np.ndarray] | None = None) -> float:
     """The smallest real part of an eigenvalue of a general matrix (NaN if not computed):
-    of all eigenvalues up to :data:`DENSE_NONSYMMETRIC_LIMIT` coordinates, else of the
-    :data:`NEAREST` eigenvalues nearest zero (shift-invert at 0, one sparse LU) — a
+    of all eigenvalues up to ``DENSE_NONSYMMETRIC_LIMIT`` coordinates, else of the
+    ``NEAREST`` eigenvalues nearest zero (shift-invert at 0, one sparse LU) — a
     divergence instability is an eigenvalue crossing zero; it finds the same smallest real
     part as all eigenvalues at a twentieth of the time (docs/benchmark-history.md, "Measurements
     behind the core's constants"). ``inverse`` (v ↦ K⁻¹ v) replaces the sparse LU. ARPACK
-    starts from a fixed pseudo-random vector (:data:`ARPACK_SEED`): reproducible."""
+    starts from a fixed pseudo-random vector (``ARPACK_SEED``): reproducible."""
     n = stiffness.shape[0]
     try:
         if n <= DENSE_NONSYMMETRIC_LIMIT:
@@ -333,7 +333,7 @@ def _proven_left_eigenvalue(stiffness: sp.csc_matrix, skew_norm: float) -> float
     eigenvalue there. The eigenvalues nearest zero miss it when many small positive ones come
     first: a slender robot with a pin moved and a small world-frame moment (nearly
     symmetric: ρ = 6.5e-6) had a double eigenvalue −0.067 behind 87 smaller ones and was
-    reported stable (tests/test_stability_band.py). Dense: up to :data:`DENSE_LIMIT`
+    reported stable (tests/test_stability_band.py). Dense: up to ``DENSE_LIMIT``
     coordinates (above, None: the verdict is that of the nearest eigenvalues)."""
     n = stiffness.shape[0]
     if n > DENSE_LIMIT or not np.all(np.isfinite(stiffness.data)):
@@ -373,18 +373,18 @@ def _band_of(model: Model) -> BandStiffness | None:
 def assess(model: Model, x: np.ndarray,
            factored: tuple[np.ndarray, Callable[[np.ndarray], np.ndarray] | None] | None
            = None, certify_first: bool = True) -> Stability:
-    """The verdict at the free state ``x`` of ``model`` (a :class:`rodsim.core.model.Model`),
+    """The verdict at the free state ``x`` of ``model`` (a ``rodsim.core.model.Model``),
     from its analytic Jacobian ∂F/∂x at full load: the verdict of
-    :func:`stiffness_stability`, its factorisations in band storage (module docstring).
+    ``stiffness_stability``, its factorisations in band storage (module docstring).
     ``factored``: (J's CSC data at ``x``, a solve of J X = B or None), when the caller has
     them (the integrators' verification of the same state, rodsim/solvers/base.py). A solve
     whose ``proves_stable`` is True is the band Cholesky factor of −J = K
-    (:class:`rodsim.solvers.linear.BandCholeskySolve`): K is then positive definite, the
+    (``rodsim.solvers.linear.BandCholeskySolve``): K is then positive definite, the
     verdict stable, and nothing is factored again.
 
     ``certify_first`` False (a track whose last step's symmetric part was not certified,
     rodsim/app/inverse/track.py): for a non-symmetric K above
-    :data:`DENSE_NONSYMMETRIC_LIMIT` the eigenvalues nearest zero come first, and the
+    ``DENSE_NONSYMMETRIC_LIMIT`` the eigenvalues nearest zero come first, and the
     Cholesky certificate (~0.17 ms on table3-catheter1, failing at every step of its
     tendon ramp) only when they do not say stable. The same ``stable`` as the default order
     and, for an unstable K, the same ``min_eigenvalue`` (ARPACK's fixed start); a stable

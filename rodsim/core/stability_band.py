@@ -5,14 +5,14 @@ stiffness K = −∂F/∂x and, for a non-symmetric K whose symmetric part is in
 paper's tendon coupling: table3-catheter1 at every tendon force), computes the eigenvalues
 of K nearest zero by ARPACK in shift-invert mode. Done on scipy.sparse matrices, that cost
 2.8 ms per verdict on table3-catheter1 (the sparse symmetric part and its band storage
-0.3 ms, SuperLU and ARPACK 1.9 ms): half of a track step. :class:`BandStiffness` does the
+0.3 ms, SuperLU and ARPACK 1.9 ms): half of a track step. ``BandStiffness`` does the
 same two things from the CSC data of J in the model's fixed pattern, through offsets into
 Fortran-ordered band storage built once per pattern:
 
-- :meth:`BandStiffness.certified`: the band Cholesky (LAPACK dpbtrf) of D S D,
+- ``BandStiffness.certified``: the band Cholesky (LAPACK dpbtrf) of D S D,
   S = (K + Kᵀ)/2, D = diag(S)^(−1/2): the same matrix and the same test as before (no
   sparse sum, no COO scatter).
-- :meth:`BandStiffness.inverse`: K⁻¹ through a band LU (dgbtrf/dgbtrs) instead of SuperLU,
+- ``BandStiffness.inverse``: K⁻¹ through a band LU (dgbtrf/dgbtrs) instead of SuperLU,
   the operator ARPACK's shift-invert iterations apply (about 30 times a verdict).
 
 A cheaper screen was measured and rejected: the sign of det K from the band LU flips when
@@ -174,7 +174,7 @@ class BandStiffness:
 class BandLU:
     """A matrix A factored by LAPACK's band LU (dgbtrf: ``lu``, ``pivots``, bandwidths
     ``lower`` and ``upper``): called with B, it solves A X = B (dgbtrs).
-    :attr:`determinant_sign` is the sign of det A, read off the factors for nothing:
+    ``determinant_sign`` is the sign of det A, read off the factors for nothing:
     det A = ± Π U_ii, the sign of the row permutation times that of the pivots. The stability
     verdict takes det K < 0 as a proof of an odd number of negative real eigenvalues of K
     (rodsim/core/stability.py)."""

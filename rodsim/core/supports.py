@@ -27,8 +27,8 @@ pinned node, or a prescribed displacement that ``rodsim track`` can ramp — and
 which an actuated base turns): a clamp at s, as a guide or an introducer that grips the
 rod (the bending term's frame elements at s_k, rodsim/core/terms/bend_twist.py).
 
-A support removes coordinates from the free state (:meth:`Support.fixed_index`) and hands
-the bending term its frame element (:attr:`Support.frame_element`, :attr:`Support.frame`):
+A support removes coordinates from the free state (``Support.fixed_index``) and hands
+the bending term its frame element (``Support.frame_element``, ``Support.frame``):
 the element (q_c, q_0) of dual length l/2 that keeps the clamp second order in N
 (rodsim/core/terms/bend_twist.py). Nothing else in the model knows how a rod is held.
 """
@@ -78,7 +78,7 @@ SUPPORT_PARAMETERS: tuple[Parameter, ...] = (
 @dataclass(frozen=True, kw_only=True)
 class SupportOptions(Options):
     """A validated support table ([rods.<rod>.supports.<name>]), typed: one field per
-    :data:`SUPPORT_PARAMETERS` (checked by tests/test_types.py)."""
+    ``SUPPORT_PARAMETERS`` (checked by tests/test_types.py)."""
 
     s: float
     displacement: list[float] = field(default_factory=lambda: [0.0, 0.0, 0.0])
@@ -88,7 +88,7 @@ class SupportOptions(Options):
 @dataclass(frozen=True, kw_only=True)
 class BaseOptions(Options):
     """A validated base table's values ([rods.<rod>.base], SI units), typed: one field per
-    :data:`BASE_PARAMETERS` (checked by tests/test_types.py)."""
+    ``BASE_PARAMETERS`` (checked by tests/test_types.py)."""
 
     insertion: float = 0.0
     rotation: float = 0.0
@@ -106,7 +106,7 @@ def base_frame(rotation: float) -> np.ndarray:
 @dataclass(frozen=True)
 class Support:
     """How a rod is held at a node (its base s = 0, or ``node``): what is held (``holds``:
-    one of :data:`CLAMPS` at the base; ``position`` or ``frame`` elsewhere), the support
+    one of ``CLAMPS`` at the base; ``position`` or ``frame`` elsewhere), the support
     point r_c [m] (``position``) and frame q_c (``frame``)."""
 
     holds: str
@@ -119,7 +119,7 @@ class Support:
 
     @property
     def holds_position(self) -> bool:
-        """Whether the node's position is fixed at :attr:`position`."""
+        """Whether the node's position is fixed at ``position``."""
         return self.holds in ("frame", "first_segment", "position")
 
     @property
@@ -147,7 +147,7 @@ def rigid_motion(before: Support, after: Support
     """The rigid motion that takes support ``before`` to ``after`` — (R, q_R, p₀, p₁) with
     r ↦ p₁ + R (r − p₀) and q ↦ q_R ⊗ q (the Hamilton product, paper order) — or None
     when the support did not move. A warm start carries a rod's equilibrium with it when
-    its base is inserted or turned (:meth:`rodsim.core.model.Model.carried`)."""
+    its base is inserted or turned (``rodsim.core.model.Model.carried``)."""
     if (np.array_equal(before.position, after.position)
             and np.array_equal(before.frame, after.frame)):
         return None
@@ -167,7 +167,7 @@ def quaternion_product(a: np.ndarray, b: np.ndarray) -> np.ndarray:
 
 def base_support(clamp: str, base: BaseOptions, origin: np.ndarray) -> Support:
     """The base support of a rod: ``clamp`` what it holds, ``base`` its
-    :data:`BaseOptions` (insertion, rotation), ``origin`` the rod's origin [m]."""
+    ``BaseOptions`` (insertion, rotation), ``origin`` the rod's origin [m]."""
     frame = base_frame(float(base.rotation))
     position = np.asarray(origin, dtype=float) + float(base.insertion) * np.array([1.0, 0, 0])
     return Support(clamp, position, frame)

@@ -76,7 +76,7 @@ TENDON_PARAMETERS: tuple[Parameter, ...] = (
 @dataclass(frozen=True, kw_only=True)
 class TendonOptions(Options):
     """A validated tendon table's own values ([tendons.<rod>]), typed: one field per
-    :data:`TENDON_PARAMETERS` (checked by tests/test_types.py); its per-term sub-tables are
+    ``TENDON_PARAMETERS`` (checked by tests/test_types.py); its per-term sub-tables are
     the coupling terms' own options."""
 
     catheter: str = "catheter"
@@ -253,7 +253,7 @@ def _check_string(name: str, options: Any, rods: Mapping[str, Mapping[str, Any]]
 
 def tendon_origin(catheter: Rod, options: TendonOptions) -> np.ndarray:
     """Rest position of the tendon's base: the lumen point at the catheter's base (Eq. 32);
-    ``options`` is the tendon's :data:`TendonOptions`."""
+    ``options`` is the tendon's ``TendonOptions``."""
     alpha, beta = _unit_direction(options.direction)
     frame = director(catheter.base_quaternion, 0), director(catheter.base_quaternion, 1)
     return catheter.origin + options.offset * (
@@ -261,7 +261,7 @@ def tendon_origin(catheter: Rod, options: TendonOptions) -> np.ndarray:
 
 
 def tendon_support(catheter: Rod, options: TendonOptions, clamp: str) -> Support:
-    """The base support of a tendon rod: at its lumen's entrance (:func:`tendon_origin`), in
+    """The base support of a tendon rod: at its lumen's entrance (``tendon_origin``), in
     its catheter's base frame, holding what the tendon rod's ``clamp`` says; it moves and
     turns with the catheter's base (an inserted or rotated catheter carries its tendons)."""
     return Support(clamp, tendon_origin(catheter, options), catheter.base_quaternion)
@@ -299,7 +299,7 @@ class Tendon:
 
     @classmethod
     def of(cls, name: str, rods: dict[str, Rod], options: TendonOptions) -> Tendon:
-        """The tendon of rod ``name`` configured by ``options`` (its :data:`TendonOptions`)."""
+        """The tendon of rod ``name`` configured by ``options`` (its ``TendonOptions``)."""
         alpha, beta = _unit_direction(options.direction)
         return cls(name, rods.get(name), rods[options.catheter], options.offset, alpha, beta,
                    options.coupling)

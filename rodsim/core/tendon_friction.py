@@ -48,7 +48,7 @@ tangents extrapolated from the chords on each side, which do not straddle k:
 Sticking and history. Where the tendon does not slide, the tension may differ across a
 routing point by anything its friction holds: τ_{k−1} e^{−μθ_k} ≤ τ_k ≤ τ_{k−1} e^{+μθ_k}
 (τ_{−1} = T_0). The tension a chord holds is state: the profile τ_old of the last converged
-equilibrium (the term's anchors, :meth:`rodsim.core.model.Model.anchored`, set by the
+equilibrium (the term's anchors, ``rodsim.core.model.Model.anchored``, set by the
 continuation of track, fit and reach between steps), and
 
     τ_e = clip(τ_old_e, T_0 e^{−μΘ_e}, T_0 e^{+μΘ_e}).

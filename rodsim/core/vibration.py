@@ -21,8 +21,8 @@ lumen coupling, erratum 13) makes K non-symmetric: then ARPACK's ``eigs``, and �
 complex (``eigenvalues``; a growing or decaying oscillation). K⁻¹ comes from a band LU in
 band storage (rodsim/core/stability_band.py) or, for a wider band, SuperLU.
 
-ARPACK starts from a fixed pseudo-random vector (:data:`ARPACK_SEED`): the same model and
-state give the same modes, bit for bit. Small systems (m ≤ :data:`DENSE_SIZE`) are solved
+ARPACK starts from a fixed pseudo-random vector (``ARPACK_SEED``): the same model and
+state give the same modes, bit for bit. Small systems (m ≤ ``DENSE_SIZE``) are solved
 densely. Each mode is scaled to unit modal mass (φᴴ M φ = 1) and its sign (phase) fixed so
 that its largest component is real and positive.
 """
@@ -113,7 +113,7 @@ def natural_modes(stiffness: sp.spmatrix, factor: sp.spmatrix, count: int, *,
     """The ``count`` modes of lowest ω² (by real part) of K φ = ω² L Lᵀ φ (module docstring).
 
     ``stiffness``: K (n × n, sparse); ``factor``: L (n × m); ``band`` and ``jacobian`` (the
-    model's :class:`~rodsim.core.stability_band.BandStiffness` and J's CSC data, K = −J):
+    model's ``rodsim.core.stability_band.BandStiffness`` and J's CSC data, K = −J):
     K is then factored in band storage. ModesError for a count outside 1..m or a singular K.
     """
     stiffness = sp.csc_matrix(stiffness)

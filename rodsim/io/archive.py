@@ -1,11 +1,11 @@
-"""netCDF archives: atomic writes and checked reads (:func:`rodsim.app.api.rerun` re-runs one).
+"""netCDF archives: atomic writes and checked reads (``rodsim.app.api.rerun`` re-runs one).
 
 A write goes to a temporary file in the target's folder and is renamed over the target
 only when complete (``os.replace`` is atomic on POSIX), so a failed or interrupted write
 never leaves a corrupt archive nor clobbers an existing one. The target rules (a regular
 file or nothing; symbolic links followed; stale temporaries removed) are
-:mod:`rodsim.io.output`'s. A read checks the archive against its contract
-(:mod:`rodsim.io.archive_schema`) before returning it.
+``rodsim.io.output``'s. A read checks the archive against its contract
+(``rodsim.io.archive_schema``) before returning it.
 """
 
 from __future__ import annotations
@@ -79,8 +79,8 @@ def write_dataset(dataset: xr.Dataset, path: str | Path,
 
 def write_content(content: ArchiveContent, path: str | Path,
                   note: Callable[[str], None] | None = None) -> Path:
-    """:func:`write_dataset` of an archive's plain content (the current schema), written by
-    the netCDF4 library without importing xarray (:mod:`rodsim.io.netcdf_writer`): the
+    """``write_dataset`` of an archive's plain content (the current schema), written by
+    the netCDF4 library without importing xarray (``rodsim.io.netcdf_writer``): the
     same file as ``write_dataset(content.to_xarray(), path)`` reads back."""
     from rodsim.io.netcdf_writer import write_netcdf
 
@@ -90,7 +90,7 @@ def write_content(content: ArchiveContent, path: str | Path,
 
 def _write_archive(path: str | Path, write: Callable[[Path], None],
                    note: Callable[[str], None] | None) -> Path:
-    """The target rules (:mod:`rodsim.io.output`) and the atomic write of an archive."""
+    """The target rules (``rodsim.io.output``) and the atomic write of an archive."""
     try:
         path = check_target(path)
     except OutputError as exc:
@@ -124,12 +124,12 @@ def _disk_full(exc: BaseException, path: Path) -> bool:
 def read_dataset(path: str | Path) -> xr.Dataset:
     """The one validating reader of archives: read an archive fully into memory (the file is
     closed on return) and check it against the archive contract. Everything that is not a
-    readable, valid rodsim archive is an :class:`ArchiveError` with a one-line message — a
+    readable, valid rodsim archive is an ``ArchiveError`` with a one-line message — a
     special file (FIFO, device, socket: refused before it is opened, so a FIFO cannot
-    block), a file over :data:`rodsim.io.input_file.MAX_INPUT_BYTES`, damaged bytes
+    block), a file over ``rodsim.io.input_file.MAX_INPUT_BYTES``, damaged bytes
     (whatever the netCDF and HDF5 libraries or xarray's decoding raise: a text
     ``scale_factor`` too), and every
-    mismatch of :func:`rodsim.io.archive_schema.check_archive` (bounded attribute lengths,
+    mismatch of ``rodsim.io.archive_schema.check_archive`` (bounded attribute lengths,
     step counts and JSON depths, each kind's own fields)."""
     try:
         check_input_file(path, "archive")
@@ -172,7 +172,7 @@ def read_dataset(path: str | Path) -> xr.Dataset:
 
 def scene_of(dataset: xr.Dataset) -> Scene:
     """The scene stored in an archive (resolved values plus the original TOML text), validated
-    as fully as :func:`rodsim.load_scene` validates a scene file: its ``[solver.<name>]``
+    as fully as ``rodsim.load_scene`` validates a scene file: its ``[solver.<name>]``
     tables checked by the integrators too (SceneError)."""
     from rodsim.solvers import check_solver_options
 
@@ -186,7 +186,7 @@ def _probe_in_child(path: Path) -> None:
     bytes make the netCDF/HDF5 C library abort the process ("double free or corruption") or
     loop forever, which no exception handler can turn into a message (found by
     tests/test_fuzz.py). A child that dies by a signal, or is still reading after
-    :data:`PROBE_SECONDS` (plus a second per 10 MB), makes it an :class:`ArchiveError`; a
+    ``PROBE_SECONDS`` (plus a second per 10 MB), makes it an ``ArchiveError``; a
     child that ends (read or raised) lets this process read the file itself.
 
     Only where it is safe to fork: a POSIX process with one thread (the CLI; a forked

@@ -1,11 +1,11 @@
 """An archive's content as plain numpy values: what an xarray Dataset of a rodsim archive
 holds, without xarray.
 
-``rodsim run`` builds its archive, lays it out for the file (:func:`rodsim.io.cf_layout.
-file_layout`) and writes it (:mod:`rodsim.io.netcdf_writer`) without importing xarray and
+``rodsim run`` builds its archive, lays it out for the file (``rodsim.io.cf_layout.
+file_layout``) and writes it (``rodsim.io.netcdf_writer``) without importing xarray and
 pandas (0.28 s of CPU of a 1 s command, docs/benchmark-history.md "Start-up"); the Python API
-(:func:`rodsim.run_dataset`) turns the same content into the Dataset with
-:meth:`ArchiveContent.to_xarray`. A variable is ``(dims, values, attrs)``, as xarray's own
+(``rodsim.run_dataset``) turns the same content into the Dataset with
+``ArchiveContent.to_xarray``. A variable is ``(dims, values, attrs)``, as xarray's own
 constructor takes it.
 """
 
@@ -42,7 +42,7 @@ def is_text(values: np.ndarray) -> bool:
 class ArchiveContent:
     """Data variables, coordinates and global attributes of an archive, in the order they
     were added (a file keeps that order). The variables are taken in any
-    :data:`VariableLike` form and held as :data:`Variable`."""
+    ``VariableLike`` form and held as ``Variable``."""
 
     data_vars: dict[str, Variable]
     coords: dict[str, Variable]

@@ -1,12 +1,12 @@
 """The archive contract (docs/archive.md) as checks: what a run archive, a study archive and
 a study's point record must hold before anything reads them.
 
-:func:`check_archive` runs when an archive is read (:func:`rodsim.io.archive.read_dataset`),
+``check_archive`` runs when an archive is read (``rodsim.io.archive.read_dataset``),
 so ``rerun`` and ``plot`` only ever see archives of the right shape; a tampered or
 truncated archive — a missing attribute or variable, JSON that is not a JSON object or is
 nested absurdly deep, a stored scene whose node counts disagree with the stored positions,
-sweep values that do not fit their dimension — raises :class:`ArchiveSchemaError` with a
-one-line message naming what is wrong. :func:`check_point_record` does the same for the
+sweep values that do not fit their dimension — raises ``ArchiveSchemaError`` with a
+one-line message naming what is wrong. ``check_point_record`` does the same for the
 point files of a study's parts folder (docs/archive.md, "The parts folder").
 """
 
@@ -120,7 +120,7 @@ def parse_json_names(text: Any, what: str) -> list[str]:
 
 
 def _check_depth(value: Any, what: str) -> None:
-    """ArchiveSchemaError when ``value`` nests deeper than :data:`MAX_JSON_DEPTH`."""
+    """ArchiveSchemaError when ``value`` nests deeper than ``MAX_JSON_DEPTH``."""
     level, depth = [value], 0
     while level:
         depth += 1
@@ -215,8 +215,8 @@ def check_archive(ds: xr.Dataset) -> None:
 
 
 def _check_size(name: str, value: Any, where: str) -> None:
-    """One attribute's size: JSON and TOML ones of the archive up to :data:`MAX_JSON_CHARS`,
-    other texts up to :data:`MAX_TEXT_CHARS`."""
+    """One attribute's size: JSON and TOML ones of the archive up to ``MAX_JSON_CHARS``,
+    other texts up to ``MAX_TEXT_CHARS``."""
     limit = MAX_JSON_CHARS if name in LONG_ATTRIBUTES and not where else MAX_TEXT_CHARS
     if isinstance(value, (str, bytes)) and len(value) > limit:
         raise ArchiveSchemaError(f"attribute {name[:40]!r}{where} holds {len(value)} "
@@ -252,7 +252,7 @@ def _scalar(ds: xr.Dataset, name: str) -> float:
 
 def _key_scalar(ds: xr.Dataset, key: str, suffix: str = "") -> float:
     """The scalar variable of scene key ``key`` (and ``suffix``), named as the archive's
-    schema names it (:func:`rodsim.io.cf_layout.key_variable`)."""
+    schema names it (``rodsim.io.cf_layout.key_variable``)."""
     try:
         variable = key_variable(ds, key, suffix)
     except KeyError:
@@ -335,7 +335,7 @@ def _check_provenance(ds: xr.Dataset) -> None:
 
 def _check_track(ds: xr.Dataset) -> None:
     """A track archive: its ramps (key → at least as many values as stored steps, at most
-    :data:`MAX_STEPS`), each ramped key a coordinate along ``step`` holding the stored
+    ``MAX_STEPS``), each ramped key a coordinate along ``step`` holding the stored
     steps' values, at least one step."""
     ramps = parse_json_object(_attribute(ds, "ramp_json"), "attribute 'ramp_json'")
     if not ramps:
@@ -521,8 +521,8 @@ def _number(value: Any) -> bool:
 
 def check_point_record(record: Any, sigma_points: int, rods: list[str],
                        stats: tuple[str, ...]) -> None:
-    """Check one point record of a study's parts folder (as :func:`rodsim.app.study.
-    evaluate_point` writes it) for a study spec with ``sigma_points`` samples of σ, whose
+    """Check one point record of a study's parts folder (as ``rodsim.app.study.
+    evaluate_point`` writes it) for a study spec with ``sigma_points`` samples of σ, whose
     scene has ``rods`` and whose records carry the statistics ``stats``. A successful point
     must hold finite numbers of the right shapes; a failed one, its status and message."""
 

@@ -1,9 +1,9 @@
 """The one atomic write of the package: a file is written to a temporary in its folder and
 renamed over its target only when complete (``os.replace`` is atomic on POSIX), so a failed,
 interrupted or crashed write never leaves a partial file, nor clobbers an older one, nor
-leaves its temporary behind. Used by the archives (:mod:`rodsim.io.archive`), the study's
-point records (:mod:`rodsim.app.study_runner`) and the figures
-(:mod:`rodsim.app.figures.writer`).
+leaves its temporary behind. Used by the archives (``rodsim.io.archive``), the study's
+point records (``rodsim.app.study_runner``) and the figures
+(``rodsim.app.figures.writer``).
 """
 
 from __future__ import annotations
@@ -25,7 +25,7 @@ def write_atomic(path: Path, write: Callable[[Path], None], *, prefix: str | Non
                  before_replace: Callable[[], T] | None = None) -> T | None:
     """Write ``path`` through ``write(temporary)`` and an ``os.replace`` onto ``path``.
 
-    The temporary is made by :func:`tempfile.mkstemp` in ``path``'s folder, named
+    The temporary is made by ``tempfile.mkstemp`` in ``path``'s folder, named
     ``prefix…tmp`` (default ``.<name>.``); it is created with mode 0600, or with the umask's
     mode for an ordinary file when ``follow_umask``. ``before_replace`` is called after the
     write and just before the rename; its value is returned. Any exception (an interrupt
@@ -51,7 +51,7 @@ def write_atomic(path: Path, write: Callable[[Path], None], *, prefix: str | Non
 
 
 def write_text_atomic(path: Path, text: str) -> None:
-    """:func:`write_atomic` of a UTF-8 text, synced to the disk before the rename."""
+    """``write_atomic`` of a UTF-8 text, synced to the disk before the rename."""
 
     def write(temporary: Path) -> None:
         with open(temporary, "w", encoding="utf-8") as stream:

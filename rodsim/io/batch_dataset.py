@@ -1,10 +1,10 @@
 """The batch archive's layout (``kind = "batch"``, docs/batch.md): the equilibria of many
 cases of one scene along a ``case`` dimension, with the study archive's conventions (a
 ``status`` flag and a ``message`` per case, NaN where a case failed, the statistics of
-:data:`rodsim.io.statistics.POINT_STATS`) and the track archive's shapes (``position`` and
+``rodsim.io.statistics.POINT_STATS``) and the track archive's shapes (``position`` and
 ``quaternion`` concatenated over the rods, each case's value of every key a variable along
-``case`` named as :func:`rodsim.io.cf_layout.variable_name` names it). Built from the chunk
-records the batch runner keeps (rodsim/app/batch.py); :func:`check_chunk_record` checks a
+``case`` named as ``rodsim.io.cf_layout.variable_name`` names it). Built from the chunk
+records the batch runner keeps (rodsim/app/batch.py); ``check_chunk_record`` checks a
 record of the parts folder before a resumed batch trusts it."""
 
 from __future__ import annotations
@@ -30,7 +30,7 @@ __all__ = ["batch_dataset", "check_chunk_record"]
 def batch_dataset(scene: Scene, integrator: str, keys: Sequence[Any], values: np.ndarray,
                   records: list[dict[str, Any]], model: Model, call: str) -> xr.Dataset:
     """One Dataset for the batch from one record per case (in case order). ``keys`` are the
-    cases' :class:`~rodsim.app.inverse.parameter_keys.NumericKey` (their ``name`` and
+    cases' ``rodsim.app.inverse.parameter_keys.NumericKey`` (their ``name`` and
     ``unit`` are read), ``values`` the (cases, keys) table, ``model`` the base scene's
     (its rods give the node and segment coordinates); ``call`` the history's words."""
     from rodsim.solvers import registered_integrators

@@ -4,17 +4,17 @@ and the names of the variables that hold scene values.
 In memory a rodsim archive Dataset labels its small dimensions with text (``axis`` = x, y,
 z; ``component`` = q1 … q4; a study's ``rod`` and named sweep values), so that
 ``ds.sel(axis="y")`` works. CF (and its checker) wants coordinate variables to be numeric,
-and text as character arrays. So :func:`to_file` (called by ``write_dataset``) stores each
+and text as character arrays. So ``to_file`` (called by ``write_dataset``) stores each
 text dimension coordinate ``d`` as a numeric index 0, 1, … with the labels in an auxiliary
 coordinate ``d_label`` (attribute ``label_variable`` on ``d`` names it), and every text
-variable as a character array; :func:`from_file` (called by ``read_dataset``) puts the
+variable as a character array; ``from_file`` (called by ``read_dataset``) puts the
 labels back as the dimension's coordinate. Archives of schemas 1 and 2 have text coordinates
 and are read as they are.
 
 Scene keys are dotted (``tendons.tendon.tendon_actuation.force``), which CF does not allow
-in a variable name (§2.3: letters, digits and underscores): :func:`variable_name` is the
+in a variable name (§2.3: letters, digits and underscores): ``variable_name`` is the
 name of the variable holding a key's values in track, fit and reach archives, and the
-variable's ``scene_key`` attribute keeps the key (:func:`key_variable` finds it in any
+variable's ``scene_key`` attribute keeps the key (``key_variable`` finds it in any
 schema).
 """
 
@@ -48,7 +48,7 @@ def variable_name(key: str) -> str:
 
 def key_variable(ds: xr.Dataset, key: str, suffix: str = "") -> xr.DataArray:
     """The variable of scene key ``key`` (plus ``suffix``: ``initial``, ``standard_error``)
-    in an archive of any schema: named by :func:`variable_name` since schema 3, by the
+    in an archive of any schema: named by ``variable_name`` since schema 3, by the
     dotted key before (``key.suffix``). KeyError if neither is there."""
     for name in (variable_name(key) + (f"_{suffix}" if suffix else ""),
                  key + (f".{suffix}" if suffix else "")):
@@ -59,7 +59,7 @@ def key_variable(ds: xr.Dataset, key: str, suffix: str = "") -> xr.DataArray:
 
 def file_layout(content: ArchiveContent) -> ArchiveContent:
     """The content as a schema 3 file holds it: each text dimension coordinate ``d``
-    replaced by the numeric index 0, 1, … (int32, attribute :data:`LABEL_ATTRIBUTE`) and
+    replaced by the numeric index 0, 1, … (int32, attribute ``LABEL_ATTRIBUTE``) and
     the labels in the coordinate ``d_label`` beside it (ValueError if that name is taken).
     Text stays text here; the writers store it as characters."""
     sizes = content.sizes()
@@ -80,7 +80,7 @@ def file_layout(content: ArchiveContent) -> ArchiveContent:
 
 
 def to_file(ds: xr.Dataset) -> tuple[xr.Dataset, dict[Hashable, dict[str, Any]]]:
-    """The Dataset as a schema 3 file holds it (:func:`file_layout`; the variables keep
+    """The Dataset as a schema 3 file holds it (``file_layout``; the variables keep
     their encodings), and the encoding for ``to_netcdf`` (text as character arrays; no
     _FillValue on any coordinate)."""
     out = file_layout(ArchiveContent.of(ds)).to_xarray()
@@ -96,7 +96,7 @@ def to_file(ds: xr.Dataset) -> tuple[xr.Dataset, dict[Hashable, dict[str, Any]]]
 
 
 def from_file(ds: xr.Dataset) -> xr.Dataset:
-    """The in-memory Dataset of a file written by :func:`to_file`: each labelled index
+    """The in-memory Dataset of a file written by ``to_file``: each labelled index
     coordinate replaced by its labels (a Dataset without labelled indices is returned as
     it is)."""
     for dim in list(ds.dims):

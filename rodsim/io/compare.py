@@ -26,7 +26,7 @@ def largest_distance(stored: np.ndarray, new: np.ndarray) -> float:
 
 def largest_rod_distance(stored: np.ndarray, stored_rods: np.ndarray, new: np.ndarray,
                          new_rods: np.ndarray) -> float:
-    """:func:`largest_distance` between two sets of control points (node axis second to
+    """``largest_distance`` between two sets of control points (node axis second to
     last) matched rod by rod through their ``rod`` labels: a re-run scene read back from
     ``scene_json`` (sorted keys) lists its rods alphabetically, which need not be the order
     of the stored archive. Infinite when the rods differ."""

@@ -2,7 +2,7 @@
 
 A path given to read must name a regular file (symbolic links followed) of bounded size:
 a FIFO would block the reader forever, a character device such as ``/dev/zero`` never
-ends, a folder or a socket cannot be read. :func:`check_input_file` refuses them from the
+ends, a folder or a socket cannot be read. ``check_input_file`` refuses them from the
 file's status alone, before anything opens it.
 """
 
@@ -27,7 +27,7 @@ class InputError(OSError):
 def check_input_file(path: str | Path, what: str = "file",
                      max_bytes: int = MAX_INPUT_BYTES) -> Path:
     """``path`` as a Path once it is known to be a regular file of at most ``max_bytes``
-    bytes; :class:`InputError` otherwise (missing, a folder, a FIFO, a device, a socket,
+    bytes; ``InputError`` otherwise (missing, a folder, a FIFO, a device, a socket,
     too large, a name the system refuses)."""
     named = shown_path(path)
     try:

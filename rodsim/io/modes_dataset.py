@@ -1,11 +1,11 @@
 """The archive of ``rodsim modes`` (docs/archive.md, "Modes archives"): the run archive of
-the equilibrium (:func:`rodsim.io.run_dataset.run_dataset`) with a ``mode`` dimension.
+the equilibrium (``rodsim.io.run_dataset.run_dataset``) with a ``mode`` dimension.
 
 Variables along ``mode`` (lowest frequency first): ``frequency`` [Hz], ``eigenvalue_real``
 and ``eigenvalue_imag`` (ω² [rad²/s²]; netCDF has no complex numbers), ``mode_position``
 (mode, node, axis) and ``mode_quaternion`` (mode, segment, component): the mode shapes laid
 out as ``position`` and ``quaternion``, scaled to a modal mass of the scene's whole mass
-times 1 m² (:attr:`rodsim.app.modes.Modes.shapes`), and
+times 1 m² (``rodsim.app.modes.Modes.shapes``), and
 ``rotational_share``; with the scene's damping (rodsim/core/damped_vibration.py),
 ``damped_frequency`` [Hz], ``damping_ratio`` and ``damped_eigenvalue_real`` and
 ``damped_eigenvalue_imag`` (λ [1/s]; without damping λ = iω, ζ = 0). Attributes: ``kind`` =

@@ -1,9 +1,9 @@
-"""Write an archive's content (:class:`rodsim.io.archive_content.ArchiveContent`) to a
+"""Write an archive's content (``rodsim.io.archive_content.ArchiveContent``) to a
 netCDF-4 file with the netCDF4 library alone, as xarray's ``to_netcdf`` writes a schema 3
 archive (docs/archive.md): so that ``rodsim run`` needs neither xarray nor pandas.
 
 The conventions it follows are xarray's, so that a file written here and one written by
-``Dataset.to_netcdf`` with :func:`rodsim.io.cf_layout.to_file`'s encoding read back the
+``Dataset.to_netcdf`` with ``rodsim.io.cf_layout.to_file``'s encoding read back the
 same (tests/test_netcdf_writer.py compares the two, variable by variable and attribute by
 attribute):
 
@@ -17,7 +17,7 @@ attribute):
 - attributes: Python int as int64, float as float64, lists as arrays, text as it is.
 
 No compression, contiguous storage. The caller writes to a temporary file and renames it
-(:func:`rodsim.io.archive.write_content`).
+(``rodsim.io.archive.write_content``).
 """
 
 from __future__ import annotations

@@ -4,7 +4,7 @@ Every file rodsim writes (archives, figures, benchmark results) is written throu
 temporary file ``.<name>.<random>.tmp`` in the target's folder, renamed over the target when
 complete. This module holds the rules shared by those writers:
 
-- the folder must exist and accept new files (:func:`probe_folder` creates and removes a
+- the folder must exist and accept new files (``probe_folder`` creates and removes a
   temporary file there, with the same name pattern as the real write: an over-long name, a
   read-only or pseudo file system fails here, before the solve or the benchmark runs);
 - an existing target must be a regular file: a folder, device (``/dev/full``), socket or
@@ -14,10 +14,10 @@ complete. This module holds the rules shared by those writers:
 - every temporary carries its owner's stamp, ``.<name>.<host>-<pid>.<random>.tmp`` (host:
   8 hex digits of a hash of the host name): a temporary is removed only by the process that
   made it, or by a later write of the same target when it is provably stale — made on this
-  host by a process that no longer exists (a ``kill -9``) (:func:`remove_stale_temporaries`).
+  host by a process that no longer exists (a ``kill -9``) (``remove_stale_temporaries``).
   A live writer's temporary is never touched, so concurrent writers of one target each
   finish, and the target holds the archive of the last one to rename
-  (:func:`other_writers` lets a writer say so).
+  (``other_writers`` lets a writer say so).
 """
 
 from __future__ import annotations
@@ -65,7 +65,7 @@ def _host() -> str:
 
 
 def owned_prefix(path: Path) -> str:
-    """Prefix of this process's temporaries for ``path``: :func:`temporary_prefix` and the
+    """Prefix of this process's temporaries for ``path``: ``temporary_prefix`` and the
     owner stamp ``<host>-<pid>.`` (module docstring)."""
     return f"{temporary_prefix(path)}{_host()}-{os.getpid()}."
 
@@ -104,7 +104,7 @@ def other_writers(path: Path) -> int:
 
 
 def probe_folder(folder: Path, prefix: str = ".rodsim-probe.", what: str = "") -> None:
-    """Raise :class:`OutputError` unless a file can be created (and removed) in ``folder``."""
+    """Raise ``OutputError`` unless a file can be created (and removed) in ``folder``."""
     what = what or str(folder)
     try:
         is_folder = folder.is_dir()
@@ -128,7 +128,7 @@ def check_target(path: str | Path) -> Path:
     """The file to write for output ``path``, after the checks of the module docstring.
 
     Returns the path with symbolic links resolved (what a writer should replace); raises
-    :class:`OutputError` for a non-regular existing target or an unwritable folder.
+    ``OutputError`` for a non-regular existing target or an unwritable folder.
     """
     path = Path(path)
     try:

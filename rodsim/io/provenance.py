@@ -154,7 +154,7 @@ def utc_now() -> str:
 
 def history(call: str, created: str) -> str:
     """The ``history`` line of an archive created at ``created``: the CLI's command line
-    when :func:`invocation` is active, else ``call``, the Python call that built it."""
+    when ``invocation`` is active, else ``call``, the Python call that built it."""
     from rodsim.version import __version__
 
     return f"{created} rodsim {__version__}: {_invocation.get() or call}"
@@ -162,9 +162,9 @@ def history(call: str, created: str) -> str:
 
 def archive_attributes(call: str) -> dict[str, Any]:
     """The provenance attributes every archive kind carries (docs/archive.md, "Conventions
-    and provenance"): CF's ``Conventions``, ``history`` (:func:`history`), ``source``,
+    and provenance"): CF's ``Conventions``, ``history`` (``history``), ``source``,
     ``references``, ``date_created``, ``rodsim_version``, the git commit and dirty flag
-    when rodsim runs from a checkout, and :func:`library_versions`."""
+    when rodsim runs from a checkout, and ``library_versions``."""
     from rodsim.version import __version__
 
     created = utc_now()

@@ -4,7 +4,7 @@ All rods' control points are concatenated along one ``node`` dimension, with the
 ``rod`` naming the rod of each node; likewise ``segment`` for quaternions. Select one rod
 with ``ds.sel(node=ds.rod == "tendon", segment=ds.segment_rod == "tendon")``. The resolved
 scene is one JSON attribute (``scene_json``); the provenance attributes (CF ``Conventions``,
-``history``, versions, git commit) are :func:`rodsim.io.provenance.archive_attributes`'.
+``history``, versions, git commit) are ``rodsim.io.provenance.archive_attributes``'.
 """
 
 from __future__ import annotations
@@ -36,8 +36,8 @@ def run_dataset(result: Result) -> xr.Dataset:
 
 
 def run_content(result: Result) -> ArchiveContent:
-    """The archive of one run as plain values (:func:`run_dataset` without xarray;
-    ``rodsim run`` writes it with :func:`rodsim.io.archive.write_content`)."""
+    """The archive of one run as plain values (``run_dataset`` without xarray;
+    ``rodsim run`` writes it with ``rodsim.io.archive.write_content``)."""
     names = list(result.rods)
     shapes = list(result.rods.values())
     node_rod = np.concatenate([[n] * len(r.s) for n, r in zip(names, shapes, strict=True)])

@@ -1,7 +1,7 @@
 """The statistics vocabulary of the app and the archives: which of a run's counters
-(:data:`rodsim.solvers.result.STAT_DOCS`) a study archive stores per point, with units and
+(``rodsim.solvers.result.STAT_DOCS``) a study archive stores per point, with units and
 long names, and which ``rodsim run`` prints. One list: the study's evaluation, its archive
-layout (:mod:`rodsim.io.study_dataset`), the point records' check and the CLI summary read
+layout (``rodsim.io.study_dataset``), the point records' check and the CLI summary read
 it."""
 
 from __future__ import annotations

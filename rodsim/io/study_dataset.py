@@ -1,8 +1,8 @@
 """The study archive's layout: one Dataset for a whole study, a dimension per swept
 parameter, built from the points' records (docs/archive.md, "Study archives"). The run
-archive's layout is :mod:`rodsim.io.run_dataset`; the study's declaration, grid and
-evaluation are the app's (:mod:`rodsim.app.study`), which hands this module its resolved
-spec (a :class:`rodsim.app.study_spec.StudySpec`; io does not import the app) and the
+archive's layout is ``rodsim.io.run_dataset``; the study's declaration, grid and
+evaluation are the app's (``rodsim.app.study``), which hands this module its resolved
+spec (a ``rodsim.app.study_spec.StudySpec``; io does not import the app) and the
 records."""
 
 from __future__ import annotations

@@ -3,7 +3,7 @@ physical time (rodsim/app/simulate.py, docs/dynamics.md).
 
 Coordinate ``time`` [s] (the output times); ``position`` (time, node, axis) and
 ``quaternion`` (time, segment, component) laid out as in a run archive
-(:func:`rodsim.io.run_dataset.run_content`: the rods concatenated, coordinates ``s``,
+(``rodsim.io.run_dataset.run_content``: the rods concatenated, coordinates ``s``,
 ``rod``, ``segment_s``, ``segment_rod``); ``kinetic_energy``, ``potential_energy``,
 ``dissipated_energy`` and ``work`` along ``time`` [J]. Attributes: ``kind`` =
 ``trajectory``, the provenance, ``success``, ``complete`` (0: the run stopped before

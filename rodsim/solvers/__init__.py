@@ -7,8 +7,8 @@
 - ``scipy``:  scipy's ``solve_ivp`` (BDF or LSODA) on the overdamped pseudo-dynamics, an
   outside baseline for the benchmarks
 
-Every module of this package that defines an :class:`~rodsim.solvers.base.Integrator`
-subclass with a ``name`` registers it; :func:`registered_integrators` imports them all on
+Every module of this package that defines an ``rodsim.solvers.base.Integrator``
+subclass with a ``name`` registers it; ``registered_integrators`` imports them all on
 first use. Each integrator declares and validates its own ``[solver.<name>]`` options.
 """
 
@@ -54,7 +54,7 @@ def integrator_named(name: object) -> type[Integrator]:
 
 
 def check_solver_options(scene: Scene) -> None:
-    """Raise :class:`~rodsim.core.schema.SceneError` unless ``solver.integrator`` and every
+    """Raise ``rodsim.core.schema.SceneError`` unless ``solver.integrator`` and every
     ``[solver.<name>]`` table of ``scene`` name a registered integrator with valid options."""
     from rodsim.core.scene import SOLVER_PARAMETERS
     from rodsim.core.schema import SceneError, shown

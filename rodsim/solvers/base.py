@@ -1,25 +1,25 @@
 """The integrator contract, its registry, and the template solve loop.
 
-Every integrator is one file in :mod:`rodsim.solvers` defining one :class:`Integrator`
+Every integrator is one file in ``rodsim.solvers`` defining one ``Integrator``
 subclass with a unique ``name``; defining the class registers it. An integrator object holds
 configuration only (options, tolerance, wall-time budget, progress callback); a run's state
-is a value, a :class:`~rodsim.solvers.run_state.RunState` (or a subclass the integrator
-names as its ``State``) made by :meth:`Integrator.init` and passed to :meth:`Integrator.run`,
+is a value, a ``rodsim.solvers.run_state.RunState`` (or a subclass the integrator
+names as its ``State``) made by ``Integrator.init`` and passed to ``Integrator.run``,
 which returns it with the Result: a returned state can start another run (a warm start,
-:meth:`Integrator.restart`). A subclass implements :meth:`Integrator.advance`, which drives
-its method from the state's start until the run's stop and returns an :class:`Outcome`.
+``Integrator.restart``). A subclass implements ``Integrator.advance``, which drives
+its method from the state's start until the run's stop and returns an ``Outcome``.
 The run's contract is two values on its state: when it stops
-(:class:`~rodsim.solvers.stops.Stop`: at equilibrium by default, or at a time) and what it
-records (:class:`~rodsim.solvers.recorder.SaveAt`). The base class and the state own
+(``rodsim.solvers.stops.Stop``: at equilibrium by default, or at a time) and what it
+records (``rodsim.solvers.recorder.SaveAt``). The base class and the state own
 everything the integrators share: counting and checking force/Jacobian evaluations
-(:meth:`RunState.force`), the wall-time budget, progress reporting, catching non-finite
+(``RunState.force``), the wall-time budget, progress reporting, catching non-finite
 states, and turning where the run ended, as its stop judges it
-(:meth:`~rodsim.solvers.stops.Stop.verdict`: the equilibrium test and the result check for
-:class:`~rodsim.solvers.stops.Equilibrium`), into a
-:class:`~rodsim.solvers.result.Result`. A failure is never raised past :meth:`Integrator.run`:
+(``rodsim.solvers.stops.Stop.verdict``: the equilibrium test and the result check for
+``rodsim.solvers.stops.Equilibrium``), into a
+``rodsim.solvers.result.Result``. A failure is never raised past ``Integrator.run``:
 it comes back as ``Result.success = False`` with a message saying which integrator, where,
 the residual reached, and what to try. A bad argument (a start that is not a state of the
-model, a stop the integrator cannot honour) is refused by :meth:`Integrator.init` in one
+model, a stop the integrator cannot honour) is refused by ``Integrator.init`` in one
 line (ValueError).
 """
 
@@ -105,8 +105,8 @@ def retraction_of(model: Model, option: str) -> str:
 def equilibrium_factor(model: Model, x: np.ndarray, linear: LinearSolver | None = None
                        ) -> tuple[np.ndarray, Callable[[np.ndarray], np.ndarray] | None]:
     """J's CSC data at ``x`` and J factored (a solve of J X = B, or None when J is
-    singular): what :func:`correction_residual` needs, and what the stability verdict of
-    the same state reuses (:meth:`RunState.stability`, :func:`rodsim.core.stability.assess`).
+    singular): what ``correction_residual`` needs, and what the stability verdict of
+    the same state reuses (``RunState.stability``, ``rodsim.core.stability.assess``).
     ``linear``: the linear solver of ``model``'s pattern, if the caller has one."""
     data = model.jacobian_data(x)
     return data, (linear or linear_solver_of(model)).factorized(data)
@@ -135,7 +135,7 @@ def correction_residual(model: Model, x: np.ndarray, force: np.ndarray,
     """How far ``x`` is from the equilibrium of ``model``, as a fraction of the load's effect:
     max |J⁻¹ F| / max |J⁻¹ F_load| over the coordinates scaled by their size (L_ref for
     positions, 1 for quaternions), J and the load forces F_load = F(x) − F(x, load 0) at
-    ``x``, the denominator at most 1 (:func:`capped_reach`).
+    ``x``, the denominator at most 1 (``capped_reach``).
 
     The numerator is the Newton correction: the distance to the equilibrium to first order.
     The denominator is the displacement the whole load makes, linearised there. So a residual
@@ -144,7 +144,7 @@ def correction_residual(model: Model, x: np.ndarray, force: np.ndarray,
     (what let IDA stop 1.4 % L off at N = 40 000 with a force residual 4.7e-6). Its round-off
     floor is that of the positions (the force round-off, ∝ N, lands in stiff directions that
     J⁻¹ maps to displacements of order eps L). 0 when it cannot be told: J singular (the
-    stability verdict speaks then). ``factor``: :func:`equilibrium_factor` of ``model`` at
+    stability verdict speaks then). ``factor``: ``equilibrium_factor`` of ``model`` at
     ``x``, if already made."""
     _, solve = factor if factor is not None else equilibrium_factor(model, x)
     if solve is None:
@@ -160,11 +160,11 @@ def correction_residual(model: Model, x: np.ndarray, force: np.ndarray,
 
 def correction_size(model: Model, x: np.ndarray | None = None
                     ) -> Callable[[np.ndarray], float] | None:
-    """The size of a Newton correction dx as :func:`correction_residual` measures it —
-    max |dx| over the load's linearised displacement (:func:`capped_reach`), each coordinate
+    """The size of a Newton correction dx as ``correction_residual`` measures it —
+    max |dx| over the load's linearised displacement (``capped_reach``), each coordinate
     over its size (L_ref, or 1 for quaternions) — with the load's displacement taken once
     at ``x`` (default: the rest state): a stopping test for Newton solves
-    (:class:`NewtonProblem` ``correction``) whose meaning does not depend on N. None when J
+    (``NewtonProblem`` ``correction``) whose meaning does not depend on N. None when J
     is singular there."""
     x = model.x0 if x is None else x
     _, solve = equilibrium_factor(model, x)
@@ -196,11 +196,11 @@ class Integrator(ABC, Generic[S]):
     Parameters
     ----------
     options
-        Validated options of this integrator, an :attr:`Options` instance (:meth:`options_of`).
+        Validated options of this integrator, an ``Options`` instance (``options_of``).
     tolerance
-        Equilibrium residual tolerance (``solver.tolerance``), see :meth:`Model.residual`.
+        Equilibrium residual tolerance (``solver.tolerance``), see ``Model.residual``.
         A run raises a tolerance below its model's round-off floor
-        (:attr:`Model.residual_floor`) to it (:attr:`RunState.tolerance`); the result
+        (``Model.residual_floor``) to it (``RunState.tolerance``); the result
         records the tolerance actually used.
     max_wall_time
         Wall-time budget [s] of a run; exceeding it is a failure.
@@ -209,8 +209,8 @@ class Integrator(ABC, Generic[S]):
 
     A run: ``state = integrator.init(model)`` (or with ``initial_state``: a warm start from a
     nearby equilibrium, the loads in full from the start, ``model`` carrying the registration
-    of that state), then ``result, state = integrator.run(state)``; :meth:`solve` does both.
-    :meth:`restart` starts a new run from a returned state on a nearby model.
+    of that state), then ``result, state = integrator.run(state)``; ``solve`` does both.
+    ``restart`` starts a new run from a returned state on a nearby model.
     """
 
     name: ClassVar[str]
@@ -242,7 +242,7 @@ class Integrator(ABC, Generic[S]):
     @classmethod
     def options_of(cls, scene: Scene) -> Any:
         """This integrator's options in ``scene`` (its ``[solver.<name>]`` table), validated,
-        with every default filled in, as an :attr:`Options` instance (SceneError on a bad
+        with every default filled in, as an ``Options`` instance (SceneError on a bad
         value)."""
         return cls.Options(**validate_table(scene.data["solver"].get(cls.name, {}),
                                             cls.parameters, f"solver.{cls.name}"))
@@ -275,13 +275,13 @@ class Integrator(ABC, Generic[S]):
              save: SaveAt | None = None) -> S:
         """A new run's state on ``model``, from its rest state or ``initial_state`` (a warm
         start: free coordinates of ``model``, ValueError on anything else,
-        :func:`~rodsim.solvers.run_state.checked_state`); ``budget_start``:
+        ``rodsim.solvers.run_state.checked_state``); ``budget_start``:
         ``time.perf_counter()`` at which the wall-time budget started (default: now;
-        :func:`rodsim.app.api.solve` passes the time before the model was assembled, so the
+        ``rodsim.app.api.solve`` passes the time before the model was assembled, so the
         budget covers the assembly too). ``stop``: when the run stops (default: at
-        equilibrium, :class:`~rodsim.solvers.stops.Equilibrium`; one of :attr:`stops`);
+        equilibrium, ``rodsim.solvers.stops.Equilibrium``; one of ``stops``);
         ``save``: what it records (default: what the stop asks for,
-        :class:`~rodsim.solvers.recorder.SaveAt`). ValueError, one line, on a stop or
+        ``rodsim.solvers.recorder.SaveAt``). ValueError, one line, on a stop or
         output times this integrator cannot honour."""
         stop = Equilibrium() if stop is None else stop
         if not isinstance(stop, self.stops):
@@ -302,7 +302,7 @@ class Integrator(ABC, Generic[S]):
                 x: np.ndarray | None = None, budget_start: float | None = None) -> S:
         """A continuation step's state: a warm start on ``model`` (nearby the model of
         ``previous``, carrying its registration) from ``x`` (default: the equilibrium
-        ``previous.x``), marked ``continued`` and carrying what :meth:`carry` keeps of
+        ``previous.x``), marked ``continued`` and carrying what ``carry`` keeps of
         ``previous`` (None: nothing, e.g. after a cold run of another integrator)."""
         if x is None:
             assert previous is not None, "restart needs a previous state or a start"
@@ -320,7 +320,7 @@ class Integrator(ABC, Generic[S]):
     def predicted(self, model: Model, x: np.ndarray, dx: np.ndarray) -> np.ndarray:
         """The start a continuation step on ``model`` takes from the predictor ``x + dx``
         (``x`` the last equilibrium, ``dx`` the path's last chord scaled to the step; only
-        for an integrator that :attr:`takes_predictor`): ``x + dx`` here."""
+        for an integrator that ``takes_predictor``): ``x + dx`` here."""
         return x + dx
 
     @classmethod
@@ -330,7 +330,7 @@ class Integrator(ABC, Generic[S]):
         return int(stats["steps"])
 
     def state_fields(self, model: Model, warm: bool) -> dict[str, Any]:
-        """The fields of this integrator's own :attr:`State` (beyond :class:`RunState`'s) for
+        """The fields of this integrator's own ``State`` (beyond ``RunState``'s) for
         a new run on ``model`` (``warm``: from a given state); default: none."""
         return {}
 
@@ -351,14 +351,14 @@ class Integrator(ABC, Generic[S]):
         """Newton on F(x) = 0 of ``run.model`` at a fixed load fraction from ``x`` (analytic
         Jacobian, energy line search when the model is conservative); returns (converged, x,
         iterations), which the caller counts. ``polish``: see
-        :func:`rodsim.solvers.newton.newton`; ``retraction``: how a step moves the rods —
-        ``None``: x + Δx; ``"lengths"``: :meth:`Model.step` (segment lengths kept);
-        ``"frames"``: :meth:`Model.turned_step` (segments turned as rigid frames);
-        ``"auto"``: one of the two by the model's content (:func:`retraction_of`).
+        ``rodsim.solvers.newton.newton``; ``retraction``: how a step moves the rods —
+        ``None``: x + Δx; ``"lengths"``: ``Model.step`` (segment lengths kept);
+        ``"frames"``: ``Model.turned_step`` (segments turned as rigid frames);
+        ``"auto"``: one of the two by the model's content (``retraction_of``).
         ``imbalance``: the force F₀ of the unloaded rest state when it is not an equilibrium
         (a rod that starts inside an obstacle): Newton then solves
-        F(x) = (1 − load)^:data:`IMBALANCE_FADE_POWER` F₀, whose root at load 0 is the rest
-        state (``static``'s load continuation, :func:`rodsim.solvers.static.rest_imbalance`)."""
+        F(x) = (1 − load)^``IMBALANCE_FADE_POWER`` F₀, whose root at load 0 is the rest
+        state (``static``'s load continuation, ``rodsim.solvers.static.rest_imbalance``)."""
         model = run.model
         retraction = retraction_of(model, retraction) if retraction == "auto" else retraction
         if imbalance is None or load >= 1.0:
@@ -391,7 +391,7 @@ class Integrator(ABC, Generic[S]):
 
     def residual_at(self, run: S, x: np.ndarray) -> float:
         """The scaled force residual at the state ``x`` by this integrator's own
-        equilibrium (uncounted): of F(x) on ``run.model`` here (:meth:`RunState.residual_at`;
+        equilibrium (uncounted): of F(x) on ``run.model`` here (``RunState.residual_at``;
         IDA: of its constrained force)."""
         return run.residual_at(x)
 
@@ -402,11 +402,11 @@ class Integrator(ABC, Generic[S]):
 
     def verified_residual(self, run: S, x: np.ndarray) -> tuple[float, float]:
         """The common stopping test of the returned state ``x`` on
-        :meth:`RunState.full_model`, evaluated afresh (:meth:`verification_force`): (the
-        scaled force residual of :meth:`Model.residual`, the correction residual of
-        :func:`correction_residual`, whose meaning and round-off floor do not depend on N).
-        :meth:`run` fails a run whose own test passed but this one does not
-        (:meth:`verified`)."""
+        ``RunState.full_model``, evaluated afresh (``verification_force``): (the
+        scaled force residual of ``Model.residual``, the correction residual of
+        ``correction_residual``, whose meaning and round-off floor do not depend on N).
+        ``run`` fails a run whose own test passed but this one does not
+        (``verified``)."""
         model = run.full_model()
         force = self.verification_force(run, model, x)
         if not np.all(np.isfinite(force)):
@@ -418,8 +418,8 @@ class Integrator(ABC, Generic[S]):
 
     @staticmethod
     def verified(run: RunState, residuals: tuple[float, float]) -> bool:
-        """Whether :meth:`verified_residual`'s pair passes: the force residual below the
-        tolerance, the correction residual below it or :data:`CORRECTION_TOLERANCE`."""
+        """Whether ``verified_residual``'s pair passes: the force residual below the
+        tolerance, the correction residual below it or ``CORRECTION_TOLERANCE``."""
         force, correction = residuals
         return (run.at_equilibrium(force)
                 and correction < max(run.tolerance, CORRECTION_TOLERANCE))
@@ -463,8 +463,8 @@ class Integrator(ABC, Generic[S]):
     def solve(self, model: Model, initial_state: np.ndarray | None = None,
               budget_start: float | None = None) -> Result:
         """Run the integrator on ``model`` to equilibrium and return a Result (never raises
-        on failure): :meth:`init` then :meth:`run`; a start that no run reaches (a force
-        passed as a state, :func:`plausible_start`) is refused in one line."""
+        on failure): ``init`` then ``run``; a start that no run reaches (a force
+        passed as a state, ``plausible_start``) is refused in one line."""
         if initial_state is not None:
             plausible_start(model, checked_state(model, initial_state))
         return self.run(self.init(model, initial_state, budget_start))[0]
@@ -472,8 +472,8 @@ class Integrator(ABC, Generic[S]):
     def run(self, run: S, verdict: bool = True) -> tuple[Result, S]:
         """Run the integrator from the state ``run`` until ``run.stop`` (default: to
         equilibrium): the Result (never raises on failure) and the state reached (its model
-        carries the registration reached). The stop judges where :meth:`advance` ended
-        (:meth:`Stop.verdict <rodsim.solvers.stops.Stop.verdict>`). ``verdict``: give a
+        carries the registration reached). The stop judges where ``advance`` ended
+        (``Stop.verdict``). ``verdict``: give a
         successful equilibrium its stability verdict (a caller assessing the equilibrium
         itself says False)."""
         ended = self.ended(run)
@@ -494,8 +494,8 @@ class Integrator(ABC, Generic[S]):
         return result, run
 
     def ended(self, run: S) -> Outcome:
-        """:meth:`advance` on ``run`` from a fresh clock, its failures caught: where it
-        ended. A :class:`SolverFailure` ends at the last checkpoint with the failure's
+        """``advance`` on ``run`` from a fresh clock, its failures caught: where it
+        ended. A ``SolverFailure`` ends at the last checkpoint with the failure's
         advice; so does a division by zero in the model (a state outside its domain: a
         quaternion of zero length), which would otherwise escape the run."""
         run.clock_start = time.perf_counter()

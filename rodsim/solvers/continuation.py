@@ -1,6 +1,6 @@
 """Continuation shared by the integrators: in the loads, in the penalties, by homotopy.
 
-- :func:`load_continuation`: the external loads applied in increments λ ∈ (0, 1], each a
+- ``load_continuation``: the external loads applied in increments λ ∈ (0, 1], each a
   Newton solve from the last, the increment quartered after a failure and doubled after an
   easy step (``static``);
 
@@ -10,9 +10,9 @@ and, for stiff penalties: a penalty term much stiffer than bending at the scale 
 those penalties lowered to the ratio — a model whose equilibrium is next to the full one —
 and raise them back from there (``static``; the Newton finish of CVODE and IDA):
 
-- :func:`penalty_scales`: the term scales that lower every such penalty to the ratio (raised
+- ``penalty_scales``: the term scales that lower every such penalty to the ratio (raised
   back on the model reached, ``Model.with_term_scales``, which keeps its registration);
-- :func:`homotopy`: F(x) = 0 solved from x by residual homotopy, F(y) − (1 − λ) F(x) = 0 for
+- ``homotopy``: F(x) = 0 solved from x by residual homotopy, F(y) − (1 − λ) F(x) = 0 for
   λ rising from 0 to 1 in steps (the SUNDIALS integrators' Newton finish).
 """
 
@@ -61,7 +61,7 @@ def homotopy(run: RunState, x: np.ndarray, max_iterations: int,
              check: Callable[[float], Callable[[], None]]) -> tuple[bool, np.ndarray, int]:
     """Solve F(x) = 0 on ``run.model`` from ``x`` by residual homotopy: Newton on
     F(y) − (1 − λ) F(x) = 0 (x solves it at λ = 0) for λ rising in steps from
-    :data:`HOMOTOPY_FIRST_STEP`, quartered after a failure and doubled after an easy step, as
+    ``HOMOTOPY_FIRST_STEP``, quartered after a failure and doubled after an easy step, as
     ``static``'s load continuation; every evaluation through the run's counted ones,
     ``check(λ)`` the per-iteration callback. (converged, state, iterations). The first step
     was measured: docs/benchmark-history.md, "CVODE and IDA: the Newton finish"."""
@@ -107,7 +107,7 @@ def load_continuation(run: RunState, model: Model, first_step: float, min_step: 
     ``predict``: each solve after the second starts from the secant through the last two
     equilibria, x + (x − x_prev) (λ_target − λ)/(λ − λ_prev), instead of from the last one
     (``static`` takes it on a model with contact:
-    :func:`rodsim.solvers.static.secant_predicted`)."""
+    ``rodsim.solvers.static.secant_predicted``)."""
     run.model = model
     x = model.x0
     load, step = 0.0, first_step

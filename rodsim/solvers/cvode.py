@@ -1,13 +1,13 @@
 """SUNDIALS CVODE (variable-order adaptive BDF, via scikit-sundae) to equilibrium.
 
-Integrates the pseudo-dynamics of :mod:`rodsim.solvers.pseudo_dynamics` (``inertial`` or
+Integrates the pseudo-dynamics of ``rodsim.solvers.pseudo_dynamics`` (``inertial`` or
 ``overdamped``) with the analytic Jacobian handed to CVODE's ``jacfn``, using the band
 solver (the default up to ``BAND_LIMIT`` unknowns), GMRES preconditioned by rodsim's band LU
 of the same Newton matrix (``band_gmres``, the default above: no dense template) or
 SuperLU_MT with the fixed sparsity pattern. The inertial form is limited to BDF order 2:
 BDF 3–5 are not A-stable, and the lightly damped stiff oscillations of a second-order
 system sit next to the imaginary axis (orders 3–5 were measured to stall there;
-docs/model.md). The run loop is :mod:`rodsim.solvers.sundials`.
+docs/model.md). The run loop is ``rodsim.solvers.sundials``.
 
 Quaternion norm: held by the centerline penalty Eq. (9) only (same model as ``static``).
 """
@@ -50,9 +50,9 @@ class Cvode(SundialsIntegrator):
 
     def finish_start(self, run: SundialsState, y: np.ndarray) -> np.ndarray:
         """The model coordinates of ``y``; on a model above
-        :data:`~rodsim.solvers.base.LARGE_MODEL_SIZE` free coordinates without a tendon
+        ``rodsim.solvers.base.LARGE_MODEL_SIZE`` free coordinates without a tendon
         registration, at the first finish attempt, the rest state when no control point of
-        ``y`` has moved :data:`FINISH_FROM_REST` L from it (a later attempt, after Newton from
+        ``y`` has moved ``FINISH_FROM_REST`` L from it (a later attempt, after Newton from
         rest failed at full load, starts where CVODE is: no static load continuation here).
 
         On a large model the switch to the finish (a max-norm residual below

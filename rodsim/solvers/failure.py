@@ -1,5 +1,5 @@
 """The exception a solver raises to stop with a diagnostic (never past
-:meth:`rodsim.solvers.base.Integrator.solve`, which turns it into a failed result)."""
+``rodsim.solvers.base.Integrator.solve``, which turns it into a failed result)."""
 
 from __future__ import annotations
 
@@ -7,7 +7,7 @@ __all__ = ["SolverFailure"]
 
 
 class SolverFailure(RuntimeError):
-    """Raised inside :meth:`Integrator.advance` to stop with a diagnostic message; ``advice``
+    """Raised inside ``Integrator.advance`` to stop with a diagnostic message; ``advice``
     replaces the integrator's generic advice when the failure has a specific remedy."""
 
     def __init__(self, message: str, advice: str | None = None) -> None:

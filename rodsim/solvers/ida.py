@@ -1,6 +1,6 @@
 """SUNDIALS IDA (adaptive BDF on a residual form, via scikit-sundae) to equilibrium.
 
-The same pseudo-dynamics as CVODE (:mod:`rodsim.solvers.pseudo_dynamics`), written as a
+The same pseudo-dynamics as CVODE (``rodsim.solvers.pseudo_dynamics``), written as a
 residual R(t, y, y′) = 0, with the quaternions' unit norm carried as algebraic equations:
 one multiplier μ_j per free quaternion adds the constraint force 2 μ_j q_j, and the
 constraint g_j = |q_j|² − 1 = 0 is replaced by its Baumgarte-stabilised derivative so the
@@ -83,7 +83,7 @@ class Ida(SundialsIntegrator):
                            x: np.ndarray) -> np.ndarray:
         """F + Gᵀμ with the multipliers recomputed from ``x`` alone (μ_j minimises the
         constrained force of quaternion j: F_j minus its component along q_j), not taken from
-        the IDA state: the result's check (:meth:`Integrator.verified_residual`)."""
+        the IDA state: the result's check (``Integrator.verified_residual``)."""
         force = model.force(x)
         quat = run.system.quat
         q = run.system.quaternions(x)
@@ -105,13 +105,13 @@ class Ida(SundialsIntegrator):
 
         On a non-conservative model with stiff penalties (the paper's tendon coupling) the
         positions first go to the equilibrium of F(x) = 0 with the penalties lowered, by
-        the residual homotopy CVODE's finish uses (:meth:`SundialsIntegrator.at_lowered_penalties`);
+        the residual homotopy CVODE's finish uses (``SundialsIntegrator.at_lowered_penalties``);
         the constrained Newton at the full penalties starts there. Without it, Newton at the
         full penalties failed until IDA had integrated much closer (docs/benchmark-history.md,
         "CVODE and IDA: the Newton finish"). Above
-        :data:`~rodsim.solvers.base.LARGE_MODEL_SIZE` free coordinates the model
+        ``rodsim.solvers.base.LARGE_MODEL_SIZE`` free coordinates the model
         coordinates step through the frames where they are ``static``'s default retraction
-        (:meth:`constrained_newton`)."""
+        (``constrained_newton``)."""
         converged, x, iterations = self.at_lowered_penalties(run,
                                                              run.system.positions_of(y))
         if not converged:
@@ -124,7 +124,7 @@ class Ida(SundialsIntegrator):
 
     def constrained_newton(self, run: SundialsState,
                            y: np.ndarray) -> tuple[bool, np.ndarray, int]:
-        """Newton on R(y, y′ = 0) = 0 from ``y`` (see :meth:`finish_newton`)."""
+        """Newton on R(y, y′ = 0) = 0 from ``y`` (see ``finish_newton``)."""
         system, model = run.system, run.model
         rest = np.zeros(system.size)
 

@@ -4,9 +4,9 @@ sees (issue 21 item 3).
 An integrator's ``parameters`` (its ``Parameter`` declarations, in its own file) stay the
 one source of validation, defaults, help and docs; the classes here only type them, and
 tests/test_types.py checks each one against its integrator's declarations
-(:func:`rodsim.core.schema.options_mismatch`: names, order, annotations, defaults), so the
+(``rodsim.core.schema.options_mismatch``: names, order, annotations, defaults), so the
 two cannot drift. An integrator class uses its class by declaring it
-(``Options = StaticOptions`` in ``Static``), which :func:`rodsim.core.schema.register_with_options`
+(``Options = StaticOptions`` in ``Static``), which ``rodsim.core.schema.register_with_options``
 checks again when the class is defined; ``self.options`` is then typed
 (``options: StaticOptions``).
 """

@@ -14,20 +14,20 @@ rods so that the tendon system stays banded too (``Model._order_for_band``). So:
 Measured at N = 40 (273 unknowns): SuperLU 490–540 µs per solve against
 50 µs (dpbsv) and 68 µs (dgbsv); at N = 4000, 43–53 ms against 4.5 ms (docs/benchmark-history.md).
 The values are written into Fortran-ordered band storage through offsets built once per
-pattern (sequential, in CSC order); from :data:`COMPILED_FILL_SIZE` unknowns on, by a compiled
+pattern (sequential, in CSC order); from ``COMPILED_FILL_SIZE`` unknowns on, by a compiled
 pass over the CSC columns instead (rodsim/core/kernels/_band.py: no offset arrays, no
 temporaries, a band array kept from solve to solve): at N = 100 000 on table1-50g (700 000
 unknowns, 12.3 million entries) the offsets cost 0.39 s (Cholesky) and 0.23 s (LU) to build
 and each fill 54 / 60 ms, against 21 / 30 ms compiled (the same array).
 
-From :data:`REFINED_SOLVE_SIZE` unknowns on, :meth:`LinearSolver.solve` refines its solution
+From ``REFINED_SOLVE_SIZE`` unknowns on, ``LinearSolver.solve`` refines its solution
 once with the residual rhs − J Δx computed in twice the working precision
 (rodsim/core/kernels/_refinement.py): the band factorisation's forward error grows with the
 condition number (on table1-50g 4e-9 of the step at N = 2 000, 3.5e-5 at 100 000) and at
 100 000 it cost static three Newton iterations; refined, 5 at every N (docs/benchmark-history.md,
 "Large N").
 
-:meth:`LinearSolver.factorized` factors J once and solves for many right-hand sides (the
+``LinearSolver.factorized`` factors J once and solves for many right-hand sides (the
 sensitivities of rodsim/app/inverse/sensitivity.py: one column per parameter): band Cholesky
 (dpbtrf/dpbtrs) of −J when symmetric and positive definite, else band LU (dgbtrf/dgbtrs), or
 SuperLU for wide bands.
@@ -65,12 +65,12 @@ REFINED_SOLVE_SIZE = 200_000
 
 class BandCholeskySolve:
     """X ↦ J⁻¹ X by the band Cholesky factor L of −J = L Lᵀ (LAPACK dpbtrs), what
-    :meth:`LinearSolver.factorized` returns for a conservative model when the factorisation
+    ``LinearSolver.factorized`` returns for a conservative model when the factorisation
     succeeds. That it exists says −J = K, the stiffness, is positive definite (Sylvester;
     Cholesky's success is invariant under diagonal scaling to within a factor of the order
     of n·eps, Demmel 1989): the stability verdict of the same state takes it for its
     certificate instead of factoring K again (``proves_stable``,
-    :func:`rodsim.core.stability.assess`)."""
+    ``rodsim.core.stability.assess``)."""
 
     #: Read by :func:`rodsim.core.stability.assess`: this factorisation proves K stable.
     proves_stable = True
@@ -221,9 +221,9 @@ class LinearSolver:
                    ) -> Callable[[np.ndarray], np.ndarray] | None:
         """J factored once: a function solving J X = B for a vector or an (n, k) matrix B,
         or None when J is singular. With ``keep``, a large model's factors are made in the
-        band array :meth:`solve` keeps (no fresh memory: at N = 100 000 a fresh LU array
+        band array ``solve`` keeps (no fresh memory: at N = 100 000 a fresh LU array
         made a factorisation 230–540 ms against ~110 ms): the function is then valid only
-        until the next :meth:`solve` or kept factorisation on this solver in this thread (a
+        until the next ``solve`` or kept factorisation on this solver in this thread (a
         SUNDIALS preconditioner, which replaces its factorisation each time)."""
         if not self.banded:
             matrix = sp.csc_matrix((data, self._pattern.indices, self._pattern.indptr),

@@ -8,7 +8,7 @@ conservative, Φ (or E) is the line-search merit — Newton on a potential with 
 backtracking line search is robust even for the stiff penalty terms, where the raw Newton
 step overshoots by orders of magnitude. Otherwise the merit is ½ |W g|², and a full step
 that raises it is still taken, watched (Chamberlain's watchdog): if the merit has not fallen
-below its value at the watched point within :data:`WATCHDOG_STEPS` full steps, the iteration
+below its value at the watched point within ``WATCHDOG_STEPS`` full steps, the iteration
 returns there and backtracks. On the paper's tendon coupling the exact Newton step first
 raises |W g| tenfold and then converges quadratically; backtracking on every such step cut
 it to linear convergence (measured on table3-catheter1 with ``static``: 7 iterations per
@@ -42,13 +42,13 @@ class NewtonProblem:
 
     ``residual(g)`` is the scaled residual that decides convergence. ``step(y, dy)``, if
     given, is the state a Newton step ``dy`` from ``y`` reaches in place of ``y + dy`` (a
-    retraction that keeps stiff lengths to first order, :meth:`rodsim.core.model.Model.step`);
+    retraction that keeps stiff lengths to first order, ``rodsim.core.model.Model.step``);
     it must agree with ``y + dy`` to first order in ``dy``.
 
     ``correction(dy)``, if given, is the size of a Newton correction ``dy`` that the stopping
-    test must also find below ``correction_tolerance`` (:func:`newton`): a test whose meaning
+    test must also find below ``correction_tolerance`` (``newton``): a test whose meaning
     does not depend on N, where the max-norm residual reads an imbalance spread over the N
-    nodes as 1/N of it (:func:`rodsim.solvers.base.correction_residual`).
+    nodes as 1/N of it (``rodsim.solvers.base.correction_residual``).
     """
 
     force: Callable[[np.ndarray], np.ndarray]
@@ -86,7 +86,7 @@ NEUTRAL_STIFFNESS = 1e-12
 def _neutral(problem: NewtonProblem, jacobian: np.ndarray, dx: np.ndarray, slope: float) -> bool:
     """Whether the stiffness along the Newton step ``dx`` is neutral: its Rayleigh quotient
     dx·J·dx = slope (J dx = −g) over dx·|diag J|·dx, the same quotient with the diagonal's
-    magnitudes, below :data:`NEUTRAL_STIFFNESS`. The Jacobi scaling makes it independent
+    magnitudes, below ``NEUTRAL_STIFFNESS``. The Jacobi scaling makes it independent
     of the coordinates' units (metres, quaternion components). Measured: a ball joint's
     free rotation at rest (tests/test_stability_neutral.py) 1e-17 to 1.3e-15; the ascent
     steps of reach's inner solves on table1's unstable equilibrium
@@ -102,13 +102,13 @@ def newton(problem: NewtonProblem, x: np.ndarray, tolerance: float,
            reuse: str = "fresh") -> NewtonResult:
     """Newton iterations from ``x`` until ``residual(g) < tolerance``.
 
-    With ``polish``, takes up to :data:`POLISH_ITERATIONS` more iterations once below the
+    With ``polish``, takes up to ``POLISH_ITERATIONS`` more iterations once below the
     tolerance, while each still halves the residual, so a converged result is the root to
     round-off (quadratic convergence gets there in one or two). Returns (never raises) with
     ``converged = False`` and a reason when the iteration stalls or the linear system is
     singular. ``check`` is called once per iteration (the caller's wall-time budget and
     progress); whatever it raises ends the iteration. ``reuse`` is the Jacobian policy, one
-    of :data:`JACOBIAN_REUSE` (``problem.linear`` then needs ``factorized``).
+    of ``JACOBIAN_REUSE`` (``problem.linear`` then needs ``factorized``).
 
     With ``problem.correction``, converged means the residual below ``tolerance`` *and* the
     Newton correction at that point below ``problem.correction_tolerance`` (x is returned,

@@ -1,5 +1,5 @@
-"""Where a run's :meth:`~rodsim.solvers.base.Integrator.advance` ended: the value the
-integrator returns and the run's stop judges (:meth:`~rodsim.solvers.stops.Stop.verdict`)."""
+"""Where a run's ``rodsim.solvers.base.Integrator.advance`` ended: the value the
+integrator returns and the run's stop judges (``rodsim.solvers.stops.Stop.verdict``)."""
 
 from __future__ import annotations
 
@@ -12,11 +12,11 @@ __all__ = ["Outcome"]
 
 @dataclass
 class Outcome:
-    """What :meth:`Integrator.advance` returns: the final state (free coordinates), whether
+    """What ``Integrator.advance`` returns: the final state (free coordinates), whether
     it met the method's own test (an equilibrium; the end time of a run to a time), and a
     short message. Where the method stopped, its counters and its history live on the run's
-    state (:class:`~rodsim.solvers.run_state.RunState`), so they survive a
-    :class:`~rodsim.solvers.failure.SolverFailure` raised mid-run; the template turns such a
+    state (``rodsim.solvers.run_state.RunState``), so they survive a
+    ``rodsim.solvers.failure.SolverFailure`` raised mid-run; the template turns such a
     failure into an Outcome at the last checkpoint carrying the failure's ``advice``."""
 
     x: np.ndarray

@@ -8,7 +8,7 @@ multiplied through by M so the Jacobian −M + h² ∂F/∂x stays symmetric, by
 with a band (Cholesky or LU) or sparse LU solve per iteration; then ẋ^{t+h} = (y − x^t)/h.
 ξ ∈ [0, 1] scales the carried-over velocity (ξ = 1: plain backward Euler; smaller ξ damps
 more). ``h2_omega2`` > 0 scales M so that h² ω₁² takes that value
-(:meth:`PaperEuler.mass_scale`, docs/design.md, erratum 12): the regime in which the paper's Fig. 8
+(``PaperEuler.mass_scale``, docs/design.md, erratum 12): the regime in which the paper's Fig. 8
 ordering of ξ can appear. The Jacobian is the model's analytic one, or —
 ``jacobian = "finite_difference"``,
 the paper's MATLAB cost model (fsolve with JacobPattern) — forward differences over the
@@ -76,7 +76,7 @@ RESTING_STEPS = 3
 @dataclass(eq=False, kw_only=True)
 class PaperState(RunState):
     """A paper run's state: the (scaled) masses, and the diagonal positions and FD column
-    groups of the pattern of :attr:`pattern_of` (refreshed when the registration changes)."""
+    groups of the pattern of ``pattern_of`` (refreshed when the registration changes)."""
 
     mass: np.ndarray
     diag: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=int))
@@ -175,7 +175,7 @@ class PaperEuler(Integrator[PaperState]):
                       load: float, correction: Callable[[np.ndarray], float] | None = None
                       ) -> NewtonProblem:
         """Eq. (19) times M: g(y) = M(p − y) + h² F(y) = −∇Φ(y), p = x^t + ξ h ẋ^t. On a
-        large model (``correction`` given, see :meth:`advance`) the Newton steps go through
+        large model (``correction`` given, see ``advance``) the Newton steps go through
         the retraction ``static``'s default picks and stop on the correction as well."""
         model, mass = run.model, run.mass
         cache: dict[str, np.ndarray] = {}

@@ -110,7 +110,7 @@ class PseudoDynamics:
     @classmethod
     def of(cls, model: Model, options: Any, warm: bool) -> PseudoDynamics:
         """From ``model`` and options carrying ``damping_ratio``, ``mass_scaling`` and
-        ``load_ramp`` (:data:`PSEUDO_DYNAMICS_PARAMETERS`)."""
+        ``load_ramp`` (``PSEUDO_DYNAMICS_PARAMETERS``)."""
         omega = first_mode_frequency(model)
         period = 2.0 * math.pi / omega
         return cls(omega=omega, period=period, rate=damping_rate(model, options.damping_ratio),
@@ -141,7 +141,7 @@ def pseudo_masses(model: Model, cap: float) -> np.ndarray:
     digit (docs/tendon.md). ``cap = 0`` keeps the physical masses.
 
     K_ii is the rest stiffness plus the stiffness a coordinate may meet later
-    (:meth:`Model.latent_stiffness`: a contact's k on every node it may touch). At rest no
+    (``Model.latent_stiffness``: a contact's k on every node it may touch). At rest no
     node touches, so the rest stiffness alone left a touching node's frequency up to
     √(1 + k/K_ii) times the cap, and CVODE then crept through thousands of steps: measured
     (docs/contact.md, "Pseudo-dynamics on contact") tip-on-tissue 27 554 → 8 303 steps, the
@@ -244,7 +244,7 @@ class FirstOrderSystem:
             out[1::2] = self._scale * force - self.damping * v
 
     def jacobian_data(self, model_jacobian: np.ndarray) -> np.ndarray:
-        """∂f/∂y in the CSC order of :attr:`pattern`, from ∂F/∂x in the model's order."""
+        """∂f/∂y in the CSC order of ``pattern``, from ∂F/∂x in the model's order."""
         if self.formulation == "overdamped":  # the model's pattern and order, no constants
             return model_jacobian * self._scale[self._row_of_model]
         data = np.zeros(self.pattern.nnz)
@@ -367,7 +367,7 @@ class ConstrainedSystem:
 
     def jacobian_data(self, y: np.ndarray, yp: np.ndarray, cj: float,
                       model_jacobian: np.ndarray) -> np.ndarray:
-        """dR/dy + cj dR/dy′ in the CSC order of :attr:`pattern`."""
+        """dR/dy + cj dR/dy′ in the CSC order of ``pattern``."""
         q, t = self.quat, self._target
         x, mu = y[self.x_slot], y[self.mu_slot]
         qv = self.quaternions(x)

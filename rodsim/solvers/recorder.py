@@ -1,9 +1,9 @@
-"""What a run records, as a value (:class:`SaveAt`), and the recorder that keeps it.
+"""What a run records, as a value (``SaveAt``), and the recorder that keeps it.
 
-Every integrator reports each accepted step to its run (:meth:`RunState.record`: the time,
+Every integrator reports each accepted step to its run (``RunState.record``: the time,
 the state, the force residual) and, an integrator with dense output, each step's interval
-with its interpolant (:meth:`Recorder.dense`). The :class:`Recorder` behind those calls
-keeps what the run's :class:`SaveAt` asks for (as diffrax's ``SaveAt`` says what
+with its interpolant (``Recorder.dense``). The ``Recorder`` behind those calls
+keeps what the run's ``SaveAt`` asks for (as diffrax's ``SaveAt`` says what
 ``diffeqsolve`` saves, apart from the solver):
 
 - the per-step history of time, residual and the first rod's tip (Fig. 8; ``steps``);
@@ -11,8 +11,8 @@ keeps what the run's :class:`SaveAt` asks for (as diffrax's ``SaveAt`` says what
   times (``times``), the latter interpolated from the step that spans them, so that output
   times do not force steps (scipy's ``OdeSolver.dense_output``, SUNDIALS' CV_NORMAL).
 
-A run's trajectory becomes :attr:`Result.trajectory`
-(:class:`~rodsim.solvers.trajectory.Trajectory`).
+A run's trajectory becomes ``Result.trajectory``
+(``rodsim.solvers.trajectory.Trajectory``).
 """
 
 from __future__ import annotations
@@ -51,13 +51,13 @@ class SaveAt:
     ----------
     steps
         Keep the per-step history (time, force residual, the first rod's tip): the
-        ``history`` of :class:`~rodsim.solvers.result.Result` and its archive.
+        ``history`` of ``rodsim.solvers.result.Result`` and its archive.
     states
         Keep the state at every accepted step in the trajectory.
     times
         Keep the state at these times (strictly increasing, s of the integrator's time), by
-        dense output: only an integrator that has it (:attr:`Integrator.dense_output`) and a
-        stop at a time (:class:`~rodsim.solvers.stops.Until`) take them.
+        dense output: only an integrator that has it (``Integrator.dense_output``) and a
+        stop at a time (``rodsim.solvers.stops.Until``) take them.
     """
 
     steps: bool = True

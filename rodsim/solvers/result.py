@@ -1,7 +1,7 @@
 """What one run of one integrator returns: the state of each rod where it stopped (the
 equilibrium, or the state at the end time), the statistics, the per-step history, the
 trajectory when one was recorded, and the stability verdict of an equilibrium. Its archive
-Dataset is :func:`rodsim.io.run_dataset.run_dataset`."""
+Dataset is ``rodsim.io.run_dataset.run_dataset``."""
 
 from __future__ import annotations
 
@@ -60,7 +60,7 @@ class RodShape:
 class Result:
     """One run of one integrator on one scene.
 
-    :meth:`positions` gives a rod's centerline; :func:`rodsim.io.run_dataset.run_dataset`
+    ``positions`` gives a rod's centerline; ``rodsim.io.run_dataset.run_dataset``
     the archive Dataset. ``repr`` is a summary of at most ten lines, and Jupyter shows it as
     a table (``_repr_html_``).
     """

@@ -1,23 +1,23 @@
 """A run's state, as a value: what an integrator's run has reached, apart from the integrator.
 
-An :class:`~rodsim.solvers.base.Integrator` holds configuration only (its options, the
+An ``rodsim.solvers.base.Integrator`` holds configuration only (its options, the
 requested tolerance, the wall-time budget, the progress callback). Everything a run changes
-lives in a :class:`RunState`, made by :meth:`Integrator.init` and passed to and returned by
-:meth:`Integrator.run` (as diffrax's ``init`` / ``step(…, state)``): the model in use (its
+lives in a ``RunState``, made by ``Integrator.init`` and passed to and returned by
+``Integrator.run`` (as diffrax's ``init`` / ``step(…, state)``): the model in use (its
 tendon registration and penalty scales), the effective tolerance, the counters, the last
-accepted state and where it was reached (:meth:`RunState.checkpoint`), the run's contract —
-when it stops (:class:`~rodsim.solvers.stops.Stop`) and the recorder of what it records
-(:class:`~rodsim.solvers.recorder.Recorder`, behind :meth:`RunState.record`) — and the run's
+accepted state and where it was reached (``RunState.checkpoint``), the run's contract —
+when it stops (``rodsim.solvers.stops.Stop``) and the recorder of what it records
+(``rodsim.solvers.recorder.Recorder``, behind ``RunState.record``) — and the run's
 clock. A run starts from a state of its model's free coordinates, refused in one line
-otherwise (:func:`checked_state`). The state's own
-:meth:`RunState.force` and :meth:`RunState.jacobian_data` are the only way a run evaluates
+otherwise (``checked_state``). The state's own
+``RunState.force`` and ``RunState.jacobian_data`` are the only way a run evaluates
 the model: each evaluation is counted and checked for non-finite values there (as scipy's
 ``OdeSolver`` counts through its base's ``fun``). An integrator needing more state (the
 SUNDIALS system, IDA's last y, the static solve's kept factorisation) subclasses
-:class:`RunState` with typed fields of its own.
+``RunState`` with typed fields of its own.
 
-A state returned by a run can start another (a warm start): :meth:`Integrator.init` with
-``initial_state``, or :meth:`Integrator.restart` from a returned state on a nearby model.
+A state returned by a run can start another (a warm start): ``Integrator.init`` with
+``initial_state``, or ``Integrator.restart`` from a returned state on a nearby model.
 """
 
 from __future__ import annotations
@@ -75,9 +75,9 @@ def base_counts() -> dict[str, float]:
 def checked_state(model: Model, state: Any) -> np.ndarray:
     """``state`` as a start of a run on ``model``: a copy, as floats, of its free
     coordinates (one vector of length ``model.n``, finite, every quaternion of non-zero
-    length, as :meth:`Model.step` keeps them); ValueError, one line, otherwise — a
+    length, as ``Model.step`` keeps them); ValueError, one line, otherwise — a
     full-coordinate vector or another model's state passed where this model's state was
-    expected. A caller's start is checked further by :func:`plausible_start`."""
+    expected. A caller's start is checked further by ``plausible_start``."""
     x = np.array(state, dtype=float)
     if x.shape != (model.n,):
         raise ValueError(f"a state of this model is a vector of its {model.n} free "
@@ -97,14 +97,14 @@ def checked_state(model: Model, state: Any) -> np.ndarray:
 def plausible_start(model: Model, x: np.ndarray) -> None:
     """ValueError, one line, when a caller's start ``x`` (free coordinates of ``model``)
     keeps every quaternion at rest exactly and stretches a segment past
-    :data:`MAX_START_STRETCH` times its rest length: a force passed where a state was
+    ``MAX_START_STRETCH`` times its rest length: a force passed where a state was
     expected. The free coordinates are offsets from the rest
     state, so a force read as a state keeps the rest quaternions; its position entries
     (newtons read as metres) stretch the segments where the loads act (table1-20g: 11.5
     times the rest length at the tip). A loaded equilibrium turns its segments, however
     far it is stretched (table1 under an absurd 1e4 kg: 148 times), so a start with a
     quaternion off its rest value is accepted. Not applied to the warm starts a continuation
-    predicts (:meth:`Integrator.restart`): extrapolated over a step it cannot pass, such a
+    predicts (``Integrator.restart``): extrapolated over a step it cannot pass, such a
     start may be stretched, and its run's failure is the step's report."""
     full, rest = model.full(x), model.full(model.x0)
     quaternions = np.concatenate([rod.layout.quaternion_index for rod in model.rods.values()])
@@ -154,10 +154,10 @@ class RunState:
     counts
         Counters reported in the result's statistics.
     recorder
-        What the run records (:class:`~rodsim.solvers.recorder.Recorder`, behind
-        :meth:`record`): the per-step history and the trajectory its ``SaveAt`` asks for.
+        What the run records (``rodsim.solvers.recorder.Recorder``, behind
+        ``record``): the per-step history and the trajectory its ``SaveAt`` asks for.
     stop
-        When the run stops (:class:`~rodsim.solvers.stops.Stop`: at equilibrium, or at a
+        When the run stops (``rodsim.solvers.stops.Stop``: at equilibrium, or at a
         time).
     budget_start, clock_start
         ``time.perf_counter()`` when the wall-time budget and the run started.
@@ -200,7 +200,7 @@ class RunState:
             budget_start: float | None = None, stop: Stop | None = None,
             save: SaveAt | None = None, **fields: Any) -> Self:
         """A fresh state on ``model`` from its rest state or ``initial_state``
-        (:func:`checked_state`), stopping by ``stop`` (default: :class:`Equilibrium`) and
+        (``checked_state``), stopping by ``stop`` (default: ``Equilibrium``) and
         recording what ``save`` asks for (default: what the stop asks for)."""
         now = time.perf_counter()
         start = model.x0 if initial_state is None else checked_state(model, initial_state)
@@ -222,7 +222,7 @@ class RunState:
 
     # ------------------------------------------------------ counted evaluations
     def force(self, x: np.ndarray, load: float = 1.0, check: bool = True) -> np.ndarray:
-        """F(x) on :attr:`model`, counted; SolverFailure on a non-finite value (unless not
+        """F(x) on ``model``, counted; SolverFailure on a non-finite value (unless not
         ``check``: a caller that tests the value itself)."""
         self.counts["force_evals"] += 1
         f = self.model.force(x, load)
@@ -231,7 +231,7 @@ class RunState:
         return f
 
     def jacobian_data(self, x: np.ndarray, load: float = 1.0) -> np.ndarray:
-        """∂F/∂x in :attr:`model`'s CSC pattern order, counted; SolverFailure on a
+        """∂F/∂x in ``model``'s CSC pattern order, counted; SolverFailure on a
         non-finite value."""
         self.counts["jacobian_evals"] += 1
         data = self.model.jacobian_data(x, load)
@@ -240,7 +240,7 @@ class RunState:
         return data
 
     def residual_at(self, x: np.ndarray) -> float:
-        """The scaled force residual (:meth:`Model.residual`) of F at the state ``x``
+        """The scaled force residual (``Model.residual``) of F at the state ``x``
         (uncounted evaluation)."""
         return self.model.residual(self.model.force(x))
 
@@ -248,7 +248,7 @@ class RunState:
         return residual < self.tolerance
 
     def linear_solver(self) -> LinearSolver:
-        """The Newton linear solver of :attr:`model`'s pattern (rebuilt when the model is
+        """The Newton linear solver of ``model``'s pattern (rebuilt when the model is
         replaced by one of another pattern: kept across penalty scales, as
         ``static``'s ``carry`` keeps it across continuation steps)."""
         linear = self._linear
@@ -286,7 +286,7 @@ class RunState:
     # --------------------------------------------------------- registration
     def reregister(self, x: np.ndarray, exact: bool = False) -> bool:
         """Apply the tendon registration rule at ``x`` (``exact``: without hysteresis);
-        True when a parent changed and :attr:`model` was replaced (new pattern)."""
+        True when a parent changed and ``model`` was replaced (new pattern)."""
         if not self.model.has_registration:
             return False
         moved = self.model.reregistered(x, exact)
@@ -298,9 +298,9 @@ class RunState:
         return True
 
     def registered_exactly(self, x: np.ndarray) -> bool:
-        """Whether :attr:`model` is known to carry the exact registration of the state
-        ``x`` (no hysteresis: :meth:`Model.reregistered` with ``exact`` at ``x`` would change
-        nothing) — true after :meth:`reregister` with ``exact`` found nothing to change at
+        """Whether ``model`` is known to carry the exact registration of the state
+        ``x`` (no hysteresis: ``Model.reregistered`` with ``exact`` at ``x`` would change
+        nothing) — true after ``reregister`` with ``exact`` found nothing to change at
         that state on this model, or for a model without registration."""
         if not self.model.has_registration:
             return True
@@ -309,7 +309,7 @@ class RunState:
 
     def settled(self, x: np.ndarray) -> bool:
         """Whether an equilibrium ``x`` may end the run: its registration needs no change
-        without hysteresis (:meth:`Model.reregistered` with ``exact``). False means a parent
+        without hysteresis (``Model.reregistered`` with ``exact``). False means a parent
         changed and the run must go on from ``x`` (the pattern changed too)."""
         if not self.model.has_registration:
             return True
@@ -325,14 +325,14 @@ class RunState:
 
     # ------------------------------------------------------------- verdicts
     def full_model(self) -> Model:
-        """:attr:`model` (its registration) with every penalty at its full value (continuation
+        """``model`` (its registration) with every penalty at its full value (continuation
         scales back to 1): the model a result must be an equilibrium of."""
         model = self.model
         lowered = {k: 1.0 for k, scale in enumerate(model.term_scales) if scale != 1.0}
         return model.with_term_scales(lowered) if lowered else model
 
     def stability(self, x: np.ndarray) -> Stability:
-        """The stability verdict at the equilibrium ``x`` of :attr:`model`
+        """The stability verdict at the equilibrium ``x`` of ``model``
         (rodsim/core/stability.py), computed once per (model, state)."""
         cached = self._stability
         if cached is not None and cached[0] is self.model and cached[1] is x:

@@ -1,9 +1,9 @@
 """scipy's ``solve_ivp`` (BDF or LSODA) on the overdamped pseudo-dynamics: an outside baseline.
 
 The same system CVODE integrates in its ``overdamped`` formulation
-(:class:`~rodsim.solvers.pseudo_dynamics.FirstOrderSystem`: c M ẋ = F(x), same pseudo-masses,
+(``rodsim.solvers.pseudo_dynamics.FirstOrderSystem``: c M ẋ = F(x), same pseudo-masses,
 damping rate, smooth load ramp and per-variable absolute tolerance scale — L for positions,
-1 for quaternion coordinates), integrated by :func:`scipy.integrate.solve_ivp` with the
+1 for quaternion coordinates), integrated by ``scipy.integrate.solve_ivp`` with the
 model's analytic Jacobian (sparse for ``BDF``, whose Newton uses a sparse LU; dense for
 ``LSODA``, which takes only dense or packed-band Jacobians). It is there to put rodsim's own
 integrators in perspective (``rodsim bench work-precision``), not as a default.
@@ -14,7 +14,7 @@ event fired (whose residual is below τ), not scipy's interpolated root. The ten
 registration is updated after every accepted step (from the event function, which scipy
 calls once at each step's end); at equilibrium a registration change restarts the
 integration from that state on the new model. Non-finite forces and the wall-time budget end
-the run from inside the right-hand side (through the template's :class:`SolverFailure`).
+the run from inside the right-hand side (through the template's ``SolverFailure``).
 
 Quaternion norm: held by the centerline penalty Eq. (9) only (same model as ``static``).
 """

@@ -7,7 +7,7 @@ rodsim/solvers/linear.py) and a backtracking line search
 (rodsim/solvers/newton.py). If Newton does not converge at full load, the external
 loads are applied in increments λ ∈ (0, 1] (load continuation), cutting the increment on
 failure and growing it after easy steps. Newton steps through the retraction
-:meth:`Model.step` (each segment and the endpoint coupling keep the length the
+``Model.step`` (each segment and the endpoint coupling keep the length the
 linearisation predicts).
 
 Penalty continuation: when the centerline penalty dwarfs bending at the scale of a segment
@@ -17,14 +17,14 @@ which K_P amplifies. The loads are then applied with those penalties lowered to 
 (rodsim/solvers/continuation.py), which are then raised back to their values (at once; tenfold
 per step if that fails), each step a short Newton solve from the last. A non-conservative
 model (the paper's tendon coupling: no energy for the line search) loaded with lowered
-penalties starts at a load step of :data:`NONCONSERVATIVE_FIRST_STEP`. Intermediate solves
+penalties starts at a load step of ``NONCONSERVATIVE_FIRST_STEP``. Intermediate solves
 are not polished past the tolerance; only the last one is.
 
 ``retraction``: how a Newton step moves the rods. ``"lengths"`` is the retraction above;
-``"frames"`` turns each segment as a rigid frame (:meth:`Model.turned_step`,
+``"frames"`` turns each segment as a rigid frame (``Model.turned_step``,
 rodsim/core/rod/retraction.py), far fewer iterations when segments turn a lot
 (tdcr-two-segment: 5–6 instead of 13–98). The default ``"auto"``
-(:func:`rodsim.solvers.base.retraction_of`) takes "frames" unless a tendon of the model is
+(``rodsim.solvers.base.retraction_of``) takes "frames" unless a tendon of the model is
 a rod (the paper's two-rod couplings), where "lengths" was measured as fast or faster
 (four-tendons: 4 iterations against 5, table3-*: 25–30 against 29, each iteration dearer)
 and keeps the numbers those scenes were published with, or a rod meets an obstacle, where
@@ -39,9 +39,9 @@ Quaternion norm: held by the centerline penalty Eq. (9) (|d3| = |q|²), as in th
 Warm start (``initial_state``, e.g. the penalty-error estimate of rodsim/app/trust.py):
 Newton at full load from the given state, repeated while the registration changes; if that
 fails, the run starts over from rest with the continuations above. A continuation step
-(:meth:`Integrator.restart`, what track, fit and reach take): chord iterations with a
+(``Integrator.restart``, what track, fit and reach take): chord iterations with a
 factorisation made at the step's start (made again where they stall, twice at most), then
-Newton if they still stall, no fall-back (:meth:`Static._continuation_step`).
+Newton if they still stall, no fall-back (``Static._continuation_step``).
 """
 
 from __future__ import annotations
@@ -82,14 +82,14 @@ CONTINUATION_NEWTON = 30
 
 def meets_obstacles(model: Model) -> bool:
     """Whether ``model`` has contact: a term with latent stiffness
-    (:meth:`Model.latent_stiffness`, an obstacle's contact)."""
+    (``Model.latent_stiffness``, an obstacle's contact)."""
     return bool(np.any(model.latent_stiffness()))
 
 
 def secant_predicted(model: Model) -> bool:
     """Whether ``static``'s load steps start from the secant through the last two equilibria
-    (:func:`rodsim.solvers.continuation.load_continuation`'s ``predict``): on a model with
-    contact (:func:`meets_obstacles`), not elsewhere.
+    (``rodsim.solvers.continuation.load_continuation``'s ``predict``): on a model with
+    contact (``meets_obstacles``), not elsewhere.
 
     Started from the last equilibrium, a node resting in the contact's onset (ψ'' = p/δ ≪ 1)
     leaves it in the first Newton step; the next step, with no contact stiffness left, sends
@@ -111,7 +111,7 @@ def rest_imbalance(run: RunState, model: Model) -> np.ndarray | None:
     starts inside an obstacle (a straight catheter in a curved vessel) is not one, and Newton
     at the first small load fraction then failed (its contact force does not scale with the
     load). The continuation then fades that imbalance out with the load instead: each step
-    solves F(x; λ) = (1 − λ)^p F₀ (p = :data:`~rodsim.solvers.base.IMBALANCE_FADE_POWER`),
+    solves F(x; λ) = (1 − λ)^p F₀ (p = ``rodsim.solvers.base.IMBALANCE_FADE_POWER``),
     the rest state at λ = 0, the model at λ = 1. Only the imbalance's existence decides;
     every model whose rest state balances (every shipped scene's) solves as before, bit for
     bit (one more force evaluation is counted)."""
@@ -164,18 +164,18 @@ class Static(Integrator[RunState]):
     def carry(self, previous: RunState, state: RunState) -> None:
         """A continuation step keeps the linear solver of the last step while the Jacobian
         pattern is the same. (Not its factorisation: one kept from the last step was
-        measured to stall the chord iterations, :meth:`_chord`.)"""
+        measured to stall the chord iterations, ``_chord``.)"""
         linear = previous._linear
         if linear is not None and linear[0].pattern is state.model.pattern:
             state._linear = state.model, linear[1]
 
     def predicted(self, model: Model, x: np.ndarray, dx: np.ndarray) -> np.ndarray:
         """The predictor x + dx with each segment turned as a rigid frame
-        (:meth:`Model.turned_step`) where this integrator's retraction is "frames": a
+        (``Model.turned_step``) where this integrator's retraction is "frames": a
         straight-line extrapolation of turning segments stretches them, which their stretch
         and penalty stiffness turn into a large residual (tdcr-two-segment, 201 steps: the
         start's residual halves and one factorisation a step suffices instead of 1.5).
-        Where it is "lengths" the straight line is kept: :meth:`Model.step` was measured
+        Where it is "lengths" the straight line is kept: ``Model.step`` was measured
         slower there (table3-catheter1: 265 against 300 steps/s)."""
         if retraction_of(model, self.options.retraction) == "frames":
             return model.turned_step(x, dx)
@@ -228,8 +228,8 @@ class Static(Integrator[RunState]):
         return outcome
 
     def _continuation_step(self, run: RunState) -> Outcome:
-        """A continuation step (:meth:`Integrator.restart`: a nearby model, from a nearby
-        equilibrium or a predictor): chord iterations (:meth:`_chord`), then, if they
+        """A continuation step (``Integrator.restart``: a nearby model, from a nearby
+        equilibrium or a predictor): chord iterations (``_chord``), then, if they
         stall, Newton at full load (the analytic Jacobian, band solves and line search;
         x + Δx, not polished past the tolerance); either repeated while the registration
         changes, until it settles without hysteresis. No load or penalty continuation and
@@ -272,8 +272,8 @@ class Static(Integrator[RunState]):
         each costs an evaluation of F and a band back-substitution instead of F, J and a
         band factorisation. When an iteration fails to halve the residual (or is too slow
         to reach the tolerance in the iterations left) after the iterations brought the
-        residual below :data:`CHORD_REFRESH_BELOW` of the start's, J₀ is factored again at
-        the state reached, up to :data:`CHORD_REFRESHES` times. Returns x once the residual
+        residual below ``CHORD_REFRESH_BELOW`` of the start's, J₀ is factored again at
+        the state reached, up to ``CHORD_REFRESHES`` times. Returns x once the residual
         is below the tolerance, or None: Newton then takes over.
 
         Why J₀ is not kept from the last step (as it was before): between two neighbouring
@@ -362,7 +362,7 @@ class Static(Integrator[RunState]):
                 ) -> tuple[bool, np.ndarray, int]:
         """Newton iterations at a fixed load (polished past the tolerance when ``polish``:
         intermediate steps need not be), through the retraction the options name, counted;
-        returns (converged, x, iterations). ``imbalance``: see :func:`rest_imbalance`."""
+        returns (converged, x, iterations). ``imbalance``: see ``rest_imbalance``."""
         converged, x, iterations = self.newton_equilibrium(
             run, x, load, self.options.max_newton, f"load fraction {load:.4g}", polish,
             retraction=self.options.retraction, imbalance=imbalance)

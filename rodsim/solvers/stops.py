@@ -1,18 +1,18 @@
 """When a run stops, as a value on the run, and the verdict on where it stopped.
 
-A run's :class:`Stop` is given to :meth:`Integrator.init` (as diffrax takes its ``t1``,
+A run's ``Stop`` is given to ``Integrator.init`` (as diffrax takes its ``t1``,
 events and step-size controller as values beside the solver) and judges the state
-:meth:`Integrator.advance` returns (:meth:`Stop.verdict`):
+``Integrator.advance`` returns (``Stop.verdict``):
 
-- :class:`Equilibrium` (the default): the run ends at rest, F(x) = 0. Its verdict is the
+- ``Equilibrium`` (the default): the run ends at rest, F(x) = 0. Its verdict is the
   common stopping test every integrator is held to — the integrator's own residual at the
-  returned state (:meth:`Integrator.residual_at`), then, evaluated afresh on the
+  returned state (``Integrator.residual_at``), then, evaluated afresh on the
   full-penalty model, the force residual and the correction residual
-  (:meth:`Integrator.verified_residual`) — and a successful result gets its stability
+  (``Integrator.verified_residual``) — and a successful result gets its stability
   verdict.
-- :class:`Until`: the run ends at the time ``t_end`` (the integrator's time), whatever the
+- ``Until``: the run ends at the time ``t_end`` (the integrator's time), whatever the
   state; it carries the output times the run records by dense output (its default
-  :class:`~rodsim.solvers.recorder.SaveAt`). Taken by the integrators whose ``stops`` name
+  ``rodsim.solvers.recorder.SaveAt``). Taken by the integrators whose ``stops`` name
   it (CVODE and IDA).
 
 A new stop is one class here (or in its own file) with a ``verdict``, named in the
@@ -40,7 +40,7 @@ __all__ = ["Stop", "Equilibrium", "Until", "Verdict"]
 
 
 class Run(Protocol):
-    """What a stop reads of a run's state (:class:`~rodsim.solvers.run_state.RunState`)."""
+    """What a stop reads of a run's state (``rodsim.solvers.run_state.RunState``)."""
 
     tolerance: float
     note: str
@@ -52,7 +52,7 @@ class Run(Protocol):
 
 
 class Judged(Protocol):
-    """What a stop asks of the integrator (:class:`~rodsim.solvers.base.Integrator`)."""
+    """What a stop asks of the integrator (``rodsim.solvers.base.Integrator``)."""
 
     @property
     def name(self) -> str: ...

@@ -1,7 +1,7 @@
 """Short summaries of results for a notebook or a prompt: a title and a few labelled rows,
-as text (``__repr__``: at most :data:`MAX_LINES` lines) or as an HTML table
-(``_repr_html_``, which Jupyter shows). The result objects (:class:`~rodsim.solvers.result.
-Result`, and the inverse tools' Track, Fit and Reach) say which rows."""
+as text (``__repr__``: at most ``MAX_LINES`` lines) or as an HTML table
+(``_repr_html_``, which Jupyter shows). The result objects (``rodsim.solvers.result.
+Result``, and the inverse tools' Track, Fit and Reach) say which rows."""
 
 from __future__ import annotations
 

@@ -4,8 +4,8 @@ After each step (once the load ramp is complete) the scaled equilibrium residual
 and the run stops as soon as it is below the tolerance — at equilibrium, not at an arbitrary
 final time. Near equilibrium the steps grow huge and each BDF corrector stops at its own
 tolerance, which on stiff scenes can leave the force residual stalled above the equilibrium
-tolerance; when it has not halved in :data:`STALL_STEPS` steps spanning at least
-:data:`STALL_PERIODS` first-mode periods, or pseudo-time passes the horizon, the solver is
+tolerance; when it has not halved in ``STALL_STEPS`` steps spanning at least
+``STALL_PERIODS`` first-mode periods, or pseudo-time passes the horizon, the solver is
 restarted from the current state with rtol and atol 100× tighter
 (counted as ``tightenings``; measured on the stress map, where 64 CVODE runs failed that
 ``static`` solved). Both conditions are needed: in a transient (the inertial form
@@ -16,8 +16,8 @@ rtol 1e-12 four times over and crawled at t ≈ 0.8 s until the budget). Tendon 
 tendon point changes parent the solver is rebuilt on the new pattern and re-initialised
 from that state (counted as ``reinits``); a fixed superset pattern without re-initialisation
 was measured slower and less robust (docs/tendon.md, "Sparsity pattern").
-A run whose best residual has not halved over 50 re-initialisations (:data:`FLIP_REINITS`)
-or over a quarter of its step budget (:data:`NEVER_SETTLES_SHARE`) ends as stalled, with
+A run whose best residual has not halved over 50 re-initialisations (``FLIP_REINITS``)
+or over a quarter of its step budget (``NEVER_SETTLES_SHARE``) ends as stalled, with
 advice. A SUNDIALS error in a step (its corrector or error test failing repeatedly) restarts
 the solver from the last accepted state with tolerances 100x tighter, as a stall does, until
 the tightest rtol: with offsets as coordinates the error weights rtol |y| + atol are nearly
@@ -109,7 +109,7 @@ FINISH_COUNTS = ("finish_attempts", "finish_newton_iters", "finish_force_evals",
 class StallWatch:
     """What a run to equilibrium watches for a stall: the best residual, the step, time
     and re-initialisation count where it was reached, and how many steps in a row the
-    residual repeated one of the two before it (``frozen``, see :data:`FROZEN_CHANGE`)."""
+    residual repeated one of the two before it (``frozen``, see ``FROZEN_CHANGE``)."""
 
     best: float = np.inf
     best_step: int = 0
@@ -147,8 +147,8 @@ class SundialsState(RunState):
 
 
 class SundialsIntegrator(Integrator[SundialsState]):
-    """Shared loop of :class:`~rodsim.solvers.cvode.Cvode` and
-    :class:`~rodsim.solvers.ida.Ida`; subclasses build the system and the solver."""
+    """Shared loop of ``rodsim.solvers.cvode.Cvode`` and
+    ``rodsim.solvers.ida.Ida``; subclasses build the system and the solver."""
 
     parameters: ClassVar[tuple[Parameter, ...]] = PSEUDO_DYNAMICS_PARAMETERS
     State = SundialsState
@@ -245,7 +245,7 @@ class SundialsIntegrator(Integrator[SundialsState]):
 
     def finish_newton(self, run: SundialsState,
                       state: np.ndarray) -> tuple[bool, np.ndarray, int]:
-        """One Newton solve of the finish from ``state`` (see :meth:`finish_start`) on
+        """One Newton solve of the finish from ``state`` (see ``finish_start``) on
         ``run.model``: (converged, the state it reached, iterations). Here Newton on
         F(x) = 0; IDA solves its constrained equilibrium instead.
 
@@ -257,17 +257,17 @@ class SundialsIntegrator(Integrator[SundialsState]):
         with the penalties lowered to that ratio — by residual homotopy, F(x) = (1 − λ) F(x₀)
         for λ from 0 to 1 (rodsim/solvers/continuation.py) — whose equilibrium is next to the
         full one, then Newton at the full penalties from there. Both through the retraction
-        :meth:`Model.step` — or, on a model with string tendons, the Newton at full penalties
+        ``Model.step`` — or, on a model with string tendons, the Newton at full penalties
         through the retraction ``static``'s default picks
-        (:func:`rodsim.solvers.base.retraction_of`: the frames, :meth:`Model.turned_step`,
+        (``rodsim.solvers.base.retraction_of``: the frames, ``Model.turned_step``,
         unless a rod meets an obstacle): on
-        tdcr-two-segment the finish with :meth:`Model.step` failed three times in the cases
+        tdcr-two-segment the finish with ``Model.step`` failed three times in the cases
         where a long distal segment turns (CVODE then took ~200 steps, 116 ms; with the
         frames, one finish after 11-12 steps, 10 ms). Only there: on table1-50g the frames
         finish moved the stored CVODE equilibrium by 8e-13 m (docs/benchmark-history.md, "String
         tendons"). And on every model above
-        :data:`~rodsim.solvers.base.LARGE_MODEL_SIZE` free coordinates, where the finish
-        through :meth:`Model.step` fails as Newton from rest through it does (table1-50g,
+        ``rodsim.solvers.base.LARGE_MODEL_SIZE`` free coordinates, where the finish
+        through ``Model.step`` fails as Newton from rest through it does (table1-50g,
         N = 20 000: four failed finishes, 1787 steps, 164 s; through the frames one finish
         of 7 iterations after 5 steps, 2.5 s)."""
         converged, state, iterations = self.at_lowered_penalties(run, state)
@@ -283,7 +283,7 @@ class SundialsIntegrator(Integrator[SundialsState]):
 
     def finish_iterations(self, model: Model) -> int:
         """Newton iterations one finish may take on ``model``: ``newton_iterations``, or at
-        least :data:`LARGE_FINISH_ITERATIONS` on a large model (see there)."""
+        least ``LARGE_FINISH_ITERATIONS`` on a large model (see there)."""
         iterations = int(self.options.newton_iterations)
         if model.n > LARGE_MODEL_SIZE:
             return max(iterations, LARGE_FINISH_ITERATIONS)
@@ -293,7 +293,7 @@ class SundialsIntegrator(Integrator[SundialsState]):
                              x: np.ndarray) -> tuple[bool, np.ndarray, int]:
         """The positions ``x`` taken to the equilibrium of ``run.model`` with its stiff
         penalties lowered (a non-conservative model's penalties stiffer than
-        :data:`~rodsim.solvers.continuation.DEFAULT_PENALTY_RATIO`) by residual homotopy, on a
+        ``rodsim.solvers.continuation.DEFAULT_PENALTY_RATIO``) by residual homotopy, on a
         derived state (the run's model untouched), where a Newton finish at the full
         penalties then converges; ``x`` itself, with no iteration, when nothing needs
         lowering. (converged, positions, iterations)."""
@@ -337,7 +337,7 @@ class SundialsIntegrator(Integrator[SundialsState]):
         raise SolverFailure(what, "try " + ", or ".join(advice))
 
     def finish_with_newton(self, run: SundialsState, y: np.ndarray) -> np.ndarray | None:
-        """:meth:`finish_newton` at full load from ``y``, repeated while the tendon
+        """``finish_newton`` at full load from ``y``, repeated while the tendon
         registration changes; the equilibrium x (the run then on the model and system the
         finish reached), or None (the run untouched) if it fails or lands on an unstable
         equilibrium (rodsim/core/stability.py: the integration then goes on, and may leave
@@ -379,12 +379,12 @@ class SundialsIntegrator(Integrator[SundialsState]):
             run.note = trial.note
 
     def finish_positions(self, run: SundialsState, state: np.ndarray) -> np.ndarray:
-        """The model coordinates in a state reached by :meth:`finish_newton`."""
+        """The model coordinates in a state reached by ``finish_newton``."""
         return state
 
     def advance(self, run: SundialsState) -> Outcome:
         """Step the pseudo-dynamics from ``run.start`` until ``run.stop``: to equilibrium
-        (:meth:`to_equilibrium`) or to a time (:meth:`until`)."""
+        (``to_equilibrium``) or to a time (``until``)."""
         for key in FINISH_COUNTS:
             run.counts[key] = 0
         stop = run.stop
@@ -396,8 +396,8 @@ class SundialsIntegrator(Integrator[SundialsState]):
     def to_equilibrium(self, run: SundialsState, clock: Clock) -> Outcome:
         """Step until the state is an equilibrium (the module docstring): after the load
         ramp, each step's screened residual decides a Newton finish
-        (:meth:`finish_with_newton`), the equilibrium test, and the watch for a stall
-        (:meth:`watch`)."""
+        (``finish_with_newton``), the equilibrium test, and the watch for a stall
+        (``watch``)."""
         opts, counts, ramp = self.options, run.counts, run.dynamics.ramp
         horizon = run.dynamics.horizon
         stalls, switch = StallWatch(), opts.newton_switch
@@ -471,7 +471,7 @@ class SundialsIntegrator(Integrator[SundialsState]):
     def take_step(self, run: SundialsState, clock: Clock, step: int, toward: float,
                   tstop: float | None = None) -> np.ndarray | Outcome:
         """Step ``step`` of the run toward ``toward``: the model coordinates it reached
-        (checkpointed; the wall-time budget checked every :data:`BUDGET_STRIDE` steps), or
+        (checkpointed; the wall-time budget checked every ``BUDGET_STRIDE`` steps), or
         the failed Outcome of a SUNDIALS error."""
         out = clock.step(toward, tstop)
         run.counts["steps"] = step
@@ -504,8 +504,8 @@ class SundialsIntegrator(Integrator[SundialsState]):
     def watch(self, run: SundialsState, clock: Clock, stalls: StallWatch, step: int,
               residual: float) -> None:
         """After a step's ``residual`` (no equilibrium yet): end a run that has stalled
-        (:meth:`stall`), tighten the tolerances of one whose residual froze or has not
-        halved for :data:`STALL_STEPS` steps over :data:`STALL_PERIODS` periods."""
+        (``stall``), tighten the tolerances of one whose residual froze or has not
+        halved for ``STALL_STEPS`` steps over ``STALL_PERIODS`` periods."""
         counts, max_steps = run.counts, self.options.max_steps
         stalls.observe(residual)
         if residual < 0.5 * stalls.best:

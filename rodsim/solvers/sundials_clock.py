@@ -1,17 +1,17 @@
 """The SUNDIALS solver a CVODE or IDA run steps, with the run's time across restarts.
 
 A run replaces its solver when it restarts (a tendon re-registration changes the Jacobian's
-pattern; a tightening changes the tolerances). :class:`Clock` holds the solver in use, the
+pattern; a tightening changes the tolerances). ``Clock`` holds the solver in use, the
 last accepted (t, y, y′) and the time the replaced solvers spent:
 
 - a run to equilibrium restarts a solver's clock at the end of the load ramp, where the
   pseudo-dynamics are autonomous, so its first step is not lost against a huge t; the
   pseudo-time already elapsed is kept apart (``shift``);
-- a run to a time (:class:`~rodsim.solvers.stops.Until`) restarts at the same t.
+- a run to a time (``rodsim.solvers.stops.Until``) restarts at the same t.
 
 Each step is one internal step of SUNDIALS (its one-step mode), with SUNDIALS' failure text
 captured into one buffer so it lands in rodsim's diagnostic, not in the middle of ``rodsim
-run``'s summary. :meth:`Clock.interpolate` is the dense output of the last step (SUNDIALS'
+run``'s summary. ``Clock.interpolate`` is the dense output of the last step (SUNDIALS'
 normal mode at a time inside it: no step is taken).
 """
 
@@ -78,7 +78,7 @@ class Clock:
 
     def step(self, toward: float, tstop: float | None = None) -> Any:
         """One internal step toward ``toward`` (not past ``tstop``, if given): SUNDIALS'
-        result, unaccepted (:meth:`accept`). After :meth:`interpolate`, SUNDIALS' one-step
+        result, unaccepted (``accept``). After ``interpolate``, SUNDIALS' one-step
         mode first returns the last step's end again (no work): that return is skipped."""
         out = self._quiet_step(toward, tstop)
         if self._interpolated and out.success and float(out.t) == self.t:

@@ -1,8 +1,8 @@
 """Setting up a SUNDIALS solver for CVODE and IDA: scikit-sundae solvers started with
-rodsim's analytic Jacobian (:func:`started`), the Jacobian written into SUNDIALS' arrays
-(:func:`jacobian_writer`), the band-LU preconditioner of GMRES (:class:`BandPreconditioner`),
+rodsim's analytic Jacobian (``started``), the Jacobian written into SUNDIALS' arrays
+(``jacobian_writer``), the band-LU preconditioner of GMRES (``BandPreconditioner``),
 and SUNDIALS' own failure text captured into rodsim's diagnostics. The run loop is
-:mod:`rodsim.solvers.sundials`."""
+``rodsim.solvers.sundials``."""
 
 from __future__ import annotations
 
@@ -23,14 +23,14 @@ __all__ = ["BandPreconditioner", "jacobian_writer", "started", "StartFailure",
 class BandPreconditioner:
     """The Newton matrix of a SUNDIALS step, A = A₀ + c A₁ (CVODE: I − γ J, c = γ; IDA:
     ∂R/∂y + c_j ∂R/∂y′), held in its CSC pattern, factored by rodsim's band LU
-    (:class:`~rodsim.solvers.linear.LinearSolver`, band storage only) and handed to SUNDIALS'
+    (``rodsim.solvers.linear.LinearSolver``, band storage only) and handed to SUNDIALS'
     GMRES as its preconditioner, with the product A v for the Krylov iterations. With the
     factorisation of the very matrix GMRES works on, it converges in one iteration: the same
     modified Newton as a direct band solve, without scikit-sundae's dense (n × n) template.
 
-    :meth:`update` takes the two parts from the integrator's analytic Jacobian (once per
-    SUNDIALS set-up), :meth:`factor` factors A for the current c, :meth:`solve` and
-    :meth:`product` are the preconditioner solve and A v."""
+    ``update`` takes the two parts from the integrator's analytic Jacobian (once per
+    SUNDIALS set-up), ``factor`` factors A for the current c, ``solve`` and
+    ``product`` are the preconditioner solve and A v."""
 
     def __init__(self, pattern: Any, rows: np.ndarray, cols: np.ndarray,
                  band: tuple[int, int]) -> None:
@@ -97,7 +97,7 @@ def jacobian_writer(solver_kind: str, rows: np.ndarray,
 
 
 class StartFailure(SolverFailure):
-    """A SUNDIALS solver that could not be set up (:func:`started`); ``detail`` is what
+    """A SUNDIALS solver that could not be set up (``started``); ``detail`` is what
     SUNDIALS said, for a caller that names the place itself (a restart mid-run)."""
 
     def __init__(self, where: str, detail: str) -> None:
@@ -114,7 +114,7 @@ def started(name: str, solver_class: type, function: Callable[..., None],
     A set-up failure —
     scikit-sundae raises RuntimeError for some (e.g. a failed consistent-initial-condition
     solve, IDACalcIC) and reports others as an unsuccessful ``init_step`` — is a
-    :class:`SolverFailure` carrying SUNDIALS' own text."""
+    ``SolverFailure`` carrying SUNDIALS' own text."""
     where = f"{name} could not start at t = {t:.4g} s"
     with captured_sundials_messages() as printed:
         try:

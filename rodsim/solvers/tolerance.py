@@ -1,11 +1,11 @@
 """The tolerance rules every integrator and every warm solve share, in one place.
 
 - The effective tolerance: the requested ``solver.tolerance`` raised to the model's round-off
-  floor (:attr:`Model.residual_floor`): no solver can resolve a residual below it.
-- The floor refusal: a model whose floor exceeds :data:`MAX_RESIDUAL_FLOOR` cannot tell any
+  floor (``Model.residual_floor``): no solver can resolve a residual below it.
+- The floor refusal: a model whose floor exceeds ``MAX_RESIDUAL_FLOOR`` cannot tell any
   equilibrium from its rest state in double precision, and is refused with a diagnostic
   rather than accepted as "converged".
-- The correction tolerance of the result check (:data:`CORRECTION_TOLERANCE`).
+- The correction tolerance of the result check (``CORRECTION_TOLERANCE``).
 """
 
 from __future__ import annotations
@@ -37,7 +37,7 @@ def effective_tolerance(model: Model, tolerance: float) -> float:
 
 def unresolvable_message(model: Model) -> str | None:
     """Why ``model``'s equilibrium cannot be resolved (its residual floor above
-    :data:`MAX_RESIDUAL_FLOOR`), or None when it can."""
+    ``MAX_RESIDUAL_FLOOR``), or None when it can."""
     floor = model.residual_floor
     if floor <= MAX_RESIDUAL_FLOOR:
         return None
@@ -47,7 +47,7 @@ def unresolvable_message(model: Model) -> str | None:
 
 
 def refuse_unresolvable(model: Model) -> None:
-    """Raise :class:`SolverFailure` (with advice) when :func:`unresolvable_message` says
+    """Raise ``SolverFailure`` (with advice) when ``unresolvable_message`` says
     ``model``'s equilibrium cannot be resolved."""
     message = unresolvable_message(model)
     if message is not None:

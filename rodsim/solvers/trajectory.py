@@ -1,10 +1,10 @@
 """A run's states over time: one time axis, the states on it, each rod's shape at each time.
 
-The value a run returns beside its final state (:attr:`Result.trajectory`) when its
-:class:`~rodsim.solvers.recorder.SaveAt` asks for one: times (the integrator's time: the
+The value a run returns beside its final state (``Result.trajectory``) when its
+``rodsim.solvers.recorder.SaveAt`` asks for one: times (the integrator's time: the
 pseudo-time of the pseudo-dynamics today), the free coordinates at each (the paper's state
 vector, Eq. (18) per rod, Eq. (30) stacked) and, per rod, positions and quaternions laid out
-as :class:`~rodsim.solvers.result.RodShape` with a leading time axis.
+as ``rodsim.solvers.result.RodShape`` with a leading time axis.
 """
 
 from __future__ import annotations
@@ -37,7 +37,7 @@ class Trajectory:
     states
         (T, n): the free coordinates at each time.
     rods
-        Each rod's :class:`RodTrajectory`.
+        Each rod's ``RodTrajectory``.
     time_units, time_meaning
         What ``times`` count (the integrator's ``history_time``: "s", "pseudo-time").
     """

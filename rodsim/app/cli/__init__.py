@@ -2,10 +2,10 @@
 (and ``bench``).
 
 One file per command (or family: ``listing`` for scenes and terms), the parser
-(:mod:`~rodsim.app.cli.parser`), what every command shares
-(:mod:`~rodsim.app.cli.common`), the one scene → output → solve → print → write path of
-run, track, fit and reach (:mod:`~rodsim.app.cli.pipeline`), and :func:`main` /
-:func:`entry` (:mod:`~rodsim.app.cli.main`). Nothing here imports numpy or the solvers at
+(``rodsim.app.cli.parser``), what every command shares
+(``rodsim.app.cli.common``), the one scene → output → solve → print → write path of
+run, track, fit and reach (``rodsim.app.cli.pipeline``), and ``main`` /
+``entry`` (``rodsim.app.cli.main``). Nothing here imports numpy or the solvers at
 module level: ``rodsim --help`` stays lean (rodsim/app/lean.py).
 """
 

@@ -88,7 +88,7 @@ def remove_created_output_folder() -> None:
 
 
 def scene_error_text(exc: SceneError) -> str:
-    """A :class:`~rodsim.core.schema.SceneError` in the CLI's words: an override that could
+    """A ``rodsim.core.schema.SceneError`` in the CLI's words: an override that could
     not be read names the ``--set`` it came from; other errors (a value out of range, a
     scene file) read the same as in Python."""
     from rodsim.core.schema import shown
@@ -113,7 +113,7 @@ def scene_error_text(exc: SceneError) -> str:
 def load_scene_or_fail(scene: str | None, overrides: Sequence[str],
                        integrator: str | None) -> Scene:
     """The fully validated scene the user named, ``--set`` overrides applied (those naming
-    an option of ``integrator`` preferred); a one-line :class:`UserError` otherwise."""
+    an option of ``integrator`` preferred); a one-line ``UserError`` otherwise."""
     from rodsim.app.api import load_scene
     from rodsim.core.scene import SceneError
 
@@ -124,7 +124,7 @@ def load_scene_or_fail(scene: str | None, overrides: Sequence[str],
 
 
 def stability_text(stability: Stability) -> str:
-    """The summary line of a :class:`~rodsim.core.stability.Stability` verdict."""
+    """The summary line of a ``rodsim.core.stability.Stability`` verdict."""
     if stability.stable:
         return "stability   stable (the stiffness K = -dF/dx is positive definite)"
     if stability.neutral:

@@ -1,7 +1,7 @@
 """``rodsim fit --series``: scene values (a tendon's friction coefficient μ) fitted to tip
 positions measured along a ramp, up and back down (``rodsim.fit_series``; docs/tendon.md,
-"Friction"); and :func:`cmd_fit`, which runs ``rodsim fit`` as a fit to a centerline
-(``--data``, :class:`rodsim.app.cli.fit.Fit`) or to a series (``--series``)."""
+"Friction"); and ``cmd_fit``, which runs ``rodsim fit`` as a fit to a centerline
+(``--data``, ``rodsim.app.cli.fit.Fit``) or to a series (``--series``)."""
 
 from __future__ import annotations
 

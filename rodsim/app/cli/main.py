@@ -1,5 +1,5 @@
-"""The ``rodsim`` command: :func:`main` (also called in process by the tests) and
-:func:`entry`, the installed command's whole process.
+"""The ``rodsim`` command: ``main`` (also called in process by the tests) and
+``entry``, the installed command's whole process.
 
 Human-readable summaries go to stdout, errors to stderr. Exit codes: 0 success, 1 solver
 failure, 2 bad input (scene, option, path or archive), 130 interrupted (Ctrl-C or SIGTERM).
@@ -26,15 +26,15 @@ __all__ = ["main", "entry"]
 
 
 def main(argv: Sequence[str] | None = None, *, process: bool = False) -> int:
-    """The ``rodsim`` command. It pins BLAS threads (:mod:`rodsim.app.threads`) and, as it
+    """The ``rodsim`` command. It pins BLAS threads (``rodsim.app.threads``) and, as it
     only writes figures to files, selects matplotlib's file backend unless ``MPLBACKEND`` is
     set — before anything imports numpy or matplotlib.
 
-    ``process``: this call is the whole process (:func:`entry`, the installed command and
-    ``python -m rodsim``): a command of :data:`~rodsim.app.lean.LEAN_COMMANDS`, or a study
-    on local workers, then hides dask from xarray (:func:`~rodsim.app.lean.hides_dask`),
-    and one of :data:`~rodsim.app.lean.EARLY_EXIT_COMMANDS` ends the process at once when it
-    returns normally (:mod:`rodsim.app.lean`)."""
+    ``process``: this call is the whole process (``entry``, the installed command and
+    ``python -m rodsim``): a command of ``rodsim.app.lean.LEAN_COMMANDS``, or a study
+    on local workers, then hides dask from xarray (``rodsim.app.lean.hides_dask``),
+    and one of ``rodsim.app.lean.EARLY_EXIT_COMMANDS`` ends the process at once when it
+    returns normally (``rodsim.app.lean``)."""
     pin_threads()
     os.environ.setdefault("MPLBACKEND", "Agg")
     parser = build_parser()
@@ -82,6 +82,6 @@ def _interrupt(signum: int, frame: object) -> None:
 
 
 def entry() -> NoReturn:
-    """The installed ``rodsim`` command and ``python -m rodsim``: :func:`main` as the whole
+    """The installed ``rodsim`` command and ``python -m rodsim``: ``main`` as the whole
     process."""
     sys.exit(main(process=True))

@@ -1,9 +1,9 @@
 """The one path of the commands that solve a scene and write what they found (``run``,
 ``track``, ``fit``, ``reach``): scene → output checked → solve (with progress) → print →
-write. A command says only what differs (:class:`SceneCommand`); :func:`execute` is the
+write. A command says only what differs (``SceneCommand``); ``execute`` is the
 path, its order and its exits (2 for bad input before any work, 1 for a solver failure,
 130 on Ctrl-C or SIGTERM, after writing what a command finished:
-:class:`~rodsim.app.interrupted.Interrupted`)."""
+``rodsim.app.interrupted.Interrupted``)."""
 
 from __future__ import annotations
 
@@ -38,7 +38,7 @@ class SceneCommand:
     figure is written beside the archive; ``integrator_flag``: the command has
     ``--integrator`` (checked against the registry first); without it, the command solves
     with the scene's own ``solver.integrator`` if ``uses_scene_integrator`` (run), else with
-    the registry's default (:data:`rodsim.solvers.DEFAULT_INTEGRATOR`: track, fit and reach,
+    the registry's default (``rodsim.solvers.DEFAULT_INTEGRATOR``: track, fit and reach,
     which solve many warm-started equilibria)."""
 
     kind: ClassVar[str]
@@ -50,17 +50,17 @@ class SceneCommand:
         self.args = args
 
     def bad_input(self) -> tuple[type[Exception], ...]:
-        """Exceptions of :meth:`solve` that are bad input (exit 2, their text the message);
+        """Exceptions of ``solve`` that are bad input (exit 2, their text the message);
         imported when called, so that ``--help`` imports no solver."""
         return ()
 
     def solver_failures(self) -> tuple[type[Exception], ...]:
-        """Exceptions of :meth:`solve` that are a solver failure (exit 1)."""
+        """Exceptions of ``solve`` that are a solver failure (exit 1)."""
         return ()
 
     def prepare(self, scene: Scene) -> None:
         """Checks of the command's own arguments, before any folder is made or work
-        starts (raise :class:`UserError`)."""
+        starts (raise ``UserError``)."""
 
     def output_name(self, scene: Scene, integrator: str) -> str:
         return f"{scene.name}-{self.kind}.nc"
@@ -87,7 +87,7 @@ class SceneCommand:
 
 
 def execute(command: SceneCommand) -> int:
-    """The common path of a :class:`SceneCommand` (module docstring)."""
+    """The common path of a ``SceneCommand`` (module docstring)."""
     from rodsim.app.progress import ProgressPrinter
 
     args = command.args

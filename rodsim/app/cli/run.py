@@ -88,7 +88,7 @@ def cmd_run(args: argparse.Namespace) -> int:
 
 def print_run_summary(result: Any, archive: Path | None) -> None:
     """The summary of a run (``rodsim run``, ``rodsim rerun``): tips, the scores against the
-    analytic references (:func:`rodsim.app.scoring.reference_lines`), residual, statistics,
+    analytic references (``rodsim.app.scoring.reference_lines``), residual, statistics,
     stability, archive."""
     from rodsim.app.scoring import reference_lines
     from rodsim.io.statistics import SUMMARY_STATS

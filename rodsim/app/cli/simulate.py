@@ -16,7 +16,7 @@ def parse_program(text: str) -> tuple[str, Any]:
     """``KEY=t0:v0,t1:v1,...`` → (KEY, (times, values)) and
     ``KEY=sin:AMPLITUDE,FREQUENCY[,PHASE[,OFFSET]]`` → (KEY, the sinusoid's table: frequency
     in Hz, phase in rad, offset by default the scene's value); a one-line
-    :class:`UserError` for anything else."""
+    ``UserError`` for anything else."""
     flag = f"--program {text[:60]!r}"
     key, sep, table = text.partition("=")
     if not sep or not key.strip() or not table.strip():

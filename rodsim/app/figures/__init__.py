@@ -1,15 +1,15 @@
 """Figures drawn from archives alone, one file per figure family:
 
-- :mod:`~rodsim.app.figures.plot`: which figure an archive gets, and ``plot_dataset``;
-- :mod:`~rodsim.app.figures.style`: the one style (``rodsim.mplstyle``), colours, labels;
-- :mod:`~rodsim.app.figures.writer`: formats, output checks, the atomic write of each format
-  (through :func:`rodsim.io.atomic.write_atomic`, the package's one atomic writer);
-- :mod:`~rodsim.app.figures.references`: the analytic reference curves of a study;
-- :mod:`~rodsim.app.figures.study_centerlines`, :mod:`~rodsim.app.figures.study_errors`:
+- ``rodsim.app.figures.plot``: which figure an archive gets, and ``plot_dataset``;
+- ``rodsim.app.figures.style``: the one style (``rodsim.mplstyle``), colours, labels;
+- ``rodsim.app.figures.writer``: formats, output checks, the atomic write of each format
+  (through ``rodsim.io.atomic.write_atomic``, the package's one atomic writer);
+- ``rodsim.app.figures.references``: the analytic reference curves of a study;
+- ``rodsim.app.figures.study_centerlines``, ``rodsim.app.figures.study_errors``:
   the study figures;
-- :mod:`~rodsim.app.figures.inverse`: a run's figure and those of track, fit and reach;
-- :mod:`~rodsim.app.figures.contact`: the contact figure;
-- :mod:`~rodsim.app.figures.view3d`: the interactive 3-D view (plotly).
+- ``rodsim.app.figures.inverse``: a run's figure and those of track, fit and reach;
+- ``rodsim.app.figures.contact``: the contact figure;
+- ``rodsim.app.figures.view3d``: the interactive 3-D view (plotly).
 """
 
 from __future__ import annotations

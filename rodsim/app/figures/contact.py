@@ -3,7 +3,7 @@ rods and the contact force on every control point, drawn from the archive alone.
 
 The view is the plane of the two world axes along which the rods spread most (a catheter
 bent in a plane is drawn in that plane). Obstacles are cut by that plane through the rods'
-mean depth, each drawing its own outline (:meth:`rodsim.core.obstacles.Obstacle.outline`):
+mean depth, each drawing its own outline (``rodsim.core.obstacles.Obstacle.outline``):
 a plane is a line, a sphere a circle, a vessel the two outlines of its wall (centerline ±
 radius across the view). Rods are drawn with their
 diameter; each contact force is an arrow from its node, scaled so that the largest is a
@@ -104,7 +104,7 @@ def draw_contact(ax: plt.Axes, scene: Scene, positions: np.ndarray, forces: np.n
 def _draw_obstacle(ax: plt.Axes, obstacle: Obstacle, a: int, b: int, depth: int,
                    level: float, xlim: tuple[float, float], ylim: tuple[float, float]
                    ) -> None:
-    """The obstacle's own outline in the view (:meth:`Obstacle.outline`), named by gid."""
+    """The obstacle's own outline in the view (``Obstacle.outline``), named by gid."""
     lower, upper = np.full(3, level), np.full(3, level)
     lower[a], upper[a] = xlim
     lower[b], upper[b] = ylim

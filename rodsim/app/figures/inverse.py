@@ -31,7 +31,7 @@ def _tip_text(ds: xr.Dataset) -> str:
 
 def run_figure(ds: xr.Dataset) -> Figure:
     """A run: its rods, tendons (paths, routing points, terminations), obstacles, loads
-    and contact forces (:mod:`rodsim.app.figures.scene_drawing`) in x–y, and in x–z and
+    and contact forces (``rodsim.app.figures.scene_drawing``) in x–y, and in x–z and
     y–z too when the scene leaves the x–y plane (with tendon friction, a last panel: the
     tension along each tendon); the title names the tip, computed from the positions."""
     friction = "tension_profile" in ds

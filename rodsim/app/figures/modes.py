@@ -21,7 +21,7 @@ ROTATION = 0.5
 
 def modes_figure(ds: xr.Dataset) -> Figure:
     """The lowest modes: the equilibrium (grey) and the equilibrium ± the mode's
-    displacement scaled to :data:`AMPLITUDE` of its extent, each in the world plane of the
+    displacement scaled to ``AMPLITUDE`` of its extent, each in the world plane of the
     equilibrium's longest extent and the axis the mode moves most along of the other two."""
     count = min(PANELS, ds.sizes["mode"])
     figure, axes = plt.subplots(1, count, figsize=(3.6 * count + 0.8, 3.8),

@@ -1,6 +1,6 @@
 """A movie of a track archive (``rodsim plot --movie``): one frame per step, each the run
 figure's drawing of that step (rods, tendons, obstacles, loads, contact forces:
-:mod:`rodsim.app.figures.scene_drawing`) in x–y, and in x–z and y–z when the track leaves
+``rodsim.app.figures.scene_drawing``) in x–y, and in x–z and y–z when the track leaves
 the x–y plane, with fixed limits around every step; the title gives the ramped value. It is
 written as an animated GIF with Pillow (which matplotlib requires), atomically."""
 

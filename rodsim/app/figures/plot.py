@@ -8,7 +8,7 @@ Kinds:
 
 - ``centerlines``: the first rod's centerline at every point (Figs. 6, 9, 14–18, 22), with
   the study's analytic reference for each point when it has one — recomputed from the
-  archive's ``spec_json`` (:func:`reference_centerlines`), the exact elastica drawn with the
+  archive's ``spec_json`` (``reference_centerlines``), the exact elastica drawn with the
   paper's analytical model (AM) on it for the hanging-mass scenes. With two or more swept
   parameters the colour follows the last one and the line style the others (Fig. 9: one
   colour per mass, one style per stiffness tensor). A second panel gives the tip's y against
@@ -69,9 +69,9 @@ def plot_dataset(ds: xr.Dataset, stem: str | Path, formats: Iterable[str] = ("pn
                  ) -> list[Path]:
     """Draw the archive's figure and write ``stem.<format>`` for each format.
 
-    The formats and the folder are checked first (:func:`check_output`); a format that
+    The formats and the folder are checked first (``check_output``); a format that
     fails to write (e.g. ``pgf`` without LaTeX) leaves no partial file. Raises
-    :class:`PlotError`.
+    ``PlotError``.
     """
     formats = check_output(stem, formats)
     ds = from_file(ds)
@@ -108,11 +108,11 @@ def three_dimensional(ds: xr.Dataset) -> bool:
 
 def draw_figure(ds: xr.Dataset) -> Figure:
     """The archive's figure, not written (the caller closes it); draw it inside
-    :func:`style`. A study figure's title states the measured result (:data:`RESULTS`).
-    Raises :class:`PlotError` for an unknown plot kind, and for a study in which every
+    ``style``. A study figure's title states the measured result (``RESULTS``).
+    Raises ``PlotError`` for an unknown plot kind, and for a study in which every
     point failed (rodsim writes such archives: there is no shape or error to draw). A Dataset
     opened with plain xarray from a schema 3 file gets its labels back first
-    (:func:`rodsim.io.cf_layout.from_file`)."""
+    (``rodsim.io.cf_layout.from_file``)."""
     ds = from_file(ds)
     if "study" in ds.attrs:
         kind = ds.attrs.get("plot", "centerlines")

@@ -1,5 +1,5 @@
 """The analytic reference curves a study figure draws (the continuum models of
-:mod:`rodsim.core.analytic`), recomputed from the archive's spec alone."""
+``rodsim.core.analytic``), recomputed from the archive's spec alone."""
 
 from __future__ import annotations
 
@@ -35,8 +35,8 @@ def reference_centerlines(ds: xr.Dataset, kinds: Sequence[str] | None = None
 
     Returns ``{kind: {grid index: curve}}`` for each of ``kinds`` (default: the study's
     reference). Recomputed from the archive's ``spec_json`` (the base scene and the sweeps,
-    :func:`rodsim.app.study.point_scene`), so it needs nothing but the Dataset; the curves
-    of each point are :func:`rodsim.app.scoring.reference_curves`. Points whose scene does
+    ``rodsim.app.study.point_scene``), so it needs nothing but the Dataset; the curves
+    of each point are ``rodsim.app.scoring.reference_curves``. Points whose scene does
     not qualify, or is invalid, are left out.
     """
     from rodsim.app.scoring import reference_curves

@@ -1,7 +1,7 @@
-"""Draw one state's parts (:mod:`rodsim.app.figures.scene_parts`) on a matplotlib panel in
+"""Draw one state's parts (``rodsim.app.figures.scene_parts``) on a matplotlib panel in
 the plane of two world axes: rods with their diameter, tendons' paths with their routing
 points and terminations, obstacles (each draws its own outline:
-:meth:`rodsim.core.obstacles.Obstacle.outline`), loads and contact forces as arrows.
+``rodsim.core.obstacles.Obstacle.outline``), loads and contact forces as arrows.
 
 Each artist carries a ``gid`` naming what it draws (``rod:<name>``, ``tendon:<name>``,
 ``termination:<name>``, ``obstacle:<name>``, ``load:<owner>:<term>``, ``contact:<rod>``):

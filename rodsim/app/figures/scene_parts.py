@@ -7,11 +7,11 @@ and the 3-D view share it).
   r(s) + ρ_y(s) d1(s) + ρ_z(s) d2(s) at the catheter's nodes between its start and end and
   at both ends (the termination is the last), with the directors of the quaternion
   interpolated linearly in s between the segment midpoints (clamped to the end segments).
-- Loads are the rod and tendon terms that push (:data:`TERM_DRAWINGS`): a tip load (mass
+- Loads are the rod and tendon terms that push (``TERM_DRAWINGS``): a tip load (mass
   and force) at the tip, each point load's force and moment where it acts, a distributed
   load's resultant at the middle of each span, gravity's total weight at the rod's middle
   node, and a tendon's actuation force at the end of the tendon it pulls.
-- Every term the registry holds is in :data:`TERM_DRAWINGS`, so a new term says how it is
+- Every term the registry holds is in ``TERM_DRAWINGS``, so a new term says how it is
   drawn (tests/test_figure_parts.py walks the registry).
 """
 

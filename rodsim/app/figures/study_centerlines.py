@@ -53,7 +53,7 @@ COINCIDE = 0.01
 
 
 def _coinciding(lines: Sequence[np.ndarray]) -> int:
-    """How many of the (σ, 3) centerlines lie within :data:`COINCIDE` of the drawing's span
+    """How many of the (σ, 3) centerlines lie within ``COINCIDE`` of the drawing's span
     of another one (everywhere): those a reader cannot tell apart without markers."""
     if len(lines) < 2:
         return 0
@@ -201,7 +201,7 @@ def _length_text(value: float) -> str:
 
 
 def _show_size_of_change(axes: plt.Axes, ds: xr.Dataset, values: np.ndarray) -> None:
-    """No offset notation, a y range of at least :data:`MIN_TIP_RANGE` L around the values,
+    """No offset notation, a y range of at least ``MIN_TIP_RANGE`` L around the values,
     and the size of the change (max − min) in the title, in length and in L."""
     finite = np.asarray(values, dtype=float)
     finite = finite[np.isfinite(finite)]

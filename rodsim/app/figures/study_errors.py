@@ -132,7 +132,7 @@ MIN_LOCAL_ORDER = 0.5
 def _falling(x: np.ndarray, y: np.ndarray) -> np.ndarray:
     """Mask of the points where the error still falls: from the end of the sweep with the
     largest error, the leading run of steps whose local order is at least
-    :data:`MIN_LOCAL_ORDER` (so a plateau is left out of the fit)."""
+    ``MIN_LOCAL_ORDER`` (so a plateau is left out of the fit)."""
     x, y = np.asarray(x, dtype=float), np.asarray(y, dtype=float)
     usable = np.flatnonzero(np.isfinite(x) & np.isfinite(y) & (x > 0.0) & (y > 0.0))
     mask = np.zeros(x.shape, dtype=bool)
@@ -152,7 +152,7 @@ def _falling(x: np.ndarray, y: np.ndarray) -> np.ndarray:
 
 def _fitted_order(x: np.ndarray, y: np.ndarray) -> tuple[float, np.ndarray]:
     """The order p of ``y ∝ x^-p`` fitted (least squares, log–log) where the error still
-    falls (:func:`_falling`), and that mask; NaN with fewer than two such points."""
+    falls (``_falling``), and that mask; NaN with fewer than two such points."""
     x, y = np.asarray(x, dtype=float), np.asarray(y, dtype=float)
     keep = _falling(x, y)
     if keep.sum() < 2 or np.ptp(x[keep]) == 0.0:

@@ -1,6 +1,6 @@
 """One style for every rodsim figure: the style file (``rodsim.mplstyle``: no text below
 8 pt, readable lines, a colour-blind-safe cycle), the line styles, markers and colours
-(the labels a figure reads from its archive: :mod:`rodsim.app.figures.labels`)."""
+(the labels a figure reads from its archive: ``rodsim.app.figures.labels``)."""
 
 from __future__ import annotations
 

@@ -1,10 +1,10 @@
 """An interactive 3D view of an archive as a standalone HTML file (plotly): the rods, the
 tendons' paths and terminations, the obstacles (translucent), the loads and the contact
-forces (:mod:`rodsim.app.figures.scene_parts`); a track is animated, one frame per step
+forces (``rodsim.app.figures.scene_parts``); a track is animated, one frame per step
 (a slider and a play button).
 
 plotly is an optional extra (``pip install "rodsim[view3d]"``): without it
-:func:`available` is False, ``rodsim plot`` writes its usual figures and says nothing about
+``available`` is False, ``rodsim plot`` writes its usual figures and says nothing about
 HTML, and asking for ``--format html`` is a one-line error naming the extra. The page embeds
 plotly's JavaScript, so it opens offline: rotate, zoom and hover over a control point to
 read its rod, index and coordinates.
@@ -12,8 +12,8 @@ read its rod, index and coordinates.
 The view opens on the whole scene: the axes' ranges are the box around every node and
 tendon point (every step of a track) with a margin, drawn to equal scales (the aspect
 ratio of the box), and the camera looks at the box's centre from
-:data:`CAMERA_DIRECTION` at the distance from which the box's bounding sphere fits in
-plotly's 45° field of view with a margin (:func:`fitted_camera`), the box taken as
+``CAMERA_DIRECTION`` at the distance from which the box's bounding sphere fits in
+plotly's 45° field of view with a margin (``fitted_camera``), the box taken as
 spanning ± its aspect ratio in the scene's units (the larger of the two readings of
 plotly's scene units: the view may open a little wide, never cropped).
 """

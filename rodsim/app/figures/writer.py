@@ -1,6 +1,6 @@
 """Where figures go: the formats matplotlib (and the 3-D view) can write, the checks of an
 output stem before anything is drawn, and the write of each format through the package's one
-atomic writer (:func:`rodsim.io.atomic.write_atomic`)."""
+atomic writer (``rodsim.io.atomic.write_atomic``)."""
 
 from __future__ import annotations
 
@@ -38,7 +38,7 @@ def supported_formats() -> list[str]:
 def check_output(stem: str | Path, formats: Iterable[str]) -> list[str]:
     """Validate the formats and the output folder before drawing anything.
 
-    Returns the formats, lower-cased, without duplicates; raises :class:`PlotError` for an
+    Returns the formats, lower-cased, without duplicates; raises ``PlotError`` for an
     unknown format, a stem that names a folder, or a folder that is missing or where no file
     can be created.
     """
@@ -77,8 +77,8 @@ def html_target(stem: str | Path) -> Path:
 
 def write_figure(figure: Figure, stem: str | Path, formats: list[str]) -> list[Path]:
     """Write a drawn figure as ``stem.<format>`` for each format, each through the atomic
-    write of :mod:`rodsim.io.atomic` (a failed write keeps any older figure intact), and
-    close it; raises :class:`PlotError`."""
+    write of ``rodsim.io.atomic`` (a failed write keeps any older figure intact), and
+    close it; raises ``PlotError``."""
     paths = []
     try:
         for fmt in formats:

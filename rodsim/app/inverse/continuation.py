@@ -1,25 +1,25 @@
 """Equilibria of nearby parameter values, each solved from the previous one (a warm start).
 
 Tracking (rodsim/app/inverse/track.py), fitting (fit.py) and inverse kinematics (reach.py)
-solve many equilibria whose parameters differ a little. :class:`Continuation` is the
+solve many equilibria whose parameters differ a little. ``Continuation`` is the
 continuation policy alone: it keeps the last equilibrium — the run state an integrator
 returned, whose model carries its tendon registration — and solves the next scene from it
 with any registered integrator, through the integrator contract
-(:meth:`Integrator.restart`, a continuation step, then :meth:`Integrator.run`;
-rodsim/solvers/base.py). The next model is :meth:`Model.with_values` of the last (only the
+(``Integrator.restart``, a continuation step, then ``Integrator.run``;
+rodsim/solvers/base.py). The next model is ``Model.with_values`` of the last (only the
 terms whose options changed are rebuilt; any other change falls back to
-:meth:`Model.with_scene`: same free-coordinate order, same registration, the Jacobian pattern
+``Model.with_scene``: same free-coordinate order, same registration, the Jacobian pattern
 reused when the elements keep their coordinates); the step starts from the last state or a
 given predictor — or, when a base support moves (insertion, rotation), the last state
-carried rigidly with it (:meth:`Model.carried`). How the integrator solves a continuation
+carried rigidly with it (``Model.carried``). How the integrator solves a continuation
 step is its own (``static``: chord iterations with a kept factorisation, then Newton,
 rodsim/solvers/static.py; the pseudo-dynamic ones: a run from that state, the loads in full
 from the start).
 
-A solve that fails leaves the continuation where it was. :meth:`Continuation.walk` moves
+A solve that fails leaves the continuation where it was. ``Continuation.walk`` moves
 between two sets of parameter values and retries a failed solve with half the increment,
 halved again on each failure and doubled after an easy sub-step, up to
-:data:`MAX_HALVINGS` failed attempts. :class:`ScaledEquilibria` wraps a continuation as the
+``MAX_HALVINGS`` failed attempts. ``ScaledEquilibria`` wraps a continuation as the
 function of (scaled) parameter values that a fit or a reach minimises over.
 """
 
@@ -63,7 +63,7 @@ class BudgetSpent(EquilibriumFailure):
 @dataclass(frozen=True)
 class StepOutcome:
     """One warm solve: success, the equilibrium (free coordinates), the scaled residual,
-    the integrator's work (:meth:`Integrator.work`: Newton and chord iterations for
+    the integrator's work (``Integrator.work``: Newton and chord iterations for
     ``static``, steps for the others), and a message on failure."""
 
     success: bool
@@ -84,9 +84,9 @@ class Continuation:
         That equilibrium (free coordinates); its registration is applied to ``model``.
     integrator
         The name of a registered integrator (default
-        :data:`~rodsim.solvers.base.DEFAULT_INTEGRATOR`).
+        ``rodsim.solvers.base.DEFAULT_INTEGRATOR``).
     deadline
-        ``time.perf_counter()`` after which no solve starts (:meth:`walk` fails) and an
+        ``time.perf_counter()`` after which no solve starts (``walk`` fails) and an
         integrator's solve stops; None: none.
     """
 
@@ -105,7 +105,7 @@ class Continuation:
     def factorisation(self) -> tuple[np.ndarray, Callable[[np.ndarray], np.ndarray] | None
                                      ] | None:
         """(J's CSC data, J factored) at the last equilibrium, if its solve's verification
-        made them (:meth:`RunState.factorisation_at`), for its stability verdict."""
+        made them (``RunState.factorisation_at``), for its stability verdict."""
         if self.state is None:
             return None
         return self.state.factorisation_at(self.model, self.x)
@@ -118,7 +118,7 @@ class Continuation:
     def predicted(self, scene: Scene, dx: np.ndarray) -> np.ndarray:
         """The start of the next step from the predictor ``x + dx`` (``x`` the last
         equilibrium), as the integrator configured by ``scene`` takes it
-        (:meth:`Integrator.predicted`)."""
+        (``Integrator.predicted``)."""
         return self.kind.for_scene(scene).predicted(self.model, self.x, dx)
 
     def solve(self, scene: Scene, start: np.ndarray | None = None) -> StepOutcome:
@@ -127,7 +127,7 @@ class Continuation:
 
         Friction (contact, rodsim/core/terms/contact.py; tendons,
         rodsim/core/tendon_friction.py) is anchored at the last equilibrium
-        (:meth:`Model.anchored`): it opposes the slip of this step. The model kept with the
+        (``Model.anchored``): it opposes the slip of this step. The model kept with the
         new equilibrium is the one that solved it (its forces, the contact forces a track
         records, are those of the equilibrium)."""
         model = self.model.anchored(self.x).with_values(scene)
@@ -157,8 +157,8 @@ class Continuation:
         """Move from the equilibrium at the values ``start`` of ``keys`` (in ``scene``) to
         the one at ``stop``, from ``predictor`` if given (for the whole step only), halving
         the increment on each failure and doubling it again (up to the rest of the step)
-        after a sub-step that took at most :data:`EASY_ITERATIONS` iterations; fails at the
-        :data:`MAX_HALVINGS`-th failed attempt — and then leaves the continuation at the
+        after a sub-step that took at most ``EASY_ITERATIONS`` iterations; fails at the
+        ``MAX_HALVINGS``-th failed attempt — and then leaves the continuation at the
         equilibrium of ``start``, where it was, though sub-steps had moved it part of the way
         (a fit or a reach goes on from the values it holds). Returns (success, iterations,
         failed attempts, last failure message)."""
@@ -195,7 +195,7 @@ class Continuation:
 
 class ScaledEquilibria:
     """Equilibria as a function of scaled parameter values u = p / ``scale`` (the
-    unknowns of a fit or a reach), each warm-started from the last (:meth:`Continuation.walk`
+    unknowns of a fit or a reach), each warm-started from the last (``Continuation.walk``
     from the last values), with the nodes of ``rod`` and their sensitivities; counts the
     equilibria and sensitivities computed."""
 
@@ -242,7 +242,7 @@ class ScaledEquilibria:
         return problem, lower, upper
 
     def values_of(self, u: np.ndarray) -> np.ndarray:
-        """The parameter values of u, those within :data:`BOUND_SNAP` × scale of a bound
+        """The parameter values of u, those within ``BOUND_SNAP`` × scale of a bound
         set to the bound: least_squares' trust-region reflective iterates stay strictly
         inside the bounds, and a tendon tension of a few µN (the bound is 0) puts the loads
         below the round-off of the internal forces, which no solver accepts."""
@@ -270,7 +270,7 @@ class ScaledEquilibria:
         self.evaluations += 1
 
     def reached(self, u: np.ndarray) -> bool:
-        """Move to u like :meth:`at`, but report an equilibrium that cannot be solved by
+        """Move to u like ``at``, but report an equilibrium that cannot be solved by
         returning False (and staying at the last equilibrium) instead of raising: a
         least-squares step into parameters without a solvable equilibrium is then given a
         large residual and rejected, and the trust region shrinks."""
@@ -286,7 +286,7 @@ class ScaledEquilibria:
 
     def result(self, what: str) -> Result:
         """The current equilibrium — the one the optimiser measured, not a cold re-solve
-        that could land on another branch — as a :class:`Result` of the continuation's
+        that could land on another branch — as a ``Result`` of the continuation's
         integrator with its stability verdict; ``what`` names it in the message."""
         import dataclasses
 

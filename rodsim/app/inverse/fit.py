@@ -18,11 +18,11 @@ range); each evaluation is an equilibrium warm-started from the previous one
 parameters are scaled by their initial values. A trial step to values whose equilibrium
 cannot be solved gets a residual of ten rod lengths per component, so the trust region
 rejects it and shrinks. A trust region that shrinks to nothing on such refusals ends
-least_squares with "xtol satisfied" wherever it is; so a fit whose last :data:`STALLED`
+least_squares with "xtol satisfied" wherever it is; so a fit whose last ``STALLED``
 trial values had no equilibrium is checked: if a Gauss–Newton step in the parameters not
-held at a bound would remove more than :data:`NOT_A_MINIMUM` of the squared residual
+held at a bound would remove more than ``NOT_A_MINIMUM`` of the squared residual
 (linear prediction; ≈ 0 at a minimum), the fit stopped short of a minimum and raises
-:class:`~rodsim.app.inverse.continuation.EquilibriumFailure` saying how many trial values
+``rodsim.app.inverse.continuation.EquilibriumFailure`` saying how many trial values
 had no equilibrium.
 
 Standard errors: the Gauss–Newton covariance σ² (JᵀJ)⁻¹ at the solution, σ² = RSS/(m − p),
@@ -30,12 +30,12 @@ where m counts the residual components that carry information: with nearest-poin
 matching one per dimension of the data's span minus the one along the curve, i.e.
 m = points × (d − 1), with ``s`` m = points × d, d = the dimension (1–3) of the affine span
 of the data and the fitted centerline (planar data and a planar model: d = 2). A parameter
-whose standard error exceeds :data:`MAX_RELATIVE_ERROR` times its value is *undetermined*
+whose standard error exceeds ``MAX_RELATIVE_ERROR`` times its value is *undetermined*
 (``Fit.undetermined``; a singular Fisher matrix JᵀJ is refused above): ``rodsim fit`` exits
 1 saying so (a pitch of 1000 m on a 0.16 m catheter was "999.9 ± 2e6 m", a success).
 
-Refused (:class:`FitError`): fewer points than parameters, no residual degrees of freedom
-left, data farther than :data:`MAX_REACH` rod lengths from the rod's origin (no shape of the
+Refused (``FitError``): fewer points than parameters, no residual degrees of freedom
+left, data farther than ``MAX_REACH`` rod lengths from the rod's origin (no shape of the
 rod comes near them: the message guesses the cause, typically millimetres read as metres),
 and parameters that do not influence the shape (a zero column of J) or that cannot be told
 apart from it (J's columns, scaled, have a condition number above 1e10).
@@ -44,7 +44,7 @@ The fitted state is the equilibrium the optimiser measured at the values found (
 continuation's), never a cold re-solve that could land on another branch; it carries its
 stability verdict (``Fit.result.stability``). The residual RMS is reported in metres and
 relative to the rod's length; a fit whose RMS is not finite raises
-:class:`~rodsim.app.inverse.continuation.EquilibriumFailure`.
+``rodsim.app.inverse.continuation.EquilibriumFailure``.
 """
 
 from __future__ import annotations
@@ -127,7 +127,7 @@ class Fit:
     @property
     def undetermined(self) -> list[str]:
         """The parameters the data do not determine: a relative standard error above
-        :data:`MAX_RELATIVE_ERROR`, or not finite."""
+        ``MAX_RELATIVE_ERROR``, or not finite."""
         return [k.name for k, v, e in zip(self.keys, self.values, self.errors, strict=True)
                 if not (math.isfinite(e) and e <= MAX_RELATIVE_ERROR * abs(v))]
 
@@ -221,7 +221,7 @@ def _gauss_newton_gain(jacobian: np.ndarray, residual: np.ndarray, free: np.ndar
 def _check_identifiable(jacobian: np.ndarray, keys: Sequence[NumericKey], length: float
                         ) -> None:
     """FitError for a parameter that does not move the matched points (a relative change of
-    1 moves them by less than :data:`NO_INFLUENCE` × the rod's ``length``, in RMS), or for
+    1 moves them by less than ``NO_INFLUENCE`` × the rod's ``length``, in RMS), or for
     parameters that cannot be told apart (scaled Jacobian nearly rank deficient)."""
     norms = np.linalg.norm(jacobian, axis=0)
     points = jacobian.shape[0] // 3

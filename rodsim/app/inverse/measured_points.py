@@ -1,7 +1,7 @@
 """Measured points for ``fit`` (rodsim/app/inverse/fit.py): a CSV of ``x,y,z`` (and
-optionally ``s``) read and checked (:func:`read_points`), matched to a shape's nodes
-(:func:`match`), and refused where no shape of the rod comes near them
-(:func:`check_plausible`)."""
+optionally ``s``) read and checked (``read_points``), matched to a shape's nodes
+(``match``), and refused where no shape of the rod comes near them
+(``check_plausible``)."""
 
 from __future__ import annotations
 
@@ -44,7 +44,7 @@ class Points:
 def read_points(path: str | Path) -> Points:
     """Points from a CSV file with header ``x,y,z`` (and optionally ``s``); FitError names
     the first problem (missing or unknown columns, a value that is not a finite number). A
-    FIFO, a device (``/dev/zero``), a folder or a file over :data:`MAX_DATA_BYTES` is
+    FIFO, a device (``/dev/zero``), a folder or a file over ``MAX_DATA_BYTES`` is
     refused before it is opened."""
     try:
         check_input_file(path, "data", MAX_DATA_BYTES)
@@ -107,7 +107,7 @@ def match(nodes: np.ndarray, s_nodes: np.ndarray, points: Points
 
 
 def check_plausible(points: Points, scene: Scene, rod: str) -> None:
-    """FitError when a data point lies farther than :data:`MAX_REACH` lengths of ``rod``
+    """FitError when a data point lies farther than ``MAX_REACH`` lengths of ``rod``
     from its origin (no shape of the rod comes near it), guessing the unit mistake."""
     origin = np.asarray(scene.rods[rod].origin, dtype=float)
     length = float(scene.rods[rod].length)

@@ -11,7 +11,7 @@ narrowed for a string tendon's numbers by the routing rules (rodsim/core/routing
 a helix the nodes alias), so that a track, a fit or a reach never asks for a scene that
 ``run`` refuses.
 
-Refused, with a one-line :class:`~rodsim.core.schema.SceneError`: solver settings (they do not
+Refused, with a one-line ``rodsim.core.schema.SceneError``: solver settings (they do not
 change the equilibrium), integer values (``nodes`` changes the discretisation: the state has
 no derivative with respect to it), and text, switches and lists.
 """
@@ -162,7 +162,7 @@ def numeric_key(scene: Scene, key: str) -> NumericKey:
 
 
 def numeric_keys(scene: Scene, keys: Sequence[str]) -> list[NumericKey]:
-    """:func:`numeric_key` for each of ``keys``; SceneError if two name the same value."""
+    """``numeric_key`` for each of ``keys``; SceneError if two name the same value."""
     resolved = [numeric_key(scene, key) for key in keys]
     names = [k.name for k in resolved]
     for name in names:

@@ -1,5 +1,5 @@
 """The ramps of ``rodsim track`` (rodsim/app/inverse/track.py): ``--ramp`` text to values,
-values checked (:func:`ramp_values`, :func:`check_rules_across_tables`) before any work.
+values checked (``ramp_values``, ``check_rules_across_tables``) before any work.
 
 ``KEY=START:STOP:COUNT`` gives COUNT equally spaced values from START to STOP; further
 ``:STOP:COUNT`` legs go on from the last stop, each COUNT more values ending at its STOP

@@ -23,7 +23,7 @@ an unstable equilibrium (a rod compressed past buckling) is not reached —
 ``success`` False, ``unstable`` True, the message says so.
 
 Where the tip does not move with an actuation value at the start (its sensitivity is zero,
-as a tendon at zero tension can be), that value starts at :data:`NUDGE` of its scale inside
+as a tendon at zero tension can be), that value starts at ``NUDGE`` of its scale inside
 its range instead, so the trust region sees a direction.
 
 An ``orientation`` target (the tip frame: directors d1, d2, d3 of the rod's last segment as

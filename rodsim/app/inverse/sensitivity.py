@@ -2,11 +2,11 @@
 
 At an equilibrium F(x, p) = 0, so J dx/dp = −∂F/∂p with J = ∂F/∂x the model's analytic
 Jacobian. J is factored once (band Cholesky of −J for a conservative model, band LU
-otherwise, SuperLU for wide bands: :meth:`LinearSolver.factorized`) and solved for every
+otherwise, SuperLU for wide bands: ``LinearSolver.factorized``) and solved for every
 parameter. ∂F/∂p is a central difference of F alone at the fixed state x — never of
 re-solved equilibria: the model of the scene with p ± h, with the same registration and the
-same order of the free coordinates (:meth:`Model.with_values`: only the terms whose options
-change are rebuilt, else :meth:`Model.with_scene`), evaluated at x: the
+same order of the free coordinates (``Model.with_values``: only the terms whose options
+change are rebuilt, else ``Model.with_scene``), evaluated at x: the
 fourth-order central difference (F at p ± h/2 and p ± h), or the third-order one-sided one
 for a parameter at the edge of its allowed range (F(x, p) is then the equilibrium's
 residual, ~0). Step: h = 1e-6 |p| (1e-6 in the parameter's unit at p = 0). F is linear in
@@ -103,7 +103,7 @@ def equilibrium_sensitivity(model: Model, x: np.ndarray, keys: Sequence[NumericK
     """(dx/dp (n, P), d(full state)/dp (full size, P)) at the equilibrium ``x`` of
     ``model`` (which must carry the registration of ``x``), by the method of the module
     docstring. ``solve``: J at ``x`` already factored (a solve of J X = B: the verification
-    of the solve that found ``x``, :meth:`RunState.factorisation_at`), else J is factored
+    of the solve that found ``x``, ``RunState.factorisation_at``), else J is factored
     here. Raises SensitivityError when J is singular and SceneError when a parameter change
     alters the model's layout."""
     scene = model.scene

@@ -1,5 +1,5 @@
 """The notebook summaries of a track, a fit and a reach (``repr``: at most ten lines;
-``_repr_html_``: the same rows as a table; :mod:`rodsim.solvers.summary`). The objects are
+``_repr_html_``: the same rows as a table; ``rodsim.solvers.summary``). The objects are
 typed loosely here: this module is imported by theirs and must not import them back."""
 
 from __future__ import annotations

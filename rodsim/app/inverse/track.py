@@ -5,7 +5,7 @@ has the values ``ramps[key][k]``. Step 0 is solved cold with the chosen integrat
 rest); every later step is warm-started from the previous equilibrium and its registration
 (rodsim/app/inverse/continuation.py). With ``static``, step k + 1 starts from the first-order
 predictor x_k + (x_k − x_{k−1}) |p_{k+1} − p_k| / |p_k − p_{k−1}| (the path's last chord,
-from step 2 on; as the integrator takes it, :meth:`Integrator.predicted`: ``static`` turns
+from step 2 on; as the integrator takes it, ``Integrator.predicted``: ``static`` turns
 the segments as rigid frames where its retraction does) and solves from there (chord
 iterations with a factorisation made at the step's start, then Newton if they stall; no
 polishing past the tolerance). The path's chord is free. The
@@ -16,7 +16,7 @@ but cost model builds and a factorisation per ramped key, 9.7 ms per step agains
 with no predictor and 2.2 ms with the path's chord (docs/inverse.md).
 
 A step that fails is retried with half the increment, halved again on each failure and
-doubled after an easy sub-step; at the :data:`MAX_HALVINGS`-th failed attempt the track
+doubled after an easy sub-step; at the ``MAX_HALVINGS``-th failed attempt the track
 stops and reports the failure at that step (never skipped).
 
 Every step's equilibrium gets a stability verdict (rodsim/core/stability.py): a warm start
@@ -31,7 +31,7 @@ attempts of a step; an integrator's own solve is bounded by what is left).
 
 The archive holds every step's shape along a ``step`` dimension with the ramped values as
 coordinates (docs/inverse.md). A track that stops early (a failed or unstable step, a spent
-budget, or Ctrl-C / SIGTERM: :class:`rodsim.app.interrupted.Interrupted` carries the steps
+budget, or Ctrl-C / SIGTERM: ``rodsim.app.interrupted.Interrupted`` carries the steps
 done) keeps its finished steps: its archive says ``complete = 0`` (docs/archive.md).
 """
 
@@ -302,7 +302,7 @@ def track(scene: Scene, ramps: Mapping[str, Sequence[float] | np.ndarray],
     an unstable step comes back as ``Track.success = False`` with the step in the message
     (the steps before it kept, ``complete`` False). A ``KeyboardInterrupt`` (Ctrl-C; the
     ``rodsim`` command turns SIGTERM into one) after step 0 is raised as
-    :class:`~rodsim.app.interrupted.Interrupted`, whose ``partial`` is the track of the steps
+    ``rodsim.app.interrupted.Interrupted``, whose ``partial`` is the track of the steps
     done (``interrupted`` True).
     """
     from rodsim.app.api import solve
@@ -347,7 +347,7 @@ def track(scene: Scene, ramps: Mapping[str, Sequence[float] | np.ndarray],
 def _walk(out: Track, first: Result, scene: Scene, *, deadline: float, budget: float,
           started: float, progress: Progress | None) -> None:
     """Record step 0 (``first``, solved cold) and walk the later steps into ``out``
-    (:func:`track`; a stop leaves ``out`` with the steps done)."""
+    (``track``; a stop leaves ``out`` with the steps done)."""
     from rodsim.core.stability import assess
 
     keys, values, model = out.keys, out.values, out.model

@@ -4,14 +4,14 @@ pose and its Jacobian with respect to those values.
 
 ``tracker = rodsim.Tracker(scene, keys)`` solves the scene at its own values of ``keys``
 (cold, from rest); each ``tracker.step(values)`` then moves to the equilibrium at ``values``
-the way ``track`` moves from one step to the next (:meth:`Continuation.walk`,
+the way ``track`` moves from one step to the next (``Continuation.walk``,
 rodsim/app/inverse/continuation.py: a warm start from the last equilibrium and its
 registration, from the tangent predictor x + (dx/dp) Δp of the last step's Jacobian, which
 the tracker has computed anyway; the increment halved on a failed attempt), judges its
 stability from the
-factorisation the step's own verification made (:func:`rodsim.core.stability.assess`, the
+factorisation the step's own verification made (``rodsim.core.stability.assess``, the
 certificate first only after a certified step, as ``track``), and gives the tip's
-Jacobian d(tip)/d(values) by the implicit-function theorem (:func:`equilibrium_sensitivity`,
+Jacobian d(tip)/d(values) by the implicit-function theorem (``equilibrium_sensitivity``,
 rodsim/app/inverse/sensitivity.py) solved with that same factorisation: no second one. A
 step that fails leaves the tracker at its last equilibrium and says why (``success`` False).
 """
@@ -37,7 +37,7 @@ __all__ = ["Tracker", "TrackerStep"]
 
 @dataclass(frozen=True)
 class TrackerStep:
-    """One step of a :class:`Tracker`: ``success`` and ``message``; the equilibrium
+    """One step of a ``Tracker``: ``success`` and ``message``; the equilibrium
     (``state``, free coordinates; ``positions`` of the tracked rod (N, 3) [m]); the tip's
     ``tip`` [m] and ``tip_quaternion`` (its last segment's, q4 real); ``tip_jacobian``
     d(tip)/d(values) (3, P) and ``quaternion_jacobian`` (4, P), one column per key in the
@@ -65,7 +65,7 @@ class Tracker:
     Parameters
     ----------
     scene
-        A Scene, a path or a shipped scene name (:func:`rodsim.load_scene`).
+        A Scene, a path or a shipped scene name (``rodsim.load_scene``).
     keys
         The actuation values (numeric scene keys as for ``track``'s ramps: a tension, a
         base's insertion, ``KEY[i]`` for a vector component).

@@ -265,7 +265,7 @@ def exact_elastica(
 
     Notes
     -----
-    Agrees with :func:`rodsim.core.analytic.paper_model` (independent quadrature) to ~1e-13 L
+    Agrees with ``rodsim.core.analytic.paper_model`` (independent quadrature) to ~1e-13 L
     for alpha <= 50. For alpha ~ 100-300 (phi0 within 1e-5 rad of 90 deg) the agreement
     degrades to ~3e-10 L near the tip: scipy's ``ellipj`` and ``ellipeinc`` take m = k^2,
     which cannot carry 1 - m ~ 1e-12...1e-20 to full relative precision.

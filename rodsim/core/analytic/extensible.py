@@ -47,7 +47,7 @@ _ATOL = 1e-14
 
 @dataclass(frozen=True, eq=False)
 class ExtensibleShape(ElasticaShape):
-    """An :class:`ElasticaShape` that also carries the tangent angle and the curvature.
+    """An ``ElasticaShape`` that also carries the tangent angle and the curvature.
 
     Attributes
     ----------
@@ -137,7 +137,7 @@ def extensible_elastica(
     Solves EI theta'' = -lambda (Fy cos theta - Fx sin theta), r' = lambda t, lambda =
     1 + (F . t) / EA, theta(0) = 0, theta'(L) = 0, r(0) = 0 by shooting (see the module
     docstring) to ~1e-12 relative accuracy. For F = (0, -F) and EA = inf it is the exact
-    elastica of :func:`rodsim.core.analytic.exact_elastica` and the paper's Eqs. (21)-(23).
+    elastica of ``rodsim.core.analytic.exact_elastica`` and the paper's Eqs. (21)-(23).
 
     Parameters
     ----------

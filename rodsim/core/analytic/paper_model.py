@@ -13,7 +13,7 @@ dx = cos(phi) ds and v = sin(phi), dv = cos(phi) dphi:
            = sqrt(2EI/F) (sqrt(sin(phi0)) - sqrt(sin(phi0) - sin(phi))).   (corrected Eq. 22)
 
 The paper prints sqrt(sin(phi0)) - sqrt(sin(phi)), which is x(phi0) at the clamp and 0 at
-the tip (docs/design.md, erratum 9); :func:`paper_model_as_printed` keeps it to show the erratum.
+the tip (docs/design.md, erratum 9); ``paper_model_as_printed`` keeps it to show the erratum.
 
 The integrands of (21) and (23) have a 1/sqrt singularity at phi = phi0. The substitution
 sin(phi0) - sin(phi) = w^2 removes it, since 1 - (sin(phi0) - w^2)^2 = (eps + w^2)(1 + sin(phi))
@@ -159,14 +159,14 @@ def _sample(
 def paper_model(force: float, EI: float, length: float, n: int = 201) -> ElasticaShape:
     """The paper's analytical model, Eqs. (21)-(23), with Eq. (22) corrected.
 
-    phi0 is the root of Eq. (21) (:func:`tip_angle_from_load`); the shape is sampled at n
+    phi0 is the root of Eq. (21) (``tip_angle_from_load``); the shape is sampled at n
     points uniform in phi in [0, phi0]; s(phi) = sqrt(EI/(2F)) int_0^phi dphi' /
     sqrt(sin(phi0) - sin(phi')) and Eq. (23) are integrated with ``quad`` after the
     substitutions of the module docstring, and x follows the corrected Eq. (22),
 
         x(phi) = sqrt(2EI/F) (sqrt(sin(phi0)) - sqrt(sin(phi0) - sin(phi))).
 
-    The result can be compared point by point with :func:`exact_elastica` at the same s.
+    The result can be compared point by point with ``exact_elastica`` at the same s.
 
     Parameters
     ----------
@@ -208,12 +208,12 @@ def paper_model_as_printed(force: float, EI: float, length: float, n: int = 201)
     Parameters
     ----------
     force, EI, length, n
-        As for :func:`paper_model`.
+        As for ``paper_model``.
 
     Returns
     -------
     ElasticaShape
-        Same ``s``, ``y`` and tip angle as :func:`paper_model`; ``x`` from the printed Eq. (22).
+        Same ``s``, ``y`` and tip angle as ``paper_model``; ``x`` from the printed Eq. (22).
     """
     tip, phi, s, drop, scale = _sample(force, EI, length, n)
     if scale == 0.0:

@@ -8,7 +8,7 @@ qualifies for the constant-curvature arc when it has one tendon pulled at its ba
 physical check of the conserving coupling).
 
 The references read the rods' constants (E I, E_s A, L, the base) from the scene alone
-(:func:`scene_rods`): no model is assembled, no kernel loaded.
+(``scene_rods``): no model is assembled, no kernel loaded.
 """
 
 from __future__ import annotations
@@ -58,7 +58,7 @@ def scene_rods(scene: Scene, names: tuple[str, ...]) -> dict[str, Rod]:
 class CantileverReference:
     """Analytic shapes of the scene's first rod: corrected paper model, exact elastica, and
     the extensible elastica with the rod's own E_s A (``None`` when the tip force reaches
-    E_s A, where :func:`extensible_elastica` has no solution)."""
+    E_s A, where ``extensible_elastica`` has no solution)."""
 
     force: float
     bending_stiffness: float
@@ -122,8 +122,8 @@ def reference_centerline(scene: Scene, kind: str, s: np.ndarray) -> np.ndarray |
     """Reference positions (len(s), 3) [m] of the scene's first rod at rest arc lengths ``s``.
 
     ``exact``, ``paper`` and ``extensible`` need a hanging-mass cantilever (see
-    :func:`cantilever_reference`); ``arc`` needs a single tendon pulled at its base
-    (:func:`~rodsim.core.analytic.tendon_arc.tendon_arc`). Returns ``None`` when the scene does
+    ``cantilever_reference``); ``arc`` needs a single tendon pulled at its base
+    (``rodsim.core.analytic.tendon_arc.tendon_arc``). Returns ``None`` when the scene does
     not qualify.
     """
     if kind not in REFERENCE_KINDS:

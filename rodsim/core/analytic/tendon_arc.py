@@ -27,7 +27,7 @@ __all__ = ["tendon_arc"]
 def tendon_arc(tension: float, offset: float, bending_stiffness: float,
                stretch_stiffness: float, length: float,
                s: np.ndarray | None = None) -> ElasticaShape:
-    """The arc as an :class:`ElasticaShape` (x along the clamp axis, y towards the tendon).
+    """The arc as an ``ElasticaShape`` (x along the clamp axis, y towards the tendon).
 
     ``bending_stiffness`` is the sum of the catheter's and the tendon's E I [N m²];
     ``stretch_stiffness`` the catheter's E_s A [N]. ``tip_angle`` is the arc's total turning

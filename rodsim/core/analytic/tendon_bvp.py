@@ -235,7 +235,7 @@ def tendon_rod(length: float, sections: Sequence[Section], tendons: Sequence[BVP
                tip_moment: ArrayLike = (0.0, 0.0, 0.0),
                s: np.ndarray | None = None, origin: ArrayLike = (0.0, 0.0, 0.0),
                tolerance: float = 1e-12, load_steps: int = 1) -> TendonRodSolution:
-    """The equilibrium of a clamped rod (base at ``origin``, frame :data:`BASE_FRAME`) under
+    """The equilibrium of a clamped rod (base at ``origin``, frame ``BASE_FRAME``) under
     the ``tendons`` and a tip wrench (world frame); ``sections`` cover [0, length] in order.
 
     Newton on the base moment stops when |M(L) − L_tip| < ``tolerance`` · EI/L; the tensions
@@ -309,7 +309,7 @@ def _shoot(m_start: np.ndarray, force: np.ndarray, breaks: list[float],
 
 @dataclass(frozen=True)
 class SceneProblem:
-    """What the reference reads from a scene (:func:`scene_problem`): the catheter's
+    """What the reference reads from a scene (``scene_problem``): the catheter's
     length, spans and base position, its string tendons (with each one's routing and
     friction coefficient μ, in the scene's order) and the tip wrench (world frame)."""
 
@@ -330,7 +330,7 @@ def scene_reference(scene, s: np.ndarray | None = None, shear: bool = True,
     (``shear = False``: unshearable), its tip load's force (mass included, along its
     gravity), its world-frame point_loads at s = L (force and moment) and each tendon's
     tension, termination and routing (frictionless: each tendon's μ is ignored).
-    ``scene`` is a :class:`~rodsim.core.scene.Scene`. Raises ValueError for a scene the
+    ``scene`` is a ``rodsim.core.scene.Scene``. Raises ValueError for a scene the
     reference does not describe (other couplings, several catheters, gravity, a base other
     than the 'frame' clamp)."""
     problem = scene_problem(scene, shear)
@@ -339,7 +339,7 @@ def scene_reference(scene, s: np.ndarray | None = None, shear: bool = True,
 
 
 def scene_problem(scene, shear: bool = True) -> SceneProblem:
-    """The problem :func:`scene_reference` solves, read from ``scene`` (same arguments and
+    """The problem ``scene_reference`` solves, read from ``scene`` (same arguments and
     errors)."""
     from rodsim.core.model import Model
     from rodsim.core.routing import Routing, string_span

@@ -71,7 +71,7 @@ _E3 = np.array([0.0, 0.0, 1.0])
 
 @dataclass(frozen=True)
 class FrictionTendon:
-    """A :class:`BVPTendon` (its ``tension`` is the actuator's T_0) with Coulomb friction
+    """A ``BVPTendon`` (its ``tension`` is the actuator's T_0) with Coulomb friction
     ``friction`` (μ ≥ 0) and its routing's ``curvature(s)`` = ρ″(s), shape (len(s), 2)."""
 
     tendon: BVPTendon
@@ -251,7 +251,7 @@ def friction_tendon_rod(length: float, sections: Sequence[Section],
                         sliding: float = 1.0) -> TendonRodSolution:
     """The equilibrium of a clamped rod under ``tendons`` sliding with friction (``sliding``
     = +1: every tendon pulled in, −1: let out) and a tip wrench, as
-    :func:`~rodsim.core.analytic.tendon_bvp.tendon_rod`; ``extra["tension"]`` holds each
+    ``rodsim.core.analytic.tendon_bvp.tendon_rod``; ``extra["tension"]`` holds each
     tendon's T(s) at ``s`` (len(s), len(tendons)), NaN where the tendon is absent."""
     force = np.asarray(tip_force, dtype=float)
     moment = np.asarray(tip_moment, dtype=float)
@@ -289,7 +289,7 @@ def friction_tendon_rod(length: float, sections: Sequence[Section],
 
 def scene_friction_reference(scene, s: np.ndarray | None = None, shear: bool = True,
                              load_steps: int = 1, sliding: float = 1.0) -> TendonRodSolution:
-    """The reference of a scene as :func:`~rodsim.core.analytic.tendon_bvp.scene_reference`
+    """The reference of a scene as ``rodsim.core.analytic.tendon_bvp.scene_reference``
     reads it, each tendon sliding with its own ``tendon_string.friction`` (a cold solve's
     history: ``sliding = +1``, pulled in from slack)."""
     problem = scene_problem(scene, shear)

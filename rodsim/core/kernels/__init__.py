@@ -10,7 +10,7 @@ second process loads it instead of compiling. Every kernel has the same signatur
 ``x`` is the full state, ``constants`` the term's constants, ``scale`` a factor on the whole
 output (load fraction, penalty continuation). A term hands its constants *by name*: its
 ``kernel_arguments()`` returns a mapping from the kernel's parameter names to values, and
-:meth:`Kernel.bind` orders them by the kernel's own signature (a missing or unknown name is
+``Kernel.bind`` orders them by the kernel's own signature (a missing or unknown name is
 an error, never a silently shifted argument). For element ``e`` the kernel adds ``scale`` ×
 its force on local coordinate ``a`` to ``force[force_target[e, a]]`` and ``scale`` ×
 ∂F_a/∂x_b to ``jacobian[jacobian_target[e, a, b]]`` — the model's free-coordinate index and
@@ -90,7 +90,7 @@ def load_kernel(term: Term) -> Kernel:
 
 @functools.cache
 def _kernel_named(name: str) -> Kernel:
-    """:func:`load_kernel` of the kernel module ``name``, once per process: reading the
+    """``load_kernel`` of the kernel module ``name``, once per process: reading the
     signatures (``inspect``) on every model cost 0.5 ms of each assembly of tdcr-two-segment
     (docs/benchmark-history.md, "Model assembly"). A failure is not cached."""
     try:

@@ -1,7 +1,7 @@
 """Compiled fills of LAPACK band storage straight from a CSC matrix's data (the linear solves of
 rodsim/solvers/linear.py on large models): one pass over the CSC columns, each band column
 zeroed and then written, with no index arrays. The numpy fill through precomputed offsets
-(:class:`rodsim.solvers.linear.LinearSolver`) is the reference; tests/test_linear_band.py
+(``rodsim.solvers.linear.LinearSolver``) is the reference; tests/test_linear_band.py
 checks that both write the same array. Standalone: no other kernel calls them."""
 
 from __future__ import annotations
@@ -36,7 +36,7 @@ def scaled_symmetric_band(ab: np.ndarray, data: np.ndarray, rows: np.ndarray,
     lower band of D S D, S = (K + Kᵀ)/2, K = −J, D = diag(S)^(−1/2), J's entries at ``rows``,
     ``cols`` with values ``data``: S[i, j] (i ≥ j) at ab[i − j, j], each of K[i, j] and
     K[j, i] bringing half. The same operations in the same order as the numpy reference
-    (:meth:`rodsim.core.stability_band.BandStiffness.certified`: a ``bincount`` of the halves
+    (``rodsim.core.stability_band.BandStiffness.certified``: a ``bincount`` of the halves
     in entry order, negated, times the row's scale, times the column's), so the same array.
     Returns 0, or 1 when ``data`` is not finite, 2 when a diagonal entry of S is not
     positive (``ab`` then partly written)."""

@@ -2,7 +2,7 @@
 
     d_t = α d1 + β d2,   d_n = α d2 − β d1 (= d3 × d_t),   D = ∂d/∂q likewise,
 
-from the directors of Eq. (2) (:mod:`rodsim.core.kernels._quaternion`). Every director is a
+from the directors of Eq. (2) (``rodsim.core.kernels._quaternion``). Every director is a
 quadratic form of q, so the q-Hessian of a weighted sum w1·d1 + w2·d2 (with constant
 weights) is the constant 2 Σ_m (w1_m A[0, m] + w2_m A[1, m]), A = ``DIRECTOR_FORMS``.
 """

@@ -1,11 +1,11 @@
-"""Node directors of :mod:`rodsim.core.terms._lumen_segment` for the kernels, one node at a time:
+"""Node directors of ``rodsim.core.terms._lumen_segment`` for the kernels, one node at a time:
 for the unnormalised quaternion sum s = q_{j−1} + q_j and a director combination
 d = Σ_k c_k d_{k+1} (forms B_m = Σ_k c_k A[k, m]),
 
     v = d(s)/|s|² (= d of the bisector frame),   V_m = ∂v_m/∂s = (2/|s|²)(B_m s − v_m s),
     Σ_m w_m ∂²v_m/∂s² = (2/|s|²)(Σ_m w_m B_m − (w·v) I − s (Vᵀw)ᵀ − (Vᵀw) sᵀ),
 
-with the director forms A of :mod:`rodsim.core.kernels._quaternion`.
+with the director forms A of ``rodsim.core.kernels._quaternion``.
 """
 
 from __future__ import annotations

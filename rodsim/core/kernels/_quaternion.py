@@ -1,7 +1,7 @@
 """Quaternion algebra of Eq. (2) for the kernels, one quaternion at a time.
 
 Every director is a quadratic form of q, ``d_k[m] = qᵀ A[k, m] q`` with the constant
-symmetric matrices ``A = DIRECTOR_FORMS`` (:mod:`rodsim.core.rod.quaternion`), so
+symmetric matrices ``A = DIRECTOR_FORMS`` (``rodsim.core.rod.quaternion``), so
 
     ∂d_k[m]/∂q = 2 A[k, m] q,   ∂²(w · d_k)/∂q² = 2 Σ_m w_m A[k, m].
 

@@ -1,5 +1,5 @@
 """Compiled residual of a linear system in twice the working precision, for the iterative
-refinement of the large models' Newton solves (:class:`rodsim.solvers.linear.LinearSolver`).
+refinement of the large models' Newton solves (``rodsim.solvers.linear.LinearSolver``).
 
 r = b − A x for a CSC matrix A: every product a·x is split exactly into its rounded value and
 its rounding error (TwoProduct: the error is fma(a, x, −a·x), exact; LLVM's fused
@@ -26,7 +26,7 @@ from numba.extending import intrinsic
 
 def _fused_multiply_add_typing(typing_context: Any, a: Any, b: Any, c: Any
                                ) -> tuple[Any, Callable[..., Any]]:
-    """numba's typing and code of :data:`_fused_multiply_add`: LLVM's ``llvm.fma.f64``."""
+    """numba's typing and code of ``_fused_multiply_add``: LLVM's ``llvm.fma.f64``."""
     signature = types.float64(types.float64, types.float64, types.float64)
 
     def codegen(context: Any, builder: Any, sig: Any, args: Any) -> Any:

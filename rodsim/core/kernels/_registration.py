@@ -1,20 +1,20 @@
 """The lumen terms' registration rule (§4.1; rodsim/core/terms/lumen.py) compiled: which
 tendon points switch parent at a state, for both couplings.
 
-The numpy methods ``_switches`` of :class:`rodsim.core.terms.lumen.Lumen` (nearest lumen
-point, paper coupling) and :class:`rodsim.core.terms.lumen_conserving.ConservingLumen` (the
+The numpy methods ``_switches`` of ``rodsim.core.terms.lumen.Lumen`` (nearest lumen
+point, paper coupling) and ``rodsim.core.terms.lumen_conserving.ConservingLumen`` (the
 lumen segment a point lies alongside, from the normal planes of the lumen curve at the
 interior nodes) are the reference. Registration is a discrete choice: it must pick the same
 parents as the reference, not merely close numbers. The kernels compute the same quantities
 (distances, signed distances beyond the planes) in another order of operations, so they
 differ from the reference by round-off; wherever a comparison that decides a parent lies
-within :data:`TIE` × the coordinates' magnitude of its threshold, a kernel answers
-:data:`UNDECIDED` and the term applies the numpy rule instead (a point exactly on a plane,
+within ``TIE`` × the coordinates' magnitude of its threshold, a kernel answers
+``UNDECIDED`` and the term applies the numpy rule instead (a point exactly on a plane,
 the rest state of a tendon with the catheter's node count). Away from such ties both
 decide every comparison alike. tests/test_kernels.py compares the two.
 
-Each kernel writes every point's new parent into ``out`` and returns :data:`UNCHANGED`,
-:data:`CHANGED` or :data:`UNDECIDED`.
+Each kernel writes every point's new parent into ``out`` and returns ``UNCHANGED``,
+``CHANGED`` or ``UNDECIDED``.
 """
 
 from __future__ import annotations

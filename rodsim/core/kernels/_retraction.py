@@ -1,9 +1,9 @@
-"""Compiled retractions of a Newton step: :meth:`rodsim.core.model.Model.step` (``retract``: each
+"""Compiled retractions of a Newton step: ``rodsim.core.model.Model.step`` (``retract``: each
 rod's segment lengths and each endpoint coupling's length kept to first order; the numpy code
 in model.py is the reference, tests/test_static_tendon.py checks that the two agree) and
-:meth:`rodsim.core.model.Model.turned_step` (``turn``: each segment turned as a rigid frame,
+``rodsim.core.model.Model.turned_step`` (``turn``: each segment turned as a rigid frame,
 then the endpoint couplings as in ``retract``; the reference is
-:func:`rodsim.core.rod.retraction.turn_segments`, checked by tests/test_retraction_frames.py).
+``rodsim.core.rod.retraction.turn_segments``, checked by tests/test_retraction_frames.py).
 Standalone: no other kernel calls them."""
 
 from __future__ import annotations
@@ -114,9 +114,9 @@ def turn(x: np.ndarray, dx: np.ndarray, y: np.ndarray, rest: np.ndarray, free_of
          couplings: np.ndarray) -> None:
     """Write into ``y`` (= x + dx on entry) the step with each rod's segments turned as rigid
     frames (rodsim/core/rod/retraction.py, same formulas), then the endpoint couplings as in
-    :func:`retract`. ``chains`` holds the full position indices (node, 3) of every rod, rod k
+    ``retract``. ``chains`` holds the full position indices (node, 3) of every rod, rod k
     in rows starts[k]:starts[k+1]; ``quaternions`` the full quaternion indices (segment, 4),
-    rod k in rows starts[k] − k:starts[k+1] − k − 1; ``couplings`` as in :func:`retract`."""
+    rod k in rows starts[k] − k:starts[k+1] − k − 1; ``couplings`` as in ``retract``."""
     n = x.shape[0]
     q = np.empty(4)
     dq = np.empty(4)

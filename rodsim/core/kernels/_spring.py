@@ -1,5 +1,5 @@
 """A linear spring of rest length ℓ between two nodes (a, b), edge e = r_b − r_a, shared by
-the stretch (Eq. 6, one k per segment: :func:`springs`) and endpoint-coupling (Eq. 29)
+the stretch (Eq. 6, one k per segment: ``springs``) and endpoint-coupling (Eq. 29)
 kernels:
 
     F = k (|e| − ℓ) ê on a, minus that on b,
@@ -100,7 +100,7 @@ def spring(x: np.ndarray, dofs: np.ndarray, stiffness: float, rest: float, scale
 def springs(x: np.ndarray, dofs: np.ndarray, stiffness: np.ndarray, rest: float, scale: float,
             want_force: bool, force: np.ndarray, force_target: np.ndarray,
             want_jacobian: bool, jacobian: np.ndarray, jacobian_target: np.ndarray) -> None:
-    """:func:`spring` with one k per element, ``stiffness[e]``."""
+    """``spring`` with one k per element, ``stiffness[e]``."""
     local_force = np.empty(6)
     local_jacobian = np.empty((6, 6))
     t = np.empty(3)

@@ -1,4 +1,4 @@
-"""Kernel of :mod:`rodsim.core.terms.bend_twist`, Eqs. (3), (7), (8): per element (a, b) =
+"""Kernel of ``rodsim.core.terms.bend_twist``, Eqs. (3), (7), (8): per element (a, b) =
 (q_{i−1}, q_i), or a frame element with one side a support's constant frame (``fixed[e]``
 = 1: a = ``frames[e]``, as (q_c, q_0) at a clamped base; 2: b = ``frames[e]``; 0: neither),
 with the element's stiffness K_k of Eq. (8) (``stiffness[e, k]``) and the dual length l̄,

@@ -1,4 +1,4 @@
-"""Kernel of :mod:`rodsim.core.terms.centerline`, Eq. (9), on the offset state: per segment
+"""Kernel of ``rodsim.core.terms.centerline``, Eq. (9), on the offset state: per segment
 (r_j, r_{j+1}, q_j), with W = K_P l, e = r_{j+1} − r_j, t = e/|e|, P = I − t tᵀ,
 q = q⁰ + δ, d3 = d3(q_j) and G = ∂d3/∂q (Eq. 2),
 

@@ -1,4 +1,4 @@
-"""Kernel of :mod:`rodsim.core.terms.endpoint_compliance`, Eq. (28): on (t, r_N, q_last),
+"""Kernel of ``rodsim.core.terms.endpoint_compliance``, Eq. (28): on (t, r_N, q_last),
 
     Δ = L_N − t = r_N + r_L d_t(q) − t,   ∂Δ/∂(t, r_N, q) = G = [−I, I, r_L D_t],
     paper:       F = (K_E Δ, 0, 0),            ∂F/∂x = K_E G on the t rows, zero elsewhere;
@@ -6,8 +6,8 @@
                  ∂F/∂x = −K_E GᵀG − K_E r_L Σ_m Δ_m H_t[m] on the (q, q) block,
 
 with D_t = ∂d_t/∂q and H_t[m] = ∂²d_t[m]/∂q², so Σ_m Δ_m H_t[m] = ∂²(Δ·d_t)/∂q² at frozen Δ
-(:mod:`rodsim.core.kernels._lumen_frame`). The energy ½ K_E |Δ|² of the conserving coupling
-(:func:`energy`; the paper's has none) is what the line searches evaluate: in numpy it was
+(``rodsim.core.kernels._lumen_frame``). The energy ½ K_E |Δ|² of the conserving coupling
+(``energy``; the paper's has none) is what the line searches evaluate: in numpy it was
 four calls of ~21 µs in each energy of four-tendons (docs/benchmark-history.md).
 """
 

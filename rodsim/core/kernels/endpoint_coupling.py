@@ -1,6 +1,6 @@
-"""Kernel of :mod:`rodsim.core.terms.endpoint_coupling`, Eq. (29): a spring of stiffness K_C and
+"""Kernel of ``rodsim.core.terms.endpoint_coupling``, Eq. (29): a spring of stiffness K_C and
 rest length r_L between the catheter's tip r_N and the tendon's tip t
-(:func:`rodsim.core.kernels._spring.spring`, edge e = t − r_N).
+(``rodsim.core.kernels._spring.spring``, edge e = t − r_N).
 """
 
 from __future__ import annotations

@@ -1,6 +1,6 @@
-"""Kernel of :mod:`rodsim.core.terms.joint`: per joint, the zero-length spring
+"""Kernel of ``rodsim.core.terms.joint``: per joint, the zero-length spring
 ½ K_J |r_B − r_A|² on (r_A, r_B) and, with the frame tied, the bending element of
-:mod:`rodsim.core.kernels.bend_twist` on the two quaternions (a, b) — that kernel, called
+``rodsim.core.kernels.bend_twist`` on the two quaternions (a, b) — that kernel, called
 on the joint's quaternion coordinates and their slots."""
 
 from __future__ import annotations

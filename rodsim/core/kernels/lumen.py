@@ -1,4 +1,4 @@
-"""Kernel of :mod:`rodsim.core.terms.lumen` (the paper's coupling), Eqs. (24)–(27),
+"""Kernel of ``rodsim.core.terms.lumen`` (the paper's coupling), Eqs. (24)–(27),
 (32)–(35): per tendon point p and its parent catheter node (r, q), local coordinates
 (p, r, q),
 
@@ -11,7 +11,7 @@
     F = −K_L (C_t ∇C_t + C_n ∇C_n),   ∂F/∂x = −K_L (∇C_t ∇C_tᵀ + C_t ∇²C_t + (same for n)),
 
 with D = ∂d/∂q and the constant form Hessians ∂²(w·d)/∂q² at frozen weights w
-(:mod:`rodsim.core.kernels._lumen_frame`). The C_n part only for ``constrain = "both"``: with
+(``rodsim.core.kernels._lumen_frame``). The C_n part only for ``constrain = "both"``: with
 ``"d_t"`` the kernel sets d_n and D_n to zero, which drops it exactly. The paper's coupling
 (§4.1, Eq. 35) keeps the tendon-point rows, puts −share × them on the parent node's rows
 (share = 1 / number of points registered to that node) and zeros the quaternion rows.

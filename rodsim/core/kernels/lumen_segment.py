@@ -1,5 +1,5 @@
-"""Kernel of :mod:`rodsim.core.terms.lumen_conserving` (the conserving coupling), Eqs. (24)–(27),
-(32)–(35) with docs/design.md, erratum 13 (:mod:`rodsim.core.terms._lumen_segment`): per
+"""Kernel of ``rodsim.core.terms.lumen_conserving`` (the conserving coupling), Eqs. (24)–(27),
+(32)–(35) with docs/design.md, erratum 13 (``rodsim.core.terms._lumen_segment``): per
 tendon point p on lumen segment j, local coordinates (p, r_j, r_{j+1}, q_{j−1}, q_j, q_{j+1}),
 
     L_j = r_j + r_L u(s_j),  τ_j = t(s_j),  s_j = Σ_k weights[e, 0, k] q_slot k  (j + 1 likewise),
@@ -16,10 +16,10 @@ pulled back through the chain G = ∂y/∂x (21 × width, y = (p, L_j, L_{j+1}, 
 K_{j+1})), plus Σ_m f_{K,m} ∂²K_T,m on the stencil (f_K = f_{K_j} + f_{K_{j+1}}):
 F = −Gᵀ f_y,  ∂F/∂x = −(Gᵀ ∇²_y E G + Σ over both nodes of r_L Σ_m f_{L,m} ∂²u_m/∂s²
 + Σ_m f_{τ,m} ∂²t_m/∂s² on the node's two quaternions), u, t and their derivatives from
-:mod:`rodsim.core.kernels._node_frame`. k = K_L × the point's share of the tendon's length, one
+``rodsim.core.kernels._node_frame``. k = K_L × the point's share of the tendon's length, one
 value per element; ``ends`` marks elements on the catheter's first and last segment, where
-the lumen goes on straight beyond the catheter (:func:`rodsim.core.terms._lumen_segment.hermite`);
-``weights`` (n, 2, 3) are :func:`rodsim.core.terms._lumen_segment.node_weights`.
+the lumen goes on straight beyond the catheter (``rodsim.core.terms._lumen_segment.hermite``);
+``weights`` (n, 2, 3) are ``rodsim.core.terms._lumen_segment.node_weights``.
 """
 
 from __future__ import annotations
@@ -172,7 +172,7 @@ def _locate(x: np.ndarray, dofs: np.ndarray, e: int, offset: float, length: floa
             w: np.ndarray, w1: np.ndarray, w2: np.ndarray, delta: np.ndarray,
             slope: np.ndarray, bend: np.ndarray) -> None:
     """Element ``e``'s node frames, tendon turn, y, the closest point σ and the weights,
-    Δ = L(σ) − p, L′ and L″ at σ, all in place (what :func:`evaluate` and :func:`energy`
+    Δ = L(σ) − p, L′ and L″ at σ, all in place (what ``evaluate`` and ``energy``
     share)."""
     for node in range(2):
         for a in range(4):
@@ -347,7 +347,7 @@ def energy(x: np.ndarray, dofs: np.ndarray, alpha: float, beta: float, offset: f
            stiffness: np.ndarray, length: float, ends: np.ndarray, weights: np.ndarray,
            sagitta: np.ndarray, tendon_length: float) -> float:
     """E = Σ_e ½ k_e |Δ_e|², Δ at the closest point σ (the numpy reference:
-    :meth:`rodsim.core.terms._lumen_segment.PointOnLumenCurve.energy`)."""
+    ``rodsim.core.terms._lumen_segment.PointOnLumenCurve.energy``)."""
     lumen_c = np.array([alpha, beta, 0.0])
     tangent_c = np.array([0.0, 0.0, 1.0])
     s = np.empty((2, 4))

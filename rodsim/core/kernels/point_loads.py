@@ -1,4 +1,4 @@
-"""Kernel of :mod:`rodsim.core.terms.point_loads`: per load, on (r_j, r_{j+1}, q_a, q_b) with the
+"""Kernel of ``rodsim.core.terms.point_loads``: per load, on (r_j, r_{j+1}, q_a, q_b) with the
 weights (1 − t, t) of its arclength in segment j, the interpolated q̃ = w_a q_a + w_b q_b, the
 moment's shares (μ_a, μ_b) on q_a and q_b, d_k the directors of Eq. (2), G_k = ∂d_k/∂q,
 ñ² = |q̃|² and the unit directors at s D_k = d_k(q̃) / ñ²; for each c of the pair, q = q_c

@@ -1,7 +1,7 @@
-"""Kernel of :mod:`rodsim.core.terms.stretch`, Eq. (6), on the offset state: per segment
+"""Kernel of ``rodsim.core.terms.stretch``, Eq. (6), on the offset state: per segment
 (r_j, r_{j+1}) the energy ½ K_s l (|e|/l − 1)² is a spring of stiffness k = K_s / l whose
 stretch |e| − l is formed as |e| − |E| from the displacements without cancellation
-(:func:`rodsim.core.kernels._spring.offset_edge`, E the rest edge): F = k (|e| − |E|) ê on
+(``rodsim.core.kernels._spring.offset_edge``, E the rest edge): F = k (|e| − |E|) ê on
 r_j, minus on r_{j+1}; H = k [ê êᵀ + ((|e| − |E|) / |e|)(I − ê êᵀ)],
 ∂F/∂(r_j, r_{j+1}) = [[−H, H], [H, −H]].
 """

@@ -1,10 +1,10 @@
-"""Kernel of :mod:`rodsim.core.terms.tendon_actuation` at the distal end (§4.3, F_A in F_net of
+"""Kernel of ``rodsim.core.terms.tendon_actuation`` at the distal end (§4.3, F_A in F_net of
 Eq. 31): a follower load on (t, q_last),
 
     F = (−F_A d3(q), 0),   ∂F/∂x = −F_A ∂d3/∂q in the (t, q) block, zero elsewhere,
 
-with d3 and ∂d3/∂q from :mod:`rodsim.core.kernels._quaternion`. The proximal pull is a dead load
-and uses :mod:`rodsim.core.kernels.constant_force`.
+with d3 and ∂d3/∂q from ``rodsim.core.kernels._quaternion``. The proximal pull is a dead load
+and uses ``rodsim.core.kernels.constant_force``.
 """
 
 from __future__ import annotations

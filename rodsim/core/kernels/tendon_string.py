@@ -1,4 +1,4 @@
-"""Kernel of :mod:`rodsim.core.terms.tendon_string`: V = T ℓ, one element per chord of the
+"""Kernel of ``rodsim.core.terms.tendon_string``: V = T ℓ, one element per chord of the
 tendon's path between routing points A and B (28 coordinates: r_m, r_{m+1}, Q_0, Q_1 of A,
 then of B). For a point with weights (c0, c1, w0, w1), constant quaternion q_c and forms G_m,
 

@@ -1,6 +1,6 @@
-"""Kernel of :mod:`rodsim.core.terms.tendon_string_displacement`: one element, the m
+"""Kernel of ``rodsim.core.terms.tendon_string_displacement``: one element, the m
 coordinates of the tendon's span. The chords' lengths, gradients and Hessians are
-:mod:`rodsim.core.kernels.tendon_string`'s, accumulated into the span through
+``rodsim.core.kernels.tendon_string``'s, accumulated into the span through
 ``chord_local`` (each chord coordinate's position in the span) and ``chord_pairs`` (its
 flattened pairs); with ℓ = Σ chords, T = k max(0, ℓ − ℓ*) (k = E A / ℓ*):
 

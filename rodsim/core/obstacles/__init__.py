@@ -3,15 +3,15 @@ registry that finds them (issue 25).
 
 A scene lists obstacles as ``[obstacles.<name>]`` tables with a ``type`` (a registered
 obstacle: ``plane``, ``sphere``, ``tube``), the ``rods`` it applies to and the contact law's
-scales; each type declares its own geometry parameters. Defining an :class:`Obstacle`
-subclass with a new ``type`` registers it (:func:`registered_obstacles` imports every module
+scales; each type declares its own geometry parameters. Defining an ``Obstacle``
+subclass with a new ``type`` registers it (``registered_obstacles`` imports every module
 of this package). The contact term (rodsim/core/terms/contact.py) turns an obstacle into a
 penalty on the rod's nodes; the obstacle only gives the geometry: the signed gap φ(p) of a
 point p (> 0 in free space, distance to the surface where it is smooth), its gradient and its
 Hessian.
 
-:func:`resolve_obstacles` validates the ``obstacles`` tables of a raw scene against the rods
-(one-line :class:`~rodsim.core.schema.SceneError` for every bad input).
+``resolve_obstacles`` validates the ``obstacles`` tables of a raw scene against the rods
+(one-line ``rodsim.core.schema.SceneError`` for every bad input).
 """
 
 from __future__ import annotations
@@ -113,7 +113,7 @@ class Obstacle(ABC):
         """The obstacle as drawn in the plane of the world axes ``view`` (the third axis at
         depth ``level``) within the box ``lower``–``upper`` (3,): curves, each (k, 3) world
         points. By default the surface φ = 0 cut by that plane (marching squares on a grid
-        of :meth:`gap`, so an obstacle type without a drawing of its own is still drawn);
+        of ``gap``, so an obstacle type without a drawing of its own is still drawn);
         a type overrides it with its exact outline."""
         from rodsim.core.obstacles._drawing import zero_level
 
@@ -123,7 +123,7 @@ class Obstacle(ABC):
                 ) -> tuple[np.ndarray, np.ndarray] | None:
         """A triangulated surface near the box ``lower``–``upper``: vertices (n, 3) and
         triangles (m, 3); None (the default) when the type has none, and the 3-D view
-        draws its :meth:`outline` in the three planes through the box's centre."""
+        draws its ``outline`` in the three planes through the box's centre."""
         return None
 
 

@@ -2,7 +2,7 @@
 does not): the zero level of a gap function in a plane of the world axes, and triangulated
 surfaces of the shapes the shipped obstacles are made of.
 
-Every obstacle has an outline through :func:`zero_level` (marching squares on a grid of
+Every obstacle has an outline through ``zero_level`` (marching squares on a grid of
 φ(p) in the plane: the surface φ = 0 cut by that plane, to a grid cell), so an obstacle
 type added without a drawing of its own is still drawn; the shipped types give exact ones.
 """

@@ -61,7 +61,7 @@ class RodGeometry:
         function of the linear interpolation between control points (1 at s_i, 0 at its
         neighbours). A load per length q on [start, end] puts q × this on the control points
         (the consistent share of its virtual work); on [0, L] it equals
-        :attr:`node_mass_fraction`."""
+        ``node_mass_fraction``."""
         seg = self.segment_length
         left = np.arange(self.segments) * seg
         t0 = np.clip((start - left) / seg, 0.0, 1.0)

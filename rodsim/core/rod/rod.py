@@ -47,8 +47,8 @@ ROD_PARAMETERS: tuple[Parameter, ...] = (
 @dataclass(frozen=True, kw_only=True)
 class RodOptions(Options):
     """A validated rod table's own values ([rods.<name>], SI units), typed: one field per
-    :data:`ROD_PARAMETERS` (checked by tests/test_types.py); its per-term sub-tables are the
-    terms' own options (:attr:`rodsim.core.terms.base.Term.Options`)."""
+    ``ROD_PARAMETERS`` (checked by tests/test_types.py); its per-term sub-tables are the
+    terms' own options (``rodsim.core.terms.base.Term.Options``)."""
 
     length: float
     radius: float
@@ -71,7 +71,7 @@ class Rod:
     name
         Key of the rod in the scene (``[rods.<name>]``).
     options
-        The rod table's own values (a :data:`RodOptions`, SI units).
+        The rod table's own values (a ``RodOptions``, SI units).
     layout
         Where the rod's coordinates sit in the global state.
     support
@@ -101,7 +101,7 @@ class Rod:
 
     @cached_property
     def profile(self) -> SectionProfile | None:
-        """The rod's spans (:mod:`rodsim.core.rod.sections`), ``None`` for a uniform rod."""
+        """The rod's spans (``rodsim.core.rod.sections``), ``None`` for a uniform rod."""
         if not self.sections:
             return None
         return SectionProfile.of(self.sections, {name: getattr(self.options, name)
@@ -226,7 +226,7 @@ class Rod:
         cantilever's tip stiffness) plus min(E_s A |δ∥| / s, 2.05 π² E I / s²) along it
         (axial stiffness, up to the buckling load of a clamped–pinned column). A scale, not
         a prediction: what F_ref adds for a displacement as it adds a load's size
-        (:meth:`rodsim.core.model.Model._build_scales`)."""
+        (``rodsim.core.model.Model._build_scales``)."""
         total, held = 0.0, 0.0
         rest = self.rest_positions()
         for support in sorted(self.node_supports, key=lambda support: support.s):
@@ -254,7 +254,7 @@ class Rod:
         The kinetic energy of a segment's rotation is ½ ω·(ρ I l) ω with ω = 2 Q(q)ᵀ q̇ for
         a unit quaternion, i.e. ½ (4 ρ I l) |q̇|² (isotropic approximation with the
         transverse moment I, Eqs. 12–13). Only the pseudo-dynamics use it; the physical
-        rotary inertia (ρ I and ρ J, rank 3) is :mod:`rodsim.core.inertia`.
+        rotary inertia (ρ I and ρ J, rank 3) is ``rodsim.core.inertia``.
         """
         if self.profile is not None:
             left = np.arange(self.nodes - 1) * self.geometry.segment_length

@@ -87,7 +87,7 @@ MIN_GEOMETRY = float(np.finfo(float).tiny)
 
 def resolve_sections(raw: Any, rod: Mapping[str, Any], prefix: str) -> list[dict[str, Any]]:
     """The validated spans of ``[[<prefix>.sections]]`` (``rod``: the rod's resolved table),
-    each with every default filled in except the rod's own values (:data:`INHERITED`) it does
+    each with every default filled in except the rod's own values (``INHERITED``) it does
     not set; SceneError (one line) for bad input, spans that are not increasing, overlap,
     leave a gap or do not cover [0, L]."""
     key = f"{prefix}.sections"
@@ -155,7 +155,7 @@ class SectionProfile:
 
     @classmethod
     def of(cls, spans: Sequence[Mapping[str, Any]], rod: Mapping[str, Any]) -> SectionProfile:
-        """The profile of resolved ``spans``; ``rod`` gives the values of :data:`INHERITED`
+        """The profile of resolved ``spans``; ``rod`` gives the values of ``INHERITED``
         a span does not set."""
         def column(name: str) -> np.ndarray:
             return np.array([float(span.get(name, rod.get(name))) for span in spans])

@@ -1,8 +1,8 @@
 """Energy and penalty terms, one file each, and the registry that finds them.
 
-See :mod:`rodsim.core.terms.base` for the contract. To add a term, add one file here defining a
+See ``rodsim.core.terms.base`` for the contract. To add a term, add one file here defining a
 ``RodTerm`` or ``TendonTerm`` subclass with a new ``name``; nothing else changes:
-:func:`registered_terms` imports every module of this package on first use.
+``registered_terms`` imports every module of this package on first use.
 """
 
 from __future__ import annotations
@@ -35,7 +35,7 @@ def term_keys(scope: str) -> list[str]:
 def term_class(key: str, owner: Mapping[str, Any]) -> type[Term]:
     """The term class the scene key ``key`` builds for the owner table ``owner`` (a rod's or
     a tendon's own values): the registered class of that key that the table selects
-    (:meth:`Term.selected_by`; the lumen's ``coupling``). KeyError when none does."""
+    (``Term.selected_by``; the lumen's ``coupling``). KeyError when none does."""
     for cls in registered_terms().values():
         if cls.key == key and cls.selected_by(owner):
             return cls

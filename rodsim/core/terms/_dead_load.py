@@ -3,8 +3,8 @@
     V = −Σ_i F_i · r_i
 
 Self-weight and a load per unit length are such loads; they differ only in how the nodal
-forces F_i are computed (:meth:`NodalDeadLoad.nodal_forces`). No Jacobian entries; the
-compiled kernel is :mod:`rodsim.core.kernels.constant_force`.
+forces F_i are computed (``NodalDeadLoad.nodal_forces``). No Jacobian entries; the
+compiled kernel is ``rodsim.core.kernels.constant_force``.
 """
 
 from __future__ import annotations

@@ -28,7 +28,7 @@ node tangents, L(σ) = h00 L_j + h01 L_{j+1} + l̄ (h10 τ_j + h11 τ_{j+1}) (l�
 rest segment length), so the curve is tangent to τ_j at every node: its normal planes — and
 so the offset of a point from it — pass continuously from one segment to the next. Beyond
 the catheter's ends it goes on straight along τ_0 and τ_{N−1} (where a sliding tendon
-leaves the catheter; :func:`hermite`). A
+leaves the catheter; ``hermite``). A
 straight segment between the lumen points would push the tendon at right angles to the
 chord rather than to the tendon, which changes the tension by T φ² (½ − σ) at every point
 (φ the turning per segment): a first-order error when the points sit off the segments'
@@ -48,13 +48,13 @@ its ends. So the curve a tendon point is held to is
 
 K_T = (e₊ − e₋)/l_T the curvature vector of the tendon's own chain at the point (e± the
 unit vectors of its chords after and before it; at the base point the turn at the next
-vertex; :class:`TendonTurn`; l_C, l_T the rest segment lengths): a chain of l_T chords in M
+vertex; ``TendonTurn``; l_C, l_T the rest segment lengths): a chain of l_T chords in M
 is as long as a chain of l_C chords in L, whatever N_T. c = 0 when N_T = N_C. On the
 catheter's last segment the offset tapers to 0 at the tip, c g(σ) K_T with
 g = 1 + 2σ − 3σ² (∫₀¹ g = 1), because the tendon's endpoint is held there by Eqs. (28)–(29)
 at no offset (a jump to 0 over one tendon chord would cost δ²/l_T, which grows as l_T
 falls); and when the tendon's chords are longer than the catheter's, its last lumen-held
-point takes c × 3/2 (:data:`TIP_SHARE`), the share of the chord to the unshifted endpoint
+point takes c × 3/2 (``TIP_SHARE``), the share of the chord to the unshifted endpoint
 (a chain computed apart, 2-D with a continuous catheter, balances uniform curvature at 1.41
 for N_T = 10).
 
@@ -87,7 +87,7 @@ f_y = k w ⊗ Δ, f_yy = k w wᵀ ⊗ I, f_yσ = k (w′ ⊗ Δ + w ⊗ L′), f
 
 Each element couples (p, r_j, r_{j+1}, q_{j−1}, q_j, q_{j+1}), 21 coordinates (30 with the
 tendon stencil of the chord correction); s_j and s_{j+1}
-are weighted sums of these three quaternion slots (:func:`node_weights`); at the ends a slot
+are weighted sums of these three quaternion slots (``node_weights``); at the ends a slot
 repeats a segment (the slots' contributions add up).
 """
 
@@ -150,7 +150,7 @@ class TendonTurn:
     """The tendon's discrete curvature vector at a vertex, K_T = (e₊ − e₋)/l_T, from the
     stencil (p_{b−1}, p_b, p_{b+1}) (n, 9), e± the unit vectors along the chords after and
     before p_b and l_T the tendon's rest segment length; its gradient (n, 3, 9) and the
-    Hessian of g·K_T (:meth:`hessian`). For a unit vector e = d/r (r = |d|) and P = I − e eᵀ:
+    Hessian of g·K_T (``hessian``). For a unit vector e = d/r (r = |d|) and P = I − e eᵀ:
     ∂e/∂d = P/r and ∂²(g·e)/∂d² = −((e·g) P + e (P g)ᵀ + (P g) eᵀ)/r²."""
 
     def __init__(self, stencil: np.ndarray, length: float) -> None:
@@ -190,7 +190,7 @@ class TendonTurn:
 
 class NodeDirector:
     """v = d(s)/|s|² for unnormalised quaternion sums s (n, 4) and a director with forms
-    B (3, 4, 4); its gradient ``grad`` (n, 3, 4) and weighted Hessian (:meth:`hessian`)."""
+    B (3, 4, 4); its gradient ``grad`` (n, 3, 4) and weighted Hessian (``hessian``)."""
 
     def __init__(self, forms: np.ndarray, s: np.ndarray) -> None:
         self.s = s

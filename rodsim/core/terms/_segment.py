@@ -1,6 +1,6 @@
 """Shared geometry of the centerline segments ``e_j = r_{j+1} − r_j`` (used by Eqs. 6 and 9).
 
-:meth:`Segments.about` forms them from the offset state (docs/model.md, "The offset state
+``Segments.about`` forms them from the offset state (docs/model.md, "The offset state
 and the residual floor"): each edge is its rest edge E_j plus the difference Δ_j of its two
 nodes' displacements, and its length change and tangent change are computed from Δ_j
 without cancellation,
@@ -56,8 +56,8 @@ class Segments:
 
 @dataclass(frozen=True)
 class OffsetSegments(Segments):
-    """:class:`Segments` formed about a rest shape: also ``change`` = |e| − |E| (n,) and
-    ``turn`` = t − T (n, 3), each without cancellation (:meth:`Segments.about`)."""
+    """``Segments`` formed about a rest shape: also ``change`` = |e| − |E| (n,) and
+    ``turn`` = t − T (n, 3), each without cancellation (``Segments.about``)."""
 
     change: np.ndarray
     turn: np.ndarray

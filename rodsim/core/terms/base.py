@@ -1,6 +1,6 @@
 """The Term contract and the registry that collects every term.
 
-An energy term is one file in :mod:`rodsim.core.terms` defining one :class:`Term` subclass with a
+An energy term is one file in ``rodsim.core.terms`` defining one ``Term`` subclass with a
 unique ``name``. Defining the class registers it; a scene names the terms it uses and only
 those are built, so a term a scene does not list costs nothing.
 
@@ -13,7 +13,7 @@ element, the generalised force on those coordinates and its derivative:
 - ``energy(x)``            -> float:           Σ E_e (``None`` for non-conservative terms)
 
 These numpy methods are the readable reference. Each term also has a compiled kernel, one
-file in :mod:`rodsim.core.kernels` named after the term (or ``kernel``), which computes the same
+file in ``rodsim.core.kernels`` named after the term (or ``kernel``), which computes the same
 element forces and Jacobians with numba and accumulates them straight into the model's force
 vector and CSC Jacobian data; ``kernel_arguments`` hands it the term's constants by the
 names of the kernel's parameters (bound to its signature by name). The model
@@ -21,8 +21,8 @@ picks the path (``solver.kernels``); the contract test checks both against each 
 against finite differences.
 
 A term is immutable once built: a dynamic term's registration (a tendon point's parent) is
-changed by building a new term (:meth:`Term.registered`), so are a path-dependent term's
-anchors (friction: :meth:`Term.anchored`, set between the steps of a track), and a
+changed by building a new term (``Term.registered``), so are a path-dependent term's
+anchors (friction: ``Term.anchored``, set between the steps of a track), and a
 penalty's continuation scale and a load's fraction are applied by the model as a factor on
 the term's whole output.
 
@@ -74,7 +74,7 @@ class Term(ABC):
         A frozen dataclass with one typed field per parameter; a term is built with an
         instance of it (``Options.of(table)`` types a validated table) and reads attributes
         (``self.options.K_P``). Every shipped term declares its own
-        (:class:`rodsim.core.schema.Options` subclass, ``Options = CenterlineOptions``;
+        (``rodsim.core.schema.Options`` subclass, ``Options = CenterlineOptions``;
         annotate ``options: CenterlineOptions`` for the type checker), which is checked
         against ``parameters`` when the class is defined; a term that declares none gets
         one made at run time (a type checker then sees only the base class).
@@ -86,8 +86,8 @@ class Term(ABC):
         ``False`` for state-independent forces (no Jacobian entries, no pattern).
     dynamic
         ``True`` when an element's coordinates depend on a discrete state of the term (a
-        tendon point's parent catheter node), which :meth:`registration` applies to a state
-        and :meth:`registered` sets, between solver steps; ``dofs`` changes with it.
+        tendon point's parent catheter node), which ``registration`` applies to a state
+        and ``registered`` sets, between solver steps; ``dofs`` changes with it.
 
     ``conservative``, ``is_load`` and ``has_jacobian`` may be overridden per instance
     (a term whose behaviour depends on its parameters).
@@ -168,9 +168,9 @@ class Term(ABC):
     dofs: np.ndarray
 
     def __init__(self, owner: Any, options: Any, *context: Any) -> None:
-        """A term is built from its owner (a :class:`~rodsim.core.rod.rod.Rod` or a
-        :class:`~rodsim.core.tendon.Tendon`), its :attr:`Options` and, for a term that
-        :attr:`joins_rods`, the model's rods (:class:`RodTerm`, :class:`TendonTerm`)."""
+        """A term is built from its owner (a ``rodsim.core.rod.rod.Rod`` or a
+        ``rodsim.core.tendon.Tendon``), its ``Options`` and, for a term that
+        ``joins_rods``, the model's rods (``RodTerm``, ``TendonTerm``)."""
         self.options = options
 
     def __init_subclass__(cls, **kwargs: Any) -> None:
@@ -182,7 +182,7 @@ class Term(ABC):
     @classmethod
     def selected_by(cls, owner: Mapping[str, Any]) -> bool:
         """Whether the owner's table (a rod's or a tendon's own values, validated) selects
-        this class for its :attr:`key`; a key with one class: always."""
+        this class for its ``key``; a key with one class: always."""
         return True
 
     @abstractmethod
@@ -192,8 +192,8 @@ class Term(ABC):
     @classmethod
     def check_scene(cls, options: Any, owner: Any, prefix: str) -> None:
         """Checks of this term's ``options`` that need its owner's values (a rod term: the
-        rod's :data:`~rodsim.core.rod.rod.RodOptions`, e.g. an arclength within the rod's
-        length); raise :class:`~rodsim.core.schema.SceneError` with a one-line message
+        rod's ``rodsim.core.rod.rod.RodOptions``, e.g. an arclength within the rod's
+        length); raise ``rodsim.core.schema.SceneError`` with a one-line message
         naming ``prefix``. Called once per use when a scene is resolved; default: none."""
         return None
 
@@ -213,7 +213,7 @@ class Term(ABC):
     def kernel_arguments(self) -> KernelArguments:
         """The constants the compiled kernel takes after the state (arrays and floats), by
         the names of the kernel's parameters: the model binds them to the kernel's signature
-        by name (:meth:`rodsim.core.kernels.Kernel.bind`), so their order does not matter and
+        by name (``rodsim.core.kernels.Kernel.bind``), so their order does not matter and
         a missing or unknown name is an error."""
         raise NotImplementedError(f"term {self.name!r} has no compiled kernel")
 
@@ -237,7 +237,7 @@ class Term(ABC):
     def from_table(cls, name: str, table: Mapping[str, Any],
                    rods: Mapping[str, Rod]) -> list[tuple[str, Term]]:
         """The terms one entry ``[<scene_table>.<name>]`` of a term with a
-        :attr:`scene_table` builds, each with its key (unique within the entry: the model
+        ``scene_table`` builds, each with its key (unique within the entry: the model
         names the term ``(scene_table, name, key)``), from the validated ``table`` and the
         model's rods."""
         raise NotImplementedError(f"term {cls.name!r} is not built from a scene table")
@@ -245,7 +245,7 @@ class Term(ABC):
     def rigid_links(self) -> np.ndarray:
         """Global position indices (a, b), shape (k, 6), of the stiff two-point links of
         fixed length this term holds, which a Newton step keeps to first order
-        (:meth:`rodsim.core.model.Model.step`); none by default."""
+        (``rodsim.core.model.Model.step``); none by default."""
         return np.zeros((0, 6), dtype=int)
 
     def latent_stiffness(self) -> tuple[np.ndarray, float] | None:
@@ -253,14 +253,14 @@ class Term(ABC):
         away from the rest state although its Jacobian at rest shows none — a contact that
         appears (rodsim/core/terms/contact.py) — or ``None`` (every other term: its rest
         Jacobian is its stiffness's scale). The pseudo-dynamics' mass scaling counts it
-        (:func:`rodsim.solvers.pseudo_dynamics.pseudo_masses`)."""
+        (``rodsim.solvers.pseudo_dynamics.pseudo_masses``)."""
         return None
 
     def point_masses(self) -> tuple[np.ndarray, np.ndarray] | None:
         """(global position indices (k, 3), masses (k,) [kg]) of the point masses this term
         attaches to control points — a hanging mass's inertia (rodsim/core/terms/tip_load.py)
         — or ``None`` (every other term). The physical mass model adds them
-        (:mod:`rodsim.core.inertia`); statics and the pseudo-dynamics do not read them."""
+        (``rodsim.core.inertia``); statics and the pseudo-dynamics do not read them."""
         return None
 
     def material_stiffness(self, x: np.ndarray) -> np.ndarray | None:
@@ -282,25 +282,25 @@ class Term(ABC):
 
     def anchors_at(self, full: np.ndarray) -> np.ndarray | None:
         """The anchors the equilibrium ``full`` (full state) gives this path-dependent term,
-        or ``None`` (see :meth:`anchor_positions`)."""
+        or ``None`` (see ``anchor_positions``)."""
         return None
 
     def anchored(self, anchors: np.ndarray) -> Term:
         """A copy of this path-dependent term with the anchors ``anchors``
-        (:meth:`rodsim.core.model.Model.anchored` sets them after a converged step)."""
+        (``rodsim.core.model.Model.anchored`` sets them after a converged step)."""
         raise NotImplementedError(f"term {self.name!r} holds no anchors")
 
     def registration_state(self) -> np.ndarray | None:
-        """A dynamic term's current discrete state (what :meth:`registered` takes), or
+        """A dynamic term's current discrete state (what ``registered`` takes), or
         ``None`` for a term without registration."""
         return None
 
     def with_options(self, options: Any) -> Term | None:
-        """This term with the options ``options`` (an :attr:`Options` of its class) made
+        """This term with the options ``options`` (an ``Options`` of its class) made
         from this one without rebuilding what they do not change — the same elements,
         registration and geometry, new constants (a string tendon's tension: its routing
         points kept) — or ``None``: build it anew (the default;
-        :meth:`rodsim.core.model.Model.with_values`). The term returned must equal the one
+        ``rodsim.core.model.Model.with_values``). The term returned must equal the one
         the constructor builds from ``options``."""
         return None
 
@@ -318,7 +318,7 @@ class RodTerm(Term):
 
 class TendonTerm(Term):
     """A term coupling a tendon rod to its catheter, configured by ``[tendons.<rod>]`` and
-    ``[tendons.<rod>.<term name>]`` (see :mod:`rodsim.core.tendon`)."""
+    ``[tendons.<rod>.<term name>]`` (see ``rodsim.core.tendon``)."""
 
     scope: ClassVar[str] = "tendon"
 

@@ -30,7 +30,7 @@ Stiffness (Eq. 8, the paper's corrected tensor, default):
 to overestimate the stiffness:  K_11 = K_22 = E π r² / 4,  K_33 = G π r² / 2  (an r² where
 r⁴ belongs; dimensionally wrong, kept only to reproduce Fig. 9).
 
-With sections that vary along the rod (:mod:`rodsim.core.rod.sections`) each element has its
+With sections that vary along the rod (``rodsim.core.rod.sections``) each element has its
 own K: the harmonic mean of the spans' stiffnesses over its dual interval, so that a
 piecewise-uniform rod under a constant moment turns by exactly ∫ M / (E I) ds.
 """
@@ -68,9 +68,9 @@ def stiffness_tensor(rod: Rod, model: str, twist_override: float = 0.0) -> np.nd
 def element_stiffness(rod: Rod, model: str, twist_override: float, start: np.ndarray,
                       end: np.ndarray) -> np.ndarray:
     """(K_11, K_22, K_33) of each bending element over its dual interval [start, end] [N·m²],
-    shape (n_elem, 3). A uniform rod: :func:`stiffness_tensor` for every element. With
+    shape (n_elem, 3). A uniform rod: ``stiffness_tensor`` for every element. With
     sections: each span's E I and G J (CORDE: E A / 4, G A / 2), harmonically averaged over
-    the element's dual interval (:mod:`rodsim.core.rod.sections`), which keeps the rotation
+    the element's dual interval (``rodsim.core.rod.sections``), which keeps the rotation
     across the element exact under a constant moment."""
     profile = rod.profile
     if profile is None:
@@ -112,7 +112,7 @@ class BendKinematics(NamedTuple):
 
 def bend_kinematics(a: np.ndarray, b: np.ndarray, dual_lengths: np.ndarray) -> BendKinematics:
     """Strains of the bending elements (a, b) of dual lengths l̄ and the pieces of their
-    derivatives (see :class:`BendKinematics`)."""
+    derivatives (see ``BendKinematics``)."""
     na2, nb2 = np.sum(a * a, axis=1), np.sum(b * b, axis=1)
     scale = 2.0 / (dual_lengths * np.sqrt(na2 * nb2))  # c s = (2/l̄) / (|a||b|)
     ga = (b @ _B_ROWS).reshape(-1, 3, 4)  # ∂f_k/∂a = B_kᵀ b
@@ -254,7 +254,7 @@ class BendTwist(RodTerm):
         return a, b
 
     def _kinematics(self, x: np.ndarray) -> BendKinematics:
-        """Strains and the pieces of their derivatives (see :class:`BendKinematics`)."""
+        """Strains and the pieces of their derivatives (see ``BendKinematics``)."""
         return bend_kinematics(*self._pairs(x), self._dual_lengths)
 
     def strains(self, x: np.ndarray) -> np.ndarray:

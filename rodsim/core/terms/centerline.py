@@ -11,13 +11,13 @@ F/(K_P_relative E_s A) = α r² / (2 K_P_relative L²) for a uniform rod with E_
 (α = F L²/(2 E I) the load parameter, I = π r⁴/4). Unlike a scale built on the rod's length,
 this one does not change when a rod is split into two joined ones.
 
-Evaluated on the offset state (:attr:`rodsim.core.terms.base.Term.offsets`): the mismatch is
+Evaluated on the offset state (``rodsim.core.terms.base.Term.offsets``): the mismatch is
 formed about the rest state, w = (t − T) − (d3(q) − d3(q⁰)) + m⁰, with t − T from the
-displacements (:meth:`rodsim.core.terms._segment.Segments.about`) and
+displacements (``rodsim.core.terms._segment.Segments.about``) and
 d3(q) − d3(q⁰) = δ·A[2, m](q⁰ + q) = ½ (G(q⁰) + G(q)) δ from the quaternion's change
 δ = q − q⁰ (Eq. 2 is quadratic, G = ∂d3/∂q), each without cancellation;
 m⁰ = T − d3(q⁰) is the rest shape's own mismatch, taken as 0 where it is round-off
-(≤ :data:`REST_ROUNDOFF`). The force then carries a round-off relative to the deformation
+(≤ ``REST_ROUNDOFF``). The force then carries a round-off relative to the deformation
 instead of eps K_P (docs/model.md, "The offset state and the residual floor").
 """
 

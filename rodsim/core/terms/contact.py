@@ -46,7 +46,7 @@ up to a pre-sliding slip of order ε). The force is not −∇ of an energy (``c
 False when μ > 0) and its Jacobian is not symmetric; it is exact, with
 ∂|f_n|/∂r = k(−ψ'' |∇φ|² n + ψ' ∇²φ n), ∂n/∂r = P ∇²φ/|∇φ| and
 ∂v/∂r = P − (n·d) ∂n/∂r − n (dᵀ ∂n/∂r), d = r_i − a_i. The anchors are set explicitly
-(:meth:`Contact.anchored`, through :meth:`rodsim.core.model.Model.anchored`): a term never
+(``Contact.anchored``, through ``rodsim.core.model.Model.anchored``): a term never
 changes once built. With μ = 0 none of this is evaluated: the frictionless numbers, bitwise.
 """
 
@@ -232,7 +232,7 @@ def contact_forces(model: Model, full: np.ndarray) -> np.ndarray | None:
     """The contact force on every control point of ``model``'s rods (stacked in their order,
     shape (nodes, 3) [N]; zero on rods no obstacle acts on), summed over its contact terms at
     the full state ``full`` (by the compiled kernels on the compiled path,
-    :meth:`Model.element_forces`); None when no term is a contact (a scene without
+    ``Model.element_forces``); None when no term is a contact (a scene without
     obstacles)."""
     contacts = [(index, term) for index, term in enumerate(model.terms)
                 if isinstance(term, Contact)]

@@ -5,7 +5,7 @@
 q(s) [N/m] is ``force_per_length`` over the whole rod plus each of the ``spans``' own
 ``force_per_length`` on [start, end]. r(s) is the linear interpolation between control
 points, so each control point gets the consistent share F_i of the load (N_i its hat
-function, :meth:`rodsim.core.rod.geometry.RodGeometry.hat_integrals`); for a load on the
+function, ``rodsim.core.rod.geometry.RodGeometry.hat_integrals``); for a load on the
 whole rod that is the lumping of ``gravity`` (half a segment at each end), to the last bit.
 A dead load: no Jacobian entries.
 """

@@ -17,14 +17,14 @@ Each catheter node receives the *average* of the lumen forces of the tendon poin
 registered to it, applied at the node (§4.1). Not momentum-conserving.
 
 The conserving coupling (``coupling = "conserving"``, docs/design.md erratum 13) is the other
-term of the scene key ``lumen``: :mod:`rodsim.core.terms.lumen_conserving`. The tendon's
+term of the scene key ``lumen``: ``rodsim.core.terms.lumen_conserving``. The tendon's
 ``coupling`` selects which of the two a tendon's ``lumen`` builds
-(:meth:`rodsim.core.terms.base.Term.selected_by`); both read the same ``[tendons.<rod>.lumen]``
+(``rodsim.core.terms.base.Term.selected_by``); both read the same ``[tendons.<rod>.lumen]``
 table, so a scene's table stays valid when its coupling changes.
 
-Registration (§4.1) is state of the term (:class:`LumenCoupling`, shared by both couplings):
-:meth:`LumenCoupling.registration` applies the rule to a state and
-:meth:`LumenCoupling.registered` builds the term with the new parents (the model builds a
+Registration (§4.1) is state of the term (``LumenCoupling``, shared by both couplings):
+``LumenCoupling.registration`` applies the rule to a state and
+``LumenCoupling.registered`` builds the term with the new parents (the model builds a
 new model around it, ``Model.reregistered``). It is updated between solver steps (after
 every time step, Newton solve or CVODE/IDA step), not inside a force evaluation: the
 nearest-lumen-point rule switches the lumen line a point is held to and so makes the force
@@ -189,7 +189,7 @@ class LumenCoupling(TendonTerm):
         return rest
 
     def _blocks(self) -> list[slice]:
-        """The held points in blocks for a registration pass (:data:`REGISTRATION_BLOCK_BYTES`):
+        """The held points in blocks for a registration pass (``REGISTRATION_BLOCK_BYTES``):
         each block's rows give the same numbers as the whole would."""
         points = len(self._points)
         per_point = 24 * self.tendon.catheter.nodes  # one (lumen points × 3) float row
@@ -211,7 +211,7 @@ class LumenCoupling(TendonTerm):
 
     @abstractmethod
     def _set_dofs(self) -> None:
-        """``dofs`` from :attr:`parent`."""
+        """``dofs`` from ``parent``."""
 
     #: The name of the compiled form of :meth:`_switches` in
     #: rodsim/core/kernels/_registration.py.
@@ -224,7 +224,7 @@ class LumenCoupling(TendonTerm):
 
         ``compiled``: by the rule's numba kernel (rodsim/core/kernels/_registration.py; 28
         calls of the numpy rule were 3.2 ms of a 21 ms four-tendons solve), which decides
-        every point as :meth:`_switches` does and leaves a comparison within round-off of
+        every point as ``_switches`` does and leaves a comparison within round-off of
         its threshold to it."""
         margin = 0.0 if exact else self._margin
         if compiled:

@@ -3,7 +3,7 @@ with docs/design.md, erratum 13 (``[tendons.<rod>] coupling = "conserving"``).
 
 The lumen is the smooth (C¹) curve through the node lumen points L_j = r_j + r_L d_t(Q_j),
 Q_j the bisector of the two segments' frames at node j, tangent to d3(Q_j) there
-(:mod:`rodsim.core.terms._lumen_segment`); each tendon point but the endpoint is registered
+(``rodsim.core.terms._lumen_segment``); each tendon point but the endpoint is registered
 to the lumen *segment* it lies alongside and held at its distance from that segment's curve,
 
     E = Σ_i ½ K_L w_i |Δ_i|²
@@ -19,12 +19,12 @@ curvature, on the tendon points p_{b−1}, p_b, p_{b+1} around it). Only ``const
 point in both transverse directions.
 
 The scene key is ``lumen``, shared with the paper's coupling
-(:mod:`rodsim.core.terms.lumen`, which also describes the registration both share); the
+(``rodsim.core.terms.lumen``, which also describes the registration both share); the
 tendon's ``coupling`` selects this term. Between registration updates each element couples
 exactly (p_i, r_j, r_{j+1}, q_{j−1}, q_j, q_{j+1}) and the chord correction's tendon
 stencil, so the Jacobian pattern is exact. During a run a point switches segment when it
 lies beyond the boundary plane of its lumen segment by ``hysteresis`` × the catheter's
-segment length. Kernel: :mod:`rodsim.core.kernels.lumen_segment`.
+segment length. Kernel: ``rodsim.core.kernels.lumen_segment``.
 """
 
 from __future__ import annotations

@@ -3,12 +3,12 @@
     V_s = ½ ∫ K_s (|r′| − 1)² ds  ≈  Σ_j ½ K_s,j l (|e_j| / l − 1)²,   K_s = E_s π r²
 
 One element per segment j, coordinates (r_j, r_{j+1}). Evaluated on the offset state
-(:attr:`rodsim.core.terms.base.Term.offsets`): the stretch |e_j| − l is formed as
-|e_j| − |E_j| from the displacements (:meth:`rodsim.core.terms._segment.Segments.about`),
+(``rodsim.core.terms.base.Term.offsets``): the stretch |e_j| − l is formed as
+|e_j| − |E_j| from the displacements (``rodsim.core.terms._segment.Segments.about``),
 E_j the rest edge, whose length is l to round-off: the rest state is stress-free exactly and
 the force carries a round-off relative to the displacement (docs/model.md, "The offset state
 and the residual floor"). With sections
-(:mod:`rodsim.core.rod.sections`), K_s,j = E_s A of segment j (the harmonic mean where a
+(``rodsim.core.rod.sections``), K_s,j = E_s A of segment j (the harmonic mean where a
 section boundary falls inside it).
 """
 

@@ -14,7 +14,7 @@ segment midpoint s_j = (j + ½) h): the path is the polygon through
 
 - the entry point at s = start, every node s_j = j h with start + h/4 < s_j < end − h/4,
   every section boundary inside the span where G J changes (unless it lies on a node, the
-  entry or the termination, within :data:`JUMP_AT_NODE` h) and the termination point at
+  entry or the termination, within ``JUMP_AT_NODE`` h) and the termination point at
   s = end. The twist rate jumps with G J, so the continuum path kinks there: a point of its
   own puts the kink's load where it acts (without it, a boundary inside a segment had the
   kink cut by the chord between two nodes, order 1.72, 1.41 at N = 31 → 121 → 481 with the

@@ -17,7 +17,7 @@ models agree exactly when the string's tension is set to T (tests/test_string_te
 The last is the tendon's own stiffness: it couples every coordinate along the tendon's path
 (ℓ depends on all of them), so the term is one element holding all of them and its
 Jacobian block is dense — m² entries for the m coordinates of the span (7 per node), and a
-band as wide as the span. A scene refuses spans of more than :data:`MAX_SPAN_NODES` nodes
+band as wide as the span. A scene refuses spans of more than ``MAX_SPAN_NODES`` nodes
 (tension control has no such limit).
 
 E A is physical, not a penalty: a tendon of 0.2 mm stainless steel wire has E A ≈ 6 kN, a

@@ -3,17 +3,17 @@
 
 Kept apart from the integrators of this package's parent, which reach an equilibrium
 through a pseudo-time (rodsim/solvers/pseudo_dynamics.py): nothing here is registered as an
-:class:`~rodsim.solvers.base.Integrator`.
+``rodsim.solvers.base.Integrator``.
 
-- :mod:`~rodsim.solvers.physical.coordinates`: the physical velocities (node velocities and
+- ``rodsim.solvers.physical.coordinates``: the physical velocities (node velocities and
   each segment's body angular velocity), the mass, the quaternion kinematics (Eq. 13).
-- :mod:`~rodsim.solvers.physical.midpoint`: the implicit midpoint step, Newton on the
+- ``rodsim.solvers.physical.midpoint``: the implicit midpoint step, Newton on the
   model's analytic Jacobian.
-- :mod:`~rodsim.solvers.physical.trajectory`: the run to ``t_end``, output times, the
+- ``rodsim.solvers.physical.trajectory``: the run to ``t_end``, output times, the
   energy balance.
-- :mod:`~rodsim.solvers.physical.dae`: the equations as a residual for SUNDIALS IDA, the
-  unit quaternion an algebraic equation; :mod:`~rodsim.solvers.physical.ode`: the explicit
+- ``rodsim.solvers.physical.dae``: the equations as a residual for SUNDIALS IDA, the
+  unit quaternion an algebraic equation; ``rodsim.solvers.physical.ode``: the explicit
   form for CVODE, the quaternions projected.
-- :mod:`~rodsim.solvers.physical.ida_run`: the adaptive run with IDA or CVODE (dense output,
+- ``rodsim.solvers.physical.ida_run``: the adaptive run with IDA or CVODE (dense output,
   program breakpoints, the same energy balance).
 """

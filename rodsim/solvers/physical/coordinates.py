@@ -17,8 +17,8 @@ generalised force F_q on a quaternion acts on the segment as the torque
 work.
 
 The mass is constant in these velocities: the consistent translational mass M_r
-(:func:`rodsim.core.inertia.mass_factor`, point masses included) and the body inertia
-I = l diag(ρI, ρI, ρJ) of each segment (:func:`rodsim.core.inertia.segment_inertia`); the
+(``rodsim.core.inertia.mass_factor``, point masses included) and the body inertia
+I = l diag(ρI, ρI, ρJ) of each segment (``rodsim.core.inertia.segment_inertia``); the
 kinetic energy is T = ½ ṙᵀ M_r ṙ + ½ Σ_segments ωᵀ I ω.
 """
 
@@ -155,7 +155,7 @@ class PhysicalCoordinates:
 
 
 def model_state(model: Model, x: np.ndarray) -> np.ndarray:
-    """The model's free state (offsets from its rest state, :meth:`Model.full`) of ``x``, the
+    """The model's free state (offsets from its rest state, ``Model.full``) of ``x``, the
     free coordinates themselves — positions [m] and quaternions — in which physical time
     steps (a quaternion's Cayley update needs the quaternion, not its offset)."""
     return x - model.reference[model.free]
@@ -163,6 +163,6 @@ def model_state(model: Model, x: np.ndarray) -> np.ndarray:
 
 def physical_state(model: Model, state: np.ndarray) -> np.ndarray:
     """The free coordinates themselves of the model's free state ``state`` (offsets):
-    the inverse of :func:`model_state`."""
+    the inverse of ``model_state``."""
     return state + model.reference[model.free]
 

@@ -25,7 +25,7 @@ The Jacobian ∂R/∂y + c_j ∂R/∂ẏ is analytic: the model's sparse ∂F/�
 the turning of G with q at fixed F (τ_k's derivative ½ B_kᵀ F_q), the gyroscopic term and
 the damping at the state (its change with x left out: IDA's Newton is a modified Newton).
 SUNDIALS sees y in a band order — each velocity right after its coordinate — so that a
-band LU factors it (:attr:`PhysicalDae.order`).
+band LU factors it (``PhysicalDae.order``).
 """
 
 from __future__ import annotations
@@ -53,7 +53,7 @@ __all__ = ["PhysicalDae"]
 class PhysicalDae:
     """The residual form of one scene's motion (module docstring). ``model_at(t)``: the
     model with the values of time t; y is in natural order (x, v, ω) here, and
-    :attr:`order` is the band order SUNDIALS sees (``y_band = y[order]``)."""
+    ``order`` is the band order SUNDIALS sees (``y_band = y[order]``)."""
 
     def __init__(self, coordinates: PhysicalCoordinates, damping: Damping,
                  model_at: Callable[[float], Model], n: int) -> None:

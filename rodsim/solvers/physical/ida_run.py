@@ -1,7 +1,7 @@
 """A run in physical time with SUNDIALS IDA — adaptive, error-controlled BDF on the residual
 form of rodsim/solvers/physical/dae.py — or CVODE, the same BDF on the explicit form of
 rodsim/solvers/physical/ode.py (docs/dynamics.md, "IDA" and "CVODE"); one loop, one set of
-options (:class:`IdaOptions`) for both.
+options (``IdaOptions``) for both.
 
 IDA takes its own steps under its error test, in physical units: an absolute tolerance of
 ``atol`` × L on positions (L the longest rod), ``atol`` on the quaternions (radians: a
@@ -165,9 +165,9 @@ STARTERS: dict[str, type[_IdaStarter] | type[_CvodeStarter]] = {"ida": _IdaStart
 
 
 class _Models:
-    """The model of time t inside the programs' piece ending at :attr:`end` (the values
+    """The model of time t inside the programs' piece ending at ``end`` (the values
     just before ``end`` at ``end`` itself: a jump there belongs to the next piece), with
-    its tendons registered at :attr:`registered_at` (§4.1; the state where the
+    its tendons registered at ``registered_at`` (§4.1; the state where the
     registration last changed)."""
 
     def __init__(self, model_at: Callable[[float, bool], Model], end: float) -> None:

@@ -27,13 +27,13 @@ and q₁ is normalised after each step to keep it there over many steps.
 Newton on the midpoint velocities uses the model's analytic sparse Jacobian ∂F/∂x at the
 step's first iterate, factored once (SuperLU) and kept while each iteration shrinks the
 change tenfold (a simplified Newton; a fresh Jacobian otherwise), to the tolerance
-:data:`NEWTON_TOLERANCE`; the damping, D_t = Gᵀ D G on the physical velocities, is
+``NEWTON_TOLERANCE``; the damping, D_t = Gᵀ D G on the physical velocities, is
 evaluated at each iterate's midpoint, so that the converged step's is the midpoint's
 (held from a predicted midpoint instead, an O(h²) error in the strain rates that the stiff
 stretch amplifies put the Kelvin–Voigt damping ratio of the steel rod's first mode 7 % to
 24 % high at 100 steps a period); its dissipation h u_m · D_t u_m ≥ 0 is what the step
 removes, exactly. Newton starts from the
-last step's midpoint velocities (:class:`Motion`).
+last step's midpoint velocities (``Motion``).
 """
 
 from __future__ import annotations

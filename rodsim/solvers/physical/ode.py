@@ -28,7 +28,7 @@ __all__ = ["PhysicalOde"]
 
 
 class PhysicalOde:
-    """ẏ = f(t, y) of a :class:`PhysicalDae`'s scene (module docstring); natural order."""
+    """ẏ = f(t, y) of a ``PhysicalDae``'s scene (module docstring); natural order."""
 
     def __init__(self, dae: PhysicalDae) -> None:
         self.dae = dae

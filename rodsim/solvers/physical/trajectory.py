@@ -20,7 +20,7 @@ for, so that the outputs are states the integrator reached (not interpolated) an
 extra steps beyond that rounding. A step whose Newton iteration fails (a start too far
 from the solution for a step that long: measured on a stiff steel wire released from a
 large deflection at 50 steps a period) is taken as two half steps instead, up to
-:data:`MAX_HALVINGS` times; the run counts them.
+``MAX_HALVINGS`` times; the run counts them.
 """
 
 from __future__ import annotations
@@ -123,7 +123,7 @@ def integrate(model_at: Callable[[float], Model], stepper: MidpointStep, start: 
     computed, ``success`` False and a message with the time and advice. ``record``: an empty
     record to fill (the caller keeps what it holds if the run is interrupted).
     ``after_step(t, x)``: told the end of every step (friction's history,
-    :meth:`rodsim.app.programs.Programs.carry_history`)."""
+    ``rodsim.app.programs.Programs.carry_history``)."""
     record = Record() if record is None else record
     t = float(output_times[0])
     motion = start
