@@ -72,7 +72,20 @@ the implicit, backward quasi-static step, as contact friction's slip is, docs/co
 What it leaves out: the tendon's own elasticity (a stuck chord keeps its tension while the
 catheter bends under it; an elastic tendon would stretch with the path, and a stuck zone
 whose turns change is not re-checked against its own cones, only against the actuator's
-bounds), rate effects, and stiction above the kinetic coefficient (one μ).
+bounds), rate effects, and elastic stick–slip.
+
+Per-point coefficients and stiction (``friction_points``, ``static_friction``;
+docs/tendon.md). With a μ_j per turn the wrap in each bound is W_e = Σ_{j≤e} μ_j θ_j (the
+derivation above holds with μΘ_e replaced by W_e: the capstan ratio across point j is
+e^{±μ_j θ_j}). With a static μ_s above the kinetic μ_k, each point carries a stick/slip state
+from the last equilibrium (−1 sliding in, 0 stuck, +1 sliding out) and its bound toward
+each side takes μ_k if it slid that way, μ_s otherwise (:func:`bound_coefficients`): a point
+that stuck, or reverses, holds until the tension ratio over it exceeds e^{μ_s θ}. A point
+that broke loose in a step slides at μ_k at once: the step is solved again with it
+(``TendonString.freed``, ``Model.freed``) until none breaks, so released from a pulled
+profile point e breaks iff T_1 < T_max e^{−2μ_kΘ_e − (μ_s−μ_k)θ_e} whatever the steps. The
+state at an equilibrium is read off the chords (:func:`slip_states`). μ_s = μ_k and one μ
+keep the functions above: the same numbers bitwise.
 
 These are the numpy reference's functions; the compiled kernel
 (rodsim/core/kernels/tendon_string.py) evaluates the same formulas.

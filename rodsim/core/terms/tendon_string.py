@@ -75,7 +75,11 @@ coordinates. So the Jacobian is exact on such paths (Newton converges quadratica
 the frozen-tension one elsewhere (3-D or S-shaped paths, a moving entry: linearly, at a
 rate of order μ); the term is not conservative (no energy) and the stability verdict
 takes the non-symmetric path. With μ = 0 every τ_e is T and nothing of this runs: the
-frictionless numbers, bitwise.
+frictionless numbers, bitwise. ``friction_points`` (a μ per routing point) and
+``static_friction`` (μ_s > μ_k: a stick/slip state per point, carried with the tensions as
+the anchors; :meth:`TendonString.freed` for a breakaway within a step) take the weighted
+bounds of rodsim/core/tendon_friction.py ("Per-point coefficients and stiction"); the
+coupling then takes chord e's own coefficient.
 """
 
 from __future__ import annotations
@@ -273,8 +277,9 @@ class TendonString(TendonTerm):
                   0.0, MAX_FRICTION),
         Parameter("friction_points", "vector", [], "-",
                   "a kinetic μ per routing point (the entry, every node inside the span, "
-                  "the termination; one value each, in that order), overriding friction; "
-                  "[] (default): friction at every point", 0.0, MAX_FRICTION),
+                  "a section boundary between nodes, the termination: one value each, in "
+                  "order of arc length), overriding friction; [] (default): friction at "
+                  "every point", 0.0, MAX_FRICTION),
         Parameter("static_friction", "float", 0.0, "-",
                   "static μ_s >= the kinetic friction (or every friction_points value): a "
                   "point that stuck at the last equilibrium holds until the tension ratio "
@@ -416,6 +421,23 @@ class TendonString(TendonTerm):
             other._coefficients()
         else:
             other.profile = anchors
+        return other
+
+    def freed(self, full: np.ndarray) -> TendonString | None:
+        """With stiction: a copy whose points that broke loose at the equilibrium ``full``
+        of this step (stuck at the last equilibrium, or sliding the other way, and on a
+        bound now) slide at their kinetic μ_k, the stored tensions kept, for the step to be
+        solved again (rodsim/core/tendon_friction.py, "Stiction"); None when none did."""
+        if not self.sticky:
+            return None
+        states = slip_states(self.tension, self._mu_in, self._mu_out,
+                             self.turning_angles(full), self.profile, self.state)
+        broke = (states != 0.0) & (states != self.state)
+        if not np.any(broke):
+            return None
+        other = copy.copy(self)
+        other.state = np.where(broke, states, self.state)
+        other._coefficients()
         return other
 
     def entry_directions(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
