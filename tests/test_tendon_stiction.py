@@ -386,3 +386,47 @@ def test_simulate_carries_the_stick_slip_state():
     sticky = run(0.5)
     gap = float(np.linalg.norm(sticky[-1] - kinetic[-1]))
     assert 0.0 < gap < 1e-3 * LENGTH
+
+
+def test_the_compiled_kernel_takes_the_points_coefficients_and_states(random_state, fd):
+    """At a random 3-D state of the self-bent catheter (N = 9) with a μ per point and
+    stiction, under a history that sticks on part of the path and slides either way on the
+    rest: the compiled kernel's force and Jacobian equal the numpy reference's; on a planar
+    one-way path pulled in and released (μ_k = 0.3, μ_s = 0.5: points 0 … 6 break loose and
+    slide out at μ_k, the rest hold) the Jacobian at the equilibrium is the finite
+    differences'."""
+    rng = np.random.default_rng(34)
+    string = {"friction_points": list(rng.uniform(0.1, 0.4, 9)), "static_friction": 0.6}
+    models = {kernels: Model(Scene.from_dict(catheter(9, 0.0, 2.0, **string) | {
+        "solver": {"integrator": "static", "kernels": kernels}}))
+        for kernels in ("numpy", "compiled")}
+    x = random_state(models["numpy"], rng)
+    full = models["numpy"].full(x)
+    pulled_in = string_term(models["numpy"]).chord_tensions(full)
+    chords = len(pulled_in)
+    history = np.concatenate([pulled_in * np.where(np.arange(chords) % 3 == 0, 0.8, 1.1),
+                              np.resize([-1.0, 0.0, 1.0, 1.0], chords)])
+    models = {k: m.with_terms([t.anchored(history) if isinstance(t, TendonString) else t
+                               for t in m.terms]) for k, m in models.items()}
+    term = string_term(models["numpy"])
+    assert term.sticky and term.weighted
+    assert not np.array_equal(term._mu_in, term._mu_out)
+    slipping = term.chord_tensions(full) != term.profile
+    assert 0 < np.sum(slipping) < chords
+    force = models["numpy"].force(x)
+    jacobian = models["numpy"].jacobian(x).toarray()
+    assert np.max(np.abs(models["compiled"].force(x) - force)) < 1e-12 * np.max(np.abs(force))
+    assert np.max(np.abs(models["compiled"].jacobian(x).toarray() - jacobian)) < 1e-11 * (
+        np.max(np.abs(jacobian)))
+    for kernels in ("numpy", "compiled"):
+        data = catheter(11, 0.3, 3.0, static_friction=0.5)
+        data["solver"]["kernels"] = kernels
+        track = rodsim.track(Scene.from_dict(data), {TENSION: [3.0, 2.4]})
+        assert track.success
+        model = track.last_model
+        x = model.state_of(track.states[-1])  # the released equilibrium
+        term = string_term(model)
+        assert np.array_equal(term.state, np.where(np.arange(10) < 7, 1.0, -1.0))
+        numeric = fd["jacobian"](model.force, x, fd["steps"](model, 1e-6))
+        error = np.max(np.abs(model.jacobian(x).toarray() - numeric))
+        assert error < 1e-8 * np.max(np.abs(numeric)), (kernels, error)

@@ -359,8 +359,9 @@ class TendonString(TendonTerm):
         #: The routing points whose turn is split through one-sided tangents (where another
         #: string tendon on the catheter starts or ends: :func:`split_at_breaks`), (P,).
         self.split = np.zeros(len(self.points.s), dtype=np.bool_)
-        #: (state, tension, profile, chord tensions) of the last chord_tensions call.
-        self._memo: tuple[np.ndarray, float, np.ndarray, np.ndarray] | None = None
+        #: (state, tension, profile, chord tensions, μ_in) of the last chord_tensions call.
+        self._memo: tuple[np.ndarray, float, np.ndarray, np.ndarray, np.ndarray] | None = (
+            None)
 
     def with_options(self, options: TendonStringOptions) -> TendonString | None:
         """A copy with another tension when that is the only option changed (a tracking
@@ -462,10 +463,11 @@ class TendonString(TendonTerm):
         if not self.rubs:
             return np.full(chords, self.tension)
         # The last state's, kept: a converged step reads them three times (its result, the
-        # track's record, the next step's anchors) at the same state and history.
+        # track's record, the next step's anchors) at the same state and history (the same
+        # stick/slip coefficients: a step solved again after a breakaway has others).
         memo = self._memo
         if (memo is not None and memo[1] == self.tension and memo[2] is self.profile
-                and np.array_equal(memo[0], x)):
+                and memo[4] is self._mu_in and np.array_equal(memo[0], x)):
             return memo[3].copy()
         if self.weighted:
             out = weighted_chord_tensions(self.tension, self._mu_in, self._mu_out,
@@ -473,7 +475,7 @@ class TendonString(TendonTerm):
         else:
             out = chord_tensions(self.tension, self.friction, self.turning_angles(x),
                                  self.profile)
-        self._memo = (np.array(x, dtype=float), self.tension, self.profile, out)
+        self._memo = (np.array(x, dtype=float), self.tension, self.profile, out, self._mu_in)
         return out.copy()
 
     def tension_profile(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
