@@ -369,9 +369,10 @@ def test_user_robots_with_stiction_widen_the_loop_and_pull_as_before(seed):
 
 def test_simulate_carries_the_stick_slip_state():
     """A run in physical time released from 3 N to 2.4 N in 0.03 s (the self-bent catheter,
-    N = 11, damped): with μ_s = μ_k it is the kinetic run bitwise; with μ_s = 0.5 the
-    points that break loose in a step slide at μ_k from that step on, and the run ends
-    bent further than the kinetic one, at most as far as one held at the static ratio."""
+    N = 11, damped): with μ_s = μ_k it is the kinetic run bitwise; with μ_s = 0.5 (points
+    that stop while the catheter moves must break loose again) it ends 51 µm (2.6e-4 L) from
+    the kinetic run, where one track step from 3 to 2.4 N ends on the kinetic shape (7e-13 m:
+    the same points break loose, the held ones keep their tensions either way)."""
     def run(static: float) -> np.ndarray:
         raw = catheter(11, 0.25, 3.0, static_friction=static)
         raw["rods"]["backbone"]["damping"] = {"retardation_time": 6e-3}
