@@ -130,7 +130,40 @@ def coarser_scene(scene: Scene, target: float = 2.0,
                                                                                      target)
         table["nodes"] = nodes[name]
         ratio = min(ratio, (fine - 1) / (nodes[name] - 1))
+    _resample_friction_points(scene, data)
     return data, nodes, float(ratio)
+
+
+def _string_points(model: Model) -> dict[str, np.ndarray]:
+    """The rest arc lengths of each string tendon's routing points in ``model``."""
+    from rodsim.core.terms.tendon_string import TendonString
+
+    return {term.tendon.name: term.points.s for term in model.terms
+            if isinstance(term, TendonString)}
+
+
+def _resample_friction_points(scene: Scene, data: dict[str, Any]) -> None:
+    """Give every string tendon's ``friction_points`` (one μ per routing point, so as many
+    as the fine rod's points) the coarse rod's count in ``data``: each coarse point takes
+    the μ of the fine point nearest to it in arc length."""
+    tables = {name: table["tendon_string"] for name, table in data.get("tendons", {}).items()
+              if isinstance(table.get("tendon_string"), dict)
+              and table["tendon_string"].get("friction_points")}
+    if not tables:
+        return
+    probe = copy.deepcopy(data)
+    for name in tables:  # the coarse points without the fine values (their count differs)
+        for key in ("friction_points", "static_friction"):
+            probe["tendons"][name]["tendon_string"].pop(key, None)
+    try:
+        fine, coarse = _string_points(Model(scene)), _string_points(Model(Scene.from_dict(
+            probe)))
+    except SceneError:
+        return  # the coarse scene is refused anyway, and says why
+    for name, table in tables.items():
+        values = np.asarray(table["friction_points"], dtype=float)
+        nearest = np.argmin(np.abs(coarse[name][:, None] - fine[name][None, :]), axis=1)
+        table["friction_points"] = [float(v) for v in values[nearest]]
 
 
 def _candidates(fine: int, target: float) -> list[int]:

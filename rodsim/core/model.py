@@ -397,6 +397,26 @@ class Model(ModelScales):
             changed.append(index)
         return self._with_replaced(terms, changed)
 
+    def freed(self, x: np.ndarray) -> Model | None:
+        """The model in which every point that broke loose at the equilibrium ``x`` (free
+        coordinates) of this step slides with its kinetic friction (a string tendon with
+        stiction: ``TendonString.freed``), the step's history otherwise kept: the step
+        is solved again with it (rodsim/app/inverse/continuation.py), until nothing more
+        breaks loose. ``None`` when nothing did (always without stiction)."""
+        full = None
+        terms = list(self.terms)
+        changed = []
+        for index, term in enumerate(terms):
+            if term.anchor_positions() is None:
+                continue
+            if full is None:
+                full = self.full(x)
+            freed = term.freed(full)
+            if freed is not None:
+                terms[index] = freed
+                changed.append(index)
+        return self._with_replaced(terms, changed) if changed else None
+
     def with_anchors_of(self, other: Model) -> Model:
         """This model with the friction anchors of ``other``, a model of the same layout
         (this scene at other values, ``with_values``): how a run in physical time

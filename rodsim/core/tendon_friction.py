@@ -72,7 +72,20 @@ the implicit, backward quasi-static step, as contact friction's slip is, docs/co
 What it leaves out: the tendon's own elasticity (a stuck chord keeps its tension while the
 catheter bends under it; an elastic tendon would stretch with the path, and a stuck zone
 whose turns change is not re-checked against its own cones, only against the actuator's
-bounds), rate effects, and stiction above the kinetic coefficient (one μ).
+bounds), rate effects, and elastic stick–slip.
+
+Per-point coefficients and stiction (``friction_points``, ``static_friction``;
+docs/tendon.md). With a μ_j per turn the wrap in each bound is W_e = Σ_{j≤e} μ_j θ_j (the
+derivation above holds with μΘ_e replaced by W_e: the capstan ratio across point j is
+e^{±μ_j θ_j}). With a static μ_s above the kinetic μ_k, each point carries a stick/slip state
+from the last equilibrium (−1 sliding in, 0 stuck, +1 sliding out) and its bound toward
+each side takes μ_k if it slid that way, μ_s otherwise (``bound_coefficients``): a point
+that stuck, or reverses, holds until the tension ratio over it exceeds e^{μ_s θ}. A point
+that broke loose in a step slides at μ_k at once: the step is solved again with it
+(``TendonString.freed``, ``Model.freed``) until none breaks, so released from a pulled
+profile point e breaks iff T_1 < T_max e^{−2μ_kΘ_e − (μ_s−μ_k)θ_e} whatever the steps. The
+state at an equilibrium is read off the chords (``slip_states``). μ_s = μ_k and one μ
+keep the functions above: the same numbers bitwise.
 
 These are the numpy reference's functions; the compiled kernel
 (rodsim/core/kernels/tendon_string.py) evaluates the same formulas.
@@ -82,7 +95,9 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["MAX_FRICTION", "ONE_WAY", "chord_tensions", "slide_rates", "turning_angles"]
+__all__ = ["MAX_FRICTION", "ONE_WAY", "SLIP_TIE", "bound_coefficients", "chord_tensions",
+           "slide_rates", "slip_states", "turning_angles", "weighted_chord_tensions",
+           "weighted_slide_rates"]
 
 #: |Θ_e − ψ_e| below which (relative to max(1, Θ_e)) the path up to chord e turns one way
 #: in one plane (Θ_e = ψ_e = ∠(d3, u_e)): round-off of the sum of turns.
@@ -92,6 +107,14 @@ ONE_WAY = 1e-10
 #: PTFE ~0.05–0.1, braided polymer on steel disks ~0.1–0.3; 2 is already a tendon that
 #: barely slides.
 MAX_FRICTION = 2.0
+
+#: Relative margin within which a chord's tension counts as on its sliding bound when the
+#: stick/slip state of an equilibrium is read (:func:`slip_states`): a step that repeats the
+#: last value reaches the same bound up to round-off, and keeps sliding.
+SLIP_TIE = 1e-12
+
+#: Slip states of a routing point (:func:`slip_states`).
+SLIDING_IN, STUCK, SLIDING_OUT = -1.0, 0.0, 1.0
 
 
 def _angle(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -159,3 +182,54 @@ def chord_tensions(tension: float, friction: float, theta: np.ndarray,
     wrap = np.cumsum(theta)
     return np.minimum(np.maximum(profile, tension * np.exp(-friction * wrap)),
                       tension * np.exp(friction * wrap))
+
+
+def bound_coefficients(kinetic: np.ndarray, static: float, state: np.ndarray
+                       ) -> tuple[np.ndarray, np.ndarray]:
+    """(μ_in, μ_out) of every turn (module docstring, "Per-point coefficients and
+    stiction"): the kinetic μ_k of point e toward the side it slid to at the last
+    equilibrium (``state`` −1: in, +1: out), the static μ_s = ``static`` toward any other
+    (a point that stuck, or reverses, must break loose first)."""
+    mu_in = np.where(state == SLIDING_IN, kinetic, static)
+    mu_out = np.where(state == SLIDING_OUT, kinetic, static)
+    return mu_in, mu_out
+
+
+def _bounds(tension: float, mu_in: np.ndarray, mu_out: np.ndarray, theta: np.ndarray
+            ) -> tuple[np.ndarray, np.ndarray]:
+    """T_0 e^{−W_in,e} and T_0 e^{+W_out,e}, W_e = Σ_{j≤e} μ_j θ_j."""
+    return (tension * np.exp(-np.cumsum(mu_in * theta)),
+            tension * np.exp(np.cumsum(mu_out * theta)))
+
+
+def weighted_chord_tensions(tension: float, mu_in: np.ndarray, mu_out: np.ndarray,
+                            theta: np.ndarray, profile: np.ndarray) -> np.ndarray:
+    """τ_e = clip(τ_old_e, T_0 e^{−W_in,e}, T_0 e^{+W_out,e}) with a coefficient per turn
+    and side (``bound_coefficients``), W_e = Σ_{j≤e} μ_j θ_j: ``chord_tensions``
+    with μΘ_e replaced by the weighted wrap."""
+    low, high = _bounds(tension, mu_in, mu_out, theta)
+    return np.minimum(np.maximum(profile, low), high)
+
+
+def weighted_slide_rates(tension: float, mu_in: np.ndarray, mu_out: np.ndarray,
+                         theta: np.ndarray, profile: np.ndarray) -> np.ndarray:
+    """∂τ_e/∂Θ_e at chord e's own coefficient: −μ_in,e τ_e sliding in, +μ_out,e τ_e sliding
+    out, 0 stuck (the part of ∂W_e that lies on chord e's turn; exact where μ is the same
+    on the turns before it)."""
+    low, high = _bounds(tension, mu_in, mu_out, theta)
+    return np.where(low > profile, -mu_in * low,
+                    np.where(high < profile, mu_out * high, 0.0))
+
+
+def slip_states(tension: float, mu_in: np.ndarray, mu_out: np.ndarray, theta: np.ndarray,
+                profile: np.ndarray, state: np.ndarray) -> np.ndarray:
+    """The stick/slip state of every routing point at an equilibrium (the next step's
+    history): −1 where chord e's tension is on its lower bound (the tendon slides in over
+    point e), +1 on its upper bound (slides out), 0 where the stored tension held (stuck);
+    on both bounds at once (no wrap up to e) the state it had. "On" is within
+    ``SLIP_TIE`` relative."""
+    low, high = _bounds(tension, mu_in, mu_out, theta)
+    inward = low >= profile * (1.0 - SLIP_TIE)
+    outward = high <= profile * (1.0 + SLIP_TIE)
+    return np.where(inward & outward, state,
+                    np.where(inward, SLIDING_IN, np.where(outward, SLIDING_OUT, STUCK)))

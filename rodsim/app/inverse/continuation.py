@@ -48,6 +48,10 @@ __all__ = ["Continuation", "StepOutcome", "ScaledEquilibria", "EquilibriumFailur
 MAX_HALVINGS = 10
 #: A sub-step that converged within this many iterations doubles the increment again.
 EASY_ITERATIONS = 6
+
+#: Most re-solves of one step for points of a string tendon that broke loose (stiction,
+#: rodsim/core/tendon_friction.py): each frees at least one routing point.
+MAX_BREAKAWAYS = 1000
 #: Scaled distance from a bound within which a fit's or a reach's value is set to the bound.
 BOUND_SNAP = 1e-5
 
@@ -143,6 +147,17 @@ class Continuation:
         result, state = integrator.run(integrator.restart(self.state, model, x),
                                        verdict=False)
         work = self.kind.work(result.stats)
+        # Stiction: a point that broke loose in this step slides at its kinetic μ; the step
+        # is solved again with it until nothing more breaks (rodsim/core/tendon_friction.py,
+        # "Stiction"; at most once per routing point).
+        for _ in range(MAX_BREAKAWAYS):
+            freed = model.freed(result.state) if result.success else None
+            if freed is None:
+                break
+            model = freed
+            result, state = integrator.run(integrator.restart(state, model, result.state),
+                                           verdict=False)
+            work += self.kind.work(result.stats)
         self.state = state
         if not result.success:
             return StepOutcome(False, x, result.residual, work, result.message)

@@ -41,7 +41,7 @@ import numbers
 import time
 from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -301,8 +301,12 @@ def reach(scene: Scene, tip: Sequence[float], actuate: Sequence[str], *,
 
 def _rubs(scene: Scene) -> bool:
     """Whether a string tendon of ``scene`` has friction."""
+    def rubs(string: Any) -> bool:
+        return (string.friction > 0.0 or string.static_friction > 0.0
+                or any(value > 0.0 for value in string.friction_points))
+
     return any(options.coupling == "string"
-               and scene.term_options("tendons", name, "tendon_string").friction > 0.0
+               and rubs(scene.term_options("tendons", name, "tendon_string"))
                for name, options in scene.tendons.items())
 
 

@@ -116,9 +116,11 @@ def _extrapolated(near: np.ndarray, far: np.ndarray, step: float) -> np.ndarray:
 def _tensions(x: np.ndarray, dofs: np.ndarray, weights: np.ndarray, constant: np.ndarray,
               entry_forms: np.ndarray, entry_slope: np.ndarray, split: np.ndarray,
               p: np.ndarray, tension: float, friction: float, profile: np.ndarray,
+              weighted: bool, mu_in: np.ndarray, mu_out: np.ndarray,
               out: np.ndarray, rate: np.ndarray, axis: np.ndarray) -> None:
     """τ_e of every chord into ``out``: T without friction, else
-    clip(τ_old_e, T e^{−μΘ_e}, T e^{+μΘ_e}) (rodsim/core/tendon_friction.py); with friction
+    clip(τ_old_e, T e^{−μΘ_e}, T e^{+μΘ_e}) (rodsim/core/tendon_friction.py; ``weighted``:
+    μΘ_e is Σ_{j≤e} μ_j θ_j with μ_in, μ_out per turn for the two bounds); with friction
     also ∂τ_e/∂Θ_e into ``rate`` where the path up to chord e turns one way in one plane from
     a held entry frame (else 0) and d3 at the entry into ``axis``."""
     chords = dofs.shape[0]
@@ -182,21 +184,31 @@ def _tensions(x: np.ndarray, dofs: np.ndarray, weights: np.ndarray, constant: np
             theta[k] = _angle(a1, a2) + _angle(a2, b2) + _angle(b2, b1)
             theta[k + 1] = _angle(b1, u[k + 1])
     b = np.empty(3)
+    wrap_in = 0.0
+    wrap_out = 0.0
     for e in range(chords):
         for m in range(3):
             b[m] = u[e, m]
         plain += turns[e]
         turn = theta[e]
-        wrap += turn
-        low = tension * np.exp(-friction * wrap)
-        high = tension * np.exp(friction * wrap)
+        if weighted:
+            wrap_in += mu_in[e] * turn
+            wrap_out += mu_out[e] * turn
+            low = tension * np.exp(-wrap_in)
+            high = tension * np.exp(wrap_out)
+            rate_in, rate_out = mu_in[e], mu_out[e]
+        else:
+            wrap += turn
+            low = tension * np.exp(-friction * wrap)
+            high = tension * np.exp(friction * wrap)
+            rate_in, rate_out = friction, friction
         out[e] = min(max(profile[e], low), high)
         rate[e] = 0.0
         if held and np.abs(plain - _angle(axis, b)) <= ONE_WAY * max(1.0, plain):
             if low > profile[e]:
-                rate[e] = -friction * low
+                rate[e] = -rate_in * low
             elif high < profile[e]:
-                rate[e] = friction * high
+                rate[e] = rate_out * high
 
 
 @njit(cache=True)
@@ -250,6 +262,7 @@ def _active(weights: np.ndarray, e: int, columns: np.ndarray) -> int:
 @njit(cache=True)
 def evaluate(x: np.ndarray, dofs: np.ndarray, weights: np.ndarray, constant: np.ndarray,
              forms: np.ndarray, tension: float, friction: float, profile: np.ndarray,
+             weighted: bool, mu_in: np.ndarray, mu_out: np.ndarray,
              entry_forms: np.ndarray, entry_slope: np.ndarray, split: np.ndarray,
              scale: float, want_force: bool,
              force: np.ndarray, force_target: np.ndarray, want_jacobian: bool,
@@ -268,7 +281,7 @@ def evaluate(x: np.ndarray, dofs: np.ndarray, weights: np.ndarray, constant: np.
     rate = np.zeros(dofs.shape[0])
     axis = np.zeros(3)
     _tensions(x, dofs, weights, constant, entry_forms, entry_slope, split, p, tension,
-              friction, profile, chord_tension, rate, axis)
+              friction, profile, weighted, mu_in, mu_out, chord_tension, rate, axis)
     slope = np.empty(3)
     gradient = np.empty(28)
     unit_force = np.empty(28)
@@ -343,6 +356,7 @@ def evaluate(x: np.ndarray, dofs: np.ndarray, weights: np.ndarray, constant: np.
 @njit(cache=True)
 def energy(x: np.ndarray, dofs: np.ndarray, weights: np.ndarray, constant: np.ndarray,
            forms: np.ndarray, tension: float, friction: float, profile: np.ndarray,
+           weighted: bool, mu_in: np.ndarray, mu_out: np.ndarray,
            entry_forms: np.ndarray, entry_slope: np.ndarray, split: np.ndarray) -> float:
     """T Σ |p_{k+1} − p_k| (frictionless; with friction the model asks for no energy)."""
     if tension == 0.0:

@@ -30,11 +30,12 @@ def evaluate(x: np.ndarray, dofs: np.ndarray, chord_dofs: np.ndarray, weights: n
     split = np.zeros(0, dtype=np.bool_)
     minus_gradient = np.zeros(m)  # −∇ℓ
     tendon_string.evaluate(x, chord_dofs, weights, constant, forms, 1.0, 0.0, unused,
+                           False, unused, unused,
                            entry_forms, slope, split, 1.0, True, minus_gradient, chord_local,
                            False,
                            unused, unused_target)
     length = tendon_string.energy(x, chord_dofs, weights, constant, forms, 1.0, 0.0, unused,
-                                  entry_forms, slope, split)
+                                  False, unused, unused, entry_forms, slope, split)
     stretch = length - free_length
     tension = spring * stretch if stretch > 0.0 else 0.0
     if want_force:
@@ -46,7 +47,7 @@ def evaluate(x: np.ndarray, dofs: np.ndarray, chord_dofs: np.ndarray, weights: n
         flat = np.zeros(m * m)
         unused_force_target = np.empty((0, 0), dtype=np.int64)
         tendon_string.evaluate(x, chord_dofs, weights, constant, forms, tension, 0.0, unused,
-                               entry_forms, slope, split, 1.0, False,
+                               False, unused, unused, entry_forms, slope, split, 1.0, False,
                                unused, unused_force_target,
                                True, flat, chord_pairs)
         local_jacobian = flat.reshape((m, m))
@@ -63,7 +64,8 @@ def energy(x: np.ndarray, dofs: np.ndarray, chord_dofs: np.ndarray, weights: np.
            chord_pairs: np.ndarray, spring: float, free_length: float) -> float:
     """½ k max(0, ℓ − ℓ*)²."""
     length = tendon_string.energy(x, chord_dofs, weights, constant, forms, 1.0, 0.0,
-                                  np.empty(0), np.zeros((3, 3, 4, 4)), np.zeros(2),
+                                  np.empty(0), False, np.empty(0), np.empty(0),
+                                  np.zeros((3, 3, 4, 4)), np.zeros(2),
                                   np.zeros(0, dtype=np.bool_))
     stretch = length - free_length
     return 0.5 * spring * stretch * stretch if stretch > 0.0 else 0.0

@@ -290,6 +290,13 @@ class Term(ABC):
         (``rodsim.core.model.Model.anchored`` sets them after a converged step)."""
         raise NotImplementedError(f"term {self.name!r} holds no anchors")
 
+    def freed(self, full: np.ndarray) -> Term | None:
+        """A copy of this path-dependent term in which what broke loose at the equilibrium
+        ``full`` of this step slides with its kinetic friction (a string tendon's points
+        with stiction, rodsim/core/tendon_friction.py), for the step to be solved again;
+        ``None`` when nothing broke loose (the default: no stiction)."""
+        return None
+
     def registration_state(self) -> np.ndarray | None:
         """A dynamic term's current discrete state (what ``registered`` takes), or
         ``None`` for a term without registration."""

@@ -75,7 +75,11 @@ coordinates. So the Jacobian is exact on such paths (Newton converges quadratica
 the frozen-tension one elsewhere (3-D or S-shaped paths, a moving entry: linearly, at a
 rate of order μ); the term is not conservative (no energy) and the stability verdict
 takes the non-symmetric path. With μ = 0 every τ_e is T and nothing of this runs: the
-frictionless numbers, bitwise.
+frictionless numbers, bitwise. ``friction_points`` (a μ per routing point) and
+``static_friction`` (μ_s > μ_k: a stick/slip state per point, carried with the tensions as
+the anchors; ``TendonString.freed`` for a breakaway within a step) take the weighted
+bounds of rodsim/core/tendon_friction.py ("Per-point coefficients and stiction"); the
+coupling then takes chord e's own coefficient.
 """
 
 from __future__ import annotations
@@ -95,9 +99,14 @@ from rodsim.core.tendon import MAX_TENSION, Tendon
 from rodsim.core.tendon_friction import (
     MAX_FRICTION,
     ONE_WAY,
+    SLIDING_IN,
+    bound_coefficients,
     chord_tensions,
     slide_rates,
+    slip_states,
     turning_angles,
+    weighted_chord_tensions,
+    weighted_slide_rates,
 )
 from rodsim.core.terms.base import KernelArguments, TendonTerm
 
@@ -208,6 +217,8 @@ class TendonStringOptions(Options):
     displacement: float = 0.0
     stiffness: float = 0.0
     friction: float = 0.0
+    friction_points: list[float] = field(default_factory=list)
+    static_friction: float = 0.0
 
 
 class TendonString(TendonTerm):
@@ -264,6 +275,15 @@ class TendonString(TendonTerm):
                   "Coulomb coefficient μ between the tendon and its routing (spacer disks or "
                   "lumen; capstan law, rodsim/core/tendon_friction.py); 0: frictionless",
                   0.0, MAX_FRICTION),
+        Parameter("friction_points", "vector", [], "-",
+                  "a kinetic μ per routing point (the entry, every node inside the span, "
+                  "a section boundary between nodes, the termination: one value each, in "
+                  "order of arc length), overriding friction; [] (default): friction at "
+                  "every point", 0.0, MAX_FRICTION),
+        Parameter("static_friction", "float", 0.0, "-",
+                  "static μ_s >= the kinetic friction (or every friction_points value): a "
+                  "point that stuck at the last equilibrium holds until the tension ratio "
+                  "over it exceeds e^(μ_s θ); 0 (default): μ_s = μ_k", 0.0, MAX_FRICTION),
     )
 
     @classmethod
@@ -280,6 +300,15 @@ class TendonString(TendonTerm):
                 raise SceneError(f"{prefix}.{key} = {getattr(options, key)!r}: read only with "
                                  f"control = 'displacement'; allowed: set {prefix}.control = "
                                  "'displacement' (and no tension), or leave it unset")
+        static = options.static_friction
+        kinetic = max(options.friction_points) if options.friction_points else (
+            options.friction)
+        if static != 0.0 and static < kinetic:
+            which = ("the largest friction_points value" if options.friction_points
+                     else "friction")
+            raise SceneError(f"{prefix}.static_friction = {static!r}: smaller than the "
+                             f"kinetic coefficient ({which} = {kinetic!r}); allowed: a number "
+                             f">= {kinetic!r} and <= {MAX_FRICTION:g}, or 0 (μ_s = μ_k)")
 
     def __init__(self, tendon: Tendon, options: TendonStringOptions) -> None:
         super().__init__(tendon, options)
@@ -294,18 +323,45 @@ class TendonString(TendonTerm):
         self._forms = g
         #: Coulomb coefficient μ (rodsim/core/tendon_friction.py); 0: frictionless.
         self.friction = float(options.friction)
+        chords = len(self.points.s) - 1
+        #: The kinetic μ_k of every turn (routing points 0 … P − 2), (P − 1,).
+        self.kinetic = np.full(chords, self.friction)
+        if options.friction_points:
+            values = np.asarray(options.friction_points, dtype=float)
+            if len(values) != chords + 1:
+                raise SceneError(
+                    f"tendons.{tendon.name}.tendon_string.friction_points has {len(values)} "
+                    f"values, expected {chords + 1}: one per routing point at this "
+                    f"discretisation (the entry at s = {self.start:.6g} m, "
+                    f"{chords - 1} points inside the span, the termination at "
+                    f"s = {self.end:.6g} m); allowed: a list of {chords + 1} numbers, or "
+                    "friction alone")
+            self.kinetic = np.ascontiguousarray(values[:-1])
+        #: The static μ_s of every turn (rodsim/core/tendon_friction.py, "Per-point
+        #: coefficients and stiction"): μ_k where static_friction is not set, (P − 1,).
+        self.static = np.maximum(float(options.static_friction), self.kinetic)
+        #: Whether a point's stick/slip state is history (μ_s above its μ_k somewhere).
+        self.sticky = bool(np.any(self.static > self.kinetic))
+        #: Whether the bounds take a coefficient per turn and side (friction_points, or
+        #: stiction); otherwise the scalar μ: the uniform capstan's numbers, bitwise.
+        self.weighted = bool(options.friction_points) or self.sticky
         #: The chord tensions τ_old of the last converged equilibrium [N], (P − 1,): the
         #: friction's history. At first 0: pulled in from slack, monotonically.
-        self.profile = np.zeros(len(self.points.s) - 1)
+        self.profile = np.zeros(chords)
+        #: Each point's stick/slip state at the last equilibrium (−1 sliding in, 0 stuck,
+        #: +1 sliding out), (P − 1,): at first sliding in (pulled in from slack).
+        self.state = np.full(chords, SLIDING_IN)
+        self._coefficients()
         #: ρ′ at the entry (the path's slope there), (2,).
         self._entry_slope = np.ascontiguousarray(self.routing.derivatives(
             np.array([self.start]))[0], dtype=float)
-        self.conservative = self.friction == 0.0
+        self.conservative = not self.rubs
         #: The routing points whose turn is split through one-sided tangents (where another
         #: string tendon on the catheter starts or ends: :func:`split_at_breaks`), (P,).
         self.split = np.zeros(len(self.points.s), dtype=np.bool_)
-        #: (state, tension, profile, chord tensions) of the last chord_tensions call.
-        self._memo: tuple[np.ndarray, float, np.ndarray, np.ndarray] | None = None
+        #: (state, tension, profile, chord tensions, μ_in) of the last chord_tensions call.
+        self._memo: tuple[np.ndarray, float, np.ndarray, np.ndarray, np.ndarray] | None = (
+            None)
 
     def with_options(self, options: TendonStringOptions) -> TendonString | None:
         """A copy with another tension when that is the only option changed (a tracking
@@ -318,24 +374,71 @@ class TendonString(TendonTerm):
         other.tension = float(options.tension)
         return other
 
+    @property
+    def rubs(self) -> bool:
+        """Whether the tendon has any friction (else the frictionless string, bitwise)."""
+        return bool(np.any(self.static > 0.0)) if self.weighted else self.friction > 0.0
+
+    def _coefficients(self) -> None:
+        """μ_in, μ_out of every turn from the stick/slip state (``bound_coefficients``;
+        μ_k both ways without stiction)."""
+        self._mu_in, self._mu_out = (bound_coefficients(self.kinetic, self.static,
+                                                        self.state) if self.sticky
+                                     else (self.kinetic, self.kinetic))
+
     def anchor_positions(self) -> np.ndarray | None:
-        """The stored chord tensions τ_old (P − 1,) [N] with friction; None without (the
-        force then depends on the state alone)."""
-        return self.profile if self.friction > 0.0 else None
+        """The stored chord tensions τ_old (P − 1,) [N] with friction, followed by the
+        points' stick/slip states (P − 1,) with stiction; None without friction (the force
+        then depends on the state alone)."""
+        if not self.rubs:
+            return None
+        return np.concatenate([self.profile, self.state]) if self.sticky else self.profile
 
     def anchors_at(self, full: np.ndarray) -> np.ndarray | None:
-        """The chord tensions the equilibrium ``full`` gives (the next step's history); None
-        without friction."""
-        return self.chord_tensions(full) if self.friction > 0.0 else None
+        """The chord tensions the equilibrium ``full`` gives (the next step's history) and,
+        with stiction, the points' stick/slip states there; None without friction."""
+        if not self.rubs:
+            return None
+        tensions = self.chord_tensions(full)
+        if not self.sticky:
+            return tensions
+        return np.concatenate([tensions, slip_states(
+            self.tension, self._mu_in, self._mu_out, self.turning_angles(full),
+            self.profile, self.state)])
 
     def anchored(self, anchors: np.ndarray) -> TendonString:
-        """A copy of this term with the stored chord tensions ``anchors`` (P − 1,) [N]."""
+        """A copy of this term with the stored chord tensions ``anchors`` (P − 1,) [N]
+        (followed by the stick/slip states with stiction: 2 (P − 1) values)."""
         anchors = np.ascontiguousarray(anchors, dtype=float)
-        if anchors.shape != self.profile.shape:
+        chords = len(self.profile)
+        expected = (2 * chords,) if self.sticky else (chords,)
+        if anchors.shape != expected:
             raise ValueError(f"a tension profile of shape {anchors.shape}, expected "
-                             f"{self.profile.shape}")
+                             f"{expected}")
         other = copy.copy(self)
-        other.profile = anchors
+        if self.sticky:
+            other.profile = np.ascontiguousarray(anchors[:chords])
+            other.state = np.ascontiguousarray(anchors[chords:])
+            other._coefficients()
+        else:
+            other.profile = anchors
+        return other
+
+    def freed(self, full: np.ndarray) -> TendonString | None:
+        """With stiction: a copy whose points that broke loose at the equilibrium ``full``
+        of this step (stuck at the last equilibrium, or sliding the other way, and on a
+        bound now) slide at their kinetic μ_k, the stored tensions kept, for the step to be
+        solved again (rodsim/core/tendon_friction.py, "Stiction"); None when none did."""
+        if not self.sticky:
+            return None
+        states = slip_states(self.tension, self._mu_in, self._mu_out,
+                             self.turning_angles(full), self.profile, self.state)
+        broke = (states != 0.0) & (states != self.state)
+        if not np.any(broke):
+            return None
+        other = copy.copy(self)
+        other.state = np.where(broke, states, self.state)
+        other._coefficients()
         return other
 
     def entry_directions(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -357,22 +460,27 @@ class TendonString(TendonTerm):
         """τ_e of every chord [N]: T everywhere without friction, else the capstan profile
         with this term's history (rodsim/core/tendon_friction.py)."""
         chords = len(self.points.s) - 1
-        if self.friction == 0.0:
+        if not self.rubs:
             return np.full(chords, self.tension)
         # The last state's, kept: a converged step reads them three times (its result, the
-        # track's record, the next step's anchors) at the same state and history.
+        # track's record, the next step's anchors) at the same state and history (the same
+        # stick/slip coefficients: a step solved again after a breakaway has others).
         memo = self._memo
         if (memo is not None and memo[1] == self.tension and memo[2] is self.profile
-                and np.array_equal(memo[0], x)):
+                and memo[4] is self._mu_in and np.array_equal(memo[0], x)):
             return memo[3].copy()
-        out = chord_tensions(self.tension, self.friction, self.turning_angles(x),
-                             self.profile)
-        self._memo = (np.array(x, dtype=float), self.tension, self.profile, out)
+        if self.weighted:
+            out = weighted_chord_tensions(self.tension, self._mu_in, self._mu_out,
+                                          self.turning_angles(x), self.profile)
+        else:
+            out = chord_tensions(self.tension, self.friction, self.turning_angles(x),
+                                 self.profile)
+        self._memo = (np.array(x, dtype=float), self.tension, self.profile, out, self._mu_in)
         return out.copy()
 
     def tension_profile(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
         """(rest arc length of each chord's midpoint, τ_e) with friction; None without."""
-        if self.friction == 0.0:
+        if not self.rubs:
             return None
         s = self.points.s
         return 0.5 * (s[:-1] + s[1:]), self.chord_tensions(x)
@@ -381,7 +489,10 @@ class TendonString(TendonTerm):
         pts = self.points
         return {"dofs": self.dofs, "weights": pts.weights, "constant": pts.constant,
                 "forms": np.ascontiguousarray(self._forms), "tension": self.tension,
-                "friction": self.friction, "profile": self.profile,
+                "friction": (float(np.max(self.static, initial=0.0)) if self.weighted
+                             else self.friction), "profile": self.profile,
+                "weighted": self.weighted, "mu_in": np.ascontiguousarray(self._mu_in),
+                "mu_out": np.ascontiguousarray(self._mu_out),
                 "entry_forms": np.ascontiguousarray(DIRECTOR_FORMS),
                 "entry_slope": self._entry_slope, "split": self.split}
 
@@ -427,7 +538,7 @@ class TendonString(TendonTerm):
         return float(np.sum(np.linalg.norm(np.diff(self.path(x), axis=0), axis=1)))
 
     def energy(self, x: np.ndarray) -> float | None:
-        if self.friction > 0.0:
+        if self.rubs:
             return None  # the capstan profile is not the gradient of an energy
         return float(self.tension * np.sum(np.linalg.norm(np.diff(self.path(x), axis=0),
                                                           axis=1)))
@@ -466,7 +577,7 @@ class TendonString(TendonTerm):
                     hess[:, rows, cols] += (weights[:, a] * weights[:, b])[:, None,
                                                                            None] * curvature
         jacobian = -hess
-        if self.friction > 0.0 and not np.any(self.points.weights[0, 2:]):
+        if self.rubs and not np.any(self.points.weights[0, 2:]):
             jacobian += self._one_way_coupling(x, u, length, jd)
         return jacobian
 
@@ -477,7 +588,9 @@ class TendonString(TendonTerm):
         ∠(d3, u_e), whose gradient −(d3 − (d3·u_e) u_e)ᵀ Jd_e / (|d3 × u_e| |d_e|) lies on
         the chord's own coordinates; f_e = −Jd_eᵀ u_e, the chord's force per unit tension."""
         theta = self.turning_angles(x)
-        rate = slide_rates(self.tension, self.friction, theta, self.profile)
+        rate = (weighted_slide_rates(self.tension, self._mu_in, self._mu_out, theta,
+                                     self.profile) if self.weighted
+                else slide_rates(self.tension, self.friction, theta, self.profile))
         axis, tangent = self.entry_directions(x)
         # One way in one plane: the plain turns (no split) sum to ψ_e.
         wrap = np.cumsum(turning_angles(axis, tangent, self.path(x)))
@@ -501,7 +614,7 @@ def split_at_breaks(terms: Sequence[object]) -> None:
     strings = [t for t in (getattr(term, "string", term) for term in terms)
                if isinstance(t, TendonString)]
     for term in strings:
-        if term.friction == 0.0:
+        if not term.rubs:
             continue
         rod = term.tendon.catheter
         breaks = np.array([s for other in strings if other is not term

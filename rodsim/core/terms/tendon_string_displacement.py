@@ -69,6 +69,11 @@ class TendonStringDisplacement(TendonTerm):
             raise SceneError(f"{prefix}.friction = {options.friction!r}: friction is "
                              "modelled on a tension-controlled string only; allowed: "
                              "friction = 0 with control = 'displacement'")
+        for key in ("friction_points", "static_friction"):
+            if getattr(options, key):
+                raise SceneError(f"{prefix}.{key} = {getattr(options, key)!r}: friction is "
+                                 "modelled on a tension-controlled string only; allowed: "
+                                 f"leave {key} unset with control = 'displacement'")
         if not options.stiffness > 0.0:
             raise SceneError(f"{prefix}.stiffness = {options.stiffness!r}: control = "
                              "'displacement' needs the tendon's axial stiffness E A; allowed: "

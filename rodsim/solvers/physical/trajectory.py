@@ -35,14 +35,18 @@ from rodsim.core.model import Model
 from rodsim.solvers.physical.coordinates import model_state
 from rodsim.solvers.physical.midpoint import MidpointStep, Motion, StepFailure
 
-#: What a run is told at the end of every step: ``after_step(t, x)``, x the model's free
-#: coordinates (offsets from the rest state).
-AfterStep = Callable[[float, np.ndarray], None]
+#: What a run is told at the end of every step: ``after_step(t, x, model)``, x the model's
+#: free coordinates (offsets from the rest state), ``model`` the one that solved the step
+#: when points of a string tendon broke loose in the step (stiction: :meth:`Model.freed`),
+#: else None.
+AfterStep = Callable[[float, np.ndarray, "Model | None"], None]
 
 __all__ = ["Record", "integrate", "MAX_HALVINGS"]
 
 #: How many times a step whose Newton fails may be halved before the run stops.
 MAX_HALVINGS = 4
+#: Most repeats of one step for points of a string tendon that broke loose (stiction).
+MAX_BREAKAWAYS = 1000
 
 
 @dataclass
@@ -92,8 +96,20 @@ def _advance(model_at: Callable[[float], Model], stepper: MidpointStep, motion: 
     if middle.has_registration:
         registered = middle.reregistered(model_state(middle, motion.x))
         middle = middle if registered is None else registered
+    freed: Model | None = None
+    broke = False
     try:
         outcome = stepper.step(middle, motion, t1 - t0)
+        # Stiction: the points that broke loose in the step slide at their kinetic μ; the
+        # step is taken again with them until nothing more breaks (as a track's step,
+        # rodsim/app/inverse/continuation.py).
+        for _ in range(MAX_BREAKAWAYS):
+            freed = (middle.freed(model_state(middle, outcome.motion.x))
+                     if after_step is not None else None)
+            if freed is None:
+                break
+            middle, broke = freed, True
+            outcome = stepper.step(middle, motion, t1 - t0)
     except StepFailure:
         if halvings == 0:
             raise
@@ -106,7 +122,7 @@ def _advance(model_at: Callable[[float], Model], stepper: MidpointStep, motion: 
     work = 0.0
     start_model, end_model = model_at(t0), model_at(t1)
     if after_step is not None:
-        after_step(t1, model_state(middle, outcome.motion.x))
+        after_step(t1, model_state(middle, outcome.motion.x), middle if broke else None)
     if start_model is not middle or end_model is not middle:
         work = (_potential(end_model, outcome.motion.x) - _potential(middle, outcome.motion.x)
                 + _potential(middle, motion.x) - _potential(start_model, motion.x))
