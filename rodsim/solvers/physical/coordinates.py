@@ -25,6 +25,7 @@ kinetic energy is T = ½ ṙᵀ M_r ṙ + ½ Σ_segments ωᵀ I ω.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 import scipy.sparse as sp
@@ -67,14 +68,43 @@ def gyroscopic_jacobian(inertia: np.ndarray, w: np.ndarray) -> np.ndarray:
     return skew(w) * inertia[:, None, :] - skew(inertia * w)
 
 
+#: The canonical CSR structure (indices, indptr, the blocks' entries in its order) of the
+#: block placements met so far, keyed by the placement: each step asks for the same few.
+_BLOCK_STRUCTURES: dict[tuple[object, ...], tuple[np.ndarray, np.ndarray, np.ndarray]] = {}
+
+
+def _block_structure(rows: np.ndarray, cols: np.ndarray, a: int, b: int,
+                     shape: tuple[int, int]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(indices, indptr, order) of the CSR matrix scipy builds from the blocks' (row, column)
+    entries: sorted column indices per row (its ``sum_duplicates`` sorts them), and where
+    each stored entry comes from in the raveled blocks. Found once per placement by building
+    the matrix from the entries' own positions."""
+    key = (shape, a, b, rows.shape, rows.tobytes(), cols.shape, cols.tobytes())
+    known = _BLOCK_STRUCTURES.get(key)
+    if known is None:
+        r = np.repeat(rows[:, :, None], b, axis=2).ravel()
+        c = np.repeat(cols[:, None, :], a, axis=1).ravel()
+        if len(set(zip(r.tolist(), c.tolist(), strict=True))) != r.size:
+            raise ValueError("overlapping blocks")  # placements here are disjoint
+        place = sp.csr_matrix((np.arange(1.0, r.size + 1.0), (r, c)), shape=shape)
+        known = (place.indices, place.indptr, place.data.astype(np.intp) - 1)
+        if len(_BLOCK_STRUCTURES) > 64:
+            _BLOCK_STRUCTURES.clear()
+        _BLOCK_STRUCTURES[key] = known
+    return known
+
+
 def block_diagonal(blocks: np.ndarray, rows: np.ndarray, cols: np.ndarray, shape: tuple[
         int, int]) -> sp.csr_matrix:
     """A sparse matrix of ``blocks`` (s, a, b) placed at row indices ``rows`` (s, a) and
-    column indices ``cols`` (s, b)."""
+    column indices ``cols`` (s, b), the blocks disjoint: the matrix
+    ``sp.csr_matrix((blocks.ravel(), (r, c)))`` of their entries, the same arrays entry for
+    entry (explicit zeros kept), built from a structure found once per placement."""
     a, b = blocks.shape[1:]
-    r = np.repeat(rows[:, :, None], b, axis=2).ravel()
-    c = np.repeat(cols[:, None, :], a, axis=1).ravel()
-    return sp.csr_matrix((blocks.ravel(), (r, c)), shape=shape)
+    indices, indptr, order = _block_structure(rows, cols, a, b, shape)
+    out = sp.csr_matrix((blocks.ravel()[order], indices, indptr), shape=shape)
+    out.has_canonical_format = True
+    return out
 
 
 @dataclass(frozen=True)
@@ -139,11 +169,19 @@ class PhysicalCoordinates:
         (positions: the velocities; q̇ = ½ Σ_k ω_k B_k q), and Gᵀ f = (f_r, τ) with
         τ_k = ½ (B_k q) · f_q."""
         p, s = len(self.positions), len(self.quaternions)
-        positions = sp.csr_matrix((np.ones(p), (self.positions, np.arange(p))),
-                                  shape=(n, self.size))
+        positions = self._g_positions.get(n)
+        if positions is None:  # the same every call: built once
+            positions = sp.csr_matrix((np.ones(p), (self.positions, np.arange(p))),
+                                      shape=(n, self.size))
+            self._g_positions[n] = positions
         blocks = 0.5 * np.transpose(velocity_rows(x[self.quaternions]), (0, 2, 1))
         return positions + block_diagonal(blocks, self.quaternions,
                                           p + np.arange(3 * s).reshape(-1, 3), (n, self.size))
+
+    @cached_property
+    def _g_positions(self) -> dict[int, sp.csr_matrix]:
+        """G's position columns (constant), by the number of free coordinates."""
+        return {}
 
     def rates(self, x: np.ndarray, x_dot: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """The physical velocities (ṙ, ω) of a motion ``x_dot`` of the free coordinates at

@@ -74,6 +74,16 @@ DIVERGED = 0.1
 MAX_ITERATIONS = 25
 
 
+def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """a × b row by row for (s, 3) arrays: numpy.cross's own products and differences,
+    without its axis handling (the same numbers)."""
+    out = np.empty(np.broadcast_shapes(a.shape, b.shape))
+    out[:, 0] = a[:, 1] * b[:, 2] - a[:, 2] * b[:, 1]
+    out[:, 1] = a[:, 2] * b[:, 0] - a[:, 0] * b[:, 2]
+    out[:, 2] = a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0]
+    return out
+
+
 class StepFailure(RuntimeError):
     """A time step could not be taken (Newton did not converge, or a value is not finite)."""
 
@@ -122,6 +132,14 @@ class MidpointStep:
         self._p = len(c.positions)
         self._s = len(c.quaternions)
         self._angle_cols = self._p + np.arange(3 * self._s).reshape(-1, 3)
+        nodes, weights = np.polynomial.legendre.leggauss(quadrature)
+        #: The Gauss–Legendre points on [0, 1] and their weights (fixed: computed once).
+        self._gauss = tuple(zip((0.5 * (nodes + 1.0)).tolist(), (0.5 * weights).tolist(),
+                                strict=True))
+        #: The constant parts of the step's sparse maps, built once: the position part of
+        #: :meth:`_map` by its factor, and the zero position block of the derivative.
+        self._position_maps: dict[tuple[float, int, int], sp.csr_matrix] = {}
+        self._zero_positions = sp.csr_matrix((self._p, self._p))
 
     def _midpoint(self, x0: np.ndarray, r1: np.ndarray, wm: np.ndarray, h: float
                   ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
@@ -167,8 +185,7 @@ class MidpointStep:
         f_r = np.zeros(self._p)
         tau = np.zeros((self._s, 3))
         derivative = None
-        nodes, weights = np.polynomial.legendre.leggauss(self.quadrature)
-        for node, weight in zip(0.5 * (nodes + 1.0), 0.5 * weights, strict=True):
+        for node, weight in self._gauss:
             q = q0 + node * (q1 - q0)
             norm = np.linalg.norm(q, axis=1)
             unit = q / norm[:, None]
@@ -204,7 +221,7 @@ class MidpointStep:
                                + np.einsum("ska,sal->skl", through_q, node * dq1))
             local = self._angle_cols - self._p
             part = (g.T @ model.pattern_matrix(jac) @ p) + sp.block_diag([
-                sp.csr_matrix((self._p, self._p)),
+                self._zero_positions,
                 block_diagonal(geometric, local, local, (3 * self._s, 3 * self._s))])
             derivative = weight * part if derivative is None else derivative + weight * part
         return f_r, tau, None if derivative is None else derivative.tocsr()
@@ -213,8 +230,11 @@ class MidpointStep:
         """An n × m map: ``position`` times the identity on the positions, the 4 × 3
         ``blocks`` on each segment's quaternion and angles."""
         c = self.coordinates
-        positions = sp.csr_matrix((np.full(self._p, position),
-                                   (c.positions, np.arange(self._p))), shape=(n, m))
+        positions = self._position_maps.get((position, n, m))
+        if positions is None:
+            positions = sp.csr_matrix((np.full(self._p, position),
+                                       (c.positions, np.arange(self._p))), shape=(n, m))
+            self._position_maps[(position, n, m)] = positions
         return positions + block_diagonal(blocks, c.quaternions, self._angle_cols, (n, m))
 
     def step(self, model: Model, start: Motion, h: float) -> StepOutcome:
@@ -240,7 +260,7 @@ class MidpointStep:
             dq1 = self._cayley_derivative(qm, wm, h) if fresh else None
             f_r, tau, stiffness = self._averaged(model, x0, r1, q1, qm, dq1)
             res_r = (2.0 / h) * (c.mass @ (vm - v0)) - f_r
-            res_w = ((2.0 / h) * inertia * (wm - w0) + np.cross(wm, inertia * wm) - tau)
+            res_w = ((2.0 / h) * inertia * (wm - w0) + _cross(wm, inertia * wm) - tau)
             if self.damping.active:
                 g = c.g_matrix(xm, n)
                 damping = (g.T @ self.damping.matrix(xm) @ g).tocsr()
