@@ -40,6 +40,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 import scipy.sparse as sp
@@ -51,9 +52,11 @@ from rodsim.core.rod.quaternion import B
 from rodsim.solvers.physical.coordinates import (
     PhysicalCoordinates,
     block_diagonal,
+    block_entries,
     cayley,
     gyroscopic_jacobian,
     model_state,
+    placed,
     velocity_rows,
 )
 
@@ -136,10 +139,10 @@ class MidpointStep:
         #: The Gauss–Legendre points on [0, 1] and their weights (fixed: computed once).
         self._gauss = tuple(zip((0.5 * (nodes + 1.0)).tolist(), (0.5 * weights).tolist(),
                                 strict=True))
-        #: The constant parts of the step's sparse maps, built once: the position part of
-        #: :meth:`_map` by its factor, and the zero position block of the derivative.
-        self._position_maps: dict[tuple[float, int, int], sp.csr_matrix] = {}
-        self._zero_positions = sp.csr_matrix((self._p, self._p))
+        #: Where :meth:`_map`'s entries sit (positions, then the blocks raveled).
+        rows, cols = block_entries(coordinates.quaternions, self._angle_cols, 4, 3)
+        self._map_entries = (np.concatenate([coordinates.positions, rows]),
+                             np.concatenate([np.arange(self._p), cols]))
 
     def _midpoint(self, x0: np.ndarray, r1: np.ndarray, wm: np.ndarray, h: float
                   ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
@@ -219,23 +222,20 @@ class MidpointStep:
                          - moment[:, :, None] * unit[:, None, :]) / norm[:, None, None] ** 2
             geometric = 0.5 * (np.einsum("ska,sal->skl", turned, 0.5 * dq1)
                                + np.einsum("ska,sal->skl", through_q, node * dq1))
-            local = self._angle_cols - self._p
-            part = (g.T @ model.pattern_matrix(jac) @ p) + sp.block_diag([
-                self._zero_positions,
-                block_diagonal(geometric, local, local, (3 * self._s, 3 * self._s))])
+            # the geometric blocks on the angles (sp.block_diag with the zero position
+            # block, as one placement)
+            part = (g.T @ model.pattern_matrix(jac) @ p) + block_diagonal(
+                geometric, self._angle_cols, self._angle_cols, (m, m))
             derivative = weight * part if derivative is None else derivative + weight * part
         return f_r, tau, None if derivative is None else derivative.tocsr()
 
     def _map(self, blocks: np.ndarray, position: float, n: int, m: int) -> sp.csr_matrix:
         """An n × m map: ``position`` times the identity on the positions, the 4 × 3
-        ``blocks`` on each segment's quaternion and angles."""
-        c = self.coordinates
-        positions = self._position_maps.get((position, n, m))
-        if positions is None:
-            positions = sp.csr_matrix((np.full(self._p, position),
-                                       (c.positions, np.arange(self._p))), shape=(n, m))
-            self._position_maps[(position, n, m)] = positions
-        return positions + block_diagonal(blocks, c.quaternions, self._angle_cols, (n, m))
+        ``blocks`` on each segment's quaternion and angles (the sum of the two, as one
+        placement: :func:`placed`)."""
+        rows, cols = self._map_entries
+        return placed(np.concatenate([np.full(self._p, position), blocks.ravel()]), rows,
+                      cols, (n, m), prune=True)
 
     def step(self, model: Model, start: Motion, h: float) -> StepOutcome:
         """One step of length ``h`` [s] from ``start`` with ``model``'s forces (those of the
@@ -314,6 +314,15 @@ class MidpointStep:
         return np.linalg.solve(np.eye(4)[None] - 0.25 * h * omega,
                                0.5 * h * np.transpose(velocity_rows(qm), (0, 2, 1)))
 
+    @cached_property
+    def _mass_entries(self) -> tuple[np.ndarray, np.ndarray]:
+        """Where the Newton matrix's masses sit: M_r's stored entries, then the rotation
+        blocks on the angles (raveled)."""
+        mass = self.coordinates.mass
+        r, c = block_entries(self._angle_cols, self._angle_cols, 3, 3)
+        return (np.concatenate([np.repeat(np.arange(self._p), np.diff(mass.indptr)), r]),
+                np.concatenate([mass.indices, c]))
+
     def _newton_matrix(self, stiffness: sp.csr_matrix,
                        damping: sp.csr_matrix | None, wm: np.ndarray, h: float
                        ) -> sp.csr_matrix:
@@ -323,10 +332,11 @@ class MidpointStep:
         inertia = c.inertia
         gyro = gyroscopic_jacobian(inertia, wm)
         rotation = (2.0 / h) * np.eye(3)[None] * inertia[:, :, None] + gyro
-        local = self._angle_cols - self._p
-        masses = sp.block_diag([(2.0 / h**2) * c.mass,
-                                block_diagonal(rotation, local, local,
-                                                (3 * self._s, 3 * self._s))]).tocsr()
+        # sp.block_diag([(2/h²) M_r, the rotation blocks]) as one placement
+        mass = (2.0 / h**2) * c.mass
+        rows, cols = self._mass_entries
+        masses = placed(np.concatenate([mass.data, rotation.ravel()]), rows, cols,
+                        (c.size, c.size))
         matrix = masses - stiffness
         if damping is not None:
             scale = np.concatenate([np.full(self._p, 1.0 / h), np.ones(3 * self._s)])
