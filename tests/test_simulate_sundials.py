@@ -77,14 +77,15 @@ def test_converges_with_rtol_and_agrees_with_the_midpoint_rule():
     (asserted ≥ 1/2, order 1's), 1.24 and 0.57 in each (asserted ≥ 0.3: an adaptive step
     sequence is not smooth in the tolerance — the decade 3e-6 → 1e-6 measured 0.22 — so no
     single decade is held to 1/2); at 1e-6 the error is 6.3 tol (asserted < 10 tol). An
-    earlier machine measured 1.6e-3, 1.9e-5, 3.1e-6 L, and a test asking a factor 10 then 5
-    a decade, more than order 2 gives, failed here at 4.1e-4, 2.4e-5, 6.3e-6.
+    earlier run (at 9075df9, outside this history) measured 1.6e-3, 1.9e-5, 3.1e-6 L; a test
+    asking a factor 10 then 5 a decade, more than order 2 gives, failed at 4.1e-4, 2.4e-5,
+    6.3e-6.
 
     The energy balance's error falls with it (BDF's numerical damping: measured 3.1e-2,
     7.5e-4, 6.9e-5 of the vibration's energy). IDA at 1e-6 and the midpoint rule at 1600
     steps a period (whose error falls slowly: a sudden release excites modes its step does
-    not resolve) agree within 1.5e-5 L (measured 7.6e-6 L; 1.0e-5 L on the earlier
-    machine)."""
+    not resolve) agree within 1.5e-5 L (measured 7.6e-6 L; 1.0e-5 L in the earlier
+    run)."""
     options = {"output_dt": PERIOD / 20, "initial": RELEASE}
     reference = released_reference()
     errors, balance = [], []
