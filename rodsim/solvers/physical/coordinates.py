@@ -25,6 +25,7 @@ kinetic energy is T = ½ ṙᵀ M_r ṙ + ½ Σ_segments ωᵀ I ω.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 import scipy.sparse as sp
@@ -34,6 +35,7 @@ from rodsim.core.model import Model
 from rodsim.core.rod.quaternion import B
 
 __all__ = ["PhysicalCoordinates", "velocity_rows", "cayley", "skew", "block_diagonal",
+           "block_entries", "placed",
            "gyroscopic_jacobian"]
 
 
@@ -67,14 +69,62 @@ def gyroscopic_jacobian(inertia: np.ndarray, w: np.ndarray) -> np.ndarray:
     return skew(w) * inertia[:, None, :] - skew(inertia * w)
 
 
+#: The canonical CSR structure (indices, indptr, the entries' order) of the placements met
+#: so far, keyed by the placement: each step asks for the same few.
+_STRUCTURES: dict[tuple[object, ...], tuple[np.ndarray, np.ndarray, np.ndarray]] = {}
+
+
+def _structure(rows: np.ndarray, cols: np.ndarray, shape: tuple[int, int]
+               ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(indices, indptr, order) of the CSR matrix scipy builds from distinct (row, column)
+    entries: sorted column indices per row (its ``sum_duplicates`` sorts them), and where
+    each stored entry comes from among the entries. Found once per placement by building
+    the matrix from the entries' own positions."""
+    key = (shape, rows.tobytes(), cols.tobytes())
+    known = _STRUCTURES.get(key)
+    if known is None:
+        if len(set(zip(rows.tolist(), cols.tolist(), strict=True))) != rows.size:
+            raise ValueError("overlapping entries")  # placements here are disjoint
+        place = sp.csr_matrix((np.arange(1.0, rows.size + 1.0), (rows, cols)), shape=shape)
+        known = (place.indices, place.indptr, place.data.astype(np.intp) - 1)
+        if len(_STRUCTURES) > 64:
+            _STRUCTURES.clear()
+        _STRUCTURES[key] = known
+    return known
+
+
+def placed(values: np.ndarray, rows: np.ndarray, cols: np.ndarray, shape: tuple[int, int],
+           prune: bool = False) -> sp.csr_matrix:
+    """``sp.csr_matrix((values, (rows, cols)), shape=shape)`` for distinct entries, the same
+    arrays entry for entry (explicit zeros kept), from a structure found once per
+    placement; ``prune``: without the zero entries, as scipy's sum of two matrices with
+    disjoint entries leaves them (its ``csr_plus_csr`` stores only nonzero results)."""
+    indices, indptr, order = _structure(rows.ravel(), cols.ravel(), shape)
+    data = values.ravel()[order]
+    if prune and not np.all(data):
+        kept = data != 0.0
+        indptr = np.concatenate([[0], np.cumsum(kept)]).astype(indptr.dtype)[indptr]
+        indices, data = indices[kept], data[kept]
+    out = sp.csr_matrix((data, indices, indptr), shape=shape)
+    out.has_canonical_format = True
+    return out
+
+
+def block_entries(rows: np.ndarray, cols: np.ndarray, a: int, b: int
+                  ) -> tuple[np.ndarray, np.ndarray]:
+    """The (row, column) of every entry of blocks (s, a, b) at row indices ``rows`` (s, a)
+    and column indices ``cols`` (s, b), in the blocks' raveled order."""
+    return (np.repeat(rows[:, :, None], b, axis=2).ravel(),
+            np.repeat(cols[:, None, :], a, axis=1).ravel())
+
+
 def block_diagonal(blocks: np.ndarray, rows: np.ndarray, cols: np.ndarray, shape: tuple[
         int, int]) -> sp.csr_matrix:
     """A sparse matrix of ``blocks`` (s, a, b) placed at row indices ``rows`` (s, a) and
-    column indices ``cols`` (s, b)."""
-    a, b = blocks.shape[1:]
-    r = np.repeat(rows[:, :, None], b, axis=2).ravel()
-    c = np.repeat(cols[:, None, :], a, axis=1).ravel()
-    return sp.csr_matrix((blocks.ravel(), (r, c)), shape=shape)
+    column indices ``cols`` (s, b), the blocks disjoint: the matrix
+    ``sp.csr_matrix((blocks.ravel(), (r, c)))`` of their entries (``placed``)."""
+    r, c = block_entries(rows, cols, *blocks.shape[1:])
+    return placed(blocks, r, c, shape)
 
 
 @dataclass(frozen=True)
@@ -138,12 +188,19 @@ class PhysicalCoordinates:
         """G (n × (p + 3 s)) at ``x`` (unit quaternions), ``n`` free coordinates: ẋ = G u
         (positions: the velocities; q̇ = ½ Σ_k ω_k B_k q), and Gᵀ f = (f_r, τ) with
         τ_k = ½ (B_k q) · f_q."""
-        p, s = len(self.positions), len(self.quaternions)
-        positions = sp.csr_matrix((np.ones(p), (self.positions, np.arange(p))),
-                                  shape=(n, self.size))
+        p = len(self.positions)
         blocks = 0.5 * np.transpose(velocity_rows(x[self.quaternions]), (0, 2, 1))
-        return positions + block_diagonal(blocks, self.quaternions,
-                                          p + np.arange(3 * s).reshape(-1, 3), (n, self.size))
+        rows, cols = self._g_entries
+        return placed(np.concatenate([np.ones(p), blocks.ravel()]), rows, cols,
+                      (n, self.size), prune=True)
+
+    @cached_property
+    def _g_entries(self) -> tuple[np.ndarray, np.ndarray]:
+        """The (row, column) of G's entries: the positions' ones, then the quaternions'
+        4 × 3 blocks (raveled)."""
+        p, s = len(self.positions), len(self.quaternions)
+        r, c = block_entries(self.quaternions, p + np.arange(3 * s).reshape(-1, 3), 4, 3)
+        return np.concatenate([self.positions, r]), np.concatenate([np.arange(p), c])
 
     def rates(self, x: np.ndarray, x_dot: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """The physical velocities (ṙ, ω) of a motion ``x_dot`` of the free coordinates at

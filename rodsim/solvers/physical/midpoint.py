@@ -40,6 +40,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 import scipy.sparse as sp
@@ -51,9 +52,11 @@ from rodsim.core.rod.quaternion import B
 from rodsim.solvers.physical.coordinates import (
     PhysicalCoordinates,
     block_diagonal,
+    block_entries,
     cayley,
     gyroscopic_jacobian,
     model_state,
+    placed,
     velocity_rows,
 )
 
@@ -72,6 +75,16 @@ REFRESH = 0.1
 DIVERGED = 0.1
 #: Newton iterations allowed per time step.
 MAX_ITERATIONS = 25
+
+
+def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """a × b row by row for (s, 3) arrays: numpy.cross's own products and differences,
+    without its axis handling (the same numbers)."""
+    out = np.empty(np.broadcast_shapes(a.shape, b.shape))
+    out[:, 0] = a[:, 1] * b[:, 2] - a[:, 2] * b[:, 1]
+    out[:, 1] = a[:, 2] * b[:, 0] - a[:, 0] * b[:, 2]
+    out[:, 2] = a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0]
+    return out
 
 
 class StepFailure(RuntimeError):
@@ -122,6 +135,14 @@ class MidpointStep:
         self._p = len(c.positions)
         self._s = len(c.quaternions)
         self._angle_cols = self._p + np.arange(3 * self._s).reshape(-1, 3)
+        nodes, weights = np.polynomial.legendre.leggauss(quadrature)
+        #: The Gauss–Legendre points on [0, 1] and their weights (fixed: computed once).
+        self._gauss = tuple(zip((0.5 * (nodes + 1.0)).tolist(), (0.5 * weights).tolist(),
+                                strict=True))
+        #: Where :meth:`_map`'s entries sit (positions, then the blocks raveled).
+        rows, cols = block_entries(coordinates.quaternions, self._angle_cols, 4, 3)
+        self._map_entries = (np.concatenate([coordinates.positions, rows]),
+                             np.concatenate([np.arange(self._p), cols]))
 
     def _midpoint(self, x0: np.ndarray, r1: np.ndarray, wm: np.ndarray, h: float
                   ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
@@ -167,8 +188,7 @@ class MidpointStep:
         f_r = np.zeros(self._p)
         tau = np.zeros((self._s, 3))
         derivative = None
-        nodes, weights = np.polynomial.legendre.leggauss(self.quadrature)
-        for node, weight in zip(0.5 * (nodes + 1.0), 0.5 * weights, strict=True):
+        for node, weight in self._gauss:
             q = q0 + node * (q1 - q0)
             norm = np.linalg.norm(q, axis=1)
             unit = q / norm[:, None]
@@ -202,20 +222,20 @@ class MidpointStep:
                          - moment[:, :, None] * unit[:, None, :]) / norm[:, None, None] ** 2
             geometric = 0.5 * (np.einsum("ska,sal->skl", turned, 0.5 * dq1)
                                + np.einsum("ska,sal->skl", through_q, node * dq1))
-            local = self._angle_cols - self._p
-            part = (g.T @ model.pattern_matrix(jac) @ p) + sp.block_diag([
-                sp.csr_matrix((self._p, self._p)),
-                block_diagonal(geometric, local, local, (3 * self._s, 3 * self._s))])
+            # the geometric blocks on the angles (sp.block_diag with the zero position
+            # block, as one placement)
+            part = (g.T @ model.pattern_matrix(jac) @ p) + block_diagonal(
+                geometric, self._angle_cols, self._angle_cols, (m, m))
             derivative = weight * part if derivative is None else derivative + weight * part
         return f_r, tau, None if derivative is None else derivative.tocsr()
 
     def _map(self, blocks: np.ndarray, position: float, n: int, m: int) -> sp.csr_matrix:
         """An n × m map: ``position`` times the identity on the positions, the 4 × 3
-        ``blocks`` on each segment's quaternion and angles."""
-        c = self.coordinates
-        positions = sp.csr_matrix((np.full(self._p, position),
-                                   (c.positions, np.arange(self._p))), shape=(n, m))
-        return positions + block_diagonal(blocks, c.quaternions, self._angle_cols, (n, m))
+        ``blocks`` on each segment's quaternion and angles (the sum of the two, as one
+        placement: ``placed``)."""
+        rows, cols = self._map_entries
+        return placed(np.concatenate([np.full(self._p, position), blocks.ravel()]), rows,
+                      cols, (n, m), prune=True)
 
     def step(self, model: Model, start: Motion, h: float) -> StepOutcome:
         """One step of length ``h`` [s] from ``start`` with ``model``'s forces (those of the
@@ -240,7 +260,7 @@ class MidpointStep:
             dq1 = self._cayley_derivative(qm, wm, h) if fresh else None
             f_r, tau, stiffness = self._averaged(model, x0, r1, q1, qm, dq1)
             res_r = (2.0 / h) * (c.mass @ (vm - v0)) - f_r
-            res_w = ((2.0 / h) * inertia * (wm - w0) + np.cross(wm, inertia * wm) - tau)
+            res_w = ((2.0 / h) * inertia * (wm - w0) + _cross(wm, inertia * wm) - tau)
             if self.damping.active:
                 g = c.g_matrix(xm, n)
                 damping = (g.T @ self.damping.matrix(xm) @ g).tocsr()
@@ -294,6 +314,15 @@ class MidpointStep:
         return np.linalg.solve(np.eye(4)[None] - 0.25 * h * omega,
                                0.5 * h * np.transpose(velocity_rows(qm), (0, 2, 1)))
 
+    @cached_property
+    def _mass_entries(self) -> tuple[np.ndarray, np.ndarray]:
+        """Where the Newton matrix's masses sit: M_r's stored entries, then the rotation
+        blocks on the angles (raveled)."""
+        mass = self.coordinates.mass
+        r, c = block_entries(self._angle_cols, self._angle_cols, 3, 3)
+        return (np.concatenate([np.repeat(np.arange(self._p), np.diff(mass.indptr)), r]),
+                np.concatenate([mass.indices, c]))
+
     def _newton_matrix(self, stiffness: sp.csr_matrix,
                        damping: sp.csr_matrix | None, wm: np.ndarray, h: float
                        ) -> sp.csr_matrix:
@@ -303,10 +332,11 @@ class MidpointStep:
         inertia = c.inertia
         gyro = gyroscopic_jacobian(inertia, wm)
         rotation = (2.0 / h) * np.eye(3)[None] * inertia[:, :, None] + gyro
-        local = self._angle_cols - self._p
-        masses = sp.block_diag([(2.0 / h**2) * c.mass,
-                                block_diagonal(rotation, local, local,
-                                                (3 * self._s, 3 * self._s))]).tocsr()
+        # sp.block_diag([(2/h²) M_r, the rotation blocks]) as one placement
+        mass = (2.0 / h**2) * c.mass
+        rows, cols = self._mass_entries
+        masses = placed(np.concatenate([mass.data, rotation.ravel()]), rows, cols,
+                        (c.size, c.size))
         matrix = masses - stiffness
         if damping is not None:
             scale = np.concatenate([np.full(self._p, 1.0 / h), np.ones(3 * self._s)])
