@@ -32,17 +32,16 @@ from rodsim.core.tendon_friction import ONE_WAY
 @njit(cache=True)
 def _point(x: np.ndarray, dofs: np.ndarray, e: int, side: int, weights: np.ndarray,
            constant: np.ndarray, forms: np.ndarray, p: np.ndarray, jac: np.ndarray,
-           hess: np.ndarray, want_hessian: bool) -> None:
-    """Position p (3,), ∂p/∂x_point (3, 14) and ∇²f (3, 4, 4) of point e + side."""
+           hess: np.ndarray, want_hessian: bool, q: np.ndarray, gq: np.ndarray,
+           g: np.ndarray) -> None:
+    """Position p (3,), ∂p/∂x_point (3, 14) and ∇²f (3, 4, 4) of point e + side; q (4,),
+    gq (3, 4) and g (3,) are scratch."""
     k = e + side
     base = 14 * side
     c0, c1, w0, w1 = weights[k, 0], weights[k, 1], weights[k, 2], weights[k, 3]
-    q = np.empty(4)
     for i in range(4):
         q[i] = w0 * x[dofs[e, base + 6 + i]] + w1 * x[dofs[e, base + 10 + i]] + constant[k, i]
     n = q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3]
-    gq = np.empty((3, 4))
-    g = np.empty(3)
     for m in range(3):
         value = 0.0
         for i in range(4):
@@ -81,10 +80,14 @@ def _points(x: np.ndarray, dofs: np.ndarray, weights: np.ndarray, constant: np.n
     chords = dofs.shape[0]
     p = np.empty((chords + 1, 3))
     jac = np.empty((chords + 1, 3, 14))
-    hess = np.empty((chords + 1, 3, 4, 4))
+    hess = np.empty((chords + 1 if want_hessian else 1, 3, 4, 4))
+    q = np.empty(4)
+    gq = np.empty((3, 4))
+    g = np.empty(3)
     for k in range(chords + 1):
         e, side = (k, 0) if k < chords else (k - 1, 1)
-        _point(x, dofs, e, side, weights, constant, forms, p[k], jac[k], hess[k], want_hessian)
+        _point(x, dofs, e, side, weights, constant, forms, p[k], jac[k],
+               hess[k if want_hessian else 0], want_hessian, q, gq, g)
     return p, jac, hess
 
 
