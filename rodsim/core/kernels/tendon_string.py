@@ -9,6 +9,17 @@ then of B). For a point with weights (c0, c1, w0, w1), constant quaternion q_c a
 with d = p_B − p_A, u = d/|d|: F = −T Jdᵀ u and ∂F/∂x = −T [Jdᵀ (I − u uᵀ) Jd / |d|
 + Σ_m u_m (∂²p_B[m] − ∂²p_A[m])], Jd = [−J_A, J_B].
 
+How ∂F/∂x is built (issue 35 item 4: the dense 28 × 28 element product and its scatter
+were most of a solve): each point's q, n, G_m q and g are computed once; a chord's Jd is
+taken on its distinct coordinates only — the groups with a weight, the knot quaternion and
+the node the two points share counted once with the sum of both columns (18 of the 28 at a
+point on a node), so each Jacobian slot the chord touches gets one addition; Jdᵀ P Jd
+(P = T (I − u uᵀ)/|d|) is formed on and above the diagonal and mirrored; the curvature
+Σ_m u_m ∂²p[m] is contracted with u before it is built,
+2 G_u/n − 4 (v qᵀ + q vᵀ)/n² − 2 γ I/n² + 8 γ q qᵀ/n³ with G_u = Σ_m u_m G_m, v = G_u q,
+γ = Σ_m u_m g_m. F and the energy are the sums they were; ∂F/∂x moved by round-off
+(the sums are grouped differently).
+
 With friction μ > 0 each chord carries its own tension τ_e in place of T — the capstan
 profile with the stored history ``profile`` (rodsim/core/tendon_friction.py: the entry's
 turn from d3 to the path's tangent d3 + ρ′_y d1 + ρ′_z d2 (d_k = qᵀ A_k q / n of the entry
@@ -32,17 +43,16 @@ from rodsim.core.tendon_friction import ONE_WAY
 @njit(cache=True)
 def _point(x: np.ndarray, dofs: np.ndarray, e: int, side: int, weights: np.ndarray,
            constant: np.ndarray, forms: np.ndarray, p: np.ndarray, jac: np.ndarray,
-           hess: np.ndarray, want_hessian: bool) -> None:
-    """Position p (3,), ∂p/∂x_point (3, 14) and ∇²f (3, 4, 4) of point e + side."""
+           q: np.ndarray, gq: np.ndarray, g: np.ndarray) -> float:
+    """Position p (3,) and ∂p/∂x_point (3, 14) of point e + side, and the small parts its
+    second derivatives are built from (``_curvature``): q (4,), G_m q (3, 4), g (3,);
+    returns n = |q|²."""
     k = e + side
     base = 14 * side
     c0, c1, w0, w1 = weights[k, 0], weights[k, 1], weights[k, 2], weights[k, 3]
-    q = np.empty(4)
     for i in range(4):
         q[i] = w0 * x[dofs[e, base + 6 + i]] + w1 * x[dofs[e, base + 10 + i]] + constant[k, i]
     n = q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3]
-    gq = np.empty((3, 4))
-    g = np.empty(3)
     for m in range(3):
         value = 0.0
         for i in range(4):
@@ -62,30 +72,58 @@ def _point(x: np.ndarray, dofs: np.ndarray, e: int, side: int, weights: np.ndarr
             grad = 2.0 * gq[m, i] / n - 2.0 * g[m] * q[i] / (n * n)
             jac[m, 6 + i] = w0 * grad
             jac[m, 10 + i] = w1 * grad
-        if want_hessian:
-            for i in range(4):
-                for j in range(4):
-                    h = (2.0 * forms[k, m, i, j] / n
-                         - 4.0 * (gq[m, i] * q[j] + q[i] * gq[m, j]) / (n * n)
-                         + 8.0 * g[m] * q[i] * q[j] / (n * n * n))
-                    if i == j:
-                        h -= 2.0 * g[m] / (n * n)
-                    hess[m, i, j] = h
+    return n
 
 
 @njit(cache=True)
 def _points(x: np.ndarray, dofs: np.ndarray, weights: np.ndarray, constant: np.ndarray,
-            forms: np.ndarray, want_hessian: bool) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """p, ∂p/∂x_point and ∇²f of every routing point, each computed once (point k is side 0
-    of chord k and side 1 of chord k − 1: the same numbers)."""
+            forms: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray,
+                                        np.ndarray, np.ndarray]:
+    """p, ∂p/∂x_point and the small parts q, n, G_m q, g of every routing point, each
+    computed once (point k is side 0 of chord k and side 1 of chord k − 1: the same
+    numbers)."""
     chords = dofs.shape[0]
     p = np.empty((chords + 1, 3))
     jac = np.empty((chords + 1, 3, 14))
-    hess = np.empty((chords + 1, 3, 4, 4))
+    q = np.empty((chords + 1, 4))
+    n = np.empty(chords + 1)
+    gq = np.empty((chords + 1, 3, 4))
+    g = np.empty((chords + 1, 3))
     for k in range(chords + 1):
         e, side = (k, 0) if k < chords else (k - 1, 1)
-        _point(x, dofs, e, side, weights, constant, forms, p[k], jac[k], hess[k], want_hessian)
-    return p, jac, hess
+        n[k] = _point(x, dofs, e, side, weights, constant, forms, p[k], jac[k], q[k], gq[k],
+                      g[k])
+    return p, jac, q, n, gq, g
+
+
+@njit(cache=True)
+def _curvature(forms: np.ndarray, k: int, u: np.ndarray, q: np.ndarray, n: float,
+               gq: np.ndarray, g: np.ndarray, factor: float, out: np.ndarray) -> None:
+    """factor · Σ_m u_m ∇²f_m of point k into ``out`` (4, 4), contracted with u before it
+    is built: with G_u = Σ_m u_m G_m, v = G_u q and γ = Σ_m u_m g_m,
+    Σ_m u_m ∇²f_m = 2 G_u/n − 4 (v qᵀ + q vᵀ)/n² − 2 γ I/n² + 8 γ q qᵀ/n³ (module
+    docstring)."""
+    v0 = u[0] * gq[0, 0] + u[1] * gq[1, 0] + u[2] * gq[2, 0]
+    v1 = u[0] * gq[0, 1] + u[1] * gq[1, 1] + u[2] * gq[2, 1]
+    v2 = u[0] * gq[0, 2] + u[1] * gq[1, 2] + u[2] * gq[2, 2]
+    v3 = u[0] * gq[0, 3] + u[1] * gq[1, 3] + u[2] * gq[2, 3]
+    gamma = u[0] * g[0] + u[1] * g[1] + u[2] * g[2]
+    inverse = 1.0 / n
+    a1 = 2.0 * inverse * factor
+    a2 = 4.0 * inverse * inverse * factor
+    a3 = 2.0 * gamma * inverse * inverse * factor
+    a4 = 8.0 * gamma * inverse * inverse * inverse * factor
+    for i in range(4):
+        vi = v0 if i == 0 else (v1 if i == 1 else (v2 if i == 2 else v3))
+        for j in range(i, 4):
+            vj = v0 if j == 0 else (v1 if j == 1 else (v2 if j == 2 else v3))
+            value = (a1 * (u[0] * forms[k, 0, i, j] + u[1] * forms[k, 1, i, j]
+                           + u[2] * forms[k, 2, i, j])
+                     - a2 * (vi * q[j] + q[i] * vj) + a4 * q[i] * q[j])
+            if i == j:
+                value -= a3
+            out[i, j] = value
+            out[j, i] = value
 
 
 @njit(cache=True)
@@ -213,49 +251,78 @@ def _tensions(x: np.ndarray, dofs: np.ndarray, weights: np.ndarray, constant: np
 
 @njit(cache=True)
 def _one_way_coupling(jd: np.ndarray, u: np.ndarray, length: float, axis: np.ndarray,
-                      rate: float, columns: np.ndarray, active: int, slope: np.ndarray,
-                      gradient: np.ndarray, unit_force: np.ndarray,
-                      local_jacobian: np.ndarray) -> None:
-    """Add f ⊗ rate ∂ψ/∂x of a chord on a one-way planar path to its element Jacobian:
-    f = −Jdᵀ u, ∂ψ/∂x = −(d3 − (d3·u) u)ᵀ Jd / (|d3 × u| |d|) (rodsim/core/tendon_friction.py)."""
+                      rate: float, count: int, slope: np.ndarray, gradient: np.ndarray,
+                      unit_force: np.ndarray) -> bool:
+    """The two factors of f ⊗ rate ∂ψ/∂x, which the element Jacobian of a chord on a
+    one-way planar path adds: f = −Jdᵀ u into ``unit_force`` and rate ∂ψ/∂x = −rate (d3 −
+    (d3·u) u)ᵀ Jd / (|d3 × u| |d|) into ``gradient`` (rodsim/core/tendon_friction.py), on
+    the first ``count`` columns of ``jd``; False (nothing to add) where d3 ∥ u."""
     cosine = axis[0] * u[0] + axis[1] * u[1] + axis[2] * u[2]
     cx = axis[1] * u[2] - axis[2] * u[1]
     cy = axis[2] * u[0] - axis[0] * u[2]
     cz = axis[0] * u[1] - axis[1] * u[0]
     sine = np.sqrt(cx * cx + cy * cy + cz * cz)
     if sine == 0.0:
-        return
+        return False
     for m in range(3):
         slope[m] = -(axis[m] - cosine * u[m]) / (sine * length)
-    for c in range(active):
-        k = columns[c]
-        g = 0.0
+    for k in range(count):
+        value = 0.0
         f = 0.0
         for m in range(3):
-            g += slope[m] * jd[m, k]
+            value += slope[m] * jd[m, k]
             f -= jd[m, k] * u[m]
-        gradient[k] = rate * g
+        gradient[k] = rate * value
         unit_force[k] = f
-    for c in range(active):
-        k = columns[c]
-        for d in range(active):
-            j = columns[d]
-            local_jacobian[k, j] += unit_force[k] * gradient[j]
+    return True
 
 
 @njit(cache=True)
-def _active(weights: np.ndarray, e: int, columns: np.ndarray) -> int:
-    """The element's local columns whose weight is not zero (the others of ∂d/∂x are exact
-    zeros, and so are their rows and columns of the element Jacobian): their count, the
-    columns in ``columns``."""
+def _unique_columns(dofs: np.ndarray, weights: np.ndarray, e: int, jd: np.ndarray,
+                    local: np.ndarray, merged: np.ndarray, knot: np.ndarray,
+                    group_first: np.ndarray, group_start: np.ndarray) -> int:
+    """The chord's Jd on its distinct coordinates: the groups (a node's position, a knot's
+    quaternion) with a weight, a group the two points share (the knot between them, a
+    node) taken once with the sum of both points' columns of Jd. Fills ``merged`` (3, ·)
+    with those columns, ``local`` with a local column of each (its slot in the element's
+    target map) and ``knot`` (2, 2) with the first merged column of each point's knot
+    quaternion (−1 without a weight); returns the count. ``group_first`` and
+    ``group_start`` (8,) are scratch: the local column opening each group, and its first
+    merged column. The other columns of Jd are
+    exact zeros, and so are their rows and columns of the element Jacobian."""
     count = 0
+    groups = 0
     for side in range(2):
-        for group in range(4):
-            if weights[e + side, group] != 0.0:
-                first = 14 * side + (3 * group if group < 2 else 6 + 4 * (group - 2))
-                for a in range(3 if group < 2 else 4):
-                    columns[count] = first + a
-                    count += 1
+        for kind in range(4):
+            if kind >= 2:
+                knot[side, kind - 2] = -1
+            if weights[e + side, kind] == 0.0:
+                continue
+            size = 3 if kind < 2 else 4
+            first = 14 * side + (3 * kind if kind < 2 else 6 + 4 * (kind - 2))
+            start = -1
+            for other in range(groups):
+                o = group_first[other]
+                o_size = 3 if (o % 14) < 6 else 4
+                if o_size == size and dofs[e, o] == dofs[e, first]:
+                    start = group_start[other]
+                    break
+            if start < 0:
+                start = count
+                group_first[groups] = first
+                group_start[groups] = start
+                groups += 1
+                for a in range(size):
+                    local[count + a] = first + a
+                    for m in range(3):
+                        merged[m, count + a] = jd[m, first + a]
+                count += size
+            else:
+                for a in range(size):
+                    for m in range(3):
+                        merged[m, start + a] += jd[m, first + a]
+            if kind >= 2:
+                knot[side, kind - 2] = start
     return count
 
 
@@ -267,25 +334,37 @@ def evaluate(x: np.ndarray, dofs: np.ndarray, weights: np.ndarray, constant: np.
              scale: float, want_force: bool,
              force: np.ndarray, force_target: np.ndarray, want_jacobian: bool,
              jacobian: np.ndarray, jacobian_target: np.ndarray) -> None:
+    """F and ∂F/∂x of every chord (module docstring). A chord's Jacobian is built from its
+    small parts on its distinct coordinates (``_unique_columns``: up to 18 of the 28, the
+    knot and the node its two points share taken once): M = Jdᵀ P Jd, P = T (I − u uᵀ)/|d|,
+    on and above the diagonal and mirrored (the product is symmetric), plus each point's
+    curvature T Σ_m u_m ∂²p[m] (``_curvature``, from the point's q, n, G q and g), minus
+    the friction coupling's outer product; each entry is written once."""
     if tension == 0.0:
         return  # a slack tendon: every entry is zero (its tension is a factor of each)
+    chords = dofs.shape[0]
     local_force = np.empty(28)
-    local_jacobian = np.empty((28, 28))
-    columns = np.empty(28, dtype=np.int64)
+    local = np.empty(28, dtype=np.int64)
+    knot = np.empty((2, 2), dtype=np.int64)
+    group_first = np.empty(8, dtype=np.int64)
+    group_start = np.empty(8, dtype=np.int64)
     jd = np.empty((3, 28))
+    merged = np.empty((3, 28))
+    pj = np.empty((3, 28))
+    block = np.empty((28, 28))
+    curvature = np.empty((4, 4))
     u = np.empty(3)
     proj = np.empty((3, 3))
-    pj = np.empty((3, 28))
-    p, jac, hess = _points(x, dofs, weights, constant, forms, want_jacobian)
-    chord_tension = np.empty(dofs.shape[0])
-    rate = np.zeros(dofs.shape[0])
+    p, jac, q, n, gq, g = _points(x, dofs, weights, constant, forms)
+    chord_tension = np.empty(chords)
+    rate = np.zeros(chords)
     axis = np.zeros(3)
     _tensions(x, dofs, weights, constant, entry_forms, entry_slope, split, p, tension,
               friction, profile, weighted, mu_in, mu_out, chord_tension, rate, axis)
     slope = np.empty(3)
     gradient = np.empty(28)
     unit_force = np.empty(28)
-    for e in range(dofs.shape[0]):
+    for e in range(chords):
         pull = chord_tension[e]
         pa, pb, ja, jb = p[e], p[e + 1], jac[e], jac[e + 1]
         length = 0.0
@@ -305,52 +384,54 @@ def evaluate(x: np.ndarray, dofs: np.ndarray, weights: np.ndarray, constant: np.
                     value += jd[m, a] * u[m]
                 local_force[a] = -pull * value
             add_force(force, force_target, e, local_force, scale)
-        if want_jacobian:
-            # Only the columns with a weight: the rest of the element Jacobian is zero.
-            active = _active(weights, e, columns)
+        if not want_jacobian:
+            continue
+        count = _unique_columns(dofs, weights, e, jd, local, merged, knot, group_first,
+                                group_start)
+        factor = pull / length
+        for a in range(3):
+            for b in range(3):
+                proj[a, b] = ((1.0 if a == b else 0.0) - u[a] * u[b]) * factor
+        for k in range(count):
+            j0, j1, j2 = merged[0, k], merged[1, k], merged[2, k]
             for a in range(3):
-                for b in range(3):
-                    proj[a, b] = ((1.0 if a == b else 0.0) - u[a] * u[b]) * pull / length
-            for a in range(3):
-                for c in range(active):
-                    k = columns[c]
-                    value = 0.0
-                    for b in range(3):
-                        value += proj[a, b] * jd[b, k]
-                    pj[a, k] = value
-            for c in range(active):
-                k = columns[c]
-                for d in range(active):
-                    j = columns[d]
-                    value = 0.0
-                    for a in range(3):
-                        value += jd[a, k] * pj[a, j]
-                    local_jacobian[k, j] = -value
-            for side in range(2):
-                k = e + side
-                h = hess[k]
-                sign = 1.0 if side == 1 else -1.0
-                offset = 14 * side + 6
-                for i in range(4):
-                    for j in range(4):
-                        curvature = 0.0
-                        for m in range(3):
-                            curvature += u[m] * h[m, i, j]
-                        curvature *= sign * pull
-                        for a in range(2):
-                            for b in range(2):
-                                weight = weights[k, 2 + a] * weights[k, 2 + b]
-                                if weight != 0.0:
-                                    local_jacobian[offset + 4 * a + i, offset + 4 * b + j] -= (
-                                        weight * curvature)
-            if rate[e] != 0.0:
-                _one_way_coupling(jd, u, length, axis, rate[e], columns, active, slope,
-                                  gradient, unit_force, local_jacobian)
-            for c in range(active):
-                k = columns[c]
-                for d in range(active):
-                    j = columns[d]
-                    jacobian[jacobian_target[e, k, j]] += scale * local_jacobian[k, j]
+                pj[a, k] = proj[a, 0] * j0 + proj[a, 1] * j1 + proj[a, 2] * j2
+        for k in range(count):
+            j0, j1, j2 = merged[0, k], merged[1, k], merged[2, k]
+            for j in range(k, count):
+                value = j0 * pj[0, j] + j1 * pj[1, j] + j2 * pj[2, j]
+                block[k, j] = value
+                block[j, k] = value
+        for side in range(2):
+            point = e + side
+            _curvature(forms, point, u, q[point], n[point], gq[point], g[point],
+                       pull if side == 1 else -pull, curvature)
+            for a in range(2):
+                ka = knot[side, a]
+                if ka < 0:
+                    continue
+                for b in range(2):
+                    kb = knot[side, b]
+                    if kb < 0:
+                        continue
+                    weight = weights[point, 2 + a] * weights[point, 2 + b]
+                    for i in range(4):
+                        for j in range(4):
+                            block[ka + i, kb + j] += weight * curvature[i, j]
+        coupled = False
+        if rate[e] != 0.0:
+            coupled = _one_way_coupling(merged, u, length, axis, rate[e], count, slope,
+                                        gradient, unit_force)
+        target = jacobian_target[e]
+        for k in range(count):
+            row = target[local[k]]
+            if coupled:
+                f = unit_force[k]
+                for j in range(count):
+                    jacobian[row[local[j]]] += scale * (f * gradient[j] - block[k, j])
+            else:
+                for j in range(count):
+                    jacobian[row[local[j]]] -= scale * block[k, j]
 
 
 @njit(cache=True)
@@ -361,7 +442,7 @@ def energy(x: np.ndarray, dofs: np.ndarray, weights: np.ndarray, constant: np.nd
     """T Σ |p_{k+1} − p_k| (frictionless; with friction the model asks for no energy)."""
     if tension == 0.0:
         return 0.0
-    p, _, _ = _points(x, dofs, weights, constant, forms, False)
+    p = _points(x, dofs, weights, constant, forms)[0]
     total = 0.0
     for e in range(dofs.shape[0]):
         total += np.sqrt((p[e + 1, 0] - p[e, 0]) ** 2 + (p[e + 1, 1] - p[e, 1]) ** 2
