@@ -2,13 +2,15 @@
 registry that finds them (issue 25).
 
 A scene lists obstacles as ``[obstacles.<name>]`` tables with a ``type`` (a registered
-obstacle: ``plane``, ``sphere``, ``tube``), the ``rods`` it applies to and the contact law's
-scales; each type declares its own geometry parameters. Defining an :class:`Obstacle`
-subclass with a new ``type`` registers it (:func:`registered_obstacles` imports every module
-of this package). The contact term (rodsim/core/terms/contact.py) turns an obstacle into a
-penalty on the rod's nodes; the obstacle only gives the geometry: the signed gap φ(p) of a
-point p (> 0 in free space, distance to the surface where it is smooth), its gradient and its
-Hessian.
+obstacle: ``capsule``, ``plane``, ``sphere``, ``tube``), the ``rods`` it applies to and the
+contact law's scales; each type declares its own geometry parameters. Defining an
+:class:`Obstacle` subclass with a new ``type`` registers it (:func:`registered_obstacles`
+imports every module of this package). The contact term (rodsim/core/terms/contact.py) turns
+an obstacle into a penalty on the rod's nodes; the obstacle only gives the geometry: the
+signed gap φ(p) of a point p (> 0 in free space, distance to the surface where it is
+smooth), its gradient and its Hessian, by numpy (:meth:`Obstacle.gap`) and in its own
+compiled kernel (``rodsim/core/kernels/contact_<type>.py``, named by ``Obstacle.kernel``).
+tests/test_obstacle_contract.py holds every registered type to the contract.
 
 :func:`resolve_obstacles` validates the ``obstacles`` tables of a raw scene against the rods
 (one-line :class:`~rodsim.core.schema.SceneError` for every bad input).
