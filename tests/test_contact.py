@@ -63,6 +63,10 @@ ERROR_CASES = [
      'rods = ["other"]\n', None, "no rod 'other'"),
     ("zero-normal", 'type = "plane"\npoint = [0, -0.01, 0]\nnormal = [0, 0, 0]\n', None,
      "zero vector"),
+    ("capsule-coincident-ends", 'type = "capsule"\nstart = [0.05, -0.01, 0]\n'
+     'end = [0.05, -0.01, 0]\nradius = 0.005\n', None, "the segment's ends coincide"),
+    ("capsule-holds-the-base", 'type = "capsule"\nstart = [0, 0, -0.01]\n'
+     'end = [0, 0, 0.01]\nradius = 0.005\n', None, "holds its base"),
 ]
 
 

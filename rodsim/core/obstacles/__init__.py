@@ -2,13 +2,15 @@
 registry that finds them (issue 25).
 
 A scene lists obstacles as ``[obstacles.<name>]`` tables with a ``type`` (a registered
-obstacle: ``plane``, ``sphere``, ``tube``), the ``rods`` it applies to and the contact law's
-scales; each type declares its own geometry parameters. Defining an ``Obstacle``
-subclass with a new ``type`` registers it (``registered_obstacles`` imports every module
-of this package). The contact term (rodsim/core/terms/contact.py) turns an obstacle into a
-penalty on the rod's nodes; the obstacle only gives the geometry: the signed gap φ(p) of a
-point p (> 0 in free space, distance to the surface where it is smooth), its gradient and its
-Hessian.
+obstacle: ``capsule``, ``plane``, ``sphere``, ``tube``), the ``rods`` it applies to and the
+contact law's scales; each type declares its own geometry parameters. Defining an
+``Obstacle`` subclass with a new ``type`` registers it (``registered_obstacles``
+imports every module of this package). The contact term (rodsim/core/terms/contact.py) turns
+an obstacle into a penalty on the rod's nodes; the obstacle only gives the geometry: the
+signed gap φ(p) of a point p (> 0 in free space, distance to the surface where it is
+smooth), its gradient and its Hessian, by numpy (``Obstacle.gap``) and in its own
+compiled kernel (``rodsim/core/kernels/contact_<type>.py``, named by ``Obstacle.kernel``).
+tests/test_obstacle_contract.py holds every registered type to the contract.
 
 ``resolve_obstacles`` validates the ``obstacles`` tables of a raw scene against the rods
 (one-line ``rodsim.core.schema.SceneError`` for every bad input).
@@ -38,12 +40,10 @@ OBSTACLES: dict[str, type[Obstacle]] = {}
 #: is taken as a rigid contact, in rod radii (rodsim/core/contact_depth.py).
 DEPTH_LIMIT = 0.1
 
-#: Kernel codes of the obstacle kinds (rodsim/core/kernels/contact.py).
-PLANE, SPHERE, TUBE = 0, 1, 2
-
 #: Values every obstacle table has, whatever its type.
 COMMON_PARAMETERS: tuple[Parameter, ...] = (
-    Parameter("type", "str", None, "-", "obstacle type: 'plane', 'sphere' or 'tube'"),
+    Parameter("type", "str", None, "-",
+              "obstacle type: a registered one (each type's own keys: its table below)"),
     Parameter("rods", "list", None, "-", "the rods this obstacle acts on (the catheters)"),
     Parameter("stiffness_scale", "float", 1e3, "-",
               "contact stiffness k = stiffness_scale * E I / l^3 of the rod (l its segment "
@@ -66,11 +66,20 @@ class Obstacle(ABC):
     """A rigid obstacle: the signed gap φ(p) of points p and its first two derivatives.
 
     Class attributes a subclass sets: ``type`` (registry key), ``parameters`` (its own
-    geometry values), ``kind`` (its kernel code: PLANE, SPHERE or TUBE).
+    geometry values), ``kernel`` (its compiled contact kernel: the module
+    ``rodsim.core.kernels.<kernel>``, whose constants ``kernel_arguments`` gives by
+    name) and ``example`` (a table of the type, which the contract tests
+    (tests/test_obstacle_contract.py) solve, draw and archive). docs/architecture.md, "How to
+    add an obstacle type".
     """
 
     type: ClassVar[str]
-    kind: ClassVar[int]
+    #: Module of :mod:`rodsim.core.kernels` holding this type's contact kernel.
+    kernel: ClassVar[str]
+    #: The type's own keys of a table near a straight rod along +x from the origin, 0.1 m
+    #: long and 1 mm thick, that it pushes on when the rod sags toward -y (the contract
+    #: tests' scene).
+    example: ClassVar[dict[str, Any]] = {}
     parameters: ClassVar[tuple[Parameter, ...]] = ()
     #: True when the rod lies inside the obstacle (a vessel): it must start inside.
     encloses: ClassVar[bool] = False
@@ -97,10 +106,10 @@ class Obstacle(ABC):
         """φ (n,), ∇φ (n, 3) and ∇²φ (n, 3, 3) at ``points`` (n, 3) — the numpy reference."""
 
     @abstractmethod
-    def kernel_data(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-        """(parameters (P,), piece starts (M,), centerline coefficients (M, 4, 3), radius
-        coefficients (M, 4)) for the compiled kernel; the last three are empty except for
-        tubes."""
+    def kernel_arguments(self) -> dict[str, Any]:
+        """The geometry constants of the compiled kernel (``kernel``), by the names of its
+        parameters; the contact term adds the rod's and the law's (``dofs``, ``radius``,
+        ``stiffness``, ``delta``, ``friction``, ``slip``, ``anchors``)."""
 
     def narrowest(self) -> float:
         """The smallest free radius of an enclosing obstacle (inf for others) [m]."""

@@ -9,7 +9,7 @@ from typing import Any
 
 import numpy as np
 
-from rodsim.core.obstacles import PLANE, Obstacle
+from rodsim.core.obstacles import Obstacle
 from rodsim.core.obstacles._drawing import plane_patch
 from rodsim.core.schema import Parameter, SceneError
 
@@ -18,7 +18,8 @@ class Plane(Obstacle):
     """The half-space n · (p − p₀) < 0 is solid."""
 
     type = "plane"
-    kind = PLANE
+    kernel = "contact_plane"
+    example = {"point": [0.0, -0.004, 0.0], "normal": [0.0, 1.0, 0.0]}
     parameters = (
         Parameter("point", "vector", None, "m", "a point of the plane", -1e3, 1e3, length=3),
         Parameter("normal", "vector", None, "-",
@@ -43,9 +44,8 @@ class Plane(Obstacle):
         phi = (points - self.point) @ self.normal
         return phi, np.tile(self.normal, (n, 1)), np.zeros((n, 3, 3))
 
-    def kernel_data(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-        return (np.concatenate([self.point, self.normal]), np.zeros(0), np.zeros((0, 4, 3)),
-                np.zeros((0, 4)))
+    def kernel_arguments(self) -> dict[str, Any]:
+        return {"point": self.point, "normal": self.normal}
 
     def outline(self, view: tuple[int, int], level: float, lower: np.ndarray,
                 upper: np.ndarray) -> list[np.ndarray]:

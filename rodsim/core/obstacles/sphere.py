@@ -9,7 +9,7 @@ from typing import Any
 
 import numpy as np
 
-from rodsim.core.obstacles import SPHERE, Obstacle
+from rodsim.core.obstacles import Obstacle
 from rodsim.core.obstacles._drawing import sphere_mesh
 from rodsim.core.schema import Parameter
 
@@ -18,7 +18,8 @@ class Sphere(Obstacle):
     """A solid ball of radius R around c."""
 
     type = "sphere"
-    kind = SPHERE
+    kernel = "contact_sphere"
+    example = {"center": [0.07, -0.02, 0.0], "radius": 0.015}
     parameters = (
         Parameter("center", "vector", None, "m", "centre c", -1e3, 1e3, length=3),
         Parameter("radius", "float", None, "m", "radius R", 0.0, 1e3, exclusive_minimum=True),
@@ -36,9 +37,8 @@ class Sphere(Obstacle):
         hess = (np.eye(3) - e[:, :, None] * e[:, None, :]) / d[:, None, None]
         return d - self.radius, e, hess
 
-    def kernel_data(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-        return (np.concatenate([self.center, [self.radius]]), np.zeros(0),
-                np.zeros((0, 4, 3)), np.zeros((0, 4)))
+    def kernel_arguments(self) -> dict[str, Any]:
+        return {"center": self.center, "sphere_radius": self.radius}
 
     def outline(self, view: tuple[int, int], level: float, lower: np.ndarray,
                 upper: np.ndarray) -> list[np.ndarray]:

@@ -35,7 +35,7 @@ from typing import Any
 import numpy as np
 from scipy.interpolate import CubicSpline
 
-from rodsim.core.obstacles import TUBE, Obstacle
+from rodsim.core.obstacles import Obstacle
 from rodsim.core.obstacles._drawing import tube_mesh
 from rodsim.core.schema import Parameter, SceneError, shown
 
@@ -53,7 +53,9 @@ class Tube(Obstacle):
     """A vessel around a centerline (see the module docstring)."""
 
     type = "tube"
-    kind = TUBE
+    kernel = "contact_tube"
+    example = {"centerline": "straight", "radius": 0.005, "start": [-0.01, 0.0, 0.0],
+               "length": 0.2}
     encloses = True
     parameters = (
         Parameter("centerline", "str", None, "-",
@@ -301,8 +303,9 @@ class Tube(Obstacle):
                 + r1[:, None, None] * hess_u - hess_d)
         return phi, grad, hess
 
-    def kernel_data(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-        return (np.array([self.step]), self.starts.copy(), self.coef.copy(), self.rcoef.copy())
+    def kernel_arguments(self) -> dict[str, Any]:
+        return {"step": self.step, "starts": self.starts.copy(), "coef": self.coef.copy(),
+                "rcoef": self.rcoef.copy()}
 
 
 def _poly(a: np.ndarray, t: np.ndarray, order: int) -> np.ndarray:

@@ -59,6 +59,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from rodsim.core.contact_penalty import penalty
 from rodsim.core.obstacles import Obstacle, build_obstacle
 from rodsim.core.rod.rod import Rod
 from rodsim.core.schema import Options
@@ -68,19 +69,6 @@ if TYPE_CHECKING:
     from rodsim.core.model import Model
 
 __all__ = ["Contact", "contact_forces", "penalty"]
-
-
-def penalty(p: np.ndarray, delta: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """ψ(p), ψ'(p), ψ''(p) of the C² penalty (module docstring)."""
-    p = np.asarray(p, dtype=float)
-    inside = p > 0.0
-    ramp = inside & (p < delta)
-    full = p >= delta
-    psi = np.where(ramp, p**3 / (6 * delta), 0.0) + np.where(
-        full, 0.5 * p * p - 0.5 * delta * p + delta * delta / 6.0, 0.0)
-    d1 = np.where(ramp, p * p / (2 * delta), 0.0) + np.where(full, p - 0.5 * delta, 0.0)
-    d2 = np.where(ramp, p / delta, 0.0) + np.where(full, 1.0, 0.0)
-    return psi, d1, d2
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -110,6 +98,9 @@ class Contact(RodTerm):
     def __init__(self, rod: Rod, obstacle: Obstacle) -> None:
         super().__init__(rod, self.Options())
         self.obstacle = obstacle
+        #: The obstacle type's own kernel (rodsim/core/kernels/contact_<type>.py): the
+        #: compiled path dispatches on the obstacle, not on a closed list of kinds.
+        self.kernel = obstacle.kernel
         table = obstacle.table
         segment = rod.geometry.segment_length
         #: Contact stiffness k [N/m] and smoothing length δ [m].
@@ -217,9 +208,7 @@ class Contact(RodTerm):
         return force, np.where(active[:, None, None], block, 0.0)
 
     def kernel_arguments(self) -> KernelArguments:
-        params, starts, coef, rcoef = self.obstacle.kernel_data()
-        return {"dofs": self.dofs.astype(np.int64), "kind": int(self.obstacle.kind),
-                "params": params, "starts": starts, "coef": coef, "rcoef": rcoef,
+        return {"dofs": self.dofs.astype(np.int64), **self.obstacle.kernel_arguments(),
                 "radius": self.radius, "stiffness": self.stiffness, "delta": self.smoothing,
                 "friction": self.friction, "slip": self.slip, "anchors": self.anchors}
 
