@@ -581,7 +581,7 @@ def torus_scene(nodes: int, insertion: float = 0.0) -> Scene:
 
 @functools.cache
 def torus_track(nodes: int, steps: int) -> Track:
-    """The wire of :func:`torus_scene` advanced 0.12 m from a straight entry into the bend,
+    """The wire of ``torus_scene`` advanced 0.12 m from a straight entry into the bend,
     its tip free inside it, in ``steps`` equilibria (tracked once per process: two tests
     read the one at 41 nodes, neither changes it)."""
     track = rodsim.track(torus_scene(nodes),
@@ -600,14 +600,14 @@ def torus_contact(model: Model, full: np.ndarray) -> tuple[np.ndarray, np.ndarra
 
 
 def torus_insertion(nodes: int, steps: int) -> tuple[np.ndarray, np.ndarray, float]:
-    """The wire of :func:`torus_track` at the end of its insertion: the node positions, the
+    """The wire of ``torus_track`` at the end of its insertion: the node positions, the
     contact force on every node and the segment length."""
     track = torus_track(nodes, steps)
     return torus_contact(track.model, track.states[-1])
 
 
 def torus_halved(track: Track) -> tuple[np.ndarray, np.ndarray, float]:
-    """:func:`torus_insertion`'s result at twice the segments, solved from ``track``'s last
+    """``torus_insertion``'s result at twice the segments, solved from ``track``'s last
     equilibrium with every segment halved (the new node at the old segment's midpoint, both
     halves with its quaternion): one continuation step of ``static`` at the same insertion.
     The vessel is frictionless, so the equilibrium is that of the insertion, whatever the
@@ -679,7 +679,7 @@ def test_bend_contact_penetration_falls_as_n_squared():
     k = 1e3 EI/l³ in the onset: penetration √(2δ p l/k) ∝ l². Measured 4.9e-8 and 1.2e-8 m at
     N = 41 and 81 (order 2.00); the line force stays within 3e-5 of EIκ³. N = 41 is tracked
     along the insertion, N = 81 solved from its last state with the segments halved
-    (:func:`torus_halved`; tracked along the insertion as well, N = 81 needed 1 477
+    (``torus_halved``; tracked along the insertion as well, N = 81 needed 1 477
     continuation solves, 352 of them failed and halved, for the same state to 4e-13 m)."""
     kappa, line_force, _ = torus_reference()
     track = torus_track(41, 61)

@@ -194,7 +194,7 @@ def test_an_obstacle_type_added_without_a_drawing_is_drawn_by_its_gap(ellipsoid)
                                    "catheter-pull-ring"])
 def test_a_string_tendons_drawn_path_is_the_models(scene):
     """The routing points drawn from the archive (nodes, segment quaternions) are the
-    model's own (:meth:`TendonString.path` on the solved state): the termination exactly,
+    model's own (``TendonString.path`` on the solved state): the termination exactly,
     the others to 2 % of the offset (the figure interpolates the frame between segment
     midpoints and clamps it beyond them; the model uses the base frame at s = 0)."""
     from rodsim.app.figures.scene_parts import scene_parts
