@@ -24,6 +24,7 @@ from typing import Any
 import numpy as np
 
 from rodsim.app.api import SceneLike, load_scene, solve
+from rodsim.app.initial_velocity import VelocityLike, initial_rates, velocity_text
 from rodsim.app.interrupted import Interrupted
 from rodsim.app.programs import Program, Programs, check_programs
 from rodsim.core.damping import Damping
@@ -211,7 +212,8 @@ def simulate(scene: SceneLike | None, t_end: float, *, output_dt: float | None =
              program: Program | None = None, step: float | None = None,
              overrides: Sequence[str] = (),
              progress: Callable[[float], None] | None = None, rtol: float | None = None,
-             atol: float | None = None, max_order: int | None = None) -> Simulation:
+             atol: float | None = None, max_order: int | None = None,
+             initial_velocity: VelocityLike | None = None) -> Simulation:
     """Integrate ``scene`` in physical time from t = 0 to ``t_end`` [s].
 
     ``integrator``: ``"midpoint"`` (the implicit midpoint rule, fixed steps), ``"ida"``
@@ -227,7 +229,10 @@ def simulate(scene: SceneLike | None, t_end: float, *, output_dt: float | None =
     (piecewise linear) or a :class:`~rodsim.core.program.Sinusoid` per numeric term value,
     added to the scene file's ``[program]`` (replacing its entry for the same value);
     ``overrides``: ``key=value`` changes
-    of the scene. The run starts at rest. Bad input raises
+    of the scene; ``initial_velocity``: the velocity at t = 0 (default: at rest) — a
+    3-vector [m/s] that every free node moves with, or the physical velocities (each free
+    position coordinate's rate, then each free segment's body rates; p + 3 s numbers), or
+    the rates of the model's n free coordinates (rodsim/app/initial_velocity.py). Bad input raises
     :class:`~rodsim.core.schema.SceneError` (one line) before any work; a run that fails
     part-way returns ``success`` False with what it computed.
     """
@@ -249,6 +254,8 @@ def simulate(scene: SceneLike | None, t_end: float, *, output_dt: float | None =
                          "tendon's or a contact's), whose history each step carries to the "
                          "next; allowed: integrator 'midpoint' (IDA's and CVODE's adaptive "
                          "steps would each need a restart)")
+    rest = physical_state(model, model.x0)  # the velocity's length checked before any work
+    initial_rates(model, PhysicalCoordinates.of(model, rest), rest, initial_velocity)
     x = _start_state(loaded, model, initial)
     if programs.path_dependent:
         programs.carry_history(0.0, x)  # the start: at rest in the equilibrium it was left in
@@ -263,8 +270,7 @@ def simulate(scene: SceneLike | None, t_end: float, *, output_dt: float | None =
     coordinates = PhysicalCoordinates.of(model, x)
     length = max(rod.options.length for rod in model.rods.values())
     stepper = MidpointStep(coordinates, Damping(model), length)
-    start = Motion(x, np.zeros(len(coordinates.positions)),
-                   np.zeros((len(coordinates.quaternions), 3)))
+    start = Motion(x, *initial_rates(model, coordinates, x, initial_velocity))
     record = Record()
     try:
         if integrator != "midpoint":
@@ -289,7 +295,8 @@ def simulate(scene: SceneLike | None, t_end: float, *, output_dt: float | None =
         record.message = (f"interrupted after t = {record.times[-1]:.6g} s (the outputs up to "
                           "it are kept)")
         partial = _simulation(loaded, model, record, _step_of(record, h, integrator),
-                              integrator, float(t_end), programs.by_name, initial)
+                              integrator, float(t_end), programs.by_name, initial,
+                              initial_velocity)
         raise Interrupted(partial, record.message) from None
     except SceneError as exc:  # a rule across two programmed values, broken at some time
         if not record.times:
@@ -299,7 +306,7 @@ def simulate(scene: SceneLike | None, t_end: float, *, output_dt: float | None =
                           f"programs' values break a rule before the next ({exc}); the "
                           "outputs up to it are kept")
     return _simulation(loaded, model, record, _step_of(record, h, integrator), integrator,
-                       float(t_end), programs.by_name, initial)
+                       float(t_end), programs.by_name, initial, initial_velocity)
 
 
 def _step_of(record: Record, h: float, integrator: str) -> float:
@@ -310,7 +317,8 @@ def _step_of(record: Record, h: float, integrator: str) -> float:
 
 def _simulation(loaded: Scene, model: Model, record: Record, h: float, integrator: str,
                 t_end: float, programs: dict[str, ProgramEntry],
-                initial: Mapping[str, Any] | Result | None) -> Simulation:
+                initial: Mapping[str, Any] | Result | None,
+                initial_velocity: VelocityLike | None = None) -> Simulation:
     """The :class:`Simulation` of what ``record`` holds."""
     states = np.array(record.states)
     full = np.array([model.full(model_state(model, state)) for state in states])
@@ -326,4 +334,5 @@ def _simulation(loaded: Scene, model: Model, record: Record, h: float, integrato
                       quaternions, np.array(record.kinetic), np.array(record.potential),
                       np.array(record.dissipated), np.array(record.work), h,
                       integrator, record.steps, record.iterations, record.halvings,
-                      tuple(model.rods), states, t_end, programs, _initial_text(initial))
+                      tuple(model.rods), states, t_end, programs,
+                      _initial_text(initial) + velocity_text(initial_velocity))
