@@ -135,7 +135,8 @@ class Simulate(SceneCommand):
             run = simulate(scene, t_end, output_dt=args.output_dt, integrator=args.integrator,
                            initial=initial, program=self.program, step=args.step,
                            progress=report, rtol=args.rtol, atol=args.atol,
-                           max_order=args.max_order, initial_velocity=self.velocity)
+                           max_order=args.max_order, initial_velocity=self.velocity,
+                           events=args.event)
         except Interrupted as stop:  # written by the pipeline, marked incomplete
             if started:
                 stop.partial.initial = started
@@ -166,6 +167,10 @@ class Simulate(SceneCommand):
         else:
             print(f"steps       {result.steps} of at most {result.step:.4g} s, "
                   f"{result.iterations} Newton iterations, {result.halvings} halved")
+        for time, name in result.events:
+            print(f"event       {name} at t = {time:.9g} s")
+        if result.success and result.message.startswith("stopped by"):
+            print(f"stopped     {result.message}")
         if not result.success:
             print(f"incomplete  {result.message}")
 
