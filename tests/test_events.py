@@ -138,3 +138,7 @@ rods = ["rod"]
     ds = read_dataset(out)
     assert abs(float(ds["events"].values[0]) / math.sqrt(2.0 * GAP / G) - 1.0) < 1e-6
     assert ds["event_name"].values.astype(str).tolist() == ["contact onset: rod on floor"]
+    from rodsim.io.archive_schema import ArchiveSchemaError, check_archive
+
+    with pytest.raises(ArchiveSchemaError, match="'events'"):
+        check_archive(ds.assign(events=("event", [math.nan])))
