@@ -142,3 +142,33 @@ rods = ["rod"]
 
     with pytest.raises(ArchiveSchemaError, match="'events'"):
         check_archive(ds.assign(events=("event", [math.nan])))
+
+
+@pytest.mark.slow
+def test_a_displacement_controlled_tendon_goes_slack_when_released():
+    """tdcr-two-segment (N = 5), tendon s1a pulled in 4 mm (displacement control, E A =
+    6 kN, 4.45 N at equilibrium) and let out to 0 over 10 ms: a terminal slack event (IDA,
+    1e-6), where the tendon's unclipped tension (E A/ℓ*)(ℓ(x) − ℓ*(t)) at the stored state
+    is zero to 1e-9 of the starting tension (measured 3.4e-12 N, at 0.48 ms; 8 s of CPU)."""
+    from test_tendon_displacement import pulled, tension_and_lengths
+
+    from rodsim.solvers.physical.coordinates import model_state
+
+    scene = pulled(nodes=5)
+    start = rodsim.solve(scene, "static")
+    tension = tension_and_lengths(scene, start.state)[0]
+    ramp = 0.01
+    run = rodsim.simulate(scene, 2.0 * ramp, output_dt=ramp / 4, integrator="ida",
+                          initial=start, rtol=1e-6, atol=1e-6,
+                          program={"s1a.tendon_string.displacement": ([0.0, ramp],
+                                                                      [0.004, 0.0])},
+                          events=[TendonSlack(terminal=True)])
+    assert run.success, run.message
+    assert [name for _, name in run.events] == ["tendon slack: s1a"]
+    when = run.events[0][0]
+    assert run.times[-1] == when < ramp
+    model = rodsim.build_model(scene)
+    term = next(t for t in model.terms if t.name == "tendon_string_displacement")
+    full = model.full(model_state(model, run.states[-1]))
+    free_length = term.rest_length - 0.004 * (1.0 - when / ramp)
+    assert abs(term.spring * (term.path_length(full) - free_length)) < 1e-9 * tension
