@@ -69,6 +69,9 @@ ROOT_RETURN = 2
 #: reported, found again: after an interpolation (normal mode) SUNDIALS searches again from
 #: the interpolated time.
 DUPLICATE = 1e-12
+#: What an event function's exact zero is given to SUNDIALS as, negated (the smallest
+#: positive double): see :func:`_root_finding`.
+EXACT_ZERO = 5e-324
 #: Internal steps a run may take before it stops (with what it computed).
 MAX_STEPS = 200_000
 #: Gauss–Legendre nodes and weights on [0, 1] for the energy quadratures.
@@ -182,6 +185,10 @@ def _root_finding(dae: PhysicalDae, events: EventFunctions | None, ida: bool
 
     def values(t: float, y: np.ndarray, g: np.ndarray) -> None:
         g[:] = events.values(dae.model_at(t), y[place][:n])
+        # an exact zero at a root found and just after it is SUNDIALS' "root found at and
+        # very near t" error (IDA_ILL_INPUT) on the next call, an interpolation included:
+        # a zero is given as the smallest negative number instead (below the root)
+        g[g == 0.0] = -EXACT_ZERO
 
     if ida:
         def eventsfn(t: float, y: np.ndarray, yp: np.ndarray, g: np.ndarray) -> None:
