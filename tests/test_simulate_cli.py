@@ -139,6 +139,12 @@ def test_a_broken_trajectory_archive_is_refused(tmp_path, python_run):
     (("--t-end", "0.05", "--integrator", "ida", "--atol", "1"), "--atol"),
     (("--t-end", "0.05", "--integrator", "ida", "--max-order", "6"), "--max-order"),
     (("--t-end", "0.05", "--rtol", "1e-6"), "only for integrators"),
+    (("--t-end", "0.05", "--initial-velocity", "1,2"), "--initial-velocity '1,2'"),
+    (("--t-end", "0.05", "--initial-velocity", "1,x,2"), "VX,VY,VZ"),
+    (("--t-end", "0.05", "--initial-velocity", "1,nan,2"), "three finite"),
+    (("--t-end", "0.05", "--event", "contact"), "'ida' or 'cvode'"),
+    (("--t-end", "0.05", "--integrator", "ida", "--event", "contact"), "no obstacle"),
+    (("--t-end", "0.05", "--integrator", "ida", "--event", "bump"), "event 'bump'"),
 ])
 def test_bad_input_is_one_line_and_writes_nothing(tmp_path, monkeypatch, capsys, args,
                                                    words):

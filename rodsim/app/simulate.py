@@ -24,6 +24,7 @@ from typing import Any
 import numpy as np
 
 from rodsim.app.api import SceneLike, load_scene, solve
+from rodsim.app.initial_velocity import VelocityLike, initial_rates, velocity_text
 from rodsim.app.interrupted import Interrupted
 from rodsim.app.programs import Program, Programs, check_programs
 from rodsim.core.damping import Damping
@@ -39,6 +40,7 @@ from rodsim.solvers.physical.coordinates import (
     physical_state,
 )
 from rodsim.solvers.physical.dae import PhysicalDae
+from rodsim.solvers.physical.events import EventLike, resolve_events
 from rodsim.solvers.physical.ida_run import IdaOptions, integrate_ida
 from rodsim.solvers.physical.midpoint import MidpointStep, Motion
 from rodsim.solvers.physical.trajectory import Record, integrate
@@ -110,6 +112,8 @@ class Simulation:
     #: call's), and the starting values (text).
     program: dict[str, ProgramEntry] = field(default_factory=dict)
     initial: str = "rest state"
+    #: (time [s], name) of every event found, in time order (docs/dynamics.md, "Events").
+    events: tuple[tuple[float, str], ...] = ()
 
     @property
     def energy_error(self) -> np.ndarray:
@@ -133,7 +137,8 @@ class Simulation:
         return trajectory_dataset(TrajectoryRecord(
             self.scene, rods, self.times, self.positions, self.quaternions, energies,
             self.success, self.message, self.t_end, self.integrator, self.step, stats,
-            {key: entry.archived() for key, entry in self.program.items()}, self.initial))
+            {key: entry.archived() for key, entry in self.program.items()}, self.initial,
+            self.events))
 
 
 def _start_state(scene: Scene, model: Model, initial: Mapping[str, Any] | Result | None
@@ -211,7 +216,9 @@ def simulate(scene: SceneLike | None, t_end: float, *, output_dt: float | None =
              program: Program | None = None, step: float | None = None,
              overrides: Sequence[str] = (),
              progress: Callable[[float], None] | None = None, rtol: float | None = None,
-             atol: float | None = None, max_order: int | None = None) -> Simulation:
+             atol: float | None = None, max_order: int | None = None,
+             initial_velocity: VelocityLike | None = None,
+             events: Sequence[EventLike] = ()) -> Simulation:
     """Integrate ``scene`` in physical time from t = 0 to ``t_end`` [s].
 
     ``integrator``: ``"midpoint"`` (the implicit midpoint rule, fixed steps), ``"ida"``
@@ -227,7 +234,15 @@ def simulate(scene: SceneLike | None, t_end: float, *, output_dt: float | None =
     (piecewise linear) or a ``rodsim.core.program.Sinusoid`` per numeric term value,
     added to the scene file's ``[program]`` (replacing its entry for the same value);
     ``overrides``: ``key=value`` changes
-    of the scene. The run starts at rest. Bad input raises
+    of the scene; ``initial_velocity``: the velocity at t = 0 (default: at rest) — a
+    3-vector [m/s] that every free node moves with, or the physical velocities (each free
+    position coordinate's rate, then each free segment's body rates; p + 3 s numbers), or
+    the rates of the model's n free coordinates (rodsim/app/initial_velocity.py);
+    ``events``: ``rodsim.solvers.physical.events.ContactOnset`` and
+    ``rodsim.solvers.physical.events.TendonSlack`` values (or ``"contact"``,
+    ``"slack"``, ``":stop"`` appended for a terminal one), found by SUNDIALS' root finding
+    (``ida`` and ``cvode``): each one's time and name in ``Simulation.events``, a terminal
+    one ends the run there. Bad input raises
     ``rodsim.core.schema.SceneError`` (one line) before any work; a run that fails
     part-way returns ``success`` False with what it computed.
     """
@@ -249,13 +264,23 @@ def simulate(scene: SceneLike | None, t_end: float, *, output_dt: float | None =
                          "tendon's or a contact's), whose history each step carries to the "
                          "next; allowed: integrator 'midpoint' (IDA's and CVODE's adaptive "
                          "steps would each need a restart)")
+    if events and integrator == "midpoint":
+        raise SceneError("events: allowed with integrator 'ida' or 'cvode' (SUNDIALS' root "
+                         "finding); the midpoint rule has none")
+    watched = resolve_events(model, events) if events else None
+    rest = physical_state(model, model.x0)  # the velocity's length checked before any work
+    initial_rates(model, PhysicalCoordinates.of(model, rest), rest, initial_velocity)
     x = _start_state(loaded, model, initial)
     if programs.path_dependent:
         programs.carry_history(0.0, x)  # the start: at rest in the equilibrium it was left in
     omega = math.nan
-    if integrator != "midpoint" or step is None or output_dt is None:
-        omega = _lowest_frequency(model, x, "default step" if integrator == "midpoint"
-                                  else "velocity scale of the tolerances")
+    if integrator != "midpoint":
+        try:
+            omega = _lowest_frequency(model, x, "velocity scale of the tolerances")
+        except SceneError:  # no stable equilibrium at the start (a falling rod): the run's
+            omega = 2.0 * math.pi / float(t_end)  # own time scale (docs/dynamics.md, "IDA")
+    elif step is None or output_dt is None:
+        omega = _lowest_frequency(model, x, "default step")
     h = float(step) if step is not None else 2.0 * math.pi / omega / STEPS_PER_PERIOD
     spacing = float(output_dt) if output_dt is not None else h
     count = max(1, math.ceil(float(t_end) / spacing * (1.0 - 1e-12)))
@@ -263,8 +288,7 @@ def simulate(scene: SceneLike | None, t_end: float, *, output_dt: float | None =
     coordinates = PhysicalCoordinates.of(model, x)
     length = max(rod.options.length for rod in model.rods.values())
     stepper = MidpointStep(coordinates, Damping(model), length)
-    start = Motion(x, np.zeros(len(coordinates.positions)),
-                   np.zeros((len(coordinates.quaternions), 3)))
+    start = Motion(x, *initial_rates(model, coordinates, x, initial_velocity))
     record = Record()
     try:
         if integrator != "midpoint":
@@ -272,7 +296,7 @@ def simulate(scene: SceneLike | None, t_end: float, *, output_dt: float | None =
                                  0.0 if step is None else float(step), length, omega)
             dae = PhysicalDae(coordinates, stepper.damping, programs.model_at, model.n)
             integrate_ida(dae, programs.model_at, start, outputs, programs.breaks, options,
-                          progress, record, integrator)
+                          progress, record, integrator, watched)
         else:
             integrate(programs.model_at, stepper, start, outputs, h, progress, record,
                       programs.carry_history if programs.path_dependent else None)
@@ -289,7 +313,8 @@ def simulate(scene: SceneLike | None, t_end: float, *, output_dt: float | None =
         record.message = (f"interrupted after t = {record.times[-1]:.6g} s (the outputs up to "
                           "it are kept)")
         partial = _simulation(loaded, model, record, _step_of(record, h, integrator),
-                              integrator, float(t_end), programs.by_name, initial)
+                              integrator, float(t_end), programs.by_name, initial,
+                              initial_velocity)
         raise Interrupted(partial, record.message) from None
     except SceneError as exc:  # a rule across two programmed values, broken at some time
         if not record.times:
@@ -299,7 +324,7 @@ def simulate(scene: SceneLike | None, t_end: float, *, output_dt: float | None =
                           f"programs' values break a rule before the next ({exc}); the "
                           "outputs up to it are kept")
     return _simulation(loaded, model, record, _step_of(record, h, integrator), integrator,
-                       float(t_end), programs.by_name, initial)
+                       float(t_end), programs.by_name, initial, initial_velocity)
 
 
 def _step_of(record: Record, h: float, integrator: str) -> float:
@@ -310,7 +335,9 @@ def _step_of(record: Record, h: float, integrator: str) -> float:
 
 def _simulation(loaded: Scene, model: Model, record: Record, h: float, integrator: str,
                 t_end: float, programs: dict[str, ProgramEntry],
-                initial: Mapping[str, Any] | Result | None) -> Simulation:
+                initial: Mapping[str, Any] | Result | None,
+                initial_velocity: VelocityLike | None = None,
+             events: Sequence[EventLike] = ()) -> Simulation:
     """The ``Simulation`` of what ``record`` holds."""
     states = np.array(record.states)
     full = np.array([model.full(model_state(model, state)) for state in states])
@@ -326,4 +353,6 @@ def _simulation(loaded: Scene, model: Model, record: Record, h: float, integrato
                       quaternions, np.array(record.kinetic), np.array(record.potential),
                       np.array(record.dissipated), np.array(record.work), h,
                       integrator, record.steps, record.iterations, record.halvings,
-                      tuple(model.rods), states, t_end, programs, _initial_text(initial))
+                      tuple(model.rods), states, t_end, programs,
+                      _initial_text(initial) + velocity_text(initial_velocity),
+                      tuple(record.events))

@@ -402,6 +402,11 @@ def _check_trajectory(ds: xr.Dataset) -> None:
     if _number_attribute(ds, "complete") not in (0.0, 1.0) or not _number_attribute(
             ds, "t_end") > 0.0:
         raise ArchiveSchemaError("attribute 'complete' is not 0 or 1, or 't_end' not > 0")
+    if "events" in ds.variables or "event_name" in ds.variables:  # optional (older archives)
+        events = _variable(ds, "events", ("event",)).values
+        _variable(ds, "event_name", ("event",), numeric=False)
+        if not np.all(np.isfinite(events)) or np.any(np.diff(events) < 0.0):
+            raise ArchiveSchemaError("variable 'events' is not finite or not in time order")
     _check_layout(ds, ("time",))
 
 

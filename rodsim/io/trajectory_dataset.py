@@ -14,7 +14,7 @@ programs and the starting values.
 from __future__ import annotations
 
 import json
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
@@ -61,6 +61,8 @@ class TrajectoryRecord:
     #: offset (rodsim/core/program.py)
     program: Mapping[str, list[list[float]] | dict[str, float]]
     initial: str
+    #: (time [s], name) of each event found (docs/dynamics.md, "Events").
+    events: Sequence[tuple[float, str]] = ()
 
 
 def trajectory_dataset(record: TrajectoryRecord) -> xr.Dataset:
@@ -98,6 +100,11 @@ def trajectory_dataset(record: TrajectoryRecord) -> xr.Dataset:
     for name, long_name in ENERGIES.items():
         data[name] = ("time", np.asarray(record.energies[name], dtype=float),
                       {"units": "J", "long_name": long_name})
+    data["events"] = ("event", np.array([t for t, _ in record.events], dtype=float),
+                          {"units": "s", "long_name": "time of the event"})
+    data["event_name"] = ("event", np.array([e for _, e in record.events], dtype=str),
+                          {"long_name": "what happened (contact onset: rod on obstacle; "
+                           "tendon slack: tendon)"})
     ds = xr.Dataset(data_vars=data, coords=coords)
     name = record.scene.name
     reached = float(record.times[-1]) if len(record.times) else 0.0

@@ -109,6 +109,10 @@ class Clock:
         saved, sys.stdout = sys.stdout, self.printed
         try:
             out = self.solver.step(t, method="normal")
+            for _ in range(8):  # with root finding, normal mode stops at a root on the way
+                if out.status != 2 or float(out.t) == t:  # (one the step already reported)
+                    break
+                out = self.solver.step(t, method="normal")
         finally:
             sys.stdout = saved
         if not out.success:

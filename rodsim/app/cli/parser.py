@@ -278,6 +278,13 @@ def build_parser() -> argparse.ArgumentParser:
     move.add_argument("--initial", action="append", default=[], metavar="KEY=VALUE",
                       help="start from the equilibrium with this value (KEY as for --set; "
                       "repeatable): released at t = 0")
+    move.add_argument("--event", action="append", default=[], metavar="contact|slack[:stop]",
+                      help="ida, cvode: record when a rod first touches an obstacle (contact) "
+                      "or a string tendon's tension reaches zero (slack); ':stop' ends the run "
+                      "there (repeatable)")
+    move.add_argument("--initial-velocity", metavar="VX,VY,VZ",
+                      help="start with every free node moving at this velocity [m/s] "
+                      "(default: at rest)")
     move.add_argument("--program", action="append", default=[],
                       metavar="KEY=t0:v0,t1:v1,...|KEY=sin:A,F[,PHASE[,OFFSET]]",
                       help="a numeric value following a piecewise-linear table in time, or "

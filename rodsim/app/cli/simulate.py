@@ -55,7 +55,8 @@ class Simulate(SceneCommand):
     """Integrate the scene in physical time from t = 0 to --t-end (the implicit midpoint
     rule, or SUNDIALS IDA with --integrator ida; the rods' inertia and damping;
     docs/dynamics.md). The run starts at rest, from the rest
-    state or from the equilibrium with the --initial values (a release); --program makes a
+    state or from the equilibrium with the --initial values (a release), with
+    --initial-velocity a uniform velocity of every free node; --program makes a
     value follow a piecewise-linear table or a sinusoid in time (as the scene file's
     [program] table does; --program replaces its entry for the same value). Prints the
     progress in simulated time and a summary (tip at the end, energy balance, steps);
@@ -82,6 +83,14 @@ class Simulate(SceneCommand):
         except SceneError as exc:
             raise UserError("--" + str(exc).replace("_", "-", 1)) from None
         self.program = dict(parse_program(text) for text in args.program)
+        self.velocity = None
+        if args.initial_velocity is not None:
+            from rodsim.app.initial_velocity import parse_velocity
+
+            try:
+                self.velocity = parse_velocity(args.initial_velocity)
+            except ValueError as exc:
+                raise UserError(str(exc)) from None
         try:  # the scene file's [program] first, then each --program
             check_programs(scene, {})
         except SceneError as exc:
@@ -105,6 +114,7 @@ class Simulate(SceneCommand):
 
     def solve(self, scene: Any, integrator: str, progress: Any) -> Any:
         from rodsim.app.api import solve
+        from rodsim.app.initial_velocity import velocity_text
         from rodsim.app.interrupted import Interrupted
         from rodsim.app.simulate import simulate
 
@@ -119,11 +129,14 @@ class Simulate(SceneCommand):
             progress(t / t_end, f"t = {t:.6g} s of {t_end:g} s")
 
         started = "equilibrium with " + ", ".join(args.initial) if args.initial else None
+        if started:
+            started += velocity_text(self.velocity)
         try:
             run = simulate(scene, t_end, output_dt=args.output_dt, integrator=args.integrator,
                            initial=initial, program=self.program, step=args.step,
                            progress=report, rtol=args.rtol, atol=args.atol,
-                           max_order=args.max_order)
+                           max_order=args.max_order, initial_velocity=self.velocity,
+                           events=args.event)
         except Interrupted as stop:  # written by the pipeline, marked incomplete
             if started:
                 stop.partial.initial = started
@@ -154,6 +167,10 @@ class Simulate(SceneCommand):
         else:
             print(f"steps       {result.steps} of at most {result.step:.4g} s, "
                   f"{result.iterations} Newton iterations, {result.halvings} halved")
+        for time, name in result.events:
+            print(f"event       {name} at t = {time:.9g} s")
+        if result.success and result.message.startswith("stopped by"):
+            print(f"stopped     {result.message}")
         if not result.success:
             print(f"incomplete  {result.message}")
 

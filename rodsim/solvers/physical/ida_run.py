@@ -50,6 +50,7 @@ from rodsim.core.model import Model
 from rodsim.solvers.failure import SolverFailure
 from rodsim.solvers.physical.coordinates import model_state
 from rodsim.solvers.physical.dae import PhysicalDae
+from rodsim.solvers.physical.events import EventFunctions
 from rodsim.solvers.physical.midpoint import Motion
 from rodsim.solvers.physical.ode import PhysicalOde
 from rodsim.solvers.physical.trajectory import Record
@@ -62,6 +63,15 @@ if TYPE_CHECKING:
 
 __all__ = ["IdaOptions", "integrate_ida", "MAX_STEPS"]
 
+#: SUNDIALS' status of a step that ended at a root of an event function.
+ROOT_RETURN = 2
+#: A root within this × max(1 s, the piece's end) of the last accepted time is one already
+#: reported, found again: after an interpolation (normal mode) SUNDIALS searches again from
+#: the interpolated time.
+DUPLICATE = 1e-12
+#: What an event function's exact zero is given to SUNDIALS as, negated (the smallest
+#: positive double): see :func:`_root_finding`.
+EXACT_ZERO = 5e-324
 #: Internal steps a run may take before it stops (with what it computed).
 MAX_STEPS = 200_000
 #: Gauss–Legendre nodes and weights on [0, 1] for the energy quadratures.
@@ -106,8 +116,9 @@ class _IdaStarter:
 
     name = "ida"
 
-    def __init__(self, dae: PhysicalDae, options: IdaOptions) -> None:
-        self.dae, self.options = dae, options
+    def __init__(self, dae: PhysicalDae, options: IdaOptions,
+                 events: EventFunctions | None = None) -> None:
+        self.dae, self.options, self.events = dae, options, events
         self.atol = _tolerances(dae, options)
 
     def start(self, run: Any, t: float, y: np.ndarray, yp: np.ndarray | None) -> IDA:
@@ -131,7 +142,7 @@ class _IdaStarter:
 
         return started("IDA", IDA, resfn, jacfn, t, y, yp, linsolver="band", lband=lower,
                        uband=upper, rtol=o.rtol, atol=self.atol, max_order=o.max_order,
-                       max_step=o.max_step)
+                       max_step=o.max_step, **_root_finding(dae, self.events, ida=True))
 
 
 class _CvodeStarter:
@@ -140,8 +151,9 @@ class _CvodeStarter:
 
     name = "cvode"
 
-    def __init__(self, dae: PhysicalDae, options: IdaOptions) -> None:
-        self.ode, self.options = PhysicalOde(dae), options
+    def __init__(self, dae: PhysicalDae, options: IdaOptions,
+                 events: EventFunctions | None = None) -> None:
+        self.ode, self.options, self.events = PhysicalOde(dae), options, events
         self.atol = _tolerances(dae, options)
 
     def start(self, run: Any, t: float, y: np.ndarray, yp: np.ndarray | None) -> CVODE:
@@ -157,7 +169,36 @@ class _CvodeStarter:
             jj[:, :] = ode.jacobian(t, y[place])[np.ix_(order, order)]
 
         return started("CVODE", CVODE, rhsfn, jacfn, t, y, linsolver="dense", rtol=o.rtol,
-                       atol=self.atol, max_order=o.max_order, max_step=o.max_step)
+                       atol=self.atol, max_order=o.max_order, max_step=o.max_step,
+                       **_root_finding(ode.dae, self.events, ida=False))
+
+
+def _root_finding(dae: PhysicalDae, events: EventFunctions | None, ida: bool
+                  ) -> dict[str, Any]:
+    """SUNDIALS' root-finding options for ``events``: ``eventsfn`` (IDA: (t, y, ẏ, g), CVODE:
+    (t, y, g); y in band order), ``num_events``, every root direction −1 (a downward
+    crossing), none terminal — the run loop stops at a terminal event itself (SUNDIALS'
+    one-step mode ignores ``terminal``)."""
+    if events is None or not len(events):
+        return {}
+    place, n = dae.place, dae.n
+
+    def values(t: float, y: np.ndarray, g: np.ndarray) -> None:
+        g[:] = events.values(dae.model_at(t), y[place][:n])
+        # an exact zero at a root found and just after it is SUNDIALS' "root found at and
+        # very near t" error (IDA_ILL_INPUT) on the next call, an interpolation included:
+        # a zero is given as the smallest negative number instead (below the root)
+        g[g == 0.0] = -EXACT_ZERO
+
+    if ida:
+        def eventsfn(t: float, y: np.ndarray, yp: np.ndarray, g: np.ndarray) -> None:
+            values(t, y, g)
+    else:
+        def eventsfn(t: float, y: np.ndarray, g: np.ndarray) -> None:  # type: ignore[misc]
+            values(t, y, g)
+    eventsfn.terminal = [False] * len(events)  # type: ignore[attr-defined]
+    eventsfn.direction = [-1] * len(events)  # type: ignore[attr-defined]
+    return {"eventsfn": eventsfn, "num_events": len(events)}
 
 
 STARTERS: dict[str, type[_IdaStarter] | type[_CvodeStarter]] = {"ida": _IdaStarter,
@@ -234,13 +275,17 @@ class _Energy:
 def integrate_ida(dae: PhysicalDae, model_at: Callable[[float, bool], Model],
                   start: Motion, output_times: Sequence[float], breaks: Sequence[float],
                   options: IdaOptions, progress: Callable[[float], None] | None = None,
-                  record: Record | None = None, solver: str = "ida") -> Record:
+                  record: Record | None = None, solver: str = "ida",
+                  events: EventFunctions | None = None) -> Record:
     """Integrate from ``start`` (t = ``output_times[0]`` = 0) through every output time;
     ``model_at(t, before)`` is the model with the values at t (``before``: their values
     just before t, where a value jumps), ``breaks`` the programs' breakpoints. A failure
     ends the run: the record holds what was computed, ``success`` False and a message with
     the time and advice. ``record``: an empty record to fill (kept on interruption);
-    ``solver``: ``"ida"`` (the residual form) or ``"cvode"`` (the explicit form)."""
+    ``solver``: ``"ida"`` (the residual form) or ``"cvode"`` (the explicit form);
+    ``events``: the event functions SUNDIALS' root finding watches (rodsim/solvers/physical/
+    events.py): each root's time and name go to ``record.events`` and a terminal one ends
+    the run there, with an output at its time."""
     record = Record() if record is None else record
     c, n = dae.coordinates, dae.n
     ends = sorted({float(b) for b in breaks if 0.0 < b < output_times[-1]}
@@ -265,8 +310,12 @@ def integrate_ida(dae: PhysicalDae, model_at: Callable[[float, bool], Model],
     dae.model_at = models
     clock: Clock | None = None
     try:
-        clock = Clock(STARTERS[solver](dae, options), run, y0[dae.order], shift=False)
+        clock = Clock(STARTERS[solver](dae, options, events), run, y0[dae.order],
+                      shift=False)
+        stopped = False
         for end in ends:
+            if stopped:
+                break
             models.end = end
             if clock.t > piece_start:
                 clock.restart()  # a breakpoint: the rates of the new values
@@ -283,8 +332,16 @@ def integrate_ida(dae: PhysicalDae, model_at: Callable[[float, bool], Model],
                                         + (f" SUNDIALS: {detail}" if detail else ""),
                                         "try a looser rtol/atol, a lower max_order or the "
                                         "midpoint integrator")
+                found: list[int] = []
+                if out.status == ROOT_RETURN:  # an event (SUNDIALS' root finding)
+                    if float(out.t) <= clock.t + DUPLICATE * max(1.0, float(end)):
+                        continue  # a root reported again after an interpolation
+                    found = [int(i) for i in np.flatnonzero(out.i_events[-1])]
                 clock.accept(out)
-                record.steps += 1
+                for index in found:
+                    assert events is not None
+                    record.events.append((clock.t, events.names[index]))
+                record.steps += 0 if found else 1
                 record.largest_step = max(record.largest_step, clock.t - before)
                 mark = before
                 while pending and pending[0] < end and pending[0] <= clock.t:
@@ -298,9 +355,18 @@ def integrate_ida(dae: PhysicalDae, model_at: Callable[[float, bool], Model],
                     progress(clock.t)
                 if not np.all(np.isfinite(clock.y)):
                     raise SolverFailure("the state is not finite", "try a tighter rtol/atol")
+                if events is not None and any(events.terminal[i] for i in found):
+                    if not record.times or record.times[-1] < clock.t:
+                        add(clock.t, clock.y[dae.place])
+                    names = ", ".join(events.names[i] for i in found if events.terminal[i])
+                    record.message = f"stopped by the event ({names}) at t = {clock.t:.9g} s"
+                    stopped = True
+                    break
                 if models.reregister(clock.t, clock.y[dae.place][:n]):
                     run.counts["reinits"] += 1  # a tendon point changed parent (§4.1)
                     clock.restart()
+            if stopped:
+                break
             y_end = clock.y[dae.place]
             x = y_end[:n]
             if end < ends[-1]:  # a jump of a value at the breakpoint: its work at once

@@ -67,6 +67,8 @@ class Record:
     largest_step: float = 0.0
     success: bool = True
     message: str = "ok"
+    #: (time [s], name) of every event found (rodsim/solvers/physical/events.py).
+    events: list[tuple[float, str]] = field(default_factory=list)
 
     def add(self, t: float, motion: Motion, kinetic: float, potential: float,
             dissipated: float, work: float) -> None:
