@@ -92,6 +92,8 @@ def test_the_summary_says_neutral_and_the_archive_counts_the_modes():
     assert "neutral: 3 zero modes within 2.2e-12" in text and "positive definite" not in text
     attrs = run_dataset(result).attrs
     assert attrs["stiffness_neutral_modes"] == 3 and attrs["stable"] == 0
+    # The result's own summary (repr) said "UNSTABLE (smallest eigenvalue …)" of it.
+    assert "neutral (3 zero modes within" in repr(result) and "UNSTABLE" not in repr(result)
 
 
 @pytest.mark.parametrize("name", ["table1-50g", "tip-on-tissue", "catheter-helical"])
