@@ -287,3 +287,29 @@ except archive.ArchiveError as exc:
 """)
     assert done.returncode == 0, done.stderr
     assert message in done.stdout, done.stdout
+
+
+def test_a_probe_that_aborts_prints_no_fault_handler_dump(tmp_path):
+    """With a fault handler on (pytest enables one on its own copy of stderr, as does
+    `python -X faulthandler`), the probe child's abort printed "Fatal Python error: Aborted"
+    and the stacks of the process on that copy, which redirecting stderr in the child does
+    not reach: the suite's passing run showed the dump of the deliberate crash above. The
+    child turns the handler off; the abort is still the one-line ArchiveError."""
+    path = tmp_path / "run.nc"
+    assert main(["run", "--integrator", "static", "--set", "nodes=6", "-o", str(path)]) == 0
+    done = _read_in_a_fresh_process(f"""
+import faulthandler, os
+faulthandler.enable(file=os.fdopen(os.dup(2), "w"))
+import xarray
+import rodsim.io.archive as archive
+def broken(*args, **kwargs):
+    os.abort()
+xarray.open_dataset = broken
+try:
+    archive.read_dataset({str(path)!r})
+except archive.ArchiveError as exc:
+    print(exc)
+""")
+    assert done.returncode == 0, done.stderr
+    assert "crashed reading it (signal 6)" in done.stdout, done.stdout
+    assert "Fatal Python error" not in done.stderr and done.stderr == "", done.stderr

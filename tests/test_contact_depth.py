@@ -117,3 +117,15 @@ def test_shipped_contact_scenes_stay_within_the_law(name):
     deepest = max(float(np.max(t.penetration(full))) / t.radius for t in model.terms
                   if isinstance(t, Contact))
     assert deepest < DEPTH_LIMIT
+
+
+def test_a_failure_from_a_rest_shape_through_the_wall_says_so(tmp_path, cli, capsys):
+    """`rodsim track guidewire.toml --ramp rods.wire.base.insertion=…` failed at step 0 with
+    static, advising a smaller load step or IDA, without a word of the cause a successful
+    run warns about: the wire's rest shape crosses its vessel. The one failure line now
+    names it."""
+    code = cli(["track", str(DATA / "guidewire.toml"), "--ramp",
+                "rods.wire.base.insertion=0:0.01:2", "-o", str(tmp_path / "t.nc")])
+    err = capsys.readouterr().err
+    assert code == 1 and err.count("\n") == 1, err
+    assert "solver failure" in err and "rest shape of rod 'wire' crosses obstacle 'vessel'" in err

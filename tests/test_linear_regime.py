@@ -105,34 +105,61 @@ def stiff_family(seed: int, count: int):
                7850.0 if steel else 6450.0)
 
 
-#: Where the offset state's floor still refuses (docs/model.md): the round-off of the
-#: offsets, eps × the tip's displacement, through the penalty's stiffness K_P/l makes the
-#: floor ≈ 1.9e-12 (L/r)² (N − 1) with the default K_P_relative = 100, whatever the load.
-def resolvable(length: float, radius: float, nodes: int) -> bool:
-    return (length / radius) ** 2 * (nodes - 1) < 4.5e8
-
-
 def test_stiff_family_matches_the_elastica():
-    """Every robot of the family that the floor's bound admits solves with static within
-    2e-3 of the elastica; the others (the thinnest longest wires) are refused with the
-    floor's message, never answered wrongly. Most of the family is admitted."""
-    solved = refused = 0
+    """Every robot of the family solves with static within 2e-3 of the elastica. (Before,
+    the thinnest longest wires, (L/r)² (N − 1) ≳ 4.5e8, were refused as "below the
+    round-off of the internal forces": 2 of these 24.)"""
     for length, radius, modulus, nodes, force, density in stiff_family(37, 24):
         scene = wire(length, radius, modulus, nodes, force, density)
         result = rodsim.solve(scene, "static")
         label = f"L={length:.3f} r={radius:.2e} E={modulus:.3g} N={nodes} F={force:.3g}"
-        if not resolvable(length, radius, nodes):
-            assert result.success or "round-off of the internal forces" in result.message
-            refused += not result.success
-            if not result.success:
-                continue
         assert result.success, f"{label}: {result.message}"
         x, y = elastica_tip(force, modulus * second_moment(radius), length)
         tip = result.positions("wire")[-1]
         error = math.hypot(tip[0] - x, tip[1] - y) / math.hypot(x - length, y)
         assert error < ACCURACY, f"{label}: {error:.2e}"
-        solved += 1
-    assert solved >= 20 and solved + refused == 24
+
+
+@pytest.mark.parametrize(("length", "radius", "modulus", "nodes", "fraction"), [
+    (1.0, 2e-4, 200e9, 81, 1e-4),     # a steel wire, floor 3.8e-3
+    (1.0, 2e-4, 200e9, 81, 0.5),
+    (2.0, 1.5e-4, 200e9, 201, 1e-4),  # floor 6.7e-2
+    (1.5, 1.78e-4, 60e9, 101, 1e-3),  # a 0.014-inch nitinol guidewire, floor 1.3e-2
+])
+def test_thin_long_wires_above_the_floor_are_solved_by_static(length, radius, modulus,
+                                                              nodes, fraction):
+    """Thin long wires (L/r 5 000 to 13 000) whose residual floor exceeds 1e-3 whatever the
+    load: every integrator refused them before, at any load. The floor bounds how well the
+    force residual can be read (the stiff shear and stretch forces are differences of
+    offsets of size of the deflection), not how close Newton's state is to equilibrium:
+    static solves them, held to the correction residual (1e-5 of the load's displacement,
+    not loosened by the floor), within 2e-3 of the elastica (measured 1.3e-5 to 8e-5).
+    The pseudo-dynamics integrators still refuse them at once (IDA stalled 14–477 s and
+    failed on each when let through)."""
+    bending = modulus * second_moment(radius)
+    force = fraction * math.pi**2 * bending / (4.0 * length**2)
+    scene = wire(length, radius, modulus, nodes, force)
+    assert Model(rodsim.load_scene(scene)).residual_floor > MAX_RESIDUAL_FLOOR
+    result = rodsim.solve(scene, "static")
+    assert result.success, result.message
+    x, y = elastica_tip(force, bending, length)
+    tip = result.positions("wire")[-1]
+    assert math.hypot(tip[0] - x, tip[1] - y) / math.hypot(x - length, y) < ACCURACY
+
+
+def test_an_unloaded_thin_wire_is_its_rest_state():
+    """An unloaded wire above the floor was refused as "below the round-off" — its rest
+    state is the exact answer (the guidewire of issue 37 in a straight vessel: its penalty
+    estimate, a static re-solve with K_P ×10, was "unavailable" for that reason). IDA
+    still refuses at once, in one message."""
+    scene = wire(1.0, 2e-4, 200e9, 81, 0.0)
+    result = rodsim.solve(scene, "static")
+    assert result.success, result.message
+    assert np.array_equal(result.positions("wire"),
+                          rodsim.solve(scene, "static").positions("wire"))
+    assert np.max(np.abs(result.positions("wire")[:, 1:])) == 0.0
+    refused = rodsim.solve(scene, "ida")
+    assert not refused.success and "round-off of the internal forces" in refused.message
 
 
 def roundoff_noise(model: Model, iterations: int = 12) -> float:

@@ -7,10 +7,12 @@ from __future__ import annotations
 import copy
 import errno
 import json
+from pathlib import Path
 
 import pytest
 
 import rodsim
+from rodsim.core.model import Model
 from rodsim.core.scene import Scene
 from rodsim.core.schema import SceneError
 from rodsim.io import archive
@@ -191,3 +193,27 @@ def test_static_solves_an_unloaded_rod_in_a_4000_point_straight_vessel(origin, t
     result = rodsim.solve(scene, "static")
     assert result.success, result.message
     assert abs(result.tip()[0] - (origin[0] + 0.2)) < 1e-12 and abs(result.tip()[1]) < 1e-12
+
+
+DATA = Path(__file__).parent / "data"
+
+
+@pytest.mark.parametrize("kernels", ["numpy", "compiled"])
+def test_a_node_a_round_off_behind_a_vessels_start_does_not_stop_the_next_nodes_projection(
+        kernels):
+    """The user's guidewire insertion (`track guidewire2.toml --ramp
+    rods.wire.base.insertion=0:0.12:121`) failed at 0.02 m with `static`, every halved step
+    too. There node 72 lies 2.8e-17 m behind the csv vessel's start: its projection is on
+    the straight extension, and the next node's walk, started there, was stopped at the
+    spline's start by a step of 2.8e-17 m, which the convergence test took for Newton's:
+    node 73, 2.5 mm inside the vessel, was projected to its start, 1 mm "through" the wall,
+    a rest-state force 3e6 times the load (the numpy projection and the compiled kernel
+    alike). Now the rest state is the equilibrium and the insertion goes on."""
+    scene = rodsim.load_scene(str(DATA / "guidewire2.toml"),
+                              [f"solver.kernels={kernels}", "rods.wire.base.insertion=0.02"])
+    model = Model(scene)
+    assert model.residual(model.force(model.x0)) == 0.0
+    track = rodsim.track(rodsim.load_scene(str(DATA / "guidewire2.toml")),
+                         {"rods.wire.base.insertion": [0.018, 0.019, 0.02]})
+    assert track.complete, track.message
+    assert track.steps == 3 and abs(track.tips()[-1][0] - 0.02) < 1e-9

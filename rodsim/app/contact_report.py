@@ -11,7 +11,7 @@ from __future__ import annotations
 
 from typing import Any
 
-__all__ = ["contact_warnings"]
+__all__ = ["contact_warnings", "failure_note"]
 
 
 def contact_warnings(result: Any) -> list[str]:
@@ -27,3 +27,21 @@ def contact_warnings(result: Any) -> list[str]:
 
         lines = rest_crossings(Model(result.scene)) + lines
     return [f"warning     {line}" for line in lines]
+
+
+def failure_note(scene: Any) -> str:
+    """What a solver failure's one line adds when a rod's rest shape crosses an obstacle's
+    wall: "; " and each crossing (``rest_crossings``), else "". The likely cause of the
+    failure, which the summary of a success warns about but a failure did not say (a
+    user's guidewire through its vessel: `track` failed at step 0 advising a smaller
+    load step)."""
+    if not scene.data.get("obstacles"):
+        return ""
+    from rodsim.core.contact_depth import rest_crossings
+    from rodsim.core.model import Model
+
+    try:
+        crossings = rest_crossings(Model(scene))
+    except Exception:  # noqa: BLE001 - a note, never a second failure
+        return ""
+    return "".join(f"; {line}" for line in crossings)

@@ -72,6 +72,7 @@ stability_band.py: the same Cholesky test; K⁻¹ for ARPACK by band LU instead 
 
 from __future__ import annotations
 
+import copy
 from collections.abc import Callable
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
@@ -265,6 +266,59 @@ def _neutral(stiffness: sp.spmatrix) -> Stability:
     return Stability(False, smallest, max(count, 1), tolerance)
 
 
+#: The stiff terms of a rod (its stretch and the centerline penalty): what makes a slender
+#: rod's scaled stiffness ill-conditioned.
+STIFF_TERMS = ("stretch", "centerline")
+#: A mode within τ of zero whose Rayleigh quotient on the other terms, relative to their own
+#: diagonal along it, exceeds this is resisted (a slender rod's bending), not neutral.
+RESISTED = 1e-9
+
+
+def _model_neutral(model: Model, x: np.ndarray, stiffness: sp.spmatrix) -> Stability:
+    """``_neutral`` of a positive definite K, with the modes within τ of zero checked on
+    the model's soft terms (everything but ``STIFF_TERMS``) alone: a mechanism or a rigid
+    body mode costs them nothing, but a slender rod's lowest bending mode falls below τ
+    only because the stretch and penalty stiffness set the scale (a clamped 0.014-inch
+    nitinol wire, L/r 1 100 at N = 81: smallest scaled eigenvalue below τ = 1.2e-11, called
+    "neutral: 2 zero modes", and `--require-stable` refused it). The soft terms' quotient
+    along each such mode, over their diagonal along it, tells the two apart: measured 3.0e-4
+    on the bending modes of that wire, 3.8e-17 to 4.6e-17 on the ball-jointed rods' zero
+    modes (tests/test_stability_neutral.py)."""
+    verdict = _neutral(stiffness)
+    n = stiffness.shape[0]
+    stiff = [k for k, term in enumerate(model.terms)
+             if getattr(term, "key", "") in STIFF_TERMS]
+    if verdict.neutral_modes <= 0 or not stiff or n > DENSE_LIMIT:
+        return verdict
+    parts = _scaled_symmetric(stiffness)
+    if parts is None:
+        return verdict
+    symmetric, scaled = parts
+    values, vectors = la.eigh(scaled)
+    near = np.abs(values) <= verdict.tolerance
+    if not np.any(near):
+        return verdict
+    modes = vectors[:, near] / np.sqrt(np.diag(symmetric))[:, None]
+    soft_model = copy.copy(model)
+    factors = model.term_scales.copy()
+    factors[stiff] = 0.0
+    soft_model.term_scales = factors
+    soft_model._scale_list = factors.tolist()
+    soft = -soft_model.jacobian(x).toarray()
+    soft = 0.5 * (soft + soft.T)
+    weight = np.abs(np.diag(soft))
+    reduced = modes.T @ soft @ modes
+    size = np.sqrt(np.maximum((modes**2).T @ weight, np.finfo(float).tiny))
+    reduced = reduced / size[:, None] / size[None, :]
+    quotients = la.eigvalsh(0.5 * (reduced + reduced.T))
+    if np.any(quotients < -RESISTED):
+        return verdict
+    count = int(np.sum(quotients <= RESISTED))
+    if count == 0:
+        return Stability(True)
+    return Stability(False, verdict.min_eigenvalue, count, verdict.tolerance)
+
+
 def _smallest_eigenvalue(symmetric: sp.coo_matrix, width: int) -> float:
     """The smallest eigenvalue of a symmetric matrix that is not positive definite: dense
     for up to DENSE_LIMIT coordinates, else by bisection on the shift σ — the Cholesky
@@ -400,7 +454,7 @@ def assess(model: Model, x: np.ndarray,
         if (banded is None or model.n > DENSE_LIMIT
                 or banded.certified(factored[0], scaled_shift=-tolerance)):
             return Stability(True)
-        return _neutral(-model.pattern_matrix(factored[0]))  # but not beyond τ
+        return _model_neutral(model, x, -model.pattern_matrix(factored[0]))  # not beyond τ
     data = model.jacobian_data(x) if factored is None else factored[0]
     if banded is None:
         return stiffness_stability(-model.pattern_matrix(data), width)
@@ -410,7 +464,7 @@ def assess(model: Model, x: np.ndarray,
         if banded.certified(data):
             if model.n > DENSE_LIMIT or banded.certified(data, scaled_shift=-tolerance):
                 return Stability(True)
-            return _neutral(-model.pattern_matrix(data))
+            return _model_neutral(model, x, -model.pattern_matrix(data))
         if banded.asymmetry(data) <= 1e-12 or model.n <= DENSE_NONSYMMETRIC_LIMIT:
             return stiffness_stability(-model.pattern_matrix(data), width, indefinite=True)
     inverse: Callable[[np.ndarray], np.ndarray] | None

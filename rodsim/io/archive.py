@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import contextlib
 import errno
+import faulthandler
 import os
 import signal
 import sys
@@ -201,6 +202,10 @@ def _probe_in_child(path: Path) -> None:
     if pid == 0:  # the child: read, and leave without running this process's exit code
         code = 0
         try:
+            # A fault handler (pytest's, `python -X faulthandler`) writes its dump to its own
+            # copy of stderr, which the dup2 below does not reach: a deliberate or damaged
+            # abort here printed "Fatal Python error: Aborted" and every thread's stack.
+            faulthandler.disable()
             null = os.open(os.devnull, os.O_WRONLY)
             os.dup2(null, 1)
             os.dup2(null, 2)  # what the C library prints as it aborts is not ours to show

@@ -164,7 +164,8 @@ class Result:
             rows.append((f"tip of {next(iter(self.rods))}", millimetres(self.tip())))
         if self.stability is not None:
             rows.append(("stability", "stable" if self.stability.stable else
-                         f"UNSTABLE ({self.stability.eigenvalue_text})"))
+                         f"neutral ({self.stability.neutral_text})" if self.stability.neutral
+                         else f"UNSTABLE ({self.stability.eigenvalue_text})"))
         if self.penalty_error is not None:
             rows.append(("penalty error", f"{self.penalty_error:.2g} L"))
         if self.tendon_tension:

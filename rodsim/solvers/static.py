@@ -127,6 +127,7 @@ class Static(Integrator[RunState]):
     options: StaticOptions
 
     takes_predictor = True
+    resolves_below_floor = True
 
     name = "static"
     summary = "Newton on F(x) = 0 with the analytic Jacobian and load continuation"

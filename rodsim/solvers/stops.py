@@ -31,7 +31,7 @@ import numpy as np
 from rodsim.core.contact_depth import depth_failure
 from rodsim.solvers.outcome import Outcome
 from rodsim.solvers.recorder import SaveAt, increasing_times
-from rodsim.solvers.tolerance import CORRECTION_TOLERANCE
+from rodsim.solvers.tolerance import FLOOR_ADVICE, correction_limit, unresolvable_message
 
 if TYPE_CHECKING:
     from rodsim.core.model import Model
@@ -140,7 +140,7 @@ class Equilibrium(Stop):
                            f"(tolerance {tolerance:.3g}; its own test found "
                            f"{residual:.3g}) and its correction residual (distance to the "
                            f"equilibrium / the load's displacement) {verified[1]:.3g} "
-                           f"(tolerance {max(tolerance, CORRECTION_TOLERANCE):.3g})")
+                           f"(tolerance {correction_limit(run.model, tolerance):.3g})")
                 residual = verified[0]
             elif outcome.success and outcome_note:
                 message = outcome_note
@@ -148,6 +148,9 @@ class Equilibrium(Stop):
             elif outcome.success:
                 message = (f"stopped with residual {residual:.3g} above the tolerance "
                            f"{tolerance:.3g}")
+            floor = unresolvable_message(run.model)
+            if floor is not None:  # tried above the floor (Integrator.resolves_below_floor)
+                message, advice = f"{message}; {floor}", FLOOR_ADVICE
             message = failure_text(integrator, run, message, residual, advice)
         return Verdict(success, message, residual, finite)
 
@@ -183,5 +186,8 @@ class Until(Stop):
         if not success:
             if outcome.success:
                 message = "final state is not finite"
+            floor = unresolvable_message(run.model)
+            if floor is not None:  # tried above the floor (Integrator.resolves_below_floor)
+                message, advice = f"{message}; {floor}", FLOOR_ADVICE
             message = failure_text(integrator, run, message, residual, advice)
         return Verdict(success, message, residual, finite)

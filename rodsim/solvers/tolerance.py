@@ -13,8 +13,8 @@ from __future__ import annotations
 from rodsim.core.model import Model
 from rodsim.solvers.failure import SolverFailure
 
-__all__ = ["MAX_RESIDUAL_FLOOR", "CORRECTION_TOLERANCE", "effective_tolerance",
-           "refuse_unresolvable", "unresolvable_message"]
+__all__ = ["MAX_RESIDUAL_FLOOR", "CORRECTION_TOLERANCE", "FLOOR_ADVICE", "correction_limit",
+           "effective_tolerance", "refuse_unresolvable", "unresolvable_message"]
 
 #: A model whose residual floor (round-off of the internal forces relative to the loads)
 #: exceeds this cannot resolve its equilibrium: every integrator refuses it with a diagnostic
@@ -28,6 +28,22 @@ MAX_RESIDUAL_FLOOR = 1e-3
 #: and below; IDA's wrong success on table1-50g at N = 40 000 (1.4 % L from static's, force
 #: residual 4.7e-6 under its tolerance 1.2e-5): 0.048.
 CORRECTION_TOLERANCE = 1e-5
+
+
+#: What to change when the floor exceeds ``MAX_RESIDUAL_FLOOR``.
+FLOOR_ADVICE = "lower K_P, N or the stretch stiffness, or raise the load"
+
+
+def correction_limit(model: Model, tolerance: float) -> float:
+    """The largest correction residual a result on ``model`` may have, at the effective
+    ``tolerance``: the tolerance, or ``CORRECTION_TOLERANCE`` if larger; but
+    ``CORRECTION_TOLERANCE`` alone above ``MAX_RESIDUAL_FLOOR``, where the force residual
+    cannot be read (the tolerance is the floor) and the correction residual, the distance
+    to the equilibrium over the load's displacement, is what holds the state
+    (``Integrator.resolves_below_floor``)."""
+    if model.residual_floor > MAX_RESIDUAL_FLOOR:
+        return CORRECTION_TOLERANCE
+    return max(tolerance, CORRECTION_TOLERANCE)
 
 
 def effective_tolerance(model: Model, tolerance: float) -> float:
@@ -51,4 +67,4 @@ def refuse_unresolvable(model: Model) -> None:
     ``model``'s equilibrium cannot be resolved."""
     message = unresolvable_message(model)
     if message is not None:
-        raise SolverFailure(message, "lower K_P, N or the stretch stiffness, or raise the load")
+        raise SolverFailure(message, FLOOR_ADVICE)

@@ -88,6 +88,7 @@ class SceneCommand:
 
 def execute(command: SceneCommand) -> int:
     """The common path of a ``SceneCommand`` (module docstring)."""
+    from rodsim.app.contact_report import failure_note
     from rodsim.app.progress import ProgressPrinter
 
     args = command.args
@@ -110,7 +111,7 @@ def execute(command: SceneCommand) -> int:
     except bad_input as exc:
         raise UserError(str(exc)) from None
     except solver_failures as exc:
-        print(f"rodsim: solver failure: {exc}", file=sys.stderr)
+        print(f"rodsim: solver failure: {exc}{failure_note(scene)}", file=sys.stderr)
         return EXIT_SOLVER_FAILURE
     except Interrupted as stop:  # Ctrl-C or SIGTERM: keep what is finished, then stop
         progress.close()
@@ -122,7 +123,7 @@ def execute(command: SceneCommand) -> int:
         progress.close()
     message = command.failure(result)
     if message is not None:
-        print(message, file=sys.stderr)
+        print(f"{message}{failure_note(scene)}", file=sys.stderr)
         return EXIT_SOLVER_FAILURE
     command.report(result)
     command.write(result, output, stem)

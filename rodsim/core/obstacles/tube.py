@@ -262,15 +262,18 @@ class Tube(Obstacle):
                 a = speed2 - float(r @ c2)
                 if a < 0.1 * speed2:
                     a = speed2
-                du = float(r @ c1) / a
+                newton = float(r @ c1) / a
                 if u < first:  # on the straight extension Newton is exact: no step limit,
-                    du = min(du, first - u)  # but stop at the spline's start
+                    du = min(newton, first - u)  # but stop at the spline's start
                 elif u > last:
-                    du = max(du, last - u)
+                    du = max(newton, last - u)
                 else:
-                    du = min(max(du, -self.step), self.step)
+                    du = min(max(newton, -self.step), self.step)
                 u += du
-                if abs(du) <= 1e-14 * self.step:
+                # Newton's own step, not the one taken: a step stopped at the spline's end
+                # a round-off away is tiny though the point lies further on (the kernel's
+                # _project, rodsim/core/kernels/contact_tube.py).
+                if abs(newton) <= 1e-14 * self.step:
                     break
                 if iteration >= MAX_ITERATIONS and abs(du) <= 1e-12 * self.step:
                     # Converged, but round-off keeps u stepping back and forth (a node at
