@@ -30,7 +30,7 @@ def test_the_model_names_no_term(part):
 
 #: Modules above the terms that ask a term what it declares (``Term.unilateral``,
 #: ``figure_layer``, ``penalty_advice``, ``joins_rods``, ``holds_base``), never its name.
-DECLARATION_READERS = ("rodsim.solvers.base", "rodsim.app.trust")
+DECLARATION_READERS = ("rodsim.solvers.base", "rodsim.core.anchors", "rodsim.app.trust")
 
 
 @pytest.mark.parametrize("module", DECLARATION_READERS)
