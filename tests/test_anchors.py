@@ -148,3 +148,20 @@ def test_the_base_of_a_joined_rod_is_no_actuation_value():
     scene = Scene.from_dict(joined(1e6))
     with pytest.raises(SceneError, match=r"rod 'distal' is joined to another rod"):
         rodsim.track(scene, {"rods.distal.base.insertion": [0.0, 0.01]}, "static")
+
+
+def test_the_joint_is_found_by_its_declaration_not_its_name():
+    """The joined base and the joint's node (``s``) are refused as parameters by the term's
+    ``joins_rods``; its stiffness and a supported rod's base are parameters."""
+    from rodsim.app.inverse.parameter_keys import numeric_key
+    from rodsim.core.anchors import scene_joints
+
+    scene = Scene.from_dict(joined(1e6))
+    assert list(scene_joints(scene)) == ["distal"]
+    assert scene_joints(scene)["distal"].rod == "proximal"
+    with pytest.raises(SceneError, match="changes the discretisation"):
+        numeric_key(scene, "rods.distal.joint.s")
+    with pytest.raises(SceneError, match="is joined to another rod"):
+        numeric_key(scene, "rods.distal.base.insertion")
+    numeric_key(scene, "rods.distal.joint.K_J")
+    numeric_key(scene, "rods.proximal.base.insertion")

@@ -16,7 +16,7 @@ import pytest
 import rodsim
 from rodsim.app.figures import draw_figure, style
 from rodsim.app.figures.contact import draw_contact
-from rodsim.app.figures.scene_parts import LOAD, TERM_DRAWINGS
+from rodsim.app.figures.scene_parts import CONTACT, LOAD, SHAPE, TENDON, term_drawings
 from rodsim.core.obstacles import OBSTACLES, Obstacle, registered_obstacles
 from rodsim.core.scene import scene_paths
 from rodsim.core.schema import Parameter
@@ -66,7 +66,7 @@ def expected_gids(ds) -> set[str]:
     for owners in (scene["rods"], tendons):
         for name, table in owners.items():
             for term in table.get("terms", ()):
-                if TERM_DRAWINGS[term] == LOAD and nonzero_load(term, table):
+                if term_drawings()[term] == LOAD and nonzero_load(term, table):
                     out.add(f"load:{name}:{term}")
     if "contact_force" in ds:
         forces = ds["contact_force"].values
@@ -94,9 +94,9 @@ def test_every_shipped_scene_draws_every_part(scene):
 
 
 def test_every_registered_term_says_how_it_is_drawn():
-    assert set(registered_terms()) == set(TERM_DRAWINGS), (
-        "a term without an entry in rodsim/app/figures/scene_parts.py TERM_DRAWINGS (or an "
-        "entry for a term that is gone)")
+    drawings = term_drawings()
+    assert set(registered_terms()) == set(drawings)
+    assert set(drawings.values()) == {SHAPE, TENDON, LOAD, CONTACT}
 
 
 def scene_with(obstacles: dict[str, dict]) -> dict:

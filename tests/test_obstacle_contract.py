@@ -155,6 +155,39 @@ def test_the_gaps_derivatives_are_exact(kind):
 
 
 @pytest.mark.parametrize("kind", TYPES)
+def test_a_half_space_declares_itself(kind):
+    """``free_half_space`` (the scene's check of facing walls reads it, not the type) is the
+    gap's own half-space, φ = n · (p − p₀) with |n| = 1; and a type whose gap is affine
+    around its example (∇φ constant, ∇²φ = 0: a half-space) declares it."""
+    obstacle = contact_of(rodsim.build_model(scene(kind)))[1].obstacle
+    rng = np.random.default_rng(7)
+    points = rng.uniform([0.0, -0.03, -0.03], [0.1, 0.01, 0.03], size=(40, 3))
+    phi, grad, hess = obstacle.gap(points)
+    half = obstacle.free_half_space()
+    if half is None:
+        affine = not np.any(hess) and np.allclose(grad, grad[0], rtol=0, atol=1e-12)
+        assert not affine, f"{kind}: a half-space that does not declare free_half_space"
+        return
+    normal, point = half
+    assert normal.shape == (3,) and point.shape == (3,)
+    assert abs(np.linalg.norm(normal) - 1.0) < 1e-15
+    np.testing.assert_allclose(phi, (points - point) @ normal, rtol=0, atol=1e-15)
+    np.testing.assert_allclose(grad, np.tile(normal, (len(points), 1)), rtol=0, atol=0)
+
+
+def test_the_obstacle_registry_names_no_type():
+    """The registry's checks ask an obstacle what it declares (``encloses``,
+    ``narrowest``, ``free_half_space``), never its ``type``."""
+    import inspect
+
+    import rodsim.core.obstacles as registry
+
+    source = inspect.getsource(registry)
+    named = [kind for kind in TYPES if f'"{kind}"' in source or f"'{kind}'" in source]
+    assert not named, f"rodsim/core/obstacles/__init__.py names the types {named}"
+
+
+@pytest.mark.parametrize("kind", TYPES)
 def test_it_is_drawn_by_the_run_figure_and_the_3d_view(kind):
     from rodsim.app.figures import draw_figure, style
     from rodsim.io.run_dataset import run_dataset

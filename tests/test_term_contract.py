@@ -31,7 +31,7 @@ import rodsim
 from rodsim.core.model import Model
 from rodsim.core.scene import Scene, scene_paths
 from rodsim.core.terms import registered_terms
-from rodsim.core.terms.base import Term
+from rodsim.core.terms.base import FIGURE_LAYERS, RodTerm, Term
 
 #: Two small rods listing every rod term, one per clamp kind, loaded out of plane.
 SMALL_SCENE = {
@@ -513,3 +513,45 @@ def test_assembled_model_matches_finite_differences(scene, random_state, fd):
                 np.zeros(model.n))
     np.testing.assert_allclose(model.force(x, 0.25), force - 0.75 * loads,
                                rtol=0, atol=1e-12 * force_scale)
+
+
+def undeclared(kind: type[Term]) -> list[str]:
+    """What a term class fails to declare of what the layers above the model ask of a term
+    instead of its name (rodsim/core/terms/base.py): its figure layer, the advice of its
+    constraint penalty, and for a term that joins rods the options naming the other rod."""
+    missing = []
+    if getattr(kind, "figure_layer", None) not in FIGURE_LAYERS:
+        missing.append(f"figure_layer (one of {FIGURE_LAYERS})")
+    if bool(kind.constraint_constant) != bool(kind.penalty_advice) or (
+            kind.constraint_constant not in kind.penalty_advice):
+        missing.append("penalty_advice naming its constraint_constant (and none without one)")
+    if kind.joins_rods and not (kind.holds_base and {"rod", "s"} <= {
+            p.name for p in kind.parameters}):
+        missing.append("joins_rods: holds_base and the options rod and s")
+    return missing
+
+
+@pytest.mark.parametrize("term_name", sorted(registered_terms()))
+def test_term_declares_what_the_layers_above_ask(term_name):
+    """The figures, the trust estimate, the solvers' retraction and the joined supports read
+    these declarations and never a term's name (tests/test_term_seam.py)."""
+    kind = registered_terms()[term_name]
+    assert not undeclared(kind), f"term {term_name!r} does not declare: {undeclared(kind)}"
+
+
+def test_a_term_lacking_a_declaration_is_caught():
+    joint = registered_terms()["joint"]
+    # Subclasses without a ``name`` of their own: not registered.
+    assert "figure_layer" in undeclared(type("NoLayer", (RodTerm,), {}))[0]
+    assert "penalty_advice" in undeclared(type("NoAdvice", (joint,), {"penalty_advice": ""}))[0]
+    assert "joins_rods" in undeclared(type("Loose", (joint,), {"holds_base": False}))[0]
+    assert not undeclared(joint)
+
+
+@pytest.mark.parametrize("scene", CONTRACT_SCENES)
+def test_one_sided_terms_are_those_with_a_latent_stiffness(scene):
+    """``Term.unilateral`` (the solvers' retraction reads it) is declared by exactly the
+    terms whose stiffness a state away from rest may meet (``latent_stiffness``)."""
+    for term in contract_model(scene).terms:
+        assert type(term).unilateral == (term.latent_stiffness() is not None), (
+            f"{scene}: term {term.name!r} declares unilateral = {type(term).unilateral}")

@@ -28,6 +28,19 @@ def test_the_model_names_no_term(part):
     assert not named, f"rodsim/core/{part}.py names the terms {named}: use a Term hook"
 
 
+#: Modules above the terms that ask a term what it declares (``Term.unilateral``,
+#: ``figure_layer``, ``penalty_advice``, ``joins_rods``, ``holds_base``), never its name.
+DECLARATION_READERS = ("rodsim.solvers.base", "rodsim.core.anchors", "rodsim.app.trust")
+
+
+@pytest.mark.parametrize("module", DECLARATION_READERS)
+def test_the_layers_above_name_no_term(module):
+    source = inspect.getsource(importlib.import_module(module))
+    named = [name for name in registered_terms() if f'"{name}"' in source
+             or f"'{name}'" in source]
+    assert not named, f"{module} names the terms {named}: read a Term declaration"
+
+
 def test_every_penalty_term_declares_its_penalty_ratio():
     """``penalty_ratio`` is part of the contract: every penalty term of the shipped scenes
     carries a finite positive one (the solvers lower the penalty by it)."""

@@ -37,7 +37,7 @@ from rodsim.solvers import DEFAULT_INTEGRATOR
 from rodsim.solvers.result import Result
 
 __all__ = ["Estimates", "PenaltyError", "TRUST_WARNING", "assess", "last_step_result",
-           "penalty_constants", "penalty_error", "stiffer_scene"]
+           "penalty_advice", "penalty_constants", "penalty_error", "stiffer_scene"]
 
 
 def penalty_constants() -> dict[str, tuple[str, ...]]:
@@ -58,21 +58,22 @@ def penalty_constants() -> dict[str, tuple[str, ...]]:
     return out
 
 
-
-
-#: What the penalty warning asks to raise, by the dominant kind of penalty.
-_RAISE = {
-    "centerline": "the centerline penalty (rods.<name>.centerline.K_P_relative, or K_P), which "
-                  "moves the result most",
-    "lumen": "the lumen penalty (tendons.<name>.lumen.K_L_relative, or K_L), which moves the "
-             "result most",
-    "joint": "the joint penalty (rods.<name>.joint.K_J_relative, or K_J), which moves the "
-             "result most",
-    "obstacles": "the contact stiffness (obstacles.<name>.stiffness_scale), which moves the "
-                 "result most",
-    "": "the penalty constants (K_P_relative, K_L_relative, K_J_relative, an obstacle's "
-        "stiffness_scale)",
-}
+def penalty_advice() -> dict[str, str]:
+    """What the penalty warning asks to raise, by the scene key of the dominant kind of
+    penalty (as ``penalty_constants``), from the terms' own declaration
+    (``rodsim.core.terms.base.Term.penalty_advice``); under ``""`` every constant at once,
+    for a warning with no dominant kind."""
+    constants = penalty_constants()
+    out: dict[str, str] = {}
+    every: list[str] = []
+    for kind in registered_terms().values():
+        key = kind.scene_table or kind.key
+        if kind.constraint_constant and key not in out:
+            out[key] = f"{kind.penalty_advice}, which moves the result most"
+            spelling = constants[key][-1]
+            every.append(f"{key}.<name>.{spelling}" if kind.scene_table else spelling)
+    out[""] = f"the penalty constants ({', '.join(every)})"
+    return out
 
 
 @dataclass(frozen=True)
@@ -111,8 +112,9 @@ class PenaltyError:
         line = (f"penalty     {prefix}error ≈ {self.error:.2g} L ({size:.2g} m; "
                 f"from a re-solve with every penalty ×{self.factor:g})")
         if self.warning:
+            advice = penalty_advice()
             line += (f"\nwarning     the penalty error exceeds {TRUST_WARNING:g} L: raise "
-                     f"{_RAISE.get(self.dominant, _RAISE[''])} and compare")
+                     f"{advice.get(self.dominant, advice[''])} and compare")
         return line
 
 

@@ -88,9 +88,15 @@ def check_tendon_termination(name: str, tendon: Any, host: Any,
 
 
 def scene_joints(scene: Any) -> dict[str, Any]:
-    """The ``joint`` options of every rod of a resolved scene that lists the term, by rod."""
-    return {name: scene.term_options("rods", name, "joint")
-            for name, table in scene.data["rods"].items() if "joint" in table["terms"]}
+    """The options of the term that joins a rod to another (``Term.joins_rods``: they name
+    the other ``rod`` and the arclength ``s`` on it) of every rod of a resolved scene that
+    lists one, by rod."""
+    out = {}
+    for name, table in scene.data["rods"].items():
+        for key in table["terms"]:
+            if scene.term_type("rods", name, key).joins_rods:
+                out[name] = scene.term_options("rods", name, key)
+    return out
 
 
 def joint_depth(rod: str, joints: Mapping[str, Any]) -> int:
@@ -110,15 +116,16 @@ def joined_support(parent: Rod, s: float) -> Support:
     return Support("free", parent.rest_positions()[node], parent.base_quaternion)
 
 
-def check_joints(rods: Mapping[str, Mapping[str, Any]], tendons: Collection[str]) -> None:
-    """Cross-check the ``joint`` term of every rod (resolved tables) against the scene: the
-    rod it names exists, is not itself nor a tendon; ``s`` is on that rod and at a node;
-    the joined rod is no tendon and its own base holds nothing (``clamp = "free"``); no
-    chain of joints closes on itself. Raises SceneError."""
-    joined = {name: table["joint"] for name, table in rods.items()
-              if "joint" in table["terms"]}
+def check_joints(rods: Mapping[str, Mapping[str, Any]], tendons: Collection[str],
+                 joiners: Mapping[str, str]) -> None:
+    """Cross-check the term that joins each rod to another (``joiners``: its scene key by
+    rod, the rods' terms that declare ``Term.joins_rods``) against the scene (resolved
+    tables): the rod it names exists, is not itself nor a tendon; ``s`` is on that rod and
+    at a node; the joined rod is no tendon and its own base holds nothing
+    (``clamp = "free"``); no chain of joints closes on itself. Raises SceneError."""
+    joined = {name: rods[name][key] for name, key in joiners.items()}
     for name, joint in joined.items():
-        prefix = f"rods.{name}.joint"
+        prefix = f"rods.{name}.{joiners[name]}"
         other = joint["rod"]
         if other not in rods:
             raise SceneError(f"{prefix}.rod = {shown(other)}: no such rod; rods: "

@@ -390,7 +390,7 @@ def _blame_what_was_set(exc: SceneError, given: Mapping[str, str]) -> SceneError
 
 def resolve(raw: Mapping[str, Any]) -> dict[str, Any]:
     """Validate a raw scene dict and fill every default (raises ``SceneError``)."""
-    from rodsim.core.terms import term_class, term_keys
+    from rodsim.core.terms import registered_terms, term_class, term_keys
 
     for key in raw:
         if key not in _TOP_KEYS:
@@ -437,6 +437,9 @@ def resolve(raw: Mapping[str, Any]) -> dict[str, Any]:
         for term, term_opts in term_options.items():
             kinds[term].check_scene(term_opts, tendons[rod], f"{prefix}.{term}")
         check_tendon(rod, tendons[rod], rods, prefix, tendons_raw.keys(), term_options)
+    joiners: dict[str, str] = {}  # rod -> the key of its term that joins it to another rod
+    base_holders = ", ".join(sorted({kind.key for kind in registered_terms().values()
+                                     if kind.holds_base}))
     for rod, table in rods.items():
         base = resolve_base(rod, table, rod in tendons)
         if base is not None:
@@ -462,10 +465,12 @@ def resolve(raw: Mapping[str, Any]) -> dict[str, Any]:
                 kind.check_scene(kind.Options.of(table[term_name]), options,
                                  f"rods.{rod}.{term_name}")
         holders = [name for name in options.terms if term_class(name, table).holds_base]
+        joiners.update((rod, name) for name in options.terms
+                       if term_class(name, table).joins_rods)
         if options.clamp == "free" and not holders:
             raise SceneError(f"rods.{rod}.clamp = 'free': nothing would hold the rod; "
                              "allowed: 'frame' or 'first_segment', or 'free' with a joint "
-                             "to another rod or an elastic base (terms: joint, elastic_base)")
+                             f"to another rod or an elastic base (terms: {base_holders})")
         if len(holders) > 1:
             raise SceneError(f"rods.{rod}.terms: {' and '.join(holders)} would both hold the "
                              "base; allowed: one of them")
@@ -473,7 +478,7 @@ def resolve(raw: Mapping[str, Any]) -> dict[str, Any]:
             raise SceneError(f"rods.{rod}.clamp = 'orientation': it leaves the base position "
                              "free, which only a tendon pulled at its base can have; allowed: "
                              "'frame' or 'first_segment'")
-    check_joints(rods, tendons)
+    check_joints(rods, tendons, joiners)
     solver_raw = raw.get("solver", {})
     if not isinstance(solver_raw, Mapping):
         raise SceneError(f"solver: expected a table, got {type(solver_raw).__name__}")

@@ -92,15 +92,15 @@ LARGE_MODEL_SIZE = 4000
 def retraction_of(model: Model, option: str) -> str:
     """The retraction ``option`` names on ``model``: "auto" is "lengths" if a tendon of the
     model is a rod (the paper's two-rod couplings: "frames" was measured no faster there) or
-    a rod meets an obstacle (contact: on a tip pushed onto a plane, the frames' first full
-    steps took the rod where its stiffness is indefinite and Newton failed, 20-80 nodes,
-    where "lengths" converged), and "frames" otherwise (docs/benchmark-history.md, "Solver design
-    measurements")."""
+    a term of the model is one-sided (``Term.unilateral``: a rod meeting an obstacle; on a
+    tip pushed onto a plane, the frames' first full steps took the rod where its stiffness
+    is indefinite and Newton failed, 20-80 nodes, where "lengths" converged), and "frames"
+    otherwise (docs/benchmark-history.md, "Solver design measurements")."""
     if option != "auto":
         return option
     rod_tendon = any(tendon.rod is not None for tendon in model.tendons.values())
-    contact = any(term.name == "contact" for term in model.terms)
-    return "lengths" if rod_tendon or contact else "frames"
+    one_sided = any(term.unilateral for term in model.terms)
+    return "lengths" if rod_tendon or one_sided else "frames"
 
 
 def equilibrium_factor(model: Model, x: np.ndarray, linear: LinearSolver | None = None

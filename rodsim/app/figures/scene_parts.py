@@ -7,12 +7,12 @@ and the 3-D view share it).
   r(s) + ρ_y(s) d1(s) + ρ_z(s) d2(s) at the catheter's nodes between its start and end and
   at both ends (the termination is the last), with the directors of the quaternion
   interpolated linearly in s between the segment midpoints (clamped to the end segments).
-- Loads are the rod and tendon terms that push (``TERM_DRAWINGS``): a tip load (mass
+- Loads are the rod and tendon terms that push (``figure_layer = "load"``): a tip load (mass
   and force) at the tip, each point load's force and moment where it acts, a distributed
   load's resultant at the middle of each span, gravity's total weight at the rod's middle
   node, and a tendon's actuation force at the end of the tendon it pulls.
-- Every term the registry holds is in ``TERM_DRAWINGS``, so a new term says how it is
-  drawn (tests/test_figure_parts.py walks the registry).
+- Every registered term says how it is drawn by its ``Term.figure_layer``
+  (``term_drawings``; tests/test_term_contract.py walks the registry).
 """
 
 from __future__ import annotations
@@ -29,23 +29,22 @@ import xarray as xr
 from rodsim.core.obstacles import Obstacle, build_obstacle
 from rodsim.core.rod.quaternion import directors
 from rodsim.core.routing import Routing, string_span
+from rodsim.core.terms import registered_terms
 from rodsim.core.terms._dead_load import unit_direction
+from rodsim.core.terms.base import FIGURE_LAYERS
 
-__all__ = ["TERM_DRAWINGS", "SHAPE", "TENDON", "LOAD", "CONTACT", "Arrow", "TendonPath",
+__all__ = ["term_drawings", "SHAPE", "TENDON", "LOAD", "CONTACT", "Arrow", "TendonPath",
            "SceneParts", "scene_parts"]
 
-#: How each registered term shows in a figure: in the rods' shape, as a tendon's path, as
-#: load arrows, or as the contact forces on the obstacles.
-SHAPE, TENDON, LOAD, CONTACT = "shape", "tendon", "load", "contact"
-TERM_DRAWINGS: dict[str, str] = {
-    "bend_twist": SHAPE, "centerline": SHAPE, "stretch": SHAPE, "joint": SHAPE,
-    "elastic_base": SHAPE,
-    "contact": CONTACT,
-    "distributed_load": LOAD, "gravity": LOAD, "point_loads": LOAD, "tip_load": LOAD,
-    "tendon_actuation": LOAD,
-    "endpoint_compliance": TENDON, "endpoint_coupling": TENDON, "lumen": TENDON,
-    "lumen_conserving": TENDON, "tendon_string": TENDON, "tendon_string_displacement": TENDON,
-}
+#: How a term shows in a figure (its ``rodsim.core.terms.base.Term.figure_layer``): in the
+#: rods' shape, as a tendon's path, as load arrows, or as the contact forces on the obstacles.
+SHAPE, TENDON, LOAD, CONTACT = FIGURE_LAYERS
+
+
+def term_drawings() -> dict[str, str]:
+    """How each registered term is drawn, by name: its declared ``figure_layer`` (every term
+    declares one, tests/test_term_contract.py)."""
+    return {name: kind.figure_layer for name, kind in registered_terms().items()}
 
 
 @dataclass(frozen=True)

@@ -25,6 +25,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from rodsim.core.anchors import scene_joints
 from rodsim.core.rod.rod import ROD_PARAMETERS
 from rodsim.core.scene import Scene
 from rodsim.core.schema import Parameter, SceneError, shown
@@ -125,6 +126,15 @@ def _schema(path: str) -> Parameter | None:
     return next((p for p in table if p.name == parts[-1]), None)
 
 
+def _joins_rods(parts: Sequence[str]) -> bool:
+    """Whether the dotted key ``parts`` is a value of a rod term that joins the rod to
+    another (``Term.joins_rods``: its ``s`` picks the node it is joined at)."""
+    from rodsim.core.terms import registered_terms
+
+    kind = registered_terms().get(parts[2]) if len(parts) == 4 and parts[0] == "rods" else None
+    return kind is not None and kind.joins_rods
+
+
 def numeric_key(scene: Scene, key: str) -> NumericKey:
     """The numeric scene value ``key`` names (see the module docstring), or SceneError."""
     match = _COMPONENT.match(key.strip())
@@ -137,12 +147,11 @@ def numeric_key(scene: Scene, key: str) -> NumericKey:
     if parameter is None:
         raise SceneError(f"{shown(key, bare=True)}: {path} is not a numeric model parameter")
     parts = path.split(".")
-    if parts[0] == "rods" and parts[2] == "base" and "joint" in scene.data["rods"][parts[1]][
-            "terms"]:
+    if parts[0] == "rods" and parts[2] == "base" and parts[1] in scene_joints(scene):
         raise SceneError(f"{shown(key, bare=True)}: rod {parts[1]!r} is joined to another "
                          "rod, whose base it follows; allowed: the base of a supported rod")
     if parameter.kind == "int" or (parameter.name == "s" and (
-            ".supports." in path or ".joint." in path)):
+            ".supports." in path or _joins_rods(parts))):
         raise SceneError(f"{shown(key, bare=True)}: {path} changes the discretisation (the "
                          "free coordinates), so the equilibrium has no derivative with respect "
                          "to it")

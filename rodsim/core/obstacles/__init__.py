@@ -115,6 +115,13 @@ class Obstacle(ABC):
         """The smallest free radius of an enclosing obstacle (inf for others) [m]."""
         return float("inf")
 
+    def free_half_space(self) -> tuple[np.ndarray, np.ndarray] | None:
+        """(unit normal n (3,), a point p₀ (3,) of the boundary) when the obstacle's free
+        space is the half-space n · (p − p₀) > 0 — its gap is then φ(p) = n · (p − p₀), which
+        tests/test_obstacle_contract.py checks — else None (the default). Two such obstacles
+        facing each other on one rod must leave it room (``resolve_obstacles``)."""
+        return None
+
     # Drawing (figures and the 3-D view; the model never calls these) ------------------
 
     def outline(self, view: tuple[int, int], level: float, lower: np.ndarray,
@@ -163,6 +170,7 @@ def resolve_obstacles(raw: Any, rods: Mapping[str, Mapping[str, Any]],
     types = registered_obstacles()
     out: dict[str, Any] = {}
     held: list[tuple[Obstacle, str, str]] = []  # checked after the free space
+    built: list[Obstacle] = []
     for name, table in raw.items():
         prefix = f"obstacles.{check_rod_name(name, 'obstacles')}"
         if not isinstance(table, Mapping):
@@ -187,6 +195,7 @@ def resolve_obstacles(raw: Any, rods: Mapping[str, Mapping[str, Any]],
                                  "catheter; name the catheter")
         resolved = cls.resolve(resolved, prefix)
         obstacle = cls(name, resolved)
+        built.append(obstacle)
         for rod in resolved["rods"]:
             table_of_rod = rods[rod]
             radius = float(table_of_rod["radius"])
@@ -209,7 +218,7 @@ def resolve_obstacles(raw: Any, rods: Mapping[str, Mapping[str, Any]],
             if not obstacle.encloses:
                 held.append((obstacle, prefix, rod))
         out[name] = resolved
-    _check_free_space(out, rods)
+    _check_free_space(built, rods)
     for obstacle, prefix, rod in held:
         _check_held_outside(obstacle, prefix, rod, rods[rod])
     return out
@@ -253,22 +262,22 @@ def _check_held_outside(obstacle: Obstacle, prefix: str, rod: str,
                              "law's validity, docs/contact.md)")
 
 
-def _check_free_space(obstacles: Mapping[str, Mapping[str, Any]],
+def _check_free_space(obstacles: list[Obstacle],
                       rods: Mapping[str, Mapping[str, Any]]) -> None:
-    """SceneError when two planes facing each other on one rod leave it no room: their free
-    half-spaces overlap by less than the rod's diameter."""
-    planes = [(name, table) for name, table in obstacles.items() if table["type"] == "plane"]
-    for i, (first, a) in enumerate(planes):
-        for second, b in planes[i + 1:]:
-            na = np.asarray(a["normal"], float) / np.linalg.norm(a["normal"])
-            nb = np.asarray(b["normal"], float) / np.linalg.norm(b["normal"])
+    """SceneError when two obstacles whose free space is a half-space
+    (``Obstacle.free_half_space``: planes) face each other on one rod and leave it no room:
+    their free half-spaces overlap by less than the rod's diameter."""
+    walls = [(obstacle, half) for obstacle in obstacles
+             if (half := obstacle.free_half_space()) is not None]
+    for i, (a, (na, pa)) in enumerate(walls):
+        for b, (nb, pb) in walls[i + 1:]:
             if na @ nb > -1.0 + 1e-9:
                 continue  # not facing each other: the free space is unbounded
-            width = float(na @ (np.asarray(b["point"], float) - np.asarray(a["point"], float)))
-            for rod in set(a["rods"]) & set(b["rods"]):
+            width = float(na @ (pb - pa))
+            for rod in set(a.table["rods"]) & set(b.table["rods"]):
                 diameter = 2.0 * float(rods[rod]["radius"])
                 if width < diameter:
-                    raise SceneError(f"obstacles.{first} and obstacles.{second}: facing planes "
-                                     f"{width:.6g} m apart leave rod {rod!r} (diameter "
+                    raise SceneError(f"obstacles.{a.name} and obstacles.{b.name}: facing "
+                                     f"planes {width:.6g} m apart leave rod {rod!r} (diameter "
                                      f"{diameter:.6g} m) no free space; allowed: planes "
                                      "farther apart than the rod is thick")

@@ -47,6 +47,10 @@ class Plane(Obstacle):
     def kernel_arguments(self) -> dict[str, Any]:
         return {"point": self.point, "normal": self.normal}
 
+    def free_half_space(self) -> tuple[np.ndarray, np.ndarray]:
+        """The free side n · (p − p₀) > 0."""
+        return self.normal, self.point
+
     def outline(self, view: tuple[int, int], level: float, lower: np.ndarray,
                 upper: np.ndarray) -> list[np.ndarray]:
         """The plane's trace across the box (none when the view lies in the plane)."""

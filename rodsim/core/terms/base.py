@@ -46,7 +46,10 @@ if TYPE_CHECKING:
     from rodsim.core.rod.rod import Rod
     from rodsim.core.tendon import Tendon
 
-__all__ = ["Term", "RodTerm", "TendonTerm", "REGISTRY", "KernelArguments"]
+__all__ = ["Term", "RodTerm", "TendonTerm", "REGISTRY", "KernelArguments", "FIGURE_LAYERS"]
+
+#: The figure layers a term may be drawn in (``Term.figure_layer``).
+FIGURE_LAYERS = ("shape", "tendon", "load", "contact")
 
 #: What :meth:`Term.kernel_arguments` returns: the compiled kernel's constants by the names of
 #: its parameters (rodsim/core/kernels/__init__.py orders them by the kernel's signature).
@@ -137,13 +140,34 @@ class Term(ABC):
     #: tendon's ``terms`` list (contact: ``"obstacles"``); the model calls
     #: :meth:`from_table` on each entry. Empty: a term a rod or a tendon lists.
     scene_table: ClassVar[str] = ""
-    #: True for a rod term that ties its rod to another (a joint, rodsim/core/anchors.py):
-    #: it is built with the model's rods as a third argument, ``Term(rod, options, rods)``.
+    #: True for a rod term that ties its rod's base to a node of another rod (a joint,
+    #: rodsim/core/anchors.py): its options name that rod (``rod``) and the arclength on it
+    #: (``s``), it also ``holds_base``, and it is built with the model's rods as a third
+    #: argument, ``Term(rod, options, rods)``. The scene and the model find a joined rod by
+    #: this flag, never by the term's name.
     joins_rods: ClassVar[bool] = False
     #: True for a rod term that holds its rod's base in place of a rigid support (a joint
     #: to another rod, an elastic base): the rod's ``clamp`` must be ``"free"``, and no
     #: other term may hold the same base (rodsim/core/scene.py).
     holds_base: ClassVar[bool] = False
+    #: True for a one-sided constraint: a penalty that acts only where it is violated, so a
+    #: state away from rest may meet a stiffness the rest Jacobian does not show (contact,
+    #: whose ``latent_stiffness`` says which; the contract test ties the two). The solvers'
+    #: "auto" retraction takes "lengths" for a model holding one
+    #: (``rodsim.solvers.base.retraction_of``).
+    unilateral: ClassVar[bool] = False
+    #: How the figures show this term (rodsim/app/figures/scene_parts.py), one of
+    #: ``FIGURE_LAYERS``: in the rods' ``"shape"`` (an elastic or constraint term), as a
+    #: ``"tendon"``'s path (a coupling of a tendon), as ``"load"`` arrows, or as the
+    #: ``"contact"`` forces on the obstacles. No default: every registered term declares it
+    #: (tests/test_term_contract.py).
+    figure_layer: ClassVar[str]
+    #: For a term with a ``constraint_constant``: what the penalty-error warning asks the
+    #: user to raise when stiffening this term's constant moves the result most
+    #: (rodsim/app/trust.py), its name and scene keys, e.g. ``"the joint penalty
+    #: (rods.<name>.joint.K_J_relative, or K_J)"``. Empty for a term without one (checked by
+    #: tests/test_term_contract.py).
+    penalty_advice: ClassVar[str] = ""
     #: Module of :mod:`rodsim.core.kernels` holding the compiled kernel (default: ``name``).
     #: A term may pick its kernel per instance (the proximal pull: ``constant_force``).
     kernel: str = ""

@@ -195,6 +195,7 @@ class BendTwist(RodTerm):
     """Bending about d1, d2 and twisting about d3, Eqs. (7)–(8)."""
 
     name = "bend_twist"
+    figure_layer = "shape"
     Options = BendTwistOptions
     options: BendTwistOptions
     equation = "Eqs. (3), (7), (8)"

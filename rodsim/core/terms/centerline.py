@@ -71,11 +71,13 @@ class Centerline(RodTerm):
     """Penalty coupling the directors to the centerline, Eq. (9)."""
 
     name = "centerline"
+    figure_layer = "shape"
     Options = CenterlineOptions
     options: CenterlineOptions
     equation = "Eq. (9)"
     penalty = True
     constraint_constant = "K_P"
+    penalty_advice = "the centerline penalty (rods.<name>.centerline.K_P_relative, or K_P)"
     offsets = True
     parameters = (
         Parameter("K_P", "float", 0.0, "N",

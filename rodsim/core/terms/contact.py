@@ -81,12 +81,15 @@ class Contact(RodTerm):
     """Penalty contact of one rod's nodes with one obstacle."""
 
     name = "contact"
+    figure_layer = "contact"
     Options = ContactOptions
     options: ContactOptions
     equation = "contact penalty (not in the paper; docs/contact.md)"
     scope = "obstacle"
     scene_table = "obstacles"
     constraint_constant = "stiffness_scale"
+    penalty_advice = "the contact stiffness (obstacles.<name>.stiffness_scale)"
+    unilateral = True
 
     @classmethod
     def from_table(cls, name: str, table: Mapping[str, Any],

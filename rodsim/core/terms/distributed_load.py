@@ -43,6 +43,7 @@ class DistributedLoad(NodalDeadLoad):
     """Constant or piecewise-constant force per unit length, world frame."""
 
     name = "distributed_load"
+    figure_layer = "load"
     Options = DistributedLoadOptions
     options: DistributedLoadOptions
     equation = "load per length (not in the paper); enters F_net of Eq. (17)"

@@ -58,6 +58,7 @@ class ElasticBase(RodTerm):
     the support frame by rotational springs (module docstring)."""
 
     name = "elastic_base"
+    figure_layer = "shape"
     Options = ElasticBaseOptions
     options: ElasticBaseOptions
     equation = "support (not in the paper); Eqs. (3), (7), (8) for the frame"

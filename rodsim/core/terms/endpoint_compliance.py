@@ -44,6 +44,7 @@ class EndpointCompliance(TendonTerm):
     """Spring from the tendon tip to the lumen's end point, Eq. (28)."""
 
     name = "endpoint_compliance"
+    figure_layer = "tendon"
     Options = EndpointComplianceOptions
     options: EndpointComplianceOptions
     equation = "Eq. (28)"

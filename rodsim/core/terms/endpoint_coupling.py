@@ -43,6 +43,7 @@ class EndpointCoupling(TendonTerm):
     """Spring of rest length r_L between the catheter's and the tendon's tips, Eq. (29)."""
 
     name = "endpoint_coupling"
+    figure_layer = "tendon"
     Options = EndpointCouplingOptions
     options: EndpointCouplingOptions
     equation = "Eq. (29)"

@@ -40,6 +40,7 @@ class Gravity(NodalDeadLoad):
     (−y by default)."""
 
     name = "gravity"
+    figure_layer = "load"
     Options = GravityOptions
     options: GravityOptions
     equation = "self-weight (not in the paper); enters F_net of Eq. (17)"

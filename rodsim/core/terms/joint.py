@@ -63,12 +63,14 @@ class Joint(RodTerm):
     the bending element between the two rods' segments there."""
 
     name = "joint"
+    figure_layer = "shape"
     Options = JointOptions
     options: JointOptions
     equation = "anchor (not in the paper); Eqs. (3), (7), (8) for the frame"
     joins_rods = True
     holds_base = True
     constraint_constant = "K_J"
+    penalty_advice = "the joint penalty (rods.<name>.joint.K_J_relative, or K_J)"
     parameters = (
         Parameter("rod", "str", None, "-", "name of the rod this rod's base is tied to"),
         Parameter("s", "float", None, "m",

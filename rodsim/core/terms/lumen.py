@@ -140,6 +140,8 @@ class LumenCoupling(TendonTerm):
 
     key: ClassVar[str] = "lumen"
     constraint_constant: ClassVar[str] = "K_L"
+    penalty_advice: ClassVar[str] = (
+        "the lumen penalty (tendons.<name>.lumen.K_L_relative, or K_L)")
     equation = "Eqs. (24)–(27), (32)–(35)"
     dynamic = True
     #: The tendon's ``coupling`` this class implements.
@@ -272,6 +274,7 @@ class Lumen(LumenCoupling):
     parent node."""
 
     name = "lumen"
+    figure_layer = "tendon"
     Options = LumenOptions
     options: LumenOptions
     coupling = "paper"

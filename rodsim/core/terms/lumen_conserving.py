@@ -53,6 +53,7 @@ class ConservingLumen(LumenCoupling):
     conserving coupling (erratum 13): K_L [N/m²] per unit tendon length."""
 
     name = "lumen_conserving"
+    figure_layer = "tendon"
     Options = LumenOptions
     options: LumenOptions
     coupling = "conserving"

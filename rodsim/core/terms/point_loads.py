@@ -88,6 +88,7 @@ class PointLoads(RodTerm):
     """Point forces and moments at any arclength, world or body frame."""
 
     name = "point_loads"
+    figure_layer = "load"
     Options = PointLoadsOptions
     options: PointLoadsOptions
     equation = "point wrenches (not in the paper); enter F_net of Eq. (17)"

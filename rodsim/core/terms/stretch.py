@@ -34,6 +34,7 @@ class Stretch(RodTerm):
     """Axial stretch of the centerline, Eq. (6)."""
 
     name = "stretch"
+    figure_layer = "shape"
     Options = StretchOptions
     options: StretchOptions
     equation = "Eq. (6)"

@@ -37,6 +37,7 @@ class TendonActuation(TendonTerm):
     """The actuation force F_A on the tendon, at its distal or proximal end."""
 
     name = "tendon_actuation"
+    figure_layer = "load"
     Options = TendonActuationOptions
     options: TendonActuationOptions
     equation = "§4.3 (F_A); enters F_net of Eq. (31)"

@@ -225,6 +225,7 @@ class TendonString(TendonTerm):
     """V = T ℓ: a frictionless tendon under tension T routed along its catheter."""
 
     name = "tendon_string"
+    figure_layer = "tendon"
     Options = TendonStringOptions
     options: TendonStringOptions
     equation = "V = T ℓ (Rucker & Webster 2011, Eqs. 16–18; not in the paper)"

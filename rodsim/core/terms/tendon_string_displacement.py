@@ -48,6 +48,7 @@ class TendonStringDisplacement(TendonTerm):
     """V = ½ (E A / ℓ*) max(0, ℓ − ℓ*)²: a tendon pulled in by ``displacement``."""
 
     name = "tendon_string_displacement"
+    figure_layer = "tendon"
     key = "tendon_string"
     Options = TendonStringOptions
     options: TendonStringOptions

@@ -36,6 +36,7 @@ class TipLoad(RodTerm):
     """Constant force on the last control point (hanging mass, Figs. 5–9)."""
 
     name = "tip_load"
+    figure_layer = "load"
     Options = TipLoadOptions
     options: TipLoadOptions
     equation = "§3 (hanging mass); enters F_net of Eq. (17)"
