@@ -305,7 +305,7 @@ def free_index(model: Model) -> np.ndarray:
 
 def state_for(model: Model, term: Term, x: np.ndarray) -> np.ndarray:
     """The full state ``term`` is evaluated on at the free coordinates ``x``: the offsets
-    for a term on offsets (:attr:`Term.offsets`), else the positions and quaternions."""
+    for a term on offsets (``Term.offsets``), else the positions and quaternions."""
     return model.offsets(x) if term.offsets else model.full(x)
 
 
