@@ -26,7 +26,7 @@ and pattern).
 from __future__ import annotations
 
 import copy
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from functools import cached_property
 from typing import Any, Literal, overload
 
@@ -383,18 +383,12 @@ class Model(ModelScales):
         solves the next step (rodsim/app/inverse/continuation.py), so that friction opposes
         the slip since that equilibrium. The elements, the Jacobian pattern and the scales
         are unchanged; this model itself when no term holds anchors (no friction)."""
-        full = None
-        terms = list(self.terms)
-        changed = []
-        for index, term in enumerate(terms):
-            if term.anchor_positions() is None:
-                continue
-            if full is None:
-                full = self.full(x)
+        def anchored(term: Term, full: np.ndarray) -> Term:
             anchors = term.anchors_at(full)
             assert anchors is not None
-            terms[index] = term.anchored(anchors)
-            changed.append(index)
+            return term.anchored(anchors)
+
+        terms, changed = self._replaced_anchor_terms(x, anchored)
         return self._with_replaced(terms, changed)
 
     def freed(self, x: np.ndarray) -> Model | None:
@@ -403,6 +397,15 @@ class Model(ModelScales):
         stiction: ``TendonString.freed``), the step's history otherwise kept: the step
         is solved again with it (rodsim/app/inverse/continuation.py), until nothing more
         breaks loose. ``None`` when nothing did (always without stiction)."""
+        terms, changed = self._replaced_anchor_terms(x, lambda term, full: term.freed(full))
+        return self._with_replaced(terms, changed) if changed else None
+
+    def _replaced_anchor_terms(self, x: np.ndarray,
+                               replace: Callable[[Term, np.ndarray], Term | None]
+                               ) -> tuple[list[Term], list[int]]:
+        """The terms with ``replace(term, full)`` in place of every term that holds anchors
+        (where it gives a term; ``full`` the full coordinates of ``x``, made once), and the
+        indices replaced: the walk ``anchored`` and ``freed`` share."""
         full = None
         terms = list(self.terms)
         changed = []
@@ -411,11 +414,11 @@ class Model(ModelScales):
                 continue
             if full is None:
                 full = self.full(x)
-            freed = term.freed(full)
-            if freed is not None:
-                terms[index] = freed
+            replaced = replace(term, full)
+            if replaced is not None:
+                terms[index] = replaced
                 changed.append(index)
-        return self._with_replaced(terms, changed) if changed else None
+        return terms, changed
 
     def with_anchors_of(self, other: Model) -> Model:
         """This model with the friction anchors of ``other``, a model of the same layout
