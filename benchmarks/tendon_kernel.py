@@ -36,15 +36,6 @@ HERE = Path(__file__).resolve().parent
 ROOT = HERE.parent
 
 
-def _best(call, repeats: int) -> float:
-    out = float("inf")
-    for _ in range(repeats):
-        start = time.process_time()
-        call()
-        out = min(out, time.process_time() - start)
-    return out
-
-
 def measure(cases: int) -> dict:
     """The numbers of one side, in this process (with its rodsim)."""
     import numpy as np
@@ -53,7 +44,7 @@ def measure(cases: int) -> dict:
     from rodsim.app.batch import solve_many
     from rodsim.core.terms.tendon_string import TendonString
     from rodsim_bench.batch import random_cases
-    from rodsim_bench.floor import counted_solve, raw_costs
+    from rodsim_bench.floor import best_cpu, counted_solve, raw_costs
 
     scene = rodsim.load_scene("tdcr-two-segment")
     model = rodsim.build_model(scene)
@@ -80,11 +71,11 @@ def measure(cases: int) -> dict:
     out: dict = {
         "tendons": len(calls),
         "chords": [int(c.term.dofs.shape[0]) for c in calls],
-        "tendon_fj_us": _best(lambda: tendons(True), 40) / inner / len(calls) * 1e6,
-        "tendon_f_us": _best(lambda: tendons(False), 40) / inner / len(calls) * 1e6,
-        "whole_fj_us": _best(whole, 40) / inner * 1e6}
+        "tendon_fj_us": best_cpu(lambda: tendons(True), 40) / inner / len(calls) * 1e6,
+        "tendon_f_us": best_cpu(lambda: tendons(False), 40) / inner / len(calls) * 1e6,
+        "whole_fj_us": best_cpu(whole, 40) / inner * 1e6}
     out["tendon_share"] = out["tendon_fj_us"] * len(calls) / out["whole_fj_us"]
-    out["static_ms"] = _best(lambda: rodsim.solve(scene, "static", model=model), 9) * 1e3
+    out["static_ms"] = best_cpu(lambda: rodsim.solve(scene, "static", model=model), 9) * 1e3
     counted, counts = counted_solve(scene, model)
     costs = raw_costs(model, counted.state, 200)
     out["floor_ms"] = sum(counts[k] * costs[k] for k in costs) * 1e3
@@ -94,7 +85,7 @@ def measure(cases: int) -> dict:
     table = random_cases(cases)
     solve_many("tdcr-two-segment", {k: v[:2] for k, v in table.items()},
                log=lambda message: None)
-    spent = _best(lambda: solve_many("tdcr-two-segment", table, log=lambda message: None), 2)
+    spent = best_cpu(lambda: solve_many("tdcr-two-segment", table, log=lambda message: None), 2)
     out["batch_cases"] = cases
     out["batch_per_cpu_second"] = cases / spent
     return out

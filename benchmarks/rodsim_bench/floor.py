@@ -47,7 +47,7 @@ SIZES = {"small": {"scenes": ("table1-50g", "four-tendons"), "repeats": 2, "call
                   "repeats": 7, "calls": 200}}
 
 
-def _best(call: Callable[[], Any], calls: int) -> float:
+def best_cpu(call: Callable[[], Any], calls: int) -> float:
     """Smallest CPU time of one ``call`` over ``calls`` calls [s]."""
     best = float("inf")
     for _ in range(calls):
@@ -120,12 +120,12 @@ def raw_costs(model: Model, x: np.ndarray, calls: int) -> dict[str, float]:
     linear = linear_solver_of(model)
     data = model.jacobian_data(x)
     rhs = model.force(x)
-    costs = {"force": _best(lambda: model.evaluate(state(), jacobian=False), calls),
-             "jacobian": _best(lambda: model.evaluate(state()), calls),
-             "linear": _best(lambda: linear.solve(data, rhs), calls)}
+    costs = {"force": best_cpu(lambda: model.evaluate(state(), jacobian=False), calls),
+             "jacobian": best_cpu(lambda: model.evaluate(state()), calls),
+             "linear": best_cpu(lambda: linear.solve(data, rhs), calls)}
     try:
         model.energy(x)
-        costs["energy"] = _best(lambda: model.energy(state()), calls)
+        costs["energy"] = best_cpu(lambda: model.energy(state()), calls)
     except (TypeError, ValueError, NotImplementedError):  # a non-conservative model
         costs["energy"] = 0.0
     return costs
