@@ -45,6 +45,7 @@ from rodsim.solvers.physical.ida_run import IdaOptions, integrate_ida
 from rodsim.solvers.physical.midpoint import MidpointStep, Motion
 from rodsim.solvers.physical.trajectory import Record, integrate
 from rodsim.solvers.result import Result
+from rodsim.solvers.summary import millimetres, summary_html, summary_text
 
 __all__ = ["Simulation", "simulate", "check_programs", "ida_options", "INTEGRATORS",
            "IDA_DEFAULTS", "STEPS_PER_PERIOD"]
@@ -60,7 +61,8 @@ STEPS_PER_PERIOD = 100
 
 @dataclass
 class Simulation:
-    """A run in physical time.
+    """A run in physical time. ``repr`` is a summary of at most ten lines, and Jupyter
+    shows it as a table (``_repr_html_``).
 
     Attributes
     ----------
@@ -119,6 +121,50 @@ class Simulation:
     def energy_error(self) -> np.ndarray:
         total = self.kinetic_energy + self.potential_energy + self.dissipated_energy - self.work
         return total - total[0]
+
+    def summary_rows(self) -> list[tuple[str, str]]:
+        """The summary's rows: outcome, times, work, start, programs and events when there
+        are any, the first rod's tip at the last output, the energy balance."""
+        reached = float(self.times[-1]) if len(self.times) else 0.0
+        step = "step" if self.integrator == "midpoint" else "longest step"
+        rows = [("outcome", self.message if self.success else f"FAILED: {self.message}"),
+                ("time", f"{len(self.times)} outputs, t = 0 to {reached:.4g} s"
+                 f" (t_end {self.t_end:.4g} s)"),
+                ("work", f"{self.steps} steps ({step} {self.step:.3g} s), "
+                 f"{self.iterations} iterations"
+                 + (f", {self.halvings} halved steps" if self.halvings else "")),
+                ("start", self.initial)]
+        if self.program:
+            rows.append(("programs", ", ".join(self.program)))
+        if self.events:
+            rows.append(("events", ", ".join(f"{name} at {time:.4g} s"
+                                             for time, name in self.events)))
+        first = self.rods[0] if self.rods else None
+        if first in self.scene.rods and len(self.times):
+            nodes = self.scene.rods[first].nodes
+            rows.append((f"tip of {first} at the end",
+                         millimetres(self.positions[-1, nodes - 1])))
+        if len(self.times):
+            largest = float(np.max(self.kinetic_energy))
+            if np.all(np.isfinite(self.energy_error)):
+                error = float(np.max(np.abs(self.energy_error)))
+                rows.append(("energy", f"balance within {error:.2g} J (largest kinetic "
+                             f"energy {largest:.3g} J, dissipated "
+                             f"{float(self.dissipated_energy[-1]):.3g} J)"))
+            else:
+                rows.append(("energy", f"no balance (a non-conservative term); largest "
+                             f"kinetic energy {largest:.3g} J"))
+        return rows
+
+    def _title(self) -> str:
+        return (f"rodsim Simulation: scene {self.scene.name!r}, integrator "
+                f"{self.integrator}")
+
+    def __repr__(self) -> str:
+        return summary_text(self._title(), self.summary_rows())
+
+    def _repr_html_(self) -> str:
+        return summary_html(self._title(), self.summary_rows())
 
     def to_xarray(self) -> Any:
         """The trajectory archive (rodsim/io/trajectory_dataset.py, docs/archive.md): a run
