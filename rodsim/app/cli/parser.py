@@ -311,7 +311,8 @@ def build_parser() -> argparse.ArgumentParser:
                       "for a shape that leaves the x-y plane when plotly is installed) "
                       "(default png,pdf)")
     plot.add_argument("--movie", action="store_true",
-                      help="also write STEM.gif, a track's movie: one frame per step")
+                      help="also write STEM.gif, a movie of a track (one frame per step) or of a "
+                      "trajectory (rodsim simulate: one frame per output time, at most 120)")
     plot.set_defaults(func=cmd_plot)
 
     bench = sub.add_parser("bench", help="run a benchmark (work-precision, scaling, large-n, "
