@@ -40,7 +40,7 @@ from rodsim.solvers.physical.coordinates import (
     physical_state,
 )
 from rodsim.solvers.physical.dae import PhysicalDae
-from rodsim.solvers.physical.events import EventLike, resolve_events
+from rodsim.solvers.physical.events import EventError, EventLike, resolve_events
 from rodsim.solvers.physical.ida_run import IdaOptions, integrate_ida
 from rodsim.solvers.physical.midpoint import MidpointStep, Motion
 from rodsim.solvers.physical.trajectory import Record, integrate
@@ -238,11 +238,11 @@ def simulate(scene: SceneLike | None, t_end: float, *, output_dt: float | None =
     3-vector [m/s] that every free node moves with, or the physical velocities (each free
     position coordinate's rate, then each free segment's body rates; p + 3 s numbers), or
     the rates of the model's n free coordinates (rodsim/app/initial_velocity.py);
-    ``events``: ``rodsim.solvers.physical.events.ContactOnset`` and
-    ``rodsim.solvers.physical.events.TendonSlack`` values (or ``"contact"``,
-    ``"slack"``, ``":stop"`` appended for a terminal one), found by SUNDIALS' root finding
-    (``ida`` and ``cvode``): each one's time and name in ``Simulation.events``, a terminal
-    one ends the run there. Bad input raises
+    ``events``: ``rodsim.ContactOnset``, ``rodsim.TendonSlack`` and ``rodsim.Event`` (a
+    user's function of (t, positions)) values (or ``"contact"``, ``"slack"``, ``":stop"``
+    appended for a terminal one), found by SUNDIALS' root finding (``ida`` and ``cvode``)
+    or after each midpoint step on its cubic Hermite interpolant: each one's time and name
+    in ``Simulation.events``, a terminal one ends the run there. Bad input raises
     ``rodsim.core.schema.SceneError`` (one line) before any work; a run that fails
     part-way returns ``success`` False with what it computed.
     """
@@ -264,13 +264,12 @@ def simulate(scene: SceneLike | None, t_end: float, *, output_dt: float | None =
                          "tendon's or a contact's), whose history each step carries to the "
                          "next; allowed: integrator 'midpoint' (IDA's and CVODE's adaptive "
                          "steps would each need a restart)")
-    if events and integrator == "midpoint":
-        raise SceneError("events: allowed with integrator 'ida' or 'cvode' (SUNDIALS' root "
-                         "finding); the midpoint rule has none")
     watched = resolve_events(model, events) if events else None
     rest = physical_state(model, model.x0)  # the velocity's length checked before any work
     initial_rates(model, PhysicalCoordinates.of(model, rest), rest, initial_velocity)
     x = _start_state(loaded, model, initial)
+    if watched is not None:  # a user's function checked at the start (EventError, one line)
+        watched.values(0.0, programs.model_at(0.0), x)
     if programs.path_dependent:
         programs.carry_history(0.0, x)  # the start: at rest in the equilibrium it was left in
     omega = math.nan
@@ -299,7 +298,7 @@ def simulate(scene: SceneLike | None, t_end: float, *, output_dt: float | None =
                           progress, record, integrator, watched)
         else:
             integrate(programs.model_at, stepper, start, outputs, h, progress, record,
-                      programs.carry_history if programs.path_dependent else None)
+                      programs.carry_history if programs.path_dependent else None, watched)
     except KeyboardInterrupt:  # Ctrl-C or SIGTERM: what was computed, marked incomplete
         done = min(len(record.times), len(record.states), len(record.kinetic),
                    len(record.potential), len(record.dissipated), len(record.work))
@@ -316,6 +315,12 @@ def simulate(scene: SceneLike | None, t_end: float, *, output_dt: float | None =
                               integrator, float(t_end), programs.by_name, initial,
                               initial_velocity)
         raise Interrupted(partial, record.message) from None
+    except EventError as exc:  # a user's event function failed part-way
+        if not record.times:
+            raise
+        record.success = False
+        record.message = (f"stopped after the output at t = {record.times[-1]:.6g} s: {exc}; "
+                          "the outputs up to it are kept")
     except SceneError as exc:  # a rule across two programmed values, broken at some time
         if not record.times:
             raise
