@@ -115,7 +115,7 @@ class StepEvents:
 
             guess = _root(interpolated, t0, before[i], t1, after[i])
             when = _root(stepped, t0, before[i], t1, after[i], guess)
-            found.append((when, i, state(when)))
+            found.append((float(when), i, state(when)))
         return sorted(found, key=lambda item: (item[0], item[1]))
 
 
