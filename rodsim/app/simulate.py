@@ -268,8 +268,6 @@ def simulate(scene: SceneLike | None, t_end: float, *, output_dt: float | None =
     rest = physical_state(model, model.x0)  # the velocity's length checked before any work
     initial_rates(model, PhysicalCoordinates.of(model, rest), rest, initial_velocity)
     x = _start_state(loaded, model, initial)
-    if watched is not None:  # a user's function checked at the start (EventError, one line)
-        watched.values(0.0, programs.model_at(0.0), x)
     if programs.path_dependent:
         programs.carry_history(0.0, x)  # the start: at rest in the equilibrium it was left in
     omega = math.nan
@@ -288,6 +286,8 @@ def simulate(scene: SceneLike | None, t_end: float, *, output_dt: float | None =
     length = max(rod.options.length for rod in model.rods.values())
     stepper = MidpointStep(coordinates, Damping(model), length)
     start = Motion(x, *initial_rates(model, coordinates, x, initial_velocity))
+    if watched is not None:  # a user's function checked at the start (EventError, one line)
+        watched.values(0.0, programs.model_at(0.0), x, start.v)
     record = Record()
     try:
         if integrator != "midpoint":

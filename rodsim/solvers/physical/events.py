@@ -18,7 +18,9 @@ direction):
   displacement-controlled one the elastic string's (E A/ℓ*) (ℓ(x) − ℓ*) without the
   clipping at zero (so that it crosses zero instead of touching it);
 - a user's ``Event(function)``: g = function(t, positions), positions every control
-  point (nodes, 3) [m], the rods concatenated in the scene's order as in a run archive.
+  point (nodes, 3) [m], the rods concatenated in the scene's order as in a run archive;
+  with ``velocities=True`` g = function(t, positions, velocities), their velocities
+  (nodes, 3) [m/s] (0 at a held node).
 
 The run records each event's time and name (``Simulation.events``, the archive's
 ``event_time`` and ``event_name``).
@@ -37,7 +39,11 @@ from rodsim.core.schema import SceneError, shown
 from rodsim.core.terms.contact import Contact
 from rodsim.core.terms.tendon_string import TendonString
 from rodsim.core.terms.tendon_string_displacement import TendonStringDisplacement
-from rodsim.solvers.physical.coordinates import model_state
+from rodsim.solvers.physical.coordinates import (
+    PhysicalCoordinates,
+    model_state,
+    physical_state,
+)
 
 __all__ = ["ContactOnset", "TendonSlack", "Event", "EventError", "EventFunctions",
            "resolve_events", "EventLike"]
@@ -75,14 +81,16 @@ SLACK = 1e-9
 class Event:
     """A user's event: ``function(t, positions)`` → a number whose zero crossing in
     ``direction`` (−1 downward, +1 upward, 0 either) is the event; ``positions`` every
-    control point (nodes, 3) [m], the rods concatenated as in a run archive; ``name`` (the
-    function's name by default) is what the run records; ``terminal``: the run stops
-    there."""
+    control point (nodes, 3) [m], the rods concatenated as in a run archive; with
+    ``velocities`` True, ``function(t, positions, velocities)``, the control points'
+    velocities (nodes, 3) [m/s]; ``name`` (the function's name by default) is what the run
+    records; ``terminal``: the run stops there."""
 
-    function: Callable[[float, np.ndarray], float]
+    function: Callable[..., float]
     name: str | None = None
     terminal: bool = False
     direction: int = -1
+    velocities: bool = False
 
     def __post_init__(self) -> None:
         if not callable(self.function):
@@ -90,8 +98,10 @@ class Event:
                              "f(t, positions) -> float")
         if self.name is not None and (not isinstance(self.name, str) or not self.name.strip()):
             raise SceneError(f"Event name = {shown(self.name)}: allowed a non-empty string")
-        if not isinstance(self.terminal, bool):
-            raise SceneError(f"Event terminal = {shown(self.terminal)}: allowed True or False")
+        for flag in ("terminal", "velocities"):
+            if not isinstance(getattr(self, flag), bool):
+                raise SceneError(f"Event {flag} = {shown(getattr(self, flag))}: allowed True "
+                                 "or False")
         if isinstance(self.direction, bool) or self.direction not in (-1, 0, 1):
             raise SceneError(f"Event direction = {shown(self.direction)}: allowed -1 "
                              "(downward), 1 (upward) or 0 (either)")
@@ -121,8 +131,9 @@ def _event(value: EventLike) -> ContactOnset | TendonSlack | Event:
                      "Event(function) or 'contact', 'slack' (':stop' for a terminal event)")
 
 
-#: An event function: g(t, the model of time t, the full state).
-Function = Callable[[float, Model, np.ndarray], float]
+#: An event function: g(t, the model of time t, the full state, the physical velocities
+#: u = (ṙ, ω) of rodsim/solvers/physical/coordinates.py; their node velocities first).
+Function = Callable[[float, Model, np.ndarray, np.ndarray], float]
 
 
 @dataclass
@@ -141,29 +152,35 @@ class EventFunctions:
     def __len__(self) -> int:
         return len(self.names)
 
-    def values(self, t: float, model: Model, x: np.ndarray) -> np.ndarray:
-        """g at (t, x); EventError for a user's function that fails or returns no finite
-        number."""
+    def values(self, t: float, model: Model, x: np.ndarray, v: np.ndarray) -> np.ndarray:
+        """g at (t, x) with the node velocities ``v`` (p,) [m/s] (each free position
+        coordinate's, in ``rodsim.solvers.physical.coordinates.PhysicalCoordinates``'
+        order); EventError for a user's function that fails or returns no finite number."""
         full = model.full(model_state(model, x))
-        return np.array([g(t, model, full) for g in self.functions])
+        return np.array([g(t, model, full, v) for g in self.functions])
 
 
-def _user(event: Event, index: np.ndarray) -> Function:
+def _user(event: Event, index: np.ndarray, pick: np.ndarray) -> Function:
     """``event``'s function as an event function (checked: a finite number or EventError,
-    one line)."""
+    one line): the positions ``full[index]``, the velocities the node velocities at
+    ``pick`` (−1: a held coordinate, 0)."""
     name = event.label
+    signature = "(t, positions, velocities)" if event.velocities else "(t, positions)"
 
-    def g(t: float, model: Model, full: np.ndarray) -> float:
+    def g(t: float, model: Model, full: np.ndarray, v: np.ndarray) -> float:
         try:
-            value = event.function(t, full[index])
+            if event.velocities:
+                value = event.function(t, full[index], np.append(v, 0.0)[pick])
+            else:
+                value = event.function(t, full[index])
             number = float(value)
         except Exception as exc:  # the user's code: any failure is one line
             text = " ".join(str(exc).split())[:200]
-            raise EventError(f"event {name!r}: function(t, positions) at t = {t:.6g} s failed "
+            raise EventError(f"event {name!r}: function{signature} at t = {t:.6g} s failed "
                              f"({type(exc).__name__}: {text}); allowed a function of "
-                             "(t [s], positions (nodes, 3) [m]) returning a number") from None
+                             f"{signature} returning a number") from None
         if not math.isfinite(number):
-            raise EventError(f"event {name!r}: function(t, positions) returned {number} at "
+            raise EventError(f"event {name!r}: function{signature} returned {number} at "
                              f"t = {t:.6g} s; allowed a finite number")
         return number
     return g
@@ -178,6 +195,17 @@ def _term_at(index: int, kind: type) -> Callable[[Model], object]:
     return term
 
 
+def _velocity_slots(model: Model, index: np.ndarray) -> np.ndarray:
+    """Where each full-state position coordinate ``index`` sits in the node velocities (the
+    free position coordinates in ``PhysicalCoordinates``' order), −1 where it is held."""
+    coordinates = PhysicalCoordinates.of(model, physical_state(model, model.x0))
+    free_of = np.full(model.full_size, -1)
+    free_of[model.free] = np.arange(model.n)
+    slot = np.full(model.n + 1, -1)  # the last: a held coordinate's free index −1
+    slot[coordinates.positions] = np.arange(len(coordinates.positions))
+    return slot[free_of[index]]
+
+
 def resolve_events(model: Model, events: Sequence[EventLike]) -> EventFunctions:
     """The event functions of ``events`` on ``model`` (module docstring); a one-line
     SceneError for an event the scene cannot have (no obstacle, no string tendon, an
@@ -188,7 +216,7 @@ def resolve_events(model: Model, events: Sequence[EventLike]) -> EventFunctions:
         if isinstance(event, Event):
             positions = np.concatenate([rod.layout.position_index
                                         for rod in model.rods.values()])
-            out.functions.append(_user(event, positions))
+            out.functions.append(_user(event, positions, _velocity_slots(model, positions)))
             out.names.append(event.label)
             out.terminal.append(event.terminal)
             out.directions.append(event.direction)
@@ -201,7 +229,8 @@ def resolve_events(model: Model, events: Sequence[EventLike]) -> EventFunctions:
                     continue
                 get = _term_at(index, Contact)
 
-                def gap(t: float, m: Model, full: np.ndarray, get=get) -> float:
+                def gap(t: float, m: Model, full: np.ndarray, v: np.ndarray,
+                        get=get) -> float:
                     return float(-np.max(get(m).penetration(full)))
                 out.functions.append(gap)
                 out.names.append(f"contact onset: {term.rod.name} on {obstacle}")
@@ -213,14 +242,16 @@ def resolve_events(model: Model, events: Sequence[EventLike]) -> EventFunctions:
                 if isinstance(term, TendonStringDisplacement):
                     get = _term_at(index, TendonStringDisplacement)
 
-                    def tension(t: float, m: Model, full: np.ndarray, get=get) -> float:
+                    def tension(t: float, m: Model, full: np.ndarray, v: np.ndarray,
+                                get=get) -> float:
                         string = get(m)
                         return float(string.spring * (string.path_length(full)
                                                       - string.free_length))
                 else:
                     get = _term_at(index, TendonString)
 
-                    def tension(t: float, m: Model, full: np.ndarray, get=get) -> float:
+                    def tension(t: float, m: Model, full: np.ndarray,
+                                v: np.ndarray, get=get) -> float:
                         return float(get(m).tension) - SLACK
                 out.functions.append(tension)
                 out.names.append(f"tendon slack: {tendon}")

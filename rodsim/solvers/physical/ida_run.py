@@ -182,11 +182,12 @@ def _root_finding(dae: PhysicalDae, events: EventFunctions | None, ida: bool
     SUNDIALS' callback is kept in ``events.failure`` (the loop raises it after the step)."""
     if events is None or not len(events):
         return {}
-    place, n = dae.place, dae.n
+    place = dae.place
 
     def values(t: float, y: np.ndarray, g: np.ndarray) -> None:
         try:
-            g[:] = events.values(t, dae.model_at(t), y[place][:n])
+            x, v, _ = dae.split(y[place])
+            g[:] = events.values(t, dae.model_at(t), x, v)
         except EventError as exc:  # a user's function: raised by the run loop after the step
             events.failure = events.failure or exc
             g[:] = 1.0

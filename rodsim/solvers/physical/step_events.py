@@ -54,27 +54,28 @@ class StepEvents:
         self.events, self.model_at, self.coordinates = events, model_at, coordinates
         self._last: np.ndarray | None = None
 
-    def values(self, t: float, x: np.ndarray) -> np.ndarray:
-        return self.events.values(t, self.model_at(t), x)
+    def values(self, t: float, x: np.ndarray, v: np.ndarray) -> np.ndarray:
+        """The functions' values at (t, x) with node velocities ``v``."""
+        return self.events.values(t, self.model_at(t), x, v)
 
     def start(self, t: float, motion: Motion) -> None:
         """The functions' values at the run's start."""
-        self._last = self.values(t, motion.x)
+        self._last = self.values(t, motion.x, motion.v)
 
     def _rate(self, x: np.ndarray, w: np.ndarray) -> np.ndarray:
         """q̇ = ½ Σ_k ω_k B_k q at ``x`` (s, 4)."""
         return 0.5 * np.einsum("ska,sk->sa", velocity_rows(x[self.coordinates.quaternions]), w)
 
     def interpolant(self, t0: float, start: Motion, t1: float, end: Motion
-                    ) -> Callable[[float], np.ndarray]:
-        """The free coordinates x(t) on [t0, t1]: the cubic Hermite interpolant (module
-        docstring)."""
+                    ) -> Callable[[float], tuple[np.ndarray, np.ndarray]]:
+        """The free coordinates x(t) and node velocities v(t) on [t0, t1]: the cubic
+        Hermite interpolant and its derivative (module docstring)."""
         c, h = self.coordinates, t1 - t0
         r0, r1 = start.x[c.positions], end.x[c.positions]
         q0, q1 = start.x[c.quaternions], end.x[c.quaternions]
         dq0, dq1 = self._rate(start.x, start.w), self._rate(end.x, end.w)
 
-        def x(t: float) -> np.ndarray:
+        def x(t: float) -> tuple[np.ndarray, np.ndarray]:
             s = (t - t0) / h
             h00, h10 = (1 + 2 * s) * (1 - s) ** 2, s * (1 - s) ** 2
             h01, h11 = s * s * (3 - 2 * s), s * s * (s - 1)
@@ -82,7 +83,10 @@ class StepEvents:
             out[c.positions] = h00 * r0 + h10 * h * start.v + h01 * r1 + h11 * h * end.v
             q = h00 * q0 + h10 * h * dq0 + h01 * q1 + h11 * h * dq1
             out[c.quaternions] = q / np.linalg.norm(q, axis=1)[:, None]
-            return out
+            # d/dt of the position's Hermite basis: (6s² − 6s, 3s² − 4s + 1, −, 3s² − 2s)/h
+            v = ((6 * s * s - 6 * s) * (r0 - r1) / h + (3 * s * s - 4 * s + 1) * start.v
+                 + (3 * s * s - 2 * s) * end.v)
+            return out, v
         return x
 
     def step(self, t0: float, start: Motion, t1: float, end: Motion,
@@ -91,7 +95,7 @@ class StepEvents:
         there), in time order; ``restep(t)`` the state one midpoint step from ``start`` to
         t reaches. The end's values are kept for the next step."""
         assert self._last is not None
-        before, after = self._last, self.values(t1, end.x)
+        before, after = self._last, self.values(t1, end.x, end.v)
         self._last = after
         crossed = [i for i in range(len(self.events))
                    if _crossed(before[i], after[i], self.events.directions[i])]
@@ -108,10 +112,11 @@ class StepEvents:
         found = []
         for i in crossed:
             def interpolated(t: float, i: int = i) -> float:
-                return float(self.values(t, x(t))[i])
+                return float(self.values(t, *x(t))[i])
 
             def stepped(t: float, i: int = i) -> float:
-                return float(self.values(t, state(t).x)[i])
+                motion = state(t)
+                return float(self.values(t, motion.x, motion.v)[i])
 
             guess = _root(interpolated, t0, before[i], t1, after[i])
             when = _root(stepped, t0, before[i], t1, after[i], guess)
