@@ -102,6 +102,29 @@ def test_a_tendon_goes_slack_at_the_programmed_time():
     assert run.times[-1] == pytest.approx(0.006)
 
 
+def test_a_terminal_event_with_friction():
+    """The frictional catheter of tests/test_simulate_friction.py (μ = 0.2, N = 11), its
+    tension ramped 0.5 → 3 N over 0.1 s: a user's event, the tip rising through the middle of
+    its travel, ends the run there with the tip on that height to 1e-12 m (the last step
+    taken again with friction's history, as any step), and the message names the event
+    (it was replaced by the non-conservative scene's note)."""
+    from test_simulate_friction import NODES, TENSION, _scene
+
+    level = 0.031
+
+    def rise(t: float, positions: np.ndarray) -> float:
+        return float(positions[NODES - 1, 1] - level)
+    run = rodsim.simulate(_scene(0.2), 0.1, output_dt=0.01, step=5e-3,
+                          initial={TENSION: 0.5}, program={TENSION: ([0.0, 0.1], [0.5, 3.0])},
+                          events=[Event(rise, direction=1, terminal=True)])
+    assert run.success, run.message
+    assert run.message.startswith("stopped by the event (rise)")
+    assert "non-conservative" in run.message
+    # the run without the event passes 0.031 m between its outputs at 40 and 50 ms
+    assert [name for _, name in run.events] == ["rise"] and 0.04 < run.events[0][0] < 0.05
+    assert abs(run.positions[-1, NODES - 1, 1] - level) < 1e-12
+
+
 def tip_height(t: float, positions: np.ndarray) -> float:
     """The tip's height above y = −5 mm [m]."""
     return float(positions[-1, 1] + 0.005)

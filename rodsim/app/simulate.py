@@ -351,9 +351,9 @@ def _simulation(loaded: Scene, model: Model, record: Record, h: float, integrato
     quaternions = np.concatenate([full[:, model.rods[name].layout.quaternion_index]
                                   for name in model.rods], axis=1)
     message = record.message
-    if record.success and not model.conservative:
-        message = ("ok; a non-conservative term (the paper's lumen coupling, friction): no "
-                   "potential energy, no energy balance")
+    if record.success and not model.conservative:  # "ok", or a terminal event's message
+        message += ("; a non-conservative term (the paper's lumen coupling, friction): no "
+                    "potential energy, no energy balance")
     return Simulation(record.success, message, loaded, np.array(record.times), positions,
                       quaternions, np.array(record.kinetic), np.array(record.potential),
                       np.array(record.dissipated), np.array(record.work), h,
