@@ -192,14 +192,12 @@ def integrate(model_at: Callable[[float], Model], stepper: MidpointStep, start: 
                 if watch is not None:
                     found = watch.step(t0, before, t1, motion,
                                        _restep(model_at, stepper, before, t0, searched))
-                stop = next((when for when, i, _ in found if terminal[i]), None)
+                stop = next((when for when, i in found if terminal[i]), None)
                 if stop is not None:
-                    found = [event for event in found if event[0] <= stop]
+                    found = [(when, i) for when, i in found if when <= stop]
                     if stop < t1:  # the step again, to the terminal event's time exactly
-                        motion, gained, lost, again = (
-                            (before, 0.0, 0.0, (0, 0, 0)) if stop <= t0 else
-                            _advance(model_at, stepper, before, t0, stop, MAX_HALVINGS,
-                                     after_step))
+                        motion, gained, lost, again = _advance(
+                            model_at, stepper, before, t0, stop, MAX_HALVINGS, after_step)
                         searched = [a + b for a, b in zip(searched, again, strict=True)]
                 taken = (taken[0] + searched[0], taken[1] + searched[1],
                          taken[2] + searched[2])
@@ -208,7 +206,7 @@ def integrate(model_at: Callable[[float], Model], stepper: MidpointStep, start: 
                 record.message = (f"step from t = {t0:.6g} s failed: {exc}; try a smaller "
                                   "step (the run's data up to there is kept)")
                 return record
-            record.events.extend((when, names[i]) for when, i, _ in found)
+            record.events.extend((when, names[i]) for when, i in found)
             work += gained
             dissipated += lost
             record.steps += taken[0]
@@ -218,8 +216,7 @@ def integrate(model_at: Callable[[float], Model], stepper: MidpointStep, start: 
             if stop is not None:
                 record.add(stop, motion, coordinates.kinetic_energy(motion.v, motion.w),
                            _potential(model_at(stop), motion.x), dissipated, work)
-                ended = ", ".join(names[i] for when, i, _ in found
-                                  if when == stop and terminal[i])
+                ended = ", ".join(names[i] for when, i in found if when == stop and terminal[i])
                 record.message = f"stopped by the event ({ended}) at t = {stop:.9g} s"
                 return record
             if progress is not None:
