@@ -40,7 +40,7 @@ from rodsim.solvers.physical.coordinates import (
     physical_state,
 )
 from rodsim.solvers.physical.dae import PhysicalDae
-from rodsim.solvers.physical.events import EventLike, resolve_events
+from rodsim.solvers.physical.events import EventError, EventLike, resolve_events
 from rodsim.solvers.physical.ida_run import IdaOptions, integrate_ida
 from rodsim.solvers.physical.midpoint import MidpointStep, Motion
 from rodsim.solvers.physical.trajectory import Record, integrate
@@ -284,11 +284,11 @@ def simulate(scene: SceneLike | None, t_end: float, *, output_dt: float | None =
     3-vector [m/s] that every free node moves with, or the physical velocities (each free
     position coordinate's rate, then each free segment's body rates; p + 3 s numbers), or
     the rates of the model's n free coordinates (rodsim/app/initial_velocity.py);
-    ``events``: ``rodsim.solvers.physical.events.ContactOnset`` and
-    ``rodsim.solvers.physical.events.TendonSlack`` values (or ``"contact"``,
-    ``"slack"``, ``":stop"`` appended for a terminal one), found by SUNDIALS' root finding
-    (``ida`` and ``cvode``): each one's time and name in ``Simulation.events``, a terminal
-    one ends the run there. Bad input raises
+    ``events``: ``rodsim.ContactOnset``, ``rodsim.TendonSlack`` and ``rodsim.Event`` (a
+    user's function of (t, positions)) values (or ``"contact"``, ``"slack"``, ``":stop"``
+    appended for a terminal one), found by SUNDIALS' root finding (``ida`` and ``cvode``)
+    or after each midpoint step on its cubic Hermite interpolant: each one's time and name
+    in ``Simulation.events``, a terminal one ends the run there. Bad input raises
     ``rodsim.core.schema.SceneError`` (one line) before any work; a run that fails
     part-way returns ``success`` False with what it computed.
     """
@@ -310,9 +310,6 @@ def simulate(scene: SceneLike | None, t_end: float, *, output_dt: float | None =
                          "tendon's or a contact's), whose history each step carries to the "
                          "next; allowed: integrator 'midpoint' (IDA's and CVODE's adaptive "
                          "steps would each need a restart)")
-    if events and integrator == "midpoint":
-        raise SceneError("events: allowed with integrator 'ida' or 'cvode' (SUNDIALS' root "
-                         "finding); the midpoint rule has none")
     watched = resolve_events(model, events) if events else None
     rest = physical_state(model, model.x0)  # the velocity's length checked before any work
     initial_rates(model, PhysicalCoordinates.of(model, rest), rest, initial_velocity)
@@ -335,6 +332,8 @@ def simulate(scene: SceneLike | None, t_end: float, *, output_dt: float | None =
     length = max(rod.options.length for rod in model.rods.values())
     stepper = MidpointStep(coordinates, Damping(model), length)
     start = Motion(x, *initial_rates(model, coordinates, x, initial_velocity))
+    if watched is not None:  # a user's function checked at the start (EventError, one line)
+        watched.values(0.0, programs.model_at(0.0), x, start.v)
     record = Record()
     try:
         if integrator != "midpoint":
@@ -345,7 +344,7 @@ def simulate(scene: SceneLike | None, t_end: float, *, output_dt: float | None =
                           progress, record, integrator, watched)
         else:
             integrate(programs.model_at, stepper, start, outputs, h, progress, record,
-                      programs.carry_history if programs.path_dependent else None)
+                      programs.carry_history if programs.path_dependent else None, watched)
     except KeyboardInterrupt:  # Ctrl-C or SIGTERM: what was computed, marked incomplete
         done = min(len(record.times), len(record.states), len(record.kinetic),
                    len(record.potential), len(record.dissipated), len(record.work))
@@ -362,6 +361,12 @@ def simulate(scene: SceneLike | None, t_end: float, *, output_dt: float | None =
                               integrator, float(t_end), programs.by_name, initial,
                               initial_velocity)
         raise Interrupted(partial, record.message) from None
+    except EventError as exc:  # a user's event function failed part-way
+        if not record.times:
+            raise
+        record.success = False
+        record.message = (f"stopped after the output at t = {record.times[-1]:.6g} s: {exc}; "
+                          "the outputs up to it are kept")
     except SceneError as exc:  # a rule across two programmed values, broken at some time
         if not record.times:
             raise
@@ -392,9 +397,9 @@ def _simulation(loaded: Scene, model: Model, record: Record, h: float, integrato
     quaternions = np.concatenate([full[:, model.rods[name].layout.quaternion_index]
                                   for name in model.rods], axis=1)
     message = record.message
-    if record.success and not model.conservative:
-        message = ("ok; a non-conservative term (the paper's lumen coupling, friction): no "
-                   "potential energy, no energy balance")
+    if record.success and not model.conservative:  # "ok", or a terminal event's message
+        message += ("; a non-conservative term (the paper's lumen coupling, friction): no "
+                    "potential energy, no energy balance")
     return Simulation(record.success, message, loaded, np.array(record.times), positions,
                       quaternions, np.array(record.kinetic), np.array(record.potential),
                       np.array(record.dissipated), np.array(record.work), h,

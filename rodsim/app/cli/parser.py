@@ -279,9 +279,10 @@ def build_parser() -> argparse.ArgumentParser:
                       help="start from the equilibrium with this value (KEY as for --set; "
                       "repeatable): released at t = 0")
     move.add_argument("--event", action="append", default=[], metavar="contact|slack[:stop]",
-                      help="ida, cvode: record when a rod first touches an obstacle (contact) "
-                      "or a string tendon's tension reaches zero (slack); ':stop' ends the run "
-                      "there (repeatable)")
+                      help="record when a rod first touches an obstacle (contact) or a string "
+                      "tendon's tension reaches zero (slack); ':stop' ends the run there "
+                      "(repeatable; any integrator: SUNDIALS' root finding for ida and cvode, "
+                      "each midpoint step checked and the time located within it)")
     move.add_argument("--initial-velocity", metavar="VX,VY,VZ",
                       help="start with every free node moving at this velocity [m/s] "
                       "(default: at rest)")

@@ -16,4 +16,7 @@ through a pseudo-time (rodsim/solvers/pseudo_dynamics.py): nothing here is regis
   form for CVODE, the quaternions projected.
 - ``rodsim.solvers.physical.ida_run``: the adaptive run with IDA or CVODE (dense output,
   program breakpoints, the same energy balance).
+- ``rodsim.solvers.physical.events``: the events (contact onset, a tendon going slack, a
+  user's function) as event functions; ``rodsim.solvers.physical.step_events``: their
+  roots under the midpoint rule (SUNDIALS' root finding under IDA and CVODE).
 """
