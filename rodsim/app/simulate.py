@@ -41,8 +41,9 @@ from rodsim.solvers.physical.coordinates import (
 )
 from rodsim.solvers.physical.dae import PhysicalDae
 from rodsim.solvers.physical.events import EventLike, resolve_events
+from rodsim.solvers.physical.fixed_step import Motion
 from rodsim.solvers.physical.ida_run import IdaOptions, integrate_ida
-from rodsim.solvers.physical.midpoint import MidpointStep, Motion
+from rodsim.solvers.physical.midpoint import MidpointStep
 from rodsim.solvers.physical.trajectory import Record, integrate
 from rodsim.solvers.result import Result
 

@@ -33,7 +33,7 @@ import numpy as np
 
 from rodsim.core.model import Model
 from rodsim.solvers.physical.coordinates import model_state
-from rodsim.solvers.physical.midpoint import MidpointStep, Motion, StepFailure
+from rodsim.solvers.physical.fixed_step import FixedStep, Motion, StepFailure
 
 #: What a run is told at the end of every step: ``after_step(t, x, model)``, x the model's
 #: free coordinates (offsets from the rest state), ``model`` the one that solved the step
@@ -87,7 +87,7 @@ def _potential(model: Model, x: np.ndarray) -> float:
     return model.energy(model_state(model, x))
 
 
-def _advance(model_at: Callable[[float], Model], stepper: MidpointStep, motion: Motion,
+def _advance(model_at: Callable[[float], Model], stepper: FixedStep, motion: Motion,
              t0: float, t1: float, halvings: int, after_step: AfterStep | None = None
              ) -> tuple[Motion, float, float, tuple[int, int, int]]:
     """One step from ``t0`` to ``t1``, or, if its Newton fails, two half steps (each halved
@@ -131,7 +131,7 @@ def _advance(model_at: Callable[[float], Model], stepper: MidpointStep, motion: 
     return outcome.motion, work, outcome.dissipated, (1, outcome.iterations, 0)
 
 
-def integrate(model_at: Callable[[float], Model], stepper: MidpointStep, start: Motion,
+def integrate(model_at: Callable[[float], Model], stepper: FixedStep, start: Motion,
               output_times: Sequence[float], step: float,
               progress: Callable[[float], None] | None = None,
               record: Record | None = None, after_step: AfterStep | None = None) -> Record:
