@@ -219,6 +219,21 @@ class PhysicalCoordinates:
         r, c = block_entries(self.quaternions, p + np.arange(3 * s).reshape(-1, 3), 4, 3)
         return np.concatenate([self.positions, r]), np.concatenate([np.arange(p), c])
 
+    @cached_property
+    def angle_columns(self) -> np.ndarray:
+        """Each free segment's three angle columns among the physical degrees of freedom
+        (after the p positions), shape (s, 3)."""
+        return len(self.positions) + np.arange(3 * len(self.quaternions)).reshape(-1, 3)
+
+    @cached_property
+    def mass_entries(self) -> tuple[np.ndarray, np.ndarray]:
+        """Where a step's Newton matrix places its masses: M_r's stored entries, then the
+        3 × 3 rotation blocks on the angles (raveled)."""
+        r, c = block_entries(self.angle_columns, self.angle_columns, 3, 3)
+        return (np.concatenate([np.repeat(np.arange(len(self.positions)),
+                                          np.diff(self.mass.indptr)), r]),
+                np.concatenate([self.mass.indices, c]))
+
     def rates(self, x: np.ndarray, x_dot: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """The physical velocities (ṙ, ω) of a motion ``x_dot`` of the free coordinates at
         ``x`` (ω_k = (2/|q|²) (B_k q) · q̇)."""

@@ -22,9 +22,14 @@ import scipy.sparse.linalg as spla
 
 from rodsim.core.damping import Damping
 from rodsim.core.model import Model
-from rodsim.solvers.physical.coordinates import PhysicalCoordinates
+from rodsim.solvers.physical.coordinates import (
+    PhysicalCoordinates,
+    gyroscopic_jacobian,
+    placed,
+)
 
 __all__ = ["Motion", "StepOutcome", "StepFailure", "FixedStep", "solve_step",
+           "newton_matrix",
            "NEWTON_TOLERANCE", "MAX_ITERATIONS"]
 
 #: Newton stops when its step moves no node by more than this times the longest rod and no
@@ -131,3 +136,27 @@ def solve_step(evaluate: Evaluate, r1: np.ndarray, w: np.ndarray, h: float,
         raise StepFailure(f"Newton did not converge in {MAX_ITERATIONS} iterations "
                           f"(last change {moved:.1e})")
     return r1, w, iterations
+
+
+def newton_matrix(coordinates: PhysicalCoordinates, factor: float, stiffness: sp.csr_matrix,
+                  damping: sp.csr_matrix | None, w: np.ndarray, h: float) -> sp.csr_matrix:
+    """∂(residual)/∂(r₁, w) of a step whose residual is ``factor`` (2 for the midpoint rule,
+    1 for Euler) times (M_r (v − v₀)/h, I (w − ω₀)/h) plus w × I w, minus the force, plus
+    the damping: the masses (factor/h²) M_r and (factor/h) I, the gyroscopic term at
+    ``w``, minus the force's derivative ``stiffness`` with respect to (r₁, w), plus the
+    (held) damping D_t times ∂u/∂(r₁, w) (1/h on the positions: u = (r₁ − r₀)/h)."""
+    c = coordinates
+    p = len(c.positions)
+    inertia = c.inertia
+    gyro = gyroscopic_jacobian(inertia, w)
+    rotation = (factor / h) * np.eye(3)[None] * inertia[:, :, None] + gyro
+    # sp.block_diag([(factor/h²) M_r, the rotation blocks]) as one placement
+    mass = (factor / h**2) * c.mass
+    rows, cols = c.mass_entries
+    masses = placed(np.concatenate([mass.data, rotation.ravel()]), rows, cols,
+                    (c.size, c.size))
+    matrix = masses - stiffness
+    if damping is not None:
+        scale = np.concatenate([np.full(p, 1.0 / h), np.ones(3 * len(c.quaternions))])
+        matrix = matrix + damping @ sp.diags(scale)
+    return matrix.tocsr()

@@ -37,8 +37,6 @@ starts from the last step's midpoint velocities (``Motion``).
 
 from __future__ import annotations
 
-from functools import cached_property
-
 import numpy as np
 import scipy.sparse as sp
 
@@ -48,12 +46,9 @@ from rodsim.core.rod.quaternion import B
 from rodsim.solvers.physical.coordinates import (
     PhysicalCoordinates,
     block_diagonal,
-    block_entries,
     cayley,
     cross_rows,
-    gyroscopic_jacobian,
     model_state,
-    placed,
     velocity_rows,
 )
 from rodsim.solvers.physical.fixed_step import (
@@ -61,6 +56,7 @@ from rodsim.solvers.physical.fixed_step import (
     Motion,
     StepFailure,
     StepOutcome,
+    newton_matrix,
     solve_step,
 )
 
@@ -81,7 +77,6 @@ class MidpointStep:
         c = coordinates
         self._p = len(c.positions)
         self._s = len(c.quaternions)
-        self._angle_cols = self._p + np.arange(3 * self._s).reshape(-1, 3)
         nodes, weights = np.polynomial.legendre.leggauss(quadrature)
         #: The Gauss–Legendre points on [0, 1] and their weights (fixed: computed once).
         self._gauss = tuple(zip((0.5 * (nodes + 1.0)).tolist(), (0.5 * weights).tolist(),
@@ -168,7 +163,7 @@ class MidpointStep:
             # the geometric blocks on the angles (sp.block_diag with the zero position
             # block, as one placement)
             part = (g.T @ model.pattern_matrix(jac) @ p) + block_diagonal(
-                geometric, self._angle_cols, self._angle_cols, (m, m))
+                geometric, c.angle_columns, c.angle_columns, (m, m))
             derivative = weight * part if derivative is None else derivative + weight * part
         return f_r, tau, None if derivative is None else derivative.tocsr()
 
@@ -205,7 +200,7 @@ class MidpointStep:
             residual = np.concatenate([res_r, res_w.ravel()])
             if stiffness is None:
                 return residual, None
-            return residual, self._newton_matrix(stiffness, damping, wm, h)
+            return residual, newton_matrix(c, 2.0, stiffness, damping, wm, h)
 
         r1, wm, iterations = solve_step(evaluate, r1, wm, h, self.length_scale,
                                         self.tolerance)
@@ -229,32 +224,3 @@ class MidpointStep:
         omega = np.einsum("sk,kab->sab", wm, B)
         return np.linalg.solve(np.eye(4)[None] - 0.25 * h * omega,
                                0.5 * h * np.transpose(velocity_rows(qm), (0, 2, 1)))
-
-    @cached_property
-    def _mass_entries(self) -> tuple[np.ndarray, np.ndarray]:
-        """Where the Newton matrix's masses sit: M_r's stored entries, then the rotation
-        blocks on the angles (raveled)."""
-        mass = self.coordinates.mass
-        r, c = block_entries(self._angle_cols, self._angle_cols, 3, 3)
-        return (np.concatenate([np.repeat(np.arange(self._p), np.diff(mass.indptr)), r]),
-                np.concatenate([mass.indices, c]))
-
-    def _newton_matrix(self, stiffness: sp.csr_matrix,
-                       damping: sp.csr_matrix | None, wm: np.ndarray, h: float
-                       ) -> sp.csr_matrix:
-        """∂(residual)/∂(r₁, ω_m): the masses, the gyroscopic term, minus the averaged
-        force's derivative ``stiffness``, plus the (held) damping D_t ∂u_m/∂(r₁, ω_m)."""
-        c = self.coordinates
-        inertia = c.inertia
-        gyro = gyroscopic_jacobian(inertia, wm)
-        rotation = (2.0 / h) * np.eye(3)[None] * inertia[:, :, None] + gyro
-        # sp.block_diag([(2/h²) M_r, the rotation blocks]) as one placement
-        mass = (2.0 / h**2) * c.mass
-        rows, cols = self._mass_entries
-        masses = placed(np.concatenate([mass.data, rotation.ravel()]), rows, cols,
-                        (c.size, c.size))
-        matrix = masses - stiffness
-        if damping is not None:
-            scale = np.concatenate([np.full(self._p, 1.0 / h), np.ones(3 * self._s)])
-            matrix = matrix + damping @ sp.diags(scale)
-        return matrix.tocsr()
