@@ -15,6 +15,7 @@ from test_simulate import (
     RELEASE,
     STEEL,
     crossings,
+    decay_ratio,
     first_frequency,
     modal,
     peaks,
@@ -164,3 +165,61 @@ def test_command_line_runs_the_paper_scheme(tmp_path, monkeypatch, capsys):
     assert main([*args, "--atol", "1e-6", "-o", "x.nc"]) == 2
     err = capsys.readouterr().err
     assert "--atol" in err and len(err.strip().splitlines()) == 1
+
+
+def test_kelvin_voigt_damping_adds_to_the_numerical_damping(releases):
+    """Kelvin–Voigt damping (τ = 2ζ/ω₁, ζ = 0.01) acts as under the midpoint rule: the
+    damping ratio from the first mode's logarithmic decrement, less the scheme's own
+    (the undamped run's, ≈ ωh/2 = 0.031 at 100 steps a period), is ζ within 2 % (measured
+    −0.7 %); the energy the damping dissipates is counted, and the balance's error (the
+    scheme's loss) stays below the undamped run's."""
+    h = PERIOD / 100
+    zeta = 0.01
+    damped = rodsim.simulate(
+        wire(11, damping={"retardation_time": 2.0 * zeta / first_frequency(STEEL)}),
+        3.0 * PERIOD, step=h, output_dt=h, initial=RELEASE, integrator="paper")
+    assert damped.success, damped.message
+    ratios = [decay_ratio(peaks(run.times, -modal(run))[1]) for run in (releases[100], damped)]
+    assert abs((ratios[1] - ratios[0]) / zeta - 1.0) < 0.02, ratios
+    assert damped.dissipated_energy[-1] > 0.0
+    assert abs(damped.energy_error[-1]) < abs(releases[100].energy_error[-1])
+
+
+def test_newton_matrix_is_the_residuals_derivative(monkeypatch):
+    """The step's Newton matrix against central differences of its residual, on a bent,
+    moving, undamped rod (N = 5, random velocities and body rates, a point off the
+    predictor): agreement to 1e-8 of its largest entry (measured 5e-11)."""
+    from rodsim.core.damping import Damping
+    from rodsim.core.model import Model
+    from rodsim.solvers.physical import semi_implicit_euler
+    from rodsim.solvers.physical.coordinates import PhysicalCoordinates, physical_state
+    from rodsim.solvers.physical.fixed_step import Motion
+
+    scene = rodsim.load_scene(wire(5, tip_load={"force": [0.0, -0.3, 0.2], "mass": 0.0}))
+    model = Model(scene)
+    x = physical_state(model, model.x0)
+    coordinates = PhysicalCoordinates.of(model, x)
+    p, s = len(coordinates.positions), len(coordinates.quaternions)
+    rng = np.random.default_rng(5)
+    checked = []
+
+    def check(evaluate, r1, w, h, length, tolerance):
+        r1 = r1 + 1e-5 * rng.standard_normal(p)
+        w = w + 0.5 * rng.standard_normal((s, 3))
+        matrix = evaluate(r1, w, True)[1].toarray()
+        z = np.concatenate([r1, w.ravel()])
+        differences = np.zeros_like(matrix)
+        for j in range(len(z)):
+            step = np.zeros(len(z))
+            step[j] = 1e-7
+            plus = evaluate((z + step)[:p], (z + step)[p:].reshape(-1, 3), False)[0]
+            minus = evaluate((z - step)[:p], (z - step)[p:].reshape(-1, 3), False)[0]
+            differences[:, j] = (plus - minus) / 2e-7
+        checked.append(np.max(np.abs(matrix - differences)) / np.max(np.abs(matrix)))
+        return r1, w, 1
+
+    monkeypatch.setattr(semi_implicit_euler, "solve_step", check)
+    stepper = semi_implicit_euler.SemiImplicitEulerStep(coordinates, Damping(model), 0.4)
+    stepper.step(model, Motion(x, 0.01 * rng.standard_normal(p),
+                               rng.standard_normal((s, 3))), 1e-3)
+    assert checked and checked[0] < 1e-8, checked
