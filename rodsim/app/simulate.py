@@ -8,7 +8,9 @@
 The rods move under their physical inertia (rodsim/core/inertia.py), the scene's forces,
 their damping (``[rods.<rod>.damping]``, rodsim/core/damping.py) and values that change in
 time (``program``), integrated by the implicit midpoint rule
-(rodsim/solvers/physical/midpoint.py). The run starts at rest, from the scene's rest state
+(rodsim/solvers/physical/midpoint.py) or the paper's semi-implicit Euler
+(rodsim/solvers/physical/semi_implicit_euler.py), with fixed steps, or SUNDIALS IDA or CVODE
+(rodsim/solvers/physical/ida_run.py), adaptive. The run starts at rest, from the scene's rest state
 or from the equilibrium of the scene with the ``initial`` values (a release: hold the tip
 with a force, let go at t = 0), or from a solved Result's state.
 """
@@ -41,17 +43,22 @@ from rodsim.solvers.physical.coordinates import (
 )
 from rodsim.solvers.physical.dae import PhysicalDae
 from rodsim.solvers.physical.events import EventError, EventLike, resolve_events
+from rodsim.solvers.physical.fixed_step import Motion
 from rodsim.solvers.physical.ida_run import IdaOptions, integrate_ida
-from rodsim.solvers.physical.midpoint import MidpointStep, Motion
+from rodsim.solvers.physical.midpoint import MidpointStep
+from rodsim.solvers.physical.semi_implicit_euler import SemiImplicitEulerStep
 from rodsim.solvers.physical.trajectory import Record, integrate
 from rodsim.solvers.result import Result
 from rodsim.solvers.summary import millimetres, summary_html, summary_text
 
 __all__ = ["Simulation", "simulate", "check_programs", "ida_options", "INTEGRATORS",
-           "IDA_DEFAULTS", "STEPS_PER_PERIOD"]
+           "FIXED_STEP", "IDA_DEFAULTS", "STEPS_PER_PERIOD"]
 
 #: The integrators of physical time.
-INTEGRATORS = ("midpoint", "ida", "cvode")
+INTEGRATORS = ("midpoint", "paper", "ida", "cvode")
+#: Those with fixed steps (``step``), no tolerances: the implicit midpoint rule and the
+#: paper's semi-implicit Euler (Eqs. 14–17 with the physical masses).
+FIXED_STEP = ("midpoint", "paper")
 #: IDA's defaults: relative tolerance, absolute tolerance (× L on positions, radians on
 #: angles; docs/dynamics.md, "IDA") and BDF order cap.
 IDA_DEFAULTS = {"rtol": 1e-5, "atol": 1e-5, "max_order": 2}
@@ -82,10 +89,10 @@ class Simulation:
     energy_error
         The balance T + V + D − W − (T₀ + V₀) at each output time [J].
     step
-        The midpoint rule's step asked for [s] (the steps taken are at most this); IDA's
-        longest step taken. ``steps`` counts the steps.
+        The fixed step asked for [s] (midpoint, paper: the steps taken are at most this);
+        IDA's and CVODE's longest step taken. ``steps`` counts the steps.
     iterations
-        The midpoint rule's Newton iterations; IDA's residual evaluations (one per
+        The fixed-step integrators' Newton iterations; IDA's residual evaluations (one per
         iteration of its corrector).
     """
 
@@ -126,7 +133,7 @@ class Simulation:
         """The summary's rows: outcome, times, work, start, programs and events when there
         are any, the first rod's tip at the last output, the energy balance."""
         reached = float(self.times[-1]) if len(self.times) else 0.0
-        step = "step" if self.integrator == "midpoint" else "longest step"
+        step = "step" if self.integrator in FIXED_STEP else "longest step"
         rows = [("outcome", self.message if self.success else f"FAILED: {self.message}"),
                 ("time", f"{len(self.times)} outputs, t = 0 to {reached:.4g} s"
                  f" (t_end {self.t_end:.4g} s)"),
@@ -235,13 +242,13 @@ def _lowest_frequency(model: Model, x: np.ndarray, what: str) -> float:
 def ida_options(integrator: str, rtol: float | None, atol: float | None,
                  max_order: int | None) -> dict[str, float]:
     """IDA's checked settings (SceneError, one line, for a bad value, or for one given to
-    the midpoint rule, which has none)."""
+    a fixed-step integrator, which has none)."""
     given = {"rtol": rtol, "atol": atol, "max_order": max_order}
-    if integrator == "midpoint":
+    if integrator in FIXED_STEP:
         named = [name for name, value in given.items() if value is not None]
         if named:
             raise SceneError(f"{named[0]}: only for integrators 'ida' and 'cvode' (the "
-                             "midpoint rule has fixed steps)")
+                             f"integrator {integrator!r} has fixed steps)")
         return {}
     out: dict[str, float] = {}
     for name, value in given.items():
@@ -267,14 +274,16 @@ def simulate(scene: SceneLike | None, t_end: float, *, output_dt: float | None =
              events: Sequence[EventLike] = ()) -> Simulation:
     """Integrate ``scene`` in physical time from t = 0 to ``t_end`` [s].
 
-    ``integrator``: ``"midpoint"`` (the implicit midpoint rule, fixed steps), ``"ida"``
+    ``integrator``: ``"midpoint"`` (the implicit midpoint rule, fixed steps), ``"paper"``
+    (the paper's semi-implicit Euler, Eqs. 14–17, with the physical masses: fixed steps,
+    first order, numerically damped), ``"ida"``
     (SUNDIALS IDA, adaptive BDF under error control: ``rtol``, ``atol`` — × the longest
     rod's length on positions, radians on angles, and × ω₁ on their rates — and the order
     cap ``max_order``; docs/dynamics.md) or ``"cvode"`` (SUNDIALS CVODE on the explicit
     form, the same options; a dense Jacobian: for small rods). ``output_dt``: the spacing of
     the output times [s] (default: every step of the midpoint rule; 1/100 of the lowest
-    natural period for IDA and CVODE); ``step``: the longest time step [s] (midpoint
-    default: 1/100 of the lowest natural period at the start; IDA and CVODE: none);
+    natural period for IDA and CVODE); ``step``: the longest time step [s] (midpoint and
+    paper default: 1/100 of the lowest natural period at the start; IDA and CVODE: none);
     ``initial``: a mapping of ``--set`` keys to values whose equilibrium the run starts
     from, or a solved Result (default: the rest state); ``program``: key → (times, values)
     (piecewise linear) or a ``rodsim.core.program.Sinusoid`` per numeric term value,
@@ -309,7 +318,11 @@ def simulate(scene: SceneLike | None, t_end: float, *, output_dt: float | None =
         raise SceneError(f"integrator {integrator!r}: the scene has friction (a string "
                          "tendon's or a contact's), whose history each step carries to the "
                          "next; allowed: integrator 'midpoint' (IDA's and CVODE's adaptive "
-                         "steps would each need a restart)")
+                         "steps would each need a restart; the paper's Euler is not validated "
+                         "with friction)")
+    if events and integrator == "paper":
+        raise SceneError("events: allowed with integrator 'midpoint', 'ida' or 'cvode'; "
+                         "the paper's Euler does not locate them")
     watched = resolve_events(model, events) if events else None
     rest = physical_state(model, model.x0)  # the velocity's length checked before any work
     initial_rates(model, PhysicalCoordinates.of(model, rest), rest, initial_velocity)
@@ -317,7 +330,7 @@ def simulate(scene: SceneLike | None, t_end: float, *, output_dt: float | None =
     if programs.path_dependent:
         programs.carry_history(0.0, x)  # the start: at rest in the equilibrium it was left in
     omega = math.nan
-    if integrator != "midpoint":
+    if integrator not in FIXED_STEP:
         try:
             omega = _lowest_frequency(model, x, "velocity scale of the tolerances")
         except SceneError:  # no stable equilibrium at the start (a falling rod): the run's
@@ -330,13 +343,14 @@ def simulate(scene: SceneLike | None, t_end: float, *, output_dt: float | None =
     outputs = np.minimum(np.arange(count + 1) * spacing, float(t_end))
     coordinates = PhysicalCoordinates.of(model, x)
     length = max(rod.options.length for rod in model.rods.values())
-    stepper = MidpointStep(coordinates, Damping(model), length)
+    stepper = (SemiImplicitEulerStep if integrator == "paper" else MidpointStep)(
+        coordinates, Damping(model), length)
     start = Motion(x, *initial_rates(model, coordinates, x, initial_velocity))
     if watched is not None:  # a user's function checked at the start (EventError, one line)
         watched.values(0.0, programs.model_at(0.0), x, start.v)
     record = Record()
     try:
-        if integrator != "midpoint":
+        if integrator not in FIXED_STEP:
             options = IdaOptions(settings["rtol"], settings["atol"], int(settings["max_order"]),
                                  0.0 if step is None else float(step), length, omega)
             dae = PhysicalDae(coordinates, stepper.damping, programs.model_at, model.n)
@@ -379,9 +393,9 @@ def simulate(scene: SceneLike | None, t_end: float, *, output_dt: float | None =
 
 
 def _step_of(record: Record, h: float, integrator: str) -> float:
-    """The step a Simulation reports: the midpoint rule's ``h``, IDA's or CVODE's longest
-    step."""
-    return h if integrator == "midpoint" else record.largest_step
+    """The step a Simulation reports: a fixed-step integrator's ``h``, IDA's or CVODE's
+    longest step."""
+    return h if integrator in FIXED_STEP else record.largest_step
 
 
 def _simulation(loaded: Scene, model: Model, record: Record, h: float, integrator: str,

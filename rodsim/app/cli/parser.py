@@ -260,12 +260,14 @@ def build_parser() -> argparse.ArgumentParser:
     move.add_argument("--output-dt", type=positive_seconds, metavar="DT",
                       help="spacing of the stored times [s] (default: every step)")
     move.add_argument("--step", type=positive_seconds, metavar="DT",
-                      help="longest time step [s] (default: 1/100 of the lowest natural "
-                      "period at the start)")
+                      help="longest time step [s] (midpoint, paper default: 1/100 of the "
+                      "lowest natural period at the start)")
     move.add_argument("--integrator", default="midpoint", metavar="NAME",
                       help="integrator of physical time: midpoint (default; fixed steps), "
-                      "ida (SUNDIALS IDA: adaptive BDF under error control) or cvode (SUNDIALS "
-                      "CVODE, the same on the explicit form: small rods)")
+                      "paper (the paper's semi-implicit Euler, Eqs. 14-17, with the physical "
+                      "masses: fixed steps, first order, numerically damped), ida (SUNDIALS "
+                      "IDA: adaptive BDF under error control) or cvode (SUNDIALS CVODE, the "
+                      "same on the explicit form: small rods)")
     move.add_argument("--rtol", type=float, metavar="R",
                       help="ida, cvode: relative tolerance (default 1e-5)")
     move.add_argument("--atol", type=float, metavar="A",

@@ -7,6 +7,8 @@ through a pseudo-time (rodsim/solvers/pseudo_dynamics.py): nothing here is regis
 
 - ``rodsim.solvers.physical.coordinates``: the physical velocities (node velocities and
   each segment's body angular velocity), the mass, the quaternion kinematics (Eq. 13).
+- ``rodsim.solvers.physical.fixed_step``: a fixed step's motion, outcome and failure, and
+  the Newton iteration on the velocities the fixed-step integrators share.
 - ``rodsim.solvers.physical.midpoint``: the implicit midpoint step, Newton on the
   model's analytic Jacobian.
 - ``rodsim.solvers.physical.trajectory``: the run to ``t_end``, output times, the

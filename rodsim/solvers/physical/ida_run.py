@@ -51,7 +51,7 @@ from rodsim.solvers.failure import SolverFailure
 from rodsim.solvers.physical.coordinates import model_state
 from rodsim.solvers.physical.dae import PhysicalDae
 from rodsim.solvers.physical.events import EventError, EventFunctions
-from rodsim.solvers.physical.midpoint import Motion
+from rodsim.solvers.physical.fixed_step import Motion
 from rodsim.solvers.physical.ode import PhysicalOde
 from rodsim.solvers.physical.trajectory import Record
 from rodsim.solvers.sundials_clock import Clock

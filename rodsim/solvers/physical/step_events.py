@@ -33,7 +33,7 @@ import numpy as np
 from rodsim.core.model import Model
 from rodsim.solvers.physical.coordinates import PhysicalCoordinates, velocity_rows
 from rodsim.solvers.physical.events import EventFunctions
-from rodsim.solvers.physical.midpoint import Motion
+from rodsim.solvers.physical.fixed_step import Motion
 
 __all__ = ["StepEvents", "TIME_TOLERANCE", "MAX_ITERATIONS"]
 

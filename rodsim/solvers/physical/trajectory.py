@@ -34,7 +34,7 @@ import numpy as np
 from rodsim.core.model import Model
 from rodsim.solvers.physical.coordinates import model_state
 from rodsim.solvers.physical.events import EventFunctions
-from rodsim.solvers.physical.midpoint import MidpointStep, Motion, StepFailure
+from rodsim.solvers.physical.fixed_step import FixedStep, Motion, StepFailure
 from rodsim.solvers.physical.step_events import StepEvents
 
 #: What a run is told at the end of every step: ``after_step(t, x, model)``, x the model's
@@ -89,7 +89,7 @@ def _potential(model: Model, x: np.ndarray) -> float:
     return model.energy(model_state(model, x))
 
 
-def _advance(model_at: Callable[[float], Model], stepper: MidpointStep, motion: Motion,
+def _advance(model_at: Callable[[float], Model], stepper: FixedStep, motion: Motion,
              t0: float, t1: float, halvings: int, after_step: AfterStep | None = None
              ) -> tuple[Motion, float, float, tuple[int, int, int]]:
     """One step from ``t0`` to ``t1``, or, if its Newton fails, two half steps (each halved
@@ -133,7 +133,7 @@ def _advance(model_at: Callable[[float], Model], stepper: MidpointStep, motion: 
     return outcome.motion, work, outcome.dissipated, (1, outcome.iterations, 0)
 
 
-def _restep(model_at: Callable[[float], Model], stepper: MidpointStep, start: Motion,
+def _restep(model_at: Callable[[float], Model], stepper: FixedStep, start: Motion,
             t0: float, counts: list[int]) -> Callable[[float], Motion]:
     """The state one step from ``start`` at ``t0`` to t reaches (halved as a step is, the
     friction's history left alone), for an event's root; its steps, Newton iterations and
@@ -148,7 +148,7 @@ def _restep(model_at: Callable[[float], Model], stepper: MidpointStep, start: Mo
     return restep
 
 
-def integrate(model_at: Callable[[float], Model], stepper: MidpointStep, start: Motion,
+def integrate(model_at: Callable[[float], Model], stepper: FixedStep, start: Motion,
               output_times: Sequence[float], step: float,
               progress: Callable[[float], None] | None = None,
               record: Record | None = None, after_step: AfterStep | None = None,
