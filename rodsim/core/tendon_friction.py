@@ -95,9 +95,9 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["MAX_FRICTION", "ONE_WAY", "SLIP_TIE", "bound_coefficients", "chord_tensions",
-           "slide_rates", "slip_states", "turning_angles", "weighted_chord_tensions",
-           "weighted_slide_rates"]
+__all__ = ["MAX_FRICTION", "ONE_WAY", "SLIP_NAMES", "SLIP_TIE", "bound_coefficients",
+           "chord_tensions", "slide_rates", "slip_states", "turning_angles",
+           "weighted_chord_tensions", "weighted_slide_rates"]
 
 #: |Θ_e − ψ_e| below which (relative to max(1, Θ_e)) the path up to chord e turns one way
 #: in one plane (Θ_e = ψ_e = ∠(d3, u_e)): round-off of the sum of turns.
@@ -115,6 +115,9 @@ SLIP_TIE = 1e-12
 
 #: Slip states of a routing point (:func:`slip_states`).
 SLIDING_IN, STUCK, SLIDING_OUT = -1.0, 0.0, 1.0
+
+#: Each slip state's name (the archives' CF ``flag_meanings``, docs/archive.md).
+SLIP_NAMES = {int(SLIDING_IN): "sliding_in", int(STUCK): "stuck", int(SLIDING_OUT): "sliding_out"}
 
 
 def _angle(a: np.ndarray, b: np.ndarray) -> np.ndarray:

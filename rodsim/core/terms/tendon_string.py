@@ -486,6 +486,17 @@ class TendonString(TendonTerm):
         s = self.points.s
         return 0.5 * (s[:-1] + s[1:]), self.chord_tensions(x)
 
+    def point_states(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
+        """(rest arc length of routing points 0 … P − 2 [m], the stick/slip state each has
+        at the equilibrium ``x``: ``slip_states`` against this term's history) with
+        friction; None without. Without stiction the state is not history and a point on
+        both bounds (no wrap up to it) reads as sliding in."""
+        if not self.rubs:
+            return None
+        return self.points.s[:-1], slip_states(
+            self.tension, self._mu_in, self._mu_out, self.turning_angles(x), self.profile,
+            self.state)
+
     def kernel_arguments(self) -> KernelArguments:
         pts = self.points
         return {"dofs": self.dofs, "weights": pts.weights, "constant": pts.constant,
