@@ -272,7 +272,9 @@ def simulate(scene: SceneLike | None, t_end: float, *, output_dt: float | None =
     initial_rates(model, PhysicalCoordinates.of(model, rest), rest, initial_velocity)
     x = _start_state(loaded, model, initial)
     if programs.path_dependent:
-        programs.carry_history(0.0, x)  # the start: at rest in the equilibrium it was left in
+        # The start: at rest in the equilibrium it was left in (x holds the coordinates
+        # themselves, the history is taken at the model's offsets from its rest state).
+        programs.carry_history(0.0, model_state(model, x))
     omega = math.nan
     if integrator != "midpoint":
         try:
