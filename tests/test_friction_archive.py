@@ -16,9 +16,11 @@ from __future__ import annotations
 import math
 
 import numpy as np
+from test_tendon_friction import LENGTH, catheter
 from test_tendon_stiction import TENSION, helix_scene, helix_turns
 
 import rodsim
+from rodsim.core.program import Table
 from rodsim.core.scene import Scene
 
 MU, NODES, T_MAX, T_MIN = 0.2, 11, 1e-3, 0.4e-3
@@ -101,3 +103,35 @@ def test_a_run_archive_holds_its_cold_states(tmp_path):
     assert "pulled in from slack" in stored.attrs["friction_history"]
     plain = rodsim.solve(Scene.from_dict(helix_scene(NODES, T_MAX)))
     assert "slip_state" not in run_content(plain).data_vars
+
+
+def test_a_trajectory_archive_holds_the_tensions_and_states_from_its_start():
+    """``simulate`` from the equilibrium at 3 N (the self-bent catheter, μ = 0.2) with the
+    tension held: the run stays in that equilibrium (its friction history is the cold
+    solve's), and its archive holds at every output time the cold solve's chord tensions
+    and every point sliding in. Released to 2.7 N, the points near the actuator slide out and
+    the rest stick (the quasi-static slip front, (T_max − T) EI/(2 μ T T_max ρ) = 0.094 m,
+    lies mid-way). Before the start's history was taken at the model's offsets, it was
+    computed with the free positions doubled and the held run moved (measured: 0.43 mm at
+    the tip in 0.01 s)."""
+    raw = catheter(NODES, 0.2, 3.0)
+    raw["rods"]["backbone"]["damping"] = {"retardation_time": 6e-3}
+    scene = Scene.from_dict(raw)
+    cold = rodsim.solve(scene)
+    held = rodsim.simulate(scene, 0.01, output_dt=0.005, step=2.5e-3,
+                           initial={TENSION: 3.0})
+    assert held.success, held.message
+    assert np.max(np.abs(held.positions[-1] - cold.positions())) < 1e-9 * LENGTH
+    ds = held.to_xarray()
+    assert ds["tension_profile"].dims == ("time", "chord")
+    np.testing.assert_allclose(ds["tension_profile"].values,
+                               np.tile(cold.tension_profiles["a"][1], (3, 1)), rtol=1e-9)
+    np.testing.assert_array_equal(ds["slip_state"].values, np.full((3, NODES - 1), -1))
+    assert "t = 0" in ds.attrs["friction_history"]
+    released = rodsim.simulate(scene, 0.02, output_dt=0.01, step=2.5e-3,
+                               initial={TENSION: 3.0},
+                               program={TENSION: Table((0.0, 0.02), (3.0, 2.7))})
+    assert released.success, released.message
+    last = released.to_xarray()["slip_state"].values[-1]
+    front = int(np.argmin(last == 1))
+    assert 0 < front < NODES - 1 and np.all(last[:front] == 1) and np.all(last[front:] == 0)
