@@ -102,6 +102,7 @@ from rodsim.core.tendon_friction import (
     SLIDING_IN,
     bound_coefficients,
     chord_tensions,
+    profile_coefficients,
     slide_rates,
     slip_states,
     turning_angles,
@@ -218,6 +219,8 @@ class TendonStringOptions(Options):
     stiffness: float = 0.0
     friction: float = 0.0
     friction_points: list[float] = field(default_factory=list)
+    friction_profile: list[float] = field(default_factory=list)
+    friction_profile_s: list[float] = field(default_factory=list)
     static_friction: float = 0.0
 
 
@@ -281,6 +284,14 @@ class TendonString(TendonTerm):
                   "a section boundary between nodes, the termination: one value each, in "
                   "order of arc length), overriding friction; [] (default): friction at "
                   "every point", 0.0, MAX_FRICTION),
+        Parameter("friction_profile", "vector", [], "-",
+                  "the kinetic μ as a function of arc length: its values at "
+                  "friction_profile_s, linear between them and constant beyond, whatever the "
+                  "discretisation; overrides friction; [] (default): not used",
+                  0.0, MAX_FRICTION),
+        Parameter("friction_profile_s", "vector", [], "m",
+                  "friction_profile's arc lengths on the catheter: increasing, within the "
+                  "tendon's [start, end]", 0.0, 100.0),
         Parameter("static_friction", "float", 0.0, "-",
                   "static μ_s >= the kinetic friction (or every friction_points value): a "
                   "point that stuck at the last equilibrium holds until the tension ratio "
@@ -302,11 +313,11 @@ class TendonString(TendonTerm):
                                  f"control = 'displacement'; allowed: set {prefix}.control = "
                                  "'displacement' (and no tension), or leave it unset")
         static = options.static_friction
-        kinetic = max(options.friction_points) if options.friction_points else (
-            options.friction)
+        listed = options.friction_points or options.friction_profile
+        kinetic = max(listed) if listed else options.friction
         if static != 0.0 and static < kinetic:
-            which = ("the largest friction_points value" if options.friction_points
-                     else "friction")
+            which = ("friction" if not listed else "the largest friction_points value"
+                     if options.friction_points else "the largest friction_profile value")
             raise SceneError(f"{prefix}.static_friction = {static!r}: smaller than the "
                              f"kinetic coefficient ({which} = {kinetic!r}); allowed: a number "
                              f">= {kinetic!r} and <= {MAX_FRICTION:g}, or 0 (μ_s = μ_k)")
@@ -338,6 +349,11 @@ class TendonString(TendonTerm):
                     f"s = {self.end:.6g} m); allowed: a list of {chords + 1} numbers, or "
                     "friction alone")
             self.kinetic = np.ascontiguousarray(values[:-1])
+        if options.friction_profile or options.friction_profile_s:
+            knots = _checked_profile(f"tendons.{tendon.name}.tendon_string", options,
+                                     self.start, self.end)
+            self.kinetic = np.ascontiguousarray(profile_coefficients(
+                knots, np.asarray(options.friction_profile), self.points.s))
         #: The static μ_s of every turn (rodsim/core/tendon_friction.py, "Per-point
         #: coefficients and stiction"): μ_k where static_friction is not set, (P − 1,).
         self.static = np.maximum(float(options.static_friction), self.kinetic)
@@ -345,7 +361,8 @@ class TendonString(TendonTerm):
         self.sticky = bool(np.any(self.static > self.kinetic))
         #: Whether the bounds take a coefficient per turn and side (friction_points, or
         #: stiction); otherwise the scalar μ: the uniform capstan's numbers, bitwise.
-        self.weighted = bool(options.friction_points) or self.sticky
+        self.weighted = (bool(options.friction_points) or bool(options.friction_profile)
+                         or self.sticky)
         #: The chord tensions τ_old of the last converged equilibrium [N], (P − 1,): the
         #: friction's history. At first 0: pulled in from slack, monotonically.
         self.profile = np.zeros(chords)
@@ -616,6 +633,31 @@ class TendonString(TendonTerm):
         gradient = rate[:, None] * np.einsum("em,emk->ek", slope, jd)
         unit_force = -np.einsum("emk,em->ek", jd, u)
         return unit_force[:, :, None] * gradient[:, None, :]
+
+
+def _checked_profile(prefix: str, options: TendonStringOptions, start: float,
+                     end: float) -> np.ndarray:
+    """``friction_profile_s`` as an array, after the checks a friction profile needs
+    (SceneError, one line): as many arc lengths as values, increasing, within the tendon's
+    [start, end], and no ``friction_points`` beside it."""
+    values, s = options.friction_profile, np.asarray(options.friction_profile_s, dtype=float)
+    if options.friction_points:
+        raise SceneError(f"{prefix}.friction_profile and friction_points are both set; "
+                         "allowed: one of them (a μ per arc length, or per routing point)")
+    if len(values) != len(s) or not len(s):
+        raise SceneError(f"{prefix}.friction_profile has {len(values)} values and "
+                         f"friction_profile_s {len(s)} arc lengths; allowed: as many of each, "
+                         "at least one")
+    if np.any(np.diff(s) <= 0.0):
+        raise SceneError(f"{prefix}.friction_profile_s = {options.friction_profile_s!r}: "
+                         "not increasing; allowed: arc lengths each larger than the one "
+                         "before [m]")
+    slack = 1e-9 * max(end, 1.0)
+    if s[0] < start - slack or s[-1] > end + slack:
+        raise SceneError(f"{prefix}.friction_profile_s = {options.friction_profile_s!r}: "
+                         f"outside the tendon; allowed: arc lengths within its span "
+                         f"[{start:.6g}, {end:.6g}] m (start, end)")
+    return s
 
 
 def split_at_breaks(terms: Sequence[object]) -> None:
