@@ -75,7 +75,8 @@ coordinates. So the Jacobian is exact on such paths (Newton converges quadratica
 the frozen-tension one elsewhere (3-D or S-shaped paths, a moving entry: linearly, at a
 rate of order μ); the term is not conservative (no energy) and the stability verdict
 takes the non-symmetric path. With μ = 0 every τ_e is T and nothing of this runs: the
-frictionless numbers, bitwise. ``friction_points`` (a μ per routing point) and
+frictionless numbers, bitwise. ``friction_points`` (a μ per routing point),
+``friction_profile`` (μ along the arc length, a mean per routing point's stretch) and
 ``static_friction`` (μ_s > μ_k: a stick/slip state per point, carried with the tensions as
 the anchors; ``TendonString.freed`` for a breakaway within a step) take the weighted
 bounds of rodsim/core/tendon_friction.py ("Per-point coefficients and stiction"); the
@@ -293,7 +294,8 @@ class TendonString(TendonTerm):
                   "friction_profile's arc lengths on the catheter: increasing, within the "
                   "tendon's [start, end]", 0.0, 100.0),
         Parameter("static_friction", "float", 0.0, "-",
-                  "static μ_s >= the kinetic friction (or every friction_points value): a "
+                  "static μ_s >= the kinetic friction (every friction_points or "
+                  "friction_profile value): a "
                   "point that stuck at the last equilibrium holds until the tension ratio "
                   "over it exceeds e^(μ_s θ); 0 (default): μ_s = μ_k", 0.0, MAX_FRICTION),
     )
