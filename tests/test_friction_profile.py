@@ -191,3 +191,26 @@ def test_bad_profiles_exit_2_on_the_command_line(tmp_path, capsys, cli):
         code = cli(argv)
         err = capsys.readouterr().err.strip()
         assert code == 2 and "\n" not in err and key in err, err
+
+
+def test_a_profile_takes_stiction_as_friction_points_do():
+    """With ``static_friction`` the profile's per-point μ̄_j are the kinetic coefficients of
+    the stick/slip law: released in one step from T_max on the rigid helix, the termination
+    holds iff T_1 ≥ T_max e^{−2W − (μ_s − μ̄_last) θ_last}, W = Σ μ̄_j θ_j with the helix's
+    closed-form turns (docs/tendon.md, "Stiction"), tested 0.2 % either side."""
+    from test_tendon_stiction import TENSION, helix_turns
+
+    nodes, t_max, static = 11, 1e-3, 0.6
+    knots, values = [0.0, 0.04, 0.1], [0.1, 0.45, 0.25]
+    data = helix_scene(nodes, t_max, friction_profile=values, friction_profile_s=knots,
+                       static_friction=static)
+    term = string_term(Model(Scene.from_dict(data)))
+    mu = profile_coefficients(np.array(knots), np.array(values), term.points.s)
+    np.testing.assert_array_equal(term.kinetic, mu)
+    turns = helix_turns(nodes)
+    edge = t_max * math.exp(-2 * float(mu @ turns) - (static - mu[-1]) * turns[-1])
+    for factor, held in ((1.002, True), (0.998, False)):
+        track = rodsim.track(Scene.from_dict(data), {TENSION: [t_max, edge * factor]})
+        assert track.success, track.message
+        assert (track.tension[-1][-1] == track.tension[0][-1]) == held, factor
+        assert track.slip[-1][-1] == (0.0 if held else 1.0)
