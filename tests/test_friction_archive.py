@@ -87,7 +87,14 @@ def test_a_track_archive_holds_the_slip_states_of_the_hysteresis_loop(tmp_path, 
     np.testing.assert_array_equal(np.array(again.slip), slip.values)
     np.testing.assert_array_equal(np.array(again.tension), stored["tension_profile"].values)
     assert cli(["rerun", str(path), "--tolerance", "0"]) == 0
-    assert "largest difference from the stored centerlines: 0 m" in capsys.readouterr().out
+    out = capsys.readouterr().out
+    assert "largest difference from the stored centerlines: 0 m" in out
+    assert f"stick/slip states: 0 of {expected.size} differ" in out
+    tampered = stored.load().copy(deep=True)
+    tampered["slip_state"].values[7, -1] = 0
+    write_dataset(tampered, tmp_path / "tampered.nc")
+    assert cli(["rerun", str(tmp_path / "tampered.nc")]) == 0
+    assert f"stick/slip states: 1 of {expected.size} differ" in capsys.readouterr().out
 
 
 def test_a_run_archive_holds_its_cold_states(tmp_path):
