@@ -370,7 +370,7 @@ def test_user_robots_with_stiction_widen_the_loop_and_pull_as_before(seed):
 def test_simulate_carries_the_stick_slip_state():
     """A run in physical time released from 3 N to 2.4 N in 0.03 s (the self-bent catheter,
     N = 11, damped): with μ_s = μ_k it is the kinetic run bitwise; with μ_s = 0.5 (points
-    that stop while the catheter moves must break loose again) it ends 51 µm (2.6e-4 L) from
+    that stop while the catheter moves must break loose again) it ends 37 µm (1.8e-4 L) from
     the kinetic run, where one track step from 3 to 2.4 N ends on the kinetic shape (7e-13 m:
     the same points break loose, the held ones keep their tensions either way)."""
     def run(static: float) -> np.ndarray:

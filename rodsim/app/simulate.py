@@ -30,6 +30,7 @@ from rodsim.app.initial_velocity import VelocityLike, initial_rates, velocity_te
 from rodsim.app.interrupted import Interrupted
 from rodsim.app.programs import Program, Programs, check_programs
 from rodsim.core.damping import Damping
+from rodsim.core.friction_record import FrictionRecord, friction_record
 from rodsim.core.inertia import mass_factor
 from rodsim.core.model import Model
 from rodsim.core.program import ProgramEntry
@@ -123,6 +124,10 @@ class Simulation:
     initial: str = "rest state"
     #: (time [s], name) of every event found, in time order (docs/dynamics.md, "Events").
     events: tuple[tuple[float, str], ...] = ()
+    #: With tendon friction: each tendon's chord tensions and the stick/slip states of its
+    #: routing points at the output times (``FrictionRecord`` fields with a leading time
+    #: axis; docs/dynamics.md, "Friction in physical time"); None without.
+    friction: FrictionRecord | None = None
 
     @property
     def energy_error(self) -> np.ndarray:
@@ -191,7 +196,7 @@ class Simulation:
             self.scene, rods, self.times, self.positions, self.quaternions, energies,
             self.success, self.message, self.t_end, self.integrator, self.step, stats,
             {key: entry.archived() for key, entry in self.program.items()}, self.initial,
-            self.events))
+            self.events, self.friction))
 
 
 def _start_state(scene: Scene, model: Model, initial: Mapping[str, Any] | Result | None
@@ -327,8 +332,6 @@ def simulate(scene: SceneLike | None, t_end: float, *, output_dt: float | None =
     rest = physical_state(model, model.x0)  # the velocity's length checked before any work
     initial_rates(model, PhysicalCoordinates.of(model, rest), rest, initial_velocity)
     x = _start_state(loaded, model, initial)
-    if programs.path_dependent:
-        programs.carry_history(0.0, x)  # the start: at rest in the equilibrium it was left in
     omega = math.nan
     if integrator not in FIXED_STEP:
         try:
@@ -341,6 +344,11 @@ def simulate(scene: SceneLike | None, t_end: float, *, output_dt: float | None =
     spacing = float(output_dt) if output_dt is not None else h
     count = max(1, math.ceil(float(t_end) / spacing * (1.0 - 1e-12)))
     outputs = np.minimum(np.arange(count + 1) * spacing, float(t_end))
+    friction = FrictionTrace(programs, outputs)
+    if programs.path_dependent:
+        # The start: at rest in the equilibrium it was left in (x holds the coordinates
+        # themselves, the history is taken at the model's offsets from its rest state).
+        friction.after_step(0.0, model_state(model, x), None)
     coordinates = PhysicalCoordinates.of(model, x)
     length = max(rod.options.length for rod in model.rods.values())
     stepper = (SemiImplicitEulerStep if integrator == "paper" else MidpointStep)(
@@ -358,7 +366,7 @@ def simulate(scene: SceneLike | None, t_end: float, *, output_dt: float | None =
                           progress, record, integrator, watched)
         else:
             integrate(programs.model_at, stepper, start, outputs, h, progress, record,
-                      programs.carry_history if programs.path_dependent else None, watched)
+                      friction.after_step if programs.path_dependent else None, watched)
     except KeyboardInterrupt:  # Ctrl-C or SIGTERM: what was computed, marked incomplete
         done = min(len(record.times), len(record.states), len(record.kinetic),
                    len(record.potential), len(record.dissipated), len(record.work))
@@ -373,7 +381,7 @@ def simulate(scene: SceneLike | None, t_end: float, *, output_dt: float | None =
                           "it are kept)")
         partial = _simulation(loaded, model, record, _step_of(record, h, integrator),
                               integrator, float(t_end), programs.by_name, initial,
-                              initial_velocity)
+                              initial_velocity, friction)
         raise Interrupted(partial, record.message) from None
     except EventError as exc:  # a user's event function failed part-way
         if not record.times:
@@ -389,7 +397,51 @@ def simulate(scene: SceneLike | None, t_end: float, *, output_dt: float | None =
                           f"programs' values break a rule before the next ({exc}); the "
                           "outputs up to it are kept")
     return _simulation(loaded, model, record, _step_of(record, h, integrator), integrator,
-                       float(t_end), programs.by_name, initial, initial_velocity)
+                       float(t_end), programs.by_name, initial, initial_velocity, friction)
+
+
+class FrictionTrace:
+    """Friction's history carried from step to step (``Programs.carry_history``), and the
+    tendons' friction state (``friction_record``) kept at the output times."""
+
+    def __init__(self, programs: Programs, outputs: np.ndarray) -> None:
+        self.programs = programs
+        self.outputs = {float(t) for t in outputs}
+        self.kept: dict[float, FrictionRecord] = {}
+        #: The last step's end (t, history, free state): a terminal event's time, which is
+        #: no output time, reads its state from it.
+        self.latest: tuple[float, Model, np.ndarray] | None = None
+
+    def after_step(self, t: float, x: np.ndarray, solved: Model | None) -> None:
+        """``integrate``'s ``after_step``: carry the history; at an output time, keep the
+        friction state of ``x`` (free state) with the step's history."""
+        end = self.programs.carry_history(t, x, solved)
+        if end is not None:
+            self.latest = (t, end, x.copy())
+        if end is not None and t in self.outputs:
+            found = friction_record(end, end.full(x))
+            if found is not None:
+                self.kept[t] = found
+
+    def at(self, times: Sequence[float]) -> FrictionRecord | None:
+        """The states kept at ``times`` stacked along a leading time axis; None without
+        tendon friction."""
+        if not self.kept or not len(times):
+            return None
+        kept = [self.kept[float(t)] if float(t) in self.kept else self._latest_at(float(t))
+                for t in times]
+        return FrictionRecord(kept[0].chords, np.array([k.tension for k in kept]),
+                              kept[0].points, np.array([k.slip for k in kept]))
+
+
+    def _latest_at(self, t: float) -> FrictionRecord:
+        """The friction state at the last step's end ``t`` (a terminal event's time)."""
+        if self.latest is None or self.latest[0] != t:
+            raise KeyError(f"no friction state kept at t = {t} s")
+        _, end, x = self.latest
+        found = friction_record(end, end.full(x))
+        assert found is not None
+        return found
 
 
 def _step_of(record: Record, h: float, integrator: str) -> float:
@@ -402,8 +454,9 @@ def _simulation(loaded: Scene, model: Model, record: Record, h: float, integrato
                 t_end: float, programs: dict[str, ProgramEntry],
                 initial: Mapping[str, Any] | Result | None,
                 initial_velocity: VelocityLike | None = None,
-             events: Sequence[EventLike] = ()) -> Simulation:
-    """The ``Simulation`` of what ``record`` holds."""
+                friction: FrictionTrace | None = None) -> Simulation:
+    """The ``Simulation`` of what ``record`` holds (with ``friction``'s tensions and
+    stick/slip states at its times)."""
     states = np.array(record.states)
     full = np.array([model.full(model_state(model, state)) for state in states])
     positions = np.concatenate([full[:, model.rods[name].layout.position_index]
@@ -420,4 +473,5 @@ def _simulation(loaded: Scene, model: Model, record: Record, h: float, integrato
                       integrator, record.steps, record.iterations, record.halvings,
                       tuple(model.rods), states, t_end, programs,
                       _initial_text(initial) + velocity_text(initial_velocity),
-                      tuple(record.events))
+                      tuple(record.events),
+                      friction.at(record.times) if friction is not None else None)

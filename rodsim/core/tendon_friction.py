@@ -87,6 +87,17 @@ profile point e breaks iff T_1 < T_max e^{−2μ_kΘ_e − (μ_s−μ_k)θ_e} wh
 state at an equilibrium is read off the chords (``slip_states``). μ_s = μ_k and one μ
 keep the functions above: the same numbers bitwise.
 
+A μ per arc length (``friction_profile``; docs/tendon.md). The user's μ(s) is a function
+of the catheter's arc length, piecewise linear, and the continuum's wrap is
+W(s) = ∫ μ(s′) |κ(s′)| ds′ along the path (capstan: T_out = T_in e^{−W}). The turn θ_j at
+point j lumps the path's wrap between the neighbouring chords' midpoints m_{j−1}, m_j,
+so point j takes the mean of μ over [m_{j−1}, m_j]: Σ_j μ̄_j θ_j differs from ∫ μ |κ| ds by
+O(h²) per unit length for a smooth κ (the covariance of μ and κ over a cell is O(h³)),
+also where μ has a kink or a jump inside a cell. The entry's turn is mostly the abrupt one
+at s_0 (from the axis to the path's tangent) and takes μ(s_0); its half chord of wrap then
+carries an O(h) error in μ over O(h) of wrap: O(h²). So the discrete wrap converges to the
+continuum's at second order whatever N, where a μ per routing point changes meaning with N.
+
 These are the numpy reference's functions; the compiled kernel
 (rodsim/core/kernels/tendon_string.py) evaluates the same formulas.
 """
@@ -95,9 +106,9 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["MAX_FRICTION", "ONE_WAY", "SLIP_TIE", "bound_coefficients", "chord_tensions",
-           "slide_rates", "slip_states", "turning_angles", "weighted_chord_tensions",
-           "weighted_slide_rates"]
+__all__ = ["MAX_FRICTION", "ONE_WAY", "SLIP_NAMES", "SLIP_TIE", "bound_coefficients",
+           "chord_tensions", "profile_coefficients", "slide_rates", "slip_states", "turning_angles",
+           "weighted_chord_tensions", "weighted_slide_rates"]
 
 #: |Θ_e − ψ_e| below which (relative to max(1, Θ_e)) the path up to chord e turns one way
 #: in one plane (Θ_e = ψ_e = ∠(d3, u_e)): round-off of the sum of turns.
@@ -115,6 +126,9 @@ SLIP_TIE = 1e-12
 
 #: Slip states of a routing point (:func:`slip_states`).
 SLIDING_IN, STUCK, SLIDING_OUT = -1.0, 0.0, 1.0
+
+#: Each slip state's name (the archives' CF ``flag_meanings``, docs/archive.md).
+SLIP_NAMES = {int(SLIDING_IN): "sliding_in", int(STUCK): "stuck", int(SLIDING_OUT): "sliding_out"}
 
 
 def _angle(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -182,6 +196,28 @@ def chord_tensions(tension: float, friction: float, theta: np.ndarray,
     wrap = np.cumsum(theta)
     return np.minimum(np.maximum(profile, tension * np.exp(-friction * wrap)),
                       tension * np.exp(friction * wrap))
+
+
+def _profile_integral(knots: np.ndarray, values: np.ndarray, s: np.ndarray) -> np.ndarray:
+    """∫_{knots[0]}^{s} μ of the piecewise-linear μ through (``knots``, ``values``), held
+    constant beyond the first and the last knot (negative for s before the first)."""
+    cumulative = np.concatenate([[0.0], np.cumsum(np.diff(knots)
+                                                  * 0.5 * (values[1:] + values[:-1]))])
+    k = np.clip(np.searchsorted(knots, s, side="right") - 1, 0, len(knots) - 1)
+    return cumulative[k] + (s - knots[k]) * 0.5 * (values[k] + np.interp(s, knots, values))
+
+
+def profile_coefficients(knots: np.ndarray, values: np.ndarray, s: np.ndarray) -> np.ndarray:
+    """The kinetic μ of each turn θ_0 … θ_{P−2} of the routing points at arc lengths ``s``
+    (P,) from a friction profile μ(s), piecewise linear through (``knots``, ``values``)
+    (module docstring, "A μ per arc length"): μ(s_0) at the entry, and at point j the mean
+    of μ over [m_{j−1}, m_j], m the chords' midpoints."""
+    knots = np.asarray(knots, dtype=float)
+    values = np.asarray(values, dtype=float)
+    middles = 0.5 * (s[1:] + s[:-1])
+    integral = _profile_integral(knots, values, middles)
+    entry = np.interp(s[:1], knots, values)
+    return np.concatenate([entry, np.diff(integral) / np.diff(middles)])
 
 
 def bound_coefficients(kinetic: np.ndarray, static: float, state: np.ndarray

@@ -21,6 +21,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from rodsim.core.scene import Scene, SceneError
+from rodsim.core.tendon_friction import SLIP_NAMES
 from rodsim.io.cf_layout import key_variable
 from rodsim.io.provenance import CONVENTIONS
 
@@ -440,6 +441,12 @@ def _check_layout(ds: xr.Dataset, leading: tuple[str, ...]) -> None:
         _variable(ds, "tension_profile", (*leading, "chord"))
         _variable(ds, "chord_s", ("chord",))
         _variable(ds, "chord_tendon", ("chord",), numeric=False)
+    if "slip_state" in ds.variables:
+        states = _variable(ds, "slip_state", (*leading, "chord")).values
+        _variable(ds, "chord_point_s", ("chord",))
+        if not np.all(np.isin(states, list(SLIP_NAMES))):
+            raise ArchiveSchemaError("variable 'slip_state' holds a value other than "
+                                     + ", ".join(str(v) for v in SLIP_NAMES))
 
 
 def _check_study(ds: xr.Dataset) -> None:

@@ -14,6 +14,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from rodsim.core.tendon_friction import SLIP_NAMES
 from rodsim.io.archive_content import ArchiveContent
 from rodsim.io.archive_schema import SCHEMA_VERSION
 from rodsim.io.provenance import archive_attributes
@@ -22,8 +23,9 @@ from rodsim.solvers.result import Result
 if TYPE_CHECKING:
     import xarray as xr
 
-__all__ = ["FRICTION_HISTORY", "contact_variables", "run_content", "run_dataset", "self_crossings",
-           "step_coordinate", "tension_coordinates", "tension_variable"]
+__all__ = ["FRICTION_HISTORY", "contact_variables", "run_content", "run_dataset",
+           "self_crossings", "slip_variables", "step_coordinate", "tension_coordinates",
+           "tension_variable"]
 
 #: The history a solve from rest assumes for tendon friction (rodsim/core/tendon_friction.py).
 FRICTION_HISTORY = ("tendons pulled in from slack to their tension, monotonically (the "
@@ -89,6 +91,13 @@ def run_content(result: Result) -> ArchiveContent:
             {name: s for name, (s, _) in profiles.items()}))
         content.data_vars.update(tension_variable(
             np.concatenate([tension for _, tension in profiles.values()]), ()))
+    if result.point_states:
+        points = result.point_states
+        coords, data = slip_variables({name: s for name, (s, _) in points.items()},
+                                      np.concatenate([state for _, state in points.values()]),
+                                      ())
+        content.coords.update(coords)
+        content.data_vars.update(data)
     content.attrs.update(_attributes(result))
     return content
 
@@ -112,6 +121,24 @@ def tension_variable(tension: np.ndarray, leading: tuple[str, ...]) -> dict[str,
     return {"tension_profile": ((*leading, "chord"), tension,
                                 {"units": "N", "long_name": "tendon tension along its path "
                                  "(friction), one value per chord"})}
+
+
+def slip_variables(points: dict[str, np.ndarray], states: np.ndarray,
+                   leading: tuple[str, ...]) -> tuple[dict[str, Any], dict[str, Any]]:
+    """(coordinates, variables) of the stick/slip states of the tendons with friction: the
+    coordinate ``chord_point_s`` (rest arc length of the routing point at each chord's
+    start, whose turn the state is about) and the variable ``slip_state``
+    (*leading, chord), int8 with the CF ``flag_values`` / ``flag_meanings`` of
+    ``SLIP_NAMES`` (rodsim/core/tendon_friction.py)."""
+    return ({"chord_point_s": (("chord",), np.concatenate(list(points.values())),
+                               {"units": "m", "long_name": "rest arc length of the routing "
+                                "point at the tendon chord's start"})},
+            {"slip_state": ((*leading, "chord"), np.asarray(states).astype(np.int8),
+                            {"long_name": "stick/slip state of the routing point at the "
+                             "chord's start (friction): the tendon sliding in over it "
+                             "(toward the actuator), stuck, or sliding out",
+                             "flag_values": np.array(list(SLIP_NAMES), dtype=np.int8),
+                             "flag_meanings": " ".join(SLIP_NAMES.values())})})
 
 
 def _contact_variables(result: Result) -> dict[str, Any]:

@@ -8,7 +8,8 @@ Coordinate ``time`` [s] (the output times); ``position`` (time, node, axis) and
 ``dissipated_energy`` and ``work`` along ``time`` [J]. Attributes: ``kind`` =
 ``trajectory``, the provenance, ``success``, ``complete`` (0: the run stopped before
 ``t_end``; the times it reached are kept) and ``message``, ``t_end``, the scene, the
-programs and the starting values.
+programs and the starting values. With tendon friction, as a track's archive per step:
+``tension_profile`` and ``slip_state`` (time, chord) and the attribute ``friction_history``.
 """
 
 from __future__ import annotations
@@ -23,9 +24,17 @@ import numpy as np
 from rodsim.core.scene import Scene
 from rodsim.io.archive_schema import SCHEMA_VERSION
 from rodsim.io.provenance import archive_attributes
+from rodsim.io.run_dataset import (
+    FRICTION_HISTORY,
+    slip_variables,
+    tension_coordinates,
+    tension_variable,
+)
 
 if TYPE_CHECKING:
     import xarray as xr
+
+    from rodsim.core.friction_record import FrictionRecord
 
 __all__ = ["TrajectoryRecord", "trajectory_dataset"]
 
@@ -63,6 +72,10 @@ class TrajectoryRecord:
     initial: str
     #: (time [s], name) of each event found (docs/dynamics.md, "Events").
     events: Sequence[tuple[float, str]] = ()
+    #: With tendon friction: the chord tensions and the routing points' stick/slip states
+    #: at each output time (``rodsim.core.friction_record.FrictionRecord`` with a leading
+    #: time axis).
+    friction: FrictionRecord | None = None
 
 
 def trajectory_dataset(record: TrajectoryRecord) -> xr.Dataset:
@@ -105,6 +118,13 @@ def trajectory_dataset(record: TrajectoryRecord) -> xr.Dataset:
     data["event_name"] = ("event", np.array([e for _, e in record.events], dtype=str),
                           {"long_name": "what happened (contact onset: rod on obstacle; "
                            "tendon slack: tendon)"})
+    friction = record.friction
+    if friction is not None:
+        coords.update(tension_coordinates(friction.chords))
+        data.update(tension_variable(friction.tension, ("time",)))
+        point_coords, slip_data = slip_variables(friction.points, friction.slip, ("time",))
+        coords.update(point_coords)
+        data.update(slip_data)
     ds = xr.Dataset(data_vars=data, coords=coords)
     name = record.scene.name
     reached = float(record.times[-1]) if len(record.times) else 0.0
@@ -126,6 +146,9 @@ def trajectory_dataset(record: TrajectoryRecord) -> xr.Dataset:
         "scene_json": record.scene.to_json(),
         "scene_toml": record.scene.source,
     })
+    if friction is not None:
+        ds.attrs["friction_history"] = (f"t = 0: the start's equilibrium, {FRICTION_HISTORY}; "
+                                        "then each time step from the one before")
     for key, value in record.stats.items():
         ds.attrs[f"stats_{key}"] = float(value)
     return ds

@@ -103,6 +103,9 @@ class Result:
     #: With friction (rodsim/core/tendon_friction.py): each such tendon's (rest arc length of
     #: each chord's midpoint [m], chord tension [N]), actuator first.
     tension_profiles: dict[str, tuple[np.ndarray, np.ndarray]] = field(default_factory=dict)
+    #: With friction: each such tendon's (rest arc length of the routing point at each
+    #: chord's start [m], its stick/slip state: −1 sliding in, 0 stuck, +1 sliding out).
+    point_states: dict[str, tuple[np.ndarray, np.ndarray]] = field(default_factory=dict)
 
     @classmethod
     def from_model(cls, model: Model, x: np.ndarray, *, integrator: str,
@@ -121,6 +124,7 @@ class Result:
             k: float(v) for k, v in stats.items() if k not in STAT_DOCS}
         tensions = {}
         profiles = {}
+        slips = {}
         for term in model.terms:
             if isinstance(term, TendonTerm):
                 tension = term.tension_outcome(full)
@@ -129,10 +133,13 @@ class Result:
                 profile = term.tension_profile(full)
                 if profile is not None:
                     profiles[term.tendon.name] = profile
+                states = term.point_states(full)
+                if states is not None:
+                    slips[term.tendon.name] = states
         return cls(model.scene, integrator, dict(options), success, message, residual, stats,
                    rods, np.array(x, dtype=float), history, history_time=history_time,
                    stability=stability, tendon_tension=tensions, tension_profiles=profiles,
-                   trajectory=trajectory)
+                   point_states=slips, trajectory=trajectory)
 
     def positions(self, rod: str | None = None) -> np.ndarray:
         """Control points of ``rod`` (default: the first rod), shape (N, 3) [m]."""

@@ -72,8 +72,21 @@ def _rerun_track(dataset, args: argparse.Namespace) -> int:
         print(f"rodsim: solver failure on rerun: {again.message}", file=sys.stderr)
         return EXIT_SOLVER_FAILURE
     print(f"track       {again.scene.name}: re-ran {again.steps} steps")
+    if "slip_state" in dataset.variables:
+        _slip_line(dataset["slip_state"].values, again.slip)
     length = max(rod.length for rod in again.model.rods.values())
     return rerun_verdict("centerlines", difference, length, args.tolerance)
+
+
+def _slip_line(stored, slip: list) -> None:
+    """How many of a track archive's stick/slip states (docs/tendon.md, "Friction") the
+    re-run gives otherwise: a point exactly at its edge may flip with round-off, so this is
+    told, not judged (the centerlines are)."""
+    import numpy as np
+
+    again = np.array(slip)[:len(stored)]
+    differ = int(np.sum(again != stored)) if again.shape == stored.shape else stored.size
+    print(f"rerun       stick/slip states: {differ} of {stored.size} differ from the stored")
 
 
 def _rerun_study(dataset, args: argparse.Namespace) -> int:

@@ -60,6 +60,7 @@ from rodsim.io.provenance import archive_attributes
 from rodsim.io.run_dataset import (
     FRICTION_HISTORY,
     contact_variables,
+    slip_variables,
     step_coordinate,
     tension_coordinates,
     tension_variable,
@@ -104,6 +105,11 @@ class Track:
     #: step, and each such tendon's chords (rest arc lengths of their midpoints [m]).
     tension: list[np.ndarray] = field(default_factory=list)
     chords: dict[str, np.ndarray] = field(default_factory=dict)
+    #: With tendon friction: the stick/slip state of the routing point at each chord's start
+    #: (−1 sliding in, 0 stuck, +1 sliding out), (chords,) per step, and each such tendon's
+    #: points (their rest arc lengths [m]).
+    slip: list[np.ndarray] = field(default_factory=list)
+    points: dict[str, np.ndarray] = field(default_factory=dict)
     success: bool = True
     message: str = "converged"
     failed_step: int | None = None
@@ -133,7 +139,7 @@ class Track:
                                     self.halvings, self.times, self.stable,
                                     self.min_eigenvalues]
         done = min(len(r) for r in records)
-        for r in [*records, *(r for r in (self.contact, self.tension) if r)]:
+        for r in [*records, *(r for r in (self.contact, self.tension, self.slip) if r)]:
             del r[done:]
 
     @property
@@ -247,6 +253,11 @@ class Track:
         if self.tension:
             coords.update(tension_coordinates(self.chords))
             data.update(tension_variable(np.array(self.tension), ("step",)))
+        if self.slip:
+            point_coords, slip_data = slip_variables(self.points, np.array(self.slip),
+                                                     ("step",))
+            coords.update(point_coords)
+            data.update(slip_data)
         ds = xr.Dataset(data_vars=data, coords=coords)
         warm = np.asarray(self.times[1:])
         ds.attrs.update({

@@ -1,6 +1,6 @@
 """What a track records of each step (rodsim/app/inverse/track.py): the contact forces, the
-tension profiles of tendons with friction, the stability verdict, and the step's values as
-text for its messages."""
+tension profiles of tendons with friction and their points' stick/slip states, the
+stability verdict, and the step's values as text for its messages."""
 
 from __future__ import annotations
 
@@ -10,9 +10,9 @@ from typing import Protocol
 import numpy as np
 
 from rodsim.app.inverse.parameter_keys import NumericKey
+from rodsim.core.friction_record import friction_record
 from rodsim.core.model import Model
 from rodsim.core.stability import Stability
-from rodsim.core.terms.base import TendonTerm
 from rodsim.core.terms.contact import contact_forces
 
 __all__ = ["TrackRecord", "record_contact", "record_stability", "values_text"]
@@ -34,23 +34,22 @@ class TrackRecord(Protocol):
     unstable_step: int | None
     tension: list[np.ndarray]
     chords: dict[str, np.ndarray]
+    slip: list[np.ndarray]
+    points: dict[str, np.ndarray]
 
 
 def record_contact(out: TrackRecord, model: Model) -> None:
-    """The step's contact forces and, with tendon friction, its tension profiles (from the
-    step's own model: its friction anchors)."""
+    """The step's contact forces and, with tendon friction, its tension profiles and the
+    stick/slip states of the routing points (from the step's own model: its friction
+    anchors)."""
     force = contact_forces(model, out.states[-1])
     if force is not None:
         out.contact.append(force)
-    profiles = {}
-    for term in model.terms:
-        if isinstance(term, TendonTerm):
-            profile = term.tension_profile(out.states[-1])
-            if profile is not None:
-                profiles[term.tendon.name] = profile
-    if profiles:
-        out.chords = {name: s for name, (s, _) in profiles.items()}
-        out.tension.append(np.concatenate([tension for _, tension in profiles.values()]))
+    friction = friction_record(model, out.states[-1])
+    if friction is not None:
+        out.chords, out.points = friction.chords, friction.points
+        out.tension.append(friction.tension)
+        out.slip.append(friction.slip)
 
 
 def record_stability(out: TrackRecord, step: int, stability: Stability,

@@ -369,3 +369,9 @@ class TendonTerm(Term):
         whose tension varies along its path (a string with friction) at the full state
         ``x``; None when it is one number."""
         return None
+
+    def point_states(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
+        """(rest arc length of the routing point at the start of each chord [m], the
+        stick/slip state of that point at the full state ``x``: −1 sliding in, 0 stuck,
+        +1 sliding out) along a tendon with friction; None without."""
+        return None

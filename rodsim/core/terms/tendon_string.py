@@ -75,7 +75,8 @@ coordinates. So the Jacobian is exact on such paths (Newton converges quadratica
 the frozen-tension one elsewhere (3-D or S-shaped paths, a moving entry: linearly, at a
 rate of order μ); the term is not conservative (no energy) and the stability verdict
 takes the non-symmetric path. With μ = 0 every τ_e is T and nothing of this runs: the
-frictionless numbers, bitwise. ``friction_points`` (a μ per routing point) and
+frictionless numbers, bitwise. ``friction_points`` (a μ per routing point),
+``friction_profile`` (μ along the arc length, a mean per routing point's stretch) and
 ``static_friction`` (μ_s > μ_k: a stick/slip state per point, carried with the tensions as
 the anchors; ``TendonString.freed`` for a breakaway within a step) take the weighted
 bounds of rodsim/core/tendon_friction.py ("Per-point coefficients and stiction"); the
@@ -102,6 +103,7 @@ from rodsim.core.tendon_friction import (
     SLIDING_IN,
     bound_coefficients,
     chord_tensions,
+    profile_coefficients,
     slide_rates,
     slip_states,
     turning_angles,
@@ -218,6 +220,8 @@ class TendonStringOptions(Options):
     stiffness: float = 0.0
     friction: float = 0.0
     friction_points: list[float] = field(default_factory=list)
+    friction_profile: list[float] = field(default_factory=list)
+    friction_profile_s: list[float] = field(default_factory=list)
     static_friction: float = 0.0
 
 
@@ -281,8 +285,17 @@ class TendonString(TendonTerm):
                   "a section boundary between nodes, the termination: one value each, in "
                   "order of arc length), overriding friction; [] (default): friction at "
                   "every point", 0.0, MAX_FRICTION),
+        Parameter("friction_profile", "vector", [], "-",
+                  "the kinetic μ as a function of arc length: its values at "
+                  "friction_profile_s, linear between them and constant beyond, whatever the "
+                  "discretisation; overrides friction; [] (default): not used",
+                  0.0, MAX_FRICTION),
+        Parameter("friction_profile_s", "vector", [], "m",
+                  "friction_profile's arc lengths on the catheter: increasing, within the "
+                  "tendon's [start, end]", 0.0, 100.0),
         Parameter("static_friction", "float", 0.0, "-",
-                  "static μ_s >= the kinetic friction (or every friction_points value): a "
+                  "static μ_s >= the kinetic friction (every friction_points or "
+                  "friction_profile value): a "
                   "point that stuck at the last equilibrium holds until the tension ratio "
                   "over it exceeds e^(μ_s θ); 0 (default): μ_s = μ_k", 0.0, MAX_FRICTION),
     )
@@ -302,11 +315,11 @@ class TendonString(TendonTerm):
                                  f"control = 'displacement'; allowed: set {prefix}.control = "
                                  "'displacement' (and no tension), or leave it unset")
         static = options.static_friction
-        kinetic = max(options.friction_points) if options.friction_points else (
-            options.friction)
+        listed = options.friction_points or options.friction_profile
+        kinetic = max(listed) if listed else options.friction
         if static != 0.0 and static < kinetic:
-            which = ("the largest friction_points value" if options.friction_points
-                     else "friction")
+            which = ("friction" if not listed else "the largest friction_points value"
+                     if options.friction_points else "the largest friction_profile value")
             raise SceneError(f"{prefix}.static_friction = {static!r}: smaller than the "
                              f"kinetic coefficient ({which} = {kinetic!r}); allowed: a number "
                              f">= {kinetic!r} and <= {MAX_FRICTION:g}, or 0 (μ_s = μ_k)")
@@ -338,6 +351,11 @@ class TendonString(TendonTerm):
                     f"s = {self.end:.6g} m); allowed: a list of {chords + 1} numbers, or "
                     "friction alone")
             self.kinetic = np.ascontiguousarray(values[:-1])
+        if options.friction_profile or options.friction_profile_s:
+            knots = _checked_profile(f"tendons.{tendon.name}.tendon_string", options,
+                                     self.start, self.end)
+            self.kinetic = np.ascontiguousarray(profile_coefficients(
+                knots, np.asarray(options.friction_profile), self.points.s))
         #: The static μ_s of every turn (rodsim/core/tendon_friction.py, "Per-point
         #: coefficients and stiction"): μ_k where static_friction is not set, (P − 1,).
         self.static = np.maximum(float(options.static_friction), self.kinetic)
@@ -345,7 +363,8 @@ class TendonString(TendonTerm):
         self.sticky = bool(np.any(self.static > self.kinetic))
         #: Whether the bounds take a coefficient per turn and side (friction_points, or
         #: stiction); otherwise the scalar μ: the uniform capstan's numbers, bitwise.
-        self.weighted = bool(options.friction_points) or self.sticky
+        self.weighted = (bool(options.friction_points) or bool(options.friction_profile)
+                         or self.sticky)
         #: The chord tensions τ_old of the last converged equilibrium [N], (P − 1,): the
         #: friction's history. At first 0: pulled in from slack, monotonically.
         self.profile = np.zeros(chords)
@@ -486,6 +505,17 @@ class TendonString(TendonTerm):
         s = self.points.s
         return 0.5 * (s[:-1] + s[1:]), self.chord_tensions(x)
 
+    def point_states(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
+        """(rest arc length of routing points 0 … P − 2 [m], the stick/slip state each has
+        at the equilibrium ``x``: ``slip_states`` against this term's history) with
+        friction; None without. Without stiction the state is not history and a point on
+        both bounds (no wrap up to it) reads as sliding in."""
+        if not self.rubs:
+            return None
+        return self.points.s[:-1], slip_states(
+            self.tension, self._mu_in, self._mu_out, self.turning_angles(x), self.profile,
+            self.state)
+
     def kernel_arguments(self) -> KernelArguments:
         pts = self.points
         return {"dofs": self.dofs, "weights": pts.weights, "constant": pts.constant,
@@ -605,6 +635,31 @@ class TendonString(TendonTerm):
         gradient = rate[:, None] * np.einsum("em,emk->ek", slope, jd)
         unit_force = -np.einsum("emk,em->ek", jd, u)
         return unit_force[:, :, None] * gradient[:, None, :]
+
+
+def _checked_profile(prefix: str, options: TendonStringOptions, start: float,
+                     end: float) -> np.ndarray:
+    """``friction_profile_s`` as an array, after the checks a friction profile needs
+    (SceneError, one line): as many arc lengths as values, increasing, within the tendon's
+    [start, end], and no ``friction_points`` beside it."""
+    values, s = options.friction_profile, np.asarray(options.friction_profile_s, dtype=float)
+    if options.friction_points:
+        raise SceneError(f"{prefix}.friction_profile and friction_points are both set; "
+                         "allowed: one of them (a μ per arc length, or per routing point)")
+    if len(values) != len(s) or not len(s):
+        raise SceneError(f"{prefix}.friction_profile has {len(values)} values and "
+                         f"friction_profile_s {len(s)} arc lengths; allowed: as many of each, "
+                         "at least one")
+    if np.any(np.diff(s) <= 0.0):
+        raise SceneError(f"{prefix}.friction_profile_s = {options.friction_profile_s!r}: "
+                         "not increasing; allowed: arc lengths each larger than the one "
+                         "before [m]")
+    slack = 1e-9 * max(end, 1.0)
+    if s[0] < start - slack or s[-1] > end + slack:
+        raise SceneError(f"{prefix}.friction_profile_s = {options.friction_profile_s!r}: "
+                         f"outside the tendon; allowed: arc lengths within its span "
+                         f"[{start:.6g}, {end:.6g}] m (start, end)")
+    return s
 
 
 def split_at_breaks(terms: Sequence[object]) -> None:

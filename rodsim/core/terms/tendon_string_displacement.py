@@ -70,7 +70,8 @@ class TendonStringDisplacement(TendonTerm):
             raise SceneError(f"{prefix}.friction = {options.friction!r}: friction is "
                              "modelled on a tension-controlled string only; allowed: "
                              "friction = 0 with control = 'displacement'")
-        for key in ("friction_points", "static_friction"):
+        for key in ("friction_points", "friction_profile", "friction_profile_s",
+                    "static_friction"):
             if getattr(options, key):
                 raise SceneError(f"{prefix}.{key} = {getattr(options, key)!r}: friction is "
                                  "modelled on a tension-controlled string only; allowed: "
