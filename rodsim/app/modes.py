@@ -73,8 +73,9 @@ class Modes:
     damped_eigenvalues
         With the scene's damping (``[rods.<rod>.damping]``: Kelvin–Voigt and drag), the
         roots λ [1/s] of (λ² M + λ D + K) φ = 0 of lowest |λ|, one of each conjugate pair
-        (rodsim/core/damped_vibration.py); without damping, i ω. For light damping the
-        k-th is the k-th mode's.
+        (rodsim/core/damped_vibration.py); without damping, i ω. Ordered by |λ|, not by
+        mode (heavy damping puts real roots between them): ``matched_eigenvalues`` gives
+        each mode its own.
     damped_frequencies
         Im λ / 2π [Hz]: the frequency a damped mode rings at (0: a root that does not
         oscillate, an overdamped mode or a relaxation).
