@@ -20,7 +20,8 @@ STRAIN_KINDS = ("stretch", "shear", "bending", "twist")
 _BASE_PARAMETERS: tuple[Parameter, ...] = (
     Parameter("retardation_time", "float", 0.0, "s",
               "Kelvin-Voigt retardation time tau: each strain's viscosity is tau times its "
-              "stiffness (damping ratio tau*omega/2)", 0.0, 1e3),
+              "stiffness (damping ratio tau*omega/2); retardation_time_<kind> overrides it "
+              "per strain", 0.0, 1e3),
     Parameter("drag", "float", 0.0, "N*s/m^2",
               "linear viscous drag per unit length on the centerline (a fluid around the rod)",
               0.0, 1e9),
@@ -39,14 +40,16 @@ STRAIN_PARAMETERS: tuple[Parameter, ...] = tuple(
 
 DAMPING_PARAMETERS: tuple[Parameter, ...] = _BASE_PARAMETERS + STRAIN_PARAMETERS
 
-#: The rod terms of the rod's own stiffness (paper Eqs. 6, 7, 9), which a program may not
+#: The rod terms of the rod's own stiffness (paper Eqs. 6–8), which a program may not
 #: vary in time (rodsim/app/programs.py).
 ELASTIC_TERMS = ("stretch", "bend_twist")
 
 
 @dataclass(frozen=True, kw_only=True)
 class DampingOptions(Options):
-    """A validated ``[rods.<rod>.damping]`` table: one field per ``DAMPING_PARAMETERS``."""
+    """A validated ``[rods.<rod>.damping]`` table: one field per ``DAMPING_PARAMETERS``, a
+    per-strain one None where the table omits it (``retardation`` then gives the time it
+    follows)."""
 
     retardation_time: float = 0.0
     drag: float = 0.0
