@@ -14,14 +14,14 @@ penalties, docs/model.md) and the inverse tools
 ``rodsim.sensitivity``, ``rodsim.track``, ``rodsim.Tracker``, ``rodsim.fit`` and
 ``rodsim.reach`` (docs/inverse.md), ``rodsim.modes`` (natural frequencies and mode shapes,
 docs/dynamics.md) and ``rodsim.simulate`` (motion in physical time, with
-``rodsim.Sinusoid`` programs and the events ``rodsim.ContactOnset`` and
-``rodsim.TendonSlack``; docs/dynamics.md) are imported on first use.
+``rodsim.Sinusoid`` programs and the events ``rodsim.ContactOnset``,
+``rodsim.TendonSlack`` and ``rodsim.Event``; docs/dynamics.md) are imported on first use.
 """
 
 from rodsim.version import __version__
 
-__all__ = ["ContactOnset", "Sinusoid", "TendonSlack", "Tracker", "__version__", "build_model",
-           "fit", "load_scene", "modes",
+__all__ = ["ContactOnset", "Event", "Sinusoid", "TendonSlack", "Tracker", "__version__",
+           "build_model", "fit", "load_scene", "modes",
            "penalty_error", "reach", "run_dataset", "sensitivity", "simulate", "solve",
            "solve_many", "track"]
 
@@ -64,7 +64,7 @@ def __getattr__(name: str):
         from rodsim.app.simulate import simulate
 
         return simulate
-    if name in ("ContactOnset", "TendonSlack"):
+    if name in ("ContactOnset", "Event", "TendonSlack"):
         from rodsim.solvers.physical import events
 
         return getattr(events, name)

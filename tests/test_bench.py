@@ -599,17 +599,20 @@ def test_iterations_small_outputs(tmp_path):
 
 @pytest.mark.slow
 def test_dynamics_small_outputs(tmp_path):
-    """``rodsim bench dynamics --size small``: the midpoint rule and IDA timed against IDA's
-    tight reference, each more accurate at its finer setting (no timing is asserted)."""
+    """``rodsim bench dynamics --size small``: the midpoint rule, the paper's Euler and IDA
+    timed against IDA's tight reference, each more accurate at its finer setting (no
+    timing is asserted)."""
     from rodsim_bench import dynamics
 
     paths = dynamics.run("small", tmp_path, lambda *_: None)
     assert {p.name for p in paths} == {"dynamics-small.json", "dynamics-small.md"}
     rows = json.loads((tmp_path / "dynamics-small.json").read_text())["rows"]
-    assert [row["integrator"] for row in rows] == ["midpoint", "midpoint", "ida", "ida"]
+    assert [row["integrator"] for row in rows] == ["midpoint", "midpoint", "paper", "paper",
+                                                   "ida", "ida"]
     assert all(row["success"] and row["cpu_s"] > 0.0 for row in rows)
     errors = [row["tip_error_over_L"] for row in rows]
-    assert errors[1] < errors[0] and errors[3] < errors[2]
+    assert errors[1] < errors[0] and errors[3] < errors[2] and errors[5] < errors[4]
+    assert errors[2] > errors[0]  # first order against second, at the same step
     assert "| ida | rtol = atol = 1e-05 |" in (tmp_path / "dynamics-small.md").read_text()
 
 

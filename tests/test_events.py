@@ -85,7 +85,7 @@ def test_a_tendon_goes_slack_when_its_tension_reaches_zero():
 
 
 @pytest.mark.parametrize("options, match", [
-    ({"integrator": "midpoint", "step": 1e-3, "events": ["contact"]}, "'ida' or 'cvode'"),
+    ({"integrator": "midpoint", "step": 1e-3, "events": ["slack"]}, "has no string tendon"),
     ({"integrator": "ida", "events": ["impact"]}, "event 'impact'"),
     ({"integrator": "ida", "events": ["slack"]}, "has no string tendon"),
     ({"integrator": "ida", "events": [ContactOnset(obstacle="wall")]}, "named 'wall'"),

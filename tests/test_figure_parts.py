@@ -8,6 +8,7 @@ obstacle type is drawn; an obstacle type added the documented way (a subclass wi
 from __future__ import annotations
 
 import json
+import sys
 
 import matplotlib.pyplot as plt
 import numpy as np
@@ -231,6 +232,41 @@ def test_a_tracks_movie_has_one_frame_per_step(tmp_path, cli, capsys):
     err = capsys.readouterr().err
     assert "track archive" in err and "Traceback" not in err and len(err.splitlines()) == 1
     assert not (tmp_path / "run.png").exists()  # refused before anything is drawn
+
+
+def test_a_trajectorys_movie_draws_its_output_times(tmp_path, cli, capsys, monkeypatch):
+    """``rodsim simulate``'s archive: one frame per output time (at most MAX_FRAMES, evenly
+    spaced with the first and the last), each frame the rod where the archive has it at that
+    time; without Pillow the movie is refused in one line before any file is written."""
+    from PIL import Image
+
+    from rodsim.app.figures import movie
+    from rodsim.app.figures.scene_parts import scene_parts
+    from rodsim.io.archive import read_dataset
+
+    archive = tmp_path / "swing.nc"
+    assert cli(["simulate", "table1-50g", "--set", "nodes=9", "--t-end", "0.05",
+                "--output-dt", "0.01", "-o", str(archive)]) == 0
+    ds = read_dataset(archive)
+    picked, captions = movie.frames(ds)
+    assert picked == list(range(6)) and captions[-1].startswith("t = 0.05 s (output 6 of 6)")
+    for k in (0, 3, 5):  # the falling mass: every frame in a different place
+        drawn = scene_parts(ds, k).rods["catheter"]
+        assert np.array_equal(drawn, ds["position"].isel(time=k).values)
+    assert not np.allclose(scene_parts(ds, 0).rods["catheter"],
+                           scene_parts(ds, 5).rods["catheter"])
+    capsys.readouterr()
+    assert cli(["plot", str(archive), "--movie", "--format", "png"]) == 0
+    assert "swing.gif" in capsys.readouterr().out
+    with Image.open(tmp_path / "swing.gif") as gif:
+        assert gif.n_frames == 6
+    monkeypatch.setattr(movie, "MAX_FRAMES", 4)
+    assert movie.frames(ds)[0] == [0, 2, 3, 5]
+    monkeypatch.setitem(sys.modules, "PIL", None)  # no GIF encoder
+    assert cli(["plot", str(archive), "-o", str(tmp_path / "again"), "--movie"]) == 2
+    err = capsys.readouterr().err
+    assert "pip install pillow" in err and "Traceback" not in err and len(err.splitlines()) == 1
+    assert not list(tmp_path.glob("again*"))
 
 
 @pytest.mark.parametrize("seed", range(3))

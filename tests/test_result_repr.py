@@ -73,3 +73,38 @@ def test_dir_lists_the_lazy_entry_points():
                   "penalty_error", "sensitivity", "build_model", "__version__"):
         assert entry in names, entry
         assert getattr(rodsim, entry) is not None
+
+
+def test_a_simulations_repr_names_its_times_tip_programs_and_energy():
+    """A 9-node cantilever let go from rest, its tip force programmed: the rows are the run's
+    own numbers (outputs, the tip at the last output, the largest energy-balance error)."""
+    from dataclasses import replace
+
+    run = rodsim.simulate("table1-50g", 0.05, output_dt=0.01, overrides=["nodes=9"],
+                          program={"tip_load.force[1]": ([0.0, 0.05], [0.0, -0.02])})
+    assert run.success, run.message
+    error = float(np.max(np.abs(run.energy_error)))
+    check(run, "Simulation", "table1-50g", "midpoint", "6 outputs, t = 0 to 0.05 s",
+          f"{run.steps} steps", "rest state", "tip_load.force[1]",
+          ", ".join(f"{1e3 * v:.4g}" for v in run.positions[-1, 8]) + " mm",
+          f"balance within {error:.2g} J")
+    assert len(repr(run)) < 1000
+    stopped = replace(run, success=False, message="stopped after t = 0.03 s")
+    check(stopped, "FAILED: stopped after t = 0.03 s")
+
+
+def test_a_modes_repr_names_its_frequencies_and_damping():
+    """The 9-node cantilever's lowest modes, undamped and with Kelvin–Voigt damping, and a
+    failed equilibrium."""
+    modes = rodsim.modes("table1-50g", 3, overrides=["nodes=9"])
+    assert modes.success, modes.message
+    check(modes, "3 lowest modes", ", ".join(f"{f:.4g}" for f in modes.frequencies) + " Hz",
+          ", ".join(f"{1e3 * v:.4g}" for v in modes.result.tip()) + " mm", "stable")
+    assert "damping ratios" not in repr(modes)
+    damped = rodsim.modes("table1-50g", 3, overrides=["nodes=9", "retardation_time=0.01"])
+    assert np.all(damped.damping_ratios > 0.0)
+    check(damped, "damping ratios", ", ".join(f"{z:.3g}" for z in damped.damping_ratios))
+    failed = rodsim.modes("table1-50g", 3, overrides=[
+        "nodes=8", "solver.static.max_newton=1", "solver.static.min_load_step=0.5"])
+    assert not failed.success
+    check(failed, "no modes", "FAILED: no equilibrium")

@@ -54,8 +54,11 @@ def test_friction_in_time_follows_the_tracked_loop():
     assert error < 1e-3 * LENGTH
 
 
-def test_friction_needs_the_midpoint_rule():
-    with pytest.raises(SceneError, match="integrator 'ida': the scene has friction") as caught:
-        rodsim.simulate(_scene(0.2), 0.01, integrator="ida")
+@pytest.mark.parametrize("integrator", ["ida", "paper"])
+def test_friction_needs_the_midpoint_rule(integrator):
+    with pytest.raises(SceneError, match=f"integrator '{integrator}': the scene has friction"
+                       ) as caught:
+        rodsim.simulate(_scene(0.2), 0.01, integrator=integrator)
     assert "\n" not in str(caught.value)
-    assert rodsim.simulate(_scene(0.0), 0.002, integrator="ida").success  # frictionless: any
+    # frictionless: any integrator
+    assert rodsim.simulate(_scene(0.0), 0.002, integrator=integrator).success

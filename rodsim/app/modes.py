@@ -29,6 +29,7 @@ from rodsim.core.stability_band import BandStiffness
 from rodsim.core.vibration import ModesError, Vibration, natural_modes
 from rodsim.solvers.physical.coordinates import physical_state
 from rodsim.solvers.result import Result
+from rodsim.solvers.summary import millimetres, summary_html, summary_text
 
 if TYPE_CHECKING:
     import xarray as xr
@@ -41,7 +42,8 @@ DEFAULT_COUNT = 6
 
 @dataclass
 class Modes:
-    """The lowest natural modes of a scene about its equilibrium.
+    """The lowest natural modes of a scene about its equilibrium. ``repr`` is a summary of
+    at most ten lines, and Jupyter shows it as a table (``_repr_html_``).
 
     Attributes
     ----------
@@ -124,6 +126,40 @@ class Modes:
     #: The modes on the free coordinates (count, n), unit modal mass (φᴴ M φ = 1), for
     #: checks (K φ = ω² M φ).
     vectors: np.ndarray = field(default_factory=lambda: np.zeros((0, 0)), repr=False)
+
+    def summary_rows(self) -> list[tuple[str, str]]:
+        """The summary's rows: outcome, the frequencies, the damping ratios and the growth
+        when there are any, the equilibrium (its integrator, the first rod's tip, its
+        stability), the inertia."""
+        rows = [("outcome", self.message if self.success else f"FAILED: {self.message}")]
+        if len(self.frequencies):
+            rows.append(("frequencies", ", ".join(
+                "none" if np.isnan(f) else f"{f:.4g}" for f in self.frequencies) + " Hz"))
+        if np.any(self.damping_ratios[np.isfinite(self.damping_ratios)] > 0.0):
+            rows.append(("damping ratios", ", ".join(f"{z:.3g}" for z in self.damping_ratios)))
+        if np.any(self.growth != 0.0):
+            rows.append(("largest |growth|", f"{float(np.max(np.abs(self.growth))):.3g} Hz "
+                                             "(a non-conservative coupling)"))
+        result = self.result
+        rows.append(("equilibrium", f"{result.integrator}, residual {result.residual:.3g}"))
+        if result.rods:
+            rows.append((f"tip of {next(iter(result.rods))}", millimetres(result.tip())))
+        if result.stability is not None:
+            rows.append(("stability", "stable" if result.stability.stable else "not stable"))
+        if self.success:
+            rows.append(("inertia", "translation and rotation of the segments"
+                         if self.rotary_inertia else "translation only (no rotary inertia)"))
+        return rows
+
+    def _title(self) -> str:
+        count = f"{len(self.frequencies)} lowest modes" if self.success else "no modes"
+        return f"rodsim Modes: scene {self.result.scene.name!r}, {count}"
+
+    def __repr__(self) -> str:
+        return summary_text(self._title(), self.summary_rows())
+
+    def _repr_html_(self) -> str:
+        return summary_html(self._title(), self.summary_rows())
 
     def to_xarray(self) -> xr.Dataset:
         """The modes archive: the run archive of the equilibrium with a ``mode`` dimension

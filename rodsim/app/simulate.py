@@ -8,7 +8,9 @@
 The rods move under their physical inertia (rodsim/core/inertia.py), the scene's forces,
 their damping (``[rods.<rod>.damping]``, rodsim/core/damping.py) and values that change in
 time (``program``), integrated by the implicit midpoint rule
-(rodsim/solvers/physical/midpoint.py). The run starts at rest, from the scene's rest state
+(rodsim/solvers/physical/midpoint.py) or the paper's semi-implicit Euler
+(rodsim/solvers/physical/semi_implicit_euler.py), with fixed steps, or SUNDIALS IDA or CVODE
+(rodsim/solvers/physical/ida_run.py), adaptive. The run starts at rest, from the scene's rest state
 or from the equilibrium of the scene with the ``initial`` values (a release: hold the tip
 with a force, let go at t = 0), or from a solved Result's state.
 """
@@ -40,17 +42,23 @@ from rodsim.solvers.physical.coordinates import (
     physical_state,
 )
 from rodsim.solvers.physical.dae import PhysicalDae
-from rodsim.solvers.physical.events import EventLike, resolve_events
+from rodsim.solvers.physical.events import EventError, EventLike, resolve_events
+from rodsim.solvers.physical.fixed_step import Motion
 from rodsim.solvers.physical.ida_run import IdaOptions, integrate_ida
-from rodsim.solvers.physical.midpoint import MidpointStep, Motion
+from rodsim.solvers.physical.midpoint import MidpointStep
+from rodsim.solvers.physical.semi_implicit_euler import SemiImplicitEulerStep
 from rodsim.solvers.physical.trajectory import Record, integrate
 from rodsim.solvers.result import Result
+from rodsim.solvers.summary import millimetres, summary_html, summary_text
 
 __all__ = ["Simulation", "simulate", "check_programs", "ida_options", "INTEGRATORS",
-           "IDA_DEFAULTS", "STEPS_PER_PERIOD"]
+           "FIXED_STEP", "IDA_DEFAULTS", "STEPS_PER_PERIOD"]
 
 #: The integrators of physical time.
-INTEGRATORS = ("midpoint", "ida", "cvode")
+INTEGRATORS = ("midpoint", "paper", "ida", "cvode")
+#: Those with fixed steps (``step``), no tolerances: the implicit midpoint rule and the
+#: paper's semi-implicit Euler (Eqs. 14–17 with the physical masses).
+FIXED_STEP = ("midpoint", "paper")
 #: IDA's defaults: relative tolerance, absolute tolerance (× L on positions, radians on
 #: angles; docs/dynamics.md, "IDA") and BDF order cap.
 IDA_DEFAULTS = {"rtol": 1e-5, "atol": 1e-5, "max_order": 2}
@@ -60,7 +68,8 @@ STEPS_PER_PERIOD = 100
 
 @dataclass
 class Simulation:
-    """A run in physical time.
+    """A run in physical time. ``repr`` is a summary of at most ten lines, and Jupyter
+    shows it as a table (``_repr_html_``).
 
     Attributes
     ----------
@@ -80,10 +89,10 @@ class Simulation:
     energy_error
         The balance T + V + D − W − (T₀ + V₀) at each output time [J].
     step
-        The midpoint rule's step asked for [s] (the steps taken are at most this); IDA's
-        longest step taken. ``steps`` counts the steps.
+        The fixed step asked for [s] (midpoint, paper: the steps taken are at most this);
+        IDA's and CVODE's longest step taken. ``steps`` counts the steps.
     iterations
-        The midpoint rule's Newton iterations; IDA's residual evaluations (one per
+        The fixed-step integrators' Newton iterations; IDA's residual evaluations (one per
         iteration of its corrector).
     """
 
@@ -119,6 +128,50 @@ class Simulation:
     def energy_error(self) -> np.ndarray:
         total = self.kinetic_energy + self.potential_energy + self.dissipated_energy - self.work
         return total - total[0]
+
+    def summary_rows(self) -> list[tuple[str, str]]:
+        """The summary's rows: outcome, times, work, start, programs and events when there
+        are any, the first rod's tip at the last output, the energy balance."""
+        reached = float(self.times[-1]) if len(self.times) else 0.0
+        step = "step" if self.integrator in FIXED_STEP else "longest step"
+        rows = [("outcome", self.message if self.success else f"FAILED: {self.message}"),
+                ("time", f"{len(self.times)} outputs, t = 0 to {reached:.4g} s"
+                 f" (t_end {self.t_end:.4g} s)"),
+                ("work", f"{self.steps} steps ({step} {self.step:.3g} s), "
+                 f"{self.iterations} iterations"
+                 + (f", {self.halvings} halved steps" if self.halvings else "")),
+                ("start", self.initial)]
+        if self.program:
+            rows.append(("programs", ", ".join(self.program)))
+        if self.events:
+            rows.append(("events", ", ".join(f"{name} at {time:.4g} s"
+                                             for time, name in self.events)))
+        first = self.rods[0] if self.rods else None
+        if first in self.scene.rods and len(self.times):
+            nodes = self.scene.rods[first].nodes
+            rows.append((f"tip of {first} at the end",
+                         millimetres(self.positions[-1, nodes - 1])))
+        if len(self.times):
+            largest = float(np.max(self.kinetic_energy))
+            if np.all(np.isfinite(self.energy_error)):
+                error = float(np.max(np.abs(self.energy_error)))
+                rows.append(("energy", f"balance within {error:.2g} J (largest kinetic "
+                             f"energy {largest:.3g} J, dissipated "
+                             f"{float(self.dissipated_energy[-1]):.3g} J)"))
+            else:
+                rows.append(("energy", f"no balance (a non-conservative term); largest "
+                             f"kinetic energy {largest:.3g} J"))
+        return rows
+
+    def _title(self) -> str:
+        return (f"rodsim Simulation: scene {self.scene.name!r}, integrator "
+                f"{self.integrator}")
+
+    def __repr__(self) -> str:
+        return summary_text(self._title(), self.summary_rows())
+
+    def _repr_html_(self) -> str:
+        return summary_html(self._title(), self.summary_rows())
 
     def to_xarray(self) -> Any:
         """The trajectory archive (rodsim/io/trajectory_dataset.py, docs/archive.md): a run
@@ -189,13 +242,13 @@ def _lowest_frequency(model: Model, x: np.ndarray, what: str) -> float:
 def ida_options(integrator: str, rtol: float | None, atol: float | None,
                  max_order: int | None) -> dict[str, float]:
     """IDA's checked settings (SceneError, one line, for a bad value, or for one given to
-    the midpoint rule, which has none)."""
+    a fixed-step integrator, which has none)."""
     given = {"rtol": rtol, "atol": atol, "max_order": max_order}
-    if integrator == "midpoint":
+    if integrator in FIXED_STEP:
         named = [name for name, value in given.items() if value is not None]
         if named:
             raise SceneError(f"{named[0]}: only for integrators 'ida' and 'cvode' (the "
-                             "midpoint rule has fixed steps)")
+                             f"integrator {integrator!r} has fixed steps)")
         return {}
     out: dict[str, float] = {}
     for name, value in given.items():
@@ -221,14 +274,16 @@ def simulate(scene: SceneLike | None, t_end: float, *, output_dt: float | None =
              events: Sequence[EventLike] = ()) -> Simulation:
     """Integrate ``scene`` in physical time from t = 0 to ``t_end`` [s].
 
-    ``integrator``: ``"midpoint"`` (the implicit midpoint rule, fixed steps), ``"ida"``
+    ``integrator``: ``"midpoint"`` (the implicit midpoint rule, fixed steps), ``"paper"``
+    (the paper's semi-implicit Euler, Eqs. 14–17, with the physical masses: fixed steps,
+    first order, numerically damped), ``"ida"``
     (SUNDIALS IDA, adaptive BDF under error control: ``rtol``, ``atol`` — × the longest
     rod's length on positions, radians on angles, and × ω₁ on their rates — and the order
     cap ``max_order``; docs/dynamics.md) or ``"cvode"`` (SUNDIALS CVODE on the explicit
     form, the same options; a dense Jacobian: for small rods). ``output_dt``: the spacing of
     the output times [s] (default: every step of the midpoint rule; 1/100 of the lowest
-    natural period for IDA and CVODE); ``step``: the longest time step [s] (midpoint
-    default: 1/100 of the lowest natural period at the start; IDA and CVODE: none);
+    natural period for IDA and CVODE); ``step``: the longest time step [s] (midpoint and
+    paper default: 1/100 of the lowest natural period at the start; IDA and CVODE: none);
     ``initial``: a mapping of ``--set`` keys to values whose equilibrium the run starts
     from, or a solved Result (default: the rest state); ``program``: key → (times, values)
     (piecewise linear) or a ``rodsim.core.program.Sinusoid`` per numeric term value,
@@ -238,11 +293,11 @@ def simulate(scene: SceneLike | None, t_end: float, *, output_dt: float | None =
     3-vector [m/s] that every free node moves with, or the physical velocities (each free
     position coordinate's rate, then each free segment's body rates; p + 3 s numbers), or
     the rates of the model's n free coordinates (rodsim/app/initial_velocity.py);
-    ``events``: ``rodsim.solvers.physical.events.ContactOnset`` and
-    ``rodsim.solvers.physical.events.TendonSlack`` values (or ``"contact"``,
-    ``"slack"``, ``":stop"`` appended for a terminal one), found by SUNDIALS' root finding
-    (``ida`` and ``cvode``): each one's time and name in ``Simulation.events``, a terminal
-    one ends the run there. Bad input raises
+    ``events``: ``rodsim.ContactOnset``, ``rodsim.TendonSlack`` and ``rodsim.Event`` (a
+    user's function of (t, positions)) values (or ``"contact"``, ``"slack"``, ``":stop"``
+    appended for a terminal one), found by SUNDIALS' root finding (``ida`` and ``cvode``)
+    or after each midpoint step on its cubic Hermite interpolant: each one's time and name
+    in ``Simulation.events``, a terminal one ends the run there. Bad input raises
     ``rodsim.core.schema.SceneError`` (one line) before any work; a run that fails
     part-way returns ``success`` False with what it computed.
     """
@@ -263,10 +318,11 @@ def simulate(scene: SceneLike | None, t_end: float, *, output_dt: float | None =
         raise SceneError(f"integrator {integrator!r}: the scene has friction (a string "
                          "tendon's or a contact's), whose history each step carries to the "
                          "next; allowed: integrator 'midpoint' (IDA's and CVODE's adaptive "
-                         "steps would each need a restart)")
-    if events and integrator == "midpoint":
-        raise SceneError("events: allowed with integrator 'ida' or 'cvode' (SUNDIALS' root "
-                         "finding); the midpoint rule has none")
+                         "steps would each need a restart; the paper's Euler is not validated "
+                         "with friction)")
+    if events and integrator == "paper":
+        raise SceneError("events: allowed with integrator 'midpoint', 'ida' or 'cvode'; "
+                         "the paper's Euler does not locate them")
     watched = resolve_events(model, events) if events else None
     rest = physical_state(model, model.x0)  # the velocity's length checked before any work
     initial_rates(model, PhysicalCoordinates.of(model, rest), rest, initial_velocity)
@@ -274,7 +330,7 @@ def simulate(scene: SceneLike | None, t_end: float, *, output_dt: float | None =
     if programs.path_dependent:
         programs.carry_history(0.0, x)  # the start: at rest in the equilibrium it was left in
     omega = math.nan
-    if integrator != "midpoint":
+    if integrator not in FIXED_STEP:
         try:
             omega = _lowest_frequency(model, x, "velocity scale of the tolerances")
         except SceneError:  # no stable equilibrium at the start (a falling rod): the run's
@@ -287,11 +343,14 @@ def simulate(scene: SceneLike | None, t_end: float, *, output_dt: float | None =
     outputs = np.minimum(np.arange(count + 1) * spacing, float(t_end))
     coordinates = PhysicalCoordinates.of(model, x)
     length = max(rod.options.length for rod in model.rods.values())
-    stepper = MidpointStep(coordinates, Damping(model), length)
+    stepper = (SemiImplicitEulerStep if integrator == "paper" else MidpointStep)(
+        coordinates, Damping(model), length)
     start = Motion(x, *initial_rates(model, coordinates, x, initial_velocity))
+    if watched is not None:  # a user's function checked at the start (EventError, one line)
+        watched.values(0.0, programs.model_at(0.0), x, start.v)
     record = Record()
     try:
-        if integrator != "midpoint":
+        if integrator not in FIXED_STEP:
             options = IdaOptions(settings["rtol"], settings["atol"], int(settings["max_order"]),
                                  0.0 if step is None else float(step), length, omega)
             dae = PhysicalDae(coordinates, stepper.damping, programs.model_at, model.n)
@@ -299,7 +358,7 @@ def simulate(scene: SceneLike | None, t_end: float, *, output_dt: float | None =
                           progress, record, integrator, watched)
         else:
             integrate(programs.model_at, stepper, start, outputs, h, progress, record,
-                      programs.carry_history if programs.path_dependent else None)
+                      programs.carry_history if programs.path_dependent else None, watched)
     except KeyboardInterrupt:  # Ctrl-C or SIGTERM: what was computed, marked incomplete
         done = min(len(record.times), len(record.states), len(record.kinetic),
                    len(record.potential), len(record.dissipated), len(record.work))
@@ -316,6 +375,12 @@ def simulate(scene: SceneLike | None, t_end: float, *, output_dt: float | None =
                               integrator, float(t_end), programs.by_name, initial,
                               initial_velocity)
         raise Interrupted(partial, record.message) from None
+    except EventError as exc:  # a user's event function failed part-way
+        if not record.times:
+            raise
+        record.success = False
+        record.message = (f"stopped after the output at t = {record.times[-1]:.6g} s: {exc}; "
+                          "the outputs up to it are kept")
     except SceneError as exc:  # a rule across two programmed values, broken at some time
         if not record.times:
             raise
@@ -328,9 +393,9 @@ def simulate(scene: SceneLike | None, t_end: float, *, output_dt: float | None =
 
 
 def _step_of(record: Record, h: float, integrator: str) -> float:
-    """The step a Simulation reports: the midpoint rule's ``h``, IDA's or CVODE's longest
-    step."""
-    return h if integrator == "midpoint" else record.largest_step
+    """The step a Simulation reports: a fixed-step integrator's ``h``, IDA's or CVODE's
+    longest step."""
+    return h if integrator in FIXED_STEP else record.largest_step
 
 
 def _simulation(loaded: Scene, model: Model, record: Record, h: float, integrator: str,
@@ -346,9 +411,9 @@ def _simulation(loaded: Scene, model: Model, record: Record, h: float, integrato
     quaternions = np.concatenate([full[:, model.rods[name].layout.quaternion_index]
                                   for name in model.rods], axis=1)
     message = record.message
-    if record.success and not model.conservative:
-        message = ("ok; a non-conservative term (the paper's lumen coupling, friction): no "
-                   "potential energy, no energy balance")
+    if record.success and not model.conservative:  # "ok", or a terminal event's message
+        message += ("; a non-conservative term (the paper's lumen coupling, friction): no "
+                    "potential energy, no energy balance")
     return Simulation(record.success, message, loaded, np.array(record.times), positions,
                       quaternions, np.array(record.kinetic), np.array(record.potential),
                       np.array(record.dissipated), np.array(record.work), h,

@@ -260,12 +260,14 @@ def build_parser() -> argparse.ArgumentParser:
     move.add_argument("--output-dt", type=positive_seconds, metavar="DT",
                       help="spacing of the stored times [s] (default: every step)")
     move.add_argument("--step", type=positive_seconds, metavar="DT",
-                      help="longest time step [s] (default: 1/100 of the lowest natural "
-                      "period at the start)")
+                      help="longest time step [s] (midpoint, paper default: 1/100 of the "
+                      "lowest natural period at the start)")
     move.add_argument("--integrator", default="midpoint", metavar="NAME",
                       help="integrator of physical time: midpoint (default; fixed steps), "
-                      "ida (SUNDIALS IDA: adaptive BDF under error control) or cvode (SUNDIALS "
-                      "CVODE, the same on the explicit form: small rods)")
+                      "paper (the paper's semi-implicit Euler, Eqs. 14-17, with the physical "
+                      "masses: fixed steps, first order, numerically damped), ida (SUNDIALS "
+                      "IDA: adaptive BDF under error control) or cvode (SUNDIALS CVODE, the "
+                      "same on the explicit form: small rods)")
     move.add_argument("--rtol", type=float, metavar="R",
                       help="ida, cvode: relative tolerance (default 1e-5)")
     move.add_argument("--atol", type=float, metavar="A",
@@ -279,9 +281,10 @@ def build_parser() -> argparse.ArgumentParser:
                       help="start from the equilibrium with this value (KEY as for --set; "
                       "repeatable): released at t = 0")
     move.add_argument("--event", action="append", default=[], metavar="contact|slack[:stop]",
-                      help="ida, cvode: record when a rod first touches an obstacle (contact) "
-                      "or a string tendon's tension reaches zero (slack); ':stop' ends the run "
-                      "there (repeatable)")
+                      help="record when a rod first touches an obstacle (contact) or a string "
+                      "tendon's tension reaches zero (slack); ':stop' ends the run there "
+                      "(repeatable; any integrator: SUNDIALS' root finding for ida and cvode, "
+                      "each midpoint step checked and the time located within it)")
     move.add_argument("--initial-velocity", metavar="VX,VY,VZ",
                       help="start with every free node moving at this velocity [m/s] "
                       "(default: at rest)")
@@ -311,7 +314,8 @@ def build_parser() -> argparse.ArgumentParser:
                       "for a shape that leaves the x-y plane when plotly is installed) "
                       "(default png,pdf)")
     plot.add_argument("--movie", action="store_true",
-                      help="also write STEM.gif, a track's movie: one frame per step")
+                      help="also write STEM.gif, a movie of a track (one frame per step) or of a "
+                      "trajectory (rodsim simulate: one frame per output time, at most 120)")
     plot.set_defaults(func=cmd_plot)
 
     bench = sub.add_parser("bench", help="run a benchmark (work-precision, scaling, large-n, "

@@ -53,7 +53,8 @@ def parse_program(text: str) -> tuple[str, Any]:
 
 class Simulate(SceneCommand):
     """Integrate the scene in physical time from t = 0 to --t-end (the implicit midpoint
-    rule, or SUNDIALS IDA with --integrator ida; the rods' inertia and damping;
+    rule, the paper's semi-implicit Euler with --integrator paper, or SUNDIALS IDA or CVODE
+    with --integrator ida or cvode; the rods' inertia and damping;
     docs/dynamics.md). The run starts at rest, from the rest
     state or from the equilibrium with the --initial values (a release), with
     --initial-velocity a uniform velocity of every free node; --program makes a
@@ -146,6 +147,8 @@ class Simulate(SceneCommand):
         return run
 
     def report(self, result: Any) -> None:
+        from rodsim.app.simulate import FIXED_STEP
+
         name = next(iter(self.scene.rods))
         tip = result.positions[-1, self.scene.rods[name].nodes - 1]
         print(f"scene       {self.scene.name}: {result.integrator}, t = 0 to "
@@ -161,7 +164,7 @@ class Simulate(SceneCommand):
                               abs(result.dissipated_energy).max(), abs(result.work).max()))
             relative = f" ({error / scale:.2e} of the largest energy change)" if scale else ""
             print(f"energy      balance error {error:.3e} J{relative}")
-        if result.integrator != "midpoint":
+        if result.integrator not in FIXED_STEP:
             print(f"steps       {result.steps} (the longest {result.step:.4g} s), "
                   f"{result.iterations} residual evaluations")
         else:

@@ -1,14 +1,19 @@
-"""A movie of a track archive (``rodsim plot --movie``): one frame per step, each the run
-figure's drawing of that step (rods, tendons, obstacles, loads, contact forces:
-``rodsim.app.figures.scene_drawing``) in x–y, and in x–z and y–z when the track leaves
-the x–y plane, with fixed limits around every step; the title gives the ramped value. It is
-written as an animated GIF with Pillow (which matplotlib requires), atomically."""
+"""A movie of a track or trajectory archive (``rodsim plot --movie``): one frame per step of
+a track (``rodsim track``), or per output time of a trajectory (``rodsim simulate``; at
+most ``MAX_FRAMES``, evenly spaced, the first and the last among them), each the run
+figure's drawing of that state (rods, tendons, obstacles, loads, contact forces:
+``rodsim.app.figures.scene_drawing``) in x–y, and in x–z and y–z when the motion leaves the
+x–y plane, with fixed limits around every frame; the title gives the ramped value or the
+time. It is written as an animated GIF with Pillow (which matplotlib requires; a missing
+Pillow is a one-line PlotError before any file is written), atomically."""
 
 from __future__ import annotations
 
 import io
 import json
+import textwrap
 from pathlib import Path
+from typing import Any
 
 import matplotlib.pyplot as plt
 import numpy as np
@@ -22,56 +27,92 @@ from rodsim.app.figures.writer import PlotError
 from rodsim.io.atomic import write_atomic
 from rodsim.io.cf_layout import key_variable
 
-__all__ = ["write_movie", "check_movie", "FRAME_SECONDS"]
+__all__ = ["write_movie", "check_movie", "FRAME_SECONDS", "MAX_FRAMES"]
 
 #: How long each frame shows [s].
 FRAME_SECONDS = 0.15
+#: The most frames drawn of a trajectory (its output times are subsampled evenly).
+MAX_FRAMES = 120
+
+
+def _encoder() -> Any:
+    """Pillow's Image module (the GIF encoder), or a one-line PlotError saying how to get
+    it."""
+    try:
+        from PIL import Image
+    except ImportError:
+        raise PlotError("a movie is written as a GIF by Pillow, which is not installed: "
+                        "pip install pillow") from None
+    return Image
+
+
+def _dimension(ds: xr.Dataset) -> str:
+    """The archive's frame dimension: ``step`` (track) or ``time`` (trajectory)."""
+    kind = ds.attrs.get("kind")
+    dimension = {"track": "step", "trajectory": "time"}.get(str(kind), "")
+    if not dimension or dimension not in ds["position"].dims:
+        raise PlotError("a movie is drawn from a track archive (rodsim track: one frame per "
+                        "step) or a trajectory archive (rodsim simulate: one frame per "
+                        "output time)")
+    return dimension
 
 
 def check_movie(ds: xr.Dataset) -> None:
-    """PlotError unless ``ds`` is a track archive with a step to draw."""
-    if ds.attrs.get("kind") != "track" or "step" not in ds["position"].dims:
-        raise PlotError("a movie is drawn from a track archive (rodsim track): one frame "
-                        "per step")
-    if int(ds.sizes["step"]) == 0:
-        raise PlotError("the track archive has no step to draw")
+    """PlotError unless ``ds`` is a track or trajectory archive with a state to draw and
+    the GIF encoder is there."""
+    dimension = _dimension(ds)
+    if int(ds.sizes[dimension]) == 0:
+        raise PlotError(f"the {ds.attrs['kind']} archive has no {dimension} to draw")
+    _encoder()
+
+
+def frames(ds: xr.Dataset) -> tuple[list[int], list[str]]:
+    """The indices along the frame dimension drawn, and each frame's caption."""
+    dimension = _dimension(ds)
+    count = int(ds.sizes[dimension])
+    if dimension == "step":
+        ramp = next(iter(json.loads(ds.attrs["ramp_json"])))
+        values = key_variable(ds, ramp).values
+        unit = key_variable(ds, ramp).attrs.get("units", "")
+        return list(range(count)), [f"step {k + 1} of {count}: {short_key(ramp)} = "
+                                    f"{values[k]:.4g} {unit}" for k in range(count)]
+    picked = [int(k) for k in np.unique(np.rint(np.linspace(0, count - 1,
+                                                            min(count, MAX_FRAMES))))]
+    times = ds["time"].values
+    return picked, [f"t = {times[k]:.4g} s (output {k + 1} of {count})" for k in picked]
 
 
 def write_movie(ds: xr.Dataset, path: str | Path) -> Path:
-    """Write the GIF of track archive ``ds`` to ``path`` (PlotError for another kind)."""
-    from PIL import Image
-
+    """Write the GIF of track or trajectory archive ``ds`` to ``path`` (PlotError for
+    another kind)."""
     check_movie(ds)
-    steps = int(ds.sizes["step"])
+    image = _encoder()
+    picked, captions = frames(ds)
     every = ds["position"].values
-    states = [scene_parts(ds, step) for step in range(steps)]
+    states = [scene_parts(ds, k) for k in picked]
     extent = np.concatenate([s.points() for s in states])
     views = PROJECTIONS if out_of_plane(extent) else PROJECTIONS[:1]
-    ramp = next(iter(json.loads(ds.attrs["ramp_json"])))
-    values = key_variable(ds, ramp).values
-    unit = key_variable(ds, ramp).attrs.get("units", "")
-    frames = []
+    title = textwrap.fill(str(ds.attrs.get("title", "")), 44 * len(views))  # the frame's width
+    pictures = []
     with style():
         figure, axes = plt.subplots(1, len(views), figsize=(4.2 * len(views) + 0.6, 4.6),
                                     squeeze=False, dpi=100, layout="constrained")
         try:
-            for step, parts in enumerate(states):
+            for k, parts, caption in zip(picked, states, captions, strict=True):
                 for panel, view in zip(axes[0], views, strict=True):
                     panel.clear()
-                    draw_parts(panel, parts, view, extent=np.concatenate([extent, every[
-                        step]]))
-                figure.suptitle(f"{ds.attrs.get('title', '')}\nstep {step + 1} of {steps}: "
-                                f"{short_key(ramp)} = {values[step]:.4g} {unit}")
+                    draw_parts(panel, parts, view, extent=np.concatenate([extent, every[k]]))
+                figure.suptitle(f"{title}\n{caption}")
                 buffer = io.BytesIO()  # through PNG: any backend, a notebook's too
                 figure.savefig(buffer, format="png")
                 buffer.seek(0)
-                with Image.open(buffer) as image:
-                    frames.append(image.convert("RGB").convert(
-                        "P", palette=Image.Palette.ADAPTIVE))
+                with image.open(buffer) as picture:
+                    pictures.append(picture.convert("RGB").convert(
+                        "P", palette=image.Palette.ADAPTIVE))
         finally:
             plt.close(figure)
     path = Path(path)
-    write_atomic(path, lambda temporary: frames[0].save(
-        temporary, format="GIF", save_all=True, append_images=frames[1:],
+    write_atomic(path, lambda temporary: pictures[0].save(
+        temporary, format="GIF", save_all=True, append_images=pictures[1:],
         duration=int(1000 * FRAME_SECONDS), loop=0), follow_umask=True)
     return path

@@ -33,8 +33,8 @@ from rodsim.core.terms import registered_terms
 from rodsim.core.terms._dead_load import unit_direction
 from rodsim.core.terms.base import FIGURE_LAYERS
 
-__all__ = ["term_drawings", "SHAPE", "TENDON", "LOAD", "CONTACT", "Arrow", "TendonPath",
-           "SceneParts", "scene_parts"]
+__all__ = ["term_drawings", "FRAME_DIMENSIONS", "SHAPE", "TENDON", "LOAD", "CONTACT",
+           "Arrow", "TendonPath", "SceneParts", "scene_parts"]
 
 #: How a term shows in a figure (its ``rodsim.core.terms.base.Term.figure_layer``): in the
 #: rods' shape, as a tendon's path, as load arrows, or as the contact forces on the obstacles.
@@ -87,9 +87,15 @@ class SceneParts:
         return np.concatenate(parts) if parts else np.zeros((0, 3))
 
 
+#: The dimensions along which an archive holds several states: a track's steps, a
+#: trajectory's output times.
+FRAME_DIMENSIONS = ("step", "time")
+
+
 def _at(variable: xr.DataArray, step: int | None) -> np.ndarray:
-    if "step" in variable.dims:
-        return variable.isel(step=-1 if step is None else step).values
+    for dimension in FRAME_DIMENSIONS:
+        if dimension in variable.dims:
+            return variable.isel({dimension: -1 if step is None else step}).values
     return variable.values
 
 
@@ -101,8 +107,9 @@ def _arc_length(positions: np.ndarray) -> np.ndarray:
 
 
 def scene_parts(ds: xr.Dataset, step: int | None = None) -> SceneParts:
-    """The parts of run, fit, reach or track archive ``ds`` (a track's step ``step``, its
-    last by default)."""
+    """The parts of run, fit, reach, track or trajectory archive ``ds`` (a track's step
+    ``step`` or a trajectory's output time of that index, the last by default; a
+    trajectory's loads are drawn with the scene's values, not its programs')."""
     from rodsim.io.archive_schema import stored_scene
 
     scene = stored_scene(ds.attrs["scene_json"], "attribute 'scene_json'")

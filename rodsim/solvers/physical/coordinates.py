@@ -35,7 +35,7 @@ from rodsim.core.model import Model
 from rodsim.core.rod.quaternion import B
 
 __all__ = ["PhysicalCoordinates", "velocity_rows", "cayley", "skew", "block_diagonal",
-           "block_entries", "placed",
+           "block_entries", "placed", "cross_rows",
            "gyroscopic_jacobian"]
 
 
@@ -52,6 +52,16 @@ def cayley(q: np.ndarray, w: np.ndarray, h: float) -> np.ndarray:
     eye = np.eye(4)[None]
     return np.linalg.solve(eye - 0.25 * h * omega, ((eye + 0.25 * h * omega) @ q[..., None])
                            )[..., 0]
+
+
+def cross_rows(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """a × b row by row for (s, 3) arrays: numpy.cross's own products and differences,
+    without its axis handling (the same numbers)."""
+    out = np.empty(np.broadcast_shapes(a.shape, b.shape))
+    out[:, 0] = a[:, 1] * b[:, 2] - a[:, 2] * b[:, 1]
+    out[:, 1] = a[:, 2] * b[:, 0] - a[:, 0] * b[:, 2]
+    out[:, 2] = a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0]
+    return out
 
 
 def skew(a: np.ndarray) -> np.ndarray:
@@ -188,19 +198,41 @@ class PhysicalCoordinates:
         """G (n × (p + 3 s)) at ``x`` (unit quaternions), ``n`` free coordinates: ẋ = G u
         (positions: the velocities; q̇ = ½ Σ_k ω_k B_k q), and Gᵀ f = (f_r, τ) with
         τ_k = ½ (B_k q) · f_q."""
-        p = len(self.positions)
         blocks = 0.5 * np.transpose(velocity_rows(x[self.quaternions]), (0, 2, 1))
-        rows, cols = self._g_entries
-        return placed(np.concatenate([np.ones(p), blocks.ravel()]), rows, cols,
-                      (n, self.size), prune=True)
+        return self.tangent_map(blocks, 1.0, n)
+
+    def tangent_map(self, blocks: np.ndarray, position: float, n: int) -> sp.csr_matrix:
+        """An n × (p + 3 s) map from the physical velocities to the ``n`` free coordinates:
+        ``position`` times the identity on the positions, the 4 × 3 ``blocks`` (s, 4, 3) on
+        each segment's quaternion and angles (the sum of the two, as one placement:
+        ``placed``, without its exact zeros)."""
+        rows, cols = self._map_entries
+        return placed(np.concatenate([np.full(len(self.positions), position),
+                                      blocks.ravel()]), rows, cols, (n, self.size),
+                      prune=True)
 
     @cached_property
-    def _g_entries(self) -> tuple[np.ndarray, np.ndarray]:
-        """The (row, column) of G's entries: the positions' ones, then the quaternions'
-        4 × 3 blocks (raveled)."""
+    def _map_entries(self) -> tuple[np.ndarray, np.ndarray]:
+        """The (row, column) of ``tangent_map``'s entries: the positions' identity, then
+        the quaternions' 4 × 3 blocks (raveled)."""
         p, s = len(self.positions), len(self.quaternions)
         r, c = block_entries(self.quaternions, p + np.arange(3 * s).reshape(-1, 3), 4, 3)
         return np.concatenate([self.positions, r]), np.concatenate([np.arange(p), c])
+
+    @cached_property
+    def angle_columns(self) -> np.ndarray:
+        """Each free segment's three angle columns among the physical degrees of freedom
+        (after the p positions), shape (s, 3)."""
+        return len(self.positions) + np.arange(3 * len(self.quaternions)).reshape(-1, 3)
+
+    @cached_property
+    def mass_entries(self) -> tuple[np.ndarray, np.ndarray]:
+        """Where a step's Newton matrix places its masses: M_r's stored entries, then the
+        3 × 3 rotation blocks on the angles (raveled)."""
+        r, c = block_entries(self.angle_columns, self.angle_columns, 3, 3)
+        return (np.concatenate([np.repeat(np.arange(len(self.positions)),
+                                          np.diff(self.mass.indptr)), r]),
+                np.concatenate([self.mass.indices, c]))
 
     def rates(self, x: np.ndarray, x_dot: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """The physical velocities (ṙ, ω) of a motion ``x_dot`` of the free coordinates at

@@ -50,8 +50,8 @@ from rodsim.core.model import Model
 from rodsim.solvers.failure import SolverFailure
 from rodsim.solvers.physical.coordinates import model_state
 from rodsim.solvers.physical.dae import PhysicalDae
-from rodsim.solvers.physical.events import EventFunctions
-from rodsim.solvers.physical.midpoint import Motion
+from rodsim.solvers.physical.events import EventError, EventFunctions
+from rodsim.solvers.physical.fixed_step import Motion
 from rodsim.solvers.physical.ode import PhysicalOde
 from rodsim.solvers.physical.trajectory import Record
 from rodsim.solvers.sundials_clock import Clock
@@ -176,15 +176,21 @@ class _CvodeStarter:
 def _root_finding(dae: PhysicalDae, events: EventFunctions | None, ida: bool
                   ) -> dict[str, Any]:
     """SUNDIALS' root-finding options for ``events``: ``eventsfn`` (IDA: (t, y, ẏ, g), CVODE:
-    (t, y, g); y in band order), ``num_events``, every root direction −1 (a downward
-    crossing), none terminal — the run loop stops at a terminal event itself (SUNDIALS'
-    one-step mode ignores ``terminal``)."""
+    (t, y, g); y in band order), ``num_events``, each function's root direction (−1 a
+    downward crossing), none terminal — the run loop stops at a terminal event itself
+    (SUNDIALS' one-step mode ignores ``terminal``). A user's function that fails inside
+    SUNDIALS' callback is kept in ``events.failure`` (the loop raises it after the step)."""
     if events is None or not len(events):
         return {}
-    place, n = dae.place, dae.n
+    place = dae.place
 
     def values(t: float, y: np.ndarray, g: np.ndarray) -> None:
-        g[:] = events.values(dae.model_at(t), y[place][:n])
+        try:
+            x, v, _ = dae.split(y[place])
+            g[:] = events.values(t, dae.model_at(t), x, v)
+        except EventError as exc:  # a user's function: raised by the run loop after the step
+            events.failure = events.failure or exc
+            g[:] = 1.0
         # an exact zero at a root found and just after it is SUNDIALS' "root found at and
         # very near t" error (IDA_ILL_INPUT) on the next call, an interpolation included:
         # a zero is given as the smallest negative number instead (below the root)
@@ -197,7 +203,7 @@ def _root_finding(dae: PhysicalDae, events: EventFunctions | None, ida: bool
         def eventsfn(t: float, y: np.ndarray, g: np.ndarray) -> None:  # type: ignore[misc]
             values(t, y, g)
     eventsfn.terminal = [False] * len(events)  # type: ignore[attr-defined]
-    eventsfn.direction = [-1] * len(events)  # type: ignore[attr-defined]
+    eventsfn.direction = list(events.directions)  # type: ignore[attr-defined]
     return {"eventsfn": eventsfn, "num_events": len(events)}
 
 
@@ -326,6 +332,8 @@ def integrate_ida(dae: PhysicalDae, model_at: Callable[[float, bool], Model],
                                         "try looser rtol/atol or the midpoint integrator")
                 before = clock.t
                 out = clock.step(end, tstop=end)
+                if events is not None and events.failure is not None:
+                    raise events.failure
                 if not out.success:
                     detail = clock.failure_text()
                     raise SolverFailure(f"{solver.upper()} error: {out.message}"

@@ -24,27 +24,21 @@ step. The scheme is symmetric and second order; undamped, its energy error does 
 (tests/test_simulate.py measures both); the Cayley transform keeps |q| = 1 to round-off,
 and q₁ is normalised after each step to keep it there over many steps.
 
-Newton on the midpoint velocities uses the model's analytic sparse Jacobian ∂F/∂x at the
-step's first iterate, factored once (SuperLU) and kept while each iteration shrinks the
-change tenfold (a simplified Newton; a fresh Jacobian otherwise), to the tolerance
-``NEWTON_TOLERANCE``; the damping, D_t = Gᵀ D G on the physical velocities, is
-evaluated at each iterate's midpoint, so that the converged step's is the midpoint's
-(held from a predicted midpoint instead, an O(h²) error in the strain rates that the stiff
-stretch amplifies put the Kelvin–Voigt damping ratio of the steel rod's first mode 7 % to
-24 % high at 100 steps a period); its dissipation h u_m · D_t u_m ≥ 0 is what the step
-removes, exactly. Newton starts from the
-last step's midpoint velocities (``Motion``).
+Newton on the midpoint velocities (rodsim/solvers/physical/fixed_step.py: a simplified
+Newton, to the tolerance ``NEWTON_TOLERANCE``) uses the model's analytic sparse Jacobian
+∂F/∂x at the step's first iterate, fresh while the iteration converges slowly; the
+damping, D_t = Gᵀ D G on the physical velocities, is evaluated at each iterate's
+midpoint, so that the converged step's is the midpoint's (held from a predicted midpoint
+instead, an O(h²) error in the strain rates that the stiff stretch amplifies put the
+Kelvin–Voigt damping ratio of the steel rod's first mode 7 % to 24 % high at 100 steps a
+period); its dissipation h u_m · D_t u_m ≥ 0 is what the step removes, exactly. Newton
+starts from the last step's midpoint velocities (``Motion``).
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable
-from dataclasses import dataclass
-from functools import cached_property
-
 import numpy as np
 import scipy.sparse as sp
-import scipy.sparse.linalg as spla
 
 from rodsim.core.damping import Damping
 from rodsim.core.model import Model
@@ -52,72 +46,21 @@ from rodsim.core.rod.quaternion import B
 from rodsim.solvers.physical.coordinates import (
     PhysicalCoordinates,
     block_diagonal,
-    block_entries,
     cayley,
-    gyroscopic_jacobian,
+    cross_rows,
     model_state,
-    placed,
     velocity_rows,
 )
+from rodsim.solvers.physical.fixed_step import (
+    NEWTON_TOLERANCE,
+    Motion,
+    StepFailure,
+    StepOutcome,
+    newton_matrix,
+    solve_step,
+)
 
-__all__ = ["Motion", "StepFailure", "MidpointStep", "NEWTON_TOLERANCE", "MAX_ITERATIONS"]
-
-#: Newton stops when its step moves no node by more than this times the longest rod and no
-#: segment by more than this angle [rad] over the time step.
-NEWTON_TOLERANCE = 1e-12
-#: A change this small that is no longer half the smallest so far is the round-off floor
-#: of the forces (the stiff terms' internal forces cancel): converged.
-ROUNDOFF = 1e-9
-#: A Newton iteration that shrinks the change by less than this factor takes a fresh
-#: Jacobian for the next.
-REFRESH = 0.1
-#: A Newton change this large (a tenth of the rod's length, or of a radian) is divergence.
-DIVERGED = 0.1
-#: Newton iterations allowed per time step.
-MAX_ITERATIONS = 25
-
-
-def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """a × b row by row for (s, 3) arrays: numpy.cross's own products and differences,
-    without its axis handling (the same numbers)."""
-    out = np.empty(np.broadcast_shapes(a.shape, b.shape))
-    out[:, 0] = a[:, 1] * b[:, 2] - a[:, 2] * b[:, 1]
-    out[:, 1] = a[:, 2] * b[:, 0] - a[:, 0] * b[:, 2]
-    out[:, 2] = a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0]
-    return out
-
-
-class StepFailure(RuntimeError):
-    """A time step could not be taken (Newton did not converge, or a value is not finite)."""
-
-
-@dataclass(frozen=True)
-class Motion:
-    """A state of motion: free coordinates ``x``, node velocities ``v`` (p,) [m/s] and body
-    rates ``w`` (s, 3) [rad/s]; ``middle``: the midpoint velocities (v_m, ω_m) of the step
-    that reached it (None at the start), the next step's predictor.
-
-    The predictor: a mode the step cannot resolve (ωh ≫ 1: stretch, shear, twist, and
-    the overdamped modes of Kelvin–Voigt damping) reverses its velocity every step under
-    the midpoint rule, which is not L-stable, so v₁ ≈ −v₀ there and v_m ≈ 0; the last
-    step's v_m predicts that and the resolved modes alike (to O(h)). Predicting v₀ instead
-    put Newton's start a whole reversal away and made it diverge on a damped steel rod.
-    """
-
-    x: np.ndarray
-    v: np.ndarray
-    w: np.ndarray
-    middle: tuple[np.ndarray, np.ndarray] | None = None
-
-
-@dataclass(frozen=True)
-class StepOutcome:
-    """The motion a step reached, the energy its damping dissipated [J] and its Newton
-    iterations."""
-
-    motion: Motion
-    dissipated: float
-    iterations: int
+__all__ = ["MidpointStep"]
 
 
 class MidpointStep:
@@ -134,15 +77,10 @@ class MidpointStep:
         c = coordinates
         self._p = len(c.positions)
         self._s = len(c.quaternions)
-        self._angle_cols = self._p + np.arange(3 * self._s).reshape(-1, 3)
         nodes, weights = np.polynomial.legendre.leggauss(quadrature)
         #: The Gauss–Legendre points on [0, 1] and their weights (fixed: computed once).
         self._gauss = tuple(zip((0.5 * (nodes + 1.0)).tolist(), (0.5 * weights).tolist(),
                                 strict=True))
-        #: Where :meth:`_map`'s entries sit (positions, then the blocks raveled).
-        rows, cols = block_entries(coordinates.quaternions, self._angle_cols, 4, 3)
-        self._map_entries = (np.concatenate([coordinates.positions, rows]),
-                             np.concatenate([np.arange(self._p), cols]))
 
     def _midpoint(self, x0: np.ndarray, r1: np.ndarray, wm: np.ndarray, h: float
                   ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
@@ -209,8 +147,8 @@ class MidpointStep:
                 continue
             project = (np.eye(4)[None] - unit[:, :, None] * unit[:, None, :]) / norm[:, None,
                                                                                     None]
-            g = self._map(0.5 * project @ np.transpose(rows, (0, 2, 1)), 1.0, n, m)
-            p = self._map(project @ (node * dq1), node, n, m)
+            g = c.tangent_map(0.5 * project @ np.transpose(rows, (0, 2, 1)), 1.0, n)
+            p = c.tangent_map(project @ (node * dq1), node, n)
             # τ_k = ½ a_kᵀ P f / |q| (a_k = B_k q_m, P = I − q̂q̂ᵀ) at fixed f: through a_k
             # (q_m moves by ½ ∂q₁/∂ω_m) and through q̂ and |q| (q moves by s ∂q₁/∂ω_m)
             turned = np.einsum("kba,sb->ska", B, across) / norm[:, None, None]  # B_kᵀ P f
@@ -225,17 +163,9 @@ class MidpointStep:
             # the geometric blocks on the angles (sp.block_diag with the zero position
             # block, as one placement)
             part = (g.T @ model.pattern_matrix(jac) @ p) + block_diagonal(
-                geometric, self._angle_cols, self._angle_cols, (m, m))
+                geometric, c.angle_columns, c.angle_columns, (m, m))
             derivative = weight * part if derivative is None else derivative + weight * part
         return f_r, tau, None if derivative is None else derivative.tocsr()
-
-    def _map(self, blocks: np.ndarray, position: float, n: int, m: int) -> sp.csr_matrix:
-        """An n × m map: ``position`` times the identity on the positions, the 4 × 3
-        ``blocks`` on each segment's quaternion and angles (the sum of the two, as one
-        placement: ``placed``)."""
-        rows, cols = self._map_entries
-        return placed(np.concatenate([np.full(self._p, position), blocks.ravel()]), rows,
-                      cols, (n, m), prune=True)
 
     def step(self, model: Model, start: Motion, h: float) -> StepOutcome:
         """One step of length ``h`` [s] from ``start`` with ``model``'s forces (those of the
@@ -244,56 +174,37 @@ class MidpointStep:
         n = model.n
         x0, v0, w0 = start.x, start.v, start.w
         r0 = x0[c.positions]
-        damping = None  # D_t = Gᵀ D G on the physical velocities at the iterate's midpoint
+        # D_t = Gᵀ D G on the physical velocities at the last iterate's midpoint
+        held: list[sp.csr_matrix | None] = [None]
         r1, wm = r0 + h * v0, w0.copy()
         if start.middle is not None:
             r1, wm = r0 + h * start.middle[0], start.middle[1].copy()
         inertia = c.inertia
-        solve: Callable[[np.ndarray], np.ndarray] | None = None
-        previous = moved = best = np.inf
-        iterations = 0
-        for _ in range(MAX_ITERATIONS):
-            iterations += 1
+
+        def evaluate(r1: np.ndarray, wm: np.ndarray, fresh: bool
+                     ) -> tuple[np.ndarray, sp.csr_matrix | None]:
             xm, q1, qm, norm = self._midpoint(x0, r1, wm, h)
             vm = (r1 - r0) / h
-            fresh = solve is None
             dq1 = self._cayley_derivative(qm, wm, h) if fresh else None
             f_r, tau, stiffness = self._averaged(model, x0, r1, q1, qm, dq1)
             res_r = (2.0 / h) * (c.mass @ (vm - v0)) - f_r
-            res_w = ((2.0 / h) * inertia * (wm - w0) + _cross(wm, inertia * wm) - tau)
+            res_w = ((2.0 / h) * inertia * (wm - w0) + cross_rows(wm, inertia * wm) - tau)
+            damping = None
             if self.damping.active:
                 g = c.g_matrix(xm, n)
                 damping = (g.T @ self.damping.matrix(xm) @ g).tocsr()
                 dragged = damping @ np.concatenate([vm, wm.ravel()])
                 res_r = res_r + dragged[:self._p]
                 res_w = res_w + dragged[self._p:].reshape(-1, 3)
+            held[0] = damping
             residual = np.concatenate([res_r, res_w.ravel()])
-            if stiffness is not None:  # a fresh Newton matrix, kept while it converges fast
-                matrix = self._newton_matrix(stiffness, damping, wm, h)
-                try:
-                    solve = spla.splu(matrix.tocsc()).solve
-                except RuntimeError as exc:
-                    raise StepFailure(f"the Newton matrix is singular ({exc})") from None
-            assert solve is not None
-            delta = solve(-residual)
-            if not np.all(np.isfinite(delta)):
-                raise StepFailure("the Newton step is not finite (a singular Newton matrix)")
-            r1 = r1 + delta[:self._p]
-            wm = wm + delta[self._p:].reshape(-1, 3)
-            moved = max(float(np.max(np.abs(delta[:self._p]), initial=0.0))
-                        / self.length_scale,
-                        h * float(np.max(np.abs(delta[self._p:]), initial=0.0)))
-            if moved > DIVERGED:
-                raise StepFailure(f"Newton diverges (a change of {moved:.1e})")
-            if moved <= self.tolerance or (moved <= ROUNDOFF and moved > 0.5 * best):
-                break  # converged, or at the round-off floor of the forces
-            best = min(best, moved)
-            if moved > REFRESH * previous:
-                solve = None  # slow: a fresh Jacobian at the next iterate
-            previous = moved
-        else:
-            raise StepFailure(f"Newton did not converge in {MAX_ITERATIONS} iterations "
-                              f"(last change {moved:.1e})")
+            if stiffness is None:
+                return residual, None
+            return residual, newton_matrix(c, 2.0, stiffness, damping, wm, h)
+
+        r1, wm, iterations = solve_step(evaluate, r1, wm, h, self.length_scale,
+                                        self.tolerance)
+        damping = held[0]
         xm, q1, _, _ = self._midpoint(x0, r1, wm, h)
         vm = (r1 - r0) / h
         dissipated = 0.0
@@ -313,32 +224,3 @@ class MidpointStep:
         omega = np.einsum("sk,kab->sab", wm, B)
         return np.linalg.solve(np.eye(4)[None] - 0.25 * h * omega,
                                0.5 * h * np.transpose(velocity_rows(qm), (0, 2, 1)))
-
-    @cached_property
-    def _mass_entries(self) -> tuple[np.ndarray, np.ndarray]:
-        """Where the Newton matrix's masses sit: M_r's stored entries, then the rotation
-        blocks on the angles (raveled)."""
-        mass = self.coordinates.mass
-        r, c = block_entries(self._angle_cols, self._angle_cols, 3, 3)
-        return (np.concatenate([np.repeat(np.arange(self._p), np.diff(mass.indptr)), r]),
-                np.concatenate([mass.indices, c]))
-
-    def _newton_matrix(self, stiffness: sp.csr_matrix,
-                       damping: sp.csr_matrix | None, wm: np.ndarray, h: float
-                       ) -> sp.csr_matrix:
-        """∂(residual)/∂(r₁, ω_m): the masses, the gyroscopic term, minus the averaged
-        force's derivative ``stiffness``, plus the (held) damping D_t ∂u_m/∂(r₁, ω_m)."""
-        c = self.coordinates
-        inertia = c.inertia
-        gyro = gyroscopic_jacobian(inertia, wm)
-        rotation = (2.0 / h) * np.eye(3)[None] * inertia[:, :, None] + gyro
-        # sp.block_diag([(2/h²) M_r, the rotation blocks]) as one placement
-        mass = (2.0 / h**2) * c.mass
-        rows, cols = self._mass_entries
-        masses = placed(np.concatenate([mass.data, rotation.ravel()]), rows, cols,
-                        (c.size, c.size))
-        matrix = masses - stiffness
-        if damping is not None:
-            scale = np.concatenate([np.full(self._p, 1.0 / h), np.ones(3 * self._s)])
-            matrix = matrix + damping @ sp.diags(scale)
-        return matrix.tocsr()

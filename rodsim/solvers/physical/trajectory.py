@@ -33,7 +33,9 @@ import numpy as np
 
 from rodsim.core.model import Model
 from rodsim.solvers.physical.coordinates import model_state
-from rodsim.solvers.physical.midpoint import MidpointStep, Motion, StepFailure
+from rodsim.solvers.physical.events import EventFunctions
+from rodsim.solvers.physical.fixed_step import FixedStep, Motion, StepFailure
+from rodsim.solvers.physical.step_events import StepEvents
 
 #: What a run is told at the end of every step: ``after_step(t, x, model)``, x the model's
 #: free coordinates (offsets from the rest state), ``model`` the one that solved the step
@@ -87,7 +89,7 @@ def _potential(model: Model, x: np.ndarray) -> float:
     return model.energy(model_state(model, x))
 
 
-def _advance(model_at: Callable[[float], Model], stepper: MidpointStep, motion: Motion,
+def _advance(model_at: Callable[[float], Model], stepper: FixedStep, motion: Motion,
              t0: float, t1: float, halvings: int, after_step: AfterStep | None = None
              ) -> tuple[Motion, float, float, tuple[int, int, int]]:
     """One step from ``t0`` to ``t1``, or, if its Newton fails, two half steps (each halved
@@ -131,22 +133,47 @@ def _advance(model_at: Callable[[float], Model], stepper: MidpointStep, motion: 
     return outcome.motion, work, outcome.dissipated, (1, outcome.iterations, 0)
 
 
-def integrate(model_at: Callable[[float], Model], stepper: MidpointStep, start: Motion,
+def _restep(model_at: Callable[[float], Model], stepper: FixedStep, start: Motion,
+            t0: float, counts: list[int]) -> Callable[[float], Motion]:
+    """The state one step from ``start`` at ``t0`` to t reaches (halved as a step is, the
+    friction's history left alone), for an event's root; its steps, Newton iterations and
+    halvings added to ``counts``."""
+    def restep(t: float) -> Motion:
+        if t <= t0:
+            return start
+        motion, _, _, taken = _advance(model_at, stepper, start, t0, t, MAX_HALVINGS)
+        for k in range(3):
+            counts[k] += taken[k]
+        return motion
+    return restep
+
+
+def integrate(model_at: Callable[[float], Model], stepper: FixedStep, start: Motion,
               output_times: Sequence[float], step: float,
               progress: Callable[[float], None] | None = None,
-              record: Record | None = None, after_step: AfterStep | None = None) -> Record:
+              record: Record | None = None, after_step: AfterStep | None = None,
+              events: EventFunctions | None = None) -> Record:
     """Integrate from ``start`` at ``output_times[0]`` through every output time with steps
     of at most ``step`` [s]; ``model_at(t)`` is the model with the values at time t (the same
     object while nothing changes). A step that fails ends the run: the record holds what was
     computed, ``success`` False and a message with the time and advice. ``record``: an empty
     record to fill (the caller keeps what it holds if the run is interrupted).
     ``after_step(t, x)``: told the end of every step (friction's history,
-    ``rodsim.app.programs.Programs.carry_history``)."""
+    ``rodsim.app.programs.Programs.carry_history``). ``events``: watched after every step
+    (rodsim/solvers/physical/step_events.py): each root's time and name go to
+    ``record.events`` and a terminal one ends the run there, the step taken again to its
+    time, with an output at it."""
     record = Record() if record is None else record
     t = float(output_times[0])
     motion = start
     model = model_at(t)
     coordinates = stepper.coordinates
+    watch = None
+    names: list[str] = [] if events is None else events.names
+    terminal: list[bool] = [] if events is None else events.terminal
+    if events is not None and len(events):
+        watch = StepEvents(events, model_at, coordinates)
+        watch.start(t, motion)
     dissipated = work = 0.0
     record.add(t, motion, coordinates.kinetic_energy(motion.v, motion.w),
                _potential(model, motion.x), 0.0, 0.0)
@@ -157,20 +184,41 @@ def integrate(model_at: Callable[[float], Model], stepper: MidpointStep, start: 
         for k in range(count):
             t0 = t_first + (t_next - t_first) * k / count
             t1 = t_next if k == count - 1 else t_first + (t_next - t_first) * (k + 1) / count
+            before = motion
             try:
                 motion, gained, lost, taken = _advance(model_at, stepper, motion, t0, t1,
                                                        MAX_HALVINGS, after_step)
+                found, searched = [], [0, 0, 0]
+                if watch is not None:
+                    found = watch.step(t0, before, t1, motion,
+                                       _restep(model_at, stepper, before, t0, searched))
+                stop = next((when for when, i in found if terminal[i]), None)
+                if stop is not None:
+                    found = [(when, i) for when, i in found if when <= stop]
+                    if stop < t1:  # the step again, to the terminal event's time exactly
+                        motion, gained, lost, again = _advance(
+                            model_at, stepper, before, t0, stop, MAX_HALVINGS, after_step)
+                        searched = [a + b for a, b in zip(searched, again, strict=True)]
+                taken = (taken[0] + searched[0], taken[1] + searched[1],
+                         taken[2] + searched[2])
             except StepFailure as exc:
                 record.success = False
                 record.message = (f"step from t = {t0:.6g} s failed: {exc}; try a smaller "
                                   "step (the run's data up to there is kept)")
                 return record
+            record.events.extend((when, names[i]) for when, i in found)
             work += gained
             dissipated += lost
             record.steps += taken[0]
             record.iterations += taken[1]
             record.halvings += taken[2]
             record.largest_step = max(record.largest_step, t1 - t0)
+            if stop is not None:
+                record.add(stop, motion, coordinates.kinetic_energy(motion.v, motion.w),
+                           _potential(model_at(stop), motion.x), dissipated, work)
+                ended = ", ".join(names[i] for when, i in found if when == stop and terminal[i])
+                record.message = f"stopped by the event ({ended}) at t = {stop:.9g} s"
+                return record
             if progress is not None:
                 progress(t1)
         t = t_next

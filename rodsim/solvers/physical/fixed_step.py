@@ -1,0 +1,162 @@
+"""What a fixed step of physical time is, for the integrators that take one (the implicit
+midpoint rule, rodsim/solvers/physical/midpoint.py; the paper's semi-implicit Euler,
+rodsim/solvers/physical/semi_implicit_euler.py): the motion it starts from and reaches,
+its outcome, its failure, and the Newton iteration both solve on the node positions at
+the step's end r₁ and a body rate per segment (docs/dynamics.md).
+
+The Newton iteration: the Newton matrix is factored (SuperLU) at the first iterate and kept
+while each iteration shrinks the change tenfold (a simplified Newton; a fresh matrix
+otherwise), to the tolerance ``NEWTON_TOLERANCE`` on the change — of any node over the
+longest rod's length, of any segment's angle over the step.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Protocol
+
+import numpy as np
+import scipy.sparse as sp
+import scipy.sparse.linalg as spla
+
+from rodsim.core.damping import Damping
+from rodsim.core.model import Model
+from rodsim.solvers.physical.coordinates import (
+    PhysicalCoordinates,
+    gyroscopic_jacobian,
+    placed,
+)
+
+__all__ = ["Motion", "StepOutcome", "StepFailure", "FixedStep", "solve_step",
+           "newton_matrix",
+           "NEWTON_TOLERANCE", "MAX_ITERATIONS"]
+
+#: Newton stops when its step moves no node by more than this times the longest rod and no
+#: segment by more than this angle [rad] over the time step.
+NEWTON_TOLERANCE = 1e-12
+#: A change this small that is no longer half the smallest so far is the round-off floor
+#: of the forces (the stiff terms' internal forces cancel): converged.
+ROUNDOFF = 1e-9
+#: A Newton iteration that shrinks the change by less than this factor takes a fresh
+#: Jacobian for the next.
+REFRESH = 0.1
+#: A Newton change this large (a tenth of the rod's length, or of a radian) is divergence.
+DIVERGED = 0.1
+#: Newton iterations allowed per time step.
+MAX_ITERATIONS = 25
+
+
+class StepFailure(RuntimeError):
+    """A time step could not be taken (Newton did not converge, or a value is not finite)."""
+
+
+@dataclass(frozen=True)
+class Motion:
+    """A state of motion: free coordinates ``x``, node velocities ``v`` (p,) [m/s] and body
+    rates ``w`` (s, 3) [rad/s]; ``middle``: the midpoint velocities (v_m, ω_m) of the
+    midpoint step that reached it (None at the start and after other steps), the next
+    midpoint step's predictor.
+
+    The predictor: a mode the step cannot resolve (ωh ≫ 1: stretch, shear, twist, and
+    the overdamped modes of Kelvin–Voigt damping) reverses its velocity every step under
+    the midpoint rule, which is not L-stable, so v₁ ≈ −v₀ there and v_m ≈ 0; the last
+    step's v_m predicts that and the resolved modes alike (to O(h)). Predicting v₀ instead
+    put Newton's start a whole reversal away and made it diverge on a damped steel rod.
+    """
+
+    x: np.ndarray
+    v: np.ndarray
+    w: np.ndarray
+    middle: tuple[np.ndarray, np.ndarray] | None = None
+
+
+@dataclass(frozen=True)
+class StepOutcome:
+    """The motion a step reached, the energy its damping dissipated [J] and its Newton
+    iterations."""
+
+    motion: Motion
+    dissipated: float
+    iterations: int
+
+
+class FixedStep(Protocol):
+    """A fixed step of one model's motion (the run, rodsim/solvers/physical/trajectory.py,
+    takes any)."""
+
+    coordinates: PhysicalCoordinates
+    damping: Damping
+
+    def step(self, model: Model, start: Motion, h: float) -> StepOutcome:
+        """One step of length ``h`` [s] from ``start`` with ``model``'s forces;
+        StepFailure when it cannot be taken."""
+        ...
+
+
+#: ``evaluate(r₁, w, fresh)``: the residual at the iterate and, when ``fresh``, the
+#: Newton matrix there (None otherwise).
+Evaluate = Callable[[np.ndarray, np.ndarray, bool], tuple[np.ndarray, "sp.spmatrix | None"]]
+
+
+def solve_step(evaluate: Evaluate, r1: np.ndarray, w: np.ndarray, h: float,
+               length_scale: float, tolerance: float) -> tuple[np.ndarray, np.ndarray, int]:
+    """Newton from (``r1``, ``w``) — node positions (p,) and body rates (s, 3) — on
+    ``evaluate``'s residual (module docstring): (r₁, w, iterations); StepFailure when it
+    diverges, does not converge or meets a value that is not finite."""
+    p = len(r1)
+    solve: Callable[[np.ndarray], np.ndarray] | None = None
+    previous = moved = best = np.inf
+    iterations = 0
+    for _ in range(MAX_ITERATIONS):
+        iterations += 1
+        residual, matrix = evaluate(r1, w, solve is None)
+        if matrix is not None:  # a fresh Newton matrix, kept while it converges fast
+            try:
+                solve = spla.splu(matrix.tocsc()).solve
+            except RuntimeError as exc:
+                raise StepFailure(f"the Newton matrix is singular ({exc})") from None
+        assert solve is not None
+        delta = solve(-residual)
+        if not np.all(np.isfinite(delta)):
+            raise StepFailure("the Newton step is not finite (a singular Newton matrix)")
+        r1 = r1 + delta[:p]
+        w = w + delta[p:].reshape(-1, 3)
+        moved = max(float(np.max(np.abs(delta[:p]), initial=0.0)) / length_scale,
+                    h * float(np.max(np.abs(delta[p:]), initial=0.0)))
+        if moved > DIVERGED:
+            raise StepFailure(f"Newton diverges (a change of {moved:.1e})")
+        if moved <= tolerance or (moved <= ROUNDOFF and moved > 0.5 * best):
+            break  # converged, or at the round-off floor of the forces
+        best = min(best, moved)
+        if moved > REFRESH * previous:
+            solve = None  # slow: a fresh Jacobian at the next iterate
+        previous = moved
+    else:
+        raise StepFailure(f"Newton did not converge in {MAX_ITERATIONS} iterations "
+                          f"(last change {moved:.1e})")
+    return r1, w, iterations
+
+
+def newton_matrix(coordinates: PhysicalCoordinates, factor: float, stiffness: sp.csr_matrix,
+                  damping: sp.csr_matrix | None, w: np.ndarray, h: float) -> sp.csr_matrix:
+    """∂(residual)/∂(r₁, w) of a step whose residual is ``factor`` (2 for the midpoint rule,
+    1 for Euler) times (M_r (v − v₀)/h, I (w − ω₀)/h) plus w × I w, minus the force, plus
+    the damping: the masses (factor/h²) M_r and (factor/h) I, the gyroscopic term at
+    ``w``, minus the force's derivative ``stiffness`` with respect to (r₁, w), plus the
+    (held) damping D_t times ∂u/∂(r₁, w) (1/h on the positions: u = (r₁ − r₀)/h)."""
+    c = coordinates
+    p = len(c.positions)
+    inertia = c.inertia
+    gyro = gyroscopic_jacobian(inertia, w)
+    rotation = (factor / h) * np.eye(3)[None] * inertia[:, :, None] + gyro
+    # sp.block_diag([(factor/h²) M_r, the rotation blocks]) as one placement
+    mass = (factor / h**2) * c.mass
+    rows, cols = c.mass_entries
+    masses = placed(np.concatenate([mass.data, rotation.ravel()]), rows, cols,
+                    (c.size, c.size))
+    matrix = masses - stiffness
+    if damping is not None:
+        scale = np.concatenate([np.full(p, 1.0 / h), np.ones(3 * len(c.quaternions))])
+        matrix = matrix + damping @ sp.diags(scale)
+    return matrix.tocsr()
