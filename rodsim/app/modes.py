@@ -128,15 +128,16 @@ class Modes:
     vectors: np.ndarray = field(default_factory=lambda: np.zeros((0, 0)), repr=False)
 
     def summary_rows(self) -> list[tuple[str, str]]:
-        """The summary's rows: outcome, the frequencies, the damping ratios and the growth
-        when there are any, the equilibrium (its integrator, the first rod's tip, its
-        stability), the inertia."""
+        """The summary's rows: outcome, the frequencies, the damping ratios (of each mode's
+        matched damped root) and the growth when there are any, the equilibrium (its
+        integrator, the first rod's tip, its stability), the inertia."""
         rows = [("outcome", self.message if self.success else f"FAILED: {self.message}")]
         if len(self.frequencies):
             rows.append(("frequencies", ", ".join(
                 "none" if np.isnan(f) else f"{f:.4g}" for f in self.frequencies) + " Hz"))
-        if np.any(self.damping_ratios[np.isfinite(self.damping_ratios)] > 0.0):
-            rows.append(("damping ratios", ", ".join(f"{z:.3g}" for z in self.damping_ratios)))
+        ratios = self.matched_damping_ratios  # each mode's own root, as the frequencies
+        if np.any(ratios[np.isfinite(ratios)] > 0.0):
+            rows.append(("damping ratios", ", ".join(f"{z:.3g}" for z in ratios)))
         if np.any(self.growth != 0.0):
             rows.append(("largest |growth|", f"{float(np.max(np.abs(self.growth))):.3g} Hz "
                                              "(a non-conservative coupling)"))
