@@ -84,6 +84,8 @@ def table(parameters: tuple[Parameter, ...], term_names: list[str] = (),
         default = "the rod's" if p.name in inherited else toml_value(p.default)
         if p.name == "stretch_modulus" and not inherited:  # rodsim/core/scene.py fills it
             default = "`youngs_modulus`"
+        if p.name.startswith("retardation_time_") and p.name != "retardation_time_shear":
+            default = "`retardation_time`"  # rodsim/core/damping_options.py follows it
         lines.append(f"| `{p.name}` | {default} | {p.unit} "
                      f"| {allowed(p, list(term_names))} | {doc} |")
         for item in p.items or ():  # the keys of each table of a list of tables
@@ -152,8 +154,8 @@ def reference() -> str:
         "### `[rods.<name>.damping]` — physical damping in physical time "
         "(rodsim/core/damping.py)",
         "",
-        "Optional; read by `rodsim.simulate` only (docs/dynamics.md), never by the "
-        "equilibrium solvers.",
+        "Optional; read by `rodsim.simulate` and `rodsim.modes` only (docs/dynamics.md), "
+        "never by the equilibrium solvers.",
         "",
         *table(DAMPING_PARAMETERS),
         *term_tables(terms, "rod", "rods.<name>"),

@@ -166,8 +166,9 @@ drag = 0.05
 
 
 def test_cli_prints_and_archives_the_damped_modes(tmp_path, monkeypatch, capsys):
-    """``rodsim modes`` prints the damped frequency and ratio of each root and archives them
-    as the Python result has them, bit for bit."""
+    """``rodsim modes`` prints, in each mode's row, the damped frequency and ratio of the
+    root matched to it, and archives the roots as the Python result has them, bit for
+    bit."""
     monkeypatch.chdir(tmp_path)
     (tmp_path / "damped.toml").write_text(SCENE, encoding="utf-8")
     assert main(["modes", "damped.toml", "--count", "4", "-o", "modes.nc"]) == 0
@@ -175,6 +176,11 @@ def test_cli_prints_and_archives_the_damped_modes(tmp_path, monkeypatch, capsys)
     assert "damped [Hz]" in out and "damping ratio" in out
     ds = read_dataset(tmp_path / "modes.nc")
     python = rodsim.modes(tmp_path / "damped.toml", count=4)
+    rows = [line.split() for line in out.splitlines() if line.split()[:1] in (["1"], ["2"],
+                                                                            ["3"], ["4"])]
+    assert [row[-1] for row in rows] == [f"{z:.4g}" for z in python.matched_damping_ratios]
+    assert [row[-2] for row in rows] == [
+        f"{lam.imag / (2 * math.pi):.6g}" for lam in python.matched_eigenvalues]
     np.testing.assert_array_equal(ds["damped_frequency"].values, python.damped_frequencies)
     np.testing.assert_array_equal(ds["damping_ratio"].values, python.damping_ratios)
     np.testing.assert_array_equal(ds["damped_eigenvalue_real"].values

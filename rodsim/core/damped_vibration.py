@@ -29,6 +29,11 @@ A real root is a motion that does not oscillate: an overdamped mode's pair of re
 (Kelvin–Voigt damps the n-th mode with ζ_n = τ ω_n / 2, so from some mode on), or a
 relaxation; its damping ratio −Re λ / |λ| is 1 and its damped frequency 0. The roots of
 Kelvin–Voigt's overdamped modes gather near λ = −1/τ.
+
+Each root keeps its complex mode shape φ, the x part of A's eigenvector (x, w = μ x):
+(λ² M + λ D + K) φ = 0. ``rodsim.app.modes`` matches them to the undamped modes by the
+modal assurance criterion (the mass-weighted MAC). For a damping proportional to K (one
+Kelvin–Voigt τ) or to M, φ is the undamped mode up to a complex factor.
 """
 
 from __future__ import annotations
@@ -69,9 +74,17 @@ class DampedVibration:
     ----------
     eigenvalues
         λ [1/s], shape (count,), by |λ| (NaN where fewer roots were found).
+    roots
+        Every root found (one of each pair, each real root), by |λ|: the ``count`` first
+        are ``eigenvalues``; the others are candidates for matching the undamped modes.
+    vectors
+        The complex mode shape φ of each of ``roots`` on the free coordinates, shape
+        (len(roots), n): the x part of A's eigenvector (x, μ x), unnormalised.
     """
 
     eigenvalues: np.ndarray
+    roots: np.ndarray
+    vectors: np.ndarray
 
     @property
     def damped_frequencies(self) -> np.ndarray:
@@ -109,37 +122,45 @@ def damped_modes(stiffness: sp.spmatrix, factor: sp.spmatrix, damping: sp.spmatr
         raise ModesError("the stiffness or the damping is not finite at this equilibrium")
     solve = stiffness_solver(stiffness, jacobian, band)
     mass = (factor @ factor.T).tocsr()
-    mu = None if n <= DENSE_SIZE else _arpack(mass, damping, solve,
-                                               min(2 * count + 2, 2 * n - 2))
-    if mu is None or (mu.size < min(2 * count + 2, 2 * n - 2) and n <= DENSE_FALLBACK):
-        mu = _dense(mass, damping, solve)
+    found = None if n <= DENSE_SIZE else _arpack(mass, damping, solve,
+                                                  min(2 * count + 2, 2 * n - 2))
+    if found is None or (found[0].size < min(2 * count + 2, 2 * n - 2)
+                         and n <= DENSE_FALLBACK):
+        found = _dense(mass, damping, solve)
+    mu, z = found
     finite = mu != 0.0
-    roots = 1.0 / mu[finite]
+    roots, shapes = 1.0 / mu[finite], z[:n, finite].T
     keep = roots.imag > REAL_TOLERANCE * np.abs(roots)
     real = np.abs(roots.imag) <= REAL_TOLERANCE * np.abs(roots)
-    chosen = np.concatenate([roots[keep], roots[real].real.astype(complex)])
-    chosen = chosen[np.argsort(np.abs(chosen), kind="stable")][:count]
+    every = np.concatenate([roots[keep], roots[real].real.astype(complex)])
+    vectors = np.concatenate([shapes[keep], shapes[real]]).astype(complex)
+    order = np.argsort(np.abs(every), kind="stable")
+    every, vectors = every[order], vectors[order]
+    chosen = every[:count]
     if len(chosen) < count:
         chosen = np.concatenate([chosen, np.full(count - len(chosen), np.nan + 0j)])
-    return DampedVibration(chosen)
+    return DampedVibration(chosen, every, vectors.reshape(len(every), n))
 
 
 Solve = Callable[[np.ndarray], np.ndarray]
 
 
-def _dense(mass: sp.csr_matrix, damping: sp.csr_matrix, solve: Solve) -> np.ndarray:
-    """Every eigenvalue μ of A, dense (``solve``: v ↦ K⁻¹ v on an (n, k) block)."""
+def _dense(mass: sp.csr_matrix, damping: sp.csr_matrix, solve: Solve
+           ) -> tuple[np.ndarray, np.ndarray]:
+    """Every eigenpair (μ, z) of A, dense (``solve``: v ↦ K⁻¹ v on an (n, k) block)."""
     n = mass.shape[0]
     a = np.zeros((2 * n, 2 * n))
     a[:n, n:] = np.eye(n)
     a[n:, :n] = -solve(mass.toarray())
     a[n:, n:] = -solve(damping.toarray())
-    return np.asarray(la.eigvals(a))
+    mu, z = la.eig(a)
+    return np.asarray(mu), np.asarray(z)
 
 
 def _arpack(mass: sp.csr_matrix, damping: sp.csr_matrix, solve: Solve, k: int
-            ) -> np.ndarray:
-    """The ``k`` eigenvalues μ of A of largest magnitude, by ARPACK from a fixed start."""
+            ) -> tuple[np.ndarray, np.ndarray]:
+    """The ``k`` eigenpairs (μ, z) of A of largest magnitude, by ARPACK from a fixed
+    start."""
     n = mass.shape[0]
 
     def apply(z: np.ndarray) -> np.ndarray:
@@ -150,9 +171,8 @@ def _arpack(mass: sp.csr_matrix, damping: sp.csr_matrix, solve: Solve, k: int
     operator = spla.LinearOperator((2 * n, 2 * n), matvec=apply, dtype=float)
     start = np.random.default_rng(ARPACK_SEED).standard_normal(2 * n)
     try:
-        mu = spla.eigs(operator, k=k, which="LM", v0=start, maxiter=MAX_RESTARTS,
-                       ncv=min(2 * n - 1, max(2 * k + 1, MIN_BASIS)),
-                       return_eigenvectors=False)
+        mu, z = spla.eigs(operator, k=k, which="LM", v0=start, maxiter=MAX_RESTARTS,
+                          ncv=min(2 * n - 1, max(2 * k + 1, MIN_BASIS)))
     except spla.ArpackNoConvergence as exc:  # a cluster (Kelvin–Voigt's near −1/τ): partial
-        return np.asarray(exc.eigenvalues)
-    return np.asarray(mu)
+        return np.asarray(exc.eigenvalues), np.asarray(exc.eigenvectors)
+    return np.asarray(mu), np.asarray(z)

@@ -16,6 +16,13 @@ A rod's ``[rods.<rod>.damping]`` table holds
   material_stiffness``): a viscous stress τ C ε̇ on each strain. The n-th mode of a uniform
   rod then decays with the damping ratio ζ_n = τ ω_n / 2 (tests/test_simulate.py measures
   it).
+- ``retardation_time_stretch``, ``_shear``, ``_bending``, ``_twist`` [s]: a retardation
+  time per strain kind instead (each term's ``strain_kinds``): η_k = τ_k × that strain's
+  stiffness, D = Σ_k τ_k K_mat,k(x) with K_mat,k the material stiffness of kind k alone
+  (``Term.material_stiffness`` with weights). An omitted one follows ``retardation_time``;
+  shear (the centerline penalty of Eq. 9, K_P l (∂w/∂x)ᵀ(∂w/∂x) for its mismatch w) is
+  0 unless given, as without these keys. A mode made of one strain kind then decays with
+  ζ = τ_k ω / 2 (tests/test_strain_damping.py).
 - ``drag`` c [N·s/m²]: a force −c ṙ(s) per unit length on the centerline (a catheter in a
   still fluid), distributed with the centerline's hat functions: f_D = −c C ṙ with
   C_ij = ∫ N_i N_j ds (l (1/3, 1/6, 1/3) per segment, the consistent mass with ρA = 1).
@@ -36,7 +43,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 import scipy.sparse as sp
 
-from rodsim.core.damping_options import ELASTIC_TERMS, DampingOptions
+from rodsim.core.damping_options import DampingOptions
 
 if TYPE_CHECKING:
     from rodsim.core.model import Model
@@ -57,16 +64,23 @@ class Damping:
         free_of = np.full(model.full_size, -1)
         free_of[model.free] = np.arange(model.n)
         self._free_of = free_of
-        #: (term, τ) of every elastic term of a rod with τ > 0.
-        self.elastic: list[tuple[Any, float]] = []
+        #: (term, τ, weights) of every rod term with a material strain whose τ is > 0:
+        #: one τ for all its strain kinds (weights None), or τ = 1 and each kind's own
+        #: retardation time as the weights (``Term.material_stiffness``).
+        self.elastic: list[tuple[Any, float, np.ndarray | None]] = []
         rows: list[np.ndarray] = []
         cols: list[np.ndarray] = []
         values: list[np.ndarray] = []
-        for (owner, name, key), term in zip(model.term_keys, model.terms, strict=True):
-            if owner == "rods" and key in ELASTIC_TERMS:
-                tau = rod_damping(model, name).retardation_time
-                if tau > 0.0:
-                    self.elastic.append((term, tau))
+        for (owner, name, _), term in zip(model.term_keys, model.terms, strict=True):
+            if owner != "rods" or not term.strain_kinds:
+                continue
+            options = rod_damping(model, name)
+            times = np.array([options.retardation(kind) for kind in term.strain_kinds])
+            if np.all(times == times[0]):
+                if times[0] > 0.0:
+                    self.elastic.append((term, float(times[0]), None))
+            elif np.any(times > 0.0):
+                self.elastic.append((term, 1.0, times))
         for name, rod in model.rods.items():
             c = rod_damping(model, name).drag
             if c <= 0.0:
@@ -100,17 +114,19 @@ class Damping:
         return sp.csr_matrix((v[keep], (i[keep], j[keep])), shape=(n, n))
 
     def matrix(self, x: np.ndarray) -> sp.csr_matrix:
-        """D(x) = Σ_rods τ K_mat(x) + c C on the free coordinates at ``x``, the free coordinates
-        themselves (positions and quaternions, not the model's offsets)
+        """D(x) = Σ_rods Σ_k τ_k K_mat,k(x) + c C on the free coordinates at ``x``, the free
+        coordinates themselves (positions and quaternions, not the model's offsets)
         [N·s/m and the quaternions' units]; symmetric."""
         if not self.elastic:
             return self.drag
         state = x - self.model.reference[self.model.free]  # the model's offsets
         full, offsets = self.model.full(state), self.model.offsets(state)
         rows, cols, values = [], [], []
-        for term, tau in self.elastic:
+        for term, tau, weights in self.elastic:
             # the material stiffness, a term on offsets (Term.offsets) evaluated at them
-            blocks = term.material_stiffness(offsets if term.offsets else full)
+            state = offsets if term.offsets else full
+            blocks = (term.material_stiffness(state) if weights is None
+                      else term.material_stiffness(state, weights))
             dofs = term.dofs
             k = dofs.shape[1]
             rows.append(np.repeat(dofs, k, axis=1).ravel())

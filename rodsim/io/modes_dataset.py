@@ -8,8 +8,13 @@ out as ``position`` and ``quaternion``, scaled to a modal mass of the scene's wh
 times 1 m² (``rodsim.app.modes.Modes.shapes``), and
 ``rotational_share``; with the scene's damping (rodsim/core/damped_vibration.py),
 ``damped_frequency`` [Hz], ``damping_ratio`` and ``damped_eigenvalue_real`` and
-``damped_eigenvalue_imag`` (λ [1/s]; without damping λ = iω, ζ = 0). Attributes: ``kind`` =
-``modes``, ``rotary_inertia``, ``modes_message``.
+``damped_eigenvalue_imag`` (λ [1/s]; without damping λ = iω, ζ = 0), these roots ordered
+by |λ|; and matched to the undamped modes (``rodsim.app.modes.Modes.matched_eigenvalues``),
+along ``mode`` in the undamped order: ``matched_eigenvalue_real`` and
+``matched_eigenvalue_imag``, ``shape_mac``, and the complex damped shapes as
+``damped_mode_position_real`` / ``_imag`` (mode, node, axis) and
+``damped_mode_quaternion_real`` / ``_imag`` (mode, segment, component), scaled as the
+undamped ones. Attributes: ``kind`` = ``modes``, ``rotary_inertia``, ``modes_message``.
 """
 
 from __future__ import annotations
@@ -32,7 +37,9 @@ def modes_dataset(result: Result, *, frequencies: np.ndarray, eigenvalues: np.nd
                   shapes: np.ndarray, rotations: np.ndarray, rotational_share: np.ndarray,
                   rotary_inertia: bool, message: str,
                   damped_eigenvalues: np.ndarray, damped_frequencies: np.ndarray,
-                  damping_ratios: np.ndarray) -> xr.Dataset:
+                  damping_ratios: np.ndarray, matched_eigenvalues: np.ndarray,
+                  shape_mac: np.ndarray, damped_shapes: np.ndarray,
+                  damped_rotations: np.ndarray) -> xr.Dataset:
     """The modes archive of the equilibrium ``result`` (module docstring)."""
     ds = run_dataset(result)
     count = len(frequencies)
@@ -71,6 +78,27 @@ def modes_dataset(result: Result, *, frequencies: np.ndarray, eigenvalues: np.nd
     ds["damped_eigenvalue_imag"] = ("mode", roots.imag.copy(),
                                     {"units": "s-1", "long_name": "imaginary part of the "
                                      "damped root lambda"})
+    matched = np.asarray(matched_eigenvalues, dtype=complex)
+    ds["matched_eigenvalue_real"] = ("mode", matched.real.copy(),
+                                     {"units": "s-1", "long_name": "real part of the damped "
+                                      "root whose shape is this mode's (largest MAC)"})
+    ds["matched_eigenvalue_imag"] = ("mode", matched.imag.copy(),
+                                     {"units": "s-1", "long_name": "imaginary part of the "
+                                      "damped root whose shape is this mode's"})
+    ds["shape_mac"] = ("mode", np.asarray(shape_mac, dtype=float),
+                       {"units": "1", "long_name": "mass-weighted MAC of the mode and its "
+                        "damped shape (1: the same shape)"})
+    for part in ("real", "imag"):
+        ds[f"damped_mode_position_{part}"] = (
+            ("mode", "node", "axis"), getattr(np.asarray(damped_shapes, dtype=complex),
+                                              part).copy(),
+            {"units": "m", "long_name": f"{part} part of the complex damped mode shape "
+             "(motion Re(phi e^(lambda t)); modal mass: the whole mass times 1 m2)"})
+        ds[f"damped_mode_quaternion_{part}"] = (
+            ("mode", "segment", "component"),
+            getattr(np.asarray(damped_rotations, dtype=complex), part).copy(),
+            {"units": "1", "long_name": f"{part} part of the complex damped mode's "
+             "quaternion change"})
     name = result.scene.name
     ds.attrs.update({
         "title": f"rodsim modes of scene {name!r} about its equilibrium",

@@ -15,7 +15,8 @@ class Modes(SceneCommand):
     """Solve the scene's equilibrium (with static), then the lowest natural frequencies and
     mode shapes about it, K phi = omega^2 M phi with the physical masses (rho A per node,
     rho I and rho J per segment; docs/dynamics.md), and with the scene's damping the damped
-    frequencies and damping ratios. Prints the frequencies; writes the
+    frequency and damping ratio of each mode's own damped root (matched by its shape).
+    Prints the frequencies; writes the
     equilibrium's archive with a `mode` dimension and a figure of the first mode shapes."""
 
     kind = "modes"
@@ -52,8 +53,9 @@ class Modes(SceneCommand):
                 strict=True)):
             shown = (f"{value.real:.6e}" if value.imag == 0.0
                      else f"{value.real:.4e}{value.imag:+.2e}j")
-            extra = (f"   {result.damped_frequencies[k]:>11.6g}   "
-                     f"{result.damping_ratios[k]:>13.4g}" if damped else "")
+            root = result.matched_eigenvalues[k]  # the damped root of this mode (by MAC)
+            extra = (f"   {root.imag / (2.0 * np.pi):>11.6g}   "
+                     f"{result.matched_damping_ratios[k]:>13.4g}" if damped else "")
             print(f"{k + 1:>4}   {frequency:>14.6g}   {shown:>19}   {share:>14.3f}{extra}")
         if result.message != "ok":
             print(f"note        {result.message}")

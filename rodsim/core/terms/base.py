@@ -113,6 +113,10 @@ class Term(ABC):
     #: small differences of large numbers (stretch, centerline) are; the others are given
     #: the full state.
     offsets: ClassVar[bool] = False
+    #: The strain kinds of ``material_stiffness``, in the order of its ``weights``
+    #: (``rodsim.core.damping_options.STRAIN_KINDS``: stretch, shear, bending, twist); empty
+    #: for a term with no material strain, which Kelvin–Voigt damping leaves out.
+    strain_kinds: ClassVar[tuple[str, ...]] = ()
     #: True for a constraint penalty whose constant a solver may raise gradually; the term
     #: must be linear in its constant, so that scaling its output scales the constant. A
     #: penalty term must also set :attr:`penalty_ratio` (checked when a model is built).
@@ -287,13 +291,16 @@ class Term(ABC):
         (``rodsim.core.inertia``); statics and the pseudo-dynamics do not read them."""
         return None
 
-    def material_stiffness(self, x: np.ndarray) -> np.ndarray | None:
+    def material_stiffness(self, x: np.ndarray, weights: np.ndarray | None = None
+                           ) -> np.ndarray | None:
         """The material part of the element stiffness at ``x`` (the state the term is
         evaluated on), shape (n_elem, k, k): Σ (∂ε/∂x_e)ᵀ C (∂ε/∂x_e) over the element's
         strains ε and their stiffnesses C — the Gauss–Newton part of −∂F_e/∂x_e, positive
         semi-definite at any state, without the stress times the strains' second
         derivatives. What Kelvin–Voigt damping is made of, a viscosity per strain rate
-        (rodsim/core/damping.py). None for a term with no material strain (the default)."""
+        (rodsim/core/damping.py). ``weights``: one factor per ``strain_kinds`` entry that
+        multiplies that kind's C (a retardation time per strain: the viscosities τ_k C_k);
+        None: 1 for all. None for a term with no material strain (the default)."""
         return None
 
     def anchor_positions(self) -> np.ndarray | None:

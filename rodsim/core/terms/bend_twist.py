@@ -199,6 +199,7 @@ class BendTwist(RodTerm):
     Options = BendTwistOptions
     options: BendTwistOptions
     equation = "Eqs. (3), (7), (8)"
+    strain_kinds = ("bending", "twist")
     parameters = (
         Parameter("stiffness", "str", "corrected", "-",
                   "stiffness tensor: 'corrected' (Eq. 8) or 'corde' (Fig. 9 only)",
@@ -272,10 +273,14 @@ class BendTwist(RodTerm):
         forces[self._fixed == 2, 4:] = 0.0
         return forces
 
-    def material_stiffness(self, x: np.ndarray) -> np.ndarray:
+    def material_stiffness(self, x: np.ndarray, weights: np.ndarray | None = None
+                           ) -> np.ndarray:
         """l̄ Σ_k K_k ∇u_k ∇u_kᵀ per element (the strain rates u̇_k = ∇u_k · q̇ with
-        stiffnesses l̄ K_k), a support's constant frame's rows and columns zero."""
-        blocks = _gauss_newton(self._kinematics(x), self._dual_lengths, self._stiffness)
+        stiffnesses l̄ K_k), a support's constant frame's rows and columns zero; ``weights``
+        (bending, twist) multiply K_11, K_22 and K_33 (``Term.material_stiffness``)."""
+        stiffness = (self._stiffness if weights is None
+                     else self._stiffness * np.array([weights[0], weights[0], weights[1]]))
+        blocks = _gauss_newton(self._kinematics(x), self._dual_lengths, stiffness)
         for side, block in ((1, slice(0, 4)), (2, slice(4, 8))):
             blocks[self._fixed == side, block, :] = 0.0
             blocks[self._fixed == side, :, block] = 0.0

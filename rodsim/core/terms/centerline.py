@@ -75,6 +75,7 @@ class Centerline(RodTerm):
     Options = CenterlineOptions
     options: CenterlineOptions
     equation = "Eq. (9)"
+    strain_kinds = ("shear",)
     penalty = True
     constraint_constant = "K_P"
     penalty_advice = "the centerline penalty (rods.<name>.centerline.K_P_relative, or K_P)"
@@ -145,6 +146,18 @@ class Centerline(RodTerm):
         de /= seg.norm[:, None]
         dq = -self._weight * np.einsum("nma,nm->na", director_gradient(q, 2), w)
         return -np.concatenate([-de, de, dq], axis=1)
+
+    def material_stiffness(self, x: np.ndarray, weights: np.ndarray | None = None
+                           ) -> np.ndarray:
+        """K_P l Jᵀ J per element, J = ∂w/∂(r_j, r_{j+1}, q_j) = (−P/|e|, P/|e|, −G) the
+        mismatch's (the shear's) derivative: the Jacobian without its curvature parts
+        (``weights``: one factor on K_P, ``Term.material_stiffness``)."""
+        seg, q, _ = self._mismatch(x)
+        weight = self._weight if weights is None else self._weight * float(weights[0])
+        grad = director_gradient(q, 2)
+        jac = np.concatenate([-seg.projector / seg.norm[:, None, None],
+                              seg.projector / seg.norm[:, None, None], -grad], axis=2)
+        return weight * np.matmul(jac.transpose(0, 2, 1), jac)
 
     def element_jacobians(self, x: np.ndarray) -> np.ndarray:
         seg, q, w = self._mismatch(x)

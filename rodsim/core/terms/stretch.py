@@ -39,6 +39,7 @@ class Stretch(RodTerm):
     options: StretchOptions
     equation = "Eq. (6)"
     offsets = True
+    strain_kinds = ("stretch",)
 
     def __init__(self, rod: Rod, options: StretchOptions) -> None:
         super().__init__(rod, options)
@@ -68,13 +69,16 @@ class Stretch(RodTerm):
         tension = (self._stiffness * strain)[:, None] * seg.tangent  # ∂E/∂e
         return np.concatenate([tension, -tension], axis=1)
 
-    def material_stiffness(self, x: np.ndarray) -> np.ndarray:
+    def material_stiffness(self, x: np.ndarray, weights: np.ndarray | None = None
+                           ) -> np.ndarray:
         """k t tᵀ on the edge (the stretch rate ṡ = t · ė with stiffness k = K_s / l), as a
-        two-node block: the Jacobian's first term, without its geometric part."""
+        two-node block: the Jacobian's first term, without its geometric part (``weights``:
+        one factor on k, ``Term.material_stiffness``)."""
         seg, _ = self._strain(x)
         t = seg.tangent
         tt = t[:, :, None] * t[:, None, :]
-        return -two_node_block(self._stiffness[:, None, None] * tt / self._rest)
+        stiffness = self._stiffness if weights is None else self._stiffness * weights[0]
+        return -two_node_block(stiffness[:, None, None] * tt / self._rest)
 
     def element_jacobians(self, x: np.ndarray) -> np.ndarray:
         seg, strain = self._strain(x)
