@@ -334,6 +334,45 @@ def evaluate(x: np.ndarray, dofs: np.ndarray, weights: np.ndarray, constant: np.
              scale: float, want_force: bool,
              force: np.ndarray, force_target: np.ndarray, want_jacobian: bool,
              jacobian: np.ndarray, jacobian_target: np.ndarray) -> None:
+    """F and ∂F/∂x of every chord of one tendon (``_evaluate_tendon``)."""
+    _evaluate_tendon(x, dofs, weights, constant, forms, tension, friction, profile, weighted,
+                     mu_in, mu_out, entry_forms, entry_slope, split, scale, want_force, force,
+                     force_target, want_jacobian, jacobian, jacobian_target)
+
+
+@njit(cache=True)
+def evaluate_group(x: np.ndarray, chord_start: np.ndarray, point_start: np.ndarray,
+                   dofs: np.ndarray, weights: np.ndarray, constant: np.ndarray,
+                   forms: np.ndarray, tension: np.ndarray, friction: np.ndarray,
+                   profile: np.ndarray, weighted: np.ndarray, mu_in: np.ndarray,
+                   mu_out: np.ndarray, entry_forms: np.ndarray, entry_slope: np.ndarray,
+                   split: np.ndarray, scales: np.ndarray, want_force: bool,
+                   force: np.ndarray, force_target: np.ndarray, want_jacobian: bool,
+                   jacobian: np.ndarray, jacobian_target: np.ndarray) -> None:
+    """``evaluate`` of each tendon of a group in turn, in one call: tendon t's rows are
+    chords ``chord_start[t]`` to ``chord_start[t + 1]`` and points ``point_start[t]`` to
+    ``point_start[t + 1]`` of the stacked arrays (``TendonString.group_arguments``); a
+    tendon whose scale is 0 adds nothing, as the model skips its own call."""
+    for t in range(tension.shape[0]):
+        if scales[t] == 0.0:
+            continue
+        c0, c1 = chord_start[t], chord_start[t + 1]
+        p0, p1 = point_start[t], point_start[t + 1]
+        _evaluate_tendon(x, dofs[c0:c1], weights[p0:p1], constant[p0:p1], forms[p0:p1],
+                         tension[t], friction[t], profile[c0:c1], weighted[t], mu_in[c0:c1],
+                         mu_out[c0:c1], entry_forms, entry_slope[t], split[p0:p1], scales[t],
+                         want_force, force, force_target[c0:c1], want_jacobian, jacobian,
+                         jacobian_target[c0:c1])
+
+
+@njit(cache=True)
+def _evaluate_tendon(x: np.ndarray, dofs: np.ndarray, weights: np.ndarray,
+                     constant: np.ndarray, forms: np.ndarray, tension: float, friction: float,
+                     profile: np.ndarray, weighted: bool, mu_in: np.ndarray,
+                     mu_out: np.ndarray, entry_forms: np.ndarray, entry_slope: np.ndarray,
+                     split: np.ndarray, scale: float, want_force: bool, force: np.ndarray,
+                     force_target: np.ndarray, want_jacobian: bool, jacobian: np.ndarray,
+                     jacobian_target: np.ndarray) -> None:
     """F and ∂F/∂x of every chord (module docstring). A chord's Jacobian is built from its
     small parts on its distinct coordinates (``_unique_columns``: up to 18 of the 28, the
     knot and the node its two points share taken once): M = Jdᵀ P Jd, P = T (I − u uᵀ)/|d|,

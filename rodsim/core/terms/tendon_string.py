@@ -86,7 +86,7 @@ from __future__ import annotations
 
 import copy
 import dataclasses
-from collections.abc import Mapping, Sequence
+from collections.abc import Hashable, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any, NamedTuple
 
@@ -108,7 +108,7 @@ from rodsim.core.tendon_friction import (
     weighted_chord_tensions,
     weighted_slide_rates,
 )
-from rodsim.core.terms.base import KernelArguments, TendonTerm
+from rodsim.core.terms.base import KernelArguments, TendonTerm, Term
 
 #: A change of G J closer than this fraction of a segment to a node (or to the tendon's entry
 #: or termination) is taken there: no routing point of its own.
@@ -496,6 +496,34 @@ class TendonString(TendonTerm):
                 "mu_out": np.ascontiguousarray(self._mu_out),
                 "entry_forms": np.ascontiguousarray(DIRECTOR_FORMS),
                 "entry_slope": self._entry_slope, "split": self.split}
+
+    def group_key(self) -> Hashable | None:
+        """The catheter: its string tendons are evaluated in one kernel call
+        (rodsim/core/kernel_group.py)."""
+        return self.tendon.catheter.name
+
+    @classmethod
+    def group_arguments(cls, terms: Sequence[Term]) -> KernelArguments:
+        """The ``kernel_arguments`` of ``terms`` stacked: the per-chord and per-point arrays
+        concatenated in term order (``chord_start`` and ``point_start`` open each term's
+        rows), the scalars one entry per term."""
+        own = [t.kernel_arguments() for t in terms]
+        chords = np.cumsum([0] + [len(a["dofs"]) for a in own])
+        points = np.cumsum([0] + [len(a["weights"]) for a in own])
+
+        def stacked(name: str) -> np.ndarray:
+            return np.ascontiguousarray(np.concatenate([a[name] for a in own]))
+
+        def each(name: str, dtype: type) -> np.ndarray:
+            return np.array([a[name] for a in own], dtype=dtype)
+
+        return {"chord_start": chords.astype(np.int64), "point_start": points.astype(np.int64),
+                **{name: stacked(name) for name in ("dofs", "weights", "constant", "forms",
+                                                    "profile", "mu_in", "mu_out", "split")},
+                "tension": each("tension", float), "friction": each("friction", float),
+                "weighted": each("weighted", np.bool_),
+                "entry_slope": np.ascontiguousarray(np.stack([a["entry_slope"] for a in own])),
+                "entry_forms": own[0]["entry_forms"]}
 
     def load_scale(self, x: np.ndarray) -> float:
         """The tension: the termination's point force (the chords' forces cancel in pairs)."""
