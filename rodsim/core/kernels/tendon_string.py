@@ -40,38 +40,40 @@ from rodsim.core.kernels._scatter import add_force
 from rodsim.core.tendon_friction import ONE_WAY
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _point(x: np.ndarray, dofs: np.ndarray, e: int, side: int, weights: np.ndarray,
            constant: np.ndarray, forms: np.ndarray, p: np.ndarray, jac: np.ndarray,
            q: np.ndarray, gq: np.ndarray, g: np.ndarray) -> float:
-    """Position p (3,) and ∂p/∂x_point (3, 14) of point e + side, and the small parts its
-    second derivatives are built from (``_curvature``): q (4,), G_m q (3, 4), g (3,);
-    returns n = |q|²."""
+    """Position p (3,) and ∂p/∂x_point (3, 14) of point k = e + side, and the small parts
+    its second derivatives are built from (``_curvature``): q (4,), G_m q (3, 4), g (3,),
+    into row k of each (indexed, not sliced: a view per point costs its reference
+    counting); returns n = |q|²."""
     k = e + side
     base = 14 * side
     c0, c1, w0, w1 = weights[k, 0], weights[k, 1], weights[k, 2], weights[k, 3]
     for i in range(4):
-        q[i] = w0 * x[dofs[e, base + 6 + i]] + w1 * x[dofs[e, base + 10 + i]] + constant[k, i]
-    n = q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3]
+        q[k, i] = (w0 * x[dofs[e, base + 6 + i]] + w1 * x[dofs[e, base + 10 + i]]
+                   + constant[k, i])
+    n = q[k, 0] * q[k, 0] + q[k, 1] * q[k, 1] + q[k, 2] * q[k, 2] + q[k, 3] * q[k, 3]
     for m in range(3):
         value = 0.0
         for i in range(4):
             row = 0.0
             for j in range(4):
-                row += forms[k, m, i, j] * q[j]
-            gq[m, i] = row
-            value += row * q[i]
-        g[m] = value
+                row += forms[k, m, i, j] * q[k, j]
+            gq[k, m, i] = row
+            value += row * q[k, i]
+        g[k, m] = value
     for m in range(3):
-        p[m] = (c0 * x[dofs[e, base + m]] + c1 * x[dofs[e, base + 3 + m]] + g[m] / n)
+        p[k, m] = (c0 * x[dofs[e, base + m]] + c1 * x[dofs[e, base + 3 + m]] + g[k, m] / n)
         for a in range(14):
-            jac[m, a] = 0.0
-        jac[m, m] = c0
-        jac[m, 3 + m] = c1
+            jac[k, m, a] = 0.0
+        jac[k, m, m] = c0
+        jac[k, m, 3 + m] = c1
         for i in range(4):
-            grad = 2.0 * gq[m, i] / n - 2.0 * g[m] * q[i] / (n * n)
-            jac[m, 6 + i] = w0 * grad
-            jac[m, 10 + i] = w1 * grad
+            grad = 2.0 * gq[k, m, i] / n - 2.0 * g[k, m] * q[k, i] / (n * n)
+            jac[k, m, 6 + i] = w0 * grad
+            jac[k, m, 10 + i] = w1 * grad
     return n
 
 
@@ -89,26 +91,36 @@ def _points(x: np.ndarray, dofs: np.ndarray, weights: np.ndarray, constant: np.n
     n = np.empty(chords + 1)
     gq = np.empty((chords + 1, 3, 4))
     g = np.empty((chords + 1, 3))
-    for k in range(chords + 1):
-        e, side = (k, 0) if k < chords else (k - 1, 1)
-        n[k] = _point(x, dofs, e, side, weights, constant, forms, p[k], jac[k], q[k], gq[k],
-                      g[k])
+    _points_into(x, dofs, weights, constant, forms, p, jac, q, n, gq, g)
     return p, jac, q, n, gq, g
 
 
 @njit(cache=True)
-def _curvature(forms: np.ndarray, k: int, u: np.ndarray, q: np.ndarray, n: float,
+def _points_into(x: np.ndarray, dofs: np.ndarray, weights: np.ndarray, constant: np.ndarray,
+                 forms: np.ndarray, p: np.ndarray, jac: np.ndarray, q: np.ndarray,
+                 n: np.ndarray, gq: np.ndarray, g: np.ndarray) -> None:
+    """``_points`` into the given arrays (one row per routing point)."""
+    chords = dofs.shape[0]
+    for k in range(chords + 1):
+        e, side = (k, 0) if k < chords else (k - 1, 1)
+        n[k] = _point(x, dofs, e, side, weights, constant, forms, p, jac, q, gq, g)
+
+
+@njit(cache=True, inline="always")
+def _curvature(forms: np.ndarray, k: int, u: np.ndarray, q: np.ndarray, n: np.ndarray,
                gq: np.ndarray, g: np.ndarray, factor: float, out: np.ndarray) -> None:
-    """factor · Σ_m u_m ∇²f_m of point k into ``out`` (4, 4), contracted with u before it
+    """factor · Σ_m u_m ∇²f_m of point k into ``out`` (4, 4), from row k of the points'
+    q, n, G_m q and g (``_points``; indexed, not sliced: a view per call costs its
+    reference counting), contracted with u before it
     is built: with G_u = Σ_m u_m G_m, v = G_u q and γ = Σ_m u_m g_m,
     Σ_m u_m ∇²f_m = 2 G_u/n − 4 (v qᵀ + q vᵀ)/n² − 2 γ I/n² + 8 γ q qᵀ/n³ (module
     docstring)."""
-    v0 = u[0] * gq[0, 0] + u[1] * gq[1, 0] + u[2] * gq[2, 0]
-    v1 = u[0] * gq[0, 1] + u[1] * gq[1, 1] + u[2] * gq[2, 1]
-    v2 = u[0] * gq[0, 2] + u[1] * gq[1, 2] + u[2] * gq[2, 2]
-    v3 = u[0] * gq[0, 3] + u[1] * gq[1, 3] + u[2] * gq[2, 3]
-    gamma = u[0] * g[0] + u[1] * g[1] + u[2] * g[2]
-    inverse = 1.0 / n
+    v0 = u[0] * gq[k, 0, 0] + u[1] * gq[k, 1, 0] + u[2] * gq[k, 2, 0]
+    v1 = u[0] * gq[k, 0, 1] + u[1] * gq[k, 1, 1] + u[2] * gq[k, 2, 1]
+    v2 = u[0] * gq[k, 0, 2] + u[1] * gq[k, 1, 2] + u[2] * gq[k, 2, 2]
+    v3 = u[0] * gq[k, 0, 3] + u[1] * gq[k, 1, 3] + u[2] * gq[k, 2, 3]
+    gamma = u[0] * g[k, 0] + u[1] * g[k, 1] + u[2] * g[k, 2]
+    inverse = 1.0 / n[k]
     a1 = 2.0 * inverse * factor
     a2 = 4.0 * inverse * inverse * factor
     a3 = 2.0 * gamma * inverse * inverse * factor
@@ -119,7 +131,7 @@ def _curvature(forms: np.ndarray, k: int, u: np.ndarray, q: np.ndarray, n: float
             vj = v0 if j == 0 else (v1 if j == 1 else (v2 if j == 2 else v3))
             value = (a1 * (u[0] * forms[k, 0, i, j] + u[1] * forms[k, 1, i, j]
                            + u[2] * forms[k, 2, i, j])
-                     - a2 * (vi * q[j] + q[i] * vj) + a4 * q[i] * q[j])
+                     - a2 * (vi * q[k, j] + q[k, i] * vj) + a4 * q[k, i] * q[k, j])
             if i == j:
                 value -= a3
             out[i, j] = value
@@ -249,7 +261,7 @@ def _tensions(x: np.ndarray, dofs: np.ndarray, weights: np.ndarray, constant: np
                 rate[e] = rate_out * high
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _one_way_coupling(jd: np.ndarray, u: np.ndarray, length: float, axis: np.ndarray,
                       rate: float, count: int, slope: np.ndarray, gradient: np.ndarray,
                       unit_force: np.ndarray) -> bool:
@@ -277,11 +289,12 @@ def _one_way_coupling(jd: np.ndarray, u: np.ndarray, length: float, axis: np.nda
     return True
 
 
-@njit(cache=True)
-def _unique_columns(dofs: np.ndarray, weights: np.ndarray, e: int, jd: np.ndarray,
-                    local: np.ndarray, merged: np.ndarray, knot: np.ndarray,
+@njit(cache=True, inline="always")
+def _unique_columns(dofs: np.ndarray, weights: np.ndarray, e: int, point: int,
+                    jd: np.ndarray, local: np.ndarray, merged: np.ndarray, knot: np.ndarray,
                     group_first: np.ndarray, group_start: np.ndarray) -> int:
-    """The chord's Jd on its distinct coordinates: the groups (a node's position, a knot's
+    """Chord e's Jd on its distinct coordinates (its points' weights in rows ``point`` and
+    ``point + 1`` of ``weights``): the groups (a node's position, a knot's
     quaternion) with a weight, a group the two points share (the knot between them, a
     node) taken once with the sum of both points' columns of Jd. Fills ``merged`` (3, ·)
     with those columns, ``local`` with a local column of each (its slot in the element's
@@ -296,7 +309,7 @@ def _unique_columns(dofs: np.ndarray, weights: np.ndarray, e: int, jd: np.ndarra
         for kind in range(4):
             if kind >= 2:
                 knot[side, kind - 2] = -1
-            if weights[e + side, kind] == 0.0:
+            if weights[point + side, kind] == 0.0:
                 continue
             size = 3 if kind < 2 else 4
             first = 14 * side + (3 * kind if kind < 2 else 6 + 4 * (kind - 2))
@@ -425,7 +438,7 @@ def _evaluate_tendon(x: np.ndarray, dofs: np.ndarray, weights: np.ndarray,
             add_force(force, force_target, e, local_force, scale)
         if not want_jacobian:
             continue
-        count = _unique_columns(dofs, weights, e, jd, local, merged, knot, group_first,
+        count = _unique_columns(dofs, weights, e, e, jd, local, merged, knot, group_first,
                                 group_start)
         factor = pull / length
         for a in range(3):
@@ -443,8 +456,8 @@ def _evaluate_tendon(x: np.ndarray, dofs: np.ndarray, weights: np.ndarray,
                 block[j, k] = value
         for side in range(2):
             point = e + side
-            _curvature(forms, point, u, q[point], n[point], gq[point], g[point],
-                       pull if side == 1 else -pull, curvature)
+            _curvature(forms, point, u, q, n, gq, g, pull if side == 1 else -pull,
+                       curvature)
             for a in range(2):
                 ka = knot[side, a]
                 if ka < 0:
