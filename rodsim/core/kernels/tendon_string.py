@@ -29,6 +29,10 @@ and the Jacobian is the one at frozen τ_e plus, on a chord up to which the path
 way in one plane from a held entry frame, f ⊗ ∂τ_e/∂x with ∂τ_e/∂x = (∂τ_e/∂Θ_e) ∂ψ_e/∂x,
 ψ_e = ∠(d3, u_e) (rodsim/core/terms/tendon_string.py, "Friction"). With μ = 0 every τ_e is
 T and the coupling is skipped: the frictionless numbers, bitwise.
+
+The string tendons of one catheter are evaluated in one call (``evaluate_group``,
+rodsim/core/kernel_group.py), which sums the element Jacobians of the chords the tendons
+share coordinates on (between the same two nodes) before writing them into the CSC data.
 """
 
 from __future__ import annotations
@@ -355,6 +359,7 @@ def evaluate(x: np.ndarray, dofs: np.ndarray, weights: np.ndarray, constant: np.
 
 @njit(cache=True)
 def evaluate_group(x: np.ndarray, chord_start: np.ndarray, point_start: np.ndarray,
+                   shared_order: np.ndarray, shared_start: np.ndarray,
                    dofs: np.ndarray, weights: np.ndarray, constant: np.ndarray,
                    forms: np.ndarray, tension: np.ndarray, friction: np.ndarray,
                    profile: np.ndarray, weighted: np.ndarray, mu_in: np.ndarray,
@@ -362,20 +367,158 @@ def evaluate_group(x: np.ndarray, chord_start: np.ndarray, point_start: np.ndarr
                    split: np.ndarray, scales: np.ndarray, want_force: bool,
                    force: np.ndarray, force_target: np.ndarray, want_jacobian: bool,
                    jacobian: np.ndarray, jacobian_target: np.ndarray) -> None:
-    """``evaluate`` of each tendon of a group in turn, in one call: tendon t's rows are
-    chords ``chord_start[t]`` to ``chord_start[t + 1]`` and points ``point_start[t]`` to
-    ``point_start[t + 1]`` of the stacked arrays (``TendonString.group_arguments``); a
-    tendon whose scale is 0 adds nothing, as the model skips its own call."""
-    for t in range(tension.shape[0]):
-        if scales[t] == 0.0:
-            continue
+    """F and ∂F/∂x of the tendons of a group in one call (``TendonString.group_arguments``:
+    tendon t's rows are chords ``chord_start[t]`` to ``chord_start[t + 1]`` and points
+    ``point_start[t]`` to ``point_start[t + 1]`` of the stacked arrays). A tendon whose
+    scale or tension is 0 adds nothing, as its own call would.
+
+    The chords of the group that lie on the same coordinates with the same weighted groups
+    (the tendons of a catheter between the same two nodes: ``shared_order`` lists the
+    chords so, each such set from ``shared_start[i]`` to ``shared_start[i + 1]``) have the
+    same distinct columns and Jacobian slots: their element Jacobians, each built as in
+    ``evaluate`` and times its tendon's scale, are summed in one local block, which is
+    written into the CSC data once (on tdcr-two-segment 60 writes of 18 × 18 entries for
+    the 270 chords of the six tendons). Each chord's force is the one ``evaluate`` computes
+    and is added in the order of one call per tendon (tendon by tendon, chord by chord): F
+    bitwise as one call per tendon; ∂F/∂x to round-off (the sums are grouped
+    differently)."""
+    terms = tension.shape[0]
+    chords_all = dofs.shape[0]
+    points_all = weights.shape[0]
+    p = np.empty((points_all, 3))
+    jac = np.empty((points_all, 3, 14))
+    q = np.empty((points_all, 4))
+    n = np.empty(points_all)
+    gq = np.empty((points_all, 3, 4))
+    g = np.empty((points_all, 3))
+    chord_tension = np.empty(chords_all)
+    rate = np.zeros(chords_all)
+    axis = np.zeros((terms, 3))
+    term_of = np.empty(chords_all, dtype=np.int64)
+    active = np.zeros(terms, dtype=np.bool_)
+    for t in range(terms):
         c0, c1 = chord_start[t], chord_start[t + 1]
         p0, p1 = point_start[t], point_start[t + 1]
-        _evaluate_tendon(x, dofs[c0:c1], weights[p0:p1], constant[p0:p1], forms[p0:p1],
-                         tension[t], friction[t], profile[c0:c1], weighted[t], mu_in[c0:c1],
-                         mu_out[c0:c1], entry_forms, entry_slope[t], split[p0:p1], scales[t],
-                         want_force, force, force_target[c0:c1], want_jacobian, jacobian,
-                         jacobian_target[c0:c1])
+        for c in range(c0, c1):
+            term_of[c] = t
+        if scales[t] == 0.0 or tension[t] == 0.0:
+            continue  # scaled away, or a slack tendon: every entry is zero
+        active[t] = True
+        _points_into(x, dofs[c0:c1], weights[p0:p1], constant[p0:p1], forms[p0:p1],
+                     p[p0:p1], jac[p0:p1], q[p0:p1], n[p0:p1], gq[p0:p1], g[p0:p1])
+        _tensions(x, dofs[c0:c1], weights[p0:p1], constant[p0:p1], entry_forms,
+                  entry_slope[t], split[p0:p1], p[p0:p1], tension[t], friction[t],
+                  profile[c0:c1], weighted[t], mu_in[c0:c1], mu_out[c0:c1],
+                  chord_tension[c0:c1], rate[c0:c1], axis[t])
+    chord_force = np.empty((chords_all, 28))
+    local = np.empty(28, dtype=np.int64)
+    knot = np.empty((2, 2), dtype=np.int64)
+    group_first = np.empty(8, dtype=np.int64)
+    group_start = np.empty(8, dtype=np.int64)
+    jd = np.empty((3, 28))
+    merged = np.empty((3, 28))
+    pj = np.empty((3, 28))
+    block = np.empty((28, 28))
+    summed = np.empty((28, 28))
+    curvature = np.empty((4, 4))
+    u = np.empty(3)
+    proj = np.empty((3, 3))
+    slope = np.empty(3)
+    gradient = np.empty(28)
+    unit_force = np.empty(28)
+    for shared in range(shared_start.shape[0] - 1):
+        count = 0
+        members = 0
+        target_chord = 0
+        for position in range(shared_start[shared], shared_start[shared + 1]):
+            c = shared_order[position]
+            t = term_of[c]
+            if not active[t]:
+                continue
+            scale = scales[t]
+            e = c - chord_start[t]
+            a_point = point_start[t] + e
+            pull = chord_tension[c]
+            length = 0.0
+            for m in range(3):
+                u[m] = p[a_point + 1, m] - p[a_point, m]
+                length += u[m] * u[m]
+            length = np.sqrt(length)
+            for m in range(3):
+                u[m] /= length
+                for a in range(14):
+                    jd[m, a] = -jac[a_point, m, a]
+                    jd[m, 14 + a] = jac[a_point + 1, m, a]
+            if want_force:
+                for a in range(28):
+                    value = 0.0
+                    for m in range(3):
+                        value += jd[m, a] * u[m]
+                    chord_force[c, a] = -pull * value
+            if not want_jacobian:
+                continue
+            count = _unique_columns(dofs, weights, c, a_point, jd, local, merged, knot,
+                                    group_first, group_start)
+            if members == 0:
+                for k in range(count):
+                    for j in range(count):
+                        summed[k, j] = 0.0
+            members += 1
+            target_chord = c
+            factor = pull / length
+            for a in range(3):
+                for b in range(3):
+                    proj[a, b] = ((1.0 if a == b else 0.0) - u[a] * u[b]) * factor
+            for k in range(count):
+                j0, j1, j2 = merged[0, k], merged[1, k], merged[2, k]
+                for a in range(3):
+                    pj[a, k] = proj[a, 0] * j0 + proj[a, 1] * j1 + proj[a, 2] * j2
+            for k in range(count):
+                j0, j1, j2 = merged[0, k], merged[1, k], merged[2, k]
+                for j in range(k, count):
+                    value = j0 * pj[0, j] + j1 * pj[1, j] + j2 * pj[2, j]
+                    block[k, j] = value
+                    block[j, k] = value
+            for side in range(2):
+                point = a_point + side
+                _curvature(forms, point, u, q, n, gq, g, pull if side == 1 else -pull,
+                           curvature)
+                for a in range(2):
+                    ka = knot[side, a]
+                    if ka < 0:
+                        continue
+                    for b in range(2):
+                        kb = knot[side, b]
+                        if kb < 0:
+                            continue
+                        weight = weights[point, 2 + a] * weights[point, 2 + b]
+                        for i in range(4):
+                            for j in range(4):
+                                block[ka + i, kb + j] += weight * curvature[i, j]
+            coupled = False
+            if rate[c] != 0.0:
+                coupled = _one_way_coupling(merged, u, length, axis[t], rate[c], count,
+                                            slope, gradient, unit_force)
+            for k in range(count):
+                if coupled:
+                    f = unit_force[k]
+                    for j in range(count):
+                        summed[k, j] += scale * (f * gradient[j] - block[k, j])
+                else:
+                    for j in range(count):
+                        summed[k, j] -= scale * block[k, j]
+        if members == 0:
+            continue
+        target = jacobian_target[target_chord]
+        for k in range(count):
+            row = target[local[k]]
+            for j in range(count):
+                jacobian[row[local[j]]] += summed[k, j]
+    if want_force:
+        for t in range(terms):
+            if active[t]:
+                for c in range(chord_start[t], chord_start[t + 1]):
+                    add_force(force, force_target, c, chord_force[c], scales[t])
 
 
 @njit(cache=True)

@@ -506,10 +506,21 @@ class TendonString(TendonTerm):
     def group_arguments(cls, terms: Sequence[Term]) -> KernelArguments:
         """The ``kernel_arguments`` of ``terms`` stacked: the per-chord and per-point arrays
         concatenated in term order (``chord_start`` and ``point_start`` open each term's
-        rows), the scalars one entry per term."""
+        rows), the scalars one entry per term; and the chords that share their coordinates
+        and weighted groups (the same ``dofs`` row, weights zero at the same places: the
+        same distinct columns and Jacobian slots), listed together in ``shared_order``,
+        each set from ``shared_start[i]`` to ``shared_start[i + 1]``, in order of first
+        appearance and each set in term order."""
         own = [t.kernel_arguments() for t in terms]
         chords = np.cumsum([0] + [len(a["dofs"]) for a in own])
         points = np.cumsum([0] + [len(a["weights"]) for a in own])
+        sets: dict[bytes, list[int]] = {}
+        for t, arguments in enumerate(own):
+            dofs, weights = arguments["dofs"], arguments["weights"] != 0.0
+            for e in range(len(dofs)):
+                key = dofs[e].tobytes() + weights[e:e + 2].tobytes()
+                sets.setdefault(key, []).append(int(chords[t]) + e)
+        shared = list(sets.values())
 
         def stacked(name: str) -> np.ndarray:
             return np.ascontiguousarray(np.concatenate([a[name] for a in own]))
@@ -518,6 +529,9 @@ class TendonString(TendonTerm):
             return np.array([a[name] for a in own], dtype=dtype)
 
         return {"chord_start": chords.astype(np.int64), "point_start": points.astype(np.int64),
+                "shared_order": np.array([c for chord_set in shared for c in chord_set],
+                                         dtype=np.int64),
+                "shared_start": np.cumsum([0] + [len(c) for c in shared]).astype(np.int64),
                 **{name: stacked(name) for name in ("dofs", "weights", "constant", "forms",
                                                     "profile", "mu_in", "mu_out", "split")},
                 "tension": each("tension", float), "friction": each("friction", float),
