@@ -88,6 +88,7 @@ import copy
 import dataclasses
 from collections.abc import Hashable, Mapping, Sequence
 from dataclasses import dataclass, field
+from functools import cached_property
 from typing import Any, NamedTuple
 
 import numpy as np
@@ -515,11 +516,11 @@ class TendonString(TendonTerm):
         chords = np.cumsum([0] + [len(a["dofs"]) for a in own])
         points = np.cumsum([0] + [len(a["weights"]) for a in own])
         sets: dict[bytes, list[int]] = {}
-        for t, arguments in enumerate(own):
-            dofs, weights = arguments["dofs"], arguments["weights"] != 0.0
-            for e in range(len(dofs)):
-                key = dofs[e].tobytes() + weights[e:e + 2].tobytes()
-                sets.setdefault(key, []).append(int(chords[t]) + e)
+        for t, term in enumerate(terms):
+            assert isinstance(term, TendonString)
+            base = int(chords[t])
+            for e, key in enumerate(term.chord_keys):
+                sets.setdefault(key, []).append(base + e)
         shared = list(sets.values())
 
         def stacked(name: str) -> np.ndarray:
@@ -538,6 +539,16 @@ class TendonString(TendonTerm):
                 "weighted": each("weighted", np.bool_),
                 "entry_slope": np.ascontiguousarray(np.stack([a["entry_slope"] for a in own])),
                 "entry_forms": own[0]["entry_forms"]}
+
+    @cached_property
+    def chord_keys(self) -> list[bytes]:
+        """Each chord's coordinates and which of its points' weights are not zero, as
+        bytes: two chords of equal keys have the same distinct columns and Jacobian slots
+        (``group_arguments``). Made once per term and kept by its copies (a new tension,
+        anchors), whose chords are the same."""
+        weighted = self.points.weights != 0.0
+        rows = np.concatenate([self.dofs, weighted[:-1], weighted[1:]], axis=1)
+        return [row.tobytes() for row in rows]
 
     def load_scale(self, x: np.ndarray) -> float:
         """The tension: the termination's point force (the chords' forces cancel in pairs)."""
