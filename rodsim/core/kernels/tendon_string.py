@@ -357,6 +357,45 @@ def evaluate(x: np.ndarray, dofs: np.ndarray, weights: np.ndarray, constant: np.
                      force_target, want_jacobian, jacobian, jacobian_target)
 
 
+@njit(cache=True, inline="always")
+def _chord_block(merged: np.ndarray, u: np.ndarray, pull: float, length: float, count: int,
+                 knot: np.ndarray, forms: np.ndarray, a_point: int, q: np.ndarray,
+                 n: np.ndarray, gq: np.ndarray, g: np.ndarray, weights: np.ndarray,
+                 pj: np.ndarray, proj: np.ndarray, block: np.ndarray,
+                 curvature: np.ndarray) -> None:
+    """Minus a chord's element Jacobian at frozen tension, on its distinct columns, into
+    ``block``: Jdᵀ P Jd plus its points' curvature, as ``evaluate`` builds it."""
+    factor = pull / length
+    for a in range(3):
+        for b in range(3):
+            proj[a, b] = ((1.0 if a == b else 0.0) - u[a] * u[b]) * factor
+    for k in range(count):
+        j0, j1, j2 = merged[0, k], merged[1, k], merged[2, k]
+        for a in range(3):
+            pj[a, k] = proj[a, 0] * j0 + proj[a, 1] * j1 + proj[a, 2] * j2
+    for k in range(count):
+        j0, j1, j2 = merged[0, k], merged[1, k], merged[2, k]
+        for j in range(k, count):
+            value = j0 * pj[0, j] + j1 * pj[1, j] + j2 * pj[2, j]
+            block[k, j] = value
+            block[j, k] = value
+    for side in range(2):
+        point = a_point + side
+        _curvature(forms, point, u, q, n, gq, g, pull if side == 1 else -pull, curvature)
+        for a in range(2):
+            ka = knot[side, a]
+            if ka < 0:
+                continue
+            for b in range(2):
+                kb = knot[side, b]
+                if kb < 0:
+                    continue
+                weight = weights[point, 2 + a] * weights[point, 2 + b]
+                for i in range(4):
+                    for j in range(4):
+                        block[ka + i, kb + j] += weight * curvature[i, j]
+
+
 @njit(cache=True)
 def evaluate_group(x: np.ndarray, chord_start: np.ndarray, point_start: np.ndarray,
                    shared_order: np.ndarray, shared_start: np.ndarray,
@@ -375,10 +414,12 @@ def evaluate_group(x: np.ndarray, chord_start: np.ndarray, point_start: np.ndarr
     The chords of the group that lie on the same coordinates with the same weighted groups
     (the tendons of a catheter between the same two nodes: ``shared_order`` lists the
     chords so, each such set from ``shared_start[i]`` to ``shared_start[i + 1]``) have the
-    same distinct columns and Jacobian slots: their element Jacobians, each built as in
-    ``evaluate`` and times its tendon's scale, are summed in one local block, which is
-    written into the CSC data once (on tdcr-two-segment 60 writes of 18 × 18 entries for
-    the 270 chords of the six tendons). Each chord's force is the one ``evaluate`` computes
+    same distinct columns and Jacobian slots: their element Jacobians are summed in one
+    local block, which is written into the CSC data once (on tdcr-two-segment 60 writes of
+    18 × 18 entries for the 270 chords of the six tendons). A chord's Jdᵀ P Jd and
+    curvature, with its tendon's scale taken into P's factor and the curvature's, are
+    subtracted from that block as they are formed (no block of its own); a chord with the
+    friction coupling builds its own (``_chord_block``) and adds it with the coupling. Each chord's force is the one ``evaluate`` computes
     and is added in the order of one call per tendon (tendon by tendon, chord by chord): F
     bitwise as one call per tendon; ∂F/∂x to round-off (the sums are grouped
     differently)."""
@@ -465,7 +506,19 @@ def evaluate_group(x: np.ndarray, chord_start: np.ndarray, point_start: np.ndarr
                         summed[k, j] = 0.0
             members += 1
             target_chord = c
-            factor = pull / length
+            coupled = False
+            if rate[c] != 0.0:
+                coupled = _one_way_coupling(merged, u, length, axis[t], rate[c], count,
+                                            slope, gradient, unit_force)
+            if coupled:
+                _chord_block(merged, u, pull, length, count, knot, forms, a_point, q, n, gq,
+                             g, weights, pj, proj, block, curvature)
+                for k in range(count):
+                    f = unit_force[k]
+                    for j in range(count):
+                        summed[k, j] += scale * (f * gradient[j] - block[k, j])
+                continue
+            factor = scale * pull / length
             for a in range(3):
                 for b in range(3):
                     proj[a, b] = ((1.0 if a == b else 0.0) - u[a] * u[b]) * factor
@@ -475,14 +528,15 @@ def evaluate_group(x: np.ndarray, chord_start: np.ndarray, point_start: np.ndarr
                     pj[a, k] = proj[a, 0] * j0 + proj[a, 1] * j1 + proj[a, 2] * j2
             for k in range(count):
                 j0, j1, j2 = merged[0, k], merged[1, k], merged[2, k]
-                for j in range(k, count):
+                summed[k, k] -= j0 * pj[0, k] + j1 * pj[1, k] + j2 * pj[2, k]
+                for j in range(k + 1, count):
                     value = j0 * pj[0, j] + j1 * pj[1, j] + j2 * pj[2, j]
-                    block[k, j] = value
-                    block[j, k] = value
+                    summed[k, j] -= value
+                    summed[j, k] -= value
             for side in range(2):
                 point = a_point + side
-                _curvature(forms, point, u, q, n, gq, g, pull if side == 1 else -pull,
-                           curvature)
+                _curvature(forms, point, u, q, n, gq, g,
+                           scale * pull if side == 1 else -(scale * pull), curvature)
                 for a in range(2):
                     ka = knot[side, a]
                     if ka < 0:
@@ -494,19 +548,7 @@ def evaluate_group(x: np.ndarray, chord_start: np.ndarray, point_start: np.ndarr
                         weight = weights[point, 2 + a] * weights[point, 2 + b]
                         for i in range(4):
                             for j in range(4):
-                                block[ka + i, kb + j] += weight * curvature[i, j]
-            coupled = False
-            if rate[c] != 0.0:
-                coupled = _one_way_coupling(merged, u, length, axis[t], rate[c], count,
-                                            slope, gradient, unit_force)
-            for k in range(count):
-                if coupled:
-                    f = unit_force[k]
-                    for j in range(count):
-                        summed[k, j] += scale * (f * gradient[j] - block[k, j])
-                else:
-                    for j in range(count):
-                        summed[k, j] -= scale * block[k, j]
+                                summed[ka + i, kb + j] -= weight * curvature[i, j]
         if members == 0:
             continue
         target = jacobian_target[target_chord]
