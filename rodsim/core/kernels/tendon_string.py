@@ -296,14 +296,17 @@ def _one_way_coupling(jd: np.ndarray, u: np.ndarray, length: float, axis: np.nda
 @njit(cache=True, inline="always")
 def _unique_columns(dofs: np.ndarray, weights: np.ndarray, e: int, point: int,
                     jd: np.ndarray, local: np.ndarray, merged: np.ndarray, knot: np.ndarray,
-                    group_first: np.ndarray, group_start: np.ndarray) -> int:
+                    group_first: np.ndarray, group_start: np.ndarray,
+                    source: np.ndarray) -> int:
     """Chord e's Jd on its distinct coordinates (its points' weights in rows ``point`` and
     ``point + 1`` of ``weights``): the groups (a node's position, a knot's
     quaternion) with a weight, a group the two points share (the knot between them, a
     node) taken once with the sum of both points' columns of Jd. Fills ``merged`` (3, ·)
     with those columns, ``local`` with a local column of each (its slot in the element's
     target map) and ``knot`` (2, 2) with the first merged column of each point's knot
-    quaternion (−1 without a weight); returns the count. ``group_first`` and
+    quaternion (−1 without a weight); returns the count. ``source`` (28, 2) gets the column
+    of Jd each merged column was taken from and the one added to it (−1: none), for
+    ``_merged_columns`` to repeat on another chord of the same coordinates. ``group_first`` and
     ``group_start`` (8,) are scratch: the local column opening each group, and its first
     merged column. The other columns of Jd are
     exact zeros, and so are their rows and columns of the element Jacobian."""
@@ -331,16 +334,33 @@ def _unique_columns(dofs: np.ndarray, weights: np.ndarray, e: int, point: int,
                 groups += 1
                 for a in range(size):
                     local[count + a] = first + a
+                    source[count + a, 0] = first + a
+                    source[count + a, 1] = -1
                     for m in range(3):
                         merged[m, count + a] = jd[m, first + a]
                 count += size
             else:
                 for a in range(size):
+                    source[start + a, 1] = first + a
                     for m in range(3):
                         merged[m, start + a] += jd[m, first + a]
             if kind >= 2:
                 knot[side, kind - 2] = start
     return count
+
+
+@njit(cache=True, inline="always")
+def _merged_columns(jd: np.ndarray, source: np.ndarray, count: int,
+                    merged: np.ndarray) -> None:
+    """``_unique_columns``' merged columns of another chord with the same coordinates and
+    weighted groups, from the ``source`` it recorded: the same sums in the same order."""
+    for k in range(count):
+        first, second = source[k, 0], source[k, 1]
+        for m in range(3):
+            merged[m, k] = jd[m, first]
+        if second >= 0:
+            for m in range(3):
+                merged[m, k] += jd[m, second]
 
 
 @njit(cache=True)
@@ -419,10 +439,11 @@ def evaluate_group(x: np.ndarray, chord_start: np.ndarray, point_start: np.ndarr
     18 × 18 entries for the 270 chords of the six tendons). A chord's Jdᵀ P Jd and
     curvature, with its tendon's scale taken into P's factor and the curvature's, are
     subtracted from that block as they are formed (no block of its own); a chord with the
-    friction coupling builds its own (``_chord_block``) and adds it with the coupling. Each chord's force is the one ``evaluate`` computes
-    and is added in the order of one call per tendon (tendon by tendon, chord by chord): F
-    bitwise as one call per tendon; ∂F/∂x to round-off (the sums are grouped
-    differently)."""
+    friction coupling builds its own (``_chord_block``) and adds it with the coupling. The
+    distinct columns are found on a set's first chord and repeated on the others
+    (``_merged_columns``). Each chord's force is the one ``evaluate`` computes and is added
+    in the order of one call per tendon (tendon by tendon, chord by chord): F bitwise as one
+    call per tendon; ∂F/∂x to round-off (the sums are grouped differently)."""
     terms = tension.shape[0]
     chords_all = dofs.shape[0]
     points_all = weights.shape[0]
@@ -456,6 +477,7 @@ def evaluate_group(x: np.ndarray, chord_start: np.ndarray, point_start: np.ndarr
     knot = np.empty((2, 2), dtype=np.int64)
     group_first = np.empty(8, dtype=np.int64)
     group_start = np.empty(8, dtype=np.int64)
+    source = np.empty((28, 2), dtype=np.int64)
     jd = np.empty((3, 28))
     merged = np.empty((3, 28))
     pj = np.empty((3, 28))
@@ -498,12 +520,14 @@ def evaluate_group(x: np.ndarray, chord_start: np.ndarray, point_start: np.ndarr
                     chord_force[c, a] = -pull * value
             if not want_jacobian:
                 continue
-            count = _unique_columns(dofs, weights, c, a_point, jd, local, merged, knot,
-                                    group_first, group_start)
             if members == 0:
+                count = _unique_columns(dofs, weights, c, a_point, jd, local, merged, knot,
+                                        group_first, group_start, source)
                 for k in range(count):
                     for j in range(count):
                         summed[k, j] = 0.0
+            else:
+                _merged_columns(jd, source, count, merged)
             members += 1
             target_chord = c
             coupled = False
@@ -585,6 +609,7 @@ def _evaluate_tendon(x: np.ndarray, dofs: np.ndarray, weights: np.ndarray,
     knot = np.empty((2, 2), dtype=np.int64)
     group_first = np.empty(8, dtype=np.int64)
     group_start = np.empty(8, dtype=np.int64)
+    source = np.empty((28, 2), dtype=np.int64)
     jd = np.empty((3, 28))
     merged = np.empty((3, 28))
     pj = np.empty((3, 28))
@@ -624,7 +649,7 @@ def _evaluate_tendon(x: np.ndarray, dofs: np.ndarray, weights: np.ndarray,
         if not want_jacobian:
             continue
         count = _unique_columns(dofs, weights, e, e, jd, local, merged, knot, group_first,
-                                group_start)
+                                group_start, source)
         factor = pull / length
         for a in range(3):
             for b in range(3):
