@@ -11,8 +11,10 @@ import textwrap
 import matplotlib.pyplot as plt
 import numpy as np
 import xarray as xr
+from matplotlib.cm import ScalarMappable
 from matplotlib.figure import Figure
 
+from rodsim.app.figures.colouring import colour_scale, colouring
 from rodsim.app.figures.contact import draw_contact
 from rodsim.app.figures.scene_drawing import draw_parts
 from rodsim.app.figures.scene_parts import scene_parts
@@ -29,25 +31,36 @@ def _tip_text(ds: xr.Dataset) -> str:
             + ", ".join(f"{1e3 * v:.4g}" for v in tip) + " mm")
 
 
-def run_figure(ds: xr.Dataset) -> Figure:
+def run_figure(ds: xr.Dataset, colour: str | None = None,
+               hide: frozenset[str] = frozenset()) -> Figure:
     """A run: its rods, tendons (paths, routing points, terminations), obstacles, loads
     and contact forces (``rodsim.app.figures.scene_drawing``) in x–y, and in x–z and
     y–z too when the scene leaves the x–y plane (with tendon friction, a last panel: the
-    tension along each tendon); the title names the tip, computed from the positions."""
+    tension along each tendon); the title names the tip, computed from the positions.
+    ``colour``: the rods (or the tendons) coloured by curvature, strain or tension, with a
+    colour bar (``rodsim.app.figures.colouring``); ``hide``: the layers left out
+    (``rodsim.app.figures.layers``)."""
     friction = "tension_profile" in ds
     parts = scene_parts(ds)
+    colours = colouring(ds, colour, parts) if colour else None
     count = len(PROJECTIONS) if out_of_plane(parts.points()) else 1
     panels = count + int(friction)
     figure, axes = plt.subplots(1, panels, figsize=(4.2 * panels + 0.6 if panels > 1
                                                     else 6.4, 5.2),
                                 constrained_layout=True, squeeze=False)
     for panel, view in zip(axes[0][:count], PROJECTIONS[:count], strict=True):
-        draw_parts(panel, parts, view)
+        draw_parts(panel, parts, view, hide=hide, colours=colours)
+    if colours is not None:
+        norm, cmap = colour_scale(colours)
+        bar = figure.colorbar(ScalarMappable(norm, cmap), ax=list(axes[0][:count]),
+                              label=colours.label, shrink=0.9)
+        bar.ax.set_gid(f"colourbar:{colours.quantity}")
     if friction:
         _tension_along(axes[0][-1], ds)
     handles, names = axes[0][0].get_legend_handles_labels()
-    figure.legend(handles, names, loc="outside lower center",
-                  ncols=min(len(names), 4 if panels > 1 else 3))
+    if names:
+        figure.legend(handles, names, loc="outside lower center",
+                      ncols=min(len(names), 4 if panels > 1 else 3))
     figure.suptitle(f"{ds.attrs.get('title', '')}\n{_tip_text(ds)}")
     return figure
 
