@@ -54,7 +54,8 @@ def run_figure(ds: xr.Dataset, colour: str | None = None,
     if colours is not None:
         norm, cmap = colour_scale(colours)
         bar = figure.colorbar(ScalarMappable(norm, cmap), ax=list(axes[0][:count]),
-                              label=colours.label, shrink=0.9)
+                              label=colours.label, shrink=0.9 if panels == 1 else 0.5,
+                              location="right" if panels == 1 else "bottom")
         bar.ax.set_gid(f"colourbar:{colours.quantity}")
     if friction:
         _tension_along(axes[0][-1], ds)

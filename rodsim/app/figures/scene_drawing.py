@@ -68,8 +68,7 @@ def draw_parts(ax: plt.Axes, parts: SceneParts, view: tuple[int, int],
     scale = None if colours is None else colour_scale(colours)
     for name, nodes in rods.items():
         if name in lines:
-            _coloured(ax, lines[name], view, scale, gid=f"rod:{name}", label=f"rod {name}",
-                      lw=2.0, zorder=3)
+            _coloured(ax, lines[name], view, scale, gid=f"rod:{name}", lw=2.0, zorder=3)
         else:
             ax.plot(nodes[:, a], nodes[:, b], color=ROD, lw=1.0, marker=".", ms=2.5,
                     zorder=3, gid=f"rod:{name}", label=f"rod {name}")
@@ -78,8 +77,7 @@ def draw_parts(ax: plt.Axes, parts: SceneParts, view: tuple[int, int],
         colour = TENDONS[index % len(TENDONS)]
         if tendon.name in lines:
             _coloured(ax, lines[tendon.name], view, scale, gid=f"tendon:{tendon.name}",
-                      label=f"tendon {tendon.name}", lw=1.8, zorder=4,
-                      ls="--" if tendon.string else "-")
+                      lw=1.8, zorder=4, ls="--" if tendon.string else "-")
         else:
             ax.plot(p[:, a], p[:, b], ls="--" if tendon.string else "-",
                     marker="|" if tendon.string else None, ms=4, gid=f"tendon:{tendon.name}",
@@ -114,7 +112,7 @@ def draw_parts(ax: plt.Axes, parts: SceneParts, view: tuple[int, int],
 def _coloured(ax: plt.Axes, line: ColouredLine, view: tuple[int, int],
               scale: tuple[Normalize, Colormap] | None, **style: Any) -> None:
     """A line's pieces in the plane ``view``, each in the colour of its value on ``scale``
-    (``colour_scale``)."""
+    (``colour_scale``); the colour bar names it, not the legend."""
     assert scale is not None  # a coloured line comes with its colouring's scale
     pieces = line.pieces[:, :, list(view)]
     ax.add_collection(LineCollection(list(pieces), array=line.values, norm=scale[0],
