@@ -32,8 +32,8 @@ import xarray as xr
 from matplotlib import colormaps
 from matplotlib.colors import Colormap, Normalize
 
+from rodsim.app.figures.errors import PlotError
 from rodsim.app.figures.scene_parts import SceneParts, at_step
-from rodsim.app.figures.writer import PlotError
 from rodsim.core.terms.bend_twist import bend_kinematics
 
 __all__ = ["COLOURINGS", "ColouredLine", "Colouring", "colouring", "colour_scale",

@@ -13,7 +13,7 @@ from __future__ import annotations
 
 from collections.abc import Iterable
 
-from rodsim.app.figures.writer import PlotError
+from rodsim.app.figures.errors import PlotError
 from rodsim.core.terms.base import FIGURE_LAYERS
 
 __all__ = ["LAYERS", "SHAPE", "TENDON", "LOAD", "CONTACT", "OBSTACLE", "hidden_layers"]
