@@ -76,7 +76,8 @@ def drawn(ds, **options):
         figure = draw_figure(ds, **options)
         try:
             gids = {a.get_gid() for a in figure.findobj() if a.get_gid()}
-            bars = {ax.get_gid(): ax.get_ylabel() for ax in figure.axes if ax.get_gid()}
+            bars = {ax.get_gid(): ax.get_ylabel() or ax.get_xlabel()  # right or below
+                    for ax in figure.axes if ax.get_gid()}
             lines = {c.get_gid(): np.asarray(c.get_array()) for ax in figure.axes
                      for c in ax.collections if c.get_array() is not None and c.get_gid()}
         finally:
