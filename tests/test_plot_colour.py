@@ -142,6 +142,15 @@ def test_a_tendon_without_friction_carries_its_tension():
     assert drawn(ds, colour="tension")[2]["tendon:a"] == pytest.approx(T0, rel=1e-12)
 
 
+def test_a_rod_tendon_carries_its_actuation_force():
+    """tendon-conserving: a rod tendon pulled by F_A = 2 N at its base, no friction, its
+    axial force E_s π r² (|r′| − 1) is F_A along its whole length."""
+    ds = run_dataset(rodsim.solve("tendon-conserving", "static", overrides=[
+        "rods.catheter.nodes=15", "rods.tendon.nodes=15"]))
+    values = drawn(ds, colour="tension")[2]["tendon:tendon"]
+    assert len(values) == 14 and values == pytest.approx(2.0, rel=1e-3)
+
+
 def test_no_tendon_no_tension_one_line(bent, tmp_path, cli, capsys):
     with pytest.raises(PlotError, match="has no tendon"):
         drawn(bent, colour="tension")
@@ -206,6 +215,7 @@ def test_hidden_layers_are_absent_and_the_others_drawn(everything):
 def test_an_unknown_layer_is_one_line_naming_the_allowed(everything, tmp_path, cli, capsys):
     with pytest.raises(PlotError, match="layers: " + ", ".join(LAYERS)):
         drawn(everything, hide=["rods"])
+    assert "load:backbone:point_loads" not in drawn(everything, hide="load,contact")[0]
     archive = write_dataset(everything.drop_vars("contact_force"), tmp_path / "run.nc")
     assert cli(["plot", str(archive), "--hide", "load,loads"]) == 2
     err = capsys.readouterr().err

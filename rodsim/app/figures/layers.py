@@ -26,9 +26,11 @@ OBSTACLE = "obstacle"
 LAYERS = (*FIGURE_LAYERS, OBSTACLE)
 
 
-def hidden_layers(names: Iterable[str]) -> frozenset[str]:
-    """The layers ``names`` (e.g. ``["load", "contact"]``; blanks skipped) checked against
-    ``LAYERS``; raises ``PlotError`` naming the allowed ones."""
+def hidden_layers(names: str | Iterable[str]) -> frozenset[str]:
+    """The layers ``names`` (e.g. ``["load", "contact"]`` or ``"load,contact"``; blanks
+    skipped) checked against ``LAYERS``; raises ``PlotError`` naming the allowed ones."""
+    if isinstance(names, str):
+        names = names.split(",")
     wanted = {name.strip().lower() for name in names if name.strip()}
     unknown = sorted(wanted - set(LAYERS))
     if unknown:

@@ -67,7 +67,7 @@ KIND_DRAWERS = {"track": track_figure, "fit": fit_figure, "reach": reach_figure,
 
 
 def plot_dataset(ds: xr.Dataset, stem: str | Path, formats: Iterable[str] = ("png", "pdf"),
-                 colour: str | None = None, hide: Iterable[str] = ()) -> list[Path]:
+                 colour: str | None = None, hide: str | Iterable[str] = ()) -> list[Path]:
     """Draw the archive's figure and write ``stem.<format>`` for each format.
 
     The formats and the folder are checked first (``check_output``); a format that
@@ -109,7 +109,7 @@ def three_dimensional(ds: xr.Dataset) -> bool:
     return out_of_plane(ds["position"].values)
 
 
-def draw_figure(ds: xr.Dataset, colour: str | None = None, hide: Iterable[str] = ()
+def draw_figure(ds: xr.Dataset, colour: str | None = None, hide: str | Iterable[str] = ()
                 ) -> Figure:
     """The archive's figure, not written (the caller closes it); draw it inside
     ``style``. A study figure's title states the measured result (``RESULTS``).
