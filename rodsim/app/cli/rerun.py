@@ -65,7 +65,7 @@ def _rerun_batch(dataset, args: argparse.Namespace) -> int:
 
 
 def _rerun_track(dataset, args: argparse.Namespace) -> int:
-    from rodsim.app.inverse.track import rerun_track
+    from rodsim.app.inverse.track_rerun import rerun_track
 
     again, difference = rerun_track(dataset)
     if not again.success:
