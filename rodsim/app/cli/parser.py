@@ -313,6 +313,13 @@ def build_parser() -> argparse.ArgumentParser:
                       "(needs plotly: pip install \"rodsim[view3d]\"; added by default "
                       "for a shape that leaves the x-y plane when plotly is installed) "
                       "(default png,pdf)")
+    plot.add_argument("--colour", "--color", dest="colour", default=None,
+                      choices=("curvature", "strain", "tension"),
+                      help="colour a run's rods by their bending curvature [1/m] or axial "
+                      "strain, or its tendons by their tension [N], with a colour bar")
+    plot.add_argument("--hide", default="", metavar="LAYERS",
+                      help="comma-separated layers of a run's figure to leave out: shape (the "
+                      "rods), tendon, load, contact (the contact forces), obstacle")
     plot.add_argument("--movie", action="store_true",
                       help="also write STEM.gif, a movie of a track (one frame per step) or of a "
                       "trajectory (rodsim simulate: one frame per output time, at most 120)")

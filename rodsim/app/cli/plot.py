@@ -26,7 +26,8 @@ def cmd_plot(args: argparse.Namespace) -> int:
             from rodsim.app.figures.movie import check_movie, write_movie
 
             check_movie(dataset)  # before any file is written
-        paths = plot_dataset(dataset, stem, formats)
+        paths = plot_dataset(dataset, stem, formats, colour=args.colour,
+                             hide=args.hide.split(","))
         if args.movie:
             paths.append(write_movie(dataset, Path(f"{stem}.gif")))
     except (ArchiveError, PlotError) as exc:
