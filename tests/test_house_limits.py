@@ -20,7 +20,7 @@ PACKAGE = ROOT / "rodsim"
 MAX_LINES = 600
 MAX_COMPLEXITY = 25
 
-#: Modules still above ``MAX_LINES``, pending a cut: the string tendon's term (682 lines
+#: Modules still above ``MAX_LINES``, pending a cut: the string tendon's term (735 lines
 #: when listed), left while the tendon kernel is being changed.
 PENDING_LINES = {"core/terms/tendon_string.py"}
 
