@@ -304,7 +304,8 @@ def _rubs(scene: Scene) -> bool:
     def rubs(string: Any) -> bool:
         return (string.friction > 0.0 or string.static_friction > 0.0
                 or any(value > 0.0 for value in string.friction_points)
-                or any(value > 0.0 for value in string.friction_profile))
+                or any(value > 0.0 for value in string.friction_profile)
+                or any(value > 0.0 for value in string.static_friction_profile))
 
     return any(options.coupling == "string"
                and rubs(scene.term_options("tendons", name, "tendon_string"))

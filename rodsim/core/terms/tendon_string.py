@@ -97,6 +97,7 @@ import numpy as np
 from rodsim.core.rod.quaternion import DIRECTOR_FORMS
 from rodsim.core.routing import ROUTINGS, Routing, string_span
 from rodsim.core.schema import Options, Parameter, SceneError
+from rodsim.core.static_friction_profile import check_static_profile, static_profile_coefficients
 from rodsim.core.tendon import MAX_TENSION, Tendon
 from rodsim.core.tendon_friction import (
     MAX_FRICTION,
@@ -224,6 +225,7 @@ class TendonStringOptions(Options):
     friction_profile: list[float] = field(default_factory=list)
     friction_profile_s: list[float] = field(default_factory=list)
     static_friction: float = 0.0
+    static_friction_profile: list[float] = field(default_factory=list)
 
 
 class TendonString(TendonTerm):
@@ -299,6 +301,11 @@ class TendonString(TendonTerm):
                   "friction_profile value): a "
                   "point that stuck at the last equilibrium holds until the tension ratio "
                   "over it exceeds e^(μ_s θ); 0 (default): μ_s = μ_k", 0.0, MAX_FRICTION),
+        Parameter("static_friction_profile", "vector", [], "-",
+                  "the static μ_s as a function of arc length: its values at "
+                  "friction_profile_s (beside friction_profile, each >= its value there), "
+                  "linear between them and constant beyond; [] (default): not used",
+                  0.0, MAX_FRICTION),
     )
 
     @classmethod
@@ -324,6 +331,7 @@ class TendonString(TendonTerm):
             raise SceneError(f"{prefix}.static_friction = {static!r}: smaller than the "
                              f"kinetic coefficient ({which} = {kinetic!r}); allowed: a number "
                              f">= {kinetic!r} and <= {MAX_FRICTION:g}, or 0 (μ_s = μ_k)")
+        check_static_profile(options, prefix)
 
     def __init__(self, tendon: Tendon, options: TendonStringOptions) -> None:
         super().__init__(tendon, options)
@@ -360,6 +368,9 @@ class TendonString(TendonTerm):
         #: The static μ_s of every turn (rodsim/core/tendon_friction.py, "Per-point
         #: coefficients and stiction"): μ_k where static_friction is not set, (P − 1,).
         self.static = np.maximum(float(options.static_friction), self.kinetic)
+        static_profile = static_profile_coefficients(options, self.points.s)
+        if static_profile is not None:  # rodsim/core/static_friction_profile.py
+            self.static = np.maximum(static_profile, self.kinetic)
         #: Whether a point's stick/slip state is history (μ_s above its μ_k somewhere).
         self.sticky = bool(np.any(self.static > self.kinetic))
         #: Whether the bounds take a coefficient per turn and side (friction_points, or
