@@ -140,11 +140,13 @@ def _assembly_failure(scene: Scene, integrator: str, exc: AssemblyBudgetExceeded
 
 
 def rerun(dataset: xr.Dataset) -> tuple[Result, float]:
-    """Re-run a stored run from the archive alone.
+    """Re-run a stored run from the archive alone (a fit or reach archive with tendon
+    friction along its stored path: rodsim/app/inverse/path_record.py).
 
     Returns the new result and the largest distance [m] between stored and recomputed
     control points (infinite when either holds a NaN: see ``largest_distance``).
     """
+    from rodsim.app.inverse.path_record import replayed
     from rodsim.io.archive import ArchiveError, scene_of
     from rodsim.io.archive_schema import parse_json_object
     from rodsim.io.compare import largest_rod_distance
@@ -157,7 +159,7 @@ def rerun(dataset: xr.Dataset) -> tuple[Result, float]:
     if stored_options != dataclasses.asdict(registered_integrators()[integrator].options_of(scene)):
         raise ArchiveError("archive is inconsistent: integrator_options differ from the "
                            "scene's solver options")
-    result = solve(scene, integrator)
+    result = replayed(dataset, scene, integrator) or solve(scene, integrator)
     new = run_dataset(result)
     return result, largest_rod_distance(dataset["position"].values, dataset["rod"].values,
                                         new["position"].values, new["rod"].values)

@@ -10,7 +10,7 @@ on the values found alone: a trial past the answer and back leaves points stuck 
 monotone approach leaves sliding. So the archive keeps the path — per parameter the values
 of every equilibrium, ``<name>_path`` along the dimension ``evaluation`` — and says so in
 its ``friction_history``: a track through those values (``rodsim.track``) ends on the same
-tensions and states.
+tensions and states, and ``rodsim rerun`` replays it (``replayed``) instead of a cold solve.
 """
 
 from __future__ import annotations
@@ -20,14 +20,17 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from rodsim.app.inverse.parameter_keys import NumericKey
+from rodsim.app.inverse.parameter_keys import NumericKey, numeric_keys, scene_with
+from rodsim.core.scene import Scene
 from rodsim.io.cf_layout import variable_name
 from rodsim.io.run_dataset import FRICTION_HISTORY
 
 if TYPE_CHECKING:
     import xarray as xr
 
-__all__ = ["record_path"]
+    from rodsim.solvers.result import Result
+
+__all__ = ["record_path", "replayed"]
 
 
 def record_path(ds: xr.Dataset, keys: Sequence[NumericKey], path: np.ndarray,
@@ -53,3 +56,26 @@ def record_path(ds: xr.Dataset, keys: Sequence[NumericKey], path: np.ndarray,
         f"values of the '*_path' variables, each equilibrium anchored at the last: "
         f"tension_profile and slip_state are those of its final state, which a track through "
         f"those values reproduces")
+
+
+def replayed(dataset: xr.Dataset, scene: Scene, integrator: str) -> Result | None:
+    """The final state of a fit or reach archive ``dataset`` with a stored path, solved
+    again along that path (the continuation of rodsim/app/inverse/continuation.py from a
+    cold solve at its first values, then through the rest) on ``scene`` (the archive's,
+    at the values found); None for an archive without a path (a cold solve is then the
+    same state). EquilibriumFailure if a value of the path has no equilibrium."""
+    from rodsim.app.inverse.continuation import ScaledEquilibria
+
+    kind = str(dataset.attrs.get("kind", ""))
+    if "evaluation" not in dataset.dims or kind not in ("fit", "reach"):
+        return None
+    stored = [name for name, variable in dataset.data_vars.items()
+              if str(name).endswith("_path") and variable.dims == ("evaluation",)]
+    keys = numeric_keys(scene, [str(dataset[name].attrs["scene_key"]) for name in stored])
+    path = np.stack([dataset[name].values.astype(float) for name in stored], axis=1)
+    rod = str(dataset.attrs[f"{kind}_rod"])
+    problem, _, _ = ScaledEquilibria.at_scene_values(scene_with(scene, keys, path[0]), keys,
+                                                     rod, integrator)
+    for values in path[1:]:
+        problem.at(values / problem.scale)
+    return problem.result(f"{kind} replayed along its stored path")
