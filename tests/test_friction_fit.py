@@ -83,7 +83,8 @@ def _replayed(scene: Scene, keys: list[str], path: np.ndarray) -> Track:
 
 
 @pytest.mark.parametrize("kind", ["fit", "reach"])
-def test_fit_and_reach_archives_hold_the_friction_state_of_their_path(kind, tmp_path):
+def test_fit_and_reach_archives_hold_the_friction_state_of_their_path(kind, tmp_path, cli,
+                                                                      capsys):
     """A fit of the tension to the shape released from 3 N to 2.75 N (μ = 0.2), and a reach
     of its tip, both from 3 N: the archive holds ``tension_profile`` and ``slip_state`` of
     the final state (read back), equal to a separate track's through the archived path of
@@ -94,6 +95,7 @@ def test_fit_and_reach_archives_hold_the_friction_state_of_their_path(kind, tmp_
     reach's)."""
     from rodsim.app.api import rerun
     from rodsim.app.inverse.fit import Points
+    from rodsim.app.inverse.path_record import path_solver
     from rodsim.io.archive import read_dataset, write_dataset
 
     scene = Scene.from_dict(catheter(11, 0.2, 3.0))
@@ -118,9 +120,11 @@ def test_fit_and_reach_archives_hold_the_friction_state_of_their_path(kind, tmp_
     apart = np.max(np.linalg.norm(cold.positions() - stored["position"].values, axis=1))
     assert apart > 1e-5 * LENGTH
     # rerun replays the stored path (a cold solve would be ``apart`` away).
-    result, difference = rerun(stored)
+    result, difference = rerun(stored, path_solver(stored))
     assert difference < 1e-12 * LENGTH, (difference, apart)
     np.testing.assert_array_equal(result.point_states["a"][1], stored["slip_state"].values)
+    assert cli(["rerun", str(tmp_path / f"{kind}.nc"), "--tolerance", "1e-12"]) == 0
+    assert "largest difference from the stored positions: 0 m" in capsys.readouterr().out
 
 
 def test_a_frictionless_reach_archive_has_no_path():

@@ -15,6 +15,7 @@ __all__ = ["cmd_rerun"]
 
 def cmd_rerun(args: argparse.Namespace) -> int:
     from rodsim.app.api import rerun
+    from rodsim.app.inverse.path_record import path_solver
     from rodsim.app.study import StudyError
     from rodsim.core.scene import SceneError
     from rodsim.io.archive import ArchiveError, read_dataset
@@ -32,7 +33,7 @@ def cmd_rerun(args: argparse.Namespace) -> int:
         if dataset.attrs.get("kind") == "trajectory":
             raise UserError("a trajectory archive is not re-run (rerun compares equilibria): "
                             "run `rodsim simulate` again with its history's arguments")
-        result, difference = rerun(dataset)
+        result, difference = rerun(dataset, path_solver(dataset))
     except (ArchiveError, SceneError, StudyError) as exc:
         raise UserError(f"{args.archive}: {exc}") from None
     if not result.success:

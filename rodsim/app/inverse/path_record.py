@@ -10,12 +10,13 @@ on the values found alone: a trial past the answer and back leaves points stuck 
 monotone approach leaves sliding. So the archive keeps the path — per parameter the values
 of every equilibrium, ``<name>_path`` along the dimension ``evaluation`` — and says so in
 its ``friction_history``: a track through those values (``rodsim.track``) ends on the same
-tensions and states, and ``rodsim rerun`` replays it (``replayed``) instead of a cold solve.
+tensions and states, and ``rodsim rerun`` replays it (``path_solver``, ``replayed``)
+instead of a cold solve.
 """
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -30,7 +31,7 @@ if TYPE_CHECKING:
 
     from rodsim.solvers.result import Result
 
-__all__ = ["record_path", "replayed"]
+__all__ = ["path_solver", "record_path", "replayed"]
 
 
 def record_path(ds: xr.Dataset, keys: Sequence[NumericKey], path: np.ndarray,
@@ -79,3 +80,18 @@ def replayed(dataset: xr.Dataset, scene: Scene, integrator: str) -> Result | Non
     for values in path[1:]:
         problem.at(values / problem.scale)
     return problem.result(f"{kind} replayed along its stored path")
+
+
+def path_solver(dataset: xr.Dataset) -> Callable[[Scene, str], Result] | None:
+    """For ``rodsim.app.api.rerun``: the solver (scene, integrator) → Result that replays
+    the stored path of the fit or reach archive ``dataset`` (``replayed``); None for an
+    archive without one (a cold solve is then the same state)."""
+    if "evaluation" not in dataset.dims or dataset.attrs.get("kind") not in ("fit", "reach"):
+        return None
+
+    def solver(scene: Scene, integrator: str) -> Result:
+        result = replayed(dataset, scene, integrator)
+        assert result is not None  # the archive has a path (checked above)
+        return result
+
+    return solver
