@@ -15,7 +15,8 @@
 - ``tension`` [N]: along each tendon's drawn path. A string tendon with friction: the chord
   tension ``tension_profile`` of the chord nearest in rest arc length; without friction the
   constant tension of the string, the archived ``tendon_tension`` under displacement
-  control or the scene's ``tendon_string.tension``; a rod tendon: its axial force
+  control or the scene's ``tendon_string.tension`` (a track's at its step, a trajectory's
+  program's at its time: ``rodsim.app.figures.state_scene``); a rod tendon: its axial force
   E_s π r² (|r′| − 1) per segment (Eq. (6)'s K_s times the strain).
 
 The rods (or, for tension, the tendons) carry the colour; everything else keeps its own.
@@ -151,13 +152,13 @@ def colouring(ds: xr.Dataset, quantity: str, parts: SceneParts, step: int | None
 
 def _tension_lines(ds: xr.Dataset, parts: SceneParts, step: int | None
                    ) -> dict[str, ColouredLine]:
-    from rodsim.io.archive_schema import stored_scene
+    from rodsim.app.figures.state_scene import state_scene
 
-    scene = stored_scene(ds.attrs["scene_json"], "attribute 'scene_json'")
+    scene = state_scene(ds, step)
     if not parts.tendons:
         raise PlotError(f"--colour tension: scene {scene.name[:40]!r} has no tendon; colour "
                         "by curvature or strain")
-    raw = json.loads(ds.attrs["scene_json"])
+    raw = json.loads(scene.to_json())
     outcome = json.loads(ds.attrs.get("tendon_tension", "{}"))
     chord_tendon = (ds["chord_tendon"].values.astype(str) if "tension_profile" in ds
                     else np.array([], dtype=str))
