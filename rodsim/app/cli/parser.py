@@ -315,11 +315,14 @@ def build_parser() -> argparse.ArgumentParser:
                       "(default png,pdf)")
     plot.add_argument("--colour", "--color", dest="colour", default=None,
                       choices=("curvature", "strain", "tension"),
-                      help="colour a run's rods by their bending curvature [1/m] or axial "
-                      "strain, or its tendons by their tension [N], with a colour bar")
+                      help="colour the rods by their bending curvature [1/m] or axial "
+                      "strain, or the tendons by their tension [N], with a colour bar: a "
+                      "run's figure, a track's or trajectory's (every state on one scale), "
+                      "their movie and the html view")
     plot.add_argument("--hide", default="", metavar="LAYERS",
-                      help="comma-separated layers of a run's figure to leave out: shape (the "
-                      "rods), tendon, load, contact (the contact forces), obstacle")
+                      help="comma-separated layers to leave out of the figure of a run, track "
+                      "or trajectory, their movie and the html view: shape (the rods), "
+                      "tendon, load, contact (the contact forces), obstacle")
     plot.add_argument("--movie", action="store_true",
                       help="also write STEM.gif, a movie of a track (one frame per step) or of a "
                       "trajectory (rodsim simulate: one frame per output time, at most 120)")

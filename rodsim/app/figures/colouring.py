@@ -26,6 +26,7 @@ from __future__ import annotations
 
 import json
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -38,7 +39,7 @@ from rodsim.app.figures.scene_parts import SceneParts, at_step
 from rodsim.core.terms.bend_twist import bend_kinematics
 
 __all__ = ["COLOURINGS", "ColouredLine", "Colouring", "colouring", "colour_scale",
-           "node_curvature", "segment_strain"]
+           "shared_scale", "node_curvature", "segment_strain"]
 
 #: What a centerline can be coloured by, and the colour bar's label (with units).
 COLOURINGS = {"curvature": "curvature |(u₁, u₂)| [1/m]",
@@ -85,6 +86,15 @@ def colour_scale(colours: Colouring) -> tuple[Normalize, Colormap]:
     if high - low <= 1e-6 * bound:
         low, high = (0.0, bound) if high >= 0.0 else (-bound, 0.0)
     return Normalize(low, high), colormaps["viridis"]
+
+
+def shared_scale(colourings: Sequence[Colouring]) -> tuple[Normalize, Colormap]:
+    """One colour scale for the colourings of several states (a track's steps, a
+    trajectory's output times): ``colour_scale`` of all their lines together."""
+    first = colourings[0]
+    lines = {f"{index}:{name}": line for index, colours in enumerate(colourings)
+             for name, line in colours.lines.items()}
+    return colour_scale(Colouring(first.quantity, first.label, lines))
 
 
 def node_curvature(quaternions: np.ndarray, segment_s: np.ndarray) -> np.ndarray:
