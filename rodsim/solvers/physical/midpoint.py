@@ -59,6 +59,7 @@ from rodsim.solvers.physical.fixed_step import (
     newton_matrix,
     solve_step,
 )
+from rodsim.solvers.physical.tangent_damping import TangentDamping
 
 __all__ = ["MidpointStep"]
 
@@ -71,6 +72,7 @@ class MidpointStep:
                  quadrature: int = 2) -> None:
         self.coordinates = coordinates
         self.damping = damping
+        self._tangent_damping = TangentDamping(damping)
         self.length_scale = length_scale
         self.tolerance = tolerance
         self.quadrature = quadrature
@@ -192,7 +194,7 @@ class MidpointStep:
             damping = None
             if self.damping.active:
                 g = c.g_matrix(xm, n)
-                damping = (g.T @ self.damping.matrix(xm) @ g).tocsr()
+                damping = self._tangent_damping.matrix(xm, g)
                 dragged = damping @ np.concatenate([vm, wm.ravel()])
                 res_r = res_r + dragged[:self._p]
                 res_w = res_w + dragged[self._p:].reshape(-1, 3)

@@ -64,6 +64,7 @@ from rodsim.solvers.physical.fixed_step import (
     newton_matrix,
     solve_step,
 )
+from rodsim.solvers.physical.tangent_damping import TangentDamping
 
 __all__ = ["SemiImplicitEulerStep", "turned"]
 
@@ -87,6 +88,7 @@ class SemiImplicitEulerStep:
                  length_scale: float, tolerance: float = NEWTON_TOLERANCE) -> None:
         self.coordinates = coordinates
         self.damping = damping
+        self._tangent_damping = TangentDamping(damping)
         self.length_scale = length_scale
         self.tolerance = tolerance
 
@@ -146,7 +148,7 @@ class SemiImplicitEulerStep:
             damping = None
             if self.damping.active:
                 g = c.g_matrix(x1, n)
-                damping = (g.T @ self.damping.matrix(x1) @ g).tocsr()
+                damping = self._tangent_damping.matrix(x1, g)
                 dragged = damping @ np.concatenate([v1, w1.ravel()])
                 res_r = res_r + dragged[:p]
                 res_w = res_w + dragged[p:].reshape(-1, 3)
