@@ -59,6 +59,15 @@ from rodsim.solvers.physical.fixed_step import (
     newton_matrix,
     solve_step,
 )
+from rodsim.solvers.physical.sparse_kernels import (
+    Csr,
+    arrays,
+    congruent,
+    csr_of,
+    plus,
+    scaled,
+    transpose,
+)
 from rodsim.solvers.physical.tangent_damping import TangentDamping
 
 __all__ = ["MidpointStep"]
@@ -127,7 +136,7 @@ class MidpointStep:
         rows = velocity_rows(qm)  # B_k q_m: Δq = (h/2) Σ ω_m,k B_k q_m
         f_r = np.zeros(self._p)
         tau = np.zeros((self._s, 3))
-        derivative = None
+        derivative: Csr | None = None
         for node, weight in self._gauss:
             q = q0 + node * (q1 - q0)
             norm = np.linalg.norm(q, axis=1)
@@ -164,10 +173,16 @@ class MidpointStep:
                                + np.einsum("ska,sal->skl", through_q, node * dq1))
             # the geometric blocks on the angles (sp.block_diag with the zero position
             # block, as one placement)
-            part = (g.T @ model.pattern_matrix(jac) @ p) + block_diagonal(
-                geometric, c.angle_columns, c.angle_columns, (m, m))
-            derivative = weight * part if derivative is None else derivative + weight * part
-        return f_r, tau, None if derivative is None else derivative.tocsr()
+            # (g.T @ J @ p + the blocks), times the weight, summed: scipy's own operators'
+            # arrays, by its kernels (sparse_kernels), CSC until the end's ``tocsr``
+            part = scaled(plus(m, m, congruent(g, arrays(model.pattern_matrix(jac)), p),
+                               transpose(m, m, arrays(block_diagonal(
+                                   geometric, c.angle_columns, c.angle_columns, (m, m))))),
+                          weight)
+            derivative = part if derivative is None else plus(m, m, derivative, part)
+        if derivative is None:
+            return f_r, tau, None
+        return f_r, tau, csr_of(transpose(m, m, derivative), (m, m), sorted_indices=True)
 
     def step(self, model: Model, start: Motion, h: float) -> StepOutcome:
         """One step of length ``h`` [s] from ``start`` with ``model``'s forces (those of the

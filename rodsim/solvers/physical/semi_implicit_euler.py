@@ -64,6 +64,13 @@ from rodsim.solvers.physical.fixed_step import (
     newton_matrix,
     solve_step,
 )
+from rodsim.solvers.physical.sparse_kernels import (
+    arrays,
+    congruent,
+    csr_of,
+    plus,
+    transpose,
+)
 from rodsim.solvers.physical.tangent_damping import TangentDamping
 
 __all__ = ["SemiImplicitEulerStep", "turned"]
@@ -123,9 +130,14 @@ class SemiImplicitEulerStep:
         moves = c.tangent_map(dq1, 1.0, n)
         bent = np.einsum("kba,sb->ska", B, f_q)  # B_kᵀ F_q
         geometric = 0.5 * np.einsum("ska,sal->skl", bent, dq1)
-        derivative = (g.T @ model.pattern_matrix(jac) @ moves) + block_diagonal(
-            geometric, c.angle_columns, c.angle_columns, (c.size, c.size))
-        return f[c.positions], tau, derivative.tocsr()
+        # g.T @ J @ moves + the blocks, scipy's own operators' arrays by its kernels
+        # (sparse_kernels), CSC until the end's ``tocsr``
+        m = c.size
+        derivative = plus(m, m, congruent(g, arrays(model.pattern_matrix(jac)), moves),
+                          transpose(m, m, arrays(block_diagonal(
+                              geometric, c.angle_columns, c.angle_columns, (m, m)))))
+        return f[c.positions], tau, csr_of(transpose(m, m, derivative), (m, m),
+                                           sorted_indices=True)
 
     def step(self, model: Model, start: Motion, h: float) -> StepOutcome:
         """One step of length ``h`` [s] from ``start`` with ``model``'s forces (those of the

@@ -7,8 +7,8 @@ stiffness blocks, symmetrised and added to the drag; G (``PhysicalCoordinates.g_
 the physical velocities to the free coordinates. Built with scipy's operators that is a
 dozen sparse matrices per iterate, each paying scipy's format checks and index-type
 choices, several times the arithmetic at a rod's sizes. ``TangentDamping`` runs the same
-compiled kernels of scipy (``scipy.sparse._sparsetools``) on the same arrays, in the same
-order — the coordinate-to-row conversion, the sort and sum of duplicates, the transposes,
+compiled kernels of scipy on the same arrays (rodsim/solvers/physical/sparse_kernels.py), in
+the same order — the coordinate-to-row conversion, the sort and sum of duplicates, the transposes,
 the sums (which drop exact zeros) and the two products — and builds one matrix at the end:
 the same arrays, entry for entry and bit for bit, as
 ``(g.T @ damping.matrix(x) @ g).tocsr()`` (tests/test_tangent_damping.py).
@@ -21,52 +21,18 @@ import scipy.sparse as sp
 from scipy.sparse import _sparsetools as kernels
 
 from rodsim.core.damping import Damping
+from rodsim.solvers.physical.sparse_kernels import (
+    INDEX,
+    Csr,
+    arrays,
+    congruent,
+    csr_of,
+    plus,
+    scaled,
+    transpose,
+)
 
 __all__ = ["TangentDamping"]
-
-#: The index type of every array handed to the kernels (scipy's own at these sizes).
-INDEX = np.int32
-
-Csr = tuple[np.ndarray, np.ndarray, np.ndarray]  # (indptr, indices, data)
-
-
-def _transpose(rows: int, cols: int, a: Csr) -> Csr:
-    """The CSR arrays of aᵀ (``csr_tocsc``: ``tocsc``/``tocsr``'s kernel)."""
-    indptr = np.empty(cols + 1, dtype=INDEX)
-    indices = np.empty(len(a[1]), dtype=INDEX)
-    data = np.empty(len(a[2]))
-    kernels.csr_tocsc(rows, cols, a[0], a[1], a[2], indptr, indices, data)
-    return indptr, indices, data
-
-
-def _plus(rows: int, cols: int, a: Csr, b: Csr) -> Csr:
-    """a + b (``csr_plus_csr``, exact zeros dropped, as scipy's sum)."""
-    size = len(a[1]) + len(b[1])
-    indptr = np.empty(rows + 1, dtype=INDEX)
-    indices = np.empty(size, dtype=INDEX)
-    data = np.empty(size)
-    kernels.csr_plus_csr(rows, cols, a[0], a[1], a[2], b[0], b[1], b[2], indptr, indices,
-                         data)
-    nnz = int(indptr[-1])
-    return indptr, indices[:nnz], data[:nnz]
-
-
-def _product(rows: int, cols: int, a: Csr, b: Csr) -> Csr:
-    """a @ b for a with ``rows`` rows and b with ``cols`` columns (``csr_matmat``, exact
-    zeros dropped, as scipy's product)."""
-    size = kernels.csr_matmat_maxnnz(rows, cols, a[0], a[1], b[0], b[1])
-    indptr = np.empty(rows + 1, dtype=INDEX)
-    indices = np.empty(size, dtype=INDEX)
-    data = np.empty(size)
-    kernels.csr_matmat(rows, cols, a[0], a[1], a[2], b[0], b[1], b[2], indptr, indices,
-                       data)
-    nnz = int(indptr[-1])
-    return indptr, indices[:nnz], data[:nnz]
-
-
-def _arrays(matrix: sp.csr_matrix) -> Csr:
-    return (matrix.indptr.astype(INDEX, copy=False), matrix.indices.astype(INDEX, copy=False),
-            matrix.data)
 
 
 class TangentDamping:
@@ -91,7 +57,7 @@ class TangentDamping:
         self._keep = (i >= 0) & (j >= 0)
         self._rows = i[self._keep].astype(INDEX)
         self._cols = j[self._keep].astype(INDEX)
-        self._drag = _arrays(damping.drag)
+        self._drag = arrays(damping.drag)
 
     def _material(self, x: np.ndarray) -> Csr:
         """The CSR arrays of ``Damping.matrix``'s ``_assemble`` (coordinates to rows, the
@@ -115,7 +81,7 @@ class TangentDamping:
             kernels.csr_sort_indices(n, indptr, indices, data)
         kernels.csr_sum_duplicates(n, n, indptr, indices, data)
         nnz = int(indptr[-1])
-        return indptr, indices[:nnz], data[:nnz]
+        return Csr(indptr, indices[:nnz], data[:nnz])
 
     def matrix(self, x: np.ndarray, g: sp.csr_matrix) -> sp.csr_matrix:
         """(gᵀ D(x) g).tocsr() at ``x`` (the free coordinates themselves) for the map ``g``
@@ -123,16 +89,10 @@ class TangentDamping:
         n, m = self._n, g.shape[1]
         if self.damping.elastic:
             material = self._material(x)
-            both = _plus(n, n, material, _transpose(n, n, material))
-            d = _plus(n, n, (both[0], both[1], both[2] * 0.5), self._drag)
+            both = plus(n, n, material, transpose(n, n, material))
+            d = plus(n, n, scaled(both, 0.5), self._drag)
         else:
             d = self._drag
-        ga = _arrays(g)
-        # gᵀ @ d as scipy takes it (gᵀ is g's arrays read by columns): the CSC arrays of
-        # gᵀ d are the CSR arrays of dᵀ g, and so on; the last transpose is ``tocsr``.
-        left = _product(n, m, _transpose(n, n, d), ga)
-        both = _product(m, m, _transpose(n, m, ga), left)
-        indptr, indices, data = _transpose(m, m, both)
-        out = sp.csr_matrix((data, indices, indptr), shape=(m, m))
-        out.has_sorted_indices = True
-        return out
+        # the CSC arrays of gᵀ D g; their transpose is its ``tocsr``
+        both = congruent(g, transpose(n, n, d), g)
+        return csr_of(transpose(m, m, both), (m, m), sorted_indices=True)
