@@ -328,7 +328,8 @@ def build_parser() -> argparse.ArgumentParser:
     bench = sub.add_parser("bench", help="run a benchmark (work-precision, scaling, large-n, "
                            "stress, skip-work, kernels, paper-regime, pyelastica, "
                            "string-tendon, contact, force-from-shape, floor, iterations, "
-                           "startup, tracking, workers, modes, friction, batch, dynamics)",
+                           "startup, tracking, workers, modes, friction, batch, dynamics, "
+                           "step-cost)",
                            description="Time the integrators against their error, their cost "
                            "in N, or their stability over a parameter map; writes netCDF, "
                            "figures and a markdown table with the machine description. The "
