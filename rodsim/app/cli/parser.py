@@ -341,7 +341,7 @@ def build_parser() -> argparse.ArgumentParser:
                        help="work-precision, scaling, large-n, stress, skip-work, kernels, "
                        "paper-regime, string-tendon, contact, force-from-shape, floor, "
                        "iterations, startup, tracking, workers, modes, friction, batch, "
-                       "dynamics, hostile or pyelastica (the last needs 'pip install "
+                       "dynamics, step-cost, hostile or pyelastica (the last needs 'pip install "
                        "pyelastica==1.0.0'; never a dependency)")
     bench.add_argument("--size", choices=("small", "full"), default="small",
                        help="small (the default): a smoke version in seconds to a minute; "
