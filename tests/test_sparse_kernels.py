@@ -46,10 +46,9 @@ def test_kernel_chains_are_scipys_operators():
         # a step's stiffness derivative: (g.T @ J @ p + extra) weighted and summed, tocsr
         expected = 0.5 * ((g.T @ jac @ p) + extra)
         expected = (expected + 0.5 * ((g.T @ jac @ g) + extra)).tocsr()
-        one = scaled(plus(m, m, congruent(g, arrays(jac), p), transpose(m, m, arrays(extra))),
-                     0.5)
-        two = scaled(plus(m, m, congruent(g, arrays(jac), g), transpose(m, m, arrays(extra))),
-                     0.5)
+        added = transpose(m, m, arrays(extra))
+        one = scaled(plus(m, m, congruent(n, m, arrays(g), arrays(jac), arrays(p)), added), 0.5)
+        two = scaled(plus(m, m, congruent(n, m, arrays(g), arrays(jac), arrays(g)), added), 0.5)
         _same(csr_of(transpose(m, m, plus(m, m, one, two)), (m, m), sorted_indices=True),
               expected)
         # the Newton matrix: masses − stiffness + damping @ diags(scale)

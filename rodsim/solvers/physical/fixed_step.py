@@ -25,7 +25,7 @@ from rodsim.core.model import Model
 from rodsim.solvers.physical.coordinates import (
     PhysicalCoordinates,
     gyroscopic_jacobian,
-    placed,
+    placed_arrays,
 )
 from rodsim.solvers.physical.sparse_kernels import (
     INDEX,
@@ -163,7 +163,8 @@ def newton_matrix(coordinates: PhysicalCoordinates, factor: float, stiffness: sp
     mass = (factor / h**2) * c.mass
     rows, cols = c.mass_entries
     m = c.size
-    masses = placed(np.concatenate([mass.data, rotation.ravel()]), rows, cols, (m, m))
+    masses = placed_arrays(np.concatenate([mass.data, rotation.ravel()]), rows, cols,
+                           (m, m))
     # masses − stiffness (+ damping @ sp.diags(scale)): scipy's own operators' arrays, by
     # its kernels (sparse_kernels; the diagonal's CSR is its scale, no entry of it zero)
     matrix = minus(m, m, arrays(masses), arrays(stiffness))

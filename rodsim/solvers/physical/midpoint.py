@@ -45,7 +45,7 @@ from rodsim.core.model import Model
 from rodsim.core.rod.quaternion import B
 from rodsim.solvers.physical.coordinates import (
     PhysicalCoordinates,
-    block_diagonal,
+    block_arrays,
     cayley,
     cross_rows,
     model_state,
@@ -158,8 +158,8 @@ class MidpointStep:
                 continue
             project = (np.eye(4)[None] - unit[:, :, None] * unit[:, None, :]) / norm[:, None,
                                                                                     None]
-            g = c.tangent_map(0.5 * project @ np.transpose(rows, (0, 2, 1)), 1.0, n)
-            p = c.tangent_map(project @ (node * dq1), node, n)
+            g = c.tangent_arrays(0.5 * project @ np.transpose(rows, (0, 2, 1)), 1.0, n)
+            p = c.tangent_arrays(project @ (node * dq1), node, n)
             # τ_k = ½ a_kᵀ P f / |q| (a_k = B_k q_m, P = I − q̂q̂ᵀ) at fixed f: through a_k
             # (q_m moves by ½ ∂q₁/∂ω_m) and through q̂ and |q| (q moves by s ∂q₁/∂ω_m)
             turned = np.einsum("kba,sb->ska", B, across) / norm[:, None, None]  # B_kᵀ P f
@@ -175,9 +175,9 @@ class MidpointStep:
             # block, as one placement)
             # (g.T @ J @ p + the blocks), times the weight, summed: scipy's own operators'
             # arrays, by its kernels (sparse_kernels), CSC until the end's ``tocsr``
-            part = scaled(plus(m, m, congruent(g, arrays(model.pattern_matrix(jac)), p),
-                               transpose(m, m, arrays(block_diagonal(
-                                   geometric, c.angle_columns, c.angle_columns, (m, m))))),
+            part = scaled(plus(m, m, congruent(n, m, g, arrays(model.pattern_matrix(jac)), p),
+                               transpose(m, m, block_arrays(
+                                   geometric, c.angle_columns, c.angle_columns, (m, m)))),
                           weight)
             derivative = part if derivative is None else plus(m, m, derivative, part)
         if derivative is None:
@@ -208,8 +208,8 @@ class MidpointStep:
             res_w = ((2.0 / h) * inertia * (wm - w0) + cross_rows(wm, inertia * wm) - tau)
             damping = None
             if self.damping.active:
-                g = c.g_matrix(xm, n)
-                damping = self._tangent_damping.matrix(xm, g)
+                g = c.g_arrays(xm, n)
+                damping = self._tangent_damping.matrix(xm, g, c.size)
                 dragged = damping @ np.concatenate([vm, wm.ravel()])
                 res_r = res_r + dragged[:self._p]
                 res_w = res_w + dragged[self._p:].reshape(-1, 3)

@@ -36,8 +36,9 @@ class Csr(NamedTuple):
     data: np.ndarray
 
 
-def arrays(matrix: sp.csr_matrix | sp.csc_matrix) -> Csr:
-    """The stored arrays of ``matrix`` (of its transpose, read as CSR, for a CSC one)."""
+def arrays(matrix: sp.csr_matrix | sp.csc_matrix | Csr) -> Csr:
+    """The stored arrays of ``matrix`` (of its transpose, read as CSR, for a CSC one), their
+    indices as ``INDEX``."""
     return Csr(matrix.indptr.astype(INDEX, copy=False),
                matrix.indices.astype(INDEX, copy=False), matrix.data)
 
@@ -101,12 +102,11 @@ def csr_of(a: Csr, shape: tuple[int, int], sorted_indices: bool = False) -> sp.c
     return out
 
 
-def congruent(left: sp.csr_matrix, middle: Csr, right: sp.csr_matrix) -> Csr:
-    """``left.T @ M @ right`` for n × m CSR ``left`` and ``right`` and n × n M given by
-    ``middle``, the CSR arrays of Mᵀ (a CSC M's own arrays), as scipy takes the two
-    products: the result's CSC arrays (m × m)."""
-    n, m = left.shape
+def congruent(n: int, m: int, left: Csr, middle: Csr, right: Csr) -> Csr:
+    """``left.T @ M @ right`` for n × m CSR ``left`` and ``right`` (their arrays) and n × n M
+    given by ``middle``, the CSR arrays of Mᵀ (a CSC M's own arrays), as scipy takes the
+    two products: the result's CSC arrays (m × m)."""
     # leftᵀ is left's arrays read by columns: the CSC arrays of leftᵀ M are the CSR arrays
     # of Mᵀ left, and the product with ``right`` (converted to CSC) likewise
-    first = product(n, m, middle, arrays(left))
+    first = product(n, m, arrays(middle), arrays(left))
     return product(m, m, transpose(n, m, arrays(right)), first)

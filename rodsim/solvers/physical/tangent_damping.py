@@ -83,10 +83,11 @@ class TangentDamping:
         nnz = int(indptr[-1])
         return Csr(indptr, indices[:nnz], data[:nnz])
 
-    def matrix(self, x: np.ndarray, g: sp.csr_matrix) -> sp.csr_matrix:
-        """(gᵀ D(x) g).tocsr() at ``x`` (the free coordinates themselves) for the map ``g``
-        (n × m, CSR) — scipy's arrays, bit for bit (module docstring)."""
-        n, m = self._n, g.shape[1]
+    def matrix(self, x: np.ndarray, g: Csr, m: int) -> sp.csr_matrix:
+        """(gᵀ D(x) g).tocsr() at ``x`` (the free coordinates themselves) for the map G,
+        n × ``m``, given by its CSR arrays ``g`` — scipy's arrays, bit for bit (module
+        docstring)."""
+        n = self._n
         if self.damping.elastic:
             material = self._material(x)
             both = plus(n, n, material, transpose(n, n, material))
@@ -94,5 +95,5 @@ class TangentDamping:
         else:
             d = self._drag
         # the CSC arrays of gᵀ D g; their transpose is its ``tocsr``
-        both = congruent(g, transpose(n, n, d), g)
+        both = congruent(n, m, g, transpose(n, n, d), g)
         return csr_of(transpose(m, m, both), (m, m), sorted_indices=True)
