@@ -1,4 +1,5 @@
-"""``rodsim plot --colour`` and ``--hide`` (issue 36), and the track figure's loop.
+"""``rodsim plot --colour`` and ``--hide`` (issue 36) on runs, tracks, trajectories, their
+movies and the 3-D view, and the track figure's loop.
 
 The colours are checked against closed forms: a cantilever under a pure tip moment M bends
 into a circle of curvature M/(E I); under an axial tip force F it stretches uniformly by
@@ -19,7 +20,7 @@ import pytest
 
 import rodsim
 from rodsim.app.figures import PlotError, draw_figure, plot_dataset, style
-from rodsim.app.figures.colouring import COLOURINGS, node_curvature
+from rodsim.app.figures.colouring import COLOURINGS, colouring, node_curvature
 from rodsim.app.figures.layers import LAYERS
 from rodsim.core.scene import Scene
 from rodsim.io.archive import read_dataset, write_dataset
@@ -271,7 +272,128 @@ def test_the_track_figure_draws_the_tip_path_and_the_loop(cycles, tmp_path, cli,
     assert gap > 1e-3 * F_LENGTH  # friction holds the bend on the way back
     smooth_tips = smooth["position"].values[:, -1]
     assert np.linalg.norm(smooth_tips[1] - smooth_tips[3]) < 1e-3 * gap  # no friction, no loop
-    archive = write_dataset(rubbing, tmp_path / "track.nc")
-    assert cli(["plot", str(archive), "--colour", "curvature"]) == 2
+    fit = rubbing.copy()
+    fit.attrs["kind"] = "fit"  # the figures of other archives refuse the options
+    with pytest.raises(PlotError, match="not to a fit archive"):
+        drawn(fit, colour="curvature")
+    with pytest.raises(PlotError, match="not to a fit archive"):
+        drawn(fit, hide=["load"])
+
+
+def series(figure_lines, gid):
+    """The coloured collections of ``gid`` in drawing order (one per state)."""
+    return [values for name, values in figure_lines if name == gid]
+
+
+def drawn_all(ds, **options):
+    """(every coloured collection as (gid, values) in drawing order, the colour bars'
+    (gid, limits)) of the figure of ``ds``."""
+    with style():
+        figure = draw_figure(ds, **options)
+        try:
+            lines = [(c.get_gid(), np.asarray(c.get_array())) for ax in figure.axes
+                     for c in ax.collections if c.get_array() is not None and c.get_gid()]
+            bars = [(ax.get_gid(), ax.get_ylim()) for ax in figure.axes
+                    if str(ax.get_gid()).startswith("colourbar:")]
+        finally:
+            plt.close(figure)
+    return lines, bars
+
+
+@pytest.fixture(scope="module")
+def smooth_run():
+    """The catheter without friction at T = 3 N, solved as a run."""
+    return run_dataset(rodsim.solve(Scene.from_dict(friction_catheter(0.0))))
+
+
+def test_a_tracks_steps_are_coloured_as_runs_on_one_scale(cycles, smooth_run):
+    """Each step's colours are the run figure's computation at that step: the curvature of
+    the step at T = 3 N equals that of the same scene solved as a run (no friction: the
+    path does not matter); each step's tendon carries the ramped tension, not the stored
+    scene's; one colour bar spans every step's values."""
+    rubbing, smooth = cycles
+    ramp = [0.5, 1.5, 3.0, 1.5, 0.5]
+    lines, bars = drawn_all(smooth, colour="tension")
+    tendon = series(lines, "tendon:a")
+    assert len(tendon) == 5 and [bars[0][0]] == [b[0] for b in bars] == ["colourbar:tension"]
+    for values, tension in zip(tendon, ramp, strict=True):
+        assert values == pytest.approx(tension, rel=1e-12)
+    assert bars[0][1] == pytest.approx((0.5, 3.0))
+    lines, bars = drawn_all(smooth, colour="curvature")
+    rod = series(lines, "rod:backbone")
+    run_lines, _ = drawn_all(smooth_run, colour="curvature")
+    np.testing.assert_allclose(rod[2], series(run_lines, "rod:backbone")[0], rtol=1e-5)
+    every = np.concatenate(rod)
+    assert len(bars) == 1 and bars[0][1] == pytest.approx((every.min(), every.max()))
+    # with friction: each step the quaternions' curvature (Eq. (3)) of that step
+    lines, _ = drawn_all(rubbing, colour="curvature", hide=["tendon"])
+    for step, values in enumerate(series(lines, "rod:backbone")):
+        expected = node_curvature(rubbing["quaternion"].values[step],
+                                  rubbing["segment_s"].values)
+        np.testing.assert_array_equal(values, np.stack([expected[:-1], expected[1:]],
+                                                       axis=1).reshape(-1))
+    assert not series(lines, "tendon:a")
+
+
+def test_the_3d_view_colours_the_line_trace_and_hides_layers(everything, cycles):
+    pytest.importorskip("plotly", reason="plotly is the optional extra rodsim[view3d]")
+    from rodsim.app.figures.scene_parts import scene_parts
+    from rodsim.app.figures.view3d import view_figure
+
+    figure = view_figure(everything, "curvature")
+    (rod,) = [t for t in figure.data if t.name == "backbone"]
+    expected = colouring(everything, "curvature", scene_parts(everything)).lines["backbone"]
+    np.testing.assert_array_equal(np.asarray(rod.line.color)[::3], expected.values)
+    assert rod.line.showscale and "[1/m]" in rod.line.colorbar.title.text
+    assert rod.line.cmin == pytest.approx(expected.values.min())
+    names = {t.name for t in view_figure(everything).data}
+    assert {"backbone", "a", "termination a", "loads", "contact forces",
+            "plane wall"} <= names
+    hidden = {"shape": {"backbone"}, "tendon": {"a", "termination a"}, "load": {"loads"},
+              "contact": {"contact forces"}, "obstacle": {"plane wall"}}
+    assert set(hidden) == set(LAYERS)
+    for layer, gone in hidden.items():
+        left = {t.name for t in view_figure(everything, hide=frozenset({layer})).data}
+        assert not gone & left and names - gone == left, layer
+    # a track: each frame's tendon coloured by its step's tension, one scale for all
+    smooth = cycles[1]
+    track = view_figure(smooth, "tension", frozenset({"load", "contact"}))
+    frames = [[t for t in frame.data if t.name == "a"][0] for frame in track.frames]
+    assert [float(np.asarray(t.line.color)[0]) for t in frames] == pytest.approx(
+        [0.5, 1.5, 3.0, 1.5, 0.5])
+    assert {(t.line.cmin, t.line.cmax) for t in frames} == {(0.5, 3.0)}
+    assert "[N]" in frames[0].line.colorbar.title.text
+
+
+@pytest.fixture(scope="module")
+def pushed(tmp_path_factory):
+    """The 50 g mass let go with a programmed tip force F_y(t) = −10 t N/s on top."""
+    run = rodsim.simulate("table1-50g", 0.02, output_dt=0.01, overrides=["nodes=9"],
+                          program={"tip_load.force[1]": ([0.0, 0.02], [0.0, -0.2])})
+    assert run.success, run.message
+    return read_dataset(write_dataset(run.to_xarray(),
+                                      tmp_path_factory.mktemp("push") / "push.nc"))
+
+
+def test_a_trajectorys_loads_are_its_programs_at_each_time(pushed, tmp_path, cli, capsys):
+    from PIL import Image
+
+    from rodsim.app.figures.scene_parts import scene_parts
+
+    weight = 0.05 * 9.81
+    for k, t in enumerate(pushed["time"].values):  # 0, 0.01, 0.02 s
+        (tip,) = [a for a in scene_parts(pushed, k).loads if a.gid.endswith("tip_load")]
+        assert tip.vector[1] == pytest.approx(-weight - 10.0 * t, rel=1e-12)
+    lines, bars = drawn_all(pushed, colour="strain", hide=["load"])
+    assert len(series(lines, "rod:catheter")) == 3 and [b[0] for b in bars] == [
+        "colourbar:strain"]
+    archive = tmp_path / "push.nc"
+    write_dataset(pushed, archive)
+    assert cli(["plot", str(archive), "--movie", "--colour", "curvature", "--hide",
+                "load", "--format", "png"]) == 0
+    assert "push.gif" in capsys.readouterr().out
+    with Image.open(tmp_path / "push.gif") as gif:
+        assert gif.n_frames == 3
+    assert cli(["plot", str(archive), "--colour", "tension"]) == 2
     err = capsys.readouterr().err
-    assert "track archive" in err and len(err.strip().splitlines()) == 1
+    assert "no tendon" in err and len(err.strip().splitlines()) == 1

@@ -15,7 +15,8 @@
 - ``tension`` [N]: along each tendon's drawn path. A string tendon with friction: the chord
   tension ``tension_profile`` of the chord nearest in rest arc length; without friction the
   constant tension of the string, the archived ``tendon_tension`` under displacement
-  control or the scene's ``tendon_string.tension``; a rod tendon: its axial force
+  control or the scene's ``tendon_string.tension`` (a track's at its step, a trajectory's
+  program's at its time: ``rodsim.app.figures.state_scene``); a rod tendon: its axial force
   E_s π r² (|r′| − 1) per segment (Eq. (6)'s K_s times the strain).
 
 The rods (or, for tension, the tendons) carry the colour; everything else keeps its own.
@@ -25,6 +26,7 @@ from __future__ import annotations
 
 import json
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -37,7 +39,7 @@ from rodsim.app.figures.scene_parts import SceneParts, at_step
 from rodsim.core.terms.bend_twist import bend_kinematics
 
 __all__ = ["COLOURINGS", "ColouredLine", "Colouring", "colouring", "colour_scale",
-           "node_curvature", "segment_strain"]
+           "shared_scale", "node_curvature", "segment_strain"]
 
 #: What a centerline can be coloured by, and the colour bar's label (with units).
 COLOURINGS = {"curvature": "curvature |(u₁, u₂)| [1/m]",
@@ -84,6 +86,15 @@ def colour_scale(colours: Colouring) -> tuple[Normalize, Colormap]:
     if high - low <= 1e-6 * bound:
         low, high = (0.0, bound) if high >= 0.0 else (-bound, 0.0)
     return Normalize(low, high), colormaps["viridis"]
+
+
+def shared_scale(colourings: Sequence[Colouring]) -> tuple[Normalize, Colormap]:
+    """One colour scale for the colourings of several states (a track's steps, a
+    trajectory's output times): ``colour_scale`` of all their lines together."""
+    first = colourings[0]
+    lines = {f"{index}:{name}": line for index, colours in enumerate(colourings)
+             for name, line in colours.lines.items()}
+    return colour_scale(Colouring(first.quantity, first.label, lines))
 
 
 def node_curvature(quaternions: np.ndarray, segment_s: np.ndarray) -> np.ndarray:
@@ -151,13 +162,13 @@ def colouring(ds: xr.Dataset, quantity: str, parts: SceneParts, step: int | None
 
 def _tension_lines(ds: xr.Dataset, parts: SceneParts, step: int | None
                    ) -> dict[str, ColouredLine]:
-    from rodsim.io.archive_schema import stored_scene
+    from rodsim.app.figures.state_scene import state_scene
 
-    scene = stored_scene(ds.attrs["scene_json"], "attribute 'scene_json'")
+    scene = state_scene(ds, step)
     if not parts.tendons:
         raise PlotError(f"--colour tension: scene {scene.name[:40]!r} has no tendon; colour "
                         "by curvature or strain")
-    raw = json.loads(ds.attrs["scene_json"])
+    raw = json.loads(scene.to_json())
     outcome = json.loads(ds.attrs.get("tendon_tension", "{}"))
     chord_tendon = (ds["chord_tendon"].values.astype(str) if "tension_profile" in ds
                     else np.array([], dtype=str))

@@ -62,8 +62,10 @@ DRAWERS = {"centerlines": centerlines_figure, "error_vs_parameter": error_vs_par
 RESULTS = {"centerlines": centerlines_result, "error_vs_parameter": error_vs_parameter_result,
            "error_vs_iteration": error_vs_iteration_result}
 #: Figures of the inverse tools' archives, by their ``kind`` attribute.
-KIND_DRAWERS = {"track": track_figure, "fit": fit_figure, "reach": reach_figure,
-                "modes": modes_figure, "trajectory": trajectory_figure}
+KIND_DRAWERS = {"fit": fit_figure, "reach": reach_figure, "modes": modes_figure}
+#: Figures of the archives of several states, which draw them coloured (``--colour``) and
+#: with layers left out (``--hide``), by their ``kind`` attribute.
+SERIES_DRAWERS = {"track": track_figure, "trajectory": trajectory_figure}
 
 
 def plot_dataset(ds: xr.Dataset, stem: str | Path, formats: Iterable[str] = ("png", "pdf"),
@@ -89,7 +91,7 @@ def plot_dataset(ds: xr.Dataset, stem: str | Path, formats: Iterable[str] = ("pn
     paths = []
     if html:
         try:
-            paths.append(view3d.write_html(ds, html_target(stem)))
+            paths.append(view3d.write_html(ds, html_target(stem), colour, hidden))
         except OSError as exc:
             raise PlotError(f"cannot write {stem}.{HTML}: {exc.strerror or exc}") from None
     if not formats:
@@ -113,8 +115,10 @@ def draw_figure(ds: xr.Dataset, colour: str | None = None, hide: str | Iterable[
                 ) -> Figure:
     """The archive's figure, not written (the caller closes it); draw it inside
     ``style``. A study figure's title states the measured result (``RESULTS``).
-    A run's figure only: ``colour`` colours the rods by ``curvature`` or ``strain`` or the
-    tendons by ``tension`` (``rodsim.app.figures.colouring``), ``hide`` leaves out layers
+    A run's, a track's or a trajectory's figure only: ``colour`` colours the rods by
+    ``curvature`` or ``strain`` or the tendons by ``tension``
+    (``rodsim.app.figures.colouring``; a track's steps and a trajectory's output times on one
+    shared scale: ``rodsim.app.figures.state_series``), ``hide`` leaves out layers
     (``rodsim.app.figures.layers.LAYERS``).
     Raises ``PlotError`` for an unknown plot kind, colouring or layer, a colouring the
     archive has no data for, and for a study in which every
@@ -136,15 +140,19 @@ def draw_figure(ds: xr.Dataset, colour: str | None = None, hide: str | Iterable[
         figure = DRAWERS[kind](ds)
         labels.study_title(figure, ds, RESULTS[kind](ds))
         return figure
+    if ds.attrs.get("kind") in SERIES_DRAWERS:
+        return SERIES_DRAWERS[ds.attrs["kind"]](ds, colour, hidden)
     if ds.attrs.get("kind") in KIND_DRAWERS:
         return KIND_DRAWERS[ds.attrs["kind"]](ds)
     return run_figure(ds, colour, hidden)
 
 
 def _check_run_options(ds: xr.Dataset, colour: str | None, hidden: frozenset[str]) -> None:
-    """Colouring and hidden layers are a run's figure's: refused for any other archive."""
+    """Colouring and hidden layers are the figures' of a run, a track and a trajectory:
+    refused for any other archive."""
     kind = ds.attrs.get("kind")
     if (colour or hidden) and ("study" in ds.attrs or kind in KIND_DRAWERS):
         what = "--colour" if colour else "--hide"
         other = "a study" if "study" in ds.attrs else f"a {kind} archive"
-        raise PlotError(f"{what} applies to a run archive's figure, not to {other}")
+        raise PlotError(f"{what} applies to the figure of a run, track or trajectory "
+                        f"archive, not to {other}")

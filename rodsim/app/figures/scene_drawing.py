@@ -42,11 +42,15 @@ def frame_box(points: np.ndarray, margin: float = 0.15) -> tuple[np.ndarray, np.
 
 def draw_parts(ax: plt.Axes, parts: SceneParts, view: tuple[int, int],
                extent: np.ndarray | None = None, hide: frozenset[str] = frozenset(),
-               colours: Colouring | None = None) -> None:
+               colours: Colouring | None = None,
+               scale: tuple[Normalize, Colormap] | None = None, diameter: bool = True
+               ) -> None:
     """Draw ``parts`` on ``ax`` in the plane of the world axes ``view``; limits around the
     parts (or around the points ``extent`` (n, 3), e.g. every step of a track). The layers
     ``hide`` (``rodsim.app.figures.layers.LAYERS``) are left out; the lines of ``colours``
-    (``rodsim.app.figures.colouring``) are drawn in its colour scale (``colour_scale``)."""
+    (``rodsim.app.figures.colouring``) are drawn in ``scale`` (by default their own,
+    ``colour_scale``; several states share one: ``shared_scale``). ``diameter``: the rods'
+    diameter drawn under their centerlines (left out when many states overlap)."""
     a, b = view
     frame = parts.points() if extent is None else extent.reshape(-1, 3)
     for obstacle in parts.obstacles:  # a vessel is shown whole
@@ -65,7 +69,8 @@ def draw_parts(ax: plt.Axes, parts: SceneParts, view: tuple[int, int],
     rods = {} if layers.SHAPE in hide else parts.rods
     tendons = [] if layers.TENDON in hide else parts.tendons
     lines = {} if colours is None else colours.lines
-    scale = None if colours is None else colour_scale(colours)
+    if colours is not None and scale is None:
+        scale = colour_scale(colours)
     for name, nodes in rods.items():
         if name in lines:
             _coloured(ax, lines[name], view, scale, gid=f"rod:{name}", lw=2.0, zorder=3)
@@ -104,7 +109,7 @@ def draw_parts(ax: plt.Axes, parts: SceneParts, view: tuple[int, int],
     # the rods' diameter, in points at the panel's present scale
     width_per_m = (ax.bbox.width / max(float(np.diff(ax.get_xlim())[0]), 1e-300)
                    * 72 / ax.figure.dpi)
-    for name, nodes in rods.items():
+    for name, nodes in rods.items() if diameter else ():
         ax.plot(nodes[:, a], nodes[:, b], color=ROD, alpha=0.2, solid_capstyle="round",
                 lw=max(1.0, 2 * parts.radii[name] * width_per_m), zorder=2)
 

@@ -113,11 +113,12 @@ def _arc_length(positions: np.ndarray) -> np.ndarray:
 def scene_parts(ds: xr.Dataset, step: int | None = None) -> SceneParts:
     """The parts of run, fit, reach, track or trajectory archive ``ds`` (a track's step
     ``step`` or a trajectory's output time of that index, the last by default; a
-    trajectory's loads are drawn with the scene's values, not its programs')."""
-    from rodsim.io.archive_schema import stored_scene
+    track's loads are drawn with the values of that step, a trajectory's with its programs'
+    values at that time: ``rodsim.app.figures.state_scene``)."""
+    from rodsim.app.figures.state_scene import state_scene
 
-    scene = stored_scene(ds.attrs["scene_json"], "attribute 'scene_json'")
-    raw = json.loads(ds.attrs["scene_json"])
+    scene = state_scene(ds, step)
+    raw = json.loads(scene.to_json())
     positions = at_step(ds["position"], step)
     node_rod = ds["rod"].values.astype(str)
     quaternions = at_step(ds["quaternion"], step) if "quaternion" in ds else None
