@@ -125,6 +125,12 @@ def test_fit_and_reach_archives_hold_the_friction_state_of_their_path(kind, tmp_
     np.testing.assert_array_equal(result.point_states["a"][1], stored["slip_state"].values)
     assert cli(["rerun", str(tmp_path / f"{kind}.nc"), "--tolerance", "1e-12"]) == 0
     assert "largest difference from the stored positions: 0 m" in capsys.readouterr().out
+    tampered = stored.load().copy(deep=True)
+    tampered["tendons_a_tendon_string_tension_path"].values[0] = -1.0
+    write_dataset(tampered, tmp_path / "tampered.nc")
+    assert cli(["rerun", str(tmp_path / "tampered.nc")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "\n" not in err and "out of range" in err, repr(err)
 
 
 def test_a_frictionless_reach_archive_has_no_path():

@@ -15,6 +15,7 @@ __all__ = ["cmd_rerun"]
 
 def cmd_rerun(args: argparse.Namespace) -> int:
     from rodsim.app.api import rerun
+    from rodsim.app.inverse.continuation import EquilibriumFailure
     from rodsim.app.inverse.path_record import path_solver
     from rodsim.app.study import StudyError
     from rodsim.core.scene import SceneError
@@ -36,6 +37,9 @@ def cmd_rerun(args: argparse.Namespace) -> int:
         result, difference = rerun(dataset, path_solver(dataset))
     except (ArchiveError, SceneError, StudyError) as exc:
         raise UserError(f"{args.archive}: {exc}") from None
+    except EquilibriumFailure as exc:  # a value of a fit's or reach's stored path
+        print(f"rodsim: solver failure on rerun: {exc}", file=sys.stderr)
+        return EXIT_SOLVER_FAILURE
     if not result.success:
         print(f"rodsim: solver failure on rerun: {result.message}", file=sys.stderr)
         return EXIT_SOLVER_FAILURE
