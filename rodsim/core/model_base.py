@@ -81,9 +81,10 @@ class ModelBase:
     #: The calls above with the groupable ones made one call each
     #: (rodsim/core/kernel_group.py), beside the list of calls they were made from.
     _kernel_units: tuple[list[KernelCall], list[KernelCall | KernelGroup]] | None
-    #: Per term, the call whose compiled ``energy`` the energy evaluation uses (or None),
-    #: beside the list of calls it was made from.
-    _energy_calls_kept: tuple[list[KernelCall], list[KernelCall | None]] | None
+    #: What the compiled energy evaluation calls (per term, or a group in one call),
+    #: beside the list of units above it was made from.
+    _energy_units_kept: tuple[list[KernelCall | KernelGroup],
+                              list[KernelGroup | tuple[int, Term, KernelCall | None]]] | None
     #: The last evaluations, newest first: (state, load, F or None, ∂F/∂x data or None);
     #: see :meth:`rodsim.core.model_evaluation.ModelEvaluation.evaluate`.
     _memo: list[tuple[np.ndarray, float, np.ndarray | None, np.ndarray | None]]

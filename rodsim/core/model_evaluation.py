@@ -74,13 +74,26 @@ class ModelEvaluation(ModelPattern, ModelManifold):
         return scale * load if term.is_load else scale
 
     def energy(self, x: np.ndarray, load: float = 1.0) -> float:
-        """Total potential energy [J] (raises if a term is not conservative)."""
+        """Total potential energy [J] (raises if a term is not conservative): each term's
+        energy times its scale, added in term order; on the compiled path a group of terms
+        whose kernel has an ``energy_group`` (the string tendons of a catheter,
+        rodsim/core/kernels/tendon_string_energy.py) gives its members' energies in one
+        call, the numbers of one call per term, added in the same order."""
         full = self.full(x)
         offsets = self.offsets(x)
         tiered = self._tiered_numpy()
-        calls = self._energy_calls() if self._compiled() else [None] * len(self.terms)
+        units = (self._energy_units() if self._compiled()
+                 else [(index, term, None) for index, term in enumerate(self.terms)])
         total = 0.0
-        for index, (term, call) in enumerate(zip(self.terms, calls, strict=True)):
+        for unit in units:
+            if isinstance(unit, KernelGroup):
+                assert unit.energy is not None
+                energies = np.empty(len(unit.calls))
+                unit.energy(offsets if unit.offsets else full, *unit.arguments, energies)
+                for member, share in zip(unit.calls, energies.tolist(), strict=True):
+                    total += self._scale(member.term_index, member.term, load) * share
+                continue
+            index, term, call = unit
             if call is not None:
                 value = call.energy(offsets if term.offsets else full, *call.arguments)
             else:
@@ -92,20 +105,27 @@ class ModelEvaluation(ModelPattern, ModelManifold):
             PROCESS_TIER.charge(nominal_cost(self.terms, force=True, jacobian=False))
         return total
 
-    def _energy_calls(self) -> list[KernelCall | None]:
-        """Per term, the ``KernelCall`` whose compiled ``energy`` ``energy`` calls (a
-        conservative term whose kernel has one), else None (its numpy ``energy``); made
-        again when the list of calls is another."""
-        if self._kernel_calls is None:
-            self._kernel_calls = self._build_kernel_calls()
-        known = self._energy_calls_kept
-        if known is not None and known[0] is self._kernel_calls:
+    def _energy_units(self) -> list[KernelGroup | tuple[int, Term, KernelCall | None]]:
+        """What the compiled ``energy`` calls, in term order: a ``KernelGroup`` whose
+        kernel has an ``energy_group`` and whose members are all conservative, else per
+        term (index, term, its ``KernelCall`` when the kernel has an ``energy`` and the
+        term is conservative, else None: its numpy ``energy``); made again when the
+        compiled path's units are others."""
+        units = self._kernel_unit_list()
+        known = self._energy_units_kept
+        if known is not None and known[0] is units:
             return known[1]
-        compiled = {call.term_index: call for call in self._kernel_calls
-                    if call.energy is not None and call.term.conservative}
-        calls = [compiled.get(index) for index in range(len(self.terms))]
-        self._energy_calls_kept = self._kernel_calls, calls
-        return calls
+        plan: list[KernelGroup | tuple[int, Term, KernelCall | None]] = []
+        for unit in units:
+            if isinstance(unit, KernelGroup) and unit.energy is not None and all(
+                    call.term.conservative for call in unit.calls):
+                plan.append(unit)
+                continue
+            for call in (unit.calls if isinstance(unit, KernelGroup) else (unit,)):
+                compiled = call.energy is not None and call.term.conservative
+                plan.append((call.term_index, call.term, call if compiled else None))
+        self._energy_units_kept = units, plan
+        return plan
 
     def force(self, x: np.ndarray, load: float = 1.0) -> np.ndarray:
         """Generalised force F(x) on the free coordinates; loads are scaled by ``load``."""
