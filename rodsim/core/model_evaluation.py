@@ -14,6 +14,7 @@ The last states evaluated are remembered (``ModelEvaluation.evaluate``).
 from __future__ import annotations
 
 import sys
+from typing import Any
 
 import numpy as np
 import scipy.sparse as sp
@@ -195,21 +196,39 @@ class ModelEvaluation(ModelPattern, ModelManifold):
         units = self._kernel_unit_list()
         f = np.zeros(self.n + 1 if force else 1)
         j = _jacobian_zeros(self.nnz + 1) if jacobian else np.zeros(1)
-        for call in units:
+        for call, scale in zip(units, self._unit_scales(units, load), strict=True):
             if isinstance(call, KernelGroup):
-                scales = call.scales(lambda index, term: self._scale(index, term, load))
-                if not scales.any():
-                    continue
-                call.evaluate(offsets if call.offsets else full, *call.arguments, scales,
+                if scale is None:
+                    continue  # every member scaled away
+                call.evaluate(offsets if call.offsets else full, *call.arguments, scale,
                               force, f, call.force_target, jacobian, j, call.jacobian_target)
                 continue
-            scale = self._scale(call.term_index, call.term, load)
             if scale == 0.0:
                 continue  # a load at load fraction 0 (or a term scaled away): adds only zeros
             call.kernel.evaluate(offsets if call.term.offsets else full, *call.arguments,
                                  scale, force, f, call.force_target, jacobian, j,
                                  call.jacobian_target)
         return (f[:-1] if force else np.zeros(0)), (j[:-1] if jacobian else np.zeros(0))
+
+    def _unit_scales(self, units: list[KernelCall | KernelGroup], load: float
+                     ) -> list[Any]:
+        """The factor on each unit's output at ``load``: a call's ``_scale``, a group's
+        array of its members' (None when all are 0); the last ones asked for kept while
+        the units and the scales are the same objects and the load the same (a solve
+        evaluates at one load many times: the group's array was rebuilt at each)."""
+        known = self._unit_scales_kept
+        if (known is not None and known[0] is units and known[1] is self._scale_list
+                and known[2] == load):
+            return known[3]
+        scales: list[Any] = []
+        for unit in units:
+            if isinstance(unit, KernelGroup):
+                members = unit.scales(lambda index, term: self._scale(index, term, load))
+                scales.append(members if members.any() else None)
+            else:
+                scales.append(self._scale(unit.term_index, unit.term, load))
+        self._unit_scales_kept = units, self._scale_list, load, scales
+        return scales
 
     def _kernel_unit_list(self) -> list[KernelCall | KernelGroup]:
         """What the compiled path calls: the terms' ``KernelCall`` list with each run of
