@@ -16,8 +16,9 @@ warm, loaded from each tree's own numba cache):
 - ``rodsim.solve_many`` on ``--cases`` random cases of ``rodsim_bench.batch`` in this
   process (1 worker), best of 2: equilibria per CPU second.
 
-Writes ``tendon-kernel.json`` and ``tendon-kernel.md`` into ``--output-dir`` (default
-``runs/bench``). Nothing is asserted.
+Writes ``tendon-kernel.json`` and ``tendon-kernel.md`` (``--stem``: another name, for a
+second record beside the first) into ``--output-dir`` (default ``runs/bench``). Nothing is
+asserted.
 
     python benchmarks/tendon_kernel.py --baseline b79a21a --output-dir benchmarks/results
 """
@@ -122,6 +123,8 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--cases", type=int, default=200)
     parser.add_argument("--rounds", type=int, default=2)
     parser.add_argument("--output-dir", type=Path, default=Path("runs/bench"))
+    parser.add_argument("--stem", default="tendon-kernel",
+                        help="name of the results files (STEM.json, STEM.md)")
     parser.add_argument("--measure", type=int, default=0, help=argparse.SUPPRESS)
     args = parser.parse_args(argv)
     if args.measure:
@@ -172,8 +175,8 @@ def main(argv: list[str] | None = None) -> int:
                      f"{row['static_over_floor']:.2f} | {row['batch_per_cpu_second']:.0f} |")
     lines.append("")
     args.output_dir.mkdir(parents=True, exist_ok=True)
-    (args.output_dir / "tendon-kernel.json").write_text(json.dumps(report, indent=1) + "\n")
-    (args.output_dir / "tendon-kernel.md").write_text("\n".join(lines))
+    (args.output_dir / f"{args.stem}.json").write_text(json.dumps(report, indent=1) + "\n")
+    (args.output_dir / f"{args.stem}.md").write_text("\n".join(lines))
     print("\n".join(lines))
     return 0
 

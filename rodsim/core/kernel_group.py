@@ -42,6 +42,9 @@ class KernelGroup(NamedTuple):
     force_target: np.ndarray
     #: The members' ``jacobian_target`` stacked along their elements.
     jacobian_target: np.ndarray
+    #: The kernel's ``energy_group`` (the members' energies in one call,
+    #: rodsim/core/kernels/__init__.py), or None.
+    energy: Callable[..., None] | None = None
 
     @property
     def offsets(self) -> bool:
@@ -86,7 +89,7 @@ def _group(run: Sequence[KernelCall], previous: dict[tuple[int, ...], KernelGrou
                    np.ascontiguousarray(np.concatenate([c.jacobian_target for c in run])))
     evaluate = run[0].kernel.evaluate_group
     assert evaluate is not None
-    return KernelGroup(tuple(run), evaluate, arguments, *stacked)
+    return KernelGroup(tuple(run), evaluate, arguments, *stacked, run[0].kernel.energy_group)
 
 
 def kernel_units(calls: Sequence[KernelCall], previous: Sequence[KernelCall | KernelGroup]

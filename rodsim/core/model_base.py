@@ -19,6 +19,8 @@ that the next one extends:
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 
 from rodsim.core.assembly_budget import AssemblyBudget
@@ -81,6 +83,14 @@ class ModelBase:
     #: The calls above with the groupable ones made one call each
     #: (rodsim/core/kernel_group.py), beside the list of calls they were made from.
     _kernel_units: tuple[list[KernelCall], list[KernelCall | KernelGroup]] | None
+    #: The factors on the units' outputs last asked for: (units, ``_scale_list``, load,
+    #: factors), see :meth:`rodsim.core.model_evaluation.ModelEvaluation._unit_scales`.
+    _unit_scales_kept: tuple[list[KernelCall | KernelGroup], list[float], float,
+                             list[Any]] | None
+    #: What the compiled energy evaluation calls (per term, or a group in one call),
+    #: beside the list of units above it was made from.
+    _energy_units_kept: tuple[list[KernelCall | KernelGroup],
+                              list[KernelGroup | tuple[int, Term, KernelCall | None]]] | None
     #: The last evaluations, newest first: (state, load, F or None, ∂F/∂x data or None);
     #: see :meth:`rodsim.core.model_evaluation.ModelEvaluation.evaluate`.
     _memo: list[tuple[np.ndarray, float, np.ndarray | None, np.ndarray | None]]

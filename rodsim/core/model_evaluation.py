@@ -14,6 +14,7 @@ The last states evaluated are remembered (``ModelEvaluation.evaluate``).
 from __future__ import annotations
 
 import sys
+from typing import Any
 
 import numpy as np
 import scipy.sparse as sp
@@ -74,20 +75,27 @@ class ModelEvaluation(ModelPattern, ModelManifold):
         return scale * load if term.is_load else scale
 
     def energy(self, x: np.ndarray, load: float = 1.0) -> float:
-        """Total potential energy [J] (raises if a term is not conservative)."""
+        """Total potential energy [J] (raises if a term is not conservative): each term's
+        energy times its scale, added in term order; on the compiled path a group of terms
+        whose kernel has an ``energy_group`` (the string tendons of a catheter,
+        rodsim/core/kernels/tendon_string_energy.py) gives its members' energies in one
+        call, the numbers of one call per term, added in the same order."""
         full = self.full(x)
         offsets = self.offsets(x)
-        compiled = {}
         tiered = self._tiered_numpy()
-        if self._compiled():
-            if self._kernel_calls is None:
-                self._kernel_calls = self._build_kernel_calls()
-            compiled = {call.term_index: call for call in self._kernel_calls
-                        if call.energy is not None and call.term.conservative}
+        units = (self._energy_units() if self._compiled()
+                 else [(index, term, None) for index, term in enumerate(self.terms)])
         total = 0.0
-        for index, term in enumerate(self.terms):
-            if index in compiled:
-                call = compiled[index]
+        for unit in units:
+            if isinstance(unit, KernelGroup):
+                assert unit.energy is not None
+                energies = np.empty(len(unit.calls))
+                unit.energy(offsets if unit.offsets else full, *unit.arguments, energies)
+                for member, share in zip(unit.calls, energies.tolist(), strict=True):
+                    total += self._scale(member.term_index, member.term, load) * share
+                continue
+            index, term, call = unit
+            if call is not None:
                 value = call.energy(offsets if term.offsets else full, *call.arguments)
             else:
                 value = term.energy(offsets if term.offsets else full)
@@ -97,6 +105,28 @@ class ModelEvaluation(ModelPattern, ModelManifold):
         if tiered:
             PROCESS_TIER.charge(nominal_cost(self.terms, force=True, jacobian=False))
         return total
+
+    def _energy_units(self) -> list[KernelGroup | tuple[int, Term, KernelCall | None]]:
+        """What the compiled ``energy`` calls, in term order: a ``KernelGroup`` whose
+        kernel has an ``energy_group`` and whose members are all conservative, else per
+        term (index, term, its ``KernelCall`` when the kernel has an ``energy`` and the
+        term is conservative, else None: its numpy ``energy``); made again when the
+        compiled path's units are others."""
+        units = self._kernel_unit_list()
+        known = self._energy_units_kept
+        if known is not None and known[0] is units:
+            return known[1]
+        plan: list[KernelGroup | tuple[int, Term, KernelCall | None]] = []
+        for unit in units:
+            if isinstance(unit, KernelGroup) and unit.energy is not None and all(
+                    call.term.conservative for call in unit.calls):
+                plan.append(unit)
+                continue
+            for call in (unit.calls if isinstance(unit, KernelGroup) else (unit,)):
+                compiled = call.energy is not None and call.term.conservative
+                plan.append((call.term_index, call.term, call if compiled else None))
+        self._energy_units_kept = units, plan
+        return plan
 
     def force(self, x: np.ndarray, load: float = 1.0) -> np.ndarray:
         """Generalised force F(x) on the free coordinates; loads are scaled by ``load``."""
@@ -118,8 +148,10 @@ class ModelEvaluation(ModelPattern, ModelManifold):
         at the same state — it returns copies of the same numbers instead of evaluating
         again."""
         same = None
+        x = np.asarray(x)
         for entry in self._memo:
-            if entry[1] == load and np.array_equal(entry[0], x):
+            # np.array_equal's test without its Python wrapper (~2 µs of each call)
+            if entry[1] == load and entry[0].shape == x.shape and bool((entry[0] == x).all()):
                 known_f, known_j = entry[2], entry[3]
                 if (known_f is not None or not force) and (known_j is not None or not jacobian):
                     return (known_f.copy() if known_f is not None and force else np.zeros(0),
@@ -164,21 +196,39 @@ class ModelEvaluation(ModelPattern, ModelManifold):
         units = self._kernel_unit_list()
         f = np.zeros(self.n + 1 if force else 1)
         j = _jacobian_zeros(self.nnz + 1) if jacobian else np.zeros(1)
-        for call in units:
+        for call, scale in zip(units, self._unit_scales(units, load), strict=True):
             if isinstance(call, KernelGroup):
-                scales = call.scales(lambda index, term: self._scale(index, term, load))
-                if not scales.any():
-                    continue
-                call.evaluate(offsets if call.offsets else full, *call.arguments, scales,
+                if scale is None:
+                    continue  # every member scaled away
+                call.evaluate(offsets if call.offsets else full, *call.arguments, scale,
                               force, f, call.force_target, jacobian, j, call.jacobian_target)
                 continue
-            scale = self._scale(call.term_index, call.term, load)
             if scale == 0.0:
                 continue  # a load at load fraction 0 (or a term scaled away): adds only zeros
             call.kernel.evaluate(offsets if call.term.offsets else full, *call.arguments,
                                  scale, force, f, call.force_target, jacobian, j,
                                  call.jacobian_target)
         return (f[:-1] if force else np.zeros(0)), (j[:-1] if jacobian else np.zeros(0))
+
+    def _unit_scales(self, units: list[KernelCall | KernelGroup], load: float
+                     ) -> list[Any]:
+        """The factor on each unit's output at ``load``: a call's ``_scale``, a group's
+        array of its members' (None when all are 0); the last ones asked for kept while
+        the units and the scales are the same objects and the load the same (a solve
+        evaluates at one load many times: the group's array was rebuilt at each)."""
+        known = self._unit_scales_kept
+        if (known is not None and known[0] is units and known[1] is self._scale_list
+                and known[2] == load):
+            return known[3]
+        scales: list[Any] = []
+        for unit in units:
+            if isinstance(unit, KernelGroup):
+                members = unit.scales(lambda index, term: self._scale(index, term, load))
+                scales.append(members if members.any() else None)
+            else:
+                scales.append(self._scale(unit.term_index, unit.term, load))
+        self._unit_scales_kept = units, self._scale_list, load, scales
+        return scales
 
     def _kernel_unit_list(self) -> list[KernelCall | KernelGroup]:
         """What the compiled path calls: the terms' ``KernelCall`` list with each run of

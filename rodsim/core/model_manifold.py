@@ -132,12 +132,19 @@ class ModelManifold(ModelBase):
         absolute = self._reference_free() + x
         linear = absolute + dx
         correction = method(absolute, dx) - linear
-        chain = max(rod.nodes for rod in self.rods.values())
-        noise = (4.0 * chain * np.finfo(float).eps
-                 * float(np.max(np.abs(absolute), initial=0.0) + np.max(np.abs(dx), initial=0.0)))
-        if float(np.max(np.abs(correction), initial=0.0)) <= noise:
+        # (ndarray.max rather than np.max: the same number without numpy's Python wrapper,
+        # a few µs of each of a solve's Newton steps)
+        noise = self._chain_roundoff * float(np.abs(absolute).max(initial=0.0)
+                                             + np.abs(dx).max(initial=0.0))
+        if float(np.abs(correction).max(initial=0.0)) <= noise:
             return x + dx
         return x + dx + correction
+
+    @cached_property
+    def _chain_roundoff(self) -> float:
+        """4 N eps, N the most nodes of a rod: the round-off of a walk along the longest
+        rod relative to its coordinates (``_retracted``)."""
+        return 4.0 * max(rod.nodes for rod in self.rods.values()) * np.finfo(float).eps
 
     def turned_step(self, x: np.ndarray, dx: np.ndarray) -> np.ndarray:
         """``step`` with each rod's segments turned as rigid frames instead of their

@@ -99,6 +99,8 @@ class ModelPattern(ModelBase):
         self._kernel_calls = None
         self._kept_calls = None
         self._kernel_units = None
+        self._energy_units_kept = None
+        self._unit_scales_kept = None
 
     def _order_for_band(self) -> None:
         """Reorder the free coordinates (reverse Cuthill–McKee) when that narrows the band.

@@ -142,7 +142,7 @@ class ModelScales(ModelEvaluation):
 
     def residual(self, force: np.ndarray) -> float:
         """Scaled residual max_i |F_i| w_i: forces / F_ref, quaternion forces / (F_ref L_ref)."""
-        return float(np.max(np.abs(force) * self.residual_weight))
+        return float((np.abs(force) * self.residual_weight).max())  # the method: no wrapper
 
     def pseudo_time_masses(self) -> np.ndarray:
         """Diagonal mass matrix M of the free coordinates for the pseudo-dynamics (Eq. 17)

@@ -407,21 +407,24 @@ def _negated(solve: Callable[[np.ndarray], np.ndarray]) -> Callable[[np.ndarray]
     return lambda v: -solve(v)
 
 
-#: The band factorisations of the last pattern assessed (a track's steps share one).
-_LAST_BAND: tuple[object, BandStiffness] | None = None
+#: The band factorisations of the last pattern assessed (a track's steps share one), and
+#: whether they fill their band by the compiled pass.
+_LAST_BAND: tuple[object, bool, BandStiffness] | None = None
 
 
 def _band_of(model: Model) -> BandStiffness | None:
     """The band factorisations of ``model``'s Jacobian pattern, or None when its band is
-    too wide for band storage."""
+    too wide for band storage; filled by the compiled pass when ``model`` evaluates with
+    its compiled kernels (the same band, bit for bit: tests/test_stability_band.py)."""
     global _LAST_BAND
     band = model.band
     if band.lower + band.upper + 1 > MAX_BAND:
         return None
-    if _LAST_BAND is None or _LAST_BAND[0] is not model.pattern:
-        _LAST_BAND = model.pattern, BandStiffness(model.pattern_rows, model.pattern_cols,
-                                                  model.n, band.lower, band.upper)
-    return _LAST_BAND[1]
+    compiled = model._compiled()
+    if _LAST_BAND is None or _LAST_BAND[0] is not model.pattern or _LAST_BAND[1] != compiled:
+        _LAST_BAND = model.pattern, compiled, BandStiffness(
+            model.pattern_rows, model.pattern_cols, model.n, band.lower, band.upper, compiled)
+    return _LAST_BAND[2]
 
 
 def assess(model: Model, x: np.ndarray,

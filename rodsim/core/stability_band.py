@@ -44,7 +44,7 @@ class BandStiffness:
     ``rows``, ``cols`` in CSC data order, bandwidths ``lower`` and ``upper``)."""
 
     def __init__(self, rows: np.ndarray, cols: np.ndarray, n: int, lower: int,
-                 upper: int) -> None:
+                 upper: int, compiled: bool = False) -> None:
         self.n, self.lower, self.upper = n, lower, upper
         width = max(lower, upper)
         self.width = width
@@ -52,8 +52,11 @@ class BandStiffness:
         self._cols = np.asarray(cols, dtype=np.int64)
         self._lu_rows = 2 * lower + upper + 1
         #: Whether :meth:`certified` runs the compiled pass (rodsim/core/kernels/_band.py)
-        #: instead of the offsets below, which are then never built.
-        self.compiled = n >= COMPILED_SIZE
+        #: instead of the offsets below, which are then never built: from
+        #: ``COMPILED_SIZE`` on, or when asked (``compiled``: a model that evaluates
+        #: with its compiled kernels has numba loaded already; on tdcr-two-segment the
+        #: pass fills the band in 32 µs against 91 µs through the offsets).
+        self.compiled = compiled or n >= COMPILED_SIZE
 
     # S's lower band, Fortran order: S[i, j] (i ≥ j) at j (width + 1) + i − j; K[i, j] above
     # the diagonal lands on S[j, i]. Each of K[i, j] and K[j, i] brings half. Built at their

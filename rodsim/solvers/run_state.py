@@ -226,7 +226,7 @@ class RunState:
         ``check``: a caller that tests the value itself)."""
         self.counts["force_evals"] += 1
         f = self.model.force(x, load)
-        if check and not np.all(np.isfinite(f)):
+        if check and not np.isfinite(f).all():  # the method: no numpy wrapper
             raise SolverFailure("the force became non-finite (NaN or inf)")
         return f
 
@@ -235,7 +235,7 @@ class RunState:
         non-finite value."""
         self.counts["jacobian_evals"] += 1
         data = self.model.jacobian_data(x, load)
-        if not np.all(np.isfinite(data)):
+        if not np.isfinite(data).all():
             raise SolverFailure("the Jacobian became non-finite (NaN or inf)")
         return data
 

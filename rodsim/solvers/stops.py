@@ -111,7 +111,7 @@ class Equilibrium(Stop):
 
     def verdict(self, integrator: Judged, run: Run, outcome: Outcome) -> Verdict:
         x, advice = outcome.x, outcome.advice
-        finite = bool(np.all(np.isfinite(x)))
+        finite = bool(np.isfinite(x).all())
         residual = integrator.residual_at(run, x) if finite else float("nan")
         success = outcome.success and finite and run.at_equilibrium(residual)
         message = outcome.message

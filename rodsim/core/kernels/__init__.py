@@ -31,6 +31,11 @@ name like a single term's), ``scales`` one factor per term, and the members' tar
 stacked along their elements in term order. It must add what the members' ``evaluate``
 calls add, in the same order (rodsim/core/kernel_group.py).
 
+Such a module's energies may come in one call too: ``energy_group(x, *group_constants,
+energies)`` (exactly ``evaluate_group``'s constants) writes each member's energy, unscaled,
+into ``energies`` — the numbers its own ``energy`` gives, bit for bit. It lives in a
+module ``NAME_energy`` beside the kernel module ``NAME`` (``tendon_string_energy``).
+
 Nothing here is imported until a model evaluates with ``solver.kernels = "compiled"``, so
 ``import rodsim`` does not pay for numba.
 """
@@ -39,6 +44,7 @@ from __future__ import annotations
 
 import functools
 import importlib
+import importlib.util
 import inspect
 from collections.abc import Callable
 from typing import TYPE_CHECKING, Any, NamedTuple
@@ -68,6 +74,8 @@ class Kernel(NamedTuple):
     module: str
     evaluate_group: Callable[..., None] | None = None
     group_constants: tuple[str, ...] = ()
+    #: The companion module's ``energy_group`` (module docstring), or None.
+    energy_group: Callable[..., None] | None = None
 
     def bind(self, arguments: KernelArguments) -> tuple[Any, ...]:
         """The constants ``arguments`` names, in the order of the kernel's signature; raises
@@ -136,4 +144,10 @@ def _kernel_named(name: str) -> Kernel:
     group = getattr(module, "evaluate_group", None)
     group_constants = (signature_constants(group, GROUP_OUTPUT_PARAMETERS) if group is not None
                        else ())
-    return Kernel(module.evaluate, energy, constants, name, group, group_constants)
+    energy_group = None
+    if group is not None and importlib.util.find_spec(f"{__name__}.{name}_energy") is not None:
+        energy_group = importlib.import_module(f"{__name__}.{name}_energy").energy_group
+        if signature_constants(energy_group, ("energies",)) != group_constants:
+            raise TypeError(f"kernel rodsim.core.kernels.{name}_energy: energy_group takes "
+                            f"other constants than evaluate_group ({', '.join(group_constants)})")
+    return Kernel(module.evaluate, energy, constants, name, group, group_constants, energy_group)
