@@ -5,7 +5,8 @@ without new test code: each runs in this process (``workers=1``), and its Datase
 well-formed (one dimension per sweep with the declared coordinates, units and long names, no
 failed point, errors exactly where a reference exists), re-open with plain
 ``xr.open_dataset`` and plot to PNG and PDF. A few cheap physics checks follow, on the same
-runs (each study runs once per session). The whole file takes about 20–40 s on two cores.
+runs (each study runs once per session). The studies of ``SLOW_STUDIES`` are marked
+``slow``: without them the file takes about 30 s of CPU.
 """
 
 from __future__ import annotations
@@ -32,6 +33,13 @@ from rodsim.app.study_runner import run_study
 from rodsim.core.analytic.reference import REFERENCE_KINDS, reference_centerline
 
 STUDIES = available_studies()
+#: Studies whose small run takes more than ~10 s of CPU (fig8_regime: the paper integrator
+#: with the masses scaled to h² ω₁² = 0.003 takes thousands of steps to rest): marked
+#: ``slow``, their smoke tests run with ``--runslow`` (.ci/run).
+SLOW_STUDIES = {"fig8_regime"}
+#: Every study, the slow ones marked.
+STUDY_PARAMS = [pytest.param(name, marks=pytest.mark.slow) if name in SLOW_STUDIES else name
+                for name in sorted(STUDIES)]
 
 
 @pytest.fixture(scope="session")
@@ -64,7 +72,7 @@ def test_the_paper_figures_are_all_declared():
         assert {"small", "full"} <= set(study.sweeps), study.name
 
 
-@pytest.mark.parametrize("name", sorted(STUDIES))
+@pytest.mark.parametrize("name", STUDY_PARAMS)
 def test_small_study_runs_and_plots(name, small, tmp_path):
     study = STUDIES[name]
     path, ds = small(name)
@@ -164,7 +172,7 @@ def _perturbed(ds: xr.Dataset) -> xr.Dataset:
     return out
 
 
-@pytest.mark.parametrize("name", sorted(STUDIES))
+@pytest.mark.parametrize("name", STUDY_PARAMS)
 def test_small_study_figure_states_what_was_measured(name, small):
     """The title's measured line holds a number and follows the archive's data: it changes
     when the measured quantities do; no text is below 8 pt."""
@@ -203,6 +211,7 @@ def test_fig8_every_damping_reaches_the_same_equilibrium(small):
     assert np.all(history[:, 0] > final)
 
 
+@pytest.mark.slow
 def test_fig8_regime_xi_0_9_comes_to_rest_first(small):
     """With the masses scaled to h² ω₁² = 0.003 (docs/design.md, erratum 12) the paper's ordering
     holds: ξ = 0.9 needs fewer steps to rest than 0.5 (overdamped) and 1.0 (only backward
@@ -281,7 +290,7 @@ def _texts(figure) -> list[str]:
     return texts
 
 
-@pytest.mark.parametrize("name", sorted(STUDIES))
+@pytest.mark.parametrize("name", STUDY_PARAMS)
 def test_no_figure_text_reads_nan(name, small):
     """gravity's title read "gravity = on: nan %" (no exact reference with self-weight)."""
     import matplotlib.pyplot as plt
