@@ -132,7 +132,7 @@ def test_large_step_fails_with_a_message_or_damps():
 
 @pytest.mark.parametrize("arguments, match", [
     ({"rtol": 1e-6}, "only for integrators 'ida' and 'cvode'"),
-    ({"events": ["contact"]}, "integrator 'paper' has none"),
+    ({"events": ["contact"]}, "the paper's Euler does not locate them"),
     ({"step": 0.0}, "step"),
 ])
 def test_bad_input_is_one_line(arguments, match):
