@@ -146,6 +146,7 @@ def test_program_with_a_step_and_a_ramp():
     assert difference < 2e-5 * LENGTH
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("seed", range(len(KINDS)))
 def test_family_of_user_robots_agree_with_the_midpoint_rule(seed):
     """Seeded robots as a user writes them (one of each kind: a steel and a nitinol wire, a
@@ -154,7 +155,9 @@ def test_family_of_user_robots_agree_with_the_midpoint_rule(seed):
     midpoint rule at 400 steps a period agree within 5e-3 of the release's deflection over
     one period (measured 1.3e-3 to 3.1e-3: the midpoint rule's own error at that step, which
     a sudden release's unresolved modes make first order — on the steel rod above 5.4e-5 L,
-    3.4e-3 of the deflection, against IDA at 1e-8)."""
+    3.4e-3 of the deflection, against IDA at 1e-8). Slow: ~5–6 s of CPU a robot, most of it
+    IDA's 4 000–11 000 steps after the sudden release (tests/test_simulate.py's family and
+    test_string_tendon_tension_step below keep a midpoint comparison in the quick run)."""
     rng = np.random.default_rng(200 + seed)
     kind = KINDS[seed % 3]
     rod = user_rod(rng, kind)
