@@ -156,8 +156,8 @@ def test_family_of_user_robots_agree_with_the_midpoint_rule(seed):
     one period (measured 1.3e-3 to 3.1e-3: the midpoint rule's own error at that step, which
     a sudden release's unresolved modes make first order — on the steel rod above 5.4e-5 L,
     3.4e-3 of the deflection, against IDA at 1e-8). Slow: ~5–6 s of CPU a robot, most of it
-    IDA's 4 000–11 000 steps after the sudden release (tests/test_simulate.py's family and
-    test_string_tendon_tension_step below keep a midpoint comparison in the quick run)."""
+    IDA's 4 000–11 000 steps after the sudden release (test_string_tendon_tension_step
+    below keeps IDA against the midpoint rule in the README's command)."""
     rng = np.random.default_rng(200 + seed)
     kind = KINDS[seed % 3]
     rod = user_rod(rng, kind)
