@@ -122,21 +122,14 @@ def errors_of(case: str) -> dict[int, float]:
     return out
 
 
-#: The load cases whose reference and two solves take ~10 s of CPU: marked ``slow``.
-SLOW_CASES = {"pull-ring: tip force out of the plane"}
-#: Every load case, the slow ones marked.
-CASE_PARAMS = [pytest.param(case, marks=pytest.mark.slow) if case in SLOW_CASES else case
-               for case in CASES]
-
-
-@pytest.mark.parametrize("case", CASE_PARAMS)
+@pytest.mark.parametrize("case", list(CASES))
 def test_robot_load_case_meets_the_accuracy_aim(case):
     """At the scene's shipped N the tip is within 1e-4 L of the reference."""
     errors = errors_of(case)
     assert list(errors.values())[-1] <= AIM, errors
 
 
-@pytest.mark.parametrize("case", CASE_PARAMS)
+@pytest.mark.parametrize("case", list(CASES))
 def test_robot_load_case_converges_at_second_order(case):
     e_coarse, e_shipped = errors_of(case).values()
     assert math.log2(e_coarse / e_shipped) >= ORDER, (e_coarse, e_shipped)
