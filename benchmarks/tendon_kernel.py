@@ -7,8 +7,9 @@ For this checkout and a baseline revision (``--baseline``, default
 ``--rounds`` rounds, minimum over the rounds (CPU time, ``time.process_time``; the kernels
 warm, loaded from each tree's own numba cache):
 
-- µs per tendon of one F+J and of one F: the six ``tendon_string`` kernel calls of
-  tdcr-two-segment at its equilibrium, alone, best of 40 × 20 calls;
+- µs per tendon of one F+J and of one F: the ``tendon_string`` kernel calls of
+  tdcr-two-segment at its equilibrium, alone (one per tendon, or one for the six where the
+  checkout groups a catheter's tendons, rodsim/core/kernel_group.py), best of 40 × 20;
 - one whole F+J of the model (every term), and the tendons' share of it;
 - the static solve (model built once, best of 9) against its floor, counted and costed by
   ``rodsim_bench.floor`` (``counted_solve``, ``raw_costs``);
@@ -52,6 +53,12 @@ def measure(cases: int) -> dict:
     x = result.state
     model.evaluate(x)
     calls = [c for c in model._kernel_calls if isinstance(c.term, TendonString)]
+    # What the compiled path calls for them: one call per tendon, or per group of tendons
+    # where the checkout groups terms (rodsim/core/kernel_group.py).
+    units = (model._kernel_unit_list() if hasattr(model, "_kernel_unit_list")
+             else model._kernel_calls)
+    units = [u for u in units if any(isinstance(c.term, TendonString)
+                                     for c in getattr(u, "calls", (u,)))]
     full = model.full(x)
     force = np.zeros(model.n + 1)
     jacobian = np.zeros(model.nnz + 1)
@@ -59,9 +66,10 @@ def measure(cases: int) -> dict:
 
     def tendons(want_jacobian: bool) -> None:
         for _ in range(inner):
-            for c in calls:
-                c.kernel.evaluate(full, *c.arguments, 1.0, True, force, c.force_target,
-                                  want_jacobian, jacobian, c.jacobian_target)
+            for u in units:
+                scale = np.ones(len(u.calls)) if hasattr(u, "calls") else 1.0
+                u.evaluate(full, *u.arguments, scale, True, force, u.force_target,
+                           want_jacobian, jacobian, u.jacobian_target)
 
     def whole() -> None:
         for _ in range(inner):

@@ -227,7 +227,9 @@ def test_a_load_beyond_the_analytic_references_still_succeeds(tmp_path, cli, cap
     assert cli(["run", "--integrator", "static", "--set", "nodes=6", "--set", "mass=1e4",
                 "-o", str(output)]) == 0
     captured = capsys.readouterr()
-    assert "analytic references n/a" in captured.out and captured.err == ""
+    # stderr holds at most the progress lines a solve longer than a second prints
+    assert "analytic references n/a" in captured.out
+    assert all(line.startswith("[") for line in captured.err.splitlines()), captured.err
     assert read_dataset(output).attrs["success"] == 1
 
 

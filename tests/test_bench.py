@@ -635,3 +635,18 @@ def test_modes_small_outputs(tmp_path):
     assert row["scene"] == "tdcr-two-segment" and row["symmetric"]
     assert row["modes_s"] > 0.0 and all(f > 0.0 for f in row["frequencies_hz"])
     assert "| tdcr-two-segment |" in (tmp_path / "modes-small.md").read_text()
+
+
+@pytest.mark.slow
+def test_step_cost_small_outputs(tmp_path):
+    """``rodsim bench step-cost --size small``: every scene timed per step, its steps those
+    of its step length (no timing is asserted)."""
+    from rodsim_bench import step_cost
+
+    paths = step_cost.run("small", tmp_path, lambda *_: None)
+    assert {p.name for p in paths} == {"step-cost-small.json", "step-cost-small.md"}
+    rows = json.loads((tmp_path / "step-cost-small.json").read_text())["rows"]
+    assert [row["scene"] for row in rows] == list(step_cost.SCENES)
+    assert [row["steps"] for row in rows] == [50, 50, 50, 100, 40]
+    assert all(row["ms_per_step"] > 0.0 for row in rows)
+    assert "| tdcr-two-segment, ramp | 40 |" in (tmp_path / "step-cost-small.md").read_text()

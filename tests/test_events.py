@@ -32,6 +32,28 @@ def falling_rod(gravity: float = G) -> dict:
     return {"name": "fall", "rods": {"rod": rod}, "obstacles": {"floor": floor}}
 
 
+#: ``falling_rod()`` as a scene file, for the command line.
+FALL_TOML = """name = "fall"
+[rods.rod]
+length = 0.2
+radius = 1e-3
+youngs_modulus = 1e9
+density = 1000.0
+nodes = 6
+clamp = "free"
+terms = ["stretch", "bend_twist", "centerline", "elastic_base", "gravity"]
+[rods.rod.elastic_base]
+stiffness = 1e-9
+rotational_stiffness = 1e-9
+torsional_stiffness = 1e-9
+[obstacles.floor]
+type = "plane"
+point = [0.0, -0.011, 0.0]
+normal = [0.0, 1.0, 0.0]
+rods = ["rod"]
+"""
+
+
 @pytest.mark.parametrize("integrator", ["ida", "cvode"])
 def test_free_fall_onto_a_plane_stops_at_the_contact(integrator):
     """Terminal contact onset at rtol = atol = 1e-8: the event at √(2h/g) to 1e-6 relative
@@ -110,25 +132,7 @@ def test_the_command_line_stops_at_the_event_and_archives_it(tmp_path, capsys):
     from rodsim.io.archive import read_dataset
 
     scene = tmp_path / "fall.toml"
-    scene.write_text("""name = "fall"
-[rods.rod]
-length = 0.2
-radius = 1e-3
-youngs_modulus = 1e9
-density = 1000.0
-nodes = 6
-clamp = "free"
-terms = ["stretch", "bend_twist", "centerline", "elastic_base", "gravity"]
-[rods.rod.elastic_base]
-stiffness = 1e-9
-rotational_stiffness = 1e-9
-torsional_stiffness = 1e-9
-[obstacles.floor]
-type = "plane"
-point = [0.0, -0.011, 0.0]
-normal = [0.0, 1.0, 0.0]
-rods = ["rod"]
-""")
+    scene.write_text(FALL_TOML)
     out = tmp_path / "fall.nc"
     assert main(["simulate", str(scene), "--t-end", "0.1", "--integrator", "cvode",
                  "--rtol", "1e-8", "--atol", "1e-8", "--event", "contact:stop",

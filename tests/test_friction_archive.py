@@ -50,7 +50,7 @@ def test_a_track_archive_holds_the_slip_states_of_the_hysteresis_loop(tmp_path, 
     dead zone's, tested 0.2 % either side of T_max e^{−2μΘ}; the steps whose last point
     is stuck after a move are the track's dead zone; the archive reads back with its flags;
     ``rodsim rerun`` reproduces it bit for bit (positions, tensions and states)."""
-    from rodsim.app.inverse.track import rerun_track
+    from rodsim.app.inverse.track_rerun import rerun_track
     from rodsim.io.archive import read_dataset, write_dataset
 
     wrap = np.cumsum(helix_turns(NODES))

@@ -11,6 +11,7 @@ from test_tendon_friction import LENGTH, TENSION, catheter
 
 import rodsim
 from rodsim.app.inverse.series_fit import fit_series
+from rodsim.app.inverse.track import Track
 from rodsim.core.scene import Scene
 from rodsim.core.schema import SceneError
 
@@ -72,3 +73,69 @@ def test_reach_says_when_its_target_lies_in_the_dead_zone():
     assert beyond.values[0] == pytest.approx(3.2, rel=1e-6)
     plain = rodsim.reach(Scene.from_dict(catheter(21, 0.0, 3.0)), pulled, [TENSION])
     assert not plain.dead_zone
+
+
+def _replayed(scene: Scene, keys: list[str], path: np.ndarray) -> Track:
+    """A track through the continuation's values (its friction history)."""
+    track = rodsim.track(scene, {key: list(path[:, k]) for k, key in enumerate(keys)})
+    assert track.success, track.message
+    return track
+
+
+@pytest.mark.parametrize("kind", ["fit", "reach"])
+def test_fit_and_reach_archives_hold_the_friction_state_of_their_path(kind, tmp_path, cli,
+                                                                      capsys):
+    """A fit of the tension to the shape released from 3 N to 2.75 N (μ = 0.2), and a reach
+    of its tip, both from 3 N: the archive holds ``tension_profile`` and ``slip_state`` of
+    the final state (read back), equal to a separate track's through the archived path of
+    values (``*_path``: the states bit for bit, the tensions to 1e-9); a cold solve at the
+    values found holds other states (every point sliding in), so the history matters and
+    ``friction_history`` names the path; ``rerun`` replays it (measured: 0 m from the
+    stored shape, where a cold solve is 0.29 mm and 2.9 mm away from the fit's and the
+    reach's)."""
+    from rodsim.app.api import rerun
+    from rodsim.app.inverse.fit import Points
+    from rodsim.app.inverse.path_record import path_solver
+    from rodsim.io.archive import read_dataset, write_dataset
+
+    scene = Scene.from_dict(catheter(11, 0.2, 3.0))
+    truth = rodsim.track(scene, {TENSION: [3.0, 2.75]})
+    if kind == "fit":
+        found = rodsim.fit(scene, Points(truth.positions[-1]), [TENSION])
+    else:
+        found = rodsim.reach(scene, truth.tips()[-1], [TENSION])
+    stored = read_dataset(write_dataset(found.to_xarray(), tmp_path / f"{kind}.nc"))
+    path = stored["tendons_a_tendon_string_tension_path"]
+    assert path.dims == ("evaluation",) and path.attrs["scene_key"] == TENSION
+    assert path.values[0] == 3.0 and path.values[-1] == found.values[0]
+    assert len(path) == found.evaluations + 1
+    assert "continuation" in stored.attrs["friction_history"]
+    again = _replayed(scene, [TENSION], path.values[:, None])
+    np.testing.assert_array_equal(stored["slip_state"].values, again.slip[-1])
+    np.testing.assert_allclose(stored["tension_profile"].values, again.tension[-1],
+                               rtol=1e-9)
+    assert set(np.unique(stored["slip_state"].values)) != {-1}
+    cold = rodsim.solve(Scene.from_dict(catheter(11, 0.2, float(found.values[0]))))
+    assert np.all(cold.point_states["a"][1] == -1)
+    apart = np.max(np.linalg.norm(cold.positions() - stored["position"].values, axis=1))
+    assert apart > 1e-5 * LENGTH
+    # rerun replays the stored path (a cold solve would be ``apart`` away).
+    result, difference = rerun(stored, path_solver(stored))
+    assert difference < 1e-12 * LENGTH, (difference, apart)
+    np.testing.assert_array_equal(result.point_states["a"][1], stored["slip_state"].values)
+    assert cli(["rerun", str(tmp_path / f"{kind}.nc"), "--tolerance", "1e-12"]) == 0
+    assert "largest difference from the stored positions: 0 m" in capsys.readouterr().out
+    tampered = stored.load().copy(deep=True)
+    tampered["tendons_a_tendon_string_tension_path"].values[0] = -1.0
+    write_dataset(tampered, tmp_path / "tampered.nc")
+    assert cli(["rerun", str(tmp_path / "tampered.nc")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "\n" not in err and "out of range" in err, repr(err)
+
+
+def test_a_frictionless_reach_archive_has_no_path():
+    scene = Scene.from_dict(catheter(11, 0.0, 3.0))
+    target = rodsim.track(scene, {TENSION: [3.0, 2.75]}).tips()[-1]
+    ds = rodsim.reach(scene, target, [TENSION]).to_xarray()
+    assert "slip_state" not in ds and "evaluation" not in ds.dims
+    assert "friction_history" not in ds.attrs

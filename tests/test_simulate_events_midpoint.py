@@ -10,7 +10,7 @@ import math
 import numpy as np
 import pytest
 from scipy.optimize import brentq
-from test_events import GAP, RADIUS, G, falling_rod
+from test_events import FALL_TOML, GAP, RADIUS, G, falling_rod
 
 import rodsim
 from rodsim import ContactOnset, Event, TendonSlack
@@ -242,25 +242,7 @@ def test_the_command_line_midpoint_event(tmp_path, capsys):
     from rodsim.io.archive import read_dataset
 
     scene = tmp_path / "fall.toml"
-    scene.write_text("""name = "fall"
-[rods.rod]
-length = 0.2
-radius = 1e-3
-youngs_modulus = 1e9
-density = 1000.0
-nodes = 6
-clamp = "free"
-terms = ["stretch", "bend_twist", "centerline", "elastic_base", "gravity"]
-[rods.rod.elastic_base]
-stiffness = 1e-9
-rotational_stiffness = 1e-9
-torsional_stiffness = 1e-9
-[obstacles.floor]
-type = "plane"
-point = [0.0, -0.011, 0.0]
-normal = [0.0, 1.0, 0.0]
-rods = ["rod"]
-""")
+    scene.write_text(FALL_TOML)
     out = tmp_path / "fall.nc"
     assert main(["simulate", str(scene), "--t-end", "0.06", "--step", "0.0125",
                  "--output-dt", "0.02", "--event", "contact:stop", "-o", str(out)]) == 0

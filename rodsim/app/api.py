@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import dataclasses
 import time
-from collections.abc import Iterable, Mapping
+from collections.abc import Callable, Iterable, Mapping
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -139,8 +139,11 @@ def _assembly_failure(scene: Scene, integrator: str, exc: AssemblyBudgetExceeded
                   rods={}, state=np.zeros(0))
 
 
-def rerun(dataset: xr.Dataset) -> tuple[Result, float]:
-    """Re-run a stored run from the archive alone.
+def rerun(dataset: xr.Dataset, solver: Callable[[Scene, str], Result] | None = None
+          ) -> tuple[Result, float]:
+    """Re-run a stored run from the archive alone, by ``solver`` (scene, integrator) →
+    Result if given (a fit or reach archive's stored path: ``path_solver`` of
+    rodsim/app/inverse/path_record.py), else a cold solve.
 
     Returns the new result and the largest distance [m] between stored and recomputed
     control points (infinite when either holds a NaN: see ``largest_distance``).
@@ -157,7 +160,7 @@ def rerun(dataset: xr.Dataset) -> tuple[Result, float]:
     if stored_options != dataclasses.asdict(registered_integrators()[integrator].options_of(scene)):
         raise ArchiveError("archive is inconsistent: integrator_options differ from the "
                            "scene's solver options")
-    result = solve(scene, integrator)
+    result = (solver or solve)(scene, integrator)
     new = run_dataset(result)
     return result, largest_rod_distance(dataset["position"].values, dataset["rod"].values,
                                         new["position"].values, new["rod"].values)

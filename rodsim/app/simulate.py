@@ -26,11 +26,12 @@ from typing import Any
 import numpy as np
 
 from rodsim.app.api import SceneLike, load_scene, solve
+from rodsim.app.friction_trace import FrictionTrace
 from rodsim.app.initial_velocity import VelocityLike, initial_rates, velocity_text
 from rodsim.app.interrupted import Interrupted
 from rodsim.app.programs import Program, Programs, check_programs
 from rodsim.core.damping import Damping
-from rodsim.core.friction_record import FrictionRecord, friction_record
+from rodsim.core.friction_record import FrictionRecord
 from rodsim.core.inertia import mass_factor
 from rodsim.core.model import Model
 from rodsim.core.program import ProgramEntry
@@ -398,50 +399,6 @@ def simulate(scene: SceneLike | None, t_end: float, *, output_dt: float | None =
                           "outputs up to it are kept")
     return _simulation(loaded, model, record, _step_of(record, h, integrator), integrator,
                        float(t_end), programs.by_name, initial, initial_velocity, friction)
-
-
-class FrictionTrace:
-    """Friction's history carried from step to step (``Programs.carry_history``), and the
-    tendons' friction state (``friction_record``) kept at the output times."""
-
-    def __init__(self, programs: Programs, outputs: np.ndarray) -> None:
-        self.programs = programs
-        self.outputs = {float(t) for t in outputs}
-        self.kept: dict[float, FrictionRecord] = {}
-        #: The last step's end (t, history, free state): a terminal event's time, which is
-        #: no output time, reads its state from it.
-        self.latest: tuple[float, Model, np.ndarray] | None = None
-
-    def after_step(self, t: float, x: np.ndarray, solved: Model | None) -> None:
-        """``integrate``'s ``after_step``: carry the history; at an output time, keep the
-        friction state of ``x`` (free state) with the step's history."""
-        end = self.programs.carry_history(t, x, solved)
-        if end is not None:
-            self.latest = (t, end, x.copy())
-        if end is not None and t in self.outputs:
-            found = friction_record(end, end.full(x))
-            if found is not None:
-                self.kept[t] = found
-
-    def at(self, times: Sequence[float]) -> FrictionRecord | None:
-        """The states kept at ``times`` stacked along a leading time axis; None without
-        tendon friction."""
-        if not self.kept or not len(times):
-            return None
-        kept = [self.kept[float(t)] if float(t) in self.kept else self._latest_at(float(t))
-                for t in times]
-        return FrictionRecord(kept[0].chords, np.array([k.tension for k in kept]),
-                              kept[0].points, np.array([k.slip for k in kept]))
-
-
-    def _latest_at(self, t: float) -> FrictionRecord:
-        """The friction state at the last step's end ``t`` (a terminal event's time)."""
-        if self.latest is None or self.latest[0] != t:
-            raise KeyError(f"no friction state kept at t = {t} s")
-        _, end, x = self.latest
-        found = friction_record(end, end.full(x))
-        assert found is not None
-        return found
 
 
 def _step_of(record: Record, h: float, integrator: str) -> float:

@@ -14,9 +14,10 @@ from pathlib import Path
 from typing import Any
 
 from rodsim.app.study_spec import StudyError, StudySpec, grid_points
-from rodsim.io.archive_schema import ArchiveSchemaError, check_point_record
+from rodsim.io.archive_schema import ArchiveSchemaError
 from rodsim.io.atomic import write_text_atomic
 from rodsim.io.output import OutputError, check_target
+from rodsim.io.point_record import check_point_record
 from rodsim.io.provenance import git_commit, git_dirty
 from rodsim.io.statistics import POINT_STATS
 from rodsim.version import __version__

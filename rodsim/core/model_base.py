@@ -23,6 +23,7 @@ import numpy as np
 
 from rodsim.core.assembly_budget import AssemblyBudget
 from rodsim.core.kernel_call import KernelCall
+from rodsim.core.kernel_group import KernelGroup
 from rodsim.core.kernel_tier import PROCESS_TIER
 from rodsim.core.rod.rod import Rod
 from rodsim.core.scene import Scene
@@ -77,6 +78,9 @@ class ModelBase:
     #: The calls of the model a re-registration came from (:meth:`Model.with_terms`), with
     #: the index map they were built on, for :meth:`_build_kernel_calls` to keep.
     _kept_calls: tuple[np.ndarray, list[KernelCall]] | None
+    #: The calls above with the groupable ones made one call each
+    #: (rodsim/core/kernel_group.py), beside the list of calls they were made from.
+    _kernel_units: tuple[list[KernelCall], list[KernelCall | KernelGroup]] | None
     #: The last evaluations, newest first: (state, load, F or None, ∂F/∂x data or None);
     #: see :meth:`rodsim.core.model_evaluation.ModelEvaluation.evaluate`.
     _memo: list[tuple[np.ndarray, float, np.ndarray | None, np.ndarray | None]]

@@ -19,6 +19,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from rodsim.core.kernel_call import KernelCall
+from rodsim.core.kernel_group import KernelGroup, kernel_units
 from rodsim.core.kernel_tier import PROCESS_TIER, nominal_cost
 from rodsim.core.model_manifold import ModelManifold
 from rodsim.core.model_pattern import ModelPattern
@@ -160,11 +161,17 @@ class ModelEvaluation(ModelPattern, ModelManifold):
 
     def _evaluate_compiled(self, full: np.ndarray, offsets: np.ndarray, load: float,
                            force: bool, jacobian: bool) -> tuple[np.ndarray, np.ndarray]:
-        if self._kernel_calls is None:
-            self._kernel_calls = self._build_kernel_calls()
+        units = self._kernel_unit_list()
         f = np.zeros(self.n + 1 if force else 1)
         j = _jacobian_zeros(self.nnz + 1) if jacobian else np.zeros(1)
-        for call in self._kernel_calls:
+        for call in units:
+            if isinstance(call, KernelGroup):
+                scales = call.scales(lambda index, term: self._scale(index, term, load))
+                if not scales.any():
+                    continue
+                call.evaluate(offsets if call.offsets else full, *call.arguments, scales,
+                              force, f, call.force_target, jacobian, j, call.jacobian_target)
+                continue
             scale = self._scale(call.term_index, call.term, load)
             if scale == 0.0:
                 continue  # a load at load fraction 0 (or a term scaled away): adds only zeros
@@ -172,6 +179,19 @@ class ModelEvaluation(ModelPattern, ModelManifold):
                                  scale, force, f, call.force_target, jacobian, j,
                                  call.jacobian_target)
         return (f[:-1] if force else np.zeros(0)), (j[:-1] if jacobian else np.zeros(0))
+
+    def _kernel_unit_list(self) -> list[KernelCall | KernelGroup]:
+        """What the compiled path calls: the terms' ``KernelCall`` list with each run of
+        groupable terms made one ``KernelGroup`` (rodsim/core/kernel_group.py), made again
+        when the list of calls is another."""
+        if self._kernel_calls is None:
+            self._kernel_calls = self._build_kernel_calls()
+        known = self._kernel_units
+        if known is not None and known[0] is self._kernel_calls:
+            return known[1]
+        units = kernel_units(self._kernel_calls, known[1] if known is not None else ())
+        self._kernel_units = (self._kernel_calls, units)
+        return units
 
     def element_forces(self, index: int, full: np.ndarray) -> np.ndarray:
         """The forces on the elements of term ``index`` at the full state ``full``, shaped

@@ -98,6 +98,7 @@ class ModelPattern(ModelBase):
         self._build_pattern()
         self._kernel_calls = None
         self._kept_calls = None
+        self._kernel_units = None
 
     def _order_for_band(self) -> None:
         """Reorder the free coordinates (reverse Cuthill–McKee) when that narrows the band.

@@ -390,8 +390,6 @@ def _blame_what_was_set(exc: SceneError, given: Mapping[str, str]) -> SceneError
 
 def resolve(raw: Mapping[str, Any]) -> dict[str, Any]:
     """Validate a raw scene dict and fill every default (raises ``SceneError``)."""
-    from rodsim.core.terms import registered_terms, term_class, term_keys
-
     for key in raw:
         if key not in _TOP_KEYS:
             raise SceneError(f"{shown(key, bare=True)}: unknown top-level key; known keys: "
@@ -404,12 +402,42 @@ def resolve(raw: Mapping[str, Any]) -> dict[str, Any]:
     tendons_raw: Any = raw.get("tendons", {})
     if tendons_raw:  # a tendon without a coupling is a string (docs/tendon.md)
         rods_raw, tendons_raw = physical_default(rods_raw, tendons_raw)
+    rods = _resolve_rods(rods_raw)
+    tendons = _resolve_tendons(tendons_raw, rods)
+    joiners: dict[str, str] = {}  # rod -> the key of its term that joins it to another rod
+    for rod, table in rods.items():
+        _resolve_rod_parts(rod, table, rod in tendons)
+        joiner = _check_rod(rod, table, rod in tendons)
+        if joiner is not None:
+            joiners[rod] = joiner
+    check_joints(rods, tendons, joiners)
+    solver_raw = raw.get("solver", {})
+    solver = _resolve_solver(solver_raw)
+    out = {"name": name, "description": description, "rods": rods, "tendons": tendons,
+           "solver": solver}
+    if "obstacles" in raw:  # only then: a scene without obstacles resolves as before
+        from rodsim.core.obstacles import resolve_obstacles
+
+        out["obstacles"] = resolve_obstacles(raw["obstacles"], rods, tendons)
+        if "integrator" not in solver_raw:
+            solver["integrator"] = OBSTACLE_INTEGRATOR
+    if "program" in raw:  # only then: a scene without programs resolves as before
+        out["program"] = resolve_program(raw["program"])
+    return out
+
+
+def _resolve_rods(rods_raw: Any) -> dict[str, dict[str, Any]]:
+    """The ``[rods.<name>]`` tables validated, each with its terms' tables and its
+    ``sections`` (the ``base``, ``supports`` and ``damping`` sub-tables are left to
+    ``_resolve_rod_parts``). A rod table that gives E_b without E_s is an ideal material:
+    E_s = E_b."""
+    from rodsim.core.terms import term_keys
+
     if not isinstance(rods_raw, Mapping) or not rods_raw:
         raise SceneError("rods: a scene needs at least one [rods.<name>] table")
     for rod in rods_raw:
         check_rod_name(rod, "rods")
     rod_terms = term_keys("rod")
-    tendon_terms = term_keys("tendon")
     rods = {}
     for rod, table in rods_raw.items():
         given = isinstance(table, Mapping) and "sections" in table
@@ -422,8 +450,18 @@ def resolve(raw: Mapping[str, Any]) -> dict[str, Any]:
         if given:  # only then: a uniform rod's resolved table is unchanged
             rods[rod]["sections"] = resolve_sections(table["sections"], rods[rod],
                                                      f"rods.{rod}")
+    return rods
+
+
+def _resolve_tendons(tendons_raw: Any, rods: Mapping[str, Any]) -> dict[str, dict[str, Any]]:
+    """The ``[tendons.<rod>]`` tables validated, each with its terms' tables, each term's
+    options checked against the tendon and the tendon against its rods (``check_tendon``).
+    A string tendon's default term list is ``STRING_TERMS``."""
+    from rodsim.core.terms import term_class, term_keys
+
     if not isinstance(tendons_raw, Mapping):
         raise SceneError("tendons: expected tables [tendons.<tendon rod name>]")
+    tendon_terms = term_keys("tendon")
     tendons = {}
     for rod, table in tendons_raw.items():
         prefix = f"tendons.{check_rod_name(rod, 'tendons')}"
@@ -437,49 +475,67 @@ def resolve(raw: Mapping[str, Any]) -> dict[str, Any]:
         for term, term_opts in term_options.items():
             kinds[term].check_scene(term_opts, tendons[rod], f"{prefix}.{term}")
         check_tendon(rod, tendons[rod], rods, prefix, tendons_raw.keys(), term_options)
-    joiners: dict[str, str] = {}  # rod -> the key of its term that joins it to another rod
-    base_holders = ", ".join(sorted({kind.key for kind in registered_terms().values()
-                                     if kind.holds_base}))
-    for rod, table in rods.items():
-        base = resolve_base(rod, table, rod in tendons)
-        if base is not None:
-            table["base"] = base
-        if "supports" in table:
-            table["supports"] = resolve_supports(rod, table, rod in tendons)
-        damping = resolve_damping(rod, table)
-        if damping is not None:  # only then: a scene without damping resolves as before
-            table["damping"] = damping
-        options = RodOptions.of(table)
-        if not options.terms:
-            raise SceneError(f"rods.{rod}.terms = []: a rod needs at least one term; allowed: "
-                             "a list of distinct names from: " + ", ".join(rod_terms))
-        if options.radius >= options.length:
-            raise SceneError(f"rods.{rod}.radius = {options.radius!r}: not below the length "
-                             f"{options.length!r} m; allowed: radius < length (a slender rod)",
-                             key=f"rods.{rod}.radius", value=options.radius,
-                             allowed="radius < length (a slender rod)",
-                             reason="cross-table rule", related=(f"rods.{rod}.length",))
-        for term_name in options.terms:
-            kind = term_class(term_name, table)
-            if kind.scope == "rod":
-                kind.check_scene(kind.Options.of(table[term_name]), options,
-                                 f"rods.{rod}.{term_name}")
-        holders = [name for name in options.terms if term_class(name, table).holds_base]
-        joiners.update((rod, name) for name in options.terms
-                       if term_class(name, table).joins_rods)
-        if options.clamp == "free" and not holders:
-            raise SceneError(f"rods.{rod}.clamp = 'free': nothing would hold the rod; "
-                             "allowed: 'frame' or 'first_segment', or 'free' with a joint "
-                             f"to another rod or an elastic base (terms: {base_holders})")
-        if len(holders) > 1:
-            raise SceneError(f"rods.{rod}.terms: {' and '.join(holders)} would both hold the "
-                             "base; allowed: one of them")
-        if options.clamp == "orientation" and rod not in tendons:
-            raise SceneError(f"rods.{rod}.clamp = 'orientation': it leaves the base position "
-                             "free, which only a tendon pulled at its base can have; allowed: "
-                             "'frame' or 'first_segment'")
-    check_joints(rods, tendons, joiners)
-    solver_raw = raw.get("solver", {})
+    return tendons
+
+
+def _resolve_rod_parts(rod: str, table: dict[str, Any], pulled: bool) -> None:
+    """Resolve rod ``rod``'s ``base``, ``supports`` and ``damping`` sub-tables in place
+    (``pulled``: a tendon is pulled along the rod); a table without them is left as it
+    is."""
+    base = resolve_base(rod, table, pulled)
+    if base is not None:
+        table["base"] = base
+    if "supports" in table:
+        table["supports"] = resolve_supports(rod, table, pulled)
+    damping = resolve_damping(rod, table)
+    if damping is not None:  # only then: a scene without damping resolves as before
+        table["damping"] = damping
+
+
+def _check_rod(rod: str, table: Mapping[str, Any], pulled: bool) -> str | None:
+    """The rules of one resolved rod table: at least one term, a radius below the length,
+    each rod-scope term's own check, exactly one way of holding the base (a ``free``
+    rod needs a term that holds it, an ``orientation`` clamp a tendon pulled at the base).
+    Returns the key of the rod's term that joins it to another rod (the last listed, if
+    several do), or None."""
+    from rodsim.core.terms import registered_terms, term_class, term_keys
+
+    options = RodOptions.of(table)
+    if not options.terms:
+        raise SceneError(f"rods.{rod}.terms = []: a rod needs at least one term; allowed: "
+                         "a list of distinct names from: " + ", ".join(term_keys("rod")))
+    if options.radius >= options.length:
+        raise SceneError(f"rods.{rod}.radius = {options.radius!r}: not below the length "
+                         f"{options.length!r} m; allowed: radius < length (a slender rod)",
+                         key=f"rods.{rod}.radius", value=options.radius,
+                         allowed="radius < length (a slender rod)",
+                         reason="cross-table rule", related=(f"rods.{rod}.length",))
+    for term_name in options.terms:
+        kind = term_class(term_name, table)
+        if kind.scope == "rod":
+            kind.check_scene(kind.Options.of(table[term_name]), options,
+                             f"rods.{rod}.{term_name}")
+    holders = [name for name in options.terms if term_class(name, table).holds_base]
+    joining = [name for name in options.terms if term_class(name, table).joins_rods]
+    if options.clamp == "free" and not holders:
+        base_holders = ", ".join(sorted({kind.key for kind in registered_terms().values()
+                                         if kind.holds_base}))
+        raise SceneError(f"rods.{rod}.clamp = 'free': nothing would hold the rod; "
+                         "allowed: 'frame' or 'first_segment', or 'free' with a joint "
+                         f"to another rod or an elastic base (terms: {base_holders})")
+    if len(holders) > 1:
+        raise SceneError(f"rods.{rod}.terms: {' and '.join(holders)} would both hold the "
+                         "base; allowed: one of them")
+    if options.clamp == "orientation" and not pulled:
+        raise SceneError(f"rods.{rod}.clamp = 'orientation': it leaves the base position "
+                         "free, which only a tendon pulled at its base can have; allowed: "
+                         "'frame' or 'first_segment'")
+    return joining[-1] if joining else None
+
+
+def _resolve_solver(solver_raw: Any) -> dict[str, Any]:
+    """The ``[solver]`` table validated: its generic parameters, and each
+    ``[solver.<integrator>]`` options table kept as a dict (checked by the integrator)."""
     if not isinstance(solver_raw, Mapping):
         raise SceneError(f"solver: expected a table, got {type(solver_raw).__name__}")
     generic = {p.name for p in SOLVER_PARAMETERS}
@@ -491,17 +547,7 @@ def resolve(raw: Mapping[str, Any]) -> dict[str, Any]:
                              "keys: " + ", ".join(sorted(generic)) + ", or a table "
                              "[solver.<integrator>] of one integrator's options")
         solver[integrator_name] = dict(solver[integrator_name])
-    out = {"name": name, "description": description, "rods": rods, "tendons": tendons,
-           "solver": solver}
-    if "obstacles" in raw:  # only then: a scene without obstacles resolves as before
-        from rodsim.core.obstacles import resolve_obstacles
-
-        out["obstacles"] = resolve_obstacles(raw["obstacles"], rods, tendons)
-        if "integrator" not in solver_raw:
-            solver["integrator"] = OBSTACLE_INTEGRATOR
-    if "program" in raw:  # only then: a scene without programs resolves as before
-        out["program"] = resolve_program(raw["program"])
-    return out
+    return solver
 
 
 def _resolve_with_terms(table: Any, parameters: tuple[Parameter, ...], term_names: list[str],

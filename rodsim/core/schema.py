@@ -14,7 +14,7 @@ import functools
 import math
 import numbers
 import typing
-from collections.abc import Iterable, Mapping, Sequence
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any, ClassVar, Self
 
@@ -175,6 +175,20 @@ class Parameter:
             return SceneError(f"{key} = {shown(value)}: {reason}; allowed: {self.allowed}",
                               key=key, value=value, allowed=self.allowed, reason=reason)
 
+        if self.kind in ("bool", "str", "list"):
+            return self._check_names(value, fail)
+        if self.kind == "tables":
+            if not isinstance(value, (list, tuple)):
+                raise fail("wrong type")
+            return [validate_table(item, self.items or (), f"{key}.{i}")
+                    for i, item in enumerate(value)]
+        if self.kind == "vector":
+            return self._check_vector(value, fail)
+        return self._check_number(value, fail)
+
+    def _check_names(self, value: Any, fail: Callable[[str], SceneError]) -> Any:
+        """A ``bool``, a ``str`` (one of ``choices``, if declared) or a ``list`` of distinct
+        strings (each one of ``choices``, if declared)."""
         if self.kind == "bool":
             if not isinstance(value, bool):
                 raise fail("wrong type")
@@ -185,49 +199,49 @@ class Parameter:
             if self.choices is not None and value not in self.choices:
                 raise fail("unknown choice")
             return value
-        if self.kind == "list":
-            if not isinstance(value, list) or not all(isinstance(v, str) for v in value):
-                raise fail("wrong type")
-            if self.choices is not None:
-                for item in value:
-                    if item not in self.choices:
-                        raise fail(f"unknown item {item!r}")
-            if len(set(value)) != len(value):
-                raise fail("repeated item")
-            return list(value)
-        if self.kind == "tables":
-            if not isinstance(value, (list, tuple)):
-                raise fail("wrong type")
-            return [validate_table(item, self.items or (), f"{key}.{i}")
-                    for i, item in enumerate(value)]
-        if self.kind == "vector":
-            if not isinstance(value, (list, tuple)) or not all(_is_number(v) for v in value):
-                raise fail("wrong type")
-            if self.length is not None and len(value) != self.length:
-                raise fail(f"needs {self.length} values")
-            if not all(math.isfinite(v) for v in value):
-                raise fail("not finite")
-            if not all(self._in_range(v) for v in value):
-                raise fail("component out of range")
-            return [float(v) for v in value]
+        if not isinstance(value, list) or not all(isinstance(v, str) for v in value):
+            raise fail("wrong type")
+        if self.choices is not None:
+            for item in value:
+                if item not in self.choices:
+                    raise fail(f"unknown item {item!r}")
+        if len(set(value)) != len(value):
+            raise fail("repeated item")
+        return list(value)
+
+    def _check_vector(self, value: Any, fail: Callable[[str], SceneError]) -> list[float]:
+        """A list of ``length`` finite numbers, each within the range, as floats."""
+        if not isinstance(value, (list, tuple)) or not all(_is_number(v) for v in value):
+            raise fail("wrong type")
+        if self.length is not None and len(value) != self.length:
+            raise fail(f"needs {self.length} values")
+        if not all(math.isfinite(v) for v in value):
+            raise fail("not finite")
+        if not all(self._in_range(v) for v in value):
+            raise fail("component out of range")
+        return [float(v) for v in value]
+
+    def _check_number(self, value: Any, fail: Callable[[str], SceneError]) -> int | float:
+        """An ``int`` (a whole float too) or a finite ``float``, within the range."""
+        number: int | float
         if self.kind == "int":
             if is_integer(value):  # numpy's integers too (a count from np.arange, …)
-                value = int(value)
+                number = int(value)
             elif isinstance(value, float) and value.is_integer():
-                value = int(value)
+                number = int(value)
             else:
                 raise fail("wrong type")
         elif self.kind == "float":
             if not _is_number(value):
                 raise fail("wrong type")
-            value = float(value)
-            if not math.isfinite(value):
+            number = float(value)
+            if not math.isfinite(number):
                 raise fail("not finite")
         else:  # pragma: no cover - programming error in a declaration
             raise ValueError(f"unknown parameter kind {self.kind!r}")
-        if not self._in_range(value):
+        if not self._in_range(number):
             raise fail("out of range")
-        return value
+        return number
 
     def _in_range(self, value: float) -> bool:
         if self.minimum is not None and (

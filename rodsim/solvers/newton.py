@@ -96,6 +96,191 @@ def _neutral(problem: NewtonProblem, jacobian: np.ndarray, dx: np.ndarray, slope
     return scale > 0.0 and abs(slope) < NEUTRAL_STIFFNESS * scale
 
 
+@dataclass(frozen=True)
+class _Point:
+    """An iterate: the state ``x``, its force ``g``, the scaled residual of ``g`` and the
+    line-search merit at ``x``."""
+
+    x: np.ndarray
+    g: np.ndarray
+    residual: float
+    value: float
+
+
+def _merit(problem: NewtonProblem, y: np.ndarray, g: np.ndarray) -> float:
+    """The line-search merit at ``y``: Φ(y) when the problem has one, else ½ |W g|²."""
+    if problem.potential is not None:
+        return problem.potential(y)
+    wg = g * problem.weight
+    return 0.5 * float(wg @ wg)
+
+
+def _trial(problem: NewtonProblem, x: np.ndarray, dx: np.ndarray
+           ) -> tuple[np.ndarray, np.ndarray, float]:
+    """The state a step ``dx`` from ``x`` reaches (``problem.step``'s retraction, else
+    ``x + dx``), its force and its merit; a force evaluation that fails there gives NaN
+    forces and an infinite merit (a step the line search shortens)."""
+    y = x + dx if problem.step is None else problem.step(x, dx)
+    try:
+        g = problem.force(y)
+        return y, g, _merit(problem, y, g)
+    except SolverFailure:
+        return y, np.full_like(y, np.nan), np.inf
+
+
+class _Jacobians:
+    """The Jacobian policy ``reuse`` (one of ``JACOBIAN_REUSE``): the Newton step of each
+    iteration, and ``jacobian``, the Jacobian it was solved with."""
+
+    def __init__(self, problem: NewtonProblem, reuse: str) -> None:
+        if reuse not in JACOBIAN_REUSE:
+            raise ValueError(f"reuse = {reuse!r}: expected one of {', '.join(JACOBIAN_REUSE)}")
+        self.problem = problem
+        self.reuse = reuse
+        #: The Jacobian of this iteration's step (and, reused, of the factorisation's state).
+        self.jacobian: np.ndarray | None = None
+        self._factor: Callable[[np.ndarray], np.ndarray] | None = None  # a reused factorisation
+        self._previous = np.inf  # the residual before the last iteration (the lagged policy)
+
+    def step(self, point: _Point) -> np.ndarray:
+        """The Newton step J dx = −g at ``point`` (NaN where J is singular). A reused
+        factorisation is refreshed when the lagged policy's residual did not halve, or when
+        its step does not descend Φ."""
+        if self.reuse == "fresh":
+            self.jacobian = self.problem.jacobian(point.x)
+            return self.problem.linear.solve(self.jacobian, -point.g)
+        stale = self._factor is not None and (
+            self.reuse == "chord" or point.residual < 0.5 * self._previous)
+        if not stale:
+            self._factorize(point.x)
+        dx = self._solve(point)
+        if stale and not -float(point.g @ dx) < 0.0 and self.problem.potential is not None:
+            self._factorize(point.x)  # a stale step that does not descend: refresh
+            dx = self._solve(point)
+        self._previous = point.residual
+        return dx
+
+    def release(self) -> None:
+        """Drop a fresh Jacobian once its step is taken: a large model's next Jacobian may
+        then be accumulated in its array instead of fresh memory
+        (rodsim/core/model_evaluation.py, _jacobian_zeros)."""
+        if self.reuse == "fresh":
+            self.jacobian = None
+
+    def _factorize(self, x: np.ndarray) -> None:
+        self.jacobian = self.problem.jacobian(x)
+        self._factor = self.problem.linear.factorized(self.jacobian)
+
+    def _solve(self, point: _Point) -> np.ndarray:
+        if self._factor is None:
+            return np.full_like(point.x, np.nan)
+        return self._factor(-point.g)
+
+
+def _descent(problem: NewtonProblem, jacobian: np.ndarray | None, point: _Point,
+             dx: np.ndarray, near: bool) -> tuple[np.ndarray, float]:
+    """The direction of the line search and the merit's directional derivative along it.
+
+    Without Φ the merit ½ |W g|² falls along the Newton step at the rate −2 × merit. With
+    Φ the slope is −g·dx; an ascent along a neutral direction is reversed, and a step
+    that still does not descend is replaced by a diagonally scaled gradient step on Φ."""
+    if problem.potential is None:
+        return dx, -2.0 * point.value
+    assert jacobian is not None  # evaluated at the first iteration at the latest
+    slope = -float(point.g @ dx)
+    if slope > 0.0 and not near and problem.correction is None and _neutral(
+            problem, jacobian, dx, slope):
+        # An ascent direction along a neutral one (a free rotation at rest, whose exact
+        # zero the offset state keeps; round-off gives it either sign): the reverse step
+        # descends Φ as steeply (−g·(−dx) = −slope) and the line search shortens it. An
+        # ascent along a clearly negative stiffness (an unstable equilibrium that reach's
+        # inner solves must reach) is not reversed.
+        dx, slope = -dx, -slope
+    if slope >= 0.0:
+        # Not a descent direction (an inexact — finite-difference — Jacobian, or a state off
+        # a stable branch): fall back to a diagonally scaled gradient step on Φ.
+        diagonal = np.abs(problem.linear.diagonal(jacobian))
+        dx = point.g / np.where(diagonal > 0.0, diagonal, 1.0)
+        slope = -float(point.g @ dx)
+    return dx, slope
+
+
+def _line_search(problem: NewtonProblem, point: _Point, dx: np.ndarray, slope: float,
+                 trial: tuple[np.ndarray, np.ndarray, float], shorten: bool,
+                 check: Callable[[], None] | None
+                 ) -> tuple[np.ndarray, np.ndarray, float] | None:
+    """Armijo backtracking from the full step's ``trial``: the first of the steps
+    α dx (α = 1, ½, ¼, …) whose merit falls by at least 1e-4 α × slope, or whose full step
+    halves the residual (near the root the merit's change drowns in round-off). None when
+    α falls below 1e-10, or at once when the full step fails and not ``shorten``."""
+    alpha = 1.0
+    while not _accepted(problem, point, trial, alpha, slope):
+        if not shorten:
+            return None
+        alpha *= 0.5
+        if alpha < 1e-10:
+            return None
+        if check is not None:  # a long backtracking costs force evaluations too
+            check()
+        trial = _trial(problem, point.x, alpha * dx)
+    return trial
+
+
+def _accepted(problem: NewtonProblem, point: _Point,
+              trial: tuple[np.ndarray, np.ndarray, float], alpha: float, slope: float) -> bool:
+    """Whether the line search keeps ``trial``, the step α dx along which the merit falls
+    at ``slope``: Armijo's sufficient decrease, or a full step (α = 1) that halves the
+    residual."""
+    _, trial_g, trial_value = trial
+    if trial_value <= point.value + 1e-4 * alpha * slope:
+        return True
+    return alpha == 1.0 and bool(np.isfinite(trial_value)) and (
+        problem.residual(trial_g) < 0.5 * point.residual)
+
+
+class _Watchdog:
+    """Chamberlain's watchdog on a non-conservative problem (no Φ): a full step that raises
+    the merit is taken and watched; if the merit is not back below the watched point's
+    within ``WATCHDOG_STEPS`` full steps, the iteration returns there and backtracks."""
+
+    def __init__(self, problem: NewtonProblem) -> None:
+        self.enabled = problem.potential is None
+        self._watched: _Point | None = None
+        self._left = 0  # full steps left to the watched point
+        self._backtrack = False  # set after a failed watch: the next step must backtrack
+
+    def takes_full_step(self, trial_value: float, near: bool) -> bool:
+        """Whether this iteration's full step (of merit ``trial_value``) is taken as it is,
+        watched, rather than line-searched: not near the root, not right after a failed
+        watch, and only to a state whose force could be evaluated."""
+        full = self.enabled and not self._backtrack and bool(np.isfinite(trial_value)) and (
+            not near)
+        self._backtrack = False
+        return full
+
+    def watch(self, point: _Point, trial_value: float, slope: float) -> None:
+        """Start watching ``point`` when the full step from it fails Armijo's test (and no
+        point is watched yet)."""
+        if self._watched is None and trial_value > point.value + 1e-4 * slope:
+            self._watched, self._left = point, WATCHDOG_STEPS
+
+    def resume(self, point: _Point) -> _Point:
+        """The point the iteration goes on from after reaching ``point``: ``point`` itself,
+        or the watched point when the watch ran out without Armijo's decrease against it
+        (the next step then backtracks)."""
+        watched = self._watched
+        if watched is None:
+            return point
+        if point.value <= watched.value * (1.0 - 2e-4):  # Armijo against the watched point
+            self._watched = None
+        elif self._left > 1:
+            self._left -= 1
+        else:
+            self._watched, self._backtrack = None, True
+            return watched
+        return point
+
+
 def newton(problem: NewtonProblem, x: np.ndarray, tolerance: float,
            max_iterations: int, polish: bool = True,
            check: Callable[[], None] | None = None,
@@ -118,141 +303,54 @@ def newton(problem: NewtonProblem, x: np.ndarray, tolerance: float,
     5.8e-6 lay 3.6e-3 L from the equilibrium, and the step there raised the residual to
     6.8e-5 while coming 200× closer).
     """
-    if reuse not in JACOBIAN_REUSE:
-        raise ValueError(f"reuse = {reuse!r}: expected one of {', '.join(JACOBIAN_REUSE)}")
-    factor: Callable[[np.ndarray], np.ndarray] | None = None  # a reused factorisation
-    previous = np.inf  # the residual before the last iteration (the lagged policy)
-
-    def merit(y: np.ndarray, g: np.ndarray) -> float:
-        if problem.potential is not None:
-            return problem.potential(y)
-        wg = g * problem.weight
-        return 0.5 * float(wg @ wg)
-
-    def evaluate(y: np.ndarray) -> tuple[np.ndarray, float]:
-        try:
-            g = problem.force(y)
-            return g, merit(y, g)
-        except SolverFailure:
-            return np.full_like(y, np.nan), np.inf
-
-    def advance(y: np.ndarray, dy: np.ndarray) -> np.ndarray:
-        return y + dy if problem.step is None else problem.step(y, dy)
-
+    jacobians = _Jacobians(problem, reuse)
+    watchdog = _Watchdog(problem)
     g = problem.force(x)
-    residual = problem.residual(g)
-    value = merit(x, g)
+    point = _Point(x, g, problem.residual(g), _merit(problem, x, g))
     polishing = POLISH_ITERATIONS if polish else 0
-    #: (x, g, residual, merit, full steps left) of the point a watched full step left.
-    watched: tuple[np.ndarray, np.ndarray, float, float, int] | None = None
-    may_watch = problem.potential is None
-    backtrack = False  # set after a failed watch: the next step must backtrack
-    #: The Jacobian of this iteration's step (and, reused, of the factorisation's state).
-    jacobian: np.ndarray | None = None
     for iteration in range(max_iterations):
         if check is not None:
             check()
-        if problem.correction is None and residual < tolerance:
+        if problem.correction is None and point.residual < tolerance:
             if polishing == 0:
-                return NewtonResult(x, True, iteration, residual, "converged")
+                return NewtonResult(point.x, True, iteration, point.residual, "converged")
             polishing -= 1
-        if reuse == "fresh":
-            jacobian = problem.jacobian(x)
-            dx = problem.linear.solve(jacobian, -g)
-        else:
-            stale = factor is not None and (reuse == "chord" or residual < 0.5 * previous)
-            if not stale:
-                jacobian = problem.jacobian(x)
-                factor = problem.linear.factorized(jacobian)
-            dx = factor(-g) if factor is not None else np.full_like(x, np.nan)
-            if stale and not -float(g @ dx) < 0.0 and problem.potential is not None:
-                jacobian = problem.jacobian(x)  # a stale step that does not descend: refresh
-                factor = problem.linear.factorized(jacobian)
-                dx = factor(-g) if factor is not None else np.full_like(x, np.nan)
-            previous = residual
+        done = iteration + 1
+        dx = jacobians.step(point)
         if not np.all(np.isfinite(dx)):
-            return NewtonResult(x, False, iteration + 1, residual, "singular Jacobian")
+            return NewtonResult(point.x, False, done, point.residual, "singular Jacobian")
         # Near the root: the residual below the tolerance and, with a correction test, the
         # correction too (converged: x itself, the correction being negligible); a residual
         # below the tolerance with a correction above it is an ordinary Newton step.
-        near = residual < tolerance
+        near = point.residual < tolerance
         if problem.correction is not None:
             if near and problem.correction(dx) < problem.correction_tolerance:
-                return NewtonResult(x, True, iteration + 1, residual, "converged")
+                return NewtonResult(point.x, True, done, point.residual, "converged")
             near = False
-        # Directional derivative of the merit along dx.
-        slope = -float(g @ dx) if problem.potential is not None else -2.0 * value
-        if slope > 0.0 and problem.potential is not None and near is False and (
-                problem.correction is None) and jacobian is not None and _neutral(
-                    problem, jacobian, dx, slope):
-            # An ascent direction along a neutral one (a free rotation at rest, whose
-            # exact zero the offset state keeps; round-off gives it either sign): the
-            # reverse step descends Φ as steeply (−g·(−dx) = −slope) and the line search
-            # shortens it. An ascent along a clearly negative stiffness (an unstable
-            # equilibrium that reach's inner solves must reach) is not reversed.
-            dx, slope = -dx, -slope
-        if slope >= 0.0 and problem.potential is not None:
-            # Not a descent direction (an inexact — finite-difference — Jacobian, or a state
-            # off a stable branch): fall back to a diagonally scaled gradient step on Φ.
-            assert jacobian is not None  # evaluated at the first iteration at the latest
-            diagonal = np.abs(problem.linear.diagonal(jacobian))
-            dx = g / np.where(diagonal > 0.0, diagonal, 1.0)
-            slope = -float(g @ dx)
-        if reuse == "fresh":
-            # Not needed any more: a large model's next Jacobian may then be accumulated in
-            # its array instead of fresh memory (rodsim/core/model_evaluation.py, _jacobian_zeros).
-            jacobian = None
+        dx, slope = _descent(problem, jacobians.jacobian, point, dx, near)
+        jacobians.release()
         if slope >= 0.0:
-            if near:
-                return NewtonResult(x, True, iteration + 1, residual, "converged")
-            return NewtonResult(x, False, iteration + 1, residual,
+            return NewtonResult(point.x, near, done, point.residual, "converged" if near else
                                 "Newton direction is not a descent direction (unstable state)")
-        alpha = 1.0
-        trial = advance(x, dx)
-        trial_g, trial_value = evaluate(trial)
-        full_step_watched = (may_watch and not backtrack and np.isfinite(trial_value)
-                             and not near)
-        backtrack = False
-        if not full_step_watched:
-            while True:
-                if trial_value <= value + 1e-4 * alpha * slope:
-                    break
-                # Near the root the merit's change drowns in round-off; a full step that
-                # halves the residual is then accepted on the residual alone.
-                if alpha == 1.0 and np.isfinite(trial_value) and (
-                        problem.residual(trial_g) < 0.5 * residual):
-                    break
-                if near:
-                    # Polishing: a shorter step would be kept only if it halved the
-                    # residual, which a step the full one overshoots does not do at
-                    # round-off: the state is the root already.
-                    return NewtonResult(x, True, iteration + 1, residual, "converged")
-                alpha *= 0.5
-                if alpha < 1e-10:
-                    if near:
-                        return NewtonResult(x, True, iteration + 1, residual, "converged")
-                    return NewtonResult(x, False, iteration + 1, residual,
-                                        "line search failed")
-                if check is not None:  # a long backtracking costs force evaluations too
-                    check()
-                trial = advance(x, alpha * dx)
-                trial_g, trial_value = evaluate(trial)
-        elif watched is None and trial_value > value + 1e-4 * slope:
-            watched = (x, g, residual, value, WATCHDOG_STEPS)
+        full = _trial(problem, point.x, dx)
+        if watchdog.takes_full_step(full[2], near):
+            watchdog.watch(point, full[2], slope)
+            trial = full
+        else:
+            # Near the root (polishing) a full step that fails ends the iteration: a shorter
+            # one would be kept only if it halved the residual, which a step the full one
+            # overshoots does not do at round-off — the state is the root already.
+            searched = _line_search(problem, point, dx, slope, full, not near, check)
+            if searched is None:
+                return NewtonResult(point.x, near, done, point.residual,
+                                    "converged" if near else "line search failed")
+            trial = searched
+        trial_x, trial_g, trial_value = trial
         trial_residual = problem.residual(trial_g)
-        if near and not trial_residual < 0.5 * residual:
-            return NewtonResult(x, True, iteration + 1, residual, "converged")  # round-off
-        x, g, residual, value = trial, trial_g, trial_residual, trial_value
-        if watched is not None:
-            start_x, start_g, start_residual, start_value, left = watched
-            if value <= start_value * (1.0 - 2e-4):  # Armijo against the watched point
-                watched = None
-            elif left > 1:
-                watched = (start_x, start_g, start_residual, start_value, left - 1)
-            else:  # no progress: back to the watched point, and backtrack from there
-                x, g, residual, value = start_x, start_g, start_residual, start_value
-                watched, backtrack = None, True
-    converged = residual < tolerance and problem.correction is None
-    return NewtonResult(x, converged, max_iterations, residual,
+        if near and not trial_residual < 0.5 * point.residual:  # round-off
+            return NewtonResult(point.x, True, done, point.residual, "converged")
+        point = watchdog.resume(_Point(trial_x, trial_g, trial_residual, trial_value))
+    converged = point.residual < tolerance and problem.correction is None
+    return NewtonResult(point.x, converged, max_iterations, point.residual,
                         "converged" if converged else
                         f"no convergence in {max_iterations} Newton iterations")

@@ -313,6 +313,16 @@ def build_parser() -> argparse.ArgumentParser:
                       "(needs plotly: pip install \"rodsim[view3d]\"; added by default "
                       "for a shape that leaves the x-y plane when plotly is installed) "
                       "(default png,pdf)")
+    plot.add_argument("--colour", "--color", dest="colour", default=None,
+                      choices=("curvature", "strain", "tension"),
+                      help="colour the rods by their bending curvature [1/m] or axial "
+                      "strain, or the tendons by their tension [N], with a colour bar: a "
+                      "run's figure, a track's or trajectory's (every state on one scale), "
+                      "their movie and the html view")
+    plot.add_argument("--hide", default="", metavar="LAYERS",
+                      help="comma-separated layers to leave out of the figure of a run, track "
+                      "or trajectory, their movie and the html view: shape (the rods), "
+                      "tendon, load, contact (the contact forces), obstacle")
     plot.add_argument("--movie", action="store_true",
                       help="also write STEM.gif, a movie of a track (one frame per step) or of a "
                       "trajectory (rodsim simulate: one frame per output time, at most 120)")
@@ -321,7 +331,8 @@ def build_parser() -> argparse.ArgumentParser:
     bench = sub.add_parser("bench", help="run a benchmark (work-precision, scaling, large-n, "
                            "stress, skip-work, kernels, paper-regime, pyelastica, "
                            "string-tendon, contact, force-from-shape, floor, iterations, "
-                           "startup, tracking, workers, modes, friction, batch, dynamics)",
+                           "startup, tracking, workers, modes, friction, batch, dynamics, "
+                           "step-cost)",
                            description="Time the integrators against their error, their cost "
                            "in N, or their stability over a parameter map; writes netCDF, "
                            "figures and a markdown table with the machine description. The "
@@ -333,7 +344,7 @@ def build_parser() -> argparse.ArgumentParser:
                        help="work-precision, scaling, large-n, stress, skip-work, kernels, "
                        "paper-regime, string-tendon, contact, force-from-shape, floor, "
                        "iterations, startup, tracking, workers, modes, friction, batch, "
-                       "dynamics, hostile or pyelastica (the last needs 'pip install "
+                       "dynamics, step-cost, hostile or pyelastica (the last needs 'pip install "
                        "pyelastica==1.0.0'; never a dependency)")
     bench.add_argument("--size", choices=("small", "full"), default="small",
                        help="small (the default): a smoke version in seconds to a minute; "

@@ -15,6 +15,8 @@ __all__ = ["cmd_rerun"]
 
 def cmd_rerun(args: argparse.Namespace) -> int:
     from rodsim.app.api import rerun
+    from rodsim.app.inverse.continuation import EquilibriumFailure
+    from rodsim.app.inverse.path_record import path_solver
     from rodsim.app.study import StudyError
     from rodsim.core.scene import SceneError
     from rodsim.io.archive import ArchiveError, read_dataset
@@ -32,9 +34,12 @@ def cmd_rerun(args: argparse.Namespace) -> int:
         if dataset.attrs.get("kind") == "trajectory":
             raise UserError("a trajectory archive is not re-run (rerun compares equilibria): "
                             "run `rodsim simulate` again with its history's arguments")
-        result, difference = rerun(dataset)
+        result, difference = rerun(dataset, path_solver(dataset))
     except (ArchiveError, SceneError, StudyError) as exc:
         raise UserError(f"{args.archive}: {exc}") from None
+    except EquilibriumFailure as exc:  # a value of a fit's or reach's stored path
+        print(f"rodsim: solver failure on rerun: {exc}", file=sys.stderr)
+        return EXIT_SOLVER_FAILURE
     if not result.success:
         print(f"rodsim: solver failure on rerun: {result.message}", file=sys.stderr)
         return EXIT_SOLVER_FAILURE
@@ -65,7 +70,7 @@ def _rerun_batch(dataset, args: argparse.Namespace) -> int:
 
 
 def _rerun_track(dataset, args: argparse.Namespace) -> int:
-    from rodsim.app.inverse.track import rerun_track
+    from rodsim.app.inverse.track_rerun import rerun_track
 
     again, difference = rerun_track(dataset)
     if not again.success:

@@ -9,6 +9,9 @@
   the study figures;
 - ``rodsim.app.figures.inverse``: a run's figure and those of track, fit and reach;
 - ``rodsim.app.figures.contact``: the contact figure;
+- ``rodsim.app.figures.state_scene``: the scene of one state (a track's step, a
+  trajectory's output time) with the values it was solved with;
+- ``rodsim.app.figures.state_series``: several states on one panel, coloured on one scale;
 - ``rodsim.app.figures.view3d``: the interactive 3-D view (plotly).
 """
 

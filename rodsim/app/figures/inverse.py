@@ -13,9 +13,13 @@ import numpy as np
 import xarray as xr
 from matplotlib.figure import Figure
 
+from rodsim.app.figures import layers
+from rodsim.app.figures.colouring import colour_scale, colouring
 from rodsim.app.figures.contact import draw_contact
+from rodsim.app.figures.ramp_legs import Leg, hysteresis, ramp_legs
 from rodsim.app.figures.scene_drawing import draw_parts
 from rodsim.app.figures.scene_parts import scene_parts
+from rodsim.app.figures.state_series import colour_bar, draw_states
 from rodsim.io.archive_schema import stored_scene
 from rodsim.io.cf_layout import key_variable
 
@@ -29,25 +33,35 @@ def _tip_text(ds: xr.Dataset) -> str:
             + ", ".join(f"{1e3 * v:.4g}" for v in tip) + " mm")
 
 
-def run_figure(ds: xr.Dataset) -> Figure:
+def run_figure(ds: xr.Dataset, colour: str | None = None,
+               hide: frozenset[str] = frozenset()) -> Figure:
     """A run: its rods, tendons (paths, routing points, terminations), obstacles, loads
     and contact forces (``rodsim.app.figures.scene_drawing``) in x–y, and in x–z and
     y–z too when the scene leaves the x–y plane (with tendon friction, a last panel: the
-    tension along each tendon); the title names the tip, computed from the positions."""
+    tension along each tendon); the title names the tip, computed from the positions.
+    ``colour``: the rods (or the tendons) coloured by curvature, strain or tension, with a
+    colour bar (``rodsim.app.figures.colouring``); ``hide``: the layers left out
+    (``rodsim.app.figures.layers``)."""
     friction = "tension_profile" in ds
     parts = scene_parts(ds)
+    colours = colouring(ds, colour, parts) if colour else None
     count = len(PROJECTIONS) if out_of_plane(parts.points()) else 1
     panels = count + int(friction)
     figure, axes = plt.subplots(1, panels, figsize=(4.2 * panels + 0.6 if panels > 1
                                                     else 6.4, 5.2),
                                 constrained_layout=True, squeeze=False)
     for panel, view in zip(axes[0][:count], PROJECTIONS[:count], strict=True):
-        draw_parts(panel, parts, view)
+        draw_parts(panel, parts, view, hide=hide, colours=colours)
+    if colours is not None:
+        colour_bar(figure, list(axes[0][:count]), colours, colour_scale(colours),
+                   shrink=0.9 if panels == 1 else 0.5,
+                   location="right" if panels == 1 else "bottom")
     if friction:
         _tension_along(axes[0][-1], ds)
     handles, names = axes[0][0].get_legend_handles_labels()
-    figure.legend(handles, names, loc="outside lower center",
-                  ncols=min(len(names), 4 if panels > 1 else 3))
+    if names:
+        figure.legend(handles, names, loc="outside lower center",
+                      ncols=min(len(names), 4 if panels > 1 else 3))
     figure.suptitle(f"{ds.attrs.get('title', '')}\n{_tip_text(ds)}")
     return figure
 
@@ -65,9 +79,17 @@ def out_of_plane(positions: np.ndarray) -> bool:
     return bool(np.ptp(positions[..., 2]) > 1e-6 * max(np.ptp(positions[..., 0]), 1e-12))
 
 
-def track_figure(ds: xr.Dataset) -> Figure:
-    """A track: the first rod's centerline at every step, coloured by step, and the tip
-    against the first ramped value."""
+def track_figure(ds: xr.Dataset, colour: str | None = None,
+                 hide: frozenset[str] = frozenset()) -> Figure:
+    """A track: the first rod's centerline at every step with the tip's path through them,
+    and the tip's displacement from step 0 against the first ramped value, the actuation
+    against the response (``rodsim.app.figures.ramp_legs``: a ramp that rises and falls is
+    drawn leg by leg, solid rising and dashed falling, its centerlines coloured by step; the
+    title states the hysteresis, the largest tip distance at equal actuation); with
+    friction a third panel, the termination tension against the ramp (the pull–release
+    loop). With ``colour`` or ``hide`` the first panel draws every step as the run figure
+    draws its state (``rodsim.app.figures.state_series``): every rod and tendon, coloured
+    on one scale shared by the steps, the layers ``hide`` left out."""
     friction = "tension_profile" in ds
     figure, axes = plt.subplots(1, 2 + friction, figsize=(10.0 + 4.6 * friction, 4.4),
                                 constrained_layout=True)
@@ -75,17 +97,20 @@ def track_figure(ds: xr.Dataset) -> Figure:
     nodes = _first_rod_nodes(ds).values
     ramp = list(json.loads(ds.attrs["ramp_json"]))[0]
     values = key_variable(ds, ramp).values
-    colours = plt.get_cmap("viridis")(np.linspace(0.0, 1.0, max(len(values), 1)))
-    for step, colour in enumerate(colours):
-        shapes.plot(nodes[step, :, 0], nodes[step, :, 1], color=colour, lw=0.9)
-    mappable = plt.cm.ScalarMappable(cmap="viridis", norm=plt.Normalize(values.min(),
-                                                                        values.max()))
-    figure.colorbar(mappable, ax=shapes, label=_ramp_label(ds, ramp))
-    shapes.set_xlabel("x [m]")
-    shapes.set_ylabel("y [m]")
-    shapes.set_title(f"centerline of {ds['rod'].values[0]} at each of {len(values)} steps")
+    legs = ramp_legs(values)
+    if colour or hide:
+        if layers.SHAPE not in hide:
+            shapes.plot(nodes[:, -1, 0], nodes[:, -1, 1], color="k", lw=0.8, marker="o",
+                        ms=2.5, zorder=6, gid="tip-path", label="tip path (o: each step)")
+        drawn = draw_states(shapes, ds, range(len(values)), (0, 1), colour, hide)
+        if drawn is not None:
+            colour_bar(figure, [shapes], *drawn)
+        shapes.set_title(f"each of {len(values)} steps")
+    else:
+        _centerlines(figure, shapes, ds, nodes, ramp, values, legs)
     contact = ""
-    if "contact_force" in ds and len(values):  # obstacles, and the last step's forces
+    pressed = "contact_force" in ds and len(values) > 0
+    if pressed and not (colour or hide):  # obstacles, and the last step's forces
         scene = stored_scene(ds.attrs["scene_json"], "attribute 'scene_json'")
         draw_contact(shapes, scene, ds["position"].values[-1], ds["contact_force"].values[-1],
                      (0, 1), extent=ds["position"].values)
@@ -94,19 +119,68 @@ def track_figure(ds: xr.Dataset) -> Figure:
         contact = f"; contact resultant {1e3 * resultant:.3g} mN (red: the last step's forces)"
     else:
         shapes.set_aspect("equal", adjustable="datalim")
-    for axis, name in enumerate("xyz"):
-        tips.plot(values, nodes[:, -1, axis], label=f"tip {name}")
+        if pressed and layers.CONTACT not in hide:  # drawn by draw_states
+            resultant = float(np.linalg.norm(ds["contact_resultant"].values[-1]))
+            contact = f"; contact resultant {1e3 * resultant:.3g} mN (the last step's forces)"
+    _response(tips, ds, nodes[:, -1], values, legs)
     tips.set_xlabel(_ramp_label(ds, ramp))
-    tips.set_ylabel("tip position [m]")
-    tips.legend()
     if friction:
         _termination_loop(axes[2], ds, values, _ramp_label(ds, ramp))
     last = nodes[-1, -1] if len(values) else np.full(3, np.nan)
     unit = key_variable(ds, ramp).attrs.get("units", "")
+    loop = hysteresis(values, nodes[:, -1])
+    apart = ("" if loop is None else f"\nhysteresis: the tip {1e3 * loop.distance:.3g} mm "
+             f"apart at equal {short_key(ramp)} (steps {loop.first} and {loop.second})")
     figure.suptitle(f"{ds.attrs.get('title', '')}\ntip of {ds['rod'].values[0]} at "
                     f"{short_key(ramp)} = {values[-1]:.4g} {unit}: x, y, z = "
-                    + ", ".join(f"{1e3 * v:.4g}" for v in last) + " mm" + contact)
+                    + ", ".join(f"{1e3 * v:.4g}" for v in last) + " mm" + contact + apart)
     return figure
+
+
+def _centerlines(figure: Figure, shapes: plt.Axes, ds: xr.Dataset, nodes: np.ndarray,
+                 ramp: str, values: np.ndarray, legs: list[Leg]) -> None:
+    """The first rod's centerline at every step, coloured by step (or by the ramped value
+    on a ramp of one leg), and the tip's path through them."""
+    colours = plt.get_cmap("viridis")(np.linspace(0.0, 1.0, max(len(values), 1)))
+    for step, colour in enumerate(colours):
+        shapes.plot(nodes[step, :, 0], nodes[step, :, 1], color=colour, lw=0.9)
+    if len(legs) > 1:  # the same value on two legs: colour by step
+        turns = " → ".join(f"{values[leg.steps[0]]:g}" for leg in legs)
+        norm = plt.Normalize(0, max(len(values) - 1, 1))
+        unit = key_variable(ds, ramp).attrs.get("units", "")
+        label = f"step ({turns} → {values[-1]:g} {unit})"
+    else:
+        norm = plt.Normalize(values.min(), values.max())
+        label = _ramp_label(ds, ramp)
+    figure.colorbar(plt.cm.ScalarMappable(cmap="viridis", norm=norm), ax=shapes, label=label)
+    shapes.plot(nodes[:, -1, 0], nodes[:, -1, 1], color="k", lw=0.8, marker="o", ms=2.5,
+                zorder=4, gid="tip-path", label="tip path (o: each step)")
+    shapes.legend(loc="best", fontsize="small")
+    shapes.set_xlabel("x [m]")
+    shapes.set_ylabel("y [m]")
+    shapes.set_title(f"centerline of {ds['rod'].values[0]} at each of {len(values)} steps")
+
+
+def _response(panel: plt.Axes, ds: xr.Dataset, tips: np.ndarray, values: np.ndarray,
+              legs: list[Leg]) -> None:
+    """The tip's displacement from step 0 [m] against the ramped value, each coordinate
+    that moves (all three when none does), leg by leg: solid rising, dashed falling; each
+    line's gid ``response:<axis>:<leg index>``."""
+    moved = tips - tips[:1]
+    size = max(float(np.max(np.abs(moved), initial=0.0)), 1e-300)
+    shown = [k for k in range(3) if np.ptp(moved[:, k]) > 1e-6 * size] or [0, 1, 2]
+    seen: set[str] = set()
+    for k in shown:
+        for index, leg in enumerate(legs):
+            label = f"tip {'xyz'[k]}" + ("" if len(legs) == 1 else
+                                          (", rising" if leg.rises else ", falling"))
+            panel.plot(values[leg.steps], moved[leg.steps, k], color=f"C{k}", marker=".",
+                       ms=4, ls="-" if leg.rises else "--", gid=f"response:{'xyz'[k]}:{index}",
+                       label=None if label in seen else label)
+            seen.add(label)
+    panel.set_ylabel("tip displacement from step 0 [m]")
+    panel.set_title("actuation against response")
+    panel.legend(loc="best", fontsize="small")
 
 
 def _termination_loop(panel: plt.Axes, ds: xr.Dataset, values: np.ndarray, label: str

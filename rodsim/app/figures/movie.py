@@ -1,11 +1,15 @@
-"""A movie of a track or trajectory archive (``rodsim plot --movie``): one frame per step of
-a track (``rodsim track``), or per output time of a trajectory (``rodsim simulate``; at
-most ``MAX_FRAMES``, evenly spaced, the first and the last among them), each the run
+"""A movie of a track or trajectory archive (``rodsim plot --movie``): one frame per step
+of a track (``rodsim track``), or per output time of a trajectory (``rodsim simulate``;
+at most ``MAX_FRAMES``, evenly spaced, the first and the last among them), each the run
 figure's drawing of that state (rods, tendons, obstacles, loads, contact forces:
-``rodsim.app.figures.scene_drawing``) in x–y, and in x–z and y–z when the motion leaves the
-x–y plane, with fixed limits around every frame; the title gives the ramped value or the
-time. It is written as an animated GIF with Pillow (which matplotlib requires; a missing
-Pillow is a one-line PlotError before any file is written), atomically."""
+``rodsim.app.figures.scene_drawing``) in x–y, and in x–z and y–z when the motion leaves
+the x–y plane, with fixed limits around every frame; the title gives the ramped value or
+the time. A track's loads are drawn with the step's values, a trajectory's with its
+programs' values at the frame's time (``rodsim.app.figures.state_scene``). ``colour``
+colours every frame's lines on one scale shared by all frames, with one colour bar;
+``hide`` leaves layers out (as ``rodsim plot --colour`` and ``--hide`` do the run
+figure). It is written as an animated GIF with Pillow (which matplotlib requires; a
+missing Pillow is a one-line PlotError before any file is written), atomically."""
 
 from __future__ import annotations
 
@@ -19,9 +23,11 @@ import matplotlib.pyplot as plt
 import numpy as np
 import xarray as xr
 
+from rodsim.app.figures.colouring import Colouring
 from rodsim.app.figures.inverse import PROJECTIONS, out_of_plane, short_key
 from rodsim.app.figures.scene_drawing import draw_parts
 from rodsim.app.figures.scene_parts import scene_parts
+from rodsim.app.figures.state_series import colour_bar, evenly, state_colours
 from rodsim.app.figures.style import style
 from rodsim.app.figures.writer import PlotError
 from rodsim.io.atomic import write_atomic
@@ -76,20 +82,25 @@ def frames(ds: xr.Dataset) -> tuple[list[int], list[str]]:
         unit = key_variable(ds, ramp).attrs.get("units", "")
         return list(range(count)), [f"step {k + 1} of {count}: {short_key(ramp)} = "
                                     f"{values[k]:.4g} {unit}" for k in range(count)]
-    picked = [int(k) for k in np.unique(np.rint(np.linspace(0, count - 1,
-                                                            min(count, MAX_FRAMES))))]
+    picked = evenly(count, MAX_FRAMES)
     times = ds["time"].values
     return picked, [f"t = {times[k]:.4g} s (output {k + 1} of {count})" for k in picked]
 
 
-def write_movie(ds: xr.Dataset, path: str | Path) -> Path:
+def write_movie(ds: xr.Dataset, path: str | Path, colour: str | None = None,
+                hide: frozenset[str] = frozenset()) -> Path:
     """Write the GIF of track or trajectory archive ``ds`` to ``path`` (PlotError for
-    another kind)."""
+    another kind); ``colour`` and ``hide``: see the module docstring."""
     check_movie(ds)
     image = _encoder()
     picked, captions = frames(ds)
     every = ds["position"].values
     states = [scene_parts(ds, k) for k in picked]
+    colourings: list[Colouring | None] = [None] * len(states)
+    scale = None
+    if colour:
+        found, scale = state_colours(ds, colour, picked, states)
+        colourings = list(found)
     extent = np.concatenate([s.points() for s in states])
     views = PROJECTIONS if out_of_plane(extent) else PROJECTIONS[:1]
     title = textwrap.fill(str(ds.attrs.get("title", "")), 44 * len(views))  # the frame's width
@@ -98,10 +109,15 @@ def write_movie(ds: xr.Dataset, path: str | Path) -> Path:
         figure, axes = plt.subplots(1, len(views), figsize=(4.2 * len(views) + 0.6, 4.6),
                                     squeeze=False, dpi=100, layout="constrained")
         try:
-            for k, parts, caption in zip(picked, states, captions, strict=True):
+            if colour:
+                assert scale is not None and colourings[0] is not None
+                colour_bar(figure, list(axes[0]), colourings[0], scale, shrink=0.8)
+            for k, parts, caption, colours in zip(picked, states, captions, colourings,
+                                                  strict=True):
                 for panel, view in zip(axes[0], views, strict=True):
                     panel.clear()
-                    draw_parts(panel, parts, view, extent=np.concatenate([extent, every[k]]))
+                    draw_parts(panel, parts, view, extent=np.concatenate([extent, every[k]]),
+                               hide=hide, colours=colours, scale=scale)
                 figure.suptitle(f"{title}\n{caption}")
                 buffer = io.BytesIO()  # through PNG: any backend, a notebook's too
                 figure.savefig(buffer, format="png")

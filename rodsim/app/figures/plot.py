@@ -38,6 +38,7 @@ from rodsim.app.figures.inverse import (
     run_figure,
     track_figure,
 )
+from rodsim.app.figures.layers import hidden_layers
 from rodsim.app.figures.modes import modes_figure
 from rodsim.app.figures.study_centerlines import centerlines_figure, centerlines_result
 from rodsim.app.figures.study_errors import (
@@ -61,20 +62,24 @@ DRAWERS = {"centerlines": centerlines_figure, "error_vs_parameter": error_vs_par
 RESULTS = {"centerlines": centerlines_result, "error_vs_parameter": error_vs_parameter_result,
            "error_vs_iteration": error_vs_iteration_result}
 #: Figures of the inverse tools' archives, by their ``kind`` attribute.
-KIND_DRAWERS = {"track": track_figure, "fit": fit_figure, "reach": reach_figure,
-                "modes": modes_figure, "trajectory": trajectory_figure}
+KIND_DRAWERS = {"fit": fit_figure, "reach": reach_figure, "modes": modes_figure}
+#: Figures of the archives of several states, which draw them coloured (``--colour``) and
+#: with layers left out (``--hide``), by their ``kind`` attribute.
+SERIES_DRAWERS = {"track": track_figure, "trajectory": trajectory_figure}
 
 
-def plot_dataset(ds: xr.Dataset, stem: str | Path, formats: Iterable[str] = ("png", "pdf")
-                 ) -> list[Path]:
+def plot_dataset(ds: xr.Dataset, stem: str | Path, formats: Iterable[str] = ("png", "pdf"),
+                 colour: str | None = None, hide: str | Iterable[str] = ()) -> list[Path]:
     """Draw the archive's figure and write ``stem.<format>`` for each format.
 
     The formats and the folder are checked first (``check_output``); a format that
-    fails to write (e.g. ``pgf`` without LaTeX) leaves no partial file. Raises
-    ``PlotError``.
+    fails to write (e.g. ``pgf`` without LaTeX) leaves no partial file. ``colour`` and
+    ``hide``: see ``draw_figure``. Raises ``PlotError``.
     """
     formats = check_output(stem, formats)
     ds = from_file(ds)
+    hidden = hidden_layers(hide)
+    _check_run_options(ds, colour, hidden)
     if ds.attrs.get("kind") == "batch":
         raise PlotError("a batch archive has no figure: select cases with xarray "
                         "(ds.sel(case=…)) and plot their positions (docs/batch.md)")
@@ -86,7 +91,7 @@ def plot_dataset(ds: xr.Dataset, stem: str | Path, formats: Iterable[str] = ("pn
     paths = []
     if html:
         try:
-            paths.append(view3d.write_html(ds, html_target(stem)))
+            paths.append(view3d.write_html(ds, html_target(stem), colour, hidden))
         except OSError as exc:
             raise PlotError(f"cannot write {stem}.{HTML}: {exc.strerror or exc}") from None
     if not formats:
@@ -95,7 +100,7 @@ def plot_dataset(ds: xr.Dataset, stem: str | Path, formats: Iterable[str] = ("pn
         warnings.filterwarnings("ignore", message="Glyph .* missing from font",
                                 category=UserWarning)
         with style():
-            return write_figure(draw_figure(ds), stem, formats) + paths
+            return write_figure(draw_figure(ds, colour, hidden), stem, formats) + paths
 
 
 def three_dimensional(ds: xr.Dataset) -> bool:
@@ -106,14 +111,23 @@ def three_dimensional(ds: xr.Dataset) -> bool:
     return out_of_plane(ds["position"].values)
 
 
-def draw_figure(ds: xr.Dataset) -> Figure:
+def draw_figure(ds: xr.Dataset, colour: str | None = None, hide: str | Iterable[str] = ()
+                ) -> Figure:
     """The archive's figure, not written (the caller closes it); draw it inside
     ``style``. A study figure's title states the measured result (``RESULTS``).
-    Raises ``PlotError`` for an unknown plot kind, and for a study in which every
+    A run's, a track's or a trajectory's figure only: ``colour`` colours the rods by
+    ``curvature`` or ``strain`` or the tendons by ``tension``
+    (``rodsim.app.figures.colouring``; a track's steps and a trajectory's output times on one
+    shared scale: ``rodsim.app.figures.state_series``), ``hide`` leaves out layers
+    (``rodsim.app.figures.layers.LAYERS``).
+    Raises ``PlotError`` for an unknown plot kind, colouring or layer, a colouring the
+    archive has no data for, and for a study in which every
     point failed (rodsim writes such archives: there is no shape or error to draw). A Dataset
     opened with plain xarray from a schema 3 file gets its labels back first
     (``rodsim.io.cf_layout.from_file``)."""
     ds = from_file(ds)
+    hidden = hidden_layers(hide)
+    _check_run_options(ds, colour, hidden)
     if "study" in ds.attrs:
         kind = ds.attrs.get("plot", "centerlines")
         if not isinstance(kind, str) or kind not in DRAWERS:
@@ -126,6 +140,19 @@ def draw_figure(ds: xr.Dataset) -> Figure:
         figure = DRAWERS[kind](ds)
         labels.study_title(figure, ds, RESULTS[kind](ds))
         return figure
+    if ds.attrs.get("kind") in SERIES_DRAWERS:
+        return SERIES_DRAWERS[ds.attrs["kind"]](ds, colour, hidden)
     if ds.attrs.get("kind") in KIND_DRAWERS:
         return KIND_DRAWERS[ds.attrs["kind"]](ds)
-    return run_figure(ds)
+    return run_figure(ds, colour, hidden)
+
+
+def _check_run_options(ds: xr.Dataset, colour: str | None, hidden: frozenset[str]) -> None:
+    """Colouring and hidden layers are the figures' of a run, a track and a trajectory:
+    refused for any other archive."""
+    kind = ds.attrs.get("kind")
+    if (colour or hidden) and ("study" in ds.attrs or kind in KIND_DRAWERS):
+        what = "--colour" if colour else "--hide"
+        other = "a study" if "study" in ds.attrs else f"a {kind} archive"
+        raise PlotError(f"{what} applies to the figure of a run, track or trajectory "
+                        f"archive, not to {other}")

@@ -13,10 +13,15 @@ there; one across the view is a circle with a dot (out of the page) or a cross (
 
 from __future__ import annotations
 
+from typing import Any
+
 import matplotlib.pyplot as plt
 import numpy as np
 from matplotlib.collections import LineCollection
+from matplotlib.colors import Colormap, Normalize
 
+from rodsim.app.figures import layers
+from rodsim.app.figures.colouring import ColouredLine, Colouring, colour_scale
 from rodsim.app.figures.scene_parts import Arrow, SceneParts
 
 __all__ = ["draw_parts", "frame_box"]
@@ -36,9 +41,16 @@ def frame_box(points: np.ndarray, margin: float = 0.15) -> tuple[np.ndarray, np.
 
 
 def draw_parts(ax: plt.Axes, parts: SceneParts, view: tuple[int, int],
-               extent: np.ndarray | None = None, loads: bool = True) -> None:
+               extent: np.ndarray | None = None, hide: frozenset[str] = frozenset(),
+               colours: Colouring | None = None,
+               scale: tuple[Normalize, Colormap] | None = None, diameter: bool = True
+               ) -> None:
     """Draw ``parts`` on ``ax`` in the plane of the world axes ``view``; limits around the
-    parts (or around the points ``extent`` (n, 3), e.g. every step of a track)."""
+    parts (or around the points ``extent`` (n, 3), e.g. every step of a track). The layers
+    ``hide`` (``rodsim.app.figures.layers.LAYERS``) are left out; the lines of ``colours``
+    (``rodsim.app.figures.colouring``) are drawn in ``scale`` (by default their own,
+    ``colour_scale``; several states share one: ``shared_scale``). ``diameter``: the rods'
+    diameter drawn under their centerlines (left out when many states overlap)."""
     a, b = view
     frame = parts.points() if extent is None else extent.reshape(-1, 3)
     for obstacle in parts.obstacles:  # a vessel is shown whole
@@ -48,31 +60,44 @@ def draw_parts(ax: plt.Axes, parts: SceneParts, view: tuple[int, int],
     lower, upper = frame_box(frame)
     size = float(max(upper[a] - lower[a], upper[b] - lower[b]))
     level = float(np.mean(parts.points()[:, 3 - a - b]))
-    for obstacle in parts.obstacles:
+    for obstacle in () if layers.OBSTACLE in hide else parts.obstacles:
         curves = [c[:, [a, b]] for c in obstacle.outline(view, level, lower, upper)]
         ax.add_collection(LineCollection(curves, colors=OBSTACLE, lw=1.3, zorder=1,
                                          gid=f"obstacle:{obstacle.name}",
                                          label=f"{obstacle.type} {obstacle.name}"),
                           autolim=False)
-    for name, nodes in parts.rods.items():
-        ax.plot(nodes[:, a], nodes[:, b], color=ROD, lw=1.0, marker=".", ms=2.5, zorder=3,
-                gid=f"rod:{name}", label=f"rod {name}")
-    for index, tendon in enumerate(parts.tendons):
+    rods = {} if layers.SHAPE in hide else parts.rods
+    tendons = [] if layers.TENDON in hide else parts.tendons
+    lines = {} if colours is None else colours.lines
+    if colours is not None and scale is None:
+        scale = colour_scale(colours)
+    for name, nodes in rods.items():
+        if name in lines:
+            _coloured(ax, lines[name], view, scale, gid=f"rod:{name}", lw=2.0, zorder=3)
+        else:
+            ax.plot(nodes[:, a], nodes[:, b], color=ROD, lw=1.0, marker=".", ms=2.5,
+                    zorder=3, gid=f"rod:{name}", label=f"rod {name}")
+    for index, tendon in enumerate(tendons):
         p = tendon.points
         colour = TENDONS[index % len(TENDONS)]
-        ax.plot(p[:, a], p[:, b], ls="--" if tendon.string else "-",
-                marker="|" if tendon.string else None, ms=4, gid=f"tendon:{tendon.name}",
-                label=f"tendon {tendon.name}", color=colour, lw=0.9, zorder=4)
+        if tendon.name in lines:
+            _coloured(ax, lines[tendon.name], view, scale, gid=f"tendon:{tendon.name}",
+                      lw=1.8, zorder=4, ls="--" if tendon.string else "-")
+        else:
+            ax.plot(p[:, a], p[:, b], ls="--" if tendon.string else "-",
+                    marker="|" if tendon.string else None, ms=4, gid=f"tendon:{tendon.name}",
+                    label=f"tendon {tendon.name}", color=colour, lw=0.9, zorder=4)
         ax.plot(p[-1, a], p[-1, b], ls="none", marker="s", ms=4, mfc="white",
                 color=colour, zorder=5, gid=f"termination:{tendon.name}")
-    if loads:
+    if layers.LOAD not in hide:
         _arrows(ax, [x for x in parts.loads if not x.moment], view, 0.2 * size, LOAD, "N",
                 "forces")
         _arrows(ax, [x for x in parts.loads if x.moment], view, 0.2 * size, LOAD, "N m",
                 "moments", dashed=True)
-    _arrows(ax, parts.contacts, view, 0.2 * size, CONTACT, "N", "contact", legend=False)
-    if parts.contacts:
-        largest = max(float(np.linalg.norm(x.vector)) for x in parts.contacts)
+    contacts = [] if layers.CONTACT in hide else parts.contacts
+    _arrows(ax, contacts, view, 0.2 * size, CONTACT, "N", "contact", legend=False)
+    if contacts:
+        largest = max(float(np.linalg.norm(x.vector)) for x in contacts)
         ax.plot([], [], color=CONTACT, marker=">", label=f"contact forces (largest "
                 f"{1e3 * largest:.3g} mN)")
     ax.dataLim.set_points(np.array([[lower[a], lower[b]], [upper[a], upper[b]]]))
@@ -84,9 +109,19 @@ def draw_parts(ax: plt.Axes, parts: SceneParts, view: tuple[int, int],
     # the rods' diameter, in points at the panel's present scale
     width_per_m = (ax.bbox.width / max(float(np.diff(ax.get_xlim())[0]), 1e-300)
                    * 72 / ax.figure.dpi)
-    for name, nodes in parts.rods.items():
+    for name, nodes in rods.items() if diameter else ():
         ax.plot(nodes[:, a], nodes[:, b], color=ROD, alpha=0.2, solid_capstyle="round",
                 lw=max(1.0, 2 * parts.radii[name] * width_per_m), zorder=2)
+
+
+def _coloured(ax: plt.Axes, line: ColouredLine, view: tuple[int, int],
+              scale: tuple[Normalize, Colormap] | None, **style: Any) -> None:
+    """A line's pieces in the plane ``view``, each in the colour of its value on ``scale``
+    (``colour_scale``); the colour bar names it, not the legend."""
+    assert scale is not None  # a coloured line comes with its colouring's scale
+    pieces = line.pieces[:, :, list(view)]
+    ax.add_collection(LineCollection(list(pieces), array=line.values, norm=scale[0],
+                                     cmap=scale[1], capstyle="round", **style), autolim=False)
 
 
 def _arrows(ax: plt.Axes, arrows: list[Arrow], view: tuple[int, int], length: float,

@@ -34,7 +34,7 @@ from rodsim.core.terms._dead_load import unit_direction
 from rodsim.core.terms.base import FIGURE_LAYERS
 
 __all__ = ["term_drawings", "FRAME_DIMENSIONS", "SHAPE", "TENDON", "LOAD", "CONTACT",
-           "Arrow", "TendonPath", "SceneParts", "scene_parts"]
+           "Arrow", "TendonPath", "SceneParts", "scene_parts", "at_step"]
 
 #: How a term shows in a figure (its ``rodsim.core.terms.base.Term.figure_layer``): in the
 #: rods' shape, as a tendon's path, as load arrows, or as the contact forces on the obstacles.
@@ -61,12 +61,14 @@ class Arrow:
 
 @dataclass(frozen=True)
 class TendonPath:
-    """A tendon's path (P, 3) [m]: a string tendon's routing points (``string``) or a rod
-    tendon's control points; the termination is the last point."""
+    """A tendon's path (P, 3) [m]: a string tendon's routing points (``string``, at rest arc
+    lengths ``s`` (P,) [m] along its catheter) or a rod tendon's control points; the
+    termination is the last point."""
 
     name: str
     points: np.ndarray
     string: bool
+    s: np.ndarray | None = None
 
 
 @dataclass(frozen=True)
@@ -92,7 +94,9 @@ class SceneParts:
 FRAME_DIMENSIONS = ("step", "time")
 
 
-def _at(variable: xr.DataArray, step: int | None) -> np.ndarray:
+def at_step(variable: xr.DataArray, step: int | None) -> np.ndarray:
+    """``variable`` at a track's step or a trajectory's output time ``step`` (the last by
+    default); a variable without either dimension as it is."""
     for dimension in FRAME_DIMENSIONS:
         if dimension in variable.dims:
             return variable.isel({dimension: -1 if step is None else step}).values
@@ -109,14 +113,15 @@ def _arc_length(positions: np.ndarray) -> np.ndarray:
 def scene_parts(ds: xr.Dataset, step: int | None = None) -> SceneParts:
     """The parts of run, fit, reach, track or trajectory archive ``ds`` (a track's step
     ``step`` or a trajectory's output time of that index, the last by default; a
-    trajectory's loads are drawn with the scene's values, not its programs')."""
-    from rodsim.io.archive_schema import stored_scene
+    track's loads are drawn with the values of that step, a trajectory's with its programs'
+    values at that time: ``rodsim.app.figures.state_scene``)."""
+    from rodsim.app.figures.state_scene import state_scene
 
-    scene = stored_scene(ds.attrs["scene_json"], "attribute 'scene_json'")
-    raw = json.loads(ds.attrs["scene_json"])
-    positions = _at(ds["position"], step)
+    scene = state_scene(ds, step)
+    raw = json.loads(scene.to_json())
+    positions = at_step(ds["position"], step)
     node_rod = ds["rod"].values.astype(str)
-    quaternions = _at(ds["quaternion"], step) if "quaternion" in ds else None
+    quaternions = at_step(ds["quaternion"], step) if "quaternion" in ds else None
     segment_rod = ds["segment_rod"].values.astype(str) if "segment_rod" in ds else None
     tendons_raw = raw.get("tendons", {}) or {}
     rods = {name: positions[node_rod == name] for name in dict.fromkeys(node_rod)}
@@ -132,10 +137,10 @@ def scene_parts(ds: xr.Dataset, step: int | None = None) -> SceneParts:
         if name in rods:
             paths.append(TendonPath(name, rods.pop(name), string=False))
         elif "tendon_string" in table and table["catheter"] in frames:
-            paths.append(TendonPath(name, _string_path(
+            points, s = _string_path(
                 table, rods[table["catheter"]], node_s[table["catheter"]],
-                *frames[table["catheter"]], float(raw["rods"][table["catheter"]]["length"])),
-                string=True))
+                *frames[table["catheter"]], float(raw["rods"][table["catheter"]]["length"]))
+            paths.append(TendonPath(name, points, string=True, s=s))
     obstacles = [build_obstacle(name, table)
                  for name, table in scene.data.get("obstacles", {}).items()]
     rods_raw = raw["rods"]
@@ -147,7 +152,7 @@ def scene_parts(ds: xr.Dataset, step: int | None = None) -> SceneParts:
             loads.extend(_actuation(name, table, paths, frames.get(table["catheter"])))
     contacts: list[Arrow] = []
     if "contact_force" in ds:
-        forces = _at(ds["contact_force"], step)
+        forces = at_step(ds["contact_force"], step)
         contacts = [Arrow(f"contact:{node_rod[i]}", "contact force", positions[i], forces[i])
                     for i in np.flatnonzero(np.linalg.norm(forces, axis=1) > 0.0)]
     radii = {name: float(rods_raw[name]["radius"]) for name in rods}
@@ -174,7 +179,9 @@ def _along(s: np.ndarray, node_s: np.ndarray, nodes: np.ndarray) -> np.ndarray:
 
 
 def _string_path(table: dict[str, Any], nodes: np.ndarray, node_s: np.ndarray,
-                 knots: np.ndarray, quaternions: np.ndarray, length: float) -> np.ndarray:
+                 knots: np.ndarray, quaternions: np.ndarray, length: float
+                 ) -> tuple[np.ndarray, np.ndarray]:
+    """The routing points (P, 3) [m] and their rest arc lengths (P,) [m]."""
     string = SimpleNamespace(**table["tendon_string"])
     routing = Routing.of(float(table["offset"]), table["direction"], string)
     start, end = string_span(string, length)
@@ -183,7 +190,8 @@ def _string_path(table: dict[str, Any], nodes: np.ndarray, node_s: np.ndarray,
     s = np.concatenate([[start], inner, [end]])
     frame = _frame_at(s, knots, quaternions)
     rho = routing.offsets(s)
-    return (_along(s, node_s, nodes) + rho[:, 0:1] * frame[:, 0] + rho[:, 1:2] * frame[:, 1])
+    return (_along(s, node_s, nodes) + rho[:, 0:1] * frame[:, 0] + rho[:, 1:2] * frame[:, 1],
+            s)
 
 
 def _rod_loads(name: str, table: dict[str, Any], nodes: np.ndarray, node_s: np.ndarray,

@@ -1,6 +1,8 @@
 """The figure of a trajectory archive (``rodsim simulate``; docs/dynamics.md): the first
 rod's tip coordinates against time, and the energies against time with the balance
-T + V + D − W − (T₀ + V₀), the integrator's own error (docs/dynamics.md, "Energy")."""
+T + V + D − W − (T₀ + V₀), the integrator's own error (docs/dynamics.md, "Energy"); with
+``rodsim plot --colour`` or ``--hide`` a third panel, the shapes at ``SHAPES`` output times
+(``rodsim.app.figures.state_series``)."""
 
 from __future__ import annotations
 
@@ -9,15 +11,34 @@ import numpy as np
 import xarray as xr
 from matplotlib.figure import Figure
 
-__all__ = ["trajectory_figure"]
+from rodsim.app.figures.state_series import colour_bar, draw_states, evenly
+
+__all__ = ["trajectory_figure", "SHAPES"]
+
+#: The most output times whose shapes the third panel draws (evenly spaced, the first and
+#: the last among them).
+SHAPES = 8
 
 
-def trajectory_figure(ds: xr.Dataset) -> Figure:
+def trajectory_figure(ds: xr.Dataset, colour: str | None = None,
+                      hide: frozenset[str] = frozenset()) -> Figure:
     """Two panels: the tip's x, y, z [m] against t [s]; the kinetic energy T, the potential
     energy's change V − V₀, the dissipated energy D, the work W and the balance error [J]
-    (the last two and V only where the scene is conservative: NaN is not drawn)."""
-    figure, (motion, energy) = plt.subplots(1, 2, figsize=(11.0, 4.2),
-                                            constrained_layout=True)
+    (the last two and V only where the scene is conservative: NaN is not drawn). With
+    ``colour`` or ``hide``, a third: the shapes at ``SHAPES`` output times in x–y, as
+    a run's figure draws them (each with its programs' values), coloured on one scale,
+    the layers ``hide`` left out."""
+    shown = bool(colour or hide) and int(ds.sizes["time"]) > 0
+    figure, axes = plt.subplots(1, 2 + shown, figsize=(11.0 + 4.6 * shown, 4.2),
+                                constrained_layout=True)
+    motion, energy = axes[0], axes[1]
+    if shown:
+        picked = evenly(int(ds.sizes["time"]), SHAPES)
+        drawn = draw_states(axes[2], ds, picked, (0, 1), colour, hide)
+        if drawn is not None:
+            colour_bar(figure, [axes[2]], *drawn)
+        shown_times = ", ".join(f"{t:.3g}" for t in ds["time"].values[picked])
+        axes[2].set_title(f"shapes at t = {shown_times} s", fontsize="small")
     times = ds["time"].values
     rods = ds["rod"].values.astype(str)
     first = rods[0]

@@ -1,7 +1,10 @@
 """An interactive 3D view of an archive as a standalone HTML file (plotly): the rods, the
 tendons' paths and terminations, the obstacles (translucent), the loads and the contact
 forces (``rodsim.app.figures.scene_parts``); a track is animated, one frame per step
-(a slider and a play button).
+(a slider and a play button). As the run figure: ``colour`` colours the rods' (or, for
+tension, the tendons') line traces by their value (``rodsim.app.figures.colouring``; a
+track's steps on one shared scale), with a colour bar titled with the quantity and its
+unit; the traces of the layers ``hide`` (``rodsim.app.figures.layers``) are left out.
 
 plotly is an optional extra (``pip install "rodsim[view3d]"``): without it
 ``available`` is False, ``rodsim plot`` writes its usual figures and says nothing about
@@ -28,6 +31,8 @@ from typing import Any
 import numpy as np
 import xarray as xr
 
+from rodsim.app.figures import layers
+from rodsim.app.figures.colouring import ColouredLine, Colouring
 from rodsim.app.figures.scene_parts import Arrow, SceneParts, scene_parts
 from rodsim.io.atomic import write_atomic
 
@@ -80,33 +85,73 @@ def fitted_camera(points: np.ndarray) -> tuple[dict[str, Any], dict[str, Any]]:
     return scene, camera
 
 
-def _moving(parts: SceneParts, size: float) -> list[Any]:
-    """The traces that move with the state: rods, tendons, terminations, arrows."""
+def _moving(parts: SceneParts, size: float, hide: frozenset[str] = frozenset(),
+            colours: Colouring | None = None, scale: tuple[Any, Any] | None = None
+            ) -> list[Any]:
+    """The traces that move with the state: rods, tendons, terminations, arrows, but those
+    of the layers ``hide``; the lines of ``colours`` coloured on ``scale``
+    (``rodsim.app.figures.colouring.colour_scale``), the first with the colour bar."""
     import plotly.graph_objects as go
 
     traces: list[Any] = []
-    for rod, nodes in parts.rods.items():
+    lines = {} if colours is None else colours.lines
+    for rod, nodes in {} if layers.SHAPE in hide else parts.rods.items():
+        if rod in lines:
+            assert colours is not None and scale is not None
+            traces.append(_coloured(lines[rod], rod, colours.label, scale, 8,
+                                    bar=not traces))
+            continue
         traces.append(go.Scatter3d(
             x=nodes[:, 0], y=nodes[:, 1], z=nodes[:, 2], mode="lines+markers", name=rod,
             marker={"size": 3, "color": ROD}, line={"width": 6, "color": ROD},
             hovertemplate=(f"{rod} node %{{pointNumber}}<br>x %{{x:.5g}} m<br>"
                            "y %{y:.5g} m<br>z %{z:.5g} m<extra></extra>")))
-    for index, tendon in enumerate(parts.tendons):
+    for index, tendon in enumerate([] if layers.TENDON in hide else parts.tendons):
         p, colour = tendon.points, TENDONS[index % len(TENDONS)]
-        traces.append(go.Scatter3d(
-            x=p[:, 0], y=p[:, 1], z=p[:, 2], mode="lines+markers", name=tendon.name,
-            legendgroup=tendon.name, line={"width": 3, "color": colour,
-                                            "dash": "dash" if tendon.string else "solid"},
-            marker={"size": 1.5, "color": colour},
-            hovertemplate=f"tendon {tendon.name}<extra></extra>"))
+        if tendon.name in lines:
+            assert colours is not None and scale is not None
+            traces.append(_coloured(lines[tendon.name], tendon.name, colours.label, scale, 5,
+                                    bar=index == 0, dash="dash" if tendon.string else "solid"))
+        else:
+            traces.append(go.Scatter3d(
+                x=p[:, 0], y=p[:, 1], z=p[:, 2], mode="lines+markers", name=tendon.name,
+                legendgroup=tendon.name, line={"width": 3, "color": colour,
+                                                "dash": "dash" if tendon.string else "solid"},
+                marker={"size": 1.5, "color": colour},
+                hovertemplate=f"tendon {tendon.name}<extra></extra>"))
         traces.append(go.Scatter3d(
             x=p[-1:, 0], y=p[-1:, 1], z=p[-1:, 2], mode="markers", legendgroup=tendon.name,
             name=f"termination {tendon.name}", showlegend=False,
             marker={"size": 5, "symbol": "square-open", "color": colour}))
-    for arrows, colour, what in ((parts.loads, LOAD, "loads"),
-                                 (parts.contacts, CONTACT, "contact forces")):
-        traces.append(_arrow_trace(arrows, 0.2 * size, colour, what))
+    for arrows, colour, what, layer in ((parts.loads, LOAD, "loads", layers.LOAD),
+                                        (parts.contacts, CONTACT, "contact forces",
+                                         layers.CONTACT)):
+        if layer not in hide:
+            traces.append(_arrow_trace(arrows, 0.2 * size, colour, what))
     return traces
+
+
+def _coloured(line: ColouredLine, name: str, label: str, scale: tuple[Any, Any], width: int,
+              bar: bool, dash: str = "solid") -> Any:
+    """A line trace of ``line``'s pieces, each in the colour of its value on ``scale``
+    (norm, colormap): the pieces apart (NaN between them), both ends of a piece carrying
+    its value; the colour bar titled ``label`` when ``bar``."""
+    import plotly.graph_objects as go
+
+    norm, cmap = scale
+    count = len(line.pieces)
+    points = np.concatenate([line.pieces, np.full((count, 1, 3), np.nan)], axis=1
+                            ).reshape(-1, 3)
+    values = np.repeat(line.values, 3)
+    colorscale = [[float(x), "rgb({:.0f},{:.0f},{:.0f})".format(*(255 * np.array(cmap(x)[:3])))]
+                  for x in np.linspace(0.0, 1.0, 11)]
+    return go.Scatter3d(
+        x=points[:, 0], y=points[:, 1], z=points[:, 2], mode="lines", name=name,
+        line={"width": width, "color": values, "colorscale": colorscale,
+              "cmin": float(norm.vmin), "cmax": float(norm.vmax), "showscale": bar,
+              "colorbar": {"title": {"text": label}}, "dash": dash},
+        customdata=values, hovertemplate=f"{name}<br>%{{customdata:.4g}} ({label})"
+                                         "<extra></extra>")
 
 
 def _arrow_trace(arrows: list[Arrow], length: float, colour: str, name: str) -> Any:
@@ -160,12 +205,21 @@ def _obstacles(parts: SceneParts, lower: np.ndarray, upper: np.ndarray) -> list[
     return traces
 
 
-def view_figure(ds: xr.Dataset) -> Any:
-    """The plotly Figure of the run, fit, reach or track archive ``ds``."""
+def view_figure(ds: xr.Dataset, colour: str | None = None,
+                hide: frozenset[str] = frozenset()) -> Any:
+    """The plotly Figure of the run, fit, reach or track archive ``ds``; ``colour`` and
+    ``hide``: see the module docstring."""
     import plotly.graph_objects as go
+
+    from rodsim.app.figures.state_series import state_colours
 
     count = _steps(ds)
     states = [scene_parts(ds, step) for step in range(count)]
+    colourings: list[Colouring | None] = [None] * count
+    scale = None
+    if colour:
+        found, scale = state_colours(ds, colour, range(count), states)
+        colourings = list(found)
     every = np.concatenate([p.points() for p in states])
     if "target" in ds:
         every = np.concatenate([every, ds["target"].values[None, :]])
@@ -176,9 +230,11 @@ def view_figure(ds: xr.Dataset) -> Any:
     upper = np.array([scene[f"{n}axis"]["range"][1] for n in "xyz"])
     size = float(np.max(upper - lower))
     last = states[-1]
-    figure = go.Figure(_moving(last, size))
+    frames = [_moving(parts, size, hide, colours, scale)
+              for parts, colours in zip(states, colourings, strict=True)]
+    figure = go.Figure(frames[-1])
     moving = len(figure.data)
-    for trace in _obstacles(last, lower, upper):
+    for trace in [] if layers.OBSTACLE in hide else _obstacles(last, lower, upper):
         figure.add_trace(trace)
     if "target" in ds:
         target = ds["target"].values
@@ -194,14 +250,13 @@ def view_figure(ds: xr.Dataset) -> Any:
                          scene={**scene, "camera": camera},
                          margin={"l": 0, "r": 0, "t": 40, "b": 0})
     if count > 1:
-        _animate(figure, ds, states, moving, size)
+        _animate(figure, ds, frames, moving)
     return figure
 
 
-def _animate(figure: Any, ds: xr.Dataset, states: list[SceneParts], moving: int,
-             size: float) -> None:
-    """One frame per step of a track (its moving traces), a slider and a play button; the
-    figure opens on the last step."""
+def _animate(figure: Any, ds: xr.Dataset, states: list[list[Any]], moving: int) -> None:
+    """One frame per step of a track (its moving traces ``states``), a slider and a play
+    button; the figure opens on the last step."""
     import json
 
     import plotly.graph_objects as go
@@ -214,8 +269,8 @@ def _animate(figure: Any, ds: xr.Dataset, states: list[SceneParts], moving: int,
     values = key_variable(ds, ramp).values if ramp else np.arange(len(states))
     label = short_key(ramp) if ramp else "step"
     names = [f"{k}" for k in range(len(states))]
-    figure.frames = [go.Frame(data=_moving(parts, size), traces=list(range(moving)),
-                              name=name) for parts, name in zip(states, names, strict=True)]
+    figure.frames = [go.Frame(data=traces, traces=list(range(moving)), name=name)
+                     for traces, name in zip(states, names, strict=True)]
     play = {"label": "play", "method": "animate",
             "args": [None, {"frame": {"duration": 150, "redraw": True}, "fromcurrent": True,
                             "transition": {"duration": 0}}]}
@@ -233,9 +288,11 @@ def _animate(figure: Any, ds: xr.Dataset, states: list[SceneParts], moving: int,
                             for v, name in zip(values, names, strict=True)]}])
 
 
-def write_html(ds: xr.Dataset, path: str | Path) -> Path:
-    """Write the 3D view of the run, fit, reach or track archive ``ds`` to ``path``."""
-    figure = view_figure(ds)
+def write_html(ds: xr.Dataset, path: str | Path, colour: str | None = None,
+               hide: frozenset[str] = frozenset()) -> Path:
+    """Write the 3D view of the run, fit, reach or track archive ``ds`` to ``path``
+    (``colour``, ``hide``: ``view_figure``)."""
+    figure = view_figure(ds, colour, hide)
     path = Path(path)
     write_atomic(path, lambda temporary: figure.write_html(
         temporary, include_plotlyjs=True, full_html=True), follow_umask=True)

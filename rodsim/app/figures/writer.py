@@ -13,6 +13,7 @@ import matplotlib.pyplot as plt
 from matplotlib.figure import Figure
 
 from rodsim.app.figures import view3d
+from rodsim.app.figures.errors import PlotError
 from rodsim.app.figures.style import DPI
 from rodsim.io.atomic import write_atomic
 from rodsim.io.output import OutputError, check_target
@@ -22,10 +23,6 @@ __all__ = ["HTML", "PlotError", "supported_formats", "check_output", "write_figu
 
 #: The format of the interactive 3D view (rodsim/app/figures/view3d.py, plotly).
 HTML = "html"
-
-
-class PlotError(ValueError):
-    """A figure cannot be drawn or written: unknown format, unwritable folder, bad archive."""
 
 
 def supported_formats() -> list[str]:

@@ -227,6 +227,10 @@ class ScaledEquilibria:
         #: Evaluations whose equilibrium could not be solved (see :meth:`residual_or_none`).
         self.failures = 0
         self.last_failure = ""
+        #: The values of every equilibrium the continuation stood at, in order, from the
+        #: scene's own (its cold solve): the history its friction carries
+        #: (rodsim/app/inverse/path_record.py).
+        self.path = [self.values.copy()]
 
     @classmethod
     def at_scene_values(cls, scene: Scene, keys: Sequence[NumericKey], rod: str,
@@ -282,6 +286,7 @@ class ScaledEquilibria:
                                                  zip(self.keys, values, strict=True))
                 + f": {message}")
         self.values = values
+        self.path.append(values.copy())
         self.evaluations += 1
 
     def reached(self, u: np.ndarray) -> bool:

@@ -68,6 +68,7 @@ from rodsim.app.inverse.measured_points import (
     span_dimension,
 )
 from rodsim.app.inverse.parameter_keys import NumericKey, numeric_keys
+from rodsim.app.inverse.path_record import record_path
 from rodsim.core.scene import Scene
 from rodsim.io.cf_layout import variable_name
 from rodsim.io.provenance import history
@@ -118,6 +119,9 @@ class Fit:
     matched: np.ndarray
     rod: str
     result: Result
+    #: The values of every equilibrium of the continuation, (evaluations, keys): the
+    #: history of the fitted state's tendon friction (rodsim/app/inverse/path_record.py).
+    path: np.ndarray | None = None
 
     @property
     def residual_rms_relative(self) -> float:
@@ -182,6 +186,8 @@ class Fit:
                 "units": key.unit, "scene_key": key.name,
                 "long_name": f"standard error of the fitted {key.name} "
                 "(Gauss-Newton covariance)"})
+        if self.path is not None:
+            record_path(ds, self.keys, self.path, "fit")
         if self.undetermined:  # not a result: the data do not determine these
             ds.attrs["undetermined"] = ", ".join(self.undetermined)
         ds.attrs.update({
@@ -350,4 +356,5 @@ def fit(scene: Scene, points: Points, params: Sequence[str], *, rod: str | None 
                                  "no fit")
     return Fit(keys, initial, values, np.sqrt(np.diag(covariance)), covariance, rms,
                freedom, problem.evaluations, problem.jacobians, time.perf_counter() - started,
-               str(solution.message), points, fitted_points, rod, final)
+               str(solution.message), points, fitted_points, rod, final,
+               np.array(problem.path))

@@ -47,6 +47,7 @@ import numpy as np
 
 from rodsim.app.inverse.continuation import ScaledEquilibria
 from rodsim.app.inverse.parameter_keys import NumericKey, numeric_keys
+from rodsim.app.inverse.path_record import record_path
 from rodsim.core.rod.quaternion import director, director_gradient, directors
 from rodsim.core.scene import Scene
 from rodsim.core.schema import SceneError
@@ -100,6 +101,9 @@ class Reach:
     #: With tendon friction: the values moved but no tendon's termination tension did (the
     #: actuation stayed inside the backlash dead zone; docs/tendon.md, "Friction").
     dead_zone: bool = False
+    #: The values of every equilibrium of the continuation, (evaluations, keys): the
+    #: history of the final state's tendon friction (rodsim/app/inverse/path_record.py).
+    path: np.ndarray | None = None
 
     def __repr__(self) -> str:
         from rodsim.app.inverse.summaries import summary
@@ -128,6 +132,8 @@ class Reach:
                                     "scene_key": key.name})
             ds[f"{name}_initial"] = ((), initial, {"units": key.unit, "scene_key": key.name,
                                                    "long_name": f"starting value of {key.name}"})
+        if self.path is not None:
+            record_path(ds, self.keys, self.path, "reach")
         ds.attrs.update({
             "title": f"rodsim reach of scene {self.result.scene.name!r} (tip of "
                      f"{self.rod!r})",
@@ -296,7 +302,8 @@ def reach(scene: Scene, tip: Sequence[float], actuate: Sequence[str], *,
                    f"with {described}")
     return Reach(keys, initial, values, target, reached, distance, tolerance, success,
                  message, problem.evaluations, problem.jacobians,
-                 time.perf_counter() - started, rod, final, unstable, frame, angle, dead_zone)
+                 time.perf_counter() - started, rod, final, unstable, frame, angle, dead_zone,
+                 np.array(problem.path))
 
 
 def _rubs(scene: Scene) -> bool:
@@ -304,7 +311,8 @@ def _rubs(scene: Scene) -> bool:
     def rubs(string: Any) -> bool:
         return (string.friction > 0.0 or string.static_friction > 0.0
                 or any(value > 0.0 for value in string.friction_points)
-                or any(value > 0.0 for value in string.friction_profile))
+                or any(value > 0.0 for value in string.friction_profile)
+                or any(value > 0.0 for value in string.static_friction_profile))
 
     return any(options.coupling == "string"
                and rubs(scene.term_options("tendons", name, "tendon_string"))

@@ -20,6 +20,17 @@ which the line searches of ``static`` and ``paper`` evaluate; without it the mod
 term's numpy ``energy``. The numpy methods of the term are the reference the kernel must
 reproduce (tests/test_kernels.py).
 
+A module may also define ``evaluate_group``, one call for several terms of its kind (the
+string tendons of one catheter)::
+
+    evaluate_group(x, *group_constants, scales, want_force, force, force_target,
+                   want_jacobian, jacobian, jacobian_target)
+
+with the terms' constants packed by the term class (``Term.group_arguments``, bound by
+name like a single term's), ``scales`` one factor per term, and the members' target maps
+stacked along their elements in term order. It must add what the members' ``evaluate``
+calls add, in the same order (rodsim/core/kernel_group.py).
+
 Nothing here is imported until a model evaluates with ``solver.kernels = "compiled"``, so
 ``import rodsim`` does not pay for numba.
 """
@@ -35,33 +46,50 @@ from typing import TYPE_CHECKING, Any, NamedTuple
 if TYPE_CHECKING:
     from rodsim.core.terms.base import KernelArguments, Term
 
-__all__ = ["Kernel", "load_kernel", "OUTPUT_PARAMETERS", "signature_constants"]
+__all__ = ["Kernel", "load_kernel", "OUTPUT_PARAMETERS", "GROUP_OUTPUT_PARAMETERS",
+           "signature_constants"]
 
 #: The parameters every ``evaluate`` takes after its constants, in this order.
 OUTPUT_PARAMETERS = ("scale", "want_force", "force", "force_target", "want_jacobian",
                      "jacobian", "jacobian_target")
+#: The parameters an ``evaluate_group`` takes after its constants, in this order.
+GROUP_OUTPUT_PARAMETERS = ("scales", *OUTPUT_PARAMETERS[1:])
 
 
 class Kernel(NamedTuple):
     """A term's compiled kernel module: ``evaluate``, ``energy`` (None where the module has
     none) and the names of the constants both take after the state ``x``, read from
-    ``evaluate``'s signature."""
+    ``evaluate``'s signature; ``evaluate_group`` and its constants where the module has one
+    (else None and ())."""
 
     evaluate: Callable[..., None]
     energy: Callable[..., float] | None
     constants: tuple[str, ...]
     module: str
+    evaluate_group: Callable[..., None] | None = None
+    group_constants: tuple[str, ...] = ()
 
     def bind(self, arguments: KernelArguments) -> tuple[Any, ...]:
         """The constants ``arguments`` names, in the order of the kernel's signature; raises
         TypeError naming the kernel when a name is missing or unknown."""
-        missing = [name for name in self.constants if name not in arguments]
-        unknown = [name for name in arguments if name not in self.constants]
-        if missing or unknown:
-            raise TypeError(f"kernel rodsim.core.kernels.{self.module}: "
-                            f"missing constants {missing}, unknown constants {unknown} "
-                            f"(its signature takes {', '.join(self.constants)})")
-        return tuple(arguments[name] for name in self.constants)
+        return _bind(self.module, self.constants, arguments)
+
+    def bind_group(self, arguments: KernelArguments) -> tuple[Any, ...]:
+        """``bind`` for ``evaluate_group``'s constants."""
+        return _bind(self.module, self.group_constants, arguments)
+
+
+def _bind(module: str, constants: tuple[str, ...], arguments: KernelArguments) -> tuple[
+        Any, ...]:
+    """The constants ``arguments`` names, in the order ``constants``; TypeError naming the
+    kernel module when a name is missing or unknown."""
+    missing = [name for name in constants if name not in arguments]
+    unknown = [name for name in arguments if name not in constants]
+    if missing or unknown:
+        raise TypeError(f"kernel rodsim.core.kernels.{module}: "
+                        f"missing constants {missing}, unknown constants {unknown} "
+                        f"(its signature takes {', '.join(constants)})")
+    return tuple(arguments[name] for name in constants)
 
 
 def signature_constants(function: Callable[..., Any], outputs: tuple[str, ...] = ()) -> tuple[
@@ -105,4 +133,7 @@ def _kernel_named(name: str) -> Kernel:
     if energy is not None and signature_constants(energy) != constants:
         raise TypeError(f"kernel rodsim.core.kernels.{name}: energy takes other constants "
                         f"than evaluate ({', '.join(constants)})")
-    return Kernel(module.evaluate, energy, constants, name)
+    group = getattr(module, "evaluate_group", None)
+    group_constants = (signature_constants(group, GROUP_OUTPUT_PARAMETERS) if group is not None
+                       else ())
+    return Kernel(module.evaluate, energy, constants, name, group, group_constants)

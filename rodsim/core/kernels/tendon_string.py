@@ -29,6 +29,10 @@ and the Jacobian is the one at frozen τ_e plus, on a chord up to which the path
 way in one plane from a held entry frame, f ⊗ ∂τ_e/∂x with ∂τ_e/∂x = (∂τ_e/∂Θ_e) ∂ψ_e/∂x,
 ψ_e = ∠(d3, u_e) (rodsim/core/terms/tendon_string.py, "Friction"). With μ = 0 every τ_e is
 T and the coupling is skipped: the frictionless numbers, bitwise.
+
+The string tendons of one catheter are evaluated in one call (``evaluate_group``,
+rodsim/core/kernel_group.py), which sums the element Jacobians of the chords the tendons
+share coordinates on (between the same two nodes) before writing them into the CSC data.
 """
 
 from __future__ import annotations
@@ -37,256 +41,29 @@ import numpy as np
 from numba import njit
 
 from rodsim.core.kernels._scatter import add_force
-from rodsim.core.tendon_friction import ONE_WAY
+from rodsim.core.kernels.tendon_string_path import (
+    _curvature,
+    _one_way_coupling,
+    _points,
+    _points_into,
+    _tensions,
+)
 
 
-@njit(cache=True)
-def _point(x: np.ndarray, dofs: np.ndarray, e: int, side: int, weights: np.ndarray,
-           constant: np.ndarray, forms: np.ndarray, p: np.ndarray, jac: np.ndarray,
-           q: np.ndarray, gq: np.ndarray, g: np.ndarray) -> float:
-    """Position p (3,) and ∂p/∂x_point (3, 14) of point e + side, and the small parts its
-    second derivatives are built from (``_curvature``): q (4,), G_m q (3, 4), g (3,);
-    returns n = |q|²."""
-    k = e + side
-    base = 14 * side
-    c0, c1, w0, w1 = weights[k, 0], weights[k, 1], weights[k, 2], weights[k, 3]
-    for i in range(4):
-        q[i] = w0 * x[dofs[e, base + 6 + i]] + w1 * x[dofs[e, base + 10 + i]] + constant[k, i]
-    n = q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3]
-    for m in range(3):
-        value = 0.0
-        for i in range(4):
-            row = 0.0
-            for j in range(4):
-                row += forms[k, m, i, j] * q[j]
-            gq[m, i] = row
-            value += row * q[i]
-        g[m] = value
-    for m in range(3):
-        p[m] = (c0 * x[dofs[e, base + m]] + c1 * x[dofs[e, base + 3 + m]] + g[m] / n)
-        for a in range(14):
-            jac[m, a] = 0.0
-        jac[m, m] = c0
-        jac[m, 3 + m] = c1
-        for i in range(4):
-            grad = 2.0 * gq[m, i] / n - 2.0 * g[m] * q[i] / (n * n)
-            jac[m, 6 + i] = w0 * grad
-            jac[m, 10 + i] = w1 * grad
-    return n
-
-
-@njit(cache=True)
-def _points(x: np.ndarray, dofs: np.ndarray, weights: np.ndarray, constant: np.ndarray,
-            forms: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray,
-                                        np.ndarray, np.ndarray]:
-    """p, ∂p/∂x_point and the small parts q, n, G_m q, g of every routing point, each
-    computed once (point k is side 0 of chord k and side 1 of chord k − 1: the same
-    numbers)."""
-    chords = dofs.shape[0]
-    p = np.empty((chords + 1, 3))
-    jac = np.empty((chords + 1, 3, 14))
-    q = np.empty((chords + 1, 4))
-    n = np.empty(chords + 1)
-    gq = np.empty((chords + 1, 3, 4))
-    g = np.empty((chords + 1, 3))
-    for k in range(chords + 1):
-        e, side = (k, 0) if k < chords else (k - 1, 1)
-        n[k] = _point(x, dofs, e, side, weights, constant, forms, p[k], jac[k], q[k], gq[k],
-                      g[k])
-    return p, jac, q, n, gq, g
-
-
-@njit(cache=True)
-def _curvature(forms: np.ndarray, k: int, u: np.ndarray, q: np.ndarray, n: float,
-               gq: np.ndarray, g: np.ndarray, factor: float, out: np.ndarray) -> None:
-    """factor · Σ_m u_m ∇²f_m of point k into ``out`` (4, 4), contracted with u before it
-    is built: with G_u = Σ_m u_m G_m, v = G_u q and γ = Σ_m u_m g_m,
-    Σ_m u_m ∇²f_m = 2 G_u/n − 4 (v qᵀ + q vᵀ)/n² − 2 γ I/n² + 8 γ q qᵀ/n³ (module
-    docstring)."""
-    v0 = u[0] * gq[0, 0] + u[1] * gq[1, 0] + u[2] * gq[2, 0]
-    v1 = u[0] * gq[0, 1] + u[1] * gq[1, 1] + u[2] * gq[2, 1]
-    v2 = u[0] * gq[0, 2] + u[1] * gq[1, 2] + u[2] * gq[2, 2]
-    v3 = u[0] * gq[0, 3] + u[1] * gq[1, 3] + u[2] * gq[2, 3]
-    gamma = u[0] * g[0] + u[1] * g[1] + u[2] * g[2]
-    inverse = 1.0 / n
-    a1 = 2.0 * inverse * factor
-    a2 = 4.0 * inverse * inverse * factor
-    a3 = 2.0 * gamma * inverse * inverse * factor
-    a4 = 8.0 * gamma * inverse * inverse * inverse * factor
-    for i in range(4):
-        vi = v0 if i == 0 else (v1 if i == 1 else (v2 if i == 2 else v3))
-        for j in range(i, 4):
-            vj = v0 if j == 0 else (v1 if j == 1 else (v2 if j == 2 else v3))
-            value = (a1 * (u[0] * forms[k, 0, i, j] + u[1] * forms[k, 1, i, j]
-                           + u[2] * forms[k, 2, i, j])
-                     - a2 * (vi * q[j] + q[i] * vj) + a4 * q[i] * q[j])
-            if i == j:
-                value -= a3
-            out[i, j] = value
-            out[j, i] = value
-
-
-@njit(cache=True)
-def _angle(a: np.ndarray, b: np.ndarray) -> float:
-    """∠(a, b) of unit vectors, atan2(|a × b|, a·b)."""
-    cx = a[1] * b[2] - a[2] * b[1]
-    cy = a[2] * b[0] - a[0] * b[2]
-    cz = a[0] * b[1] - a[1] * b[0]
-    return np.arctan2(np.sqrt(cx * cx + cy * cy + cz * cz),
-                      a[0] * b[0] + a[1] * b[1] + a[2] * b[2])
-
-
-@njit(cache=True)
-def _extrapolated(near: np.ndarray, far: np.ndarray, step: float) -> np.ndarray:
-    """The unit vector along near + step (near − far): a chord's tangent carried ``step``
-    chords on, away from its neighbour ``far``."""
-    out = np.empty(3)
-    size = 0.0
-    for m in range(3):
-        out[m] = near[m] + step * (near[m] - far[m])
-        size += out[m] * out[m]
-    for m in range(3):
-        out[m] /= np.sqrt(size)
-    return out
-
-
-@njit(cache=True)
-def _tensions(x: np.ndarray, dofs: np.ndarray, weights: np.ndarray, constant: np.ndarray,
-              entry_forms: np.ndarray, entry_slope: np.ndarray, split: np.ndarray,
-              p: np.ndarray, tension: float, friction: float, profile: np.ndarray,
-              weighted: bool, mu_in: np.ndarray, mu_out: np.ndarray,
-              out: np.ndarray, rate: np.ndarray, axis: np.ndarray) -> None:
-    """τ_e of every chord into ``out``: T without friction, else
-    clip(τ_old_e, T e^{−μΘ_e}, T e^{+μΘ_e}) (rodsim/core/tendon_friction.py; ``weighted``:
-    μΘ_e is Σ_{j≤e} μ_j θ_j with μ_in, μ_out per turn for the two bounds); with friction
-    also ∂τ_e/∂Θ_e into ``rate`` where the path up to chord e turns one way in one plane from
-    a held entry frame (else 0) and d3 at the entry into ``axis``."""
-    chords = dofs.shape[0]
-    if friction == 0.0:
-        for e in range(chords):
-            out[e] = tension
-        return
-    w0, w1 = weights[0, 2], weights[0, 3]
-    q = np.empty(4)
-    for i in range(4):
-        q[i] = w0 * x[dofs[0, 6 + i]] + w1 * x[dofs[0, 10 + i]] + constant[0, i]
-    n = q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3]
-    d = np.empty((3, 3))
-    for k in range(3):
-        for m in range(3):
-            value = 0.0
-            for i in range(4):
-                for j in range(4):
-                    value += q[i] * entry_forms[k, m, i, j] * q[j]
-            d[k, m] = value / n
-    for m in range(3):
-        axis[m] = d[2, m]
-    held = weights[0, 2] == 0.0 and weights[0, 3] == 0.0
-    a = np.empty(3)
-    for m in range(3):
-        a[m] = d[2, m] + entry_slope[0] * d[0, m] + entry_slope[1] * d[1, m]
-    size = np.sqrt(a[0] * a[0] + a[1] * a[1] + a[2] * a[2])
-    for m in range(3):
-        a[m] /= size
-    plain = _angle(axis, a)
-    wrap = plain
-    u = np.empty((chords, 3))
-    for e in range(chords):
-        length = 0.0
-        for m in range(3):
-            u[e, m] = p[e + 1, m] - p[e, m]
-            length += u[e, m] * u[e, m]
-        length = np.sqrt(length)
-        for m in range(3):
-            u[e, m] /= length
-    theta = np.empty(chords)
-    for e in range(chords):
-        theta[e] = _angle(a if e == 0 else u[e - 1], u[e])
-    turns = theta.copy()
-    if chords >= 2:
-        # The entry's turn through t⁺, extrapolated from chords 0 and 1, unless t_in, t⁺ and
-        # u_0 lie in one plane (rodsim/core/tendon_friction.py, "Split turns").
-        ahead = _extrapolated(u[0], u[1], 0.5)
-        volume = (a[0] * (ahead[1] * u[0, 2] - ahead[2] * u[0, 1])
-                  + a[1] * (ahead[2] * u[0, 0] - ahead[0] * u[0, 2])
-                  + a[2] * (ahead[0] * u[0, 1] - ahead[1] * u[0, 0]))
-        if np.abs(volume) > ONE_WAY:
-            theta[0] = _angle(a, ahead) + _angle(ahead, u[0])
-    for k in range(3, chords - 2):
-        if split[k]:
-            a1 = _extrapolated(u[k - 2], u[k - 3], 1.0)
-            a2 = _extrapolated(u[k - 2], u[k - 3], 1.5)
-            b1 = _extrapolated(u[k + 1], u[k + 2], 1.0)
-            b2 = _extrapolated(u[k + 1], u[k + 2], 1.5)
-            theta[k - 1] = _angle(u[k - 2], a1)
-            theta[k] = _angle(a1, a2) + _angle(a2, b2) + _angle(b2, b1)
-            theta[k + 1] = _angle(b1, u[k + 1])
-    b = np.empty(3)
-    wrap_in = 0.0
-    wrap_out = 0.0
-    for e in range(chords):
-        for m in range(3):
-            b[m] = u[e, m]
-        plain += turns[e]
-        turn = theta[e]
-        if weighted:
-            wrap_in += mu_in[e] * turn
-            wrap_out += mu_out[e] * turn
-            low = tension * np.exp(-wrap_in)
-            high = tension * np.exp(wrap_out)
-            rate_in, rate_out = mu_in[e], mu_out[e]
-        else:
-            wrap += turn
-            low = tension * np.exp(-friction * wrap)
-            high = tension * np.exp(friction * wrap)
-            rate_in, rate_out = friction, friction
-        out[e] = min(max(profile[e], low), high)
-        rate[e] = 0.0
-        if held and np.abs(plain - _angle(axis, b)) <= ONE_WAY * max(1.0, plain):
-            if low > profile[e]:
-                rate[e] = -rate_in * low
-            elif high < profile[e]:
-                rate[e] = rate_out * high
-
-
-@njit(cache=True)
-def _one_way_coupling(jd: np.ndarray, u: np.ndarray, length: float, axis: np.ndarray,
-                      rate: float, count: int, slope: np.ndarray, gradient: np.ndarray,
-                      unit_force: np.ndarray) -> bool:
-    """The two factors of f ⊗ rate ∂ψ/∂x, which the element Jacobian of a chord on a
-    one-way planar path adds: f = −Jdᵀ u into ``unit_force`` and rate ∂ψ/∂x = −rate (d3 −
-    (d3·u) u)ᵀ Jd / (|d3 × u| |d|) into ``gradient`` (rodsim/core/tendon_friction.py), on
-    the first ``count`` columns of ``jd``; False (nothing to add) where d3 ∥ u."""
-    cosine = axis[0] * u[0] + axis[1] * u[1] + axis[2] * u[2]
-    cx = axis[1] * u[2] - axis[2] * u[1]
-    cy = axis[2] * u[0] - axis[0] * u[2]
-    cz = axis[0] * u[1] - axis[1] * u[0]
-    sine = np.sqrt(cx * cx + cy * cy + cz * cz)
-    if sine == 0.0:
-        return False
-    for m in range(3):
-        slope[m] = -(axis[m] - cosine * u[m]) / (sine * length)
-    for k in range(count):
-        value = 0.0
-        f = 0.0
-        for m in range(3):
-            value += slope[m] * jd[m, k]
-            f -= jd[m, k] * u[m]
-        gradient[k] = rate * value
-        unit_force[k] = f
-    return True
-
-
-@njit(cache=True)
-def _unique_columns(dofs: np.ndarray, weights: np.ndarray, e: int, jd: np.ndarray,
-                    local: np.ndarray, merged: np.ndarray, knot: np.ndarray,
-                    group_first: np.ndarray, group_start: np.ndarray) -> int:
-    """The chord's Jd on its distinct coordinates: the groups (a node's position, a knot's
+@njit(cache=True, inline="always")
+def _unique_columns(dofs: np.ndarray, weights: np.ndarray, e: int, point: int,
+                    jd: np.ndarray, local: np.ndarray, merged: np.ndarray, knot: np.ndarray,
+                    group_first: np.ndarray, group_start: np.ndarray,
+                    source: np.ndarray) -> int:
+    """Chord e's Jd on its distinct coordinates (its points' weights in rows ``point`` and
+    ``point + 1`` of ``weights``): the groups (a node's position, a knot's
     quaternion) with a weight, a group the two points share (the knot between them, a
     node) taken once with the sum of both points' columns of Jd. Fills ``merged`` (3, ·)
     with those columns, ``local`` with a local column of each (its slot in the element's
     target map) and ``knot`` (2, 2) with the first merged column of each point's knot
-    quaternion (−1 without a weight); returns the count. ``group_first`` and
+    quaternion (−1 without a weight); returns the count. ``source`` (28, 2) gets the column
+    of Jd each merged column was taken from and the one added to it (−1: none), for
+    ``_merged_columns`` to repeat on another chord of the same coordinates. ``group_first`` and
     ``group_start`` (8,) are scratch: the local column opening each group, and its first
     merged column. The other columns of Jd are
     exact zeros, and so are their rows and columns of the element Jacobian."""
@@ -296,7 +73,7 @@ def _unique_columns(dofs: np.ndarray, weights: np.ndarray, e: int, jd: np.ndarra
         for kind in range(4):
             if kind >= 2:
                 knot[side, kind - 2] = -1
-            if weights[e + side, kind] == 0.0:
+            if weights[point + side, kind] == 0.0:
                 continue
             size = 3 if kind < 2 else 4
             first = 14 * side + (3 * kind if kind < 2 else 6 + 4 * (kind - 2))
@@ -314,16 +91,33 @@ def _unique_columns(dofs: np.ndarray, weights: np.ndarray, e: int, jd: np.ndarra
                 groups += 1
                 for a in range(size):
                     local[count + a] = first + a
+                    source[count + a, 0] = first + a
+                    source[count + a, 1] = -1
                     for m in range(3):
                         merged[m, count + a] = jd[m, first + a]
                 count += size
             else:
                 for a in range(size):
+                    source[start + a, 1] = first + a
                     for m in range(3):
                         merged[m, start + a] += jd[m, first + a]
             if kind >= 2:
                 knot[side, kind - 2] = start
     return count
+
+
+@njit(cache=True, inline="always")
+def _merged_columns(jd: np.ndarray, source: np.ndarray, count: int,
+                    merged: np.ndarray) -> None:
+    """``_unique_columns``' merged columns of another chord with the same coordinates and
+    weighted groups, from the ``source`` it recorded: the same sums in the same order."""
+    for k in range(count):
+        first, second = source[k, 0], source[k, 1]
+        for m in range(3):
+            merged[m, k] = jd[m, first]
+        if second >= 0:
+            for m in range(3):
+                merged[m, k] += jd[m, second]
 
 
 @njit(cache=True)
@@ -334,6 +128,230 @@ def evaluate(x: np.ndarray, dofs: np.ndarray, weights: np.ndarray, constant: np.
              scale: float, want_force: bool,
              force: np.ndarray, force_target: np.ndarray, want_jacobian: bool,
              jacobian: np.ndarray, jacobian_target: np.ndarray) -> None:
+    """F and ∂F/∂x of every chord of one tendon (``_evaluate_tendon``)."""
+    _evaluate_tendon(x, dofs, weights, constant, forms, tension, friction, profile, weighted,
+                     mu_in, mu_out, entry_forms, entry_slope, split, scale, want_force, force,
+                     force_target, want_jacobian, jacobian, jacobian_target)
+
+
+@njit(cache=True, inline="always")
+def _chord_block(merged: np.ndarray, u: np.ndarray, pull: float, length: float, count: int,
+                 knot: np.ndarray, forms: np.ndarray, a_point: int, q: np.ndarray,
+                 n: np.ndarray, gq: np.ndarray, g: np.ndarray, weights: np.ndarray,
+                 pj: np.ndarray, proj: np.ndarray, block: np.ndarray,
+                 curvature: np.ndarray) -> None:
+    """Minus a chord's element Jacobian at frozen tension, on its distinct columns, into
+    ``block``: Jdᵀ P Jd plus its points' curvature, as ``evaluate`` builds it."""
+    factor = pull / length
+    for a in range(3):
+        for b in range(3):
+            proj[a, b] = ((1.0 if a == b else 0.0) - u[a] * u[b]) * factor
+    for k in range(count):
+        j0, j1, j2 = merged[0, k], merged[1, k], merged[2, k]
+        for a in range(3):
+            pj[a, k] = proj[a, 0] * j0 + proj[a, 1] * j1 + proj[a, 2] * j2
+    for k in range(count):
+        j0, j1, j2 = merged[0, k], merged[1, k], merged[2, k]
+        for j in range(k, count):
+            value = j0 * pj[0, j] + j1 * pj[1, j] + j2 * pj[2, j]
+            block[k, j] = value
+            block[j, k] = value
+    for side in range(2):
+        point = a_point + side
+        _curvature(forms, point, u, q, n, gq, g, pull if side == 1 else -pull, curvature)
+        for a in range(2):
+            ka = knot[side, a]
+            if ka < 0:
+                continue
+            for b in range(2):
+                kb = knot[side, b]
+                if kb < 0:
+                    continue
+                weight = weights[point, 2 + a] * weights[point, 2 + b]
+                for i in range(4):
+                    for j in range(4):
+                        block[ka + i, kb + j] += weight * curvature[i, j]
+
+
+@njit(cache=True)
+def evaluate_group(x: np.ndarray, chord_start: np.ndarray, point_start: np.ndarray,
+                   shared_order: np.ndarray, shared_start: np.ndarray,
+                   dofs: np.ndarray, weights: np.ndarray, constant: np.ndarray,
+                   forms: np.ndarray, tension: np.ndarray, friction: np.ndarray,
+                   profile: np.ndarray, weighted: np.ndarray, mu_in: np.ndarray,
+                   mu_out: np.ndarray, entry_forms: np.ndarray, entry_slope: np.ndarray,
+                   split: np.ndarray, scales: np.ndarray, want_force: bool,
+                   force: np.ndarray, force_target: np.ndarray, want_jacobian: bool,
+                   jacobian: np.ndarray, jacobian_target: np.ndarray) -> None:
+    """F and ∂F/∂x of the tendons of a group in one call (``TendonString.group_arguments``:
+    tendon t's rows are chords ``chord_start[t]`` to ``chord_start[t + 1]`` and points
+    ``point_start[t]`` to ``point_start[t + 1]`` of the stacked arrays). A tendon whose
+    scale or tension is 0 adds nothing, as its own call would.
+
+    The chords of the group that lie on the same coordinates with the same weighted groups
+    (the tendons of a catheter between the same two nodes: ``shared_order`` lists the
+    chords so, each such set from ``shared_start[i]`` to ``shared_start[i + 1]``) have the
+    same distinct columns and Jacobian slots: their element Jacobians are summed in one
+    local block, which is written into the CSC data once (on tdcr-two-segment 60 writes of
+    18 × 18 entries for the 270 chords of the six tendons). A chord's Jdᵀ P Jd and
+    curvature, with its tendon's scale taken into P's factor and the curvature's, are
+    subtracted from that block as they are formed (no block of its own); a chord with the
+    friction coupling builds its own (``_chord_block``) and adds it with the coupling. The
+    distinct columns are found on a set's first chord and repeated on the others
+    (``_merged_columns``). Each chord's force is the one ``evaluate`` computes and is added
+    in the order of one call per tendon (tendon by tendon, chord by chord): F bitwise as one
+    call per tendon; ∂F/∂x to round-off (the sums are grouped differently)."""
+    terms = tension.shape[0]
+    chords_all = dofs.shape[0]
+    points_all = weights.shape[0]
+    p = np.empty((points_all, 3))
+    jac = np.empty((points_all, 3, 14))
+    q = np.empty((points_all, 4))
+    n = np.empty(points_all)
+    gq = np.empty((points_all, 3, 4))
+    g = np.empty((points_all, 3))
+    chord_tension = np.empty(chords_all)
+    rate = np.zeros(chords_all)
+    axis = np.zeros((terms, 3))
+    term_of = np.empty(chords_all, dtype=np.int64)
+    active = np.zeros(terms, dtype=np.bool_)
+    for t in range(terms):
+        c0, c1 = chord_start[t], chord_start[t + 1]
+        p0, p1 = point_start[t], point_start[t + 1]
+        for c in range(c0, c1):
+            term_of[c] = t
+        if scales[t] == 0.0 or tension[t] == 0.0:
+            continue  # scaled away, or a slack tendon: every entry is zero
+        active[t] = True
+        _points_into(x, dofs[c0:c1], weights[p0:p1], constant[p0:p1], forms[p0:p1],
+                     p[p0:p1], jac[p0:p1], q[p0:p1], n[p0:p1], gq[p0:p1], g[p0:p1])
+        _tensions(x, dofs[c0:c1], weights[p0:p1], constant[p0:p1], entry_forms,
+                  entry_slope[t], split[p0:p1], p[p0:p1], tension[t], friction[t],
+                  profile[c0:c1], weighted[t], mu_in[c0:c1], mu_out[c0:c1],
+                  chord_tension[c0:c1], rate[c0:c1], axis[t])
+    chord_force = np.empty((chords_all, 28))
+    local = np.empty(28, dtype=np.int64)
+    knot = np.empty((2, 2), dtype=np.int64)
+    group_first = np.empty(8, dtype=np.int64)
+    group_start = np.empty(8, dtype=np.int64)
+    source = np.empty((28, 2), dtype=np.int64)
+    jd = np.empty((3, 28))
+    merged = np.empty((3, 28))
+    pj = np.empty((3, 28))
+    block = np.empty((28, 28))
+    summed = np.empty((28, 28))
+    curvature = np.empty((4, 4))
+    u = np.empty(3)
+    proj = np.empty((3, 3))
+    slope = np.empty(3)
+    gradient = np.empty(28)
+    unit_force = np.empty(28)
+    for shared in range(shared_start.shape[0] - 1):
+        count = 0
+        members = 0
+        target_chord = 0
+        for position in range(shared_start[shared], shared_start[shared + 1]):
+            c = shared_order[position]
+            t = term_of[c]
+            if not active[t]:
+                continue
+            scale = scales[t]
+            e = c - chord_start[t]
+            a_point = point_start[t] + e
+            pull = chord_tension[c]
+            length = 0.0
+            for m in range(3):
+                u[m] = p[a_point + 1, m] - p[a_point, m]
+                length += u[m] * u[m]
+            length = np.sqrt(length)
+            for m in range(3):
+                u[m] /= length
+                for a in range(14):
+                    jd[m, a] = -jac[a_point, m, a]
+                    jd[m, 14 + a] = jac[a_point + 1, m, a]
+            if want_force:
+                for a in range(28):
+                    value = 0.0
+                    for m in range(3):
+                        value += jd[m, a] * u[m]
+                    chord_force[c, a] = -pull * value
+            if not want_jacobian:
+                continue
+            if members == 0:
+                count = _unique_columns(dofs, weights, c, a_point, jd, local, merged, knot,
+                                        group_first, group_start, source)
+                for k in range(count):
+                    for j in range(count):
+                        summed[k, j] = 0.0
+            else:
+                _merged_columns(jd, source, count, merged)
+            members += 1
+            target_chord = c
+            coupled = False
+            if rate[c] != 0.0:
+                coupled = _one_way_coupling(merged, u, length, axis[t], rate[c], count,
+                                            slope, gradient, unit_force)
+            if coupled:
+                _chord_block(merged, u, pull, length, count, knot, forms, a_point, q, n, gq,
+                             g, weights, pj, proj, block, curvature)
+                for k in range(count):
+                    f = unit_force[k]
+                    for j in range(count):
+                        summed[k, j] += scale * (f * gradient[j] - block[k, j])
+                continue
+            factor = scale * pull / length
+            for a in range(3):
+                for b in range(3):
+                    proj[a, b] = ((1.0 if a == b else 0.0) - u[a] * u[b]) * factor
+            for k in range(count):
+                j0, j1, j2 = merged[0, k], merged[1, k], merged[2, k]
+                for a in range(3):
+                    pj[a, k] = proj[a, 0] * j0 + proj[a, 1] * j1 + proj[a, 2] * j2
+            for k in range(count):
+                j0, j1, j2 = merged[0, k], merged[1, k], merged[2, k]
+                summed[k, k] -= j0 * pj[0, k] + j1 * pj[1, k] + j2 * pj[2, k]
+                for j in range(k + 1, count):
+                    value = j0 * pj[0, j] + j1 * pj[1, j] + j2 * pj[2, j]
+                    summed[k, j] -= value
+                    summed[j, k] -= value
+            for side in range(2):
+                point = a_point + side
+                _curvature(forms, point, u, q, n, gq, g,
+                           scale * pull if side == 1 else -(scale * pull), curvature)
+                for a in range(2):
+                    ka = knot[side, a]
+                    if ka < 0:
+                        continue
+                    for b in range(2):
+                        kb = knot[side, b]
+                        if kb < 0:
+                            continue
+                        weight = weights[point, 2 + a] * weights[point, 2 + b]
+                        for i in range(4):
+                            for j in range(4):
+                                summed[ka + i, kb + j] -= weight * curvature[i, j]
+        if members == 0:
+            continue
+        target = jacobian_target[target_chord]
+        for k in range(count):
+            row = target[local[k]]
+            for j in range(count):
+                jacobian[row[local[j]]] += summed[k, j]
+    if want_force:
+        for t in range(terms):
+            if active[t]:
+                for c in range(chord_start[t], chord_start[t + 1]):
+                    add_force(force, force_target, c, chord_force[c], scales[t])
+
+
+@njit(cache=True)
+def _evaluate_tendon(x: np.ndarray, dofs: np.ndarray, weights: np.ndarray,
+                     constant: np.ndarray, forms: np.ndarray, tension: float, friction: float,
+                     profile: np.ndarray, weighted: bool, mu_in: np.ndarray,
+                     mu_out: np.ndarray, entry_forms: np.ndarray, entry_slope: np.ndarray,
+                     split: np.ndarray, scale: float, want_force: bool, force: np.ndarray,
+                     force_target: np.ndarray, want_jacobian: bool, jacobian: np.ndarray,
+                     jacobian_target: np.ndarray) -> None:
     """F and ∂F/∂x of every chord (module docstring). A chord's Jacobian is built from its
     small parts on its distinct coordinates (``_unique_columns``: up to 18 of the 28, the
     knot and the node its two points share taken once): M = Jdᵀ P Jd, P = T (I − u uᵀ)/|d|,
@@ -348,6 +366,7 @@ def evaluate(x: np.ndarray, dofs: np.ndarray, weights: np.ndarray, constant: np.
     knot = np.empty((2, 2), dtype=np.int64)
     group_first = np.empty(8, dtype=np.int64)
     group_start = np.empty(8, dtype=np.int64)
+    source = np.empty((28, 2), dtype=np.int64)
     jd = np.empty((3, 28))
     merged = np.empty((3, 28))
     pj = np.empty((3, 28))
@@ -386,8 +405,8 @@ def evaluate(x: np.ndarray, dofs: np.ndarray, weights: np.ndarray, constant: np.
             add_force(force, force_target, e, local_force, scale)
         if not want_jacobian:
             continue
-        count = _unique_columns(dofs, weights, e, jd, local, merged, knot, group_first,
-                                group_start)
+        count = _unique_columns(dofs, weights, e, e, jd, local, merged, knot, group_first,
+                                group_start, source)
         factor = pull / length
         for a in range(3):
             for b in range(3):
@@ -404,8 +423,8 @@ def evaluate(x: np.ndarray, dofs: np.ndarray, weights: np.ndarray, constant: np.
                 block[j, k] = value
         for side in range(2):
             point = e + side
-            _curvature(forms, point, u, q[point], n[point], gq[point], g[point],
-                       pull if side == 1 else -pull, curvature)
+            _curvature(forms, point, u, q, n, gq, g, pull if side == 1 else -pull,
+                       curvature)
             for a in range(2):
                 ka = knot[side, a]
                 if ka < 0:

@@ -35,7 +35,7 @@ no per-term test code: force = −∂E/∂x, Jacobian = ∂F/∂x, symmetry when
 from __future__ import annotations
 
 from abc import ABC, abstractmethod
-from collections.abc import Mapping
+from collections.abc import Hashable, Mapping, Sequence
 from typing import TYPE_CHECKING, Any, ClassVar
 
 import numpy as np
@@ -244,6 +244,20 @@ class Term(ABC):
         by name (``rodsim.core.kernels.Kernel.bind``), so their order does not matter and
         a missing or unknown name is an error."""
         raise NotImplementedError(f"term {self.name!r} has no compiled kernel")
+
+    def group_key(self) -> Hashable | None:
+        """What this term shares with the terms its kernel may evaluate in one call
+        (``group_arguments``; the string tendons of one catheter), or ``None``: evaluated
+        alone (the default). The model groups the consecutive terms of equal keys
+        (rodsim/core/kernel_group.py): terms of one class whose kernel module has an
+        ``evaluate_group`` and whose elements have the same width."""
+        return None
+
+    @classmethod
+    def group_arguments(cls, terms: Sequence[Term]) -> KernelArguments:
+        """The constants of ``terms`` (of this class, equal ``group_key``) packed for their
+        kernel's ``evaluate_group``, by the names of its parameters."""
+        raise NotImplementedError(f"term {cls.name!r} is not evaluated in groups")
 
     def registration(self, x: np.ndarray, exact: bool = False,
                      compiled: bool = False) -> np.ndarray | None:

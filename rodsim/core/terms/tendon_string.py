@@ -87,8 +87,9 @@ from __future__ import annotations
 
 import copy
 import dataclasses
-from collections.abc import Mapping, Sequence
+from collections.abc import Hashable, Mapping, Sequence
 from dataclasses import dataclass, field
+from functools import cached_property
 from typing import Any, NamedTuple
 
 import numpy as np
@@ -96,6 +97,7 @@ import numpy as np
 from rodsim.core.rod.quaternion import DIRECTOR_FORMS
 from rodsim.core.routing import ROUTINGS, Routing, string_span
 from rodsim.core.schema import Options, Parameter, SceneError
+from rodsim.core.static_friction_profile import check_static_profile, static_profile_coefficients
 from rodsim.core.tendon import MAX_TENSION, Tendon
 from rodsim.core.tendon_friction import (
     MAX_FRICTION,
@@ -110,7 +112,7 @@ from rodsim.core.tendon_friction import (
     weighted_chord_tensions,
     weighted_slide_rates,
 )
-from rodsim.core.terms.base import KernelArguments, TendonTerm
+from rodsim.core.terms.base import KernelArguments, TendonTerm, Term
 
 #: A change of G J closer than this fraction of a segment to a node (or to the tendon's entry
 #: or termination) is taken there: no routing point of its own.
@@ -223,6 +225,7 @@ class TendonStringOptions(Options):
     friction_profile: list[float] = field(default_factory=list)
     friction_profile_s: list[float] = field(default_factory=list)
     static_friction: float = 0.0
+    static_friction_profile: list[float] = field(default_factory=list)
 
 
 class TendonString(TendonTerm):
@@ -298,6 +301,11 @@ class TendonString(TendonTerm):
                   "friction_profile value): a "
                   "point that stuck at the last equilibrium holds until the tension ratio "
                   "over it exceeds e^(μ_s θ); 0 (default): μ_s = μ_k", 0.0, MAX_FRICTION),
+        Parameter("static_friction_profile", "vector", [], "-",
+                  "the static μ_s as a function of arc length: its values at "
+                  "friction_profile_s (beside friction_profile, each >= its value there), "
+                  "linear between them and constant beyond; [] (default): not used",
+                  0.0, MAX_FRICTION),
     )
 
     @classmethod
@@ -323,6 +331,7 @@ class TendonString(TendonTerm):
             raise SceneError(f"{prefix}.static_friction = {static!r}: smaller than the "
                              f"kinetic coefficient ({which} = {kinetic!r}); allowed: a number "
                              f">= {kinetic!r} and <= {MAX_FRICTION:g}, or 0 (μ_s = μ_k)")
+        check_static_profile(options, prefix)
 
     def __init__(self, tendon: Tendon, options: TendonStringOptions) -> None:
         super().__init__(tendon, options)
@@ -359,6 +368,9 @@ class TendonString(TendonTerm):
         #: The static μ_s of every turn (rodsim/core/tendon_friction.py, "Per-point
         #: coefficients and stiction"): μ_k where static_friction is not set, (P − 1,).
         self.static = np.maximum(float(options.static_friction), self.kinetic)
+        static_profile = static_profile_coefficients(options, self.points.s)
+        if static_profile is not None:  # rodsim/core/static_friction_profile.py
+            self.static = np.maximum(static_profile, self.kinetic)
         #: Whether a point's stick/slip state is history (μ_s above its μ_k somewhere).
         self.sticky = bool(np.any(self.static > self.kinetic))
         #: Whether the bounds take a coefficient per turn and side (friction_points, or
@@ -526,6 +538,58 @@ class TendonString(TendonTerm):
                 "mu_out": np.ascontiguousarray(self._mu_out),
                 "entry_forms": np.ascontiguousarray(DIRECTOR_FORMS),
                 "entry_slope": self._entry_slope, "split": self.split}
+
+    def group_key(self) -> Hashable | None:
+        """The catheter: its string tendons are evaluated in one kernel call
+        (rodsim/core/kernel_group.py)."""
+        return self.tendon.catheter.name
+
+    @classmethod
+    def group_arguments(cls, terms: Sequence[Term]) -> KernelArguments:
+        """The ``kernel_arguments`` of ``terms`` stacked: the per-chord and per-point arrays
+        concatenated in term order (``chord_start`` and ``point_start`` open each term's
+        rows), the scalars one entry per term; and the chords that share their coordinates
+        and weighted groups (the same ``dofs`` row, weights zero at the same places: the
+        same distinct columns and Jacobian slots), listed together in ``shared_order``,
+        each set from ``shared_start[i]`` to ``shared_start[i + 1]``, in order of first
+        appearance and each set in term order."""
+        own = [t.kernel_arguments() for t in terms]
+        chords = np.cumsum([0] + [len(a["dofs"]) for a in own])
+        points = np.cumsum([0] + [len(a["weights"]) for a in own])
+        sets: dict[bytes, list[int]] = {}
+        for t, term in enumerate(terms):
+            assert isinstance(term, TendonString)
+            base = int(chords[t])
+            for e, key in enumerate(term.chord_keys):
+                sets.setdefault(key, []).append(base + e)
+        shared = list(sets.values())
+
+        def stacked(name: str) -> np.ndarray:
+            return np.ascontiguousarray(np.concatenate([a[name] for a in own]))
+
+        def each(name: str, dtype: type) -> np.ndarray:
+            return np.array([a[name] for a in own], dtype=dtype)
+
+        return {"chord_start": chords.astype(np.int64), "point_start": points.astype(np.int64),
+                "shared_order": np.array([c for chord_set in shared for c in chord_set],
+                                         dtype=np.int64),
+                "shared_start": np.cumsum([0] + [len(c) for c in shared]).astype(np.int64),
+                **{name: stacked(name) for name in ("dofs", "weights", "constant", "forms",
+                                                    "profile", "mu_in", "mu_out", "split")},
+                "tension": each("tension", float), "friction": each("friction", float),
+                "weighted": each("weighted", np.bool_),
+                "entry_slope": np.ascontiguousarray(np.stack([a["entry_slope"] for a in own])),
+                "entry_forms": own[0]["entry_forms"]}
+
+    @cached_property
+    def chord_keys(self) -> list[bytes]:
+        """Each chord's coordinates and which of its points' weights are not zero, as
+        bytes: two chords of equal keys have the same distinct columns and Jacobian slots
+        (``group_arguments``). Made once per term and kept by its copies (a new tension,
+        anchors), whose chords are the same."""
+        weighted = self.points.weights != 0.0
+        rows = np.concatenate([self.dofs, weighted[:-1], weighted[1:]], axis=1)
+        return [row.tobytes() for row in rows]
 
     def load_scale(self, x: np.ndarray) -> float:
         """The tension: the termination's point force (the chords' forces cancel in pairs)."""

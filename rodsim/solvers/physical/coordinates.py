@@ -33,9 +33,10 @@ import scipy.sparse as sp
 from rodsim.core.inertia import mass_factor, segment_inertia
 from rodsim.core.model import Model
 from rodsim.core.rod.quaternion import B
+from rodsim.solvers.physical.sparse_kernels import Csr
 
 __all__ = ["PhysicalCoordinates", "velocity_rows", "cayley", "skew", "block_diagonal",
-           "block_entries", "placed", "cross_rows",
+           "block_entries", "block_arrays", "placed", "placed_arrays", "cross_rows",
            "gyroscopic_jacobian"]
 
 
@@ -103,18 +104,26 @@ def _structure(rows: np.ndarray, cols: np.ndarray, shape: tuple[int, int]
     return known
 
 
-def placed(values: np.ndarray, rows: np.ndarray, cols: np.ndarray, shape: tuple[int, int],
-           prune: bool = False) -> sp.csr_matrix:
-    """``sp.csr_matrix((values, (rows, cols)), shape=shape)`` for distinct entries, the same
-    arrays entry for entry (explicit zeros kept), from a structure found once per
-    placement; ``prune``: without the zero entries, as scipy's sum of two matrices with
-    disjoint entries leaves them (its ``csr_plus_csr`` stores only nonzero results)."""
+def placed_arrays(values: np.ndarray, rows: np.ndarray, cols: np.ndarray,
+                  shape: tuple[int, int], prune: bool = False) -> Csr:
+    """The CSR arrays of ``placed`` (no scipy matrix built: for the kernels of
+    rodsim/solvers/physical/sparse_kernels.py)."""
     indices, indptr, order = _structure(rows.ravel(), cols.ravel(), shape)
     data = values.ravel()[order]
     if prune and not np.all(data):
         kept = data != 0.0
         indptr = np.concatenate([[0], np.cumsum(kept)]).astype(indptr.dtype)[indptr]
         indices, data = indices[kept], data[kept]
+    return Csr(indptr, indices, data)
+
+
+def placed(values: np.ndarray, rows: np.ndarray, cols: np.ndarray, shape: tuple[int, int],
+           prune: bool = False) -> sp.csr_matrix:
+    """``sp.csr_matrix((values, (rows, cols)), shape=shape)`` for distinct entries, the same
+    arrays entry for entry (explicit zeros kept), from a structure found once per
+    placement; ``prune``: without the zero entries, as scipy's sum of two matrices with
+    disjoint entries leaves them (its ``csr_plus_csr`` stores only nonzero results)."""
+    indptr, indices, data = placed_arrays(values, rows, cols, shape, prune)
     out = sp.csr_matrix((data, indices, indptr), shape=shape)
     out.has_canonical_format = True
     return out
@@ -135,6 +144,13 @@ def block_diagonal(blocks: np.ndarray, rows: np.ndarray, cols: np.ndarray, shape
     ``sp.csr_matrix((blocks.ravel(), (r, c)))`` of their entries (``placed``)."""
     r, c = block_entries(rows, cols, *blocks.shape[1:])
     return placed(blocks, r, c, shape)
+
+
+def block_arrays(blocks: np.ndarray, rows: np.ndarray, cols: np.ndarray, shape: tuple[
+        int, int]) -> Csr:
+    """The CSR arrays of ``block_diagonal`` (``placed_arrays``)."""
+    r, c = block_entries(rows, cols, *blocks.shape[1:])
+    return placed_arrays(blocks, r, c, shape)
 
 
 @dataclass(frozen=True)
@@ -210,6 +226,18 @@ class PhysicalCoordinates:
         return placed(np.concatenate([np.full(len(self.positions), position),
                                       blocks.ravel()]), rows, cols, (n, self.size),
                       prune=True)
+
+    def tangent_arrays(self, blocks: np.ndarray, position: float, n: int) -> Csr:
+        """The CSR arrays of ``tangent_map`` (``placed_arrays``)."""
+        rows, cols = self._map_entries
+        return placed_arrays(np.concatenate([np.full(len(self.positions), position),
+                                             blocks.ravel()]), rows, cols, (n, self.size),
+                             prune=True)
+
+    def g_arrays(self, x: np.ndarray, n: int) -> Csr:
+        """The CSR arrays of ``g_matrix``."""
+        blocks = 0.5 * np.transpose(velocity_rows(x[self.quaternions]), (0, 2, 1))
+        return self.tangent_arrays(blocks, 1.0, n)
 
     @cached_property
     def _map_entries(self) -> tuple[np.ndarray, np.ndarray]:

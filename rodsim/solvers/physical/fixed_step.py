@@ -25,7 +25,16 @@ from rodsim.core.model import Model
 from rodsim.solvers.physical.coordinates import (
     PhysicalCoordinates,
     gyroscopic_jacobian,
-    placed,
+    placed_arrays,
+)
+from rodsim.solvers.physical.sparse_kernels import (
+    INDEX,
+    Csr,
+    arrays,
+    csr_of,
+    minus,
+    plus,
+    product,
 )
 
 __all__ = ["Motion", "StepOutcome", "StepFailure", "FixedStep", "solve_step",
@@ -153,10 +162,14 @@ def newton_matrix(coordinates: PhysicalCoordinates, factor: float, stiffness: sp
     # sp.block_diag([(factor/h²) M_r, the rotation blocks]) as one placement
     mass = (factor / h**2) * c.mass
     rows, cols = c.mass_entries
-    masses = placed(np.concatenate([mass.data, rotation.ravel()]), rows, cols,
-                    (c.size, c.size))
-    matrix = masses - stiffness
+    m = c.size
+    masses = placed_arrays(np.concatenate([mass.data, rotation.ravel()]), rows, cols,
+                           (m, m))
+    # masses − stiffness (+ damping @ sp.diags(scale)): scipy's own operators' arrays, by
+    # its kernels (sparse_kernels; the diagonal's CSR is its scale, no entry of it zero)
+    matrix = minus(m, m, arrays(masses), arrays(stiffness))
     if damping is not None:
         scale = np.concatenate([np.full(p, 1.0 / h), np.ones(3 * len(c.quaternions))])
-        matrix = matrix + damping @ sp.diags(scale)
-    return matrix.tocsr()
+        diagonal = Csr(np.arange(m + 1, dtype=INDEX), np.arange(m, dtype=INDEX), scale)
+        matrix = plus(m, m, matrix, product(m, m, arrays(damping), diagonal))
+    return csr_of(matrix, (m, m))

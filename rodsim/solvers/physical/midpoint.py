@@ -45,7 +45,7 @@ from rodsim.core.model import Model
 from rodsim.core.rod.quaternion import B
 from rodsim.solvers.physical.coordinates import (
     PhysicalCoordinates,
-    block_diagonal,
+    block_arrays,
     cayley,
     cross_rows,
     model_state,
@@ -59,6 +59,16 @@ from rodsim.solvers.physical.fixed_step import (
     newton_matrix,
     solve_step,
 )
+from rodsim.solvers.physical.sparse_kernels import (
+    Csr,
+    arrays,
+    congruent,
+    csr_of,
+    plus,
+    scaled,
+    transpose,
+)
+from rodsim.solvers.physical.tangent_damping import TangentDamping
 
 __all__ = ["MidpointStep"]
 
@@ -71,6 +81,7 @@ class MidpointStep:
                  quadrature: int = 2) -> None:
         self.coordinates = coordinates
         self.damping = damping
+        self._tangent_damping = TangentDamping(damping)
         self.length_scale = length_scale
         self.tolerance = tolerance
         self.quadrature = quadrature
@@ -125,7 +136,7 @@ class MidpointStep:
         rows = velocity_rows(qm)  # B_k q_m: Δq = (h/2) Σ ω_m,k B_k q_m
         f_r = np.zeros(self._p)
         tau = np.zeros((self._s, 3))
-        derivative = None
+        derivative: Csr | None = None
         for node, weight in self._gauss:
             q = q0 + node * (q1 - q0)
             norm = np.linalg.norm(q, axis=1)
@@ -147,8 +158,8 @@ class MidpointStep:
                 continue
             project = (np.eye(4)[None] - unit[:, :, None] * unit[:, None, :]) / norm[:, None,
                                                                                     None]
-            g = c.tangent_map(0.5 * project @ np.transpose(rows, (0, 2, 1)), 1.0, n)
-            p = c.tangent_map(project @ (node * dq1), node, n)
+            g = c.tangent_arrays(0.5 * project @ np.transpose(rows, (0, 2, 1)), 1.0, n)
+            p = c.tangent_arrays(project @ (node * dq1), node, n)
             # τ_k = ½ a_kᵀ P f / |q| (a_k = B_k q_m, P = I − q̂q̂ᵀ) at fixed f: through a_k
             # (q_m moves by ½ ∂q₁/∂ω_m) and through q̂ and |q| (q moves by s ∂q₁/∂ω_m)
             turned = np.einsum("kba,sb->ska", B, across) / norm[:, None, None]  # B_kᵀ P f
@@ -162,10 +173,16 @@ class MidpointStep:
                                + np.einsum("ska,sal->skl", through_q, node * dq1))
             # the geometric blocks on the angles (sp.block_diag with the zero position
             # block, as one placement)
-            part = (g.T @ model.pattern_matrix(jac) @ p) + block_diagonal(
-                geometric, c.angle_columns, c.angle_columns, (m, m))
-            derivative = weight * part if derivative is None else derivative + weight * part
-        return f_r, tau, None if derivative is None else derivative.tocsr()
+            # (g.T @ J @ p + the blocks), times the weight, summed: scipy's own operators'
+            # arrays, by its kernels (sparse_kernels), CSC until the end's ``tocsr``
+            part = scaled(plus(m, m, congruent(n, m, g, arrays(model.pattern_matrix(jac)), p),
+                               transpose(m, m, block_arrays(
+                                   geometric, c.angle_columns, c.angle_columns, (m, m)))),
+                          weight)
+            derivative = part if derivative is None else plus(m, m, derivative, part)
+        if derivative is None:
+            return f_r, tau, None
+        return f_r, tau, csr_of(transpose(m, m, derivative), (m, m), sorted_indices=True)
 
     def step(self, model: Model, start: Motion, h: float) -> StepOutcome:
         """One step of length ``h`` [s] from ``start`` with ``model``'s forces (those of the
@@ -191,8 +208,8 @@ class MidpointStep:
             res_w = ((2.0 / h) * inertia * (wm - w0) + cross_rows(wm, inertia * wm) - tau)
             damping = None
             if self.damping.active:
-                g = c.g_matrix(xm, n)
-                damping = (g.T @ self.damping.matrix(xm) @ g).tocsr()
+                g = c.g_arrays(xm, n)
+                damping = self._tangent_damping.matrix(xm, g, c.size)
                 dragged = damping @ np.concatenate([vm, wm.ravel()])
                 res_r = res_r + dragged[:self._p]
                 res_w = res_w + dragged[self._p:].reshape(-1, 3)

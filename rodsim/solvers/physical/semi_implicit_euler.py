@@ -51,7 +51,7 @@ from rodsim.core.model import Model
 from rodsim.core.rod.quaternion import B
 from rodsim.solvers.physical.coordinates import (
     PhysicalCoordinates,
-    block_diagonal,
+    block_arrays,
     cross_rows,
     model_state,
     velocity_rows,
@@ -64,6 +64,14 @@ from rodsim.solvers.physical.fixed_step import (
     newton_matrix,
     solve_step,
 )
+from rodsim.solvers.physical.sparse_kernels import (
+    arrays,
+    congruent,
+    csr_of,
+    plus,
+    transpose,
+)
+from rodsim.solvers.physical.tangent_damping import TangentDamping
 
 __all__ = ["SemiImplicitEulerStep", "turned"]
 
@@ -87,6 +95,7 @@ class SemiImplicitEulerStep:
                  length_scale: float, tolerance: float = NEWTON_TOLERANCE) -> None:
         self.coordinates = coordinates
         self.damping = damping
+        self._tangent_damping = TangentDamping(damping)
         self.length_scale = length_scale
         self.tolerance = tolerance
 
@@ -117,13 +126,18 @@ class SemiImplicitEulerStep:
         tau = 0.5 * np.einsum("ska,sa->sk", velocity_rows(q1), f_q)
         if not fresh:
             return f[c.positions], tau, None
-        g = c.g_matrix(x1, n)
-        moves = c.tangent_map(dq1, 1.0, n)
+        g = c.g_arrays(x1, n)
+        moves = c.tangent_arrays(dq1, 1.0, n)
         bent = np.einsum("kba,sb->ska", B, f_q)  # B_kᵀ F_q
         geometric = 0.5 * np.einsum("ska,sal->skl", bent, dq1)
-        derivative = (g.T @ model.pattern_matrix(jac) @ moves) + block_diagonal(
-            geometric, c.angle_columns, c.angle_columns, (c.size, c.size))
-        return f[c.positions], tau, derivative.tocsr()
+        # g.T @ J @ moves + the blocks, scipy's own operators' arrays by its kernels
+        # (sparse_kernels), CSC until the end's ``tocsr``
+        m = c.size
+        derivative = plus(m, m, congruent(n, m, g, arrays(model.pattern_matrix(jac)), moves),
+                          transpose(m, m, block_arrays(
+                              geometric, c.angle_columns, c.angle_columns, (m, m))))
+        return f[c.positions], tau, csr_of(transpose(m, m, derivative), (m, m),
+                                           sorted_indices=True)
 
     def step(self, model: Model, start: Motion, h: float) -> StepOutcome:
         """One step of length ``h`` [s] from ``start`` with ``model``'s forces (those of the
@@ -145,8 +159,8 @@ class SemiImplicitEulerStep:
             res_w = inertia * (w1 - w0) / h + cross_rows(w1, inertia * w1) - tau
             damping = None
             if self.damping.active:
-                g = c.g_matrix(x1, n)
-                damping = (g.T @ self.damping.matrix(x1) @ g).tocsr()
+                g = c.g_arrays(x1, n)
+                damping = self._tangent_damping.matrix(x1, g, c.size)
                 dragged = damping @ np.concatenate([v1, w1.ravel()])
                 res_r = res_r + dragged[:p]
                 res_w = res_w + dragged[p:].reshape(-1, 3)

@@ -1,0 +1,58 @@
+"""Tendon friction along a simulation in physical time (``rodsim.simulate``): the
+friction history carried from step to step, and the tendons' tensions and stick/slip states
+kept at the output times (docs/dynamics.md)."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+
+from rodsim.app.programs import Programs
+from rodsim.core.friction_record import FrictionRecord, friction_record
+from rodsim.core.model import Model
+
+__all__ = ["FrictionTrace"]
+
+
+class FrictionTrace:
+    """Friction's history carried from step to step (``Programs.carry_history``), and the
+    tendons' friction state (``friction_record``) kept at the output times."""
+
+    def __init__(self, programs: Programs, outputs: np.ndarray) -> None:
+        self.programs = programs
+        self.outputs = {float(t) for t in outputs}
+        self.kept: dict[float, FrictionRecord] = {}
+        #: The last step's end (t, history, free state): a terminal event's time, which is
+        #: no output time, reads its state from it.
+        self.latest: tuple[float, Model, np.ndarray] | None = None
+
+    def after_step(self, t: float, x: np.ndarray, solved: Model | None) -> None:
+        """``integrate``'s ``after_step``: carry the history; at an output time, keep the
+        friction state of ``x`` (free state) with the step's history."""
+        end = self.programs.carry_history(t, x, solved)
+        if end is not None:
+            self.latest = (t, end, x.copy())
+        if end is not None and t in self.outputs:
+            found = friction_record(end, end.full(x))
+            if found is not None:
+                self.kept[t] = found
+
+    def at(self, times: Sequence[float]) -> FrictionRecord | None:
+        """The states kept at ``times`` stacked along a leading time axis; None without
+        tendon friction."""
+        if not self.kept or not len(times):
+            return None
+        kept = [self.kept[float(t)] if float(t) in self.kept else self._latest_at(float(t))
+                for t in times]
+        return FrictionRecord(kept[0].chords, np.array([k.tension for k in kept]),
+                              kept[0].points, np.array([k.slip for k in kept]))
+
+    def _latest_at(self, t: float) -> FrictionRecord:
+        """The friction state at the last step's end ``t`` (a terminal event's time)."""
+        if self.latest is None or self.latest[0] != t:
+            raise KeyError(f"no friction state kept at t = {t} s")
+        _, end, x = self.latest
+        found = friction_record(end, end.full(x))
+        assert found is not None
+        return found
