@@ -40,11 +40,12 @@ def pytest_addoption(parser: pytest.Parser) -> None:
 
 
 def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
-    """Tests marked ``slow`` (more than ~10 s of CPU each: the benchmarks' small runs,
-    discretisation convergence, N = 1000, the kernel cache, …) are skipped, with that
-    reason, unless ``--runslow`` is given: the README's command stays within five minutes
-    on two cores, and ``.ci/run`` runs them after it (``python -m pytest -m slow
-    --runslow``). They run first (in their collected order, the others after them): with
+    """Tests marked ``slow`` (more than ~10 s of CPU each: discretisation convergence,
+    N = 1000, the kernel cache, …; and the heaviest smoke tests, more than ~2 s: the
+    benchmarks', studies', examples' and notebooks' runs, the fuzz suite, commands that draw
+    a figure) are skipped, with that reason, unless ``--runslow`` is given: the README's
+    command stays within five minutes on two cores, and ``.ci/run`` runs them after it
+    (``python -m pytest -m slow --runslow``). They run first (in their collected order, the others after them): with
     ``-n`` workers the long ones then overlap each other and the short ones fill the gaps,
     instead of one long test starting last and running alone. Every worker sorts the same
     way, as pytest-xdist requires.
