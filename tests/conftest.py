@@ -33,16 +33,33 @@ def pytest_report_header(config: pytest.Config) -> str:
     return f"rodsim fuzz seed: {seed} (RODSIM_FUZZ_SEED={seed} replays this run's examples)"
 
 
+def pytest_addoption(parser: pytest.Parser) -> None:
+    parser.addoption("--runslow", action="store_true", default=False,
+                     help="also run the tests marked slow (left out by default; .ci/run "
+                          "runs them after the README's command)")
+
+
 def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
-    """Tests marked ``slow`` run first (in their collected order, the others after them):
-    with ``-n`` workers, the long ones then overlap each other and the short ones fill the
-    gaps, instead of one long test starting last and running alone. Every worker sorts the
-    same way, as pytest-xdist requires.
+    """Tests marked ``slow`` (more than ~10 s of CPU each: discretisation convergence,
+    N = 1000, the kernel cache, …; and the heaviest smoke tests, more than ~2 s: the
+    benchmarks', studies', examples' and notebooks' runs, the fuzz suite, commands that draw
+    a figure) are skipped, with that reason, unless ``--runslow`` is given: the README's
+    command stays within five minutes on two cores, and ``.ci/run`` runs them after it
+    (``python -m pytest -m slow --runslow``). They run first (in their collected order, the others after them): with
+    ``-n`` workers the long ones then overlap each other and the short ones fill the gaps,
+    instead of one long test starting last and running alone. Every worker sorts the same
+    way, as pytest-xdist requires.
 
     Tests marked ``nightly`` (minutes each: the large-N cases) run only with
     ``RODSIM_NIGHTLY=1``; the default run reports them as skipped with that reason, and a
     cheaper test of the same promise runs every time (docs/reliability.md)."""
     items.sort(key=lambda item: item.get_closest_marker("slow") is None)
+    if not config.getoption("--runslow"):
+        slow = pytest.mark.skip(reason="slow: left out of the README's command; --runslow "
+                                       "runs it (.ci/run does)")
+        for item in items:
+            if item.get_closest_marker("slow") is not None:
+                item.add_marker(slow)
     if os.environ.get("RODSIM_NIGHTLY") != "1":
         nightly = pytest.mark.skip(reason="nightly: minutes long; RODSIM_NIGHTLY=1 runs it")
         for item in items:

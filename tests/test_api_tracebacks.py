@@ -55,6 +55,7 @@ def test_a_subnormal_section_value_is_refused(name, cli, capsys):
     rodsim.load_scene("catheter-pull-ring", [f"rods.catheter.sections.0.{name}=3e-308"])
 
 
+@pytest.mark.slow  # a command-line run that draws its figure: 2-4 s of CPU
 def test_plot_of_a_contact_track_with_a_nan_position(tmp_path, cli, capsys):
     """A contact track archive with one NaN control point was a matplotlib traceback
     ("Axis limits cannot be NaN or Inf"); now it is drawn without that point."""

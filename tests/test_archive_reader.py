@@ -216,6 +216,7 @@ def run_cli(*args: str, cwd: Path) -> subprocess.CompletedProcess:
                           env={**os.environ, "OMP_NUM_THREADS": "1"})
 
 
+@pytest.mark.slow  # six fresh rodsim processes: ~8 s of CPU
 def test_special_files_are_refused_before_they_are_opened(tmp_path):
     """`fit --data`, `rerun` and `plot` blocked forever on a FIFO; `fit --data /dev/zero`
     ran out of memory. Each is one line, exit 2, at once."""

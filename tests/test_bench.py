@@ -3,8 +3,9 @@ well-formed outputs, and the ``bench`` command finding them in the checkout.
 
 Timings are never asserted (shared machine); only that the archives re-open with the machine
 description, that every successful run has a measured (finite) error and time, and that the
-figure and the markdown table exist. The benchmarks whose smallest size takes more than a few
-seconds are marked ``slow``.
+figure and the markdown table exist. The benchmarks whose smallest size takes more than
+about a second of CPU are marked ``slow`` (the README's command leaves them out; .ci/run
+runs them).
 """
 
 from __future__ import annotations
@@ -125,6 +126,7 @@ def test_scaling_small_outputs_via_cli(tmp_path, cli, capsys):
     assert band > sparse + 5.0  # the template is n² × 8 B = 15 MiB here
 
 
+@pytest.mark.slow
 def test_paper_regime_small_outputs(tmp_path, cli, capsys):
     """`rodsim bench paper-regime --size small`: the files, every method in the table, every
     run successful, and the regime (M scaled to h² ω₁² = 0.003) taking more steps to rest
@@ -284,6 +286,7 @@ def test_stress_small_outputs(tmp_path):
     assert np.all(np.isfinite(ds["tip_error"].values[converged]))
 
 
+@pytest.mark.slow
 def test_skip_work_small_outputs(tmp_path):
     paths = skip_work.run("small", tmp_path)
     assert {p.name for p in paths} == {"skip-work-small.nc", "skip-work-small.md"}
@@ -325,6 +328,7 @@ def test_kernels_small_outputs(tmp_path):
     assert 0 < track["warm_step_mean_s"] < track["cold_solve_s"]
 
 
+@pytest.mark.slow
 def test_string_tendon_small_outputs(tmp_path):
     """``rodsim bench string-tendon --size small``: two cases of tdcr-two-segment solved,
     timed and scored against the Rucker–Webster reference within the scene's accuracy aim."""
@@ -343,6 +347,7 @@ def test_string_tendon_small_outputs(tmp_path):
     assert "| default" in (tmp_path / "string-tendon-small.md").read_text()
 
 
+@pytest.mark.slow
 def test_friction_small_outputs(tmp_path):
     """``rodsim bench friction --size small``: both scenes' cycles and static solves ran at
     μ = 0 and 0.3; the ramp goes up and back down; the frictionless solve's ratio is 1."""
@@ -502,6 +507,7 @@ def test_startup_small_outputs(tmp_path):
     assert "| run |" in (tmp_path / "startup-small.md").read_text()
 
 
+@pytest.mark.slow
 def test_tracking_small_outputs(tmp_path):
     """``rodsim bench tracking --size small``: both variants tracked on both scenes, their
     states equal to round-off, rates finite, the verdicts' CPU a part of the track's."""
@@ -533,6 +539,7 @@ def test_workers_small_outputs(tmp_path):
     assert np.all(ds["wall"].values > 0) and np.all(ds["cpu"].values > 0)
 
 
+@pytest.mark.slow
 def test_batch_small_outputs(tmp_path):
     """``rodsim bench batch --size small``: 1 and 2 local workers ran every case, the same
     equilibria (bit for bit) as each other and as the cases solved alone (round-off)."""

@@ -443,6 +443,7 @@ def test_insertion_along_a_curved_vessel_is_warm_started_and_path_independent():
     assert gap < 1e-6
 
 
+@pytest.mark.slow  # a command-line run that draws its figure: 2-4 s of CPU
 def test_archive_holds_contact_forces_and_the_figure_draws_them(tmp_path):
     """A run archive of a scene with obstacles holds the contact force per node (N) and their
     resultant, passes the archive contract and round-trips through netCDF; a scene without

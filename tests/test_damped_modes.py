@@ -118,6 +118,7 @@ def test_against_a_dense_generalised_eigensolve_of_the_pencil():
     np.testing.assert_allclose(modes.damped_eigenvalues, values, rtol=1e-6)
 
 
+@pytest.mark.slow  # ~5 s of CPU each, as test_simulate.py's decrement tests (also slow)
 @pytest.mark.parametrize("kind", ["kelvin-voigt", "drag"])
 def test_the_decay_rodsim_simulate_measures(kind):
     """The steel rod (N = 21) released from a 0.02 N tip force with ζ₁ = 0.01: the

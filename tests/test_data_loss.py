@@ -58,6 +58,7 @@ def test_a_track_stopped_by_ctrl_c_keeps_its_finished_steps():
     assert "interrupted" in stored.attrs["message"]
 
 
+@pytest.mark.slow  # a rodsim track process of 39 steps, then the same track in process: ~6 s
 def test_sigterm_during_a_track_writes_the_finished_steps_and_exits_130(tmp_path):
     """The issue: Ctrl-C (here SIGTERM, sent when the progress line reports step 25 of 39)
     after most steps wrote nothing. Now the finished steps are archived, marked incomplete;

@@ -88,15 +88,22 @@ def test_the_error_examples_in_the_scene_docs_are_what_the_cli_prints(cli, capsy
 
 
 def test_ci_runs_the_readme_test_command():
-    """.ci/run runs the suite exactly as the README tells a newcomer to."""
+    """.ci/run runs the suite exactly as the README tells a newcomer to, then the tests
+    marked slow that the README's command leaves out (tests/conftest.py), and fails if
+    either run does."""
     import re
 
     readme = (ROOT / "README.md").read_text(encoding="utf-8")
     ci = (ROOT / ".ci" / "run").read_text(encoding="utf-8")
     documented = re.search(r'pip install "\.\[test\]" && (python -m pytest[^\n]*)', readme)
     assert documented, "the README's test command is not where it was"
-    assert re.search(rf"^{re.escape(documented[1])}$", ci, re.MULTILINE), (
+    command = re.escape(documented[1])
+    assert re.search(rf"^{command} \|\| status=\$\?$", ci, re.MULTILINE), (
         f".ci/run does not run {documented[1]!r}")
+    assert re.search(rf"^{command} -m slow --runslow \|\| status=\$\?$", ci, re.MULTILINE), (
+        ".ci/run does not run the tests marked slow")
+    assert re.search(r'^exit "\$status"$', ci, re.MULTILINE)
+    assert "--runslow" in readme and "-m slow --runslow" in readme
 
 
 def test_the_gallery_is_current():

@@ -19,6 +19,7 @@ def test_there_are_five_to_eight_examples():
     assert 5 <= len(EXAMPLES) <= 8, [p.name for p in EXAMPLES]
 
 
+@pytest.mark.slow  # a fresh interpreter each, 1-3.5 s of CPU: 16 s in all
 @pytest.mark.parametrize("script", EXAMPLES, ids=[p.stem for p in EXAMPLES])
 def test_example_runs(script, tmp_path):
     environment = dict(os.environ, OMP_NUM_THREADS="1", OPENBLAS_NUM_THREADS="1",

@@ -215,6 +215,7 @@ def test_a_string_tendons_drawn_path_is_the_models(scene):
         assert np.max(np.abs(got - expected)) < 0.02 * offset
 
 
+@pytest.mark.slow  # a command-line run that draws its figure: 2-4 s of CPU
 def test_a_tracks_movie_has_one_frame_per_step(tmp_path, cli, capsys):
     from PIL import Image
 
@@ -234,6 +235,7 @@ def test_a_tracks_movie_has_one_frame_per_step(tmp_path, cli, capsys):
     assert not (tmp_path / "run.png").exists()  # refused before anything is drawn
 
 
+@pytest.mark.slow  # a command-line run that draws its figure: 2-4 s of CPU
 def test_a_trajectorys_movie_draws_its_output_times(tmp_path, cli, capsys, monkeypatch):
     """``rodsim simulate``'s archive: one frame per output time (at most MAX_FRAMES, evenly
     spaced with the first and the last), each frame the rod where the archive has it at that

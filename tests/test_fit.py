@@ -134,6 +134,7 @@ def test_a_data_file_with_s_in_any_column_order_is_read(tmp_path):
     np.testing.assert_array_equal(points.s, [0.01])
 
 
+@pytest.mark.slow  # a command-line run that draws its figure: 2-4 s of CPU
 def test_fit_command_writes_the_fitted_scene_and_a_figure(tmp_path, capsys, cli):
     scene = rodsim.load_scene("table1-50g", ["nodes=20"])
     points = synthetic(scene, {"youngs_modulus": 5.0e6}, noise=5e-5, seed=2)

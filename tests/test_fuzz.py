@@ -60,6 +60,10 @@ from rodsim.app.study import Study, Sweep
 from rodsim.app.study_runner import parts_folder, run_study
 from rodsim.io.archive import ArchiveError, read_dataset, write_dataset
 
+#: The whole suite is marked ``slow`` (~25 s of CPU): the README's command leaves it out,
+#: .ci/run runs it (``-m slow --runslow``).
+pytestmark = pytest.mark.slow
+
 #: Examples per test in the default run: the fixed-seed tests first, then the varying ones.
 EXAMPLES = {"set": 30, "scene": 25, "rerun": 20, "plot": 15, "resume": 12,
             "inverse archives": 16, "inverse commands": 10, "damaged bytes": 10,

@@ -138,6 +138,7 @@ DASK_PROBE = textwrap.dedent("""
 """)
 
 
+@pytest.mark.slow  # a rodsim study process with its workers: ~2-3 s of CPU each
 @pytest.mark.parametrize("workers", ["1", "2"])
 def test_a_study_on_local_workers_never_imports_dask(tmp_path, workers):
     """xarray's netCDF write asks dask for its scheduler (0.4 s of imports, distributed
@@ -152,6 +153,7 @@ def test_a_study_on_local_workers_never_imports_dask(tmp_path, workers):
     assert read_dataset(output)["status"].size > 0
 
 
+@pytest.mark.slow  # as above
 def test_a_study_on_two_workers_is_complete_after_its_process_ends(tmp_path):
     """The pool's workers are gone before the early exit, the archive holds every point."""
     output = tmp_path / "fig7b.nc"

@@ -16,6 +16,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
+import pytest
 
 import rodsim
 from rodsim.core.model import Model
@@ -83,6 +84,7 @@ def mixed_robot(rng: np.random.Generator, index: int) -> dict:
     return robot
 
 
+@pytest.mark.slow  # 20 robots, static and CVODE each: ~10 s of CPU
 def test_mixed_robots_converge_with_the_verdict_of_their_eigenvalues():
     """static and CVODE on every robot: each run converges or fails with advice; every
     converged state's verdict is the sign of the smallest real part of K's dense

@@ -43,6 +43,7 @@ def test_a_notebook_is_saved_without_outputs(path):
         assert cell.outputs == [] and cell.execution_count is None, cell.id
 
 
+@pytest.mark.slow  # a fresh Jupyter kernel each, ~2 s of CPU: 8 s in all
 @pytest.mark.parametrize("path", NOTEBOOKS, ids=[p.stem for p in NOTEBOOKS])
 def test_a_notebook_runs_without_a_cell_error(path, tmp_path, monkeypatch):
     monkeypatch.setenv("OMP_NUM_THREADS", "1")  # the kernel inherits the environment

@@ -66,6 +66,7 @@ def test_table_and_sinusoid_values():
     assert program_entry("k", ([0, 1], [2, 3])) == Table((0.0, 1.0), (2.0, 3.0))
 
 
+@pytest.mark.slow  # ~8 s of CPU
 def test_below_resonance_the_response_is_the_quasi_static_one():
     """A tip force F sin(Ωt), Ω = ω₁/5, on the steel rod with Kelvin–Voigt damping
     ζ₁ = 0.2: over the second drive period the first mode's coordinate is the driven
@@ -95,6 +96,7 @@ def test_below_resonance_the_response_is_the_quasi_static_one():
     assert abs(measured / static - 1.0) > 0.03 and measured_lag > 0.07  # not static
 
 
+@pytest.mark.slow  # ~8 s of CPU
 def test_at_resonance_the_amplitude_follows_the_single_mode_oscillator():
     """Driven at the Euler–Bernoulli ω₁ from rest with a drag of ζ₁ = 0.05: over the sixth
     period the first mode's amplitude against the single-mode oscillator's whole response

@@ -70,6 +70,7 @@ def test_a_planar_catheter_cannot_reach_out_of_its_plane():
     assert abs(found.tip[2]) < 1e-12
 
 
+@pytest.mark.slow  # a command-line run that draws its figure: 2-4 s of CPU
 def test_reach_command_writes_the_archive_and_a_figure(tmp_path, capsys, cli):
     scene = rodsim.load_scene("four-tendons", SMALL)
     target = _tip(scene, {"tendon_py": 2.0, "tendon_mz": 1.5})

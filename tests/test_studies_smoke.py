@@ -5,7 +5,9 @@ without new test code: each runs in this process (``workers=1``), and its Datase
 well-formed (one dimension per sweep with the declared coordinates, units and long names, no
 failed point, errors exactly where a reference exists), re-open with plain
 ``xr.open_dataset`` and plot to PNG and PDF. A few cheap physics checks follow, on the same
-runs (each study runs once per session). The whole file takes about 20–40 s on two cores.
+runs (each study runs once per session). Every test that runs a study is marked ``slow``
+(the file takes about 38 s of CPU, fig8_regime 8 of them): the README's command leaves
+them out, .ci/run runs them.
 """
 
 from __future__ import annotations
@@ -64,6 +66,7 @@ def test_the_paper_figures_are_all_declared():
         assert {"small", "full"} <= set(study.sweeps), study.name
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name", sorted(STUDIES))
 def test_small_study_runs_and_plots(name, small, tmp_path):
     study = STUDIES[name]
@@ -164,6 +167,7 @@ def _perturbed(ds: xr.Dataset) -> xr.Dataset:
     return out
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name", sorted(STUDIES))
 def test_small_study_figure_states_what_was_measured(name, small):
     """The title's measured line holds a number and follows the archive's data: it changes
@@ -181,18 +185,21 @@ def tip_y(ds: xr.Dataset) -> xr.DataArray:
     return ds["tip"].isel(rod=0).sel(axis="y")
 
 
+@pytest.mark.slow
 def test_fig6_cosserat_model_matches_the_elastica(small):
     ds = small("fig6")[1]
     assert float(ds["tip_error"].max()) < 2e-3  # paper: < 1 % of L for 20 and 50 g
     assert np.all(np.diff(tip_y(ds).values) < 0.0)  # a heavier mass deflects more
 
 
+@pytest.mark.slow
 def test_fig7_errors_fall_with_n_and_k_p(small):
     assert np.all(np.diff(small("fig7b")[1]["tip_error"].values) < 0.0)
     errors = small("fig7a")[1]["tip_error"].values
     assert np.all(np.diff(errors) < 0.0) and errors[-1] < 1e-3
 
 
+@pytest.mark.slow
 def test_fig8_every_damping_reaches_the_same_equilibrium(small):
     ds = small("fig8")[1]
     tips = ds["tip"].isel(rod=0).values.reshape(-1, 3)
@@ -203,6 +210,7 @@ def test_fig8_every_damping_reaches_the_same_equilibrium(small):
     assert np.all(history[:, 0] > final)
 
 
+@pytest.mark.slow
 def test_fig8_regime_xi_0_9_comes_to_rest_first(small):
     """With the masses scaled to h² ω₁² = 0.003 (docs/design.md, erratum 12) the paper's ordering
     holds: ξ = 0.9 needs fewer steps to rest than 0.5 (overdamped) and 1.0 (only backward
@@ -215,6 +223,7 @@ def test_fig8_regime_xi_0_9_comes_to_rest_first(small):
     assert np.ptp(tips, axis=0).max() < 1e-6 * float(np.abs(tips).max())
 
 
+@pytest.mark.slow
 def test_fig9_corde_deflects_far_less_than_corrected(small):
     ds = small("fig9")[1]
     corrected = np.abs(tip_y(ds).sel(stiffness="corrected").values)
@@ -224,23 +233,27 @@ def test_fig9_corde_deflects_far_less_than_corrected(small):
     assert float(ds["tip_error"].sel(stiffness="corde").max()) > 0.1
 
 
+@pytest.mark.slow
 def test_fig14_15_control_points(small):
     errors = small("fig14")[1]["tip_error"].values
     assert np.all(np.diff(errors) < 0.0)  # converges as N_C = N_T grows
     assert float(small("fig15")[1]["tip_error"].max()) < 1e-3  # N_T barely matters
 
 
+@pytest.mark.slow
 def test_fig17_18_endpoint_constants(small):
     # More K_C -> more deflection (Fig. 17); more K_E -> less, in K_E >= 1100 (Fig. 18).
     assert np.all(np.diff(tip_y(small("fig17")[1]).values) > 0.0)
     assert np.all(np.diff(tip_y(small("fig18")[1]).values) < 0.0)
 
 
+@pytest.mark.slow
 def test_fig22_fits_bend_towards_the_lumen(small):
     ds = small("fig22")[1]
     assert np.all(tip_y(ds).values > 0.0)  # the lumen is on +y
 
 
+@pytest.mark.slow
 def test_gravity_on_deflects_more_than_off(small):
     ds = small("gravity")[1]
     off, on = tip_y(ds).sel(gravity="off").values, tip_y(ds).sel(gravity="on").values
@@ -248,6 +261,7 @@ def test_gravity_on_deflects_more_than_off(small):
     assert np.all(np.isfinite(ds["tip_error"].sel(gravity="off").values))
 
 
+@pytest.mark.slow
 def test_convergence_error_falls_with_n_and_k_l(small):
     """K_L is per unit tendon length, so the lumen's compliance error does not fall with N:
     at the small K_L it is a floor above the discretisation error, which falls with N at
@@ -257,6 +271,7 @@ def test_convergence_error_falls_with_n_and_k_l(small):
     assert np.all(errors.diff("K_L").values < 0.0)
 
 
+@pytest.mark.slow
 def test_a_study_without_reference_reruns(small):
     """fig16 stores no errors (no reference): `rerun` of one of its points still works."""
     ds = small("fig16")[1]
@@ -281,6 +296,7 @@ def _texts(figure) -> list[str]:
     return texts
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name", sorted(STUDIES))
 def test_no_figure_text_reads_nan(name, small):
     """gravity's title read "gravity = on: nan %" (no exact reference with self-weight)."""
@@ -296,6 +312,7 @@ def test_no_figure_text_reads_nan(name, small):
     assert not bad, bad
 
 
+@pytest.mark.slow
 def test_fig16_tip_panel_shows_the_size_of_the_change(small):
     """Fig. 16's tip moves by a fraction of a µm over K_L: the panel drew it as a steep curve
     on an offset axis. Its y range now spans at least 1 % of L (the curve is flat), there is

@@ -413,6 +413,7 @@ def test_resume_after_kill_runs_only_missing_points(tmp_path, monkeypatch, slow_
     resume_and_check(spec, output, 1, slow_whole, monkeypatch)
 
 
+@pytest.mark.slow  # worker processes start and import rodsim: 3-5 s of CPU
 def test_resume_after_kill_of_a_two_process_run(tmp_path, monkeypatch, slow_whole):
     """The default path (a pool of worker processes): SIGKILL of the runner leaves no idle
     workers behind (they notice their parent is gone), and a resume with two workers
@@ -495,6 +496,7 @@ def test_two_local_processes_match_in_process_run(study_run, spec, tmp_path):
     xr.testing.assert_identical(read_dataset(output), parallel)
 
 
+@pytest.mark.slow  # worker processes start and import rodsim: 3-5 s of CPU
 def test_dask_local_cluster_matches_local_run(study_run, spec, tmp_path):
     import dask  # a test dependency (pyproject's "test" extra): missing it must fail, not skip
     import distributed  # noqa: F401
@@ -882,6 +884,7 @@ def test_cli_warns_on_stderr_about_a_corrupt_point(registered, tmp_path, cli, ca
     np.testing.assert_array_equal(read_dataset(output)["status"].values, FAILING_STATUS)
 
 
+@pytest.mark.slow  # worker processes start and import rodsim: 3-5 s of CPU
 def test_dask_through_a_scheduler_address(study_run, spec, tmp_path, monkeypatch):
     """A LocalCluster started here, reached through its tcp:// address: the Dataset is the
     local run's; a point that kills its dask worker is recorded (KilledWorker) and the
