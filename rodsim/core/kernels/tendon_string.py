@@ -141,7 +141,7 @@ def _chord_block(merged: np.ndarray, u: np.ndarray, pull: float, length: float, 
                  pj: np.ndarray, proj: np.ndarray, block: np.ndarray,
                  curvature: np.ndarray) -> None:
     """Minus a chord's element Jacobian at frozen tension, on its distinct columns, into
-    ``block``: Jdᵀ P Jd plus its points' curvature (``_evaluate_tendon``'s every chord,
+    ``block``: Jdᵀ P Jd plus its points' curvature, as ``_evaluate_tendon`` builds it (for
     ``evaluate_group``'s chords with the friction coupling)."""
     factor = pull / length
     for a in range(3):
@@ -203,44 +203,14 @@ def _chord_force(jd: np.ndarray, u: np.ndarray, pull: float, out: np.ndarray) ->
 
 
 @njit(cache=True, inline="always")
-def _subtract_chord(merged: np.ndarray, u: np.ndarray, factor: float, pull: float,
-                    count: int, knot: np.ndarray, forms: np.ndarray, a_point: int,
-                    q: np.ndarray, n: np.ndarray, gq: np.ndarray, g: np.ndarray,
-                    weights: np.ndarray, pj: np.ndarray, proj: np.ndarray,
-                    curvature: np.ndarray, summed: np.ndarray) -> None:
-    """``summed`` −= a chord's element Jacobian at frozen tension (``_chord_block``'s, with
-    P's factor ``factor`` and the curvature's pull ``pull``, the tendon's scale taken into
-    both), on its distinct columns: Jdᵀ P Jd on and above the diagonal and mirrored, then
-    its points' curvature."""
-    for a in range(3):
-        for b in range(3):
-            proj[a, b] = ((1.0 if a == b else 0.0) - u[a] * u[b]) * factor
+def _add_coupled(summed: np.ndarray, unit_force: np.ndarray, gradient: np.ndarray,
+                 block: np.ndarray, scale: float, count: int) -> None:
+    """``summed`` += a chord with the friction coupling: f ⊗ ∂τ/∂x minus its block at
+    frozen tension (``_chord_block``), times the tendon's scale."""
     for k in range(count):
-        j0, j1, j2 = merged[0, k], merged[1, k], merged[2, k]
-        for a in range(3):
-            pj[a, k] = proj[a, 0] * j0 + proj[a, 1] * j1 + proj[a, 2] * j2
-    for k in range(count):
-        j0, j1, j2 = merged[0, k], merged[1, k], merged[2, k]
-        summed[k, k] -= j0 * pj[0, k] + j1 * pj[1, k] + j2 * pj[2, k]
-        for j in range(k + 1, count):
-            value = j0 * pj[0, j] + j1 * pj[1, j] + j2 * pj[2, j]
-            summed[k, j] -= value
-            summed[j, k] -= value
-    for side in range(2):
-        point = a_point + side
-        _curvature(forms, point, u, q, n, gq, g, pull if side == 1 else -pull, curvature)
-        for a in range(2):
-            ka = knot[side, a]
-            if ka < 0:
-                continue
-            for b in range(2):
-                kb = knot[side, b]
-                if kb < 0:
-                    continue
-                weight = weights[point, 2 + a] * weights[point, 2 + b]
-                for i in range(4):
-                    for j in range(4):
-                        summed[ka + i, kb + j] -= weight * curvature[i, j]
+        f = unit_force[k]
+        for j in range(count):
+            summed[k, j] += scale * (f * gradient[j] - block[k, j])
 
 
 @njit(cache=True, inline="always")
@@ -281,6 +251,17 @@ def _add_block(jacobian: np.ndarray, target: np.ndarray, local: np.ndarray, coun
         row = target[local[k]]
         for j in range(count):
             jacobian[row[local[j]]] += block[k, j]
+
+
+@njit(cache=True, inline="always")
+def _add_forces(force: np.ndarray, force_target: np.ndarray, chord_start: np.ndarray,
+                active: np.ndarray, chord_force: np.ndarray, scales: np.ndarray) -> None:
+    """The chords' forces of the active tendons into F, tendon by tendon, chord by chord
+    (the order of one call per tendon)."""
+    for t in range(active.shape[0]):
+        if active[t]:
+            for c in range(chord_start[t], chord_start[t + 1]):
+                add_force(force, force_target, c, chord_force[c], scales[t])
 
 
 @njit(cache=True)
@@ -378,38 +359,43 @@ def evaluate_group(x: np.ndarray, chord_start: np.ndarray, point_start: np.ndarr
             if coupled:
                 _chord_block(merged, u, pull, length, count, knot, forms, a_point, q, n, gq,
                              g, weights, pj, proj, block, curvature)
-                for k in range(count):
-                    f = unit_force[k]
-                    for j in range(count):
-                        summed[k, j] += scale * (f * gradient[j] - block[k, j])
-            else:
-                _subtract_chord(merged, u, scale * pull / length, scale * pull, count, knot,
-                                forms, a_point, q, n, gq, g, weights, pj, proj, curvature,
-                                summed)
+                _add_coupled(summed, unit_force, gradient, block, scale, count)
+                continue
+            factor = scale * pull / length
+            for a in range(3):
+                for b in range(3):
+                    proj[a, b] = ((1.0 if a == b else 0.0) - u[a] * u[b]) * factor
+            for k in range(count):
+                j0, j1, j2 = merged[0, k], merged[1, k], merged[2, k]
+                for a in range(3):
+                    pj[a, k] = proj[a, 0] * j0 + proj[a, 1] * j1 + proj[a, 2] * j2
+            for k in range(count):
+                j0, j1, j2 = merged[0, k], merged[1, k], merged[2, k]
+                summed[k, k] -= j0 * pj[0, k] + j1 * pj[1, k] + j2 * pj[2, k]
+                for j in range(k + 1, count):
+                    value = j0 * pj[0, j] + j1 * pj[1, j] + j2 * pj[2, j]
+                    summed[k, j] -= value
+                    summed[j, k] -= value
+            for side in range(2):
+                point = a_point + side
+                _curvature(forms, point, u, q, n, gq, g,
+                           scale * pull if side == 1 else -(scale * pull), curvature)
+                for a in range(2):
+                    ka = knot[side, a]
+                    if ka < 0:
+                        continue
+                    for b in range(2):
+                        kb = knot[side, b]
+                        if kb < 0:
+                            continue
+                        weight = weights[point, 2 + a] * weights[point, 2 + b]
+                        for i in range(4):
+                            for j in range(4):
+                                summed[ka + i, kb + j] -= weight * curvature[i, j]
         if members > 0:
             _add_block(jacobian, jacobian_target[target_chord], local, count, summed)
     if want_force:
-        for t in range(terms):
-            if active[t]:
-                for c in range(chord_start[t], chord_start[t + 1]):
-                    add_force(force, force_target, c, chord_force[c], scales[t])
-
-
-@njit(cache=True, inline="always")
-def _scatter_chord(jacobian: np.ndarray, target: np.ndarray, local: np.ndarray, count: int,
-                   coupled: bool, unit_force: np.ndarray, gradient: np.ndarray,
-                   block: np.ndarray, scale: float) -> None:
-    """A chord's element Jacobian into the CSC data, each entry once: minus ``block``
-    (``_chord_block``) plus, with the friction coupling, f ⊗ ∂τ/∂x, times ``scale``."""
-    for k in range(count):
-        row = target[local[k]]
-        if coupled:
-            f = unit_force[k]
-            for j in range(count):
-                jacobian[row[local[j]]] += scale * (f * gradient[j] - block[k, j])
-        else:
-            for j in range(count):
-                jacobian[row[local[j]]] -= scale * block[k, j]
+        _add_forces(force, force_target, chord_start, active, chord_force, scales)
 
 
 @njit(cache=True)
@@ -461,14 +447,50 @@ def _evaluate_tendon(x: np.ndarray, dofs: np.ndarray, weights: np.ndarray,
             continue
         count = _unique_columns(dofs, weights, e, e, jd, local, merged, knot, group_first,
                                 group_start, source)
-        _chord_block(merged, u, pull, length, count, knot, forms, e, q, n, gq, g, weights,
-                     pj, proj, block, curvature)
+        factor = pull / length
+        for a in range(3):
+            for b in range(3):
+                proj[a, b] = ((1.0 if a == b else 0.0) - u[a] * u[b]) * factor
+        for k in range(count):
+            j0, j1, j2 = merged[0, k], merged[1, k], merged[2, k]
+            for a in range(3):
+                pj[a, k] = proj[a, 0] * j0 + proj[a, 1] * j1 + proj[a, 2] * j2
+        for k in range(count):
+            j0, j1, j2 = merged[0, k], merged[1, k], merged[2, k]
+            for j in range(k, count):
+                value = j0 * pj[0, j] + j1 * pj[1, j] + j2 * pj[2, j]
+                block[k, j] = value
+                block[j, k] = value
+        for side in range(2):
+            point = e + side
+            _curvature(forms, point, u, q, n, gq, g, pull if side == 1 else -pull,
+                       curvature)
+            for a in range(2):
+                ka = knot[side, a]
+                if ka < 0:
+                    continue
+                for b in range(2):
+                    kb = knot[side, b]
+                    if kb < 0:
+                        continue
+                    weight = weights[point, 2 + a] * weights[point, 2 + b]
+                    for i in range(4):
+                        for j in range(4):
+                            block[ka + i, kb + j] += weight * curvature[i, j]
         coupled = False
         if rate[e] != 0.0:
             coupled = _one_way_coupling(merged, u, length, axis, rate[e], count, slope,
                                         gradient, unit_force)
-        _scatter_chord(jacobian, jacobian_target[e], local, count, coupled, unit_force,
-                       gradient, block, scale)
+        target = jacobian_target[e]
+        for k in range(count):
+            row = target[local[k]]
+            if coupled:
+                f = unit_force[k]
+                for j in range(count):
+                    jacobian[row[local[j]]] += scale * (f * gradient[j] - block[k, j])
+            else:
+                for j in range(count):
+                    jacobian[row[local[j]]] -= scale * block[k, j]
 
 
 @njit(cache=True)
