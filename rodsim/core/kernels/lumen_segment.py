@@ -284,30 +284,6 @@ def _pull_back(h_y: np.ndarray, chain: np.ndarray, width: int, product: np.ndarr
             local_jacobian[a, b] = -value
 
 
-@njit(cache=True, inline="always")
-def _subtract_frame_hessians(e: int, offset: float, weights: np.ndarray, s: np.ndarray,
-                             norm2: np.ndarray, lumen_c: np.ndarray, tangent_c: np.ndarray,
-                             u: np.ndarray, u_grad: np.ndarray, t: np.ndarray,
-                             t_grad: np.ndarray, g: np.ndarray, block_h: np.ndarray,
-                             block_t: np.ndarray, scratch: np.ndarray, scaled: np.ndarray,
-                             local_jacobian: np.ndarray) -> None:
-    """``local_jacobian`` −= Σ over both nodes of r_L Σ_m f_{L,m} ∂²u_m/∂s² + Σ_m f_{τ,m}
-    ∂²t_m/∂s² on the node's quaternion slots, in place."""
-    for node in range(2):
-        node_director_hessian(s[node], norm2[node], lumen_c, u[node], u_grad[node],
-                              g[3 + 3 * node:6 + 3 * node], block_h, scratch, scaled)
-        node_director_hessian(s[node], norm2[node], tangent_c, t[node], t_grad[node],
-                              g[9 + 3 * node:12 + 3 * node], block_t, scratch, scaled)
-        for i in range(3):
-            for j in range(3):
-                both = weights[e, node, i] * weights[e, node, j]
-                if both != 0.0:
-                    for a in range(4):
-                        for b in range(4):
-                            local_jacobian[9 + 4 * i + a, 9 + 4 * j + b] -= both * (
-                                offset * block_h[a, b] + block_t[a, b])
-
-
 @njit(cache=True)
 def evaluate(x: np.ndarray, dofs: np.ndarray, alpha: float, beta: float, offset: float,
              stiffness: np.ndarray, length: float, ends: np.ndarray, weights: np.ndarray,
@@ -371,9 +347,19 @@ def evaluate(x: np.ndarray, dofs: np.ndarray, alpha: float, beta: float, offset:
         if want_jacobian:
             _reduced_hessian(k, w, w1, delta, slope, bend, f_ys, h_y)
             _pull_back(h_y, chain, width, product, local_jacobian)
-            _subtract_frame_hessians(e, offset, weights, s, norm2, lumen_c, tangent_c, u,
-                                     u_grad, t, t_grad, g, block_h, block_t, scratch, scaled,
-                                     local_jacobian)
+            for node in range(2):
+                node_director_hessian(s[node], norm2[node], lumen_c, u[node], u_grad[node],
+                                      g[3 + 3 * node:6 + 3 * node], block_h, scratch, scaled)
+                node_director_hessian(s[node], norm2[node], tangent_c, t[node], t_grad[node],
+                                      g[9 + 3 * node:12 + 3 * node], block_t, scratch, scaled)
+                for i in range(3):
+                    for j in range(3):
+                        both = weights[e, node, i] * weights[e, node, j]
+                        if both != 0.0:
+                            for a in range(4):
+                                for b in range(4):
+                                    local_jacobian[9 + 4 * i + a, 9 + 4 * j + b] -= both * (
+                                        offset * block_h[a, b] + block_t[a, b])
             if corrected:
                 for m in range(3):
                     g_k[m] = g[15 + m] + g[18 + m]

@@ -44,38 +44,6 @@ def _frame(q: np.ndarray, d: np.ndarray, g: np.ndarray, row: np.ndarray,
 
 
 @njit(cache=True, inline="always")
-def _interpolated_frame(x: np.ndarray, dofs: np.ndarray, e: int, wa: float, wb: float,
-                        qi: np.ndarray, di: np.ndarray, gi: np.ndarray, row: np.ndarray,
-                        grad: np.ndarray, dunit: np.ndarray) -> float:
-    """q̃ = w_a q_a + w_b q_b of load e, d_k(q̃) and G_k(q̃) into ``di``, ``gi`` and
-    ∂D_k/∂q̃ into ``dunit``; returns ñ² = |q̃|²."""
-    for a in range(4):
-        qi[a] = wa * x[dofs[e, 6 + a]] + wb * x[dofs[e, 10 + a]]
-    ni2 = _frame(qi, di, gi, row, grad)
-    ni4 = ni2 * ni2
-    for k in range(3):
-        for mm in range(3):
-            for a in range(4):
-                dunit[k, mm, a] = gi[k, mm, a] / ni2 - 2.0 * di[k, mm] * qi[a] / ni4
-    return ni2
-
-
-@njit(cache=True, inline="always")
-def _world_load(e: int, world_force: np.ndarray, body_force: np.ndarray,
-                world_moment: np.ndarray, body_moment: np.ndarray, di: np.ndarray,
-                ni2: float, f: np.ndarray, total: np.ndarray) -> None:
-    """F = F_w + Σ_k f_k D_k and M = M_w + Σ_k m_b,k D_k of load e, in place."""
-    for mm in range(3):
-        fv = world_force[e, mm]
-        tv = world_moment[e, mm]
-        for k in range(3):
-            fv += body_force[e, k] * di[k, mm] / ni2
-            tv += body_moment[e, k] * di[k, mm] / ni2
-        f[mm] = fv
-        total[mm] = tv
-
-
-@njit(cache=True, inline="always")
 def _force_jacobian(e: int, body_force: np.ndarray, body_moment: np.ndarray,
                     dunit: np.ndarray, w0: float, w1: float, wa: float, wb: float,
                     dforce: np.ndarray, dtotal: np.ndarray,
@@ -202,8 +170,22 @@ def evaluate(x: np.ndarray, dofs: np.ndarray, weights: np.ndarray, frame_weights
             continue
         wa = frame_weights[e, 0]
         wb = frame_weights[e, 1]
-        ni2 = _interpolated_frame(x, dofs, e, wa, wb, qi, di, gi, row, grad, dunit)
-        _world_load(e, world_force, body_force, world_moment, body_moment, di, ni2, f, total)
+        for a in range(4):
+            qi[a] = wa * x[dofs[e, 6 + a]] + wb * x[dofs[e, 10 + a]]
+        ni2 = _frame(qi, di, gi, row, grad)
+        ni4 = ni2 * ni2
+        for k in range(3):
+            for mm in range(3):
+                for a in range(4):
+                    dunit[k, mm, a] = gi[k, mm, a] / ni2 - 2.0 * di[k, mm] * qi[a] / ni4
+        for mm in range(3):
+            fv = world_force[e, mm]
+            tv = world_moment[e, mm]
+            for k in range(3):
+                fv += body_force[e, k] * di[k, mm] / ni2
+                tv += body_moment[e, k] * di[k, mm] / ni2
+            f[mm] = fv
+            total[mm] = tv
         if want_force:
             for a in range(3):
                 local_force[a] = w0 * f[a]
