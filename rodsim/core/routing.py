@@ -18,7 +18,7 @@ reference (rodsim/core/analytic/tendon_bvp.py) ρ and ρ′. ``check_routing`` v
 routing against its catheter (one-line SceneError), including the sampling rule below.
 
 Sampling: the discrete tendon path is the polygon through routing points at the catheter's
-nodes (rodsim/core/terms/tendon_string.py), so a routing that turns faster than the nodes
+nodes (rodsim/core/terms/_string_points.py), so a routing that turns faster than the nodes
 sample it is aliased: a helix of pitch h (one segment per turn) is seen as a constant offset
 and bends the catheter the wrong way (catheter-helical with helix_pitch = 0.004 m at N = 41
 moved the tip 0.159 L sideways; the Rucker–Webster reference and N = 321 agree on y ≈ 0).

@@ -222,6 +222,68 @@ def _locate(x: np.ndarray, dofs: np.ndarray, e: int, offset: float, length: floa
     _curve(y, w, w1, w2, delta, slope, bend)
 
 
+@njit(cache=True, inline="always")
+def _fill_chain(e: int, offset: float, weights: np.ndarray, u_grad: np.ndarray,
+                t_grad: np.ndarray, corrected: bool, turn_grad: np.ndarray,
+                chain: np.ndarray) -> None:
+    """Element ``e``'s entries of the chain G = ∂y/∂x that depend on the state (the frame
+    rows of L_j, L_{j+1}, τ_j, τ_{j+1} on the three quaternion slots; K_j, K_{j+1} on the
+    stencil when corrected), in place."""
+    for slot in range(3):
+        first = 9 + 4 * slot
+        for m in range(3):
+            for a in range(4):
+                chain[3 + m, first + a] = weights[e, 0, slot] * offset * u_grad[0, m, a]
+                chain[6 + m, first + a] = weights[e, 1, slot] * offset * u_grad[1, m, a]
+                chain[9 + m, first + a] = weights[e, 0, slot] * t_grad[0, m, a]
+                chain[12 + m, first + a] = weights[e, 1, slot] * t_grad[1, m, a]
+    if corrected:
+        for m in range(3):
+            for a in range(9):
+                chain[15 + m, 21 + a] = turn_grad[m, a]
+                chain[18 + m, 21 + a] = turn_grad[m, a]
+
+
+@njit(cache=True, inline="always")
+def _reduced_hessian(k: float, w: np.ndarray, w1: np.ndarray, delta: np.ndarray,
+                     slope: np.ndarray, bend: np.ndarray, f_ys: np.ndarray,
+                     h_y: np.ndarray) -> None:
+    """∇²_y E = f_yy − f_yσ f_yσᵀ / f_σσ (module docstring) into ``h_y``, in place."""
+    f_ss = 0.0
+    for m in range(3):
+        f_ss += slope[m] * slope[m] + delta[m] * bend[m]
+    f_ss *= k
+    for b in range(7):
+        for m in range(3):
+            f_ys[3 * b + m] = k * (w1[b] * delta[m] + w[b] * slope[m])
+    for b in range(7):
+        for m in range(3):
+            for c in range(7):
+                for n in range(3):
+                    value = -f_ys[3 * b + m] * f_ys[3 * c + n] / f_ss
+                    if m == n:
+                        value += k * w[b] * w[c]
+                    h_y[3 * b + m, 3 * c + n] = value
+
+
+@njit(cache=True, inline="always")
+def _pull_back(h_y: np.ndarray, chain: np.ndarray, width: int, product: np.ndarray,
+               local_jacobian: np.ndarray) -> None:
+    """``local_jacobian`` ← −Gᵀ ∇²_y E G, in place."""
+    for i in range(21):
+        for a in range(width):
+            value = 0.0
+            for j in range(21):
+                value += h_y[i, j] * chain[j, a]
+            product[i, a] = value
+    for a in range(width):
+        for b in range(width):
+            value = 0.0
+            for i in range(21):
+                value += chain[i, a] * product[i, b]
+            local_jacobian[a, b] = -value
+
+
 @njit(cache=True)
 def evaluate(x: np.ndarray, dofs: np.ndarray, alpha: float, beta: float, offset: float,
              stiffness: np.ndarray, length: float, ends: np.ndarray, weights: np.ndarray,
@@ -274,19 +336,7 @@ def evaluate(x: np.ndarray, dofs: np.ndarray, alpha: float, beta: float, offset:
         for b in range(7):
             for m in range(3):
                 g[3 * b + m] = k * w[b] * delta[m]
-        for slot in range(3):
-            first = 9 + 4 * slot
-            for m in range(3):
-                for a in range(4):
-                    chain[3 + m, first + a] = weights[e, 0, slot] * offset * u_grad[0, m, a]
-                    chain[6 + m, first + a] = weights[e, 1, slot] * offset * u_grad[1, m, a]
-                    chain[9 + m, first + a] = weights[e, 0, slot] * t_grad[0, m, a]
-                    chain[12 + m, first + a] = weights[e, 1, slot] * t_grad[1, m, a]
-        if corrected:
-            for m in range(3):
-                for a in range(9):
-                    chain[15 + m, 21 + a] = turn_grad[m, a]
-                    chain[18 + m, 21 + a] = turn_grad[m, a]
+        _fill_chain(e, offset, weights, u_grad, t_grad, corrected, turn_grad, chain)
         if want_force:
             for a in range(width):
                 value = 0.0
@@ -295,33 +345,8 @@ def evaluate(x: np.ndarray, dofs: np.ndarray, alpha: float, beta: float, offset:
                 local_force[a] = -value
             add_force(force, force_target, e, local_force, scale)
         if want_jacobian:
-            f_ss = 0.0
-            for m in range(3):
-                f_ss += slope[m] * slope[m] + delta[m] * bend[m]
-            f_ss *= k
-            for b in range(7):
-                for m in range(3):
-                    f_ys[3 * b + m] = k * (w1[b] * delta[m] + w[b] * slope[m])
-            for b in range(7):
-                for m in range(3):
-                    for c in range(7):
-                        for n in range(3):
-                            value = -f_ys[3 * b + m] * f_ys[3 * c + n] / f_ss
-                            if m == n:
-                                value += k * w[b] * w[c]
-                            h_y[3 * b + m, 3 * c + n] = value
-            for i in range(21):
-                for a in range(width):
-                    value = 0.0
-                    for j in range(21):
-                        value += h_y[i, j] * chain[j, a]
-                    product[i, a] = value
-            for a in range(width):
-                for b in range(width):
-                    value = 0.0
-                    for i in range(21):
-                        value += chain[i, a] * product[i, b]
-                    local_jacobian[a, b] = -value
+            _reduced_hessian(k, w, w1, delta, slope, bend, f_ys, h_y)
+            _pull_back(h_y, chain, width, product, local_jacobian)
             for node in range(2):
                 node_director_hessian(s[node], norm2[node], lumen_c, u[node], u_grad[node],
                                       g[3 + 3 * node:6 + 3 * node], block_h, scratch, scaled)

@@ -43,6 +43,91 @@ def _frame(q: np.ndarray, d: np.ndarray, g: np.ndarray, row: np.ndarray,
     return n2
 
 
+@njit(cache=True, inline="always")
+def _force_jacobian(e: int, body_force: np.ndarray, body_moment: np.ndarray,
+                    dunit: np.ndarray, w0: float, w1: float, wa: float, wb: float,
+                    dforce: np.ndarray, dtotal: np.ndarray,
+                    local_jacobian: np.ndarray) -> None:
+    """∂F/∂q̃ and ∂M/∂q̃ into ``dforce``, ``dtotal``; ``local_jacobian`` cleared and given
+    the force's rows, (1 − t) and t of ∂F/∂q̃ times w_a, w_b on the two quaternions."""
+    for a in range(14):
+        for b in range(14):
+            local_jacobian[a, b] = 0.0
+    for mm in range(3):
+        for a in range(4):
+            fv = 0.0
+            tv = 0.0
+            for k in range(3):
+                fv += body_force[e, k] * dunit[k, mm, a]
+                tv += body_moment[e, k] * dunit[k, mm, a]
+            dforce[mm, a] = fv
+            dtotal[mm, a] = tv
+    for c in range(2):
+        w = wa if c == 0 else wb
+        col = 6 + 4 * c
+        for mm in range(3):
+            for a in range(4):
+                local_jacobian[mm, col + a] = w0 * w * dforce[mm, a]
+                local_jacobian[3 + mm, col + a] = w1 * w * dforce[mm, a]
+
+
+@njit(cache=True, inline="always")
+def _moment_force(total: np.ndarray, q: np.ndarray, d: np.ndarray, n2: float, m: np.ndarray,
+                  bq: np.ndarray, moment_force: np.ndarray) -> None:
+    """m_k = M · d_k(q) / n², B_k q and Q_c = (2 / n²) Σ_k m_k B_k q, in place."""
+    for k in range(3):
+        proj = 0.0
+        for mm in range(3):
+            proj += total[mm] * d[k, mm]
+        m[k] = proj / n2
+        for a in range(4):
+            value = 0.0
+            for b in range(4):
+                value += _B[k, a, b] * q[b]
+            bq[k, a] = value
+    for a in range(4):
+        moment_force[a] = 2.0 * (m[0] * bq[0, a] + m[1] * bq[1, a]
+                                 + m[2] * bq[2, a]) / n2
+
+
+@njit(cache=True, inline="always")
+def _moment_jacobian(c: int, share: float, wa: float, wb: float, total: np.ndarray,
+                     dtotal: np.ndarray, q: np.ndarray, d: np.ndarray, g: np.ndarray,
+                     n2: float, m: np.ndarray, bq: np.ndarray, moment_force: np.ndarray,
+                     dm_q: np.ndarray, dm_i: np.ndarray, direct: np.ndarray,
+                     through: np.ndarray, local_jacobian: np.ndarray) -> None:
+    """μ_c ∂Q_c/∂q_c and μ_c w_{a,b} ∂Q_c/∂q̃ added to quaternion c's rows of
+    ``local_jacobian`` (module docstring)."""
+    mine = 6 + 4 * c
+    for k in range(3):
+        for a in range(4):
+            direct_value = 0.0
+            frame_value = 0.0
+            for mm in range(3):
+                direct_value += total[mm] * g[k, mm, a]
+                frame_value += d[k, mm] * dtotal[mm, a]
+            dm_q[k, a] = direct_value / n2 - 2.0 * m[k] * q[a] / n2
+            dm_i[k, a] = frame_value / n2
+    for a in range(4):
+        for b in range(4):
+            value = 0.0
+            value_i = 0.0
+            for k in range(3):
+                value += m[k] * _B[k, a, b] + bq[k, a] * dm_q[k, b]
+                value_i += bq[k, a] * dm_i[k, b]
+            direct[a, b] = 2.0 * value / n2 - 2.0 * moment_force[a] * q[b] / n2
+            through[a, b] = 2.0 * value_i / n2
+    for col in range(2):
+        w = wa if col == 0 else wb
+        base = 6 + 4 * col
+        for a in range(4):
+            for b in range(4):
+                value = w * through[a, b]
+                if col == c:
+                    value += direct[a, b]
+                local_jacobian[mine + a, base + b] += share * value
+
+
 @njit(cache=True)
 def evaluate(x: np.ndarray, dofs: np.ndarray, weights: np.ndarray, frame_weights: np.ndarray,
              moment_weights: np.ndarray, world_force: np.ndarray, body_force: np.ndarray,
@@ -106,25 +191,8 @@ def evaluate(x: np.ndarray, dofs: np.ndarray, weights: np.ndarray, frame_weights
                 local_force[a] = w0 * f[a]
                 local_force[3 + a] = w1 * f[a]
         if want_jacobian:
-            for a in range(14):
-                for b in range(14):
-                    local_jacobian[a, b] = 0.0
-            for mm in range(3):
-                for a in range(4):
-                    fv = 0.0
-                    tv = 0.0
-                    for k in range(3):
-                        fv += body_force[e, k] * dunit[k, mm, a]
-                        tv += body_moment[e, k] * dunit[k, mm, a]
-                    dforce[mm, a] = fv
-                    dtotal[mm, a] = tv
-            for c in range(2):
-                w = wa if c == 0 else wb
-                col = 6 + 4 * c
-                for mm in range(3):
-                    for a in range(4):
-                        local_jacobian[mm, col + a] = w0 * w * dforce[mm, a]
-                        local_jacobian[3 + mm, col + a] = w1 * w * dforce[mm, a]
+            _force_jacobian(e, body_force, body_moment, dunit, w0, w1, wa, wb, dforce, dtotal,
+                            local_jacobian)
         for c in range(2):  # each quaternion of the pair: its share of the moment
             share = moment_weights[e, c]
             if share == 0.0:
@@ -133,50 +201,13 @@ def evaluate(x: np.ndarray, dofs: np.ndarray, weights: np.ndarray, frame_weights
             for a in range(4):
                 q[a] = x[dofs[e, mine + a]]
             n2 = _frame(q, d, g, row, grad)
-            for k in range(3):
-                proj = 0.0
-                for mm in range(3):
-                    proj += total[mm] * d[k, mm]
-                m[k] = proj / n2
-                for a in range(4):
-                    value = 0.0
-                    for b in range(4):
-                        value += _B[k, a, b] * q[b]
-                    bq[k, a] = value
-            for a in range(4):
-                moment_force[a] = 2.0 * (m[0] * bq[0, a] + m[1] * bq[1, a]
-                                         + m[2] * bq[2, a]) / n2
+            _moment_force(total, q, d, n2, m, bq, moment_force)
             if want_force:
                 for a in range(4):
                     local_force[mine + a] += share * moment_force[a]
             if want_jacobian:
-                for k in range(3):
-                    for a in range(4):
-                        direct_value = 0.0
-                        frame_value = 0.0
-                        for mm in range(3):
-                            direct_value += total[mm] * g[k, mm, a]
-                            frame_value += d[k, mm] * dtotal[mm, a]
-                        dm_q[k, a] = direct_value / n2 - 2.0 * m[k] * q[a] / n2
-                        dm_i[k, a] = frame_value / n2
-                for a in range(4):
-                    for b in range(4):
-                        value = 0.0
-                        value_i = 0.0
-                        for k in range(3):
-                            value += m[k] * _B[k, a, b] + bq[k, a] * dm_q[k, b]
-                            value_i += bq[k, a] * dm_i[k, b]
-                        direct[a, b] = 2.0 * value / n2 - 2.0 * moment_force[a] * q[b] / n2
-                        through[a, b] = 2.0 * value_i / n2
-                for col in range(2):
-                    w = wa if col == 0 else wb
-                    base = 6 + 4 * col
-                    for a in range(4):
-                        for b in range(4):
-                            value = w * through[a, b]
-                            if col == c:
-                                value += direct[a, b]
-                            local_jacobian[mine + a, base + b] += share * value
+                _moment_jacobian(c, share, wa, wb, total, dtotal, q, d, g, n2, m, bq,
+                                 moment_force, dm_q, dm_i, direct, through, local_jacobian)
         if want_force:
             add_force(force, force_target, e, local_force, scale)
         if want_jacobian:

@@ -141,7 +141,8 @@ def _chord_block(merged: np.ndarray, u: np.ndarray, pull: float, length: float, 
                  pj: np.ndarray, proj: np.ndarray, block: np.ndarray,
                  curvature: np.ndarray) -> None:
     """Minus a chord's element Jacobian at frozen tension, on its distinct columns, into
-    ``block``: Jdᵀ P Jd plus its points' curvature, as ``evaluate`` builds it."""
+    ``block``: Jdᵀ P Jd plus its points' curvature, as ``_evaluate_tendon`` builds it (for
+    ``evaluate_group``'s chords with the friction coupling)."""
     factor = pull / length
     for a in range(3):
         for b in range(3):
@@ -171,6 +172,96 @@ def _chord_block(merged: np.ndarray, u: np.ndarray, pull: float, length: float, 
                 for i in range(4):
                     for j in range(4):
                         block[ka + i, kb + j] += weight * curvature[i, j]
+
+
+@njit(cache=True, inline="always")
+def _chord(p: np.ndarray, jac: np.ndarray, a_point: int, u: np.ndarray,
+           jd: np.ndarray) -> float:
+    """The chord from point ``a_point`` to the next: u = d/|d| and Jd = [−J_A, J_B] in
+    place; returns |d|."""
+    length = 0.0
+    for m in range(3):
+        u[m] = p[a_point + 1, m] - p[a_point, m]
+        length += u[m] * u[m]
+    length = np.sqrt(length)
+    for m in range(3):
+        u[m] /= length
+        for a in range(14):
+            jd[m, a] = -jac[a_point, m, a]
+            jd[m, 14 + a] = jac[a_point + 1, m, a]
+    return length
+
+
+@njit(cache=True, inline="always")
+def _chord_force(jd: np.ndarray, u: np.ndarray, pull: float, out: np.ndarray) -> None:
+    """A chord's force −τ Jdᵀ u into ``out`` (28,)."""
+    for a in range(28):
+        value = 0.0
+        for m in range(3):
+            value += jd[m, a] * u[m]
+        out[a] = -pull * value
+
+
+@njit(cache=True, inline="always")
+def _add_coupled(summed: np.ndarray, unit_force: np.ndarray, gradient: np.ndarray,
+                 block: np.ndarray, scale: float, count: int) -> None:
+    """``summed`` += a chord with the friction coupling: f ⊗ ∂τ/∂x minus its block at
+    frozen tension (``_chord_block``), times the tendon's scale."""
+    for k in range(count):
+        f = unit_force[k]
+        for j in range(count):
+            summed[k, j] += scale * (f * gradient[j] - block[k, j])
+
+
+@njit(cache=True, inline="always")
+def _group_tensions(x: np.ndarray, chord_start: np.ndarray, point_start: np.ndarray,
+                    dofs: np.ndarray, weights: np.ndarray, constant: np.ndarray,
+                    forms: np.ndarray, tension: np.ndarray, friction: np.ndarray,
+                    profile: np.ndarray, weighted: np.ndarray, mu_in: np.ndarray,
+                    mu_out: np.ndarray, entry_forms: np.ndarray, entry_slope: np.ndarray,
+                    split: np.ndarray, scales: np.ndarray, p: np.ndarray, jac: np.ndarray,
+                    q: np.ndarray, n: np.ndarray, gq: np.ndarray, g: np.ndarray,
+                    chord_tension: np.ndarray, rate: np.ndarray, axis: np.ndarray,
+                    term_of: np.ndarray, active: np.ndarray) -> None:
+    """``evaluate_group``'s first pass, tendon by tendon: each chord's tendon
+    (``term_of``), whether the tendon adds anything (``active``), and for those that do
+    their points' geometry and their chords' tensions (``_points_into``, ``_tensions``), in
+    place."""
+    for t in range(tension.shape[0]):
+        c0, c1 = chord_start[t], chord_start[t + 1]
+        p0, p1 = point_start[t], point_start[t + 1]
+        for c in range(c0, c1):
+            term_of[c] = t
+        if scales[t] == 0.0 or tension[t] == 0.0:
+            continue  # scaled away, or a slack tendon: every entry is zero
+        active[t] = True
+        _points_into(x, dofs[c0:c1], weights[p0:p1], constant[p0:p1], forms[p0:p1],
+                     p[p0:p1], jac[p0:p1], q[p0:p1], n[p0:p1], gq[p0:p1], g[p0:p1])
+        _tensions(x, dofs[c0:c1], weights[p0:p1], constant[p0:p1], entry_forms,
+                  entry_slope[t], split[p0:p1], p[p0:p1], tension[t], friction[t],
+                  profile[c0:c1], weighted[t], mu_in[c0:c1], mu_out[c0:c1],
+                  chord_tension[c0:c1], rate[c0:c1], axis[t])
+
+
+@njit(cache=True, inline="always")
+def _add_block(jacobian: np.ndarray, target: np.ndarray, local: np.ndarray, count: int,
+               block: np.ndarray) -> None:
+    """A summed block on a chord's distinct columns into the CSC data, each entry once."""
+    for k in range(count):
+        row = target[local[k]]
+        for j in range(count):
+            jacobian[row[local[j]]] += block[k, j]
+
+
+@njit(cache=True, inline="always")
+def _add_forces(force: np.ndarray, force_target: np.ndarray, chord_start: np.ndarray,
+                active: np.ndarray, chord_force: np.ndarray, scales: np.ndarray) -> None:
+    """The chords' forces of the active tendons into F, tendon by tendon, chord by chord
+    (the order of one call per tendon)."""
+    for t in range(active.shape[0]):
+        if active[t]:
+            for c in range(chord_start[t], chord_start[t + 1]):
+                add_force(force, force_target, c, chord_force[c], scales[t])
 
 
 @njit(cache=True)
@@ -215,20 +306,10 @@ def evaluate_group(x: np.ndarray, chord_start: np.ndarray, point_start: np.ndarr
     axis = np.zeros((terms, 3))
     term_of = np.empty(chords_all, dtype=np.int64)
     active = np.zeros(terms, dtype=np.bool_)
-    for t in range(terms):
-        c0, c1 = chord_start[t], chord_start[t + 1]
-        p0, p1 = point_start[t], point_start[t + 1]
-        for c in range(c0, c1):
-            term_of[c] = t
-        if scales[t] == 0.0 or tension[t] == 0.0:
-            continue  # scaled away, or a slack tendon: every entry is zero
-        active[t] = True
-        _points_into(x, dofs[c0:c1], weights[p0:p1], constant[p0:p1], forms[p0:p1],
-                     p[p0:p1], jac[p0:p1], q[p0:p1], n[p0:p1], gq[p0:p1], g[p0:p1])
-        _tensions(x, dofs[c0:c1], weights[p0:p1], constant[p0:p1], entry_forms,
-                  entry_slope[t], split[p0:p1], p[p0:p1], tension[t], friction[t],
-                  profile[c0:c1], weighted[t], mu_in[c0:c1], mu_out[c0:c1],
-                  chord_tension[c0:c1], rate[c0:c1], axis[t])
+    _group_tensions(x, chord_start, point_start, dofs, weights, constant, forms, tension,
+                    friction, profile, weighted, mu_in, mu_out, entry_forms, entry_slope,
+                    split, scales, p, jac, q, n, gq, g, chord_tension, rate, axis, term_of,
+                    active)
     chord_force = np.empty((chords_all, 28))
     local = np.empty(28, dtype=np.int64)
     knot = np.empty((2, 2), dtype=np.int64)
@@ -256,33 +337,17 @@ def evaluate_group(x: np.ndarray, chord_start: np.ndarray, point_start: np.ndarr
             if not active[t]:
                 continue
             scale = scales[t]
-            e = c - chord_start[t]
-            a_point = point_start[t] + e
+            a_point = point_start[t] + c - chord_start[t]
             pull = chord_tension[c]
-            length = 0.0
-            for m in range(3):
-                u[m] = p[a_point + 1, m] - p[a_point, m]
-                length += u[m] * u[m]
-            length = np.sqrt(length)
-            for m in range(3):
-                u[m] /= length
-                for a in range(14):
-                    jd[m, a] = -jac[a_point, m, a]
-                    jd[m, 14 + a] = jac[a_point + 1, m, a]
+            length = _chord(p, jac, a_point, u, jd)
             if want_force:
-                for a in range(28):
-                    value = 0.0
-                    for m in range(3):
-                        value += jd[m, a] * u[m]
-                    chord_force[c, a] = -pull * value
+                _chord_force(jd, u, pull, chord_force[c])
             if not want_jacobian:
                 continue
             if members == 0:
                 count = _unique_columns(dofs, weights, c, a_point, jd, local, merged, knot,
                                         group_first, group_start, source)
-                for k in range(count):
-                    for j in range(count):
-                        summed[k, j] = 0.0
+                summed[:count, :count] = 0.0
             else:
                 _merged_columns(jd, source, count, merged)
             members += 1
@@ -294,10 +359,7 @@ def evaluate_group(x: np.ndarray, chord_start: np.ndarray, point_start: np.ndarr
             if coupled:
                 _chord_block(merged, u, pull, length, count, knot, forms, a_point, q, n, gq,
                              g, weights, pj, proj, block, curvature)
-                for k in range(count):
-                    f = unit_force[k]
-                    for j in range(count):
-                        summed[k, j] += scale * (f * gradient[j] - block[k, j])
+                _add_coupled(summed, unit_force, gradient, block, scale, count)
                 continue
             factor = scale * pull / length
             for a in range(3):
@@ -330,18 +392,10 @@ def evaluate_group(x: np.ndarray, chord_start: np.ndarray, point_start: np.ndarr
                         for i in range(4):
                             for j in range(4):
                                 summed[ka + i, kb + j] -= weight * curvature[i, j]
-        if members == 0:
-            continue
-        target = jacobian_target[target_chord]
-        for k in range(count):
-            row = target[local[k]]
-            for j in range(count):
-                jacobian[row[local[j]]] += summed[k, j]
+        if members > 0:
+            _add_block(jacobian, jacobian_target[target_chord], local, count, summed)
     if want_force:
-        for t in range(terms):
-            if active[t]:
-                for c in range(chord_start[t], chord_start[t + 1]):
-                    add_force(force, force_target, c, chord_force[c], scales[t])
+        _add_forces(force, force_target, chord_start, active, chord_force, scales)
 
 
 @njit(cache=True)
@@ -385,23 +439,9 @@ def _evaluate_tendon(x: np.ndarray, dofs: np.ndarray, weights: np.ndarray,
     unit_force = np.empty(28)
     for e in range(chords):
         pull = chord_tension[e]
-        pa, pb, ja, jb = p[e], p[e + 1], jac[e], jac[e + 1]
-        length = 0.0
-        for m in range(3):
-            u[m] = pb[m] - pa[m]
-            length += u[m] * u[m]
-        length = np.sqrt(length)
-        for m in range(3):
-            u[m] /= length
-            for a in range(14):
-                jd[m, a] = -ja[m, a]
-                jd[m, 14 + a] = jb[m, a]
+        length = _chord(p, jac, e, u, jd)
         if want_force:
-            for a in range(28):
-                value = 0.0
-                for m in range(3):
-                    value += jd[m, a] * u[m]
-                local_force[a] = -pull * value
+            _chord_force(jd, u, pull, local_force)
             add_force(force, force_target, e, local_force, scale)
         if not want_jacobian:
             continue

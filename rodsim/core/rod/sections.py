@@ -18,7 +18,7 @@ not only on a node or a quaternion):
   moment it gives the exact stretch or rotation of the span, so a piecewise-uniform rod in
   pure bending keeps the arc's exactness;
 - the frame at an arclength s between two quaternions' midpoints a < s < b (a string
-  tendon's routing points, rodsim/core/terms/tendon_string.py; a body-frame point load,
+  tendon's routing points, rodsim/core/terms/_string_points.py; a body-frame point load,
   rodsim/core/terms/point_loads.py): the weight of q_b is the share
   of the twist compliance 1/(G J) over [a, b] that lies in [a, s], the share of the element's
   rotation under a constant moment reached at s — (s − a)/(b − a) in a uniform span. The

@@ -9,45 +9,11 @@ its moment about the centerline, and the point force −T t and moment at the te
 including the kink a tendon that ends makes in the path of those that pass on. No tendon
 rod, no lumen penalty, no registration (docs/tendon.md, "String tendon").
 
-Discretisation (the catheter has N nodes r_j, segment length h, quaternion q_j at the
-segment midpoint s_j = (j + ½) h): the path is the polygon through
-
-- the entry point at s = start, every node s_j = j h with start + h/4 < s_j < end − h/4,
-  every section boundary inside the span where G J changes (unless it lies on a node, the
-  entry or the termination, within ``JUMP_AT_NODE`` h) and the termination point at
-  s = end. The twist rate jumps with G J, so the continuum path kinks there: a point of its
-  own puts the kink's load where it acts (without it, a boundary inside a segment had the
-  kink cut by the chord between two nodes, order 1.72, 1.41 at N = 31 → 121 → 481 with the
-  boundary a third of a segment past a node; with it 2.01, 2.07, tests/test_robots.py);
-- each point p(σ) = (1 − t) r_m + t r_{m+1} + R(q̂(σ)) ρ(σ): the centerline interpolated
-  on the segment m holding σ, plus the body-frame offset ρ = (ρ_y, ρ_z) of the routing
-  (rodsim/core/routing.py), R(q̂) ρ = (ρ_y d1(q) + ρ_z d2(q)) / |q|² (Eq. 2, normalised);
-- q(σ) is interpolated linearly between the frame knots — the base frame at s = 0 (clamps
-  'frame' and 'orientation') and the segment midpoints — and held constant beyond the last
-  knot (and before the first without a base frame); at a node it is ½ (q_{j−1} + q_j).
-  This follows the rod's own discrete kinematics: its bending elements sit between
-  consecutive knots, so the half segment past the last midpoint turns rigidly with q_{N−2}.
-  On a rod with sections, "linearly" is in the twist compliance ∫ 1/(G J) ds between the
-  two knots (rodsim/core/rod/sections.py, ``compliance_fraction``): where G J jumps at a
-  node, the element's twist is not shared half and half, and the weight ½ put the node's
-  routing point O(h) off the continuum path, whose kink there then fell at the wrong
-  place: order 1.68, 1.46, 1.24 at N = 41 → 321 on catheter-pull-ring's tip moment,
-  1.94, 1.97, 1.99 with the compliance weight (issue 20). It reads G J of the spans (the
-  'corrected' tensor of Eq. 8) even where bend_twist uses CORDE's tensor or a
-  twist_stiffness override (sections with those have no reference to check against).
-
-Measured against the Rucker–Webster reference (tests/test_string_tendon.py; tip error / L
-on the 0.2 m benchmark backbone at N = 21 → 81, all second order unless said):
-
-| choice | one tendon, 3 N, to the tip | two tendons, one ending at 0.12 m |
-|---|---|---|
-| points at the segment midpoints ½ (r_j + r_{j+1}) | 2.8e-3 → 1.8e-4 | 3.2e-3 → 2.1e-4 |
-| points at the nodes, frame extrapolated past the last knot | 7.4e-4 → 4.6e-5 | 7.5e-4 → 4.7e-5 |
-| points at the nodes, frame held past the last knot (this) | 3.6e-5 → 2.3e-6 | 1.1e-5 → 7.2e-7 |
-| the segment's own frame at entry and termination | 3.6e-5 → 2.3e-6 | 3.9e-3 → 9.8e-4, order 1 |
-
-(the midpoints sit a sagitta κ h²/8 inside the bent centerline; the segment's own frame puts
-a part-way termination's moment arm up to half a segment off).
+Discretisation: the path is the polygon through routing points on the catheter — the
+entry, the nodes inside the span, the section boundaries where G J changes off a node, the
+termination — each on the centerline interpolated in its segment plus the routing's offset
+R(q̂) ρ, q̂ interpolated between the frame knots (rodsim/core/terms/_string_points.py: the
+choices, and the orders they were measured at against the Rucker–Webster reference).
 
 ℓ = Σ_k |p_{k+1} − p_k|: one element per chord, on the coordinates of its two points
 (r_m, r_{m+1} and the two knot quaternions of each: 28 coordinates). With d = p_B − p_A,
@@ -56,8 +22,7 @@ u = d/|d| and p's derivatives J = ∂p/∂x_point,
     ∂E/∂x = T [−J_Aᵀ u, J_Bᵀ u],
     ∂²E/∂x² = T Jdᵀ (I − u uᵀ) Jd / |d| + T Σ_m u_m (∂²p_B[m] − ∂²p_A[m]),   Jd = [−J_A, J_B],
 
-with ∂²p[m]/∂q² = ∇²f_m of f = g/n, g_m = qᵀ G_m q, G_m = ρ_y A[0, m] + ρ_z A[1, m],
-n = |q|²:  ∇²f_m = 2G_m/n − 4(G_m q qᵀ + q qᵀ G_m)/n² − 2 g_m I/n² + 8 g_m q qᵀ/n³.
+with ∂²p[m]/∂q² = ∇²f_m of f = g/n (rodsim/core/terms/_string_points.py).
 The tension is a load (the static solver ramps it); its force scale is T.
 
 Friction (``friction`` μ > 0, rodsim/core/tendon_friction.py): chord e carries its own
@@ -90,10 +55,11 @@ import dataclasses
 from collections.abc import Hashable, Mapping, Sequence
 from dataclasses import dataclass, field
 from functools import cached_property
-from typing import Any, NamedTuple
+from typing import Any
 
 import numpy as np
 
+from rodsim.core.friction_profile_knots import checked_knots
 from rodsim.core.rod.quaternion import DIRECTOR_FORMS
 from rodsim.core.routing import ROUTINGS, Routing, string_span
 from rodsim.core.schema import Options, Parameter, SceneError
@@ -112,93 +78,20 @@ from rodsim.core.tendon_friction import (
     weighted_chord_tensions,
     weighted_slide_rates,
 )
+from rodsim.core.terms._string_points import (
+    POINT_SIZE,
+    PointGeometry,
+    entry_directions,
+    point_forms,
+    point_geometry,
+    routing_points,
+)
 from rodsim.core.terms.base import KernelArguments, TendonTerm, Term
-
-#: A change of G J closer than this fraction of a segment to a node (or to the tendon's entry
-#: or termination) is taken there: no routing point of its own.
-JUMP_AT_NODE = 1e-6
 
 #: A routing point within this fraction of the catheter's length of another string tendon's
 #: start or end has its turn split (:func:`split_at_breaks`).
 SPLIT_AT = 1e-9
 
-#: Local coordinates of one routing point: r_m, r_{m+1}, the two knot quaternions.
-POINT_SIZE = 14
-
-
-class RoutingPoints(NamedTuple):
-    """The routing points of a string tendon (P points), fixed when the term is built."""
-
-    #: Arc length of each point [m], (P,).
-    s: np.ndarray
-    #: Full-state indices of (r_m, r_{m+1}, Q_0, Q_1), (P, 14).
-    dofs: np.ndarray
-    #: (1 − t, t, w_0, w_1): weights of the two nodes and of the two knot quaternions, (P, 4).
-    weights: np.ndarray
-    #: Constant part of q (the base frame's share), (P, 4).
-    constant: np.ndarray
-    #: Body-frame offset ρ, (P, 2) [m].
-    offset: np.ndarray
-
-
-def routing_points(tendon: Tendon, routing: Routing, start: float,
-                   end: float) -> RoutingPoints:
-    """The routing points of a string tendon on ``tendon.catheter`` (module docstring)."""
-    rod = tendon.catheter
-    nodes, h = rod.nodes, rod.geometry.segment_length
-    mid = rod.geometry.segment_s
-    node_s = rod.geometry.node_s
-    inner = np.flatnonzero((node_s > start + 0.25 * h) & (node_s < end - 0.25 * h))
-    profile = rod.profile
-    jumps = np.zeros(0)
-    if profile is not None:  # where G J changes off a node: a point of its own (docstring)
-        jumps = profile.changes(profile.shear_modulus * profile.polar_moment)
-        taken = np.concatenate([[start, end], node_s])
-        jumps = jumps[(jumps > start) & (jumps < end) & (np.min(
-            np.abs(jumps[:, None] - taken[None, :]), axis=1) > JUMP_AT_NODE * h)]
-    s = np.concatenate([[start], node_s[inner], jumps, [end]])
-    at_node = np.zeros(len(s), dtype=bool)
-    at_node[1:1 + len(inner)] = True
-    order = np.argsort(s, kind="stable")
-    s, at_node = s[order], at_node[order]
-    segment = np.minimum(np.floor(s / h).astype(int), nodes - 2)
-    segment[at_node] = inner
-    t = s / h - segment
-    t[at_node] = 0.0
-    base = rod.support.frame_element
-    knots = np.concatenate([[0.0], mid]) if base else mid
-    k = np.clip(np.searchsorted(knots, s, side="right") - 1, 0, len(knots) - 2)
-    if profile is None:
-        w = np.clip((s - knots[k]) / (knots[k + 1] - knots[k]), 0.0, 1.0)
-    else:  # in the twist compliance: not ½ at a node where G J jumps (module docstring)
-        w = profile.compliance_fraction(profile.shear_modulus * profile.polar_moment,
-                                        knots[k], s, knots[k + 1])
-    quat = rod.layout.quaternion_index
-    pos = rod.layout.position_index
-    # Knot i is segment i − 1 with a base frame (knot 0 is the constant base frame).
-    first = k - 1 if base else k
-    second = k if base else k + 1
-    constant = np.zeros((len(s), 4))
-    weights = np.stack([1.0 - t, t, 1.0 - w, w], axis=1)
-    if base:
-        at_base = first < 0
-        constant[at_base] = weights[at_base, 2:3] * rod.base_quaternion
-        weights[at_base, 2] = 0.0
-        first = np.maximum(first, 0)
-    dofs = np.concatenate([pos[segment], pos[segment + 1], quat[first], quat[second]],
-                          axis=1)
-    return RoutingPoints(s, dofs, weights, constant, routing.offsets(s))
-
-
-class PointGeometry(NamedTuple):
-    """Positions of the routing points and their derivatives in the points' coordinates."""
-
-    #: p, (P, 3).
-    p: np.ndarray
-    #: ∂p/∂x_point, (P, 3, 14).
-    jac: np.ndarray
-    #: ∇²f_m with respect to q, (P, 3, 4, 4).
-    hess: np.ndarray
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -341,9 +234,8 @@ class TendonString(TendonTerm):
         self.points = routing_points(tendon, self.routing, self.start, self.end)
         self.tension = float(options.tension)
         self.dofs = np.concatenate([self.points.dofs[:-1], self.points.dofs[1:]], axis=1)
-        g = np.einsum("pa,amij->pmij", self.points.offset, DIRECTOR_FORMS[:2])
         #: G_m = ρ_y A[0, m] + ρ_z A[1, m] of every point, (P, 3, 4, 4).
-        self._forms = g
+        self._forms = point_forms(self.points)
         #: Coulomb coefficient μ (rodsim/core/tendon_friction.py); 0: frictionless.
         self.friction = float(options.friction)
         chords = len(self.points.s) - 1
@@ -361,7 +253,7 @@ class TendonString(TendonTerm):
                     "friction alone")
             self.kinetic = np.ascontiguousarray(values[:-1])
         if options.friction_profile or options.friction_profile_s:
-            knots = _checked_profile(f"tendons.{tendon.name}.tendon_string", options,
+            knots = checked_knots(f"tendons.{tendon.name}.tendon_string", options,
                                      self.start, self.end)
             self.kinetic = np.ascontiguousarray(profile_coefficients(
                 knots, np.asarray(options.friction_profile), self.points.s))
@@ -476,13 +368,7 @@ class TendonString(TendonTerm):
     def entry_directions(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """(d3, t_in) at the entry point: the catheter's axis, along which the tendon comes
         in from the actuator, and the path's tangent t_in ∝ d3 + ρ′_y d1 + ρ′_z d2."""
-        pts = self.points
-        local = x[pts.dofs[0]]
-        _, _, w0, w1 = pts.weights[0]
-        q = w0 * local[6:10] + w1 * local[10:14] + pts.constant[0]
-        d = np.einsum("i,kmij,j->km", q, DIRECTOR_FORMS, q) / float(q @ q)
-        tangent = d[2] + self._entry_slope[0] * d[0] + self._entry_slope[1] * d[1]
-        return d[2], tangent / np.linalg.norm(tangent)
+        return entry_directions(self.points, self._entry_slope, x)
 
     def turning_angles(self, x: np.ndarray) -> np.ndarray:
         """θ_e of every chord (the entry's turn, then each routing point's) [rad]."""
@@ -597,32 +483,8 @@ class TendonString(TendonTerm):
 
     def _points(self, x: np.ndarray, derivatives: bool = True) -> PointGeometry:
         """p and, with ``derivatives``, ∂p/∂x_point and ∇²f (else empty arrays)."""
-        pts = self.points
-        local = x[pts.dofs]
-        c0, c1, w0, w1 = pts.weights.T
-        q = w0[:, None] * local[:, 6:10] + w1[:, None] * local[:, 10:14] + pts.constant
-        n = np.einsum("pi,pi->p", q, q)
-        gq = np.einsum("pmij,pj->pmi", self._forms, q)  # G_m q
-        g = np.einsum("pmi,pi->pm", gq, q)
-        p = (c0[:, None] * local[:, 0:3] + c1[:, None] * local[:, 3:6]
-             + g / n[:, None])
-        if not derivatives:
-            return PointGeometry(p, np.empty(0), np.empty(0))
-        grad = 2.0 * gq / n[:, None, None] - 2.0 * g[:, :, None] * q[:, None, :] / (
-            n**2)[:, None, None]
-        jac = np.zeros((len(n), 3, POINT_SIZE))
-        eye = np.eye(3)
-        jac[:, :, 0:3] = c0[:, None, None] * eye
-        jac[:, :, 3:6] = c1[:, None, None] * eye
-        jac[:, :, 6:10] = w0[:, None, None] * grad
-        jac[:, :, 10:14] = w1[:, None, None] * grad
-        qq = q[:, :, None] * q[:, None, :]
-        gqq = gq[:, :, :, None] * q[:, None, None, :]
-        hess = (2.0 * self._forms / n[:, None, None, None]
-                - 4.0 * (gqq + gqq.transpose(0, 1, 3, 2)) / (n**2)[:, None, None, None]
-                - 2.0 * g[:, :, None, None] * np.eye(4) / (n**2)[:, None, None, None]
-                + 8.0 * g[:, :, None, None] * qq[:, None] / (n**3)[:, None, None, None])
-        return PointGeometry(p, jac, hess)
+        return point_geometry(self.points, self._forms, x, derivatives)
+
 
     def path(self, x: np.ndarray) -> np.ndarray:
         """The tendon's path: the routing points in order, shape (P, 3) [m]."""
@@ -699,31 +561,6 @@ class TendonString(TendonTerm):
         gradient = rate[:, None] * np.einsum("em,emk->ek", slope, jd)
         unit_force = -np.einsum("emk,em->ek", jd, u)
         return unit_force[:, :, None] * gradient[:, None, :]
-
-
-def _checked_profile(prefix: str, options: TendonStringOptions, start: float,
-                     end: float) -> np.ndarray:
-    """``friction_profile_s`` as an array, after the checks a friction profile needs
-    (SceneError, one line): as many arc lengths as values, increasing, within the tendon's
-    [start, end], and no ``friction_points`` beside it."""
-    values, s = options.friction_profile, np.asarray(options.friction_profile_s, dtype=float)
-    if options.friction_points:
-        raise SceneError(f"{prefix}.friction_profile and friction_points are both set; "
-                         "allowed: one of them (a μ per arc length, or per routing point)")
-    if len(values) != len(s) or not len(s):
-        raise SceneError(f"{prefix}.friction_profile has {len(values)} values and "
-                         f"friction_profile_s {len(s)} arc lengths; allowed: as many of each, "
-                         "at least one")
-    if np.any(np.diff(s) <= 0.0):
-        raise SceneError(f"{prefix}.friction_profile_s = {options.friction_profile_s!r}: "
-                         "not increasing; allowed: arc lengths each larger than the one "
-                         "before [m]")
-    slack = 1e-9 * max(end, 1.0)
-    if s[0] < start - slack or s[-1] > end + slack:
-        raise SceneError(f"{prefix}.friction_profile_s = {options.friction_profile_s!r}: "
-                         f"outside the tendon; allowed: arc lengths within its span "
-                         f"[{start:.6g}, {end:.6g}] m (start, end)")
-    return s
 
 
 def split_at_breaks(terms: Sequence[object]) -> None:
