@@ -47,8 +47,8 @@ def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item
     command stays within five minutes on two cores, and ``.ci/run`` runs them after it
     (``python -m pytest -m slow --runslow``). They run first (in their collected order,
     the others after them): with ``-n`` workers the long ones then overlap each other and
-    the short ones fill the gaps, instead of one long test starting last and running alone. Every worker sorts the same
-    way, as pytest-xdist requires.
+    the short ones fill the gaps, instead of one long test starting last and running
+    alone. Every worker sorts the same way, as pytest-xdist requires.
 
     Tests marked ``nightly`` (minutes each: the large-N cases) run only with
     ``RODSIM_NIGHTLY=1``; the default run reports them as skipped with that reason, and a
