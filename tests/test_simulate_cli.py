@@ -104,9 +104,10 @@ def test_plot_draws_tip_and_energies(tmp_path, python_run):
     assert run_cli("plot", str(archive), "-o", str(tmp_path / "fig")) == 0
     assert (tmp_path / "fig.png").stat().st_size > 0
     assert (tmp_path / "fig.pdf").stat().st_size > 0
+    pytest.importorskip("plotly")
     assert run_cli("plot", str(archive), "-o", str(tmp_path / "view"), "--format",
-                   "html") == 2  # no 3D view of a trajectory (yet): one line, nothing written
-    assert not list(tmp_path.glob("view*"))
+                   "html") == 0  # the 3D view, animated over the output times
+    assert "Plotly.addFrames" in (tmp_path / "view.html").read_text(encoding="utf-8")
 
 
 def test_a_broken_trajectory_archive_is_refused(tmp_path, python_run):

@@ -89,3 +89,22 @@ def test_a_track_is_animated_one_frame_per_step(tmp_path):
     assert np.max(np.abs(projected(figure, every, 4 / 3))) < 1.0
     page = view3d.write_html(ds, tmp_path / "track.html").read_text(encoding="utf-8")
     assert page.count('"name":"5"') >= 1 and "Plotly.addFrames" in page
+
+
+def test_a_trajectory_is_animated_one_frame_per_output_time():
+    """A release of table1-50g (N = 8) over 0.05 s, 11 output times: 11 frames, each the
+    rod at that time, the slider labelled with the times; the camera frames every one."""
+    run = rodsim.simulate("table1-50g", 0.05, output_dt=0.005, overrides=["nodes=8"],
+                          initial={"tip_load.mass": 0.1})
+    assert run.success, run.message
+    ds = run.to_xarray()
+    figure = view3d.view_figure(ds)
+    times = ds["time"].values
+    assert len(figure.frames) == len(times) == 11
+    (slider,) = figure.layout.sliders
+    assert [float(step.label) for step in slider.steps] == pytest.approx(times, rel=1e-3)
+    assert slider.currentvalue.prefix == "t [s] = "
+    rod = ds["position"].values
+    for k, frame in enumerate(figure.frames):
+        np.testing.assert_allclose(frame.data[0].y, rod[k, :, 1])
+    assert np.max(np.abs(projected(figure, rod.reshape(-1, 3), 4 / 3))) < 1.0

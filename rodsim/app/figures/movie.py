@@ -27,7 +27,7 @@ from rodsim.app.figures.colouring import Colouring
 from rodsim.app.figures.inverse import PROJECTIONS, out_of_plane, short_key
 from rodsim.app.figures.scene_drawing import draw_parts
 from rodsim.app.figures.scene_parts import scene_parts
-from rodsim.app.figures.state_series import colour_bar, evenly, state_colours
+from rodsim.app.figures.state_series import MAX_FRAMES, colour_bar, evenly, state_colours
 from rodsim.app.figures.style import style
 from rodsim.app.figures.writer import PlotError
 from rodsim.io.atomic import write_atomic
@@ -37,8 +37,6 @@ __all__ = ["write_movie", "check_movie", "FRAME_SECONDS", "MAX_FRAMES"]
 
 #: How long each frame shows [s].
 FRAME_SECONDS = 0.15
-#: The most frames drawn of a trajectory (its output times are subsampled evenly).
-MAX_FRAMES = 120
 
 
 def _encoder() -> Any:

@@ -85,9 +85,9 @@ def plot_dataset(ds: xr.Dataset, stem: str | Path, formats: Iterable[str] = ("pn
                         "(ds.sel(case=…)) and plot their positions (docs/batch.md)")
     html = HTML in formats
     formats = [fmt for fmt in formats if fmt != HTML]
-    if html and ("study" in ds.attrs or ds.attrs.get("kind") == "trajectory"):
-        raise PlotError("the interactive 3D view (html) is drawn for run, track, fit and "
-                        "reach archives, not studies or trajectories")
+    if html and "study" in ds.attrs:
+        raise PlotError("the interactive 3D view (html) is drawn for run, track, fit, "
+                        "reach and trajectory archives, not studies")
     paths = []
     if html:
         try:

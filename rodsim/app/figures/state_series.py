@@ -21,7 +21,11 @@ from rodsim.app.figures.colouring import Colouring, colouring, shared_scale
 from rodsim.app.figures.scene_drawing import draw_parts
 from rodsim.app.figures.scene_parts import SceneParts, scene_parts
 
-__all__ = ["state_colours", "draw_states", "colour_bar", "evenly"]
+__all__ = ["state_colours", "draw_states", "colour_bar", "evenly", "MAX_FRAMES"]
+
+#: The most frames drawn of a trajectory, in its movie and its 3D view (its output times
+#: are subsampled evenly).
+MAX_FRAMES = 120
 
 #: What only the last state of a series draws.
 LAST_ONLY = frozenset({layers.LOAD, layers.CONTACT, layers.OBSTACLE})

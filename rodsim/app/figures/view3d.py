@@ -1,9 +1,11 @@
 """An interactive 3D view of an archive as a standalone HTML file (plotly): the rods, the
 tendons' paths and terminations, the obstacles (translucent), the loads and the contact
-forces (``rodsim.app.figures.scene_parts``); a track is animated, one frame per step
-(a slider and a play button). As the run figure: ``colour`` colours the rods' (or, for
-tension, the tendons') line traces by their value (``rodsim.app.figures.colouring``; a
-track's steps on one shared scale), with a colour bar titled with the quantity and its
+forces (``rodsim.app.figures.scene_parts``); a track is animated, one frame per step, and
+a trajectory (``rodsim simulate``) one frame per output time, at most ``MAX_FRAMES``
+evenly spaced as in its movie (a slider and a play button). As the run figure:
+``colour`` colours the rods' (or, for tension, the tendons') line traces by their value
+(``rodsim.app.figures.colouring``; a track's steps or a trajectory's frames on one shared
+scale), with a colour bar titled with the quantity and its
 unit; the traces of the layers ``hide`` (``rodsim.app.figures.layers``) are left out.
 
 plotly is an optional extra (``pip install "rodsim[view3d]"``): without it
@@ -13,8 +15,8 @@ plotly's JavaScript, so it opens offline: rotate, zoom and hover over a control 
 read its rod, index and coordinates.
 
 The view opens on the whole scene: the axes' ranges are the box around every node and
-tendon point (every step of a track) with a margin, drawn to equal scales (the aspect
-ratio of the box), and the camera looks at the box's centre from
+tendon point (every step of a track, every frame of a trajectory) with a margin, drawn to
+equal scales (the aspect ratio of the box), and the camera looks at the box's centre from
 ``CAMERA_DIRECTION`` at the distance from which the box's bounding sphere fits in
 plotly's 45° field of view with a margin (``fitted_camera``), the box taken as
 spanning ± its aspect ratio in the scene's units (the larger of the two readings of
@@ -34,6 +36,7 @@ import xarray as xr
 from rodsim.app.figures import layers
 from rodsim.app.figures.colouring import ColouredLine, Colouring
 from rodsim.app.figures.scene_parts import Arrow, SceneParts, scene_parts
+from rodsim.app.figures.state_series import MAX_FRAMES, evenly
 from rodsim.io.atomic import write_atomic
 
 __all__ = ["available", "write_html", "view_figure", "fitted_camera", "MISSING",
@@ -57,9 +60,29 @@ def available() -> bool:
     return importlib.util.find_spec("plotly") is not None
 
 
-def _steps(ds: xr.Dataset) -> int:
-    """The number of states to show: a track's steps, else one."""
-    return int(ds.sizes["step"]) if "step" in ds["position"].dims else 1
+def _states(ds: xr.Dataset) -> tuple[list[int], list[str], str]:
+    """The states the view shows (indices along the archive's step or time), each one's
+    slider label and the slider's prefix: a track's steps (labelled by the ramped value),
+    a trajectory's output times (at most ``MAX_FRAMES``, evenly spaced, the first and the
+    last among them), else the archive's one state."""
+    import json
+
+    from rodsim.app.figures.inverse import short_key
+    from rodsim.io.cf_layout import key_variable
+
+    dims = ds["position"].dims
+    if "step" in dims:
+        count = int(ds.sizes["step"])
+        ramp = next(iter(json.loads(ds.attrs["ramp_json"])), None) \
+            if "ramp_json" in ds.attrs else None
+        values = key_variable(ds, ramp).values if ramp else np.arange(count)
+        prefix = f"{short_key(ramp) if ramp else 'step'} = "
+        return list(range(count)), [f"{float(v):.4g}" for v in values], prefix
+    if "time" in dims:
+        picked = evenly(int(ds.sizes["time"]), MAX_FRAMES)
+        times = ds["time"].values
+        return picked, [f"{float(times[k]):.4g}" for k in picked], "t [s] = "
+    return [0], [""], ""
 
 
 def fitted_camera(points: np.ndarray) -> tuple[dict[str, Any], dict[str, Any]]:
@@ -207,18 +230,19 @@ def _obstacles(parts: SceneParts, lower: np.ndarray, upper: np.ndarray) -> list[
 
 def view_figure(ds: xr.Dataset, colour: str | None = None,
                 hide: frozenset[str] = frozenset()) -> Any:
-    """The plotly Figure of the run, fit, reach or track archive ``ds``; ``colour`` and
+    """The plotly Figure of the run, fit, reach, track or trajectory archive ``ds``;
+    ``colour`` and
     ``hide``: see the module docstring."""
     import plotly.graph_objects as go
 
     from rodsim.app.figures.state_series import state_colours
 
-    count = _steps(ds)
-    states = [scene_parts(ds, step) for step in range(count)]
-    colourings: list[Colouring | None] = [None] * count
+    indices, labels, prefix = _states(ds)
+    states = [scene_parts(ds, index) for index in indices]
+    colourings: list[Colouring | None] = [None] * len(states)
     scale = None
     if colour:
-        found, scale = state_colours(ds, colour, range(count), states)
+        found, scale = state_colours(ds, colour, indices, states)
         colourings = list(found)
     every = np.concatenate([p.points() for p in states])
     if "target" in ds:
@@ -249,25 +273,18 @@ def view_figure(ds: xr.Dataset, colour: str | None = None,
     figure.update_layout(title=str(ds.attrs.get("title", "rodsim")),
                          scene={**scene, "camera": camera},
                          margin={"l": 0, "r": 0, "t": 40, "b": 0})
-    if count > 1:
-        _animate(figure, ds, frames, moving)
+    if len(states) > 1:
+        _animate(figure, frames, moving, labels, prefix)
     return figure
 
 
-def _animate(figure: Any, ds: xr.Dataset, states: list[list[Any]], moving: int) -> None:
-    """One frame per step of a track (its moving traces ``states``), a slider and a play
-    button; the figure opens on the last step."""
-    import json
-
+def _animate(figure: Any, states: list[list[Any]], moving: int, labels: list[str],
+             prefix: str) -> None:
+    """One frame per state shown (its moving traces ``states``), a slider (its steps
+    ``labels``, its value shown after ``prefix``) and a play button; the figure opens on
+    the last state."""
     import plotly.graph_objects as go
 
-    from rodsim.app.figures.inverse import short_key
-    from rodsim.io.cf_layout import key_variable
-
-    ramp = next(iter(json.loads(ds.attrs["ramp_json"])), None) if "ramp_json" in ds.attrs \
-        else None
-    values = key_variable(ds, ramp).values if ramp else np.arange(len(states))
-    label = short_key(ramp) if ramp else "step"
     names = [f"{k}" for k in range(len(states))]
     figure.frames = [go.Frame(data=traces, traces=list(range(moving)), name=name)
                      for traces, name in zip(states, names, strict=True)]
@@ -280,17 +297,18 @@ def _animate(figure: Any, ds: xr.Dataset, states: list[list[Any]], moving: int) 
     figure.update_layout(
         updatemenus=[{"type": "buttons", "buttons": [play, pause], "x": 0.0, "y": 0.0,
                       "xanchor": "left", "yanchor": "bottom", "direction": "left"}],
-        sliders=[{"active": len(states) - 1, "currentvalue": {"prefix": f"{label} = "},
+        sliders=[{"active": len(states) - 1, "currentvalue": {"prefix": prefix},
                   "x": 0.15, "len": 0.85, "y": 0.0,
-                  "steps": [{"label": f"{float(v):.4g}", "method": "animate",
+                  "steps": [{"label": label, "method": "animate",
                              "args": [[name], {"frame": {"duration": 0, "redraw": True},
                                                "mode": "immediate"}]}
-                            for v, name in zip(values, names, strict=True)]}])
+                            for label, name in zip(labels, names, strict=True)]}])
 
 
 def write_html(ds: xr.Dataset, path: str | Path, colour: str | None = None,
                hide: frozenset[str] = frozenset()) -> Path:
-    """Write the 3D view of the run, fit, reach or track archive ``ds`` to ``path``
+    """Write the 3D view of the run, fit, reach, track or trajectory archive ``ds`` to
+    ``path``
     (``colour``, ``hide``: ``view_figure``)."""
     figure = view_figure(ds, colour, hide)
     path = Path(path)
