@@ -23,11 +23,9 @@ import matplotlib.pyplot as plt
 import numpy as np
 import xarray as xr
 
-from rodsim.app.figures.colouring import Colouring
 from rodsim.app.figures.inverse import PROJECTIONS, out_of_plane, short_key
 from rodsim.app.figures.scene_drawing import draw_parts
-from rodsim.app.figures.scene_parts import scene_parts
-from rodsim.app.figures.state_series import MAX_FRAMES, colour_bar, evenly, state_colours
+from rodsim.app.figures.state_series import MAX_FRAMES, colour_bar, coloured_states, evenly
 from rodsim.app.figures.style import style
 from rodsim.app.figures.writer import PlotError
 from rodsim.io.atomic import write_atomic
@@ -93,12 +91,7 @@ def write_movie(ds: xr.Dataset, path: str | Path, colour: str | None = None,
     image = _encoder()
     picked, captions = frames(ds)
     every = ds["position"].values
-    states = [scene_parts(ds, k) for k in picked]
-    colourings: list[Colouring | None] = [None] * len(states)
-    scale = None
-    if colour:
-        found, scale = state_colours(ds, colour, picked, states)
-        colourings = list(found)
+    states, colourings, scale = coloured_states(ds, picked, colour)
     extent = np.concatenate([s.points() for s in states])
     views = PROJECTIONS if out_of_plane(extent) else PROJECTIONS[:1]
     title = textwrap.fill(str(ds.attrs.get("title", "")), 44 * len(views))  # the frame's width

@@ -21,7 +21,7 @@ from rodsim.app.figures.colouring import Colouring, colouring, shared_scale
 from rodsim.app.figures.scene_drawing import draw_parts
 from rodsim.app.figures.scene_parts import SceneParts, scene_parts
 
-__all__ = ["state_colours", "draw_states", "colour_bar", "evenly", "MAX_FRAMES"]
+__all__ = ["state_colours", "coloured_states", "draw_states", "colour_bar", "evenly", "MAX_FRAMES"]
 
 #: The most frames drawn of a trajectory, in its movie and its 3D view (its output times
 #: are subsampled evenly).
@@ -45,6 +45,19 @@ def state_colours(ds: xr.Dataset, quantity: str, indices: Sequence[int],
     colourings = [colouring(ds, quantity, parts, k)
                   for k, parts in zip(indices, states, strict=True)]
     return colourings, shared_scale(colourings)
+
+
+def coloured_states(ds: xr.Dataset, indices: Sequence[int], colour: str | None
+                    ) -> tuple[list[SceneParts], list[Colouring | None],
+                               tuple[Normalize, Colormap] | None]:
+    """The parts of the states ``indices`` of ``ds`` and, with ``colour``, each one's
+    colouring and their shared scale (``state_colours``; None each, and no scale,
+    without)."""
+    states = [scene_parts(ds, k) for k in indices]
+    if not colour:
+        return states, [None] * len(states), None
+    found, scale = state_colours(ds, colour, indices, states)
+    return states, list(found), scale
 
 
 def draw_states(panel: plt.Axes, ds: xr.Dataset, indices: Sequence[int],

@@ -35,8 +35,8 @@ import xarray as xr
 
 from rodsim.app.figures import layers
 from rodsim.app.figures.colouring import ColouredLine, Colouring
-from rodsim.app.figures.scene_parts import Arrow, SceneParts, scene_parts
-from rodsim.app.figures.state_series import MAX_FRAMES, evenly
+from rodsim.app.figures.scene_parts import Arrow, SceneParts
+from rodsim.app.figures.state_series import MAX_FRAMES, coloured_states, evenly
 from rodsim.io.atomic import write_atomic
 
 __all__ = ["available", "write_html", "view_figure", "fitted_camera", "MISSING",
@@ -235,15 +235,8 @@ def view_figure(ds: xr.Dataset, colour: str | None = None,
     ``hide``: see the module docstring."""
     import plotly.graph_objects as go
 
-    from rodsim.app.figures.state_series import state_colours
-
     indices, labels, prefix = _states(ds)
-    states = [scene_parts(ds, index) for index in indices]
-    colourings: list[Colouring | None] = [None] * len(states)
-    scale = None
-    if colour:
-        found, scale = state_colours(ds, colour, indices, states)
-        colourings = list(found)
+    states, colourings, scale = coloured_states(ds, indices, colour)
     every = np.concatenate([p.points() for p in states])
     if "target" in ds:
         every = np.concatenate([every, ds["target"].values[None, :]])
