@@ -47,6 +47,7 @@ from rodsim.core.kernels.tendon_string_path import (
     _points,
     _points_into,
     _tensions,
+    path_length,
 )
 
 
@@ -501,9 +502,4 @@ def energy(x: np.ndarray, dofs: np.ndarray, weights: np.ndarray, constant: np.nd
     """T Σ |p_{k+1} − p_k| (frictionless; with friction the model asks for no energy)."""
     if tension == 0.0:
         return 0.0
-    p = _points(x, dofs, weights, constant, forms)[0]
-    total = 0.0
-    for e in range(dofs.shape[0]):
-        total += np.sqrt((p[e + 1, 0] - p[e, 0]) ** 2 + (p[e + 1, 1] - p[e, 1]) ** 2
-                         + (p[e + 1, 2] - p[e, 2]) ** 2)
-    return tension * total
+    return tension * path_length(x, dofs, weights, constant, forms)

@@ -13,7 +13,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from rodsim.core.kernels.tendon_string_path import _points
+from rodsim.core.kernels.tendon_string_path import path_length
 
 
 @njit(cache=True)
@@ -35,9 +35,5 @@ def energy_group(x: np.ndarray, chord_start: np.ndarray, point_start: np.ndarray
             continue
         c0, c1 = chord_start[t], chord_start[t + 1]
         p0, p1 = point_start[t], point_start[t + 1]
-        p = _points(x, dofs[c0:c1], weights[p0:p1], constant[p0:p1], forms[p0:p1])[0]
-        total = 0.0
-        for e in range(c1 - c0):
-            total += np.sqrt((p[e + 1, 0] - p[e, 0]) ** 2 + (p[e + 1, 1] - p[e, 1]) ** 2
-                             + (p[e + 1, 2] - p[e, 2]) ** 2)
-        energies[t] = tension[t] * total
+        energies[t] = tension[t] * path_length(x, dofs[c0:c1], weights[p0:p1],
+                                               constant[p0:p1], forms[p0:p1])

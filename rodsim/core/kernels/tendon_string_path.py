@@ -2,8 +2,9 @@
 (``rodsim.core.kernels.tendon_string``, whose docstring gives the formulas): a routing
 point's position and its derivatives in the element's coordinates (``_point``, ``_points``,
 ``_points_into``), the curvature Σ_m u_m ∂²p[m] contracted with a chord's direction
-(``_curvature``), and with friction the chords' capstan tensions (``_tensions``) and their
-one-way coupling ∂τ_e/∂x (``_one_way_coupling``; rodsim/core/tendon_friction.py).
+(``_curvature``), the path's length Σ |p_{k+1} − p_k| (``path_length``), and with
+friction the chords' capstan tensions (``_tensions``) and their one-way coupling ∂τ_e/∂x
+(``_one_way_coupling``; rodsim/core/tendon_friction.py).
 """
 
 from __future__ import annotations
@@ -261,3 +262,16 @@ def _one_way_coupling(jd: np.ndarray, u: np.ndarray, length: float, axis: np.nda
         gradient[k] = rate * value
         unit_force[k] = f
     return True
+
+
+@njit(cache=True)
+def path_length(x: np.ndarray, dofs: np.ndarray, weights: np.ndarray, constant: np.ndarray,
+                forms: np.ndarray) -> float:
+    """The tendon's path length Σ |p_{k+1} − p_k| over its chords (the energy's T ℓ, of one
+    tendon alone and of a group's, summed in the same order)."""
+    p = _points(x, dofs, weights, constant, forms)[0]
+    total = 0.0
+    for e in range(dofs.shape[0]):
+        total += np.sqrt((p[e + 1, 0] - p[e, 0]) ** 2 + (p[e + 1, 1] - p[e, 1]) ** 2
+                         + (p[e + 1, 2] - p[e, 2]) ** 2)
+    return total
