@@ -26,6 +26,20 @@ BETA = (1.87510407, 4.69409113, 7.85475744)
 RHO_A = STEEL["density"] * math.pi * STEEL["radius"] ** 2
 
 
+def projected_damping(model: Model, x: np.ndarray) -> np.ndarray:
+    """D̂: the damping matrix at the free state ``x`` without each quaternion's norm
+    direction (dense), as the pencils of these tests use it."""
+    physical = x + model.reference[model.free]
+    damping = Damping(model).matrix(physical).toarray()
+    free_of = np.full(model.full_size, -1)
+    free_of[model.free] = np.arange(model.n)
+    projector = np.eye(model.n)
+    for block in free_of[model.rods["wire"].layout.quaternion_index]:
+        q = physical[block] / np.linalg.norm(physical[block])
+        projector[np.ix_(block, block)] -= np.outer(q, q)
+    return projector @ damping @ projector
+
+
 def bending(n: int) -> float:
     """ω_n of the clamped–free steel rod, Euler–Bernoulli [rad/s]."""
     return first_frequency(STEEL) * (BETA[n] / BETA[0]) ** 2
@@ -100,15 +114,7 @@ def test_against_a_dense_generalised_eigensolve_of_the_pencil():
     x = result.state
     stiffness = -model.jacobian(x).toarray()
     factor = mass_factor(model, x).toarray()
-    physical = x + model.reference[model.free]
-    damping = Damping(model).matrix(physical).toarray()
-    free_of = np.full(model.full_size, -1)
-    free_of[model.free] = np.arange(model.n)
-    projector = np.eye(model.n)
-    for block in free_of[model.rods["wire"].layout.quaternion_index]:
-        q = physical[block] / np.linalg.norm(physical[block])
-        projector[np.ix_(block, block)] -= np.outer(q, q)
-    damping = projector @ damping @ projector
+    damping = projected_damping(model, x)
     n = model.n
     a = np.block([[np.zeros((n, n)), np.eye(n)], [-stiffness, -damping]])
     b = np.block([[np.eye(n), np.zeros((n, n))], [np.zeros((n, n)), factor @ factor.T]])

@@ -13,7 +13,7 @@ import math
 
 import numpy as np
 import pytest
-from test_damped_modes import bending
+from test_damped_modes import bending, projected_damping
 from test_simulate import STEEL, decay_ratio, modal, peaks, wire
 
 import rodsim
@@ -196,15 +196,7 @@ def test_non_proportional_damped_shapes_solve_the_quadratic_eigenproblem():
     stiffness = -model.jacobian(x).toarray()
     factor = mass_factor(model, x).toarray()
     mass = factor @ factor.T
-    physical = x + model.reference[model.free]
-    damping = Damping(model).matrix(physical).toarray()
-    free_of = np.full(model.full_size, -1)
-    free_of[model.free] = np.arange(model.n)
-    projector = np.eye(model.n)
-    for block in free_of[model.rods["wire"].layout.quaternion_index]:
-        q = physical[block] / np.linalg.norm(physical[block])
-        projector[np.ix_(block, block)] -= np.outer(q, q)
-    damping = projector @ damping @ projector
+    damping = projected_damping(model, x)
     whole = 1.0 / math.sqrt(rodsim.core.inertia.total_mass(model))
     imaginary = 0.0
     for k in range(6):
