@@ -23,7 +23,6 @@ from rodsim.core.tendon import TENDON_PARAMETERS, TendonOptions
 from rodsim.core.terms import registered_terms
 from rodsim.core.terms.base import RodTerm
 from rodsim.solvers import registered_integrators
-from rodsim.solvers.integrator_options import DECLARED
 
 TABLES = [(SolverSettings, SOLVER_PARAMETERS), (RodOptions, ROD_PARAMETERS),
           (TendonOptions, TENDON_PARAMETERS), (BaseOptions, BASE_PARAMETERS),
@@ -49,16 +48,14 @@ def test_each_term_declares_options_that_match_its_parameters(name):
 
 @pytest.mark.parametrize("name", sorted(registered_integrators()))
 def test_each_integrator_has_declared_options_that_match_its_parameters(name):
-    """Every registered integrator has a declared options class agreeing with its
-    ``parameters``: beside the class in its own file (``Options = ...`` in the class), or
-    in rodsim/solvers/integrator_options.py, which the shipped integrators name."""
+    """Every registered integrator declares its options class beside it, in its own file
+    (``Options = ...`` in the class; not the class made from its parameters when none is
+    declared), and it agrees with the integrator's ``parameters``."""
     cls = registered_integrators()[name]
-    beside = cls.Options if cls.Options.__module__ == cls.__module__ else None
-    declared = DECLARED.get(name, beside)  # not the class made from parameters at definition
-    assert declared is not None, (f"integrator {name!r}: declare its Options beside the class "
-                                  "(or in integrator_options.py)")
-    assert cls.Options is declared
-    assert options_mismatch(declared, cls.parameters) == []
+    assert "Options" in cls.__dict__, f"integrator {name!r}: declare its Options in the class"
+    assert cls.Options.__module__ == cls.__module__, (
+        f"integrator {name!r}: declare its Options beside the class")
+    assert options_mismatch(cls.Options, cls.parameters) == []
 
 
 def test_a_drifted_declaration_is_named():

@@ -14,13 +14,13 @@ Quaternion norm: held by the centerline penalty Eq. (9) only (same model as ``st
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 import numpy as np
 
 from rodsim.solvers.base import LARGE_MODEL_SIZE
-from rodsim.solvers.integrator_options import CvodeOptions
-from rodsim.solvers.pseudo_dynamics import FirstOrderSystem
+from rodsim.solvers.pseudo_dynamics import FirstOrderSystem, PseudoDynamicsOptions
 from rodsim.solvers.sundials import (
     BandPreconditioner,
     SundialsIntegrator,
@@ -36,6 +36,11 @@ if TYPE_CHECKING:
 #: fraction of the length scale from the rest state starts from the rest state instead
 #: (:meth:`Cvode.finish_start`).
 FINISH_FROM_REST = 1e-3
+
+
+@dataclass(frozen=True, kw_only=True)
+class CvodeOptions(PseudoDynamicsOptions):
+    """``[solver.cvode]``: the shared pseudo-dynamics options as they are."""
 
 
 class Cvode(SundialsIntegrator):

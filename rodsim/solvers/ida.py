@@ -21,17 +21,20 @@ three masses, as close as the residual tolerance allows (tests/test_integrators.
 
 from __future__ import annotations
 
-from dataclasses import replace
+from dataclasses import dataclass, replace
 from typing import TYPE_CHECKING
 
 import numpy as np
 
 from rodsim.core.model import Model
 from rodsim.solvers.base import LARGE_MODEL_SIZE, retraction_of
-from rodsim.solvers.integrator_options import IdaOptions
 from rodsim.solvers.linear import LinearSolver
 from rodsim.solvers.newton import NewtonProblem, newton
-from rodsim.solvers.pseudo_dynamics import PSEUDO_DYNAMICS_PARAMETERS, ConstrainedSystem
+from rodsim.solvers.pseudo_dynamics import (
+    PSEUDO_DYNAMICS_PARAMETERS,
+    ConstrainedSystem,
+    PseudoDynamicsOptions,
+)
 from rodsim.solvers.sundials import (
     BandPreconditioner,
     SundialsIntegrator,
@@ -42,6 +45,13 @@ from rodsim.solvers.sundials import (
 
 if TYPE_CHECKING:
     from sksundae.ida import IDA
+
+
+@dataclass(frozen=True, kw_only=True)
+class IdaOptions(PseudoDynamicsOptions):
+    """``[solver.ida]``: the shared pseudo-dynamics options; the Newton finish switches in later."""
+
+    newton_switch: float = 0.03
 
 
 class Ida(SundialsIntegrator):

@@ -29,7 +29,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from rodsim.core.model import Model
-from rodsim.core.schema import Parameter
+from rodsim.core.schema import Options, Parameter
 from rodsim.solvers.base import (
     LARGE_MODEL_SIZE,
     Integrator,
@@ -38,7 +38,6 @@ from rodsim.solvers.base import (
     correction_size,
     retraction_of,
 )
-from rodsim.solvers.integrator_options import PaperOptions
 from rodsim.solvers.newton import NewtonProblem, newton
 from rodsim.solvers.pseudo_dynamics import first_mode_frequency
 from rodsim.solvers.run_state import RunState
@@ -71,6 +70,20 @@ def column_groups(pattern: sp.csc_matrix) -> list[np.ndarray]:
 #: one, a run kept up to 1.3× the declared distance to ``static`` at N = 320–1000 (the
 #: residuals of all nodes add up; tests/test_integrators.py); with two, 0.97× at N = 320.
 RESTING_STEPS = 3
+
+
+@dataclass(frozen=True, kw_only=True)
+class PaperOptions(Options):
+    """``[solver.paper]``: the paper's damped semi-implicit Euler, Eqs. (14)–(19)
+    (``PaperEuler.parameters``)."""
+
+    h: float = 0.3
+    xi: float = 0.9
+    jacobian: str = "analytic"
+    max_steps: int = 100000
+    max_newton: int = 50
+    ramp_steps: int = 0
+    h2_omega2: float = 0.0
 
 
 @dataclass(eq=False, kw_only=True)

@@ -28,12 +28,12 @@ from typing import Any
 import numpy as np
 
 from rodsim.core.model import Model
-from rodsim.core.schema import Parameter
+from rodsim.core.schema import Options, Parameter
 from rodsim.core.sparsity import csc_pattern
 
 __all__ = ["FORMULATIONS", "first_mode_frequency", "damping_rate", "pseudo_masses",
            "LoadRamp", "FirstOrderSystem", "ConstrainedSystem", "PseudoDynamics",
-           "PSEUDO_DYNAMICS_PARAMETERS", "BAND_LIMIT", "LINEAR_SOLVERS",
+           "PSEUDO_DYNAMICS_PARAMETERS", "PseudoDynamicsOptions", "BAND_LIMIT", "LINEAR_SOLVERS",
            "LARGE_FINISH_ITERATIONS"]
 
 FORMULATIONS = ("inertial", "overdamped")
@@ -90,6 +90,23 @@ PSEUDO_DYNAMICS_PARAMETERS = (
               f"integrating; at least {LARGE_FINISH_ITERATIONS} above 4000 unknowns)",
               1, 10_000),
 )
+
+
+@dataclass(frozen=True, kw_only=True)
+class PseudoDynamicsOptions(Options):
+    """The options CVODE and IDA share: pseudo-dynamics, tolerances, linear solver and the
+    Newton finish (``PSEUDO_DYNAMICS_PARAMETERS``; rodsim/solvers/sundials.py)."""
+
+    formulation: str = "overdamped"
+    damping_ratio: float = 1.0
+    mass_scaling: float = 1000.0
+    load_ramp: float = 1.0
+    rtol: float = 0.0001
+    atol: float = 0.0001
+    linear_solver: str = "auto"
+    max_steps: int = 200000
+    newton_switch: float = 0.1
+    newton_iterations: int = 20
 
 
 @dataclass(frozen=True)

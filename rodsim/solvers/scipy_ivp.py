@@ -23,13 +23,13 @@ from __future__ import annotations
 
 import functools
 import math
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
-from rodsim.core.schema import Parameter
+from rodsim.core.schema import Options, Parameter
 from rodsim.solvers.base import Integrator, Outcome, SolverFailure
-from rodsim.solvers.integrator_options import ScipyOptions
 from rodsim.solvers.pseudo_dynamics import (
     PSEUDO_DYNAMICS_PARAMETERS,
     FirstOrderSystem,
@@ -41,6 +41,19 @@ _SHARED = {p.name: p for p in PSEUDO_DYNAMICS_PARAMETERS}
 
 #: The wall-time budget is checked every this many right-hand-side evaluations.
 BUDGET_STRIDE = 16
+
+
+@dataclass(frozen=True, kw_only=True)
+class ScipyOptions(Options):
+    """``[solver.scipy]``: scipy's ``solve_ivp`` on the pseudo-dynamics
+    (``ScipyIvp.parameters``)."""
+
+    method: str = "BDF"
+    damping_ratio: float = 1.0
+    mass_scaling: float = 1000.0
+    load_ramp: float = 1.0
+    rtol: float = 1e-06
+    atol: float = 1e-06
 
 
 class ScipyIvp(Integrator[RunState]):

@@ -46,17 +46,18 @@ Newton if they still stall, no fall-back (``Static._continuation_step``).
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 
 from rodsim.core.model import Model
-from rodsim.core.schema import Parameter
+from rodsim.core.schema import Options, Parameter
 from rodsim.solvers.base import Integrator, Outcome, retraction_of
 from rodsim.solvers.continuation import (
     DEFAULT_PENALTY_RATIO,
     load_continuation,
     penalty_scales,
 )
-from rodsim.solvers.integrator_options import StaticOptions
 from rodsim.solvers.newton import NewtonProblem, newton
 from rodsim.solvers.run_state import MAX_SETTLES, RunState
 
@@ -118,6 +119,18 @@ def rest_imbalance(run: RunState, model: Model) -> np.ndarray | None:
     run.counts["force_evals"] += 1
     force = model.force(model.x0, 0.0)
     return force if model.residual(force) > run.tolerance else None
+
+
+@dataclass(frozen=True, kw_only=True)
+class StaticOptions(Options):
+    """``[solver.static]``: Newton with load and penalty continuation
+    (``Static.parameters``)."""
+
+    max_newton: int = 30
+    first_load_step: float = 1.0
+    min_load_step: float = 0.0001
+    penalty_ratio: float = 1000.0
+    retraction: str = "auto"
 
 
 class Static(Integrator[RunState]):
