@@ -114,7 +114,7 @@ def test_newton_calls_check_once_per_iteration_and_stops_when_it_raises():
     problem = NewtonProblem(force=lambda y: -(y - 1.0) ** 3,
                             jacobian=lambda y: -3.0 * (y - 1.0) ** 2,
                             linear=linear,
-                            residual=lambda g: float(np.max(np.abs(g))),
+                            force_residual=lambda g: float(np.max(np.abs(g))),
                             weight=np.ones(1))
     with pytest.raises(SolverFailure, match="stop"):
         newton(problem, np.zeros(1), 1e-30, 100, check=check)

@@ -170,7 +170,7 @@ def roundoff_noise(model: Model, iterations: int = 12) -> float:
     for k in range(iterations):
         force = model.force(x)
         if k >= iterations - 6:
-            seen.append(model.residual(force))
+            seen.append(model.force_residual(force))
         x = x + spla.spsolve(model.jacobian(x).tocsc(), -force)
     return max(seen)
 

@@ -22,7 +22,7 @@ def arctan_problem() -> NewtonProblem:
     return NewtonProblem(force=lambda y: -np.arctan(y),
                          jacobian=lambda y: -1.0 / (1.0 + y ** 2),
                          linear=linear,
-                         residual=lambda g: float(np.max(np.abs(g))),
+                         force_residual=lambda g: float(np.max(np.abs(g))),
                          weight=np.ones(1))
 
 
@@ -65,7 +65,7 @@ def test_jacobian_reuse_reaches_the_same_root(reuse):
             calls.append(1)
             return model.jacobian_data(x)
 
-        problem = NewtonProblem(model.force, jacobian, linear, model.residual,
+        problem = NewtonProblem(model.force, jacobian, linear, model.force_residual,
                                 model.residual_weight, model.energy)
         outcomes[policy] = newton(problem, model.x0, 1e-9, 400, polish=False, reuse=policy)
         jacobians[policy] = len(calls)
@@ -94,7 +94,7 @@ def test_polishing_does_not_backtrack():
     one = np.zeros(1, dtype=int)
     linear = LinearSolver(sp.csc_matrix(np.ones((1, 1))), one, one, (0, 0), symmetric=False)
     problem = NewtonProblem(force=force, jacobian=lambda y: np.array([-2.0]), linear=linear,
-                            residual=lambda g: float(np.max(np.abs(g))), weight=np.ones(1),
+                            force_residual=lambda g: float(np.max(np.abs(g))), weight=np.ones(1),
                             potential=lambda y: 1.0 / (1.0 + float(y @ y)))
     result = newton(problem, np.array([1e-3]), 1.0, 10)
     assert result.converged and result.x[0] == 1e-3
@@ -130,8 +130,8 @@ def test_the_correction_test_sees_an_imbalance_spread_over_many_nodes():
     reach = float(np.max(np.abs(linear.solve(-data, np.ones(n)))))
     start = root + 1e-2 * np.sin(0.5 * np.pi * np.arange(1, n + 1) / n)
     problem = NewtonProblem(force=force, jacobian=jacobian, linear=linear,
-                            residual=lambda g: float(np.max(np.abs(g))), weight=np.ones(n))
-    assert problem.residual(force(start)) < 1e-5
+                            force_residual=lambda g: float(np.max(np.abs(g))), weight=np.ones(n))
+    assert problem.force_residual(force(start)) < 1e-5
     alone = newton(problem, start, 1e-5, 20, polish=False)
     assert alone.converged and np.max(np.abs(alone.x - root)) > 5e-3
     corrected = newton(replace(problem, correction=lambda dy: float(np.max(np.abs(dy))) / reach,

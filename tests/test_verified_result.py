@@ -62,7 +62,7 @@ def test_an_imbalance_spread_over_the_nodes_fails_the_correction_test():
     model = rodsim.app.api.build_model(rodsim.load_scene(SCENE, overrides))
     x = perturbed.state
     force = model.force(x)
-    assert model.residual(force) < 1e-5  # the force test alone would pass at N = 40 000
+    assert model.force_residual(force) < 1e-5  # the force test alone would pass at N = 40 000
     distance = np.max(np.abs(perturbed.positions() - plain.positions()))
     reach = np.max(np.abs(plain.positions() - model.positions(model.x0, "catheter")))
     value = correction_residual(model, x, force)
@@ -91,7 +91,7 @@ def test_the_check_is_on_the_full_penalty_model(integrator, monkeypatch):
     monkeypatch.setattr(cls, "advance", advance)
     if integrator == "ida":  # its own test reads the IDA state, which this run has none of
         monkeypatch.setattr(cls, "residual_at",
-                            lambda self, run, x: run.model.residual(run.model.force(x)))
+                            lambda self, run, x: run.model.force_residual(run.model.force(x)))
     result = rodsim.solve(scene[0], integrator, overrides=scene[1])
     assert not result.success
     assert "not an equilibrium" in result.message

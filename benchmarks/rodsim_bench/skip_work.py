@@ -131,7 +131,7 @@ def _newton(model: Model, basis: sp.csc_matrix | None, reuse: str = "fresh",
               LinearSolver(model.pattern, model.pattern_rows, model.pattern_cols,
                            (model.band.lower, model.band.upper), model.conservative))
     problem = NewtonProblem(force=model.force, jacobian=model.jacobian_data, linear=linear,
-                            residual=model.residual, weight=model.residual_weight,
+                            force_residual=model.force_residual, weight=model.residual_weight,
                             potential=model.energy)
     outcome = newton(problem, model.x0, max(tolerance, model.residual_floor), limit,
                      polish=False, reuse=reuse)

@@ -46,7 +46,7 @@ from rodsim.solvers.physical.coordinates import (
 from rodsim.solvers.physical.dae import PhysicalDae
 from rodsim.solvers.physical.events import EventError, EventLike, resolve_events
 from rodsim.solvers.physical.fixed_step import Motion
-from rodsim.solvers.physical.ida_run import IdaOptions, integrate_ida
+from rodsim.solvers.physical.ida_run import PhysicalTimeOptions, integrate_ida
 from rodsim.solvers.physical.midpoint import MidpointStep
 from rodsim.solvers.physical.semi_implicit_euler import SemiImplicitEulerStep
 from rodsim.solvers.physical.trajectory import Record, integrate
@@ -360,8 +360,9 @@ def simulate(scene: SceneLike | None, t_end: float, *, output_dt: float | None =
     record = Record()
     try:
         if integrator not in FIXED_STEP:
-            options = IdaOptions(settings["rtol"], settings["atol"], int(settings["max_order"]),
-                                 0.0 if step is None else float(step), length, omega)
+            options = PhysicalTimeOptions(settings["rtol"], settings["atol"],
+                                          int(settings["max_order"]),
+                                          0.0 if step is None else float(step), length, omega)
             dae = PhysicalDae(coordinates, stepper.damping, programs.model_at, model.n)
             integrate_ida(dae, programs.model_at, start, outputs, programs.breaks, options,
                           progress, record, integrator, watched)

@@ -10,7 +10,7 @@ constants packed by the term class (``Term.group_arguments``) and their target m
 stacked, and may share work between them (the string tendons of one catheter pass through
 the same nodes).
 
-Which terms are grouped is a rule on the terms alone, never on timing: a run of consecutive
+Which terms are grouped is a rule on the terms alone, never on timing: a streak of consecutive
 terms (in the model's order) of one class with equal ``Term.group_key`` (not None), whose
 kernel has an ``evaluate_group``, whose elements have the same width and that are all
 evaluated on the same state (``Term.offsets``), at least two of them. Consecutive, so that
@@ -65,56 +65,56 @@ def _key(call: KernelCall) -> tuple[Any, ...] | None:
     return (type(term), key, call.force_target.shape[1], term.offsets)
 
 
-def _group(run: Sequence[KernelCall], previous: dict[tuple[int, ...], KernelGroup]
+def _group(streak: Sequence[KernelCall], previous: dict[tuple[int, ...], KernelGroup]
            ) -> KernelGroup:
-    """The group of the calls ``run``; the packed constants and stacked targets of the
+    """The group of the calls ``streak``; the packed constants and stacked targets of the
     previous group of the same members kept where they are the same objects."""
-    known = previous.get(tuple(id(call.term) for call in run))
-    if known is not None and all(a.term is b.term for a, b in zip(known.calls, run,
+    known = previous.get(tuple(id(call.term) for call in streak))
+    if known is not None and all(a.term is b.term for a, b in zip(known.calls, streak,
                                                                    strict=True)):
         arguments = known.arguments
     else:
-        kernel = run[0].kernel
-        arguments = kernel.bind_group(type(run[0].term).group_arguments(
-            [call.term for call in run]))
+        kernel = streak[0].kernel
+        arguments = kernel.bind_group(type(streak[0].term).group_arguments(
+            [call.term for call in streak]))
     stacked = None
     for group in previous.values():
-        if len(group.calls) == len(run) and all(
+        if len(group.calls) == len(streak) and all(
                 a.force_target is b.force_target and a.jacobian_target is b.jacobian_target
-                for a, b in zip(group.calls, run, strict=True)):
+                for a, b in zip(group.calls, streak, strict=True)):
             stacked = group.force_target, group.jacobian_target
             break
     if stacked is None:
-        stacked = (np.ascontiguousarray(np.concatenate([c.force_target for c in run])),
-                   np.ascontiguousarray(np.concatenate([c.jacobian_target for c in run])))
-    evaluate = run[0].kernel.evaluate_group
+        stacked = (np.ascontiguousarray(np.concatenate([c.force_target for c in streak])),
+                   np.ascontiguousarray(np.concatenate([c.jacobian_target for c in streak])))
+    evaluate = streak[0].kernel.evaluate_group
     assert evaluate is not None
-    return KernelGroup(tuple(run), evaluate, arguments, *stacked, run[0].kernel.energy_group)
+    return KernelGroup(tuple(streak), evaluate, arguments, *stacked, streak[0].kernel.energy_group)
 
 
 def kernel_units(calls: Sequence[KernelCall], previous: Sequence[KernelCall | KernelGroup]
                  = ()) -> list[KernelCall | KernelGroup]:
-    """``calls`` with each run of groupable calls (module docstring) made one
+    """``calls`` with each streak of consecutive groupable calls (module docstring) made one
     ``KernelGroup``, in order; ``previous``: the units of the model these calls came from
     (what they share with it is not packed again)."""
     kept = {tuple(id(call.term) for call in unit.calls): unit for unit in previous
             if isinstance(unit, KernelGroup)}
     units: list[KernelCall | KernelGroup] = []
-    run: list[KernelCall] = []
-    run_key: tuple[Any, ...] | None = None
+    streak: list[KernelCall] = []
+    streak_key: tuple[Any, ...] | None = None
 
     def close() -> None:
-        if len(run) >= 2:
-            units.append(_group(run, kept))
+        if len(streak) >= 2:
+            units.append(_group(streak, kept))
         else:
-            units.extend(run)
+            units.extend(streak)
 
     for call in calls:
         key = _key(call)
-        if key is not None and key == run_key:
-            run.append(call)
+        if key is not None and key == streak_key:
+            streak.append(call)
             continue
         close()
-        run, run_key = [call], key
+        streak, streak_key = [call], key
     close()
     return units

@@ -48,7 +48,7 @@ class ModelScales(ModelEvaluation):
             for rod in rods:
                 is_quat[rod.layout.quaternion_index] = True
             self.is_quaternion = is_quat[self.free]
-        #: Per-coordinate weights of :meth:`residual`: 1/F_ref, or 1/(F_ref L_ref) for
+        #: Per-coordinate weights of :meth:`force_residual`: 1/F_ref, or 1/(F_ref L_ref) for
         #: quaternion coordinates.
         self.residual_weight = np.where(
             self.is_quaternion, 1.0 / (self.force_scale * self.length_scale),
@@ -140,7 +140,7 @@ class ModelScales(ModelEvaluation):
         self._diagonal_shares = shares
         return total
 
-    def residual(self, force: np.ndarray) -> float:
+    def force_residual(self, force: np.ndarray) -> float:
         """Scaled residual max_i |F_i| w_i: forces / F_ref, quaternion forces / (F_ref L_ref)."""
         return float((np.abs(force) * self.residual_weight).max())  # the method: no wrapper
 

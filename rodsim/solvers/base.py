@@ -199,7 +199,7 @@ class Integrator(ABC, Generic[S]):
     options
         Validated options of this integrator, an ``Options`` instance (``options_of``).
     tolerance
-        Equilibrium residual tolerance (``solver.tolerance``), see ``Model.residual``.
+        Equilibrium residual tolerance (``solver.tolerance``), see ``Model.force_residual``.
         A run raises a tolerance below its model's round-off floor
         (``Model.residual_floor``) to it (``RunState.tolerance``); the result
         records the tolerance actually used.
@@ -388,7 +388,7 @@ class Integrator(ABC, Generic[S]):
             force=force,
             jacobian=lambda y: run.jacobian_data(y, load),
             linear=run.linear_solver(),
-            residual=model.residual,
+            force_residual=model.force_residual,
             weight=model.residual_weight,
             potential=potential if model.conservative else None,
             step={None: None, "lengths": model.step,
@@ -412,7 +412,7 @@ class Integrator(ABC, Generic[S]):
     def verified_residual(self, run: S, x: np.ndarray) -> tuple[float, float]:
         """The common stopping test of the returned state ``x`` on
         ``RunState.full_model``, evaluated afresh (``verification_force``): (the
-        scaled force residual of ``Model.residual``, the correction residual of
+        scaled force residual of ``Model.force_residual``, the correction residual of
         ``correction_residual``, whose meaning and round-off floor do not depend on N).
         ``run`` fails a run whose own test passed but this one does not
         (``verified``)."""
@@ -423,7 +423,7 @@ class Integrator(ABC, Generic[S]):
         factor = equilibrium_factor(model, x,
                                     run.linear_solver() if model is run.model else None)
         run.factored = model, x.copy(), factor  # the verdict of the same state reuses it
-        return model.residual(force), correction_residual(model, x, force, factor)
+        return model.force_residual(force), correction_residual(model, x, force, factor)
 
     @staticmethod
     def verified(run: RunState, residuals: tuple[float, float]) -> bool:

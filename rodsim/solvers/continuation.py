@@ -77,7 +77,7 @@ def homotopy(run: RunState, x: np.ndarray, max_iterations: int,
 
         problem = NewtonProblem(
             force=shifted, jacobian=run.jacobian_data,
-            linear=run.linear_solver(), residual=model.residual,
+            linear=run.linear_solver(), force_residual=model.force_residual,
             weight=model.residual_weight, step=model.step)
         outcome = newton(problem, x, run.tolerance, max_iterations, polish=False,
                          check=check(target))

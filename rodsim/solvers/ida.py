@@ -87,7 +87,7 @@ class Ida(SundialsIntegrator):
         y = run.last_y
         if y is None or not np.array_equal(run.system.positions_of(y), x):
             return super().residual_at(run, x)
-        return run.model.residual(run.system.constrained_force(y, run.model.force(x)))
+        return run.model.force_residual(run.system.constrained_force(y, run.model.force(x)))
 
     def verification_force(self, run: SundialsState, model: Model,
                            x: np.ndarray) -> np.ndarray:
@@ -172,7 +172,7 @@ class Ida(SundialsIntegrator):
                 return out
 
         problem = NewtonProblem(force, jacobian, linear,
-                                residual=lambda g: float(np.max(np.abs(g) * weight)),
+                                force_residual=lambda g: float(np.max(np.abs(g) * weight)),
                                 weight=weight, step=retract)
         outcome = newton(problem, y, run.tolerance, self.finish_iterations(model),
                          check=self.iteration_check(run, "the Newton finish"))

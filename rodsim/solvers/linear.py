@@ -190,7 +190,7 @@ class LinearSolver:
             if info == 0:
                 self.counts["cholesky"] += 1
                 if self.refined:
-                    x += lapack.dpbtrs(factor, -self._residual(data, x, rhs), lower=1)[0]
+                    x += lapack.dpbtrs(factor, -self._refinement_residual(data, x, rhs), lower=1)[0]
                 return x
         ab = self._filled(data, False, keep=True)
         lu, pivots, x, info = lapack.dgbsv(self.lower, self.upper, ab, rhs.copy(),
@@ -199,11 +199,11 @@ class LinearSolver:
         if info != 0:
             return np.full(n, np.nan)
         if self.refined:
-            x += lapack.dgbtrs(lu, self.lower, self.upper, self._residual(data, x, rhs),
+            x += lapack.dgbtrs(lu, self.lower, self.upper, self._refinement_residual(data, x, rhs),
                                pivots)[0]
         return x
 
-    def _residual(self, data: np.ndarray, x: np.ndarray, rhs: np.ndarray) -> np.ndarray:
+    def _refinement_residual(self, data: np.ndarray, x: np.ndarray, rhs: np.ndarray) -> np.ndarray:
         """rhs − J x in twice the working precision, rounded: one step of iterative
         refinement with it makes the solution accurate to working precision while J's
         condition number is below 1/eps, where a double residual (error eps·|J|·|x|)

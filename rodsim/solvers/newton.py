@@ -41,7 +41,7 @@ class NewtonProblem:
     """g(y) (a generalised force), its Jacobian ∂g/∂y (CSC data of ``linear``'s pattern),
     the solver of the linear systems, and optionally Φ with g = −∇Φ.
 
-    ``residual(g)`` is the scaled residual that decides convergence. ``step(y, dy)``, if
+    ``force_residual(g)`` is the scaled residual that decides convergence. ``step(y, dy)``, if
     given, is the state a Newton step ``dy`` from ``y`` reaches in place of ``y + dy`` (a
     retraction that keeps stiff lengths to first order, ``rodsim.core.model.Model.step``);
     it must agree with ``y + dy`` to first order in ``dy``.
@@ -55,7 +55,7 @@ class NewtonProblem:
     force: Callable[[np.ndarray], np.ndarray]
     jacobian: Callable[[np.ndarray], np.ndarray]
     linear: LinearSolver
-    residual: Callable[[np.ndarray], float]
+    force_residual: Callable[[np.ndarray], float]
     weight: np.ndarray
     potential: Callable[[np.ndarray], float] | None = None
     step: Callable[[np.ndarray, np.ndarray], np.ndarray] | None = None
@@ -236,7 +236,7 @@ def _accepted(problem: NewtonProblem, point: _Point,
     if trial_value <= point.value + 1e-4 * alpha * slope:
         return True
     return alpha == 1.0 and bool(np.isfinite(trial_value)) and (
-        problem.residual(trial_g) < 0.5 * point.residual)
+        problem.force_residual(trial_g) < 0.5 * point.residual)
 
 
 class _Watchdog:
@@ -307,7 +307,7 @@ def newton(problem: NewtonProblem, x: np.ndarray, tolerance: float,
     jacobians = _Jacobians(problem, reuse)
     watchdog = _Watchdog(problem)
     g = problem.force(x)
-    point = _Point(x, g, problem.residual(g), _merit(problem, x, g))
+    point = _Point(x, g, problem.force_residual(g), _merit(problem, x, g))
     polishing = POLISH_ITERATIONS if polish else 0
     for iteration in range(max_iterations):
         if check is not None:
@@ -347,7 +347,7 @@ def newton(problem: NewtonProblem, x: np.ndarray, tolerance: float,
                                     "converged" if near else "line search failed")
             trial = searched
         trial_x, trial_g, trial_value = trial
-        trial_residual = problem.residual(trial_g)
+        trial_residual = problem.force_residual(trial_g)
         if near and not trial_residual < 0.5 * point.residual:  # round-off
             return NewtonResult(point.x, True, done, point.residual, "converged")
         point = watchdog.resume(_Point(trial_x, trial_g, trial_residual, trial_value))

@@ -213,7 +213,7 @@ class PaperEuler(Integrator[PaperState]):
             step = (model.turned_step if retraction_of(model, "auto") == "frames"
                     else model.step)
         return NewtonProblem(force, jacobian, run.linear_solver(),
-                             lambda g: model.residual(g / (h * h)),
+                             lambda g: model.force_residual(g / (h * h)),
                              model.residual_weight / (h * h),
                              potential if model.conservative else None, step=step,
                              correction=correction,
@@ -255,7 +255,7 @@ class PaperEuler(Integrator[PaperState]):
             run.checkpoint(x, where)
             # Tendon registration is recomputed after every step (§4.1).
             moved = run.reregister(x)
-            residual = run.model.residual(run.model.force(x, load))
+            residual = run.model.force_residual(run.model.force(x, load))
             run.record(step * h, x, residual)
             self.report(None, f"paper: {where}, residual {residual:.2e}")
             # At rest: below the tolerance on RESTING_STEPS consecutive steps (see there).

@@ -240,9 +240,9 @@ class RunState:
         return data
 
     def residual_at(self, x: np.ndarray) -> float:
-        """The scaled force residual (``Model.residual``) of F at the state ``x``
+        """The scaled force residual (``Model.force_residual``) of F at the state ``x``
         (uncounted evaluation)."""
-        return self.model.residual(self.model.force(x))
+        return self.model.force_residual(self.model.force(x))
 
     def at_equilibrium(self, residual: float) -> bool:
         return residual < self.tolerance

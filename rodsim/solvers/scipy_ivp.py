@@ -9,7 +9,7 @@ model's analytic Jacobian (sparse for ``BDF``, whose Newton uses a sparse LU; de
 integrators in perspective (``rodsim bench work-precision``), not as a default.
 
 The run stops on a terminal event on the scaled residual of the full-load force,
-``Model.residual(F(x)) − τ``; the state kept is the end of the accepted step on which the
+``Model.force_residual(F(x)) − τ``; the state kept is the end of the accepted step on which the
 event fired (whose residual is below τ), not scipy's interpolated root. The tendon
 registration is updated after every accepted step (from the event function, which scipy
 calls once at each step's end); at equilibrium a registration change restarts the

@@ -118,7 +118,7 @@ def rest_imbalance(run: RunState, model: Model) -> np.ndarray | None:
     bit (one more force evaluation is counted)."""
     run.counts["force_evals"] += 1
     force = model.force(model.x0, 0.0)
-    return force if model.residual(force) > run.tolerance else None
+    return force if model.force_residual(force) > run.tolerance else None
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -266,7 +266,7 @@ class Static(Integrator[RunState]):
             model = run.model
             problem = NewtonProblem(
                 force=run.force, jacobian=run.jacobian_data, linear=run.linear_solver(),
-                residual=model.residual, weight=model.residual_weight,
+                force_residual=model.force_residual, weight=model.residual_weight,
                 potential=model.energy if model.conservative else None)
             solved = newton(problem, x, run.tolerance, CONTINUATION_NEWTON, polish=False,
                             check=self.iteration_check(run, "a continuation step"))
@@ -308,7 +308,7 @@ class Static(Integrator[RunState]):
                 if solve is None:
                     break
             f = run.force(x, check=False)
-            residual = model.residual(f) if np.all(np.isfinite(f)) else np.inf
+            residual = model.force_residual(f) if np.all(np.isfinite(f)) else np.inf
             if residual < run.tolerance:
                 counts["chord_iters"] += iteration
                 return x

@@ -236,7 +236,7 @@ class SundialsIntegrator(Integrator[SundialsState]):
         the accepted y). It screens the equilibrium test, so an accepted step costs no extra
         evaluation of F."""
         assert run.last_force is not None  # every step evaluates the right-hand side
-        return run.model.residual(self.equilibrium_force(run, y, run.last_force))
+        return run.model.force_residual(self.equilibrium_force(run, y, run.last_force))
 
     def finish_start(self, run: SundialsState, y: np.ndarray) -> np.ndarray:
         """The state the Newton finish starts from, given the solver state ``y``: here the
@@ -430,7 +430,7 @@ class SundialsIntegrator(Integrator[SundialsState]):
                     return Outcome(finished, True, "at equilibrium (Newton finish)")
                 switch = RETRY_FACTOR * residual  # try again once closer
             if residual < 10.0 * run.tolerance:
-                residual = run.model.residual(self.equilibrium_force(run, clock.y,
+                residual = run.model.force_residual(self.equilibrium_force(run, clock.y,
                                                                      run.force(x)))
                 if run.at_equilibrium(residual):
                     if run.settled(x):

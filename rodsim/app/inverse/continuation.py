@@ -319,7 +319,7 @@ class ScaledEquilibria:
         return Result.from_model(
             model, x, integrator=name, options=dataclasses.asdict(options), success=True,
             message=f"converged ({what}: warm-started equilibrium)",
-            residual=float(model.residual(force)),
+            residual=float(model.force_residual(force)),
             stats={"effective_tolerance": effective_tolerance(model,
                                                               model.scene.solver.tolerance),
                    "force_evals": float(self.evaluations)},

@@ -96,7 +96,7 @@ def fit_series(scene: Scene, ramps: Mapping[str, Sequence[float] | np.ndarray],
                 progress(None, f"fit: track {len(tracks)}, residual RMS {misfit:.3g} m")
         return tracks[key]
 
-    def residual(p: np.ndarray) -> np.ndarray:
+    def residuals(p: np.ndarray) -> np.ndarray:
         path = tracked(p)
         if not path.success:  # no equilibrium there: a large residual, the region shrinks
             return np.full(measured.size, 10.0 * length)
@@ -105,7 +105,7 @@ def fit_series(scene: Scene, ramps: Mapping[str, Sequence[float] | np.ndarray],
     if not tracked(start / scale).success:
         raise EquilibriumFailure(f"the track at the scene's values failed: "
                                  f"{tracked(start / scale).message}")
-    solution = least_squares(residual, start / scale, bounds=(low, high), method="trf",
+    solution = least_squares(residuals, start / scale, bounds=(low, high), method="trf",
                              diff_step=DIFFERENCE_STEP, x_scale=1.0)
     best = tracked(solution.x)
     freedom = steps * _span_dimension(measured) - len(keys)

@@ -405,7 +405,7 @@ def _walk(out: Track, first: Result, scene: Scene, *, deadline: float, budget: f
         out.states.append(continuation.model.full(continuation.x))
         out.last_model = continuation.model
         record_contact(out, continuation.model)
-        out.residuals.append(continuation.model.residual(continuation.model.force(
+        out.residuals.append(continuation.model.force_residual(continuation.model.force(
             continuation.x)))
         out.iterations.append(iterations)
         out.halvings.append(halvings)

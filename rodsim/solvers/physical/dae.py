@@ -92,7 +92,7 @@ class PhysicalDae:
             damping = (g.T @ self.damping.matrix(x) @ g).tocsr()
         return model, force, g, damping
 
-    def residual(self, t: float, y: np.ndarray, yp: np.ndarray) -> np.ndarray:
+    def dae_residual(self, t: float, y: np.ndarray, yp: np.ndarray) -> np.ndarray:
         """R(t, y, ẏ) in natural order."""
         self.evaluations += 1
         c, n, p = self.coordinates, self.n, self.p

@@ -1,7 +1,7 @@
 """A run in physical time with SUNDIALS IDA — adaptive, error-controlled BDF on the residual
 form of rodsim/solvers/physical/dae.py — or CVODE, the same BDF on the explicit form of
 rodsim/solvers/physical/ode.py (docs/dynamics.md, "IDA" and "CVODE"); one loop, one set of
-options (``IdaOptions``) for both.
+options (``PhysicalTimeOptions``) for both.
 
 IDA takes its own steps under its error test, in physical units: an absolute tolerance of
 ``atol`` × L on positions (L the longest rod), ``atol`` on the quaternions (radians: a
@@ -61,7 +61,7 @@ if TYPE_CHECKING:
     from sksundae.cvode import CVODE
     from sksundae.ida import IDA
 
-__all__ = ["IdaOptions", "integrate_ida", "MAX_STEPS"]
+__all__ = ["PhysicalTimeOptions", "integrate_ida", "MAX_STEPS"]
 
 #: SUNDIALS' status of a step that ended at a root of an event function.
 ROOT_RETURN = 2
@@ -80,10 +80,11 @@ GAUSS_WEIGHTS = np.array([5.0, 8.0, 5.0]) / 18.0
 
 
 @dataclass(frozen=True)
-class IdaOptions:
-    """IDA's settings: relative tolerance, absolute tolerance (relative to L, and in
-    radians), the BDF order cap, the longest step [s] (0: none) and the scales L [m] and
-    ω₁ [rad/s] (module docstring)."""
+class PhysicalTimeOptions:
+    """The settings of a run in physical time with IDA or CVODE: relative tolerance,
+    absolute tolerance (relative to L, and in radians), the BDF order cap, the longest step
+    [s] (0: none) and the scales L [m] and ω₁ [rad/s] (module docstring). Not the
+    ``[solver.ida]`` options of the pseudo-time integrator (``rodsim.solvers.ida.IdaOptions``)."""
 
     rtol: float
     atol: float
@@ -100,7 +101,7 @@ class _Run:
     counts: dict[str, float] = field(default_factory=lambda: {"reinits": 0})
 
 
-def _tolerances(dae: PhysicalDae, o: IdaOptions) -> np.ndarray:
+def _tolerances(dae: PhysicalDae, o: PhysicalTimeOptions) -> np.ndarray:
     """The absolute tolerances in band order (module docstring)."""
     c = dae.coordinates
     atol = np.empty(dae.size)
@@ -116,7 +117,7 @@ class _IdaStarter:
 
     name = "ida"
 
-    def __init__(self, dae: PhysicalDae, options: IdaOptions,
+    def __init__(self, dae: PhysicalDae, options: PhysicalTimeOptions,
                  events: EventFunctions | None = None) -> None:
         self.dae, self.options, self.events = dae, options, events
         self.atol = _tolerances(dae, options)
@@ -132,7 +133,7 @@ class _IdaStarter:
         lower, upper = dae.band(t, natural)
 
         def resfn(t: float, y: np.ndarray, yp: np.ndarray, res: np.ndarray) -> None:
-            res[:] = dae.residual(t, y[place], yp[place])[order]
+            res[:] = dae.dae_residual(t, y[place], yp[place])[order]
 
         def jacfn(t: float, y: np.ndarray, yp: np.ndarray, res: np.ndarray, cj: float,
                   jj: np.ndarray) -> None:
@@ -151,7 +152,7 @@ class _CvodeStarter:
 
     name = "cvode"
 
-    def __init__(self, dae: PhysicalDae, options: IdaOptions,
+    def __init__(self, dae: PhysicalDae, options: PhysicalTimeOptions,
                  events: EventFunctions | None = None) -> None:
         self.ode, self.options, self.events = PhysicalOde(dae), options, events
         self.atol = _tolerances(dae, options)
@@ -280,7 +281,7 @@ class _Energy:
 
 def integrate_ida(dae: PhysicalDae, model_at: Callable[[float, bool], Model],
                   start: Motion, output_times: Sequence[float], breaks: Sequence[float],
-                  options: IdaOptions, progress: Callable[[float], None] | None = None,
+                  options: PhysicalTimeOptions, progress: Callable[[float], None] | None = None,
                   record: Record | None = None, solver: str = "ida",
                   events: EventFunctions | None = None) -> Record:
     """Integrate from ``start`` (t = ``output_times[0]`` = 0) through every output time;
