@@ -237,6 +237,29 @@ def test_a_force_passed_as_a_state_is_refused_in_one_line(small, name):
         assert "\n" not in str(caught.value)
 
 
+@pytest.mark.parametrize("name", ["static", "paper"])
+def test_a_vector_passed_as_a_run_is_refused_in_one_line(small, name):
+    """Integrator.run takes the state init makes; a force or a coordinate vector in its
+    place is a one-line TypeError naming what to call instead (an AttributeError from
+    deep in the run before)."""
+    scene, model = small
+    solver = integrator(scene, name)
+    for wrong in (model.force(model.x0), model.x0):
+        with pytest.raises(TypeError, match="init") as caught:
+            solver.run(wrong)
+        assert "\n" not in str(caught.value)
+
+
+def test_rodsim_solve_refuses_a_force_as_its_start_in_one_line(small):
+    """The public entry point passes the same check on: rodsim.solve with a force as its
+    initial_state is a one-line ValueError, not a failed run nor an escaping
+    ZeroDivisionError."""
+    scene, model = small
+    with pytest.raises(ValueError, match="stretched") as caught:
+        rodsim.solve(scene, "static", model=model, initial_state=model.force(model.x0))
+    assert "\n" not in str(caught.value)
+
+
 def test_a_division_by_zero_inside_a_run_is_a_failed_result(small, monkeypatch):
     """A state that leaves the model's domain mid-run (a kernel dividing by zero) ends the
     run as a failure with a message, as every failure does, instead of escaping it."""

@@ -484,7 +484,12 @@ class Integrator(ABC, Generic[S]):
         carries the registration reached). The stop judges where ``advance`` ended
         (``Stop.verdict``). ``verdict``: give a
         successful equilibrium its stability verdict (a caller assessing the equilibrium
-        itself says False)."""
+        itself says False). TypeError, one line, on anything but a run's state (a vector
+        of coordinates or forces: ``init`` makes the state, ``solve`` does both)."""
+        if not isinstance(run, RunState):
+            raise TypeError(f"{type(self).__name__}.run takes a run's state (from "
+                            f"init(model, x)), not a {type(run).__name__}; solve(model, x) "
+                            "runs from a vector")
         ended = self.ended(run)
         wall = run.elapsed()
         judged = run.stop.verdict(self, run, ended)
