@@ -21,6 +21,7 @@ import pytest
 
 import rodsim
 from rodsim.core.scene import Scene
+from rodsim.solvers import registered_integrators
 from rodsim.solvers.sundials import FROZEN_CHANGE, FROZEN_STEPS
 
 TABLE1 = ("table1-20g", "table1-50g", "table1-100g")
@@ -34,6 +35,9 @@ RUNS = {
     "ida-inertial": ("ida", ["solver.ida.formulation='inertial'"]),
     "scipy-bdf": ("scipy", []),
 }
+#: An integrator added later is compared with static with its defaults, with no edit here.
+RUNS.update({name: (name, []) for name in sorted(registered_integrators())
+             if name != "static" and name not in {run[0] for run in RUNS.values()}})
 
 
 @functools.cache
@@ -191,7 +195,7 @@ def test_paper_mass_scaling_puts_h2_omega2_where_asked():
     assert plain.mass_scale(rodsim.build_model(physical)) == 1.0
 
 
-@pytest.mark.parametrize("integrator", ["scipy", "static", "cvode", "ida", "paper"])
+@pytest.mark.parametrize("integrator", sorted(registered_integrators()))
 def test_every_integrator_returns_the_rest_state_of_an_unloaded_rod(integrator):
     """No load: the rest state is the equilibrium, and every integrator returns it (scipy's
     equilibrium event used to raise brentq's 'f(a) and f(b) must have different signs': its
