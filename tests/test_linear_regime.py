@@ -77,7 +77,8 @@ def elastica_tip(force: float, bending: float, length: float) -> np.ndarray:
 def test_steel_cantilever_small_loads_are_beam_theory(nodes, force):
     """static with its defaults, within 2e-3 of F L³/(3 E I); IDA accepts it too. (CVODE's
     corrector fails on 2 of these 9, at 10 mN, during its pseudo-dynamics; at 27422c4 it
-    failed 4 of the 9 with the floor's refusal bypassed: docs/benchmarks.md.)"""
+    failed 4 of the 9 with the floor's refusal bypassed: docs/benchmark-history.md,
+    "The offset state (issue 37)".)"""
     beam = force * LENGTH**3 / (3.0 * MODULUS * second_moment(RADIUS))
     assert beam < 0.02 * LENGTH  # the linear regime: at most 1.6 % of L
     scene = wire(LENGTH, RADIUS, MODULUS, nodes, force)
