@@ -56,10 +56,11 @@ def test_the_budget_stops_a_long_newton_solve(integrator, options):
     elapsed = time.perf_counter() - start
     assert not result.success
     assert "wall-time budget" in result.message and "Newton iteration" in result.message
-    # Stopped within a few force evaluations of the budget (each Newton iteration makes one
-    # or two, the final residual and the result check a few more; a loaded machine adds its
-    # own delay), far before the whole solve (10 000 iterations, each SLEEP or more).
-    assert elapsed < BUDGET + 40 * SLEEP, elapsed
+    # Stopped soon after the budget (each Newton iteration makes one or two force
+    # evaluations, the final residual and the result check a few more), far before the
+    # whole solve (10 000 iterations, each SLEEP or more: 500 s). The margin, 200 SLEEPs,
+    # is wide because a machine loaded 6x over its cores made 40 SLEEPs take 4.7 s.
+    assert elapsed < BUDGET + 200 * SLEEP, elapsed
     assert any("Newton iteration" in line for line in lines), lines
 
 
