@@ -27,10 +27,16 @@ pinned node, or a prescribed displacement that ``rodsim track`` can ramp — and
 which an actuated base turns): a clamp at s, as a guide or an introducer that grips the
 rod (the bending term's frame elements at s_k, rodsim/core/terms/bend_twist.py).
 
-A support removes coordinates from the free state (``Support.fixed_index``) and hands
-the bending term its frame element (``Support.frame_element``, ``Support.frame``):
-the element (q_c, q_0) of dual length l/2 that keeps the clamp second order in N
-(rodsim/core/terms/bend_twist.py). Nothing else in the model knows how a rod is held.
+What a support holds is its *kind*, an open registry (``SupportKind``: a subclass with a
+unique ``name`` registers itself when defined, as terms and integrators do; docs/architecture.md,
+"How to add a support kind"). A kind owns everything that depends on what is held: the
+coordinates it removes from the free state (``SupportKind.fixed_index``), whether the bending
+term gets its frame element (``SupportKind.frame_element``: the element (q_c, q_0) of dual
+length l/2 that keeps the clamp second order in N, rodsim/core/terms/bend_twist.py), its
+scene rules and keys in ``[rods.<rod>.base]`` (``check_base``, ``base_parameters``) and the
+terms it adds to the model, if any (``SupportKind.terms``: an energy and its Jacobian; the
+rigid kinds add none). Nothing else in the model
+knows how a rod is held.
 """
 
 from __future__ import annotations
@@ -38,7 +44,7 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, ClassVar
 
 import numpy as np
 
@@ -48,11 +54,9 @@ from rodsim.core.rod.quaternion import directors, from_rotation_matrix, rest_qua
 from rodsim.core.schema import Options, Parameter, SceneError, validate_table
 
 __all__ = ["BASE_PARAMETERS", "BaseOptions", "CLAMPS", "SUPPORT_PARAMETERS", "Support",
-           "base_frame", "base_support", "node_at", "node_supports", "quaternion_product",
-           "resolve_base", "resolve_supports", "rigid_motion"]
-
-#: What a base support holds (``rods.<rod>.clamp``); see the module docstring.
-CLAMPS = ("frame", "first_segment", "orientation", "free")
+           "SupportKind", "base_frame", "clamp_doc", "base_support", "node_at", "node_supports",
+           "quaternion_product", "registered_support_kinds", "resolve_base",
+           "resolve_supports", "rigid_motion", "support_kind"]
 
 BASE_PARAMETERS: tuple[Parameter, ...] = (
     Parameter("insertion", "float", 0.0, "m",
@@ -103,11 +107,172 @@ def base_frame(rotation: float) -> np.ndarray:
     return from_rotation_matrix(np.array([[0.0, 0.0, 1.0], [c, -s, 0.0], [s, c, 0.0]]))
 
 
+_KINDS: dict[str, type[SupportKind]] = {}
+
+
+class SupportKind:
+    """What a support holds: subclass with a unique ``name`` (defining the class registers
+    it, ``registered_support_kinds``) and set what differs from these defaults — a kind
+    that holds nothing, adds no term and may only be a rod's base. A kind is never
+    instantiated: its class is the description, as a term's class is."""
+
+    #: The kind's scene name: a value of ``rods.<rod>.clamp`` at the base.
+    name: ClassVar[str] = ""
+    #: One line for ``rodsim`` help and docs/model.md.
+    doc: ClassVar[str] = ""
+    #: A rod's base support may be of this kind (``rods.<rod>.clamp``).
+    at_base: ClassVar[bool] = True
+    #: A support at a node s > 0 may be of this kind (``[rods.<rod>.supports.<name>]``).
+    at_node: ClassVar[bool] = False
+    #: The held node's position is fixed at the support point.
+    holds_position: ClassVar[bool] = False
+    #: The first quaternion q_0 is fixed too (its rest value, the support frame).
+    holds_first_segment: ClassVar[bool] = False
+    #: The bending term gets the frame element (q_c, q_0) (the support frame q_c half a
+    #: segment before q_0, dual length l/2: docs/model.md, "Clamp"), or at a node the two
+    #: elements (q_{k−1}, q_c), (q_c, q_k).
+    frame_element: ClassVar[bool] = False
+    #: A tendon rod's base (at its lumen's entrance) may be of this kind.
+    tendon_base: ClassVar[bool] = False
+    #: Keys this kind adds to ``[rods.<rod>.base]`` (validated only for a base of this kind).
+    base_parameters: ClassVar[tuple[Parameter, ...]] = ()
+
+    def __init_subclass__(cls, **kwargs: Any) -> None:
+        super().__init_subclass__(**kwargs)
+        if not cls.name:
+            raise TypeError(f"support kind {cls.__name__} must set a name")
+        if cls.name in _KINDS:
+            raise TypeError(f"support kind name {cls.name!r} is already registered "
+                            f"({_KINDS[cls.name].__name__})")
+        if cls.holds_first_segment and not cls.holds_position:
+            raise TypeError(f"support kind {cls.name!r}: holding q_0 needs the position held")
+        _KINDS[cls.name] = cls
+
+    @classmethod
+    def fixed_index(cls, support: Support, layout: RodLayout) -> np.ndarray:
+        """Global indices of the coordinates ``support`` (of this kind) removes from the
+        free state."""
+        parts = []
+        if cls.holds_position:
+            parts.append(layout.position_index[support.node])
+        if cls.holds_first_segment:
+            parts.append(layout.quaternion_index[support.node])
+        return np.concatenate(parts) if parts else np.zeros(0, dtype=int)
+
+    @classmethod
+    def check_base(cls, rod: str, holders: list[str], pulled: bool) -> None:
+        """The scene rules of a base of this kind on backbone rod ``rod`` (``holders``: its
+        terms that hold a base, ``Term.holds_base``, at most one; ``pulled``: a tendon is
+        pulled at the rod's base). SceneError when they fail; none by default."""
+
+    @classmethod
+    def resolve_base(cls, rod: str, raw: Mapping[str, Any], resolved: dict[str, Any]
+                     ) -> dict[str, Any]:
+        """The resolved ``[rods.<rod>.base]`` of a base of this kind: ``resolved`` is the
+        table validated against ``BASE_PARAMETERS`` and ``base_parameters``, ``raw`` the
+        scene's table. Fill or cross-check this kind's own keys here."""
+        return resolved
+
+    @classmethod
+    def terms(cls, rod: Any, base: Mapping[str, Any]) -> list[Any]:
+        """The terms (rodsim/core/terms/base.py) a base of this kind adds to the model of
+        ``rod`` (a built ``rodsim.core.rod.rod.Rod`` held by it; ``base`` its resolved
+        ``[rods.<rod>.base]``): an energy and its Jacobian. None for a rigid support."""
+        return []
+
+
+def registered_support_kinds() -> dict[str, type[SupportKind]]:
+    """Every support kind by name, in the order they were defined."""
+    return dict(_KINDS)
+
+
+def clamp_doc() -> str:
+    """The help line of ``rods.<rod>.clamp``: each kind a base may have, with its ``doc``."""
+    parts = [f"'{name}' ({kind.doc})" for name, kind in _KINDS.items() if kind.at_base]
+    return ("what the base support holds: " + ", ".join(parts[:-1])
+            + (" or " if len(parts) > 1 else "") + parts[-1])
+
+
+def support_kind(name: str) -> type[SupportKind]:
+    """The support kind ``name`` (KeyError naming the registered ones if there is none)."""
+    try:
+        return _KINDS[name]
+    except KeyError:
+        raise KeyError(f"no support kind {name!r}; registered: {', '.join(_KINDS)}") from None
+
+
+class FrameSupport(SupportKind):
+    """The position and a frame q_c held: a clamp (at the base, or at a node with
+    ``orientation = true``)."""
+
+    name = "frame"
+    doc = "position and a frame at s = 0"
+    at_node = True
+    holds_position = True
+    frame_element = True
+    tendon_base = True
+
+
+class FirstSegmentSupport(SupportKind):
+    """The base position and the first quaternion q_0 held, as PyElastica."""
+
+    name = "first_segment"
+    doc = "position and first quaternion fixed, as PyElastica"
+    holds_position = True
+    holds_first_segment = True
+
+
+class OrientationSupport(SupportKind):
+    """The frame q_c held, the base position free: a tendon pulled at its proximal end."""
+
+    name = "orientation"
+    doc = "a frame at s = 0 but the position free: a tendon pulled at its proximal end"
+    frame_element = True
+    tendon_base = True
+
+    @classmethod
+    def check_base(cls, rod: str, holders: list[str], pulled: bool) -> None:
+        if not pulled:
+            raise SceneError(f"rods.{rod}.clamp = 'orientation': it leaves the base position "
+                             "free, which only a tendon pulled at its base can have; "
+                             "allowed: 'frame' or 'first_segment'")
+
+
+class FreeSupport(SupportKind):
+    """Nothing held: a term holds the base (``Term.holds_base``: a joint to another rod,
+    an elastic base)."""
+
+    name = "free"
+    doc = "nothing: the base is held by a joint to another rod or by an elastic base"
+
+    @classmethod
+    def check_base(cls, rod: str, holders: list[str], pulled: bool) -> None:
+        if not holders:
+            from rodsim.core.terms import registered_terms
+
+            base_holders = ", ".join(sorted({kind.key for kind in registered_terms().values()
+                                             if kind.holds_base}))
+            raise SceneError(f"rods.{rod}.clamp = 'free': nothing would hold the rod; "
+                             "allowed: 'frame' or 'first_segment', or 'free' with a joint "
+                             f"to another rod or an elastic base (terms: {base_holders})")
+
+
+class PositionSupport(SupportKind):
+    """A node's position held (a pin, or a prescribed displacement), its frame free."""
+
+    name = "position"
+    doc = "a node's position (a pin)"
+    at_base = False
+    at_node = True
+    holds_position = True
+
+
 @dataclass(frozen=True)
 class Support:
     """How a rod is held at a node (its base s = 0, or ``node``): what is held (``holds``:
-    one of ``CLAMPS`` at the base; ``position`` or ``frame`` elsewhere), the support
-    point r_c [m] (``position``) and frame q_c (``frame``)."""
+    the name of a registered ``SupportKind``: one of ``CLAMPS`` at the base, ``position``
+    or ``frame`` elsewhere), the support point r_c [m] (``position``) and frame q_c
+    (``frame``)."""
 
     holds: str
     position: np.ndarray = field(repr=False)
@@ -118,23 +283,24 @@ class Support:
     node: int = 0
 
     @property
+    def kind(self) -> type[SupportKind]:
+        """The support's kind (what it holds and how: ``SupportKind``)."""
+        return support_kind(self.holds)
+
+    @property
     def holds_position(self) -> bool:
         """Whether the node's position is fixed at ``position``."""
-        return self.holds in ("frame", "first_segment", "position")
+        return self.kind.holds_position
 
     @property
     def frame_element(self) -> bool:
         """Whether the bending term gets the frame element (q_c, q_0) (the frame q_c half a
         segment before q_0, docs/model.md "Clamp")."""
-        return self.holds in ("frame", "orientation")
+        return self.kind.frame_element
 
     def fixed_index(self, layout: RodLayout) -> np.ndarray:
         """Global indices of the coordinates the support removes from the free state."""
-        if self.holds == "first_segment":
-            return np.concatenate([layout.position_index[0], layout.quaternion_index[0]])
-        if self.holds_position:
-            return layout.position_index[self.node]
-        return np.zeros(0, dtype=int)
+        return self.kind.fixed_index(self, layout)
 
     @property
     def axis(self) -> np.ndarray:
@@ -243,12 +409,20 @@ def resolve_supports(rod: str, table: Mapping[str, Any], is_tendon: bool
 
 
 def resolve_base(rod: str, table: Mapping[str, Any], is_tendon: bool) -> dict[str, Any] | None:
-    """The validated ``[rods.<rod>.base]`` table of a resolved rod table (defaults filled),
-    or None for a tendon rod, whose base follows its catheter's (SceneError if it has one)."""
+    """The validated ``[rods.<rod>.base]`` table of a resolved rod table (defaults filled;
+    the keys of its clamp's kind too, ``SupportKind.base_parameters``), or None for a tendon
+    rod, whose base follows its catheter's (SceneError if it has one)."""
     if is_tendon:
         if "base" in table:
             raise SceneError(f"rods.{rod}.base: a tendon's base is its lumen's entrance and "
                              "moves with its catheter's base; allowed: set the catheter's "
                              "[rods.<catheter>.base]")
         return None
-    return validate_table(table.get("base", {}), BASE_PARAMETERS, f"rods.{rod}.base")
+    kind = support_kind(str(table.get("clamp", "frame")))
+    raw = table.get("base", {})
+    resolved = validate_table(raw, BASE_PARAMETERS + kind.base_parameters, f"rods.{rod}.base")
+    return kind.resolve_base(rod, raw, resolved)
+
+
+#: What a base support may hold (``rods.<rod>.clamp``): the registered kinds allowed at a base.
+CLAMPS: tuple[str, ...] = tuple(name for name, kind in _KINDS.items() if kind.at_base)
