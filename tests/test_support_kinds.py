@@ -58,6 +58,10 @@ EXAMPLES: dict[str, tuple[dict[str, Any], str, str]] = {
         "distal": _rod(length=0.06, nodes=5, clamp="free",
                        terms=["stretch", "bend_twist", "centerline", "joint", "tip_load"],
                        joint={"rod": "proximal", "s": 0.1, "K_J": 3e3})}}, "distal", "base"),
+    "elastic": ({"name": "kind-elastic", "rods": {"rod": _rod(
+        clamp="elastic", origin=[0.0, 0.01, 0.0],
+        base={"insertion": 0.004, "rotation": -0.7, "translational_stiffness": 40.0,
+              "rotational_stiffness": 2e-3, "torsional_stiffness": 7e-4})}}, "rod", "base"),
     "position": ({"name": "kind-position", "rods": {"rod": _rod(
         supports={"pin": {"s": 0.1, "displacement": [0.0, 0.002, 0.001]}})}}, "rod", "pin"),
 }

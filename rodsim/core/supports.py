@@ -6,10 +6,13 @@ rod has one at its base (s = 0), declared by two scene values:
 - ``rods.<rod>.clamp`` — what the base support holds (the shorthand kept from earlier
   scenes): ``frame`` (the position r_0 and a frame q_c at s = 0), ``first_segment`` (r_0 and
   the first quaternion q_0, as PyElastica), ``orientation`` (the frame q_c only: a tendon
-  pulled at its proximal end) or ``free`` (nothing: the rod is held by a ``joint`` anchor to
-  another rod, rodsim/core/terms/joint.py);
+  pulled at its proximal end), ``free`` (nothing: the rod is held by a ``joint`` anchor to
+  another rod, rodsim/core/terms/joint.py) or ``elastic`` (the position and frame held by
+  springs, ``ElasticSupport``);
 - ``[rods.<rod>.base]`` — where it is: ``insertion`` d [m], the base moved along its axis,
-  and ``rotation`` θ [rad], the base frame turned about that axis. With the rod's ``origin``
+  and ``rotation`` θ [rad], the base frame turned about that axis (and an elastic base's
+  springs, ``translational_stiffness`` k_t [N/m], ``rotational_stiffness`` k_b and
+  ``torsional_stiffness`` k_τ [N·m/rad]). With the rod's ``origin``
   o and the rest frame R₀ (d3 = +x, docs/model.md),
 
       r_c = o + d d3,   R_c = R_x(θ) R₀,
@@ -35,8 +38,8 @@ term gets its frame element (``SupportKind.frame_element``: the element (q_c, q_
 length l/2 that keeps the clamp second order in N, rodsim/core/terms/bend_twist.py), its
 scene rules and keys in ``[rods.<rod>.base]`` (``check_base``, ``base_parameters``) and the
 terms it adds to the model, if any (``SupportKind.terms``: an energy and its Jacobian; the
-rigid kinds add none). Nothing else in the model
-knows how a rod is held.
+rigid kinds add none, the elastic one its springs, rodsim/core/terms/elastic_base.py).
+Nothing else in the model knows how a rod is held.
 """
 
 from __future__ import annotations
@@ -54,9 +57,9 @@ from rodsim.core.rod.quaternion import directors, from_rotation_matrix, rest_qua
 from rodsim.core.schema import Options, Parameter, SceneError, validate_table
 
 __all__ = ["BASE_PARAMETERS", "BaseOptions", "CLAMPS", "SUPPORT_PARAMETERS", "Support",
-           "SupportKind", "base_frame", "clamp_doc", "base_support", "node_at", "node_supports",
-           "quaternion_product", "registered_support_kinds", "resolve_base",
-           "resolve_supports", "rigid_motion", "support_kind"]
+           "SupportKind", "all_base_parameters", "base_frame", "base_support", "clamp_doc",
+           "node_at", "node_supports", "quaternion_product", "registered_support_kinds",
+           "resolve_base", "resolve_supports", "rigid_motion", "support_kind"]
 
 BASE_PARAMETERS: tuple[Parameter, ...] = (
     Parameter("insertion", "float", 0.0, "m",
@@ -193,6 +196,11 @@ def clamp_doc() -> str:
             + (" or " if len(parts) > 1 else "") + parts[-1])
 
 
+def all_base_parameters() -> tuple[Parameter, ...]:
+    """``BASE_PARAMETERS`` and every kind's own ``[rods.<rod>.base]`` keys."""
+    return BASE_PARAMETERS + tuple(p for kind in _KINDS.values() for p in kind.base_parameters)
+
+
 def support_kind(name: str) -> type[SupportKind]:
     """The support kind ``name`` (KeyError naming the registered ones if there is none)."""
     try:
@@ -265,6 +273,58 @@ class PositionSupport(SupportKind):
     at_base = False
     at_node = True
     holds_position = True
+
+
+class ElasticSupport(SupportKind):
+    """The base held at its place r_c and frame q_c by linear springs instead of rigidly: a
+    handle, an introducer or a motor stage that gives under load (docs/model.md, "Supports
+    and anchors"). Nothing is fixed; the energy
+
+        E = ½ k_t |r_0 − r_c|²  +  ½ l̄ Σ_k K̃_k u_k(q_c, q_0)²,   K̃_k / l̄ = 1 / (l̄/K_k + 1/k_k),
+
+    is the elastic base's (rodsim/core/terms/elastic_base.py): a zero-length spring k_t on
+    the base node, and the rigid clamp's half-segment element (q_c, q_0), l̄ = l/2, in
+    series with rotational springs k_1 = k_2 = k_b about the bending axes and k_3 = k_τ about
+    the rod's axis, so that the clamp stays second order in N and stiff springs tend to the
+    ``frame`` clamp. A cantilever under a small tip force F deflects by
+    F L³/(3 E I) + F L²/k_b + F/k_t (tests/test_elastic_support.py)."""
+
+    name = "elastic"
+    doc = ("position and frame at s = 0 held by springs: [rods.<rod>.base] "
+           "translational_stiffness, rotational_stiffness")
+    base_parameters = (
+        Parameter("translational_stiffness", "float", None, "N/m",
+                  "clamp = 'elastic': spring k_t holding the base node at its place (the "
+                  "origin, moved by insertion)", 0.0, 1e15, exclusive_minimum=True),
+        Parameter("rotational_stiffness", "float", None, "N*m/rad",
+                  "clamp = 'elastic': spring k_b holding the first segment's turn about the "
+                  "bending axes d1, d2 of the base frame (and about d3 unless "
+                  "torsional_stiffness is set)", 0.0, 1e15, exclusive_minimum=True),
+        Parameter("torsional_stiffness", "float", 0.0, "N*m/rad",
+                  "clamp = 'elastic': spring k_tau about the rod's axis d3 at the base (0: "
+                  "rotational_stiffness)", 0.0, 1e15),
+    )
+
+    @classmethod
+    def check_base(cls, rod: str, holders: list[str], pulled: bool) -> None:
+        if holders:
+            raise SceneError(f"rods.{rod}.clamp = 'elastic': the base is also held by "
+                             f"rods.{rod}.{holders[0]}; allowed: one of them")
+
+    @classmethod
+    def stiffnesses(cls, base: Mapping[str, Any]) -> tuple[float, float, float]:
+        """(k_t, k_b, k_τ) of a resolved ``[rods.<rod>.base]`` of this kind."""
+        rotational = float(base["rotational_stiffness"])
+        return (float(base["translational_stiffness"]), rotational,
+                float(base["torsional_stiffness"]) or rotational)
+
+    @classmethod
+    def terms(cls, rod: Any, base: Mapping[str, Any]) -> list[Any]:
+        from rodsim.core.terms.elastic_base import ElasticBase, ElasticBaseOptions
+
+        k_t, k_b, k_tau = cls.stiffnesses(base)
+        return [ElasticBase(rod, ElasticBaseOptions(
+            stiffness=k_t, rotational_stiffness=k_b, torsional_stiffness=k_tau))]
 
 
 @dataclass(frozen=True)
@@ -420,6 +480,12 @@ def resolve_base(rod: str, table: Mapping[str, Any], is_tendon: bool) -> dict[st
         return None
     kind = support_kind(str(table.get("clamp", "frame")))
     raw = table.get("base", {})
+    for other in registered_support_kinds().values():
+        for parameter in other.base_parameters if other is not kind else ():
+            if isinstance(raw, Mapping) and parameter.name in raw:
+                raise SceneError(f"rods.{rod}.base.{parameter.name}: a key of clamp = "
+                                 f"'{other.name}', and rods.{rod}.clamp = '{kind.name}'; "
+                                 f"allowed: rods.{rod}.clamp = '{other.name}' with it")
     resolved = validate_table(raw, BASE_PARAMETERS + kind.base_parameters, f"rods.{rod}.base")
     return kind.resolve_base(rod, raw, resolved)
 
