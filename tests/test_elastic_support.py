@@ -187,3 +187,17 @@ def test_an_elastic_base_with_a_joint_or_on_a_tendon_is_refused():
         tendon["tendons"]["tendon"]["tendon_actuation"]["point"] = point
         with pytest.raises(SceneError, match=r"^rods\.tendon\.clamp = 'elastic': a tendon"):
             Scene.from_dict(tendon)
+
+
+def test_a_changed_spring_gives_the_model_of_the_changed_scene():
+    """A spring is a numeric value (``rodsim track --ramp`` and ``reach`` vary it): the model
+    of the changed scene from ``Model.with_values`` is the one built from it."""
+    bot = robot("polymer catheter", 4)
+    base = Scene.from_dict(scene(bot, 11))
+    changed = base.with_values({"rods.rod.base.rotational_stiffness": 3.0 * bot["k_b"],
+                                "rods.rod.base.translational_stiffness": 0.5 * bot["k_t"]})
+    model = rodsim.build_model(base)
+    x = 1e-3 * bot["length"] * np.random.default_rng(5).standard_normal(model.n)
+    fresh = rodsim.build_model(changed)
+    np.testing.assert_array_equal(model.with_values(changed).force(x), fresh.force(x))
+    assert not np.array_equal(model.force(x), fresh.force(x))
