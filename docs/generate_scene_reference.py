@@ -3,7 +3,7 @@
     python docs/generate_scene_reference.py          # rewrite docs/scenes.md
     python docs/generate_scene_reference.py --check  # exit 1 if docs/scenes.md is stale
 
-Reads rodsim.core.rod.rod.ROD_PARAMETERS, rodsim.core.supports.BASE_PARAMETERS and
+Reads rodsim.core.rod.rod.ROD_PARAMETERS, rodsim.core.supports.all_base_parameters() and
 SUPPORT_PARAMETERS, rodsim.core.damping.DAMPING_PARAMETERS,
 rodsim.core.tendon.TENDON_PARAMETERS,
 rodsim.core.scene.SOLVER_PARAMETERS, every registered term (``parameters``, ``equation``,
@@ -27,7 +27,7 @@ from rodsim.core.rod.rod import ROD_PARAMETERS
 from rodsim.core.rod.sections import INHERITED, SECTION_PARAMETERS
 from rodsim.core.scene import SOLVER_PARAMETERS
 from rodsim.core.schema import Parameter
-from rodsim.core.supports import BASE_PARAMETERS, SUPPORT_PARAMETERS
+from rodsim.core.supports import SUPPORT_PARAMETERS, all_base_parameters
 from rodsim.core.terms import registered_terms, term_keys
 from rodsim.solvers import registered_integrators
 
@@ -142,7 +142,7 @@ def reference() -> str:
         "Not for a tendon rod: its base is its lumen's entrance and moves with its "
         "catheter's base.",
         "",
-        *table(BASE_PARAMETERS),
+        *table(all_base_parameters()),
         "### `[rods.<name>.supports.<support>]` — a node held in place "
         "(rodsim/core/supports.py)",
         "",

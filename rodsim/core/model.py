@@ -161,6 +161,10 @@ class Model(ModelScales):
                                        *((self.rods,) if kind.joins_rods else ())))
                 self.term_keys.append(("rods", rod.name, term_name))
                 self._tick()
+            for term in rod.support.kind.terms(rod, scene.data["rods"][rod.name].get("base")
+                                               or {}):  # a support's own energy, if any
+                self.terms.append(term)
+                self.term_keys.append(("rods", rod.name, "base"))
         #: The scene's tendons (lumen geometry shared by their coupling terms).
         self.tendons = {name: Tendon.of(name, self.rods, table)
                         for name, table in tendons.items()}

@@ -67,7 +67,13 @@ from rodsim.core.schema import (
     shown_path,
     validate_table,
 )
-from rodsim.core.supports import BASE_PARAMETERS, BaseOptions, resolve_base, resolve_supports
+from rodsim.core.supports import (
+    BASE_PARAMETERS,
+    BaseOptions,
+    resolve_base,
+    resolve_supports,
+    support_kind,
+)
 from rodsim.core.tendon import (
     STRING_TERMS,
     TENDON_PARAMETERS,
@@ -498,7 +504,7 @@ def _check_rod(rod: str, table: Mapping[str, Any], pulled: bool) -> str | None:
     rod needs a term that holds it, an ``orientation`` clamp a tendon pulled at the base).
     Returns the key of the rod's term that joins it to another rod (the last listed, if
     several do), or None."""
-    from rodsim.core.terms import registered_terms, term_class, term_keys
+    from rodsim.core.terms import term_class, term_keys
 
     options = RodOptions.of(table)
     if not options.terms:
@@ -517,19 +523,10 @@ def _check_rod(rod: str, table: Mapping[str, Any], pulled: bool) -> str | None:
                              f"rods.{rod}.{term_name}")
     holders = [name for name in options.terms if term_class(name, table).holds_base]
     joining = [name for name in options.terms if term_class(name, table).joins_rods]
-    if options.clamp == "free" and not holders:
-        base_holders = ", ".join(sorted({kind.key for kind in registered_terms().values()
-                                         if kind.holds_base}))
-        raise SceneError(f"rods.{rod}.clamp = 'free': nothing would hold the rod; "
-                         "allowed: 'frame' or 'first_segment', or 'free' with a joint "
-                         f"to another rod or an elastic base (terms: {base_holders})")
     if len(holders) > 1:
         raise SceneError(f"rods.{rod}.terms: {' and '.join(holders)} would both hold the "
                          "base; allowed: one of them")
-    if options.clamp == "orientation" and not pulled:
-        raise SceneError(f"rods.{rod}.clamp = 'orientation': it leaves the base position "
-                         "free, which only a tendon pulled at its base can have; allowed: "
-                         "'frame' or 'first_segment'")
+    support_kind(options.clamp).check_base(rod, holders, pulled)  # e.g. 'free' needs a holder
     return joining[-1] if joining else None
 
 

@@ -6,10 +6,13 @@ rod has one at its base (s = 0), declared by two scene values:
 - ``rods.<rod>.clamp`` — what the base support holds (the shorthand kept from earlier
   scenes): ``frame`` (the position r_0 and a frame q_c at s = 0), ``first_segment`` (r_0 and
   the first quaternion q_0, as PyElastica), ``orientation`` (the frame q_c only: a tendon
-  pulled at its proximal end) or ``free`` (nothing: the rod is held by a ``joint`` anchor to
-  another rod, rodsim/core/terms/joint.py);
+  pulled at its proximal end), ``free`` (nothing: the rod is held by a ``joint`` anchor to
+  another rod, rodsim/core/terms/joint.py) or ``elastic`` (the position and frame held by
+  springs, ``ElasticSupport``);
 - ``[rods.<rod>.base]`` — where it is: ``insertion`` d [m], the base moved along its axis,
-  and ``rotation`` θ [rad], the base frame turned about that axis. With the rod's ``origin``
+  and ``rotation`` θ [rad], the base frame turned about that axis (and an elastic base's
+  springs, ``translational_stiffness`` k_t [N/m], ``rotational_stiffness`` k_b and
+  ``torsional_stiffness`` k_τ [N·m/rad]). With the rod's ``origin``
   o and the rest frame R₀ (d3 = +x, docs/model.md),
 
       r_c = o + d d3,   R_c = R_x(θ) R₀,
@@ -27,10 +30,16 @@ pinned node, or a prescribed displacement that ``rodsim track`` can ramp — and
 which an actuated base turns): a clamp at s, as a guide or an introducer that grips the
 rod (the bending term's frame elements at s_k, rodsim/core/terms/bend_twist.py).
 
-A support removes coordinates from the free state (``Support.fixed_index``) and hands
-the bending term its frame element (``Support.frame_element``, ``Support.frame``):
-the element (q_c, q_0) of dual length l/2 that keeps the clamp second order in N
-(rodsim/core/terms/bend_twist.py). Nothing else in the model knows how a rod is held.
+What a support holds is its *kind*, an open registry (``SupportKind``: a subclass with a
+unique ``name`` registers itself when defined, as terms and integrators do; docs/architecture.md,
+"How to add a support kind"). A kind owns everything that depends on what is held: the
+coordinates it removes from the free state (``SupportKind.fixed_index``), whether the bending
+term gets its frame element (``SupportKind.frame_element``: the element (q_c, q_0) of dual
+length l/2 that keeps the clamp second order in N, rodsim/core/terms/bend_twist.py), its
+scene rules and keys in ``[rods.<rod>.base]`` (``check_base``, ``base_parameters``) and the
+terms it adds to the model, if any (``SupportKind.terms``: an energy and its Jacobian; the
+rigid kinds add none, the elastic one its springs, rodsim/core/terms/elastic_base.py).
+Nothing else in the model knows how a rod is held.
 """
 
 from __future__ import annotations
@@ -38,7 +47,7 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, ClassVar
 
 import numpy as np
 
@@ -48,11 +57,9 @@ from rodsim.core.rod.quaternion import directors, from_rotation_matrix, rest_qua
 from rodsim.core.schema import Options, Parameter, SceneError, validate_table
 
 __all__ = ["BASE_PARAMETERS", "BaseOptions", "CLAMPS", "SUPPORT_PARAMETERS", "Support",
-           "base_frame", "base_support", "node_at", "node_supports", "quaternion_product",
-           "resolve_base", "resolve_supports", "rigid_motion"]
-
-#: What a base support holds (``rods.<rod>.clamp``); see the module docstring.
-CLAMPS = ("frame", "first_segment", "orientation", "free")
+           "SupportKind", "all_base_parameters", "base_frame", "base_support", "clamp_doc",
+           "node_at", "node_supports", "quaternion_product", "registered_support_kinds",
+           "resolve_base", "resolve_supports", "rigid_motion", "support_kind"]
 
 BASE_PARAMETERS: tuple[Parameter, ...] = (
     Parameter("insertion", "float", 0.0, "m",
@@ -103,11 +110,229 @@ def base_frame(rotation: float) -> np.ndarray:
     return from_rotation_matrix(np.array([[0.0, 0.0, 1.0], [c, -s, 0.0], [s, c, 0.0]]))
 
 
+_KINDS: dict[str, type[SupportKind]] = {}
+
+
+class SupportKind:
+    """What a support holds: subclass with a unique ``name`` (defining the class registers
+    it, ``registered_support_kinds``) and set what differs from these defaults — a kind
+    that holds nothing, adds no term and may only be a rod's base. A kind is never
+    instantiated: its class is the description, as a term's class is."""
+
+    #: The kind's scene name: a value of ``rods.<rod>.clamp`` at the base.
+    name: ClassVar[str] = ""
+    #: One line for ``rodsim`` help and docs/model.md.
+    doc: ClassVar[str] = ""
+    #: A rod's base support may be of this kind (``rods.<rod>.clamp``).
+    at_base: ClassVar[bool] = True
+    #: A support at a node s > 0 may be of this kind (``[rods.<rod>.supports.<name>]``).
+    at_node: ClassVar[bool] = False
+    #: The held node's position is fixed at the support point.
+    holds_position: ClassVar[bool] = False
+    #: The first quaternion q_0 is fixed too (its rest value, the support frame).
+    holds_first_segment: ClassVar[bool] = False
+    #: The bending term gets the frame element (q_c, q_0) (the support frame q_c half a
+    #: segment before q_0, dual length l/2: docs/model.md, "Clamp"), or at a node the two
+    #: elements (q_{k−1}, q_c), (q_c, q_k).
+    frame_element: ClassVar[bool] = False
+    #: A tendon rod's base (at its lumen's entrance) may be of this kind.
+    tendon_base: ClassVar[bool] = False
+    #: Keys this kind adds to ``[rods.<rod>.base]`` (validated only for a base of this kind).
+    base_parameters: ClassVar[tuple[Parameter, ...]] = ()
+
+    def __init_subclass__(cls, **kwargs: Any) -> None:
+        super().__init_subclass__(**kwargs)
+        if not cls.name:
+            raise TypeError(f"support kind {cls.__name__} must set a name")
+        if cls.name in _KINDS:
+            raise TypeError(f"support kind name {cls.name!r} is already registered "
+                            f"({_KINDS[cls.name].__name__})")
+        if cls.holds_first_segment and not cls.holds_position:
+            raise TypeError(f"support kind {cls.name!r}: holding q_0 needs the position held")
+        _KINDS[cls.name] = cls
+
+    @classmethod
+    def fixed_index(cls, support: Support, layout: RodLayout) -> np.ndarray:
+        """Global indices of the coordinates ``support`` (of this kind) removes from the
+        free state."""
+        parts = []
+        if cls.holds_position:
+            parts.append(layout.position_index[support.node])
+        if cls.holds_first_segment:
+            parts.append(layout.quaternion_index[support.node])
+        return np.concatenate(parts) if parts else np.zeros(0, dtype=int)
+
+    @classmethod
+    def check_base(cls, rod: str, holders: list[str], pulled: bool) -> None:
+        """The scene rules of a base of this kind on backbone rod ``rod`` (``holders``: its
+        terms that hold a base, ``Term.holds_base``, at most one; ``pulled``: a tendon is
+        pulled at the rod's base). SceneError when they fail; none by default."""
+
+    @classmethod
+    def resolve_base(cls, rod: str, raw: Mapping[str, Any], resolved: dict[str, Any]
+                     ) -> dict[str, Any]:
+        """The resolved ``[rods.<rod>.base]`` of a base of this kind: ``resolved`` is the
+        table validated against ``BASE_PARAMETERS`` and ``base_parameters``, ``raw`` the
+        scene's table. Fill or cross-check this kind's own keys here."""
+        return resolved
+
+    @classmethod
+    def terms(cls, rod: Any, base: Mapping[str, Any]) -> list[Any]:
+        """The terms (rodsim/core/terms/base.py) a base of this kind adds to the model of
+        ``rod`` (a built ``rodsim.core.rod.rod.Rod`` held by it; ``base`` its resolved
+        ``[rods.<rod>.base]``): an energy and its Jacobian. None for a rigid support."""
+        return []
+
+
+def registered_support_kinds() -> dict[str, type[SupportKind]]:
+    """Every support kind by name, in the order they were defined."""
+    return dict(_KINDS)
+
+
+def clamp_doc() -> str:
+    """The help line of ``rods.<rod>.clamp``: each kind a base may have, with its ``doc``."""
+    parts = [f"'{name}' ({kind.doc})" for name, kind in _KINDS.items() if kind.at_base]
+    return ("what the base support holds: " + ", ".join(parts[:-1])
+            + (" or " if len(parts) > 1 else "") + parts[-1])
+
+
+def all_base_parameters() -> tuple[Parameter, ...]:
+    """``BASE_PARAMETERS`` and every kind's own ``[rods.<rod>.base]`` keys."""
+    return BASE_PARAMETERS + tuple(p for kind in _KINDS.values() for p in kind.base_parameters)
+
+
+def support_kind(name: str) -> type[SupportKind]:
+    """The support kind ``name`` (KeyError naming the registered ones if there is none)."""
+    try:
+        return _KINDS[name]
+    except KeyError:
+        raise KeyError(f"no support kind {name!r}; registered: {', '.join(_KINDS)}") from None
+
+
+class FrameSupport(SupportKind):
+    """The position and a frame q_c held: a clamp (at the base, or at a node with
+    ``orientation = true``)."""
+
+    name = "frame"
+    doc = "position and a frame at s = 0"
+    at_node = True
+    holds_position = True
+    frame_element = True
+    tendon_base = True
+
+
+class FirstSegmentSupport(SupportKind):
+    """The base position and the first quaternion q_0 held, as PyElastica."""
+
+    name = "first_segment"
+    doc = "position and first quaternion fixed, as PyElastica"
+    holds_position = True
+    holds_first_segment = True
+
+
+class OrientationSupport(SupportKind):
+    """The frame q_c held, the base position free: a tendon pulled at its proximal end."""
+
+    name = "orientation"
+    doc = "a frame at s = 0 but the position free: a tendon pulled at its proximal end"
+    frame_element = True
+    tendon_base = True
+
+    @classmethod
+    def check_base(cls, rod: str, holders: list[str], pulled: bool) -> None:
+        if not pulled:
+            raise SceneError(f"rods.{rod}.clamp = 'orientation': it leaves the base position "
+                             "free, which only a tendon pulled at its base can have; "
+                             "allowed: 'frame' or 'first_segment'")
+
+
+class FreeSupport(SupportKind):
+    """Nothing held: a term holds the base (``Term.holds_base``: a joint to another rod,
+    an elastic base)."""
+
+    name = "free"
+    doc = "nothing: the base is held by a joint to another rod or by an elastic base"
+
+    @classmethod
+    def check_base(cls, rod: str, holders: list[str], pulled: bool) -> None:
+        if not holders:
+            from rodsim.core.terms import registered_terms
+
+            base_holders = ", ".join(sorted({kind.key for kind in registered_terms().values()
+                                             if kind.holds_base}))
+            raise SceneError(f"rods.{rod}.clamp = 'free': nothing would hold the rod; "
+                             "allowed: 'frame' or 'first_segment', or 'free' with a joint "
+                             f"to another rod or an elastic base (terms: {base_holders})")
+
+
+class PositionSupport(SupportKind):
+    """A node's position held (a pin, or a prescribed displacement), its frame free."""
+
+    name = "position"
+    doc = "a node's position (a pin)"
+    at_base = False
+    at_node = True
+    holds_position = True
+
+
+class ElasticSupport(SupportKind):
+    """The base held at its place r_c and frame q_c by linear springs instead of rigidly: a
+    handle, an introducer or a motor stage that gives under load (docs/model.md, "Supports
+    and anchors"). Nothing is fixed; the energy
+
+        E = ½ k_t |r_0 − r_c|²  +  ½ l̄ Σ_k K̃_k u_k(q_c, q_0)²,   K̃_k / l̄ = 1 / (l̄/K_k + 1/k_k),
+
+    is the elastic base's (rodsim/core/terms/elastic_base.py): a zero-length spring k_t on
+    the base node, and the rigid clamp's half-segment element (q_c, q_0), l̄ = l/2, in
+    series with rotational springs k_1 = k_2 = k_b about the bending axes and k_3 = k_τ about
+    the rod's axis, so that the clamp stays second order in N and stiff springs tend to the
+    ``frame`` clamp. A cantilever under a small tip force F deflects by
+    F L³/(3 E I) + F L²/k_b + F/k_t (tests/test_elastic_support.py)."""
+
+    name = "elastic"
+    doc = ("position and frame at s = 0 held by springs: [rods.<rod>.base] "
+           "translational_stiffness, rotational_stiffness")
+    base_parameters = (
+        Parameter("translational_stiffness", "float", None, "N/m",
+                  "clamp = 'elastic': spring k_t holding the base node at its place (the "
+                  "origin, moved by insertion)", 0.0, 1e15, exclusive_minimum=True),
+        Parameter("rotational_stiffness", "float", None, "N*m/rad",
+                  "clamp = 'elastic': spring k_b holding the first segment's turn about the "
+                  "bending axes d1, d2 of the base frame (and about d3 unless "
+                  "torsional_stiffness is set)", 0.0, 1e15, exclusive_minimum=True),
+        Parameter("torsional_stiffness", "float", 0.0, "N*m/rad",
+                  "clamp = 'elastic': spring k_tau about the rod's axis d3 at the base (0: "
+                  "rotational_stiffness)", 0.0, 1e15),
+    )
+
+    @classmethod
+    def check_base(cls, rod: str, holders: list[str], pulled: bool) -> None:
+        if holders:
+            raise SceneError(f"rods.{rod}.clamp = 'elastic': the base is also held by "
+                             f"rods.{rod}.{holders[0]}; allowed: one of them")
+
+    @classmethod
+    def stiffnesses(cls, base: Mapping[str, Any]) -> tuple[float, float, float]:
+        """(k_t, k_b, k_τ) of a resolved ``[rods.<rod>.base]`` of this kind."""
+        rotational = float(base["rotational_stiffness"])
+        return (float(base["translational_stiffness"]), rotational,
+                float(base["torsional_stiffness"]) or rotational)
+
+    @classmethod
+    def terms(cls, rod: Any, base: Mapping[str, Any]) -> list[Any]:
+        from rodsim.core.terms.elastic_base import ElasticBase, ElasticBaseOptions
+
+        k_t, k_b, k_tau = cls.stiffnesses(base)
+        return [ElasticBase(rod, ElasticBaseOptions(
+            stiffness=k_t, rotational_stiffness=k_b, torsional_stiffness=k_tau))]
+
+
 @dataclass(frozen=True)
 class Support:
     """How a rod is held at a node (its base s = 0, or ``node``): what is held (``holds``:
-    one of ``CLAMPS`` at the base; ``position`` or ``frame`` elsewhere), the support
-    point r_c [m] (``position``) and frame q_c (``frame``)."""
+    the name of a registered ``SupportKind``: one of ``CLAMPS`` at the base, ``position``
+    or ``frame`` elsewhere), the support point r_c [m] (``position``) and frame q_c
+    (``frame``)."""
 
     holds: str
     position: np.ndarray = field(repr=False)
@@ -118,23 +343,24 @@ class Support:
     node: int = 0
 
     @property
+    def kind(self) -> type[SupportKind]:
+        """The support's kind (what it holds and how: ``SupportKind``)."""
+        return support_kind(self.holds)
+
+    @property
     def holds_position(self) -> bool:
         """Whether the node's position is fixed at ``position``."""
-        return self.holds in ("frame", "first_segment", "position")
+        return self.kind.holds_position
 
     @property
     def frame_element(self) -> bool:
         """Whether the bending term gets the frame element (q_c, q_0) (the frame q_c half a
         segment before q_0, docs/model.md "Clamp")."""
-        return self.holds in ("frame", "orientation")
+        return self.kind.frame_element
 
     def fixed_index(self, layout: RodLayout) -> np.ndarray:
         """Global indices of the coordinates the support removes from the free state."""
-        if self.holds == "first_segment":
-            return np.concatenate([layout.position_index[0], layout.quaternion_index[0]])
-        if self.holds_position:
-            return layout.position_index[self.node]
-        return np.zeros(0, dtype=int)
+        return self.kind.fixed_index(self, layout)
 
     @property
     def axis(self) -> np.ndarray:
@@ -243,12 +469,26 @@ def resolve_supports(rod: str, table: Mapping[str, Any], is_tendon: bool
 
 
 def resolve_base(rod: str, table: Mapping[str, Any], is_tendon: bool) -> dict[str, Any] | None:
-    """The validated ``[rods.<rod>.base]`` table of a resolved rod table (defaults filled),
-    or None for a tendon rod, whose base follows its catheter's (SceneError if it has one)."""
+    """The validated ``[rods.<rod>.base]`` table of a resolved rod table (defaults filled;
+    the keys of its clamp's kind too, ``SupportKind.base_parameters``), or None for a tendon
+    rod, whose base follows its catheter's (SceneError if it has one)."""
     if is_tendon:
         if "base" in table:
             raise SceneError(f"rods.{rod}.base: a tendon's base is its lumen's entrance and "
                              "moves with its catheter's base; allowed: set the catheter's "
                              "[rods.<catheter>.base]")
         return None
-    return validate_table(table.get("base", {}), BASE_PARAMETERS, f"rods.{rod}.base")
+    kind = support_kind(str(table.get("clamp", "frame")))
+    raw = table.get("base", {})
+    for other in registered_support_kinds().values():
+        for parameter in other.base_parameters if other is not kind else ():
+            if isinstance(raw, Mapping) and parameter.name in raw:
+                raise SceneError(f"rods.{rod}.base.{parameter.name}: a key of clamp = "
+                                 f"'{other.name}', and rods.{rod}.clamp = '{kind.name}'; "
+                                 f"allowed: rods.{rod}.clamp = '{other.name}' with it")
+    resolved = validate_table(raw, BASE_PARAMETERS + kind.base_parameters, f"rods.{rod}.base")
+    return kind.resolve_base(rod, raw, resolved)
+
+
+#: What a base support may hold (``rods.<rod>.clamp``): the registered kinds allowed at a base.
+CLAMPS: tuple[str, ...] = tuple(name for name, kind in _KINDS.items() if kind.at_base)

@@ -34,7 +34,7 @@ from rodsim.core.rod.quaternion import DIRECTOR_FORMS, director, director_gradie
 from rodsim.core.rod.rod import Rod, RodOptions
 from rodsim.core.routing import check_routing
 from rodsim.core.schema import Options, Parameter, SceneError, shown
-from rodsim.core.supports import Support
+from rodsim.core.supports import Support, support_kind
 
 __all__ = ["ROD_COUPLING_TABLES", "STRING_TERMS", "TENDON_PARAMETERS", "TENDON_TERMS",
            "LumenFrame", "Tendon", "TendonOptions", "check_tendon", "physical_default",
@@ -218,8 +218,8 @@ def check_tendon(name: str, table: Mapping[str, Any], rods: Mapping[str, Mapping
         raise SceneError(f"rods.{name}.clamp = 'orientation': nothing holds the tendon's base "
                          f"unless it is pulled there; allowed: 'frame', or "
                          f"{prefix}.tendon_actuation.point = 'proximal'")
-    if tendon.clamp == "first_segment":
-        raise SceneError(f"rods.{name}.clamp = 'first_segment': a tendon's base is held by "
+    if tendon.clamp != "free" and not support_kind(tendon.clamp).tendon_base:
+        raise SceneError(f"rods.{name}.clamp = {tendon.clamp!r}: a tendon's base is held by "
                          "'frame' (distal actuation) or 'orientation' (proximal actuation)")
     if tendon.origin != [0.0, 0.0, 0.0]:
         raise SceneError(f"rods.{name}.origin = {tendon.origin!r}: a tendon is placed in its "

@@ -29,7 +29,7 @@ from rodsim.core.anchors import scene_joints
 from rodsim.core.rod.rod import ROD_PARAMETERS
 from rodsim.core.scene import Scene
 from rodsim.core.schema import Parameter, SceneError, shown
-from rodsim.core.supports import BASE_PARAMETERS, SUPPORT_PARAMETERS
+from rodsim.core.supports import SUPPORT_PARAMETERS, all_base_parameters
 from rodsim.core.tendon import TENDON_PARAMETERS
 
 __all__ = ["NumericKey", "numeric_key", "numeric_keys", "scene_with"]
@@ -115,7 +115,7 @@ def _schema(path: str) -> Parameter | None:
     else:
         return None
     if len(parts) == 4 and parts[0] == "rods" and parts[2] == "base":
-        table = BASE_PARAMETERS  # the base support's insertion and rotation
+        table = all_base_parameters()  # insertion, rotation; an elastic base's springs
     elif len(parts) == 5 and parts[0] == "rods" and parts[2] == "supports":
         table = SUPPORT_PARAMETERS  # a node support's s and displacement
     elif len(parts) == 4:

@@ -228,13 +228,13 @@ def _held_points(table: Mapping[str, Any]) -> list[tuple[str, np.ndarray]]:
     """(what, rest position) of each node a resolved rod table holds in place: its base
     (clamps 'frame' and 'first_segment') and its node supports, on the straight rest shape
     along +x (rodsim/core/supports.py)."""
-    from rodsim.core.supports import node_at
+    from rodsim.core.supports import node_at, support_kind
 
     base = table.get("base") or {}
     origin = np.asarray(table["origin"], dtype=float) + np.array(
         [float(base.get("insertion", 0.0)), 0.0, 0.0])
     out = []
-    if table["clamp"] in ("frame", "first_segment"):
+    if support_kind(table["clamp"]).holds_position:
         out.append(("its base (s = 0)", origin))
     length, nodes = float(table["length"]), int(table["nodes"])
     for name, support in (table.get("supports") or {}).items():

@@ -13,7 +13,7 @@ from rodsim.core.rod.geometry import RodGeometry
 from rodsim.core.rod.layout import RodLayout
 from rodsim.core.rod.sections import INHERITED, SectionProfile
 from rodsim.core.schema import Options, Parameter
-from rodsim.core.supports import CLAMPS, Support
+from rodsim.core.supports import CLAMPS, Support, clamp_doc
 
 __all__ = ["Rod", "RodOptions", "ROD_PARAMETERS", "CLAMPS"]
 
@@ -31,13 +31,7 @@ ROD_PARAMETERS: tuple[Parameter, ...] = (
               -0.99, 0.5),
     Parameter("density", "float", None, "kg/m^3", "mass density ρ", 1e-3, 1e9),
     Parameter("nodes", "int", None, "-", "number of control points N", 3, 200_000),
-    Parameter("clamp", "str", "frame", "-",
-              "what the base support holds: 'frame' (position and a frame at s = 0), "
-              "'first_segment' (position and first quaternion fixed, as PyElastica), "
-              "'orientation' (a frame at s = 0 but the position free: a tendon pulled at its "
-              "proximal end) or 'free' (nothing: the base is held by a joint to another rod "
-              "or by an elastic base)",
-              choices=CLAMPS),
+    Parameter("clamp", "str", "frame", "-", clamp_doc(), choices=CLAMPS),
     Parameter("origin", "vector", [0.0, 0.0, 0.0], "m", "position of the base r_0", -1e3, 1e3,
               length=3),
     Parameter("terms", "list", ["stretch", "bend_twist", "centerline"], "-",
