@@ -16,6 +16,7 @@ import pytest
 import rodsim
 from rodsim.core.model import Model
 from rodsim.core.supports import Support, registered_support_kinds
+from rodsim.core.terms import term_class
 from rodsim.core.terms.bend_twist import BendTwist
 
 FD_RELATIVE_STEP = 1e-6
@@ -141,10 +142,11 @@ def test_a_kind_holds_what_it_says(name):
         np.testing.assert_array_equal(bend._frames[i], support.frame)
     # The terms the kind adds at a base are in the model, under the rod's key "base".
     if which == "base":
-        added = kind.terms(rod, model.scene.data["rods"][rod_name].get("base") or {})
-        mine = [type(term) for term, key in zip(model.terms, model.term_keys, strict=True)
-                if key == ("rods", rod_name, "base")]
-        assert mine == [type(term) for term in added]
+        added = kind.terms(model.scene.data["rods"][rod_name].get("base") or {})
+        mine = [(type(term).key, term.options) for term, key in
+                zip(model.terms, model.term_keys, strict=True) if key == ("rods", rod_name, "base")]
+        assert mine == [(key, term_class(key, values).Options.of(values))
+                        for key, values in added]
 
 
 @pytest.mark.parametrize("name", sorted(registered_support_kinds()))

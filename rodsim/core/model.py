@@ -43,7 +43,7 @@ from rodsim.core.rod.rod import Rod
 from rodsim.core.scene import Scene
 from rodsim.core.supports import base_support, node_supports
 from rodsim.core.tendon import Tendon, tendon_support
-from rodsim.core.terms import Term, registered_terms
+from rodsim.core.terms import Term, registered_terms, term_class
 from rodsim.core.terms.tendon_string import split_at_breaks
 
 __all__ = ["Model", "Band", "EVALUATION_PATHS", "KERNELS", "KernelCall", "scene_rod"]
@@ -161,9 +161,10 @@ class Model(ModelScales):
                                        *((self.rods,) if kind.joins_rods else ())))
                 self.term_keys.append(("rods", rod.name, term_name))
                 self._tick()
-            for term in rod.support.kind.terms(rod, scene.data["rods"][rod.name].get("base")
-                                               or {}):  # a support's own energy, if any
-                self.terms.append(term)
+            base = scene.data["rods"][rod.name].get("base") or {}
+            for key, values in rod.support.kind.terms(base):  # a support's energy, if any
+                added = term_class(key, values)
+                self.terms.append(added(rod, added.Options.of(values)))
                 self.term_keys.append(("rods", rod.name, "base"))
         #: The scene's tendons (lumen geometry shared by their coupling terms).
         self.tendons = {name: Tendon.of(name, self.rods, table)

@@ -504,7 +504,7 @@ def _check_rod(rod: str, table: Mapping[str, Any], pulled: bool) -> str | None:
     rod needs a term that holds it, an ``orientation`` clamp a tendon pulled at the base).
     Returns the key of the rod's term that joins it to another rod (the last listed, if
     several do), or None."""
-    from rodsim.core.terms import term_class, term_keys
+    from rodsim.core.terms import registered_terms, term_class, term_keys
 
     options = RodOptions.of(table)
     if not options.terms:
@@ -526,7 +526,9 @@ def _check_rod(rod: str, table: Mapping[str, Any], pulled: bool) -> str | None:
     if len(holders) > 1:
         raise SceneError(f"rods.{rod}.terms: {' and '.join(holders)} would both hold the "
                          "base; allowed: one of them")
-    support_kind(options.clamp).check_base(rod, holders, pulled)  # e.g. 'free' needs a holder
+    holder_terms = [kind.key for kind in registered_terms().values() if kind.holds_base]
+    support_kind(options.clamp).check_base(rod, holders, pulled,  # 'free' needs a holder
+                                           holder_terms)
     return joining[-1] if joining else None
 
 

@@ -45,7 +45,7 @@ Nothing else in the model knows how a rod is held.
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any, ClassVar
 
@@ -163,10 +163,12 @@ class SupportKind:
         return np.concatenate(parts) if parts else np.zeros(0, dtype=int)
 
     @classmethod
-    def check_base(cls, rod: str, holders: list[str], pulled: bool) -> None:
+    def check_base(cls, rod: str, holders: list[str], pulled: bool,
+                   holder_terms: Sequence[str] = ()) -> None:
         """The scene rules of a base of this kind on backbone rod ``rod`` (``holders``: its
         terms that hold a base, ``Term.holds_base``, at most one; ``pulled``: a tendon is
-        pulled at the rod's base). SceneError when they fail; none by default."""
+        pulled at the rod's base; ``holder_terms``: the keys of every registered term that
+        can hold a base, for messages). SceneError when they fail; none by default."""
 
     @classmethod
     def resolve_base(cls, rod: str, raw: Mapping[str, Any], resolved: dict[str, Any]
@@ -177,10 +179,11 @@ class SupportKind:
         return resolved
 
     @classmethod
-    def terms(cls, rod: Any, base: Mapping[str, Any]) -> list[Any]:
-        """The terms (rodsim/core/terms/base.py) a base of this kind adds to the model of
-        ``rod`` (a built ``rodsim.core.rod.rod.Rod`` held by it; ``base`` its resolved
-        ``[rods.<rod>.base]``): an energy and its Jacobian. None for a rigid support."""
+    def terms(cls, base: Mapping[str, Any]) -> list[tuple[str, dict[str, Any]]]:
+        """The terms (rodsim/core/terms/base.py) a base of this kind adds to its rod's model,
+        each as its registered term key and its options table (``base``: the rod's resolved
+        ``[rods.<rod>.base]``); the model builds them (an energy and its Jacobian). None
+        for a rigid support. Named, not imported: the terms depend on the supports."""
         return []
 
 
@@ -239,7 +242,8 @@ class OrientationSupport(SupportKind):
     tendon_base = True
 
     @classmethod
-    def check_base(cls, rod: str, holders: list[str], pulled: bool) -> None:
+    def check_base(cls, rod: str, holders: list[str], pulled: bool,
+                   holder_terms: Sequence[str] = ()) -> None:
         if not pulled:
             raise SceneError(f"rods.{rod}.clamp = 'orientation': it leaves the base position "
                              "free, which only a tendon pulled at its base can have; "
@@ -254,12 +258,10 @@ class FreeSupport(SupportKind):
     doc = "nothing: the base is held by a joint to another rod or by an elastic base"
 
     @classmethod
-    def check_base(cls, rod: str, holders: list[str], pulled: bool) -> None:
+    def check_base(cls, rod: str, holders: list[str], pulled: bool,
+                   holder_terms: Sequence[str] = ()) -> None:
         if not holders:
-            from rodsim.core.terms import registered_terms
-
-            base_holders = ", ".join(sorted({kind.key for kind in registered_terms().values()
-                                             if kind.holds_base}))
+            base_holders = ", ".join(sorted(set(holder_terms)))
             raise SceneError(f"rods.{rod}.clamp = 'free': nothing would hold the rod; "
                              "allowed: 'frame' or 'first_segment', or 'free' with a joint "
                              f"to another rod or an elastic base (terms: {base_holders})")
@@ -306,7 +308,8 @@ class ElasticSupport(SupportKind):
     )
 
     @classmethod
-    def check_base(cls, rod: str, holders: list[str], pulled: bool) -> None:
+    def check_base(cls, rod: str, holders: list[str], pulled: bool,
+                   holder_terms: Sequence[str] = ()) -> None:
         if holders:
             raise SceneError(f"rods.{rod}.clamp = 'elastic': the base is also held by "
                              f"rods.{rod}.{holders[0]}; allowed: one of them")
@@ -319,12 +322,10 @@ class ElasticSupport(SupportKind):
                 float(base["torsional_stiffness"]) or rotational)
 
     @classmethod
-    def terms(cls, rod: Any, base: Mapping[str, Any]) -> list[Any]:
-        from rodsim.core.terms.elastic_base import ElasticBase, ElasticBaseOptions
-
+    def terms(cls, base: Mapping[str, Any]) -> list[tuple[str, dict[str, Any]]]:
         k_t, k_b, k_tau = cls.stiffnesses(base)
-        return [ElasticBase(rod, ElasticBaseOptions(
-            stiffness=k_t, rotational_stiffness=k_b, torsional_stiffness=k_tau))]
+        return [("elastic_base", {"stiffness": k_t, "rotational_stiffness": k_b,
+                                  "torsional_stiffness": k_tau})]
 
 
 @dataclass(frozen=True)
