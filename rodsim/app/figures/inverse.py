@@ -16,6 +16,7 @@ from matplotlib.figure import Figure
 from rodsim.app.figures import layers
 from rodsim.app.figures.colouring import colour_scale, colouring
 from rodsim.app.figures.contact import draw_contact
+from rodsim.app.figures.projections import projections
 from rodsim.app.figures.ramp_legs import Leg, hysteresis, ramp_legs
 from rodsim.app.figures.scene_drawing import draw_parts
 from rodsim.app.figures.scene_parts import scene_parts
@@ -23,8 +24,7 @@ from rodsim.app.figures.state_series import colour_bar, draw_states
 from rodsim.io.archive_schema import stored_scene
 from rodsim.io.cf_layout import key_variable
 
-__all__ = ["run_figure", "track_figure", "fit_figure", "reach_figure", "out_of_plane",
-           "short_key"]
+__all__ = ["run_figure", "track_figure", "fit_figure", "reach_figure", "short_key"]
 
 def _tip_text(ds: xr.Dataset) -> str:
     """The first rod's tip, computed from the positions (mm)."""
@@ -45,12 +45,13 @@ def run_figure(ds: xr.Dataset, colour: str | None = None,
     friction = "tension_profile" in ds
     parts = scene_parts(ds)
     colours = colouring(ds, colour, parts) if colour else None
-    count = len(PROJECTIONS) if out_of_plane(parts.points()) else 1
+    views = projections(parts.points())
+    count = len(views)
     panels = count + int(friction)
     figure, axes = plt.subplots(1, panels, figsize=(4.2 * panels + 0.6 if panels > 1
                                                     else 6.4, 5.2),
                                 constrained_layout=True, squeeze=False)
-    for panel, view in zip(axes[0][:count], PROJECTIONS[:count], strict=True):
+    for panel, view in zip(axes[0][:count], views, strict=True):
         draw_parts(panel, parts, view, hide=hide, colours=colours)
     if colours is not None:
         colour_bar(figure, list(axes[0][:count]), colours, colour_scale(colours),
@@ -72,11 +73,6 @@ def run_figure(ds: xr.Dataset, colour: str | None = None,
 def _first_rod_nodes(ds: xr.Dataset) -> xr.DataArray:
     first = ds["rod"].values[0]
     return ds["position"].sel(node=ds["rod"] == first)
-
-
-def out_of_plane(positions: np.ndarray) -> bool:
-    """Whether a shape leaves the x–y plane (then the x–z and y–z views are drawn too)."""
-    return bool(np.ptp(positions[..., 2]) > 1e-6 * max(np.ptp(positions[..., 0]), 1e-12))
 
 
 def track_figure(ds: xr.Dataset, colour: str | None = None,
@@ -213,10 +209,6 @@ def _ramp_label(ds: xr.Dataset, key: str) -> str:
     return f"{label} [{unit}]" if unit not in ("", "1") else label
 
 
-#: The projections of a 3D shape: (horizontal, vertical) world axes of each panel.
-PROJECTIONS = ((0, 1), (0, 2), (1, 2))
-
-
 def _tension_along(panel: plt.Axes, ds: xr.Dataset) -> None:
     """The tension of each chord of every tendon with friction against its arc length."""
     tendons = ds["chord_tendon"].values.astype(str)
@@ -235,13 +227,13 @@ def _views(ds: xr.Dataset, extra: np.ndarray, panels: int = 0
     """The run's rods in x–y, and in x–z and y–z when the shape or ``extra`` points leave
     the x–y plane (a 3D shape seen from one side only can hide a whole bend); ``panels``
     more axes after them (the figure's last axes)."""
-    three_d = out_of_plane(np.concatenate([ds["position"].values, extra]))
-    count = len(PROJECTIONS) if three_d else 1
+    views = list(projections(np.concatenate([ds["position"].values, extra])))
+    count = len(views)
+    three_d = count > 1
     figure, axes = plt.subplots(1, count + panels,
                                 figsize=(4.4 * (count + panels) + 1.0 if three_d or panels
                                          else 6.4, 4.8),
                                 constrained_layout=True, squeeze=False)
-    views = list(PROJECTIONS[:count])
     for panel, (h, v) in zip(axes[0][:count], views, strict=True):
         for rod in np.unique(ds["rod"].values):
             nodes = ds["position"].sel(node=ds["rod"] == rod).values

@@ -31,15 +31,10 @@ import xarray as xr
 from matplotlib.figure import Figure
 
 from rodsim.app.figures import labels, view3d
-from rodsim.app.figures.inverse import (
-    fit_figure,
-    out_of_plane,
-    reach_figure,
-    run_figure,
-    track_figure,
-)
+from rodsim.app.figures.inverse import fit_figure, reach_figure, run_figure, track_figure
 from rodsim.app.figures.layers import hidden_layers
 from rodsim.app.figures.modes import modes_figure
+from rodsim.app.figures.projections import out_of_plane
 from rodsim.app.figures.study_centerlines import centerlines_figure, centerlines_result
 from rodsim.app.figures.study_errors import (
     error_vs_iteration_figure,
