@@ -132,3 +132,13 @@ def test_a_planar_scene_keeps_the_planar_layout(archives):
     labels = [(x, y) for x, y, _, _ in panels(motion, hide=["load"])]
     assert labels == [("t [s]", "tip of backbone [m]"), ("t [s]", "energy [J]"),
                       ("x [m]", "y [m]")]
+
+
+def test_a_3d_trajectory_gets_the_3d_view_by_default_as_a_3d_run_does(archives):
+    """`rodsim plot` adds the html view for archives whose shapes leave the x–y plane: a
+    trajectory's too since the view draws trajectories (the planar one still does not)."""
+    from rodsim.app.figures import three_dimensional
+
+    assert three_dimensional(archives["skew-motion"]) and three_dimensional(archives["skew"])
+    assert not three_dimensional(archives["flat-motion"])
+    assert not three_dimensional(archives["flat"])

@@ -304,12 +304,13 @@ def build_parser() -> argparse.ArgumentParser:
                           "alone "
                           "(no solve): STEM.png and STEM.pdf, by default beside the archive "
                           "under its name.")
-    plot.add_argument("archive", help="archive written by `rodsim run` or `rodsim study`")
+    plot.add_argument("archive", help="archive written by `rodsim run`, `study`, `track`, "
+                      "`fit`, `reach`, `modes` or `simulate`")
     plot.add_argument("-o", "--output", metavar="STEM",
                       help="output path without extension (default: the archive's)")
     plot.add_argument("--format", default=None,
                       help="comma-separated formats matplotlib writes: png, pdf, svg, …, "
-                      "and html, the interactive 3D view of a run, track, fit or reach "
+                      "and html, the interactive 3D view of a run, track, fit, reach or trajectory "
                       "(needs plotly: pip install \"rodsim[view3d]\"; added by default "
                       "for a shape that leaves the x-y plane when plotly is installed) "
                       "(default png,pdf)")

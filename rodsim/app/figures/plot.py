@@ -99,9 +99,9 @@ def plot_dataset(ds: xr.Dataset, stem: str | Path, formats: Iterable[str] = ("pn
 
 
 def three_dimensional(ds: xr.Dataset) -> bool:
-    """Whether a run, track, fit or reach archive's shapes leave the x–y plane (then
-    ``rodsim plot`` adds the interactive 3D view when plotly is installed)."""
-    if "study" in ds.attrs or "position" not in ds or ds.attrs.get("kind") == "trajectory":
+    """Whether a run, track, fit, reach or trajectory archive's shapes leave the x–y plane
+    (then ``rodsim plot`` adds the interactive 3D view when plotly is installed)."""
+    if "study" in ds.attrs or "position" not in ds:
         return False
     return out_of_plane(ds["position"].values)
 
