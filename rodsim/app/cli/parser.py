@@ -324,6 +324,10 @@ def build_parser() -> argparse.ArgumentParser:
                       help="comma-separated layers to leave out of the figure of a run, track "
                       "or trajectory, their movie and the html view: shape (the rods), "
                       "tendon, load, contact (the contact forces), obstacle")
+    plot.add_argument("--cdn", action="store_true",
+                      help="write the html view (adding html to the formats) with plotly's "
+                      "JavaScript loaded from its CDN when the page opens: ~4.8 MB smaller "
+                      "(the view alone), and it needs the network to open")
     plot.add_argument("--movie", action="store_true",
                       help="also write STEM.gif, a movie of a track (one frame per step) or of a "
                       "trajectory (rodsim simulate: one frame per output time, at most 120)")

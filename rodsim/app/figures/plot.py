@@ -64,12 +64,14 @@ SERIES_DRAWERS = {"track": track_figure, "trajectory": trajectory_figure}
 
 
 def plot_dataset(ds: xr.Dataset, stem: str | Path, formats: Iterable[str] = ("png", "pdf"),
-                 colour: str | None = None, hide: str | Iterable[str] = ()) -> list[Path]:
+                 colour: str | None = None, hide: str | Iterable[str] = (),
+                 cdn: bool = False) -> list[Path]:
     """Draw the archive's figure and write ``stem.<format>`` for each format.
 
     The formats and the folder are checked first (``check_output``); a format that
     fails to write (e.g. ``pgf`` without LaTeX) leaves no partial file. ``colour`` and
-    ``hide``: see ``draw_figure``. Raises ``PlotError``.
+    ``hide``: see ``draw_figure``; ``cdn``: the html view loads plotly from its CDN
+    (``rodsim.app.figures.view3d.write_html``). Raises ``PlotError``.
     """
     formats = check_output(stem, formats)
     ds = from_file(ds)
@@ -86,7 +88,7 @@ def plot_dataset(ds: xr.Dataset, stem: str | Path, formats: Iterable[str] = ("pn
     paths = []
     if html:
         try:
-            paths.append(view3d.write_html(ds, html_target(stem), colour, hidden))
+            paths.append(view3d.write_html(ds, html_target(stem), colour, hidden, cdn))
         except OSError as exc:
             raise PlotError(f"cannot write {stem}.{HTML}: {exc.strerror or exc}") from None
     if not formats:
