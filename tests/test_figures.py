@@ -101,6 +101,24 @@ def test_the_interactive_3d_view(bent_in_3d, tmp_path, cli, capsys):
     assert cli(["plot", str(planar), "--format", "html"]) == 0  # unless asked
 
 
+def test_the_3d_view_loads_plotly_from_its_cdn_when_asked(bent_in_3d, tmp_path, cli, capsys):
+    """`--cdn` writes the html view (even with other formats named) with a script tag for
+    plotly's CDN instead of plotly's JavaScript: the same traces, a far smaller file."""
+    pytest.importorskip("plotly", reason="plotly is the optional extra rodsim[view3d]")
+    ds, _ = bent_in_3d
+    archive = write_dataset(ds, tmp_path / "four.nc")
+    assert cli(["plot", str(archive), "--format", "html", "-o", str(tmp_path / "full")]) == 0
+    assert cli(["plot", str(archive), "--format", "png", "--cdn",
+                "-o", str(tmp_path / "small")]) == 0, capsys.readouterr().err
+    assert "small.html" in capsys.readouterr().out
+    full = (tmp_path / "full.html").read_text(encoding="utf-8")
+    small = (tmp_path / "small.html").read_text(encoding="utf-8")
+    assert 'src="https://cdn.plot.ly/' in small and "cdn.plot.ly/plotly" not in full
+    for rod in ("catheter", "tendon_py", "tendon_mz"):
+        assert f'"name":"{rod}"' in small, rod
+    assert len(small) < 0.1 * len(full), (len(small), len(full))
+
+
 def test_without_plotly_html_is_a_one_line_error_and_the_rest_still_draws(
         bent_in_3d, tmp_path, monkeypatch, cli, capsys):
     monkeypatch.setattr(view3d, "available", lambda: False)

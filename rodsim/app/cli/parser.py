@@ -304,12 +304,13 @@ def build_parser() -> argparse.ArgumentParser:
                           "alone "
                           "(no solve): STEM.png and STEM.pdf, by default beside the archive "
                           "under its name.")
-    plot.add_argument("archive", help="archive written by `rodsim run` or `rodsim study`")
+    plot.add_argument("archive", help="archive written by `rodsim run`, `study`, `track`, "
+                      "`fit`, `reach`, `modes` or `simulate`")
     plot.add_argument("-o", "--output", metavar="STEM",
                       help="output path without extension (default: the archive's)")
     plot.add_argument("--format", default=None,
                       help="comma-separated formats matplotlib writes: png, pdf, svg, …, "
-                      "and html, the interactive 3D view of a run, track, fit or reach "
+                      "and html, the interactive 3D view of a run, track, fit, reach or trajectory "
                       "(needs plotly: pip install \"rodsim[view3d]\"; added by default "
                       "for a shape that leaves the x-y plane when plotly is installed) "
                       "(default png,pdf)")
@@ -323,6 +324,10 @@ def build_parser() -> argparse.ArgumentParser:
                       help="comma-separated layers to leave out of the figure of a run, track "
                       "or trajectory, their movie and the html view: shape (the rods), "
                       "tendon, load, contact (the contact forces), obstacle")
+    plot.add_argument("--cdn", action="store_true",
+                      help="write the html view (adding html to the formats) with plotly's "
+                      "JavaScript loaded from its CDN when the page opens: ~4.8 MB smaller "
+                      "(the view alone), and it needs the network to open")
     plot.add_argument("--movie", action="store_true",
                       help="also write STEM.gif, a movie of a track (one frame per step) or of a "
                       "trajectory (rodsim simulate: one frame per output time, at most 120)")

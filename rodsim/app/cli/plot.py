@@ -22,13 +22,15 @@ def cmd_plot(args: argparse.Namespace) -> int:
         formats = formats or requested
         if args.format is None and three_dimensional(dataset) and view3d.available():
             formats = [*formats, "html"]  # a 3D shape: the interactive view too
+        if args.cdn and "html" not in formats:
+            formats = [*formats, "html"]
         if args.movie:
             from rodsim.app.figures.layers import hidden_layers
             from rodsim.app.figures.movie import check_movie, write_movie
 
             check_movie(dataset)  # before any file is written
         paths = plot_dataset(dataset, stem, formats, colour=args.colour,
-                             hide=args.hide.split(","))
+                             hide=args.hide.split(","), cdn=args.cdn)
         if args.movie:
             paths.append(write_movie(dataset, Path(f"{stem}.gif"), args.colour,
                                      hidden_layers(args.hide)))

@@ -8,6 +8,7 @@
 - ``rodsim.app.figures.study_centerlines``, ``rodsim.app.figures.study_errors``:
   the study figures;
 - ``rodsim.app.figures.inverse``: a run's figure and those of track, fit and reach;
+- ``rodsim.app.figures.projections``: x–y alone, or x–y, x–z and y–z for a 3D shape;
 - ``rodsim.app.figures.contact``: the contact figure;
 - ``rodsim.app.figures.state_scene``: the scene of one state (a track's step, a
   trajectory's output time) with the values it was solved with;

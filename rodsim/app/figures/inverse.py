@@ -16,15 +16,15 @@ from matplotlib.figure import Figure
 from rodsim.app.figures import layers
 from rodsim.app.figures.colouring import colour_scale, colouring
 from rodsim.app.figures.contact import draw_contact
+from rodsim.app.figures.projections import panel_grid, projections
 from rodsim.app.figures.ramp_legs import Leg, hysteresis, ramp_legs
 from rodsim.app.figures.scene_drawing import draw_parts
 from rodsim.app.figures.scene_parts import scene_parts
-from rodsim.app.figures.state_series import colour_bar, draw_states
+from rodsim.app.figures.state_series import colour_bar, coloured_states, draw_states
 from rodsim.io.archive_schema import stored_scene
 from rodsim.io.cf_layout import key_variable
 
-__all__ = ["run_figure", "track_figure", "fit_figure", "reach_figure", "out_of_plane",
-           "short_key"]
+__all__ = ["run_figure", "track_figure", "fit_figure", "reach_figure", "short_key"]
 
 def _tip_text(ds: xr.Dataset) -> str:
     """The first rod's tip, computed from the positions (mm)."""
@@ -45,12 +45,13 @@ def run_figure(ds: xr.Dataset, colour: str | None = None,
     friction = "tension_profile" in ds
     parts = scene_parts(ds)
     colours = colouring(ds, colour, parts) if colour else None
-    count = len(PROJECTIONS) if out_of_plane(parts.points()) else 1
+    views = projections(parts.points())
+    count = len(views)
     panels = count + int(friction)
     figure, axes = plt.subplots(1, panels, figsize=(4.2 * panels + 0.6 if panels > 1
                                                     else 6.4, 5.2),
                                 constrained_layout=True, squeeze=False)
-    for panel, view in zip(axes[0][:count], PROJECTIONS[:count], strict=True):
+    for panel, view in zip(axes[0][:count], views, strict=True):
         draw_parts(panel, parts, view, hide=hide, colours=colours)
     if colours is not None:
         colour_bar(figure, list(axes[0][:count]), colours, colour_scale(colours),
@@ -74,11 +75,6 @@ def _first_rod_nodes(ds: xr.Dataset) -> xr.DataArray:
     return ds["position"].sel(node=ds["rod"] == first)
 
 
-def out_of_plane(positions: np.ndarray) -> bool:
-    """Whether a shape leaves the x–y plane (then the x–z and y–z views are drawn too)."""
-    return bool(np.ptp(positions[..., 2]) > 1e-6 * max(np.ptp(positions[..., 0]), 1e-12))
-
-
 def track_figure(ds: xr.Dataset, colour: str | None = None,
                  hide: frozenset[str] = frozenset()) -> Figure:
     """A track: the first rod's centerline at every step with the tip's path through them,
@@ -87,63 +83,91 @@ def track_figure(ds: xr.Dataset, colour: str | None = None,
     drawn leg by leg, solid rising and dashed falling, its centerlines coloured by step; the
     title states the hysteresis, the largest tip distance at equal actuation); with
     friction a third panel, the termination tension against the ramp (the pull–release
-    loop). With ``colour`` or ``hide`` the first panel draws every step as the run figure
+    loop). With ``colour`` or ``hide`` the shapes' panels draw every step as the run figure
     draws its state (``rodsim.app.figures.state_series``): every rod and tendon, coloured
-    on one scale shared by the steps, the layers ``hide`` left out."""
+    on one scale shared by the steps, the layers ``hide`` left out. The shapes are drawn in
+    x–y, and in x–z and y–z too when what is drawn leaves the x–y plane (the run figure's
+    rule, ``rodsim.app.figures.projections``): then the projections fill a first row and
+    the other panels a second."""
     friction = "tension_profile" in ds
-    figure, axes = plt.subplots(1, 2 + friction, figsize=(10.0 + 4.6 * friction, 4.4),
-                                constrained_layout=True)
-    shapes, tips = axes[0], axes[1]
     nodes = _first_rod_nodes(ds).values
     ramp = list(json.loads(ds.attrs["ramp_json"]))[0]
     values = key_variable(ds, ramp).values
     legs = ramp_legs(values)
-    if colour or hide:
+    series = bool(colour or hide)
+    if series:
+        states, colourings, scale = coloured_states(ds, range(len(values)), colour)
+        views = projections(np.concatenate([parts.points() for parts in states]))
+    else:
+        views = projections(ds["position"].values)
+    figure, shapes, (tips, *loop) = panel_grid(views, 1 + friction, True,
+                                               (10.0 + 4.6 * friction, 4.4))
+    panels = list(zip(shapes, views, strict=True))
+    if series:
         if layers.SHAPE not in hide:
-            shapes.plot(nodes[:, -1, 0], nodes[:, -1, 1], color="k", lw=0.8, marker="o",
-                        ms=2.5, zorder=6, gid="tip-path", label="tip path (o: each step)")
-        drawn = draw_states(shapes, ds, range(len(values)), (0, 1), colour, hide)
+            for panel, (a, b) in panels:
+                panel.plot(nodes[:, -1, a], nodes[:, -1, b], color="k", lw=0.8, marker="o",
+                           ms=2.5, zorder=6, gid="tip-path", label="tip path (o: each step)")
+        drawn = draw_states(panels, states, colourings, scale, hide)
         if drawn is not None:
-            colour_bar(figure, [shapes], *drawn)
-        shapes.set_title(f"each of {len(values)} steps")
+            colour_bar(figure, shapes, *drawn)
+        shapes[0].set_title(f"each of {len(values)} steps")
     else:
-        _centerlines(figure, shapes, ds, nodes, ramp, values, legs)
-    contact = ""
-    pressed = "contact_force" in ds and len(values) > 0
-    if pressed and not (colour or hide):  # obstacles, and the last step's forces
-        scene = stored_scene(ds.attrs["scene_json"], "attribute 'scene_json'")
-        draw_contact(shapes, scene, ds["position"].values[-1], ds["contact_force"].values[-1],
-                     (0, 1), extent=ds["position"].values)
-        shapes.set_aspect("equal")  # within the limits drawn around every step
-        resultant = float(np.linalg.norm(ds["contact_resultant"].values[-1]))
-        contact = f"; contact resultant {1e3 * resultant:.3g} mN (red: the last step's forces)"
-    else:
-        shapes.set_aspect("equal", adjustable="datalim")
-        if pressed and layers.CONTACT not in hide:  # drawn by draw_states
-            resultant = float(np.linalg.norm(ds["contact_resultant"].values[-1]))
-            contact = f"; contact resultant {1e3 * resultant:.3g} mN (the last step's forces)"
+        _centerlines(figure, panels, ds, nodes, ramp, values, legs)
+    contact = _track_contact(panels, ds, series, hide)
     _response(tips, ds, nodes[:, -1], values, legs)
     tips.set_xlabel(_ramp_label(ds, ramp))
     if friction:
-        _termination_loop(axes[2], ds, values, _ramp_label(ds, ramp))
+        _termination_loop(loop[0], ds, values, _ramp_label(ds, ramp))
     last = nodes[-1, -1] if len(values) else np.full(3, np.nan)
     unit = key_variable(ds, ramp).attrs.get("units", "")
-    loop = hysteresis(values, nodes[:, -1])
-    apart = ("" if loop is None else f"\nhysteresis: the tip {1e3 * loop.distance:.3g} mm "
-             f"apart at equal {short_key(ramp)} (steps {loop.first} and {loop.second})")
+    cycle = hysteresis(values, nodes[:, -1])
+    apart = ("" if cycle is None else f"\nhysteresis: the tip {1e3 * cycle.distance:.3g} mm "
+             f"apart at equal {short_key(ramp)} (steps {cycle.first} and {cycle.second})")
     figure.suptitle(f"{ds.attrs.get('title', '')}\ntip of {ds['rod'].values[0]} at "
                     f"{short_key(ramp)} = {values[-1]:.4g} {unit}: x, y, z = "
                     + ", ".join(f"{1e3 * v:.4g}" for v in last) + " mm" + contact + apart)
     return figure
 
 
-def _centerlines(figure: Figure, shapes: plt.Axes, ds: xr.Dataset, nodes: np.ndarray,
-                 ramp: str, values: np.ndarray, legs: list[Leg]) -> None:
-    """The first rod's centerline at every step, coloured by step (or by the ramped value
-    on a ramp of one leg), and the tip's path through them."""
+def _track_contact(panels: list[tuple[plt.Axes, tuple[int, int]]], ds: xr.Dataset,
+                   series: bool, hide: frozenset[str]) -> str:
+    """A track's obstacles and its last step's contact forces on each shape panel (drawn
+    by ``draw_states`` for a ``series``, here otherwise), and the title's words on them."""
+    pressed = "contact_force" in ds and int(ds.sizes.get("step", 0)) > 0
+    if pressed and not series:  # obstacles, and the last step's forces
+        scene = stored_scene(ds.attrs["scene_json"], "attribute 'scene_json'")
+        for panel, view in panels:
+            draw_contact(panel, scene, ds["position"].values[-1],
+                         ds["contact_force"].values[-1], view, extent=ds["position"].values)
+            panel.set_aspect("equal")  # within the limits drawn around every step
+        resultant = float(np.linalg.norm(ds["contact_resultant"].values[-1]))
+        return f"; contact resultant {1e3 * resultant:.3g} mN (red: the last step's forces)"
+    for panel, _ in panels:
+        panel.set_aspect("equal", adjustable="datalim")
+    if pressed and layers.CONTACT not in hide:  # drawn by draw_states
+        resultant = float(np.linalg.norm(ds["contact_resultant"].values[-1]))
+        return f"; contact resultant {1e3 * resultant:.3g} mN (the last step's forces)"
+    return ""
+
+
+def _centerlines(figure: Figure, panels: list[tuple[plt.Axes, tuple[int, int]]],
+                 ds: xr.Dataset, nodes: np.ndarray, ramp: str, values: np.ndarray,
+                 legs: list[Leg]) -> None:
+    """The first rod's centerline at every step (gid ``rod:<name>``, one line per step in
+    step order), coloured by step (or by the ramped value on a ramp of one leg), and the
+    tip's path through them, on each panel in its plane; one colour bar, the first
+    panel's legend."""
+    name = str(ds["rod"].values[0])
     colours = plt.get_cmap("viridis")(np.linspace(0.0, 1.0, max(len(values), 1)))
-    for step, colour in enumerate(colours):
-        shapes.plot(nodes[step, :, 0], nodes[step, :, 1], color=colour, lw=0.9)
+    for panel, (a, b) in panels:
+        for step, colour in enumerate(colours):
+            panel.plot(nodes[step, :, a], nodes[step, :, b], color=colour, lw=0.9,
+                       gid=f"rod:{name}")
+        panel.plot(nodes[:, -1, a], nodes[:, -1, b], color="k", lw=0.8, marker="o",
+                   ms=2.5, zorder=4, gid="tip-path", label="tip path (o: each step)")
+        panel.set_xlabel(f"{'xyz'[a]} [m]")
+        panel.set_ylabel(f"{'xyz'[b]} [m]")
     if len(legs) > 1:  # the same value on two legs: colour by step
         turns = " → ".join(f"{values[leg.steps[0]]:g}" for leg in legs)
         norm = plt.Normalize(0, max(len(values) - 1, 1))
@@ -152,13 +176,10 @@ def _centerlines(figure: Figure, shapes: plt.Axes, ds: xr.Dataset, nodes: np.nda
     else:
         norm = plt.Normalize(values.min(), values.max())
         label = _ramp_label(ds, ramp)
+    shapes = [panel for panel, _ in panels]
     figure.colorbar(plt.cm.ScalarMappable(cmap="viridis", norm=norm), ax=shapes, label=label)
-    shapes.plot(nodes[:, -1, 0], nodes[:, -1, 1], color="k", lw=0.8, marker="o", ms=2.5,
-                zorder=4, gid="tip-path", label="tip path (o: each step)")
-    shapes.legend(loc="best", fontsize="small")
-    shapes.set_xlabel("x [m]")
-    shapes.set_ylabel("y [m]")
-    shapes.set_title(f"centerline of {ds['rod'].values[0]} at each of {len(values)} steps")
+    shapes[0].legend(loc="best", fontsize="small")
+    shapes[0].set_title(f"centerline of {name} at each of {len(values)} steps")
 
 
 def _response(panel: plt.Axes, ds: xr.Dataset, tips: np.ndarray, values: np.ndarray,
@@ -213,10 +234,6 @@ def _ramp_label(ds: xr.Dataset, key: str) -> str:
     return f"{label} [{unit}]" if unit not in ("", "1") else label
 
 
-#: The projections of a 3D shape: (horizontal, vertical) world axes of each panel.
-PROJECTIONS = ((0, 1), (0, 2), (1, 2))
-
-
 def _tension_along(panel: plt.Axes, ds: xr.Dataset) -> None:
     """The tension of each chord of every tendon with friction against its arc length."""
     tendons = ds["chord_tendon"].values.astype(str)
@@ -235,13 +252,13 @@ def _views(ds: xr.Dataset, extra: np.ndarray, panels: int = 0
     """The run's rods in x–y, and in x–z and y–z when the shape or ``extra`` points leave
     the x–y plane (a 3D shape seen from one side only can hide a whole bend); ``panels``
     more axes after them (the figure's last axes)."""
-    three_d = out_of_plane(np.concatenate([ds["position"].values, extra]))
-    count = len(PROJECTIONS) if three_d else 1
+    views = list(projections(np.concatenate([ds["position"].values, extra])))
+    count = len(views)
+    three_d = count > 1
     figure, axes = plt.subplots(1, count + panels,
                                 figsize=(4.4 * (count + panels) + 1.0 if three_d or panels
                                          else 6.4, 4.8),
                                 constrained_layout=True, squeeze=False)
-    views = list(PROJECTIONS[:count])
     for panel, (h, v) in zip(axes[0][:count], views, strict=True):
         for rod in np.unique(ds["rod"].values):
             nodes = ds["position"].sel(node=ds["rod"] == rod).values

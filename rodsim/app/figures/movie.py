@@ -23,7 +23,8 @@ import matplotlib.pyplot as plt
 import numpy as np
 import xarray as xr
 
-from rodsim.app.figures.inverse import PROJECTIONS, out_of_plane, short_key
+from rodsim.app.figures.inverse import short_key
+from rodsim.app.figures.projections import projections
 from rodsim.app.figures.scene_drawing import draw_parts
 from rodsim.app.figures.state_series import MAX_FRAMES, colour_bar, coloured_states, evenly
 from rodsim.app.figures.style import style
@@ -93,7 +94,7 @@ def write_movie(ds: xr.Dataset, path: str | Path, colour: str | None = None,
     every = ds["position"].values
     states, colourings, scale = coloured_states(ds, picked, colour)
     extent = np.concatenate([s.points() for s in states])
-    views = PROJECTIONS if out_of_plane(extent) else PROJECTIONS[:1]
+    views = projections(extent)
     title = textwrap.fill(str(ds.attrs.get("title", "")), 44 * len(views))  # the frame's width
     pictures = []
     with style():

@@ -31,15 +31,10 @@ import xarray as xr
 from matplotlib.figure import Figure
 
 from rodsim.app.figures import labels, view3d
-from rodsim.app.figures.inverse import (
-    fit_figure,
-    out_of_plane,
-    reach_figure,
-    run_figure,
-    track_figure,
-)
+from rodsim.app.figures.inverse import fit_figure, reach_figure, run_figure, track_figure
 from rodsim.app.figures.layers import hidden_layers
 from rodsim.app.figures.modes import modes_figure
+from rodsim.app.figures.projections import out_of_plane
 from rodsim.app.figures.study_centerlines import centerlines_figure, centerlines_result
 from rodsim.app.figures.study_errors import (
     error_vs_iteration_figure,
@@ -69,12 +64,14 @@ SERIES_DRAWERS = {"track": track_figure, "trajectory": trajectory_figure}
 
 
 def plot_dataset(ds: xr.Dataset, stem: str | Path, formats: Iterable[str] = ("png", "pdf"),
-                 colour: str | None = None, hide: str | Iterable[str] = ()) -> list[Path]:
+                 colour: str | None = None, hide: str | Iterable[str] = (),
+                 cdn: bool = False) -> list[Path]:
     """Draw the archive's figure and write ``stem.<format>`` for each format.
 
     The formats and the folder are checked first (``check_output``); a format that
     fails to write (e.g. ``pgf`` without LaTeX) leaves no partial file. ``colour`` and
-    ``hide``: see ``draw_figure``. Raises ``PlotError``.
+    ``hide``: see ``draw_figure``; ``cdn``: the html view loads plotly from its CDN
+    (``rodsim.app.figures.view3d.write_html``). Raises ``PlotError``.
     """
     formats = check_output(stem, formats)
     ds = from_file(ds)
@@ -91,7 +88,7 @@ def plot_dataset(ds: xr.Dataset, stem: str | Path, formats: Iterable[str] = ("pn
     paths = []
     if html:
         try:
-            paths.append(view3d.write_html(ds, html_target(stem), colour, hidden))
+            paths.append(view3d.write_html(ds, html_target(stem), colour, hidden, cdn))
         except OSError as exc:
             raise PlotError(f"cannot write {stem}.{HTML}: {exc.strerror or exc}") from None
     if not formats:
@@ -104,9 +101,9 @@ def plot_dataset(ds: xr.Dataset, stem: str | Path, formats: Iterable[str] = ("pn
 
 
 def three_dimensional(ds: xr.Dataset) -> bool:
-    """Whether a run, track, fit or reach archive's shapes leave the x–y plane (then
-    ``rodsim plot`` adds the interactive 3D view when plotly is installed)."""
-    if "study" in ds.attrs or "position" not in ds or ds.attrs.get("kind") == "trajectory":
+    """Whether a run, track, fit, reach or trajectory archive's shapes leave the x–y plane
+    (then ``rodsim plot`` adds the interactive 3D view when plotly is installed)."""
+    if "study" in ds.attrs or "position" not in ds:
         return False
     return out_of_plane(ds["position"].values)
 

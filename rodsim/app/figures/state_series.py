@@ -1,6 +1,7 @@
-"""Several states of a track (its steps) or a trajectory (its output times) on one panel,
-as ``rodsim plot --colour`` and ``--hide`` draw them: each state as the run figure draws
-it (``rodsim.app.figures.scene_drawing.draw_parts``), the last with its loads, contact
+"""Several states of a track (its steps) or a trajectory (its output times) on one panel
+per projection (``rodsim.app.figures.projections``), as ``rodsim plot --colour`` and
+``--hide`` draw them: each state as the run figure draws it
+(``rodsim.app.figures.scene_drawing.draw_parts``), the last with its loads, contact
 forces and obstacles, the others with their rods and tendons only; the lines of every
 state coloured (``rodsim.app.figures.colouring``, the run figure's computation at each
 state) on one scale shared by all (``shared_scale``), with one colour bar."""
@@ -60,25 +61,27 @@ def coloured_states(ds: xr.Dataset, indices: Sequence[int], colour: str | None
     return states, list(found), scale
 
 
-def draw_states(panel: plt.Axes, ds: xr.Dataset, indices: Sequence[int],
-                view: tuple[int, int], colour: str | None, hide: frozenset[str]
+def draw_states(panels: Sequence[tuple[plt.Axes, tuple[int, int]]],
+                states: Sequence[SceneParts], colourings: Sequence[Colouring | None],
+                scale: tuple[Normalize, Colormap] | None, hide: frozenset[str]
                 ) -> tuple[Colouring, tuple[Normalize, Colormap]] | None:
-    """Draw the states ``indices`` of ``ds`` on ``panel`` in the plane ``view`` (module
+    """Draw the states ``states`` (``coloured_states``: their parts, colourings and shared
+    scale) on each of ``panels``, a panel and the plane (two world axes) it shows (module
     docstring), limits around every state; returns the last state's colouring and the
-    shared scale (None without ``colour``). Repeated legend entries are merged."""
-    states = [scene_parts(ds, k) for k in indices]
+    shared scale (None without colours). The first panel's legend, repeated entries
+    merged."""
     extent = np.concatenate([parts.points() for parts in states])
-    colourings, scale = (state_colours(ds, colour, indices, states) if colour
-                         else ([None] * len(states), None))
-    for number, (parts, colours) in enumerate(zip(states, colourings, strict=True)):
-        last = number == len(states) - 1
-        draw_parts(panel, parts, view, extent=extent,
-                   hide=hide if last else hide | LAST_ONLY, colours=colours, scale=scale,
-                   diameter=len(states) == 1)
-    handles, names = panel.get_legend_handles_labels()
+    for panel, view in panels:
+        for number, (parts, colours) in enumerate(zip(states, colourings, strict=True)):
+            last = number == len(states) - 1
+            draw_parts(panel, parts, view, extent=extent,
+                       hide=hide if last else hide | LAST_ONLY, colours=colours,
+                       scale=scale, diameter=len(states) == 1)
+    first = panels[0][0]
+    handles, names = first.get_legend_handles_labels()
     unique = dict(zip(names, handles, strict=True))
     if unique:
-        panel.legend(unique.values(), unique.keys(), loc="best", fontsize="small")
+        first.legend(unique.values(), unique.keys(), loc="best", fontsize="small")
     last_colours = colourings[-1]
     return None if last_colours is None or scale is None else (last_colours, scale)
 

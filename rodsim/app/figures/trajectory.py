@@ -2,16 +2,17 @@
 rod's tip coordinates against time, and the energies against time with the balance
 T + V + D − W − (T₀ + V₀), the integrator's own error (docs/dynamics.md, "Energy"); with
 ``rodsim plot --colour`` or ``--hide`` a third panel, the shapes at ``SHAPES`` output times
-(``rodsim.app.figures.state_series``)."""
+(``rodsim.app.figures.state_series``), in x–y, and in x–z and y–z too when they leave the
+x–y plane (the run figure's rule: ``rodsim.app.figures.projections``)."""
 
 from __future__ import annotations
 
-import matplotlib.pyplot as plt
 import numpy as np
 import xarray as xr
 from matplotlib.figure import Figure
 
-from rodsim.app.figures.state_series import colour_bar, draw_states, evenly
+from rodsim.app.figures.projections import panel_grid, projections
+from rodsim.app.figures.state_series import colour_bar, coloured_states, draw_states, evenly
 
 __all__ = ["trajectory_figure", "SHAPES"]
 
@@ -27,18 +28,20 @@ def trajectory_figure(ds: xr.Dataset, colour: str | None = None,
     (the last two and V only where the scene is conservative: NaN is not drawn). With
     ``colour`` or ``hide``, a third: the shapes at ``SHAPES`` output times in x–y, as
     a run's figure draws them (each with its programs' values), coloured on one scale,
-    the layers ``hide`` left out."""
+    the layers ``hide`` left out; when the shapes leave the x–y plane, three panels in
+    x–y, x–z and y–z, a row below the two time panels."""
     shown = bool(colour or hide) and int(ds.sizes["time"]) > 0
-    figure, axes = plt.subplots(1, 2 + shown, figsize=(11.0 + 4.6 * shown, 4.2),
-                                constrained_layout=True)
-    motion, energy = axes[0], axes[1]
+    picked = evenly(int(ds.sizes["time"]), SHAPES) if shown else []
+    states, colourings, scale = coloured_states(ds, picked, colour if shown else None)
+    views = projections(np.concatenate([parts.points() for parts in states])) if shown else ()
+    figure, shapes, (motion, energy) = panel_grid(views, 2, False, (11.0 + 4.6 * shown, 4.2))
     if shown:
-        picked = evenly(int(ds.sizes["time"]), SHAPES)
-        drawn = draw_states(axes[2], ds, picked, (0, 1), colour, hide)
+        drawn = draw_states(list(zip(shapes, views, strict=True)), states, colourings, scale,
+                            hide)
         if drawn is not None:
-            colour_bar(figure, [axes[2]], *drawn)
+            colour_bar(figure, shapes, *drawn)
         shown_times = ", ".join(f"{t:.3g}" for t in ds["time"].values[picked])
-        axes[2].set_title(f"shapes at t = {shown_times} s", fontsize="small")
+        shapes[0].set_title(f"shapes at t = {shown_times} s", fontsize="small")
     times = ds["time"].values
     rods = ds["rod"].values.astype(str)
     first = rods[0]

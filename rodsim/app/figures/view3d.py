@@ -12,7 +12,9 @@ plotly is an optional extra (``pip install "rodsim[view3d]"``): without it
 ``available`` is False, ``rodsim plot`` writes its usual figures and says nothing about
 HTML, and asking for ``--format html`` is a one-line error naming the extra. The page embeds
 plotly's JavaScript, so it opens offline: rotate, zoom and hover over a control point to
-read its rod, index and coordinates.
+read its rod, index and coordinates. With ``cdn`` (``rodsim plot --cdn``) the page loads
+plotly's JavaScript from plotly's CDN instead: a much smaller file that needs the network
+to open.
 
 The view opens on the whole scene: the axes' ranges are the box around every node and
 tendon point (every step of a track, every frame of a trajectory) with a margin, drawn to
@@ -299,12 +301,13 @@ def _animate(figure: Any, states: list[list[Any]], moving: int, labels: list[str
 
 
 def write_html(ds: xr.Dataset, path: str | Path, colour: str | None = None,
-               hide: frozenset[str] = frozenset()) -> Path:
+               hide: frozenset[str] = frozenset(), cdn: bool = False) -> Path:
     """Write the 3D view of the run, fit, reach, track or trajectory archive ``ds`` to
-    ``path``
-    (``colour``, ``hide``: ``view_figure``)."""
+    ``path`` (``colour``, ``hide``: ``view_figure``): plotly's JavaScript embedded (opens
+    offline), or with ``cdn`` a script tag that loads it from plotly's CDN."""
     figure = view_figure(ds, colour, hide)
     path = Path(path)
     write_atomic(path, lambda temporary: figure.write_html(
-        temporary, include_plotlyjs=True, full_html=True), follow_umask=True)
+        temporary, include_plotlyjs="cdn" if cdn else True, full_html=True),
+        follow_umask=True)
     return path
