@@ -63,10 +63,13 @@ def tendon_only(model: Model) -> Model:
 @pytest.mark.parametrize("seed", range(4))
 def test_the_jacobian_is_the_derivative_of_the_force_with_a_profile(seed):
     """Pulled (sliding in everywhere) and released to 97 % (sliding out near the base, stuck
-    beyond on some): the tendon's Jacobian against central differences (steps 1e-7 L and
-    1e-7 per quaternion component), relative to its largest entry. Measured 2.7e-7 to
-    2.4e-5 (the differences' own error, which falls with the step on the scenes looked
-    at), against 1.5e-2 to 3e-2 before the upstream coupling."""
+    beyond on some): the tendon's Jacobian against central differences (steps 1e-8 L and
+    1e-8 per quaternion component), relative to its largest entry. Measured pulled 1e-9 to
+    7e-8 (against 1.5e-2 to 3e-2 before the upstream coupling), released 1.5e-7 to 2.2e-5:
+    there the differences settle on a value off the analytic one for steps from 1e-9 to
+    1e-6 and agree at 1e-10, and one μ (friction = 0.25, the chord elements' own coupling)
+    gives the same (1.5e-5 on seed 2): a branch of the turning angles switched by the
+    perturbation, not the upstream coupling (docs/tendon.md, "Jacobian")."""
     data = robot(seed)
     tension = data["tendons"]["a"]["tendon_string"]["tension"]
     track = rodsim.track(Scene.from_dict(data), {TENSION: [tension, 0.97 * tension]})
@@ -77,17 +80,16 @@ def test_the_jacobian_is_the_derivative_of_the_force_with_a_profile(seed):
     states = term.point_states(track.states[-1])[1]
     assert np.any(states > 0.0)  # sliding out (and, on some robots, stuck beyond)
     alone = tendon_only(model)
-    for state in track.states:
-        x = state[model.free]
+    for state, tolerance in zip(track.states, (1e-6, 1e-4), strict=True):
+        x = model.state_of(state)
         analytic = alone.jacobian(x).toarray()
-        numeric = central_jacobian(alone.force, x, fd_steps(model, 1e-7))
-        error = np.max(np.abs(analytic - numeric)) / np.max(np.abs(numeric))
-        assert error < 1e-4
+        numeric = central_jacobian(alone.force, x, fd_steps(model, 1e-8))
+        assert np.max(np.abs(analytic - numeric)) < tolerance * np.max(np.abs(numeric))
 
 
 def test_the_compiled_span_kernel_matches_the_reference():
     """At a released state with the history of the pull, the compiled span kernel's force
-    and Jacobian are the numpy reference's."""
+    and Jacobian (the tendon's alone) are the numpy reference's."""
     models = {}
     for kernels in ("numpy", "compiled"):
         data = robot(1, kernels)
@@ -96,8 +98,9 @@ def test_the_compiled_span_kernel_matches_the_reference():
         assert track.success
         models[kernels] = (track.last_model, track.states[-1])
     model, state = models["numpy"]
-    x = state[model.free]
-    compiled = models["compiled"][0]
+    x = model.state_of(state)
+    model = tendon_only(model)  # the whole model's force is its residual there
+    compiled = tendon_only(models["compiled"][0])
     force, jacobian = model.force(x), model.jacobian(x).toarray()
     assert np.max(np.abs(compiled.force(x) - force)) < 1e-12 * np.max(np.abs(force))
     assert np.max(np.abs(compiled.jacobian(x).toarray() - jacobian)) < 1e-11 * (
