@@ -68,8 +68,9 @@ def test_the_jacobian_is_the_derivative_of_the_force_with_a_profile(seed):
     7e-8 (against 1.5e-2 to 3e-2 before the upstream coupling), released 1.5e-7 to 2.2e-5:
     there the differences settle on a value off the analytic one for steps from 1e-9 to
     1e-6 and agree at 1e-10, and one μ (friction = 0.25, the chord elements' own coupling)
-    gives the same (1.5e-5 on seed 2): a branch of the turning angles switched by the
-    perturbation, not the upstream coupling (docs/tendon.md, "Jacobian")."""
+    gives the same (1.5e-5 on seed 2): an out-of-plane step beyond ~1e-9 L switches the
+    entry's turn to its split form, discontinuous there where t⁺ overshoots t_in (docs/tendon.md,
+    "Jacobian"), not the upstream coupling."""
     data = robot(seed)
     tension = data["tendons"]["a"]["tendon_string"]["tension"]
     track = rodsim.track(Scene.from_dict(data), {TENSION: [tension, 0.97 * tension]})
