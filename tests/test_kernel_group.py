@@ -21,8 +21,8 @@ AREA = np.pi * RADIUS**2
 
 def three_tendons(tensions: tuple[float, float, float]) -> dict:
     """A catheter with three string tendons: frictionless to the tip, with friction to
-    0.13 m, with per-point friction and stiction to the tip; and a fourth rod term after
-    them (it must not join their group)."""
+    0.13 m, with one μ given as a profile (the weighted bounds) to the tip; and a fourth
+    rod term after them (it must not join their group)."""
     nodes = 17
     string = {"spacers": True}
     return {"name": "group-case", "rods": {"backbone": {
@@ -40,8 +40,10 @@ def three_tendons(tensions: tuple[float, float, float]) -> dict:
                                     "friction": 0.2}},
             "c": {"catheter": "backbone", "coupling": "string", "offset": 0.009,
                   "direction": [-0.6, -0.8],
-                  "tendon_string": {**string, "tension": tensions[2], "friction": 0.1,
-                                    "static_friction": 0.3}}},
+                  # weighted with one μ (grouped; a μ that varies, or stiction, puts a
+                  # tendon on its span's own element: rodsim/core/terms/_string_span.py)
+                  "tendon_string": {**string, "tension": tensions[2],
+                                    "friction_profile": [0.1], "friction_profile_s": [0.05]}}},
         "solver": {"integrator": "static"}}
 
 

@@ -320,7 +320,7 @@ def test_the_jacobian_is_exact_on_a_planar_one_way_path(kernels, fd):
     assert track.success
     model = track.last_model
     for state in track.states:
-        x = state[model.free]
+        x = model.state_of(state)
         jacobian = model.jacobian(x).toarray()
         numeric = fd["jacobian"](model.force, x, fd["steps"](model, 1e-6))
         assert np.max(np.abs(jacobian - numeric)) < 1e-8 * np.max(np.abs(numeric))

@@ -108,7 +108,7 @@ import numpy as np
 
 __all__ = ["MAX_FRICTION", "ONE_WAY", "SLIP_NAMES", "SLIP_TIE", "bound_coefficients",
            "chord_tensions", "profile_coefficients", "slide_rates", "slip_states", "turning_angles",
-           "weighted_chord_tensions", "weighted_slide_rates"]
+           "weighted_chord_tensions", "weighted_slide_factors", "weighted_slide_rates"]
 
 #: |Θ_e − ψ_e| below which (relative to max(1, Θ_e)) the path up to chord e turns one way
 #: in one plane (Θ_e = ψ_e = ∠(d3, u_e)): round-off of the sum of turns.
@@ -255,6 +255,15 @@ def weighted_slide_rates(tension: float, mu_in: np.ndarray, mu_out: np.ndarray,
     low, high = _bounds(tension, mu_in, mu_out, theta)
     return np.where(low > profile, -mu_in * low,
                     np.where(high < profile, mu_out * high, 0.0))
+
+
+def weighted_slide_factors(tension: float, mu_in: np.ndarray, mu_out: np.ndarray,
+                           theta: np.ndarray, profile: np.ndarray) -> np.ndarray:
+    """∂τ_e/∂W_e of every chord: −τ_e sliding in (τ_e = T_0 e^{−W_in,e}), +τ_e sliding out,
+    0 stuck; the factor of ∂W_e/∂x = Σ_{j≤e} μ_j ∂θ_j/∂x in ∂τ_e/∂x, which reaches every
+    turn up to e (rodsim/core/terms/_string_span.py)."""
+    low, high = _bounds(tension, mu_in, mu_out, theta)
+    return np.where(low > profile, -low, np.where(high < profile, high, 0.0))
 
 
 def slip_states(tension: float, mu_in: np.ndarray, mu_out: np.ndarray, theta: np.ndarray,

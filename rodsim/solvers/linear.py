@@ -9,7 +9,12 @@ rods so that the tendon system stays banded too (``Model._order_for_band``). So:
   an unstable state, or a step far from equilibrium) falls back to band LU for that solve.
 - ``band_lu``: LAPACK's band LU with partial pivoting (dgbsv), for non-symmetric J (the
   paper's tendon coupling) or as the fallback above.
-- ``sparse_lu``: SuperLU, where the band is too wide for band storage to pay.
+- ``sparse_lu``: SuperLU, where the band is too wide for band storage to pay;
+- ``dense_lu``: LAPACK's dense LU (dgesv), where such a pattern holds at least
+  ``DENSE_SHARE`` of the n² entries (a string tendon's span element, whose friction
+  coupling fills the block of its span's coordinates, rodsim/core/terms/_string_span.py):
+  SuperLU took 30 ms a factorisation there (the self-bent catheter with a friction
+  profile at N = 81, 567 unknowns, its whole block filled), dgesv 8–9 ms.
 
 Measured at N = 40 (273 unknowns): SuperLU 490–540 µs per solve against
 50 µs (dpbsv) and 68 µs (dgbsv); at N = 4000, 43–53 ms against 4.5 ms (docs/benchmark-history.md).
@@ -51,6 +56,9 @@ __all__ = ["BandCholeskySolve", "LinearSolver", "MAX_BAND"]
 
 #: Widest band (lower + upper + 1) solved in band storage; wider patterns use SuperLU.
 MAX_BAND = 256
+#: Smallest share of the n² entries from which a pattern too wide for band storage is solved
+#: dense (module docstring, ``dense_lu``).
+DENSE_SHARE = 0.2
 #: Unknowns from which band storage is filled by the compiled pass (below, the numpy offsets:
 #: no numba to load for a small model's solves).
 COMPILED_FILL_SIZE = 4000
@@ -109,7 +117,9 @@ class LinearSolver:
         self.lower, self.upper = lower, upper
         self.banded = lower + upper + 1 <= MAX_BAND
         self.symmetric = symmetric and lower == upper
-        self.counts = {"cholesky": 0, "band_lu": 0, "sparse_lu": 0}
+        self.counts = {"cholesky": 0, "band_lu": 0, "sparse_lu": 0, "dense_lu": 0}
+        #: Solved dense (module docstring): a wide pattern that fills much of n².
+        self.dense = not self.banded and len(rows) >= DENSE_SHARE * self.n ** 2
         diagonal = np.flatnonzero(rows == cols)
         self._diagonal = diagonal[np.argsort(cols[diagonal])]
         self._rows, self._cols = rows, cols
@@ -182,7 +192,7 @@ class LinearSolver:
     def solve(self, data: np.ndarray, rhs: np.ndarray) -> np.ndarray:
         """Δx with J Δx = rhs; non-finite entries mean J is singular."""
         if not self.banded:
-            return self._sparse(data, rhs)
+            return self._dense(data, rhs) if self.dense else self._sparse(data, rhs)
         n = self.n
         if self.symmetric:
             ab = self._filled(data, True, keep=True)
@@ -225,6 +235,11 @@ class LinearSolver:
         made a factorisation 230–540 ms against ~110 ms): the function is then valid only
         until the next ``solve`` or kept factorisation on this solver in this thread (a
         SUNDIALS preconditioner, which replaces its factorisation each time)."""
+        if self.dense:
+            lu, pivots, info = lapack.dgetrf(self._dense_matrix(data), overwrite_a=1)
+            if info != 0:
+                return None
+            return lambda rhs: lapack.dgetrs(lu, pivots, rhs)[0]
         if not self.banded:
             matrix = sp.csc_matrix((data, self._pattern.indices, self._pattern.indptr),
                                    shape=(self.n, self.n))
@@ -242,6 +257,20 @@ class LinearSolver:
         if info != 0:
             return None
         return BandLU(lu, pivots, self.lower, self.upper)  # with the sign of det J
+
+    def _dense_matrix(self, data: np.ndarray) -> np.ndarray:
+        """J as a dense Fortran-ordered array."""
+        matrix = np.zeros((self.n, self.n), order="F")
+        matrix[self._rows, self._cols] = data
+        return matrix
+
+    def _dense(self, data: np.ndarray, rhs: np.ndarray) -> np.ndarray:
+        self.counts["dense_lu"] += 1
+        x, info = lapack.dgesv(self._dense_matrix(data), rhs.copy(), overwrite_a=1,
+                               overwrite_b=1)[2:]
+        if info != 0:
+            return np.full(self.n, np.nan)
+        return np.asarray(x)
 
     def _sparse(self, data: np.ndarray, rhs: np.ndarray) -> np.ndarray:
         self.counts["sparse_lu"] += 1

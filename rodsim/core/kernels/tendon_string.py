@@ -223,7 +223,7 @@ def _group_tensions(x: np.ndarray, chord_start: np.ndarray, point_start: np.ndar
                     split: np.ndarray, scales: np.ndarray, p: np.ndarray, jac: np.ndarray,
                     q: np.ndarray, n: np.ndarray, gq: np.ndarray, g: np.ndarray,
                     chord_tension: np.ndarray, rate: np.ndarray, axis: np.ndarray,
-                    term_of: np.ndarray, active: np.ndarray) -> None:
+                    slide: np.ndarray, term_of: np.ndarray, active: np.ndarray) -> None:
     """``evaluate_group``'s first pass, tendon by tendon: each chord's tendon
     (``term_of``), whether the tendon adds anything (``active``), and for those that do
     their points' geometry and their chords' tensions (``_points_into``, ``_tensions``), in
@@ -241,7 +241,7 @@ def _group_tensions(x: np.ndarray, chord_start: np.ndarray, point_start: np.ndar
         _tensions(x, dofs[c0:c1], weights[p0:p1], constant[p0:p1], entry_forms,
                   entry_slope[t], split[p0:p1], p[p0:p1], tension[t], friction[t],
                   profile[c0:c1], weighted[t], mu_in[c0:c1], mu_out[c0:c1],
-                  chord_tension[c0:c1], rate[c0:c1], axis[t])
+                  chord_tension[c0:c1], rate[c0:c1], axis[t], slide[c0:c1])
 
 
 @njit(cache=True, inline="always")
@@ -309,8 +309,8 @@ def evaluate_group(x: np.ndarray, chord_start: np.ndarray, point_start: np.ndarr
     active = np.zeros(terms, dtype=np.bool_)
     _group_tensions(x, chord_start, point_start, dofs, weights, constant, forms, tension,
                     friction, profile, weighted, mu_in, mu_out, entry_forms, entry_slope,
-                    split, scales, p, jac, q, n, gq, g, chord_tension, rate, axis, term_of,
-                    active)
+                    split, scales, p, jac, q, n, gq, g, chord_tension, rate, axis,
+                    np.empty(chords_all), term_of, active)
     chord_force = np.empty((chords_all, 28))
     local = np.empty(28, dtype=np.int64)
     knot = np.empty((2, 2), dtype=np.int64)
@@ -434,7 +434,8 @@ def _evaluate_tendon(x: np.ndarray, dofs: np.ndarray, weights: np.ndarray,
     rate = np.zeros(chords)
     axis = np.zeros(3)
     _tensions(x, dofs, weights, constant, entry_forms, entry_slope, split, p, tension,
-              friction, profile, weighted, mu_in, mu_out, chord_tension, rate, axis)
+              friction, profile, weighted, mu_in, mu_out, chord_tension, rate, axis,
+              np.empty(chords))
     slope = np.empty(3)
     gradient = np.empty(28)
     unit_force = np.empty(28)

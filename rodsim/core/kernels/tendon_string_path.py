@@ -142,16 +142,21 @@ def _tensions(x: np.ndarray, dofs: np.ndarray, weights: np.ndarray, constant: np
               entry_forms: np.ndarray, entry_slope: np.ndarray, split: np.ndarray,
               p: np.ndarray, tension: float, friction: float, profile: np.ndarray,
               weighted: bool, mu_in: np.ndarray, mu_out: np.ndarray,
-              out: np.ndarray, rate: np.ndarray, axis: np.ndarray) -> None:
+              out: np.ndarray, rate: np.ndarray, axis: np.ndarray,
+              slide: np.ndarray) -> None:
     """τ_e of every chord into ``out``: T without friction, else
     clip(τ_old_e, T e^{−μΘ_e}, T e^{+μΘ_e}) (rodsim/core/tendon_friction.py; ``weighted``:
     μΘ_e is Σ_{j≤e} μ_j θ_j with μ_in, μ_out per turn for the two bounds); with friction
     also ∂τ_e/∂Θ_e into ``rate`` where the path up to chord e turns one way in one plane from
-    a held entry frame (else 0) and d3 at the entry into ``axis``."""
+    a held entry frame (else 0) and d3 at the entry into ``axis``; on those chords ∂τ_e/∂W_e
+    into ``slide`` whatever μ_e (−τ_e sliding in, +τ_e sliding out, 0 stuck or off such a
+    path): the factor of the upstream coupling where μ varies
+    (rodsim/core/kernels/tendon_string_span.py)."""
     chords = dofs.shape[0]
     if friction == 0.0:
         for e in range(chords):
             out[e] = tension
+            slide[e] = 0.0
         return
     w0, w1 = weights[0, 2], weights[0, 3]
     q = np.empty(4)
@@ -229,11 +234,14 @@ def _tensions(x: np.ndarray, dofs: np.ndarray, weights: np.ndarray, constant: np
             rate_in, rate_out = friction, friction
         out[e] = min(max(profile[e], low), high)
         rate[e] = 0.0
+        slide[e] = 0.0
         if held and np.abs(plain - _angle(axis, b)) <= ONE_WAY * max(1.0, plain):
             if low > profile[e]:
                 rate[e] = -rate_in * low
+                slide[e] = -low
             elif high < profile[e]:
                 rate[e] = rate_out * high
+                slide[e] = high
 
 
 @njit(cache=True, inline="always")

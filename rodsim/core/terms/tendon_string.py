@@ -26,26 +26,21 @@ with ∂²p[m]/∂q² = ∇²f_m of f = g/n (rodsim/core/terms/_string_points.py
 The tension is a load (the static solver ramps it); its force scale is T.
 
 Friction (``friction`` μ > 0, rodsim/core/tendon_friction.py): chord e carries its own
-tension τ_e, the capstan profile from the turning angles at the entry and the routing
-points and the stored profile of the last equilibrium (the term's anchors); the force is
-F = −Σ_e τ_e ∂ℓ_e/∂x (each chord's pull at its two ends: the difference of the tensions at
-a point is the friction it takes). τ_e depends on every turn upstream of chord e, so the
-exact Jacobian couples each chord to the whole path before it (a dense lower-triangular
-block, no band). ``element_jacobians`` keeps the frictionless pattern: the Jacobian at
-frozen τ_e (the chords' own stencils) plus, on the chords up to which the path turns one
-way in one plane from a held entry frame (a tendon bending its catheter from a clamped
-base), the exact coupling: there the wrap Θ_e equals ψ_e = ∠(d3, u_e) with the same
-gradient (out of the plane both change at second order), which lies on chord e's own
-coordinates. So the Jacobian is exact on such paths (Newton converges quadratically) and
-the frozen-tension one elsewhere (3-D or S-shaped paths, a moving entry: linearly, at a
-rate of order μ); the term is not conservative (no energy) and the stability verdict
-takes the non-symmetric path. With μ = 0 every τ_e is T and nothing of this runs: the
-frictionless numbers, bitwise. ``friction_points`` (a μ per routing point),
-``friction_profile`` (μ along the arc length, a mean per routing point's stretch) and
-``static_friction`` (μ_s > μ_k: a stick/slip state per point, carried with the tensions as
-the anchors; ``TendonString.freed`` for a breakaway within a step) take the weighted
-bounds of rodsim/core/tendon_friction.py ("Per-point coefficients and stiction"); the
-coupling then takes chord e's own coefficient.
+tension τ_e, the capstan profile from the turning angles and the stored profile of the
+last equilibrium (the anchors); F = −Σ_e τ_e ∂ℓ_e/∂x. τ_e depends on every turn up to
+chord e. On a path that turns one way in one plane from a held entry frame (a tendon
+bending its catheter from a clamped base) the wrap Θ_e is ψ_e = ∠(d3, u_e), with its
+gradient on chord e's own coordinates: with one μ the chords' elements hold the exact
+Jacobian (the frozen-τ_e one plus f_e ⊗ ∂τ_e/∂x). Where μ varies between the points
+(``friction_points``, ``friction_profile``: a mean per point's stretch, or stiction:
+``static_friction``, a stick/slip state per point carried with the anchors, and
+``TendonString.freed`` for a breakaway within a step) the weighted wrap Σ_{j≤e} μ_j θ_j
+also moves with ψ_j of every chord before e: the term is then one element on its span
+(rodsim/core/terms/_string_span.py), whose Jacobian holds that coupling, exact on such
+paths too (Newton quadratic). Off them (3-D or S-shaped paths, a moving entry) the
+Jacobian is the frozen-tension one plus the chords' own coupling: Newton converges
+linearly, at a rate of order μ. The term is not conservative (no energy). With μ = 0 every
+τ_e is T and nothing of this runs: the frictionless numbers, bitwise.
 """
 
 from __future__ import annotations
@@ -76,6 +71,7 @@ from rodsim.core.tendon_friction import (
     slip_states,
     turning_angles,
     weighted_chord_tensions,
+    weighted_slide_factors,
     weighted_slide_rates,
 )
 from rodsim.core.terms._string_points import (
@@ -86,12 +82,12 @@ from rodsim.core.terms._string_points import (
     point_geometry,
     routing_points,
 )
+from rodsim.core.terms._string_span import coupled_span
 from rodsim.core.terms.base import KernelArguments, TendonTerm, Term
 
 #: A routing point within this fraction of the catheter's length of another string tendon's
 #: start or end has its turn split (:func:`split_at_breaks`).
 SPLIT_AT = 1e-9
-
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -286,6 +282,12 @@ class TendonString(TendonTerm):
         #: (state, tension, profile, chord tensions, μ_in) of the last chord_tensions call.
         self._memo: tuple[np.ndarray, float, np.ndarray, np.ndarray, np.ndarray] | None = (
             None)
+        #: Each chord's coordinates (P − 1, 28): the elements, unless ``span`` (one element
+        #: on the span's coordinates, rodsim/core/terms/_string_span.py) is set.
+        self.chord_dofs = self.dofs
+        self.span = coupled_span(self)
+        if self.span is not None:
+            self.dofs, self.kernel = self.span.dofs, "tendon_string_span"
 
     def with_options(self, options: TendonStringOptions) -> TendonString | None:
         """A copy with another tension when that is the only option changed (a tracking
@@ -380,9 +382,8 @@ class TendonString(TendonTerm):
         chords = len(self.points.s) - 1
         if not self.rubs:
             return np.full(chords, self.tension)
-        # The last state's, kept: a converged step reads them three times (its result, the
-        # track's record, the next step's anchors) at the same state and history (the same
-        # stick/slip coefficients: a step solved again after a breakaway has others).
+        # The last state's, kept: a converged step reads them three times (result, record,
+        # anchors) at one state and history (a step solved again after a breakaway: others).
         memo = self._memo
         if (memo is not None and memo[1] == self.tension and memo[2] is self.profile
                 and memo[4] is self._mu_in and np.array_equal(memo[0], x)):
@@ -416,18 +417,22 @@ class TendonString(TendonTerm):
 
     def kernel_arguments(self) -> KernelArguments:
         pts = self.points
-        return {"dofs": self.dofs, "weights": pts.weights, "constant": pts.constant,
-                "forms": np.ascontiguousarray(self._forms), "tension": self.tension,
-                "friction": (float(np.max(self.static, initial=0.0)) if self.weighted
-                             else self.friction), "profile": self.profile,
-                "weighted": self.weighted, "mu_in": np.ascontiguousarray(self._mu_in),
-                "mu_out": np.ascontiguousarray(self._mu_out),
-                "entry_forms": np.ascontiguousarray(DIRECTOR_FORMS),
-                "entry_slope": self._entry_slope, "split": self.split}
+        arguments = {
+            "dofs": self.chord_dofs, "weights": pts.weights, "constant": pts.constant,
+            "forms": np.ascontiguousarray(self._forms), "tension": self.tension,
+            "friction": (float(np.max(self.static, initial=0.0)) if self.weighted
+                         else self.friction), "profile": self.profile,
+            "weighted": self.weighted, "mu_in": np.ascontiguousarray(self._mu_in),
+            "mu_out": np.ascontiguousarray(self._mu_out),
+            "entry_forms": np.ascontiguousarray(DIRECTOR_FORMS),
+            "entry_slope": self._entry_slope, "split": self.split}
+        return arguments if self.span is None else self.span.arguments(arguments)
 
     def group_key(self) -> Hashable | None:
         """The catheter: its string tendons are evaluated in one kernel call
-        (rodsim/core/kernel_group.py)."""
+        (rodsim/core/kernel_group.py); None for one on its span's element (alone)."""
+        if self.span is not None:
+            return None
         return self.tendon.catheter.name
 
     @classmethod
@@ -474,7 +479,7 @@ class TendonString(TendonTerm):
         (``group_arguments``). Made once per term and kept by its copies (a new tension,
         anchors), whose chords are the same."""
         weighted = self.points.weights != 0.0
-        rows = np.concatenate([self.dofs, weighted[:-1], weighted[1:]], axis=1)
+        rows = np.concatenate([self.chord_dofs, weighted[:-1], weighted[1:]], axis=1)
         return [row.tobytes() for row in rows]
 
     def load_scale(self, x: np.ndarray) -> float:
@@ -484,7 +489,6 @@ class TendonString(TendonTerm):
     def _points(self, x: np.ndarray, derivatives: bool = True) -> PointGeometry:
         """p and, with ``derivatives``, ∂p/∂x_point and ∇²f (else empty arrays)."""
         return point_geometry(self.points, self._forms, x, derivatives)
-
 
     def path(self, x: np.ndarray) -> np.ndarray:
         """The tendon's path: the routing points in order, shape (P, 3) [m]."""
@@ -511,7 +515,8 @@ class TendonString(TendonTerm):
         pull = self.chord_tensions(x)[:, None] * u
         grad_a = -np.einsum("emk,em->ek", geometry.jac[:-1], pull)
         grad_b = np.einsum("emk,em->ek", geometry.jac[1:], pull)
-        return -np.concatenate([grad_a, grad_b], axis=1)
+        forces = -np.concatenate([grad_a, grad_b], axis=1)
+        return forces if self.span is None else self.span.forces(forces)
 
     def element_jacobians(self, x: np.ndarray) -> np.ndarray:
         geometry, u, length = self._chords(x)
@@ -536,7 +541,12 @@ class TendonString(TendonTerm):
         jacobian = -hess
         if self.rubs and not np.any(self.points.weights[0, 2:]):
             jacobian += self._one_way_coupling(x, u, length, jd)
-        return jacobian
+        if self.span is None:
+            return jacobian
+        theta, one_way, slope, unit_force = self._one_way_parts(x, u, length, jd)
+        return self.span.jacobian(jacobian, one_way, weighted_slide_factors(
+            self.tension, self._mu_in, self._mu_out, theta, self.profile), slope, unit_force,
+            self._mu_in, self._mu_out)
 
     def _one_way_coupling(self, x: np.ndarray, u: np.ndarray, length: np.ndarray,
                           jd: np.ndarray) -> np.ndarray:
@@ -544,10 +554,19 @@ class TendonString(TendonTerm):
         from a held entry frame (module docstring, "Friction"): there Θ_e = ψ_e =
         ∠(d3, u_e), whose gradient −(d3 − (d3·u_e) u_e)ᵀ Jd_e / (|d3 × u_e| |d_e|) lies on
         the chord's own coordinates; f_e = −Jd_eᵀ u_e, the chord's force per unit tension."""
-        theta = self.turning_angles(x)
+        theta, one_way, slope, unit_force = self._one_way_parts(x, u, length, jd)
         rate = (weighted_slide_rates(self.tension, self._mu_in, self._mu_out, theta,
                                      self.profile) if self.weighted
                 else slide_rates(self.tension, self.friction, theta, self.profile))
+        gradient = np.where(one_way, rate, 0.0)[:, None] * slope
+        return unit_force[:, :, None] * gradient[:, None, :]
+
+    def _one_way_parts(self, x: np.ndarray, u: np.ndarray, length: np.ndarray,
+                       jd: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray,
+                                                np.ndarray]:
+        """(θ_e, whether the path up to chord e turns one way in one plane, ∂ψ_e/∂x there
+        (E, 28), f_e (E, 28))."""
+        theta = self.turning_angles(x)
         axis, tangent = self.entry_directions(x)
         # One way in one plane: the plain turns (no split) sum to ψ_e.
         wrap = np.cumsum(turning_angles(axis, tangent, self.path(x)))
@@ -555,12 +574,10 @@ class TendonString(TendonTerm):
         cosine = u @ axis
         psi = np.arctan2(sine, cosine)
         one_way = (np.abs(wrap - psi) <= ONE_WAY * np.maximum(1.0, wrap)) & (sine > 0.0)
-        rate = np.where(one_way, rate, 0.0)
         slope = -(axis[None, :] - cosine[:, None] * u) / np.where(
             one_way, sine * length, 1.0)[:, None]
-        gradient = rate[:, None] * np.einsum("em,emk->ek", slope, jd)
-        unit_force = -np.einsum("emk,em->ek", jd, u)
-        return unit_force[:, :, None] * gradient[:, None, :]
+        return (theta, one_way, np.einsum("em,emk->ek", slope, jd),
+                -np.einsum("emk,em->ek", jd, u))
 
 
 def split_at_breaks(terms: Sequence[object]) -> None:
