@@ -234,7 +234,8 @@ def test_pseudo_masses_cap_a_touching_node_as_every_other_coordinate():
 
 def test_a_scene_with_obstacles_runs_ida_unless_it_names_an_integrator():
     """``solver.integrator`` unset: ida with obstacles (docs/contact.md, "Which integrator"),
-    cvode without; a scene that names one keeps it, and so does an override."""
+    the registry's default (static) without; a scene that names one keeps it, and so does an
+    override."""
     scene = plane_scene(20)
     del scene["solver"]
     assert rodsim.load_scene(scene).solver.integrator == "ida"
@@ -243,7 +244,7 @@ def test_a_scene_with_obstacles_runs_ida_unless_it_names_an_integrator():
     assert rodsim.load_scene(named).solver.integrator == "cvode"
     without = plane_scene(20)
     del without["solver"], without["obstacles"]
-    assert rodsim.load_scene(without).solver.integrator == "cvode"
+    assert rodsim.load_scene(without).solver.integrator == "static"
 
 
 @pytest.mark.parametrize("moment", [0.001, 0.003])

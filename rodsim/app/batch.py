@@ -228,11 +228,11 @@ def solve_many(scene: Any, cases: Any, integrator: str | None = None, *,
     scheduler. A case that fails does not raise: see the ``status`` and ``message``.
     """
     from rodsim.app.api import load_scene
-    from rodsim.solvers import integrator_named
+    from rodsim.solvers import DEFAULT_INTEGRATOR, integrator_named
 
     log = log or _stderr_log
     base = load_scene(scene)
-    name = integrator or "static"
+    name = integrator or DEFAULT_INTEGRATOR
     integrator_named(name)
     if isinstance(chunk, bool) or not isinstance(chunk, int) or chunk < 1:
         raise StudyError(f"chunk must be a positive whole number, not {chunk!r}")

@@ -29,12 +29,12 @@ def contact_warnings(result: Any) -> list[str]:
     return [f"warning     {line}" for line in lines]
 
 
-def failure_note(scene: Any) -> str:
+def failure_note(scene: Any, message: str = "") -> str:
     """What a solver failure's one line adds when a rod's rest shape crosses an obstacle's
-    wall: "; " and each crossing (``rest_crossings``), else "". The likely cause of the
-    failure, which the summary of a success warns about but a failure did not say (a
-    user's guidewire through its vessel: `track` failed at step 0 advising a smaller
-    load step)."""
+    wall: "; " and each crossing (``rest_crossings``) that ``message`` (the failure's own
+    text) does not already hold, else "". The likely cause of the failure, which the
+    summary of a success warns about but a failure did not say (a user's guidewire through
+    its vessel: `track` failed at step 0 advising a smaller load step)."""
     if not scene.data.get("obstacles"):
         return ""
     from rodsim.core.contact_depth import rest_crossings
@@ -44,4 +44,4 @@ def failure_note(scene: Any) -> str:
         crossings = rest_crossings(Model(scene))
     except Exception:  # noqa: BLE001 - a note, never a second failure
         return ""
-    return "".join(f"; {line}" for line in crossings)
+    return "".join(f"; {line}" for line in crossings if line not in message)

@@ -27,6 +27,7 @@ from rodsim.core.model import Model
 from rodsim.core.stability import MAX_BAND
 from rodsim.core.stability_band import BandStiffness
 from rodsim.core.vibration import ModesError, Vibration, natural_modes
+from rodsim.solvers import DEFAULT_INTEGRATOR
 from rodsim.solvers.physical.coordinates import physical_state
 from rodsim.solvers.result import Result
 from rodsim.solvers.summary import millimetres, summary_html, summary_text
@@ -181,7 +182,7 @@ class Modes:
 
 
 def modes(scene: SceneLike | Result | None = None, count: int = DEFAULT_COUNT, *,
-          overrides: Iterable[str] = (), integrator: str = "static",
+          overrides: Iterable[str] = (), integrator: str = DEFAULT_INTEGRATOR,
           rotary_inertia: bool = True) -> Modes:
     """The ``count`` lowest natural modes of ``scene`` about its equilibrium.
 

@@ -23,7 +23,7 @@ and the allowed values. Layout of a scene file (docs/scenes.md has the full refe
     [tendons.tendon.lumen]     # parameters of one of the tendon's coupling terms
     K_L = 1000.0               # N/m
     [solver]                   # integrator and stopping rule
-    integrator = "cvode"
+    integrator = "cvode"       # unset: static (rodsim/core/integrator_default.py)
     [solver.paper]             # options of one integrator
     h = 0.3
     [program."tip_load.mass"]  # a value varying in time (rodsim simulate; core/program.py)
@@ -45,6 +45,7 @@ from typing import TYPE_CHECKING, Any
 
 from rodsim.core.anchors import check_joints
 from rodsim.core.damping_options import resolve_damping
+from rodsim.core.integrator_default import DEFAULT_INTEGRATOR
 from rodsim.core.names import check_rod_name, check_scene_name
 from rodsim.core.program import resolve_program
 from rodsim.core.rod.rod import ROD_PARAMETERS, RodOptions
@@ -96,7 +97,7 @@ __all__ = ["Scene", "SceneError", "SOLVER_PARAMETERS", "OBSTACLE_INTEGRATOR", "S
 OBSTACLE_INTEGRATOR = "ida"
 
 SOLVER_PARAMETERS: tuple[Parameter, ...] = (
-    Parameter("integrator", "str", "cvode", "-",
+    Parameter("integrator", "str", DEFAULT_INTEGRATOR, "-",
               "integrator used by `rodsim run`: a registered name (each has a "
               "[solver.<name>] table in docs/scenes.md); unset in a scene with obstacles, "
               f"{OBSTACLE_INTEGRATOR} (docs/contact.md)"),
@@ -122,7 +123,7 @@ class SolverSettings(Options):
     ``[solver.<name>]`` options are its ``Options``
     (``rodsim.solvers.base.Integrator.options_of``)."""
 
-    integrator: str = "cvode"
+    integrator: str = DEFAULT_INTEGRATOR
     tolerance: float = 1e-9
     max_wall_time: float = 600.0
     kernels: str = "auto"

@@ -19,17 +19,17 @@ import importlib
 import pkgutil
 from typing import TYPE_CHECKING
 
+# The integrator a scene that names none runs, and that a track, a fit, a reach or a warm
+# re-solve uses unless told otherwise: the direct Newton solve, the exact discrete
+# equilibrium. The one integrator name app code uses (rodsim/core/integrator_default.py).
+from rodsim.core.integrator_default import DEFAULT_INTEGRATOR
+
 if TYPE_CHECKING:
     from rodsim.core.scene import Scene
     from rodsim.solvers.base import Integrator
 
 __all__ = ["registered_integrators", "integrator_named", "check_solver_options",
            "integrator_option_keys", "DEFAULT_INTEGRATOR"]
-
-#: The integrator a track, a fit, a reach or a warm re-solve uses unless told otherwise, and
-#: the command line's default: the direct Newton solve, the exact discrete equilibrium. The
-#: one integrator name app code uses.
-DEFAULT_INTEGRATOR = "static"
 
 
 def registered_integrators() -> dict[str, type[Integrator]]:

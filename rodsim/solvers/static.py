@@ -81,6 +81,25 @@ CHORD_REFRESH_BELOW = 1e-3
 CONTINUATION_NEWTON = 30
 
 
+def rest_start_crossings(run: RunState | None) -> str:
+    """The advice of a failure from a rest shape through an obstacle's wall: each crossing
+    (``rodsim.core.contact_depth.rest_crossings``) and why the usual advice does not apply,
+    else "". Measured on a user's guidewire whose straight rest shape leaves its vessel
+    (benchmarks/results/default-integrator.md): static failed with a 100× smaller first
+    load step and with 200 Newton iterations, ida spent its 300 s, cvode settled on a
+    state through the wall; a track of the insertion from a state inside converged."""
+    if run is None or run.warm or not meets_obstacles(run.model):
+        return ""
+    from rodsim.core.contact_depth import rest_crossings
+
+    crossings = rest_crossings(run.base_model)
+    if not crossings:
+        return ""
+    return "; ".join(crossings) + ("; smaller load steps do not help there, and a "
+                                   "pseudo-dynamic integrator spends its budget or settles "
+                                   "through the wall")
+
+
 def meets_obstacles(model: Model) -> bool:
     """Whether ``model`` has contact: a term with latent stiffness
     (``Model.latent_stiffness``, an obstacle's contact)."""
@@ -166,6 +185,9 @@ class Static(Integrator[RunState]):
     def advice(self, run: RunState | None = None) -> str:
         if run is not None and run.continued:
             return "try smaller parameter steps (the last equilibrium is too far away)"
+        crossings = rest_start_crossings(run)
+        if crossings:
+            return crossings
         # ida is the integrator of a scene with obstacles (docs/contact.md, "Which integrator")
         other = "ida" if run is not None and meets_obstacles(run.model) else "cvode"
         return ("try a smaller solver.static.first_load_step or min_load_step, or a "

@@ -122,7 +122,7 @@ def build_parser() -> argparse.ArgumentParser:
     run.add_argument("scene", nargs="?", help="scene file or shipped scene name")
     run.add_argument("--integrator", metavar="NAME",
                      help="a registered integrator, listed by `rodsim run --help` (default: "
-                     "the scene's solver.integrator, cvode)")
+                     "the scene's solver.integrator; unset: static, or ida with obstacles)")
     run.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
                      help="override a scene value (repeatable), e.g. --set nodes=80")
     run.add_argument("-o", "--output",

@@ -111,7 +111,7 @@ def execute(command: SceneCommand) -> int:
     except bad_input as exc:
         raise UserError(str(exc)) from None
     except solver_failures as exc:
-        print(f"rodsim: solver failure: {exc}{failure_note(scene)}", file=sys.stderr)
+        print(f"rodsim: solver failure: {exc}{failure_note(scene, str(exc))}", file=sys.stderr)
         return EXIT_SOLVER_FAILURE
     except Interrupted as stop:  # Ctrl-C or SIGTERM: keep what is finished, then stop
         progress.close()
@@ -123,7 +123,7 @@ def execute(command: SceneCommand) -> int:
         progress.close()
     message = command.failure(result)
     if message is not None:
-        print(f"{message}{failure_note(scene)}", file=sys.stderr)
+        print(f"{message}{failure_note(scene, message)}", file=sys.stderr)
         return EXIT_SOLVER_FAILURE
     command.report(result)
     command.write(result, output, stem)

@@ -30,7 +30,7 @@ from rodsim.app.inverse.sensitivity import equilibrium_sensitivity
 from rodsim.core.model import Model
 from rodsim.core.schema import SceneError
 from rodsim.core.stability import Stability, assess
-from rodsim.solvers import integrator_named
+from rodsim.solvers import DEFAULT_INTEGRATOR, integrator_named
 
 __all__ = ["Tracker", "TrackerStep"]
 
@@ -82,7 +82,7 @@ class Tracker:
         When the scene's own values have no equilibrium.
     """
 
-    def __init__(self, scene: Any, keys: Sequence[str], integrator: str = "static",
+    def __init__(self, scene: Any, keys: Sequence[str], integrator: str = DEFAULT_INTEGRATOR,
                  rod: str | None = None) -> None:
         from rodsim.app.api import load_scene, solve
 
