@@ -47,7 +47,7 @@ def draw_parts(ax: plt.Axes, parts: SceneParts, view: tuple[int, int],
                extent: np.ndarray | None = None, hide: frozenset[str] = frozenset(),
                colours: Colouring | None = None,
                scale: tuple[Normalize, Colormap] | None = None, diameter: bool = True,
-               tint: Any = None) -> None:
+               tint: Any = None, disks: bool = True) -> None:
     """Draw ``parts`` on ``ax`` in the plane of the world axes ``view``; limits around the
     parts (or around the points ``extent`` (n, 3), e.g. every step of a track). The layers
     ``hide`` (``rodsim.app.figures.layers.LAYERS``) are left out; the lines of ``colours``
@@ -55,7 +55,9 @@ def draw_parts(ax: plt.Axes, parts: SceneParts, view: tuple[int, int],
     ``colour_scale``; several states share one: ``shared_scale``). ``diameter``: the rods'
     diameter drawn under their centerlines (left out when many states overlap). ``tint``:
     one matplotlib colour for the rods, tendons, terminations and disks not coloured by
-    ``colours`` (a state of a series, coloured by its step or time)."""
+    ``colours`` (a state of a series, coloured by its step or time); the rods' and
+    tendons' legend entries then name the kind, not each one. ``disks``: the spacer disks
+    drawn (with the tendons' layer)."""
     a, b = view
     frame = parts.points() if extent is None else extent.reshape(-1, 3)
     for obstacle in parts.obstacles:  # a vessel is shown whole
@@ -82,7 +84,8 @@ def draw_parts(ax: plt.Axes, parts: SceneParts, view: tuple[int, int],
         else:
             ax.plot(nodes[:, a], nodes[:, b], color=ROD if tint is None else tint, lw=1.0,
                     marker=".", ms=2.5,
-                    zorder=3, gid=f"rod:{name}", label=f"rod {name}")
+                    zorder=3, gid=f"rod:{name}",
+                    label=f"rod {name}" if tint is None else "rods")
     for index, tendon in enumerate(tendons):
         p = tendon.points
         colour = TENDONS[index % len(TENDONS)] if tint is None else tint
@@ -92,10 +95,11 @@ def draw_parts(ax: plt.Axes, parts: SceneParts, view: tuple[int, int],
         else:
             ax.plot(p[:, a], p[:, b], ls="--" if tendon.string else "-",
                     marker="|" if tendon.string else None, ms=4, gid=f"tendon:{tendon.name}",
-                    label=f"tendon {tendon.name}", color=colour, lw=0.9, zorder=4)
+                    label=f"tendon {tendon.name}" if tint is None else "tendons",
+                    color=colour, lw=0.9, zorder=4)
         ax.plot(p[-1, a], p[-1, b], ls="none", marker="s", ms=4, mfc="white",
                 color=colour, zorder=5, gid=f"termination:{tendon.name}")
-    if layers.TENDON not in hide:
+    if layers.TENDON not in hide and disks:
         draw_disks(ax, parts.disks, view, tint)
     if layers.LOAD not in hide:
         _arrows(ax, [x for x in parts.loads if not x.moment], view, 0.2 * size, LOAD, "N",

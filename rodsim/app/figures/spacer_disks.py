@@ -10,17 +10,22 @@ its normal the section's d3 (the directors interpolated as the tendons' routing 
 are: ``rodsim.app.figures.scene_parts``). A projection shows it edge-on, as a short line
 segment perpendicular to the backbone (``disk_segment``): its diameter along the
 direction of the disk's plane that lies in the view's plane; a disk seen nearly face-on
-(its normal within ``FACE_ON`` of the view's axis) is drawn as its ring. The 3D view draws
+(its normal within ``FACE_ON`` of the view's axis) is drawn as its ring, thin and faint
+(many rings seen end-on would hide the rest). A series of states (a track, a trajectory)
+draws the disks of its last state only (``rodsim.app.figures.state_series``). The 3D view
+draws
 each as a thin ring (``disk_ring``). Each drawn collection has the gid
 ``disk:<catheter>``."""
 
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Any
 
 import matplotlib.pyplot as plt
 import numpy as np
 from matplotlib.collections import LineCollection
+from matplotlib.colors import to_rgba
 
 __all__ = ["DISK_MARGIN", "FACE_ON", "Disk", "disk_segment", "disk_ring", "draw_disks"]
 
@@ -80,10 +85,11 @@ def draw_disks(ax: plt.Axes, disks: list[Disk], view: tuple[int, int],
     for catheter in dict.fromkeys(d.catheter for d in disks):
         mine = [d for d in disks if d.catheter == catheter]
         lines = [disk_segment(d, view)[:, [a, b]] for d in mine]
-        widths = [1.4 if len(line) == 2 else 0.4 for line in lines]  # a ring: thin
+        edge_on = [len(line) == 2 for line in lines]  # a ring (face-on): thin and faint
+        base: Any = COLOUR if colour is None else colour
         ax.add_collection(LineCollection(
-            lines, colors=COLOUR if colour is None else colour, linewidths=widths,
-            zorder=4.5,
+            lines, colors=[to_rgba(base, 1.0 if edge else 0.3) for edge in edge_on],
+            linewidths=[1.4 if edge else 0.4 for edge in edge_on], zorder=4.5,
             gid=f"disk:{catheter}", capstyle="butt",
             label=(f"spacer disks ({len(mine)}, ⌀ {2e3 * max(d.radius for d in mine):.3g} mm"
                    f" = {DISK_MARGIN:g} × routing offset)") if label else None),
