@@ -116,3 +116,28 @@ def test_the_default_track_figure_draws_the_tendon_of_each_step():
     label, _ = bars["colourbar:step"]
     assert label.startswith("step (0.5 → 3 → 1.5")
     assert title == f"each of {len(RAMP)} steps"
+
+
+def test_the_default_track_figure_draws_every_rod_at_each_step():
+    """A catheter with a rod tendon (tendon-conserving: two rods): both at each step, the
+    tendon rod drawn as the tendon's path (its control points), and its actuation force at
+    the last step only."""
+    force = "tendons.tendon.tendon_actuation.force"
+    track = rodsim.track(rodsim.load_scene("tendon-conserving"), {force: [0.5, 1.0, 2.0]})
+    assert track.success, track.message
+    ds = track.to_xarray()
+    lines, _, _, _ = figure_data(ds)
+    rods = ds["rod"].values.astype(str)
+    for name, gid in (("catheter", "rod:catheter"), ("tendon", "tendon:tendon")):
+        assert len(lines[gid]) == 3, gid
+        for xy, nodes in zip(lines[gid], ds["position"].values[:, rods == name],
+                             strict=True):
+            np.testing.assert_array_equal(xy, nodes[:, :2])
+    with style():
+        figure = draw_figure(ds)
+        try:
+            loads = [a for a in figure.axes[0].findobj()
+                     if a.get_gid() == "load:tendon:tendon_actuation"]
+        finally:
+            plt.close(figure)
+    assert len(loads) == 1  # the last step's
