@@ -349,7 +349,8 @@ def test_the_3d_view_colours_the_line_trace_and_hides_layers(everything, cycles)
     names = {t.name for t in view_figure(everything).data}
     assert {"backbone", "a", "termination a", "loads", "contact forces",
             "plane wall"} <= names
-    hidden = {"shape": {"backbone"}, "tendon": {"a", "termination a"}, "load": {"loads"},
+    hidden = {"shape": {"backbone"}, "tendon": {"a", "termination a", "spacer disks"},
+              "load": {"loads"},
               "contact": {"contact forces"}, "obstacle": {"plane wall"}}
     assert set(hidden) == set(LAYERS)
     for layer, gone in hidden.items():

@@ -15,16 +15,23 @@ from matplotlib.figure import Figure
 
 from rodsim.app.figures import layers
 from rodsim.app.figures.colouring import colour_scale, colouring
-from rodsim.app.figures.contact import draw_contact
 from rodsim.app.figures.projections import panel_grid, projections
 from rodsim.app.figures.ramp_legs import Leg, hysteresis, ramp_legs
 from rodsim.app.figures.scene_drawing import draw_parts
 from rodsim.app.figures.scene_parts import scene_parts
-from rodsim.app.figures.state_series import colour_bar, coloured_states, draw_states
-from rodsim.io.archive_schema import stored_scene
+from rodsim.app.figures.state_series import (
+    colour_bar,
+    coloured_states,
+    draw_states,
+    tint_bar,
+    tints,
+)
 from rodsim.io.cf_layout import key_variable
 
 __all__ = ["run_figure", "track_figure", "fit_figure", "reach_figure", "short_key"]
+
+#: The colour map of a track's steps.
+STEPS = plt.get_cmap("viridis")
 
 def _tip_text(ds: xr.Dataset) -> str:
     """The first rod's tip, computed from the positions (mm)."""
@@ -77,44 +84,43 @@ def _first_rod_nodes(ds: xr.Dataset) -> xr.DataArray:
 
 def track_figure(ds: xr.Dataset, colour: str | None = None,
                  hide: frozenset[str] = frozenset()) -> Figure:
-    """A track: the first rod's centerline at every step with the tip's path through them,
+    """A track: every step drawn as the run figure draws its state
+    (``rodsim.app.figures.state_series``: every rod, tendon path and spacer disk, the last
+    step with its loads, contact forces and obstacles) with the tip's path through them,
     and the tip's displacement from step 0 against the first ramped value, the actuation
     against the response (``rodsim.app.figures.ramp_legs``: a ramp that rises and falls is
-    drawn leg by leg, solid rising and dashed falling, its centerlines coloured by step; the
-    title states the hysteresis, the largest tip distance at equal actuation); with
-    friction a third panel, the termination tension against the ramp (the pull–release
-    loop). With ``colour`` or ``hide`` the shapes' panels draw every step as the run figure
-    draws its state (``rodsim.app.figures.state_series``): every rod and tendon, coloured
-    on one scale shared by the steps, the layers ``hide`` left out. The shapes are drawn in
-    x–y, and in x–z and y–z too when what is drawn leaves the x–y plane (the run figure's
-    rule, ``rodsim.app.figures.projections``): then the projections fill a first row and
-    the other panels a second."""
+    drawn leg by leg, solid rising and dashed falling; the title states the hysteresis, the
+    largest tip distance at equal actuation); with friction a third panel, the termination
+    tension against the ramp (the pull–release loop). Each step in one colour, by its
+    ramped value (by its step on a ramp that turns), with a colour bar; with ``colour``,
+    the lines coloured by that quantity on one scale shared by the steps instead. ``hide``:
+    the layers left out. The shapes are drawn in x–y, and in x–z and y–z too when what is
+    drawn leaves the x–y plane (the run figure's rule, ``rodsim.app.figures.projections``):
+    then the projections fill a first row and the other panels a second."""
     friction = "tension_profile" in ds
     nodes = _first_rod_nodes(ds).values
     ramp = list(json.loads(ds.attrs["ramp_json"]))[0]
     values = key_variable(ds, ramp).values
     legs = ramp_legs(values)
-    series = bool(colour or hide)
-    if series:
-        states, colourings, scale = coloured_states(ds, range(len(values)), colour)
-        views = projections(np.concatenate([parts.points() for parts in states]))
-    else:
-        views = projections(ds["position"].values)
+    states, colourings, scale = coloured_states(ds, range(len(values)), colour)
+    views = projections(np.concatenate([parts.points() for parts in states]))
     figure, shapes, (tips, *loop) = panel_grid(views, 1 + friction, True,
                                                (10.0 + 4.6 * friction, 4.4))
     panels = list(zip(shapes, views, strict=True))
-    if series:
-        if layers.SHAPE not in hide:
-            for panel, (a, b) in panels:
-                panel.plot(nodes[:, -1, a], nodes[:, -1, b], color="k", lw=0.8, marker="o",
-                           ms=2.5, zorder=6, gid="tip-path", label="tip path (o: each step)")
-        drawn = draw_states(panels, states, colourings, scale, hide)
-        if drawn is not None:
-            colour_bar(figure, shapes, *drawn)
-        shapes[0].set_title(f"each of {len(values)} steps")
+    if layers.SHAPE not in hide:
+        for panel, (a, b) in panels:
+            panel.plot(nodes[:, -1, a], nodes[:, -1, b], color="k", lw=0.8, marker="o",
+                       ms=2.5, zorder=6, gid="tip-path", label="tip path (o: each step)")
+    by, label = _step_scale(ds, ramp, values, legs)
+    tinted, norm = tints(by, STEPS)
+    drawn = draw_states(panels, states, colourings, scale, hide,
+                        None if colour else tinted)
+    if drawn is not None:
+        colour_bar(figure, shapes, *drawn)
     else:
-        _centerlines(figure, panels, ds, nodes, ramp, values, legs)
-    contact = _track_contact(panels, ds, series, hide)
+        tint_bar(figure, shapes, norm, STEPS, label, "step")
+    shapes[0].set_title(f"each of {len(values)} steps")
+    contact = _track_contact(panels, ds, hide)
     _response(tips, ds, nodes[:, -1], values, legs)
     tips.set_xlabel(_ramp_label(ds, ramp))
     if friction:
@@ -131,55 +137,28 @@ def track_figure(ds: xr.Dataset, colour: str | None = None,
 
 
 def _track_contact(panels: list[tuple[plt.Axes, tuple[int, int]]], ds: xr.Dataset,
-                   series: bool, hide: frozenset[str]) -> str:
-    """A track's obstacles and its last step's contact forces on each shape panel (drawn
-    by ``draw_states`` for a ``series``, here otherwise), and the title's words on them."""
-    pressed = "contact_force" in ds and int(ds.sizes.get("step", 0)) > 0
-    if pressed and not series:  # obstacles, and the last step's forces
-        scene = stored_scene(ds.attrs["scene_json"], "attribute 'scene_json'")
-        for panel, view in panels:
-            draw_contact(panel, scene, ds["position"].values[-1],
-                         ds["contact_force"].values[-1], view, extent=ds["position"].values)
-            panel.set_aspect("equal")  # within the limits drawn around every step
-        resultant = float(np.linalg.norm(ds["contact_resultant"].values[-1]))
-        return f"; contact resultant {1e3 * resultant:.3g} mN (red: the last step's forces)"
+                   hide: frozenset[str]) -> str:
+    """The title's words on a track's contact forces (its last step's, drawn by
+    ``draw_states``); each shape panel's aspect held equal."""
     for panel, _ in panels:
         panel.set_aspect("equal", adjustable="datalim")
-    if pressed and layers.CONTACT not in hide:  # drawn by draw_states
+    pressed = "contact_force" in ds and int(ds.sizes.get("step", 0)) > 0
+    if pressed and layers.CONTACT not in hide:
         resultant = float(np.linalg.norm(ds["contact_resultant"].values[-1]))
         return f"; contact resultant {1e3 * resultant:.3g} mN (the last step's forces)"
     return ""
 
 
-def _centerlines(figure: Figure, panels: list[tuple[plt.Axes, tuple[int, int]]],
-                 ds: xr.Dataset, nodes: np.ndarray, ramp: str, values: np.ndarray,
-                 legs: list[Leg]) -> None:
-    """The first rod's centerline at every step (gid ``rod:<name>``, one line per step in
-    step order), coloured by step (or by the ramped value on a ramp of one leg), and the
-    tip's path through them, on each panel in its plane; one colour bar, the first
-    panel's legend."""
-    name = str(ds["rod"].values[0])
-    colours = plt.get_cmap("viridis")(np.linspace(0.0, 1.0, max(len(values), 1)))
-    for panel, (a, b) in panels:
-        for step, colour in enumerate(colours):
-            panel.plot(nodes[step, :, a], nodes[step, :, b], color=colour, lw=0.9,
-                       gid=f"rod:{name}")
-        panel.plot(nodes[:, -1, a], nodes[:, -1, b], color="k", lw=0.8, marker="o",
-                   ms=2.5, zorder=4, gid="tip-path", label="tip path (o: each step)")
-        panel.set_xlabel(f"{'xyz'[a]} [m]")
-        panel.set_ylabel(f"{'xyz'[b]} [m]")
-    if len(legs) > 1:  # the same value on two legs: colour by step
+def _step_scale(ds: xr.Dataset, ramp: str, values: np.ndarray, legs: list[Leg]
+                ) -> tuple[np.ndarray, str]:
+    """What colours a track's steps and the colour bar's label: the ramped value on a
+    ramp of one leg, the step on a ramp that turns (the same value on two legs)."""
+    if len(legs) > 1:
         turns = " → ".join(f"{values[leg.steps[0]]:g}" for leg in legs)
-        norm = plt.Normalize(0, max(len(values) - 1, 1))
         unit = key_variable(ds, ramp).attrs.get("units", "")
-        label = f"step ({turns} → {values[-1]:g} {unit})"
-    else:
-        norm = plt.Normalize(values.min(), values.max())
-        label = _ramp_label(ds, ramp)
-    shapes = [panel for panel, _ in panels]
-    figure.colorbar(plt.cm.ScalarMappable(cmap="viridis", norm=norm), ax=shapes, label=label)
-    shapes[0].legend(loc="best", fontsize="small")
-    shapes[0].set_title(f"centerline of {name} at each of {len(values)} steps")
+        return (np.arange(len(values), dtype=float),
+                f"step ({turns} → {values[-1]:g} {unit})")
+    return np.asarray(values, dtype=float), _ramp_label(ds, ramp)
 
 
 def _response(panel: plt.Axes, ds: xr.Dataset, tips: np.ndarray, values: np.ndarray,

@@ -3,7 +3,7 @@ are drawn in (``rodsim.core.terms.base.FIGURE_LAYERS``, each term's ``Term.figur
 and the obstacles' outlines.
 
 - ``shape``: the rods' centerlines (the elastic and constraint terms' layer);
-- ``tendon``: the tendons' paths and terminations;
+- ``tendon``: the tendons' paths and terminations, and the spacer disks;
 - ``load``: the load arrows (tip loads, point and distributed loads, gravity, actuation);
 - ``contact``: the contact forces on the rods;
 - ``obstacle``: the obstacles' outlines.

@@ -1,14 +1,16 @@
 """Draw one state's parts (``rodsim.app.figures.scene_parts``) on a matplotlib panel in
 the plane of two world axes: rods with their diameter, tendons' paths with their routing
-points and terminations, obstacles (each draws its own outline:
+points and terminations, spacer disks edge-on (``rodsim.app.figures.spacer_disks``, in the
+tendons' layer), obstacles (each draws its own outline:
 ``rodsim.core.obstacles.Obstacle.outline``), loads and contact forces as arrows.
 
 Each artist carries a ``gid`` naming what it draws (``rod:<name>``, ``tendon:<name>``,
-``termination:<name>``, ``obstacle:<name>``, ``load:<owner>:<term>``, ``contact:<rod>``):
-tests find them by it. Arrows are drawn to a scale stated on the panel: the largest force
-a fifth of the drawing, the largest moment (right-hand rule, dashed) likewise; contact
-forces have their own scale. A load starts at its point of action, a contact force ends
-there; one across the view is a circle with a dot (out of the page) or a cross (into it).
+``termination:<name>``, ``disk:<catheter>``, ``obstacle:<name>``, ``load:<owner>:<term>``,
+``contact:<rod>``): tests find them by it. Arrows are drawn to a scale stated on the panel:
+the largest force a fifth of the drawing, the largest moment (right-hand rule, dashed)
+likewise; contact forces have their own scale. A load starts at its point of action, a
+contact force ends there; one across the view is a circle with a dot (out of the page) or a
+cross (into it).
 """
 
 from __future__ import annotations
@@ -23,6 +25,7 @@ from matplotlib.colors import Colormap, Normalize
 from rodsim.app.figures import layers
 from rodsim.app.figures.colouring import ColouredLine, Colouring, colour_scale
 from rodsim.app.figures.scene_parts import Arrow, SceneParts
+from rodsim.app.figures.spacer_disks import draw_disks
 
 __all__ = ["draw_parts", "frame_box"]
 
@@ -43,14 +46,18 @@ def frame_box(points: np.ndarray, margin: float = 0.15) -> tuple[np.ndarray, np.
 def draw_parts(ax: plt.Axes, parts: SceneParts, view: tuple[int, int],
                extent: np.ndarray | None = None, hide: frozenset[str] = frozenset(),
                colours: Colouring | None = None,
-               scale: tuple[Normalize, Colormap] | None = None, diameter: bool = True
-               ) -> None:
+               scale: tuple[Normalize, Colormap] | None = None, diameter: bool = True,
+               tint: Any = None, disks: bool = True) -> None:
     """Draw ``parts`` on ``ax`` in the plane of the world axes ``view``; limits around the
     parts (or around the points ``extent`` (n, 3), e.g. every step of a track). The layers
     ``hide`` (``rodsim.app.figures.layers.LAYERS``) are left out; the lines of ``colours``
     (``rodsim.app.figures.colouring``) are drawn in ``scale`` (by default their own,
     ``colour_scale``; several states share one: ``shared_scale``). ``diameter``: the rods'
-    diameter drawn under their centerlines (left out when many states overlap)."""
+    diameter drawn under their centerlines (left out when many states overlap). ``tint``:
+    one matplotlib colour for the rods, tendons, terminations and disks not coloured by
+    ``colours`` (a state of a series, coloured by its step or time); the rods' and
+    tendons' legend entries then name the kind, not each one. ``disks``: the spacer disks
+    drawn (with the tendons' layer)."""
     a, b = view
     frame = parts.points() if extent is None else extent.reshape(-1, 3)
     for obstacle in parts.obstacles:  # a vessel is shown whole
@@ -75,20 +82,25 @@ def draw_parts(ax: plt.Axes, parts: SceneParts, view: tuple[int, int],
         if name in lines:
             _coloured(ax, lines[name], view, scale, gid=f"rod:{name}", lw=2.0, zorder=3)
         else:
-            ax.plot(nodes[:, a], nodes[:, b], color=ROD, lw=1.0, marker=".", ms=2.5,
-                    zorder=3, gid=f"rod:{name}", label=f"rod {name}")
+            ax.plot(nodes[:, a], nodes[:, b], color=ROD if tint is None else tint, lw=1.0,
+                    marker=".", ms=2.5,
+                    zorder=3, gid=f"rod:{name}",
+                    label=f"rod {name}" if tint is None else "rods")
     for index, tendon in enumerate(tendons):
         p = tendon.points
-        colour = TENDONS[index % len(TENDONS)]
+        colour = TENDONS[index % len(TENDONS)] if tint is None else tint
         if tendon.name in lines:
             _coloured(ax, lines[tendon.name], view, scale, gid=f"tendon:{tendon.name}",
                       lw=1.8, zorder=4, ls="--" if tendon.string else "-")
         else:
             ax.plot(p[:, a], p[:, b], ls="--" if tendon.string else "-",
                     marker="|" if tendon.string else None, ms=4, gid=f"tendon:{tendon.name}",
-                    label=f"tendon {tendon.name}", color=colour, lw=0.9, zorder=4)
+                    label=f"tendon {tendon.name}" if tint is None else "tendons",
+                    color=colour, lw=0.9, zorder=4)
         ax.plot(p[-1, a], p[-1, b], ls="none", marker="s", ms=4, mfc="white",
                 color=colour, zorder=5, gid=f"termination:{tendon.name}")
+    if layers.TENDON not in hide and disks:
+        draw_disks(ax, parts.disks, view, tint)
     if layers.LOAD not in hide:
         _arrows(ax, [x for x in parts.loads if not x.moment], view, 0.2 * size, LOAD, "N",
                 "forces")

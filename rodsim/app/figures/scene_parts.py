@@ -7,6 +7,10 @@ and the 3-D view share it).
   r(s) + ρ_y(s) d1(s) + ρ_z(s) d2(s) at the catheter's nodes between its start and end and
   at both ends (the termination is the last), with the directors of the quaternion
   interpolated linearly in s between the segment midpoints (clamped to the end segments).
+- A string tendon on spacer disks (``spacers = true``) puts a disk on its catheter at each
+  of its routing points: centred on r(s), normal to the section's d3 there, its radius
+  ``rodsim.app.figures.spacer_disks.DISK_MARGIN`` times the largest routing offset at s of
+  the tendons on spacers that pass there (one disk per arc length and catheter).
 - Loads are the rod and tendon terms that push (``figure_layer = "load"``): a tip load (mass
   and force) at the tip, each point load's force and moment where it acts, a distributed
   load's resultant at the middle of each span, gravity's total weight at the rod's middle
@@ -26,6 +30,7 @@ from typing import Any
 import numpy as np
 import xarray as xr
 
+from rodsim.app.figures.spacer_disks import DISK_MARGIN, Disk
 from rodsim.core.obstacles import Obstacle, build_obstacle
 from rodsim.core.rod.quaternion import directors
 from rodsim.core.routing import Routing, string_span
@@ -34,7 +39,7 @@ from rodsim.core.terms._dead_load import unit_direction
 from rodsim.core.terms.base import FIGURE_LAYERS
 
 __all__ = ["term_drawings", "FRAME_DIMENSIONS", "SHAPE", "TENDON", "LOAD", "CONTACT",
-           "Arrow", "TendonPath", "SceneParts", "scene_parts", "at_step"]
+           "Arrow", "TendonPath", "SceneParts", "Disk", "scene_parts", "at_step"]
 
 #: How a term shows in a figure (its ``rodsim.core.terms.base.Term.figure_layer``): in the
 #: rods' shape, as a tendon's path, as load arrows, or as the contact forces on the obstacles.
@@ -82,6 +87,7 @@ class SceneParts:
     obstacles: list[Obstacle]
     loads: list[Arrow] = field(default_factory=list)
     contacts: list[Arrow] = field(default_factory=list)
+    disks: list[Disk] = field(default_factory=list)
 
     def points(self) -> np.ndarray:
         """Every control point and tendon point (n, 3): what the view must contain."""
@@ -133,14 +139,21 @@ def scene_parts(ds: xr.Dataset, step: int | None = None) -> SceneParts:
     node_s = {name: (ds["s"].values[node_rod == name] if "s" in ds
                      else _arc_length(rods[name])) for name in rods}
     paths: list[TendonPath] = []
+    holes: dict[str, list[tuple[np.ndarray, np.ndarray]]] = {}
     for name, table in tendons_raw.items():
         if name in rods:
             paths.append(TendonPath(name, rods.pop(name), string=False))
         elif "tendon_string" in table and table["catheter"] in frames:
-            points, s = _string_path(
-                table, rods[table["catheter"]], node_s[table["catheter"]],
-                *frames[table["catheter"]], float(raw["rods"][table["catheter"]]["length"]))
+            catheter = table["catheter"]
+            points, s, offset = _string_path(
+                table, rods[catheter], node_s[catheter], *frames[catheter],
+                float(raw["rods"][catheter]["length"]))
             paths.append(TendonPath(name, points, string=True, s=s))
+            if table["tendon_string"].get("spacers"):
+                holes.setdefault(catheter, []).append((s, offset))
+    disks = [disk for catheter, found in holes.items()
+             for disk in _disks(catheter, found, rods[catheter], node_s[catheter],
+                                *frames[catheter])]
     obstacles = [build_obstacle(name, table)
                  for name, table in scene.data.get("obstacles", {}).items()]
     rods_raw = raw["rods"]
@@ -157,7 +170,22 @@ def scene_parts(ds: xr.Dataset, step: int | None = None) -> SceneParts:
                     for i in np.flatnonzero(np.linalg.norm(forces, axis=1) > 0.0)]
     radii = {name: float(rods_raw[name]["radius"]) for name in rods}
     return SceneParts(str(ds.attrs.get("title", scene.name)), rods, radii, paths, obstacles,
-                      loads, contacts)
+                      loads, contacts, disks)
+
+
+def _disks(catheter: str, holes: list[tuple[np.ndarray, np.ndarray]], nodes: np.ndarray,
+           node_s: np.ndarray, knots: np.ndarray, quaternions: np.ndarray) -> list[Disk]:
+    """The spacer disks of ``catheter`` at the arc lengths of the routing points
+    ``holes`` (each tendon's s and |ρ(s)|): one per arc length, its radius
+    ``DISK_MARGIN`` times the largest |ρ| there (module docstring)."""
+    s = np.concatenate([found for found, _ in holes])
+    offset = np.concatenate([rho for _, rho in holes])
+    at = np.unique(s)
+    largest = np.array([offset[s == x].max() for x in at])
+    centres = _along(at, node_s, nodes)
+    normals = _frame_at(at, knots, quaternions)[:, 2]
+    return [Disk(catheter, float(x), c, n, DISK_MARGIN * float(r))
+            for x, c, n, r in zip(at, centres, normals, largest, strict=True)]
 
 
 def _frame_at(s: np.ndarray, knots: np.ndarray, quaternions: np.ndarray) -> np.ndarray:
@@ -180,8 +208,9 @@ def _along(s: np.ndarray, node_s: np.ndarray, nodes: np.ndarray) -> np.ndarray:
 
 def _string_path(table: dict[str, Any], nodes: np.ndarray, node_s: np.ndarray,
                  knots: np.ndarray, quaternions: np.ndarray, length: float
-                 ) -> tuple[np.ndarray, np.ndarray]:
-    """The routing points (P, 3) [m] and their rest arc lengths (P,) [m]."""
+                 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The routing points (P, 3) [m], their rest arc lengths (P,) [m] and their
+    offsets |ρ(s)| (P,) [m] from the centerline."""
     string = SimpleNamespace(**table["tendon_string"])
     routing = Routing.of(float(table["offset"]), table["direction"], string)
     start, end = string_span(string, length)
@@ -191,7 +220,7 @@ def _string_path(table: dict[str, Any], nodes: np.ndarray, node_s: np.ndarray,
     frame = _frame_at(s, knots, quaternions)
     rho = routing.offsets(s)
     return (_along(s, node_s, nodes) + rho[:, 0:1] * frame[:, 0] + rho[:, 1:2] * frame[:, 1],
-            s)
+            s, np.hypot(rho[:, 0], rho[:, 1]))
 
 
 def _rod_loads(name: str, table: dict[str, Any], nodes: np.ndarray, node_s: np.ndarray,

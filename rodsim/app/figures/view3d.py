@@ -38,6 +38,7 @@ import xarray as xr
 from rodsim.app.figures import layers
 from rodsim.app.figures.colouring import ColouredLine, Colouring
 from rodsim.app.figures.scene_parts import Arrow, SceneParts
+from rodsim.app.figures.spacer_disks import Disk, disk_ring
 from rodsim.app.figures.state_series import MAX_FRAMES, coloured_states, evenly
 from rodsim.io.atomic import write_atomic
 
@@ -148,12 +149,26 @@ def _moving(parts: SceneParts, size: float, hide: frozenset[str] = frozenset(),
             x=p[-1:, 0], y=p[-1:, 1], z=p[-1:, 2], mode="markers", legendgroup=tendon.name,
             name=f"termination {tendon.name}", showlegend=False,
             marker={"size": 5, "symbol": "square-open", "color": colour}))
+    if parts.disks and layers.TENDON not in hide:
+        traces.append(_disk_trace(parts.disks))
     for arrows, colour, what, layer in ((parts.loads, LOAD, "loads", layers.LOAD),
                                         (parts.contacts, CONTACT, "contact forces",
                                          layers.CONTACT)):
         if layer not in hide:
             traces.append(_arrow_trace(arrows, 0.2 * size, colour, what))
     return traces
+
+
+def _disk_trace(disks: list[Disk]) -> Any:
+    """Every spacer disk as a thin ring (``rodsim.app.figures.spacer_disks.disk_ring``),
+    one trace, the rings apart."""
+    import plotly.graph_objects as go
+
+    gap = np.full((1, 3), np.nan)
+    rings = np.concatenate([np.concatenate([disk_ring(d), gap]) for d in disks])
+    return go.Scatter3d(x=rings[:, 0], y=rings[:, 1], z=rings[:, 2], mode="lines",
+                        name="spacer disks", line={"width": 2, "color": "#404040"},
+                        hoverinfo="skip")
 
 
 def _coloured(line: ColouredLine, name: str, label: str, scale: tuple[Any, Any], width: int,
