@@ -242,7 +242,10 @@ class MidpointStep:
     @staticmethod
     def _cayley_derivative(qm: np.ndarray, wm: np.ndarray, h: float) -> np.ndarray:
         """∂q₁/∂ω_m = (I − hΩ/4)⁻¹ (h/2) [B_k q_m]_k, shape (s, 4, 3) (from
-        q₁ − q₀ = (h/2) Ω q_m)."""
+        q₁ − q₀ = (h/2) Ω q_m), with (I − hΩ/4)⁻¹ = (I + hΩ/4)/(1 + (h/4)² |ω_m|²) in
+        closed form (Ω² = −|ω_m|² I: coordinates.cayley)."""
+        a = 0.25 * h
         omega = np.einsum("sk,kab->sab", wm, B)
-        return np.linalg.solve(np.eye(4)[None] - 0.25 * h * omega,
-                               0.5 * h * np.transpose(velocity_rows(qm), (0, 2, 1)))
+        rows = 0.5 * h * np.transpose(velocity_rows(qm), (0, 2, 1))
+        return (rows + a * (omega @ rows)) / (1.0 + a * a * np.sum(wm * wm, axis=1)
+                                              )[:, None, None]
