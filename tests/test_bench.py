@@ -650,3 +650,26 @@ def test_step_cost_small_outputs(tmp_path):
     assert [row["steps"] for row in rows] == [50, 50, 50, 100, 40]
     assert all(row["ms_per_step"] > 0.0 for row in rows)
     assert "| tdcr-two-segment, ramp | 40 |" in (tmp_path / "step-cost-small.md").read_text()
+
+
+@pytest.mark.slow
+def test_real_time_small_outputs(tmp_path):
+    """``rodsim bench real-time --size small``: the reference, the midpoint runs (their step
+    counts those of their fixed steps) and IDA's and CVODE's windows each give a row with a
+    finite tip error (no timing is asserted)."""
+    from rodsim_bench import real_time
+
+    paths = real_time.run("small", tmp_path, lambda *_: None)
+    assert {p.name for p in paths} == {"real-time-small.json", "real-time-small.md"}
+    report = json.loads((tmp_path / "real-time-small.json").read_text())
+    rows = report["rows"]
+    config = real_time.SIZES["small"]
+    assert [row["integrator"] for row in rows] == (
+        ["midpoint"] * (1 + len(config["midpoint"]))
+        + [name for name, _ in config["sundials"]])
+    steps = round(config["t_end"] / real_time.OUTPUT_DT)
+    assert [row["steps"] for row in rows[:1 + len(config["midpoint"])]] == [
+        steps * per for per in (config["reference"], *config["midpoint"])]
+    assert all(row["success"] and np.isfinite(row["tip_error_over_L"]) for row in rows)
+    assert rows[0]["tip_error_over_L"] == 0.0 and report["reference_bound_over_L"] > 0.0
+    assert "| midpoint | reference" in (tmp_path / "real-time-small.md").read_text()

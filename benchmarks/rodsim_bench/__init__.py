@@ -8,9 +8,10 @@ waits for around the solves: the whole-process CPU of short commands (startup), 
 rate (tracking), a study on 1 and 2 workers (workers), the natural frequencies of a
 bent robot (modes), tendon friction's pull–release cycles and static solves (friction) and
 many equilibria of one scene on 1 and 2 workers (batch); physical time's integrators at
-equal tip accuracy, the midpoint rule against IDA (dynamics); and hostile command lines,
-each its own process, sorted into clear refusals, failures, checked successes and defects
-(hostile).
+equal tip accuracy, the midpoint rule against IDA (dynamics), their CPU per step
+(step-cost) and tdcr-two-segment against the real-time aim (real-time); and hostile
+command lines, each its own process, sorted into clear refusals, failures, checked
+successes and defects (hostile).
 
 Each benchmark is one module with ``run(size, output_dir, progress) -> list[Path]`` that
 writes its numbers (a netCDF archive with the machine description in its attributes), its
@@ -22,4 +23,4 @@ Timings on shared machines are noisy: compare the ratios measured within one run
 BENCHMARKS = ("work-precision", "paper-regime", "scaling", "large-n", "stress", "skip-work",
               "kernels", "pyelastica", "string-tendon", "contact", "force-from-shape", "floor",
               "iterations", "startup", "tracking", "workers", "modes", "friction",
-              "batch", "dynamics", "step-cost", "hostile")
+              "batch", "dynamics", "step-cost", "real-time", "hostile")

@@ -48,11 +48,13 @@ def velocity_rows(q: np.ndarray) -> np.ndarray:
 def cayley(q: np.ndarray, w: np.ndarray, h: float) -> np.ndarray:
     """The quaternions q₁ with q₁ − q = (h/2) Ω (q + q₁)/2, Ω = Σ_k w_k B_k: the implicit
     midpoint step of q̇ = ½ Ω q at the constant rate ``w`` (s, 3) over ``h``, the Cayley
-    transform (I − hΩ/4)⁻¹ (I + hΩ/4) q, which keeps |q| exactly (Ω is skew)."""
-    omega = np.einsum("sk,kab->sab", w, B)
-    eye = np.eye(4)[None]
-    return np.linalg.solve(eye - 0.25 * h * omega, ((eye + 0.25 * h * omega) @ q[..., None])
-                           )[..., 0]
+    transform (I − hΩ/4)⁻¹ (I + hΩ/4) q, which keeps |q| exactly (Ω is skew). The B_k
+    anticommute and square to −I, so Ω² = −|w|² I and (I − aΩ)⁻¹ = (I + aΩ)/(1 + a²|w|²)
+    (a = h/4): q₁ = ((1 − a²|w|²) q + 2a Ω q)/(1 + a²|w|²), in closed form."""
+    a = 0.25 * h
+    squared = a * a * np.sum(w * w, axis=1)[:, None]
+    turned = np.einsum("ska,sk->sa", velocity_rows(q), w)  # Ω q = Σ_k w_k B_k q
+    return ((1.0 - squared) * q + 2.0 * a * turned) / (1.0 + squared)
 
 
 def cross_rows(a: np.ndarray, b: np.ndarray) -> np.ndarray:

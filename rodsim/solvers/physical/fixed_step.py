@@ -7,7 +7,13 @@ the step's end r₁ and a body rate per segment (docs/dynamics.md).
 The Newton iteration: the Newton matrix is factored (SuperLU) at the first iterate and kept
 while each iteration shrinks the change tenfold (a simplified Newton; a fresh matrix
 otherwise), to the tolerance ``NEWTON_TOLERANCE`` on the change — of any node over the
-longest rod's length, of any segment's angle over the step.
+longest rod's length, of any segment's angle over the step. A stepper that passes a
+``KeptMatrix`` (the midpoint rule) also keeps the last factored matrix across steps of the
+same length: the next step starts from it instead of a fresh one at its first iterate
+(modified Newton; the same refresh rule, no clock), and a step whose Newton fails with it
+starts again with a fresh one. On tdcr-two-segment under a tension ramp (N = 61, 2 ms
+steps) that took 5.9 instead of 7.0 iterations a step and 0.81 of the CPU, the tip within
+1.7e-14 L of the fresh-matrix run (the Newton tolerance's level).
 """
 
 from __future__ import annotations
@@ -38,7 +44,7 @@ from rodsim.solvers.physical.sparse_kernels import (
 )
 
 __all__ = ["Motion", "StepOutcome", "StepFailure", "FixedStep", "solve_step",
-           "newton_matrix",
+           "newton_matrix", "KeptMatrix",
            "NEWTON_TOLERANCE", "MAX_ITERATIONS"]
 
 #: Newton stops when its step moves no node by more than this times the longest rod and no
@@ -54,6 +60,8 @@ REFRESH = 0.1
 DIVERGED = 0.1
 #: Newton iterations allowed per time step.
 MAX_ITERATIONS = 25
+#: A kept Newton matrix serves a step whose length is within this (relative) of its own.
+KEPT_STEP = 1e-9
 
 
 class StepFailure(RuntimeError):
@@ -108,23 +116,60 @@ class FixedStep(Protocol):
 Evaluate = Callable[[np.ndarray, np.ndarray, bool], tuple[np.ndarray, "sp.spmatrix | None"]]
 
 
+@dataclass
+class KeptMatrix:
+    """The last factored Newton matrix of a run's steps, for the next step (a modified
+    Newton across steps): the step length it was built for [s] and its solve."""
+
+    h: float = float("nan")
+    solve: Callable[[np.ndarray], np.ndarray] | None = None
+
+    def fits(self, h: float) -> bool:
+        """Whether it was built for a step of length ``h`` (to 1e-9 relative: a run's equal
+        steps differ in their last bits)."""
+        return self.solve is not None and abs(self.h - h) <= KEPT_STEP * h
+
+
 def solve_step(evaluate: Evaluate, r1: np.ndarray, w: np.ndarray, h: float,
-               length_scale: float, tolerance: float) -> tuple[np.ndarray, np.ndarray, int]:
+               length_scale: float, tolerance: float, kept: KeptMatrix | None = None
+               ) -> tuple[np.ndarray, np.ndarray, int]:
     """Newton from (``r1``, ``w``) — node positions (p,) and body rates (s, 3) — on
     ``evaluate``'s residual (module docstring): (r₁, w, iterations); StepFailure when it
-    diverges, does not converge or meets a value that is not finite."""
+    diverges, does not converge or meets a value that is not finite. With ``kept``: the
+    Newton matrix of an earlier step of the same length starts the iteration (refreshed by
+    the same rule as within a step); if the iteration fails with it, the step's Newton
+    starts again from (``r1``, ``w``) with a fresh matrix (its iterations counted too).
+    Every fresh matrix factored is kept for the next step."""
+    counted = [0]
+    if kept is not None and kept.fits(h):
+        try:
+            r, v = _newton(evaluate, r1, w, h, length_scale, tolerance, kept, kept.solve,
+                           counted)
+            return r, v, counted[0]
+        except StepFailure:
+            pass
+    r, v = _newton(evaluate, r1, w, h, length_scale, tolerance, kept, None, counted)
+    return r, v, counted[0]
+
+
+def _newton(evaluate: Evaluate, r1: np.ndarray, w: np.ndarray, h: float,
+            length_scale: float, tolerance: float, kept: KeptMatrix | None,
+            solve: Callable[[np.ndarray], np.ndarray] | None, counted: list[int]
+            ) -> tuple[np.ndarray, np.ndarray]:
+    """``solve_step``'s iteration from the factored matrix ``solve`` (None: a fresh one at
+    the first iterate); ``counted[0]`` counts its iterations."""
     p = len(r1)
-    solve: Callable[[np.ndarray], np.ndarray] | None = None
     previous = moved = best = np.inf
-    iterations = 0
     for _ in range(MAX_ITERATIONS):
-        iterations += 1
+        counted[0] += 1
         residual, matrix = evaluate(r1, w, solve is None)
         if matrix is not None:  # a fresh Newton matrix, kept while it converges fast
             try:
                 solve = spla.splu(matrix.tocsc()).solve
             except RuntimeError as exc:
                 raise StepFailure(f"the Newton matrix is singular ({exc})") from None
+            if kept is not None:
+                kept.h, kept.solve = h, solve
         assert solve is not None
         delta = solve(-residual)
         if not np.all(np.isfinite(delta)):
@@ -144,7 +189,7 @@ def solve_step(evaluate: Evaluate, r1: np.ndarray, w: np.ndarray, h: float,
     else:
         raise StepFailure(f"Newton did not converge in {MAX_ITERATIONS} iterations "
                           f"(last change {moved:.1e})")
-    return r1, w, iterations
+    return r1, w
 
 
 def newton_matrix(coordinates: PhysicalCoordinates, factor: float, stiffness: sp.csr_matrix,

@@ -25,8 +25,9 @@ step. The scheme is symmetric and second order; undamped, its energy error does 
 and q₁ is normalised after each step to keep it there over many steps.
 
 Newton on the midpoint velocities (rodsim/solvers/physical/fixed_step.py: a simplified
-Newton, to the tolerance ``NEWTON_TOLERANCE``) uses the model's analytic sparse Jacobian
-∂F/∂x at the step's first iterate, fresh while the iteration converges slowly; the
+Newton, to the tolerance ``NEWTON_TOLERANCE``) uses a Newton matrix from the model's
+analytic sparse Jacobian ∂F/∂x, the last one factored — kept across steps of the same
+length (``kept``) — and a fresh one while the iteration converges slowly; the
 damping, D_t = Gᵀ D G on the physical velocities, is evaluated at each iterate's
 midpoint, so that the converged step's is the midpoint's (held from a predicted midpoint
 instead, an O(h²) error in the strain rates that the stiff stretch amplifies put the
@@ -53,6 +54,7 @@ from rodsim.solvers.physical.coordinates import (
 )
 from rodsim.solvers.physical.fixed_step import (
     NEWTON_TOLERANCE,
+    KeptMatrix,
     Motion,
     StepFailure,
     StepOutcome,
@@ -85,6 +87,9 @@ class MidpointStep:
         self.length_scale = length_scale
         self.tolerance = tolerance
         self.quadrature = quadrature
+        #: The last step's factored Newton matrix, which starts the next step's Newton
+        #: (fixed_step.solve_step).
+        self.kept = KeptMatrix()
         c = coordinates
         self._p = len(c.positions)
         self._s = len(c.quaternions)
@@ -220,7 +225,7 @@ class MidpointStep:
             return residual, newton_matrix(c, 2.0, stiffness, damping, wm, h)
 
         r1, wm, iterations = solve_step(evaluate, r1, wm, h, self.length_scale,
-                                        self.tolerance)
+                                        self.tolerance, self.kept)
         damping = held[0]
         xm, q1, _, _ = self._midpoint(x0, r1, wm, h)
         vm = (r1 - r0) / h
@@ -237,7 +242,10 @@ class MidpointStep:
     @staticmethod
     def _cayley_derivative(qm: np.ndarray, wm: np.ndarray, h: float) -> np.ndarray:
         """∂q₁/∂ω_m = (I − hΩ/4)⁻¹ (h/2) [B_k q_m]_k, shape (s, 4, 3) (from
-        q₁ − q₀ = (h/2) Ω q_m)."""
+        q₁ − q₀ = (h/2) Ω q_m), with (I − hΩ/4)⁻¹ = (I + hΩ/4)/(1 + (h/4)² |ω_m|²) in
+        closed form (Ω² = −|ω_m|² I: coordinates.cayley)."""
+        a = 0.25 * h
         omega = np.einsum("sk,kab->sab", wm, B)
-        return np.linalg.solve(np.eye(4)[None] - 0.25 * h * omega,
-                               0.5 * h * np.transpose(velocity_rows(qm), (0, 2, 1)))
+        rows = 0.5 * h * np.transpose(velocity_rows(qm), (0, 2, 1))
+        return (rows + a * (omega @ rows)) / (1.0 + a * a * np.sum(wm * wm, axis=1)
+                                              )[:, None, None]
