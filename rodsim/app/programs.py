@@ -15,6 +15,7 @@ from typing import Any
 import numpy as np
 
 from rodsim.app.inverse.parameter_keys import NumericKey, numeric_key, scene_with
+from rodsim.app.support_programs import SupportPrograms, is_support_key
 from rodsim.core.damping_options import ELASTIC_TERMS
 from rodsim.core.model import Model
 from rodsim.core.program import ProgramEntry, Sinusoid, Table, program_entry
@@ -44,13 +45,15 @@ def check_programs(scene: Scene, program: Program | None
         for name, raw in source.items():
             key = numeric_key(scene, name)
             parts = key.path.split(".")
-            if len(parts) != 4 or parts[2] in ("base", "supports") or (
+            support = is_support_key(parts)
+            if support is False or (support is None and (len(parts) != 4 or (
                     parts[0] == "rods" and parts[2] in ELASTIC_TERMS) or (
-                    parts[2:] == ["gravity", "direction"]):
+                    parts[2:] == ["gravity", "direction"]))):
                 raise SceneError(f"program {shown(name, bare=True)}: {key.path} cannot vary "
                                  "in time; allowed: a load's or a tendon's value (a term "
                                  "parameter other than the rod's own stiffness or gravity's "
-                                 "direction)")
+                                 "direction), a base's insertion or rotation, a node "
+                                 "support's displacement")
             if key.name in named:
                 raise SceneError(f"program {shown(name, bare=True)}: {key.name} is named "
                                  "twice")
@@ -84,6 +87,9 @@ class Programs:
         self.by_name = {key.name: entry
                         for key, entry in zip(self.keys, self.entries, strict=True)}
         self._models: dict[tuple[float, ...], Model] = {}
+        #: The supports' velocity in time, where programs move them
+        #: (rodsim/app/support_programs.py).
+        self.supports = SupportPrograms(model, self.keys, self.entries)
 
     @property
     def breaks(self) -> list[float]:
