@@ -1,8 +1,9 @@
 """Programs: scene values that vary in physical time (issue 33, item 2; docs/dynamics.md,
 "Initial state and programs").
 
-A program gives one numeric scene value p (a load, a tendon's tension or displacement: any
-key ``track`` ramps) as a function of time for ``rodsim.simulate``; the model at time t is
+A program gives one numeric scene value p (a load, a tendon's tension or displacement, a
+base's insertion or rotation, a node support's displacement: any key ``track`` ramps) as a
+function of time for ``rodsim.simulate``; the model at time t is
 the scene with p(t), and the loads' potential −F·r then does the work ∫ ∂V/∂p ṗ dt
 (rodsim/solvers/physical/trajectory.py). Two forms:
 

@@ -7,7 +7,10 @@ at the values they have at t —, dissipated D (the damping's ∫ ẋᵀ D ẋ d
 step exactly as the step applies it) and the work W that programs do by changing the
 values in time. A step from t₀ to t₁ uses the model at its midpoint time t_m; V's change
 splits exactly into the part the motion does at t_m's values, V(x₁, t_m) − V(x₀, t_m), and
-the program's work [V(x₁, t₁) − V(x₁, t_m)] + [V(x₀, t_m) − V(x₀, t₀)]. The balance
+the program's work [V(x₁, t₁) − V(x₁, t_m)] + [V(x₀, t_m) − V(x₀, t₀)] (for a moving
+support, its elastic reaction's work), to which a step adds a moving support's work
+through the damping (``StepOutcome.support_work``,
+rodsim/solvers/physical/moving_supports.py). The balance
 
     error = T + V + D − W − (T₀ + V₀)
 
