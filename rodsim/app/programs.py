@@ -9,6 +9,7 @@ A program maps a term's numeric value to a piecewise-linear table or a sinusoid
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping, Sequence
 from typing import Any
 
@@ -97,6 +98,15 @@ class Programs:
         smooth)."""
         return sorted({float(t) for entry in self.entries if isinstance(entry, Table)
                        for t in entry.times})
+
+    @property
+    def difference(self) -> float:
+        """The half-width [s] of a central difference of the values in time that is exact
+        enough: a thousandth of the shortest sinusoid's period (the difference's relative
+        error ~ (2π · 1e-3)²/6 = 7e-6), unbounded for tables (linear pieces)."""
+        periods = [1.0 / entry.frequency for entry in self.entries
+                   if isinstance(entry, Sinusoid)]
+        return 1e-3 * min(periods) if periods else math.inf
 
     def model_at(self, t: float, before: bool = False) -> Model:
         """The model with the values at ``t`` (``before``: just before ``t``, where a table

@@ -375,7 +375,8 @@ def simulate(scene: SceneLike | None, t_end: float, *, output_dt: float | None =
                                           0.0 if step is None else float(step), length, omega)
             dae = PhysicalDae(coordinates, stepper.damping, programs.model_at, model.n)
             integrate_ida(dae, programs.model_at, start, outputs, programs.breaks, options,
-                          progress, record, integrator, watched)
+                          progress, record, integrator, watched, varies=bool(programs.keys),
+                          difference=programs.difference)
         else:
             integrate(programs.model_at, stepper, start, outputs, h, progress, record,
                       friction.after_step if programs.path_dependent else None, watched)
