@@ -9,12 +9,14 @@ A program maps a term's numeric value to a piecewise-linear table or a sinusoid
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping, Sequence
 from typing import Any
 
 import numpy as np
 
 from rodsim.app.inverse.parameter_keys import NumericKey, numeric_key, scene_with
+from rodsim.app.support_programs import SupportPrograms, is_support_key
 from rodsim.core.damping_options import ELASTIC_TERMS
 from rodsim.core.model import Model
 from rodsim.core.program import ProgramEntry, Sinusoid, Table, program_entry
@@ -44,13 +46,15 @@ def check_programs(scene: Scene, program: Program | None
         for name, raw in source.items():
             key = numeric_key(scene, name)
             parts = key.path.split(".")
-            if len(parts) != 4 or parts[2] in ("base", "supports") or (
+            support = is_support_key(parts)
+            if support is False or (support is None and (len(parts) != 4 or (
                     parts[0] == "rods" and parts[2] in ELASTIC_TERMS) or (
-                    parts[2:] == ["gravity", "direction"]):
+                    parts[2:] == ["gravity", "direction"]))):
                 raise SceneError(f"program {shown(name, bare=True)}: {key.path} cannot vary "
                                  "in time; allowed: a load's or a tendon's value (a term "
                                  "parameter other than the rod's own stiffness or gravity's "
-                                 "direction)")
+                                 "direction), a base's insertion or rotation, a node "
+                                 "support's displacement")
             if key.name in named:
                 raise SceneError(f"program {shown(name, bare=True)}: {key.name} is named "
                                  "twice")
@@ -84,6 +88,9 @@ class Programs:
         self.by_name = {key.name: entry
                         for key, entry in zip(self.keys, self.entries, strict=True)}
         self._models: dict[tuple[float, ...], Model] = {}
+        #: The supports' velocity in time, where programs move them
+        #: (rodsim/app/support_programs.py).
+        self.supports = SupportPrograms(model, self.keys, self.entries)
 
     @property
     def breaks(self) -> list[float]:
@@ -91,6 +98,15 @@ class Programs:
         smooth)."""
         return sorted({float(t) for entry in self.entries if isinstance(entry, Table)
                        for t in entry.times})
+
+    @property
+    def difference(self) -> float:
+        """The half-width [s] of a central difference of the values in time that is exact
+        enough: a thousandth of the shortest sinusoid's period (the difference's relative
+        error ~ (2π · 1e-3)²/6 = 7e-6), unbounded for tables (linear pieces)."""
+        periods = [1.0 / entry.frequency for entry in self.entries
+                   if isinstance(entry, Sinusoid)]
+        return 1e-3 * min(periods) if periods else math.inf
 
     def model_at(self, t: float, before: bool = False) -> Model:
         """The model with the values at ``t`` (``before``: just before ``t``, where a table

@@ -30,6 +30,7 @@ from rodsim.app.friction_trace import FrictionTrace
 from rodsim.app.initial_velocity import VelocityLike, initial_rates, velocity_text
 from rodsim.app.interrupted import Interrupted
 from rodsim.app.programs import Program, Programs, check_programs
+from rodsim.app.support_programs import check_support_programs
 from rodsim.core.damping import Damping
 from rodsim.core.friction_record import FrictionRecord
 from rodsim.core.inertia import mass_factor
@@ -320,6 +321,10 @@ def simulate(scene: SceneLike | None, t_end: float, *, output_dt: float | None =
     loaded = load_scene(scene, overrides)
     model = Model(loaded)
     programs = Programs(loaded, model, program)
+    check_support_programs(loaded, programs.keys, integrator)
+    if programs.supports.active and programs.path_dependent:
+        raise SceneError(f"program {programs.keys[0].name}: a moving support with friction "
+                         "(a string tendon's or a contact's) is not in this version")
     if programs.path_dependent and integrator != "midpoint":  # before any work
         raise SceneError(f"integrator {integrator!r}: the scene has friction (a string "
                          "tendon's or a contact's), whose history each step carries to the "
@@ -352,12 +357,17 @@ def simulate(scene: SceneLike | None, t_end: float, *, output_dt: float | None =
         friction.after_step(0.0, model_state(model, x), None)
     coordinates = PhysicalCoordinates.of(model, x)
     length = max(rod.options.length for rod in model.rods.values())
-    stepper = (SemiImplicitEulerStep if integrator == "paper" else MidpointStep)(
-        coordinates, Damping(model), length)
+    stepper: SemiImplicitEulerStep | MidpointStep = (
+        SemiImplicitEulerStep(coordinates, Damping(model), length) if integrator == "paper"
+        else MidpointStep(coordinates, Damping(model), length,
+                          supports=programs.supports.at if programs.supports.active
+                          else None))
     start = Motion(x, *initial_rates(model, coordinates, x, initial_velocity))
     if watched is not None:  # a user's function checked at the start (EventError, one line)
         watched.values(0.0, programs.model_at(0.0), x, start.v)
     record = Record()
+    # where a support moves, the held coordinates at each output are the model's of its time
+    moved = programs.model_at if programs.supports.active else None
     try:
         if integrator not in FIXED_STEP:
             options = PhysicalTimeOptions(settings["rtol"], settings["atol"],
@@ -365,7 +375,8 @@ def simulate(scene: SceneLike | None, t_end: float, *, output_dt: float | None =
                                           0.0 if step is None else float(step), length, omega)
             dae = PhysicalDae(coordinates, stepper.damping, programs.model_at, model.n)
             integrate_ida(dae, programs.model_at, start, outputs, programs.breaks, options,
-                          progress, record, integrator, watched)
+                          progress, record, integrator, watched, varies=bool(programs.keys),
+                          difference=programs.difference)
         else:
             integrate(programs.model_at, stepper, start, outputs, h, progress, record,
                       friction.after_step if programs.path_dependent else None, watched)
@@ -383,7 +394,7 @@ def simulate(scene: SceneLike | None, t_end: float, *, output_dt: float | None =
                           "it are kept)")
         partial = _simulation(loaded, model, record, _step_of(record, h, integrator),
                               integrator, float(t_end), programs.by_name, initial,
-                              initial_velocity, friction)
+                              initial_velocity, friction, moved)
         raise Interrupted(partial, record.message) from None
     except EventError as exc:  # a user's event function failed part-way
         if not record.times:
@@ -399,7 +410,8 @@ def simulate(scene: SceneLike | None, t_end: float, *, output_dt: float | None =
                           f"programs' values break a rule before the next ({exc}); the "
                           "outputs up to it are kept")
     return _simulation(loaded, model, record, _step_of(record, h, integrator), integrator,
-                       float(t_end), programs.by_name, initial, initial_velocity, friction)
+                       float(t_end), programs.by_name, initial, initial_velocity, friction,
+                       moved)
 
 
 def _step_of(record: Record, h: float, integrator: str) -> float:
@@ -412,11 +424,16 @@ def _simulation(loaded: Scene, model: Model, record: Record, h: float, integrato
                 t_end: float, programs: dict[str, ProgramEntry],
                 initial: Mapping[str, Any] | Result | None,
                 initial_velocity: VelocityLike | None = None,
-                friction: FrictionTrace | None = None) -> Simulation:
+                friction: FrictionTrace | None = None,
+                model_at: Callable[[float], Model] | None = None) -> Simulation:
     """The ``Simulation`` of what ``record`` holds (with ``friction``'s tensions and
-    stick/slip states at its times)."""
+    stick/slip states at its times; ``model_at``: the model of a time, whose held
+    coordinates a moving support sets)."""
     states = np.array(record.states)
-    full = np.array([model.full(model_state(model, state)) for state in states])
+    models = ([model_at(t) for t in record.times[:len(states)]] if model_at is not None
+              else [model] * len(states))
+    full = np.array([at.full(model_state(at, state))
+                     for at, state in zip(models, states, strict=True)])
     positions = np.concatenate([full[:, model.rods[name].layout.position_index]
                                 for name in model.rods], axis=1)
     quaternions = np.concatenate([full[:, model.rods[name].layout.quaternion_index]

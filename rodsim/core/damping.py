@@ -94,6 +94,12 @@ class Damping:
                 cols.append(j)
                 values.append(np.full(i.size, c * length * share))
         self.drag = self._assemble(rows, cols, values)
+        size = model.full_size
+        #: The drag on every coordinate, held ones included (``full_matrices``).
+        self.drag_full = (sp.csr_matrix((np.concatenate(values), (np.concatenate(rows),
+                                                                  np.concatenate(cols))),
+                                        shape=(size, size)) if rows
+                          else sp.csr_matrix((size, size)))
 
     @property
     def active(self) -> bool:
@@ -113,12 +119,10 @@ class Damping:
         keep = (i >= 0) & (j >= 0)
         return sp.csr_matrix((v[keep], (i[keep], j[keep])), shape=(n, n))
 
-    def matrix(self, x: np.ndarray) -> sp.csr_matrix:
-        """D(x) = Σ_rods Σ_k τ_k K_mat,k(x) + c C on the free coordinates at ``x``, the free
-        coordinates themselves (positions and quaternions, not the model's offsets)
-        [N·s/m and the quaternions' units]; symmetric."""
-        if not self.elastic:
-            return self.drag
+    def _material_entries(self, x: np.ndarray
+                          ) -> tuple[list[np.ndarray], list[np.ndarray], list[np.ndarray]]:
+        """The elastic terms' material stiffness entries at ``x`` (the free coordinates
+        themselves), times their τ: (rows, columns, values), full-state indices."""
         state = x - self.model.reference[self.model.free]  # the model's offsets
         full, offsets = self.model.full(state), self.model.offsets(state)
         rows, cols, values = [], [], []
@@ -132,5 +136,28 @@ class Damping:
             rows.append(np.repeat(dofs, k, axis=1).ravel())
             cols.append(np.tile(dofs, (1, k)).ravel())
             values.append(tau * blocks.ravel())
-        material = self._assemble(rows, cols, values)
+        return rows, cols, values
+
+    def matrix(self, x: np.ndarray) -> sp.csr_matrix:
+        """D(x) = Σ_rods Σ_k τ_k K_mat,k(x) + c C on the free coordinates at ``x``, the free
+        coordinates themselves (positions and quaternions, not the model's offsets)
+        [N·s/m and the quaternions' units]; symmetric."""
+        if not self.elastic:
+            return self.drag
+        material = self._assemble(*self._material_entries(x))
         return (material + material.T) * 0.5 + self.drag
+
+    def full_matrices(self, x: np.ndarray) -> tuple[sp.csr_matrix, sp.csr_matrix]:
+        """The Kelvin–Voigt part Σ_k τ_k K_mat,k(x) and the drag c C on every coordinate of
+        the full state, held ones included (a moving support's damping,
+        rodsim/solvers/physical/moving_supports.py), at ``x`` (free coordinates
+        themselves); both symmetric."""
+        size = self.model.full_size
+        drag = self.drag_full
+        if not self.elastic:
+            return sp.csr_matrix((size, size)), drag
+        rows, cols, values = self._material_entries(x)
+        material = sp.csr_matrix((np.concatenate(values),
+                                  (np.concatenate(rows), np.concatenate(cols))),
+                                 shape=(size, size))
+        return ((material + material.T) * 0.5).tocsr(), drag

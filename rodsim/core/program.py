@@ -1,8 +1,9 @@
 """Programs: scene values that vary in physical time (issue 33, item 2; docs/dynamics.md,
 "Initial state and programs").
 
-A program gives one numeric scene value p (a load, a tendon's tension or displacement: any
-key ``track`` ramps) as a function of time for ``rodsim.simulate``; the model at time t is
+A program gives one numeric scene value p (a load, a tendon's tension or displacement, a
+base's insertion or rotation, a node support's displacement: any key ``track`` ramps) as a
+function of time for ``rodsim.simulate``; the model at time t is
 the scene with p(t), and the loads' potential −F·r then does the work ∫ ∂V/∂p ṗ dt
 (rodsim/solvers/physical/trajectory.py). Two forms:
 
@@ -72,6 +73,17 @@ class Table:
         return float(self.values[right - 1] + share * (self.values[right]
                                                        - self.values[right - 1]))
 
+    def rate(self, t: float) -> float:
+        """dp/dt at ``t``: the slope of the piece that holds ``t`` (at a table time, the
+        piece after it), 0 before the first time and after the last; exact, the table
+        being piecewise linear (a moving support's velocity, docs/dynamics.md)."""
+        times = np.asarray(self.times)
+        right = int(np.searchsorted(times, t, side="right"))
+        if right == 0 or right == len(times):
+            return 0.0
+        t0, t1 = times[right - 1], times[right]
+        return float((self.values[right] - self.values[right - 1]) / (t1 - t0))
+
     def extremes(self) -> tuple[float, float]:
         """The smallest and largest value over all times (a linear piece lies between its
         ends)."""
@@ -112,6 +124,11 @@ class Sinusoid:
             raise ValueError("a sinusoid without offset: give it the scene's value (about)")
         return self.offset + self.amplitude * math.sin(2.0 * math.pi * self.frequency * t
                                                        + self.phase)
+
+    def rate(self, t: float) -> float:
+        """dp/dt = 2π · frequency · amplitude · cos(2π · frequency · t + phase), exact."""
+        angular = 2.0 * math.pi * self.frequency
+        return angular * self.amplitude * math.cos(angular * t + self.phase)
 
     def extremes(self) -> tuple[float, float]:
         """offset ∓ amplitude, the smallest and largest value (ValueError without an

@@ -90,12 +90,14 @@ class Motion:
 
 @dataclass(frozen=True)
 class StepOutcome:
-    """The motion a step reached, the energy its damping dissipated [J] and its Newton
-    iterations."""
+    """The motion a step reached, the energy its damping dissipated [J], its Newton
+    iterations and the work a moving support did through the damping [J]
+    (rodsim/solvers/physical/moving_supports.py; 0 where no support moves)."""
 
     motion: Motion
     dissipated: float
     iterations: int
+    support_work: float = 0.0
 
 
 class FixedStep(Protocol):
@@ -105,9 +107,10 @@ class FixedStep(Protocol):
     coordinates: PhysicalCoordinates
     damping: Damping
 
-    def step(self, model: Model, start: Motion, h: float) -> StepOutcome:
-        """One step of length ``h`` [s] from ``start`` with ``model``'s forces;
-        StepFailure when it cannot be taken."""
+    def step(self, model: Model, start: Motion, h: float, t: float = 0.0) -> StepOutcome:
+        """One step of length ``h`` [s] from ``start`` with ``model``'s forces, ``t`` the
+        step's midpoint time [s] (where a support moves); StepFailure when it cannot be
+        taken."""
         ...
 
 

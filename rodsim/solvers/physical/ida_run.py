@@ -255,8 +255,9 @@ class _Energy:
     docstring)."""
 
     def __init__(self, dae: PhysicalDae, model_at: Callable[[float, bool], Model],
-                 varies: bool) -> None:
+                 varies: bool, difference: float = math.inf) -> None:
         self.dae, self.model_at, self.varies = dae, model_at, varies
+        self.difference = difference
         self.dissipated = self.work = 0.0
 
     def add(self, clock: Clock, a: float, b: float, piece: tuple[float, float]) -> None:
@@ -273,7 +274,7 @@ class _Energy:
                 self.dissipated += weight * (b - a) * float(u @ (self.dae.damping.matrix(x)
                                                                   @ u))
             if self.varies:
-                delta = min(t - piece[0], piece[1] - t)
+                delta = min(t - piece[0], piece[1] - t, self.difference)
                 rate = (_potential(self.model_at(t + delta, True), x)
                         - _potential(self.model_at(t - delta, False), x)) / (2.0 * delta)
                 self.work += weight * (b - a) * rate
@@ -283,7 +284,8 @@ def integrate_ida(dae: PhysicalDae, model_at: Callable[[float, bool], Model],
                   start: Motion, output_times: Sequence[float], breaks: Sequence[float],
                   options: PhysicalTimeOptions, progress: Callable[[float], None] | None = None,
                   record: Record | None = None, solver: str = "ida",
-                  events: EventFunctions | None = None) -> Record:
+                  events: EventFunctions | None = None, varies: bool | None = None,
+                  difference: float = math.inf) -> Record:
     """Integrate from ``start`` (t = ``output_times[0]`` = 0) through every output time;
     ``model_at(t, before)`` is the model with the values at t (``before``: their values
     just before t, where a value jumps), ``breaks`` the programs' breakpoints. A failure
@@ -292,12 +294,17 @@ def integrate_ida(dae: PhysicalDae, model_at: Callable[[float, bool], Model],
     ``solver``: ``"ida"`` (the residual form) or ``"cvode"`` (the explicit form);
     ``events``: the event functions SUNDIALS' root finding watches (rodsim/solvers/physical/
     events.py): each root's time and name go to ``record.events`` and a terminal one ends
-    the run there, with an output at its time."""
+    the run there, with an output at its time. ``varies``: whether any value varies in
+    time (its work is then integrated; default: whether there are breakpoints, which a
+    program of sinusoids alone has none of); ``difference``: the longest half-width [s] of
+    the central difference that gives the values' rate of work (a table's pieces are
+    linear, so any is exact there; a sinusoid's needs a small one)."""
     record = Record() if record is None else record
     c, n = dae.coordinates, dae.n
     ends = sorted({float(b) for b in breaks if 0.0 < b < output_times[-1]}
                   | {float(output_times[-1])})
-    energy = _Energy(dae, model_at, varies=bool(breaks))
+    energy = _Energy(dae, model_at, varies=bool(breaks) if varies is None else varies,
+                     difference=difference)
     pending = [float(t) for t in output_times]
     y0 = np.concatenate([start.x, start.v, start.w.ravel()])
     run = _Run()

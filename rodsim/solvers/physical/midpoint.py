@@ -38,6 +38,8 @@ starts from the last step's midpoint velocities (``Motion``).
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 import numpy as np
 import scipy.sparse as sp
 
@@ -61,6 +63,7 @@ from rodsim.solvers.physical.fixed_step import (
     newton_matrix,
     solve_step,
 )
+from rodsim.solvers.physical.moving_supports import SupportVelocity
 from rodsim.solvers.physical.sparse_kernels import (
     Csr,
     arrays,
@@ -72,7 +75,10 @@ from rodsim.solvers.physical.sparse_kernels import (
 )
 from rodsim.solvers.physical.tangent_damping import TangentDamping
 
-__all__ = ["MidpointStep"]
+__all__ = ["MidpointStep", "SupportsAt"]
+
+#: The supports' velocity at a time [s] (rodsim/solvers/physical/moving_supports.py).
+SupportsAt = Callable[[float], SupportVelocity]
 
 
 class MidpointStep:
@@ -80,10 +86,16 @@ class MidpointStep:
 
     def __init__(self, coordinates: PhysicalCoordinates, damping: Damping,
                  length_scale: float, tolerance: float = NEWTON_TOLERANCE,
-                 quadrature: int = 2) -> None:
+                 quadrature: int = 2, supports: SupportsAt | None = None) -> None:
         self.coordinates = coordinates
         self.damping = damping
         self._tangent_damping = TangentDamping(damping)
+        #: The supports' velocity at a time, where programs move them (None: no support
+        #: moves; rodsim/solvers/physical/moving_supports.py).
+        self.supports = supports
+        #: The damping of each model met (a moving support's model holds its own held
+        #: coordinates and clamp frame), the model kept so that its id stays its own.
+        self._dampings: dict[int, tuple[Model, Damping, TangentDamping]] = {}
         self.length_scale = length_scale
         self.tolerance = tolerance
         self.quadrature = quadrature
@@ -189,11 +201,29 @@ class MidpointStep:
             return f_r, tau, None
         return f_r, tau, csr_of(transpose(m, m, derivative), (m, m), sorted_indices=True)
 
-    def step(self, model: Model, start: Motion, h: float) -> StepOutcome:
+    def _damping_of(self, model: Model) -> tuple[Damping, TangentDamping]:
+        """The damping of ``model`` (the start's where no support moves: the damping does
+        not depend on the loads)."""
+        if self.supports is None or model is self.damping.model:
+            return self.damping, self._tangent_damping
+        known = self._dampings.get(id(model))
+        if known is None:
+            if len(self._dampings) > 8:
+                self._dampings.clear()
+            damping = Damping(model)
+            known = (model, damping, TangentDamping(damping))
+            self._dampings[id(model)] = known
+        return known[1], known[2]
+
+    def step(self, model: Model, start: Motion, h: float, t: float = 0.0) -> StepOutcome:
         """One step of length ``h`` [s] from ``start`` with ``model``'s forces (those of the
-        step's midpoint time); StepFailure when Newton does not converge."""
+        step's midpoint time ``t`` [s]); StepFailure when Newton does not converge."""
         c = self.coordinates
         n = model.n
+        moving = None if self.supports is None else self.supports(t)
+        damper, tangent_damping = self._damping_of(model)
+        # the moving supports' damping force and dissipated power at the last iterate
+        support: list[tuple[np.ndarray, np.ndarray, float]] = []
         x0, v0, w0 = start.x, start.v, start.w
         r0 = x0[c.positions]
         # D_t = Gᵀ D G on the physical velocities at the last iterate's midpoint
@@ -212,12 +242,19 @@ class MidpointStep:
             res_r = (2.0 / h) * (c.mass @ (vm - v0)) - f_r
             res_w = ((2.0 / h) * inertia * (wm - w0) + cross_rows(wm, inertia * wm) - tau)
             damping = None
-            if self.damping.active:
+            if damper.active:
                 g = c.g_arrays(xm, n)
-                damping = self._tangent_damping.matrix(xm, g, c.size)
+                damping = tangent_damping.matrix(xm, g, c.size)
                 dragged = damping @ np.concatenate([vm, wm.ravel()])
                 res_r = res_r + dragged[:self._p]
                 res_w = res_w + dragged[self._p:].reshape(-1, 3)
+                if moving is not None:
+                    x_dot = self._tangent(xm, vm, wm)
+                    force, power = moving.damping_force(damper, xm, x_dot)
+                    pushed_r, pushed_w = self._generalised(xm, force)
+                    res_r = res_r - pushed_r
+                    res_w = res_w - pushed_w
+                    support[:] = [(x_dot, force, power)]
             held[0] = damping
             residual = np.concatenate([res_r, res_w.ravel()])
             if stiffness is None:
@@ -229,15 +266,20 @@ class MidpointStep:
         damping = held[0]
         xm, q1, _, _ = self._midpoint(x0, r1, wm, h)
         vm = (r1 - r0) / h
-        dissipated = 0.0
+        dissipated = work = 0.0
         if damping is not None:
             velocity = np.concatenate([vm, wm.ravel()])
             dissipated = float(h * velocity @ (damping @ velocity))
+            if support:  # what the free rates lose, the whole dissipation, the difference
+                x_dot, force, power = support[0]
+                lost = dissipated - h * float(x_dot @ force)
+                dissipated = h * power
+                work = dissipated - lost
         x1 = x0.copy()
         x1[c.positions] = r1
         x1[c.quaternions] = q1 / np.linalg.norm(q1, axis=1)[:, None]
         return StepOutcome(Motion(x1, 2.0 * vm - v0, 2.0 * wm - w0, (vm, wm)), dissipated,
-                           iterations)
+                           iterations, work)
 
     @staticmethod
     def _cayley_derivative(qm: np.ndarray, wm: np.ndarray, h: float) -> np.ndarray:

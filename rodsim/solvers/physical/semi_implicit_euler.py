@@ -139,7 +139,7 @@ class SemiImplicitEulerStep:
         return f[c.positions], tau, csr_of(transpose(m, m, derivative), (m, m),
                                            sorted_indices=True)
 
-    def step(self, model: Model, start: Motion, h: float) -> StepOutcome:
+    def step(self, model: Model, start: Motion, h: float, t: float = 0.0) -> StepOutcome:
         """One step of length ``h`` [s] from ``start`` with ``model``'s forces (those of the
         step's time); StepFailure when Newton does not converge."""
         c = self.coordinates

@@ -7,7 +7,10 @@ at the values they have at t —, dissipated D (the damping's ∫ ẋᵀ D ẋ d
 step exactly as the step applies it) and the work W that programs do by changing the
 values in time. A step from t₀ to t₁ uses the model at its midpoint time t_m; V's change
 splits exactly into the part the motion does at t_m's values, V(x₁, t_m) − V(x₀, t_m), and
-the program's work [V(x₁, t₁) − V(x₁, t_m)] + [V(x₀, t_m) − V(x₀, t₀)]. The balance
+the program's work [V(x₁, t₁) − V(x₁, t_m)] + [V(x₀, t_m) − V(x₀, t₀)] (for a moving
+support, its elastic reaction's work), to which a step adds a moving support's work
+through the damping (``StepOutcome.support_work``,
+rodsim/solvers/physical/moving_supports.py). The balance
 
     error = T + V + D − W − (T₀ + V₀)
 
@@ -100,14 +103,15 @@ def _advance(model_at: Callable[[float], Model], stepper: FixedStep, motion: Mot
     again, ``halvings`` times at most): (the motion reached, the programs' work, the
     dissipated energy, (steps, Newton iterations, halvings)). ``after_step(t, x)`` is told
     the end of every step taken (x the model's free coordinates)."""
-    middle = model_at(0.5 * (t0 + t1))
+    t_middle = 0.5 * (t0 + t1)
+    middle = model_at(t_middle)
     if middle.has_registration:
         registered = middle.reregistered(model_state(middle, motion.x))
         middle = middle if registered is None else registered
     freed: Model | None = None
     broke = False
     try:
-        outcome = stepper.step(middle, motion, t1 - t0)
+        outcome = stepper.step(middle, motion, t1 - t0, t_middle)
         # Stiction: the points that broke loose in the step slide at their kinetic μ; the
         # step is taken again with them until nothing more breaks (as a track's step,
         # rodsim/app/inverse/continuation.py).
@@ -117,7 +121,7 @@ def _advance(model_at: Callable[[float], Model], stepper: FixedStep, motion: Mot
             if freed is None:
                 break
             middle, broke = freed, True
-            outcome = stepper.step(middle, motion, t1 - t0)
+            outcome = stepper.step(middle, motion, t1 - t0, t_middle)
     except StepFailure:
         if halvings == 0:
             raise
@@ -127,12 +131,12 @@ def _advance(model_at: Callable[[float], Model], stepper: FixedStep, motion: Mot
         return (second[0], first[1] + second[1], first[2] + second[2],
                 (first[3][0] + second[3][0], first[3][1] + second[3][1],
                  first[3][2] + second[3][2] + 1))
-    work = 0.0
+    work = outcome.support_work  # a moving support's, through the damping
     start_model, end_model = model_at(t0), model_at(t1)
     if after_step is not None:
         after_step(t1, model_state(middle, outcome.motion.x), middle if broke else None)
     if start_model is not middle or end_model is not middle:
-        work = (_potential(end_model, outcome.motion.x) - _potential(middle, outcome.motion.x)
+        work += (_potential(end_model, outcome.motion.x) - _potential(middle, outcome.motion.x)
                 + _potential(middle, motion.x) - _potential(start_model, motion.x))
     return outcome.motion, work, outcome.dissipated, (1, outcome.iterations, 0)
 
