@@ -22,17 +22,17 @@ LENGTH = STEEL["length"]
 
 def test_size_rule():
     """Dense up to DENSE_LIMIT unknowns (a small rod's run unchanged), banded above; by size
-    alone. The steel rod at N = 11 has 130 unknowns, at N = 81 1040."""
-    assert ode_newton.linear_solver(130) == "dense"
+    alone. The steel rod at N = 21 has 260 unknowns, at N = 81 1040."""
+    assert ode_newton.linear_solver(260) == "dense"
     assert ode_newton.linear_solver(ode_newton.DENSE_LIMIT) == "dense"
     assert ode_newton.linear_solver(ode_newton.DENSE_LIMIT + 1) == "band_gmres"
     assert ode_newton.linear_solver(1040) == "band_gmres"
 
 
 def test_banded_solve_inverts_the_dense_newton_matrix(monkeypatch):
-    """At N = 21 (260 unknowns: banded) every preconditioner solve z of CVODE's first steps
+    """At N = 41 (520 unknowns: banded) every preconditioner solve z of CVODE's first steps
     satisfies (I − γ J) z = r with J the dense Jacobian of the explicit form (ode.py's own
-    assembly, M_r⁻¹ applied densely) to 1e-8 of |r| (measured 6.1e-10: the round-off of a
+    assembly, M_r⁻¹ applied densely) to 1e-8 of |r| (measured 3.1e-11: the round-off of a
     stiff matrix; a wrong one misses by O(1)): the band LU of S − γ H solves the very matrix
     CVODE's Newton iteration works on."""
     residuals: list[float] = []
@@ -52,7 +52,7 @@ def test_banded_solve_inverts_the_dense_newton_matrix(monkeypatch):
                                        / np.linalg.norm(rhs)))
 
     monkeypatch.setattr(ida_run, "BandedNewton", Checked)
-    run = rodsim.simulate(wire(21), PERIOD / 10, integrator="cvode", output_dt=PERIOD / 20,
+    run = rodsim.simulate(wire(41), PERIOD / 10, integrator="cvode", output_dt=PERIOD / 20,
                           initial=RELEASE)
     assert run.success, run.message
     assert len(residuals) == 20

@@ -20,8 +20,9 @@ in work linear in the number of nodes (the dense factorisation is cubic).
 ``linear_solver`` picks the solver by the system's size alone, never by the clock, through
 ``DENSE_LIMIT``: up to it the dense solve of ode.py, unchanged (a small rod's run is bit for
 bit what it was), above it this one. Measured on the steel rod at one period
-(benchmarks/results/cvode-scaling-full.md): the dense solve is the faster at N ≤ 11 (its
-LU is small; GMRES's set-up and iteration cost more), the banded one from N = 21 on.
+(benchmarks/results/cvode-scaling-full.md), CPU per step dense/banded: 0.53/0.59 ms at
+N = 11, 0.40/0.49 at N = 21 (the dense LU is small; GMRES's set-up and products cost
+more), 1.02/0.51 at N = 41, 5.3/0.71 at N = 81, 52.5/0.84 at N = 161.
 """
 
 from __future__ import annotations
@@ -37,9 +38,9 @@ from rodsim.solvers.failure import SolverFailure
 __all__ = ["BandedNewton", "DENSE_LIMIT", "banded_newton_options", "linear_solver"]
 
 #: Unknowns (positions, quaternions, velocities, body rates) up to which CVODE factors its
-#: dense Jacobian (ode.py); above, the banded Newton matrix with GMRES. 200: N ≤ 15 nodes on
+#: dense Jacobian (ode.py); above, the banded Newton matrix with GMRES. 400: N ≤ 31 nodes on
 #: one rod (13 unknowns a free node) is dense (module docstring).
-DENSE_LIMIT = 200
+DENSE_LIMIT = 400
 
 
 def linear_solver(size: int) -> str:
