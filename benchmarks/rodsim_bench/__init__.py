@@ -23,4 +23,4 @@ Timings on shared machines are noisy: compare the ratios measured within one run
 BENCHMARKS = ("work-precision", "paper-regime", "scaling", "large-n", "stress", "skip-work",
               "kernels", "pyelastica", "string-tendon", "contact", "force-from-shape", "floor",
               "iterations", "startup", "tracking", "workers", "modes", "friction",
-              "batch", "dynamics", "step-cost", "real-time", "hostile")
+              "batch", "dynamics", "step-cost", "real-time", "cvode-scaling", "hostile")

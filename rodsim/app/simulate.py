@@ -287,10 +287,11 @@ def simulate(scene: SceneLike | None, t_end: float, *, output_dt: float | None =
     (SUNDIALS IDA, adaptive BDF under error control: ``rtol``, ``atol`` — × the longest
     rod's length on positions, radians on angles, and × ω₁ on their rates — and the order
     cap ``max_order``; docs/dynamics.md) or ``"cvode"`` (SUNDIALS CVODE on the explicit
-    form, the same options; a dense Jacobian: for small rods). ``output_dt``: the spacing of
-    the output times [s] (default: every step of the midpoint rule; 1/100 of the lowest
-    natural period for IDA and CVODE); ``step``: the longest time step [s] (midpoint and
-    paper default: 1/100 of the lowest natural period at the start; IDA and CVODE: none);
+    form, the same options; a dense Jacobian up to 400 unknowns, above it the banded Newton
+    matrix with GMRES). ``output_dt``: the spacing of the output times [s] (default: every
+    step of the midpoint rule; 1/100 of the lowest natural period for IDA and CVODE);
+    ``step``: the longest time step [s] (midpoint and paper default: 1/100 of the lowest
+    natural period at the start; IDA and CVODE: none);
     ``initial``: a mapping of ``--set`` keys to values whose equilibrium the run starts
     from, or a solved Result (default: the rest state); ``program``: key → (times, values)
     (piecewise linear) or a ``rodsim.core.program.Sinusoid`` per numeric term value,

@@ -53,6 +53,11 @@ from rodsim.solvers.physical.dae import PhysicalDae
 from rodsim.solvers.physical.events import EventError, EventFunctions
 from rodsim.solvers.physical.fixed_step import Motion
 from rodsim.solvers.physical.ode import PhysicalOde
+from rodsim.solvers.physical.ode_newton import (
+    BandedNewton,
+    banded_newton_options,
+    linear_solver,
+)
 from rodsim.solvers.physical.trajectory import Record
 from rodsim.solvers.sundials_clock import Clock
 from rodsim.solvers.sundials_setup import started
@@ -166,12 +171,16 @@ class _CvodeStarter:
         def rhsfn(t: float, y: np.ndarray, yp: np.ndarray) -> None:
             yp[:] = ode.rhs(t, y[place])[order]
 
+        options = {"rtol": o.rtol, "atol": self.atol, "max_order": o.max_order,
+                   "max_step": o.max_step, **_root_finding(ode.dae, self.events, ida=False)}
+        if linear_solver(ode.dae.size) == "band_gmres":  # a large rod: ode_newton.py
+            return started("CVODE", CVODE, rhsfn, None, t, y, linsolver="gmres",
+                           **banded_newton_options(BandedNewton(ode)), **options)
+
         def jacfn(t: float, y: np.ndarray, fy: np.ndarray, jj: np.ndarray) -> None:
             jj[:, :] = ode.jacobian(t, y[place])[np.ix_(order, order)]
 
-        return started("CVODE", CVODE, rhsfn, jacfn, t, y, linsolver="dense", rtol=o.rtol,
-                       atol=self.atol, max_order=o.max_order, max_step=o.max_step,
-                       **_root_finding(ode.dae, self.events, ida=False))
+        return started("CVODE", CVODE, rhsfn, jacfn, t, y, linsolver="dense", **options)
 
 
 def _root_finding(dae: PhysicalDae, events: EventFunctions | None, ida: bool
