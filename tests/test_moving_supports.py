@@ -83,7 +83,9 @@ def test_an_inserted_base_carries_the_rod_rigidly(kind, rod):
 @pytest.mark.parametrize(("kind", "rod"), robots())
 def test_a_turned_base_turns_the_rod_rigidly(kind, rod):
     """Base turned at a constant rate θ̇ = 3 rad/s about its axis, the run started with
-    every segment turning at θ̇: the centreline still to round-off, nothing dissipated
+    every segment turning at θ̇: the centreline still to the Newton tolerance (1e-12 L on a
+    step's change, the Newton matrix kept across steps: measured 2.7e-12 L at most over
+    20 ms; with a fresh matrix at every step, round-off), nothing dissipated
     under Kelvin–Voigt damping but what the lag below strains (the rigid motion has no
     strain rate: the clamp frame turns with it; measured 3.3e-9 of the kinetic energy),
     and each segment's directors R_x(θ̇ t) d(0) up to the midpoint rule's own
@@ -104,7 +106,7 @@ def test_a_turned_base_turns_the_rod_rigidly(kind, rod):
             turn = np.array([[1.0, 0.0, 0.0], [0.0, c, -s], [0.0, s, c]])
             error = max(error, float(np.max(np.abs(frames[k] - frames[0] @ turn.T))))
         errors.append(error)
-        assert np.max(np.abs(run.positions - run.positions[0])) < 1e-12 * rod["length"]
+        assert np.max(np.abs(run.positions - run.positions[0])) < 1e-11 * rod["length"]
         assert abs(run.dissipated_energy[-1]) < 1e-6 * run.kinetic_energy[0]
         assert np.max(np.abs(run.energy_error)) < 1e-5 * run.kinetic_energy[0]
     assert errors[0] < 1e-8 and 3.5 < errors[0] / errors[1] < 4.5

@@ -163,6 +163,7 @@ def _newton(evaluate: Evaluate, r1: np.ndarray, w: np.ndarray, h: float,
     the first iterate); ``counted[0]`` counts its iterations."""
     p = len(r1)
     previous = moved = best = np.inf
+    fresh = solve is None  # whether the matrix in use was factored in this step
     for _ in range(MAX_ITERATIONS):
         counted[0] += 1
         residual, matrix = evaluate(r1, w, solve is None)
@@ -173,6 +174,7 @@ def _newton(evaluate: Evaluate, r1: np.ndarray, w: np.ndarray, h: float,
                 raise StepFailure(f"the Newton matrix is singular ({exc})") from None
             if kept is not None:
                 kept.h, kept.solve = h, solve
+            fresh = True
         assert solve is not None
         delta = solve(-residual)
         if not np.all(np.isfinite(delta)):
@@ -183,8 +185,9 @@ def _newton(evaluate: Evaluate, r1: np.ndarray, w: np.ndarray, h: float,
                     h * float(np.max(np.abs(delta[p:]), initial=0.0)))
         if moved > DIVERGED:
             raise StepFailure(f"Newton diverges (a change of {moved:.1e})")
-        if moved <= tolerance or (moved <= ROUNDOFF and moved > 0.5 * best):
-            break  # converged, or at the round-off floor of the forces
+        if moved <= tolerance or (fresh and moved <= ROUNDOFF and moved > 0.5 * best):
+            break  # converged, or at the round-off floor of the forces (slow progress
+            # with an earlier step's matrix is that matrix's staleness: refreshed below)
         best = min(best, moved)
         if moved > REFRESH * previous:
             solve = None  # slow: a fresh Jacobian at the next iterate
