@@ -225,3 +225,15 @@ def test_the_command_line_refuses_a_moving_support_under_ida(tmp_path, monkeypat
     captured = capsys.readouterr()
     assert len(captured.err.strip().splitlines()) == 1 and "midpoint" in captured.err
     assert captured.out == "" and list(tmp_path.iterdir()) == []
+
+
+def test_a_moving_support_with_tendon_friction_is_one_line():
+    """A string tendon's friction carries its history along the run, which a moving support
+    does not yet carry: refused before any work, naming the support's program."""
+    from test_tendon_friction import catheter
+
+    with pytest.raises(SceneError, match="base.insertion: a moving support with friction"
+                       ) as error:
+        rodsim.simulate(catheter(11, 0.2, 1.0), 0.01, step=1e-3,
+                        program={"base.insertion": ([0.0, 1.0], [0.0, 0.01])})
+    assert "\n" not in str(error.value)

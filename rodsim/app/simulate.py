@@ -322,10 +322,7 @@ def simulate(scene: SceneLike | None, t_end: float, *, output_dt: float | None =
     loaded = load_scene(scene, overrides)
     model = Model(loaded)
     programs = Programs(loaded, model, program)
-    check_support_programs(loaded, programs.keys, integrator)
-    if programs.supports.active and programs.path_dependent:
-        raise SceneError(f"program {programs.keys[0].name}: a moving support with friction "
-                         "(a string tendon's or a contact's) is not in this version")
+    check_support_programs(loaded, programs.keys, integrator, programs.path_dependent)
     if programs.path_dependent and integrator != "midpoint":  # before any work
         raise SceneError(f"integrator {integrator!r}: the scene has friction (a string "
                          "tendon's or a contact's), whose history each step carries to the "

@@ -36,15 +36,19 @@ def is_support_key(parts: Sequence[str]) -> bool | None:
             or (len(parts) == 5 and parts[2] == "supports" and parts[4] == "displacement"))
 
 
-def check_support_programs(scene: Scene, keys: Sequence[NumericKey], integrator: str
-                           ) -> None:
+def check_support_programs(scene: Scene, keys: Sequence[NumericKey], integrator: str,
+                           path_dependent: bool) -> None:
     """SceneError (one line) for a support program the run cannot take: an integrator
     other than the midpoint rule, a rod whose base holds nothing (clamp ``free``), or a
-    scene where a rod follows another's base (a tendon rod, a joint) or has friction."""
+    scene where a rod follows another's base (a tendon rod, a joint) or has friction
+    (``path_dependent``: a string tendon's or a contact's)."""
     moved = [key for key in keys if is_support_key(key.path.split("."))]
     if not moved:
         return
     name = moved[0].name
+    if path_dependent:
+        raise SceneError(f"program {name}: a moving support with friction (a string "
+                         "tendon's or a contact's) is not in this version")
     if integrator != "midpoint":
         raise SceneError(f"program {name}: a moving support is only for integrator "
                          f"'midpoint' (not {integrator!r}); allowed: integrator='midpoint'")
