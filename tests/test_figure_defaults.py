@@ -5,12 +5,12 @@ drawn line is checked against the archive or the model's own tendon path."""
 
 from __future__ import annotations
 
-import math
-
 import matplotlib.pyplot as plt
 import numpy as np
 import pytest
 from matplotlib.colors import to_rgb
+from test_figure_projections import OFFSET
+from test_figure_projections import pulled as pulled_towards
 
 import rodsim
 from rodsim.app.figures import draw_figure, style
@@ -19,23 +19,14 @@ from rodsim.core.scene import Scene
 from rodsim.core.terms.tendon_string import TendonString
 from rodsim.io.archive import read_dataset, write_dataset
 
-E, RADIUS, LENGTH, OFFSET = 54e9, 0.7e-3, 0.2, 0.01
 TENSION = "tendons.a.tendon_string.tension"
 RAMP = [0.5, 1.5, 3.0, 1.5]
 
 
 def pulled() -> Scene:
     """A nitinol backbone pulled by a string tendon on spacers 10 mm off its axis, bent in
-    x–y (tests/test_figure_projections.py has its 3D twin)."""
-    area = math.pi * RADIUS**2
-    return Scene.from_dict({"name": "pulled", "rods": {"backbone": {
-        "length": LENGTH, "radius": RADIUS, "youngs_modulus": E, "stretch_modulus": E,
-        "density": 6450.0, "nodes": 9, "terms": ["stretch", "bend_twist", "centerline"],
-        "centerline": {"K_P": E / 2.6 * area}}},
-        "tendons": {"a": {"catheter": "backbone", "coupling": "string", "offset": OFFSET,
-                          "direction": [1.0, 0.0],
-                          "tendon_string": {"tension": 1.0, "spacers": True}}},
-        "solver": {"integrator": "static"}})
+    x–y (tests/test_figure_projections.py's scene in the plane)."""
+    return pulled_towards([1.0, 0.0])
 
 
 def figure_data(ds):

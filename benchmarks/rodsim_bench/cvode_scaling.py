@@ -31,34 +31,17 @@ import numpy as np
 import rodsim
 import rodsim.solvers.physical.ode_newton as ode_newton
 from rodsim.solvers.base import Progress
+from rodsim_bench.dynamics import STEEL, steel_period, steel_scene
 from rodsim_bench.machine import machine, write_report
 
 __all__ = ["run"]
 
-STEEL = {"length": 0.4, "radius": 1.2e-3, "youngs_modulus": 207e9, "density": 8000.0,
-         "poisson_ratio": 0.3}
-#: Euler–Bernoulli clamped–free first root β₁L.
-BETA_1 = 1.87510407
 #: Per size: the rod's nodes (small: a smoke run of the same code in seconds); the largest
 #: N the dense CVODE is run at (its cost is cubic).
 SIZES: dict[str, dict[str, Any]] = {"small": {"nodes": (5, 9), "dense_up_to": 9},
                                     "full": {"nodes": (11, 21, 41, 81, 161), "dense_up_to": 161}}
 TOLERANCE, REFERENCE_STEPS = 1e-5, 1600
 SOLVERS = ("ida", "cvode-dense", "cvode-banded")
-
-
-def _scene(nodes: int) -> dict:
-    table = {**STEEL, "nodes": nodes, "terms": ["stretch", "bend_twist", "centerline",
-                                                 "tip_load"],
-             "tip_load": {"force": [0.0, 0.0, 0.0], "mass": 0.0}}
-    return {"name": "steel-wire", "rods": {"wire": table}}
-
-
-def _period() -> float:
-    r = STEEL["radius"]
-    omega = BETA_1**2 / STEEL["length"] ** 2 * math.sqrt(
-        STEEL["youngs_modulus"] * math.pi * r**4 / 4.0 / (STEEL["density"] * math.pi * r**2))
-    return 2.0 * math.pi / omega
 
 
 def _simulate(solver: str, scene: dict, period: float, options: dict
@@ -82,16 +65,16 @@ def _exponents(rows: list[dict], solver: str, key: str) -> list[float]:
 
 def run(size: str, output_dir: Path, progress: Progress) -> list[Path]:
     config = SIZES[size]
-    period = _period()
+    period = steel_period()
     options = {"output_dt": period / 20, "initial": {"tip_load.force": [0.0, -0.1, 0.0]}}
     for solver in SOLVERS:  # warm-up: SUNDIALS and the kernels loaded outside the timings
-        _simulate(solver, _scene(5), period / 10, options)
+        _simulate(solver, steel_scene(5), period / 10, options)
     rows = []
     cases = [(n, s) for n in config["nodes"] for s in SOLVERS
              if s != "cvode-dense" or n <= config["dense_up_to"]]
     reference: dict[int, Any] = {}
     for k, (nodes, solver) in enumerate(cases):
-        scene = _scene(nodes)
+        scene = steel_scene(nodes)
         if nodes not in reference:
             progress(k / len(cases), f"cvode-scaling: N = {nodes}, the reference")
             reference[nodes] = rodsim.simulate(scene, period, step=period / REFERENCE_STEPS,

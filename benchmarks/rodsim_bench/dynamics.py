@@ -42,14 +42,17 @@ SIZES = {"small": {"nodes": 5, "steps": (50, 100), "paper_steps": (50, 100),
                   "tolerances": (1e-4, 3e-5, 1e-5, 3e-6, 1e-6, 1e-7), "reference": 1e-9}}
 
 
-def _scene(nodes: int) -> dict:
+def steel_scene(nodes: int) -> dict:
+    """The steel cantilever (STEEL) at ``nodes``, unloaded, with a tip_load term to hold a
+    release force (also the CVODE scaling benchmark's rod)."""
     table = {**STEEL, "nodes": nodes, "terms": ["stretch", "bend_twist", "centerline",
                                                  "tip_load"],
              "tip_load": {"force": [0.0, 0.0, 0.0], "mass": 0.0}}
     return {"name": "steel-wire", "rods": {"wire": table}}
 
 
-def _period() -> float:
+def steel_period() -> float:
+    """The steel cantilever's first Euler–Bernoulli period [s] (β₁L = BETA_1)."""
     r = STEEL["radius"]
     omega = BETA_1**2 / STEEL["length"] ** 2 * math.sqrt(
         STEEL["youngs_modulus"] * math.pi * r**4 / 4.0 / (STEEL["density"] * math.pi * r**2))
@@ -58,7 +61,7 @@ def _period() -> float:
 
 def run(size: str, output_dir: Path, progress: Progress) -> list[Path]:
     config = SIZES[size]
-    scene, period = _scene(config["nodes"]), _period()
+    scene, period = steel_scene(config["nodes"]), steel_period()
     options = {"output_dt": period / 20, "initial": {"tip_load.force": [0.0, -0.1, 0.0]}}
     tight = config["reference"]
     progress(0.0, f"dynamics: the reference (IDA at {tight:g})")
