@@ -132,3 +132,24 @@ def test_the_default_track_figure_draws_every_rod_at_each_step():
         finally:
             plt.close(figure)
     assert len(loads) == 1  # the last step's
+
+
+def test_a_long_track_draws_a_subset_of_its_steps_with_its_turn():
+    """A 41-step pull and release: ``TRACK_SHAPES`` (24) evenly chosen steps and the step
+    where the ramp turns (20) are drawn, each equal to the archive's nodes; the tip's path
+    keeps all 41."""
+    from rodsim.app.figures.inverse import TRACK_SHAPES
+
+    ramp = np.concatenate([np.linspace(0.5, 3.0, 21), np.linspace(3.0, 0.5, 21)[1:]])
+    track = rodsim.track(pulled(), {TENSION: ramp})
+    assert track.success, track.message
+    ds = track.to_xarray()
+    lines, _, title, _ = figure_data(ds)
+    positions = ds["position"].values
+    drawn = lines["rod:backbone"]
+    assert TRACK_SHAPES <= len(drawn) <= TRACK_SHAPES + 1 < len(ramp)
+    assert title == f"{len(drawn)} of {len(ramp)} steps"
+    picked = [k for k in range(len(ramp))
+              if any(np.array_equal(xy, positions[k][:, :2]) for xy in drawn)]
+    assert {0, 20, len(ramp) - 1} <= set(picked) and len(picked) == len(drawn)
+    assert len(lines["tip-path"][0]) == len(ramp)

@@ -23,6 +23,7 @@ from rodsim.app.figures.state_series import (
     colour_bar,
     coloured_states,
     draw_states,
+    evenly,
     tint_bar,
     tints,
 )
@@ -82,9 +83,23 @@ def _first_rod_nodes(ds: xr.Dataset) -> xr.DataArray:
     return ds["position"].sel(node=ds["rod"] == first)
 
 
+#: The most steps whose shapes a track's figure draws: evenly chosen, with every step where
+#: the ramp turns (a 121-step insertion drew 121 catheters over each other); the tip's
+#: path and the response panels keep every step.
+TRACK_SHAPES = 24
+
+
+def drawn_steps(values: np.ndarray, legs: list[Leg]) -> list[int]:
+    """The steps of a track (its ramped ``values``, their ``legs``) whose shapes are drawn:
+    ``TRACK_SHAPES`` evenly chosen, the first and last among them, and each leg's ends."""
+    ends = {int(end) for leg in legs for end in (leg.steps[0], leg.steps[-1])}
+    return sorted(set(evenly(len(values), TRACK_SHAPES)) | ends)
+
+
 def track_figure(ds: xr.Dataset, colour: str | None = None,
                  hide: frozenset[str] = frozenset()) -> Figure:
-    """A track: every step drawn as the run figure draws its state
+    """A track: its steps (all, or ``TRACK_SHAPES`` of a long one: ``drawn_steps``) drawn
+    as the run figure draws its state
     (``rodsim.app.figures.state_series``: every rod, tendon path and spacer disk, the last
     step with its loads, contact forces and obstacles) with the tip's path through them,
     and the tip's displacement from step 0 against the first ramped value, the actuation
@@ -102,7 +117,8 @@ def track_figure(ds: xr.Dataset, colour: str | None = None,
     ramp = list(json.loads(ds.attrs["ramp_json"]))[0]
     values = key_variable(ds, ramp).values
     legs = ramp_legs(values)
-    states, colourings, scale = coloured_states(ds, range(len(values)), colour)
+    picked = drawn_steps(values, legs)
+    states, colourings, scale = coloured_states(ds, picked, colour)
     views = projections(np.concatenate([parts.points() for parts in states]))
     figure, shapes, (tips, *loop) = panel_grid(views, 1 + friction, True,
                                                (10.0 + 4.6 * friction, 4.4))
@@ -114,12 +130,13 @@ def track_figure(ds: xr.Dataset, colour: str | None = None,
     by, label = _step_scale(ds, ramp, values, legs)
     tinted, norm = tints(by, STEPS)
     drawn = draw_states(panels, states, colourings, scale, hide,
-                        None if colour else tinted)
+                        None if colour else [tinted[k] for k in picked])
     if drawn is not None:
         colour_bar(figure, shapes, *drawn)
     else:
         tint_bar(figure, shapes, norm, STEPS, label, "step")
-    shapes[0].set_title(f"each of {len(values)} steps")
+    shapes[0].set_title(f"each of {len(values)} steps" if len(picked) == len(values)
+                        else f"{len(picked)} of {len(values)} steps")
     contact = _track_contact(panels, ds, hide)
     _response(tips, ds, nodes[:, -1], values, legs)
     tips.set_xlabel(_ramp_label(ds, ramp))
