@@ -102,6 +102,7 @@ class TendonStringOptions(Options):
     helix_pitch: float = 0.0
     helix_phase: float = 0.0
     spacers: bool = False
+    disk_radius: float = 0.0
     control: str = "tension"
     displacement: float = 0.0
     stiffness: float = 0.0
@@ -153,6 +154,10 @@ class TendonString(TendonTerm):
         Parameter("spacers", "bool", False, "-",
                   "the tendon rides on spacer disks: offsets beyond the catheter's radius "
                   "allowed"),
+        Parameter("disk_radius", "float", 0.0, "m",
+                  "spacers = true: the radius of the spacer disks, as the figures and the 3D "
+                  "view draw them (the model has no disk size); at least the routing's "
+                  "largest offset; 0 (default): 1.2 × that offset", 0.0, 10.0),
         Parameter("control", "str", "tension", "-",
                   "'tension' (T given: tension) or 'displacement' (the tendon pulled in by "
                   "displacement, an elastic string of axial stiffness E A: "
