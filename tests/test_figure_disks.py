@@ -156,24 +156,26 @@ def test_the_scenes_disk_radius_sizes_the_drawn_disks(solved):
 
 
 def test_a_disk_is_as_large_as_the_largest_its_tendons_ask(solved):
-    """disk_radius on the second segment's tendons only: the disks they pass through (the
-    second segment and, shared with the first segment's tendons, the first) take the
-    key's radius, the largest asked; the first segment's tendons alone would not
-    change them."""
+    """disk_radius on the first segment's tendons only: the disks at their routing points
+    (the first segment, shared with the second segment's tendons) take the key's radius,
+    the largest asked; the disks beyond, on the second segment's tendons alone, keep the
+    rule's 1.2 × 10 mm; the legend names both. The 3D view's rings follow the key."""
     pytest.importorskip("plotly", reason="plotly is the optional extra rodsim[view3d]")
     from rodsim.app.figures.scene_parts import scene_parts
     from rodsim.app.figures.view3d import view_figure
 
     result, ds = solved
     model = rodsim.build_model(SCENE)
-    second = {t.tendon.name: t.points.s for t in model.terms if isinstance(t, TendonString)}
-    on_second = np.unique(np.concatenate([second[n] for n in ("s2a", "s2b", "s2c")]))
-    mixed = with_disk_radius(ds, GIVEN, ("s2a", "s2b", "s2c"))
+    points = {t.tendon.name: t.points.s for t in model.terms if isinstance(t, TendonString)}
+    on_first = np.unique(np.concatenate([points[n] for n in ("s1a", "s1b", "s1c")]))
+    mixed = with_disk_radius(ds, GIVEN, ("s1a", "s1b", "s1c"))
     disks = scene_parts(mixed).disks
-    expected = [GIVEN if np.any(np.isclose(d.s, on_second, rtol=0, atol=1e-12))
+    expected = [GIVEN if np.any(np.isclose(d.s, on_first, rtol=0, atol=1e-12))
                 else DISK_MARGIN * PITCH for d in disks]
     np.testing.assert_allclose([d.radius for d in disks], expected, rtol=1e-9)
-    assert GIVEN in expected and DISK_MARGIN * PITCH not in expected  # s2 spans the whole
+    assert 10 < expected.count(GIVEN) < len(disks) - 10  # both kinds, many of each
+    _, legend = edge_on_lengths(mixed)
+    assert any("disk_radius or 1.2 × routing offset" in text for text in legend)
     (trace,) = [t for t in view_figure(with_disk_radius(ds, GIVEN, ALL)).data
                 if t.name == "spacer disks"]
     points = np.stack([np.asarray(trace[k], dtype=float) for k in "xyz"], axis=1)

@@ -188,7 +188,8 @@ def _disks(catheter: str, holes: list[tuple[np.ndarray, np.ndarray, float]],
     wanted = np.where(given > 0.0, given, DISK_MARGIN * offset)
     at = np.unique(s)
     largest = np.array([wanted[s == x].max() for x in at])
-    sized = [bool(np.all(given[s == x] > 0.0)) for x in at]
+    # the radius drawn is a disk_radius when the largest asked is one
+    sized = [bool(given[s == x][np.argmax(wanted[s == x])] > 0.0) for x in at]
     centres = _along(at, node_s, nodes)
     normals = _frame_at(at, knots, quaternions)[:, 2]
     return [Disk(catheter, float(x), c, n, float(r), by_scene)
