@@ -222,7 +222,7 @@ def test_a_tracks_movie_has_one_frame_per_step(tmp_path, cli, capsys):
     archive = tmp_path / "track.nc"
     assert cli(["track", "table1-50g", "--set", "nodes=8", "--ramp",
                 "tip_load.mass=0:0.05:5", "-o", str(archive)]) == 0
-    assert cli(["plot", str(archive), "--movie", "--format", "png"]) == 0
+    assert cli(["plot", str(archive), "--movie-format", "gif", "--format", "png"]) == 0
     assert "track.gif" in capsys.readouterr().out
     with Image.open(tmp_path / "track.gif") as movie:
         assert movie.n_frames == 5
@@ -258,14 +258,15 @@ def test_a_trajectorys_movie_draws_its_output_times(tmp_path, cli, capsys, monke
     assert not np.allclose(scene_parts(ds, 0).rods["catheter"],
                            scene_parts(ds, 5).rods["catheter"])
     capsys.readouterr()
-    assert cli(["plot", str(archive), "--movie", "--format", "png"]) == 0
+    assert cli(["plot", str(archive), "--movie-format", "gif", "--format", "png"]) == 0
     assert "swing.gif" in capsys.readouterr().out
     with Image.open(tmp_path / "swing.gif") as gif:
         assert gif.n_frames == 6
     monkeypatch.setattr(movie, "MAX_FRAMES", 4)
     assert movie.frames(ds)[0] == [0, 2, 3, 5]
     monkeypatch.setitem(sys.modules, "PIL", None)  # no GIF encoder
-    assert cli(["plot", str(archive), "-o", str(tmp_path / "again"), "--movie"]) == 2
+    assert cli(["plot", str(archive), "-o", str(tmp_path / "again"), "--movie-format",
+                "gif"]) == 2
     err = capsys.readouterr().err
     assert "pip install pillow" in err and "Traceback" not in err and len(err.splitlines()) == 1
     assert not list(tmp_path.glob("again*"))

@@ -390,7 +390,7 @@ def test_a_trajectorys_loads_are_its_programs_at_each_time(pushed, tmp_path, cli
         "colourbar:strain"]
     archive = tmp_path / "push.nc"
     write_dataset(pushed, archive)
-    assert cli(["plot", str(archive), "--movie", "--colour", "curvature", "--hide",
+    assert cli(["plot", str(archive), "--movie-format", "gif", "--colour", "curvature", "--hide",
                 "load", "--format", "png"]) == 0
     assert "push.gif" in capsys.readouterr().out
     with Image.open(tmp_path / "push.gif") as gif:

@@ -44,7 +44,7 @@ from rodsim.core.scene import Scene
 from rodsim.core.supports import base_support, node_supports
 from rodsim.core.tendon import Tendon, tendon_support
 from rodsim.core.terms import Term, registered_terms, term_class
-from rodsim.core.terms.tendon_string import split_at_breaks
+from rodsim.core.terms._string_breaks import split_at_breaks
 
 __all__ = ["Model", "Band", "EVALUATION_PATHS", "KERNELS", "KernelCall", "scene_rod"]
 

@@ -249,6 +249,14 @@ def check_routing(prefix: str, tendon: Any, string: Any, length: float,
             raise SceneError(f"{key}: the routing reaches {largest:.6g} m from the "
                              f"centerline, not below the catheter's length {length!r} m; "
                              "allowed: spacer disks smaller than the catheter is long")
+        if 0.0 < string.disk_radius < largest:
+            raise SceneError(f"{key}.disk_radius = {string.disk_radius!r}: the routing "
+                             f"reaches {largest:.6g} m from the centerline, outside the disks; "
+                             f"allowed: 0 (1.2 × the largest offset) or >= {largest:.6g} [m]")
+    elif string.disk_radius != 0.0:
+        raise SceneError(f"{key}.disk_radius = {string.disk_radius!r}: a tendon without "
+                         "spacers rides on no disks; allowed: spacers = true, or leave "
+                         "disk_radius unset")
     elif largest >= radius:
         raise SceneError(f"{key}: the routing reaches {largest:.6g} m from the centerline, "
                          f"outside the catheter (radius {radius!r} m); allowed: an offset "

@@ -329,8 +329,13 @@ def build_parser() -> argparse.ArgumentParser:
                       "JavaScript loaded from its CDN when the page opens: ~4.8 MB smaller "
                       "(the view alone), and it needs the network to open")
     plot.add_argument("--movie", action="store_true",
-                      help="also write STEM.gif, a movie of a track (one frame per step) or of a "
-                      "trajectory (rodsim simulate: one frame per output time, at most 120)")
+                      help="also write a movie of a track (one frame per step) or of a "
+                      "trajectory (rodsim simulate: one frame per output time, at most 120): "
+                      "STEM.mp4 when an ffmpeg is found (pip install \"rodsim[movie]\", or "
+                      "ffmpeg on the PATH), else STEM.gif; a note says which")
+    plot.add_argument("--movie-format", choices=("mp4", "gif"), default=None,
+                      help="the movie's format (implies --movie); mp4 with no ffmpeg is "
+                      "refused before anything is written")
     plot.set_defaults(func=cmd_plot)
 
     bench = sub.add_parser("bench", help="run a benchmark (work-precision, scaling, large-n, "

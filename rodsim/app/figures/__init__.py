@@ -13,6 +13,8 @@
 - ``rodsim.app.figures.state_scene``: the scene of one state (a track's step, a
   trajectory's output time) with the values it was solved with;
 - ``rodsim.app.figures.state_series``: several states on one panel, coloured on one scale;
+- ``rodsim.app.figures.movie``, ``rodsim.app.figures.movie_encoder``: a track's or a
+  trajectory's movie, an mp4 (ffmpeg) or a GIF (Pillow);
 - ``rodsim.app.figures.view3d``: the interactive 3-D view (plotly).
 """
 

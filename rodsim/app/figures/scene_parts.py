@@ -8,9 +8,11 @@ and the 3-D view share it).
   at both ends (the termination is the last), with the directors of the quaternion
   interpolated linearly in s between the segment midpoints (clamped to the end segments).
 - A string tendon on spacer disks (``spacers = true``) puts a disk on its catheter at each
-  of its routing points: centred on r(s), normal to the section's d3 there, its radius
-  ``rodsim.app.figures.spacer_disks.DISK_MARGIN`` times the largest routing offset at s of
-  the tendons on spacers that pass there (one disk per arc length and catheter).
+  of its routing points: centred on r(s), normal to the section's d3 there, its radius the
+  tendon's ``disk_radius`` when the scene gives one, else
+  ``rodsim.app.figures.spacer_disks.DISK_MARGIN`` times its routing offset at s; the
+  largest of those of the tendons on spacers that pass there (one disk per arc length and
+  catheter).
 - Loads are the rod and tendon terms that push (``figure_layer = "load"``): a tip load (mass
   and force) at the tip, each point load's force and moment where it acts, a distributed
   load's resultant at the middle of each span, gravity's total weight at the rod's middle
@@ -139,7 +141,7 @@ def scene_parts(ds: xr.Dataset, step: int | None = None) -> SceneParts:
     node_s = {name: (ds["s"].values[node_rod == name] if "s" in ds
                      else _arc_length(rods[name])) for name in rods}
     paths: list[TendonPath] = []
-    holes: dict[str, list[tuple[np.ndarray, np.ndarray]]] = {}
+    holes: dict[str, list[tuple[np.ndarray, np.ndarray, float]]] = {}
     for name, table in tendons_raw.items():
         if name in rods:
             paths.append(TendonPath(name, rods.pop(name), string=False))
@@ -150,7 +152,8 @@ def scene_parts(ds: xr.Dataset, step: int | None = None) -> SceneParts:
                 float(raw["rods"][catheter]["length"]))
             paths.append(TendonPath(name, points, string=True, s=s))
             if table["tendon_string"].get("spacers"):
-                holes.setdefault(catheter, []).append((s, offset))
+                given = float(table["tendon_string"].get("disk_radius", 0.0))
+                holes.setdefault(catheter, []).append((s, offset, given))
     disks = [disk for catheter, found in holes.items()
              for disk in _disks(catheter, found, rods[catheter], node_s[catheter],
                                 *frames[catheter])]
@@ -173,19 +176,24 @@ def scene_parts(ds: xr.Dataset, step: int | None = None) -> SceneParts:
                       loads, contacts, disks)
 
 
-def _disks(catheter: str, holes: list[tuple[np.ndarray, np.ndarray]], nodes: np.ndarray,
-           node_s: np.ndarray, knots: np.ndarray, quaternions: np.ndarray) -> list[Disk]:
+def _disks(catheter: str, holes: list[tuple[np.ndarray, np.ndarray, float]],
+           nodes: np.ndarray, node_s: np.ndarray, knots: np.ndarray,
+           quaternions: np.ndarray) -> list[Disk]:
     """The spacer disks of ``catheter`` at the arc lengths of the routing points
-    ``holes`` (each tendon's s and |ρ(s)|): one per arc length, its radius
-    ``DISK_MARGIN`` times the largest |ρ| there (module docstring)."""
-    s = np.concatenate([found for found, _ in holes])
-    offset = np.concatenate([rho for _, rho in holes])
+    ``holes`` (each tendon's s, |ρ(s)| and disk_radius, 0 when not given): one per arc
+    length, as large as the largest any of its tendons asks (module docstring)."""
+    s = np.concatenate([found for found, _, _ in holes])
+    offset = np.concatenate([rho for _, rho, _ in holes])
+    given = np.concatenate([np.full(len(found), radius) for found, _, radius in holes])
+    wanted = np.where(given > 0.0, given, DISK_MARGIN * offset)
     at = np.unique(s)
-    largest = np.array([offset[s == x].max() for x in at])
+    largest = np.array([wanted[s == x].max() for x in at])
+    # the radius drawn is a disk_radius when the largest asked is one
+    sized = [bool(given[s == x][np.argmax(wanted[s == x])] > 0.0) for x in at]
     centres = _along(at, node_s, nodes)
     normals = _frame_at(at, knots, quaternions)[:, 2]
-    return [Disk(catheter, float(x), c, n, DISK_MARGIN * float(r))
-            for x, c, n, r in zip(at, centres, normals, largest, strict=True)]
+    return [Disk(catheter, float(x), c, n, float(r), by_scene)
+            for x, c, n, r, by_scene in zip(at, centres, normals, largest, sized, strict=True)]
 
 
 def _frame_at(s: np.ndarray, knots: np.ndarray, quaternions: np.ndarray) -> np.ndarray:

@@ -1,9 +1,11 @@
 """Spacer disks in a figure: where a string tendon rides on spacer disks
 (``[tendons.<name>.tendon_string] spacers = true``, rodsim/core/terms/tendon_string.py),
 the catheter carries a disk at each of its routing points (the entry, every node inside the
-span, the termination: rodsim/core/terms/_string_points.py). A scene gives no disk
-diameter, so a disk's radius is ``DISK_MARGIN`` times the largest routing offset |ρ(s)|
-of the tendons on spacers that pass there (the holes sit inside the disk).
+span, the termination: rodsim/core/terms/_string_points.py). The model has no disk size: a
+disk's radius is the tendon's ``[tendons.<name>.tendon_string] disk_radius`` when the
+scene gives it (at least the routing's largest offset: the holes sit inside the disk),
+else ``DISK_MARGIN`` times the routing offset |ρ(s)|; where several tendons on spacers
+pass, the largest of theirs.
 
 A disk is the catheter's cross-section at its arc length s: centred on the centerline r(s),
 its normal the section's d3 (the directors interpolated as the tendons' routing points
@@ -43,13 +45,16 @@ COLOUR = "0.25"
 @dataclass(frozen=True)
 class Disk:
     """A spacer disk on ``catheter`` at rest arc length ``s`` [m]: its centre (3,) [m] on
-    the centerline, its unit normal (3,) (the section's d3) and its radius [m]."""
+    the centerline, its unit normal (3,) (the section's d3) and its radius [m];
+    ``from_scene``: the radius is the scene's disk_radius (else ``DISK_MARGIN`` times the
+    routing offset)."""
 
     catheter: str
     s: float
     centre: np.ndarray
     normal: np.ndarray
     radius: float
+    from_scene: bool = False
 
 
 def disk_ring(disk: Disk, points: int = 25) -> np.ndarray:
@@ -80,7 +85,7 @@ def draw_disks(ax: plt.Axes, disks: list[Disk], view: tuple[int, int],
                colour: str | tuple[float, ...] | None = None, label: bool = True) -> None:
     """Each catheter's disks on ``ax`` in the plane ``view``, one collection per catheter
     (gid ``disk:<catheter>``), in ``colour`` (by default ``COLOUR``); ``label``: a legend
-    entry stating the diameter's rule."""
+    entry stating the diameter and where it comes from."""
     a, b = view
     for catheter in dict.fromkeys(d.catheter for d in disks):
         mine = [d for d in disks if d.catheter == catheter]
@@ -91,6 +96,15 @@ def draw_disks(ax: plt.Axes, disks: list[Disk], view: tuple[int, int],
             lines, colors=[to_rgba(base, 1.0 if edge else 0.3) for edge in edge_on],
             linewidths=[1.4 if edge else 0.4 for edge in edge_on], zorder=4.5,
             gid=f"disk:{catheter}", capstyle="butt",
-            label=(f"spacer disks ({len(mine)}, ⌀ {2e3 * max(d.radius for d in mine):.3g} mm"
-                   f" = {DISK_MARGIN:g} × routing offset)") if label else None),
+            label=_legend(mine) if label else None),
             autolim=False)
+
+
+def _legend(disks: list[Disk]) -> str:
+    """The legend entry of one catheter's disks: their count, largest diameter and its
+    source (the scene's disk_radius, the rule, or both)."""
+    given = {d.from_scene for d in disks}
+    source = ("disk_radius" if given == {True} else f"{DISK_MARGIN:g} × routing offset"
+              if given == {False} else f"disk_radius or {DISK_MARGIN:g} × routing offset")
+    return (f"spacer disks ({len(disks)}, ⌀ {2e3 * max(d.radius for d in disks):.3g} mm"
+            f" = {source})")

@@ -85,10 +85,6 @@ from rodsim.core.terms._string_points import (
 from rodsim.core.terms._string_span import coupled_span
 from rodsim.core.terms.base import KernelArguments, TendonTerm, Term
 
-#: A routing point within this fraction of the catheter's length of another string tendon's
-#: start or end has its turn split (:func:`split_at_breaks`).
-SPLIT_AT = 1e-9
-
 
 @dataclass(frozen=True, kw_only=True)
 class TendonStringOptions(Options):
@@ -106,6 +102,7 @@ class TendonStringOptions(Options):
     helix_pitch: float = 0.0
     helix_phase: float = 0.0
     spacers: bool = False
+    disk_radius: float = 0.0
     control: str = "tension"
     displacement: float = 0.0
     stiffness: float = 0.0
@@ -157,6 +154,10 @@ class TendonString(TendonTerm):
         Parameter("spacers", "bool", False, "-",
                   "the tendon rides on spacer disks: offsets beyond the catheter's radius "
                   "allowed"),
+        Parameter("disk_radius", "float", 0.0, "m",
+                  "spacers = true: the radius of the spacer disks, as the figures and the 3D "
+                  "view draw them (the model has no disk size); at least the routing's "
+                  "largest offset; 0 (default): 1.2 × that offset", 0.0, 10.0),
         Parameter("control", "str", "tension", "-",
                   "'tension' (T given: tension) or 'displacement' (the tendon pulled in by "
                   "displacement, an elastic string of axial stiffness E A: "
@@ -277,7 +278,7 @@ class TendonString(TendonTerm):
             np.array([self.start]))[0], dtype=float)
         self.conservative = not self.rubs
         #: The routing points whose turn is split through one-sided tangents (where another
-        #: string tendon on the catheter starts or ends: :func:`split_at_breaks`), (P,).
+        #: string tendon on the catheter starts or ends: rodsim/core/terms/_string_breaks.py), (P,).
         self.split = np.zeros(len(self.points.s), dtype=np.bool_)
         #: (state, tension, profile, chord tensions, μ_in) of the last chord_tensions call.
         self._memo: tuple[np.ndarray, float, np.ndarray, np.ndarray, np.ndarray] | None = (
@@ -579,22 +580,3 @@ class TendonString(TendonTerm):
         return (theta, one_way, np.einsum("em,emk->ek", slope, jd),
                 -np.einsum("emk,em->ek", jd, u))
 
-
-def split_at_breaks(terms: Sequence[object]) -> None:
-    """Mark on every string tendon with friction among ``terms`` the routing points where
-    another string tendon on its catheter starts or ends (its ``split``): there the
-    catheter's curvature jumps, and the path may turn back or out of its plane
-    (rodsim/core/tendon_friction.py, "Split turns")."""
-    strings = [t for t in (getattr(term, "string", term) for term in terms)
-               if isinstance(t, TendonString)]
-    for term in strings:
-        if not term.rubs:
-            continue
-        rod = term.tendon.catheter
-        breaks = np.array([s for other in strings if other is not term
-                           and other.tendon.catheter is rod for s in (other.start, other.end)])
-        if len(breaks):
-            near = np.abs(term.points.s[:, None] - breaks[None, :]) <= SPLIT_AT * rod.length
-            split = np.any(near, axis=1)
-            split[[0, -1]] = False  # the entry's turn is its own; the termination has none
-            term.split = split
