@@ -36,8 +36,8 @@ def _breakaways(monkeypatch, scene: Scene, duration: float, step: float,
     first: dict[int, float] = {}
     carry = Programs.carry_history
 
-    def watched(self, t, x, solved=None):
-        end = carry(self, t, x, solved)
+    def watched(self, t, x):
+        end = carry(self, t, x)
         for e in np.flatnonzero(string_term(self.model).state == 1.0):
             first.setdefault(int(e), float(t))
         return end

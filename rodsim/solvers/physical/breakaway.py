@@ -39,7 +39,7 @@ from rodsim.core.tendon_friction import bound_coefficients, breakaway_margins
 from rodsim.core.terms.tendon_string import TendonString
 from rodsim.solvers.physical.coordinates import model_state
 from rodsim.solvers.physical.fixed_step import Motion, StepOutcome
-from rodsim.solvers.physical.step_events import _root
+from rodsim.solvers.physical.step_events import root
 
 __all__ = ["margins", "locate"]
 
@@ -83,6 +83,6 @@ def locate(model_at: Callable[[float], Model], t0: float, start: np.ndarray, t1:
         assert found is not None
         return float(np.min(found[crossed]))
 
-    when = float(_root(g, t0, float(np.min(start[crossed])), t1,
+    when = float(root(g, t0, float(np.min(start[crossed])), t1,
                        float(np.min(after[crossed]))))
     return (t1, None) if when >= t1 else (when, reached[when])

@@ -41,11 +41,10 @@ from rodsim.solvers.physical.events import EventFunctions
 from rodsim.solvers.physical.fixed_step import FixedStep, Motion, StepFailure, StepOutcome
 from rodsim.solvers.physical.step_events import StepEvents
 
-#: What a run is told at the end of every step: ``after_step(t, x, model)``, x the model's
-#: free coordinates (offsets from the rest state); ``model`` is None (a step where a point
-#: of a string tendon breaks loose is split there: rodsim/solvers/physical/breakaway.py,
-#: and the history carried at the split holds the point's new state).
-AfterStep = Callable[[float, np.ndarray, "Model | None"], None]
+#: What a run is told at the end of every step: ``after_step(t, x)``, x the model's free
+#: coordinates (offsets from the rest state); a step in which a point of a string tendon
+#: breaks loose is split there (rodsim/solvers/physical/breakaway.py), and told at the split.
+AfterStep = Callable[[float, np.ndarray], None]
 
 __all__ = ["Record", "integrate", "MAX_HALVINGS"]
 
@@ -178,7 +177,7 @@ def _advance(model_at: Callable[[float], Model], stepper: FixedStep, motion: Mot
             dissipated += outcome.dissipated
             motion = outcome.motion
         if after_step is not None:
-            after_step(when, model_state(middle, motion.x), None)
+            after_step(when, model_state(middle, motion.x))
         if when >= t1:
             return motion, work, dissipated, (counts[0], counts[1], counts[2])
         t0 = when
