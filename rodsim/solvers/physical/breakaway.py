@@ -41,7 +41,12 @@ from rodsim.solvers.physical.coordinates import model_state
 from rodsim.solvers.physical.fixed_step import Motion, StepOutcome
 from rodsim.solvers.physical.step_events import root
 
-__all__ = ["margins", "locate"]
+__all__ = ["sticky", "margins", "locate"]
+
+
+def sticky(model: Model) -> bool:
+    """Whether a string tendon of ``model`` has stiction (μ_s above μ_k somewhere)."""
+    return any(isinstance(term, TendonString) and term.sticky for term in model.terms)
 
 
 def margins(model: Model, x: np.ndarray) -> np.ndarray | None:

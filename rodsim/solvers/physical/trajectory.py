@@ -35,7 +35,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from rodsim.core.model import Model
-from rodsim.solvers.physical.breakaway import locate, margins
+from rodsim.solvers.physical.breakaway import locate, margins, sticky
 from rodsim.solvers.physical.coordinates import model_state
 from rodsim.solvers.physical.events import EventFunctions
 from rodsim.solvers.physical.fixed_step import FixedStep, Motion, StepFailure, StepOutcome
@@ -110,14 +110,14 @@ def _solve(model_at: Callable[[float], Model], stepper: FixedStep, motion: Motio
 
 
 def _part(model_at: Callable[[float], Model], stepper: FixedStep, motion: Motion,
-          t0: float, t1: float, sticky: bool
+          t0: float, t1: float, watch: bool
           ) -> tuple[float, Model, StepOutcome | None, tuple[int, int]]:
     """The first part of the step from ``t0`` to ``t1`` (all of it unless, with stiction,
     a routing point breaks loose in it: rodsim/solvers/physical/breakaway.py): (its end τ,
     the model that solved it, the outcome, (steps, Newton iterations) spent); τ = ``t0``
     and no outcome when a point is already on its bound at t0 (its history is to be carried
     there first)."""
-    start = margins(model_at(t0), motion.x) if sticky else None
+    start = margins(model_at(t0), motion.x) if watch else None
     if start is not None and np.any(start <= 0.0):
         return t0, model_at(t0), None, (0, 0)
     middle, outcome = _solve(model_at, stepper, motion, t0, t1)
@@ -149,10 +149,10 @@ def _advance(model_at: Callable[[float], Model], stepper: FixedStep, motion: Mot
     as often as points break loose in it."""
     work = dissipated = 0.0
     counts = [0, 0, 0]
-    sticky = after_step is not None and margins(model_at(t0), motion.x) is not None
+    watch = after_step is not None and sticky(model_at(t0))
     for _ in range(MAX_BREAKAWAYS):
         try:
-            when, middle, outcome, spent = _part(model_at, stepper, motion, t0, t1, sticky)
+            when, middle, outcome, spent = _part(model_at, stepper, motion, t0, t1, watch)
         except StepFailure:
             if halvings == 0:
                 raise
