@@ -124,9 +124,10 @@ def _part(model_at: Callable[[float], Model], stepper: FixedStep, motion: Motion
     if start is None:
         return t1, middle, outcome, (1, outcome.iterations)
     spent = [1, outcome.iterations]
+    models: dict[float, Model] = {}
 
     def solve(t: float) -> StepOutcome:
-        found = _solve(model_at, stepper, motion, t0, t)[1]
+        models[t], found = _solve(model_at, stepper, motion, t0, t)
         spent[0] += 1
         spent[1] += found.iterations
         return found
@@ -134,7 +135,7 @@ def _part(model_at: Callable[[float], Model], stepper: FixedStep, motion: Motion
     when, first = locate(model_at, t0, start, t1, outcome.motion, solve)
     if first is None:
         return t1, middle, outcome, (spent[0], spent[1])
-    return when, model_at(0.5 * (t0 + when)), first, (spent[0], spent[1])
+    return when, models[when], first, (spent[0], spent[1])
 
 
 def _advance(model_at: Callable[[float], Model], stepper: FixedStep, motion: Motion,
