@@ -370,9 +370,10 @@ def test_user_robots_with_stiction_widen_the_loop_and_pull_as_before(seed):
 def test_simulate_carries_the_stick_slip_state():
     """A run in physical time released from 3 N to 2.4 N in 0.03 s (the self-bent catheter,
     N = 11, damped): with μ_s = μ_k it is the kinetic run bitwise; with μ_s = 0.5 (points
-    that stop while the catheter moves must break loose again) it ends 37 µm (1.8e-4 L) from
-    the kinetic run, where one track step from 3 to 2.4 N ends on the kinetic shape (7e-13 m:
-    the same points break loose, the held ones keep their tensions either way)."""
+    that stop while the catheter moves must break loose again) it ends 19 µm (9.6e-5 L) from
+    the kinetic run at these 5 ms steps (37 µm before the breakaways were located inside the
+    steps), where one track step from 3 to 2.4 N ends on the kinetic shape (7e-13 m: the
+    same points break loose, the held ones keep their tensions either way)."""
     def run(static: float) -> np.ndarray:
         raw = catheter(11, 0.25, 3.0, static_friction=static)
         raw["rods"]["backbone"]["damping"] = {"retardation_time": 6e-3}

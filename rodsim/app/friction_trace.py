@@ -27,10 +27,10 @@ class FrictionTrace:
         #: no output time, reads its state from it.
         self.latest: tuple[float, Model, np.ndarray] | None = None
 
-    def after_step(self, t: float, x: np.ndarray, solved: Model | None) -> None:
+    def after_step(self, t: float, x: np.ndarray) -> None:
         """``integrate``'s ``after_step``: carry the history; at an output time, keep the
         friction state of ``x`` (free state) with the step's history."""
-        end = self.programs.carry_history(t, x, solved)
+        end = self.programs.carry_history(t, x)
         if end is not None:
             self.latest = (t, end, x.copy())
         if end is not None and t in self.outputs:

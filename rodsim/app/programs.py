@@ -122,22 +122,19 @@ class Programs:
             self._models[now] = changed
         return self._models[now]
 
-    def carry_history(self, t: float, x: np.ndarray, solved: Model | None = None
-                      ) -> Model | None:
+    def carry_history(self, t: float, x: np.ndarray) -> Model | None:
         """Friction's history after a step that ended at time ``t`` in the state ``x`` (free
         coordinates): the anchors the model of time ``t`` gives at ``x`` (a string tendon's
         chord tensions, a frictional contact's node positions) become those of every later
         model, so that each step's friction opposes the slip since the step before — as
         ``track`` carries it from one equilibrium to the next (docs/dynamics.md,
-        "Friction in physical time"). ``solved``: the model that solved the step, whose
-        anchors hold the points that broke loose in it (stiction, ``Model.freed``).
+        "Friction in physical time"; a point of a string tendon that breaks loose
+        inside a step is carried at the time it does, rodsim/solvers/physical/breakaway.py).
         Returns the model of time ``t`` with the step's history (whose friction at ``x`` is
         the state reached: ``rodsim.core.friction_record``); None without friction."""
         if not self.path_dependent:
             return None
         end = self.model_at(t)
-        if solved is not None:
-            end = end.with_anchors_of(solved)
         self.model = self.model.with_anchors_of(end.anchored(x))
         self._models.clear()
         return end

@@ -352,7 +352,7 @@ def simulate(scene: SceneLike | None, t_end: float, *, output_dt: float | None =
     if programs.path_dependent:
         # The start: at rest in the equilibrium it was left in (x holds the coordinates
         # themselves, the history is taken at the model's offsets from its rest state).
-        friction.after_step(0.0, model_state(model, x), None)
+        friction.after_step(0.0, model_state(model, x))
     coordinates = PhysicalCoordinates.of(model, x)
     length = max(rod.options.length for rod in model.rods.values())
     stepper: SemiImplicitEulerStep | MidpointStep = (

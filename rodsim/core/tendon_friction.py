@@ -87,6 +87,12 @@ profile point e breaks iff T_1 < T_max e^{−2μ_kΘ_e − (μ_s−μ_k)θ_e} wh
 state at an equilibrium is read off the chords (``slip_states``). μ_s = μ_k and one μ
 keep the functions above: the same numbers bitwise.
 
+When in a step of physical time a point breaks loose (``breakaway_margins``): each point's
+margin g_e to the bound it would break loose toward, relative to the tension there, is
+positive while it holds and ≤ 0 exactly where ``slip_states`` reads it as broken loose (on a
+bound other than the side it slid to); a run locates the root of g in the step and splits
+the step there (rodsim/solvers/physical/breakaway.py).
+
 A μ per arc length (``friction_profile``; docs/tendon.md). The user's μ(s) is a function
 of the catheter's arc length, piecewise linear, and the continuum's wrap is
 W(s) = ∫ μ(s′) |κ(s′)| ds′ along the path (capstan: T_out = T_in e^{−W}). The turn θ_j at
@@ -107,7 +113,8 @@ from __future__ import annotations
 import numpy as np
 
 __all__ = ["MAX_FRICTION", "ONE_WAY", "SLIP_NAMES", "SLIP_TIE", "bound_coefficients",
-           "chord_tensions", "profile_coefficients", "slide_rates", "slip_states", "turning_angles",
+           "breakaway_margins", "chord_tensions", "profile_coefficients", "slide_rates",
+           "slip_states", "turning_angles",
            "weighted_chord_tensions", "weighted_slide_factors", "weighted_slide_rates"]
 
 #: |Θ_e − ψ_e| below which (relative to max(1, Θ_e)) the path up to chord e turns one way
@@ -278,3 +285,28 @@ def slip_states(tension: float, mu_in: np.ndarray, mu_out: np.ndarray, theta: np
     outward = high <= profile * (1.0 + SLIP_TIE)
     return np.where(inward & outward, state,
                     np.where(inward, SLIDING_IN, np.where(outward, SLIDING_OUT, STUCK)))
+
+
+def breakaway_margins(tension: float, mu_in: np.ndarray, mu_out: np.ndarray,
+                      theta: np.ndarray, profile: np.ndarray, state: np.ndarray
+                      ) -> np.ndarray:
+    """g_e of every routing point (module docstring, "Per-point coefficients and
+    stiction"): with m_in = (τ_old_e (1 − SLIP_TIE) − T_0 e^{−W_in,e})/S and
+    m_out = (T_0 e^{+W_out,e} − τ_old_e (1 + SLIP_TIE))/S (≤ 0: on that bound, as
+    ``slip_states`` reads it; S = max(T_0, τ_old_e), 1 if both are 0), a point sliding in
+    breaks loose outward, g = max(m_out, −m_in); one sliding out, inward,
+    g = max(m_in, −m_out); a stuck one either way, the smaller of the two. g is continuous
+    in the state and ≤ 0 exactly where the point broke loose (``slip_states`` gives a state
+    other than 0 and other than the one it had); where it reads as on both bounds (no wrap
+    up to it: the state is kept) g is the smallest positive number instead."""
+    low, high = _bounds(tension, mu_in, mu_out, theta)
+    scale = np.maximum(abs(tension), profile)
+    scale = np.where(scale > 0.0, scale, 1.0)
+    m_in = (profile * (1.0 - SLIP_TIE) - low) / scale
+    m_out = (high - profile * (1.0 + SLIP_TIE)) / scale
+    outward = np.maximum(m_out, -m_in)
+    inward = np.maximum(m_in, -m_out)
+    g = np.where(state == SLIDING_IN, outward,
+                 np.where(state == SLIDING_OUT, inward, np.minimum(inward, outward)))
+    both = (m_in <= 0.0) & (m_out <= 0.0)
+    return np.where(both, np.finfo(float).tiny, g)

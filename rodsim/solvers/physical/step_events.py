@@ -35,7 +35,7 @@ from rodsim.solvers.physical.coordinates import PhysicalCoordinates, velocity_ro
 from rodsim.solvers.physical.events import EventFunctions
 from rodsim.solvers.physical.fixed_step import Motion
 
-__all__ = ["StepEvents", "TIME_TOLERANCE", "MAX_ITERATIONS"]
+__all__ = ["StepEvents", "TIME_TOLERANCE", "MAX_ITERATIONS", "root"]
 
 #: A root's bracket is narrowed to this fraction of the step (or to round-off).
 TIME_TOLERANCE = 1e-10
@@ -123,13 +123,13 @@ class StepEvents:
                 motion = state(t)
                 return float(self.values(t, motion.x, motion.v)[i])
 
-            guess = _root(interpolated, t0, before[i], t1, after[i])
-            when = _root(stepped, t0, before[i], t1, after[i], guess)
+            guess = root(interpolated, t0, before[i], t1, after[i])
+            when = root(stepped, t0, before[i], t1, after[i], guess)
             found.append((float(when), i))
         return sorted(found)
 
 
-def _root(g: Callable[[float], float], a: float, ga: float, b: float, gb: float,
+def root(g: Callable[[float], float], a: float, ga: float, b: float, gb: float,
           guess: float | None = None) -> float:
     """The root of ``g`` in [a, b] (g(a) = ``ga`` and g(b) = ``gb`` across zero, ``ga``
     ≠ 0) to ``TIME_TOLERANCE`` × (b − a) or round-off: Illinois, its first point ``guess``

@@ -35,16 +35,16 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from rodsim.core.model import Model
+from rodsim.solvers.physical.breakaway import locate, margins, sticky
 from rodsim.solvers.physical.coordinates import model_state
 from rodsim.solvers.physical.events import EventFunctions
-from rodsim.solvers.physical.fixed_step import FixedStep, Motion, StepFailure
+from rodsim.solvers.physical.fixed_step import FixedStep, Motion, StepFailure, StepOutcome
 from rodsim.solvers.physical.step_events import StepEvents
 
-#: What a run is told at the end of every step: ``after_step(t, x, model)``, x the model's
-#: free coordinates (offsets from the rest state), ``model`` the one that solved the step
-#: when points of a string tendon broke loose in the step (stiction: :meth:`Model.freed`),
-#: else None.
-AfterStep = Callable[[float, np.ndarray, "Model | None"], None]
+#: What a run is told at the end of every step: ``after_step(t, x)``, x the model's free
+#: coordinates (offsets from the rest state); a step in which a point of a string tendon
+#: breaks loose is split there (rodsim/solvers/physical/breakaway.py), and told at the split.
+AfterStep = Callable[[float, np.ndarray], None]
 
 __all__ = ["Record", "integrate", "MAX_HALVINGS"]
 
@@ -96,49 +96,94 @@ def _potential(model: Model, x: np.ndarray) -> float:
     return model.energy(model_state(model, x))
 
 
+def _solve(model_at: Callable[[float], Model], stepper: FixedStep, motion: Motion,
+           t0: float, t1: float) -> tuple[Model, StepOutcome]:
+    """One midpoint step from ``t0`` to ``t1`` with the model of its midpoint time
+    (re-registered at the start where a tendon registers): (that model, the outcome);
+    StepFailure when its Newton fails."""
+    t_middle = 0.5 * (t0 + t1)
+    middle = model_at(t_middle)
+    if middle.has_registration:
+        registered = middle.reregistered(model_state(middle, motion.x))
+        middle = middle if registered is None else registered
+    return middle, stepper.step(middle, motion, t1 - t0, t_middle)
+
+
+def _part(model_at: Callable[[float], Model], stepper: FixedStep, motion: Motion,
+          t0: float, t1: float, watch: bool
+          ) -> tuple[float, Model, StepOutcome | None, tuple[int, int]]:
+    """The first part of the step from ``t0`` to ``t1`` (all of it unless, with stiction,
+    a routing point breaks loose in it: rodsim/solvers/physical/breakaway.py): (its end τ,
+    the model that solved it, the outcome, (steps, Newton iterations) spent); τ = ``t0``
+    and no outcome when a point is already on its bound at t0 (its history is to be carried
+    there first)."""
+    start = margins(model_at(t0), motion.x) if watch else None
+    if start is not None and np.any(start <= 0.0):
+        return t0, model_at(t0), None, (0, 0)
+    middle, outcome = _solve(model_at, stepper, motion, t0, t1)
+    if start is None:
+        return t1, middle, outcome, (1, outcome.iterations)
+    spent = [1, outcome.iterations]
+    models: dict[float, Model] = {}
+
+    def solve(t: float) -> StepOutcome:
+        models[t], found = _solve(model_at, stepper, motion, t0, t)
+        spent[0] += 1
+        spent[1] += found.iterations
+        return found
+
+    when, first = locate(model_at, t0, start, t1, outcome.motion, solve)
+    if first is None:
+        return t1, middle, outcome, (spent[0], spent[1])
+    return when, models[when], first, (spent[0], spent[1])
+
+
 def _advance(model_at: Callable[[float], Model], stepper: FixedStep, motion: Motion,
              t0: float, t1: float, halvings: int, after_step: AfterStep | None = None
              ) -> tuple[Motion, float, float, tuple[int, int, int]]:
     """One step from ``t0`` to ``t1``, or, if its Newton fails, two half steps (each halved
     again, ``halvings`` times at most): (the motion reached, the programs' work, the
     dissipated energy, (steps, Newton iterations, halvings)). ``after_step(t, x)`` is told
-    the end of every step taken (x the model's free coordinates)."""
-    t_middle = 0.5 * (t0 + t1)
-    middle = model_at(t_middle)
-    if middle.has_registration:
-        registered = middle.reregistered(model_state(middle, motion.x))
-        middle = middle if registered is None else registered
-    freed: Model | None = None
-    broke = False
-    try:
-        outcome = stepper.step(middle, motion, t1 - t0, t_middle)
-        # Stiction: the points that broke loose in the step slide at their kinetic μ; the
-        # step is taken again with them until nothing more breaks (as a track's step,
-        # rodsim/app/inverse/continuation.py).
-        for _ in range(MAX_BREAKAWAYS):
-            freed = (middle.freed(model_state(middle, outcome.motion.x))
-                     if after_step is not None else None)
-            if freed is None:
-                break
-            middle, broke = freed, True
-            outcome = stepper.step(middle, motion, t1 - t0, t_middle)
-    except StepFailure:
-        if halvings == 0:
-            raise
-        half = 0.5 * (t0 + t1)
-        first = _advance(model_at, stepper, motion, t0, half, halvings - 1, after_step)
-        second = _advance(model_at, stepper, first[0], half, t1, halvings - 1, after_step)
-        return (second[0], first[1] + second[1], first[2] + second[2],
-                (first[3][0] + second[3][0], first[3][1] + second[3][1],
-                 first[3][2] + second[3][2] + 1))
-    work = outcome.support_work  # a moving support's, through the damping
-    start_model, end_model = model_at(t0), model_at(t1)
-    if after_step is not None:
-        after_step(t1, model_state(middle, outcome.motion.x), middle if broke else None)
-    if start_model is not middle or end_model is not middle:
-        work += (_potential(end_model, outcome.motion.x) - _potential(middle, outcome.motion.x)
-                + _potential(middle, motion.x) - _potential(start_model, motion.x))
-    return outcome.motion, work, outcome.dissipated, (1, outcome.iterations, 0)
+    the end of every step taken (x the model's free coordinates). With stiction (and
+    ``after_step``, which carries friction's history) the step is split where a routing
+    point breaks loose, the rest taken with it freed (rodsim/solvers/physical/breakaway.py),
+    as often as points break loose in it."""
+    work = dissipated = 0.0
+    counts = [0, 0, 0]
+    watch = after_step is not None and sticky(model_at(t0))
+    for _ in range(MAX_BREAKAWAYS):
+        try:
+            when, middle, outcome, spent = _part(model_at, stepper, motion, t0, t1, watch)
+        except StepFailure:
+            if halvings == 0:
+                raise
+            half = 0.5 * (t0 + t1)
+            first = _advance(model_at, stepper, motion, t0, half, halvings - 1, after_step)
+            second = _advance(model_at, stepper, first[0], half, t1, halvings - 1,
+                              after_step)
+            return (second[0], work + first[1] + second[1],
+                    dissipated + first[2] + second[2],
+                    (counts[0] + first[3][0] + second[3][0],
+                     counts[1] + first[3][1] + second[3][1],
+                     counts[2] + first[3][2] + second[3][2] + 1))
+        counts[0] += spent[0]
+        counts[1] += spent[1]
+        if outcome is not None:
+            work += outcome.support_work  # a moving support's, through the damping
+            start_model, end_model = model_at(t0), model_at(when)
+            if start_model is not middle or end_model is not middle:
+                work += (_potential(end_model, outcome.motion.x)
+                         - _potential(middle, outcome.motion.x)
+                         + _potential(middle, motion.x) - _potential(start_model, motion.x))
+            dissipated += outcome.dissipated
+            motion = outcome.motion
+        if after_step is not None:
+            after_step(when, model_state(middle, motion.x))
+        if when >= t1:
+            return motion, work, dissipated, (counts[0], counts[1], counts[2])
+        t0 = when
+    raise StepFailure(f"routing points broke loose more than {MAX_BREAKAWAYS} times in one "
+                      "step")
 
 
 def _restep(model_at: Callable[[float], Model], stepper: FixedStep, start: Motion,
