@@ -72,7 +72,7 @@ def test_warm_cases_are_the_cases_solved_alone_to_round_off(batches):
 
 def test_warm_answers_do_not_depend_on_chunks_or_workers(batches, tmp_path):
     cases, _, warm = batches
-    for chunk, workers in ((7, 1), (SEGMENT, 1), (13, 2)):
+    for chunk, workers in ((7, 1), (SEGMENT, 1), (13, 2), (60, 2)):
         other = solve_many(TDCR, cases, warm=True, chunk=chunk, workers=workers,
                            output=tmp_path / f"w{chunk}.nc")
         for name in ("position", "quaternion", "residual", "newton_iters", "stable"):
@@ -107,6 +107,7 @@ def test_a_warm_batch_resumes_from_its_parts_and_reruns_bit_for_bit(batches, tmp
     records = [json.loads(p.read_text()) for p in sorted(parts.glob("chunk-*.json"))]
     order = solve_order(np.column_stack([few[k] for k in TDCR_KEYS]))
     assert [c["case"] for r in records for c in r["cases"]] == order.tolist()
+    assert [r["start"] for r in records] == [0, SEGMENT]
     calls = []
 
     def recording(job, start, end):
@@ -114,9 +115,9 @@ def test_a_warm_batch_resumes_from_its_parts_and_reruns_bit_for_bit(batches, tmp
         return solve_chunk(job, start, end)
 
     monkeypatch.setattr(rodsim.app.batch, "solve_chunk", recording)
-    (parts / "chunk-000000010.json").unlink()
+    (parts / "chunk-000000025.json").unlink()  # chunks of whole segments: 0-24, 25-29
     again = solve_many(TDCR, few, warm=True, chunk=10, output=output)
-    assert calls == [10]
+    assert calls == [25]
     assert np.array_equal(again["position"].values, first["position"].values)
     # A cold batch is another batch: its parts are not mixed with the warm one's.
     solve_many(TDCR, few, warm=True, chunk=10, output=tmp_path / "p.nc", keep_parts=True)

@@ -265,8 +265,9 @@ def solve_many(scene: Any, cases: Any, integrator: str | None = None, *,
     (done, failed, total, seconds) after each chunk. ``warm``: start each case from a
     neighbouring case's equilibrium (rodsim/app/batch_warm.py: fewer Newton iterations;
     the equilibria differ from the cold ones by their distance from the exact root, up to
-    ~1e-10 L, and the same table gives the same answers bit for bit whatever the chunks
-    and workers).
+    ~1e-9 L, and the same table gives the same answers bit for bit whatever the chunks
+    and workers; the chunk is rounded up to a multiple of 25 cases, whole segments of the
+    solve order).
 
     Raises SceneError for a bad scene or cases table (nothing is run or written), StudyError
     for an output that cannot be written, a parts folder of another batch or an unreachable
@@ -288,10 +289,11 @@ def solve_many(scene: Any, cases: Any, integrator: str | None = None, *,
         raise StudyError(f"warm must be True or False, not {warm!r}")
     keys, values = checked_cases(base, cases)
     order = None
-    if warm:
-        from rodsim.app.batch_warm import solve_order
+    if warm:  # chunks of whole segments (rodsim/app/batch_warm.py)
+        from rodsim.app.batch_warm import SEGMENT, solve_order
 
         order = solve_order(values)
+        chunk = -(-chunk // SEGMENT) * SEGMENT
     job = BatchJob(base.to_json(), base.source, name, tuple(k.name for k in keys), values,
                    chunk, order)
     shape = (sum(r.nodes for r in base.rods.values()),

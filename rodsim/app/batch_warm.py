@@ -19,11 +19,12 @@ Which neighbour: the cases are put in one solve order by a greedy nearest-neighb
 starting from case 0 (within groups of ``ORDER_GROUP`` consecutive cases, so that the order
 costs O(cases × ORDER_GROUP)). The order is cut into segments of ``SEGMENT`` cases: the
 first case of a segment is solved cold, every other one warm from the case before it in
-the order (cold too when that one failed). A case's answer therefore depends only on the
-table, never on the chunks or the workers: a chunk (``SEGMENT`` divides the default chunk)
-is a range of positions in the solve order, and a chunk that starts inside a segment first
-solves that segment's earlier cases again, unrecorded. The same table gives the same
-equilibria bit for bit on every run, whatever the chunk size and the number of workers.
+the order (cold too when that one failed). A chunk is a range of positions in the solve
+order made of whole segments (``solve_many`` rounds the chunk up to a multiple of
+``SEGMENT``; a chunk that started inside a segment would first solve the segment's earlier
+cases again, unrecorded). A case's answer therefore depends only on the table, never on the
+chunks or the workers: the same table gives the same equilibria bit for bit on every run,
+whatever the chunk size and the number of workers.
 
 What a warm case is not: bit for bit the cold solve. Both are Newton roots polished to
 round-off; they differ by the distance of each from the exact root, which a cold solve's
