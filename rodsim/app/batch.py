@@ -6,7 +6,8 @@ once per process; each case only sets its values (``rodsim.core.model.Model.with
 the study points' way of sharing a model: rodsim/app/study_points.py) and converges on its own
 from the rest state, with its own verdict, message and stability verdict: the same solve as
 ``rodsim.solve`` of that case alone. A case that fails is recorded with its message and the
-others go on.
+others go on. With ``warm=True`` each case starts instead from a neighbouring case's
+equilibrium (rodsim/app/batch_warm.py), in chunks of a solve order.
 
 Cases run in chunks of ``CHUNK`` (a task of the local worker pool,
 rodsim/app/worker_pool.py, or of a dask cluster; workers keep their imports, kernels and
