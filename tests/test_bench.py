@@ -541,17 +541,22 @@ def test_workers_small_outputs(tmp_path):
 
 @pytest.mark.slow
 def test_batch_small_outputs(tmp_path):
-    """``rodsim bench batch --size small``: 1 and 2 local workers ran every case, the same
-    equilibria (bit for bit) as each other and as the cases solved alone (round-off)."""
+    """``rodsim bench batch --size small``: 1 and 2 local workers ran every case, cold and
+    warm, the same equilibria (bit for bit) as the other run of their kind; the cold ones
+    as the cases solved alone (round-off), the warm ones within the equilibrium's
+    round-off (tests/test_batch_warm.py)."""
     from rodsim_bench import batch
 
     paths = batch.run("small", tmp_path)
     assert {p.name for p in paths} == {"batch-small.nc", "batch-small.md"}
     ds = _open(tmp_path / "batch-small.nc")
-    assert list(ds["runner"].values) == ["local-1", "local-2"]
+    assert list(ds["runner"].values) == ["local-1", "local-2", "local-1-warm",
+                                         "local-2-warm"]
     assert np.all(ds["failed_cases"].values == 0)
     assert np.all(ds["largest_difference"].values == 0.0)
     assert ds.attrs["largest_difference_from_alone"] <= 1e-12 * 0.4
+    assert np.all(ds["difference_from_cold"].values <= 5e-9 * 0.4)
+    assert ds.attrs["largest_warm_difference_from_alone"] <= 5e-9 * 0.4
     assert np.all(ds["equilibria_per_cpu_second"].values > 0)
 
 

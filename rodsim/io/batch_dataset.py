@@ -28,11 +28,14 @@ __all__ = ["batch_dataset", "check_chunk_record"]
 
 
 def batch_dataset(scene: Scene, integrator: str, keys: Sequence[Any], values: np.ndarray,
-                  records: list[dict[str, Any]], model: Model, call: str) -> xr.Dataset:
+                  records: list[dict[str, Any]], model: Model, call: str,
+                  warm: bool = False) -> xr.Dataset:
     """One Dataset for the batch from one record per case (in case order). ``keys`` are the
     cases' ``rodsim.app.inverse.parameter_keys.NumericKey`` (their ``name`` and
     ``unit`` are read), ``values`` the (cases, keys) table, ``model`` the base scene's
-    (its rods give the node and segment coordinates); ``call`` the history's words."""
+    (its rods give the node and segment coordinates); ``call`` the history's words;
+    ``warm``: the cases were warm-started (attribute ``warm_starts`` 1, else 0;
+    rodsim/app/batch_warm.py)."""
     from rodsim.solvers import registered_integrators
 
     count = len(records)
@@ -111,6 +114,7 @@ def batch_dataset(scene: Scene, integrator: str, keys: Sequence[Any], values: np
         "case_keys": json.dumps([key.name for key in keys]),
         "cases": count,
         "failed_cases": int(np.sum(status != STATUS["ok"])),
+        "warm_starts": int(warm),
         "solver_tolerance": float(scene.solver.tolerance),
         "scene_json": scene.to_json(),
         "scene_toml": scene.source,
@@ -122,19 +126,24 @@ def _number(value: Any) -> bool:
     return isinstance(value, (int, float)) and not isinstance(value, bool)
 
 
-def check_chunk_record(record: Any, shape: tuple[int, int], stats: tuple[str, ...]) -> None:
+def check_chunk_record(record: Any, shape: tuple[int, int], stats: tuple[str, ...],
+                       cases_expected: Sequence[int] | None = None) -> None:
     """Check one chunk record of a batch's parts folder (rodsim/app/batch.py writes them)
-    for a scene of ``shape`` = (control points, segments): its cases in order, each with a
-    status and a message, a successful one with finite positions and quaternions of that
-    shape; ArchiveSchemaError otherwise."""
+    for a scene of ``shape`` = (control points, segments): its cases in order (those of
+    ``cases_expected``, default ``start`` to ``end``: a warm batch's chunk holds positions
+    of its solve order), each with a status and a message, a successful one with finite
+    positions and quaternions of that shape; ArchiveSchemaError otherwise."""
     if not isinstance(record, dict):
         raise ArchiveSchemaError("not a JSON object")
     start, end, cases = record.get("start"), record.get("end"), record.get("cases")
     if not (isinstance(start, int) and isinstance(end, int) and isinstance(cases, list)):
         raise ArchiveSchemaError("no start, end and cases")
-    if [c.get("case") if isinstance(c, dict) else None for c in cases] != list(
-            range(start, end)):
-        raise ArchiveSchemaError(f"its cases are not {start} to {end - 1}")
+    expected = list(range(start, end)) if cases_expected is None else list(cases_expected)
+    if [c.get("case") if isinstance(c, dict) else None for c in cases] != expected:
+        raise ArchiveSchemaError(f"its cases are not {start} to {end - 1}"
+                                 if cases_expected is None else
+                                 f"its cases are not those of positions {start} to {end - 1} "
+                                 "of the solve order")
     for case in cases:
         if case.get("status") not in STATUS.values() or isinstance(case.get("status"), bool):
             raise ArchiveSchemaError(f"case {case['case']}: status is not one of "

@@ -54,7 +54,8 @@ def cmd_batch(args: argparse.Namespace) -> int:
     try:
         dataset = solve_many(scene, cases, args.integrator, output=output,
                              workers=args.workers, scheduler=args.scheduler,
-                             chunk=args.chunk, progress=progress, log=log)
+                             chunk=args.chunk, progress=progress, log=log,
+                             warm=args.warm)
     except (StudyError, SceneError) as exc:
         raise UserError(str(exc)) from None
     except KeyboardInterrupt:

@@ -191,6 +191,10 @@ def build_parser() -> argparse.ArgumentParser:
                       "'local' for a LocalCluster")
     many.add_argument("--chunk", type=positive_int, default=50, metavar="CASES",
                       help="cases per task and per file of OUT.parts/ (default 50)")
+    many.add_argument("--warm", action="store_true",
+                      help="start each case from a neighbouring case's equilibrium (fewer "
+                      "Newton iterations; equal to the cold solves to their round-off, "
+                      "docs/batch.md 'Warm starts')")
     many.set_defaults(func=cmd_batch)
 
     follow = _scene_command(sub, "track", Track, "scene file or shipped scene name",
