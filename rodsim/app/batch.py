@@ -21,21 +21,20 @@ dimension.
 from __future__ import annotations
 
 import contextlib
-import hashlib
 import json
 import os
 import shutil
 import sys
 import time
 from collections.abc import Callable
-from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from rodsim.app.batch_cases import checked_cases
-from rodsim.app.inverse.parameter_keys import NumericKey, numeric_keys, scene_with
+from rodsim.app.batch_job import SEGMENT, BatchJob, shape_record, shared_model
+from rodsim.app.inverse.parameter_keys import scene_with
 from rodsim.app.study_parts import (
     StudyLog,
     check_study_output,
@@ -55,7 +54,6 @@ from rodsim.io.statistics import POINT_STATS
 if TYPE_CHECKING:
     import xarray as xr
 
-    from rodsim.core.model import Model
     from rodsim.solvers.result import Result
 
 __all__ = ["BatchJob", "solve_many", "solve_chunk", "CHUNK", "BatchProgress"]
@@ -69,84 +67,13 @@ CHUNK = 50
 BatchProgress = Callable[[int, int, int, float], None]
 
 
-@dataclass(frozen=True)
-class BatchJob:
-    """What a worker needs to run any chunk of a batch (picklable): the base scene as JSON
-    and TOML, the integrator, the keys (their full names) and the (cases, keys) values."""
-
-    scene_json: str
-    scene_toml: str
-    integrator: str
-    keys: tuple[str, ...]
-    values: np.ndarray
-    chunk: int
-    #: Warm starts (rodsim/app/batch_warm.py): the solve order, a permutation of the cases,
-    #: whose positions the chunks cover; None: cold cases, chunks in case order.
-    order: np.ndarray | None = None
-
-    @property
-    def warm(self) -> bool:
-        return self.order is not None
-
-    def cases_of(self, start: int, end: int) -> list[int]:
-        """The cases of the chunk of positions ``start`` to ``end`` (excluded)."""
-        if self.order is None:
-            return list(range(start, end))
-        return [int(case) for case in self.order[start:end]]
-
-    @property
-    def cases(self) -> int:
-        return len(self.values)
-
-    def chunks(self) -> list[tuple[int, int]]:
-        """(first case, end) of every chunk."""
-        return [(start, min(start + self.chunk, self.cases))
-                for start in range(0, self.cases, self.chunk)]
-
-    def definition(self) -> dict[str, Any]:
-        """The parts folder's marker: what a resumed batch must share (the values by their
-        SHA-256, their exact bytes)."""
-        digest = hashlib.sha256(np.ascontiguousarray(self.values, dtype="<f8").tobytes())
-        definition = {"kind": "batch", "base_scene_json": self.scene_json,
-                      "base_scene_toml": self.scene_toml, "integrator": self.integrator,
-                      "keys": list(self.keys), "cases": self.cases, "chunk": self.chunk,
-                      "values_sha256": digest.hexdigest()}
-        if self.order is not None:  # the order too: it decides each case's start
-            from rodsim.app.batch_warm import SEGMENT
-
-            order = hashlib.sha256(np.ascontiguousarray(self.order, dtype="<i8").tobytes())
-            definition |= {"warm": True, "segment": SEGMENT,
-                           "order_sha256": order.hexdigest()}
-        return definition
-
-
-#: The process's model of the last batch's base scene ((its JSON, the keys) → scene, keys,
-#: model): worker processes keep it across the chunks they run.
-_MODELS: dict[tuple[str, tuple[str, ...]], tuple[Scene, list[NumericKey], Model]] = {}
-
-
-def _shared(job: BatchJob) -> tuple[Scene, list[NumericKey], Model]:
-    """The base scene, its keys and its model, built once per process and batch."""
-    from rodsim.core.memory import check_memory
-    from rodsim.core.model import Model
-
-    cached = _MODELS.get((job.scene_json, job.keys))
-    if cached is None:
-        base = Scene.from_json(job.scene_json, job.scene_toml)
-        check_memory(base)
-        cached = base, numeric_keys(base, job.keys), Model(base)
-        _MODELS.clear()  # one batch at a time: no growing cache
-        _MODELS[job.scene_json, job.keys] = cached
-    return cached
-
-
 def _case(job: BatchJob, case: int) -> dict[str, Any]:
     """Solve one case from rest with the shared model; never raises (a failure is recorded
     with its status and message). A failed solve stores no shape."""
     from rodsim.app.api import solve
 
     def solve_case() -> tuple[Scene, Result]:
-        base, keys, model = _shared(job)
+        base, keys, model = shared_model(job)
         scene = scene_with(base, keys, job.values[case])
         return scene, solve(scene, job.integrator, model=model.with_values(scene))
 
@@ -154,13 +81,6 @@ def _case(job: BatchJob, case: int) -> dict[str, Any]:
     if solved is not None:
         shape_record(record, solved[1])
     return record
-
-
-def shape_record(record: dict[str, Any], result: Result) -> None:
-    """Add a solved case's control points and segment orientations to its record."""
-    record["position"] = np.concatenate([r.positions for r in result.rods.values()]).tolist()
-    record["quaternion"] = np.concatenate([r.quaternions
-                                           for r in result.rods.values()]).tolist()
 
 
 def solve_chunk(job: BatchJob, start: int, end: int) -> dict[str, Any]:
@@ -291,7 +211,7 @@ def solve_many(scene: Any, cases: Any, integrator: str | None = None, *,
     keys, values = checked_cases(base, cases)
     order = None
     if warm:  # chunks of whole segments (rodsim/app/batch_warm.py)
-        from rodsim.app.batch_warm import SEGMENT, solve_order
+        from rodsim.app.batch_warm import solve_order
 
         order = solve_order(values)
         chunk = -(-chunk // SEGMENT) * SEGMENT
@@ -312,7 +232,7 @@ def solve_many(scene: Any, cases: Any, integrator: str | None = None, *,
                 stack.callback(cluster.close)
             stack.callback(client.close)
         records = _run(job, shape, output, workers, client, progress, log)
-    dataset = batch_dataset(base, name, keys, values, records, _shared(job)[2],
+    dataset = batch_dataset(base, name, keys, values, records, shared_model(job)[2],
                             f"rodsim.solve_many(scene {base.name!r}, {job.cases} cases, "
                             f"integrator={name!r}{', warm=True' if warm else ''})", warm)
     if output is not None:
@@ -371,7 +291,7 @@ def _run(job: BatchJob, shape: tuple[int, int], output: Path | None, workers: in
         for start, end in todo:
             persist(solve_chunk(job, start, end))
     else:
-        _shared(job)  # forked workers inherit the kernels and the model
+        shared_model(job)  # forked workers inherit the kernels and the model
         run_tasks(solve_chunk, [((s, e), (job, s, e)) for s, e in todo],
                   min(workers or os.cpu_count() or 1, len(todo)), finished, log=log,
                   noun="chunks")

@@ -41,19 +41,17 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from rodsim.app.batch_job import SEGMENT, BatchJob, shape_record, shared_model
 from rodsim.app.inverse.parameter_keys import scene_with
 from rodsim.app.study_points import solved_record
 
 if TYPE_CHECKING:
-    from rodsim.app.batch import BatchJob
     from rodsim.core.model import Model
     from rodsim.core.scene import Scene
     from rodsim.solvers.result import Result
 
-__all__ = ["SEGMENT", "ORDER_GROUP", "solve_order", "warm_chunk"]
+__all__ = ["ORDER_GROUP", "solve_order", "warm_chunk"]
 
-#: Cases per segment of the solve order: the first solved cold, the others warm.
-SEGMENT = 25
 #: Cases whose nearest-neighbour path is found together (the order's cost is quadratic in it).
 ORDER_GROUP = 2000
 
@@ -109,14 +107,13 @@ def _warm_case(job: BatchJob, case: int, previous: Previous | None
     a failure, or when the verification made no factorisation)."""
     import time
 
-    from rodsim.app.batch import _shared, shape_record
     from rodsim.solvers import registered_integrators
 
     kept: list[Previous | None] = [None]
 
     def solve_case() -> tuple[Scene, Result]:
         started = time.perf_counter()
-        base, keys, model = _shared(job)
+        base, keys, model = shared_model(job)
         scene = scene_with(base, keys, job.values[case])
         case_model = model.with_values(scene)
         integrator = registered_integrators()[job.integrator].for_scene(scene)
