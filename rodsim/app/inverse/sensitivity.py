@@ -38,6 +38,7 @@ import numpy as np
 from rodsim.app.inverse.parameter_keys import NumericKey, numeric_keys, scene_with
 from rodsim.core.model import Model
 from rodsim.core.schema import SceneError
+from rodsim.core.value_change import force_change
 from rodsim.solvers.linear import LinearSolver
 from rodsim.solvers.result import Result
 
@@ -98,17 +99,24 @@ def _stencil(key: NumericKey, value: float) -> list[tuple[float, float]]:
 
 
 def equilibrium_sensitivity(model: Model, x: np.ndarray, keys: Sequence[NumericKey],
-                            solve: Callable[[np.ndarray], np.ndarray] | None = None
+                            solve: Callable[[np.ndarray], np.ndarray] | None = None,
+                            values: Sequence[float] | np.ndarray | None = None
                             ) -> tuple[np.ndarray, np.ndarray]:
     """(dx/dp (n, P), d(full state)/dp (full size, P)) at the equilibrium ``x`` of
     ``model`` (which must carry the registration of ``x``), by the method of the module
     docstring. ``solve``: J at ``x`` already factored (a solve of J X = B: the verification
     of the solve that found ``x``, ``RunState.factorisation_at``), else J is factored
-    here. Raises SensitivityError when J is singular and SceneError when a parameter change
-    alters the model's layout."""
+    here; ``values``: the keys' values in ``model``'s scene, if the caller knows them. Raises
+    SensitivityError when J is singular and SceneError when a parameter change alters the
+    model's layout.
+
+    A change of the options of some terms alone (a load, a tendon force: ``Model.with_values``
+    rebuilds those terms) is differenced on those terms (``force_change``,
+    rodsim/core/value_change.py); any other builds the perturbed model."""
     scene = model.scene
-    base_values = [key.value(scene) for key in keys]
-    force_at_x = model.force(x)
+    base_values = (list(values) if values is not None
+                   else [key.value(scene) for key in keys])
+    force_at_x: np.ndarray | None = None
     rhs = np.zeros((model.n, len(keys)))
     rest = np.zeros((model.full_size, len(keys)))
     reference = np.zeros((model.full_size, len(keys)))
@@ -119,14 +127,21 @@ def equilibrium_sensitivity(model: Model, x: np.ndarray, keys: Sequence[NumericK
         for point, weight in _stencil(key, value):
             if point == value:
                 continue
-            values = list(base_values)
-            values[column] = point
+            moved = list(base_values)
+            moved[column] = point
             try:
-                perturbed = model.with_values(scene_with(scene, keys, values))
+                perturbed_scene = scene_with(scene, keys, moved)
+                change = force_change(model, perturbed_scene, x)
+                if change is not None:  # the same rest state and reference: no change there
+                    rhs[:, column] -= weight * change
+                    continue
+                perturbed = model.with_values(perturbed_scene)
             except SceneError:
                 raise
             except ValueError as exc:
                 raise SceneError(f"{key.name}: {exc}; it has no derivative") from None
+            if force_at_x is None:
+                force_at_x = model.force(x)
             rhs[:, column] -= weight * (perturbed.force(x) - force_at_x)
             rest[:, column] += weight * (perturbed.rest_full - model.rest_full)
             reference[:, column] += weight * (perturbed.reference - model.reference)

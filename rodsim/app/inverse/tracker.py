@@ -145,7 +145,7 @@ class Tracker:
         verdict = assess(model, x, factored, self._certified)
         self._certified = verdict.stable and np.isnan(verdict.min_eigenvalue)
         self._tangent, derivative = equilibrium_sensitivity(
-            model, x, self.keys, factored[1] if factored is not None else None)
+            model, x, self.keys, factored[1] if factored is not None else None, row)
         return TrackerStep(True, message or "converged", row.copy(), x.copy(),
                            full[layout.position_index], full[layout.position_index[-1]],
                            full[layout.quaternion_index[-1]],
