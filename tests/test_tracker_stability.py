@@ -74,3 +74,19 @@ def test_a_double_crossing_of_a_non_symmetric_stiffness_is_flagged_at_the_same_s
             assert step.stability.min_eigenvalue == pytest.approx(smallest, rel=1e-6)
     length = scene.data["rods"]["catheter"]["length"]
     assert np.abs(full_states(tracker, steps) - np.array(path.states[1:])).max() <= 1e-10 * length
+
+
+def test_the_tendon_ramp_of_the_tracking_benchmark_is_the_tracks():
+    """table3-catheter1's tendon force 0 → 4 N in 21 steps (the benchmark's ramp, coarser):
+    every step stable, as in track, and the same equilibria to the solver's tolerance (the
+    Tracker's second-order predictor starts elsewhere; measured 2.1e-10 m on the
+    benchmark's small size)."""
+    scene = rodsim.load_scene("table3-catheter1")
+    key = "tendons.tendon.tendon_actuation.force"
+    forces = np.linspace(0.0, 4.0, 21)
+    steps, tracker = tracked(scene, key, forces)
+    path = track(scene, {key: forces})
+    assert path.success and all(path.stable)
+    assert [step.stability.stable for step in steps] == path.stable[1:]
+    length = scene.data["rods"]["catheter"]["length"]
+    assert np.abs(full_states(tracker, steps) - np.array(path.states[1:])).max() <= 1e-7 * length
