@@ -42,3 +42,41 @@ def test_force_change_of_a_moved_base_is_none():
     model = Model(scene)
     keys = numeric_keys(scene, ["insertion"])
     assert force_change(model, scene_with(scene, keys, [0.01]), model.x0) is None
+
+
+@pytest.mark.parametrize(("name", "key"), [
+    ("tdcr-two-segment", "s1a.tendon_string.tension"),
+    ("table3-catheter1", "tendons.tendon.tendon_actuation.force")])
+def test_a_linear_option_is_differenced_on_one_point_as_the_stencil_gives(name, key):
+    """A tendon's tension (no friction) and an actuation force: F is linear in them, and the
+    one-point difference is the fourth-order stencil's derivative to round-off (measured:
+    4.1e-10 and 2.0e-10 of the largest dx/dp)."""
+    from rodsim.app.inverse import sensitivity as module
+
+    scene = rodsim.load_scene(name)
+    result = rodsim.solve(scene, "static")
+    model = module.registered_model(Model(result.scene), result.state)
+    keys = numeric_keys(model.scene, [key])
+    values = [keys[0].value(model.scene)]
+    one = module._linear_column(model, result.state, keys, values, 0)
+    assert one is not None
+    original = module._linear_column
+    try:
+        module._linear_column = lambda *args: None  # type: ignore[assignment]
+        stencil, _ = module.equilibrium_sensitivity(model, result.state, keys)
+    finally:
+        module._linear_column = original  # type: ignore[assignment]
+    solved, _ = module.equilibrium_sensitivity(model, result.state, keys)
+    assert np.abs(solved - stencil).max() <= 1e-6 * np.abs(stencil).max()
+
+
+def test_a_nonlinear_option_keeps_the_stencil():
+    """A string tendon's friction coefficient (T e^{−μθ} along it): not linear (None)."""
+    from rodsim.app.inverse import sensitivity as module
+
+    scene = rodsim.load_scene("tdcr-two-segment")
+    result = rodsim.solve(scene, "static")
+    model = module.registered_model(Model(result.scene), result.state)
+    keys = numeric_keys(model.scene, ["s1a.tendon_string.friction"])
+    assert module._linear_column(model, result.state, keys,
+                                 [keys[0].value(model.scene)], 0) is None

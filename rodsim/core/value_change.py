@@ -22,15 +22,18 @@ import numpy as np
 if TYPE_CHECKING:
     from rodsim.core.model import Model
     from rodsim.core.scene import Scene
+    from rodsim.core.terms import Term
 
 __all__ = ["force_change"]
 
 
-def force_change(model: Model, scene: Scene, x: np.ndarray) -> np.ndarray | None:
+def force_change(model: Model, scene: Scene, x: np.ndarray,
+                 made: tuple[list[Term], list[int]] | None = None) -> np.ndarray | None:
     """F(x) of ``model.with_values(scene)`` minus F(x) of ``model`` (free coordinates, at
     full load), from the terms whose options differ; None where ``with_values`` would fall
-    back to ``with_scene`` (a base moved, a rod's own value: build that model)."""
-    made = model.terms_with_values(scene)
+    back to ``with_scene`` (a base moved, a rod's own value: build that model). ``made``:
+    ``model.terms_with_values(scene)``, if the caller has it."""
+    made = made if made is not None else model.terms_with_values(scene)
     if made is None:
         return None
     terms, changed = made

@@ -43,10 +43,15 @@ from rodsim.solvers.linear import LinearSolver
 from rodsim.solvers.result import Result
 
 __all__ = ["Sensitivity", "sensitivity", "equilibrium_sensitivity", "registered_model",
-           "SensitivityError", "RELATIVE_STEP"]
+           "SensitivityError", "RELATIVE_STEP", "LINEAR_STEP"]
 
 #: Relative step of the central difference of F in each parameter.
 RELATIVE_STEP = 1e-6
+#: Relative step of the one-point difference of F in a parameter it is linear in
+#: (``Term.linear_in``): exact but for round-off, which a longer step divides (tdcr-two-
+#: segment's tension: F(p + h) + F(p − h) − 2 F(p) is 2.5e-10 of the change at h = 1e-6 p,
+#: 2.5e-13 at 1e-3 p: round-off alone).
+LINEAR_STEP = 1e-2
 
 
 class SensitivityError(ValueError):
@@ -98,6 +103,33 @@ def _stencil(key: NumericKey, value: float) -> list[tuple[float, float]]:
                                                                          strict=True)]
 
 
+def _linear_column(model: Model, x: np.ndarray, keys: Sequence[NumericKey],
+                   values: Sequence[float], column: int) -> np.ndarray | None:
+    """−∂F/∂p of the key ``keys[column]`` from one difference of F, where the key is an
+    option of terms whose force is linear in it (``Term.linear_in``: a tendon's tension
+    without friction, an actuation force) — exact there, up to round-off, as the stencil
+    is; None otherwise (the stencil)."""
+    parts = keys[column].path.split(".")
+    if keys[column].index is not None or len(parts) != 4 or parts[0] not in ("rods",
+                                                                             "tendons"):
+        return None
+    value = values[column]
+    h = LINEAR_STEP * abs(value) if value != 0.0 else LINEAR_STEP
+    low, high = keys[column].bounds()
+    point = value + h if value + h <= high else value - h
+    if point < low:
+        return None
+    moved = list(values)
+    moved[column] = point
+    scene = scene_with(model.scene, keys, moved)
+    made = model.terms_with_values(scene)
+    if made is None or not made[1] or not all(model.terms[index].linear_in(parts[3])
+                                             for index in made[1]):
+        return None
+    change = force_change(model, scene, x, made)
+    return None if change is None else -change / (point - value)
+
+
 def equilibrium_sensitivity(model: Model, x: np.ndarray, keys: Sequence[NumericKey],
                             solve: Callable[[np.ndarray], np.ndarray] | None = None,
                             values: Sequence[float] | np.ndarray | None = None
@@ -112,7 +144,8 @@ def equilibrium_sensitivity(model: Model, x: np.ndarray, keys: Sequence[NumericK
 
     A change of the options of some terms alone (a load, a tendon force: ``Model.with_values``
     rebuilds those terms) is differenced on those terms (``force_change``,
-    rodsim/core/value_change.py); any other builds the perturbed model."""
+    rodsim/core/value_change.py), on one point where the terms' force is linear in it
+    (``_linear_column``); any other builds the perturbed model."""
     scene = model.scene
     base_values = (list(values) if values is not None
                    else [key.value(scene) for key in keys])
@@ -122,6 +155,10 @@ def equilibrium_sensitivity(model: Model, x: np.ndarray, keys: Sequence[NumericK
     reference = np.zeros((model.full_size, len(keys)))
     for column, key in enumerate(keys):
         value = base_values[column]
+        linear = _linear_column(model, x, keys, base_values, column)
+        if linear is not None:
+            rhs[:, column] = linear
+            continue
         # Σ weight = 0: summing weight × (F(p_i) − F(p)) keeps a parameter F does not depend
         # on at an exact zero (no round-off of F's own size divided by h).
         for point, weight in _stencil(key, value):

@@ -306,6 +306,11 @@ class TendonString(TendonTerm):
         """Whether the tendon has any friction (else the frictionless string, bitwise)."""
         return bool(np.any(self.static > 0.0)) if self.weighted else self.friction > 0.0
 
+    def linear_in(self, option: str) -> bool:
+        """Without friction every chord carries T: the force is linear in ``tension``
+        (with friction the stick/slip bounds against the anchored tensions are not)."""
+        return option == "tension" and not self.rubs
+
     def _coefficients(self) -> None:
         """μ_in, μ_out of every turn from the stick/slip state (``bound_coefficients``;
         μ_k both ways without stiction)."""
