@@ -201,8 +201,10 @@ class Continuation:
             whole = done == 0.0 and fraction == 1.0
             final = done + fraction >= 1.0
             there = stop if final else start + (done + fraction) * (stop - start)
-            outcome = (self.solve(scene_with(scene, keys, there), predictor, alternative)
-                       if whole else self.solve(scene_with(scene, keys, there)))
+            step_scene = scene_with(scene, keys, there)
+            outcome = (self.solve(step_scene, predictor, alternative)
+                       if whole and alternative is not None
+                       else self.solve(step_scene, predictor if whole else None))
             iterations += outcome.iterations
             if outcome.success:
                 done = 1.0 if final else done + fraction
