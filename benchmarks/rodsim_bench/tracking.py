@@ -10,12 +10,20 @@ compared (largest difference of any coordinate, every step). The stability verdi
 (``rodsim.core.stability.assess``, every step's) is measured in the best repeat of the shared
 model. Outputs ``tracking-<size>.nc`` and ``tracking-<size>.md``.
 
+The Tracker's own rate (``rodsim.Tracker``, what a control loop holds) along the same
+ramps, interleaved with the tracks: built at the ramp's first value (a cold solve, not
+timed), then ``tracker.step`` at each later value, with its verdict at every step (CPU of
+the steps and of their verdicts, iterations, unstable steps, and the largest difference of
+its states from the track's).
+
 With the environment variable ``RODSIM_BENCH_BASELINE`` set to a git revision of this
 repository, the same tracks (shared model) are also run by that revision's code in the same
 run, interleaved with the repeats: its tree is extracted (``git archive``) into a temporary
 folder and each repeat runs it in a subprocess (``PYTHONPATH`` set to it; the same warm-up,
 the same CPU clock inside the process); the table then gives the baseline's steps/s, the
-ratio and the largest difference between the two revisions' states.
+ratio and the largest difference between the two revisions' states; and, where that
+revision has a Tracker, its tracker's steps/s, whether it flags the same unstable steps and
+the largest difference between the two trackers' states.
 """
 
 from __future__ import annotations
@@ -69,8 +77,49 @@ def _track(scene_name: str, ramp: dict, variant: str):
         stability.assess = assess  # type: ignore[assignment]
 
 
+def _tracker_run(scene_name: str, key: str, start: float, stop: float, steps: int
+                 ) -> tuple[float, float, np.ndarray, list[bool], int]:
+    """``rodsim.Tracker`` along the ramp: built at its first value (cold, not timed), then
+    ``tracker.step`` at each later one, a verdict at every step: (CPU of the steps, CPU of
+    their verdicts, the full states of every step (the first the cold one), each step's
+    stable flag, iterations)."""
+    import rodsim.app.inverse.tracker as tracker_module
+    from rodsim.app.inverse.parameter_keys import numeric_keys, scene_with
+
+    scene = rodsim.load_scene(scene_name)
+    keys = numeric_keys(scene, [key])
+    tracker = rodsim.Tracker(scene_with(scene, keys, [start]), [key])
+    states = [tracker.continuation.model.full(tracker.continuation.x)]
+    assess, spent = tracker_module.assess, [0.0]
+
+    def timed(*args, **kwargs):
+        began = time.process_time()
+        try:
+            return assess(*args, **kwargs)
+        finally:
+            spent[0] += time.process_time() - began
+
+    tracker_module.assess = timed  # type: ignore[assignment]
+    stable, iterations, steps_done = [], 0, []
+    try:
+        began = time.process_time()
+        for value in np.linspace(start, stop, steps)[1:]:
+            steps_done.append(tracker.step([value]))
+        seconds = time.process_time() - began
+    finally:
+        tracker_module.assess = assess  # type: ignore[assignment]
+    for step in steps_done:
+        if not step.success:
+            raise RuntimeError(f"{scene_name}, tracker: {step.message}")
+        states.append(tracker.continuation.model.full(step.state))
+        stable.append(bool(step.stability is not None and step.stability.stable))
+        iterations += step.iterations
+    return seconds, spent[0], np.array(states), stable, iterations
+
+
 #: What a baseline subprocess runs: argv[1] the number of steps, argv[2] a folder for the
-#: states; prints {scene: CPU seconds}.
+#: states; prints {scene: CPU seconds} of the tracks and {scene + ' tracker': CPU seconds}
+#: of its Tracker's steps (where the revision has one).
 _BASELINE_SCRIPT = """
 import json, sys, time
 import numpy as np
@@ -87,6 +136,20 @@ for scene_name, key, start, stop in cases:
     if not path.success:
         raise SystemExit(scene_name + ': ' + path.message)
     np.save(folder + '/' + scene_name + '.npy', np.array(path.states))
+    if hasattr(rodsim, 'Tracker'):
+        from rodsim.app.inverse.parameter_keys import numeric_keys, scene_with
+        keys = numeric_keys(scene, [key])
+        for count in (3, steps):
+            tracker = rodsim.Tracker(scene_with(scene, keys, [start]), [key])
+            full = [tracker.continuation.model.full(tracker.continuation.x)]
+            began = time.process_time()
+            done = [tracker.step([v]) for v in np.linspace(start, stop, count)[1:]]
+            seconds = time.process_time() - began
+        out[scene_name + ' tracker'] = seconds
+        full += [tracker.continuation.model.full(s.state) for s in done]
+        np.save(folder + '/' + scene_name + ' tracker.npy', np.array(full))
+        np.save(folder + '/' + scene_name + ' tracker stable.npy',
+                np.array([s.stability.stable for s in done]))
 print(json.dumps(out))
 """
 
@@ -108,6 +171,13 @@ class _Baseline:
     def states_of(self, scene_name: str) -> np.ndarray:
         return np.load(self.states / f"{scene_name}.npy")
 
+    def tracker_states_of(self, scene_name: str) -> tuple[np.ndarray, np.ndarray] | None:
+        """The baseline tracker's full states and stable flags, None without a Tracker."""
+        path = self.states / f"{scene_name} tracker.npy"
+        if not path.exists():
+            return None
+        return np.load(path), np.load(self.states / f"{scene_name} tracker stable.npy")
+
 
 def run(size: str, output_dir: str | Path, progress=None) -> list[Path]:
     revision = baseline_revision()
@@ -128,16 +198,31 @@ def _run(size: str, output_dir: str | Path, progress, baseline: _Baseline | None
     base_cpu: dict[str, list[float]] = {c: [] for c in names}
     verdict = {c: np.inf for c in names}
     paths = {}
+    follow: dict[str, list[float]] = {c: [] for c in names}
+    base_follow: dict[str, list[float]] = {c: [] for c in names}
+    followed: dict[str, tuple[float, np.ndarray, list[bool], int]] = {}
     for scene_name, key, start, stop in CASES:
         _track(scene_name, {key: np.linspace(start, stop, 3)}, VARIANTS[0])  # warm-up
+        _tracker_run(scene_name, key, start, stop, 3)
     for repeat in range(repeats):
         if baseline is not None:
             if progress is not None:
                 progress(repeat / repeats, f"tracking: baseline {baseline.commit[:7]} "
                          f"({repeat + 1}/{repeats})")
             for scene_name, seconds in baseline.run(steps).items():
-                base_cpu[scene_name].append(seconds)
+                if scene_name.endswith(" tracker"):
+                    base_follow[scene_name.removesuffix(" tracker")].append(seconds)
+                else:
+                    base_cpu[scene_name].append(seconds)
         for scene_name, key, start, stop in CASES:
+            if progress is not None:
+                progress(repeat / repeats, f"tracking: {scene_name}, tracker "
+                         f"({repeat + 1}/{repeats})")
+            seconds, judged, states, stable, count = _tracker_run(scene_name, key, start,
+                                                                  stop, steps)
+            if seconds <= min(follow[scene_name], default=np.inf):
+                followed[scene_name] = judged, states, stable, count
+            follow[scene_name].append(seconds)
             ramp = {key: np.linspace(start, stop, steps)}
             for variant in VARIANTS:
                 if progress is not None:
@@ -191,6 +276,24 @@ def _run(size: str, output_dir: str | Path, progress, baseline: _Baseline | None
                 "variant": ("variant", list(VARIANTS), {"long_name": "how each step's "
                                                          "model is made"}),
                 "repeat": ("repeat", np.arange(repeats), {"long_name": "repeat"})})
+    ds["tracker_cpu"] = (("scene", "repeat"), np.array([follow[c] for c in names]),
+                         {"units": "s", "long_name": "CPU time of the Tracker's steps "
+                          "(tracker.step at every value after the first; a verdict each)"})
+    ds["tracker_steps_per_second"] = ("scene", np.array([(steps - 1) / min(follow[c])
+                                                         for c in names]),
+                                      {"units": "1/s", "long_name": "Tracker steps per CPU "
+                                       "second (best repeat)"})
+    ds["tracker_verdict_cpu"] = ("scene", np.array([followed[c][0] for c in names]),
+                                 {"units": "s", "long_name": "CPU time of the Tracker's "
+                                  "verdicts in its best repeat"})
+    ds["tracker_iterations"] = ("scene", np.array([float(followed[c][3]) for c in names]),
+                                {"units": "1", "long_name": "Newton and chord iterations of "
+                                 "the Tracker's steps"})
+    ds["tracker_track_difference"] = (
+        "scene", np.array([_difference(followed[c][1], paths[c, VARIANTS[0]].states)
+                           for c in names]),
+        {"units": "1", "long_name": "largest difference of a coordinate between the "
+         "Tracker's and the track's (shared model) states"})
     if baseline is not None:
         ds["baseline_cpu"] = (("scene", "repeat"), np.array([base_cpu[c] for c in names]),
                               {"units": "s", "long_name": "CPU time of the whole track (shared "
@@ -229,7 +332,52 @@ def _run(size: str, output_dir: str | Path, progress, baseline: _Baseline | None
             base_seconds, base_rate, ratio, moved = against[c]
             lines.append(f"| {c} | {base_seconds:.3f} | {base_rate:.0f} | "
                          f"{rate[c, VARIANTS[0]]:.0f} | {ratio:.2f}× | {moved:.1e} |")
+    lines += _tracker_lines(steps, names, follow, followed, paths, baseline, base_follow)
     lines += ["", "Machine: " + ", ".join(f"{k} {v}" for k, v in machine().items())]
     table = output.with_suffix(".md")
     table.write_text("\n".join(lines) + "\n", encoding="utf-8")
     return [output, table]
+
+
+def _difference(states: np.ndarray, others: list[np.ndarray] | np.ndarray) -> float:
+    """Largest difference of a coordinate between two runs' full states (NaN when their
+    shapes differ)."""
+    theirs = np.asarray(others)
+    return (float(np.max(np.abs(states - theirs))) if states.shape == theirs.shape
+            else float("nan"))
+
+
+def _tracker_lines(steps: int, names: list[str], follow: dict[str, list[float]],
+                   followed: dict[str, tuple[float, np.ndarray, list[bool], int]],
+                   paths: dict, baseline: _Baseline | None,
+                   base_follow: dict[str, list[float]]) -> list[str]:
+    """The table of the Tracker's rates (and the baseline's, if any)."""
+    lines = ["", f"`rodsim.Tracker` along the same ramps: built at the first value (not "
+             f"timed), then `tracker.step` at each of the {steps - 1} others, a verdict at "
+             "every step; CPU of the steps, best repeat:", "",
+             "| scene | CPU [s] | steps/s | ms/step | verdict ms/step | iterations | "
+             "unstable steps | largest difference from the track |",
+             "|---|--:|--:|--:|--:|--:|--:|--:|"]
+    for c in names:
+        best = min(follow[c])
+        judged, states, stable, count = followed[c]
+        lines.append(f"| {c} | {best:.3f} | {(steps - 1) / best:.0f} | "
+                     f"{1e3 * best / (steps - 1):.2f} | {1e3 * judged / (steps - 1):.2f} | "
+                     f"{count} | {stable.count(False)} | "
+                     f"{_difference(states, paths[c, VARIANTS[0]].states):.1e} |")
+    if baseline is None or not all(base_follow[c] for c in names):
+        return lines
+    lines += ["", f"The Tracker against the baseline {baseline.commit} (its code, the same "
+              "steps, interleaved in this run):", "",
+              "| scene | baseline steps/s | this steps/s | speed-up | same unstable steps | "
+              "largest state difference |", "|---|--:|--:|--:|--:|--:|"]
+    for c in names:
+        best, base = min(follow[c]), min(base_follow[c])
+        theirs = baseline.tracker_states_of(c)
+        _, states, stable, _ = followed[c]
+        same = "" if theirs is None else ("yes" if np.array_equal(np.array(stable), theirs[1])
+                                          else "NO")
+        moved = float("nan") if theirs is None else _difference(states, theirs[0])
+        lines.append(f"| {c} | {(steps - 1) / base:.0f} | {(steps - 1) / best:.0f} | "
+                     f"{base / best:.2f}× | {same} | {moved:.1e} |")
+    return lines

@@ -264,13 +264,25 @@ class Model(ModelScales):
         path ``solver.kernels``, a term whose elements move) falls back to
         ``with_scene`` — or gives None when ``fallback`` is False. The other solver
         settings are the integrators', not the model's."""
-        changed = self._changed_terms(scene)
-        if changed is None:
+        made = self.terms_with_values(scene)
+        if made is None:
             return self.with_scene(scene) if fallback else None
         other = copy.copy(self)
         other.scene = scene
+        terms, changed = made
         if not changed:
             return other
+        other._replace_terms(terms, changed)
+        other._build_scales(layout=False)
+        return other
+
+    def terms_with_values(self, scene: Scene) -> tuple[list[Term], list[int]] | None:
+        """The terms of ``with_values(scene)`` and the indices of those rebuilt (this
+        model's own terms elsewhere), or None where ``with_values`` falls back to
+        ``with_scene``."""
+        changed = self._changed_terms(scene)
+        if changed is None:
+            return None
         terms = list(self.terms)
         for index in changed:
             owner, name, term_name = self.term_keys[index]
@@ -292,11 +304,9 @@ class Model(ModelScales):
                     or term.is_load != self.terms[index].is_load
                     or term.conservative != self.terms[index].conservative
                     or not np.array_equal(term.dofs, self.terms[index].dofs)):
-                return self.with_scene(scene) if fallback else None
+                return None
             terms[index] = term
-        other._replace_terms(terms, changed)
-        other._build_scales(layout=False)
-        return other
+        return terms, changed
 
     def _replace_terms(self, terms: list[Term], changed: list[int]) -> None:
         """Take ``terms`` (this model's, those at ``changed`` rebuilt with the same elements:

@@ -125,9 +125,14 @@ class Continuation:
         (``Integrator.predicted``)."""
         return self.kind.for_scene(scene).predicted(self.model, self.x, dx)
 
-    def solve(self, scene: Scene, start: np.ndarray | None = None) -> StepOutcome:
+    def solve(self, scene: Scene, start: np.ndarray | None = None,
+              alternative: np.ndarray | None = None) -> StepOutcome:
         """The equilibrium of ``scene`` (same discretisation) from ``start`` (default: the
-        last equilibrium); on success it becomes the last equilibrium.
+        last equilibrium) — or from ``alternative``, another predicted start, where
+        ``start`` is not at the equilibrium already (its force residual on the step's model
+        at the tolerance) and the residual is smaller at ``alternative`` (one evaluation
+        of F each, which the solve's own first one then finds made); on success it becomes
+        the last equilibrium.
 
         Friction (contact, rodsim/core/terms/contact.py; tendons,
         rodsim/core/tendon_friction.py) is anchored at the last equilibrium
@@ -140,6 +145,11 @@ class Continuation:
         # replaces the predictor.
         carried = model.carried(self.x, self.model)
         x = carried if start is None or carried is not self.x else start
+        if alternative is not None and x is start:
+            first = model.force_residual(model.force(start))
+            if (not first < effective_tolerance(model, float(scene.solver.tolerance))
+                    and model.force_residual(model.force(alternative)) < first):
+                x = alternative
         budget = float(scene.solver.max_wall_time)
         if self.deadline is not None:  # the integrator's own budget: what is left of ours
             budget = min(budget, max(self.deadline - time.perf_counter(), 0.0))
@@ -167,10 +177,11 @@ class Continuation:
         return StepOutcome(True, result.state, result.residual, work, "converged")
 
     def walk(self, scene: Scene, keys: Sequence[NumericKey], start: np.ndarray,
-             stop: np.ndarray, predictor: np.ndarray | None = None
-             ) -> tuple[bool, int, int, str]:
+             stop: np.ndarray, predictor: np.ndarray | None = None,
+             alternative: np.ndarray | None = None) -> tuple[bool, int, int, str]:
         """Move from the equilibrium at the values ``start`` of ``keys`` (in ``scene``) to
-        the one at ``stop``, from ``predictor`` if given (for the whole step only), halving
+        the one at ``stop``, from ``predictor`` if given (for the whole step only; or from
+        ``alternative`` where the residual is smaller there, ``solve``), halving
         the increment on each failure and doubling it again (up to the rest of the step)
         after a sub-step that took at most ``EASY_ITERATIONS`` iterations; fails at the
         ``MAX_HALVINGS``-th failed attempt — and then leaves the continuation at the
@@ -190,7 +201,10 @@ class Continuation:
             whole = done == 0.0 and fraction == 1.0
             final = done + fraction >= 1.0
             there = stop if final else start + (done + fraction) * (stop - start)
-            outcome = self.solve(scene_with(scene, keys, there), predictor if whole else None)
+            step_scene = scene_with(scene, keys, there)
+            outcome = (self.solve(step_scene, predictor, alternative)
+                       if whole and alternative is not None
+                       else self.solve(step_scene, predictor if whole else None))
             iterations += outcome.iterations
             if outcome.success:
                 done = 1.0 if final else done + fraction

@@ -38,14 +38,20 @@ import numpy as np
 from rodsim.app.inverse.parameter_keys import NumericKey, numeric_keys, scene_with
 from rodsim.core.model import Model
 from rodsim.core.schema import SceneError
+from rodsim.core.value_change import force_change
 from rodsim.solvers.linear import LinearSolver
 from rodsim.solvers.result import Result
 
 __all__ = ["Sensitivity", "sensitivity", "equilibrium_sensitivity", "registered_model",
-           "SensitivityError", "RELATIVE_STEP"]
+           "SensitivityError", "RELATIVE_STEP", "LINEAR_STEP"]
 
 #: Relative step of the central difference of F in each parameter.
 RELATIVE_STEP = 1e-6
+#: Relative step of the one-point difference of F in a parameter it is linear in
+#: (``Term.linear_in``): exact but for round-off, which a longer step divides (tdcr-two-
+#: segment's tension: F(p + h) + F(p − h) − 2 F(p) is 2.5e-10 of the change at h = 1e-6 p,
+#: 2.5e-13 at 1e-3 p: round-off alone).
+LINEAR_STEP = 1e-2
 
 
 class SensitivityError(ValueError):
@@ -97,36 +103,82 @@ def _stencil(key: NumericKey, value: float) -> list[tuple[float, float]]:
                                                                          strict=True)]
 
 
+def _linear_column(model: Model, x: np.ndarray, keys: Sequence[NumericKey],
+                   values: Sequence[float], column: int) -> np.ndarray | None:
+    """−∂F/∂p of the key ``keys[column]`` from one difference of F, where the key is an
+    option of terms whose force is linear in it (``Term.linear_in``: a tendon's tension
+    without friction, an actuation force) — exact there, up to round-off, as the stencil
+    is; None otherwise (the stencil)."""
+    parts = keys[column].path.split(".")
+    if keys[column].index is not None or len(parts) != 4 or parts[0] not in ("rods",
+                                                                             "tendons"):
+        return None
+    value = values[column]
+    h = LINEAR_STEP * abs(value) if value != 0.0 else LINEAR_STEP
+    low, high = keys[column].bounds()
+    point = value + h if value + h <= high else value - h
+    if point < low:
+        return None
+    moved = list(values)
+    moved[column] = point
+    scene = scene_with(model.scene, keys, moved)
+    made = model.terms_with_values(scene)
+    if made is None or not made[1] or not all(model.terms[index].linear_in(parts[3])
+                                             for index in made[1]):
+        return None
+    change = force_change(model, scene, x, made)
+    return None if change is None else -change / (point - value)
+
+
 def equilibrium_sensitivity(model: Model, x: np.ndarray, keys: Sequence[NumericKey],
-                            solve: Callable[[np.ndarray], np.ndarray] | None = None
+                            solve: Callable[[np.ndarray], np.ndarray] | None = None,
+                            values: Sequence[float] | np.ndarray | None = None
                             ) -> tuple[np.ndarray, np.ndarray]:
     """(dx/dp (n, P), d(full state)/dp (full size, P)) at the equilibrium ``x`` of
     ``model`` (which must carry the registration of ``x``), by the method of the module
     docstring. ``solve``: J at ``x`` already factored (a solve of J X = B: the verification
     of the solve that found ``x``, ``RunState.factorisation_at``), else J is factored
-    here. Raises SensitivityError when J is singular and SceneError when a parameter change
-    alters the model's layout."""
+    here; ``values``: the keys' values in ``model``'s scene, if the caller knows them. Raises
+    SensitivityError when J is singular and SceneError when a parameter change alters the
+    model's layout.
+
+    A change of the options of some terms alone (a load, a tendon force: ``Model.with_values``
+    rebuilds those terms) is differenced on those terms (``force_change``,
+    rodsim/core/value_change.py), on one point where the terms' force is linear in it
+    (``_linear_column``); any other builds the perturbed model."""
     scene = model.scene
-    base_values = [key.value(scene) for key in keys]
-    force_at_x = model.force(x)
+    base_values = (list(values) if values is not None
+                   else [key.value(scene) for key in keys])
+    force_at_x: np.ndarray | None = None
     rhs = np.zeros((model.n, len(keys)))
     rest = np.zeros((model.full_size, len(keys)))
     reference = np.zeros((model.full_size, len(keys)))
     for column, key in enumerate(keys):
         value = base_values[column]
+        linear = _linear_column(model, x, keys, base_values, column)
+        if linear is not None:
+            rhs[:, column] = linear
+            continue
         # Σ weight = 0: summing weight × (F(p_i) − F(p)) keeps a parameter F does not depend
         # on at an exact zero (no round-off of F's own size divided by h).
         for point, weight in _stencil(key, value):
             if point == value:
                 continue
-            values = list(base_values)
-            values[column] = point
+            moved = list(base_values)
+            moved[column] = point
             try:
-                perturbed = model.with_values(scene_with(scene, keys, values))
+                perturbed_scene = scene_with(scene, keys, moved)
+                change = force_change(model, perturbed_scene, x)
+                if change is not None:  # the same rest state and reference: no change there
+                    rhs[:, column] -= weight * change
+                    continue
+                perturbed = model.with_values(perturbed_scene)
             except SceneError:
                 raise
             except ValueError as exc:
                 raise SceneError(f"{key.name}: {exc}; it has no derivative") from None
+            if force_at_x is None:
+                force_at_x = model.force(x)
             rhs[:, column] -= weight * (perturbed.force(x) - force_at_x)
             rest[:, column] += weight * (perturbed.rest_full - model.rest_full)
             reference[:, column] += weight * (perturbed.reference - model.reference)

@@ -221,6 +221,8 @@ class Rod:
         (axial stiffness, up to the buckling load of a clamped–pinned column). A scale, not
         a prediction: what F_ref adds for a displacement as it adds a load's size
         (``rodsim.core.model.Model._build_scales``)."""
+        if not self.node_supports:
+            return 0.0  # (no rest positions to build: every model of new values asks)
         total, held = 0.0, 0.0
         rest = self.rest_positions()
         for support in sorted(self.node_supports, key=lambda support: support.s):

@@ -347,6 +347,12 @@ class Term(ABC):
         ``None`` for a term without registration."""
         return None
 
+    def linear_in(self, option: str) -> bool:
+        """Whether this term's force is linear in its option ``option`` (all else held):
+        a sensitivity then differences F on one point instead of a fourth-order stencil
+        (rodsim/app/inverse/sensitivity.py). False unless a term says so."""
+        return False
+
     def with_options(self, options: Any) -> Term | None:
         """This term with the options ``options`` (an ``Options`` of its class) made
         from this one without rebuilding what they do not change — the same elements,

@@ -67,6 +67,10 @@ class TendonActuation(TendonTerm):
             self.dofs = tendon.tendon_rod.layout.position_index[:1]
             self._pull = -self._force * director(catheter.base_quaternion, 2)
 
+    def linear_in(self, option: str) -> bool:
+        """F = −F_A d3 (or the constant pull): linear in ``force``."""
+        return option == "force"
+
     def kernel_arguments(self) -> KernelArguments:
         if not self._distal:
             return {"forces": self._pull[None, :].copy()}

@@ -74,6 +74,7 @@ from rodsim.core.tendon_friction import (
     weighted_slide_factors,
     weighted_slide_rates,
 )
+from rodsim.core.terms._string_group import stacked_arguments
 from rodsim.core.terms._string_points import (
     POINT_SIZE,
     PointGeometry,
@@ -306,6 +307,11 @@ class TendonString(TendonTerm):
         """Whether the tendon has any friction (else the frictionless string, bitwise)."""
         return bool(np.any(self.static > 0.0)) if self.weighted else self.friction > 0.0
 
+    def linear_in(self, option: str) -> bool:
+        """Without friction every chord carries T: the force is linear in ``tension``
+        (with friction the stick/slip bounds against the anchored tensions are not)."""
+        return option == "tension" and not self.rubs
+
     def _coefficients(self) -> None:
         """μ_in, μ_out of every turn from the stick/slip state (``bound_coefficients``;
         μ_k both ways without stiction)."""
@@ -445,33 +451,10 @@ class TendonString(TendonTerm):
         same distinct columns and Jacobian slots), listed together in ``shared_order``,
         each set from ``shared_start[i]`` to ``shared_start[i + 1]``, in order of first
         appearance and each set in term order."""
-        own = [t.kernel_arguments() for t in terms]
-        chords = np.cumsum([0] + [len(a["dofs"]) for a in own])
-        points = np.cumsum([0] + [len(a["weights"]) for a in own])
-        sets: dict[bytes, list[int]] = {}
-        for t, term in enumerate(terms):
-            assert isinstance(term, TendonString)
-            base = int(chords[t])
-            for e, key in enumerate(term.chord_keys):
-                sets.setdefault(key, []).append(base + e)
-        shared = list(sets.values())
-
-        def stacked(name: str) -> np.ndarray:
-            return np.ascontiguousarray(np.concatenate([a[name] for a in own]))
-
-        def each(name: str, dtype: type) -> np.ndarray:
-            return np.array([a[name] for a in own], dtype=dtype)
-
-        return {"chord_start": chords.astype(np.int64), "point_start": points.astype(np.int64),
-                "shared_order": np.array([c for chord_set in shared for c in chord_set],
-                                         dtype=np.int64),
-                "shared_start": np.cumsum([0] + [len(c) for c in shared]).astype(np.int64),
-                **{name: stacked(name) for name in ("dofs", "weights", "constant", "forms",
-                                                    "profile", "mu_in", "mu_out", "split")},
-                "tension": each("tension", float), "friction": each("friction", float),
-                "weighted": each("weighted", np.bool_),
-                "entry_slope": np.ascontiguousarray(np.stack([a["entry_slope"] for a in own])),
-                "entry_forms": own[0]["entry_forms"]}
+        strings = [t for t in terms if isinstance(t, TendonString)]
+        assert len(strings) == len(terms)
+        return stacked_arguments([t.kernel_arguments() for t in strings],
+                                 [t.chord_keys for t in strings])
 
     @cached_property
     def chord_keys(self) -> list[bytes]:
