@@ -89,3 +89,42 @@ def test_a_folded_rod_fails_where_it_meets_an_obstacle_and_is_only_flagged_elsew
     failure = contact_failure(Model(coil(True)), free.state, Model(coil(True)))
     assert failure is not None and "passes through itself" in failure[0]
     assert contact_failure(Model(coil(False)), free.state) is None
+
+
+def test_the_sharpest_turn_of_a_polyline():
+    """Against hand values: a straight line, a quarter circle in 10 segments (9 degrees a
+    node), a corner of 155 degrees at node 3."""
+    from rodsim.core.contact_validity import sharpest_turn
+
+    s = np.linspace(0.0, 1.0, 11)
+    assert sharpest_turn(np.stack([s, 0 * s, 0 * s], axis=1))[1] < 1e-6
+    angle = np.linspace(0.0, np.pi / 2, 11)
+    arc = np.stack([np.sin(angle), 1 - np.cos(angle), 0 * angle], axis=1)
+    assert abs(sharpest_turn(arc)[1] - 9.0) < 1e-9
+    back = math.radians(155.0)
+    corner = np.array([[0, 0, 0], [1, 0, 0], [2, 0, 0], [3, 0, 0],
+                       [3 + math.cos(back), math.sin(back), 0]], dtype=float)
+    node, turn = sharpest_turn(corner)
+    assert node == 3 and abs(turn - 155.0) < 1e-9
+
+
+def test_a_guidewire_kinked_in_its_vessel_is_a_failure(tmp_path):
+    """One of the hostile family's guidewires laid straight through a 90-degree vessel
+    (benchmarks/rodsim_bench/hostile.py, try 11 of its seed: L 0.218 m, N = 41, cvode):
+    exit 0, "stable", before, with node 34 turning 155 degrees and the tip 21 mm short of
+    the lumen's path (its discretisation estimate unavailable). The wire does not pass
+    through itself (its legs 1.7 mm apart): the fold is the kink."""
+    from rodsim_bench import hostile
+
+    rng = np.random.default_rng(hostile.VESSEL_SEED)
+    tries = [hostile._vessel_through_rest(rng) for _ in range(12)]
+    _, arguments, files = tries[11]
+    assert arguments[:4] == ["run", "scene.toml", "--integrator", "cvode"]
+    for name, text in files.items():  # beside each other: the scene names vessel.csv
+        (tmp_path / name).write_text(text)
+    scene = rodsim.load_scene(str(tmp_path / "scene.toml"))
+    assert scene.rods["wire"].nodes == 41
+    result = rodsim.solve(scene, "cvode")
+    assert not result.success
+    assert "rod 'wire' folds at node" in result.message, result.message
+    assert "track the insertion" in result.message

@@ -11,7 +11,14 @@ A state is refused, with its reason and advice, when
   obstacles make the scene one of solid bodies in contact, and a rod folded through itself
   is not a state a solid rod can take. rodsim has no self-contact, so nothing kept the rod
   from it; without obstacles the same state is only flagged (a coil past one turn under a
-  tip moment is the model's exact answer there, tests/test_self_crossing.py).
+  tip moment is the model's exact answer there, tests/test_self_crossing.py);
+- a rod that meets an obstacle folds at a node: two consecutive segments turn by more than
+  ``MAX_TURN`` (90°, fewer than 4 segments per turn, the sampling rodsim asks of a helical
+  tendon, docs/tendon.md), a kink its segments do not resolve. Measured on guidewires laid
+  straight through a 90-degree vessel (the hostile family's, benchmarks/rodsim_bench/
+  hostile.py): cvode and ida settled, "stable", with one node turning 125–155° and the tip
+  5–21 mm short of the lumen's path (the discretisation estimate 0.018–0.033 L or
+  unavailable), where the wire that settles along the lumen turns at most 1.2° a node.
 
 The case that made the second rule: a user's guidewire whose straight rest shape crosses
 its vessel's wall (152 radii deep at its tip). `static` fails there (its load steps cannot
@@ -35,19 +42,36 @@ from rodsim.core.self_crossing import self_crossing
 if TYPE_CHECKING:
     from rodsim.core.model import Model
 
-__all__ = ["contact_failure", "fold_failure"]
+__all__ = ["MAX_TURN", "contact_failure", "fold_failure", "sharpest_turn"]
 
+#: The largest turn [degrees] between consecutive segments of a rod that meets an obstacle
+#: (module docstring).
+MAX_TURN = 90.0
 #: The advice of a state deeper than the law, when the rest shape is clear of every wall.
 DEPTH_ADVICE = "the state is not a contact with a rigid wall"
 #: The advice of a folded rod, when the rest shape is clear of every wall.
 FOLD_ADVICE = ("follow the load from a state clear of itself: static's load steps, or "
-               "`rodsim track` of the load from a state that touches nothing")
+               "`rodsim track` of the load from a state that touches nothing; or raise the "
+               "rod's nodes")
+
+
+def sharpest_turn(positions: np.ndarray) -> tuple[int, float]:
+    """The node of the centerline ``positions`` (N, 3) where consecutive segments turn most,
+    and that turn [degrees] (0 for fewer than 3 nodes or zero-length segments)."""
+    segments = np.diff(np.asarray(positions, dtype=float), axis=0)
+    lengths = np.linalg.norm(segments, axis=1)
+    if len(segments) < 2 or not np.all(lengths > 0.0):
+        return 0, 0.0
+    tangents = segments / lengths[:, None]
+    cosine = np.clip(np.einsum("ij,ij->i", tangents[1:], tangents[:-1]), -1.0, 1.0)
+    k = int(np.argmin(cosine))
+    return k + 1, float(np.degrees(np.arccos(cosine[k])))
 
 
 def fold_failure(model: Model, x: np.ndarray) -> str | None:
     """The failure reason of a state ``x`` (free coordinates) in which a rod that meets an
-    obstacle passes through itself, or None. The rods are those of ``model``'s contact
-    terms, each checked once, in the order of the terms."""
+    obstacle passes through itself or folds at a node, or None. The rods are those of
+    ``model``'s contact terms, each checked once, in the order of the terms."""
     from rodsim.core.terms.contact import Contact
 
     full = None
@@ -58,10 +82,17 @@ def fold_failure(model: Model, x: np.ndarray) -> str | None:
         seen.add(term.rod.name)
         if full is None:
             full = model.full(x)
-        found = self_crossing(full[term.dofs], term.radius)
+        positions = full[term.dofs]
+        found = self_crossing(positions, term.radius)
         if found is not None:
             return (f"{found.text(term.rod.name)}; it meets obstacle {term.obstacle.name!r}, "
                     "so the state is not one of solid bodies in contact")
+        node, turn = sharpest_turn(positions)
+        if turn > MAX_TURN:
+            return (f"rod {term.rod.name!r} folds at node {node}: its segments turn "
+                    f"{turn:.3g} degrees there (more than {MAX_TURN:g}: fewer than 4 segments "
+                    f"per turn), a kink its segments do not resolve, held by obstacle "
+                    f"{term.obstacle.name!r}")
     return None
 
 
