@@ -193,3 +193,21 @@ def test_a_study_whose_scene_names_its_integrator_is_still_refused_when_it_chang
     scene.write_text(SCENE.read_text() + '\n[solver]\nintegrator = "static"\n')
     with pytest.raises(StudyError, match="different study definition"):
         run_study(study, "small", output, workers=1, keep_parts=True)
+
+
+def test_run_and_a_tracks_step_0_agree_on_a_scene_with_obstacles_that_names_none():
+    """`run` gives a scene with obstacles that names no integrator ida, `track` keeps static
+    (docs/contact.md, "Which integrator": measured to reach the same equilibria in less
+    CPU, benchmarks/results/obstacle-track-integrator.md). A guard of that measurement: a
+    polymer cantilever pressed onto a plane by its tip force (tests/test_contact_depth.py)
+    — the two integrators' equilibria at step 0 agree, and the tip rests on the plane."""
+    from tests.test_contact_depth import PLANE_Y, RADIUS, pressed
+
+    scene = pressed(1.0)
+    assert scene.solver.integrator == "ida"
+    run = rodsim.solve(scene)
+    assert run.success and run.integrator == "ida", run.message
+    track = rodsim.track(scene, {"rods.c.tip_load.force[1]": [0.05, 0.04]})
+    assert track.complete and track.integrator == "static", track.message
+    assert np.max(np.abs(track.tips()[0] - run.tip())) < 1e-9 * 0.1
+    assert abs(run.tip()[1] + RADIUS - PLANE_Y) < 0.1 * RADIUS  # on the plane
