@@ -113,3 +113,101 @@ def test_every_shipped_scene_names_its_integrator():
     for name, path in scene_paths().items():
         assert re.search(r"^integrator\s*=", path.read_text(), re.M), name
     assert rodsim.load_scene("tendon-conserving").solver.integrator == "cvode"
+
+
+def former_default_parameters() -> tuple:
+    """The scene's solver parameters as they were before the change (at 61294df): the
+    integrator of a scene that names none was cvode."""
+    import dataclasses
+
+    from rodsim.core.scene import SOLVER_PARAMETERS
+
+    return tuple(dataclasses.replace(p, default="cvode") if p.name == "integrator" else p
+                 for p in SOLVER_PARAMETERS)
+
+
+def test_a_study_begun_under_the_cvode_default_resumes_with_cvode(tmp_path, monkeypatch):
+    """A study of a scene that names no integrator, started when that meant cvode, was
+    refused on resume ("a different study definition": its stored base scene says cvode,
+    the same scene resolves to static now). It resumes with cvode, the integrator its
+    points were started with: the point it runs again equals the one it ran then, bit for
+    bit, and the archive's spec says cvode. The old parts folder is written by the study
+    runner itself with the former default in place (``former_default_parameters``), then
+    one point's record removed: a study stopped part-way."""
+    import json
+
+    import rodsim.core.scene
+    from rodsim.app.study import Study, Sweep
+    from rodsim.app.study_parts import parts_folder
+    from rodsim.app.study_runner import run_study
+
+    study = Study(name="implicit_default_resume", title="t", paper="tests only",
+                  scene=str(SCENE), integrator=None, reference=None,
+                  sweeps={"small": [Sweep("nodes", "rods.wire.nodes", (9, 11), "1", "N")],
+                          "full": [Sweep("nodes", "rods.wire.nodes", (9, 11), "1", "N")]})
+    output = tmp_path / "study.nc"
+    with monkeypatch.context() as old:
+        old.setattr(rodsim.core.scene, "SOLVER_PARAMETERS", former_default_parameters())
+        assert json.loads(study.spec("small").base_scene_json)["solver"]["integrator"] \
+            == "cvode"
+        run_study(study, "small", output, workers=1, keep_parts=True)
+    parts = parts_folder(output)
+    last = sorted(parts.glob("point-*.json"))[-1]
+    ran_then = json.loads(last.read_text())
+    last.unlink()
+    output.unlink()
+    assert json.loads(study.spec("small").base_scene_json)["solver"]["integrator"] == "static"
+
+    notes: list[str] = []
+    resumed = run_study(study, "small", output, workers=1, keep_parts=True, log=notes.append)
+    assert any("resumes with 'cvode'" in note for note in notes), notes
+    assert json.loads(json.loads(resumed.attrs["spec_json"])["base_scene_json"])[
+        "solver"]["integrator"] == "cvode"
+    ran_now = json.loads(last.read_text())
+    assert ran_now["status"] == ran_then["status"] == 0, ran_now["message"]
+    assert ran_now["tip"] == ran_then["tip"] and ran_now["centerline"] == ran_then["centerline"]
+    assert abs(-ran_now["tip"]["wire"][1] - beam_deflection()) < BEAM * beam_deflection()
+
+
+def test_a_study_whose_scene_names_its_integrator_is_still_refused_when_it_changes(
+        tmp_path, monkeypatch):
+    """Only the implicit default is carried over: a base scene file that names cvode, then
+    static, is a different study definition, as before."""
+    import pytest
+
+    from rodsim.app.study import Study, Sweep
+    from rodsim.app.study_parts import parts_folder
+    from rodsim.app.study_runner import run_study
+    from rodsim.app.study_spec import StudyError
+
+    scene = tmp_path / "named.toml"
+    scene.write_text(SCENE.read_text() + '\n[solver]\nintegrator = "cvode"\n')
+    study = Study(name="named_resume", title="t", paper="tests only", scene=str(scene),
+                  integrator=None, reference=None,
+                  sweeps={"small": [Sweep("nodes", "rods.wire.nodes", (9, 11), "1", "N")],
+                          "full": [Sweep("nodes", "rods.wire.nodes", (9, 11), "1", "N")]})
+    output = tmp_path / "study.nc"
+    run_study(study, "small", output, workers=1, keep_parts=True)
+    sorted(parts_folder(output).glob("point-*.json"))[-1].unlink()
+    output.unlink()
+    scene.write_text(SCENE.read_text() + '\n[solver]\nintegrator = "static"\n')
+    with pytest.raises(StudyError, match="different study definition"):
+        run_study(study, "small", output, workers=1, keep_parts=True)
+
+
+def test_run_and_a_tracks_step_0_agree_on_a_scene_with_obstacles_that_names_none():
+    """`run` gives a scene with obstacles that names no integrator ida, `track` keeps static
+    (docs/contact.md, "Which integrator": measured to reach the same equilibria in less
+    CPU, benchmarks/results/obstacle-track-integrator.md). A guard of that measurement: a
+    polymer cantilever pressed onto a plane by its tip force (tests/test_contact_depth.py)
+    — the two integrators' equilibria at step 0 agree, and the tip rests on the plane."""
+    from tests.test_contact_depth import PLANE_Y, RADIUS, pressed
+
+    scene = pressed(1.0)
+    assert scene.solver.integrator == "ida"
+    run = rodsim.solve(scene)
+    assert run.success and run.integrator == "ida", run.message
+    track = rodsim.track(scene, {"rods.c.tip_load.force[1]": [0.05, 0.04]})
+    assert track.complete and track.integrator == "static", track.message
+    assert np.max(np.abs(track.tips()[0] - run.tip())) < 1e-9 * 0.1
+    assert abs(run.tip()[1] + RADIUS - PLANE_Y) < 0.1 * RADIUS  # on the plane

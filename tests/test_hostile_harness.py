@@ -46,3 +46,29 @@ def test_a_written_scene_loads_as_the_scene_of_its_dict():
                      {"start": 0.05, "end": 0.1, "radius": 2e-3}]}}}
     assert Scene.from_dict(parse_toml(hostile.toml_text(scene), "generated")).data == (
         Scene.from_dict(scene).data)
+
+
+def test_the_vessel_tries_lay_the_guidewire_through_the_wall(tmp_path):
+    """The vessel family (issue 37's guidewire: cvode's folded exit 0) writes a scene that
+    loads, whose straight rest shape crosses its vessel's wall: what it claims to try. Its
+    csv is the user's vessel90.csv to the printed digits."""
+    from pathlib import Path
+
+    from rodsim.core.contact_depth import rest_crossings
+    from rodsim.core.model import Model
+
+    user_csv = Path(__file__).parent / "data" / "vessel90.csv"
+    written = hostile.vessel_csv().splitlines()[1:]
+    assert written == [line for line in user_csv.read_text().splitlines()
+                       if line and line[0].isdigit()]
+    rng = np.random.default_rng(hostile.VESSEL_SEED)
+    integrators = set()
+    for _ in range(hostile.VESSEL_TRIES["full"]):
+        surface, arguments, files = hostile._vessel_through_rest(rng)
+        assert surface == "obstacles through the rest state"
+        integrators.add(arguments[arguments.index("--integrator") + 1])
+        for name, text in files.items():
+            (tmp_path / name).write_text(text)
+        scene = Scene.load(tmp_path / "scene.toml")
+        assert rest_crossings(Model(scene)), arguments
+    assert integrators == {"static", "cvode", "ida"}

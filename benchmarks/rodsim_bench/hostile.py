@@ -1,7 +1,8 @@
 """Benchmark ``hostile``: a seeded family of hostile command lines, each run as its own
 process, over the surfaces where rodsim once crashed, hung or answered wrongly (issue 37):
 helix pitch against N, tendon ends anywhere along (and beyond) the catheter, routing
-ramped per track step, obstacles through the rest state, supports pushed into obstacles,
+ramped per track step, obstacles through the rest state (a plane moved across a catheter,
+and a guidewire laid straight through a curved vessel), supports pushed into obstacles,
 joints off the nodes, sections in any order and stiffness, elastic bases from limp to rigid.
 
 Every try is ``python -m rodsim run|track ...`` with a wall-time limit, sorted by outcome:
@@ -190,6 +191,42 @@ SURFACES: tuple[Callable[[np.random.Generator], Try], ...] = (
     _helix, _tendon_end, _routing_ramp, _obstacle, _support_into_obstacle, _joint, _sections,
     _elastic_base)
 
+#: Tries of ``_vessel_through_rest`` per size, after the surfaces' tries and from their own
+#: seed (``VESSEL_SEED``), so the surfaces' tries stay those of earlier reports.
+VESSEL_TRIES = {"small": 2, "full": 12}
+VESSEL_SEED = 3737
+
+
+def vessel_csv(straight: float = 0.05, bend: float = 0.03, exit_length: float = 0.04,
+               lumen: float = 0.0015) -> str:
+    """A user's vessel as a csv centerline (x,y,z,radius): ``straight`` along +x, a 90-degree
+    bend of radius ``bend`` toward +y, ``exit_length`` along +y (the user guidewire's
+    vessel90.csv: 50 mm, 30 mm, 40 mm, lumen 1.5 mm), points every 5 mm on the straights
+    and every 5 degrees on the bend."""
+    rows = [(x, 0.0) for x in np.arange(0.0, straight, 0.005)]
+    angles = np.radians(np.arange(0.0, 90.0, 5.0))
+    rows += [(straight + bend * np.sin(a), bend * (1.0 - np.cos(a))) for a in angles]
+    rows += [(straight + bend, bend + y) for y in np.arange(0.0, exit_length + 1e-9, 0.005)]
+    return "x,y,z,radius\n" + "".join(f"{x:.6f},{y:.6f},0.000000,{lumen}\n" for x, y in rows)
+
+
+def _vessel_through_rest(rng: np.random.Generator) -> Try:
+    """A user's 0.014-inch nitinol guidewire laid straight through a 90-degree vessel: its
+    rest shape leaves the vessel at the bend (cvode once settled there folded through itself
+    with exit 0). Any integrator; ida is given 60 s (it spends its budget there)."""
+    integrator = str(rng.choice(["static", "cvode", "ida"]))
+    scene = {"name": "hostile-vessel", "rods": {"wire": {
+        "length": float(rng.uniform(0.17, 0.25)), "radius": 0.000178,
+        "youngs_modulus": 60e9, "density": 6450.0, "nodes": int(rng.choice([41, 61, 81])),
+        "origin": [-0.1, 0.0, 0.0]}},
+        "obstacles": {"vessel": {"type": "tube", "rods": ["wire"], "centerline": "csv",
+                                 "file": "vessel.csv"}}}
+    arguments = ["run", "scene.toml", "--integrator", integrator]
+    if integrator == "ida":
+        arguments += ["--set", "max_wall_time=60"]
+    return ("obstacles through the rest state", arguments,
+            {"scene.toml": toml_text(scene), "vessel.csv": vessel_csv()})
+
 
 def classify(code: int | None, stderr: str) -> str:
     """The outcome of a try from its exit code (None: over the limit) and stderr."""
@@ -235,6 +272,8 @@ def _tip_gap(folder: Path, arguments: list[str], stated: float) -> str:
 def run(size: str, output_dir: Path, progress: Progress) -> list[Path]:
     rng = np.random.default_rng(37)
     tries = [SURFACES[k % len(SURFACES)](rng) for k in range(SIZES[size])]
+    vessel_rng = np.random.default_rng(VESSEL_SEED)
+    tries += [_vessel_through_rest(vessel_rng) for _ in range(VESSEL_TRIES[size])]
     rows = []
     env = dict(os.environ, OMP_NUM_THREADS="1", OPENBLAS_NUM_THREADS="1")
     for k, (surface, arguments, files) in enumerate(tries):

@@ -48,6 +48,7 @@ from rodsim.app.study_parts import (
     save_text,
 )
 from rodsim.app.study_points import assemble, evaluate_point
+from rodsim.app.study_resume import resumed_spec
 from rodsim.app.study_spec import StudyError, StudySpec, grid_points
 from rodsim.app.worker_pool import PARENT_POLL, TaskFailure, run_tasks
 from rodsim.core.schema import is_integer
@@ -292,6 +293,9 @@ def run_spec(spec: StudySpec, output: str | Path, *, workers: int | None = None,
                 stack.callback(cluster.close)
             stack.callback(client.close)
         folder = parts_folder(output)
+        # A study begun when its base scene's implicit integrator was another keeps it
+        # (rodsim/app/study_resume.py).
+        spec = resumed_spec(folder, spec, log)
         records = open_parts(folder, spec, log)
         points = grid_points(spec)
         todo = [index for index in points if index not in records]

@@ -28,7 +28,7 @@ from typing import TYPE_CHECKING, Any, ClassVar, Protocol
 
 import numpy as np
 
-from rodsim.core.contact_depth import depth_failure
+from rodsim.core.contact_validity import contact_failure
 from rodsim.solvers.outcome import Outcome
 from rodsim.solvers.recorder import SaveAt, increasing_times
 from rodsim.solvers.tolerance import FLOOR_ADVICE, correction_limit, unresolvable_message
@@ -45,6 +45,8 @@ class Run(Protocol):
     tolerance: float
     note: str
     model: Model
+    base_model: Model
+    warm: bool
 
     def at_equilibrium(self, residual: float) -> bool: ...
 
@@ -123,11 +125,13 @@ class Equilibrium(Stop):
             if not integrator.verified(run, verified):
                 success = False
                 advice = advice or integrator.advice(run)
-        depth = depth_failure(run.model, x) if success else None
-        if depth is not None:  # an equilibrium of the penalty, not of the rigid wall
-            success, outcome_note = False, depth
-        else:
-            outcome_note = ""
+        # Not a state of rigid contact (rodsim/core/contact_validity.py): deeper than the
+        # contact law, or a rod that meets an obstacle folded through itself.
+        contact = contact_failure(run.model, x, None if run.warm else run.base_model) \
+            if success else None
+        outcome_note, contact_advice = "", ""
+        if contact is not None:
+            success, (outcome_note, contact_advice) = False, contact
         if success and run.note:
             message = f"{message}; {run.note}"
         tolerance = run.tolerance
@@ -143,8 +147,7 @@ class Equilibrium(Stop):
                            f"(tolerance {correction_limit(run.model, tolerance):.3g})")
                 residual = verified[0]
             elif outcome.success and outcome_note:
-                message = outcome_note
-                advice = "the state is not a contact with a rigid wall"
+                message, advice = outcome_note, contact_advice
             elif outcome.success:
                 message = (f"stopped with residual {residual:.3g} above the tolerance "
                            f"{tolerance:.3g}")

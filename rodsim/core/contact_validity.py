@@ -1,0 +1,116 @@
+"""Whether an equilibrium of a scene with obstacles is a state of rigid contact: the one rule
+every integrator's result is judged by (``rodsim.solvers.stops.Equilibrium``, for `run`,
+each `track` step, `fit`, `reach` and study points alike; docs/contact.md, "Validity").
+
+A state is refused, with its reason and advice, when
+
+- a node lies deeper inside an obstacle than the contact law's validity
+  (``rodsim.core.contact_depth.depth_failure``, ``DEPTH_LIMIT`` radii): the equilibrium is
+  the penalty's, not the rigid wall's (a rod settled on the far side of a wall is this);
+- a rod that meets an obstacle passes through itself (``rodsim.core.self_crossing``): the
+  obstacles make the scene one of solid bodies in contact, and a rod folded through itself
+  is not a state a solid rod can take. rodsim has no self-contact, so nothing kept the rod
+  from it; without obstacles the same state is only flagged (a coil past one turn under a
+  tip moment is the model's exact answer there, tests/test_self_crossing.py);
+- a rod that meets an obstacle folds at a node: two consecutive segments turn by more than
+  ``MAX_TURN`` (90°, fewer than 4 segments per turn, the sampling rodsim asks of a helical
+  tendon, docs/tendon.md), a kink its segments do not resolve. Measured on guidewires laid
+  straight through a 90-degree vessel (the hostile family's,
+  benchmarks/rodsim_bench/hostile.py): cvode and ida settled, "stable", with one node
+  turning 125–155° and the tip 5–21 mm short of the lumen's path (the discretisation
+  estimate 0.018–0.033 L or unavailable), where the wire that settles along the lumen
+  turns at most 1.2° a node; after this rule the family's 12 tries give 11 failures and
+  that one success.
+
+The case that made the second rule: a user's guidewire whose straight rest shape crosses
+its vessel's wall (152 radii deep at its tip). `static` fails there (its load steps cannot
+leave the wall) and `ida` spends its budget; `cvode` settled, "stable", on a wire folded
+through itself inside the lumen (segments 62 and 69 0.095 mm apart, radius 0.178 mm), with
+25 mm of its length doubled back: a wrong success, now a failure that names the fold and,
+as static's does, the crossing rest shape and the remedy (track the insertion from a state
+inside). When the rest shape crosses a wall (``rest_crossings``) and the run started from
+rest, the advice names it; otherwise it says what else to try.
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from rodsim.core.contact_depth import depth_failure, rest_crossings
+from rodsim.core.self_crossing import self_crossing
+
+if TYPE_CHECKING:
+    from rodsim.core.model import Model
+
+__all__ = ["MAX_TURN", "contact_failure", "fold_failure", "sharpest_turn"]
+
+#: The largest turn [degrees] between consecutive segments of a rod that meets an obstacle
+#: (module docstring).
+MAX_TURN = 90.0
+#: The advice of a state deeper than the law, when the rest shape is clear of every wall.
+DEPTH_ADVICE = "the state is not a contact with a rigid wall"
+#: The advice of a folded rod, when the rest shape is clear of every wall.
+FOLD_ADVICE = ("follow the load from a state clear of itself: static's load steps, or "
+               "`rodsim track` of the load from a state that touches nothing; or raise the "
+               "rod's nodes")
+
+
+def sharpest_turn(positions: np.ndarray) -> tuple[int, float]:
+    """The node of the centerline ``positions`` (N, 3) where consecutive segments turn most,
+    and that turn [degrees] (0 for fewer than 3 nodes or zero-length segments)."""
+    segments = np.diff(np.asarray(positions, dtype=float), axis=0)
+    lengths = np.linalg.norm(segments, axis=1)
+    if len(segments) < 2 or not np.all(lengths > 0.0):
+        return 0, 0.0
+    tangents = segments / lengths[:, None]
+    cosine = np.clip(np.einsum("ij,ij->i", tangents[1:], tangents[:-1]), -1.0, 1.0)
+    k = int(np.argmin(cosine))
+    return k + 1, float(np.degrees(np.arccos(cosine[k])))
+
+
+def fold_failure(model: Model, x: np.ndarray) -> str | None:
+    """The failure reason of a state ``x`` (free coordinates) in which a rod that meets an
+    obstacle passes through itself or folds at a node, or None. The rods are those of
+    ``model``'s contact terms, each checked once, in the order of the terms."""
+    from rodsim.core.terms.contact import Contact
+
+    full = None
+    seen: set[str] = set()
+    for term in model.terms:
+        if not isinstance(term, Contact) or term.rod.name in seen:
+            continue
+        seen.add(term.rod.name)
+        if full is None:
+            full = model.full(x)
+        positions = full[term.dofs]
+        found = self_crossing(positions, term.radius)
+        if found is not None:
+            return (f"{found.text(term.rod.name)}; it meets obstacle {term.obstacle.name!r}, "
+                    "so the state is not one of solid bodies in contact")
+        node, turn = sharpest_turn(positions)
+        if turn > MAX_TURN:
+            return (f"rod {term.rod.name!r} folds at node {node}: its segments turn "
+                    f"{turn:.3g} degrees there (more than {MAX_TURN:g}: fewer than 4 segments "
+                    f"per turn), a kink its segments do not resolve, held by obstacle "
+                    f"{term.obstacle.name!r}")
+    return None
+
+
+def contact_failure(model: Model, x: np.ndarray, rest: Model | None = None) -> \
+        tuple[str, str] | None:
+    """(reason, advice) when the equilibrium ``x`` of ``model`` is not a state of rigid
+    contact (module docstring), else None. ``rest``: the model whose rest shape the run
+    started from (None for a run that started elsewhere, a warm start): when that rest
+    shape crosses an obstacle's wall, the advice names the crossing and the remedy."""
+    reason = depth_failure(model, x)
+    advice = DEPTH_ADVICE
+    if reason is None:
+        reason, advice = fold_failure(model, x), FOLD_ADVICE
+    if reason is None:
+        return None
+    crossings = rest_crossings(rest) if rest is not None else []
+    if crossings:
+        advice = "; ".join(crossings)
+    return reason, advice
