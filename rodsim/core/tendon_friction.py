@@ -32,9 +32,30 @@ other sign past k), or a kink leaves the wrap's plane, that angle misses O(h) of
 continuum's ∫|dt/ds| ds, a first-order error downstream. There the turn runs through
 tangents extrapolated from the chords on each side, which do not straddle k:
 
-- the entry (``split`` given): d3 → t_in → t⁺ → u_0 with t⁺ = (3u_0 − u_1)/2 normalised,
-  unless t_in, t⁺ and u_0 lie in one plane (|t_in · (t⁺ × u_0)| ≤ ONE_WAY: there the plain
-  angle is exact, and a path turning one way keeps Θ_e = ψ_e);
+- the entry (``split`` given): d3 → t_in → t⁺ → u_0 with t⁺ = (3u_0 − u_1)/2 normalised
+  (the tangent at p_0 extrapolated from the chords' midpoints), where the kink t_in → t⁺ is
+  the path's own and leaves the plane of t_in and u_0; the plain angle where the kink is an
+  extrapolation's error, or lies in that plane (there a path turning one way keeps
+  Θ_e = ψ_e, whose gradient the Jacobian takes); between them, continuously,
+
+      θ_0 = ∠(d3, t_in) + ∠(t_in, u_0) + w [∠(t_in, t⁺) + ∠(t⁺, u_0) − ∠(t_in, u_0)],
+      w = S(r; KINK_PLAIN, KINK_SPLIT) · S(q; 0, KINK_LATERAL)   (``kink_weight``):
+
+  r = ∠(t_in, t⁺)/∠(t⁺, u_0) the kink over the extrapolation's step (O(h) for the error of
+  extrapolating a smooth path, O(1/h) for a kink of the path's own: the shear, the offset's
+  u × ρ), q = sin δ / sin ∠(t_in, t⁺) the kink's share out of the plane (δ the angle of t⁺
+  off it), S(v; lo, hi) the C¹ step 3z² − 2z³ of z = (v − lo)/(hi − lo) clipped to [0, 1].
+  In the plane the plain angle stays whatever the kink, as it did: a step of the state in
+  the plane makes kinks of any ratio there (r up to 0.1 at 1e-6 L on the seeded robots of
+  the tests), and an extrapolation's error where the curvature vanishes at the entry is
+  O(1) of the step too.
+  θ_0 is continuous in the state, and C¹ but where t⁺ meets u_0 (u_0 = u_1) or t_in meets
+  u_0 (the turning angles' own kinks at a straight path; there the plane is undefined and w
+  is 0). Inside t_in → u_0's arc the two paths have the same length (and the same gradient),
+  so only a kink that overshoots it, or leaves its plane, counts. It switched on
+  |t_in · (t⁺ × u_0)| ≤ 1e-10 before: discontinuous by twice the overshoot where t⁺ lies
+  behind t_in in the plane (a released catheter bending more at node 1 than twice the
+  entry's turn), which an out-of-plane step of 1e-9 L crossed;
 - a marked point k (where another string tendon on the catheter starts or ends: the
   catheter's curvature jumps there, rodsim/core/terms/tendon_string.py): the turns at
   k − 1, k, k + 1 become u_{k−2} → a₁ (at k − 1), a₁ → a → b → b₁ (at k), b₁ → u_{k+1}
@@ -112,14 +133,30 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["MAX_FRICTION", "ONE_WAY", "SLIP_NAMES", "SLIP_TIE", "bound_coefficients",
-           "breakaway_margins", "chord_tensions", "profile_coefficients", "slide_rates",
-           "slip_states", "turning_angles",
+__all__ = ["KINK_LATERAL", "KINK_PLAIN", "KINK_SPLIT", "MAX_FRICTION", "ONE_WAY", "SLIP_NAMES",
+           "SLIP_TIE", "bound_coefficients", "breakaway_margins", "chord_tensions",
+           "kink_weight", "profile_coefficients", "slide_rates", "slip_states",
+           "turning_angles",
            "weighted_chord_tensions", "weighted_slide_factors", "weighted_slide_rates"]
 
 #: |Θ_e − ψ_e| below which (relative to max(1, Θ_e)) the path up to chord e turns one way
 #: in one plane (Θ_e = ψ_e = ∠(d3, u_e)): round-off of the sum of turns.
 ONE_WAY = 1e-10
+
+#: The entry's kink ∠(t_in, t⁺) relative to the extrapolation's step ∠(t⁺, u_0) up to which
+#: its turn is the plain angle, and from which it is the split one (``kink_weight``; module
+#: docstring, "Split turns"): an extrapolation's error is O(h) of the step (measured ≤ 0.0086
+#: on the pulled and released robots of the tests, N ≥ 11), a kink of the path's own O(1/h)
+#: (≥ 0.021 on tdcr-two-segment's 3-D entry at N = 21, 0.24 on a helical tendon's).
+KINK_PLAIN, KINK_SPLIT = 0.01, 0.02
+
+#: The kink's share out of the plane of t_in and u_0 (sin δ / sin ∠(t_in, t⁺)) from which its
+#: turn is split whole (``kink_weight``): in that plane (0) the plain angle keeps Θ_e = ψ_e on
+#: a path turning one way; tdcr-two-segment's 3-D entry measured 0.013–1 (0.013–0.03 on
+#: kinks up to 2.7e-3 rad behind t_in at its low tensions, 0.04–0.1 where t⁺ lies within
+#: 1e-5 rad of the arc t_in → u_0, which split and plain angles agree on).
+KINK_LATERAL = 0.01
+
 
 #: Largest friction coefficient a scene may set (tendon_string.friction's range): steel on
 #: PTFE ~0.05–0.1, braided polymer on steel disks ~0.1–0.3; 2 is already a tendon that
@@ -168,9 +205,16 @@ def turning_angles(axis: np.ndarray, tangent: np.ndarray, p: np.ndarray,
         return theta
     ahead = 1.5 * u[:-1] - 0.5 * u[1:]  # t⁺ at point k from chords k, k + 1 (k = 0 … P−3)
     ahead /= np.linalg.norm(ahead, axis=1)[:, None]
-    if abs(float(tangent @ np.cross(ahead[0], u[0]))) > ONE_WAY:  # out of one plane
-        theta[0] = float(_angle(axis, tangent) + _angle(tangent, ahead[0])
-                         + _angle(ahead[0], u[0]))
+    kink, step = _angle(tangent, ahead[0]), _angle(ahead[0], u[0])
+    normal = np.cross(tangent, u[0])
+    across = float(np.linalg.norm(normal) * np.linalg.norm(np.cross(tangent, ahead[0])))
+    lateral = abs(float(ahead[0] @ normal)) / across if across > 0.0 else 0.0
+    weight = kink_weight(float(kink), float(step), lateral)
+    if weight == 1.0:
+        theta[0] = float(_angle(axis, tangent) + kink + step)
+    elif weight > 0.0:
+        plain = _angle(tangent, u[0])
+        theta[0] = float(_angle(axis, tangent) + (plain + weight * (kink + step - plain)))
     for k in np.flatnonzero(split[3:len(u) - 2]) + 3:
         # Across routing point k the turns at k − 1, k, k + 1 are taken from the tangents
         # extrapolated from the chords beyond (k − 3, k − 2 and k + 1, k + 2) to the chords'
@@ -182,6 +226,25 @@ def turning_angles(axis: np.ndarray, tangent: np.ndarray, p: np.ndarray,
         theta[k] = float(_angle(a1, a) + _angle(a, b) + _angle(b, b1))
         theta[k + 1] = float(_angle(b1, u[k + 1]))
     return theta
+
+
+def kink_weight(kink: float, step: float, lateral: float) -> float:
+    """The share w of the entry's split turn (module docstring, "Split turns"), from the
+    kink ∠(t_in, t⁺), the extrapolation's step ∠(t⁺, u_0) and the kink's share out of the
+    plane of t_in and u_0, lateral = sin δ / sin ∠(t_in, t⁺) (δ the angle of t⁺ off that
+    plane): w = S(r; KINK_PLAIN, KINK_SPLIT) S(lateral; 0, KINK_LATERAL) with r = kink/step
+    and S(v; lo, hi) the C¹ step 3z² − 2z³ of z = (v − lo)/(hi − lo) clipped to [0, 1].
+    step = 0 (u_0 = u_1, t⁺ = u_0, both turns the same) counts as r = ∞."""
+    if kink <= KINK_PLAIN * step or lateral <= 0.0:
+        return 0.0
+    share = 1.0 if kink >= KINK_SPLIT * step else _smooth_step(
+        (kink / step - KINK_PLAIN) / (KINK_SPLIT - KINK_PLAIN))
+    return share if lateral >= KINK_LATERAL else share * _smooth_step(lateral / KINK_LATERAL)
+
+
+def _smooth_step(z: float) -> float:
+    """3z² − 2z³ on [0, 1]: 0 and 1 at the ends with zero slope (C¹)."""
+    return z * z * (3.0 - 2.0 * z)
 
 
 def slide_rates(tension: float, friction: float, theta: np.ndarray, profile: np.ndarray

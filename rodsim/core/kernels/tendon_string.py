@@ -23,8 +23,9 @@ point on a node), so each Jacobian slot the chord touches gets one addition; Jd�
 With friction μ > 0 each chord carries its own tension τ_e in place of T — the capstan
 profile with the stored history ``profile`` (rodsim/core/tendon_friction.py: the entry's
 turn from d3 to the path's tangent d3 + ρ′_y d1 + ρ′_z d2 (d_k = qᵀ A_k q / n of the entry
-point, ρ′ = ``entry_slope``) and on, the turns at the points, split at the entry and at
-the points ``split`` marks, the actuator's bounds) —
+point, ρ′ = ``entry_slope``) and on, the turns at the points, split at the entry (blended
+continuously with its plain angle by the kink's size and its share out of the plane) and
+at the points ``split`` marks, the actuator's bounds) —
 and the Jacobian is the one at frozen τ_e plus, on a chord up to which the path turns one
 way in one plane from a held entry frame, f ⊗ ∂τ_e/∂x with ∂τ_e/∂x = (∂τ_e/∂Θ_e) ∂ψ_e/∂x,
 ψ_e = ∠(d3, u_e) (rodsim/core/terms/tendon_string.py, "Friction"). With μ = 0 every τ_e is

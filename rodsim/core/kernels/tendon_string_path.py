@@ -12,7 +12,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from rodsim.core.tendon_friction import ONE_WAY
+from rodsim.core.tendon_friction import KINK_LATERAL, KINK_PLAIN, KINK_SPLIT, ONE_WAY
 
 
 @njit(cache=True, inline="always")
@@ -124,6 +124,55 @@ def _angle(a: np.ndarray, b: np.ndarray) -> float:
 
 
 @njit(cache=True)
+def _smooth_step(z: float) -> float:
+    """3z² − 2z³ on [0, 1] (``rodsim.core.tendon_friction``)."""
+    return z * z * (3.0 - 2.0 * z)
+
+
+@njit(cache=True)
+def _entry_weight(a: np.ndarray, ahead: np.ndarray, first: np.ndarray, kink: float,
+                  step: float) -> float:
+    """The share of the entry's split turn (``rodsim.core.tendon_friction.kink_weight``):
+    from kink/step and the kink's share out of the plane of t_in = ``a`` and u_0 =
+    ``first``, sin δ / sin ∠(t_in, t⁺)."""
+    if kink <= KINK_PLAIN * step:
+        return 0.0
+    nx = a[1] * first[2] - a[2] * first[1]
+    ny = a[2] * first[0] - a[0] * first[2]
+    nz = a[0] * first[1] - a[1] * first[0]
+    kx = a[1] * ahead[2] - a[2] * ahead[1]
+    ky = a[2] * ahead[0] - a[0] * ahead[2]
+    kz = a[0] * ahead[1] - a[1] * ahead[0]
+    across = np.sqrt(nx * nx + ny * ny + nz * nz) * np.sqrt(kx * kx + ky * ky + kz * kz)
+    if across <= 0.0:
+        return 0.0
+    lateral = np.abs(ahead[0] * nx + ahead[1] * ny + ahead[2] * nz) / across
+    if lateral <= 0.0:
+        return 0.0
+    share = 1.0
+    if kink < KINK_SPLIT * step:
+        share = _smooth_step((kink / step - KINK_PLAIN) / (KINK_SPLIT - KINK_PLAIN))
+    if lateral >= KINK_LATERAL:
+        return share
+    return share * _smooth_step(lateral / KINK_LATERAL)
+
+
+@njit(cache=True)
+def _entry_turn(a: np.ndarray, first: np.ndarray, second: np.ndarray, plain: float) -> float:
+    """The entry's turn from t_in = ``a`` on to chord 0 (u_0 = ``first``, u_1 = ``second``):
+    ∠(t_in, u_0) = ``plain``, ∠(t_in, t⁺) + ∠(t⁺, u_0) or between them by ``_entry_weight``."""
+    ahead = _extrapolated(first, second, 0.5)
+    kink = _angle(a, ahead)
+    step = _angle(ahead, first)
+    weight = _entry_weight(a, ahead, first, kink, step)
+    if weight == 1.0:
+        return kink + step
+    if weight > 0.0:
+        return plain + weight * (kink + step - plain)
+    return plain
+
+
+@njit(cache=True)
 def _extrapolated(near: np.ndarray, far: np.ndarray, step: float) -> np.ndarray:
     """The unit vector along near + step (near − far): a chord's tangent carried ``step``
     chords on, away from its neighbour ``far``."""
@@ -196,14 +245,11 @@ def _tensions(x: np.ndarray, dofs: np.ndarray, weights: np.ndarray, constant: np
         theta[e] = _angle(a if e == 0 else u[e - 1], u[e])
     turns = theta.copy()
     if chords >= 2:
-        # The entry's turn through t⁺, extrapolated from chords 0 and 1, unless t_in, t⁺ and
-        # u_0 lie in one plane (rodsim/core/tendon_friction.py, "Split turns").
-        ahead = _extrapolated(u[0], u[1], 0.5)
-        volume = (a[0] * (ahead[1] * u[0, 2] - ahead[2] * u[0, 1])
-                  + a[1] * (ahead[2] * u[0, 0] - ahead[0] * u[0, 2])
-                  + a[2] * (ahead[0] * u[0, 1] - ahead[1] * u[0, 0]))
-        if np.abs(volume) > ONE_WAY:
-            theta[0] = _angle(a, ahead) + _angle(ahead, u[0])
+        # The entry's turn through t⁺, extrapolated from chords 0 and 1, where the kink
+        # t_in → t⁺ is the path's own and leaves the plane of t_in and u_0, blended with the
+        # plain angle as it falls to an extrapolation's error or into that plane
+        # (rodsim/core/tendon_friction.py, "Split turns").
+        theta[0] = _entry_turn(a, u[0], u[1], theta[0])
     for k in range(3, chords - 2):
         if split[k]:
             a1 = _extrapolated(u[k - 2], u[k - 3], 1.0)

@@ -3,7 +3,8 @@
 "Friction"), as one element on the coordinates of its span, so that its Jacobian holds the
 coupling of each chord's tension to the turns upstream of it.
 
-Chord e carries τ_e = T e^{∓W_e}, W_e = Σ_{j≤e} μ_j θ_j (rodsim/core/tendon_friction.py).
+Chord e carries τ_e = T e^{∓W_e}, W_e = Σ_{j≤e} μ_j θ_j (rodsim/core/tendon_friction.py;
+θ_0 the entry's turn, its split part blended in continuously, 0 in the entry's plane).
 On a path that turns one way in one plane from a held entry frame θ_j = ψ_j − ψ_{j−1},
 ψ_j = ∠(d3, u_j) (ψ_{−1} = 0), so
 
