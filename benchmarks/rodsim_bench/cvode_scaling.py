@@ -14,7 +14,9 @@ run of each integrator; the dense CVODE is the solver rodsim used before the ban
 matrix and now below ``ode_newton.DENSE_LIMIT`` (each CVODE run is given its solver, whatever
 the size rule says). The growth exponent is the slope of
 log CPU per step against log N between successive sizes (the step count itself grows with N:
-the rod's highest bending modes are resolved to the velocity tolerance).
+the high bending modes the release excites are resolved to the body rates' tolerance; IDA's
+jump at N = 161 is a step held where BDF2 hardly damps them: docs/dynamics.md, "IDA",
+"Why the steps jump at large N").
 
 Writes ``cvode-scaling-<size>.json`` and ``cvode-scaling-<size>.md``. Nothing is asserted.
 """
