@@ -8,7 +8,8 @@ waits for around the solves: the whole-process CPU of short commands (startup), 
 rate (tracking), a study on 1 and 2 workers (workers), the natural frequencies of a
 bent robot (modes), tendon friction's pull–release cycles and static solves (friction) and
 many equilibria of one scene on 1 and 2 workers (batch); physical time's integrators at
-equal tip accuracy, the midpoint rule against IDA (dynamics), their CPU per step
+equal tip accuracy, the midpoint rule against IDA (dynamics), PyElastica against rodsim in
+physical time (pyelastica-dynamics), their CPU per step
 (step-cost) and tdcr-two-segment against the real-time aim (real-time); and hostile
 command lines, each its own process, sorted into clear refusals, failures, checked
 successes and defects (hostile).
@@ -21,6 +22,7 @@ Timings on shared machines are noisy: compare the ratios measured within one run
 """
 
 BENCHMARKS = ("work-precision", "paper-regime", "scaling", "large-n", "stress", "skip-work",
-              "kernels", "pyelastica", "string-tendon", "contact", "force-from-shape", "floor",
+              "kernels", "pyelastica", "pyelastica-dynamics", "string-tendon", "contact",
+              "force-from-shape", "floor",
               "iterations", "startup", "tracking", "workers", "modes", "friction",
               "batch", "dynamics", "step-cost", "real-time", "cvode-scaling", "hostile")
