@@ -15,7 +15,16 @@ counts less than in wall time):
   ``rodsim run`` did before the tiered path);
 - ``run, plain process``: the same ``rodsim run`` through ``main(argv)`` in a process that
   exits normally and keeps dask visible to xarray — what every ``rodsim run`` cost before
-  the lean process (the help epilog aside).
+  the lean process (the help epilog aside);
+- issue 35's two aims: ``run tdcr-two-segment`` (``rodsim run tdcr-two-segment``, warm
+  kernel cache) and ``import rodsim + solve tdcr-two-segment`` (``python -c "import rodsim;
+  rodsim.solve('tdcr-two-segment')"``, the Python entry: its ``solver.kernels = "auto"`` is
+  ``compiled``, so numba and the scene's cached kernels are loaded);
+- the floors under them: ``python -c pass``, ``import numpy``, ``import numba``.
+
+With ``RODSIM_BENCH_BASELINE`` set to a git revision (rodsim_bench/baseline.py), issue 35's
+two commands are also run with that revision's tree, interleaved with the rest (rows
+``... (baseline <commit>)``; a warm-up run first fills the tree's own numba cache).
 
 And the breakdown of one ``rodsim run`` into phases (a child process that does what the
 command does, step by step, reading its own CPU clock between steps; the exit is the
@@ -42,6 +51,7 @@ import numpy as np
 import xarray as xr
 
 from rodsim.io.archive import write_dataset
+from rodsim_bench.baseline import BaselineTree, baseline_revision
 from rodsim_bench.machine import machine
 
 __all__ = ["run", "COMMANDS"]
@@ -59,7 +69,16 @@ COMMANDS = {
     "run, compiled kernels": ["-m", "rodsim", "run", "--set", "solver.kernels=compiled",
                               "-o", "{out}/compiled.nc"],
     "run, plain process": ["-c", _PLAIN, "run", "-o", "{out}/plain.nc"],
+    "run tdcr-two-segment": ["-m", "rodsim", "run", "tdcr-two-segment", "-o", "{out}/tdcr.nc"],
+    "import rodsim + solve tdcr-two-segment": [
+        "-c", "import rodsim; rodsim.solve('tdcr-two-segment')"],
+    "python -c pass": ["-c", "pass"],
+    "import numpy": ["-c", "import numpy"],
+    "import numba": ["-c", "import numba"],
 }
+
+#: Issue 35's two commands, also run with the baseline revision's tree when one is named.
+ISSUE_35 = ("run tdcr-two-segment", "import rodsim + solve tdcr-two-segment")
 
 #: The phases of one ``rodsim run``, each timed on the child's CPU clock.
 _PHASES = textwrap.dedent("""
@@ -125,7 +144,7 @@ _PHASES = textwrap.dedent("""
 """)
 
 
-def _child_cpu(argv: list[str]) -> tuple[float, str]:
+def _child_cpu(argv: list[str], pythonpath: str | None = None) -> tuple[float, str]:
     """CPU seconds (user + system) of one child process, and its stdout. The child may
     write and read Python's bytecode caches as a user's installation does
     (PYTHONDONTWRITEBYTECODE, set in some development shells, would make every import
@@ -134,8 +153,10 @@ def _child_cpu(argv: list[str]) -> tuple[float, str]:
     before = resource.getrusage(resource.RUSAGE_CHILDREN)
     env = dict(os.environ, OMP_NUM_THREADS="1", OPENBLAS_NUM_THREADS="1")
     env.pop("PYTHONDONTWRITEBYTECODE", None)
+    if pythonpath is not None:  # another revision's tree (RODSIM_BENCH_BASELINE)
+        env["PYTHONPATH"] = pythonpath
     done = subprocess.run([sys.executable, *argv], capture_output=True, text=True, env=env,
-                          timeout=600, check=False)
+                          timeout=1800, check=False)
     after = resource.getrusage(resource.RUSAGE_CHILDREN)
     if done.returncode != 0:
         raise RuntimeError(f"{argv}: exit {done.returncode}: {done.stderr[-500:]}")
@@ -153,19 +174,35 @@ def _phases(folder: str, exit_kind: str) -> dict[str, float]:
     return phases
 
 
+def _commands(folder: str) -> dict[str, tuple[list[str], str | None]]:
+    """label -> (argv, PYTHONPATH or None): ``COMMANDS``, and issue 35's two with the
+    baseline revision's tree when ``RODSIM_BENCH_BASELINE`` names one."""
+    commands: dict[str, tuple[list[str], str | None]] = {
+        label: ([word.format(out=folder) for word in argv], None)
+        for label, argv in COMMANDS.items()}
+    revision = baseline_revision()
+    if revision:
+        tree = BaselineTree(revision, Path(folder))
+        for label in ISSUE_35:
+            commands[f"{label} (baseline {tree.commit[:7]})"] = (commands[label][0],
+                                                                 str(tree.tree))
+    return commands
+
+
 def run(size: str, output_dir: str | Path, progress=None) -> list[Path]:
     repeats = SIZES[size]["repeats"]
-    times: dict[str, list[float]] = {label: [] for label in COMMANDS}
     phases: dict[str, list[dict[str, float]]] = {"plain": [], "lean": []}
     with tempfile.TemporaryDirectory(prefix="rodsim-startup-") as folder:
-        for argv in COMMANDS.values():  # warm-up: bytecode and numba caches written
-            _child_cpu([word.format(out=folder) for word in argv])
+        commands = _commands(folder)
+        times: dict[str, list[float]] = {label: [] for label in commands}
+        for argv, path in commands.values():  # warm-up: bytecode and numba caches written
+            _child_cpu(argv, path)
         _phases(folder, "lean")
         for repeat in range(repeats):  # interleaved, so that a load change hits every row
-            for label, argv in COMMANDS.items():
+            for label, (argv, path) in commands.items():
                 if progress is not None:
                     progress(repeat / repeats, f"startup: {label} ({repeat + 1}/{repeats})")
-                cpu, _ = _child_cpu([word.format(out=folder) for word in argv])
+                cpu, _ = _child_cpu(argv, path)
                 times[label].append(cpu)
             for kind in phases:
                 phases[kind].append(_phases(folder, kind))
@@ -175,14 +212,14 @@ def run(size: str, output_dir: str | Path, progress=None) -> list[Path]:
                     for kind, runs in phases.items()}
 
     ds = xr.Dataset(
-        {"cpu": (("command", "repeat"), np.array([times[c] for c in COMMANDS]),
+        {"cpu": (("command", "repeat"), np.array([times[c] for c in times]),
                  {"units": "s", "long_name": "whole-process CPU time (user + system)"}),
-         "cpu_median": ("command", [median[c] for c in COMMANDS],
+         "cpu_median": ("command", [median[c] for c in times],
                         {"units": "s", "long_name": "median whole-process CPU time"}),
          "phase_cpu": (("exit", "phase"),
                        np.array([phase_median["plain"], phase_median["lean"]]),
                        {"units": "s", "long_name": "median CPU time of each phase of a run"})},
-        coords={"command": ("command", list(COMMANDS), {"long_name": "command"}),
+        coords={"command": ("command", list(times), {"long_name": "command"}),
                 "repeat": ("repeat", np.arange(repeats), {"long_name": "repeat"}),
                 "exit": ("exit", ["plain", "lean"],
                          {"long_name": "plain process (normal exit, dask visible) or lean "
@@ -197,7 +234,7 @@ def run(size: str, output_dir: str | Path, progress=None) -> list[Path]:
     lines = [f"# Start-up: whole-process CPU ({size}, median of {repeats})", "",
              "| command | CPU [s] | / import numpy, scipy.sparse |", "|---|--:|--:|"]
     lines += [f"| {label} | {median[label]:.3f} | {median[label] / floor:.2f} |"
-              for label in COMMANDS]
+              for label in times]
     lines += ["", "| phase of one `rodsim run` | plain process [s] | lean process [s] |",
               "|---|--:|--:|"]
     lines += [f"| {name} | {a:.3f} | {b:.3f} |" for name, a, b in
