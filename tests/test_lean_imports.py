@@ -92,3 +92,32 @@ def test_a_model_named_as_its_module_stays_the_model():
 
     assert callable(analytic.paper_model) and callable(analytic.tendon_arc)
     assert analytic.paper_model is sys.modules["rodsim.core.analytic.paper_model"].paper_model
+
+
+#: A whole ``rodsim`` process that reports, as it ends, which ``HEAVY`` modules it imported.
+RUN_PROBE = textwrap.dedent(f"""
+    import json, sys
+    from rodsim.app import lean
+    early = lean.fast_exit
+    def report(code):
+        print(json.dumps(sorted(m for m in {HEAVY + ("scipy.interpolate", "numba")!r}
+                                if sys.modules.get(m) is not None)), flush=True)
+        early(code)
+    lean.fast_exit = report
+    from rodsim.app.cli.main import main
+    sys.exit(main(sys.argv[1:], process=True))
+""")
+
+
+def test_rodsim_run_of_a_tendon_robot_imports_only_what_it_uses(tmp_path):
+    """``rodsim run tdcr-two-segment`` (its discretisation estimate included: the shape's
+    splines are rodsim.core.cubic_spline's) imports neither scipy.interpolate nor
+    scikit-sundae nor the analytic models, and its numpy evaluations never load numba."""
+    output = tmp_path / "tdcr.nc"
+    done = subprocess.run([sys.executable, "-c", RUN_PROBE, "run", "tdcr-two-segment", "-o",
+                           str(output)], capture_output=True, text=True, timeout=600,
+                          check=False)
+    assert done.returncode == 0, done.stderr
+    assert "discretis.  error ≈ " in done.stdout
+    assert json.loads(done.stdout.splitlines()[-1]) == []
+    assert output.exists()

@@ -33,6 +33,11 @@ dask visible, the archive written through xarray, normal exit: the command befor
 process) and once as the lean one (the tiered kernels, so numba is not imported; dask
 hidden, the archive written without xarray, early exit).
 
+And the breakdown of issue 35's ``rodsim run tdcr-two-segment`` the same way, in the lean
+process as the command runs it (tiered kernels, dask hidden, early exit), the run's two
+estimates (penalty and discretisation: three re-solves) included; with
+``RODSIM_BENCH_BASELINE`` also with the baseline revision's tree (before / after in one run).
+
 Outputs ``startup-<size>.nc`` and ``startup-<size>.md`` (with the machine description).
 """
 
@@ -99,8 +104,9 @@ _PHASES = textwrap.dedent("""
     if not early:  # the tiered kernels of a short run never import numba
         import numba
     mark("numba import (lean: none, the tiered kernels stayed on numpy)")
-    import sksundae
-    mark("scikit-sundae import")
+    if not early:  # the command reads SUNDIALS' version from sksundae's files (issue 35)
+        import sksundae
+    mark("scikit-sundae import (lean: none, its version read from the package's files)")
     import rodsim.app.api as api
     import rodsim.solvers
     rodsim.solvers.registered_integrators()
@@ -144,6 +150,52 @@ _PHASES = textwrap.dedent("""
 """)
 
 
+#: The phases of ``rodsim run tdcr-two-segment`` (issue 35), each on the child's CPU clock.
+_TDCR_PHASES = textwrap.dedent("""
+    import json, os, sys, time
+    clock = time.process_time
+    marks = []
+    def mark(name):
+        marks.append((name, clock()))
+    mark("interpreter start")
+    from rodsim.app.threads import pin_threads
+    pin_threads()
+    from rodsim.app.lean import hide_dask
+    hide_dask()
+    import numpy, scipy.sparse, scipy.sparse.linalg, scipy.sparse.csgraph
+    mark("numpy + scipy.sparse/linalg/csgraph import")
+    import rodsim.app.api as api
+    import rodsim.solvers
+    rodsim.solvers.registered_integrators()
+    mark("rodsim modules and integrators")
+    scene = api.load_scene("tdcr-two-segment").with_values({"solver.kernels": "tiered"})
+    mark("scene load")
+    result = api.solve(scene)
+    mark("model + solve (numpy kernels)")
+    from rodsim.app.trust import assess
+    estimate = assess(result)
+    mark("penalty and discretisation estimates (3 re-solves; before: scipy.interpolate)")
+    import netCDF4
+    mark("netCDF4 import")
+    from rodsim.io.run_dataset import run_content
+    content = run_content(result)
+    mark("archive content (provenance; before: scikit-sundae imported; self-crossing)")
+    from rodsim.io.archive import write_content
+    write_content(content, sys.argv[1])
+    mark("netCDF write")
+    from rodsim.app.cli.run import print_run_summary
+    saved = sys.stdout
+    sys.stdout = open(os.devnull, "w")
+    print_run_summary(result, None)
+    print(estimate.text())
+    sys.stdout.close()
+    sys.stdout = saved
+    mark("summary (references)")
+    print(json.dumps(marks), flush=True)
+    os._exit(0)
+""")
+
+
 def _child_cpu(argv: list[str], pythonpath: str | None = None) -> tuple[float, str]:
     """CPU seconds (user + system) of one child process, and its stdout. The child may
     write and read Python's bytecode caches as a user's installation does
@@ -164,8 +216,13 @@ def _child_cpu(argv: list[str], pythonpath: str | None = None) -> tuple[float, s
             done.stdout)
 
 
-def _phases(folder: str, exit_kind: str) -> dict[str, float]:
-    cpu, out = _child_cpu(["-c", _PHASES, f"{folder}/phases.nc", exit_kind])
+def _phases(folder: str, exit_kind: str, pythonpath: str | None = None) -> dict[str, float]:
+    """The phases of one run: ``exit_kind`` "plain" or "lean" (the default scene), or
+    "tdcr" (issue 35's command; ``pythonpath``: another revision's tree)."""
+    if exit_kind == "tdcr":
+        cpu, out = _child_cpu(["-c", _TDCR_PHASES, f"{folder}/tdcr-phases.nc"], pythonpath)
+    else:
+        cpu, out = _child_cpu(["-c", _PHASES, f"{folder}/phases.nc", exit_kind])
     marks = json.loads(out.splitlines()[-1])
     phases = {name: t - marks[k - 1][1] for k, (name, t) in enumerate(marks) if k > 0}
     phases = {"interpreter start": marks[0][1]} | phases
@@ -174,27 +231,32 @@ def _phases(folder: str, exit_kind: str) -> dict[str, float]:
     return phases
 
 
-def _commands(folder: str) -> dict[str, tuple[list[str], str | None]]:
+def _commands(folder: str) -> tuple[dict[str, tuple[list[str], str | None]],
+                                     dict[str, str | None]]:
     """label -> (argv, PYTHONPATH or None): ``COMMANDS``, and issue 35's two with the
-    baseline revision's tree when ``RODSIM_BENCH_BASELINE`` names one."""
+    baseline revision's tree when ``RODSIM_BENCH_BASELINE`` names one; and the trees of the
+    tdcr breakdown (label -> PYTHONPATH or None)."""
     commands: dict[str, tuple[list[str], str | None]] = {
         label: ([word.format(out=folder) for word in argv], None)
         for label, argv in COMMANDS.items()}
+    trees: dict[str, str | None] = {"this tree": None}
     revision = baseline_revision()
     if revision:
         tree = BaselineTree(revision, Path(folder))
         for label in ISSUE_35:
             commands[f"{label} (baseline {tree.commit[:7]})"] = (commands[label][0],
                                                                  str(tree.tree))
-    return commands
+        trees[f"baseline {tree.commit[:7]}"] = str(tree.tree)
+    return commands, trees
 
 
 def run(size: str, output_dir: str | Path, progress=None) -> list[Path]:
     repeats = SIZES[size]["repeats"]
     phases: dict[str, list[dict[str, float]]] = {"plain": [], "lean": []}
     with tempfile.TemporaryDirectory(prefix="rodsim-startup-") as folder:
-        commands = _commands(folder)
+        commands, trees = _commands(folder)
         times: dict[str, list[float]] = {label: [] for label in commands}
+        tdcr: dict[str, list[dict[str, float]]] = {label: [] for label in trees}
         for argv, path in commands.values():  # warm-up: bytecode and numba caches written
             _child_cpu(argv, path)
         _phases(folder, "lean")
@@ -206,10 +268,15 @@ def run(size: str, output_dir: str | Path, progress=None) -> list[Path]:
                 times[label].append(cpu)
             for kind in phases:
                 phases[kind].append(_phases(folder, kind))
+            for label, path in trees.items():
+                tdcr[label].append(_phases(folder, "tdcr", path))
     median = {label: float(np.median(values)) for label, values in times.items()}
     names = list(phases["plain"][0])
     phase_median = {kind: [float(np.median([p[name] for p in runs])) for name in names]
                     for kind, runs in phases.items()}
+    tdcr_names = list(tdcr["this tree"][0])
+    tdcr_median = {label: [float(np.median([p[name] for p in runs])) for name in tdcr_names]
+                   for label, runs in tdcr.items()}
 
     ds = xr.Dataset(
         {"cpu": (("command", "repeat"), np.array([times[c] for c in times]),
@@ -224,7 +291,10 @@ def run(size: str, output_dir: str | Path, progress=None) -> list[Path]:
                 "exit": ("exit", ["plain", "lean"],
                          {"long_name": "plain process (normal exit, dask visible) or lean "
                           "(early exit, dask hidden)"}),
-                "phase": ("phase", names, {"long_name": "phase of one rodsim run"})})
+                "phase": ("phase", names, {"long_name": "phase of one rodsim run"}),
+                "tree": ("tree", list(trees), {"long_name": "this tree or the baseline's"}),
+                "tdcr_phase": ("tdcr_phase", tdcr_names,
+                               {"long_name": "phase of rodsim run tdcr-two-segment"})})
     ds.attrs = {"title": "rodsim: whole-process CPU time of short commands", "size": size,
                 "benchmark": "startup",
                 **{f"machine_{k}": v for k, v in machine().items()}}
@@ -239,6 +309,11 @@ def run(size: str, output_dir: str | Path, progress=None) -> list[Path]:
               "|---|--:|--:|"]
     lines += [f"| {name} | {a:.3f} | {b:.3f} |" for name, a, b in
               zip(names, phase_median["plain"], phase_median["lean"], strict=True)]
+    lines += ["", "| phase of `rodsim run tdcr-two-segment` | "
+              + " | ".join(f"{label} [s]" for label in trees) + " |",
+              "|---|" + "--:|" * len(trees)]
+    lines += [f"| {name} | " + " | ".join(f"{tdcr_median[label][k]:.3f}" for label in trees)
+              + " |" for k, name in enumerate(tdcr_names)]
     lines += ["", "Machine: " + ", ".join(f"{k} {v}" for k, v in machine().items())]
     table = output.with_suffix(".md")
     table.write_text("\n".join(lines) + "\n", encoding="utf-8")
