@@ -205,10 +205,10 @@ def _child_cpu(argv: list[str], pythonpath: str | None = None) -> tuple[float, s
     before = resource.getrusage(resource.RUSAGE_CHILDREN)
     env = dict(os.environ, OMP_NUM_THREADS="1", OPENBLAS_NUM_THREADS="1")
     env.pop("PYTHONDONTWRITEBYTECODE", None)
-    if pythonpath is not None:  # another revision's tree (RODSIM_BENCH_BASELINE)
-        env["PYTHONPATH"] = pythonpath
+    if pythonpath is not None:  # another revision's tree (RODSIM_BENCH_BASELINE), run in
+        env["PYTHONPATH"] = pythonpath  # it: -m and -c put the current folder first
     done = subprocess.run([sys.executable, *argv], capture_output=True, text=True, env=env,
-                          timeout=1800, check=False)
+                          timeout=1800, check=False, cwd=pythonpath)
     after = resource.getrusage(resource.RUSAGE_CHILDREN)
     if done.returncode != 0:
         raise RuntimeError(f"{argv}: exit {done.returncode}: {done.stderr[-500:]}")
