@@ -90,3 +90,20 @@ def test_a_coil_past_one_turn_is_flagged_in_the_summary_and_the_archive(turns, f
     assert ("self_crossing" in attrs) == flagged
     if flagged:
         assert "rod 'c' passes through itself" in attrs["self_crossing"]
+
+
+@pytest.mark.parametrize("seed", range(40))
+def test_the_screen_gives_the_k_d_trees_answer(seed, monkeypatch):
+    """Random walks, some folded onto themselves: the screened check (rods up to
+    SCREEN_SEGMENTS segments) returns exactly what the k-d tree alone returns."""
+    from rodsim.core import self_crossing as module
+
+    rng = np.random.default_rng(seed)
+    n = int(rng.integers(4, 120))
+    steps = rng.normal(size=(n - 1, 3))
+    steps[: n // 2] *= 1.0 if seed % 2 else 0.2  # tight coils come back near themselves
+    points = np.concatenate([np.zeros((1, 3)), np.cumsum(steps, axis=0)])
+    radius = float(rng.uniform(0.05, 0.8))
+    screened = module.self_crossing(points, radius)
+    monkeypatch.setattr(module, "SCREEN_SEGMENTS", 0)
+    assert screened == module.self_crossing(points, radius)

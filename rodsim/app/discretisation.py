@@ -25,6 +25,7 @@ from typing import Any
 
 import numpy as np
 
+from rodsim.core.cubic_spline import cubic_spline
 from rodsim.core.model import Model
 from rodsim.core.scene import Scene, SceneError
 from rodsim.solvers import DEFAULT_INTEGRATOR
@@ -212,8 +213,6 @@ def discretisation_error(result: Result, model: Model | None = None) -> Discreti
 def _level(result: Result, data: dict[str, Any], nodes: dict[str, int], ratio: float,
            length: float) -> DiscretisationError:
     """The Richardson estimate from one coarse solve of the scene ``data``."""
-    from scipy.interpolate import CubicSpline  # when used: docs/benchmarks.md, "Start-up"
-
     from rodsim.app.api import load_scene, solve
 
     # its own budget: never more than the scene's, nor above twice the run (a floor at least)
@@ -239,10 +238,10 @@ def _level(result: Result, data: dict[str, Any], nodes: dict[str, int], ratio: f
     extrapolated: dict[str, np.ndarray] = {}
     for name, shape in result.rods.items():
         other = coarse.rods[name]
-        fine_at_coarse = CubicSpline(shape.s, shape.positions)(other.s)
+        fine_at_coarse = cubic_spline(shape.s, shape.positions)(other.s)
         change = max(change, float(np.max(np.linalg.norm(fine_at_coarse - other.positions,
                                                          axis=1))))
-        coarse_at_fine = CubicSpline(other.s, other.positions)(shape.s)
+        coarse_at_fine = cubic_spline(other.s, other.positions)(shape.s)
         extrapolated[name] = shape.positions + factor * (shape.positions - coarse_at_fine)
     return DiscretisationError(change * factor / length, length, ratio, nodes, extrapolated)
 
@@ -252,19 +251,17 @@ def warm_state(result: Result, coarse: Model) -> np.ndarray:
     positions at the coarse nodes' arc lengths and quaternions at the coarse segments'
     midpoints, by cubic splines in s (quaternions made of one sign along the rod first, then
     normalised); fixed coordinates from the coarse model's rest state."""
-    from scipy.interpolate import CubicSpline  # when used: docs/benchmarks.md, "Start-up"
-
     full = coarse.rest_full.copy()
     for name, rod in coarse.rods.items():
         shape = result.rods[name]
-        full[rod.layout.position_index] = CubicSpline(shape.s, shape.positions)(
+        full[rod.layout.position_index] = cubic_spline(shape.s, shape.positions)(
             rod.geometry.node_s)
         quaternions = np.array(shape.quaternions, dtype=float)
         flips = np.cumprod(np.where(np.sum(quaternions[1:] * quaternions[:-1], axis=1) < 0,
                                     -1.0, 1.0))
         quaternions[1:] *= flips[:, None]
         if len(shape.segment_s) > 1:
-            q = CubicSpline(shape.segment_s, quaternions)(rod.geometry.segment_s)
+            q = cubic_spline(shape.segment_s, quaternions)(rod.geometry.segment_s)
         else:
             q = np.repeat(quaternions, len(rod.geometry.segment_s), axis=0)
         full[rod.layout.quaternion_index] = q / np.linalg.norm(q, axis=1, keepdims=True)

@@ -5,7 +5,9 @@ libraries. Recorded in every archive (docs/archive.md)."""
 from __future__ import annotations
 
 import functools
+import importlib.util
 import subprocess
+import sys
 from collections.abc import Iterator
 from contextlib import contextmanager
 from contextvars import ContextVar
@@ -138,13 +140,49 @@ def library_versions() -> dict[str, str]:
         versions["scikit_sundae_version"] = metadata.version("scikit-sundae")
     except metadata.PackageNotFoundError:
         versions["scikit_sundae_version"] = "not installed"
-    try:
-        import sksundae  # loads SUNDIALS: called when an archive is built, not at import
-
-        versions["sundials_version"] = str(sksundae.SUNDIALS_VERSION)
-    except (ImportError, AttributeError):
-        versions["sundials_version"] = "unknown"
+    versions["sundials_version"] = sundials_version()
     return versions
+
+
+def sundials_version() -> str:
+    """SUNDIALS' version as scikit-sundae was built with it (``sksundae.SUNDIALS_VERSION``),
+    without importing sksundae when no solver has: the package ships the Cython include its
+    constant is compiled from (``py_config.pxi``, ``SUNDIALS_VERSION = "7.9.0"``), read as
+    text. Importing sksundae costs a short command ~0.18 s of CPU (it imports
+    scipy.optimize, scipy.special and scipy.fft; docs/benchmarks.md, "Start-up"). Without
+    that file, sksundae is imported; "unknown" without sksundae."""
+    module = sys.modules.get("sksundae")
+    if module is None:
+        version = _sundials_version_from_source()
+        if version is not None:
+            return version
+    try:
+        import sksundae  # loads SUNDIALS
+
+        return str(sksundae.SUNDIALS_VERSION)
+    except (ImportError, AttributeError):
+        return "unknown"
+
+
+def _sundials_version_from_source() -> str | None:
+    """``SUNDIALS_VERSION`` from the installed sksundae's ``py_config.pxi``, or None when the
+    package or the line is not there (then the caller imports sksundae)."""
+    try:
+        spec = importlib.util.find_spec("sksundae")  # a top-level name: nothing is imported
+    except (ImportError, ValueError):
+        return None
+    if spec is None or not spec.submodule_search_locations:
+        return None
+    for folder in spec.submodule_search_locations:
+        try:
+            text = (Path(folder) / "py_config.pxi").read_text(encoding="utf-8")
+        except OSError:
+            continue
+        for line in text.splitlines():
+            name, _, value = line.partition("=")
+            if name.strip() == "SUNDIALS_VERSION" and value.strip():
+                return value.strip().strip("\"'")
+    return None
 
 
 def utc_now() -> str:

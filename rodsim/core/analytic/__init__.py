@@ -24,15 +24,27 @@ routing ending anywhere, with piecewise sections and a tip wrench, solved by sho
 See docs/analytic.md.
 """
 
-from rodsim.core.analytic.elastica import ElasticaShape, exact_elastica, load_parameter
-from rodsim.core.analytic.extensible import ExtensibleShape, extensible_elastica
-from rodsim.core.analytic.paper_model import (
-    paper_model,
-    paper_model_as_printed,
-    tip_angle_from_load,
-)
-from rodsim.core.analytic.tendon_arc import tendon_arc
-from rodsim.core.analytic.tendon_bvp import scene_reference, tendon_rod
+import sys
+from importlib import import_module
+from types import ModuleType
+from typing import Any
+
+#: name -> the module that defines it. Imported on first use: the models import
+#: scipy.integrate, scipy.optimize and scipy.special (~0.05–0.2 s of CPU), which a command
+#: whose scene has no reference never needs (docs/benchmarks.md, "Start-up").
+_HOMES = {
+    "ElasticaShape": "elastica",
+    "exact_elastica": "elastica",
+    "load_parameter": "elastica",
+    "ExtensibleShape": "extensible",
+    "extensible_elastica": "extensible",
+    "paper_model": "paper_model",
+    "paper_model_as_printed": "paper_model",
+    "tip_angle_from_load": "paper_model",
+    "tendon_arc": "tendon_arc",
+    "scene_reference": "tendon_bvp",
+    "tendon_rod": "tendon_bvp",
+}
 
 __all__ = [
     "ElasticaShape",
@@ -47,3 +59,28 @@ __all__ = [
     "tendon_rod",
     "scene_reference",
 ]
+
+
+def __getattr__(name: str) -> Any:
+    """The models, imported from their modules on first use."""
+    if name in _HOMES:
+        return getattr(import_module(f"rodsim.core.analytic.{_HOMES[name]}"), name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(__all__))
+
+
+class _Package(ModuleType):
+    """This package's module type: a submodule named as the model it defines
+    (``paper_model``, ``tendon_arc``) leaves the package's name bound to the model when the
+    import system records the submodule on it, as the eager imports of before did."""
+
+    def __setattr__(self, name: str, value: Any) -> None:
+        if isinstance(value, ModuleType) and _HOMES.get(name) == name:
+            value = getattr(value, name)
+        super().__setattr__(name, value)
+
+
+sys.modules[__name__].__class__ = _Package

@@ -15,19 +15,23 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from functools import lru_cache
+from typing import TYPE_CHECKING
 
 import numpy as np
 
-from rodsim.core.analytic.elastica import ElasticaShape, exact_elastica, load_parameter
-from rodsim.core.analytic.extensible import extensible_elastica
-from rodsim.core.analytic.paper_model import paper_model
-from rodsim.core.analytic.tendon_arc import tendon_arc
 from rodsim.core.anchors import scene_joints
 from rodsim.core.model import scene_rod
 from rodsim.core.rod.layout import RodLayout
 from rodsim.core.rod.rod import Rod
 from rodsim.core.scene import Scene
 from rodsim.core.tendon import Tendon
+
+if TYPE_CHECKING:
+    from rodsim.core.analytic.elastica import ElasticaShape
+
+# The continuum models (rodsim.core.analytic.elastica, extensible, paper_model, tendon_arc)
+# are imported where a scene qualifies: they import scipy.integrate, scipy.optimize and
+# scipy.special, which a run of a scene without references never needs.
 
 __all__ = ["CantileverReference", "cantilever_reference", "REFERENCE_KINDS",
            "reference_centerline", "scene_rods"]
@@ -70,6 +74,8 @@ class CantileverReference:
     @property
     def alpha(self) -> float:
         """Load parameter α = F L² / (2 E I) (paper §3, corrected)."""
+        from rodsim.core.analytic.elastica import load_parameter
+
         return load_parameter(self.force, self.bending_stiffness, self.length)
 
     def tip_error(self, positions: np.ndarray, shape: str = "exact") -> float:
@@ -98,6 +104,10 @@ def cantilever_reference(scene: Scene, samples: int = 201) -> CantileverReferenc
     ei, length = model_rod.bending_stiffness, model_rod.length
     if force <= 0.0:
         return None
+    from rodsim.core.analytic.elastica import exact_elastica
+    from rodsim.core.analytic.extensible import extensible_elastica
+    from rodsim.core.analytic.paper_model import paper_model
+
     s = np.linspace(0.0, length, samples)
     stretch = model_rod.stretch_stiffness
     return CantileverReference(
@@ -115,6 +125,8 @@ def _fine_paper_model(force: float, ei: float, length: float) -> ElasticaShape:
     """The paper's model at 2001 points in φ (4000 quadratures, ~40 ms), remembered per
     process: the points of a study that sweeps N or K_P share their load (fig7b's seven
     points computed it seven times). Only read (interpolated) by its caller."""
+    from rodsim.core.analytic.paper_model import paper_model
+
     return paper_model(force, ei, length, 2001)
 
 
@@ -143,6 +155,8 @@ def reference_centerline(scene: Scene, kind: str, s: np.ndarray) -> np.ndarray |
         catheter = rods[options.catheter]
         if catheter.varying:
             return None
+        from rodsim.core.analytic.tendon_arc import tendon_arc
+
         shape = tendon_arc(actuation.force, options.offset,
                            catheter.bending_stiffness + rods[name].bending_stiffness,
                            catheter.stretch_stiffness, catheter.length, s)
@@ -155,6 +169,9 @@ def reference_centerline(scene: Scene, kind: str, s: np.ndarray) -> np.ndarray |
     reference = cantilever_reference(scene)
     if reference is None:
         return None
+    from rodsim.core.analytic.elastica import ElasticaShape, exact_elastica
+    from rodsim.core.analytic.extensible import extensible_elastica
+
     length = reference.length
     force, ei = reference.force, reference.bending_stiffness
     if kind == "exact":
