@@ -302,7 +302,9 @@ def simulate(scene: SceneLike | None, t_end: float, *, output_dt: float | None =
              events: Sequence[EventLike] = ()) -> Simulation:
     """Integrate ``scene`` in physical time from t = 0 to ``t_end`` [s].
 
-    ``integrator``: ``"midpoint"`` (the implicit midpoint rule, fixed steps), ``"paper"``
+    ``integrator``: ``"midpoint"`` (the implicit midpoint rule, fixed steps; with ``rtol``
+    (and ``atol``, default ``rtol``) its steps are chosen under error control and ``step``
+    is the longest: rodsim/solvers/physical/error_control.py), ``"paper"``
     (the paper's semi-implicit Euler, Eqs. 14–17, with the physical masses: fixed steps,
     first order, numerically damped), ``"ida"``
     (SUNDIALS IDA, adaptive BDF under error control: ``rtol``, ``atol`` — × the longest
