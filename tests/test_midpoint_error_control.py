@@ -132,3 +132,25 @@ def test_bad_error_control_is_one_line(arguments, match):
     with pytest.raises(SceneError, match=match) as info:
         rodsim.simulate(wire(5), 0.01, step=1e-3, **arguments)
     assert "\n" not in str(info.value)
+
+
+def test_events_under_error_control():
+    """Free fall onto a plane (constant acceleration: the midpoint rule is exact, and so the
+    estimate is zero and the steps grow): the contact onset at √(2h/g) to 1e-9 relative, as
+    with fixed steps (tests/test_simulate_events_midpoint.py); a terminal one ends the run
+    at its time."""
+    from test_events import falling_rod
+    from test_simulate_events_midpoint import FREE_FALL
+
+    from rodsim import ContactOnset
+
+    run = rodsim.simulate(falling_rod(), 0.06, rtol=1e-6, output_dt=0.0125,
+                          events=[ContactOnset()])
+    assert run.success, run.message
+    assert [name for _, name in run.events] == ["contact onset: rod on floor"]
+    assert abs(run.events[0][0] / FREE_FALL - 1.0) < 1e-9
+    assert run.times[-1] == pytest.approx(0.06)
+    stopped = rodsim.simulate(falling_rod(), 0.06, rtol=1e-6, output_dt=0.0125,
+                              events=["contact:stop"])
+    assert stopped.times[-1] == stopped.events[0][0]
+    assert abs(stopped.events[0][0] / FREE_FALL - 1.0) < 1e-9
