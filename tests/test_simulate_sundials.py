@@ -253,10 +253,12 @@ def test_a_run_that_fails_part_way_keeps_what_it_computed(monkeypatch):
     ({"integrator": "ida", "atol": "1e-6"}, "atol"),
     ({"integrator": "ida", "max_order": 6}, "max_order"),
     ({"integrator": "ida", "max_order": 2.0}, "max_order"),
-    ({"rtol": 1e-6}, "only for integrators 'ida' and 'cvode'"),
+    ({"max_order": 2}, "only for integrators 'ida' and 'cvode'"),
+    ({"atol": 1e-6}, "give rtol too"),
 ])
 def test_bad_input_is_one_line(arguments, match):
-    """Bad input raises SceneError with one line, before any work."""
+    """Bad input raises SceneError with one line, before any work (the midpoint rule takes
+    rtol: its error control, tests/test_midpoint_error_control.py)."""
     with pytest.raises(SceneError, match=match) as error:
         rodsim.simulate(wire(11), 0.1, **arguments)
     assert "\n" not in str(error.value)

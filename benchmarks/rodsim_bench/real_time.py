@@ -9,7 +9,9 @@ largest distance over the output times from a reference run, over L = 0.4 m. The
 reference is the midpoint rule at ``REFERENCE`` steps per output interval; a run at half
 as many is also made, and their difference bounds the reference's own error at any order
 ≥ 1 (reported). The runs under test: the midpoint rule at ``MIDPOINT`` steps per output
-interval (fixed steps: the step counts are exact), IDA and CVODE at the tolerances of
+interval (fixed steps: the step counts are exact), the midpoint rule under error control
+at the tolerances of ``controlled`` (rtol = atol; its steps count every midpoint step
+solved, the rejected ones included), IDA and CVODE at the tolerances of
 ``sundials`` (order cap 2, the default: the rod is undamped), each timed once
 (``time.process_time`` around ``rodsim.simulate``) after a warm-up run that compiles the
 kernels.
@@ -36,11 +38,13 @@ RAMP = 0.02
 AIM_CPU = 0.5
 AIM_ERROR = 1e-4
 #: Per size: the time simulated [s], the reference's steps per output interval, the
-#: midpoint rule's, and IDA's and CVODE's (integrator, rtol = atol).
+#: midpoint rule's, the error-controlled midpoint rule's rtol (= atol), and IDA's and
+#: CVODE's (integrator, rtol = atol).
 SIZES = {
-    "small": {"t_end": 0.03, "reference": 40, "midpoint": (5, 10),
+    "small": {"t_end": 0.03, "reference": 40, "midpoint": (5, 10), "controlled": (1e-5,),
               "sundials": (("ida", 1e-4), ("cvode", 1e-4))},
     "full": {"t_end": 1.0, "reference": 100, "midpoint": (10, 20, 30),
+             "controlled": (1e-5, 3e-6, 1e-6),
              "sundials": (("ida", 1e-4), ("ida", 1e-5), ("ida", 3e-6), ("cvode", 1e-4))},
 }
 
@@ -97,15 +101,22 @@ def run(size: str, output_dir: Path, progress) -> list[Path]:
     reference_bound = _error(check, reference)
     rows = [_row("midpoint", f"reference, {fine} steps / {OUTPUT_DT * 1e3:g} ms", reference,
                  reference_cpu, t_end, reference)]
-    todo = len(config["midpoint"]) + len(config["sundials"])
+    todo = len(config["midpoint"]) + len(config["controlled"]) + len(config["sundials"])
     for k, per in enumerate(config["midpoint"]):
         progress(0.3 + 0.7 * k / todo, f"real-time: midpoint, {per} steps an output")
         result, cpu = _timed(t_end, step=OUTPUT_DT / per)
         rows.append(_row("midpoint", f"{per} steps / {OUTPUT_DT * 1e3:g} ms "
                          f"(h = {OUTPUT_DT / per * 1e3:.3g} ms)", result, cpu, t_end,
                          reference))
+    done = len(config["midpoint"])
+    for k, tolerance in enumerate(config["controlled"]):
+        progress(0.3 + 0.7 * (done + k) / todo, f"real-time: midpoint, rtol {tolerance:g}")
+        result, cpu = _timed(t_end, rtol=tolerance, atol=tolerance)
+        rows.append(_row("midpoint", f"error control, rtol = atol = {tolerance:g} "
+                         f"({result.rejected} rejected)", result, cpu, t_end, reference))
+    done += len(config["controlled"])
     for k, (name, tolerance) in enumerate(config["sundials"]):
-        progress(0.3 + 0.7 * (len(config["midpoint"]) + k) / todo,
+        progress(0.3 + 0.7 * (done + k) / todo,
                  f"real-time: {name} at {tolerance:g}")
         result, cpu = _timed(t_end, integrator=name, rtol=tolerance, atol=tolerance,
                              max_order=2)

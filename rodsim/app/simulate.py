@@ -45,6 +45,7 @@ from rodsim.solvers.physical.coordinates import (
     physical_state,
 )
 from rodsim.solvers.physical.dae import PhysicalDae
+from rodsim.solvers.physical.error_control import ErrorControl, integrate_controlled
 from rodsim.solvers.physical.events import EventError, EventLike, resolve_events
 from rodsim.solvers.physical.fixed_step import Motion
 from rodsim.solvers.physical.ida_run import PhysicalTimeOptions, integrate_ida
@@ -60,7 +61,9 @@ __all__ = ["Simulation", "simulate", "check_programs", "ida_options", "INTEGRATO
 #: The integrators of physical time.
 INTEGRATORS = ("midpoint", "paper", "ida", "cvode")
 #: Those with fixed steps (``step``), no tolerances: the implicit midpoint rule and the
-#: paper's semi-implicit Euler (Eqs. 14–17 with the physical masses).
+#: paper's semi-implicit Euler (Eqs. 14–17 with the physical masses). The midpoint rule
+#: takes ``rtol`` (and ``atol``) too: then its steps are error-controlled
+#: (rodsim/solvers/physical/error_control.py) and ``step`` is the longest.
 FIXED_STEP = ("midpoint", "paper")
 #: IDA's defaults: relative tolerance, absolute tolerance (× L on positions, radians on
 #: angles; docs/dynamics.md, "IDA") and BDF order cap.
@@ -93,7 +96,9 @@ class Simulation:
         The balance T + V + D − W − (T₀ + V₀) at each output time [J].
     step
         The fixed step asked for [s] (midpoint, paper: the steps taken are at most this);
-        IDA's and CVODE's longest step taken. ``steps`` counts the steps.
+        IDA's and CVODE's, and the error-controlled midpoint rule's, longest step taken.
+        ``steps`` counts the steps (under error control every midpoint step solved, three
+        an attempt; ``rejected`` the attempts rejected).
     iterations
         The fixed-step integrators' Newton iterations; IDA's residual evaluations (one per
         iteration of its corrector).
@@ -130,6 +135,10 @@ class Simulation:
     #: routing points at the output times (``FrictionRecord`` fields with a leading time
     #: axis; docs/dynamics.md, "Friction in physical time"); None without.
     friction: FrictionRecord | None = None
+    #: The error-controlled midpoint rule's tolerances ("rtol = …, atol = …"; "" for
+    #: fixed steps and the other integrators) and its rejected attempts.
+    error_control: str = ""
+    rejected: int = 0
 
     @property
     def energy_error(self) -> np.ndarray:
@@ -140,13 +149,16 @@ class Simulation:
         """The summary's rows: outcome, times, work, start, programs and events when there
         are any, the first rod's tip at the last output, the energy balance."""
         reached = float(self.times[-1]) if len(self.times) else 0.0
-        step = "step" if self.integrator in FIXED_STEP else "longest step"
+        step = ("step" if self.integrator in FIXED_STEP and not self.error_control
+                else "longest step")
         rows = [("outcome", self.message if self.success else f"FAILED: {self.message}"),
                 ("time", f"{len(self.times)} outputs, t = 0 to {reached:.4g} s"
                  f" (t_end {self.t_end:.4g} s)"),
                 ("work", f"{self.steps} steps ({step} {self.step:.3g} s), "
                  f"{self.iterations} iterations"
-                 + (f", {self.halvings} halved steps" if self.halvings else "")),
+                 + (f", {self.halvings} halved steps" if self.halvings else "")
+                 + (f", error control {self.error_control}, {self.rejected} rejected"
+                    if self.error_control else "")),
                 ("start", self.initial)]
         if self.program:
             rows.append(("programs", ", ".join(self.program)))
@@ -251,6 +263,15 @@ def ida_options(integrator: str, rtol: float | None, atol: float | None,
     """IDA's checked settings (SceneError, one line, for a bad value, or for one given to
     a fixed-step integrator, which has none)."""
     given = {"rtol": rtol, "atol": atol, "max_order": max_order}
+    if integrator == "midpoint" and rtol is not None:  # error control: rtol, atol
+        if max_order is not None:
+            raise SceneError("max_order: only for integrators 'ida' and 'cvode' (the "
+                             "midpoint rule is of order 2)")
+        checked = ida_options("ida", rtol, rtol if atol is None else atol, None)
+        return {"rtol": checked["rtol"], "atol": checked["atol"]}
+    if integrator == "midpoint" and atol is not None:
+        raise SceneError("atol: give rtol too (the midpoint rule's error control); without "
+                         "it the midpoint rule has fixed steps")
     if integrator in FIXED_STEP:
         named = [name for name, value in given.items() if value is not None]
         if named:
@@ -281,7 +302,9 @@ def simulate(scene: SceneLike | None, t_end: float, *, output_dt: float | None =
              events: Sequence[EventLike] = ()) -> Simulation:
     """Integrate ``scene`` in physical time from t = 0 to ``t_end`` [s].
 
-    ``integrator``: ``"midpoint"`` (the implicit midpoint rule, fixed steps), ``"paper"``
+    ``integrator``: ``"midpoint"`` (the implicit midpoint rule, fixed steps; with ``rtol``
+    (and ``atol``, default ``rtol``) its steps are chosen under error control and ``step``
+    is the longest: rodsim/solvers/physical/error_control.py), ``"paper"``
     (the paper's semi-implicit Euler, Eqs. 14–17, with the physical masses: fixed steps,
     first order, numerically damped), ``"ida"``
     (SUNDIALS IDA, adaptive BDF under error control: ``rtol``, ``atol`` — × the longest
@@ -319,6 +342,9 @@ def simulate(scene: SceneLike | None, t_end: float, *, output_dt: float | None =
                 or not math.isfinite(value) or value <= 0.0):
             raise SceneError(f"{name} = {shown(value)}: allowed a number > 0 [s]")
     settings = ida_options(integrator, rtol, atol, max_order)
+    controlled = integrator == "midpoint" and bool(settings)
+    control_text = (f"rtol = {settings['rtol']:g}, atol = {settings['atol']:g}"
+                    if controlled else "")
     loaded = load_scene(scene, overrides)
     model = Model(loaded)
     programs = Programs(loaded, model, program)
@@ -329,6 +355,11 @@ def simulate(scene: SceneLike | None, t_end: float, *, output_dt: float | None =
                          "next; allowed: integrator 'midpoint' (IDA's and CVODE's adaptive "
                          "steps would each need a restart; the paper's Euler is not validated "
                          "with friction)")
+    if programs.path_dependent and controlled:
+        raise SceneError("rtol: the scene has friction (a string tendon's or a contact's), "
+                         "whose history each step carries to the next, and a rejected step "
+                         "would have to undo it; allowed: the midpoint rule with fixed steps "
+                         "(give step= instead of rtol)")
     if events and integrator == "paper":
         raise SceneError("events: allowed with integrator 'midpoint', 'ida' or 'cvode'; "
                          "the paper's Euler does not locate them")
@@ -337,7 +368,7 @@ def simulate(scene: SceneLike | None, t_end: float, *, output_dt: float | None =
     initial_rates(model, PhysicalCoordinates.of(model, rest), rest, initial_velocity)
     x = _start_state(loaded, model, initial)
     omega = math.nan
-    if integrator not in FIXED_STEP:
+    if integrator not in FIXED_STEP or controlled:
         try:
             omega = _lowest_frequency(model, x, "velocity scale of the tolerances")
         except SceneError:  # no stable equilibrium at the start (a falling rod): the run's
@@ -367,7 +398,15 @@ def simulate(scene: SceneLike | None, t_end: float, *, output_dt: float | None =
     # where a support moves, the held coordinates at each output are the model's of its time
     moved = programs.model_at if programs.supports.active else None
     try:
-        if integrator not in FIXED_STEP:
+        if controlled:
+            first = 2.0 * math.pi / omega / STEPS_PER_PERIOD
+            control = ErrorControl(settings["rtol"], settings["atol"], length, omega,
+                                   first if step is None else min(first, float(step)),
+                                   0.0 if step is None else float(step))
+            assert isinstance(stepper, MidpointStep)
+            integrate_controlled(programs.model_at, stepper, start, outputs, control,
+                                 programs.breaks, progress, record, watched)
+        elif integrator not in FIXED_STEP:
             options = PhysicalTimeOptions(settings["rtol"], settings["atol"],
                                           int(settings["max_order"]),
                                           0.0 if step is None else float(step), length, omega)
@@ -392,7 +431,7 @@ def simulate(scene: SceneLike | None, t_end: float, *, output_dt: float | None =
                           "it are kept)")
         partial = _simulation(loaded, model, record, _step_of(record, h, integrator),
                               integrator, float(t_end), programs.by_name, initial,
-                              initial_velocity, friction, moved)
+                              initial_velocity, friction, moved, control_text)
         raise Interrupted(partial, record.message) from None
     except EventError as exc:  # a user's event function failed part-way
         if not record.times:
@@ -409,13 +448,13 @@ def simulate(scene: SceneLike | None, t_end: float, *, output_dt: float | None =
                           "outputs up to it are kept")
     return _simulation(loaded, model, record, _step_of(record, h, integrator), integrator,
                        float(t_end), programs.by_name, initial, initial_velocity, friction,
-                       moved)
+                       moved, control_text)
 
 
 def _step_of(record: Record, h: float, integrator: str) -> float:
     """The step a Simulation reports: a fixed-step integrator's ``h``, IDA's or CVODE's
-    longest step."""
-    return h if integrator in FIXED_STEP else record.largest_step
+    (or the error-controlled midpoint rule's) longest step."""
+    return h if integrator in FIXED_STEP and not record.accepted else record.largest_step
 
 
 def _simulation(loaded: Scene, model: Model, record: Record, h: float, integrator: str,
@@ -423,10 +462,12 @@ def _simulation(loaded: Scene, model: Model, record: Record, h: float, integrato
                 initial: Mapping[str, Any] | Result | None,
                 initial_velocity: VelocityLike | None = None,
                 friction: FrictionTrace | None = None,
-                model_at: Callable[[float], Model] | None = None) -> Simulation:
+                model_at: Callable[[float], Model] | None = None,
+                control: str = "") -> Simulation:
     """The ``Simulation`` of what ``record`` holds (with ``friction``'s tensions and
     stick/slip states at its times; ``model_at``: the model of a time, whose held
-    coordinates a moving support sets)."""
+    coordinates a moving support sets; ``control``: the error control's tolerances, as
+    text)."""
     states = np.array(record.states)
     models = ([model_at(t) for t in record.times[:len(states)]] if model_at is not None
               else [model] * len(states))
@@ -447,4 +488,5 @@ def _simulation(loaded: Scene, model: Model, record: Record, h: float, integrato
                       tuple(model.rods), states, t_end, programs,
                       _initial_text(initial) + velocity_text(initial_velocity),
                       tuple(record.events),
-                      friction.at(record.times) if friction is not None else None)
+                      friction.at(record.times) if friction is not None else None,
+                      control, record.rejected)

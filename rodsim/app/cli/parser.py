@@ -273,11 +273,13 @@ def build_parser() -> argparse.ArgumentParser:
                       "IDA: adaptive BDF under error control) or cvode (SUNDIALS CVODE, the "
                       "same on the explicit form: small rods)")
     move.add_argument("--rtol", type=float, metavar="R",
-                      help="ida, cvode: relative tolerance (default 1e-5)")
+                      help="ida, cvode: relative tolerance (default 1e-5); midpoint: given, "
+                      "its steps are chosen under error control (--step the longest)")
     move.add_argument("--atol", type=float, metavar="A",
                       help="ida, cvode: absolute tolerance, x the longest rod's length on "
                       "positions, radians on angles, x the lowest natural angular frequency on "
-                      "their rates (default 1e-5)")
+                      "their rates (default 1e-5; midpoint with --rtol: positions and "
+                      "angles, default --rtol)")
     move.add_argument("--max-order", type=int, metavar="K",
                       help="ida, cvode: highest BDF order, 1 to 5 (default 2: orders 3-5 are not "
                       "A-stable and an undamped rod's modes sit on the imaginary axis)")

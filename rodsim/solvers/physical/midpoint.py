@@ -281,6 +281,31 @@ class MidpointStep:
         return StepOutcome(Motion(x1, 2.0 * vm - v0, 2.0 * wm - w0, (vm, wm)), dissipated,
                            iterations, work)
 
+    def start_force(self, model: Model, start: Motion) -> np.ndarray:
+        """The generalised force at ``start`` with ``model``'s forces, in the step's residual
+        rows: (F_r − (D_t u)_r, τ − ω × I ω − (D_t u)_ω) — what an explicit half step
+        from ``start`` would apply (rodsim/solvers/physical/error_control.py's estimate;
+        a moving support's damping force left out)."""
+        c = self.coordinates
+        x = start.x
+        f = model.force(model_state(model, x))
+        if not np.all(np.isfinite(f)):
+            raise StepFailure("the force is not finite")
+        f_r, tau = self._generalised(x, f)
+        f_q = f[c.quaternions]
+        q = x[c.quaternions]
+        # the part of f_q along q does no work on a unit quaternion (as in _averaged)
+        tau = 0.5 * np.einsum("ska,sa->sk", velocity_rows(q),
+                              f_q - q * np.sum(q * f_q, axis=1)[:, None])
+        tau = tau - cross_rows(start.w, c.inertia * start.w)
+        damper, tangent_damping = self._damping_of(model)
+        out = np.concatenate([f_r, tau.ravel()])
+        if damper.active:
+            g = c.g_arrays(x, model.n)
+            out = out - tangent_damping.matrix(x, g, c.size) @ np.concatenate(
+                [start.v, start.w.ravel()])
+        return out
+
     @staticmethod
     def _cayley_derivative(qm: np.ndarray, wm: np.ndarray, h: float) -> np.ndarray:
         """∂q₁/∂ω_m = (I − hΩ/4)⁻¹ (h/2) [B_k q_m]_k, shape (s, 4, 3) (from

@@ -35,12 +35,43 @@ from rodsim.solvers.physical.coordinates import PhysicalCoordinates, velocity_ro
 from rodsim.solvers.physical.events import EventFunctions
 from rodsim.solvers.physical.fixed_step import Motion
 
-__all__ = ["StepEvents", "TIME_TOLERANCE", "MAX_ITERATIONS", "root"]
+__all__ = ["StepEvents", "hermite", "TIME_TOLERANCE", "MAX_ITERATIONS", "root"]
 
 #: A root's bracket is narrowed to this fraction of the step (or to round-off).
 TIME_TOLERANCE = 1e-10
 #: Illinois iterations allowed per root (each halves the bracket at worst every third).
 MAX_ITERATIONS = 200
+
+
+def _rate(coordinates: PhysicalCoordinates, x: np.ndarray, w: np.ndarray) -> np.ndarray:
+    """q̇ = ½ Σ_k ω_k B_k q at ``x`` (s, 4)."""
+    return 0.5 * np.einsum("ska,sk->sa", velocity_rows(x[coordinates.quaternions]), w)
+
+
+def hermite(coordinates: PhysicalCoordinates, t0: float, start: Motion, t1: float,
+            end: Motion) -> Callable[[float], tuple[np.ndarray, np.ndarray]]:
+    """The free coordinates x(t) and node velocities v(t) on [t0, t1] of a step from
+    ``start`` to ``end``: the cubic Hermite interpolant — positions on (r₀, v₀, r₁, v₁),
+    quaternions on (q₀, q̇₀, q₁, q̇₁) with q̇ = ½ Σ_k ω_k B_k q (Eq. 13), normalised — and
+    the positions' derivative (module docstring)."""
+    c, h = coordinates, t1 - t0
+    r0, r1 = start.x[c.positions], end.x[c.positions]
+    q0, q1 = start.x[c.quaternions], end.x[c.quaternions]
+    dq0, dq1 = _rate(c, start.x, start.w), _rate(c, end.x, end.w)
+
+    def x(t: float) -> tuple[np.ndarray, np.ndarray]:
+        s = (t - t0) / h
+        h00, h10 = (1 + 2 * s) * (1 - s) ** 2, s * (1 - s) ** 2
+        h01, h11 = s * s * (3 - 2 * s), s * s * (s - 1)
+        out = start.x.copy()
+        out[c.positions] = h00 * r0 + h10 * h * start.v + h01 * r1 + h11 * h * end.v
+        q = h00 * q0 + h10 * h * dq0 + h01 * q1 + h11 * h * dq1
+        out[c.quaternions] = q / np.linalg.norm(q, axis=1)[:, None]
+        # d/dt of the position's Hermite basis: (6s² − 6s, 3s² − 4s + 1, −, 3s² − 2s)/h
+        v = ((6 * s * s - 6 * s) * (r0 - r1) / h + (3 * s * s - 4 * s + 1) * start.v
+             + (3 * s * s - 2 * s) * end.v)
+        return out, v
+    return x
 
 
 def _crossed(before: float, after: float, direction: int) -> bool:
@@ -67,32 +98,11 @@ class StepEvents:
         """The functions' values at the run's start."""
         self._last = self.values(t, motion.x, motion.v)
 
-    def _rate(self, x: np.ndarray, w: np.ndarray) -> np.ndarray:
-        """q̇ = ½ Σ_k ω_k B_k q at ``x`` (s, 4)."""
-        return 0.5 * np.einsum("ska,sk->sa", velocity_rows(x[self.coordinates.quaternions]), w)
-
     def interpolant(self, t0: float, start: Motion, t1: float, end: Motion
                     ) -> Callable[[float], tuple[np.ndarray, np.ndarray]]:
         """The free coordinates x(t) and node velocities v(t) on [t0, t1]: the cubic
-        Hermite interpolant and its derivative (module docstring)."""
-        c, h = self.coordinates, t1 - t0
-        r0, r1 = start.x[c.positions], end.x[c.positions]
-        q0, q1 = start.x[c.quaternions], end.x[c.quaternions]
-        dq0, dq1 = self._rate(start.x, start.w), self._rate(end.x, end.w)
-
-        def x(t: float) -> tuple[np.ndarray, np.ndarray]:
-            s = (t - t0) / h
-            h00, h10 = (1 + 2 * s) * (1 - s) ** 2, s * (1 - s) ** 2
-            h01, h11 = s * s * (3 - 2 * s), s * s * (s - 1)
-            out = start.x.copy()
-            out[c.positions] = h00 * r0 + h10 * h * start.v + h01 * r1 + h11 * h * end.v
-            q = h00 * q0 + h10 * h * dq0 + h01 * q1 + h11 * h * dq1
-            out[c.quaternions] = q / np.linalg.norm(q, axis=1)[:, None]
-            # d/dt of the position's Hermite basis: (6s² − 6s, 3s² − 4s + 1, −, 3s² − 2s)/h
-            v = ((6 * s * s - 6 * s) * (r0 - r1) / h + (3 * s * s - 4 * s + 1) * start.v
-                 + (3 * s * s - 2 * s) * end.v)
-            return out, v
-        return x
+        Hermite interpolant and its derivative (``hermite``)."""
+        return hermite(self.coordinates, t0, start, t1, end)
 
     def step(self, t0: float, start: Motion, t1: float, end: Motion,
              restep: Callable[[float], Motion]) -> list[tuple[float, int]]:

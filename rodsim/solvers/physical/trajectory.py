@@ -74,6 +74,10 @@ class Record:
     halvings: int = 0
     #: The longest step taken [s].
     largest_step: float = 0.0
+    #: Under error control (rodsim/solvers/physical/error_control.py): the steps accepted
+    #: and the attempts rejected.
+    accepted: int = 0
+    rejected: int = 0
     success: bool = True
     message: str = "ok"
     #: (time [s], name) of every event found (rodsim/solvers/physical/events.py).
