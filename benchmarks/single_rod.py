@@ -33,6 +33,7 @@ os.environ["OPENBLAS_NUM_THREADS"] = "1"
 
 import argparse  # noqa: E402
 import cProfile  # noqa: E402
+import itertools  # noqa: E402
 import json  # noqa: E402
 import pstats  # noqa: E402
 import sys  # noqa: E402
@@ -43,6 +44,7 @@ from pathlib import Path  # noqa: E402
 import numpy as np  # noqa: E402
 
 import rodsim  # noqa: E402
+from rodsim.core.model_evaluation import MEMO_STATES  # noqa: E402
 from rodsim.solvers.result import count_text  # noqa: E402
 from rodsim_bench.machine import machine  # noqa: E402
 
@@ -133,12 +135,19 @@ def measure(repeats: int, reference: np.ndarray, length: float) -> list[dict[str
 
 
 def evaluation_costs(repeats: int) -> dict[str, float]:
-    """Wall time of one F(x) and one ∂F/∂x evaluation at the rest state [s] (min of R×200)."""
+    """Wall time of one F(x) and one ∂F/∂x evaluation near the rest state [s] (min of
+    R×200), at states 1e-9 … 4e-9 L from it in turn: more states than the model remembers
+    (``MEMO_STATES``), so every call evaluates (one state asked again would time the memo's
+    copy of its last answer)."""
     model = rodsim.build_model(rodsim.load_scene(SCENE, [f"nodes={NODES}"]))
     x = model.x0
+    wiggle = np.sin(np.arange(len(x)))
+    states = [x + k * 1e-9 * model.length_scale * wiggle
+              for k in range(1, MEMO_STATES + 3)]
+    turn = itertools.cycle(states)
     out = {"unknowns": model.n, "jacobian_nonzeros": model.nnz}
-    for name, function in (("force_s", lambda: model.force(x)),
-                           ("jacobian_s", lambda: model.jacobian_data(x))):
+    for name, function in (("force_s", lambda: model.force(next(turn))),
+                           ("jacobian_s", lambda: model.jacobian_data(next(turn)))):
         out[name] = min(timeit.repeat(function, number=200, repeat=repeats)) / 200
     return out
 
