@@ -65,7 +65,7 @@ from rodsim.core.model import Model
 from rodsim.solvers.physical.events import EventFunctions
 from rodsim.solvers.physical.fixed_step import KeptMatrix, Motion, StepFailure
 from rodsim.solvers.physical.midpoint import MidpointStep
-from rodsim.solvers.physical.step_events import StepEvents, hermite
+from rodsim.solvers.physical.step_events import hermite, watched
 from rodsim.solvers.physical.trajectory import (
     MAX_HALVINGS,
     Record,
@@ -237,12 +237,7 @@ def integrate_controlled(model_at: Callable[[float], Model], stepper: MidpointSt
     t_end = float(output_times[-1])
     motion = start
     coordinates = stepper.coordinates
-    watch = None
-    names: list[str] = [] if events is None else events.names
-    terminal: list[bool] = [] if events is None else events.terminal
-    if events is not None and len(events):
-        watch = StepEvents(events, model_at, coordinates)
-        watch.start(t, motion)
+    watch, names, terminal = watched(events, model_at, coordinates, t, motion)
     record.add(t, motion, coordinates.kinetic_energy(motion.v, motion.w),
                _potential(model_at(t), motion.x), 0.0, 0.0)
     pending = [float(time) for time in output_times[1:]]

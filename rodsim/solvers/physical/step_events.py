@@ -35,7 +35,7 @@ from rodsim.solvers.physical.coordinates import PhysicalCoordinates, velocity_ro
 from rodsim.solvers.physical.events import EventFunctions
 from rodsim.solvers.physical.fixed_step import Motion
 
-__all__ = ["StepEvents", "hermite", "TIME_TOLERANCE", "MAX_ITERATIONS", "root"]
+__all__ = ["StepEvents", "watched", "hermite", "TIME_TOLERANCE", "MAX_ITERATIONS", "root"]
 
 #: A root's bracket is narrowed to this fraction of the step (or to round-off).
 TIME_TOLERANCE = 1e-10
@@ -137,6 +137,20 @@ class StepEvents:
             when = root(stepped, t0, before[i], t1, after[i], guess)
             found.append((float(when), i))
         return sorted(found)
+
+
+def watched(events: EventFunctions | None, model_at: Callable[[float], Model],
+            coordinates: PhysicalCoordinates, t: float, motion: Motion
+            ) -> tuple[StepEvents | None, list[str], list[bool]]:
+    """The watch over a run's steps started at (t, motion) (None without events), and the
+    events' names and which of them are terminal."""
+    if events is None:
+        return None, [], []
+    watch = None
+    if len(events):
+        watch = StepEvents(events, model_at, coordinates)
+        watch.start(t, motion)
+    return watch, events.names, events.terminal
 
 
 def root(g: Callable[[float], float], a: float, ga: float, b: float, gb: float,

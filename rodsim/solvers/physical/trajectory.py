@@ -39,7 +39,7 @@ from rodsim.solvers.physical.breakaway import locate, margins, sticky
 from rodsim.solvers.physical.coordinates import model_state
 from rodsim.solvers.physical.events import EventFunctions
 from rodsim.solvers.physical.fixed_step import FixedStep, Motion, StepFailure, StepOutcome
-from rodsim.solvers.physical.step_events import StepEvents
+from rodsim.solvers.physical.step_events import watched
 
 #: What a run is told at the end of every step: ``after_step(t, x)``, x the model's free
 #: coordinates (offsets from the rest state); a step in which a point of a string tendon
@@ -225,12 +225,7 @@ def integrate(model_at: Callable[[float], Model], stepper: FixedStep, start: Mot
     motion = start
     model = model_at(t)
     coordinates = stepper.coordinates
-    watch = None
-    names: list[str] = [] if events is None else events.names
-    terminal: list[bool] = [] if events is None else events.terminal
-    if events is not None and len(events):
-        watch = StepEvents(events, model_at, coordinates)
-        watch.start(t, motion)
+    watch, names, terminal = watched(events, model_at, coordinates, t, motion)
     dissipated = work = 0.0
     record.add(t, motion, coordinates.kinetic_energy(motion.v, motion.w),
                _potential(model, motion.x), 0.0, 0.0)
