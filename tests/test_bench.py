@@ -611,19 +611,21 @@ def test_iterations_small_outputs(tmp_path):
 
 @pytest.mark.slow
 def test_dynamics_small_outputs(tmp_path):
-    """``rodsim bench dynamics --size small``: the midpoint rule, the paper's Euler and IDA
-    timed against IDA's tight reference, each more accurate at its finer setting (no
-    timing is asserted)."""
+    """``rodsim bench dynamics --size small``: the midpoint rule, the paper's Euler, the
+    midpoint rule under error control and IDA timed against IDA's tight reference, each
+    more accurate at its finer setting (no timing is asserted)."""
     from rodsim_bench import dynamics
 
     paths = dynamics.run("small", tmp_path, lambda *_: None)
     assert {p.name for p in paths} == {"dynamics-small.json", "dynamics-small.md"}
     rows = json.loads((tmp_path / "dynamics-small.json").read_text())["rows"]
     assert [row["integrator"] for row in rows] == ["midpoint", "midpoint", "paper", "paper",
+                                                   "midpoint-ec", "midpoint-ec",
                                                    "ida", "ida"]
     assert all(row["success"] and row["cpu_s"] > 0.0 for row in rows)
     errors = [row["tip_error_over_L"] for row in rows]
-    assert errors[1] < errors[0] and errors[3] < errors[2] and errors[5] < errors[4]
+    assert errors[1] < errors[0] and errors[3] < errors[2] and errors[7] < errors[6]
+    assert errors[5] < errors[4]  # error control: the tighter rtol, the smaller error
     assert errors[2] > errors[0]  # first order against second, at the same step
     assert "| ida | rtol = atol = 1e-05 |" in (tmp_path / "dynamics-small.md").read_text()
 
@@ -660,8 +662,8 @@ def test_step_cost_small_outputs(tmp_path):
 @pytest.mark.slow
 def test_real_time_small_outputs(tmp_path):
     """``rodsim bench real-time --size small``: the reference, the midpoint runs (their step
-    counts those of their fixed steps) and IDA's and CVODE's windows each give a row with a
-    finite tip error (no timing is asserted)."""
+    counts those of their fixed steps), the error-controlled midpoint runs and IDA's and
+    CVODE's windows each give a row with a finite tip error (no timing is asserted)."""
     from rodsim_bench import real_time
 
     paths = real_time.run("small", tmp_path, lambda *_: None)
@@ -670,8 +672,11 @@ def test_real_time_small_outputs(tmp_path):
     rows = report["rows"]
     config = real_time.SIZES["small"]
     assert [row["integrator"] for row in rows] == (
-        ["midpoint"] * (1 + len(config["midpoint"]))
+        ["midpoint"] * (1 + len(config["midpoint"]) + len(config["controlled"]))
         + [name for name, _ in config["sundials"]])
+    controlled = rows[1 + len(config["midpoint"]):][:len(config["controlled"])]
+    assert all(row["setting"].startswith("error control, rtol = atol = ")
+               for row in controlled)
     steps = round(config["t_end"] / real_time.OUTPUT_DT)
     assert [row["steps"] for row in rows[:1 + len(config["midpoint"])]] == [
         steps * per for per in (config["reference"], *config["midpoint"])]
