@@ -16,7 +16,7 @@ import numpy as np
 
 from rodsim.core.scene import Scene
 from rodsim.core.terms.base import TendonTerm
-from rodsim.solvers.summary import millimetres, summary_html, summary_text
+from rodsim.solvers.summary import millimetres, sketch_svg, summary_html, summary_text
 from rodsim.version import __version__
 
 if TYPE_CHECKING:
@@ -203,7 +203,8 @@ class Result:
         return summary_text(self._title(), self.summary_rows())
 
     def _repr_html_(self) -> str:
-        return summary_html(self._title(), self.summary_rows())
+        return summary_html(self._title(), self.summary_rows(),
+                            sketch_svg([rod.positions for rod in self.rods.values()]))
 
     def to_xarray(self) -> Any:
         """The run's archive Dataset (docs/archive.md), as ``rodsim.run_dataset(result)``
