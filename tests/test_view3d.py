@@ -109,7 +109,9 @@ def test_a_track_is_animated_one_frame_per_step(tmp_path):
     path = rodsim.track(rodsim.load_scene("table1-50g", ["nodes=8"]),
                         {"tip_load.mass": forces / 9.81})
     assert path.success, path.message
-    ds = path.to_xarray()
+    from rodsim.io.archive import read_dataset, write_dataset
+
+    ds = read_dataset(write_dataset(path.to_xarray(), tmp_path / "track.nc"))  # the archive
     figure = view3d.view_figure(ds)
     assert len(figure.frames) == len(forces) == ds.sizes["step"]
     (slider,) = figure.layout.sliders
