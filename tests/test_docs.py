@@ -113,3 +113,21 @@ def test_the_gallery_is_current():
     run = subprocess.run([sys.executable, str(ROOT / "docs" / "generate_gallery.py"), "--check"],
                          capture_output=True, text=True, check=False)
     assert run.returncode == 0, run.stdout + run.stderr
+
+
+def test_ci_installs_the_system_library_the_readme_names():
+    """The CF-conformance tests skip without libudunits2: README names the package that
+    turns them on, .ci/run installs that package (when it can) before the test runs, and
+    the skip message names it too."""
+    import re
+
+    readme = (ROOT / "README.md").read_text(encoding="utf-8")
+    ci = (ROOT / ".ci" / "run").read_text(encoding="utf-8")
+    skip = (ROOT / "tests" / "test_cf_archives.py").read_text(encoding="utf-8")
+    named = re.search(r"`apt-get install (libudunits2[\w.-]*)`", readme)
+    assert named, "README no longer says which system library the CF tests need"
+    package = named[1]
+    install = ci.find(f"apt-get install -y -q {package}")
+    assert install >= 0, f".ci/run does not install {package}"
+    assert install < ci.index("python -m pytest"), "installed after the tests ran"
+    assert f"apt-get install {package}" in skip

@@ -79,6 +79,13 @@ def test_the_site_builds_strictly_with_the_user_guide_and_the_api(site):
     assert "Values of the scene keys" in api and "rodsim.app.inverse.reach.reach" in api
     # The figures the pages show are copied beside them.
     assert (site / "figures" / "fig7b.png").is_file()
+    # The gallery shows every shipped scene's figure, and each is in the site.
+    from rodsim.core.scene import scene_paths
+
+    gallery = (site / "gallery" / "index.html").read_text(encoding="utf-8")
+    for scene in scene_paths():
+        assert f"figures/gallery/{scene}.png" in gallery, scene
+        assert (site / "figures" / "gallery" / f"{scene}.png").is_file(), scene
 
 
 def test_no_docstring_in_the_package_holds_a_raw_sphinx_role():

@@ -8,6 +8,7 @@ obstacle type is drawn; an obstacle type added the documented way (a subclass wi
 from __future__ import annotations
 
 import json
+import re
 import sys
 
 import matplotlib.pyplot as plt
@@ -86,8 +87,13 @@ def drawn(ds) -> set[str]:
 
 
 @pytest.mark.parametrize("scene", sorted(scene_paths()))
-def test_every_shipped_scene_draws_every_part(scene):
-    ds = run_dataset(rodsim.solve(scene, overrides=COARSER.get(scene, [])))
+def test_every_shipped_scene_draws_every_part(scene, tmp_path):
+    """Drawn from the run archive written and read back, as ``rodsim plot`` draws it."""
+    from rodsim.io.archive import read_dataset, write_dataset
+
+    ds = read_dataset(write_dataset(
+        run_dataset(rodsim.solve(scene, overrides=COARSER.get(scene, []))),
+        tmp_path / f"{scene}.nc"))
     expected = expected_gids(ds)
     assert any(g.startswith("rod:") for g in expected)
     missing = expected - drawn(ds)
@@ -320,3 +326,49 @@ def test_loads_of_robots_of_other_sizes_are_drawn_as_they_act(seed):
                                rtol=1e-9)
     assert {f"load:wire:{t}" for t in ("tip_load", "point_loads", "distributed_load",
                                        "gravity")} <= drawn(ds)
+
+
+def test_arrows_are_drawn_to_the_scale_the_panel_states():
+    """A soft cantilever under a 0.3 N tip force and a 0.1 N point force at its middle (world
+    frame, in the x–y plane): the panel states "forces: L mm ≙ 0.3 N" (the largest load, the
+    scene's own number), the tip force's arrow is L mm long and the point force's L/3, each
+    starting where it acts; the contact forces of tip-on-tissue have a scale of their own."""
+    from matplotlib.text import Annotation
+
+    rod = {"length": 0.1, "radius": 0.001, "nodes": 11, "youngs_modulus": 1e8,
+           "density": 1100.0, "terms": ["stretch", "bend_twist", "centerline", "tip_load",
+                                        "point_loads"],
+           "tip_load": {"mass": 0.0, "force": [0.0, -0.3, 0.0]},
+           "point_loads": {"loads": [{"s": 0.05, "force": [0.1, 0.0, 0.0],
+                                      "frame": "world"}]}}
+    ds = run_dataset(rodsim.solve({"name": "arrows", "rods": {"wire": rod}}))
+    with style():
+        figure = draw_figure(ds)
+        try:
+            (stated,) = [t.get_text() for t in figure.findobj()
+                         if t.get_gid() == "scale:forces"]
+            arrows = {a.get_gid(): (np.array(a.xyann), np.array(a.xy))
+                      for a in figure.findobj(Annotation) if a.get_gid()}
+        finally:
+            plt.close(figure)
+    found = re.fullmatch(r"forces: ([0-9.]+) mm ≙ ([0-9.]+) N", stated)
+    assert found, stated
+    length, largest = float(found[1]) * 1e-3, float(found[2])
+    assert largest == pytest.approx(0.3, rel=1e-3)
+    nodes = ds["position"].values
+    for gid, force, point in (("load:wire:tip_load", 0.3, nodes[-1]),
+                              ("load:wire:point_loads", 0.1, None)):
+        tail, head = arrows[gid]
+        assert np.linalg.norm(head - tail) == pytest.approx(length * force / 0.3, rel=5e-3)  # .3g
+        if point is not None:
+            np.testing.assert_allclose(tail, point[:2], atol=1e-12)
+    tip, _ = arrows["load:wire:tip_load"]
+    assert (arrows["load:wire:tip_load"][1] - tip)[1] < 0  # pointing down, as the force
+    with style():
+        figure = draw_figure(run_dataset(rodsim.solve("tip-on-tissue")))
+        try:
+            gids = {t.get_gid() for t in figure.findobj() if str(t.get_gid()).startswith(
+                "scale:")}
+        finally:
+            plt.close(figure)
+    assert {"scale:contact", "scale:moments"} <= gids

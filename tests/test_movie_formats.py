@@ -56,7 +56,55 @@ def test_an_ffmpeg_on_the_path_is_found_when_imageio_ffmpeg_is_missing(monkeypat
     chosen = choose_encoder()
     assert chosen.format == "mp4" and chosen.program == str(program)
     assert "the PATH" in chosen.note and "\n" not in chosen.note
+    assert str(program) not in chosen.note and "/" not in chosen.note  # where, not the path
     assert choose_encoder("gif").format == "gif"  # asked for: no ffmpeg looked for
+
+
+def test_the_note_names_the_encoder_in_short_words_not_its_path():
+    """imageio-ffmpeg's binary sits deep in site-packages: the note says where it came from;
+    the path stays on the Encoder for a caller who wants it."""
+    pytest.importorskip("imageio_ffmpeg")
+    chosen = choose_encoder()
+    assert chosen.format == "mp4" and chosen.program and "/" in chosen.program
+    assert chosen.note == "movie as mp4 (ffmpeg found): ffmpeg from imageio-ffmpeg"
+    assert choose_encoder("mp4").note == "movie as mp4 (as asked): ffmpeg from imageio-ffmpeg"
+
+
+def namespace(*argv: str):
+    """``rodsim plot``'s parsed arguments."""
+    from rodsim.app.cli.parser import build_parser
+
+    return build_parser().parse_args(["plot", *argv])
+
+
+def test_an_output_ending_in_mp4_or_gif_is_the_movies_format():
+    """-o STEM.mp4 (or .gif, any case) is that movie alone, with figures only when --format
+    asks; other endings stay a stem; --movie alone leaves the format to the encoder's
+    choice ("")."""
+    from rodsim.app.cli.plot import movie_output
+
+    assert movie_output(namespace("a.nc")) == ("a", None, None)
+    assert movie_output(namespace("a.nc", "--movie")) == ("a", "", None)
+    assert movie_output(namespace("a.nc", "-o", "out/fig", "--movie-format", "gif")) == (
+        "out/fig", "gif", None)
+    assert movie_output(namespace("a.nc", "-o", "out/pull.mp4")) == ("out/pull", "mp4", [])
+    assert movie_output(namespace("a.nc", "-o", "pull.GIF", "--movie")) == ("pull", "gif", [])
+    assert movie_output(namespace("a.nc", "-o", "pull.mp4", "--movie-format", "mp4",
+                                  "--format", "png")) == ("pull", "mp4", ["png"])
+    assert movie_output(namespace("a.nc", "-o", "fig6.v2")) == ("fig6.v2", None, None)
+
+
+def test_a_movie_format_against_the_outputs_ending_is_refused_in_one_line(tmp_path, cli,
+                                                                           capsys):
+    """Refused before the archive is read (it need not exist) and before anything is
+    written."""
+    out = tmp_path / "pull.mp4"
+    assert cli(["plot", str(tmp_path / "none.nc"), "-o", str(out), "--movie-format",
+                "gif"]) == 2
+    err = capsys.readouterr().err
+    assert len(err.strip().splitlines()) == 1 and "Traceback" not in err
+    assert "names an mp4 movie but --movie-format asks for gif" in err
+    assert not list(tmp_path.iterdir())
 
 
 def test_without_pillow_a_gif_is_refused_in_one_line(monkeypatch, tmp_path):
@@ -147,6 +195,27 @@ def test_a_tracks_mp4_has_the_gifs_frames_one_per_step(track_archive, tmp_path, 
 
     again = movie.write_movie(read_dataset(track_archive), tmp_path / "again.mp4")
     assert again.read_bytes() == (tmp_path / "track.mp4").read_bytes()
+
+
+@pytest.mark.slow  # two movies of a track drawn: ~4 s of CPU
+def test_an_output_named_as_a_movie_writes_that_movie(track_archive, tmp_path, cli, capsys):
+    """-o STEM.gif writes the GIF alone, one frame per step; -o STEM.mp4 --format png the
+    mp4 and the PNG, and the note names no path."""
+    from PIL import Image
+
+    assert cli(["plot", str(track_archive), "-o", str(tmp_path / "pull.gif")]) == 0
+    out = capsys.readouterr().out
+    assert "movie as GIF (as asked)" in out
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["pull.gif"]
+    with Image.open(tmp_path / "pull.gif") as gif:
+        assert gif.n_frames == 5
+    pytest.importorskip("imageio_ffmpeg")
+    assert cli(["plot", str(track_archive), "-o", str(tmp_path / "pull.mp4"), "--format",
+                "png"]) == 0
+    out = capsys.readouterr().out
+    (note,) = [line for line in out.splitlines() if line.startswith("note")]
+    assert note.endswith("movie as mp4 (as asked): ffmpeg from imageio-ffmpeg")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["pull.gif", "pull.mp4", "pull.png"]
 
 
 @pytest.mark.slow  # a simulation and its movies drawn: ~8 s of CPU

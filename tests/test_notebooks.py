@@ -1,7 +1,7 @@
 """The notebooks in examples/notebooks/ (issue 36): each is made from an example script by
 examples/notebooks/generate.py and must be up to date with it, is saved without outputs,
 and runs top to bottom in a fresh Jupyter kernel (nbclient) with no cell error, from an
-empty current folder; the cells that end in a result show its summary table (the
+empty current folder; the cells that end in a result show its summary table and sketch (the
 ``_repr_html_`` Jupyter renders)."""
 
 from __future__ import annotations
@@ -61,5 +61,7 @@ def test_a_notebook_runs_without_a_cell_error(path, tmp_path, monkeypatch):
     assert any(o.output_type == "stream" and o.name == "stdout" for o in outputs)
     pages = [o.data["text/html"] for o in outputs if "text/html" in o.get("data", {})]
     titles = [title for title in TABLES[path.stem] if any(
-        page.startswith("<table>") and title.replace("'", "&#x27;") in page for page in pages)]
+        "<table>" in page and title.replace("'", "&#x27;") in page for page in pages)]
+    # each table comes with its sketch of the shape (an inline SVG)
+    assert all("<svg " in page for page in pages if "<table>" in page), pages
     assert titles == TABLES[path.stem], pages

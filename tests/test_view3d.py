@@ -1,6 +1,7 @@
-"""The interactive 3-D view (issue 36): its opening camera frames every node of the scene,
-it draws the string tendons and the obstacles (translucent), and a track is animated with
-one frame per step."""
+"""The interactive 3-D view (issue 36): for every shipped scene it draws every rod, tendon,
+obstacle, load and contact force by name and its opening camera frames every node; string
+tendons and the vessel (translucent) are drawn; a track is animated with one frame per
+step and a trajectory with one per output time."""
 
 from __future__ import annotations
 
@@ -11,10 +12,14 @@ import pytest
 
 import rodsim
 from rodsim.app.figures.scene_parts import scene_parts
+from rodsim.core.obstacles import registered_obstacles
+from rodsim.core.scene import scene_paths
 from rodsim.io.run_dataset import run_dataset
 
 go = pytest.importorskip("plotly.graph_objects",
                          reason="plotly is the optional extra rodsim[view3d]")
+from test_figure_parts import COARSER, expected_gids  # noqa: E402
+
 from rodsim.app.figures import view3d  # noqa: E402
 
 
@@ -44,11 +49,41 @@ def projected(figure, points: np.ndarray, width_over_height: float) -> np.ndarra
                      f * (rel @ true_up) / depth], axis=1)
 
 
-@pytest.mark.parametrize("scene", ["catheter-helical", "tdcr-two-segment", "table1-20g",
-                                   "vessel-insertion"])
-def test_the_opening_camera_frames_every_node(scene):
-    ds = run_dataset(rodsim.solve(scene))
+def view_gids(figure) -> tuple[set[str], set[str]]:
+    """What the view draws: the names of its line traces (a rod's or a tendon's trace is
+    named as the rod or tendon), and the rest named as the run figure names its artists:
+    ``termination:`` and ``obstacle:`` by their traces' names (an obstacle's: its type,
+    then its name), loads and contact forces by the gids their arrow heads carry."""
+    lines, named = set(), set()
+    for trace in figure.data:
+        name = str(trace.name)
+        if name in ("loads", "contact forces"):
+            heads = [g for g in trace.customdata if g]
+            assert len(heads) == len(set(heads)), heads
+            named |= set(heads)
+        elif name.startswith("termination "):
+            named.add(f"termination:{name.removeprefix('termination ')}")
+        elif name.split(" ")[0] in registered_obstacles():
+            named.add(f"obstacle:{name.split(' ', 1)[1]}")
+        elif name != "spacer disks":
+            lines.add(name)
+    return lines, named
+
+
+@pytest.mark.parametrize("scene", sorted(scene_paths()))
+def test_every_shipped_scene_is_drawn_whole_and_framed_by_the_opening_camera(scene):
+    """Every rod, tendon (with its termination), obstacle, load and contact force the scene
+    holds (test_figure_parts.expected_gids, read from the archive's scene, not from the
+    drawing) has a trace or an arrow of that name; the opening camera frames every node
+    and tendon point in landscape and square windows."""
+    ds = run_dataset(rodsim.solve(scene, overrides=COARSER.get(scene, [])))
     figure = view3d.view_figure(ds)
+    expected = expected_gids(ds)
+    assert any(g.startswith("rod:") for g in expected)
+    lines, named = view_gids(figure)
+    missing = {g for g in expected if g not in named
+               and not (g.startswith(("rod:", "tendon:")) and g.split(":", 1)[1] in lines)}
+    assert not missing, f"{scene}: not in the 3D view: {sorted(missing)}"
     points = np.concatenate([ds["position"].values, scene_parts(ds).points()])
     layout = figure.layout.scene
     for k, name in enumerate("xyz"):
@@ -74,7 +109,9 @@ def test_a_track_is_animated_one_frame_per_step(tmp_path):
     path = rodsim.track(rodsim.load_scene("table1-50g", ["nodes=8"]),
                         {"tip_load.mass": forces / 9.81})
     assert path.success, path.message
-    ds = path.to_xarray()
+    from rodsim.io.archive import read_dataset, write_dataset
+
+    ds = read_dataset(write_dataset(path.to_xarray(), tmp_path / "track.nc"))  # the archive
     figure = view3d.view_figure(ds)
     assert len(figure.frames) == len(forces) == ds.sizes["step"]
     (slider,) = figure.layout.sliders

@@ -29,7 +29,7 @@ from rodsim.solvers import (
     registered_integrators,
 )
 from rodsim.solvers.base import Progress
-from rodsim.solvers.result import Result
+from rodsim.solvers.result import Result, use_archive_maker
 
 if TYPE_CHECKING:
     import xarray as xr
@@ -37,6 +37,16 @@ if TYPE_CHECKING:
 __all__ = ["load_scene", "solve", "build_model", "rerun"]
 
 SceneLike = Scene | str | Path | Mapping[str, Any]
+
+
+def _run_dataset(result: Result) -> xr.Dataset:
+    """A run's archive Dataset (``Result.to_xarray``); xarray is imported on first use."""
+    from rodsim.io.run_dataset import run_dataset
+
+    return run_dataset(result)
+
+
+use_archive_maker(_run_dataset)
 
 
 def load_scene(scene: SceneLike | None = None, overrides: Iterable[str] = (),

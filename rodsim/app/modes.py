@@ -30,7 +30,7 @@ from rodsim.core.vibration import ModesError, Vibration, natural_modes
 from rodsim.solvers import DEFAULT_INTEGRATOR
 from rodsim.solvers.physical.coordinates import physical_state
 from rodsim.solvers.result import Result
-from rodsim.solvers.summary import millimetres, summary_html, summary_text
+from rodsim.solvers.summary import millimetres, sketch_svg, summary_html, summary_text
 
 if TYPE_CHECKING:
     import xarray as xr
@@ -161,7 +161,8 @@ class Modes:
         return summary_text(self._title(), self.summary_rows())
 
     def _repr_html_(self) -> str:
-        return summary_html(self._title(), self.summary_rows())
+        return summary_html(self._title(), self.summary_rows(), sketch_svg(
+            [rod.positions for rod in self.result.rods.values()] if self.success else []))
 
     def to_xarray(self) -> xr.Dataset:
         """The modes archive: the run archive of the equilibrium with a ``mode`` dimension

@@ -16,7 +16,7 @@ from rodsim.core.friction_record import FrictionRecord
 from rodsim.core.model import Model
 from rodsim.core.program import ProgramEntry
 from rodsim.core.scene import Scene
-from rodsim.solvers.summary import millimetres, summary_html, summary_text
+from rodsim.solvers.summary import millimetres, sketch_svg, summary_html, summary_text
 
 __all__ = ["Simulation", "INTEGRATORS", "FIXED_STEP"]
 
@@ -146,7 +146,18 @@ class Simulation:
         return summary_text(self._title(), self.summary_rows())
 
     def _repr_html_(self) -> str:
-        return summary_html(self._title(), self.summary_rows())
+        return summary_html(self._title(), self.summary_rows(), self.sketch())
+
+    def sketch(self) -> str:
+        """The summary's sketch: the rods at the last output time, the first rod's tip path
+        (faint)."""
+        if not len(self.times):
+            return ""
+        counts = [self.scene.rods[name].nodes for name in self.rods]
+        ends = np.cumsum(counts)
+        shapes = [self.positions[-1, end - count:end]
+                  for end, count in zip(ends, counts, strict=True)]
+        return sketch_svg(shapes, [self.positions[:, int(ends[0]) - 1]])
 
     def to_xarray(self) -> Any:
         """The trajectory archive (rodsim/io/trajectory_dataset.py, docs/archive.md): a run

@@ -1,10 +1,14 @@
 """What one run of one integrator returns: the state of each rod where it stopped (the
 equilibrium, or the state at the end time), the statistics, the per-step history, the
 trajectory when one was recorded, and the stability verdict of an equilibrium. Its archive
-Dataset is ``rodsim.io.run_dataset.run_dataset``."""
+Dataset is ``rodsim.io.run_dataset.run_dataset``, also ``Result.to_xarray()``: the archive is
+the io layer's, above the solvers (docs/architecture.md), so the entry points
+(``rodsim.app.api``, which ``rodsim.solve``, ``solve_many``, ``modes``, ``track`` and
+``simulate`` import) hand the maker in with ``use_archive_maker``."""
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
@@ -12,7 +16,7 @@ import numpy as np
 
 from rodsim.core.scene import Scene
 from rodsim.core.terms.base import TendonTerm
-from rodsim.solvers.summary import millimetres, summary_html, summary_text
+from rodsim.solvers.summary import millimetres, sketch_svg, summary_html, summary_text
 from rodsim.version import __version__
 
 if TYPE_CHECKING:
@@ -20,7 +24,17 @@ if TYPE_CHECKING:
     from rodsim.core.stability import Stability
     from rodsim.solvers.trajectory import Trajectory
 
-__all__ = ["Result", "RodShape", "STAT_DOCS", "count_text"]
+__all__ = ["Result", "RodShape", "STAT_DOCS", "count_text", "use_archive_maker"]
+
+#: The function that makes a Result's archive Dataset (``Result.to_xarray``), handed in by
+#: the layer that writes archives (``use_archive_maker``); empty until then.
+_ARCHIVE_MAKER: list[Callable[[Result], Any]] = []
+
+
+def use_archive_maker(make: Callable[[Result], Any]) -> None:
+    """Make ``Result.to_xarray`` return ``make(result)`` (``rodsim.app.api`` hands in
+    ``rodsim.io.run_dataset.run_dataset``, imported on first use)."""
+    _ARCHIVE_MAKER[:] = [make]
 
 #: Statistics every run reports (missing ones are 0; NaN where an integrator cannot count
 #: them: CVODE's and IDA's own Newton iterations and linear solves happen inside SUNDIALS,
@@ -189,4 +203,15 @@ class Result:
         return summary_text(self._title(), self.summary_rows())
 
     def _repr_html_(self) -> str:
-        return summary_html(self._title(), self.summary_rows())
+        return summary_html(self._title(), self.summary_rows(),
+                            sketch_svg([rod.positions for rod in self.rods.values()]))
+
+    def to_xarray(self) -> Any:
+        """The run's archive Dataset (docs/archive.md), as ``rodsim.run_dataset(result)``
+        and ``rodsim run -o RUN.nc`` write it: ``position`` (node, axis), ``quaternion``,
+        the statistics, the verdict and the scene. RuntimeError when no entry point was
+        imported (a Result made by the solvers alone): ``import rodsim.app.api``."""
+        if not _ARCHIVE_MAKER:
+            raise RuntimeError("Result.to_xarray needs rodsim's entry points: import "
+                               "rodsim.app.api, or call rodsim.run_dataset(result)")
+        return _ARCHIVE_MAKER[0](self)

@@ -313,7 +313,9 @@ def build_parser() -> argparse.ArgumentParser:
     plot.add_argument("archive", help="archive written by `rodsim run`, `study`, `track`, "
                       "`fit`, `reach`, `modes` or `simulate`")
     plot.add_argument("-o", "--output", metavar="STEM",
-                      help="output path without extension (default: the archive's)")
+                      help="output path without extension (default: the archive's); "
+                      "STEM.mp4 or STEM.gif writes that movie of a track or trajectory "
+                      "alone (with figures too when --format is given)")
     plot.add_argument("--format", default=None,
                       help="comma-separated formats matplotlib writes: png, pdf, svg, …, "
                       "and html, the interactive 3D view of a run, track, fit, reach or trajectory "
@@ -341,7 +343,8 @@ def build_parser() -> argparse.ArgumentParser:
                       "ffmpeg on the PATH), else STEM.gif; a note says which")
     plot.add_argument("--movie-format", choices=("mp4", "gif"), default=None,
                       help="the movie's format (implies --movie); mp4 with no ffmpeg is "
-                      "refused before anything is written")
+                      "refused before anything is written, as is a format other than the "
+                      "one -o STEM.mp4 or STEM.gif names")
     plot.set_defaults(func=cmd_plot)
 
     bench = sub.add_parser("bench", help="run a benchmark (work-precision, scaling, large-n, "

@@ -7,7 +7,8 @@ ffmpeg binary: ``pip install "rodsim[movie]"``; ``imageio_ffmpeg.get_ffmpeg_exe`
 honours its ``IMAGEIO_FFMPEG_EXE`` variable), then as matplotlib's
 ``rcParams["animation.ffmpeg_path"]`` (``ffmpeg`` by default) on the PATH. Pillow comes
 with matplotlib. A movie whose format is not asked for is an mp4 when an ffmpeg is found
-and a GIF otherwise; each choice comes with a one-line note saying which and why. An mp4
+and a GIF otherwise; each choice comes with a one-line note saying which and why (in
+short words: where the ffmpeg came from, not its path, which ``Encoder.program`` holds). An mp4
 asked for with no ffmpeg, or a GIF with no Pillow, is a one-line PlotError raised before
 anything is drawn or written."""
 
@@ -75,7 +76,7 @@ def choose_encoder(requested: str | None = None) -> Encoder:
     if ffmpeg is not None:
         program, where = ffmpeg
         why = "as asked" if requested == MP4 else "ffmpeg found"
-        return Encoder(MP4, program, f"movie as mp4 ({why}): ffmpeg from {where}, {program}")
+        return Encoder(MP4, program, f"movie as mp4 ({why}): ffmpeg from {where}")
     if requested == MP4:
         raise PlotError(f"an mp4 movie needs ffmpeg, which was not found: {INSTALL_FFMPEG}; "
                         "or ask for a GIF (--movie-format gif)")

@@ -197,11 +197,13 @@ def _coloured(line: ColouredLine, name: str, label: str, scale: tuple[Any, Any],
 def _arrow_trace(arrows: list[Arrow], length: float, colour: str, name: str) -> Any:
     """One trace of arrows (shafts with a marker at the head; the largest ``length``),
     loads starting at their point, contact forces ending there; empty when there are
-    none."""
+    none. Each head carries its arrow's ``gid`` as its ``customdata`` (as the run figure
+    names its artists)."""
     import plotly.graph_objects as go
 
     xyz: list[np.ndarray] = []
     text: list[str] = []
+    gids: list[str] = []
     largest = max((float(np.linalg.norm(a.vector)) for a in arrows), default=0.0)
     for arrow in arrows:
         if largest == 0.0:
@@ -212,9 +214,11 @@ def _arrow_trace(arrows: list[Arrow], length: float, colour: str, name: str) -> 
         unit = "N m" if arrow.moment else "N"
         xyz += [tail, head, np.full(3, np.nan)]
         text += ["", f"{arrow.label}: {np.linalg.norm(arrow.vector):.3g} {unit}", ""]
+        gids += ["", arrow.gid, ""]
     points = np.array(xyz) if xyz else np.zeros((0, 3))
     return go.Scatter3d(x=points[:, 0], y=points[:, 1], z=points[:, 2], mode="lines+markers",
                         name=name, line={"width": 4, "color": colour}, text=text,
+                        customdata=gids,
                         marker={"size": [0 if not t else 4 for t in text], "color": colour},
                         hovertemplate="%{text}<extra></extra>")
 

@@ -9,7 +9,7 @@ from typing import Any
 import numpy as np
 
 from rodsim.app.inverse.parameter_keys import NumericKey
-from rodsim.solvers.summary import millimetres, summary_html, summary_text
+from rodsim.solvers.summary import millimetres, sketch_svg, summary_html, summary_text
 
 __all__ = ["track_rows", "fit_rows", "reach_rows", "summary"]
 
@@ -85,4 +85,22 @@ def summary(result: Any, html: bool) -> str:
     else:
         title = f"rodsim {kind}: scene {result.result.scene.name!r}, rod {result.rod}"
         rows = fit_rows(result) if kind == "Fit" else reach_rows(result)
-    return summary_html(title, rows) if html else summary_text(title, rows)
+    return summary_html(title, rows, sketch(result)) if html else summary_text(title, rows)
+
+
+def sketch(result: Any) -> str:
+    """The HTML summary's sketch: a track's rods at its last completed step and the first
+    rod's tip path through the steps (faint); a fit's fitted shape and the measured points;
+    a reach's shape and the target."""
+    kind = type(result).__name__
+    if kind == "Track":
+        if not result.steps:
+            return ""
+        counts = [rod.nodes for rod in result.model.rods.values()]
+        ends = np.cumsum(counts)
+        last = result.positions[-1]
+        return sketch_svg([last[end - count:end] for end, count in zip(ends, counts,
+                                                                        strict=True)],
+                          [result.tips()])
+    shapes = [rod.positions for rod in result.result.rods.values()]
+    return sketch_svg(shapes, marks=[result.points.xyz if kind == "Fit" else result.target])
