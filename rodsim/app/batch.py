@@ -34,6 +34,7 @@ import numpy as np
 
 from rodsim.app.batch_cases import checked_cases
 from rodsim.app.batch_job import SEGMENT, BatchJob, shape_record, shared_model
+from rodsim.app.batch_penalty import record_penalty
 from rodsim.app.inverse.parameter_keys import scene_with
 from rodsim.app.study_parts import (
     StudyLog,
@@ -80,6 +81,7 @@ def _case(job: BatchJob, case: int) -> dict[str, Any]:
     record, solved = solved_record({"case": case}, solve_case)
     if solved is not None:
         shape_record(record, solved[1])
+        record_penalty(job, case, record, solved[1])
     return record
 
 
@@ -174,7 +176,8 @@ def solve_many(scene: Any, cases: Any, integrator: str | None = None, *,
                output: str | Path | None = None, workers: int | None = 1,
                scheduler: str | None = None, chunk: int = CHUNK,
                progress: BatchProgress | None = None, log: StudyLog | None = None,
-               keep_parts: bool = False, warm: bool = False) -> xr.Dataset:
+               keep_parts: bool = False, warm: bool = False, penalty: bool = False
+               ) -> xr.Dataset:
     """The equilibrium of every case of ``cases`` (scene key → values, one per case; a dict,
     an xarray Dataset or a pandas DataFrame) on ``scene`` (a Scene, a path, a shipped scene
     name), as one Dataset with a ``case`` dimension (docs/batch.md).
@@ -208,6 +211,8 @@ def solve_many(scene: Any, cases: Any, integrator: str | None = None, *,
         raise StudyError(f"workers must be a positive whole number, not {workers!r}")
     if not isinstance(warm, bool):
         raise StudyError(f"warm must be True or False, not {warm!r}")
+    if not isinstance(penalty, bool):
+        raise StudyError(f"penalty must be True or False, not {penalty!r}")
     keys, values = checked_cases(base, cases)
     order = None
     if warm:  # chunks of whole segments (rodsim/app/batch_warm.py)
@@ -216,7 +221,7 @@ def solve_many(scene: Any, cases: Any, integrator: str | None = None, *,
         order = solve_order(values)
         chunk = -(-chunk // SEGMENT) * SEGMENT
     job = BatchJob(base.to_json(), base.source, name, tuple(k.name for k in keys), values,
-                   chunk, order)
+                   chunk, order, penalty)
     shape = (sum(r.nodes for r in base.rods.values()),
              sum(r.nodes - 1 for r in base.rods.values()))
     if output is not None:
@@ -234,7 +239,8 @@ def solve_many(scene: Any, cases: Any, integrator: str | None = None, *,
         records = _run(job, shape, output, workers, client, progress, log)
     dataset = batch_dataset(base, name, keys, values, records, shared_model(job)[2],
                             f"rodsim.solve_many(scene {base.name!r}, {job.cases} cases, "
-                            f"integrator={name!r}{', warm=True' if warm else ''})", warm)
+                            f"integrator={name!r}{', warm=True' if warm else ''}"
+                            f"{', penalty=True' if penalty else ''})", warm, penalty)
     if output is not None:
         from rodsim.io.archive import write_dataset
 
@@ -327,7 +333,8 @@ def rerun_batch(dataset: xr.Dataset) -> tuple[xr.Dataset, float]:
     keys = parse_json_names(dataset.attrs["case_keys"], "attribute 'case_keys'")
     cases = {key: key_variable(dataset, key).values for key in keys}
     warm = bool(int(dataset.attrs.get("warm_starts", 0)))  # absent before warm starts
-    again = solve_many(scene, cases, integrator, warm=warm)
+    penalty = bool(int(dataset.attrs.get("penalty_estimates", 0)))  # absent before them
+    again = solve_many(scene, cases, integrator, warm=warm, penalty=penalty)
     ok = dataset["status"].values == STATUS["ok"]
     if not np.array_equal(ok, again["status"].values == STATUS["ok"]):
         return again, float("inf")

@@ -195,6 +195,10 @@ def build_parser() -> argparse.ArgumentParser:
                       help="start each case from a neighbouring case's equilibrium (fewer "
                       "Newton iterations; equal to the cold solves to their round-off, "
                       "docs/batch.md 'Warm starts')")
+    many.add_argument("--penalty", action="store_true",
+                      help="also estimate each case's penalty error, as rodsim run does (one "
+                      "more warm solve per case: about 1.8x the batch's time on "
+                      "tdcr-two-segment; docs/batch.md)")
     many.set_defaults(func=cmd_batch)
 
     follow = _scene_command(sub, "track", Track, "scene file or shipped scene name",
