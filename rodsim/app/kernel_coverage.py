@@ -159,6 +159,6 @@ COVERAGE_SCENES: dict[str, dict[str, Any]] = {
                                        _JOINTS)}
 
 #: A model from ``rodsim.solvers.linear.COMPILED_FILL_SIZE`` unknowns on (table1-50g at 640
-#: nodes: 4 400 unknowns), whose linear solves and stability verdict fill their band by
+#: nodes: 4 473 unknowns), whose linear solves and stability verdict fill their band by
 #: compiled passes (rodsim/core/kernels/_band.py) that smaller models do not use.
 LARGE_SCENE = ("table1-50g", ("rods.catheter.nodes=640", "solver.integrator=static"))
