@@ -341,6 +341,24 @@ def test_cli_batch_writes_a_validated_archive(tmp_path, monkeypatch, capsys):
     assert "largest difference from the stored positions: 0 m" in capsys.readouterr().out
     assert main(["plot", "b.nc"]) == 2
     assert "batch archive has no figure" in capsys.readouterr().err
+    assert "penalty_error" not in stored and stored.attrs["penalty_estimates"] == 0
+
+
+def test_cli_batch_penalty_stores_each_cases_estimate(tmp_path, monkeypatch, capsys):
+    monkeypatch.chdir(tmp_path)
+    Path("cases.csv").write_text("s1a.tendon_string.tension\n1.0\n2.5\n")
+    assert main(["batch", TDCR, "--cases", "cases.csv", "-o", "b.nc", "--workers", "1",
+                 "--penalty"]) == 0
+    stored = read_dataset("b.nc")
+    assert stored.attrs["penalty_estimates"] == 1
+    expected = [rodsim.penalty_error(alone(TDCR, {"s1a.tendon_string.tension": [1.0, 2.5]},
+                                           case)).error for case in range(2)]
+    assert list(stored["penalty_error"].values) == expected
+    # rerun asks for the estimates again (the archive says it holds them) and matches
+    assert main(["rerun", "b.nc"]) == 0
+    assert "largest difference from the stored positions: 0 m" in capsys.readouterr().out
+    with pytest.raises(ArchiveSchemaError, match="penalty_error"):
+        check_archive(stored.drop_vars("penalty_error"))
 
 
 # A seeded family of user robots -------------------------------------------------------------

@@ -198,7 +198,7 @@ def build_parser() -> argparse.ArgumentParser:
                       "docs/batch.md 'Warm starts')")
     many.add_argument("--penalty", action="store_true",
                       help="also estimate each case's penalty error, as rodsim run does (one "
-                      "more warm solve per case: about 1.8x the batch's time on "
+                      "more warm solve per case: about 1.7x the batch's time on "
                       "tdcr-two-segment; docs/batch.md)")
     many.set_defaults(func=cmd_batch)
 
