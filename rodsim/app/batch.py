@@ -4,8 +4,9 @@ A batch is a scene and a table of cases (rodsim/app/batch_cases.py: one column p
 scene key, one row per case), checked in full before any case runs. The model is assembled
 once per process; each case only sets its values (``rodsim.core.model.Model.with_values``,
 the study points' way of sharing a model: rodsim/app/study_points.py) and converges on its own
-from the rest state, with its own verdict, message and stability verdict: the same solve as
-``rodsim.solve`` of that case alone. A case that fails is recorded with its message and the
+from the rest state, with its own verdict, message and stability verdict (and, with
+``penalty=True``, ``rodsim run``'s penalty estimate: rodsim/app/batch_penalty.py): the same
+solve as ``rodsim.solve`` of that case alone. A case that fails is recorded with its message and the
 others go on. With ``warm=True`` each case starts instead from a neighbouring case's
 equilibrium (rodsim/app/batch_warm.py), in chunks of a solve order.
 
@@ -191,7 +192,10 @@ def solve_many(scene: Any, cases: Any, integrator: str | None = None, *,
     the equilibria differ from the cold ones by at most a Newton correction at the
     residual's floor, 2.6e-9 L on tdcr-two-segment, and the same table gives the same
     answers bit for bit whatever the chunks and workers; the chunk is rounded up to a
-    multiple of 25 cases, whole segments of the solve order).
+    multiple of 25 cases, whole segments of the solve order). ``penalty``: also each
+    converged case's penalty error estimate, the one ``rodsim run`` prints (variable
+    ``penalty_error``; rodsim/app/batch_penalty.py; about 1.7× the CPU a case, so off by
+    default).
 
     Raises SceneError for a bad scene or cases table (nothing is run or written), StudyError
     for an output that cannot be written, a parts folder of another batch or an unreachable
