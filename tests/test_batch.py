@@ -426,6 +426,9 @@ def test_each_case_carries_the_penalty_estimate_rodsim_run_makes(tmp_path):
         expected = rodsim.penalty_error(alone(TDCR, cases, case)).error
         assert 0.0 < expected < 1e-3
         assert batch["penalty_error"].values[case] == expected, case
+    # Two worker processes (each builds its own stiffer model) give the same estimates.
+    pooled = solve_many(TDCR, cases, chunk=2, workers=2, penalty=True)
+    assert np.array_equal(pooled["penalty_error"].values, batch["penalty_error"].values)
     warm = solve_many(TDCR, cases, penalty=True, warm=True)
     # A warm case's equilibrium differs from the cold one within the solver's stopping test
     # (docs/batch.md, "Warm starts"), so its estimate agrees to that resolution only.
