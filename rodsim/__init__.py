@@ -13,7 +13,8 @@ run's archive Dataset), ``rodsim.penalty_error`` (how far a result depends on it
 penalties, docs/model.md) and the inverse tools
 ``rodsim.sensitivity``, ``rodsim.track``, ``rodsim.Tracker``, ``rodsim.fit`` and
 ``rodsim.reach`` (docs/inverse.md), ``rodsim.modes`` (natural frequencies and mode shapes,
-docs/dynamics.md) and ``rodsim.simulate`` (motion in physical time, with
+docs/dynamics.md), ``rodsim.compile_kernels`` (the compiled kernels into numba's disk cache
+ahead of time, rodsim/app/precompile.py) and ``rodsim.simulate`` (motion in physical time, with
 ``rodsim.Sinusoid`` programs and the events ``rodsim.ContactOnset``,
 ``rodsim.TendonSlack`` and ``rodsim.Event``; docs/dynamics.md) are imported on first use.
 """
@@ -21,7 +22,7 @@ docs/dynamics.md) and ``rodsim.simulate`` (motion in physical time, with
 from rodsim.version import __version__
 
 __all__ = ["ContactOnset", "Event", "Sinusoid", "TendonSlack", "Tracker", "__version__",
-           "build_model", "fit", "load_scene", "modes",
+           "build_model", "compile_kernels", "fit", "load_scene", "modes",
            "penalty_error", "reach", "run_dataset", "sensitivity", "simulate", "solve",
            "solve_many", "track"]
 
@@ -72,6 +73,9 @@ def __getattr__(name: str):
         from rodsim.core.program import Sinusoid
 
         return Sinusoid
+    if name == "compile_kernels":
+        from rodsim.app.precompile import compile_kernels
+        return compile_kernels
     if name == "penalty_error":
         from rodsim.app.trust import penalty_error
 

@@ -341,6 +341,24 @@ def test_cli_batch_writes_a_validated_archive(tmp_path, monkeypatch, capsys):
     assert "largest difference from the stored positions: 0 m" in capsys.readouterr().out
     assert main(["plot", "b.nc"]) == 2
     assert "batch archive has no figure" in capsys.readouterr().err
+    assert "penalty_error" not in stored and stored.attrs["penalty_estimates"] == 0
+
+
+def test_cli_batch_penalty_stores_each_cases_estimate(tmp_path, monkeypatch, capsys):
+    monkeypatch.chdir(tmp_path)
+    Path("cases.csv").write_text("s1a.tendon_string.tension\n1.0\n2.5\n")
+    assert main(["batch", TDCR, "--cases", "cases.csv", "-o", "b.nc", "--workers", "1",
+                 "--penalty"]) == 0
+    stored = read_dataset("b.nc")
+    assert stored.attrs["penalty_estimates"] == 1
+    expected = [rodsim.penalty_error(alone(TDCR, {"s1a.tendon_string.tension": [1.0, 2.5]},
+                                           case)).error for case in range(2)]
+    assert list(stored["penalty_error"].values) == expected
+    # rerun asks for the estimates again (the archive says it holds them) and matches
+    assert main(["rerun", "b.nc"]) == 0
+    assert "largest difference from the stored positions: 0 m" in capsys.readouterr().out
+    with pytest.raises(ArchiveSchemaError, match="penalty_error"):
+        check_archive(stored.drop_vars("penalty_error"))
 
 
 # A seeded family of user robots -------------------------------------------------------------
@@ -391,3 +409,45 @@ def test_a_seeded_family_of_user_robots_as_batches():
         batch = solve_many(robot, cases, chunk=4)
         assert (batch["status"].values == STATUS["ok"]).sum() >= 5, batch["message"].values
         assert_matches_alone(robot, cases, batch, length)
+
+
+def test_each_case_carries_the_penalty_estimate_rodsim_run_makes(tmp_path):
+    """``penalty=True``: each case's ``penalty_error`` is ``rodsim.penalty_error`` of the case
+    solved alone (what ``rodsim run`` prints), bit for bit, cold and warm; the equilibria are
+    those of the batch without it, bit for bit; the archive says it holds them."""
+    cases = tdcr_cases(6, seed=11)
+    plain = solve_many(TDCR, cases, chunk=4)
+    batch = solve_many(TDCR, cases, chunk=4, penalty=True, output=tmp_path / "b.nc")
+    check_archive(read_dataset(tmp_path / "b.nc"))
+    assert batch.attrs["penalty_estimates"] == 1 and plain.attrs["penalty_estimates"] == 0
+    assert "penalty_error" not in plain
+    assert np.array_equal(batch["position"].values, plain["position"].values)
+    for case in range(6):
+        expected = rodsim.penalty_error(alone(TDCR, cases, case)).error
+        assert 0.0 < expected < 1e-3
+        assert batch["penalty_error"].values[case] == expected, case
+    # Two worker processes (each builds its own stiffer model) give the same estimates.
+    pooled = solve_many(TDCR, cases, chunk=2, workers=2, penalty=True)
+    assert np.array_equal(pooled["penalty_error"].values, batch["penalty_error"].values)
+    warm = solve_many(TDCR, cases, penalty=True, warm=True)
+    # A warm case's equilibrium differs from the cold one within the solver's stopping test
+    # (docs/batch.md, "Warm starts"), so its estimate agrees to that resolution only.
+    assert np.allclose(warm["penalty_error"].values, batch["penalty_error"].values,
+                       rtol=1e-3, atol=1e-9)
+
+
+
+def test_penalty_estimates_of_failed_cases_and_of_a_penalty_key():
+    """A failed case has no estimate (NaN); a case key that is itself a penalty constant
+    (K_P) gets the estimate of its own stiffer scene, still ``rodsim.penalty_error``'s."""
+    cases = {"centerline.K_P": [3.2e4, 3.2e4, 1e4],
+             "s1a.tendon_string.tension": [3.0, 1e4, 1.0]}
+    batch = solve_many(TDCR, cases, penalty=True)
+    assert list(batch["status"].values) == [STATUS["ok"], STATUS["solver_failure"],
+                                            STATUS["ok"]]
+    assert np.isnan(batch["penalty_error"].values[1])
+    for case in (0, 2):
+        expected = rodsim.penalty_error(alone(TDCR, cases, case)).error
+        assert batch["penalty_error"].values[case] == expected, case
+    # the softer centerline penalty has the larger penalty error
+    assert batch["penalty_error"].values[2] > batch["penalty_error"].values[0]

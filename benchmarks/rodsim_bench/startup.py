@@ -20,7 +20,9 @@ counts less than in wall time):
   kernel cache) and ``import rodsim + solve tdcr-two-segment`` (``python -c "import rodsim;
   rodsim.solve('tdcr-two-segment')"``, the Python entry: its ``solver.kernels = "auto"`` is
   ``compiled``, so numba and the scene's cached kernels are loaded);
-- the floors under them: ``python -c pass``, ``import numpy``, ``import numba``.
+- the floors under them: ``python -c pass``, ``import numpy``, ``import numba``, and
+  ``import numpy, scipy.sparse, numba`` (what the Python entry imports before its first
+  compiled evaluation).
 
 With ``RODSIM_BENCH_BASELINE`` set to a git revision (rodsim_bench/baseline.py), issue 35's
 two commands are also run with that revision's tree, interleaved with the rest (rows
@@ -80,6 +82,7 @@ COMMANDS = {
     "python -c pass": ["-c", "pass"],
     "import numpy": ["-c", "import numpy"],
     "import numba": ["-c", "import numba"],
+    "import numpy, scipy.sparse, numba": ["-c", "import numpy, scipy.sparse, numba"],
 }
 
 #: Issue 35's two commands, also run with the baseline revision's tree when one is named.

@@ -4,8 +4,9 @@ A batch is a scene and a table of cases (rodsim/app/batch_cases.py: one column p
 scene key, one row per case), checked in full before any case runs. The model is assembled
 once per process; each case only sets its values (``rodsim.core.model.Model.with_values``,
 the study points' way of sharing a model: rodsim/app/study_points.py) and converges on its own
-from the rest state, with its own verdict, message and stability verdict: the same solve as
-``rodsim.solve`` of that case alone. A case that fails is recorded with its message and the
+from the rest state, with its own verdict, message and stability verdict (and, with
+``penalty=True``, ``rodsim run``'s penalty estimate: rodsim/app/batch_penalty.py): the same
+solve as ``rodsim.solve`` of that case alone. A case that fails is recorded with its message and the
 others go on. With ``warm=True`` each case starts instead from a neighbouring case's
 equilibrium (rodsim/app/batch_warm.py), in chunks of a solve order.
 
@@ -34,6 +35,7 @@ import numpy as np
 
 from rodsim.app.batch_cases import checked_cases
 from rodsim.app.batch_job import SEGMENT, BatchJob, shape_record, shared_model
+from rodsim.app.batch_penalty import record_penalty
 from rodsim.app.inverse.parameter_keys import scene_with
 from rodsim.app.study_parts import (
     StudyLog,
@@ -80,6 +82,7 @@ def _case(job: BatchJob, case: int) -> dict[str, Any]:
     record, solved = solved_record({"case": case}, solve_case)
     if solved is not None:
         shape_record(record, solved[1])
+        record_penalty(job, case, record, solved[1])
     return record
 
 
@@ -174,7 +177,8 @@ def solve_many(scene: Any, cases: Any, integrator: str | None = None, *,
                output: str | Path | None = None, workers: int | None = 1,
                scheduler: str | None = None, chunk: int = CHUNK,
                progress: BatchProgress | None = None, log: StudyLog | None = None,
-               keep_parts: bool = False, warm: bool = False) -> xr.Dataset:
+               keep_parts: bool = False, warm: bool = False, penalty: bool = False
+               ) -> xr.Dataset:
     """The equilibrium of every case of ``cases`` (scene key → values, one per case; a dict,
     an xarray Dataset or a pandas DataFrame) on ``scene`` (a Scene, a path, a shipped scene
     name), as one Dataset with a ``case`` dimension (docs/batch.md).
@@ -188,7 +192,10 @@ def solve_many(scene: Any, cases: Any, integrator: str | None = None, *,
     the equilibria differ from the cold ones by at most a Newton correction at the
     residual's floor, 2.6e-9 L on tdcr-two-segment, and the same table gives the same
     answers bit for bit whatever the chunks and workers; the chunk is rounded up to a
-    multiple of 25 cases, whole segments of the solve order).
+    multiple of 25 cases, whole segments of the solve order). ``penalty``: also each
+    converged case's penalty error estimate, the one ``rodsim run`` prints (variable
+    ``penalty_error``; rodsim/app/batch_penalty.py; about 1.7× the CPU a case, so off by
+    default).
 
     Raises SceneError for a bad scene or cases table (nothing is run or written), StudyError
     for an output that cannot be written, a parts folder of another batch or an unreachable
@@ -208,6 +215,8 @@ def solve_many(scene: Any, cases: Any, integrator: str | None = None, *,
         raise StudyError(f"workers must be a positive whole number, not {workers!r}")
     if not isinstance(warm, bool):
         raise StudyError(f"warm must be True or False, not {warm!r}")
+    if not isinstance(penalty, bool):
+        raise StudyError(f"penalty must be True or False, not {penalty!r}")
     keys, values = checked_cases(base, cases)
     order = None
     if warm:  # chunks of whole segments (rodsim/app/batch_warm.py)
@@ -216,7 +225,7 @@ def solve_many(scene: Any, cases: Any, integrator: str | None = None, *,
         order = solve_order(values)
         chunk = -(-chunk // SEGMENT) * SEGMENT
     job = BatchJob(base.to_json(), base.source, name, tuple(k.name for k in keys), values,
-                   chunk, order)
+                   chunk, order, penalty)
     shape = (sum(r.nodes for r in base.rods.values()),
              sum(r.nodes - 1 for r in base.rods.values()))
     if output is not None:
@@ -234,7 +243,8 @@ def solve_many(scene: Any, cases: Any, integrator: str | None = None, *,
         records = _run(job, shape, output, workers, client, progress, log)
     dataset = batch_dataset(base, name, keys, values, records, shared_model(job)[2],
                             f"rodsim.solve_many(scene {base.name!r}, {job.cases} cases, "
-                            f"integrator={name!r}{', warm=True' if warm else ''})", warm)
+                            f"integrator={name!r}{', warm=True' if warm else ''}"
+                            f"{', penalty=True' if penalty else ''})", warm, penalty)
     if output is not None:
         from rodsim.io.archive import write_dataset
 
@@ -327,7 +337,8 @@ def rerun_batch(dataset: xr.Dataset) -> tuple[xr.Dataset, float]:
     keys = parse_json_names(dataset.attrs["case_keys"], "attribute 'case_keys'")
     cases = {key: key_variable(dataset, key).values for key in keys}
     warm = bool(int(dataset.attrs.get("warm_starts", 0)))  # absent before warm starts
-    again = solve_many(scene, cases, integrator, warm=warm)
+    penalty = bool(int(dataset.attrs.get("penalty_estimates", 0)))  # absent before them
+    again = solve_many(scene, cases, integrator, warm=warm, penalty=penalty)
     ok = dataset["status"].values == STATUS["ok"]
     if not np.array_equal(ok, again["status"].values == STATUS["ok"]):
         return again, float("inf")

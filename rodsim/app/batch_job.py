@@ -41,6 +41,8 @@ class BatchJob:
     #: Warm starts (rodsim/app/batch_warm.py): the solve order, a permutation of the cases,
     #: whose positions the chunks cover; None: cold cases, chunks in case order.
     order: np.ndarray | None = None
+    #: Each case's penalty estimate (rodsim/app/batch_penalty.py) is computed and stored.
+    penalty: bool = False
 
     @property
     def warm(self) -> bool:
@@ -73,6 +75,8 @@ class BatchJob:
             order = hashlib.sha256(np.ascontiguousarray(self.order, dtype="<i8").tobytes())
             definition |= {"warm": True, "segment": SEGMENT,
                            "order_sha256": order.hexdigest()}
+        if self.penalty:  # its chunks carry the estimates
+            definition["penalty_estimates"] = True
         return definition
 
 

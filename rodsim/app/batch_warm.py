@@ -42,6 +42,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from rodsim.app.batch_job import SEGMENT, BatchJob, shape_record, shared_model
+from rodsim.app.batch_penalty import record_penalty
 from rodsim.app.inverse.parameter_keys import scene_with
 from rodsim.app.study_points import solved_record
 
@@ -100,11 +101,12 @@ def _predicted(integrator: Any, model: Model, previous: Previous | None
     return integrator.predicted(model, x, dx), 1
 
 
-def _warm_case(job: BatchJob, case: int, previous: Previous | None
+def _warm_case(job: BatchJob, case: int, previous: Previous | None, recorded: bool = True
                ) -> tuple[dict[str, Any], Previous | None]:
     """Solve ``case`` from ``previous`` (None: from rest) with the shared model; the record
     (as ``rodsim.app.batch``'s cold case) and what the next case starts from (None after
-    a failure, or when the verification made no factorisation)."""
+    a failure, or when the verification made no factorisation). ``recorded``: the case is
+    one of the chunk's (its penalty estimate is made when the batch asks for it)."""
     import time
 
     from rodsim.solvers import registered_integrators
@@ -129,6 +131,8 @@ def _warm_case(job: BatchJob, case: int, previous: Previous | None
     record, solved = solved_record({"case": case}, solve_case)
     if solved is not None:
         shape_record(record, solved[1])
+        if recorded:  # a case solved only to start the next one needs no estimate
+            record_penalty(job, case, record, solved[1])
     return record, kept[0]
 
 
@@ -142,7 +146,8 @@ def warm_chunk(job: BatchJob, start: int, end: int) -> dict[str, Any]:
     for position in range(start - start % SEGMENT, end):
         if position % SEGMENT == 0:
             previous = None
-        record, previous = _warm_case(job, int(job.order[position]), previous)
+        record, previous = _warm_case(job, int(job.order[position]), previous,
+                                      position >= start)
         if position >= start:
             cases.append(record)
     return {"start": start, "end": end, "cases": cases}

@@ -32,7 +32,8 @@ __all__ = ["LEAN_COMMANDS", "EARLY_EXIT_COMMANDS", "hides_dask", "hide_dask", "f
 #: The commands that use neither dask nor worker processes: their process hides dask and
 #: ends with :func:`fast_exit`. ``study``, ``batch`` and ``bench`` start workers and clusters
 #: whose shutdown belongs to the normal exit.
-LEAN_COMMANDS = frozenset({"run", "rerun", "track", "fit", "reach", "plot", "scenes", "terms"})
+LEAN_COMMANDS = frozenset({"run", "rerun", "track", "fit", "reach", "plot", "scenes", "terms",
+                           "compile"})
 #: The commands whose process ends with :func:`fast_exit` once they return normally.
 EARLY_EXIT_COMMANDS = LEAN_COMMANDS | {"study", "batch"}
 

@@ -36,8 +36,9 @@ from rodsim.core.terms import registered_terms
 from rodsim.solvers import DEFAULT_INTEGRATOR
 from rodsim.solvers.result import Result
 
-__all__ = ["Estimates", "PenaltyError", "TRUST_WARNING", "assess", "last_step_result",
-           "penalty_advice", "penalty_constants", "penalty_error", "stiffer_scene"]
+__all__ = ["Estimates", "PenaltyError", "TRUST_WARNING", "assess", "largest_move",
+           "last_step_result", "penalty_advice", "penalty_constants", "penalty_error",
+           "penalty_estimate", "stiffer_scene"]
 
 
 def penalty_constants() -> dict[str, tuple[str, ...]]:
@@ -197,9 +198,21 @@ def _change(result: Result, data: dict[str, Any], model: Model | None) -> float:
     stiffer = solve(scene, DEFAULT_INTEGRATOR, model=stiffer_model, initial_state=result.state)
     if not stiffer.success:
         return float("nan")
+    return largest_move(result, stiffer)
+
+
+def largest_move(result: Result, stiffer: Result) -> float:
+    """The largest control-point distance [m] between ``result`` and ``stiffer`` (a solve
+    of the same scene with stiffer penalties)."""
     return max(float(np.max(np.linalg.norm(stiffer.rods[name].positions - shape.positions,
                                            axis=1)))
                for name, shape in result.rods.items())
+
+
+def penalty_estimate(result: Result, stiffer: Result, factor: float) -> float:
+    """``penalty_error``'s estimate [L] from ``result`` and the converged solve ``stiffer``
+    of its scene with every penalty ×``factor`` (a batch case's: rodsim/app/batch_penalty.py)."""
+    return largest_move(result, stiffer) * factor / (factor - 1.0) / _longest(result)
 
 
 def _longest(result: Result) -> float:

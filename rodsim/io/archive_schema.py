@@ -362,8 +362,9 @@ def _check_track(ds: xr.Dataset) -> None:
 
 
 def _check_batch(ds: xr.Dataset) -> None:
-    """A batch archive: at least one case, a status of the known flags per case, and each
-    key of ``case_keys`` a variable along ``case``."""
+    """A batch archive: at least one case, a status of the known flags per case, each
+    key of ``case_keys`` a variable along ``case``, and ``penalty_error`` along ``case``
+    when attribute ``penalty_estimates`` is 1."""
     cases = ds.sizes.get("case", 0)
     if cases < 1 or _number_attribute(ds, "cases") != cases:
         raise ArchiveSchemaError(f"a batch archive of {cases} cases (attribute 'cases' "
@@ -378,6 +379,8 @@ def _check_batch(ds: xr.Dataset) -> None:
         except KeyError:
             raise ArchiveSchemaError(f"no variable holds case key {key[:60]!r}") from None
         _variable(ds, variable.name, ("case",))
+    if "penalty_estimates" in ds.attrs and _number_attribute(ds, "penalty_estimates"):
+        _variable(ds, "penalty_error", ("case",))  # asked for: each case's estimate
 
 
 def _check_run(ds: xr.Dataset, leading: tuple[str, ...] = ()) -> None:

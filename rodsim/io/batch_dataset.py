@@ -29,13 +29,14 @@ __all__ = ["batch_dataset", "check_chunk_record"]
 
 def batch_dataset(scene: Scene, integrator: str, keys: Sequence[Any], values: np.ndarray,
                   records: list[dict[str, Any]], model: Model, call: str,
-                  warm: bool = False) -> xr.Dataset:
+                  warm: bool = False, penalty: bool = False) -> xr.Dataset:
     """One Dataset for the batch from one record per case (in case order). ``keys`` are the
     cases' ``rodsim.app.inverse.parameter_keys.NumericKey`` (their ``name`` and
     ``unit`` are read), ``values`` the (cases, keys) table, ``model`` the base scene's
     (its rods give the node and segment coordinates); ``call`` the history's words;
     ``warm``: the cases were warm-started (attribute ``warm_starts`` 1, else 0;
-    rodsim/app/batch_warm.py)."""
+    rodsim/app/batch_warm.py); ``penalty``: the records carry each case's penalty estimate
+    (variable ``penalty_error``, attribute ``penalty_estimates`` 1; rodsim/app/batch_penalty.py)."""
     from rodsim.solvers import registered_integrators
 
     count = len(records)
@@ -46,13 +47,15 @@ def batch_dataset(scene: Scene, integrator: str, keys: Sequence[Any], values: np
     message = np.full(count, "", dtype=object)
     position = np.full((count, len(node_rod), 3), np.nan)
     quaternion = np.full((count, len(seg_rod), 4), np.nan)
+    optional = ("penalty_error",) if penalty else ()
     scalars = {k: np.full(count, np.nan) for k in ("residual", "quaternion_norm_error",
                                                   "stable", "stiffness_min_eigenvalue",
-                                                  *POINT_STATS)}
+                                                  *optional, *POINT_STATS)}
     for case, record in enumerate(records):
         status[case], message[case] = record["status"], record["message"]
-        for key in ("residual", "quaternion_norm_error", "stable", "stiffness_min_eigenvalue"):
-            if key in record:
+        for key in ("residual", "quaternion_norm_error", "stable", "stiffness_min_eigenvalue",
+                    *optional):
+            if record.get(key) is not None:
                 scalars[key][case] = record[key]
         for key in POINT_STATS:
             if "stats" in record:
@@ -93,6 +96,10 @@ def batch_dataset(scene: Scene, integrator: str, keys: Sequence[Any], values: np
                         "or no verdict)"),
         "stiffness_min_eigenvalue": ("1", "smallest eigenvalue of the stiffness of an "
                                           "unstable case (NaN where stable)"),
+        "penalty_error": ("1", "estimated penalty error of the case's equilibrium in units of "
+                               "the longest rod's length L, from a warm static re-solve with "
+                               "every penalty x10, as rodsim run's (0: no penalty in the "
+                               "scene; NaN: failed case or failed re-solve)"),
         **POINT_STAT_DOCS,
     }
     for key, array in scalars.items():
@@ -115,6 +122,7 @@ def batch_dataset(scene: Scene, integrator: str, keys: Sequence[Any], values: np
         "cases": count,
         "failed_cases": int(np.sum(status != STATUS["ok"])),
         "warm_starts": int(warm),
+        "penalty_estimates": int(penalty),
         "solver_tolerance": float(scene.solver.tolerance),
         "scene_json": scene.to_json(),
         "scene_toml": scene.source,
@@ -166,3 +174,5 @@ def check_chunk_record(record: Any, shape: tuple[int, int], stats: tuple[str, ..
         for key in ("residual", "quaternion_norm_error"):
             if not _number(case.get(key)):
                 raise ArchiveSchemaError(f"case {case['case']}: {key} is not a number")
+        if case.get("penalty_error") is not None and not _number(case["penalty_error"]):
+            raise ArchiveSchemaError(f"case {case['case']}: penalty_error is not a number")

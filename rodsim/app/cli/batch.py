@@ -55,7 +55,7 @@ def cmd_batch(args: argparse.Namespace) -> int:
         dataset = solve_many(scene, cases, args.integrator, output=output,
                              workers=args.workers, scheduler=args.scheduler,
                              chunk=args.chunk, progress=progress, log=log,
-                             warm=args.warm)
+                             warm=args.warm, penalty=args.penalty)
     except (StudyError, SceneError) as exc:
         raise UserError(str(exc)) from None
     except KeyboardInterrupt:

@@ -19,6 +19,7 @@ from rodsim.app.cli.arguments import (
 from rodsim.app.cli.batch import cmd_batch
 from rodsim.app.cli.bench import cmd_bench
 from rodsim.app.cli.common import EXIT_BAD_INPUT
+from rodsim.app.cli.compile import cmd_compile
 from rodsim.app.cli.fit import Fit
 from rodsim.app.cli.fit_series import cmd_fit
 from rodsim.app.cli.listing import cmd_scenes, cmd_terms
@@ -195,6 +196,10 @@ def build_parser() -> argparse.ArgumentParser:
                       help="start each case from a neighbouring case's equilibrium (fewer "
                       "Newton iterations; equal to the cold solves to their round-off, "
                       "docs/batch.md 'Warm starts')")
+    many.add_argument("--penalty", action="store_true",
+                      help="also estimate each case's penalty error, as rodsim run does (one "
+                      "more warm solve per case: about 1.7x the batch's time on "
+                      "tdcr-two-segment; docs/batch.md)")
     many.set_defaults(func=cmd_batch)
 
     follow = _scene_command(sub, "track", Track, "scene file or shipped scene name",
@@ -377,6 +382,20 @@ def build_parser() -> argparse.ArgumentParser:
                        help="write into the checkout's committed benchmarks/results instead "
                        "(to update the published numbers)")
     bench.set_defaults(func=cmd_bench)
+
+    compile_ = sub.add_parser(
+        "compile", help="compile every kernel a scene can need into numba's disk cache now "
+        "(optional, once after installing: later runs then load them)",
+        description="Compile the compiled kernels ahead of time: solve every shipped scene, "
+        "table1-50g with every integrator and small scenes with every term, obstacle, load, "
+        "tendon and friction with solver.kernels = compiled, so that numba writes each "
+        "kernel to its on-disk cache (beside the package, else numba's user cache, or "
+        "NUMBA_CACHE_DIR). A later process loads them instead of compiling (seconds each). "
+        "Prints a progress line and a summary (kernels, seconds).")
+    compile_.add_argument("scenes", nargs="*", metavar="SCENE",
+                          help="only these shipped scenes (or compile-* coverage scenes), "
+                          "each with its own integrator; default: everything")
+    compile_.set_defaults(func=cmd_compile)
 
     scenes = sub.add_parser("scenes", help="list the shipped scenes (paper Tables 1 and 3)")
     scenes.set_defaults(func=cmd_scenes)
