@@ -30,9 +30,9 @@ from rodsim.core.scene import Scene
 
 
 def _breakaways(monkeypatch, scene: Scene, duration: float, step: float,
-                ramp: Table, start: float) -> dict[int, float]:
+                ramp: Table, start: float) -> tuple[dict[int, float], rodsim.Simulation]:
     """The first time each routing point of the scene's tendon reads as sliding out in the
-    history a run carries (``Programs.carry_history``), point → time [s]."""
+    history a run carries (``Programs.carry_history``), point → time [s]; and the run."""
     first: dict[int, float] = {}
     carry = Programs.carry_history
 
@@ -46,15 +46,21 @@ def _breakaways(monkeypatch, scene: Scene, duration: float, step: float,
     run = rodsim.simulate(scene, duration, output_dt=duration, step=step,
                           initial={TENSION: start}, program={TENSION: ramp})
     assert run.success, run.message
-    return first
+    return first, run
 
 
 @pytest.mark.parametrize("step", [1e-3, 3e-4])
-def test_points_break_loose_at_the_capstan_ratio_of_a_linear_ramp(monkeypatch, step):
+def test_points_break_loose_at_the_capstan_ratio_of_a_linear_ramp(monkeypatch, tmp_path,
+                                                                   step):
     """Every point's breakaway time against t_e = (T_max − T_e)/r (module docstring), T from
     1 mN down to 0.2 mN over 10 ms: measured within 9e-9 of the ramp's duration at 1 ms and
     0.25 ms steps (the rod is not quite rigid); the first point breaks at 2.87 ms, inside a
-    step, where finding it at a step's end (before round 16) was up to a step late."""
+    step, where finding it at a step's end (before round 16) was up to a step late. The
+    run's record of them (``Simulation.breakaways``) and the trajectory archive's
+    (``breakaway_time``, ``breakaway_point``, ``breakaway_direction``, written and read
+    back) hold each point once, sliding out, at the time its history was carried."""
+    from rodsim.io.archive import read_dataset, write_dataset
+
     nodes, t_max, t_min, duration = 11, 1e-3, 0.2e-3, 0.01
     turns = helix_turns(nodes)
     wrap = np.cumsum(turns)
@@ -62,11 +68,38 @@ def test_points_break_loose_at_the_capstan_ratio_of_a_linear_ramp(monkeypatch, s
     closed = (t_max - edge) / ((t_max - t_min) / duration)
     assert np.all(edge > t_min) and np.all(np.diff(closed) > 0)
     scene = Scene.from_dict(helix_scene(nodes, t_max, friction=MU_K, static_friction=MU_S))
-    found = _breakaways(monkeypatch, scene, duration, step,
-                        Table((0.0, duration), (t_max, t_min)), t_max)
+    found, run = _breakaways(monkeypatch, scene, duration, step,
+                             Table((0.0, duration), (t_max, t_min)), t_max)
     times = np.array([found.get(e, math.nan) for e in range(len(turns))])
     assert np.max(np.abs(times - closed)) < 1e-7 * duration, (times - closed) / duration
     assert abs(closed[0] / step - round(closed[0] / step)) > 0.05  # inside a step
+    assert [(b.tendon, b.point, b.direction) for b in run.breakaways] == [
+        ("a", e, 1) for e in range(len(turns))]
+    assert np.array_equal([b.time for b in run.breakaways], times)
+    write_dataset(run.to_xarray(), tmp_path / "release.nc")
+    archive = read_dataset(tmp_path / "release.nc")
+    assert np.array_equal(archive["breakaway_point"].values, np.arange(len(turns)))
+    assert np.all(archive["breakaway_direction"].values == 1)
+    assert list(archive["breakaway_tendon"].values.astype(str)) == ["a"] * len(turns)
+    assert np.allclose(archive["breakaway_point_s"].values,
+                       archive["chord_point_s"].values)
+    located = archive["breakaway_time"].values
+    assert np.max(np.abs(located - closed)) < 1e-7 * duration, (located - closed) / duration
+
+
+def test_a_kinetic_release_records_no_breakaway():
+    """With μ_s = μ_k (no stiction) a point starts sliding continuously, nothing is
+    located: no breakaway in the run or its archive (the variables there, empty), though
+    every point of the released helix slides out by the end."""
+    nodes, t_max, t_min, duration = 11, 1e-3, 0.2e-3, 0.01
+    scene = Scene.from_dict(helix_scene(nodes, t_max, friction=MU_K))
+    run = rodsim.simulate(scene, duration, output_dt=duration, step=1e-3,
+                          initial={TENSION: t_max},
+                          program={TENSION: Table((0.0, duration), (t_max, t_min))})
+    assert run.success, run.message
+    assert run.friction is not None and np.all(run.friction.slip[-1] == 1)
+    assert run.breakaways == ()
+    assert run.to_xarray()["breakaway_time"].size == 0
 
 
 def _released_tip(static: float, step: float) -> np.ndarray:

@@ -233,7 +233,7 @@ def simulate(scene: SceneLike | None, t_end: float, *, output_dt: float | None =
     if programs.path_dependent:
         # The start: at rest in the equilibrium it was left in (x holds the coordinates
         # themselves, the history is taken at the model's offsets from its rest state).
-        friction.after_step(0.0, model_state(model, x))
+        friction.start(model_state(model, x))
     coordinates = PhysicalCoordinates.of(model, x)
     length = max(rod.options.length for rod in model.rods.values())
     stepper: SemiImplicitEulerStep | MidpointStep = (
@@ -339,4 +339,6 @@ def _simulation(loaded: Scene, model: Model, record: Record, h: float, integrato
                       _initial_text(initial) + velocity_text(initial_velocity),
                       tuple(record.events),
                       friction.at(record.times) if friction is not None else None,
-                      control, record.rejected)
+                      control, record.rejected,
+                      tuple(b for b in friction.breakaways if b.time <= record.times[-1])
+                      if friction is not None and record.times else ())
