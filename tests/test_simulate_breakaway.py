@@ -102,6 +102,43 @@ def test_a_kinetic_release_records_no_breakaway():
     assert run.to_xarray()["breakaway_time"].size == 0
 
 
+@pytest.mark.parametrize("stop", [2.5e-3, 2.95e-3])
+def test_a_terminal_events_last_step_starts_from_the_history_at_its_start(stop):
+    """The helix let out by the ramp above at 1 ms steps, a user's terminal event at
+    ``stop`` inside the step [2, 3] ms in which point 0 breaks loose (at t_0 = 2.87 ms in
+    closed form; point 1 at 3.17 ms). The step is taken again from 2 ms to the event, and
+    the trial steps that locate it too, from the history at 2 ms (before round 17 from that
+    at 3 ms, where point 0 already slid: stopped at 2.5 ms chord 0 then ended at
+    T(3 ms) e^{μ_k θ_0} instead of its stored tension, and the breakaway past the stop was
+    kept). Stopped before t_0: no breakaway, every chord holds its stored tension exactly;
+    past it: point 0 broke loose at t_0 (to 1e-7 of the ramp), chord 0 slides out at
+    T(stop) e^{μ_k θ_0}, the others hold theirs exactly."""
+    nodes, t_max, t_min, duration = 11, 1e-3, 0.2e-3, 0.01
+    turns = helix_turns(nodes)
+    rate = (t_max - t_min) / duration
+    broke = (t_max - t_max * math.exp(-(MU_K + MU_S) * turns[0])) / rate
+    scene = Scene.from_dict(helix_scene(nodes, t_max, friction=MU_K, static_friction=MU_S))
+    run = rodsim.simulate(scene, duration, output_dt=duration, step=1e-3,
+                          initial={TENSION: t_max},
+                          program={TENSION: Table((0.0, duration), (t_max, t_min))},
+                          events=[rodsim.Event(lambda t, positions: stop - t,
+                                               terminal=True)])
+    assert run.success and run.times[-1] == pytest.approx(stop, abs=1e-12), run.message
+    assert run.friction is not None
+    start, end = run.friction.tension[0], run.friction.tension[-1]
+    if stop < broke:
+        assert run.breakaways == ()
+        assert np.array_equal(end, start)
+        assert np.all(run.friction.slip[-1] == 0)
+        return
+    assert [(b.point, b.direction) for b in run.breakaways] == [(0, 1)]
+    assert abs(run.breakaways[0].time - broke) < 1e-7 * duration
+    expected = (t_max - rate * stop) * math.exp(MU_K * turns[0])
+    assert abs(end[0] / expected - 1) < 1e-6, end[0] / expected - 1
+    assert np.array_equal(end[1:], start[1:])
+    assert list(run.friction.slip[-1]) == [1] + [0] * (len(turns) - 1)
+
+
 def _released_tip(static: float, step: float) -> np.ndarray:
     raw = catheter(11, 0.25, 3.0, static_friction=static)
     raw["rods"]["backbone"]["damping"] = {"retardation_time": 6e-3}

@@ -5,7 +5,7 @@ kept at the output times, and every routing point that broke loose with the time
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 
 import numpy as np
 
@@ -55,6 +55,21 @@ class FrictionTrace:
             found = friction_record(end, end.full(x))
             if found is not None:
                 self.kept[t] = found
+
+    def mark(self) -> Callable[[], None]:
+        """What restores the history as it is now (the carried anchors, the breakaways
+        noted, the last step's end): a trial step (an event's root,
+        rodsim/solvers/physical/trajectory.py) is taken from it and undone."""
+        model, found, latest = self.programs.model, len(self.breakaways), self.latest
+        now = -np.inf if latest is None else latest[0]
+
+        def restore() -> None:
+            self.programs.restore(model)
+            del self.breakaways[found:]
+            self.latest = latest
+            for t in [t for t in self.kept if t > now]:
+                del self.kept[t]
+        return restore
 
     def at(self, times: Sequence[float]) -> FrictionRecord | None:
         """The states kept at ``times`` stacked along a leading time axis; None without

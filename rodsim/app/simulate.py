@@ -266,7 +266,8 @@ def simulate(scene: SceneLike | None, t_end: float, *, output_dt: float | None =
                           difference=programs.difference)
         else:
             integrate(programs.model_at, stepper, start, outputs, h, progress, record,
-                      friction.after_step if programs.path_dependent else None, watched)
+                      friction.after_step if programs.path_dependent else None, watched,
+                      friction.mark if programs.path_dependent else None)
     except KeyboardInterrupt:  # Ctrl-C or SIGTERM: what was computed, marked incomplete
         done = min(len(record.times), len(record.states), len(record.kinetic),
                    len(record.potential), len(record.dissipated), len(record.work))
