@@ -107,7 +107,7 @@ def test_the_loop_area_of_the_shipped_robots_converges_in_n(name, mu):
 def test_the_loop_area_of_users_robots_converges_in_n_at_second_order(seed):
     """Each robot's first tendon cycled 0.1 T → T → 0.1 T in 35 steps at its N, 2N − 1 and
     4N − 3: the loop area's successive differences relative to the finest 1.2e-3, 3.4e-4
-    (steel TDCR at 22 N), 1.3e-3, 3.3e-4 (soft catheter at 2.8 N), 1.9e-3, 4.9e-4 (nitinol
+    (TDCR at 22 N), 1.3e-3, 3.3e-4 (soft catheter at 2.8 N), 1.9e-3, 4.9e-4 (nitinol
     tube at 198 N), 1.2e-3, 3.4e-4, 7.7e-4, 2.0e-4, 1.1e-3, 2.9e-4 (seeds 3–5): orders
     1.75–1.98."""
     data, first = user_robot(seed)

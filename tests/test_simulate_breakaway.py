@@ -102,6 +102,38 @@ def test_a_kinetic_release_records_no_breakaway():
     assert run.to_xarray()["breakaway_time"].size == 0
 
 
+@pytest.mark.parametrize("step", [2e-3, 1e-4])
+def test_a_breakaway_inside_a_step_whose_ends_hold_is_found(step):
+    """The helix let out from 1 mN to T_low at 1.5 ms and pulled back to 0.95 mN at 2 ms,
+    T_low between point 0's and point 1's edges (module docstring): point 0 breaks loose on
+    the way down, at t_0 where T(t_0) = T_max e^{−(μ_k+μ_s)θ_0}, and holds again (its
+    margin > 0 at 0 and at 2 ms). At 2 ms steps both ends of the step read it as held: the
+    part's interpolant is screened at its quarter points for a margin ≤ 0, and the dip,
+    confirmed on the step to it, brackets the root (before round 17 nothing was found);
+    at 0.1 ms steps it is found by its sign change. Measured 1.2e-8 of the ramp from the
+    closed form at both steps. At 0.1 ms steps chord 0 ends holding T_low e^{μ_k θ_0} (it
+    slid out to the trough, and 0.95 mN does not break it loose inward); at 2 ms steps the
+    re-stick inside the step's rest is not located (rodsim/solvers/physical/breakaway.py)
+    and chord 0 ends at its stored tension."""
+    nodes, t_max = 11, 1e-3
+    turns = helix_turns(nodes)
+    wrap = np.cumsum(turns)
+    edge = t_max * np.exp(-2 * MU_K * wrap - (MU_S - MU_K) * turns)
+    low = 0.5 * (edge[0] + edge[1])
+    broke = 1.5e-3 * (t_max - edge[0]) / (t_max - low)
+    scene = Scene.from_dict(helix_scene(nodes, t_max, friction=MU_K, static_friction=MU_S))
+    ramp = Table((0.0, 1.5e-3, 2e-3, 4e-3), (t_max, low, 0.95 * t_max, 0.95 * t_max))
+    run = rodsim.simulate(scene, 4e-3, output_dt=2e-3, step=step, initial={TENSION: t_max},
+                          program={TENSION: ramp})
+    assert run.success, run.message
+    assert [(b.point, b.direction) for b in run.breakaways] == [(0, 1)]
+    assert abs(run.breakaways[0].time - broke) < 1e-7 * 1.5e-3
+    if step < 1e-3:  # the trough a step's end: chord 0 slid out to T_low e^{μ_k θ_0}, held
+        assert run.friction is not None
+        held = run.friction.tension[-1][0] / (low * math.exp(MU_K * turns[0]))
+        assert abs(held - 1) < 1e-5, held - 1
+
+
 @pytest.mark.parametrize("stop", [2.5e-3, 2.95e-3])
 def test_a_terminal_events_last_step_starts_from_the_history_at_its_start(stop):
     """The helix let out by the ramp above at 1 ms steps, a user's terminal event at

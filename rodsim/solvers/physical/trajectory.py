@@ -39,7 +39,7 @@ from rodsim.solvers.physical.breakaway import locate, margins, sticky
 from rodsim.solvers.physical.coordinates import model_state
 from rodsim.solvers.physical.events import EventFunctions
 from rodsim.solvers.physical.fixed_step import FixedStep, Motion, StepFailure, StepOutcome
-from rodsim.solvers.physical.step_events import watched
+from rodsim.solvers.physical.step_events import hermite, watched
 
 #: What a run is told at the end of every step: ``after_step(t, x)``, x the model's free
 #: coordinates (offsets from the rest state); a step in which a point of a string tendon
@@ -136,7 +136,9 @@ def _part(model_at: Callable[[float], Model], stepper: FixedStep, motion: Motion
         spent[1] += found.iterations
         return found
 
-    when, first = locate(model_at, t0, start, t1, outcome.motion, solve)
+    curve = hermite(stepper.coordinates, t0, motion, t1, outcome.motion)
+    when, first = locate(model_at, t0, start, t1, outcome.motion, solve,
+                         lambda t: curve(t)[0])
     if first is None:
         return t1, middle, outcome, (spent[0], spent[1])
     return when, models[when], first, (spent[0], spent[1])
