@@ -15,6 +15,9 @@
   tension is T_0 e^{−μΘ} with Θ the turns measured on the state, to 1e-12 relative; released,
   it holds exactly while T e^{μΘ(T)} ≥ T_max e^{−μΘ_max} (Θ(T) measured on the released
   state) — tested 1e-9 relative either side of that edge.
+- The actuator's displacement along a track (``Track.pulled_in``) against the self-bent
+  catheter's closed form; friction on a rod tendon refused on the command line (exit 2,
+  one line).
 """
 
 from __future__ import annotations
@@ -185,3 +188,23 @@ def test_the_actuator_displacement_against_the_closed_form():
     assert np.array_equal(archived, pulled)
     orders = [math.log2(a / b) for a, b in zip(errors, errors[1:], strict=False)]
     assert errors[-1] < 7e-3 and all(0.9 < o < 1.1 for o in orders), (errors, orders)
+
+
+@pytest.mark.parametrize("table", ["[tendons.tendon]", "[tendons.tendon.tendon_actuation]"])
+def test_friction_on_a_rod_tendon_exits_2_with_one_line(cli, capsys, tmp_path, table):
+    """``rodsim run`` of table3-catheter1's scene file with friction set on its rod tendon
+    (the paper's coupling), on its table or its actuation term: exit 2 and one line naming
+    where friction belongs (tendon_string; docs/tendon.md, "Rod tendons have no friction"),
+    nothing written."""
+    from pathlib import Path
+
+    text = (Path(__file__).parents[1] / "data" / "table3-catheter1.toml").read_text()
+    assert f"\n{table}\n" in text
+    scene = tmp_path / "rubbing.toml"
+    scene.write_text(text.replace(f"\n{table}\n", f"\n{table}\nfriction = 0.2\n", 1))
+    out = tmp_path / "out.nc"
+    assert cli(["run", str(scene), "-o", str(out)]) == 2
+    captured = capsys.readouterr()
+    lines = [line for line in captured.err.splitlines() if line.strip()]
+    assert len(lines) == 1 and "tendon_string" in lines[0], captured.err
+    assert not out.exists()
