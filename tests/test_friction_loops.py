@@ -8,9 +8,10 @@
   the same cycle at μ = 0 is the frictionless track bitwise. The string's friction has no
   regularisation (the capstan clip is exact Coulomb, rodsim/core/tendon_friction.py), so
   there is no regularisation to converge in.
-- Users' robots drawn at random (tests/test_tendon_friction.py's ``user_robot``: steel and
-  nitinol TDCRs on spacer disks at 1.4–330 N, soft polymer catheters with lumens, nitinol
-  tubes; μ 0.05–0.3): the same cycle's area converges in N at second order.
+- Users' robots drawn at random (tests/test_tendon_friction.py's ``user_robot``: TDCRs on
+  spacer disks pulled to 22 and 2.9 N, soft polymer catheters with lumens to 2.8 and 1.4 N,
+  nitinol tubes to 198 and 333 N; μ 0.05–0.3): the same cycle's area converges in N at
+  second order.
 - The rigid helix (tests/test_tendon_stiction.py, μ = 0.2): pulled in, the termination's
   tension is T_0 e^{−μΘ} with Θ the turns measured on the state, to 1e-12 relative; released,
   it holds exactly while T e^{μΘ(T)} ≥ T_max e^{−μΘ_max} (Θ(T) measured on the released
