@@ -30,9 +30,9 @@ from rodsim.core.scene import Scene
 
 
 def _breakaways(monkeypatch, scene: Scene, duration: float, step: float,
-                ramp: Table, start: float) -> dict[int, float]:
+                ramp: Table, start: float) -> tuple[dict[int, float], rodsim.Simulation]:
     """The first time each routing point of the scene's tendon reads as sliding out in the
-    history a run carries (``Programs.carry_history``), point → time [s]."""
+    history a run carries (``Programs.carry_history``), point → time [s]; and the run."""
     first: dict[int, float] = {}
     carry = Programs.carry_history
 
@@ -46,15 +46,21 @@ def _breakaways(monkeypatch, scene: Scene, duration: float, step: float,
     run = rodsim.simulate(scene, duration, output_dt=duration, step=step,
                           initial={TENSION: start}, program={TENSION: ramp})
     assert run.success, run.message
-    return first
+    return first, run
 
 
 @pytest.mark.parametrize("step", [1e-3, 3e-4])
-def test_points_break_loose_at_the_capstan_ratio_of_a_linear_ramp(monkeypatch, step):
+def test_points_break_loose_at_the_capstan_ratio_of_a_linear_ramp(monkeypatch, tmp_path,
+                                                                   step):
     """Every point's breakaway time against t_e = (T_max − T_e)/r (module docstring), T from
     1 mN down to 0.2 mN over 10 ms: measured within 9e-9 of the ramp's duration at 1 ms and
     0.25 ms steps (the rod is not quite rigid); the first point breaks at 2.87 ms, inside a
-    step, where finding it at a step's end (before round 16) was up to a step late."""
+    step, where finding it at a step's end (before round 16) was up to a step late. The
+    run's record of them (``Simulation.breakaways``) and the trajectory archive's
+    (``breakaway_time``, ``breakaway_point``, ``breakaway_direction``, written and read
+    back) hold each point once, sliding out, at the time its history was carried."""
+    from rodsim.io.archive import read_dataset, write_dataset
+
     nodes, t_max, t_min, duration = 11, 1e-3, 0.2e-3, 0.01
     turns = helix_turns(nodes)
     wrap = np.cumsum(turns)
@@ -62,11 +68,107 @@ def test_points_break_loose_at_the_capstan_ratio_of_a_linear_ramp(monkeypatch, s
     closed = (t_max - edge) / ((t_max - t_min) / duration)
     assert np.all(edge > t_min) and np.all(np.diff(closed) > 0)
     scene = Scene.from_dict(helix_scene(nodes, t_max, friction=MU_K, static_friction=MU_S))
-    found = _breakaways(monkeypatch, scene, duration, step,
-                        Table((0.0, duration), (t_max, t_min)), t_max)
+    found, run = _breakaways(monkeypatch, scene, duration, step,
+                             Table((0.0, duration), (t_max, t_min)), t_max)
     times = np.array([found.get(e, math.nan) for e in range(len(turns))])
     assert np.max(np.abs(times - closed)) < 1e-7 * duration, (times - closed) / duration
     assert abs(closed[0] / step - round(closed[0] / step)) > 0.05  # inside a step
+    assert [(b.tendon, b.point, b.direction) for b in run.breakaways] == [
+        ("a", e, 1) for e in range(len(turns))]
+    assert np.array_equal([b.time for b in run.breakaways], times)
+    write_dataset(run.to_xarray(), tmp_path / "release.nc")
+    archive = read_dataset(tmp_path / "release.nc")
+    assert np.array_equal(archive["breakaway_point"].values, np.arange(len(turns)))
+    assert np.all(archive["breakaway_direction"].values == 1)
+    assert list(archive["breakaway_tendon"].values.astype(str)) == ["a"] * len(turns)
+    assert np.allclose(archive["breakaway_point_s"].values,
+                       archive["chord_point_s"].values)
+    located = archive["breakaway_time"].values
+    assert np.max(np.abs(located - closed)) < 1e-7 * duration, (located - closed) / duration
+
+
+def test_a_kinetic_release_records_no_breakaway():
+    """With μ_s = μ_k (no stiction) a point starts sliding continuously, nothing is
+    located: no breakaway in the run or its archive (the variables there, empty), though
+    every point of the released helix slides out by the end."""
+    nodes, t_max, t_min, duration = 11, 1e-3, 0.2e-3, 0.01
+    scene = Scene.from_dict(helix_scene(nodes, t_max, friction=MU_K))
+    run = rodsim.simulate(scene, duration, output_dt=duration, step=1e-3,
+                          initial={TENSION: t_max},
+                          program={TENSION: Table((0.0, duration), (t_max, t_min))})
+    assert run.success, run.message
+    assert run.friction is not None and np.all(run.friction.slip[-1] == 1)
+    assert run.breakaways == ()
+    assert run.to_xarray()["breakaway_time"].size == 0
+
+
+@pytest.mark.parametrize("step", [2e-3, 1e-4])
+def test_a_breakaway_inside_a_step_whose_ends_hold_is_found(step):
+    """The helix let out from 1 mN to T_low at 1.5 ms and pulled back to 0.95 mN at 2 ms,
+    T_low between point 0's and point 1's edges (module docstring): point 0 breaks loose on
+    the way down, at t_0 where T(t_0) = T_max e^{−(μ_k+μ_s)θ_0}, and holds again (its
+    margin > 0 at 0 and at 2 ms). At 2 ms steps both ends of the step read it as held: the
+    part's interpolant is screened at its quarter points for a margin ≤ 0, and the dip,
+    confirmed on the step to it, brackets the root (before round 17 nothing was found);
+    at 0.1 ms steps it is found by its sign change. Measured 1.2e-8 of the ramp from the
+    closed form at both steps. At 0.1 ms steps chord 0 ends holding T_low e^{μ_k θ_0} (it
+    slid out to the trough, and 0.95 mN does not break it loose inward); at 2 ms steps the
+    re-stick inside the step's rest is not located (rodsim/solvers/physical/breakaway.py)
+    and chord 0 ends at its stored tension."""
+    nodes, t_max = 11, 1e-3
+    turns = helix_turns(nodes)
+    wrap = np.cumsum(turns)
+    edge = t_max * np.exp(-2 * MU_K * wrap - (MU_S - MU_K) * turns)
+    low = 0.5 * (edge[0] + edge[1])
+    broke = 1.5e-3 * (t_max - edge[0]) / (t_max - low)
+    scene = Scene.from_dict(helix_scene(nodes, t_max, friction=MU_K, static_friction=MU_S))
+    ramp = Table((0.0, 1.5e-3, 2e-3, 4e-3), (t_max, low, 0.95 * t_max, 0.95 * t_max))
+    run = rodsim.simulate(scene, 4e-3, output_dt=2e-3, step=step, initial={TENSION: t_max},
+                          program={TENSION: ramp})
+    assert run.success, run.message
+    assert [(b.point, b.direction) for b in run.breakaways] == [(0, 1)]
+    assert abs(run.breakaways[0].time - broke) < 1e-7 * 1.5e-3
+    if step < 1e-3:  # the trough a step's end: chord 0 slid out to T_low e^{μ_k θ_0}, held
+        assert run.friction is not None
+        held = run.friction.tension[-1][0] / (low * math.exp(MU_K * turns[0]))
+        assert abs(held - 1) < 1e-5, held - 1
+
+
+@pytest.mark.parametrize("stop", [2.5e-3, 2.95e-3])
+def test_a_terminal_events_last_step_starts_from_the_history_at_its_start(stop):
+    """The helix let out by the ramp above at 1 ms steps, a user's terminal event at
+    ``stop`` inside the step [2, 3] ms in which point 0 breaks loose (at t_0 = 2.87 ms in
+    closed form; point 1 at 3.17 ms). The step is taken again from 2 ms to the event, and
+    the trial steps that locate it too, from the history at 2 ms (before round 17 from that
+    at 3 ms, where point 0 already slid: stopped at 2.5 ms chord 0 then ended at
+    T(3 ms) e^{μ_k θ_0} instead of its stored tension, and the breakaway past the stop was
+    kept). Stopped before t_0: no breakaway, every chord holds its stored tension exactly;
+    past it: point 0 broke loose at t_0 (to 1e-7 of the ramp), chord 0 slides out at
+    T(stop) e^{μ_k θ_0}, the others hold theirs exactly."""
+    nodes, t_max, t_min, duration = 11, 1e-3, 0.2e-3, 0.01
+    turns = helix_turns(nodes)
+    rate = (t_max - t_min) / duration
+    broke = (t_max - t_max * math.exp(-(MU_K + MU_S) * turns[0])) / rate
+    scene = Scene.from_dict(helix_scene(nodes, t_max, friction=MU_K, static_friction=MU_S))
+    run = rodsim.simulate(scene, duration, output_dt=duration, step=1e-3,
+                          initial={TENSION: t_max},
+                          program={TENSION: Table((0.0, duration), (t_max, t_min))},
+                          events=[rodsim.Event(lambda t, positions: stop - t,
+                                               terminal=True)])
+    assert run.success and run.times[-1] == pytest.approx(stop, abs=1e-12), run.message
+    assert run.friction is not None
+    start, end = run.friction.tension[0], run.friction.tension[-1]
+    if stop < broke:
+        assert run.breakaways == ()
+        assert np.array_equal(end, start)
+        assert np.all(run.friction.slip[-1] == 0)
+        return
+    assert [(b.point, b.direction) for b in run.breakaways] == [(0, 1)]
+    assert abs(run.breakaways[0].time - broke) < 1e-7 * duration
+    expected = (t_max - rate * stop) * math.exp(MU_K * turns[0])
+    assert abs(end[0] / expected - 1) < 1e-6, end[0] / expected - 1
+    assert np.array_equal(end[1:], start[1:])
+    assert list(run.friction.slip[-1]) == [1] + [0] * (len(turns) - 1)
 
 
 def _released_tip(static: float, step: float) -> np.ndarray:

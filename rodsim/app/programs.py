@@ -138,3 +138,10 @@ class Programs:
         self.model = self.model.with_anchors_of(end.anchored(x))
         self._models.clear()
         return end
+
+    def restore(self, model: Model) -> None:
+        """Friction's history back to that of ``model`` (what ``model`` was before some
+        ``carry_history``: a trial step undone)."""
+        if model is not self.model:
+            self.model = model
+            self._models.clear()

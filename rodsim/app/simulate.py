@@ -233,7 +233,7 @@ def simulate(scene: SceneLike | None, t_end: float, *, output_dt: float | None =
     if programs.path_dependent:
         # The start: at rest in the equilibrium it was left in (x holds the coordinates
         # themselves, the history is taken at the model's offsets from its rest state).
-        friction.after_step(0.0, model_state(model, x))
+        friction.start(model_state(model, x))
     coordinates = PhysicalCoordinates.of(model, x)
     length = max(rod.options.length for rod in model.rods.values())
     stepper: SemiImplicitEulerStep | MidpointStep = (
@@ -266,7 +266,8 @@ def simulate(scene: SceneLike | None, t_end: float, *, output_dt: float | None =
                           difference=programs.difference)
         else:
             integrate(programs.model_at, stepper, start, outputs, h, progress, record,
-                      friction.after_step if programs.path_dependent else None, watched)
+                      friction.after_step if programs.path_dependent else None, watched,
+                      friction.mark if programs.path_dependent else None)
     except KeyboardInterrupt:  # Ctrl-C or SIGTERM: what was computed, marked incomplete
         done = min(len(record.times), len(record.states), len(record.kinetic),
                    len(record.potential), len(record.dissipated), len(record.work))
@@ -339,4 +340,6 @@ def _simulation(loaded: Scene, model: Model, record: Record, h: float, integrato
                       _initial_text(initial) + velocity_text(initial_velocity),
                       tuple(record.events),
                       friction.at(record.times) if friction is not None else None,
-                      control, record.rejected)
+                      control, record.rejected,
+                      tuple(b for b in friction.breakaways if b.time <= record.times[-1])
+                      if friction is not None and record.times else ())

@@ -12,7 +12,7 @@ from typing import Any
 
 import numpy as np
 
-from rodsim.core.friction_record import FrictionRecord
+from rodsim.core.friction_record import Breakaway, FrictionRecord
 from rodsim.core.model import Model
 from rodsim.core.program import ProgramEntry
 from rodsim.core.scene import Scene
@@ -95,6 +95,12 @@ class Simulation:
     #: fixed steps and the other integrators) and its rejected attempts.
     error_control: str = ""
     rejected: int = 0
+    #: With stiction (a string tendon's static_friction above its friction): every
+    #: routing point that broke loose, in time order — the located time, the tendon, the
+    #: point's index and rest arc length, the way it slides from then on
+    #: (``rodsim.core.friction_record.Breakaway``; docs/dynamics.md, "Friction in physical
+    #: time"). Empty without stiction (a point starts sliding continuously there).
+    breakaways: tuple[Breakaway, ...] = ()
 
     @property
     def energy_error(self) -> np.ndarray:
@@ -121,6 +127,11 @@ class Simulation:
         if self.events:
             rows.append(("events", ", ".join(f"{name} at {time:.4g} s"
                                              for time, name in self.events)))
+        if self.breakaways:
+            earliest = self.breakaways[0]
+            rows.append(("breakaways", f"{len(self.breakaways)} routing points broke loose "
+                         f"(stiction), the first at {earliest.time:.6g} s "
+                         f"({earliest.tendon}, point {earliest.point})"))
         first = self.rods[0] if self.rods else None
         if first in self.scene.rods and len(self.times):
             nodes = self.scene.rods[first].nodes
@@ -177,4 +188,4 @@ class Simulation:
             self.scene, rods, self.times, self.positions, self.quaternions, energies,
             self.success, self.message, self.t_end, self.integrator, self.step, stats,
             {key: entry.archived() for key, entry in self.program.items()}, self.initial,
-            self.events, self.friction))
+            self.events, self.friction, self.breakaways))

@@ -1,7 +1,7 @@
 """What an archive records of tendon friction at one state: each tendon's chord tensions
 and the stick/slip states of its routing points (rodsim/core/tendon_friction.py;
 docs/tendon.md, "Friction"), as a track records them per step and ``simulate`` per output
-time."""
+time; and a routing point breaking loose during ``simulate`` (``Breakaway``)."""
 
 from __future__ import annotations
 
@@ -11,8 +11,9 @@ import numpy as np
 
 from rodsim.core.model import Model
 from rodsim.core.terms.base import TendonTerm
+from rodsim.core.terms.tendon_string import TendonString
 
-__all__ = ["FrictionRecord", "friction_record"]
+__all__ = ["Breakaway", "FrictionRecord", "breakaways", "friction_record"]
 
 
 @dataclass(frozen=True)
@@ -47,3 +48,39 @@ def friction_record(model: Model, full: np.ndarray) -> FrictionRecord | None:
                           np.concatenate([t for _, t in profiles.values()]),
                           {name: s for name, (s, _) in states.items()},
                           np.concatenate([state for _, state in states.values()]))
+
+
+@dataclass(frozen=True)
+class Breakaway:
+    """A routing point of a string tendon with stiction breaking loose during a run in
+    physical time (docs/dynamics.md, "Friction in physical time"): held by its static μ_s
+    (stuck, or sliding the other way) until ``time``, the root located inside the midpoint
+    step (rodsim/solvers/physical/breakaway.py), sliding at its kinetic μ_k from then on."""
+
+    #: The located time [s].
+    time: float
+    #: The tendon's name.
+    tendon: str
+    #: The routing point's index along the tendon (0 the entry; the point at the start of
+    #: chord ``point``, as the archive's ``slip_state`` is indexed).
+    point: int
+    #: Its rest arc length on the catheter [m].
+    s: float
+    #: The way it slides from then on: −1 in (toward the actuator), +1 out.
+    direction: int
+
+
+def breakaways(before: Model, after: Model, t: float) -> list[Breakaway]:
+    """The points of every string tendon with stiction that broke loose between the
+    history of ``before`` and that of ``after`` (the same model, its history carried once
+    at time ``t``): those whose stick/slip state went to sliding (−1 or +1) from any other
+    (stuck, or sliding the other way), in the tendons' order and along each."""
+    found = []
+    for old, new in zip(before.terms, after.terms, strict=True):
+        if not (isinstance(old, TendonString) and isinstance(new, TendonString)
+                and new.sticky):
+            continue
+        for e in np.flatnonzero((new.state != 0.0) & (new.state != old.state)):
+            found.append(Breakaway(float(t), new.tendon.name, int(e),
+                                   float(new.points.s[e]), int(new.state[e])))
+    return found

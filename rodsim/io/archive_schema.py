@@ -411,6 +411,17 @@ def _check_trajectory(ds: xr.Dataset) -> None:
         _variable(ds, "event_name", ("event",), numeric=False)
         if not np.all(np.isfinite(events)) or np.any(np.diff(events) < 0.0):
             raise ArchiveSchemaError("variable 'events' is not finite or not in time order")
+    if "breakaway_time" in ds.variables:  # optional (stiction; older archives)
+        found = _variable(ds, "breakaway_time", ("breakaway",)).values
+        _variable(ds, "breakaway_tendon", ("breakaway",), numeric=False)
+        _variable(ds, "breakaway_point", ("breakaway",))
+        _variable(ds, "breakaway_point_s", ("breakaway",))
+        ways = _variable(ds, "breakaway_direction", ("breakaway",)).values
+        if (not np.all(np.isfinite(found)) or np.any(np.diff(found) < 0.0)
+                or not np.all(np.isin(ways, (-1, 1)))):
+            raise ArchiveSchemaError("variable 'breakaway_time' is not finite or not in time "
+                                     "order, or 'breakaway_direction' holds a value other "
+                                     "than -1, 1")
     _check_layout(ds, ("time",))
 
 

@@ -115,6 +115,20 @@ def tension_coordinates(chords: dict[str, np.ndarray]) -> dict[str, Any]:
     }
 
 
+def pulled_in_variables(pulled: dict[str, np.ndarray], leading: tuple[str, ...]
+                        ) -> tuple[dict[str, Any], dict[str, Any]]:
+    """(coordinates, variables) of the actuators' displacement of the tendons with friction:
+    the coordinate ``friction_tendon`` (their names) and the variable ``tendon_pulled_in``
+    (*leading, friction_tendon) [m], the length of tendon each actuator has drawn in since
+    the first state, ℓ_0 − ℓ (ℓ the tendon's path length; docs/tendon.md, "Friction")."""
+    return ({"friction_tendon": (("friction_tendon",), np.array(list(pulled), dtype=str),
+                                 {"long_name": "tendon with friction"})},
+            {"tendon_pulled_in": ((*leading, "friction_tendon"),
+                                  np.stack(list(pulled.values()), axis=-1),
+                                  {"units": "m", "long_name": "tendon drawn in at the "
+                                   "actuator since the first state (its path's shortening)"})})
+
+
 def tension_variable(tension: np.ndarray, leading: tuple[str, ...]) -> dict[str, Any]:
     """The archive variable ``tension_profile`` (*leading, chord) [N]: the tension each
     chord of a tendon with friction carries (docs/tendon.md, "Friction")."""

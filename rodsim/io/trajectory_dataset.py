@@ -9,7 +9,11 @@ Coordinate ``time`` [s] (the output times); ``position`` (time, node, axis) and
 ``trajectory``, the provenance, ``success``, ``complete`` (0: the run stopped before
 ``t_end``; the times it reached are kept) and ``message``, ``t_end``, the scene, the
 programs and the starting values. With tendon friction, as a track's archive per step:
-``tension_profile`` and ``slip_state`` (time, chord) and the attribute ``friction_history``.
+``tension_profile`` and ``slip_state`` (time, chord) and the attribute ``friction_history``;
+and every routing point that broke loose (stiction; none without) along ``breakaway``:
+``breakaway_time`` [s] (located inside its step), ``breakaway_tendon``,
+``breakaway_point`` (the point's index along its tendon, as ``slip_state``'s chords),
+``breakaway_point_s`` [m] and ``breakaway_direction`` (−1 sliding in, +1 out).
 """
 
 from __future__ import annotations
@@ -34,9 +38,9 @@ from rodsim.io.run_dataset import (
 if TYPE_CHECKING:
     import xarray as xr
 
-    from rodsim.core.friction_record import FrictionRecord
+    from rodsim.core.friction_record import Breakaway, FrictionRecord
 
-__all__ = ["TrajectoryRecord", "trajectory_dataset"]
+__all__ = ["TrajectoryRecord", "breakaway_variables", "trajectory_dataset"]
 
 #: The energy variables, their long names (docs/dynamics.md, "Energy").
 ENERGIES = {
@@ -76,6 +80,8 @@ class TrajectoryRecord:
     #: at each output time (``rodsim.core.friction_record.FrictionRecord`` with a leading
     #: time axis).
     friction: FrictionRecord | None = None
+    #: With stiction: every routing point that broke loose, in time order.
+    breakaways: Sequence[Breakaway] = ()
 
 
 def trajectory_dataset(record: TrajectoryRecord) -> xr.Dataset:
@@ -125,6 +131,8 @@ def trajectory_dataset(record: TrajectoryRecord) -> xr.Dataset:
         point_coords, slip_data = slip_variables(friction.points, friction.slip, ("time",))
         coords.update(point_coords)
         data.update(slip_data)
+    if friction is not None:
+        data.update(breakaway_variables(record.breakaways))
     ds = xr.Dataset(data_vars=data, coords=coords)
     name = record.scene.name
     reached = float(record.times[-1]) if len(record.times) else 0.0
@@ -152,3 +160,26 @@ def trajectory_dataset(record: TrajectoryRecord) -> xr.Dataset:
     for key, value in record.stats.items():
         ds.attrs[f"stats_{key}"] = float(value)
     return ds
+
+
+def breakaway_variables(found: Sequence[Breakaway]) -> dict[str, Any]:
+    """The variables along ``breakaway`` of the routing points that broke loose (module
+    docstring; empty along it when none did)."""
+    return {
+        "breakaway_time": ("breakaway", np.array([b.time for b in found], dtype=float),
+                           {"units": "s", "long_name": "time a routing point of a string "
+                            "tendon broke loose (stiction), located inside its step"}),
+        "breakaway_tendon": ("breakaway", np.array([b.tendon for b in found], dtype=str),
+                             {"long_name": "tendon of the routing point that broke loose"}),
+        "breakaway_point": ("breakaway", np.array([b.point for b in found], dtype=np.int32),
+                            {"long_name": "index of the routing point along its tendon (0 "
+                             "the entry; the chord it starts, as slip_state's)"}),
+        "breakaway_point_s": ("breakaway", np.array([b.s for b in found], dtype=float),
+                              {"units": "m", "long_name": "rest arc length of the routing "
+                               "point that broke loose"}),
+        "breakaway_direction": ("breakaway", np.array([b.direction for b in found],
+                                                      dtype=np.int8),
+                                {"long_name": "way the point slides once loose",
+                                 "flag_values": np.array([-1, 1], dtype=np.int8),
+                                 "flag_meanings": "sliding_in sliding_out"}),
+    }

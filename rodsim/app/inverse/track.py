@@ -54,12 +54,14 @@ from rodsim.app.inverse.track_steps import record_contact, record_stability, val
 from rodsim.core.model import Model
 from rodsim.core.scene import Scene
 from rodsim.core.schema import SceneError
+from rodsim.core.terms.tendon_string import TendonString
 from rodsim.io.archive_schema import SCHEMA_VERSION
 from rodsim.io.cf_layout import variable_name
 from rodsim.io.provenance import archive_attributes
 from rodsim.io.run_dataset import (
     FRICTION_HISTORY,
     contact_variables,
+    pulled_in_variables,
     slip_variables,
     step_coordinate,
     tension_coordinates,
@@ -177,6 +179,18 @@ class Track:
                 if np.any(self.values[k] != self.values[k - 1])
                 and np.array_equal(self.tension[k][ends], self.tension[k - 1][ends])]
 
+    @property
+    def pulled_in(self) -> dict[str, np.ndarray]:
+        """With tendon friction: each such tendon's actuator displacement at every step,
+        ℓ(step 0) − ℓ(step) [m], ℓ its path's length (inextensible, held at its
+        termination: what the actuator drew in), for the loop of the actuator's tension
+        against its displacement (docs/tendon.md, "Friction")."""
+        terms = {term.tendon.name: term for term in self.model.terms
+                 if isinstance(term, TendonString) and term.tendon.name in self.chords}
+        lengths = {name: np.array([term.length(full) for full in self.states])
+                   for name, term in terms.items()}
+        return {name: ell[0] - ell for name, ell in lengths.items() if len(ell)}
+
     def tips(self, rod: str | None = None) -> np.ndarray:
         """Tip of ``rod`` (default: the first) at every completed step, (steps, 3) [m]."""
         layout = self.model.rods[rod or next(iter(self.model.rods))].layout
@@ -253,6 +267,10 @@ class Track:
         if self.tension:
             coords.update(tension_coordinates(self.chords))
             data.update(tension_variable(np.array(self.tension), ("step",)))
+        if self.tension and steps:
+            pulled_coords, pulled_data = pulled_in_variables(self.pulled_in, ("step",))
+            coords.update(pulled_coords)
+            data.update(pulled_data)
         if self.slip:
             point_coords, slip_data = slip_variables(self.points, np.array(self.slip),
                                                      ("step",))

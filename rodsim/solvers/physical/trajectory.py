@@ -39,7 +39,7 @@ from rodsim.solvers.physical.breakaway import locate, margins, sticky
 from rodsim.solvers.physical.coordinates import model_state
 from rodsim.solvers.physical.events import EventFunctions
 from rodsim.solvers.physical.fixed_step import FixedStep, Motion, StepFailure, StepOutcome
-from rodsim.solvers.physical.step_events import watched
+from rodsim.solvers.physical.step_events import hermite, watched
 
 #: What a run is told at the end of every step: ``after_step(t, x)``, x the model's free
 #: coordinates (offsets from the rest state); a step in which a point of a string tendon
@@ -136,7 +136,9 @@ def _part(model_at: Callable[[float], Model], stepper: FixedStep, motion: Motion
         spent[1] += found.iterations
         return found
 
-    when, first = locate(model_at, t0, start, t1, outcome.motion, solve)
+    curve = hermite(stepper.coordinates, t0, motion, t1, outcome.motion)
+    when, first = locate(model_at, t0, start, t1, outcome.motion, solve,
+                         lambda t: curve(t)[0])
     if first is None:
         return t1, middle, outcome, (spent[0], spent[1])
     return when, models[when], first, (spent[0], spent[1])
@@ -191,14 +193,20 @@ def _advance(model_at: Callable[[float], Model], stepper: FixedStep, motion: Mot
 
 
 def _restep(model_at: Callable[[float], Model], stepper: FixedStep, start: Motion,
-            t0: float, counts: list[int]) -> Callable[[float], Motion]:
-    """The state one step from ``start`` at ``t0`` to t reaches (halved as a step is, the
-    friction's history left alone), for an event's root; its steps, Newton iterations and
-    halvings added to ``counts``."""
+            t0: float, counts: list[int], after_step: AfterStep | None = None,
+            restore: Callable[[], None] | None = None) -> Callable[[float], Motion]:
+    """The state one step from ``start`` at ``t0`` to t reaches (halved as a step is), for
+    an event's root; its steps, Newton iterations and halvings added to ``counts``. With
+    ``restore`` (what puts friction's history back as it was at ``t0``) each trial step is
+    taken from that history and carries it (``after_step``), a routing point that breaks
+    loose in it located as in any step; without, the history is left alone."""
     def restep(t: float) -> Motion:
         if t <= t0:
             return start
-        motion, _, _, taken = _advance(model_at, stepper, start, t0, t, MAX_HALVINGS)
+        if restore is not None:
+            restore()
+        motion, _, _, taken = _advance(model_at, stepper, start, t0, t, MAX_HALVINGS,
+                                       after_step if restore is not None else None)
         for k in range(3):
             counts[k] += taken[k]
         return motion
@@ -209,7 +217,8 @@ def integrate(model_at: Callable[[float], Model], stepper: FixedStep, start: Mot
               output_times: Sequence[float], step: float,
               progress: Callable[[float], None] | None = None,
               record: Record | None = None, after_step: AfterStep | None = None,
-              events: EventFunctions | None = None) -> Record:
+              events: EventFunctions | None = None,
+              history: Callable[[], Callable[[], None]] | None = None) -> Record:
     """Integrate from ``start`` at ``output_times[0]`` through every output time with steps
     of at most ``step`` [s]; ``model_at(t)`` is the model with the values at time t (the same
     object while nothing changes). A step that fails ends the run: the record holds what was
@@ -219,7 +228,11 @@ def integrate(model_at: Callable[[float], Model], stepper: FixedStep, start: Mot
     ``rodsim.app.programs.Programs.carry_history``). ``events``: watched after every step
     (rodsim/solvers/physical/step_events.py): each root's time and name go to
     ``record.events`` and a terminal one ends the run there, the step taken again to its
-    time, with an output at it."""
+    time, with an output at it. ``history()``: what restores friction's history as it is
+    now (``rodsim.app.friction_trace.FrictionTrace.mark``); with it and ``events``, the
+    trial steps that locate a root and a terminal event's last step start from the
+    history at the step's start (and locate the routing points that break loose in them),
+    the history at the step's end restored after the search."""
     record = Record() if record is None else record
     t = float(output_times[0])
     motion = start
@@ -237,17 +250,25 @@ def integrate(model_at: Callable[[float], Model], stepper: FixedStep, start: Mot
             t0 = t_first + (t_next - t_first) * k / count
             t1 = t_next if k == count - 1 else t_first + (t_next - t_first) * (k + 1) / count
             before = motion
+            saved = history() if history is not None and watch is not None else None
             try:
                 motion, gained, lost, taken = _advance(model_at, stepper, motion, t0, t1,
                                                        MAX_HALVINGS, after_step)
                 found, searched = [], [0, 0, 0]
                 if watch is not None:
+                    reached = (history() if history is not None and saved is not None
+                               else None)
                     found = watch.step(t0, before, t1, motion,
-                                       _restep(model_at, stepper, before, t0, searched))
+                                       _restep(model_at, stepper, before, t0, searched,
+                                               after_step, saved))
+                    if reached is not None:
+                        reached()
                 stop = next((when for when, i in found if terminal[i]), None)
                 if stop is not None:
                     found = [(when, i) for when, i in found if when <= stop]
                     if stop < t1:  # the step again, to the terminal event's time exactly
+                        if saved is not None:
+                            saved()
                         motion, gained, lost, again = _advance(
                             model_at, stepper, before, t0, stop, MAX_HALVINGS, after_step)
                         searched = [a + b for a, b in zip(searched, again, strict=True)]
