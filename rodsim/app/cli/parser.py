@@ -337,6 +337,11 @@ def build_parser() -> argparse.ArgumentParser:
                       help="comma-separated layers to leave out of the figure of a run, track "
                       "or trajectory, their movie and the html view: shape (the rods), "
                       "tendon, load, contact (the contact forces), obstacle")
+    plot.add_argument("--show", default=None, metavar="LAYERS",
+                      help="comma-separated layers to draw, the others left out (the axes, "
+                      "titles, colour bar and a track's or trajectory's other panels are "
+                      "always drawn): the same names and figures as --hide, which it does "
+                      "not combine with")
     plot.add_argument("--cdn", action="store_true",
                       help="write the html view (adding html to the formats) with plotly's "
                       "JavaScript loaded from its CDN when the page opens: ~4.8 MB smaller "

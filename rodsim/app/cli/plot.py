@@ -40,11 +40,13 @@ def movie_output(args: argparse.Namespace) -> tuple[str, str | None, list[str] |
 
 def cmd_plot(args: argparse.Namespace) -> int:
     from rodsim.app.figures import PlotError, check_output, plot_dataset, three_dimensional, view3d
+    from rodsim.app.figures.layers import layers_left_out
     from rodsim.io.archive import ArchiveError, read_dataset
 
     stem, movie_format, requested = movie_output(args)
     figures = ["png", "pdf"] if requested is None else requested
     try:
+        hidden = layers_left_out(args.show, args.hide)  # --show or --hide, checked first
         formats = check_output(stem, figures) if args.output and figures else figures
         dataset = read_dataset(args.archive)
         if requested is None and three_dimensional(dataset) and view3d.available():
@@ -54,7 +56,6 @@ def cmd_plot(args: argparse.Namespace) -> int:
         movie: Path | None = None
         encoder: Encoder | None = None
         if movie_format is not None:
-            from rodsim.app.figures.layers import hidden_layers
             from rodsim.app.figures.movie import check_movie, write_movie
             from rodsim.app.figures.movie_encoder import choose_encoder
 
@@ -63,10 +64,9 @@ def cmd_plot(args: argparse.Namespace) -> int:
             movie = Path(f"{stem}.{chosen.format}")
             encoder = check_movie(dataset, movie, chosen)
         paths = plot_dataset(dataset, stem, formats, colour=args.colour,
-                             hide=args.hide.split(","), cdn=args.cdn) if formats else []
+                             hide=args.hide, show=args.show, cdn=args.cdn) if formats else []
         if movie is not None:
-            paths.append(write_movie(dataset, movie, args.colour, hidden_layers(args.hide),
-                                     encoder))
+            paths.append(write_movie(dataset, movie, args.colour, hidden, encoder))
     except (ArchiveError, PlotError) as exc:
         raise UserError(str(exc)) from None
     if encoder is not None:

@@ -8,7 +8,8 @@ the time. A track's loads are drawn with the step's values, a trajectory's with 
 programs' values at the frame's time (``rodsim.app.figures.state_scene``). ``colour``
 colours every frame's lines on one scale shared by all frames, with one colour bar;
 ``hide`` leaves layers out (as ``rodsim plot --colour`` and ``--hide`` do the run
-figure). Each frame shows for ``FRAME_SECONDS``.
+figure; ``--show`` leaves out the layers it does not name:
+``rodsim.app.figures.layers.layers_left_out``). Each frame shows for ``FRAME_SECONDS``.
 
 It is written as an mp4 (H.264, yuv420p) by ffmpeg through matplotlib's animation writer
 (``matplotlib.animation.FFMpegWriter``), or as an animated GIF by Pillow (one adaptive

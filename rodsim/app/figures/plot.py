@@ -32,7 +32,7 @@ from matplotlib.figure import Figure
 
 from rodsim.app.figures import labels, view3d
 from rodsim.app.figures.inverse import fit_figure, reach_figure, run_figure, track_figure
-from rodsim.app.figures.layers import hidden_layers
+from rodsim.app.figures.layers import layers_left_out
 from rodsim.app.figures.modes import modes_figure
 from rodsim.app.figures.projections import out_of_plane
 from rodsim.app.figures.study_centerlines import centerlines_figure, centerlines_result
@@ -59,24 +59,24 @@ RESULTS = {"centerlines": centerlines_result, "error_vs_parameter": error_vs_par
 #: Figures of the inverse tools' archives, by their ``kind`` attribute.
 KIND_DRAWERS = {"fit": fit_figure, "reach": reach_figure, "modes": modes_figure}
 #: Figures of the archives of several states, which draw them coloured (``--colour``) and
-#: with layers left out (``--hide``), by their ``kind`` attribute.
+#: with layers left out (``--hide``) or picked (``--show``), by their ``kind`` attribute.
 SERIES_DRAWERS = {"track": track_figure, "trajectory": trajectory_figure}
 
 
 def plot_dataset(ds: xr.Dataset, stem: str | Path, formats: Iterable[str] = ("png", "pdf"),
                  colour: str | None = None, hide: str | Iterable[str] = (),
-                 cdn: bool = False) -> list[Path]:
+                 cdn: bool = False, show: str | Iterable[str] | None = None) -> list[Path]:
     """Draw the archive's figure and write ``stem.<format>`` for each format.
 
     The formats and the folder are checked first (``check_output``); a format that
-    fails to write (e.g. ``pgf`` without LaTeX) leaves no partial file. ``colour`` and
-    ``hide``: see ``draw_figure``; ``cdn``: the html view loads plotly from its CDN
+    fails to write (e.g. ``pgf`` without LaTeX) leaves no partial file. ``colour``,
+    ``hide`` and ``show``: see ``draw_figure``; ``cdn``: the html view loads plotly from its CDN
     (``rodsim.app.figures.view3d.write_html``). Raises ``PlotError``.
     """
     formats = check_output(stem, formats)
     ds = from_file(ds)
-    hidden = hidden_layers(hide)
-    _check_run_options(ds, colour, hidden)
+    hidden = layers_left_out(show, hide)
+    _check_run_options(ds, colour, hidden, show is not None)
     if ds.attrs.get("kind") == "batch":
         raise PlotError("a batch archive has no figure: select cases with xarray "
                         "(ds.sel(case=…)) and plot their positions (docs/batch.md)")
@@ -108,23 +108,25 @@ def three_dimensional(ds: xr.Dataset) -> bool:
     return out_of_plane(ds["position"].values)
 
 
-def draw_figure(ds: xr.Dataset, colour: str | None = None, hide: str | Iterable[str] = ()
-                ) -> Figure:
+def draw_figure(ds: xr.Dataset, colour: str | None = None, hide: str | Iterable[str] = (),
+                show: str | Iterable[str] | None = None) -> Figure:
     """The archive's figure, not written (the caller closes it); draw it inside
     ``style``. A study figure's title states the measured result (``RESULTS``).
     A run's, a track's or a trajectory's figure only: ``colour`` colours the rods by
     ``curvature`` or ``strain`` or the tendons by ``tension``
     (``rodsim.app.figures.colouring``; a track's steps and a trajectory's output times on one
     shared scale: ``rodsim.app.figures.state_series``), ``hide`` leaves out layers
-    (``rodsim.app.figures.layers.LAYERS``).
+    (``rodsim.app.figures.layers.LAYERS``), ``show`` draws only the layers it names (what
+    no layer holds, e.g. the axes, is always drawn: ``rodsim.app.figures.layers``); the
+    two do not combine (``layers_left_out``).
     Raises ``PlotError`` for an unknown plot kind, colouring or layer, a colouring the
     archive has no data for, and for a study in which every
     point failed (rodsim writes such archives: there is no shape or error to draw). A Dataset
     opened with plain xarray from a schema 3 file gets its labels back first
     (``rodsim.io.cf_layout.from_file``)."""
     ds = from_file(ds)
-    hidden = hidden_layers(hide)
-    _check_run_options(ds, colour, hidden)
+    hidden = layers_left_out(show, hide)
+    _check_run_options(ds, colour, hidden, show is not None)
     if "study" in ds.attrs:
         kind = ds.attrs.get("plot", "centerlines")
         if not isinstance(kind, str) or kind not in DRAWERS:
@@ -144,12 +146,13 @@ def draw_figure(ds: xr.Dataset, colour: str | None = None, hide: str | Iterable[
     return run_figure(ds, colour, hidden)
 
 
-def _check_run_options(ds: xr.Dataset, colour: str | None, hidden: frozenset[str]) -> None:
-    """Colouring and hidden layers are the figures' of a run, a track and a trajectory:
-    refused for any other archive."""
+def _check_run_options(ds: xr.Dataset, colour: str | None, hidden: frozenset[str],
+                       show: bool = False) -> None:
+    """Colouring and the choice of layers (``hidden``, from ``--show`` when ``show``) are
+    the figures' of a run, a track and a trajectory: refused for any other archive."""
     kind = ds.attrs.get("kind")
-    if (colour or hidden) and ("study" in ds.attrs or kind in KIND_DRAWERS):
-        what = "--colour" if colour else "--hide"
+    if (colour or hidden or show) and ("study" in ds.attrs or kind in KIND_DRAWERS):
+        what = "--colour" if colour else "--show" if show else "--hide"
         other = "a study" if "study" in ds.attrs else f"a {kind} archive"
         raise PlotError(f"{what} applies to the figure of a run, track or trajectory "
                         f"archive, not to {other}")
