@@ -72,18 +72,21 @@ def subtract_curvature(forms: np.ndarray, point: int, side: int, u: np.ndarray,
                 continue
             weight = weights[point, 2 + a] * weights[point, 2 + b]
             for i in range(4):
-                for j in range(i if upper and ka == kb else 0, 4):
+                start = i if upper and ka == kb else 0
+                for step in range(4 - start):
+                    j = start + step
                     summed[ka + i, kb + j] -= weight * curvature[i, j]
 
 
 @njit(cache=True, inline="always")
-def add_upper(jacobian: np.ndarray, target: np.ndarray, local: np.ndarray, count: int,
-              summed: np.ndarray) -> None:
+def add_upper(jacobian: np.ndarray, target: np.ndarray, chord: int, local: np.ndarray,
+              count: int, summed: np.ndarray) -> None:
     """A block summed on and above its diagonal into the CSC data: entry (k, j) of the
-    symmetric block into slot (local k, local j), each slot once."""
+    symmetric block into slot ``target[chord, local k, local j]``, each slot once."""
     for k in range(count):
-        row = target[local[k]]
+        lk = local[k]
         for j in range(k):
-            jacobian[row[local[j]]] += summed[j, k]
-        for j in range(k, count):
-            jacobian[row[local[j]]] += summed[k, j]
+            jacobian[target[chord, lk, local[j]]] += summed[j, k]
+        for i in range(count - k):
+            j = k + i
+            jacobian[target[chord, lk, local[j]]] += summed[k, j]

@@ -382,7 +382,7 @@ def evaluate_group(x: np.ndarray, chord_start: np.ndarray, point_start: np.ndarr
                                    scale * pull if side == 1 else -(scale * pull), curvature,
                                    summed, upper)
         if members > 0 and upper:
-            add_upper(jacobian, jacobian_target[target_chord], local, count, summed)
+            add_upper(jacobian, jacobian_target, target_chord, local, count, summed)
         elif members > 0:
             _add_block(jacobian, jacobian_target[target_chord], local, count, summed)
     if want_force:
