@@ -299,8 +299,11 @@ def evaluate_group(x: np.ndarray, chord_start: np.ndarray, point_start: np.ndarr
     local block, which is written into the CSC data once (on tdcr-two-segment 60 writes of
     18 × 18 entries for the 270 chords of the six tendons). A chord's Jdᵀ P Jd and
     curvature, with its tendon's scale taken into P's factor and the curvature's, are
-    subtracted from that block as they are formed (no block of its own); a chord with the
-    friction coupling builds its own (``_chord_block``) and adds it with the coupling. The
+    subtracted from that block as they are formed (no block of its own), on and above its
+    diagonal where no chord of the set has the friction coupling (the block is symmetric,
+    each entry written into both of its CSC slots: rodsim/core/kernels/_string_block.py);
+    a chord with the coupling builds its own (``_chord_block``) and adds it with the
+    coupling into the full block. The
     distinct columns are found on a set's first chord and repeated on the others
     (``_merged_columns``). Each chord's force is the one ``evaluate`` computes and is added
     in the order of one call per tendon (tendon by tendon, chord by chord): F bitwise as one
