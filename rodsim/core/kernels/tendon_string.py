@@ -42,6 +42,7 @@ import numpy as np
 from numba import njit
 
 from rodsim.core.kernels._scatter import add_force
+from rodsim.core.kernels._string_block import add_upper, subtract_curvature, subtract_frozen
 from rodsim.core.kernels.tendon_string_path import (
     _curvature,
     _one_way_coupling,
@@ -256,6 +257,16 @@ def _add_block(jacobian: np.ndarray, target: np.ndarray, local: np.ndarray, coun
 
 
 @njit(cache=True, inline="always")
+def _symmetric(shared_order: np.ndarray, start: int, stop: int, rate: np.ndarray) -> bool:
+    """Whether no chord of a set has the friction coupling (its rate is 0): the set's
+    block is then symmetric and summed on and above its diagonal (``_string_block``)."""
+    for position in range(start, stop):
+        if rate[shared_order[position]] != 0.0:
+            return False
+    return True
+
+
+@njit(cache=True, inline="always")
 def _add_forces(force: np.ndarray, force_target: np.ndarray, chord_start: np.ndarray,
                 active: np.ndarray, chord_force: np.ndarray, scales: np.ndarray) -> None:
     """The chords' forces of the active tendons into F, tendon by tendon, chord by chord
@@ -288,8 +299,11 @@ def evaluate_group(x: np.ndarray, chord_start: np.ndarray, point_start: np.ndarr
     local block, which is written into the CSC data once (on tdcr-two-segment 60 writes of
     18 × 18 entries for the 270 chords of the six tendons). A chord's Jdᵀ P Jd and
     curvature, with its tendon's scale taken into P's factor and the curvature's, are
-    subtracted from that block as they are formed (no block of its own); a chord with the
-    friction coupling builds its own (``_chord_block``) and adds it with the coupling. The
+    subtracted from that block as they are formed (no block of its own), on and above its
+    diagonal where no chord of the set has the friction coupling (the block is symmetric,
+    each entry written into both of its CSC slots: rodsim/core/kernels/_string_block.py);
+    a chord with the coupling builds its own (``_chord_block``) and adds it with the
+    coupling into the full block. The
     distinct columns are found on a set's first chord and repeated on the others
     (``_merged_columns``). Each chord's force is the one ``evaluate`` computes and is added
     in the order of one call per tendon (tendon by tendon, chord by chord): F bitwise as one
@@ -333,6 +347,7 @@ def evaluate_group(x: np.ndarray, chord_start: np.ndarray, point_start: np.ndarr
         count = 0
         members = 0
         target_chord = 0
+        upper = _symmetric(shared_order, shared_start[shared], shared_start[shared + 1], rate)
         for position in range(shared_start[shared], shared_start[shared + 1]):
             c = shared_order[position]
             t = term_of[c]
@@ -363,38 +378,15 @@ def evaluate_group(x: np.ndarray, chord_start: np.ndarray, point_start: np.ndarr
                              g, weights, pj, proj, block, curvature)
                 _add_coupled(summed, unit_force, gradient, block, scale, count)
                 continue
-            factor = scale * pull / length
-            for a in range(3):
-                for b in range(3):
-                    proj[a, b] = ((1.0 if a == b else 0.0) - u[a] * u[b]) * factor
-            for k in range(count):
-                j0, j1, j2 = merged[0, k], merged[1, k], merged[2, k]
-                for a in range(3):
-                    pj[a, k] = proj[a, 0] * j0 + proj[a, 1] * j1 + proj[a, 2] * j2
-            for k in range(count):
-                j0, j1, j2 = merged[0, k], merged[1, k], merged[2, k]
-                summed[k, k] -= j0 * pj[0, k] + j1 * pj[1, k] + j2 * pj[2, k]
-                for j in range(k + 1, count):
-                    value = j0 * pj[0, j] + j1 * pj[1, j] + j2 * pj[2, j]
-                    summed[k, j] -= value
-                    summed[j, k] -= value
+            subtract_frozen(merged, u, scale * pull / length, count, pj, proj, summed,
+                            upper)
             for side in range(2):
-                point = a_point + side
-                _curvature(forms, point, u, q, n, gq, g,
-                           scale * pull if side == 1 else -(scale * pull), curvature)
-                for a in range(2):
-                    ka = knot[side, a]
-                    if ka < 0:
-                        continue
-                    for b in range(2):
-                        kb = knot[side, b]
-                        if kb < 0:
-                            continue
-                        weight = weights[point, 2 + a] * weights[point, 2 + b]
-                        for i in range(4):
-                            for j in range(4):
-                                summed[ka + i, kb + j] -= weight * curvature[i, j]
-        if members > 0:
+                subtract_curvature(forms, a_point + side, side, u, q, n, gq, g, weights, knot,
+                                   scale * pull if side == 1 else -(scale * pull), curvature,
+                                   summed, upper)
+        if members > 0 and upper:
+            add_upper(jacobian, jacobian_target, target_chord, local, count, summed)
+        elif members > 0:
             _add_block(jacobian, jacobian_target[target_chord], local, count, summed)
     if want_force:
         _add_forces(force, force_target, chord_start, active, chord_force, scales)
