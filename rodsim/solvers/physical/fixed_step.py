@@ -177,7 +177,7 @@ def _newton(evaluate: Evaluate, r1: np.ndarray, w: np.ndarray, h: float,
             fresh = True
         assert solve is not None
         delta = solve(-residual)
-        if not np.all(np.isfinite(delta)):
+        if not np.isfinite(delta).all():
             raise StepFailure("the Newton step is not finite (a singular Newton matrix)")
         r1 = r1 + delta[:p]
         w = w + delta[p:].reshape(-1, 3)
