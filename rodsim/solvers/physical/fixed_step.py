@@ -200,8 +200,8 @@ def _newton(evaluate: Evaluate, r1: np.ndarray, w: np.ndarray, h: float,
             raise StepFailure("the Newton step is not finite (a singular Newton matrix)")
         r1 = r1 + delta[:p]
         w = w + delta[p:].reshape(-1, 3)
-        moved = max(float(np.max(np.abs(delta[:p]), initial=0.0)) / length_scale,
-                    h * float(np.max(np.abs(delta[p:]), initial=0.0)))
+        moved = max(float(np.abs(delta[:p]).max(initial=0.0)) / length_scale,
+                    h * float(np.abs(delta[p:]).max(initial=0.0)))
         if moved > DIVERGED:
             raise StepFailure(f"Newton diverges (a change of {moved:.1e})")
         if moved <= tolerance or (fresh and moved <= ROUNDOFF and moved > 0.5 * best):

@@ -111,21 +111,6 @@ class MidpointStep:
         self._gauss = tuple(zip((0.5 * (nodes + 1.0)).tolist(), (0.5 * weights).tolist(),
                                 strict=True))
 
-    def _midpoint(self, x0: np.ndarray, r1: np.ndarray, wm: np.ndarray, h: float,
-                  start: tuple[np.ndarray, np.ndarray] | None = None
-                  ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-        """(x_m, q₁, the unnormalised midpoint quaternions, their norms); ``start``: x₀'s
-        (positions, quaternions), when the caller has them."""
-        c = self.coordinates
-        r0, q0 = (x0[c.positions], x0[c.quaternions]) if start is None else start
-        q1 = cayley(q0, wm, h)
-        qm = 0.5 * (q0 + q1)
-        norm = _norms(qm)
-        xm = x0.copy()
-        xm[c.positions] = 0.5 * (r0 + r1)
-        xm[c.quaternions] = qm / norm[:, None]
-        return xm, q1, qm, norm
-
     def _tangent(self, xm: np.ndarray, velocity: np.ndarray, w: np.ndarray) -> np.ndarray:
         """ẋ = G u at the (unit) midpoint ``xm``: positions ``velocity``, q̇ = ½ Σ w_k B_k q."""
         c = self.coordinates
@@ -181,7 +166,7 @@ class MidpointStep:
             if not finite:
                 raise StepFailure("the force or its Jacobian is not finite")
             f_q = f[c.quaternions]
-            across = f_q - unit * np.sum(unit * f_q, axis=1)[:, None]  # (I − q̂q̂ᵀ) f_q
+            across = f_q - unit * np.add.reduce(unit * f_q, axis=1)[:, None]  # (I − q̂q̂ᵀ) f_q
             f_r += weight * f[c.positions]
             tau += weight * 0.5 * np.einsum("ska,sa->sk", rows, across) / norm[:, None]
             if dq1 is None:
@@ -254,15 +239,16 @@ class MidpointStep:
 
         def evaluate(r1: np.ndarray, wm: np.ndarray, fresh: bool
                      ) -> tuple[np.ndarray, sp.csr_matrix | None]:
-            xm, q1, qm, norm = self._midpoint(x0, r1, wm, h, split)
+            q1, qm, norm = _turned(split[1], wm, h)
             vm = (r1 - r0) / h
             dq1 = self._cayley_derivative(qm, wm, h) if fresh else None
             f_r, tau, stiffness = self._averaged(model, x0, r1, q1, qm, dq1, split,
                                                  reference)
             res_r = (2.0 / h) * _times(mass_rows, vm - v0) - f_r
-            res_w = ((2.0 / h) * inertia * (wm - w0) + cross_rows(wm, inertia * wm) - tau)
+            res_w = ((2.0 / h) * inertia * (wm - w0) + _cross(wm, inertia * wm) - tau)
             damping = None
             if damper.active:
+                xm = _middle(c, x0, r0, r1, qm, norm)  # x_m: the damping's state
                 g = c.g_arrays(xm, n)
                 damping = tangent_damping.matrix(xm, g, c.size)
                 dragged = damping @ np.concatenate([vm, wm.ravel()])
@@ -284,7 +270,7 @@ class MidpointStep:
         r1, wm, iterations = solve_step(evaluate, r1, wm, h, self.length_scale,
                                         self.tolerance, self.kept)
         damping = held[0]
-        xm, q1, _, _ = self._midpoint(x0, r1, wm, h, split)
+        q1, _, _ = _turned(split[1], wm, h)
         vm = (r1 - r0) / h
         dissipated = work = 0.0
         if damping is not None:
@@ -297,7 +283,7 @@ class MidpointStep:
                 work = dissipated - lost
         x1 = x0.copy()
         x1[c.positions] = r1
-        x1[c.quaternions] = q1 / np.linalg.norm(q1, axis=1)[:, None]
+        x1[c.quaternions] = q1 / _norms(q1)[:, None]
         return StepOutcome(Motion(x1, 2.0 * vm - v0, 2.0 * wm - w0, (vm, wm)), dissipated,
                            iterations, work)
 
@@ -336,6 +322,34 @@ class MidpointStep:
         rows = 0.5 * h * np.transpose(velocity_rows(qm), (0, 2, 1))
         return (rows + a * (omega @ rows)) / (1.0 + a * a * np.sum(wm * wm, axis=1)
                                               )[:, None, None]
+
+
+def _turned(q0: np.ndarray, wm: np.ndarray, h: float
+            ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The step's quaternions: (q₁ = Cayley(h ω_m) q₀, the unnormalised midpoint
+    q_m = (q₀ + q₁)/2, |q_m|)."""
+    q1 = cayley(q0, wm, h)
+    qm = 0.5 * (q0 + q1)
+    return q1, qm, _norms(qm)
+
+
+def _middle(c: PhysicalCoordinates, x0: np.ndarray, r0: np.ndarray, r1: np.ndarray,
+            qm: np.ndarray, norm: np.ndarray) -> np.ndarray:
+    """The midpoint x_m: positions (r₀ + r₁)/2, quaternions q_m/|q_m|."""
+    xm = x0.copy()
+    xm[c.positions] = 0.5 * (r0 + r1)
+    xm[c.quaternions] = qm / norm[:, None]
+    return xm
+
+
+def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """coordinates.cross_rows for two (s, 3) arrays of one shape (its products and
+    differences, without its broadcast of the shapes: the same numbers)."""
+    out = np.empty(a.shape)
+    out[:, 0] = a[:, 1] * b[:, 2] - a[:, 2] * b[:, 1]
+    out[:, 1] = a[:, 2] * b[:, 0] - a[:, 0] * b[:, 2]
+    out[:, 2] = a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0]
+    return out
 
 
 def _norms(q: np.ndarray) -> np.ndarray:
