@@ -69,6 +69,7 @@ from rodsim.solvers.physical.sparse_kernels import (
     arrays,
     congruent,
     csr_of,
+    matvec,
     plus,
     scaled,
     transpose,
@@ -110,19 +111,6 @@ class MidpointStep:
         self._gauss = tuple(zip((0.5 * (nodes + 1.0)).tolist(), (0.5 * weights).tolist(),
                                 strict=True))
 
-    def _midpoint(self, x0: np.ndarray, r1: np.ndarray, wm: np.ndarray, h: float
-                  ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-        """(x_m, q₁, the unnormalised midpoint quaternions, their norms)."""
-        c = self.coordinates
-        q0 = x0[c.quaternions]
-        q1 = cayley(q0, wm, h)
-        qm = 0.5 * (q0 + q1)
-        norm = np.linalg.norm(qm, axis=1)
-        xm = x0.copy()
-        xm[c.positions] = 0.5 * (x0[c.positions] + r1)
-        xm[c.quaternions] = qm / norm[:, None]
-        return xm, q1, qm, norm
-
     def _tangent(self, xm: np.ndarray, velocity: np.ndarray, w: np.ndarray) -> np.ndarray:
         """ẋ = G u at the (unit) midpoint ``xm``: positions ``velocity``, q̇ = ½ Σ w_k B_k q."""
         c = self.coordinates
@@ -138,7 +126,9 @@ class MidpointStep:
         return f[c.positions], 0.5 * np.einsum("ska,sa->sk", rows, f[c.quaternions])
 
     def _averaged(self, model: Model, x0: np.ndarray, r1: np.ndarray, q1: np.ndarray,
-                  qm: np.ndarray, dq1: np.ndarray | None = None
+                  qm: np.ndarray, dq1: np.ndarray | None = None,
+                  start: tuple[np.ndarray, np.ndarray] | None = None,
+                  reference: np.ndarray | None = None
                   ) -> tuple[np.ndarray, np.ndarray, sp.csr_matrix | None]:
         """The generalised force averaged along the step's path γ(s) = (r₀ + s Δr,
         normalise(q₀ + s Δq)), s in [0, 1], by Gauss–Legendre quadrature (``quadrature``
@@ -146,33 +136,43 @@ class MidpointStep:
         over the step (module docstring). With ``dq1`` (∂q₁/∂ω_m, (s, 4, 3)) also the
         derivative of (f̄_r, τ̄) with respect to (r₁, ω_m): the stiffness terms and the
         change of the path's direction with ω_m at fixed force (large where a penalty's
-        internal force is: leaving it out made Newton diverge on stiff wires)."""
+        internal force is: leaving it out made Newton diverge on stiff wires). ``start``:
+        x₀'s (positions, quaternions) and ``reference`` the model's rest state at its free
+        coordinates (``model_state``), when the caller has them."""
         c = self.coordinates
         n, m = model.n, c.size
-        r0, q0 = x0[c.positions], x0[c.quaternions]
+        r0, q0 = (x0[c.positions], x0[c.quaternions]) if start is None else start
+        if reference is None:
+            reference = model.reference[model.free]
         rows = velocity_rows(qm)  # B_k q_m: Δq = (h/2) Σ ω_m,k B_k q_m
         f_r = np.zeros(self._p)
         tau = np.zeros((self._s, 3))
         derivative: Csr | None = None
+        dq, dr = q1 - q0, r1 - r0
         for node, weight in self._gauss:
-            q = q0 + node * (q1 - q0)
-            norm = np.linalg.norm(q, axis=1)
+            q = q0 + node * dq
+            norm = _norms(q)
             unit = q / norm[:, None]
             x = x0.copy()
-            x[c.positions] = r0 + node * (r1 - r0)
+            x[c.positions] = r0 + node * dr
             x[c.quaternions] = unit
+            state = x - reference  # model_state
             if dq1 is None:
-                f, jac = model.force(model_state(model, x)), np.zeros(0)
+                f = model.force(state)
+                finite = bool(np.isfinite(f).all())
             else:
-                f, jac = model.evaluate(model_state(model, x))
-            if not (np.all(np.isfinite(f)) and np.all(np.isfinite(jac))):
+                f, jac = model.evaluate(state)
+                finite = bool(np.isfinite(f).all()) and bool(np.isfinite(jac).all())
+            if not finite:
                 raise StepFailure("the force or its Jacobian is not finite")
             f_q = f[c.quaternions]
-            across = f_q - unit * np.sum(unit * f_q, axis=1)[:, None]  # (I − q̂q̂ᵀ) f_q
+            across = f_q - unit * np.add.reduce(unit * f_q, axis=1)[:, None]  # (I − q̂q̂ᵀ) f_q
             f_r += weight * f[c.positions]
             tau += weight * 0.5 * np.einsum("ska,sa->sk", rows, across) / norm[:, None]
             if dq1 is None:
                 continue
+            # ∂F/∂x's CSC arrays (``model.pattern_matrix(jac)``'s, without building it)
+            jacobian = arrays(Csr(model.pattern.indptr, model.pattern.indices, jac))
             project = (np.eye(4)[None] - unit[:, :, None] * unit[:, None, :]) / norm[:, None,
                                                                                     None]
             g = c.tangent_arrays(0.5 * project @ np.transpose(rows, (0, 2, 1)), 1.0, n)
@@ -192,7 +192,7 @@ class MidpointStep:
             # block, as one placement)
             # (g.T @ J @ p + the blocks), times the weight, summed: scipy's own operators'
             # arrays, by its kernels (sparse_kernels), CSC until the end's ``tocsr``
-            part = scaled(plus(m, m, congruent(n, m, g, arrays(model.pattern_matrix(jac)), p),
+            part = scaled(plus(m, m, congruent(n, m, g, jacobian, p),
                                transpose(m, m, block_arrays(
                                    geometric, c.angle_columns, c.angle_columns, (m, m)))),
                           weight)
@@ -226,6 +226,10 @@ class MidpointStep:
         support: list[tuple[np.ndarray, np.ndarray, float]] = []
         x0, v0, w0 = start.x, start.v, start.w
         r0 = x0[c.positions]
+        split = (r0, x0[c.quaternions])  # x₀'s positions and quaternions, for every iterate
+        reference = model.reference[model.free]  # model_state's
+        mass = c.mass
+        mass_rows = (len(r0), len(r0), mass.indptr, mass.indices, mass.data)
         # D_t = Gᵀ D G on the physical velocities at the last iterate's midpoint
         held: list[sp.csr_matrix | None] = [None]
         r1, wm = r0 + h * v0, w0.copy()
@@ -235,14 +239,16 @@ class MidpointStep:
 
         def evaluate(r1: np.ndarray, wm: np.ndarray, fresh: bool
                      ) -> tuple[np.ndarray, sp.csr_matrix | None]:
-            xm, q1, qm, norm = self._midpoint(x0, r1, wm, h)
+            q1, qm, norm = _turned(split[1], wm, h)
             vm = (r1 - r0) / h
             dq1 = self._cayley_derivative(qm, wm, h) if fresh else None
-            f_r, tau, stiffness = self._averaged(model, x0, r1, q1, qm, dq1)
-            res_r = (2.0 / h) * (c.mass @ (vm - v0)) - f_r
-            res_w = ((2.0 / h) * inertia * (wm - w0) + cross_rows(wm, inertia * wm) - tau)
+            f_r, tau, stiffness = self._averaged(model, x0, r1, q1, qm, dq1, split,
+                                                 reference)
+            res_r = (2.0 / h) * _times(mass_rows, vm - v0) - f_r
+            res_w = ((2.0 / h) * inertia * (wm - w0) + _cross(wm, inertia * wm) - tau)
             damping = None
             if damper.active:
+                xm = _middle(c, x0, r0, r1, qm, norm)  # x_m: the damping's state
                 g = c.g_arrays(xm, n)
                 damping = tangent_damping.matrix(xm, g, c.size)
                 dragged = damping @ np.concatenate([vm, wm.ravel()])
@@ -264,7 +270,7 @@ class MidpointStep:
         r1, wm, iterations = solve_step(evaluate, r1, wm, h, self.length_scale,
                                         self.tolerance, self.kept)
         damping = held[0]
-        xm, q1, _, _ = self._midpoint(x0, r1, wm, h)
+        q1, _, _ = _turned(split[1], wm, h)
         vm = (r1 - r0) / h
         dissipated = work = 0.0
         if damping is not None:
@@ -277,7 +283,7 @@ class MidpointStep:
                 work = dissipated - lost
         x1 = x0.copy()
         x1[c.positions] = r1
-        x1[c.quaternions] = q1 / np.linalg.norm(q1, axis=1)[:, None]
+        x1[c.quaternions] = q1 / _norms(q1)[:, None]
         return StepOutcome(Motion(x1, 2.0 * vm - v0, 2.0 * wm - w0, (vm, wm)), dissipated,
                            iterations, work)
 
@@ -316,3 +322,48 @@ class MidpointStep:
         rows = 0.5 * h * np.transpose(velocity_rows(qm), (0, 2, 1))
         return (rows + a * (omega @ rows)) / (1.0 + a * a * np.sum(wm * wm, axis=1)
                                               )[:, None, None]
+
+
+def _turned(q0: np.ndarray, wm: np.ndarray, h: float
+            ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The step's quaternions: (q₁ = Cayley(h ω_m) q₀, the unnormalised midpoint
+    q_m = (q₀ + q₁)/2, |q_m|)."""
+    q1 = cayley(q0, wm, h)
+    qm = 0.5 * (q0 + q1)
+    return q1, qm, _norms(qm)
+
+
+def _middle(c: PhysicalCoordinates, x0: np.ndarray, r0: np.ndarray, r1: np.ndarray,
+            qm: np.ndarray, norm: np.ndarray) -> np.ndarray:
+    """The midpoint x_m: positions (r₀ + r₁)/2, quaternions q_m/|q_m|."""
+    xm = x0.copy()
+    xm[c.positions] = 0.5 * (r0 + r1)
+    xm[c.quaternions] = qm / norm[:, None]
+    return xm
+
+
+def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """coordinates.cross_rows for two (s, 3) arrays of one shape (its products and
+    differences, without its broadcast of the shapes: the same numbers)."""
+    out = np.empty(a.shape)
+    out[:, 0] = a[:, 1] * b[:, 2] - a[:, 2] * b[:, 1]
+    out[:, 1] = a[:, 2] * b[:, 0] - a[:, 0] * b[:, 2]
+    out[:, 2] = a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0]
+    return out
+
+
+def _norms(q: np.ndarray) -> np.ndarray:
+    """|q| row by row: numpy.linalg.norm(q, axis=1)'s own sum of squares and root, without
+    its argument handling (the same numbers)."""
+    return np.sqrt(np.add.reduce(q * q, axis=1))
+
+
+def _times(matrix: tuple[int, int, np.ndarray, np.ndarray, np.ndarray], v: np.ndarray
+           ) -> np.ndarray:
+    """A CSR matrix (rows, columns, indptr, indices, data) times ``v``: scipy's product
+    ``matrix @ v`` by its own kernel (``csr_matvec``), without its format checks (the same
+    numbers)."""
+    rows, cols, indptr, indices, data = matrix
+    out = np.zeros(rows)
+    matvec(rows, cols, indptr, indices, data, v, out)
+    return out

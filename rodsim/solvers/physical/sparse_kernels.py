@@ -22,10 +22,13 @@ import scipy.sparse as sp
 from scipy.sparse import _sparsetools as kernels
 
 __all__ = ["INDEX", "Csr", "arrays", "transpose", "plus", "minus", "product", "scaled",
-           "congruent", "csr_of"]
+           "congruent", "csr_of", "matvec"]
 
 #: The index type of every array handed to the kernels (scipy's own at these sizes).
 INDEX = np.int32
+#: y += A x for a CSR A: ``matvec(rows, cols, indptr, indices, data, x, y)``, the kernel of
+#: scipy's ``A @ x`` (which hands it y = zeros).
+matvec = kernels.csr_matvec
 
 
 class Csr(NamedTuple):
