@@ -201,3 +201,31 @@ def test_rods_that_come_out_of_the_wall_are_given_five_times_what_they_need(
     gap = np.max(np.linalg.norm(result.rods[rod].positions - static.rods[rod].positions,
                                 axis=1))
     assert gap < 1e-6 * raw["rods"][rod]["length"]
+
+
+@pytest.mark.slow  # three command-line runs at once: ~10 s of CPU
+def test_the_users_guidewire_under_cvode_ends_the_same_way_every_time(tmp_path):
+    """Issue 37, item 2: `rodsim run guidewire.toml --integrator cvode` gave, in turn, a
+    failure, a tip at x = -0.060 and a tip at x = -0.050. Three runs at once (each loading
+    the CPU for the others) end with the same exit code and the same message, to the last
+    digit: the failure at the fold, after the same steps."""
+    import subprocess
+    import sys
+
+    runs = [subprocess.Popen(
+        [sys.executable, "-m", "rodsim", "run", str(GUIDEWIRE), "--integrator", "cvode",
+         "-o", str(tmp_path / f"g{k}.nc")], cwd=tmp_path, stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE, text=True) for k in range(3)]
+    try:
+        done = [run.communicate(timeout=600) for run in runs]
+    finally:
+        for run in runs:
+            run.kill()
+            run.wait()
+    codes = {run.returncode for run in runs}
+    messages = {tuple(line for line in err.splitlines() if line.startswith("rodsim:"))
+                for _, err in done}
+    assert codes == {1}, done
+    assert len(messages) == 1, messages
+    (line,) = messages.pop()
+    assert "passes through itself" in line and "track the insertion" in line, line
