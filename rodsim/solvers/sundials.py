@@ -417,7 +417,8 @@ class SundialsIntegrator(Integrator[SundialsState]):
                     self.tighten(run, clock)
                     continue
                 return x
-            stuck = wall.judge(run.model, x, step) if wall is not None else None
+            stuck = None if wall is None else wall.judge(
+                run.model, x, step, (clock.time - ramp.duration) / run.dynamics.period)
             if stuck is not None:
                 raise SolverFailure(*stuck)
             if run.reregister(x):
