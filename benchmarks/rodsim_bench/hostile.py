@@ -213,7 +213,9 @@ def vessel_csv(straight: float = 0.05, bend: float = 0.03, exit_length: float = 
 def _vessel_through_rest(rng: np.random.Generator) -> Try:
     """A user's 0.014-inch nitinol guidewire laid straight through a 90-degree vessel: its
     rest shape leaves the vessel at the bend (cvode once settled there folded through itself
-    with exit 0). Any integrator; ida is given 60 s (it spends its budget there)."""
+    with exit 0). Any integrator; ida is given 60 s (it spent its budget there until a run
+    from a rest shape through a wall was judged once the contact had had its chance,
+    rodsim/core/contact_validity.py: it now fails in a few seconds)."""
     integrator = str(rng.choice(["static", "cvode", "ida"]))
     scene = {"name": "hostile-vessel", "rods": {"wire": {
         "length": float(rng.uniform(0.17, 0.25)), "radius": 0.000178,

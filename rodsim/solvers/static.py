@@ -86,7 +86,8 @@ def rest_start_crossings(run: RunState | None) -> str:
     (``rodsim.core.contact_depth.rest_crossings``) and why the usual advice does not apply,
     else "". Measured on a user's guidewire whose straight rest shape leaves its vessel
     (benchmarks/results/default-integrator.md): static failed with a 100× smaller first
-    load step and with 200 Newton iterations, ida spent its 300 s, cvode settled on a
+    load step and with 200 Newton iterations, ida spent its 300 s (it now fails once the
+    contact has had its chance, rodsim/core/contact_validity.py), cvode settled on a
     state through the wall; a track of the insertion from a state inside converged."""
     if run is None or run.warm or not meets_obstacles(run.model):
         return ""
@@ -96,7 +97,7 @@ def rest_start_crossings(run: RunState | None) -> str:
     if not crossings:
         return ""
     return "; ".join(crossings) + ("; smaller load steps do not help there, and a "
-                                   "pseudo-dynamic integrator spends its budget or settles "
+                                   "pseudo-dynamic integrator fails or settles "
                                    "through the wall")
 
 

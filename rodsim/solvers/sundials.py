@@ -36,6 +36,7 @@ from typing import Any, ClassVar
 
 import numpy as np
 
+from rodsim.core.contact_validity import ThroughTheWall
 from rodsim.core.model import Model
 from rodsim.core.schema import Parameter
 from rodsim.solvers.base import LARGE_MODEL_SIZE, Integrator, Outcome, SolverFailure
@@ -401,6 +402,9 @@ class SundialsIntegrator(Integrator[SundialsState]):
         opts, counts, ramp = self.options, run.counts, run.dynamics.ramp
         horizon = run.dynamics.horizon
         stalls, switch = StallWatch(), opts.newton_switch
+        # A rest shape through a wall: its accepted states are judged once the contact has
+        # had its chance (rodsim/core/contact_validity.py).
+        wall = ThroughTheWall.of(run.base_model, run.warm)
         for step in range(1, opts.max_steps + 1):
             if clock.t >= horizon:  # steps that large mean a stalled corrector: tighten
                 if self.rtol(run) <= TIGHTEST_RTOL:
@@ -413,6 +417,10 @@ class SundialsIntegrator(Integrator[SundialsState]):
                     self.tighten(run, clock)
                     continue
                 return x
+            stuck = None if wall is None else wall.judge(
+                run.model, x, step, (clock.time - ramp.duration) / run.dynamics.period)
+            if stuck is not None:
+                raise SolverFailure(*stuck)
             if run.reregister(x):
                 self.reinitialise(run, clock)  # a tendon point changed parent (§4.1)
                 continue
