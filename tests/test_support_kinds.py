@@ -15,6 +15,8 @@ import pytest
 
 import rodsim
 from rodsim.core.model import Model
+from rodsim.core.scene import Scene
+from rodsim.core.schema import SceneError
 from rodsim.core.supports import Support, registered_support_kinds
 from rodsim.core.terms import term_class
 from rodsim.core.terms.bend_twist import BendTwist
@@ -147,6 +149,18 @@ def test_a_kind_holds_what_it_says(name):
                 zip(model.terms, model.term_keys, strict=True) if key == ("rods", rod_name, "base")]
         assert mine == [(key, term_class(key, values).Options.of(values))
                         for key, values in added]
+        # Those terms are the kind's alone: declared in adds_terms, of scope "support"
+        # (no scene lists them), and a rod naming one is pointed to the kind in one line.
+        assert sorted({key for key, _ in added}) == sorted(kind.adds_terms)
+        for key in kind.adds_terms:
+            assert term_class(key, {}).scope == "support"
+            listed = copy.deepcopy(scene)
+            listed["rods"][rod_name]["terms"] = [*listed["rods"][rod_name].get(
+                "terms", ["stretch", "bend_twist", "centerline"]), key]
+            with pytest.raises(SceneError, match=rf"^rods\.{rod_name}\.{key}: .*clamp = "
+                               rf"'{name}'") as refused:
+                Scene.from_dict(listed)
+            assert "\n" not in str(refused.value)
 
 
 @pytest.mark.parametrize("name", sorted(registered_support_kinds()))

@@ -62,6 +62,8 @@ def scene_keys_help() -> str:
              "  rods.<rod>:"]
     lines += [f"    {p.help()}" for p in ROD_PARAMETERS]
     for name, term in registered_terms().items():
+        if term.scope == "support":  # a support kind's energy: its keys are the base's
+            continue
         if term.scene_table:
             prefix = f"{term.scene_table}.<name>"
         else:
