@@ -26,7 +26,7 @@ def cmd_terms(args: argparse.Namespace) -> int:
 
     for name, term in registered_terms().items():
         print(f"{term_label(name, term):<20s} {term.equation}  [{term_place(term)}]")
-        for parameter in term.parameters:
+        for parameter in () if term.scope == "support" else term.parameters:
             print(f"    {parameter.help()}")
     return EXIT_OK
 
