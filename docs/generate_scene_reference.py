@@ -164,7 +164,7 @@ def reference() -> str:
         tendon_terms = term_keys("tendon")
         out += ["### `[tendons.<rod>]`", "", *table(TENDON_PARAMETERS, tendon_terms),
                 *term_tables(terms, "tendon", "tendons.<rod>")]
-    for scope in sorted(scopes - {"rod", "tendon", "obstacle"}):
+    for scope in sorted(scopes - {"rod", "tendon", "obstacle", "support"}):
         out += term_tables(terms, scope, f"{scope}s.<...>")
     if "obstacle" in scopes:
         from rodsim.core.obstacles import COMMON_PARAMETERS, registered_obstacles

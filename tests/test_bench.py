@@ -216,6 +216,18 @@ def test_bench_commit_needs_a_checkout(cli, capsys, monkeypatch):
     assert "-o/--output" in err and "Traceback" not in err
 
 
+def test_bench_medium_size_only_where_a_benchmark_declares_it(cli, capsys, tmp_path,
+                                                              recorded_bench):
+    """``--size medium`` (the stress map's ~15-minute size) is refused in one line by a
+    benchmark without it, before anything runs."""
+    from rodsim_bench import stress
+
+    assert "medium" in stress.SIZES
+    assert cli(["bench", "skip-work", "--size", "medium", "-o", str(tmp_path)]) == 2
+    err = capsys.readouterr().err
+    assert "no medium size" in err and "Traceback" not in err and not recorded_bench
+
+
 @pytest.fixture
 def recorded_bench(monkeypatch):
     """``rodsim bench skip-work`` with its ``run`` replaced by one that records its size and

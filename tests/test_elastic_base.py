@@ -1,6 +1,6 @@
-"""The elastic base (rodsim/core/terms/elastic_base.py): a rod held at its base by a
-translational spring k_t and rotational springs k_b (bending) and k_tau (twist) instead of
-a rigid clamp.
+"""The elastic base (``clamp = "elastic"``, its energy rodsim/core/terms/elastic_base.py): a
+rod held at its base by a translational spring k_t and rotational springs k_b (bending) and
+k_tau (twist) instead of a rigid clamp.
 
 Closed forms (small deflections, Euler-Bernoulli): a cantilever of bending stiffness E I
 under a tip force F across its axis deflects at the tip by
@@ -49,7 +49,7 @@ def _robot(material: str, seed: int) -> dict[str, float]:
 
 
 def _scene(robot: dict[str, float], nodes: int, force: tuple[float, float, float] = (0, 0, 0),
-           moment: tuple[float, float, float] = (0, 0, 0), clamp: str = "free",
+           moment: tuple[float, float, float] = (0, 0, 0), clamp: str = "elastic",
            scale: float = 1.0) -> Scene:
     rod = {"length": robot["length"], "radius": robot["radius"],
            "youngs_modulus": robot["E"], "poisson_ratio": 0.3, "density": robot["density"],
@@ -57,11 +57,10 @@ def _scene(robot: dict[str, float], nodes: int, force: tuple[float, float, float
            "terms": ["stretch", "bend_twist", "centerline", "point_loads"],
            "point_loads": {"loads": [{"s": robot["length"], "force": list(force),
                                       "moment": list(moment)}]}}
-    if clamp == "free":
-        rod["terms"].append("elastic_base")
-        rod["elastic_base"] = {"stiffness": scale * robot["k_t"],
-                               "rotational_stiffness": scale * robot["k_b"],
-                               "torsional_stiffness": scale * robot["k_tau"]}
+    if clamp == "elastic":
+        rod["base"] = {"translational_stiffness": scale * robot["k_t"],
+                       "rotational_stiffness": scale * robot["k_b"],
+                       "torsional_stiffness": scale * robot["k_tau"]}
     return Scene.from_dict({"name": "elastic-base", "rods": {"rod": rod}})
 
 
@@ -128,35 +127,40 @@ def test_stiff_springs_tend_to_the_rigid_clamp_as_their_compliance():
     assert gaps[0] / gaps[1] == pytest.approx(100.0, rel=1e-3)
 
 
-@pytest.mark.parametrize(("change", "match"), [
-    ({"clamp": "frame"}, "would hold it rigidly too"),
-    ({"elastic_base": {"stiffness": 0.0, "rotational_stiffness": 1.0,
-                       "torsional_stiffness": 1.0}}, "stiffness"),
-    ({"elastic_base": {"stiffness": 1.0, "rotational_stiffness": -1.0,
-                       "torsional_stiffness": 1.0}}, "rotational_stiffness"),
-    ({"terms": ["stretch", "bend_twist", "centerline"], "elastic_base": None},
-     "nothing would hold the rod"),
+OLD_SPRINGS = {"stiffness": 10.0, "rotational_stiffness": 1e-3, "torsional_stiffness": 1e-3}
+
+
+@pytest.mark.parametrize("change", [
+    {"terms": ["stretch", "bend_twist", "centerline", "elastic_base"],
+     "elastic_base": OLD_SPRINGS},
+    {"elastic_base": OLD_SPRINGS},
+    {"terms": ["stretch", "bend_twist", "centerline", "elastic_base"]},
+    {"clamp": "frame", "terms": ["stretch", "bend_twist", "centerline", "elastic_base"],
+     "elastic_base": OLD_SPRINGS},
 ])
-def test_bad_elastic_bases_are_one_line_scene_errors(change, match):
+def test_the_older_elastic_base_term_points_to_the_support_kind(change):
+    """The elastic base was once also a term a ``free`` rod listed (``[rods.<rod>.elastic_base]``
+    with ``stiffness``): one way now, the support kind; the older spelling, in any of its
+    parts, is one line naming the keys to write instead."""
     rod = {"length": 0.1, "radius": 1e-3, "youngs_modulus": 1e8, "density": 1000.0, "nodes": 6,
-           "clamp": "free", "terms": ["stretch", "bend_twist", "centerline", "elastic_base"],
-           "elastic_base": {"stiffness": 10.0, "rotational_stiffness": 1e-3,
-                            "torsional_stiffness": 1e-3}} | change
-    rod = {key: value for key, value in rod.items() if value is not None}
-    with pytest.raises(SceneError, match=match) as caught:
-        Scene.from_dict({"name": "bad", "rods": {"rod": rod}})
-    assert "\n" not in str(caught.value)
+           "clamp": "free", "terms": ["stretch", "bend_twist", "centerline"]} | change
+    with pytest.raises(SceneError) as caught:
+        Scene.from_dict({"name": "old", "rods": {"rod": rod}})
+    message = str(caught.value)
+    assert message.startswith("rods.rod.elastic_base: ") and "\n" not in message, message
+    for words in ("rods.rod.clamp = 'elastic'", "[rods.rod.base]", "translational_stiffness",
+                  "rotational_stiffness", "torsional_stiffness"):
+        assert words in message, message
 
 
 def test_a_joint_and_an_elastic_base_cannot_both_hold_a_base():
     rods = {
         "a": {"length": 0.1, "radius": 1e-3, "youngs_modulus": 1e8, "density": 1000.0, "nodes": 6},
         "b": {"length": 0.1, "radius": 1e-3, "youngs_modulus": 1e8, "density": 1000.0, "nodes": 6,
-              "clamp": "free",
-              "terms": ["stretch", "bend_twist", "centerline", "joint", "elastic_base"],
+              "clamp": "elastic", "terms": ["stretch", "bend_twist", "centerline", "joint"],
               "joint": {"rod": "a", "s": 0.1},
-              "elastic_base": {"stiffness": 10.0, "rotational_stiffness": 1e-3,
-                               "torsional_stiffness": 1e-3}},
+              "base": {"translational_stiffness": 10.0, "rotational_stiffness": 1e-3,
+                       "torsional_stiffness": 1e-3}},
     }
-    with pytest.raises(SceneError, match="would both hold the base"):
+    with pytest.raises(SceneError, match="also held by rods.b.joint"):
         Scene.from_dict({"name": "bad", "rods": rods})

@@ -22,11 +22,10 @@ def falling_rod(gravity: float = G) -> dict:
     """A rod along +x held by the softest elastic base the scene allows (1e-9 N/m and
     N·m/rad: free), its node spheres GAP above a frictionless plane, under gravity −y."""
     rod = {"length": 0.2, "radius": RADIUS, "youngs_modulus": 1e9, "density": 1000.0,
-           "nodes": 6, "clamp": "free",
-           "terms": ["stretch", "bend_twist", "centerline", "elastic_base", "gravity"],
+           "nodes": 6, "clamp": "elastic",
+           "terms": ["stretch", "bend_twist", "centerline", "gravity"],
            "gravity": {"gravity": gravity},
-           "elastic_base": {"stiffness": 1e-9, "rotational_stiffness": 1e-9,
-                            "torsional_stiffness": 1e-9}}
+           "base": {"translational_stiffness": 1e-9, "rotational_stiffness": 1e-9}}
     floor = {"type": "plane", "point": [0.0, -GAP - RADIUS, 0.0], "normal": [0.0, 1.0, 0.0],
              "rods": ["rod"]}
     return {"name": "fall", "rods": {"rod": rod}, "obstacles": {"floor": floor}}
@@ -40,12 +39,11 @@ radius = 1e-3
 youngs_modulus = 1e9
 density = 1000.0
 nodes = 6
-clamp = "free"
-terms = ["stretch", "bend_twist", "centerline", "elastic_base", "gravity"]
-[rods.rod.elastic_base]
-stiffness = 1e-9
+clamp = "elastic"
+terms = ["stretch", "bend_twist", "centerline", "gravity"]
+[rods.rod.base]
+translational_stiffness = 1e-9
 rotational_stiffness = 1e-9
-torsional_stiffness = 1e-9
 [obstacles.floor]
 type = "plane"
 point = [0.0, -0.011, 0.0]

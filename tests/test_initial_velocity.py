@@ -80,10 +80,9 @@ def test_first_mode_velocity_field_cvode_against_modes_and_euler_bernoulli():
 
 #: A rod held by the softest elastic base the scene allows (1e-9 N/m, no moment): free.
 FREE = {"length": 0.2, "radius": 1e-3, "youngs_modulus": 1e9, "density": 1000.0,
-        "nodes": 6, "clamp": "free",
-        "terms": ["stretch", "bend_twist", "centerline", "elastic_base"],
-        "elastic_base": {"stiffness": 1e-9, "rotational_stiffness": 0.0,
-                         "torsional_stiffness": 0.0}}
+        "nodes": 6, "clamp": "elastic",
+        "terms": ["stretch", "bend_twist", "centerline"],
+        "base": {"translational_stiffness": 1e-9, "rotational_stiffness": 0.0}}
 
 
 @pytest.mark.parametrize("velocity", [[0.3, -0.2, 0.1], [0.0, 0.0, -1.0]])

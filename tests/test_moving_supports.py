@@ -209,12 +209,15 @@ def test_bad_support_programs_are_one_line(program, integrator, words):
 
 
 def test_a_free_base_cannot_move():
-    with pytest.raises(SceneError, match="clamp 'free'") as error:
-        scene = free_rod(STEEL, clamp="free", elastic_base={
-            "stiffness": 1.0, "rotational_stiffness": 1.0, "torsional_stiffness": 1.0})
-        scene["rods"]["rod"]["terms"].append("elastic_base")
+    """A ``free`` base holds nothing (a joint to another rod holds it): moving it is
+    refused in one line."""
+    scene = free_rod(STEEL)
+    scene["rods"]["branch"] = {**free_rod(STEEL, clamp="free")["rods"]["rod"],
+                               "terms": ["stretch", "bend_twist", "centerline", "joint"],
+                               "joint": {"rod": "rod", "s": STEEL["length"]}}
+    with pytest.raises(SceneError, match="rod 'branch' is joined to another rod") as error:
         rodsim.simulate(scene, 1.0, step=1e-3,
-                        program={"base.insertion": ([0.0, 1.0], [0.0, 0.01])})
+                        program={"rods.branch.base.insertion": ([0.0, 1.0], [0.0, 0.01])})
     assert "\n" not in str(error.value)
 
 

@@ -15,6 +15,8 @@ import pytest
 
 import rodsim
 from rodsim.core.model import Model
+from rodsim.core.scene import Scene
+from rodsim.core.schema import SceneError
 from rodsim.core.supports import Support, registered_support_kinds
 from rodsim.core.terms import term_class
 from rodsim.core.terms.bend_twist import BendTwist
@@ -147,6 +149,18 @@ def test_a_kind_holds_what_it_says(name):
                 zip(model.terms, model.term_keys, strict=True) if key == ("rods", rod_name, "base")]
         assert mine == [(key, term_class(key, values).Options.of(values))
                         for key, values in added]
+        # Those terms are the kind's alone: declared in adds_terms, of scope "support"
+        # (no scene lists them), and a rod naming one is pointed to the kind in one line.
+        assert sorted({key for key, _ in added}) == sorted(kind.adds_terms)
+        for key in kind.adds_terms:
+            assert term_class(key, {}).scope == "support"
+            listed = copy.deepcopy(scene)
+            listed["rods"][rod_name]["terms"] = [*listed["rods"][rod_name].get(
+                "terms", ["stretch", "bend_twist", "centerline"]), key]
+            with pytest.raises(SceneError, match=rf"^rods\.{rod_name}\.{key}: .*clamp = "
+                               rf"'{name}'") as refused:
+                Scene.from_dict(listed)
+            assert "\n" not in str(refused.value)
 
 
 @pytest.mark.parametrize("name", sorted(registered_support_kinds()))
@@ -184,3 +198,42 @@ def test_the_built_in_kinds_hold_what_they_held(name):
     kind = registered_support_kinds()[name]
     assert (kind.holds_position, kind.holds_first_segment, kind.frame_element, kind.at_base,
             kind.at_node) == BUILT_IN[name]
+
+
+#: base place → (an example scene of EXAMPLES, the rod it places), for the place contract.
+PLACE_EXAMPLES: dict[str, tuple[str, str]] = {
+    "origin": ("frame", "rod"), "tendon": ("orientation", "tendon"), "joined": ("free", "distal"),
+}
+
+
+def test_every_registered_base_place_has_an_example():
+    from rodsim.core.base_places import registered_base_places
+
+    assert set(registered_base_places()) <= set(PLACE_EXAMPLES), (
+        "a base place without an example in PLACE_EXAMPLES (tests/test_support_kinds.py): "
+        f"{sorted(set(registered_base_places()) - set(PLACE_EXAMPLES))}")
+
+
+@pytest.mark.parametrize("name", sorted(PLACE_EXAMPLES))
+def test_a_base_place_places_the_rods_it_claims(name):
+    """The place that claims a rod puts its base: the model's rod holds the support the
+    place gives, built after the rod it is placed on (its parent), which holds its base
+    where its own place says; a place's own claim is checked, not inferred."""
+    from rodsim.core.base_places import base_place, registered_base_places
+    from rodsim.core.model import build_order
+
+    place = registered_base_places()[name]
+    example, rod_name = PLACE_EXAMPLES[name]
+    scene = Scene.from_dict(copy.deepcopy(EXAMPLES[example][0]))
+    assert base_place(scene, rod_name) is place
+    model = rodsim.build_model(scene)
+    expected = place.support(scene, rod_name, model.rods)
+    support = model.rods[rod_name].support
+    assert support.holds == scene.rods[rod_name].clamp
+    np.testing.assert_array_equal(support.position, expected.position)
+    np.testing.assert_array_equal(support.frame, expected.frame)
+    order = build_order(scene)
+    parent = place.parent(scene, rod_name)
+    if parent is not None:
+        assert order.index(parent) < order.index(rod_name)
+        assert model.rods[parent].layout.offset < model.rods[rod_name].layout.offset

@@ -177,11 +177,10 @@ def _sections(rng: np.random.Generator) -> Try:
 
 
 def _elastic_base(rng: np.random.Generator) -> Try:
-    rod = _rod(rng, clamp="free")
-    rod["terms"] = [*rod["terms"], "elastic_base"]
-    rod["elastic_base"] = {"stiffness": float(10 ** rng.uniform(-6, 9)),
-                           "rotational_stiffness": float(10 ** rng.uniform(-8, 4)),
-                           "torsional_stiffness": float(10 ** rng.uniform(-8, 4))}
+    rod = _rod(rng, clamp="elastic")
+    rod["base"] = {"translational_stiffness": float(10 ** rng.uniform(-6, 9)),
+                   "rotational_stiffness": float(10 ** rng.uniform(-8, 4)),
+                   "torsional_stiffness": float(10 ** rng.uniform(-8, 4))}
     return ("elastic bases", ["run", "scene.toml"],
             {"scene.toml": toml_text({"name": "hostile-base", "rods": {"rod": rod}})})
 

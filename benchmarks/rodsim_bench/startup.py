@@ -63,7 +63,9 @@ from rodsim_bench.machine import machine
 
 __all__ = ["run", "COMMANDS"]
 
-SIZES = {"small": {"repeats": 1}, "full": {"repeats": 5}}
+#: small: one repeat without the warm-up round (a smoke run: every command and phase timed
+#: once, with cold bytecode and numba caches for the first); full: a warm-up round, then 5.
+SIZES = {"small": {"repeats": 1, "warm_up": False}, "full": {"repeats": 5, "warm_up": True}}
 
 #: A plain process: main(argv) returns and the interpreter exits normally.
 _PLAIN = "import sys\nfrom rodsim.app.cli import main\nsys.exit(main(sys.argv[1:]))"
@@ -260,9 +262,10 @@ def run(size: str, output_dir: str | Path, progress=None) -> list[Path]:
         commands, trees = _commands(folder)
         times: dict[str, list[float]] = {label: [] for label in commands}
         tdcr: dict[str, list[dict[str, float]]] = {label: [] for label in trees}
-        for argv, path in commands.values():  # warm-up: bytecode and numba caches written
-            _child_cpu(argv, path)
-        _phases(folder, "lean")
+        if SIZES[size]["warm_up"]:  # bytecode and numba caches written before timing
+            for argv, path in commands.values():
+                _child_cpu(argv, path)
+            _phases(folder, "lean")
         for repeat in range(repeats):  # interleaved, so that a load change hits every row
             for label, (argv, path) in commands.items():
                 if progress is not None:

@@ -49,7 +49,10 @@ INTEGRATORS = ("static", "paper", "cvode", "ida")
 #: log10 bounds of (K_P [N], N, r [m], α, h [s]).
 BOUNDS = np.array([[2.0, 9.0], [math.log10(5), math.log10(2000)], [-5.0, -2.0],
                    [-2.0, math.log10(20)], [-2.0, 0.0]])
+#: medium: the full box and budget with 150 configurations (600 runs, about 15 min on a
+#: loaded 2-core machine), for a re-measurement between full runs.
 SIZES = {"small": {"count": 6, "max_nodes": 40, "budget": 5.0},
+         "medium": {"count": 150, "max_nodes": 2000, "budget": 20.0},
          "full": {"count": 500, "max_nodes": 2000, "budget": 20.0}}
 #: Table 1 material and length (the base scene), standard gravity.
 E, LENGTH, GRAVITY = 5.9e6, 0.12, 9.81

@@ -50,9 +50,11 @@ class Simulation:
         NaN for a non-conservative scene.
     energy_error
         The balance T + V + D − W − (T₀ + V₀) at each output time [J].
-    step
-        The fixed step asked for [s] (midpoint, paper: the steps taken are at most this);
-        IDA's and CVODE's, and the error-controlled midpoint rule's, longest step taken.
+    step_size
+        The step size [s]: the fixed step asked for (midpoint, paper: the steps taken are
+        at most this); IDA's and CVODE's, and the error-controlled midpoint rule's, longest
+        step taken. (Not ``step``: in rodsim that name steps — ``Model.step``, a tracker's
+        ``step`` — and ``simulate(step=)`` is only the step asked for.)
         ``steps`` counts the steps (under error control every midpoint step solved, three
         an attempt; ``rejected`` the attempts rejected).
     iterations
@@ -70,7 +72,7 @@ class Simulation:
     potential_energy: np.ndarray
     dissipated_energy: np.ndarray
     work: np.ndarray
-    step: float
+    step_size: float
     integrator: str = "midpoint"
     steps: int = 0
     iterations: int = 0
@@ -116,7 +118,7 @@ class Simulation:
         rows = [("outcome", self.message if self.success else f"FAILED: {self.message}"),
                 ("time", f"{len(self.times)} outputs, t = 0 to {reached:.4g} s"
                  f" (t_end {self.t_end:.4g} s)"),
-                ("work", f"{self.steps} steps ({step} {self.step:.3g} s), "
+                ("work", f"{self.steps} steps ({step} {self.step_size:.3g} s), "
                  f"{self.iterations} iterations"
                  + (f", {self.halvings} halved steps" if self.halvings else "")
                  + (f", error control {self.error_control}, {self.rejected} rejected"
@@ -186,6 +188,6 @@ class Simulation:
                  "halvings": self.halvings}
         return trajectory_dataset(TrajectoryRecord(
             self.scene, rods, self.times, self.positions, self.quaternions, energies,
-            self.success, self.message, self.t_end, self.integrator, self.step, stats,
+            self.success, self.message, self.t_end, self.integrator, self.step_size, stats,
             {key: entry.archived() for key, entry in self.program.items()}, self.initial,
             self.events, self.friction, self.breakaways))

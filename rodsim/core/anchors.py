@@ -24,11 +24,12 @@ from typing import Any
 
 import numpy as np
 
+from rodsim.core.base_places import BasePlace
 from rodsim.core.rod.rod import Rod
 from rodsim.core.schema import SceneError, shown
 from rodsim.core.supports import Support, node_at, node_exactly_at
 
-__all__ = ["Anchor", "check_joints", "check_tendon_termination", "joined_support",
+__all__ = ["Anchor", "JoinedPlace", "check_joints", "check_tendon_termination", "joined_support",
            "joint_depth", "node_at", "scene_joints", "tendon_termination"]
 
 
@@ -114,6 +115,31 @@ def joined_support(parent: Rod, s: float) -> Support:
     (the joint term does), at the parent's rest point there, in the parent's base frame."""
     node = node_at(parent.nodes, parent.length, s)
     return Support("free", parent.rest_positions()[node], parent.base_quaternion)
+
+
+class JoinedPlace(BasePlace):
+    """A rod joined to another (a term that ``joins_rods``): its base at the joint on the
+    other rod (``joined_support``), built after it (rodsim/core/base_places.py)."""
+
+    name = "joined"
+    precedence = 1
+
+    @classmethod
+    def claims(cls, scene: Any, rod: str) -> bool:
+        return rod in scene_joints(scene)
+
+    @classmethod
+    def parent(cls, scene: Any, rod: str) -> str | None:
+        return str(scene_joints(scene)[rod].rod)
+
+    @classmethod
+    def order(cls, scene: Any, rod: str) -> tuple[int, int]:
+        return (0, joint_depth(rod, scene_joints(scene)))
+
+    @classmethod
+    def support(cls, scene: Any, rod: str, rods: Mapping[str, Rod]) -> Support:
+        joint = scene_joints(scene)[rod]
+        return joined_support(rods[joint.rod], joint.s)
 
 
 def check_joints(rods: Mapping[str, Mapping[str, Any]], tendons: Collection[str],

@@ -28,12 +28,12 @@ from __future__ import annotations
 import copy
 from collections.abc import Callable, Mapping
 from functools import cached_property
-from typing import Any, Literal, overload
+from typing import Literal, overload
 
 import numpy as np
 
-from rodsim.core.anchors import joined_support, joint_depth, scene_joints
 from rodsim.core.assembly_budget import AssemblyBudget
+from rodsim.core.base_places import base_place
 from rodsim.core.kernel_call import KernelCall
 from rodsim.core.model_evaluation import EVALUATION_PATHS, KERNELS
 from rodsim.core.model_pattern import Band
@@ -41,33 +41,30 @@ from rodsim.core.model_scales import ModelScales
 from rodsim.core.rod.layout import RodLayout
 from rodsim.core.rod.rod import Rod
 from rodsim.core.scene import Scene
-from rodsim.core.supports import base_support, node_supports
-from rodsim.core.tendon import Tendon, tendon_support
+from rodsim.core.supports import node_supports
+from rodsim.core.tendon import Tendon  # registers the tendon and joined rods' base places
 from rodsim.core.terms import Term, registered_terms, term_class
 from rodsim.core.terms._string_breaks import split_at_breaks
 
-__all__ = ["Model", "Band", "EVALUATION_PATHS", "KERNELS", "KernelCall", "scene_rod"]
+__all__ = ["Model", "Band", "EVALUATION_PATHS", "KERNELS", "KernelCall", "build_order",
+           "scene_rod"]
 
 
-def scene_rod(scene: Scene, name: str, layout: RodLayout, rods: Mapping[str, Rod],
-              joints: Mapping[str, Any] | None = None) -> Rod:
-    """Rod ``name`` of ``scene`` at ``layout``, held by its base support (at its catheter's
-    lumen for a tendon rod, at its joint for a joined rod: ``rods`` must hold that catheter
-    or parent), with its sections; without the supports at other nodes. ``joints``:
-    ``rodsim.core.anchors.scene_joints`` of the scene (read when None)."""
-    options = scene.rods[name]
-    tendons = scene.data["tendons"]
-    joints = scene_joints(scene) if joints is None else joints
-    if name in tendons:
-        tendon = scene.tendons[name]
-        support = tendon_support(rods[tendon.catheter], tendon, options.clamp)
-    elif name in joints:
-        support = joined_support(rods[joints[name].rod], joints[name].s)
-    else:
-        support = base_support(options.clamp, scene.base_options(name),
-                               np.asarray(options.origin, dtype=float))
+def scene_rod(scene: Scene, name: str, layout: RodLayout, rods: Mapping[str, Rod]) -> Rod:
+    """Rod ``name`` of ``scene`` at ``layout``, held by its base support where its base
+    place puts it (``rodsim.core.base_places.base_place``: at its origin, at its catheter's
+    lumen for a tendon rod, at its joint for a joined rod; ``rods`` must hold the place's
+    ``parent``), with its sections; without the supports at other nodes."""
+    support = base_place(scene, name).support(scene, name, rods)
     sections = tuple(scene.data["rods"][name].get("sections", ()))
-    return Rod(name, options, layout, support, sections=sections)
+    return Rod(name, scene.rods[name], layout, support, sections=sections)
+
+
+def build_order(scene: Scene) -> list[str]:
+    """The scene's rods in the order the model builds them (and places them in the state):
+    each after the rod its base is placed on (``BasePlace.order``, stable over the scene's
+    order)."""
+    return sorted(scene.data["rods"], key=lambda n: base_place(scene, n).order(scene, n))
 
 
 def _registered_as(term: Term, other: Term) -> Term:
@@ -133,11 +130,10 @@ class Model(ModelScales):
         # Catheters first, so a tendon's base can be placed in its catheter's lumen; a rod
         # joined to another after it, so its base can be placed at the joint.
         rods = scene.rods
-        joints = scene_joints(scene)
-        for name in sorted(rods, key=lambda n: (n in tendons, joint_depth(n, joints))):
+        for name in build_order(scene):
             options = rods[name]
             layout = RodLayout(options.nodes, offset)
-            rod = scene_rod(scene, name, layout, self.rods, joints)
+            rod = scene_rod(scene, name, layout, self.rods)
             tables = scene.support_tables(name)
             if tables:
                 rod = Rod(name, options, layout, rod.support, node_supports(

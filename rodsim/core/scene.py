@@ -71,6 +71,7 @@ from rodsim.core.schema import (
 from rodsim.core.supports import (
     BASE_PARAMETERS,
     BaseOptions,
+    refuse_support_terms,
     resolve_base,
     resolve_supports,
     support_kind,
@@ -452,6 +453,7 @@ def _resolve_rods(rods_raw: Any) -> dict[str, dict[str, Any]]:
         if (isinstance(own, Mapping) and "youngs_modulus" in own
                 and "stretch_modulus" not in own):  # E_s = E_b, an ideal material
             own = {**own, "stretch_modulus": own["youngs_modulus"]}
+        refuse_support_terms(rod, own)  # a support's term, named as a term: its kind
         rods[rod] = _resolve_with_terms(own, ROD_PARAMETERS, rod_terms, f"rods.{rod}",
                                         extra_tables=("base", "supports", "damping"))
         if given:  # only then: a uniform rod's resolved table is unchanged

@@ -58,8 +58,9 @@ from rodsim.core.schema import Options, Parameter, SceneError, validate_table
 
 __all__ = ["BASE_PARAMETERS", "BaseOptions", "CLAMPS", "SUPPORT_PARAMETERS", "Support",
            "SupportKind", "all_base_parameters", "base_frame", "base_support", "clamp_doc",
-           "node_at", "node_supports", "quaternion_product", "registered_support_kinds",
-           "resolve_base", "resolve_supports", "rigid_motion", "support_kind"]
+           "node_at", "node_supports", "quaternion_product", "refuse_support_terms",
+           "registered_support_kinds", "resolve_base", "resolve_supports", "rigid_motion",
+           "support_kind"]
 
 BASE_PARAMETERS: tuple[Parameter, ...] = (
     Parameter("insertion", "float", 0.0, "m",
@@ -139,6 +140,9 @@ class SupportKind:
     tendon_base: ClassVar[bool] = False
     #: Keys this kind adds to ``[rods.<rod>.base]`` (validated only for a base of this kind).
     base_parameters: ClassVar[tuple[Parameter, ...]] = ()
+    #: The keys of the terms ``terms`` builds (terms of scope ``"support"``, which no scene
+    #: lists: a rod naming one in its ``terms``, or its table, is pointed to this kind).
+    adds_terms: ClassVar[tuple[str, ...]] = ()
 
     def __init_subclass__(cls, **kwargs: Any) -> None:
         super().__init_subclass__(**kwargs)
@@ -186,10 +190,38 @@ class SupportKind:
         for a rigid support. Named, not imported: the terms depend on the supports."""
         return []
 
+    @classmethod
+    def refuse_listed(cls, rod: str, key: str) -> None:
+        """SceneError: rod ``rod`` names term ``key``, which this kind adds
+        (``adds_terms``), itself — in its ``terms`` or as its table ``[rods.<rod>.<key>]``
+        (an older way of writing this support)."""
+        keys = ", ".join(p.name for p in cls.base_parameters)
+        raise SceneError(f"rods.{rod}.{key}: a support of kind '{cls.name}' now, not a term; "
+                         f"allowed: rods.{rod}.clamp = '{cls.name}'"
+                         + (f" with [rods.{rod}.base] {keys}" if keys else "")
+                         + cls.former_keys)
+
+    #: What ``refuse_listed`` adds after its list of keys (a renamed key).
+    former_keys: ClassVar[str] = ""
+
 
 def registered_support_kinds() -> dict[str, type[SupportKind]]:
     """Every support kind by name, in the order they were defined."""
     return dict(_KINDS)
+
+
+def refuse_support_terms(rod: str, table: Any) -> None:
+    """SceneError (``SupportKind.refuse_listed``) when the raw rod table ``table`` names a
+    term a support kind adds, in its ``terms`` or as a table of its own."""
+    if not isinstance(table, Mapping):
+        return
+    terms = table.get("terms")
+    listed = set(terms) if isinstance(terms, list) and all(
+        isinstance(t, str) for t in terms) else set()
+    for kind in _KINDS.values():
+        for key in kind.adds_terms:
+            if key in table or key in listed:
+                kind.refuse_listed(rod, key)
 
 
 def clamp_doc() -> str:
@@ -251,11 +283,11 @@ class OrientationSupport(SupportKind):
 
 
 class FreeSupport(SupportKind):
-    """Nothing held: a term holds the base (``Term.holds_base``: a joint to another rod,
-    an elastic base)."""
+    """Nothing held: a term holds the base (``Term.holds_base``: a joint to another
+    rod)."""
 
     name = "free"
-    doc = "nothing: the base is held by a joint to another rod or by an elastic base"
+    doc = "nothing: the base is held by a joint to another rod"
 
     @classmethod
     def check_base(cls, rod: str, holders: list[str], pulled: bool,
@@ -263,8 +295,8 @@ class FreeSupport(SupportKind):
         if not holders:
             base_holders = ", ".join(sorted(set(holder_terms)))
             raise SceneError(f"rods.{rod}.clamp = 'free': nothing would hold the rod; "
-                             "allowed: 'frame' or 'first_segment', or 'free' with a joint "
-                             f"to another rod or an elastic base (terms: {base_holders})")
+                             "allowed: 'frame', 'first_segment' or 'elastic', or 'free' with "
+                             f"a joint to another rod (terms: {base_holders})")
 
 
 class PositionSupport(SupportKind):
@@ -301,7 +333,7 @@ class ElasticSupport(SupportKind):
         Parameter("rotational_stiffness", "float", None, "N*m/rad",
                   "clamp = 'elastic': spring k_b holding the first segment's turn about the "
                   "bending axes d1, d2 of the base frame (and about d3 unless "
-                  "torsional_stiffness is set)", 0.0, 1e15, exclusive_minimum=True),
+                  "torsional_stiffness is set; 0: a pin that passes no moment)", 0.0, 1e15),
         Parameter("torsional_stiffness", "float", 0.0, "N*m/rad",
                   "clamp = 'elastic': spring k_tau about the rod's axis d3 at the base (0: "
                   "rotational_stiffness)", 0.0, 1e15),
@@ -320,6 +352,10 @@ class ElasticSupport(SupportKind):
         rotational = float(base["rotational_stiffness"])
         return (float(base["translational_stiffness"]), rotational,
                 float(base["torsional_stiffness"]) or rotational)
+
+    adds_terms = ("elastic_base",)
+    former_keys = (" (the elastic_base term's stiffness is translational_stiffness; a "
+                   "torsional_stiffness of 0 or none takes rotational_stiffness)")
 
     @classmethod
     def terms(cls, base: Mapping[str, Any]) -> list[tuple[str, dict[str, Any]]]:

@@ -30,6 +30,7 @@ from typing import Any, NamedTuple
 import numpy as np
 
 from rodsim.core.anchors import Anchor, check_tendon_termination, tendon_termination
+from rodsim.core.base_places import BasePlace
 from rodsim.core.rod.quaternion import DIRECTOR_FORMS, director, director_gradient
 from rodsim.core.rod.rod import Rod, RodOptions
 from rodsim.core.routing import check_routing
@@ -38,7 +39,7 @@ from rodsim.core.supports import Support, support_kind
 
 __all__ = ["ROD_COUPLING_TABLES", "STRING_TERMS", "TENDON_PARAMETERS", "TENDON_TERMS",
            "LumenFrame", "Tendon", "TendonOptions", "check_tendon", "physical_default",
-           "tendon_origin", "tendon_support"]
+           "TendonPlace", "tendon_origin", "tendon_support"]
 
 #: Coupling terms a tendon uses unless its table lists others.
 TENDON_TERMS = ["lumen", "endpoint_compliance", "endpoint_coupling", "tendon_actuation"]
@@ -265,6 +266,31 @@ def tendon_support(catheter: Rod, options: TendonOptions, clamp: str) -> Support
     its catheter's base frame, holding what the tendon rod's ``clamp`` says; it moves and
     turns with the catheter's base (an inserted or rotated catheter carries its tendons)."""
     return Support(clamp, tendon_origin(catheter, options), catheter.base_quaternion)
+
+
+class TendonPlace(BasePlace):
+    """A tendon rod's base: at its lumen's entrance in its catheter (``tendon_support``),
+    built after every other rod (rodsim/core/base_places.py)."""
+
+    name = "tendon"
+    precedence = 2
+
+    @classmethod
+    def claims(cls, scene: Any, rod: str) -> bool:
+        return rod in scene.data["tendons"]
+
+    @classmethod
+    def parent(cls, scene: Any, rod: str) -> str | None:
+        return str(scene.data["tendons"][rod]["catheter"])
+
+    @classmethod
+    def order(cls, scene: Any, rod: str) -> tuple[int, int]:
+        return (1, 0)
+
+    @classmethod
+    def support(cls, scene: Any, rod: str, rods: Mapping[str, Rod]) -> Support:
+        tendon = scene.tendons[rod]
+        return tendon_support(rods[tendon.catheter], tendon, scene.rods[rod].clamp)
 
 
 class LumenFrame(NamedTuple):

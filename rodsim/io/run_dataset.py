@@ -70,9 +70,8 @@ def run_content(result: Result) -> ArchiveContent:
     )
     if result.history.get("time"):
         content.coords.update(step_coordinate(len(result.history["time"])))
-        time_attrs = ({"units": "1", "long_name": "load fraction after each load step"}
-                      if result.integrator == "static" else
-                      {"units": "s", "long_name": "pseudo-time after each step"})
+        units, meaning = result.history_time  # the integrator's (Integrator.history_time)
+        time_attrs = {"units": units, "long_name": meaning}
         content.data_vars.update({
             "history_time": (("step",), np.asarray(result.history["time"], dtype=float),
                              time_attrs),

@@ -68,7 +68,7 @@ class TrajectoryRecord:
     message: str
     t_end: float
     integrator: str
-    step: float
+    step_size: float
     stats: Mapping[str, float]
     #: key → [times, values] (a table) or the sinusoid's amplitude, frequency, phase,
     #: offset (rodsim/core/program.py)
@@ -148,7 +148,7 @@ def trajectory_dataset(record: TrajectoryRecord) -> xr.Dataset:
         "complete": int(record.success and reached >= record.t_end),
         "message": record.message,
         "t_end": float(record.t_end),
-        "time_step": float(record.step),
+        "time_step": float(record.step_size),
         "program_json": json.dumps(dict(record.program), sort_keys=True),
         "initial": record.initial,
         "scene_json": record.scene.to_json(),

@@ -165,6 +165,7 @@ class Static(Integrator[RunState]):
     name = "static"
     summary = "Newton on F(x) = 0 with the analytic Jacobian and load continuation"
     quaternion_norm = "penalty Eq. (9) only (|d3| = |q|² is pulled to 1)"
+    history_time = ("1", "load fraction after each load step")
     parameters = (
         Parameter("max_newton", "int", 30, "-", "Newton iterations per load step", 1, 10_000),
         Parameter("first_load_step", "float", 1.0, "-",

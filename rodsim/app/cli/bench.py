@@ -24,6 +24,10 @@ def cmd_bench(args: argparse.Namespace) -> int:
         raise UserError(f"no benchmark {args.benchmark!r}; the benchmarks are "
                         + ", ".join(package.BENCHMARKS))
     module = importlib.import_module(f"{package.__name__}.{args.benchmark.replace('-', '_')}")
+    sizes = getattr(module, "SIZES", None)
+    if args.size == "medium" and not (isinstance(sizes, dict) and "medium" in sizes):
+        raise UserError(f"--size medium: {args.benchmark} has no medium size; allowed: "
+                        "small or full")
     if args.output_dir is not None and args.commit:
         raise UserError("give either -o/--output or --commit, not both")
     output = results_folder(args.output_dir, args.commit)

@@ -26,7 +26,7 @@ def cmd_terms(args: argparse.Namespace) -> int:
 
     for name, term in registered_terms().items():
         print(f"{term_label(name, term):<20s} {term.equation}  [{term_place(term)}]")
-        for parameter in term.parameters:
+        for parameter in () if term.scope == "support" else term.parameters:
             print(f"    {parameter.help()}")
     return EXIT_OK
 
@@ -40,8 +40,11 @@ def term_label(name: str, term: type[Term]) -> str:
 
 def term_place(term: type[Term]) -> str:
     """Where a scene asks for the term: a rod's or a tendon's ``terms`` list, or a table
-    of its own (contact: ``[obstacles.<name>]``)."""
+    of its own (contact: ``[obstacles.<name>]``), or a support kind's (the elastic base:
+    ``rods.<rod>.clamp``, its keys in ``[rods.<rod>.base]``)."""
     if term.scene_table:
         return f"[{term.scene_table}.<name>]"
+    if term.scope == "support":
+        return "rods.<rod>.clamp: added by a support kind, its keys in [rods.<rod>.base]"
     return ("rods.<rod>" if term.scope == "rod" else "tendons.<tendon rod>") + ".terms"
 

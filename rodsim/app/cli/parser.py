@@ -63,6 +63,8 @@ def scene_keys_help() -> str:
              "  rods.<rod>:"]
     lines += [f"    {p.help()}" for p in ROD_PARAMETERS]
     for name, term in registered_terms().items():
+        if term.scope == "support":  # a support kind's energy: its keys are the base's
+            continue
         if term.scene_table:
             prefix = f"{term.scene_table}.<name>"
         else:
@@ -376,9 +378,10 @@ def build_parser() -> argparse.ArgumentParser:
                        "dynamics, step-cost, real-time, cvode-scaling, hostile, pyelastica or "
                        "pyelastica-dynamics (the last two need "
                        "'pip install pyelastica==1.0.0'; never a dependency)")
-    bench.add_argument("--size", choices=("small", "full"), default="small",
+    bench.add_argument("--size", choices=("small", "medium", "full"), default="small",
                        help="small (the default): a smoke version in seconds to a minute; "
-                       "full: the real benchmark (minutes to an hour, docs/benchmarks.md)")
+                       "full: the real benchmark (minutes to an hour, docs/benchmarks.md); "
+                       "medium: between them, for the benchmarks that declare it (stress)")
     bench.add_argument("-o", "--output", "--output-dir", dest="output_dir", default=None,
                        metavar="DIR",
                        help="folder for the results (default: runs/bench of the current "

@@ -165,10 +165,10 @@ class Simulate(SceneCommand):
             relative = f" ({error / scale:.2e} of the largest energy change)" if scale else ""
             print(f"energy      balance error {error:.3e} J{relative}")
         if result.integrator not in FIXED_STEP:
-            print(f"steps       {result.steps} (the longest {result.step:.4g} s), "
+            print(f"steps       {result.steps} (the longest {result.step_size:.4g} s), "
                   f"{result.iterations} residual evaluations")
         else:
-            print(f"steps       {result.steps} of at most {result.step:.4g} s, "
+            print(f"steps       {result.steps} of at most {result.step_size:.4g} s, "
                   f"{result.iterations} Newton iterations, {result.halvings} halved")
         for time, name in result.events:
             print(f"event       {name} at t = {time:.9g} s")

@@ -19,7 +19,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from rodsim.core.anchors import scene_joints
+from rodsim.core.base_places import base_place
 from rodsim.core.model import scene_rod
 from rodsim.core.rod.layout import RodLayout
 from rodsim.core.rod.rod import Rod
@@ -41,18 +41,14 @@ def scene_rods(scene: Scene, names: tuple[str, ...]) -> dict[str, Rod]:
     """The rods ``names`` of ``scene`` (and the catheters or joint parents their bases are
     placed on), with their constants and base supports as a model builds them, but no
     model: no layout in a state vector, no terms, no assembly."""
-    joints = scene_joints(scene)
-    tendons = scene.data["tendons"]
     rods: dict[str, Rod] = {}
 
     def build(name: str) -> Rod:
         if name not in rods:
-            parent = (tendons[name]["catheter"] if name in tendons
-                      else joints[name].rod if name in joints else None)
+            parent = base_place(scene, name).parent(scene, name)
             if parent is not None:
                 build(parent)
-            rods[name] = scene_rod(scene, name, RodLayout(scene.rods[name].nodes, 0), rods,
-                                   joints)
+            rods[name] = scene_rod(scene, name, RodLayout(scene.rods[name].nodes, 0), rods)
         return rods[name]
 
     return {name: build(name) for name in names}

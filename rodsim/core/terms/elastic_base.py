@@ -1,10 +1,13 @@
-"""An elastic base: the rod's base held by springs instead of a rigid support (docs/model.md,
-"Supports and anchors").
+"""The energy of the elastic base support, ``clamp = "elastic"`` (``ElasticSupport``,
+rodsim/core/supports.py; docs/model.md, "Supports and anchors"): the rod's base held by
+springs instead of rigidly.
 
 A catheter's base is rarely rigid: a handle, an introducer sheath or a motor stage gives
-under load. For a rod whose base support holds nothing (``clamp = "free"``), with the
-support point r_c and frame q_c of its base (its ``origin``, moved and turned by
-``[rods.<rod>.base]``, rodsim/core/supports.py):
+under load. The support kind declares the scene keys (``[rods.<rod>.base]``
+``translational_stiffness``, ``rotational_stiffness``, ``torsional_stiffness``) and adds this
+term, of scope ``"support"``: no scene lists it (a rod that does is pointed to the kind,
+``SupportKind.refuse_listed``). With the support point r_c and frame q_c of the base (its
+``origin``, moved and turned by ``[rods.<rod>.base]``):
 
     E = ½ k_t |r_0 − r_c|²  +  ½ l̄ Σ_k K̃_k u_k(q_c, q_0)²,
 
@@ -20,7 +23,8 @@ so that a small turn φ of the rod's end about d_k stores ½ (K̃_k / l̄) φ²,
 stiffness 0 passes no moment about its axes (k_b = 0: a pin that bends freely). As
 k_t, k_b, k_τ → ∞ the element is the rigid clamp's and the model the ``frame`` clamp's,
 second order in N as it is; with finite springs a cantilever under a tip force F gives
-the tip F L³/(3 E I) + F L²/k_b + F/k_t (tests/test_elastic_base.py). For large turns the
+the tip F L³/(3 E I) + F L²/k_b + F/k_t (tests/test_elastic_support.py,
+tests/test_elastic_base.py). For large turns the
 spring's energy is that of the discrete strain, 2 k (sin(φ/2))² (1 + O(l/L)) — a
 rotational spring whose moment falls off as cos(φ/2) past small angles.
 """
@@ -28,12 +32,11 @@ rotational spring whose moment falls off as cos(φ/2) past small angles.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any
 
 import numpy as np
 
 from rodsim.core.rod.rod import Rod
-from rodsim.core.schema import Options, Parameter, SceneError
+from rodsim.core.schema import Options, Parameter
 from rodsim.core.terms.base import KernelArguments, RodTerm
 from rodsim.core.terms.bend_twist import (
     bend_forces,
@@ -45,8 +48,9 @@ from rodsim.core.terms.bend_twist import (
 
 @dataclass(frozen=True, kw_only=True)
 class ElasticBaseOptions(Options):
-    """The options of the ``elastic_base`` term: one field per parameter, checked against
-    them when the term class is defined."""
+    """The options of the ``elastic_base`` term (built by ``ElasticSupport.terms`` from the
+    base's keys): one field per parameter, checked against them when the term class is
+    defined."""
 
     stiffness: float
     rotational_stiffness: float
@@ -55,14 +59,15 @@ class ElasticBaseOptions(Options):
 
 class ElasticBase(RodTerm):
     """The rod's base node held at its support point by a spring and its first segment at
-    the support frame by rotational springs (module docstring)."""
+    the support frame by rotational springs (module docstring): the energy of the
+    ``elastic`` support kind."""
 
     name = "elastic_base"
+    scope = "support"
     figure_layer = "shape"
     Options = ElasticBaseOptions
     options: ElasticBaseOptions
     equation = "support (not in the paper); Eqs. (3), (7), (8) for the frame"
-    holds_base = True
     parameters = (
         Parameter("stiffness", "float", None, "N/m",
                   "translational spring k_t holding the base node at its support point "
@@ -74,13 +79,6 @@ class ElasticBase(RodTerm):
                   "rotational spring k_tau about the rod's axis d3 at the base (0: the base "
                   "turns freely about it)", 0.0, 1e15),
     )
-
-    @classmethod
-    def check_scene(cls, options: Any, owner: Any, prefix: str) -> None:
-        if owner.clamp != "free":
-            raise SceneError(f"{prefix}: the base is held by its springs, and clamp = "
-                             f"{owner.clamp!r} would hold it rigidly too; allowed: clamp = "
-                             "'free' with an elastic base")
 
     def __init__(self, rod: Rod, options: ElasticBaseOptions) -> None:
         super().__init__(rod, options)
