@@ -38,6 +38,13 @@ module ``NAME_energy`` beside the kernel module ``NAME`` (``tendon_string_energy
 
 Nothing here is imported until a model evaluates with ``solver.kernels = "compiled"``, so
 ``import rodsim`` does not pay for numba.
+
+numba checks a function's cached machine code against its own file only, so a kernel that
+inlines a helper of another module (``tendon_string`` and ``tendon_string_path``) would keep
+running the helper's old code after the helper alone is edited. Importing this package
+therefore first checks the cache folder's stamp against a digest of all the kernels' sources
+and removes the kernels' cache files when they differ (rodsim/core/kernel_cache_stamp.py),
+before any kernel module is imported.
 """
 
 from __future__ import annotations
@@ -48,6 +55,8 @@ import importlib.util
 import inspect
 from collections.abc import Callable
 from typing import TYPE_CHECKING, Any, NamedTuple
+
+from rodsim.core.kernel_cache_stamp import check_kernel_cache
 
 if TYPE_CHECKING:
     from rodsim.core.terms.base import KernelArguments, Term
@@ -151,3 +160,11 @@ def _kernel_named(name: str) -> Kernel:
             raise TypeError(f"kernel rodsim.core.kernels.{name}_energy: energy_group takes "
                             f"other constants than evaluate_group ({', '.join(group_constants)})")
     return Kernel(module.evaluate, energy, constants, name, group, group_constants, energy_group)
+
+
+def _cache_probe() -> None:
+    """A function of this folder: ``check_kernel_cache`` asks numba where it caches one."""
+
+
+#: The stale cache files this process removed on import (empty when the stamp matched).
+REMOVED_CACHE_FILES = tuple(check_kernel_cache(_cache_probe))
