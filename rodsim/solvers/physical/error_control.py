@@ -69,9 +69,9 @@ from rodsim.solvers.physical.step_events import hermite, watched
 from rodsim.solvers.physical.trajectory import (
     MAX_HALVINGS,
     Record,
-    _advance,
-    _potential,
-    _restep,
+    advance,
+    potential,
+    restep,
 )
 
 __all__ = ["ErrorControl", "integrate_controlled", "SAFETY", "FAC_MIN", "FAC_MAX", "KEEP",
@@ -154,10 +154,10 @@ class _Doubling:
         s = self.stepper
         t1, middle = t0 + h, t0 + 0.5 * h
         s.kept = self.whole
-        one = _advance(self.model_at, s, motion, t0, t1, 0)
+        one = advance(self.model_at, s, motion, t0, t1, 0)
         s.kept = self.halves
-        first = _advance(self.model_at, s, motion, t0, middle, 0)
-        second = _advance(self.model_at, s, first[0], middle, t1, 0)
+        first = advance(self.model_at, s, motion, t0, middle, 0)
+        second = advance(self.model_at, s, first[0], middle, t1, 0)
         error = _scaled_error(s, one[0], second[0], self.options)
         return _Attempt(second[0], first[1] + second[1], first[2] + second[2], 3,
                         one[3][1] + first[3][1] + second[3][1], error)
@@ -177,7 +177,7 @@ class _Embedded:
         s, o = self.stepper, self.options
         c = s.coordinates
         s.kept = self.kept
-        reached, work, dissipated, taken = _advance(self.model_at, s, motion, t0, t0 + h, 0)
+        reached, work, dissipated, taken = advance(self.model_at, s, motion, t0, t0 + h, 0)
         assert reached.middle is not None and self.kept.solve is not None
         vm, wm = reached.middle
         p = len(c.positions)
@@ -216,7 +216,7 @@ def _outputs(record: Record, stepper: MidpointStep, model_at: Callable[[float], 
             state, v = x(t)
             motion = Motion(state, v, (1.0 - s) * start.w + s * end.w)
         record.add(t, motion, c.kinetic_energy(motion.v, motion.w),
-                   _potential(model_at(t), motion.x),
+                   potential(model_at(t), motion.x),
                    (1.0 - s) * energy[0] + s * energy[1], (1.0 - s) * energy[2] + s * energy[3])
 
 
@@ -239,7 +239,7 @@ def integrate_controlled(model_at: Callable[[float], Model], stepper: MidpointSt
     coordinates = stepper.coordinates
     watch, names, terminal = watched(events, model_at, coordinates, t, motion)
     record.add(t, motion, coordinates.kinetic_energy(motion.v, motion.w),
-               _potential(model_at(t), motion.x), 0.0, 0.0)
+               potential(model_at(t), motion.x), 0.0, 0.0)
     pending = [float(time) for time in output_times[1:]]
     stops = sorted({float(b) for b in breaks if t < b < t_end} | {t_end})
     doubling = (_Doubling(model_at, stepper, options) if options.estimate == "doubling"
@@ -281,15 +281,15 @@ def integrate_controlled(model_at: Callable[[float], Model], stepper: MidpointSt
         if watch is not None:
             searched = [0, 0, 0]
             stepper.kept = searching
-            found = watch.step(t, before, t1, end, _restep(model_at, stepper, before, t,
-                                                            searched))
+            found = watch.step(t, before, t1, end, restep(model_at, stepper, before, t,
+                                                           searched))
             record.steps += searched[0]
             record.iterations += searched[1]
         ended = next((when for when, i in found if terminal[i]), None)
         if ended is not None:
             found = [(when, i) for when, i in found if when <= ended]
             if ended < t1:
-                again = _advance(model_at, stepper, before, t, ended, MAX_HALVINGS)
+                again = advance(model_at, stepper, before, t, ended, MAX_HALVINGS)
                 end, t1 = again[0], ended
                 result.work, result.dissipated = again[1], again[2]
                 record.steps += again[3][0]
