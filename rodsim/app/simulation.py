@@ -16,9 +16,10 @@ from rodsim.core.friction_record import FrictionRecord
 from rodsim.core.model import Model
 from rodsim.core.program import ProgramEntry
 from rodsim.core.scene import Scene
+from rodsim.io.trajectory_dataset import StepLog
 from rodsim.solvers.summary import millimetres, summary_html, summary_text
 
-__all__ = ["Simulation", "INTEGRATORS", "FIXED_STEP"]
+__all__ = ["Simulation", "StepLog", "INTEGRATORS", "FIXED_STEP"]
 
 #: The integrators of physical time.
 INTEGRATORS = ("midpoint", "paper", "ida", "cvode")
@@ -95,6 +96,9 @@ class Simulation:
     #: fixed steps and the other integrators) and its rejected attempts.
     error_control: str = ""
     rejected: int = 0
+    #: Under error control: each accepted step's end and length, each rejected attempt's
+    #: start, length and err (``rodsim.io.trajectory_dataset.StepLog``); None otherwise.
+    step_log: StepLog | None = field(default=None, repr=False)
 
     @property
     def energy_error(self) -> np.ndarray:
@@ -162,8 +166,10 @@ class Simulation:
                     "dissipated_energy": self.dissipated_energy, "work": self.work}
         stats = {"steps": self.steps, "iterations": self.iterations,
                  "halvings": self.halvings}
+        if self.step_log is not None:
+            stats.update(accepted=len(self.step_log.ends), rejected=self.rejected)
         return trajectory_dataset(TrajectoryRecord(
             self.scene, rods, self.times, self.positions, self.quaternions, energies,
             self.success, self.message, self.t_end, self.integrator, self.step, stats,
             {key: entry.archived() for key, entry in self.program.items()}, self.initial,
-            self.events, self.friction))
+            self.events, self.friction, self.step_log, self.error_control))

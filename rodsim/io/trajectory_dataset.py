@@ -10,6 +10,12 @@ Coordinate ``time`` [s] (the output times); ``position`` (time, node, axis) and
 ``t_end``; the times it reached are kept) and ``message``, ``t_end``, the scene, the
 programs and the starting values. With tendon friction, as a track's archive per step:
 ``tension_profile`` and ``slip_state`` (time, chord) and the attribute ``friction_history``.
+Under error control (the midpoint rule with ``rtol``), the steps (``StepLog``):
+``step_end`` and ``step_size`` along ``accepted`` (each accepted step's end time and length
+[s]), ``rejected_time``, ``rejected_size`` and ``rejected_error`` along ``rejected`` (each
+rejected attempt's start time and length [s] and its scaled error err, inf where its
+Newton failed), the attributes ``stats_accepted`` and ``stats_rejected`` and
+``error_control`` (the tolerances).
 """
 
 from __future__ import annotations
@@ -36,7 +42,7 @@ if TYPE_CHECKING:
 
     from rodsim.core.friction_record import FrictionRecord
 
-__all__ = ["TrajectoryRecord", "trajectory_dataset"]
+__all__ = ["TrajectoryRecord", "StepLog", "trajectory_dataset"]
 
 #: The energy variables, their long names (docs/dynamics.md, "Energy").
 ENERGIES = {
@@ -47,6 +53,20 @@ ENERGIES = {
     "work": "work done by the programs (values changing in time) since t = 0 (NaN for a "
             "non-conservative scene)",
 }
+
+
+@dataclass(frozen=True)
+class StepLog:
+    """The steps of a run under error control (rodsim/solvers/physical/error_control.py),
+    in the order taken: each accepted step's end time [s] and length [s]; each rejected
+    attempt's start time [s], length [s] and scaled error err (> 1; inf where its Newton
+    failed)."""
+
+    ends: np.ndarray
+    sizes: np.ndarray
+    rejected_times: np.ndarray
+    rejected_sizes: np.ndarray
+    rejected_errors: np.ndarray
 
 
 @dataclass(frozen=True)
@@ -76,6 +96,9 @@ class TrajectoryRecord:
     #: at each output time (``rodsim.core.friction_record.FrictionRecord`` with a leading
     #: time axis).
     friction: FrictionRecord | None = None
+    #: Under error control: its steps (None otherwise) and its tolerances (text).
+    steps: StepLog | None = None
+    error_control: str = ""
 
 
 def trajectory_dataset(record: TrajectoryRecord) -> xr.Dataset:
@@ -118,6 +141,8 @@ def trajectory_dataset(record: TrajectoryRecord) -> xr.Dataset:
     data["event_name"] = ("event", np.array([e for _, e in record.events], dtype=str),
                           {"long_name": "what happened (contact onset: rod on obstacle; "
                            "tendon slack: tendon)"})
+    if record.steps is not None:
+        data.update(_step_variables(record.steps))
     friction = record.friction
     if friction is not None:
         coords.update(tension_coordinates(friction.chords))
@@ -146,9 +171,28 @@ def trajectory_dataset(record: TrajectoryRecord) -> xr.Dataset:
         "scene_json": record.scene.to_json(),
         "scene_toml": record.scene.source,
     })
+    if record.error_control:
+        ds.attrs["error_control"] = record.error_control
     if friction is not None:
         ds.attrs["friction_history"] = (f"t = 0: the start's equilibrium, {FRICTION_HISTORY}; "
                                         "then each time step from the one before")
     for key, value in record.stats.items():
         ds.attrs[f"stats_{key}"] = float(value)
     return ds
+
+
+def _step_variables(log: StepLog) -> dict[str, Any]:
+    """The error control's steps (module docstring) as the archive's variables."""
+    return {
+        "step_end": ("accepted", np.asarray(log.ends, dtype=float),
+                     {"units": "s", "long_name": "end time of each accepted step"}),
+        "step_size": ("accepted", np.asarray(log.sizes, dtype=float),
+                      {"units": "s", "long_name": "length of each accepted step"}),
+        "rejected_time": ("rejected", np.asarray(log.rejected_times, dtype=float),
+                          {"units": "s", "long_name": "start time of each rejected attempt"}),
+        "rejected_size": ("rejected", np.asarray(log.rejected_sizes, dtype=float),
+                          {"units": "s", "long_name": "length of each rejected attempt"}),
+        "rejected_error": ("rejected", np.asarray(log.rejected_errors, dtype=float),
+                           {"units": "1", "long_name": "scaled local error err of each "
+                            "rejected attempt (> 1; inf where its Newton failed)"}),
+    }

@@ -33,11 +33,17 @@ on positions (L the longest rod) and ``atol`` on angles (rad), as IDA's
 (rodsim/solvers/physical/ida_run.py); the angles' relative part is rtol (a unit
 quaternion's size). The step is accepted when err ≤ 1.
 
-**The controller** (Hairer, Nørsett & Wanner I, II.4): h_new = h · min(``FAC_MAX``,
-max(``FAC_MIN``, ``SAFETY`` · err^(−1/3))); after a rejection the factor is at most 1. An
-accepted step whose proposed growth lies in [1, ``KEEP``] keeps h, so that its factored
-Newton matrix (``KeptMatrix``) serves the next step too (a change of h refactors). A step
-whose Newton fails is a rejection with the factor ``FAC_MIN``. Steps end on the programs'
+**The controller** (rodsim/solvers/physical/step_controller.py, ``ErrorControl.controller``):
+the elementary one (Hairer, Nørsett & Wanner I, II.4), h_new = h · min(``FAC_MAX``,
+max(``FAC_MIN``, ``SAFETY`` · err^(−1/3))), or the PI one (Gustafsson); after a rejection
+the factor is at most 1. An accepted step whose proposed growth lies in [1, ``KEEP``] keeps
+h, so that its factored Newton matrix (``KeptMatrix``) serves the next step too (a change
+of h refactors); under the PI controller a proposed shrinking down to ``KEEP_PI`` keeps h
+too (its small factors below 1 would otherwise all be taken and those above 1 not, and
+the step would ratchet down on the estimate's step-to-step noise). A step whose Newton
+fails is a rejection with the factor ``FAC_MIN``. Each accepted step's end and length and
+each rejected attempt's start, length and err are kept (``ControlledRecord``: the
+trajectory archive's ``step_end``, ``step_size``, ``rejected_*``). Steps end on the programs'
 table times (where a value's slope changes or it jumps) and on t_end. The first step:
 ``first`` (the caller's: 1/100 of the lowest natural period at the start, or the longest
 step allowed if shorter) — no clock, so the same scene gives the same steps bit for bit.
@@ -57,7 +63,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -65,6 +71,7 @@ from rodsim.core.model import Model
 from rodsim.solvers.physical.events import EventFunctions
 from rodsim.solvers.physical.fixed_step import KeptMatrix, Motion, StepFailure
 from rodsim.solvers.physical.midpoint import MidpointStep
+from rodsim.solvers.physical.step_controller import StepController
 from rodsim.solvers.physical.step_events import hermite, watched
 from rodsim.solvers.physical.trajectory import (
     MAX_HALVINGS,
@@ -74,16 +81,14 @@ from rodsim.solvers.physical.trajectory import (
     restep,
 )
 
-__all__ = ["ErrorControl", "integrate_controlled", "SAFETY", "FAC_MIN", "FAC_MAX", "KEEP",
-           "RATES", "MAX_STEPS"]
+__all__ = ["ErrorControl", "ControlledRecord", "integrate_controlled", "KEEP", "RATES",
+           "MAX_STEPS"]
 
-#: The controller's safety factor and its bounds on a step's change.
-SAFETY = 0.8
-FAC_MIN = 0.2
-FAC_MAX = 2.0
 #: An accepted step whose proposed factor lies in [1, KEEP] keeps its length (and so its
 #: two factored Newton matrices).
 KEEP = 1.5
+#: ... and, under the PI controller, in [KEEP_PI, 1] too (see the module docstring).
+KEEP_PI = 0.9
 #: Whether the velocities and body rates enter the error norm (module docstring).
 RATES = False
 #: Step attempts allowed before the run stops.
@@ -104,6 +109,23 @@ class ErrorControl:
     longest: float = 0.0
     #: "embedded" or "doubling" (module docstring).
     estimate: str = "embedded"
+    #: The step-size controller: "pi" or "elementary"
+    #: (rodsim/solvers/physical/step_controller.py).
+    controller: str = "elementary"
+    #: The Newton tolerance over min(rtol, atol) (0: the fixed steps' NEWTON_TOLERANCE,
+    #: rodsim/solvers/physical/fixed_step.py).
+    newton: float = 0.0
+
+
+@dataclass
+class ControlledRecord(Record):
+    """A run's record (rodsim/solvers/physical/trajectory.py) with the error control's
+    steps: each accepted step's end time and length [s], and each rejected attempt's start
+    time, length [s] and err (inf where its Newton failed), in the order taken."""
+
+    step_ends: list[float] = field(default_factory=list)
+    step_sizes: list[float] = field(default_factory=list)
+    rejections: list[tuple[float, float, float]] = field(default_factory=list)
 
 
 def _scaled_error(stepper: MidpointStep, one: Motion, two: Motion,
@@ -193,13 +215,6 @@ class _Embedded:
                         error if math.isfinite(error) else math.inf)
 
 
-def _factor(error: float) -> float:
-    """The controller's change of the step for ``error`` (module docstring)."""
-    if error == 0.0:
-        return FAC_MAX
-    return min(FAC_MAX, max(FAC_MIN, SAFETY * error ** (-1.0 / 3.0)))
-
-
 def _outputs(record: Record, stepper: MidpointStep, model_at: Callable[[float], Model],
              span: tuple[float, Motion, float, Motion], times: Sequence[float],
              energy: tuple[float, float, float, float]) -> None:
@@ -224,15 +239,17 @@ def integrate_controlled(model_at: Callable[[float], Model], stepper: MidpointSt
                          start: Motion, output_times: Sequence[float], options: ErrorControl,
                          breaks: Sequence[float] = (),
                          progress: Callable[[float], None] | None = None,
-                         record: Record | None = None,
-                         events: EventFunctions | None = None) -> Record:
+                         record: ControlledRecord | None = None,
+                         events: EventFunctions | None = None) -> ControlledRecord:
     """Integrate from ``start`` at ``output_times[0]`` through the last output time under
     error control (module docstring); ``breaks``: times no step crosses (the programs'
     table times). The record counts every midpoint step solved in ``steps`` (three an
-    attempt), the rejected attempts in ``halvings``' place: ``rejected``. A run that cannot
+    attempt), the rejected attempts in ``halvings``' place: ``rejected``; each accepted
+    step's end and length and each rejected attempt's start, length and err go to the
+    ``ControlledRecord``'s lists. A run that cannot
     go on (err > 1 at the smallest step, ``MAX_STEPS`` attempts) ends with ``success``
     False, what it computed kept, and advice; events as in trajectory.integrate."""
-    record = Record() if record is None else record
+    record = ControlledRecord() if record is None else record
     t = float(output_times[0])
     t_end = float(output_times[-1])
     motion = start
@@ -246,6 +263,9 @@ def integrate_controlled(model_at: Callable[[float], Model], stepper: MidpointSt
                 else _Embedded(model_at, stepper, options))
     searching = KeptMatrix()  # the events' steps' Newton matrix
     h = options.first if options.longest <= 0.0 else min(options.first, options.longest)
+    controller = StepController(options.controller)
+    if options.newton > 0.0:
+        stepper.tolerance = options.newton * min(options.rtol, options.atol)
     smallest = 1e-12 * max(t_end - t, abs(t_end))
     dissipated = work = 0.0
     attempts = 0
@@ -267,13 +287,15 @@ def integrate_controlled(model_at: Callable[[float], Model], stepper: MidpointSt
             result = doubling.attempt(motion, t, taken)
         except StepFailure:
             record.rejected += 1
-            h, rejected = taken * FAC_MIN, True
+            record.rejections.append((t, taken, math.inf))
+            h, rejected = taken * controller.rejected(math.inf), True
             continue
         record.steps += result.steps
         record.iterations += result.iterations
         if result.error > 1.0:
             record.rejected += 1
-            h, rejected = taken * min(1.0, _factor(result.error)), True
+            record.rejections.append((t, taken, result.error))
+            h, rejected = taken * controller.rejected(result.error), True
             continue
         t1 = stop if taken == stop - t else t + taken
         before, end = motion, result.motion
@@ -304,6 +326,8 @@ def integrate_controlled(model_at: Callable[[float], Model], stepper: MidpointSt
         dissipated, work = energy[1], energy[3]
         record.largest_step = max(record.largest_step, t1 - t)
         record.accepted += 1
+        record.step_ends.append(t1)
+        record.step_sizes.append(t1 - t)
         t, motion = t1, end
         if progress is not None:
             progress(t)
@@ -311,11 +335,11 @@ def integrate_controlled(model_at: Callable[[float], Model], stepper: MidpointSt
             which = ", ".join(names[i] for when, i in found if when == ended and terminal[i])
             record.message = f"stopped by the event ({which}) at t = {ended:.9g} s"
             return record
-        grow = min(1.0, _factor(result.error)) if rejected else _factor(result.error)
-        rejected = False
+        grow = controller.accepted(result.error)
+        grow, rejected = min(1.0, grow) if rejected else grow, False
         if taken < h:  # cut short by a stop: only shortened, where its error says so
             h = min(h, taken * grow)
-        elif not 1.0 <= grow <= KEEP:
+        elif not (KEEP_PI if controller.kind == "pi" else 1.0) <= grow <= KEEP:
             h = taken * grow
         if options.longest > 0.0:
             h = min(h, options.longest)
