@@ -88,7 +88,7 @@ __all__ = ["ErrorControl", "ControlledRecord", "integrate_controlled", "KEEP", "
 #: two factored Newton matrices).
 KEEP = 1.5
 #: ... and, under the PI controller, in [KEEP_PI, 1] too (see the module docstring).
-KEEP_PI = 0.9
+KEEP_PI = 0.8
 #: Whether the velocities and body rates enter the error norm (module docstring).
 RATES = False
 #: Step attempts allowed before the run stops.
@@ -111,7 +111,7 @@ class ErrorControl:
     estimate: str = "embedded"
     #: The step-size controller: "pi" or "elementary"
     #: (rodsim/solvers/physical/step_controller.py).
-    controller: str = "elementary"
+    controller: str = "pi"
     #: The Newton tolerance over min(rtol, atol) (0: the fixed steps' NEWTON_TOLERANCE,
     #: rodsim/solvers/physical/fixed_step.py).
     newton: float = 0.0
