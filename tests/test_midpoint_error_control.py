@@ -27,9 +27,10 @@ def tip_error(run, reference, length: float) -> float:
 def test_the_global_error_falls_with_rtol_as_the_method_says():
     """The steel rod released from 0.1 N (N = 11), one period, the tip at 20 outputs against
     IDA at rtol = atol = 1e-9: an error per step held to rtol gives a global error
-    ∝ rtol^(p/(p+1)) = rtol^(2/3) for the order-2 rule (measured slopes 0.91 and 0.50 over
-    1e-4 → 1e-5 → 1e-6; errors 1.03e-3, 1.27e-4, 4.02e-5 L); each run within 2 × rtol^(2/3)
-    of the reference (measured 0.27 to 0.48 × rtol^(2/3))."""
+    ∝ rtol^(p/(p+1)) = rtol^(2/3) for the order-2 rule (measured with the PI controller:
+    slopes 0.52 and 0.63 over 1e-4 → 1e-5 → 1e-6, errors 5.7e-4, 1.72e-4, 4.08e-5 L; with
+    the elementary one 0.91 and 0.50); each run within 2 × rtol^(2/3) of the reference
+    (measured 0.26 to 0.41 × rtol^(2/3))."""
     options = {"output_dt": PERIOD / 20, "initial": RELEASE}
     reference = rodsim.simulate(wire(11), PERIOD, integrator="ida", rtol=1e-9, atol=1e-9,
                                 **options)
@@ -51,8 +52,8 @@ def test_undamped_energy_under_variable_steps():
     """Ten periods of the released steel rod (N = 21) at rtol 1e-6: the midpoint rule keeps
     a quadratic invariant for any step length, and the rod's small vibration is nearly
     linear, so the balance at a step's end stays at round-off (the last output is one:
-    measured 6e-12 of the vibration's energy) though the steps vary; the outputs between
-    steps carry the Hermite interpolant's error (measured ≤ 8.2e-5, not growing)."""
+    measured 3e-11 of the vibration's energy) though the steps vary; the outputs between
+    steps carry the Hermite interpolant's error (measured ≤ 1.03e-4, not growing)."""
     run = rodsim.simulate(wire(21), 10.0 * PERIOD, rtol=1e-6, output_dt=PERIOD / 10,
                           initial=RELEASE)
     assert run.success, run.message
@@ -68,7 +69,7 @@ def test_undamped_energy_under_variable_steps():
 def test_a_program_ramp_agrees_with_tiny_fixed_steps():
     """tdcr-two-segment at N = 21 from its equilibrium at 3 N, s1a ramped to 3.5 N over
     20 ms (the real-time benchmark's ramp), 40 ms: the tip against the fixed-step midpoint
-    rule at 25 µs (1 600 steps) within 20 × rtol^(2/3) (measured 7.2e-5 L at 1e-5, 2.4e-6 L
+    rule at 25 µs (1 600 steps) within 20 × rtol^(2/3) (measured 7.7e-5 L at 1e-5, 2.4e-6 L
     at 1e-6) — and the error falls with rtol."""
     options = {"output_dt": 0.005, "initial": {"s1a.tendon_string.tension": 3.0},
                "program": {"s1a.tendon_string.tension": ([0.0, 0.02], [3.0, 3.5])},

@@ -6,7 +6,7 @@ force for half a period at 100 steps a period — undamped, Kelvin–Voigt dampe
 ms), with a drag (0.5 N·s/m²) — and the paper's semi-implicit Euler on the damped rod at
 200 steps a period; tdcr-two-segment under a tension ramp of s1a, 3 → 3.5 N over 20 ms at
 0.5 ms steps. A step's CPU (``time.process_time``) is timed around the run loop's step
-(``trajectory._advance``: the step, its Newton iterations and the programs' models), per
+(``trajectory.advance``: the step, its Newton iterations and the programs' models), per
 step, the best of ``repeats`` runs after a warm-up run (the kernels compiled).
 
 With ``RODSIM_BENCH_BASELINE=<revision>`` the same worker runs that revision's code
@@ -76,7 +76,7 @@ def _worker(repeats: int) -> dict:
     import rodsim.solvers.physical.trajectory as trajectory
 
     clock = {"depth": 0, "cpu": 0.0, "steps": 0}
-    advance = trajectory._advance
+    advance = trajectory.advance
 
     def timed(*args, **kwargs):
         if clock["depth"]:  # a halved step's halves: inside the step timed
@@ -90,7 +90,7 @@ def _worker(repeats: int) -> dict:
             clock["steps"] += 1
             clock["depth"] -= 1
 
-    trajectory._advance = timed
+    trajectory.advance = timed
     out = {}
     for name, simulate in _runs().items():
         result = simulate()  # warm-up

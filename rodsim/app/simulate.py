@@ -29,7 +29,7 @@ from rodsim.app.friction_trace import FrictionTrace
 from rodsim.app.initial_velocity import VelocityLike, initial_rates, velocity_text
 from rodsim.app.interrupted import Interrupted
 from rodsim.app.programs import Program, Programs, check_programs
-from rodsim.app.simulation import FIXED_STEP, INTEGRATORS, Simulation
+from rodsim.app.simulation import FIXED_STEP, INTEGRATORS, Simulation, StepLog
 from rodsim.app.support_programs import check_support_programs
 from rodsim.core.damping import Damping
 from rodsim.core.inertia import mass_factor
@@ -44,7 +44,11 @@ from rodsim.solvers.physical.coordinates import (
     physical_state,
 )
 from rodsim.solvers.physical.dae import PhysicalDae
-from rodsim.solvers.physical.error_control import ErrorControl, integrate_controlled
+from rodsim.solvers.physical.error_control import (
+    ControlledRecord,
+    ErrorControl,
+    integrate_controlled,
+)
 from rodsim.solvers.physical.events import EventError, EventLike, resolve_events
 from rodsim.solvers.physical.fixed_step import Motion
 from rodsim.solvers.physical.ida_run import PhysicalTimeOptions, integrate_ida
@@ -244,7 +248,7 @@ def simulate(scene: SceneLike | None, t_end: float, *, output_dt: float | None =
     start = Motion(x, *initial_rates(model, coordinates, x, initial_velocity))
     if watched is not None:  # a user's function checked at the start (EventError, one line)
         watched.values(0.0, programs.model_at(0.0), x, start.v)
-    record = Record()
+    record = ControlledRecord() if controlled else Record()
     # where a support moves, the held coordinates at each output are the model's of its time
     moved = programs.model_at if programs.supports.active else None
     try:
@@ -253,7 +257,7 @@ def simulate(scene: SceneLike | None, t_end: float, *, output_dt: float | None =
             control = ErrorControl(settings["rtol"], settings["atol"], length, omega,
                                    first if step is None else min(first, float(step)),
                                    0.0 if step is None else float(step))
-            assert isinstance(stepper, MidpointStep)
+            assert isinstance(stepper, MidpointStep) and isinstance(record, ControlledRecord)
             integrate_controlled(programs.model_at, stepper, start, outputs, control,
                                  programs.breaks, progress, record, watched)
         elif integrator not in FIXED_STEP:
@@ -342,4 +346,15 @@ def _simulation(loaded: Scene, model: Model, record: Record, h: float, integrato
                       friction.at(record.times) if friction is not None else None,
                       control, record.rejected,
                       tuple(b for b in friction.breakaways if b.time <= record.times[-1])
-                      if friction is not None and record.times else ())
+                      if friction is not None and record.times else (),
+                      _step_log(record))
+
+
+def _step_log(record: Record) -> StepLog | None:
+    """Under error control, the steps accepted and the attempts rejected (``StepLog``)."""
+    if not isinstance(record, ControlledRecord):
+        return None
+    rejections = np.array(record.rejections, dtype=float).reshape(-1, 3)
+    return StepLog(np.array(record.step_ends, dtype=float),
+                   np.array(record.step_sizes, dtype=float), rejections[:, 0],
+                   rejections[:, 1], rejections[:, 2])

@@ -16,9 +16,10 @@ from rodsim.core.friction_record import Breakaway, FrictionRecord
 from rodsim.core.model import Model
 from rodsim.core.program import ProgramEntry
 from rodsim.core.scene import Scene
+from rodsim.io.trajectory_dataset import StepLog
 from rodsim.solvers.summary import millimetres, sketch_svg, summary_html, summary_text
 
-__all__ = ["Simulation", "INTEGRATORS", "FIXED_STEP"]
+__all__ = ["Simulation", "StepLog", "INTEGRATORS", "FIXED_STEP"]
 
 #: The integrators of physical time.
 INTEGRATORS = ("midpoint", "paper", "ida", "cvode")
@@ -103,6 +104,9 @@ class Simulation:
     #: (``rodsim.core.friction_record.Breakaway``; docs/dynamics.md, "Friction in physical
     #: time"). Empty without stiction (a point starts sliding continuously there).
     breakaways: tuple[Breakaway, ...] = ()
+    #: Under error control: each accepted step's end and length, each rejected attempt's
+    #: start, length and err (``rodsim.io.trajectory_dataset.StepLog``); None otherwise.
+    step_log: StepLog | None = field(default=None, repr=False)
 
     @property
     def energy_error(self) -> np.ndarray:
@@ -186,8 +190,11 @@ class Simulation:
                     "dissipated_energy": self.dissipated_energy, "work": self.work}
         stats = {"steps": self.steps, "iterations": self.iterations,
                  "halvings": self.halvings}
+        if self.step_log is not None:
+            stats.update(accepted=len(self.step_log.ends), rejected=self.rejected)
         return trajectory_dataset(TrajectoryRecord(
             self.scene, rods, self.times, self.positions, self.quaternions, energies,
             self.success, self.message, self.t_end, self.integrator, self.step_size, stats,
             {key: entry.archived() for key, entry in self.program.items()}, self.initial,
-            self.events, self.friction, self.breakaways))
+            self.events, self.friction, self.breakaways, self.step_log,
+            self.error_control))

@@ -422,7 +422,34 @@ def _check_trajectory(ds: xr.Dataset) -> None:
             raise ArchiveSchemaError("variable 'breakaway_time' is not finite or not in time "
                                      "order, or 'breakaway_direction' holds a value other "
                                      "than -1, 1")
+    if "step_end" in ds.variables:  # optional: under error control
+        _check_steps(ds)
     _check_layout(ds, ("time",))
+
+
+def _check_steps(ds: xr.Dataset) -> None:
+    """An error-controlled run's steps (rodsim/io/trajectory_dataset.py): the accepted ones'
+    ends increasing and finite, their lengths > 0; the rejected attempts' starts in time
+    order, their lengths > 0, their err > 1; the counts as ``stats_accepted`` and
+    ``stats_rejected`` say."""
+    ends = _variable(ds, "step_end", ("accepted",)).values
+    sizes = _variable(ds, "step_size", ("accepted",)).values
+    times = _variable(ds, "rejected_time", ("rejected",)).values
+    lengths = _variable(ds, "rejected_size", ("rejected",)).values
+    errors = _variable(ds, "rejected_error", ("rejected",)).values
+    if (not np.all(np.isfinite(ends)) or np.any(np.diff(ends) <= 0.0)
+            or not np.all(np.isfinite(sizes) & (sizes > 0.0))):
+        raise ArchiveSchemaError("variables 'step_end', 'step_size': not finite, not "
+                                 "increasing or not > 0")
+    if (not np.all(np.isfinite(times)) or np.any(np.diff(times) < 0.0)
+            or not np.all(np.isfinite(lengths) & (lengths > 0.0)) or np.any(errors <= 1.0)):
+        raise ArchiveSchemaError("variables 'rejected_time', 'rejected_size', "
+                                 "'rejected_error': not finite, not in time order, not > 0, "
+                                 "or an err ≤ 1")
+    if (_number_attribute(ds, "stats_accepted") != ends.size
+            or _number_attribute(ds, "stats_rejected") != times.size):
+        raise ArchiveSchemaError("attributes 'stats_accepted', 'stats_rejected' differ from "
+                                 "the steps' counts")
 
 
 def _check_layout(ds: xr.Dataset, leading: tuple[str, ...]) -> None:

@@ -14,6 +14,12 @@ and every routing point that broke loose (stiction; none without) along ``breaka
 ``breakaway_time`` [s] (located inside its step), ``breakaway_tendon``,
 ``breakaway_point`` (the point's index along its tendon, as ``slip_state``'s chords),
 ``breakaway_point_s`` [m] and ``breakaway_direction`` (−1 sliding in, +1 out).
+Under error control (the midpoint rule with ``rtol``), the steps (``StepLog``):
+``step_end`` and ``step_size`` along ``accepted`` (each accepted step's end time and length
+[s]), ``rejected_time``, ``rejected_size`` and ``rejected_error`` along ``rejected`` (each
+rejected attempt's start time and length [s] and its scaled error err, inf where its
+Newton failed), the attributes ``stats_accepted`` and ``stats_rejected`` and
+``error_control`` (the tolerances).
 """
 
 from __future__ import annotations
@@ -40,7 +46,7 @@ if TYPE_CHECKING:
 
     from rodsim.core.friction_record import Breakaway, FrictionRecord
 
-__all__ = ["TrajectoryRecord", "breakaway_variables", "trajectory_dataset"]
+__all__ = ["StepLog", "TrajectoryRecord", "breakaway_variables", "trajectory_dataset"]
 
 #: The energy variables, their long names (docs/dynamics.md, "Energy").
 ENERGIES = {
@@ -51,6 +57,20 @@ ENERGIES = {
     "work": "work done by the programs (values changing in time) since t = 0 (NaN for a "
             "non-conservative scene)",
 }
+
+
+@dataclass(frozen=True)
+class StepLog:
+    """The steps of a run under error control (rodsim/solvers/physical/error_control.py),
+    in the order taken: each accepted step's end time [s] and length [s]; each rejected
+    attempt's start time [s], length [s] and scaled error err (> 1; inf where its Newton
+    failed)."""
+
+    ends: np.ndarray
+    sizes: np.ndarray
+    rejected_times: np.ndarray
+    rejected_sizes: np.ndarray
+    rejected_errors: np.ndarray
 
 
 @dataclass(frozen=True)
@@ -82,6 +102,9 @@ class TrajectoryRecord:
     friction: FrictionRecord | None = None
     #: With stiction: every routing point that broke loose, in time order.
     breakaways: Sequence[Breakaway] = ()
+    #: Under error control: its steps (None otherwise) and its tolerances (text).
+    steps: StepLog | None = None
+    error_control: str = ""
 
 
 def trajectory_dataset(record: TrajectoryRecord) -> xr.Dataset:
@@ -124,6 +147,8 @@ def trajectory_dataset(record: TrajectoryRecord) -> xr.Dataset:
     data["event_name"] = ("event", np.array([e for _, e in record.events], dtype=str),
                           {"long_name": "what happened (contact onset: rod on obstacle; "
                            "tendon slack: tendon)"})
+    if record.steps is not None:
+        data.update(_step_variables(record.steps))
     friction = record.friction
     if friction is not None:
         coords.update(tension_coordinates(friction.chords))
@@ -154,6 +179,8 @@ def trajectory_dataset(record: TrajectoryRecord) -> xr.Dataset:
         "scene_json": record.scene.to_json(),
         "scene_toml": record.scene.source,
     })
+    if record.error_control:
+        ds.attrs["error_control"] = record.error_control
     if friction is not None:
         ds.attrs["friction_history"] = (f"t = 0: the start's equilibrium, {FRICTION_HISTORY}; "
                                         "then each time step from the one before")
@@ -182,4 +209,21 @@ def breakaway_variables(found: Sequence[Breakaway]) -> dict[str, Any]:
                                 {"long_name": "way the point slides once loose",
                                  "flag_values": np.array([-1, 1], dtype=np.int8),
                                  "flag_meanings": "sliding_in sliding_out"}),
+    }
+
+
+def _step_variables(log: StepLog) -> dict[str, Any]:
+    """The error control's steps (module docstring) as the archive's variables."""
+    return {
+        "step_end": ("accepted", np.asarray(log.ends, dtype=float),
+                     {"units": "s", "long_name": "end time of each accepted step"}),
+        "step_size": ("accepted", np.asarray(log.sizes, dtype=float),
+                      {"units": "s", "long_name": "length of each accepted step"}),
+        "rejected_time": ("rejected", np.asarray(log.rejected_times, dtype=float),
+                          {"units": "s", "long_name": "start time of each rejected attempt"}),
+        "rejected_size": ("rejected", np.asarray(log.rejected_sizes, dtype=float),
+                          {"units": "s", "long_name": "length of each rejected attempt"}),
+        "rejected_error": ("rejected", np.asarray(log.rejected_errors, dtype=float),
+                           {"units": "1", "long_name": "scaled local error err of each "
+                            "rejected attempt (> 1; inf where its Newton failed)"}),
     }

@@ -3,12 +3,15 @@
 and y–z too when they leave the x–y plane (the run figure's rule:
 ``rodsim.app.figures.projections``); the first rod's tip coordinates against time, and the
 energies against time with the balance T + V + D − W − (T₀ + V₀), the integrator's own
-error (docs/dynamics.md, "Energy")."""
+error (docs/dynamics.md, "Energy"); under error control (an archive with ``step_size``) a
+third panel: each accepted step's length at its end time, each rejected attempt's at its
+start, against time (log scale)."""
 
 from __future__ import annotations
 
 import numpy as np
 import xarray as xr
+from matplotlib.axes import Axes
 from matplotlib.figure import Figure
 
 from rodsim.app.figures.projections import panel_grid, projections
@@ -39,12 +42,17 @@ def trajectory_figure(ds: xr.Dataset, colour: str | None = None,
     light (early) to dark (late), with a colour bar of t ticked at the times drawn; with
     ``colour``, coloured by that quantity on one scale instead; the layers ``hide`` left
     out. When the shapes leave the x–y plane, three panels in x–y, x–z and y–z, a row
-    below the two time panels."""
+    below the two time panels. Under error control a third time panel: the step sizes."""
     shown = int(ds.sizes["time"]) > 0
     picked = evenly(int(ds.sizes["time"]), SHAPES) if shown else []
     states, colourings, scale = coloured_states(ds, picked, colour if shown else None)
     views = projections(np.concatenate([parts.points() for parts in states])) if shown else ()
-    figure, shapes, (motion, energy) = panel_grid(views, 2, False, (11.0 + 4.6 * shown, 4.2))
+    stepped = "step_size" in ds.variables
+    figure, shapes, panels = panel_grid(views, 2 + stepped, False,
+                                        (11.0 + 4.6 * shown + 5.0 * stepped, 4.2))
+    motion, energy = panels[:2]
+    if stepped:
+        _step_sizes(panels[2], ds)
     if shown:
         at = ds["time"].values[picked]
         tinted, norm = tints(at, LIGHT_TO_DARK)
@@ -86,3 +94,17 @@ def trajectory_figure(ds: xr.Dataset, colour: str | None = None,
         title += f" (incomplete: {str(ds.attrs.get('message', ''))[:80]})"
     figure.suptitle(title)
     return figure
+
+
+def _step_sizes(axes: Axes, ds: xr.Dataset) -> None:
+    """The error control's step lengths against time: accepted at their ends, rejected
+    attempts at their starts."""
+    axes.semilogy(ds["step_end"].values, ds["step_size"].values, ".-", ms=2, lw=0.6,
+                  label=f"accepted ({ds.sizes['accepted']})")
+    if ds.sizes["rejected"]:
+        axes.semilogy(ds["rejected_time"].values, ds["rejected_size"].values, "x",
+                      color="C3", ms=4, label=f"rejected ({ds.sizes['rejected']})")
+    axes.set_xlabel("t [s]")
+    axes.set_ylabel("step [s]")
+    axes.set_title(str(ds.attrs.get("error_control", "error control")), fontsize="small")
+    axes.legend(loc="best", fontsize="small")

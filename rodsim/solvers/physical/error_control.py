@@ -33,12 +33,21 @@ on positions (L the longest rod) and ``atol`` on angles (rad), as IDA's
 (rodsim/solvers/physical/ida_run.py); the angles' relative part is rtol (a unit
 quaternion's size). The step is accepted when err ≤ 1.
 
-**The controller** (Hairer, Nørsett & Wanner I, II.4): h_new = h · min(``FAC_MAX``,
-max(``FAC_MIN``, ``SAFETY`` · err^(−1/3))); after a rejection the factor is at most 1. An
-accepted step whose proposed growth lies in [1, ``KEEP``] keeps h, so that its factored
-Newton matrix (``KeptMatrix``) serves the next step too (a change of h refactors). A step
-whose Newton fails is a rejection with the factor ``FAC_MIN``. Steps end on the programs'
-table times (where a value's slope changes or it jumps) and on t_end. The first step:
+**The controller** (rodsim/solvers/physical/step_controller.py, ``ErrorControl.controller``):
+the elementary one (Hairer, Nørsett & Wanner I, II.4), h_new = h · min(``FAC_MAX``,
+max(``FAC_MIN``, ``SAFETY`` · err^(−1/3))), or the PI one (Gustafsson); after a rejection
+the factor is at most 1. An accepted step whose proposed growth lies in [1, ``KEEP``] keeps
+h, so that its factored Newton matrix (``KeptMatrix``) serves the next step too (a change
+of h refactors); under the PI controller a proposed shrinking down to ``KEEP_PI`` keeps h
+too (its small factors below 1 would otherwise all be taken and those above 1 not, and
+the step would ratchet down on the estimate's step-to-step noise). A step whose Newton
+fails is a rejection with the factor ``FAC_MIN``. Each accepted step's end and length and
+each rejected attempt's start, length and err are kept (``ControlledRecord``: the
+trajectory archive's ``step_end``, ``step_size``, ``rejected_*``). Newton solves each step
+to the fixed steps' 1e-12 (``ErrorControl.newton`` = κ > 0 stops it at a change of
+κ · min(rtol, atol) instead: measured and not taken, docs/dynamics.md: κ = 0.01 saved a
+third of the CPU on tdcr-two-segment but let an undamped rod's energy drift). Steps end on
+the programs' table times (where a value's slope changes or it jumps) and on t_end. The first step:
 ``first`` (the caller's: 1/100 of the lowest natural period at the start, or the longest
 step allowed if shorter) — no clock, so the same scene gives the same steps bit for bit.
 
@@ -57,7 +66,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -65,25 +74,24 @@ from rodsim.core.model import Model
 from rodsim.solvers.physical.events import EventFunctions
 from rodsim.solvers.physical.fixed_step import KeptMatrix, Motion, StepFailure
 from rodsim.solvers.physical.midpoint import MidpointStep
+from rodsim.solvers.physical.step_controller import StepController
 from rodsim.solvers.physical.step_events import hermite, watched
 from rodsim.solvers.physical.trajectory import (
     MAX_HALVINGS,
     Record,
-    _advance,
-    _potential,
-    _restep,
+    advance,
+    potential,
+    restep,
 )
 
-__all__ = ["ErrorControl", "integrate_controlled", "SAFETY", "FAC_MIN", "FAC_MAX", "KEEP",
-           "RATES", "MAX_STEPS"]
+__all__ = ["ErrorControl", "ControlledRecord", "integrate_controlled", "KEEP", "RATES",
+           "MAX_STEPS"]
 
-#: The controller's safety factor and its bounds on a step's change.
-SAFETY = 0.8
-FAC_MIN = 0.2
-FAC_MAX = 2.0
 #: An accepted step whose proposed factor lies in [1, KEEP] keeps its length (and so its
 #: two factored Newton matrices).
 KEEP = 1.5
+#: ... and, under the PI controller, in [KEEP_PI, 1] too (see the module docstring).
+KEEP_PI = 0.8
 #: Whether the velocities and body rates enter the error norm (module docstring).
 RATES = False
 #: Step attempts allowed before the run stops.
@@ -104,6 +112,23 @@ class ErrorControl:
     longest: float = 0.0
     #: "embedded" or "doubling" (module docstring).
     estimate: str = "embedded"
+    #: The step-size controller: "pi" or "elementary"
+    #: (rodsim/solvers/physical/step_controller.py).
+    controller: str = "pi"
+    #: The Newton tolerance over min(rtol, atol) (0: the fixed steps' NEWTON_TOLERANCE,
+    #: rodsim/solvers/physical/fixed_step.py).
+    newton: float = 0.0
+
+
+@dataclass
+class ControlledRecord(Record):
+    """A run's record (rodsim/solvers/physical/trajectory.py) with the error control's
+    steps: each accepted step's end time and length [s], and each rejected attempt's start
+    time, length [s] and err (inf where its Newton failed), in the order taken."""
+
+    step_ends: list[float] = field(default_factory=list)
+    step_sizes: list[float] = field(default_factory=list)
+    rejections: list[tuple[float, float, float]] = field(default_factory=list)
 
 
 def _scaled_error(stepper: MidpointStep, one: Motion, two: Motion,
@@ -154,10 +179,10 @@ class _Doubling:
         s = self.stepper
         t1, middle = t0 + h, t0 + 0.5 * h
         s.kept = self.whole
-        one = _advance(self.model_at, s, motion, t0, t1, 0)
+        one = advance(self.model_at, s, motion, t0, t1, 0)
         s.kept = self.halves
-        first = _advance(self.model_at, s, motion, t0, middle, 0)
-        second = _advance(self.model_at, s, first[0], middle, t1, 0)
+        first = advance(self.model_at, s, motion, t0, middle, 0)
+        second = advance(self.model_at, s, first[0], middle, t1, 0)
         error = _scaled_error(s, one[0], second[0], self.options)
         return _Attempt(second[0], first[1] + second[1], first[2] + second[2], 3,
                         one[3][1] + first[3][1] + second[3][1], error)
@@ -177,7 +202,7 @@ class _Embedded:
         s, o = self.stepper, self.options
         c = s.coordinates
         s.kept = self.kept
-        reached, work, dissipated, taken = _advance(self.model_at, s, motion, t0, t0 + h, 0)
+        reached, work, dissipated, taken = advance(self.model_at, s, motion, t0, t0 + h, 0)
         assert reached.middle is not None and self.kept.solve is not None
         vm, wm = reached.middle
         p = len(c.positions)
@@ -191,13 +216,6 @@ class _Embedded:
         error = float(np.sqrt(np.mean(ratios * ratios)))
         return _Attempt(reached, work, dissipated, 1, taken[1],
                         error if math.isfinite(error) else math.inf)
-
-
-def _factor(error: float) -> float:
-    """The controller's change of the step for ``error`` (module docstring)."""
-    if error == 0.0:
-        return FAC_MAX
-    return min(FAC_MAX, max(FAC_MIN, SAFETY * error ** (-1.0 / 3.0)))
 
 
 def _outputs(record: Record, stepper: MidpointStep, model_at: Callable[[float], Model],
@@ -216,7 +234,7 @@ def _outputs(record: Record, stepper: MidpointStep, model_at: Callable[[float], 
             state, v = x(t)
             motion = Motion(state, v, (1.0 - s) * start.w + s * end.w)
         record.add(t, motion, c.kinetic_energy(motion.v, motion.w),
-                   _potential(model_at(t), motion.x),
+                   potential(model_at(t), motion.x),
                    (1.0 - s) * energy[0] + s * energy[1], (1.0 - s) * energy[2] + s * energy[3])
 
 
@@ -224,28 +242,33 @@ def integrate_controlled(model_at: Callable[[float], Model], stepper: MidpointSt
                          start: Motion, output_times: Sequence[float], options: ErrorControl,
                          breaks: Sequence[float] = (),
                          progress: Callable[[float], None] | None = None,
-                         record: Record | None = None,
-                         events: EventFunctions | None = None) -> Record:
+                         record: ControlledRecord | None = None,
+                         events: EventFunctions | None = None) -> ControlledRecord:
     """Integrate from ``start`` at ``output_times[0]`` through the last output time under
     error control (module docstring); ``breaks``: times no step crosses (the programs'
     table times). The record counts every midpoint step solved in ``steps`` (three an
-    attempt), the rejected attempts in ``halvings``' place: ``rejected``. A run that cannot
+    attempt), the rejected attempts in ``halvings``' place: ``rejected``; each accepted
+    step's end and length and each rejected attempt's start, length and err go to the
+    ``ControlledRecord``'s lists. A run that cannot
     go on (err > 1 at the smallest step, ``MAX_STEPS`` attempts) ends with ``success``
     False, what it computed kept, and advice; events as in trajectory.integrate."""
-    record = Record() if record is None else record
+    record = ControlledRecord() if record is None else record
     t = float(output_times[0])
     t_end = float(output_times[-1])
     motion = start
     coordinates = stepper.coordinates
     watch, names, terminal = watched(events, model_at, coordinates, t, motion)
     record.add(t, motion, coordinates.kinetic_energy(motion.v, motion.w),
-               _potential(model_at(t), motion.x), 0.0, 0.0)
+               potential(model_at(t), motion.x), 0.0, 0.0)
     pending = [float(time) for time in output_times[1:]]
     stops = sorted({float(b) for b in breaks if t < b < t_end} | {t_end})
     doubling = (_Doubling(model_at, stepper, options) if options.estimate == "doubling"
                 else _Embedded(model_at, stepper, options))
     searching = KeptMatrix()  # the events' steps' Newton matrix
     h = options.first if options.longest <= 0.0 else min(options.first, options.longest)
+    controller = StepController(options.controller)
+    if options.newton > 0.0:
+        stepper.tolerance = options.newton * min(options.rtol, options.atol)
     smallest = 1e-12 * max(t_end - t, abs(t_end))
     dissipated = work = 0.0
     attempts = 0
@@ -267,13 +290,15 @@ def integrate_controlled(model_at: Callable[[float], Model], stepper: MidpointSt
             result = doubling.attempt(motion, t, taken)
         except StepFailure:
             record.rejected += 1
-            h, rejected = taken * FAC_MIN, True
+            record.rejections.append((t, taken, math.inf))
+            h, rejected = taken * controller.rejected(math.inf), True
             continue
         record.steps += result.steps
         record.iterations += result.iterations
         if result.error > 1.0:
             record.rejected += 1
-            h, rejected = taken * min(1.0, _factor(result.error)), True
+            record.rejections.append((t, taken, result.error))
+            h, rejected = taken * controller.rejected(result.error), True
             continue
         t1 = stop if taken == stop - t else t + taken
         before, end = motion, result.motion
@@ -281,15 +306,15 @@ def integrate_controlled(model_at: Callable[[float], Model], stepper: MidpointSt
         if watch is not None:
             searched = [0, 0, 0]
             stepper.kept = searching
-            found = watch.step(t, before, t1, end, _restep(model_at, stepper, before, t,
-                                                            searched))
+            found = watch.step(t, before, t1, end, restep(model_at, stepper, before, t,
+                                                           searched))
             record.steps += searched[0]
             record.iterations += searched[1]
         ended = next((when for when, i in found if terminal[i]), None)
         if ended is not None:
             found = [(when, i) for when, i in found if when <= ended]
             if ended < t1:
-                again = _advance(model_at, stepper, before, t, ended, MAX_HALVINGS)
+                again = advance(model_at, stepper, before, t, ended, MAX_HALVINGS)
                 end, t1 = again[0], ended
                 result.work, result.dissipated = again[1], again[2]
                 record.steps += again[3][0]
@@ -304,6 +329,8 @@ def integrate_controlled(model_at: Callable[[float], Model], stepper: MidpointSt
         dissipated, work = energy[1], energy[3]
         record.largest_step = max(record.largest_step, t1 - t)
         record.accepted += 1
+        record.step_ends.append(t1)
+        record.step_sizes.append(t1 - t)
         t, motion = t1, end
         if progress is not None:
             progress(t)
@@ -311,11 +338,11 @@ def integrate_controlled(model_at: Callable[[float], Model], stepper: MidpointSt
             which = ", ".join(names[i] for when, i in found if when == ended and terminal[i])
             record.message = f"stopped by the event ({which}) at t = {ended:.9g} s"
             return record
-        grow = min(1.0, _factor(result.error)) if rejected else _factor(result.error)
-        rejected = False
+        grow = controller.accepted(result.error)
+        grow, rejected = min(1.0, grow) if rejected else grow, False
         if taken < h:  # cut short by a stop: only shortened, where its error says so
             h = min(h, taken * grow)
-        elif not 1.0 <= grow <= KEEP:
+        elif not (KEEP_PI if controller.kind == "pi" else 1.0) <= grow <= KEEP:
             h = taken * grow
         if options.longest > 0.0:
             h = min(h, options.longest)

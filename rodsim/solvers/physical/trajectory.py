@@ -24,6 +24,11 @@ extra steps beyond that rounding. A step whose Newton iteration fails (a start t
 from the solution for a step that long: measured on a stiff steel wire released from a
 large deflection at 50 steps a period) is taken as two half steps instead, up to
 ``MAX_HALVINGS`` times; the run counts them.
+
+Public besides the loop (the error-controlled loop, rodsim/solvers/physical/error_control.py,
+steps with them too): ``advance`` (one step, halved where its Newton fails, its work and
+dissipation), ``restep`` (the state one step from a start reaches at any time, for an
+event's root) and ``potential`` (V(x), NaN for a non-conservative model).
 """
 
 from __future__ import annotations
@@ -46,7 +51,7 @@ from rodsim.solvers.physical.step_events import hermite, watched
 #: breaks loose is split there (rodsim/solvers/physical/breakaway.py), and told at the split.
 AfterStep = Callable[[float, np.ndarray], None]
 
-__all__ = ["Record", "integrate", "MAX_HALVINGS"]
+__all__ = ["Record", "integrate", "advance", "restep", "potential", "MAX_HALVINGS"]
 
 #: How many times a step whose Newton fails may be halved before the run stops (down to
 #: 1/256 of the step). A user's three-segment nitinol TDCR (N = 61) pulled by a 3 N ramp
@@ -93,8 +98,9 @@ class Record:
         self.work.append(work)
 
 
-def _potential(model: Model, x: np.ndarray) -> float:
-    """V(x) of ``model``, NaN for a non-conservative model."""
+def potential(model: Model, x: np.ndarray) -> float:
+    """V(x) [J] of ``model`` at the free coordinates ``x`` (its energy: elastic, penalty,
+    gravity and the loads' potentials), NaN for a non-conservative model."""
     if not model.conservative:
         return math.nan
     return model.energy(model_state(model, x))
@@ -144,9 +150,9 @@ def _part(model_at: Callable[[float], Model], stepper: FixedStep, motion: Motion
     return when, models[when], first, (spent[0], spent[1])
 
 
-def _advance(model_at: Callable[[float], Model], stepper: FixedStep, motion: Motion,
-             t0: float, t1: float, halvings: int, after_step: AfterStep | None = None
-             ) -> tuple[Motion, float, float, tuple[int, int, int]]:
+def advance(model_at: Callable[[float], Model], stepper: FixedStep, motion: Motion,
+            t0: float, t1: float, halvings: int, after_step: AfterStep | None = None
+            ) -> tuple[Motion, float, float, tuple[int, int, int]]:
     """One step from ``t0`` to ``t1``, or, if its Newton fails, two half steps (each halved
     again, ``halvings`` times at most): (the motion reached, the programs' work, the
     dissipated energy, (steps, Newton iterations, halvings)). ``after_step(t, x)`` is told
@@ -164,9 +170,9 @@ def _advance(model_at: Callable[[float], Model], stepper: FixedStep, motion: Mot
             if halvings == 0:
                 raise
             half = 0.5 * (t0 + t1)
-            first = _advance(model_at, stepper, motion, t0, half, halvings - 1, after_step)
-            second = _advance(model_at, stepper, first[0], half, t1, halvings - 1,
-                              after_step)
+            first = advance(model_at, stepper, motion, t0, half, halvings - 1, after_step)
+            second = advance(model_at, stepper, first[0], half, t1, halvings - 1,
+                             after_step)
             return (second[0], work + first[1] + second[1],
                     dissipated + first[2] + second[2],
                     (counts[0] + first[3][0] + second[3][0],
@@ -178,9 +184,9 @@ def _advance(model_at: Callable[[float], Model], stepper: FixedStep, motion: Mot
             work += outcome.support_work  # a moving support's, through the damping
             start_model, end_model = model_at(t0), model_at(when)
             if start_model is not middle or end_model is not middle:
-                work += (_potential(end_model, outcome.motion.x)
-                         - _potential(middle, outcome.motion.x)
-                         + _potential(middle, motion.x) - _potential(start_model, motion.x))
+                work += (potential(end_model, outcome.motion.x)
+                         - potential(middle, outcome.motion.x)
+                         + potential(middle, motion.x) - potential(start_model, motion.x))
             dissipated += outcome.dissipated
             motion = outcome.motion
         if after_step is not None:
@@ -192,25 +198,25 @@ def _advance(model_at: Callable[[float], Model], stepper: FixedStep, motion: Mot
                       "step")
 
 
-def _restep(model_at: Callable[[float], Model], stepper: FixedStep, start: Motion,
-            t0: float, counts: list[int], after_step: AfterStep | None = None,
-            restore: Callable[[], None] | None = None) -> Callable[[float], Motion]:
+def restep(model_at: Callable[[float], Model], stepper: FixedStep, start: Motion,
+           t0: float, counts: list[int], after_step: AfterStep | None = None,
+           restore: Callable[[], None] | None = None) -> Callable[[float], Motion]:
     """The state one step from ``start`` at ``t0`` to t reaches (halved as a step is), for
     an event's root; its steps, Newton iterations and halvings added to ``counts``. With
     ``restore`` (what puts friction's history back as it was at ``t0``) each trial step is
     taken from that history and carries it (``after_step``), a routing point that breaks
     loose in it located as in any step; without, the history is left alone."""
-    def restep(t: float) -> Motion:
+    def trial(t: float) -> Motion:
         if t <= t0:
             return start
         if restore is not None:
             restore()
-        motion, _, _, taken = _advance(model_at, stepper, start, t0, t, MAX_HALVINGS,
-                                       after_step if restore is not None else None)
+        motion, _, _, taken = advance(model_at, stepper, start, t0, t, MAX_HALVINGS,
+                                      after_step if restore is not None else None)
         for k in range(3):
             counts[k] += taken[k]
         return motion
-    return restep
+    return trial
 
 
 def integrate(model_at: Callable[[float], Model], stepper: FixedStep, start: Motion,
@@ -241,7 +247,7 @@ def integrate(model_at: Callable[[float], Model], stepper: FixedStep, start: Mot
     watch, names, terminal = watched(events, model_at, coordinates, t, motion)
     dissipated = work = 0.0
     record.add(t, motion, coordinates.kinetic_energy(motion.v, motion.w),
-               _potential(model, motion.x), 0.0, 0.0)
+               potential(model, motion.x), 0.0, 0.0)
     for index in range(1, len(output_times)):
         t_next = float(output_times[index])
         count = max(1, math.ceil((t_next - t) / step * (1.0 - 1e-12)))
@@ -252,15 +258,15 @@ def integrate(model_at: Callable[[float], Model], stepper: FixedStep, start: Mot
             before = motion
             saved = history() if history is not None and watch is not None else None
             try:
-                motion, gained, lost, taken = _advance(model_at, stepper, motion, t0, t1,
-                                                       MAX_HALVINGS, after_step)
+                motion, gained, lost, taken = advance(model_at, stepper, motion, t0, t1,
+                                                      MAX_HALVINGS, after_step)
                 found, searched = [], [0, 0, 0]
                 if watch is not None:
                     reached = (history() if history is not None and saved is not None
                                else None)
                     found = watch.step(t0, before, t1, motion,
-                                       _restep(model_at, stepper, before, t0, searched,
-                                               after_step, saved))
+                                       restep(model_at, stepper, before, t0, searched,
+                                              after_step, saved))
                     if reached is not None:
                         reached()
                 stop = next((when for when, i in found if terminal[i]), None)
@@ -269,7 +275,7 @@ def integrate(model_at: Callable[[float], Model], stepper: FixedStep, start: Mot
                     if stop < t1:  # the step again, to the terminal event's time exactly
                         if saved is not None:
                             saved()
-                        motion, gained, lost, again = _advance(
+                        motion, gained, lost, again = advance(
                             model_at, stepper, before, t0, stop, MAX_HALVINGS, after_step)
                         searched = [a + b for a, b in zip(searched, again, strict=True)]
                 taken = (taken[0] + searched[0], taken[1] + searched[1],
@@ -288,7 +294,7 @@ def integrate(model_at: Callable[[float], Model], stepper: FixedStep, start: Mot
             record.largest_step = max(record.largest_step, t1 - t0)
             if stop is not None:
                 record.add(stop, motion, coordinates.kinetic_energy(motion.v, motion.w),
-                           _potential(model_at(stop), motion.x), dissipated, work)
+                           potential(model_at(stop), motion.x), dissipated, work)
                 ended = ", ".join(names[i] for when, i in found if when == stop and terminal[i])
                 record.message = f"stopped by the event ({ended}) at t = {stop:.9g} s"
                 return record
@@ -296,5 +302,5 @@ def integrate(model_at: Callable[[float], Model], stepper: FixedStep, start: Mot
                 progress(t1)
         t = t_next
         record.add(t, motion, coordinates.kinetic_energy(motion.v, motion.w),
-                   _potential(model_at(t), motion.x), dissipated, work)
+                   potential(model_at(t), motion.x), dissipated, work)
     return record
