@@ -360,6 +360,9 @@ def _check_track(ds: xr.Dataset) -> None:
         if not np.array_equal(np.asarray(stored, dtype=float), np.asarray(values[:steps])):
             raise ArchiveSchemaError(f"variable {str(variable.name)[:40]!r} does not hold the "
                                      "ramp_json values of the stored steps")
+    for name in ERROR_ESTIMATES:  # optional: each step's estimate (an older archive has none)
+        if name in ds.variables:
+            _variable(ds, name, ("step",))
 
 
 def _check_batch(ds: xr.Dataset) -> None:

@@ -124,6 +124,9 @@ class Track:
     #: track`` does): an archive attribute as a run's.
     discretisation_error: float | None = None
     tendon_compression: dict[str, float] = field(default_factory=dict)
+    #: Each step's estimates [L] (rodsim/app/inverse/track_estimates.py; rodsim track makes them)
+    step_discretisation_error: list[float] = field(default_factory=list)
+    step_penalty_error: list[float] = field(default_factory=list)
     #: The last completed step's own model (with friction: that step's anchors).
     last_model: Model | None = None
     #: Stopped by Ctrl-C or SIGTERM (:class:`rodsim.app.interrupted.Interrupted`).
@@ -262,6 +265,11 @@ class Track:
                                          {"long_name": "smallest eigenvalue of the stiffness "
                                           "of an unstable step (NaN when stable)"}),
         }
+        for name, values in (("discretisation_error", self.step_discretisation_error),
+                             ("penalty_error", self.step_penalty_error)):
+            if len(values) == steps and steps:
+                data[name] = ("step", np.asarray(values, dtype=float), {"units": "1", "long_name":
+                              f"{name.replace('_', ' ')} estimate of the step / L (NaN: none)"})
         if self.contact:
             data.update(contact_variables(np.array(self.contact), ("step",)))
         if self.tension:
