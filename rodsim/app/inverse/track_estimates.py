@@ -61,14 +61,14 @@ def _ramps(path: Track, scene: Scene, factor: float = 1.0) -> dict[str, Any]:
 
 
 def _companion(path: Track, data: dict[str, Any], factor: float = 1.0) -> Track | None:
-    """The track of the scene ``data`` along ``path``'s ramp (static integrator, unstable
-    steps allowed: the companion only measures); None when the scene is refused."""
+    """The track of the scene ``data`` along ``path``'s ramp (static integrator, without
+    stability verdicts: the companion only measures); None when the scene is refused."""
     from rodsim.app.api import load_scene
 
     try:
         scene = load_scene(data)
         return track(scene, _ramps(path, scene, factor), DEFAULT_INTEGRATOR,
-                     allow_unstable=True)
+                     allow_unstable=True, verdicts=False)
     except SceneError:
         return None
 
