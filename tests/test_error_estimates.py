@@ -402,8 +402,8 @@ def test_track_prints_the_largest_step_estimates(tmp_path, capsys):
 def test_a_friction_tracks_steps_follow_its_own_history():
     """With tendon friction each companion follows its own path: on a monotonic pull (the
     history a cold solve assumes) the top step's discretisation estimate equals the cold
-    one within 5 % (measured 1 %); after a release they stay those of the released path (the cold solve of
-    the released scene has another history, so it is no reference there)."""
+    one within 5 % (measured 1 %); after a release they stay those of the released path
+    (the cold solve of the released scene has another history: no reference there)."""
     from rodsim.app.inverse.track_estimates import estimate_steps
 
     friction = [f"tendons.{name}.tendon_string.friction=0.2" for name in ("wire_up",
