@@ -21,7 +21,8 @@ from rodsim.io.statistics import POINT_STATS
 from rodsim.io.study_dataset import study_dataset
 from rodsim.solvers.result import Result
 
-__all__ = ["point_model", "evaluate_point", "solved_record", "assemble", "rerun_study"]
+__all__ = ["point_model", "evaluate_point", "point_estimates", "solved_record", "assemble",
+           "rerun_study"]
 
 
 #: The last model built in this process for each study's base scene (spec.base_scene_json):
@@ -105,6 +106,7 @@ def evaluate_point(spec: StudySpec, index: tuple[int, ...]) -> dict[str, Any]:
                        for name, shape in result.rods.items()},
     }
     first = next(iter(result.rods.values()))
+    record |= point_estimates(result)
     record |= point_errors(
         scene, spec.reference, np.asarray(record["centerline"][next(iter(result.rods))]),
         sigma, float(first.s[-1]),
@@ -113,6 +115,18 @@ def evaluate_point(spec: StudySpec, index: tuple[int, ...]) -> dict[str, Any]:
         record["history_time"] = list(result.history.get("time", []))
         record["history_tip"] = list(result.history.get("tip", []))
     return record
+
+
+def point_estimates(result: Result) -> dict[str, float]:
+    """The discretisation and penalty error estimates [L] of a point's converged ``result``:
+    the very estimates ``rodsim run`` prints for the point's scene (``rodsim.app.trust.assess``
+    without a model: a point's model has its rest-state anchors, as a run's). About 3× a
+    warm point's solve in CPU (docs/studies.md, "Error estimates")."""
+    from rodsim.app.trust import assess
+
+    estimates = assess(result)
+    return {"discretisation_error": float(estimates.discretisation.error),
+            "penalty_error": float(estimates.penalty.error)}
 
 
 def assemble(spec: StudySpec, records: list[dict[str, Any]]) -> xr.Dataset:

@@ -77,7 +77,8 @@ LONG_ATTRIBUTES = ("scene_json", "scene_toml", "spec_json", "ramp_json", "integr
                    "fit_parameters", "reach_parameters")
 
 #: The error estimates a run, fit, reach or track archive may carry, in units of L
-#: (docs/archive.md; rodsim/app/trust.py).
+#: (docs/archive.md; rodsim/app/trust.py): attributes, and in a track archive also variables
+#: along ``step``, in a study archive variables along its point dimensions.
 ERROR_ESTIMATES = ("discretisation_error", "penalty_error")
 
 #: Keys every study spec (``spec_json``) holds.
@@ -359,6 +360,9 @@ def _check_track(ds: xr.Dataset) -> None:
         if not np.array_equal(np.asarray(stored, dtype=float), np.asarray(values[:steps])):
             raise ArchiveSchemaError(f"variable {str(variable.name)[:40]!r} does not hold the "
                                      "ramp_json values of the stored steps")
+    for name in ERROR_ESTIMATES:  # optional: each step's estimate (an older archive has none)
+        if name in ds.variables:
+            _variable(ds, name, ("step",))
 
 
 def _check_batch(ds: xr.Dataset) -> None:
@@ -536,6 +540,9 @@ def _check_study(ds: xr.Dataset) -> None:
     _variable(ds, "tip", (*shape, "rod", "axis"))
     _variable(ds, "centerline", (*shape, "rod", "sigma", "axis"))
     _variable(ds, "sigma", ("sigma",))
+    for key in ERROR_ESTIMATES:  # optional: a study archive of an older rodsim has none
+        if key in ds.variables:
+            _variable(ds, key, shape)
 
 
 def _check_sweep(ds: xr.Dataset, sweep: Any, what: str) -> None:

@@ -11,7 +11,7 @@ from typing import Any
 
 import numpy as np
 
-from rodsim.io.archive_schema import STATUS, ArchiveSchemaError, finite_number
+from rodsim.io.archive_schema import ERROR_ESTIMATES, STATUS, ArchiveSchemaError, finite_number
 
 __all__ = ["check_point_record"]
 
@@ -57,6 +57,9 @@ def check_point_record(record: Any, sigma_points: int, rods: list[str],
     for key in ("residual", "quaternion_norm_error", "tip_error", "area_error"):
         if key in record and not finite_number(record[key]):
             raise ArchiveSchemaError(f"{key} is not a finite number")
+    for key in ERROR_ESTIMATES:  # optional (a record of an older rodsim has none); NaN: none
+        if key in record and not _number(record[key]):
+            raise ArchiveSchemaError(f"{key} is not a number")
     if "stable" in record and record["stable"] not in (0, 1):
         raise ArchiveSchemaError("stable is not 0 or 1")
     if "stiffness_min_eigenvalue" in record and not _number(record["stiffness_min_eigenvalue"]):

@@ -13,7 +13,7 @@ import numpy as np
 import xarray as xr
 
 from rodsim.core.analytic.reference import REFERENCE_KINDS
-from rodsim.io.archive_schema import SCHEMA_VERSION, STATUS
+from rodsim.io.archive_schema import ERROR_ESTIMATES, SCHEMA_VERSION, STATUS
 from rodsim.io.provenance import archive_attributes
 from rodsim.io.run_dataset import step_coordinate
 from rodsim.io.statistics import POINT_STAT_DOCS, POINT_STATS
@@ -41,8 +41,11 @@ def study_dataset(spec: Any, records: list[dict[str, Any]], call: str) -> xr.Dat
     # Errors only against a reference: a study without one stores no error variables.
     errors = ("tip_error", "area_error") if spec.reference in REFERENCE_KINDS else ()
     verdicts = ("stable", "stiffness_min_eigenvalue")
+    # The points' error estimates, when the records hold them (those of an older rodsim
+    # resumed from a parts folder do not: NaN there).
+    estimates = tuple(k for k in ERROR_ESTIMATES if any(k in r for r in records))
     scalars = {k: grid(np.nan) for k in ("residual", "quaternion_norm_error", *errors,
-                                         *verdicts, *POINT_STATS)}
+                                         *verdicts, *estimates, *POINT_STATS)}
     tip = grid(np.nan, (len(rods), 3))
     centerline = grid(np.nan, (len(rods), len(sigma), 3))
     steps = max((len(r.get("history_time", [])) for r in records), default=0)
@@ -50,7 +53,7 @@ def study_dataset(spec: Any, records: list[dict[str, Any]], call: str) -> xr.Dat
                "history_tip": grid(np.nan, (steps, 3))}
     for index, r in by_index.items():
         status[index], message[index] = r["status"], r["message"]
-        for key in ("residual", "quaternion_norm_error", *errors, *verdicts):
+        for key in ("residual", "quaternion_norm_error", *errors, *verdicts, *estimates):
             if key in r:
                 scalars[key][index] = r[key]
         for key in POINT_STATS:
@@ -86,6 +89,10 @@ def study_dataset(spec: Any, records: list[dict[str, Any]], call: str) -> xr.Dat
         "tip_error": ("1", f"tip distance to the {spec.reference} reference / L"),
         "area_error": ("m", f"area between the centerline and the {spec.reference} "
                             "reference / L (Fig. 21)"),
+        "discretisation_error": ("1", "estimated discretisation error of the point's "
+                                 "equilibrium / L (as rodsim run's; NaN: failed point or none)"),
+        "penalty_error": ("1", "estimated penalty error of the point's equilibrium / L (as "
+                          "rodsim run's; NaN: failed point or none)"),
         **POINT_STAT_DOCS,
     }
     for key, values in scalars.items():

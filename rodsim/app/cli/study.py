@@ -4,10 +4,51 @@ from __future__ import annotations
 
 import argparse
 import sys
+from typing import Any
 
 from rodsim.app.cli.common import EXIT_OK, EXIT_SOLVER_FAILURE, UserError, output_path
 
-__all__ = ["cmd_study", "study_status"]
+__all__ = ["cmd_study", "estimate_lines", "study_status"]
+
+
+def estimate_lines(dataset: Any) -> list[str]:
+    """The study summary's error-estimate lines: for each of ``discretisation_error`` and
+    ``penalty_error``, the largest over the points and the point where it is (NaN points
+    counted: an estimate that could not be made), with the warning above 1e-3 L."""
+    import numpy as np
+
+    from rodsim.app.discretisation import TRUST_WARNING
+    from rodsim.io.archive_schema import STATUS
+
+    lines = []
+    dims = [str(dim) for dim in dataset["status"].dims]
+    for key, label in (("discretisation_error", "discretis."), ("penalty_error", "penalty")):
+        if key not in dataset:
+            continue
+        values = np.asarray(dataset[key].values, dtype=float)
+        ok = np.asarray(dataset["status"].values) == STATUS["ok"]
+        missing = int(np.sum(ok & ~np.isfinite(values)))
+        if not np.any(np.isfinite(values)):
+            lines.append(f"{label:<11s} no estimate at any point")
+            continue
+        index = np.unravel_index(int(np.nanargmax(values)), values.shape)
+        where = ", ".join(f"{dim}={_label(dataset[dim].values[i])}"
+                          for dim, i in zip(dims, index, strict=True))
+        line = f"{label:<11s} largest error ≈ {values[index]:.2g} L at {where}"
+        if missing:
+            line += f"; {missing} point(s) without an estimate"
+        lines.append(line)
+        above = int(np.sum(values > TRUST_WARNING))
+        if above or missing:
+            lines.append(f"warning     {key} above {TRUST_WARNING:g} L or missing at "
+                         f"{above + missing} point(s): the archive's {key!r} variable says "
+                         "which")
+    return lines
+
+
+def _label(value: Any) -> str:
+    """A point's coordinate label as text."""
+    return f"{value:.6g}" if isinstance(value, float) else str(value)
 
 
 def study_status(name: str, done: int, failed: int, total: int, elapsed: float,
@@ -67,6 +108,8 @@ def cmd_study(args: argparse.Namespace) -> int:
     failed = int(dataset.attrs["failed_points"])
     print(f"study       {study.name} ({args.size}): {dataset.attrs['points']} points, "
           f"{failed} failed")
+    for line in estimate_lines(dataset):
+        print(line)
     unstable = int((dataset["stable"] == 0).sum()) if "stable" in dataset else 0
     if unstable:
         print(f"rodsim: warning: {unstable} point(s) of the study are UNSTABLE equilibria "

@@ -73,9 +73,13 @@ class Track(SceneCommand):
                                     f"{dead[0]}): the termination tensions held while the "
                                     "ramp moved (backlash)" if dead else "none: every "
                                     "step moved a termination tension"))
-        print_last_step_trust(result)
+        # Ctrl-C or SIGTERM while the steps' estimates are made: the archive is written
+        # without them, then the command stops as interrupted (verdict).
+        self.estimates_interrupted = print_last_step_trust(result)
 
     def verdict(self, result: Any) -> int:
+        if getattr(self, "estimates_interrupted", False):
+            raise KeyboardInterrupt
         if not result.success:  # stopped at a failed or unstable step: archived, a failure
             failure = "" if result.unstable_step is not None else "solver failure: "
             print(f"rodsim: {failure}{result.message}; the archive holds the {result.steps} "
@@ -107,9 +111,44 @@ def cmd_track(args: argparse.Namespace) -> int:
     return execute(Track(args))
 
 
-def print_last_step_trust(track) -> None:
+def print_step_estimates(track: Any) -> bool:
+    """Estimate every step's errors from the companion paths (rodsim/app/inverse/
+    track_estimates.py) and print the largest of each over the steps, and at which step.
+    True when Ctrl-C or SIGTERM stopped the estimates (the track keeps none)."""
+    import numpy as np
+
+    from rodsim.app.discretisation import TRUST_WARNING
+    from rodsim.app.inverse.track_estimates import estimate_steps
+
+    try:
+        estimate_steps(track)
+    except KeyboardInterrupt:
+        track.step_discretisation_error, track.step_penalty_error = [], []
+        print("rodsim: interrupted while estimating the steps' errors; writing the archive "
+              "without them", file=sys.stderr)
+        return True
+    for label, values in (("discretis.", track.step_discretisation_error),
+                          ("penalty", track.step_penalty_error)):
+        errors = np.asarray(values, dtype=float)
+        if not errors.size:
+            continue
+        missing = int(np.sum(~np.isfinite(errors)))
+        if missing == errors.size:
+            print(f"{label:<11s} per step: no estimate (a companion path failed)")
+            continue
+        step = int(np.nanargmax(errors))
+        line = f"{label:<11s} per step: largest error ≈ {errors[step]:.2g} L at step {step}"
+        print(line + (f"; {missing} step(s) without an estimate" if missing else ""))
+        if errors[step] > TRUST_WARNING:
+            print(f"warning     {int(np.sum(errors > TRUST_WARNING))} step(s) above "
+                  f"{TRUST_WARNING:g} L: the archive's per-step variable says which")
+    return False
+
+
+def print_last_step_trust(track: Any) -> bool:
     """Print the last step's error estimates and compression check, and keep them on
-    ``track`` for its archive (rodsim/app/trust.py)."""
+    ``track`` for its archive (rodsim/app/trust.py), then every step's
+    (``print_step_estimates``); True when an interrupt stopped the latter."""
     from rodsim.app.trust import assess, compression_text, last_step_result
 
     last = last_step_result(track)
@@ -118,7 +157,8 @@ def print_last_step_trust(track) -> None:
             track.penalty_error = track.discretisation_error = float("nan")
             print("penalty     error estimates unavailable: the last step did not re-solve "
                   "with the static integrator")
-        return
+            return print_step_estimates(track)
+        return False
     estimate = assess(last, model=track.last_model)  # with friction: that step's anchors
     track.penalty_error = last.penalty_error
     track.discretisation_error = last.discretisation_error
@@ -126,3 +166,4 @@ def print_last_step_trust(track) -> None:
     print(estimate.text("last step: "))
     if last.tendon_compression:
         print(compression_text(last.tendon_compression))
+    return print_step_estimates(track)

@@ -45,6 +45,12 @@ def track_rows(track: Any) -> list[tuple[str, str]]:
     rows.append(("wall time", f"{sum(track.times):.3g} s"))
     if track.penalty_error is not None:
         rows.append(("penalty error", f"{track.penalty_error:.2g} L (last step)"))
+    for label, values in (("discretisation error", track.step_discretisation_error),
+                          ("penalty error", track.step_penalty_error)):
+        errors = np.asarray(values, dtype=float)
+        if errors.size and np.any(np.isfinite(errors)):
+            step = int(np.nanargmax(errors))
+            rows.append((f"{label} per step", f"largest {errors[step]:.2g} L at step {step}"))
     return rows
 
 

@@ -47,6 +47,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from rodsim.app.interrupted import Interrupted
+from rodsim.app.inverse import track_steps
 from rodsim.app.inverse.continuation import MAX_HALVINGS, Continuation
 from rodsim.app.inverse.parameter_keys import NumericKey, numeric_keys, scene_with
 from rodsim.app.inverse.ramps import check_rules_across_tables, parse_ramp, ramp_values
@@ -124,6 +125,9 @@ class Track:
     #: track`` does): an archive attribute as a run's.
     discretisation_error: float | None = None
     tendon_compression: dict[str, float] = field(default_factory=dict)
+    #: Each step's estimates [L] (rodsim/app/inverse/track_estimates.py; rodsim track makes them)
+    step_discretisation_error: list[float] = field(default_factory=list)
+    step_penalty_error: list[float] = field(default_factory=list)
     #: The last completed step's own model (with friction: that step's anchors).
     last_model: Model | None = None
     #: Stopped by Ctrl-C or SIGTERM (:class:`rodsim.app.interrupted.Interrupted`).
@@ -262,6 +266,8 @@ class Track:
                                          {"long_name": "smallest eigenvalue of the stiffness "
                                           "of an unstable step (NaN when stable)"}),
         }
+        data.update(track_steps.estimate_variables(self.step_discretisation_error,
+                                                   self.step_penalty_error, steps))
         if self.contact:
             data.update(contact_variables(np.array(self.contact), ("step",)))
         if self.tension:
@@ -321,11 +327,13 @@ class Track:
 
 def track(scene: Scene, ramps: Mapping[str, Sequence[float] | np.ndarray],
           integrator: str = DEFAULT_INTEGRATOR,
-          *, progress: Progress | None = None, allow_unstable: bool = False) -> Track:
+          *, progress: Progress | None = None, allow_unstable: bool = False,
+          verdicts: bool = True) -> Track:
     """Equilibria along the path ``ramps`` (key → values, all of one length ≥ 2), step 0
     from rest and every later step warm-started from the previous one (module docstring);
     ``progress`` is called after each step with the fraction done and a status line. The
-    first unstable step stops the track unless ``allow_unstable`` (module docstring).
+    first unstable step stops the track unless ``allow_unstable`` (module docstring);
+    ``verdicts`` False skips the stability verdicts (every step "stable": a companion path).
 
     Raises SceneError for bad keys or values; a solver failure, a spent wall-time budget or
     an unstable step comes back as ``Track.success = False`` with the step in the message
@@ -361,7 +369,8 @@ def track(scene: Scene, ramps: Mapping[str, Sequence[float] | np.ndarray],
         return out
     try:
         _walk(out, first, scene, deadline=deadline, budget=budget, started=started,
-              progress=progress)
+              progress=progress, judge=track_steps.stability_assess if verdicts
+              else track_steps.no_verdict)
     except KeyboardInterrupt:
         out.drop_unfinished()
         if not out.steps:
@@ -374,11 +383,9 @@ def track(scene: Scene, ramps: Mapping[str, Sequence[float] | np.ndarray],
 
 
 def _walk(out: Track, first: Result, scene: Scene, *, deadline: float, budget: float,
-          started: float, progress: Progress | None) -> None:
+          started: float, progress: Progress | None, judge: Any) -> None:
     """Record step 0 (``first``, solved cold) and walk the later steps into ``out``
-    (``track``; a stop leaves ``out`` with the steps done)."""
-    from rodsim.core.stability import assess
-
+    (``track``; a stop leaves ``out`` with the steps done); ``judge``: the verdict's."""
     keys, values, model = out.keys, out.values, out.model
     integrator, allow_unstable = out.integrator, out.allow_unstable
     kind = integrator_named(integrator)
@@ -390,7 +397,7 @@ def _walk(out: Track, first: Result, scene: Scene, *, deadline: float, budget: f
     out.iterations.append(kind.work(first.stats))
     out.halvings.append(0)
     out.times.append(time.perf_counter() - started)
-    stability = first.stability or assess(model, first.state)
+    stability = first.stability or judge(model, first.state)
     if not record_stability(out, 0, stability, allow_unstable):
         return
     previous: np.ndarray | None = None  # the equilibrium before the last, for the predictor
@@ -427,7 +434,7 @@ def _walk(out: Track, first: Result, scene: Scene, *, deadline: float, budget: f
             continuation.x)))
         out.iterations.append(iterations)
         out.halvings.append(halvings)
-        verdict = assess(continuation.model, continuation.x,  # part of the step's time
+        verdict = judge(continuation.model, continuation.x,  # part of the step's time
                          continuation.factorisation(), certified)
         # The next verdict tries the certificate first only if this one was certified
         # (stable with no eigenvalue computed): the same verdicts, rodsim/core/stability.py.

@@ -13,9 +13,11 @@ from rodsim.app.inverse.parameter_keys import NumericKey
 from rodsim.core.friction_record import friction_record
 from rodsim.core.model import Model
 from rodsim.core.stability import Stability
+from rodsim.core.stability import assess as stability_assess
 from rodsim.core.terms.contact import contact_forces
 
-__all__ = ["TrackRecord", "record_contact", "record_stability", "values_text"]
+__all__ = ["TrackRecord", "estimate_variables", "no_verdict", "record_contact", "record_stability",
+           "stability_assess", "values_text"]
 
 
 class TrackRecord(Protocol):
@@ -72,3 +74,23 @@ def record_stability(out: TrackRecord, step: int, stability: Stability,
 
 def values_text(keys: Sequence[NumericKey], row: np.ndarray) -> str:
     return ", ".join(f"{k.name} = {v:.6g}" for k, v in zip(keys, row, strict=True))
+
+
+def no_verdict(model: Model, x: np.ndarray, *_: object) -> Stability:
+    """No stability verdict (a step recorded "stable"): a companion path's steps, which only
+    measure an error estimate (rodsim/app/inverse/track_estimates.py), skip the verdict's
+    cost (a dense eigenvalue problem where the band factorisation does not certify)."""
+    return Stability(True)
+
+
+def estimate_variables(discretisation: Sequence[float], penalty: Sequence[float],
+                       steps: int) -> dict[str, tuple[str, np.ndarray, dict[str, str]]]:
+    """The track archive's variables ``discretisation_error`` and ``penalty_error`` along
+    ``step`` (rodsim/app/inverse/track_estimates.py), when estimated for every stored step."""
+    out = {}
+    for name, values in (("discretisation_error", discretisation), ("penalty_error", penalty)):
+        if steps and len(values) == steps:
+            out[name] = ("step", np.asarray(values, dtype=float), {
+                "units": "1",
+                "long_name": f"{name.replace('_', ' ')} estimate of the step / L (NaN: none)"})
+    return out
