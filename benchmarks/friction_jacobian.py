@@ -120,7 +120,7 @@ def measure() -> dict:
         ramp = np.concatenate([np.linspace(tension / 8, tension, 8),
                                np.linspace(0.925 * tension, 0.4 * tension, 8)])
         start = time.process_time()
-        track = rodsim.track(scene, {TENSION: ramp})
+        track = rodsim.track(scene, {TENSION: ramp}, estimates=False)
         out[label] = {
             "success": bool(result.success), "newton": int(result.stats["newton_iters"]),
             "static_ms": 1e3 * min(seconds),

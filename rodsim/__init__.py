@@ -27,7 +27,8 @@ __all__ = ["ContactOnset", "Event", "Sinusoid", "TendonSlack", "Tracker", "__ver
            "solve_many", "track"]
 
 #: The inverse tools: name -> module (each module defines a function of the same name).
-_INVERSE = {"sensitivity": "rodsim.app.inverse.sensitivity", "track": "rodsim.app.inverse.track",
+_INVERSE = {"sensitivity": "rodsim.app.inverse.sensitivity",
+            "track": "rodsim.app.inverse.track_estimates",
             "fit": "rodsim.app.inverse.fit", "reach": "rodsim.app.inverse.reach"}
 
 

@@ -65,7 +65,7 @@ def run(size: str, output_dir: Path, progress: Progress) -> list[Path]:
         key = f"tendons.{ramped}.tendon_string.tension"
         values = cycle(t_max, config["steps"])
         track_cpu, track = _best(lambda scene=scene, key=key, values=values: rodsim.track(
-            scene, {key: values}), config["repeats"])
+            scene, {key: values}, estimates=False), config["repeats"])
         solve_cpu, result = _best(lambda scene=scene: rodsim.solve(scene, "static"),
                                   config["repeats"])
         rows.append({"scene": name, "friction": mu, "steps": len(values),

@@ -158,12 +158,12 @@ def tracking_costs(scene_name: str, steps: int, repeats: int, progress: Progress
     key, start, stop = TRACKS[scene_name]
     scene = rodsim.load_scene(scene_name)
     values = np.linspace(start, stop, steps)
-    rodsim.track(scene, {key: values[:3]})  # warm-up (kernels loaded)
+    rodsim.track(scene, {key: values[:3]}, estimates=False)  # warm-up (kernels loaded)
     best = None
     for repeat in range(repeats):
         progress((repeat + 1) / repeats, f"kernels: tracking {scene_name}")
         started = time.perf_counter()
-        path = rodsim.track(scene, {key: values})
+        path = rodsim.track(scene, {key: values}, estimates=False)
         total = time.perf_counter() - started
         if best is None or total < best[0]:
             best = total, path

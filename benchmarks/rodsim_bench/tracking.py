@@ -74,7 +74,7 @@ def _track(scene_name: str, ramp: dict, variant: str):
     track_steps.stability_assess = timed  # type: ignore[assignment]
     try:
         start = time.process_time()
-        path = rodsim.track(scene, ramp)
+        path = rodsim.track(scene, ramp, estimates=False)
         return time.process_time() - start, spent[0], path
     finally:
         Model.with_values = original  # type: ignore[method-assign]
@@ -134,9 +134,9 @@ steps, folder = int(sys.argv[1]), sys.argv[2]
 out = {}
 for scene_name, key, start, stop in cases:
     scene = rodsim.load_scene(scene_name)
-    rodsim.track(scene, {key: np.linspace(start, stop, 3)})
+    rodsim.track(scene, {key: np.linspace(start, stop, 3)}, estimates=False)
     began = time.process_time()
-    path = rodsim.track(scene, {key: np.linspace(start, stop, steps)})
+    path = rodsim.track(scene, {key: np.linspace(start, stop, steps)}, estimates=False)
     out[scene_name] = time.process_time() - began
     if not path.success:
         raise SystemExit(scene_name + ': ' + path.message)

@@ -111,13 +111,9 @@ def cmd_track(args: argparse.Namespace) -> int:
     return execute(Track(args))
 
 
-def print_step_estimates(track: Any) -> bool:
+def make_step_estimates(track: Any) -> bool:
     """Estimate every step's errors from the companion paths (rodsim/app/inverse/
-    track_estimates.py) and print the largest of each over the steps, and at which step.
-    True when Ctrl-C or SIGTERM stopped the estimates (the track keeps none)."""
-    import numpy as np
-
-    from rodsim.app.discretisation import TRUST_WARNING
+    track_estimates.py). True when Ctrl-C or SIGTERM stopped them (the track keeps none)."""
     from rodsim.app.inverse.track_estimates import estimate_steps
 
     try:
@@ -127,6 +123,15 @@ def print_step_estimates(track: Any) -> bool:
         print("rodsim: interrupted while estimating the steps' errors; writing the archive "
               "without them", file=sys.stderr)
         return True
+    return False
+
+
+def print_step_estimates(track: Any) -> None:
+    """Print the largest of each per-step estimate over the steps, and at which step."""
+    import numpy as np
+
+    from rodsim.app.discretisation import TRUST_WARNING
+
     for label, values in (("discretis.", track.step_discretisation_error),
                           ("penalty", track.step_penalty_error)):
         errors = np.asarray(values, dtype=float)
@@ -142,23 +147,42 @@ def print_step_estimates(track: Any) -> bool:
         if errors[step] > TRUST_WARNING:
             print(f"warning     {int(np.sum(errors > TRUST_WARNING))} step(s) above "
                   f"{TRUST_WARNING:g} L: the archive's per-step variable says which")
-    return False
 
 
 def print_last_step_trust(track: Any) -> bool:
-    """Print the last step's error estimates and compression check, and keep them on
-    ``track`` for its archive (rodsim/app/trust.py), then every step's
-    (``print_step_estimates``); True when an interrupt stopped the latter."""
+    """Make every step's error estimates (``make_step_estimates``), then print the last
+    step's and keep them on ``track`` for its archive: taken from the per-step estimates
+    (one source, no re-solve; rodsim/app/inverse/track_estimates.py,
+    ``last_step_estimates``), or, only when those could not be made, from a cold re-solve
+    of the last step (rodsim/app/trust.py); then the largest per-step figures. True when
+    an interrupt stopped the estimates."""
+    from rodsim.app.inverse.track_estimates import last_step_estimates, last_step_text
+    from rodsim.app.trust import compression_text
+
+    if not track.steps:
+        return False
+    interrupted = make_step_estimates(track)
+    if last_step_estimates(track):
+        print(last_step_text(track))
+        if track.tendon_compression:
+            print(compression_text(track.tendon_compression))
+    elif not interrupted:
+        cold_last_step_trust(track)
+    print_step_estimates(track)
+    return interrupted
+
+
+def cold_last_step_trust(track: Any) -> None:
+    """The last step's estimates from a cold re-solve of it (rodsim/app/trust.py): what a
+    track without per-step estimates (a model of no rods) gets."""
     from rodsim.app.trust import assess, compression_text, last_step_result
 
     last = last_step_result(track)
     if last is None:
-        if track.steps:
-            track.penalty_error = track.discretisation_error = float("nan")
-            print("penalty     error estimates unavailable: the last step did not re-solve "
-                  "with the static integrator")
-            return print_step_estimates(track)
-        return False
+        track.penalty_error = track.discretisation_error = float("nan")
+        print("penalty     error estimates unavailable: the last step did not re-solve "
+              "with the static integrator")
+        return
     estimate = assess(last, model=track.last_model)  # with friction: that step's anchors
     track.penalty_error = last.penalty_error
     track.discretisation_error = last.discretisation_error
@@ -166,4 +190,3 @@ def print_last_step_trust(track: Any) -> bool:
     print(estimate.text("last step: "))
     if last.tendon_compression:
         print(compression_text(last.tendon_compression))
-    return print_step_estimates(track)

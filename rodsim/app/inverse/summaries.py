@@ -43,14 +43,20 @@ def track_rows(track: Any) -> list[tuple[str, str]]:
     rows.append(("stability", "every step stable" if not unstable
                  else f"UNSTABLE at steps {', '.join(map(str, unstable[:8]))}"))
     rows.append(("wall time", f"{sum(track.times):.3g} s"))
-    if track.penalty_error is not None:
-        rows.append(("penalty error", f"{track.penalty_error:.2g} L (last step)"))
-    for label, values in (("discretisation error", track.step_discretisation_error),
-                          ("penalty error", track.step_penalty_error)):
+    last = [f"{label} {value:.2g} L" for label, value in
+            (("discretisation", track.discretisation_error), ("penalty", track.penalty_error))
+            if value is not None]
+    if last:
+        rows.append(("error, last step", ", ".join(last)))
+    largest = []
+    for label, values in (("discretisation", track.step_discretisation_error),
+                          ("penalty", track.step_penalty_error)):
         errors = np.asarray(values, dtype=float)
         if errors.size and np.any(np.isfinite(errors)):
             step = int(np.nanargmax(errors))
-            rows.append((f"{label} per step", f"largest {errors[step]:.2g} L at step {step}"))
+            largest.append(f"{label} {errors[step]:.2g} L at step {step}")
+    if largest:
+        rows.append(("largest per step", ", ".join(largest)))
     return rows
 
 

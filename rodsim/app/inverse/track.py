@@ -119,13 +119,13 @@ class Track:
     unstable_step: int | None = None
     allow_unstable: bool = False
     #: The last step's penalty-error estimate [L] and compressed tendons, when assessed
-    #: (rodsim/app/trust.py; ``rodsim track`` does): archive attributes as a run's.
+    #: (track_estimates.py: the last per-step figure): archive attributes as a run's.
     penalty_error: float | None = None
-    #: The last step's discretisation-error estimate in units of L (rodsim/app/trust.py; ``rodsim
-    #: track`` does): an archive attribute as a run's.
+    #: The last step's discretisation-error estimate in units of L (the last per-step
+    #: figure, track_estimates.py): an archive attribute as a run's.
     discretisation_error: float | None = None
     tendon_compression: dict[str, float] = field(default_factory=dict)
-    #: Each step's estimates [L] (rodsim/app/inverse/track_estimates.py; rodsim track makes them)
+    #: Each step's estimates [L] (track_estimates.py; rodsim.track and rodsim track make them)
     step_discretisation_error: list[float] = field(default_factory=list)
     step_penalty_error: list[float] = field(default_factory=list)
     #: The last completed step's own model (with friction: that step's anchors).

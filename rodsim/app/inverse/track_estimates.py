@@ -19,19 +19,25 @@ single-result estimate does (``rodsim.app.discretisation.coarser_scene``).
 
 from __future__ import annotations
 
+from collections.abc import Mapping, Sequence
+from types import SimpleNamespace
 from typing import Any
 
 import numpy as np
 
-from rodsim.app.discretisation import ATTEMPTS, ORDER, RATIOS, coarser_scene
-from rodsim.app.inverse.track import Track, track
-from rodsim.app.trust import stiffer_scene
+from rodsim.app.discretisation import ATTEMPTS, ORDER, RATIOS, TRUST_WARNING, coarser_scene
+from rodsim.app.interrupted import Interrupted
+from rodsim.app.inverse.parameter_keys import scene_with
+from rodsim.app.inverse.track import Track
+from rodsim.app.inverse.track import track as track_path
+from rodsim.app.trust import penalty_advice, stiffer_scene, tendon_compression
 from rodsim.core.cubic_spline import cubic_spline
 from rodsim.core.model import Model
 from rodsim.core.scene import Scene, SceneError
 from rodsim.solvers import DEFAULT_INTEGRATOR
 
-__all__ = ["FACTOR", "estimate_steps", "step_shapes"]
+__all__ = ["FACTOR", "estimate_steps", "last_step_estimates", "last_step_text", "step_shapes",
+           "track"]
 
 #: The factor on every penalty constant of the stiffer companion (``penalty_error``'s).
 FACTOR = 10.0
@@ -67,8 +73,8 @@ def _companion(path: Track, data: dict[str, Any], factor: float = 1.0) -> Track 
 
     try:
         scene = load_scene(data)
-        return track(scene, _ramps(path, scene, factor), DEFAULT_INTEGRATOR,
-                     allow_unstable=True, verdicts=False)
+        return track_path(scene, _ramps(path, scene, factor), DEFAULT_INTEGRATOR,
+                          allow_unstable=True, verdicts=False)
     except SceneError:
         return None
 
@@ -144,4 +150,79 @@ def estimate_steps(path: Track) -> Track:
         return path
     path.step_penalty_error = [float(v) for v in _penalty(path)]
     path.step_discretisation_error = [float(v) for v in _discretisation(path)]
+    return path
+
+
+def last_step_estimates(path: Track) -> bool:
+    """Take the last step's figures (``Track.discretisation_error``, ``penalty_error``: the
+    archive's attributes and the summaries' "last step") from the per-step estimates, and
+    check that step's tendons for compression from its stored state: no re-solve. False
+    (nothing set) when ``path`` carries no per-step estimates."""
+    if not path.steps or len(path.step_discretisation_error) != path.steps \
+            or len(path.step_penalty_error) != path.steps:
+        return False
+    path.discretisation_error = float(path.step_discretisation_error[-1])
+    path.penalty_error = float(path.step_penalty_error[-1])
+    last = path.steps - 1
+    scene = scene_with(path.scene, path.keys, path.values[last])
+    rods = {name: SimpleNamespace(positions=shape[1])
+            for name, shape in step_shapes(path, last).items()}
+    last_result: Any = SimpleNamespace(scene=scene, rods=rods)  # what tendon_compression reads
+    path.tendon_compression = tendon_compression(last_result)
+    return True
+
+
+def last_step_text(path: Track) -> str:
+    """The CLI's "last step" lines (and warnings) from ``last_step_estimates``'s figures."""
+    length = _longest(path)
+    lines = []
+    error = float(path.discretisation_error or np.nan)
+    if np.isfinite(error):
+        lines.append(f"discretis.  last step: error ≈ {error:.2g} L ({error * length:.2g} m; "
+                     f"Richardson at order {ORDER:g} from the tracks at about 1/2 and 2/3 of "
+                     "the nodes)")
+    else:
+        lines.append("discretis.  last step: error estimate unavailable: the coarse tracks "
+                     "did not reach that step (warning: compare with a run at twice the nodes)")
+    if not error <= TRUST_WARNING and np.isfinite(error):
+        lines.append(f"warning     the discretisation error exceeds {TRUST_WARNING:g} L: raise "
+                     "the rods' nodes (rods.<name>.nodes; the error falls as N^-2)")
+    error = float(path.penalty_error if path.penalty_error is not None else np.nan)
+    if stiffer_scene(path.scene, FACTOR)[1] == 0:
+        lines.append("penalty     last step: none in this scene (no penalty error)")
+    elif not np.isfinite(error):
+        lines.append(f"penalty     last step: error estimate unavailable: the track with "
+                     f"penalties ×{FACTOR:g} did not reach that step (warning: the result "
+                     "may depend on a penalty)")
+    else:
+        lines.append(f"penalty     last step: error ≈ {error:.2g} L ({error * length:.2g} m; "
+                     f"from the track with every penalty ×{FACTOR:g})")
+        if error > TRUST_WARNING:
+            lines.append(f"warning     the penalty error exceeds {TRUST_WARNING:g} L: raise "
+                         f"{penalty_advice()['']} and compare")
+    return "\n".join(lines)
+
+
+def track(scene: Any, ramps: Mapping[str, Sequence[float] | np.ndarray],
+          integrator: str = DEFAULT_INTEGRATOR, *, progress: Any = None,
+          allow_unstable: bool = False, verdicts: bool = True,
+          estimates: bool = True) -> Track:
+    """``rodsim.track``: the track of rodsim/app/inverse/track.py (its docstring: arguments,
+    failures, interruption), then with ``estimates`` (the default) every completed step's
+    discretisation and penalty error estimates (``estimate_steps``) and the last step's
+    figures from them (``last_step_estimates``), as ``rodsim track`` makes them. They cost
+    three companion tracks (docs/inverse.md, "Error estimates per step"); ``estimates=False``
+    skips them. Ctrl-C while they are made raises ``rodsim.app.interrupted.Interrupted``
+    whose ``partial`` is the track without them."""
+    path = track_path(scene, ramps, integrator, progress=progress,
+                      allow_unstable=allow_unstable, verdicts=verdicts)
+    if not estimates:
+        return path
+    try:
+        estimate_steps(path)
+    except KeyboardInterrupt:
+        path.step_discretisation_error, path.step_penalty_error = [], []
+        raise Interrupted(path, "interrupted (Ctrl-C or SIGTERM) while estimating the "
+                          "steps' errors; the track is complete without them") from None
+    last_step_estimates(path)
     return path
