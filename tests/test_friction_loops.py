@@ -51,7 +51,7 @@ def cycle(t_max: float, steps: int = STEPS) -> np.ndarray:
 def loop_area(scene: Scene, key: str, values: np.ndarray) -> float:
     """∫ (d_release − d_pull) dT over the cycle's values [m N], d the tip's travel along the
     direction it moved in the pull (trapezoids on the pull's values)."""
-    track = rodsim.track(scene, {key: values})
+    track = rodsim.track(scene, {key: values}, estimates=False)
     assert track.success, track.message
     tips = track.tips()
     up = (len(values) + 1) // 2
@@ -78,8 +78,8 @@ def test_zero_friction_tracks_the_frictionless_cycle_bitwise(name):
     _, ramped, t_max = CASES[name]
     key = f"tendons.{ramped}.tendon_string.tension"
     values = cycle(t_max)
-    zero = rodsim.track(_shipped(name, 0.0), {key: values})
-    plain = rodsim.track(_shipped(name, None), {key: values})
+    zero = rodsim.track(_shipped(name, 0.0), {key: values}, estimates=False)
+    plain = rodsim.track(_shipped(name, None), {key: values}, estimates=False)
     assert zero.success and plain.success
     assert np.array_equal(zero.positions, plain.positions)
     assert abs(loop_area(_shipped(name, 0.0), key, values)) < 1e-9 * t_max * np.max(
@@ -137,16 +137,17 @@ def test_the_capstan_ratio_and_the_hold_range_on_a_rigid_helix_are_exact():
     mu, t_max = 0.2, 1e-3
     scene = Scene.from_dict(helix_scene(11, t_max, friction=mu))
     term = string_term(Model(scene))
-    pulled = rodsim.track(scene, {TENSION: [0.5 * t_max, t_max]})
+    pulled = rodsim.track(scene, {TENSION: [0.5 * t_max, t_max]}, estimates=False)
     top = pulled.tension[-1][-1]
     wrap = float(np.sum(term.turning_angles(pulled.states[-1])))
     assert top / t_max == pytest.approx(math.exp(-mu * wrap), rel=1e-12)
     edge = top * math.exp(-mu * wrap)
     for _ in range(3):  # the edge at the turns of the state released to it
-        at = rodsim.track(scene, {TENSION: [0.5 * t_max, t_max, edge]})
+        at = rodsim.track(scene, {TENSION: [0.5 * t_max, t_max, edge]}, estimates=False)
         edge = top * math.exp(-mu * float(np.sum(term.turning_angles(at.states[-1]))))
     for factor, held in ((1 + 1e-9, True), (1 - 1e-9, False)):
-        released = rodsim.track(scene, {TENSION: [0.5 * t_max, t_max, edge * factor]})
+        released = rodsim.track(scene, {TENSION: [0.5 * t_max, t_max, edge * factor]},
+                                    estimates=False)
         assert released.success, released.message
         assert (released.tension[-1][-1] == top) == held, factor
         if not held:
@@ -178,7 +179,7 @@ def test_the_actuator_displacement_against_the_closed_form():
     errors = []
     for n in (21, 41, 81):
         track = rodsim.track(Scene.from_dict(catheter(n, mu, 0.5)),
-                             {PULL: np.concatenate([up, down])})
+                             {PULL: np.concatenate([up, down])}, estimates=False)
         assert track.success, track.message
         pulled = track.pulled_in["a"]
         errors.append(float(np.max(np.abs(pulled[:len(up)] - closed)) / closed[-1]))

@@ -24,7 +24,7 @@ def _cold(scene, values: dict, integrator: str = "static"):
 def test_every_step_is_the_equilibrium_a_cold_solve_finds():
     scene = rodsim.load_scene("table1-50g", ["nodes=20"])
     masses = [0.0, 0.03, 0.06, 0.09]
-    path = rodsim.track(scene, {"tip_load.mass": masses}, "static")
+    path = rodsim.track(scene, {"tip_load.mass": masses}, "static", estimates=False)
     assert path.success and path.steps == 4
     for step, mass in enumerate(masses):
         cold, _ = _cold(scene, {"rods.catheter.tip_load.mass": mass})
@@ -34,7 +34,8 @@ def test_every_step_is_the_equilibrium_a_cold_solve_finds():
 def test_several_keys_ramp_together():
     scene = rodsim.load_scene("table1-50g", ["nodes=20"])
     path = rodsim.track(scene, {"tip_load.mass": [0.05, 0.08],
-                                "youngs_modulus": [5.9e6, 4e6]}, "static")
+                                "youngs_modulus": [5.9e6, 4e6]}, "static",
+                        estimates=False)
     assert path.success
     cold, _ = _cold(scene, {"rods.catheter.tip_load.mass": 0.08,
                             "rods.catheter.youngs_modulus": 4e6})
@@ -43,7 +44,8 @@ def test_several_keys_ramp_together():
 
 def test_a_tendon_track_keeps_the_registration_and_costs_a_few_newton_iterations():
     scene = rodsim.load_scene("table3-catheter1")
-    path = rodsim.track(scene, {"tendon_actuation.force": np.linspace(1.0, 2.0, 11)})
+    path = rodsim.track(scene, {"tendon_actuation.force": np.linspace(1.0, 2.0, 11)},
+                        estimates=False)
     assert path.success
     cold, result = _cold(scene, {"tendons.tendon.tendon_actuation.force": 2.0})
     assert np.abs(path.positions[-1] - cold).max() < 1e-8 * 0.16
@@ -58,7 +60,7 @@ def test_pseudo_dynamic_integrators_start_from_the_previous_equilibrium(integrat
     # three steps below it, and at the floor of the offset state (2.2e-9 here, 5.5e-9 at
     # 27422c4) its warm and cold runs both took 12 steps; at 1e-8 (both versions) 10 and 12.
     scene = rodsim.load_scene("table1-50g", ["nodes=20", "tolerance=1e-8"])
-    path = rodsim.track(scene, {"tip_load.mass": [0.04, 0.05]}, integrator)
+    path = rodsim.track(scene, {"tip_load.mass": [0.04, 0.05]}, integrator, estimates=False)
     assert path.success
     cold, result = _cold(scene, {"rods.catheter.tip_load.mass": 0.05}, integrator)
     assert np.abs(path.positions[-1] - cold).max() < 1e-6 * 0.12
@@ -67,7 +69,7 @@ def test_pseudo_dynamic_integrators_start_from_the_previous_equilibrium(integrat
 
 def test_a_step_too_large_for_newton_is_passed_in_halved_increments():
     scene = rodsim.load_scene("table3-catheter1")
-    path = rodsim.track(scene, {"tendon_actuation.force": [0.5, 3.0]})
+    path = rodsim.track(scene, {"tendon_actuation.force": [0.5, 3.0]}, estimates=False)
     assert path.success
     assert path.halvings[1] > 0
     cold, _ = _cold(scene, {"tendons.tendon.tendon_actuation.force": 3.0})
@@ -76,7 +78,8 @@ def test_a_step_too_large_for_newton_is_passed_in_halved_increments():
 
 def test_a_step_that_cannot_be_passed_is_reported_not_skipped():
     scene = rodsim.load_scene("table3-catheter1")
-    path = rodsim.track(scene, {"tendon_actuation.force": [0.5, 1.0, 5000.0, 1.0]})
+    path = rodsim.track(scene, {"tendon_actuation.force": [0.5, 1.0, 5000.0, 1.0]},
+                        estimates=False)
     assert not path.success
     assert path.failed_step == 2 and path.steps == 2
     assert "step 2" in path.message and "5000" in path.message
@@ -172,7 +175,8 @@ def test_static_turns_the_predictor_as_rigid_frames_where_its_retraction_does():
     # which stretches them; static's "frames" retraction turns them (Static.predicted).
     scene = rodsim.load_scene("tdcr-two-segment")
     keys = numeric_keys(scene, ["tendons.s1a.tendon_string.tension"])
-    path = rodsim.track(scene, {"tendons.s1a.tendon_string.tension": [1.0, 1.5, 2.0]})
+    path = rodsim.track(scene, {"tendons.s1a.tendon_string.tension": [1.0, 1.5, 2.0]},
+                        estimates=False)
     assert path.success
     model = Model(scene_with(scene, keys, [2.5]))
     x0, x1 = (model.state_of(state) for state in path.states[1:])
