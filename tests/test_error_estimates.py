@@ -470,3 +470,21 @@ def test_a_friction_tracks_steps_follow_its_own_history():
                                                        abs=1e-7)
     assert np.all(np.isfinite(path.step_discretisation_error))
     assert max(path.step_discretisation_error) < TRUST_WARNING
+
+
+def test_a_stop_while_the_python_track_estimates_keeps_the_track(monkeypatch):
+    """Ctrl-C while rodsim.track makes the estimates: Interrupted whose partial is the
+    complete track, without estimates (none half-made)."""
+    from rodsim.app.interrupted import Interrupted
+    from rodsim.app.inverse import track_estimates
+
+    def stopped(path):
+        path.step_penalty_error = [0.0]  # half-made: must not survive
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(track_estimates, "estimate_steps", stopped)
+    with pytest.raises(Interrupted) as caught:
+        rodsim.track(rodsim.load_scene("table1-50g"), {"tip_load.mass": [0.0, 0.05, 0.1]})
+    partial = caught.value.partial
+    assert partial.complete and partial.success and partial.steps == 3
+    assert not partial.step_penalty_error and partial.penalty_error is None
