@@ -37,7 +37,6 @@ import numpy as np
 import xarray as xr
 
 import rodsim
-import rodsim.app.inverse.track_steps as track_steps
 import rodsim.core.stability as stability
 from rodsim.core.model import Model
 from rodsim.io.archive import write_dataset
@@ -68,10 +67,7 @@ def _track(scene_name: str, ramp: dict, variant: str):
 
     if variant == VARIANTS[1]:
         Model.with_values = Model.with_scene  # type: ignore[method-assign]
-    # The track's steps judge through track_steps' name for it, its first step's solve
-    # through the stability module's: both are timed.
     stability.assess = timed  # type: ignore[assignment]
-    track_steps.stability_assess = timed  # type: ignore[assignment]
     try:
         start = time.process_time()
         path = rodsim.track(scene, ramp, estimates=False)
@@ -79,7 +75,6 @@ def _track(scene_name: str, ramp: dict, variant: str):
     finally:
         Model.with_values = original  # type: ignore[method-assign]
         stability.assess = assess  # type: ignore[assignment]
-        track_steps.stability_assess = assess  # type: ignore[assignment]
 
 
 def _tracker_run(scene_name: str, key: str, start: float, stop: float, steps: int

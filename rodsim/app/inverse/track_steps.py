@@ -10,10 +10,10 @@ from typing import Protocol
 import numpy as np
 
 from rodsim.app.inverse.parameter_keys import NumericKey
+from rodsim.core import stability
 from rodsim.core.friction_record import friction_record
 from rodsim.core.model import Model
 from rodsim.core.stability import Stability
-from rodsim.core.stability import assess as stability_assess
 from rodsim.core.terms.contact import contact_forces
 
 __all__ = ["TrackRecord", "estimate_variables", "no_verdict", "record_contact", "record_stability",
@@ -74,6 +74,13 @@ def record_stability(out: TrackRecord, step: int, stability: Stability,
 
 def values_text(keys: Sequence[NumericKey], row: np.ndarray) -> str:
     return ", ".join(f"{k.name} = {v:.6g}" for k, v in zip(keys, row, strict=True))
+
+
+def stability_assess(model: Model, x: np.ndarray, *args: object) -> Stability:
+    """The step's stability verdict, ``rodsim.core.stability.assess``, looked up when called
+    (so one replacement of that function, a benchmark's timer or a test's probe, reaches
+    every track step as it reaches every solve)."""
+    return stability.assess(model, x, *args)  # type: ignore[arg-type]
 
 
 def no_verdict(model: Model, x: np.ndarray, *_: object) -> Stability:
