@@ -100,9 +100,16 @@ def test_the_same_run_gives_the_same_answer_bit_for_bit():
 def test_a_soft_polymer_catheter(seed):
     """A robot not shipped: a soft polymer catheter (E 10–50 MPa, ρ ≈ 1150, r 1–1.5 mm,
     L 0.1–0.2 m, Kelvin–Voigt τ = 1 ms), a 1–5 mN tip force ramped on over a quarter of its
-    first period and held, two periods: the tip within 20 × rtol^(2/3) of IDA at 1e-9 at
-    rtol 1e-5, unit quaternions, the damped energy balance at the last output (a step's
-    end) within 1e-4 of the programmed force's work."""
+    first period and held, two periods: the tip within 20 × rtol^(2/3) (9.3e-3 L) of IDA at
+    rtol = atol = 1e-7 at rtol 1e-5, unit quaternions, the damped energy balance at the last
+    output (a step's end) within 1e-4 of the programmed force's work.
+
+    The reference's own error, against the fixed-step midpoint rule at 4 000 steps a period
+    (itself within 4e-7 L of the limit by Richardson from 1 000 steps a period): IDA at 1e-7
+    1.2e-4 L, at 1e-8 6.2e-6 L on seed 1; on seed 0 IDA at 1e-7 is within 7.9e-6 L of the
+    rule at 1 000 steps a period (itself 6e-6 L off on seed 1). The 1e-7 reference stays
+    75× below the bound on seed 1; the run's own error is 7.3e-4 L (seed 0) and 1.1e-3 L.
+    Seed 1's IDA cost 118 CPU s at 1e-7, 131 s at 1e-8, over 228 s at 1e-9 (unfinished)."""
     rng = np.random.default_rng(3300 + seed)
     rod = {"length": float(rng.uniform(0.1, 0.2)), "radius": float(rng.uniform(1e-3, 1.5e-3)),
            "youngs_modulus": float(rng.uniform(10e6, 50e6)),
@@ -112,7 +119,7 @@ def test_a_soft_polymer_catheter(seed):
     scene = wire(11, rod, damping={"retardation_time": 1e-3})
     options = {"output_dt": period / 20,
                "program": {"tip_load.force[1]": ([0.0, period / 4], [0.0, -force])}}
-    reference = rodsim.simulate(scene, 2.0 * period, integrator="ida", rtol=1e-9, atol=1e-9,
+    reference = rodsim.simulate(scene, 2.0 * period, integrator="ida", rtol=1e-7, atol=1e-7,
                                 **options)
     run = rodsim.simulate(scene, 2.0 * period, rtol=1e-5, **options)
     assert reference.success and run.success, (reference.message, run.message)
