@@ -2,10 +2,11 @@
 
 The compiled kernels (rodsim/core/kernels/) are numba functions cached on disk
 (``cache=True``): the first process that calls one with new argument types compiles it
-(seconds per kernel: 4.2 s for table1-50g's, docs/benchmarks.md "Kernels") and writes the
-machine code where numba keeps its cache (``__pycache__`` beside the module when that is
-writable, else numba's user cache folder, or ``NUMBA_CACHE_DIR``); every later process
-loads it. On a fresh install that first compile lands in whichever run first needs a kernel.
+(seconds per kernel: 4.2 s for table1-50g's, docs/benchmark-history.md, "Round 17's figures
+page", "Kernels") and writes the machine code where numba keeps its cache (``__pycache__``
+beside the module when that is writable, else numba's user cache folder, or
+``NUMBA_CACHE_DIR``); every later process loads it. On a fresh install that first compile
+lands in whichever run first needs a kernel.
 
 ``compile_kernels`` moves it to a moment the user chooses: it solves, with
 ``solver.kernels = "compiled"``, every shipped scene with its own integrator, table1-50g
