@@ -122,7 +122,8 @@ class Parameter:
     minimum, maximum
         Allowed range (numbers); ``exclusive_minimum`` makes the lower bound strict.
     choices
-        Allowed values for ``str`` parameters (or for the items of a ``list``).
+        Allowed values for ``str`` parameters (or for the items of a ``list``): a tuple,
+        or a sequence that reads a registry when asked (``rodsim.core.supports.CLAMPS``).
     length
         Required length of a ``vector``.
     items
@@ -137,7 +138,7 @@ class Parameter:
     minimum: float | None = None
     maximum: float | None = None
     exclusive_minimum: bool = False
-    choices: tuple[str, ...] | None = None
+    choices: Sequence[str] | None = None
     length: int | None = None
     items: tuple[Parameter, ...] | None = None
 
