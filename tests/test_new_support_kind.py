@@ -174,3 +174,22 @@ def test_a_tip_force_bends_the_rod_as_the_rigid_clamp(torsion_spring):
 def test_the_kind_leaves_the_registry_with_its_test():
     assert "torsion_spring" not in supports.registered_support_kinds()
     assert copy.copy(supports.CLAMPS) is not None and "torsion_spring" not in supports.CLAMPS
+
+
+def test_a_kind_with_an_energy_but_a_missing_method_is_refused_when_defined(monkeypatch):
+    monkeypatch.setattr(supports, "_KINDS", dict(supports.registered_support_kinds()))
+    with pytest.raises(TypeError, match=r"'half_spring' has an energy but does not define "
+                                        r"forces, jacobian"):
+        class HalfSpring(SupportKind):
+            name = "half_spring"
+            has_energy = True
+
+            @classmethod
+            def energy_constants(cls, values: Sequence[float], support: Support,
+                                 rod: Any) -> dict[str, Any]:
+                return {}
+
+            @classmethod
+            def energy(cls, constants: Mapping[str, Any], x: np.ndarray) -> float:
+                return 0.0
+    assert "half_spring" not in supports._KINDS
