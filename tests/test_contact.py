@@ -587,7 +587,8 @@ def torus_track(nodes: int, steps: int) -> Track:
     its tip free inside it, in ``steps`` equilibria (tracked once per process: two tests
     read the one at 41 nodes, neither changes it)."""
     track = rodsim.track(torus_scene(nodes),
-                         {"rods.catheter.base.insertion": np.linspace(0.0, 0.12, steps)})
+                         {"rods.catheter.base.insertion": np.linspace(0.0, 0.12, steps)},
+                         estimates=False)
     assert track.success, track.message
     return track
 
@@ -706,7 +707,7 @@ def test_a_track_archive_holds_the_contact_forces_of_every_step(tmp_path):
 
     scene = rodsim.load_scene("vessel-insertion")
     insertion = np.linspace(0.0, 0.06, 16)
-    path = rodsim.track(scene, {"rods.catheter.base.insertion": insertion})
+    path = rodsim.track(scene, {"rods.catheter.base.insertion": insertion}, estimates=False)
     assert path.success, path.message
     ds = path.to_xarray()
     assert ds["contact_force"].dims == ("step", "node", "axis")

@@ -40,7 +40,7 @@ def test_a_track_stopped_by_ctrl_c_keeps_its_finished_steps():
     an uninterrupted track's first steps (before, a plain KeyboardInterrupt lost them)."""
     scene = rodsim.load_scene("table1-50g", ["nodes=12"])
     ramps = {"tip_load.mass": np.linspace(0, 0.05, 12)}
-    whole = rodsim.track(scene, ramps)
+    whole = rodsim.track(scene, ramps, estimates=False)
 
     def stop(fraction, status):
         if status.endswith("step 7/11"):
@@ -76,7 +76,7 @@ def test_sigterm_during_a_track_writes_the_finished_steps_and_exits_130(tmp_path
     assert stored.attrs["complete"] == 0 and stored.attrs["success"] == 0
     assert stored.sizes["step"] == 26
     whole = rodsim.track(rodsim.load_scene("table1-50g", ["nodes=12"]),
-                         {"tip_load.mass": np.linspace(0, 0.05, 40)})
+                         {"tip_load.mass": np.linspace(0, 0.05, 40)}, estimates=False)
     assert np.array_equal(stored["position"].values, whole.positions[:26])
     from rodsim.app.cli import main
 
