@@ -87,14 +87,17 @@ def test_sigterm_during_a_track_writes_the_finished_steps_and_exits_130(tmp_path
 @pytest.mark.parametrize("command", [
     ["run", "table1-50g", "--set", "nodes=12"],
     ["track", *SCENE, "--ramp", RAMP],
-    ["fit", "table1-50g", "--set", "nodes=12", "--data", "DATA", "--param",
-     "youngs_modulus"],
-    ["reach", "table1-50g", "--set", "nodes=12", "--tip", "0.1,-0.05,0", "--actuate",
-     "tip_load.force[0]", "--actuate", "tip_load.force[1]"],
+    pytest.param(["fit", "table1-50g", "--set", "nodes=12", "--data", "DATA", "--param",
+                  "youngs_modulus"], marks=pytest.mark.slow),
+    pytest.param(["reach", "table1-50g", "--set", "nodes=12", "--tip", "0.1,-0.05,0",
+                  "--actuate", "tip_load.force[0]", "--actuate", "tip_load.force[1]"],
+                 marks=pytest.mark.slow),
 ])
 def test_sigterm_ends_every_scene_command_as_ctrl_c_does(command, tmp_path):
     """SIGTERM during the solve of run, track, fit and reach: "rodsim: interrupted" and exit
-    130, as docs/reliability.md promises (before: killed by the signal, nothing said)."""
+    130, as docs/reliability.md promises (before: killed by the signal, nothing said). Each
+    is a new process (~2 s of CPU to import): run and track every time, fit and reach with
+    the slow tests."""
     data = tmp_path / "data.csv"
     data.write_text("x,y,z\n0.05,-0.005,0\n0.1,-0.02,0\n")
     argv = [str(data) if word == "DATA" else word for word in command] + ["-o", "out.nc"]
