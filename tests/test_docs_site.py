@@ -66,6 +66,8 @@ def site(tmp_path_factory) -> Path:
     return folder
 
 
+@pytest.mark.slow  # mkdocs builds the site in a new process: 3.1 s of CPU; the
+# navigation's check (every page of docs/ in it) runs every time
 def test_the_site_builds_strictly_with_the_user_guide_and_the_api(site):
     for page in nav_pages(config()["nav"]):
         stem = page.removesuffix(".md")

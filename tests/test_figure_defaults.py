@@ -83,7 +83,7 @@ def test_the_default_trajectory_figure_draws_the_shapes_at_a_few_times(motion):
 
 
 def test_the_default_track_figure_draws_the_tendon_of_each_step():
-    track = rodsim.track(pulled(), {TENSION: RAMP})
+    track = rodsim.track(pulled(), {TENSION: RAMP}, estimates=False)
     assert track.success, track.message
     ds = track.to_xarray()
     lines, _, title, bars = figure_data(ds)
@@ -114,7 +114,8 @@ def test_the_default_track_figure_draws_every_rod_at_each_step():
     tendon rod drawn as the tendon's path (its control points), and its actuation force at
     the last step only."""
     force = "tendons.tendon.tendon_actuation.force"
-    track = rodsim.track(rodsim.load_scene("tendon-conserving"), {force: [0.5, 1.0, 2.0]})
+    track = rodsim.track(rodsim.load_scene("tendon-conserving"), {force: [0.5, 1.0, 2.0]},
+                         estimates=False)
     assert track.success, track.message
     ds = track.to_xarray()
     lines, _, _, _ = figure_data(ds)
@@ -141,7 +142,7 @@ def test_a_long_track_draws_a_subset_of_its_steps_with_its_turn():
     from rodsim.app.figures.inverse import TRACK_SHAPES
 
     ramp = np.concatenate([np.linspace(0.5, 3.0, 21), np.linspace(3.0, 0.5, 21)[1:]])
-    track = rodsim.track(pulled(), {TENSION: ramp})
+    track = rodsim.track(pulled(), {TENSION: ramp}, estimates=False)
     assert track.success, track.message
     ds = track.to_xarray()
     lines, _, title, _ = figure_data(ds)

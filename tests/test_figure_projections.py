@@ -44,7 +44,7 @@ def archives(tmp_path_factory):
     folder = tmp_path_factory.mktemp("projections")
     out = {}
     for name, direction in (("skew", [0.6, 0.8]), ("flat", [1.0, 0.0])):
-        track = rodsim.track(pulled(direction), {TENSION: RAMP})
+        track = rodsim.track(pulled(direction), {TENSION: RAMP}, estimates=False)
         out[name] = read_dataset(write_dataset(track.to_xarray(), folder / f"{name}.nc"))
         motion = rodsim.simulate(pulled(direction), 0.004, output_dt=0.002)
         assert motion.success, motion.message

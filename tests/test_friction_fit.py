@@ -20,7 +20,8 @@ CYCLE = np.r_[np.linspace(0.5, 3.0, 6), np.linspace(2.5, 0.5, 5)]  # N, up and b
 
 
 def measured(mu: float, noise: float, seed: int) -> np.ndarray:
-    truth = rodsim.track(Scene.from_dict(catheter(21, mu, CYCLE[0])), {TENSION: CYCLE})
+    truth = rodsim.track(Scene.from_dict(catheter(21, mu, CYCLE[0])), {TENSION: CYCLE},
+                         estimates=False)
     assert truth.success
     rng = np.random.default_rng(seed)
     return truth.tips() + noise * rng.standard_normal((len(CYCLE), 3)) * [1.0, 1.0, 0.0]
@@ -61,13 +62,13 @@ def test_reach_says_when_its_target_lies_in_the_dead_zone():
     the termination's tension holds: reach flags the dead zone and says so; a target pulled
     further (3.2 N) moves the termination and is not flagged, nor is a frictionless reach."""
     scene = Scene.from_dict(catheter(21, 0.2, 3.0))
-    released = rodsim.track(scene, {TENSION: [3.0, 2.75]}).tips()[-1]
+    released = rodsim.track(scene, {TENSION: [3.0, 2.75]}, estimates=False).tips()[-1]
     inside = rodsim.reach(scene, released, [TENSION])
     assert inside.dead_zone and "backlash dead zone" in inside.message
     assert 2.43 < inside.values[0] < 3.0
     ends = inside.result.tension_profiles["a"][1][-1]
     assert ends == rodsim.solve(scene).tension_profiles["a"][1][-1]
-    pulled = rodsim.track(scene, {TENSION: [3.0, 3.2]}).tips()[-1]
+    pulled = rodsim.track(scene, {TENSION: [3.0, 3.2]}, estimates=False).tips()[-1]
     beyond = rodsim.reach(scene, pulled, [TENSION])
     assert beyond.success and not beyond.dead_zone
     assert beyond.values[0] == pytest.approx(3.2, rel=1e-6)
@@ -77,7 +78,8 @@ def test_reach_says_when_its_target_lies_in_the_dead_zone():
 
 def _replayed(scene: Scene, keys: list[str], path: np.ndarray) -> Track:
     """A track through the continuation's values (its friction history)."""
-    track = rodsim.track(scene, {key: list(path[:, k]) for k, key in enumerate(keys)})
+    track = rodsim.track(scene, {key: list(path[:, k]) for k, key in enumerate(keys)},
+                         estimates=False)
     assert track.success, track.message
     return track
 
@@ -99,7 +101,7 @@ def test_fit_and_reach_archives_hold_the_friction_state_of_their_path(kind, tmp_
     from rodsim.io.archive import read_dataset, write_dataset
 
     scene = Scene.from_dict(catheter(11, 0.2, 3.0))
-    truth = rodsim.track(scene, {TENSION: [3.0, 2.75]})
+    truth = rodsim.track(scene, {TENSION: [3.0, 2.75]}, estimates=False)
     if kind == "fit":
         found = rodsim.fit(scene, Points(truth.positions[-1]), [TENSION])
     else:
@@ -135,7 +137,7 @@ def test_fit_and_reach_archives_hold_the_friction_state_of_their_path(kind, tmp_
 
 def test_a_frictionless_reach_archive_has_no_path():
     scene = Scene.from_dict(catheter(11, 0.0, 3.0))
-    target = rodsim.track(scene, {TENSION: [3.0, 2.75]}).tips()[-1]
+    target = rodsim.track(scene, {TENSION: [3.0, 2.75]}, estimates=False).tips()[-1]
     ds = rodsim.reach(scene, target, [TENSION]).to_xarray()
     assert "slip_state" not in ds and "evaluation" not in ds.dims
     assert "friction_history" not in ds.attrs

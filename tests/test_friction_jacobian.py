@@ -70,7 +70,8 @@ def test_the_jacobian_is_the_derivative_of_the_force_with_a_profile(seed):
     step beyond ~1e-9 L, discontinuous where t⁺ overshoots t_in: tests/test_entry_turn.py)."""
     data = robot(seed)
     tension = data["tendons"]["a"]["tendon_string"]["tension"]
-    track = rodsim.track(Scene.from_dict(data), {TENSION: [tension, 0.97 * tension]})
+    track = rodsim.track(Scene.from_dict(data), {TENSION: [tension, 0.97 * tension]},
+                         estimates=False)
     assert track.success
     model = track.last_model
     term = next(t for t in model.terms if isinstance(t, TendonString))
@@ -99,7 +100,8 @@ def test_released_finite_differences_agree_at_every_step(seed):
     1.1e-5 and 1.8e-5 there, as before."""
     data = robot(seed)
     tension = data["tendons"]["a"]["tendon_string"]["tension"]
-    track = rodsim.track(Scene.from_dict(data), {TENSION: [tension, 0.97 * tension]})
+    track = rodsim.track(Scene.from_dict(data), {TENSION: [tension, 0.97 * tension]},
+                         estimates=False)
     assert track.success
     model = track.last_model
     alone = tendon_only(model)
@@ -119,7 +121,8 @@ def test_the_compiled_span_kernel_matches_the_reference():
     for kernels in ("numpy", "compiled"):
         data = robot(1, kernels)
         tension = data["tendons"]["a"]["tendon_string"]["tension"]
-        track = rodsim.track(Scene.from_dict(data), {TENSION: [tension, 0.97 * tension]})
+        track = rodsim.track(Scene.from_dict(data), {TENSION: [tension, 0.97 * tension]},
+                             estimates=False)
         assert track.success
         models[kernels] = (track.last_model, track.states[-1])
     model, state = models["numpy"]

@@ -18,6 +18,8 @@ import subprocess
 import sys
 from pathlib import Path
 
+import pytest
+
 from rodsim.core.kernel_cache_stamp import (
     KERNEL_FOLDER,
     OUTSIDE_SOURCES,
@@ -70,6 +72,8 @@ def _run(root: Path, cache: Path | None) -> dict:
     return report
 
 
+@pytest.mark.slow  # a new process compiles a kernel: 3.1 s of CPU; the digest's own
+# tests below (a helper edit changes it) run every time
 def test_a_helper_edit_reaches_the_kernel_that_inlines_it(tmp_path):
     """Edit only _scatter.py (add_force, inlined into constant_force.evaluate) in a copy:
     the next process computes the edited helper's force, not the cached old one."""

@@ -243,7 +243,7 @@ def cycles(tmp_path_factory):
     out = []
     for friction in (MU, 0.0):
         track = rodsim.track(Scene.from_dict(friction_catheter(friction)),
-                             {TENSION: [0.5, 1.5, 3.0, 1.5, 0.5]})
+                             {TENSION: [0.5, 1.5, 3.0, 1.5, 0.5]}, estimates=False)
         out.append(read_dataset(write_dataset(track.to_xarray(), folder / f"{friction}.nc")))
     return out
 

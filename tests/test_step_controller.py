@@ -118,15 +118,16 @@ def test_the_archive_holds_the_steps_accepted_and_rejected(monkeypatch, tmp_path
     assert "step_end" not in rodsim.simulate(wire(5), 0.01, step=1e-3).to_xarray()
 
 
-def test_a_run_with_rejections_repeats_bit_for_bit(monkeypatch):
-    """No choice depends on the clock: the same run with rejections twice (PI and
-    elementary) gives the same steps, rejections and numbers."""
-    for kind in ("pi", "elementary"):
-        runs = [released(3, kind, monkeypatch) for _ in range(2)]
-        assert runs[0].rejected == runs[1].rejected > 0  # measured 4 (PI), 20
-        logs = [run.step_log for run in runs]
-        assert logs[0] is not None and logs[1] is not None
-        for name in ("ends", "sizes", "rejected_times", "rejected_sizes", "rejected_errors"):
-            assert np.array_equal(getattr(logs[0], name), getattr(logs[1], name)), name
-        assert np.array_equal(runs[0].positions, runs[1].positions)
-        assert np.array_equal(runs[0].energy_error, runs[1].energy_error)
+@pytest.mark.parametrize("kind", ["pi", pytest.param("elementary", marks=pytest.mark.slow)])
+def test_a_run_with_rejections_repeats_bit_for_bit(kind, monkeypatch):
+    """No choice depends on the clock: the same run with rejections twice gives the same
+    steps, rejections and numbers (the PI controller, the default, every time; the
+    elementary one with the slow tests)."""
+    runs = [released(3, kind, monkeypatch) for _ in range(2)]
+    assert runs[0].rejected == runs[1].rejected > 0  # measured 4 (PI), 20
+    logs = [run.step_log for run in runs]
+    assert logs[0] is not None and logs[1] is not None
+    for name in ("ends", "sizes", "rejected_times", "rejected_sizes", "rejected_errors"):
+        assert np.array_equal(getattr(logs[0], name), getattr(logs[1], name)), name
+    assert np.array_equal(runs[0].positions, runs[1].positions)
+    assert np.array_equal(runs[0].energy_error, runs[1].energy_error)

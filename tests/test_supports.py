@@ -113,7 +113,8 @@ def test_track_ramps_insertion_and_rotation_together():
     tip0 = _solve(scene).tip("catheter")
     ins = np.linspace(0.0, 0.02, 6)
     rot = np.linspace(0.0, 1.0, 6)
-    path = rodsim.track(scene, {"insertion": ins, "rotation": rot}, "static")
+    path = rodsim.track(scene, {"insertion": ins, "rotation": rot}, "static",
+                        estimates=False)
     assert path.success, path.message
     # Each warm start is the last equilibrium carried rigidly with the base (Model.carried):
     # already the next one, so no step is halved and no Newton iteration is needed (without
@@ -177,7 +178,8 @@ def test_track_ramps_a_prescribed_displacement():
     data = _pinned(15, {"mid": {"s": 0.06}})
     scene = Scene.from_dict(data)
     values = [0.0, 0.005, 0.01]
-    path = rodsim.track(scene, {"supports.mid.displacement[1]": values}, "static")
+    path = rodsim.track(scene, {"supports.mid.displacement[1]": values}, "static",
+                        estimates=False)
     assert path.success, path.message
     for step, value in enumerate(values):
         cold = _solve(scene.with_values({"rods.catheter.supports.mid.displacement":

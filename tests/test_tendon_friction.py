@@ -139,7 +139,8 @@ def test_tip_moment_is_the_termination_tension_times_the_offset():
 
 def _pull_release(n: int, mu: float, up: np.ndarray, down: np.ndarray):
     values = np.concatenate([up, down])
-    track = rodsim.track(Scene.from_dict(catheter(n, mu, float(up[0]))), {TENSION: values})
+    track = rodsim.track(Scene.from_dict(catheter(n, mu, float(up[0]))), {TENSION: values},
+                         estimates=False)
     assert track.success, track.message
     return values, track
 
@@ -225,12 +226,12 @@ def test_capstan_on_a_rigid_helix_and_the_hold_range():
     assert errors[81] < 1e-3 and min(orders) > 1.8, (errors, orders)
     scene = Scene.from_dict(helix_scene(41, mu, 0.1))
     term = string_term(Model(scene))
-    track = rodsim.track(scene, {TENSION: [0.1, 1.0]})
+    track = rodsim.track(scene, {TENSION: [0.1, 1.0]}, estimates=False)
     wrap = float(np.sum(term.turning_angles(track.states[-1])))
     edge = 1.0 * math.exp(-2 * mu * wrap)
     top = track.tension[-1][-1]
     for factor, held in ((1.002, True), (0.998, False)):
-        again = rodsim.track(scene, {TENSION: [0.1, 1.0, edge * factor]})
+        again = rodsim.track(scene, {TENSION: [0.1, 1.0, edge * factor]}, estimates=False)
         assert again.success
         assert (again.tension[-1][-1] == pytest.approx(top, rel=1e-9)) == held, factor
 
@@ -316,7 +317,7 @@ def test_the_jacobian_is_exact_on_a_planar_one_way_path(kernels, fd):
     Jacobian equals the finite differences of its force, friction's coupling included."""
     data = catheter(11, 0.3, 3.0)
     data["solver"]["kernels"] = kernels
-    track = rodsim.track(Scene.from_dict(data), {TENSION: [3.0, 2.4]})
+    track = rodsim.track(Scene.from_dict(data), {TENSION: [3.0, 2.4]}, estimates=False)
     assert track.success
     model = track.last_model
     for state in track.states:
@@ -413,7 +414,7 @@ def test_user_robots_with_friction_converge_and_tend_to_the_frictionless_solutio
     result = rodsim.solve(scene)
     assert result.success, result.message
     key = f"tendons.{first}.tendon_string.tension"
-    track = rodsim.track(scene, {key: [tension, 1.5 * tension, tension]})
+    track = rodsim.track(scene, {key: [tension, 1.5 * tension, tension]}, estimates=False)
     assert track.success, track.message
     bend = np.linalg.norm(track.positions[:, -1] - track.positions[0, -1][None, :], axis=1)
     assert bend[1] > 0.0
@@ -449,7 +450,7 @@ def test_the_tension_profile_is_archived_for_a_run_and_a_track(tmp_path):
     assert run["chord_s"].values[0] == pytest.approx(LENGTH / 40)
     assert set(run["chord_tendon"].values) == {"a"}
     assert "pulled in from slack" in run.attrs["friction_history"]
-    track = rodsim.track(scene, {TENSION: [3.0, 1.0, 2.0]})
+    track = rodsim.track(scene, {TENSION: [3.0, 1.0, 2.0]}, estimates=False)
     write_dataset(track.to_xarray(), tmp_path / "track.nc")
     stored = read_dataset(tmp_path / "track.nc")
     assert stored["tension_profile"].dims == ("step", "chord")

@@ -41,7 +41,12 @@ def reference(scene_name: str) -> rodsim.solvers.result.Result:
 #: Every integrator on every scene, the inertial pseudo-dynamics of the paper's coupling (a
 #: follower load and forces without reaction) included: their transient is long, and the
 #: run must not tighten its tolerances in it (rodsim/solvers/sundials.py, STALL_PERIODS).
-CASES = [(scene, run) for scene in SCENES for run in RUNS]
+#: The inertial runs on table3-catheter1 (the paper's coupling) are the longest (5 and 4 s of
+#: CPU, CVODE and IDA): they run with the slow tests; the inertial runs on
+#: tendon-conserving, and every other run on table3-catheter1, run every time.
+SLOW_CASES = {("table3-catheter1", "cvode-inertial"), ("table3-catheter1", "ida-inertial")}
+CASES = [pytest.param(scene, run, marks=pytest.mark.slow) if (scene, run) in SLOW_CASES
+         else (scene, run) for scene in SCENES for run in RUNS]
 
 
 @pytest.mark.parametrize(("scene_name", "run"), CASES)

@@ -202,7 +202,7 @@ MU_K, MU_S = 0.2, 0.5
 def _helix_track(values: list[float], static: float, nodes: int = 11):
     scene = Scene.from_dict(helix_scene(nodes, values[0], friction=MU_K,
                                         static_friction=static))
-    track = rodsim.track(scene, {TENSION: values})
+    track = rodsim.track(scene, {TENSION: values}, estimates=False)
     assert track.success, track.message
     return track
 
@@ -300,7 +300,7 @@ def test_on_a_lumen_stiction_tends_to_the_kinetic_release_at_second_order():
         for static in (0.0, mu_s):
             track = rodsim.track(Scene.from_dict(catheter(n, mu_k, t_max,
                                                           static_friction=static)),
-                                 {TENSION: [t_max, t_0]})
+                                 {TENSION: [t_max, t_0]}, estimates=False)
             assert track.success, track.message
             tips[static] = model_tip(track.positions[-1])
         errors.append(float(np.linalg.norm(tips[mu_s] - reference)) / LENGTH)
@@ -353,7 +353,7 @@ def test_user_robots_with_stiction_widen_the_loop_and_pull_as_before(seed):
     for static in (string["static_friction"], string["friction"], 0.0):
         scene = Scene.from_dict(data | {"tendons": {"a": data["tendons"]["a"] | {
             "tendon_string": string | {"static_friction": static}}}})
-        tracks[static] = rodsim.track(scene, {TENSION: values})
+        tracks[static] = rodsim.track(scene, {TENSION: values}, estimates=False)
         assert tracks[static].success, tracks[static].message
     sticky, kinetic = tracks[string["static_friction"]], tracks[0.0]
     assert all(np.array_equal(a, b) for a, b in zip(tracks[string["friction"]].states,
@@ -423,7 +423,7 @@ def test_the_compiled_kernel_takes_the_points_coefficients_and_states(random_sta
     for kernels in ("numpy", "compiled"):
         data = catheter(11, 0.3, 3.0, static_friction=0.5)
         data["solver"]["kernels"] = kernels
-        track = rodsim.track(Scene.from_dict(data), {TENSION: [3.0, 2.4]})
+        track = rodsim.track(Scene.from_dict(data), {TENSION: [3.0, 2.4]}, estimates=False)
         assert track.success
         model = track.last_model
         x = model.state_of(track.states[-1])  # the released equilibrium
