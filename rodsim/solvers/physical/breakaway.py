@@ -27,18 +27,9 @@ back within one step, or the catheter swinging) is screened for on the part's in
 at its quarter points; the location and the screen are the machinery a point sticking
 again shares (rodsim/solvers/physical/part_events.py).
 
-Not located: a point that stops sliding — re-sticks — inside a part. It is not an event (its
-chord leaves the kinetic bound continuously and the force stays continuous), but inside the
-part its history is that of the part's start, so where its sliding bound turns back inside
-the part (T(t) e^{∓W(x(t))} at an extremum) the chord follows the bound back to the tension
-stored at the part's start instead of holding the extremum's value, and a breakaway from
-that held value (the static bound of the other side) is measured against the stored one.
-Locating the re-stick needs the extremum of each sliding point's bound, a root of its rate,
-not a sign change of a margin; for a smooth turn-back the bound moves O(h²) between the
-extremum and the part's end (the midpoint rule's order), and a re-stick followed by a new
-breakaway within one part needs the tension to swing across the point's whole stick band,
-a ratio e^{(μ_s+μ_k)θ_e}, within the part: a step too long for the program or the motion.
-After each split the rest of the step is checked again from the history carried at τ.
+A point that stops sliding — re-sticks — inside a part is located by its own event
+(rodsim/solvers/physical/restick.py), the earlier of the two splitting the part. After each
+split the rest of the step is checked again from the history carried at τ.
 
 Re-solving the whole step with the point freed instead (what a run did before round 16)
 gives friction's kinetic force over the part of the step before the breakaway: an O(h)
