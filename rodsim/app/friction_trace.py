@@ -1,7 +1,7 @@
 """Tendon friction along a simulation in physical time (``rodsim.simulate``): the
 friction history carried from step to step, the tendons' tensions and stick/slip states
-kept at the output times, and every routing point that broke loose with the time located
-(docs/dynamics.md, "Friction in physical time")."""
+kept at the output times, and every routing point that broke loose or stuck again with the
+time located (docs/dynamics.md, "Friction in physical time")."""
 
 from __future__ import annotations
 
@@ -10,8 +10,16 @@ from collections.abc import Callable, Sequence
 import numpy as np
 
 from rodsim.app.programs import Programs
-from rodsim.core.friction_record import Breakaway, FrictionRecord, breakaways, friction_record
+from rodsim.core.friction_record import (
+    Breakaway,
+    FrictionRecord,
+    Restick,
+    breakaways,
+    friction_record,
+    resticks,
+)
 from rodsim.core.model import Model
+from rodsim.solvers.physical.restick import Held
 
 __all__ = ["FrictionTrace"]
 
@@ -31,6 +39,8 @@ class FrictionTrace:
         self.latest: tuple[float, Model, np.ndarray] | None = None
         #: Every routing point of a tendon with stiction that broke loose, in time order.
         self.breakaways: list[Breakaway] = []
+        #: Every sliding routing point that stuck again, in time order.
+        self.resticks: list[Restick] = []
         #: Whether a change of stick/slip state counts as a breakaway (not the start's
         #: history, carried before the run: ``start``).
         self.started = False
@@ -41,14 +51,18 @@ class FrictionTrace:
         self.after_step(0.0, x)
         self.started = True
 
-    def after_step(self, t: float, x: np.ndarray) -> None:
+    def after_step(self, t: float, x: np.ndarray, held: Sequence[Held] = ()) -> None:
         """``integrate``'s ``after_step``: carry the history, noting the points that broke
-        loose at ``t``; at an output time, keep the friction state of ``x`` (free state)
-        with the step's history."""
+        loose at ``t``, and hold the points ``held`` that stuck again there
+        (rodsim/solvers/physical/restick.py); at an output time, keep the friction state of
+        ``x`` (free state) with the step's history."""
         before = self.programs.model
         end = self.programs.carry_history(t, x)
         if end is not None and self.started:
             self.breakaways.extend(breakaways(before, self.programs.model, t))
+        if end is not None and held:
+            self.programs.hold(held)
+            self.resticks.extend(resticks(self.programs.model, held, t))
         if end is not None:
             self.latest = (t, end, x.copy())
         if end is not None and t in self.outputs:
@@ -61,11 +75,13 @@ class FrictionTrace:
         noted, the last step's end): a trial step (an event's root,
         rodsim/solvers/physical/trajectory.py) is taken from it and undone."""
         model, found, latest = self.programs.model, len(self.breakaways), self.latest
+        stuck = len(self.resticks)
         now = -np.inf if latest is None else latest[0]
 
         def restore() -> None:
             self.programs.restore(model)
             del self.breakaways[found:]
+            del self.resticks[stuck:]
             self.latest = latest
             for t in [t for t in self.kept if t > now]:
                 del self.kept[t]

@@ -22,6 +22,7 @@ from rodsim.core.model import Model
 from rodsim.core.program import ProgramEntry, Sinusoid, Table, program_entry
 from rodsim.core.scene import Scene
 from rodsim.core.schema import SceneError, shown
+from rodsim.solvers.physical.restick import Held, hold
 
 __all__ = ["Program", "check_programs", "Programs"]
 
@@ -138,6 +139,13 @@ class Programs:
         self.model = self.model.with_anchors_of(end.anchored(x))
         self._models.clear()
         return end
+
+    def hold(self, held: Sequence[Held]) -> None:
+        """The routing points ``held`` stuck in friction's history (they stuck again where
+        it was last carried: rodsim/solvers/physical/restick.py)."""
+        if held:
+            self.model = hold(self.model, list(held))
+            self._models.clear()
 
     def restore(self, model: Model) -> None:
         """Friction's history back to that of ``model`` (what ``model`` was before some

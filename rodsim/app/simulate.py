@@ -347,7 +347,9 @@ def _simulation(loaded: Scene, model: Model, record: Record, h: float, integrato
                       control, record.rejected,
                       tuple(b for b in friction.breakaways if b.time <= record.times[-1])
                       if friction is not None and record.times else (),
-                      _step_log(record))
+                      _step_log(record),
+                      resticks=tuple(r for r in friction.resticks if r.time <= record.times[-1])
+                      if friction is not None and record.times else ())
 
 
 def _step_log(record: Record) -> StepLog | None:

@@ -12,7 +12,7 @@ from typing import Any
 
 import numpy as np
 
-from rodsim.core.friction_record import Breakaway, FrictionRecord
+from rodsim.core.friction_record import Breakaway, FrictionRecord, Restick
 from rodsim.core.model import Model
 from rodsim.core.program import ProgramEntry
 from rodsim.core.scene import Scene
@@ -107,6 +107,11 @@ class Simulation:
     #: Under error control: each accepted step's end and length, each rejected attempt's
     #: start, length and err (``rodsim.io.trajectory_dataset.StepLog``); None otherwise.
     step_log: StepLog | None = field(default=None, repr=False)
+    #: With stiction: every sliding routing point that stuck again, in time order — the
+    #: located time, the tendon, the point's index and rest arc length, the way it slid
+    #: until then (``rodsim.core.friction_record.Restick``; docs/dynamics.md, "Friction in
+    #: physical time"). Empty without stiction.
+    resticks: tuple[Restick, ...] = ()
 
     @property
     def energy_error(self) -> np.ndarray:
@@ -138,6 +143,11 @@ class Simulation:
             rows.append(("breakaways", f"{len(self.breakaways)} routing points broke loose "
                          f"(stiction), the first at {earliest.time:.6g} s "
                          f"({earliest.tendon}, point {earliest.point})"))
+        if self.resticks:
+            stuck = self.resticks[0]
+            rows.append(("re-sticks", f"{len(self.resticks)} sliding routing points stuck "
+                         f"again (stiction), the first at {stuck.time:.6g} s "
+                         f"({stuck.tendon}, point {stuck.point})"))
         first = self.rods[0] if self.rods else None
         if first in self.scene.rods and len(self.times):
             nodes = self.scene.rods[first].nodes
@@ -197,4 +207,4 @@ class Simulation:
             self.success, self.message, self.t_end, self.integrator, self.step_size, stats,
             {key: entry.archived() for key, entry in self.program.items()}, self.initial,
             self.events, self.friction, self.breakaways, self.step_log,
-            self.error_control))
+            self.error_control, self.resticks))

@@ -1,10 +1,12 @@
 """What an archive records of tendon friction at one state: each tendon's chord tensions
 and the stick/slip states of its routing points (rodsim/core/tendon_friction.py;
 docs/tendon.md, "Friction"), as a track records them per step and ``simulate`` per output
-time; and a routing point breaking loose during ``simulate`` (``Breakaway``)."""
+time; and a routing point breaking loose during ``simulate`` (``Breakaway``), or sticking
+again (``Restick``)."""
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -13,7 +15,8 @@ from rodsim.core.model import Model
 from rodsim.core.terms.base import TendonTerm
 from rodsim.core.terms.tendon_string import TendonString
 
-__all__ = ["Breakaway", "FrictionRecord", "breakaways", "friction_record"]
+__all__ = ["Breakaway", "FrictionRecord", "Restick", "breakaways", "friction_record",
+           "resticks"]
 
 
 @dataclass(frozen=True)
@@ -83,4 +86,35 @@ def breakaways(before: Model, after: Model, t: float) -> list[Breakaway]:
         for e in np.flatnonzero((new.state != 0.0) & (new.state != old.state)):
             found.append(Breakaway(float(t), new.tendon.name, int(e),
                                    float(new.points.s[e]), int(new.state[e])))
+    return found
+
+
+@dataclass(frozen=True)
+class Restick:
+    """A sliding routing point of a string tendon with stiction sticking again during a run
+    in physical time (docs/dynamics.md, "Friction in physical time"): its sliding bound
+    turned back at ``time``, the root located inside the midpoint step
+    (rodsim/solvers/physical/restick.py); held by its static μ_s from then on."""
+
+    #: The located time [s].
+    time: float
+    #: The tendon's name.
+    tendon: str
+    #: The routing point's index along the tendon (as ``Breakaway.point``).
+    point: int
+    #: Its rest arc length on the catheter [m].
+    s: float
+    #: The way it slid until then: −1 in (toward the actuator), +1 out.
+    direction: int
+
+
+def resticks(model: Model, held: Sequence[tuple[int, int, int]], t: float) -> list[Restick]:
+    """The points ``held`` — (the term's index in ``model``, the point's index, the way it
+    slid) — that stuck again at time ``t``, in the order given."""
+    found = []
+    for index, e, direction in held:
+        term = model.terms[index]
+        assert isinstance(term, TendonString)
+        found.append(Restick(float(t), term.tendon.name, int(e), float(term.points.s[e]),
+                             int(direction)))
     return found

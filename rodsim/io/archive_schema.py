@@ -399,6 +399,23 @@ def _check_run(ds: xr.Dataset, leading: tuple[str, ...] = ()) -> None:
     _check_layout(ds, leading)
 
 
+def _check_points(ds: xr.Dataset, kind: str) -> None:
+    """The routing points that broke loose (``kind`` "breakaway") or stuck again
+    ("restick") along ``kind``, where the archive has them: times finite and in order,
+    directions −1 or 1."""
+    if f"{kind}_time" not in ds.variables:
+        return
+    found = _variable(ds, f"{kind}_time", (kind,)).values
+    _variable(ds, f"{kind}_tendon", (kind,), numeric=False)
+    _variable(ds, f"{kind}_point", (kind,))
+    _variable(ds, f"{kind}_point_s", (kind,))
+    ways = _variable(ds, f"{kind}_direction", (kind,)).values
+    if (not np.all(np.isfinite(found)) or np.any(np.diff(found) < 0.0)
+            or not np.all(np.isin(ways, (-1, 1)))):
+        raise ArchiveSchemaError(f"variable '{kind}_time' is not finite or not in time "
+                                 f"order, or '{kind}_direction' holds a value other than "
+                                 "-1, 1")
+
 def _check_trajectory(ds: xr.Dataset) -> None:
     """A trajectory archive: increasing finite times (at least one), the shapes along them
     laid out as a run's, the energies along ``time``, ``complete`` and ``t_end``."""
@@ -415,17 +432,8 @@ def _check_trajectory(ds: xr.Dataset) -> None:
         _variable(ds, "event_name", ("event",), numeric=False)
         if not np.all(np.isfinite(events)) or np.any(np.diff(events) < 0.0):
             raise ArchiveSchemaError("variable 'events' is not finite or not in time order")
-    if "breakaway_time" in ds.variables:  # optional (stiction; older archives)
-        found = _variable(ds, "breakaway_time", ("breakaway",)).values
-        _variable(ds, "breakaway_tendon", ("breakaway",), numeric=False)
-        _variable(ds, "breakaway_point", ("breakaway",))
-        _variable(ds, "breakaway_point_s", ("breakaway",))
-        ways = _variable(ds, "breakaway_direction", ("breakaway",)).values
-        if (not np.all(np.isfinite(found)) or np.any(np.diff(found) < 0.0)
-                or not np.all(np.isin(ways, (-1, 1)))):
-            raise ArchiveSchemaError("variable 'breakaway_time' is not finite or not in time "
-                                     "order, or 'breakaway_direction' holds a value other "
-                                     "than -1, 1")
+    for kind in ("breakaway", "restick"):  # optional (stiction; older archives)
+        _check_points(ds, kind)
     if "step_end" in ds.variables:  # optional: under error control
         _check_steps(ds)
     _check_layout(ds, ("time",))

@@ -13,7 +13,10 @@ programs and the starting values. With tendon friction, as a track's archive per
 and every routing point that broke loose (stiction; none without) along ``breakaway``:
 ``breakaway_time`` [s] (located inside its step), ``breakaway_tendon``,
 ``breakaway_point`` (the point's index along its tendon, as ``slip_state``'s chords),
-``breakaway_point_s`` [m] and ``breakaway_direction`` (−1 sliding in, +1 out).
+``breakaway_point_s`` [m] and ``breakaway_direction`` (−1 sliding in, +1 out); and every
+sliding point that stuck again along ``restick``, named alike: ``restick_time`` [s],
+``restick_tendon``, ``restick_point``, ``restick_point_s`` [m] and ``restick_direction`` (the
+way it slid until then).
 Under error control (the midpoint rule with ``rtol``), the steps (``StepLog``):
 ``step_end`` and ``step_size`` along ``accepted`` (each accepted step's end time and length
 [s]), ``rejected_time``, ``rejected_size`` and ``rejected_error`` along ``rejected`` (each
@@ -44,9 +47,10 @@ from rodsim.io.run_dataset import (
 if TYPE_CHECKING:
     import xarray as xr
 
-    from rodsim.core.friction_record import Breakaway, FrictionRecord
+    from rodsim.core.friction_record import Breakaway, FrictionRecord, Restick
 
-__all__ = ["StepLog", "TrajectoryRecord", "breakaway_variables", "trajectory_dataset"]
+__all__ = ["StepLog", "TrajectoryRecord", "breakaway_variables", "restick_variables",
+           "trajectory_dataset"]
 
 #: The energy variables, their long names (docs/dynamics.md, "Energy").
 ENERGIES = {
@@ -105,6 +109,8 @@ class TrajectoryRecord:
     #: Under error control: its steps (None otherwise) and its tolerances (text).
     steps: StepLog | None = None
     error_control: str = ""
+    #: With stiction: every sliding routing point that stuck again, in time order.
+    resticks: Sequence[Restick] = ()
 
 
 def trajectory_dataset(record: TrajectoryRecord) -> xr.Dataset:
@@ -158,6 +164,7 @@ def trajectory_dataset(record: TrajectoryRecord) -> xr.Dataset:
         data.update(slip_data)
     if friction is not None:
         data.update(breakaway_variables(record.breakaways))
+        data.update(restick_variables(record.resticks))
     ds = xr.Dataset(data_vars=data, coords=coords)
     name = record.scene.name
     reached = float(record.times[-1]) if len(record.times) else 0.0
@@ -209,6 +216,29 @@ def breakaway_variables(found: Sequence[Breakaway]) -> dict[str, Any]:
                                 {"long_name": "way the point slides once loose",
                                  "flag_values": np.array([-1, 1], dtype=np.int8),
                                  "flag_meanings": "sliding_in sliding_out"}),
+    }
+
+
+def restick_variables(found: Sequence[Restick]) -> dict[str, Any]:
+    """The variables along ``restick`` of the sliding routing points that stuck again
+    (module docstring; empty along it when none did)."""
+    return {
+        "restick_time": ("restick", np.array([r.time for r in found], dtype=float),
+                         {"units": "s", "long_name": "time a sliding routing point of a "
+                          "string tendon stuck again (stiction), located inside its step"}),
+        "restick_tendon": ("restick", np.array([r.tendon for r in found], dtype=str),
+                           {"long_name": "tendon of the routing point that stuck again"}),
+        "restick_point": ("restick", np.array([r.point for r in found], dtype=np.int32),
+                          {"long_name": "index of the routing point along its tendon (0 "
+                           "the entry; the chord it starts, as slip_state's)"}),
+        "restick_point_s": ("restick", np.array([r.s for r in found], dtype=float),
+                            {"units": "m", "long_name": "rest arc length of the routing "
+                             "point that stuck again"}),
+        "restick_direction": ("restick", np.array([r.direction for r in found],
+                                                  dtype=np.int8),
+                              {"long_name": "way the point slid until it stuck",
+                               "flag_values": np.array([-1, 1], dtype=np.int8),
+                               "flag_meanings": "sliding_in sliding_out"}),
     }
 
 

@@ -22,27 +22,14 @@ points past one that broke loose, whose freed tension reaches them at once: a ca
 breaks loose there: the history is carried again at that time before the part is solved,
 as a track's step is solved again after each breakaway.
 
-A dip inside a part. A margin > 0 at both ends of a part may have gone ≤ 0 inside it (the
-tension let out and pulled back within one step, or the catheter swinging): the point broke
-loose there and held again, and no sign change shows it. Each part is therefore screened on
-its cubic Hermite interpolant (rodsim/solvers/physical/step_events.py, ``hermite``; no
-Newton solve) at its quarter points (``SCREENS``); at the first where some margin is ≤ 0
-the part is solved to that time, and if a margin is ≤ 0 there on the scheme's own state it
-brackets the root, located as above. A dip narrower than a quarter of the part, or one the
-interpolant misses, is still missed.
+A dip inside a part (a margin > 0 at both ends, ≤ 0 inside: the tension let out and pulled
+back within one step, or the catheter swinging) is screened for on the part's interpolant
+at its quarter points; the location and the screen are the machinery a point sticking
+again shares (rodsim/solvers/physical/part_events.py).
 
-Not located: a point that stops sliding — re-sticks — inside a part. It is not an event (its
-chord leaves the kinetic bound continuously and the force stays continuous), but inside the
-part its history is that of the part's start, so where its sliding bound turns back inside
-the part (T(t) e^{∓W(x(t))} at an extremum) the chord follows the bound back to the tension
-stored at the part's start instead of holding the extremum's value, and a breakaway from
-that held value (the static bound of the other side) is measured against the stored one.
-Locating the re-stick needs the extremum of each sliding point's bound, a root of its rate,
-not a sign change of a margin; for a smooth turn-back the bound moves O(h²) between the
-extremum and the part's end (the midpoint rule's order), and a re-stick followed by a new
-breakaway within one part needs the tension to swing across the point's whole stick band,
-a ratio e^{(μ_s+μ_k)θ_e}, within the part: a step too long for the program or the motion.
-After each split the rest of the step is checked again from the history carried at τ.
+A point that stops sliding — re-sticks — inside a part is located by its own event
+(rodsim/solvers/physical/restick.py), the earlier of the two splitting the part. After each
+split the rest of the step is checked again from the history carried at τ.
 
 Re-solving the whole step with the point freed instead (what a run did before round 16)
 gives friction's kinetic force over the part of the step before the breakaway: an O(h)
@@ -59,15 +46,12 @@ import numpy as np
 from rodsim.core.model import Model
 from rodsim.core.tendon_friction import bound_coefficients, breakaway_margins
 from rodsim.core.terms.tendon_string import TendonString
+from rodsim.solvers.physical import part_events
 from rodsim.solvers.physical.coordinates import model_state
 from rodsim.solvers.physical.fixed_step import Motion, StepOutcome
-from rodsim.solvers.physical.step_events import root
+from rodsim.solvers.physical.part_events import SCREENS
 
 __all__ = ["sticky", "margins", "locate", "SCREENS"]
-
-#: A part is screened for a dip of a margin at its interior points t0 + k (t1 − t0)/SCREENS
-#: (module docstring, "A dip inside a part").
-SCREENS = 4
 
 
 def sticky(model: Model) -> bool:
@@ -93,16 +77,11 @@ def margins(model: Model, x: np.ndarray) -> np.ndarray | None:
     return np.concatenate(out) if out else None
 
 
-def _dip(model_at: Callable[[float], Model], along: Callable[[float], np.ndarray],
-         t0: float, t1: float) -> float | None:
-    """The first of the part's quarter points at which some margin is ≤ 0 on the part's
-    interpolant ``along`` (module docstring, "A dip inside a part"), None if none is."""
-    for k in range(1, SCREENS):
-        t = t0 + (t1 - t0) * k / SCREENS
-        found = margins(model_at(t), along(t))
-        if found is not None and np.any(found <= 0.0):
-            return t
-    return None
+def _margins(model: Model, x: np.ndarray) -> np.ndarray:
+    """``margins``, of a model with stiction."""
+    found = margins(model, x)
+    assert found is not None
+    return found
 
 
 def locate(model_at: Callable[[float], Model], t0: float, start: np.ndarray, t1: float,
@@ -113,33 +92,9 @@ def locate(model_at: Callable[[float], Model], t0: float, start: np.ndarray, t1:
     of the step from t0 to τ, None for τ = t1), ``start`` the margins at t0 (all > 0),
     ``end`` the step's end, ``solve(τ)`` the step from t0 to τ; (t1, None) when no point
     breaks loose in the step. ``along(t)``: the part's interpolant (free coordinates), on
-    which a margin that is > 0 at both ends is screened for a dip inside (module
-    docstring)."""
-    after = margins(model_at(t1), end.x)
-    assert after is not None
-    crossed = after <= 0.0
-    reached: dict[float, StepOutcome] = {}
-    whole = True  # the bracket is the whole part (not a dip's)
-    if not np.any(crossed):
-        dip = None if along is None else _dip(model_at, along, t0, t1)
-        if dip is None:
-            return t1, None
-        reached[dip] = solve(dip)  # the dip on the scheme's own state, or nothing
-        found = margins(model_at(dip), reached[dip].motion.x)
-        assert found is not None
-        if not np.any(found <= 0.0):
-            return t1, None
-        t1, after, crossed, whole = dip, found, found <= 0.0, False
-
-    def g(t: float) -> float:
-        if t not in reached:
-            reached[t] = solve(t)
-        found = margins(model_at(t), reached[t].motion.x)
-        assert found is not None
-        return float(np.min(found[crossed]))
-
-    when = float(root(g, t0, float(np.min(start[crossed])), t1,
-                       float(np.min(after[crossed]))))
-    if when >= t1 and whole:
-        return t1, None
-    return when, reached[when]
+    which a margin that is > 0 at both ends is screened for a dip inside
+    (rodsim/solvers/physical/part_events.py)."""
+    return part_events.locate(
+        lambda t, outcome: _margins(model_at(t), outcome.motion.x), t0, start, t1,
+        _margins(model_at(t1), end.x), solve,
+        None if along is None else (lambda t: _margins(model_at(t), along(t))))

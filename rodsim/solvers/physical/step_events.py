@@ -35,7 +35,8 @@ from rodsim.solvers.physical.coordinates import PhysicalCoordinates, velocity_ro
 from rodsim.solvers.physical.events import EventFunctions
 from rodsim.solvers.physical.fixed_step import Motion
 
-__all__ = ["StepEvents", "watched", "hermite", "TIME_TOLERANCE", "MAX_ITERATIONS", "root"]
+__all__ = ["StepEvents", "watched", "hermite", "quaternion_rate", "TIME_TOLERANCE",
+           "MAX_ITERATIONS", "root"]
 
 #: A root's bracket is narrowed to this fraction of the step (or to round-off).
 TIME_TOLERANCE = 1e-10
@@ -43,7 +44,7 @@ TIME_TOLERANCE = 1e-10
 MAX_ITERATIONS = 200
 
 
-def _rate(coordinates: PhysicalCoordinates, x: np.ndarray, w: np.ndarray) -> np.ndarray:
+def quaternion_rate(coordinates: PhysicalCoordinates, x: np.ndarray, w: np.ndarray) -> np.ndarray:
     """q̇ = ½ Σ_k ω_k B_k q at ``x`` (s, 4)."""
     return 0.5 * np.einsum("ska,sk->sa", velocity_rows(x[coordinates.quaternions]), w)
 
@@ -57,7 +58,7 @@ def hermite(coordinates: PhysicalCoordinates, t0: float, start: Motion, t1: floa
     c, h = coordinates, t1 - t0
     r0, r1 = start.x[c.positions], end.x[c.positions]
     q0, q1 = start.x[c.quaternions], end.x[c.quaternions]
-    dq0, dq1 = _rate(c, start.x, start.w), _rate(c, end.x, end.w)
+    dq0, dq1 = quaternion_rate(c, start.x, start.w), quaternion_rate(c, end.x, end.w)
 
     def x(t: float) -> tuple[np.ndarray, np.ndarray]:
         s = (t - t0) / h

@@ -36,20 +36,28 @@ from __future__ import annotations
 import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
+from typing import Protocol
 
 import numpy as np
 
 from rodsim.core.model import Model
+from rodsim.solvers.physical import restick
 from rodsim.solvers.physical.breakaway import locate, margins, sticky
 from rodsim.solvers.physical.coordinates import model_state
 from rodsim.solvers.physical.events import EventFunctions
 from rodsim.solvers.physical.fixed_step import FixedStep, Motion, StepFailure, StepOutcome
 from rodsim.solvers.physical.step_events import hermite, watched
 
-#: What a run is told at the end of every step: ``after_step(t, x)``, x the model's free
-#: coordinates (offsets from the rest state); a step in which a point of a string tendon
-#: breaks loose is split there (rodsim/solvers/physical/breakaway.py), and told at the split.
-AfterStep = Callable[[float, np.ndarray], None]
+
+class AfterStep(Protocol):
+    """What a run is told at the end of every step: ``after_step(t, x, held)``, x the
+    model's free coordinates (offsets from the rest state); a step in which a point of a
+    string tendon breaks loose (rodsim/solvers/physical/breakaway.py) or sticks again
+    (rodsim/solvers/physical/restick.py) is split there, and told at the split, ``held``
+    the points that stuck again there (``restick.Held``; none at other ends)."""
+
+    def __call__(self, t: float, x: np.ndarray, held: Sequence[restick.Held] = ()) -> None:
+        ...
 
 __all__ = ["Record", "integrate", "advance", "restep", "potential", "MAX_HALVINGS"]
 
@@ -121,18 +129,22 @@ def _solve(model_at: Callable[[float], Model], stepper: FixedStep, motion: Motio
 
 def _part(model_at: Callable[[float], Model], stepper: FixedStep, motion: Motion,
           t0: float, t1: float, watch: bool
-          ) -> tuple[float, Model, StepOutcome | None, tuple[int, int]]:
+          ) -> tuple[float, Model, StepOutcome | None, tuple[int, int], list[restick.Held]]:
     """The first part of the step from ``t0`` to ``t1`` (all of it unless, with stiction,
-    a routing point breaks loose in it: rodsim/solvers/physical/breakaway.py): (its end τ,
-    the model that solved it, the outcome, (steps, Newton iterations) spent); τ = ``t0``
-    and no outcome when a point is already on its bound at t0 (its history is to be carried
-    there first)."""
+    a routing point breaks loose, rodsim/solvers/physical/breakaway.py, or sticks again,
+    rodsim/solvers/physical/restick.py, in it): (its end τ, the model that solved it, the
+    outcome, (steps, Newton iterations) spent, the points that stuck again at τ); τ =
+    ``t0`` and no outcome when a point is already on its bound at t0, or a sliding one's
+    bound moves away there (its history is to be carried there first)."""
     start = margins(model_at(t0), motion.x) if watch else None
     if start is not None and np.any(start <= 0.0):
-        return t0, model_at(t0), None, (0, 0)
+        return t0, model_at(t0), None, (0, 0), []
+    held = restick.turned(model_at, stepper.coordinates, t0, motion, t1) if watch else []
+    if held:
+        return t0, model_at(t0), None, (0, 0), held
     middle, outcome = _solve(model_at, stepper, motion, t0, t1)
     if start is None:
-        return t1, middle, outcome, (1, outcome.iterations)
+        return t1, middle, outcome, (1, outcome.iterations), []
     spent = [1, outcome.iterations]
     models: dict[float, Model] = {}
 
@@ -146,8 +158,14 @@ def _part(model_at: Callable[[float], Model], stepper: FixedStep, motion: Motion
     when, first = locate(model_at, t0, start, t1, outcome.motion, solve,
                          lambda t: curve(t)[0])
     if first is None:
-        return t1, middle, outcome, (spent[0], spent[1])
-    return when, models[when], first, (spent[0], spent[1])
+        when, solved, first = t1, middle, outcome
+    else:
+        solved = models[when]
+    again, stuck, held = restick.locate(model_at, stepper.coordinates, t0, motion, when,
+                                        first.motion, solve)
+    if stuck is not None:
+        return again, models[again], stuck, (spent[0], spent[1]), held
+    return when, solved, first, (spent[0], spent[1]), []
 
 
 def advance(model_at: Callable[[float], Model], stepper: FixedStep, motion: Motion,
@@ -165,7 +183,8 @@ def advance(model_at: Callable[[float], Model], stepper: FixedStep, motion: Moti
     watch = after_step is not None and sticky(model_at(t0))
     for _ in range(MAX_BREAKAWAYS):
         try:
-            when, middle, outcome, spent = _part(model_at, stepper, motion, t0, t1, watch)
+            when, middle, outcome, spent, held = _part(model_at, stepper, motion, t0, t1,
+                                                       watch)
         except StepFailure:
             if halvings == 0:
                 raise
@@ -190,7 +209,7 @@ def advance(model_at: Callable[[float], Model], stepper: FixedStep, motion: Moti
             dissipated += outcome.dissipated
             motion = outcome.motion
         if after_step is not None:
-            after_step(when, model_state(middle, motion.x))
+            after_step(when, model_state(middle, motion.x), held)
         if when >= t1:
             return motion, work, dissipated, (counts[0], counts[1], counts[2])
         t0 = when
