@@ -10,7 +10,8 @@ bent robot (modes), tendon friction's pull–release cycles and static solves (f
 many equilibria of one scene on 1 and 2 workers (batch); physical time's integrators at
 equal tip accuracy, the midpoint rule against IDA (dynamics), PyElastica against rodsim in
 physical time (pyelastica-dynamics), their CPU per step
-(step-cost) and tdcr-two-segment against the real-time aim (real-time); and hostile
+(step-cost), tdcr-two-segment against the real-time aim (real-time) and its cost against
+the time simulated (time-scaling); and hostile
 command lines, each its own process, sorted into clear refusals, failures, checked
 successes and defects (hostile).
 
@@ -25,4 +26,5 @@ BENCHMARKS = ("work-precision", "paper-regime", "scaling", "large-n", "stress", 
               "kernels", "pyelastica", "pyelastica-dynamics", "string-tendon", "contact",
               "force-from-shape", "floor",
               "iterations", "startup", "tracking", "workers", "modes", "friction",
-              "batch", "dynamics", "step-cost", "real-time", "cvode-scaling", "hostile")
+              "batch", "dynamics", "step-cost", "real-time", "cvode-scaling", "time-scaling",
+              "hostile")

@@ -363,7 +363,8 @@ def build_parser() -> argparse.ArgumentParser:
                            "stress, skip-work, kernels, paper-regime, pyelastica, "
                            "string-tendon, contact, force-from-shape, floor, iterations, "
                            "startup, tracking, workers, modes, friction, batch, dynamics, "
-                           "step-cost, real-time, cvode-scaling, pyelastica-dynamics)",
+                           "step-cost, real-time, cvode-scaling, time-scaling, "
+                           "pyelastica-dynamics)",
                            description="Time the integrators against their error, their cost "
                            "in N, or their stability over a parameter map; writes netCDF, "
                            "figures and a markdown table with the machine description. The "
@@ -375,7 +376,8 @@ def build_parser() -> argparse.ArgumentParser:
                        help="work-precision, scaling, large-n, stress, skip-work, kernels, "
                        "paper-regime, string-tendon, contact, force-from-shape, floor, "
                        "iterations, startup, tracking, workers, modes, friction, batch, "
-                       "dynamics, step-cost, real-time, cvode-scaling, hostile, pyelastica or "
+                       "dynamics, step-cost, real-time, cvode-scaling, time-scaling, hostile, "
+                       "pyelastica or "
                        "pyelastica-dynamics (the last two need "
                        "'pip install pyelastica==1.0.0'; never a dependency)")
     bench.add_argument("--size", choices=("small", "medium", "full"), default="small",
