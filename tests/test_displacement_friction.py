@@ -122,11 +122,17 @@ def termination(track) -> np.ndarray:
 def test_the_dead_zone_in_displacement_is_the_closed_form():
     """Reversed at d_max, the termination holds its tension exactly (its chord stuck) for a
     release of the closed form's width w less 0.2 % and moves for w plus 0.2 % (measured:
-    the model's width is 1.1e-3, 3.5e-4, 1.3e-4 short of it at N = 21, 41, 81)."""
+    the model's width is 1.06e-3, 3.8e-4, 1.55e-4 short of it at N = 21, 41, 81). The
+    quadrature's w is docs/tendon.md's first-order form (c/k) ln[1 + a²/(1 + 2a)] to
+    O(τ/EA) (measured 8e-4 relative)."""
     d_max = 6e-3
     t_max = NITINOL.pulled_tension(d_max)
     width = NITINOL.dead_zone(t_max)
     assert 0.05 < width / d_max < 0.2  # a dead zone worth the name: 0.63 mm of 6 mm
+    k = NITINOL.friction * NITINOL.offset / NITINOL.ei
+    a = k * t_max * NITINOL.length
+    c = 1 / NITINOL.ea + NITINOL.offset**2 / NITINOL.ei + 1 / NITINOL.stiffness
+    assert width == pytest.approx(c / k * math.log1p(a * a / (1 + 2 * a)), rel=2e-3)
     scene = Scene.from_dict(NITINOL.scene(41, d_max))
     for factor, held in ((0.998, True), (1.002, False)):
         track = track_path(scene, {KEY: [d_max, d_max - factor * width]})
@@ -419,6 +425,14 @@ def test_bad_input_exits_2_and_a_cold_run_says_its_history(capsys, tmp_path):
                  "-o", str(tmp_path / "bad.nc")])
     err = capsys.readouterr().err
     assert code == 2 and err.count("\n") == 1 and "static_friction" in err
+    code = main(["run", "tdcr-two-segment", "--integrator", "static",
+                 "--set", "tendons.s1a.tendon_string.control=displacement",
+                 "--set", "tendons.s1a.tendon_string.displacement=0.004",
+                 "--set", "tendons.s1a.tendon_string.stiffness=6000",
+                 "--set", "tendons.s1a.tendon_string.friction=0.2",
+                 "-o", str(tmp_path / "cold.nc")])
+    out = capsys.readouterr().out
+    assert code == 0 and "history: pulled in from slack, monotonically" in out
     result = rodsim.solve(Scene.from_dict(NITINOL.scene(15, 4e-3)))
     assert result.success and "a" in result.tension_profiles
     s, profile = result.tension_profiles["a"]
