@@ -331,8 +331,8 @@ def test_the_jacobian_is_exact_on_a_planar_one_way_path(kernels, fd):
     ({"friction": -0.1}, "friction"),
     ({"friction": float("nan")}, "not finite"),
     ({"friction": float("inf")}, "friction"),
-    ({"friction": 0.2, "control": "displacement", "stiffness": 6e3, "tension": 1.0},
-     "tension-controlled string only"),
+    ({"friction": 0.2, "control": "displacement", "stiffness": 6e3, "tension": 1.0,
+      "static_friction": 0.3}, "tension-controlled string only"),
 ])
 def test_bad_friction_is_one_line(values, message):
     scene = catheter(11, 0.0, 1.0)

@@ -5,9 +5,9 @@ kernel a scene can ask for is compiled with the argument types a solve gives it
 The shipped scenes (rodsim/data/) use most terms; these small scenes add what none of them
 has: every rod load (point wrenches in both frames, loads per length, gravity), sections,
 every obstacle type with and without friction, string tendons of every routing and control
-with friction (kinetic per point, a profile, static), joints and an elastic base, the
-momentum-conserving and the paper's tendon coupling. Each is a few nodes: solving it costs
-milliseconds; compiling what it uses costs seconds, once.
+with friction (kinetic per point, a profile, static; kinetic under displacement control),
+joints and an elastic base, the momentum-conserving and the paper's tendon coupling. Each is
+a few nodes: solving it costs milliseconds; compiling what it uses costs seconds, once.
 """
 
 from __future__ import annotations
@@ -96,6 +96,10 @@ _STRINGS: dict[str, Any] = {
                    "direction": [-0.2, 1.0],
                    "tendon_string": {"control": "displacement", "displacement": 0.001,
                                      "stiffness": 40.0, "start": 0.02, "end": 0.09}},
+        "pulled_rough": {"catheter": "catheter", "coupling": "string", "offset": 0.003,
+                         "direction": [0.2, -1.0],
+                         "tendon_string": {"control": "displacement", "displacement": 0.001,
+                                           "stiffness": 40.0, "friction": 0.1}},
         "table": {"catheter": "shaft", "coupling": "string",
                   "tendon_string": {"tension": 0.1, "routing": "table",
                                     "table_s": [0.0, 0.03, 0.06, 0.08],

@@ -7,6 +7,7 @@ again (``Restick``)."""
 from __future__ import annotations
 
 from collections.abc import Sequence
+import dataclasses
 from dataclasses import dataclass
 
 import numpy as np
@@ -32,25 +33,31 @@ class FrictionRecord:
     #: The stick/slip state of each of those points (−1 sliding in, 0 stuck, +1 sliding
     #: out), concatenated as ``tension``.
     slip: np.ndarray
+    #: Each tendon's actuator tension [N], in the order of ``chords``: the scene's under
+    #: tension control, the outcome under displacement control (empty where not recorded).
+    actuator: np.ndarray = dataclasses.field(default_factory=lambda: np.zeros(0))
 
 
 def friction_record(model: Model, full: np.ndarray) -> FrictionRecord | None:
     """The friction state at the full state ``full`` with ``model``'s history (its
     friction anchors: the last equilibrium's, or a step's after a breakaway); None when no
     tendon has friction."""
-    profiles, states = {}, {}
+    profiles, states, actuator = {}, {}, []
     for term in model.terms:
         if isinstance(term, TendonTerm):
             profile = term.tension_profile(full)
             slip = term.point_states(full)
             if profile is not None and slip is not None:
                 profiles[term.tendon.name], states[term.tendon.name] = profile, slip
+                outcome = term.tension_outcome(full)
+                actuator.append(float(term.options.tension) if outcome is None else outcome)
     if not profiles:
         return None
     return FrictionRecord({name: s for name, (s, _) in profiles.items()},
                           np.concatenate([t for _, t in profiles.values()]),
                           {name: s for name, (s, _) in states.items()},
-                          np.concatenate([state for _, state in states.values()]))
+                          np.concatenate([state for _, state in states.values()]),
+                          np.array(actuator))
 
 
 @dataclass(frozen=True)

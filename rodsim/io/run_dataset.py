@@ -23,9 +23,9 @@ from rodsim.solvers.result import Result
 if TYPE_CHECKING:
     import xarray as xr
 
-__all__ = ["FRICTION_HISTORY", "contact_variables", "run_content", "run_dataset",
-           "self_crossings", "slip_variables", "step_coordinate", "tension_coordinates",
-           "tension_variable"]
+__all__ = ["FRICTION_HISTORY", "actuator_variable", "contact_variables", "run_content",
+           "run_dataset", "self_crossings", "slip_variables", "step_coordinate",
+           "tension_coordinates", "tension_variable"]
 
 #: The history a solve from rest assumes for tendon friction (rodsim/core/tendon_friction.py).
 FRICTION_HISTORY = ("tendons pulled in from slack to their tension, monotonically (the "
@@ -126,6 +126,15 @@ def pulled_in_variables(pulled: dict[str, np.ndarray], leading: tuple[str, ...]
                                   np.stack(list(pulled.values()), axis=-1),
                                   {"units": "m", "long_name": "tendon drawn in at the "
                                    "actuator since the first state (its path's shortening)"})})
+
+
+def actuator_variable(tension: np.ndarray, leading: tuple[str, ...]) -> dict[str, Any]:
+    """The archive variable ``tendon_actuator_tension`` (*leading, friction_tendon) [N]:
+    each tendon with friction's tension at its actuator, the scene's under tension control,
+    the outcome under displacement control (docs/tendon.md, "Friction")."""
+    return {"tendon_actuator_tension": ((*leading, "friction_tendon"), tension,
+                                        {"units": "N", "long_name": "tendon tension at the "
+                                         "actuator (friction)"})}
 
 
 def tension_variable(tension: np.ndarray, leading: tuple[str, ...]) -> dict[str, Any]:

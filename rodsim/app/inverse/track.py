@@ -55,12 +55,15 @@ from rodsim.app.inverse.track_steps import record_contact, record_stability, val
 from rodsim.core.model import Model
 from rodsim.core.scene import Scene
 from rodsim.core.schema import SceneError
+from rodsim.core.terms.base import TendonTerm
 from rodsim.core.terms.tendon_string import TendonString
+from rodsim.core.terms.tendon_string_displacement import TendonStringDisplacement
 from rodsim.io.archive_schema import SCHEMA_VERSION
 from rodsim.io.cf_layout import variable_name
 from rodsim.io.provenance import archive_attributes
 from rodsim.io.run_dataset import (
     FRICTION_HISTORY,
+    actuator_variable,
     contact_variables,
     pulled_in_variables,
     slip_variables,
@@ -113,6 +116,10 @@ class Track:
     #: points (their rest arc lengths [m]).
     slip: list[np.ndarray] = field(default_factory=list)
     points: dict[str, np.ndarray] = field(default_factory=dict)
+    #: With tendon friction: each such tendon's actuator tension [N] per step, in the order
+    #: of ``chords`` (the ramped value under tension control, the outcome under
+    #: displacement control).
+    actuator: list[np.ndarray] = field(default_factory=list)
     success: bool = True
     message: str = "converged"
     failed_step: int | None = None
@@ -145,7 +152,8 @@ class Track:
                                     self.halvings, self.times, self.stable,
                                     self.min_eigenvalues]
         done = min(len(r) for r in records)
-        for r in [*records, *(r for r in (self.contact, self.tension, self.slip) if r)]:
+        for r in [*records, *(r for r in (self.contact, self.tension, self.slip, self.actuator)
+                                   if r)]:
             del r[done:]
 
     @property
@@ -185,15 +193,30 @@ class Track:
 
     @property
     def pulled_in(self) -> dict[str, np.ndarray]:
-        """With tendon friction: each such tendon's actuator displacement at every step,
-        ℓ(step 0) − ℓ(step) [m], ℓ its path's length (inextensible, held at its
-        termination: what the actuator drew in), for the loop of the actuator's tension
-        against its displacement (docs/tendon.md, "Friction")."""
-        terms = {term.tendon.name: term for term in self.model.terms
-                 if isinstance(term, TendonString) and term.tendon.name in self.chords}
-        lengths = {name: np.array([term.length(full) for full in self.states])
-                   for name, term in terms.items()}
-        return {name: ell[0] - ell for name, ell in lengths.items() if len(ell)}
+        """With tendon friction: each such tendon's actuator displacement at every step
+        since step 0 [m]: under tension control ℓ(step 0) − ℓ(step), ℓ its path's length
+        (inextensible, held at its termination: what the actuator drew in); under
+        displacement control d(step) − d(step 0), d = ℓ₀ − Σ_e ℓ_e / (1 + τ_e / E A) the
+        free length the chords no longer hold (the ramped displacement, to the root's
+        round-off). For the loop of the actuator's tension against its displacement
+        (docs/tendon.md, "Friction")."""
+        out = {}
+        starts = dict(zip(self.chords, np.cumsum([0, *map(len, self.chords.values())]),
+                          strict=False))
+        for term in self.model.terms:
+            name = term.tendon.name if isinstance(term, TendonTerm) else ""
+            if name not in self.chords or not self.states:
+                continue
+            if isinstance(term, TendonString):
+                ell = np.array([term.length(full) for full in self.states])
+                out[name] = ell[0] - ell
+            elif isinstance(term, TendonStringDisplacement):
+                chords = slice(starts[name], starts[name] + len(self.chords[name]))
+                drawn = np.array([term.drawn_in(full, tension[chords])
+                                  for full, tension in zip(self.states, self.tension,
+                                                           strict=False)])
+                out[name] = drawn - drawn[0]
+        return out
 
     def tips(self, rod: str | None = None) -> np.ndarray:
         """Tip of ``rod`` (default: the first) at every completed step, (steps, 3) [m]."""
@@ -277,6 +300,8 @@ class Track:
             pulled_coords, pulled_data = pulled_in_variables(self.pulled_in, ("step",))
             coords.update(pulled_coords)
             data.update(pulled_data)
+            if len(self.actuator) == steps:
+                data.update(actuator_variable(np.array(self.actuator), ("step",)))
         if self.slip:
             point_coords, slip_data = slip_variables(self.points, np.array(self.slip),
                                                      ("step",))

@@ -38,6 +38,7 @@ class TrackRecord(Protocol):
     chords: dict[str, np.ndarray]
     slip: list[np.ndarray]
     points: dict[str, np.ndarray]
+    actuator: list[np.ndarray]
 
 
 def record_contact(out: TrackRecord, model: Model) -> None:
@@ -52,6 +53,7 @@ def record_contact(out: TrackRecord, model: Model) -> None:
         out.chords, out.points = friction.chords, friction.points
         out.tension.append(friction.tension)
         out.slip.append(friction.slip)
+        out.actuator.append(friction.actuator)
 
 
 def record_stability(out: TrackRecord, step: int, stability: Stability,
