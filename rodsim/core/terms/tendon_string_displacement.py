@@ -71,7 +71,7 @@ class TendonStringDisplacement(TendonTerm):
                              "modelled on a tension-controlled string only; allowed: "
                              "friction = 0 with control = 'displacement'")
         for key in ("friction_points", "friction_profile", "friction_profile_s",
-                    "static_friction", "static_friction_profile"):
+                    "static_friction", "static_friction_profile", "exact_jacobian"):
             if getattr(options, key):
                 raise SceneError(f"{prefix}.{key} = {getattr(options, key)!r}: friction is "
                                  "modelled on a tension-controlled string only; allowed: "
