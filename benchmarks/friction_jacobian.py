@@ -17,8 +17,9 @@ For this checkout and a baseline revision (``--baseline``; its tree extracted by
 Scenes: the catheter bent by its own tendon with μ 0.1 → 0.4 → 0.15 → 0.3 along it
 (tests/test_friction_profile.py) at N = 21, 41, 81; a nitinol tendon-driven robot (2 N)
 and a soft polymer catheter (20 mN) with profiles of their own; the self-bent catheter with
-stiction (μ_k 0.1, μ_s 0.3); the rigid helix with a profile (a 3-D path: the coupling does
-not apply there, Newton linear on both sides).
+stiction (μ_k 0.1, μ_s 0.3); the rigid helix with a profile (a 3-D path: without
+``tendon_string.exact_jacobian`` the span element does not apply there, Newton linear on
+both sides).
 
 Writes ``friction-jacobian.json`` and ``friction-jacobian.md`` into ``--output-dir``
 (default ``runs/bench``). Nothing is asserted.

@@ -257,6 +257,68 @@ SMALL_STRING_SCENE = {
     },
 }
 
+#: String tendons with friction (rodsim/core/tendon_friction.py), whose Jacobian couples every
+#: sliding chord's tension to every turn up to it (rodsim/core/turn_gradient.py): an S-shape
+#: ("first" ends at a node, where "second", on the other side, has its turn split), a helix
+#: entering past the base (3-D, its entry frame moving with the state), per-point friction
+#: along the arc length and stiction (μ_s above μ_k), ``exact_jacobian`` on the one-μ
+#: tendons (a varying μ takes the span element without it). Several μ (0.05 to 0.5). The tendons
+#: carry a history (``FRICTION_HISTORY``) so that random states have chords sticking and
+#: sliding both ways (tests/test_friction_jacobian_3d.py checks that they do).
+SMALL_FRICTION_STRING_SCENE = {
+    "name": "contract-friction-strings",
+    "rods": {
+        "catheter": {
+            "length": 0.1, "radius": 0.005, "youngs_modulus": 3e6, "stretch_modulus": 3e6,
+            "density": 1100.0, "nodes": 11, "clamp": "frame",
+            "terms": ["stretch", "bend_twist", "centerline"],
+        },
+    },
+    "tendons": {
+        "first": {"catheter": "catheter", "coupling": "string", "offset": 0.002,
+                  "direction": [0.6, 0.8],
+                  "tendon_string": {"tension": 1.5, "end": 0.05, "friction": 0.3,
+                                    "exact_jacobian": True}},
+        "second": {"catheter": "catheter", "coupling": "string", "offset": 0.002,
+                   "direction": [-0.6, -0.8],
+                   "tendon_string": {"tension": 0.8, "friction": 0.1,
+                                     "static_friction": 0.25}},
+        "helix": {"catheter": "catheter", "coupling": "string",
+                  "tendon_string": {"tension": 0.7, "start": 0.015, "routing": "helix",
+                                    "helix_radius": 0.008, "helix_pitch": 0.07,
+                                    "helix_phase": 0.3, "spacers": True, "friction": 0.2,
+                                    "exact_jacobian": True}},
+        "profile": {"catheter": "catheter", "coupling": "string", "offset": 0.003,
+                    "direction": [1.0, 0.0],
+                    "tendon_string": {"tension": 1.1, "friction_profile": [0.05, 0.5, 0.2],
+                                      "friction_profile_s": [0.0, 0.05, 0.1]}},
+    },
+}
+
+
+def friction_history(model: Model) -> Model:
+    """The model with every string tendon with friction anchored at a history: the chord
+    tensions of its rest state times 0.8 and 1.1 by turns (and, with stiction, the points'
+    states −1, 0, +1 by turns), as a step of a track would hold them."""
+    from rodsim.core.terms.tendon_string import TendonString
+
+    x = model.full(np.zeros(model.n))
+    terms = []
+    for term in model.terms:
+        if isinstance(term, TendonString) and term.rubs:
+            tensions = term.chord_tensions(x)
+            chords = np.arange(len(tensions))
+            history = tensions * np.where(chords % 2 == 0, 0.8, 1.1)
+            if term.sticky:
+                history = np.concatenate([history, (chords % 3) - 1.0])
+            term = term.anchored(history)
+        terms.append(term)
+    return model.with_terms(terms)
+
+
+#: Contract scenes whose models carry a history (``friction_history``).
+FRICTION_HISTORY = {"contract-friction-strings"}
+
 #: Random states per (scene, term).
 STATES = 2
 FD_RELATIVE_STEP = 1e-6
@@ -268,7 +330,8 @@ SMALL_SCENES = {scene["name"]: scene for scene in (SMALL_SCENE, SMALL_LOAD_SCENE
                                                     SMALL_PAPER_TENDON_SCENE,
                                                     SMALL_CONTACT_SCENE,
                                                     SMALL_FRICTION_SCENE, SMALL_JOINT_SCENE,
-                                                    SMALL_STRING_SCENE)}
+                                                    SMALL_STRING_SCENE,
+                                                    SMALL_FRICTION_STRING_SCENE)}
 #: Every contract scene by name: the shipped scenes, then the small ones above.
 CONTRACT_SCENES = [*scene_paths(), *SMALL_SCENES]
 
@@ -284,7 +347,8 @@ MIN_NODES = 4
 def contract_model(name: str) -> Model:
     """One contract scene, assembled once (a shipped one with fewer nodes, same structure)."""
     if name in SMALL_SCENES:
-        return rodsim.build_model(copy.deepcopy(SMALL_SCENES[name]))
+        model = rodsim.build_model(copy.deepcopy(SMALL_SCENES[name]))
+        return friction_history(model) if name in FRICTION_HISTORY else model
     scene = Scene.load(scene_paths()[name])
     return Model(scene.with_values({
         f"rods.{rod}.nodes": max(MIN_NODES, -(-table["nodes"] // NODE_DIVISOR))

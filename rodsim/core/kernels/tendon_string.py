@@ -28,8 +28,10 @@ continuously with its plain angle by the kink's size and its share out of the pl
 at the points ``split`` marks, the actuator's bounds) —
 and the Jacobian is the one at frozen τ_e plus, on a chord up to which the path turns one
 way in one plane from a held entry frame, f ⊗ ∂τ_e/∂x with ∂τ_e/∂x = (∂τ_e/∂Θ_e) ∂ψ_e/∂x,
-ψ_e = ∠(d3, u_e) (rodsim/core/terms/tendon_string.py, "Friction"). With μ = 0 every τ_e is
-T and the coupling is skipped: the frictionless numbers, bitwise.
+ψ_e = ∠(d3, u_e) (rodsim/core/terms/tendon_string.py, "Friction"): the chord elements; the
+span element (rodsim/core/kernels/tendon_string_span.py: ``exact_jacobian``, or a μ that
+varies) takes the frozen part from here (``own`` False) and adds the whole coupling. With
+μ = 0 every τ_e is T and the coupling is skipped: the frictionless numbers, bitwise.
 
 The string tendons of one catheter are evaluated in one call (``evaluate_group``,
 rodsim/core/kernel_group.py), which sums the element Jacobians of the chords the tendons
@@ -134,7 +136,7 @@ def evaluate(x: np.ndarray, dofs: np.ndarray, weights: np.ndarray, constant: np.
     """F and ∂F/∂x of every chord of one tendon (``_evaluate_tendon``)."""
     _evaluate_tendon(x, dofs, weights, constant, forms, tension, friction, profile, weighted,
                      mu_in, mu_out, entry_forms, entry_slope, split, scale, want_force, force,
-                     force_target, want_jacobian, jacobian, jacobian_target)
+                     force_target, want_jacobian, jacobian, jacobian_target, True)
 
 
 @njit(cache=True, inline="always")
@@ -399,10 +401,12 @@ def _evaluate_tendon(x: np.ndarray, dofs: np.ndarray, weights: np.ndarray,
                      mu_out: np.ndarray, entry_forms: np.ndarray, entry_slope: np.ndarray,
                      split: np.ndarray, scale: float, want_force: bool, force: np.ndarray,
                      force_target: np.ndarray, want_jacobian: bool, jacobian: np.ndarray,
-                     jacobian_target: np.ndarray) -> None:
-    """F and ∂F/∂x of every chord (module docstring). A chord's Jacobian is built from its
-    small parts on its distinct coordinates (``_unique_columns``: up to 18 of the 28, the
-    knot and the node its two points share taken once): M = Jdᵀ P Jd, P = T (I − u uᵀ)/|d|,
+                     jacobian_target: np.ndarray, own: bool) -> None:
+    """F and ∂F/∂x of every chord (module docstring); without ``own`` the Jacobian at
+    frozen tensions only (the span element adds the whole coupling itself). A chord's
+    Jacobian is built from its small parts on its distinct coordinates
+    (``_unique_columns``: up to 18 of the 28, the knot and the node its two points share
+    taken once): M = Jdᵀ P Jd, P = T (I − u uᵀ)/|d|,
     on and above the diagonal and mirrored (the product is symmetric), plus each point's
     curvature T Σ_m u_m ∂²p[m] (``_curvature``, from the point's q, n, G q and g), minus
     the friction coupling's outer product; each entry is written once."""
@@ -473,7 +477,7 @@ def _evaluate_tendon(x: np.ndarray, dofs: np.ndarray, weights: np.ndarray,
                         for j in range(4):
                             block[ka + i, kb + j] += weight * curvature[i, j]
         coupled = False
-        if rate[e] != 0.0:
+        if own and rate[e] != 0.0:
             coupled = _one_way_coupling(merged, u, length, axis, rate[e], count, slope,
                                         gradient, unit_force)
         target = jacobian_target[e]

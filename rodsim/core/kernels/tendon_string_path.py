@@ -197,10 +197,9 @@ def _tensions(x: np.ndarray, dofs: np.ndarray, weights: np.ndarray, constant: np
     clip(τ_old_e, T e^{−μΘ_e}, T e^{+μΘ_e}) (rodsim/core/tendon_friction.py; ``weighted``:
     μΘ_e is Σ_{j≤e} μ_j θ_j with μ_in, μ_out per turn for the two bounds); with friction
     also ∂τ_e/∂Θ_e into ``rate`` where the path up to chord e turns one way in one plane from
-    a held entry frame (else 0) and d3 at the entry into ``axis``; on those chords ∂τ_e/∂W_e
-    into ``slide`` whatever μ_e (−τ_e sliding in, +τ_e sliding out, 0 stuck or off such a
-    path): the factor of the upstream coupling where μ varies
-    (rodsim/core/kernels/tendon_string_span.py)."""
+    a held entry frame (else 0) and d3 at the entry into ``axis``; on every chord
+    ∂τ_e/∂W_e into ``slide`` (−τ_e sliding in, +τ_e sliding out, 0 stuck): the factor of
+    the coupling to the turns (rodsim/core/kernels/tendon_string_span.py)."""
     chords = dofs.shape[0]
     if friction == 0.0:
         for e in range(chords):
@@ -279,15 +278,11 @@ def _tensions(x: np.ndarray, dofs: np.ndarray, weights: np.ndarray, constant: np
             high = tension * np.exp(friction * wrap)
             rate_in, rate_out = friction, friction
         out[e] = min(max(profile[e], low), high)
+        slide[e] = -low if low > profile[e] else (high if high < profile[e] else 0.0)
         rate[e] = 0.0
-        slide[e] = 0.0
-        if held and np.abs(plain - _angle(axis, b)) <= ONE_WAY * max(1.0, plain):
-            if low > profile[e]:
-                rate[e] = -rate_in * low
-                slide[e] = -low
-            elif high < profile[e]:
-                rate[e] = rate_out * high
-                slide[e] = high
+        if (slide[e] != 0.0 and held
+                and np.abs(plain - _angle(axis, b)) <= ONE_WAY * max(1.0, plain)):
+            rate[e] = (rate_in if slide[e] < 0.0 else rate_out) * slide[e]
 
 
 @njit(cache=True, inline="always")

@@ -189,3 +189,29 @@ def entry_directions(points: RoutingPoints, slope: np.ndarray,
     d = np.einsum("i,kmij,j->km", q, DIRECTOR_FORMS, q) / float(q @ q)
     tangent = d[2] + slope[0] * d[0] + slope[1] * d[1]
     return d[2], tangent / np.linalg.norm(tangent)
+
+
+def entry_jacobian(points: RoutingPoints, slope: np.ndarray, x: np.ndarray) -> np.ndarray:
+    """∂d3/∂x and ∂t_in/∂x (2, 3, 28) on the first chord's coordinates (the entry point's
+    knot quaternions, columns 6 … 13) at the full state ``x``: d_k[m] = qᵀ A_km q / |q|²
+    has ∂d_k[m]/∂q = 2 (A_km q − d_k[m] q)/|q|², and t_in = a/|a|, a = d3 + ρ′_y d1 + ρ′_z d2
+    (``entry_directions``); zero where the entry's frame is held."""
+    out = np.zeros((2, 3, 28))
+    _, _, w0, w1 = points.weights[0]
+    if w0 == 0.0 and w1 == 0.0:
+        return out
+    local = x[points.dofs[0]]
+    q = w0 * local[6:10] + w1 * local[10:14] + points.constant[0]
+    n = float(q @ q)
+    forms_q = np.einsum("kmij,j->kmi", DIRECTOR_FORMS, q)
+    d = forms_q @ q / n
+    dq = 2.0 * (forms_q - d[:, :, None] * q[None, None, :]) / n  # (3, 3, 4)
+    raw = d[2] + slope[0] * d[0] + slope[1] * d[1]
+    size = float(np.linalg.norm(raw))
+    tangent = raw / size
+    d_raw = dq[2] + slope[0] * dq[0] + slope[1] * dq[1]
+    d_tangent = (d_raw - np.outer(tangent, tangent @ d_raw)) / size
+    for which, gradient in enumerate((dq[2], d_tangent)):
+        out[which, :, 6:10] = w0 * gradient
+        out[which, :, 10:14] = w1 * gradient
+    return out

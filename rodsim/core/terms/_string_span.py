@@ -1,15 +1,15 @@
-"""A string tendon with friction that varies between its routing points, as one element on
-the coordinates of its span (rodsim/core/terms/tendon_string.py, "Friction"): the layout
-and the numpy reference of the coupling of each chord's tension to the turns upstream of
-it (the compiled kernel: rodsim/core/kernels/tendon_string_span.py, whose docstring
-derives it).
+"""A string tendon with friction as one element on the coordinates of its span
+(rodsim/core/terms/tendon_string.py, "Friction"): the layout and the numpy reference of the
+coupling of each chord's tension to every turn up to it (the compiled kernel:
+rodsim/core/kernels/tendon_string_span.py).
 
-Chord e's tension τ_e = T e^{∓W_e}, W_e = Σ_{j≤e} μ_j θ_j, on a path turning one way in one
-plane from a held entry frame has ∂W_e/∂x = μ_e ∂ψ_e/∂x + Σ_{j<e} (μ_j − μ_{j+1}) ∂ψ_j/∂x,
-ψ_j = ∠(d3, u_j). The first term lies on chord e's coordinates (the chord elements' own
-coupling); the sum reaches every chord before it, so the Jacobian needs the span's dense
-block (m² entries for the m coordinates of the span, 7 per node), as the
-displacement-controlled string's does (rodsim/core/terms/tendon_string_displacement.py).
+Chord e's tension τ_e = clip(τ_old_e, T e^{−W_in,e}, T e^{+W_out,e}), W_e = Σ_{j≤e} μ_j θ_j,
+has ∂τ_e/∂x = σ_e Σ_{j≤e} μ_j ∂θ_j/∂x where it slides (σ_e = −τ_e in, +τ_e out; 0 stuck),
+each ∂θ_j/∂x on the coordinates of the chords around point j (rodsim/core/turn_gradient.py)
+and, for the entry's turn, the entry frame's. The sum reaches every chord before e, so the
+Jacobian needs the span's dense block (m² entries for the m coordinates of the span, 7 per
+node), as the displacement-controlled string's does
+(rodsim/core/terms/tendon_string_displacement.py); the running sums make it O(E m).
 """
 
 from __future__ import annotations
@@ -19,7 +19,9 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["MAX_COUPLED_NODES", "SpanLayout", "coupled_span", "upstream_coupling"]
+from rodsim.core.turn_gradient import WINDOW
+
+__all__ = ["MAX_COUPLED_NODES", "SpanLayout", "coupled_span", "turn_coupling"]
 
 #: Most catheter nodes a string tendon's span may hold for its Jacobian to take the upstream
 #: coupling (a dense block of (7 n)² entries); beyond, the chords' own coupling alone.
@@ -44,20 +46,14 @@ class SpanLayout:
     def arguments(self, chords: Mapping[str, Any]) -> dict[str, Any]:
         """The span kernel's constants (rodsim/core/kernels/tendon_string_span.py) from the
         chord kernel's ``chords``: their ``dofs`` as ``chord_dofs``, the span's as
-        ``dofs``, the layout's maps; ``weighted`` dropped (always)."""
-        out = {key: value for key, value in chords.items() if key != "weighted"}
-        return out | {"dofs": self.dofs, "chord_dofs": chords["dofs"],
-                      "chord_local": self.chord_local, "chord_pairs": self.chord_pairs}
+        ``dofs``, the layout's maps."""
+        return dict(chords) | {"dofs": self.dofs, "chord_dofs": chords["dofs"],
+                               "chord_local": self.chord_local, "chord_pairs": self.chord_pairs}
 
-    def jacobian(self, chords: np.ndarray, one_way: np.ndarray, slide: np.ndarray,
-                 slope: np.ndarray, unit_force: np.ndarray, mu_in: np.ndarray,
-                 mu_out: np.ndarray) -> np.ndarray:
-        """The span's element Jacobian (1, m, m): the chords' (E, 28, 28) summed and the
-        upstream coupling (``upstream_coupling``) on the chords up to which the path turns
-        one way in one plane (``one_way``)."""
-        return (self.jacobians(chords) + upstream_coupling(
-            self, np.where(one_way, slide, 0.0), np.where(one_way[:, None], slope, 0.0),
-            unit_force, mu_in, mu_out))[None]
+    def jacobian(self, chords: np.ndarray, coupling: np.ndarray) -> np.ndarray:
+        """The span's element Jacobian (1, m, m): the chords' (E, 28, 28) at frozen tension
+        summed, and the coupling of the tensions to the turns (``turn_coupling``)."""
+        return (self.jacobians(chords) + coupling)[None]
 
     def forces(self, chords: np.ndarray) -> np.ndarray:
         """The chords' element forces (E, 28) summed into the span's (1, m)."""
@@ -73,40 +69,56 @@ class SpanLayout:
 
 
 def coupled_span(term: Any) -> SpanLayout | None:
-    """The span layout of a string tendon (rodsim/core/terms/tendon_string.py) whose
-    Jacobian needs the upstream coupling: with friction whose μ varies between its points
-    (per point or along the arc length, or stiction: μ_s and μ_k per state), a held entry
-    frame (the coupling is exact only from one), a routing that can lie in a plane (not a
-    helix) and at most ``MAX_COUPLED_NODES`` nodes; None otherwise (one element per chord,
-    as with one μ)."""
-    # One μ given as a profile maps to per-point means equal to round-off: no coupling.
-    varies = term.sticky or bool(np.ptp(term.kinetic) > VARIES * np.max(term.kinetic))
-    if not (term.weighted and term.rubs and varies) or np.any(term.points.weights[0, 2:]):
+    """The span layout of a string tendon with friction (rodsim/core/terms/tendon_string.py)
+    whose Jacobian takes the coupling of every chord's tension to every turn before it
+    (``turn_coupling``), over at most ``MAX_COUPLED_NODES`` nodes: with ``exact_jacobian``
+    on any path; without, as before that option, where μ varies between the points (per
+    point or along the arc length, or stiction: μ_s and μ_k per state) on a routing that can
+    lie in a plane (not a helix) from a held entry frame. None otherwise (one element per
+    chord: the frozen-tension Jacobian plus each chord's own coupling on one-way planar
+    paths, exact there with one μ, the band kept)."""
+    if not term.rubs:
         return None
-    if term.routing.kind == "helix":
-        return None  # never one way in one plane: no coupling to carry
+    if not term.options.exact_jacobian:
+        # One μ given as a profile maps to per-point means equal to round-off: no coupling.
+        varies = term.sticky or bool(np.ptp(term.kinetic) > VARIES * np.max(term.kinetic))
+        if (not (term.weighted and varies) or np.any(term.points.weights[0, 2:])
+                or term.routing.kind == "helix"):
+            return None
     if len(np.unique(term.dofs)) > 7 * MAX_COUPLED_NODES:
         return None
     return SpanLayout(term.dofs)
 
 
-def upstream_coupling(layout: SpanLayout, slide: np.ndarray, slope: np.ndarray,
-                      unit_force: np.ndarray, mu_in: np.ndarray, mu_out: np.ndarray
-                      ) -> np.ndarray:
-    """Σ_e f_e ⊗ σ_e Σ_{j<e} (μ_j − μ_{j+1}) ∂ψ_j/∂x (m, m) in span coordinates: ``slide``
-    σ_e = ∂τ_e/∂W_e (−τ_e sliding in, taking μ_in; +τ_e sliding out, μ_out; 0 stuck or
-    off a one-way path), ``slope`` ∂ψ_j/∂x on chord j's coordinates (E, 28; zero where
-    ψ_j = 0), ``unit_force`` f_e = −Jd_eᵀ u_e (E, 28)."""
+def turn_coupling(layout: SpanLayout, slide: np.ndarray, mu_in: np.ndarray,
+                  mu_out: np.ndarray, near: np.ndarray, entry: np.ndarray,
+                  directions: np.ndarray, jd: np.ndarray, length: np.ndarray,
+                  entry_jacobian: np.ndarray, unit_force: np.ndarray) -> np.ndarray:
+    """Σ_e f_e ⊗ σ_e Σ_{j≤e} μ_j ∂θ_j/∂x (m, m) in span coordinates (module docstring):
+    ``slide`` σ_e = ∂τ_e/∂W_e (−τ_e sliding in, with μ_in; +τ_e sliding out, with μ_out; 0
+    stuck), ``near`` and ``entry`` the turns' gradients by the chords' directions u_i
+    (``directions``, (E, 3)) and by d3, t_in (rodsim/core/turn_gradient.py), ``jd`` the
+    chords' Jd (E, 3, 28), ``length`` |d_e|, ``entry_jacobian`` ∂d3/∂x and ∂t_in/∂x on
+    chord 0's coordinates (2, 3, 28), ``unit_force`` f_e = −Jd_eᵀ u_e (E, 28)."""
     chords = len(slide)
     m = layout.size
-    running = {side: np.zeros((chords, m)) for side in ("in", "out")}
-    for side, mu in (("in", mu_in), ("out", mu_out)):
-        steps = np.zeros((chords, m))
-        for j in range(chords - 1):
-            np.add.at(steps[j + 1], layout.chord_local[j], (mu[j] - mu[j + 1]) * slope[j])
-        running[side] = np.cumsum(steps, axis=0)  # row e: Σ_{j<e}
+    # ∂u_i/∂x = (I − u_i u_iᵀ) Jd_i / |d_i| on chord i's coordinates, (E, 3, 28).
+    along = np.einsum("em,emk->ek", directions, jd)
+    moves = (jd - directions[:, :, None] * along[:, None, :]) / length[:, None, None]
+    running_in, running_out = np.zeros(m), np.zeros(m)
     out = np.zeros((m, m))
-    for e in np.flatnonzero(slide):
-        row = running["in" if slide[e] < 0.0 else "out"][e]
-        np.add.at(out, layout.chord_local[e], slide[e] * np.outer(unit_force[e], row))
+    for e in range(chords):
+        turn = np.zeros(m)
+        for r in range(WINDOW):
+            i = e - 3 + r
+            if 0 <= i < chords and np.any(near[e, r]):
+                np.add.at(turn, layout.chord_local[i], near[e, r] @ moves[i])
+        if e == 0:
+            np.add.at(turn, layout.chord_local[0], entry[0] @ entry_jacobian[0]
+                      + entry[1] @ entry_jacobian[1])
+        running_in += mu_in[e] * turn
+        running_out += mu_out[e] * turn
+        if slide[e] != 0.0:
+            row = running_in if slide[e] < 0.0 else running_out
+            np.add.at(out, layout.chord_local[e], slide[e] * np.outer(unit_force[e], row))
     return out

@@ -28,19 +28,26 @@ The tension is a load (the static solver ramps it); its force scale is T.
 Friction (``friction`` μ > 0, rodsim/core/tendon_friction.py): chord e carries its own
 tension τ_e, the capstan profile from the turning angles and the stored profile of the
 last equilibrium (the anchors); F = −Σ_e τ_e ∂ℓ_e/∂x. τ_e depends on every turn up to
-chord e. On a path that turns one way in one plane from a held entry frame (a tendon
-bending its catheter from a clamped base) the wrap Θ_e is ψ_e = ∠(d3, u_e), with its
-gradient on chord e's own coordinates: with one μ the chords' elements hold the exact
-Jacobian (the frozen-τ_e one plus f_e ⊗ ∂τ_e/∂x). Where μ varies between the points
-(``friction_points``, ``friction_profile``: a mean per point's stretch, or stiction:
+chord e: where it slides ∂τ_e/∂x = σ_e Σ_{j≤e} μ_j ∂θ_j/∂x (σ_e = ∓τ_e), each θ_j the turn
+in 3-D as ``turning_angles`` makes it (the entry's blended split turn, the split points;
+its gradient: rodsim/core/turn_gradient.py). By default the tendon is one element per
+chord with the frozen-tension Jacobian plus, on a path that turns one way in one plane from
+a held entry frame (a tendon bending its catheter from a clamped base), each chord's own
+coupling: there the wrap Θ_e is ψ_e = ∠(d3, u_e), whose gradient lies on chord e's
+coordinates, so with one μ the Jacobian is exact; off such paths (3-D, S-shaped, a moving
+entry) Newton converges linearly, at a rate of order μ, and the band is kept. With
+``exact_jacobian`` (and, without it, where μ varies between the points on a non-helical
+routing from a held entry: ``friction_points``, ``friction_profile``, or stiction,
 ``static_friction``, a stick/slip state per point carried with the anchors, and
-``TendonString.freed`` for a breakaway within a step) the weighted wrap Σ_{j≤e} μ_j θ_j
-also moves with ψ_j of every chord before e: the term is then one element on its span
-(rodsim/core/terms/_string_span.py), whose Jacobian holds that coupling, exact on such
-paths too (Newton quadratic). Off them (3-D or S-shaped paths, a moving entry) the
-Jacobian is the frozen-tension one plus the chords' own coupling: Newton converges
-linearly, at a rate of order μ. The term is not conservative (no energy). With μ = 0 every
-τ_e is T and nothing of this runs: the frictionless numbers, bitwise.
+``TendonString.freed`` for a breakaway within a step) the tendon is one element on the
+coordinates of its span (rodsim/core/terms/_string_span.py, kernel
+rodsim/core/kernels/tendon_string_span.py), whose Jacobian is the chords' at frozen tension
+plus Σ_e f_e ⊗ ∂τ_e/∂x: exact on every path and Newton quadratic (issue 34, "the Jacobian
+stays exact"; tests/test_term_contract.py, tests/test_friction_jacobian_3d.py), at the
+price of the span's dense block (the linear solves go dense). Over more than
+``MAX_COUPLED_NODES`` nodes the chord elements are kept. The term is not conservative (no
+energy). With μ = 0 every τ_e is T and nothing of this runs: the frictionless numbers,
+bitwise.
 """
 
 from __future__ import annotations
@@ -79,12 +86,14 @@ from rodsim.core.terms._string_points import (
     POINT_SIZE,
     PointGeometry,
     entry_directions,
+    entry_jacobian,
     point_forms,
     point_geometry,
     routing_points,
 )
-from rodsim.core.terms._string_span import coupled_span
+from rodsim.core.terms._string_span import coupled_span, turn_coupling
 from rodsim.core.terms.base import KernelArguments, TendonTerm, Term
+from rodsim.core.turn_gradient import turn_gradients
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -113,6 +122,7 @@ class TendonStringOptions(Options):
     friction_profile_s: list[float] = field(default_factory=list)
     static_friction: float = 0.0
     static_friction_profile: list[float] = field(default_factory=list)
+    exact_jacobian: bool = False
 
 
 class TendonString(TendonTerm):
@@ -197,6 +207,13 @@ class TendonString(TendonTerm):
                   "friction_profile_s (beside friction_profile, each >= its value there), "
                   "linear between them and constant beyond; [] (default): not used",
                   0.0, MAX_FRICTION),
+        Parameter("exact_jacobian", "bool", False, "-",
+                  "with friction: the Jacobian couples every chord's tension to every turn "
+                  "up to it (one dense element on the tendon's span, up to 300 nodes), "
+                  "exact on 3-D and "
+                  "S-shaped paths, Newton quadratic, each linear solve dense; false "
+                  "(default): exact on paths turning one way in one plane (and with a "
+                  "varying μ), the band kept"),
     )
 
     @classmethod
@@ -523,14 +540,24 @@ class TendonString(TendonTerm):
                     hess[:, rows, cols] += (weights[:, a] * weights[:, b])[:, None,
                                                                            None] * curvature
         jacobian = -hess
-        if self.rubs and not np.any(self.points.weights[0, 2:]):
-            jacobian += self._one_way_coupling(x, u, length, jd)
         if self.span is None:
+            if self.rubs and not np.any(self.points.weights[0, 2:]):
+                jacobian += self._one_way_coupling(x, u, length, jd)
             return jacobian
-        theta, one_way, slope, unit_force = self._one_way_parts(x, u, length, jd)
-        return self.span.jacobian(jacobian, one_way, weighted_slide_factors(
-            self.tension, self._mu_in, self._mu_out, theta, self.profile), slope, unit_force,
-            self._mu_in, self._mu_out)
+        return self.span.jacobian(jacobian, self._turn_coupling(x, u, length, jd))
+
+    def _turn_coupling(self, x: np.ndarray, u: np.ndarray, length: np.ndarray,
+                       jd: np.ndarray) -> np.ndarray:
+        """Σ_e f_e ⊗ ∂τ_e/∂x on the span (rodsim/core/terms/_string_span.py,
+        ``turn_coupling``): every chord's tension by every turn up to it."""
+        assert self.span is not None
+        axis, tangent = self.entry_directions(x)
+        near, entry = turn_gradients(axis, tangent, u, self.split)
+        slide = weighted_slide_factors(self.tension, self._mu_in, self._mu_out,
+                                       self.turning_angles(x), self.profile)
+        return turn_coupling(self.span, slide, self._mu_in, self._mu_out, near, entry, u,
+                             jd, length, entry_jacobian(self.points, self._entry_slope, x),
+                             -np.einsum("emk,em->ek", jd, u))
 
     def _one_way_coupling(self, x: np.ndarray, u: np.ndarray, length: np.ndarray,
                           jd: np.ndarray) -> np.ndarray:

@@ -81,7 +81,7 @@ class TendonStringDisplacement(TendonTerm):
     @classmethod
     def check_scene(cls, options: Any, owner: Any, prefix: str) -> None:
         for key in ("friction_points", "friction_profile", "friction_profile_s",
-                    "static_friction", "static_friction_profile"):
+                    "static_friction", "static_friction_profile", "exact_jacobian"):
             if getattr(options, key):
                 raise SceneError(f"{prefix}.{key} = {getattr(options, key)!r}: friction "
                                  "per point, along the arc length or static is modelled on a "
