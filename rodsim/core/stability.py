@@ -351,21 +351,47 @@ def _smallest_eigenvalue(symmetric: sp.coo_matrix, width: int) -> float:
     return float(0.5 * (low + high))
 
 
-def _smallest_real_part(stiffness: sp.csc_matrix,
-                        inverse: Callable[[np.ndarray], np.ndarray] | None = None) -> float:
+class _Applied(spla.LinearOperator):
+    """v ↦ ``apply(v)`` as ARPACK calls it (``matvec`` itself: no shape checks or reshapes
+    of LinearOperator's wrapper at each of the ~27 calls of a verdict; ``rodsim.core.
+    stability.assess`` measured 0.1 ms of table3-catheter1's 1.0 ms in them)."""
+
+    def __init__(self, n: int, apply: Callable[[np.ndarray], np.ndarray]) -> None:
+        super().__init__(np.dtype(float), (n, n))
+        self._apply = apply
+
+    def matvec(self, x: np.ndarray) -> np.ndarray:
+        return self._apply(x)
+
+    _matvec = matvec
+
+
+def _smallest_real_part(stiffness: sp.csc_matrix | Callable[[], sp.csc_matrix],
+                        inverse: Callable[[np.ndarray], np.ndarray] | None = None,
+                        n: int | None = None) -> float:
     """The smallest real part of an eigenvalue of a general matrix (NaN if not computed):
     of all eigenvalues up to ``DENSE_NONSYMMETRIC_LIMIT`` coordinates, else of the
     ``NEAREST`` eigenvalues nearest zero (shift-invert at 0, one sparse LU) — a
     divergence instability is an eigenvalue crossing zero; it finds the same smallest real
     part as all eigenvalues at a twentieth of the time (docs/benchmark-history.md, "Measurements
     behind the core's constants"). ``inverse`` (v ↦ K⁻¹ v) replaces the sparse LU. ARPACK
-    starts from a fixed pseudo-random vector (``ARPACK_SEED``): reproducible."""
+    starts from a fixed pseudo-random vector (``ARPACK_SEED``): reproducible.
+
+    ``stiffness`` may be a function making K (with ``n`` its size): it is then made only
+    where needed — the dense path, or no ``inverse`` — since shift-invert at a real σ with
+    ``inverse`` given never multiplies by K (scipy's ``eigs`` reads its shape alone)."""
+    if callable(stiffness):
+        if n is None or n <= DENSE_NONSYMMETRIC_LIMIT or inverse is None:
+            stiffness = stiffness()
+        else:
+            make = stiffness
+            stiffness = _Applied(n, lambda v: make() @ v)
     n = stiffness.shape[0]
     try:
         if n <= DENSE_NONSYMMETRIC_LIMIT:
+            assert sp.issparse(stiffness)
             return float(np.min(la.eigvals(stiffness.toarray()).real))
-        operator = (None if inverse is None
-                    else spla.LinearOperator((n, n), matvec=inverse, dtype=float))
+        operator = None if inverse is None else _Applied(n, inverse)
         start = np.random.default_rng(ARPACK_SEED).standard_normal(n)
         values = spla.eigs(stiffness, k=min(NEAREST, n - 2), sigma=0.0, which="LM",
                            OPinv=operator, return_eigenvectors=False, maxiter=20 * n,
@@ -480,7 +506,7 @@ def assess(model: Model, x: np.ndarray,
         sign = getattr(solve, "determinant_sign", None)  # of J = −K: det K = (−1)ⁿ det J
         if sign is not None and model.n % 2:
             sign = -sign
-    real_part = _smallest_real_part(-model.pattern_matrix(data), inverse)
+    real_part = _smallest_real_part(lambda: -model.pattern_matrix(data), inverse, model.n)
     if real_part > 0.0 and sign is not None and sign < 0.0:
         # det K < 0: an odd number of K's real eigenvalues are negative, though none of
         # those nearest zero is: unstable, the eigenvalue not located.
