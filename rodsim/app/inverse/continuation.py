@@ -56,6 +56,11 @@ MAX_BREAKAWAYS = 1000
 BOUND_SNAP = 1e-5
 
 
+#: Another predicted start of a step (``Continuation.solve``): the start, a function making
+#: it (or None) where it is needed, or None.
+Alternative = np.ndarray | Callable[[], np.ndarray | None] | None
+
+
 class EquilibriumFailure(RuntimeError):
     """An equilibrium needed by a fit or a reach could not be solved."""
 
@@ -126,13 +131,14 @@ class Continuation:
         return self.kind.for_scene(scene).predicted(self.model, self.x, dx)
 
     def solve(self, scene: Scene, start: np.ndarray | None = None,
-              alternative: np.ndarray | None = None) -> StepOutcome:
+              alternative: Alternative = None) -> StepOutcome:
         """The equilibrium of ``scene`` (same discretisation) from ``start`` (default: the
         last equilibrium) — or from ``alternative``, another predicted start, where
         ``start`` is not at the equilibrium already (its force residual on the step's model
         at the tolerance) and the residual is smaller at ``alternative`` (one evaluation
         of F each, which the solve's own first one then finds made); on success it becomes
-        the last equilibrium.
+        the last equilibrium. ``alternative`` may be a function making that start (or
+        None): it is then made only where ``start`` is not at the equilibrium.
 
         Friction (contact, rodsim/core/terms/contact.py; tendons,
         rodsim/core/tendon_friction.py) is anchored at the last equilibrium
@@ -147,9 +153,10 @@ class Continuation:
         x = carried if start is None or carried is not self.x else start
         if alternative is not None and x is start:
             first = model.force_residual(model.force(start))
-            if (not first < effective_tolerance(model, float(scene.solver.tolerance))
-                    and model.force_residual(model.force(alternative)) < first):
-                x = alternative
+            if not first < effective_tolerance(model, float(scene.solver.tolerance)):
+                other = alternative() if callable(alternative) else alternative
+                if other is not None and model.force_residual(model.force(other)) < first:
+                    x = other
         budget = float(scene.solver.max_wall_time)
         if self.deadline is not None:  # the integrator's own budget: what is left of ours
             budget = min(budget, max(self.deadline - time.perf_counter(), 0.0))
@@ -178,10 +185,12 @@ class Continuation:
 
     def walk(self, scene: Scene, keys: Sequence[NumericKey], start: np.ndarray,
              stop: np.ndarray, predictor: np.ndarray | None = None,
-             alternative: np.ndarray | None = None) -> tuple[bool, int, int, str]:
+             alternative: Alternative = None, stop_scene: Scene | None = None
+             ) -> tuple[bool, int, int, str]:
         """Move from the equilibrium at the values ``start`` of ``keys`` (in ``scene``) to
         the one at ``stop``, from ``predictor`` if given (for the whole step only; or from
-        ``alternative`` where the residual is smaller there, ``solve``), halving
+        ``alternative`` where the residual is smaller there, ``solve``; ``stop_scene``:
+        ``scene_with(scene, keys, stop)`` if the caller made it already), halving
         the increment on each failure and doubling it again (up to the rest of the step)
         after a sub-step that took at most ``EASY_ITERATIONS`` iterations; fails at the
         ``MAX_HALVINGS``-th failed attempt — and then leaves the continuation at the
@@ -201,7 +210,8 @@ class Continuation:
             whole = done == 0.0 and fraction == 1.0
             final = done + fraction >= 1.0
             there = stop if final else start + (done + fraction) * (stop - start)
-            step_scene = scene_with(scene, keys, there)
+            step_scene = (stop_scene if final and stop_scene is not None
+                          else scene_with(scene, keys, there))
             outcome = (self.solve(step_scene, predictor, alternative)
                        if whole and alternative is not None
                        else self.solve(step_scene, predictor if whole else None))
