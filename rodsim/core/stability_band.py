@@ -187,8 +187,8 @@ class BandLU:
 
     @cached_property
     def determinant_sign(self) -> float:
-        """+1.0 or −1.0, the sign of det A (0.0: a zero pivot); read off the factors when asked, while they
-        are valid (a Newton solve's or a chord's factorisation is never asked)."""
+        """+1.0 or −1.0, the sign of det A (0.0: a zero pivot); read off the factors when
+        asked, while they are valid (a Newton solve's or a chord's factorisation never is)."""
         lower, upper, pivots = self._lower, self._upper, self._pivots
         diagonal = self._lu[lower + upper]
         swaps = np.count_nonzero(pivots != np.arange(len(pivots)))  # scipy: 0-based rows
