@@ -161,27 +161,29 @@ class Continuation:
         if self.deadline is not None:  # the integrator's own budget: what is left of ours
             budget = min(budget, max(self.deadline - time.perf_counter(), 0.0))
         integrator = self.kind.for_scene(scene, max_wall_time=budget)
-        result, state = integrator.run(integrator.restart(self.state, model, x),
-                                       verdict=False)
-        work = self.kind.work(result.stats)
+        # The run's verdict, state and statistics alone (``Integrator.settle``: no Result
+        # to assemble, its rods' shapes and tendons' tensions unread here).
+        state = integrator.restart(self.state, model, x)
+        judged, reached, stats = integrator.settle(state)
+        work = self.kind.work(stats)
         # Stiction: a point that broke loose in this step slides at its kinetic μ; the step
         # is solved again with it until nothing more breaks (rodsim/core/tendon_friction.py,
         # "Stiction"; at most once per routing point).
         for _ in range(MAX_BREAKAWAYS):
-            freed = model.freed(result.state) if result.success else None
+            freed = model.freed(reached) if judged.success else None
             if freed is None:
                 break
             model = freed
-            result, state = integrator.run(integrator.restart(state, model, result.state),
-                                           verdict=False)
-            work += self.kind.work(result.stats)
+            state = integrator.restart(state, model, reached)
+            judged, reached, stats = integrator.settle(state)
+            work += self.kind.work(stats)
         self.state = state
-        if not result.success:
-            return StepOutcome(False, x, result.residual, work, result.message)
-        self.model = (state.model if state.registered_exactly(result.state)
-                      else registered_model(state.model, result.state))
-        self.x = result.state
-        return StepOutcome(True, result.state, result.residual, work, "converged")
+        if not judged.success:
+            return StepOutcome(False, x, judged.residual, work, judged.message)
+        self.model = (state.model if state.registered_exactly(reached)
+                      else registered_model(state.model, reached))
+        self.x = np.array(reached, dtype=float)
+        return StepOutcome(True, self.x, judged.residual, work, "converged")
 
     def walk(self, scene: Scene, keys: Sequence[NumericKey], start: np.ndarray,
              stop: np.ndarray, predictor: np.ndarray | None = None,
