@@ -108,6 +108,12 @@ MAX_BAND = 256
 #: eigenvalues, bit for bit, where ARPACK's own random start made a verdict's smallest real
 #: part differ by ~1e-11 relative from one call to the next).
 ARPACK_SEED = 24
+#: ARPACK's tolerance for the verdict's eigenvalues nearest zero, and that of its first,
+#: coarse pass (``_smallest_real_part``), whose "stable" is kept where every real part
+#: exceeds ``COARSE_MARGIN`` times the largest modulus among them.
+ARPACK_TOLERANCE = 1e-10
+COARSE_TOLERANCE = 1e-6
+COARSE_MARGIN = 1e-3
 
 
 def neutral_tolerance(n: int) -> float:
@@ -351,28 +357,83 @@ def _smallest_eigenvalue(symmetric: sp.coo_matrix, width: int) -> float:
     return float(0.5 * (low + high))
 
 
-def _smallest_real_part(stiffness: sp.csc_matrix,
-                        inverse: Callable[[np.ndarray], np.ndarray] | None = None) -> float:
+class _Applied(spla.LinearOperator):
+    """v ↦ ``apply(v)`` as ARPACK calls it (``matvec`` itself: no shape checks or reshapes
+    of LinearOperator's wrapper at each of the ~27 calls of a verdict; ``rodsim.core.
+    stability.assess`` measured 0.1 ms of table3-catheter1's 1.0 ms in them)."""
+
+    def __init__(self, n: int, apply: Callable[[np.ndarray], np.ndarray]) -> None:
+        super().__init__(np.dtype(float), (n, n))
+        self._apply = apply
+
+    def matvec(self, x: np.ndarray) -> np.ndarray:
+        return self._apply(x)
+
+    _matvec = matvec
+
+
+def _smallest_real_part(stiffness: sp.csc_matrix | Callable[[], sp.csc_matrix],
+                        inverse: Callable[[np.ndarray], np.ndarray] | None = None,
+                        n: int | None = None, coarse: bool = False) -> float:
     """The smallest real part of an eigenvalue of a general matrix (NaN if not computed):
     of all eigenvalues up to ``DENSE_NONSYMMETRIC_LIMIT`` coordinates, else of the
     ``NEAREST`` eigenvalues nearest zero (shift-invert at 0, one sparse LU) — a
     divergence instability is an eigenvalue crossing zero; it finds the same smallest real
     part as all eigenvalues at a twentieth of the time (docs/benchmark-history.md, "Measurements
     behind the core's constants"). ``inverse`` (v ↦ K⁻¹ v) replaces the sparse LU. ARPACK
-    starts from a fixed pseudo-random vector (``ARPACK_SEED``): reproducible."""
+    starts from a fixed pseudo-random vector (``ARPACK_SEED``): reproducible.
+
+    ``stiffness`` may be a function making K (with ``n`` its size): it is then made only
+    where needed — the dense path, or no ``inverse`` — since shift-invert at a real σ with
+    ``inverse`` given never multiplies by K (scipy's ``eigs`` reads its shape alone).
+
+    ``coarse`` (the model verdict, ``assess``): ARPACK first to ``COARSE_TOLERANCE``, and its
+    smallest real part is kept when every real part of those eigenvalues exceeds
+    ``COARSE_MARGIN`` times their largest modulus (stable by a wide margin); anything else —
+    an eigenvalue left of zero, near the imaginary axis, or no convergence — is computed
+    again to ``ARPACK_TOLERANCE`` from the same start, the verdict it always had. The
+    tolerance bounds each Ritz residual relative to its value; the smallest eigenvalue of K
+    (K⁻¹'s largest) converges first, and its real part moved by at most 5.3e-15 (relative)
+    over table3-catheter1's tendon ramp of 200 steps (0 → 4 N), where the coarse pass took
+    21.0 solves against 26.6 (tests/test_stability_coarse.py)."""
+    if callable(stiffness):
+        if n is None or n <= DENSE_NONSYMMETRIC_LIMIT or inverse is None:
+            stiffness = stiffness()
+        else:
+            make = stiffness
+            stiffness = _Applied(n, lambda v: make() @ v)
     n = stiffness.shape[0]
     try:
         if n <= DENSE_NONSYMMETRIC_LIMIT:
+            assert sp.issparse(stiffness)
             return float(np.min(la.eigvals(stiffness.toarray()).real))
-        operator = (None if inverse is None
-                    else spla.LinearOperator((n, n), matvec=inverse, dtype=float))
+        operator = None if inverse is None else _Applied(n, inverse)
         start = np.random.default_rng(ARPACK_SEED).standard_normal(n)
+        if coarse:
+            values = _nearest(stiffness, operator, start, COARSE_TOLERANCE)
+            if values is not None and np.min(values.real) > COARSE_MARGIN * np.max(
+                    np.abs(values)):
+                return float(np.min(values.real))
         values = spla.eigs(stiffness, k=min(NEAREST, n - 2), sigma=0.0, which="LM",
                            OPinv=operator, return_eigenvectors=False, maxiter=20 * n,
-                           tol=1e-10, v0=start)
+                           tol=ARPACK_TOLERANCE, v0=start)
         return float(np.min(values.real))
     except (la.LinAlgError, spla.ArpackError, RuntimeError, ValueError):
         return float("nan")
+
+
+def _nearest(stiffness: sp.csc_matrix | spla.LinearOperator,
+             operator: spla.LinearOperator | None, start: np.ndarray, tolerance: float
+             ) -> np.ndarray | None:
+    """The ``NEAREST`` eigenvalues of K nearest zero by ARPACK to ``tolerance`` (the
+    coarse pass of ``_smallest_real_part``), None where it fails."""
+    n = stiffness.shape[0]
+    try:
+        return spla.eigs(stiffness, k=min(NEAREST, n - 2), sigma=0.0, which="LM",
+                         OPinv=operator, return_eigenvectors=False, maxiter=20 * n,
+                         tol=tolerance, v0=start)
+    except (la.LinAlgError, spla.ArpackError, RuntimeError, ValueError):
+        return None
 
 
 def _proven_left_eigenvalue(stiffness: sp.csc_matrix, skew_norm: float) -> float | None:
@@ -480,7 +541,8 @@ def assess(model: Model, x: np.ndarray,
         sign = getattr(solve, "determinant_sign", None)  # of J = −K: det K = (−1)ⁿ det J
         if sign is not None and model.n % 2:
             sign = -sign
-    real_part = _smallest_real_part(-model.pattern_matrix(data), inverse)
+    real_part = _smallest_real_part(lambda: -model.pattern_matrix(data), inverse, model.n,
+                                    coarse=True)
     if real_part > 0.0 and sign is not None and sign < 0.0:
         # det K < 0: an odd number of K's real eigenvalues are negative, though none of
         # those nearest zero is: unstable, the eigenvalue not located.

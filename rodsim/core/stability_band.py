@@ -184,12 +184,17 @@ class BandLU:
 
     def __init__(self, lu: np.ndarray, pivots: np.ndarray, lower: int, upper: int) -> None:
         self._lu, self._pivots, self._lower, self._upper = lu, pivots, lower, upper
-        diagonal = lu[lower + upper]
+
+    @cached_property
+    def determinant_sign(self) -> float:
+        """+1.0 or −1.0, the sign of det A (0.0: a zero pivot); read off the factors when
+        asked, while they are valid (a Newton solve's or a chord's factorisation never is)."""
+        lower, upper, pivots = self._lower, self._upper, self._pivots
+        diagonal = self._lu[lower + upper]
         swaps = np.count_nonzero(pivots != np.arange(len(pivots)))  # scipy: 0-based rows
         negative = np.count_nonzero(diagonal < 0.0)
-        #: +1.0 or −1.0, the sign of det A (0.0: a zero pivot).
-        self.determinant_sign = (0.0 if np.any(diagonal == 0.0)
-                                 else -1.0 if (swaps + negative) % 2 else 1.0)
+        return (0.0 if np.any(diagonal == 0.0)
+                else -1.0 if (swaps + negative) % 2 else 1.0)
 
     def __call__(self, rhs: np.ndarray) -> np.ndarray:
         x, _ = lapack.dgbtrs(self._lu, self._lower, self._upper, rhs, self._pivots)

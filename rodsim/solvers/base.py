@@ -50,7 +50,7 @@ from rodsim.solvers.run_state import (
     linear_solver_of,
     plausible_start,
 )
-from rodsim.solvers.stops import Equilibrium, Stop
+from rodsim.solvers.stops import Equilibrium, Stop, Verdict
 from rodsim.solvers.tolerance import (
     CORRECTION_TOLERANCE,
     MAX_RESIDUAL_FLOOR,
@@ -494,15 +494,9 @@ class Integrator(ABC, Generic[S]):
             raise TypeError(f"{type(self).__name__}.run takes a run's state (from "
                             f"init(model, x)), not a {type(run).__name__}; solve(model, x) "
                             "runs from a vector")
-        ended = self.ended(run)
-        wall = run.elapsed()
-        judged = run.stop.verdict(self, run, ended)
-        x = ended.x
-        if judged.success:
-            run.x = x
-        stats = {**run.counts, "wall_time": wall, "effective_tolerance": run.tolerance}
+        judged, x, stats = self.settle(run)
         result = Result.from_model(
-            run.model, x if judged.finite else run.x, integrator=self.name,
+            run.model, x, integrator=self.name,
             options=dataclasses.asdict(self.options), success=judged.success,
             message=judged.message, residual=judged.residual,
             stats=stats, history=run.history.data, history_time=self.history_time,
@@ -510,6 +504,23 @@ class Integrator(ABC, Generic[S]):
                        else None),
             trajectory=run.recorder.trajectory(run.model, self.history_time))
         return result, run
+
+    def settle(self, run: S) -> tuple[Verdict, np.ndarray, dict[str, float]]:
+        """``run`` without its Result: the stop's verdict where ``advance`` ended, the
+        state (that one where finite, else the run's last) and the statistics — what a
+        continuation step reads (rodsim/app/inverse/continuation.py), without the rods'
+        shapes and the tendons' tensions a Result assembles. ``run`` judges the same."""
+        if not isinstance(run, RunState):
+            raise TypeError(f"{type(self).__name__}.settle takes a run's state (from "
+                            f"init(model, x)), not a {type(run).__name__}")
+        ended = self.ended(run)
+        wall = run.elapsed()
+        judged = run.stop.verdict(self, run, ended)
+        x = ended.x
+        if judged.success:
+            run.x = x
+        stats = {**run.counts, "wall_time": wall, "effective_tolerance": run.tolerance}
+        return judged, x if judged.finite else run.x, stats
 
     def ended(self, run: S) -> Outcome:
         """``advance`` on ``run`` from a fresh clock, its failures caught: where it

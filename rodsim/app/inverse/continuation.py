@@ -28,6 +28,7 @@ from __future__ import annotations
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -37,7 +38,7 @@ from rodsim.core.model import Model
 from rodsim.core.scene import Scene
 from rodsim.core.schema import SceneError
 from rodsim.solvers import DEFAULT_INTEGRATOR, integrator_named, registered_integrators
-from rodsim.solvers.base import RunState
+from rodsim.solvers.base import Integrator, RunState
 from rodsim.solvers.result import Result
 from rodsim.solvers.tolerance import effective_tolerance
 
@@ -54,6 +55,11 @@ EASY_ITERATIONS = 6
 MAX_BREAKAWAYS = 1000
 #: Scaled distance from a bound within which a fit's or a reach's value is set to the bound.
 BOUND_SNAP = 1e-5
+
+
+#: Another predicted start of a step (``Continuation.solve``): the start, a function making
+#: it (or None) where it is needed, or None.
+Alternative = np.ndarray | Callable[[], np.ndarray | None] | None
 
 
 class EquilibriumFailure(RuntimeError):
@@ -105,6 +111,9 @@ class Continuation:
         #: integrator carries on to the next (static: the factorisation as the attempt left
         #: it, refreshed or dropped).
         self.state: RunState | None = None
+        #: (a scene's solver table, the integrator's options and tolerance in it): the
+        #: steps of one path share the table (``scene_with``), read and validated once.
+        self._settings: tuple[object, Any, float, float] | None = None
 
     def factorisation(self) -> tuple[np.ndarray, Callable[[np.ndarray], np.ndarray] | None
                                      ] | None:
@@ -123,16 +132,31 @@ class Continuation:
         """The start of the next step from the predictor ``x + dx`` (``x`` the last
         equilibrium), as the integrator configured by ``scene`` takes it
         (``Integrator.predicted``)."""
-        return self.kind.for_scene(scene).predicted(self.model, self.x, dx)
+        return self._integrator(scene).predicted(self.model, self.x, dx)
+
+    def _integrator(self, scene: Scene, max_wall_time: float | None = None
+                    ) -> Integrator[Any]:
+        """The integrator configured by ``scene`` as ``Integrator.for_scene`` makes it
+        (``max_wall_time`` default: the scene's), its options read from ``scene``'s solver
+        table once for the steps that share it (~15-25 us a step)."""
+        table = scene.data["solver"]
+        settings = self._settings
+        if settings is None or settings[0] is not table:
+            solver = scene.solver
+            settings = self._settings = (table, self.kind.options_of(scene),
+                                         float(solver.tolerance), float(solver.max_wall_time))
+        return self.kind(settings[1], settings[2],
+                         settings[3] if max_wall_time is None else max_wall_time)
 
     def solve(self, scene: Scene, start: np.ndarray | None = None,
-              alternative: np.ndarray | None = None) -> StepOutcome:
+              alternative: Alternative = None) -> StepOutcome:
         """The equilibrium of ``scene`` (same discretisation) from ``start`` (default: the
         last equilibrium) — or from ``alternative``, another predicted start, where
         ``start`` is not at the equilibrium already (its force residual on the step's model
         at the tolerance) and the residual is smaller at ``alternative`` (one evaluation
         of F each, which the solve's own first one then finds made); on success it becomes
-        the last equilibrium.
+        the last equilibrium. ``alternative`` may be a function making that start (or
+        None): it is then made only where ``start`` is not at the equilibrium.
 
         Friction (contact, rodsim/core/terms/contact.py; tendons,
         rodsim/core/tendon_friction.py) is anchored at the last equilibrium
@@ -147,41 +171,47 @@ class Continuation:
         x = carried if start is None or carried is not self.x else start
         if alternative is not None and x is start:
             first = model.force_residual(model.force(start))
-            if (not first < effective_tolerance(model, float(scene.solver.tolerance))
-                    and model.force_residual(model.force(alternative)) < first):
-                x = alternative
-        budget = float(scene.solver.max_wall_time)
-        if self.deadline is not None:  # the integrator's own budget: what is left of ours
-            budget = min(budget, max(self.deadline - time.perf_counter(), 0.0))
-        integrator = self.kind.for_scene(scene, max_wall_time=budget)
-        result, state = integrator.run(integrator.restart(self.state, model, x),
-                                       verdict=False)
-        work = self.kind.work(result.stats)
+            if not first < effective_tolerance(model, float(scene.solver.tolerance)):
+                other = alternative() if callable(alternative) else alternative
+                if other is not None and model.force_residual(model.force(other)) < first:
+                    x = other
+        budget = None  # the scene's, or with a deadline what is left of ours
+        if self.deadline is not None:
+            budget = min(float(scene.solver.max_wall_time),
+                         max(self.deadline - time.perf_counter(), 0.0))
+        integrator = self._integrator(scene, budget)
+        # The run's verdict, state and statistics alone (``Integrator.settle``: no Result
+        # to assemble, its rods' shapes and tendons' tensions unread here).
+        state = integrator.restart(self.state, model, x)
+        judged, reached, stats = integrator.settle(state)
+        work = self.kind.work(stats)
         # Stiction: a point that broke loose in this step slides at its kinetic μ; the step
         # is solved again with it until nothing more breaks (rodsim/core/tendon_friction.py,
         # "Stiction"; at most once per routing point).
         for _ in range(MAX_BREAKAWAYS):
-            freed = model.freed(result.state) if result.success else None
+            freed = model.freed(reached) if judged.success else None
             if freed is None:
                 break
             model = freed
-            result, state = integrator.run(integrator.restart(state, model, result.state),
-                                           verdict=False)
-            work += self.kind.work(result.stats)
+            state = integrator.restart(state, model, reached)
+            judged, reached, stats = integrator.settle(state)
+            work += self.kind.work(stats)
         self.state = state
-        if not result.success:
-            return StepOutcome(False, x, result.residual, work, result.message)
-        self.model = (state.model if state.registered_exactly(result.state)
-                      else registered_model(state.model, result.state))
-        self.x = result.state
-        return StepOutcome(True, result.state, result.residual, work, "converged")
+        if not judged.success:
+            return StepOutcome(False, x, judged.residual, work, judged.message)
+        self.model = (state.model if state.registered_exactly(reached)
+                      else registered_model(state.model, reached))
+        self.x = np.array(reached, dtype=float)
+        return StepOutcome(True, self.x, judged.residual, work, "converged")
 
     def walk(self, scene: Scene, keys: Sequence[NumericKey], start: np.ndarray,
              stop: np.ndarray, predictor: np.ndarray | None = None,
-             alternative: np.ndarray | None = None) -> tuple[bool, int, int, str]:
+             alternative: Alternative = None, stop_scene: Scene | None = None
+             ) -> tuple[bool, int, int, str]:
         """Move from the equilibrium at the values ``start`` of ``keys`` (in ``scene``) to
         the one at ``stop``, from ``predictor`` if given (for the whole step only; or from
-        ``alternative`` where the residual is smaller there, ``solve``), halving
+        ``alternative`` where the residual is smaller there, ``solve``; ``stop_scene``:
+        ``scene_with(scene, keys, stop)`` if the caller made it already), halving
         the increment on each failure and doubling it again (up to the rest of the step)
         after a sub-step that took at most ``EASY_ITERATIONS`` iterations; fails at the
         ``MAX_HALVINGS``-th failed attempt — and then leaves the continuation at the
@@ -201,7 +231,8 @@ class Continuation:
             whole = done == 0.0 and fraction == 1.0
             final = done + fraction >= 1.0
             there = stop if final else start + (done + fraction) * (stop - start)
-            step_scene = scene_with(scene, keys, there)
+            step_scene = (stop_scene if final and stop_scene is not None
+                          else scene_with(scene, keys, there))
             outcome = (self.solve(step_scene, predictor, alternative)
                        if whole and alternative is not None
                        else self.solve(step_scene, predictor if whole else None))

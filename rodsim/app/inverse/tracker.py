@@ -29,7 +29,7 @@ iterations a step).
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -39,6 +39,7 @@ from rodsim.app.inverse.continuation import Continuation, EquilibriumFailure
 from rodsim.app.inverse.parameter_keys import numeric_keys, scene_with
 from rodsim.app.inverse.sensitivity import equilibrium_sensitivity
 from rodsim.core.model import Model
+from rodsim.core.scene import Scene
 from rodsim.core.schema import SceneError
 from rodsim.core.stability import Stability, assess
 from rodsim.solvers import DEFAULT_INTEGRATOR, integrator_named
@@ -122,9 +123,9 @@ class Tracker:
         #: predictor's second-order term; None before the second step and after a failure.
         self._last: tuple[np.ndarray, np.ndarray] | None = None
 
-    def _checked(self, values: Any) -> np.ndarray:
-        """``values`` as finite numbers in range, one per key; SceneError (the rules across
-        tables are checked by the step's scene)."""
+    def _checked(self, values: Any) -> tuple[np.ndarray, Scene]:
+        """``values`` as finite numbers in range, one per key, and the scene at them;
+        SceneError (the rules across tables are checked by that scene)."""
         row = np.asarray(values, dtype=float).reshape(-1)
         if row.shape != (len(self.keys),) or not np.all(np.isfinite(row)):
             raise SceneError(f"a step needs {len(self.keys)} finite values, one per key ("
@@ -134,16 +135,17 @@ class Tracker:
             if not low <= value <= high:
                 raise SceneError(f"{key.name} = {value:g}: out of range; allowed: "
                                  f"{key.parameter.allowed}")
-        scene_with(self.scene, self.keys, row)
-        return row
+        return row, scene_with(self.scene, self.keys, row)
 
-    def _predictor(self, row: np.ndarray) -> tuple[np.ndarray, np.ndarray | None]:
+    def _predictor(self, row: np.ndarray
+                   ) -> tuple[np.ndarray, Callable[[], np.ndarray] | None]:
         """The start of the step to the values ``row``, from the last equilibrium x at the
         values p (module docstring, "Predictor"): R(x, X' δ), δ = row − p, X' = dx/dp and
         R the integrator's own step from x (``Continuation.predicted``); plus, when δ lies
         along the line to the equilibrium before, x₋ at p₋ (δ = s d, d = p − p₋), the
         second-order term s² r with r = x₋ − R(x, −X' d): the path's curvature along d
-        that the linear predictor missed at x₋."""
+        that the linear predictor missed at x₋ — made only where the step asks for it (a
+        start not at the equilibrium already, ``Continuation.solve``)."""
         continuation, tangent = self.continuation, self._tangent
         assert tangent is not None
         delta = row - self.values
@@ -155,13 +157,17 @@ class Tracker:
         s = -float(delta @ back) / size if size > 0.0 else 0.0
         if s == 0.0 or np.abs(delta + s * back).max() > ALONG * np.abs(delta).max():
             return start, None
-        remainder = before - continuation.predicted(self.scene, tangent @ back)
-        return start, start + (s * s) * remainder
+        scene = self.scene
+
+        def curved() -> np.ndarray:
+            remainder = before - continuation.predicted(scene, tangent @ back)
+            return start + (s * s) * remainder
+        return start, curved
 
     def step(self, values: Any) -> TrackerStep:
         """Move to the equilibrium at ``values`` (one per key) and return it with the tip's
         pose, Jacobian and stability; SceneError for values out of range (nothing moves)."""
-        row = self._checked(values)
+        row, scene = self._checked(values)
         continuation = self.continuation
         predictor = alternative = None
         if self._tangent is not None and continuation.takes_predictor:
@@ -169,7 +175,7 @@ class Tracker:
         previous_x, previous_values = continuation.x, self.values
         ok, iterations, halvings, message = continuation.walk(self.scene, self.keys,
                                                               self.values, row, predictor,
-                                                              alternative)
+                                                              alternative, scene)
         model, x = continuation.model, continuation.x
         layout = model.rods[self.rod].layout
         full = model.full(x)
