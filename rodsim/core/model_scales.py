@@ -76,6 +76,7 @@ class ModelScales(ModelEvaluation):
         as the residual: the margin makes it reliably attainable (noise measured at
         converged states is below it; Newton iterations asked to go lower only stall)."""
         noise = np.zeros(self.n)
+        sizes: dict[tuple[float, float], np.ndarray] = {}  # the same sizes: one array
         for term, _scale, share in self._diagonal_shares.values():
             if term.offsets and isinstance(term, RodTerm):
                 rod = term.rod
@@ -84,7 +85,11 @@ class ModelScales(ModelEvaluation):
                 turn = min(1.0, 1.5 * displacement / rod.length)
             else:
                 displacement, turn = self.length_scale, 1.0
-            noise += np.abs(share) * np.where(self.is_quaternion, turn, displacement)
+            size = sizes.get((turn, displacement))
+            if size is None:
+                size = sizes[turn, displacement] = np.where(self.is_quaternion, turn,
+                                                            displacement)
+            noise += np.abs(share) * size
         return noise
 
     def _rest_diagonal(self, full: np.ndarray, offsets: np.ndarray) -> np.ndarray:

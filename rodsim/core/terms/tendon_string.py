@@ -115,6 +115,12 @@ class TendonStringOptions(Options):
     static_friction_profile: list[float] = field(default_factory=list)
 
 
+#: The options ``TendonString.with_options`` compares, all but the tension (a new tension
+#: keeps the routing): named once, not through ``dataclasses.replace`` at every step.
+_KEPT_OPTIONS = tuple(f.name for f in dataclasses.fields(TendonStringOptions)
+                      if f.name != "tension")
+
+
 class TendonString(TendonTerm):
     """V = T ℓ: a frictionless tendon under tension T routed along its catheter."""
 
@@ -295,8 +301,13 @@ class TendonString(TendonTerm):
         """A copy with another tension when that is the only option changed (a tracking
         step): the routing, its points and their director forms depend on the other
         options only."""
-        if dataclasses.replace(options, tension=self.options.tension) != self.options:
+        mine = self.options
+        if type(options) is not type(mine):
             return None
+        for name in _KEPT_OPTIONS:  # the dataclass's equality, field by field
+            theirs, known = getattr(options, name), getattr(mine, name)
+            if theirs is not known and theirs != known:
+                return None
         other = copy.copy(self)
         other.options = options
         other.tension = float(options.tension)
