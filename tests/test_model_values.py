@@ -107,3 +107,32 @@ def test_a_track_with_shared_models_reaches_the_same_equilibria(monkeypatch):
     np.testing.assert_allclose(np.array(fast.states), np.array(full.states), rtol=0,
                                atol=1e-14)
     assert fast.iterations == full.iterations
+
+
+def test_a_frictionless_string_tendons_share_is_its_tension_times_the_unit_share(monkeypatch):
+    """The rest-diagonal share of a frictionless string tendon (Term.linear_unit) is its
+    tension times the share at 1 N, found once and kept by the model's copies: a new
+    tension evaluates no tendon, and the share is the one its own evaluation gives."""
+    scene = rodsim.load_scene("tdcr-two-segment")
+    model = Model(scene)
+    index = model.term_keys.index(("tendons", "s1a", "tendon_string"))
+    keys = numeric_keys(scene, ["tendons.s1a.tendon_string.tension"])
+    evaluated: list[object] = []
+    original = Model._share
+
+    def counted(self, position, term, *args, **kwargs):
+        evaluated.append(term)
+        return original(self, position, term, *args, **kwargs)
+
+    monkeypatch.setattr(Model, "_share", counted)
+    for tension in (0.5, 2.0, 3.7):
+        pulled = model.with_values(scene_with(scene, keys, [tension]))
+        term = pulled.terms[index]
+        assert term.tension == tension
+        target = pulled._term_targets[sum(t.has_jacobian for t in pulled.terms[:index])]
+        own = original(pulled, index, term, 1.0, target,
+                       pulled.full(pulled.x0), pulled.rest_offsets, [])
+        assert np.any(own != 0.0)
+        np.testing.assert_allclose(pulled._diagonal_shares[index][2], own, rtol=1e-15,
+                                   atol=0)
+    assert evaluated == []  # no share evaluated for a new tension: the unit's was kept

@@ -47,7 +47,7 @@ from __future__ import annotations
 
 import copy
 import dataclasses
-from collections.abc import Hashable, Mapping, Sequence
+from collections.abc import Callable, Hashable, Mapping, Sequence
 from dataclasses import dataclass, field
 from functools import cached_property
 from typing import Any
@@ -311,6 +311,20 @@ class TendonString(TendonTerm):
         other = copy.copy(self)
         other.options = options
         other.tension = float(options.tension)
+        return other
+
+    def linear_unit(self) -> tuple[tuple[Any, ...], float, Callable[[], Term]] | None:
+        """Frictionless (``linear_in``): the tension times the force at 1 N, on the routing
+        a copy of another tension shares."""
+        if not self.linear_in("tension"):
+            return None
+        return ((self.points, self._forms, self.chord_dofs, self.span, self.split,
+                 self._entry_slope), self.tension, self._unit)
+
+    def _unit(self) -> TendonString:
+        other = copy.copy(self)
+        other.options = dataclasses.replace(self.options, tension=1.0)
+        other.tension = 1.0
         return other
 
     @property
