@@ -136,3 +136,27 @@ def test_a_frictionless_string_tendons_share_is_its_tension_times_the_unit_share
         np.testing.assert_allclose(pulled._diagonal_shares[index][2], own, rtol=1e-15,
                                    atol=0)
     assert evaluated == []  # no share evaluated for a new tension: the unit's was kept
+
+
+def test_copies_of_a_model_never_evaluated_share_its_kernel_groups():
+    """A batch's shared model is never evaluated itself: Model.with_values makes its kernel
+    units first, so that each copy keeps the string tendons' stacked targets and arrays
+    (rodsim/core/kernel_group.py) — and gives the numbers of a model built afresh."""
+    from rodsim.core.kernel_group import KernelGroup
+
+    scene = rodsim.load_scene("tdcr-two-segment")
+    model = Model(scene)
+    keys = numeric_keys(scene, ["tendons.s1a.tendon_string.tension",
+                                "tendons.s2b.tendon_string.tension"])
+    copies = [model.with_values(scene_with(scene, keys, values))
+              for values in ([1.0, 2.0], [2.5, 0.5])]
+    groups = [[u for u in c._kernel_unit_list() if isinstance(u, KernelGroup)]
+              for c in copies]
+    assert groups[0] and len(groups[0]) == len(groups[1])
+    for a, b in zip(*groups, strict=True):
+        assert a.force_target is b.force_target and a.jacobian_target is b.jacobian_target
+        assert a.calls[0].term is not b.calls[0].term  # other tensions
+    x = model.x0 + 1e-4 * np.random.default_rng(2).standard_normal(model.n)
+    own = Model(scene_with(scene, keys, [2.5, 0.5]))
+    np.testing.assert_array_equal(copies[1].force(x), own.force(x))
+    np.testing.assert_array_equal(copies[1].jacobian_data(x), own.jacobian_data(x))
