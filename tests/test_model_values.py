@@ -160,3 +160,25 @@ def test_copies_of_a_model_never_evaluated_share_its_kernel_groups():
     own = Model(scene_with(scene, keys, [2.5, 0.5]))
     np.testing.assert_array_equal(copies[1].force(x), own.force(x))
     np.testing.assert_array_equal(copies[1].jacobian_data(x), own.jacobian_data(x))
+
+
+def test_the_unloaded_rest_force_is_kept_by_copies_of_other_loads_only():
+    """Model.unloaded_rest_force, F(x0, load 0): a copy whose changed terms are loads (new
+    tensions, a tip force) takes the one kept by its model, bit for bit what it evaluates
+    itself; a model of other scales evaluates its own."""
+    scene = rodsim.load_scene("tdcr-two-segment")
+    model = Model(scene)
+    first = model.unloaded_rest_force()
+    loads = numeric_keys(scene, ["tendons.s1a.tendon_string.tension", "tip_load.force[2]"])
+    pulled = model.with_values(scene_with(scene, loads, [2.0, 0.03]))
+    kept = pulled._rest_units[-1][3]
+    again = pulled.unloaded_rest_force()
+    np.testing.assert_array_equal(again, pulled.force(pulled.x0, 0.0))
+    np.testing.assert_array_equal(again, first)
+    assert pulled._rest_units[-1][3] is kept  # taken again, not evaluated
+    scales = list(pulled._scale_list)
+    scales[0] = 2.0 * scales[0]  # the stretch term scaled (a continuation): not the same
+    pulled._scale_list = scales
+    moved = pulled.unloaded_rest_force()
+    np.testing.assert_array_equal(moved, pulled.force(pulled.x0, 0.0))
+    assert pulled._rest_units[-1][3] is not kept  # evaluated anew

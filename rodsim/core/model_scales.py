@@ -163,15 +163,45 @@ class ModelScales(ModelEvaluation):
         return np.bincount(target, weights=values, minlength=self.nnz + 1)[self._diagonal_slots]
 
     @property
-    def _rest_units(self) -> dict[int, tuple[tuple[Any, ...], np.ndarray]]:
+    def _rest_units(self) -> dict[int, Any]:
         """The rest-diagonal share of each linear term's unit (``Term.linear_unit``) by
-        term position, with the objects it was found for: one dictionary shared by this
-        model and every model copied from it (``with_values``: a new tension per case or
-        step, the same routing), so a unit's share is found once."""
+        term position, with the objects it was found for, and at -1 the unloaded rest
+        force (``unloaded_rest_force``): one dictionary shared by this model and every
+        model copied from it (``with_values``: a new tension per case or step, the same
+        routing), so each is found once."""
         units = self.__dict__.get("_rest_unit_shares")
         if units is None:
             units = self.__dict__["_rest_unit_shares"] = {}
         return units
+
+    def unloaded_rest_force(self) -> np.ndarray:
+        """F(x₀, load 0), the force of the unloaded rest state (``force(x0, 0.0)``, a copy).
+
+        On the compiled path it is kept with what it was evaluated from — the terms whose
+        output is not scaled away at load 0 (the same objects), their scales, the full and
+        offset states of x₀ — in a dictionary that this model's copies share
+        (``with_values``): a copy whose changed terms are all loads (a batch case's or a
+        tracking step's tensions and forces) takes it again, the same numbers (the
+        compiled path skips a unit scaled to 0 and adds nothing for it). Otherwise
+        evaluated."""
+        x0 = self.x0
+        if not self._compiled():
+            return self.force(x0, 0.0)
+        active = tuple((term, scale) for index, term in enumerate(self.terms)
+                       if (scale := self._scale(index, term, 0.0)) != 0.0)
+        full, offsets = self.full(x0), self.offsets(x0)
+        kept = self._rest_units.get(-1)
+        if kept is not None:
+            terms, known_full, known_offsets, force = kept
+            if (len(terms) == len(active)
+                    and all(a[0] is b[0] and a[1] == b[1]
+                            for a, b in zip(terms, active, strict=True))
+                    and np.array_equal(known_full, full)
+                    and np.array_equal(known_offsets, offsets)):
+                return force.copy()
+        force = self.force(x0, 0.0)
+        self._rest_units[-1] = active, full, offsets, force.copy()
+        return force
 
     def force_residual(self, force: np.ndarray) -> float:
         """Scaled residual max_i |F_i| w_i: forces / F_ref, quaternion forces / (F_ref L_ref)."""
