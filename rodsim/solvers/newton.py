@@ -60,6 +60,10 @@ class NewtonProblem:
     step: Callable[[np.ndarray, np.ndarray], np.ndarray] | None = None
     correction: Callable[[np.ndarray], float] | None = None
     correction_tolerance: float = 0.0
+    #: Evaluates g and its Jacobian at a state in one pass and keeps both for ``force`` and
+    #: ``jacobian`` to return (the model's memo), or None: what ``newton`` does at its
+    #: first state, whose Jacobian its first iteration needs.
+    prepare: Callable[[np.ndarray], None] | None = None
 
 
 #: Extra iterations a converged, polishing Newton solve may take (each must halve the residual).
@@ -321,6 +325,10 @@ def newton(problem: NewtonProblem, x: np.ndarray, tolerance: float,
     """
     jacobians = _Jacobians(problem, reuse)
     watchdog = _Watchdog(problem)
+    if problem.prepare is not None and polish and reuse == "fresh" and max_iterations > 0:
+        # The first iteration takes J at x whatever the residual (polishing): F and J in one
+        # pass (tdcr-two-segment: 182 µs against 62 + 167)
+        problem.prepare(x)
     g = problem.force(x)
     point = _Point(problem, x, g)
     polishing = POLISH_ITERATIONS if polish else 0
