@@ -95,3 +95,24 @@ def test_a_kept_factorisation_solves_as_a_fresh_one():
         preconditioner.solve(rhs, out)
         expected = numpy_fill.factorized(identity + c * -data)(rhs)
         assert np.array_equal(out, expected)
+
+
+def test_the_factor_of_the_last_cholesky_solve_is_reused_bit_for_bit():
+    """factorized(J) after solve(J, b) of the same J takes the solve's Cholesky factor
+    (dpbsv's is dpbtrf's): its solves are a fresh solver's, bit for bit; another J is
+    factored anew."""
+    model = rodsim.build_model(rodsim.load_scene("table1-50g"))
+    solver, _ = solvers(model)
+    fresh, _ = solvers(model)
+    data = model.jacobian_data(model.x0 + 1e-6)
+    rhs = np.random.default_rng(3).standard_normal((model.n, 2))
+    solver.solve(data, rhs[:, 0])
+    assert solver.counts["cholesky"] == 1
+    kept = solver.factorized(data.copy())
+    assert kept is solver._scratch.last[1]
+    expected = fresh.factorized(data)
+    assert type(kept) is type(expected)
+    assert np.array_equal(kept(rhs), expected(rhs))
+    other = 2.0 * data
+    assert solver.factorized(other) is not kept
+    assert np.array_equal(solver.factorized(other)(rhs), fresh.factorized(other)(rhs))

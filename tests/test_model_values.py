@@ -107,3 +107,78 @@ def test_a_track_with_shared_models_reaches_the_same_equilibria(monkeypatch):
     np.testing.assert_allclose(np.array(fast.states), np.array(full.states), rtol=0,
                                atol=1e-14)
     assert fast.iterations == full.iterations
+
+
+def test_a_frictionless_string_tendons_share_is_its_tension_times_the_unit_share(monkeypatch):
+    """The rest-diagonal share of a frictionless string tendon (Term.linear_unit) is its
+    tension times the share at 1 N, found once and kept by the model's copies: a new
+    tension evaluates no tendon, and the share is the one its own evaluation gives."""
+    scene = rodsim.load_scene("tdcr-two-segment")
+    model = Model(scene)
+    index = model.term_keys.index(("tendons", "s1a", "tendon_string"))
+    keys = numeric_keys(scene, ["tendons.s1a.tendon_string.tension"])
+    evaluated: list[object] = []
+    original = Model._share
+
+    def counted(self, position, term, *args, **kwargs):
+        evaluated.append(term)
+        return original(self, position, term, *args, **kwargs)
+
+    monkeypatch.setattr(Model, "_share", counted)
+    for tension in (0.5, 2.0, 3.7):
+        pulled = model.with_values(scene_with(scene, keys, [tension]))
+        term = pulled.terms[index]
+        assert term.tension == tension
+        target = pulled._term_targets[sum(t.has_jacobian for t in pulled.terms[:index])]
+        own = original(pulled, index, term, 1.0, target,
+                       pulled.full(pulled.x0), pulled.rest_offsets, [])
+        assert np.any(own != 0.0)
+        np.testing.assert_allclose(pulled._diagonal_shares[index][2], own, rtol=1e-15,
+                                   atol=0)
+    assert evaluated == []  # no share evaluated for a new tension: the unit's was kept
+
+
+def test_copies_of_a_model_never_evaluated_share_its_kernel_groups():
+    """A batch's shared model is never evaluated itself: Model.with_values makes its kernel
+    units first, so that each copy keeps the string tendons' stacked targets and arrays
+    (rodsim/core/kernel_group.py) — and gives the numbers of a model built afresh."""
+    from rodsim.core.kernel_group import KernelGroup
+
+    scene = rodsim.load_scene("tdcr-two-segment")
+    model = Model(scene)
+    keys = numeric_keys(scene, ["tendons.s1a.tendon_string.tension",
+                                "tendons.s2b.tendon_string.tension"])
+    copies = [model.with_values(scene_with(scene, keys, values))
+              for values in ([1.0, 2.0], [2.5, 0.5])]
+    groups = [[u for u in c._kernel_unit_list() if isinstance(u, KernelGroup)]
+              for c in copies]
+    assert groups[0] and len(groups[0]) == len(groups[1])
+    for a, b in zip(*groups, strict=True):
+        assert a.force_target is b.force_target and a.jacobian_target is b.jacobian_target
+        assert a.calls[0].term is not b.calls[0].term  # other tensions
+    x = model.x0 + 1e-4 * np.random.default_rng(2).standard_normal(model.n)
+    own = Model(scene_with(scene, keys, [2.5, 0.5]))
+    np.testing.assert_array_equal(copies[1].force(x), own.force(x))
+    np.testing.assert_array_equal(copies[1].jacobian_data(x), own.jacobian_data(x))
+
+
+def test_the_unloaded_rest_force_is_kept_by_copies_of_other_loads_only():
+    """Model.unloaded_rest_force, F(x0, load 0): a copy whose changed terms are loads (new
+    tensions, a tip force) takes the one kept by its model, bit for bit what it evaluates
+    itself; a model of other scales evaluates its own."""
+    scene = rodsim.load_scene("tdcr-two-segment")
+    model = Model(scene)
+    first = model.unloaded_rest_force()
+    loads = numeric_keys(scene, ["tendons.s1a.tendon_string.tension", "tip_load.force[2]"])
+    pulled = model.with_values(scene_with(scene, loads, [2.0, 0.03]))
+    kept = pulled._rest_units[-1][3]
+    again = pulled.unloaded_rest_force()
+    np.testing.assert_array_equal(again, pulled.force(pulled.x0, 0.0))
+    np.testing.assert_array_equal(again, first)
+    assert pulled._rest_units[-1][3] is kept  # taken again, not evaluated
+    scales = list(pulled._scale_list)
+    scales[0] = 2.0 * scales[0]  # the stretch term scaled (a continuation): not the same
+    pulled._scale_list = scales
+    moved = pulled.unloaded_rest_force()
+    np.testing.assert_array_equal(moved, pulled.force(pulled.x0, 0.0))
+    assert pulled._rest_units[-1][3] is not kept  # evaluated anew

@@ -138,3 +138,36 @@ def test_the_correction_test_sees_an_imbalance_spread_over_many_nodes():
                                correction_tolerance=1e-12), start, 1e-5, 20, polish=False)
     assert corrected.converged, corrected.message
     assert np.max(np.abs(corrected.x - root)) < 1e-9
+
+
+def test_the_first_state_evaluated_in_one_pass_gives_the_same_solve(monkeypatch):
+    """static's Newton evaluates F and J of its first state in one pass (``prepare``, the
+    model's memo) where it evaluated F, then J: the same equilibrium and counts, bit for
+    bit, and one model evaluation fewer."""
+    from rodsim.core.model_evaluation import ModelEvaluation
+
+    scene = rodsim.load_scene("tdcr-two-segment")
+    calls: list[tuple[bool, bool]] = []
+    original = ModelEvaluation._evaluate
+
+    def counted(self, x, load, force, jacobian):
+        calls.append((force, jacobian))
+        return original(self, x, load, force, jacobian)
+
+    monkeypatch.setattr(ModelEvaluation, "_evaluate", counted)
+    one_pass = rodsim.solve(scene, "static")
+    with_prepare = list(calls)
+    calls.clear()
+    import rodsim.solvers.base as base
+
+    monkeypatch.setattr(base, "NewtonProblem",
+                        lambda **fields: NewtonProblem(**{**fields, "prepare": None}))
+    two_passes = rodsim.solve(scene, "static")
+    assert one_pass.success and two_passes.success
+    for name in one_pass.rods:
+        assert np.array_equal(one_pass.rods[name].positions, two_passes.rods[name].positions)
+    assert np.array_equal(one_pass.state, two_passes.state)
+    assert ({k: v for k, v in one_pass.stats.items() if k != "wall_time"}
+            == {k: v for k, v in two_passes.stats.items() if k != "wall_time"})
+    assert (True, True) in with_prepare and (True, True) not in calls
+    assert len(with_prepare) == len(calls) - 1

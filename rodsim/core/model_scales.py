@@ -5,6 +5,8 @@ diagonal masses of the pseudo-dynamics (Eq. 17)."""
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 
 from rodsim.core.kernel_tier import PROCESS_TIER, nominal_cost
@@ -76,6 +78,7 @@ class ModelScales(ModelEvaluation):
         as the residual: the margin makes it reliably attainable (noise measured at
         converged states is below it; Newton iterations asked to go lower only stall)."""
         noise = np.zeros(self.n)
+        sizes: dict[tuple[float, float], np.ndarray] = {}  # the same sizes: one array
         for term, _scale, share in self._diagonal_shares.values():
             if term.offsets and isinstance(term, RodTerm):
                 rod = term.rod
@@ -84,7 +87,11 @@ class ModelScales(ModelEvaluation):
                 turn = min(1.0, 1.5 * displacement / rod.length)
             else:
                 displacement, turn = self.length_scale, 1.0
-            noise += np.abs(share) * np.where(self.is_quaternion, turn, displacement)
+            size = sizes.get((turn, displacement))
+            if size is None:
+                size = sizes[turn, displacement] = np.where(self.is_quaternion, turn,
+                                                            displacement)
+            noise += np.abs(share) * size
         return noise
 
     def _rest_diagonal(self, full: np.ndarray, offsets: np.ndarray) -> np.ndarray:
@@ -93,17 +100,20 @@ class ModelScales(ModelEvaluation):
         at ``offsets``). Each term's share is kept with the term and its
         scale (``_diagonal_shares``) and recomputed only for a term or a scale that
         changed: a model of other values (``with_values``) evaluates the changed terms
-        alone. (Summed by term, not accumulated in one pass, so that every model of the
-        same terms gets the same numbers whichever terms it recomputed.)"""
+        alone. A term whose force is a constant times a unit term's (``Term.linear_unit``:
+        a frictionless string tendon's tension) takes the constant times the unit's share,
+        found once per geometry and kept by the model's copies: a case of a batch or a
+        tracking step of new tensions evaluates no tendon. (Summed by term, not accumulated
+        in one pass, so that every model of the same terms gets the same numbers whichever
+        terms it recomputed.)"""
         kept = getattr(self, "_diagonal_shares", None) or {}
+        units = self._rest_units
         shares: dict[int, tuple[Term, float, np.ndarray]] = {}
         total = np.zeros(self.n)
-        buffer = None
         targets = iter(self._term_targets)
-        compiled = self._compiled()
         tiered = self._tiered_numpy()
         recomputed: list[Term] = []
-        if compiled and self._kernel_calls is None:
+        if self._compiled() and self._kernel_calls is None:
             self._kernel_calls = self._build_kernel_calls()
         for index, term in enumerate(self.terms):
             if not term.has_jacobian:
@@ -111,28 +121,19 @@ class ModelScales(ModelEvaluation):
             target = next(targets)
             scale = self._scale(index, term, 1.0)
             known = kept.get(index)
+            linear = term.linear_unit()
             if known is not None and known[0] is term and known[1] == scale:
                 share = known[2]
-            elif compiled:
-                assert self._kernel_calls is not None
-                call = self._kernel_calls[index]
-                if buffer is None:
-                    buffer = np.zeros(self.nnz + 1)
-                if scale != 0.0:
-                    call.kernel.evaluate(offsets if term.offsets else full,
-                                         *call.arguments, scale, False, np.zeros(1),
-                                         call.force_target, True, buffer,
-                                         call.jacobian_target)
-                share = buffer[self._diagonal_slots]
-                # Zeroed whole: a string tendon's targets are 1.6-3.3 times the buffer's
-                # length (tdcr-two-segment: 23 520 and 47 040 against 14 407).
-                buffer.fill(0.0)
+            elif linear is not None:  # c times the unit's share, found once per geometry
+                key, coefficient, unit = linear
+                found = units.get(index)
+                if found is None or len(found[0]) != len(key) or any(
+                        a is not b for a, b in zip(found[0], key, strict=True)):
+                    found = units[index] = key, self._share(index, unit(), 1.0, target,
+                                                            full, offsets, recomputed)
+                share = (scale * coefficient) * found[1]
             else:
-                values = scale * term.element_jacobians(
-                    offsets if term.offsets else full).ravel()
-                share = np.bincount(target, weights=values,
-                                    minlength=self.nnz + 1)[self._diagonal_slots]
-                recomputed.append(term)
+                share = self._share(index, term, scale, target, full, offsets, recomputed)
             shares[index] = term, scale, share
             total += share
             self._tick()
@@ -140,6 +141,67 @@ class ModelScales(ModelEvaluation):
             PROCESS_TIER.charge(nominal_cost(recomputed, force=False, jacobian=True))
         self._diagonal_shares = shares
         return total
+
+    def _share(self, index: int, term: Term, scale: float, target: np.ndarray,
+               full: np.ndarray, offsets: np.ndarray, recomputed: list[Term]) -> np.ndarray:
+        """Term ``term``'s share (at position ``index``, Jacobian slots ``target``) of the
+        diagonal of ∂F/∂x at the rest state, times ``scale`` (``_rest_diagonal``); a term
+        evaluated by its numpy reference is appended to ``recomputed``."""
+        if self._compiled():
+            assert self._kernel_calls is not None
+            call = self._kernel_calls[index]
+            if call.term is not term:
+                call = call.with_term(term)
+            buffer = np.zeros(self.nnz + 1)  # a string tendon writes 1.6-3.3 times nnz slots
+            if scale != 0.0:
+                call.kernel.evaluate(offsets if term.offsets else full, *call.arguments,
+                                     scale, False, np.zeros(1), call.force_target, True,
+                                     buffer, call.jacobian_target)
+            return buffer[self._diagonal_slots]
+        values = scale * term.element_jacobians(offsets if term.offsets else full).ravel()
+        recomputed.append(term)
+        return np.bincount(target, weights=values, minlength=self.nnz + 1)[self._diagonal_slots]
+
+    @property
+    def _rest_units(self) -> dict[int, Any]:
+        """The rest-diagonal share of each linear term's unit (``Term.linear_unit``) by
+        term position, with the objects it was found for, and at -1 the unloaded rest
+        force (``unloaded_rest_force``): one dictionary shared by this model and every
+        model copied from it (``with_values``: a new tension per case or step, the same
+        routing), so each is found once."""
+        units = self.__dict__.get("_rest_unit_shares")
+        if units is None:
+            units = self.__dict__["_rest_unit_shares"] = {}
+        return units
+
+    def unloaded_rest_force(self) -> np.ndarray:
+        """F(x₀, load 0), the force of the unloaded rest state (``force(x0, 0.0)``, a copy).
+
+        On the compiled path it is kept with what it was evaluated from — the terms whose
+        output is not scaled away at load 0 (the same objects), their scales, the full and
+        offset states of x₀ — in a dictionary that this model's copies share
+        (``with_values``): a copy whose changed terms are all loads (a batch case's or a
+        tracking step's tensions and forces) takes it again, the same numbers (the
+        compiled path skips a unit scaled to 0 and adds nothing for it). Otherwise
+        evaluated."""
+        x0 = self.x0
+        if not self._compiled():
+            return self.force(x0, 0.0)
+        active = tuple((term, scale) for index, term in enumerate(self.terms)
+                       if (scale := self._scale(index, term, 0.0)) != 0.0)
+        full, offsets = self.full(x0), self.offsets(x0)
+        kept = self._rest_units.get(-1)
+        if kept is not None:
+            terms, known_full, known_offsets, force = kept
+            if (len(terms) == len(active)
+                    and all(a[0] is b[0] and a[1] == b[1]
+                            for a, b in zip(terms, active, strict=True))
+                    and np.array_equal(known_full, full)
+                    and np.array_equal(known_offsets, offsets)):
+                return force.copy()
+        force = self.force(x0, 0.0)
+        self._rest_units[-1] = active, full, offsets, force.copy()
+        return force
 
     def force_residual(self, force: np.ndarray) -> float:
         """Scaled residual max_i |F_i| w_i: forces / F_ref, quaternion forces / (F_ref L_ref)."""

@@ -339,7 +339,21 @@ class Options:
         """The typed view of a validated table (``validate_table``'s dict): its declared
         values only; other keys (a rod's per-term sub-tables, the ``[solver.<integrator>]``
         tables) are left out."""
-        return cls(**{f.name: table[f.name] for f in dataclasses.fields(cls)})
+        return cls(**{name: table[name] for name in _field_names(cls)})
+
+
+#: Each options dataclass's field names, in order (``_field_names``).
+_FIELD_NAMES: dict[type, tuple[str, ...]] = {}
+
+
+def _field_names(cls: type) -> tuple[str, ...]:
+    """The field names of the options dataclass ``cls``, in order, found once (``Options.of``
+    at every value change of a tracking step or a batch case: ``dataclasses.fields`` each
+    time cost more than the view it builds)."""
+    names = _FIELD_NAMES.get(cls)
+    if names is None:
+        names = _FIELD_NAMES[cls] = tuple(f.name for f in dataclasses.fields(cls))
+    return names
 
 
 def options_mismatch(cls: type, parameters: Iterable[Parameter]) -> list[str]:

@@ -35,6 +35,7 @@ from typing import TYPE_CHECKING, Any, ClassVar, Generic, TypeVar
 import numpy as np
 
 from rodsim.core.model import Model
+from rodsim.core.model_evaluation import MEMO_ENTRIES
 from rodsim.core.schema import Parameter, register_with_options, validate_table
 from rodsim.solvers.failure import SolverFailure
 from rodsim.solvers.linear import LinearSolver
@@ -388,6 +389,9 @@ class Integrator(ABC, Generic[S]):
 
             def potential(y: np.ndarray) -> float:  # F − s = −∇(E + s·y)
                 return model.energy(y, load) + float(shift @ y)
+        def prepare(y: np.ndarray) -> None:
+            model.evaluate(y, load)  # F and J kept: the counted calls below take them
+
         problem = NewtonProblem(
             force=force,
             jacobian=lambda y: run.jacobian_data(y, load),
@@ -397,6 +401,9 @@ class Integrator(ABC, Generic[S]):
             potential=potential if model.conservative else None,
             step={None: None, "lengths": model.step,
                   "frames": model.turned_step}[retraction],
+            # J kept by the memo; compiled only (a tiered model's charges stay as they were)
+            prepare=prepare if model.kernels == "compiled" and model.nnz <= MEMO_ENTRIES
+            else None,
         )
         outcome = newton(problem, x, run.tolerance, max_iterations, polish=polish,
                          check=self.iteration_check(run, where))

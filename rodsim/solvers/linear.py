@@ -199,6 +199,8 @@ class LinearSolver:
             factor, x, info = lapack.dpbsv(ab, -rhs, lower=1, overwrite_ab=1, overwrite_b=1)
             if info == 0:
                 self.counts["cholesky"] += 1
+                if not self._compiled_fill:  # a fresh array: the factor stays valid
+                    self._scratch.last = data.copy(), BandCholeskySolve(factor)
                 if self.refined:
                     x += lapack.dpbtrs(factor, -self._refinement_residual(data, x, rhs), lower=1)[0]
                 return x
@@ -234,7 +236,13 @@ class LinearSolver:
         band array ``solve`` keeps (no fresh memory: at N = 100 000 a fresh LU array
         made a factorisation 230–540 ms against ~110 ms): the function is then valid only
         until the next ``solve`` or kept factorisation on this solver in this thread (a
-        SUNDIALS preconditioner, which replaces its factorisation each time)."""
+        SUNDIALS preconditioner, which replaces its factorisation each time).
+
+        A symmetric J equal to the last one ``solve`` factored by Cholesky in this thread
+        (a model below ``COMPILED_FILL_SIZE`` unknowns, whose band arrays are fresh) takes
+        that factor: dpbsv's is dpbtrf's, bit for bit. The verification of a Newton solve's
+        last state (rodsim/solvers/base.py, ``equilibrium_factor``) factors nothing again:
+        one of ~9 factorisations of a tdcr-two-segment batch case."""
         if self.dense:
             lu, pivots, info = lapack.dgetrf(self._dense_matrix(data), overwrite_a=1)
             if info != 0:
@@ -248,6 +256,9 @@ class LinearSolver:
             except RuntimeError:
                 return None
         if self.symmetric:
+            last = getattr(self._scratch, "last", None)
+            if last is not None and bool((last[0] == data).all()):
+                return last[1]  # the factor the last solve made of the same J: dpbsv's dpbtrf
             ab = self._filled(data, True, keep=keep)
             factor, info = lapack.dpbtrf(ab, lower=1, overwrite_ab=1)
             if info == 0:

@@ -137,7 +137,7 @@ def rest_imbalance(run: RunState, model: Model) -> np.ndarray | None:
     every model whose rest state balances (every shipped scene's) solves as before, bit for
     bit (one more force evaluation is counted)."""
     run.counts["force_evals"] += 1
-    force = model.force(model.x0, 0.0)
+    force = model.unloaded_rest_force()  # kept by a batch's or a track's model copies
     return force if model.force_residual(force) > run.tolerance else None
 
 

@@ -35,7 +35,7 @@ no per-term test code: force = −∂E/∂x, Jacobian = ∂F/∂x, symmetry when
 from __future__ import annotations
 
 from abc import ABC, abstractmethod
-from collections.abc import Hashable, Mapping, Sequence
+from collections.abc import Callable, Hashable, Mapping, Sequence
 from typing import TYPE_CHECKING, Any, ClassVar
 
 import numpy as np
@@ -360,6 +360,14 @@ class Term(ABC):
         a sensitivity then differences F on one point instead of a fourth-order stencil
         (rodsim/app/inverse/sensitivity.py). False unless a term says so."""
         return False
+
+    def linear_unit(self) -> tuple[tuple[Any, ...], float, Callable[[], Term]] | None:
+        """When this term's force (so its Jacobian) is a constant c times that of its unit,
+        this term at c = 1: (the objects the unit's force depends on, which a copy of this
+        term at another c shares; c; a function making the unit). The model's rest
+        diagonal takes c times the unit's share (rodsim/core/model_scales.py). None (the
+        default): not so."""
+        return None
 
     def with_options(self, options: Any) -> Term | None:
         """This term with the options ``options`` (an ``Options`` of its class) made

@@ -54,7 +54,7 @@ from __future__ import annotations
 
 import copy
 import dataclasses
-from collections.abc import Hashable, Mapping, Sequence
+from collections.abc import Callable, Hashable, Mapping, Sequence
 from dataclasses import dataclass, field
 from functools import cached_property
 from typing import Any
@@ -123,6 +123,12 @@ class TendonStringOptions(Options):
     static_friction: float = 0.0
     static_friction_profile: list[float] = field(default_factory=list)
     exact_jacobian: bool = False
+
+
+#: The options ``TendonString.with_options`` compares, all but the tension (a new tension
+#: keeps the routing): named once, not through ``dataclasses.replace`` at every step.
+_KEPT_OPTIONS = tuple(f.name for f in dataclasses.fields(TendonStringOptions)
+                      if f.name != "tension")
 
 
 class TendonString(TendonTerm):
@@ -312,11 +318,30 @@ class TendonString(TendonTerm):
         """A copy with another tension when that is the only option changed (a tracking
         step): the routing, its points and their director forms depend on the other
         options only."""
-        if dataclasses.replace(options, tension=self.options.tension) != self.options:
+        mine = self.options
+        if type(options) is not type(mine):
             return None
+        for name in _KEPT_OPTIONS:  # the dataclass's equality, field by field
+            theirs, known = getattr(options, name), getattr(mine, name)
+            if theirs is not known and theirs != known:
+                return None
         other = copy.copy(self)
         other.options = options
         other.tension = float(options.tension)
+        return other
+
+    def linear_unit(self) -> tuple[tuple[Any, ...], float, Callable[[], Term]] | None:
+        """Frictionless (``linear_in``): the tension times the force at 1 N, on the routing
+        a copy of another tension shares."""
+        if not self.linear_in("tension"):
+            return None
+        return ((self.points, self._forms, self.chord_dofs, self.span, self.split,
+                 self._entry_slope), self.tension, self._unit)
+
+    def _unit(self) -> TendonString:
+        other = copy.copy(self)
+        other.options = dataclasses.replace(self.options, tension=1.0)
+        other.tension = 1.0
         return other
 
     @property
