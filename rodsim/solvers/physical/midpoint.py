@@ -63,13 +63,14 @@ from rodsim.solvers.physical.fixed_step import (
     newton_matrix,
     solve_step,
 )
+from rodsim.solvers.physical.midpoint_kernels import add_force, path_state, turned
+from rodsim.solvers.physical.midpoint_kernels import residual as step_residual
 from rodsim.solvers.physical.moving_supports import SupportVelocity
 from rodsim.solvers.physical.sparse_kernels import (
     Csr,
     arrays,
     congruent,
     csr_of,
-    matvec,
     plus,
     scaled,
     transpose,
@@ -128,7 +129,7 @@ class MidpointStep:
     def _averaged(self, model: Model, x0: np.ndarray, r1: np.ndarray, q1: np.ndarray,
                   qm: np.ndarray, dq1: np.ndarray | None = None,
                   start: tuple[np.ndarray, np.ndarray] | None = None,
-                  reference: np.ndarray | None = None
+                  reference: np.ndarray | None = None, rows: np.ndarray | None = None
                   ) -> tuple[np.ndarray, np.ndarray, sp.csr_matrix | None]:
         """The generalised force averaged along the step's path γ(s) = (r₀ + s Δr,
         normalise(q₀ + s Δq)), s in [0, 1], by Gauss–Legendre quadrature (``quadrature``
@@ -137,40 +138,43 @@ class MidpointStep:
         derivative of (f̄_r, τ̄) with respect to (r₁, ω_m): the stiffness terms and the
         change of the path's direction with ω_m at fixed force (large where a penalty's
         internal force is: leaving it out made Newton diverge on stiff wires). ``start``:
-        x₀'s (positions, quaternions) and ``reference`` the model's rest state at its free
-        coordinates (``model_state``), when the caller has them."""
+        x₀'s (positions, quaternions), ``reference`` the model's rest state at its free
+        coordinates (``model_state``) and ``rows`` the rows B_k q_m (``velocity_rows``),
+        when the caller has them. The path's states and the force's sums are
+        rodsim/solvers/physical/midpoint_kernels.py's."""
         c = self.coordinates
         n, m = model.n, c.size
         r0, q0 = (x0[c.positions], x0[c.quaternions]) if start is None else start
         if reference is None:
             reference = model.reference[model.free]
-        rows = velocity_rows(qm)  # B_k q_m: Δq = (h/2) Σ ω_m,k B_k q_m
+        if rows is None:
+            rows = velocity_rows(qm)  # B_k q_m: Δq = (h/2) Σ ω_m,k B_k q_m
         f_r = np.zeros(self._p)
         tau = np.zeros((self._s, 3))
         derivative: Csr | None = None
-        dq, dr = q1 - q0, r1 - r0
+        state = np.empty(len(x0))
+        unit = np.empty((self._s, 4))
+        norm = np.empty(self._s)
         for node, weight in self._gauss:
-            q = q0 + node * dq
-            norm = _norms(q)
-            unit = q / norm[:, None]
-            x = x0.copy()
-            x[c.positions] = r0 + node * dr
-            x[c.quaternions] = unit
-            state = x - reference  # model_state
+            # the state at the path's point: x₀ with r₀ + s Δr and normalise(q₀ + s Δq),
+            # minus the rest state (``model_state``)
+            path_state(x0, reference, c.positions, c.quaternions, r0, r1, q0, q1, node,
+                       state, unit, norm)
+            # the model's force (and Jacobian) without its memo: iterates do not repeat
             if dq1 is None:
-                f = model.force(state)
+                f = model.evaluate_fresh(state, jacobian=False)[0]
                 finite = bool(np.isfinite(f).all())
             else:
-                f, jac = model.evaluate(state)
+                f, jac = model.evaluate_fresh(state)
                 finite = bool(np.isfinite(f).all()) and bool(np.isfinite(jac).all())
             if not finite:
                 raise StepFailure("the force or its Jacobian is not finite")
-            f_q = f[c.quaternions]
-            across = f_q - unit * np.add.reduce(unit * f_q, axis=1)[:, None]  # (I − q̂q̂ᵀ) f_q
-            f_r += weight * f[c.positions]
-            tau += weight * 0.5 * np.einsum("ska,sa->sk", rows, across) / norm[:, None]
+            # f̄_r += weight f_r, τ̄ += weight ½ B_k q_m · (I − q̂q̂ᵀ) f_q / |q|
+            add_force(f, c.positions, c.quaternions, unit, norm, rows, weight, f_r, tau)
             if dq1 is None:
                 continue
+            f_q = f[c.quaternions]
+            across = f_q - unit * np.add.reduce(unit * f_q, axis=1)[:, None]  # (I − q̂q̂ᵀ) f_q
             # ∂F/∂x's CSC arrays (``model.pattern_matrix(jac)``'s, without building it)
             jacobian = arrays(Csr(model.pattern.indptr, model.pattern.indices, jac))
             project = (np.eye(4)[None] - unit[:, :, None] * unit[:, None, :]) / norm[:, None,
@@ -229,7 +233,6 @@ class MidpointStep:
         split = (r0, x0[c.quaternions])  # x₀'s positions and quaternions, for every iterate
         reference = model.reference[model.free]  # model_state's
         mass = c.mass
-        mass_rows = (len(r0), len(r0), mass.indptr, mass.indices, mass.data)
         # D_t = Gᵀ D G on the physical velocities at the last iterate's midpoint
         held: list[sp.csr_matrix | None] = [None]
         r1, wm = r0 + h * v0, w0.copy()
@@ -237,32 +240,35 @@ class MidpointStep:
             r1, wm = r0 + h * start.middle[0], start.middle[1].copy()
         inertia = c.inertia
 
+        q0 = split[1]
+        q1, qm = np.empty(q0.shape), np.empty(q0.shape)
+        norm, rows = np.empty(len(q0)), np.empty((len(q0), 3, 4))
+
         def evaluate(r1: np.ndarray, wm: np.ndarray, fresh: bool
                      ) -> tuple[np.ndarray, sp.csr_matrix | None]:
-            q1, qm, norm = _turned(split[1], wm, h)
-            vm = (r1 - r0) / h
+            # q₁, q_m, |q_m| and B_k q_m (midpoint_kernels: as _turned and velocity_rows)
+            turned(q0, wm, h, q1, qm, norm, rows)
             dq1 = self._cayley_derivative(qm, wm, h) if fresh else None
             f_r, tau, stiffness = self._averaged(model, x0, r1, q1, qm, dq1, split,
-                                                 reference)
-            res_r = (2.0 / h) * _times(mass_rows, vm - v0) - f_r
-            res_w = ((2.0 / h) * inertia * (wm - w0) + _cross(wm, inertia * wm) - tau)
+                                                 reference, rows)
+            residual = np.empty(c.size)
+            step_residual(mass.indptr, mass.indices, mass.data, r0, r1, v0, inertia, wm, w0,
+                          h, f_r, tau, residual)
             damping = None
             if damper.active:
+                vm = (r1 - r0) / h
                 xm = _middle(c, x0, r0, r1, qm, norm)  # x_m: the damping's state
                 g = c.g_arrays(xm, n)
                 damping = tangent_damping.matrix(xm, g, c.size)
-                dragged = damping @ np.concatenate([vm, wm.ravel()])
-                res_r = res_r + dragged[:self._p]
-                res_w = res_w + dragged[self._p:].reshape(-1, 3)
+                residual += damping @ np.concatenate([vm, wm.ravel()])
                 if moving is not None:
                     x_dot = self._tangent(xm, vm, wm)
                     force, power = moving.damping_force(damper, xm, x_dot)
                     pushed_r, pushed_w = self._generalised(xm, force)
-                    res_r = res_r - pushed_r
-                    res_w = res_w - pushed_w
+                    residual[:self._p] -= pushed_r
+                    residual[self._p:] -= pushed_w.ravel()
                     support[:] = [(x_dot, force, power)]
             held[0] = damping
-            residual = np.concatenate([res_r, res_w.ravel()])
             if stiffness is None:
                 return residual, None
             return residual, newton_matrix(c, 2.0, stiffness, damping, wm, h)
@@ -342,28 +348,7 @@ def _middle(c: PhysicalCoordinates, x0: np.ndarray, r0: np.ndarray, r1: np.ndarr
     return xm
 
 
-def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """coordinates.cross_rows for two (s, 3) arrays of one shape (its products and
-    differences, without its broadcast of the shapes: the same numbers)."""
-    out = np.empty(a.shape)
-    out[:, 0] = a[:, 1] * b[:, 2] - a[:, 2] * b[:, 1]
-    out[:, 1] = a[:, 2] * b[:, 0] - a[:, 0] * b[:, 2]
-    out[:, 2] = a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0]
-    return out
-
-
 def _norms(q: np.ndarray) -> np.ndarray:
     """|q| row by row: numpy.linalg.norm(q, axis=1)'s own sum of squares and root, without
     its argument handling (the same numbers)."""
     return np.sqrt(np.add.reduce(q * q, axis=1))
-
-
-def _times(matrix: tuple[int, int, np.ndarray, np.ndarray, np.ndarray], v: np.ndarray
-           ) -> np.ndarray:
-    """A CSR matrix (rows, columns, indptr, indices, data) times ``v``: scipy's product
-    ``matrix @ v`` by its own kernel (``csr_matvec``), without its format checks (the same
-    numbers)."""
-    rows, cols, indptr, indices, data = matrix
-    out = np.zeros(rows)
-    matvec(rows, cols, indptr, indices, data, v, out)
-    return out
