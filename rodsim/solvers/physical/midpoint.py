@@ -48,7 +48,6 @@ from rodsim.core.model import Model
 from rodsim.core.rod.quaternion import B
 from rodsim.solvers.physical.coordinates import (
     PhysicalCoordinates,
-    block_arrays,
     cayley,
     cross_rows,
     model_state,
@@ -68,13 +67,9 @@ from rodsim.solvers.physical.midpoint_kernels import residual as step_residual
 from rodsim.solvers.physical.moving_supports import SupportVelocity
 from rodsim.solvers.physical.sparse_kernels import (
     Csr,
-    arrays,
-    congruent,
     csr_of,
-    plus,
-    scaled,
-    transpose,
 )
+from rodsim.solvers.physical.stiffness_plan import StiffnessPlan, accumulate
 from rodsim.solvers.physical.tangent_damping import TangentDamping
 
 __all__ = ["MidpointStep", "SupportsAt"]
@@ -104,6 +99,9 @@ class MidpointStep:
         #: The last step's factored Newton matrix, which starts the next step's Newton
         #: (fixed_step.solve_step).
         self.kept = KeptMatrix()
+        #: The plan of the stiffness on the step's unknowns (stiffness_plan.py), for the
+        #: last Jacobian pattern met.
+        self._plan: StiffnessPlan | None = None
         c = coordinates
         self._p = len(c.positions)
         self._s = len(c.quaternions)
@@ -143,7 +141,7 @@ class MidpointStep:
         when the caller has them. The path's states and the force's sums are
         rodsim/solvers/physical/midpoint_kernels.py's."""
         c = self.coordinates
-        n, m = model.n, c.size
+        m = c.size
         r0, q0 = (x0[c.positions], x0[c.quaternions]) if start is None else start
         if reference is None:
             reference = model.reference[model.free]
@@ -151,7 +149,8 @@ class MidpointStep:
             rows = velocity_rows(qm)  # B_k q_m: Δq = (h/2) Σ ω_m,k B_k q_m
         f_r = np.zeros(self._p)
         tau = np.zeros((self._s, 3))
-        derivative: Csr | None = None
+        derivative: np.ndarray | None = None
+        plan = self._plan_of(model) if dq1 is not None else None
         state = np.empty(len(x0))
         unit = np.empty((self._s, 4))
         norm = np.empty(self._s)
@@ -175,12 +174,11 @@ class MidpointStep:
                 continue
             f_q = f[c.quaternions]
             across = f_q - unit * np.add.reduce(unit * f_q, axis=1)[:, None]  # (I − q̂q̂ᵀ) f_q
-            # ∂F/∂x's CSC arrays (``model.pattern_matrix(jac)``'s, without building it)
-            jacobian = arrays(Csr(model.pattern.indptr, model.pattern.indices, jac))
             project = (np.eye(4)[None] - unit[:, :, None] * unit[:, None, :]) / norm[:, None,
                                                                                     None]
-            g = c.tangent_arrays(0.5 * project @ np.transpose(rows, (0, 2, 1)), 1.0, n)
-            p = c.tangent_arrays(project @ (node * dq1), node, n)
+            # G's and P's 4 × 3 blocks (the identity, times 1 and ``node``, on the positions)
+            g_blocks = 0.5 * project @ np.transpose(rows, (0, 2, 1))
+            p_blocks = project @ (node * dq1)
             # τ_k = ½ a_kᵀ P f / |q| (a_k = B_k q_m, P = I − q̂q̂ᵀ) at fixed f: through a_k
             # (q_m moves by ½ ∂q₁/∂ω_m) and through q̂ and |q| (q moves by s ∂q₁/∂ω_m)
             turned = np.einsum("kba,sb->ska", B, across) / norm[:, None, None]  # B_kᵀ P f
@@ -192,18 +190,26 @@ class MidpointStep:
                          - moment[:, :, None] * unit[:, None, :]) / norm[:, None, None] ** 2
             geometric = 0.5 * (np.einsum("ska,sal->skl", turned, 0.5 * dq1)
                                + np.einsum("ska,sal->skl", through_q, node * dq1))
-            # the geometric blocks on the angles (sp.block_diag with the zero position
-            # block, as one placement)
-            # (g.T @ J @ p + the blocks), times the weight, summed: scipy's own operators'
-            # arrays, by its kernels (sparse_kernels), CSC until the end's ``tocsr``
-            part = scaled(plus(m, m, congruent(n, m, g, jacobian, p),
-                               transpose(m, m, block_arrays(
-                                   geometric, c.angle_columns, c.angle_columns, (m, m)))),
-                          weight)
-            derivative = part if derivative is None else plus(m, m, derivative, part)
-        if derivative is None:
+            # (Gᵀ J P + the geometric blocks on the angles), times the weight, summed into
+            # the plan's CSR values (stiffness_plan.py)
+            assert plan is not None
+            if derivative is None:
+                derivative = np.zeros(len(plan.indices))
+            accumulate(jac, plan.entry, plan.g_index, plan.p_index, plan.slot,
+                       g_blocks.ravel(), 1.0, p_blocks.ravel(), node, plan.geometric_slot,
+                       geometric.ravel(), weight, derivative)
+        if derivative is None or plan is None:
             return f_r, tau, None
-        return f_r, tau, csr_of(transpose(m, m, derivative), (m, m), sorted_indices=True)
+        return f_r, tau, csr_of(Csr(plan.indptr, plan.indices, derivative), (m, m),
+                                sorted_indices=True)
+
+    def _plan_of(self, model: Model) -> StiffnessPlan:
+        """The stiffness plan for ``model``'s Jacobian pattern (made once per pattern)."""
+        pattern = model.pattern
+        if self._plan is None or not self._plan.fits(pattern.indptr, pattern.indices):
+            self._plan = StiffnessPlan.of(self.coordinates, model.n, pattern.indptr,
+                                          pattern.indices)
+        return self._plan
 
     def _damping_of(self, model: Model) -> tuple[Damping, TangentDamping]:
         """The damping of ``model`` (the start's where no support moves: the damping does
