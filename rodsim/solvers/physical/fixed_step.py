@@ -22,7 +22,9 @@ is the fast modes' and far quicker than the rest); and a slow matrix (θ above `
 is kept when at its θ that stop is at most ``KEEP_ITERATIONS`` iterations away, about what
 a fresh matrix costs. On tdcr-two-segment (0.1 s of step-cost's ramp at 1/3 ms steps):
 1 689 → 1 592 iterations and 147 → 111 factorisations, the positions within 1.4e-12 L of
-the run before.
+the run before. With ``KEEP_ITERATIONS`` 8 instead of 4 (round 18: a fresh matrix now costs
+about nine iterations, not three), 0.2 s of that run: 3 051 → 3 482 iterations and
+213 → 127 factorisations.
 """
 
 from __future__ import annotations
@@ -69,10 +71,11 @@ ROUNDOFF = 1e-9
 REFRESH = 0.1
 #: A slow Newton matrix (contraction θ above ``REFRESH``, below 1) is kept when, at θ, the
 #: stop below is this many iterations away or fewer: a fresh matrix costs about as much (on
-#: tdcr-two-segment, N = 61: the Jacobian at both Gauss points, its map to the step's
-#: unknowns and SuperLU's factorisation, about three iterations with a kept matrix). A
-#: nominal count: no clock.
-KEEP_ITERATIONS = 4.0
+#: tdcr-two-segment, N = 61, since the midpoint step's compiled kernels and stiffness plan:
+#: the Jacobian at both Gauss points, its map to the step's unknowns and SuperLU's
+#: factorisation, 1.6 ms against 0.17 ms for an iteration with a kept matrix, about nine;
+#: three before them, when this was 4). A nominal count: no clock.
+KEEP_ITERATIONS = 8.0
 #: A Newton change this large (a tenth of the rod's length, or of a radian) is divergence.
 DIVERGED = 0.1
 #: Newton iterations allowed per time step.
