@@ -46,6 +46,7 @@ import scipy.sparse as sp
 from rodsim.core.damping import Damping
 from rodsim.core.model import Model
 from rodsim.core.rod.quaternion import B
+from rodsim.solvers.physical.band_lu import band_order
 from rodsim.solvers.physical.coordinates import (
     PhysicalCoordinates,
     cayley,
@@ -102,6 +103,9 @@ class MidpointStep:
         #: The plan of the stiffness on the step's unknowns (stiffness_plan.py), for the
         #: last Jacobian pattern met.
         self._plan: StiffnessPlan | None = None
+        #: The unknowns' band order, in which the Newton matrix is factored
+        #: (rodsim/solvers/physical/band_lu.py).
+        self._order = band_order(coordinates)
         c = coordinates
         self._p = len(c.positions)
         self._s = len(c.quaternions)
@@ -280,7 +284,7 @@ class MidpointStep:
             return residual, newton_matrix(c, 2.0, stiffness, damping, wm, h)
 
         r1, wm, iterations = solve_step(evaluate, r1, wm, h, self.length_scale,
-                                        self.tolerance, self.kept)
+                                        self.tolerance, self.kept, self._order)
         damping = held[0]
         q1, _, _ = _turned(split[1], wm, h)
         vm = (r1 - r0) / h
