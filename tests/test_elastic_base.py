@@ -1,4 +1,4 @@
-"""The elastic base (``clamp = "elastic"``, its energy rodsim/core/terms/elastic_base.py): a
+"""The elastic base (``clamp = "elastic"``, its energy rodsim/core/support_kinds/elastic.py): a
 rod held at its base by a translational spring k_t and rotational springs k_b (bending) and
 k_tau (twist) instead of a rigid clamp.
 

@@ -1,6 +1,7 @@
-"""The elastic base support (``rods.<rod>.clamp = "elastic"``, rodsim/core/supports.py
-``ElasticSupport``): the base held at its place and frame by a translational spring k_t and
-rotational springs k_b (bending), k_tau (twist), keys of ``[rods.<rod>.base]``.
+"""The elastic base support (``rods.<rod>.clamp = "elastic"``,
+rodsim/core/support_kinds/elastic.py ``ElasticSupport``): the base held at its place and
+frame by a translational spring k_t and rotational springs k_b (bending), k_tau (twist),
+keys of ``[rods.<rod>.base]``.
 
 Closed form (small deflections, Euler-Bernoulli): a cantilever of bending stiffness E I on
 such a base, under a tip force F across its axis, deflects at the tip by
@@ -129,18 +130,18 @@ def test_a_tip_torque_twists_the_rod_and_the_torsional_spring():
 
 
 def test_the_elastic_clamp_adds_the_elastic_base_energy_once():
-    """One way to write an elastic base: the support kind adds its energy, the term of
-    rodsim/core/terms/elastic_base.py, once, with the base's springs (k_tau = k_b when
-    torsional_stiffness is not set)."""
-    from rodsim.core.terms.elastic_base import ElasticBase
+    """One way to write an elastic base: the support kind's energy
+    (rodsim/core/support_kinds/elastic.py, through the generic support term), once, with the
+    base's springs (k_tau = k_b when torsional_stiffness is not set)."""
+    from rodsim.core.support_kinds.elastic import ElasticSupport
 
     bot = robot("steel wire", 5)
     model = rodsim.build_model(scene(bot, 21))
-    springs = [term for term in model.terms if isinstance(term, ElasticBase)]
+    springs = [term for term in model.terms
+               if getattr(term, "support_kind", None) is ElasticSupport]
     assert len(springs) == 1
     options = springs[0].options
-    assert (options.stiffness, options.rotational_stiffness, options.torsional_stiffness) == (
-        bot["k_t"], bot["k_b"], bot["k_b"])
+    assert (options.kind, options.values) == ("elastic", [bot["k_t"], bot["k_b"], bot["k_b"]])
 
 
 def _base(**values: Any) -> dict[str, Any]:

@@ -55,6 +55,34 @@ def test_the_compile_step_solves_every_term_kernel_and_obstacle_type():
     assert {"tendon_string", "contact"} <= rough  # friction on tendons and on obstacles
 
 
+def test_an_obstacle_type_registered_later_is_compiled_for_from_its_example():
+    """A type added to the registry (docs/architecture.md, "How to add an obstacle type")
+    gets its compile scenes, with and without friction, from its own ``example`` table:
+    rodsim/app/kernel_coverage.py names no type. The throwaway type reuses the sphere's gap
+    and kernel under a new name and is registered for this test only."""
+    from rodsim.core.obstacles import OBSTACLES
+    from rodsim.core.obstacles.sphere import Sphere
+
+    class Ball(Sphere):
+        type = "test_ball"
+        example = {"center": [0.07, -0.02, 0.0], "radius": 0.015}
+
+    try:
+        steps = {step.label: step for step in compile_steps()}
+        for name in ("compile-obstacle-test_ball", "compile-obstacle-test_ball-friction"):
+            result = rodsim.solve(steps[name].scene, "static")
+            assert result.success, result.message
+            ball = [t for t in Model(result.scene, "numpy").terms if hasattr(t, "obstacle")]
+            assert [type(t.obstacle) for t in ball] == [Ball], name
+            assert (ball[0].friction > 0.0) == name.endswith("friction")
+            gap = ball[0].obstacle.gap(result.positions())[0]
+            radius = result.scene.rods["catheter"].radius  # contact where φ < r
+            assert gap.min() < radius, f"{name}: the example does not stop the rod"
+    finally:
+        del OBSTACLES[Ball.type]
+    assert not [n for n in (step.label for step in compile_steps()) if "test_ball" in n]
+
+
 def test_an_unknown_scene_is_one_line_and_exit_2(capsys):
     compiled_before = kernel_counts().compiled  # this process's earlier tests may compile
     assert main(["compile", "no-such-scene"]) == 2

@@ -17,7 +17,7 @@ import rodsim
 from rodsim.core.model import Model
 from rodsim.core.scene import Scene
 from rodsim.core.schema import SceneError
-from rodsim.core.supports import Support, registered_support_kinds
+from rodsim.core.supports import Support, SupportKind, registered_support_kinds
 from rodsim.core.terms import term_class
 from rodsim.core.terms.bend_twist import BendTwist
 
@@ -142,18 +142,22 @@ def test_a_kind_holds_what_it_says(name):
     assert bool(at_node) == kind.frame_element
     for i in at_node:
         np.testing.assert_array_equal(bend._frames[i], support.frame)
-    # The terms the kind adds at a base are in the model, under the rod's key "base".
+    # The terms the kind adds at a base are in the model, under the rod's key "base": for a
+    # kind with an energy, the generic support term asking this kind, once.
     if which == "base":
         added = kind.terms(model.scene.data["rods"][rod_name].get("base") or {})
         mine = [(type(term).key, term.options) for term, key in
                 zip(model.terms, model.term_keys, strict=True) if key == ("rods", rod_name, "base")]
         assert mine == [(key, term_class(key, values).Options.of(values))
                         for key, values in added]
-        # Those terms are the kind's alone: declared in adds_terms, of scope "support"
-        # (no scene lists them), and a rod naming one is pointed to the kind in one line.
-        assert sorted({key for key, _ in added}) == sorted(kind.adds_terms)
-        for key in kind.adds_terms:
-            assert term_class(key, {}).scope == "support"
+        energies = [term for term, key in zip(model.terms, model.term_keys, strict=True)
+                    if key == ("rods", rod_name, "base")
+                    and getattr(term, "support_kind", None) is kind]
+        assert len(energies) == kind.has_energy
+        for term in energies:
+            assert type(term).scope == "support" and term.dofs.shape == (1, 7)
+        # An older scene's term for this kind is pointed to the kind in one line.
+        for key in kind.former_terms:
             listed = copy.deepcopy(scene)
             listed["rods"][rod_name]["terms"] = [*listed["rods"][rod_name].get(
                 "terms", ["stretch", "bend_twist", "centerline"]), key]
@@ -161,6 +165,44 @@ def test_a_kind_holds_what_it_says(name):
                                rf"'{name}'") as refused:
                 Scene.from_dict(listed)
             assert "\n" not in str(refused.value)
+
+
+def _local_state(rng: np.random.Generator, support: Support) -> np.ndarray:
+    """(r, q) of a held node well away from its support: moved by 1 mm, turned by up to
+    0.3 rad and scaled off the unit sphere."""
+    return np.concatenate([support.position + 1e-3 * rng.standard_normal(3),
+                           support.frame + 0.15 * rng.standard_normal(4)])
+
+
+def check_energy_methods(kind: type[SupportKind], constants: dict[str, Any],
+                         support: Support, seed: int) -> None:
+    """A kind's ``forces`` is −∂``energy``/∂x and its ``jacobian`` ∂``forces``/∂x (and
+    symmetric) by central differences, at random states of its 7 coordinates."""
+    rng = np.random.default_rng(seed)
+    for _ in range(3):
+        x = _local_state(rng, support)
+        steps = np.array([1e-7] * 3 + [1e-6] * 4)
+        force = kind.forces(constants, x)
+        gradient = _central(lambda y: kind.energy(constants, y), x, steps)[0]
+        assert np.max(np.abs(force + gradient)) < TOLERANCE * np.max(np.abs(force))
+        jac, jac_fd = kind.jacobian(constants, x), _central(
+            lambda y: kind.forces(constants, y), x, steps)
+        for rows in (slice(0, 3), slice(3, 7)):
+            for cols in (slice(0, 3), slice(3, 7)):
+                scale = max(np.max(np.abs(jac_fd[rows, cols])), 1e-300)
+                assert np.max(np.abs(jac[rows, cols] - jac_fd[rows, cols])) < TOLERANCE * scale
+        np.testing.assert_allclose(jac, jac.T, rtol=0.0, atol=1e-12 * np.max(np.abs(jac)))
+
+
+@pytest.mark.parametrize("name", sorted(n for n, k in registered_support_kinds().items()
+                                        if k.has_energy))
+def test_an_energetic_kind_s_force_and_jacobian_are_its_energy_s(name):
+    kind = registered_support_kinds()[name]
+    scene, rod_name, _ = EXAMPLES[name]
+    model = rodsim.build_model(copy.deepcopy(scene))
+    term = next(t for t in model.terms if getattr(t, "support_kind", None) is kind)
+    check_energy_methods(kind, term.constants, model.rods[rod_name].support,
+                         len(name))
 
 
 @pytest.mark.parametrize("name", sorted(registered_support_kinds()))

@@ -1,18 +1,28 @@
-"""Types a checker can see (issue 21 item 3): the options of the scene's tables and of each
-integrator are hand-declared dataclasses checked here against their ``Parameter``
-declarations, so the two cannot drift; mypy runs clean on the whole package (pyproject.toml's
+"""Types a checker can see (issue 21 item 3): the options of the scene's tables and the terms
+are hand-declared dataclasses checked here against their ``Parameter`` declarations, so the
+two cannot drift; an integrator's options are declared once, on its dataclass's fields, and
+its parameters made from them; mypy runs clean on the whole package (pyproject.toml's
 ``[tool.mypy]``; issue 38 item 5)."""
 
 from __future__ import annotations
 
+import ast
 import dataclasses
+import inspect
 from dataclasses import dataclass, field
 
 import pytest
 
 from rodsim.core.rod.rod import ROD_PARAMETERS, RodOptions
 from rodsim.core.scene import SOLVER_PARAMETERS, SolverSettings
-from rodsim.core.schema import Options, Parameter, options_mismatch
+from rodsim.core.schema import (
+    Options,
+    Parameter,
+    declared_parameters,
+    option,
+    options_mismatch,
+    shared_option,
+)
 from rodsim.core.supports import (
     BASE_PARAMETERS,
     SUPPORT_PARAMETERS,
@@ -56,6 +66,64 @@ def test_each_integrator_has_declared_options_that_match_its_parameters(name):
     assert cls.Options.__module__ == cls.__module__, (
         f"integrator {name!r}: declare its Options beside the class")
     assert options_mismatch(cls.Options, cls.parameters) == []
+
+
+@pytest.mark.parametrize("name", sorted(registered_integrators()))
+def test_each_integrator_option_is_written_once(name):
+    """An integrator's options are declared once, on its ``Options`` fields
+    (``rodsim.core.schema.option``): its ``parameters`` (scene validation, ``--help``,
+    docs/scenes.md) are made from them, never written beside them."""
+    cls = registered_integrators()[name]
+    tree = ast.parse(inspect.getsource(cls))
+    written = [node for node in ast.walk(tree) if isinstance(node, ast.Assign | ast.AnnAssign)
+               and any(isinstance(t, ast.Name) and t.id == "parameters"
+                       for t in (node.targets if isinstance(node, ast.Assign) else [node.target]))]
+    assert not written, (
+        f"integrator {name!r}: declare each option once, by its Options field (option(...))")
+    assert cls.parameters == declared_parameters(cls.Options)
+
+
+def test_options_declared_on_fields_make_their_parameters():
+    """``option`` puts a parameter's declaration on a field; ``declared_parameters`` reads
+    name and kind from the field, a required field has no default, a list default is a
+    fresh list per instance, a subclass changes a default with a plain value, another class
+    shares a field with ``shared_option``; an undeclared field is named."""
+
+    @dataclass(frozen=True, kw_only=True)
+    class Base(Options):
+        h: float = option(0.3, "s", "time step", 0.0, 1e3, exclusive_minimum=True)
+        steps: int = option(None, "-", "steps", 1, 10)
+        origin: list[float] = option([0.0, 0.0, 0.0], "m", "origin", length=3)
+        method: str = option("a", "-", "method", choices=("a", "b"))
+
+    expected = (Parameter("h", "float", 0.3, "s", "time step", 0.0, 1e3,
+                          exclusive_minimum=True),
+                Parameter("steps", "int", None, "-", "steps", 1, 10),
+                Parameter("origin", "vector", [0.0, 0.0, 0.0], "m", "origin", length=3),
+                Parameter("method", "str", "a", "-", "method", choices=("a", "b")))
+    assert declared_parameters(Base) == expected
+    assert options_mismatch(Base, expected) == []
+    one, two = Base(steps=2), Base(steps=3)
+    assert one.origin == [0.0, 0.0, 0.0] and one.origin is not two.origin
+
+    @dataclass(frozen=True, kw_only=True)
+    class Longer(Base):
+        h: float = 0.1
+
+    assert declared_parameters(Longer)[0] == dataclasses.replace(expected[0], default=0.1)
+
+    @dataclass(frozen=True, kw_only=True)
+    class Sharing(Options):
+        method: str = shared_option(Base, "method")
+
+    assert declared_parameters(Sharing) == (expected[3],)
+
+    @dataclass(frozen=True, kw_only=True)
+    class Undeclared(Options):
+        h: float = 0.3
+
+    with pytest.raises(TypeError, match=r"Undeclared\.h: declare the option with"):
+        declared_parameters(Undeclared)
 
 
 def test_a_drifted_declaration_is_named():

@@ -15,7 +15,9 @@ from __future__ import annotations
 import copy
 from typing import Any
 
-__all__ = ["COVERAGE_SCENES", "LARGE_SCENE"]
+from rodsim.core.obstacles import registered_obstacles
+
+__all__ = ["LARGE_SCENE", "coverage_scenes"]
 
 _ROD: dict[str, Any] = {"length": 0.1, "radius": 0.004, "youngs_modulus": 2e6,
                         "stretch_modulus": 5e6, "density": 1200.0, "nodes": 7}
@@ -153,10 +155,28 @@ _JOINTS: dict[str, Any] = {
     },
 }
 
-#: The small scenes, by name (module docstring).
-COVERAGE_SCENES: dict[str, dict[str, Any]] = {
-    scene["name"]: scene for scene in (_LOADS, _CONTACT, _FRICTION, _STRINGS, _TENDON_ROD,
-                                       _JOINTS)}
+def obstacle_example(kind: str, friction: float) -> dict[str, Any]:
+    """A cantilever (0.1 m along +x, 1 mm thick, 10 mN toward -y at its tip) stopped by the
+    ``example`` table of the registered obstacle type ``kind`` (rodsim/core/obstacles/), with
+    friction ``friction``: a type added to the registry is compiled for with no edit here."""
+    table = {"type": kind, "rods": ["catheter"], **registered_obstacles()[kind].example}
+    if friction:
+        table["friction"] = friction
+    rod = _ROD | {"radius": 0.001, "nodes": 9, "youngs_modulus": 2e8,
+                  "terms": ["stretch", "bend_twist", "centerline", "tip_load"],
+                  "tip_load": {"force": [0.0, -0.01, 0.0]}}
+    return {"name": f"compile-obstacle-{kind}" + ("-friction" if friction else ""),
+            "rods": {"catheter": rod}, "obstacles": {"obstacle": table}}
+
+
+def coverage_scenes() -> dict[str, dict[str, Any]]:
+    """The small scenes, by name (module docstring): the fixed ones and, for every obstacle
+    type registered when called, its example with and without friction."""
+    examples = [obstacle_example(kind, friction) for kind in sorted(registered_obstacles())
+                for friction in (0.0, 0.3)]
+    return {scene["name"]: scene for scene in (_LOADS, _CONTACT, _FRICTION, _STRINGS,
+                                               _TENDON_ROD, _JOINTS, *examples)}
+
 
 #: A model from ``rodsim.solvers.linear.COMPILED_FILL_SIZE`` unknowns on (table1-50g at 640
 #: nodes: 4 473 unknowns), whose linear solves and stability verdict fill their band by

@@ -2,10 +2,11 @@
 
 The compiled kernels (rodsim/core/kernels/) are numba functions cached on disk
 (``cache=True``): the first process that calls one with new argument types compiles it
-(seconds per kernel: 4.2 s for table1-50g's, docs/benchmarks.md "Kernels") and writes the
-machine code where numba keeps its cache (``__pycache__`` beside the module when that is
-writable, else numba's user cache folder, or ``NUMBA_CACHE_DIR``); every later process
-loads it. On a fresh install that first compile lands in whichever run first needs a kernel.
+(seconds per kernel: 4.2 s for table1-50g's, docs/benchmark-history.md, "Round 17's figures
+page", "Kernels") and writes the machine code where numba keeps its cache (``__pycache__``
+beside the module when that is writable, else numba's user cache folder, or
+``NUMBA_CACHE_DIR``); every later process loads it. On a fresh install that first compile
+lands in whichever run first needs a kernel.
 
 ``compile_kernels`` moves it to a moment the user chooses: it solves, with
 ``solver.kernels = "compiled"``, every shipped scene with its own integrator, table1-50g
@@ -97,28 +98,29 @@ def compile_steps(scenes: Iterable[str] | None = None) -> list[CompileStep]:
     with ``static`` (the error estimates' re-solves, batches, tracks; ValueError naming the
     unknown ones). Another integrator may call a kernel with other argument types: the
     full list solves table1-50g with each."""
-    from rodsim.app.kernel_coverage import COVERAGE_SCENES, LARGE_SCENE
+    from rodsim.app.kernel_coverage import LARGE_SCENE, coverage_scenes
     from rodsim.core.scene import scene_paths
     from rodsim.solvers import registered_integrators
 
     shipped = list(scene_paths())
+    small = coverage_scenes()
     if scenes is not None:
         names = list(scenes)
-        unknown = [n for n in names if n not in shipped and n not in COVERAGE_SCENES]
+        unknown = [n for n in names if n not in shipped and n not in small]
         if unknown:
             raise ValueError(f"no scene {', '.join(map(repr, unknown))} to compile for; the "
-                             f"scenes are {', '.join([*shipped, *COVERAGE_SCENES])}")
+                             f"scenes are {', '.join([*shipped, *small])}")
         steps = []
         for n in names:
-            steps.append(CompileStep(n, COVERAGE_SCENES.get(n, n),
-                                     "static" if n in COVERAGE_SCENES else None))
-            if n not in COVERAGE_SCENES:
+            steps.append(CompileStep(n, small.get(n, n),
+                                     "static" if n in small else None))
+            if n not in small:
                 steps.append(CompileStep(f"{n} (static)", n, "static"))
         return steps
     steps = [CompileStep(n, n) for n in shipped]
     steps += [CompileStep(f"table1-50g ({kind})", "table1-50g", kind)
               for kind in registered_integrators() if kind != "cvode"]
-    steps += [CompileStep(n, scene, "static") for n, scene in COVERAGE_SCENES.items()]
+    steps += [CompileStep(n, scene, "static") for n, scene in small.items()]
     name, overrides = LARGE_SCENE
     steps.append(CompileStep(f"{name} (large)", name, None, overrides))
     return steps

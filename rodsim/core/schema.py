@@ -20,7 +20,8 @@ from typing import Any, ClassVar, Self
 
 __all__ = ["Parameter", "SceneError", "validate_table", "shown", "shown_path", "options_type",
            "is_integer",
-           "register_with_options", "Options", "options_mismatch", "KIND_HINTS"]
+           "register_with_options", "Options", "options_mismatch", "KIND_HINTS", "option",
+           "shared_option", "declared_parameters", "OPTION_METADATA"]
 
 #: Longest echo of a user's value in a message (longer ones are cut with "…").
 SHOWN_WIDTH = 60
@@ -122,7 +123,8 @@ class Parameter:
     minimum, maximum
         Allowed range (numbers); ``exclusive_minimum`` makes the lower bound strict.
     choices
-        Allowed values for ``str`` parameters (or for the items of a ``list``).
+        Allowed values for ``str`` parameters (or for the items of a ``list``): a tuple,
+        or a sequence that reads a registry when asked (``rodsim.core.supports.CLAMPS``).
     length
         Required length of a ``vector``.
     items
@@ -137,7 +139,7 @@ class Parameter:
     minimum: float | None = None
     maximum: float | None = None
     exclusive_minimum: bool = False
-    choices: tuple[str, ...] | None = None
+    choices: Sequence[str] | None = None
     length: int | None = None
     items: tuple[Parameter, ...] | None = None
 
@@ -375,13 +377,99 @@ def options_mismatch(cls: type, parameters: Iterable[Parameter]) -> list[str]:
     return problems
 
 
+#: The key of an options field's metadata that holds its parameter's declaration
+#: (``option``).
+OPTION_METADATA = "rodsim.option"
+
+
+def option(default: Any = None, unit: str = "-", doc: str = "", minimum: float | None = None,
+           maximum: float | None = None, *, exclusive_minimum: bool = False,
+           choices: Sequence[str] | None = None, length: int | None = None) -> Any:
+    """A field of an options dataclass that declares its option once: its default (None:
+    required), unit, one-line doc, range and choices, as ``Parameter`` takes them; the
+    field's name and annotation (``KIND_HINTS``) give the parameter's name and kind
+    (``declared_parameters`` makes the ``Parameter``). A subclass changes a default by
+    declaring the field again with a plain value (``newton_switch: float = 0.03``)."""
+    metadata = {OPTION_METADATA: {"unit": unit, "doc": doc, "minimum": minimum,
+                                  "maximum": maximum, "exclusive_minimum": exclusive_minimum,
+                                  "choices": choices, "length": length}}
+    if default is None:
+        return dataclasses.field(metadata=metadata)
+    if isinstance(default, list):
+        return dataclasses.field(default_factory=functools.partial(list, default),
+                                 metadata=metadata)
+    return dataclasses.field(default=default, metadata=metadata)
+
+
+def shared_option(cls: type, name: str) -> Any:
+    """A field declaring option ``name`` as the options dataclass ``cls`` declares it (its
+    default and its ``option`` metadata), for another options class that shares it."""
+    declared = _declaration(cls, name)
+    field = next(f for f in dataclasses.fields(cls) if f.name == name)
+    if field.default_factory is not dataclasses.MISSING:
+        return dataclasses.field(default_factory=field.default_factory, metadata=declared)
+    if field.default is not dataclasses.MISSING:
+        return dataclasses.field(default=field.default, metadata=declared)
+    return dataclasses.field(metadata=declared)
+
+
+def _declaration(cls: type, name: str) -> Mapping[str, Any]:
+    """The ``option`` metadata of field ``name`` of ``cls`` or, where ``cls`` only changes
+    its default, of the nearest base class that declares it (TypeError: none does)."""
+    for base in cls.__mro__:
+        field = getattr(base, "__dataclass_fields__", {}).get(name)
+        if field is not None and OPTION_METADATA in field.metadata:
+            return field.metadata
+    raise TypeError(f"{cls.__name__}.{name}: declare the option with "
+                    "rodsim.core.schema.option(...) (its unit, doc and range)")
+
+
+def declared_parameters(cls: type) -> tuple[Parameter, ...]:
+    """The ``Parameter`` of each field of the options dataclass ``cls``, in field order,
+    made from its ``option`` declaration: the name and kind from the field's name and
+    annotation, the default from its default (required: none), the rest from its
+    metadata. What an integrator's ``parameters`` are (``register_with_options``)."""
+    kinds = {repr(hint): kind for kind, hint in KIND_HINTS.items()}
+    hints = typing.get_type_hints(cls)
+    parameters = []
+    for field in dataclasses.fields(cls):
+        declared = _declaration(cls, field.name)[OPTION_METADATA]
+        if field.default is not dataclasses.MISSING:
+            default = field.default
+        elif field.default_factory is not dataclasses.MISSING:
+            default = field.default_factory()
+        else:
+            default = None
+        kind = kinds.get(repr(hints[field.name]))
+        if kind is None:
+            raise TypeError(f"{cls.__name__}.{field.name}: annotation {hints[field.name]!r} "
+                            f"is no parameter kind's ({', '.join(map(repr, KIND_HINTS.values()))})")
+        parameters.append(Parameter(field.name, kind, default, **declared))
+    return tuple(parameters)
+
+
+def _declares_options(cls: type) -> bool:
+    """Whether every field of the dataclass ``cls`` carries an ``option`` declaration."""
+    try:
+        return dataclasses.is_dataclass(cls) and all(
+            _declaration(cls, field.name) for field in dataclasses.fields(cls))
+    except TypeError:
+        return False
+
+
 def register_with_options(cls: type, registry: dict[str, type], kind: str) -> None:
     """What a term or integrator class does when it is defined: take the ``Options`` class it
-    declares (checked against its ``parameters``: TypeError naming each difference), or get
-    one made by ``options_type``, as ``cls.Options``; and, when it declares its own
+    declares (checked against its ``parameters``: TypeError naming each difference; a class
+    that declares no ``parameters`` of its own and whose ``Options`` fields are each
+    declared by ``option`` gets them from there, ``declared_parameters``: every integrator),
+    or get one made by ``options_type``, as ``cls.Options``; and, when it declares its own
     ``name``, enter ``registry`` under it (TypeError if the name is taken). ``kind`` names the
     registry in messages ("term", "integrator")."""
     label = getattr(cls, "name", cls.__name__)
+    if ("Options" in cls.__dict__ and "parameters" not in cls.__dict__
+            and _declares_options(cls.__dict__["Options"])):
+        # The options written once, on the dataclass's fields (``option``).
+        cls.parameters = declared_parameters(cls.__dict__["Options"])  # type: ignore[attr-defined]
     parameters = cls.parameters  # type: ignore[attr-defined]
     if "Options" in cls.__dict__:
         problems = options_mismatch(cls.__dict__["Options"], parameters)

@@ -32,19 +32,27 @@ rod (the bending term's frame elements at s_k, rodsim/core/terms/bend_twist.py).
 
 What a support holds is its *kind*, an open registry (``SupportKind``: a subclass with a
 unique ``name`` registers itself when defined, as terms and integrators do; docs/architecture.md,
-"How to add a support kind"). A kind owns everything that depends on what is held: the
-coordinates it removes from the free state (``SupportKind.fixed_index``), whether the bending
-term gets its frame element (``SupportKind.frame_element``: the element (q_c, q_0) of dual
-length l/2 that keeps the clamp second order in N, rodsim/core/terms/bend_twist.py), its
-scene rules and keys in ``[rods.<rod>.base]`` (``check_base``, ``base_parameters``) and the
-terms it adds to the model, if any (``SupportKind.terms``: an energy and its Jacobian; the
-rigid kinds add none, the elastic one its springs, rodsim/core/terms/elastic_base.py).
-Nothing else in the model knows how a rod is held.
+"How to add a support kind"). The rigid kinds are here; a kind of its own file lives in
+rodsim/core/support_kinds/, whose every module the registry imports on first use (the
+``elastic`` base, rodsim/core/support_kinds/elastic.py). A kind owns everything that depends
+on what is held: the coordinates it removes from the free state (``SupportKind.fixed_index``),
+whether the bending term gets its frame element (``SupportKind.frame_element``: the element
+(q_c, q_0) of dual length l/2 that keeps the clamp second order in N,
+rodsim/core/terms/bend_twist.py), its scene rules and keys in ``[rods.<rod>.base]``
+(``check_base``, ``base_parameters``) and, for a kind that holds by springs, its energy
+(``SupportKind.has_energy``): E, its force −∂E/∂x and its exact Jacobian on the coordinates
+(r, q) of the held node, as numpy methods of the kind (``energy``, ``forces``,
+``jacobian``) with an optional compiled kernel (``energy_kernel``). The model evaluates them
+through one generic term, rodsim/core/terms/support_energy.py, which asks the rod's support
+kind for them; the rigid kinds have none. Nothing else in the model knows how a rod is held.
 """
 
 from __future__ import annotations
 
+import functools
+import importlib
 import math
+import pkgutil
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any, ClassVar
@@ -56,8 +64,9 @@ from rodsim.core.rod.layout import RodLayout
 from rodsim.core.rod.quaternion import directors, from_rotation_matrix, rest_quaternion
 from rodsim.core.schema import Options, Parameter, SceneError, validate_table
 
-__all__ = ["BASE_PARAMETERS", "BaseOptions", "CLAMPS", "SUPPORT_PARAMETERS", "Support",
-           "SupportKind", "all_base_parameters", "base_frame", "base_support", "clamp_doc",
+__all__ = ["BASE_PARAMETERS", "BaseClamps", "BaseOptions", "CLAMPS", "ENERGY_METHODS",
+           "SUPPORT_ENERGY_TERM", "SUPPORT_PARAMETERS", "Support", "SupportKind",
+           "all_base_parameters", "base_frame", "base_support", "clamp_doc",
            "node_at", "node_supports", "quaternion_product", "refuse_support_terms",
            "registered_support_kinds", "resolve_base", "resolve_supports", "rigid_motion",
            "support_kind"]
@@ -140,9 +149,20 @@ class SupportKind:
     tendon_base: ClassVar[bool] = False
     #: Keys this kind adds to ``[rods.<rod>.base]`` (validated only for a base of this kind).
     base_parameters: ClassVar[tuple[Parameter, ...]] = ()
-    #: The keys of the terms ``terms`` builds (terms of scope ``"support"``, which no scene
-    #: lists: a rod naming one in its ``terms``, or its table, is pointed to this kind).
-    adds_terms: ClassVar[tuple[str, ...]] = ()
+    #: True for a kind that holds by springs: it has an energy, declared by the methods
+    #: ``energy_constants``, ``energy``, ``forces`` and ``jacobian`` (each required then:
+    #: TypeError when the class is defined without one; ``energy_values``, its constants'
+    #: scene values, defaults to its ``base_parameters``'), which the generic
+    #: support term evaluates (rodsim/core/terms/support_energy.py). False: a rigid kind.
+    has_energy: ClassVar[bool] = False
+    #: The compiled kernel of the energy, optional: a module of rodsim/core/kernels/ whose
+    #: ``evaluate`` (and ``energy``) take ``dofs`` (1, 7) and the ``energy_constants`` by
+    #: name, and compute what the numpy methods compute (tests/test_kernels.py). "" (the
+    #: default): the numpy methods on every evaluation path.
+    energy_kernel: ClassVar[str] = ""
+    #: Term keys an older scene wrote this kind as (a rod naming one in its ``terms``, or
+    #: its table, is pointed to this kind in one line, ``refuse_listed``).
+    former_terms: ClassVar[tuple[str, ...]] = ()
 
     def __init_subclass__(cls, **kwargs: Any) -> None:
         super().__init_subclass__(**kwargs)
@@ -153,6 +173,11 @@ class SupportKind:
                             f"({_KINDS[cls.name].__name__})")
         if cls.holds_first_segment and not cls.holds_position:
             raise TypeError(f"support kind {cls.name!r}: holding q_0 needs the position held")
+        missing = [method for method in ENERGY_METHODS if cls.has_energy
+                   and getattr(cls, method).__func__ is getattr(SupportKind, method).__func__]
+        if missing:
+            raise TypeError(f"support kind {cls.name!r} has an energy but does not define "
+                            f"{', '.join(missing)}")
         _KINDS[cls.name] = cls
 
     @classmethod
@@ -186,15 +211,18 @@ class SupportKind:
     def terms(cls, base: Mapping[str, Any]) -> list[tuple[str, dict[str, Any]]]:
         """The terms (rodsim/core/terms/base.py) a base of this kind adds to its rod's model,
         each as its registered term key and its options table (``base``: the rod's resolved
-        ``[rods.<rod>.base]``); the model builds them (an energy and its Jacobian). None
-        for a rigid support. Named, not imported: the terms depend on the supports."""
-        return []
+        ``[rods.<rod>.base]``); the model builds them. By default the generic support term
+        for a kind with an energy (its options: the kind's name and ``energy_values``),
+        none for a rigid kind. Named, not imported: the terms depend on the supports."""
+        if not cls.has_energy:
+            return []
+        return [(SUPPORT_ENERGY_TERM, {"kind": cls.name,
+                                       "values": [float(v) for v in cls.energy_values(base)]})]
 
     @classmethod
     def refuse_listed(cls, rod: str, key: str) -> None:
-        """SceneError: rod ``rod`` names term ``key``, which this kind adds
-        (``adds_terms``), itself — in its ``terms`` or as its table ``[rods.<rod>.<key>]``
-        (an older way of writing this support)."""
+        """SceneError: rod ``rod`` names term ``key``, an older way of writing this kind
+        (``former_terms``), itself — in its ``terms`` or as its table ``[rods.<rod>.<key>]``."""
         keys = ", ".join(p.name for p in cls.base_parameters)
         raise SceneError(f"rods.{rod}.{key}: a support of kind '{cls.name}' now, not a term; "
                          f"allowed: rods.{rod}.clamp = '{cls.name}'"
@@ -204,9 +232,64 @@ class SupportKind:
     #: What ``refuse_listed`` adds after its list of keys (a renamed key).
     former_keys: ClassVar[str] = ""
 
+    # The energy of a kind that holds by springs (``has_energy``). ``x`` is the 7 coordinates
+    # (r, q) of the held node and the segment after it (the base: r_0, q_0), full state.
+
+    @classmethod
+    def energy_values(cls, base: Mapping[str, Any]) -> Sequence[float]:
+        """The kind's spring constants from a resolved ``[rods.<rod>.base]`` of this kind
+        (the generic term's options, so a changed value rebuilds it): by default the
+        values of ``base_parameters``, in their order."""
+        return [float(base[parameter.name]) for parameter in cls.base_parameters]
+
+    @classmethod
+    def energy_constants(cls, values: Sequence[float], support: Support,
+                         rod: Any) -> dict[str, Any]:
+        """The constants ``energy``, ``forces`` and ``jacobian`` take (and the kernel, by
+        the names of its parameters after ``dofs``), built once with the model from
+        ``values`` (``energy_values``), the ``support`` (its point r_c and frame q_c) and
+        the ``rod`` (a ``rodsim.core.rod.rod.Rod``: its stiffnesses, its segment length)."""
+        raise NotImplementedError(f"support kind {cls.name!r} has no energy")
+
+    @classmethod
+    def energy(cls, constants: Mapping[str, Any], x: np.ndarray) -> float:
+        """E(x) [J] of the support's springs."""
+        raise NotImplementedError(f"support kind {cls.name!r} has no energy")
+
+    @classmethod
+    def forces(cls, constants: Mapping[str, Any], x: np.ndarray) -> np.ndarray:
+        """F = −∂E/∂x, shape (7,)."""
+        raise NotImplementedError(f"support kind {cls.name!r} has no energy")
+
+    @classmethod
+    def jacobian(cls, constants: Mapping[str, Any], x: np.ndarray) -> np.ndarray:
+        """∂F/∂x, shape (7, 7), exact (never finite differences)."""
+        raise NotImplementedError(f"support kind {cls.name!r} has no energy")
+
+
+#: The methods a kind with an energy defines (``SupportKind.has_energy``; ``energy_values``
+#: has a default).
+ENERGY_METHODS = ("energy_constants", "energy", "forces", "jacobian")
+#: The registered key of the generic term that evaluates a support kind's energy
+#: (rodsim/core/terms/support_energy.py): named, not imported.
+SUPPORT_ENERGY_TERM = "support_energy"
+
+
+@functools.cache
+def _import_kind_modules() -> None:
+    """Import every module of rodsim/core/support_kinds/ once (defining a kind registers
+    it), as the terms' registry does; deferred, as the kinds import this module."""
+    import rodsim.core.support_kinds as package
+
+    for module in pkgutil.iter_modules(package.__path__):
+        if not module.name.startswith("_"):
+            importlib.import_module(f"{package.__name__}.{module.name}")
+
 
 def registered_support_kinds() -> dict[str, type[SupportKind]]:
-    """Every support kind by name, in the order they were defined."""
+    """Every support kind by name, in the order they were defined (the rigid kinds of
+    this module first, then rodsim/core/support_kinds/'s)."""
+    _import_kind_modules()
     return dict(_KINDS)
 
 
@@ -218,26 +301,29 @@ def refuse_support_terms(rod: str, table: Any) -> None:
     terms = table.get("terms")
     listed = set(terms) if isinstance(terms, list) and all(
         isinstance(t, str) for t in terms) else set()
-    for kind in _KINDS.values():
-        for key in kind.adds_terms:
+    for kind in registered_support_kinds().values():
+        for key in kind.former_terms:
             if key in table or key in listed:
                 kind.refuse_listed(rod, key)
 
 
 def clamp_doc() -> str:
     """The help line of ``rods.<rod>.clamp``: each kind a base may have, with its ``doc``."""
-    parts = [f"'{name}' ({kind.doc})" for name, kind in _KINDS.items() if kind.at_base]
+    parts = [f"'{name}' ({kind.doc})" for name, kind in registered_support_kinds().items()
+             if kind.at_base]
     return ("what the base support holds: " + ", ".join(parts[:-1])
             + (" or " if len(parts) > 1 else "") + parts[-1])
 
 
 def all_base_parameters() -> tuple[Parameter, ...]:
     """``BASE_PARAMETERS`` and every kind's own ``[rods.<rod>.base]`` keys."""
-    return BASE_PARAMETERS + tuple(p for kind in _KINDS.values() for p in kind.base_parameters)
+    return BASE_PARAMETERS + tuple(p for kind in registered_support_kinds().values()
+                                   for p in kind.base_parameters)
 
 
 def support_kind(name: str) -> type[SupportKind]:
     """The support kind ``name`` (KeyError naming the registered ones if there is none)."""
+    _import_kind_modules()
     try:
         return _KINDS[name]
     except KeyError:
@@ -307,61 +393,6 @@ class PositionSupport(SupportKind):
     at_base = False
     at_node = True
     holds_position = True
-
-
-class ElasticSupport(SupportKind):
-    """The base held at its place r_c and frame q_c by linear springs instead of rigidly: a
-    handle, an introducer or a motor stage that gives under load (docs/model.md, "Supports
-    and anchors"). Nothing is fixed; the energy
-
-        E = ½ k_t |r_0 − r_c|²  +  ½ l̄ Σ_k K̃_k u_k(q_c, q_0)²,   K̃_k / l̄ = 1 / (l̄/K_k + 1/k_k),
-
-    is the elastic base's (rodsim/core/terms/elastic_base.py): a zero-length spring k_t on
-    the base node, and the rigid clamp's half-segment element (q_c, q_0), l̄ = l/2, in
-    series with rotational springs k_1 = k_2 = k_b about the bending axes and k_3 = k_τ about
-    the rod's axis, so that the clamp stays second order in N and stiff springs tend to the
-    ``frame`` clamp. A cantilever under a small tip force F deflects by
-    F L³/(3 E I) + F L²/k_b + F/k_t (tests/test_elastic_support.py)."""
-
-    name = "elastic"
-    doc = ("position and frame at s = 0 held by springs: [rods.<rod>.base] "
-           "translational_stiffness, rotational_stiffness")
-    base_parameters = (
-        Parameter("translational_stiffness", "float", None, "N/m",
-                  "clamp = 'elastic': spring k_t holding the base node at its place (the "
-                  "origin, moved by insertion)", 0.0, 1e15, exclusive_minimum=True),
-        Parameter("rotational_stiffness", "float", None, "N*m/rad",
-                  "clamp = 'elastic': spring k_b holding the first segment's turn about the "
-                  "bending axes d1, d2 of the base frame (and about d3 unless "
-                  "torsional_stiffness is set; 0: a pin that passes no moment)", 0.0, 1e15),
-        Parameter("torsional_stiffness", "float", 0.0, "N*m/rad",
-                  "clamp = 'elastic': spring k_tau about the rod's axis d3 at the base (0: "
-                  "rotational_stiffness)", 0.0, 1e15),
-    )
-
-    @classmethod
-    def check_base(cls, rod: str, holders: list[str], pulled: bool,
-                   holder_terms: Sequence[str] = ()) -> None:
-        if holders:
-            raise SceneError(f"rods.{rod}.clamp = 'elastic': the base is also held by "
-                             f"rods.{rod}.{holders[0]}; allowed: one of them")
-
-    @classmethod
-    def stiffnesses(cls, base: Mapping[str, Any]) -> tuple[float, float, float]:
-        """(k_t, k_b, k_τ) of a resolved ``[rods.<rod>.base]`` of this kind."""
-        rotational = float(base["rotational_stiffness"])
-        return (float(base["translational_stiffness"]), rotational,
-                float(base["torsional_stiffness"]) or rotational)
-
-    adds_terms = ("elastic_base",)
-    former_keys = (" (the elastic_base term's stiffness is translational_stiffness; a "
-                   "torsional_stiffness of 0 or none takes rotational_stiffness)")
-
-    @classmethod
-    def terms(cls, base: Mapping[str, Any]) -> list[tuple[str, dict[str, Any]]]:
-        k_t, k_b, k_tau = cls.stiffnesses(base)
-        return [("elastic_base", {"stiffness": k_t, "rotational_stiffness": k_b,
-                                  "torsional_stiffness": k_tau})]
 
 
 @dataclass(frozen=True)
@@ -527,5 +558,25 @@ def resolve_base(rod: str, table: Mapping[str, Any], is_tendon: bool) -> dict[st
     return kind.resolve_base(rod, raw, resolved)
 
 
-#: What a base support may hold (``rods.<rod>.clamp``): the registered kinds allowed at a base.
-CLAMPS: tuple[str, ...] = tuple(name for name, kind in _KINDS.items() if kind.at_base)
+class BaseClamps(Sequence[str]):
+    """What a base support may hold (``rods.<rod>.clamp``): the registered kinds allowed at
+    a base, read from the registry each time (a kind defined later, in a test, is one)."""
+
+    def _names(self) -> tuple[str, ...]:
+        return tuple(name for name, kind in registered_support_kinds().items() if kind.at_base)
+
+    def __getitem__(self, index: Any) -> Any:
+        return self._names()[index]
+
+    def __len__(self) -> int:
+        return len(self._names())
+
+    def __contains__(self, name: object) -> bool:
+        return name in self._names()
+
+    def __repr__(self) -> str:
+        return repr(self._names())
+
+
+#: What a base support may hold (``rods.<rod>.clamp``), live (``BaseClamps``).
+CLAMPS: Sequence[str] = BaseClamps()

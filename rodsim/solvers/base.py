@@ -219,6 +219,9 @@ class Integrator(ABC, Generic[S]):
     summary: ClassVar[str]
     #: How the integrator keeps the quaternions at unit norm.
     quaternion_norm: ClassVar[str]
+    #: The options' declarations (``[solver.<name>]``): made from the fields of
+    #: :attr:`Options` when the class is defined (``rodsim.core.schema.option``), each option
+    #: written once there; never written in the class.
     parameters: ClassVar[tuple[Parameter, ...]] = ()
     #: Units and meaning of the history's ``time`` (recorded once per step).
     history_time: ClassVar[tuple[str, str]] = ("s", "pseudo-time after each step")
@@ -244,8 +247,9 @@ class Integrator(ABC, Generic[S]):
     #: 8 400, IDA stalled for 14–477 s and then failed on every one.
     resolves_below_floor: ClassVar[bool] = False
 
-    #: The frozen dataclass of this integrator's options, one typed field per declared
-    #: parameter (made from :attr:`parameters` when the class is defined).
+    #: The frozen dataclass of this integrator's options, declared beside the class: one
+    #: typed field per option, each declared once by ``rodsim.core.schema.option`` (its
+    #: default, unit, doc and range), from which :attr:`parameters` is made.
     Options: ClassVar[type]
 
     @classmethod

@@ -21,7 +21,7 @@ three masses, as close as the residual tolerance allows (tests/test_integrators.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -31,7 +31,6 @@ from rodsim.solvers.base import LARGE_MODEL_SIZE, retraction_of
 from rodsim.solvers.linear import LinearSolver
 from rodsim.solvers.newton import NewtonProblem, newton
 from rodsim.solvers.pseudo_dynamics import (
-    PSEUDO_DYNAMICS_PARAMETERS,
     ConstrainedSystem,
     PseudoDynamicsOptions,
 )
@@ -49,7 +48,10 @@ if TYPE_CHECKING:
 
 @dataclass(frozen=True, kw_only=True)
 class IdaOptions(PseudoDynamicsOptions):
-    """``[solver.ida]``: the shared pseudo-dynamics options; the Newton finish switches in later."""
+    """``[solver.ida]``: the shared pseudo-dynamics options; the Newton finish switches in
+    later. The constrained Newton finish (a merit line search: no energy to minimise) fails
+    more often from far away than CVODE's, hence a smaller default switch
+    (docs/benchmark-history.md, "IDA: the default newton_switch = 0.03")."""
 
     newton_switch: float = 0.03
 
@@ -64,12 +66,6 @@ class Ida(SundialsIntegrator):
     summary = "SUNDIALS IDA on the residual form with quaternion norms as algebraic equations"
     quaternion_norm = ("algebraic constraint |q|² = 1 per quaternion with a multiplier, "
                        "Baumgarte-stabilised to index 1")
-    # The constrained Newton finish (a merit line search: no energy to minimise) fails more
-    # often from far away than CVODE's, hence a smaller default switch (docs/benchmark-history.md,
-    # "IDA: the default newton_switch = 0.03").
-    parameters = tuple(replace(p, default=0.03) if p.name == "newton_switch" else p
-                       for p in PSEUDO_DYNAMICS_PARAMETERS)
-
     def build_system(self, run: SundialsState) -> ConstrainedSystem:
         run.last_y = None  # a new system: the last y belongs to the old one
         dynamics = run.dynamics

@@ -29,7 +29,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from rodsim.core.model import Model
-from rodsim.core.schema import Options, Parameter
+from rodsim.core.schema import Options, option
 from rodsim.solvers.base import (
     LARGE_MODEL_SIZE,
     Integrator,
@@ -74,16 +74,25 @@ RESTING_STEPS = 3
 
 @dataclass(frozen=True, kw_only=True)
 class PaperOptions(Options):
-    """``[solver.paper]``: the paper's damped semi-implicit Euler, Eqs. (14)–(19)
-    (``PaperEuler.parameters``)."""
+    """``[solver.paper]``: the paper's damped semi-implicit Euler, Eqs. (14)–(19), each
+    option declared once by its field (``rodsim.core.schema.option``;
+    ``PaperEuler.parameters`` is made from them)."""
 
-    h: float = 0.3
-    xi: float = 0.9
-    jacobian: str = "analytic"
-    max_steps: int = 100000
-    max_newton: int = 50
-    ramp_steps: int = 0
-    h2_omega2: float = 0.0
+    h: float = option(0.3, "s", "time step Δt (Table 1: 0.3 s; Table 3: 0.2 s)", 0.0, 1e3,
+                      exclusive_minimum=True)
+    xi: float = option(0.9, "-", "damping constant ξ (velocity kept per step)", 0.0, 1.0)
+    jacobian: str = option(
+        "analytic", "-",
+        "'analytic' or 'finite_difference' (over the sparsity pattern, as MATLAB)",
+        choices=("analytic", "finite_difference"))
+    max_steps: int = option(100_000, "-", "give up after this many steps", 1, 100_000_000)
+    max_newton: int = option(50, "-", "Newton iterations per step", 1, 10_000)
+    ramp_steps: int = option(
+        0, "-", "apply the loads in equal increments over this many steps (0: all at once, "
+        "as the paper)", 0, 1_000_000)
+    h2_omega2: float = option(
+        0.0, "-", "0: physical masses; > 0: the mass matrix scaled so that h² ω₁² equals "
+        "this (the paper's Fig. 8 regime is ≈ 0.003; docs/design.md, erratum 12)", 0.0, 1e6)
 
 
 @dataclass(eq=False, kw_only=True)
@@ -106,26 +115,6 @@ class PaperEuler(Integrator[PaperState]):
     name = "paper"
     summary = "the paper's damped implicit Euler, Eqs. (17)/(19): fixed h, damping ξ"
     quaternion_norm = "penalty Eq. (9) only (|d3| = |q|² is pulled to 1), as in the paper"
-    parameters = (
-        Parameter("h", "float", 0.3, "s", "time step Δt (Table 1: 0.3 s; Table 3: 0.2 s)",
-                  0.0, 1e3, exclusive_minimum=True),
-        Parameter("xi", "float", 0.9, "-", "damping constant ξ (velocity kept per step)",
-                  0.0, 1.0),
-        Parameter("jacobian", "str", "analytic", "-",
-                  "'analytic' or 'finite_difference' (over the sparsity pattern, as MATLAB)",
-                  choices=("analytic", "finite_difference")),
-        Parameter("max_steps", "int", 100_000, "-", "give up after this many steps", 1,
-                  100_000_000),
-        Parameter("max_newton", "int", 50, "-", "Newton iterations per step", 1, 10_000),
-        Parameter("ramp_steps", "int", 0, "-",
-                  "apply the loads in equal increments over this many steps (0: all at once, "
-                  "as the paper)", 0, 1_000_000),
-        Parameter("h2_omega2", "float", 0.0, "-",
-                  "0: physical masses; > 0: the mass matrix scaled so that h² ω₁² equals "
-                  "this (the paper's Fig. 8 regime is ≈ 0.003; docs/design.md, erratum 12)",
-                  0.0, 1e6),
-    )
-
     State = PaperState
 
     def state_fields(self, model: Model, warm: bool) -> dict[str, Any]:

@@ -28,7 +28,7 @@ from typing import Any
 import numpy as np
 
 from rodsim.core.model import Model
-from rodsim.core.schema import Options, Parameter
+from rodsim.core.schema import Options, Parameter, declared_parameters, option
 from rodsim.core.sparsity import csc_pattern
 
 __all__ = ["FORMULATIONS", "first_mode_frequency", "damping_rate", "pseudo_masses",
@@ -56,57 +56,45 @@ LARGE_FINISH_ITERATIONS = 60
 #: The linear solvers of CVODE and IDA (``linear_solver``; "auto" picks one by size).
 LINEAR_SOLVERS = ("auto", "band", "band_gmres", "sparse")
 
-#: Options CVODE and IDA share (pseudo-dynamics and tolerances).
-PSEUDO_DYNAMICS_PARAMETERS = (
-    Parameter("formulation", "str", "overdamped", "-",
-              "'inertial' (damped second order, Eqs. 10–11) or 'overdamped' (gradient flow)",
-              choices=FORMULATIONS),
-    Parameter("damping_ratio", "float", 1.0, "-",
-              "ζ: damping rate c = 2 ζ ω₁ of the first bending mode", 0.0, 1e6,
-              exclusive_minimum=True),
-    Parameter("mass_scaling", "float", 1e3, "-",
-              "raise masses so no coordinate's own frequency exceeds this × ω₁ (0: physical "
-              "masses)", 0.0, 1e12),
-    Parameter("load_ramp", "float", 1.0, "-",
-              "ramp the loads in over this many first-mode periods 2π/ω₁ (0: step load)",
-              0.0, 1e6),
-    Parameter("rtol", "float", 1e-4, "-", "relative tolerance of the time stepping",
-              1e-15, 1e-1),
-    Parameter("atol", "float", 1e-4, "-",
-              "absolute tolerance, relative to each variable's scale (L for positions, 1 for "
-              "quaternions, L ω₁ for velocities)", 1e-20, 1e-1),
-    Parameter("linear_solver", "str", "auto", "-",
-              "'band', 'band_gmres' (GMRES with the exact band LU as preconditioner: band "
-              "storage only), 'sparse' (SuperLU_MT) or 'auto' (band up to "
-              f"{BAND_LIMIT} unknowns, band_gmres above)",
-              choices=LINEAR_SOLVERS),
-    Parameter("max_steps", "int", 200_000, "-", "give up after this many steps", 1,
-              100_000_000),
-    Parameter("newton_switch", "float", 0.1, "-",
-              "finish with Newton on F(x) = 0 once the scaled residual is below this (0: "
-              "integrate all the way to the tolerance)", 0.0, 1.0),
-    Parameter("newton_iterations", "int", 20, "-",
-              "Newton iterations of one finishing attempt (a failed attempt goes back to "
-              f"integrating; at least {LARGE_FINISH_ITERATIONS} above 4000 unknowns)",
-              1, 10_000),
-)
-
-
 @dataclass(frozen=True, kw_only=True)
 class PseudoDynamicsOptions(Options):
     """The options CVODE and IDA share: pseudo-dynamics, tolerances, linear solver and the
-    Newton finish (``PSEUDO_DYNAMICS_PARAMETERS``; rodsim/solvers/sundials.py)."""
+    Newton finish (rodsim/solvers/sundials.py), each declared once by its field
+    (``rodsim.core.schema.option``: ``PSEUDO_DYNAMICS_PARAMETERS`` is made from them)."""
 
-    formulation: str = "overdamped"
-    damping_ratio: float = 1.0
-    mass_scaling: float = 1000.0
-    load_ramp: float = 1.0
-    rtol: float = 0.0001
-    atol: float = 0.0001
-    linear_solver: str = "auto"
-    max_steps: int = 200000
-    newton_switch: float = 0.1
-    newton_iterations: int = 20
+    formulation: str = option(
+        "overdamped", "-",
+        "'inertial' (damped second order, Eqs. 10–11) or 'overdamped' (gradient flow)",
+        choices=FORMULATIONS)
+    damping_ratio: float = option(
+        1.0, "-", "ζ: damping rate c = 2 ζ ω₁ of the first bending mode", 0.0, 1e6,
+        exclusive_minimum=True)
+    mass_scaling: float = option(
+        1e3, "-", "raise masses so no coordinate's own frequency exceeds this × ω₁ (0: "
+        "physical masses)", 0.0, 1e12)
+    load_ramp: float = option(
+        1.0, "-", "ramp the loads in over this many first-mode periods 2π/ω₁ (0: step load)",
+        0.0, 1e6)
+    rtol: float = option(1e-4, "-", "relative tolerance of the time stepping", 1e-15, 1e-1)
+    atol: float = option(
+        1e-4, "-", "absolute tolerance, relative to each variable's scale (L for positions, 1 "
+        "for quaternions, L ω₁ for velocities)", 1e-20, 1e-1)
+    linear_solver: str = option(
+        "auto", "-", "'band', 'band_gmres' (GMRES with the exact band LU as preconditioner: "
+        "band storage only), 'sparse' (SuperLU_MT) or 'auto' (band up to "
+        f"{BAND_LIMIT} unknowns, band_gmres above)", choices=LINEAR_SOLVERS)
+    max_steps: int = option(200_000, "-", "give up after this many steps", 1, 100_000_000)
+    newton_switch: float = option(
+        0.1, "-", "finish with Newton on F(x) = 0 once the scaled residual is below this (0: "
+        "integrate all the way to the tolerance)", 0.0, 1.0)
+    newton_iterations: int = option(
+        20, "-", "Newton iterations of one finishing attempt (a failed attempt goes back to "
+        f"integrating; at least {LARGE_FINISH_ITERATIONS} above 4000 unknowns)", 1, 10_000)
+
+
+#: Options CVODE and IDA share (pseudo-dynamics and tolerances), made from
+#: ``PseudoDynamicsOptions``.
+PSEUDO_DYNAMICS_PARAMETERS: tuple[Parameter, ...] = declared_parameters(PseudoDynamicsOptions)
 
 
 @dataclass(frozen=True)

@@ -28,16 +28,14 @@ from typing import Any
 
 import numpy as np
 
-from rodsim.core.schema import Options, Parameter
+from rodsim.core.schema import Options, option, shared_option
 from rodsim.solvers.base import Integrator, Outcome, SolverFailure
 from rodsim.solvers.pseudo_dynamics import (
-    PSEUDO_DYNAMICS_PARAMETERS,
     FirstOrderSystem,
     PseudoDynamics,
+    PseudoDynamicsOptions,
 )
 from rodsim.solvers.run_state import RunState
-
-_SHARED = {p.name: p for p in PSEUDO_DYNAMICS_PARAMETERS}
 
 #: The wall-time budget is checked every this many right-hand-side evaluations.
 BUDGET_STRIDE = 16
@@ -45,15 +43,22 @@ BUDGET_STRIDE = 16
 
 @dataclass(frozen=True, kw_only=True)
 class ScipyOptions(Options):
-    """``[solver.scipy]``: scipy's ``solve_ivp`` on the pseudo-dynamics
-    (``ScipyIvp.parameters``)."""
+    """``[solver.scipy]``: scipy's ``solve_ivp`` on the pseudo-dynamics, each option declared
+    once by its field (``rodsim.core.schema.option``; three shared with CVODE and IDA,
+    ``shared_option``; ``ScipyIvp.parameters`` is made from them)."""
 
-    method: str = "BDF"
-    damping_ratio: float = 1.0
-    mass_scaling: float = 1000.0
-    load_ramp: float = 1.0
-    rtol: float = 1e-06
-    atol: float = 1e-06
+    method: str = option(
+        "BDF", "-", "solve_ivp method: 'BDF' (sparse Jacobian) or 'LSODA' (dense Jacobian)",
+        choices=("BDF", "LSODA"))
+    damping_ratio: float = shared_option(PseudoDynamicsOptions, "damping_ratio")
+    mass_scaling: float = shared_option(PseudoDynamicsOptions, "mass_scaling")
+    load_ramp: float = shared_option(PseudoDynamicsOptions, "load_ramp")
+    # 1e-6, not CVODE's 1e-4: scipy's BDF at 1e-4 stalls above τ on table1-20g and
+    # table1-100g (its Newton stops on the update size, not on the force).
+    rtol: float = option(1e-6, "-", "relative tolerance of the time stepping", 1e-13, 1e-1)
+    atol: float = option(
+        1e-6, "-", "absolute tolerance, relative to each variable's scale (L for positions, "
+        "1 for quaternions)", 1e-20, 1e-1)
 
 
 class ScipyIvp(Integrator[RunState]):
@@ -66,22 +71,6 @@ class ScipyIvp(Integrator[RunState]):
     summary = ("scipy solve_ivp (BDF or LSODA) on the overdamped pseudo-dynamics, stopped at "
                "equilibrium (an outside baseline)")
     quaternion_norm = "penalty Eq. (9) only (|d3| = |q|² is pulled to 1)"
-    parameters = (
-        Parameter("method", "str", "BDF", "-",
-                  "solve_ivp method: 'BDF' (sparse Jacobian) or 'LSODA' (dense Jacobian)",
-                  choices=("BDF", "LSODA")),
-        _SHARED["damping_ratio"],
-        _SHARED["mass_scaling"],
-        _SHARED["load_ramp"],
-        # 1e-6, not CVODE's 1e-4: scipy's BDF at 1e-4 stalls above τ on table1-20g and
-        # table1-100g (its Newton stops on the update size, not on the force).
-        Parameter("rtol", "float", 1e-6, "-", "relative tolerance of the time stepping",
-                  1e-13, 1e-1),
-        Parameter("atol", "float", 1e-6, "-",
-                  "absolute tolerance, relative to each variable's scale (L for positions, "
-                  "1 for quaternions)", 1e-20, 1e-1),
-    )
-
     def advice(self, run: RunState | None = None) -> str:
         return ("try a tighter solver.scipy.rtol (scipy's BDF can stall above τ: its Newton "
                 "stops on the update size, not on the force), or the static or cvode "

@@ -51,7 +51,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from rodsim.core.model import Model
-from rodsim.core.schema import Options, Parameter
+from rodsim.core.schema import Options, option
 from rodsim.solvers.base import Integrator, Outcome, retraction_of
 from rodsim.solvers.continuation import (
     DEFAULT_PENALTY_RATIO,
@@ -143,14 +143,25 @@ def rest_imbalance(run: RunState, model: Model) -> np.ndarray | None:
 
 @dataclass(frozen=True, kw_only=True)
 class StaticOptions(Options):
-    """``[solver.static]``: Newton with load and penalty continuation
-    (``Static.parameters``)."""
+    """``[solver.static]``: Newton with load and penalty continuation, each option declared
+    once by its field (``rodsim.core.schema.option``; ``Static.parameters`` is made from
+    them)."""
 
-    max_newton: int = 30
-    first_load_step: float = 1.0
-    min_load_step: float = 0.0001
-    penalty_ratio: float = 1000.0
-    retraction: str = "auto"
+    max_newton: int = option(30, "-", "Newton iterations per load step", 1, 10_000)
+    first_load_step: float = option(
+        1.0, "-", "first load increment (fraction of the full load)", 0.0, 1.0,
+        exclusive_minimum=True)
+    min_load_step: float = option(
+        1e-4, "-", "smallest load increment before giving up", 0.0, 1.0,
+        exclusive_minimum=True)
+    penalty_ratio: float = option(
+        DEFAULT_PENALTY_RATIO, "-", "above this K_P l²/(E I), load with K_P lowered to it, "
+        "then raise K_P tenfold per step (penalty continuation)", 1.0, 1e300)
+    retraction: str = option(
+        "auto", "-", "how a Newton step moves the rods: 'lengths' (segment lengths kept), "
+        "'frames' (segments turned as rigid frames: far fewer iterations when segments turn "
+        "a lot, rodsim/core/rod/retraction.py) or 'auto' ('frames' unless a tendon is a rod "
+        "or a rod meets an obstacle, then 'lengths')", choices=RETRACTIONS)
 
 
 class Static(Integrator[RunState]):
@@ -166,24 +177,6 @@ class Static(Integrator[RunState]):
     summary = "Newton on F(x) = 0 with the analytic Jacobian and load continuation"
     quaternion_norm = "penalty Eq. (9) only (|d3| = |q|² is pulled to 1)"
     history_time = ("1", "load fraction after each load step")
-    parameters = (
-        Parameter("max_newton", "int", 30, "-", "Newton iterations per load step", 1, 10_000),
-        Parameter("first_load_step", "float", 1.0, "-",
-                  "first load increment (fraction of the full load)", 0.0, 1.0,
-                  exclusive_minimum=True),
-        Parameter("min_load_step", "float", 1e-4, "-",
-                  "smallest load increment before giving up", 0.0, 1.0, exclusive_minimum=True),
-        Parameter("penalty_ratio", "float", DEFAULT_PENALTY_RATIO, "-",
-                  "above this K_P l²/(E I), load with K_P lowered to it, then raise K_P "
-                  "tenfold per step (penalty continuation)", 1.0, 1e300),
-        Parameter("retraction", "str", "auto", "-",
-                  "how a Newton step moves the rods: 'lengths' (segment lengths kept), "
-                  "'frames' (segments turned as rigid frames: far fewer iterations when "
-                  "segments turn a lot, rodsim/core/rod/retraction.py) or 'auto' ('frames' "
-                  "unless a tendon is a rod or a rod meets an obstacle, then 'lengths')",
-                  choices=RETRACTIONS),
-    )
-
     def advice(self, run: RunState | None = None) -> str:
         if run is not None and run.continued:
             return "try smaller parameter steps (the last equilibrium is too far away)"

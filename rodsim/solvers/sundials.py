@@ -32,13 +32,12 @@ from __future__ import annotations
 import functools
 from abc import abstractmethod
 from dataclasses import dataclass
-from typing import Any, ClassVar
+from typing import Any
 
 import numpy as np
 
 from rodsim.core.contact_validity import ThroughTheWall
 from rodsim.core.model import Model
-from rodsim.core.schema import Parameter
 from rodsim.solvers.base import LARGE_MODEL_SIZE, Integrator, Outcome, SolverFailure
 from rodsim.solvers.continuation import DEFAULT_PENALTY_RATIO, homotopy, penalty_scales
 from rodsim.solvers.pseudo_dynamics import (
@@ -151,7 +150,6 @@ class SundialsIntegrator(Integrator[SundialsState]):
     """Shared loop of ``rodsim.solvers.cvode.Cvode`` and
     ``rodsim.solvers.ida.Ida``; subclasses build the system and the solver."""
 
-    parameters: ClassVar[tuple[Parameter, ...]] = PSEUDO_DYNAMICS_PARAMETERS
     State = SundialsState
     stops = (Equilibrium, Until)
     dense_output = True

@@ -61,7 +61,7 @@ from rodsim.core.kernel_cache_stamp import check_kernel_cache
 if TYPE_CHECKING:
     from rodsim.core.terms.base import KernelArguments, Term
 
-__all__ = ["Kernel", "load_kernel", "OUTPUT_PARAMETERS", "GROUP_OUTPUT_PARAMETERS",
+__all__ = ["Kernel", "load_kernel", "NUMPY_KERNEL", "OUTPUT_PARAMETERS", "GROUP_OUTPUT_PARAMETERS",
            "signature_constants"]
 
 #: The parameters every ``evaluate`` takes after its constants, in this order.
@@ -129,8 +129,35 @@ def signature_constants(function: Callable[..., Any], outputs: tuple[str, ...] =
 def load_kernel(term: Term) -> Kernel:
     """The compiled kernel of a term (compiled, or loaded from the disk cache, on the first
     call with each argument type); TypeError when its ``energy`` takes other constants than
-    its ``evaluate``."""
+    its ``evaluate``. A term without one (``Term.compiled`` False) gets ``NUMPY_KERNEL``,
+    its own numpy methods behind the kernels' signature."""
+    if not term.compiled:
+        return NUMPY_KERNEL
     return _kernel_named(term.kernel or term.name)
+
+
+def _numpy_evaluate(x: Any, term: Term, scale: float, want_force: bool, force: Any,
+                    force_target: Any, want_jacobian: bool, jacobian: Any,
+                    jacobian_target: Any) -> None:
+    """A kernel's ``evaluate`` made of the term's numpy methods: scale × its element forces
+    and Jacobians added at the targets (the dump slots included, as a kernel does)."""
+    import numpy as np
+
+    if want_force:
+        np.add.at(force, force_target, scale * term.element_forces(x))
+    if want_jacobian and term.has_jacobian:
+        np.add.at(jacobian, jacobian_target, scale * term.element_jacobians(x))
+
+
+def _numpy_energy(x: Any, term: Term) -> float:
+    """A kernel's ``energy`` made of the term's numpy ``energy``."""
+    value = term.energy(x)
+    return float("nan") if value is None else value
+
+
+#: The kernel of a term without a compiled one (``Term.compiled`` False): its constant is
+#: the term itself (``kernel_arguments`` is not asked).
+NUMPY_KERNEL = Kernel(_numpy_evaluate, _numpy_energy, ("term",), "(numpy methods)")
 
 
 @functools.cache

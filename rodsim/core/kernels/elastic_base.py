@@ -1,7 +1,9 @@
-"""Kernel of ``rodsim.core.terms.elastic_base``: the zero-length spring ½ k_t |r_0 − r_c|²
-on the base node and the bending element of ``rodsim.core.kernels.bend_twist`` between
-the support frame q_c (constant) and the first quaternion q_0 — that kernel, called with
-its constant-frame side on q_0's coordinates and slots (the side's entries are zeros)."""
+"""Kernel of the elastic base support (``ElasticSupport.energy_kernel``,
+rodsim/core/support_kinds/elastic.py, evaluated by rodsim/core/terms/support_energy.py): the
+zero-length spring ½ k_t |r_0 − r_c|² on the base node and the bending element of
+``rodsim.core.kernels.bend_twist`` between the support frame q_c (constant) and the first
+quaternion q_0 — that kernel, called with its constant-frame side on q_0's coordinates and
+slots (the side's entries are zeros)."""
 
 from __future__ import annotations
 

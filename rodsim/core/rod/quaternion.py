@@ -78,7 +78,7 @@ B0: np.ndarray = np.array(
 
 # The contractions below are written as matrix products against flattened constant forms:
 # numpy's einsum does not call BLAS for them and was 15-60x slower at N = 4000
-# (docs/benchmarks.md, "Speed work").
+# (commit 7a14443).
 _FORM_COLUMNS = [np.ascontiguousarray(forms.reshape(12, 4).T) for forms in DIRECTOR_FORMS]
 
 

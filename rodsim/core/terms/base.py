@@ -175,6 +175,11 @@ class Term(ABC):
     #: Module of :mod:`rodsim.core.kernels` holding the compiled kernel (default: ``name``).
     #: A term may pick its kernel per instance (the proximal pull: ``constant_force``).
     kernel: str = ""
+    #: False for a term with no compiled kernel: the compiled path evaluates its numpy
+    #: methods (``rodsim.core.kernels.load_kernel``), one call per term, as the numpy path
+    #: does (a support kind that brings no kernel of its own, ``SupportKind.energy_kernel``).
+    #: May be set per instance.
+    compiled: bool = True
     #: The scene key of the term: what a rod's or a tendon's ``terms`` lists and the name of
     #: its options sub-table (default: ``name``). Terms sharing a key are variants of one
     #: concept (the lumen's paper and conserving couplings); the owner's table picks one of
@@ -242,7 +247,10 @@ class Term(ABC):
         """The constants the compiled kernel takes after the state (arrays and floats), by
         the names of the kernel's parameters: the model binds them to the kernel's signature
         by name (``rodsim.core.kernels.Kernel.bind``), so their order does not matter and
-        a missing or unknown name is an error."""
+        a missing or unknown name is an error. A term without a compiled kernel
+        (``compiled`` False) hands itself, ``{"term": self}``."""
+        if not self.compiled:
+            return {"term": self}
         raise NotImplementedError(f"term {self.name!r} has no compiled kernel")
 
     def group_key(self) -> Hashable | None:
