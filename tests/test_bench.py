@@ -673,9 +673,12 @@ def test_step_cost_small_outputs(tmp_path):
 
 @pytest.mark.slow
 def test_real_time_small_outputs(tmp_path):
-    """``rodsim bench real-time --size small``: the reference, the midpoint runs (their step
-    counts those of their fixed steps), the error-controlled midpoint runs and IDA's and
-    CVODE's windows each give a row with a finite tip error (no timing is asserted)."""
+    """``rodsim bench real-time --size small``: the reference (the fourth-order
+    composition), the midpoint runs and the composition's (their step counts those of their
+    fixed steps, five solves a composed step), the error-controlled midpoint runs and IDA's
+    and CVODE's windows each give a row with a finite tip error; the floor's parts are
+    positive and each fixed-step scheme has its solves at the aim (no timing is
+    asserted)."""
     from rodsim_bench import real_time
 
     paths = real_time.run("small", tmp_path, lambda *_: None)
@@ -683,15 +686,25 @@ def test_real_time_small_outputs(tmp_path):
     report = json.loads((tmp_path / "real-time-small.json").read_text())
     rows = report["rows"]
     config = real_time.SIZES["small"]
+    fixed = len(config["midpoint"]) + len(config["composed"])
     assert [row["integrator"] for row in rows] == (
-        ["midpoint"] * (1 + len(config["midpoint"]) + len(config["controlled"]))
+        ["midpoint4"] + ["midpoint"] * len(config["midpoint"])
+        + ["midpoint4"] * len(config["composed"]) + ["midpoint"] * len(config["controlled"])
         + [name for name, _ in config["sundials"]])
-    controlled = rows[1 + len(config["midpoint"]):][:len(config["controlled"])]
+    controlled = rows[1 + fixed:][:len(config["controlled"])]
     assert all(row["setting"].startswith("error control, rtol = atol = ")
                for row in controlled)
     steps = round(config["t_end"] / real_time.OUTPUT_DT)
-    assert [row["steps"] for row in rows[:1 + len(config["midpoint"])]] == [
-        steps * per for per in (config["reference"], *config["midpoint"])]
+    assert [row["steps"] for row in rows[:1 + fixed]] == [
+        steps * per for per in (config["reference"], *config["midpoint"],
+                                *config["composed"])]
+    assert [row["solves"] for row in rows[:1 + fixed]] == [
+        steps * per * parts for per, parts in
+        ((config["reference"], 5), *((per, 1) for per in config["midpoint"]),
+         *((per, 5) for per in config["composed"]))]
     assert all(row["success"] and np.isfinite(row["tip_error_over_L"]) for row in rows)
     assert rows[0]["tip_error_over_L"] == 0.0 and report["reference_bound_over_L"] > 0.0
-    assert "| midpoint | reference" in (tmp_path / "real-time-small.md").read_text()
+    assert all(report["floor"][part] > 0.0 for part in ("fresh_ms", "factor_ms",
+                                                        "residual_ms", "solve_ms"))
+    assert set(report["needed"]) == {"midpoint", "midpoint4"}
+    assert "| midpoint4 | reference" in (tmp_path / "real-time-small.md").read_text()

@@ -38,6 +38,7 @@ from rodsim.core.program import ProgramEntry
 from rodsim.core.scene import Scene
 from rodsim.core.schema import SceneError, shown
 from rodsim.core.vibration import ModesError, natural_modes
+from rodsim.solvers.physical.composition import ComposedStep
 from rodsim.solvers.physical.coordinates import (
     PhysicalCoordinates,
     model_state,
@@ -50,7 +51,7 @@ from rodsim.solvers.physical.error_control import (
     integrate_controlled,
 )
 from rodsim.solvers.physical.events import EventError, EventLike, resolve_events
-from rodsim.solvers.physical.fixed_step import Motion
+from rodsim.solvers.physical.fixed_step import FixedStep, Motion
 from rodsim.solvers.physical.ida_run import PhysicalTimeOptions, integrate_ida
 from rodsim.solvers.physical.midpoint import MidpointStep
 from rodsim.solvers.physical.semi_implicit_euler import SemiImplicitEulerStep
@@ -158,7 +159,9 @@ def simulate(scene: SceneLike | None, t_end: float, *, output_dt: float | None =
 
     ``integrator``: ``"midpoint"`` (the implicit midpoint rule, fixed steps; with ``rtol``
     (and ``atol``, default ``rtol``) its steps are chosen under error control and ``step``
-    is the longest: rodsim/solvers/physical/error_control.py), ``"paper"``
+    is the longest: rodsim/solvers/physical/error_control.py), ``"midpoint4"`` (fixed
+    steps of order four, each five midpoint steps: rodsim/solvers/physical/composition.py;
+    without friction or error control), ``"paper"``
     (the paper's semi-implicit Euler, Eqs. 14–17, with the physical masses: fixed steps,
     first order, numerically damped), ``"ida"``
     (SUNDIALS IDA, adaptive BDF under error control: ``rtol``, ``atol`` — × the longest
@@ -246,6 +249,9 @@ def simulate(scene: SceneLike | None, t_end: float, *, output_dt: float | None =
                           supports=programs.supports.at if programs.supports.active
                           else None))
     start = Motion(x, *initial_rates(model, coordinates, x, initial_velocity))
+    stepping: FixedStep = (ComposedStep(stepper, programs.model_at)
+                           if integrator == "midpoint4" and isinstance(stepper, MidpointStep)
+                           else stepper)
     if watched is not None:  # a user's function checked at the start (EventError, one line)
         watched.values(0.0, programs.model_at(0.0), x, start.v)
     record = ControlledRecord() if controlled else Record()
@@ -269,7 +275,7 @@ def simulate(scene: SceneLike | None, t_end: float, *, output_dt: float | None =
                           progress, record, integrator, watched, varies=bool(programs.keys),
                           difference=programs.difference)
         else:
-            integrate(programs.model_at, stepper, start, outputs, h, progress, record,
+            integrate(programs.model_at, stepping, start, outputs, h, progress, record,
                       friction.after_step if programs.path_dependent else None, watched,
                       friction.mark if programs.path_dependent else None)
     except KeyboardInterrupt:  # Ctrl-C or SIGTERM: what was computed, marked incomplete

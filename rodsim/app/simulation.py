@@ -22,12 +22,13 @@ from rodsim.solvers.summary import millimetres, sketch_svg, summary_html, summar
 __all__ = ["Simulation", "StepLog", "INTEGRATORS", "FIXED_STEP"]
 
 #: The integrators of physical time.
-INTEGRATORS = ("midpoint", "paper", "ida", "cvode")
-#: Those with fixed steps (``step``), no tolerances: the implicit midpoint rule and the
-#: paper's semi-implicit Euler (Eqs. 14–17 with the physical masses). The midpoint rule
+INTEGRATORS = ("midpoint", "midpoint4", "paper", "ida", "cvode")
+#: Those with fixed steps (``step``), no tolerances: the implicit midpoint rule, its
+#: fourth-order composition (rodsim/solvers/physical/composition.py) and the paper's
+#: semi-implicit Euler (Eqs. 14–17 with the physical masses). The midpoint rule
 #: takes ``rtol`` (and ``atol``) too: then its steps are error-controlled
 #: (rodsim/solvers/physical/error_control.py) and ``step`` is the longest.
-FIXED_STEP = ("midpoint", "paper")
+FIXED_STEP = ("midpoint", "midpoint4", "paper")
 
 @dataclass
 class Simulation:

@@ -165,6 +165,15 @@ class ModelEvaluation(ModelPattern, ModelManifold):
         self._memo = [entry] + [e for e in self._memo if e is not same][:MEMO_STATES - 1]
         return f, j
 
+    def evaluate_fresh(self, x: np.ndarray, load: float = 1.0, *, jacobian: bool = True
+                       ) -> tuple[np.ndarray, np.ndarray]:
+        """F(x) and, with ``jacobian``, ∂F/∂x (CSC data in ``pattern`` order; empty
+        otherwise), the same numbers as ``evaluate`` but neither looked up in nor kept in
+        its memo: for a caller whose states never repeat (a time step's Newton iterates,
+        rodsim/solvers/physical/midpoint.py), for which the memo's comparisons and copies
+        are pure cost."""
+        return self._evaluate(np.asarray(x), load, True, jacobian)
+
     def _evaluate(self, x: np.ndarray, load: float, force: bool,
                   jacobian: bool) -> tuple[np.ndarray, np.ndarray]:
         """``evaluate`` without the memo."""

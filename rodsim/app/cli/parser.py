@@ -275,6 +275,7 @@ def build_parser() -> argparse.ArgumentParser:
                       "lowest natural period at the start)")
     move.add_argument("--integrator", default="midpoint", metavar="NAME",
                       help="integrator of physical time: midpoint (default; fixed steps), "
+                      "midpoint4 (fixed steps of order 4, five midpoint steps each), "
                       "paper (the paper's semi-implicit Euler, Eqs. 14-17, with the physical "
                       "masses: fixed steps, first order, numerically damped), ida (SUNDIALS "
                       "IDA: adaptive BDF under error control) or cvode (SUNDIALS CVODE, the "

@@ -22,7 +22,9 @@ is the fast modes' and far quicker than the rest); and a slow matrix (θ above `
 is kept when at its θ that stop is at most ``KEEP_ITERATIONS`` iterations away, about what
 a fresh matrix costs. On tdcr-two-segment (0.1 s of step-cost's ramp at 1/3 ms steps):
 1 689 → 1 592 iterations and 147 → 111 factorisations, the positions within 1.4e-12 L of
-the run before.
+the run before. With ``KEEP_ITERATIONS`` 8 instead of 4 (round 18: a fresh matrix now costs
+about nine iterations, not three), 0.2 s of that run: 3 051 → 3 482 iterations and
+213 → 127 factorisations.
 """
 
 from __future__ import annotations
@@ -34,10 +36,10 @@ from typing import Protocol
 
 import numpy as np
 import scipy.sparse as sp
-import scipy.sparse.linalg as spla
 
 from rodsim.core.damping import Damping
 from rodsim.core.model import Model
+from rodsim.solvers.physical.band_lu import factor as factor_matrix
 from rodsim.solvers.physical.coordinates import (
     PhysicalCoordinates,
     gyroscopic_jacobian,
@@ -69,10 +71,12 @@ ROUNDOFF = 1e-9
 REFRESH = 0.1
 #: A slow Newton matrix (contraction θ above ``REFRESH``, below 1) is kept when, at θ, the
 #: stop below is this many iterations away or fewer: a fresh matrix costs about as much (on
-#: tdcr-two-segment, N = 61: the Jacobian at both Gauss points, its map to the step's
-#: unknowns and SuperLU's factorisation, about three iterations with a kept matrix). A
-#: nominal count: no clock.
-KEEP_ITERATIONS = 4.0
+#: tdcr-two-segment, N = 61, since the midpoint step's compiled kernels and stiffness plan:
+#: the Jacobian at both Gauss points, its map to the step's unknowns and the
+#: factorisation, 1.6 ms with SuperLU's and about 1.3 ms with the band LU's
+#: (rodsim/solvers/physical/band_lu.py) against 0.17 ms for an iteration with a kept
+#: matrix, eight or nine; three before them, when this was 4). A nominal count: no clock.
+KEEP_ITERATIONS = 8.0
 #: A Newton change this large (a tenth of the rod's length, or of a radian) is divergence.
 DIVERGED = 0.1
 #: Newton iterations allowed per time step.
@@ -151,31 +155,33 @@ class KeptMatrix:
 
 
 def solve_step(evaluate: Evaluate, r1: np.ndarray, w: np.ndarray, h: float,
-               length_scale: float, tolerance: float, kept: KeptMatrix | None = None
-               ) -> tuple[np.ndarray, np.ndarray, int]:
+               length_scale: float, tolerance: float, kept: KeptMatrix | None = None,
+               order: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, int]:
     """Newton from (``r1``, ``w``) — node positions (p,) and body rates (s, 3) — on
     ``evaluate``'s residual (module docstring): (r₁, w, iterations); StepFailure when it
     diverges, does not converge or meets a value that is not finite. With ``kept``: the
     Newton matrix of an earlier step of the same length starts the iteration (refreshed by
     the same rule as within a step); if the iteration fails with it, the step's Newton
     starts again from (``r1``, ``w``) with a fresh matrix (its iterations counted too).
-    Every fresh matrix factored is kept for the next step."""
+    Every fresh matrix factored is kept for the next step. ``order``: the unknowns' band
+    order, in which a narrow-banded matrix is factored as a band
+    (rodsim/solvers/physical/band_lu.py; None: SuperLU)."""
     counted = [0]
     if kept is not None and kept.fits(h):
         try:
             r, v = _newton(evaluate, r1, w, h, length_scale, tolerance, kept, kept.solve,
-                           counted)
+                           counted, order)
             return r, v, counted[0]
         except StepFailure:
             pass
-    r, v = _newton(evaluate, r1, w, h, length_scale, tolerance, kept, None, counted)
+    r, v = _newton(evaluate, r1, w, h, length_scale, tolerance, kept, None, counted, order)
     return r, v, counted[0]
 
 
 def _newton(evaluate: Evaluate, r1: np.ndarray, w: np.ndarray, h: float,
             length_scale: float, tolerance: float, kept: KeptMatrix | None,
-            solve: Callable[[np.ndarray], np.ndarray] | None, counted: list[int]
-            ) -> tuple[np.ndarray, np.ndarray]:
+            solve: Callable[[np.ndarray], np.ndarray] | None, counted: list[int],
+            order: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
     """``solve_step``'s iteration from the factored matrix ``solve`` (None: a fresh one at
     the first iterate); ``counted[0]`` counts its iterations."""
     p = len(r1)
@@ -188,7 +194,7 @@ def _newton(evaluate: Evaluate, r1: np.ndarray, w: np.ndarray, h: float,
         residual, matrix = evaluate(r1, w, solve is None)
         if matrix is not None:  # a fresh Newton matrix, kept while it converges fast
             try:
-                solve = spla.splu(matrix.tocsc()).solve
+                solve = factor_matrix(matrix, order)
             except RuntimeError as exc:
                 raise StepFailure(f"the Newton matrix is singular ({exc})") from None
             if kept is not None:

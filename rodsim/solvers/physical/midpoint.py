@@ -46,9 +46,9 @@ import scipy.sparse as sp
 from rodsim.core.damping import Damping
 from rodsim.core.model import Model
 from rodsim.core.rod.quaternion import B
+from rodsim.solvers.physical.band_lu import band_order
 from rodsim.solvers.physical.coordinates import (
     PhysicalCoordinates,
-    block_arrays,
     cayley,
     cross_rows,
     model_state,
@@ -63,17 +63,14 @@ from rodsim.solvers.physical.fixed_step import (
     newton_matrix,
     solve_step,
 )
+from rodsim.solvers.physical.midpoint_kernels import add_force, path_state, turned
+from rodsim.solvers.physical.midpoint_kernels import residual as step_residual
 from rodsim.solvers.physical.moving_supports import SupportVelocity
 from rodsim.solvers.physical.sparse_kernels import (
     Csr,
-    arrays,
-    congruent,
     csr_of,
-    matvec,
-    plus,
-    scaled,
-    transpose,
 )
+from rodsim.solvers.physical.stiffness_plan import StiffnessPlan, accumulate
 from rodsim.solvers.physical.tangent_damping import TangentDamping
 
 __all__ = ["MidpointStep", "SupportsAt"]
@@ -103,6 +100,12 @@ class MidpointStep:
         #: The last step's factored Newton matrix, which starts the next step's Newton
         #: (fixed_step.solve_step).
         self.kept = KeptMatrix()
+        #: The plan of the stiffness on the step's unknowns (stiffness_plan.py), for the
+        #: last Jacobian pattern met.
+        self._plan: StiffnessPlan | None = None
+        #: The unknowns' band order, in which the Newton matrix is factored
+        #: (rodsim/solvers/physical/band_lu.py).
+        self._order = band_order(coordinates)
         c = coordinates
         self._p = len(c.positions)
         self._s = len(c.quaternions)
@@ -128,7 +131,7 @@ class MidpointStep:
     def _averaged(self, model: Model, x0: np.ndarray, r1: np.ndarray, q1: np.ndarray,
                   qm: np.ndarray, dq1: np.ndarray | None = None,
                   start: tuple[np.ndarray, np.ndarray] | None = None,
-                  reference: np.ndarray | None = None
+                  reference: np.ndarray | None = None, rows: np.ndarray | None = None
                   ) -> tuple[np.ndarray, np.ndarray, sp.csr_matrix | None]:
         """The generalised force averaged along the step's path γ(s) = (r₀ + s Δr,
         normalise(q₀ + s Δq)), s in [0, 1], by Gauss–Legendre quadrature (``quadrature``
@@ -137,46 +140,49 @@ class MidpointStep:
         derivative of (f̄_r, τ̄) with respect to (r₁, ω_m): the stiffness terms and the
         change of the path's direction with ω_m at fixed force (large where a penalty's
         internal force is: leaving it out made Newton diverge on stiff wires). ``start``:
-        x₀'s (positions, quaternions) and ``reference`` the model's rest state at its free
-        coordinates (``model_state``), when the caller has them."""
+        x₀'s (positions, quaternions), ``reference`` the model's rest state at its free
+        coordinates (``model_state``) and ``rows`` the rows B_k q_m (``velocity_rows``),
+        when the caller has them. The path's states and the force's sums are
+        rodsim/solvers/physical/midpoint_kernels.py's."""
         c = self.coordinates
-        n, m = model.n, c.size
+        m = c.size
         r0, q0 = (x0[c.positions], x0[c.quaternions]) if start is None else start
         if reference is None:
             reference = model.reference[model.free]
-        rows = velocity_rows(qm)  # B_k q_m: Δq = (h/2) Σ ω_m,k B_k q_m
+        if rows is None:
+            rows = velocity_rows(qm)  # B_k q_m: Δq = (h/2) Σ ω_m,k B_k q_m
         f_r = np.zeros(self._p)
         tau = np.zeros((self._s, 3))
-        derivative: Csr | None = None
-        dq, dr = q1 - q0, r1 - r0
+        derivative: np.ndarray | None = None
+        plan = self._plan_of(model) if dq1 is not None else None
+        state = np.empty(len(x0))
+        unit = np.empty((self._s, 4))
+        norm = np.empty(self._s)
         for node, weight in self._gauss:
-            q = q0 + node * dq
-            norm = _norms(q)
-            unit = q / norm[:, None]
-            x = x0.copy()
-            x[c.positions] = r0 + node * dr
-            x[c.quaternions] = unit
-            state = x - reference  # model_state
+            # the state at the path's point: x₀ with r₀ + s Δr and normalise(q₀ + s Δq),
+            # minus the rest state (``model_state``)
+            path_state(x0, reference, c.positions, c.quaternions, r0, r1, q0, q1, node,
+                       state, unit, norm)
+            # the model's force (and Jacobian) without its memo: iterates do not repeat
             if dq1 is None:
-                f = model.force(state)
+                f = model.evaluate_fresh(state, jacobian=False)[0]
                 finite = bool(np.isfinite(f).all())
             else:
-                f, jac = model.evaluate(state)
+                f, jac = model.evaluate_fresh(state)
                 finite = bool(np.isfinite(f).all()) and bool(np.isfinite(jac).all())
             if not finite:
                 raise StepFailure("the force or its Jacobian is not finite")
-            f_q = f[c.quaternions]
-            across = f_q - unit * np.add.reduce(unit * f_q, axis=1)[:, None]  # (I − q̂q̂ᵀ) f_q
-            f_r += weight * f[c.positions]
-            tau += weight * 0.5 * np.einsum("ska,sa->sk", rows, across) / norm[:, None]
+            # f̄_r += weight f_r, τ̄ += weight ½ B_k q_m · (I − q̂q̂ᵀ) f_q / |q|
+            add_force(f, c.positions, c.quaternions, unit, norm, rows, weight, f_r, tau)
             if dq1 is None:
                 continue
-            # ∂F/∂x's CSC arrays (``model.pattern_matrix(jac)``'s, without building it)
-            jacobian = arrays(Csr(model.pattern.indptr, model.pattern.indices, jac))
+            f_q = f[c.quaternions]
+            across = f_q - unit * np.add.reduce(unit * f_q, axis=1)[:, None]  # (I − q̂q̂ᵀ) f_q
             project = (np.eye(4)[None] - unit[:, :, None] * unit[:, None, :]) / norm[:, None,
                                                                                     None]
-            g = c.tangent_arrays(0.5 * project @ np.transpose(rows, (0, 2, 1)), 1.0, n)
-            p = c.tangent_arrays(project @ (node * dq1), node, n)
+            # G's and P's 4 × 3 blocks (the identity, times 1 and ``node``, on the positions)
+            g_blocks = 0.5 * project @ np.transpose(rows, (0, 2, 1))
+            p_blocks = project @ (node * dq1)
             # τ_k = ½ a_kᵀ P f / |q| (a_k = B_k q_m, P = I − q̂q̂ᵀ) at fixed f: through a_k
             # (q_m moves by ½ ∂q₁/∂ω_m) and through q̂ and |q| (q moves by s ∂q₁/∂ω_m)
             turned = np.einsum("kba,sb->ska", B, across) / norm[:, None, None]  # B_kᵀ P f
@@ -188,18 +194,26 @@ class MidpointStep:
                          - moment[:, :, None] * unit[:, None, :]) / norm[:, None, None] ** 2
             geometric = 0.5 * (np.einsum("ska,sal->skl", turned, 0.5 * dq1)
                                + np.einsum("ska,sal->skl", through_q, node * dq1))
-            # the geometric blocks on the angles (sp.block_diag with the zero position
-            # block, as one placement)
-            # (g.T @ J @ p + the blocks), times the weight, summed: scipy's own operators'
-            # arrays, by its kernels (sparse_kernels), CSC until the end's ``tocsr``
-            part = scaled(plus(m, m, congruent(n, m, g, jacobian, p),
-                               transpose(m, m, block_arrays(
-                                   geometric, c.angle_columns, c.angle_columns, (m, m)))),
-                          weight)
-            derivative = part if derivative is None else plus(m, m, derivative, part)
-        if derivative is None:
+            # (Gᵀ J P + the geometric blocks on the angles), times the weight, summed into
+            # the plan's CSR values (stiffness_plan.py)
+            assert plan is not None
+            if derivative is None:
+                derivative = np.zeros(len(plan.indices))
+            accumulate(jac, plan.entry, plan.g_index, plan.p_index, plan.slot,
+                       g_blocks.ravel(), 1.0, p_blocks.ravel(), node, plan.geometric_slot,
+                       geometric.ravel(), weight, derivative)
+        if derivative is None or plan is None:
             return f_r, tau, None
-        return f_r, tau, csr_of(transpose(m, m, derivative), (m, m), sorted_indices=True)
+        return f_r, tau, csr_of(Csr(plan.indptr, plan.indices, derivative), (m, m),
+                                sorted_indices=True)
+
+    def _plan_of(self, model: Model) -> StiffnessPlan:
+        """The stiffness plan for ``model``'s Jacobian pattern (made once per pattern)."""
+        pattern = model.pattern
+        if self._plan is None or not self._plan.fits(pattern.indptr, pattern.indices):
+            self._plan = StiffnessPlan.of(self.coordinates, model.n, pattern.indptr,
+                                          pattern.indices)
+        return self._plan
 
     def _damping_of(self, model: Model) -> tuple[Damping, TangentDamping]:
         """The damping of ``model`` (the start's where no support moves: the damping does
@@ -229,7 +243,6 @@ class MidpointStep:
         split = (r0, x0[c.quaternions])  # x₀'s positions and quaternions, for every iterate
         reference = model.reference[model.free]  # model_state's
         mass = c.mass
-        mass_rows = (len(r0), len(r0), mass.indptr, mass.indices, mass.data)
         # D_t = Gᵀ D G on the physical velocities at the last iterate's midpoint
         held: list[sp.csr_matrix | None] = [None]
         r1, wm = r0 + h * v0, w0.copy()
@@ -237,38 +250,41 @@ class MidpointStep:
             r1, wm = r0 + h * start.middle[0], start.middle[1].copy()
         inertia = c.inertia
 
+        q0 = split[1]
+        q1, qm = np.empty(q0.shape), np.empty(q0.shape)
+        norm, rows = np.empty(len(q0)), np.empty((len(q0), 3, 4))
+
         def evaluate(r1: np.ndarray, wm: np.ndarray, fresh: bool
                      ) -> tuple[np.ndarray, sp.csr_matrix | None]:
-            q1, qm, norm = _turned(split[1], wm, h)
-            vm = (r1 - r0) / h
+            # q₁, q_m, |q_m| and B_k q_m (midpoint_kernels: as _turned and velocity_rows)
+            turned(q0, wm, h, q1, qm, norm, rows)
             dq1 = self._cayley_derivative(qm, wm, h) if fresh else None
             f_r, tau, stiffness = self._averaged(model, x0, r1, q1, qm, dq1, split,
-                                                 reference)
-            res_r = (2.0 / h) * _times(mass_rows, vm - v0) - f_r
-            res_w = ((2.0 / h) * inertia * (wm - w0) + _cross(wm, inertia * wm) - tau)
+                                                 reference, rows)
+            residual = np.empty(c.size)
+            step_residual(mass.indptr, mass.indices, mass.data, r0, r1, v0, inertia, wm, w0,
+                          h, f_r, tau, residual)
             damping = None
             if damper.active:
+                vm = (r1 - r0) / h
                 xm = _middle(c, x0, r0, r1, qm, norm)  # x_m: the damping's state
                 g = c.g_arrays(xm, n)
                 damping = tangent_damping.matrix(xm, g, c.size)
-                dragged = damping @ np.concatenate([vm, wm.ravel()])
-                res_r = res_r + dragged[:self._p]
-                res_w = res_w + dragged[self._p:].reshape(-1, 3)
+                residual += damping @ np.concatenate([vm, wm.ravel()])
                 if moving is not None:
                     x_dot = self._tangent(xm, vm, wm)
                     force, power = moving.damping_force(damper, xm, x_dot)
                     pushed_r, pushed_w = self._generalised(xm, force)
-                    res_r = res_r - pushed_r
-                    res_w = res_w - pushed_w
+                    residual[:self._p] -= pushed_r
+                    residual[self._p:] -= pushed_w.ravel()
                     support[:] = [(x_dot, force, power)]
             held[0] = damping
-            residual = np.concatenate([res_r, res_w.ravel()])
             if stiffness is None:
                 return residual, None
             return residual, newton_matrix(c, 2.0, stiffness, damping, wm, h)
 
         r1, wm, iterations = solve_step(evaluate, r1, wm, h, self.length_scale,
-                                        self.tolerance, self.kept)
+                                        self.tolerance, self.kept, self._order)
         damping = held[0]
         q1, _, _ = _turned(split[1], wm, h)
         vm = (r1 - r0) / h
@@ -342,28 +358,7 @@ def _middle(c: PhysicalCoordinates, x0: np.ndarray, r0: np.ndarray, r1: np.ndarr
     return xm
 
 
-def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """coordinates.cross_rows for two (s, 3) arrays of one shape (its products and
-    differences, without its broadcast of the shapes: the same numbers)."""
-    out = np.empty(a.shape)
-    out[:, 0] = a[:, 1] * b[:, 2] - a[:, 2] * b[:, 1]
-    out[:, 1] = a[:, 2] * b[:, 0] - a[:, 0] * b[:, 2]
-    out[:, 2] = a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0]
-    return out
-
-
 def _norms(q: np.ndarray) -> np.ndarray:
     """|q| row by row: numpy.linalg.norm(q, axis=1)'s own sum of squares and root, without
     its argument handling (the same numbers)."""
     return np.sqrt(np.add.reduce(q * q, axis=1))
-
-
-def _times(matrix: tuple[int, int, np.ndarray, np.ndarray, np.ndarray], v: np.ndarray
-           ) -> np.ndarray:
-    """A CSR matrix (rows, columns, indptr, indices, data) times ``v``: scipy's product
-    ``matrix @ v`` by its own kernel (``csr_matvec``), without its format checks (the same
-    numbers)."""
-    rows, cols, indptr, indices, data = matrix
-    out = np.zeros(rows)
-    matvec(rows, cols, indptr, indices, data, v, out)
-    return out
