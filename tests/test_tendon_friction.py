@@ -25,6 +25,7 @@ import rodsim
 from rodsim.core.model import Model
 from rodsim.core.scene import Scene
 from rodsim.core.schema import SceneError
+from rodsim.core.terms._string_friction_coupling import one_way_coupling
 from rodsim.core.terms.tendon_string import TendonString
 
 #: The benchmark backbone (nitinol, r = 0.7 mm, 0.2 m) with a tendon on spacer disks 10 mm off.
@@ -301,7 +302,7 @@ def test_kernel_matches_the_reference_and_the_jacobian_off_one_way_paths(random_
 
     geometry, u, length = term._chords(full)
     jd = np.concatenate([-geometry.jac[:-1], geometry.jac[1:]], axis=2)
-    coupling = term._one_way_coupling(full, u, length, jd)
+    coupling = one_way_coupling(term, full, u, length, jd)
     assert np.any(coupling[0]) and not np.any(coupling[1:])
     analytic = _scatter(model, term, term.element_jacobians(full) - coupling)
     numeric = fd["jacobian"](frozen, x, fd["steps"](model, 1e-6))

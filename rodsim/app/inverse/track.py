@@ -47,7 +47,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from rodsim.app.interrupted import Interrupted
-from rodsim.app.inverse import track_steps
+from rodsim.app.inverse import track_friction, track_steps
 from rodsim.app.inverse.continuation import MAX_HALVINGS, Continuation
 from rodsim.app.inverse.parameter_keys import NumericKey, numeric_keys, scene_with
 from rodsim.app.inverse.ramps import check_rules_across_tables, parse_ramp, ramp_values
@@ -55,21 +55,13 @@ from rodsim.app.inverse.track_steps import record_contact, record_stability, val
 from rodsim.core.model import Model
 from rodsim.core.scene import Scene
 from rodsim.core.schema import SceneError
-from rodsim.core.terms.base import TendonTerm
-from rodsim.core.terms.tendon_string import TendonString
-from rodsim.core.terms.tendon_string_displacement import TendonStringDisplacement
 from rodsim.io.archive_schema import SCHEMA_VERSION
 from rodsim.io.cf_layout import variable_name
 from rodsim.io.provenance import archive_attributes
 from rodsim.io.run_dataset import (
     FRICTION_HISTORY,
-    actuator_variable,
     contact_variables,
-    pulled_in_variables,
-    slip_variables,
     step_coordinate,
-    tension_coordinates,
-    tension_variable,
 )
 from rodsim.solvers import DEFAULT_INTEGRATOR, integrator_named, registered_integrators
 from rodsim.solvers.base import Progress
@@ -181,42 +173,17 @@ class Track:
 
     @property
     def dead_zone_steps(self) -> list[int]:
-        """With tendon friction: the steps inside the backlash dead zone — the ramped values
-        moved from the step before, but the termination tension of every tendon with
-        friction held exactly (its last chord stuck: docs/tendon.md, "Friction")."""
-        if not self.tension:
-            return []
-        ends = np.cumsum([len(s) for s in self.chords.values()]) - 1
-        return [k for k in range(1, self.steps)
-                if np.any(self.values[k] != self.values[k - 1])
-                and np.array_equal(self.tension[k][ends], self.tension[k - 1][ends])]
+        """With tendon friction: the steps inside the backlash dead zone (docs/tendon.md,
+        "Friction"; rodsim/app/inverse/track_friction.py)."""
+        return track_friction.dead_zone_steps(self.values, self.tension, self.chords,
+                                              self.steps)
 
     @property
     def pulled_in(self) -> dict[str, np.ndarray]:
         """With tendon friction: each such tendon's actuator displacement at every step
-        since step 0 [m]: under tension control ℓ(step 0) − ℓ(step), ℓ its path's length
-        (inextensible, held at its termination: what the actuator drew in); under
-        displacement control d(step) − d(step 0), d = ℓ₀ − Σ_e ℓ_e / (1 + τ_e / E A) the
-        free length the chords no longer hold (the ramped displacement, to the root's
-        round-off). For the loop of the actuator's tension against its displacement
-        (docs/tendon.md, "Friction")."""
-        out = {}
-        starts = dict(zip(self.chords, np.cumsum([0, *map(len, self.chords.values())]),
-                          strict=False))
-        for term in self.model.terms:
-            name = term.tendon.name if isinstance(term, TendonTerm) else ""
-            if name not in self.chords or not self.states:
-                continue
-            if isinstance(term, TendonString):
-                ell = np.array([term.length(full) for full in self.states])
-                out[name] = ell[0] - ell
-            elif isinstance(term, TendonStringDisplacement):
-                chords = slice(starts[name], starts[name] + len(self.chords[name]))
-                drawn = np.array([term.drawn_in(full, tension[chords])
-                                  for full, tension in zip(self.states, self.tension,
-                                                           strict=False)])
-                out[name] = drawn - drawn[0]
-        return out
+        since step 0 [m], for the loop of the actuator's tension against its displacement
+        (rodsim/app/inverse/track_friction.py, ``pulled_in``)."""
+        return track_friction.pulled_in(self.model, self.chords, self.states, self.tension)
 
     def tips(self, rod: str | None = None) -> np.ndarray:
         """Tip of ``rod`` (default: the first) at every completed step, (steps, 3) [m]."""
@@ -293,20 +260,9 @@ class Track:
                                                    self.step_penalty_error, steps))
         if self.contact:
             data.update(contact_variables(np.array(self.contact), ("step",)))
-        if self.tension:
-            coords.update(tension_coordinates(self.chords))
-            data.update(tension_variable(np.array(self.tension), ("step",)))
-        if self.tension and steps:
-            pulled_coords, pulled_data = pulled_in_variables(self.pulled_in, ("step",))
-            coords.update(pulled_coords)
-            data.update(pulled_data)
-            if len(self.actuator) == steps:
-                data.update(actuator_variable(np.array(self.actuator), ("step",)))
-        if self.slip:
-            point_coords, slip_data = slip_variables(self.points, np.array(self.slip),
-                                                     ("step",))
-            coords.update(point_coords)
-            data.update(slip_data)
+        friction_coords, friction_data = track_friction.friction_variables(self, steps)
+        coords.update(friction_coords)
+        data.update(friction_data)
         ds = xr.Dataset(data_vars=data, coords=coords)
         warm = np.asarray(self.times[1:])
         ds.attrs.update({

@@ -69,31 +69,26 @@ from rodsim.core.static_friction_profile import check_static_profile, static_pro
 from rodsim.core.tendon import MAX_TENSION, Tendon
 from rodsim.core.tendon_friction import (
     MAX_FRICTION,
-    ONE_WAY,
     SLIDING_IN,
     bound_coefficients,
     chord_tensions,
     profile_coefficients,
-    slide_rates,
     slip_states,
     turning_angles,
     weighted_chord_tensions,
-    weighted_slide_factors,
-    weighted_slide_rates,
 )
+from rodsim.core.terms._string_friction_coupling import one_way_coupling, span_turn_coupling
 from rodsim.core.terms._string_group import stacked_arguments
 from rodsim.core.terms._string_points import (
     POINT_SIZE,
     PointGeometry,
     entry_directions,
-    entry_jacobian,
     point_forms,
     point_geometry,
     routing_points,
 )
-from rodsim.core.terms._string_span import coupled_span, turn_coupling
+from rodsim.core.terms._string_span import coupled_span
 from rodsim.core.terms.base import KernelArguments, TendonTerm, Term
-from rodsim.core.turn_gradient import turn_gradients
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -567,51 +562,6 @@ class TendonString(TendonTerm):
         jacobian = -hess
         if self.span is None:
             if self.rubs and not np.any(self.points.weights[0, 2:]):
-                jacobian += self._one_way_coupling(x, u, length, jd)
+                jacobian += one_way_coupling(self, x, u, length, jd)
             return jacobian
-        return self.span.jacobian(jacobian, self._turn_coupling(x, u, length, jd))
-
-    def _turn_coupling(self, x: np.ndarray, u: np.ndarray, length: np.ndarray,
-                       jd: np.ndarray) -> np.ndarray:
-        """Σ_e f_e ⊗ ∂τ_e/∂x on the span (rodsim/core/terms/_string_span.py,
-        ``turn_coupling``): every chord's tension by every turn up to it."""
-        assert self.span is not None
-        axis, tangent = self.entry_directions(x)
-        near, entry = turn_gradients(axis, tangent, u, self.split)
-        slide = weighted_slide_factors(self.tension, self._mu_in, self._mu_out,
-                                       self.turning_angles(x), self.profile)
-        return turn_coupling(self.span, slide, self._mu_in, self._mu_out, near, entry, u,
-                             jd, length, entry_jacobian(self.points, self._entry_slope, x),
-                             -np.einsum("emk,em->ek", jd, u))
-
-    def _one_way_coupling(self, x: np.ndarray, u: np.ndarray, length: np.ndarray,
-                          jd: np.ndarray) -> np.ndarray:
-        """Σ_e f_e ⊗ ∂τ_e/∂x on the chords up to which the path turns one way in one plane
-        from a held entry frame (module docstring, "Friction"): there Θ_e = ψ_e =
-        ∠(d3, u_e), whose gradient −(d3 − (d3·u_e) u_e)ᵀ Jd_e / (|d3 × u_e| |d_e|) lies on
-        the chord's own coordinates; f_e = −Jd_eᵀ u_e, the chord's force per unit tension."""
-        theta, one_way, slope, unit_force = self._one_way_parts(x, u, length, jd)
-        rate = (weighted_slide_rates(self.tension, self._mu_in, self._mu_out, theta,
-                                     self.profile) if self.weighted
-                else slide_rates(self.tension, self.friction, theta, self.profile))
-        gradient = np.where(one_way, rate, 0.0)[:, None] * slope
-        return unit_force[:, :, None] * gradient[:, None, :]
-
-    def _one_way_parts(self, x: np.ndarray, u: np.ndarray, length: np.ndarray,
-                       jd: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray,
-                                                np.ndarray]:
-        """(θ_e, whether the path up to chord e turns one way in one plane, ∂ψ_e/∂x there
-        (E, 28), f_e (E, 28))."""
-        theta = self.turning_angles(x)
-        axis, tangent = self.entry_directions(x)
-        # One way in one plane: the plain turns (no split) sum to ψ_e.
-        wrap = np.cumsum(turning_angles(axis, tangent, self.path(x)))
-        sine = np.linalg.norm(np.cross(axis[None, :], u), axis=1)
-        cosine = u @ axis
-        psi = np.arctan2(sine, cosine)
-        one_way = (np.abs(wrap - psi) <= ONE_WAY * np.maximum(1.0, wrap)) & (sine > 0.0)
-        slope = -(axis[None, :] - cosine[:, None] * u) / np.where(
-            one_way, sine * length, 1.0)[:, None]
-        return (theta, one_way, np.einsum("em,emk->ek", slope, jd),
-                -np.einsum("emk,em->ek", jd, u))
-
+        return self.span.jacobian(jacobian, span_turn_coupling(self, x, u, length, jd))

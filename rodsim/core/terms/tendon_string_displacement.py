@@ -50,6 +50,7 @@ from rodsim.core.routing import string_span
 from rodsim.core.schema import SceneError
 from rodsim.core.tendon import Tendon
 from rodsim.core.tendon_friction import SLIDING_IN
+from rodsim.core.terms._string_friction_coupling import one_way_parts
 from rodsim.core.terms.base import KernelArguments, TendonTerm
 from rodsim.core.terms.tendon_string import TendonString, TendonStringOptions
 
@@ -356,7 +357,7 @@ class TendonStringDisplacement(TendonTerm):
                   tau[:, None, None] * self._unit.element_jacobians(x))
         geometry, u, length = self._unit._chords(x)
         jd = np.concatenate([-geometry.jac[:-1], geometry.jac[1:]], axis=2)
-        _, one_way, slope, unit_force = self.string._one_way_parts(x, u, length, jd)
+        _, one_way, slope, unit_force = one_way_parts(self.string, x, u, length, jd)
         _, lengths, low, high = self._bounds(x)
         held = not np.any(self.string.points.weights[0, 2:])
         s = np.where(states < 0.0, low, np.where(states > 0.0, high, 0.0))
