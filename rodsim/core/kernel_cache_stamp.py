@@ -53,8 +53,8 @@ KERNEL_FOLDER = Path(__file__).resolve().parent / "kernels"
 #: Modules outside the kernels folder whose functions or constants a kernel compiles in,
 #: relative to rodsim/core (tests/test_kernel_cache_stamp.py checks the list against the
 #: kernels' imports).
-OUTSIDE_SOURCES = ("contact_penalty.py", "rod/quaternion.py", "tendon_friction.py",
-                   "turn_gradient.py")
+OUTSIDE_SOURCES = ("contact_penalty.py", "displacement_friction.py", "rod/quaternion.py",
+                   "tendon_friction.py", "turn_gradient.py")
 #: A stamp file's name in a cache folder: the prefix, the digest, the suffix.
 STAMP_PREFIX, STAMP_SUFFIX = "rodsim-kernels-", ".stamp"
 
