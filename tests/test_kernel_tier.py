@@ -88,7 +88,7 @@ def test_a_model_built_after_the_move_starts_compiled(tier):
     assert tier.numpy_evaluations == 4  # the second model's evaluation was compiled
 
 
-@pytest.mark.parametrize("name, budget", [("table1-50g", 0.2), ("table3-catheter1", 0.5),
+@pytest.mark.parametrize("name, budget", [("table1-50g", 0.1), ("table3-catheter1", 0.5),
                                           ("tdcr-two-segment", 0.1)])
 def test_a_solve_that_moves_midway_reaches_the_compiled_equilibrium(tier, name, budget):
     """The move in the middle of a solve (after budget/0.01 evaluations) changes the
