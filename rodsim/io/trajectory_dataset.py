@@ -199,44 +199,36 @@ def trajectory_dataset(record: TrajectoryRecord) -> xr.Dataset:
 def breakaway_variables(found: Sequence[Breakaway]) -> dict[str, Any]:
     """The variables along ``breakaway`` of the routing points that broke loose (module
     docstring; empty along it when none did)."""
-    return {
-        "breakaway_time": ("breakaway", np.array([b.time for b in found], dtype=float),
-                           {"units": "s", "long_name": "time a routing point of a string "
-                            "tendon broke loose (stiction), located inside its step"}),
-        "breakaway_tendon": ("breakaway", np.array([b.tendon for b in found], dtype=str),
-                             {"long_name": "tendon of the routing point that broke loose"}),
-        "breakaway_point": ("breakaway", np.array([b.point for b in found], dtype=np.int32),
-                            {"long_name": "index of the routing point along its tendon (0 "
-                             "the entry; the chord it starts, as slip_state's)"}),
-        "breakaway_point_s": ("breakaway", np.array([b.s for b in found], dtype=float),
-                              {"units": "m", "long_name": "rest arc length of the routing "
-                               "point that broke loose"}),
-        "breakaway_direction": ("breakaway", np.array([b.direction for b in found],
-                                                      dtype=np.int8),
-                                {"long_name": "way the point slides once loose",
-                                 "flag_values": np.array([-1, 1], dtype=np.int8),
-                                 "flag_meanings": "sliding_in sliding_out"}),
-    }
+    return _point_event_variables("breakaway", found, "broke loose",
+                                  "way the point slides once loose")
 
 
 def restick_variables(found: Sequence[Restick]) -> dict[str, Any]:
     """The variables along ``restick`` of the sliding routing points that stuck again
     (module docstring; empty along it when none did)."""
+    return _point_event_variables("restick", found, "stuck again",
+                                  "way the point slid until it stuck")
+
+
+def _point_event_variables(name: str, found: Sequence[Breakaway] | Sequence[Restick],
+                           what: str, direction: str) -> dict[str, Any]:
+    """``<name>_time``, ``_tendon``, ``_point``, ``_point_s`` and ``_direction`` along the
+    dimension ``name``: one entry per routing point that ``what`` inside a step."""
+    point = "sliding routing point" if name == "restick" else "routing point"
     return {
-        "restick_time": ("restick", np.array([r.time for r in found], dtype=float),
-                         {"units": "s", "long_name": "time a sliding routing point of a "
-                          "string tendon stuck again (stiction), located inside its step"}),
-        "restick_tendon": ("restick", np.array([r.tendon for r in found], dtype=str),
-                           {"long_name": "tendon of the routing point that stuck again"}),
-        "restick_point": ("restick", np.array([r.point for r in found], dtype=np.int32),
+        f"{name}_time": (name, np.array([e.time for e in found], dtype=float),
+                         {"units": "s", "long_name": f"time a {point} of a string tendon "
+                          f"{what} (stiction), located inside its step"}),
+        f"{name}_tendon": (name, np.array([e.tendon for e in found], dtype=str),
+                           {"long_name": f"tendon of the routing point that {what}"}),
+        f"{name}_point": (name, np.array([e.point for e in found], dtype=np.int32),
                           {"long_name": "index of the routing point along its tendon (0 "
                            "the entry; the chord it starts, as slip_state's)"}),
-        "restick_point_s": ("restick", np.array([r.s for r in found], dtype=float),
+        f"{name}_point_s": (name, np.array([e.s for e in found], dtype=float),
                             {"units": "m", "long_name": "rest arc length of the routing "
-                             "point that stuck again"}),
-        "restick_direction": ("restick", np.array([r.direction for r in found],
-                                                  dtype=np.int8),
-                              {"long_name": "way the point slid until it stuck",
+                             f"point that {what}"}),
+        f"{name}_direction": (name, np.array([e.direction for e in found], dtype=np.int8),
+                              {"long_name": direction,
                                "flag_values": np.array([-1, 1], dtype=np.int8),
                                "flag_meanings": "sliding_in sliding_out"}),
     }
