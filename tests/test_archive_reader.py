@@ -8,6 +8,7 @@ import json
 import os
 import subprocess
 import sys
+import time
 from pathlib import Path
 
 import netCDF4
@@ -288,6 +289,52 @@ except archive.ArchiveError as exc:
 """)
     assert done.returncode == 0, done.stderr
     assert message in done.stdout, done.stdout
+
+
+@pytest.mark.skipif(not Path("/proc/self/stat").exists(), reason="reads /proc (Linux)")
+def test_a_probe_child_outlives_no_killed_parent(tmp_path):
+    """A parent killed while its probe child hangs in the library (the child's open replaced
+    by one that records its pid and sleeps) leaves no reader behind: the child ends itself
+    a second after the probe's limit. Before, it spun on for ever (found after a killed
+    test run: the damaged-archive child at full CPU for minutes)."""
+    path = tmp_path / "run.nc"
+    assert main(["run", "--integrator", "static", "--set", "nodes=6", "-o", str(path)]) == 0
+    marker = tmp_path / "child.pid"
+    parent = subprocess.Popen([sys.executable, "-c", f"""
+import os, time
+import xarray
+import rodsim.io.archive as archive
+archive.PROBE_SECONDS = 2.0
+def hang(*args, **kwargs):
+    with open({str(marker)!r}, "w") as f:
+        f.write(str(os.getpid()))
+    time.sleep(3600)
+xarray.open_dataset = hang
+archive.read_dataset({str(path)!r})
+"""], env={**os.environ, "OMP_NUM_THREADS": "1"})
+    try:
+        for _ in range(600):
+            if marker.exists() and marker.read_text():
+                break
+            time.sleep(0.05)
+        child = int(marker.read_text())
+    finally:
+        parent.kill()
+        parent.wait()
+
+    def alive(pid: int) -> bool:
+        try:
+            state = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0]
+        except (FileNotFoundError, ProcessLookupError):
+            return False
+        return state != "Z"
+
+    assert alive(child)  # the parent died first: the child was still reading
+    for _ in range(200):  # its own end: 3 s after it began, within 10 s
+        if not alive(child):
+            break
+        time.sleep(0.05)
+    assert not alive(child), f"the probe child {child} outlived its killed parent"
 
 
 def test_a_probe_that_aborts_prints_no_fault_handler_dump(tmp_path):

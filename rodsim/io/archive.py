@@ -13,6 +13,7 @@ from __future__ import annotations
 import contextlib
 import errno
 import faulthandler
+import math
 import os
 import signal
 import sys
@@ -188,7 +189,9 @@ def _probe_in_child(path: Path) -> None:
     loop forever, which no exception handler can turn into a message (found by
     tests/test_fuzz.py). A child that dies by a signal, or is still reading after
     ``PROBE_SECONDS`` (plus a second per 10 MB), makes it an ``ArchiveError``; a
-    child that ends (read or raised) lets this process read the file itself.
+    child that ends (read or raised) lets this process read the file itself. The child
+    ends itself a second after that limit (SIGALRM), so a parent killed meanwhile leaves no
+    reader spinning behind it.
 
     Only where it is safe to fork: a POSIX process with one thread (the CLI; a forked
     child copies only the calling thread, and a lock another thread held would never be
@@ -198,10 +201,15 @@ def _probe_in_child(path: Path) -> None:
     for stream in (sys.stdout, sys.stderr):
         with contextlib.suppress(Exception):
             stream.flush()
+    limit = PROBE_SECONDS + path.stat().st_size / 1e7
     pid = os.fork()
     if pid == 0:  # the child: read, and leave without running this process's exit code
         code = 0
         try:
+            # Its own end a second after the parent's limit, whatever becomes of the parent:
+            # a parent killed while the library loops left the child spinning for ever.
+            signal.signal(signal.SIGALRM, signal.SIG_DFL)
+            signal.alarm(math.ceil(limit) + 1)
             # A fault handler (pytest's, `python -X faulthandler`) writes its dump to its own
             # copy of stderr, which the dup2 below does not reach: a deliberate or damaged
             # abort here printed "Fatal Python error: Aborted" and every thread's stack.
@@ -217,7 +225,6 @@ def _probe_in_child(path: Path) -> None:
             code = 3
         finally:
             os._exit(code)
-    limit = PROBE_SECONDS + path.stat().st_size / 1e7
     deadline = time.monotonic() + limit
     delay = 0.001
     while True:
