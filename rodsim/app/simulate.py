@@ -55,7 +55,8 @@ from rodsim.solvers.physical.fixed_step import FixedStep, Motion
 from rodsim.solvers.physical.ida_run import PhysicalTimeOptions, integrate_ida
 from rodsim.solvers.physical.midpoint import MidpointStep
 from rodsim.solvers.physical.semi_implicit_euler import SemiImplicitEulerStep
-from rodsim.solvers.physical.trajectory import Record, integrate
+from rodsim.solvers.physical.trajectory import integrate
+from rodsim.solvers.physical.trajectory_record import Record
 from rodsim.solvers.result import Result
 
 __all__ = ["Simulation", "simulate", "check_programs", "ida_options", "INTEGRATORS",

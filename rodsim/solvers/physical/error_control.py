@@ -52,14 +52,14 @@ the programs' table times (where a value's slope changes or it jumps) and on t_e
 step allowed if shorter) — no clock, so the same scene gives the same steps bit for bit.
 
 **Outputs** at the requested times come from the accepted step's cubic Hermite interpolant
-(rodsim/solvers/physical/step_events.py: positions on (r, v), quaternions on (q, q̇),
-normalised), body rates linear: they force no step. The energies at an output are those of
-the interpolated state; the dissipated energy and the programs' work are interpolated
-linearly across the step, so an output's energy balance includes the interpolant's error
-(local: it does not accumulate). Events are watched on every accepted step as for fixed
-steps (rodsim/solvers/physical/step_events.py), each root on one midpoint step from the
-accepted step's start. Friction (a path-dependent history) is not offered under error
-control: a rejected step would have to undo its history.
+(rodsim/solvers/physical/dense_output.py; rodsim/solvers/physical/step_events.py: positions
+on (r, v), quaternions on (q, q̇), normalised), body rates linear: they force no step. The
+energies at an output are those of the interpolated state; the dissipated energy and the
+programs' work are interpolated linearly across the step, so an output's energy balance
+includes the interpolant's error (local: it does not accumulate). Events are watched on
+every accepted step as for fixed steps (rodsim/solvers/physical/step_events.py), each root
+on one midpoint step from the accepted step's start. Friction (a path-dependent history)
+is not offered under error control: a rejected step would have to undo its history.
 """
 
 from __future__ import annotations
@@ -71,18 +71,14 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from rodsim.core.model import Model
+from rodsim.solvers.physical.dense_output import record_outputs
 from rodsim.solvers.physical.events import EventFunctions
 from rodsim.solvers.physical.fixed_step import KeptMatrix, Motion, StepFailure
 from rodsim.solvers.physical.midpoint import MidpointStep
 from rodsim.solvers.physical.step_controller import StepController
-from rodsim.solvers.physical.step_events import hermite, watched
-from rodsim.solvers.physical.trajectory import (
-    MAX_HALVINGS,
-    Record,
-    advance,
-    potential,
-    restep,
-)
+from rodsim.solvers.physical.step_events import watched
+from rodsim.solvers.physical.trajectory import MAX_HALVINGS, advance, restep
+from rodsim.solvers.physical.trajectory_record import Record, potential
 
 __all__ = ["ErrorControl", "ControlledRecord", "integrate_controlled", "KEEP", "RATES",
            "MAX_STEPS"]
@@ -218,26 +214,6 @@ class _Embedded:
                         error if math.isfinite(error) else math.inf)
 
 
-def _outputs(record: Record, stepper: MidpointStep, model_at: Callable[[float], Model],
-             span: tuple[float, Motion, float, Motion], times: Sequence[float],
-             energy: tuple[float, float, float, float]) -> None:
-    """Record the output ``times`` in (t0, t1] of the accepted step ``span`` = (t0, start,
-    t1, end) from its interpolant; ``energy`` = (dissipated, work) at t0 and at t1."""
-    t0, start, t1, end = span
-    c = stepper.coordinates
-    x = hermite(c, t0, start, t1, end)
-    for t in times:
-        if t >= t1:
-            motion, s = end, 1.0
-        else:
-            s = (t - t0) / (t1 - t0)
-            state, v = x(t)
-            motion = Motion(state, v, (1.0 - s) * start.w + s * end.w)
-        record.add(t, motion, c.kinetic_energy(motion.v, motion.w),
-                   potential(model_at(t), motion.x),
-                   (1.0 - s) * energy[0] + s * energy[1], (1.0 - s) * energy[2] + s * energy[3])
-
-
 def integrate_controlled(model_at: Callable[[float], Model], stepper: MidpointStep,
                          start: Motion, output_times: Sequence[float], options: ErrorControl,
                          breaks: Sequence[float] = (),
@@ -325,7 +301,8 @@ def integrate_controlled(model_at: Callable[[float], Model], stepper: MidpointSt
         pending = pending[len(due):]
         if ended is not None:
             due = [time for time in due if time < ended] + [ended]
-        _outputs(record, stepper, model_at, (t, before, t1, end), due, energy)
+        record_outputs(record, stepper.coordinates, model_at, (t, before, t1, end), due,
+                       energy)
         dissipated, work = energy[1], energy[3]
         record.largest_step = max(record.largest_step, t1 - t)
         record.accepted += 1

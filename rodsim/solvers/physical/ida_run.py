@@ -58,7 +58,7 @@ from rodsim.solvers.physical.ode_newton import (
     banded_newton_options,
     linear_solver,
 )
-from rodsim.solvers.physical.trajectory import Record
+from rodsim.solvers.physical.trajectory_record import Record
 from rodsim.solvers.sundials_clock import Clock
 from rodsim.solvers.sundials_setup import started
 

@@ -35,7 +35,6 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, field
 from typing import Protocol
 
 import numpy as np
@@ -47,6 +46,7 @@ from rodsim.solvers.physical.coordinates import model_state
 from rodsim.solvers.physical.events import EventFunctions
 from rodsim.solvers.physical.fixed_step import FixedStep, Motion, StepFailure, StepOutcome
 from rodsim.solvers.physical.step_events import hermite, watched
+from rodsim.solvers.physical.trajectory_record import Record, potential
 
 
 class AfterStep(Protocol):
@@ -59,7 +59,7 @@ class AfterStep(Protocol):
     def __call__(self, t: float, x: np.ndarray, held: Sequence[restick.Held] = ()) -> None:
         ...
 
-__all__ = ["Record", "integrate", "advance", "restep", "potential", "MAX_HALVINGS"]
+__all__ = ["integrate", "advance", "restep", "MAX_HALVINGS"]
 
 #: How many times a step whose Newton fails may be halved before the run stops (down to
 #: 1/256 of the step). A user's three-segment nitinol TDCR (N = 61) pulled by a 3 N ramp
@@ -69,49 +69,6 @@ __all__ = ["Record", "integrate", "advance", "restep", "potential", "MAX_HALVING
 MAX_HALVINGS = 8
 #: Most repeats of one step for points of a string tendon that broke loose (stiction).
 MAX_BREAKAWAYS = 1000
-
-
-@dataclass
-class Record:
-    """What a run computed at its output times (all arrays lengthen together)."""
-
-    times: list[float] = field(default_factory=list)
-    states: list[np.ndarray] = field(default_factory=list)
-    kinetic: list[float] = field(default_factory=list)
-    potential: list[float] = field(default_factory=list)
-    dissipated: list[float] = field(default_factory=list)
-    work: list[float] = field(default_factory=list)
-    steps: int = 0
-    iterations: int = 0
-    #: Steps whose Newton failed and that were taken as two half steps instead.
-    halvings: int = 0
-    #: The longest step taken [s].
-    largest_step: float = 0.0
-    #: Under error control (rodsim/solvers/physical/error_control.py): the steps accepted
-    #: and the attempts rejected.
-    accepted: int = 0
-    rejected: int = 0
-    success: bool = True
-    message: str = "ok"
-    #: (time [s], name) of every event found (rodsim/solvers/physical/events.py).
-    events: list[tuple[float, str]] = field(default_factory=list)
-
-    def add(self, t: float, motion: Motion, kinetic: float, potential: float,
-            dissipated: float, work: float) -> None:
-        self.times.append(t)
-        self.states.append(motion.x.copy())
-        self.kinetic.append(kinetic)
-        self.potential.append(potential)
-        self.dissipated.append(dissipated)
-        self.work.append(work)
-
-
-def potential(model: Model, x: np.ndarray) -> float:
-    """V(x) [J] of ``model`` at the free coordinates ``x`` (its energy: elastic, penalty,
-    gravity and the loads' potentials), NaN for a non-conservative model."""
-    if not model.conservative:
-        return math.nan
-    return model.energy(model_state(model, x))
 
 
 def _solve(model_at: Callable[[float], Model], stepper: FixedStep, motion: Motion,
