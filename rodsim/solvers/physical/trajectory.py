@@ -34,7 +34,7 @@ event's root) and ``potential`` (V(x), NaN for a non-conservative model).
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from typing import Protocol
 
 import numpy as np
@@ -43,6 +43,7 @@ from rodsim.core.model import Model
 from rodsim.solvers.physical import restick
 from rodsim.solvers.physical.breakaway import locate, margins, sticky
 from rodsim.solvers.physical.coordinates import model_state
+from rodsim.solvers.physical.dense_output import record_outputs
 from rodsim.solvers.physical.events import EventFunctions
 from rodsim.solvers.physical.fixed_step import FixedStep, Motion, StepFailure, StepOutcome
 from rodsim.solvers.physical.step_events import hermite, watched
@@ -59,7 +60,7 @@ class AfterStep(Protocol):
     def __call__(self, t: float, x: np.ndarray, held: Sequence[restick.Held] = ()) -> None:
         ...
 
-__all__ = ["integrate", "advance", "restep", "MAX_HALVINGS"]
+__all__ = ["integrate", "step_plan", "advance", "restep", "MAX_HALVINGS"]
 
 #: How many times a step whose Newton fails may be halved before the run stops (down to
 #: 1/256 of the step). A user's three-segment nitinol TDCR (N = 61) pulled by a 3 N ramp
@@ -224,59 +225,84 @@ def integrate(model_at: Callable[[float], Model], stepper: FixedStep, start: Mot
     dissipated = work = 0.0
     record.add(t, motion, coordinates.kinetic_energy(motion.v, motion.w),
                potential(model, motion.x), 0.0, 0.0)
-    for index in range(1, len(output_times)):
-        t_next = float(output_times[index])
-        count = max(1, math.ceil((t_next - t) / step * (1.0 - 1e-12)))
-        t_first = t
+    stop: float | None = None
+    for t0, t1, due in step_plan(output_times, step):
+        before = motion
+        saved = history() if history is not None and watch is not None else None
+        try:
+            motion, gained, lost, taken = advance(model_at, stepper, motion, t0, t1,
+                                                  MAX_HALVINGS, after_step)
+            found, searched = [], [0, 0, 0]
+            if watch is not None:
+                reached = (history() if history is not None and saved is not None
+                           else None)
+                found = watch.step(t0, before, t1, motion,
+                                   restep(model_at, stepper, before, t0, searched,
+                                          after_step, saved))
+                if reached is not None:
+                    reached()
+            stop = next((when for when, i in found if terminal[i]), None)
+            if stop is not None:
+                found = [(when, i) for when, i in found if when <= stop]
+                if stop < t1:  # the step again, to the terminal event's time exactly
+                    if saved is not None:
+                        saved()
+                    motion, gained, lost, again = advance(
+                        model_at, stepper, before, t0, stop, MAX_HALVINGS, after_step)
+                    searched = [a + b for a, b in zip(searched, again, strict=True)]
+            taken = (taken[0] + searched[0], taken[1] + searched[1],
+                     taken[2] + searched[2])
+        except StepFailure as exc:
+            record.success = False
+            record.message = (f"step from t = {t0:.6g} s failed: {exc}; try a smaller "
+                              "step (the run's data up to there is kept)")
+            return record
+        record.events.extend((when, names[i]) for when, i in found)
+        energy = (dissipated, dissipated + lost, work, work + gained)
+        dissipated, work = energy[1], energy[3]
+        record.steps += taken[0]
+        record.iterations += taken[1]
+        record.halvings += taken[2]
+        record.largest_step = max(record.largest_step, t1 - t0)
+        if stop is not None:
+            due = [time for time in due if time < stop] + [stop]
+            record_outputs(record, coordinates, model_at, (t0, before, stop, motion), due,
+                           energy)
+            ended = ", ".join(names[i] for when, i in found if when == stop and terminal[i])
+            record.message = f"stopped by the event ({ended}) at t = {stop:.9g} s"
+            return record
+        if progress is not None:
+            progress(t1)
+        record_outputs(record, coordinates, model_at, (t0, before, t1, motion), due, energy)
+    return record
+
+
+def step_plan(output_times: Sequence[float], step: float, between: bool = False
+              ) -> Iterator[tuple[float, float, list[float]]]:
+    """The steps of a fixed-step run through ``output_times`` with steps of at most
+    ``step`` [s], each as (t₀, t₁, the output times it makes: those in (t₀, t₁]).
+    ``between`` False: steps of equal length between consecutive output times, each output
+    a step's end. ``between`` True: steps of equal length from the first output time to the
+    last, the outputs between step ends read off the step's interpolant
+    (rodsim/solvers/physical/dense_output.py): outputs force no step."""
+    times = [float(time) for time in output_times]
+    if between:
+        t_start, t_end = times[0], times[-1]
+        count = max(1, math.ceil((t_end - t_start) / step * (1.0 - 1e-12)))
+        index = 1
+        for k in range(count):
+            t0 = t_start + (t_end - t_start) * k / count
+            t1 = t_end if k == count - 1 else t_start + (t_end - t_start) * (k + 1) / count
+            due = []
+            while index < len(times) and (times[index] <= t1 or k == count - 1):
+                due.append(times[index])
+                index += 1
+            yield t0, t1, due
+        return
+    for index in range(1, len(times)):
+        t_first, t_next = times[index - 1], times[index]
+        count = max(1, math.ceil((t_next - t_first) / step * (1.0 - 1e-12)))
         for k in range(count):
             t0 = t_first + (t_next - t_first) * k / count
             t1 = t_next if k == count - 1 else t_first + (t_next - t_first) * (k + 1) / count
-            before = motion
-            saved = history() if history is not None and watch is not None else None
-            try:
-                motion, gained, lost, taken = advance(model_at, stepper, motion, t0, t1,
-                                                      MAX_HALVINGS, after_step)
-                found, searched = [], [0, 0, 0]
-                if watch is not None:
-                    reached = (history() if history is not None and saved is not None
-                               else None)
-                    found = watch.step(t0, before, t1, motion,
-                                       restep(model_at, stepper, before, t0, searched,
-                                              after_step, saved))
-                    if reached is not None:
-                        reached()
-                stop = next((when for when, i in found if terminal[i]), None)
-                if stop is not None:
-                    found = [(when, i) for when, i in found if when <= stop]
-                    if stop < t1:  # the step again, to the terminal event's time exactly
-                        if saved is not None:
-                            saved()
-                        motion, gained, lost, again = advance(
-                            model_at, stepper, before, t0, stop, MAX_HALVINGS, after_step)
-                        searched = [a + b for a, b in zip(searched, again, strict=True)]
-                taken = (taken[0] + searched[0], taken[1] + searched[1],
-                         taken[2] + searched[2])
-            except StepFailure as exc:
-                record.success = False
-                record.message = (f"step from t = {t0:.6g} s failed: {exc}; try a smaller "
-                                  "step (the run's data up to there is kept)")
-                return record
-            record.events.extend((when, names[i]) for when, i in found)
-            work += gained
-            dissipated += lost
-            record.steps += taken[0]
-            record.iterations += taken[1]
-            record.halvings += taken[2]
-            record.largest_step = max(record.largest_step, t1 - t0)
-            if stop is not None:
-                record.add(stop, motion, coordinates.kinetic_energy(motion.v, motion.w),
-                           potential(model_at(stop), motion.x), dissipated, work)
-                ended = ", ".join(names[i] for when, i in found if when == stop and terminal[i])
-                record.message = f"stopped by the event ({ended}) at t = {stop:.9g} s"
-                return record
-            if progress is not None:
-                progress(t1)
-        t = t_next
-        record.add(t, motion, coordinates.kinetic_energy(motion.v, motion.w),
-                   potential(model_at(t), motion.x), dissipated, work)
-    return record
+            yield t0, t1, [t_next] if k == count - 1 else []
