@@ -170,7 +170,9 @@ def simulate(scene: SceneLike | None, t_end: float, *, output_dt: float | None =
     cap ``max_order``; docs/dynamics.md) or ``"cvode"`` (SUNDIALS CVODE on the explicit
     form, the same options; a dense Jacobian up to 400 unknowns, above it the banded Newton
     matrix with GMRES). ``output_dt``: the spacing of the output times [s] (default: every
-    step of the midpoint rule; 1/100 of the lowest natural period for IDA and CVODE);
+    step of the midpoint rule; 1/100 of the lowest natural period for IDA and CVODE; outputs
+    between step ends are read off the step's cubic Hermite interpolant and force no step,
+    except with friction, whose fixed steps end on every output);
     ``step``: the longest time step [s] (midpoint and paper default: 1/100 of the lowest
     natural period at the start; IDA and CVODE: none);
     ``initial``: a mapping of ``--set`` keys to values whose equilibrium the run starts
@@ -278,7 +280,8 @@ def simulate(scene: SceneLike | None, t_end: float, *, output_dt: float | None =
         else:
             integrate(programs.model_at, stepping, start, outputs, h, progress, record,
                       friction.after_step if programs.path_dependent else None, watched,
-                      friction.mark if programs.path_dependent else None)
+                      friction.mark if programs.path_dependent else None,
+                      between=not programs.path_dependent and _between_steps(spacing, h))
     except KeyboardInterrupt:  # Ctrl-C or SIGTERM: what was computed, marked incomplete
         done = min(len(record.times), len(record.states), len(record.kinetic),
                    len(record.potential), len(record.dissipated), len(record.work))
@@ -311,6 +314,14 @@ def simulate(scene: SceneLike | None, t_end: float, *, output_dt: float | None =
     return _simulation(loaded, model, record, _step_of(record, h, integrator), integrator,
                        float(t_end), programs.by_name, initial, initial_velocity, friction,
                        moved, control_text)
+
+
+def _between_steps(spacing: float, h: float) -> bool:
+    """Whether a fixed-step run's outputs fall between its steps (read off the steps'
+    interpolants, rodsim/solvers/physical/dense_output.py): the output spacing is not a
+    whole number of steps of ``h`` (to 1e-9 relative)."""
+    steps = round(spacing / h)
+    return steps < 1 or abs(spacing - steps * h) > 1e-9 * spacing
 
 
 def _step_of(record: Record, h: float, integrator: str) -> float:

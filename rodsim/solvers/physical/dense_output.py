@@ -8,11 +8,18 @@ is not a whole number of steps. The state at t in (t₀, t₁): positions and qu
 interpolant of rodsim/solvers/physical/step_events.py (positions on (r₀, v₀, r₁, v₁),
 quaternions on (q₀, q̇₀, q₁, q̇₁), normalised), the node velocities its derivative, the body
 rates linear in t. Its error is the interpolant's, O(h⁴) in the positions over a resolved
-motion, local: it does not feed back into the run, which goes on from the step's end. The
-energies there are those of the interpolated state; the dissipated energy and the
-programs' work are interpolated linearly across the step, so an interpolated output's
-energy balance includes the interpolant's error. An output at or past the step's end is
-the step's end state itself, with its energies as reached.
+motion, local: it does not feed back into the run, which goes on from the step's end.
+
+The energies there — kinetic, potential, dissipated and the programs' work — are the step
+ends' interpolated linearly in t, so that an output's energy balance is the step ends'
+balances interpolated: the integrator's own error, nothing added. The energy of the
+interpolated state itself is not used: a mode the step does not resolve (stretch, shear,
+twist at ωh ≫ 1, whose velocity the midpoint rule reverses every step) puts h v/4 into the
+interpolated positions at mid-step, and the stiff mode's energy grows by (ωh)²/16 there
+(measured on the steel rod released from 0.1 N, N = 11, 25 steps a period: a balance off by
+0.92 of the vibration's energy, 38 times it under the fourth-order composition, against
+3e-6 and 9e-7 at the step ends). An output at or past the step's end is the step's end
+state itself, with its energies as reached.
 """
 
 from __future__ import annotations
@@ -36,14 +43,17 @@ def record_outputs(record: Record, coordinates: PhysicalCoordinates,
     (module docstring); ``energy`` = (dissipated at t0, at t1, work at t0, at t1)."""
     t0, start, t1, end = span
     c = coordinates
-    x = hermite(c, t0, start, t1, end) if any(t < t1 for t in times) else None
-    for t in times:
-        if t >= t1 or x is None:
-            motion, s = end, 1.0
-        else:
+    kinetic = c.kinetic_energy(end.v, end.w)
+    inside = [t for t in times if t < t1]
+    if inside:
+        x = hermite(c, t0, start, t1, end)
+        ends = ((c.kinetic_energy(start.v, start.w), kinetic),
+                (potential(model_at(t0), start.x), potential(model_at(t1), end.x)),
+                energy[:2], energy[2:])
+        for t in inside:
             s = (t - t0) / (t1 - t0)
             state, v = x(t)
-            motion = Motion(state, v, (1.0 - s) * start.w + s * end.w)
-        record.add(t, motion, c.kinetic_energy(motion.v, motion.w),
-                   potential(model_at(t), motion.x),
-                   (1.0 - s) * energy[0] + s * energy[1], (1.0 - s) * energy[2] + s * energy[3])
+            record.add(t, Motion(state, v, (1.0 - s) * start.w + s * end.w),
+                       *((1.0 - s) * a + s * b for a, b in ends))
+    for t in times[len(inside):]:
+        record.add(t, end, kinetic, potential(model_at(t), end.x), energy[1], energy[3])

@@ -18,12 +18,18 @@ is then the integrator's own error (the midpoint rule's) alone, reported per out
 a scene with a non-conservative term (the paper's lumen coupling, friction) has no V, and
 the potential, the work and the balance are NaN.
 
-Steps are of equal length between consecutive output times, each at most the step asked
-for, so that the outputs are states the integrator reached (not interpolated) and cost no
-extra steps beyond that rounding. A step whose Newton iteration fails (a start too far
-from the solution for a step that long: measured on a stiff steel wire released from a
-large deflection at 50 steps a period) is taken as two half steps instead, up to
-``MAX_HALVINGS`` times; the run counts them.
+Where the output spacing is a whole number of steps (the default: one output a step), and
+always with friction (whose history is read at the outputs, rodsim/app/friction_trace.py), the
+steps are of equal length between consecutive output times, each at most the step asked
+for, so that the outputs are states the integrator reached (not interpolated). Otherwise
+the steps are of equal length from the start to the end, each at most the step asked for,
+and an output between step ends is read off the step's cubic Hermite interpolant
+(rodsim/solvers/physical/dense_output.py): outputs force no step (before, 20 outputs a
+period at 25 steps a period took 40 steps a period). ``step_plan`` lays the steps out.
+
+A step whose Newton iteration fails (a start too far from the solution for a step that long:
+measured on a stiff steel wire released from a large deflection at 50 steps a period) is
+taken as two half steps instead, up to ``MAX_HALVINGS`` times; the run counts them.
 
 Public besides the loop (the error-controlled loop, rodsim/solvers/physical/error_control.py,
 steps with them too): ``advance`` (one step, halved where its Newton fails, its work and
@@ -201,12 +207,15 @@ def integrate(model_at: Callable[[float], Model], stepper: FixedStep, start: Mot
               progress: Callable[[float], None] | None = None,
               record: Record | None = None, after_step: AfterStep | None = None,
               events: EventFunctions | None = None,
-              history: Callable[[], Callable[[], None]] | None = None) -> Record:
+              history: Callable[[], Callable[[], None]] | None = None,
+              between: bool = False) -> Record:
     """Integrate from ``start`` at ``output_times[0]`` through every output time with steps
-    of at most ``step`` [s]; ``model_at(t)`` is the model with the values at time t (the same
-    object while nothing changes). A step that fails ends the run: the record holds what was
-    computed, ``success`` False and a message with the time and advice. ``record``: an empty
-    record to fill (the caller keeps what it holds if the run is interrupted).
+    of at most ``step`` [s], laid out by ``step_plan`` (``between``: outputs between step
+    ends, from the step's interpolant); ``model_at(t)`` is the model with the values at
+    time t (the same object while nothing changes). A step that fails ends the run: the
+    record holds what was computed, ``success`` False and a message with the time and
+    advice. ``record``: an empty record to fill (the caller keeps what it holds if the run
+    is interrupted).
     ``after_step(t, x)``: told the end of every step (friction's history,
     ``rodsim.app.programs.Programs.carry_history``). ``events``: watched after every step
     (rodsim/solvers/physical/step_events.py): each root's time and name go to
@@ -226,7 +235,7 @@ def integrate(model_at: Callable[[float], Model], stepper: FixedStep, start: Mot
     record.add(t, motion, coordinates.kinetic_energy(motion.v, motion.w),
                potential(model, motion.x), 0.0, 0.0)
     stop: float | None = None
-    for t0, t1, due in step_plan(output_times, step):
+    for t0, t1, due in step_plan(output_times, step, between):
         before = motion
         saved = history() if history is not None and watch is not None else None
         try:
