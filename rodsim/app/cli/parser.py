@@ -269,7 +269,8 @@ def build_parser() -> argparse.ArgumentParser:
     move.add_argument("--t-end", required=True, type=positive_seconds, metavar="T",
                       help="end time [s]; the run starts at t = 0, at rest")
     move.add_argument("--output-dt", type=positive_seconds, metavar="DT",
-                      help="spacing of the stored times [s] (default: every step)")
+                      help="spacing of the stored times [s] (default: every step); "
+                      "times between steps are interpolated and cost no step")
     move.add_argument("--step", type=positive_seconds, metavar="DT",
                       help="longest time step [s] (midpoint, paper default: 1/100 of the "
                       "lowest natural period at the start)")
