@@ -222,8 +222,8 @@ def _tracks_both_orders(monkeypatch, scene, ramps, **options):
     fast_calls = len(calls)
     original = stability.assess
     monkeypatch.setattr(stability, "assess",
-                        lambda model, x, factored=None, certify_first=True:
-                        original(model, x, factored, True))
+                        lambda model, x, factored=None, certify_first=True, modes=None:
+                        original(model, x, factored, True, modes))
     calls.clear()
     default = track(scene, ramps, **options)
     return fast, fast_calls, default, len(calls)

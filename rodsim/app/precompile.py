@@ -13,8 +13,10 @@ lands in whichever run first needs a kernel.
 with every other registered integrator, the small scenes of rodsim/app/kernel_coverage.py
 (every term, obstacle type, load, tendon routing and control, friction, joint) and one
 model large enough for the compiled band passes, so that each kernel is compiled with the
-argument types a solve gives it, by the code that gives them. A later process then compiles
-nothing (tests/test_precompile.py counts numba's cache misses and the cache's files).
+argument types a solve gives it, by the code that gives them; and the Arnoldi steps of a
+Tracker's verdicts (rodsim/core/kernels/_arnoldi.py), which no solve calls. A later process
+then compiles nothing (tests/test_precompile.py counts numba's cache misses and the cache's
+files).
 Nothing here changes a number: the solves' results are dropped.
 """
 
@@ -150,6 +152,24 @@ class CompileSummary:
         return "\n".join(lines)
 
 
+def _compile_verdict_steps() -> None:
+    """The compiled Arnoldi steps of a sequence's stability verdicts (a Tracker's, a track's:
+    rodsim/core/stability_tracking.py), which no solve calls: compiled on a small band LU
+    through the wrapper a verdict calls them by, so with its argument types."""
+    import numpy as np
+    from scipy.linalg import lapack
+
+    from rodsim.core.stability_band import BandLU
+    from rodsim.core.stability_tracking import _band_steps
+
+    ab = np.zeros((4, 6), order="F")
+    ab[2], ab[1, 1:], ab[3, :-1] = 2.0, 0.5, 0.5
+    lu, pivots, _ = lapack.dgbtrf(ab, 1, 1)
+    basis = np.zeros((4, 6))
+    basis[0, 0] = 1.0
+    _band_steps(BandLU(lu, pivots, 1, 1), -1.0)(basis, np.zeros((4, 3)), 0, 3)
+
+
 def compile_kernels(scenes: Sequence[str] | None = None,
                     progress: Callable[[float | None, str], None] | None = None
                     ) -> CompileSummary:
@@ -170,6 +190,8 @@ def compile_kernels(scenes: Sequence[str] | None = None,
                   overrides=(*step.overrides, "solver.kernels=compiled"))
         except Exception as exc:  # noqa: BLE001 - one scene's failure never stops the rest
             failed.append(f"{step.label}: {exc}")
+    if scenes is None:
+        _compile_verdict_steps()
     if progress is not None:
         progress(1.0, f"compiled the kernels of {len(steps)} solves")
     return CompileSummary(len(steps), kernel_counts(), time.process_time() - start,

@@ -67,7 +67,9 @@ by its eigenvalues' real parts as before: no neutral state there.
 ``assess`` (a model's verdict, what every run and every track step gets) does the
 factorisations in band storage straight from the Jacobian's data (rodsim/core/
 stability_band.py: the same Cholesky test; K⁻¹ for ARPACK by band LU instead of SuperLU);
-``stiffness_stability`` (any sparse K) builds the sparse matrices.
+``stiffness_stability`` (any sparse K) builds the sparse matrices. Along a sequence of steps
+(a Tracker's, a track's) the eigenvalues nearest zero start from the last step's
+(rodsim/core/stability_tracking.py): the same verdicts, the same tolerance.
 """
 
 from __future__ import annotations
@@ -82,7 +84,8 @@ import scipy.linalg as la
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
-from rodsim.core.stability_band import BandStiffness
+from rodsim.core.stability_band import BandLU, BandStiffness
+from rodsim.core.stability_tracking import NearestModes
 
 if TYPE_CHECKING:
     from rodsim.core.model import Model
@@ -374,7 +377,9 @@ class _Applied(spla.LinearOperator):
 
 def _smallest_real_part(stiffness: sp.csc_matrix | Callable[[], sp.csc_matrix],
                         inverse: Callable[[np.ndarray], np.ndarray] | None = None,
-                        n: int | None = None, coarse: bool = False) -> float:
+                        n: int | None = None, coarse: bool = False,
+                        modes: NearestModes | None = None,
+                        band: tuple[BandLU, float] | None = None) -> float:
     """The smallest real part of an eigenvalue of a general matrix (NaN if not computed):
     of all eigenvalues up to ``DENSE_NONSYMMETRIC_LIMIT`` coordinates, else of the
     ``NEAREST`` eigenvalues nearest zero (shift-invert at 0, one sparse LU) — a
@@ -395,7 +400,13 @@ def _smallest_real_part(stiffness: sp.csc_matrix | Callable[[], sp.csc_matrix],
     tolerance bounds each Ritz residual relative to its value; the smallest eigenvalue of K
     (K⁻¹'s largest) converges first, and its real part moved by at most 5.3e-15 (relative)
     over table3-catheter1's tendon ramp of 200 steps (0 → 4 N), where the coarse pass took
-    21.0 solves against 26.6 (tests/test_stability_coarse.py)."""
+    21.0 solves against 26.6 (tests/test_stability_coarse.py).
+
+    ``modes`` (a sequence of verdicts: a Tracker's, a track's; with ``coarse`` and
+    ``inverse``): the coarse pass by an Arnoldi process from the last verdict's eigenvectors
+    nearest zero instead, the same test and the same rule for keeping its "stable"
+    (rodsim/core/stability_tracking.py); where it converges but does not keep, the full pass
+    at once. ``band``: K⁻¹ as (a band LU, a sign), for its compiled steps."""
     if callable(stiffness):
         if n is None or n <= DENSE_NONSYMMETRIC_LIMIT or inverse is None:
             stiffness = stiffness()
@@ -409,17 +420,30 @@ def _smallest_real_part(stiffness: sp.csc_matrix | Callable[[], sp.csc_matrix],
             return float(np.min(la.eigvals(stiffness.toarray()).real))
         operator = None if inverse is None else _Applied(n, inverse)
         start = np.random.default_rng(ARPACK_SEED).standard_normal(n)
+        sequence = modes if coarse and inverse is not None else None
         if coarse:
-            values = _nearest(stiffness, operator, start, COARSE_TOLERANCE)
+            values = None if sequence is None or inverse is None else sequence.nearest(
+                inverse, start, min(NEAREST, n - 2), COARSE_TOLERANCE, band)
+            if values is None:
+                values = _nearest(stiffness, operator, start, COARSE_TOLERANCE)
             if values is not None and np.min(values.real) > COARSE_MARGIN * np.max(
                     np.abs(values)):
+                _seeded(sequence, inverse, start, n, band)
                 return float(np.min(values.real))
         values = spla.eigs(stiffness, k=min(NEAREST, n - 2), sigma=0.0, which="LM",
                            OPinv=operator, return_eigenvectors=False, maxiter=20 * n,
                            tol=ARPACK_TOLERANCE, v0=start)
+        _seeded(sequence, inverse, start, n, band)
         return float(np.min(values.real))
     except (la.LinAlgError, spla.ArpackError, RuntimeError, ValueError):
         return float("nan")
+
+
+def _seeded(modes: NearestModes | None, inverse: Callable[[np.ndarray], np.ndarray] | None,
+            start: np.ndarray, n: int, band: tuple[BandLU, float] | None) -> None:
+    """A start for the sequence's next verdict where it has none (``NearestModes.seed``)."""
+    if modes is not None and inverse is not None and modes.start is None:
+        modes.seed(inverse, start, min(NEAREST, n - 2), COARSE_TOLERANCE, band)
 
 
 def _nearest(stiffness: sp.csc_matrix | spla.LinearOperator,
@@ -490,7 +514,8 @@ def _band_of(model: Model) -> BandStiffness | None:
 
 def assess(model: Model, x: np.ndarray,
            factored: tuple[np.ndarray, Callable[[np.ndarray], np.ndarray] | None] | None
-           = None, certify_first: bool = True) -> Stability:
+           = None, certify_first: bool = True, modes: NearestModes | None = None
+           ) -> Stability:
     """The verdict at the free state ``x`` of ``model`` (a ``rodsim.core.model.Model``),
     from its analytic Jacobian ∂F/∂x at full load: the verdict of
     ``stiffness_stability``, its factorisations in band storage (module docstring).
@@ -507,7 +532,12 @@ def assess(model: Model, x: np.ndarray,
     tendon ramp) only when they do not say stable. The same ``stable`` as the default order
     and, for an unstable K, the same ``min_eigenvalue`` (ARPACK's fixed start); a stable
     K's ``min_eigenvalue`` is then its smallest real part where the certificate gives
-    NaN."""
+    NaN.
+
+    ``modes`` (a Tracker's or a track's, one per sequence of steps): the eigenvalues
+    nearest zero of a non-symmetric K from the last verdict's eigenvectors
+    (rodsim/core/stability_tracking.py); the same verdicts, the smallest real part within
+    the coarse pass's tolerance."""
     solve = None if factored is None else factored[1]
     band = model.band
     width = max(band.lower, band.upper)
@@ -541,8 +571,11 @@ def assess(model: Model, x: np.ndarray,
         sign = getattr(solve, "determinant_sign", None)  # of J = −K: det K = (−1)ⁿ det J
         if sign is not None and model.n % 2:
             sign = -sign
+    factors = lu if solve is None else solve  # compiled warm steps on a band LU
+    compiled = ((factors, 1.0 if solve is None else -1.0) if modes is not None
+                and isinstance(factors, BandLU) and model._compiled() else None)
     real_part = _smallest_real_part(lambda: -model.pattern_matrix(data), inverse, model.n,
-                                    coarse=True)
+                                    coarse=True, modes=modes, band=compiled)
     if real_part > 0.0 and sign is not None and sign < 0.0:
         # det K < 0: an odd number of K's real eigenvalues are negative, though none of
         # those nearest zero is: unstable, the eigenvalue not located.

@@ -196,6 +196,12 @@ class BandLU:
         return (0.0 if np.any(diagonal == 0.0)
                 else -1.0 if (swaps + negative) % 2 else 1.0)
 
+    @property
+    def factors(self) -> tuple[np.ndarray, np.ndarray, int, int]:
+        """(dgbtrf's ``lu``, its 0-based ``pivots``, ``lower``, ``upper``): for compiled
+        solves (rodsim/core/kernels/_arnoldi.py)."""
+        return self._lu, self._pivots, self._lower, self._upper
+
     def __call__(self, rhs: np.ndarray) -> np.ndarray:
         x, _ = lapack.dgbtrs(self._lu, self._lower, self._upper, rhs, self._pivots)
         return x

@@ -55,6 +55,7 @@ from rodsim.app.inverse.track_steps import record_contact, record_stability, val
 from rodsim.core.model import Model
 from rodsim.core.scene import Scene
 from rodsim.core.schema import SceneError
+from rodsim.core.stability_tracking import NearestModes
 from rodsim.io.archive_schema import SCHEMA_VERSION
 from rodsim.io.cf_layout import variable_name
 from rodsim.io.provenance import archive_attributes
@@ -383,6 +384,7 @@ def _walk(out: Track, first: Result, scene: Scene, *, deadline: float, budget: f
         return
     previous: np.ndarray | None = None  # the equilibrium before the last, for the predictor
     certified = True  # the last verdict certified K's symmetric part (assess's order)
+    modes = NearestModes()  # the verdicts' eigenvectors nearest zero, step to step
     for step in range(1, len(values)):
         started = time.perf_counter()
         if started > deadline:
@@ -416,7 +418,7 @@ def _walk(out: Track, first: Result, scene: Scene, *, deadline: float, budget: f
         out.iterations.append(iterations)
         out.halvings.append(halvings)
         verdict = judge(continuation.model, continuation.x,  # part of the step's time
-                         continuation.factorisation(), certified)
+                         continuation.factorisation(), certified, modes)
         # The next verdict tries the certificate first only if this one was certified
         # (stable with no eigenvalue computed): the same verdicts, rodsim/core/stability.py.
         certified = verdict.stable and np.isnan(verdict.min_eigenvalue)

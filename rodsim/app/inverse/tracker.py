@@ -10,7 +10,9 @@ registration, from the tangent predictor x + (dx/dp) Δp of the last step's Jaco
 the tracker has computed anyway; the increment halved on a failed attempt), judges its
 stability from the
 factorisation the step's own verification made (``rodsim.core.stability.assess``, the
-certificate first only after a certified step, as ``track``), and gives the tip's
+certificate first only after a certified step, as ``track``; the eigenvalues nearest zero
+of a non-symmetric K from the last step's, rodsim/core/stability_tracking.py), and gives
+the tip's
 Jacobian d(tip)/d(values) by the implicit-function theorem (``equilibrium_sensitivity``,
 rodsim/app/inverse/sensitivity.py) solved with that same factorisation: no second one. A
 step that fails leaves the tracker at its last equilibrium and says why (``success`` False).
@@ -42,6 +44,7 @@ from rodsim.core.model import Model
 from rodsim.core.scene import Scene
 from rodsim.core.schema import SceneError
 from rodsim.core.stability import Stability, assess
+from rodsim.core.stability_tracking import NearestModes
 from rodsim.solvers import DEFAULT_INTEGRATOR, integrator_named
 
 __all__ = ["Tracker", "TrackerStep", "ALONG"]
@@ -116,6 +119,9 @@ class Tracker:
         self.values = np.array([key.value(self.scene) for key in self.keys])
         self.continuation = Continuation(Model(first.scene), first.state, integrator)
         self._certified = True
+        #: The verdicts' eigenvectors nearest zero, from one step to the next
+        #: (rodsim/core/stability_tracking.py).
+        self._modes = NearestModes()
         #: dx/d(values) (n, P) at the last equilibrium (its step's Jacobian): the next
         #: step's tangent predictor. None before the first step and after a failed one.
         self._tangent: np.ndarray | None = None
@@ -190,7 +196,7 @@ class Tracker:
         self._last = (previous_x, previous_values - row) if previous_x is not None else None
         self.values = row
         factored = continuation.factorisation()
-        verdict = assess(model, x, factored, self._certified)
+        verdict = assess(model, x, factored, self._certified, self._modes)
         self._certified = verdict.stable and np.isnan(verdict.min_eigenvalue)
         self._tangent, derivative = equilibrium_sensitivity(
             model, x, self.keys, factored[1] if factored is not None else None, row)
