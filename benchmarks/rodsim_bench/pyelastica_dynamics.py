@@ -191,6 +191,7 @@ SIZES: dict[str, dict[str, Any]] = {
                                     ("midpoint", 21, 200), ("midpoint", 41, 200),
                                     ("cvode", 11, 1e-4)),
                         "steel": (("midpoint", 6, 25), ("midpoint", 11, 25),
+                                  ("midpoint", 11, 30), ("midpoint", 11, 40),
                                   ("midpoint", 11, 50), ("midpoint", 11, 100),
                                   ("midpoint", 11, 200),
                                   ("midpoint", 21, 200), ("midpoint", 21, 400),
