@@ -11,7 +11,7 @@ import math
 import numpy as np
 import pytest
 import scipy.linalg as la
-from scipy.linalg import lapack
+from band_storage import band_lu
 
 import rodsim
 import rodsim.core.stability as stability
@@ -178,13 +178,7 @@ def _banded(seed: int, n: int = 240, lower: int = 5, upper: int = 7
     for k in range(-lower, upper + 1):
         if k:
             dense += np.diag(0.1 * rng.standard_normal(n - abs(k)), k)
-    ab = np.zeros((2 * lower + upper + 1, n), order="F")
-    for j in range(n):
-        for i in range(max(0, j - upper), min(n, j + lower + 1)):
-            ab[lower + upper + i - j, j] = dense[i, j]
-    lu, pivots, info = lapack.dgbtrf(ab, lower, upper)
-    assert info == 0
-    return dense, BandLU(lu, pivots, lower, upper)
+    return dense, band_lu(dense, lower, upper)
 
 
 @pytest.mark.parametrize("seed", range(3))

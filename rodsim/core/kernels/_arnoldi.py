@@ -43,6 +43,21 @@ def band_lu_solve(lu: np.ndarray, pivots: np.ndarray, lower: int, upper: int,
 
 
 @njit(cache=True)
+def _project_out(basis: np.ndarray, count: int, w: np.ndarray, dots: np.ndarray) -> None:
+    """One classical Gram–Schmidt pass: ``dots[i]`` = basis[i] · w for the first ``count``
+    rows, then w −= Σ dots[i] basis[i]."""
+    n = basis.shape[1]
+    for i in range(count):
+        total = 0.0
+        for k in range(n):
+            total += basis[i, k] * w[k]
+        dots[i] = total
+    for i in range(count):
+        for k in range(n):
+            w[k] -= dots[i] * basis[i, k]
+
+
+@njit(cache=True)
 def arnoldi_steps(lu: np.ndarray, pivots: np.ndarray, lower: int, upper: int, sign: float,
                   basis: np.ndarray, hessenberg: np.ndarray, first: int, last: int) -> int:
     """Extend the Arnoldi factorisation of ``sign`` · A⁻¹ (rows of ``basis``: the
@@ -60,28 +75,15 @@ def arnoldi_steps(lu: np.ndarray, pivots: np.ndarray, lower: int, upper: int, si
         for k in range(n):
             w[k] *= sign
             before += w[k] * w[k]
-        for i in range(j + 1):
-            total = 0.0
-            for k in range(n):
-                total += basis[i, k] * w[k]
-            h[i] = total
-        for i in range(j + 1):
-            for k in range(n):
-                w[k] -= h[i] * basis[i, k]
+        _project_out(basis, j + 1, w, h)
         beta2 = 0.0
         for k in range(n):
             beta2 += w[k] * w[k]
         if beta2 < 0.5 * before:
             again = np.empty(j + 1)
-            for i in range(j + 1):
-                total = 0.0
-                for k in range(n):
-                    total += basis[i, k] * w[k]
-                again[i] = total
+            _project_out(basis, j + 1, w, again)
             for i in range(j + 1):
                 h[i] += again[i]
-                for k in range(n):
-                    w[k] -= again[i] * basis[i, k]
             beta2 = 0.0
             for k in range(n):
                 beta2 += w[k] * w[k]
