@@ -255,11 +255,10 @@ def newton_matrix(coordinates: PhysicalCoordinates, factor: float, stiffness: sp
     gyro = gyroscopic_jacobian(inertia, w)
     rotation = (factor / h) * np.eye(3)[None] * inertia[:, :, None] + gyro
     # sp.block_diag([(factor/h²) M_r, the rotation blocks]) as one placement
-    mass = (factor / h**2) * c.mass
     rows, cols = c.mass_entries
     m = c.size
-    masses = placed_arrays(np.concatenate([mass.data, rotation.ravel()]), rows, cols,
-                           (m, m))
+    masses = placed_arrays(np.concatenate([(factor / h**2) * c.mass.data, rotation.ravel()]),
+                           rows, cols, (m, m))
     # masses − stiffness (+ damping @ sp.diags(scale)): scipy's own operators' arrays, by
     # its kernels (sparse_kernels; the diagonal's CSR is its scale, no entry of it zero)
     matrix = minus(m, m, arrays(masses), arrays(stiffness))

@@ -75,6 +75,8 @@ from rodsim.solvers.physical.tangent_damping import TangentDamping
 
 __all__ = ["MidpointStep", "SupportsAt"]
 
+#: The 4 × 4 identity, for the quaternions' tangent projections.
+_IDENTITY_4 = np.eye(4)
 #: The supports' velocity at a time [s] (rodsim/solvers/physical/moving_supports.py).
 SupportsAt = Callable[[float], SupportVelocity]
 
@@ -163,23 +165,24 @@ class MidpointStep:
             # minus the rest state (``model_state``)
             path_state(x0, reference, c.positions, c.quaternions, r0, r1, q0, q1, node,
                        state, unit, norm)
-            # the model's force (and Jacobian) without its memo: iterates do not repeat
+            # the model's force (and Jacobian) without its memo: iterates do not repeat; a
+            # force alone that is not finite anywhere makes f̄_r or τ̄ not finite (checked
+            # once, below)
             if dq1 is None:
                 f = model.evaluate_fresh(state, jacobian=False)[0]
-                finite = bool(np.isfinite(f).all())
             else:
                 f, jac = model.evaluate_fresh(state)
-                finite = bool(np.isfinite(f).all()) and bool(np.isfinite(jac).all())
-            if not finite:
-                raise StepFailure("the force or its Jacobian is not finite")
+                if not (bool(np.isfinite(f).all()) and bool(np.isfinite(jac).all())):
+                    raise StepFailure("the force or its Jacobian is not finite")
             # f̄_r += weight f_r, τ̄ += weight ½ B_k q_m · (I − q̂q̂ᵀ) f_q / |q|
             add_force(f, c.positions, c.quaternions, unit, norm, rows, weight, f_r, tau)
             if dq1 is None:
                 continue
             f_q = f[c.quaternions]
-            across = f_q - unit * np.add.reduce(unit * f_q, axis=1)[:, None]  # (I − q̂q̂ᵀ) f_q
-            project = (np.eye(4)[None] - unit[:, :, None] * unit[:, None, :]) / norm[:, None,
-                                                                                    None]
+            pull = np.add.reduce(unit * f_q, axis=1)  # q̂ · f
+            across = f_q - unit * pull[:, None]  # (I − q̂q̂ᵀ) f_q
+            project = (_IDENTITY_4[None] - unit[:, :, None] * unit[:, None, :]) / norm[:, None,
+                                                                                       None]
             # G's and P's 4 × 3 blocks (the identity, times 1 and ``node``, on the positions)
             g_blocks = 0.5 * project @ np.transpose(rows, (0, 2, 1))
             p_blocks = project @ (node * dq1)
@@ -187,7 +190,6 @@ class MidpointStep:
             # (q_m moves by ½ ∂q₁/∂ω_m) and through q̂ and |q| (q moves by s ∂q₁/∂ω_m)
             turned = np.einsum("kba,sb->ska", B, across) / norm[:, None, None]  # B_kᵀ P f
             along = np.einsum("ska,sa->sk", rows, unit)  # a_k · q̂
-            pull = np.sum(unit * f_q, axis=1)  # q̂ · f
             moment = np.einsum("ska,sa->sk", rows, across)  # a_k · P f
             through_q = (-(along[:, :, None] * f_q[:, None, :]
                            + pull[:, None, None] * rows) @ (project * norm[:, None, None])
@@ -202,6 +204,8 @@ class MidpointStep:
             accumulate(jac, plan.entry, plan.g_index, plan.p_index, plan.slot,
                        g_blocks.ravel(), 1.0, p_blocks.ravel(), node, plan.geometric_slot,
                        geometric.ravel(), weight, derivative)
+        if not (bool(np.isfinite(f_r).all()) and bool(np.isfinite(tau).all())):
+            raise StepFailure("the force or its Jacobian is not finite")
         if derivative is None or plan is None:
             return f_r, tau, None
         return f_r, tau, csr_of(Csr(plan.indptr, plan.indices, derivative), (m, m),
