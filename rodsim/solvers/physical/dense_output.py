@@ -38,18 +38,26 @@ __all__ = ["record_outputs"]
 def record_outputs(record: Record, coordinates: PhysicalCoordinates,
                    model_at: Callable[[float], Model],
                    span: tuple[float, Motion, float, Motion], times: Sequence[float],
-                   energy: tuple[float, float, float, float]) -> None:
+                   energy: tuple[float, float, float, float],
+                   known: tuple[float, float] | None = None) -> tuple[float, float] | None:
     """Record the output ``times`` in (t0, t1] of the step ``span`` = (t0, start, t1, end)
-    (module docstring); ``energy`` = (dissipated at t0, at t1, work at t0, at t1)."""
+    (module docstring); ``energy`` = (dissipated at t0, at t1, work at t0, at t1);
+    ``known``: the (kinetic, potential) energy at the step's start where the caller has
+    them (the last step's end: the same state and time). Returns those at the step's end
+    where it computed them (an output between step ends), else None."""
+    if not times:
+        return None
     t0, start, t1, end = span
     c = coordinates
     kinetic = c.kinetic_energy(end.v, end.w)
     inside = [t for t in times if t < t1]
+    reached = None
     if inside:
         x = hermite(c, t0, start, t1, end)
-        ends = ((c.kinetic_energy(start.v, start.w), kinetic),
-                (potential(model_at(t0), start.x), potential(model_at(t1), end.x)),
-                energy[:2], energy[2:])
+        begun = known if known is not None else (c.kinetic_energy(start.v, start.w),
+                                                 potential(model_at(t0), start.x))
+        reached = (kinetic, potential(model_at(t1), end.x))
+        ends = ((begun[0], reached[0]), (begun[1], reached[1]), energy[:2], energy[2:])
         for t in inside:
             s = (t - t0) / (t1 - t0)
             state, v = x(t)
@@ -57,3 +65,4 @@ def record_outputs(record: Record, coordinates: PhysicalCoordinates,
                        *((1.0 - s) * a + s * b for a, b in ends))
     for t in times[len(inside):]:
         record.add(t, end, kinetic, potential(model_at(t), end.x), energy[1], energy[3])
+    return reached

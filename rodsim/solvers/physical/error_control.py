@@ -249,6 +249,7 @@ def integrate_controlled(model_at: Callable[[float], Model], stepper: MidpointSt
     dissipated = work = 0.0
     attempts = 0
     rejected = False  # whether the last attempt was rejected: no growth right after
+    known: tuple[float, float] | None = None  # (T, V) at the step's start, where computed
     while t < t_end:
         stop = next(b for b in stops if b > t)
         taken = min(h, stop - t)
@@ -301,8 +302,8 @@ def integrate_controlled(model_at: Callable[[float], Model], stepper: MidpointSt
         pending = pending[len(due):]
         if ended is not None:
             due = [time for time in due if time < ended] + [ended]
-        record_outputs(record, stepper.coordinates, model_at, (t, before, t1, end), due,
-                       energy)
+        known = record_outputs(record, stepper.coordinates, model_at, (t, before, t1, end),
+                               due, energy, known)
         dissipated, work = energy[1], energy[3]
         record.largest_step = max(record.largest_step, t1 - t)
         record.accepted += 1

@@ -235,6 +235,7 @@ def integrate(model_at: Callable[[float], Model], stepper: FixedStep, start: Mot
     record.add(t, motion, coordinates.kinetic_energy(motion.v, motion.w),
                potential(model, motion.x), 0.0, 0.0)
     stop: float | None = None
+    known: tuple[float, float] | None = None  # (T, V) at the step's start, where computed
     for t0, t1, due in step_plan(output_times, step, between):
         before = motion
         saved = history() if history is not None and watch is not None else None
@@ -282,7 +283,8 @@ def integrate(model_at: Callable[[float], Model], stepper: FixedStep, start: Mot
             return record
         if progress is not None:
             progress(t1)
-        record_outputs(record, coordinates, model_at, (t0, before, t1, motion), due, energy)
+        known = record_outputs(record, coordinates, model_at, (t0, before, t1, motion), due,
+                               energy, known)
     return record
 
 
