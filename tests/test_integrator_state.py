@@ -135,3 +135,16 @@ def test_the_cli_solves_track_fit_and_reach_with_the_integrator_named(command, n
     assert code == 0
     with xr.open_dataset(output) as ds:
         assert ds.attrs["integrator"] == (name or DEFAULT_INTEGRATOR)
+
+
+def test_a_results_options_are_what_asdict_gives_for_every_integrator():
+    """``options_dict`` (what a Result records) against ``dataclasses.asdict`` on each
+    registered integrator's options as a scene sets them: the same keys and values."""
+    import dataclasses
+
+    from rodsim.solvers.base import options_dict
+
+    scene = rodsim.load_scene("tdcr-two-segment")
+    for name, kind in registered_integrators().items():
+        options = kind.options_of(scene)
+        assert options_dict(options) == dataclasses.asdict(options), name

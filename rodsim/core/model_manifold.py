@@ -150,7 +150,17 @@ class ModelManifold(ModelBase):
         """``step`` with each rod's segments turned as rigid frames instead of their
         lengths kept (rodsim/core/rod/retraction.py; ``solver.static.retraction =
         "frames"``); the endpoint couplings as in ``step``. Equal to x + dx to first
-        order in dx (on the offset state: ``_retracted``)."""
+        order in dx (on the offset state: ``_retracted``; compiled, both in one kernel
+        call, ``turn_offsets``: the same numbers, ~9 µs less numpy of each of a solve's
+        Newton steps on tdcr-two-segment)."""
+        if self._compiled():
+            from rodsim.core.kernels._retraction import turn_offsets
+
+            chains, starts, couplings = self._step_maps
+            return turn_offsets(np.asarray(x, dtype=float), np.asarray(dx, dtype=float),
+                                self._reference_free(), self._chain_roundoff,
+                                self.rest_full, self._free_of, chains, starts,
+                                self._quaternion_chains, couplings)
         return self._retracted(self._turned_absolute, x, dx)
 
     def _turned_absolute(self, x: np.ndarray, dx: np.ndarray) -> np.ndarray:

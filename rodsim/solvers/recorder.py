@@ -74,9 +74,10 @@ class History:
 
     def __init__(self, model: Model) -> None:
         first = next(iter(model.rods.values()))
-        free_of = np.full(model.full_size, -1)
-        free_of[model.free] = np.arange(model.n)
-        self._tip_free = free_of[first.layout.position_index[-1]]
+        # The tip's free indices, -1 where fixed (the model's map holds n there: made once
+        # per model, where a map of every coordinate was made here for each run).
+        tip = model._free_of[first.layout.position_index[-1]]
+        self._tip_free = np.where(tip < model.n, tip, -1)
         # The free coordinates are offsets from the rest state (Model.x0): the tip's rest place.
         self._tip_rest = model.reference[first.layout.position_index[-1]]
         self.data: dict[str, list[Any]] = {"time": [], "residual": [], "tip": []}

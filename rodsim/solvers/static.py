@@ -103,7 +103,10 @@ def rest_start_crossings(run: RunState | None) -> str:
 
 def meets_obstacles(model: Model) -> bool:
     """Whether ``model`` has contact: a term with latent stiffness
-    (``Model.latent_stiffness``, an obstacle's contact)."""
+    (``Model.latent_stiffness``, an obstacle's contact). No term with any (the model's
+    zeros, not made: each static solve asks)."""
+    if all(term.latent_stiffness() is None for term in model.terms):
+        return False
     return bool(np.any(model.latent_stiffness()))
 
 

@@ -8,6 +8,7 @@ metres (docs/design.md, erratum 3: the paper's σ ∈ [0, 1] is replaced by s �
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 
@@ -41,7 +42,12 @@ class RodGeometry:
 
     @property
     def node_s(self) -> np.ndarray:
-        """Arc length of every control point [m], shape (N,)."""
+        """Arc length of every control point [m], shape (N,) (a copy of the one made at
+        the first call: each Result's rod shape asks, and np.linspace costs ~5 µs)."""
+        return self._node_s.copy()
+
+    @cached_property
+    def _node_s(self) -> np.ndarray:
         return np.linspace(0.0, self.length, self.nodes)
 
     @property
