@@ -33,8 +33,8 @@ taken as two half steps instead, up to ``MAX_HALVINGS`` times; the run counts th
 
 Public besides the loop (the error-controlled loop, rodsim/solvers/physical/error_control.py,
 steps with them too): ``advance`` (one step, halved where its Newton fails, its work and
-dissipation), ``restep`` (the state one step from a start reaches at any time, for an
-event's root) and ``potential`` (V(x), NaN for a non-conservative model).
+dissipation) and ``restep`` (the state one step from a start reaches at any time, for an
+event's root). What a run records and V(x): rodsim/solvers/physical/trajectory_record.py.
 """
 
 from __future__ import annotations
