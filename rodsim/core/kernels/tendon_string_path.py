@@ -187,6 +187,17 @@ def _extrapolated(near: np.ndarray, far: np.ndarray, step: float) -> np.ndarray:
 
 
 @njit(cache=True)
+def entry_quaternion(x: np.ndarray, dofs: np.ndarray, weights: np.ndarray,
+                     constant: np.ndarray, q: np.ndarray) -> float:
+    """The quaternion at chord 0's entry point into ``q`` (its two segments' quaternions
+    weighted, plus the held part ``constant``), unnormalised; returns |q|²."""
+    w0, w1 = weights[0, 2], weights[0, 3]
+    for i in range(4):
+        q[i] = w0 * x[dofs[0, 6 + i]] + w1 * x[dofs[0, 10 + i]] + constant[0, i]
+    return q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3]
+
+
+@njit(cache=True)
 def _tensions(x: np.ndarray, dofs: np.ndarray, weights: np.ndarray, constant: np.ndarray,
               entry_forms: np.ndarray, entry_slope: np.ndarray, split: np.ndarray,
               p: np.ndarray, tension: float, friction: float, profile: np.ndarray,
@@ -206,11 +217,8 @@ def _tensions(x: np.ndarray, dofs: np.ndarray, weights: np.ndarray, constant: np
             out[e] = tension
             slide[e] = 0.0
         return
-    w0, w1 = weights[0, 2], weights[0, 3]
     q = np.empty(4)
-    for i in range(4):
-        q[i] = w0 * x[dofs[0, 6 + i]] + w1 * x[dofs[0, 10 + i]] + constant[0, i]
-    n = q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3]
+    n = entry_quaternion(x, dofs, weights, constant, q)
     d = np.empty((3, 3))
     for k in range(3):
         for m in range(3):

@@ -18,6 +18,7 @@ import numpy as np
 from numba import njit
 
 from rodsim.core import turn_gradient as _reference
+from rodsim.core.kernels.tendon_string_path import entry_quaternion
 from rodsim.core.turn_gradient import WINDOW
 
 #: The reference's functions, compiled in the order each one's helpers need.
@@ -52,9 +53,7 @@ def entry_frame(x: np.ndarray, dofs: np.ndarray, weights: np.ndarray, constant: 
     ∂d_k[m]/∂q = 2 (A_km q − d_k[m] q)/n, t_in = a/|a|, a = d3 + ρ′_y d1 + ρ′_z d2."""
     w0, w1 = weights[0, 2], weights[0, 3]
     q = np.empty(4)
-    for i in range(4):
-        q[i] = w0 * x[dofs[0, 6 + i]] + w1 * x[dofs[0, 10 + i]] + constant[0, i]
-    n = q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3]
+    n = entry_quaternion(x, dofs, weights, constant, q)
     d = np.empty((3, 3))
     dq = np.empty((3, 3, 4))
     for k in range(3):
