@@ -67,7 +67,7 @@ def test_outputs_between_steps_cost_no_step_and_no_accuracy(integrator):
     (measured 2.3e-6 and 8.7e-7 of the vibration's energy)."""
     between, reference, every, every_reference = _runs(STEEL, 11, 0.1, 25, 20, integrator)
     assert len(between.times) == 41
-    assert between.steps == 50 == every.steps
+    assert between.steps == every.steps < 80  # the same steps as an output every step
     assert _tip_error(between, reference) <= 1.1 * _tip_error(every, every_reference)
     energy = vibration_energy(every)
     assert np.max(np.abs(between.energy_error)) <= 1.0001 * np.max(np.abs(every.energy_error))
