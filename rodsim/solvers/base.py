@@ -456,9 +456,13 @@ class Integrator(ABC, Generic[S]):
         return (run.at_equilibrium(force)
                 and correction < correction_limit(run.full_model(), run.tolerance))
 
+    def budget_spent(self, run: S) -> bool:
+        """Whether ``run``'s wall-time budget is spent."""
+        return time.perf_counter() - run.budget_start > self.max_wall_time
+
     def check_budget(self, run: S, where: str) -> None:
         """Raise SolverFailure once the wall-time budget is spent, before ``where``."""
-        if time.perf_counter() - run.budget_start > self.max_wall_time:
+        if self.budget_spent(run):
             raise SolverFailure(
                 f"wall-time budget of {self.max_wall_time:g} s spent before {where}",
                 f"try raising solver.max_wall_time, or "
@@ -471,8 +475,8 @@ class Integrator(ABC, Generic[S]):
 
         def check() -> None:
             iteration = next(count)
-            if time.perf_counter() - run.budget_start > self.max_wall_time:  # the message
-                self.check_budget(run, f"Newton iteration {iteration} at {where}")  # only then
+            if self.budget_spent(run):  # the message is made only then
+                self.check_budget(run, f"Newton iteration {iteration} at {where}")
             if self.reporting:
                 self.report(None, f"{self.name}: {where}, Newton iteration {iteration}")
 
