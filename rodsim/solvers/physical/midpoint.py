@@ -45,7 +45,6 @@ import scipy.sparse as sp
 
 from rodsim.core.damping import Damping
 from rodsim.core.model import Model
-from rodsim.core.rod.quaternion import B
 from rodsim.solvers.physical.band_lu import band_order
 from rodsim.solvers.physical.coordinates import (
     PhysicalCoordinates,
@@ -63,7 +62,13 @@ from rodsim.solvers.physical.fixed_step import (
     newton_matrix,
     solve_step,
 )
-from rodsim.solvers.physical.midpoint_kernels import add_force, path_state, turned
+from rodsim.solvers.physical.midpoint_kernels import (
+    add_force,
+    cayley_derivative,
+    derivative_blocks,
+    path_state,
+    turned,
+)
 from rodsim.solvers.physical.midpoint_kernels import residual as step_residual
 from rodsim.solvers.physical.moving_supports import SupportVelocity
 from rodsim.solvers.physical.sparse_kernels import (
@@ -75,8 +80,6 @@ from rodsim.solvers.physical.tangent_damping import TangentDamping
 
 __all__ = ["MidpointStep", "SupportsAt"]
 
-#: The 4 × 4 identity, for the quaternions' tangent projections.
-_IDENTITY_4 = np.eye(4)
 #: The supports' velocity at a time [s] (rodsim/solvers/physical/moving_supports.py).
 SupportsAt = Callable[[float], SupportVelocity]
 
@@ -160,6 +163,9 @@ class MidpointStep:
         state = np.empty(len(x0))
         unit = np.empty((self._s, 4))
         norm = np.empty(self._s)
+        if dq1 is not None:
+            g_blocks, p_blocks = np.empty((self._s, 4, 3)), np.empty((self._s, 4, 3))
+            geometric = np.empty((self._s, 3, 3))
         for node, weight in self._gauss:
             # the state at the path's point: x₀ with r₀ + s Δr and normalise(q₀ + s Δq),
             # minus the rest state (``model_state``)
@@ -178,24 +184,10 @@ class MidpointStep:
             add_force(f, c.positions, c.quaternions, unit, norm, rows, weight, f_r, tau)
             if dq1 is None:
                 continue
-            f_q = f[c.quaternions]
-            pull = np.add.reduce(unit * f_q, axis=1)  # q̂ · f
-            across = f_q - unit * pull[:, None]  # (I − q̂q̂ᵀ) f_q
-            project = (_IDENTITY_4[None] - unit[:, :, None] * unit[:, None, :]) / norm[:, None,
-                                                                                       None]
             # G's and P's 4 × 3 blocks (the identity, times 1 and ``node``, on the positions)
-            g_blocks = 0.5 * project @ np.transpose(rows, (0, 2, 1))
-            p_blocks = project @ (node * dq1)
-            # τ_k = ½ a_kᵀ P f / |q| (a_k = B_k q_m, P = I − q̂q̂ᵀ) at fixed f: through a_k
-            # (q_m moves by ½ ∂q₁/∂ω_m) and through q̂ and |q| (q moves by s ∂q₁/∂ω_m)
-            turned = np.einsum("kba,sb->ska", B, across) / norm[:, None, None]  # B_kᵀ P f
-            along = np.einsum("ska,sa->sk", rows, unit)  # a_k · q̂
-            moment = np.einsum("ska,sa->sk", rows, across)  # a_k · P f
-            through_q = (-(along[:, :, None] * f_q[:, None, :]
-                           + pull[:, None, None] * rows) @ (project * norm[:, None, None])
-                         - moment[:, :, None] * unit[:, None, :]) / norm[:, None, None] ** 2
-            geometric = 0.5 * (np.einsum("ska,sal->skl", turned, 0.5 * dq1)
-                               + np.einsum("ska,sal->skl", through_q, node * dq1))
+            # and the torque's change at fixed f through a_k = B_k q_m and through q̂, |q|
+            derivative_blocks(f, c.quaternions, unit, norm, rows, dq1, node, g_blocks,
+                              p_blocks, geometric)
             # (Gᵀ J P + the geometric blocks on the angles), times the weight, summed into
             # the plan's CSR values (stiffness_plan.py)
             assert plan is not None
@@ -262,7 +254,10 @@ class MidpointStep:
                      ) -> tuple[np.ndarray, sp.csr_matrix | None]:
             # q₁, q_m, |q_m| and B_k q_m (midpoint_kernels: as _turned and velocity_rows)
             turned(q0, wm, h, q1, qm, norm, rows)
-            dq1 = self._cayley_derivative(qm, wm, h) if fresh else None
+            dq1 = None
+            if fresh:  # ∂q₁/∂ω_m (midpoint_kernels.cayley_derivative)
+                dq1 = np.empty((len(q0), 4, 3))
+                cayley_derivative(rows, wm, h, dq1)
             f_r, tau, stiffness = self._averaged(model, x0, r1, q1, qm, dq1, split,
                                                  reference, rows)
             residual = np.empty(c.size)
@@ -331,17 +326,6 @@ class MidpointStep:
             out = out - tangent_damping.matrix(x, g, c.size) @ np.concatenate(
                 [start.v, start.w.ravel()])
         return out
-
-    @staticmethod
-    def _cayley_derivative(qm: np.ndarray, wm: np.ndarray, h: float) -> np.ndarray:
-        """∂q₁/∂ω_m = (I − hΩ/4)⁻¹ (h/2) [B_k q_m]_k, shape (s, 4, 3) (from
-        q₁ − q₀ = (h/2) Ω q_m), with (I − hΩ/4)⁻¹ = (I + hΩ/4)/(1 + (h/4)² |ω_m|²) in
-        closed form (Ω² = −|ω_m|² I: coordinates.cayley)."""
-        a = 0.25 * h
-        omega = np.einsum("sk,kab->sab", wm, B)
-        rows = 0.5 * h * np.transpose(velocity_rows(qm), (0, 2, 1))
-        return (rows + a * (omega @ rows)) / (1.0 + a * a * np.sum(wm * wm, axis=1)
-                                              )[:, None, None]
 
 
 def _turned(q0: np.ndarray, wm: np.ndarray, h: float
