@@ -242,7 +242,8 @@ def _keep(theta: float, moved: float, tolerance: float) -> bool:
     return math.log(tolerance / _tail(theta, moved)) / math.log(theta) <= KEEP_ITERATIONS
 
 
-def newton_matrix(coordinates: PhysicalCoordinates, factor: float, stiffness: sp.csr_matrix,
+def newton_matrix(coordinates: PhysicalCoordinates, factor: float,
+                  stiffness: Csr | sp.csr_matrix,
                   damping: sp.csr_matrix | None, w: np.ndarray, h: float) -> sp.csr_matrix:
     """∂(residual)/∂(r₁, w) of a step whose residual is ``factor`` (2 for the midpoint rule,
     1 for Euler) times (M_r (v − v₀)/h, I (w − ω₀)/h) plus w × I w, minus the force, plus

@@ -71,10 +71,7 @@ from rodsim.solvers.physical.midpoint_kernels import (
 )
 from rodsim.solvers.physical.midpoint_kernels import residual as step_residual
 from rodsim.solvers.physical.moving_supports import SupportVelocity
-from rodsim.solvers.physical.sparse_kernels import (
-    Csr,
-    csr_of,
-)
+from rodsim.solvers.physical.sparse_kernels import Csr
 from rodsim.solvers.physical.stiffness_plan import StiffnessPlan, accumulate
 from rodsim.solvers.physical.tangent_damping import TangentDamping
 
@@ -137,7 +134,7 @@ class MidpointStep:
                   qm: np.ndarray, dq1: np.ndarray | None = None,
                   start: tuple[np.ndarray, np.ndarray] | None = None,
                   reference: np.ndarray | None = None, rows: np.ndarray | None = None
-                  ) -> tuple[np.ndarray, np.ndarray, sp.csr_matrix | None]:
+                  ) -> tuple[np.ndarray, np.ndarray, Csr | None]:
         """The generalised force averaged along the step's path γ(s) = (r₀ + s Δr,
         normalise(q₀ + s Δq)), s in [0, 1], by Gauss–Legendre quadrature (``quadrature``
         points): (f̄_r, τ̄) with h u_m · (f̄_r, τ̄) = ∫ F(γ) · γ′ ds, the work of the force
@@ -150,7 +147,6 @@ class MidpointStep:
         when the caller has them. The path's states and the force's sums are
         rodsim/solvers/physical/midpoint_kernels.py's."""
         c = self.coordinates
-        m = c.size
         r0, q0 = (x0[c.positions], x0[c.quaternions]) if start is None else start
         if reference is None:
             reference = model.reference[model.free]
@@ -200,8 +196,7 @@ class MidpointStep:
             raise StepFailure("the force or its Jacobian is not finite")
         if derivative is None or plan is None:
             return f_r, tau, None
-        return f_r, tau, csr_of(Csr(plan.indptr, plan.indices, derivative), (m, m),
-                                sorted_indices=True)
+        return f_r, tau, Csr(plan.indptr, plan.indices, derivative)
 
     def _plan_of(self, model: Model) -> StiffnessPlan:
         """The stiffness plan for ``model``'s Jacobian pattern (made once per pattern)."""
