@@ -92,6 +92,19 @@ def path_state(x0: np.ndarray, reference: np.ndarray, positions: np.ndarray,
             state[j] = unit[s, b] - reference[j]
 
 
+@njit(cache=True, inline="always")
+def _across(f: np.ndarray, quaternions: np.ndarray, unit: np.ndarray, s: int,
+            across: np.ndarray) -> float:
+    """across = f_q − q̂ (q̂ · f_q) for segment ``s`` (f_q = f[quaternions[s]], q̂ =
+    ``unit``[s]): the part of its quaternion force that turns it; returns q̂ · f_q."""
+    pull = 0.0
+    for b in range(4):
+        pull += unit[s, b] * f[quaternions[s, b]]
+    for b in range(4):
+        across[b] = f[quaternions[s, b]] - unit[s, b] * pull
+    return pull
+
+
 @njit(cache=True)
 def add_force(f: np.ndarray, positions: np.ndarray, quaternions: np.ndarray,
               unit: np.ndarray, norm: np.ndarray, rows: np.ndarray, weight: float,
@@ -103,11 +116,7 @@ def add_force(f: np.ndarray, positions: np.ndarray, quaternions: np.ndarray,
     across = np.empty(4)
     half = weight * 0.5
     for s in range(quaternions.shape[0]):
-        pull = 0.0
-        for b in range(4):
-            pull += unit[s, b] * f[quaternions[s, b]]
-        for b in range(4):
-            across[b] = f[quaternions[s, b]] - unit[s, b] * pull
+        _across(f, quaternions, unit, s, across)
         for k in range(3):
             moment = 0.0
             for b in range(4):
@@ -191,11 +200,8 @@ def derivative_blocks(f: np.ndarray, quaternions: np.ndarray, unit: np.ndarray,
     through = np.empty(4)
     for s in range(unit.shape[0]):
         nu = norm[s]
-        pull = 0.0
+        pull = _across(f, quaternions, unit, s, across)
         for b in range(4):
-            pull += unit[s, b] * f[quaternions[s, b]]
-        for b in range(4):
-            across[b] = f[quaternions[s, b]] - unit[s, b] * pull
             for c in range(4):
                 identity = 1.0 if b == c else 0.0
                 project[b, c] = identity - unit[s, b] * unit[s, c]
