@@ -20,7 +20,7 @@ interpolated positions at mid-step, and the stiff mode's energy grows by (ωh)²
 0.92 of the vibration's energy, 38 times it under the fourth-order composition, against
 3e-6 and 9e-7 at the step ends). An output at or past the step's end, or within
 ``SAME_TIME`` of the step's length before it, is the step's end state itself, with its
-energies as reached.
+energies as reached; one within that of the step's start is the start state.
 """
 
 from __future__ import annotations
@@ -35,9 +35,10 @@ from rodsim.solvers.physical.trajectory_record import Record, potential
 
 __all__ = ["record_outputs", "SAME_TIME"]
 
-#: An output this close to a step's end, as a fraction of the step, is the step's end
-#: state: output times and step ends that meet (every fourth output at 25 steps and 20
-#: outputs a period) are computed by different sums and differ in their last bits.
+#: An output this close to a step's end (start), as a fraction of the step, is the step's
+#: end (start) state: output times and step ends that meet (every fourth output at 25
+#: steps and 20 outputs a period) are computed by different sums and differ in their last
+#: bits.
 SAME_TIME = 1e-9
 
 
@@ -56,18 +57,24 @@ def record_outputs(record: Record, coordinates: PhysicalCoordinates,
     t0, start, t1, end = span
     c = coordinates
     kinetic = c.kinetic_energy(end.v, end.w)
-    # an output within SAME_TIME of the step's length from its end is that end: the times
-    # of a step plan and of an output grid meet there but are summed differently
+    # an output within SAME_TIME of the step's length from its end (its start) is that end
+    # (start): the times of a step plan and of an output grid meet there but are summed
+    # differently
     inside = [t for t in times if t < t1 - SAME_TIME * (t1 - t0)]
     reached = None
     if inside:
-        x = hermite(c, t0, start, t1, end)
         begun = known if known is not None else (c.kinetic_energy(start.v, start.w),
                                                  potential(model_at(t0), start.x))
         reached = (kinetic, potential(model_at(t1), end.x))
         ends = ((begun[0], reached[0]), (begun[1], reached[1]), energy[:2], energy[2:])
+        x = None
         for t in inside:
             s = (t - t0) / (t1 - t0)
+            if s <= SAME_TIME:
+                record.add(t, start, begun[0], begun[1], energy[0], energy[2])
+                continue
+            if x is None:
+                x = hermite(c, t0, start, t1, end)
             state, v = x(t)
             record.add(t, Motion(state, v, (1.0 - s) * start.w + s * end.w),
                        *((1.0 - s) * a + s * b for a, b in ends))
