@@ -16,6 +16,7 @@ from test_simulate_friction import _scene as friction_catheter
 from user_robots import KINDS, user_rod
 
 import rodsim
+from rodsim.io.archive_schema import ArchiveSchemaError, check_archive
 from rodsim.solvers.physical.trajectory import step_plan
 
 
@@ -68,6 +69,10 @@ def test_outputs_between_steps_cost_no_step_and_no_accuracy(integrator):
     between, reference, every, every_reference = _runs(STEEL, 11, 0.1, 25, 20, integrator)
     assert len(between.times) == 41
     assert between.steps == every.steps < 80  # the same steps as an output every step
+    # output k at kT/20 ends a step (jT/25) where k/20 = j/25: every fourth; the others are
+    # read off an interpolant, and say so
+    assert np.array_equal(between.interpolated, np.arange(41) % 4 != 0)
+    assert len(every.interpolated) == len(every.times) and not every.interpolated.any()
     assert _tip_error(between, reference) <= 1.1 * _tip_error(every, every_reference)
     energy = vibration_energy(every)
     assert np.max(np.abs(between.energy_error)) <= 1.0001 * np.max(np.abs(every.energy_error))
@@ -97,4 +102,25 @@ def test_friction_keeps_a_step_end_at_every_output():
                           initial={TENSION: CYCLE[0]}, program={TENSION: cycle})
     assert run.success, run.message
     assert run.friction is not None and run.friction.tension.shape[0] == len(run.times) == 11
+    assert len(run.interpolated) == 11 and not run.interpolated.any()
     assert np.all(np.isfinite(run.friction.tension))
+
+
+def test_the_archive_says_which_outputs_were_interpolated():
+    """The trajectory archive's ``interpolated(time)``: 1 where the output was read off
+    its step's interpolant, as the run says (fixed steps of 1 ms, outputs every 1.5 ms:
+    every other output between step ends; IDA's outputs inside its steps, its start and
+    end its own states); a value other than 0 or 1 is refused by the archive check."""
+    fixed = rodsim.simulate("table1-50g", 0.012, output_dt=0.0015, step=0.001)
+    assert fixed.success, fixed.message
+    assert np.array_equal(fixed.interpolated, np.arange(len(fixed.times)) % 2 == 1)
+    ds = fixed.to_xarray()
+    assert np.array_equal(ds["interpolated"].values, fixed.interpolated.astype(np.int8))
+    check_archive(ds)
+    ida = rodsim.simulate("table1-50g", 0.012, output_dt=0.002, integrator="ida")
+    assert ida.success, ida.message
+    assert not ida.interpolated[0] and not ida.interpolated[-1]
+    assert ida.interpolated[1:-1].all()  # IDA's steps grow far past 2 ms here
+    ds["interpolated"].values[1] = 2
+    with pytest.raises(ArchiveSchemaError, match="interpolated"):
+        check_archive(ds)

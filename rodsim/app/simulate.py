@@ -367,7 +367,8 @@ def _simulation(loaded: Scene, model: Model, record: Record, h: float, integrato
                       if friction is not None and record.times else (),
                       _step_log(record),
                       resticks=tuple(r for r in friction.resticks if r.time <= record.times[-1])
-                      if friction is not None and record.times else ())
+                      if friction is not None and record.times else (),
+                      interpolated=np.array(record.interpolated, dtype=bool))
 
 
 def _step_log(record: Record) -> StepLog | None:

@@ -113,6 +113,11 @@ class Simulation:
     #: until then (``rodsim.core.friction_record.Restick``; docs/dynamics.md, "Friction in
     #: physical time"). Empty without stiction.
     resticks: tuple[Restick, ...] = ()
+    #: Whether each output was read off the interpolant of the step that covers it (an
+    #: output between step ends, docs/dynamics.md, "Outputs between steps"; IDA's and
+    #: CVODE's own interpolation) rather than being a step's end state, shape (T,).
+    interpolated: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=bool),
+                                     repr=False)
 
     @property
     def energy_error(self) -> np.ndarray:
@@ -208,4 +213,4 @@ class Simulation:
             self.success, self.message, self.t_end, self.integrator, self.step_size, stats,
             {key: entry.archived() for key, entry in self.program.items()}, self.initial,
             self.events, self.friction, self.breakaways, self.step_log,
-            self.error_control, self.resticks))
+            self.error_control, self.resticks, self.interpolated))

@@ -436,6 +436,9 @@ def _check_trajectory(ds: xr.Dataset) -> None:
         _check_points(ds, kind)
     if "step_end" in ds.variables:  # optional: under error control
         _check_steps(ds)
+    if "interpolated" in ds.variables and not np.all(  # optional (older archives)
+            np.isin(_variable(ds, "interpolated", ("time",)).values, (0, 1))):
+        raise ArchiveSchemaError("variable 'interpolated' holds a value other than 0, 1")
     _check_layout(ds, ("time",))
 
 

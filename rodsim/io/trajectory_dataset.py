@@ -111,6 +111,8 @@ class TrajectoryRecord:
     error_control: str = ""
     #: With stiction: every sliding routing point that stuck again, in time order.
     resticks: Sequence[Restick] = ()
+    #: Whether each output was read off its step's interpolant (empty: not recorded).
+    interpolated: np.ndarray | None = None
 
 
 def trajectory_dataset(record: TrajectoryRecord) -> xr.Dataset:
@@ -153,6 +155,11 @@ def trajectory_dataset(record: TrajectoryRecord) -> xr.Dataset:
     data["event_name"] = ("event", np.array([e for _, e in record.events], dtype=str),
                           {"long_name": "what happened (contact onset: rod on obstacle; "
                            "tendon slack: tendon)"})
+    if record.interpolated is not None and len(record.interpolated) == len(record.times):
+        data["interpolated"] = ("time", np.asarray(record.interpolated, dtype=np.int8),
+                                {"long_name": "1: the output was read off the interpolant "
+                                 "of the step that covers it (an output between step "
+                                 "ends); 0: a step's end state"})
     if record.steps is not None:
         data.update(_step_variables(record.steps))
     friction = record.friction

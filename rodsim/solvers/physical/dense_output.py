@@ -76,8 +76,10 @@ def record_outputs(record: Record, coordinates: PhysicalCoordinates,
             if x is None:
                 x = hermite(c, t0, start, t1, end)
             state, v = x(t)
-            record.add(t, Motion(state, v, (1.0 - s) * start.w + s * end.w),
-                       *((1.0 - s) * a + s * b for a, b in ends))
+            kinetic_t, potential_t, dissipated_t, work_t = ((1.0 - s) * a + s * b
+                                                            for a, b in ends)
+            record.add(t, Motion(state, v, (1.0 - s) * start.w + s * end.w), kinetic_t,
+                       potential_t, dissipated_t, work_t, interpolated=True)
     for t in times[len(inside):]:
         record.add(t, end, kinetic, potential(model_at(t), end.x), energy[1], energy[3])
     return reached

@@ -318,13 +318,14 @@ def integrate_ida(dae: PhysicalDae, model_at: Callable[[float, bool], Model],
     y0 = np.concatenate([start.x, start.v, start.w.ravel()])
     run = _Run()
 
-    def add(t: float, y: np.ndarray) -> None:
+    def add(t: float, y: np.ndarray, interpolated: bool = False) -> None:
         x, v, w = dae.split(y)
         x = x.copy()  # q on the unit sphere: interpolated, |q| is off by the local error
         q = x[c.quaternions]
         x[c.quaternions] = q / np.linalg.norm(q, axis=1)[:, None]
         record.add(t, Motion(x, v, w), c.kinetic_energy(v, w),
-                   _potential(model_at(t, False), x), energy.dissipated, energy.work)
+                   _potential(model_at(t, False), x), energy.dissipated, energy.work,
+                   interpolated)
 
     add(pending.pop(0), y0)
     piece_start = 0.0
@@ -373,8 +374,10 @@ def integrate_ida(dae: PhysicalDae, model_at: Callable[[float, bool], Model],
                     t = pending.pop(0)
                     energy.add(clock, mark, t, (piece_start, end))
                     mark = t
-                    add(t, clock.interpolate(t)[dae.place] if t < clock.t
-                        else clock.y[dae.place])
+                    if t < clock.t:
+                        add(t, clock.interpolate(t)[dae.place], interpolated=True)
+                    else:
+                        add(t, clock.y[dae.place])
                 energy.add(clock, mark, clock.t, (piece_start, end))
                 if progress is not None:
                     progress(clock.t)

@@ -28,6 +28,10 @@ class Record:
     potential: list[float] = field(default_factory=list)
     dissipated: list[float] = field(default_factory=list)
     work: list[float] = field(default_factory=list)
+    #: Whether each output was read off the interpolant of the step that covers it (an
+    #: output between step ends, rodsim/solvers/physical/dense_output.py; SUNDIALS' own
+    #: interpolation under IDA and CVODE) rather than being a step's end state.
+    interpolated: list[bool] = field(default_factory=list)
     steps: int = 0
     iterations: int = 0
     #: Steps whose Newton failed and that were taken as two half steps instead.
@@ -44,8 +48,9 @@ class Record:
     events: list[tuple[float, str]] = field(default_factory=list)
 
     def add(self, t: float, motion: Motion, kinetic: float, potential: float,
-            dissipated: float, work: float) -> None:
+            dissipated: float, work: float, interpolated: bool = False) -> None:
         self.times.append(t)
+        self.interpolated.append(interpolated)
         self.states.append(motion.x.copy())
         self.kinetic.append(kinetic)
         self.potential.append(potential)
