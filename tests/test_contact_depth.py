@@ -143,3 +143,13 @@ def test_static_advises_a_start_inside_not_smaller_steps_from_a_rest_shape_throu
     assert "rest shape of rod 'wire' crosses obstacle 'vessel'" in result.message
     assert "track the insertion" in result.message
     assert "first_load_step" not in result.message and "(ida)" not in result.message
+
+
+def test_a_run_in_physical_time_that_fails_from_a_rest_shape_through_the_wall_says_so():
+    """The user's guidewire simulated from rest: its first midpoint step diverged against
+    the vessel its straight rest shape crosses (152 radii deep), and the run's message
+    advised only a smaller step. It now names the crossing, once."""
+    result = rodsim.simulate(str(DATA / "guidewire.toml"), 0.002, output_dt=0.001)
+    assert not result.success
+    assert result.message.count("rest shape of rod 'wire' crosses obstacle 'vessel'") == 1
+    assert "track the insertion" in result.message

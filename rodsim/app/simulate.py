@@ -25,6 +25,7 @@ from typing import Any
 import numpy as np
 
 from rodsim.app.api import SceneLike, load_scene, solve
+from rodsim.app.contact_report import failure_note
 from rodsim.app.friction_trace import FrictionTrace
 from rodsim.app.initial_velocity import VelocityLike, initial_rates, velocity_text
 from rodsim.app.interrupted import Interrupted
@@ -351,6 +352,8 @@ def _simulation(loaded: Scene, model: Model, record: Record, h: float, integrato
     quaternions = np.concatenate([full[:, model.rods[name].layout.quaternion_index]
                                   for name in model.rods], axis=1)
     message = record.message
+    if not record.success:  # a start through an obstacle's wall is the likely cause
+        message += failure_note(loaded, message)
     if record.success and not model.conservative:  # "ok", or a terminal event's message
         message += ("; a non-conservative term (the paper's lumen coupling, friction): no "
                     "potential energy, no energy balance")
