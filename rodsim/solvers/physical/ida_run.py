@@ -347,7 +347,10 @@ def integrate_ida(dae: PhysicalDae, model_at: Callable[[float, bool], Model],
                 if record.steps >= MAX_STEPS:
                     raise SolverFailure(f"{solver.upper()} took {MAX_STEPS} steps without "
                                         f"reaching t = {end:.6g} s",
-                                        "try looser rtol/atol or the midpoint integrator")
+                                        "try the midpoint integrator or looser rtol/atol; "
+                                        "a sudden load on an undamped rod excites fast modes "
+                                        "that hold the steps short: ramp it (a program) or "
+                                        "give the rod damping ([rods.<rod>.damping])")
                 before = clock.t
                 out = clock.step(end, tstop=end)
                 if events is not None and events.failure is not None:
