@@ -140,10 +140,12 @@ def test_the_correction_test_sees_an_imbalance_spread_over_many_nodes():
     assert np.max(np.abs(corrected.x - root)) < 1e-9
 
 
-def test_the_first_state_evaluated_in_one_pass_gives_the_same_solve(monkeypatch):
-    """static's Newton evaluates F and J of its first state in one pass (``prepare``, the
-    model's memo) where it evaluated F, then J: the same equilibrium and counts, bit for
-    bit, and one model evaluation fewer."""
+def test_states_evaluated_in_one_pass_give_the_same_solve(monkeypatch):
+    """static's Newton evaluates F and J in one pass (``prepare``, the model's memo) at its
+    first state and at each full step's state, where it evaluated F, then J: the same
+    equilibrium and counts, bit for bit; no J evaluated on its own, and at most one J made
+    that no step or verification took (tdcr-two-segment, measured: 7 one-pass evaluations
+    and 2 of F alone against 9 of F and 6 of J)."""
     from rodsim.core.model_evaluation import ModelEvaluation
 
     scene = rodsim.load_scene("tdcr-two-segment")
@@ -170,4 +172,6 @@ def test_the_first_state_evaluated_in_one_pass_gives_the_same_solve(monkeypatch)
     assert ({k: v for k, v in one_pass.stats.items() if k != "wall_time"}
             == {k: v for k, v in two_passes.stats.items() if k != "wall_time"})
     assert (True, True) in with_prepare and (True, True) not in calls
-    assert len(with_prepare) == len(calls) - 1
+    assert (False, True) not in with_prepare
+    assert with_prepare.count((True, True)) <= calls.count((False, True)) + 1
+    assert len(with_prepare) < len(calls)

@@ -142,12 +142,16 @@ class _Point:
         return self._value
 
 
-def _trial(problem: NewtonProblem, x: np.ndarray, dx: np.ndarray) -> _Point:
+def _trial(problem: NewtonProblem, x: np.ndarray, dx: np.ndarray, prepare: bool = False
+           ) -> _Point:
     """The state a step ``dx`` from ``x`` reaches (``problem.step``'s retraction, else
     ``x + dx``) with its force; a force evaluation that fails there gives NaN forces and an
-    infinite merit (a step the line search shortens)."""
+    infinite merit (a step the line search shortens). ``prepare``: its Jacobian too, in the
+    same pass (``NewtonProblem.prepare``), for the next iteration to take."""
     y = x + dx if problem.step is None else problem.step(x, dx)
     try:
+        if prepare and problem.prepare is not None:
+            problem.prepare(y)
         return _Point(problem, y, problem.force(y))
     except SolverFailure:
         return _Point(problem, y, np.full_like(y, np.nan), np.inf)
@@ -325,9 +329,13 @@ def newton(problem: NewtonProblem, x: np.ndarray, tolerance: float,
     """
     jacobians = _Jacobians(problem, reuse)
     watchdog = _Watchdog(problem)
-    if problem.prepare is not None and polish and reuse == "fresh" and max_iterations > 0:
-        # The first iteration takes J at x whatever the residual (polishing): F and J in one
-        # pass (tdcr-two-segment: 182 µs against 62 + 167)
+    # Every state a polishing solve keeps needs its J: the next iteration's, or the
+    # verification's at the last (rodsim/solvers/base.py, equilibrium_factor). F and J in
+    # one pass (tdcr-two-segment: 182 µs against 62 + 167) at the first state and at each
+    # full step, which is almost always kept; a shortened step's state takes F alone.
+    together = problem.prepare is not None and polish and reuse == "fresh"
+    if together and max_iterations > 0:
+        assert problem.prepare is not None
         problem.prepare(x)
     g = problem.force(x)
     point = _Point(problem, x, g)
@@ -356,7 +364,7 @@ def newton(problem: NewtonProblem, x: np.ndarray, tolerance: float,
         if slope >= 0.0:
             return NewtonResult(point.x, near, done, point.residual, "converged" if near else
                                 "Newton direction is not a descent direction (unstable state)")
-        full = _trial(problem, point.x, dx)
+        full = _trial(problem, point.x, dx, together)
         if watchdog.takes_full_step(full, near):
             watchdog.watch(point, full.value, slope)
             trial = full
