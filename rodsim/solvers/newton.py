@@ -332,7 +332,8 @@ def newton(problem: NewtonProblem, x: np.ndarray, tolerance: float,
     # Every state a polishing solve keeps needs its J: the next iteration's, or the
     # verification's at the last (rodsim/solvers/base.py, equilibrium_factor). F and J in
     # one pass (tdcr-two-segment: 182 µs against 62 + 167) at the first state and at each
-    # full step, which is almost always kept; a shortened step's state takes F alone.
+    # full step short of the root, which is almost always kept; a shortened step's state,
+    # and a polishing step's, which round-off often refuses, take F alone.
     together = problem.prepare is not None and polish and reuse == "fresh"
     if together and max_iterations > 0:
         assert problem.prepare is not None
@@ -364,7 +365,7 @@ def newton(problem: NewtonProblem, x: np.ndarray, tolerance: float,
         if slope >= 0.0:
             return NewtonResult(point.x, near, done, point.residual, "converged" if near else
                                 "Newton direction is not a descent direction (unstable state)")
-        full = _trial(problem, point.x, dx, together)
+        full = _trial(problem, point.x, dx, together and not near)
         if watchdog.takes_full_step(full, near):
             watchdog.watch(point, full.value, slope)
             trial = full
