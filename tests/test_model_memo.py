@@ -106,3 +106,20 @@ def test_a_large_jacobian_reuses_only_an_array_no_one_holds(monkeypatch):
     assert address(again) == where
     assert np.array_equal(again, expected[2])
     assert np.array_equal(held, expected[0])
+
+
+def test_f_and_j_asked_where_f_is_remembered_evaluate_j_alone():
+    """F remembered, F and J asked together (a continuation step's start, whose F the
+    predictor's check made): J alone is evaluated, and both are the numbers a fresh model
+    gives in one pass."""
+    model = Model(rodsim.load_scene("tdcr-two-segment"))
+    fresh = Model(rodsim.load_scene("tdcr-two-segment"))
+    calls = _counting(model)
+    x = model.x0 + 1e-4 * np.random.default_rng(3).normal(size=model.n)
+    f = model.force(x)
+    both_f, both_j = model.evaluate(x)
+    assert calls == [(True, False), (False, True)]
+    one_f, one_j = fresh.evaluate(x)
+    assert np.array_equal(both_f, f) and np.array_equal(both_f, one_f)
+    assert np.array_equal(both_j, one_j)
+    assert np.array_equal(model.jacobian_data(x), one_j) and len(calls) == 2

@@ -18,6 +18,7 @@ from rodsim.app.inverse.parameter_keys import numeric_keys, scene_with
 from rodsim.core.schema import SceneError
 
 TDCR_KEYS = ["s1a.tendon_string.tension", "s2b.tendon_string.tension"]
+TENSION = "tendons.s1a.tendon_string.tension"
 
 
 def cold(scene: object, keys: list[str], values: np.ndarray, rod: str) -> np.ndarray:
@@ -116,3 +117,40 @@ def test_seeded_user_catheters():
         robot, length, pull = user_catheter(rng, index)
         path = np.column_stack([np.linspace(0.5, 1.2, 8), np.linspace(0.2, 0.9, 8)]) * pull
         check_path(robot, keys, path, "catheter", length, every=7)
+
+
+def test_a_steps_start_is_evaluated_in_one_pass_with_the_same_equilibria(monkeypatch):
+    """A Tracker step's J at its predicted start is its J₀ or its verification's: F and J
+    there come from one pass (Continuation.solve, or the chord iterations' start where no
+    alternative start was weighed; the model's memo). Along a tension ramp of
+    tdcr-two-segment the states are the same bits as with the pass split, and F alone is
+    evaluated once less a step (measured over 200 steps: 1.91 against 2.91)."""
+    import rodsim.app.inverse.continuation as continuation
+    import rodsim.solvers.static as static
+    from rodsim.core.model_evaluation import ModelEvaluation
+
+    def ramp() -> tuple[np.ndarray, list[tuple[bool, bool]]]:
+        calls: list[tuple[bool, bool]] = []
+        original = ModelEvaluation._evaluate
+
+        def counted(self, x, load, force, jacobian):
+            calls.append((force, jacobian))
+            return original(self, x, load, force, jacobian)
+
+        monkeypatch.setattr(ModelEvaluation, "_evaluate", counted)
+        scene = rodsim.load_scene("tdcr-two-segment")
+        keys = numeric_keys(scene, [TENSION])
+        tracker = rodsim.Tracker(scene_with(scene, keys, [0.0]), [TENSION])
+        calls.clear()
+        states = [tracker.step([v]).state for v in np.linspace(0.0, 3.0, 21)[1:]]
+        monkeypatch.setattr(ModelEvaluation, "_evaluate", original)
+        return np.array(states), calls
+
+    together, one_pass = ramp()
+    for module in (continuation, static):  # no model keeps J there: the pass split
+        monkeypatch.setattr(module, "MEMO_ENTRIES", -1)
+    apart, split = ramp()
+    assert np.array_equal(together, apart)
+    assert (True, True) in one_pass and (True, True) not in split
+    assert one_pass.count((True, False)) < split.count((True, False))
+    assert len(one_pass) < len(split)

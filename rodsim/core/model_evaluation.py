@@ -158,8 +158,11 @@ class ModelEvaluation(ModelPattern, ModelManifold):
                             known_j.copy() if known_j is not None and jacobian else np.zeros(0))
                 same = entry  # this state, without the part asked for now
                 break
-        f, j = self._evaluate(x, load, force, jacobian)
         kept_f, kept_j = (same[2], same[3]) if same is not None else (None, None)
+        if kept_f is not None and force and jacobian:  # F known here: J alone
+            f, j = kept_f.copy(), self._evaluate(x, load, False, True)[1]
+        else:
+            f, j = self._evaluate(x, load, force, jacobian)
         entry = (np.array(x, dtype=float), load, f.copy() if force else kept_f,
                  j.copy() if jacobian and self.nnz <= MEMO_ENTRIES else kept_j)
         self._memo = [entry] + [e for e in self._memo if e is not same][:MEMO_STATES - 1]

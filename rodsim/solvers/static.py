@@ -51,6 +51,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from rodsim.core.model import Model
+from rodsim.core.model_evaluation import MEMO_ENTRIES
 from rodsim.core.schema import Options, option
 from rodsim.solvers.base import Integrator, Outcome, retraction_of
 from rodsim.solvers.continuation import (
@@ -326,6 +327,10 @@ class Static(Integrator[RunState]):
         previous = start = np.inf
         solve = None
         iteration = 0
+        if model.kernels == "compiled" and model.nnz <= MEMO_ENTRIES:
+            # J at the start is taken either way: as J₀, or by the verification of a start
+            # at the equilibrium already. F and J in one pass (the model's memo keeps both).
+            model.evaluate(x)
         while iteration < MAX_CHORD:
             f = run.force(x, check=False)
             residual = model.force_residual(f) if np.all(np.isfinite(f)) else np.inf

@@ -35,6 +35,7 @@ import numpy as np
 from rodsim.app.inverse.parameter_keys import NumericKey, scene_with
 from rodsim.app.inverse.sensitivity import equilibrium_sensitivity, registered_model
 from rodsim.core.model import Model
+from rodsim.core.model_evaluation import MEMO_ENTRIES
 from rodsim.core.scene import Scene
 from rodsim.core.schema import SceneError
 from rodsim.solvers import DEFAULT_INTEGRATOR, integrator_named, registered_integrators
@@ -170,6 +171,11 @@ class Continuation:
         carried = model.carried(self.x, self.model)
         x = carried if start is None or carried is not self.x else start
         if alternative is not None and x is start:
+            if model.kernels == "compiled" and model.nnz <= MEMO_ENTRIES:
+                # J at the start is the step's J₀, or its verification's where the start is
+                # at the equilibrium already, unless the alternative wins: F and J in one
+                # pass (the model's memo keeps both)
+                model.evaluate(start)
             first = model.force_residual(model.force(start))
             if not first < effective_tolerance(model, float(scene.solver.tolerance)):
                 other = alternative() if callable(alternative) else alternative
