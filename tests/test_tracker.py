@@ -120,11 +120,12 @@ def test_seeded_user_catheters():
 
 
 def test_a_steps_start_is_evaluated_in_one_pass_with_the_same_equilibria(monkeypatch):
-    """A Tracker step's J at its predicted start is its J₀ or its verification's: F and J
-    there come from one pass (Continuation.solve, or the chord iterations' start where no
-    alternative start was weighed; the model's memo). Along a tension ramp of
-    tdcr-two-segment the states are the same bits as with the pass split, and F alone is
-    evaluated once less a step (measured over 200 steps: 1.91 against 2.91)."""
+    """A Tracker step's J at the start it keeps is its J₀ or its verification's: F and J
+    there come from one pass (Continuation._weighed at the start the last step kept, or
+    the chord iterations' start where no alternative was weighed; the model's memo). Along
+    a tension ramp of tdcr-two-segment the states are the same bits as with the pass
+    split, and F alone is evaluated once less a step (measured over 200 steps: 1.91
+    against 2.91; table3-catheter1, which keeps the curved start, J alone 2.04 → 1.04)."""
     import rodsim.app.inverse.continuation as continuation
     import rodsim.solvers.static as static
     from rodsim.core.model_evaluation import ModelEvaluation
