@@ -8,6 +8,7 @@ from dataclasses import replace
 import numpy as np
 import pytest
 import scipy.sparse as sp
+from kernel_passes import counting_passes
 
 import rodsim
 from rodsim.solvers.linear import LinearSolver
@@ -146,17 +147,8 @@ def test_states_evaluated_in_one_pass_give_the_same_solve(monkeypatch):
     then J: the same equilibrium and counts, bit for bit; every J made is one the solve
     takes, once (tdcr-two-segment, measured: 5 one-pass evaluations, 4 of F alone and 1 of
     J alone against 9 of F and 6 of J)."""
-    from rodsim.core.model_evaluation import ModelEvaluation
-
     scene = rodsim.load_scene("tdcr-two-segment")
-    calls: list[tuple[bool, bool]] = []
-    original = ModelEvaluation._evaluate
-
-    def counted(self, x, load, force, jacobian):
-        calls.append((force, jacobian))
-        return original(self, x, load, force, jacobian)
-
-    monkeypatch.setattr(ModelEvaluation, "_evaluate", counted)
+    calls = counting_passes(monkeypatch)
     one_pass = rodsim.solve(scene, "static")
     with_prepare = list(calls)
     calls.clear()

@@ -12,6 +12,7 @@ import math
 
 import numpy as np
 import pytest
+from kernel_passes import counting_passes
 
 import rodsim
 from rodsim.app.inverse.parameter_keys import numeric_keys, scene_with
@@ -128,24 +129,14 @@ def test_a_steps_start_is_evaluated_in_one_pass_with_the_same_equilibria(monkeyp
     against 2.91; table3-catheter1, which keeps the curved start, J alone 2.04 → 1.04)."""
     import rodsim.app.inverse.continuation as continuation
     import rodsim.solvers.static as static
-    from rodsim.core.model_evaluation import ModelEvaluation
 
     def ramp() -> tuple[np.ndarray, list[tuple[bool, bool]]]:
-        calls: list[tuple[bool, bool]] = []
-        original = ModelEvaluation._evaluate
-
-        def counted(self, x, load, force, jacobian):
-            calls.append((force, jacobian))
-            return original(self, x, load, force, jacobian)
-
-        monkeypatch.setattr(ModelEvaluation, "_evaluate", counted)
         scene = rodsim.load_scene("tdcr-two-segment")
         keys = numeric_keys(scene, [TENSION])
         tracker = rodsim.Tracker(scene_with(scene, keys, [0.0]), [TENSION])
-        calls.clear()
+        calls = counting_passes(monkeypatch)
         states = [tracker.step([v]).state for v in np.linspace(0.0, 3.0, 21)[1:]]
-        monkeypatch.setattr(ModelEvaluation, "_evaluate", original)
-        return np.array(states), calls
+        return np.array(states), list(calls)
 
     together, one_pass = ramp()
     for module in (continuation, static):  # no model keeps J there: the pass split

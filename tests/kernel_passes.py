@@ -1,0 +1,25 @@
+"""The kernels' passes a piece of code makes, by kind: (F asked, J asked) for each
+evaluation of any model's kernels (``ModelEvaluation._evaluate``, past the model's memo),
+for the tests that count what an evaluation in one pass saves."""
+
+from __future__ import annotations
+
+from typing import Any
+
+from rodsim.core.model_evaluation import ModelEvaluation
+
+__all__ = ["counting_passes"]
+
+
+def counting_passes(monkeypatch: Any) -> list[tuple[bool, bool]]:
+    """The list every later pass of every model is appended to (``monkeypatch`` undoes the
+    wrapping at the test's end)."""
+    calls: list[tuple[bool, bool]] = []
+    original = ModelEvaluation._evaluate
+
+    def counted(self, x, load, force, jacobian):
+        calls.append((force, jacobian))
+        return original(self, x, load, force, jacobian)
+
+    monkeypatch.setattr(ModelEvaluation, "_evaluate", counted)
+    return calls
