@@ -87,6 +87,10 @@ def counted_solve(scene: Any, model: Model) -> tuple[Any, Counter]:
         counts["linear"] += 1
         return factorized(self, *args, **kwargs)
 
+    # Model inherits these: they are set on Model for the solve and deleted after it (not
+    # assigned back, which would leave Model its own copies that hide any later
+    # replacement on the class that defines them)
+    own = {name: Model.__dict__.get(name) for name in ("evaluate", "_evaluate", "energy")}
     Model.evaluate, Model.energy = counted_evaluate, counted_energy  # type: ignore[method-assign]
     Model._evaluate = counted_evaluated  # type: ignore[method-assign]
     LinearSolver.solve, LinearSolver.factorized = (  # type: ignore[method-assign]
@@ -94,8 +98,11 @@ def counted_solve(scene: Any, model: Model) -> tuple[Any, Counter]:
     try:
         result = rodsim.solve(scene, "static", model=model)
     finally:
-        Model.evaluate, Model.energy = evaluate, energy  # type: ignore[method-assign]
-        Model._evaluate = evaluated  # type: ignore[method-assign]
+        for name, value in own.items():
+            if value is None:
+                delattr(Model, name)
+            else:
+                setattr(Model, name, value)
         LinearSolver.solve, LinearSolver.factorized = (  # type: ignore[method-assign]
             solve, factorized)
     return result, counts
