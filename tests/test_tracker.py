@@ -127,8 +127,7 @@ def test_a_steps_start_is_evaluated_in_one_pass_with_the_same_equilibria(monkeyp
     a tension ramp of tdcr-two-segment the states are the same bits as with the pass
     split, and F alone is evaluated once less a step (measured over 200 steps: 1.91
     against 2.91; table3-catheter1, which keeps the curved start, J alone 2.04 → 1.04)."""
-    import rodsim.app.inverse.continuation as continuation
-    import rodsim.solvers.static as static
+    from rodsim.core.model_evaluation import ModelEvaluation
 
     def ramp() -> tuple[np.ndarray, list[tuple[bool, bool]]]:
         scene = rodsim.load_scene("tdcr-two-segment")
@@ -139,8 +138,8 @@ def test_a_steps_start_is_evaluated_in_one_pass_with_the_same_equilibria(monkeyp
         return np.array(states), list(calls)
 
     together, one_pass = ramp()
-    for module in (continuation, static):  # no model keeps J there: the pass split
-        monkeypatch.setattr(module, "MEMO_ENTRIES", -1)
+    # no model's memo keeps J: the pass split
+    monkeypatch.setattr(ModelEvaluation, "keeps_jacobians", property(lambda self: False))
     apart, split = ramp()
     assert np.array_equal(together, apart)
     assert (True, True) in one_pass and (True, True) not in split

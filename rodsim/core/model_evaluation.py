@@ -128,6 +128,13 @@ class ModelEvaluation(ModelPattern, ModelManifold):
         self._energy_units_kept = units, plan
         return plan
 
+    @property
+    def keeps_jacobians(self) -> bool:
+        """Whether ``evaluate``'s memo keeps ∂F/∂x (compiled kernels, at most
+        ``MEMO_ENTRIES`` entries): a caller that will need J at a state where it asks for F
+        can then ask for both in one pass and find J remembered."""
+        return self.kernels == "compiled" and self.nnz <= MEMO_ENTRIES
+
     def force(self, x: np.ndarray, load: float = 1.0) -> np.ndarray:
         """Generalised force F(x) on the free coordinates; loads are scaled by ``load``."""
         return self.evaluate(x, load, jacobian=False)[0]
@@ -163,7 +170,8 @@ class ModelEvaluation(ModelPattern, ModelManifold):
             f, j = kept_f.copy(), self._evaluate(x, load, False, True)[1]
         else:
             f, j = self._evaluate(x, load, force, jacobian)
-        entry = (np.array(x, dtype=float), load, f.copy() if force else kept_f,
+        entry = (np.array(x, dtype=float), load,
+                 kept_f if kept_f is not None else (f.copy() if force else None),
                  j.copy() if jacobian and self.nnz <= MEMO_ENTRIES else kept_j)
         self._memo = [entry] + [e for e in self._memo if e is not same][:MEMO_STATES - 1]
         return f, j

@@ -35,7 +35,6 @@ from typing import TYPE_CHECKING, Any, ClassVar, Generic, TypeVar
 import numpy as np
 
 from rodsim.core.model import Model
-from rodsim.core.model_evaluation import MEMO_ENTRIES
 from rodsim.core.schema import Parameter, register_with_options, validate_table
 from rodsim.solvers.failure import SolverFailure
 from rodsim.solvers.linear import LinearSolver
@@ -414,8 +413,7 @@ class Integrator(ABC, Generic[S]):
             step={None: None, "lengths": model.step,
                   "frames": model.turned_step}[retraction],
             # J kept by the memo; compiled only (a tiered model's charges stay as they were)
-            prepare=prepare if model.kernels == "compiled" and model.nnz <= MEMO_ENTRIES
-            else None,
+            prepare=prepare if model.keeps_jacobians else None,
         )
         outcome = newton(problem, x, run.tolerance, max_iterations, polish=polish,
                          check=self.iteration_check(run, where))

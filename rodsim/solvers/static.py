@@ -51,7 +51,6 @@ from dataclasses import dataclass
 import numpy as np
 
 from rodsim.core.model import Model
-from rodsim.core.model_evaluation import MEMO_ENTRIES
 from rodsim.core.schema import Options, option
 from rodsim.solvers.base import Integrator, Outcome, retraction_of
 from rodsim.solvers.continuation import (
@@ -327,7 +326,7 @@ class Static(Integrator[RunState]):
         previous = start = np.inf
         solve = None
         iteration = 0
-        if model.kernels == "compiled" and model.nnz <= MEMO_ENTRIES:
+        if model.keeps_jacobians:
             # J at the start is taken either way: as J₀, or by the verification of a start
             # at the equilibrium already. F and J in one pass (the model's memo keeps both).
             model.evaluate(x)

@@ -35,7 +35,6 @@ import numpy as np
 from rodsim.app.inverse.parameter_keys import NumericKey, scene_with
 from rodsim.app.inverse.sensitivity import equilibrium_sensitivity, registered_model
 from rodsim.core.model import Model
-from rodsim.core.model_evaluation import MEMO_ENTRIES
 from rodsim.core.scene import Scene
 from rodsim.core.schema import SceneError
 from rodsim.solvers import DEFAULT_INTEGRATOR, integrator_named, registered_integrators
@@ -211,7 +210,7 @@ class Continuation:
         (the model's memo keeps both), F alone at the other: at the start the last weighing
         kept (tdcr-two-segment's tension ramp keeps the linear predictor's, table3-catheter1's
         the curved one's: the first weighing guesses the linear one)."""
-        one_pass = model.kernels == "compiled" and model.nnz <= MEMO_ENTRIES
+        one_pass = model.keeps_jacobians
         if one_pass and not self._alternative_kept:
             model.evaluate(start)
         first = model.force_residual(model.force(start))
