@@ -46,7 +46,7 @@ def measure(cases: int) -> dict:
     from rodsim.app.batch import solve_many
     from rodsim.core.terms.tendon_string import TendonString
     from rodsim_bench.batch import random_cases
-    from rodsim_bench.floor import best_cpu, counted_solve, raw_costs
+    from rodsim_bench.floor import best_cpu, counted_solve, floor_of, raw_costs
 
     scene = rodsim.load_scene("tdcr-two-segment")
     model = rodsim.build_model(scene)
@@ -87,7 +87,7 @@ def measure(cases: int) -> dict:
     out["static_ms"] = best_cpu(lambda: rodsim.solve(scene, "static", model=model), 9) * 1e3
     counted, counts = counted_solve(scene, model)
     costs = raw_costs(model, counted.state, 200)
-    out["floor_ms"] = sum(counts[k] * costs[k] for k in costs) * 1e3
+    out["floor_ms"] = floor_of(counts, costs) * 1e3
     out["static_over_floor"] = out["static_ms"] / out["floor_ms"]
     out["counts"] = dict(counts)
     out["raw_us"] = {k: v * 1e6 for k, v in costs.items()}

@@ -522,7 +522,8 @@ def test_startup_small_outputs(tmp_path):
 @pytest.mark.slow
 def test_tracking_small_outputs(tmp_path):
     """``rodsim bench tracking --size small``: both variants tracked on both scenes, their
-    states equal to round-off, rates finite, the verdicts' CPU a part of the track's."""
+    states equal to round-off, rates finite, the verdicts' CPU a part of the track's; the
+    Tracker's floor a step positive and below its step."""
     from rodsim_bench import tracking
 
     paths = tracking.run("small", tmp_path)
@@ -534,6 +535,8 @@ def test_tracking_small_outputs(tmp_path):
     assert np.all(ds["largest_state_difference"].values < 1e-12)
     cpu = ds["cpu"].values[:, 0].min(axis=-1)
     assert np.all((ds["verdict_cpu"].values > 0) & (ds["verdict_cpu"].values < cpu))
+    step = ds["tracker_cpu"].values.min(axis=-1) / (tracking.SIZES["small"]["steps"] - 1)
+    assert np.all((ds["tracker_floor"].values > 0) & (ds["tracker_floor"].values < step))
 
 
 @pytest.mark.slow
@@ -596,9 +599,11 @@ def test_floor_small_outputs(tmp_path):
     report = json.loads((tmp_path / "floor-small.json").read_text())
     assert {"cpu", "cores_available", "python", "git_commit"} <= set(report["machine"])
     for row in report["rows"]:
-        assert row["counts"]["jacobian"] >= row["newton_iters"] > 0
+        jacobians = row["counts"].get("jacobian", 0) + row["counts"].get("jacobian_alone", 0)
+        assert jacobians >= row["newton_iters"] > 0
         assert row["counts"]["linear"] >= row["newton_iters"]
-        assert all(row["raw_s"][key] > 0 for key in ("force", "jacobian", "linear"))
+        assert all(row["raw_s"][key] > 0 for key in ("force", "jacobian", "jacobian_alone",
+                                                     "linear"))
         assert 0 < row["floor_s"] < row["solve_s"]
     assert "| four-tendons |" in (tmp_path / "floor-small.md").read_text()
 

@@ -26,7 +26,8 @@ from __future__ import annotations
 import copy
 import time
 from collections import Counter
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
 
@@ -39,7 +40,7 @@ from rodsim.solvers.linear import LinearSolver
 from rodsim.solvers.run_state import linear_solver_of
 from rodsim_bench.machine import machine, write_report
 
-__all__ = ["run", "counted_solve", "raw_costs"]
+__all__ = ["run", "counted_calls", "counted_solve", "floor_of", "raw_costs"]
 
 SIZES = {"small": {"scenes": ("table1-50g", "four-tendons"), "repeats": 2, "calls": 20},
          "full": {"scenes": ("table1-50g", "table3-catheter1", "tendon-conserving",
@@ -57,9 +58,13 @@ def best_cpu(call: Callable[[], Any], calls: int) -> float:
     return best
 
 
-def counted_solve(scene: Any, model: Model) -> tuple[Any, Counter]:
-    """One static solve of ``scene`` on ``model`` with its calls counted (F alone, ∂F/∂x,
-    energy, linear solves)."""
+@contextmanager
+def counted_calls() -> Iterator[Counter]:
+    """Within the block, count what every model and linear solver does: evaluations of F
+    alone (``force``), of F and ∂F/∂x in one pass (``jacobian``), of ∂F/∂x alone where F
+    was known (``jacobian_alone``), of the energy, and band or
+    sparse solves and factorisations (``linear``); ``remembered`` counts the calls
+    ``Model.evaluate`` answered from its memory (a copy: not an evaluation)."""
     counts: Counter = Counter()
     evaluate, evaluated, energy = Model.evaluate, Model._evaluate, Model.energy
     solve, factorized = LinearSolver.solve, LinearSolver.factorized
@@ -72,7 +77,7 @@ def counted_solve(scene: Any, model: Model) -> tuple[Any, Counter]:
     def counted_evaluated(self: Model, x: np.ndarray, load: float, force: bool,
                           jacobian: bool) -> Any:
         counts["remembered"] -= 1
-        counts["jacobian" if jacobian else "force"] += 1
+        counts[("jacobian" if force else "jacobian_alone") if jacobian else "force"] += 1
         return evaluated(self, x, load, force, jacobian)
 
     def counted_energy(self: Model, *args: Any, **kwargs: Any) -> float:
@@ -87,7 +92,7 @@ def counted_solve(scene: Any, model: Model) -> tuple[Any, Counter]:
         counts["linear"] += 1
         return factorized(self, *args, **kwargs)
 
-    # Model inherits these: they are set on Model for the solve and deleted after it (not
+    # Model inherits these: they are set on Model for the block and deleted after it (not
     # assigned back, which would leave Model its own copies that hide any later
     # replacement on the class that defines them)
     own = {name: Model.__dict__.get(name) for name in ("evaluate", "_evaluate", "energy")}
@@ -96,7 +101,7 @@ def counted_solve(scene: Any, model: Model) -> tuple[Any, Counter]:
     LinearSolver.solve, LinearSolver.factorized = (  # type: ignore[method-assign]
         counted_solve_, counted_factorized)
     try:
-        result = rodsim.solve(scene, "static", model=model)
+        yield counts
     finally:
         for name, value in own.items():
             if value is None:
@@ -105,7 +110,19 @@ def counted_solve(scene: Any, model: Model) -> tuple[Any, Counter]:
                 setattr(Model, name, value)
         LinearSolver.solve, LinearSolver.factorized = (  # type: ignore[method-assign]
             solve, factorized)
+
+
+def counted_solve(scene: Any, model: Model) -> tuple[Any, Counter]:
+    """One static solve of ``scene`` on ``model`` with its calls counted
+    (``counted_calls``)."""
+    with counted_calls() as counts:
+        result = rodsim.solve(scene, "static", model=model)
     return result, counts
+
+
+def floor_of(counts: Counter, costs: dict[str, float]) -> float:
+    """Σ count × raw cost [s] of the counted calls (not the remembered ones)."""
+    return sum(counts[key] * costs[key] for key in costs)
 
 
 #: Distinct states the raw costs cycle through: more than the model remembers (two), so
@@ -129,6 +146,8 @@ def raw_costs(model: Model, x: np.ndarray, calls: int) -> dict[str, float]:
     rhs = model.force(x)
     costs = {"force": best_cpu(lambda: model.evaluate(state(), jacobian=False), calls),
              "jacobian": best_cpu(lambda: model.evaluate(state()), calls),
+             "jacobian_alone": best_cpu(lambda: model._evaluate(state(), 1.0, False, True),
+                                        calls),
              "linear": best_cpu(lambda: linear.solve(data, rhs), calls)}
     try:
         model.energy(x)
@@ -154,7 +173,7 @@ def run(size: str, output_dir: Path, progress: Progress) -> list[Path]:
         counted, counts = counted_solve(scene, model)
         assert np.array_equal(counted.state, result.state)
         costs = raw_costs(model, result.state, config["calls"])
-        floor = sum(counts[key] * costs[key] for key in costs)  # not the remembered calls
+        floor = floor_of(counts, costs)
         rows.append({"scene": name, "unknowns": model.n, "solve_s": min(times),
                      "counts": dict(counts), "raw_s": costs, "floor_s": floor,
                      "ratio": min(times) / floor if floor > 0 else float("nan"),
@@ -166,17 +185,19 @@ def run(size: str, output_dir: Path, progress: Progress) -> list[Path]:
              f"{m['numpy']}, commit {m['git_commit'][:10]}, {m['date']}. CPU, model built "
              "once; floor = Σ evaluations × raw cost of each (calls answered from the "
              "model's memory of its last two states are not evaluations).", "",
-             "| scene | unknowns | solve [ms] | F / ∂F / energy / linear evaluations | "
-             "remembered | raw F / F+∂F / energy / linear [µs] | floor [ms] | "
+             "| scene | unknowns | solve [ms] | F / F+∂F / ∂F alone / energy / linear "
+             "evaluations | remembered | raw F / F+∂F / ∂F alone / energy / linear [µs] | "
+             "floor [ms] | "
              "solve / floor |",
              "|---|--:|--:|---|--:|---|--:|--:|"]
     for row in rows:
         c, r = row["counts"], row["raw_s"]
         lines.append(
             f"| {row['scene']} | {row['unknowns']} | {row['solve_s'] * 1e3:.2f} | "
-            f"{c.get('force', 0)} / {c.get('jacobian', 0)} / {c.get('energy', 0)} / "
-            f"{c.get('linear', 0)} | {c.get('remembered', 0)} | "
+            f"{c.get('force', 0)} / {c.get('jacobian', 0)} / {c.get('jacobian_alone', 0)} / "
+            f"{c.get('energy', 0)} / {c.get('linear', 0)} | {c.get('remembered', 0)} | "
             f"{r['force'] * 1e6:.0f} / {r['jacobian'] * 1e6:.0f} / "
+            f"{r['jacobian_alone'] * 1e6:.0f} / "
             f"{r['energy'] * 1e6:.0f} / {r['linear'] * 1e6:.0f} | {row['floor_s'] * 1e3:.2f} | "
             f"{row['ratio']:.2f} |")
     lines.append("")

@@ -117,6 +117,28 @@ def _tracker_run(scene_name: str, key: str, start: float, stop: float, steps: in
     return seconds, spent[0], np.array(states), stable, iterations
 
 
+def _tracker_floor(scene_name: str, key: str, start: float, stop: float, steps: int
+                   ) -> tuple[float, dict[str, float]]:
+    """The floor of a Tracker step [s] along the ramp, as ``rodsim_bench.floor`` takes a
+    static solve's: in one more (untimed) run of the steps, the evaluations of F, of
+    ∂F/∂x and the linear solves and factorisations counted (``counted_calls``), each at its
+    raw cost at the last step's equilibrium (``raw_costs``), summed and divided by the
+    steps; and the counts a step. Back-substitutions with a kept factorisation and the
+    verdict's eigen-iterations are not counted (the verdict is timed on its own)."""
+    from rodsim.app.inverse.parameter_keys import numeric_keys, scene_with
+    from rodsim_bench.floor import counted_calls, floor_of, raw_costs
+
+    scene = rodsim.load_scene(scene_name)
+    tracker = rodsim.Tracker(scene_with(scene, numeric_keys(scene, [key]), [start]), [key])
+    with counted_calls() as counts:
+        for value in np.linspace(start, stop, steps)[1:]:
+            tracker.step([value])
+    continuation = tracker.continuation
+    costs = raw_costs(continuation.model, continuation.x, 200)
+    taken = steps - 1
+    return floor_of(counts, costs) / taken, {k: v / taken for k, v in counts.items()}
+
+
 #: What a baseline subprocess runs: argv[1] the number of steps, argv[2] a folder for the
 #: states; prints {scene: CPU seconds} of the tracks and {scene + ' tracker': CPU seconds}
 #: of its Tracker's steps (where the revision has one).
@@ -236,6 +258,7 @@ def _run(size: str, output_dir: str | Path, progress, baseline: _Baseline | None
                     verdict[scene_name] = judged
                 cpu[scene_name, variant].append(seconds)
                 paths[scene_name, variant] = path
+    floors = {c[0]: _tracker_floor(*c, steps) for c in CASES}
     best = {k: min(v) for k, v in cpu.items()}
     rate = {k: (steps - 1) / v for k, v in best.items()}
     difference = {c: float(np.max(np.abs(np.array(paths[c, VARIANTS[0]].states)
@@ -289,6 +312,9 @@ def _run(size: str, output_dir: str | Path, progress, baseline: _Baseline | None
     ds["tracker_iterations"] = ("scene", np.array([float(followed[c][3]) for c in names]),
                                 {"units": "1", "long_name": "Newton and chord iterations of "
                                  "the Tracker's steps"})
+    ds["tracker_floor"] = ("scene", np.array([floors[c][0] for c in names]),
+                           {"units": "s", "long_name": "floor of a Tracker step: its "
+                            "evaluations and factorisations at their raw costs"})
     ds["tracker_track_difference"] = (
         "scene", np.array([_difference(followed[c][1], paths[c, VARIANTS[0]].states)
                            for c in names]),
@@ -332,7 +358,8 @@ def _run(size: str, output_dir: str | Path, progress, baseline: _Baseline | None
             base_seconds, base_rate, ratio, moved = against[c]
             lines.append(f"| {c} | {base_seconds:.3f} | {base_rate:.0f} | "
                          f"{rate[c, VARIANTS[0]]:.0f} | {ratio:.2f}× | {moved:.1e} |")
-    lines += _tracker_lines(steps, names, follow, followed, paths, baseline, base_follow)
+    lines += _tracker_lines(steps, names, follow, followed, paths, baseline, base_follow,
+                            floors)
     lines += ["", "Machine: " + ", ".join(f"{k} {v}" for k, v in machine().items())]
     table = output.with_suffix(".md")
     table.write_text("\n".join(lines) + "\n", encoding="utf-8")
@@ -350,20 +377,29 @@ def _difference(states: np.ndarray, others: list[np.ndarray] | np.ndarray) -> fl
 def _tracker_lines(steps: int, names: list[str], follow: dict[str, list[float]],
                    followed: dict[str, tuple[float, np.ndarray, list[bool], int]],
                    paths: dict, baseline: _Baseline | None,
-                   base_follow: dict[str, list[float]]) -> list[str]:
-    """The table of the Tracker's rates (and the baseline's, if any)."""
+                   base_follow: dict[str, list[float]],
+                   floors: dict[str, tuple[float, dict[str, float]]]) -> list[str]:
+    """The table of the Tracker's rates against their floors (and the baseline's rates, if
+    any)."""
     lines = ["", f"`rodsim.Tracker` along the same ramps: built at the first value (not "
              f"timed), then `tracker.step` at each of the {steps - 1} others, a verdict at "
-             "every step; CPU of the steps, best repeat:", "",
-             "| scene | CPU [s] | steps/s | ms/step | verdict ms/step | iterations | "
+             "every step; CPU of the steps, best repeat. The floor is a step's evaluations "
+             "and factorisations, counted in one more run, at their raw costs "
+             "(`rodsim_bench.floor`); the verdict is apart:", "",
+             "| scene | CPU [s] | steps/s | ms/step | verdict ms/step | floor ms/step | "
+             "(step − verdict) / floor | F / F+∂F / ∂F alone / linear a step | iterations | "
              "unstable steps | largest difference from the track |",
-             "|---|--:|--:|--:|--:|--:|--:|--:|"]
+             "|---|--:|--:|--:|--:|--:|--:|---|--:|--:|--:|"]
     for c in names:
         best = min(follow[c])
         judged, states, stable, count = followed[c]
+        floor, counts = floors[c]
         lines.append(f"| {c} | {best:.3f} | {(steps - 1) / best:.0f} | "
                      f"{1e3 * best / (steps - 1):.2f} | {1e3 * judged / (steps - 1):.2f} | "
-                     f"{count} | {stable.count(False)} | "
+                     f"{1e3 * floor:.2f} | {(best - judged) / (steps - 1) / floor:.2f} | "
+                     f"{counts.get('force', 0):.2f} / {counts.get('jacobian', 0):.2f} / "
+                     f"{counts.get('jacobian_alone', 0):.2f} / "
+                     f"{counts.get('linear', 0):.2f} | {count} | {stable.count(False)} | "
                      f"{_difference(states, paths[c, VARIANTS[0]].states):.1e} |")
     if baseline is None or not all(base_follow[c] for c in names):
         return lines
