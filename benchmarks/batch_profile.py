@@ -1,6 +1,9 @@
 """Where a batch case's time goes (issue 35 item 1): ``rodsim.solve_many`` on ``--cases``
 random tdcr-two-segment cases of ``rodsim bench batch`` in this process, cold and warm
-(``warm=True``), each function's own CPU time per case.
+(``warm=True``), each function's own CPU time per case, and a case's floor: its
+evaluations of F and ∂F/∂x and its linear solves and factorisations, counted in one more
+batch (``rodsim_bench.floor.counted_calls``), each at its raw cost at the first case's
+equilibrium (``raw_costs``).
 
 The functions below are wrapped with ``time.process_time`` counters; each wrapper's time
 is its function's less that of the wrapped functions it calls (its own share), so the
@@ -36,7 +39,8 @@ import rodsim.solvers.run_state as run_state  # noqa: E402
 import rodsim.solvers.static as static  # noqa: E402
 import rodsim.solvers.stops as stops  # noqa: E402
 from rodsim.core.model import Model  # noqa: E402
-from rodsim_bench.batch import SCENE, random_cases  # noqa: E402
+from rodsim_bench.batch import KEYS, SCENE, random_cases  # noqa: E402
+from rodsim_bench.floor import counted_calls, floor_of, raw_costs  # noqa: E402
 
 _OWN: dict[str, float] = {}
 _CALLS: dict[str, int] = {}
@@ -70,6 +74,7 @@ def _wrap(owner: Any, attribute: str, label: str) -> None:
 
 #: (owner, attribute, label): what each row counts.
 WRAPPED = (
+    (Model, "evaluate", "F and ∂F/∂x evaluations (kernels, memo)"),
     (Model, "force", "F evaluations (kernels, memo)"),
     (Model, "jacobian_data", "F + ∂F/∂x evaluations"),
     (Model, "energy", "energy (the line search's merit)"),
@@ -108,6 +113,26 @@ def _rates(cases: dict, warm: bool) -> float:
     return best
 
 
+def _floors(cases: dict) -> dict[bool, tuple[float, dict[str, float]]]:
+    """Per mode (warm or not), a case's floor [s] and its counted calls a case (module
+    docstring)."""
+    from rodsim.app.inverse.parameter_keys import numeric_keys, scene_with
+
+    scene = api.load_scene(SCENE)
+    keys = numeric_keys(scene, list(KEYS))
+    first = scene_with(scene, keys, [float(cases[key][0]) for key in KEYS])
+    model = api.build_model(first)
+    costs = raw_costs(model, api.solve(first, "static", model=model).state, 200)
+    count = len(next(iter(cases.values())))
+    floors = {}
+    for warm in (False, True):
+        with counted_calls() as counts:
+            batch.solve_many(SCENE, cases, warm=warm)
+        floors[warm] = (floor_of(counts, costs) / count,
+                        {key: value / count for key, value in counts.items()})
+    return floors
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--cases", type=int, default=200)
@@ -116,6 +141,7 @@ def main() -> None:
     cases = random_cases(args.cases)
     batch.solve_many(SCENE, {k: v[:2] for k, v in cases.items()})  # kernels loaded
     unwrapped = {warm: _rates(cases, warm) for warm in (False, True)}
+    floors = _floors(cases)
     for owner, attribute, label in WRAPPED:
         _wrap(owner, attribute, label)
     lines = [f"# Where a batch case's time goes: {args.cases} random {SCENE} cases, one "
@@ -132,6 +158,10 @@ def main() -> None:
                   f"equilibria per CPU second unwrapped ({1e3 * unwrapped[warm] / count:.2f} "
                   f"ms a case), {1e3 * spent / count:.2f} ms wrapped; {iterations:.2f} "
                   "Newton iterations a case", "",
+                  f"Floor: {1e3 * floors[warm][0]:.2f} ms a case (unwrapped / floor "
+                  f"{unwrapped[warm] / count / floors[warm][0]:.2f}): "
+                  + ", ".join(f"{name} {number:.2f}" for name, number
+                              in sorted(floors[warm][1].items())) + " a case", "",
                   "| where | calls a case | µs a case | share |", "|---|--:|--:|--:|"]
         for label, own in sorted(_OWN.items(), key=lambda item: -item[1]):
             lines.append(f"| {label} | {_CALLS[label] / count:.2f} | "
