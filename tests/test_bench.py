@@ -572,6 +572,7 @@ def test_batch_small_outputs(tmp_path):
     assert ds.attrs["largest_difference_from_alone"] <= 1e-12 * 0.4
     assert np.all(ds["difference_from_cold"].values <= 5e-9 * 0.4)
     assert ds.attrs["largest_warm_difference_from_alone"] <= 5e-9 * 0.4
+    assert ds.attrs["cases_failed_alone"] == 0
     assert np.all(ds["equilibria_per_cpu_second"].values > 0)
 
 
