@@ -446,36 +446,8 @@ def _evaluate_tendon(x: np.ndarray, dofs: np.ndarray, weights: np.ndarray,
             continue
         count = _unique_columns(dofs, weights, e, e, jd, local, merged, knot, group_first,
                                 group_start, source)
-        factor = pull / length
-        for a in range(3):
-            for b in range(3):
-                proj[a, b] = ((1.0 if a == b else 0.0) - u[a] * u[b]) * factor
-        for k in range(count):
-            j0, j1, j2 = merged[0, k], merged[1, k], merged[2, k]
-            for a in range(3):
-                pj[a, k] = proj[a, 0] * j0 + proj[a, 1] * j1 + proj[a, 2] * j2
-        for k in range(count):
-            j0, j1, j2 = merged[0, k], merged[1, k], merged[2, k]
-            for j in range(k, count):
-                value = j0 * pj[0, j] + j1 * pj[1, j] + j2 * pj[2, j]
-                block[k, j] = value
-                block[j, k] = value
-        for side in range(2):
-            point = e + side
-            _curvature(forms, point, u, q, n, gq, g, pull if side == 1 else -pull,
-                       curvature)
-            for a in range(2):
-                ka = knot[side, a]
-                if ka < 0:
-                    continue
-                for b in range(2):
-                    kb = knot[side, b]
-                    if kb < 0:
-                        continue
-                    weight = weights[point, 2 + a] * weights[point, 2 + b]
-                    for i in range(4):
-                        for j in range(4):
-                            block[ka + i, kb + j] += weight * curvature[i, j]
+        _chord_block(merged, u, pull, length, count, knot, forms, e, q, n, gq, g, weights, pj,
+                     proj, block, curvature)
         coupled = False
         if own and rate[e] != 0.0:
             coupled = _one_way_coupling(merged, u, length, axis, rate[e], count, slope,
