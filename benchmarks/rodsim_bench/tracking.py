@@ -14,7 +14,8 @@ The Tracker's own rate (``rodsim.Tracker``, what a control loop holds) along the
 ramps, interleaved with the tracks: built at the ramp's first value (a cold solve, not
 timed), then ``tracker.step`` at each later value, with its verdict at every step (CPU of
 the steps and of their verdicts, iterations, unstable steps, and the largest difference of
-its states from the track's).
+its states from the track's), and its floor a step: its evaluations and factorisations,
+counted in one more run, at their raw costs (``_tracker_floor``, ``rodsim_bench.floor``).
 
 With the environment variable ``RODSIM_BENCH_BASELINE`` set to a git revision of this
 repository, the same tracks (shared model) are also run by that revision's code in the same
