@@ -80,3 +80,31 @@ def test_a_nonlinear_option_keeps_the_stencil():
     keys = numeric_keys(model.scene, ["s1a.tendon_string.friction"])
     assert module._linear_column(model, result.state, keys,
                                  [keys[0].value(model.scene)], 0) is None
+
+
+@pytest.mark.parametrize("kernels", ["compiled", "numpy"])
+@pytest.mark.parametrize(("key", "tension"), [("s1a.tendon_string.tension", 3.0),
+                                              ("s1b.tendon_string.tension", 0.0)])
+def test_a_tensions_sensitivity_is_its_unit_force(key, tension, kernels):
+    """A frictionless string tendon's force is T times its force at 1 N
+    (``Term.linear_unit``): ``unit_forces`` gives ∂F/∂T as that unit force, against the
+    difference of F between the models at T + 1 and T (``force_change``), to round-off —
+    at a taut tendon and at a slack one (T = 0, whose own force is zero)."""
+    from rodsim.core.value_change import unit_forces
+
+    scene = rodsim.load_scene("tdcr-two-segment").with_overrides(
+        [f"solver.kernels={kernels}", f"tendons.{key}={tension}"])
+    result = rodsim.solve(scene, "static")
+    model = Model(result.scene).reregistered(result.state, exact=True) or Model(result.scene)
+    x = result.state
+    keys = numeric_keys(model.scene, [key])
+    assert keys[0].value(model.scene) == tension
+    owner = tuple(keys[0].path.split(".")[:3])
+    indices = [index for index, term_key in enumerate(model.term_keys) if term_key == owner]
+    assert len(indices) == 1
+    unit = unit_forces(model, "tension", indices, x)
+    assert unit is not None
+    change = force_change(model, scene_with(model.scene, keys, [tension + 1.0]), x)
+    assert change is not None and np.abs(change).max() > 0.0
+    assert np.abs(unit - change).max() <= 1e-12 * np.abs(change).max()
+    assert unit_forces(model, "friction", indices, x) is None  # not linear in μ

@@ -14,7 +14,9 @@ loads, moduli, penalties and tendon forces, but not in a base position: moving t
 node by h changes F by O((h/l)²) relative to its first-order change (l the segment length),
 and the second-order central difference left an error of 8e-5 on the rigid translation an
 origin shift must give (table1-50g, h = 1 µm, l = 3 mm); the fourth-order one brings it
-below 1e-8.
+below 1e-8. A key whose terms' force is its value times their force at value 1
+(``Term.linear_unit``: a frictionless string tendon's tension) takes that unit force
+itself (``unit_forces``, rodsim/core/value_change.py): no difference at all.
 
 Parameters that move the rest state (a rod's length, its origin, a lumen offset) keep the
 layout of the free coordinates, and F of the perturbed model is evaluated at the same free
@@ -38,7 +40,7 @@ import numpy as np
 from rodsim.app.inverse.parameter_keys import NumericKey, numeric_keys, scene_with
 from rodsim.core.model import Model
 from rodsim.core.schema import SceneError
-from rodsim.core.value_change import force_change
+from rodsim.core.value_change import force_change, unit_forces
 from rodsim.solvers.linear import LinearSolver
 from rodsim.solvers.result import Result
 
@@ -105,14 +107,21 @@ def _stencil(key: NumericKey, value: float) -> list[tuple[float, float]]:
 
 def _linear_column(model: Model, x: np.ndarray, keys: Sequence[NumericKey],
                    values: Sequence[float], column: int) -> np.ndarray | None:
-    """−∂F/∂p of the key ``keys[column]`` from one difference of F, where the key is an
-    option of terms whose force is linear in it (``Term.linear_in``: a tendon's tension
-    without friction, an actuation force) — exact there, up to round-off, as the stencil
-    is; None otherwise (the stencil)."""
+    """−∂F/∂p of the key ``keys[column]`` where the key is an option of terms whose force
+    is linear in it (``Term.linear_in``: a tendon's tension without friction, an actuation
+    force): minus their units' forces where each is c times its unit's, c the key's value
+    (``Term.linear_unit``: a string tendon's tension; ``unit_forces``), else one
+    difference of F — exact there, up to round-off, as the stencil is; None otherwise (the
+    stencil)."""
     parts = keys[column].path.split(".")
     if keys[column].index is not None or len(parts) != 4 or parts[0] not in ("rods",
                                                                              "tendons"):
         return None
+    owner = (parts[0], parts[1], parts[2])
+    indices = [index for index, key in enumerate(model.term_keys) if key == owner]
+    unit = unit_forces(model, parts[3], indices, x) if indices else None
+    if unit is not None:
+        return -unit
     value = values[column]
     h = LINEAR_STEP * abs(value) if value != 0.0 else LINEAR_STEP
     low, high = keys[column].bounds()

@@ -364,8 +364,10 @@ class Term(ABC):
     def linear_unit(self) -> tuple[tuple[Any, ...], float, Callable[[], Term]] | None:
         """When this term's force (so its Jacobian) is a constant c times that of its unit,
         this term at c = 1: (the objects the unit's force depends on, which a copy of this
-        term at another c shares; c; a function making the unit). The model's rest
-        diagonal takes c times the unit's share (rodsim/core/model_scales.py). None (the
+        term at another c shares; c; a function making the unit). c is the value of the
+        option the force is linear in (``linear_in``). The model's rest diagonal takes c
+        times the unit's share (rodsim/core/model_scales.py), a sensitivity to that option
+        the unit's force (rodsim/core/value_change.py, ``unit_forces``). None (the
         default): not so."""
         return None
 
