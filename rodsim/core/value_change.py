@@ -88,6 +88,8 @@ def unit_forces(model: Model, option: str, indices: list[int], x: np.ndarray
         model._kernel_calls = model._build_kernel_calls()
     for index, unit in units:
         scale = model._scale(index, model.terms[index], 1.0)
+        if scale == 0.0:
+            continue  # a term scaled away at full load: no force, no derivative
         state = offsets if unit.offsets else full
         if compiled:
             _add_compiled_force(model, index, unit, state, scale, out)
