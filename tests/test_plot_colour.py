@@ -152,6 +152,26 @@ def test_a_rod_tendon_carries_its_actuation_force():
     assert len(values) == 14 and values == pytest.approx(2.0, rel=1e-3)
 
 
+def test_an_archive_without_the_optional_arc_lengths_draws_or_says_why(rubbing, tmp_path,
+                                                                       cli, capsys):
+    """``segment_s`` and ``s`` are not part of the archive contract (a fuzzed track without
+    ``segment_s`` crashed ``rodsim plot`` with a KeyError): without ``segment_s`` the figure
+    is drawn, the string tendon's path with it left out; a rod tendon's tension colouring
+    without ``s`` is one line and exit 2."""
+    archive = write_dataset(rubbing.drop_vars("segment_s"), tmp_path / "no-segment-s.nc")
+    assert cli(["plot", str(archive), "--format", "svg"]) == 0
+    assert (tmp_path / "no-segment-s.svg").exists()
+    gids = drawn(read_dataset(archive))[0]
+    assert "rod:backbone" in gids and "tendon:a" not in gids
+    ds = run_dataset(rodsim.solve("tendon-conserving", "static", overrides=[
+        "rods.catheter.nodes=15", "rods.tendon.nodes=15"]))
+    archive = write_dataset(ds.drop_vars("s"), tmp_path / "no-s.nc")
+    assert cli(["plot", str(archive), "--colour", "tension"]) == 2
+    err = capsys.readouterr().err
+    assert "rest arc length" in err and len(err.strip().splitlines()) == 1
+    assert "Traceback" not in err
+
+
 def test_no_tendon_no_tension_one_line(bent, tmp_path, cli, capsys):
     with pytest.raises(PlotError, match="has no tendon"):
         drawn(bent, colour="tension")

@@ -190,6 +190,9 @@ def _tension_lines(ds: xr.Dataset, parts: SceneParts, step: int | None
             if table.get("sections"):
                 raise PlotError(f"--colour tension: rod tendon {tendon.name[:40]!r} has "
                                 "sections; its axial stiffness is not drawn")
+            if "s" not in ds:
+                raise PlotError(f"--colour tension of rod tendon {tendon.name[:40]!r} needs "
+                                "the rest arc length s of the nodes: the archive has none")
             stiffness = (float(scene.rods[tendon.name].stretch_modulus)
                          * math.pi * float(table["radius"]) ** 2)
             node_rod = ds["rod"].values.astype(str)

@@ -133,8 +133,8 @@ def scene_parts(ds: xr.Dataset, step: int | None = None) -> SceneParts:
     segment_rod = ds["segment_rod"].values.astype(str) if "segment_rod" in ds else None
     tendons_raw = raw.get("tendons", {}) or {}
     rods = {name: positions[node_rod == name] for name in dict.fromkeys(node_rod)}
-    frames = {}
-    if quaternions is not None and segment_rod is not None:
+    frames = {}  # none where the archive has no segment_s (the contract does not require it)
+    if quaternions is not None and segment_rod is not None and "segment_s" in ds:
         for name in rods:
             mine = segment_rod == name
             frames[name] = (ds["segment_s"].values[mine], quaternions[mine])
