@@ -172,6 +172,20 @@ def test_an_archive_without_the_optional_arc_lengths_draws_or_says_why(rubbing, 
     assert "Traceback" not in err
 
 
+def test_an_archive_whose_positions_are_not_finite_is_one_line(bent, tmp_path, cli, capsys):
+    """A shape with an infinite coordinate (a fuzzed run archive) has nothing to draw: one
+    line and exit 2, no figure — it was a figure drawn under numpy's "invalid value"
+    warnings."""
+    positions = bent["position"].values.copy()
+    positions[3, 1] = np.inf
+    archive = write_dataset(bent.assign(position=(bent["position"].dims, positions)),
+                            tmp_path / "infinite.nc")
+    assert cli(["plot", str(archive), "--format", "svg"]) == 2
+    err = capsys.readouterr().err
+    assert "not finite" in err and len(err.strip().splitlines()) == 1
+    assert not (tmp_path / "infinite.svg").exists()
+
+
 def test_no_tendon_no_tension_one_line(bent, tmp_path, cli, capsys):
     with pytest.raises(PlotError, match="has no tendon"):
         drawn(bent, colour="tension")

@@ -32,6 +32,7 @@ from typing import Any
 import numpy as np
 import xarray as xr
 
+from rodsim.app.figures.errors import PlotError
 from rodsim.app.figures.spacer_disks import DISK_MARGIN, Disk
 from rodsim.core.obstacles import Obstacle, build_obstacle
 from rodsim.core.rod.quaternion import directors
@@ -128,6 +129,10 @@ def scene_parts(ds: xr.Dataset, step: int | None = None) -> SceneParts:
     scene = state_scene(ds, step)
     raw = json.loads(scene.to_json())
     positions = at_step(ds["position"], step)
+    if not np.all(np.isfinite(positions)):
+        where = "" if step is None else f" at {'step' if 'step' in ds.dims else 'output'} {step}"
+        raise PlotError(f"the archive's positions are not finite{where}: there is no shape "
+                        "to draw")
     node_rod = ds["rod"].values.astype(str)
     quaternions = at_step(ds["quaternion"], step) if "quaternion" in ds else None
     segment_rod = ds["segment_rod"].values.astype(str) if "segment_rod" in ds else None
