@@ -172,12 +172,14 @@ def test_an_archive_without_the_optional_arc_lengths_draws_or_says_why(rubbing, 
     assert "Traceback" not in err
 
 
-def test_an_archive_whose_positions_are_not_finite_is_one_line(bent, tmp_path, cli, capsys):
-    """A shape with an infinite coordinate (a fuzzed run archive) has nothing to draw: one
-    line and exit 2, no figure — it was a figure drawn under numpy's "invalid value"
-    warnings."""
+@pytest.mark.parametrize("value", [np.inf, np.nan, 1e300])
+def test_an_archive_whose_positions_are_not_finite_is_one_line(bent, tmp_path, cli, capsys,
+                                                              value):
+    """A shape with an infinite, NaN or 1e300 m coordinate (fuzzed run archives) has nothing
+    to draw: one line and exit 2, no figure — it was a figure drawn under numpy's "invalid
+    value" and "overflow" warnings."""
     positions = bent["position"].values.copy()
-    positions[3, 1] = np.inf
+    positions[3, 1] = value
     archive = write_dataset(bent.assign(position=(bent["position"].dims, positions)),
                             tmp_path / "infinite.nc")
     assert cli(["plot", str(archive), "--format", "svg"]) == 2

@@ -112,6 +112,11 @@ def at_step(variable: xr.DataArray, step: int | None) -> np.ndarray:
     return variable.values
 
 
+#: Largest |coordinate| of a shape the figures draw [m]: beyond it their squared lengths
+#: overflow (a fuzzed archive's 1e300 m did); no scene comes near it.
+DRAWABLE = 1e100
+
+
 def _arc_length(positions: np.ndarray) -> np.ndarray:
     """Arc length along the nodes [m]: the routing's s where an archive has no ``s`` (the
     contract does not require it)."""
@@ -129,10 +134,10 @@ def scene_parts(ds: xr.Dataset, step: int | None = None) -> SceneParts:
     scene = state_scene(ds, step)
     raw = json.loads(scene.to_json())
     positions = at_step(ds["position"], step)
-    if not np.all(np.isfinite(positions)):
+    if not np.all(np.abs(positions) < DRAWABLE):  # NaN fails it too
         where = "" if step is None else f" at {'step' if 'step' in ds.dims else 'output'} {step}"
-        raise PlotError(f"the archive's positions are not finite{where}: there is no shape "
-                        "to draw")
+        raise PlotError(f"the archive's positions are not finite or beyond {DRAWABLE:g} m"
+                        f"{where}: there is no shape to draw")
     node_rod = ds["rod"].values.astype(str)
     quaternions = at_step(ds["quaternion"], step) if "quaternion" in ds else None
     segment_rod = ds["segment_rod"].values.astype(str) if "segment_rod" in ds else None
