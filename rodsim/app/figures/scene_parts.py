@@ -32,7 +32,6 @@ from typing import Any
 import numpy as np
 import xarray as xr
 
-from rodsim.app.figures.errors import PlotError
 from rodsim.app.figures.spacer_disks import DISK_MARGIN, Disk
 from rodsim.core.obstacles import Obstacle, build_obstacle
 from rodsim.core.rod.quaternion import directors
@@ -113,7 +112,8 @@ def at_step(variable: xr.DataArray, step: int | None) -> np.ndarray:
 
 
 #: Largest |coordinate| of a shape the figures draw [m]: beyond it their squared lengths
-#: overflow (a fuzzed archive's 1e300 m did); no scene comes near it.
+#: overflow (a fuzzed archive's 1e300 m did); no scene comes near it. Larger and infinite
+#: coordinates are left out as NaN ones are.
 DRAWABLE = 1e100
 
 
@@ -134,10 +134,9 @@ def scene_parts(ds: xr.Dataset, step: int | None = None) -> SceneParts:
     scene = state_scene(ds, step)
     raw = json.loads(scene.to_json())
     positions = at_step(ds["position"], step)
-    if not np.all(np.abs(positions) < DRAWABLE):  # NaN fails it too
-        where = "" if step is None else f" at {'step' if 'step' in ds.dims else 'output'} {step}"
-        raise PlotError(f"the archive's positions are not finite or beyond {DRAWABLE:g} m"
-                        f"{where}: there is no shape to draw")
+    # A coordinate that is infinite or beyond DRAWABLE is left out as a NaN one is (the
+    # figures draw a shape without its non-finite points).
+    positions = np.where(np.abs(positions) < DRAWABLE, positions, np.nan)
     node_rod = ds["rod"].values.astype(str)
     quaternions = at_step(ds["quaternion"], step) if "quaternion" in ds else None
     segment_rod = ds["segment_rod"].values.astype(str) if "segment_rod" in ds else None
