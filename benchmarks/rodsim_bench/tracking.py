@@ -78,6 +78,14 @@ def _track(scene_name: str, ramp: dict, variant: str):
         stability.assess = assess  # type: ignore[assignment]
 
 
+def _tracker_at(scene_name: str, key: str, start: float) -> rodsim.Tracker:
+    """A ``rodsim.Tracker`` of ``key`` on the shipped scene, built (cold) at ``start``."""
+    from rodsim.app.inverse.parameter_keys import numeric_keys, scene_with
+
+    scene = rodsim.load_scene(scene_name)
+    return rodsim.Tracker(scene_with(scene, numeric_keys(scene, [key]), [start]), [key])
+
+
 def _tracker_run(scene_name: str, key: str, start: float, stop: float, steps: int
                  ) -> tuple[float, float, np.ndarray, list[bool], int]:
     """``rodsim.Tracker`` along the ramp: built at its first value (cold, not timed), then
@@ -85,11 +93,8 @@ def _tracker_run(scene_name: str, key: str, start: float, stop: float, steps: in
     their verdicts, the full states of every step (the first the cold one), each step's
     stable flag, iterations)."""
     import rodsim.app.inverse.tracker as tracker_module
-    from rodsim.app.inverse.parameter_keys import numeric_keys, scene_with
 
-    scene = rodsim.load_scene(scene_name)
-    keys = numeric_keys(scene, [key])
-    tracker = rodsim.Tracker(scene_with(scene, keys, [start]), [key])
+    tracker = _tracker_at(scene_name, key, start)
     states = [tracker.continuation.model.full(tracker.continuation.x)]
     assess, spent = tracker_module.assess, [0.0]
 
@@ -126,11 +131,9 @@ def _tracker_floor(scene_name: str, key: str, start: float, stop: float, steps: 
     raw cost at the last step's equilibrium (``raw_costs``), summed and divided by the
     steps; and the counts a step. Back-substitutions with a kept factorisation and the
     verdict's eigen-iterations are not counted (the verdict is timed on its own)."""
-    from rodsim.app.inverse.parameter_keys import numeric_keys, scene_with
     from rodsim_bench.floor import counted_calls, floor_of, raw_costs
 
-    scene = rodsim.load_scene(scene_name)
-    tracker = rodsim.Tracker(scene_with(scene, numeric_keys(scene, [key]), [start]), [key])
+    tracker = _tracker_at(scene_name, key, start)
     with counted_calls() as counts:
         for value in np.linspace(start, stop, steps)[1:]:
             tracker.step([value])
